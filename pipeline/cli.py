@@ -1,0 +1,92 @@
+"""The ``rockdove`` command line.
+
+This module only parses arguments and dispatches. Each sub-command lives in ``pipeline/commands/<name>.py``
+and exposes::
+
+    HELP: str                                   # one line for ``rockdove --help``
+    def add_arguments(parser: argparse.ArgumentParser) -> None
+    def run(args: argparse.Namespace) -> int    # exit status: 0 ok, 1 failed check, 2 bad usage
+
+Sub-command modules are imported only when their command runs, so ``rockdove --help`` stays fast and
+needs no display. Errors become one line on stderr: ``ValueError`` (and :class:`UsageError`) exit 2,
+:class:`VerificationFailed` exits 1; tracebacks only with ``ROCKDOVE_DEBUG=1``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+
+from . import __version__
+
+# name -> one-line help. The module pipeline.commands.<name> implements it.
+COMMANDS: dict[str, str] = {
+    "build": "build the pigeon USD asset (incremental; verifies unless --no-verify)",
+    "lut": "bake a thin-film colour LUT over angle and thickness into OpenEXR",
+    "render": "render an asset offscreen with the GLSL shaders (pyrender, EGL)",
+    "verify": "validate an asset and check its renders against the exact spectral reference",
+    "validate": "validate a USD asset (UsdValidation + MaterialX node definitions + textures)",
+    "bench": "benchmarks: LUT bake speed against error, geometry and build scaling",
+    "config": "print the effective build configuration with units",
+}
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse parser whose errors are one line and exit status 2 (argparse's own convention)."""
+
+    def error(self, message: str):  # noqa: D401 - argparse API
+        self.exit(2, f"rockdove: error: {message}\n")
+
+
+def _module(name: str):
+    return importlib.import_module(f"pipeline.commands.{name}")
+
+
+def _available() -> dict[str, str]:
+    here = os.path.join(os.path.dirname(__file__), "commands")
+    return {n: h for n, h in COMMANDS.items() if os.path.exists(os.path.join(here, f"{n}.py"))}
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The top-level parser; only ``command``'s module is imported to add its arguments."""
+    parser = _Parser(prog="rockdove", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"rockdove {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for name, help_ in _available().items():
+        p = sub.add_parser(name, help=help_, description=help_)
+        if name == command:
+            _module(name).add_arguments(p)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    # Offscreen GL must be chosen before anything imports OpenGL.
+    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+    argv = list(sys.argv[1:] if argv is None else argv)
+    command = next((a for a in argv if not a.startswith("-")), None)
+    parser = build_parser(command if command in COMMANDS else None)
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    from .errors import VerificationFailed
+
+    try:
+        return int(_module(args.command).run(args) or 0)
+    except VerificationFailed as exc:
+        print(f"rockdove {args.command}: failed: {exc}", file=sys.stderr)
+        return 1
+    except (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError) as exc:
+        if os.environ.get("ROCKDOVE_DEBUG"):
+            raise
+        print(f"rockdove {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"rockdove {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
