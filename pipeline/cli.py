@@ -51,7 +51,10 @@ def _available() -> dict[str, str]:
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The top-level parser; only ``command``'s module is imported to add its arguments."""
-    parser = _Parser(prog="rockdove", description=__doc__.splitlines()[0])
+    parser = _Parser(
+        prog="rockdove",
+        description="Build, render and verify a USD rock dove whose neck feathers shimmer by thin-film interference.",
+    )
     parser.add_argument("--version", action="version", version=f"rockdove {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name, help_ in _available().items():
