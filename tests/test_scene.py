@@ -1,0 +1,107 @@
+"""Reading a written asset back (pipeline.render.scene) and the views (pipeline.render.views)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from pipeline.render import scene as sc
+from pipeline.render.synthetic import BODY_CENTRE_M, BODY_RADIUS_M, THICKNESS_RANGE_NM, write_synthetic_asset
+from pipeline.render.views import View, default_views, light_sweep_views, look_at, turntable_views
+
+
+@pytest.fixture(scope="module")
+def asset(tmp_path_factory):
+    return write_synthetic_asset(tmp_path_factory.mktemp("asset"))
+
+
+def test_fan_triangulation_of_mixed_polygons_keeps_area_and_winding():
+    counts = [3, 4, 5]
+    idx = np.arange(12)
+    tris = sc.fan_triangulate(counts, idx)
+    assert tris.tolist() == [[0, 1, 2], [3, 4, 5], [3, 5, 6], [7, 8, 9], [7, 9, 10], [7, 10, 11]]
+    assert sc.fan_triangulate(counts, idx, left_handed=True)[1].tolist() == [3, 5, 4]
+    with pytest.raises(ValueError, match="face_vertex_counts"):
+        sc.fan_triangulate([2], [0, 1])
+
+
+def test_load_scene_reads_parts_world_transform_and_primvars(asset):
+    s = sc.load_scene(asset)
+    assert [p.name for p in s.parts] == ["Body", "NeckFeathers"]
+    body, feathers = s.parts
+    assert body.material_kind == "body" and feathers.material_kind == "feather"
+    # the Body's translate op is applied: sphere of BODY_RADIUS_M about BODY_CENTRE_M
+    r = np.linalg.norm(body.positions_m - np.asarray(BODY_CENTRE_M), axis=1)
+    np.testing.assert_allclose(r, BODY_RADIUS_M, rtol=1e-5)
+    # outward unit normals
+    np.testing.assert_allclose(np.linalg.norm(body.normals, axis=1), 1, atol=1e-5)
+    assert np.all(np.sum(body.normals * (body.positions_m - BODY_CENTRE_M), axis=1) > 0)
+    # quads -> 2 triangles each; triangles wind counter-clockwise about their normals
+    assert feathers.triangles.shape == (2 * len(feathers.positions_m) // 4, 3)
+    tri_n = feathers.triangle_normals
+    vert_n = feathers.normals[feathers.triangles[:, 0]]
+    assert np.all(np.sum(tri_n * vert_n, axis=1) > 0.99)
+    assert feathers.thickness_nm.min() == THICKNESS_RANGE_NM[0] and feathers.thickness_nm.max() == THICKNESS_RANGE_NM[1]
+    assert feathers.st.shape == (len(feathers.positions_m), 2) and feathers.neck_s is not None
+    assert feathers.base_colour_texture.endswith("textures/feather_base.png")
+    assert feathers.mask_texture.endswith("textures/feather_mask.png")
+    assert body.mask_texture is None and body.thickness_nm is None
+
+
+def test_load_scene_reads_thin_film_attributes_and_lut(asset):
+    s = sc.load_scene(asset)
+    f = s.film
+    assert f.model == "paper" and f.cauchy_a == pytest.approx(1.5) and f.thickness_primvar == "thickness"
+    assert f.thickness_range_nm == THICKNESS_RANGE_NM and f.lut_file.endswith("thinfilm_lut.exr")
+    lut = s.load_lut()
+    assert lut.thickness_range_nm == THICKNESS_RANGE_NM
+    # the synthetic gradient LUT: R = angle node coordinate, G = thickness node coordinate
+    np.testing.assert_allclose(lut.sample(0.25, THICKNESS_RANGE_NM[1]), [0.25, 1.0, 0.25], atol=1e-6)
+
+
+def test_load_scene_variants_and_bad_input(asset, tmp_path):
+    assert sc.load_scene(asset).variants == {"shading": "baked"}
+    assert sc.load_scene(asset, variants={"shading": "physical"}).variants == {"shading": "physical"}
+    with pytest.raises(ValueError, match="shading"):
+        sc.load_scene(asset, variants={"shading": "nope"})
+    with pytest.raises(ValueError, match="asset"):
+        sc.load_scene(tmp_path)  # a folder without pigeon.usda
+    with pytest.raises(ValueError, match="does not exist"):
+        sc.load_scene(tmp_path / "missing.usda")
+
+
+def test_texture_sampling_uses_texel_centres_and_bottom_origin():
+    img = np.zeros((2, 4, 1))
+    img[0, :, 0] = 1.0  # top row
+    img[:, :, 0] += np.arange(4)  # columns 0..3
+    # bottom-left texel centre
+    assert sc.sample_texture(img, [0.125, 0.25])[0] == pytest.approx(0.0)
+    assert sc.sample_texture(img, [0.125, 0.75])[0] == pytest.approx(1.0)  # top row
+    assert sc.sample_texture(img, [0.375, 0.5])[0] == pytest.approx(1.5)  # halfway between rows
+    assert sc.sample_texture(img, [0.0, 0.0])[0] == pytest.approx(0.0)  # clamp to edge
+
+
+def test_views_are_deterministic_serialisable_and_sweep_the_light_view_angle(asset):
+    s = sc.load_scene(asset)
+    views = default_views(s, 64, 48)
+    assert [v.name for v in views] == ["turntable_030", "turntable_210", "sweep_060", "sweep_120"]
+    again = default_views(s, 64, 48)
+    assert views == again
+    for v in views:
+        assert View.from_dict(json.loads(json.dumps(v.to_dict()))) == v
+        assert np.linalg.norm(v.light_direction) == pytest.approx(1.0)
+    sweep = light_sweep_views(s.neck_centre_m, 5, 32, 32)
+    for v, alpha in zip(sweep, np.linspace(30, 150, 5)):
+        view_dir = v.eye_m - s.neck_centre_m
+        view_dir /= np.linalg.norm(view_dir)
+        assert np.degrees(np.arccos(view_dir @ v.light_direction)) == pytest.approx(alpha)
+        np.testing.assert_array_equal(v.camera_to_world, sweep[0].camera_to_world)  # camera still
+    # the camera looks at its target down -Z
+    m = look_at([0, 0, 2], [0, 0, 0])
+    np.testing.assert_allclose(m[:3, 2], [0, 0, 1])
+    tt = turntable_views(s.bounds_m, 4, 32, 32)
+    assert len({tuple(v.eye_m.round(6)) for v in tt}) == 4
+    with pytest.raises(ValueError, match="n must be"):
+        turntable_views(s.bounds_m, 0, 32, 32)
+    with pytest.raises(ValueError, match="width"):
+        View("x", np.eye(4), 0.5, 0, 10, [0, 0, 1], [1, 1, 1])
