@@ -1,0 +1,406 @@
+"""Airy reflectance and transmittance of one thin film (s, p and unpolarised light).
+
+Geometry: light arrives from a transparent incident medium a (index ``n_incident``, real), at an angle of
+incidence theta_a with ``cos_theta = cos(theta_a)``, onto a film b (``n_film``, thickness d) on a
+semi-infinite substrate c (``n_substrate``). Complex indices follow ``n + i k`` with ``k >= 0`` absorbing
+(fields ~ exp(i (k_z z - omega t))), the convention of ``tmm`` and ``colour.phenomena``.
+
+Formulas
+--------
+Normal wave-vector components (in units of the vacuum wave number k0 = 2 pi / lambda), from Snell's law
+n_j sin(theta_j) = n_a sin(theta_a):
+
+    q_j = n_j cos(theta_j) = sqrt(n_j**2 - n_a**2 sin(theta_a)**2)
+        = sqrt((n_j - n_a)(n_j + n_a) + (n_a cos_theta)**2)                                   (1)
+
+evaluated in the second form so that n_j == n_a gives q_j = n_a cos_theta exactly. The branch has
+Im(q_j) >= 0 (and Re(q_j) >= 0 for transparent media): beyond the critical angle (total internal reflection)
+q_j = +i |q_j|, an evanescent wave that decays away from the interface; in an absorbing medium the wave
+decays along its direction of travel.
+
+Fresnel amplitude coefficients (Born & Wolf, Principles of Optics, 7th ed., sec. 1.5.2, eq. 21; the
+convention of the ``tmm`` package; at normal incidence r_p = -r_s):
+
+    r_s = (n1 cos1 - n2 cos2) / (n1 cos1 + n2 cos2),    r_p = (n2 cos1 - n1 cos2) / (n2 cos1 + n1 cos2)  (2)
+
+i.e. r = (eta_1 - eta_2) / (eta_1 + eta_2) with the (tilted) admittances eta_s = q, eta_p = q / n**2.
+
+Airy summation of the multiply reflected waves in the film (Born & Wolf sec. 7.6.1, eq. 7.6(8); Heavens,
+Optical Properties of Thin Solid Films, 1955, ch. 4):
+
+    r = (r_ab + r_bc e^{i phi}) / (1 + r_ab r_bc e^{i phi}),    phi = 4 pi n_b d cos(theta_b) / lambda  (3)
+
+``phi`` is :func:`film_phase`. Eq. (3) is 0/0 where q_b -> 0 (a film at its own critical angle, or
+grazing incidence on a film of the incident medium's index) and overflows for thick evanescent films, so
+it is evaluated in the algebraically identical characteristic-matrix form (Born & Wolf sec. 1.6.2,
+eqs. 1.6(33)-(35); Macleod, Thin-Film Optical Filters, ch. 2), with delta = phi / 2 = k0 q_b d:
+
+    B = cos(delta) - i eta_c sin(delta) / eta_b,    C = eta_c cos(delta) - i eta_b sin(delta)
+    r = (eta_a B - C) / (eta_a B + C),               t-power  T = 4 eta_a Re(eta_c) / |eta_a B + C|**2    (4)
+
+where sin(delta) / eta_b = k0 d (q_b / eta_b) sinc(delta) has no 0/0. The complex path multiplies B and C
+by e^{i delta} (|e^{i delta}| <= 1) and uses expm1, so it neither overflows (films of millimetres, deep
+TIR) nor loses precision for films far below 1 nm. T is the ratio of the normal power fluxes,
+Re(n_c cos_c) / Re(n_a cos_a) |t_s|**2 for s and Re(n_c conj(cos_c)) / Re(n_a conj(cos_a)) |t_p|**2 for p,
+which eq. (4) gives directly. For real indices without TIR, eq. (4) reduces to sums of squares in real
+arithmetic (the fast path, about 10x cheaper than complex arithmetic):
+
+    R = [(eta_a - eta_c)**2 cos**2 + (eta_a eta_c S - eta_b sin)**2] / Den,   T = 4 eta_a eta_c / Den,
+    Den = (eta_a + eta_c)**2 cos**2 + (eta_a eta_c S + eta_b sin)**2,   S = sin(delta) / eta_b.
+
+Limits: at grazing incidence (cos_theta = 0, eta_a = 0) R = 1 and T = 0 for any stack; at d = 0 the film
+disappears and R is the bare a|c Fresnel value. Where every interface vanishes at once (equal indices at
+grazing incidence, the only 0/0 left in eq. 4) the result is R = 0, T = 1: no interface, no reflection.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+POLARIZATIONS = ("s", "p", "unpolarized")
+
+_TWO_PI = 2.0 * np.pi
+
+
+# --------------------------------------------------------------------------- validation helpers
+def _as_real(name: str, value, *, lo: float, lo_open: bool = False, hi: float | None = None) -> np.ndarray:
+    """float64 array of ``value`` checked to be finite and within [lo, hi] (or (lo, hi])."""
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be real numbers, got {value!r}") from None
+    if a.size == 0:
+        return a
+    amin, amax = a.min(), a.max()
+    ok = np.isfinite(amin) and np.isfinite(amax) and (amin > lo if lo_open else amin >= lo)
+    if hi is not None:
+        ok = ok and amax <= hi
+    if not ok:
+        bad = ~np.isfinite(a) | ((a <= lo) if lo_open else (a < lo))
+        if hi is not None:
+            bad |= a > hi
+        first = a[bad].flat[0]
+        allowed = f"{'(' if lo_open else '['}{lo:g}, {'inf)' if hi is None else f'{hi:g}]'}"
+        raise ValueError(f"{name} must be finite and in {allowed}, got {first!r}")
+    return a
+
+
+def _check_polarization(polarization) -> str:
+    if polarization not in POLARIZATIONS:
+        raise ValueError(f"polarization must be one of {POLARIZATIONS}, got {polarization!r}")
+    return polarization
+
+
+def _as_index(name: str, value, wavelength_nm: np.ndarray | None = None, *, real_only: bool = False):
+    """A refractive index as a float64 or complex128 array (float64 when its imaginary part is 0).
+
+    ``value`` is a number, an array broadcastable with the wavelengths, or a callable n(wavelength_nm).
+    Allowed: finite, Re(n) > 0, Im(n) >= 0 (n + ik convention); ``real_only`` additionally Im(n) == 0.
+    """
+    if callable(value):
+        if wavelength_nm is None:
+            raise ValueError(f"{name} is a callable but no wavelength_nm was given to evaluate it")
+        value = value(wavelength_nm)
+    try:
+        a = np.asarray(value)
+        if a.dtype.kind not in "iufc":
+            raise TypeError
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, an array or a callable n(wavelength_nm), got {value!r}") from None
+    orig = a
+    if a.dtype.kind == "c":
+        re, im = a.real, a.imag
+        if a.size and not np.any(im):
+            a = np.ascontiguousarray(re, dtype=np.float64)
+        else:
+            a = a.astype(np.complex128, copy=False)
+    else:
+        a = a.astype(np.float64, copy=False)
+        re, im = a, None
+    if a.size == 0:
+        return a
+    bad = ~np.isfinite(re) | (re <= 0)
+    if im is not None:
+        bad |= ~np.isfinite(im) | (im < 0)
+        if real_only:
+            bad |= im != 0
+    if bad.any():
+        first = orig[bad].flat[0]
+        if real_only:
+            allowed = "a finite real number > 0 (the incident medium must be transparent)"
+        else:
+            allowed = "finite with real part > 0 and imaginary part >= 0 (n + ik, k >= 0 absorbs)"
+        raise ValueError(f"{name} must be {allowed}, got {first!r}")
+    return a
+
+
+# --------------------------------------------------------------------------- public helpers
+def _q_squared(n_j, n_a, cos_a):
+    """(n_j cos theta_j)**2 = (n_j - n_a)(n_j + n_a) + (n_a cos_a)**2, eq. (1)."""
+    nc = n_a * cos_a
+    return (n_j - n_a) * (n_j + n_a) + nc * nc
+
+
+def _branch_sqrt(z):
+    """Complex square root with Im >= 0 (decaying evanescent / absorbed wave), eq. (1)."""
+    q = np.sqrt(np.asarray(z, dtype=np.complex128))
+    return np.where(q.imag < 0, -q, q)
+
+
+def snell_cos(n1, n2, cos1):
+    """Cosine of the refraction angle in medium 2, complex-safe (Snell's law n1 sin1 = n2 sin2).
+
+    Parameters
+    ----------
+    n1 : array_like, real, > 0
+        Index of the medium the light comes from (where ``cos1`` is measured).
+    n2 : array_like, real or complex (n + ik, k >= 0)
+        Index of the medium the light enters.
+    cos1 : array_like, in [0, 1]
+        Cosine of the angle of incidence in medium 1.
+
+    Returns
+    -------
+    ndarray, broadcast shape
+        ``cos2 = q2 / n2`` with ``q2 = n2 cos2`` on the branch Im(q2) >= 0 (eq. 1). float64 when every
+        result is real (real indices, no total internal reflection), complex128 otherwise, like
+        :func:`numpy.emath.sqrt`. Beyond the critical angle cos2 is purely imaginary.
+    """
+    n1 = _as_index("n1", n1, real_only=True)
+    n2 = _as_index("n2", n2)
+    cos1 = _as_real("cos1", cos1, lo=0.0, hi=1.0)
+    q2sq = _q_squared(n2, n1, cos1)
+    if q2sq.dtype.kind != "c" and (q2sq.size == 0 or q2sq.min() >= 0):
+        return np.sqrt(q2sq) / n2
+    return _branch_sqrt(q2sq) / n2
+
+
+def fresnel_r(n1, n2, cos1, cos2, polarization):
+    """Fresnel amplitude reflection coefficient of the interface 1|2 (eq. 2, Born & Wolf convention).
+
+    ``r_s = (n1 cos1 - n2 cos2) / (n1 cos1 + n2 cos2)``, ``r_p = (n2 cos1 - n1 cos2) / (n2 cos1 + n1 cos2)``
+    (so ``r_p = -r_s`` at normal incidence; the ``tmm`` package's convention). With this convention the
+    film's amplitude reflectance is the Airy sum of eq. (3) for both polarisations.
+
+    Parameters
+    ----------
+    n1, n2 : array_like, real or complex
+        Indices of the two media (n + ik, k >= 0).
+    cos1, cos2 : array_like, real or complex
+        Cosines of the angles in media 1 and 2; ``cos2`` from :func:`snell_cos` (complex beyond the
+        critical angle).
+    polarization : {"s", "p"}
+
+    Returns
+    -------
+    ndarray, broadcast shape, float64 if every input is real else complex128
+        Where both media are the same at grazing incidence (0/0), r = 0 (no interface).
+    """
+    if polarization not in ("s", "p"):
+        raise ValueError(f"polarization must be 's' or 'p', got {polarization!r}")
+    n1, n2, cos1, cos2 = (np.asarray(x) for x in (n1, n2, cos1, cos2))
+    if polarization == "s":
+        num, den = n1 * cos1 - n2 * cos2, n1 * cos1 + n2 * cos2
+    else:
+        num, den = n2 * cos1 - n1 * cos2, n2 * cos1 + n1 * cos2
+    zero = den == 0
+    return np.divide(num, np.where(zero, 1, den)) * ~zero if np.any(zero) else num / den
+
+
+def film_phase(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident=1.0):
+    """Round-trip phase difference of the film, ``phi = 4 pi n_b d cos(theta_b) / lambda`` (eq. 3).
+
+    Parameters
+    ----------
+    wavelength_nm : array_like, nm, > 0
+    cos_theta : array_like, in [0, 1]
+        Cosine of the angle of incidence in the incident medium.
+    thickness_nm : array_like, nm, >= 0
+    n_film : number, array or callable n(wavelength_nm)
+    n_incident : number, real, > 0
+
+    Returns
+    -------
+    ndarray, broadcast shape, radians
+        float64 when the film is transparent and not beyond its critical angle; complex128 otherwise
+        (Im(phi) >= 0: ``e^{i phi}`` is the attenuation of one round trip).
+    """
+    lam = _as_real("wavelength_nm", wavelength_nm, lo=0.0, lo_open=True)
+    cos_theta = _as_real("cos_theta", cos_theta, lo=0.0, hi=1.0)
+    d = _as_real("thickness_nm", thickness_nm, lo=0.0)
+    n_b = _as_index("n_film", n_film, lam)
+    n_a = _as_index("n_incident", n_incident, lam, real_only=True)
+    qb2 = _q_squared(n_b, n_a, cos_theta)
+    if qb2.dtype.kind != "c" and (qb2.size == 0 or qb2.min() >= 0):
+        qb = np.sqrt(qb2)
+    else:
+        qb = _branch_sqrt(qb2)
+    return (2.0 * _TWO_PI) * d * qb / lam
+
+
+# --------------------------------------------------------------------------- the solver
+def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols):
+    """Eq. (4) in real arithmetic: real indices, q_b > 0, q_c >= 0. Returns {pol: (R, T)}."""
+    delta = k0d * qb
+    sin_d = np.sin(delta)
+    cos2 = np.cos(delta)
+    cos2 *= cos2
+    sin_over_qb = sin_d / qb
+    out = {}
+    for pol in pols:
+        if pol == "s":
+            ea, eb, ec = n_a * cos_a, qb, qc
+            s_over_eb = sin_over_qb
+        else:
+            ea, eb, ec = cos_a / n_a, qb / (n_b * n_b), qc / (n_c * n_c)
+            s_over_eb = sin_over_qb * (n_b * n_b)
+        eaec = ea * ec
+        x = eaec * s_over_eb
+        y = eb * sin_d
+        dif, sm = ea - ec, ea + ec
+        num = dif * dif * cos2 + (x - y) ** 2
+        den = sm * sm * cos2 + (x + y) ** 2
+        zero = den == 0
+        if np.any(zero):  # every interface vanishes: R = 0, T = 1
+            den = np.where(zero, 1.0, den)
+            num = np.where(zero, 0.0, num)
+            r_pow, t_pow = num / den, np.where(zero, 1.0, 4.0 * eaec / den)
+        else:
+            r_pow, t_pow = num / den, 4.0 * eaec / den
+        out[pol] = (r_pow, t_pow)
+    return out
+
+
+def _general_complex(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols):
+    """Eq. (4) in complex arithmetic (absorption, TIR), scaled by e^{i delta}. Returns {pol: (R, T)}."""
+    delta = k0d * qb
+    two_i_delta = 2j * delta
+    em = np.expm1(two_i_delta)  # e^{2 i delta} - 1, precise for tiny delta, bounded for Im(delta) > 0
+    c_e = 1.0 + 0.5 * em  # cos(delta) e^{i delta}
+    s_e = em / 2j  # sin(delta) e^{i delta}
+    nonzero = two_i_delta != 0
+    sinc_e = np.where(nonzero, em / np.where(nonzero, two_i_delta, 1.0), 1.0)  # sin(delta) e^{i delta} / delta
+    atten = np.exp(-2.0 * delta.imag)  # |e^{i delta}|**2
+    out = {}
+    for pol in pols:
+        if pol == "s":
+            ea, eb, ec = n_a * cos_a, qb, qc
+            ratio = 1.0  # q_b / eta_b
+        else:
+            ea, eb, ec = cos_a / n_a, qb / (n_b * n_b), qc / (n_c * n_c)
+            ratio = n_b * n_b
+        big_l = k0d * ratio * sinc_e  # sin(delta) e^{i delta} / eta_b
+        b = c_e - 1j * ec * big_l
+        c = ec * c_e - 1j * eb * s_e
+        num = ea * b - c
+        den = ea * b + c
+        den2 = den.real**2 + den.imag**2
+        zero = den2 == 0
+        safe = np.where(zero, 1.0, den2)
+        r_pow = np.where(zero, 0.0, (num.real**2 + num.imag**2) / safe)
+        t_pow = np.where(zero, 1.0, 4.0 * ea * np.real(ec) * atten / safe)
+        out[pol] = (r_pow, t_pow)
+    return out
+
+
+def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization):
+    """Validate, choose the fast or complex path per element, return (R, T) float64 arrays."""
+    polarization = _check_polarization(polarization)
+    lam = _as_real("wavelength_nm", wavelength_nm, lo=0.0, lo_open=True)
+    cos_a = _as_real("cos_theta", cos_theta, lo=0.0, hi=1.0)
+    d = _as_real("thickness_nm", thickness_nm, lo=0.0)
+    n_b = _as_index("n_film", n_film, lam)
+    n_a = _as_index("n_incident", n_incident, lam, real_only=True)
+    n_c = _as_index("n_substrate", n_substrate, lam)
+    shape = np.broadcast_shapes(lam.shape, cos_a.shape, d.shape, n_a.shape, n_b.shape, n_c.shape)
+    pols = ("s", "p") if polarization == "unpolarized" else (polarization,)
+
+    k0d = (_TWO_PI * d) / lam
+    qb2 = _q_squared(n_b, n_a, cos_a)
+    qc2 = _q_squared(n_c, n_a, cos_a)
+    real = qb2.dtype.kind != "c" and qc2.dtype.kind != "c"
+    if real:
+        fast = (qb2 > 0) & (qc2 >= 0)
+        all_fast = bool(np.all(fast))
+    else:
+        all_fast = False
+
+    if all_fast:
+        res = _fast_real(k0d, cos_a, n_a, n_b, n_c, np.sqrt(qb2), np.sqrt(qc2), pols)
+    elif not real or not np.any(fast):
+        res = _general_complex(k0d, cos_a, n_a, n_b, n_c, _branch_sqrt(qb2), _branch_sqrt(qc2), pols)
+    else:
+        # Mixed: real arithmetic where it is valid, the complex path on the rest (TIR, q_b = 0).
+        fast = np.broadcast_to(fast, shape)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            res = _fast_real(k0d, cos_a, n_a, n_b, n_c, np.sqrt(np.maximum(qb2, 0)), np.sqrt(np.maximum(qc2, 0)), pols)
+        slow = ~fast
+        sub = [np.broadcast_to(x, shape)[slow] for x in (k0d, cos_a, n_a, n_b, n_c, qb2, qc2)]
+        res_slow = _general_complex(*sub[:5], _branch_sqrt(sub[5]), _branch_sqrt(sub[6]), pols)
+        for pol in pols:
+            r_full = np.array(np.broadcast_to(res[pol][0], shape), dtype=np.float64)
+            t_full = np.array(np.broadcast_to(res[pol][1], shape), dtype=np.float64)
+            r_full[slow], t_full[slow] = res_slow[pol]
+            res[pol] = (r_full, t_full)
+
+    if polarization == "unpolarized":
+        r_pow = 0.5 * (res["s"][0] + res["p"][0])
+        t_pow = 0.5 * (res["s"][1] + res["p"][1])
+    else:
+        r_pow, t_pow = res[polarization]
+    r_pow = np.clip(np.broadcast_to(r_pow, shape), 0.0, 1.0).astype(np.float64, copy=False)
+    t_pow = np.clip(np.broadcast_to(t_pow, shape), 0.0, 1.0).astype(np.float64, copy=False)
+    return r_pow, t_pow
+
+
+def reflectance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.0, n_substrate=1.0,
+                polarization="unpolarized"):
+    """Reflectance R = |r|**2 of one film (Airy summation, eqs. 3-4 of the module docstring).
+
+    Parameters
+    ----------
+    wavelength_nm : array_like, nm, finite, > 0
+        Vacuum wavelength.
+    cos_theta : array_like, in [0, 1]
+        Cosine of the angle of incidence in the incident medium (1 = normal, 0 = grazing).
+    thickness_nm : array_like, nm, finite, >= 0
+        Film thickness; 0 gives the bare incident|substrate interface.
+    n_film, n_substrate : number, array broadcastable with ``wavelength_nm``, or callable n(wavelength_nm)
+        Real or complex (n + ik, k >= 0 absorbs); real part > 0.
+    n_incident : number, array or callable
+        Real, > 0 (reflectance is measured in a transparent medium).
+    polarization : {"s", "p", "unpolarized"}
+        "unpolarized" is the mean of the s and p reflectances.
+
+    Returns
+    -------
+    ndarray, float64, broadcast shape of all array arguments, in [0, 1]
+
+    Raises
+    ------
+    ValueError
+        NaN/inf, ``thickness_nm < 0``, ``cos_theta`` outside [0, 1], ``wavelength_nm <= 0``, an index with
+        a non-positive real part or negative imaginary part, a complex ``n_incident``, an unknown
+        polarization. The message names the argument and the offending value.
+
+    Notes
+    -----
+    Real indices without total internal reflection take a real-arithmetic fast path; other elements
+    (absorption, TIR, a film exactly at its critical angle) the complex path. Both are exact to rounding.
+    """
+    return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization)[0]
+
+
+def transmittance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.0, n_substrate=1.0,
+                  polarization="unpolarized"):
+    """Transmittance T into the substrate: the ratio of normal power fluxes (eq. 4), same arguments as
+    :func:`reflectance`.
+
+    For an absorbing film or substrate R + T < 1 (the rest is absorbed in the film); without absorption
+    R + T = 1 to rounding; beyond the substrate's critical angle T = 0.
+
+    Returns
+    -------
+    ndarray, float64, broadcast shape, in [0, 1]
+    """
+    return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization)[1]
