@@ -1,0 +1,443 @@
+"""The incremental build graph: stages keyed by a content hash of exactly what they read, and their cache.
+
+A :class:`Stage` is a named pure function of its part of the configuration and its upstream outputs. Its
+key is the sha256 of
+
+- the configuration keys it declares (``Stage.config``, dotted, e.g. ``"lut"`` or ``"geometry.seed"``),
+- the source of the code it uses: every ``.py`` file of the modules it declares (``Stage.modules``; a package
+  means all its files) plus the file that defines its function, and any data files (``Stage.data``), so
+  editing the code invalidates it,
+- the versions of the libraries it declares (``Stage.libraries``) and of Python,
+- the *content digests* of its upstream outputs (not their keys): a stage whose inputs changed but produced
+  the same bytes does not rerun its dependants (early cut-off; e.g. a new seed that leaves the thickness
+  range unchanged does not re-bake the LUT).
+
+A stage whose key has an entry in the :class:`Cache` is reused without running, and its value is loaded only
+if a stage that runs needs it. Entries are written into a temporary folder and renamed into place (atomic; a
+concurrent build that wrote the same entry first wins), their files are made read-only and loaded read-only.
+
+Fan-out stages (``Stage.items``) split their work into named items (e.g. one per verification view), each with
+its own key = stage key + the item's own configuration, so only the items whose inputs changed are redone.
+
+Test hook: ``ROCKDOVE_TEST_PAUSE_AFTER=<stage>`` makes the build stop after that stage (or after
+``assemble``, ``publish-swap``: see :mod:`pipeline.build.publish`) and sleep, so tests can kill it there.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.metadata
+import inspect
+import json
+import os
+import shutil
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterable, Mapping
+
+import numpy as np
+
+from ..config import ROOT, canonical_json, get
+
+GRAPH_VERSION = 1  # bump when the key recipe or the entry layout changes
+PAUSE_ENV = "ROCKDOVE_TEST_PAUSE_AFTER"
+
+
+def pause_point(point: str) -> None:
+    """If ``$ROCKDOVE_TEST_PAUSE_AFTER == point``: say so on stderr and sleep (tests kill the process here)."""
+    if os.environ.get(PAUSE_ENV) == point:
+        print(f"rockdove: paused after {point}", file=sys.stderr, flush=True)
+        time.sleep(3600)
+
+
+# ----------------------------------------------------------------------------------------------- codecs
+@dataclass(frozen=True)
+class Codec:
+    """How a stage's value is stored in its cache folder: ``save(value, folder)``, ``load(folder) -> value``."""
+
+    name: str
+    save: Callable[[Any, Path], None]
+    load: Callable[[Path], Any]
+
+
+def _json_save(value, folder: Path) -> None:
+    (folder / "value.json").write_text(canonical_json(value))
+
+
+def _json_load(folder: Path):
+    return json.loads((folder / "value.json").read_text())
+
+
+def _npz_save(value: Mapping[str, np.ndarray], folder: Path) -> None:
+    np.savez(folder / "value.npz", **{k: np.ascontiguousarray(v) for k, v in value.items()})
+
+
+def _npz_load(folder: Path) -> dict:
+    with np.load(folder / "value.npz", allow_pickle=False) as z:
+        out = {k: z[k] for k in z.files}
+    for a in out.values():
+        a.setflags(write=False)
+    return out
+
+
+JSON = Codec("json", _json_save, _json_load)
+NPZ = Codec("npz", _npz_save, _npz_load)
+# The stage writes files into ctx.workdir itself; its value is that (read-only) folder.
+FILES = Codec("files", lambda value, folder: None, lambda folder: folder)
+
+
+# ----------------------------------------------------------------------------------------------- stages
+@dataclass
+class Context:
+    """What a stage function receives.
+
+    Attributes
+    ----------
+    config : dict
+        The stage's declared configuration, nested as in the full configuration (only those keys).
+    inputs : Mapping[str, Any]
+        Upstream values by stage name, loaded from the cache on first access.
+    workdir : Path
+        An empty folder that becomes the stage's cache entry: FILES stages write their files here.
+    asset_dir : Path or None
+        The assembled (not yet published) asset folder, for stages with ``needs_asset``.
+    item : tuple(str, Any) or None
+        ``(name, item_config)`` for an item of a fan-out stage.
+    """
+
+    config: dict
+    inputs: Mapping[str, Any]
+    workdir: Path
+    asset_dir: Path | None = None
+    item: tuple | None = None
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One node of the build graph.
+
+    Parameters
+    ----------
+    name : str
+        Unique name, e.g. ``"lut"``.
+    run : callable(Context) -> value
+        The pure function. For a fan-out stage it runs once per item (``ctx.item`` set).
+    config : tuple of str
+        Dotted configuration keys it reads.
+    deps : tuple of str
+        Names of upstream stages (earlier in the list).
+    modules : tuple of str
+        Python modules/packages whose source enters the key (e.g. ``"pipeline.lut"``).
+    data : tuple of str
+        Data files or folders (relative to the repository root) whose bytes enter the key.
+    libraries : tuple of str
+        Distribution names whose versions enter the key (e.g. ``"numpy"``).
+    codec : Codec
+        Storage of the value (:data:`JSON`, :data:`NPZ`, :data:`FILES` or a custom one).
+    publish : str or None
+        For FILES stages: sub-folder of the asset their files are copied to (``""`` = the asset root).
+    needs_asset : bool
+        Runs after the asset is assembled (verification), with ``ctx.asset_dir``.
+    items : callable(config) -> dict[str, Any] or None
+        Fan-out: item name -> the item's own configuration (enters the item's key).
+    combine : callable(Context, dict[str, Any]) -> value or None
+        Fan-out: joins the item values (``ctx`` as for the stage) into the stage value.
+    """
+
+    name: str
+    run: Callable[[Context], Any]
+    config: tuple[str, ...] = ()
+    deps: tuple[str, ...] = ()
+    modules: tuple[str, ...] = ()
+    data: tuple[str, ...] = ()
+    libraries: tuple[str, ...] = ("numpy",)
+    codec: Codec = JSON
+    publish: str | None = None
+    needs_asset: bool = False
+    items: Callable[[dict], dict] | None = None
+    combine: Callable[[Context, dict], Any] | None = None
+    item_codec: Codec = JSON
+
+
+def _nested(config: dict, keys: Iterable[str]) -> dict:
+    out: dict = {}
+    for key in keys:
+        parts = key.split(".")
+        node = out
+        for p in parts[:-1]:
+            node = node.setdefault(p, {})
+        node[parts[-1]] = get(config, key)
+    return out
+
+
+def _hash_file(h, path: Path, label: str) -> None:
+    h.update(label.encode() + b"\0")
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    h.update(b"\0")
+
+
+def _files_of(path: Path, pattern: str = "*") -> list[Path]:
+    if path.is_dir():
+        return sorted(p for p in path.rglob(pattern) if p.is_file() and "__pycache__" not in p.parts)
+    return [path] if path.is_file() else []
+
+
+def module_files(module: str) -> list[Path]:
+    """The ``.py`` files of ``module`` (a package: all of them), found by path without importing it."""
+    base = ROOT.joinpath(*module.split("."))
+    files = _files_of(base, "*.py") if base.is_dir() else _files_of(base.with_suffix(".py"))
+    if not files:
+        raise ValueError(f"module {module!r} has no source under {ROOT}; the stage cannot be keyed")
+    return files
+
+
+def source_digest(stage: Stage) -> str:
+    """sha256 of the code and data a stage uses (its modules, its function's file, its data files)."""
+    h = hashlib.sha256()
+    files = {p for m in stage.modules for p in module_files(m)}
+    fn_file = inspect.getsourcefile(stage.run)
+    if fn_file:
+        files.add(Path(fn_file).resolve())
+    for p in sorted(files):
+        _hash_file(h, p, p.name)
+    for d in stage.data:
+        for p in _files_of(ROOT / d):
+            _hash_file(h, p, str(p.relative_to(ROOT)))
+    return h.hexdigest()
+
+
+def library_versions(names: Iterable[str]) -> dict[str, str]:
+    out = {"python": "%d.%d.%d" % sys.version_info[:3]}
+    for n in names:
+        try:
+            out[n] = importlib.metadata.version(n)
+        except importlib.metadata.PackageNotFoundError:
+            out[n] = "absent"
+    return out
+
+
+def stage_key(stage: Stage, config: dict | None, input_digests: Mapping[str, str], source: str) -> str:
+    """The content key (sha256 hex) of ``stage``: exactly its config keys, code, library versions, inputs.
+
+    ``config=None`` leaves the configuration out: the base of a fan-out item's key, to which the item's own
+    configuration is added, so an item is redone only when its own inputs change.
+    """
+    payload = {
+        "graph": GRAPH_VERSION,
+        "stage": stage.name,
+        "config": None if config is None else _nested(config, stage.config),
+        "source": source,
+        "libraries": library_versions(stage.libraries),
+        "inputs": {d: input_digests[d] for d in stage.deps},
+    }
+    return hashlib.sha256(canonical_json(payload).encode()).hexdigest()
+
+
+def folder_digest(folder: Path) -> str:
+    """sha256 over the relative paths and bytes of every file under ``folder``."""
+    h = hashlib.sha256()
+    for p in _files_of(folder):
+        _hash_file(h, p, str(p.relative_to(folder)))
+    return h.hexdigest()
+
+
+# ----------------------------------------------------------------------------------------------- cache
+class Cache:
+    """Stage values on disk: ``ROOT/<stage>/<key>/{meta.json, value/...}``, written atomically, read-only."""
+
+    def __init__(self, root: str | os.PathLike):
+        self.root = Path(root)
+
+    def entry(self, stage: str, key: str) -> Path:
+        return self.root / stage / key
+
+    def lookup(self, stage: str, key: str) -> dict | None:
+        """The entry's metadata (``digest``, ``seconds``...) or None when absent or incomplete."""
+        meta = self.entry(stage, key) / "meta.json"
+        try:
+            return json.loads(meta.read_text())
+        except (OSError, ValueError):
+            return None
+
+    def store(self, stage: str, key: str, fill: Callable[[Path], Any], extra: dict | None = None) -> dict:
+        """Create entry ``(stage, key)`` by ``fill(folder)`` in a temporary folder renamed into place."""
+        parent = self.root / stage
+        parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=".tmp-", dir=parent))
+        try:
+            value_dir = tmp / "value"
+            value_dir.mkdir()
+            t0 = time.perf_counter()
+            fill(value_dir)
+            meta = {"stage": stage, "key": key, "digest": folder_digest(value_dir),
+                    "seconds": time.perf_counter() - t0, **(extra or {})}
+            (tmp / "meta.json").write_text(json.dumps(meta, indent=1, sort_keys=True))
+            for p in _files_of(tmp):
+                p.chmod(0o444)
+            try:
+                os.rename(tmp, self.entry(stage, key))
+            except OSError:  # another build stored the same entry first: same key, same content
+                if self.lookup(stage, key) is None:
+                    raise
+            return meta
+        finally:
+            if tmp.exists():
+                shutil.rmtree(tmp, ignore_errors=True)
+
+    def clean_temporaries(self) -> None:
+        """Remove temporary folders left by killed builds (call only while holding the output lock)."""
+        for tmp in self.root.glob("*/.tmp-*"):
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+# ----------------------------------------------------------------------------------------------- running
+@dataclass
+class StageRecord:
+    """What happened to one stage in a build."""
+
+    name: str
+    key: str
+    status: str  # "ran" | "reused"
+    seconds: float
+    digest: str
+    items_ran: list[str] = field(default_factory=list)
+    items_reused: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        d = {"name": self.name, "key": self.key, "status": self.status, "seconds": round(self.seconds, 4),
+             "digest": self.digest}
+        if self.items_ran or self.items_reused:
+            d["items_ran"], d["items_reused"] = self.items_ran, self.items_reused
+        return d
+
+
+class _LazyInputs(Mapping):
+    def __init__(self, graph: "Graph", names: Iterable[str]):
+        self._graph, self._names = graph, tuple(names)
+
+    def __getitem__(self, name):
+        if name not in self._names:
+            raise KeyError(f"stage input {name!r} was not declared; declared: {self._names}")
+        return self._graph.value(name)
+
+    def __iter__(self):
+        return iter(self._names)
+
+    def __len__(self):
+        return len(self._names)
+
+
+class Graph:
+    """A list of stages (dependencies first) run against a configuration and a cache.
+
+    Parameters
+    ----------
+    stages : list of Stage
+    config : dict
+        The effective configuration.
+    cache : Cache
+    progress : callable(str) or None
+        Called with each stage name as it starts (the CLI drives a progress bar with it).
+    """
+
+    def __init__(self, stages: list[Stage], config: dict, cache: Cache, progress: Callable[[str], None] | None = None):
+        seen: set[str] = set()
+        for s in stages:
+            if s.name in seen:
+                raise ValueError(f"stage name {s.name!r} appears twice")
+            missing = [d for d in s.deps if d not in seen]
+            if missing:
+                raise ValueError(f"stage {s.name!r} depends on {missing}, which are not earlier stages")
+            seen.add(s.name)
+        self.stages = {s.name: s for s in stages}
+        self.config, self.cache, self.progress = config, cache, progress or (lambda name: None)
+        self.records: dict[str, StageRecord] = {}
+        self._values: dict[str, Any] = {}
+
+    def value(self, name: str) -> Any:
+        """The value of a finished stage (loaded read-only from the cache on first use)."""
+        if name not in self._values:
+            rec = self.records[name]
+            stage = self.stages[name]
+            self._values[name] = stage.codec.load(self.cache.entry(name, rec.key) / "value")
+        return self._values[name]
+
+    def entry_dir(self, name: str) -> Path:
+        """The cache folder holding a finished stage's value files."""
+        return self.cache.entry(name, self.records[name].key) / "value"
+
+    def run(self, *, asset_dir: Path | None = None, needs_asset: bool = False) -> list[StageRecord]:
+        """Run (or reuse) the stages with ``needs_asset == needs_asset``, in order."""
+        done = []
+        for stage in self.stages.values():
+            if stage.needs_asset != needs_asset or stage.name in self.records:
+                continue
+            self.progress(stage.name)
+            done.append(self._run_stage(stage, asset_dir))
+            pause_point(stage.name)
+        return done
+
+    def _context(self, stage: Stage, workdir: Path, asset_dir, item=None) -> Context:
+        return Context(config=_nested(self.config, stage.config), inputs=_LazyInputs(self, stage.deps),
+                       workdir=workdir, asset_dir=asset_dir, item=item)
+
+    def _run_stage(self, stage: Stage, asset_dir) -> StageRecord:
+        digests = {d: self.records[d].digest for d in stage.deps}
+        source = source_digest(stage)
+        key = stage_key(stage, self.config, digests, source)
+        t0 = time.perf_counter()
+        meta = self.cache.lookup(stage.name, key)
+        if meta is not None:
+            rec = StageRecord(stage.name, key, "reused", time.perf_counter() - t0, meta["digest"],
+                              items_reused=meta.get("items", []))
+            self.records[stage.name] = rec
+            return rec
+        ran, reused = [], []
+        if stage.items is None:
+            def fill(folder: Path):
+                value = stage.run(self._context(stage, folder, asset_dir))
+                stage.codec.save(value, folder)
+                if stage.codec is not FILES:
+                    self._values[stage.name] = stage.codec.load(folder)
+        else:
+            def fill(folder: Path):
+                item_values = {}
+                base = stage_key(stage, None, digests, source)
+                for item_name, item_cfg in stage.items(_nested(self.config, stage.config)).items():
+                    ikey = hashlib.sha256(canonical_json([base, item_name, item_cfg]).encode()).hexdigest()
+                    iname = f"{stage.name}.items"
+                    if self.cache.lookup(iname, ikey) is None:
+                        def ifill(ifolder: Path, item=(item_name, item_cfg)):
+                            v = stage.run(self._context(stage, ifolder, asset_dir, item))
+                            stage.item_codec.save(v, ifolder)
+                        self.cache.store(iname, ikey, ifill, {"item": item_name})
+                        ran.append(item_name)
+                    else:
+                        reused.append(item_name)
+                    item_values[item_name] = stage.item_codec.load(self.cache.entry(iname, ikey) / "value")
+                value = stage.combine(self._context(stage, folder, asset_dir), item_values)
+                stage.codec.save(value, folder)
+        meta = self.cache.store(stage.name, key, fill, {"items": ran + reused} if stage.items else None)
+        rec = StageRecord(stage.name, key, "ran", time.perf_counter() - t0, meta["digest"], ran, reused)
+        self.records[stage.name] = rec
+        return rec
+
+    def assemble(self, asset_dir: Path, *, needs_asset: bool = False) -> None:
+        """Copy the files of the publishing stages (those with ``needs_asset == needs_asset``) into
+        ``asset_dir``; copies, so the cache stays read-only whatever is done to the asset."""
+        for name, stage in self.stages.items():
+            if stage.publish is None or name not in self.records or stage.needs_asset != needs_asset:
+                continue
+            src = self.entry_dir(name)
+            dst = asset_dir / stage.publish
+            for p in _files_of(src):
+                target = dst / p.relative_to(src)
+                target.parent.mkdir(parents=True, exist_ok=True)
+                shutil.copyfile(p, target)
+        if not needs_asset:
+            pause_point("assemble")

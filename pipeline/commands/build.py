@@ -1,0 +1,150 @@
+"""``rockdove build``: build the pigeon asset incrementally and publish it atomically.
+
+Order of work: configuration checked (exit 2 on any problem, nothing written) -> output checked (a folder
+rockdove created, or a new/empty one) -> lock taken (a second build of the same output waits) -> leftovers of
+killed builds cleaned -> stages run or reused from the cache -> asset assembled in a staging folder beside
+the output, marker written -> verification on the staged asset (unless ``--no-verify``) -> atomic swap into
+place. Ctrl-C and SIGTERM remove the staging folder and the cache's temporaries; a failed verification
+publishes nothing and exits 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import os
+import shutil
+import signal
+import sys
+import time
+from pathlib import Path
+
+from ..config import DEFAULT_PRESET, config_hash, load_config
+
+HELP = "build the pigeon USD asset (incremental; verifies unless --no-verify)"
+DEFAULT_OUT = "build/pigeon"
+STAGES_ENV = "ROCKDOVE_BUILD_STAGES"  # tests: "path/to/file.py:factory" replaces the stage factory
+
+
+def add_config_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options that choose the configuration (shared with ``rockdove config``)."""
+    parser.add_argument("--preset", default=DEFAULT_PRESET, metavar="NAME",
+                        help=f"asset recipe assets/pigeon/NAME.toml: measured or paper (default {DEFAULT_PRESET})")
+    parser.add_argument("--config", metavar="FILE.toml", help="a TOML file layered over the preset")
+    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                        help="override one key (dotted, value a TOML literal), e.g. --set lut.angles=128; repeatable")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_config_arguments(parser)
+    parser.add_argument("--out", default=DEFAULT_OUT, metavar="DIR", help=f"asset folder (default {DEFAULT_OUT})")
+    parser.add_argument("--cache", metavar="DIR",
+                        help="stage cache folder (default .rockdove-cache beside the output folder)")
+    parser.add_argument("--no-verify", action="store_true", help="skip the verification renders")
+    parser.add_argument("--lock-timeout", type=float, default=None, metavar="SECONDS",
+                        help="give up (exit 2) if another build of the same output holds the lock this long "
+                             "(default: wait until it finishes)")
+    parser.add_argument("--json", action="store_true", help="print a JSON summary (stages ran and reused) on stdout")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar and no summary text")
+
+
+def _stage_factory():
+    spec = os.environ.get(STAGES_ENV)
+    if not spec:
+        from ..build.stages import make_stages
+
+        return make_stages
+    path, _, name = spec.rpartition(":")
+    mod_spec = importlib.util.spec_from_file_location("_rockdove_stages_override", path)
+    mod = importlib.util.module_from_spec(mod_spec)
+    mod_spec.loader.exec_module(mod)
+    return getattr(mod, name)
+
+
+def _raise_interrupt(signum, frame):
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
+class _Progress:
+    """A tqdm bar over the stages on stderr; silent with --quiet or when stderr is not a terminal."""
+
+    def __init__(self, total: int, quiet: bool):
+        self.bar = None
+        if not quiet and sys.stderr.isatty():
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, file=sys.stderr, unit="stage", leave=False)
+        self.started = False
+
+    def __call__(self, name: str) -> None:
+        if self.bar is not None:
+            if self.started:
+                self.bar.update(1)
+            self.started = True
+            self.bar.set_description(name)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.update(1 if self.started else 0)
+            self.bar.close()
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..build.graph import Cache, Graph
+    from ..build.publish import OutputLock, check_output, make_staging, publish, recover, write_marker
+    from ..errors import UsageError, VerificationFailed
+
+    t0 = time.perf_counter()
+    config = load_config(preset=args.preset, config_file=args.config, overrides=args.overrides)
+    out = Path(args.out)
+    check_output(out)
+    cache_dir = Path(args.cache) if args.cache else out.parent / ".rockdove-cache"
+    if cache_dir.exists() and not cache_dir.is_dir():
+        raise UsageError(f"--cache {str(cache_dir)!r} exists and is not a folder")
+    stages = _stage_factory()(config, verify=not args.no_verify)
+    chash = config_hash(config)
+
+    old_term = signal.signal(signal.SIGTERM, _raise_interrupt)
+    staging = None
+    progress = _Progress(len(stages), args.quiet)
+    try:
+        with OutputLock(out, timeout_s=args.lock_timeout, quiet=args.quiet):
+            recover(out)
+            cache = Cache(cache_dir)
+            cache.clean_temporaries()
+            graph = Graph(stages, config, cache, progress=progress)
+            graph.run()
+            staging = make_staging(out)
+            graph.assemble(staging)
+            write_marker(staging, {"config_hash": chash, "preset": args.preset,
+                                   "stages": {n: r.key for n, r in graph.records.items()}})
+            graph.run(asset_dir=staging, needs_asset=True)
+            graph.assemble(staging, needs_asset=True)
+            verdicts = {n: graph.value(n) for n, s in graph.stages.items() if s.needs_asset}
+            failed = [n for n, v in verdicts.items() if isinstance(v, dict) and v.get("passed") is False]
+            if failed:
+                raise VerificationFailed(
+                    f"stage {failed[0]!r} failed ({verdicts[failed[0]].get('reason', 'see its report')}); "
+                    f"{out} was left unchanged; report in {graph.entry_dir(failed[0])}")
+            publish(staging, out)
+            staging = None
+    finally:
+        progress.close()
+        if staging is not None and staging.exists():
+            shutil.rmtree(staging, ignore_errors=True)
+        signal.signal(signal.SIGTERM, old_term)
+
+    records = [r.as_dict() for r in graph.records.values()]
+    summary = {
+        "out": str(out), "cache": str(cache_dir), "preset": args.preset, "config_hash": chash,
+        "ran": [r["name"] for r in records if r["status"] == "ran"],
+        "reused": [r["name"] for r in records if r["status"] == "reused"],
+        "stages": records, "verified": bool(verdicts) or None, "seconds": round(time.perf_counter() - t0, 4),
+    }
+    if args.json:
+        print(json.dumps(summary, indent=1))
+    elif not args.quiet:
+        print(f"rockdove build: {out} ({len(summary['ran'])} stages ran: {', '.join(summary['ran']) or '-'}; "
+              f"{len(summary['reused'])} reused) in {summary['seconds']:.2f} s")
+    return 0
