@@ -1,0 +1,118 @@
+"""Tests of the CPU reference render (pipeline.render.reference) on tiny hand-made scenes."""
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from pipeline.render import reference
+from pipeline.render.scene import RenderScene, ScenePart, ThinFilmParams
+from pipeline.render.views import View, look_at
+
+BODY_RGB = np.array([0.2, 0.4, 0.6])
+
+
+def _quad(z, size, normal_sign=1.0):
+    s = size / 2
+    pts = np.array([[-s, -s, z], [s, -s, z], [s, s, z], [-s, s, z]], np.float32)
+    tris = np.array([[0, 1, 2], [0, 2, 3]], np.int32)
+    if normal_sign < 0:
+        tris = tris[:, ::-1].copy()
+    nrm = np.tile([0.0, 0.0, normal_sign], (4, 1)).astype(np.float32)
+    st = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
+    return pts, nrm, tris, st
+
+
+def _film(a=1.5, b=0.0):
+    return ThinFilmParams("paper", a, b, 1.0, 1.0, "thickness", "nm", "unused.exr", "lin_rec709", 1.0, (650.0, 650.0))
+
+
+def _scene(tmp_path, alpha_left=0, mask_value=255, normal_sign=1.0, thickness=(650.0, 650.0), film=None):
+    """A feather quad at z = 0 (0.1 m, facing +Z, texture alpha ``alpha_left`` on its left half, opaque
+    right half, grey base 128, constant mask) in front of a large body quad at z = -0.05."""
+    base = np.zeros((8, 8, 4), np.uint8)
+    base[..., :3] = 128
+    base[:, :4, 3] = alpha_left
+    base[:, 4:, 3] = 255
+    Image.fromarray(base, "RGBA").save(tmp_path / "base.png")
+    Image.fromarray(np.full((8, 8), mask_value, np.uint8), "L").save(tmp_path / "mask.png")
+    p, n, t, st = _quad(0.0, 0.1, normal_sign)
+    d = np.array([thickness[0], thickness[0], thickness[1], thickness[1]], np.float32)  # graded along t
+    feather = ScenePart("NeckFeathers", "/Pigeon/Geom/NeckFeathers", "feather", p, n, t, st, thickness_nm=d,
+                        base_colour_texture=str(tmp_path / "base.png"), mask_texture=str(tmp_path / "mask.png"))
+    p2, n2, t2, st2 = _quad(-0.05, 0.4)
+    body = ScenePart("Body", "/Pigeon/Geom/Body", "body", p2, n2, t2, st2, base_colour=BODY_RGB.astype(np.float32))
+    return RenderScene(str(tmp_path / "pigeon.usda"), (feather, body), film or _film(), {})
+
+
+def _view(light=(0.0, 0.0, 1.0), size=16, eye=(0.0, 0.0, 0.3)):
+    return View("v", look_at(eye, (0.0, 0.0, 0.0)), np.radians(20.0), size, size, light, (1.0, 1.0, 1.0))
+
+
+def _red(c, d):
+    return np.tile([1.0, 0.0, 0.0], (len(c), 1))
+
+
+def test_camera_rays_follow_the_opengl_pinhole_convention():
+    v = _view(size=4)
+    origin, dirs, fwd = reference.camera_rays(v)
+    np.testing.assert_allclose(origin, [0, 0, 0.3])
+    np.testing.assert_allclose(fwd, [0, 0, -1], atol=1e-12)
+    assert dirs.shape == (16, 3)
+    # the top-left pixel looks up and to the left; its direction's slope is the pixel centre's tangent
+    t = np.tan(np.radians(10.0))
+    np.testing.assert_allclose(dirs[0] / -dirs[0, 2], [-0.75 * t, 0.75 * t, -1.0], rtol=1e-12)
+
+
+def test_alpha_cut_out_lets_rays_continue_to_the_body_behind(tmp_path):
+    res = reference.render_reference(_scene(tmp_path), [_view()], structural_fn=_red)[0]
+    row = res.part_id[8]
+    # the feather spans the middle of the image; its transparent left half shows the body (id 2)
+    covered = np.nonzero(np.abs(np.arange(16) + 0.5 - 8) / 8 * np.tan(np.radians(10)) * 0.3 < 0.05)[0]
+    left, right = covered[covered < 8], covered[covered >= 8]
+    assert (row[left] == 2).all() and (row[right] == 1).all()
+    np.testing.assert_allclose(res.rgb[8, left], np.tile(BODY_RGB, (len(left), 1)), rtol=1e-6)
+    np.testing.assert_allclose(res.rgb[8, right], np.tile([1.0, 0.0, 0.0], (len(right), 1)), rtol=1e-6)
+    assert res.stats["alpha_layers"] >= 2
+    # with an opaque texture every covered pixel is the feather
+    opaque = reference.render_reference(_scene(tmp_path, alpha_left=255), [_view()], structural_fn=_red)[0]
+    assert (opaque.part_id[8, covered] == 1).all()
+    assert np.isfinite(res.depth_m[res.coverage]).all() and res.depth_m[8, 12] == pytest.approx(0.3, rel=1e-4)
+
+
+def test_lambert_and_two_sided_cards(tmp_path):
+    light = np.array([0.0, 0.6, 0.8])
+    front = reference.render_reference(_scene(tmp_path, alpha_left=255), [_view(light)], structural_fn=_red)[0]
+    np.testing.assert_allclose(front.n_dot_l[8, 8], 0.8, rtol=1e-5)
+    np.testing.assert_allclose(front.rgb[8, 8], [0.8, 0.0, 0.0], rtol=1e-5)
+    # the same card authored facing away from the camera: the shader flips N toward the viewer
+    back = reference.render_reference(
+        _scene(tmp_path, alpha_left=255, normal_sign=-1.0), [_view(light)], structural_fn=_red
+    )[0]
+    np.testing.assert_allclose(back.rgb[8, 8], front.rgb[8, 8], rtol=1e-5)
+
+
+def test_mask_mixes_base_and_structural_colour(tmp_path):
+    # mask 0.5: colour = 0.5 base + 0.5 structural; base 128 is sRGB-decoded to linear
+    import colour
+
+    res = reference.render_reference(_scene(tmp_path, alpha_left=255, mask_value=128), [_view()],
+                                     structural_fn=_red)[0]
+    base = float(colour.cctf_decoding(128 / 255, function="sRGB"))
+    m = 128 / 255
+    np.testing.assert_allclose(res.rgb[8, 8], [(1 - m) * base + m, (1 - m) * base, (1 - m) * base], rtol=1e-5)
+    assert res.mask[8, 8] == pytest.approx(m, rel=1e-6)
+
+
+def test_render_needs_views_and_film(tmp_path):
+    scene = _scene(tmp_path)
+    with pytest.raises(ValueError, match="views"):
+        reference.render_reference(scene, [])
+    no_film = RenderScene(scene.root_layer, scene.parts, None, {})
+    with pytest.raises(ValueError, match="film"):
+        reference.render_reference(no_film, [_view()])
+
+
+def test_display_transform_is_the_srgb_oetf_of_clipped_linear():
+    out = reference.to_display8(np.array([[0.0, 1.0, 2.0], [-1.0, 0.0031308, 0.18]]))
+    assert out.tolist()[0] == [0, 255, 255] and out[1, 0] == 0
+    assert out[1, 2] == round(255 * (1.055 * 0.18 ** (1 / 2.4) - 0.055))
