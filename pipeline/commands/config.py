@@ -1,0 +1,52 @@
+"""``rockdove config``: print the effective build configuration with units (or as JSON).
+
+Takes the same ``--preset``, ``--config`` and ``--set`` options as ``rockdove build``, so a user sees exactly
+what a build would use; the units, ranges and descriptions come from ``schemas/config.schema.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from ..config import config_hash, describe, load_config
+from .build import add_config_arguments
+
+HELP = "print the effective build configuration with units"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_config_arguments(parser)
+    parser.add_argument("--json", action="store_true",
+                        help="print JSON: the configuration, its hash and each key's unit/default/allowed range")
+    parser.add_argument("--verbose", "-v", action="store_true", help="also print each key's description and range")
+
+
+def _fmt(value) -> str:
+    return "unset (model's value)" if value is None else json.dumps(value)
+
+
+def run(args: argparse.Namespace) -> int:
+    config = load_config(preset=args.preset, config_file=args.config, overrides=args.overrides)
+    rows = describe(config)
+    if args.json:
+        print(json.dumps({"preset": args.preset, "config_hash": config_hash(config), "config": config,
+                          "parameters": rows}, indent=1))
+        return 0
+    print(f"# rockdove configuration: preset {args.preset}"
+          + (f" + {args.config}" if args.config else "")
+          + (f" + {len(args.overrides)} --set" if args.overrides else "")
+          + f"; hash {config_hash(config)[:16]}")
+    width = max(len(r["key"]) for r in rows)
+    section = None
+    for r in rows:
+        head = r["key"].split(".")[0]
+        if head != section and "." in r["key"]:
+            print(f"\n[{head}]")
+        section = head
+        unit = f" {r['unit']}" if r["unit"] else ""
+        changed = "" if r["value"] == r["default"] else f"   (default {_fmt(r['default'])})"
+        print(f"{r['key']:<{width}} = {_fmt(r['value'])}{unit}{changed}")
+        if args.verbose:
+            print(f"{'':<{width}}   {r['description']} Allowed: {r['allowed']}.")
+    return 0

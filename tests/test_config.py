@@ -1,0 +1,91 @@
+"""The configuration: layering, the schema as the single source of defaults and docs, one-line errors."""
+
+from __future__ import annotations
+
+import json
+
+import jsonschema
+import pytest
+
+from pipeline import config as C
+from pipeline.errors import UsageError
+
+
+def test_schema_is_valid_draft_2020_12_and_documents_every_parameter():
+    schema = C.load_schema()
+    jsonschema.Draft202012Validator.check_schema(schema)
+    for section, node in schema["properties"].items():
+        assert node.get("description"), section
+        for key, leaf in node.get("properties", {}).items():
+            assert leaf.get("description"), f"{section}.{key} has no description"
+            assert "unit" in leaf, f"{section}.{key} has no unit"
+            assert "default" in leaf, f"{section}.{key} has no default"
+
+
+def test_defaults_validate_and_come_from_the_schema():
+    d = C.validate(C.defaults())
+    assert d["lut"]["angles"] == C.load_schema()["properties"]["lut"]["properties"]["angles"]["default"]
+
+
+def test_default_build_is_the_measured_preset():
+    cfg = C.load_config()
+    assert cfg["film"]["model"] == "keratin"
+    assert cfg["thickness"]["base_nm"] == [480.0, 580.0] and cfg["thickness"]["top_nm"] == [600.0, 700.0]
+    assert cfg["film"]["cauchy_b_nm2"] > 0
+
+
+def test_paper_preset_is_uniform_650_nm_and_n_1_5():
+    cfg = C.load_config(preset="paper")
+    assert cfg["thickness"]["base_nm"] == cfg["thickness"]["top_nm"] == [650.0, 650.0]
+    assert cfg["film"]["cauchy_a"] == 1.5 and cfg["film"]["cauchy_b_nm2"] == 0.0
+
+
+def test_layers_later_wins(tmp_path):
+    f = tmp_path / "c.toml"
+    f.write_text("[lut]\nangles = 100\nthicknesses = 7\n")
+    cfg = C.load_config(preset="paper", config_file=f, overrides=["lut.angles=50"])
+    assert cfg["lut"]["angles"] == 50 and cfg["lut"]["thicknesses"] == 7
+    assert cfg["film"]["model"] == "paper"  # untouched keys come from the preset
+
+
+@pytest.mark.parametrize("item, key, value", [
+    ("lut.angles=128", "lut.angles", 128),
+    ("thickness.base_nm=[500, 560]", "thickness.base_nm", [500, 560]),
+    ("film.model=keratin", "film.model", "keratin"),
+    ("film.model='paper'", "film.model", "paper"),
+    ("usd.usdz=false", "usd.usdz", False),
+    ("lut.angle_warp_gamma = 1.5", "lut.angle_warp_gamma", 1.5),
+])
+def test_parse_set_reads_toml_literals(item, key, value):
+    assert C.parse_set(item) == (key, value)
+
+
+@pytest.mark.parametrize("overrides, words", [
+    (["lut.angles=1"], ["lut.angles", "1", ">= 2"]),
+    (["lut.nope=1"], ["lut.nope", "unknown", "angles"]),
+    (["thickness.base_nm=[600, 500]"], ["thickness.base_nm", "[600, 500]", "lo > hi"]),
+    (["film.model=glass"], ["film.model", "glass", "paper"]),
+    (["geometry.seed=1.5"], ["geometry.seed", "1.5", "integer"]),
+])
+def test_errors_name_key_value_and_what_is_allowed(overrides, words):
+    with pytest.raises(UsageError) as exc:
+        C.load_config(overrides=overrides)
+    msg = str(exc.value)
+    assert "\n" not in msg
+    for w in words:
+        assert w in msg
+
+
+def test_config_hash_changes_with_any_value_and_not_with_order():
+    a = C.load_config()
+    b = json.loads(json.dumps(a))
+    b = {k: b[k] for k in reversed(list(b))}
+    assert C.config_hash(a) == C.config_hash(b)
+    assert C.config_hash(a) != C.config_hash(C.load_config(overrides=["geometry.seed=1"]))
+
+
+def test_describe_lists_every_leaf_with_its_unit():
+    rows = {r["key"]: r for r in C.describe(C.load_config())}
+    assert rows["thickness.base_nm"]["unit"] == "nm"
+    assert rows["lut.angles"]["value"] == 256
+    assert rows["verify.width"]["unit"] == "px"
