@@ -47,10 +47,11 @@ PAUSE_ENV = "ROCKDOVE_TEST_PAUSE_AFTER"
 
 
 def pause_point(point: str) -> None:
-    """If ``$ROCKDOVE_TEST_PAUSE_AFTER == point``: say so on stderr and sleep (tests kill the process here)."""
+    """If ``$ROCKDOVE_TEST_PAUSE_AFTER == point``: say so on stderr and sleep ``$ROCKDOVE_TEST_PAUSE_SECONDS``
+    (default 3600 s), so tests can kill the build exactly there or overlap two builds."""
     if os.environ.get(PAUSE_ENV) == point:
         print(f"rockdove: paused after {point}", file=sys.stderr, flush=True)
-        time.sleep(3600)
+        time.sleep(float(os.environ.get("ROCKDOVE_TEST_PAUSE_SECONDS", "3600")))
 
 
 # ----------------------------------------------------------------------------------------------- codecs

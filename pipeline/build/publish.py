@@ -67,8 +67,12 @@ class OutputLock:
         self._fd: int | None = None
 
     def __enter__(self) -> "OutputLock":
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise UsageError(f"--out {str(self.path.parent / self.path.name[1:-14])!r}: cannot create the lock "
+                             f"file {str(self.path)!r}: {exc.strerror}") from None
         t0 = time.monotonic()
         told = False
         while True:

@@ -97,6 +97,8 @@ def run(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     config = load_config(preset=args.preset, config_file=args.config, overrides=args.overrides)
+    if not args.out.strip():
+        raise UsageError("--out is empty; give the asset folder, e.g. --out build/pigeon")
     out = Path(args.out)
     check_output(out)
     cache_dir = Path(args.cache) if args.cache else out.parent / ".rockdove-cache"

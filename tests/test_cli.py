@@ -1,0 +1,187 @@
+"""The ``build`` and ``config`` commands through the real CLI (subprocess): bad inputs and the happy paths.
+
+Every bad input must exit 2 with exactly one line on stderr naming the problem, no traceback, and write
+nothing (no output folder, lock file or cache). Builds here use the stand-in stages of test_build_graph.py
+(``ROCKDOVE_BUILD_STAGES``), so they test the command and the framework in a fraction of a second each.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+STANDIN = f"{ROOT / 'tests' / 'test_build_graph.py'}:standin_stages"
+
+
+def rockdove(*args, cwd, env_extra=None, timeout=60):
+    env = {**os.environ, "ROCKDOVE_BUILD_STAGES": STANDIN, "PYTHONPATH": str(ROOT)}
+    env.pop("ROCKDOVE_DEBUG", None)
+    env.update(env_extra or {})
+    return subprocess.run([sys.executable, "-m", "pipeline.cli", *args], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=timeout)
+
+
+def _tree(folder: Path) -> set:
+    return {str(p.relative_to(folder)) for p in folder.rglob("*")}
+
+
+def _setup(tmp: Path) -> None:
+    (tmp / "malformed.toml").write_text("[lut\nangles = 3\n")
+    (tmp / "unknown.toml").write_text("[lut]\nangels = 128\n")
+    (tmp / "wrongtype.toml").write_text("[geometry]\ncard_count = \"many\"\n")
+    (tmp / "adir.toml").mkdir()
+    (tmp / "afile").write_text("not a folder\n")
+    (tmp / "foreign").mkdir()
+    (tmp / "foreign" / "precious.txt").write_text("user data\n")
+
+
+BAD = [
+    # (id, args, words the one-line message must contain)
+    ("unknown-key", ["--set", "lut.nope=1"], ["lut.nope", "unknown"]),
+    ("unknown-section", ["--set", "nope.x=1"], ["nope", "unknown"]),
+    ("wrong-type-string", ["--set", 'lut.angles="many"'], ["lut.angles", "many", "integer"]),
+    ("below-minimum", ["--set", "lut.angles=1"], ["lut.angles", "1", ">= 2"]),
+    ("above-maximum", ["--set", "lut.angles=100000"], ["lut.angles", "100000", "<= 4096"]),
+    ("empty-range", ["--set", "thickness.base_nm=[]"], ["thickness.base_nm", "[]", "too few"]),
+    ("min-above-max", ["--set", "thickness.base_nm=[600, 500]"], ["thickness.base_nm", "lo > hi"]),
+    ("range-item-out-of-range", ["--set", "thickness.top_nm=[0, 700]"], ["thickness.top_nm[0]", "0", ">= 1"]),
+    ("range-too-long", ["--set", "thickness.top_nm=[600, 700, 800]"], ["thickness.top_nm", "too many"]),
+    ("bad-enum-film", ["--set", "film.model=glass"], ["film.model", "glass", '"keratin"']),
+    ("index-below-one", ["--set", "film.cauchy_a=0.5"], ["film.cauchy_a", "0.5", ">= 1"]),
+    ("negative-index", ["--set", "film.n_substrate=-1"], ["film.n_substrate", "-1"]),
+    ("bad-precision", ["--set", "lut.precision=double"], ["lut.precision", "double", "half"]),
+    ("bad-colour-space", ["--set", "lut.colour_space=srgb"], ["lut.colour_space", "srgb", "lin_rec709"]),
+    ("bad-shading", ["--set", "shading.variant=none"], ["shading.variant", "none", "physical"]),
+    ("zero-width", ["--set", "verify.width=0"], ["verify.width", "0", ">= 16"]),
+    ("negative-seed", ["--set", "geometry.seed=-1"], ["geometry.seed", "-1", ">= 0"]),
+    ("zero-cards", ["--set", "geometry.card_count=0"], ["geometry.card_count", "0", ">= 1"]),
+    ("fractional-cards", ["--set", "geometry.card_count=2.5"], ["geometry.card_count", "2.5", "integer"]),
+    ("int-for-bool", ["--set", "usd.usdz=1"], ["usd.usdz", "1", "boolean"]),
+    ("section-not-table", ["--set", "lut=3"], ["lut", "3", "table"]),
+    ("card-length-reversed", ["--set", "geometry.card_length_m=[0.02, 0.01]"], ["geometry.card_length_m", "lo > hi"]),
+    ("gamma-zero", ["--set", "lut.angle_warp_gamma=0"], ["lut.angle_warp_gamma", "> 0"]),
+    ("set-without-equals", ["--set", "lut.angles"], ["lut.angles", "KEY=VALUE"]),
+    ("set-empty-key", ["--set", "=3"], ["=3", "dotted name"]),
+    ("set-empty-value", ["--set", "lut.angles="], ["lut.angles", "empty"]),
+    ("set-bad-literal", ["--set", "lut.angles=[1"], ["[1", "TOML literal"]),
+    ("set-bad-key", ["--set", "lut..angles=3"], ["lut..angles", "dotted name"]),
+    ("bad-preset", ["--preset", "nosuch"], ["nosuch", "measured", "paper"]),
+    ("missing-config", ["--config", "missing.toml"], ["missing.toml", "does not exist"]),
+    ("malformed-config", ["--config", "malformed.toml"], ["malformed.toml", "not valid TOML"]),
+    ("config-unknown-key", ["--config", "unknown.toml"], ["lut.angels", "unknown"]),
+    ("config-wrong-type", ["--config", "wrongtype.toml"], ["geometry.card_count", "many"]),
+    ("config-is-dir", ["--config", "adir.toml"], ["adir.toml", "directory"]),
+    ("out-is-file", ["--out", "afile"], ["afile", "not a folder"]),
+    ("out-under-file", ["--out", "afile/pigeon"], ["afile", "is a file"]),
+    ("out-not-ours", ["--out", "foreign"], ["foreign", "did not create"]),
+    ("out-dot", ["--out", "."], ["."]),
+    ("out-empty", ["--out", ""], ["--out"]),
+    ("cache-is-file", ["--cache", "afile"], ["afile", "not a folder"]),
+    ("lock-timeout-not-number", ["--lock-timeout", "soon"], ["lock-timeout", "soon"]),
+    ("unknown-option", ["--colour", "green"], ["--colour"]),
+]
+
+
+@pytest.fixture(scope="module")
+def workdir(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("cli")
+    _setup(tmp)
+    return tmp
+
+
+def _check_bad(workdir, args, words, command="build"):
+    before = _tree(workdir)
+    extra = [] if any(a == "--out" for a in args) else ["--out", "build/pigeon"]
+    r = rockdove(command, *args, *(extra if command == "build" else []), cwd=workdir)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2, r.stderr
+    assert len(lines) == 1, r.stderr
+    assert "Traceback" not in r.stderr
+    for w in words:
+        assert w in lines[0], (w, lines[0])
+    assert _tree(workdir) == before, "a rejected build wrote something"
+    return lines[0]
+
+
+@pytest.mark.parametrize("case", BAD, ids=[c[0] for c in BAD])
+def test_bad_input_exits_2_with_one_line_and_writes_nothing(workdir, case):
+    _, args, words = case
+    _check_bad(workdir, args, words)
+
+
+def test_at_least_30_bad_inputs():
+    assert len(BAD) >= 30
+
+
+def test_config_command_reports_bad_input_the_same_way(workdir):
+    _check_bad(workdir, ["--set", "lut.angles=1"], ["lut.angles", ">= 2"], command="config")
+
+
+def test_version_and_help(tmp_path):
+    r = rockdove("--version", cwd=tmp_path)
+    assert r.returncode == 0 and r.stdout.startswith("rockdove ")
+    for cmd in ("build", "config"):
+        r = rockdove(cmd, "--help", cwd=tmp_path)
+        assert r.returncode == 0 and "--set KEY=VALUE" in r.stdout and "--preset" in r.stdout
+
+
+def test_config_prints_units_and_json(tmp_path):
+    r = rockdove("config", "--preset", "paper", "--set", "lut.angles=64", cwd=tmp_path)
+    assert r.returncode == 0
+    assert "thickness.base_nm" in r.stdout and "[650.0, 650.0] nm" in r.stdout
+    assert "lut.angles" in r.stdout and "64 texels" in r.stdout
+    r = rockdove("config", "--json", cwd=tmp_path)
+    data = json.loads(r.stdout)
+    assert data["config"]["film"]["model"] == "keratin" and len(data["config_hash"]) == 64
+    assert not list(tmp_path.iterdir()), "config wrote something"
+
+
+def test_build_json_reports_ran_then_reused(tmp_path):
+    args = ["build", "--out", "build/pigeon", "--set", "geometry.card_count=40", "--json", "--quiet"]
+    first = json.loads(rockdove(*args, cwd=tmp_path).stdout)
+    assert "lut" in first["ran"] and first["reused"] == [] and first["verified"] is True
+    second = json.loads(rockdove(*args, cwd=tmp_path).stdout)
+    assert second["ran"] == [] and set(second["reused"]) == set(first["ran"])
+    marker = json.loads((tmp_path / "build/pigeon/.rockdove-asset.json").read_text())
+    assert marker["tool"] == "rockdove" and marker["config_hash"] == second["config_hash"]
+    # --quiet and --json: stdout is the JSON only; no progress on a non-terminal stderr
+    r = rockdove(*args, cwd=tmp_path)
+    assert r.stderr == ""
+
+
+def test_film_change_through_cli_rebakes_lut_and_material_only(tmp_path):
+    base = ["build", "--out", "b/p", "--set", "geometry.card_count=40", "--json", "--no-verify"]
+    rockdove(*base, cwd=tmp_path)
+    r = json.loads(rockdove(*base, "--set", "film.cauchy_a=1.6", cwd=tmp_path).stdout)
+    assert set(r["ran"]) == {"lut", "usd_layers", "usdz"}
+    assert {"body", "cards", "textures"} <= set(r["reused"])
+
+
+def test_physical_only_build_has_no_lut(tmp_path):
+    r = json.loads(rockdove("build", "--out", "b/p", "--set", "shading.variant=physical", "--json",
+                            "--no-verify", cwd=tmp_path).stdout)
+    assert "lut" not in r["ran"] + r["reused"]
+
+
+def test_failed_verification_exits_1_and_keeps_the_old_asset(tmp_path):
+    base = ["build", "--out", "b/p", "--set", "geometry.card_count=40", "--quiet"]
+    assert rockdove(*base, cwd=tmp_path).returncode == 0
+    before = (tmp_path / "b/p/pigeon.usda").read_text()
+    r = rockdove(*base, "--set", "verify.width=17", "--set", "film.cauchy_a=1.7", cwd=tmp_path)
+    assert r.returncode == 1 and "failed" in r.stderr and "Traceback" not in r.stderr
+    assert (tmp_path / "b/p/pigeon.usda").read_text() == before
+    assert not [p for p in (tmp_path / "b").iterdir() if "rockdove-tmp" in p.name]
+
+
+def test_cache_option_and_no_verify(tmp_path):
+    r = rockdove("build", "--out", "o/p", "--cache", "c", "--no-verify", "--json", cwd=tmp_path)
+    s = json.loads(r.stdout)
+    assert r.returncode == 0 and "verify" not in s["ran"] and (tmp_path / "c" / "lut").is_dir()
+    assert not (tmp_path / "o" / ".rockdove-cache").exists()
