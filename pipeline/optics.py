@@ -239,39 +239,58 @@ def film_phase(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident=1.0):
 
 
 # --------------------------------------------------------------------------- the solver
-def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols):
-    """Eq. (4) in real arithmetic: real indices, q_b > 0, q_c >= 0. Returns {pol: (R, T)}."""
-    delta = k0d * qb
-    sin_d = np.sin(delta)
-    cos2 = np.cos(delta)
-    cos2 *= cos2
-    sin_over_qb = sin_d / qb
+def _mul_add(a, u, b):
+    """a * u + b, in place in the product where shapes allow (saves a full-size temporary)."""
+    r = np.multiply(a, u)
+    if r.ndim and r.shape == np.broadcast_shapes(r.shape, np.shape(b)):
+        r += b
+        return r
+    return r + b
+
+
+def _div(num, den):
+    if num.ndim and num.shape == np.broadcast_shapes(num.shape, np.shape(den)):
+        num /= den
+        return num
+    return num / den
+
+
+def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t):
+    """Eq. (4) in real arithmetic: real indices, q_b > 0, q_c >= 0. Returns {pol: (R, T or None)}.
+
+    With u = sin(delta)**2 and cos(delta)**2 = 1 - u, the real form of eq. (4) is a ratio of two linear
+    functions of u, R = (a0 + a1 u) / (b0 + b1 u), whose coefficients depend on (wavelength, angle) only:
+    a0 = (eta_a - eta_c)**2, a1 = (eta_a eta_c / eta_b - eta_b)**2 - a0, b0 = (eta_a + eta_c)**2,
+    b1 = (eta_a eta_c / eta_b + eta_b)**2 - b0. Per sample this costs one sine and a division.
+    """
+    u = np.asarray(np.sin(k0d * qb))
+    u = u * u
     out = {}
     for pol in pols:
         if pol == "s":
             ea, eb, ec = n_a * cos_a, qb, qc
-            s_over_eb = sin_over_qb
         else:
             ea, eb, ec = cos_a / n_a, qb / (n_b * n_b), qc / (n_c * n_c)
-            s_over_eb = sin_over_qb * (n_b * n_b)
         eaec = ea * ec
-        x = eaec * s_over_eb
-        y = eb * sin_d
-        dif, sm = ea - ec, ea + ec
-        num = dif * dif * cos2 + (x - y) ** 2
-        den = sm * sm * cos2 + (x + y) ** 2
-        zero = den == 0
-        if np.any(zero):  # every interface vanishes: R = 0, T = 1
-            den = np.where(zero, 1.0, den)
-            num = np.where(zero, 0.0, num)
-            r_pow, t_pow = num / den, np.where(zero, 1.0, 4.0 * eaec / den)
-        else:
-            r_pow, t_pow = num / den, 4.0 * eaec / den
-        out[pol] = (r_pow, t_pow)
+        a0 = (ea - ec) ** 2
+        b0 = (ea + ec) ** 2
+        a1 = (eaec / eb - eb) ** 2 - a0
+        b1 = (eaec / eb + eb) ** 2 - b0
+        den = _mul_add(b1, u, b0)
+        num = _mul_add(a1, u, a0)
+        if np.any(b0 == 0):  # grazing incidence on a substrate of the incident index
+            zero = den == 0  # ... and d = 0: every interface vanishes, R = 0, T = 1
+            if np.any(zero):
+                den[zero] = 1.0
+                num[zero] = 0.0
+                t_pow = np.where(zero, 1.0, 4.0 * eaec / den) if want_t else None
+                out[pol] = (num / den, t_pow)
+                continue
+        out[pol] = (_div(num, den), np.divide(4.0 * eaec, den) if want_t else None)
     return out
 
 
-def _general_complex(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols):
+def _general_complex(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t=True):
     """Eq. (4) in complex arithmetic (absorption, TIR), scaled by e^{i delta}. Returns {pol: (R, T)}."""
     delta = k0d * qb
     two_i_delta = 2j * delta
@@ -298,13 +317,14 @@ def _general_complex(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols):
         zero = den2 == 0
         safe = np.where(zero, 1.0, den2)
         r_pow = np.where(zero, 0.0, (num.real**2 + num.imag**2) / safe)
-        t_pow = np.where(zero, 1.0, 4.0 * ea * np.real(ec) * atten / safe)
+        t_pow = np.where(zero, 1.0, 4.0 * ea * np.real(ec) * atten / safe) if want_t else None
         out[pol] = (r_pow, t_pow)
     return out
 
 
-def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization):
-    """Validate, choose the fast or complex path per element, return (R, T) float64 arrays."""
+def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, want_t):
+    """Validate, choose the fast or complex path per element, return (R, T) float64 arrays (T None
+    unless ``want_t``)."""
     polarization = _check_polarization(polarization)
     lam = _as_real("wavelength_nm", wavelength_nm, lo=0.0, lo_open=True)
     cos_a = _as_real("cos_theta", cos_theta, lo=0.0, hi=1.0)
@@ -326,31 +346,43 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
         all_fast = False
 
     if all_fast:
-        res = _fast_real(k0d, cos_a, n_a, n_b, n_c, np.sqrt(qb2), np.sqrt(qc2), pols)
+        res = _fast_real(k0d, cos_a, n_a, n_b, n_c, np.sqrt(qb2), np.sqrt(qc2), pols, want_t)
     elif not real or not np.any(fast):
-        res = _general_complex(k0d, cos_a, n_a, n_b, n_c, _branch_sqrt(qb2), _branch_sqrt(qc2), pols)
+        res = _general_complex(k0d, cos_a, n_a, n_b, n_c, _branch_sqrt(qb2), _branch_sqrt(qc2), pols, want_t)
     else:
         # Mixed: real arithmetic where it is valid, the complex path on the rest (TIR, q_b = 0).
         fast = np.broadcast_to(fast, shape)
         with np.errstate(invalid="ignore", divide="ignore"):
-            res = _fast_real(k0d, cos_a, n_a, n_b, n_c, np.sqrt(np.maximum(qb2, 0)), np.sqrt(np.maximum(qc2, 0)), pols)
+            res = _fast_real(k0d, cos_a, n_a, n_b, n_c, np.sqrt(np.maximum(qb2, 0)), np.sqrt(np.maximum(qc2, 0)),
+                             pols, want_t)
         slow = ~fast
         sub = [np.broadcast_to(x, shape)[slow] for x in (k0d, cos_a, n_a, n_b, n_c, qb2, qc2)]
-        res_slow = _general_complex(*sub[:5], _branch_sqrt(sub[5]), _branch_sqrt(sub[6]), pols)
+        res_slow = _general_complex(*sub[:5], _branch_sqrt(sub[5]), _branch_sqrt(sub[6]), pols, want_t)
         for pol in pols:
-            r_full = np.array(np.broadcast_to(res[pol][0], shape), dtype=np.float64)
-            t_full = np.array(np.broadcast_to(res[pol][1], shape), dtype=np.float64)
-            r_full[slow], t_full[slow] = res_slow[pol]
-            res[pol] = (r_full, t_full)
+            fixed = []
+            for full, part in zip(res[pol], res_slow[pol]):
+                if full is not None:
+                    full = np.array(np.broadcast_to(full, shape), dtype=np.float64)
+                    full[slow] = part
+                fixed.append(full)
+            res[pol] = tuple(fixed)
 
-    if polarization == "unpolarized":
-        r_pow = 0.5 * (res["s"][0] + res["p"][0])
-        t_pow = 0.5 * (res["s"][1] + res["p"][1])
-    else:
-        r_pow, t_pow = res[polarization]
-    r_pow = np.clip(np.broadcast_to(r_pow, shape), 0.0, 1.0).astype(np.float64, copy=False)
-    t_pow = np.clip(np.broadcast_to(t_pow, shape), 0.0, 1.0).astype(np.float64, copy=False)
-    return r_pow, t_pow
+    result = []
+    for k in (0, 1) if want_t else (0,):
+        if polarization == "unpolarized":
+            v = res["s"][k] + res["p"][k]
+            v *= 0.5
+        else:
+            v = res[polarization][k]
+        v = np.asarray(v, dtype=np.float64)
+        if v.shape != shape:
+            v = np.array(np.broadcast_to(v, shape))
+        if v.ndim:
+            np.clip(v, 0.0, 1.0, out=v)  # rounding only: |excess| ~ 1e-16
+        else:
+            v = np.clip(v, 0.0, 1.0)
+        result.append(v)
+    return result[0], (result[1] if want_t else None)
 
 
 def reflectance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.0, n_substrate=1.0,
@@ -388,7 +420,7 @@ def reflectance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.
     Real indices without total internal reflection take a real-arithmetic fast path; other elements
     (absorption, TIR, a film exactly at its critical angle) the complex path. Both are exact to rounding.
     """
-    return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization)[0]
+    return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, False)[0]
 
 
 def transmittance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.0, n_substrate=1.0,
@@ -403,4 +435,4 @@ def transmittance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=
     -------
     ndarray, float64, broadcast shape, in [0, 1]
     """
-    return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization)[1]
+    return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, True)[1]
