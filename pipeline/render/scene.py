@@ -353,7 +353,7 @@ def sample_texture(image, st) -> np.ndarray:
 def read_lut(path):
     """Read a LUT EXR with :func:`pipeline.lut.read_exr` when available, else a minimal private reader."""
     try:
-        from pipeline.lut import read_exr  # lands with the LUT I/O module
+        from pipeline.lut.exr import read_exr  # the LUT I/O module
     except ImportError:
         read_exr = _read_lut_exr_fallback
     if not os.path.isfile(path):

@@ -41,7 +41,7 @@ def gradient_lut(n_thickness: int = 16, n_angle: int = 32, thickness_range_nm=TH
 def write_lut_exr(lut, path) -> None:
     """Write ``lut`` as docs/design.md's EXR (``pipeline.lut.write_exr`` when it exists, else directly)."""
     try:
-        from pipeline.lut import write_exr
+        from pipeline.lut.exr import write_exr
     except ImportError:
         write_exr = None
     if write_exr is not None:
@@ -52,6 +52,7 @@ def write_lut_exr(lut, path) -> None:
     header = {
         "compression": OpenEXR.ZIP_COMPRESSION,
         "type": OpenEXR.scanlineimage,
+        "rockdove:format": "ThinFilmLUT 1",
         "rockdove:angleAxis": "cos_theta = x**gamma, x = j/(N-1)",
         "rockdove:angleWarpGamma": repr(lut.angle_warp_gamma),
         "rockdove:thicknessRangeNm": f"{lut.thickness_range_nm[0]!r} {lut.thickness_range_nm[1]!r}",

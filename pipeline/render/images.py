@@ -1,0 +1,63 @@
+"""Display images from linear renders: sRGB 8-bit PNGs and a contact sheet.
+
+Display convention (docs/design.md "Conventions"): the sRGB OETF (IEC 61966-2-1) of the linear value clipped
+to [0, 1]; the float data keeps out-of-gamut colours. Uses ``pipeline.spectral.RGB_to_preview8`` when that
+module provides it, else colour-science's ``cctf_encoding``.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+
+def linear_to_srgb8(rgb) -> np.ndarray:
+    """(..., 3) linear lin_rec709 -> (..., 3) uint8 sRGB-encoded, clipped to [0, 1] first."""
+    rgb = np.asarray(rgb, dtype=np.float64)
+    try:
+        from pipeline.spectral import RGB_to_preview8
+    except ImportError:
+        RGB_to_preview8 = None
+    if RGB_to_preview8 is not None:
+        return np.asarray(RGB_to_preview8(rgb), dtype=np.uint8)
+    import colour
+
+    enc = colour.cctf_encoding(np.clip(rgb, 0.0, 1.0), function="sRGB")
+    return (np.clip(enc, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+
+
+def save_png(image: np.ndarray, path) -> str:
+    """Write a uint8 (H, W, 3|4) image; returns the path."""
+    from PIL import Image
+
+    img = np.ascontiguousarray(image, dtype=np.uint8)
+    Image.fromarray(img, "RGBA" if img.shape[2] == 4 else "RGB").save(os.fspath(path))
+    return os.fspath(path)
+
+
+def contact_sheet(images, labels, path, columns: int = 4, background=(40, 40, 40)) -> str:
+    """Tile uint8 RGBA/RGB images (composited over ``background``) with a label under each; returns path."""
+    from PIL import Image, ImageDraw
+
+    images = list(images)
+    labels = list(labels)
+    if not images or len(images) != len(labels):
+        raise ValueError(f"need one label per image, got {len(images)} images and {len(labels)} labels")
+    label_h = 16
+    cw = max(i.shape[1] for i in images)
+    ch = max(i.shape[0] for i in images) + label_h
+    cols = min(columns, len(images))
+    rows = -(-len(images) // cols)
+    sheet = Image.new("RGB", (cols * cw, rows * ch), background)
+    draw = ImageDraw.Draw(sheet)
+    for k, (img, lab) in enumerate(zip(images, labels)):
+        tile = Image.fromarray(np.ascontiguousarray(img, dtype=np.uint8))
+        x, y = (k % cols) * cw, (k // cols) * ch
+        if tile.mode == "RGBA":
+            sheet.paste(tile.convert("RGB"), (x, y), tile)
+        else:
+            sheet.paste(tile, (x, y))
+        draw.text((x + 4, y + img.shape[0] + 2), str(lab), fill=(230, 230, 230))
+    sheet.save(os.fspath(path))
+    return os.fspath(path)
