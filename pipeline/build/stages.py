@@ -1,0 +1,289 @@
+"""The real build stages: each wires one module of the pipeline into the graph (:mod:`pipeline.build.graph`).
+
+Stages (dependencies first) and what each reads:
+
+======================  ===========================================  ==============================================
+stage                   configuration                                 inputs
+======================  ===========================================  ==============================================
+``bird``                ``geometry``, ``thickness``, textures res.    -- (pipeline.geometry.build_bird)
+``thickness_range``     --                                            bird: (floor min, ceil max) of the feathers'
+                                                                      ``thickness`` primvar, nm
+``lut``                 ``film``, ``lut``                             thickness_range (baked over exactly that
+                                                                      range; one texel high when uniform);
+                                                                      absent for ``shading.variant = physical``
+``texture_images``      ``textures``                                  bird (pipeline.textures)
+``textures``            --                                            lut, texture_images (pipeline.usd.textures_io)
+``usd_layers``          ``film``, ``shading``                         bird, lut (pipeline.usd.stage.write_layers)
+``usdz``                ``usd.usdz``                                  usd_layers, textures (pipeline.usd.usdz)
+``verify``              ``verify``                                    the assembled asset (pipeline.render.verify)
+======================  ===========================================  ==============================================
+
+Because keys use the *content* of upstream outputs, a new seed that leaves the thickness range unchanged
+re-bakes nothing, and a film change re-bakes the LUT and rewrites textures (the preview mixes in the LUT) and
+layers but reuses the bird. Until a module this file needs has landed, :func:`make_stages` says which one is
+missing (a one-line error, exit 2) rather than building something partial.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import json
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..errors import UsageError
+from .graph import FILES, JSON, Codec, Context, Stage
+
+LIBS_GEOMETRY = ("numpy", "scipy", "trimesh", "xatlas")
+LIBS_COLOUR = ("numpy", "scipy", "colour-science")
+LIBS_USD = ("numpy", "usd-core", "MaterialX", "OpenEXR", "pillow")
+LIBS_RENDER = LIBS_USD + ("pyrender", "PyOpenGL", "trimesh", "embreex", "colour-science")
+
+# configuration key -> BirdParams field
+BIRD_FIELDS = {
+    "geometry.seed": "seed", "geometry.card_count": "card_count", "geometry.card_length_m": "card_length_m",
+    "geometry.card_width_m": "card_width_m", "geometry.card_jitter": "card_jitter",
+    "geometry.card_lift_deg": "card_lift_deg", "geometry.card_bend": "card_bend",
+    "geometry.card_root_depth_m": "card_root_depth_m", "geometry.body_voxel_m": "body_voxel_m",
+    "thickness.base_nm": "thickness_base_nm", "thickness.top_nm": "thickness_top_nm",
+    "textures.body_resolution": "body_texture_resolution",
+    "textures.feather_resolution": "feather_texture_resolution",
+}
+
+
+def _get(config: dict, dotted: str):
+    node = config
+    for p in dotted.split("."):
+        node = node[p]
+    return node
+
+
+# ----------------------------------------------------------------------------------------------- codecs
+def _bird_save(bird, folder: Path) -> None:
+    arrays, parts = {}, []
+    for i, part in enumerate(bird.parts):
+        for f in ("points_m", "face_vertex_counts", "face_vertex_indices", "normals", "st"):
+            arrays[f"{i}/{f}"] = np.ascontiguousarray(getattr(part, f))
+        pv = {}
+        for name, p in part.primvars.items():
+            arrays[f"{i}/primvar/{name}"] = np.ascontiguousarray(p.values)
+            pv[name] = {"interpolation": p.interpolation, "doc": p.doc}
+        parts.append({"name": part.name, "material": part.material,
+                      "display_color": [float(c) for c in part.display_color], "primvars": pv})
+    np.savez(folder / "bird.npz", **arrays)
+    (folder / "bird.json").write_text(json.dumps({"parts": parts}, sort_keys=True))
+
+
+def _bird_load(folder: Path):
+    from ..geometry.types import Bird, MeshPart, Primvar
+
+    meta = json.loads((folder / "bird.json").read_text())
+    with np.load(folder / "bird.npz", allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    for a in arrays.values():
+        a.setflags(write=False)
+    parts = []
+    for i, p in enumerate(meta["parts"]):
+        pv = {n: Primvar(arrays[f"{i}/primvar/{n}"], d["interpolation"], d["doc"]) for n, d in p["primvars"].items()}
+        parts.append(MeshPart(name=p["name"], points_m=arrays[f"{i}/points_m"],
+                              face_vertex_counts=arrays[f"{i}/face_vertex_counts"],
+                              face_vertex_indices=arrays[f"{i}/face_vertex_indices"], normals=arrays[f"{i}/normals"],
+                              st=arrays[f"{i}/st"], material=p["material"], display_color=tuple(p["display_color"]),
+                              primvars=pv))
+    return Bird(parts=tuple(parts))
+
+
+BIRD = Codec("bird", _bird_save, _bird_load)
+
+
+def _lut_save(lut, folder: Path) -> None:
+    np.save(folder / "rgb.npy", np.ascontiguousarray(lut.rgb, dtype=np.float32))
+    (folder / "lut.json").write_text(json.dumps({
+        "thickness_range_nm": list(lut.thickness_range_nm), "angle_warp_gamma": lut.angle_warp_gamma,
+        "colour_space": lut.colour_space, "metadata": {k: str(v) for k, v in lut.metadata.items()}}, sort_keys=True))
+
+
+def _lut_load(folder: Path):
+    from ..lut.table import ThinFilmLUT
+
+    meta = json.loads((folder / "lut.json").read_text())
+    return ThinFilmLUT(np.load(folder / "rgb.npy"), tuple(meta["thickness_range_nm"]),
+                       angle_warp_gamma=meta["angle_warp_gamma"], colour_space=meta["colour_space"],
+                       metadata=meta["metadata"])
+
+
+LUT = Codec("lut", _lut_save, _lut_load)
+
+
+def _images_save(value, folder: Path) -> None:
+    feathers, body = value
+    np.savez(folder / "images.npz", body=body, **{f"feather_{k}": v for k, v in feathers.items()})
+
+
+def _images_load(folder: Path):
+    with np.load(folder / "images.npz", allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    for a in arrays.values():
+        a.setflags(write=False)
+    feathers = {k[len("feather_"):]: v for k, v in arrays.items() if k.startswith("feather_")}
+    return feathers, arrays["body"]
+
+
+IMAGES = Codec("images", _images_save, _images_load)
+
+
+# ----------------------------------------------------------------------------------------------- stages
+def film_from_config(film_cfg: dict):
+    """The :class:`pipeline.films.FilmModel` of a ``[film]`` section (unset coefficients: the model's)."""
+    from ..films import get_film
+
+    base = get_film(film_cfg["model"])
+    changes = {k: film_cfg[k] for k in ("cauchy_a", "cauchy_b_nm2", "k", "n_incident", "n_substrate")
+               if film_cfg.get(k) is not None}
+    return dataclasses.replace(base, **changes)
+
+
+def bird_params(config: dict):
+    """:class:`pipeline.geometry.BirdParams` from the configuration (every field in :data:`BIRD_FIELDS`)."""
+    from ..geometry.params import BirdParams
+
+    values = {}
+    for key, fld in BIRD_FIELDS.items():
+        v = _get(config, key)
+        values[fld] = tuple(v) if isinstance(v, list) else v
+    return BirdParams(**values)
+
+
+def run_bird(ctx: Context):
+    from ..geometry import build_bird
+
+    return build_bird(bird_params(ctx.config))
+
+
+def run_thickness_range(ctx: Context):
+    """(lo, hi) nm present on the feathers, rounded outward to whole nm (the LUT's thickness axis)."""
+    d = np.asarray(ctx.inputs["bird"].part("NeckFeathers").primvars["thickness"].values, dtype=np.float64)
+    return [float(math.floor(d.min())), float(math.ceil(d.max()))]
+
+
+def run_lut(ctx: Context):
+    from ..lut.bake import bake
+    from ..lut.table import ThinFilmLUT
+
+    lo, hi = ctx.inputs["thickness_range"]
+    cfg = ctx.config["lut"]
+    lut = bake(angles=cfg["angles"], thicknesses=1 if lo == hi else cfg["thicknesses"], thickness_range=(lo, hi),
+               film=film_from_config(ctx.config["film"]), method=cfg["method"],
+               angle_warp_gamma=cfg["angle_warp_gamma"], colour_space=cfg["colour_space"])
+    if cfg["precision"] == "half":
+        rgb = lut.rgb.astype(np.float16).astype(np.float32)  # the values a half-float texture holds
+        lut = ThinFilmLUT(rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
+                          colour_space=lut.colour_space, metadata={**lut.metadata, "precision": "half"})
+    return lut
+
+
+def run_texture_images(ctx: Context):
+    from .. import textures
+
+    res = ctx.config["textures"]
+    feathers = textures.feather_textures(res["feather_resolution"])
+    body = textures.body_texture(ctx.inputs["bird"], res["body_resolution"])
+    return feathers, body
+
+
+def run_textures(ctx: Context):
+    from ..usd.textures_io import write_textures
+
+    feathers, body = ctx.inputs["texture_images"]
+    write_textures(str(ctx.workdir), ctx.inputs["lut"], feathers, body)
+
+
+def run_usd_layers(ctx: Context):
+    from ..usd.material import lut_info
+    from ..usd.stage import write_layers
+
+    write_layers(str(ctx.workdir), ctx.inputs["bird"], film_from_config(ctx.config["film"]),
+                 lut_info(ctx.inputs["lut"]), version=__version__)
+
+
+def run_usdz(ctx: Context):
+    from ..usd.usdz import USDZ_NAME, write_usdz
+
+    scratch = ctx.workdir / "layout"
+    for dep in ("usd_layers", "textures"):
+        shutil.copytree(ctx.inputs[dep], scratch, dirs_exist_ok=True)
+    write_usdz(str(scratch))
+    (scratch / USDZ_NAME).rename(ctx.workdir / USDZ_NAME)
+    shutil.rmtree(scratch)
+
+
+def _missing(names: list[str]) -> list[str]:
+    out = []
+    for dotted in names:
+        mod, _, attr = dotted.rpartition(":")
+        try:
+            m = importlib.import_module(mod)
+        except ImportError:
+            out.append(dotted)
+            continue
+        if attr and not hasattr(m, attr):
+            out.append(dotted)
+    return out
+
+
+REQUIRED = ["pipeline.geometry:build_bird", "pipeline.lut.bake:bake", "pipeline.textures:feather_textures",
+            "pipeline.textures:body_texture", "pipeline.usd.textures_io:write_textures",
+            "pipeline.usd.stage:write_layers", "pipeline.usd.usdz:write_usdz"]
+REQUIRED_VERIFY = ["pipeline.render.verify:verify_stage_items"]
+
+
+def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
+    """The build graph for ``config``: only the stages the scene needs (no bake for physical-only shading).
+
+    Raises
+    ------
+    UsageError
+        A pipeline module the graph needs has not landed yet, or the configuration asks for what the
+        modules cannot do yet (both name the missing piece).
+    """
+    missing = _missing(REQUIRED + (REQUIRED_VERIFY if verify else []))
+    if missing:
+        raise UsageError(f"the build pipeline is incomplete: {', '.join(missing)} not available yet"
+                         + ("; try --no-verify" if set(missing) <= set(REQUIRED_VERIFY) else ""))
+    variant = config["shading"]["variant"]
+    if variant == "physical":
+        raise UsageError("shading.variant = 'physical' (an asset without a LUT) is not supported by pipeline.usd yet "
+                         "(write_textures/write_layers need a LUT); allowed now: 'baked' or 'both'")
+    stages = [
+        Stage("bird", run_bird, config=tuple(BIRD_FIELDS), modules=("pipeline.geometry",), libraries=LIBS_GEOMETRY,
+              codec=BIRD),
+        Stage("thickness_range", run_thickness_range, deps=("bird",), codec=JSON),
+        Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",),
+              modules=("pipeline.lut", "pipeline.films", "pipeline.optics", "pipeline.spectral"),
+              libraries=LIBS_COLOUR, codec=LUT),
+        Stage("texture_images", run_texture_images, config=("textures",), deps=("bird",),
+              modules=("pipeline.textures",), libraries=LIBS_GEOMETRY + ("pillow",), codec=IMAGES),
+        Stage("textures", run_textures, deps=("lut", "texture_images"),
+              modules=("pipeline.usd.textures_io", "pipeline.lut.exr"), libraries=LIBS_USD, codec=FILES, publish=""),
+        Stage("usd_layers", run_usd_layers, config=("film", "shading"), deps=("bird", "lut"),
+              modules=("pipeline.usd", "pipeline.films"), data=("materials", "schemas/plugInfo.json",
+                                                                 "schemas/generatedSchema.usda"),
+              libraries=LIBS_USD, codec=FILES, publish=""),
+    ]
+    if config["usd"]["usdz"]:
+        stages.append(Stage("usdz", run_usdz, deps=("usd_layers", "textures"), modules=("pipeline.usd",),
+                            libraries=LIBS_USD, codec=FILES, publish=""))
+    if verify:
+        from ..render import verify as V
+
+        stages.append(Stage("verify", V.verify_stage_run, config=("verify",),
+                            deps=tuple(s.name for s in stages if s.publish is not None),
+                            modules=("pipeline.render", "pipeline.usd", "pipeline.lut"), data=("materials",),
+                            libraries=LIBS_RENDER, codec=JSON, needs_asset=True, items=V.verify_stage_items,
+                            combine=V.verify_stage_combine, publish="verify"))
+    return stages
