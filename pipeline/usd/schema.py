@@ -1,0 +1,144 @@
+"""The ``RockDoveThinFilmAPI`` codeless applied API schema (``schemas/``): registration, apply and read back.
+
+The schema records on the feather mesh the physical film a LUT was baked from (film index model and Cauchy
+coefficients, incident/substrate indices, thickness primvar and units) and the LUT's layout (file, colour
+space, angle warp, thickness range, illuminant, observer), so that renderers and validators can read the
+physics without the build's memory. Attribute names and meanings: docs/design.md, "USD asset".
+
+USD discovers the schema through ``schemas/plugInfo.json``. :func:`register` calls
+``Plug.Registry().RegisterPlugins`` on that folder; it must run before the first stage that uses the schema
+is opened (the schema registry is built once), so every function here that touches pxr calls it first.
+Setting ``PXR_PLUGINPATH_NAME`` to include ``schemas/`` before importing pxr works too.
+"""
+
+from __future__ import annotations
+
+import os
+
+SCHEMA_NAME = "RockDoveThinFilmAPI"
+SCHEMA_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "schemas")
+
+# attribute name (after the "rockdove:" namespace) -> key in the dict read_thin_film returns
+_ATTRS = {
+    "film:model": "model",
+    "film:cauchyA": "cauchy_a",
+    "film:cauchyB_nm2": "cauchy_b_nm2",
+    "film:incidentIndex": "incident_index",
+    "film:substrateIndex": "substrate_index",
+    "film:thicknessPrimvar": "thickness_primvar",
+    "film:thicknessUnits": "thickness_units",
+    "lut:file": "lut_file",
+    "lut:colorSpace": "lut_colour_space",
+    "lut:angleWarpGamma": "angle_warp_gamma",
+    "lut:thicknessRangeNm": "thickness_range_nm",
+    "lut:illuminant": "illuminant",
+    "lut:observer": "observer",
+}
+
+
+def register() -> None:
+    """Register ``schemas/`` with USD's plugin registry (idempotent).
+
+    Raises
+    ------
+    RuntimeError
+        If USD cannot find the schema afterwards (e.g. a stage was opened before the registry knew the
+        plugin, or plugInfo.json is broken).
+    """
+    from pxr import Plug, Usd
+
+    Plug.Registry().RegisterPlugins(SCHEMA_DIR)
+    if Usd.SchemaRegistry().FindAppliedAPIPrimDefinition(SCHEMA_NAME) is None:
+        raise RuntimeError(f"USD schema {SCHEMA_NAME} did not load from {SCHEMA_DIR}")
+
+
+def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, incident_index: float,
+                    substrate_index: float, lut_file: str, lut_colour_space: str, angle_warp_gamma: float,
+                    thickness_range_nm: tuple[float, float], illuminant: str = "D65",
+                    observer: str = "CIE 1931 2 Degree Standard Observer",
+                    thickness_primvar: str = "thickness") -> None:
+    """Apply ``RockDoveThinFilmAPI`` to a Mesh prim and author every attribute (nothing left to fallbacks).
+
+    Parameters
+    ----------
+    prim : Usd.Prim
+        A ``Mesh``.
+    model : str
+        Film model name (``pipeline.films.FILMS`` key).
+    cauchy_a, cauchy_b_nm2 : float
+        Film index ``n(lambda) = cauchy_a + cauchy_b_nm2 / lambda_nm**2``.
+    incident_index, substrate_index : float
+        Indices of the media above and below the film.
+    lut_file : str
+        Asset path of the LUT EXR, relative to the layer (``./textures/thinfilm_lut.exr``).
+    lut_colour_space : str
+        MaterialX colour-space name of the LUT.
+    angle_warp_gamma : float
+        LUT angle warp (``cos_theta = x ** gamma``).
+    thickness_range_nm : (float, float)
+        LUT thickness axis ``(lo, hi)`` in nm.
+    """
+    from pxr import Gf, Sdf
+
+    register()
+    if prim.GetTypeName() != "Mesh":
+        raise ValueError(f"prim must be a Mesh to carry {SCHEMA_NAME}, got {prim.GetPath()} of type "
+                         f"{prim.GetTypeName()!r}")
+    if not prim.ApplyAPI(SCHEMA_NAME):
+        raise RuntimeError(f"could not apply {SCHEMA_NAME} to {prim.GetPath()}")
+    lo, hi = (float(v) for v in thickness_range_nm)
+    values = {
+        "film:model": model,
+        "film:cauchyA": float(cauchy_a),
+        "film:cauchyB_nm2": float(cauchy_b_nm2),
+        "film:incidentIndex": float(incident_index),
+        "film:substrateIndex": float(substrate_index),
+        "film:thicknessPrimvar": thickness_primvar,
+        "film:thicknessUnits": "nm",
+        "lut:file": Sdf.AssetPath(lut_file),
+        "lut:colorSpace": lut_colour_space,
+        "lut:angleWarpGamma": float(angle_warp_gamma),
+        "lut:thicknessRangeNm": Gf.Vec2f(lo, hi),
+        "lut:illuminant": illuminant,
+        "lut:observer": observer,
+    }
+    for name, value in values.items():
+        attr = prim.GetAttribute(f"rockdove:{name}")
+        if not attr:  # the schema defines every one of them; a missing one means a stale plugin
+            raise RuntimeError(f"{SCHEMA_NAME} has no attribute rockdove:{name}")
+        attr.Set(value)
+
+
+def read_thin_film(prim) -> dict:
+    """Read ``RockDoveThinFilmAPI`` back from a prim.
+
+    Returns
+    -------
+    dict
+        ``model`` (str), ``cauchy_a``, ``cauchy_b_nm2``, ``incident_index``, ``substrate_index`` (float),
+        ``thickness_primvar``, ``thickness_units`` (str), ``lut_file`` (str, the authored asset path),
+        ``lut_file_resolved`` (str, absolute path or "" when it does not resolve), ``lut_colour_space``,
+        ``angle_warp_gamma`` (float), ``thickness_range_nm`` ((lo, hi) float nm), ``illuminant``, ``observer``.
+
+    Raises
+    ------
+    ValueError
+        If the prim does not have the schema applied.
+    """
+    register()
+    if SCHEMA_NAME not in prim.GetAppliedSchemas():
+        raise ValueError(f"prim {prim.GetPath()} does not apply {SCHEMA_NAME} "
+                         f"(applied: {list(prim.GetAppliedSchemas())})")
+    out = {}
+    for name, key in _ATTRS.items():
+        value = prim.GetAttribute(f"rockdove:{name}").Get()
+        if key == "lut_file":
+            out["lut_file"] = value.path if value is not None else ""
+            out["lut_file_resolved"] = (value.resolvedPath or "") if value is not None else ""
+        elif key == "thickness_range_nm":
+            out[key] = (float(value[0]), float(value[1])) if value is not None else None
+        elif isinstance(value, float):
+            out[key] = float(value)
+        else:
+            out[key] = str(value) if value is not None else None
+    return out
