@@ -1,0 +1,302 @@
+"""Material networks of the asset: the universal UsdPreviewSurface networks and the MaterialX thin-film network.
+
+Every feather material carries two surface outputs (docs/design.md, "USD asset"; issue 4):
+
+- ``outputs:surface``: UsdPreviewSurface, works in every Hydra delegate. ``diffuseColor`` and ``opacity`` come
+  from ``feather_preview.png`` (base colour mixed by the mask with a static preview of the structural colour,
+  see :mod:`pipeline.usd.textures_io`), ``opacityThreshold = 0.5``.
+- ``outputs:mtlx:surface``: the MaterialX network of ``materials/thinfilm.mtlx``, copied node for node into
+  UsdShade shaders whose ``info:id`` is the MaterialX nodedef name (``ND_*``). The document is data: this
+  module reads it, never spells nodes in Python; only the build parameters (LUT size, warp, thickness range,
+  film index, texture paths) are set on the copied shaders. The ``shading`` variant set of the interface layer
+  (:mod:`pipeline.usd.stage`) reconnects ``outputs:mtlx:surface`` between ``MtlxBakedSurface`` (the LUT
+  method, the default) and ``MtlxPhysicalSurface`` (OpenPBR's own thin film).
+
+Body and the other parts get plain UsdPreviewSurface materials: the body from ``body_base.png``, the others a
+constant colour (their ``display_color``).
+"""
+
+from __future__ import annotations
+
+import os
+
+REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+THINFILM_MTLX = os.path.join(REPO_ROOT, "materials", "thinfilm.mtlx")
+
+#: MaterialX surfacematerial names in thinfilm.mtlx, by shading variant.
+MTLX_MATERIALS = {"baked": "ThinFilmBaked", "physical": "ThinFilmPhysical"}
+#: Texture roles -> file names under textures/ (docs/design.md, "Textures").
+TEXTURE_FILES = {
+    "lut": "thinfilm_lut.exr",
+    "feather_base": "feather_base.png",
+    "feather_mask": "feather_mask.png",
+    "feather_preview": "feather_preview.png",
+    "body_base": "body_base.png",
+}
+#: image nodes of thinfilm.mtlx -> texture role
+_MTLX_IMAGES = {"LutTexture": "lut", "BaseColorTexture": "feather_base", "MaskTexture": "feather_mask"}
+#: Roughness of the universal previews: 1 with metallic 0 is as close to Lambert as UsdPreviewSurface gets.
+PREVIEW_ROUGHNESS = 1.0
+#: Opacity cut of the feather cards (docs/design.md, "Shading model").
+OPACITY_THRESHOLD = 0.5
+
+# MaterialX type -> Sdf value type name
+_SDF_TYPES = {
+    "float": "Float", "integer": "Int", "boolean": "Bool", "string": "String", "filename": "Asset",
+    "color3": "Color3f", "color4": "Color4f", "vector2": "Float2", "vector3": "Float3", "vector4": "Float4",
+    "surfaceshader": "Token", "material": "Token",
+}
+
+
+def texture_asset_paths() -> dict[str, str]:
+    """Texture role -> asset path as authored in the layers (``./textures/<file>``)."""
+    return {role: f"./textures/{name}" for role, name in TEXTURE_FILES.items()}
+
+
+def load_mtlx_libraries():
+    """The MaterialX standard data libraries (stdlib, pbrlib, bxdf...) as one document."""
+    import MaterialX as mx
+
+    lib = mx.createDocument()
+    mx.loadLibraries(mx.getDefaultDataLibraryFolders(), mx.getDefaultDataSearchPath(), lib)
+    return lib
+
+
+def load_thinfilm_document(path: str = THINFILM_MTLX):
+    """Read ``materials/thinfilm.mtlx`` with the standard libraries attached as its data library.
+
+    Returns
+    -------
+    MaterialX.Document
+    """
+    import MaterialX as mx
+
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"path: no MaterialX document at {path!r}")
+    doc = mx.createDocument()
+    mx.readFromXmlFile(doc, path)
+    doc.setDataLibrary(load_mtlx_libraries())
+    return doc
+
+
+def _usd_value(mx_input, type_name: str):
+    from pxr import Gf, Sdf
+
+    value = mx_input.getValue()
+    if type_name == "filename":
+        return Sdf.AssetPath(_asset(str(value)))
+    if type_name in ("color3", "vector3"):
+        return Gf.Vec3f(*value.asTuple())
+    if type_name in ("color4", "vector4"):
+        return Gf.Vec4f(*value.asTuple())
+    if type_name == "vector2":
+        return Gf.Vec2f(*value.asTuple())
+    return value
+
+
+def _asset(path: str) -> str:
+    return path if path.startswith(("./", "../", "/")) else f"./{path}"
+
+
+def mtlx_nodes(doc) -> list:
+    """Top-level shading nodes of a document, in document order, without the surfacematerial nodes."""
+    return [n for n in doc.getNodes() if n.getType() != "material"]
+
+
+def copy_mtlx_network(doc, material) -> dict:
+    """Copy every node of a MaterialX document into ``material`` as UsdShade shaders (``info:id = ND_*``).
+
+    Parameters
+    ----------
+    doc : MaterialX.Document
+        With its data library set (:func:`load_thinfilm_document`).
+    material : UsdShade.Material
+        Shaders are defined as its children, named as the MaterialX nodes.
+
+    Returns
+    -------
+    dict[str, UsdShade.Shader]
+        Node name -> shader.
+    """
+    from pxr import Sdf, UsdShade
+
+    stage = material.GetPrim().GetStage()
+    base = material.GetPath()
+    shaders = {}
+    for node in mtlx_nodes(doc):
+        nodedef = node.getNodeDef()
+        if nodedef is None:
+            raise ValueError(f"MaterialX node {node.getName()!r} ({node.getCategory()}) has no nodedef")
+        shader = UsdShade.Shader.Define(stage, base.AppendChild(node.getName()))
+        shader.SetShaderId(nodedef.getName())
+        out_type = nodedef.getActiveOutputs()[0].getType()
+        shader.CreateOutput("out", getattr(Sdf.ValueTypeNames, _SDF_TYPES[out_type]))
+        shaders[node.getName()] = shader
+    for node in mtlx_nodes(doc):
+        shader = shaders[node.getName()]
+        for inp in node.getInputs():
+            t = inp.getType()
+            usd_in = shader.CreateInput(inp.getName(), getattr(Sdf.ValueTypeNames, _SDF_TYPES[t]))
+            upstream = inp.getNodeName()
+            if upstream:
+                usd_in.ConnectToSource(shaders[upstream].ConnectableAPI(), "out")
+            else:
+                usd_in.Set(_usd_value(inp, t))
+            if inp.hasColorSpace():
+                usd_in.GetAttr().SetColorSpace(inp.getColorSpace())
+    return shaders
+
+
+def lut_info(lut) -> dict:
+    """The values of a ThinFilmLUT that the material and the schema need (plain data, cacheable).
+
+    Returns
+    -------
+    dict
+        ``n_angle``, ``n_thickness`` (int), ``angle_warp_gamma`` (float), ``thickness_range_nm`` ((lo, hi)
+        nm), ``colour_space`` (str), ``illuminant``, ``observer`` (str, from the LUT metadata when present).
+    """
+    md = dict(lut.metadata)
+    return {
+        "n_angle": int(lut.n_angle),
+        "n_thickness": int(lut.n_thickness),
+        "angle_warp_gamma": float(lut.angle_warp_gamma),
+        "thickness_range_nm": (float(lut.thickness_range_nm[0]), float(lut.thickness_range_nm[1])),
+        "colour_space": str(lut.colour_space),
+        "illuminant": str(md.get("illuminant", "D65")),
+        "observer": str(md.get("observer", "CIE 1931 2 Degree Standard Observer")),
+    }
+
+
+def _preview_texture(stage, path, file: str, st_output, *, colour_space: str, wrap: str = "clamp"):
+    from pxr import Sdf, UsdShade
+
+    tex = UsdShade.Shader.Define(stage, path)
+    tex.SetShaderId("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(file))
+    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(st_output)
+    tex.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set(wrap)
+    tex.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set(wrap)
+    tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set(colour_space)
+    tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+    tex.CreateOutput("a", Sdf.ValueTypeNames.Float)
+    return tex
+
+
+def _preview_surface(stage, path):
+    from pxr import Sdf, UsdShade
+
+    surf = UsdShade.Shader.Define(stage, path)
+    surf.SetShaderId("UsdPreviewSurface")
+    surf.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(PREVIEW_ROUGHNESS)
+    surf.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(0.0)
+    surf.CreateOutput("surface", Sdf.ValueTypeNames.Token)
+    return surf
+
+
+def _st_reader(stage, path):
+    from pxr import Sdf, UsdShade
+
+    reader = UsdShade.Shader.Define(stage, path)
+    reader.SetShaderId("UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")  # a string, not a token (USD >= 20.11)
+    return reader.CreateOutput("result", Sdf.ValueTypeNames.Float2)
+
+
+def author_feather_material(stage, path, *, lut: dict, film_ior: float, textures: dict | None = None):
+    """Define the feather material: universal preview network plus the MaterialX thin-film network.
+
+    Parameters
+    ----------
+    stage : Usd.Stage
+    path : str or Sdf.Path
+        Material prim path, e.g. ``/Pigeon/Looks/FeatherMaterial``.
+    lut : dict
+        :func:`lut_info` of the baked LUT.
+    film_ior : float
+        Film index handed to the physical variant's ``thin_film_ior`` (the build uses n at 550 nm).
+    textures : dict, optional
+        Texture role -> asset path; default :func:`texture_asset_paths`.
+
+    Returns
+    -------
+    UsdShade.Material
+        ``outputs:surface`` -> ``PreviewSurface``; ``outputs:mtlx:surface`` -> ``MtlxBakedSurface``.
+    """
+    from pxr import Sdf, UsdShade
+
+    textures = {**texture_asset_paths(), **(textures or {})}
+    lo, hi = lut["thickness_range_nm"]
+    if not (lut["n_angle"] >= 2 and lut["n_thickness"] >= 1 and 0 <= lo <= hi and lut["angle_warp_gamma"] > 0):
+        raise ValueError(f"lut: not a valid LUT description: {lut}")
+    if not film_ior > 0:
+        raise ValueError(f"film_ior must be > 0, got {film_ior}")
+    material = UsdShade.Material.Define(stage, path)
+    base = material.GetPath()
+
+    # universal network
+    st = _st_reader(stage, base.AppendChild("StReader"))
+    preview_tex = _preview_texture(stage, base.AppendChild("PreviewTexture"), textures["feather_preview"], st,
+                                   colour_space="sRGB")
+    surf = _preview_surface(stage, base.AppendChild("PreviewSurface"))
+    surf.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(preview_tex.GetOutput("rgb"))
+    surf.CreateInput("opacity", Sdf.ValueTypeNames.Float).ConnectToSource(preview_tex.GetOutput("a"))
+    surf.CreateInput("opacityThreshold", Sdf.ValueTypeNames.Float).Set(OPACITY_THRESHOLD)
+    material.CreateSurfaceOutput().ConnectToSource(surf.GetOutput("surface"))
+
+    # MaterialX network, copied from materials/thinfilm.mtlx, then the build's values
+    shaders = copy_mtlx_network(load_thinfilm_document(), material)
+    values = {
+        "LutAngleCount": float(lut["n_angle"]),
+        "LutThicknessCount": float(lut["n_thickness"]),
+        "LutAngleWarpGamma": float(lut["angle_warp_gamma"]),
+        "LutThicknessLoNm": float(lo),
+        "LutThicknessHiNm": float(hi),
+        "FilmIor": float(film_ior),
+    }
+    for name, value in values.items():
+        shaders[name].GetInput("value").Set(value)
+    for name, role in _MTLX_IMAGES.items():
+        shaders[name].GetInput("file").Set(Sdf.AssetPath(textures[role]))
+    shaders["LutTexture"].GetInput("file").GetAttr().SetColorSpace(lut["colour_space"])
+    material.CreateSurfaceOutput("mtlx").ConnectToSource(shaders["MtlxBakedSurface"].GetOutput("out"))
+    return material
+
+
+def mtlx_surface_path(material_path, variant: str):
+    """Path of the ``out`` output of the MaterialX surface shader a shading variant connects."""
+    from pxr import Sdf
+
+    names = {"baked": "MtlxBakedSurface", "physical": "MtlxPhysicalSurface"}
+    if variant not in names:
+        raise ValueError(f"variant={variant!r} is not a shading variant; use one of {sorted(names)}")
+    return Sdf.Path(str(material_path)).AppendChild(names[variant]).AppendProperty("outputs:out")
+
+
+def author_body_material(stage, path, *, texture: str | None = None):
+    """Define the body material: UsdPreviewSurface with ``BaseColorTexture`` (body_base.png, sRGB)."""
+    from pxr import Sdf, UsdShade
+
+    texture = texture or texture_asset_paths()["body_base"]
+    material = UsdShade.Material.Define(stage, path)
+    base = material.GetPath()
+    st = _st_reader(stage, base.AppendChild("StReader"))
+    tex = _preview_texture(stage, base.AppendChild("BaseColorTexture"), texture, st, colour_space="sRGB")
+    surf = _preview_surface(stage, base.AppendChild("PreviewSurface"))
+    surf.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.GetOutput("rgb"))
+    material.CreateSurfaceOutput().ConnectToSource(surf.GetOutput("surface"))
+    return material
+
+
+def author_constant_material(stage, path, colour_linear):
+    """Define a UsdPreviewSurface material with a constant linear diffuse colour (beak, eyes, legs...)."""
+    from pxr import Gf, Sdf, UsdShade
+
+    c = tuple(float(v) for v in colour_linear)
+    if len(c) != 3:
+        raise ValueError(f"colour_linear must be 3 floats, got {colour_linear!r}")
+    material = UsdShade.Material.Define(stage, path)
+    surf = _preview_surface(stage, material.GetPath().AppendChild("PreviewSurface"))
+    surf.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*c))
+    material.CreateSurfaceOutput().ConnectToSource(surf.GetOutput("surface"))
+    return material
