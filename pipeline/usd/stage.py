@@ -1,0 +1,293 @@
+"""The asset's USD layers: interface layer, payload contents, meshes, primvars, extents, shading variants.
+
+Structure (docs/design.md, "USD asset"; the interface-layer + payload pattern of NVIDIA's
+usd-exchange-samples):
+
+- ``DIR/pigeon.usda`` (interface): defaultPrim ``/Pigeon``, an Xform of kind ``component`` with assetInfo
+  (name, identifier, version) and an extentsHint, ``upAxis = Y``, ``metersPerUnit = 1``, a payload to
+  ``./pigeon_payload.usda`` and the variant set ``shading`` = {``baked`` (default), ``physical``}, which
+  reconnects ``FeatherMaterial.outputs:mtlx:surface`` (variants are stronger than payloads).
+- ``DIR/pigeon_payload.usda`` (contents): ``/Pigeon/Geom/<part>`` meshes and ``/Pigeon/Looks/<Kind>Material``
+  materials bound with MaterialBindingAPI; ``RockDoveThinFilmAPI`` on the feather mesh.
+
+Authoring functions take a stage and return; they never save. :func:`write_layers` is the only function here
+that writes files (into the folder it is handed). Layers are written with ``Sdf.Layer.ExportToString``: no
+timestamps, attributes in authoring order, so the same inputs give byte-identical files.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from .material import (
+    author_body_material,
+    author_constant_material,
+    author_feather_material,
+    mtlx_surface_path,
+    texture_asset_paths,
+)
+
+ROOT = "/Pigeon"
+INTERFACE_LAYER = "pigeon.usda"
+PAYLOAD_LAYER = "pigeon_payload.usda"
+SHADING_VARIANT_SET = "shading"
+SHADING_VARIANTS = ("baked", "physical")
+DEFAULT_SHADING = "baked"
+FEATHER_MATERIAL = "feather"
+#: Wavelength at which the physical variant's thin_film_ior samples the film's Cauchy index (mid-visible).
+FILM_IOR_WAVELENGTH_NM = 550.0
+
+THICKNESS_DOC = ("Film (keratin cortex) thickness of the feather barbules at this vertex, in nanometres; the "
+                 "thin-film LUT is indexed by it (RockDoveThinFilmAPI rockdove:film:thicknessPrimvar).")
+
+
+def new_stage(up_axis: str = "Y", meters_per_unit: float = 1.0, *, load_payloads: bool = True):
+    """An in-memory stage with the asset's stage metadata set at creation (upAxis, metersPerUnit, defaultPrim).
+
+    ``load_payloads=False`` for the interface layer, whose payload is not written yet while it is authored.
+
+    Returns
+    -------
+    Usd.Stage
+    """
+    from .schema import register
+
+    register()  # before the first stage: USD builds its schema registry once
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.CreateInMemory(load=Usd.Stage.LoadAll if load_payloads else Usd.Stage.LoadNone)
+    if up_axis not in ("Y", "Z"):
+        raise ValueError(f"up_axis must be 'Y' or 'Z', got {up_axis!r}")
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y if up_axis == "Y" else UsdGeom.Tokens.z)
+    UsdGeom.SetStageMetersPerUnit(stage, float(meters_per_unit))
+    stage.GetRootLayer().defaultPrim = ROOT.lstrip("/")
+    return stage
+
+
+def material_name(kind: str) -> str:
+    """Material prim name for a MeshPart.material kind: ``"feather"`` -> ``"FeatherMaterial"``."""
+    return f"{kind[:1].upper()}{kind[1:]}Material"
+
+
+def _extent(points: np.ndarray) -> np.ndarray:
+    return np.stack([points.min(axis=0), points.max(axis=0)]).astype(np.float32)
+
+
+def _check_part(part) -> None:
+    v = part.n_points
+    counts = np.asarray(part.face_vertex_counts)
+    idx = np.asarray(part.face_vertex_indices)
+    checks = [
+        (np.asarray(part.points_m).shape == (v, 3), f"points_m shape {np.shape(part.points_m)}"),
+        (v > 0, "no points"),
+        (int(counts.sum()) == idx.size, f"sum(face_vertex_counts)={int(counts.sum())} != "
+                                        f"len(face_vertex_indices)={idx.size}"),
+        (idx.size == 0 or (idx.min() >= 0 and idx.max() < v), f"face_vertex_indices outside [0, {v})"),
+        (np.asarray(part.normals).shape == (v, 3), f"normals shape {np.shape(part.normals)}, expected ({v}, 3)"),
+        (np.asarray(part.st).shape == (v, 2), f"st shape {np.shape(part.st)}, expected ({v}, 2)"),
+    ]
+    for ok, what in checks:
+        if not ok:
+            raise ValueError(f"part {part.name!r}: {what}")
+
+
+def author_mesh(stage, path, part):
+    """Define one ``UsdGeom.Mesh`` from a :class:`pipeline.geometry.MeshPart`.
+
+    Authors points (m), topology, vertex normals, ``primvars:st`` (texCoord2f, vertex),
+    ``primvars:displayColor`` (constant, linear), every extra primvar (float/floatN, documented), extent,
+    ``subdivisionScheme = none`` (the meshes are final polygons) and ``doubleSided`` for feather cards.
+
+    Returns
+    -------
+    UsdGeom.Mesh
+    """
+    from pxr import Sdf, UsdGeom, Vt
+
+    _check_part(part)
+    mesh = UsdGeom.Mesh.Define(stage, path)
+    points = np.ascontiguousarray(part.points_m, dtype=np.float32)
+    mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
+    mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.ascontiguousarray(part.face_vertex_counts, np.int32)))
+    mesh.CreateFaceVertexIndicesAttr(
+        Vt.IntArray.FromNumpy(np.ascontiguousarray(part.face_vertex_indices, np.int32)))
+    mesh.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(part.normals, np.float32)))
+    mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
+    mesh.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(_extent(points)))
+    mesh.CreateDoubleSidedAttr(part.material == FEATHER_MATERIAL)
+    api = UsdGeom.PrimvarsAPI(mesh)
+    st = api.CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex)
+    st.Set(Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(part.st, np.float32)))
+    dc = mesh.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant)
+    dc.Set(Vt.Vec3fArray.FromNumpy(np.asarray([part.display_color], np.float32)))
+    for name in sorted(part.primvars):
+        pv = part.primvars[name]
+        values = np.ascontiguousarray(pv.values, dtype=np.float32)
+        width = 1 if values.ndim == 1 else values.shape[1]
+        if values.ndim > 2 or width not in (1, 2, 3):
+            raise ValueError(f"part {part.name!r}: primvar {name!r} has shape {values.shape}; allowed (N,), (N, 2|3)")
+        type_name, vt = {1: ("FloatArray", Vt.FloatArray), 2: ("Float2Array", Vt.Vec2fArray),
+                         3: ("Float3Array", Vt.Vec3fArray)}[width]
+        primvar = api.CreatePrimvar(name, getattr(Sdf.ValueTypeNames, type_name), pv.interpolation)
+        primvar.Set(vt.FromNumpy(values))
+        doc = THICKNESS_DOC if name == "thickness" else pv.doc
+        if doc:
+            primvar.GetAttr().SetDocumentation(doc)
+    return mesh
+
+
+def author_contents(stage, bird, film, lut: dict, textures: dict | None = None):
+    """Author the payload contents: ``/Pigeon`` with ``Geom`` meshes and ``Looks`` materials, bound.
+
+    Parameters
+    ----------
+    stage : Usd.Stage
+        From :func:`new_stage`.
+    bird : pipeline.geometry.Bird
+    film : pipeline.films.FilmModel
+        The film the LUT was baked from (recorded with RockDoveThinFilmAPI on the feather mesh).
+    lut : dict
+        :func:`pipeline.usd.material.lut_info` of the LUT.
+    textures : dict, optional
+        Texture role -> asset path (default ``./textures/<file>``, :func:`material.texture_asset_paths`).
+
+    Returns
+    -------
+    Usd.Prim
+        ``/Pigeon``.
+    """
+    from pxr import Sdf, UsdGeom, UsdShade
+
+    from .schema import apply_thin_film
+
+    textures = {**texture_asset_paths(), **(textures or {})}
+    names = [p.name for p in bird.parts]
+    if len(set(names)) != len(names):
+        raise ValueError(f"bird: part names must be unique, got {names}")
+    feathers = [p for p in bird.parts if p.material == FEATHER_MATERIAL]
+    if len(feathers) != 1:
+        raise ValueError(f"bird: exactly one part with material 'feather' expected (all cards in one mesh), "
+                         f"got {[p.name for p in feathers]}")
+    root = UsdGeom.Xform.Define(stage, ROOT)
+    UsdGeom.Scope.Define(stage, f"{ROOT}/Geom")
+    UsdGeom.Scope.Define(stage, f"{ROOT}/Looks")
+    film_ior = float(np.real(film.n_film(FILM_IOR_WAVELENGTH_NM)))
+    materials = {}
+    for part in bird.parts:  # one material per kind, in part order
+        kind = part.material
+        if kind in materials:
+            continue
+        path = f"{ROOT}/Looks/{material_name(kind)}"
+        if kind == FEATHER_MATERIAL:
+            materials[kind] = author_feather_material(stage, path, lut=lut, film_ior=film_ior, textures=textures)
+        elif kind == "body":
+            materials[kind] = author_body_material(stage, path, texture=textures["body_base"])
+        else:
+            materials[kind] = author_constant_material(stage, path, part.display_color)
+    for part in bird.parts:
+        mesh = author_mesh(stage, f"{ROOT}/Geom/{part.name}", part)
+        binding = UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim())
+        binding.Bind(materials[part.material])
+        if part.material == FEATHER_MATERIAL:
+            if "thickness" not in part.primvars:
+                raise ValueError(f"part {part.name!r}: feather part needs a 'thickness' primvar (nm, vertex)")
+            apply_thin_film(
+                mesh.GetPrim(), model=film.name, cauchy_a=film.cauchy_a, cauchy_b_nm2=film.cauchy_b_nm2,
+                incident_index=float(np.real(film.n_incident)), substrate_index=float(np.real(film.n_substrate)),
+                lut_file=textures["lut"], lut_colour_space=lut["colour_space"],
+                angle_warp_gamma=lut["angle_warp_gamma"], thickness_range_nm=lut["thickness_range_nm"],
+                illuminant=lut["illuminant"], observer=lut["observer"])
+    return root.GetPrim()
+
+
+def bird_extent(bird) -> np.ndarray:
+    """(2, 3) float32 bounding box (min, max) of every part's points, metres."""
+    pts = np.concatenate([np.asarray(p.points_m, np.float32) for p in bird.parts])
+    return _extent(pts)
+
+
+def author_interface(stage, *, extent, version: str, payload: str = f"./{PAYLOAD_LAYER}",
+                     feather_material: str = f"{ROOT}/Looks/FeatherMaterial", name: str = "pigeon"):
+    """Author the interface layer: ``/Pigeon`` (component, assetInfo, extentsHint), payload, shading variants.
+
+    Parameters
+    ----------
+    stage : Usd.Stage
+        From :func:`new_stage`.
+    extent : array_like, (2, 3)
+        Bounding box of the contents (min, max), metres; becomes the default-purpose extentsHint.
+    version : str
+        assetInfo version.
+    payload : str
+        Asset path of the contents layer.
+
+    Returns
+    -------
+    Usd.Prim
+        ``/Pigeon``.
+    """
+    from pxr import Kind, Sdf, Usd, UsdGeom, Vt
+
+    prim = UsdGeom.Xform.Define(stage, ROOT).GetPrim()
+    model = Usd.ModelAPI(prim)
+    model.SetKind(Kind.Tokens.component)
+    model.SetAssetName(name)
+    model.SetAssetIdentifier(Sdf.AssetPath(f"./{INTERFACE_LAYER}"))
+    model.SetAssetVersion(str(version))
+    UsdGeom.ModelAPI.Apply(prim).SetExtentsHint(Vt.Vec3fArray.FromNumpy(np.asarray(extent, np.float32)))
+    prim.GetPayloads().AddPayload(payload)
+    vset = prim.GetVariantSets().AddVariantSet(SHADING_VARIANT_SET)
+    for variant in SHADING_VARIANTS:
+        vset.AddVariant(variant)
+        vset.SetVariantSelection(variant)
+        with vset.GetVariantEditContext():
+            over = stage.OverridePrim(feather_material)
+            out = over.CreateAttribute("outputs:mtlx:surface", Sdf.ValueTypeNames.Token, custom=False)
+            out.SetConnections([mtlx_surface_path(feather_material, variant)])
+    vset.SetVariantSelection(DEFAULT_SHADING)
+    return prim
+
+
+def write_layers(out_dir: str, bird, film, lut: dict, *, version: str, textures: dict | None = None) -> dict:
+    """Author both layers and write them into ``out_dir`` (the only file writer of this module).
+
+    Returns
+    -------
+    dict[str, str]
+        ``{"interface": DIR/pigeon.usda, "payload": DIR/pigeon_payload.usda}`` (absolute paths).
+    """
+    contents = new_stage()
+    author_contents(contents, bird, film, lut, textures)
+    interface = new_stage(load_payloads=False)
+    author_interface(interface, extent=bird_extent(bird), version=version)
+    out_dir = os.path.abspath(out_dir)
+    os.makedirs(out_dir, exist_ok=True)
+    paths = {"interface": os.path.join(out_dir, INTERFACE_LAYER), "payload": os.path.join(out_dir, PAYLOAD_LAYER)}
+    for key, stage in (("payload", contents), ("interface", interface)):
+        with open(paths[key], "w", encoding="utf-8", newline="\n") as fh:
+            fh.write(stage.GetRootLayer().ExportToString())
+    return paths
+
+
+def open_asset(path: str, shading: str | None = None):
+    """Open an asset's root layer (payloads loaded), optionally selecting a ``shading`` variant.
+
+    The variant selection is made in the session layer, so the files are not modified.
+    """
+    from pxr import Usd
+
+    from .schema import register
+
+    register()
+    stage = Usd.Stage.Open(path, Usd.Stage.LoadAll)
+    if stage is None:
+        raise ValueError(f"path={path!r} is not a USD stage")
+    if shading is not None:
+        if shading not in SHADING_VARIANTS:
+            raise ValueError(f"shading={shading!r}; use one of {SHADING_VARIANTS}")
+        with Usd.EditContext(stage, stage.GetSessionLayer()):
+            stage.GetPrimAtPath(ROOT).GetVariantSet(SHADING_VARIANT_SET).SetVariantSelection(shading)
+    return stage

@@ -1,0 +1,228 @@
+"""The USD asset: layers, meshes, primvars, materials, variants, schema values, byte-identical rebuilds, usdz,
+atomic publication. Built from small synthetic stage inputs (pipeline.usd.synthetic) so it runs in seconds."""
+
+import filecmp
+import os
+
+import numpy as np
+import pytest
+
+from pipeline.assemble import assemble
+from pipeline.films import get_film
+from pipeline.usd.synthetic import synthetic_bird, synthetic_lut, synthetic_textures
+
+CARDS = 10
+
+
+def _build(out_dir, **kw):
+    feather, body = synthetic_textures()
+    args = dict(bird=synthetic_bird(CARDS, seed=3), lut=synthetic_lut(), feather_textures=feather,
+                body_texture=body, film=get_film("keratin"))
+    args.update(kw)
+    return assemble(out_dir, **args)
+
+
+@pytest.fixture(scope="module")
+def asset(tmp_path_factory):
+    out = tmp_path_factory.mktemp("asset") / "pigeon"
+    return _build(out)
+
+
+@pytest.fixture(scope="module")
+def stage(asset):
+    from pipeline.usd.stage import open_asset
+
+    return open_asset(asset["interface"])
+
+
+def test_interface_layer_metadata_kind_assetinfo_payload(asset, stage):
+    from pxr import Kind, Sdf, Usd, UsdGeom
+
+    layer = Sdf.Layer.FindOrOpen(asset["interface"])
+    assert layer.defaultPrim == "Pigeon"
+    assert UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y
+    assert UsdGeom.GetStageMetersPerUnit(stage) == 1.0
+    spec = layer.GetPrimAtPath("/Pigeon")
+    assert [p.assetPath for p in spec.payloadList.GetAddedOrExplicitItems()] == ["./pigeon_payload.usda"]
+    assert not layer.GetPrimAtPath("/Pigeon/Geom")  # the interface layer stays light
+    prim = stage.GetDefaultPrim()
+    model = Usd.ModelAPI(prim)
+    assert model.GetKind() == Kind.Tokens.component
+    assert model.GetAssetName() == "pigeon" and model.GetAssetVersion()
+    assert model.GetAssetIdentifier().path == "./pigeon.usda"
+    hint = np.asarray(UsdGeom.ModelAPI(prim).GetExtentsHint(), float)
+    bbox = UsdGeom.BBoxCache(Usd.TimeCode.Default(), ["default"]).ComputeWorldBound(prim).ComputeAlignedRange()
+    assert np.allclose(hint[0], bbox.GetMin(), atol=1e-6) and np.allclose(hint[1], bbox.GetMax(), atol=1e-6)
+    vset = prim.GetVariantSet("shading")
+    assert vset.GetVariantNames() == ["baked", "physical"] and vset.GetVariantSelection() == "baked"
+
+
+def test_meshes_carry_normals_st_display_colour_extent_and_binding(stage):
+    from pxr import UsdGeom, UsdShade
+
+    bird = synthetic_bird(CARDS, seed=3)
+    for part in bird.parts:
+        mesh = UsdGeom.Mesh(stage.GetPrimAtPath(f"/Pigeon/Geom/{part.name}"))
+        assert mesh, part.name
+        pts = np.asarray(mesh.GetPointsAttr().Get())
+        assert np.array_equal(pts, part.points_m)
+        assert np.array_equal(np.asarray(mesh.GetNormalsAttr().Get()), part.normals)
+        assert mesh.GetNormalsInterpolation() == "vertex"
+        st = UsdGeom.PrimvarsAPI(mesh).GetPrimvar("st")
+        assert st.GetTypeName() == "texCoord2f[]" and st.GetInterpolation() == "vertex"
+        assert np.array_equal(np.asarray(st.Get()), part.st)
+        assert np.allclose(mesh.GetDisplayColorPrimvar().Get()[0], part.display_color)
+        ext = np.asarray(mesh.GetExtentAttr().Get())
+        assert np.allclose(ext, [pts.min(0), pts.max(0)])
+        assert mesh.GetSubdivisionSchemeAttr().Get() == "none"
+        mat, _ = UsdShade.MaterialBindingAPI(mesh.GetPrim()).ComputeBoundMaterial()
+        assert mat.GetPath().GetParentPath() == "/Pigeon/Looks"
+    feathers = UsdGeom.Mesh(stage.GetPrimAtPath("/Pigeon/Geom/NeckFeathers"))
+    assert feathers.GetDoubleSidedAttr().Get() is True
+    assert len(feathers.GetFaceVertexCountsAttr().Get()) == CARDS  # all cards in one mesh
+
+
+def test_thickness_primvar_is_documented_float_vertex_nm(stage):
+    from pxr import UsdGeom
+
+    pv = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Pigeon/Geom/NeckFeathers")).GetPrimvar("thickness")
+    assert pv.GetTypeName() == "float[]" and pv.GetInterpolation() == "vertex"
+    assert "nanometres" in pv.GetAttr().GetDocumentation()
+    expected = synthetic_bird(CARDS, seed=3).part("NeckFeathers").primvars["thickness"].values
+    assert np.array_equal(np.asarray(pv.Get()), expected)
+
+
+def test_schema_records_the_film_and_lut(stage, asset):
+    from pipeline.lut.exr import read_exr
+    from pipeline.usd.schema import read_thin_film
+
+    film = read_thin_film(stage.GetPrimAtPath("/Pigeon/Geom/NeckFeathers"))
+    keratin = get_film("keratin")
+    lut = read_exr(asset["lut"])
+    assert film["model"] == "keratin"
+    assert film["cauchy_a"] == pytest.approx(keratin.cauchy_a) and film["cauchy_b_nm2"] == pytest.approx(5890)
+    assert film["incident_index"] == 1.0 and film["substrate_index"] == 1.0
+    assert film["thickness_primvar"] == "thickness" and film["thickness_units"] == "nm"
+    assert film["lut_file"] == "./textures/thinfilm_lut.exr"
+    assert os.path.samefile(film["lut_file_resolved"], asset["lut"])
+    assert film["thickness_range_nm"] == pytest.approx(lut.thickness_range_nm)
+    assert film["angle_warp_gamma"] == pytest.approx(lut.angle_warp_gamma)
+    assert film["lut_colour_space"] == "lin_rec709" and film["illuminant"] == "D65"
+
+
+def test_universal_and_mtlx_surfaces_resolve(stage):
+    from pxr import UsdShade
+
+    feather = UsdShade.Material(stage.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial"))
+    universal, _, _ = feather.ComputeSurfaceSource()
+    mtlx, _, _ = feather.ComputeSurfaceSource("mtlx")
+    assert universal.GetShaderId() == "UsdPreviewSurface"
+    assert mtlx.GetShaderId() == "ND_open_pbr_surface_surfaceshader"
+    assert universal.GetInput("opacityThreshold").Get() == 0.5
+    src = universal.GetInput("diffuseColor").GetConnectedSources()[0][0].source
+    tex = UsdShade.Shader(src.GetPrim())
+    assert tex.GetInput("file").Get().path == "./textures/feather_preview.png"
+    assert tex.GetInput("sourceColorSpace").Get() == "sRGB"
+    assert (tex.GetInput("wrapS").Get(), tex.GetInput("wrapT").Get()) == ("clamp", "clamp")
+    reader = UsdShade.Shader(stage.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial/StReader"))
+    assert reader.GetInput("varname").GetTypeName() == "string" and reader.GetInput("varname").Get() == "st"
+    body = UsdShade.Material(stage.GetPrimAtPath("/Pigeon/Looks/BodyMaterial"))
+    assert body.ComputeSurfaceSource()[0].GetShaderId() == "UsdPreviewSurface"
+    body_tex = UsdShade.Shader(stage.GetPrimAtPath("/Pigeon/Looks/BodyMaterial/BaseColorTexture"))
+    assert body_tex.GetInput("file").Get().path == "./textures/body_base.png"
+    assert body_tex.GetInput("sourceColorSpace").Get() == "sRGB"
+
+
+def test_feather_texture_shaders_named_for_the_renderer(stage):
+    from pxr import UsdShade
+
+    base = UsdShade.Shader(stage.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial/BaseColorTexture"))
+    mask = UsdShade.Shader(stage.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial/MaskTexture"))
+    lut = UsdShade.Shader(stage.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial/LutTexture"))
+    assert base.GetInput("file").Get().path == "./textures/feather_base.png"
+    assert base.GetInput("file").GetAttr().GetColorSpace() == "srgb_texture"
+    assert mask.GetInput("file").Get().path == "./textures/feather_mask.png"
+    assert mask.GetInput("file").GetAttr().GetColorSpace() == "raw"
+    assert lut.GetInput("file").Get().path == "./textures/thinfilm_lut.exr"
+    for name in ("uaddressmode", "vaddressmode"):
+        assert lut.GetInput(name).Get() == "clamp"
+    assert lut.GetInput("filtertype").Get() == "linear"
+
+
+def test_shading_variants_switch_the_mtlx_network(asset):
+    from pxr import UsdShade
+
+    from pipeline.usd.stage import open_asset
+
+    def surface(variant):
+        st = open_asset(asset["interface"], shading=variant)
+        mat = UsdShade.Material(st.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial"))
+        return st, mat.ComputeSurfaceSource("mtlx")[0]
+
+    st, baked = surface("baked")
+    assert baked.GetPath().name == "MtlxBakedSurface"
+    mix = baked.GetInput("base_color").GetConnectedSources()[0][0].source
+    assert UsdShade.Shader(mix.GetPrim()).GetShaderId() == "ND_mix_color3"
+    assert baked.GetInput("specular_weight").Get() == 0.0
+    st, physical = surface("physical")
+    assert physical.GetPath().name == "MtlxPhysicalSurface"
+    thick = UsdShade.Shader(physical.GetInput("thin_film_thickness").GetConnectedSources()[0][0].source.GetPrim())
+    assert thick.GetShaderId() == "ND_multiply_float" and thick.GetInput("in2").Get() == pytest.approx(1e-3)
+    ior = UsdShade.Shader(physical.GetInput("thin_film_ior").GetConnectedSources()[0][0].source.GetPrim())
+    assert ior.GetInput("value").Get() == pytest.approx(float(get_film("keratin").n_film(550.0)))
+    # the universal network is the same in both variants
+    assert UsdShade.Material(st.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial")).ComputeSurfaceSource()[0]
+
+
+def test_rebuild_is_byte_identical(asset, tmp_path):
+    again = _build(tmp_path / "pigeon")
+    a, b = asset["dir"], again["dir"]
+    names = sorted(os.path.relpath(os.path.join(d, f), a) for d, _, fs in os.walk(a) for f in fs)
+    assert "pigeon.usdz" in names and "textures/thinfilm_lut.exr" in names
+    match, mismatch, errors = filecmp.cmpfiles(a, b, names, shallow=False)
+    assert mismatch == [] and errors == [] and len(match) == len(names)
+
+
+def test_usdz_reopens_and_holds_every_texture(asset):
+    from pxr import Sdf, Usd
+
+    from pipeline.usd.usdz import usdz_contents
+    from pipeline.usd.validate import read_texture_asset
+
+    names = usdz_contents(asset["usdz"])
+    assert names[0] == "pigeon.usda"
+    for role in ("lut", "feather_base", "feather_mask", "feather_preview", "body_base"):
+        assert os.path.relpath(asset[role], asset["dir"]) in names
+    st = Usd.Stage.Open(asset["usdz"])
+    resolved = []
+    for prim in st.Traverse():
+        for attr in prim.GetAttributes():
+            if attr.GetTypeName() == Sdf.ValueTypeNames.Asset and attr.Get() is not None:
+                path = attr.Get().resolvedPath
+                assert path.startswith(asset["usdz"] + "["), (attr.GetPath(), path)
+                read_texture_asset(path)  # decodes from inside the package
+                resolved.append(path)
+    assert len(set(resolved)) == 5
+
+
+def test_failed_build_keeps_previous_asset_and_leaves_no_temporaries(asset, tmp_path):
+    out = tmp_path / "pigeon"
+    first = _build(out)
+    before = open(first["payload"], "rb").read()
+    feather, _ = synthetic_textures()
+    with pytest.raises(ValueError, match="body_texture"):
+        _build(out, body_texture=np.zeros((4, 4, 3), np.float32))  # wrong dtype: fails mid-build
+    assert open(first["payload"], "rb").read() == before
+    assert sorted(os.listdir(tmp_path)) == ["pigeon"]
+
+
+def test_bad_inputs_raise_value_errors_naming_them(tmp_path):
+    from pipeline.geometry import Bird
+
+    bird = synthetic_bird(3)
+    with pytest.raises(ValueError, match="preset"):
+        _build(tmp_path / "x", preset="pigeon")
+    no_feathers = Bird(tuple(p for p in bird.parts if p.material != "feather"))
+    with pytest.raises(ValueError, match="feather"):
+        _build(tmp_path / "x", bird=no_feathers)
+    assert not (tmp_path / "x").exists()
