@@ -1,0 +1,449 @@
+"""Validate a written asset: USD's validation framework plus rockdove's own checks.
+
+:func:`validate_asset` opens the root layer from disk (payloads loaded) and, for every combination of the
+variant sets on the default prim (here ``shading`` = baked / physical), runs:
+
+1. ``pxr.UsdValidation``: every registered validator over the stage. usd-core ships no MaterialX Sdr plugin,
+   so ``usdShadeValidators:ShaderSdrCompliance`` reports ``MissingShaderIdInRegistry`` for every ``ND_*``
+   shader; that one error, for ``ND_*`` ids only, is replaced by check 2.
+2. MaterialX node definitions: each ``ND_*`` ``info:id`` exists in MaterialX's standard data libraries
+   (stdlib, pbrlib, bxdf, ...), and each authored input and output has a name the nodedef declares and the
+   matching type.
+3. Textures: every asset-valued attribute (shader ``inputs:file``, ``rockdove:lut:file``) resolves and reads
+   (PNG via Pillow, EXR via :func:`pipeline.lut.exr.read_exr`); works inside a usdz too (read through Ar).
+4. Topology: every primvar's (and normals') element count matches its interpolation (vertex = points,
+   faceVarying = face corners, uniform = faces, constant = 1), indices in range.
+5. Thin film: on prims with ``RockDoveThinFilmAPI``, the thickness primvar's range lies inside the LUT's
+   domain ``rockdove:lut:thicknessRangeNm``, which must agree with the range in the LUT EXR header.
+6. Materials: ``ComputeSurfaceSource()`` (universal) resolves for every material, and
+   ``ComputeSurfaceSource("mtlx")`` for every material with an ``outputs:mtlx:surface``.
+
+Each problem is an :class:`Issue` naming the check, the prim/attribute path, the value and what was
+expected. Issues found in several variants are reported once, with the variants listed.
+"""
+
+from __future__ import annotations
+
+import io
+import itertools
+import os
+import tempfile
+from dataclasses import dataclass, field
+
+#: The UsdValidation error replaced by :func:`check_mtlx_shaders` for MaterialX (ND_*) shader ids.
+MISSING_SHADER_ID = "MissingShaderIdInRegistry"
+
+# Sdf value type name -> MaterialX type
+_MX_TYPES = {
+    "float": "float", "int": "integer", "bool": "boolean", "string": "string", "asset": "filename",
+    "color3f": "color3", "color4f": "color4", "float2": "vector2", "float3": "vector3", "float4": "vector4",
+    "token": None,  # outputs of surface shaders / materials
+}
+
+
+@dataclass(frozen=True)
+class Issue:
+    """One problem found in an asset.
+
+    Attributes
+    ----------
+    check : str
+        ``usdValidation:<validator>:<error name>``, ``mtlx``, ``texture``, ``primvar``, ``thinFilm``,
+        ``material`` or ``open``.
+    path : str
+        Prim or property path (or file) the problem is about.
+    message : str
+        What is wrong: the value found and what was expected.
+    severity : str
+        ``error`` or ``warning``; only errors make a report unclean.
+    variants : tuple of str
+        Variant selections (``shading=baked``...) in which it was found; empty when not variant-specific.
+    """
+
+    check: str
+    path: str
+    message: str
+    severity: str = "error"
+    variants: tuple = ()
+
+    def to_dict(self) -> dict:
+        return {"check": self.check, "path": self.path, "message": self.message, "severity": self.severity,
+                "variants": list(self.variants)}
+
+
+@dataclass
+class Report:
+    """Result of :func:`validate_asset`: ``clean`` when no issue has severity ``error``."""
+
+    path: str
+    issues: list = field(default_factory=list)
+    variants: list = field(default_factory=list)
+    counts: dict = field(default_factory=dict)
+
+    @property
+    def errors(self) -> list:
+        return [i for i in self.issues if i.severity == "error"]
+
+    @property
+    def clean(self) -> bool:
+        return not self.errors
+
+    def checks(self) -> set:
+        """Names of the checks that reported something."""
+        return {i.check for i in self.issues}
+
+    def to_dict(self) -> dict:
+        return {"path": self.path, "clean": self.clean, "variants": list(self.variants),
+                "counts": dict(sorted(self.counts.items())), "issues": [i.to_dict() for i in self.issues]}
+
+    def format(self) -> str:
+        """A readable multi-line report."""
+        lines = [f"{self.path}: {'clean' if self.clean else 'NOT CLEAN'} "
+                 f"({len(self.errors)} error(s), {len(self.issues) - len(self.errors)} warning(s))",
+                 "  variants: " + (", ".join(self.variants) or "(none)"),
+                 "  checked: " + ", ".join(f"{k} {v}" for k, v in sorted(self.counts.items()))]
+        for i in self.issues:
+            where = f" [{', '.join(i.variants)}]" if i.variants else ""
+            lines.append(f"  {i.severity.upper()} {i.check}: {i.path}: {i.message}{where}")
+        return "\n".join(lines)
+
+
+def resolve_root_layer(path: str) -> str:
+    """The root layer of an asset given its folder (containing pigeon.usda) or a layer/usdz path."""
+    path = os.fspath(path)
+    if os.path.isdir(path):
+        for name in ("pigeon.usda", "pigeon.usdz"):
+            cand = os.path.join(path, name)
+            if os.path.isfile(cand):
+                return cand
+        raise FileNotFoundError(f"path={path!r} is a folder without pigeon.usda or pigeon.usdz")
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"path={path!r} does not exist")
+    if not path.endswith((".usda", ".usdc", ".usd", ".usdz")):
+        raise ValueError(f"path={path!r} is not a USD layer (.usda, .usdc, .usd or .usdz)")
+    return path
+
+
+# -- 1. UsdValidation -------------------------------------------------------------------------------------
+def _validators():
+    from pxr import UsdValidation
+
+    reg = UsdValidation.ValidationRegistry()
+    names = sorted(m.name for m in reg.GetAllValidatorMetadata())
+    return reg.GetOrLoadValidatorsByName(names)
+
+
+def run_usd_validation(stage, validators=None) -> list:
+    """Every registered ``pxr.UsdValidation`` validator over ``stage``, minus ND_* MissingShaderIdInRegistry."""
+    from pxr import UsdShade, UsdValidation
+
+    context = UsdValidation.ValidationContext(validators or _validators())
+    issues = []
+    for err in context.Validate(stage):
+        if err.GetType() == UsdValidation.ValidationErrorType.None_:
+            continue
+        sites = [s.GetProperty().GetPath() if s.IsProperty() else s.GetPrim().GetPath() if s.IsPrim() else
+                 s.GetLayer().identifier if s.GetLayer() else "" for s in err.GetSites()]
+        if err.GetName() == MISSING_SHADER_ID:
+            prims = [stage.GetPrimAtPath(str(p).split(".")[0]) for p in sites]
+            ids = [UsdShade.Shader(p).GetShaderId() if p and p.IsA(UsdShade.Shader) else None for p in prims]
+            if ids and all(i and i.startswith("ND_") for i in ids):
+                continue  # checked against MaterialX's own node definitions instead
+        validator = err.GetValidator().GetMetadata().name if err.GetValidator() else "usdValidation"
+        severity = "error" if err.GetType() == UsdValidation.ValidationErrorType.Error else "warning"
+        issues.append(Issue(f"usdValidation:{validator}:{err.GetName()}", ", ".join(str(s) for s in sites) or "/",
+                            err.GetMessage(), severity))
+    return issues
+
+
+# -- 2. MaterialX node definitions --------------------------------------------------------------------------
+def check_mtlx_shaders(stage, library=None) -> tuple[list, int]:
+    """Check every ``ND_*`` shader's id, input names/types and output types against MaterialX's nodedefs.
+
+    Returns
+    -------
+    (issues, number of ND_ shaders checked)
+    """
+    from pxr import Usd, UsdShade
+
+    from .material import load_mtlx_libraries
+
+    library = library or load_mtlx_libraries()
+    issues, n = [], 0
+    for prim in Usd.PrimRange(stage.GetPseudoRoot()):
+        if not prim.IsA(UsdShade.Shader):
+            continue
+        shader = UsdShade.Shader(prim)
+        sid = shader.GetShaderId() or ""
+        if not sid.startswith("ND_"):
+            continue
+        n += 1
+        nodedef = library.getNodeDef(sid)
+        if nodedef is None:
+            issues.append(Issue("mtlx", f"{prim.GetPath()}.info:id",
+                                f"info:id {sid!r} is not a MaterialX node definition (stdlib/pbrlib/bxdf)"))
+            continue
+        for inp in shader.GetInputs():
+            name = inp.GetBaseName()
+            mx_in = nodedef.getActiveInput(name)
+            got = _MX_TYPES.get(str(inp.GetTypeName()), str(inp.GetTypeName()))
+            if mx_in is None:
+                issues.append(Issue("mtlx", str(inp.GetAttr().GetPath()),
+                                    f"input {name!r} is not declared by {sid} (inputs: "
+                                    f"{sorted(i.getName() for i in nodedef.getActiveInputs())})"))
+            elif got != mx_in.getType():
+                issues.append(Issue("mtlx", str(inp.GetAttr().GetPath()),
+                                    f"input {name!r} has type {inp.GetTypeName()} ({got}), {sid} expects "
+                                    f"{mx_in.getType()}"))
+        for out in shader.GetOutputs():
+            name = out.GetBaseName()
+            mx_out = nodedef.getActiveOutput(name)
+            got = _MX_TYPES.get(str(out.GetTypeName()), str(out.GetTypeName()))
+            if mx_out is None:
+                issues.append(Issue("mtlx", str(out.GetAttr().GetPath()),
+                                    f"output {name!r} is not declared by {sid}"))
+            elif got is not None and got != mx_out.getType():
+                issues.append(Issue("mtlx", str(out.GetAttr().GetPath()),
+                                    f"output {name!r} has type {out.GetTypeName()}, {sid} gives {mx_out.getType()}"))
+    return issues, n
+
+
+# -- 3. textures --------------------------------------------------------------------------------------------
+def _read_asset_bytes(resolved: str) -> bytes:
+    from pxr import Ar
+
+    asset = Ar.GetResolver().OpenAsset(Ar.ResolvedPath(resolved))
+    if asset is None:
+        raise OSError(f"cannot open {resolved!r}")
+    return bytes(asset.GetBuffer())
+
+
+def read_texture_asset(resolved: str):
+    """Decode a resolved texture (a file or a usdz member): a PIL image for PNG, a ThinFilmLUT for EXR."""
+    from PIL import Image
+
+    from pipeline.lut.exr import read_exr
+
+    data = _read_asset_bytes(resolved)
+    name = resolved.rstrip("]").lower()
+    if name.endswith(".exr"):
+        with tempfile.TemporaryDirectory() as tmp:
+            p = os.path.join(tmp, "lut.exr")
+            with open(p, "wb") as fh:
+                fh.write(data)
+            return read_exr(p)
+    img = Image.open(io.BytesIO(data))
+    img.load()
+    return img
+
+
+def check_textures(stage) -> tuple[list, int, dict]:
+    """Every asset-valued attribute resolves to a file that reads.
+
+    Returns
+    -------
+    (issues, number of asset attributes checked, {resolved path: decoded object})
+    """
+    from pxr import Sdf, Usd
+
+    issues, n, decoded = [], 0, {}
+    for prim in Usd.PrimRange(stage.GetPseudoRoot()):
+        for attr in prim.GetAttributes():
+            if attr.GetTypeName() != Sdf.ValueTypeNames.Asset:
+                continue
+            value = attr.Get()
+            if value is None or not value.path:
+                continue
+            n += 1
+            if not value.resolvedPath:
+                issues.append(Issue("texture", str(attr.GetPath()), f"asset {value.path!r} does not resolve "
+                                    "(missing file); expected an existing texture next to the layer"))
+                continue
+            if value.resolvedPath in decoded:
+                continue
+            try:
+                decoded[value.resolvedPath] = read_texture_asset(value.resolvedPath)
+            except Exception as exc:  # any decoder failure is the finding
+                issues.append(Issue("texture", str(attr.GetPath()),
+                                    f"asset {value.path!r} ({value.resolvedPath}) does not read: {exc}"))
+    return issues, n, decoded
+
+
+# -- 4. primvar sizes ---------------------------------------------------------------------------------------
+def check_primvars(stage) -> tuple[list, int]:
+    """Primvar (and normals) element counts against topology, and index ranges."""
+    import numpy as np
+    from pxr import Usd, UsdGeom
+
+    issues, n = [], 0
+    for prim in Usd.PrimRange(stage.GetPseudoRoot()):
+        if not prim.IsA(UsdGeom.Mesh):
+            continue
+        mesh = UsdGeom.Mesh(prim)
+        points = mesh.GetPointsAttr().Get() or []
+        counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get() or [], np.int64)
+        indices = np.asarray(mesh.GetFaceVertexIndicesAttr().Get() or [], np.int64)
+        expected = {"vertex": len(points), "varying": len(points), "faceVarying": int(counts.sum()),
+                    "uniform": len(counts), "constant": 1}
+        path = prim.GetPath()
+        if int(counts.sum()) != len(indices):
+            issues.append(Issue("primvar", f"{path}.faceVertexIndices", f"{len(indices)} indices, but "
+                                f"faceVertexCounts sum to {int(counts.sum())}"))
+        if len(indices) and (indices.min() < 0 or indices.max() >= len(points)):
+            issues.append(Issue("primvar", f"{path}.faceVertexIndices",
+                                f"indices span [{indices.min()}, {indices.max()}], expected [0, {len(points)})"))
+        normals = mesh.GetNormalsAttr().Get()
+        if normals is not None:
+            interp = mesh.GetNormalsInterpolation()
+            if len(normals) != expected.get(interp, -1):
+                issues.append(Issue("primvar", f"{path}.normals", f"{len(normals)} normals with interpolation "
+                                    f"{interp!r}, expected {expected.get(interp)}"))
+        for pv in UsdGeom.PrimvarsAPI(prim).GetPrimvars():
+            value = pv.Get()
+            if value is None:
+                continue
+            n += 1
+            interp = pv.GetInterpolation()
+            size = expected.get(interp)
+            elems = len(value) // max(pv.GetElementSize(), 1) if hasattr(value, "__len__") else 1
+            if pv.IsIndexed():
+                idx = np.asarray(pv.GetIndices(), np.int64)
+                if len(idx) and (idx.min() < 0 or idx.max() >= elems):
+                    issues.append(Issue("primvar", str(pv.GetAttr().GetPath()),
+                                        f"indices span [{idx.min()}, {idx.max()}], expected [0, {elems})"))
+                elems = len(idx)
+            if size is not None and elems != size:
+                issues.append(Issue("primvar", str(pv.GetAttr().GetPath()),
+                                    f"{elems} values with interpolation {interp!r}, expected {size} "
+                                    f"({len(points)} points, {len(counts)} faces, {int(counts.sum())} corners)"))
+    return issues, n
+
+
+# -- 5. thin film / LUT domain ------------------------------------------------------------------------------
+def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
+    """Thickness primvar inside the LUT domain; schema range agrees with the EXR header."""
+    import numpy as np
+    from pxr import Usd, UsdGeom
+
+    from .schema import SCHEMA_NAME, read_thin_film
+
+    issues, n = [], 0
+    for prim in Usd.PrimRange(stage.GetPseudoRoot()):
+        if SCHEMA_NAME not in prim.GetAppliedSchemas():
+            continue
+        n += 1
+        film = read_thin_film(prim)
+        rng = film["thickness_range_nm"]
+        where = f"{prim.GetPath()}.rockdove:lut:thicknessRangeNm"
+        if rng is None:
+            issues.append(Issue("thinFilm", where, "not authored; expected the LUT's (lo, hi) in nm"))
+            continue
+        lo, hi = rng
+        lut = decoded.get(film["lut_file_resolved"])
+        if lut is not None and hasattr(lut, "thickness_range_nm"):
+            elo, ehi = lut.thickness_range_nm
+            if not (np.isclose(lo, elo, rtol=0, atol=1e-3) and np.isclose(hi, ehi, rtol=0, atol=1e-3)):
+                issues.append(Issue("thinFilm", where, f"({lo}, {hi}) nm differs from the LUT file's header "
+                                    f"rockdove:thicknessRangeNm ({elo}, {ehi})"))
+            if not np.isclose(film["angle_warp_gamma"], lut.angle_warp_gamma, rtol=1e-6):
+                issues.append(Issue("thinFilm", f"{prim.GetPath()}.rockdove:lut:angleWarpGamma",
+                                    f"{film['angle_warp_gamma']} differs from the LUT file's {lut.angle_warp_gamma}"))
+        pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "")
+        values = pv.ComputeFlattened() if pv else None
+        if values is None or len(values) == 0:
+            issues.append(Issue("thinFilm", f"{prim.GetPath()}.primvars:{film['thickness_primvar']}",
+                                "thickness primvar missing or empty"))
+            continue
+        d = np.asarray(values, np.float64)
+        tol = 1e-3  # nm: float32 rounding of authored values
+        if d.min() < lo - tol or d.max() > hi + tol:
+            issues.append(Issue("thinFilm", str(pv.GetAttr().GetPath()),
+                                f"thickness spans [{d.min():.6g}, {d.max():.6g}] nm, outside the LUT domain "
+                                f"[{lo:.6g}, {hi:.6g}] nm (rockdove:lut:thicknessRangeNm)"))
+    return issues, n
+
+
+# -- 6. surface sources -------------------------------------------------------------------------------------
+def check_materials(stage) -> tuple[list, int]:
+    """Universal and (where authored) mtlx surface sources resolve to shaders."""
+    from pxr import Usd, UsdShade
+
+    issues, n = [], 0
+    for prim in Usd.PrimRange(stage.GetPseudoRoot()):
+        if not prim.IsA(UsdShade.Material):
+            continue
+        n += 1
+        mat = UsdShade.Material(prim)
+        contexts = [("", "outputs:surface")]
+        if prim.HasAttribute("outputs:mtlx:surface"):
+            contexts.append(("mtlx", "outputs:mtlx:surface"))
+        for ctx, attr in contexts:
+            shader, _, _ = mat.ComputeSurfaceSource(ctx)
+            if not shader:
+                issues.append(Issue("material", f"{prim.GetPath()}.{attr}",
+                                    f"ComputeSurfaceSource({ctx!r}) does not resolve to a shader"))
+            elif ctx == "mtlx" and not (shader.GetShaderId() or "").startswith("ND_"):
+                issues.append(Issue("material", f"{prim.GetPath()}.{attr}",
+                                    f"mtlx surface {shader.GetPath()} has id {shader.GetShaderId()!r}, "
+                                    "expected a MaterialX ND_* surface shader"))
+    return issues, n
+
+
+# -- driver -------------------------------------------------------------------------------------------------
+def _variant_combinations(stage) -> list[dict]:
+    prim = stage.GetDefaultPrim()
+    if not prim:
+        return [{}]
+    sets = prim.GetVariantSets()
+    names = sorted(sets.GetNames())
+    choices = [sets.GetVariantSet(n).GetVariantNames() for n in names]
+    return [dict(zip(names, combo)) for combo in itertools.product(*choices)] or [{}]
+
+
+def validate_asset(path) -> Report:
+    """Validate the asset at ``path`` (folder, root layer or usdz) over every variant combination.
+
+    Returns
+    -------
+    Report
+    """
+    from pxr import Usd
+
+    from .material import load_mtlx_libraries
+    from .schema import register
+
+    root = resolve_root_layer(path)
+    register()
+    report = Report(path=root)
+    stage = Usd.Stage.Open(root, Usd.Stage.LoadAll)
+    if stage is None:
+        report.issues.append(Issue("open", root, "USD could not open the layer"))
+        return report
+    library = load_mtlx_libraries()
+    validators = _validators()
+    found: dict[tuple, list] = {}
+    combos = _variant_combinations(stage)
+    counts = {}
+    for combo in combos:
+        label = ", ".join(f"{k}={v}" for k, v in combo.items())
+        if label:
+            report.variants.append(label)
+        session = stage.GetSessionLayer()
+        with Usd.EditContext(stage, session):
+            for name, value in combo.items():
+                stage.GetDefaultPrim().GetVariantSet(name).SetVariantSelection(value)
+        issues = run_usd_validation(stage, validators)
+        mx_issues, counts["mtlx shaders"] = check_mtlx_shaders(stage, library)
+        tex_issues, counts["assets"], decoded = check_textures(stage)
+        pv_issues, counts["primvars"] = check_primvars(stage)
+        tf_issues, counts["thin films"] = check_thin_film(stage, decoded)
+        mat_issues, counts["materials"] = check_materials(stage)
+        for issue in issues + mx_issues + tex_issues + pv_issues + tf_issues + mat_issues:
+            found.setdefault((issue.check, issue.path, issue.message, issue.severity), []).append(label)
+    counts["variant combinations"] = len(combos)
+    report.counts = counts
+    for (check, where, message, severity), labels in found.items():
+        variants = () if len(labels) == len(combos) else tuple(l for l in labels if l)
+        report.issues.append(Issue(check, where, message, severity, variants))
+    report.issues.sort(key=lambda i: (i.severity != "error", i.check, i.path))
+    return report
