@@ -1,0 +1,171 @@
+"""Reliability through the real CLI: builds killed at several points, signals, two concurrent builds, the lock.
+
+Builds use the stand-in stages of test_build_graph.py (``ROCKDOVE_BUILD_STAGES``); the graph's test hook
+``ROCKDOVE_TEST_PAUSE_AFTER=<stage|assemble|publish-swap>`` stops a build at a chosen point so it can be killed
+exactly there.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import select
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from pipeline.build import publish as P
+
+ROOT = Path(__file__).resolve().parents[1]
+STANDIN = f"{ROOT / 'tests' / 'test_build_graph.py'}:standin_stages"
+BASE = ["build", "--out", "b/pigeon", "--set", "geometry.card_count=40", "--quiet"]
+
+
+def _env(**extra):
+    env = {**os.environ, "ROCKDOVE_BUILD_STAGES": STANDIN, "PYTHONPATH": str(ROOT)}
+    env.pop("ROCKDOVE_DEBUG", None)
+    env.update(extra)
+    return env
+
+
+def run(cwd, *args, **env):
+    return subprocess.run([sys.executable, "-m", "pipeline.cli", *BASE, *args], cwd=cwd, env=_env(**env),
+                          capture_output=True, text=True, timeout=60)
+
+
+def start(cwd, *args, **env):
+    return subprocess.Popen([sys.executable, "-m", "pipeline.cli", *BASE, *args], cwd=cwd, env=_env(**env),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def wait_for_line(proc, text, timeout=30.0) -> str:
+    """Read the process's stderr until a line containing ``text`` (fails on timeout or exit)."""
+    deadline = time.monotonic() + timeout
+    seen = []
+    while time.monotonic() < deadline:
+        ready, _, _ = select.select([proc.stderr], [], [], 0.2)
+        if ready:
+            line = proc.stderr.readline()
+            if not line:
+                break
+            seen.append(line)
+            if text in line:
+                return line
+    proc.kill()
+    raise AssertionError(f"no {text!r} on stderr; saw {seen!r}, exit {proc.poll()}")
+
+
+def snapshot(folder: Path) -> dict:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def leftovers(tmp: Path) -> list[str]:
+    found = [p.name for p in (tmp / "b").iterdir() if ".rockdove-tmp-" in p.name or ".rockdove-old-" in p.name]
+    found += [str(p) for p in (tmp / "b" / ".rockdove-cache").glob("*/.tmp-*")]
+    return found
+
+
+POINTS = ["cards", "lut", "usd_layers", "assemble", "verify", "publish-swap"]
+
+
+@pytest.mark.parametrize("point", POINTS)
+def test_sigkill_at_any_point_leaves_a_complete_asset(tmp_path, point):
+    assert run(tmp_path).returncode == 0
+    old = snapshot(tmp_path / "b/pigeon")
+    proc = start(tmp_path, "--set", "film.cauchy_a=1.61", ROCKDOVE_TEST_PAUSE_AFTER=point)
+    wait_for_line(proc, f"paused after {point}")
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(10)
+    now = snapshot(tmp_path / "b/pigeon")
+    if point == "publish-swap":  # killed after the swap: the new asset is complete and in place
+        assert now != old and ".rockdove-asset.json" in now and set(now) == set(old)
+    else:
+        assert now == old, f"killed after {point}: the old asset changed"
+    # the next build cleans what the killed one left and publishes
+    r = run(tmp_path, "--set", "film.cauchy_a=1.61")
+    assert r.returncode == 0, r.stderr
+    assert leftovers(tmp_path) == []
+    assert b"1.61" in (tmp_path / "b/pigeon/pigeon.usda").read_bytes()
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_sigterm_and_ctrl_c_remove_temporary_files(tmp_path, sig):
+    assert run(tmp_path).returncode == 0
+    old = snapshot(tmp_path / "b/pigeon")
+    proc = start(tmp_path, "--set", "film.cauchy_a=1.62", ROCKDOVE_TEST_PAUSE_AFTER="assemble")
+    wait_for_line(proc, "paused after assemble")
+    assert [p for p in (tmp_path / "b").iterdir() if ".rockdove-tmp-" in p.name], "no staging folder to clean"
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=10)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err
+    assert snapshot(tmp_path / "b/pigeon") == old
+    assert leftovers(tmp_path) == []
+
+
+def test_two_concurrent_builds_serialise_on_the_lock(tmp_path):
+    first = start(tmp_path, "--set", "film.cauchy_a=1.63", "--json",
+                  ROCKDOVE_TEST_PAUSE_AFTER="lut", ROCKDOVE_TEST_PAUSE_SECONDS="1.5")
+    wait_for_line(first, "paused after lut")
+    second = start(tmp_path, "--set", "film.cauchy_a=1.64", "--json")
+    wait_for_line(second, "waiting for another build")
+    out1, _ = first.communicate(timeout=30)
+    out2, _ = second.communicate(timeout=30)
+    assert first.returncode == 0 and second.returncode == 0
+    s1, s2 = json.loads(out1), json.loads(out2)
+    assert "lut" in s1["ran"] and "body" in s2["reused"]  # the second found the first's stages in the cache
+    marker = json.loads((tmp_path / "b/pigeon/.rockdove-asset.json").read_text())
+    assert marker["config_hash"] == s2["config_hash"]  # the last build's asset, whole
+    assert b"1.64" in (tmp_path / "b/pigeon/pigeon.usda").read_bytes()
+    assert leftovers(tmp_path) == []
+
+
+def test_lock_timeout_fails_with_a_clear_message(tmp_path):
+    holder = start(tmp_path, ROCKDOVE_TEST_PAUSE_AFTER="body")
+    try:
+        wait_for_line(holder, "paused after body")
+        r = run(tmp_path, "--lock-timeout", "0.3")
+        assert r.returncode == 2
+        last = r.stderr.strip().splitlines()[-1]
+        assert "another rockdove build" in last and "Traceback" not in r.stderr
+    finally:
+        holder.kill()
+        holder.wait(10)
+
+
+def test_refuses_to_replace_a_folder_it_did_not_create(tmp_path):
+    (tmp_path / "b/pigeon").mkdir(parents=True)
+    (tmp_path / "b/pigeon/notes.txt").write_text("mine\n")
+    r = run(tmp_path)
+    assert r.returncode == 2 and "did not create" in r.stderr
+    assert (tmp_path / "b/pigeon/notes.txt").read_text() == "mine\n"
+    assert sorted(p.name for p in (tmp_path / "b").iterdir()) == ["pigeon"]
+
+
+def test_recover_restores_an_asset_moved_aside_by_a_killed_fallback_publish(tmp_path, monkeypatch):
+    out = tmp_path / "pigeon"
+    out.mkdir()
+    P.write_marker(out, {"config_hash": "old"})
+    # the rename fallback (no renameat2): kill between "old moved aside" and "new renamed in" ...
+    aside = tmp_path / f".pigeon{P._OLD}123-abcd"
+    os.rename(out, aside)
+    staging = P.make_staging(out)
+    P.recover(out)  # ... the next build puts the old asset back and removes the staging folder
+    assert P.read_marker(out)["config_hash"] == "old"
+    assert not aside.exists() and not staging.exists()
+
+
+def test_fallback_publish_replaces_the_asset(tmp_path, monkeypatch):
+    monkeypatch.setattr(P, "_exchange", lambda a, b: False)
+    out = tmp_path / "pigeon"
+    for tag in ("one", "two"):
+        staging = P.make_staging(out)
+        (staging / "f.txt").write_text(tag)
+        P.write_marker(staging, {"config_hash": tag})
+        P.publish(staging, out)
+        assert (out / "f.txt").read_text() == tag and not staging.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pigeon"]
