@@ -103,6 +103,77 @@ def test_mask_mixes_base_and_structural_colour(tmp_path):
     assert res.mask[8, 8] == pytest.approx(m, rel=1e-6)
 
 
+def test_pixels_equal_the_exact_spectral_colour_times_n_dot_l(tmp_path):
+    """One opaque feather quad facing the camera, graded thickness: every feather pixel equals the exact
+    colour of its own (cos_theta, thickness) (integrated here at 0.1 nm, independently of the reference's
+    step choice) times N.L."""
+    from pipeline import optics, spectral
+
+    light = np.array([0.6, 0.0, 0.8])
+    film = _film(1.532, 5890.0)
+    scene = _scene(tmp_path, alpha_left=255, thickness=(480.0, 700.0), film=film)
+    v = _view(light, size=12)
+    res = reference.render_reference(scene, [v])[0]
+    feather = res.part_id == 1
+    assert feather.sum() > 20
+    origin, dirs, _ = reference.camera_rays(v)
+    dirs = dirs.reshape(12, 12, 3)[feather]
+    hit = origin + dirs * (-origin[2] / dirs[:, 2:3])  # intersection with the plane z = 0
+    t = (hit[:, 1] + 0.05) / 0.1
+    d = 480.0 + 220.0 * t  # thickness interpolated along t
+    cos_theta = np.sqrt((1.0 + (-dirs) @ light) / 2.0)
+    wl = np.linspace(360.0, 780.0, 4201)
+    w = spectral.spectral_weights(wl, colour_space="lin_rec709")
+    n = 1.532 + 5890.0 / wl**2
+    refl = optics.reflectance(wl[None, :], cos_theta[:, None], d[:, None], n_film=n[None, :])
+    expected = (refl @ w) * light[2]  # N = +Z, N.L = 0.8
+    np.testing.assert_allclose(res.thickness_nm[feather], d, rtol=1e-5)
+    np.testing.assert_allclose(res.cos_theta[feather], cos_theta, rtol=1e-5)
+    np.testing.assert_allclose(res.rgb[feather], expected, atol=2e-4)
+
+
+def test_spectral_step_is_exact_against_a_finer_grid():
+    """The cos_theta-dependent wavelength steps err by < 0.01 dE2000 against a much finer integration
+    everywhere, grazing included (where the spectrum is a comb of sharp lines)."""
+    from pipeline import spectral
+
+    film = _film(1.532, 5890.0)
+    rng = np.random.default_rng(1)
+    bands = [(0.0, 0.001), (0.001, 0.003), (0.003, 0.01), (0.01, 0.03), (0.03, 0.1), (0.1, 1.0)]
+    c = np.concatenate([rng.uniform(lo, hi, 25) for lo, hi in bands])
+    d = rng.uniform(450.0, 720.0, c.size)
+    exact = np.empty((c.size, 3))
+    for (lo, hi), step in zip(bands, (0.004, 0.01, 0.01, 0.05, 0.05, 0.05)):
+        sel = (c >= lo) & (c < hi)
+        exact[sel] = reference.structural_rgb_at_step(c[sel], d[sel], film, step)
+    ours = reference.structural_rgb(c, d, film)
+    lab = lambda x: spectral.RGB_to_Lab(np.clip(x, 0, 1))  # noqa: E731 - the displayed colour
+    assert np.max(spectral.delta_E_2000(lab(ours), lab(exact))) < 0.01
+    # and near grazing the fine steps are needed: a uniform 1 nm grid is visibly wrong there
+    sel = (c > 0.001) & (c < 0.03)
+    coarse = reference.structural_rgb_at_step(c[sel], d[sel], film, 1.0)
+    assert np.max(spectral.delta_E_2000(lab(coarse), lab(exact[sel]))) > 0.02
+
+
+def test_deduplication_keys_are_far_below_visible():
+    """structural_rgb de-duplicates on quantised (cos_theta, d); perturbing inputs within a key changes the
+    colour by far less than 0.01 dE2000."""
+    from pipeline import spectral
+
+    film = _film(1.532, 5890.0)
+    rng = np.random.default_rng(2)
+    c = rng.uniform(0.05, 1.0, 200)
+    d = rng.uniform(480.0, 700.0, 200)
+    a = reference.structural_rgb(c, d, film)
+    b = reference.structural_rgb_at_step(c + 0.5 * reference.COS_THETA_QUANTUM,
+                                         d + 0.5 * reference.THICKNESS_QUANTUM_NM, film, 1.0)
+    lab = lambda x: spectral.RGB_to_Lab(np.clip(x, 0, 1))  # noqa: E731
+    assert np.max(spectral.delta_E_2000(lab(a), lab(b))) < 0.01
+    stats = {}
+    reference.structural_rgb(np.repeat(c[:10], 5), np.repeat(d[:10], 5), film, stats)
+    assert stats == {"spectral_pixels": 50, "spectral_keys": 10}
+
+
 def test_render_needs_views_and_film(tmp_path):
     scene = _scene(tmp_path)
     with pytest.raises(ValueError, match="views"):

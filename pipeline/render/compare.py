@@ -1,0 +1,413 @@
+"""Compare a GL render with the CPU reference: dE2000 maps, statistics and the image checks of issue 5.
+
+What is compared
+----------------
+Both renders hold linear ``lin_rec709`` radiance. The display transform of the project (docs/design.md,
+"Conventions") is the sRGB OETF of the *clipped* linear value, so what a viewer sees is ``clip(rgb, 0, 1)``;
+the dE2000 map is computed on that clipped linear colour (the OETF is monotone, so the result is the same
+as on the display image decoded back to linear). Colours go to CIELAB with the D65 white at Y = 1 through
+:func:`pipeline.spectral.RGB_to_Lab` and are compared with CIEDE2000 (Sharma, Wu and Dalal 2005, as
+implemented by colour-science) through :func:`pipeline.spectral.delta_E_2000`.
+
+Pixels compared: feather pixels away from silhouette edges, i.e. covered by a feather part in BOTH renders,
+with the same part id, after eroding each render's feather coverage by ``erode_px`` pixels (8-connected).
+Edge pixels are excluded because a rasteriser and a ray caster legitimately disagree there (coverage rules,
+texture filtering of the alpha cut-out).
+
+Checks
+------
+- finite: no NaN or Inf anywhere in either render.
+- black holes: lit feather pixels (reference ``N.L >= LIT_N_DOT_L``) whose GL radiance is ~zero
+  (max channel below ``BLACK_RADIANCE``); a correct render has none, because every film colour has a
+  luminance of at least a few per cent.
+- hue: CIELAB hue angle ``h_ab = atan2(b*, a*)`` of chromatic feather pixels (``C*ab >= HUE_MIN_CHROMA``),
+  histogrammed in ``HUE_BIN_DEG`` bins and classified into the two bands of the rock dove's neck:
+  :data:`GREEN_BAND_DEG` and :data:`PURPLE_BAND_DEG` (measured on the Airy colours of a 480-700 nm keratin
+  film under D65: greens have h_ab 115-205 deg, purples/magentas 310-355 deg).
+- boundary straightness: see :func:`boundary_straightness`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+#: Goals of issue 5: a verification fails above these (dE2000 over the compared feather pixels).
+MEDIAN_DE_GOAL = 1.0
+P95_DE_GOAL = 2.0
+#: A feather pixel is "lit" when the reference's N.L is at least this.
+LIT_N_DOT_L = 0.1
+#: Radiance (max channel, linear, light = 1) below which a lit pixel counts as a black hole. The darkest
+#: film colour of the presets has Y > 0.02 and the feather base colour is well above 1e-3 linear.
+BLACK_RADIANCE = 1e-4
+#: A verification fails when more than this fraction of the lit feather pixels are black holes.
+BLACK_FRACTION_GOAL = 0.002
+#: Pixels with less chroma than this are grey (the feather base colour), not green or purple.
+HUE_MIN_CHROMA = 8.0
+HUE_BIN_DEG = 30.0
+#: Hue bands (h_ab, degrees, half-open [lo, hi), wrapping through 360 when lo > hi).
+GREEN_BAND_DEG = (100.0, 210.0)
+PURPLE_BAND_DEG = (280.0, 15.0)
+
+
+def _as_image(name: str, a, channels: int | None) -> np.ndarray:
+    a = np.asarray(a)
+    ok = a.ndim == 3 and a.shape[2] == channels if channels else a.ndim == 2
+    if not ok:
+        want = f"(H, W, {channels})" if channels else "(H, W)"
+        raise ValueError(f"{name} must have shape {want}, got {a.shape}")
+    return a
+
+
+def erode(mask: np.ndarray, pixels: int) -> np.ndarray:
+    """Binary erosion of a boolean image by ``pixels`` with the 3 x 3 (8-connected) structuring element.
+
+    Pixels outside the image count as background, so image borders are eroded too.
+    """
+    from scipy import ndimage
+
+    mask = np.asarray(mask, dtype=bool)
+    if pixels < 0:
+        raise ValueError(f"pixels must be >= 0, got {pixels}")
+    if pixels == 0:
+        return mask.copy()
+    return ndimage.binary_erosion(mask, structure=np.ones((3, 3), bool), iterations=pixels, border_value=0)
+
+
+def comparison_mask(gl_part, ref_part, feather_part_ids, erode_px: int = 1) -> np.ndarray:
+    """Feather pixels away from silhouette edges that both renders agree on.
+
+    Parameters
+    ----------
+    gl_part, ref_part : ndarray, shape (H, W), int
+        Part id per pixel (-1 for background) of each render.
+    feather_part_ids : sequence of int
+        Ids of the feather parts.
+    erode_px : int
+        Erosion of each render's feather coverage, pixels.
+
+    Returns
+    -------
+    ndarray, shape (H, W), bool
+    """
+    gl_part = _as_image("gl_part", gl_part, None)
+    ref_part = _as_image("ref_part", ref_part, None)
+    if gl_part.shape != ref_part.shape:
+        raise ValueError(f"gl_part {gl_part.shape} and ref_part {ref_part.shape} must have the same shape")
+    ids = np.asarray(list(feather_part_ids), dtype=np.int64)
+    gl_f = erode(np.isin(gl_part, ids), erode_px)
+    ref_f = erode(np.isin(ref_part, ids), erode_px)
+    return gl_f & ref_f & (gl_part == ref_part)
+
+
+def rgb_to_lab(rgb_linear: np.ndarray) -> np.ndarray:
+    """Displayed (clipped) linear lin_rec709 colour to CIELAB (D65 white at Y = 1), shape (..., 3)."""
+    from .. import spectral
+
+    return np.asarray(spectral.RGB_to_Lab(np.clip(np.asarray(rgb_linear, np.float64), 0.0, 1.0)), np.float64)
+
+
+def delta_e_map(gl_rgb, ref_rgb, mask=None) -> np.ndarray:
+    """CIEDE2000 between the displayed colours of two linear renders.
+
+    Parameters
+    ----------
+    gl_rgb, ref_rgb : ndarray, shape (H, W, 3)
+        Linear lin_rec709 radiance.
+    mask : ndarray, shape (H, W), bool, optional
+        Pixels to compute; others are NaN.
+
+    Returns
+    -------
+    ndarray, shape (H, W), float64: dE2000, NaN outside ``mask``.
+    """
+    from .. import spectral
+
+    gl_rgb = _as_image("gl_rgb", gl_rgb, 3)
+    ref_rgb = _as_image("ref_rgb", ref_rgb, 3)
+    if gl_rgb.shape != ref_rgb.shape:
+        raise ValueError(f"gl_rgb {gl_rgb.shape} and ref_rgb {ref_rgb.shape} must have the same shape")
+    if mask is None:
+        mask = np.ones(gl_rgb.shape[:2], bool)
+    out = np.full(gl_rgb.shape[:2], np.nan)
+    if mask.any():
+        lab_gl = rgb_to_lab(gl_rgb[mask])
+        lab_ref = rgb_to_lab(ref_rgb[mask])
+        out[mask] = np.asarray(spectral.delta_E_2000(lab_gl, lab_ref), np.float64)
+    return out
+
+
+def _in_band(h_deg: np.ndarray, band: tuple[float, float]) -> np.ndarray:
+    lo, hi = band
+    return (h_deg >= lo) & (h_deg < hi) if lo <= hi else (h_deg >= lo) | (h_deg < hi)
+
+
+def hue_classes(rgb_linear: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Hue angle, chroma and class of displayed colours.
+
+    Returns
+    -------
+    h_deg : ndarray, shape (...), CIELAB hue angle h_ab in [0, 360)
+    chroma : ndarray, shape (...), C*ab
+    cls : ndarray, shape (...), int8: 0 grey (C*ab < HUE_MIN_CHROMA), 1 green, 2 purple, 3 other hue
+    """
+    lab = rgb_to_lab(rgb_linear)
+    h = np.degrees(np.arctan2(lab[..., 2], lab[..., 1])) % 360.0
+    c = np.hypot(lab[..., 1], lab[..., 2])
+    cls = np.full(h.shape, 3, np.int8)
+    cls[_in_band(h, GREEN_BAND_DEG)] = 1
+    cls[_in_band(h, PURPLE_BAND_DEG)] = 2
+    cls[c < HUE_MIN_CHROMA] = 0
+    return h, c, cls
+
+
+def hue_histogram(rgb_pixels: np.ndarray) -> dict:
+    """Histogram of CIELAB hue over chromatic pixels, and the green/purple/grey/other counts.
+
+    Parameters
+    ----------
+    rgb_pixels : ndarray, shape (N, 3), linear lin_rec709
+
+    Returns
+    -------
+    dict with ``bin_edges_deg`` (list), ``counts`` (list), ``green``, ``purple``, ``grey``, ``other`` (int)
+    """
+    rgb_pixels = np.asarray(rgb_pixels, np.float64).reshape(-1, 3)
+    edges = np.arange(0.0, 360.0 + HUE_BIN_DEG, HUE_BIN_DEG)
+    if len(rgb_pixels) == 0:
+        counts, cls = np.zeros(len(edges) - 1, int), np.zeros(0, np.int8)
+    else:
+        h, _, cls = hue_classes(rgb_pixels)
+        counts, _ = np.histogram(h[cls > 0], bins=edges)
+    return {
+        "bin_edges_deg": edges.tolist(),
+        "counts": [int(c) for c in counts],
+        "grey": int(np.sum(cls == 0)),
+        "green": int(np.sum(cls == 1)),
+        "purple": int(np.sum(cls == 2)),
+        "other": int(np.sum(cls == 3)),
+        "min_chroma": HUE_MIN_CHROMA,
+        "green_band_deg": list(GREEN_BAND_DEG),
+        "purple_band_deg": list(PURPLE_BAND_DEG),
+    }
+
+
+def boundary_points(cls: np.ndarray) -> np.ndarray:
+    """Points on the green/purple boundary of a class image.
+
+    A boundary point is the midpoint between two 4-adjacent pixels of which one is green (class 1) and the
+    other purple (class 2).
+
+    Parameters
+    ----------
+    cls : ndarray, shape (H, W), int: the classes of :func:`hue_classes` (anything else is ignored)
+
+    Returns
+    -------
+    ndarray, shape (P, 2), float64: (x, y) in pixels (x = column, y = row, pixel centres at integers)
+    """
+    cls = _as_image("cls", cls, None)
+    pts = []
+    for axis in (0, 1):
+        a = cls[:-1, :] if axis == 0 else cls[:, :-1]
+        b = cls[1:, :] if axis == 0 else cls[:, 1:]
+        hit = ((a == 1) & (b == 2)) | ((a == 2) & (b == 1))
+        r, c = np.nonzero(hit)
+        if axis == 0:
+            pts.append(np.stack([c.astype(float), r + 0.5], axis=1))
+        else:
+            pts.append(np.stack([c + 0.5, r.astype(float)], axis=1))
+    return np.concatenate(pts, axis=0)
+
+
+def boundary_straightness(cls: np.ndarray, min_points: int = 20) -> dict:
+    """How far the green/purple boundary of a class image departs from a straight line.
+
+    Method: take :func:`boundary_points`; fit a line by total least squares (the principal axis of the
+    points: the line minimising the sum of squared perpendicular distances); the measure is the RMS of the
+    perpendicular distances, in pixels, and as a fraction of the boundary's length (the extent of the points
+    along the fitted line), so it does not depend on the image size. To be robust to isolated boundary
+    pixels (a stray feather tip of the other colour), the fit is repeated once without the points farther
+    than 3 x the median absolute distance (when that leaves at least half of them).
+
+    Parameters
+    ----------
+    cls : ndarray, shape (H, W), int
+        Classes as from :func:`hue_classes` (1 green, 2 purple).
+    min_points : int
+        Fewer boundary points than this give no measure (``rms_px`` NaN).
+
+    Returns
+    -------
+    dict: ``n_points``, ``rms_px``, ``length_px``, ``rms_fraction`` (rms_px / length_px), ``direction``
+    (unit (x, y)), ``centre`` ((x, y) px).
+    """
+    pts = boundary_points(cls)
+    out = {"n_points": int(len(pts)), "rms_px": float("nan"), "length_px": float("nan"),
+           "rms_fraction": float("nan"), "direction": None, "centre": None}
+    if len(pts) < min_points:
+        return out
+
+    def fit(p):
+        centre = p.mean(axis=0)
+        _, _, vt = np.linalg.svd(p - centre, full_matrices=False)
+        direction, normal = vt[0], vt[1]
+        dist = (p - centre) @ normal
+        return centre, direction, dist
+
+    centre, direction, dist = fit(pts)
+    mad = np.median(np.abs(dist))
+    keep = np.abs(dist) <= 3.0 * max(mad, 0.5)
+    if keep.sum() >= max(min_points, len(pts) // 2) and not keep.all():
+        pts = pts[keep]
+        centre, direction, dist = fit(pts)
+    along = (pts - centre) @ direction
+    length = float(along.max() - along.min())
+    rms = float(np.sqrt(np.mean(dist**2)))
+    out.update(n_points=int(len(pts)), rms_px=rms, length_px=length,
+               rms_fraction=rms / length if length > 0 else float("nan"),
+               direction=[float(v) for v in direction], centre=[float(v) for v in centre])
+    return out
+
+
+@dataclass
+class ViewMetrics:
+    """Metrics of one view: the GL render against the reference.
+
+    Attributes
+    ----------
+    view : str
+    n_pixels : int
+        Compared feather pixels (see :func:`comparison_mask`).
+    de_median, de_p95, de_max, de_mean : float
+        dE2000 statistics over those pixels (NaN when there are none).
+    finite : bool
+        No NaN/Inf in either render.
+    n_lit, n_black : int
+        Lit feather pixels and, among them, black holes in the GL render.
+    black_fraction : float
+    hue : dict
+        :func:`hue_histogram` of the GL render's compared feather pixels.
+    passed : bool
+        dE goals met, finite, black fraction within its goal.
+    failures : list of str
+        Why not, one line each.
+    de_map : ndarray, shape (H, W)
+        dE2000, NaN where not compared (not serialised by :meth:`summary`).
+    cls : ndarray, shape (H, W), int8
+        Hue class of the GL render's compared pixels, -1 elsewhere (not serialised).
+    """
+
+    view: str
+    n_pixels: int
+    de_median: float
+    de_p95: float
+    de_max: float
+    de_mean: float
+    finite: bool
+    n_lit: int
+    n_black: int
+    black_fraction: float
+    hue: dict
+    passed: bool
+    failures: list = field(default_factory=list)
+    de_map: np.ndarray | None = field(default=None, repr=False)
+    cls: np.ndarray | None = field(default=None, repr=False)
+
+    def summary(self) -> dict:
+        """JSON-ready dict of every metric (no images)."""
+        d = asdict(self)
+        d.pop("de_map")
+        d.pop("cls")
+        return d
+
+
+def compare_arrays(
+    view: str,
+    gl_rgb,
+    ref_rgb,
+    gl_part,
+    ref_part,
+    feather_part_ids,
+    ref_n_dot_l=None,
+    erode_px: int = 1,
+) -> ViewMetrics:
+    """:func:`compare` on plain arrays.
+
+    Parameters
+    ----------
+    view : str
+    gl_rgb, ref_rgb : ndarray, shape (H, W, 3), linear lin_rec709
+    gl_part, ref_part : ndarray, shape (H, W), int, -1 background
+    feather_part_ids : sequence of int
+    ref_n_dot_l : ndarray, shape (H, W), optional
+        The reference's max(N.L, 0) per pixel; without it, no black-hole check (n_lit = 0).
+    erode_px : int
+    """
+    gl_rgb = _as_image("gl_rgb", gl_rgb, 3).astype(np.float64)
+    ref_rgb = _as_image("ref_rgb", ref_rgb, 3).astype(np.float64)
+    finite = bool(np.isfinite(gl_rgb).all() and np.isfinite(ref_rgb).all())
+    mask = comparison_mask(gl_part, ref_part, feather_part_ids, erode_px)
+    safe_gl = np.where(np.isfinite(gl_rgb), gl_rgb, 0.0)
+    safe_ref = np.where(np.isfinite(ref_rgb), ref_rgb, 0.0)
+    de = delta_e_map(safe_gl, safe_ref, mask)
+    vals = de[mask]
+    n = int(vals.size)
+    stats = (np.median(vals), np.percentile(vals, 95), vals.max(), vals.mean()) if n else (np.nan,) * 4
+    if ref_n_dot_l is not None:
+        lit = mask & (np.asarray(ref_n_dot_l) >= LIT_N_DOT_L)
+        black = lit & (np.abs(safe_gl).max(axis=2) < BLACK_RADIANCE)
+        n_lit, n_black = int(lit.sum()), int(black.sum())
+    else:
+        n_lit = n_black = 0
+    black_fraction = n_black / n_lit if n_lit else 0.0
+    cls_img = np.full(mask.shape, -1, np.int8)
+    if n:
+        cls_img[mask] = hue_classes(safe_gl[mask])[2]
+    failures = []
+    if not finite:
+        failures.append(f"{view}: NaN or Inf in a render")
+    if n == 0:
+        failures.append(f"{view}: no feather pixels to compare")
+    else:
+        if stats[0] > MEDIAN_DE_GOAL:
+            failures.append(f"{view}: median dE2000 {stats[0]:.3f} > {MEDIAN_DE_GOAL}")
+        if stats[1] > P95_DE_GOAL:
+            failures.append(f"{view}: p95 dE2000 {stats[1]:.3f} > {P95_DE_GOAL}")
+    if black_fraction > BLACK_FRACTION_GOAL:
+        failures.append(f"{view}: {n_black} of {n_lit} lit feather pixels are black ({black_fraction:.2%})")
+    return ViewMetrics(
+        view=view, n_pixels=n, de_median=float(stats[0]), de_p95=float(stats[1]), de_max=float(stats[2]),
+        de_mean=float(stats[3]), finite=finite, n_lit=n_lit, n_black=n_black, black_fraction=black_fraction,
+        hue=hue_histogram(safe_gl[mask]), passed=not failures, failures=failures, de_map=de, cls=cls_img,
+    )
+
+
+def gl_arrays(result) -> dict:
+    """The arrays of a GL :class:`pipeline.render.gl.RenderResult` that the comparison needs."""
+
+    def get(*names):
+        for n in names:
+            v = getattr(result, n, None)
+            if v is not None:
+                return np.asarray(v)
+        raise ValueError(f"GL result {type(result).__name__} has none of the attributes {names}")
+
+    return {"rgb": get("rgb", "colour", "color", "radiance"), "part_id": get("part_id", "part_ids", "parts")}
+
+
+def compare(gl_result, ref_result, scene, erode_px: int = 1) -> ViewMetrics:
+    """Compare one view's GL render with its reference render (see :func:`compare_arrays`).
+
+    Parameters
+    ----------
+    gl_result : pipeline.render.gl.RenderResult
+    ref_result : pipeline.render.reference.ReferenceResult
+    scene : pipeline.render.scene.RenderScene
+        Gives the feather part ids (``index + 1`` of feather parts).
+    """
+    g = gl_arrays(gl_result)
+    feather_ids = [i + 1 for i, p in enumerate(scene.parts) if p.is_feather]
+    return compare_arrays(ref_result.view, g["rgb"], ref_result.rgb, g["part_id"], ref_result.part_id,
+                          feather_ids, ref_n_dot_l=ref_result.n_dot_l, erode_px=erode_px)
