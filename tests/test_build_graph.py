@@ -208,7 +208,7 @@ def test_code_change_invalidates_a_stage(tmp_path, monkeypatch):
 
 def test_key_reads_exactly_the_declared_config(tmp_path):
     stage = G.Stage("s", _body, config=("lut.angles",))
-    a, b, c = _cfg(), _cfg("lut.method=other", "geometry.seed=3"), _cfg("lut.angles=12")
+    a, b, c = _cfg(), _cfg("lut.method=spectral", "geometry.seed=3"), _cfg("lut.angles=12")
     src = G.source_digest(stage)
     assert G.stage_key(stage, a, {}, src) == G.stage_key(stage, b, {}, src)
     assert G.stage_key(stage, a, {}, src) != G.stage_key(stage, c, {}, src)
@@ -244,3 +244,68 @@ def test_graph_rejects_bad_order_and_duplicates(tmp_path):
         G.Graph([G.Stage("b", _body, deps=("a",)), G.Stage("a", _body)], _cfg(), cache)
     with pytest.raises(ValueError, match="twice"):
         G.Graph([G.Stage("a", _body), G.Stage("a", _body)], _cfg(), cache)
+
+
+# ------------------------------------------------------------------------------------- real stage wiring
+def _real_partial_stages(card_count=12):
+    """The real stages from bake to usdz, fed a synthetic bird and textures (pipeline.usd.synthetic) so they
+    run before the geometry and texture modules land and stay small."""
+    from pipeline.build import stages as S
+    from pipeline.usd.synthetic import synthetic_bird, synthetic_textures
+
+    def bird(ctx):
+        return synthetic_bird(card_count=card_count, seed=ctx.config["geometry"]["seed"],
+                              thickness_range_nm=tuple(ctx.config["thickness"]["base_nm"]))
+
+    return [
+        G.Stage("bird", bird, config=("geometry.seed", "thickness.base_nm"), codec=S.BIRD),
+        G.Stage("thickness_range", S.run_thickness_range, deps=("bird",)),
+        G.Stage("lut", S.run_lut, config=("film", "lut"), deps=("thickness_range",), modules=("pipeline.lut",),
+                codec=S.LUT),
+        G.Stage("texture_images", lambda ctx: synthetic_textures(16), codec=S.IMAGES),
+        G.Stage("textures", S.run_textures, deps=("lut", "texture_images"), codec=G.FILES, publish=""),
+        G.Stage("usd_layers", S.run_usd_layers, config=("film", "shading"), deps=("bird", "lut"),
+                modules=("pipeline.usd",), codec=G.FILES, publish=""),
+        G.Stage("usdz", S.run_usdz, deps=("usd_layers", "textures"), codec=G.FILES, publish=""),
+    ]
+
+
+def test_real_usd_stages_build_a_valid_asset_and_rebuild_incrementally(tmp_path):
+    from pipeline.build import stages as S
+
+    cfg = _cfg("lut.angles=16", "lut.thicknesses=4", "lut.method=spectral_fast")
+    graph = G.Graph(_real_partial_stages(), cfg, G.Cache(tmp_path / "cache"))
+    graph.run()
+    asset = tmp_path / "asset"
+    asset.mkdir()
+    graph.assemble(asset)
+    names = {str(p.relative_to(asset)) for p in asset.rglob("*") if p.is_file()}
+    assert {"pigeon.usda", "pigeon_payload.usda", "pigeon.usdz", "textures/thinfilm_lut.exr"} <= names
+    # the LUT spans exactly the (rounded-out) range on the mesh
+    lo, hi = graph.value("thickness_range")
+    d = graph.value("bird").part("NeckFeathers").primvars["thickness"].values
+    assert lo <= d.min() and d.max() <= hi and hi - lo < (d.max() - d.min()) + 2
+    from pipeline.lut.exr import read_exr
+
+    lut = read_exr(asset / "textures" / "thinfilm_lut.exr")
+    assert lut.thickness_range_nm == (lo, hi) and lut.rgb.shape == (4, 16, 3)
+    # codecs round-trip exactly
+    bird2 = S.BIRD.load(graph.entry_dir("bird"))
+    assert np.array_equal(bird2.part("NeckFeathers").points_m, graph.value("bird").part("NeckFeathers").points_m)
+    assert np.array_equal(S.LUT.load(graph.entry_dir("lut")).rgb, lut.rgb)
+    # a film change re-bakes and rewrites the material; the bird is reused
+    g2 = G.Graph(_real_partial_stages(), _cfg("lut.angles=16", "lut.thicknesses=4", "lut.method=spectral_fast",
+                                              "film.cauchy_a=1.6"), G.Cache(tmp_path / "cache"))
+    g2.run()
+    st = _status(g2)
+    assert st["bird"] == st["thickness_range"] == st["texture_images"] == "reused"
+    assert st["lut"] == st["textures"] == st["usd_layers"] == st["usdz"] == "ran"
+
+
+def test_half_precision_lut_holds_half_floats(tmp_path):
+    cfg = _cfg("lut.angles=8", "lut.thicknesses=2", "lut.method=spectral_fast", "lut.precision=half")
+    graph = G.Graph(_real_partial_stages()[:3], cfg, G.Cache(tmp_path / "cache"))
+    graph.run()
+    rgb = graph.value("lut").rgb
+    assert np.array_equal(rgb, rgb.astype(np.float16).astype(np.float32))
+    assert graph.value("lut").metadata["precision"] == "half"

@@ -11,7 +11,7 @@ stage                   configuration                                 inputs
 ``lut``                 ``film``, ``lut``                             thickness_range (baked over exactly that
                                                                       range; one texel high when uniform);
                                                                       absent for ``shading.variant = physical``
-``texture_images``      ``textures``                                  bird (pipeline.textures)
+``texture_images``      as ``bird`` (BirdParams)                      bird (pipeline.textures)
 ``textures``            --                                            lut, texture_images (pipeline.usd.textures_io)
 ``usd_layers``          ``film``, ``shading``                         bird, lut (pipeline.usd.stage.write_layers)
 ``usdz``                ``usd.usdz``                                  usd_layers, textures (pipeline.usd.usdz)
@@ -190,10 +190,8 @@ def run_lut(ctx: Context):
 def run_texture_images(ctx: Context):
     from .. import textures
 
-    res = ctx.config["textures"]
-    feathers = textures.feather_textures(res["feather_resolution"])
-    body = textures.body_texture(ctx.inputs["bird"], res["body_resolution"])
-    return feathers, body
+    params = bird_params(ctx.config)
+    return textures.feather_textures(params), textures.body_base_colour(params, ctx.inputs["bird"])
 
 
 def run_textures(ctx: Context):
@@ -237,7 +235,7 @@ def _missing(names: list[str]) -> list[str]:
 
 
 REQUIRED = ["pipeline.geometry:build_bird", "pipeline.lut.bake:bake", "pipeline.textures:feather_textures",
-            "pipeline.textures:body_texture", "pipeline.usd.textures_io:write_textures",
+            "pipeline.textures:body_base_colour", "pipeline.usd.textures_io:write_textures",
             "pipeline.usd.stage:write_layers", "pipeline.usd.usdz:write_usdz"]
 REQUIRED_VERIFY = ["pipeline.render.verify:verify_stage_items"]
 
@@ -266,7 +264,7 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
         Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",),
               modules=("pipeline.lut", "pipeline.films", "pipeline.optics", "pipeline.spectral"),
               libraries=LIBS_COLOUR, codec=LUT),
-        Stage("texture_images", run_texture_images, config=("textures",), deps=("bird",),
+        Stage("texture_images", run_texture_images, config=tuple(BIRD_FIELDS), deps=("bird",),
               modules=("pipeline.textures",), libraries=LIBS_GEOMETRY + ("pillow",), codec=IMAGES),
         Stage("textures", run_textures, deps=("lut", "texture_images"),
               modules=("pipeline.usd.textures_io", "pipeline.lut.exr"), libraries=LIBS_USD, codec=FILES, publish=""),
