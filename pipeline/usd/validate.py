@@ -27,6 +27,7 @@ from __future__ import annotations
 import io
 import itertools
 import os
+import re
 import tempfile
 from dataclasses import dataclass, field
 
@@ -264,8 +265,9 @@ def check_textures(stage) -> tuple[list, int, dict]:
             try:
                 decoded[value.resolvedPath] = read_texture_asset(value.resolvedPath)
             except Exception as exc:  # any decoder failure is the finding
+                why = re.sub(r" ?<[^<>]* at 0x[0-9a-fA-F]+>", "", str(exc)) or type(exc).__name__
                 issues.append(Issue("texture", str(attr.GetPath()),
-                                    f"asset {value.path!r} ({value.resolvedPath}) does not read: {exc}"))
+                                    f"asset {value.path!r} ({value.resolvedPath}) does not read: {why}"))
     return issues, n, decoded
 
 

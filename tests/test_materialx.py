@@ -1,0 +1,138 @@
+"""materials/thinfilm.mtlx: validates against MaterialX's libraries, generates GLSL headlessly, is copied
+faithfully into USD, and its LUT texcoord arithmetic is exactly ThinFilmLUT.texcoords (texel centres, warp)."""
+
+import numpy as np
+import pytest
+
+from pipeline.lut import ThinFilmLUT
+from pipeline.usd.material import (
+    MTLX_MATERIALS,
+    author_feather_material,
+    load_thinfilm_document,
+    lut_info,
+    mtlx_nodes,
+)
+
+
+@pytest.fixture(scope="module")
+def doc():
+    return load_thinfilm_document()
+
+
+def _glsl(doc, material):
+    import MaterialX as mx
+    import MaterialX.PyMaterialXGenGlsl as mx_glsl
+    import MaterialX.PyMaterialXGenShader as mx_gen
+
+    gen = mx_glsl.GlslShaderGenerator.create()
+    ctx = mx_gen.GenContext(gen)
+    ctx.registerSourceCodeSearchPath(mx.getDefaultDataSearchPath())
+    shader = gen.generate(material, doc.getChild(material), ctx)
+    return shader.getSourceCode(mx_gen.VERTEX_STAGE), shader.getSourceCode(mx_gen.PIXEL_STAGE)
+
+
+def test_document_validates_against_the_standard_libraries(doc):
+    ok, message = doc.validate()
+    assert ok, message
+    assert {n.getName() for n in doc.getNodes() if n.getType() == "material"} == set(MTLX_MATERIALS.values())
+    for node in mtlx_nodes(doc):  # every node names its nodedef explicitly, as USD's info:id will
+        assert node.getNodeDefString() == node.getNodeDef().getName()
+
+
+def test_glsl_generation_of_the_baked_network_reads_thickness_and_three_textures(doc):
+    vertex, pixel = _glsl(doc, MTLX_MATERIALS["baked"])
+    assert "i_geomprop_thickness" in vertex
+    for sampler in ("LutTexture_file", "BaseColorTexture_file", "MaskTexture_file"):
+        assert f"uniform sampler2D {sampler};" in pixel
+    assert "mx_image_color3" in pixel and "void main()" in pixel
+
+
+def test_glsl_generation_of_the_physical_network_drives_the_thin_film(doc):
+    _, pixel = _glsl(doc, MTLX_MATERIALS["physical"])
+    assert "LutTexture_file" not in pixel  # no LUT: OpenPBR's own thin film
+    assert "thin_film" in pixel and "void main()" in pixel
+
+
+def _stage_with_material(lut):
+    from pxr import Usd
+
+    stage = Usd.Stage.CreateInMemory()
+    mat = author_feather_material(stage, "/Looks/FeatherMaterial", lut=lut_info(lut), film_ior=1.55)
+    return stage, mat
+
+
+def test_usd_network_is_the_document_node_for_node(doc):
+    from pxr import UsdShade
+
+    lut = ThinFilmLUT(np.zeros((4, 8, 3), np.float32), (500.0, 700.0), angle_warp_gamma=2.0)
+    stage, mat = _stage_with_material(lut)
+    set_by_build = {"LutAngleCount", "LutThicknessCount", "LutAngleWarpGamma", "LutThicknessLoNm",
+                    "LutThicknessHiNm", "FilmIor"}
+    for node in mtlx_nodes(doc):
+        shader = UsdShade.Shader(stage.GetPrimAtPath(f"/Looks/FeatherMaterial/{node.getName()}"))
+        assert shader, node.getName()
+        assert shader.GetShaderId() == node.getNodeDefString()
+        assert sorted(i.GetBaseName() for i in shader.GetInputs()) == sorted(i.getName() for i in node.getInputs())
+        for inp in node.getInputs():
+            usd_in = shader.GetInput(inp.getName())
+            if inp.getNodeName():
+                src = usd_in.GetConnectedSources()[0][0].source.GetPath().name
+                assert src == inp.getNodeName(), (node.getName(), inp.getName())
+            elif inp.getType() == "filename":
+                assert usd_in.Get().path.endswith(inp.getValueString())
+            elif node.getName() not in set_by_build and inp.getType() in ("float", "integer", "string", "boolean"):
+                assert usd_in.Get() == pytest.approx(inp.getValue()), (node.getName(), inp.getName())
+    values = {n: UsdShade.Shader(stage.GetPrimAtPath(f"/Looks/FeatherMaterial/{n}")).GetInput("value").Get()
+              for n in set_by_build}
+    assert values == pytest.approx({"LutAngleCount": 8, "LutThicknessCount": 4, "LutAngleWarpGamma": 2.0,
+                                    "LutThicknessLoNm": 500.0, "LutThicknessHiNm": 700.0, "FilmIor": 1.55})
+
+
+# A numpy evaluator of the arithmetic nodes the LUT lookup uses, reading the USD shaders as authored.
+_OPS = {
+    "ND_constant_float": lambda i: i["value"],
+    "ND_add_float": lambda i: i["in1"] + i["in2"],
+    "ND_subtract_float": lambda i: i["in1"] - i["in2"],
+    "ND_multiply_float": lambda i: i["in1"] * i["in2"],
+    "ND_divide_float": lambda i: i["in1"] / i["in2"],
+    "ND_max_float": lambda i: np.maximum(i["in1"], i["in2"]),
+    "ND_clamp_float": lambda i: np.clip(i["in"], i["low"], i["high"]),
+    "ND_power_float": lambda i: np.power(i["in1"], i["in2"]),
+    "ND_absval_float": lambda i: np.abs(i["in"]),
+    "ND_combine2_vector2": lambda i: np.stack(np.broadcast_arrays(i["in1"], i["in2"]), -1),
+}
+
+
+def _evaluate(shader, leaves):
+    from pxr import UsdShade
+
+    name = shader.GetPath().name
+    if name in leaves:
+        return leaves[name]
+    inputs = {}
+    for inp in shader.GetInputs():
+        sources = inp.GetConnectedSources()[0]
+        if sources:
+            inputs[inp.GetBaseName()] = _evaluate(UsdShade.Shader(sources[0].source.GetPrim()), leaves)
+        else:
+            inputs[inp.GetBaseName()] = np.float64(inp.Get())
+    return _OPS[shader.GetShaderId()](inputs)
+
+
+@pytest.mark.parametrize("shape, rng_nm, gamma", [((8, 16), (480.0, 700.0), 2.0), ((5, 7), (450.0, 750.0), 1.0),
+                                                   ((1, 32), (650.0, 650.0), 1.5)])
+def test_lut_texcoords_match_the_table_contract_exactly(shape, rng_nm, gamma):
+    from pxr import UsdShade
+
+    lut = ThinFilmLUT(np.zeros(shape + (3,), np.float32), rng_nm, angle_warp_gamma=gamma)
+    stage, _ = _stage_with_material(lut)
+    texcoord = UsdShade.Shader(stage.GetPrimAtPath("/Looks/FeatherMaterial/LutTexture")).GetInput("texcoord")
+    graph = UsdShade.Shader(texcoord.GetConnectedSources()[0][0].source.GetPrim())
+    rng = np.random.default_rng(1)
+    n_dot_v = rng.uniform(-1, 1, 200)  # cards are seen from both sides: |N.V|
+    n_dot_v[:3] = (0.0, 1.0, -1.0)
+    d = rng.uniform(rng_nm[0] - 50, rng_nm[1] + 50, 200)  # outside the domain too: clamped
+    uv = _evaluate(graph, {"NDotV": n_dot_v, "ThicknessPrimvar": d})
+    u, v = lut.texcoords(np.abs(n_dot_v), d)
+    assert np.allclose(uv[:, 0], u, rtol=0, atol=1e-12)
+    assert np.allclose(uv[:, 1], v, rtol=0, atol=1e-12)

@@ -1,0 +1,74 @@
+"""RockDoveThinFilmAPI: schema.usda, generatedSchema.usda, plugInfo.json and USD's registry agree; it applies
+to meshes only; read_thin_film round-trips apply_thin_film."""
+
+import json
+import os
+
+import pytest
+
+from pipeline.usd.schema import SCHEMA_DIR, SCHEMA_NAME, apply_thin_film, read_thin_film, register
+
+DESIGN_ATTRS = {  # docs/design.md, "USD asset"
+    "rockdove:film:model": "token", "rockdove:film:cauchyA": "float", "rockdove:film:cauchyB_nm2": "float",
+    "rockdove:film:incidentIndex": "float", "rockdove:film:substrateIndex": "float",
+    "rockdove:film:thicknessPrimvar": "token", "rockdove:film:thicknessUnits": "token",
+    "rockdove:lut:file": "asset", "rockdove:lut:colorSpace": "token", "rockdove:lut:angleWarpGamma": "float",
+    "rockdove:lut:thicknessRangeNm": "float2", "rockdove:lut:illuminant": "token",
+    "rockdove:lut:observer": "string",
+}
+
+
+def _class_attrs(path):
+    from pxr import Sdf
+
+    layer = Sdf.Layer.OpenAsAnonymous(path)  # keep the layer alive while its specs are read
+    spec = layer.GetPrimAtPath(f"/{SCHEMA_NAME}")
+    return {a.name: (str(a.typeName), a.default, a.documentation) for a in spec.attributes}
+
+
+def test_source_and_generated_schema_agree_with_the_design():
+    source = _class_attrs(os.path.join(SCHEMA_DIR, "schema.usda"))
+    generated = _class_attrs(os.path.join(SCHEMA_DIR, "generatedSchema.usda"))
+    assert source == generated
+    assert {k: v[0] for k, v in generated.items()} == DESIGN_ATTRS
+    assert all(doc for _, _, doc in generated.values())  # every attribute documented
+
+
+def test_pluginfo_declares_a_single_apply_api_schema_for_meshes():
+    info = json.load(open(os.path.join(SCHEMA_DIR, "plugInfo.json")))
+    (plugin,) = info["Plugins"]
+    (entry,) = plugin["Info"]["Types"].values()
+    assert entry["schemaIdentifier"] == SCHEMA_NAME and entry["schemaKind"] == "singleApplyAPI"
+    assert entry["apiSchemaCanOnlyApplyTo"] == ["Mesh"]
+
+
+def test_registry_definition_matches_generated_schema():
+    from pxr import Usd
+
+    register()
+    definition = Usd.SchemaRegistry().FindAppliedAPIPrimDefinition(SCHEMA_NAME)
+    assert sorted(definition.GetPropertyNames()) == sorted(DESIGN_ATTRS)
+    assert Usd.SchemaRegistry().GetSchemaKind(SCHEMA_NAME) == Usd.SchemaKind.SingleApplyAPI
+
+
+def test_apply_and_read_round_trip_and_refusals():
+    from pxr import Usd
+
+    register()
+    stage = Usd.Stage.CreateInMemory()
+    mesh = stage.DefinePrim("/M", "Mesh")
+    apply_thin_film(mesh, model="paper", cauchy_a=1.5, cauchy_b_nm2=0.0, incident_index=1.0, substrate_index=1.0,
+                    lut_file="./textures/thinfilm_lut.exr", lut_colour_space="acescg", angle_warp_gamma=2.5,
+                    thickness_range_nm=(600, 700))
+    film = read_thin_film(mesh)
+    assert film["model"] == "paper" and film["cauchy_a"] == 1.5 and film["lut_colour_space"] == "acescg"
+    assert film["angle_warp_gamma"] == 2.5 and film["thickness_range_nm"] == (600.0, 700.0)
+    assert film["lut_file"] == "./textures/thinfilm_lut.exr" and film["lut_file_resolved"] == ""
+    assert film["observer"] == "CIE 1931 2 Degree Standard Observer"
+    xform = stage.DefinePrim("/X", "Xform")
+    with pytest.raises(ValueError, match="Mesh"):
+        apply_thin_film(xform, model="paper", cauchy_a=1.5, cauchy_b_nm2=0, incident_index=1, substrate_index=1,
+                        lut_file="a.exr", lut_colour_space="lin_rec709", angle_warp_gamma=1,
+                        thickness_range_nm=(1, 2))
+    with pytest.raises(ValueError, match=SCHEMA_NAME):
+        read_thin_film(stage.DefinePrim("/Plain", "Mesh"))

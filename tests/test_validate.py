@@ -1,0 +1,147 @@
+"""Validation of a written asset: clean on a good one; each kind of breakage reported by name and path;
+``rockdove validate`` exit statuses 0 / 1 / 2."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+from pipeline.assemble import assemble
+from pipeline.films import get_film
+from pipeline.usd.synthetic import synthetic_bird, synthetic_lut, synthetic_textures
+from pipeline.usd.validate import validate_asset
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+FEATHERS = "/Pigeon/Geom/NeckFeathers"
+
+
+@pytest.fixture(scope="module")
+def good(tmp_path_factory):
+    feather, body = synthetic_textures()
+    out = tmp_path_factory.mktemp("good") / "pigeon"
+    assemble(out, bird=synthetic_bird(6), lut=synthetic_lut(), feather_textures=feather, body_texture=body,
+             film=get_film("paper"))
+    return str(out)
+
+
+@pytest.fixture
+def broken(good, tmp_path):
+    """A copy of the good asset (without its usdz) and a function to edit its payload layer."""
+    from pxr import Sdf
+
+    out = str(tmp_path / "pigeon")
+    shutil.copytree(good, out, ignore=shutil.ignore_patterns("*.usdz"))
+
+    def edit(fn):
+        layer = Sdf.Layer.OpenAsAnonymous(os.path.join(out, "pigeon_payload.usda"))
+        fn(layer)
+        with open(os.path.join(out, "pigeon_payload.usda"), "w") as fh:
+            fh.write(layer.ExportToString())
+
+    return out, edit
+
+
+def _errors(report, check):
+    return [i for i in report.errors if i.check == check]
+
+
+def test_good_asset_is_clean_in_every_variant_and_as_usdz(good):
+    report = validate_asset(good)
+    assert report.clean, report.format()
+    assert report.variants == ["shading=baked", "shading=physical"]
+    assert report.counts["mtlx shaders"] >= 30 and report.counts["assets"] == 6
+    assert report.counts["thin films"] == 1 and report.counts["materials"] == 3
+    usdz = validate_asset(os.path.join(good, "pigeon.usdz"))
+    assert usdz.clean, usdz.format()
+
+
+def test_missing_texture_is_reported_with_its_attribute(broken):
+    out, _ = broken
+    os.remove(os.path.join(out, "textures", "feather_mask.png"))
+    (issue,) = _errors(validate_asset(out), "texture")
+    assert issue.path == "/Pigeon/Looks/FeatherMaterial/MaskTexture.inputs:file"
+    assert "feather_mask.png" in issue.message and "does not resolve" in issue.message
+
+
+def test_unreadable_texture_is_reported(broken):
+    out, _ = broken
+    with open(os.path.join(out, "textures", "body_base.png"), "wb") as fh:
+        fh.write(b"not a png")
+    (issue,) = _errors(validate_asset(out), "texture")
+    assert issue.path == "/Pigeon/Looks/BodyMaterial/BaseColorTexture.inputs:file"
+    assert "does not read" in issue.message
+
+
+def test_wrong_primvar_size_is_reported(broken):
+    from pxr import Vt
+
+    out, edit = broken
+    edit(lambda layer: layer.GetAttributeAtPath(f"{FEATHERS}.primvars:neckS").SetInfo(
+        "default", Vt.FloatArray([0.5] * 5)))
+    (issue,) = _errors(validate_asset(out), "primvar")
+    assert issue.path == f"{FEATHERS}.primvars:neckS"
+    assert "5 values" in issue.message and "expected 24" in issue.message
+
+
+def test_unknown_nd_id_and_wrong_input_type_are_reported(broken):
+    out, edit = broken
+
+    def fn(layer):
+        layer.GetAttributeAtPath("/Pigeon/Looks/FeatherMaterial/AngleX.info:id").default = "ND_bogus_float"
+        spec = layer.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial/AngleSpan")
+        spec.properties["inputs:in2"].SetInfo("typeName", "int")
+        spec.properties["inputs:in2"].default = 1
+
+    edit(fn)
+    issues = {i.path: i.message for i in _errors(validate_asset(out), "mtlx")}
+    assert "ND_bogus_float" in issues["/Pigeon/Looks/FeatherMaterial/AngleX.info:id"]
+    assert "expects float" in issues["/Pigeon/Looks/FeatherMaterial/AngleSpan.inputs:in2"]
+    assert len(issues) == 2
+
+
+def test_thickness_outside_the_lut_domain_is_reported(broken):
+    from pxr import Vt
+
+    out, edit = broken
+
+    def fn(layer):
+        attr = layer.GetAttributeAtPath(f"{FEATHERS}.primvars:thickness")
+        attr.default = Vt.FloatArray([900.0] * len(attr.default))
+
+    edit(fn)
+    (issue,) = _errors(validate_asset(out), "thinFilm")
+    assert issue.path == f"{FEATHERS}.primvars:thickness"
+    assert "[900, 900] nm, outside the LUT domain [450, 750]" in issue.message
+
+
+def test_unresolved_mtlx_surface_is_reported_in_its_variant_only(broken):
+    out, edit = broken
+    def fn(layer):
+        del layer.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial").nameChildren["MtlxPhysicalSurface"]
+
+    edit(fn)
+    issues = _errors(validate_asset(out), "material")
+    assert [(i.path, i.variants) for i in issues] == [
+        ("/Pigeon/Looks/FeatherMaterial.outputs:mtlx:surface", ("shading=physical",))]
+
+
+def _cli(*args):
+    env = dict(os.environ, PYTHONPATH=ROOT)
+    return subprocess.run([sys.executable, "-m", "pipeline.cli", "validate", *args], capture_output=True,
+                          text=True, cwd=ROOT, env=env, timeout=120)
+
+
+def test_cli_exit_statuses_and_json(good, broken, tmp_path):
+    ok = _cli(good, "--json")
+    assert ok.returncode == 0, ok.stderr
+    assert json.loads(ok.stdout)["clean"] is True
+    out, _ = broken
+    os.remove(os.path.join(out, "textures", "feather_base.png"))
+    bad = _cli(out)
+    assert bad.returncode == 1
+    assert "BaseColorTexture.inputs:file" in bad.stdout and "NOT CLEAN" in bad.stdout
+    missing = _cli(str(tmp_path / "nowhere"))
+    assert missing.returncode == 2 and "does not exist" in missing.stderr
