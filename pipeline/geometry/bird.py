@@ -1,0 +1,92 @@
+"""Assemble the rock dove: the body (one closed surface with xatlas UVs), the neck feather cards, the parts.
+
+``build_body`` and ``build_cards`` are separate so that a build graph can cache the body (it depends only on
+``BirdParams.body_key()``) and redo only the cards when the card parameters or the seed change.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.geometry import body as _body
+from pipeline.geometry import cards as _cards
+from pipeline.geometry import neck as _neck
+from pipeline.geometry import parts as _parts
+from pipeline.geometry import uv as _uv
+from pipeline.geometry.params import BirdParams
+from pipeline.geometry.types import Bird, MeshPart, Primvar
+
+#: Display colour of the body (linear RGB): rock-dove blue-grey.
+BODY_DISPLAY_COLOR = (0.25, 0.28, 0.33)
+
+
+@dataclass(frozen=True)
+class Body:
+    """The body in its two forms.
+
+    Attributes
+    ----------
+    mesh : body.BodyMesh
+        Welded closed surface (for sampling, inside tests and ray casts).
+    part : MeshPart
+        ``"Body"``: vertices split at UV seams, st from xatlas, primvar ``neckS`` ((V,) float32 in [0, 1],
+        the neck coordinate clipped to [0, 1]) and ``neckBand`` ((V,) float32, 1 inside the neck band).
+    """
+
+    mesh: _body.BodyMesh
+    part: MeshPart
+
+
+def _check_params(params) -> BirdParams:
+    if not isinstance(params, BirdParams):
+        raise ValueError(f"params must be a BirdParams, got {type(params).__name__}")
+    return params
+
+
+def build_body(params: BirdParams) -> Body:
+    """Mesh the body (torso, neck, head, folded wings, tail) and give it UVs. Depends on ``params.body_key()``."""
+    params = _check_params(params)
+    mesh = _body.build_body_mesh(params.body_voxel_m)
+    at = _uv.atlas(mesh.vertices_m, mesh.faces)
+    points = mesh.vertices_m[at.vmapping]
+    s, _ = _neck.neck_s(points)
+    band = _neck.in_band(points)
+    part = MeshPart(
+        name="Body",
+        points_m=points.astype(np.float32),
+        face_vertex_counts=np.full(len(at.faces), 3, dtype=np.int32),
+        face_vertex_indices=at.faces.reshape(-1).astype(np.int32),
+        normals=mesh.normals[at.vmapping].astype(np.float32),
+        st=at.st,
+        material="body",
+        display_color=BODY_DISPLAY_COLOR,
+        primvars={
+            "neckS": Primvar(np.clip(s, 0.0, 1.0).astype(np.float32), "vertex",
+                             "neck coordinate: 0 at the neck base, 1 at its top below the head, clipped"),
+            "neckBand": Primvar(band.astype(np.float32), "vertex", "1 in the neck band, else 0"),
+        },
+    )
+    return Body(mesh=mesh, part=part)
+
+
+def build_cards(body: Body, params: BirdParams) -> _cards.FeatherCards:
+    """The neck feather cards on ``body`` (see :mod:`pipeline.geometry.cards`)."""
+    params = _check_params(params)
+    return _cards.build_cards(body.mesh.vertices_m, body.mesh.faces, params)
+
+
+def build_bird(params: BirdParams, body: Body | None = None) -> Bird:
+    """The whole rock dove: Body, NeckFeathers, Beak, Cere, Eyes, Legs.
+
+    Parameters
+    ----------
+    params : BirdParams
+    body : Body, optional
+        A body already built for ``params`` (e.g. from a cache); built when omitted.
+    """
+    params = _check_params(params)
+    body = build_body(params) if body is None else body
+    cards = build_cards(body, params)
+    return Bird(parts=(body.part, cards.part()) + _parts.build_parts())

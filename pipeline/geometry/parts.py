@@ -1,0 +1,189 @@
+"""The bird's other parts: beak, cere, eyes, legs and feet. Surfaces of revolution, each closed and smooth.
+
+A surface of revolution has a natural parametrisation, used as its st: u around (0 .. 1, the seam vertices
+duplicated), v along the profile (0 .. 1). Proportions of a rock dove: beak about 2 cm, dark with a pale
+tip; white cere over the nostrils; orange eyes; short red legs, three toes forward and one back.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pipeline.geometry.types import MeshPart
+
+#: Segments around every surface of revolution.
+AROUND = 20
+
+#: Display colours (linear RGB).
+BEAK_COLOR = (0.035, 0.03, 0.03)
+CERE_COLOR = (0.75, 0.74, 0.70)
+EYE_COLOR = (0.75, 0.25, 0.03)
+LEG_COLOR = (0.55, 0.08, 0.07)
+
+
+def revolve(z_m: np.ndarray, radius_m: np.ndarray, around: int = AROUND):
+    """Closed surface of revolution about +Z of a profile from pole to pole.
+
+    Parameters
+    ----------
+    z_m : np.ndarray
+        (M,) positions along the axis, increasing, metres.
+    radius_m : np.ndarray
+        (M,) radii; the first and last are the poles (radius 0).
+    around : int
+        Segments around.
+
+    Returns
+    -------
+    vertices : np.ndarray
+        (M * (around + 1), 3) float64 (every ring has a duplicated seam vertex; the poles are rings of
+        coincident points).
+    normals : np.ndarray
+        (same, 3) unit outward normals.
+    st : np.ndarray
+        (same, 2) u around, v along.
+    faces : np.ndarray
+        (2 (M - 1) around, 3) int64, counter-clockwise seen from outside; degenerate triangles at the poles
+        are dropped.
+    """
+    z = np.asarray(z_m, dtype=np.float64)
+    r = np.asarray(radius_m, dtype=np.float64)
+    m = len(z)
+    phi = np.linspace(0.0, 2.0 * np.pi, around + 1)
+    cos, sin = np.cos(phi), np.sin(phi)
+    verts = np.stack([r[:, None] * cos[None, :], r[:, None] * sin[None, :],
+                      np.broadcast_to(z[:, None], (m, around + 1))], axis=-1)
+    # profile normal: perpendicular to the profile tangent (dz, dr) -> (dz, -dr) rotated outward
+    dz, dr = np.gradient(z), np.gradient(r)
+    nr, nz = dz, -dr
+    ln = np.hypot(nr, nz)
+    nr, nz = nr / ln, nz / ln
+    nrm = np.stack([nr[:, None] * cos[None, :], nr[:, None] * sin[None, :],
+                    np.broadcast_to(nz[:, None], (m, around + 1))], axis=-1)
+    st = np.stack(np.broadcast_arrays((phi / (2.0 * np.pi))[None, :], np.linspace(0.0, 1.0, m)[:, None]),
+                  axis=-1)
+    idx = np.arange(m * (around + 1)).reshape(m, around + 1)
+    a, b = idx[:-1, :-1], idx[:-1, 1:]
+    c, d = idx[1:, 1:], idx[1:, :-1]
+    # u runs counter-clockwise about +Z and v toward +Z, so (a, b, c) and (a, c, d) wind outward
+    tri_lo = np.stack([a, b, c], axis=-1)  # uses ring j twice: degenerate on the first pole
+    tri_hi = np.stack([a, c, d], axis=-1)  # uses ring j + 1 twice: degenerate on the last pole
+    faces = np.concatenate([tri_lo[1:].reshape(-1, 3), tri_hi[:-1].reshape(-1, 3)])
+    return verts.reshape(-1, 3), nrm.reshape(-1, 3), st.reshape(-1, 2).astype(np.float64), faces
+
+
+def _frame(direction: np.ndarray, up: np.ndarray = np.array([0.0, 1.0, 0.0])) -> np.ndarray:
+    """(3, 3) rotation whose third column is ``direction`` (unit) and whose second leans to ``up``."""
+    zc = direction / np.linalg.norm(direction)
+    xc = np.cross(up, zc)
+    if np.linalg.norm(xc) < 1e-8:
+        xc = np.cross(np.array([1.0, 0.0, 0.0]), zc)
+    xc /= np.linalg.norm(xc)
+    yc = np.cross(zc, xc)
+    return np.stack([xc, yc, zc], axis=1)
+
+
+def place(piece, origin_m, direction, scale_xy=(1.0, 1.0)):
+    """Scale a revolved piece across its axis, turn its +Z to ``direction`` and move it to ``origin_m``."""
+    verts, nrm, st, faces = piece
+    s = np.array([scale_xy[0], scale_xy[1], 1.0])
+    rot = _frame(np.asarray(direction, dtype=np.float64))
+    v = (verts * s) @ rot.T + np.asarray(origin_m)
+    n = nrm / s  # normals transform by the inverse scale
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    return v, n @ rot.T, st, faces
+
+
+def _concat(pieces):
+    vs, ns, sts, fs = [], [], [], []
+    offset = 0
+    for v, n, st, f in pieces:
+        vs.append(v)
+        ns.append(n)
+        sts.append(st)
+        fs.append(f + offset)
+        offset += len(v)
+    return np.concatenate(vs), np.concatenate(ns), np.concatenate(sts), np.concatenate(fs)
+
+
+def _part(name, pieces, material, color) -> MeshPart:
+    v, n, st, f = _concat(pieces)
+    return MeshPart(name=name, points_m=v.astype(np.float32),
+                    face_vertex_counts=np.full(len(f), 3, dtype=np.int32),
+                    face_vertex_indices=f.reshape(-1).astype(np.int32), normals=n.astype(np.float32),
+                    st=st.astype(np.float32), material=material, display_color=color, primvars={})
+
+
+def _profile(length_m, radius_fn, m=16):
+    """Profile from pole (z = 0) to pole (z = length), radius_fn(v) for v in [0, 1] (0 at both ends)."""
+    v = 0.5 - 0.5 * np.cos(np.linspace(0.0, np.pi, m))  # denser near the poles
+    return v * length_m, radius_fn(v)
+
+
+def ellipsoid_piece(radius_m: float, m: int = 12):
+    """A sphere of ``radius_m`` along +Z from its south pole at z = 0 (scale across for an ellipsoid)."""
+    a = np.linspace(0.0, np.pi, m)
+    return revolve(radius_m * (1.0 - np.cos(a)), radius_m * np.sin(a))
+
+
+def tube_piece(length_m: float, r0_m: float, r1_m: float, m: int = 14):
+    """A rounded tapered tube of ``length_m`` along +Z, radius r0 at the base to r1 near the end."""
+    z, _ = _profile(length_m, lambda v: v, m)
+    v = z / length_m
+    body = r0_m + (r1_m - r0_m) * v
+    cap = np.sqrt(np.clip(np.minimum(v, 1.0 - v) * length_m / max(r0_m, r1_m), 0.0, 1.0))
+    r = body * np.minimum(1.0, 1.6 * cap)
+    r[0] = r[-1] = 0.0
+    return revolve(z, r)
+
+
+def build_beak() -> MeshPart:
+    """The beak: slender, slightly flattened side to side, pointing forward and a little down."""
+    length = 0.026
+    z, _ = _profile(length, lambda v: v, 16)
+    v = z / length
+    r = 0.0046 * (1.0 - v) ** 0.8 * np.sqrt(np.clip(v * 8.0, 0.0, 1.0))
+    r[-1] = 0.0
+    piece = revolve(z, r)
+    return _part("Beak", [place(piece, (0.0, 0.2075, 0.0985), (0.0, -0.26, 1.0), (0.8, 1.0))],
+                 "beak", BEAK_COLOR)
+
+
+def build_cere() -> MeshPart:
+    """The cere: a white, powdery swelling over the nostrils at the base of the upper beak."""
+    piece = ellipsoid_piece(0.0055)
+    return _part("Cere", [place(piece, (0.0, 0.2118, 0.0990), (0.0, -0.22, 1.0), (0.8, 0.5))],
+                 "cere", CERE_COLOR)
+
+
+def build_eyes() -> MeshPart:
+    """Two eyes on the sides of the head (one part)."""
+    r = 0.0042
+    pieces = []
+    for side in (1.0, -1.0):
+        centre = np.array([side * 0.0142, 0.2185, 0.0905])
+        outward = np.array([side, 0.15, 0.25])
+        outward /= np.linalg.norm(outward)
+        pieces.append(place(ellipsoid_piece(r), centre - r * outward, outward))
+    return _part("Eyes", pieces, "eye", EYE_COLOR)
+
+
+def build_legs() -> MeshPart:
+    """Both legs: tarsus from inside the belly to the foot, three toes forward and one back; soles at y = 0."""
+    pieces = []
+    toe_r = 0.0019
+    for side in (1.0, -1.0):
+        hip = np.array([side * 0.016, 0.064, 0.010])
+        foot = np.array([side * 0.019, toe_r, 0.020])
+        pieces.append(place(tube_piece(np.linalg.norm(foot - hip) + 0.002, 0.0036, 0.0028),
+                            hip, foot - hip))
+        for yaw_deg, length in ((-28.0, 0.026), (0.0, 0.032), (28.0, 0.026), (180.0, 0.018)):
+            yaw = np.deg2rad(yaw_deg * side)
+            d = np.array([np.sin(yaw), -0.04, np.cos(yaw)])
+            pieces.append(place(tube_piece(length, toe_r, 0.0011), foot - 0.002 * d, d))
+    return _part("Legs", pieces, "leg", LEG_COLOR)
+
+
+def build_parts() -> tuple:
+    """Beak, cere, eyes and legs, in that order (each a :class:`MeshPart`)."""
+    return (build_beak(), build_cere(), build_eyes(), build_legs())

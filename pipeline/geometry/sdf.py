@@ -1,0 +1,145 @@
+"""Signed-distance primitives and the rock dove's body field (negative inside), all vectorised over (N, 3).
+
+Primitives and the polynomial smooth minimum follow Inigo Quilez, "distance functions" and "smooth minimum"
+(iquilezles.org, 2008-2013): the ellipsoid uses his bound ``k0 (k0 - 1) / k1``, the tapered capsule the
+linearly interpolated radius along the segment. Smooth union:
+``h = clip(0.5 + 0.5 (b - a) / k, 0, 1); d = mix(b, a, h) - k h (1 - h)``.
+
+The bird faces +Z, Y up, metres, feet at y = 0 (docs/design.md, Conventions). Proportions of a rock dove
+(Columba livia): about 32 cm from beak tip to tail tip, body about 11 cm deep; the shapes below were tuned by
+eye against side-view photographs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def rotation_x(angle_rad: float) -> np.ndarray:
+    """(3, 3) rotation about +X by ``angle_rad`` (right-handed)."""
+    c, s = np.cos(angle_rad), np.sin(angle_rad)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def rotation_y(angle_rad: float) -> np.ndarray:
+    """(3, 3) rotation about +Y by ``angle_rad`` (right-handed)."""
+    c, s = np.cos(angle_rad), np.sin(angle_rad)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def rotation_z(angle_rad: float) -> np.ndarray:
+    """(3, 3) rotation about +Z by ``angle_rad`` (right-handed)."""
+    c, s = np.cos(angle_rad), np.sin(angle_rad)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+@dataclass(frozen=True)
+class Ellipsoid:
+    """Ellipsoid: ``centre_m`` (3,), ``radii_m`` (3,) along its local axes, ``rotation`` (3, 3) local -> world."""
+
+    centre_m: tuple
+    radii_m: tuple
+    rotation: np.ndarray = None
+
+    def local(self, p: np.ndarray) -> np.ndarray:
+        """(N, 3) world points -> (N, 3) local coordinates (metres, unrotated, centred)."""
+        q = p - np.asarray(self.centre_m)
+        return q if self.rotation is None else q @ self.rotation
+
+    def sdf(self, p: np.ndarray) -> np.ndarray:
+        """(N,) approximate signed distance, metres (Quilez's ellipsoid bound)."""
+        q = self.local(p)
+        r = np.asarray(self.radii_m)
+        k0 = np.linalg.norm(q / r, axis=-1)
+        k1 = np.linalg.norm(q / (r * r), axis=-1)
+        return k0 * (k0 - 1.0) / np.maximum(k1, 1e-12)
+
+
+@dataclass(frozen=True)
+class TaperedCapsule:
+    """Capsule from ``a_m`` (radius ``ra_m``) to ``b_m`` (radius ``rb_m``), radius linear along the segment."""
+
+    a_m: tuple
+    b_m: tuple
+    ra_m: float
+    rb_m: float
+
+    def sdf(self, p: np.ndarray) -> np.ndarray:
+        """(N,) approximate signed distance, metres."""
+        a, b = np.asarray(self.a_m), np.asarray(self.b_m)
+        ba = b - a
+        t = np.clip(((p - a) @ ba) / (ba @ ba), 0.0, 1.0)
+        d = np.linalg.norm(p - (a + t[:, None] * ba), axis=-1)
+        return d - (self.ra_m + t * (self.rb_m - self.ra_m))
+
+
+def smooth_union(a: np.ndarray, b: np.ndarray, k_m: float) -> np.ndarray:
+    """Polynomial smooth minimum of two distance fields with blend radius ``k_m`` metres (Quilez)."""
+    h = np.clip(0.5 + 0.5 * (b - a) / k_m, 0.0, 1.0)
+    return b * (1.0 - h) + a * h - k_m * h * (1.0 - h)
+
+
+# ---- the rock dove's body: torso, breast, neck, head, folded wings, tail (one closed surface) ----------
+_DEG = np.pi / 180.0
+
+#: Torso, tilted nose-up by 22 degrees like a standing pigeon.
+TORSO = Ellipsoid((0.0, 0.112, -0.005), (0.048, 0.050, 0.088), rotation_x(-22 * _DEG))
+#: The full breast in front of and below the neck.
+BREAST = Ellipsoid((0.0, 0.122, 0.045), (0.043, 0.047, 0.045), None)
+#: Belly, between the legs.
+BELLY = Ellipsoid((0.0, 0.080, 0.008), (0.036, 0.037, 0.050), None)
+#: Neck: a tapered capsule from the shoulders to under the head, leaning forward.
+NECK = TaperedCapsule((0.0, 0.150, 0.040), (0.0, 0.203, 0.072), 0.026, 0.0165)
+#: Head (slightly elongated front to back).
+HEAD = Ellipsoid((0.0, 0.214, 0.083), (0.0185, 0.0195, 0.0235), rotation_x(10 * _DEG))
+#: Folded wings on each side, tips crossing over the rump toward the tail.
+WING_L = Ellipsoid((0.036, 0.125, -0.045), (0.016, 0.040, 0.098), rotation_x(-16 * _DEG) @ rotation_y(4 * _DEG))
+WING_R = Ellipsoid((-0.036, 0.125, -0.045), (0.016, 0.040, 0.098), rotation_x(-16 * _DEG) @ rotation_y(-4 * _DEG))
+#: Tail: a flat, broad fan behind the rump, tip at about z = -0.19.
+TAIL = Ellipsoid((0.0, 0.086, -0.126), (0.034, 0.011, 0.068), rotation_x(-14 * _DEG))
+
+#: Neck axis for the band coordinate s: s = 0 at the base of the neck, s = 1 at its top below the head.
+NECK_BASE_M = np.array([0.0, 0.150, 0.038])
+NECK_TOP_M = np.array([0.0, 0.197, 0.068])
+#: Surface points farther than this from the neck axis are not in the neck band (excludes back and breast).
+NECK_BAND_RADIUS_M = 0.034
+
+#: Axis-aligned box that holds the whole body surface, metres (min corner, max corner).
+BODY_BOUNDS_M = (np.array([-0.062, 0.030, -0.205]), np.array([0.062, 0.240, 0.115]))
+
+
+def body_sdf(p: np.ndarray) -> np.ndarray:
+    """Signed distance to the body surface (negative inside), metres.
+
+    Parameters
+    ----------
+    p : np.ndarray
+        (N, 3) points, metres.
+
+    Returns
+    -------
+    np.ndarray
+        (N,) float64, an approximate (Lipschitz <~ 1) signed distance.
+    """
+    p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
+    d = smooth_union(TORSO.sdf(p), BREAST.sdf(p), 0.025)
+    d = smooth_union(d, BELLY.sdf(p), 0.02)
+    d = smooth_union(d, NECK.sdf(p), 0.03)
+    d = smooth_union(d, HEAD.sdf(p), 0.012)
+    d = smooth_union(d, WING_L.sdf(p), 0.010)
+    d = smooth_union(d, WING_R.sdf(p), 0.010)
+    d = smooth_union(d, TAIL.sdf(p), 0.014)
+    return d
+
+
+def sdf_gradient(sdf, p: np.ndarray, step_m: float = 1e-4) -> np.ndarray:
+    """(N, 3) unit gradient of ``sdf`` at ``p`` by central differences (outward normal on the surface)."""
+    p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
+    g = np.empty_like(p)
+    for axis in range(3):  # three axes, not a loop over points
+        e = np.zeros(3)
+        e[axis] = step_m
+        g[:, axis] = sdf(p + e) - sdf(p - e)
+    return g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-20)
