@@ -38,7 +38,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping
 
-import numpy as np
 
 from ..config import ROOT, canonical_json, get
 
@@ -73,10 +72,14 @@ def _json_load(folder: Path):
 
 
 def _npz_save(value: Mapping[str, np.ndarray], folder: Path) -> None:
+    import numpy as np
+
     np.savez(folder / "value.npz", **{k: np.ascontiguousarray(v) for k, v in value.items()})
 
 
 def _npz_load(folder: Path) -> dict:
+    import numpy as np
+
     with np.load(folder / "value.npz", allow_pickle=False) as z:
         out = {k: z[k] for k in z.files}
     for a in out.values():

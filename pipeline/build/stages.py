@@ -33,7 +33,6 @@ import math
 import shutil
 from pathlib import Path
 
-import numpy as np
 
 from .. import __version__
 from ..errors import UsageError
@@ -65,6 +64,8 @@ def _get(config: dict, dotted: str):
 
 # ----------------------------------------------------------------------------------------------- codecs
 def _bird_save(bird, folder: Path) -> None:
+    import numpy as np
+
     arrays, parts = {}, []
     for i, part in enumerate(bird.parts):
         for f in ("points_m", "face_vertex_counts", "face_vertex_indices", "normals", "st"):
@@ -80,6 +81,8 @@ def _bird_save(bird, folder: Path) -> None:
 
 
 def _bird_load(folder: Path):
+    import numpy as np
+
     from ..geometry.types import Bird, MeshPart, Primvar
 
     meta = json.loads((folder / "bird.json").read_text())
@@ -102,6 +105,8 @@ BIRD = Codec("bird", _bird_save, _bird_load)
 
 
 def _lut_save(lut, folder: Path) -> None:
+    import numpy as np
+
     np.save(folder / "rgb.npy", np.ascontiguousarray(lut.rgb, dtype=np.float32))
     (folder / "lut.json").write_text(json.dumps({
         "thickness_range_nm": list(lut.thickness_range_nm), "angle_warp_gamma": lut.angle_warp_gamma,
@@ -109,6 +114,8 @@ def _lut_save(lut, folder: Path) -> None:
 
 
 def _lut_load(folder: Path):
+    import numpy as np
+
     from ..lut.table import ThinFilmLUT
 
     meta = json.loads((folder / "lut.json").read_text())
@@ -121,11 +128,15 @@ LUT = Codec("lut", _lut_save, _lut_load)
 
 
 def _images_save(value, folder: Path) -> None:
+    import numpy as np
+
     feathers, body = value
     np.savez(folder / "images.npz", body=body, **{f"feather_{k}": v for k, v in feathers.items()})
 
 
 def _images_load(folder: Path):
+    import numpy as np
+
     with np.load(folder / "images.npz", allow_pickle=False) as z:
         arrays = {k: z[k] for k in z.files}
     for a in arrays.values():
@@ -167,11 +178,15 @@ def run_bird(ctx: Context):
 
 def run_thickness_range(ctx: Context):
     """(lo, hi) nm present on the feathers, rounded outward to whole nm (the LUT's thickness axis)."""
+    import numpy as np
+
     d = np.asarray(ctx.inputs["bird"].part("NeckFeathers").primvars["thickness"].values, dtype=np.float64)
     return [float(math.floor(d.min())), float(math.ceil(d.max()))]
 
 
 def run_lut(ctx: Context):
+    import numpy as np
+
     from ..lut.bake import bake
     from ..lut.table import ThinFilmLUT
 

@@ -1,0 +1,150 @@
+"""``rockdove bench build``: the incremental build's speed goals, measured through the real CLI.
+
+Rows (each a median of ``--repeats`` runs, ``time.perf_counter``, in the same session so the ratios hold on a
+shared machine):
+
+- cold build of the default asset without verification (fresh cache); goal < 5 s;
+- no-op rebuild (same configuration, warm cache); goal <= 10 % of the cold build;
+- film index change only: which stages ran and which were reused (goal: LUT and material rerun, geometry
+  reused);
+- scaling with the card count (1k, 10k, 100k): cold build time and the build process's peak memory
+  (``ru_maxrss`` of the child from ``os.wait4``);
+- the end-to-end trade-off LUT size x precision (float32, half) against the verification dE2000 and the build
+  time, when verification is available (else the row says so).
+
+Times are wall-clock of a whole ``rockdove build`` process (interpreter start included, what a user waits
+for); ``inside`` is the build command's own time from its ``--json`` summary.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HELP = "build benchmarks: cold vs no-op rebuild, film change reuse, card-count scaling, LUT size/precision trade-off"
+
+COLD_GOAL_S = 5.0
+NOOP_GOAL_RATIO = 0.10
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--quick", action="store_true", help="a smoke test: small card counts, one repeat")
+    parser.add_argument("--repeats", type=int, default=3, help="repeats per timed row (median; default 3)")
+    parser.add_argument("--preset", default="measured", help="preset to build (default measured)")
+    parser.add_argument("--json", metavar="FILE", help="also write the results as JSON to FILE")
+
+
+def _build_rss(workdir: Path, *args: str, cache: str = "cache") -> dict:
+    """One ``rockdove build`` process: wall time, peak resident memory (MiB, ``os.wait4``), its --json summary."""
+    cmd = [sys.executable, "-m", "pipeline.cli", "build", "--out", str(workdir / "out" / "pigeon"),
+           "--cache", str(workdir / cache), "--json", "--quiet", *args]
+    out_path = workdir / "summary.json"
+    t0 = time.perf_counter()
+    with open(out_path, "w") as out, open(workdir / "stderr.txt", "w") as errf:
+        proc = subprocess.Popen(cmd, stdout=out, stderr=errf)
+        _, status, usage = os.wait4(proc.pid, 0)
+        proc.returncode = os.waitstatus_to_exitcode(status)
+    wall = time.perf_counter() - t0
+    if proc.returncode != 0:
+        raise RuntimeError(f"rockdove build {' '.join(args)} exited {proc.returncode}: "
+                           f"{(workdir / 'stderr.txt').read_text().strip()}")
+    return {"wall_s": wall, "peak_rss_mib": usage.ru_maxrss / 1024.0, **json.loads(out_path.read_text())}
+
+
+def _median(rows: list[dict], key: str) -> float:
+    return statistics.median(r[key] for r in rows)
+
+
+def run(args: argparse.Namespace) -> int:
+    repeats = 1 if args.quick else max(1, args.repeats)
+    preset = ["--preset", args.preset, "--no-verify"]
+    results: dict = {"preset": args.preset, "repeats": repeats, "quick": bool(args.quick)}
+    with tempfile.TemporaryDirectory(prefix="rockdove-bench-build-") as tmp:
+        tmp = Path(tmp)
+        # cold builds (fresh cache each) and no-op rebuilds (warm cache)
+        cold, noop = [], []
+        for i in range(repeats):
+            cold.append(_build_rss(tmp, *preset, cache=f"cold{i}"))
+            noop.append(_build_rss(tmp, *preset, cache=f"cold{i}"))
+        cold_s, noop_s = _median(cold, "wall_s"), _median(noop, "wall_s")
+        results["cold"] = {"wall_s": cold_s, "inside_s": _median(cold, "seconds"), "goal_s": COLD_GOAL_S,
+                           "peak_rss_mib": max(r["peak_rss_mib"] for r in cold)}
+        results["noop"] = {"wall_s": noop_s, "inside_s": _median(noop, "seconds"), "ratio": noop_s / cold_s,
+                           "goal_ratio": NOOP_GOAL_RATIO, "ran": noop[-1]["ran"]}
+        print(f"cold build ({args.preset}, no verify): {cold_s:.2f} s wall (inside {results['cold']['inside_s']:.2f} s), "
+              f"goal < {COLD_GOAL_S:g} s: {'met' if cold_s < COLD_GOAL_S else 'NOT met'}")
+        print(f"no-op rebuild: {noop_s:.3f} s wall (inside {results['noop']['inside_s']:.3f} s) = "
+              f"{100 * noop_s / cold_s:.1f} % of cold, goal <= {100 * NOOP_GOAL_RATIO:g} %: "
+              f"{'met' if noop_s <= NOOP_GOAL_RATIO * cold_s else 'NOT met'}; stages ran: {noop[-1]['ran'] or 'none'}")
+
+        # film index change only
+        film = _build_rss(tmp, *preset, "--set", "film.cauchy_a=1.55", cache="cold0")
+        results["film_change"] = {"wall_s": film["wall_s"], "ran": film["ran"], "reused": film["reused"]}
+        print(f"film index change: {film['wall_s']:.2f} s; ran {film['ran']}; reused {film['reused']}")
+
+        # scaling with the card count
+        counts = (200, 1000) if args.quick else (1000, 10000, 100000)
+        results["scaling"] = []
+        print("cards     cold build s   peak RSS MiB")
+        for n in counts:
+            r = _build_rss(tmp, *preset, "--set", f"geometry.card_count={n}", cache=f"scale{n}")
+            row = {"cards": n, "wall_s": r["wall_s"], "inside_s": r["seconds"], "peak_rss_mib": r["peak_rss_mib"]}
+            results["scaling"].append(row)
+            print(f"{n:>7d}   {r['wall_s']:>10.2f}   {r['peak_rss_mib']:>12.0f}")
+
+        # LUT size x precision against verification dE2000
+        results["lut_tradeoff"] = _lut_tradeoff(tmp, args)
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=1))
+    return 0
+
+
+def _lut_tradeoff(tmp: Path, args) -> dict | str:
+    try:
+        from ..build.stages import REQUIRED_VERIFY, _missing
+
+        missing = _missing(REQUIRED_VERIFY)
+    except ImportError as exc:  # pragma: no cover - stages module is part of the package
+        missing = [str(exc)]
+    if missing:
+        msg = f"LUT size/precision vs verification dE2000: not measured, verification is not available ({missing[0]})"
+        print(msg)
+        return msg
+    sizes = ((32, 8), (128, 32)) if args.quick else ((32, 8), (64, 16), (128, 32), (256, 64), (512, 128))
+    rows = []
+    print("angles x thicknesses  precision  build s   median dE  p95 dE  max dE")
+    for angles, thick in sizes:
+        for precision in ("float32", "half"):
+            r = _build_rss(tmp, "--preset", args.preset, "--set", f"lut.angles={angles}", "--set",
+                           f"lut.thicknesses={thick}", "--set", f"lut.precision={precision}", "--set",
+                           "verify.width=256", "--set", "verify.height=256", cache="tradeoff")
+            report = _verify_metrics(tmp / "out" / "pigeon")
+            rows.append({"angles": angles, "thicknesses": thick, "precision": precision, "wall_s": r["wall_s"],
+                         **report})
+            print(f"{angles:>6d} x {thick:<12d} {precision:>9s}  {r['wall_s']:>7.2f}   "
+                  f"{report.get('median_dE', float('nan')):>8.3f}  {report.get('p95_dE', float('nan')):>6.3f}  "
+                  f"{report.get('max_dE', float('nan')):>6.3f}")
+    return {"rows": rows}
+
+
+def _verify_metrics(asset: Path) -> dict:
+    """Median / p95 / max dE2000 over the views of the asset's verification report (``verify/report.json``)."""
+    path = asset / "verify" / "report.json"
+    if not path.exists():
+        return {}
+    data = json.loads(path.read_text())
+    views = data.get("views", {})
+    vals = list(views.values()) if isinstance(views, dict) else list(views)
+    out = {}
+    for key in ("median_dE", "p95_dE", "max_dE"):
+        xs = [v[key] for v in vals if isinstance(v, dict) and key in v]
+        if xs:
+            out[key] = max(xs)
+    return out
