@@ -295,12 +295,18 @@ def light_sweep_views(
     return views
 
 
-def default_views(scene, width: int = 512, height: int = 512) -> list[View]:
-    """The benchmark's unit of 4 views: 2 turntable frames and 2 light-sweep frames (alpha 60 and 120 deg).
+def default_views(scene, width: int = 512, height: int = 512, n: int = 4) -> list[View]:
+    """The verification views: ``ceil(n / 2)`` turntable frames, then ``floor(n / 2)`` light-sweep frames.
 
-    The sweep camera distance frames the feathers' bounds (at least 6 cm).
+    ``n = 4`` (the benchmark's unit) gives 2 turntable frames (azimuth 30 and 210 degrees) and 2 sweep frames
+    at light-view angles 60 and 120 degrees, either side of the green/purple flip. The sweep camera distance
+    frames the feathers' bounds (at least 6 cm).
     """
-    views = turntable_views(scene.bounds_m, 2, width, height)
+    n = _check_n(n)
+    views = turntable_views(scene.bounds_m, (n + 1) // 2, width, height)
+    n_sweep = n // 2
+    if n_sweep == 0:
+        return views
     feathers = [p.positions_m for p in scene.parts if p.is_feather]
     if feathers:
         pts = np.concatenate(feathers).astype(np.float64)
@@ -310,5 +316,5 @@ def default_views(scene, width: int = 512, height: int = 512) -> list[View]:
         r = 0.25 * float(np.linalg.norm(b[1] - b[0]))
     yfov = math.radians(SWEEP_YFOV_DEG)
     dist = max(_fit_distance(max(r, 1e-3), yfov, width / height, margin=1.05), 0.06)
-    views += light_sweep_views(scene.neck_centre_m, 2, width, height, distance_m=dist)
+    views += light_sweep_views(scene.neck_centre_m, n_sweep, width, height, distance_m=dist)
     return views

@@ -1,0 +1,262 @@
+"""The pyrender/GLSL renderer (pipeline.render.gl) on a small synthetic asset, checked against the shading
+formula of docs/design.md evaluated on the CPU from the LUT at each pixel's interpolated inputs."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from pipeline.lut import ThinFilmLUT
+from pipeline.render import scene as sc
+from pipeline.render.synthetic import (
+    CARD_SIZE_M,
+    NECK_CENTRE_M,
+    NECK_RING_RADIUS_M,
+    THICKNESS_RANGE_NM,
+    write_synthetic_asset,
+)
+from pipeline.render.views import View, default_views, look_at
+
+pytestmark = pytest.mark.gl
+
+SIZE = 96
+LIGHT = np.array([0.35, 0.45, 1.0]) / np.linalg.norm([0.35, 0.45, 1.0])
+LIGHT_RGB = np.array([1.0, 0.9, 0.8])
+
+
+def _coarse_lut():
+    """5 angle x 4 thickness nodes of unrelated values, warped angle axis: an axis swap, a missing texel-centre
+    offset or a wrong warp changes the lookup by ~0.1 or more."""
+    rng = np.random.default_rng(7)
+    rgb = rng.uniform(0.1, 0.9, size=(4, 5, 3)).astype(np.float32)
+    return ThinFilmLUT(rgb, THICKNESS_RANGE_NM, angle_warp_gamma=1.7)
+
+
+def _fine_lut():
+    """Steps of 1e-4 along the angle axis (40x finer than 8-bit quantisation)."""
+    n = 64
+    rgb = np.empty((2, n, 3), np.float32)
+    rgb[..., 0] = 0.5 + 1e-4 * np.arange(n)
+    rgb[..., 1] = 0.6 - 1e-4 * np.arange(n)
+    rgb[0, :, 2], rgb[1, :, 2] = 0.3, 0.3004
+    return ThinFilmLUT(rgb, THICKNESS_RANGE_NM, angle_warp_gamma=1.0)
+
+
+def _front_view(distance_m=0.12, yfov_deg=30.0, light=LIGHT):
+    """Camera on +Z looking straight at card 0 (centre NECK + ring radius * Z, facing +Z)."""
+    centre = np.asarray(NECK_CENTRE_M) + np.array([0.0, 0.0, NECK_RING_RADIUS_M])
+    c2w = look_at(centre + [0.0, 0.0, distance_m], centre)
+    return View("front", c2w, math.radians(yfov_deg), SIZE, SIZE, light, LIGHT_RGB), centre
+
+
+def _pixel_rays(view):
+    """Unit world directions from the eye through each pixel centre, (H, W, 3); row 0 at the top."""
+    h, w = view.height, view.width
+    t = math.tan(view.yfov_rad / 2)
+    x = ((np.arange(w) + 0.5) / w * 2 - 1) * t * view.aspect
+    y = (1 - (np.arange(h) + 0.5) / h * 2) * t
+    d = np.stack(np.broadcast_arrays(x[None, :], y[:, None], -np.ones((h, 1))), axis=-1)
+    d = d @ view.camera_to_world[:3, :3].T
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+@pytest.fixture(scope="module")
+def coarse(tmp_path_factory):
+    """Synthetic asset with the coarse LUT, rendered (front view + the default views) by one renderer."""
+    from pipeline.render.gl import GLRenderer
+
+    lut = _coarse_lut()
+    root = write_synthetic_asset(tmp_path_factory.mktemp("coarse"), lut=lut)
+    scene = sc.load_scene(root)
+    front, centre = _front_view()
+    with GLRenderer(scene) as r:
+        results = {"front": r.render(front)}
+        for v in default_views(scene, SIZE, SIZE):
+            results[v.name] = r.render(v)
+        n_renders = r.n_renders
+    return scene, lut, results, n_renders
+
+
+def _card0(res, distance_m=0.12):
+    """Pixels of card 0 in a front view: its plane lies ``distance_m`` along the view axis (other cards
+    show through its discarded corners or beside it)."""
+    return np.abs(res.depth_m - distance_m) < 2e-3
+
+
+def _feather_interior(res, scene, erode=2):
+    fid = scene.part_id("NeckFeathers")
+    m = res.part_id == fid
+    return ndimage.binary_erosion(m, iterations=erode)
+
+
+def test_renders_are_finite_and_lit_feathers_are_not_black(coarse):
+    scene, _, results, n_renders = coarse
+    assert n_renders == len(results)
+    for name, res in results.items():
+        for a in (res.radiance_rgb, res.depth_m, res.cos_theta, res.thickness_nm, res.st):
+            assert np.all(np.isfinite(a)), name
+        assert res.radiance_rgb.shape == (SIZE, SIZE, 3) and res.radiance_rgb.dtype == np.float32
+        assert set(np.unique(res.alpha)) <= {0.0, 1.0}
+        np.testing.assert_array_equal(res.alpha > 0, res.part_id > 0)
+        assert np.all(res.depth_m[res.part_id > 0] > 0) and np.all(res.depth_m[res.part_id == 0] == 0)
+        lit = _feather_interior(res, scene) & (res.n_dot_l > 0.2)
+        if lit.any():
+            assert res.radiance_rgb[lit].sum(axis=1).min() > 0.02, name
+    assert _feather_interior(results["front"], scene).sum() > 300
+    assert (results["front"].part_id == scene.part_id("Body")).sum() > 100
+
+
+def test_alpha_discards_outside_the_feather_silhouette(coarse):
+    """Front view of card 0: a pixel shows the feather exactly where the base texture's alpha >= 0.5."""
+    scene, _, results, _ = coarse
+    res = results["front"]
+    view = res.view
+    rays = _pixel_rays(view)
+    eye = view.eye_m
+    plane_z = NECK_CENTRE_M[2] + NECK_RING_RADIUS_M
+    hit = eye + rays * ((plane_z - eye[2]) / rays[..., 2])[..., None]
+    s = (hit[..., 0] - NECK_CENTRE_M[0]) / CARD_SIZE_M + 0.5
+    t = (hit[..., 1] - NECK_CENTRE_M[1]) / CARD_SIZE_M + 0.5
+    on_card = (s > 0.03) & (s < 0.97) & (t > 0.03) & (t < 0.97)
+    base = sc.read_texture(scene.part("NeckFeathers").base_colour_texture, srgb=True)
+    alpha = sc.sample_texture(base, np.stack([s, t], axis=-1))[..., 3]
+    # card 0 lies in the plane at 0.12 m along the view axis; other cards (behind it) may show through
+    feather = (res.part_id == scene.part_id("NeckFeathers")) & _card0(res)
+    sure_in = on_card & (alpha > 0.9)
+    sure_out = on_card & (alpha < 0.1)
+    assert sure_in.sum() > 300 and sure_out.sum() > 50
+    assert np.all(feather[sure_in])
+    assert not np.any(feather[sure_out])  # discarded: what lies behind card 0 shows through
+    np.testing.assert_allclose(res.st[sure_in], np.stack([s, t], axis=-1)[sure_in], atol=2e-3)
+
+
+def test_feather_colour_matches_the_shading_formula_on_the_cpu(coarse):
+    """radiance = mix(base, LUT(dot(L, H), d), mask) * light_rgb * max(N.L, 0), per pixel, 8-bit tolerance."""
+    scene, lut, results, _ = coarse
+    part = scene.part("NeckFeathers")
+    base_img = sc.read_texture(part.base_colour_texture, srgb=True)
+    mask_img = sc.read_texture(part.mask_texture, srgb=False)
+    lo, hi = THICKNESS_RANGE_NM
+    checked = 0
+    for name, res in results.items():
+        px = _feather_interior(res, scene)
+        if not px.any():
+            continue
+        view = res.view
+        V = -_pixel_rays(view)[px]
+        L = view.light_direction
+        H = (L + V) / np.linalg.norm(L + V, axis=1, keepdims=True)
+        cos_theta = H @ L
+        np.testing.assert_allclose(res.cos_theta[px], cos_theta, atol=2e-4, err_msg=name)
+        st = res.st[px]
+        # the cards' thickness runs linearly from lo at t = 0 to hi at t = 1
+        np.testing.assert_allclose(res.thickness_nm[px], lo + (hi - lo) * st[:, 1], atol=0.05, err_msg=name)
+        base = sc.sample_texture(base_img, st)[:, :3]
+        mask = sc.sample_texture(mask_img, st)[:, 0]
+        np.testing.assert_allclose(res.mask[px], mask, atol=2e-3, err_msg=name)
+        structural = lut.sample(cos_theta, res.thickness_nm[px])
+        colour = base + (structural - base) * mask[:, None]
+        expected = colour * view.light_rgb * res.n_dot_l[px][:, None]
+        np.testing.assert_allclose(res.radiance_rgb[px], expected, atol=3e-3, err_msg=name)
+        checked += px.sum()
+    assert checked > 1000
+    # the structural colour is really in play: masked pixels far from the base colour
+    res = results["front"]
+    px = _feather_interior(res, scene) & (res.mask > 0.99) & _card0(res)
+    assert px.sum() > 50
+    # the front card's normal is +Z
+    np.testing.assert_allclose(res.n_dot_l[px], max(LIGHT[2], 0), atol=1e-4)
+
+
+def test_the_lut_texel_mapping_is_not_the_naive_one(coarse):
+    """Guards the test above: the naive lookup (u = x, no texel-centre offset) differs measurably here."""
+    scene, lut, results, _ = coarse
+    res = results["front"]
+    px = _feather_interior(res, scene) & (res.mask >= 0.99999)
+    x = res.cos_theta[px] ** (1 / lut.angle_warp_gamma)
+    y = (res.thickness_nm[px] - THICKNESS_RANGE_NM[0]) / np.ptp(THICKNESS_RANGE_NM)
+    # naive: treat texcoord x as a node coordinate of an N-texel image with texel centres
+    n, m = lut.n_angle, lut.n_thickness
+    naive_fx, naive_fy = x * n - 0.5, y * m - 0.5
+    naive = lut.sample((np.clip(naive_fx / (n - 1), 0, 1)) ** lut.angle_warp_gamma,
+                       THICKNESS_RANGE_NM[0] + np.clip(naive_fy / (m - 1), 0, 1) * np.ptp(THICKNESS_RANGE_NM))
+    correct = lut.sample(res.cos_theta[px], res.thickness_nm[px])
+    assert np.abs(naive - correct).max() > 0.02
+    gl_structural = res.radiance_rgb[px] / (LIGHT_RGB * res.n_dot_l[px][:, None])
+    np.testing.assert_allclose(gl_structural, correct, atol=3e-3)
+
+
+def test_float_lut_upload_is_not_quantised(tmp_path):
+    from pipeline.render.gl import render_views
+
+    lut = _fine_lut()
+    scene = sc.load_scene(write_synthetic_asset(tmp_path, lut=lut))
+    view, _ = _front_view(light=np.array([0.0, 0.0, 1.0]))  # N.L = 1 on the front card
+    (res,) = render_views(scene, [view])
+    px = _feather_interior(res, scene) & (res.mask >= 0.99999) & _card0(res)
+    assert px.sum() > 50
+    np.testing.assert_array_equal(res.n_dot_l[px], 1.0)
+    structural = res.radiance_rgb[px] / LIGHT_RGB
+    expected = lut.sample(res.cos_theta[px], res.thickness_nm[px])
+    np.testing.assert_allclose(structural, expected, atol=5e-5)
+    # 8-bit storage could not hold these: many distinct values within less than one 8-bit step
+    assert np.ptp(structural[:, 0]) < 1 / 255 and len(np.unique(np.round(structural[:, 0], 6))) > 10
+
+
+def test_materialx_baked_angle_uses_n_dot_v(coarse):
+    from pipeline.render.gl import render_views
+
+    scene, lut, results, _ = coarse
+    view = results["front"].view
+    (res,) = render_views(scene, [view], angle_mode="materialx_baked", lut=lut)
+    px = _feather_interior(res, scene) & _card0(res)
+    V = -_pixel_rays(view)[px]
+    np.testing.assert_allclose(res.cos_theta[px], np.abs(V[:, 2]), atol=2e-4)  # N = +Z
+    assert not np.allclose(res.cos_theta[px], results["front"].cos_theta[px], atol=1e-2)
+    with pytest.raises(ValueError, match="angle_mode"):
+        render_views(scene, [view], angle_mode="nope")
+
+
+def test_one_renderer_is_reused_across_views(coarse, monkeypatch):
+    from pipeline._compat import import_pyrender
+    from pipeline.render.gl import render_views
+
+    pyrender = import_pyrender()
+    created = []
+    real = pyrender.OffscreenRenderer
+
+    class Counting(real):
+        def __init__(self, *a, **k):
+            created.append(1)
+            super().__init__(*a, **k)
+
+    monkeypatch.setattr(pyrender, "OffscreenRenderer", Counting)
+    scene, lut, results, _ = coarse
+    views = [results["front"].view, results["sweep_060"].view, results["front"].view]
+    out = render_views(scene, views, lut=lut)
+    assert len(created) == 1
+    np.testing.assert_array_equal(out[0].radiance_rgb, out[2].radiance_rgb)
+    np.testing.assert_array_equal(out[0].radiance_rgb, results["front"].radiance_rgb)
+    assert not np.array_equal(out[0].radiance_rgb, out[1].radiance_rgb)
+
+
+def test_render_cli_writes_pngs_and_exit_codes(coarse, tmp_path, capsys):
+    from PIL import Image
+
+    from pipeline.cli import main
+
+    scene, _, _, _ = coarse
+    out = tmp_path / "renders"
+    assert main(["render", scene.root_layer, "--out", str(out), "--width", "48", "--height", "40", "--views", "3"]) == 0
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["contact_sheet.png", "sweep_090.png", "turntable_030.png", "turntable_210.png"]
+    with Image.open(out / "sweep_090.png") as im:
+        assert im.size == (48, 40)
+    printed = capsys.readouterr().out
+    assert "contact_sheet.png" in printed and "render 3 views" in printed
+    assert main(["render", str(tmp_path / "missing"), "--out", str(out)]) == 2
+    assert main(["render", scene.root_layer, "--out", str(out), "--views", "0"]) == 2
+    assert main(["render", scene.root_layer, "--out", str(out), "--shading", "nope"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 3 and all(line.startswith("rockdove render: error:") for line in err)
