@@ -281,8 +281,8 @@ def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t):
         if np.any(b0 == 0):  # grazing incidence on a substrate of the incident index
             zero = den == 0  # ... and d = 0: every interface vanishes, R = 0, T = 1
             if np.any(zero):
-                den[zero] = 1.0
-                num[zero] = 0.0
+                den = np.where(zero, 1.0, den)
+                num = np.where(zero, 0.0, num)
                 t_pow = np.where(zero, 1.0, 4.0 * eaec / den) if want_t else None
                 out[pol] = (num / den, t_pow)
                 continue
@@ -297,8 +297,12 @@ def _general_complex(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t=True):
     em = np.expm1(two_i_delta)  # e^{2 i delta} - 1, precise for tiny delta, bounded for Im(delta) > 0
     c_e = 1.0 + 0.5 * em  # cos(delta) e^{i delta}
     s_e = em / 2j  # sin(delta) e^{i delta}
-    nonzero = two_i_delta != 0
-    sinc_e = np.where(nonzero, em / np.where(nonzero, two_i_delta, 1.0), 1.0)  # sin(delta) e^{i delta} / delta
+    # sin(delta) e^{i delta} / delta = expm1(z) / z with z = 2 i delta; a Taylor series for |z| < 1e-4
+    # (truncation < 1e-18) avoids 0/0 at delta = 0 and complex-division overflow for subnormal delta.
+    z = np.asarray(two_i_delta)
+    sinc_e = np.array(1.0 + z * (0.5 + z * (1.0 / 6.0 + z * (1.0 / 24.0))), dtype=np.complex128)
+    big = np.abs(z) >= 1e-4
+    np.divide(em, z, out=sinc_e, where=big)
     atten = np.exp(-2.0 * delta.imag)  # |e^{i delta}|**2
     out = {}
     for pol in pols:
