@@ -136,3 +136,16 @@ def test_lut_texcoords_match_the_table_contract_exactly(shape, rng_nm, gamma):
     u, v = lut.texcoords(np.abs(n_dot_v), d)
     assert np.allclose(uv[:, 0], u, rtol=0, atol=1e-12)
     assert np.allclose(uv[:, 1], v, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("space, tag", [("lin_rec709", "raw"), ("acescg", "acescg")])
+def test_lut_texture_is_raw_in_the_working_space_and_tagged_otherwise(doc, space, tag):
+    from pxr import UsdShade
+
+    from pipeline.usd.material import MTLX_WORKING_SPACE
+
+    assert doc.getColorSpace() == MTLX_WORKING_SPACE
+    lut = ThinFilmLUT(np.zeros((2, 4, 3), np.float32), (500.0, 600.0), colour_space=space)
+    stage, _ = _stage_with_material(lut)
+    file_in = UsdShade.Shader(stage.GetPrimAtPath("/Looks/FeatherMaterial/LutTexture")).GetInput("file")
+    assert file_in.GetAttr().GetColorSpace() == tag

@@ -144,6 +144,7 @@ def test_feather_texture_shaders_named_for_the_renderer(stage):
     assert mask.GetInput("file").Get().path == "./textures/feather_mask.png"
     assert mask.GetInput("file").GetAttr().GetColorSpace() == "raw"
     assert lut.GetInput("file").Get().path == "./textures/thinfilm_lut.exr"
+    assert lut.GetInput("file").GetAttr().GetColorSpace() == "raw"  # linear data, as the LUT is lin_rec709
     for name in ("uaddressmode", "vaddressmode"):
         assert lut.GetInput(name).Get() == "clamp"
     assert lut.GetInput("filtertype").Get() == "linear"

@@ -23,6 +23,8 @@ import os
 REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 THINFILM_MTLX = os.path.join(REPO_ROOT, "materials", "thinfilm.mtlx")
 
+#: The colour space of thinfilm.mtlx (its ``colorspace`` attribute): linear Rec.709, the project's working space.
+MTLX_WORKING_SPACE = "lin_rec709"
 #: MaterialX surfacematerial names in thinfilm.mtlx, by shading variant.
 MTLX_MATERIALS = {"baked": "ThinFilmBaked", "physical": "ThinFilmPhysical"}
 #: Texture roles -> file names under textures/ (docs/design.md, "Textures").
@@ -258,9 +260,20 @@ def author_feather_material(stage, path, *, lut: dict, film_ior: float, textures
         shaders[name].GetInput("value").Set(value)
     for name, role in _MTLX_IMAGES.items():
         shaders[name].GetInput("file").Set(Sdf.AssetPath(textures[role]))
-    shaders["LutTexture"].GetInput("file").GetAttr().SetColorSpace(lut["colour_space"])
+    shaders["LutTexture"].GetInput("file").GetAttr().SetColorSpace(lut_texture_colour_space(lut["colour_space"]))
     material.CreateSurfaceOutput("mtlx").ConnectToSource(shaders["MtlxBakedSurface"].GetOutput("out"))
     return material
+
+
+def lut_texture_colour_space(colour_space: str) -> str:
+    """Colour-space tag of the LUT texture in the MaterialX network.
+
+    ``"raw"`` (no transform, issue 4: the LUT is linear data) when the LUT is in the document's working space
+    ``lin_rec709``, where raw and lin_rec709 read identically; a LUT baked in another space (``acescg``) keeps
+    its own name, so that a colour-managed renderer converts it into its working space instead of
+    misreading it.
+    """
+    return "raw" if colour_space == MTLX_WORKING_SPACE else colour_space
 
 
 def mtlx_surface_path(material_path, variant: str):
