@@ -12,6 +12,12 @@ Every feather material carries two surface outputs (docs/design.md, "USD asset";
   (:mod:`pipeline.usd.stage`) reconnects ``outputs:mtlx:surface`` between ``MtlxBakedSurface`` (the LUT
   method, the default) and ``MtlxPhysicalSurface`` (OpenPBR's own thin film).
 
+Units of the physical variant (method.md, "Conventions of neighbouring standards"): OpenPBR's
+``thin_film_thickness`` is in micrometres, so the network feeds ``thickness_nm * 0.001`` (node
+``ThicknessUm``); Autodesk standard_surface's ``thin_film_thickness`` is in nanometres and would take the
+primvar unchanged. ``thin_film_ior`` is the film's Cauchy index at :data:`pipeline.usd.stage.FILM_IOR_WAVELENGTH_NM`
+(550 nm): OpenPBR's film has one real index, so dispersion is dropped in that variant.
+
 Body and the other parts get plain UsdPreviewSurface materials: the body from ``body_base.png``, the others a
 constant colour (their ``display_color``).
 """
