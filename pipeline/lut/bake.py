@@ -1,0 +1,416 @@
+"""Bakers of the thin-film colour LUT over (cos theta, film thickness).
+
+Methods (registry :data:`BAKE_METHODS`, names validated like colour-science's ``*_METHODS``):
+
+``"spectral"``
+    The straightforward baseline: :func:`pipeline.optics.reflectance` on a uniform wavelength grid
+    (``spectral_step_nm``, default 1 nm) for every texel, then ``R @ W`` with the colour weights of
+    :func:`pipeline.spectral.spectral_weights`. Works for any film (absorbing, total internal reflection).
+``"spectral_fast"``
+    The same sampling for films with real interface coefficients, but the Fresnel coefficients are computed once
+    per (angle, wavelength) and only the phase per texel (real arithmetic Airy form, Born & Wolf 7.6.1), with a
+    finer step ``grazing_step_nm`` in the angle columns with ``cos theta < grazing_cos`` where the film is a
+    high-finesse resonator. Used for dispersive films (keratin), where the exact Fourier form does not hold.
+``"fourier"``
+    The exact Fourier route of method.md (:mod:`.fourier`): ``c0 W0 + 2 sum c_m G(m OPD)`` with the
+    closed-form Poisson-kernel coefficients per polarisation and terms dropped below ``fourier_tol``;
+    texels whose series would need more than ``max_terms`` terms (thickness -> 0 at grazing) are sampled at
+    the reference's 0.1 nm step instead, and ``cos theta = 0`` takes the limit R = 1. Exact only for a
+    non-dispersive, non-absorbing film without total internal reflection; refused otherwise.
+``"auto"``
+    ``"fourier"`` when the film allows it, else ``"spectral_fast"`` at the steps measured to meet the
+    accuracy goal (``rockdove bench lut``), else ``"spectral"``.
+
+Unpolarised light is the mean of the s and p reflectances. The optical path difference of the film is
+``OPD = 2 n_b d cos(theta_b)`` (nm), ``phi = 2 pi OPD / lambda``.
+
+References: Born, M. & Wolf, E., *Principles of Optics*, 7th ed., sec. 7.6.1 (Airy formula); method.md
+(the Fourier form and its coefficients); the table layout is fixed by :mod:`.table`.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+from .table import ThinFilmLUT
+
+DEFAULT_ANGLES = 256
+DEFAULT_THICKNESSES = 64
+DEFAULT_THICKNESS_RANGE_NM = (480.0, 700.0)  # Yoshioka et al. 2007: 480-580 nm at the base, 600-700 at the tip
+# Chosen with ``rockdove bench lut`` (benchmarks/README.md): the smallest gamma whose default-size LUT meets
+# max dE2000 <= 0.5 and p99 <= 0.1 against the reference for both films, grazing included.
+DEFAULT_ANGLE_WARP_GAMMA = 2.0
+DEFAULT_FOURIER_TOL = 1e-5  # absolute, linear colour units (white = 1)
+DEFAULT_MAX_TERMS = 512
+DEFAULT_SPECTRAL_STEP_NM = 1.0
+# spectral_fast for dispersive films: step elsewhere / step and extent of the grazing band (measured, see README)
+DEFAULT_FAST_STEP_NM = 1.0
+DEFAULT_GRAZING_STEP_NM = 0.1
+DEFAULT_GRAZING_COS = 0.1
+OBSERVER = "CIE 1931 2 Degree Standard Observer"
+WAVELENGTH_RANGE_NM = (360.0, 780.0)
+
+# Memory bound for the sampled methods: (texels x wavelengths) evaluated per chunk.
+_CHUNK_ELEMENTS = 2_000_000
+
+
+# -- helpers ------------------------------------------------------------------------------------------
+def _resolve_film(film):
+    from .. import films
+
+    if isinstance(film, films.FilmModel):
+        return film
+    if isinstance(film, str):
+        return films.get_film(film)
+    raise ValueError(f"film must be one of {sorted(films.FILMS)} or a FilmModel, got {film!r}")
+
+
+def _check_count(name, value, minimum):
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def _check_positive(name, value, allow_none=False):
+    if value is None and allow_none:
+        return None
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a positive number, got {value!r}") from None
+    if not (np.isfinite(v) and v > 0):
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    return v
+
+
+def _check_range(thickness_range):
+    try:
+        lo, hi = (float(v) for v in thickness_range)
+    except (TypeError, ValueError):
+        raise ValueError(f"thickness_range must be a (lo, hi) pair of numbers in nm, got {thickness_range!r}") from None
+    if not (np.isfinite(lo) and np.isfinite(hi)) or lo < 0 or hi < lo:
+        raise ValueError(f"thickness_range must satisfy 0 <= lo <= hi (nm, finite), got {thickness_range!r}")
+    return lo, hi
+
+
+def wavelength_grid(step_nm: float) -> np.ndarray:
+    """Uniform wavelengths over 360-780 nm with the given step (nm), end points included when they fall on it."""
+    lo, hi = WAVELENGTH_RANGE_NM
+    n = int(np.floor((hi - lo) / step_nm + 1e-9)) + 1
+    return lo + step_nm * np.arange(n)
+
+
+def interface_coefficients(film, cos_theta, wavelength_nm):
+    """Real amplitude coefficients of both interfaces, s and p, and the film's cos theta_b and index.
+
+    Parameters
+    ----------
+    film : FilmModel
+    cos_theta : ndarray, shape (A,)
+        Incidence in the incident medium.
+    wavelength_nm : ndarray, shape (L,)
+
+    Returns
+    -------
+    dict with ``a_s, b_s, a_p, b_p, cos_b, n_b``, each shape (A, L) float64, or None when a coefficient is
+    complex (absorbing film or substrate, total internal reflection): then only the general path applies.
+    """
+    from .. import optics
+
+    n_a = film.n_incident
+    n_b = np.asarray(film.n_film(wavelength_nm))[None, :]
+    n_c = film.n_substrate
+    if np.iscomplexobj(n_b) or isinstance(n_c, complex):
+        return None
+    cos_a = np.asarray(cos_theta, dtype=np.float64)[:, None]
+    # total internal reflection at either interface makes the coefficients complex
+    sin2_a = 1.0 - cos_a**2
+    if np.any(n_a**2 * sin2_a > np.minimum(n_b, n_c) ** 2):
+        return None
+    cos_b = np.real(optics.snell_cos(n_a, n_b, cos_a))
+    cos_c = np.real(optics.snell_cos(n_a, n_c, cos_a))
+    out = {"cos_b": np.broadcast_to(cos_b, (cos_a.shape[0], n_b.shape[1])), "n_b": np.broadcast_to(n_b, cos_b.shape)}
+    for pol in ("s", "p"):
+        out[f"a_{pol}"] = np.real(optics.fresnel_r(n_a, n_b, cos_a, cos_b, pol)) + np.zeros_like(cos_b)
+        out[f"b_{pol}"] = np.real(optics.fresnel_r(n_b, n_c, cos_b, cos_c, pol)) + np.zeros_like(cos_b)
+    return out
+
+
+def _texel_chunks(n_angle, n_wavelength):
+    rows = max(1, _CHUNK_ELEMENTS // max(1, n_angle * n_wavelength))
+    return rows
+
+
+# -- methods ------------------------------------------------------------------------------------------
+def _bake_spectral(cos_theta, thickness_nm, film, *, illuminant, colour_space, spectral_step_nm, **_):
+    """Straightforward per-wavelength bake with :func:`pipeline.optics.reflectance`; shape (M, N, 3)."""
+    from .. import optics
+    from .reference import colour_weights
+
+    wl = wavelength_grid(spectral_step_nm)
+    w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
+    n_film = film.n_film(wl)
+    out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
+    rows = _texel_chunks(cos_theta.shape[0], wl.shape[0])
+    for i in range(0, thickness_nm.shape[0], rows):
+        d = thickness_nm[i : i + rows, None, None]
+        r = optics.reflectance(
+            wl[None, None, :], cos_theta[None, :, None], d, n_film=n_film,
+            n_incident=film.n_incident, n_substrate=film.n_substrate,
+        )
+        out[i : i + rows] = r @ w
+    return out, {"spectralStepNm": repr(float(spectral_step_nm))}
+
+
+def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
+    """Colour by wavelength sampling, real-coefficient Airy form, for a grid of texels.
+
+    Parameters
+    ----------
+    cos_theta : ndarray, shape (A,)
+    thickness_nm : ndarray, shape (T,)
+    film : FilmModel (real coefficients, see :func:`interface_coefficients`)
+    wavelength_nm : ndarray, shape (L,)
+    weights : ndarray, shape (L, 3)
+        ``R @ weights`` is the colour.
+
+    Returns
+    -------
+    ndarray, shape (T, A, 3), float64
+    """
+    coef = interface_coefficients(film, cos_theta, wavelength_nm)
+    if coef is None:
+        raise ValueError(f"film {film.name!r} has complex interface coefficients; use method='spectral'")
+    # phase per nm of thickness: phi = 4 pi n_b cos_b d / lambda
+    k = 4.0 * np.pi * coef["n_b"] * coef["cos_b"] / wavelength_nm[None, :]
+    terms = []
+    for pol in ("s", "p"):
+        a, b = coef[f"a_{pol}"], coef[f"b_{pol}"]
+        terms.append((a * a + b * b, 2.0 * a * b, 1.0 + a * a * b * b))
+    out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
+    rows = _texel_chunks(cos_theta.shape[0], wavelength_nm.shape[0])
+    for i in range(0, thickness_nm.shape[0], rows):
+        c = np.cos(thickness_nm[i : i + rows, None, None] * k[None])
+        r = np.zeros_like(c)
+        for num0, cross, den0 in terms:
+            x = cross * c
+            r += (num0 + x) / (den0 + x)
+        out[i : i + rows] = (0.5 * r) @ weights
+    return out
+
+
+def _bake_spectral_fast(cos_theta, thickness_nm, film, *, illuminant, colour_space, fast_step_nm,
+                        grazing_step_nm, grazing_cos, **_):
+    from .reference import colour_weights
+
+    out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
+    graze = cos_theta < grazing_cos
+    for mask, step in ((~graze, fast_step_nm), (graze, grazing_step_nm)):
+        if np.any(mask):
+            wl = wavelength_grid(step)
+            w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
+            out[:, mask] = sample_colour(cos_theta[mask], thickness_nm, film, wl, w)
+    meta = {
+        "spectralStepNm": repr(float(fast_step_nm)),
+        "grazingStepNm": repr(float(grazing_step_nm)),
+        "grazingCosTheta": repr(float(grazing_cos)),
+    }
+    return out, meta
+
+
+def fourier_supported(film) -> bool:
+    """True when the exact Fourier form applies: non-dispersive, non-absorbing, real coefficients (no TIR)."""
+    if film.is_dispersive or film.k != 0 or isinstance(film.n_substrate, complex):
+        return False
+    n_b = float(np.real(film.n_film(550.0)))
+    return film.n_incident <= min(n_b, float(film.n_substrate))
+
+
+def _bake_fourier(cos_theta, thickness_nm, film, *, illuminant, colour_space, fourier_tol, max_terms, **_):
+    from . import fourier
+    from .reference import REFERENCE_STEP_NM, colour_weights, reference_wavelengths
+
+    if not fourier_supported(film):
+        raise ValueError(
+            f"method 'fourier' needs a non-dispersive, non-absorbing film without total internal reflection; "
+            f"film {film.name!r} is not (use 'spectral_fast', 'spectral' or 'auto')"
+        )
+    table = fourier.g_table(illuminant, colour_space)
+    coef = interface_coefficients(film, cos_theta, np.array([550.0]))  # any wavelength: no dispersion
+    n_b = float(coef["n_b"][0, 0])
+    opd = 2.0 * n_b * thickness_nm[:, None] * coef["cos_b"][None, :, 0]  # (T, A) nm
+    shape = opd.shape
+    cs = [fourier.airy_fourier_coefficients(coef[f"a_{pol}"][:, 0], coef[f"b_{pol}"][:, 0]) for pol in ("s", "p")]
+    c0, c1, rho = (np.stack([np.broadcast_to(c[i][None, :], shape).ravel() for c in cs], axis=1) for i in range(3))
+    m = np.max([fourier.n_terms_needed(c1[:, p], rho[:, p], opd.ravel(), table, fourier_tol) for p in (0, 1)],
+               axis=0)
+    over = m > max_terms
+    m = np.where(over, 0, m)
+    rgb = fourier.fourier_colour(c0, c1, rho, opd.ravel(), m, table).reshape(shape + (3,))
+    n_terms_total = m.reshape(shape)
+    fallback = over.reshape(shape)
+    if np.any(fallback):
+        # series too slow (OPD -> 0 with |rho| -> 1): sample those texels at the reference step
+        wl = reference_wavelengths()
+        w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
+        ti, aj = np.nonzero(fallback)
+        for t in np.unique(ti):
+            cols = aj[ti == t]
+            rgb[t, cols] = sample_colour(cos_theta[cols], thickness_nm[t : t + 1], film, wl, w)[0]
+    meta = {
+        "fourierTolerance": repr(float(fourier_tol)),
+        "fourierMaxTerms": str(int(max_terms)),
+        "fourierTermsMean": f"{n_terms_total.mean():.2f}",
+        "fourierTermsMax": str(int(n_terms_total.max())),
+        "fourierSampledTexels": f"{int(fallback.sum())} (at {REFERENCE_STEP_NM} nm)",
+    }
+    return rgb, meta
+
+
+def _bake_auto(cos_theta, thickness_nm, film, **kw):
+    if fourier_supported(film):
+        return "fourier", _bake_fourier(cos_theta, thickness_nm, film, **kw)
+    if interface_coefficients(film, cos_theta, np.array([WAVELENGTH_RANGE_NM[0], WAVELENGTH_RANGE_NM[1]])) is not None:
+        return "spectral_fast", _bake_spectral_fast(cos_theta, thickness_nm, film, **kw)
+    kw = dict(kw, spectral_step_nm=min(kw["spectral_step_nm"], DEFAULT_GRAZING_STEP_NM * 5))
+    return "spectral", _bake_spectral(cos_theta, thickness_nm, film, **kw)
+
+
+BAKE_METHODS = {
+    "auto": _bake_auto,
+    "fourier": _bake_fourier,
+    "spectral_fast": _bake_spectral_fast,
+    "spectral": _bake_spectral,
+}
+"""Supported bake methods: name -> implementation (``"auto"`` picks among the others)."""
+
+
+def bake(
+    *,
+    angles: int = DEFAULT_ANGLES,
+    thicknesses: int = DEFAULT_THICKNESSES,
+    thickness_range=DEFAULT_THICKNESS_RANGE_NM,
+    film="paper",
+    method: str = "auto",
+    angle_warp_gamma: float = DEFAULT_ANGLE_WARP_GAMMA,
+    colour_space: str = "lin_rec709",
+    illuminant: str = "D65",
+    spectral_step_nm: float = DEFAULT_SPECTRAL_STEP_NM,
+    fast_step_nm: float = DEFAULT_FAST_STEP_NM,
+    grazing_step_nm: float = DEFAULT_GRAZING_STEP_NM,
+    grazing_cos: float = DEFAULT_GRAZING_COS,
+    fourier_tol: float = DEFAULT_FOURIER_TOL,
+    max_terms: int = DEFAULT_MAX_TERMS,
+    error_points: int = 0,
+    error_seed: int = 0,
+) -> ThinFilmLUT:
+    """Bake structural colour over (cos theta, thickness) into a :class:`ThinFilmLUT`.
+
+    Parameters
+    ----------
+    angles : int >= 2
+        Angle texels; nodes ``cos_theta_j = (j / (angles - 1)) ** angle_warp_gamma``.
+    thicknesses : int >= 1
+        Thickness texels, uniform over ``thickness_range``. ``1`` (or ``lo == hi``) gives a one-texel-high
+        LUT (the paper's 1-D texture) at the mid-point of the range.
+    thickness_range : (float, float)
+        ``(lo, hi)`` film thickness in nm, ``0 <= lo <= hi``.
+    film : str or FilmModel
+        ``"paper"`` (n = 1.5, the default), ``"keratin"`` (dispersive) or any :class:`pipeline.films.FilmModel`.
+    method : str
+        One of :data:`BAKE_METHODS`.
+    angle_warp_gamma : float > 0
+        Warp of the angle axis (``> 1`` puts texels near grazing).
+    colour_space, illuminant : str
+        Working colour space of the table (``lin_rec709`` or ``acescg``) and illuminant (``D65``).
+    spectral_step_nm : float
+        Wavelength step of ``"spectral"``.
+    fast_step_nm, grazing_step_nm, grazing_cos : float
+        Steps of ``"spectral_fast"`` outside / inside the grazing band ``cos theta < grazing_cos``.
+    fourier_tol : float
+        Remainder bound below which Fourier terms are dropped (linear colour units).
+    max_terms : int
+        Texels whose series needs more terms are sampled at 0.1 nm instead.
+    error_points : int
+        If > 0, measure the LUT against the exact reference at this many random points (grazing included) and
+        record max / p99 / median dE2000 in the metadata (:func:`pipeline.lut.reference.lut_error`).
+    error_seed : int
+        Seed of those points.
+
+    Returns
+    -------
+    ThinFilmLUT
+        ``rgb`` shape (n_thickness, angles, 3) float32; metadata records the film, illuminant, observer,
+        colour space, method and its parameters (and the measured error when asked).
+    """
+    angles = _check_count("angles", angles, 2)
+    thicknesses = _check_count("thicknesses", thicknesses, 1)
+    lo, hi = _check_range(thickness_range)
+    film_model = _resolve_film(film)
+    if not isinstance(method, str) or method not in BAKE_METHODS:
+        raise ValueError(f"method must be one of {sorted(BAKE_METHODS)}, got {method!r}")
+    gamma = _check_positive("angle_warp_gamma", angle_warp_gamma)
+    from .reference import check_colour_space, check_illuminant
+
+    colour_space = check_colour_space(colour_space)
+    illuminant = check_illuminant(illuminant)
+    kw = dict(
+        illuminant=illuminant,
+        colour_space=colour_space,
+        spectral_step_nm=_check_positive("spectral_step_nm", spectral_step_nm),
+        fast_step_nm=_check_positive("fast_step_nm", fast_step_nm),
+        grazing_step_nm=_check_positive("grazing_step_nm", grazing_step_nm),
+        grazing_cos=_check_positive("grazing_cos", grazing_cos),
+        fourier_tol=_check_positive("fourier_tol", fourier_tol),
+        max_terms=_check_count("max_terms", max_terms, 0),
+    )
+    error_points = _check_count("error_points", error_points, 0)
+
+    if thicknesses == 1 or lo == hi:
+        lo = hi = 0.5 * (lo + hi)
+        thicknesses = 1
+    rng = (lo, hi)
+    x = np.linspace(0.0, 1.0, angles)
+    cos_theta = x**gamma
+    thickness_nm = np.linspace(lo, hi, thicknesses)
+
+    impl = BAKE_METHODS[method]
+    if method == "auto":
+        used, (rgb, meta) = impl(cos_theta, thickness_nm, film_model, **kw)
+    else:
+        used, (rgb, meta) = method, impl(cos_theta, thickness_nm, film_model, **kw)
+    metadata = {f"film:{k}": v for k, v in film_model.describe().items()}
+    metadata.update(
+        {
+            "film": film_model.name,
+            "illuminant": illuminant,
+            "observer": OBSERVER,
+            "wavelengthRangeNm": f"{WAVELENGTH_RANGE_NM[0]!r} {WAVELENGTH_RANGE_NM[1]!r}",
+            "polarization": "unpolarized (mean of s and p)",
+            "method": used,
+            "methodRequested": method,
+        }
+    )
+    metadata.update({f"method:{k}": v for k, v in meta.items()})
+    lut = ThinFilmLUT(rgb.astype(np.float32), rng, angle_warp_gamma=gamma, colour_space=colour_space,
+                      metadata=metadata)
+    if error_points:
+        from .reference import lut_error
+
+        err = lut_error(lut, film_model, n_points=error_points, seed=error_seed)
+        metadata.update(error_metadata(err))
+        lut = ThinFilmLUT(lut.rgb, rng, angle_warp_gamma=gamma, colour_space=colour_space, metadata=metadata)
+    return lut
+
+
+def error_metadata(err: dict) -> dict[str, str]:
+    """Header strings of a :func:`pipeline.lut.reference.lut_error` result."""
+    return {
+        "estimatedMaxDeltaE2000": f"{err['max']:.4g}",
+        "estimatedP99DeltaE2000": f"{err['p99']:.4g}",
+        "estimatedMedianDeltaE2000": f"{err['median']:.4g}",
+        "estimatedErrorSample": f"{err['n_points']} random points, seed {err['seed']}, "
+        f"{err['grazing_fraction']:.0%} with cos_theta < {err['grazing_cos']}",
+    }
