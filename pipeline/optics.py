@@ -147,6 +147,16 @@ def _branch_sqrt(z):
     return np.where(q.imag < 0, -q, q)
 
 
+def _q(q2, n_j, n_a, cos_a, real: bool):
+    """q_j = n_j cos(theta_j) from q_j**2 (eq. 1): real root if ``real`` (caller checked q2 >= 0), else the
+    decaying branch. Where n_j == n_a, q_j = n_a cos_a exactly (no underflow of cos_a**2 at grazing)."""
+    q = np.sqrt(q2) if real else _branch_sqrt(q2)
+    same = np.asarray(n_j == n_a)
+    if same.any():
+        q = np.where(same, n_a * cos_a, q)
+    return q
+
+
 def snell_cos(n1, n2, cos1):
     """Cosine of the refraction angle in medium 2, complex-safe (Snell's law n1 sin1 = n2 sin2).
 
@@ -170,9 +180,8 @@ def snell_cos(n1, n2, cos1):
     n2 = _as_index("n2", n2)
     cos1 = _as_real("cos1", cos1, lo=0.0, hi=1.0)
     q2sq = _q_squared(n2, n1, cos1)
-    if q2sq.dtype.kind != "c" and (q2sq.size == 0 or q2sq.min() >= 0):
-        return np.sqrt(q2sq) / n2
-    return _branch_sqrt(q2sq) / n2
+    real = q2sq.dtype.kind != "c" and (q2sq.size == 0 or q2sq.min() >= 0)
+    return _q(q2sq, n2, n1, cos1, real) / n2
 
 
 def fresnel_r(n1, n2, cos1, cos2, polarization):
@@ -231,10 +240,7 @@ def film_phase(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident=1.0):
     n_b = _as_index("n_film", n_film, lam)
     n_a = _as_index("n_incident", n_incident, lam, real_only=True)
     qb2 = _q_squared(n_b, n_a, cos_theta)
-    if qb2.dtype.kind != "c" and (qb2.size == 0 or qb2.min() >= 0):
-        qb = np.sqrt(qb2)
-    else:
-        qb = _branch_sqrt(qb2)
+    qb = _q(qb2, n_b, n_a, cos_theta, qb2.dtype.kind != "c" and (qb2.size == 0 or qb2.min() >= 0))
     return (2.0 * _TWO_PI) * d * qb / lam
 
 
@@ -350,18 +356,22 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
         all_fast = False
 
     if all_fast:
-        res = _fast_real(k0d, cos_a, n_a, n_b, n_c, np.sqrt(qb2), np.sqrt(qc2), pols, want_t)
+        res = _fast_real(k0d, cos_a, n_a, n_b, n_c, _q(qb2, n_b, n_a, cos_a, True), _q(qc2, n_c, n_a, cos_a, True),
+                         pols, want_t)
     elif not real or not np.any(fast):
-        res = _general_complex(k0d, cos_a, n_a, n_b, n_c, _branch_sqrt(qb2), _branch_sqrt(qc2), pols, want_t)
+        res = _general_complex(k0d, cos_a, n_a, n_b, n_c, _q(qb2, n_b, n_a, cos_a, False),
+                               _q(qc2, n_c, n_a, cos_a, False), pols, want_t)
     else:
         # Mixed: real arithmetic where it is valid, the complex path on the rest (TIR, q_b = 0).
         fast = np.broadcast_to(fast, shape)
         with np.errstate(invalid="ignore", divide="ignore"):
-            res = _fast_real(k0d, cos_a, n_a, n_b, n_c, np.sqrt(np.maximum(qb2, 0)), np.sqrt(np.maximum(qc2, 0)),
-                             pols, want_t)
+            res = _fast_real(k0d, cos_a, n_a, n_b, n_c, _q(np.maximum(qb2, 0), n_b, n_a, cos_a, True),
+                             _q(np.maximum(qc2, 0), n_c, n_a, cos_a, True), pols, want_t)
         slow = ~fast
         sub = [np.broadcast_to(x, shape)[slow] for x in (k0d, cos_a, n_a, n_b, n_c, qb2, qc2)]
-        res_slow = _general_complex(*sub[:5], _branch_sqrt(sub[5]), _branch_sqrt(sub[6]), pols, want_t)
+        k0d_s, cos_s, na_s, nb_s, nc_s, qb2_s, qc2_s = sub
+        res_slow = _general_complex(k0d_s, cos_s, na_s, nb_s, nc_s, _q(qb2_s, nb_s, na_s, cos_s, False),
+                                    _q(qc2_s, nc_s, na_s, cos_s, False), pols, want_t)
         for pol in pols:
             fixed = []
             for full, part in zip(res[pol], res_slow[pol]):
