@@ -175,6 +175,25 @@ def test_shading_variants_switch_the_mtlx_network(asset):
     assert UsdShade.Material(st.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial")).ComputeSurfaceSource()[0]
 
 
+def test_preview_texture_mixes_base_and_a_static_structural_colour_by_the_mask(asset):
+    import colour
+    from PIL import Image
+
+    from pipeline.lut.exr import read_exr
+
+    lut = read_exr(asset["lut"])
+    base = np.asarray(Image.open(asset["feather_base"]))
+    mask = np.asarray(Image.open(asset["feather_mask"]))
+    preview = np.asarray(Image.open(asset["feather_preview"]))
+    assert preview.shape == base.shape and np.array_equal(preview[..., 3], base[..., 3])
+    lo, hi = lut.thickness_range_nm
+    structural = colour.cctf_encoding(np.clip(lut.sample(1.0, 0.5 * (lo + hi)), 0, 1), function="sRGB")
+    tip, plain = mask == 255, mask == 0
+    assert tip.any() and plain.any()
+    assert np.abs(preview[tip][:, :3] - np.round(structural * 255)).max() <= 1
+    assert np.array_equal(preview[plain][:, :3], base[plain][:, :3])
+
+
 def test_rebuild_is_byte_identical(asset, tmp_path):
     again = _build(tmp_path / "pigeon")
     a, b = asset["dir"], again["dir"]

@@ -117,6 +117,15 @@ def test_thickness_outside_the_lut_domain_is_reported(broken):
     assert "[900, 900] nm, outside the LUT domain [450, 750]" in issue.message
 
 
+def test_lut_network_constants_that_disagree_with_the_exr_are_reported(broken):
+    out, edit = broken
+    edit(lambda layer: setattr(layer.GetAttributeAtPath(
+        "/Pigeon/Looks/FeatherMaterial/LutAngleCount.inputs:value"), "default", 17.0))
+    (issue,) = _errors(validate_asset(out), "thinFilm")
+    assert issue.path == "/Pigeon/Looks/FeatherMaterial/LutAngleCount.inputs:value"
+    assert "17.0 does not describe the LUT file" in issue.message and "expected 16" in issue.message
+
+
 def test_unresolved_mtlx_surface_is_reported_in_its_variant_only(broken):
     out, edit = broken
     def fn(layer):

@@ -14,7 +14,8 @@ variant sets on the default prim (here ``shading`` = baked / physical), runs:
 4. Topology: every primvar's (and normals') element count matches its interpolation (vertex = points,
    faceVarying = face corners, uniform = faces, constant = 1), indices in range.
 5. Thin film: on prims with ``RockDoveThinFilmAPI``, the thickness primvar's range lies inside the LUT's
-   domain ``rockdove:lut:thicknessRangeNm``, which must agree with the range in the LUT EXR header.
+   domain ``rockdove:lut:thicknessRangeNm``, which must agree with the range in the LUT EXR header; the
+   bound material's LUT constants (``LutAngleCount``... of thinfilm.mtlx) must describe that EXR.
 6. Materials: ``ComputeSurfaceSource()`` (universal) resolves for every material, and
    ``ComputeSurfaceSource("mtlx")`` for every material with an ``outputs:mtlx:surface``.
 
@@ -350,6 +351,7 @@ def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
             if not np.isclose(film["angle_warp_gamma"], lut.angle_warp_gamma, rtol=1e-6):
                 issues.append(Issue("thinFilm", f"{prim.GetPath()}.rockdove:lut:angleWarpGamma",
                                     f"{film['angle_warp_gamma']} differs from the LUT file's {lut.angle_warp_gamma}"))
+            issues += _check_lut_constants(prim, lut)
         pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "")
         values = pv.ComputeFlattened() if pv else None
         if values is None or len(values) == 0:
@@ -363,6 +365,30 @@ def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
                                 f"thickness spans [{d.min():.6g}, {d.max():.6g}] nm, outside the LUT domain "
                                 f"[{lo:.6g}, {hi:.6g}] nm (rockdove:lut:thicknessRangeNm)"))
     return issues, n
+
+
+def _check_lut_constants(prim, lut) -> list:
+    """The MaterialX network's LUT constants (texel counts, warp, range) must describe the LUT file it reads."""
+    from pxr import UsdShade
+
+    material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
+    if not material:
+        return [Issue("thinFilm", str(prim.GetPath()), "feather mesh has no bound material")]
+    lo, hi = lut.thickness_range_nm
+    expected = {"LutAngleCount": lut.n_angle, "LutThicknessCount": lut.n_thickness,
+                "LutAngleWarpGamma": lut.angle_warp_gamma, "LutThicknessLoNm": lo, "LutThicknessHiNm": hi}
+    issues = []
+    for name, want in expected.items():
+        shader = UsdShade.Shader(material.GetPrim().GetChild(name))
+        if not shader:
+            continue  # a material without the LUT network (e.g. hand-made) has nothing to disagree with
+        got = shader.GetInput("value").Get() if shader.GetInput("value") else None
+        if got is None or abs(float(got) - float(want)) > 1e-4 * max(1.0, abs(float(want))):
+            issues.append(Issue("thinFilm", f"{shader.GetPath()}.inputs:value",
+                                f"{got} does not describe the LUT file it reads: expected {want} "
+                                f"({lut.n_thickness} x {lut.n_angle} texels, gamma {lut.angle_warp_gamma}, "
+                                f"range ({lo}, {hi}) nm)"))
+    return issues
 
 
 # -- 6. surface sources -------------------------------------------------------------------------------------
