@@ -105,3 +105,32 @@ def test_views_are_deterministic_serialisable_and_sweep_the_light_view_angle(ass
         turntable_views(s.bounds_m, 0, 32, 32)
     with pytest.raises(ValueError, match="width"):
         View("x", np.eye(4), 0.5, 0, 10, [0, 0, 1], [1, 1, 1])
+
+
+def test_load_scene_reads_the_asset_written_by_pipeline_assemble(tmp_path):
+    """The reader against the real authoring code (pipeline.assemble on the USD stage's synthetic inputs)."""
+    from pipeline.assemble import assemble
+    from pipeline.films import get_film
+    from pipeline.usd.synthetic import synthetic_bird, synthetic_lut, synthetic_textures
+
+    feather, body = synthetic_textures()
+    bird, lut, film = synthetic_bird(6, seed=1), synthetic_lut(), get_film("keratin")
+    out = assemble(tmp_path / "pigeon", bird=bird, lut=lut, feather_textures=feather, body_texture=body,
+                   film=film, usdz=False)
+    for variant in ("baked", "physical"):
+        s = sc.load_scene(out["dir"], variants={"shading": variant})
+        assert s.variants == {"shading": variant}
+        by_name = {p.name: p for p in s.parts}
+        for src in bird.parts:
+            got = by_name[src.name]
+            assert got.material_kind == src.material
+            np.testing.assert_allclose(got.positions_m, src.points_m, atol=1e-6)
+            assert len(got.triangles) == int(np.sum(np.asarray(src.face_vertex_counts) - 2))
+        feathers = by_name["NeckFeathers"]
+        np.testing.assert_array_equal(feathers.thickness_nm, bird.parts[2].primvars["thickness"].values)
+        assert feathers.base_colour_texture == out["feather_base"] and feathers.mask_texture == out["feather_mask"]
+        assert by_name["Body"].base_colour_texture == out["body_base"]
+        assert s.film.lut_file == out["lut"] and s.film.thickness_range_nm == lut.thickness_range_nm
+        assert s.film.angle_warp_gamma == lut.angle_warp_gamma
+        assert s.film.cauchy_a == pytest.approx(film.cauchy_a) if hasattr(film, "cauchy_a") else True
+        np.testing.assert_array_equal(s.load_lut().rgb, lut.rgb)

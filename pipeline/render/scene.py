@@ -391,6 +391,24 @@ def _read_lut_exr_fallback(path):
 
 
 # -- USD reading ------------------------------------------------------------------------------------------
+def register_schema() -> None:
+    """Register the RockDoveThinFilmAPI codeless schema with USD before any stage is opened in this process.
+
+    USD builds its schema registry once, at the first stage opened; a later registration is not seen, which
+    would break other code in the same process (the USD stage's authoring and validation). The reader itself
+    reads the attributes by name and does not need the schema. A no-op when ``pipeline.usd.schema`` is absent
+    or the registry was already built without it.
+    """
+    try:
+        from pipeline.usd.schema import register
+    except ImportError:
+        return
+    try:
+        register()
+    except RuntimeError:
+        pass
+
+
 def _asset_abs(attr, value) -> str | None:
     """Absolute path of an asset-valued attribute (resolved by Ar, else anchored to the authoring layer)."""
     if value is None:
@@ -642,6 +660,7 @@ def load_scene(path, variants: dict | None = None) -> RenderScene:
     from pxr import Sdf, Usd, UsdGeom
 
     layer_path = resolve_asset_path(path)
+    register_schema()
     try:
         stage = Usd.Stage.Open(layer_path, Usd.Stage.LoadAll)
     except Exception as exc:  # pxr raises Tf.ErrorException

@@ -135,6 +135,9 @@ def write_synthetic_asset(out_dir, lut=None, n_cards: int = 6) -> str:
     from PIL import Image
     from pxr import Gf, Kind, Sdf, Usd, UsdGeom, UsdShade, Vt
 
+    from .scene import register_schema
+
+    register_schema()  # before the first stage of the process (USD builds its schema registry once)
     if lut is None:
         lut = gradient_lut()
     out_dir = os.path.abspath(os.fspath(out_dir))
