@@ -109,7 +109,7 @@ def _class_image(boundary_row, h=80, w=120):
 def test_boundary_straightness_straight_line_is_near_zero():
     straight = _class_image(lambda x: 20 + 0.4 * x)
     s = compare.boundary_straightness(straight)
-    assert s["n_points"] > 100
+    assert s["n_points"] > 100 and s["n_centreline"] > 40
     assert s["rms_px"] < 0.5  # pixel quantisation only
     assert s["rms_fraction"] < 0.005
 
@@ -122,11 +122,18 @@ def test_boundary_straightness_curved_boundary_is_clearly_larger():
     assert curved["rms_fraction"] > 10 * straight["rms_fraction"]
 
 
-def test_boundary_needs_enough_points_and_ignores_grey():
+def test_boundary_needs_enough_points_and_bridges_narrow_gaps():
     cls = np.zeros((20, 20), np.int8)
     cls[5, 5], cls[5, 6] = 1, 2
     s = compare.boundary_straightness(cls)
-    assert s["n_points"] == 1 and np.isnan(s["rms_px"])
+    assert 0 < s["n_centreline"] < 8 and np.isnan(s["rms_px"])
+    # a gap of grey (class 0) or blue (class 3) up to 2 * reach pixels wide still gives a boundary
+    gap = _class_image(lambda x: 20 + 0.4 * x)
+    edge = np.diff(gap.astype(int), axis=0, prepend=1) != 0
+    gap[edge] = 3
+    gap[np.roll(edge, 1, axis=0)] = 0
+    s = compare.boundary_straightness(gap)
+    assert s["rms_px"] < 0.5 and s["n_centreline"] > 40
 
 
 def test_bad_shapes_raise_value_error_naming_the_argument():

@@ -49,6 +49,11 @@ HUE_BIN_DEG = 30.0
 #: Hue bands (h_ab, degrees, half-open [lo, hi), wrapping through 360 when lo > hi).
 GREEN_BAND_DEG = (100.0, 210.0)
 PURPLE_BAND_DEG = (280.0, 15.0)
+#: The green side of the hue circle, [lo, hi): the purple side is the rest. The splits are the middles of the
+#: gaps between the bands (blue, 210-280 deg, and red-yellow, 15-100 deg).
+SIDE_SPLIT_DEG = (57.5, 245.0)
+#: Reach of the green/purple contact zone, pixels (see :func:`boundary_points`).
+BOUNDARY_REACH_PX = 2
 
 
 def _as_image(name: str, a, channels: int | None) -> np.ndarray:
@@ -143,8 +148,17 @@ def _in_band(h_deg: np.ndarray, band: tuple[float, float]) -> np.ndarray:
     return (h_deg >= lo) & (h_deg < hi) if lo <= hi else (h_deg >= lo) | (h_deg < hi)
 
 
-def hue_classes(rgb_linear: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def hue_classes(rgb_linear: np.ndarray, sides: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Hue angle, chroma and class of displayed colours.
+
+    Parameters
+    ----------
+    rgb_linear : ndarray, (..., 3), linear lin_rec709
+    sides : bool
+        False: the strict bands (1 green, 2 purple, 3 any other hue). True: every chromatic colour goes to the
+        nearer side of the hue circle, split at :data:`SIDE_SPLIT_DEG` (the middles of the gaps between the two
+        bands), so 1 = green side, 2 = purple side; used for the boundary, because the film passes from
+        green to purple through blue or through red-yellow hues, depending on the thickness.
 
     Returns
     -------
@@ -155,9 +169,12 @@ def hue_classes(rgb_linear: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     lab = rgb_to_lab(rgb_linear)
     h = np.degrees(np.arctan2(lab[..., 2], lab[..., 1])) % 360.0
     c = np.hypot(lab[..., 1], lab[..., 2])
-    cls = np.full(h.shape, 3, np.int8)
-    cls[_in_band(h, GREEN_BAND_DEG)] = 1
-    cls[_in_band(h, PURPLE_BAND_DEG)] = 2
+    if sides:
+        cls = np.where(_in_band(h, SIDE_SPLIT_DEG), 1, 2).astype(np.int8)
+    else:
+        cls = np.full(h.shape, 3, np.int8)
+        cls[_in_band(h, GREEN_BAND_DEG)] = 1
+        cls[_in_band(h, PURPLE_BAND_DEG)] = 2
     cls[c < HUE_MIN_CHROMA] = 0
     return h, c, cls
 
@@ -193,79 +210,102 @@ def hue_histogram(rgb_pixels: np.ndarray) -> dict:
     }
 
 
-def boundary_points(cls: np.ndarray) -> np.ndarray:
-    """Points on the green/purple boundary of a class image.
+def boundary_points(cls: np.ndarray, reach_px: int = BOUNDARY_REACH_PX) -> np.ndarray:
+    """Pixels on the green/purple boundary of a class image.
 
-    A boundary point is the midpoint between two 4-adjacent pixels of which one is green (class 1) and the
-    other purple (class 2).
+    The boundary is the contact zone of the two classes: pixels within ``reach_px`` (8-connected steps) of a
+    green pixel AND within ``reach_px`` of a purple pixel. Unlike plain 4-adjacency this bridges the narrow
+    band of low-chroma or blue pixels that the film shows between green and purple (at 650 nm and cos theta
+    near 0.707 the chroma drops to ~12) and the grey feather bases between coloured tips, so gaps up to
+    ``2 * reach_px`` pixels still give a boundary. For a straight boundary the zone is a band about
+    ``2 * reach_px`` wide, which adds ~``2 * reach_px / sqrt(12)`` px to the RMS of
+    :func:`boundary_straightness`.
 
     Parameters
     ----------
-    cls : ndarray, shape (H, W), int: the classes of :func:`hue_classes` (anything else is ignored)
+    cls : ndarray, shape (H, W), int: the classes of :func:`hue_classes` (1 green, 2 purple; others ignored),
+        normally with ``sides=True``
+    reach_px : int, >= 1
 
     Returns
     -------
     ndarray, shape (P, 2), float64: (x, y) in pixels (x = column, y = row, pixel centres at integers)
     """
+    from scipy import ndimage
+
     cls = _as_image("cls", cls, None)
-    pts = []
-    for axis in (0, 1):
-        a = cls[:-1, :] if axis == 0 else cls[:, :-1]
-        b = cls[1:, :] if axis == 0 else cls[:, 1:]
-        hit = ((a == 1) & (b == 2)) | ((a == 2) & (b == 1))
-        r, c = np.nonzero(hit)
-        if axis == 0:
-            pts.append(np.stack([c.astype(float), r + 0.5], axis=1))
-        else:
-            pts.append(np.stack([c + 0.5, r.astype(float)], axis=1))
-    return np.concatenate(pts, axis=0)
+    if int(reach_px) != reach_px or reach_px < 1:
+        raise ValueError(f"reach_px must be an integer >= 1, got {reach_px!r}")
+    st = np.ones((3, 3), bool)
+    near_green = ndimage.binary_dilation(cls == 1, structure=st, iterations=int(reach_px))
+    near_purple = ndimage.binary_dilation(cls == 2, structure=st, iterations=int(reach_px))
+    r, c = np.nonzero(near_green & near_purple)
+    return np.stack([c.astype(float), r.astype(float)], axis=1)
 
 
-def boundary_straightness(cls: np.ndarray, min_points: int = 20) -> dict:
+def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0) -> dict:
     """How far the green/purple boundary of a class image departs from a straight line.
 
-    Method: take :func:`boundary_points`; fit a line by total least squares (the principal axis of the
-    points: the line minimising the sum of squared perpendicular distances); the measure is the RMS of the
-    perpendicular distances, in pixels, and as a fraction of the boundary's length (the extent of the points
-    along the fitted line), so it does not depend on the image size. To be robust to isolated boundary
-    pixels (a stray feather tip of the other colour), the fit is repeated once without the points farther
-    than 3 x the median absolute distance (when that leaves at least half of them).
+    Method:
+
+    1. the contact-zone pixels of :func:`boundary_points`;
+    2. a first line through them by total least squares (TLS: the principal axis of the points, the line
+       minimising the sum of squared perpendicular distances);
+    3. the zone's centreline: the points are binned along that line in ``bin_px`` steps and each bin is
+       replaced by its mean point, so the zone's own width does not count as curvature;
+    4. a TLS line through the centreline; the measure is the RMS perpendicular distance of the centreline
+       points from it, in pixels, and as a fraction of the boundary's length (the centreline's extent along the
+       line), which does not depend on the image size. To be robust to a stray feather tip of the other colour,
+       the fit is repeated once without centreline points farther than 3 x their median distance (when at least
+       half remain).
+
+    A straight boundary gives a fraction of the pixel quantisation (~0.3 px); a bent one its sagitta over
+    ~3 (a parabola of sagitta 40 px gives ~12 px).
 
     Parameters
     ----------
     cls : ndarray, shape (H, W), int
-        Classes as from :func:`hue_classes` (1 green, 2 purple).
+        Classes as from :func:`hue_classes`, normally ``sides=True`` (1 green side, 2 purple side).
     min_points : int
-        Fewer boundary points than this give no measure (``rms_px`` NaN).
+        Fewer centreline points than this give no measure (``rms_px`` NaN).
+    bin_px : float
+        Bin length along the boundary, pixels.
 
     Returns
     -------
-    dict: ``n_points``, ``rms_px``, ``length_px``, ``rms_fraction`` (rms_px / length_px), ``direction``
-    (unit (x, y)), ``centre`` ((x, y) px).
+    dict: ``n_points`` (contact-zone pixels), ``n_centreline``, ``rms_px``, ``length_px``, ``rms_fraction``
+    (rms_px / length_px), ``direction`` (unit (x, y)), ``centre`` ((x, y) px).
     """
     pts = boundary_points(cls)
-    out = {"n_points": int(len(pts)), "rms_px": float("nan"), "length_px": float("nan"),
+    out = {"n_points": int(len(pts)), "n_centreline": 0, "rms_px": float("nan"), "length_px": float("nan"),
            "rms_fraction": float("nan"), "direction": None, "centre": None}
-    if len(pts) < min_points:
+    if len(pts) < 2:
         return out
 
     def fit(p):
         centre = p.mean(axis=0)
         _, _, vt = np.linalg.svd(p - centre, full_matrices=False)
-        direction, normal = vt[0], vt[1]
-        dist = (p - centre) @ normal
-        return centre, direction, dist
+        return centre, vt[0], (p - centre) @ vt[1]
 
-    centre, direction, dist = fit(pts)
-    mad = np.median(np.abs(dist))
-    keep = np.abs(dist) <= 3.0 * max(mad, 0.5)
-    if keep.sum() >= max(min_points, len(pts) // 2) and not keep.all():
-        pts = pts[keep]
-        centre, direction, dist = fit(pts)
+    centre, direction, _ = fit(pts)
     along = (pts - centre) @ direction
+    bins = np.floor((along - along.min()) / bin_px).astype(np.int64)
+    counts = np.bincount(bins)
+    used = counts > 0
+    line = np.stack([np.bincount(bins, weights=pts[:, k])[used] / counts[used] for k in (0, 1)], axis=1)
+    out["n_centreline"] = int(len(line))
+    if len(line) < min_points:
+        return out
+    centre, direction, dist = fit(line)
+    med = np.median(np.abs(dist))
+    keep = np.abs(dist) <= 3.0 * max(med, 0.5)
+    if keep.sum() >= max(min_points, len(line) // 2) and not keep.all():
+        line = line[keep]
+        centre, direction, dist = fit(line)
+    along = (line - centre) @ direction
     length = float(along.max() - along.min())
     rms = float(np.sqrt(np.mean(dist**2)))
-    out.update(n_points=int(len(pts)), rms_px=rms, length_px=length,
+    out.update(n_centreline=int(len(line)), rms_px=rms, length_px=length,
                rms_fraction=rms / length if length > 0 else float("nan"),
                direction=[float(v) for v in direction], centre=[float(v) for v in centre])
     return out
@@ -296,7 +336,8 @@ class ViewMetrics:
     de_map : ndarray, shape (H, W)
         dE2000, NaN where not compared (not serialised by :meth:`summary`).
     cls : ndarray, shape (H, W), int8
-        Hue class of the GL render's compared pixels, -1 elsewhere (not serialised).
+        Hue side (:func:`hue_classes` with ``sides=True``) of the GL render's compared pixels, -1 elsewhere
+        (not serialised); the input of :func:`boundary_straightness`.
     """
 
     view: str
@@ -364,7 +405,7 @@ def compare_arrays(
     black_fraction = n_black / n_lit if n_lit else 0.0
     cls_img = np.full(mask.shape, -1, np.int8)
     if n:
-        cls_img[mask] = hue_classes(safe_gl[mask])[2]
+        cls_img[mask] = hue_classes(safe_gl[mask], sides=True)[2]
     failures = []
     if not finite:
         failures.append(f"{view}: NaN or Inf in a render")
@@ -392,9 +433,9 @@ def gl_arrays(result) -> dict:
             v = getattr(result, n, None)
             if v is not None:
                 return np.asarray(v)
-        raise ValueError(f"GL result {type(result).__name__} has none of the attributes {names}")
+        raise ValueError(f"gl_result ({type(result).__name__}) has no attribute {names[0]!r}")
 
-    return {"rgb": get("rgb", "colour", "color", "radiance"), "part_id": get("part_id", "part_ids", "parts")}
+    return {"rgb": get("radiance_rgb"), "part_id": get("part_id")}
 
 
 def compare(gl_result, ref_result, scene, erode_px: int = 1) -> ViewMetrics:

@@ -12,8 +12,8 @@ docs/design.md, "Conventions":
 - normals, ``st`` and the film thickness are interpolated with the hit's barycentric coordinates;
   textures are sampled bilinearly, clamp-to-edge, texel centres at (k + 0.5) / N, t = 0 at the image's
   bottom (:func:`pipeline.render.scene.sample_texture`, the convention OpenGL uses);
-- cards are two-sided: ``N`` is flipped to face the viewer when the triangle's geometric normal faces away
-  (as ``gl_FrontFacing`` does in a fragment shader);
+- cards are two-sided: the interpolated ``N`` is flipped when ``dot(N, V) < 0``, so it faces the viewer
+  (as ``materials/glsl/thinfilm.frag`` does); a feather part without a mask texture has mask 1;
 - ``cos_theta = dot(L, H) = sqrt((1 + dot(L, V)) / 2)``, ``H = normalize(L + V)``;
 - ``structural = exact spectral colour of the film at (cos_theta, thickness_nm)``;
   ``colour = mix(base_rgb, structural, mask)``; ``radiance = colour * light_rgb * max(dot(N, L), 0)``;
@@ -292,9 +292,6 @@ class _SceneGeometry:
             [np.asarray(p.thickness_nm, np.float64) if p.thickness_nm is not None else np.zeros(len(p.positions_m))
              for p in scene.parts]
         )
-        tri = self.vertices[self.faces]
-        fn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        self.face_normals = fn / np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-30)
         self.is_feather = np.array([p.is_feather for p in scene.parts])
         self.threshold = np.array([p.opacity_threshold for p in scene.parts])
         self.base_tex, self.mask_tex = [], []
@@ -424,8 +421,8 @@ def _render_view(geom: _SceneGeometry, scene, view, structural_fn) -> ReferenceR
     N = geom.interp(geom.normals, f, b)
     N /= np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-30)
     feather = geom.is_feather[part]
-    back = np.einsum("ij,ij->i", geom.face_normals[f], V) < 0
-    N[feather & back] *= -1.0  # two-sided cards: the normal faces the viewer
+    back = np.einsum("ij,ij->i", N, V) < 0
+    N[feather & back] *= -1.0  # two-sided cards: the (interpolated) normal faces the viewer, as in the GLSL
     st = geom.interp(geom.st, f, b)
     base = np.empty((hit.size, 3))
     mask = np.zeros(hit.size)
@@ -437,8 +434,9 @@ def _render_view(geom: _SceneGeometry, scene, view, structural_fn) -> ReferenceR
         else:
             rgb = sample_texture(tex, st[sel])
             base[sel] = rgb[:, :3] if tex.shape[2] >= 3 else np.repeat(rgb[:, :1], 3, axis=1)
-        if geom.is_feather[p] and geom.mask_tex[p] is not None:
-            mask[sel] = sample_texture(geom.mask_tex[p], st[sel])[:, 0]
+        if geom.is_feather[p]:  # a feather without a mask texture is structural everywhere (mask = 1)
+            tex = geom.mask_tex[p]
+            mask[sel] = sample_texture(tex, st[sel])[:, 0] if tex is not None else 1.0
     cos_theta = np.sqrt(np.clip((1.0 + V @ L) / 2.0, 0.0, 1.0))
     thickness = geom.interp(geom.thickness, f, b)
     colour = base.copy()

@@ -1,0 +1,62 @@
+"""``rockdove verify ASSET [--out DIR] [--json] [--width W --height H]``: validate an asset, render it with the
+GLSL shaders and with the exact CPU reference, check and report (:func:`pipeline.render.verify.verify_asset`).
+
+Exit status 0 when everything passes, 1 when a check fails (:class:`pipeline.errors.VerificationFailed`),
+2 on bad usage (a ``ValueError``, turned into one line by the CLI).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+HELP = "validate an asset and check its renders against the exact spectral reference"
+
+
+def _size(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer number of pixels, got {text!r}") from None
+    if v < 16 or v > 8192:
+        raise argparse.ArgumentTypeError(f"must be between 16 and 8192 pixels, got {v}")
+    return v
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("asset", metavar="ASSET", help="the asset folder or its root layer (pigeon.usda)")
+    parser.add_argument("--out", metavar="DIR", default=None,
+                        help="report folder (default: verify/ beside the root layer)")
+    parser.add_argument("--json", action="store_true", help="print the report summary as JSON on stdout")
+    parser.add_argument("--width", type=_size, default=512, metavar="W", help="render width, pixels (default 512)")
+    parser.add_argument("--height", type=_size, default=512, metavar="H", help="render height, pixels (default 512)")
+    parser.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..errors import VerificationFailed
+    from ..render.verify import summary, verify_asset
+
+    def progress(msg: str) -> None:
+        if not args.quiet and not args.json:
+            print(f"rockdove verify: {msg}", file=sys.stderr)
+
+    report = verify_asset(args.asset, out_dir=args.out, width=args.width, height=args.height, progress=progress)
+    short = summary(report)
+    if args.json:
+        json.dump(short, sys.stdout, indent=2, default=str, allow_nan=True)
+        sys.stdout.write("\n")
+    else:
+        for m in report["views"]:
+            print(f"{m['view']:>16}: {m['n_pixels']:7d} px  dE2000 median {m['de_median']:.3f}  "
+                  f"p95 {m['de_p95']:.3f}  max {m['de_max']:.3f}  {'ok' if m['passed'] else 'FAIL'}")
+        h = report["hue_sweep"]
+        print(f"light sweep hues: green {h['green']}, purple {h['purple']}, grey {h['grey']}, other {h['other']}")
+        for name, b in report["boundary"]["per_view"].items():
+            print(f"boundary {name}: {b['n_points']} points, RMS {b['rms_px']:.2f} px "
+                  f"({b['rms_fraction']:.4f} of its length)")
+        print(f"report: {report['out_dir']}/report.html")
+    if not report["passed"]:
+        raise VerificationFailed("; ".join(report["failures"]))
+    return 0

@@ -1,0 +1,290 @@
+"""The verification report: per-view PNGs, a contact sheet, matplotlib figures, report.json and report.html.
+
+Everything is written into one folder and referenced by relative file names, so ``report.html`` opens in a
+browser from disk with no server. Figures are drawn with matplotlib's object API (``Figure`` +
+``FigureCanvasAgg``), which needs no display and leaves pyplot's global state alone.
+
+Files (``DIR`` is the output folder):
+
+- ``<view>_gl.png``, ``<view>_reference.png``: the two renders through the display transform
+  (:func:`pipeline.render.reference.to_display8`);
+- ``<view>_dE.png``: the dE2000 map with a colour bar (grey where not compared);
+- ``contact_sheet.png``: one row per view, GL | reference | dE;
+- ``lut.png`` (the LUT the asset names), ``spectra.png`` (film reflectance spectra), ``hue.png`` (hue
+  histogram across the light sweep), ``bench_*.png`` copied from ``build/bench`` when present;
+- ``report.json`` and ``report.html``.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import math
+import os
+import shutil
+
+import numpy as np
+
+#: Colour-bar range of the dE2000 maps (the p95 goal is 2; everything above 5 saturates).
+DE_MAP_MAX = 5.0
+DE_COLORMAP = "magma"
+
+
+def _figure(w_in=5.0, h_in=4.0):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(w_in, h_in), dpi=100)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def save_png(path, image_u8) -> str:
+    """Write an (H, W, 3|4) uint8 image as PNG; returns the path."""
+    from PIL import Image
+
+    Image.fromarray(np.ascontiguousarray(image_u8)).save(path)
+    return os.fspath(path)
+
+
+def de_colour(de_map, vmax: float = DE_MAP_MAX) -> np.ndarray:
+    """(H, W) dE map -> (H, W, 3) uint8 with the :data:`DE_COLORMAP`; NaN (not compared) is mid grey."""
+    from matplotlib import colormaps
+
+    de = np.asarray(de_map, np.float64)
+    rgba = colormaps[DE_COLORMAP](np.clip(np.nan_to_num(de, nan=0.0) / vmax, 0.0, 1.0))
+    out = (rgba[..., :3] * 255).round().astype(np.uint8)
+    out[~np.isfinite(de)] = 96
+    return out
+
+
+def de_map_png(path, de_map, title: str) -> str:
+    """The dE2000 map with a colour bar, as a matplotlib figure saved to PNG."""
+    de = np.asarray(de_map, np.float64)
+    h, w = de.shape
+    fig = _figure(5.5, 5.0 * h / w + 0.6)
+    ax = fig.add_subplot(1, 1, 1)
+    shown = np.ma.masked_invalid(de)
+    im = ax.imshow(shown, cmap=DE_COLORMAP, vmin=0.0, vmax=DE_MAP_MAX, interpolation="nearest")
+    ax.set_facecolor("#606060")
+    ax.set_title(title, fontsize=9)
+    ax.set_xticks([])
+    ax.set_yticks([])
+    fig.colorbar(im, ax=ax, label="dE2000 (grey: not compared)")
+    fig.savefig(path)
+    return os.fspath(path)
+
+
+def contact_sheet(path, rows, label_px: int = 14) -> str:
+    """Tile rows of equally sized uint8 RGB images, each row ``(label, [img, ...])``; returns the path."""
+    from PIL import Image, ImageDraw
+
+    rows = list(rows)
+    if not rows:
+        raise ValueError("rows must hold at least one (label, images) row, got none")
+    h, w = rows[0][1][0].shape[:2]
+    ncol = max(len(imgs) for _, imgs in rows)
+    sheet = Image.new("RGB", (ncol * w, len(rows) * (h + label_px)), (32, 32, 32))
+    draw = ImageDraw.Draw(sheet)
+    for r, (label, imgs) in enumerate(rows):
+        y = r * (h + label_px)
+        draw.text((2, y + 1), str(label), fill=(230, 230, 230))
+        for c, img in enumerate(imgs):
+            tile = Image.fromarray(np.ascontiguousarray(img[..., :3])).resize((w, h))
+            sheet.paste(tile, (c * w, y + label_px))
+    sheet.save(path)
+    return os.fspath(path)
+
+
+def lut_png(path, lut) -> str:
+    """The LUT as the display shows it, over its real axes (cos theta on x, thickness on y)."""
+    from .reference import to_display8
+
+    img = to_display8(lut.rgb)  # row 0 = thinnest
+    fig = _figure(6.0, 3.6)
+    ax = fig.add_subplot(1, 1, 1)
+    lo, hi = lut.thickness_range_nm
+    if hi == lo:
+        lo, hi = lo - 5.0, hi + 5.0
+    ax.imshow(img, origin="lower", aspect="auto", extent=(0.0, 1.0, lo, hi), interpolation="nearest")
+    ticks = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
+    ax.set_xticks(ticks)
+    ax.set_xticklabels([f"{t ** lut.angle_warp_gamma:.2f}" for t in ticks])
+    ax.set_xlabel(f"cos theta (warped axis, gamma = {lut.angle_warp_gamma:g})")
+    ax.set_ylabel("film thickness (nm)")
+    ax.set_title(f"LUT {lut.n_thickness} x {lut.n_angle}, {lut.colour_space} (display: clipped sRGB)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)
+    return os.fspath(path)
+
+
+def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 0.707, 0.3, 0.05)) -> str:
+    """Reflectance spectra of the asset's film (exact Airy, 0.1 nm) for a few thicknesses and angles."""
+    from .. import optics
+
+    wl = np.linspace(360.0, 780.0, 4201)
+    fig = _figure(7.0, 2.6 * len(thickness_nm))
+    for i, d in enumerate(thickness_nm):
+        ax = fig.add_subplot(len(thickness_nm), 1, i + 1)
+        for c in cos_theta:
+            r = optics.reflectance(wl, c, d, n_film=film.film_index(wl), n_incident=film.incident_index,
+                                   n_substrate=film.substrate_index)
+            ax.plot(wl, r, lw=0.8, label=f"cos theta = {c:g}")
+        ax.set_ylabel("R")
+        ax.set_title(f"d = {d:g} nm, {film.model}: n = {film.cauchy_a:g} + {film.cauchy_b_nm2:g} / lambda^2",
+                     fontsize=9)
+        ax.set_ylim(0, 1)
+        if i == 0:
+            ax.legend(fontsize=7, loc="upper right")
+    ax.set_xlabel("wavelength (nm)")
+    fig.tight_layout()
+    fig.savefig(path)
+    return os.fspath(path)
+
+
+def hue_png(path, hue: dict, title: str) -> str:
+    """Bar chart of a :func:`pipeline.render.compare.hue_histogram`, bars coloured by their hue."""
+    import colour
+
+    edges = np.asarray(hue["bin_edges_deg"])
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    lab = np.stack([np.full_like(centres, 60.0), 40 * np.cos(np.radians(centres)), 40 * np.sin(np.radians(centres))], 1)
+    cs = colour.RGB_COLOURSPACES["sRGB"]
+    rgb = colour.XYZ_to_RGB(colour.Lab_to_XYZ(lab, cs.whitepoint), cs, apply_cctf_encoding=True)
+    fig = _figure(6.0, 3.0)
+    ax = fig.add_subplot(1, 1, 1)
+    ax.bar(centres, hue["counts"], width=np.diff(edges) * 0.9, color=np.clip(rgb, 0, 1), edgecolor="k", lw=0.3)
+    for band, name in ((hue["green_band_deg"], "green"), (hue["purple_band_deg"], "purple")):
+        ax.axvline(band[0], color="k", ls=":", lw=0.8)
+        ax.text(band[0] + 2, ax.get_ylim()[1] * 0.9, name, fontsize=7)
+    ax.set_xlim(0, 360)
+    ax.set_xlabel("CIELAB hue angle h_ab (deg)")
+    ax.set_ylabel("pixels")
+    ax.set_title(f"{title}: green {hue['green']}, purple {hue['purple']}, grey {hue['grey']}, other {hue['other']}",
+                 fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    return os.fspath(path)
+
+
+def copy_bench_plots(out_dir, bench_dir) -> list[str]:
+    """Copy ``bench_dir/*.png`` into ``out_dir`` as ``bench_<name>.png``; returns the new file names."""
+    if not bench_dir or not os.path.isdir(bench_dir):
+        return []
+    names = []
+    for name in sorted(os.listdir(bench_dir)):
+        if name.lower().endswith(".png"):
+            new = f"bench_{name}"
+            shutil.copyfile(os.path.join(bench_dir, name), os.path.join(out_dir, new))
+            names.append(new)
+    return names
+
+
+def _json_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    return str(o)
+
+
+def _finite(o):
+    """Replace NaN/Inf floats by None so report.json is strict JSON."""
+    if isinstance(o, float) and not math.isfinite(o):
+        return None
+    if isinstance(o, dict):
+        return {k: _finite(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_finite(v) for v in o]
+    return o
+
+
+def write_json(path, report: dict) -> str:
+    """Write the report as strict JSON (NaN -> null), sorted keys, 2-space indent."""
+    data = json.loads(json.dumps(report, default=_json_default))
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(_finite(data), f, indent=2, sort_keys=True, allow_nan=False)
+        f.write("\n")
+    return os.fspath(path)
+
+
+def _fmt(v, digits=3):
+    if isinstance(v, float):
+        return "n/a" if not math.isfinite(v) else f"{v:.{digits}f}"
+    return html.escape(str(v))
+
+
+def write_html(path, report: dict, images: dict) -> str:
+    """A self-contained page (relative image links) summarising ``report``.
+
+    Parameters
+    ----------
+    report : dict
+        As written to report.json (see :func:`pipeline.render.verify.verify_asset`).
+    images : dict
+        ``"views"``: ``{view: {"gl": file, "reference": file, "dE": file}}``; optional ``"contact_sheet"``,
+        ``"lut"``, ``"spectra"``, ``"hue"``, ``"bench"`` (list) file names, relative to the page.
+    """
+    e = html.escape
+    status = "PASSED" if report.get("passed") else "FAILED"
+    colour = "#1a7f37" if report.get("passed") else "#b42318"
+    parts = [
+        "<!DOCTYPE html><html><head><meta charset='utf-8'><title>rockdove verification</title>",
+        "<style>body{font-family:sans-serif;margin:1.5em;max-width:1200px}table{border-collapse:collapse}"
+        "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#eee}"
+        "img{max-width:100%;image-rendering:pixelated}.row{display:flex;gap:8px}.row figure{margin:0;flex:1}"
+        "figcaption{font-size:80%;color:#555}</style></head><body>",
+        f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>",
+        f"<p>Asset: <code>{e(str(report.get('asset', '')))}</code><br>",
+        f"Goals: median dE2000 &le; {report.get('goals', {}).get('median_dE', '')}, "
+        f"p95 &le; {report.get('goals', {}).get('p95_dE', '')} over feather pixels away from silhouette edges.</p>",
+    ]
+    failures = report.get("failures") or []
+    if failures:
+        parts.append("<h2>Failures</h2><ul>" + "".join(f"<li>{e(str(f))}</li>" for f in failures) + "</ul>")
+    parts.append("<h2>Per view</h2><table><tr><th>view</th><th>pixels</th><th>median dE</th><th>p95 dE</th>"
+                 "<th>max dE</th><th>black</th><th>green</th><th>purple</th><th>passed</th></tr>")
+    for m in report.get("views", []):
+        parts.append(
+            f"<tr><td style='text-align:left'>{e(m['view'])}</td><td>{m['n_pixels']}</td>"
+            f"<td>{_fmt(m['de_median'])}</td><td>{_fmt(m['de_p95'])}</td><td>{_fmt(m['de_max'])}</td>"
+            f"<td>{m['n_black']}/{m['n_lit']}</td><td>{m['hue']['green']}</td><td>{m['hue']['purple']}</td>"
+            f"<td>{'yes' if m['passed'] else 'no'}</td></tr>"
+        )
+    parts.append("</table>")
+    b = report.get("boundary", {})
+    if b:
+        parts.append("<h2>Green/purple boundary straightness</h2><p>RMS perpendicular distance of the boundary "
+                     "pixels from their total-least-squares line (paper preset: straight; measured preset: bent).</p>"
+                     "<table><tr><th>view</th><th>points</th><th>RMS (px)</th><th>length (px)</th>"
+                     "<th>RMS / length</th></tr>")
+        for name, s in b.get("per_view", {}).items():
+            parts.append(f"<tr><td style='text-align:left'>{e(name)}</td><td>{s['n_points']}</td>"
+                         f"<td>{_fmt(s['rms_px'])}</td><td>{_fmt(s['length_px'], 1)}</td>"
+                         f"<td>{_fmt(s['rms_fraction'], 4)}</td></tr>")
+        parts.append("</table>")
+    for key, title in (("hue", "Hue histogram across the light sweep"), ("contact_sheet", "Contact sheet"),
+                       ("lut", "The LUT"), ("spectra", "Film reflectance spectra")):
+        if images.get(key):
+            parts.append(f"<h2>{e(title)}</h2><img src='{e(images[key])}' alt='{e(key)}'>")
+    parts.append("<h2>Renders and dE2000 maps</h2>")
+    for name, files in images.get("views", {}).items():
+        parts.append(f"<h3>{e(name)}</h3><div class='row'>")
+        for k in ("gl", "reference", "dE"):
+            if files.get(k):
+                parts.append(f"<figure><img src='{e(files[k])}' alt='{e(name)} {k}'><figcaption>{k}</figcaption></figure>")
+        parts.append("</div>")
+    if images.get("bench"):
+        parts.append("<h2>Benchmarks</h2>" + "".join(f"<img src='{e(f)}' alt='{e(f)}'>" for f in images["bench"]))
+    t = report.get("timings_s", {})
+    if t:
+        parts.append("<h2>Timings (s)</h2><table>" + "".join(
+            f"<tr><th style='text-align:left'>{e(k)}</th><td>{_fmt(v)}</td></tr>" for k, v in t.items()) + "</table>")
+    lib = report.get("versions", {})
+    if lib:
+        parts.append("<h2>Library versions</h2><table>" + "".join(
+            f"<tr><th style='text-align:left'>{e(k)}</th><td>{e(str(v))}</td></tr>" for k, v in lib.items()) + "</table>")
+    parts.append("<p>Full data: <a href='report.json'>report.json</a></p></body></html>")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("\n".join(parts))
+    return os.fspath(path)
