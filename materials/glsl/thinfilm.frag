@@ -85,8 +85,9 @@ void main()
         if (dot(N, V) < 0.0) {
             N = -N;  // two-sided card: the normal faces the viewer
         }
-        vec3 H = normalize(L + V);
-        cos_theta = u_angle_mode == 0 ? dot(L, H) : abs(dot(N, V));
+        vec3 L_plus_V = L + V;  // zero only for light exactly opposite the eye (then theta = 90 deg)
+        vec3 H = length(L_plus_V) > 1e-6 ? normalize(L_plus_V) : N;
+        cos_theta = u_angle_mode == 0 ? max(dot(L, H), 0.0) : abs(dot(N, V));
         thickness_nm = frag_film.x;
         vec3 structural = texture(u_lut, lut_texcoords(cos_theta, thickness_nm)).rgb;
         mask = u_has_mask_tex == 1 ? texture(u_mask_tex, frag_st).r : 1.0;

@@ -511,7 +511,8 @@ def _film_params(prim) -> ThinFilmParams | None:
     a_lut, lut = get(LUT_PREFIX + "file")
     lut_path = _asset_abs(a_lut, lut)
     if lut_path is None or not os.path.isfile(lut_path):
-        raise ValueError(f"{prim.GetPath()}: rockdove:lut:file {lut!r} does not resolve to a file")
+        raise ValueError(f"{prim.GetPath()}: rockdove:lut:file {getattr(lut, 'path', lut)!r} does not resolve "
+                         "to a file")
     rng = get(LUT_PREFIX + "thicknessRangeNm")[1]
     _, illum = get(LUT_PREFIX + "illuminant", required=False)
     _, obs = get(LUT_PREFIX + "observer", required=False)
