@@ -5,7 +5,9 @@ Stages (dependencies first) and what each reads:
 ======================  ===========================================  ==============================================
 stage                   configuration                                 inputs
 ======================  ===========================================  ==============================================
-``bird``                ``geometry``, ``thickness``, textures res.    -- (pipeline.geometry.build_bird)
+``body``                ``geometry.body_voxel_m``, body texture res.  -- (pipeline.geometry.build_body)
+``bird``                ``geometry``, ``thickness``, textures res.    body (pipeline.geometry.build_bird: cards,
+                                                                      beak, eyes, legs around that body)
 ``thickness_range``     --                                            bird: (floor min, ceil max) of the feathers'
                                                                       ``thickness`` primvar, nm
 ``lut``                 ``film``, ``lut``                             thickness_range (baked over exactly that
@@ -63,11 +65,11 @@ def _get(config: dict, dotted: str):
 
 
 # ----------------------------------------------------------------------------------------------- codecs
-def _bird_save(bird, folder: Path) -> None:
+def _parts_arrays(parts_in) -> tuple[dict, list]:
     import numpy as np
 
     arrays, parts = {}, []
-    for i, part in enumerate(bird.parts):
+    for i, part in enumerate(parts_in):
         for f in ("points_m", "face_vertex_counts", "face_vertex_indices", "normals", "st"):
             arrays[f"{i}/{f}"] = np.ascontiguousarray(getattr(part, f))
         pv = {}
@@ -76,32 +78,69 @@ def _bird_save(bird, folder: Path) -> None:
             pv[name] = {"interpolation": p.interpolation, "doc": p.doc}
         parts.append({"name": part.name, "material": part.material,
                       "display_color": [float(c) for c in part.display_color], "primvars": pv})
-    np.savez(folder / "bird.npz", **arrays)
-    (folder / "bird.json").write_text(json.dumps({"parts": parts}, sort_keys=True))
+    return arrays, parts
 
 
-def _bird_load(folder: Path):
+def _load_arrays(path: Path) -> dict:
     import numpy as np
 
-    from ..geometry.types import Bird, MeshPart, Primvar
-
-    meta = json.loads((folder / "bird.json").read_text())
-    with np.load(folder / "bird.npz", allow_pickle=False) as z:
+    with np.load(path, allow_pickle=False) as z:
         arrays = {k: z[k] for k in z.files}
     for a in arrays.values():
         a.setflags(write=False)
+    return arrays
+
+
+def _parts_from(arrays: dict, meta_parts: list) -> tuple:
+    from ..geometry.types import MeshPart, Primvar
+
     parts = []
-    for i, p in enumerate(meta["parts"]):
+    for i, p in enumerate(meta_parts):
         pv = {n: Primvar(arrays[f"{i}/primvar/{n}"], d["interpolation"], d["doc"]) for n, d in p["primvars"].items()}
         parts.append(MeshPart(name=p["name"], points_m=arrays[f"{i}/points_m"],
                               face_vertex_counts=arrays[f"{i}/face_vertex_counts"],
                               face_vertex_indices=arrays[f"{i}/face_vertex_indices"], normals=arrays[f"{i}/normals"],
                               st=arrays[f"{i}/st"], material=p["material"], display_color=tuple(p["display_color"]),
                               primvars=pv))
-    return Bird(parts=tuple(parts))
+    return tuple(parts)
+
+
+def _bird_save(bird, folder: Path) -> None:
+    import numpy as np
+
+    arrays, parts = _parts_arrays(bird.parts)
+    np.savez(folder / "bird.npz", **arrays)
+    (folder / "bird.json").write_text(json.dumps({"parts": parts}, sort_keys=True))
+
+
+def _bird_load(folder: Path):
+    from ..geometry.types import Bird
+
+    meta = json.loads((folder / "bird.json").read_text())
+    return Bird(parts=_parts_from(_load_arrays(folder / "bird.npz"), meta["parts"]))
+
+
+def _body_save(body, folder: Path) -> None:
+    import numpy as np
+
+    arrays, parts = _parts_arrays([body.part])
+    arrays.update({f"mesh/{f}": np.ascontiguousarray(getattr(body.mesh, f)) for f in ("vertices_m", "faces", "normals")})
+    np.savez(folder / "body.npz", **arrays)
+    (folder / "body.json").write_text(json.dumps({"parts": parts}, sort_keys=True))
+
+
+def _body_load(folder: Path):
+    from ..geometry.bird import Body
+    from ..geometry.body import BodyMesh
+
+    arrays = _load_arrays(folder / "body.npz")
+    meta = json.loads((folder / "body.json").read_text())
+    mesh = BodyMesh(**{f: arrays[f"mesh/{f}"] for f in ("vertices_m", "faces", "normals")})
+    return Body(mesh=mesh, part=_parts_from(arrays, meta["parts"])[0])
 
 
 BIRD = Codec("bird", _bird_save, _bird_load)
+BODY = Codec("body", _body_save, _body_load)
 
 
 def _lut_save(lut, folder: Path) -> None:
@@ -170,10 +209,21 @@ def bird_params(config: dict):
     return BirdParams(**values)
 
 
+BODY_FIELDS = ("geometry.body_voxel_m", "textures.body_resolution")  # BirdParams.body_key()
+
+
+def run_body(ctx: Context):
+    from ..geometry import build_body
+    from ..geometry.params import BirdParams
+
+    return build_body(BirdParams(body_voxel_m=ctx.config["geometry"]["body_voxel_m"],
+                                 body_texture_resolution=ctx.config["textures"]["body_resolution"]))
+
+
 def run_bird(ctx: Context):
     from ..geometry import build_bird
 
-    return build_bird(bird_params(ctx.config))
+    return build_bird(bird_params(ctx.config), body=ctx.inputs["body"])
 
 
 def run_thickness_range(ctx: Context):
@@ -249,7 +299,7 @@ def _missing(names: list[str]) -> list[str]:
     return out
 
 
-REQUIRED = ["pipeline.geometry:build_bird", "pipeline.lut.bake:bake", "pipeline.textures:feather_textures",
+REQUIRED = ["pipeline.geometry:build_bird", "pipeline.geometry:build_body", "pipeline.lut.bake:bake", "pipeline.textures:feather_textures",
             "pipeline.textures:body_base_colour", "pipeline.usd.textures_io:write_textures",
             "pipeline.usd.stage:write_layers", "pipeline.usd.usdz:write_usdz"]
 REQUIRED_VERIFY = ["pipeline.render.verify:verify_stage_items"]
@@ -273,8 +323,10 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
         raise UsageError("shading.variant = 'physical' (an asset without a LUT) is not supported by pipeline.usd yet "
                          "(write_textures/write_layers need a LUT); allowed now: 'baked' or 'both'")
     stages = [
-        Stage("bird", run_bird, config=tuple(BIRD_FIELDS), modules=("pipeline.geometry",), libraries=LIBS_GEOMETRY,
-              codec=BIRD),
+        Stage("body", run_body, config=BODY_FIELDS, modules=("pipeline.geometry",), libraries=LIBS_GEOMETRY,
+              codec=BODY),
+        Stage("bird", run_bird, config=tuple(BIRD_FIELDS), deps=("body",), modules=("pipeline.geometry",),
+              libraries=LIBS_GEOMETRY, codec=BIRD),
         Stage("thickness_range", run_thickness_range, deps=("bird",), codec=JSON),
         Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",),
               modules=("pipeline.lut", "pipeline.films", "pipeline.optics", "pipeline.spectral"),
