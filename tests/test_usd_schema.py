@@ -3,10 +3,12 @@ to meshes only; read_thin_film round-trips apply_thin_film."""
 
 import json
 import os
+import subprocess
+import sys
 
 import pytest
 
-from pipeline.usd.schema import SCHEMA_DIR, SCHEMA_NAME, apply_thin_film, read_thin_film, register
+from pipeline.usd.schema import ATTRIBUTE_TYPES, SCHEMA_DIR, SCHEMA_NAME, apply_thin_film, read_thin_film, register
 
 DESIGN_ATTRS = {  # docs/design.md, "USD asset"
     "rockdove:film:model": "token", "rockdove:film:cauchyA": "float", "rockdove:film:cauchyB_nm2": "float",
@@ -42,13 +44,52 @@ def test_pluginfo_declares_a_single_apply_api_schema_for_meshes():
     assert entry["apiSchemaCanOnlyApplyTo"] == ["Mesh"]
 
 
-def test_registry_definition_matches_generated_schema():
-    from pxr import Usd
+def _python(code):
+    root = os.path.dirname(SCHEMA_DIR)
+    env = dict(os.environ, PYTHONPATH=root)
+    env.pop("PXR_PLUGINPATH_NAME", None)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=root, env=env,
+                         timeout=120)
+    assert out.returncode == 0, out.stderr
+    return out.stdout
 
-    register()
-    definition = Usd.SchemaRegistry().FindAppliedAPIPrimDefinition(SCHEMA_NAME)
-    assert sorted(definition.GetPropertyNames()) == sorted(DESIGN_ATTRS)
-    assert Usd.SchemaRegistry().GetSchemaKind(SCHEMA_NAME) == Usd.SchemaKind.SingleApplyAPI
+
+def test_registry_definition_matches_generated_schema():
+    # a fresh interpreter: USD builds its schema registry once per process, at the first stage opened
+    names = _python(
+        "from pipeline.usd.schema import register, SCHEMA_NAME\n"
+        "assert register()\n"
+        "from pxr import Usd\n"
+        "d = Usd.SchemaRegistry().FindAppliedAPIPrimDefinition(SCHEMA_NAME)\n"
+        "assert Usd.SchemaRegistry().GetSchemaKind(SCHEMA_NAME) == Usd.SchemaKind.SingleApplyAPI\n"
+        "print(' '.join(sorted(d.GetPropertyNames())))\n")
+    assert names.split() == sorted(DESIGN_ATTRS)
+
+
+def test_attribute_types_in_code_match_generated_schema():
+    generated = _class_attrs(os.path.join(SCHEMA_DIR, "generatedSchema.usda"))
+    assert {f"rockdove:{k}": v for k, v in ATTRIBUTE_TYPES.items()} == {k: v[0] for k, v in generated.items()}
+
+
+def test_applied_schema_is_written_the_same_whether_or_not_usd_registered_it():
+    code = (
+        "import sys\n"
+        "from pxr import Usd\n"
+        "{first}"
+        "from pipeline.usd.schema import apply_thin_film, read_thin_film, register\n"
+        "known = register()\n"
+        "stage = Usd.Stage.CreateInMemory()\n"
+        "mesh = stage.DefinePrim('/M', 'Mesh')\n"
+        "apply_thin_film(mesh, model='keratin', cauchy_a=1.532, cauchy_b_nm2=5890.0, incident_index=1.0,\n"
+        "                substrate_index=1.0, lut_file='./t.exr', lut_colour_space='lin_rec709',\n"
+        "                angle_warp_gamma=2.0, thickness_range_nm=(480, 700))\n"
+        "assert read_thin_film(mesh)['thickness_range_nm'] == (480.0, 700.0)\n"
+        "sys.stdout.write(str(known) + '\\n' + stage.GetRootLayer().ExportToString())\n")
+    registered = _python(code.format(first=""))
+    frozen = _python(code.format(first="Usd.Stage.CreateInMemory().DefinePrim('/A', 'Mesh')  # registry built before register()\n"))
+    assert registered.split("\n", 1)[0] == "True" and frozen.split("\n", 1)[0] == "False"
+    assert registered.split("\n", 1)[1] == frozen.split("\n", 1)[1]
+    assert 'prepend apiSchemas = ["RockDoveThinFilmAPI"]' in frozen
 
 
 def test_apply_and_read_round_trip_and_refusals():

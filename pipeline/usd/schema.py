@@ -6,9 +6,13 @@ space, angle warp, thickness range, illuminant, observer), so that renderers and
 physics without the build's memory. Attribute names and meanings: docs/design.md, "USD asset".
 
 USD discovers the schema through ``schemas/plugInfo.json``. :func:`register` calls
-``Plug.Registry().RegisterPlugins`` on that folder; it must run before the first stage that uses the schema
-is opened (the schema registry is built once), so every function here that touches pxr calls it first.
-Setting ``PXR_PLUGINPATH_NAME`` to include ``schemas/`` before importing pxr works too.
+``Plug.Registry().RegisterPlugins`` on that folder, which only takes effect if it runs before USD builds its
+schema registry (the first stage opened in the process); setting ``PXR_PLUGINPATH_NAME`` to include
+``schemas/`` before importing pxr has the same effect. Because another module of the same process may open a
+stage first, nothing here depends on the registry: :func:`apply_thin_film` adds the schema name to the
+prim's ``apiSchemas`` and authors every attribute with its declared type (:data:`ATTRIBUTE_TYPES`, checked
+against generatedSchema.usda by the tests), and :func:`has_thin_film` reads the ``apiSchemas`` list itself,
+so the written layers and what is read back are the same whether or not the registry knows the schema.
 """
 
 from __future__ import annotations
@@ -36,20 +40,43 @@ _ATTRS = {
 }
 
 
-def register() -> None:
-    """Register ``schemas/`` with USD's plugin registry (idempotent).
+#: Attribute (without the ``rockdove:`` namespace) -> Sdf value type name, as declared in generatedSchema.usda.
+ATTRIBUTE_TYPES = {
+    "film:model": "token",
+    "film:cauchyA": "float",
+    "film:cauchyB_nm2": "float",
+    "film:incidentIndex": "float",
+    "film:substrateIndex": "float",
+    "film:thicknessPrimvar": "token",
+    "film:thicknessUnits": "token",
+    "lut:file": "asset",
+    "lut:colorSpace": "token",
+    "lut:angleWarpGamma": "float",
+    "lut:thicknessRangeNm": "float2",
+    "lut:illuminant": "token",
+    "lut:observer": "string",
+}
 
-    Raises
-    ------
-    RuntimeError
-        If USD cannot find the schema afterwards (e.g. a stage was opened before the registry knew the
-        plugin, or plugInfo.json is broken).
+
+def register() -> bool:
+    """Register ``schemas/`` with USD's plugin registry (idempotent, best effort).
+
+    Returns
+    -------
+    bool
+        True when USD's schema registry knows ``RockDoveThinFilmAPI`` (False when a stage was opened in this
+        process before the plugin was registered; the functions of this module work either way).
     """
     from pxr import Plug, Usd
 
     Plug.Registry().RegisterPlugins(SCHEMA_DIR)
-    if Usd.SchemaRegistry().FindAppliedAPIPrimDefinition(SCHEMA_NAME) is None:
-        raise RuntimeError(f"USD schema {SCHEMA_NAME} did not load from {SCHEMA_DIR}")
+    return Usd.SchemaRegistry().FindAppliedAPIPrimDefinition(SCHEMA_NAME) is not None
+
+
+def has_thin_film(prim) -> bool:
+    """True when ``RockDoveThinFilmAPI`` is in the prim's composed ``apiSchemas`` (registry not needed)."""
+    op = prim.GetMetadata("apiSchemas")
+    return op is not None and SCHEMA_NAME in op.ApplyOperations([])
 
 
 def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, incident_index: float,
@@ -84,7 +111,7 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
     if prim.GetTypeName() != "Mesh":
         raise ValueError(f"prim must be a Mesh to carry {SCHEMA_NAME}, got {prim.GetPath()} of type "
                          f"{prim.GetTypeName()!r}")
-    if not prim.ApplyAPI(SCHEMA_NAME):
+    if not prim.AddAppliedSchema(SCHEMA_NAME):
         raise RuntimeError(f"could not apply {SCHEMA_NAME} to {prim.GetPath()}")
     lo, hi = (float(v) for v in thickness_range_nm)
     values = {
@@ -103,10 +130,8 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
         "lut:observer": observer,
     }
     for name, value in values.items():
-        attr = prim.GetAttribute(f"rockdove:{name}")
-        if not attr:  # the schema defines every one of them; a missing one means a stale plugin
-            raise RuntimeError(f"{SCHEMA_NAME} has no attribute rockdove:{name}")
-        attr.Set(value)
+        type_name = Sdf.ValueTypeNames.Find(ATTRIBUTE_TYPES[name])
+        prim.CreateAttribute(f"rockdove:{name}", type_name, custom=False).Set(value)
 
 
 def read_thin_film(prim) -> dict:
@@ -125,13 +150,14 @@ def read_thin_film(prim) -> dict:
     ValueError
         If the prim does not have the schema applied.
     """
-    register()
-    if SCHEMA_NAME not in prim.GetAppliedSchemas():
+    if not has_thin_film(prim):
+        op = prim.GetMetadata("apiSchemas")
         raise ValueError(f"prim {prim.GetPath()} does not apply {SCHEMA_NAME} "
-                         f"(applied: {list(prim.GetAppliedSchemas())})")
+                         f"(applied: {list(op.ApplyOperations([])) if op else []})")
     out = {}
     for name, key in _ATTRS.items():
-        value = prim.GetAttribute(f"rockdove:{name}").Get()
+        attr = prim.GetAttribute(f"rockdove:{name}")
+        value = attr.Get() if attr else None
         if key == "lut_file":
             out["lut_file"] = value.path if value is not None else ""
             out["lut_file_resolved"] = (value.resolvedPath or "") if value is not None else ""

@@ -328,11 +328,11 @@ def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
     import numpy as np
     from pxr import Usd, UsdGeom
 
-    from .schema import SCHEMA_NAME, read_thin_film
+    from .schema import has_thin_film, read_thin_film
 
     issues, n = [], 0
     for prim in Usd.PrimRange(stage.GetPseudoRoot()):
-        if SCHEMA_NAME not in prim.GetAppliedSchemas():
+        if not has_thin_film(prim):
             continue
         n += 1
         film = read_thin_film(prim)
