@@ -41,9 +41,10 @@ def write_png(path: str, pixels: np.ndarray) -> str:
 
     pixels = np.ascontiguousarray(pixels)
     if pixels.ndim == 3 and pixels.shape[2] == 1:
-        pixels = pixels[..., 0]
-    mode = {2: "L"}.get(pixels.ndim) or {3: "RGB", 4: "RGBA"}[pixels.shape[2]]
-    Image.fromarray(pixels, mode=mode).save(path, format="PNG", **PNG_OPTIONS)
+        pixels = np.ascontiguousarray(pixels[..., 0])
+    if pixels.dtype != np.uint8 or not (pixels.ndim == 2 or (pixels.ndim == 3 and pixels.shape[2] in (3, 4))):
+        raise ValueError(f"pixels must be uint8 (H, W), (H, W, 3) or (H, W, 4), got {pixels.dtype} {pixels.shape}")
+    Image.fromarray(pixels).save(path, format="PNG", **PNG_OPTIONS)  # mode L / RGB / RGBA from the shape
     return path
 
 
