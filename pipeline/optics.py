@@ -213,7 +213,12 @@ def fresnel_r(n1, n2, cos1, cos2, polarization):
     else:
         num, den = n2 * cos1 - n1 * cos2, n2 * cos1 + n1 * cos2
     zero = den == 0
-    return np.divide(num, np.where(zero, 1, den)) * ~zero if np.any(zero) else num / den
+    den = np.where(zero, 1.0, den)
+    if den.dtype.kind == "c":  # scale first: complex division of subnormal values returns NaN
+        m = np.maximum(np.abs(den.real), np.abs(den.imag))
+        num = num.real / m + 1j * (num.imag / m)
+        den = den.real / m + 1j * (den.imag / m)
+    return np.where(zero, 0.0, num / den)
 
 
 def film_phase(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident=1.0):
@@ -262,7 +267,10 @@ def _div(num, den):
 
 
 def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t):
-    """Eq. (4) in real arithmetic: real indices, q_b > 0, q_c >= 0. Returns {pol: (R, T or None)}.
+    """Eq. (4) in real arithmetic: real indices, q_b > 0, q_c >= 0.
+
+    Returns ({pol: (R, T or None)}, degenerate); when ``degenerate`` some elements may be NaN (0/0) and
+    must be recomputed by the complex path.
 
     With u = sin(delta)**2 and cos(delta)**2 = 1 - u, the real form of eq. (4) is a ratio of two linear
     functions of u, R = (a0 + a1 u) / (b0 + b1 u), whose coefficients depend on (wavelength, angle) only:
@@ -272,6 +280,7 @@ def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t):
     u = np.asarray(np.sin(k0d * qb))
     u = u * u
     out = {}
+    degenerate = False
     for pol in pols:
         if pol == "s":
             ea, eb, ec = n_a * cos_a, qb, qc
@@ -284,16 +293,12 @@ def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t):
         b1 = (eaec / eb + eb) ** 2 - b0
         den = _mul_add(b1, u, b0)
         num = _mul_add(a1, u, a0)
-        if np.any(b0 == 0):  # grazing incidence on a substrate of the incident index
-            zero = den == 0  # ... and d = 0: every interface vanishes, R = 0, T = 1
-            if np.any(zero):
-                den = np.where(zero, 1.0, den)
-                num = np.where(zero, 0.0, num)
-                t_pow = np.where(zero, 1.0, 4.0 * eaec / den) if want_t else None
-                out[pol] = (num / den, t_pow)
-                continue
-        out[pol] = (_div(num, den), np.divide(4.0 * eaec, den) if want_t else None)
-    return out
+        # den == 0 only where eta_a = eta_c = 0 (grazing, substrate of the incident index) and u = 0:
+        # the result is NaN there and _solve hands those elements to the complex path.
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[pol] = (_div(num, den), np.divide(4.0 * eaec, den) if want_t else None)
+        degenerate = degenerate or bool(np.any(b0 == 0))
+    return out, degenerate
 
 
 def _general_complex(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t=True):
@@ -323,11 +328,15 @@ def _general_complex(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t=True):
         c = ec * c_e - 1j * eb * s_e
         num = ea * b - c
         den = ea * b + c
-        den2 = den.real**2 + den.imag**2
-        zero = den2 == 0
-        safe = np.where(zero, 1.0, den2)
-        r_pow = np.where(zero, 0.0, (num.real**2 + num.imag**2) / safe)
-        t_pow = np.where(zero, 1.0, 4.0 * ea * np.real(ec) * atten / safe) if want_t else None
+        # |num|^2 / |den|^2 scaled by m = max(|Re den|, |Im den|) so that tiny (subnormal) terms near
+        # grazing incidence do not underflow to 0/0.
+        m = np.maximum(np.abs(den.real), np.abs(den.imag))
+        zero = m == 0
+        m = np.where(zero, 1.0, m)
+        den2 = (den.real / m) ** 2 + (den.imag / m) ** 2
+        den2 = np.where(zero, 1.0, den2)  # where every interface vanishes: R = 0, T = 1
+        r_pow = np.where(zero, 0.0, ((num.real / m) ** 2 + (num.imag / m) ** 2) / den2)
+        t_pow = np.where(zero, 1.0, 4.0 * (ea / m) * (np.real(ec) / m) * atten / den2) if want_t else None
         out[pol] = (r_pow, t_pow)
     return out
 
@@ -355,31 +364,34 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
     else:
         all_fast = False
 
-    if all_fast:
-        res = _fast_real(k0d, cos_a, n_a, n_b, n_c, _q(qb2, n_b, n_a, cos_a, True), _q(qc2, n_c, n_a, cos_a, True),
-                         pols, want_t)
-    elif not real or not np.any(fast):
+    if real and (all_fast or np.any(fast)):
+        # Real arithmetic wherever it is valid; the complex path on the rest (TIR, q_b = 0, and the 0/0
+        # elements the fast path flags).
+        with np.errstate(invalid="ignore", divide="ignore"):
+            res, degenerate = _fast_real(k0d, cos_a, n_a, n_b, n_c, _q(np.maximum(qb2, 0), n_b, n_a, cos_a, True),
+                                         _q(np.maximum(qc2, 0), n_c, n_a, cos_a, True), pols, want_t)
+        slow = None if all_fast else ~np.broadcast_to(fast, shape)
+        if degenerate:
+            nan = np.zeros(shape, dtype=bool)
+            for pol in pols:
+                nan |= np.isnan(res[pol][0])
+            slow = nan if slow is None else slow | nan
+        if slow is not None and slow.any():
+            sub = [np.broadcast_to(x, shape)[slow] for x in (k0d, cos_a, n_a, n_b, n_c, qb2, qc2)]
+            k0d_s, cos_s, na_s, nb_s, nc_s, qb2_s, qc2_s = sub
+            res_slow = _general_complex(k0d_s, cos_s, na_s, nb_s, nc_s, _q(qb2_s + 0j, nb_s, na_s, cos_s, False),
+                                        _q(qc2_s + 0j, nc_s, na_s, cos_s, False), pols, want_t)
+            for pol in pols:
+                fixed = []
+                for full, part in zip(res[pol], res_slow[pol]):
+                    if full is not None:
+                        full = np.array(np.broadcast_to(full, shape), dtype=np.float64)
+                        full[slow] = part
+                    fixed.append(full)
+                res[pol] = tuple(fixed)
+    else:
         res = _general_complex(k0d, cos_a, n_a, n_b, n_c, _q(qb2, n_b, n_a, cos_a, False),
                                _q(qc2, n_c, n_a, cos_a, False), pols, want_t)
-    else:
-        # Mixed: real arithmetic where it is valid, the complex path on the rest (TIR, q_b = 0).
-        fast = np.broadcast_to(fast, shape)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            res = _fast_real(k0d, cos_a, n_a, n_b, n_c, _q(np.maximum(qb2, 0), n_b, n_a, cos_a, True),
-                             _q(np.maximum(qc2, 0), n_c, n_a, cos_a, True), pols, want_t)
-        slow = ~fast
-        sub = [np.broadcast_to(x, shape)[slow] for x in (k0d, cos_a, n_a, n_b, n_c, qb2, qc2)]
-        k0d_s, cos_s, na_s, nb_s, nc_s, qb2_s, qc2_s = sub
-        res_slow = _general_complex(k0d_s, cos_s, na_s, nb_s, nc_s, _q(qb2_s, nb_s, na_s, cos_s, False),
-                                    _q(qc2_s, nc_s, na_s, cos_s, False), pols, want_t)
-        for pol in pols:
-            fixed = []
-            for full, part in zip(res[pol], res_slow[pol]):
-                if full is not None:
-                    full = np.array(np.broadcast_to(full, shape), dtype=np.float64)
-                    full[slow] = part
-                fixed.append(full)
-            res[pol] = tuple(fixed)
 
     result = []
     for k in (0, 1) if want_t else (0,):
