@@ -49,6 +49,9 @@ def publish_dir(out_dir: str, fill) -> dict:
     parent, name = os.path.split(out_dir)
     os.makedirs(parent, exist_ok=True)
     tmp = tempfile.mkdtemp(prefix=f".{name}.assemble-", dir=parent)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes 0700; the published folder gets ordinary permissions
     try:
         written = fill(tmp)
         old = None

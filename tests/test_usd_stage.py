@@ -234,6 +234,9 @@ def test_failed_build_keeps_previous_asset_and_leaves_no_temporaries(asset, tmp_
         _build(out, body_texture=np.zeros((4, 4, 3), np.float32))  # wrong dtype: fails mid-build
     assert open(first["payload"], "rb").read() == before
     assert sorted(os.listdir(tmp_path)) == ["pigeon"]
+    umask = os.umask(0)
+    os.umask(umask)
+    assert os.stat(out).st_mode & 0o777 == 0o777 & ~umask  # not mkdtemp's 0700
 
 
 def test_bad_inputs_raise_value_errors_naming_them(tmp_path):
