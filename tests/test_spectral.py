@@ -1,0 +1,195 @@
+"""Spectral colour: normalisation, agreement with colour-science, colour spaces, Lab/dE2000, previews."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline import optics, spectral
+from pipeline.spectral import (
+    COLOUR_SPACES,
+    WAVELENGTH_RANGE_NM,
+    RGB_to_Lab,
+    RGB_to_preview8,
+    RGB_to_XYZ,
+    XYZ_to_Lab,
+    XYZ_to_RGB,
+    cmfs_illuminant,
+    delta_E_2000,
+    reflectance_to_XYZ,
+    spectral_weights,
+)
+
+GRID_1NM = np.arange(360.0, 781.0, 1.0)
+OBSERVER = "CIE 1931 2 Degree Standard Observer"
+
+
+def _grids():
+    rng = np.random.default_rng(1)
+    irregular = np.unique(np.concatenate([[360.0, 780.0], rng.uniform(360, 780, 200)]))
+    return [GRID_1NM, np.arange(360.0, 781.0, 5.0), np.linspace(400.0, 700.0, 31), irregular]
+
+
+def test_constants():
+    assert WAVELENGTH_RANGE_NM == (360.0, 780.0)
+    assert COLOUR_SPACES == ("lin_rec709", "acescg")
+
+
+@pytest.mark.parametrize("grid", _grids(), ids=["1nm", "5nm", "400-700", "irregular"])
+def test_perfect_reflector_has_y_equal_1_on_any_grid(grid):
+    xyz = np.ones(grid.size) @ spectral_weights(grid)
+    assert xyz[1] == pytest.approx(1.0, abs=1e-14)
+
+
+def test_perfect_reflector_under_d65_is_white_1_1_1_in_lin_rec709_and_acescg():
+    for cs in COLOUR_SPACES:
+        np.testing.assert_allclose(np.ones(GRID_1NM.size) @ spectral_weights(GRID_1NM, colour_space=cs), 1.0,
+                                   rtol=0, atol=1e-12)
+    # on a 5 nm grid the trapezoid rule moves the white by its own quadrature error only (measured 1.4e-4)
+    g5 = np.arange(360.0, 781.0, 5.0)
+    np.testing.assert_allclose(XYZ_to_RGB(np.ones(g5.size) @ spectral_weights(g5)), 1.0, rtol=0, atol=3e-4)
+    np.testing.assert_allclose(XYZ_to_Lab(np.ones(GRID_1NM.size) @ spectral_weights(GRID_1NM)), [100, 0, 0],
+                               atol=1e-10)
+
+
+def test_weights_on_1nm_grid_agree_with_colour_sd_to_xyz_under_d65():
+    """Against colour.sd_to_XYZ(sd, cmfs, illuminant=D65) with the CMFS trimmed to 360-780 nm (otherwise
+    colour extrapolates D65 and the spectrum to 830 nm), methods ASTM E308 and Integration. The only
+    differences are the methods' own (endpoint weights, colour's alignment of the 5 nm D65 table to
+    1 nm). Measured: max |dXYZ| 1.26e-6 for both methods, dE2000 <= 1.2e-4; asserted 3e-6 and 1e-3."""
+    import warnings
+
+    import colour
+
+    cmfs = colour.MSDS_CMFS[OBSERVER].copy().trim(colour.SpectralShape(360, 780, 1))
+    d65 = colour.SDS_ILLUMINANTS["D65"]
+    w = spectral_weights(GRID_1NM)
+    rng = np.random.default_rng(5)
+    spectra = [optics.reflectance(GRID_1NM, rng.uniform(0, 1), rng.uniform(100, 1500), n_film=1.5) for _ in range(8)]
+    spectra += [0.5 + 0.4 * np.sin(GRID_1NM / rng.uniform(5, 60)) for _ in range(4)]
+    for r in spectra:
+        ours = r @ w
+        sd = colour.SpectralDistribution(r, GRID_1NM)
+        for method in ("ASTM E308", "Integration"):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # colour's notes about aligning D65 to the 1 nm shape
+                ref = colour.sd_to_XYZ(sd, cmfs, illuminant=d65, method=method) / 100.0
+            np.testing.assert_allclose(ours, ref, rtol=0, atol=3e-6)
+            assert delta_E_2000(XYZ_to_Lab(ours), XYZ_to_Lab(ref)) < 1e-3
+
+
+def test_colour_sd_to_xyz_defaults_to_illuminant_e_which_tints_the_white():
+    """The pitfall the spectral module exists to avoid: without illuminant=D65, colour integrates under E."""
+    import colour
+
+    import warnings
+
+    sd = colour.SpectralDistribution(np.ones(GRID_1NM.size), GRID_1NM)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        xyz_e = colour.sd_to_XYZ(sd, colour.MSDS_CMFS[OBSERVER]) / 100.0
+    assert np.abs(XYZ_to_RGB(xyz_e) - 1.0).max() > 0.05
+
+
+def test_cmfs_illuminant_interpolates_colour_tables_linearly():
+    import colour
+
+    cmfs_t, d65_t = colour.MSDS_CMFS[OBSERVER], colour.SDS_ILLUMINANTS["D65"]
+    cmfs, s = cmfs_illuminant(np.array([360.0, 555.0, 780.0]))
+    np.testing.assert_allclose(cmfs, cmfs_t[[360.0, 555.0, 780.0]], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(s, d65_t[[360.0, 555.0, 780.0]], rtol=0, atol=1e-12)
+    _, s_mid = cmfs_illuminant([557.5])  # halfway between two 5 nm D65 nodes: their mean
+    assert s_mid[0] == pytest.approx(0.5 * (d65_t[555.0] + d65_t[560.0]), abs=1e-12)
+    assert cmfs.shape == (3, 3) and s.shape == (3,)
+
+
+def test_weights_are_the_trapezoid_rule_on_an_irregular_grid():
+    """X = trapz(R S xbar) / trapz(S ybar) on the given nodes, as documented (numpy's trapezoid as oracle)."""
+    grid = _grids()[3]
+    cmfs, s = cmfs_illuminant(grid)
+    r = 0.2 + 0.6 * (grid - 360) / 420
+    expected = np.array([np.trapezoid(r * s * cmfs[:, k], grid) for k in range(3)]) / np.trapezoid(s * cmfs[:, 1], grid)
+    np.testing.assert_allclose(r @ spectral_weights(grid), expected, rtol=1e-13)
+
+
+def test_reflectance_to_xyz_honours_the_wavelength_axis():
+    rng = np.random.default_rng(2)
+    r = rng.uniform(0, 1, (4, GRID_1NM.size, 2))
+    xyz = reflectance_to_XYZ(r, GRID_1NM, axis=1)
+    assert xyz.shape == (4, 2, 3)
+    np.testing.assert_allclose(xyz[3, 1], r[3, :, 1] @ spectral_weights(GRID_1NM), rtol=1e-14)
+
+
+def test_acescg_round_trip_and_matrix_matches_materialx_lin_rec709_to_acescg():
+    rng = np.random.default_rng(3)
+    xyz = rng.uniform(-0.2, 1.2, (100, 3))
+    for cs in COLOUR_SPACES:
+        np.testing.assert_allclose(RGB_to_XYZ(XYZ_to_RGB(xyz, cs), cs), xyz, rtol=0, atol=1e-13)
+    # MaterialX's lin_rec709 -> acescg (Bradford): columns of the rec709 primaries in AP1
+    ap1 = XYZ_to_RGB(RGB_to_XYZ(np.eye(3), "lin_rec709"), "acescg")
+    np.testing.assert_allclose(ap1[0], [0.6131, 0.0702, 0.0206], atol=2e-4)
+    np.testing.assert_allclose(ap1[1], [0.3395, 0.9164, 0.1096], atol=2e-4)
+    np.testing.assert_allclose(ap1[2], [0.0474, 0.0134, 0.8698], atol=2e-4)
+
+
+def test_out_of_gamut_thin_film_colours_stay_unclipped():
+    lam = np.arange(480.0, 701.0, 5.0)
+    r = optics.reflectance(lam[None, :], np.linspace(0, 1, 64)[:, None], 650.0, n_film=1.5)
+    rgb = r @ spectral_weights(lam, colour_space="lin_rec709")
+    assert (rgb < 0).any()  # thin-film colours leave Rec.709; they are kept as negative floats
+
+
+def test_lab_and_delta_e_2000_against_sharma_2005_test_pair():
+    """Sharma, Wu & Dalal (2005), Table 1, pair 1: dE00 = 2.0425."""
+    assert float(delta_E_2000([50.0, 2.6772, -79.7751], [50.0, 0.0, -82.7485])) == pytest.approx(2.0425, abs=1e-4)
+    assert float(delta_E_2000([40.0, 10.0, -5.0], [40.0, 10.0, -5.0])) == 0.0
+    lab = RGB_to_Lab([0.18, 0.18, 0.18])
+    assert lab[0] == pytest.approx(116 * 0.18 ** (1 / 3) - 16, abs=1e-9) and abs(lab[1]) < 1e-9 and abs(lab[2]) < 1e-9
+
+
+def test_preview8_keeps_in_gamut_colours_and_desaturates_out_of_gamut_toward_luminance():
+    import colour
+
+    inside = np.array([[0.2, 0.5, 0.1], [1.0, 1.0, 1.0], [0.0, 0.0, 0.0]])
+    expected = np.round(np.asarray(colour.cctf_encoding(inside, function="sRGB")) * 255).astype(np.uint8)
+    np.testing.assert_array_equal(RGB_to_preview8(inside), expected)
+    out = np.array([0.5, -0.1, 0.2])
+    px = RGB_to_preview8(out)
+    assert px.dtype == np.uint8 and px[1] == 0 and px[0] > px[2] > 0  # hue order kept, negative lifted to 0
+    lin = np.asarray(colour.cctf_decoding(px / 255.0, function="sRGB"))
+    lum = np.array([0.2126, 0.7152, 0.0722])
+    assert lin @ lum == pytest.approx(out @ lum, abs=2e-3)  # luminance preserved
+    np.testing.assert_array_equal(RGB_to_preview8([[2.0, 0.5, -1.0], [-1, -1, -1]])[1], [0, 0, 0])
+    assert RGB_to_preview8([2.0, 3.0, 4.0]).tolist() == [255, 255, 255]
+    assert RGB_to_preview8(np.ones((2, 2, 3)), colour_space="acescg").tolist() == [[[255] * 3] * 2] * 2
+
+
+@pytest.mark.parametrize(
+    "call, name",
+    [
+        (lambda: cmfs_illuminant([350.0, 500.0]), "wavelength_nm"),
+        (lambda: cmfs_illuminant([500.0, 800.0]), "wavelength_nm"),
+        (lambda: spectral_weights([500.0]), "wavelength_nm"),
+        (lambda: spectral_weights([500.0, 400.0]), "wavelength_nm"),
+        (lambda: spectral_weights(GRID_1NM, colour_space="srgb"), "colour_space"),
+        (lambda: spectral_weights(GRID_1NM, illuminant="D99"), "illuminant"),
+        (lambda: cmfs_illuminant(GRID_1NM, observer="martian"), "observer"),
+        (lambda: XYZ_to_RGB([0.5, 0.5, 0.5], "rec2020"), "colour_space"),
+        (lambda: reflectance_to_XYZ(np.ones(10), GRID_1NM), "wavelength_nm"),
+        (lambda: RGB_to_preview8([np.nan, 0, 0]), "rgb"),
+        (lambda: RGB_to_preview8([0.1, 0.2]), "rgb"),
+    ],
+)
+def test_bad_input_raises_value_error_naming_the_argument(call, name):
+    with pytest.raises(ValueError, match=name):
+        call()
+
+
+def test_spectral_module_imports_colour_lazily():
+    import subprocess
+    import sys
+
+    code = "import sys, pipeline.spectral, pipeline.optics, pipeline.films; print('colour' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         cwd=str(__import__('pathlib').Path(spectral.__file__).parents[1]))
+    assert out.stdout.strip() == "False"
