@@ -36,6 +36,9 @@ YAW_JITTER_DEG = 20.0
 ROLL_JITTER_DEG = 15.0
 #: How much "toward the tail" (-Z) is mixed into "down the neck" for the lie of the cards.
 TAILWARD_MIX = 0.35
+#: Card roots are placed up to s = 1 + this, just under the head: as the head's own feathers do, the top
+#: row overlaps the top of the band, which cards lying down the neck from roots inside it cannot cover.
+TOP_MARGIN_S = 0.06
 #: Display colour of the cards (linear RGB): the dark slate of a neck feather.
 FEATHER_DISPLAY_COLOR = (0.05, 0.07, 0.07)
 
@@ -161,7 +164,8 @@ def build_cards(vertices_m: np.ndarray, faces: np.ndarray, params) -> FeatherCar
         Card count, sizes, jitter, lift, bend, root depth, thickness ranges and seed.
     """
     n_cards = params.card_count
-    roots, _, _ = _neck.blue_noise_band(vertices_m, faces, n_cards, stream(params.seed, STREAM_PLACEMENT))
+    roots, _, _ = _neck.blue_noise_band(vertices_m, faces, n_cards, stream(params.seed, STREAM_PLACEMENT),
+                                        s_max=1.0 + TOP_MARGIN_S)
     # snap the roots exactly onto the field's zero set (the mesh is a chordal approximation)
     roots = roots - _sdf.body_sdf(roots)[:, None] * _sdf.sdf_gradient(_sdf.body_sdf, roots)
     rng = stream(params.seed, STREAM_JITTER)

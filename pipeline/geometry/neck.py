@@ -55,10 +55,10 @@ def neck_s(points_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return s, np.linalg.norm(radial, axis=1)
 
 
-def in_band(points_m: np.ndarray) -> np.ndarray:
-    """(N,) bool: points (on the body surface) that lie in the neck band."""
+def in_band(points_m: np.ndarray, s_max: float = 1.0) -> np.ndarray:
+    """(N,) bool: points (on the body surface) that lie in the neck band (up to ``s_max``, 1 by default)."""
     s, r = neck_s(points_m)
-    return (s >= 0.0) & (s <= 1.0) & (r <= _sdf.NECK_BAND_RADIUS_M)
+    return (s >= 0.0) & (s <= s_max) & (r <= _sdf.NECK_BAND_RADIUS_M)
 
 
 def neck_axis_direction() -> np.ndarray:
@@ -67,9 +67,9 @@ def neck_axis_direction() -> np.ndarray:
     return axis / np.linalg.norm(axis)
 
 
-def band_faces(vertices_m: np.ndarray, faces: np.ndarray) -> np.ndarray:
+def band_faces(vertices_m: np.ndarray, faces: np.ndarray, s_max: float = 1.0) -> np.ndarray:
     """(F,) bool: triangles with at least one corner in the band (a superset used to draw candidates)."""
-    vin = in_band(vertices_m)
+    vin = in_band(vertices_m, s_max)
     return vin[faces].any(axis=1)
 
 
@@ -97,29 +97,29 @@ def sample_triangles(vertices_m, faces, count: int, rng: np.random.Generator):
     return points, face_index, bary
 
 
-def band_area_m2(vertices_m, faces, rng=None, samples: int = 200_000) -> float:
+def band_area_m2(vertices_m, faces, s_max: float = 1.0, rng=None, samples: int = 200_000) -> float:
     """Area of the neck band, m^2 (Monte Carlo over the candidate triangles, deterministic by default)."""
     rng = np.random.default_rng(12345) if rng is None else rng
-    sel = faces[band_faces(vertices_m, faces)]
+    sel = faces[band_faces(vertices_m, faces, s_max)]
     tri = vertices_m[sel]
     total = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
     pts, _, _ = sample_triangles(vertices_m, sel, samples, rng)
-    return float(total * in_band(pts).mean())
+    return float(total * in_band(pts, s_max).mean())
 
 
-def sample_band_uniform(vertices_m, faces, count: int, rng: np.random.Generator):
+def sample_band_uniform(vertices_m, faces, count: int, rng: np.random.Generator, s_max: float = 1.0):
     """Exactly ``count`` independent uniform points in the band (rejection from the candidate triangles).
 
     Returns ``(points_m (count, 3), face_index (count,) into faces, barycentric (count, 3))``.
     """
-    face_ids = np.flatnonzero(band_faces(vertices_m, faces))
+    face_ids = np.flatnonzero(band_faces(vertices_m, faces, s_max))
     sub = faces[face_ids]
     pts_out, fid_out, bary_out = [], [], []
     have = 0
     batch = int(count * 1.5) + 64
     while have < count:  # a few rounds of rejection, never a loop over points
         pts, fid, bary = sample_triangles(vertices_m, sub, batch, rng)
-        keep = in_band(pts)
+        keep = in_band(pts, s_max)
         pts_out.append(pts[keep])
         fid_out.append(face_ids[fid[keep]])
         bary_out.append(bary[keep])
@@ -184,8 +184,8 @@ def eliminate(points_m: np.ndarray, count: int, area_m2: float, rng: np.random.G
     return np.flatnonzero(alive)
 
 
-def blue_noise_band(vertices_m, faces, count: int, rng: np.random.Generator):
-    """Exactly ``count`` blue-noise points in the neck band, uniform in area.
+def blue_noise_band(vertices_m, faces, count: int, rng: np.random.Generator, s_max: float = 1.0):
+    """Exactly ``count`` blue-noise points in the neck band (up to ``s_max``), uniform in area.
 
     Returns
     -------
@@ -199,7 +199,7 @@ def blue_noise_band(vertices_m, faces, count: int, rng: np.random.Generator):
     if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
         raise ValueError(f"count={count!r} must be an integer >= 1")
     m = int(np.ceil(CANDIDATES_PER_SAMPLE * count)) + 8
-    pts, fid, bary = sample_band_uniform(vertices_m, faces, m, rng)
-    area = band_area_m2(vertices_m, faces)
+    pts, fid, bary = sample_band_uniform(vertices_m, faces, m, rng, s_max)
+    area = band_area_m2(vertices_m, faces, s_max)
     keep = eliminate(pts, int(count), area, rng)
     return pts[keep], fid[keep], bary[keep]

@@ -1,0 +1,262 @@
+"""The procedural rock dove: parameters, body, parts, neck band, feather cards, thickness field.
+
+The default body is built once per module (xatlas dominates, ~10 s); card properties use small card counts
+where the property does not depend on the count, and the default count for coverage.
+"""
+
+import numpy as np
+import pytest
+import trimesh
+
+from pipeline.geometry import Bird, BirdParams, MeshPart, build_bird, build_body, build_cards
+from pipeline.geometry import cards as cards_mod
+from pipeline.geometry import checks, neck, sdf
+from pipeline.geometry.thickness import thickness_bounds_nm
+
+
+@pytest.fixture(scope="module")
+def body():
+    return build_body(BirdParams())
+
+
+@pytest.fixture(scope="module")
+def bird(body):
+    return build_bird(BirdParams(), body=body)
+
+
+@pytest.fixture(scope="module")
+def small_cards(body):
+    return build_cards(body, BirdParams(card_count=300))
+
+
+# ---- parameters -------------------------------------------------------------------------------------
+@pytest.mark.parametrize("field, value", [
+    ("card_count", -1), ("card_count", 0), ("card_count", 2.5), ("seed", -3),
+    ("thickness_base_nm", ()), ("thickness_top_nm", (700.0, 600.0)), ("thickness_base_nm", (480.0,)),
+    ("card_length_m", (0.02, 0.01)), ("card_width_m", ()), ("card_root_depth_m", (0.0, 0.003)),
+    ("card_jitter", 1.5), ("body_texture_resolution", 8), ("body_voxel_m", 0.0),
+    ("thickness_top_nm", (float("nan"), 700.0)),
+])
+def test_bad_parameter_raises_value_error_naming_it(field, value):
+    with pytest.raises(ValueError, match=field):
+        BirdParams(**{field: value})
+
+
+def test_presets_measured_and_paper():
+    m, p = BirdParams.measured(), BirdParams.paper(card_count=1000)
+    assert m.thickness_base_nm == (480.0, 580.0) and m.thickness_top_nm == (600.0, 700.0)
+    assert p.thickness_base_nm == p.thickness_top_nm == (650.0, 650.0) and p.card_count == 1000
+    assert BirdParams().card_count >= 1000
+    with pytest.raises(ValueError, match="unknown"):
+        BirdParams.from_dict({"card_cuont": 3})
+    assert BirdParams.from_dict(m.to_dict()) == m
+
+
+# ---- body and parts ---------------------------------------------------------------------------------
+def test_body_is_closed_watertight_with_outward_normals(body):
+    mesh = trimesh.Trimesh(body.mesh.vertices_m, body.mesh.faces, process=False)
+    assert mesh.is_watertight and mesh.is_winding_consistent
+    assert mesh.volume > 0  # counter-clockwise from outside
+    # vertex normals agree with the faces' geometric normals and point out of the solid
+    assert np.mean(np.einsum("ij,ij->i", body.mesh.normals, mesh.vertex_normals) > 0.9) > 0.99
+    probe = body.mesh.vertices_m[::25]
+    n = body.mesh.normals[::25]
+    assert not mesh.contains(probe + 0.002 * n).any()
+    assert mesh.contains(probe - 0.002 * n).all()
+
+
+def test_body_part_with_uv_seams_welds_back_to_the_closed_surface(body):
+    part = body.part
+    faces = part.face_vertex_indices.reshape(-1, 3)
+    welded = trimesh.Trimesh(part.points_m, faces, process=True)  # merges the seam copies
+    assert welded.is_watertight and welded.is_winding_consistent and welded.volume > 0
+    assert len(part.points_m) > len(body.mesh.vertices_m)  # vertices were split at seams
+
+
+def test_mesh_parts_follow_the_contract(bird):
+    assert isinstance(bird, Bird)
+    assert bird.names == ("Body", "NeckFeathers", "Beak", "Cere", "Eyes", "Legs")
+    for p in bird.parts:
+        assert isinstance(p, MeshPart)
+        v = len(p.points_m)
+        assert p.points_m.dtype == np.float32 and p.points_m.shape == (v, 3)
+        assert p.normals.dtype == np.float32 and p.normals.shape == (v, 3)
+        assert np.allclose(np.linalg.norm(p.normals, axis=1), 1.0, atol=1e-4)
+        assert p.st.dtype == np.float32 and p.st.shape == (v, 2)
+        assert p.st.min() >= 0.0 and p.st.max() <= 1.0, p.name
+        assert p.face_vertex_counts.dtype == np.int32 and p.face_vertex_indices.dtype == np.int32
+        assert p.face_vertex_counts.sum() == len(p.face_vertex_indices)
+        assert p.face_vertex_indices.min() >= 0 and p.face_vertex_indices.max() < v
+        for name, pv in p.primvars.items():
+            assert pv.values.shape == (v,) and pv.values.dtype == np.float32, (p.name, name)
+
+
+@pytest.mark.parametrize("name", ["Beak", "Cere", "Eyes", "Legs"])
+def test_parts_are_closed_and_wound_outward(bird, name):
+    p = bird.part(name)
+    mesh = trimesh.Trimesh(p.points_m, p.face_vertex_indices.reshape(-1, 3), process=True)
+    assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
+
+
+def test_real_scale_facing_plus_z_feet_on_the_ground(bird):
+    pts = np.concatenate([p.points_m for p in bird.parts if p.name != "NeckFeathers"])
+    beak_tip_z = bird.part("Beak").points_m[:, 2].max()
+    tail_tip_z = bird.part("Body").points_m[:, 2].min()
+    assert 0.29 < beak_tip_z - tail_tip_z < 0.35  # about 32 cm beak to tail
+    assert beak_tip_z == pts[:, 2].max()  # the beak is the front: the bird faces +Z
+    assert abs(pts[:, 1].min()) < 0.002  # feet at y ~ 0
+    assert bird.part("Legs").points_m[:, 1].min() == pytest.approx(pts[:, 1].min())
+    assert pts[:, 1].max() == bird.part("Body").points_m[:, 1].max() < 0.26  # head on top, Y up
+
+
+def test_neck_s_on_the_body_runs_from_base_to_head(body):
+    s = body.part.primvars["neckS"].values
+    band = body.part.primvars["neckBand"].values > 0.5
+    y = body.part.points_m[:, 1]
+    assert s.min() == 0.0 and s.max() == 1.0
+    assert band.sum() > 100
+    edges = np.linspace(0.0, 1.0, 6)
+    mean_y = [y[band & (s >= a) & (s < b)].mean() for a, b in zip(edges[:-1], edges[1:])]
+    assert np.all(np.diff(mean_y) > 0), mean_y  # s rises up the neck
+    head = body.part.points_m[:, 1] > 0.225
+    assert np.all(s[head] == 1.0) and not band[head].any()  # above the band: clipped to 1, not in it
+    area = neck.band_area_m2(body.mesh.vertices_m, body.mesh.faces)
+    assert 20e-4 < area < 150e-4  # tens of cm^2: a pigeon's neck
+
+
+# ---- cards ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("count", [1, 7, 300])
+def test_exact_card_count(body, count):
+    c = build_cards(body, BirdParams(card_count=count))
+    assert c.count == count
+    part = c.part()
+    assert part.name == "NeckFeathers" and part.material == "feather"
+    assert len(part.points_m) == count * cards_mod.VERTICES_PER_CARD
+    assert len(part.face_vertex_counts) == count * cards_mod.QUADS_PER_CARD
+    assert np.all(part.face_vertex_counts == 4)
+
+
+def test_card_roots_are_blue_noise_in_the_band(body):
+    from scipy.spatial import cKDTree
+
+    n = 1000
+    c = build_cards(body, BirdParams(card_count=n))
+    s, r = neck.neck_s(c.root_skin_m)
+    # roots are sampled on the mesh, then snapped onto the implicit surface (a fraction of a millimetre)
+    assert s.min() >= -0.01 and s.max() <= 1.01 + cards_mod.TOP_MARGIN_S
+    assert r.max() <= sdf.NECK_BAND_RADIUS_M + 0.0005
+    nn = cKDTree(c.root_skin_m).query(c.root_skin_m, k=2)[0][:, 1]
+    rng = np.random.default_rng(1)
+    uni, _, _ = neck.sample_band_uniform(body.mesh.vertices_m, body.mesh.faces, n, rng,
+                                         s_max=1.0 + cards_mod.TOP_MARGIN_S)
+    nn_uni = cKDTree(uni).query(uni, k=2)[0][:, 1]
+    # Poisson-disk: no two samples close together, unlike independent uniform samples
+    assert nn.min() > 5.0 * nn_uni.min()
+    assert nn.min() > 0.5 * np.median(nn)
+    assert np.std(nn) / np.mean(nn) < 0.5 * np.std(nn_uni) / np.mean(nn_uni)
+
+
+def test_card_roots_within_2mm_of_the_skin(body, small_cards):
+    d = checks.root_skin_distance_m(body.mesh.vertices_m, body.mesh.faces, small_cards)
+    assert d.max() <= 0.002
+    # the root row is under the skin (inside the body)
+    mesh = trimesh.Trimesh(body.mesh.vertices_m, body.mesh.faces, process=False)
+    roots = small_cards.points_m.reshape(small_cards.count, -1, 3)[:, :2].reshape(-1, 3)
+    assert mesh.contains(roots).mean() > 0.95
+
+
+def test_no_card_vertex_beyond_the_root_is_inside_the_body(body, small_cards):
+    sd = checks.beyond_root_signed_distance_m(body.mesh.vertices_m, body.mesh.faces, small_cards)
+    assert sd.max() < 0.0  # trimesh: positive inside
+
+
+def test_cards_face_outward_and_lie_back_down_the_neck(small_cards):
+    c = small_cards
+    per = cards_mod.VERTICES_PER_CARD
+    skin_n = np.repeat(c.skin_normal, per, axis=0)
+    assert np.all(np.einsum("ij,ij->i", c.normals, skin_n) > 0.5)
+    tri = c.triangles()
+    p = c.points_m.astype(np.float64)
+    face_n = np.cross(p[tri[:, 1]] - p[tri[:, 0]], p[tri[:, 2]] - p[tri[:, 0]])
+    owner = tri[:, 0] // per
+    assert np.all(np.einsum("ij,ij->i", face_n, c.skin_normal[owner]) > 0)  # CCW seen from outside
+    pts = p.reshape(c.count, -1, 2, 3).mean(axis=2)
+    s_root, _ = neck.neck_s(pts[:, 0])
+    s_tip, _ = neck.neck_s(pts[:, -1])
+    assert np.mean(s_tip < s_root) > 0.95  # tips point down the neck
+
+
+def test_card_uvs_u_across_v_root_to_tip(small_cards):
+    st = small_cards.st.reshape(small_cards.count, -1, 2, 2)
+    assert np.all(st[:, :, 0, 0] == 0.0) and np.all(st[:, :, 1, 0] == 1.0)
+    assert np.all(st[:, 0, :, 1] == 0.0) and np.all(st[:, -1, :, 1] == 1.0)
+    assert np.all(np.diff(st[:, :, 0, 1], axis=1) > 0)
+    # v = 0 is the root, i.e. the row nearest the skin
+    d = sdf.body_sdf(small_cards.points_m.astype(np.float64)).reshape(small_cards.count, -1, 2)
+    assert np.all(d[:, 0].max(axis=1) < d[:, -1].min(axis=1))
+
+
+def test_default_cards_hide_at_least_95_percent_of_the_band(body, bird):
+    from pipeline.textures import feather_textures
+
+    c = build_cards(body, BirdParams())
+    v, f = body.mesh.vertices_m, body.mesh.faces
+    assert checks.band_coverage(v, f, c, rays=1500, tilt_deg=0.0) >= 0.95
+    assert checks.band_coverage(v, f, c, rays=1500, tilt_deg=40.0, seed=1) >= 0.95
+    alpha = feather_textures(128)["base"][..., 3]
+    assert checks.band_coverage(v, f, c, rays=1500, tilt_deg=0.0, alpha=alpha) >= 0.95
+
+
+def test_too_few_cards_do_not_cover_the_band(body):
+    c = build_cards(body, BirdParams(card_count=40))
+    assert checks.band_coverage(body.mesh.vertices_m, body.mesh.faces, c, rays=500) < 0.95
+
+
+# ---- thickness --------------------------------------------------------------------------------------
+def test_measured_thickness_rises_along_s_within_the_ranges(body):
+    p = BirdParams.measured(card_count=2000)
+    c = build_cards(body, p)
+    d, s = c.thickness_nm.astype(np.float64), c.neck_s.astype(np.float64)
+    lo, hi = thickness_bounds_nm(s, p.thickness_base_nm, p.thickness_top_nm)
+    assert np.all(d >= lo - 1e-3) and np.all(d <= hi + 1e-3)
+    assert d.min() >= 480.0 and d.max() <= 700.0
+    edges = np.linspace(0.0, 1.0, 6)
+    means = [d[(s >= a) & (s <= b)].mean() for a, b in zip(edges[:-1], edges[1:])]
+    assert np.all(np.diff(means) > 0), means
+    assert means[0] < 560.0 and means[-1] > 620.0
+    assert np.std(d[s > 0.9]) > 10.0  # seeded per-card variation, not just the gradient
+    thick = c.part().primvars["thickness"].values
+    assert thick.dtype == np.float32 and thick.shape == (2000 * cards_mod.VERTICES_PER_CARD,)
+    assert np.all(thick.reshape(2000, -1) == thick.reshape(2000, -1)[:, :1])  # constant per card
+
+
+def test_paper_preset_is_uniform_650nm(body):
+    c = build_cards(body, BirdParams.paper(card_count=300))
+    t = c.part().primvars["thickness"].values
+    assert np.all(t == np.float32(650.0))
+
+
+# ---- determinism ------------------------------------------------------------------------------------
+def _assert_parts_equal(a, b):
+    assert a.names == b.names
+    for pa, pb in zip(a.parts, b.parts):
+        for field in ("points_m", "face_vertex_counts", "face_vertex_indices", "normals", "st"):
+            assert np.array_equal(getattr(pa, field), getattr(pb, field)), (pa.name, field)
+        assert pa.material == pb.material and pa.display_color == pb.display_color
+        assert pa.primvars.keys() == pb.primvars.keys()
+        for k in pa.primvars:
+            assert np.array_equal(pa.primvars[k].values, pb.primvars[k].values), (pa.name, k)
+
+
+def test_same_params_and_seed_give_identical_bird(body):
+    p = BirdParams(card_count=500, seed=7)
+    _assert_parts_equal(build_bird(p, body=body), build_bird(p, body=body))
+    other = build_cards(body, BirdParams(card_count=500, seed=8))
+    assert not np.array_equal(other.points_m, build_cards(body, p).points_m)
+
+
+def test_body_build_is_deterministic():
+    p = BirdParams(body_voxel_m=0.008)
+    a, b = build_body(p), build_body(p)
+    _assert_parts_equal(Bird((a.part,)), Bird((b.part,)))
+    assert np.array_equal(a.mesh.vertices_m, b.mesh.vertices_m)
