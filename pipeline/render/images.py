@@ -27,6 +27,21 @@ def linear_to_srgb8(rgb) -> np.ndarray:
     return (np.clip(enc, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
 
 
+def box_downsample(image, factor: int) -> np.ndarray:
+    """Average ``factor`` x ``factor`` blocks of an (H, W[, C]) image (H, W multiples of ``factor``).
+
+    Used for anti-aliased previews: render at ``factor`` times the size, average the *linear* radiance (and
+    the coverage), then encode.
+    """
+    a = np.asarray(image, dtype=np.float32)
+    if factor == 1:
+        return a
+    h, w = a.shape[:2]
+    if factor < 1 or h % factor or w % factor:
+        raise ValueError(f"factor must be a positive divisor of the image size {w}x{h}, got {factor}")
+    return a.reshape(h // factor, factor, w // factor, factor, *a.shape[2:]).mean(axis=(1, 3))
+
+
 def save_png(image: np.ndarray, path) -> str:
     """Write a uint8 (H, W, 3|4) image; returns the path."""
     from PIL import Image
