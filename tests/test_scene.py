@@ -134,3 +134,25 @@ def test_load_scene_reads_the_asset_written_by_pipeline_assemble(tmp_path):
         assert s.film.angle_warp_gamma == lut.angle_warp_gamma
         assert s.film.cauchy_a == pytest.approx(film.cauchy_a) if hasattr(film, "cauchy_a") else True
         np.testing.assert_array_equal(s.load_lut().rgb, lut.rgb)
+
+
+def test_display_images_use_the_srgb_oetf_of_the_clipped_value_and_linear_averaging(tmp_path):
+    from PIL import Image
+
+    from pipeline.render.images import box_downsample, contact_sheet, linear_to_srgb8
+
+    # sRGB OETF (IEC 61966-2-1): 0.5 linear -> 0.7354 -> 188; out-of-range values clip
+    assert linear_to_srgb8(np.array([[0.0, 0.5, 1.0], [-0.2, 2.0, 0.0031308]])).tolist() == [[0, 188, 255],
+                                                                                            [0, 255, 10]]
+    img = np.zeros((4, 4, 3), np.float32)
+    img[:2, :2] = 1.0
+    np.testing.assert_array_equal(box_downsample(img, 2)[..., 0], [[1.0, 0.0], [0.0, 0.0]])
+    np.testing.assert_array_equal(box_downsample(np.eye(4), 4), [[0.25]])
+    with pytest.raises(ValueError, match="factor"):
+        box_downsample(img, 3)
+    tiles = [np.full((10, 12, 4), 255, np.uint8)] * 3
+    path = contact_sheet(tiles, ["a", "b", "c"], tmp_path / "sheet.png", columns=2)
+    with Image.open(path) as im:
+        assert im.size == (2 * 12, 2 * (10 + 16))
+    with pytest.raises(ValueError, match="label"):
+        contact_sheet(tiles, ["a"], tmp_path / "x.png")

@@ -1,8 +1,7 @@
 """Display images from linear renders: sRGB 8-bit PNGs and a contact sheet.
 
 Display convention (docs/design.md "Conventions"): the sRGB OETF (IEC 61966-2-1) of the linear value clipped
-to [0, 1]; the float data keeps out-of-gamut colours. Uses ``pipeline.spectral.RGB_to_preview8`` when that
-module provides it, else colour-science's ``cctf_encoding``.
+to [0, 1] (colour-science's ``cctf_encoding``); the float data keeps out-of-gamut colours.
 """
 
 from __future__ import annotations
@@ -13,18 +12,17 @@ import numpy as np
 
 
 def linear_to_srgb8(rgb) -> np.ndarray:
-    """(..., 3) linear lin_rec709 -> (..., 3) uint8 sRGB-encoded, clipped to [0, 1] first."""
-    rgb = np.asarray(rgb, dtype=np.float64)
-    try:
-        from pipeline.spectral import RGB_to_preview8
-    except ImportError:
-        RGB_to_preview8 = None
-    if RGB_to_preview8 is not None:
-        return np.asarray(RGB_to_preview8(rgb), dtype=np.uint8)
+    """(..., 3) linear lin_rec709 -> (..., 3) uint8: sRGB OETF (IEC 61966-2-1) of the value clipped to [0, 1].
+
+    This is docs/design.md's display transform, the same as the CPU reference's ``to_display8``, so GL and
+    reference PNGs are comparable. (``pipeline.spectral.RGB_to_preview8`` desaturates out-of-gamut colours
+    instead of clipping them; it is not used here.) NaN shows as black, +inf as 1.
+    """
     import colour
 
+    rgb = np.nan_to_num(np.asarray(rgb, dtype=np.float64), nan=0.0, posinf=1.0, neginf=0.0)
     enc = colour.cctf_encoding(np.clip(rgb, 0.0, 1.0), function="sRGB")
-    return (np.clip(enc, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+    return np.round(np.clip(enc, 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
 def box_downsample(image, factor: int) -> np.ndarray:
