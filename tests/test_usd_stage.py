@@ -249,3 +249,19 @@ def test_bad_inputs_raise_value_errors_naming_them(tmp_path):
     with pytest.raises(ValueError, match="feather"):
         _build(tmp_path / "x", bird=no_feathers)
     assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.slow
+def test_assemble_with_the_real_stages_gives_a_clean_asset(tmp_path):
+    """The default chain (build_bird, lut.bake, textures) at a small size: the paper preset's single film
+    thickness gives a one-texel-high LUT whose domain is exactly 650 nm, and the asset validates clean."""
+    from pipeline.lut.exr import read_exr
+    from pipeline.usd.validate import validate_asset
+
+    written = assemble(tmp_path / "pigeon", preset="paper", card_count=40, lut_angles=16, usdz=False)
+    lut = read_exr(written["lut"])
+    assert lut.n_thickness == 1 and lut.thickness_range_nm == (650.0, 650.0) and lut.n_angle == 16
+    assert lut.metadata["film:name"] == "paper"  # the baker's provenance, which validation compares with USD
+    report = validate_asset(written["dir"])
+    assert report.clean, report.format()
+    assert "usdz" not in written and not os.path.exists(os.path.join(written["dir"], "pigeon.usdz"))

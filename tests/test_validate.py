@@ -126,6 +126,21 @@ def test_lut_network_constants_that_disagree_with_the_exr_are_reported(broken):
     assert "17.0 does not describe the LUT file" in issue.message and "expected 16" in issue.message
 
 
+def test_schema_film_that_is_not_the_lut_film_is_reported(tmp_path):
+    from pipeline.lut import ThinFilmLUT
+
+    feather, body = synthetic_textures()
+    lut = synthetic_lut()
+    lut = ThinFilmLUT(lut.rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
+                      metadata={**lut.metadata, "film:name": "keratin", "film:cauchyA": "1.532"})
+    out = tmp_path / "pigeon"
+    assemble(out, bird=synthetic_bird(3), lut=lut, feather_textures=feather, body_texture=body,
+             film=get_film("paper"), usdz=False)
+    issues = {i.path: i.message for i in _errors(validate_asset(str(out)), "thinFilm")}
+    assert sorted(issues) == [f"{FEATHERS}.rockdove:film:cauchyA", f"{FEATHERS}.rockdove:film:model"]
+    assert "'paper' differs from the LUT file's film:name = 'keratin'" in issues[f"{FEATHERS}.rockdove:film:model"]
+
+
 def test_unresolved_mtlx_surface_is_reported_in_its_variant_only(broken):
     out, edit = broken
     def fn(layer):

@@ -15,7 +15,8 @@ variant sets on the default prim (here ``shading`` = baked / physical), runs:
    faceVarying = face corners, uniform = faces, constant = 1), indices in range.
 5. Thin film: on prims with ``RockDoveThinFilmAPI``, the thickness primvar's range lies inside the LUT's
    domain ``rockdove:lut:thicknessRangeNm``, which must agree with the range in the LUT EXR header; the
-   bound material's LUT constants (``LutAngleCount``... of thinfilm.mtlx) must describe that EXR.
+   bound material's LUT constants (``LutAngleCount``... of thinfilm.mtlx) must describe that EXR, and the
+   film attributes must match the provenance the baker wrote into the EXR header (film, illuminant...).
 6. Materials: ``ComputeSurfaceSource()`` (universal) resolves for every material, and
    ``ComputeSurfaceSource("mtlx")`` for every material with an ``outputs:mtlx:surface``.
 
@@ -352,6 +353,7 @@ def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
                 issues.append(Issue("thinFilm", f"{prim.GetPath()}.rockdove:lut:angleWarpGamma",
                                     f"{film['angle_warp_gamma']} differs from the LUT file's {lut.angle_warp_gamma}"))
             issues += _check_lut_constants(prim, lut)
+            issues += _check_film_provenance(prim, film, lut)
         pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "")
         values = pv.ComputeFlattened() if pv else None
         if values is None or len(values) == 0:
@@ -365,6 +367,44 @@ def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
                                 f"thickness spans [{d.min():.6g}, {d.max():.6g}] nm, outside the LUT domain "
                                 f"[{lo:.6g}, {hi:.6g}] nm (rockdove:lut:thicknessRangeNm)"))
     return issues, n
+
+
+#: read_thin_film key -> (schema attribute, LUT EXR metadata key written by pipeline.lut.bake)
+_PROVENANCE = {
+    "model": ("rockdove:film:model", "film:name"),
+    "cauchy_a": ("rockdove:film:cauchyA", "film:cauchyA"),
+    "cauchy_b_nm2": ("rockdove:film:cauchyB_nm2", "film:cauchyB_nm2"),
+    "incident_index": ("rockdove:film:incidentIndex", "film:incidentIndex"),
+    "substrate_index": ("rockdove:film:substrateIndex", "film:substrateIndex"),
+    "illuminant": ("rockdove:lut:illuminant", "illuminant"),
+    "observer": ("rockdove:lut:observer", "observer"),
+    "lut_colour_space": ("rockdove:lut:colorSpace", None),
+}
+
+
+def _check_film_provenance(prim, film: dict, lut) -> list:
+    """The schema's film must be the one the LUT was baked from (the EXR header's provenance, when recorded)."""
+    issues = []
+    for key, (attr, meta_key) in _PROVENANCE.items():
+        if meta_key is None:
+            recorded = lut.colour_space
+        elif meta_key in lut.metadata:
+            recorded = lut.metadata[meta_key]
+        else:
+            continue
+        got = film.get(key)
+        if isinstance(got, float):
+            try:
+                same = abs(got - float(recorded)) <= 1e-6 * max(1.0, abs(float(recorded)))
+            except ValueError:
+                same = False
+        else:
+            same = str(got) == str(recorded)
+        if not same:
+            issues.append(Issue("thinFilm", f"{prim.GetPath()}.{attr}",
+                                f"{got!r} differs from the LUT file's {meta_key or 'colour space'} = {recorded!r}: "
+                                "the schema must record the film the LUT was baked from"))
+    return issues
 
 
 def _check_lut_constants(prim, lut) -> list:
