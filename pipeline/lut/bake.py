@@ -243,14 +243,15 @@ def _bake_fourier(cos_theta, thickness_nm, film, *, illuminant, colour_space, fo
     opd = 2.0 * n_b * thickness_nm[:, None] * coef["cos_b"][None, :, 0]  # (T, A) nm
     shape = opd.shape
     cs = [fourier.airy_fourier_coefficients(coef[f"a_{pol}"][:, 0], coef[f"b_{pol}"][:, 0]) for pol in ("s", "p")]
-    c0, c1, rho = (np.stack([np.broadcast_to(c[i][None, :], shape).ravel() for c in cs], axis=1) for i in range(3))
-    m = np.max([fourier.n_terms_needed(c1[:, p], rho[:, p], opd.ravel(), table, fourier_tol) for p in (0, 1)],
-               axis=0)
-    over = m > max_terms
-    m = np.where(over, 0, m)
-    rgb = fourier.fourier_colour(c0, c1, rho, opd.ravel(), m, table).reshape(shape + (3,))
-    n_terms_total = m.reshape(shape)
-    fallback = over.reshape(shape)
+    c0, c1, rho = (np.stack([c[i] for c in cs], axis=1) for i in range(3))  # (A, 2) each
+    m = np.max(
+        [fourier.n_terms_needed(c1[None, :, p], rho[None, :, p], opd, table, fourier_tol) for p in (0, 1)],
+        axis=0,
+    )
+    fallback = m > max_terms
+    m = np.where(fallback, 0, m)
+    rgb = fourier.fourier_colour_grid(c0, c1, rho, opd, m, table)
+    n_terms_total = np.broadcast_to(m.max(axis=0)[None, :], shape)
     if np.any(fallback):
         # series too slow (OPD -> 0 with |rho| -> 1): sample those texels at the reference step
         wl = reference_wavelengths()
