@@ -79,7 +79,7 @@ def _as_real(name: str, value, *, lo: float, lo_open: bool = False, hi: float | 
         bad = ~np.isfinite(a) | ((a <= lo) if lo_open else (a < lo))
         if hi is not None:
             bad |= a > hi
-        first = a[bad].flat[0]
+        first = a[bad].flat[0].item()
         allowed = f"{'(' if lo_open else '['}{lo:g}, {'inf)' if hi is None else f'{hi:g}]'}"
         raise ValueError(f"{name} must be finite and in {allowed}, got {first!r}")
     return a
@@ -125,7 +125,7 @@ def _as_index(name: str, value, wavelength_nm: np.ndarray | None = None, *, real
         if real_only:
             bad |= im != 0
     if bad.any():
-        first = orig[bad].flat[0]
+        first = orig[bad].flat[0].item()
         if real_only:
             allowed = "a finite real number > 0 (the incident medium must be transparent)"
         else:

@@ -55,7 +55,7 @@ def _check_wavelengths(wavelength_nm) -> np.ndarray:
         raise ValueError(f"wavelength_nm must be real numbers, got {wavelength_nm!r}") from None
     lo, hi = WAVELENGTH_RANGE_NM
     if lam.size and not (lam.min() >= lo and lam.max() <= hi):
-        bad = lam[~((lam >= lo) & (lam <= hi))].flat[0]
+        bad = lam[~((lam >= lo) & (lam <= hi))].flat[0].item()
         raise ValueError(f"wavelength_nm must be within [{lo:g}, {hi:g}] nm (colour's D65 table ends at 780), got {bad!r}")
     return lam
 
