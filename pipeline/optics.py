@@ -277,8 +277,12 @@ def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t):
     a0 = (eta_a - eta_c)**2, a1 = (eta_a eta_c / eta_b - eta_b)**2 - a0, b0 = (eta_a + eta_c)**2,
     b1 = (eta_a eta_c / eta_b + eta_b)**2 - b0. Per sample this costs one sine and a division.
     """
-    u = np.asarray(np.sin(k0d * qb))
-    u = u * u
+    u = np.asarray(k0d * qb, dtype=np.float64)  # delta; then sin(delta)**2 in place
+    if u.ndim:
+        np.sin(u, out=u)
+        np.multiply(u, u, out=u)
+    else:
+        u = np.sin(u) ** 2
     out = {}
     degenerate = False
     for pol in pols:
@@ -444,8 +448,11 @@ def reflectance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.
 
     Notes
     -----
-    Real indices without total internal reflection take a real-arithmetic fast path; other elements
-    (absorption, TIR, a film exactly at its critical angle) the complex path. Both are exact to rounding.
+    Real indices without total internal reflection take a real-arithmetic fast path (one sine per sample;
+    coefficients are computed on the broadcast shape of wavelength, angle and indices only); other elements
+    (absorption, TIR, a film exactly at its critical angle) the complex path, several times slower. Both are
+    exact to rounding. Peak memory is a few float64 arrays of the output shape: chunk calls of more than
+    ~1e7 samples.
     """
     return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, False)[0]
 
