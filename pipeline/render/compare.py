@@ -20,7 +20,8 @@ Checks
 - black holes: lit feather pixels (reference ``N.L >= LIT_N_DOT_L``) whose GL radiance is ~zero
   (max channel below ``BLACK_RADIANCE``); a correct render has none, because every film colour has a
   luminance of at least a few per cent.
-- hue: CIELAB hue angle ``h_ab = atan2(b*, a*)`` of chromatic feather pixels (``C*ab >= HUE_MIN_CHROMA``),
+- hue: CIELAB hue angle ``h_ab = atan2(b*, a*)`` of the structural feather pixels (reference mask >= 0.5)
+  that are chromatic (``C*ab / L* >= HUE_MIN_SATURATION``: a ratio, so that dimly lit pixels keep their hue),
   histogrammed in ``HUE_BIN_DEG`` bins and classified into the two bands of the rock dove's neck:
   :data:`GREEN_BAND_DEG` and :data:`PURPLE_BAND_DEG` (measured on the Airy colours of a 480-700 nm keratin
   film under D65: greens have h_ab 115-205 deg, purples/magentas 310-355 deg).
@@ -43,8 +44,13 @@ LIT_N_DOT_L = 0.1
 BLACK_RADIANCE = 1e-4
 #: A verification fails when more than this fraction of the lit feather pixels are black holes.
 BLACK_FRACTION_GOAL = 0.002
-#: Pixels with less chroma than this are grey (the feather base colour), not green or purple.
-HUE_MIN_CHROMA = 8.0
+#: Pixels with less chroma per lightness (C*ab / L*) than this are grey, not green or purple. The film colours
+#: of the presets have C*/L* of 0.4-1.3 (0.35 at the 650 nm film's blue transition near cos theta = 0.707).
+HUE_MIN_SATURATION = 0.15
+#: Pixels darker than this (L*) have no hue.
+HUE_MIN_LIGHTNESS = 1.0
+#: Reference mask from which a feather pixel counts as structural colour in the hue statistics.
+STRUCTURAL_MASK = 0.5
 HUE_BIN_DEG = 30.0
 #: Hue bands (h_ab, degrees, half-open [lo, hi), wrapping through 360 when lo > hi).
 GREEN_BAND_DEG = (100.0, 210.0)
@@ -164,7 +170,8 @@ def hue_classes(rgb_linear: np.ndarray, sides: bool = False) -> tuple[np.ndarray
     -------
     h_deg : ndarray, shape (...), CIELAB hue angle h_ab in [0, 360)
     chroma : ndarray, shape (...), C*ab
-    cls : ndarray, shape (...), int8: 0 grey (C*ab < HUE_MIN_CHROMA), 1 green, 2 purple, 3 other hue
+    cls : ndarray, shape (...), int8: 0 grey (C*ab / L* < HUE_MIN_SATURATION or L* < HUE_MIN_LIGHTNESS),
+        1 green, 2 purple, 3 other hue
     """
     lab = rgb_to_lab(rgb_linear)
     h = np.degrees(np.arctan2(lab[..., 2], lab[..., 1])) % 360.0
@@ -175,7 +182,7 @@ def hue_classes(rgb_linear: np.ndarray, sides: bool = False) -> tuple[np.ndarray
         cls = np.full(h.shape, 3, np.int8)
         cls[_in_band(h, GREEN_BAND_DEG)] = 1
         cls[_in_band(h, PURPLE_BAND_DEG)] = 2
-    cls[c < HUE_MIN_CHROMA] = 0
+    cls[(c < HUE_MIN_SATURATION * lab[..., 0]) | (lab[..., 0] < HUE_MIN_LIGHTNESS)] = 0
     return h, c, cls
 
 
@@ -204,7 +211,7 @@ def hue_histogram(rgb_pixels: np.ndarray) -> dict:
         "green": int(np.sum(cls == 1)),
         "purple": int(np.sum(cls == 2)),
         "other": int(np.sum(cls == 3)),
-        "min_chroma": HUE_MIN_CHROMA,
+        "min_saturation": HUE_MIN_SATURATION,
         "green_band_deg": list(GREEN_BAND_DEG),
         "purple_band_deg": list(PURPLE_BAND_DEG),
     }
@@ -328,7 +335,7 @@ class ViewMetrics:
         Lit feather pixels and, among them, black holes in the GL render.
     black_fraction : float
     hue : dict
-        :func:`hue_histogram` of the GL render's compared feather pixels.
+        :func:`hue_histogram` of the GL render's compared structural feather pixels.
     passed : bool
         dE goals met, finite, black fraction within its goal.
     failures : list of str
@@ -336,7 +343,7 @@ class ViewMetrics:
     de_map : ndarray, shape (H, W)
         dE2000, NaN where not compared (not serialised by :meth:`summary`).
     cls : ndarray, shape (H, W), int8
-        Hue side (:func:`hue_classes` with ``sides=True``) of the GL render's compared pixels, -1 elsewhere
+        Hue side (:func:`hue_classes` with ``sides=True``) of the GL render's compared structural pixels, -1 elsewhere
         (not serialised); the input of :func:`boundary_straightness`.
     """
 
@@ -372,6 +379,7 @@ def compare_arrays(
     ref_part,
     feather_part_ids,
     ref_n_dot_l=None,
+    ref_mask=None,
     erode_px: int = 1,
 ) -> ViewMetrics:
     """:func:`compare` on plain arrays.
@@ -384,6 +392,9 @@ def compare_arrays(
     feather_part_ids : sequence of int
     ref_n_dot_l : ndarray, shape (H, W), optional
         The reference's max(N.L, 0) per pixel; without it, no black-hole check (n_lit = 0).
+    ref_mask : ndarray, shape (H, W), optional
+        The reference's structural-colour mask; the hue statistics use compared pixels with mask >=
+        :data:`STRUCTURAL_MASK` (all compared pixels without it).
     erode_px : int
     """
     gl_rgb = _as_image("gl_rgb", gl_rgb, 3).astype(np.float64)
@@ -403,9 +414,10 @@ def compare_arrays(
     else:
         n_lit = n_black = 0
     black_fraction = n_black / n_lit if n_lit else 0.0
+    hue_mask = mask & (np.asarray(ref_mask) >= STRUCTURAL_MASK) if ref_mask is not None else mask
     cls_img = np.full(mask.shape, -1, np.int8)
-    if n:
-        cls_img[mask] = hue_classes(safe_gl[mask], sides=True)[2]
+    if hue_mask.any():
+        cls_img[hue_mask] = hue_classes(safe_gl[hue_mask], sides=True)[2]
     failures = []
     if not finite:
         failures.append(f"{view}: NaN or Inf in a render")
@@ -421,7 +433,7 @@ def compare_arrays(
     return ViewMetrics(
         view=view, n_pixels=n, de_median=float(stats[0]), de_p95=float(stats[1]), de_max=float(stats[2]),
         de_mean=float(stats[3]), finite=finite, n_lit=n_lit, n_black=n_black, black_fraction=black_fraction,
-        hue=hue_histogram(safe_gl[mask]), passed=not failures, failures=failures, de_map=de, cls=cls_img,
+        hue=hue_histogram(safe_gl[hue_mask]), passed=not failures, failures=failures, de_map=de, cls=cls_img,
     )
 
 
@@ -451,4 +463,5 @@ def compare(gl_result, ref_result, scene, erode_px: int = 1) -> ViewMetrics:
     g = gl_arrays(gl_result)
     feather_ids = [i + 1 for i, p in enumerate(scene.parts) if p.is_feather]
     return compare_arrays(ref_result.view, g["rgb"], ref_result.rgb, g["part_id"], ref_result.part_id,
-                          feather_ids, ref_n_dot_l=ref_result.n_dot_l, erode_px=erode_px)
+                          feather_ids, ref_n_dot_l=ref_result.n_dot_l, ref_mask=ref_result.mask,
+                          erode_px=erode_px)

@@ -218,10 +218,10 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
     for i in sweep_idx:
         m_cls = metrics[i].cls if metrics else _reference_classes(ref_results[i], scene)
         if metrics:
-            mask = np.isfinite(metrics[i].de_map)
+            mask = m_cls >= 0
             sweep_pixels.append(np.asarray(cmp.gl_arrays(gl_results[i])["rgb"], np.float64)[mask])
         else:
-            sweep_pixels.append(ref_results[i].rgb[ref_results[i].part_id > 0].astype(np.float64))
+            sweep_pixels.append(ref_results[i].rgb[m_cls >= 0].astype(np.float64))
         boundary[views[i].name] = cmp.boundary_straightness(m_cls)
     hue = cmp.hue_histogram(np.concatenate(sweep_pixels) if sweep_pixels else np.zeros((0, 3)))
     chromatic = hue["green"] + hue["purple"] + hue["other"]
@@ -313,6 +313,7 @@ def _config_hash(config: dict):
 def _reference_classes(ref_result, scene) -> np.ndarray:
     """Hue classes of the reference's feather pixels (used when there is no GL render)."""
     feather = np.isin(ref_result.part_id, [i + 1 for i, p in enumerate(scene.parts) if p.is_feather])
+    feather &= ref_result.mask >= cmp.STRUCTURAL_MASK
     cls = np.full(feather.shape, -1, np.int8)
     if feather.any():
         cls[feather] = cmp.hue_classes(ref_result.rgb[feather].astype(np.float64), sides=True)[2]
