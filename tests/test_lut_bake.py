@@ -72,7 +72,7 @@ def test_fourier_and_spectral_methods_agree():
     assert delta_E(f.rgb[:, away], s.rgb[:, away]).max() < 0.02
     assert delta_E(f.rgb, sf.rgb).max() < 0.1
     # the two sampled methods are the same sum, computed two ways
-    np.testing.assert_allclose(bake(method="spectral_fast", grazing_step_nm=1.0, **kw).rgb, s.rgb, atol=2e-6)
+    np.testing.assert_allclose(bake(method="spectral_fast", fast_step_nm=1.0, grazing_step_nm=1.0, **kw).rgb, s.rgb, atol=2e-6)
 
 
 def test_auto_picks_fourier_only_where_it_is_exact():

@@ -50,10 +50,9 @@ def _rows(quick: bool) -> list[dict]:
         row("spectral 10 nm", method="spectral", spectral_step_nm=10.0),
         row("spectral 2 nm", method="spectral", spectral_step_nm=2.0),
         row("spectral 0.5 nm", method="spectral", spectral_step_nm=0.5),
-        row("spectral_fast 1 nm, 0.1 nm grazing", method="spectral_fast"),
-        row("spectral_fast 2 nm, 0.2 nm grazing", method="spectral_fast", fast_step_nm=2.0, grazing_step_nm=0.2),
+        row("spectral_fast 2 nm, 0.25 nm grazing", method="spectral_fast"),
     ]
-    for tol in (1e-3, 1e-5, 1e-6):
+    for tol in (1e-3, 1e-5, 1e-6):  # the default is 1e-4
         rows.append(row(f"fourier tol {tol:g}", method="fourier", fourier_tol=tol))
     for gamma in (1.0, 1.5, 2.0, 3.0):
         if gamma != G:
@@ -65,10 +64,13 @@ def _rows(quick: bool) -> list[dict]:
         row("keratin default (auto)", film="keratin", default=True),
         row("keratin spectral 1 nm (straightforward)", film="keratin", method="spectral", baseline=True),
         row("keratin spectral 0.5 nm", film="keratin", method="spectral", spectral_step_nm=0.5),
-        row("keratin spectral_fast 2 nm, 0.2 nm grazing", film="keratin", method="spectral_fast",
-            fast_step_nm=2.0, grazing_step_nm=0.2),
-        row("keratin spectral_fast 1 nm, 0.25 nm grazing", film="keratin", method="spectral_fast",
-            grazing_step_nm=0.25),
+        row("keratin spectral_fast 1 nm, 0.1 nm grazing", film="keratin", method="spectral_fast",
+            fast_step_nm=1.0, grazing_step_nm=0.1),
+        row("keratin spectral_fast 5 nm, 0.5 nm grazing", film="keratin", method="spectral_fast",
+            fast_step_nm=5.0, grazing_step_nm=0.5),
+        row("keratin spectral_fast 2 nm, 1 nm grazing", film="keratin", method="spectral_fast",
+            grazing_step_nm=1.0),
+        row("keratin default at gamma 2", film="keratin", angle_warp_gamma=2.0),
     ]
     return rows
 
