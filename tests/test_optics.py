@@ -361,3 +361,20 @@ def test_error_message_gives_the_value_and_what_is_allowed():
         reflectance(550.0, 0.5, [1.0, -3.0], n_film=1.5)
     with pytest.raises(ValueError, match=r"polarization must be one of .*'unpolarized'.*got 'x'"):
         reflectance(550.0, 0.5, 1.0, n_film=1.5, polarization="x")
+
+
+def test_real_fast_path_and_complex_path_agree_on_transparent_stacks():
+    """The two evaluations of eq. (4) agree to rounding where both apply (real indices, no TIR)."""
+    rng = np.random.default_rng(9)
+    n = 2000
+    lam, c, d = rng.uniform(360, 780, n), rng.uniform(0, 1, n), rng.uniform(0, 5000, n)
+    na = rng.uniform(1, 1.5, n)
+    nb, nc = na + rng.uniform(1e-3, 1, n), na + rng.uniform(0, 1, n)
+    k0d = 2 * np.pi * d / lam
+    qb, qc = np.sqrt(nb**2 - na**2 * (1 - c * c)), np.sqrt(nc**2 - na**2 * (1 - c * c))
+    fast, degenerate = optics._fast_real(k0d, c, na, nb, nc, qb, qc, ("s", "p"), True)
+    slow = optics._general_complex(k0d, c, na, nb, nc, qb + 0j, qc + 0j, ("s", "p"), True)
+    assert not degenerate
+    for pol in "sp":
+        for k in (0, 1):
+            np.testing.assert_allclose(fast[pol][k], slow[pol][k], rtol=0, atol=1e-13)
