@@ -356,7 +356,13 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
     n_b = _as_index("n_film", n_film, lam)
     n_a = _as_index("n_incident", n_incident, lam, real_only=True)
     n_c = _as_index("n_substrate", n_substrate, lam)
-    shape = np.broadcast_shapes(lam.shape, cos_a.shape, d.shape, n_a.shape, n_b.shape, n_c.shape)
+    try:
+        shape = np.broadcast_shapes(lam.shape, cos_a.shape, d.shape, n_a.shape, n_b.shape, n_c.shape)
+    except ValueError:
+        raise ValueError(
+            "wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate must broadcast together, "
+            f"got shapes {lam.shape}, {cos_a.shape}, {d.shape}, {n_b.shape}, {n_a.shape}, {n_c.shape}"
+        ) from None
     pols = ("s", "p") if polarization == "unpolarized" else (polarization,)
 
     k0d = (_TWO_PI * d) / lam

@@ -345,6 +345,7 @@ def test_fresnel_r_normal_incidence_values_and_sign_convention():
         (dict(n_incident=0.0), "n_incident"),
         (dict(n_substrate=-2.0), "n_substrate"),
         (dict(polarization="circular"), "polarization"),
+        (dict(wavelength_nm=[500.0, 600.0], cos_theta=[0.1, 0.2, 0.3]), "broadcast"),
     ],
 )
 def test_bad_input_raises_value_error_naming_the_argument(kwargs, name):
