@@ -149,3 +149,33 @@ def test_lut_texture_is_raw_in_the_working_space_and_tagged_otherwise(doc, space
     stage, _ = _stage_with_material(lut)
     file_in = UsdShade.Shader(stage.GetPrimAtPath("/Looks/FeatherMaterial/LutTexture")).GetInput("file")
     assert file_in.GetAttr().GetColorSpace() == tag
+
+
+@pytest.mark.parametrize("variant", ["baked", "physical"])
+def test_authored_usd_network_rebuilt_as_hydra_does_validates_and_generates_glsl(variant):
+    import MaterialX as mx
+    import MaterialX.PyMaterialXGenGlsl as mx_glsl
+    import MaterialX.PyMaterialXGenShader as mx_gen
+    from pxr import UsdShade
+
+    from pipeline.usd.material import usd_to_mtlx_document
+
+    lut = ThinFilmLUT(np.zeros((4, 8, 3), np.float32), (500.0, 700.0), angle_warp_gamma=2.0)
+    stage, _ = _stage_with_material(lut)
+    name = {"baked": "MtlxBakedSurface", "physical": "MtlxPhysicalSurface"}[variant]
+    surface = UsdShade.Shader(stage.GetPrimAtPath(f"/Looks/FeatherMaterial/{name}"))
+    rebuilt = usd_to_mtlx_document(surface)
+    ok, message = rebuilt.validate()
+    assert ok, message
+    if variant == "baked":
+        assert rebuilt.getNode("LutAngleCount").getInput("value").getValue() == 8.0
+        lut_file = rebuilt.getNode("LutTexture").getInput("file")
+        assert lut_file.getValueString() == "./textures/thinfilm_lut.exr" and lut_file.getColorSpace() == "raw"
+    else:
+        assert rebuilt.getNode("LutTexture") is None  # only what the surface reaches
+        assert rebuilt.getNode("FilmIor").getInput("value").getValue() == pytest.approx(1.55)
+    gen = mx_glsl.GlslShaderGenerator.create()
+    ctx = mx_gen.GenContext(gen)
+    ctx.registerSourceCodeSearchPath(mx.getDefaultDataSearchPath())
+    material = [n for n in rebuilt.getNodes() if n.getType() == "material"][0]
+    assert "void main()" in gen.generate("rebuilt", material, ctx).getSourceCode(mx_gen.PIXEL_STAGE)

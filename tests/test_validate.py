@@ -141,6 +141,23 @@ def test_schema_film_that_is_not_the_lut_film_is_reported(tmp_path):
     assert "'paper' differs from the LUT file's film:name = 'keratin'" in issues[f"{FEATHERS}.rockdove:film:model"]
 
 
+def test_connection_of_mismatched_types_is_reported_as_an_invalid_materialx_graph(broken):
+    from pxr import Sdf
+
+    out, edit = broken
+
+    def fn(layer):  # a float input fed by a color3 output: each shader alone still matches its nodedef
+        attr = layer.GetAttributeAtPath("/Pigeon/Looks/FeatherMaterial/StructuralMix.inputs:mix")
+        attr.connectionPathList.explicitItems = [Sdf.Path("/Pigeon/Looks/FeatherMaterial/LutTexture.outputs:out")]
+
+    edit(fn)
+    report = validate_asset(out)
+    issues = _errors(report, "material")
+    assert [(i.path, i.variants) for i in issues] == [
+        ("/Pigeon/Looks/FeatherMaterial.outputs:mtlx:surface", ("shading=baked",))]
+    assert "not a valid MaterialX graph" in issues[0].message and _errors(report, "mtlx") == []
+
+
 def test_unresolved_mtlx_surface_is_reported_in_its_variant_only(broken):
     out, edit = broken
     def fn(layer):

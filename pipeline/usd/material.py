@@ -271,6 +271,84 @@ def author_feather_material(stage, path, *, lut: dict, film_ior: float, textures
     return material
 
 
+def _mx_value_string(value, mx_type: str) -> str:
+    if mx_type == "filename":
+        return value.path
+    if mx_type == "boolean":
+        return "true" if value else "false"
+    if mx_type == "integer":
+        return str(int(value))
+    if mx_type == "float":
+        return repr(float(value))
+    if mx_type.startswith(("color", "vector")):
+        return ", ".join(repr(float(x)) for x in value)
+    return str(value)
+
+
+def usd_to_mtlx_document(surface_shader, library=None):
+    """Rebuild a MaterialX document from a UsdShade network of ``ND_*`` shaders, as Hydra does for Storm.
+
+    Hydra's MaterialX path (HdMtlx) turns the network upstream of ``outputs:mtlx:surface`` into a MaterialX
+    document before generating shader code; usd-core ships no MaterialX plugin, so this reproduces that step
+    to check the *authored* network (with the build's values) rather than only ``thinfilm.mtlx``.
+
+    Parameters
+    ----------
+    surface_shader : UsdShade.Shader
+        The ``ND_*`` surface shader (``ComputeSurfaceSource("mtlx")``).
+    library : MaterialX.Document, optional
+        Standard libraries (:func:`load_mtlx_libraries`).
+
+    Returns
+    -------
+    MaterialX.Document
+        Nodes named as the USD shaders, plus a ``surfacematerial`` node named after the USD material.
+
+    Raises
+    ------
+    ValueError
+        A shader's id is not a MaterialX nodedef, or an input is not declared by it.
+    """
+    import MaterialX as mx
+    from pxr import UsdShade
+
+    library = library or load_mtlx_libraries()
+    doc = mx.createDocument()
+    doc.setDataLibrary(library)
+    doc.setColorSpace(MTLX_WORKING_SPACE)
+    done = {}
+
+    def add(shader):
+        name = shader.GetPath().name
+        if name in done:
+            return done[name]
+        sid = shader.GetShaderId() or ""
+        nodedef = library.getNodeDef(sid)
+        if nodedef is None:
+            raise ValueError(f"{shader.GetPath()}: info:id {sid!r} is not a MaterialX nodedef")
+        node = doc.addNode(nodedef.getNodeString(), name, nodedef.getType())
+        node.setNodeDefString(sid)
+        done[name] = node
+        for inp in shader.GetInputs():
+            mx_in = nodedef.getActiveInput(inp.GetBaseName())
+            if mx_in is None:
+                raise ValueError(f"{inp.GetAttr().GetPath()}: {sid} declares no input {inp.GetBaseName()!r}")
+            target = node.addInput(mx_in.getName(), mx_in.getType())
+            sources = inp.GetConnectedSources()[0]
+            if sources:
+                target.setNodeName(add(UsdShade.Shader(sources[0].source.GetPrim())).getName())
+            elif inp.Get() is not None:
+                target.setValueString(_mx_value_string(inp.Get(), mx_in.getType()))
+            if inp.GetAttr().HasColorSpace():
+                target.setColorSpace(inp.GetAttr().GetColorSpace())
+        return node
+
+    surface = add(surface_shader)
+    material = doc.addNode("surfacematerial", f"{surface_shader.GetPrim().GetParent().GetName()}_mtlx", "material")
+    material.addInput("surfaceshader", "surfaceshader").setNodeName(surface.getName())
+    return doc
+
+
 def lut_texture_colour_space(colour_space: str) -> str:
     """Colour-space tag of the LUT texture in the MaterialX network.
 

@@ -18,7 +18,8 @@ variant sets on the default prim (here ``shading`` = baked / physical), runs:
    bound material's LUT constants (``LutAngleCount``... of thinfilm.mtlx) must describe that EXR, and the
    film attributes must match the provenance the baker wrote into the EXR header (film, illuminant...).
 6. Materials: ``ComputeSurfaceSource()`` (universal) resolves for every material, and
-   ``ComputeSurfaceSource("mtlx")`` for every material with an ``outputs:mtlx:surface``.
+   ``ComputeSurfaceSource("mtlx")`` for every material with an ``outputs:mtlx:surface``; that network, turned
+   back into a MaterialX document as Hydra's HdMtlx does, passes MaterialX's ``validate()``.
 
 Each problem is an :class:`Issue` naming the check, the prim/attribute path, the value and what was
 expected. Issues found in several variants are reported once, with the variants listed.
@@ -432,9 +433,14 @@ def _check_lut_constants(prim, lut) -> list:
 
 
 # -- 6. surface sources -------------------------------------------------------------------------------------
-def check_materials(stage) -> tuple[list, int]:
-    """Universal and (where authored) mtlx surface sources resolve to shaders."""
+def check_materials(stage, library=None) -> tuple[list, int]:
+    """Universal and (where authored) mtlx surface sources resolve to shaders; the mtlx network, rebuilt as a
+    MaterialX document the way Hydra does (:func:`pipeline.usd.material.usd_to_mtlx_document`), validates."""
     from pxr import Usd, UsdShade
+
+    from .material import load_mtlx_libraries, usd_to_mtlx_document
+
+    library = library or load_mtlx_libraries()
 
     issues, n = [], 0
     for prim in Usd.PrimRange(stage.GetPseudoRoot()):
@@ -454,6 +460,15 @@ def check_materials(stage) -> tuple[list, int]:
                 issues.append(Issue("material", f"{prim.GetPath()}.{attr}",
                                     f"mtlx surface {shader.GetPath()} has id {shader.GetShaderId()!r}, "
                                     "expected a MaterialX ND_* surface shader"))
+            elif ctx == "mtlx":
+                try:
+                    ok, why = usd_to_mtlx_document(shader, library).validate()
+                except ValueError:
+                    continue  # the id/input itself is reported by check_mtlx_shaders
+                if not ok:
+                    issues.append(Issue("material", f"{prim.GetPath()}.{attr}",
+                                        f"the network upstream of {shader.GetPath()} is not a valid MaterialX "
+                                        f"graph: {why.strip()}"))
     return issues, n
 
 
@@ -505,7 +520,7 @@ def validate_asset(path) -> Report:
         tex_issues, counts["assets"], decoded = check_textures(stage)
         pv_issues, counts["primvars"] = check_primvars(stage)
         tf_issues, counts["thin films"] = check_thin_film(stage, decoded)
-        mat_issues, counts["materials"] = check_materials(stage)
+        mat_issues, counts["materials"] = check_materials(stage, library)
         for issue in issues + mx_issues + tex_issues + pv_issues + tf_issues + mat_issues:
             found.setdefault((issue.check, issue.path, issue.message, issue.severity), []).append(label)
     counts["variant combinations"] = len(combos)
