@@ -25,6 +25,7 @@ Test hook: ``ROCKDOVE_TEST_PAUSE_AFTER=<stage>`` makes the build stop after that
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.metadata
 import inspect
@@ -215,14 +216,17 @@ def source_digest(stage: Stage) -> str:
     return h.hexdigest()
 
 
+@functools.lru_cache(maxsize=None)
+def _version(name: str) -> str:
+    try:
+        return importlib.metadata.version(name)
+    except importlib.metadata.PackageNotFoundError:
+        return "absent"
+
+
 def library_versions(names: Iterable[str]) -> dict[str, str]:
-    out = {"python": "%d.%d.%d" % sys.version_info[:3]}
-    for n in names:
-        try:
-            out[n] = importlib.metadata.version(n)
-        except importlib.metadata.PackageNotFoundError:
-            out[n] = "absent"
-    return out
+    """``{"python": x.y.z, name: version or "absent"}`` for installed distributions ``names``."""
+    return {"python": "%d.%d.%d" % sys.version_info[:3], **{n: _version(n) for n in names}}
 
 
 def stage_key(stage: Stage, config: dict | None, input_digests: Mapping[str, str], source: str) -> str:
