@@ -159,7 +159,7 @@ def author_contents(stage, bird, film, lut: dict, textures: dict | None = None):
     Usd.Prim
         ``/Pigeon``.
     """
-    from pxr import Sdf, UsdGeom, UsdShade
+    from pxr import UsdGeom, UsdShade
 
     from .schema import apply_thin_film
 
