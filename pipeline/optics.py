@@ -18,22 +18,23 @@ Im(q_j) >= 0 (and Re(q_j) >= 0 for transparent media): beyond the critical angle
 q_j = +i |q_j|, an evanescent wave that decays away from the interface; in an absorbing medium the wave
 decays along its direction of travel.
 
-Fresnel amplitude coefficients (Born & Wolf, Principles of Optics, 7th ed., sec. 1.5.2, eq. 21; the
-convention of the ``tmm`` package; at normal incidence r_p = -r_s):
+Fresnel amplitude coefficients (Born & Wolf, Principles of Optics, 7th ed., sec. 1.5.2, the Fresnel
+formulae; the convention of the ``tmm`` package; at normal incidence r_p = -r_s):
 
     r_s = (n1 cos1 - n2 cos2) / (n1 cos1 + n2 cos2),    r_p = (n2 cos1 - n1 cos2) / (n2 cos1 + n1 cos2)  (2)
 
 i.e. r = (eta_1 - eta_2) / (eta_1 + eta_2) with the (tilted) admittances eta_s = q, eta_p = q / n**2.
 
-Airy summation of the multiply reflected waves in the film (Born & Wolf sec. 7.6.1, eq. 7.6(8); Heavens,
-Optical Properties of Thin Solid Films, 1955, ch. 4):
+Airy summation of the multiply reflected waves in the film (Born & Wolf sec. 1.6.4, a homogeneous
+dielectric film, and sec. 7.6.1; Heavens, Optical Properties of Thin Solid Films, 1955):
 
     r = (r_ab + r_bc e^{i phi}) / (1 + r_ab r_bc e^{i phi}),    phi = 4 pi n_b d cos(theta_b) / lambda  (3)
 
 ``phi`` is :func:`film_phase`. Eq. (3) is 0/0 where q_b -> 0 (a film at its own critical angle, or
 grazing incidence on a film of the incident medium's index) and overflows for thick evanescent films, so
-it is evaluated in the algebraically identical characteristic-matrix form (Born & Wolf sec. 1.6.2,
-eqs. 1.6(33)-(35); Macleod, Thin-Film Optical Filters, ch. 2), with delta = phi / 2 = k0 q_b d:
+it is evaluated in the algebraically identical characteristic-matrix form (Born & Wolf sec. 1.6.2, the
+characteristic matrix of a stratified medium; Macleod, Thin-Film Optical Filters, ch. 2, written here for
+n + ik), with delta = phi / 2 = k0 q_b d:
 
     B = cos(delta) - i eta_c sin(delta) / eta_b,    C = eta_c cos(delta) - i eta_b sin(delta)
     r = (eta_a B - C) / (eta_a B + C),               t-power  T = 4 eta_a Re(eta_c) / |eta_a B + C|**2    (4)
@@ -43,7 +44,7 @@ by e^{i delta} (|e^{i delta}| <= 1) and uses expm1, so it neither overflows (fil
 TIR) nor loses precision for films far below 1 nm. T is the ratio of the normal power fluxes,
 Re(n_c cos_c) / Re(n_a cos_a) |t_s|**2 for s and Re(n_c conj(cos_c)) / Re(n_a conj(cos_a)) |t_p|**2 for p,
 which eq. (4) gives directly. For real indices without TIR, eq. (4) reduces to sums of squares in real
-arithmetic (the fast path, about 10x cheaper than complex arithmetic):
+arithmetic (the fast path, an order of magnitude cheaper than complex arithmetic):
 
     R = [(eta_a - eta_c)**2 cos**2 + (eta_a eta_c S - eta_b sin)**2] / Den,   T = 4 eta_a eta_c / Den,
     Den = (eta_a + eta_c)**2 cos**2 + (eta_a eta_c S + eta_b sin)**2,   S = sin(delta) / eta_b.
