@@ -5,7 +5,7 @@ distribution (5 nm, 300-780 nm) are colour-science's tables (``colour.MSDS_CMFS`
 ``colour.SDS_ILLUMINANTS``), linearly interpolated onto the requested wavelengths. The usable domain is
 :data:`WAVELENGTH_RANGE_NM` = 360-780 nm, where both tables are defined (D65 ends at 780 nm).
 
-Normalisation (CIE 15:2004, eq. 7.1-7.2, with k chosen so that a perfect reflector has Y = 1):
+Normalisation (CIE 15:2004, sec. 7.1, with k chosen so that a perfect reflector has Y = 1):
 
     X = sum_i w_i R_i S_i xbar_i / sum_i w_i S_i ybar_i     (likewise Y, Z)
 
