@@ -277,3 +277,12 @@ def test_gl_agrees_with_the_cpu_ray_cast_given_the_same_lut(coarse):
         diff = np.abs(g.radiance_rgb - r.rgb)[inner]
         assert np.percentile(diff, 99.5) < 1e-4, g.view.name
         np.testing.assert_allclose(g.depth_m[inner], r.depth_m[inner], rtol=1e-4)
+
+
+def test_part_mask_selects_pixels_by_prim_name(coarse):
+    scene, _, results, _ = coarse
+    res = results["front"]
+    np.testing.assert_array_equal(res.part_mask("NeckFeathers"), res.part_id == scene.part_id("NeckFeathers"))
+    assert res.part_mask("Body").sum() > 0
+    with pytest.raises(ValueError, match="Wing"):
+        res.part_mask("Wing")

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -90,9 +90,11 @@ class RenderResult:
     seconds: float = 0.0
     angle_mode: str = "physical"
 
-    def part_mask(self, name_or_kind: str) -> np.ndarray:
-        """Boolean (H, W): pixels of the part with this prim name."""
-        ids = [i + 1 for i, n in enumerate(self.part_names) if n == name_or_kind]
+    def part_mask(self, name: str) -> np.ndarray:
+        """Boolean (H, W): pixels of the part with this USD prim name (e.g. ``"NeckFeathers"``)."""
+        if name not in self.part_names:
+            raise ValueError(f"name={name!r} is not a part; parts are {list(self.part_names)}")
+        ids = [i + 1 for i, n in enumerate(self.part_names) if n == name]
         return np.isin(self.part_id, ids)
 
     def preview8(self) -> np.ndarray:
@@ -159,7 +161,6 @@ class _PartGL:
     part: ScenePart
     base_tex: int | None = None
     mask_tex: int | None = None
-    primitive_ids: set = field(default_factory=set)
 
 
 class GLRenderer:
