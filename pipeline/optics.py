@@ -436,7 +436,9 @@ def reflectance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.
     thickness_nm : array_like, nm, finite, >= 0
         Film thickness; 0 gives the bare incident|substrate interface.
     n_film, n_substrate : number, array broadcastable with ``wavelength_nm``, or callable n(wavelength_nm)
-        Real or complex (n + ik, k >= 0 absorbs); real part > 0.
+        Real or complex (n + ik, k >= 0 absorbs); real part > 0. An array follows numpy broadcasting
+        against all other arguments, so give it the wavelength array's shape (e.g. (W, 1, 1) for
+        wavelengths on the first of three axes); a callable is evaluated on ``wavelength_nm`` as given.
     n_incident : number, array or callable
         Real, > 0 (reflectance is measured in a transparent medium).
     polarization : {"s", "p", "unpolarized"}
