@@ -145,6 +145,8 @@ def test_metadata_records_provenance_and_the_measured_error():
     assert md["method"] == "fourier" and md["methodRequested"] == "auto"
     assert float(md["estimatedMaxDeltaE2000"]) >= float(md["estimatedP99DeltaE2000"]) > 0
     assert "200 random points" in md["estimatedErrorSample"]
+    assert md["estimatedError"].startswith("max dE2000 ")
+    assert bake(angles=8, thicknesses=2).metadata["estimatedError"].startswith("not measured")
 
 
 def test_acescg_table_is_the_same_colour():

@@ -115,7 +115,7 @@ def _plot(rows: list[dict], path: str) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..lut import bake
     from ..lut import fourier
-    from ..lut.reference import delta_E, error_points, reference_colour
+    from ..lut.reference import colour_weights, delta_E, error_points, reference_colour, reference_wavelengths
 
     quick = bool(args.quick)
     repeats = args.repeats if args.repeats is not None else (1 if quick else 5)
@@ -126,6 +126,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--points must be >= 10, got {n_points}")
     os.makedirs(args.out, exist_ok=True)
 
+    colour_weights(reference_wavelengths())  # colour-science import and the 0.1 nm weights: not the G table
     t0 = time.perf_counter()
     fourier.g_table.cache_clear()
     fourier.g_table("D65", "lin_rec709")

@@ -399,6 +399,7 @@ def bake(
             "polarization": "unpolarized (mean of s and p)",
             "method": used,
             "methodRequested": method,
+            "estimatedError": "not measured at bake time (bake(error_points=0))",
         }
     )
     metadata.update({f"method:{k}": v for k, v in meta.items()})
@@ -416,6 +417,7 @@ def bake(
 def error_metadata(err: dict) -> dict[str, str]:
     """Header strings of a :func:`pipeline.lut.reference.lut_error` result."""
     return {
+        "estimatedError": f"max dE2000 {err['max']:.4g}, p99 {err['p99']:.4g} against the 0.1 nm Airy reference",
         "estimatedMaxDeltaE2000": f"{err['max']:.4g}",
         "estimatedP99DeltaE2000": f"{err['p99']:.4g}",
         "estimatedMedianDeltaE2000": f"{err['median']:.4g}",
