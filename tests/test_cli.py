@@ -185,3 +185,37 @@ def test_cache_option_and_no_verify(tmp_path):
     s = json.loads(r.stdout)
     assert r.returncode == 0 and "verify" not in s["ran"] and (tmp_path / "c" / "lut").is_dir()
     assert not (tmp_path / "o" / ".rockdove-cache").exists()
+
+
+# ------------------------------------------------------------------------------------- the real pipeline
+TINY = ["--set", "geometry.body_voxel_m=0.01", "--set", "geometry.card_count=600", "--set",
+        "textures.feather_resolution=32", "--set", "textures.body_resolution=32", "--set", "verify.width=192",
+        "--set", "verify.height=192", "--set", "usd.usdz=false", "--json", "--quiet"]
+
+
+def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
+    """One small real asset through the real stages (no stand-ins): build, verify, film change."""
+    env = {"ROCKDOVE_BUILD_STAGES": ""}
+    r = rockdove("build", "--out", "b/p", "--no-verify", *TINY, cwd=tmp_path, env_extra=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    first = json.loads(r.stdout)
+    assert first["ran"] == ["body", "bird", "thickness_range", "lut", "texture_images", "textures", "usd_layers"]
+    asset = tmp_path / "b/p"
+    assert (asset / "pigeon.usda").is_file() and (asset / "textures/thinfilm_lut.exr").is_file()
+    # the LUT spans the thickness range on the mesh, no more
+    from pipeline.lut.exr import read_exr
+
+    lo, hi = read_exr(asset / "textures/thinfilm_lut.exr").thickness_range_nm
+    assert 480 <= lo < 600 and 600 < hi <= 700
+    # verification added: only the verify stage runs, on the same asset
+    r = rockdove("build", "--out", "b/p", *TINY, cwd=tmp_path, env_extra=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    second = json.loads(r.stdout)
+    assert second["ran"] == ["verify"] and second["verified"] is True
+    assert json.loads((asset / "verify/report.json").read_text())["passed"] is True
+    # film index change: LUT, textures (the preview mixes the LUT in) and layers; geometry reused
+    r = rockdove("build", "--out", "b/p", "--no-verify", "--set", "film.cauchy_a=1.56", *TINY, cwd=tmp_path,
+                 env_extra=env, timeout=300)
+    third = json.loads(r.stdout)
+    assert third["ran"] == ["lut", "textures", "usd_layers"]
+    assert {"body", "bird", "thickness_range", "texture_images"} == set(third["reused"])

@@ -50,7 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _stage_factory():
-    spec = os.environ.get(STAGES_ENV)
+    spec = os.environ.get(STAGES_ENV, "").strip()
     if not spec:
         from ..build.stages import make_stages
 
