@@ -183,7 +183,10 @@ def test_render_needs_views_and_film(tmp_path):
         reference.render_reference(no_film, [_view()])
 
 
-def test_display_transform_is_the_srgb_oetf_of_clipped_linear():
-    out = reference.to_display8(np.array([[0.0, 1.0, 2.0], [-1.0, 0.0031308, 0.18]]))
-    assert out.tolist()[0] == [0, 255, 255] and out[1, 0] == 0
-    assert out[1, 2] == round(255 * (1.055 * 0.18 ** (1 / 2.4) - 0.055))
+def test_display_transform_is_the_gl_paths():
+    from pipeline.render.images import linear_to_srgb8
+
+    rgb = np.array([[0.0, 1.0, 2.0], [-0.05, 0.3, 0.1], [0.18, 0.18, 0.18]])
+    np.testing.assert_array_equal(reference.to_display8(rgb), linear_to_srgb8(rgb))
+    assert reference.to_display8(np.array([[0.18, 0.18, 0.18]]))[0, 0] == round(255 * (1.055 * 0.18 ** (1 / 2.4) - 0.055))
+    assert reference.to_display8(np.array([[np.nan, np.inf, 0.5]]))[0, :2].tolist() == [0, 255]

@@ -11,7 +11,7 @@ import pytest
 from PIL import Image
 
 from pipeline.render import compare as cmp
-from pipeline.render.reference import render_reference, structural_rgb_at_step
+from pipeline.render.reference import render_reference
 from pipeline.render.scene import RenderScene, ScenePart, ThinFilmParams
 from pipeline.render.views import light_sweep_views
 
@@ -27,46 +27,39 @@ def _rockdove(*args, timeout=300):
     return subprocess.run([exe, *args], capture_output=True, text=True, cwd=ROOT, env=env, timeout=timeout)
 
 
-def _physical_lut(n_angle=96, n_thickness=24):
-    """A LUT of the synthetic asset's paper film, integrated from the Airy spectrum (2 nm steps)."""
-    from pipeline.lut import ThinFilmLUT
-    from pipeline.render.synthetic import THICKNESS_RANGE_NM
-
-    film = ThinFilmParams(**PAPER_FILM)
-    c, d = np.meshgrid(np.linspace(0, 1, n_angle), np.linspace(*THICKNESS_RANGE_NM, n_thickness))
-    rgb = structural_rgb_at_step(c.ravel(), d.ravel(), film, 2.0).reshape(n_thickness, n_angle, 3)
-    return ThinFilmLUT(rgb.astype(np.float32), THICKNESS_RANGE_NM, 1.0, metadata={"method": "test: 2 nm"})
-
-
 @pytest.fixture(scope="module")
 def assets(tmp_path_factory):
+    """A small asset built by the real assembly (paper preset), and a synthetic one in the same layout whose
+    LUT is a gradient, not the film's colour."""
+    from pipeline.assemble import assemble
     from pipeline.render.synthetic import gradient_lut, write_synthetic_asset
 
     base = tmp_path_factory.mktemp("verify")
-    good = write_synthetic_asset(base / "good", lut=_physical_lut())
-    wrong = write_synthetic_asset(base / "wrong_lut", lut=gradient_lut())  # a LUT that is not the film's
+    good = assemble(base / "paper", preset="paper", card_count=200, usdz=False)["interface"]
+    wrong = write_synthetic_asset(base / "wrong_lut", lut=gradient_lut())
     return {"good": good, "wrong": os.path.dirname(wrong), "base": base}
 
 
 @pytest.mark.gl
-def test_verify_passes_on_a_correct_asset_and_writes_the_report(assets):
+def test_verify_passes_on_a_small_assembled_asset_and_writes_the_report(assets):
     out = assets["base"] / "report_good"
-    p = _rockdove("verify", assets["good"], "--out", str(out), "--width", "64", "--height", "64", "--json")
-    assert p.returncode == 0, p.stderr
+    p = _rockdove("verify", os.path.dirname(assets["good"]), "--out", str(out), "--width", "96", "--height", "96",
+                  "--json")
+    assert p.returncode == 0, (p.stdout, p.stderr)
     summary = json.loads(p.stdout)
     assert summary["passed"] and summary["validation"]
-    assert set(summary["views"]) >= {"turntable_030", "sweep_060", "sweep_120", "sweep_090"}
+    assert set(summary["views"]) >= {"sweep_060", "sweep_120", "sweep_090"}
     for name, v in summary["views"].items():
         assert v["n_pixels"] > 0 and v["de_median"] <= cmp.MEDIAN_DE_GOAL and v["de_p95"] <= cmp.P95_DE_GOAL, name
     assert summary["hue_sweep"]["green"] > 0 and summary["hue_sweep"]["purple"] > 0
     report = json.loads((out / "report.json").read_text())
     assert report["versions"]["numpy"] == np.__version__ and report["timings_s"]["reference"] > 0
-    assert report["film"]["cauchy_a"] == 1.5 and report["lut"]["shape"] == [24, 96]
+    assert report["film"]["cauchy_a"] == pytest.approx(1.5) and report["lut"]["shape"][0] == 1  # paper: 1-D LUT
     html = (out / "report.html").read_text()
     for name in ("sweep_060_gl.png", "sweep_060_reference.png", "sweep_060_dE.png", "contact_sheet.png",
                  "lut.png", "spectra.png", "hue.png"):
         assert (out / name).is_file() and name in html, name
-    assert Image.open(out / "sweep_060_gl.png").size == (64, 64)
+    assert Image.open(out / "sweep_060_gl.png").size == (96, 96)
 
 
 @pytest.mark.gl
@@ -91,7 +84,7 @@ def test_a_missing_validator_is_a_failure_not_a_pass(assets, monkeypatch, tmp_pa
     from pipeline.render import verify
 
     monkeypatch.setitem(sys.modules, "pipeline.usd.validate", None)  # import fails as if absent
-    report = verify.verify_asset(assets["good"], out_dir=tmp_path, width=32, height=32)
+    report = verify.verify_asset(assets["wrong"], out_dir=tmp_path, width=32, height=32)
     assert not report["passed"] and not report["validation"]["passed"]
     assert any("validator" in f for f in report["failures"])
 

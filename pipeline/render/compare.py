@@ -2,10 +2,10 @@
 
 What is compared
 ----------------
-Both renders hold linear ``lin_rec709`` radiance. The display transform of the project (docs/design.md,
-"Conventions") is the sRGB OETF of the *clipped* linear value, so what a viewer sees is ``clip(rgb, 0, 1)``;
-the dE2000 map is computed on that clipped linear colour (the OETF is monotone, so the result is the same
-as on the display image decoded back to linear). Colours go to CIELAB with the D65 white at Y = 1 through
+Both renders hold linear ``lin_rec709`` radiance, unclipped (thin-film colours are often outside the Rec.709
+gamut, so a component may be negative). The dE2000 map is computed on that linear data, not on the 8-bit
+display images: the display transform (clip to [0, 1], sRGB OETF, 8 bits) is for people and would hide
+out-of-gamut and quantisation differences. Colours go to CIELAB with the D65 white at Y = 1 through
 :func:`pipeline.spectral.RGB_to_Lab` and are compared with CIEDE2000 (Sharma, Wu and Dalal 2005, as
 implemented by colour-science) through :func:`pipeline.spectral.delta_E_2000`.
 
@@ -113,14 +113,14 @@ def comparison_mask(gl_part, ref_part, feather_part_ids, erode_px: int = 1) -> n
 
 
 def rgb_to_lab(rgb_linear: np.ndarray) -> np.ndarray:
-    """Displayed (clipped) linear lin_rec709 colour to CIELAB (D65 white at Y = 1), shape (..., 3)."""
+    """Linear lin_rec709 colour (unclipped) to CIELAB (D65 white at Y = 1), shape (..., 3)."""
     from .. import spectral
 
-    return np.asarray(spectral.RGB_to_Lab(np.clip(np.asarray(rgb_linear, np.float64), 0.0, 1.0)), np.float64)
+    return np.asarray(spectral.RGB_to_Lab(np.asarray(rgb_linear, np.float64)), np.float64)
 
 
 def delta_e_map(gl_rgb, ref_rgb, mask=None) -> np.ndarray:
-    """CIEDE2000 between the displayed colours of two linear renders.
+    """CIEDE2000 between the colours of two linear renders.
 
     Parameters
     ----------

@@ -39,8 +39,7 @@ test_spectral_step_is_exact_against_a_finer_grid``). Pixels are de-duplicated on
 phase ``4 pi n d cos(theta_b) / lambda`` changes by less than 5e-5 rad within one key, far below anything
 visible (measured < 0.005 dE2000), so this is still the exact model per pixel, not an interpolated table.
 
-The tone mapping for display is the project's (docs/design.md): sRGB OETF of the clipped linear value
-(:func:`to_display8`).
+The PNGs use the GL path's tone mapping (:func:`to_display8`); the comparison uses the linear data.
 """
 
 from __future__ import annotations
@@ -113,7 +112,8 @@ class ReferenceResult:
 
 
 def to_display8(rgb_linear) -> np.ndarray:
-    """The project's display transform: sRGB OETF (IEC 61966-2-1) of the clipped linear value, 8 bits.
+    """The GL path's display transform, :func:`pipeline.render.images.linear_to_srgb8` (docs/design.md: the
+    sRGB OETF of the linear value clipped to [0, 1]), with NaN shown black and +Inf white.
 
     Parameters
     ----------
@@ -123,10 +123,10 @@ def to_display8(rgb_linear) -> np.ndarray:
     -------
     ndarray, (..., 3) uint8
     """
-    import colour
+    from .images import linear_to_srgb8
 
-    x = np.clip(np.nan_to_num(np.asarray(rgb_linear, np.float64), nan=0.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
-    return np.round(colour.cctf_encoding(x, function="sRGB") * 255.0).astype(np.uint8)
+    x = np.nan_to_num(np.asarray(rgb_linear, np.float64), nan=0.0, posinf=1.0, neginf=0.0)
+    return linear_to_srgb8(x)
 
 
 # -- exact structural colour -------------------------------------------------------------------------------
