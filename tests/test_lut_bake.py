@@ -200,3 +200,14 @@ def test_bake_is_keyword_only_and_methods_are_registered():
     with pytest.raises(TypeError):
         bake(256)  # noqa
     assert set(BAKE_METHODS) == {"auto", "fourier", "spectral", "spectral_fast"}
+
+
+@pytest.mark.parametrize("method", ["fourier", "spectral_fast"])
+def test_zero_and_thin_films_match_the_reference_including_grazing(method):
+    # d = 0 is no film at all (air | air: R = 0), even at cos theta = 0 where the Airy form is 0/0
+    lut = bake(angles=16, thicknesses=3, thickness_range=(0.0, 100.0), method=method, angle_warp_gamma=2.0,
+               grazing_step_nm=0.1)
+    c, d = np.meshgrid(lut.cos_theta, lut.thickness_nm)
+    de = delta_E(lut.rgb, reference_colour(c, d, "paper"))
+    assert np.abs(lut.rgb[0]).max() < 1e-12
+    assert de.max() < 0.05

@@ -14,8 +14,9 @@ Methods (registry :data:`BAKE_METHODS`, names validated like colour-science's ``
 ``"fourier"``
     The exact Fourier route of method.md (:mod:`.fourier`): ``c0 W0 + 2 sum c_m G(m OPD)`` with the
     closed-form Poisson-kernel coefficients per polarisation and terms dropped below ``fourier_tol``;
-    texels whose series would need more than ``max_terms`` terms (thickness -> 0 at grazing) are sampled at
-    the reference's 0.1 nm step instead, and ``cos theta = 0`` takes the limit R = 1. Exact only for a
+    texels whose series would need more than ``max_terms`` terms (thickness -> 0 at grazing) and texels of zero
+    thickness (the bare interface) are computed like the reference (Airy spectrum at 0.1 nm), and
+    ``cos theta = 0`` takes the limit R = 1. Exact only for a
     non-dispersive, non-absorbing film without total internal reflection; refused otherwise.
 ``"auto"``
     ``"fourier"`` when the film allows it, else ``"spectral_fast"`` at the steps measured to meet the
@@ -201,10 +202,20 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
     for i in range(0, thickness_nm.shape[0], rows):
         c = np.cos(thickness_nm[i : i + rows, None, None] * k[None])
         r = np.zeros_like(c)
-        for num0, cross, den0 in terms:
-            x = cross * c
-            r += (num0 + x) / (den0 + x)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            for num0, cross, den0 in terms:
+                x = cross * c
+                # 0/0 only where a^2 = b^2 = 1 (cos theta = 0) and cos(phi) = 1: for d > 0 the limit is R = 1
+                r += np.nan_to_num((num0 + x) / (den0 + x), nan=1.0)
         out[i : i + rows] = (0.5 * r) @ weights
+    bare = thickness_nm == 0.0
+    if np.any(bare):
+        # no film: the bare incident | substrate interface (the Airy form's d -> 0 limit is ambiguous at grazing)
+        from .. import optics
+
+        r = optics.reflectance(wavelength_nm[None, :], cos_theta[:, None], 0.0, n_film=film.n_film(wavelength_nm),
+                               n_incident=film.n_incident, n_substrate=film.n_substrate)
+        out[bare] = (r @ weights)[None]
     return out
 
 
@@ -237,7 +248,7 @@ def fourier_supported(film) -> bool:
 
 def _bake_fourier(cos_theta, thickness_nm, film, *, illuminant, colour_space, fourier_tol, max_terms, **_):
     from . import fourier
-    from .reference import REFERENCE_STEP_NM, colour_weights, reference_wavelengths
+    from .reference import REFERENCE_STEP_NM, reference_colour
 
     if not fourier_supported(film):
         raise ValueError(
@@ -255,18 +266,15 @@ def _bake_fourier(cos_theta, thickness_nm, film, *, illuminant, colour_space, fo
         [fourier.n_terms_needed(c1[None, :, p], rho[None, :, p], opd, table, fourier_tol) for p in (0, 1)],
         axis=0,
     )
-    fallback = m > max_terms
+    fallback = (m > max_terms) | (opd <= 0.0)  # slow series, or no film (d = 0: the bare interface)
     m = np.where(fallback, 0, m)
     rgb = fourier.fourier_colour_grid(c0, c1, rho, opd, m, table)
     n_terms_total = np.broadcast_to(m.max(axis=0)[None, :], shape)
     if np.any(fallback):
-        # series too slow (OPD -> 0 with |rho| -> 1): sample those texels at the reference step
-        wl = reference_wavelengths()
-        w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
+        # series too slow (OPD -> 0 with |rho| -> 1) or no film: the exact Airy spectrum at the reference step
         ti, aj = np.nonzero(fallback)
-        for t in np.unique(ti):
-            cols = aj[ti == t]
-            rgb[t, cols] = sample_colour(cos_theta[cols], thickness_nm[t : t + 1], film, wl, w)[0]
+        rgb[ti, aj] = reference_colour(cos_theta[aj], thickness_nm[ti], film, illuminant=illuminant,
+                                       colour_space=colour_space)
     meta = {
         "fourierTolerance": repr(float(fourier_tol)),
         "fourierMaxTerms": str(int(max_terms)),

@@ -179,11 +179,11 @@ def airy_fourier_coefficients(a, b):
 
 
 def n_terms_needed(c1, rho, opd_nm, table: GTable, tol: float) -> np.ndarray:
-    """Number of terms ``M``: the first dropped term's bound ``2|c1||rho|^M max_{x>=(M+1)OPD}|G|`` is < tol.
+    """Number of terms ``M``: the smaller of two counts, either of which makes the dropped terms small.
 
-    Computed as the smaller of the two counts that make either factor alone small enough (geometric decay with
-    ``|G| <= max |G|``, or ``|G|`` dying out with ``|rho|^M <= 1``), which is vectorised and at most a few
-    terms more than the exact smallest ``M``.
+    - geometric: the strict remainder bound ``2|c1||rho|^M max|G| / (1-|rho|) < tol``;
+    - decay of G: the first dropped term's bound ``2|c1| max_{x>=(M+1)OPD}|G| < tol`` (with ``|rho|^M <= 1``);
+      beyond it the terms are small and oscillate in sign, so their sum is smaller still (measured).
 
     Parameters
     ----------
@@ -203,8 +203,9 @@ def n_terms_needed(c1, rho, opd_nm, table: GTable, tol: float) -> np.ndarray:
     g_max = float(table.g_tail[0])
     with np.errstate(divide="ignore", invalid="ignore"):
         scale = 2.0 * c1
-        # geometric factor alone (G bounded by its maximum)
-        ratio = tol / (scale * g_max)
+        # geometric factor alone, as a strict remainder bound (G bounded by its maximum): this is the count
+        # that applies when OPD is too small for G to decay over the terms (thin films)
+        ratio = tol * (1.0 - r) / (scale * g_max)
         m_geom = np.where(
             ratio >= 1.0, 0.0, np.where(r > 0.0, np.ceil(np.log(ratio) / np.log(r)), 1.0)
         )
@@ -216,74 +217,11 @@ def n_terms_needed(c1, rho, opd_nm, table: GTable, tol: float) -> np.ndarray:
     return np.minimum(np.nan_to_num(m, nan=0.0, posinf=2**40), 2**40).astype(np.int64)
 
 
-def fourier_colour(c0, c1, rho, opd_nm, n_terms, table: GTable) -> np.ndarray:
-    """Linear colour ``c0 W0 + 2 sum_{m=1..M} c1 rho^(m-1) G(m OPD)`` per texel, averaged over polarisations.
-
-    Polarisations share the optical path difference, hence the lookups ``G(m OPD)``: their coefficients are
-    averaged term by term, so unpolarised light costs one lookup per term. The sum over terms, with the linear
-    interpolation of ``G``, is one sparse (texels x table) matrix times the (table x 3) ``G`` array: two
-    non-zeros per term, rows already sorted by texel, so the CSR arrays are built directly and scipy does the
-    gather-and-sum in C (measured faster than numpy gathers and segmented sums).
-
-    Parameters
-    ----------
-    c0, c1, rho : ndarray, shape (T, P)
-        Coefficients of :func:`airy_fourier_coefficients` for P polarisations (s and p for unpolarised light).
-    opd_nm : ndarray, shape (T,)
-        Optical path difference ``2 n_b d cos(theta_b)``, nm.
-    n_terms : ndarray of int, shape (T,)
-        Terms per texel (the largest :func:`n_terms_needed` over the polarisations, capped by the caller).
-    table : GTable
-
-    Returns
-    -------
-    ndarray, shape (T, 3), float64
-    """
-    import scipy.sparse
-
-    c0 = np.asarray(c0, dtype=np.float64)
-    c1 = np.asarray(c1, dtype=np.float64)
-    rho = np.asarray(rho, dtype=np.float64)
-    n_terms = np.asarray(n_terms, dtype=np.int64)
-    n_texel, n_pol = c0.shape
-    out = c0.mean(axis=1)[:, None] * table.w0[None, :]
-    total = int(n_terms.sum())
-    if total == 0:
-        return out
-    t_idx = np.repeat(np.arange(n_texel), n_terms)
-    starts = np.cumsum(n_terms) - n_terms
-    m1 = np.arange(total) - np.repeat(starts, n_terms)  # m - 1
-    coef = np.zeros(total)
-    for p in range(n_pol):
-        # c1 rho^(m-1) = c1 sign(rho)^(m-1) exp((m-1) log|rho|): cheaper than a float power
-        with np.errstate(divide="ignore"):
-            log_r = np.log(np.abs(rho[:, p]))
-        term = np.exp(m1 * log_r[t_idx])
-        neg = (rho[:, p] < 0)[t_idx] & (m1 % 2 == 1)
-        term[neg] *= -1.0
-        coef += c1[:, p][t_idx] * term
-    coef *= 2.0 / n_pol
-    f = (m1 + 1) * (np.asarray(opd_nm, dtype=np.float64) / table.step_nm)[t_idx]
-    k = f.astype(np.int64)
-    frac = f - k
-    n_x = table.g.shape[0]
-    k[k >= n_x - 1] = n_x  # beyond the table's end G is taken as 0: the two zero rows of g_padded
-    data = np.empty(2 * total)
-    data[1::2] = coef * frac
-    data[0::2] = coef - data[1::2]
-    indices = np.empty(2 * total, np.int64)
-    indices[0::2] = k
-    indices[1::2] = k + 1
-    indptr = np.concatenate([[0], 2 * np.cumsum(n_terms)])
-    mat = scipy.sparse.csr_matrix((data, indices, indptr), shape=(n_texel, n_x + 2))
-    return out + mat @ table.g_padded
-
-
 def fourier_colour_grid(c0, c1, rho, opd_nm, n_terms, table: GTable) -> np.ndarray:
-    """:func:`fourier_colour` for a (thickness x angle) grid whose coefficients depend on the angle only.
+    """Linear colour ``c0 W0 + 2 sum_{m=1..M} c_m G(m OPD)`` of a (thickness x angle) grid, mean over polarisations.
 
-    Same result (up to extra terms, which only add accuracy), organised for speed: each angle column gets
-    the largest term count of its texels, so the coefficient of term m is shared by a column
+    The coefficients depend on the angle only, so each angle column gets the largest term count of its texels
+    (extra terms only add accuracy), so the coefficient of term m is shared by a column
     (``(2/P) sum_p c1_p rho_p^(m-1)``, tabulated once per column) and columns with similar counts are
     processed as dense (thickness x columns x terms) blocks: no per-term index arithmetic.
 
@@ -294,7 +232,7 @@ def fourier_colour_grid(c0, c1, rho, opd_nm, n_terms, table: GTable) -> np.ndarr
     opd_nm : ndarray, shape (T, A)
         Optical path difference, nm.
     n_terms : ndarray of int, shape (T, A)
-        Terms needed per texel (0 where the caller computes the texel otherwise).
+        Terms needed per texel (:func:`n_terms_needed`; 0 where the caller computes the texel otherwise).
     table : GTable
 
     Returns
