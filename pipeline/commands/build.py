@@ -90,6 +90,18 @@ class _Progress:
             self.bar.close()
 
 
+def _summary(graph, args, out, cache_dir, chash, t0, *, verified, report) -> dict:
+    """The --json summary: which stages ran and which were reused, keys, timings, the verdict."""
+    records = [r.as_dict() for r in graph.records.values()]
+    return {
+        "out": str(out), "cache": str(cache_dir), "preset": args.preset, "config_hash": chash,
+        "ran": [r["name"] for r in records if r["status"] == "ran"],
+        "reused": [r["name"] for r in records if r["status"] == "reused"],
+        "stages": records, "verified": verified, "report": report,
+        "seconds": round(time.perf_counter() - t0, 4),
+    }
+
+
 def run(args: argparse.Namespace) -> int:
     from ..build.graph import Cache, Graph
     from ..build.publish import OutputLock, check_output, make_staging, publish, recover, write_marker
@@ -126,6 +138,9 @@ def run(args: argparse.Namespace) -> int:
             verdicts = {n: graph.value(n) for n, s in graph.stages.items() if s.needs_asset}
             failed = [n for n, v in verdicts.items() if isinstance(v, dict) and v.get("passed") is False]
             if failed:
+                if args.json:  # the summary still says what ran and where the report is
+                    print(json.dumps(_summary(graph, args, out, cache_dir, chash, t0, verified=False,
+                                              report=str(graph.entry_dir(failed[0]))), indent=1))
                 raise VerificationFailed(
                     f"stage {failed[0]!r} failed ({verdicts[failed[0]].get('reason', 'see its report')}); "
                     f"{out} was left unchanged; report in {graph.entry_dir(failed[0])}")
@@ -137,13 +152,8 @@ def run(args: argparse.Namespace) -> int:
             shutil.rmtree(staging, ignore_errors=True)
         signal.signal(signal.SIGTERM, old_term)
 
-    records = [r.as_dict() for r in graph.records.values()]
-    summary = {
-        "out": str(out), "cache": str(cache_dir), "preset": args.preset, "config_hash": chash,
-        "ran": [r["name"] for r in records if r["status"] == "ran"],
-        "reused": [r["name"] for r in records if r["status"] == "reused"],
-        "stages": records, "verified": bool(verdicts) or None, "seconds": round(time.perf_counter() - t0, 4),
-    }
+    summary = _summary(graph, args, out, cache_dir, chash, t0, verified=bool(verdicts) or None,
+                       report=str(out / "verify") if verdicts else None)
     if args.json:
         print(json.dumps(summary, indent=1))
     elif not args.quiet:
