@@ -71,8 +71,10 @@ def test_fourier_and_spectral_methods_agree():
     away = f.cos_theta > 0.1  # where 1 nm sampling is converged (issue 2: 5 nm errs <= 0.06 there)
     assert delta_E(f.rgb[:, away], s.rgb[:, away]).max() < 0.02
     assert delta_E(f.rgb, sf.rgb).max() < 0.1
-    # the two sampled methods are the same sum, computed two ways
-    np.testing.assert_allclose(bake(method="spectral_fast", fast_step_nm=1.0, grazing_step_nm=1.0, **kw).rgb, s.rgb, atol=2e-6)
+    # the two sampled methods are the same sum, computed two ways (spectral_fast in float32: ~1e-6 apart)
+    same = bake(method="spectral_fast", fast_step_nm=1.0, grazing_step_nm=1.0, **kw)
+    np.testing.assert_allclose(same.rgb, s.rgb, atol=2e-5)
+    assert delta_E(same.rgb, s.rgb).max() < 1e-3
 
 
 def test_auto_picks_fourier_only_where_it_is_exact():
