@@ -329,6 +329,8 @@ class ViewMetrics:
         Compared feather pixels (see :func:`comparison_mask`).
     de_median, de_p95, de_max, de_mean : float
         dE2000 statistics over those pixels (NaN when there are none).
+    de_fraction_over_p95_goal : float
+        Fraction of those pixels above :data:`P95_DE_GOAL` (isolated alpha-edge disagreements show here).
     finite : bool
         No NaN/Inf in either render.
     n_lit, n_black : int
@@ -353,6 +355,7 @@ class ViewMetrics:
     de_p95: float
     de_max: float
     de_mean: float
+    de_fraction_over_p95_goal: float
     finite: bool
     n_lit: int
     n_black: int
@@ -432,7 +435,8 @@ def compare_arrays(
         failures.append(f"{view}: {n_black} of {n_lit} lit feather pixels are black ({black_fraction:.2%})")
     return ViewMetrics(
         view=view, n_pixels=n, de_median=float(stats[0]), de_p95=float(stats[1]), de_max=float(stats[2]),
-        de_mean=float(stats[3]), finite=finite, n_lit=n_lit, n_black=n_black, black_fraction=black_fraction,
+        de_mean=float(stats[3]), de_fraction_over_p95_goal=float(np.mean(vals > P95_DE_GOAL)) if n else float("nan"),
+        finite=finite, n_lit=n_lit, n_black=n_black, black_fraction=black_fraction,
         hue=hue_histogram(safe_gl[hue_mask]), passed=not failures, failures=failures, de_map=de, cls=cls_img,
     )
 

@@ -56,19 +56,32 @@ def library_versions() -> dict:
     return out
 
 
+#: The marker a published build leaves in the asset folder (pipeline.build.publish): tool, version,
+#: configuration hash, preset, stage keys.
+BUILD_MARKER = ".rockdove-asset.json"
+
+
 def _asset_configuration(layer_path: str) -> dict:
-    """The build configuration and its hash if the asset records them (root layer customLayerData or the
-    default prim's assetInfo, keys containing "config"); empty otherwise."""
+    """What the asset records about the configuration it was built from: the build marker
+    (:data:`BUILD_MARKER`, beside the root layer) and any root-layer ``customLayerData`` or default-prim
+    ``assetInfo`` key containing "config"; empty when the asset records nothing (e.g. a bare assembly)."""
     from pxr import Sdf
 
-    layer = Sdf.Layer.FindOrOpen(layer_path)
     found = {}
+    marker = os.path.join(os.path.dirname(os.path.abspath(layer_path)), BUILD_MARKER)
+    if os.path.isfile(marker):
+        try:
+            with open(marker, encoding="utf-8") as f:
+                found["marker"] = json.load(f)
+        except (OSError, ValueError) as exc:
+            found["marker_error"] = f"{marker}: {exc}"
+    layer = Sdf.Layer.FindOrOpen(layer_path)
     if layer is None:
         return found
 
     def pick(d, where):
         for k, v in dict(d or {}).items():
-            if "config" in k.lower() or k.lower() in ("rockdove", "build"):
+            if "config" in k.lower():
                 found[f"{where}:{k}"] = v
 
     pick(layer.customLayerData, "customLayerData")
@@ -264,7 +277,10 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
                         "colour_space": lut.colour_space, "metadata": dict(lut.metadata)}
         except (ValueError, OSError) as exc:
             failures.append(f"LUT {scene.film.lut_file!r} could not be read: {exc}")
-        images["spectra"] = os.path.basename(rep.spectra_png(os.path.join(out, "spectra.png"), scene.film))
+        lo, hi = scene.film.thickness_range_nm
+        thicknesses = sorted({lo, 0.5 * (lo + hi), hi})
+        images["spectra"] = os.path.basename(rep.spectra_png(os.path.join(out, "spectra.png"), scene.film,
+                                                             thickness_nm=thicknesses))
     images["hue"] = os.path.basename(rep.hue_png(os.path.join(out, "hue.png"), hue, "light sweep"))
     bench = bench_dir if bench_dir is not None else os.path.join(os.getcwd(), "build", "bench")
     images["bench"] = rep.copy_bench_plots(out, bench)
@@ -303,7 +319,10 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
 
 
 def _config_hash(config: dict):
-    """The hash the asset records (a key containing "hash"), else None."""
+    """The configuration hash the asset records (the build marker's ``config_hash``), else None."""
+    marker = config.get("marker")
+    if isinstance(marker, dict) and marker.get("config_hash"):
+        return marker["config_hash"]
     for k, v in config.items():
         if "hash" in k.lower():
             return v
