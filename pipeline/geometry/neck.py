@@ -154,31 +154,33 @@ def eliminate(points_m: np.ndarray, count: int, area_m2: float, rng: np.random.G
     r_max = np.sqrt(area_m2 / (2.0 * np.sqrt(3.0) * count))
     pairs = cKDTree(points_m).query_pairs(2.0 * r_max, output_type="ndarray")
     i, j = pairs[:, 0], pairs[:, 1]
-    d = np.linalg.norm(points_m[i] - points_m[j], axis=1)
-    w = (1.0 - d / (2.0 * r_max)) ** WEIGHT_EXPONENT
-    tiebreak = rng.permutation(m)  # distinct priorities for equal weights
+    diff = points_m[i] - points_m[j]
+    d = np.sqrt(np.einsum("ij,ij->i", diff, diff))
+    x = 1.0 - d / (2.0 * r_max)
+    x *= x
+    x *= x
+    w = x * x  # (1 - d / 2 r_max)^8 by squaring: WEIGHT_EXPONENT = 8
+    tiebreak = rng.permutation(m).astype(np.float64) / m  # distinct priorities in [0, 1) for equal weights
     alive = np.ones(m, dtype=bool)
     n_alive = m
-    while n_alive > count:  # rounds (tens), each vectorised over all pairs
+    while n_alive > count:  # rounds (tens), each vectorised over all live pairs
         live_pair = alive[i] & alive[j]
-        li, lj, lw = i[live_pair], j[live_pair], w[live_pair]
-        i, j, w = li, lj, lw  # pairs with a dead end never matter again
+        i, j, w = i[live_pair], j[live_pair], w[live_pair]  # pairs with a dead end never matter again
         weight = np.bincount(i, w, minlength=m) + np.bincount(j, w, minlength=m)
-        # rank by (weight, tiebreak): a strict total order
-        order = np.lexsort((tiebreak, weight))
-        rank = np.empty(m, dtype=np.int64)
-        rank[order] = np.arange(m)
+        # strict total order by (weight, tiebreak): the lighter end of every live pair is not a local maximum
+        wi, wj = weight[i], weight[j]
+        i_lighter = (wi < wj) | ((wi == wj) & (tiebreak[i] < tiebreak[j]))
         is_max = alive & (weight > 0)
-        lose_i = rank[i] < rank[j]
-        is_max[i[lose_i]] = False
-        is_max[j[~lose_i]] = False
+        is_max[i[i_lighter]] = False
+        is_max[j[~i_lighter]] = False
         cand = np.flatnonzero(is_max)
         need = n_alive - count
         if len(cand) == 0:  # no live sample has a live neighbour: drop the lowest-priority ones
             cand = np.flatnonzero(alive)
-            cand = cand[np.argsort(tiebreak[cand])][:need]
-        elif len(cand) > need:
-            cand = cand[np.argsort(rank[cand])[::-1][:need]]
+            cand = cand[np.argsort(tiebreak[cand], kind="stable")][:need]
+        elif len(cand) > need:  # the heaviest first
+            order = np.lexsort((tiebreak[cand], weight[cand]))[::-1]
+            cand = cand[order[:need]]
         alive[cand] = False
         n_alive -= len(cand)
     return np.flatnonzero(alive)
