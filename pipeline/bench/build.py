@@ -68,6 +68,14 @@ def _median(rows: list[dict], key: str) -> float:
 
 
 def run(args: argparse.Namespace) -> int:
+    try:
+        return _run(args)
+    except RuntimeError as exc:  # a build of the benchmark failed: say which, one line
+        print(f"rockdove bench build: {exc}", file=sys.stderr)
+        return 1
+
+
+def _run(args: argparse.Namespace) -> int:
     repeats = 1 if args.quick else max(1, args.repeats)
     preset = ["--preset", args.preset, "--no-verify"]
     for item in (QUICK if args.quick else []) + list(args.overrides):
