@@ -72,6 +72,14 @@ def test_mask_excludes_silhouette_edges_and_part_disagreement():
     assert not compare.comparison_mask(part, part, [FEATHER], erode_px=2)[5, 10]
 
 
+def test_a_view_without_feather_pixels_has_nan_statistics_and_nothing_to_fail():
+    rgb, part = _images()
+    body_only = np.where(part == FEATHER, 1, part)
+    m = compare.compare_arrays("turntable_210", rgb, rgb, body_only, body_only, [FEATHER])
+    assert m.n_pixels == 0 and np.isnan(m.de_median) and np.isnan(m.de_fraction_over_p95_goal)
+    assert m.passed and m.hue["green"] == m.hue["purple"] == 0
+
+
 def test_nan_and_black_holes_are_reported():
     rgb, part = _images()
     gl = rgb.copy()

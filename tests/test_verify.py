@@ -46,6 +46,7 @@ def test_verify_passes_on_a_small_assembled_asset_and_writes_the_report(assets):
     p = _rockdove("verify", os.path.dirname(assets["good"]), "--out", str(out), "--width", "96", "--height", "96",
                   "--json")
     assert p.returncode == 0, (p.stdout, p.stderr)
+    assert "NaN" not in p.stdout  # strict JSON
     summary = json.loads(p.stdout)
     assert summary["passed"] and summary["validation"]
     assert set(summary["views"]) >= {"sweep_060", "sweep_120", "sweep_090"}

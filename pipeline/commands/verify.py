@@ -45,7 +45,9 @@ def run(args: argparse.Namespace) -> int:
     report = verify_asset(args.asset, out_dir=args.out, width=args.width, height=args.height, progress=progress)
     short = summary(report)
     if args.json:
-        json.dump(short, sys.stdout, indent=2, default=str, allow_nan=True)
+        from ..render.report import strict_json
+
+        json.dump(strict_json(short), sys.stdout, indent=2, allow_nan=False)
         sys.stdout.write("\n")
     else:
         for m in report["views"]:

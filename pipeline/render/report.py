@@ -199,11 +199,15 @@ def _finite(o):
     return o
 
 
+def strict_json(obj):
+    """``obj`` as plain JSON data: numpy values to Python, anything else unknown to str, NaN/Inf to None."""
+    return _finite(json.loads(json.dumps(obj, default=_json_default)))
+
+
 def write_json(path, report: dict) -> str:
     """Write the report as strict JSON (NaN -> null), sorted keys, 2-space indent."""
-    data = json.loads(json.dumps(report, default=_json_default))
     with open(path, "w", encoding="utf-8") as f:
-        json.dump(_finite(data), f, indent=2, sort_keys=True, allow_nan=False)
+        json.dump(strict_json(report), f, indent=2, sort_keys=True, allow_nan=False)
         f.write("\n")
     return os.fspath(path)
 

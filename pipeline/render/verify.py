@@ -225,6 +225,8 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
         metrics = [cmp.compare(g, r, scene) for g, r in zip(gl_results, ref_results)]
         for m in metrics:
             failures.extend(m.failures)
+        if sum(m.n_pixels for m in metrics) == 0:
+            failures.append("no view has feather pixels away from silhouette edges to compare")
     sweep_idx = [i for i, v in enumerate(views) if v.name.startswith("sweep_")]
     sweep_pixels = []
     boundary = {}
