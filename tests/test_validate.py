@@ -178,7 +178,9 @@ def _cli(*args):
 def test_cli_exit_statuses_and_json(good, broken, tmp_path):
     ok = _cli(good, "--json")
     assert ok.returncode == 0, ok.stderr
-    assert json.loads(ok.stdout)["clean"] is True
+    result = json.loads(ok.stdout)
+    assert result["clean"] is True  # a folder: the layers and the usdz are both validated
+    assert [os.path.basename(r["path"]) for r in result["reports"]] == ["pigeon.usda", "pigeon.usdz"]
     out, _ = broken
     os.remove(os.path.join(out, "textures", "feather_base.png"))
     bad = _cli(out)
@@ -186,3 +188,19 @@ def test_cli_exit_statuses_and_json(good, broken, tmp_path):
     assert "BaseColorTexture.inputs:file" in bad.stdout and "NOT CLEAN" in bad.stdout
     missing = _cli(str(tmp_path / "nowhere"))
     assert missing.returncode == 2 and "does not exist" in missing.stderr
+    not_usd = tmp_path / "notes.txt"
+    not_usd.write_text("hello")
+    assert _cli(str(not_usd)).returncode == 2
+
+
+def test_cli_reports_a_broken_usdz_beside_good_layers(good, tmp_path):
+    out = tmp_path / "pigeon"
+    shutil.copytree(good, out)
+    with open(out / "pigeon.usdz", "r+b") as fh:  # damage the package's first stored file (the root layer)
+        fh.seek(200)
+        fh.write(b"#garbage#" * 8)
+    result = _cli(str(out))
+    assert result.returncode == 1, result.stdout + result.stderr
+    assert "pigeon.usda: clean" in result.stdout
+    assert "pigeon.usdz: NOT CLEAN" in result.stdout and "ERROR open:" in result.stdout
+    assert "parse error" in result.stdout and "1 error(s) in" in result.stderr

@@ -1,5 +1,8 @@
 """``rockdove validate PATH [--json]``: validate a USD asset (see :mod:`pipeline.usd.validate`).
 
+PATH is an asset folder, a root layer or a ``.usdz``. For a folder, both forms of the asset are validated:
+``pigeon.usda`` (with its payload and textures) and, when present, the self-contained ``pigeon.usdz``.
+
 Exit status: 0 clean, 1 not clean (:class:`pipeline.errors.VerificationFailed`), 2 bad usage (missing path,
 not a USD layer).
 """
@@ -8,30 +11,46 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 
 HELP = "validate a USD asset (UsdValidation + MaterialX node definitions + textures)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("path", help="asset folder (containing pigeon.usda), a root layer, or a .usdz")
-    parser.add_argument("--json", action="store_true", help="print the report as JSON on stdout")
+    parser.add_argument("path", help="asset folder (pigeon.usda and pigeon.usdz), a root layer, or a .usdz")
+    parser.add_argument("--json", action="store_true", help="print the report(s) as JSON on stdout")
+
+
+def targets(path: str) -> list[str]:
+    """The layers to validate for ``path``: a folder gives its root layer and, if present, its usdz."""
+    from pipeline.usd.usdz import USDZ_NAME
+    from pipeline.usd.validate import resolve_root_layer
+
+    root = resolve_root_layer(path)
+    out = [root]
+    usdz = os.path.join(path, USDZ_NAME)
+    if os.path.isdir(path) and os.path.isfile(usdz) and os.path.abspath(usdz) != os.path.abspath(root):
+        out.append(usdz)
+    return out
 
 
 def run(args: argparse.Namespace) -> int:
     from pipeline.errors import UsageError, VerificationFailed
-    from pipeline.usd.validate import resolve_root_layer, validate_asset
+    from pipeline.usd.validate import validate_asset
 
     try:
-        resolve_root_layer(args.path)
+        paths = targets(args.path)
     except (FileNotFoundError, ValueError) as exc:
         raise UsageError(str(exc)) from None
-    report = validate_asset(args.path)
+    reports = [validate_asset(p) for p in paths]
     if args.json:
-        json.dump(report.to_dict(), sys.stdout, indent=2, sort_keys=True)
+        json.dump({"clean": all(r.clean for r in reports), "reports": [r.to_dict() for r in reports]},
+                  sys.stdout, indent=2, sort_keys=True)
         sys.stdout.write("\n")
     else:
-        print(report.format())
-    if not report.clean:
-        raise VerificationFailed(f"{len(report.errors)} error(s) in {report.path}")
+        print("\n".join(r.format() for r in reports))
+    failed = [r for r in reports if not r.clean]
+    if failed:
+        raise VerificationFailed("; ".join(f"{len(r.errors)} error(s) in {r.path}" for r in failed))
     return 0

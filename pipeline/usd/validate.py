@@ -498,7 +498,12 @@ def validate_asset(path) -> Report:
     root = resolve_root_layer(path)
     register()
     report = Report(path=root)
-    stage = Usd.Stage.Open(root, Usd.Stage.LoadAll)
+    try:
+        stage = Usd.Stage.Open(root, Usd.Stage.LoadAll)
+    except Exception as exc:  # pxr raises Tf.ErrorException for unparsable layers and damaged packages
+        why = " ".join(str(exc).split())
+        report.issues.append(Issue("open", root, f"USD could not open the layer: {why}"))
+        return report
     if stage is None:
         report.issues.append(Issue("open", root, "USD could not open the layer"))
         return report
