@@ -188,5 +188,6 @@ def test_display_transform_is_the_gl_paths():
 
     rgb = np.array([[0.0, 1.0, 2.0], [-0.05, 0.3, 0.1], [0.18, 0.18, 0.18]])
     np.testing.assert_array_equal(reference.to_display8(rgb), linear_to_srgb8(rgb))
-    assert reference.to_display8(np.array([[0.18, 0.18, 0.18]]))[0, 0] == round(255 * (1.055 * 0.18 ** (1 / 2.4) - 0.055))
+    grey = reference.to_display8(np.array([[0.18, 0.18, 0.18]]))[0, 0]
+    assert grey == round(255 * (1.055 * 0.18 ** (1 / 2.4) - 0.055))
     assert reference.to_display8(np.array([[np.nan, np.inf, 0.5]]))[0, :2].tolist() == [0, 255]

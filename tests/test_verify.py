@@ -104,7 +104,8 @@ def _plane_scene(tmp_path, thickness_fn, light, n=16, size_m=0.08):
     tris = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)]).astype(np.int32)
     part = ScenePart("NeckFeathers", "/Pigeon/Geom/NeckFeathers", "feather", pts.astype(np.float32),
                      np.tile(nrm, (len(pts), 1)).astype(np.float32), tris, np.stack([s, t], 1).astype(np.float32),
-                     thickness_nm=thickness_fn(s, t).astype(np.float32), base_colour_texture=str(tmp_path / "white.png"))
+                     thickness_nm=thickness_fn(s, t).astype(np.float32),
+                     base_colour_texture=str(tmp_path / "white.png"))
     return RenderScene(str(tmp_path / "plane.usda"), (part,), ThinFilmParams(**PAPER_FILM), {})
 
 

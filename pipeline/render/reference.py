@@ -296,7 +296,8 @@ class _SceneGeometry:
         self.threshold = np.array([p.opacity_threshold for p in scene.parts])
         self.base_tex, self.mask_tex = [], []
         for p in scene.parts:
-            self.base_tex.append(read_texture(p.base_colour_texture, p.base_colour_srgb) if p.base_colour_texture else None)
+            base = p.base_colour_texture
+            self.base_tex.append(read_texture(base, p.base_colour_srgb) if base else None)
             self.mask_tex.append(read_texture(p.mask_texture, False) if p.mask_texture else None)
         self.base_const = [np.asarray(p.base_colour, np.float64) for p in scene.parts]
         self.scale = float(np.linalg.norm(self.vertices.max(axis=0) - self.vertices.min(axis=0)))

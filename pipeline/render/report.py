@@ -240,6 +240,7 @@ def write_html(path, report: dict, images: dict) -> str:
         "figcaption{font-size:80%;color:#555}</style></head><body>",
         f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>",
         f"<p>Asset: <code>{e(str(report.get('asset', '')))}</code><br>",
+        f"Configuration hash: <code>{e(str(report.get('configuration_hash') or 'not recorded'))}</code><br>",
         f"Goals: median dE2000 &le; {report.get('goals', {}).get('median_dE', '')}, "
         f"p95 &le; {report.get('goals', {}).get('p95_dE', '')} over feather pixels away from silhouette edges.</p>",
     ]
@@ -247,11 +248,12 @@ def write_html(path, report: dict, images: dict) -> str:
     if failures:
         parts.append("<h2>Failures</h2><ul>" + "".join(f"<li>{e(str(f))}</li>" for f in failures) + "</ul>")
     parts.append("<h2>Per view</h2><table><tr><th>view</th><th>pixels</th><th>median dE</th><th>p95 dE</th>"
-                 "<th>max dE</th><th>black</th><th>green</th><th>purple</th><th>passed</th></tr>")
+                 "<th>max dE</th><th>&gt; 2</th><th>black</th><th>green</th><th>purple</th><th>passed</th></tr>")
     for m in report.get("views", []):
         parts.append(
             f"<tr><td style='text-align:left'>{e(m['view'])}</td><td>{m['n_pixels']}</td>"
             f"<td>{_fmt(m['de_median'])}</td><td>{_fmt(m['de_p95'])}</td><td>{_fmt(m['de_max'])}</td>"
+            f"<td>{_fmt(m['de_fraction_over_p95_goal'], 4)}</td>"
             f"<td>{m['n_black']}/{m['n_lit']}</td><td>{m['hue']['green']}</td><td>{m['hue']['purple']}</td>"
             f"<td>{'yes' if m['passed'] else 'no'}</td></tr>"
         )
@@ -276,7 +278,8 @@ def write_html(path, report: dict, images: dict) -> str:
         parts.append(f"<h3>{e(name)}</h3><div class='row'>")
         for k in ("gl", "reference", "dE"):
             if files.get(k):
-                parts.append(f"<figure><img src='{e(files[k])}' alt='{e(name)} {k}'><figcaption>{k}</figcaption></figure>")
+                parts.append(f"<figure><img src='{e(files[k])}' alt='{e(name)} {k}'>"
+                             f"<figcaption>{k}</figcaption></figure>")
         parts.append("</div>")
     if images.get("bench"):
         parts.append("<h2>Benchmarks</h2>" + "".join(f"<img src='{e(f)}' alt='{e(f)}'>" for f in images["bench"]))
@@ -287,7 +290,8 @@ def write_html(path, report: dict, images: dict) -> str:
     lib = report.get("versions", {})
     if lib:
         parts.append("<h2>Library versions</h2><table>" + "".join(
-            f"<tr><th style='text-align:left'>{e(k)}</th><td>{e(str(v))}</td></tr>" for k, v in lib.items()) + "</table>")
+            f"<tr><th style='text-align:left'>{e(k)}</th><td>{e(str(v))}</td></tr>" for k, v in lib.items())
+            + "</table>")
     parts.append("<p>Full data: <a href='report.json'>report.json</a></p></body></html>")
     with open(path, "w", encoding="utf-8") as f:
         f.write("\n".join(parts))
