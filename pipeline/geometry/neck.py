@@ -21,7 +21,6 @@ result is the heap algorithm's, up to the order of removals between distant samp
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from pipeline.geometry import sdf as _sdf
 
@@ -151,6 +150,8 @@ def eliminate(points_m: np.ndarray, count: int, area_m2: float, rng: np.random.G
         raise ValueError(f"count={count} must not exceed the number of candidates ({m})")
     if count == m:
         return np.arange(m)
+    from scipy.spatial import cKDTree
+
     r_max = np.sqrt(area_m2 / (2.0 * np.sqrt(3.0) * count))
     pairs = cKDTree(points_m).query_pairs(2.0 * r_max, output_type="ndarray")
     i, j = pairs[:, 0], pairs[:, 1]
