@@ -309,3 +309,24 @@ def test_half_precision_lut_holds_half_floats(tmp_path):
     rgb = graph.value("lut").rgb
     assert np.array_equal(rgb, rgb.astype(np.float16).astype(np.float32))
     assert graph.value("lut").metadata["precision"] == "half"
+
+
+def test_clean_temporaries_spares_live_writers(tmp_path):
+    cache = G.Cache(tmp_path)
+    (tmp_path / "lut").mkdir()
+    dead = subprocess_pid_that_exited()
+    live = tmp_path / "lut" / f".tmp-{os.getppid()}-abc"
+    gone = tmp_path / "lut" / f".tmp-{dead}-abc"
+    live.mkdir()
+    gone.mkdir()
+    cache.clean_temporaries()
+    assert live.exists() and not gone.exists()
+
+
+def subprocess_pid_that_exited() -> int:
+    import subprocess
+    import sys
+
+    p = subprocess.Popen([sys.executable, "-c", "pass"])
+    p.wait()
+    return p.pid

@@ -276,7 +276,7 @@ class Cache:
         """Create entry ``(stage, key)`` by ``fill(folder)`` in a temporary folder renamed into place."""
         parent = self.root / stage
         parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=".tmp-", dir=parent))
+        tmp = Path(tempfile.mkdtemp(prefix=f".tmp-{os.getpid()}-", dir=parent))
         try:
             value_dir = tmp / "value"
             value_dir.mkdir()
@@ -298,9 +298,19 @@ class Cache:
                 shutil.rmtree(tmp, ignore_errors=True)
 
     def clean_temporaries(self) -> None:
-        """Remove temporary folders left by killed builds (call only while holding the output lock)."""
+        """Remove temporary entry folders left by killed builds: those whose writer process is gone (a cache
+        may be shared by builds of different outputs, which hold different locks)."""
         for tmp in self.root.glob("*/.tmp-*"):
-            shutil.rmtree(tmp, ignore_errors=True)
+            try:
+                pid = int(tmp.name.split("-")[1])
+                os.kill(pid, 0)
+                alive = pid != os.getpid()
+            except (ValueError, IndexError, ProcessLookupError):
+                alive = False
+            except PermissionError:  # exists, another user's
+                alive = True
+            if not alive:
+                shutil.rmtree(tmp, ignore_errors=True)
 
 
 # ----------------------------------------------------------------------------------------------- running
