@@ -82,6 +82,8 @@ BAD = [
     ("out-under-file", ["--out", "afile/pigeon"], ["afile", "is a file"]),
     ("out-not-ours", ["--out", "foreign"], ["foreign", "did not create"]),
     ("out-dot", ["--out", "."], ["."]),
+    ("out-unwritable", ["--out", "/sys/rockdove-pigeon"], ["/sys/rockdove-pigeon", "cannot create"]),
+    ("out-uncreatable", ["--out", "/proc/rockdove/pigeon"], ["/proc/rockdove/pigeon", "cannot create"]),
     ("out-empty", ["--out", ""], ["--out"]),
     ("cache-is-file", ["--cache", "afile"], ["afile", "not a folder"]),
     ("lock-timeout-not-number", ["--lock-timeout", "soon"], ["lock-timeout", "soon"]),
