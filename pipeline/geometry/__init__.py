@@ -6,7 +6,8 @@ Geometry knows nothing of USD: it returns numpy arrays in :class:`MeshPart` / :c
 """
 
 from pipeline.geometry.bird import Body, build_bird, build_body, build_cards
+from pipeline.geometry.cards import FeatherCards
 from pipeline.geometry.params import BirdParams
 from pipeline.geometry.types import Bird, MeshPart, Primvar
 
-__all__ = ["Bird", "BirdParams", "Body", "MeshPart", "Primvar", "build_bird", "build_body", "build_cards"]
+__all__ = ["Bird", "BirdParams", "Body", "FeatherCards", "MeshPart", "Primvar", "build_bird", "build_body", "build_cards"]
