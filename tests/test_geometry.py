@@ -136,6 +136,14 @@ def test_exact_card_count(body, count):
     assert np.all(part.face_vertex_counts == 4)
 
 
+def test_hundred_thousand_cards_work(body):
+    p = BirdParams(card_count=100_000)
+    c = build_cards(body, p)
+    assert c.count == 100_000 and np.isfinite(c.points_m).all() and np.isfinite(c.normals).all()
+    assert c.thickness_nm.min() >= 480.0 and c.thickness_nm.max() <= 700.0
+    assert len(np.unique(c.root_skin_m, axis=0)) == 100_000
+
+
 def test_card_roots_are_blue_noise_in_the_band(body):
     from scipy.spatial import cKDTree
 

@@ -10,4 +10,5 @@ from pipeline.geometry.cards import FeatherCards
 from pipeline.geometry.params import BirdParams
 from pipeline.geometry.types import Bird, MeshPart, Primvar
 
-__all__ = ["Bird", "BirdParams", "Body", "FeatherCards", "MeshPart", "Primvar", "build_bird", "build_body", "build_cards"]
+__all__ = ["Bird", "BirdParams", "Body", "FeatherCards", "MeshPart", "Primvar", "build_bird", "build_body",
+           "build_cards"]
