@@ -79,6 +79,15 @@ def test_alpha_cut_out_lets_rays_continue_to_the_body_behind(tmp_path):
     assert np.isfinite(res.depth_m[res.coverage]).all() and res.depth_m[8, 12] == pytest.approx(0.3, rel=1e-4)
 
 
+def test_views_sharing_a_camera_share_the_hits_but_not_the_light(tmp_path):
+    scene = _scene(tmp_path)
+    a, b = reference.render_reference(scene, [_view((0.0, 0.0, 1.0)), _view((0.0, 0.6, 0.8))], structural_fn=_red)
+    np.testing.assert_array_equal(a.part_id, b.part_id)
+    np.testing.assert_allclose(b.rgb[8, 12], 0.8 * a.rgb[8, 12], rtol=1e-6)
+    other = reference.render_reference(scene, [_view(eye=(0.02, 0.0, 0.3))], structural_fn=_red)[0]
+    assert not np.allclose(other.depth_m, a.depth_m)  # a different camera is cast again
+
+
 def test_lambert_and_two_sided_cards(tmp_path):
     light = np.array([0.0, 0.6, 0.8])
     front = reference.render_reference(_scene(tmp_path, alpha_left=255), [_view(light)], structural_fn=_red)[0]

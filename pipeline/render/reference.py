@@ -397,18 +397,22 @@ def render_reference(scene, views, structural_fn=None) -> list[ReferenceResult]:
         if has_feathers and scene.film is None:
             raise ValueError(f"scene {scene.root_layer!r} has feather parts but no RockDoveThinFilmAPI film")
     geom = _SceneGeometry(scene)
-    return [_render_view(geom, scene, v, structural_fn) for v in views]
+    hits_cache: dict = {}  # the light sweep keeps its camera still: cast its rays once
+    return [_render_view(geom, scene, v, structural_fn, hits_cache) for v in views]
 
 
-def _render_view(geom: _SceneGeometry, scene, view, structural_fn) -> ReferenceResult:
+def _render_view(geom: _SceneGeometry, scene, view, structural_fn, hits_cache: dict) -> ReferenceResult:
     from .scene import sample_texture
 
     t0 = time.perf_counter()
-    stats: dict = {}
     h, w = view.height, view.width
-    origin, dirs, fwd = camera_rays(view)
-    stats["rays"] = int(len(dirs))
-    face, point, bary = _first_opaque_hits(geom, origin, dirs, stats)
+    key = (np.asarray(view.camera_to_world, np.float64).tobytes(), float(view.yfov_rad), w, h)
+    if key not in hits_cache:
+        origin, dirs, fwd = camera_rays(view)
+        cast_stats = {"rays": int(len(dirs))}
+        hits_cache[key] = (origin, dirs, fwd, *_first_opaque_hits(geom, origin, dirs, cast_stats), cast_stats)
+    origin, dirs, fwd, face, point, bary, cast_stats = hits_cache[key]
+    stats = dict(cast_stats)
     t1 = time.perf_counter()
 
     hit = np.nonzero(face >= 0)[0]
