@@ -13,8 +13,8 @@ import numpy as np
 
 #: Texels of padding between charts at the reference packing resolution (limits bleeding across seams).
 CHART_PADDING_TEXELS = 2
-#: xatlas chart-growing iterations: 1 is several times faster than the default 1 and the charts are fine
-#: for a smooth closed body.
+#: xatlas chart-growing iterations (xatlas's default, 1): 4 took 2.4x as long on the 4 mm body for no
+#: visible gain on a smooth closed surface.
 CHART_MAX_ITERATIONS = 1
 
 
