@@ -225,3 +225,21 @@ def test_extreme_angle_warp_stays_finite_and_exact(film, method):
     assert np.isfinite(lut.rgb).all()
     assert de[:, c[0] > 2e-3].max() < 0.02
     assert de.max() < 0.15  # below cos 2e-3 the 0.1 nm reference is itself off by up to ~0.03-0.1
+
+
+def test_reference_integration_agrees_with_colour_science_sd_to_XYZ():
+    # same Airy spectrum, integrated independently by colour-science (D65 passed explicitly: its default is E)
+    import colour
+
+    from pipeline.spectral import XYZ_to_Lab, delta_E_2000
+
+    wl = np.arange(360.0, 781.0, 1.0)
+    shape = colour.SpectralShape(360, 780, 1)
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    d65 = colour.SDS_ILLUMINANTS["D65"]
+    for cos_theta, d in [(0.9, 550.0), (0.5, 650.0), (0.3, 480.0)]:
+        r = optics.reflectance(wl, cos_theta, d, n_film=1.5)
+        sd = colour.SpectralDistribution(dict(zip(wl, r)))
+        xyz = colour.sd_to_XYZ(sd, cmfs=cmfs, illuminant=d65, method="Integration", shape=shape) / 100.0
+        ref = reference_colour(cos_theta, d, "paper", colour_space=None)
+        assert delta_E_2000(XYZ_to_Lab(xyz), XYZ_to_Lab(ref)) < 0.01
