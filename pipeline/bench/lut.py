@@ -91,22 +91,28 @@ def _plot(rows: list[dict], path: str) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from matplotlib.lines import Line2D
+
     fig, ax = plt.subplots(figsize=(8, 5.5), dpi=110)
+    handles = []
     for film, marker in (("paper", "o"), ("keratin", "s")):
         sel = [r for r in rows if r["film"] == film]
         if not sel:
             continue
-        ax.scatter([r["time_s"] for r in sel], [r["max_dE"] for r in sel], marker=marker, label=f"{film}: max dE2000",
+        ax.scatter([r["time_s"] for r in sel], [r["max_dE"] for r in sel], marker=marker,
                    c=["tab:red" if r.get("default") else ("tab:blue" if r["pareto"] else "tab:gray") for r in sel])
+        handles.append(Line2D([], [], ls="", marker=marker, color="k", label=f"{film} film"))
         for r in sel:
             ax.annotate(r["label"], (r["time_s"], r["max_dE"]), fontsize=6, xytext=(3, 2), textcoords="offset points")
-    ax.axhline(0.5, color="k", lw=0.8, ls="--", label="goal: max dE2000 0.5")
+    handles.append(ax.axhline(0.5, color="k", lw=0.8, ls="--", label="goal: max dE2000 0.5"))
+    handles += [Line2D([], [], ls="", marker="o", color=c, label=lab) for c, lab in
+                (("tab:red", "default"), ("tab:blue", "Pareto front"), ("tab:gray", "dominated"))]
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("bake time, s (median of warm runs)")
     ax.set_ylabel("max dE2000 vs 0.1 nm reference")
     ax.set_title("thin-film LUT bake: time against error (red: default, blue: Pareto front)")
-    ax.legend(fontsize=7)
+    ax.legend(handles=handles, fontsize=7)
     fig.tight_layout()
     fig.savefig(path, metadata={"Software": None})
     plt.close(fig)
