@@ -109,7 +109,11 @@ class GTable:
     def first_x_below(self, level) -> np.ndarray:
         """Smallest grid ``x`` (nm) from which ``|G| <= level`` for good, broadcast over ``level``."""
         lev = np.asarray(level, dtype=np.float64)
-        k = np.searchsorted(-self.g_tail, -lev, side="left")
+        neg_tail = self.__dict__.get("_neg_tail")
+        if neg_tail is None:  # increasing, for searchsorted; cached (the table is immutable)
+            neg_tail = -self.g_tail
+            object.__setattr__(self, "_neg_tail", neg_tail)
+        k = np.searchsorted(neg_tail, -lev, side="left")
         return k * self.step_nm
 
 
