@@ -11,19 +11,24 @@ stage                   configuration                                 inputs
 ``thickness_range``     --                                            bird: (floor min, ceil max) of the feathers'
                                                                       ``thickness`` primvar, nm
 ``lut``                 ``film``, ``lut``                             thickness_range (baked over exactly that
-                                                                      range; one texel high when uniform);
-                                                                      absent for ``shading.variant = physical``
+                                                                      range; one texel high when uniform)
 ``texture_images``      as ``bird`` (BirdParams)                      bird (pipeline.textures)
 ``textures``            --                                            lut, texture_images (pipeline.usd.textures_io)
 ``usd_layers``          ``film``, ``shading``                         bird, lut (pipeline.usd.stage.write_layers)
-``usdz``                ``usd.usdz``                                  usd_layers, textures (pipeline.usd.usdz)
-``verify``              ``verify``                                    the assembled asset (pipeline.render.verify)
+``usdz``                -- (present when ``usd.usdz``)                usd_layers, textures (pipeline.usd.usdz)
+``verify``              ``verify.width``, ``verify.height``           every published stage: the assembled asset
+                                                                      (pipeline.render.verify.verify_asset)
 ======================  ===========================================  ==============================================
 
 Because keys use the *content* of upstream outputs, a new seed that leaves the thickness range unchanged
 re-bakes nothing, and a film change re-bakes the LUT and rewrites textures (the preview mixes in the LUT) and
 layers but reuses the bird. Until a module this file needs has landed, :func:`make_stages` says which one is
 missing (a one-line error, exit 2) rather than building something partial.
+
+Not yet possible with the modules as they are (the graph supports both; :func:`make_stages` refuses or
+falls back, and says so): ``shading.variant = "physical"`` without a bake (pipeline.usd's ``write_textures`` and
+``write_layers`` require a LUT), and per-view verification items (``verify_asset`` renders its whole view set
+in one call, so the verify stage is one item keyed by the asset's content and the render size).
 """
 
 from __future__ import annotations
