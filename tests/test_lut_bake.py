@@ -235,8 +235,9 @@ def test_reference_integration_agrees_with_colour_science_sd_to_XYZ():
 
     wl = np.arange(360.0, 781.0, 1.0)
     shape = colour.SpectralShape(360, 780, 1)
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    d65 = colour.SDS_ILLUMINANTS["D65"]
+    linear = {"interpolator": colour.LinearInterpolator}
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"].copy().align(shape, **linear)
+    d65 = colour.SDS_ILLUMINANTS["D65"].copy().align(shape, **linear)
     for cos_theta, d in [(0.9, 550.0), (0.5, 650.0), (0.3, 480.0)]:
         r = optics.reflectance(wl, cos_theta, d, n_film=1.5)
         sd = colour.SpectralDistribution(dict(zip(wl, r)))
