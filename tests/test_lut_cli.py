@@ -57,14 +57,15 @@ def test_same_arguments_give_identical_files(tmp_path):
 @pytest.mark.parametrize(
     "args, word",
     [
-        (["--angles", "1"], "angles"),
-        (["--thicknesses", "0"], "thicknesses"),
-        (["--thickness-range", "700", "480"], "thickness_range"),
-        (["--film", "glass"], "film"),
-        (["--method", "magic"], "method"),
-        (["--angle-gamma", "-1"], "angle_warp_gamma"),
-        (["--colour-space", "srgb"], "colour_space"),
+        (["--angles", "1"], "--angles"),
+        (["--thicknesses", "0"], "--thicknesses"),
+        (["--thickness-range", "700", "480"], "--thickness-range"),
+        (["--film", "glass"], "--film"),
+        (["--method", "magic"], "--method"),
+        (["--angle-gamma", "-1"], "--angle-gamma"),
+        (["--colour-space", "srgb"], "--colour-space"),
         (["--angles", "many"], "--angles"),
+        (["--error-points", "-1"], "--error-points"),
     ],
 )
 def test_bad_lut_arguments_exit_2_with_one_line_and_write_nothing(tmp_path, args, word):

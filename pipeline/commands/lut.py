@@ -13,6 +13,16 @@ import time
 
 HELP = "bake a thin-film colour LUT over angle and thickness into OpenEXR (+ PNG preview)"
 DEFAULT_ERROR_POINTS = 1000
+# bake() argument -> command-line option, for error messages
+_OPTIONS = {
+    "angles": "--angles",
+    "thicknesses": "--thicknesses",
+    "thickness_range": "--thickness-range",
+    "film": "--film",
+    "method": "--method",
+    "angle_warp_gamma": "--angle-gamma",
+    "colour_space": "--colour-space",
+}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -69,15 +79,21 @@ def run(args: argparse.Namespace) -> int:
     if args.error_points < 0:
         raise ValueError(f"--error-points must be >= 0, got {args.error_points}")
     t0 = time.perf_counter()
-    lut = bake(
-        angles=args.angles,
-        thicknesses=args.thicknesses,
-        thickness_range=tuple(args.thickness_range),
-        film=args.film,
-        method=args.method,
-        angle_warp_gamma=args.angle_gamma,
-        colour_space=args.colour_space,
-    )
+    try:
+        lut = bake(
+            angles=args.angles,
+            thicknesses=args.thicknesses,
+            thickness_range=tuple(args.thickness_range),
+            film=args.film,
+            method=args.method,
+            angle_warp_gamma=args.angle_gamma,
+            colour_space=args.colour_space,
+        )
+    except ValueError as exc:  # name the command-line option, not only the library argument
+        name = str(exc).split(" ", 1)[0]
+        if name in _OPTIONS:
+            raise ValueError(f"{_OPTIONS[name]}: {exc}") from None
+        raise
     bake_s = time.perf_counter() - t0
     if args.error_points:
         from ..lut.bake import error_metadata
