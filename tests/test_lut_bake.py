@@ -244,3 +244,19 @@ def test_reference_integration_agrees_with_colour_science_sd_to_XYZ():
         xyz = colour.sd_to_XYZ(sd, cmfs=cmfs, illuminant=d65, method="Integration", shape=shape) / 100.0
         ref = reference_colour(cos_theta, d, "paper", colour_space=None)
         assert delta_E_2000(XYZ_to_Lab(xyz), XYZ_to_Lab(ref)) < 0.01
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_random_films_on_a_substrate_match_the_reference_at_the_nodes(seed):
+    # r_bc != -r_ab once the substrate differs from the incident medium: the general Poisson kernel
+    from pipeline.films import FilmModel
+
+    rng = np.random.default_rng(seed)
+    film = FilmModel("random", cauchy_a=rng.uniform(1.2, 2.4), n_substrate=rng.uniform(1.0, 2.0))
+    lo = rng.uniform(0.0, 800.0)
+    rng_nm = (lo, lo + rng.uniform(1.0, 1500.0))
+    for method in ("auto", "spectral_fast"):
+        lut = bake(angles=24, thicknesses=4, thickness_range=rng_nm, film=film, method=method, angle_warp_gamma=2.0)
+        c, d = np.meshgrid(lut.cos_theta, lut.thickness_nm)
+        assert delta_E(lut.rgb, reference_colour(c, d, film)).max() < 0.02, (method, film, rng_nm)
+    assert bake(angles=8, thicknesses=2, thickness_range=rng_nm, film=film).metadata["method"] == "fourier"
