@@ -302,13 +302,49 @@ def test_real_usd_stages_build_a_valid_asset_and_rebuild_incrementally(tmp_path)
     assert st["lut"] == st["textures"] == st["usd_layers"] == st["usdz"] == "ran"
 
 
-def test_half_precision_lut_holds_half_floats(tmp_path):
+def test_half_precision_lut_is_a_half_exr_that_validates(tmp_path):
+    import OpenEXR
+
+    from pipeline.lut.exr import read_exr
+    from pipeline.usd.validate import validate_asset
+
     cfg = _cfg("lut.angles=8", "lut.thicknesses=2", "lut.method=spectral_fast", "lut.precision=half")
-    graph = G.Graph(_real_partial_stages()[:3], cfg, G.Cache(tmp_path / "cache"))
+    graph = G.Graph(_real_partial_stages()[:-1], cfg, G.Cache(tmp_path / "cache"))
     graph.run()
     rgb = graph.value("lut").rgb
     assert np.array_equal(rgb, rgb.astype(np.float16).astype(np.float32))
     assert graph.value("lut").metadata["precision"] == "half"
+    asset = tmp_path / "asset"
+    asset.mkdir()
+    graph.assemble(asset)
+    exr = asset / "textures" / "thinfilm_lut.exr"
+    with OpenEXR.File(str(exr)) as f:
+        assert f.channels()["RGB"].pixels.dtype == np.float16 and f.header()["rockdove:precision"] == "half"
+    assert np.array_equal(read_exr(exr).rgb, rgb)
+    report = validate_asset(asset)
+    assert report.clean, report.format()
+
+
+def test_build_lut_records_its_measured_error(tmp_path):
+    from pipeline.build.stages import LUT_ERROR_POINTS
+
+    cfg = _cfg("lut.angles=16", "lut.thicknesses=4", "lut.method=spectral_fast")
+    graph = G.Graph(_real_partial_stages()[:3], cfg, G.Cache(tmp_path / "cache"))
+    graph.run()
+    md = graph.value("lut").metadata
+    assert 0 < float(md["estimatedMaxDeltaE2000"]) < 50 and float(md["estimatedP99DeltaE2000"]) <= float(
+        md["estimatedMaxDeltaE2000"])
+    assert md["estimatedErrorSample"].startswith(f"{LUT_ERROR_POINTS} random points")
+
+
+def test_schema_lut_defaults_are_the_bakers():
+    from pipeline.config import defaults
+    import pipeline.lut.bake as B
+
+    lut = defaults()["lut"]
+    assert lut["angle_warp_gamma"] == B.DEFAULT_ANGLE_WARP_GAMMA == 1.0
+    assert lut["angles"] >= 256 and lut["thicknesses"] >= 64  # issue 2's default size
+    assert (lut["angles"], lut["thicknesses"]) == (B.DEFAULT_ANGLES, B.DEFAULT_THICKNESSES)
 
 
 def test_clean_temporaries_spares_live_writers(tmp_path):

@@ -1,5 +1,7 @@
 """OpenEXR I/O of the thin-film LUT: bit-exact round trip, header contract, deterministic bytes, bad files."""
 
+import os
+
 import numpy as np
 import pytest
 
@@ -23,7 +25,7 @@ def test_round_trip_is_bit_exact_with_axes_and_metadata(tmp_path):
     assert back.thickness_range_nm == lut.thickness_range_nm
     assert back.angle_warp_gamma == lut.angle_warp_gamma
     assert back.colour_space == lut.colour_space
-    assert back.metadata == lut.metadata
+    assert back.metadata == {**lut.metadata, "precision": "float32"}  # the header records the channel type
     c, d = np.array([0.0, 0.013, 0.5, 1.0]), np.array([480.0, 512.3, 699.0, 700.0])
     np.testing.assert_array_equal(back.sample(c, d), lut.sample(c, d))
 
@@ -88,3 +90,45 @@ def test_read_missing_file_raises_file_not_found(tmp_path):
 def test_write_rejects_a_non_lut(tmp_path):
     with pytest.raises(ValueError, match="lut must be a ThinFilmLUT"):
         write_exr(np.zeros((2, 2, 3)), tmp_path / "x.exr")
+
+
+def test_half_precision_writes_half_channels_and_reads_back_exactly(tmp_path):
+    import OpenEXR
+
+    lut = ThinFilmLUT(np.random.default_rng(2).uniform(0, 1, (64, 256, 3)).astype(np.float32), (480.0, 700.0),
+                      angle_warp_gamma=1.0, colour_space="lin_rec709", metadata={"film": "keratin"})
+    full = write_exr(lut, tmp_path / "full.exr")
+    half = write_exr(lut, tmp_path / "half.exr", precision="half")
+    with OpenEXR.File(half) as f:
+        assert f.channels()["RGB"].pixels.dtype == np.float16
+        assert f.header()["rockdove:precision"] == "half"
+    with OpenEXR.File(full) as f:
+        assert f.channels()["RGB"].pixels.dtype == np.float32
+        assert f.header()["rockdove:precision"] == "float32"
+    back = read_exr(half)
+    assert back.rgb.dtype == np.float32 and back.metadata["precision"] == "half"
+    assert np.array_equal(back.rgb, lut.rgb.astype(np.float16).astype(np.float32))
+    assert not np.array_equal(back.rgb, lut.rgb)  # it did round
+    # random data compresses poorly under ZIP, so the size follows the channel width: about half
+    assert os.path.getsize(half) < 0.6 * os.path.getsize(full)
+    # a LUT whose metadata says half (the build's lut.precision = "half") is written half by default
+    tagged = ThinFilmLUT(back.rgb, back.thickness_range_nm, 1.0, "lin_rec709", back.metadata)
+    with OpenEXR.File(write_exr(tagged, tmp_path / "tagged.exr")) as f:
+        assert f.channels()["RGB"].pixels.dtype == np.float16
+    assert open(tmp_path / "tagged.exr", "rb").read() == open(half, "rb").read()
+
+
+def test_bad_precision_and_header_channel_mismatch(tmp_path):
+    import OpenEXR
+
+    with pytest.raises(ValueError, match="precision='double'.*float32.*half"):
+        write_exr(_lut(), tmp_path / "x.exr", precision="double")
+    p = write_exr(_lut(), tmp_path / "y.exr")
+    with OpenEXR.File(p) as f:
+        header = dict(f.header())
+        rgb = np.ascontiguousarray(np.clip(f.channels()["RGB"].pixels, -1e4, 1e4).astype(np.float16))
+    header["rockdove:precision"] = "float32"
+    with OpenEXR.File(header, {"RGB": rgb}) as f:
+        f.write(str(tmp_path / "z.exr"))
+    with pytest.raises(ValueError, match="precision.*half channels"):
+        read_exr(tmp_path / "z.exr")

@@ -213,6 +213,11 @@ def bird_params(config: dict):
     return BirdParams(**values)
 
 
+#: Random points at which the build measures its LUT against the exact 0.1 nm reference (bake's error_points),
+#: recorded in the EXR header (rockdove:estimatedMaxDeltaE2000, ...P99...). 200 points add ~0.03 s to the
+#: default 256 x 64 bake (measured: 0.056 s without, 0.081 s with, keratin 480-700 nm, median of 3).
+LUT_ERROR_POINTS = 200
+
 BODY_FIELDS = ("geometry.body_voxel_m", "textures.body_resolution")  # BirdParams.body_key()
 
 
@@ -248,9 +253,11 @@ def run_lut(ctx: Context):
     cfg = ctx.config["lut"]
     lut = bake(angles=cfg["angles"], thicknesses=1 if lo == hi else cfg["thicknesses"], thickness_range=(lo, hi),
                film=film_from_config(ctx.config["film"]), method=cfg["method"],
-               angle_warp_gamma=cfg["angle_warp_gamma"], colour_space=cfg["colour_space"])
+               angle_warp_gamma=cfg["angle_warp_gamma"], colour_space=cfg["colour_space"],
+               error_points=LUT_ERROR_POINTS)
     if cfg["precision"] == "half":
-        rgb = lut.rgb.astype(np.float16).astype(np.float32)  # the values a half-float texture holds
+        # the values the HALF EXR holds (pipeline.lut.exr writes HALF channels for metadata precision "half")
+        rgb = lut.rgb.astype(np.float16).astype(np.float32)
         lut = ThinFilmLUT(rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
                           colour_space=lut.colour_space, metadata={**lut.metadata, "precision": "half"})
     return lut

@@ -2,7 +2,9 @@
 
 File layout
 -----------
-float32 RGB, one scanline image, width ``n_angle``, height ``n_thickness``. The *bottom* image row is the
+RGB, one scanline image, width ``n_angle``, height ``n_thickness``; FLOAT (32-bit) channels, or HALF (16-bit)
+ones when written with ``precision="half"`` (about half the file; the values are those of ``rgb`` rounded to
+the nearest half float, which :func:`read_exr` returns as float32, exactly). The *bottom* image row is the
 thinnest film (``rgb[0]``), matching USD's ``st`` (t = 0 at the bottom), so the image array written is
 ``rgb[::-1]``. ZIP compression (lossless). Header string attributes, all prefixed ``rockdove:``:
 
@@ -11,6 +13,7 @@ thinnest film (``rgb[0]``), matching USD's ``st`` (t = 0 at the bottom), so the 
 - ``rockdove:angleWarpGamma``: gamma, ``repr`` of the float (round-trips exactly);
 - ``rockdove:thicknessRangeNm``: ``"lo hi"`` in nm, ``repr`` of the floats;
 - ``rockdove:colourSpace``: MaterialX colour-space name of the data;
+- ``rockdove:precision``: ``"float32"`` or ``"half"``, the channel type (read back into ``lut.metadata``);
 - every entry of ``lut.metadata`` as ``rockdove:<key>`` (film model and coefficients, illuminant, observer,
   integration method, estimated error...).
 
@@ -31,12 +34,15 @@ from .table import ThinFilmLUT
 PREFIX = "rockdove:"
 FORMAT_TAG = "ThinFilmLUT 1"
 ANGLE_AXIS = "cos_theta = x**gamma, x = j/(N-1)"
-_RESERVED = ("format", "angleAxis", "angleWarpGamma", "thicknessRangeNm", "colourSpace")
+_RESERVED = ("format", "angleAxis", "angleWarpGamma", "thicknessRangeNm", "colourSpace", "precision")
+#: precision name -> numpy dtype of the EXR channels (OpenEXR's Python API takes the channel type from the dtype)
+PRECISIONS = {"float32": np.float32, "half": np.float16}
 
 
-def _header_strings(lut: ThinFilmLUT) -> dict[str, str]:
+def _header_strings(lut: ThinFilmLUT, precision: str) -> dict[str, str]:
     lo, hi = lut.thickness_range_nm
     attrs = {
+        "precision": precision,
         "format": FORMAT_TAG,
         "angleAxis": ANGLE_AXIS,
         "angleWarpGamma": repr(float(lut.angle_warp_gamma)),
@@ -50,8 +56,8 @@ def _header_strings(lut: ThinFilmLUT) -> dict[str, str]:
     return {PREFIX + k: attrs[k] for k in sorted(attrs)}
 
 
-def write_exr(lut: ThinFilmLUT, path) -> str:
-    """Write ``lut`` as a float32 RGB OpenEXR file with its axes and provenance in the header.
+def write_exr(lut: ThinFilmLUT, path, precision: str | None = None) -> str:
+    """Write ``lut`` as an RGB OpenEXR file (FLOAT or HALF channels) with its axes and provenance in the header.
 
     Parameters
     ----------
@@ -60,6 +66,10 @@ def write_exr(lut: ThinFilmLUT, path) -> str:
     path : str or os.PathLike
         Output file (written directly; callers wanting atomic publication write a temporary name and
         ``os.replace`` it, as ``rockdove lut`` does).
+    precision : {"float32", "half"}, optional
+        Channel type. Default: ``lut.metadata["precision"]`` when the LUT carries one (the build's
+        ``lut.precision = "half"`` rounds its values and records it there), else ``"float32"``. ``"half"``
+        rounds to the nearest half float (values beyond +-65504 become inf).
 
     Returns
     -------
@@ -70,10 +80,14 @@ def write_exr(lut: ThinFilmLUT, path) -> str:
 
     if not isinstance(lut, ThinFilmLUT):
         raise ValueError(f"lut must be a ThinFilmLUT, got {type(lut).__name__}")
+    if precision is None:
+        precision = str(lut.metadata.get("precision", "float32"))
+    if precision not in PRECISIONS:
+        raise ValueError(f"precision={precision!r} is not an EXR channel type; allowed: {sorted(PRECISIONS)}")
     path = os.fspath(path)
-    pixels = np.ascontiguousarray(lut.rgb[::-1], dtype=np.float32)  # bottom row = thinnest
+    pixels = np.ascontiguousarray(lut.rgb[::-1], dtype=PRECISIONS[precision])  # bottom row = thinnest
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    header.update(_header_strings(lut))
+    header.update(_header_strings(lut, precision))
     with OpenEXR.File(header, {"RGB": pixels}) as f:
         f.write(path)
     return path
@@ -89,7 +103,8 @@ def read_exr(path) -> ThinFilmLUT:
     Returns
     -------
     ThinFilmLUT
-        Same ``rgb`` (bit exact), axes, colour space and metadata as written.
+        Same ``rgb`` (bit exact; HALF channels are widened to float32 exactly), axes, colour space and
+        metadata as written; ``metadata["precision"]`` is the channel type (``"half"`` or ``"float32"``).
 
     Raises
     ------
@@ -97,7 +112,7 @@ def read_exr(path) -> ThinFilmLUT:
         ``path`` does not exist.
     ValueError
         ``path`` is not an OpenEXR file, or not a rockdove LUT (no ``rockdove:format`` attribute, missing axis
-        attributes, or no float RGB channels).
+        attributes, or no FLOAT/HALF RGB channels).
     """
     import OpenEXR
 
@@ -128,8 +143,13 @@ def read_exr(path) -> ThinFilmLUT:
         rgb = np.stack([channels[c] for c in "RGB"], axis=-1)
     else:
         raise ValueError(f"path: {path!r} has channels {sorted(channels)}, expected R, G, B")
-    if rgb.dtype != np.float32 or rgb.ndim != 3 or rgb.shape[2] != 3:
-        raise ValueError(f"path: {path!r} must hold float32 RGB, got {rgb.dtype} {rgb.shape}")
+    if rgb.dtype not in (np.float32, np.float16) or rgb.ndim != 3 or rgb.shape[2] != 3:
+        raise ValueError(f"path: {path!r} must hold float32 or half RGB, got {rgb.dtype} {rgb.shape}")
+    channel_precision = "half" if rgb.dtype == np.float16 else "float32"
+    recorded = header.get(PREFIX + "precision")
+    if recorded is not None and recorded != channel_precision:
+        raise ValueError(f"path: {path!r} records {PREFIX}precision = {recorded!r} but holds {channel_precision} "
+                         "channels")
     try:
         gamma = float(header[PREFIX + "angleWarpGamma"])
         lo, hi = (float(v) for v in str(header[PREFIX + "thicknessRangeNm"]).split())
@@ -140,8 +160,10 @@ def read_exr(path) -> ThinFilmLUT:
         for k, v in header.items()
         if isinstance(k, str) and k.startswith(PREFIX) and k[len(PREFIX):] not in _RESERVED
     }
+    if channel_precision == "half" or recorded is not None:
+        metadata["precision"] = channel_precision
     return ThinFilmLUT(
-        np.ascontiguousarray(rgb[::-1]),
+        np.ascontiguousarray(rgb[::-1], dtype=np.float32),
         (lo, hi),
         angle_warp_gamma=gamma,
         colour_space=str(header[PREFIX + "colourSpace"]),
