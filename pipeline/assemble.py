@@ -71,7 +71,7 @@ def publish_dir(out_dir: str, fill) -> dict:
 
 def assemble(out_dir, *, preset: str = "measured", card_count: int | None = None, seed: int = 0,
              lut_angles: int = 64, lut_thicknesses: int = 32, lut_method: str = "auto",
-             angle_warp_gamma: float | None = None, usdz: bool = True,
+             angle_warp_gamma: float | None = None, usdz: bool = True, shading: str = "both",
              bird=None, lut=None, feather_textures=None, body_texture=None, film=None) -> dict:
     """Build the asset into ``out_dir`` (replacing it atomically).
 
@@ -94,6 +94,9 @@ def assemble(out_dir, *, preset: str = "measured", card_count: int | None = None
         LUT angle warp (default: the baker's).
     usdz : bool
         Also write ``pigeon.usdz``.
+    shading : {"both", "baked", "physical"}
+        The shading variants (:func:`pipeline.usd.stage.shading_variants`); ``"physical"`` bakes no LUT (a
+        ``lut`` given is ignored) and writes an asset without one.
     bird, lut, feather_textures, body_texture, film
         Ready-made stage outputs (tests inject small synthetic ones); computed from the parameters when None.
 
@@ -101,18 +104,20 @@ def assemble(out_dir, *, preset: str = "measured", card_count: int | None = None
     -------
     dict[str, str]
         ``dir``, ``interface``, ``payload``, ``usdz`` (if written) and one entry per texture role
-        (``lut``, ``feather_base``, ``feather_mask``, ``feather_preview``, ``body_base``): absolute paths.
+        (``lut`` unless physical-only, ``feather_base``, ``feather_mask``, ``feather_preview``, ``body_base``):
+        absolute paths.
     """
     from pipeline import __version__
     from pipeline.films import get_film
 
     from .usd.material import lut_info
-    from .usd.stage import write_layers
+    from .usd.stage import shading_variants, write_layers
     from .usd.textures_io import write_textures
     from .usd.usdz import write_usdz
 
     if preset not in PRESET_FILMS:
         raise ValueError(f"preset={preset!r}; allowed: {sorted(PRESET_FILMS)}")
+    physical_only = "baked" not in shading_variants(shading)
     film = film if film is not None else get_film(PRESET_FILMS[preset])
     params = None
     if bird is None:
@@ -120,10 +125,12 @@ def assemble(out_dir, *, preset: str = "measured", card_count: int | None = None
 
         params = _bird_params(preset, card_count, seed)
         bird = build_bird(params)
-    if lut is None:
+    lo, hi = thickness_domain_nm(bird)
+    if physical_only:
+        lut = None
+    elif lut is None:
         from pipeline.lut.bake import bake
 
-        lo, hi = thickness_domain_nm(bird)
         kw = {} if angle_warp_gamma is None else {"angle_warp_gamma": angle_warp_gamma}
         lut = bake(angles=lut_angles, thicknesses=1 if lo == hi else lut_thicknesses, thickness_range=(lo, hi),
                    film=film, method=lut_method, **kw)
@@ -136,8 +143,10 @@ def assemble(out_dir, *, preset: str = "measured", card_count: int | None = None
 
     def fill(tmp: str) -> dict:
         written = {"dir": tmp}
-        written.update(write_textures(tmp, lut, feather_textures, body_texture))
-        written.update(write_layers(tmp, bird, film, lut_info(lut), version=__version__))
+        written.update(write_textures(tmp, lut, feather_textures, body_texture, film=film,
+                                      thickness_range_nm=(lo, hi)))
+        written.update(write_layers(tmp, bird, film, lut_info(lut) if lut is not None else None,
+                                    version=__version__, shading=shading))
         if usdz:
             written["usdz"] = write_usdz(tmp)
         return written

@@ -265,3 +265,84 @@ def test_assemble_with_the_real_stages_gives_a_clean_asset(tmp_path):
     report = validate_asset(written["dir"])
     assert report.clean, report.format()
     assert "usdz" not in written and not os.path.exists(os.path.join(written["dir"], "pigeon.usdz"))
+
+
+# ------------------------------------------------------------------------- shading.variant: physical / baked only
+@pytest.fixture(scope="module")
+def physical(tmp_path_factory):
+    return _build(tmp_path_factory.mktemp("physical") / "pigeon", shading="physical", usdz=True)
+
+
+def test_physical_only_asset_has_no_lut_and_only_the_physical_variant(physical):
+    from pxr import Usd, UsdShade
+
+    from pipeline.usd.schema import read_thin_film
+    from pipeline.usd.stage import open_asset
+    from pipeline.usd.usdz import usdz_contents
+    from pipeline.usd.validate import validate_asset
+
+    assert "lut" not in physical
+    assert not os.path.exists(os.path.join(physical["dir"], "textures", "thinfilm_lut.exr"))
+    assert not [n for n in usdz_contents(physical["usdz"]) if n.endswith(".exr")]
+    stage = open_asset(physical["interface"])
+    vset = stage.GetPrimAtPath("/Pigeon").GetVariantSet("shading")
+    assert vset.GetVariantNames() == ["physical"] and vset.GetVariantSelection() == "physical"
+    mat = UsdShade.Material(stage.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial"))
+    surface, _, _ = mat.ComputeSurfaceSource("mtlx")
+    assert surface.GetPath().name == "MtlxPhysicalSurface"
+    assert mat.ComputeSurfaceSource()[0].GetShaderId() == "UsdPreviewSurface"
+    names = {p.GetName() for p in Usd.PrimRange(mat.GetPrim())}
+    assert not names & {"LutTexture", "LutAngleCount", "MtlxBakedSurface", "StructuralMix", "LutTexcoord"}
+    assert {"BaseColorTexture", "MaskTexture", "ThicknessUm", "FilmIor"} <= names
+    film = read_thin_film(stage.GetPrimAtPath("/Pigeon/Geom/NeckFeathers"))
+    assert film["model"] == "keratin" and film["cauchy_b_nm2"] == pytest.approx(5890)
+    assert film["lut_file"] == "" and film["thickness_range_nm"] is None and film["angle_warp_gamma"] is None
+    assert not [a for a in stage.GetPrimAtPath("/Pigeon/Geom/NeckFeathers").GetAuthoredAttributes()
+                if a.GetName().startswith("rockdove:lut:")]
+    for path in (physical["dir"], physical["usdz"]):
+        report = validate_asset(path)
+        assert report.clean and report.variants == ["shading=physical"], report.format()
+
+
+def test_physical_only_preview_is_the_exact_colour_at_normal_incidence_and_mid_thickness(physical):
+    import colour
+    from PIL import Image
+
+    from pipeline.assemble import thickness_domain_nm
+    from pipeline.lut.reference import reference_colour
+
+    lo, hi = thickness_domain_nm(synthetic_bird(CARDS, seed=3))
+    exact = reference_colour(1.0, 0.5 * (lo + hi), get_film("keratin"), colour_space="lin_rec709")
+    structural = colour.cctf_encoding(np.clip(exact, 0, 1), function="sRGB")
+    mask = np.asarray(Image.open(physical["feather_mask"]))
+    preview = np.asarray(Image.open(physical["feather_preview"]))
+    assert np.abs(preview[mask == 255][:, :3] - np.round(structural * 255)).max() <= 1
+
+
+def test_baked_only_asset_has_only_the_baked_variant(tmp_path):
+    from pxr import Usd, UsdShade
+
+    from pipeline.usd.stage import open_asset
+    from pipeline.usd.validate import validate_asset
+
+    a = _build(tmp_path / "pigeon", shading="baked", usdz=False)
+    stage = open_asset(a["interface"])
+    vset = stage.GetPrimAtPath("/Pigeon").GetVariantSet("shading")
+    assert vset.GetVariantNames() == ["baked"] and vset.GetVariantSelection() == "baked"
+    mat = UsdShade.Material(stage.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial"))
+    assert mat.ComputeSurfaceSource("mtlx")[0].GetPath().name == "MtlxBakedSurface"
+    names = {p.GetName() for p in Usd.PrimRange(mat.GetPrim())}
+    assert "MtlxPhysicalSurface" not in names and "ThicknessUm" not in names and "LutTexture" in names
+    report = validate_asset(a["dir"])
+    assert report.clean and report.variants == ["shading=baked"], report.format()
+
+
+def test_lutless_layers_refuse_a_baked_variant(tmp_path):
+    from pipeline.usd.stage import write_layers
+
+    with pytest.raises(ValueError, match="shading='both' needs a LUT"):
+        write_layers(str(tmp_path), synthetic_bird(CARDS, seed=3), get_film("keratin"), None, version="0",
+                     shading="both")
+    with pytest.raises(ValueError, match="shading='gold'"):
+        write_layers(str(tmp_path), synthetic_bird(CARDS, seed=3), get_film("keratin"), None, version="0",
+                     shading="gold")

@@ -204,3 +204,34 @@ def test_cli_reports_a_broken_usdz_beside_good_layers(good, tmp_path):
     assert "pigeon.usda: clean" in result.stdout
     assert "pigeon.usdz: NOT CLEAN" in result.stdout and "ERROR open:" in result.stdout
     assert "parse error" in result.stdout and "1 error(s) in" in result.stderr
+
+
+@pytest.fixture(scope="module")
+def lutless(tmp_path_factory):
+    feather, body = synthetic_textures()
+    out = tmp_path_factory.mktemp("lutless") / "pigeon"
+    assemble(out, bird=synthetic_bird(6), feather_textures=feather, body_texture=body, film=get_film("paper"),
+             shading="physical", usdz=False)
+    return str(out)
+
+
+def test_lutless_asset_is_clean_but_still_checked(lutless, tmp_path):
+    from pxr import Sdf
+
+    report = validate_asset(lutless)
+    assert report.clean and report.counts["thin films"] == 1, report.format()
+    out = str(tmp_path / "pigeon")
+    shutil.copytree(lutless, out)
+    layer = Sdf.Layer.OpenAsAnonymous(os.path.join(out, "pigeon_payload.usda"))
+    spec = Sdf.CreatePrimInLayer(layer, "/Pigeon/Looks/FeatherMaterial/LutTexture")
+    spec.specifier, spec.typeName = Sdf.SpecifierDef, "Shader"
+    Sdf.AttributeSpec(spec, "info:id", Sdf.ValueTypeNames.Token, Sdf.VariabilityUniform).default = "ND_image_color3"
+    counts = layer.GetAttributeAtPath(f"{FEATHERS}.faceVertexCounts").default
+    layer.GetAttributeAtPath(f"{FEATHERS}.primvars:thickness").default = [0.0] * 3  # wrong size and <= 0 nm
+    with open(os.path.join(out, "pigeon_payload.usda"), "w") as fh:
+        fh.write(layer.ExportToString())
+    report = validate_asset(out)
+    tf = {(i.path, i.message.split(" (")[0]) for i in _errors(report, "thinFilm")}
+    assert ("/Pigeon/Looks/FeatherMaterial", "holds the baked LUT network") in tf, report.format()
+    assert any("expected finite values > 0 nm" in i.message for i in _errors(report, "thinFilm"))
+    assert any(i.path.endswith("primvars:thickness") for i in _errors(report, "primvar")) and len(counts)

@@ -10,7 +10,9 @@ Every feather material carries two surface outputs (docs/design.md, "USD asset";
   module reads it, never spells nodes in Python; only the build parameters (LUT size, warp, thickness range,
   film index, texture paths) are set on the copied shaders. The ``shading`` variant set of the interface layer
   (:mod:`pipeline.usd.stage`) reconnects ``outputs:mtlx:surface`` between ``MtlxBakedSurface`` (the LUT
-  method, the default) and ``MtlxPhysicalSurface`` (OpenPBR's own thin film).
+  method, the default) and ``MtlxPhysicalSurface`` (OpenPBR's own thin film). An asset built with only one
+  of them (configuration ``shading.variant = "baked"`` or ``"physical"``) carries only the nodes upstream of
+  that surface: a physical-only asset (no LUT) has no LUT constants, no ``LutTexture`` and no baked surface.
 
 Units of the physical variant (method.md, "Conventions of neighbouring standards"): OpenPBR's
 ``thin_film_thickness`` is in micrometres, so the network feeds ``thickness_nm * 0.001`` (node
@@ -41,6 +43,8 @@ TEXTURE_FILES = {
     "feather_preview": "feather_preview.png",
     "body_base": "body_base.png",
 }
+#: shading variant -> the MaterialX surface shader node of thinfilm.mtlx it connects
+MTLX_SURFACES = {"baked": "MtlxBakedSurface", "physical": "MtlxPhysicalSurface"}
 #: image nodes of thinfilm.mtlx -> texture role
 _MTLX_IMAGES = {"LutTexture": "lut", "BaseColorTexture": "feather_base", "MaskTexture": "feather_mask"}
 #: Roughness of the universal previews: 1 with metallic 0 is as close to Lambert as UsdPreviewSurface gets.
@@ -111,8 +115,24 @@ def mtlx_nodes(doc) -> list:
     return [n for n in doc.getNodes() if n.getType() != "material"]
 
 
-def copy_mtlx_network(doc, material) -> dict:
-    """Copy every node of a MaterialX document into ``material`` as UsdShade shaders (``info:id = ND_*``).
+def upstream_nodes(doc, roots) -> set:
+    """Names of the nodes ``roots`` (node names) depend on, themselves included."""
+    nodes = {n.getName(): n for n in mtlx_nodes(doc)}
+    missing = [r for r in roots if r not in nodes]
+    if missing:
+        raise ValueError(f"roots: {missing} are not nodes of the MaterialX document; nodes: {sorted(nodes)}")
+    seen, todo = set(), list(roots)
+    while todo:
+        name = todo.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        todo += [i.getNodeName() for i in nodes[name].getInputs() if i.getNodeName()]
+    return seen
+
+
+def copy_mtlx_network(doc, material, roots=None) -> dict:
+    """Copy the nodes of a MaterialX document into ``material`` as UsdShade shaders (``info:id = ND_*``).
 
     Parameters
     ----------
@@ -120,6 +140,8 @@ def copy_mtlx_network(doc, material) -> dict:
         With its data library set (:func:`load_thinfilm_document`).
     material : UsdShade.Material
         Shaders are defined as its children, named as the MaterialX nodes.
+    roots : iterable of str, optional
+        Copy only these nodes and what they depend on (:func:`upstream_nodes`); default every node.
 
     Returns
     -------
@@ -130,8 +152,10 @@ def copy_mtlx_network(doc, material) -> dict:
 
     stage = material.GetPrim().GetStage()
     base = material.GetPath()
+    keep = upstream_nodes(doc, roots) if roots is not None else None
+    copied = [n for n in mtlx_nodes(doc) if keep is None or n.getName() in keep]
     shaders = {}
-    for node in mtlx_nodes(doc):
+    for node in copied:
         nodedef = node.getNodeDef()
         if nodedef is None:
             raise ValueError(f"MaterialX node {node.getName()!r} ({node.getCategory()}) has no nodedef")
@@ -140,7 +164,7 @@ def copy_mtlx_network(doc, material) -> dict:
         out_type = nodedef.getActiveOutputs()[0].getType()
         shader.CreateOutput("out", getattr(Sdf.ValueTypeNames, _SDF_TYPES[out_type]))
         shaders[node.getName()] = shader
-    for node in mtlx_nodes(doc):
+    for node in copied:
         shader = shaders[node.getName()]
         for inp in node.getInputs():
             t = inp.getType()
@@ -211,7 +235,8 @@ def _st_reader(stage, path):
     return reader.CreateOutput("result", Sdf.ValueTypeNames.Float2)
 
 
-def author_feather_material(stage, path, *, lut: dict, film_ior: float, textures: dict | None = None):
+def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, textures: dict | None = None,
+                            variants=("baked", "physical")):
     """Define the feather material: universal preview network plus the MaterialX thin-film network.
 
     Parameters
@@ -219,24 +244,34 @@ def author_feather_material(stage, path, *, lut: dict, film_ior: float, textures
     stage : Usd.Stage
     path : str or Sdf.Path
         Material prim path, e.g. ``/Pigeon/Looks/FeatherMaterial``.
-    lut : dict
-        :func:`lut_info` of the baked LUT.
+    lut : dict or None
+        :func:`lut_info` of the baked LUT; None for a physical-only material (no LUT network).
     film_ior : float
         Film index handed to the physical variant's ``thin_film_ior`` (the build uses n at 550 nm).
     textures : dict, optional
         Texture role -> asset path; default :func:`texture_asset_paths`.
+    variants : sequence of {"baked", "physical"}
+        The shading variants the asset carries: only the MaterialX nodes upstream of their surfaces are
+        copied. ``"baked"`` needs ``lut``.
 
     Returns
     -------
     UsdShade.Material
-        ``outputs:surface`` -> ``PreviewSurface``; ``outputs:mtlx:surface`` -> ``MtlxBakedSurface``.
+        ``outputs:surface`` -> ``PreviewSurface``; ``outputs:mtlx:surface`` -> ``MtlxBakedSurface`` when
+        ``"baked"`` is in ``variants``, else ``MtlxPhysicalSurface``.
     """
     from pxr import Sdf, UsdShade
 
     textures = {**texture_asset_paths(), **(textures or {})}
-    lo, hi = lut["thickness_range_nm"]
-    if not (lut["n_angle"] >= 2 and lut["n_thickness"] >= 1 and 0 <= lo <= hi and lut["angle_warp_gamma"] > 0):
-        raise ValueError(f"lut: not a valid LUT description: {lut}")
+    variants = tuple(variants)
+    if not variants or any(v not in MTLX_SURFACES for v in variants) or len(set(variants)) != len(variants):
+        raise ValueError(f"variants={variants!r}; allowed: distinct names from {sorted(MTLX_SURFACES)}")
+    if lut is None and "baked" in variants:
+        raise ValueError(f"lut=None with variants={variants!r}: the baked variant needs a LUT (use ('physical',))")
+    if lut is not None:
+        lo, hi = lut["thickness_range_nm"]
+        if not (lut["n_angle"] >= 2 and lut["n_thickness"] >= 1 and 0 <= lo <= hi and lut["angle_warp_gamma"] > 0):
+            raise ValueError(f"lut: not a valid LUT description: {lut}")
     if not film_ior > 0:
         raise ValueError(f"film_ior must be > 0, got {film_ior}")
     material = UsdShade.Material.Define(stage, path)
@@ -253,21 +288,26 @@ def author_feather_material(stage, path, *, lut: dict, film_ior: float, textures
     material.CreateSurfaceOutput().ConnectToSource(surf.GetOutput("surface"))
 
     # MaterialX network, copied from materials/thinfilm.mtlx, then the build's values
-    shaders = copy_mtlx_network(load_thinfilm_document(), material)
-    values = {
-        "LutAngleCount": float(lut["n_angle"]),
-        "LutThicknessCount": float(lut["n_thickness"]),
-        "LutAngleWarpGamma": float(lut["angle_warp_gamma"]),
-        "LutThicknessLoNm": float(lo),
-        "LutThicknessHiNm": float(hi),
-        "FilmIor": float(film_ior),
-    }
+    shaders = copy_mtlx_network(load_thinfilm_document(), material, roots=[MTLX_SURFACES[v] for v in variants])
+    values = {"FilmIor": float(film_ior)}
+    if lut is not None:
+        values.update({
+            "LutAngleCount": float(lut["n_angle"]),
+            "LutThicknessCount": float(lut["n_thickness"]),
+            "LutAngleWarpGamma": float(lut["angle_warp_gamma"]),
+            "LutThicknessLoNm": float(lo),
+            "LutThicknessHiNm": float(hi),
+        })
     for name, value in values.items():
-        shaders[name].GetInput("value").Set(value)
+        if name in shaders:  # e.g. FilmIor only feeds the physical surface
+            shaders[name].GetInput("value").Set(value)
     for name, role in _MTLX_IMAGES.items():
-        shaders[name].GetInput("file").Set(Sdf.AssetPath(textures[role]))
-    shaders["LutTexture"].GetInput("file").GetAttr().SetColorSpace(lut_texture_colour_space(lut["colour_space"]))
-    material.CreateSurfaceOutput("mtlx").ConnectToSource(shaders["MtlxBakedSurface"].GetOutput("out"))
+        if name in shaders:
+            shaders[name].GetInput("file").Set(Sdf.AssetPath(textures[role]))
+    if "LutTexture" in shaders:
+        shaders["LutTexture"].GetInput("file").GetAttr().SetColorSpace(lut_texture_colour_space(lut["colour_space"]))
+    default = "baked" if "baked" in variants else variants[0]
+    material.CreateSurfaceOutput("mtlx").ConnectToSource(shaders[MTLX_SURFACES[default]].GetOutput("out"))
     return material
 
 
@@ -364,10 +404,9 @@ def mtlx_surface_path(material_path, variant: str):
     """Path of the ``out`` output of the MaterialX surface shader a shading variant connects."""
     from pxr import Sdf
 
-    names = {"baked": "MtlxBakedSurface", "physical": "MtlxPhysicalSurface"}
-    if variant not in names:
-        raise ValueError(f"variant={variant!r} is not a shading variant; use one of {sorted(names)}")
-    return Sdf.Path(str(material_path)).AppendChild(names[variant]).AppendProperty("outputs:out")
+    if variant not in MTLX_SURFACES:
+        raise ValueError(f"variant={variant!r} is not a shading variant; use one of {sorted(MTLX_SURFACES)}")
+    return Sdf.Path(str(material_path)).AppendChild(MTLX_SURFACES[variant]).AppendProperty("outputs:out")
 
 
 def author_body_material(stage, path, *, texture: str | None = None):

@@ -80,8 +80,9 @@ def has_thin_film(prim) -> bool:
 
 
 def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, incident_index: float,
-                    substrate_index: float, lut_file: str, lut_colour_space: str, angle_warp_gamma: float,
-                    thickness_range_nm: tuple[float, float], illuminant: str = "D65",
+                    substrate_index: float, lut_file: str | None, lut_colour_space: str | None = None,
+                    angle_warp_gamma: float | None = None, thickness_range_nm: tuple[float, float] | None = None,
+                    illuminant: str = "D65",
                     observer: str = "CIE 1931 2 Degree Standard Observer",
                     thickness_primvar: str = "thickness") -> None:
     """Apply ``RockDoveThinFilmAPI`` to a Mesh prim and author every attribute (nothing left to fallbacks).
@@ -96,14 +97,15 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
         Film index ``n(lambda) = cauchy_a + cauchy_b_nm2 / lambda_nm**2``.
     incident_index, substrate_index : float
         Indices of the media above and below the film.
-    lut_file : str
-        Asset path of the LUT EXR, relative to the layer (``./textures/thinfilm_lut.exr``).
+    lut_file : str or None
+        Asset path of the LUT EXR, relative to the layer (``./textures/thinfilm_lut.exr``). None for an asset
+        without a LUT (physical-only shading): then only the ``film:*`` attributes are authored, no ``lut:*``.
     lut_colour_space : str
-        MaterialX colour-space name of the LUT.
+        MaterialX colour-space name of the LUT (required with ``lut_file``).
     angle_warp_gamma : float
-        LUT angle warp (``cos_theta = x ** gamma``).
+        LUT angle warp (``cos_theta = x ** gamma``; required with ``lut_file``).
     thickness_range_nm : (float, float)
-        LUT thickness axis ``(lo, hi)`` in nm.
+        LUT thickness axis ``(lo, hi)`` in nm (required with ``lut_file``).
     """
     from pxr import Gf, Sdf
 
@@ -111,9 +113,11 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
     if prim.GetTypeName() != "Mesh":
         raise ValueError(f"prim must be a Mesh to carry {SCHEMA_NAME}, got {prim.GetPath()} of type "
                          f"{prim.GetTypeName()!r}")
+    if lut_file is not None and None in (lut_colour_space, angle_warp_gamma, thickness_range_nm):
+        raise ValueError(f"lut_file={lut_file!r} needs lut_colour_space, angle_warp_gamma and thickness_range_nm, got "
+                         f"{lut_colour_space!r}, {angle_warp_gamma!r}, {thickness_range_nm!r}")
     if not prim.AddAppliedSchema(SCHEMA_NAME):
         raise RuntimeError(f"could not apply {SCHEMA_NAME} to {prim.GetPath()}")
-    lo, hi = (float(v) for v in thickness_range_nm)
     values = {
         "film:model": model,
         "film:cauchyA": float(cauchy_a),
@@ -122,13 +126,17 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
         "film:substrateIndex": float(substrate_index),
         "film:thicknessPrimvar": thickness_primvar,
         "film:thicknessUnits": "nm",
-        "lut:file": Sdf.AssetPath(lut_file),
-        "lut:colorSpace": lut_colour_space,
-        "lut:angleWarpGamma": float(angle_warp_gamma),
-        "lut:thicknessRangeNm": Gf.Vec2f(lo, hi),
-        "lut:illuminant": illuminant,
-        "lut:observer": observer,
     }
+    if lut_file is not None:
+        lo, hi = (float(v) for v in thickness_range_nm)
+        values.update({
+            "lut:file": Sdf.AssetPath(lut_file),
+            "lut:colorSpace": lut_colour_space,
+            "lut:angleWarpGamma": float(angle_warp_gamma),
+            "lut:thicknessRangeNm": Gf.Vec2f(lo, hi),
+            "lut:illuminant": illuminant,
+            "lut:observer": observer,
+        })
     for name, value in values.items():
         type_name = Sdf.ValueTypeNames.Find(ATTRIBUTE_TYPES[name])
         prim.CreateAttribute(f"rockdove:{name}", type_name, custom=False).Set(value)
@@ -144,6 +152,7 @@ def read_thin_film(prim) -> dict:
         ``thickness_primvar``, ``thickness_units`` (str), ``lut_file`` (str, the authored asset path),
         ``lut_file_resolved`` (str, absolute path or "" when it does not resolve), ``lut_colour_space``,
         ``angle_warp_gamma`` (float), ``thickness_range_nm`` ((lo, hi) float nm), ``illuminant``, ``observer``.
+        An asset without a LUT (physical-only) has ``lut_file == ""`` and None for the other ``lut:*`` values.
 
     Raises
     ------
@@ -157,7 +166,8 @@ def read_thin_film(prim) -> dict:
     out = {}
     for name, key in _ATTRS.items():
         attr = prim.GetAttribute(f"rockdove:{name}")
-        value = attr.Get() if attr else None
+        # lut:* only when authored: a LUT-less (physical-only) film must not read as the schema's fallbacks
+        value = attr.Get() if attr and (attr.HasAuthoredValue() or not name.startswith("lut:")) else None
         if key == "lut_file":
             out["lut_file"] = value.path if value is not None else ""
             out["lut_file_resolved"] = (value.resolvedPath or "") if value is not None else ""

@@ -6,7 +6,10 @@ usd-exchange-samples):
 - ``DIR/pigeon.usda`` (interface): defaultPrim ``/Pigeon``, an Xform of kind ``component`` with assetInfo
   (name, identifier, version) and an extentsHint, ``upAxis = Y``, ``metersPerUnit = 1``, a payload to
   ``./pigeon_payload.usda`` and the variant set ``shading`` = {``baked`` (default), ``physical``}, which
-  reconnects ``FeatherMaterial.outputs:mtlx:surface`` (variants are stronger than payloads).
+  reconnects ``FeatherMaterial.outputs:mtlx:surface`` (variants are stronger than payloads). The
+  configuration's ``shading.variant`` chooses what the set holds (:data:`SHADING_CHOICES`): ``"both"`` (the
+  above), ``"baked"`` (only baked) or ``"physical"`` (only physical, the default; an asset without a LUT: no
+  LUT texture, no baked MaterialX network, no ``rockdove:lut:*`` attributes).
 - ``DIR/pigeon_payload.usda`` (contents): ``/Pigeon/Geom/<part>`` meshes and ``/Pigeon/Looks/<Kind>Material``
   materials bound with MaterialBindingAPI; ``RockDoveThinFilmAPI`` on the feather mesh.
 
@@ -35,6 +38,15 @@ PAYLOAD_LAYER = "pigeon_payload.usda"
 SHADING_VARIANT_SET = "shading"
 SHADING_VARIANTS = ("baked", "physical")
 DEFAULT_SHADING = "baked"
+#: configuration ``shading.variant`` -> the variants of the ``shading`` set (the first is the default)
+SHADING_CHOICES = {"both": ("baked", "physical"), "baked": ("baked",), "physical": ("physical",)}
+
+
+def shading_variants(shading: str) -> tuple:
+    """The variants an asset carries for a ``shading.variant`` choice (``"both"``, ``"baked"``, ``"physical"``)."""
+    if shading not in SHADING_CHOICES:
+        raise ValueError(f"shading={shading!r}; allowed: {sorted(SHADING_CHOICES)}")
+    return SHADING_CHOICES[shading]
 FEATHER_MATERIAL = "feather"
 #: Wavelength at which the physical variant's thin_film_ior samples the film's Cauchy index (mid-visible).
 FILM_IOR_WAVELENGTH_NM = 550.0
@@ -139,7 +151,8 @@ def author_mesh(stage, path, part):
     return mesh
 
 
-def author_contents(stage, bird, film, lut: dict, textures: dict | None = None):
+def author_contents(stage, bird, film, lut: dict | None, textures: dict | None = None,
+                    variants=SHADING_VARIANTS):
     """Author the payload contents: ``/Pigeon`` with ``Geom`` meshes and ``Looks`` materials, bound.
 
     Parameters
@@ -149,10 +162,13 @@ def author_contents(stage, bird, film, lut: dict, textures: dict | None = None):
     bird : pipeline.geometry.Bird
     film : pipeline.films.FilmModel
         The film the LUT was baked from (recorded with RockDoveThinFilmAPI on the feather mesh).
-    lut : dict
-        :func:`pipeline.usd.material.lut_info` of the LUT.
+    lut : dict or None
+        :func:`pipeline.usd.material.lut_info` of the LUT; None for a physical-only asset.
     textures : dict, optional
         Texture role -> asset path (default ``./textures/<file>``, :func:`material.texture_asset_paths`).
+    variants : sequence of str
+        The shading variants the asset carries (:func:`shading_variants`); without ``lut`` only
+        ``("physical",)``.
 
     Returns
     -------
@@ -182,7 +198,8 @@ def author_contents(stage, bird, film, lut: dict, textures: dict | None = None):
             continue
         path = f"{ROOT}/Looks/{material_name(kind)}"
         if kind == FEATHER_MATERIAL:
-            materials[kind] = author_feather_material(stage, path, lut=lut, film_ior=film_ior, textures=textures)
+            materials[kind] = author_feather_material(stage, path, lut=lut, film_ior=film_ior, textures=textures,
+                                                      variants=variants)
         elif kind == "body":
             materials[kind] = author_body_material(stage, path, texture=textures["body_base"])
         else:
@@ -194,12 +211,14 @@ def author_contents(stage, bird, film, lut: dict, textures: dict | None = None):
         if part.material == FEATHER_MATERIAL:
             if "thickness" not in part.primvars:
                 raise ValueError(f"part {part.name!r}: feather part needs a 'thickness' primvar (nm, vertex)")
-            apply_thin_film(
-                mesh.GetPrim(), model=film.name, cauchy_a=film.cauchy_a, cauchy_b_nm2=film.cauchy_b_nm2,
-                incident_index=float(np.real(film.n_incident)), substrate_index=float(np.real(film.n_substrate)),
+            lut_kw = {} if lut is None else dict(
                 lut_file=textures["lut"], lut_colour_space=lut["colour_space"],
                 angle_warp_gamma=lut["angle_warp_gamma"], thickness_range_nm=lut["thickness_range_nm"],
                 illuminant=lut["illuminant"], observer=lut["observer"])
+            apply_thin_film(
+                mesh.GetPrim(), model=film.name, cauchy_a=film.cauchy_a, cauchy_b_nm2=film.cauchy_b_nm2,
+                incident_index=float(np.real(film.n_incident)), substrate_index=float(np.real(film.n_substrate)),
+                **({"lut_file": None} | lut_kw))
     return root.GetPrim()
 
 
@@ -210,7 +229,8 @@ def bird_extent(bird) -> np.ndarray:
 
 
 def author_interface(stage, *, extent, version: str, payload: str = f"./{PAYLOAD_LAYER}",
-                     feather_material: str = f"{ROOT}/Looks/FeatherMaterial", name: str = "pigeon"):
+                     feather_material: str = f"{ROOT}/Looks/FeatherMaterial", name: str = "pigeon",
+                     variants=SHADING_VARIANTS):
     """Author the interface layer: ``/Pigeon`` (component, assetInfo, extentsHint), payload, shading variants.
 
     Parameters
@@ -223,6 +243,9 @@ def author_interface(stage, *, extent, version: str, payload: str = f"./{PAYLOAD
         assetInfo version.
     payload : str
         Asset path of the contents layer.
+    variants : sequence of str
+        The variants of the ``shading`` set (:func:`shading_variants`); ``baked`` is the default selection
+        when present, else the first.
 
     Returns
     -------
@@ -239,30 +262,53 @@ def author_interface(stage, *, extent, version: str, payload: str = f"./{PAYLOAD
     model.SetAssetVersion(str(version))
     UsdGeom.ModelAPI.Apply(prim).SetExtentsHint(Vt.Vec3fArray.FromNumpy(np.asarray(extent, np.float32)))
     prim.GetPayloads().AddPayload(payload)
+    variants = tuple(variants)
+    if not variants or any(v not in SHADING_VARIANTS for v in variants):
+        raise ValueError(f"variants={variants!r}; allowed: names from {SHADING_VARIANTS}")
     vset = prim.GetVariantSets().AddVariantSet(SHADING_VARIANT_SET)
-    for variant in SHADING_VARIANTS:
+    for variant in variants:
         vset.AddVariant(variant)
         vset.SetVariantSelection(variant)
         with vset.GetVariantEditContext():
             over = stage.OverridePrim(feather_material)
             out = over.CreateAttribute("outputs:mtlx:surface", Sdf.ValueTypeNames.Token, custom=False)
             out.SetConnections([mtlx_surface_path(feather_material, variant)])
-    vset.SetVariantSelection(DEFAULT_SHADING)
+    vset.SetVariantSelection(DEFAULT_SHADING if DEFAULT_SHADING in variants else variants[0])
     return prim
 
 
-def write_layers(out_dir: str, bird, film, lut: dict, *, version: str, textures: dict | None = None) -> dict:
+def write_layers(out_dir: str, bird, film, lut: dict | None, *, version: str, textures: dict | None = None,
+                 shading: str | None = None) -> dict:
     """Author both layers and write them into ``out_dir`` (the only file writer of this module).
+
+    Parameters
+    ----------
+    out_dir : str
+    bird : pipeline.geometry.Bird
+    film : pipeline.films.FilmModel
+    lut : dict or None
+        :func:`pipeline.usd.material.lut_info`; None for an asset without a LUT (physical-only shading).
+    version : str
+        assetInfo version.
+    textures : dict, optional
+        Texture role -> asset path.
+    shading : {"both", "baked", "physical"}, optional
+        The variants the asset carries (:func:`shading_variants`); default ``"both"`` with a LUT, ``"physical"``
+        without. ``"both"`` and ``"baked"`` need a LUT.
 
     Returns
     -------
     dict[str, str]
         ``{"interface": DIR/pigeon.usda, "payload": DIR/pigeon_payload.usda}`` (absolute paths).
     """
+    shading = shading or ("both" if lut is not None else "physical")
+    variants = shading_variants(shading)
+    if lut is None and "baked" in variants:
+        raise ValueError(f"shading={shading!r} needs a LUT (lut=None); without one only 'physical' is possible")
     contents = new_stage()
-    author_contents(contents, bird, film, lut, textures)
+    author_contents(contents, bird, film, lut, textures, variants=variants)
     interface = new_stage(load_payloads=False)
-    author_interface(interface, extent=bird_extent(bird), version=version)
+    author_interface(interface, extent=bird_extent(bird), version=version, variants=variants)
     out_dir = os.path.abspath(out_dir)
     os.makedirs(out_dir, exist_ok=True)
     paths = {"interface": os.path.join(out_dir, INTERFACE_LAYER), "payload": os.path.join(out_dir, PAYLOAD_LAYER)}

@@ -2,13 +2,18 @@
 
 - PNG via Pillow with fixed options (``compress_level`` fixed, no ``optimize``, no text/time chunks): the same
   pixels give the same bytes.
-- The LUT via :func:`pipeline.lut.exr.write_exr` (float32 RGB, ZIP, sorted header, no timestamp).
+- The LUT via :func:`pipeline.lut.exr.write_exr` (float32 or half RGB, ZIP, sorted header, no timestamp).
 - ``feather_preview.png``: the universal UsdPreviewSurface network cannot look the LUT up per fragment (the
   LUT is indexed by angle and per-vertex thickness, a texture by st), so it shows a *static* preview:
   ``mix(base, LUT(cos_theta_preview, thickness_preview_nm), mask)`` with one representative structural colour
   for every feather: by default at normal incidence (cos theta = 1, light and eye along the normal) and the
   middle of the LUT's thickness range. The mix is done in linear light (sRGB decoded and re-encoded with
   colour-science, IEC 61966-2-1); out-of-gamut colours are clipped to [0, 1] for the 8-bit file.
+- An asset without a LUT (physical-only shading, ``lut=None``) has no ``thinfilm_lut.exr``; its preview colour
+  is the *exact* spectral colour at the same point (normal incidence, middle of the thickness range on the
+  mesh): :func:`pipeline.lut.reference.reference_colour`, one Airy spectrum at 0.1 nm integrated under D65
+  with the CIE 1931 2 degree observer, in lin_rec709 (:func:`preview_colour`). With a LUT the preview uses the
+  LUT's value there, which differs from it by the LUT's error only.
 """
 
 from __future__ import annotations
@@ -48,8 +53,33 @@ def write_png(path: str, pixels: np.ndarray) -> str:
     return path
 
 
-def feather_preview(base_rgba: np.ndarray, mask: np.ndarray, lut, *, cos_theta: float = PREVIEW_COS_THETA,
-                    thickness_nm: float | None = None) -> np.ndarray:
+def preview_colour(film, thickness_nm: float, cos_theta: float = PREVIEW_COS_THETA) -> np.ndarray:
+    """The exact structural colour of ``film`` at one point, linear lin_rec709 (D65, CIE 1931 2 degree).
+
+    Parameters
+    ----------
+    film : pipeline.films.FilmModel or str
+    thickness_nm : float
+        Film thickness, nm.
+    cos_theta : float
+        Cosine of the angle of incidence, in [0, 1].
+
+    Returns
+    -------
+    ndarray, (3,) float64
+        Unclipped linear RGB (:func:`pipeline.lut.reference.reference_colour`).
+    """
+    from pipeline.lut.reference import reference_colour
+
+    if not 0.0 <= cos_theta <= 1.0:
+        raise ValueError(f"cos_theta must be in [0, 1], got {cos_theta}")
+    if not (np.isfinite(thickness_nm) and thickness_nm >= 0):
+        raise ValueError(f"thickness_nm must be a finite thickness >= 0 nm, got {thickness_nm!r}")
+    return np.asarray(reference_colour(cos_theta, float(thickness_nm), film, colour_space="lin_rec709"), np.float64)
+
+
+def feather_preview(base_rgba: np.ndarray, mask: np.ndarray, lut=None, *, cos_theta: float = PREVIEW_COS_THETA,
+                    thickness_nm: float | None = None, structural_rgb=None) -> np.ndarray:
     """The static preview texture: feather base mixed by the mask with one structural colour.
 
     Parameters
@@ -58,11 +88,14 @@ def feather_preview(base_rgba: np.ndarray, mask: np.ndarray, lut, *, cos_theta: 
         sRGB-encoded base colour, linear alpha (feather_base.png).
     mask : ndarray, (H, W) or (H, W, 1) uint8
         1 (255) where structural colour is drawn (feather_mask.png), raw.
-    lut : ThinFilmLUT
+    lut : ThinFilmLUT, optional
+        Source of the structural colour, sampled at (``cos_theta``, ``thickness_nm``).
     cos_theta : float
         Angle of the preview colour (default normal incidence).
     thickness_nm : float, optional
         Film thickness of the preview colour; default the middle of ``lut.thickness_range_nm``.
+    structural_rgb : array_like (3,), optional
+        The structural colour itself (linear), instead of ``lut`` (e.g. :func:`preview_colour`).
 
     Returns
     -------
@@ -78,9 +111,18 @@ def feather_preview(base_rgba: np.ndarray, mask: np.ndarray, lut, *, cos_theta: 
         raise ValueError(f"mask shape {mask.shape} must match base_rgba {base_rgba.shape[:2]}")
     if not 0.0 <= cos_theta <= 1.0:
         raise ValueError(f"cos_theta must be in [0, 1], got {cos_theta}")
-    lo, hi = lut.thickness_range_nm
-    d = 0.5 * (lo + hi) if thickness_nm is None else float(thickness_nm)
-    structural = np.clip(lut.sample(cos_theta, d), 0.0, 1.0)  # (3,) linear
+    if (lut is None) == (structural_rgb is None):
+        raise ValueError("give exactly one of lut and structural_rgb, got "
+                         f"lut={type(lut).__name__}, structural_rgb={structural_rgb!r}")
+    if lut is not None:
+        lo, hi = lut.thickness_range_nm
+        d = 0.5 * (lo + hi) if thickness_nm is None else float(thickness_nm)
+        structural = np.clip(lut.sample(cos_theta, d), 0.0, 1.0)  # (3,) linear
+    else:
+        structural = np.asarray(structural_rgb, np.float64).reshape(-1)
+        if structural.shape != (3,) or not np.all(np.isfinite(structural)):
+            raise ValueError(f"structural_rgb must be 3 finite linear values, got {structural_rgb!r}")
+        structural = np.clip(structural, 0.0, 1.0)
     base_lin = colour.cctf_decoding(base_rgba[..., :3] / 255.0, function="sRGB")
     m = (mask / 255.0)[..., None]
     mixed = base_lin * (1.0 - m) + structural * m
@@ -93,26 +135,35 @@ def feather_preview(base_rgba: np.ndarray, mask: np.ndarray, lut, *, cos_theta: 
 
 def write_textures(out_dir: str, lut, feather_textures: dict, body_texture: np.ndarray, *,
                    preview_cos_theta: float = PREVIEW_COS_THETA,
-                   preview_thickness_nm: float | None = None) -> dict[str, str]:
+                   preview_thickness_nm: float | None = None, film=None,
+                   thickness_range_nm: tuple[float, float] | None = None) -> dict[str, str]:
     """Write every texture of the asset into ``out_dir/textures/``.
 
     Parameters
     ----------
     out_dir : str
         Asset folder; ``textures/`` is created inside.
-    lut : ThinFilmLUT
+    lut : ThinFilmLUT or None
+        Written as ``thinfilm_lut.exr`` (:func:`pipeline.lut.exr.write_exr`, its precision from the LUT's
+        metadata). None for an asset without a LUT (physical-only shading): no EXR, and the preview's
+        structural colour is :func:`preview_colour` of ``film``.
     feather_textures : dict
         ``"base"``: (H, W, 4) uint8 sRGB RGBA (A = silhouette); ``"mask"``: (H, W) uint8 raw.
     body_texture : ndarray, (H, W, 3) uint8
         sRGB body colour in the body's UVs.
     preview_cos_theta, preview_thickness_nm
         See :func:`feather_preview`.
+    film : pipeline.films.FilmModel, optional
+        Required when ``lut`` is None: the film of the preview colour.
+    thickness_range_nm : (float, float), optional
+        Required when ``lut`` is None (unless ``preview_thickness_nm`` is given): the thickness range on the
+        mesh, nm; the preview uses its middle.
 
     Returns
     -------
     dict[str, str]
-        Texture role (``lut``, ``feather_base``, ``feather_mask``, ``feather_preview``, ``body_base``) ->
-        absolute path written; keys sorted.
+        Texture role (``lut`` when written, ``feather_base``, ``feather_mask``, ``feather_preview``,
+        ``body_base``) -> absolute path written; keys sorted.
     """
     from pipeline.lut.exr import write_exr
 
@@ -125,10 +176,20 @@ def write_textures(out_dir: str, lut, feather_textures: dict, body_texture: np.n
     tex_dir = os.path.join(os.path.abspath(out_dir), "textures")
     os.makedirs(tex_dir, exist_ok=True)
     paths = {role: os.path.join(tex_dir, name) for role, name in TEXTURE_FILES.items()}
-    write_exr(lut, paths["lut"])
+    if lut is not None:
+        write_exr(lut, paths["lut"])
+        preview = feather_preview(base, mask, lut, cos_theta=preview_cos_theta, thickness_nm=preview_thickness_nm)
+    else:
+        del paths["lut"]
+        if film is None or (preview_thickness_nm is None and thickness_range_nm is None):
+            raise ValueError("lut=None needs film and thickness_range_nm (or preview_thickness_nm) for the static "
+                             f"preview colour, got film={film!r}, thickness_range_nm={thickness_range_nm!r}")
+        d = (0.5 * (float(thickness_range_nm[0]) + float(thickness_range_nm[1])) if preview_thickness_nm is None
+             else float(preview_thickness_nm))
+        preview = feather_preview(base, mask, cos_theta=preview_cos_theta,
+                                  structural_rgb=preview_colour(film, d, preview_cos_theta))
     write_png(paths["feather_base"], base)
     write_png(paths["feather_mask"], mask)
-    write_png(paths["feather_preview"], feather_preview(base, mask, lut, cos_theta=preview_cos_theta,
-                                                         thickness_nm=preview_thickness_nm))
+    write_png(paths["feather_preview"], preview)
     write_png(paths["body_base"], body)
     return dict(sorted(paths.items()))

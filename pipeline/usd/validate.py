@@ -17,6 +17,9 @@ variant sets on the default prim (here ``shading`` = baked / physical), runs:
    domain ``rockdove:lut:thicknessRangeNm``, which must agree with the range in the LUT EXR header; the
    bound material's LUT constants (``LutAngleCount``... of thinfilm.mtlx) must describe that EXR, and the
    film attributes must match the provenance the baker wrote into the EXR header (film, illuminant...).
+   An asset without a LUT (physical-only shading: no ``rockdove:lut:*`` attributes) is valid: its film
+   attributes must be complete and finite, its thickness primvar present, finite and > 0 nm, and its bound
+   material must not hold the baked LUT network (which would read a LUT the asset does not have).
 6. Materials: ``ComputeSurfaceSource()`` (universal) resolves for every material, and
    ``ComputeSurfaceSource("mtlx")`` for every material with an ``outputs:mtlx:surface``; that network, turned
    back into a MaterialX document as Hydra's HdMtlx does, passes MaterialX's ``validate()``.
@@ -338,6 +341,10 @@ def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
             continue
         n += 1
         film = read_thin_film(prim)
+        if not film["lut_file"] and not any(prim.GetAttribute(f"rockdove:lut:{a}").HasAuthoredValue() for a in
+                                            ("colorSpace", "angleWarpGamma", "thicknessRangeNm")):
+            issues += _check_lutless_film(prim, film)
+            continue
         rng = film["thickness_range_nm"]
         where = f"{prim.GetPath()}.rockdove:lut:thicknessRangeNm"
         if rng is None:
@@ -368,6 +375,46 @@ def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
                                 f"thickness spans [{d.min():.6g}, {d.max():.6g}] nm, outside the LUT domain "
                                 f"[{lo:.6g}, {hi:.6g}] nm (rockdove:lut:thicknessRangeNm)"))
     return issues, n
+
+
+#: Names of the shaders of the baked LUT network (thinfilm.mtlx) that read the LUT.
+LUT_NETWORK_SHADERS = ("LutTexture", "LutAngleCount", "LutThicknessCount", "LutAngleWarpGamma", "LutThicknessLoNm",
+                       "LutThicknessHiNm")
+
+
+def _check_lutless_film(prim, film: dict) -> list:
+    """A film recorded without a LUT (physical-only asset): complete film, sane thickness, no LUT network."""
+    import numpy as np
+    from pxr import UsdGeom, UsdShade
+
+    issues = []
+    for key, attr in (("cauchy_a", "film:cauchyA"), ("cauchy_b_nm2", "film:cauchyB_nm2"),
+                      ("incident_index", "film:incidentIndex"), ("substrate_index", "film:substrateIndex")):
+        v = film.get(key)
+        if not isinstance(v, float) or not np.isfinite(v):
+            issues.append(Issue("thinFilm", f"{prim.GetPath()}.rockdove:{attr}", f"{v!r}; expected a finite number"))
+    if film.get("thickness_units") != "nm":
+        issues.append(Issue("thinFilm", f"{prim.GetPath()}.rockdove:film:thicknessUnits",
+                            f"{film.get('thickness_units')!r}; expected 'nm'"))
+    pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "")
+    values = pv.ComputeFlattened() if pv else None
+    if values is None or len(values) == 0:
+        issues.append(Issue("thinFilm", f"{prim.GetPath()}.primvars:{film['thickness_primvar']}",
+                            "thickness primvar missing or empty"))
+    else:
+        d = np.asarray(values, np.float64)
+        if not np.all(np.isfinite(d)) or d.min() <= 0:
+            issues.append(Issue("thinFilm", str(pv.GetAttr().GetPath()),
+                                f"thickness spans [{np.nanmin(d):.6g}, {np.nanmax(d):.6g}] nm; expected finite "
+                                "values > 0 nm"))
+    material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
+    if material:
+        present = [n for n in LUT_NETWORK_SHADERS if material.GetPrim().GetChild(n)]
+        if present:
+            issues.append(Issue("thinFilm", str(material.GetPath()),
+                                f"holds the baked LUT network ({', '.join(present)}) but {prim.GetPath()} records no "
+                                "LUT (no rockdove:lut:file): a physical-only asset carries only the physical network"))
+    return issues
 
 
 #: read_thin_film key -> (schema attribute, LUT EXR metadata key written by pipeline.lut.bake)
