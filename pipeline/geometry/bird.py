@@ -14,6 +14,7 @@ from pipeline.geometry import body as _body
 from pipeline.geometry import cards as _cards
 from pipeline.geometry import neck as _neck
 from pipeline.geometry import parts as _parts
+from pipeline.geometry import sdf as _sdf
 from pipeline.geometry import uv as _uv
 from pipeline.geometry.params import BirdParams
 from pipeline.geometry.types import Bird, MeshPart, Primvar
@@ -31,7 +32,7 @@ class Body:
     mesh : body.BodyMesh
         Welded closed surface (for sampling, inside tests and ray casts).
     part : MeshPart
-        ``"Body"``: vertices split at UV seams, st from xatlas, primvar ``neckS`` ((V,) float32 in [0, 1],
+        ``"Body"``: vertices split at UV seams, st from xatlas (on the coarse mesh, interpolated by subdivision), primvar ``neckS`` ((V,) float32 in [0, 1],
         the neck coordinate clipped to [0, 1]) and ``neckBand`` ((V,) float32, 1 inside the neck band).
     """
 
@@ -46,20 +47,30 @@ def _check_params(params) -> BirdParams:
 
 
 def build_body(params: BirdParams) -> Body:
-    """Mesh the body (torso, neck, head, folded wings, tail) and give it UVs. Depends on ``params.body_key()``."""
+    """Mesh the body (torso, neck, head, folded wings, tail) and give it UVs. Depends on ``params.body_key()``.
+
+    The coarse body (surface nets at :data:`body.UNWRAP_VOXEL_M`) is unwrapped by xatlas, then subdivided
+    ``body.subdivision_levels(params.body_voxel_m)`` times onto the implicit surface (see :mod:`.body`);
+    normals are the field's gradient at the final vertices.
+    """
     params = _check_params(params)
-    mesh = _body.build_body_mesh(params.body_voxel_m)
-    at = _uv.atlas(mesh.vertices_m, mesh.faces)
-    points = mesh.vertices_m[at.vmapping]
+    levels = _body.subdivision_levels(params.body_voxel_m)
+    coarse = _body.build_body_mesh(_body.UNWRAP_VOXEL_M)
+    at = _uv.atlas(coarse.vertices_m, coarse.faces)
+    welded, to_welded, faces, st = _body.subdivide_onto_surface(
+        _sdf.body_sdf, coarse.vertices_m[at.vmapping], at.faces, at.st, levels)
+    normals = _sdf.sdf_gradient(_sdf.body_sdf, welded)
+    mesh = _body.BodyMesh(vertices_m=welded, faces=to_welded[faces], normals=normals)
+    points = welded[to_welded]
     s, _ = _neck.neck_s(points)
     band = _neck.in_band(points)
     part = MeshPart(
         name="Body",
         points_m=points.astype(np.float32),
-        face_vertex_counts=np.full(len(at.faces), 3, dtype=np.int32),
-        face_vertex_indices=at.faces.reshape(-1).astype(np.int32),
-        normals=mesh.normals[at.vmapping].astype(np.float32),
-        st=at.st,
+        face_vertex_counts=np.full(len(faces), 3, dtype=np.int32),
+        face_vertex_indices=faces.reshape(-1).astype(np.int32),
+        normals=normals[to_welded].astype(np.float32),
+        st=np.clip(st, 0.0, 1.0).astype(np.float32),
         material="body",
         display_color=BODY_DISPLAY_COLOR,
         primvars={

@@ -86,8 +86,11 @@ class BirdParams:
     feather_texture_resolution : int
         Width = height of the feather textures, texels, 16 .. 4096 (default 256).
     body_voxel_m : float
-        Grid spacing of the body's implicit surface, metres, 0.0008 .. 0.01 (default 0.004); smaller is
-        finer (the face count grows as 1 / body_voxel_m**2; 0.004 gives about 17k triangles, 0.003 about 31k).
+        Detail of the body surface: about its edge length, metres, 0.0008 .. 0.01 (default 0.002, as in
+        schemas/config.schema.json). The body is meshed and unwrapped on an 8 mm grid, then subdivided
+        ``k = max(0, round(log2(0.008 / body_voxel_m)))`` times onto the implicit surface, 4x the triangles
+        each: 0.002 gives k = 2 (70,144 triangles), 0.004 gives k = 1 (17,536), from about 0.0057 up k = 0
+        (4,384). Values between those snap to the nearest level.
     """
 
     seed: int = 0
@@ -102,7 +105,7 @@ class BirdParams:
     thickness_top_nm: tuple = MEASURED_TOP_NM
     body_texture_resolution: int = 1024
     feather_texture_resolution: int = 256
-    body_voxel_m: float = 0.004
+    body_voxel_m: float = 0.002
 
     def __post_init__(self):
         s = object.__setattr__

@@ -52,13 +52,27 @@ class Ellipsoid:
         return q[:, 0:1] * r[0] + q[:, 1:2] * r[1] + q[:, 2:3] * r[2]
 
     def sdf(self, p: np.ndarray) -> np.ndarray:
-        """(N,) approximate signed distance, metres (Quilez's ellipsoid bound)."""
-        q = self.local(p)
-        r = np.asarray(self.radii_m)
-        a = q / r
-        k0 = np.sqrt(np.einsum("ij,ij->i", a, a))
-        a /= r
-        k1 = np.sqrt(np.einsum("ij,ij->i", a, a))
+        """(N,) approximate signed distance, metres (Quilez's ellipsoid bound), at (N, 3) points ``p``."""
+        p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
+        return self.sdf_xyz(p[:, 0], p[:, 1], p[:, 2])
+
+    def sdf_xyz(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """:meth:`sdf` on separate (N,) coordinate arrays (contiguous 1-D arithmetic: about twice as fast)."""
+        cx, cy, cz = self.centre_m
+        qx, qy, qz = x - cx, y - cy, z - cz
+        r = self.rotation
+        if r is not None:  # q @ r
+            qx, qy, qz = (qx * r[0, 0] + qy * r[1, 0] + qz * r[2, 0], qx * r[0, 1] + qy * r[1, 1] + qz * r[2, 1],
+                          qx * r[0, 2] + qy * r[1, 2] + qz * r[2, 2])
+        rx, ry, rz = self.radii_m
+        qx /= rx
+        qy /= ry
+        qz /= rz
+        k0 = np.sqrt(qx * qx + qy * qy + qz * qz)
+        qx /= rx
+        qy /= ry
+        qz /= rz
+        k1 = np.sqrt(qx * qx + qy * qy + qz * qz)
         return k0 * (k0 - 1.0) / np.maximum(k1, 1e-12)
 
 
@@ -72,14 +86,20 @@ class TaperedCapsule:
     rb_m: float
 
     def sdf(self, p: np.ndarray) -> np.ndarray:
-        """(N,) approximate signed distance, metres."""
-        a, b = np.asarray(self.a_m), np.asarray(self.b_m)
+        """(N,) approximate signed distance, metres, at (N, 3) points ``p``."""
+        p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
+        return self.sdf_xyz(p[:, 0], p[:, 1], p[:, 2])
+
+    def sdf_xyz(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """:meth:`sdf` on separate (N,) coordinate arrays."""
+        a, b = np.asarray(self.a_m, dtype=np.float64), np.asarray(self.b_m, dtype=np.float64)
         ba = b - a
-        pa = p - a
-        t = np.clip((pa[:, 0] * ba[0] + pa[:, 1] * ba[1] + pa[:, 2] * ba[2]) / (ba @ ba), 0.0, 1.0)
-        pa -= t[:, None] * ba
-        d = np.sqrt(np.einsum("ij,ij->i", pa, pa))
-        return d - (self.ra_m + t * (self.rb_m - self.ra_m))
+        px, py, pz = x - a[0], y - a[1], z - a[2]
+        t = np.clip((px * ba[0] + py * ba[1] + pz * ba[2]) / (ba @ ba), 0.0, 1.0)
+        px -= t * ba[0]
+        py -= t * ba[1]
+        pz -= t * ba[2]
+        return np.sqrt(px * px + py * py + pz * pz) - (self.ra_m + t * (self.rb_m - self.ra_m))
 
 
 def smooth_union(a: np.ndarray, b: np.ndarray, k_m: float) -> np.ndarray:
@@ -131,13 +151,14 @@ def body_sdf(p: np.ndarray) -> np.ndarray:
         (N,) float64, an approximate (Lipschitz <~ 1) signed distance.
     """
     p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
-    d = smooth_union(TORSO.sdf(p), BREAST.sdf(p), 0.025)
-    d = smooth_union(d, BELLY.sdf(p), 0.02)
-    d = smooth_union(d, NECK.sdf(p), 0.03)
-    d = smooth_union(d, HEAD.sdf(p), 0.012)
-    d = smooth_union(d, WING_L.sdf(p), 0.010)
-    d = smooth_union(d, WING_R.sdf(p), 0.010)
-    d = smooth_union(d, TAIL.sdf(p), 0.014)
+    x, y, z = (np.ascontiguousarray(p[:, a]) for a in range(3))
+    d = smooth_union(TORSO.sdf_xyz(x, y, z), BREAST.sdf_xyz(x, y, z), 0.025)
+    d = smooth_union(d, BELLY.sdf_xyz(x, y, z), 0.02)
+    d = smooth_union(d, NECK.sdf_xyz(x, y, z), 0.03)
+    d = smooth_union(d, HEAD.sdf_xyz(x, y, z), 0.012)
+    d = smooth_union(d, WING_L.sdf_xyz(x, y, z), 0.010)
+    d = smooth_union(d, WING_R.sdf_xyz(x, y, z), 0.010)
+    d = smooth_union(d, TAIL.sdf_xyz(x, y, z), 0.014)
     return d
 
 
