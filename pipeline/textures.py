@@ -137,6 +137,9 @@ def body_colour_at(points_m: np.ndarray) -> np.ndarray:
     -------
     np.ndarray
         (N, 3) float64 linear RGB.
+
+    Each layer (wings, tail, neck, head) is evaluated only where its weight is above 0: elsewhere a mix with
+    weight 0 would leave the colour unchanged, bit for bit.
     """
     from pipeline.geometry import neck as _neck
     from pipeline.geometry import sdf as _sdf
@@ -147,31 +150,36 @@ def body_colour_at(points_m: np.ndarray) -> np.ndarray:
     # folded wings: pale coverts, two black bars across the rear of the wing, darker primaries at the tip
     for wing in (_sdf.WING_L, _sdf.WING_R):
         on_wing = 1.0 - _smoothstep(-0.001, 0.004, wing.sdf(p))
-        q = wing.local(p) / np.asarray(wing.radii_m)
+        i = np.flatnonzero(on_wing > 0.0)  # the rest keeps its colour exactly (a mix with weight 0)
+        q = wing.local(p[i]) / np.asarray(wing.radii_m)
         along = q[:, 2] + 0.30 * q[:, 1]  # bars slant down and back
-        bar = np.zeros(len(p))
+        bar = np.zeros(len(i))
         for centre in (-0.10, -0.36):
             bar = np.maximum(bar, 1.0 - _smoothstep(0.045, 0.07, np.abs(along - centre)))
         bar *= _smoothstep(-0.75, -0.45, q[:, 1])  # the bars fade out toward the lower edge of the wing
         primaries = _smoothstep(-0.55, -0.70, q[:, 2])
-        wing_col = _mix(np.broadcast_to(_linear(WING_SRGB), p.shape), _linear(PRIMARIES_SRGB), primaries)
+        wing_col = _mix(np.broadcast_to(_linear(WING_SRGB), q.shape), _linear(PRIMARIES_SRGB), primaries)
         wing_col = _mix(wing_col, _linear(WING_BAR_SRGB), bar)
-        col = _mix(col, wing_col, on_wing)
+        col[i] = _mix(col[i], wing_col, on_wing[i])
 
     # tail: grey with a dark band near its tip
     on_tail = 1.0 - _smoothstep(-0.001, 0.004, _sdf.TAIL.sdf(p))
-    qt = _sdf.TAIL.local(p) / np.asarray(_sdf.TAIL.radii_m)
+    i = np.flatnonzero(on_tail > 0.0)
+    qt = _sdf.TAIL.local(p[i]) / np.asarray(_sdf.TAIL.radii_m)
     band = _smoothstep(-0.62, -0.72, qt[:, 2])
-    tail_col = _mix(np.broadcast_to(_linear(TAIL_SRGB), p.shape), _linear(TAIL_BAND_SRGB), band)
-    col = _mix(col, tail_col, on_tail * _smoothstep(-0.2, -0.4, qt[:, 2]))
+    tail_col = _mix(np.broadcast_to(_linear(TAIL_SRGB), qt.shape), _linear(TAIL_BAND_SRGB), band)
+    col[i] = _mix(col[i], tail_col, on_tail[i] * _smoothstep(-0.2, -0.4, qt[:, 2]))
 
     # darker neck and head
     s, r = _neck.neck_s(p)
-    neck_w = _smoothstep(-0.25, 0.05, s) * (1.0 - _smoothstep(0.030, 0.045, r))
-    col = _mix(col, _linear(NECK_SRGB), neck_w)
+    near_neck = 1.0 - _smoothstep(0.030, 0.045, r)
+    neck_w = _smoothstep(-0.25, 0.05, s) * near_neck
+    i = np.flatnonzero(neck_w > 0.0)
+    col[i] = _mix(col[i], _linear(NECK_SRGB), neck_w[i])
     head_w = 1.0 - _smoothstep(-0.001, 0.006, _sdf.HEAD.sdf(p))
-    head_w = np.maximum(head_w, _smoothstep(1.0, 1.15, s) * (1.0 - _smoothstep(0.030, 0.045, r)))
-    col = _mix(col, _linear(HEAD_SRGB), head_w)
+    head_w = np.maximum(head_w, _smoothstep(1.0, 1.15, s) * near_neck)
+    i = np.flatnonzero(head_w > 0.0)
+    col[i] = _mix(col[i], _linear(HEAD_SRGB), head_w[i])
     return col
 
 
