@@ -2,14 +2,15 @@
 
 Rows, each a median of ``--repeats`` runs timed with ``time.perf_counter`` in this process:
 
-- the body (implicit surface meshed by surface nets, xatlas UVs), built once per body resolution: the build
-  graph caches it, so it is reported on its own;
+- the body (surface nets on the 8 mm unwrap grid, xatlas UVs, then subdivided onto the implicit surface to the
+  detail ``body_voxel_m``), built once: the build graph caches it, so it is reported on its own, with its
+  phases (coarse mesh, xatlas, subdivision + projection + relaxation) timed separately;
 - the cards alone (``build_cards``: blue-noise placement, card strips, thickness) at 1k, 10k and 100k cards;
   goals: 1,000 cards well under a second (< 0.5 s), 100,000 cards under 10 s;
 - the whole bird given the body (``build_bird(params, body=...)``: cards + the other parts);
 - the textures (feather base + mask at the default resolution, body base colour at the default resolution).
 
-Peak memory is measured in a separate, untimed run of each row with ``tracemalloc`` (numpy reports its
+Imports are warmed up before the first row. Peak memory is measured in a separate, untimed run of each row with ``tracemalloc`` (numpy reports its
 array allocations to it), so the timing runs carry no tracing overhead. The band coverage (the fraction of the
 neck band's skin hidden by cards, rays along the skin normal, alpha-tested with the feather silhouette) is
 reported for each card count.
@@ -59,6 +60,22 @@ def _peak_mib(fn) -> float:
     return peak / 2**20
 
 
+def _body_phase_rows(row, voxel_m: float, repeats: int) -> None:
+    """Rows for the phases of ``build_body``: coarse surface nets, xatlas, subdivision onto the surface."""
+    from pipeline.geometry import body as _body
+    from pipeline.geometry import sdf as _sdf
+    from pipeline.geometry import uv as _uv
+
+    levels = _body.subdivision_levels(voxel_m)
+    coarse = row(f"  surface nets {_body.UNWRAP_VOXEL_M * 1000:g} mm", None,
+                 lambda: _body.build_body_mesh(_body.UNWRAP_VOXEL_M), repeats,
+                 lambda m: {"triangles": int(len(m.faces))})
+    at = row("  xatlas unwrap", None, lambda: _uv.atlas(coarse.vertices_m, coarse.faces), repeats)
+    row(f"  subdivide x{levels} + relax", None,
+        lambda: _body.subdivide_onto_surface(_sdf.body_sdf, coarse.vertices_m[at.vmapping], at.faces, at.st, levels),
+        repeats, lambda r: {"triangles": int(len(r[2]))})
+
+
 def run(args: argparse.Namespace) -> int:
     from pipeline import textures
     from pipeline.geometry import BirdParams, build_bird, build_body, build_cards
@@ -74,6 +91,12 @@ def run(args: argparse.Namespace) -> int:
     base = BirdParams(body_voxel_m=0.008) if quick else BirdParams()
     coverage = not (quick or args.no_coverage)
     rows = []
+    # warm up: the rows time the work, not the first import of trimesh, xatlas or colour-science (a cold build's
+    # imports are in ``rockdove bench build``)
+    import trimesh  # noqa: F401
+    import xatlas  # noqa: F401
+
+    textures.feather_textures(16)
 
     def row(name, count, fn, reps, extra=None):
         t, result = _median_time(fn, reps)
@@ -82,8 +105,9 @@ def run(args: argparse.Namespace) -> int:
                      **(extra(result) if extra else {})})
         return result
 
-    body = row(f"body (voxel {base.body_voxel_m * 1000:g} mm)", None, lambda: build_body(base), 1,
+    body = row(f"body (detail {base.body_voxel_m * 1000:g} mm)", None, lambda: build_body(base), repeats,
                lambda b: {"triangles": int(len(b.mesh.faces)), "uv_vertices": int(len(b.part.points_m))})
+    _body_phase_rows(row, base.body_voxel_m, repeats)
     alpha = textures.feather_textures(base.feather_texture_resolution)["base"][..., 3]
     for n in counts:
         p = base.with_(card_count=n)
