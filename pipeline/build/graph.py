@@ -18,6 +18,11 @@ concurrent build that wrote the same entry first wins), their files are made rea
 
 Fan-out stages (``Stage.items``) split their work into named items (e.g. one per verification view), each with
 its own key = stage key + the item's own configuration, so only the items whose inputs changed are redone.
+When what an item reads is only known once its inputs exist (e.g. a verification view reads the *rendered
+content* of the asset, not every byte of it), ``Stage.item_plan(ctx)`` names the items at run time and returns,
+per item, everything it reads; the item key is then that plan entry plus the stage's code and libraries, without
+the upstream digests, so an upstream change that leaves an item's plan entry unchanged does not redo it.
+``Stage.batch`` runs all the items to redo in one call (sharing set-up such as a GL context).
 
 Test hook: ``ROCKDOVE_TEST_PAUSE_AFTER=<stage>`` makes the build stop after that stage (or after
 ``assemble``, ``publish-swap``: see :mod:`pipeline.build.publish`) and sleep, so tests can kill it there.
@@ -111,6 +116,9 @@ class Context:
         The assembled (not yet published) asset folder, for stages with ``needs_asset``.
     item : tuple(str, Any) or None
         ``(name, item_config)`` for an item of a fan-out stage.
+    items : dict[str, Any] or None
+        For a ``batch`` fan-out stage: every item to redo, name -> item config; the function writes item
+        ``name``'s files into ``workdir / name`` and returns ``{name: value}``.
     """
 
     config: dict
@@ -118,6 +126,7 @@ class Context:
     workdir: Path
     asset_dir: Path | None = None
     item: tuple | None = None
+    items: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -150,6 +159,13 @@ class Stage:
         Fan-out: item name -> the item's own configuration (enters the item's key).
     combine : callable(Context, dict[str, Any]) -> value or None
         Fan-out: joins the item values (``ctx`` as for the stage) into the stage value.
+    item_plan : callable(Context) -> dict[str, Any] or None
+        Fan-out decided at run time (instead of ``items``): item name -> everything that item reads (enters
+        its key *instead of* the upstream digests and the configuration, so it must be complete).
+    batch : bool
+        Fan-out: run the items to redo in one call (``ctx.items``) rather than one call per item.
+    item_codec : Codec
+        Storage of an item's value (its files, written into its folder, are kept with it).
     """
 
     name: str
@@ -165,6 +181,8 @@ class Stage:
     items: Callable[[dict], dict] | None = None
     combine: Callable[[Context, dict], Any] | None = None
     item_codec: Codec = JSON
+    item_plan: Callable[[Context], dict] | None = None
+    batch: bool = False
 
 
 def _nested(config: dict, keys: Iterable[str]) -> dict:
@@ -416,7 +434,9 @@ class Graph:
             self.records[stage.name] = rec
             return rec
         ran, reused = [], []
-        if stage.items is None:
+        extra = {"items": []}  # filled in by a fan-out stage's fill, before store() writes the metadata
+        fan_out = stage.items is not None or stage.item_plan is not None
+        if not fan_out:
             def fill(folder: Path):
                 value = stage.run(self._context(stage, folder, asset_dir))
                 stage.codec.save(value, folder)
@@ -424,26 +444,59 @@ class Graph:
                     self._values[stage.name] = stage.codec.load(folder)
         else:
             def fill(folder: Path):
-                item_values = {}
-                base = stage_key(stage, None, digests, source)
-                for item_name, item_cfg in stage.items(_nested(self.config, stage.config)).items():
-                    ikey = hashlib.sha256(canonical_json([base, item_name, item_cfg]).encode()).hexdigest()
-                    iname = f"{stage.name}.items"
-                    if self.cache.lookup(iname, ikey) is None:
+                ctx = self._context(stage, folder, asset_dir)
+                if stage.item_plan is not None:  # the plan holds what each item reads: no upstream digests
+                    planned = stage.item_plan(ctx)
+                    base = hashlib.sha256(canonical_json({
+                        "graph": GRAPH_VERSION, "stage": stage.name, "source": source, "planned": True,
+                        "libraries": library_versions(stage.libraries)}).encode()).hexdigest()
+                else:
+                    planned = stage.items(_nested(self.config, stage.config))
+                    base = stage_key(stage, None, digests, source)
+                iname = f"{stage.name}.items"
+                keys = {n: hashlib.sha256(canonical_json([base, n, c]).encode()).hexdigest() for n, c in planned.items()}
+                todo = {n: c for n, c in planned.items() if self.cache.lookup(iname, keys[n]) is None}
+                if stage.batch and todo:
+                    self._run_batch(stage, iname, keys, todo, asset_dir)
+                else:
+                    for item_name, item_cfg in todo.items():
                         def ifill(ifolder: Path, item=(item_name, item_cfg)):
                             v = stage.run(self._context(stage, ifolder, asset_dir, item))
                             stage.item_codec.save(v, ifolder)
-                        self.cache.store(iname, ikey, ifill, {"item": item_name})
-                        ran.append(item_name)
-                    else:
-                        reused.append(item_name)
-                    item_values[item_name] = stage.item_codec.load(self.cache.entry(iname, ikey) / "value")
-                value = stage.combine(self._context(stage, folder, asset_dir), item_values)
+                        self.cache.store(iname, keys[item_name], ifill, {"item": item_name})
+                ran.extend(n for n in planned if n in todo)
+                reused.extend(n for n in planned if n not in todo)
+                extra["items"] = list(planned)
+                item_values = {n: stage.item_codec.load(self.cache.entry(iname, keys[n]) / "value") for n in planned}
+                value = stage.combine(ctx, item_values)
                 stage.codec.save(value, folder)
-        meta = self.cache.store(stage.name, key, fill, {"items": ran + reused} if stage.items else None)
+        meta = self.cache.store(stage.name, key, fill, extra if fan_out else None)
         rec = StageRecord(stage.name, key, "ran", time.perf_counter() - t0, meta["digest"], ran, reused)
         self.records[stage.name] = rec
         return rec
+
+    def _run_batch(self, stage: Stage, iname: str, keys: dict, todo: dict, asset_dir) -> None:
+        """Run the ``todo`` items of a batch stage in one call, then store each as its own cache entry."""
+        parent = self.cache.root / iname
+        parent.mkdir(parents=True, exist_ok=True)
+        scratch = Path(tempfile.mkdtemp(prefix=f".tmp-{os.getpid()}-batch-", dir=parent))
+        try:
+            for n in todo:
+                (scratch / n).mkdir()
+            ctx = self._context(stage, scratch, asset_dir)
+            ctx.items = dict(todo)
+            values = stage.run(ctx)
+            missing = [n for n in todo if n not in values]
+            if missing:
+                raise ValueError(f"stage {stage.name!r}: its batch run returned no value for items {missing}")
+            for n in todo:
+                def ifill(ifolder: Path, n=n):
+                    for p in (scratch / n).iterdir():
+                        os.rename(p, ifolder / p.name)
+                    stage.item_codec.save(values[n], ifolder)
+                self.cache.store(iname, keys[n], ifill, {"item": n})
+        finally:
+            shutil.rmtree(scratch, ignore_errors=True)
 
     def assemble(self, asset_dir: Path, *, needs_asset: bool = False) -> None:
         """Copy the files of the publishing stages (those with ``needs_asset == needs_asset``) into

@@ -11,24 +11,29 @@ stage                   configuration                                 inputs
 ``thickness_range``     --                                            bird: (floor min, ceil max) of the feathers'
                                                                       ``thickness`` primvar, nm
 ``lut``                 ``film``, ``lut``                             thickness_range (baked over exactly that
-                                                                      range; one texel high when uniform)
+                                                                      range; one texel high when uniform); absent
+                                                                      for ``shading.variant = "physical"``
 ``texture_images``      as ``bird`` (BirdParams)                      bird (pipeline.textures)
-``textures``            --                                            lut, texture_images (pipeline.usd.textures_io)
-``usd_layers``          ``film``, ``shading``                         bird, lut (pipeline.usd.stage.write_layers)
+``textures``            -- (physical-only: ``film``)                  lut, texture_images (pipeline.usd.textures_io);
+                                                                      physical-only: thickness_range, texture_images
+                                                                      (no LUT EXR; exact preview colour)
+``usd_layers``          ``film``, ``shading``                         bird, lut (pipeline.usd.stage.write_layers);
+                                                                      physical-only: bird
 ``usdz``                -- (present when ``usd.usdz``)                usd_layers, textures (pipeline.usd.usdz)
-``verify``              ``verify.width``, ``verify.height``           every published stage: the assembled asset
-                                                                      (pipeline.render.verify.verify_asset)
+``verify``              ``verify.width``, ``verify.height``,          every published stage: the assembled asset.
+                        ``verify.views``                              One item per view (pipeline.render.verify),
+                                                                      keyed by its plan entry: the view's camera,
+                                                                      light and size and the digest of the scene
+                                                                      content it renders, plus the verify code
 ======================  ===========================================  ==============================================
 
 Because keys use the *content* of upstream outputs, a new seed that leaves the thickness range unchanged
 re-bakes nothing, and a film change re-bakes the LUT and rewrites textures (the preview mixes in the LUT) and
-layers but reuses the bird. Until a module this file needs has landed, :func:`make_stages` says which one is
-missing (a one-line error, exit 2) rather than building something partial.
-
-Not yet possible with the modules as they are (the graph supports both; :func:`make_stages` refuses or
-falls back, and says so): ``shading.variant = "physical"`` without a bake (pipeline.usd's ``write_textures`` and
-``write_layers`` require a LUT), and per-view verification items (``verify_asset`` renders its whole view set
-in one call, so the verify stage is one item keyed by the asset's content and the render size).
+layers but reuses the bird. Physical-only shading needs no bake: the graph has no ``lut`` stage. Verification
+re-renders only the views whose plan entry changed: a change that leaves the rendered scene as it was (e.g.
+``usd.usdz``) revalidates and rewrites the report but renders nothing; a film change re-renders every view.
+Until a module this file needs has landed, :func:`make_stages` says which one is missing (a one-line error,
+exit 2) rather than building something partial.
 """
 
 from __future__ import annotations
@@ -271,18 +276,25 @@ def run_texture_images(ctx: Context):
 
 
 def run_textures(ctx: Context):
+    """The textures; without a ``lut`` input (physical-only shading) no LUT EXR, and the preview's structural
+    colour is the film's exact colour at mid thickness (so this stage then reads ``film`` and the range)."""
     from ..usd.textures_io import write_textures
 
     feathers, body = ctx.inputs["texture_images"]
-    write_textures(str(ctx.workdir), ctx.inputs["lut"], feathers, body)
+    if "lut" in ctx.inputs:
+        write_textures(str(ctx.workdir), ctx.inputs["lut"], feathers, body)
+    else:
+        write_textures(str(ctx.workdir), None, feathers, body, film=film_from_config(ctx.config["film"]),
+                       thickness_range_nm=tuple(ctx.inputs["thickness_range"]))
 
 
 def run_usd_layers(ctx: Context):
     from ..usd.material import lut_info
     from ..usd.stage import write_layers
 
-    write_layers(str(ctx.workdir), ctx.inputs["bird"], film_from_config(ctx.config["film"]),
-                 lut_info(ctx.inputs["lut"]), version=__version__)
+    lut = lut_info(ctx.inputs["lut"]) if "lut" in ctx.inputs else None
+    write_layers(str(ctx.workdir), ctx.inputs["bird"], film_from_config(ctx.config["film"]), lut,
+                 version=__version__, shading=ctx.config["shading"]["variant"])
 
 
 def run_usdz(ctx: Context):
@@ -320,15 +332,62 @@ REQUIRED = ["pipeline.geometry:build_bird", "pipeline.geometry:build_body", "pip
 REQUIRED_VERIFY = ["pipeline.render.verify:verify_asset"]
 
 
-def run_verify(ctx: Context):
-    """Validate, render and check the assembled asset (pipeline.render.verify.verify_asset); the report files
-    go into the stage's folder (published as ``verify/``); the value is the verdict."""
-    from ..render.verify import verify_asset
+def _verify_size(ctx: Context) -> dict:
+    v = ctx.config["verify"]
+    return {"width": v["width"], "height": v["height"], "n_views": v["views"]}
 
-    report = verify_asset(str(ctx.asset_dir), out_dir=str(ctx.workdir), width=ctx.config["verify"]["width"],
-                          height=ctx.config["verify"]["height"], bench_dir=str(ctx.workdir / "no-bench"))
+
+def plan_verify(ctx: Context) -> dict:
+    """The verification views and what each reads (pipeline.render.verify.plan_views): its camera, light and
+    size, and the digest of the scene content it renders (meshes, textures, film, LUT; not file bytes that do
+    not change a render, e.g. the usdz or assetInfo). A view whose entry is unchanged is not re-rendered."""
+    from ..render.verify import plan_views
+
+    return plan_views(str(ctx.asset_dir), **_verify_size(ctx))
+
+
+def run_verify(ctx: Context) -> dict:
+    """Render and check the views to redo (``ctx.items``), in one call (one GL context, shared reference rays);
+    each view's images go into ``ctx.workdir / <view>`` (pipeline.render.verify.verify_views)."""
+    from ..render.verify import verify_views
+
+    return verify_views(str(ctx.asset_dir), views=list(ctx.items), out_dir=str(ctx.workdir), subfolders=True,
+                        **_verify_size(ctx))
+
+
+def combine_verify(ctx: Context, views: dict) -> dict:
+    """Validate the assembled asset and join the per-view results (fresh or cached) into the report in the
+    stage's folder (published as ``verify/``); the value is the verdict."""
+    from ..render.verify import report_from_views
+
+    size = _verify_size(ctx)
+    report = report_from_views(str(ctx.asset_dir), views, out_dir=str(ctx.workdir), width=size["width"],
+                               height=size["height"], bench_dir=str(ctx.workdir / "no-bench"))
     return {"passed": bool(report.get("passed")), "reason": "; ".join(map(str, report.get("failures", []))),
-            "views": [v.get("name") for v in report.get("views", []) if isinstance(v, dict)]}
+            "views": [v["view"] for v in report.get("views", []) if isinstance(v, dict)],
+            "notes": list(report.get("notes", []))}
+
+
+def _view_save(value: dict, folder: Path) -> None:
+    import numpy as np
+
+    np.savez(folder / "sheet_row.npz", *[np.ascontiguousarray(a) for a in value["sheet_row"]])
+    data = {k: v for k, v in value.items() if k not in ("sheet_row", "dir")}
+    (folder / "view.json").write_text(json.dumps(data, sort_keys=True, default=lambda o: o.tolist()
+                                                 if hasattr(o, "tolist") else str(o)))
+
+
+def _view_load(folder: Path) -> dict:
+    import numpy as np
+
+    value = json.loads((folder / "view.json").read_text())
+    with np.load(folder / "sheet_row.npz", allow_pickle=False) as z:
+        value["sheet_row"] = [z[f"arr_{i}"] for i in range(len(z.files))]
+    value["dir"] = str(folder)  # the view's images sit beside its result
+    return value
+
+
+VIEW_RESULT = Codec("view_result", _view_save, _view_load)
 
 
 def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
@@ -344,38 +403,46 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
     if missing:
         raise UsageError(f"the build pipeline is incomplete: {', '.join(missing)} not available yet"
                          + ("; try --no-verify" if set(missing) <= set(REQUIRED_VERIFY) else ""))
-    variant = config["shading"]["variant"]
-    if variant == "physical":
-        raise UsageError("shading.variant = 'physical' (an asset without a LUT) is not supported by pipeline.usd yet "
-                         "(write_textures/write_layers need a LUT); allowed now: 'baked' or 'both'")
+    baked = config["shading"]["variant"] != "physical"  # physical-only shading needs no bake
     stages = [
         Stage("body", run_body, config=BODY_FIELDS, modules=("pipeline.geometry",), libraries=LIBS_GEOMETRY,
               codec=BODY),
         Stage("bird", run_bird, config=tuple(BIRD_FIELDS), deps=("body",), modules=("pipeline.geometry",),
               libraries=LIBS_GEOMETRY, codec=BIRD),
         Stage("thickness_range", run_thickness_range, deps=("bird",), codec=JSON),
-        Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",),
-              modules=("pipeline.lut", "pipeline.films", "pipeline.optics", "pipeline.spectral"),
-              libraries=LIBS_COLOUR, codec=LUT),
-        Stage("texture_images", run_texture_images, config=tuple(BIRD_FIELDS), deps=("bird",),
-              modules=("pipeline.textures",), libraries=LIBS_GEOMETRY + ("pillow",), codec=IMAGES),
-        Stage("textures", run_textures, deps=("lut", "texture_images"),
-              modules=("pipeline.usd.textures_io", "pipeline.lut.exr"), libraries=LIBS_USD, codec=FILES, publish=""),
-        Stage("usd_layers", run_usd_layers, config=("film", "shading"), deps=("bird", "lut"),
-              modules=("pipeline.usd", "pipeline.films"), data=("materials", "schemas/plugInfo.json",
-                                                                 "schemas/generatedSchema.usda"),
-              libraries=LIBS_USD, codec=FILES, publish=""),
     ]
+    if baked:
+        stages.append(Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",),
+                            modules=("pipeline.lut", "pipeline.films", "pipeline.optics", "pipeline.spectral"),
+                            libraries=LIBS_COLOUR, codec=LUT))
+    stages.append(Stage("texture_images", run_texture_images, config=tuple(BIRD_FIELDS), deps=("bird",),
+                        modules=("pipeline.textures",), libraries=LIBS_GEOMETRY + ("pillow",), codec=IMAGES))
+    if baked:
+        stages.append(Stage("textures", run_textures, deps=("lut", "texture_images"),
+                            modules=("pipeline.usd.textures_io", "pipeline.lut.exr"), libraries=LIBS_USD,
+                            codec=FILES, publish=""))
+    else:  # the preview colour is computed from the film (pipeline.lut.reference) at mid thickness
+        stages.append(Stage("textures", run_textures, config=("film",), deps=("thickness_range", "texture_images"),
+                            modules=("pipeline.usd.textures_io", "pipeline.lut.reference", "pipeline.films",
+                                     "pipeline.optics", "pipeline.spectral"),
+                            libraries=LIBS_USD + ("colour-science", "scipy"), codec=FILES, publish=""))
+    stages.append(Stage("usd_layers", run_usd_layers, config=("film", "shading"),
+                        deps=("bird", "lut") if baked else ("bird",),
+                        modules=("pipeline.usd", "pipeline.films"), data=("materials", "schemas/plugInfo.json",
+                                                                           "schemas/generatedSchema.usda"),
+                        libraries=LIBS_USD, codec=FILES, publish=""))
     if config["usd"]["usdz"]:
         stages.append(Stage("usdz", run_usdz, deps=("usd_layers", "textures"), modules=("pipeline.usd",),
                             libraries=LIBS_USD, codec=FILES, publish=""))
     if verify:
-        # One item: pipeline.render.verify renders its fixed view set in one call. The graph supports per-view
-        # items (Stage.items), used as soon as the verifier can render a chosen subset of views.
-        stages.append(Stage("verify", run_verify, config=("verify.width", "verify.height"),
+        # Per-view items planned from the assembled asset: a view re-renders only when its own plan entry (its
+        # parameters, the digest of the scene content it renders) or the verify code changes. The stage itself
+        # (validation and the report) reruns whenever any published file changes.
+        stages.append(Stage("verify", run_verify, config=("verify.width", "verify.height", "verify.views"),
                             deps=tuple(s.name for s in stages if s.publish is not None),
                             modules=("pipeline.render", "pipeline.usd", "pipeline.lut", "pipeline.films",
                                      "pipeline.optics", "pipeline.spectral"),
                             data=("materials", "schemas/plugInfo.json", "schemas/generatedSchema.usda"),
-                            libraries=LIBS_RENDER, codec=JSON, needs_asset=True, publish="verify"))
+                            libraries=LIBS_RENDER, codec=JSON, needs_asset=True, publish="verify",
+                            item_plan=plan_verify, batch=True, combine=combine_verify, item_codec=VIEW_RESULT))
     return stages

@@ -20,11 +20,15 @@ the sweep.
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import hashlib
 import json
 import os
 import platform
+import shutil
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -36,6 +40,8 @@ BOUNDARY_SWEEP_ANGLE_DEG = 90.0
 #: Each of green and purple must hold at least this fraction of the chromatic sweep pixels.
 MIN_HUE_FRACTION = 0.02
 DEFAULT_SIZE = 512
+#: Turntable + light-sweep views of pipeline.render.views.default_views (the boundary sweep view is added).
+DEFAULT_VIEWS = 4
 LIBRARIES = ("numpy", "scipy", "colour", "trimesh", "embreex", "pxr", "pyrender", "OpenGL", "PIL",
              "matplotlib", "OpenEXR", "MaterialX")
 
@@ -131,11 +137,12 @@ def _jsonable(obj):
         return str(obj)
 
 
-def verification_views(scene, width: int, height: int) -> list:
-    """The default views plus the light sweep at :data:`BOUNDARY_SWEEP_ANGLE_DEG` (same still camera)."""
+def verification_views(scene, width: int, height: int, n_views: int = DEFAULT_VIEWS) -> list:
+    """The default views (``n_views`` of them) plus the light sweep at :data:`BOUNDARY_SWEEP_ANGLE_DEG`
+    (same still camera)."""
     from .views import default_views, light_sweep_views
 
-    views = default_views(scene, width, height)
+    views = default_views(scene, width, height, n=n_views)
     sweep = [v for v in views if v.name.startswith("sweep_")]
     if sweep:
         s = sweep[0]
@@ -153,8 +160,306 @@ def _default_out_dir(layer_path: str) -> str:
     return os.path.join(os.path.dirname(os.path.abspath(layer_path)), "verify")
 
 
+# -- assets without a LUT (physical-only shading) ------------------------------------------------------------
+#: Size of the verification-only LUT baked for an asset that has none (issue 2's default size).
+VERIFY_LUT_ANGLES = 256
+VERIFY_LUT_THICKNESSES = 64
+PHYSICAL_ONLY_NOTE = (
+    "physical-only asset (no LUT): its MaterialX shading hands the film to a renderer's own thin-film BSDF, which "
+    "no renderer here implements; the GL renderer draws the paper's LUT method, so verification baked a "
+    "verification-only LUT ({shape}, {lo:g}-{hi:g} nm, not part of the asset) in memory from the film the asset "
+    "records (RockDoveThinFilmAPI) and checked it against the exact spectral reference: geometry, textures, "
+    "thickness primvar and film are verified; the physical MaterialX network itself is only validated")
+
+
+def _lutless_film(layer: str) -> dict | None:
+    """The thin film of an asset that records one without a LUT (no ``rockdove:lut:file``), else None."""
+    import math
+
+    from pxr import Usd, UsdGeom
+
+    from ..usd.schema import has_thin_film, read_thin_film
+
+    stage = Usd.Stage.Open(layer, Usd.Stage.LoadAll)
+    for prim in Usd.PrimRange(stage.GetPseudoRoot()):
+        if not has_thin_film(prim) or prim.GetAttribute("rockdove:lut:file").HasAuthoredValue():
+            continue
+        film = read_thin_film(prim)
+        pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "thickness")
+        d = np.asarray(pv.ComputeFlattened() if pv else [], np.float64)
+        if d.size == 0 or not np.all(np.isfinite(d)):
+            raise ValueError(f"asset {layer!r}: {prim.GetPath()} records a film but no finite thickness primvar")
+        return {"prim": str(prim.GetPath()), "film": film, "default_prim": stage.GetDefaultPrim().GetName(),
+                "up_axis": UsdGeom.GetStageUpAxis(stage), "meters_per_unit": UsdGeom.GetStageMetersPerUnit(stage),
+                "thickness_range_nm": (float(math.floor(d.min())), float(math.ceil(d.max())))}
+    return None
+
+
+def verification_lut(film_record: dict, thickness_range_nm):
+    """The verification-only LUT of a LUT-less asset: baked (default method) from the film it records.
+
+    Parameters
+    ----------
+    film_record : dict
+        :func:`pipeline.usd.schema.read_thin_film` of the feathers.
+    thickness_range_nm : (float, float)
+        The thickness range on the mesh, nm (whole nm, rounded outward, as the build's LUT).
+
+    Returns
+    -------
+    ThinFilmLUT
+        ``metadata["purpose"]`` says it is verification-only.
+    """
+    from ..films import FilmModel
+    from ..lut.bake import bake
+    from ..lut.table import ThinFilmLUT
+
+    film = FilmModel(name=str(film_record["model"]), cauchy_a=film_record["cauchy_a"],
+                     cauchy_b_nm2=film_record["cauchy_b_nm2"], n_incident=film_record["incident_index"],
+                     n_substrate=film_record["substrate_index"])
+    lo, hi = (float(v) for v in thickness_range_nm)
+    lut = bake(angles=VERIFY_LUT_ANGLES, thicknesses=1 if lo == hi else VERIFY_LUT_THICKNESSES,
+               thickness_range=(lo, hi), film=film)
+    return ThinFilmLUT(lut.rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
+                       colour_space=lut.colour_space,
+                       metadata={**lut.metadata, "purpose": "verification only (rockdove verify, in memory): the "
+                                 "asset has no LUT"})
+
+
+def _wrapper_layer(path: str, layer: str, info: dict, lut_file: str, lut) -> str:
+    """A root layer that sublayers the asset and adds the ``rockdove:lut:*`` attributes of ``lut_file``."""
+    from pxr import Gf, Sdf, Usd, UsdGeom
+
+    wrapper = Sdf.Layer.CreateNew(path)
+    wrapper.subLayerPaths.append(os.path.abspath(layer))
+    wrapper.defaultPrim = info["default_prim"]
+    spec = Sdf.CreatePrimInLayer(wrapper, info["prim"])
+    lo, hi = lut.thickness_range_nm
+    values = {"file": (Sdf.ValueTypeNames.Asset, Sdf.AssetPath(lut_file)),
+              "colorSpace": (Sdf.ValueTypeNames.Token, lut.colour_space),
+              "angleWarpGamma": (Sdf.ValueTypeNames.Float, float(lut.angle_warp_gamma)),
+              "thicknessRangeNm": (Sdf.ValueTypeNames.Float2, Gf.Vec2f(lo, hi)),
+              "illuminant": (Sdf.ValueTypeNames.Token, str(lut.metadata.get("illuminant", "D65"))),
+              "observer": (Sdf.ValueTypeNames.String, str(lut.metadata.get("observer", "")))}
+    for name, (type_name, value) in values.items():
+        Sdf.AttributeSpec(spec, f"rockdove:lut:{name}", type_name).default = value
+    wrapper.Save()
+    stage = Usd.Stage.Open(wrapper, Usd.Stage.LoadNone)  # stage metadata comes from the root layer only
+    UsdGeom.SetStageUpAxis(stage, info["up_axis"])
+    UsdGeom.SetStageMetersPerUnit(stage, info["meters_per_unit"])
+    wrapper.Save()
+    return path
+
+
+@contextlib.contextmanager
+def verification_scene(asset):
+    """Read an asset back for verification: ``(root layer, RenderScene, LUT override or None, notes)``.
+
+    An asset with a LUT is read as it is. A LUT-less (physical-only) asset gets a verification-only LUT
+    (:func:`verification_lut`), written with a wrapper layer into a temporary folder that lives as long as
+    the context, and a note saying so (:data:`PHYSICAL_ONLY_NOTE`); ``scene.root_layer`` stays the asset's.
+    """
+    from ..lut.exr import write_exr
+    from .scene import load_scene, resolve_asset_path
+
+    layer = resolve_asset_path(asset)
+    info = _lutless_film(layer)
+    if info is None:
+        yield layer, load_scene(layer), None, []
+        return
+    lut = verification_lut(info["film"], info["thickness_range_nm"])
+    with tempfile.TemporaryDirectory(prefix="rockdove-verify-") as tmp:
+        lut_file = write_exr(lut, os.path.join(tmp, "verification_lut.exr"))
+        wrapper = _wrapper_layer(os.path.join(tmp, "verify_root.usda"), layer, info, lut_file, lut)
+        scene = dataclasses.replace(load_scene(wrapper), root_layer=layer)
+        lo, hi = lut.thickness_range_nm
+        note = PHYSICAL_ONLY_NOTE.format(shape=f"{lut.n_thickness} x {lut.n_angle}", lo=lo, hi=hi)
+        yield layer, scene, lut, [note]
+
+
+# -- per-view rendering and checks ---------------------------------------------------------------------------
+def scene_digest(scene) -> str:
+    """sha256 of what a verification view reads from a scene: every part's arrays, material values and texture
+    bytes, the film and the LUT's bytes, the variant selections; not file paths (an asset moved or rebuilt
+    with the same content has the same digest)."""
+    h = hashlib.sha256()
+
+    def add(label, data: bytes):
+        h.update(label.encode() + b"\0" + data + b"\0")
+
+    def add_file(label, path):
+        if path:
+            with open(path, "rb") as f:
+                add(label, f.read())
+
+    for p in scene.parts:
+        meta = {"name": p.name, "kind": p.material_kind, "srgb": bool(p.base_colour_srgb),
+                "base_colour": np.asarray(p.base_colour, np.float64).tolist(),
+                "opacity_threshold": float(p.opacity_threshold)}
+        add("part", json.dumps(meta, sort_keys=True).encode())
+        for f in ("positions_m", "normals", "triangles", "st", "thickness_nm", "neck_s"):
+            a = getattr(p, f)
+            if a is not None:
+                a = np.ascontiguousarray(a)
+                add(f"{p.name}.{f}:{a.dtype.str}:{a.shape}", a.tobytes())
+        add_file(f"{p.name}.base", p.base_colour_texture)
+        add_file(f"{p.name}.mask", p.mask_texture)
+    if scene.film is not None:
+        film = {k: v for k, v in scene.film.to_dict().items() if k != "lut_file"}
+        add("film", json.dumps(film, sort_keys=True, default=str).encode())
+        add_file("lut", scene.film.lut_file)
+    add("variants", json.dumps(dict(scene.variants), sort_keys=True).encode())
+    return h.hexdigest()
+
+
+def _select(all_views: list, names) -> list:
+    if names is None:
+        return list(all_views)
+    known = {v.name: v for v in all_views}
+    names = list(names)
+    unknown = [n for n in names if n not in known]
+    if unknown or not names:
+        raise ValueError(f"views={names!r}: unknown or none; allowed names: {sorted(known)}")
+    return [known[n] for n in dict.fromkeys(names)]
+
+
+def plan_views(asset, width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE, n_views: int = DEFAULT_VIEWS) -> dict:
+    """What each verification view reads: ``{view name: {"view": View.to_dict(), "scene": scene_digest}}``.
+
+    Two plans are equal exactly when the renders and checks of those views would be the same, so a build can
+    key each view by its entry (pipeline.build.stages) and re-render only views whose entry changed.
+    """
+    _check_size(width, height)
+    with verification_scene(asset) as (_, scene, _, _):
+        digest = scene_digest(scene)
+        return {v.name: {"view": v.to_dict(), "scene": digest}
+                for v in verification_views(scene, int(width), int(height), n_views)}
+
+
+def _check_size(width, height) -> None:
+    for key, v in (("width", width), ("height", height)):
+        if isinstance(v, bool) or int(v) != v or int(v) < 16:
+            raise ValueError(f"{key} must be an integer >= 16, got {v!r}")
+
+
+def _render_and_check(scene, lut, views, out: str, *, subfolders: bool, say) -> dict:
+    """Render ``views`` (GL and reference), compare, write each view's images; ``{name: view result}``."""
+    from . import report as rep
+    from .reference import render_reference, to_display8
+
+    failures_all = []
+    say(f"GL renders ({len(views)} views)")
+    t = time.perf_counter()
+    try:
+        from .gl import render_views
+
+        gl_results = render_views(scene, views, lut=lut)
+    except ImportError as exc:
+        gl_results = None
+        failures_all.append(f"GL renderer pipeline.render.gl is not available ({exc})")
+    t_gl = (time.perf_counter() - t) / len(views)
+    say(f"CPU reference ({len(views)} views)")
+    t = time.perf_counter()
+    ref_results = render_reference(scene, views)
+    t_ref = (time.perf_counter() - t) / len(views)
+    say("comparing")
+    results = {}
+    for i, v in enumerate(views):
+        t = time.perf_counter()
+        folder = os.path.join(out, v.name) if subfolders else out
+        os.makedirs(folder, exist_ok=True)
+        m = cmp.compare(gl_results[i], ref_results[i], scene) if gl_results is not None else None
+        sweep = v.name.startswith("sweep_")
+        hue = boundary = None
+        if sweep:
+            cls = m.cls if m is not None else _reference_classes(ref_results[i], scene)
+            if m is not None:
+                pixels = np.asarray(cmp.gl_arrays(gl_results[i])["rgb"], np.float64)[cls >= 0]
+            else:
+                pixels = ref_results[i].rgb[cls >= 0].astype(np.float64)
+            hue = cmp.hue_histogram(pixels)
+            boundary = cmp.boundary_straightness(cls)
+        files, rows = {}, []
+        ref_png = to_display8(ref_results[i].rgb)
+        files["reference"] = os.path.basename(rep.save_png(os.path.join(folder, f"{v.name}_reference.png"), ref_png))
+        if gl_results is not None:
+            gl_png = to_display8(cmp.gl_arrays(gl_results[i])["rgb"])
+            files["gl"] = os.path.basename(rep.save_png(os.path.join(folder, f"{v.name}_gl.png"), gl_png))
+            rows.append(gl_png)
+        rows.append(ref_png)
+        if m is not None:
+            files["dE"] = os.path.basename(rep.de_map_png(
+                os.path.join(folder, f"{v.name}_dE.png"), m.de_map,
+                f"{v.name}: dE2000 median {m.de_median:.2f}, p95 {m.de_p95:.2f}, max {m.de_max:.2f}"))
+            rows.append(rep.de_colour(m.de_map))
+        results[v.name] = {
+            "view": v.name, "setup": v.to_dict(), "sweep": sweep,
+            "metrics": m.summary() if m is not None else None,
+            "failures": list(failures_all) + (list(m.failures) if m is not None else []),
+            "reference": {"view": ref_results[i].view, "timings_s": ref_results[i].timings_s,
+                          "stats": ref_results[i].stats},
+            "hue": hue, "boundary": boundary, "files": files, "dir": os.path.abspath(folder),
+            "timings_s": {"gl": t_gl, "reference": t_ref, "compare": time.perf_counter() - t},
+            "sheet_row": rows,
+        }
+    return results
+
+
+def verify_views(asset, views=None, out_dir=None, width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE,
+                 n_views: int = DEFAULT_VIEWS, subfolders: bool = False, progress=None) -> dict:
+    """Render and check a subset of the verification views; results that can be cached and combined.
+
+    Parameters
+    ----------
+    asset : path
+        The asset folder or its root layer.
+    views : list of str, optional
+        View names (:func:`plan_views` lists them); default all.
+    out_dir : path, optional
+        Where the images go (default ``verify/`` beside the root layer).
+    width, height : int
+        Render size, pixels (>= 16).
+    n_views : int
+        Turntable + sweep views of :func:`verification_views` (the boundary sweep view is added).
+    subfolders : bool
+        Write each view's images into ``out_dir/<view>/`` (one cacheable folder per view).
+    progress : callable, optional
+
+    Returns
+    -------
+    dict
+        View name -> result: ``view``, ``setup`` (View.to_dict), ``sweep`` (bool), ``metrics``
+        (ViewMetrics.summary or None without GL), ``failures``, ``reference`` (timings, stats), ``hue``
+        (hue_histogram counts of a sweep view's compared pixels, else None), ``boundary`` (sweep views),
+        ``files`` (image file names), ``dir`` (their folder), ``timings_s``, ``notes``, and ``sheet_row`` (the
+        contact-sheet images, uint8 arrays: not JSON). Combine them with :func:`report_from_views`.
+    """
+    _check_size(width, height)
+    say = progress or (lambda msg: None)
+    with verification_scene(asset) as (layer, scene, lut, notes):
+        out = os.path.abspath(os.fspath(out_dir)) if out_dir else _default_out_dir(layer)
+        os.makedirs(out, exist_ok=True)
+        chosen = _select(verification_views(scene, int(width), int(height), n_views), views)
+        results = _render_and_check(scene, lut, chosen, out, subfolders=subfolders, say=say)
+    for r in results.values():
+        r["notes"] = list(notes)
+    return results
+
+
+def report_from_views(asset, view_results: dict, out_dir=None, width: int = DEFAULT_SIZE,
+                      height: int = DEFAULT_SIZE, bench_dir=None, progress=None, *, reused=()) -> dict:
+    """Validate the asset and combine per-view results (:func:`verify_views`, possibly from a cache) into the
+    report (``report.json``, ``report.html`` and the images in ``out_dir``); returns the report dict.
+
+    ``reused`` names the views whose results came from a cache (recorded in the report).
+    """
+    with verification_scene(asset) as (layer, scene, lut, notes):
+        return _combine(layer, scene, lut, notes, view_results, out_dir, width, height, bench_dir,
+                        progress or (lambda msg: None), reused=reused, t_start=time.perf_counter())
+
+
 def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE,
-                 bench_dir=None, progress=None) -> dict:
+                 bench_dir=None, progress=None, views=None, n_views: int = DEFAULT_VIEWS) -> dict:
     """Validate, render and check an asset; write the report into ``out_dir``; return the report dict.
 
     Parameters
@@ -169,114 +474,88 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
         Folder of benchmark plots to include (default ``build/bench`` under the current directory).
     progress : callable, optional
         ``progress(message)`` for each step.
+    views : list of str, optional
+        Check only these views (names as in :func:`plan_views`); default all. With a subset that holds no
+        light-sweep view the hue check cannot run: the report says so in ``notes`` (it is not counted as met).
+    n_views : int
+        Turntable + sweep views (:func:`pipeline.render.views.default_views`), plus the boundary sweep view.
 
     Returns
     -------
-    dict: the content of report.json; ``report["passed"]`` says whether verification passed and
-    ``report["failures"]`` why not.
+    dict: the content of report.json; ``report["passed"]`` says whether verification passed,
+    ``report["failures"]`` why not, ``report["notes"]`` what was not or differently checked (e.g. a
+    physical-only asset's verification-only LUT).
     """
-    from . import report as rep
-    from .reference import render_reference, to_display8
-    from .scene import load_scene, resolve_asset_path
-
-    for key, v in (("width", width), ("height", height)):
-        if int(v) != v or int(v) < 16:
-            raise ValueError(f"{key} must be an integer >= 16, got {v!r}")
+    _check_size(width, height)
     say = progress or (lambda msg: None)
     t_start = time.perf_counter()
-    layer = resolve_asset_path(asset)
+    with verification_scene(asset) as (layer, scene, lut, notes):
+        out = os.path.abspath(os.fspath(out_dir)) if out_dir else _default_out_dir(layer)
+        os.makedirs(out, exist_ok=True)
+        chosen = _select(verification_views(scene, int(width), int(height), n_views), views)
+        results = _render_and_check(scene, lut, chosen, out, subfolders=False, say=say)
+        return _combine(layer, scene, lut, notes, results, out, width, height, bench_dir, say, t_start=t_start)
+
+
+def _combine(layer, scene, lut, notes, results: dict, out_dir, width, height, bench_dir, say, *, reused=(),
+             t_start) -> dict:
+    from . import report as rep
+
     out = os.path.abspath(os.fspath(out_dir)) if out_dir else _default_out_dir(layer)
     os.makedirs(out, exist_ok=True)
-    timings, failures = {}, []
-
+    timings, failures, notes = {}, [], list(notes)
     say("validating")
     t = time.perf_counter()
     validation = run_validation(layer)
     timings["validation"] = time.perf_counter() - t
     if not validation["passed"]:
         failures.append("validation: " + (validation["error"] or "the validator reported problems"))
-
-    say("reading the asset back")
-    t = time.perf_counter()
-    scene = load_scene(layer)
-    timings["load_scene"] = time.perf_counter() - t
-    views = verification_views(scene, int(width), int(height))
-
-    say(f"GL renders ({len(views)} views)")
-    t = time.perf_counter()
-    try:
-        from .gl import render_views
-
-        gl_results = render_views(scene, views)
-    except ImportError as exc:
-        gl_results = None
-        failures.append(f"GL renderer pipeline.render.gl is not available ({exc})")
-    timings["gl"] = time.perf_counter() - t
-
-    say(f"CPU reference ({len(views)} views)")
-    t = time.perf_counter()
-    ref_results = render_reference(scene, views)
-    timings["reference"] = time.perf_counter() - t
-
-    say("comparing")
-    t = time.perf_counter()
-    metrics = []
-    if gl_results is not None:
-        metrics = [cmp.compare(g, r, scene) for g, r in zip(gl_results, ref_results)]
-        for m in metrics:
-            failures.extend(m.failures)
-        if sum(m.n_pixels for m in metrics) == 0:
-            failures.append("no view has feather pixels away from silhouette edges to compare")
-    sweep_idx = [i for i, v in enumerate(views) if v.name.startswith("sweep_")]
-    sweep_pixels = []
-    boundary = {}
-    for i in sweep_idx:
-        m_cls = metrics[i].cls if metrics else _reference_classes(ref_results[i], scene)
-        if metrics:
-            mask = m_cls >= 0
-            sweep_pixels.append(np.asarray(cmp.gl_arrays(gl_results[i])["rgb"], np.float64)[mask])
-        else:
-            sweep_pixels.append(ref_results[i].rgb[m_cls >= 0].astype(np.float64))
-        boundary[views[i].name] = cmp.boundary_straightness(m_cls)
-    hue = cmp.hue_histogram(np.concatenate(sweep_pixels) if sweep_pixels else np.zeros((0, 3)))
-    chromatic = hue["green"] + hue["purple"] + hue["other"]
-    for name in ("green", "purple"):
-        if chromatic == 0 or hue[name] < MIN_HUE_FRACTION * chromatic:
-            failures.append(f"hue: the light sweep shows too little {name} ({hue[name]} of {chromatic} chromatic "
-                            f"feather pixels, need >= {MIN_HUE_FRACTION:.0%})")
-    timings["compare"] = time.perf_counter() - t
+    results = list(results.values())
+    for key in ("gl", "reference", "compare"):
+        timings[key] = sum(r["timings_s"][key] for r in results)
+    for r in results:
+        failures.extend(f for f in r["failures"] if f not in failures)
+    metrics = [r["metrics"] for r in results if r["metrics"] is not None]
+    if metrics and sum(m["n_pixels"] for m in metrics) == 0:
+        failures.append("no view has feather pixels away from silhouette edges to compare")
+    sweeps = [r for r in results if r["sweep"]]
+    if sweeps:
+        hue = {k: v for k, v in sweeps[0]["hue"].items()}
+        for r in sweeps[1:]:
+            for k in ("grey", "green", "purple", "other"):
+                hue[k] += r["hue"][k]
+            hue["counts"] = [a + b for a, b in zip(hue["counts"], r["hue"]["counts"])]
+        chromatic = hue["green"] + hue["purple"] + hue["other"]
+        for name in ("green", "purple"):
+            if chromatic == 0 or hue[name] < MIN_HUE_FRACTION * chromatic:
+                failures.append(f"hue: the light sweep shows too little {name} ({hue[name]} of {chromatic} "
+                                f"chromatic feather pixels, need >= {MIN_HUE_FRACTION:.0%})")
+    else:
+        hue = cmp.hue_histogram(np.zeros((0, 3)))
+        notes.append("hue check not run: no light-sweep view among the views checked "
+                     f"({', '.join(r['view'] for r in results)})")
 
     say("writing the report")
     t = time.perf_counter()
     images = {"views": {}}
     sheet_rows = []
-    for i, v in enumerate(views):
-        files = {}
-        ref_png = to_display8(ref_results[i].rgb)
-        files["reference"] = os.path.basename(rep.save_png(os.path.join(out, f"{v.name}_reference.png"), ref_png))
-        row = []
-        if gl_results is not None:
-            gl_png = to_display8(cmp.gl_arrays(gl_results[i])["rgb"])
-            files["gl"] = os.path.basename(rep.save_png(os.path.join(out, f"{v.name}_gl.png"), gl_png))
-            row.append(gl_png)
-        row.append(ref_png)
-        if metrics:
-            m = metrics[i]
-            files["dE"] = os.path.basename(rep.de_map_png(
-                os.path.join(out, f"{v.name}_dE.png"), m.de_map,
-                f"{v.name}: dE2000 median {m.de_median:.2f}, p95 {m.de_p95:.2f}, max {m.de_max:.2f}"))
-            row.append(rep.de_colour(m.de_map))
-        images["views"][v.name] = files
-        sheet_rows.append((v.name, row))
+    for r in results:
+        if os.path.abspath(r["dir"]) != out:
+            for f in r["files"].values():
+                shutil.copyfile(os.path.join(r["dir"], f), os.path.join(out, f))
+        images["views"][r["view"]] = dict(r["files"])
+        sheet_rows.append((r["view"], list(r["sheet_row"])))
     images["contact_sheet"] = os.path.basename(rep.contact_sheet(os.path.join(out, "contact_sheet.png"), sheet_rows))
     lut_info = None
     if scene.film is not None:
         try:
-            lut = scene.load_lut()
-            images["lut"] = os.path.basename(rep.lut_png(os.path.join(out, "lut.png"), lut))
-            lut_info = {"file": scene.film.lut_file, "shape": [lut.n_thickness, lut.n_angle],
-                        "thickness_range_nm": list(lut.thickness_range_nm), "angle_warp_gamma": lut.angle_warp_gamma,
-                        "colour_space": lut.colour_space, "metadata": dict(lut.metadata)}
+            lut_used = lut if lut is not None else scene.load_lut()
+            images["lut"] = os.path.basename(rep.lut_png(os.path.join(out, "lut.png"), lut_used))
+            lut_info = {"file": None if lut is not None else scene.film.lut_file,
+                        "shape": [lut_used.n_thickness, lut_used.n_angle],
+                        "thickness_range_nm": list(lut_used.thickness_range_nm),
+                        "angle_warp_gamma": lut_used.angle_warp_gamma, "colour_space": lut_used.colour_space,
+                        "metadata": dict(lut_used.metadata), "verification_only": lut is not None}
         except (ValueError, OSError) as exc:
             failures.append(f"LUT {scene.film.lut_file!r} could not be read: {exc}")
         lo, hi = scene.film.thickness_range_nm
@@ -290,22 +569,28 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
     timings["total"] = time.perf_counter() - t_start
 
     config = _asset_configuration(layer)
+    film = scene.film.to_dict() if scene.film is not None else None
+    if film is not None and lut is not None:
+        film["lut_file"] = None  # the verification-only LUT's temporary file is gone
     report = {
         "asset": layer,
         "asset_sha256": digest(layer),
         "out_dir": out,
         "passed": not failures,
         "failures": failures,
+        "notes": notes,
         "goals": {"median_dE": cmp.MEDIAN_DE_GOAL, "p95_dE": cmp.P95_DE_GOAL,
                   "black_fraction": cmp.BLACK_FRACTION_GOAL, "min_hue_fraction": MIN_HUE_FRACTION},
         "validation": validation,
-        "views": [m.summary() for m in metrics],
-        "view_setup": [v.to_dict() for v in views],
-        "reference": [{"view": r.view, "timings_s": r.timings_s, "stats": r.stats} for r in ref_results],
+        "views": metrics,
+        "views_reused": [n for n in (r["view"] for r in results) if n in set(reused)],
+        "view_setup": [r["setup"] for r in results],
+        "reference": [r["reference"] for r in results],
         "hue_sweep": hue,
-        "boundary": {"per_view": boundary, "method": "TLS line through green/purple boundary points; RMS "
-                     "perpendicular distance (px) and RMS / boundary length"},
-        "film": scene.film.to_dict() if scene.film is not None else None,
+        "boundary": {"per_view": {r["view"]: r["boundary"] for r in sweeps},
+                     "method": "TLS line through green/purple boundary points; RMS perpendicular distance (px) "
+                               "and RMS / boundary length"},
+        "film": film,
         "lut": lut_info,
         "variants": dict(scene.variants),
         "configuration": config,
@@ -316,7 +601,15 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
         "argv": list(sys.argv),
     }
     rep.write_json(os.path.join(out, "report.json"), report)
-    rep.write_html(os.path.join(out, "report.html"), report, images)
+    html_path = rep.write_html(os.path.join(out, "report.html"), report, images)
+    if notes:  # pipeline.render.report's page has no notes section: add one under the verdict
+        import html as _html
+
+        with open(html_path, encoding="utf-8") as f:
+            page = f.read()
+        block = "<h2>Notes</h2><ul>" + "".join(f"<li>{_html.escape(n)}</li>" for n in notes) + "</ul>"
+        with open(html_path, "w", encoding="utf-8") as f:
+            f.write(page.replace("</h1>", "</h1>" + block, 1))
     return report
 
 
@@ -351,6 +644,7 @@ def summary(report: dict) -> dict:
         "validation": report["validation"]["passed"],
         "views": {m["view"]: {k: m[k] for k in ("n_pixels", "de_median", "de_p95", "de_max", "n_black", "passed")}
                   for m in report["views"]},
+        "notes": list(report.get("notes", [])),
         "hue_sweep": {k: report["hue_sweep"][k] for k in ("green", "purple", "grey", "other")},
         "boundary_rms_px": {k: v["rms_px"] for k, v in report["boundary"]["per_view"].items()},
         "timings_s": report["timings_s"],
