@@ -32,8 +32,9 @@ class Body:
     mesh : body.BodyMesh
         Welded closed surface (for sampling, inside tests and ray casts).
     part : MeshPart
-        ``"Body"``: vertices split at UV seams, st from xatlas (on the coarse mesh, interpolated by subdivision), primvar ``neckS`` ((V,) float32 in [0, 1],
-        the neck coordinate clipped to [0, 1]) and ``neckBand`` ((V,) float32, 1 inside the neck band).
+        ``"Body"``: vertices split at UV seams, st from xatlas (on the coarse mesh, interpolated by subdivision),
+        primvar ``neckS`` ((V,) float32 in [0, 1], the neck coordinate clipped to [0, 1]) and ``neckBand``
+        ((V,) float32, 1 inside the neck band).
     """
 
     mesh: _body.BodyMesh

@@ -5,7 +5,7 @@ grid cell that the surface crosses (the mean of its edge crossings), one quad pe
 joining the four cells around that edge. Each vertex is then projected onto the zero set by Newton steps
 along the field gradient, so the mesh is smooth and on the surface. For a field that is smooth at the grid
 scale every interior edge is shared by exactly two quads, so the mesh is closed (the tests check it with
-trimesh at every subdivision level the detail setting can ask for). Normals are the unit field gradient (outward).
+trimesh at subdivision levels 0, 1 and 2). Normals are the unit field gradient (outward).
 
 Detail without a slow unwrap: xatlas's time grows faster than linearly with the face count (2.6 s at 17.6k
 faces, 26-29 s at 70.6k on the project's 2-core machine), so the body is meshed on a coarse grid
@@ -15,7 +15,7 @@ the new vertices projected onto the implicit surface after every level, normals 
 midpoint on a seam is the mean of the same two endpoint positions on both sides, so the two copies are
 bitwise equal; they are welded by exact position before projection, projected once, and scattered back, so
 they stay equal and the welded mesh stays closed. Projecting after each level (rather than once at the end)
-moves each new vertex by a quarter as much at the finest level; on the 8 mm body it leaves no triangle
+moves each new vertex about a quarter as far at the finest level; on the 8 mm body it leaves no triangle
 folded against the field's normal (projecting once at the end folded a few on the tail's thin edge).
 
 After each level's projection the welded vertices get a few steps of tangential relaxation, the smoothing
@@ -188,8 +188,8 @@ def _check_voxel(voxel_m) -> float:
 def build_body_mesh(voxel_m: float = UNWRAP_VOXEL_M) -> BodyMesh:
     """The rock dove's body (torso, neck, head, folded wings, tail) as one closed surface, welded, no UVs.
 
-    Surface nets on a grid of ``voxel_m``: no subdivision (see :func:`build_unwrapped_body` for the detailed,
-    unwrapped body).
+    Surface nets on a grid of ``voxel_m``, no subdivision (:func:`pipeline.geometry.build_body` builds the
+    detailed, unwrapped body from the :data:`UNWRAP_VOXEL_M` one).
 
     Parameters
     ----------
@@ -253,7 +253,7 @@ def relax_on_surface(field, points_m: np.ndarray, faces: np.ndarray, iterations:
     Returns
     -------
     np.ndarray
-        (W, 3) float64 relaxed vertices, on the surface to about 1e-5 m.
+        (W, 3) float64 relaxed vertices, on the surface to about 1e-5 m (default body: 4e-6 m at most).
     """
     import trimesh
     from trimesh import smoothing
