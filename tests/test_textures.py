@@ -15,7 +15,7 @@ def feather():
 
 @pytest.fixture(scope="module")
 def coarse_body():
-    return build_body(BirdParams(body_voxel_m=0.007))
+    return build_body(BirdParams(body_voxel_m=0.004))  # one subdivision level: st interpolated by subdivision
 
 
 def _luma(rgb):
