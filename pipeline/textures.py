@@ -183,6 +183,11 @@ def body_colour_at(points_m: np.ndarray) -> np.ndarray:
     return col
 
 
+#: Widening of a triangle's texel box, texels: far above what the barycentric tolerance (1e-9) admits outside a
+#: triangle (1e-9 of its size), far below a texel.
+BBOX_SLACK_TEXELS = 1e-6
+
+
 def rasterize_uv(st: np.ndarray, faces: np.ndarray, resolution: int, chunk: int = 4096):
     """Which triangle covers each texel, with barycentrics (vectorised over triangles and texels).
 
@@ -210,9 +215,12 @@ def rasterize_uv(st: np.ndarray, faces: np.ndarray, resolution: int, chunk: int 
     for start in range(0, len(faces), chunk):  # chunks bound the memory; each is vectorised
         f = faces[start:start + chunk]
         tri = xy[f]  # (C, 3, 2)
-        lo = np.clip(np.floor(tri.min(axis=1)).astype(np.int64), 0, res - 1)
-        hi = np.clip(np.ceil(tri.max(axis=1)).astype(np.int64), 0, res - 1)
-        nx, ny = hi[:, 0] - lo[:, 0] + 1, hi[:, 1] - lo[:, 1] + 1
+        # texel centres (integers here) within the triangle's bounding box, widened by BBOX_SLACK_TEXELS so
+        # that no centre the barycentric test below accepts is left out
+        lo = np.clip(np.ceil(tri.min(axis=1) - BBOX_SLACK_TEXELS).astype(np.int64), 0, res - 1)
+        hi = np.clip(np.floor(tri.max(axis=1) + BBOX_SLACK_TEXELS).astype(np.int64), 0, res - 1)
+        nx = np.maximum(hi[:, 0] - lo[:, 0] + 1, 0)
+        ny = np.maximum(hi[:, 1] - lo[:, 1] + 1, 0)
         n = nx * ny
         tid = np.repeat(np.arange(len(f)), n)
         local = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
