@@ -209,15 +209,44 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
 
     lo, hi = read_exr(asset / "textures/thinfilm_lut.exr").thickness_range_nm
     assert 480 <= lo < 600 and 600 < hi <= 700
-    # verification added: only the verify stage runs, on the same asset
+    # verification added: only the verify stage runs, on the same asset, every view rendered
     r = rockdove("build", "--out", "b/p", *TINY, cwd=tmp_path, env_extra=env, timeout=300)
     assert r.returncode == 0, r.stderr
     second = json.loads(r.stdout)
     assert second["ran"] == ["verify"] and second["verified"] is True
+    views = ["turntable_030", "turntable_210", "sweep_060", "sweep_120", "sweep_090"]
+    assert _verify_record(second)["items_ran"] == views
     assert json.loads((asset / "verify/report.json").read_text())["passed"] is True
-    # film index change: LUT, textures (the preview mixes the LUT in) and layers; geometry reused
-    r = rockdove("build", "--out", "b/p", "--no-verify", "--set", "film.cauchy_a=1.56", *TINY, cwd=tmp_path,
-                 env_extra=env, timeout=300)
+    verdict = json.loads((tmp_path / "b/.rockdove-cache/verify" / _verify_record(second)["key"] / "value/value.json")
+                         .read_text())
+    assert verdict["passed"] is True and verdict["views"] == views  # the view names (key "view") reach the verdict
+    # a change that renders the same scene (the usdz added, the recipe's description): no view re-rendered
+    r = rockdove("build", "--out", "b/p", *TINY, "--set", "usd.usdz=true", "--set", "description=metadata",
+                 cwd=tmp_path, env_extra=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    meta = json.loads(r.stdout)
+    assert meta["ran"] == ["usdz", "verify"] and meta["verified"] is True
+    assert _verify_record(meta)["items_ran"] == [] and _verify_record(meta)["items_reused"] == views
+    assert (asset / "pigeon.usdz").is_file() and (asset / "verify/sweep_090_gl.png").is_file()
+    # film index change: LUT, textures (the preview mixes the LUT in), layers and every view; geometry reused
+    r = rockdove("build", "--out", "b/p", "--set", "film.cauchy_a=1.56", *TINY, cwd=tmp_path, env_extra=env,
+                 timeout=300)
+    assert r.returncode == 0, r.stderr
     third = json.loads(r.stdout)
-    assert third["ran"] == ["lut", "textures", "usd_layers"]
+    assert third["ran"] == ["lut", "textures", "usd_layers", "verify"]
     assert {"body", "bird", "thickness_range", "texture_images"} == set(third["reused"])
+    assert _verify_record(third)["items_ran"] == views
+    # physical-only shading: no bake at all (the lut stage is not in the graph), verified with a note
+    r = rockdove("build", "--out", "b/p", "--set", "shading.variant=physical", *TINY, cwd=tmp_path, env_extra=env,
+                 timeout=300)
+    assert r.returncode == 0, r.stderr
+    fourth = json.loads(r.stdout)
+    assert "lut" not in fourth["ran"] + fourth["reused"] and fourth["verified"] is True
+    assert {"textures", "usd_layers", "verify"} <= set(fourth["ran"])
+    assert not (asset / "textures/thinfilm_lut.exr").exists()
+    report = json.loads((asset / "verify/report.json").read_text())
+    assert report["passed"] and report["lut"]["verification_only"] and "physical-only" in report["notes"][0]
+
+
+def _verify_record(summary: dict) -> dict:
+    return next(s for s in summary["stages"] if s["name"] == "verify")

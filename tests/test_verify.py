@@ -127,3 +127,62 @@ def test_boundary_is_straight_for_uniform_thickness_and_bends_for_a_gradient(tmp
     assert results["uniform"]["rms_px"] < 0.5
     assert results["graded"]["rms_px"] > 1.5
     assert results["graded"]["rms_fraction"] > 0.02 > 5 * results["uniform"]["rms_fraction"]
+
+
+@pytest.mark.gl
+def test_views_checked_one_at_a_time_combine_into_the_same_report(assets, tmp_path):
+    """Per-view results (as the build caches them) give the same metrics as one call over the same views; a
+    subset without a light-sweep view says the hue check did not run rather than passing it silently."""
+    from pipeline.render import verify
+
+    layer = assets["good"]
+    plan = verify.plan_views(layer, 48, 48)
+    assert list(plan) == ["turntable_030", "turntable_210", "sweep_060", "sweep_120", "sweep_090"]
+    assert len({p["scene"] for p in plan.values()}) == 1 and plan == verify.plan_views(layer, 48, 48)
+    assert verify.plan_views(layer, 64, 48)["sweep_090"] != plan["sweep_090"]  # the size is part of a view
+    names = ["turntable_030", "sweep_090"]
+    whole = verify.verify_asset(layer, out_dir=tmp_path / "whole", width=48, height=48, views=names,
+                                bench_dir=tmp_path / "none")
+    parts = {}
+    for n in names:  # separately, each in its own folder, as cached build items
+        parts.update(verify.verify_views(layer, [n], out_dir=tmp_path / "items", width=48, height=48,
+                                         subfolders=True))
+    assert os.path.isfile(tmp_path / "items" / "sweep_090" / "sweep_090_gl.png")
+    combined = verify.report_from_views(layer, parts, out_dir=tmp_path / "combined", width=48, height=48,
+                                        bench_dir=tmp_path / "none", reused=["turntable_030"])
+    assert whole["passed"] and combined["passed"], (whole["failures"], combined["failures"])
+    assert [m["view"] for m in combined["views"]] == names and combined["views_reused"] == ["turntable_030"]
+    for a, b in zip(whole["views"], combined["views"]):
+        assert a["n_pixels"] == b["n_pixels"] and a["de_median"] == pytest.approx(b["de_median"])
+    assert whole["hue_sweep"]["green"] == combined["hue_sweep"]["green"] > 0
+    assert (tmp_path / "combined" / "sweep_090_dE.png").is_file() and whole["notes"] == []
+    only_turntable = verify.verify_asset(layer, out_dir=tmp_path / "tt", width=48, height=48,
+                                         views=["turntable_030"], bench_dir=tmp_path / "none")
+    assert any(n.startswith("hue check not run") for n in only_turntable["notes"])
+    assert "Notes" in (tmp_path / "tt" / "report.html").read_text()
+    with pytest.raises(ValueError, match="views=.*sweep_999.*allowed names"):
+        verify.verify_views(layer, ["sweep_999"], out_dir=tmp_path / "x", width=48, height=48)
+
+
+@pytest.mark.gl
+def test_physical_only_asset_is_verified_with_a_verification_only_lut_and_says_so(tmp_path):
+    from pipeline.assemble import assemble
+    from pipeline.films import get_film
+    from pipeline.usd.synthetic import synthetic_bird, synthetic_textures
+
+    feather, body = synthetic_textures()
+    asset = assemble(tmp_path / "physical", bird=synthetic_bird(60, seed=1, thickness_range_nm=(650.0, 650.0)),
+                     feather_textures=feather, body_texture=body, film=get_film("paper"), usdz=False,
+                     shading="physical")
+    assert "lut" not in asset
+    out = tmp_path / "report"
+    p = _rockdove("verify", asset["dir"], "--out", str(out), "--width", "64", "--height", "64", "--quiet")
+    assert p.returncode == 0, (p.stdout, p.stderr)
+    assert "note: physical-only asset (no LUT)" in p.stdout and "verification-only LUT" in p.stdout
+    report = json.loads((out / "report.json").read_text())
+    assert report["passed"] and len(report["views"]) == 5 and all(m["n_pixels"] > 0 for m in report["views"][2:])
+    assert len(report["notes"]) == 1 and "verification-only LUT" in report["notes"][0]
+    assert report["lut"]["verification_only"] and report["lut"]["shape"] == [1, 256]  # paper: uniform film
+    assert report["variants"] == {"shading": "physical"} and report["film"]["lut_file"] is None
+    assert not os.path.exists(os.path.join(asset["dir"], "textures", "thinfilm_lut.exr"))  # nothing added
+    assert "verification-only LUT" in (out / "report.html").read_text()

@@ -1,5 +1,10 @@
-"""``rockdove verify ASSET [--out DIR] [--json] [--width W --height H]``: validate an asset, render it with the
-GLSL shaders and with the exact CPU reference, check and report (:func:`pipeline.render.verify.verify_asset`).
+"""``rockdove verify ASSET [--out DIR] [--json] [--width W --height H] [--views N] [--view NAME ...]``: validate an
+asset, render it with the GLSL shaders and with the exact CPU reference, check and report
+(:func:`pipeline.render.verify.verify_asset`).
+
+A physical-only asset (no LUT) is checked with a verification-only LUT baked in memory from the film it
+records; the report's notes (printed here) say so, as they say when a check could not run (e.g. ``--view``
+without a light-sweep view: no hue check).
 
 Exit status 0 when everything passes, 1 when a check fails (:class:`pipeline.errors.VerificationFailed`),
 2 on bad usage (a ``ValueError``, turned into one line by the CLI).
@@ -24,6 +29,16 @@ def _size(text: str) -> int:
     return v
 
 
+def _count(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer number of views, got {text!r}") from None
+    if not 1 <= v <= 64:
+        raise argparse.ArgumentTypeError(f"must be between 1 and 64 views, got {v}")
+    return v
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("asset", metavar="ASSET", help="the asset folder or its root layer (pigeon.usda)")
     parser.add_argument("--out", metavar="DIR", default=None,
@@ -31,6 +46,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print the report summary as JSON on stdout")
     parser.add_argument("--width", type=_size, default=512, metavar="W", help="render width, pixels (default 512)")
     parser.add_argument("--height", type=_size, default=512, metavar="H", help="render height, pixels (default 512)")
+    parser.add_argument("--views", type=_count, default=4, metavar="N",
+                        help="turntable + light-sweep views (default 4), plus the sweep at the flip")
+    parser.add_argument("--view", dest="names", action="append", default=None, metavar="NAME",
+                        help="check only this view (repeatable), e.g. --view sweep_090; default all")
     parser.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
 
 
@@ -42,7 +61,8 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet and not args.json:
             print(f"rockdove verify: {msg}", file=sys.stderr)
 
-    report = verify_asset(args.asset, out_dir=args.out, width=args.width, height=args.height, progress=progress)
+    report = verify_asset(args.asset, out_dir=args.out, width=args.width, height=args.height, progress=progress,
+                          views=args.names, n_views=args.views)
     short = summary(report)
     if args.json:
         from ..render.report import strict_json
@@ -58,6 +78,8 @@ def run(args: argparse.Namespace) -> int:
         for name, b in report["boundary"]["per_view"].items():
             print(f"boundary {name}: {b['n_points']} points, RMS {b['rms_px']:.2f} px "
                   f"({b['rms_fraction']:.4f} of its length)")
+        for note in report.get("notes", []):
+            print(f"note: {note}")
         print(f"report: {report['out_dir']}/report.html")
     if not report["passed"]:
         raise VerificationFailed("; ".join(report["failures"]))
