@@ -242,6 +242,8 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert r.returncode == 0, r.stderr
     fourth = json.loads(r.stdout)
     assert "lut" not in fourth["ran"] + fourth["reused"] and fourth["verified"] is True
+    assert len(fourth["notes"]) == 1 and "verification-only LUT" in fourth["notes"][0]
+    assert third["notes"] == []
     assert {"textures", "usd_layers", "verify"} <= set(fourth["ran"])
     assert not (asset / "textures/thinfilm_lut.exr").exists()
     report = json.loads((asset / "verify/report.json").read_text())

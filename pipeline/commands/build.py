@@ -90,16 +90,21 @@ class _Progress:
             self.bar.close()
 
 
-def _summary(graph, args, out, cache_dir, chash, t0, *, verified, report) -> dict:
-    """The --json summary: which stages ran and which were reused, keys, timings, the verdict."""
+def _summary(graph, args, out, cache_dir, chash, t0, *, verified, report, notes=()) -> dict:
+    """The --json summary: which stages ran and which were reused (and, for per-view verification, which views
+    were rendered and which reused), keys, timings, the verdict and its notes (what was checked differently)."""
     records = [r.as_dict() for r in graph.records.values()]
     return {
         "out": str(out), "cache": str(cache_dir), "preset": args.preset, "config_hash": chash,
         "ran": [r["name"] for r in records if r["status"] == "ran"],
         "reused": [r["name"] for r in records if r["status"] == "reused"],
-        "stages": records, "verified": verified, "report": report,
+        "stages": records, "verified": verified, "report": report, "notes": list(notes),
         "seconds": round(time.perf_counter() - t0, 4),
     }
+
+
+def _notes(verdicts: dict) -> list:
+    return [n for v in verdicts.values() if isinstance(v, dict) for n in v.get("notes", [])]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -140,7 +145,8 @@ def run(args: argparse.Namespace) -> int:
             if failed:
                 if args.json:  # the summary still says what ran and where the report is
                     print(json.dumps(_summary(graph, args, out, cache_dir, chash, t0, verified=False,
-                                              report=str(graph.entry_dir(failed[0]))), indent=1))
+                                              report=str(graph.entry_dir(failed[0])), notes=_notes(verdicts)),
+                                     indent=1))
                 raise VerificationFailed(
                     f"stage {failed[0]!r} failed ({verdicts[failed[0]].get('reason', 'see its report')}); "
                     f"{out} was left unchanged; report in {graph.entry_dir(failed[0])}")
@@ -153,10 +159,12 @@ def run(args: argparse.Namespace) -> int:
         signal.signal(signal.SIGTERM, old_term)
 
     summary = _summary(graph, args, out, cache_dir, chash, t0, verified=bool(verdicts) or None,
-                       report=str(out / "verify") if verdicts else None)
+                       report=str(out / "verify") if verdicts else None, notes=_notes(verdicts))
     if args.json:
         print(json.dumps(summary, indent=1))
     elif not args.quiet:
         print(f"rockdove build: {out} ({len(summary['ran'])} stages ran: {', '.join(summary['ran']) or '-'}; "
               f"{len(summary['reused'])} reused) in {summary['seconds']:.2f} s")
+        for note in summary["notes"]:
+            print(f"rockdove build: note: {note}")
     return 0

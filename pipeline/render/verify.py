@@ -16,6 +16,20 @@
 
 Pass: validation clean, every view within the dE goals with no NaN/Inf and no black holes, and both hues in
 the sweep.
+
+Per view, for incremental builds: :func:`plan_views` names the views and what each reads (its camera, light and
+size, and :func:`scene_digest` of the scene content it renders); :func:`verify_views` renders and checks any
+subset in one call (shared GL context, shared reference rays) and returns per-view results that can be cached;
+:func:`report_from_views` validates and joins them into the report. ``verify_asset(views=[...])`` does both for
+a subset; a subset without a light-sweep view cannot run the hue check, and the report's ``notes`` say so.
+
+Assets without a LUT (``shading.variant = "physical"``): the renderers here draw the paper's LUT method (the
+GLSL shaders) and the exact spectra (the reference); neither is a renderer's thin-film BSDF. Rather than skip
+the GL/reference comparison, :func:`verification_scene` bakes a *verification-only* LUT in memory from the film
+the asset records (RockDoveThinFilmAPI), at the build's default size, and reads the asset through a temporary
+wrapper layer that adds it; every check then runs (geometry, textures, thickness primvar, film against the
+exact reference) and the report's ``notes`` say that the asset's own physical MaterialX network was only
+validated, not rendered. Nothing is written into the asset.
 """
 
 from __future__ import annotations

@@ -3,7 +3,9 @@
 The schema records on the feather mesh the physical film a LUT was baked from (film index model and Cauchy
 coefficients, incident/substrate indices, thickness primvar and units) and the LUT's layout (file, colour
 space, angle warp, thickness range, illuminant, observer), so that renderers and validators can read the
-physics without the build's memory. Attribute names and meanings: docs/design.md, "USD asset".
+physics without the build's memory. An asset without a LUT (physical-only shading) records the film only: no
+``rockdove:lut:*`` attribute is authored, and :func:`read_thin_film` reports them empty (not the schema's
+fallbacks). Attribute names and meanings: docs/design.md, "USD asset".
 
 USD discovers the schema through ``schemas/plugInfo.json``. :func:`register` calls
 ``Plug.Registry().RegisterPlugins`` on that folder, which only takes effect if it runs before USD builds its
