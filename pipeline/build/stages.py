@@ -219,8 +219,9 @@ def bird_params(config: dict):
 
 
 #: Random points at which the build measures its LUT against the exact 0.1 nm reference (bake's error_points),
-#: recorded in the EXR header (rockdove:estimatedMaxDeltaE2000, ...P99...). 200 points add ~0.03 s to the
-#: default 256 x 64 bake (measured: 0.056 s without, 0.081 s with, keratin 480-700 nm, median of 3).
+#: recorded in the EXR header (rockdove:estimatedMaxDeltaE2000, ...P99...). 200 points add ~0.05 s to the
+#: default 256 x 64 keratin bake (pipeline.lut.reference.lut_error right after the bake in a fresh process:
+#: 0.051-0.054 s over 3 runs; 50 points 0.012-0.018 s).
 LUT_ERROR_POINTS = 200
 
 BODY_FIELDS = ("geometry.body_voxel_m", "textures.body_resolution")  # BirdParams.body_key()
