@@ -173,14 +173,9 @@ def write_textures(out_dir: str, lut, feather_textures: dict, body_texture: np.n
     base = _check_uint8("feather_textures['base']", feather_textures["base"], (4,))
     mask = _check_uint8("feather_textures['mask']", feather_textures["mask"], (1,))
     body = _check_uint8("body_texture", body_texture, (3,))
-    tex_dir = os.path.join(os.path.abspath(out_dir), "textures")
-    os.makedirs(tex_dir, exist_ok=True)
-    paths = {role: os.path.join(tex_dir, name) for role, name in TEXTURE_FILES.items()}
     if lut is not None:
-        write_exr(lut, paths["lut"])
         preview = feather_preview(base, mask, lut, cos_theta=preview_cos_theta, thickness_nm=preview_thickness_nm)
     else:
-        del paths["lut"]
         if film is None or (preview_thickness_nm is None and thickness_range_nm is None):
             raise ValueError("lut=None needs film and thickness_range_nm (or preview_thickness_nm) for the static "
                              f"preview colour, got film={film!r}, thickness_range_nm={thickness_range_nm!r}")
@@ -188,6 +183,13 @@ def write_textures(out_dir: str, lut, feather_textures: dict, body_texture: np.n
              else float(preview_thickness_nm))
         preview = feather_preview(base, mask, cos_theta=preview_cos_theta,
                                   structural_rgb=preview_colour(film, d, preview_cos_theta))
+    tex_dir = os.path.join(os.path.abspath(out_dir), "textures")
+    os.makedirs(tex_dir, exist_ok=True)
+    paths = {role: os.path.join(tex_dir, name) for role, name in TEXTURE_FILES.items()}
+    if lut is not None:
+        write_exr(lut, paths["lut"])
+    else:
+        del paths["lut"]
     write_png(paths["feather_base"], base)
     write_png(paths["feather_mask"], mask)
     write_png(paths["feather_preview"], preview)
