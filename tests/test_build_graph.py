@@ -324,6 +324,12 @@ def test_half_precision_lut_is_a_half_exr_that_validates(tmp_path):
     assert np.array_equal(read_exr(exr).rgb, rgb)
     report = validate_asset(asset)
     assert report.clean, report.format()
+    # the recorded error is that of the table as shipped (half values), not of the float32 bake
+    from pipeline.build.stages import LUT_ERROR_POINTS, film_from_config
+    from pipeline.lut.reference import lut_error
+
+    err = lut_error(read_exr(exr), film_from_config(cfg["film"]), n_points=LUT_ERROR_POINTS)
+    assert read_exr(exr).metadata["estimatedMaxDeltaE2000"] == f"{err['max']:.4g}"
 
 
 def test_build_lut_records_its_measured_error(tmp_path):

@@ -218,7 +218,8 @@ def bird_params(config: dict):
     return BirdParams(**values)
 
 
-#: Random points at which the build measures its LUT against the exact 0.1 nm reference (bake's error_points),
+#: Random points at which the build measures its LUT, as shipped (after any half rounding), against the exact
+#: 0.1 nm reference (pipeline.lut.reference.lut_error, as bake's error_points),
 #: recorded in the EXR header (rockdove:estimatedMaxDeltaE2000, ...P99...). 200 points add ~0.05 s to the
 #: default 256 x 64 keratin bake (pipeline.lut.reference.lut_error right after the bake in a fresh process:
 #: 0.051-0.054 s over 3 runs; 50 points 0.012-0.018 s).
@@ -250,23 +251,31 @@ def run_thickness_range(ctx: Context):
 
 
 def run_lut(ctx: Context):
+    """Bake over the thickness range on the mesh, round to half floats when ``lut.precision = "half"``, then
+    measure the table as shipped against the exact reference at :data:`LUT_ERROR_POINTS` points (recorded in
+    its metadata, hence in the EXR header)."""
     import numpy as np
 
-    from ..lut.bake import bake
+    from ..lut.bake import bake, error_metadata
+    from ..lut.reference import lut_error
     from ..lut.table import ThinFilmLUT
 
     lo, hi = ctx.inputs["thickness_range"]
     cfg = ctx.config["lut"]
+    film = film_from_config(ctx.config["film"])
     lut = bake(angles=cfg["angles"], thicknesses=1 if lo == hi else cfg["thicknesses"], thickness_range=(lo, hi),
-               film=film_from_config(ctx.config["film"]), method=cfg["method"],
-               angle_warp_gamma=cfg["angle_warp_gamma"], colour_space=cfg["colour_space"],
-               error_points=LUT_ERROR_POINTS)
+               film=film, method=cfg["method"], angle_warp_gamma=cfg["angle_warp_gamma"],
+               colour_space=cfg["colour_space"])
+    rgb, metadata = lut.rgb, dict(lut.metadata)
     if cfg["precision"] == "half":
         # the values the HALF EXR holds (pipeline.lut.exr writes HALF channels for metadata precision "half")
         rgb = lut.rgb.astype(np.float16).astype(np.float32)
-        lut = ThinFilmLUT(rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
-                          colour_space=lut.colour_space, metadata={**lut.metadata, "precision": "half"})
-    return lut
+        metadata["precision"] = "half"
+    lut = ThinFilmLUT(rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
+                      colour_space=lut.colour_space, metadata=metadata)
+    metadata.update(error_metadata(lut_error(lut, film, n_points=LUT_ERROR_POINTS)))
+    return ThinFilmLUT(rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
+                       colour_space=lut.colour_space, metadata=metadata)
 
 
 def run_texture_images(ctx: Context):
