@@ -217,6 +217,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     views = ["turntable_030", "turntable_210", "sweep_060", "sweep_120", "sweep_090"]
     assert _verify_record(second)["items_ran"] == views
     assert json.loads((asset / "verify/report.json").read_text())["passed"] is True
+    assert not (asset / "verify/value.json").exists(), "the cache's value record leaked into the asset"
     verdict = json.loads((tmp_path / "b/.rockdove-cache/verify" / _verify_record(second)["key"] / "value/value.json")
                          .read_text())
     assert verdict["passed"] is True and verdict["views"] == views  # the view names (key "view") reach the verdict

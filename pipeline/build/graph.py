@@ -93,6 +93,9 @@ def _npz_load(folder: Path) -> dict:
     return out
 
 
+#: Files a codec writes at the top of a stage's cache folder; never published into the asset.
+CODEC_FILES = frozenset({"value.json", "value.npz"})
+
 JSON = Codec("json", _json_save, _json_load)
 NPZ = Codec("npz", _npz_save, _npz_load)
 # The stage writes files into ctx.workdir itself; its value is that (read-only) folder.
@@ -507,6 +510,8 @@ class Graph:
             src = self.entry_dir(name)
             dst = asset_dir / stage.publish
             for p in _files_of(src):
+                if p.parent == src and p.name in CODEC_FILES:
+                    continue  # the cache's own record of the stage's value, not part of the asset
                 target = dst / p.relative_to(src)
                 target.parent.mkdir(parents=True, exist_ok=True)
                 shutil.copyfile(p, target)

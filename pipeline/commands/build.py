@@ -165,6 +165,11 @@ def run(args: argparse.Namespace) -> int:
     elif not args.quiet:
         print(f"rockdove build: {out} ({len(summary['ran'])} stages ran: {', '.join(summary['ran']) or '-'}; "
               f"{len(summary['reused'])} reused) in {summary['seconds']:.2f} s")
+        if summary["verified"]:
+            print(f"rockdove build: verified: renders match the exact spectral reference; report "
+                  f"{out / 'verify' / 'report.html'}")
+        elif summary["verified"] is None:
+            print("rockdove build: not verified (--no-verify)")
         for note in summary["notes"]:
             print(f"rockdove build: note: {note}")
     return 0
