@@ -16,9 +16,10 @@ import functools
 
 import numpy as np
 
+from ..spectral import COLOUR_SPACES  # one list of working spaces for every baker and check
+
 REFERENCE_STEP_NM = 0.1
 REFERENCE_RANGE_NM = (360.0, 780.0)
-COLOUR_SPACES = ("lin_rec709", "acescg")
 ILLUMINANTS = ("D65",)
 # Points per chunk x 4201 wavelengths stays near 8 M doubles.
 _CHUNK_POINTS = 512
