@@ -141,7 +141,7 @@ class ThinFilmLUT:
         i1 = np.minimum(i0 + 1, self.n_thickness - 1)
         tx = (fx - j0)[..., None]
         ty = (fy - i0)[..., None]
-        t = self.rgb.astype(np.float64)
+        t = self.rgb  # float32 texels gathered, then promoted exactly by the float64 weights (no full-table copy)
         c0 = t[i0, j0] * (1 - tx) + t[i0, j0 + 1] * tx
         c1 = t[i1, j0] * (1 - tx) + t[i1, j0 + 1] * tx
         return c0 * (1 - ty) + c1 * ty
