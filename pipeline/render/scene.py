@@ -351,43 +351,12 @@ def sample_texture(image, st) -> np.ndarray:
 
 
 def read_lut(path):
-    """Read a LUT EXR with :func:`pipeline.lut.read_exr` when available, else a minimal private reader."""
-    try:
-        from pipeline.lut.exr import read_exr  # the LUT I/O module
-    except ImportError:
-        read_exr = _read_lut_exr_fallback
+    """Read a LUT EXR (:func:`pipeline.lut.exr.read_exr`) into a :class:`pipeline.lut.ThinFilmLUT`."""
+    from pipeline.lut.exr import read_exr
+
     if not os.path.isfile(path):
         raise ValueError(f"LUT file {path!r} (rockdove:lut:file) does not exist")
     return read_exr(path)
-
-
-def _read_lut_exr_fallback(path):
-    """Read an EXR written per docs/design.md ("ThinFilmLUT"): width n_angle, bottom row = thinnest."""
-    import OpenEXR
-
-    from pipeline.lut import ThinFilmLUT
-
-    with OpenEXR.File(str(path)) as f:
-        header = dict(f.header())
-        ch = f.channels()
-        if "RGB" in ch:
-            rgb = np.asarray(ch["RGB"].pixels, dtype=np.float32)
-        else:
-            rgb = np.stack([np.asarray(ch[c].pixels, dtype=np.float32) for c in "RGB"], axis=-1)
-    rgb = rgb[::-1]  # file row 0 is the top = thickest; table row 0 = thinnest
-
-    def text(key, default=None):
-        v = header.get(key, default)
-        return v.decode() if isinstance(v, bytes) else v
-
-    gamma = float(text("rockdove:angleWarpGamma", 1.0))
-    rng = text("rockdove:thicknessRangeNm")
-    if isinstance(rng, str):
-        rng = [float(v) for v in rng.replace("(", " ").replace(")", " ").replace(",", " ").split()]
-    meta = {k: str(text(k)) for k in header if str(k).startswith("rockdove:")}
-    return ThinFilmLUT(
-        rgb, tuple(rng), gamma, colour_space=str(text("rockdove:colourSpace", "lin_rec709")), metadata=meta
-    )
 
 
 # -- USD reading ------------------------------------------------------------------------------------------
@@ -396,13 +365,11 @@ def register_schema() -> None:
 
     USD builds its schema registry once, at the first stage opened; a later registration is not seen, which
     would break other code in the same process (the USD stage's authoring and validation). The reader itself
-    reads the attributes by name and does not need the schema. A no-op when ``pipeline.usd.schema`` is absent
-    or the registry was already built without it.
+    reads the attributes by name and does not need the schema. A no-op when the registry was already built
+    without it (:func:`pipeline.usd.schema.register`).
     """
-    try:
-        from pipeline.usd.schema import register
-    except ImportError:
-        return
+    from pipeline.usd.schema import register
+
     try:
         register()
     except RuntimeError:
