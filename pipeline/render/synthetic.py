@@ -38,32 +38,6 @@ def gradient_lut(n_thickness: int = 16, n_angle: int = 32, thickness_range_nm=TH
     return ThinFilmLUT(rgb, tuple(thickness_range_nm), gamma, metadata={"method": "synthetic gradient"})
 
 
-def write_lut_exr(lut, path) -> None:
-    """Write ``lut`` as docs/design.md's EXR (``pipeline.lut.write_exr`` when it exists, else directly)."""
-    try:
-        from pipeline.lut.exr import write_exr
-    except ImportError:
-        write_exr = None
-    if write_exr is not None:
-        write_exr(lut, path)
-        return
-    import OpenEXR
-
-    header = {
-        "compression": OpenEXR.ZIP_COMPRESSION,
-        "type": OpenEXR.scanlineimage,
-        "rockdove:format": "ThinFilmLUT 1",
-        "rockdove:angleAxis": "cos_theta = x**gamma, x = j/(N-1)",
-        "rockdove:angleWarpGamma": repr(lut.angle_warp_gamma),
-        "rockdove:thicknessRangeNm": f"{lut.thickness_range_nm[0]!r} {lut.thickness_range_nm[1]!r}",
-        "rockdove:colourSpace": lut.colour_space,
-    }
-    header.update({f"rockdove:{k}": str(v) for k, v in lut.metadata.items()})
-    pixels = np.ascontiguousarray(lut.rgb[::-1], dtype=np.float32)  # bottom row = thinnest
-    with OpenEXR.File(header, {"RGB": pixels}) as f:
-        f.write(str(path))
-
-
 def _uv_sphere(radius, n_lon=24, n_lat=12):
     """Quads (and triangles at the poles) of a UV sphere; vertices split at the seam. Returns arrays."""
     lon = np.linspace(0, 2 * np.pi, n_lon + 1)
@@ -135,6 +109,7 @@ def write_synthetic_asset(out_dir, lut=None, n_cards: int = 6) -> str:
     from PIL import Image
     from pxr import Gf, Kind, Sdf, Usd, UsdGeom, UsdShade, Vt
 
+    from ..lut.exr import write_exr
     from .scene import register_schema
 
     register_schema()  # before the first stage of the process (USD builds its schema registry once)
@@ -143,7 +118,7 @@ def write_synthetic_asset(out_dir, lut=None, n_cards: int = 6) -> str:
     out_dir = os.path.abspath(os.fspath(out_dir))
     tex_dir = os.path.join(out_dir, "textures")
     os.makedirs(tex_dir, exist_ok=True)
-    write_lut_exr(lut, os.path.join(tex_dir, "thinfilm_lut.exr"))
+    write_exr(lut, os.path.join(tex_dir, "thinfilm_lut.exr"))
     base, mask = _feather_textures()
     Image.fromarray(base, "RGBA").save(os.path.join(tex_dir, "feather_base.png"))
     Image.fromarray(mask, "L").save(os.path.join(tex_dir, "feather_mask.png"))
