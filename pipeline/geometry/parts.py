@@ -114,10 +114,9 @@ def _part(name, pieces, material, color) -> MeshPart:
                     st=st.astype(np.float32), material=material, display_color=color, primvars={})
 
 
-def _profile(length_m, radius_fn, m=16):
-    """Profile from pole (z = 0) to pole (z = length), radius_fn(v) for v in [0, 1] (0 at both ends)."""
-    v = 0.5 - 0.5 * np.cos(np.linspace(0.0, np.pi, m))  # denser near the poles
-    return v * length_m, radius_fn(v)
+def _profile_z(length_m, m=16):
+    """(m,) positions along a profile from pole (z = 0) to pole (z = length), denser near the poles."""
+    return (0.5 - 0.5 * np.cos(np.linspace(0.0, np.pi, m))) * length_m
 
 
 def ellipsoid_piece(radius_m: float, m: int = 12):
@@ -128,7 +127,7 @@ def ellipsoid_piece(radius_m: float, m: int = 12):
 
 def tube_piece(length_m: float, r0_m: float, r1_m: float, m: int = 14):
     """A rounded tapered tube of ``length_m`` along +Z, radius r0 at the base to r1 near the end."""
-    z, _ = _profile(length_m, lambda v: v, m)
+    z = _profile_z(length_m, m)
     v = z / length_m
     body = r0_m + (r1_m - r0_m) * v
     cap = np.sqrt(np.clip(np.minimum(v, 1.0 - v) * length_m / max(r0_m, r1_m), 0.0, 1.0))
@@ -140,7 +139,7 @@ def tube_piece(length_m: float, r0_m: float, r1_m: float, m: int = 14):
 def build_beak() -> MeshPart:
     """The beak: slender, slightly flattened side to side, pointing forward and a little down."""
     length = 0.026
-    z, _ = _profile(length, lambda v: v, 16)
+    z = _profile_z(length, 16)
     v = z / length
     r = 0.0046 * (1.0 - v) ** 0.8 * np.sqrt(np.clip(v * 8.0, 0.0, 1.0))
     r[-1] = 0.0
