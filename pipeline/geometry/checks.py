@@ -76,10 +76,8 @@ def band_coverage(body_vertices_m, body_faces, cards, rays: int = 2000, tilt_deg
     loc, ray_id, tri_id = scene.ray.intersects_location(origin, -view, multiple_hits=True)
     dist = np.einsum("ij,ij->i", loc - origin[ray_id], -view[ray_id])
     is_card = tri_id < n_card_tri
-    opaque = ~is_card
-    if alpha is None:
-        opaque |= is_card
-    else:
+    opaque = np.ones(len(tri_id), dtype=bool)
+    if alpha is not None:
         tri = scene.triangles[tri_id[is_card]]
         bary = trimesh.triangles.points_to_barycentric(tri, loc[is_card])
         st = np.einsum("nk,nkd->nd", bary, cards.st.astype(np.float64)[card_tri[tri_id[is_card]]])
@@ -92,10 +90,8 @@ def band_coverage(body_vertices_m, body_faces, cards, rays: int = 2000, tilt_deg
     order = np.lexsort((dist, ray_id))
     ray_id, dist, is_card = ray_id[order], dist[order], is_card[order]
     first = np.unique(ray_id, return_index=True)[1]
-    r, d, c = ray_id[first], dist[first], is_card[first]
-    expected = RAY_START_M
-    visible_skin = (~c) & (np.abs(d - expected) < TARGET_TOLERANCE_M)
-    hidden = c
+    d, hidden = dist[first], is_card[first]
+    visible_skin = (~hidden) & (np.abs(d - RAY_START_M) < TARGET_TOLERANCE_M)
     counted = hidden.sum() + visible_skin.sum()
     if counted == 0:
         raise ValueError("no band point is visible from outside in this direction")
