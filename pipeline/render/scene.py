@@ -32,6 +32,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..usd.material import OPACITY_THRESHOLD
+
 #: Attribute-name prefix of the RockDoveThinFilmAPI schema (docs/design.md, "USD asset").
 FILM_PREFIX = "rockdove:film:"
 LUT_PREFIX = "rockdove:lut:"
@@ -40,8 +42,9 @@ BASE_COLOR_SHADER = "BaseColorTexture"
 MASK_SHADER = "MaskTexture"
 #: Shader inputs that may hold a constant base colour for untextured parts (UsdPreviewSurface, MaterialX).
 CONSTANT_COLOUR_INPUTS = ("diffuseColor", "base_color", "baseColor")
-#: The feathers' alpha cut-off (UsdPreviewSurface ``opacityThreshold``; docs/design.md "Conventions").
-DEFAULT_OPACITY_THRESHOLD = 0.5
+#: The feathers' alpha cut-off when none is authored: the one the asset authors (UsdPreviewSurface
+#: ``opacityThreshold``, :data:`pipeline.usd.material.OPACITY_THRESHOLD`; docs/design.md "Conventions").
+DEFAULT_OPACITY_THRESHOLD = OPACITY_THRESHOLD
 
 
 @dataclass(frozen=True)

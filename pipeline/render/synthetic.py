@@ -14,14 +14,15 @@ import os
 
 import numpy as np
 
+from ..films import PAPER_FILM_INDEX
+
 #: Layout of the synthetic asset, metres.
 BODY_RADIUS_M = 0.1
 BODY_CENTRE_M = (0.0, 0.15, 0.0)
 NECK_CENTRE_M = (0.0, 0.28, 0.0)
 NECK_RING_RADIUS_M = 0.05
 CARD_SIZE_M = 0.045
-#: Paper film (method.md step 1: n = 1.5 keratin in air) and the measured thickness span (Yoshioka 2007).
-PAPER_FILM_INDEX = 1.5
+#: The measured thickness span (Yoshioka 2007); the film is the paper film (pipeline.films.PAPER_FILM_INDEX).
 THICKNESS_RANGE_NM = (480.0, 700.0)
 
 
