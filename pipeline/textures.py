@@ -57,10 +57,9 @@ def _linear(srgb8) -> np.ndarray:
 
 
 def _encode(linear: np.ndarray) -> np.ndarray:
-    import colour
+    from pipeline.render.images import linear_to_srgb8  # the project's one sRGB 8-bit encoding
 
-    srgb = colour.cctf_encoding(np.clip(linear, 0.0, 1.0), function="sRGB")
-    return np.round(np.asarray(srgb) * 255.0).astype(np.uint8)
+    return linear_to_srgb8(linear)
 
 
 def _mix(a, b, w):
