@@ -10,6 +10,8 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, fields, replace
 
+from pipeline.geometry.body import VOXEL_RANGE_M
+
 #: Measured film thickness at the base of the neck, nm (Yoshioka et al. 2007).
 MEASURED_BASE_NM = (480.0, 580.0)
 #: Measured film thickness towards the top of the neck, nm (Yoshioka et al. 2007).
@@ -124,7 +126,7 @@ class BirdParams:
         s(self, "feather_texture_resolution",
           _check_number("feather_texture_resolution", self.feather_texture_resolution, 16, 4096, "texels",
                         integer=True))
-        s(self, "body_voxel_m", _check_number("body_voxel_m", self.body_voxel_m, 0.0008, 0.01, "m"))
+        s(self, "body_voxel_m", _check_number("body_voxel_m", self.body_voxel_m, *VOXEL_RANGE_M, "m"))
 
     @classmethod
     def measured(cls, **overrides) -> "BirdParams":
