@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
     for n in counts:
         p = base.with_(card_count=n)
 
-        def cov(cards, p=p):
+        def cov(cards):
             if not coverage:
                 return {}
             return {"coverage": checks.band_coverage(body.mesh.vertices_m, body.mesh.faces, cards, rays=2000,
@@ -130,7 +130,6 @@ def run(args: argparse.Namespace) -> int:
         cards = "" if r["cards"] is None else f"{r['cards']:,}"
         c = f"{r['coverage']:.4f}" if "coverage" in r else ""
         print(f"{r['row']:<28} {cards:>8} {r['median_s']:>10.3f} {r['peak_mib']:>10.1f} {c:>9}")
-    status = 0
     goals = {1000: GOAL_1K_S, 100000: GOAL_100K_S}
     for r in rows:
         if r["row"] == "cards" and r["cards"] in goals:
@@ -142,4 +141,4 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         with open(args.json, "w") as f:
             json.dump({"topic": "geometry", "quick": quick, "rows": rows}, f, indent=2)
-    return status
+    return 0
