@@ -3,9 +3,9 @@
 It is written with pxr exactly as the real asset is laid out (interface layer ``pigeon.usda`` with a payload
 ``pigeon_payload.usda`` and a ``shading`` variant set, ``/Pigeon/Geom/{Body, NeckFeathers}``,
 ``/Pigeon/Looks/{BodyMaterial, FeatherMaterial}`` with ``BaseColorTexture``/``MaskTexture`` UsdUVTexture
-shaders, the ``RockDoveThinFilmAPI`` attributes as custom attributes, PNG textures and a LUT EXR), so the
-renderers can be tested without the full build. It is *not* the bird: a UV sphere and a ring of square
-feather cards with a thickness gradient from the card base (``thickness_range_nm[0]``) to its tip.
+shaders, ``RockDoveThinFilmAPI`` applied with :func:`pipeline.usd.schema.apply_thin_film`, PNG textures and a
+LUT EXR), so the renderers can be tested without the full build. It is *not* the bird: a UV sphere and a ring
+of square feather cards with a thickness gradient from the card base (``thickness_range_nm[0]``) to its tip.
 """
 
 from __future__ import annotations
@@ -111,6 +111,7 @@ def write_synthetic_asset(out_dir, lut=None, n_cards: int = 6) -> str:
     from pxr import Gf, Kind, Sdf, Usd, UsdGeom, UsdShade, Vt
 
     from ..lut.exr import write_exr
+    from ..usd.schema import apply_thin_film
     from .scene import register_schema
 
     register_schema()  # before the first stage of the process (USD builds its schema registry once)
@@ -198,24 +199,10 @@ def write_synthetic_asset(out_dir, lut=None, n_cards: int = 6) -> str:
     pv.CreatePrimvar("neckS", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.vertex).Set(
         Vt.FloatArray.FromNumpy(neck_s)
     )
-    p = feathers.GetPrim()
-    attrs = {
-        "rockdove:film:model": (Sdf.ValueTypeNames.Token, "paper"),
-        "rockdove:film:cauchyA": (Sdf.ValueTypeNames.Float, PAPER_FILM_INDEX),
-        "rockdove:film:cauchyB_nm2": (Sdf.ValueTypeNames.Float, 0.0),
-        "rockdove:film:incidentIndex": (Sdf.ValueTypeNames.Float, 1.0),
-        "rockdove:film:substrateIndex": (Sdf.ValueTypeNames.Float, 1.0),
-        "rockdove:film:thicknessPrimvar": (Sdf.ValueTypeNames.Token, "thickness"),
-        "rockdove:film:thicknessUnits": (Sdf.ValueTypeNames.Token, "nm"),
-        "rockdove:lut:file": (Sdf.ValueTypeNames.Asset, Sdf.AssetPath("./textures/thinfilm_lut.exr")),
-        "rockdove:lut:colorSpace": (Sdf.ValueTypeNames.Token, lut.colour_space),
-        "rockdove:lut:angleWarpGamma": (Sdf.ValueTypeNames.Float, lut.angle_warp_gamma),
-        "rockdove:lut:thicknessRangeNm": (Sdf.ValueTypeNames.Float2, Gf.Vec2f(*lut.thickness_range_nm)),
-        "rockdove:lut:illuminant": (Sdf.ValueTypeNames.Token, "D65"),
-        "rockdove:lut:observer": (Sdf.ValueTypeNames.String, "CIE 1931 2 Degree Standard Observer"),
-    }
-    for name, (typ, val) in attrs.items():
-        p.CreateAttribute(name, typ, custom=True).Set(val)
+    apply_thin_film(feathers.GetPrim(), model="paper", cauchy_a=PAPER_FILM_INDEX, cauchy_b_nm2=0.0,
+                    incident_index=1.0, substrate_index=1.0, lut_file="./textures/thinfilm_lut.exr",
+                    lut_colour_space=lut.colour_space, angle_warp_gamma=lut.angle_warp_gamma,
+                    thickness_range_nm=lut.thickness_range_nm)
     st.GetRootLayer().Save()
 
     # -- interface layer --------------------------------------------------------------------------------------
