@@ -29,12 +29,6 @@ def rotation_y(angle_rad: float) -> np.ndarray:
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
-def rotation_z(angle_rad: float) -> np.ndarray:
-    """(3, 3) rotation about +Z by ``angle_rad`` (right-handed)."""
-    c, s = np.cos(angle_rad), np.sin(angle_rad)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
 @dataclass(frozen=True)
 class Ellipsoid:
     """Ellipsoid: ``centre_m`` (3,), ``radii_m`` (3,) along its local axes, ``rotation`` (3, 3) local -> world."""
