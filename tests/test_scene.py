@@ -132,7 +132,8 @@ def test_load_scene_reads_the_asset_written_by_pipeline_assemble(tmp_path):
         assert by_name["Body"].base_colour_texture == out["body_base"]
         assert s.film.lut_file == out["lut"] and s.film.thickness_range_nm == lut.thickness_range_nm
         assert s.film.angle_warp_gamma == lut.angle_warp_gamma
-        assert s.film.cauchy_a == pytest.approx(film.cauchy_a) if hasattr(film, "cauchy_a") else True
+        assert s.film.cauchy_a == pytest.approx(film.cauchy_a)
+        assert s.film.cauchy_b_nm2 == pytest.approx(film.cauchy_b_nm2) and s.film.model == film.name
         np.testing.assert_array_equal(s.load_lut().rgb, lut.rgb)
 
 
