@@ -244,8 +244,11 @@ def read_texture_asset(resolved: str):
     return img
 
 
-def check_textures(stage) -> tuple[list, int, dict]:
+def check_textures(stage, decoded: dict | None = None) -> tuple[list, int, dict]:
     """Every asset-valued attribute resolves to a file that reads.
+
+    ``decoded`` ({resolved path: decoded object}, filled in place) skips files already read, e.g. by the same
+    check in another variant of the stage; a file that failed to read is not in it and is tried again.
 
     Returns
     -------
@@ -253,7 +256,8 @@ def check_textures(stage) -> tuple[list, int, dict]:
     """
     from pxr import Sdf, Usd
 
-    issues, n, decoded = [], 0, {}
+    issues, n = [], 0
+    decoded = {} if decoded is None else decoded
     for prim in Usd.PrimRange(stage.GetPseudoRoot()):
         for attr in prim.GetAttributes():
             if attr.GetTypeName() != Sdf.ValueTypeNames.Asset:
@@ -557,6 +561,7 @@ def validate_asset(path) -> Report:
     library = load_mtlx_libraries()
     validators = _validators()
     found: dict[tuple, list] = {}
+    decoded_textures = {}  # resolved path -> decoded texture: the variants share their files, read each once
     combos = _variant_combinations(stage)
     counts = {}
     for combo in combos:
@@ -569,7 +574,7 @@ def validate_asset(path) -> Report:
                 stage.GetDefaultPrim().GetVariantSet(name).SetVariantSelection(value)
         issues = run_usd_validation(stage, validators)
         mx_issues, counts["mtlx shaders"] = check_mtlx_shaders(stage, library)
-        tex_issues, counts["assets"], decoded = check_textures(stage)
+        tex_issues, counts["assets"], decoded = check_textures(stage, decoded_textures)
         pv_issues, counts["primvars"] = check_primvars(stage)
         tf_issues, counts["thin films"] = check_thin_film(stage, decoded)
         mat_issues, counts["materials"] = check_materials(stage, library)
