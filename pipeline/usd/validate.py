@@ -37,15 +37,14 @@ import re
 import tempfile
 from dataclasses import dataclass, field
 
+from .material import _SDF_TYPES
+
 #: The UsdValidation error replaced by :func:`check_mtlx_shaders` for MaterialX (ND_*) shader ids.
 MISSING_SHADER_ID = "MissingShaderIdInRegistry"
 
-# Sdf value type name -> MaterialX type
-_MX_TYPES = {
-    "float": "float", "int": "integer", "bool": "boolean", "string": "string", "asset": "filename",
-    "color3f": "color3", "color4f": "color4", "float2": "vector2", "float3": "vector3", "float4": "vector4",
-    "token": None,  # outputs of surface shaders / materials
-}
+# Sdf value type name -> MaterialX type: the inverse of the authoring table (material._SDF_TYPES); token (outputs
+# of surface shaders / materials) has no single MaterialX type
+_MX_TYPES = {sdf.lower(): mx for mx, sdf in _SDF_TYPES.items() if sdf != "Token"} | {"token": None}
 
 
 @dataclass(frozen=True)
