@@ -232,13 +232,15 @@ def write_html(path, report: dict, images: dict) -> str:
     e = html.escape
     status = "PASSED" if report.get("passed") else "FAILED"
     colour = "#1a7f37" if report.get("passed") else "#b42318"
+    notes = report.get("notes") or []
+    notes_html = ("<h2>Notes</h2><ul>" + "".join(f"<li>{e(str(n))}</li>" for n in notes) + "</ul>") if notes else ""
     parts = [
         "<!DOCTYPE html><html><head><meta charset='utf-8'><title>rockdove verification</title>",
         "<style>body{font-family:sans-serif;margin:1.5em;max-width:1200px}table{border-collapse:collapse}"
         "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#eee}"
         "img{max-width:100%;image-rendering:pixelated}.row{display:flex;gap:8px}.row figure{margin:0;flex:1}"
         "figcaption{font-size:80%;color:#555}</style></head><body>",
-        f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>",
+        f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>" + notes_html,
         f"<p>Asset: <code>{e(str(report.get('asset', '')))}</code><br>",
         f"Configuration hash: <code>{e(str(report.get('configuration_hash') or 'not recorded'))}</code><br>",
         f"Goals: median dE2000 &le; {report.get('goals', {}).get('median_dE', '')}, "

@@ -615,15 +615,7 @@ def _combine(layer, scene, lut, notes, results: dict, out_dir, width, height, be
         "argv": list(sys.argv),
     }
     rep.write_json(os.path.join(out, "report.json"), report)
-    html_path = rep.write_html(os.path.join(out, "report.html"), report, images)
-    if notes:  # pipeline.render.report's page has no notes section: add one under the verdict
-        import html as _html
-
-        with open(html_path, encoding="utf-8") as f:
-            page = f.read()
-        block = "<h2>Notes</h2><ul>" + "".join(f"<li>{_html.escape(n)}</li>" for n in notes) + "</ul>"
-        with open(html_path, "w", encoding="utf-8") as f:
-            f.write(page.replace("</h1>", "</h1>" + block, 1))
+    rep.write_html(os.path.join(out, "report.html"), report, images)
     return report
 
 
