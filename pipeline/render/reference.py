@@ -125,8 +125,7 @@ def to_display8(rgb_linear) -> np.ndarray:
     """
     from .images import linear_to_srgb8
 
-    x = np.nan_to_num(np.asarray(rgb_linear, np.float64), nan=0.0, posinf=1.0, neginf=0.0)
-    return linear_to_srgb8(x)
+    return linear_to_srgb8(rgb_linear)
 
 
 # -- exact structural colour -------------------------------------------------------------------------------
