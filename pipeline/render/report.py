@@ -39,14 +39,6 @@ def _figure(w_in=5.0, h_in=4.0):
     return fig
 
 
-def save_png(path, image_u8) -> str:
-    """Write an (H, W, 3|4) uint8 image as PNG; returns the path."""
-    from PIL import Image
-
-    Image.fromarray(np.ascontiguousarray(image_u8)).save(path)
-    return os.fspath(path)
-
-
 def de_colour(de_map, vmax: float = DE_MAP_MAX) -> np.ndarray:
     """(H, W) dE map -> (H, W, 3) uint8 with the :data:`DE_COLORMAP`; NaN (not compared) is mid grey."""
     from matplotlib import colormaps

@@ -359,6 +359,7 @@ def _check_size(width, height) -> None:
 def _render_and_check(scene, lut, views, out: str, *, subfolders: bool, say) -> dict:
     """Render ``views`` (GL and reference), compare, write each view's images; ``{name: view result}``."""
     from . import report as rep
+    from .images import save_png
     from .reference import render_reference, to_display8
 
     failures_all = []
@@ -395,10 +396,10 @@ def _render_and_check(scene, lut, views, out: str, *, subfolders: bool, say) -> 
             boundary = cmp.boundary_straightness(cls)
         files, rows = {}, []
         ref_png = to_display8(ref_results[i].rgb)
-        files["reference"] = os.path.basename(rep.save_png(os.path.join(folder, f"{v.name}_reference.png"), ref_png))
+        files["reference"] = os.path.basename(save_png(ref_png, os.path.join(folder, f"{v.name}_reference.png")))
         if gl_results is not None:
             gl_png = to_display8(cmp.gl_arrays(gl_results[i])["rgb"])
-            files["gl"] = os.path.basename(rep.save_png(os.path.join(folder, f"{v.name}_gl.png"), gl_png))
+            files["gl"] = os.path.basename(save_png(gl_png, os.path.join(folder, f"{v.name}_gl.png")))
             rows.append(gl_png)
         rows.append(ref_png)
         if m is not None:
