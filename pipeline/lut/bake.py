@@ -35,6 +35,7 @@ import numbers
 
 import numpy as np
 
+from ..spectral import DEFAULT_OBSERVER, WAVELENGTH_RANGE_NM
 from .table import ThinFilmLUT
 
 DEFAULT_ANGLES = 256
@@ -61,8 +62,8 @@ DEFAULT_GRAZING_COS = 0.05
 # Below this the resonances are narrower than 0.25 nm (dE2000 0.2 at cos theta ~ 1e-3 with 0.25 nm sampling):
 # spectral_fast samples those columns at the reference's 0.1 nm step. The default LUT has 2 such columns.
 EXTREME_GRAZING_COS = 0.005
-OBSERVER = "CIE 1931 2 Degree Standard Observer"
-WAVELENGTH_RANGE_NM = (360.0, 780.0)
+# The observer and wavelength range of the colour tables the bakers integrate with (pipeline.spectral).
+OBSERVER = DEFAULT_OBSERVER
 
 # Memory bound for the sampled methods: (texels x wavelengths) evaluated per chunk.
 _CHUNK_ELEMENTS = 2_000_000

@@ -16,19 +16,14 @@ import functools
 
 import numpy as np
 
-from ..spectral import COLOUR_SPACES  # one list of working spaces for every baker and check
+from ..spectral import WAVELENGTH_RANGE_NM
+from ..spectral import _check_colour_space as check_colour_space  # one check of the working-space name
 
 REFERENCE_STEP_NM = 0.1
-REFERENCE_RANGE_NM = (360.0, 780.0)
+REFERENCE_RANGE_NM = WAVELENGTH_RANGE_NM  # where the colour tables are defined
 ILLUMINANTS = ("D65",)
 # Points per chunk x 4201 wavelengths stays near 8 M doubles.
 _CHUNK_POINTS = 512
-
-
-def check_colour_space(colour_space) -> str:
-    if colour_space not in COLOUR_SPACES:
-        raise ValueError(f"colour_space must be one of {list(COLOUR_SPACES)}, got {colour_space!r}")
-    return colour_space
 
 
 def check_illuminant(illuminant) -> str:
