@@ -122,33 +122,7 @@ def run_validation(layer_path: str) -> dict:
         result = validate_asset(layer_path)
     except ValueError as exc:
         return {"passed": False, "details": None, "error": f"validation raised: {exc}"}
-    return {"passed": _validation_ok(result), "details": _jsonable(result), "error": None}
-
-
-def _validation_ok(result) -> bool:
-    for attr in ("passed", "ok", "clean", "valid"):
-        v = getattr(result, attr, None) if not isinstance(result, dict) else result.get(attr)
-        if v is not None:
-            return bool(v() if callable(v) else v)
-    if isinstance(result, bool):
-        return result
-    if isinstance(result, (list, tuple)):
-        return len(result) == 0
-    errors = getattr(result, "errors", None)
-    if errors is not None:
-        return len(errors) == 0
-    raise ValueError(f"validate_asset returned {type(result).__name__}, which has no pass/fail attribute")
-
-
-def _jsonable(obj):
-    for name in ("to_dict", "as_dict", "summary"):
-        f = getattr(obj, name, None)
-        if callable(f):
-            return json.loads(json.dumps(f(), default=str))
-    try:
-        return json.loads(json.dumps(obj, default=lambda o: getattr(o, "__dict__", str(o))))
-    except (TypeError, ValueError):
-        return str(obj)
+    return {"passed": result.clean, "details": json.loads(json.dumps(result.to_dict(), default=str)), "error": None}
 
 
 def verification_views(scene, width: int, height: int, n_views: int = DEFAULT_VIEWS) -> list:
