@@ -47,6 +47,7 @@ import time
 
 import numpy as np
 
+from ..build.publish import MARKER
 from . import compare as cmp
 
 #: The light-view angle (deg) of the extra sweep view: 90 deg is the paper's green/purple flip.
@@ -78,7 +79,7 @@ def library_versions() -> dict:
 
 #: The marker a published build leaves in the asset folder (pipeline.build.publish): tool, version,
 #: configuration hash, preset, stage keys.
-BUILD_MARKER = ".rockdove-asset.json"
+BUILD_MARKER = MARKER
 
 
 def _asset_configuration(layer_path: str) -> dict:
