@@ -86,9 +86,7 @@ def _check_count(name, value, minimum):
     return int(value)
 
 
-def _check_positive(name, value, allow_none=False):
-    if value is None and allow_none:
-        return None
+def _check_positive(name, value):
     try:
         v = float(value)
     except (TypeError, ValueError):

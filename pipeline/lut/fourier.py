@@ -91,10 +91,6 @@ class GTable:
         """``W_0 = G(0)``, shape (3,): the colour of a perfect reflector."""
         return self.g[0]
 
-    @property
-    def x_max_nm(self) -> float:
-        return (self.g.shape[0] - 1) * self.step_nm
-
     def __call__(self, x_nm) -> np.ndarray:
         """``G(x)`` by linear interpolation, shape ``x.shape + (3,)``; 0 beyond the table's end."""
         x = np.asarray(x_nm, dtype=np.float64)
