@@ -46,6 +46,7 @@ from pathlib import Path
 
 
 from .. import __version__
+from ..config import get
 from ..errors import UsageError
 from .graph import FILES, JSON, Codec, Context, Stage
 
@@ -64,13 +65,6 @@ BIRD_FIELDS = {
     "textures.body_resolution": "body_texture_resolution",
     "textures.feather_resolution": "feather_texture_resolution",
 }
-
-
-def _get(config: dict, dotted: str):
-    node = config
-    for p in dotted.split("."):
-        node = node[p]
-    return node
 
 
 # ----------------------------------------------------------------------------------------------- codecs
@@ -213,7 +207,7 @@ def bird_params(config: dict):
 
     values = {}
     for key, fld in BIRD_FIELDS.items():
-        v = _get(config, key)
+        v = get(config, key)
         values[fld] = tuple(v) if isinstance(v, list) else v
     return BirdParams(**values)
 
