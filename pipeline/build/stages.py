@@ -177,12 +177,7 @@ def _images_save(value, folder: Path) -> None:
 
 
 def _images_load(folder: Path):
-    import numpy as np
-
-    with np.load(folder / "images.npz", allow_pickle=False) as z:
-        arrays = {k: z[k] for k in z.files}
-    for a in arrays.values():
-        a.setflags(write=False)
+    arrays = _load_arrays(folder / "images.npz")
     feathers = {k[len("feather_"):]: v for k, v in arrays.items() if k.startswith("feather_")}
     return feathers, arrays["body"]
 
