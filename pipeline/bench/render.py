@@ -18,7 +18,6 @@ synthetic test asset (:mod:`pipeline.render.synthetic`) in a temporary folder; t
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import os
 import statistics
@@ -49,7 +48,7 @@ def _median_time(fn, repeats: int):
         t0 = time.perf_counter()
         out = fn()
         times.append(time.perf_counter() - t0)
-    return statistics.median(times), times, out
+    return statistics.median(times), out
 
 
 def run(args: argparse.Namespace) -> int:
@@ -73,10 +72,10 @@ def run(args: argparse.Namespace) -> int:
         asset, label = write_synthetic_asset(tmp.name), "synthetic asset (build/pigeon not built)"
     rows = {}
     try:
-        t_load, _, scene = _median_time(lambda: load_scene(asset), args.repeats)
+        t_load, scene = _median_time(lambda: load_scene(asset), args.repeats)
         rows["load_scene"] = t_load
         views = default_views(scene, args.width, args.height)
-        t_cold, _, _ = _median_time(lambda: render_views(scene, views), args.repeats)
+        t_cold, _ = _median_time(lambda: render_views(scene, views), args.repeats)
         rows["gl cold (context + upload + 4 views)"] = t_cold
         setups, warms = [], []
         for _ in range(args.repeats):
@@ -95,12 +94,10 @@ def run(args: argparse.Namespace) -> int:
         ref_note = None
         if args.no_reference:
             ref_note = "skipped (--no-reference)"
-        elif importlib.util.find_spec("pipeline.render.reference") is None:
-            ref_note = "pipeline.render.reference not available"
         else:
             from ..render.reference import render_reference
 
-            t_ref, _, _ = _median_time(lambda: render_reference(scene, views), args.reference_repeats)
+            t_ref, _ = _median_time(lambda: render_reference(scene, views), args.reference_repeats)
             rows["reference (4 views)"] = t_ref
         total = rows["load_scene"] + rows["gl cold (context + upload + 4 views)"] + rows.get("reference (4 views)", 0.0)
         rows["total"] = total
