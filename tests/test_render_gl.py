@@ -51,14 +51,11 @@ def _front_view(distance_m=0.12, yfov_deg=30.0, light=LIGHT):
 
 
 def _pixel_rays(view):
-    """Unit world directions from the eye through each pixel centre, (H, W, 3); row 0 at the top."""
-    h, w = view.height, view.width
-    t = math.tan(view.yfov_rad / 2)
-    x = ((np.arange(w) + 0.5) / w * 2 - 1) * t * view.aspect
-    y = (1 - (np.arange(h) + 0.5) / h * 2) * t
-    d = np.stack(np.broadcast_arrays(x[None, :], y[:, None], -np.ones((h, 1))), axis=-1)
-    d = d @ view.camera_to_world[:3, :3].T
-    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+    """Unit world directions from the eye through each pixel centre, (H, W, 3); row 0 at the top (the CPU
+    reference's pinhole rays, pipeline.render.reference.camera_rays)."""
+    from pipeline.render.reference import camera_rays
+
+    return camera_rays(view)[1].reshape(view.height, view.width, 3)
 
 
 @pytest.fixture(scope="module")
