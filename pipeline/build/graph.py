@@ -83,14 +83,19 @@ def _npz_save(value: Mapping[str, np.ndarray], folder: Path) -> None:
     np.savez(folder / "value.npz", **{k: np.ascontiguousarray(v) for k, v in value.items()})
 
 
-def _npz_load(folder: Path) -> dict:
+def load_npz(path: Path) -> dict:
+    """Every array of an ``.npz`` file (no pickles), read-only."""
     import numpy as np
 
-    with np.load(folder / "value.npz", allow_pickle=False) as z:
+    with np.load(path, allow_pickle=False) as z:
         out = {k: z[k] for k in z.files}
     for a in out.values():
         a.setflags(write=False)
     return out
+
+
+def _npz_load(folder: Path) -> dict:
+    return load_npz(folder / "value.npz")
 
 
 #: Files a codec writes at the top of a stage's cache folder; never published into the asset.

@@ -48,7 +48,7 @@ from pathlib import Path
 from .. import __version__
 from ..config import get
 from ..errors import UsageError
-from .graph import FILES, JSON, Codec, Context, Stage
+from .graph import FILES, JSON, Codec, Context, Stage, load_npz
 
 LIBS_GEOMETRY = ("numpy", "scipy", "trimesh", "xatlas")
 LIBS_COLOUR = ("numpy", "scipy", "colour-science")
@@ -84,16 +84,6 @@ def _parts_arrays(parts_in) -> tuple[dict, list]:
     return arrays, parts
 
 
-def _load_arrays(path: Path) -> dict:
-    import numpy as np
-
-    with np.load(path, allow_pickle=False) as z:
-        arrays = {k: z[k] for k in z.files}
-    for a in arrays.values():
-        a.setflags(write=False)
-    return arrays
-
-
 def _parts_from(arrays: dict, meta_parts: list) -> tuple:
     from ..geometry.types import MeshPart, Primvar
 
@@ -120,7 +110,7 @@ def _bird_load(folder: Path):
     from ..geometry.types import Bird
 
     meta = json.loads((folder / "bird.json").read_text())
-    return Bird(parts=_parts_from(_load_arrays(folder / "bird.npz"), meta["parts"]))
+    return Bird(parts=_parts_from(load_npz(folder / "bird.npz"), meta["parts"]))
 
 
 def _body_save(body, folder: Path) -> None:
@@ -136,7 +126,7 @@ def _body_load(folder: Path):
     from ..geometry.bird import Body
     from ..geometry.body import BodyMesh
 
-    arrays = _load_arrays(folder / "body.npz")
+    arrays = load_npz(folder / "body.npz")
     meta = json.loads((folder / "body.json").read_text())
     mesh = BodyMesh(**{f: arrays[f"mesh/{f}"] for f in ("vertices_m", "faces", "normals")})
     return Body(mesh=mesh, part=_parts_from(arrays, meta["parts"])[0])
@@ -177,7 +167,7 @@ def _images_save(value, folder: Path) -> None:
 
 
 def _images_load(folder: Path):
-    arrays = _load_arrays(folder / "images.npz")
+    arrays = load_npz(folder / "images.npz")
     feathers = {k[len("feather_"):]: v for k, v in arrays.items() if k.startswith("feather_")}
     return feathers, arrays["body"]
 
