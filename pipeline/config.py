@@ -24,11 +24,9 @@ import tomllib
 from pathlib import Path
 from typing import Any, Iterable
 
+from . import resources
 from .errors import UsageError
 
-ROOT = Path(__file__).resolve().parents[1]
-SCHEMA_PATH = ROOT / "schemas" / "config.schema.json"
-PRESETS_DIR = ROOT / "assets" / "pigeon"
 DEFAULT_PRESET = "measured"
 
 _KEY_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
@@ -37,7 +35,7 @@ _BARE_WORD_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_.+-]*$")
 
 @functools.lru_cache(maxsize=1)
 def _schema_text() -> str:
-    return SCHEMA_PATH.read_text(encoding="utf-8")
+    return resources.path("schemas/config.schema.json").read_text(encoding="utf-8")
 
 
 def load_schema() -> dict:
@@ -47,7 +45,7 @@ def load_schema() -> dict:
 
 def presets() -> list[str]:
     """Names of the presets in ``assets/pigeon/`` (file stems), sorted."""
-    return sorted(p.stem for p in PRESETS_DIR.glob("*.toml"))
+    return sorted(p.stem for p in resources.path("assets/pigeon").glob("*.toml"))
 
 
 def preset_path(name: str) -> Path:
@@ -55,7 +53,7 @@ def preset_path(name: str) -> Path:
     allowed = presets()
     if name not in allowed:
         raise UsageError(f"preset {name!r} is unknown; allowed: {', '.join(allowed)}")
-    return PRESETS_DIR / f"{name}.toml"
+    return resources.path(f"assets/pigeon/{name}.toml")
 
 
 def _defaults_of(node: dict) -> Any:

@@ -18,3 +18,7 @@ class UsageError(RockdoveError, ValueError):
 
 class VerificationFailed(RockdoveError):
     """An asset failed validation or verification. CLI exit status 1."""
+
+
+class ResourceMissing(RockdoveError, FileNotFoundError):
+    """A data file the package needs (shader, schema, preset) is not installed. CLI exit status 2, one line."""

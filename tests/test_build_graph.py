@@ -195,16 +195,16 @@ def test_verification_rerenders_only_views_whose_inputs_changed(tmp_path):
 
 
 def test_code_change_invalidates_a_stage(tmp_path, monkeypatch):
-    root = tmp_path / "root"
+    root = tmp_path / "pipeline"
     (root / "pkg").mkdir(parents=True)
     (root / "pkg" / "mod.py").write_text("X = 1\n")
-    monkeypatch.setattr(G, "ROOT", root)
-    stage = G.Stage("s", lambda ctx: {"ok": 1}, modules=("pkg.mod",))
+    monkeypatch.setattr(G.resources, "package_root", lambda: root)
+    stage = G.Stage("s", lambda ctx: {"ok": 1}, modules=("pipeline.pkg.mod",))
     before = G.source_digest(stage)
     (root / "pkg" / "mod.py").write_text("X = 2\n")
     assert G.source_digest(stage) != before
     with pytest.raises(ValueError, match="pkg.nothing"):
-        G.source_digest(G.Stage("s", lambda ctx: 1, modules=("pkg.nothing",)))
+        G.source_digest(G.Stage("s", lambda ctx: 1, modules=("pipeline.pkg.nothing",)))
 
 
 def test_key_reads_exactly_the_declared_config(tmp_path):

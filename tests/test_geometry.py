@@ -51,9 +51,9 @@ def test_presets_measured_and_paper():
     assert BirdParams().card_count >= 1000
     # the body detail default is the configuration schema's (one default, not two)
     import json
-    from pipeline.config import ROOT
+    from pipeline import resources
 
-    schema = json.loads((ROOT / "schemas" / "config.schema.json").read_text())
+    schema = json.loads(resources.path("schemas/config.schema.json").read_text())
     assert BirdParams().body_voxel_m == schema["properties"]["geometry"]["properties"]["body_voxel_m"]["default"]
     with pytest.raises(ValueError, match="unknown"):
         BirdParams.from_dict({"card_cuont": 3})

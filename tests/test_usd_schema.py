@@ -8,7 +8,8 @@ import sys
 
 import pytest
 
-from pipeline.usd.schema import ATTRIBUTE_TYPES, SCHEMA_DIR, SCHEMA_NAME, apply_thin_film, read_thin_film, register
+from pipeline import resources
+from pipeline.usd.schema import ATTRIBUTE_TYPES, SCHEMA_NAME, apply_thin_film, read_thin_film, register
 
 DESIGN_ATTRS = {  # docs/design.md, "USD asset"
     "rockdove:film:model": "token", "rockdove:film:cauchyA": "float", "rockdove:film:cauchyB_nm2": "float",
@@ -29,15 +30,15 @@ def _class_attrs(path):
 
 
 def test_source_and_generated_schema_agree_with_the_design():
-    source = _class_attrs(os.path.join(SCHEMA_DIR, "schema.usda"))
-    generated = _class_attrs(os.path.join(SCHEMA_DIR, "generatedSchema.usda"))
+    source = _class_attrs(os.path.join(str(resources.folder("schemas")), "schema.usda"))
+    generated = _class_attrs(os.path.join(str(resources.folder("schemas")), "generatedSchema.usda"))
     assert source == generated
     assert {k: v[0] for k, v in generated.items()} == DESIGN_ATTRS
     assert all(doc for _, _, doc in generated.values())  # every attribute documented
 
 
 def test_pluginfo_declares_a_single_apply_api_schema_for_meshes():
-    info = json.load(open(os.path.join(SCHEMA_DIR, "plugInfo.json")))
+    info = json.load(open(os.path.join(str(resources.folder("schemas")), "plugInfo.json")))
     (plugin,) = info["Plugins"]
     (entry,) = plugin["Info"]["Types"].values()
     assert entry["schemaIdentifier"] == SCHEMA_NAME and entry["schemaKind"] == "singleApplyAPI"
@@ -45,7 +46,7 @@ def test_pluginfo_declares_a_single_apply_api_schema_for_meshes():
 
 
 def _python(code):
-    root = os.path.dirname(SCHEMA_DIR)
+    root = os.path.dirname(str(resources.folder("schemas")))
     env = dict(os.environ, PYTHONPATH=root)
     env.pop("PXR_PLUGINPATH_NAME", None)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=root, env=env,
@@ -67,7 +68,7 @@ def test_registry_definition_matches_generated_schema():
 
 
 def test_attribute_types_in_code_match_generated_schema():
-    generated = _class_attrs(os.path.join(SCHEMA_DIR, "generatedSchema.usda"))
+    generated = _class_attrs(os.path.join(str(resources.folder("schemas")), "generatedSchema.usda"))
     assert {f"rockdove:{k}": v for k, v in ATTRIBUTE_TYPES.items()} == {k: v[0] for k, v in generated.items()}
 
 

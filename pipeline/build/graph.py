@@ -45,7 +45,8 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping
 
 
-from ..config import ROOT, canonical_json, get
+from .. import resources
+from ..config import canonical_json, get
 
 GRAPH_VERSION = 1  # bump when the key recipe or the entry layout changes
 PAUSE_ENV = "ROCKDOVE_TEST_PAUSE_AFTER"
@@ -218,12 +219,21 @@ def _files_of(path: Path, pattern: str = "*") -> list[Path]:
     return [path] if path.is_file() else []
 
 
+def module_base(module: str) -> Path:
+    """Where ``module`` (``pipeline.x.y``) lives: the package folder or the path without ``.py``, unchecked."""
+    top, *rest = module.split(".")
+    if top != "pipeline":
+        raise ValueError(f"module must be inside the pipeline package, got {module!r}")
+    return resources.package_root().joinpath(*rest)
+
+
 def module_files(module: str) -> list[Path]:
     """The ``.py`` files of ``module`` (a package: all of them), found by path without importing it."""
-    base = ROOT.joinpath(*module.split("."))
+    base = module_base(module)
     files = _files_of(base, "*.py") if base.is_dir() else _files_of(base.with_suffix(".py"))
     if not files:
-        raise ValueError(f"module {module!r} has no source under {ROOT}; the stage cannot be keyed")
+        raise ValueError(f"module {module!r} has no source under {resources.package_root()}; "
+                         "the stage cannot be keyed")
     return files
 
 
@@ -237,8 +247,9 @@ def source_digest(stage: Stage) -> str:
     for p in sorted(files):
         _hash_file(h, p, p.name)
     for d in stage.data:
-        for p in _files_of(ROOT / d):
-            _hash_file(h, p, str(p.relative_to(ROOT)))
+        top = resources.path(d)
+        for p in _files_of(top):
+            _hash_file(h, p, f"{d}/{p.relative_to(top)}" if top.is_dir() else d)
     return h.hexdigest()
 
 

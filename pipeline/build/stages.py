@@ -48,7 +48,7 @@ from pathlib import Path
 from .. import __version__
 from ..config import get
 from ..errors import UsageError
-from .graph import FILES, JSON, Codec, Context, Stage, load_npz
+from .graph import FILES, JSON, Codec, Context, Stage, load_npz, module_base
 
 LIBS_GEOMETRY = ("numpy", "scipy", "trimesh", "xatlas")
 LIBS_COLOUR = ("numpy", "scipy", "colour-science")
@@ -303,12 +303,10 @@ def _missing(names: list[str]) -> list[str]:
     Checked on the source text, not by importing, so that a no-op rebuild does not pay for importing the
     whole pipeline (scipy, trimesh...) just to key stages it will not run.
     """
-    from ..config import ROOT
-
     out = []
     for dotted in names:
         mod, _, attr = dotted.rpartition(":")
-        base = ROOT.joinpath(*mod.split("."))
+        base = module_base(mod)
         path = base / "__init__.py" if base.is_dir() else base.with_suffix(".py")
         if not path.is_file() or (attr and attr not in path.read_text(encoding="utf-8")):
             out.append(dotted)

@@ -32,11 +32,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import resources
 from .scene import RenderScene, ScenePart, read_texture
 from .views import View
 
-#: Folder of the GLSL shaders (data, loaded by this module).
-GLSL_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "materials", "glsl")
 VERTEX_SHADER = "thinfilm.vert"
 FRAGMENT_SHADER = "thinfilm.frag"
 #: Angle definitions the shader accepts (``u_angle_mode``): the paper's light/view half-angle, and the
@@ -112,11 +111,11 @@ def _shader_program_cache_class():
     from pyrender.shader_program import ShaderProgramCache
 
     class ThinFilmProgramCache(ShaderProgramCache):
-        """Every program pyrender asks for is ``thinfilm.vert`` + ``thinfilm.frag`` from ``GLSL_DIR``,
+        """Every program pyrender asks for is ``thinfilm.vert`` + ``thinfilm.frag`` from ``materials/glsl``,
         with pyrender's defines (attribute locations). rockdove renders only the forward pass."""
 
         def __init__(self):
-            super().__init__(shader_dir=GLSL_DIR)
+            super().__init__(shader_dir=str(resources.path("materials/glsl")))
 
         def get_program(self, vertex_shader, fragment_shader, geometry_shader=None, defines=None):
             defines = dict(defines or {})

@@ -28,8 +28,8 @@ from __future__ import annotations
 
 import os
 
-REPO_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-THINFILM_MTLX = os.path.join(REPO_ROOT, "materials", "thinfilm.mtlx")
+from .. import resources
+
 
 #: The colour space of thinfilm.mtlx (its ``colorspace`` attribute): linear Rec.709, the project's working space.
 MTLX_WORKING_SPACE = "lin_rec709"
@@ -74,7 +74,7 @@ def load_mtlx_libraries():
     return lib
 
 
-def load_thinfilm_document(path: str = THINFILM_MTLX):
+def load_thinfilm_document(path: str | os.PathLike | None = None):
     """Read ``materials/thinfilm.mtlx`` with the standard libraries attached as its data library.
 
     Returns
@@ -83,6 +83,7 @@ def load_thinfilm_document(path: str = THINFILM_MTLX):
     """
     import MaterialX as mx
 
+    path = os.fspath(resources.path("materials/thinfilm.mtlx") if path is None else path)
     if not os.path.isfile(path):
         raise FileNotFoundError(f"path: no MaterialX document at {path!r}")
     doc = mx.createDocument()

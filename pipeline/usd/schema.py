@@ -19,10 +19,9 @@ so the written layers and what is read back are the same whether or not the regi
 
 from __future__ import annotations
 
-import os
+from .. import resources
 
 SCHEMA_NAME = "RockDoveThinFilmAPI"
-SCHEMA_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "schemas")
 
 # attribute name (after the "rockdove:" namespace) -> key in the dict read_thin_film returns
 _ATTRS = {
@@ -71,7 +70,7 @@ def register() -> bool:
     """
     from pxr import Plug, Usd
 
-    Plug.Registry().RegisterPlugins(SCHEMA_DIR)
+    Plug.Registry().RegisterPlugins(str(resources.folder("schemas")))
     return Usd.SchemaRegistry().FindAppliedAPIPrimDefinition(SCHEMA_NAME) is not None
 
 
