@@ -192,11 +192,11 @@ def test_render_needs_views_and_film(tmp_path):
         reference.render_reference(no_film, [_view()])
 
 
-def test_display_transform_is_the_gl_paths():
-    from pipeline.render.images import linear_to_srgb8
-
-    rgb = np.array([[0.0, 1.0, 2.0], [-0.05, 0.3, 0.1], [0.18, 0.18, 0.18]])
-    np.testing.assert_array_equal(reference.to_display8(rgb), linear_to_srgb8(rgb))
+def test_display_transform_is_the_clipped_srgb_oetf():
+    # the sRGB OETF of the clipped value, rounded: checked against the formula, not against itself
+    rgb = np.array([[0.0, 1.0, 2.0], [-0.05, 0.3, 0.1]])
+    assert reference.to_display8(rgb).tolist() == [[0, 255, 255], [0, round(255 * (1.055 * 0.3 ** (1 / 2.4) - 0.055)),
+                                                                     round(255 * (1.055 * 0.1 ** (1 / 2.4) - 0.055))]]
     grey = reference.to_display8(np.array([[0.18, 0.18, 0.18]]))[0, 0]
     assert grey == round(255 * (1.055 * 0.18 ** (1 / 2.4) - 0.055))
     assert reference.to_display8(np.array([[np.nan, np.inf, 0.5]]))[0, :2].tolist() == [0, 255]

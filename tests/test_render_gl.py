@@ -98,6 +98,8 @@ def test_renders_are_finite_and_lit_feathers_are_not_black(coarse):
         np.testing.assert_array_equal(res.alpha > 0, res.part_id > 0)
         assert np.all(res.depth_m[res.part_id > 0] > 0) and np.all(res.depth_m[res.part_id == 0] == 0)
         lit = _feather_interior(res, scene) & (res.n_dot_l > 0.2)
+        if name == "front":
+            assert lit.sum() > 100, "the front view must show lit feather pixels"
         if lit.any():
             assert res.radiance_rgb[lit].sum(axis=1).min() > 0.02, name
     assert _feather_interior(results["front"], scene).sum() > 300
