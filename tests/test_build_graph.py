@@ -1,128 +1,21 @@
 """The build graph: content keys, the cache, early cut-off, fan-out items, and the incremental rules.
 
-``standin_stages`` is a small stand-in pipeline with the same shape and rules as the real one
-(pipeline/build/stages.py): geometry -> thickness range -> LUT (only for baked shading, one texel high when the
-film is uniform) -> textures -> USD layers -> usdz -> per-view verification. The CLI tests load it through
-``ROCKDOVE_BUILD_STAGES`` so the framework is tested through the real CLI in well under a second per build.
+Most tests use the stand-in pipeline of ``tests/standins.py`` (same shape and rules as the real one); the
+tests at the end run the real stages on small configurations.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import importlib
-import json
 import os
-import zipfile
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from pipeline.build import graph as G
 from pipeline.config import load_config
-
-HERE = os.path.abspath(__file__)
-STANDIN = f"{HERE}:standin_stages"
-
-
-# ------------------------------------------------------------------------------------- stand-in stages
-def _body(ctx):
-    rng = np.random.default_rng(0)
-    return {"points_m": rng.normal(size=(64, 3)).astype(np.float32)}
-
-
-def _cards(ctx):
-    g, t = ctx.config["geometry"], ctx.config["thickness"]
-    rng = np.random.default_rng(g["seed"])
-    s = rng.uniform(0, 1, g["card_count"])
-    lo = np.interp(s, [0, 1], [t["base_nm"][0], t["top_nm"][0]])
-    hi = np.interp(s, [0, 1], [t["base_nm"][1], t["top_nm"][1]])
-    thickness = lo + (hi - lo) * rng.uniform(0, 1, g["card_count"])
-    return {"thickness_nm": thickness.astype(np.float32), "s": s.astype(np.float32),
-            "body_points": ctx.inputs["body"]["points_m"][:1]}
-
-
-def _thickness_range(ctx):
-    d = ctx.inputs["cards"]["thickness_nm"]
-    return [float(np.floor(d.min())), float(np.ceil(d.max()))]
-
-
-def _lut(ctx):
-    lo, hi = ctx.inputs["thickness_range"]
-    rows = 1 if lo == hi else ctx.config["lut"]["thicknesses"]
-    n = ctx.config["film"]["cauchy_a"] or 1.5
-    d = np.linspace(lo, hi, rows)[:, None, None]
-    rgb = np.cos(2 * np.pi * n * d / np.array([600.0, 550.0, 450.0]) + np.linspace(0, 1, ctx.config["lut"]["angles"])[None, :, None])
-    np.save(ctx.workdir / "thinfilm_lut.npy", rgb.astype(np.float32))
-
-
-def _textures(ctx):
-    (ctx.workdir / "feather_base.txt").write_text(f"feather {ctx.config['textures']['feather_resolution']}\n")
-    (ctx.workdir / "body_base.txt").write_text(f"body {ctx.config['textures']['body_resolution']}\n")
-
-
-def _usd_layers(ctx):
-    lut = "./textures/thinfilm_lut.npy" if "lut" in ctx.inputs else "none"
-    thickness = ctx.inputs["cards"]["thickness_nm"]
-    (ctx.workdir / "pigeon.usda").write_text(
-        f"#usda stand-in\nfilm = {json.dumps(ctx.config['film'], sort_keys=True)}\nshading = "
-        f"{ctx.config['shading']['variant']}\nlut = {lut}\ncards = {thickness.size}\n")
-
-
-def _usdz(ctx):
-    with zipfile.ZipFile(ctx.workdir / "pigeon.usdz", "w") as z:
-        for name in ("usd_layers", "textures", "lut"):
-            if name in ctx.inputs:
-                for p in sorted(Path(ctx.inputs[name]).rglob("*")):
-                    z.writestr(p.name, p.read_bytes())
-
-
-def _verify_items(cfg):
-    v = cfg["verify"]
-    return {f"view_{i:03d}": {"index": i, "width": v["width"], "height": v["height"]} for i in range(v["views"])}
-
-
-def _verify_view(ctx):
-    name, item = ctx.item
-    text = (ctx.asset_dir / "pigeon.usda").read_text()
-    return {"view": name, "chars": len(text), "pixels": item["width"] * item["height"]}
-
-
-def _verify_combine(ctx, views):
-    # stand-in rule for the failed-verification test: a width of 17 px "fails"
-    passed = ctx.config["verify"]["width"] != 17
-    (ctx.workdir / "report.json").write_text(json.dumps({"views": views, "passed": passed}))
-    return {"passed": passed, "reason": "stand-in width 17"}
-
-
-
-
-VERDICT = G.Codec("verdict", lambda v, f: (f / "verdict.json").write_text(json.dumps(v)),
-                  lambda f: json.loads((f / "verdict.json").read_text()))
-
-
-def standin_stages(config, *, verify=True):
-    """The stand-in graph, built from the configuration like the real one."""
-    variant = config["shading"]["variant"]
-    stages = [
-        G.Stage("body", _body, codec=G.NPZ),
-        G.Stage("cards", _cards, config=("geometry.seed", "geometry.card_count", "thickness"), deps=("body",),
-                codec=G.NPZ),
-        G.Stage("thickness_range", _thickness_range, deps=("cards",)),
-    ]
-    if variant != "physical":
-        stages.append(G.Stage("lut", _lut, config=("film", "lut"), deps=("thickness_range",), codec=G.FILES,
-                              publish="textures"))
-    stages.append(G.Stage("textures", _textures, config=("textures",), codec=G.FILES, publish="textures"))
-    layer_deps = ("cards", "textures") + (("lut",) if variant != "physical" else ())
-    stages.append(G.Stage("usd_layers", _usd_layers, config=("film", "shading"), deps=layer_deps, codec=G.FILES,
-                          publish=""))
-    if config["usd"]["usdz"]:
-        stages.append(G.Stage("usdz", _usdz, deps=("usd_layers",) + layer_deps[1:], codec=G.FILES, publish=""))
-    if verify:
-        stages.append(G.Stage("verify", _verify_view, config=("verify",), deps=layer_deps + ("usd_layers",),
-                              codec=VERDICT, needs_asset=True, items=_verify_items, combine=_verify_combine))
-    return stages
+from standins import standin_body, standin_stages  # tests/ is on sys.path under pytest
 
 
 # ------------------------------------------------------------------------------------- helpers
@@ -209,7 +102,7 @@ def test_code_change_invalidates_a_stage(tmp_path, monkeypatch):
 
 
 def test_key_reads_exactly_the_declared_config(tmp_path):
-    stage = G.Stage("s", _body, config=("lut.angles",))
+    stage = G.Stage("s", standin_body, config=("lut.angles",))
     a, b, c = _cfg(), _cfg("lut.method=spectral", "geometry.seed=3"), _cfg("lut.angles=12")
     src = G.source_digest(stage)
     assert G.stage_key(stage, a, {}, src) == G.stage_key(stage, b, {}, src)
@@ -244,9 +137,9 @@ def test_incomplete_cache_entry_is_rebuilt(tmp_path):
 def test_graph_rejects_bad_order_and_duplicates(tmp_path):
     cache = G.Cache(tmp_path)
     with pytest.raises(ValueError, match="not earlier"):
-        G.Graph([G.Stage("b", _body, deps=("a",)), G.Stage("a", _body)], _cfg(), cache)
+        G.Graph([G.Stage("b", standin_body, deps=("a",)), G.Stage("a", standin_body)], _cfg(), cache)
     with pytest.raises(ValueError, match="twice"):
-        G.Graph([G.Stage("a", _body), G.Stage("a", _body)], _cfg(), cache)
+        G.Graph([G.Stage("a", standin_body), G.Stage("a", standin_body)], _cfg(), cache)
 
 
 # ------------------------------------------------------------------------------------- real stage wiring

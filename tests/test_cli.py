@@ -1,8 +1,9 @@
 """The ``build`` and ``config`` commands through the real CLI (subprocess): bad inputs and the happy paths.
 
 Every bad input must exit 2 with exactly one line on stderr naming the problem, no traceback, and write
-nothing (no output folder, lock file or cache). Builds here use the stand-in stages of test_build_graph.py
-(``ROCKDOVE_BUILD_STAGES``), so they test the command and the framework in a fraction of a second each.
+nothing (no output folder, lock file or cache). Builds here run the real command with the stand-in stages of
+tests/standins.py patched in by tests/launcher.py, so they test the command and the framework in a fraction of a
+second each; the real stages run in the last test.
 """
 
 from __future__ import annotations
@@ -15,16 +16,14 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-STANDIN = f"{ROOT / 'tests' / 'test_build_graph.py'}:standin_stages"
+LAUNCHER = str(Path(__file__).with_name("launcher.py"))
 
 
-def rockdove(*args, cwd, env_extra=None, timeout=60):
-    env = {**os.environ, "ROCKDOVE_BUILD_STAGES": STANDIN, "PYTHONPATH": str(ROOT)}
-    env.pop("ROCKDOVE_DEBUG", None)
-    env.update(env_extra or {})
-    return subprocess.run([sys.executable, "-m", "pipeline.cli", *args], cwd=cwd, env=env, capture_output=True,
-                          text=True, timeout=timeout)
+def rockdove(*args, cwd, standin=True, timeout=60):
+    """``rockdove ARGS`` in a fresh interpreter: the stand-in stages, or the real ones with ``standin=False``."""
+    env = {k: v for k, v in os.environ.items() if k != "ROCKDOVE_DEBUG"}
+    cmd = [sys.executable, LAUNCHER, *(["--standin"] if standin else []), "--", *args]
+    return subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
 
 
 def _tree(folder: Path) -> set:
@@ -192,8 +191,7 @@ TINY = ["--set", "geometry.body_voxel_m=0.01", "--set", "geometry.card_count=600
 
 def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     """One small real asset through the real stages (no stand-ins): build, verify, film change."""
-    env = {"ROCKDOVE_BUILD_STAGES": ""}
-    r = rockdove("build", "--out", "b/p", "--no-verify", *TINY, cwd=tmp_path, env_extra=env, timeout=300)
+    r = rockdove("build", "--out", "b/p", "--no-verify", *TINY, cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     first = json.loads(r.stdout)
     assert first["ran"] == ["body", "bird", "thickness_range", "lut", "texture_images", "textures", "usd_layers"]
@@ -205,7 +203,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     lo, hi = read_exr(asset / "textures/thinfilm_lut.exr").thickness_range_nm
     assert 480 <= lo < 600 and 600 < hi <= 700
     # verification added: only the verify stage runs, on the same asset, every view rendered
-    r = rockdove("build", "--out", "b/p", *TINY, cwd=tmp_path, env_extra=env, timeout=300)
+    r = rockdove("build", "--out", "b/p", *TINY, cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     second = json.loads(r.stdout)
     assert second["ran"] == ["verify"] and second["verified"] is True
@@ -218,14 +216,14 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert verdict["passed"] is True and verdict["views"] == views  # the view names (key "view") reach the verdict
     # a change that renders the same scene (the usdz added, the recipe's description): no view re-rendered
     r = rockdove("build", "--out", "b/p", *TINY, "--set", "usd.usdz=true", "--set", "description=metadata",
-                 cwd=tmp_path, env_extra=env, timeout=300)
+                 cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     meta = json.loads(r.stdout)
     assert meta["ran"] == ["usdz", "verify"] and meta["verified"] is True
     assert _verify_record(meta)["items_ran"] == [] and _verify_record(meta)["items_reused"] == views
     assert (asset / "pigeon.usdz").is_file() and (asset / "verify/sweep_090_gl.png").is_file()
     # film index change: LUT, textures (the preview mixes the LUT in), layers and every view; geometry reused
-    r = rockdove("build", "--out", "b/p", "--set", "film.cauchy_a=1.56", *TINY, cwd=tmp_path, env_extra=env,
+    r = rockdove("build", "--out", "b/p", "--set", "film.cauchy_a=1.56", *TINY, cwd=tmp_path, standin=False,
                  timeout=300)
     assert r.returncode == 0, r.stderr
     third = json.loads(r.stdout)
@@ -233,7 +231,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert {"body", "bird", "thickness_range", "texture_images"} == set(third["reused"])
     assert _verify_record(third)["items_ran"] == views
     # physical-only shading: no bake at all (the lut stage is not in the graph), verified with a note
-    r = rockdove("build", "--out", "b/p", "--set", "shading.variant=physical", *TINY, cwd=tmp_path, env_extra=env,
+    r = rockdove("build", "--out", "b/p", "--set", "shading.variant=physical", *TINY, cwd=tmp_path, standin=False,
                  timeout=300)
     assert r.returncode == 0, r.stderr
     fourth = json.loads(r.stdout)

@@ -1,8 +1,8 @@
 """Reliability through the real CLI: builds killed at several points, signals, two concurrent builds, the lock.
 
-Builds use the stand-in stages of test_build_graph.py (``ROCKDOVE_BUILD_STAGES``); the graph's test hook
-``ROCKDOVE_TEST_PAUSE_AFTER=<stage|assemble|publish-swap>`` stops a build at a chosen point so it can be killed
-exactly there.
+Builds run the real command with the stand-in stages of tests/standins.py, through tests/launcher.py, which
+also stops a build right after a chosen point (``--pause-after <stage|assemble|publish-swap>``) so it can be
+killed exactly there, or released when the test is ready (``--release FILE``).
 """
 
 from __future__ import annotations
@@ -20,26 +20,24 @@ import pytest
 
 from pipeline.build import publish as P
 
-ROOT = Path(__file__).resolve().parents[1]
-STANDIN = f"{ROOT / 'tests' / 'test_build_graph.py'}:standin_stages"
+LAUNCHER = str(Path(__file__).with_name("launcher.py"))
 BASE = ["build", "--out", "b/pigeon", "--set", "geometry.card_count=40", "--quiet"]
+ENV = {k: v for k, v in os.environ.items() if k != "ROCKDOVE_DEBUG"}
 
 
-def _env(**extra):
-    env = {**os.environ, "ROCKDOVE_BUILD_STAGES": STANDIN, "PYTHONPATH": str(ROOT)}
-    env.pop("ROCKDOVE_DEBUG", None)
-    env.update(extra)
-    return env
+def _cmd(args, pause_after=None, release=None):
+    opts = ["--standin"] + (["--pause-after", pause_after] if pause_after else []) + (
+        ["--release", str(release)] if release else [])
+    return [sys.executable, LAUNCHER, *opts, "--", *BASE, *args]
 
 
-def run(cwd, *args, **env):
-    return subprocess.run([sys.executable, "-m", "pipeline.cli", *BASE, *args], cwd=cwd, env=_env(**env),
-                          capture_output=True, text=True, timeout=60)
+def run(cwd, *args):
+    return subprocess.run(_cmd(args), cwd=cwd, env=ENV, capture_output=True, text=True, timeout=60)
 
 
-def start(cwd, *args, **env):
-    return subprocess.Popen([sys.executable, "-m", "pipeline.cli", *BASE, *args], cwd=cwd, env=_env(**env),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+def start(cwd, *args, pause_after=None, release=None):
+    return subprocess.Popen(_cmd(args, pause_after, release), cwd=cwd, env=ENV, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
 
 
 def wait_for_line(proc, text, timeout=30.0) -> str:
@@ -76,7 +74,7 @@ POINTS = ["cards", "lut", "usd_layers", "assemble", "verify", "publish-swap"]
 def test_sigkill_at_any_point_leaves_a_complete_asset(tmp_path, point):
     assert run(tmp_path).returncode == 0
     old = snapshot(tmp_path / "b/pigeon")
-    proc = start(tmp_path, "--set", "film.cauchy_a=1.61", ROCKDOVE_TEST_PAUSE_AFTER=point)
+    proc = start(tmp_path, "--set", "film.cauchy_a=1.61", pause_after=point)
     wait_for_line(proc, f"paused after {point}")
     proc.send_signal(signal.SIGKILL)
     proc.wait(10)
@@ -96,7 +94,7 @@ def test_sigkill_at_any_point_leaves_a_complete_asset(tmp_path, point):
 def test_sigterm_and_ctrl_c_remove_temporary_files(tmp_path, sig):
     assert run(tmp_path).returncode == 0
     old = snapshot(tmp_path / "b/pigeon")
-    proc = start(tmp_path, "--set", "film.cauchy_a=1.62", ROCKDOVE_TEST_PAUSE_AFTER="assemble")
+    proc = start(tmp_path, "--set", "film.cauchy_a=1.62", pause_after="assemble")
     wait_for_line(proc, "paused after assemble")
     assert [p for p in (tmp_path / "b").iterdir() if ".rockdove-tmp-" in p.name], "no staging folder to clean"
     proc.send_signal(sig)
@@ -108,11 +106,12 @@ def test_sigterm_and_ctrl_c_remove_temporary_files(tmp_path, sig):
 
 
 def test_two_concurrent_builds_serialise_on_the_lock(tmp_path):
-    first = start(tmp_path, "--set", "film.cauchy_a=1.63", "--json",
-                  ROCKDOVE_TEST_PAUSE_AFTER="lut", ROCKDOVE_TEST_PAUSE_SECONDS="1.5")
+    release = tmp_path / "release-first"
+    first = start(tmp_path, "--set", "film.cauchy_a=1.63", "--json", pause_after="lut", release=release)
     wait_for_line(first, "paused after lut")
     second = start(tmp_path, "--set", "film.cauchy_a=1.64", "--json")
     wait_for_line(second, "waiting for another build")
+    release.touch()  # the second is now blocked on the lock: let the first finish
     out1, _ = first.communicate(timeout=30)
     out2, _ = second.communicate(timeout=30)
     assert first.returncode == 0 and second.returncode == 0
@@ -125,7 +124,7 @@ def test_two_concurrent_builds_serialise_on_the_lock(tmp_path):
 
 
 def test_lock_timeout_fails_with_a_clear_message(tmp_path):
-    holder = start(tmp_path, ROCKDOVE_TEST_PAUSE_AFTER="body")
+    holder = start(tmp_path, pause_after="body")
     try:
         wait_for_line(holder, "paused after body")
         r = run(tmp_path, "--lock-timeout", "0.3")

@@ -23,9 +23,6 @@ content* of the asset, not every byte of it), ``Stage.item_plan(ctx)`` names the
 per item, everything it reads; the item key is then that plan entry plus the stage's code and libraries, without
 the upstream digests, so an upstream change that leaves an item's plan entry unchanged does not redo it.
 ``Stage.batch`` runs all the items to redo in one call (sharing set-up such as a GL context).
-
-Test hook: ``ROCKDOVE_TEST_PAUSE_AFTER=<stage>`` makes the build stop after that stage (or after
-``assemble``, ``publish-swap``: see :mod:`pipeline.build.publish`) and sleep, so tests can kill it there.
 """
 
 from __future__ import annotations
@@ -49,15 +46,6 @@ from .. import resources
 from ..config import canonical_json, get
 
 GRAPH_VERSION = 1  # bump when the key recipe or the entry layout changes
-PAUSE_ENV = "ROCKDOVE_TEST_PAUSE_AFTER"
-
-
-def pause_point(point: str) -> None:
-    """If ``$ROCKDOVE_TEST_PAUSE_AFTER == point``: say so on stderr and sleep ``$ROCKDOVE_TEST_PAUSE_SECONDS``
-    (default 3600 s), so tests can kill the build exactly there or overlap two builds."""
-    if os.environ.get(PAUSE_ENV) == point:
-        print(f"rockdove: paused after {point}", file=sys.stderr, flush=True)
-        time.sleep(float(os.environ.get("ROCKDOVE_TEST_PAUSE_SECONDS", "3600")))
 
 
 # ----------------------------------------------------------------------------------------------- codecs
@@ -434,7 +422,6 @@ class Graph:
                 continue
             self.progress(stage.name)
             done.append(self._run_stage(stage, asset_dir))
-            pause_point(stage.name)
         return done
 
     def _context(self, stage: Stage, workdir: Path, asset_dir, item=None) -> Context:
@@ -531,5 +518,3 @@ class Graph:
                 target = dst / p.relative_to(src)
                 target.parent.mkdir(parents=True, exist_ok=True)
                 shutil.copyfile(p, target)
-        if not needs_asset:
-            pause_point("assemble")

@@ -29,7 +29,6 @@ from pathlib import Path
 
 from .. import __version__
 from ..errors import UsageError
-from .graph import pause_point
 
 MARKER = ".rockdove-asset.json"
 _TMP = ".rockdove-tmp-"
@@ -169,14 +168,11 @@ def publish(staging: Path, out: Path) -> None:
     check_output(out)
     if out.exists():
         if _exchange(staging, out):
-            pause_point("publish-swap")
             shutil.rmtree(staging)  # now holds the old asset
             return
         old = out.parent / f".{out.name}{_OLD}{os.getpid()}-{os.urandom(4).hex()}"
         os.rename(out, old)
-        pause_point("publish-swap")
         os.rename(staging, out)
         shutil.rmtree(old)
     else:
         os.rename(staging, out)
-        pause_point("publish-swap")

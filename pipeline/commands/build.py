@@ -11,9 +11,7 @@ publishes nothing and exits 1.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
-import os
 import shutil
 import signal
 import sys
@@ -24,7 +22,6 @@ from ..config import DEFAULT_PRESET, config_hash, load_config
 
 HELP = "build the pigeon USD asset (incremental; verifies unless --no-verify)"
 DEFAULT_OUT = "build/pigeon"
-STAGES_ENV = "ROCKDOVE_BUILD_STAGES"  # tests: "path/to/file.py:factory" replaces the stage factory
 
 
 def add_config_arguments(parser: argparse.ArgumentParser) -> None:
@@ -47,19 +44,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(default: wait until it finishes)")
     parser.add_argument("--json", action="store_true", help="print a JSON summary (stages ran and reused) on stdout")
     parser.add_argument("--quiet", action="store_true", help="no progress bar and no summary text")
-
-
-def _stage_factory():
-    spec = os.environ.get(STAGES_ENV, "").strip()
-    if not spec:
-        from ..build.stages import make_stages
-
-        return make_stages
-    path, _, name = spec.rpartition(":")
-    mod_spec = importlib.util.spec_from_file_location("_rockdove_stages_override", path)
-    mod = importlib.util.module_from_spec(mod_spec)
-    mod_spec.loader.exec_module(mod)
-    return getattr(mod, name)
 
 
 def _raise_interrupt(signum, frame):
@@ -121,7 +105,9 @@ def run(args: argparse.Namespace) -> int:
     cache_dir = Path(args.cache) if args.cache else out.parent / ".rockdove-cache"
     if cache_dir.exists() and not cache_dir.is_dir():
         raise UsageError(f"--cache {str(cache_dir)!r} exists and is not a folder")
-    stages = _stage_factory()(config, verify=not args.no_verify)
+    from ..build import stages as build_stages
+
+    stages = build_stages.make_stages(config, verify=not args.no_verify)
     chash = config_hash(config)
 
     old_term = signal.signal(signal.SIGTERM, _raise_interrupt)
