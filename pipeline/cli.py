@@ -1,9 +1,8 @@
 """The ``rockdove`` command line.
 
-This module only parses arguments and dispatches. Each sub-command lives in ``pipeline/commands/<name>.py``
-and exposes::
+This module only parses arguments and dispatches. :data:`COMMANDS` names every sub-command with its one-line
+help (the only copy of it); each lives in ``pipeline/commands/<name>.py`` and exposes::
 
-    HELP: str                                   # one line for ``rockdove --help``
     def add_arguments(parser: argparse.ArgumentParser) -> None
     def run(args: argparse.Namespace) -> int    # exit status: 0 ok, 1 failed check, 2 bad usage
 
@@ -44,11 +43,6 @@ def _module(name: str):
     return importlib.import_module(f"pipeline.commands.{name}")
 
 
-def _available() -> dict[str, str]:
-    here = os.path.join(os.path.dirname(__file__), "commands")
-    return {n: h for n, h in COMMANDS.items() if os.path.exists(os.path.join(here, f"{n}.py"))}
-
-
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The top-level parser; only ``command``'s module is imported to add its arguments."""
     parser = _Parser(
@@ -57,7 +51,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"rockdove {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    for name, help_ in _available().items():
+    for name, help_ in COMMANDS.items():
         p = sub.add_parser(name, help=help_, description=help_)
         if name == command:
             _module(name).add_arguments(p)

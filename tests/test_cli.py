@@ -246,3 +246,14 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
 
 def _verify_record(summary: dict) -> dict:
     return next(s for s in summary["stages"] if s["name"] == "verify")
+
+
+def test_every_listed_command_has_a_module_with_the_command_interface():
+    import importlib
+
+    from pipeline.cli import COMMANDS, build_parser
+
+    for name in COMMANDS:
+        mod = importlib.import_module(f"pipeline.commands.{name}")
+        assert callable(mod.add_arguments) and callable(mod.run), name
+        build_parser(name)  # its arguments are added without error

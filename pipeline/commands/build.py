@@ -20,7 +20,6 @@ from pathlib import Path
 
 from ..config import DEFAULT_PRESET, config_hash, load_config
 
-HELP = "build the pigeon USD asset (incremental; verifies unless --no-verify)"
 DEFAULT_OUT = "build/pigeon"
 
 

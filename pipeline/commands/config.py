@@ -12,7 +12,6 @@ import json
 from ..config import config_hash, describe, load_config
 from .build import add_config_arguments
 
-HELP = "print the effective build configuration with units"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

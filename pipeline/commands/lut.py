@@ -11,7 +11,6 @@ import os
 import tempfile
 import time
 
-HELP = "bake a thin-film colour LUT over angle and thickness into OpenEXR (+ PNG preview)"
 DEFAULT_ERROR_POINTS = 1000
 # bake() argument -> command-line option, for error messages
 _OPTIONS = {

@@ -15,7 +15,6 @@ import time
 
 import numpy as np
 
-HELP = "render an asset offscreen with the GLSL shaders (pyrender, EGL)"
 #: Largest accepted image side, pixels (float buffers: 3 x 16 bytes per pixel).
 MAX_SIDE_PX = 8192
 

@@ -14,7 +14,6 @@ import json
 import os
 import sys
 
-HELP = "validate a USD asset (UsdValidation + MaterialX node definitions + textures)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

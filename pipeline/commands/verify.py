@@ -16,7 +16,6 @@ import argparse
 import json
 import sys
 
-HELP = "validate an asset and check its renders against the exact spectral reference"
 
 
 def _size(text: str) -> int:
