@@ -62,7 +62,7 @@ class OutputLock:
     """Exclusive lock of one output folder for the whole build (context manager)."""
 
     def __init__(self, out: Path, timeout_s: float | None = None, quiet: bool = False):
-        self.path, self.timeout_s, self.quiet = lock_path(out), timeout_s, quiet
+        self.out, self.path, self.timeout_s, self.quiet = out, lock_path(out), timeout_s, quiet
         self._fd: int | None = None
 
     def __enter__(self) -> "OutputLock":
@@ -70,7 +70,7 @@ class OutputLock:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
         except OSError as exc:
-            raise UsageError(f"--out {str(self.path.parent / self.path.name[1:-14])!r}: cannot create the lock "
+            raise UsageError(f"--out {str(self.out)!r}: cannot create the lock "
                              f"file {str(self.path)!r}: {exc.strerror}") from None
         t0 = time.monotonic()
         told = False
@@ -81,7 +81,7 @@ class OutputLock:
             except BlockingIOError:
                 if not told:
                     holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "?"
-                    print(f"rockdove build: waiting for another build of {self.path.parent / self.path.name[1:-14]} "
+                    print(f"rockdove build: waiting for another build of {self.out} "
                           f"(pid {holder}) to finish", file=sys.stderr, flush=True)
                     told = True
                 if self.timeout_s is not None and time.monotonic() - t0 > self.timeout_s:
