@@ -84,3 +84,13 @@ def test_absorbing_film_is_refused_with_the_reason_and_auto_falls_back():
 def test_auto_picks_quadrature_for_dispersive_films_and_fourier_without_dispersion():
     assert bake(angles=8, thicknesses=2, film="keratin").metadata["method"] == "quadrature"
     assert bake(angles=8, thicknesses=2, film="paper").metadata["method"] == "fourier"
+
+
+def test_default_size_columns_interpolated_in_angle_equal_the_reference():
+    # at 256 angles the columns with cos theta >= 0.1 come from a few Chebyshev angles (angle_panel_nodes)
+    lut = bake(angles=256, thicknesses=3, film="keratin", method="quadrature")
+    assert "Chebyshev angles" in lut.metadata["method:quadratureAnglePanel"]
+    c, d = np.meshgrid(lut.cos_theta, lut.thickness_nm)
+    de = delta_E(lut.rgb, reference_colour(c, d, "keratin"))
+    assert de[c >= quadrature.ANGLE_PANEL_COS].max() < 2e-3
+    assert de[c > 2e-3].max() < 2e-3
