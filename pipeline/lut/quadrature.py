@@ -190,13 +190,14 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
 
     s_lo, s_hi = _sigma_range()
     half = 0.5 * (s_hi - s_lo)
-    sig = np.linspace(s_lo, s_hi, 33)
+    sig = np.linspace(s_lo, s_hi, 17)
     coef = interface_coefficients(film, cos_theta, 1.0 / sig)
     d_max = float(np.max(thickness_nm))
     d_min = float(np.min(thickness_nm))
     q = coef["n_b"] * coef["cos_b"]  # (A, S): n_b cos theta_b
-    # phase phi = 4 pi d sigma q(sigma); its slope at the largest thickness, times the half-range
-    dphi = np.abs(np.gradient(4.0 * np.pi * d_max * sig[None, :] * q, sig, axis=1)).max(axis=1) * half
+    # phase phi = 4 pi d sigma q(sigma); its largest slope at the largest thickness, times the half-range
+    phase = 4.0 * np.pi * d_max * sig[None, :] * q
+    dphi = (np.abs(np.diff(phase, axis=1)).max(axis=1) / (sig[1] - sig[0])) * half
     rho = np.maximum(np.abs(coef["a_s"] * coef["b_s"]).max(axis=1), np.abs(coef["a_p"] * coef["b_p"]).max(axis=1))
     with np.errstate(divide="ignore", invalid="ignore"):
         delta = -np.log(rho)
@@ -407,23 +408,20 @@ def quadrature_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
     panel_nodes = angle_panel_nodes(film, cos_theta, thickness_nm)
     if panel_nodes is None:
-        direct = np.arange(cos_theta.shape[0])
         n_nodes, n_terms = _direct_columns(cos_theta, thickness_nm, film, out, illuminant, colour_space, series_tol)
         panel_meta = "none"
     else:
+        # the resonant columns one by one and the panel's Chebyshev angles, in one pass
         panel = cos_theta >= ANGLE_PANEL_COS
         direct = np.nonzero(~panel)[0]
-        c_nodes = panel_nodes
-        at_nodes = np.empty((thickness_nm.shape[0], c_nodes.shape[0], 3))
-        n_panel, t_panel = _direct_columns(c_nodes, thickness_nm, film, at_nodes, illuminant, colour_space, series_tol)
-        out[:, panel] = _barycentric_matrix(c_nodes, cos_theta[panel]) @ at_nodes  # (A_p, n) @ (T, n, 3)
-        sub = np.empty((thickness_nm.shape[0], direct.size, 3))
-        n_direct, t_direct = _direct_columns(cos_theta[direct], thickness_nm, film, sub, illuminant, colour_space,
-                                             series_tol)
-        out[:, direct] = sub
-        n_nodes, n_terms = np.concatenate([n_direct, n_panel]), np.concatenate([t_direct, t_panel])
-        panel_meta = (f"{c_nodes.shape[0]} Chebyshev angles on cos_theta {c_nodes.min()!r}..{c_nodes.max()!r} "
-                      f"for {int(panel.sum())} columns")
+        both = np.concatenate([cos_theta[direct], panel_nodes])
+        sub = np.empty((thickness_nm.shape[0], both.shape[0], 3))
+        n_nodes, n_terms = _direct_columns(both, thickness_nm, film, sub, illuminant, colour_space, series_tol)
+        out[:, direct] = sub[:, : direct.size]
+        # (A_panel, n) @ (T, n, 3): barycentric interpolation in cos theta
+        out[:, panel] = _barycentric_matrix(panel_nodes, cos_theta[panel]) @ sub[:, direct.size :]
+        panel_meta = (f"{panel_nodes.shape[0]} Chebyshev angles on cos_theta {panel_nodes.min()!r}.."
+                      f"{panel_nodes.max()!r} for {int(panel.sum())} columns")
     meta = {
         "quadratureNodesMean": f"{n_nodes.mean():.1f}",
         "quadratureNodesMax": str(int(n_nodes.max())),
