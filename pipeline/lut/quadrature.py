@@ -63,8 +63,8 @@ import numpy as np
 K_FULL = 3.0
 K_SERIES = 0.6
 N_MIN = 20
-NODE_LADDER = (8, 24, 28, 32, 36, 40, 48, 56, 64, 72, 80, 96, 112, 128, 144, 160, 192, 224, 256, 320, 384, 448,
-               512, 640, 768, 896, 1024, 1280, 1536, 2048, 2560, 3072, 4096)
+NODE_LADDER = (8, 24, 28, 32, 40, 48, 56, 64, 80, 96, 112, 128, 160, 192, 224, 256, 320, 384, 448, 512, 640, 768,
+               1024, 1280, 1536, 2048, 2560, 3072, 4096)
 # the series form costs about this much more per node than the full form (four float32 sines instead of one)
 SERIES_COST = 1.6
 # Columns with cos theta >= ANGLE_PANEL_COS are interpolated from K_ANGLE * Psi + N_ANGLE_MIN Chebyshev angles
@@ -140,20 +140,40 @@ def product_weights(n_nodes: int, illuminant: str = "D65", colour_space: str | N
     wl_ref = reference_wavelengths()
     w_ref = colour_weights(wl_ref, illuminant=illuminant, colour_space=colour_space)
     y_ref = _unmapped(np.clip((1.0 / wl_ref - mid) / half, -1.0, 1.0), alpha)
-    diff = y_ref[None, :] - y[:, None]  # (n, L)
-    hit = diff == 0.0
-    diff[hit] = 1.0
-    q = v[:, None] / diff
-    basis = q / q.sum(axis=0)[None, :]  # l_k(y_l), barycentric formula of the second kind
+    # l_k(y_l) = (v_k / (y_l - y_k)) / s_l, s_l = sum_j v_j / (y_l - y_j) (barycentric formula of the second
+    # kind), so Omega_k = v_k sum_l (W_l / s_l) / (y_l - y_k): two passes over the (n, L) Cauchy matrix
+    inv = y_ref[None, :] - y[:, None]  # (n, L)
+    hit = inv == 0.0
+    inv[hit] = 1.0
+    np.divide(1.0, inv, out=inv)
+    s = v @ inv  # (L,)
     on_node = hit.any(axis=0)
-    basis[:, on_node] = hit[:, on_node]
-    omega = basis @ w_ref
+    s[on_node] = 1.0
+    u = w_ref / s[:, None]
+    omega = v[:, None] * (inv @ u)
+    if on_node.any():  # reference wavelengths that are nodes: l_k(y_l) = delta_kl
+        k_hit, l_hit = np.nonzero(hit)
+        omega -= v[:, None] * (inv[:, on_node] @ u[on_node])
+        np.add.at(omega, k_hit, w_ref[l_hit])
     sigma = mid + half * _mapped(y, alpha)  # decreasing in k: reverse so wavelengths increase
     wl = np.ascontiguousarray((1.0 / sigma)[::-1])
     omega = np.ascontiguousarray(omega[::-1])
     wl.setflags(write=False)
     omega.setflags(write=False)
     return wl, omega
+
+
+@functools.lru_cache(maxsize=8)
+def tail_table(illuminant: str = "D65", colour_space: str | None = "lin_rec709"):
+    """A coarse ``G`` table (:func:`pipeline.lut.fourier.g_table_from_density`, 2 nm steps, 2^17-point FFT) for
+    the series' term counts only: its envelope ``max_{x' >= x} |G(x')|`` matches the fine table's to 0.1% down to
+    3e-4 of the white (conservative below), and it builds in ~20 ms instead of ~0.1-0.7 s."""
+    from . import fourier
+    from .reference import REFERENCE_STEP_NM, colour_weights, reference_wavelengths
+
+    wl = reference_wavelengths()
+    w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
+    return fourier.g_table_from_density(wl, w / REFERENCE_STEP_NM, step_nm=2.0, fft_size=2**17)
 
 
 def _ladder(n):
@@ -177,7 +197,7 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
     series_tol : float
         Tolerance of the truncated series (:func:`pipeline.lut.fourier.n_terms_needed`).
     table : GTable or None
-        The Fourier route's G table (built when needed).
+        Table for the series' term counts (default :func:`tail_table`, built when needed).
 
     Returns
     -------
@@ -213,7 +233,7 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
         rho_min = np.minimum((-coef["a_s"] * coef["b_s"]).min(axis=1), (-coef["a_p"] * coef["b_p"]).min(axis=1))
         cand = np.nonzero((n_full > 2.0 * N_MIN) & (cos_theta > 0.0) & (rho_min >= 0.0))[0]
         if cand.size:
-            table = fourier.g_table() if table is None else table
+            table = tail_table() if table is None else table
             opd_min = 2.0 * d_min * q[cand].min(axis=1)
             m = np.zeros(cand.size, np.int64)
             for pol in ("s", "p"):
