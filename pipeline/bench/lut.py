@@ -61,6 +61,7 @@ def _rows(quick: bool) -> list[dict]:
         row("spectral 2 nm", method="spectral", spectral_step_nm=2.0),
         row("spectral 0.5 nm", method="spectral", spectral_step_nm=0.5),
         row("spectral_fast 2 nm, 0.25 nm grazing", method="spectral_fast"),
+        row("quadrature (product integration)", method="quadrature"),
     ]
     for tol in (1e-3, 1e-5, 1e-6):  # the default is 1e-4
         rows.append(row(f"fourier tol {tol:g}", method="fourier", fourier_tol=tol))
