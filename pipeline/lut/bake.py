@@ -10,7 +10,8 @@ Methods (registry :data:`BAKE_METHODS`, names validated like colour-science's ``
     The same sampling for films with real interface coefficients, but the Fresnel coefficients are computed once
     per (angle, wavelength) and only the phase per texel (real arithmetic Airy form, Born & Wolf 7.6.1), with a
     finer step ``grazing_step_nm`` in the angle columns with ``cos theta < grazing_cos`` where the film is a
-    high-finesse resonator (and the reference's 0.1 nm below ``cos theta = 0.005``). Used for dispersive films (keratin), where the exact Fourier form does not hold.
+    high-finesse resonator (and the reference's 0.1 nm below ``cos theta = 0.005``). Was ``"auto"``'s choice for
+    dispersive films before ``"quadrature"``.
 ``"fourier"``
     The exact Fourier route of method.md (:mod:`.fourier`): ``c0 W0 + 2 sum c_m G(m OPD)`` with the
     closed-form Poisson-kernel coefficients per polarisation and terms dropped below ``fourier_tol``;
@@ -18,9 +19,18 @@ Methods (registry :data:`BAKE_METHODS`, names validated like colour-science's ``
     thickness (the bare interface) are computed like the reference (Airy spectrum at 0.1 nm), and
     ``cos theta = 0`` takes the limit R = 1. Exact only for a
     non-dispersive, non-absorbing film without total internal reflection; refused otherwise.
+``"quadrature"``
+    Exact for any film with real interface coefficients, dispersive or not (:mod:`.quadrature`): product
+    integration in wavenumber. The Airy reflectance (analytic in ``sigma = 1 / lambda`` even with Cauchy
+    dispersion) is interpolated on mapped Chebyshev points, and the colour weights are integrated against the
+    interpolating polynomials once per node count, so the continuous spectrum is integrated with 30-60 nodes per
+    texel instead of hundreds of samples; near grazing incidence the truncated Poisson series of ``"fourier"``
+    is interpolated instead of the resonant Airy function. Absorbing films and total internal reflection are
+    refused.
 ``"auto"``
-    ``"fourier"`` when the film allows it, else ``"spectral_fast"`` at the steps measured to meet the
-    accuracy goal (``rockdove bench lut``), else ``"spectral"``.
+    ``"fourier"`` when the film allows it, else ``"quadrature"`` for real interface coefficients (dispersive
+    films such as keratin; faster than ``"spectral_fast"`` and exact, measured by ``rockdove bench lut``),
+    else ``"spectral"``.
 
 Unpolarised light is the mean of the s and p reflectances. The optical path difference of the film is
 ``OPD = 2 n_b d cos(theta_b)`` (nm), ``phi = 2 pi OPD / lambda``.
@@ -113,7 +123,7 @@ def wavelength_grid(step_nm: float) -> np.ndarray:
     return lo + step_nm * np.arange(n)
 
 
-def interface_coefficients(film, cos_theta, wavelength_nm):
+def interface_coefficients(film, cos_theta, wavelength_nm, *, outer=True):
     """Real amplitude coefficients of both interfaces, s and p, and the film's cos theta_b and index.
 
     Parameters
@@ -122,27 +132,32 @@ def interface_coefficients(film, cos_theta, wavelength_nm):
     cos_theta : ndarray, shape (A,)
         Incidence in the incident medium.
     wavelength_nm : ndarray, shape (L,)
+    outer : bool
+        True: every angle with every wavelength, shape (A, L). False: pairwise (``A == L``), shape (A,).
 
     Returns
     -------
-    dict with ``a_s, b_s, a_p, b_p, cos_b, n_b``, each shape (A, L) float64, or None when a coefficient is
-    complex (absorbing film or substrate, total internal reflection): then only the general path applies.
+    dict with ``a_s, b_s, a_p, b_p, cos_b, n_b``, each shape (A, L) (or (A,)) float64, or None when a coefficient
+    is complex (absorbing film or substrate, total internal reflection): then only the general path applies.
     """
     from .. import optics
 
     n_a = film.n_incident
-    n_b = np.asarray(film.n_film(wavelength_nm))[None, :]
+    n_b = np.asarray(film.n_film(wavelength_nm))
     n_c = film.n_substrate
     if np.iscomplexobj(n_b) or isinstance(n_c, complex):
         return None
-    cos_a = np.asarray(cos_theta, dtype=np.float64)[:, None]
+    cos_a = np.asarray(cos_theta, dtype=np.float64)
+    if outer:
+        n_b, cos_a = n_b[None, :], cos_a[:, None]
     # total internal reflection at either interface makes the coefficients complex
     sin2_a = 1.0 - cos_a**2
     if np.any(n_a**2 * sin2_a > np.minimum(n_b, n_c) ** 2):
         return None
     cos_b = np.real(optics.snell_cos(n_a, n_b, cos_a))
     cos_c = np.real(optics.snell_cos(n_a, n_c, cos_a))
-    out = {"cos_b": np.broadcast_to(cos_b, (cos_a.shape[0], n_b.shape[1])), "n_b": np.broadcast_to(n_b, cos_b.shape)}
+    shape = np.broadcast_shapes(cos_a.shape, n_b.shape)
+    out = {"cos_b": np.broadcast_to(cos_b, shape), "n_b": np.broadcast_to(n_b, shape)}
     for pol in ("s", "p"):
         out[f"a_{pol}"] = np.real(optics.fresnel_r(n_a, n_b, cos_a, cos_b, pol)) + np.zeros_like(cos_b)
         out[f"b_{pol}"] = np.real(optics.fresnel_r(n_b, n_c, cos_b, cos_c, pol)) + np.zeros_like(cos_b)
@@ -310,11 +325,18 @@ def _bake_fourier(cos_theta, thickness_nm, film, *, illuminant, colour_space, fo
     return rgb, meta
 
 
+def _bake_quadrature(cos_theta, thickness_nm, film, *, illuminant, colour_space, **_):
+    from .quadrature import quadrature_colour
+
+    return quadrature_colour(cos_theta, thickness_nm, film, illuminant=illuminant, colour_space=colour_space)
+
+
 def _bake_auto(cos_theta, thickness_nm, film, **kw):
     if fourier_supported(film):
         return "fourier", _bake_fourier(cos_theta, thickness_nm, film, **kw)
     if interface_coefficients(film, cos_theta, np.array([WAVELENGTH_RANGE_NM[0], WAVELENGTH_RANGE_NM[1]])) is not None:
-        return "spectral_fast", _bake_spectral_fast(cos_theta, thickness_nm, film, **kw)
+        # dispersive film with real coefficients: product integration beats sampling (rockdove bench lut)
+        return "quadrature", _bake_quadrature(cos_theta, thickness_nm, film, **kw)
     # absorbing film or substrate, or total internal reflection: the general path (accuracy not benchmarked)
     return "spectral", _bake_spectral(cos_theta, thickness_nm, film, **kw)
 
@@ -323,6 +345,7 @@ BAKE_METHODS = {
     "auto": _bake_auto,
     "fourier": _bake_fourier,
     "spectral_fast": _bake_spectral_fast,
+    "quadrature": _bake_quadrature,
     "spectral": _bake_spectral,
 }
 """Supported bake methods: name -> implementation (``"auto"`` picks among the others)."""
