@@ -62,6 +62,8 @@ BIRD_FIELDS = {
     "geometry.card_lift_deg": "card_lift_deg", "geometry.card_bend": "card_bend",
     "geometry.card_root_depth_m": "card_root_depth_m", "geometry.body_voxel_m": "body_voxel_m",
     "thickness.base_nm": "thickness_base_nm", "thickness.top_nm": "thickness_top_nm",
+    "thickness.correlation_length_m": "thickness_correlation_length_m", "thickness.spread": "thickness_spread",
+    "thickness.jitter_nm": "thickness_jitter_nm",
     "textures.body_resolution": "body_texture_resolution",
     "textures.feather_resolution": "feather_texture_resolution",
 }
