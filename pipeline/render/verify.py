@@ -49,6 +49,7 @@ import numpy as np
 
 from ..build.publish import MARKER
 from . import compare as cmp
+from .boundary import boundary_note, boundary_shape
 
 #: The light-view angle (deg) of the extra sweep view: 90 deg is the paper's green/purple flip.
 BOUNDARY_SWEEP_ANGLE_DEG = 90.0
@@ -363,12 +364,9 @@ def _render_and_check(scene, lut, views, out: str, *, subfolders: bool, say) -> 
         hue = boundary = None
         if sweep:
             cls = m.cls if m is not None else _reference_classes(ref_results[i], scene)
-            if m is not None:
-                pixels = np.asarray(cmp.gl_arrays(gl_results[i])["rgb"], np.float64)[cls >= 0]
-            else:
-                pixels = ref_results[i].rgb[cls >= 0].astype(np.float64)
-            hue = cmp.hue_histogram(pixels)
-            boundary = cmp.boundary_straightness(cls)
+            rgb = np.asarray(cmp.gl_arrays(gl_results[i])["rgb"] if m is not None else ref_results[i].rgb, np.float64)
+            hue = cmp.hue_histogram(rgb[cls >= 0])
+            boundary = {**cmp.boundary_straightness(cls), **boundary_shape(rgb, cls >= 0)}
         files, rows = {}, []
         ref_png = to_display8(ref_results[i].rgb)
         files["reference"] = os.path.basename(save_png(ref_png, os.path.join(folder, f"{v.name}_reference.png")))
@@ -525,6 +523,8 @@ def _combine(layer, scene, lut, notes, results: dict, out_dir, width, height, be
         notes.append("hue check not run: no light-sweep view among the views checked "
                      f"({', '.join(r['view'] for r in results)})")
 
+    notes.extend(boundary_note(r["view"], r["boundary"]) for r in sweeps
+                 if r["view"] == f"sweep_{int(round(BOUNDARY_SWEEP_ANGLE_DEG)):03d}")
     say("writing the report")
     t = time.perf_counter()
     images = {"views": {}}
@@ -579,7 +579,7 @@ def _combine(layer, scene, lut, notes, results: dict, out_dir, width, height, be
         "hue_sweep": hue,
         "boundary": {"per_view": {r["view"]: r["boundary"] for r in sweeps},
                      "method": "TLS line through green/purple boundary points; RMS perpendicular distance (px) "
-                               "and RMS / boundary length"},
+                               "and RMS / boundary length; coherence and curvature: pipeline.render.boundary"},
         "film": film,
         "lut": lut_info,
         "variants": dict(scene.variants),
@@ -629,6 +629,10 @@ def summary(report: dict) -> dict:
         "notes": list(report.get("notes", [])),
         "hue_sweep": {k: report["hue_sweep"][k] for k in ("green", "purple", "grey", "other")},
         "boundary_rms_px": {k: v["rms_px"] for k, v in report["boundary"]["per_view"].items()},
+        "boundary_shape": {k: {"green_share": v["coherence"]["green"]["largest_share"],
+                               "purple_share": v["coherence"]["purple"]["largest_share"],
+                               "line_over_curve": v["curvature"]["ratio"]}
+                           for k, v in report["boundary"]["per_view"].items() if "coherence" in v},
         "timings_s": report["timings_s"],
     }
 
