@@ -76,6 +76,6 @@ def test_boundary_shape_classifies_rendered_colours():
     s = boundary.boundary_shape(np.where((speckle == 1)[..., None], green, purple), np.ones(speckle.shape, bool))
     assert not s["coherent"]
     note = boundary.boundary_note("sweep_090", s)
-    assert "sweep_090" in note and "not coherent" in note
+    assert "sweep_090" in note and "not coherent" in note and "irregular" in note
     with pytest.raises(ValueError, match="rgb_linear"):
         boundary.boundary_shape(rgb[:10], region)

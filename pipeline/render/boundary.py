@@ -38,6 +38,9 @@ from .compare import BOUNDARY_REACH_PX, boundary_points, hue_classes
 COHERENT_SHARE = 0.7
 #: A boundary is curved when the straight line's RMS residual is at least this multiple of the cubic's.
 CURVED_RATIO = 2.0
+#: The closing note calls a boundary that is not curved straight when the line's RMS residual is at most this
+#: fraction of the boundary's length (the paper preset: ~0.75 px over ~200 px at 512 x 512), else irregular.
+STRAIGHT_FRACTION = 0.02
 #: Degree of the smooth curve fitted to the boundary's centreline.
 CURVE_DEGREE = 3
 #: Class labels of the strict hue bands (pipeline.render.compare.hue_classes).
@@ -192,7 +195,12 @@ def boundary_note(view: str, boundary: dict) -> str:
     coh, cur = boundary["coherence"], boundary["curvature"]
     shares = ", ".join(f"{k} {coh[k]['largest_share']:.2f} of {coh[k]['pixels']} px"
                        for k in ("green", "purple", "other") if coh[k]["pixels"])
-    kind = "curved" if boundary["curved"] else "straight (the line fits about as well as the curve)"
+    if boundary["curved"]:
+        kind = "curved"
+    elif cur["line_rms_px"] <= STRAIGHT_FRACTION * cur["length_px"]:
+        kind = "straight (the line fits about as well as the curve)"
+    else:
+        kind = "irregular (neither the line nor the curve fits)"
     return (f"boundary at {view}: largest connected region holds {shares or 'no chromatic pixels'} "
             f"({'coherent' if boundary['coherent'] else 'not coherent'}: green and purple each need >= "
             f"{COHERENT_SHARE:.0%}); green/purple boundary line residual {cur['line_rms_px']:.2f} px, "
