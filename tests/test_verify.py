@@ -144,7 +144,8 @@ def test_views_checked_one_at_a_time_combine_into_the_same_report(assets, tmp_pa
 
     layer = assets["good"]
     plan = verify.plan_views(layer, 48, 48)
-    assert list(plan) == ["turntable_030", "turntable_210", "sweep_060", "sweep_120", "sweep_090"]
+    assert list(plan) == ["turntable_030", "turntable_210", "sweep_060", "sweep_120", "sweep_090", "hero"]
+    assert (plan["hero"]["view"]["width"], plan["hero"]["view"]["height"]) == (96, 96)  # twice the size
     assert len({p["scene"] for p in plan.values()}) == 1 and plan == verify.plan_views(layer, 48, 48)
     assert verify.plan_views(layer, 64, 48)["sweep_090"] != plan["sweep_090"]  # the size is part of a view
     names = ["turntable_030", "sweep_090"]

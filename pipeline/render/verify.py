@@ -128,9 +128,9 @@ def run_validation(layer_path: str) -> dict:
 
 
 def verification_views(scene, width: int, height: int, n_views: int = DEFAULT_VIEWS) -> list:
-    """The default views (``n_views`` of them) plus the light sweep at :data:`BOUNDARY_SWEEP_ANGLE_DEG`
-    (same still camera)."""
-    from .views import default_views, light_sweep_views
+    """The default views (``n_views`` of them), the light sweep at :data:`BOUNDARY_SWEEP_ANGLE_DEG` (same still
+    camera), and the hero 3/4 view at ``HERO_SCALE`` times the size (:func:`pipeline.render.views.hero_view`)."""
+    from .views import HERO_SCALE, default_views, hero_view, light_sweep_views
 
     views = default_views(scene, width, height, n=n_views)
     sweep = [v for v in views if v.name.startswith("sweep_")]
@@ -143,6 +143,7 @@ def verification_views(scene, width: int, height: int, n_views: int = DEFAULT_VI
                                   yfov_deg=float(np.degrees(s.yfov_rad)), camera_direction=(eye - neck) / dist)
         if extra[0].name not in {v.name for v in views}:
             views.append(extra[0])
+    views.append(hero_view(scene.bounds_m, HERO_SCALE * width, HERO_SCALE * height))
     return views
 
 
