@@ -162,11 +162,56 @@ def test_parts_are_closed_and_wound_outward(bird, name):
     assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
 
 
+def test_bill_is_short_and_stout_with_the_cere_at_its_base(bird):
+    """Bill about 1.8 cm (Wikipedia, "Rock dove"): measured on the built bird from where its axis leaves the
+    head's surface to its tip; stout (depth at the face >= a quarter of that); the cere on its base third."""
+    from pipeline.geometry import parts
+
+    d = np.asarray(parts.BILL_DIRECTION, float)
+    d /= np.linalg.norm(d)
+    beak = bird.part("Beak").points_m.astype(np.float64)
+    tip = beak[np.argmax(beak @ d)]
+    ts = np.arange(0.0, 0.04, 0.00005)  # walk back from the tip along the axis to the head's surface
+    back = tip[None, :] - ts[:, None] * d[None, :]
+    exposed = ts[np.flatnonzero(sdf.body_sdf(back) < 0.0)[0]]
+    assert 0.015 <= exposed <= 0.021, exposed  # 1.8 cm +- 3 mm
+    face = back[np.flatnonzero(sdf.body_sdf(back) < 0.0)[0]]
+    near_face = beak[np.abs((beak - face) @ d) < 0.001]
+    depth = np.ptp(near_face[:, 1])
+    assert depth >= 0.25 * exposed, (depth, exposed)  # stout, not a needle
+    cere = bird.part("Cere").points_m.astype(np.float64)
+    along = (cere - face) @ d
+    assert along.min() < 0.0 < along.max() <= exposed / 2  # from the face over the base of the bill
+    assert cere[:, 1].mean() > face[1]  # on top
+
+
+def test_iris_is_orange_red_and_feet_red(bird):
+    """Iris orange-red, feet purplish-red (Wikipedia, "Rock dove"): CIELAB hue of the parts' colours."""
+    from pipeline.spectral import RGB_to_Lab
+
+    for name, (h_lo, h_hi) in (("Eyes", (35.0, 55.0)), ("Legs", (0.0, 25.0))):
+        lab = np.asarray(RGB_to_Lab(np.asarray(bird.part(name).display_color, float)))
+        h = np.degrees(np.arctan2(lab[2], lab[1])) % 360.0
+        assert h_lo <= h <= h_hi and np.hypot(lab[1], lab[2]) > 40.0, (name, h, lab)
+
+
+def test_iridescent_patch_covers_the_neck_and_upper_breast_only(body):
+    """The feather cards (the only iridescent part) grow between the upper breast and the head, around the
+    neck: not on the back, the lower breast or the head."""
+    c = build_cards(body, BirdParams())
+    y, z = c.root_skin_m[:, 1], c.root_skin_m[:, 2]
+    assert y.min() >= sdf.BREAST.centre_m[1]  # upper breast and above
+    assert y.max() <= sdf.HEAD.centre_m[1]  # below the head's centre, under the eye line (eyes at 0.2185 m)
+    _, r = neck.neck_s(c.root_skin_m)
+    assert r.max() <= sdf.NECK_BAND_RADIUS_M + 1e-9
+    assert z.min() > sdf.TORSO.centre_m[2]  # nothing on the back behind the shoulders
+
+
 def test_real_scale_facing_plus_z_feet_on_the_ground(bird):
     pts = np.concatenate([p.points_m for p in bird.parts if p.name != "NeckFeathers"])
     beak_tip_z = bird.part("Beak").points_m[:, 2].max()
     tail_tip_z = bird.part("Body").points_m[:, 2].min()
-    assert 0.29 < beak_tip_z - tail_tip_z < 0.35  # about 32 cm beak to tail
+    assert 0.29 <= beak_tip_z - tail_tip_z <= 0.37  # 29-37 cm beak to tail (Wikipedia, "Rock dove")
     assert beak_tip_z == pts[:, 2].max()  # the beak is the front: the bird faces +Z
     assert abs(pts[:, 1].min()) < 0.002  # feet at y ~ 0
     assert bird.part("Legs").points_m[:, 1].min() == pytest.approx(pts[:, 1].min())

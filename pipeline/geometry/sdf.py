@@ -113,8 +113,8 @@ BREAST = Ellipsoid((0.0, 0.122, 0.045), (0.043, 0.047, 0.045), None)
 BELLY = Ellipsoid((0.0, 0.080, 0.008), (0.036, 0.037, 0.050), None)
 #: Neck: a tapered capsule from the shoulders to under the head, leaning forward.
 NECK = TaperedCapsule((0.0, 0.150, 0.040), (0.0, 0.203, 0.072), 0.026, 0.0165)
-#: Head (slightly elongated front to back).
-HEAD = Ellipsoid((0.0, 0.214, 0.083), (0.0185, 0.0195, 0.0235), rotation_x(10 * _DEG))
+#: Head: rounded (a rock dove's small round head), only slightly longer front to back than it is high.
+HEAD = Ellipsoid((0.0, 0.214, 0.083), (0.0190, 0.0200, 0.0215), rotation_x(10 * _DEG))
 #: Folded wings on each side, tips crossing over the rump toward the tail.
 WING_L = Ellipsoid((0.036, 0.125, -0.045), (0.016, 0.040, 0.098), rotation_x(-16 * _DEG) @ rotation_y(4 * _DEG))
 WING_R = Ellipsoid((-0.036, 0.125, -0.045), (0.016, 0.040, 0.098), rotation_x(-16 * _DEG) @ rotation_y(-4 * _DEG))
