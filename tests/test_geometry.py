@@ -139,7 +139,7 @@ def test_subdivide_onto_a_sphere_keeps_seams_closed_and_st_linear():
 
 def test_mesh_parts_follow_the_contract(bird):
     assert isinstance(bird, Bird)
-    assert bird.names == ("Body", "NeckFeathers", "Beak", "Cere", "Eyes", "Legs")
+    assert bird.names == ("Body", "Wings", "NeckFeathers", "Beak", "Cere", "Eyes", "Legs")
     for p in bird.parts:
         assert isinstance(p, MeshPart)
         v = len(p.points_m)
@@ -155,11 +155,24 @@ def test_mesh_parts_follow_the_contract(bird):
             assert pv.values.shape == (v,) and pv.values.dtype == np.float32, (p.name, name)
 
 
-@pytest.mark.parametrize("name", ["Beak", "Cere", "Eyes", "Legs"])
+@pytest.mark.parametrize("name", ["Wings", "Beak", "Cere", "Eyes", "Legs"])
 def test_parts_are_closed_and_wound_outward(bird, name):
     p = bird.part(name)
     mesh = trimesh.Trimesh(p.points_m, p.face_vertex_indices.reshape(-1, 3), process=True)
     assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
+
+
+def test_folded_wings_are_their_own_closed_parts_resting_on_the_torso(body, bird):
+    wings = bird.part("Wings")
+    assert wings is body.wings and wings.material == "body"  # painted by the body texture (bars, primaries)
+    mesh = trimesh.Trimesh(wings.points_m, wings.face_vertex_indices.reshape(-1, 3), process=True)
+    pieces = mesh.split(only_watertight=True)
+    assert len(pieces) == 2 and all(p.is_winding_consistent and p.volume > 0 for p in pieces)
+    assert sorted(np.sign(p.centroid[0]) for p in pieces) == [-1.0, 1.0]  # one on each side
+    for p in pieces:
+        d = sdf.body_sdf(p.vertices)
+        assert d.min() < 0.0 < d.max()  # rests on (in) the torso and stands out of it
+    assert sdf.body_sdf(body.part.points_m.astype(np.float64)).max() < 1e-4  # the Body no longer holds the wings
 
 
 def test_bill_is_short_and_stout_with_the_cere_at_its_base(bird):
