@@ -214,7 +214,8 @@ def build_cards(vertices_m: np.ndarray, faces: np.ndarray, params) -> FeatherCar
     s, _ = _neck.neck_s(roots)
     s = np.clip(s, 0.0, 1.0)
     thickness = _thickness.card_thickness_nm(
-        _thickness.neck_height(roots), params.thickness_base_nm, params.thickness_top_nm, stream(params.seed, STREAM_THICKNESS), points_m=roots,
+        _thickness.neck_height(roots), params.thickness_base_nm, params.thickness_top_nm,
+        stream(params.seed, STREAM_THICKNESS), points_m=roots,
         correlation_length_m=params.thickness_correlation_length_m, spread=params.thickness_spread,
         jitter_nm=params.thickness_jitter_nm)
     return FeatherCards(
