@@ -98,10 +98,11 @@ class BirdParams:
         Width = height of the feather textures, texels, 16 .. 4096 (default 256).
     body_voxel_m : float
         Detail of the body surface: about its edge length, metres, 0.0008 .. 0.01 (default 0.002, as in
-        schemas/config.schema.json). The body is meshed and unwrapped on an 8 mm grid, then subdivided
-        ``k = max(0, round(log2(0.008 / body_voxel_m)))`` times onto the implicit surface, 4x the triangles
-        each: 0.002 gives k = 2 (70,144 triangles), 0.004 gives k = 1 (17,536), from about 0.0057 up k = 0
-        (4,384). Values between those snap to the nearest level.
+        schemas/config.schema.json). The body and the wings are meshed and unwrapped on an 8 mm grid, then
+        subdivided ``k = max(0, round(log2(0.008 / body_voxel_m)))`` times onto their implicit surfaces, 4x the
+        triangles each: 0.002 gives k = 2 (58,112 body + 38,272 wing triangles), 0.004 gives k = 1
+        (14,528 + 9,568), from about 0.0057 up k = 0 (3,632 + 2,392). Values between those snap to the nearest
+        level.
     """
 
     seed: int = 0
