@@ -242,16 +242,18 @@ def rasterize_uv(st: np.ndarray, faces: np.ndarray, resolution: int, chunk: int 
     return tuple(np.concatenate(o) for o in out)
 
 
-def _body_part(bird):
+def _body_parts(bird) -> list:
+    """The parts painted with the body texture: ``Body`` and, when the bird has them, the ``Wings``."""
     from pipeline.geometry.types import Bird, MeshPart
 
     if isinstance(bird, MeshPart):
-        return bird
+        return [bird]
     if isinstance(bird, Bird):
-        return bird.part("Body")
+        return [bird.part("Body")] + [p for p in bird.parts if p.name == "Wings"]
     part = getattr(bird, "part", None)  # pipeline.geometry.Body
     if isinstance(part, MeshPart):
-        return part
+        wings = getattr(bird, "wings", None)
+        return [part] + ([wings] if isinstance(wings, MeshPart) else [])
     raise ValueError(f"bird={type(bird).__name__} must be a Bird, a Body or the Body MeshPart")
 
 
@@ -267,7 +269,7 @@ def body_base_colour(resolution_or_params, bird) -> np.ndarray:
     resolution_or_params : int or BirdParams
         Width = height R in texels (16 .. 8192), or BirdParams (its ``body_texture_resolution``).
     bird : Bird, Body or MeshPart
-        The bird (its ``"Body"`` part is used), the Body, or the Body MeshPart.
+        The bird (its ``"Body"`` and ``"Wings"`` parts, which share the atlas), the Body, or the Body MeshPart.
 
     Returns
     -------
@@ -277,12 +279,18 @@ def body_base_colour(resolution_or_params, bird) -> np.ndarray:
     from scipy import ndimage
 
     res = _resolution(resolution_or_params, attr="body_texture_resolution")
-    part = _body_part(bird)
-    if not np.all(part.face_vertex_counts == 3):
-        raise ValueError("bird's Body part must be triangles")
-    faces = part.face_vertex_indices.reshape(-1, 3).astype(np.int64)
-    rows, cols, face, bary = rasterize_uv(part.st.astype(np.float64), faces, res)
-    pts = np.einsum("nk,nkd->nd", bary, part.points_m.astype(np.float64)[faces[face]])
+    parts = _body_parts(bird)
+    for part in parts:
+        if not np.all(part.face_vertex_counts == 3):
+            raise ValueError(f"bird's {part.name} part must be triangles")
+    # the parts share one atlas: rasterise them as one mesh
+    offsets = np.cumsum([0] + [len(p.points_m) for p in parts])
+    faces = np.concatenate([p.face_vertex_indices.reshape(-1, 3).astype(np.int64) + o
+                            for p, o in zip(parts, offsets)])
+    st = np.concatenate([p.st for p in parts]).astype(np.float64)
+    points = np.concatenate([p.points_m for p in parts]).astype(np.float64)
+    rows, cols, face, bary = rasterize_uv(st, faces, res)
+    pts = np.einsum("nk,nkd->nd", bary, points[faces[face]])
     img = np.zeros((res, res, 3), dtype=np.uint8)
     img[rows, cols] = _encode(body_colour_at(pts))
     empty = np.ones((res, res), dtype=bool)

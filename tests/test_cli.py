@@ -207,7 +207,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert r.returncode == 0, r.stderr
     second = json.loads(r.stdout)
     assert second["ran"] == ["verify"] and second["verified"] is True
-    views = ["turntable_030", "turntable_210", "sweep_060", "sweep_120", "sweep_090"]
+    views = ["turntable_030", "turntable_210", "sweep_060", "sweep_120", "sweep_090", "hero"]
     assert _verify_record(second)["items_ran"] == views
     assert json.loads((asset / "verify/report.json").read_text())["passed"] is True
     assert not (asset / "verify/value.json").exists(), "the cache's value record leaked into the asset"

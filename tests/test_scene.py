@@ -7,7 +7,7 @@ import pytest
 
 from pipeline.render import scene as sc
 from pipeline.render.synthetic import BODY_CENTRE_M, BODY_RADIUS_M, THICKNESS_RANGE_NM, write_synthetic_asset
-from pipeline.render.views import View, default_views, light_sweep_views, look_at, turntable_views
+from pipeline.render.views import View, default_views, hero_view, light_sweep_views, look_at, turntable_views
 
 
 @pytest.fixture(scope="module")
@@ -101,6 +101,16 @@ def test_views_are_deterministic_serialisable_and_sweep_the_light_view_angle(ass
     np.testing.assert_allclose(m[:3, 2], [0, 0, 1])
     tt = turntable_views(s.bounds_m, 4, 32, 32)
     assert len({tuple(v.eye_m.round(6)) for v in tt}) == 4
+    # issue 12: turntables and the hero view from eye level (a little above the centre, never from below),
+    # the hero 3/4 from the front
+    centre = np.asarray(s.bounds_m).mean(axis=0)
+    hero = hero_view(s.bounds_m, 64, 64)
+    for v in tt + [hero]:
+        d = (v.eye_m - centre) / np.linalg.norm(v.eye_m - centre)
+        assert 0.0 < np.degrees(np.arcsin(d[1])) <= 12.0, v.name
+    d = hero.eye_m - centre
+    assert hero.name == "hero" and (hero.width, hero.height) == (64, 64)
+    assert 25.0 <= np.degrees(np.arctan2(d[0], d[2])) <= 55.0  # 3/4: between the front and the side
     with pytest.raises(ValueError, match="n must be"):
         turntable_views(s.bounds_m, 0, 32, 32)
     with pytest.raises(ValueError, match="width"):

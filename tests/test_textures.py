@@ -74,14 +74,16 @@ def test_body_texture_matches_the_3d_colour_at_the_vertices(coarse_body):
     res = 256
     img = textures.body_base_colour(res, coarse_body)
     assert img.shape == (res, res, 3) and img.dtype == np.uint8
-    part = coarse_body.part
-    st = part.st.astype(np.float64)
-    col = np.clip((st[:, 0] * res).astype(int), 0, res - 1)
-    row = np.clip(((1.0 - st[:, 1]) * res).astype(int), 0, res - 1)
-    looked_up = img[row, col].astype(int)
-    expected = textures._encode(textures.body_colour_at(part.points_m.astype(np.float64))).astype(int)
-    err = np.abs(looked_up - expected).max(axis=1)
-    assert np.median(err) <= 3 and np.percentile(err, 90) <= 20
+    for part in (coarse_body.part, coarse_body.wings):  # the wings share the body's atlas and texture
+        st = part.st.astype(np.float64)
+        col = np.clip((st[:, 0] * res).astype(int), 0, res - 1)
+        row = np.clip(((1.0 - st[:, 1]) * res).astype(int), 0, res - 1)
+        looked_up = img[row, col].astype(int)
+        expected = textures._encode(textures.body_colour_at(part.points_m.astype(np.float64))).astype(int)
+        err = np.abs(looked_up - expected).max(axis=1)
+        assert np.median(err) <= 3 and np.percentile(err, 90) <= 20, part.name
+    wing_luma = _luma(textures._encode(textures.body_colour_at(coarse_body.wings.points_m.astype(np.float64))))
+    assert np.mean(wing_luma < 0.4 * np.median(wing_luma)) > 0.02  # the dark bars and primaries are on the Wings
     assert not np.any(np.all(img == 0, axis=-1))  # every texel filled (seams padded)
 
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from pipeline.render import boundary
 from pipeline.render import compare as cmp
 from pipeline.render.reference import render_reference
 from pipeline.render.scene import RenderScene, ScenePart, ThinFilmParams
@@ -53,6 +54,7 @@ def test_verify_passes_on_a_small_assembled_asset_and_writes_the_report(assets):
     for name, v in summary["views"].items():
         assert v["n_pixels"] > 0 and v["de_median"] <= cmp.MEDIAN_DE_GOAL and v["de_p95"] <= cmp.P95_DE_GOAL, name
     assert summary["hue_sweep"]["green"] > 0 and summary["hue_sweep"]["purple"] > 0
+    assert set(summary["boundary_shape"]) == {"sweep_060", "sweep_120", "sweep_090"}
     report = json.loads((out / "report.json").read_text())
     assert report["versions"]["numpy"] == np.__version__ and report["timings_s"]["reference"] > 0
     assert report["film"]["cauchy_a"] == pytest.approx(1.5) and report["lut"]["shape"][0] == 1  # paper: 1-D LUT
@@ -116,14 +118,19 @@ def test_boundary_is_straight_for_uniform_thickness_and_bends_for_a_gradient(tmp
     view = light_sweep_views((0, 0, 0), 1, 64, 64, angles_deg=[90.0], distance_m=0.12, camera_direction=(0, 0, 1))[0]
     results = {}
     for name, fn in (("uniform", lambda s, t: np.full_like(s, 650.0)),
-                     ("graded", lambda s, t: 560.0 + 120.0 * (2 * t - 1) ** 2)):
+                     ("graded", lambda s, t: 560.0 + 120.0 * (2 * t - 1) ** 2),
+                     ("bent", lambda s, t: 650.0 + 60.0 * (t - 0.67 + 0.35 * (2 * s - 1) ** 2))):
         ref = render_reference(_plane_scene(tmp_path, fn, view.light_direction), [view])[0]
         feather = ref.part_id == 1
         cls = np.full(feather.shape, -1, np.int8)
         cls[feather] = cmp.hue_classes(ref.rgb[feather].astype(np.float64), sides=True)[2]
         assert (cls == 1).sum() > 50 and (cls == 2).sum() > 50, name  # both hues on the plane
         results[name] = cmp.boundary_straightness(cls)
+        results[name]["curvature"] = boundary.boundary_curvature(cls)
     assert results["uniform"]["n_centreline"] >= 20 and results["graded"]["n_centreline"] >= 8
+    # issue 12's curvature measure: the cubic fits the uniform film's boundary no better than a line
+    assert results["uniform"]["curvature"]["ratio"] < 1.5
+    assert results["bent"]["curvature"]["ratio"] >= boundary.CURVED_RATIO  # one parabolic iso-thickness line
     assert results["uniform"]["rms_px"] < 0.5
     assert results["graded"]["rms_px"] > 1.5
     assert results["graded"]["rms_fraction"] > 0.02 > 5 * results["uniform"]["rms_fraction"]
@@ -137,7 +144,8 @@ def test_views_checked_one_at_a_time_combine_into_the_same_report(assets, tmp_pa
 
     layer = assets["good"]
     plan = verify.plan_views(layer, 48, 48)
-    assert list(plan) == ["turntable_030", "turntable_210", "sweep_060", "sweep_120", "sweep_090"]
+    assert list(plan) == ["turntable_030", "turntable_210", "sweep_060", "sweep_120", "sweep_090", "hero"]
+    assert (plan["hero"]["view"]["width"], plan["hero"]["view"]["height"]) == (96, 96)  # twice the size
     assert len({p["scene"] for p in plan.values()}) == 1 and plan == verify.plan_views(layer, 48, 48)
     assert verify.plan_views(layer, 64, 48)["sweep_090"] != plan["sweep_090"]  # the size is part of a view
     names = ["turntable_030", "sweep_090"]
@@ -155,7 +163,9 @@ def test_views_checked_one_at_a_time_combine_into_the_same_report(assets, tmp_pa
     for a, b in zip(whole["views"], combined["views"]):
         assert a["n_pixels"] == b["n_pixels"] and a["de_median"] == pytest.approx(b["de_median"])
     assert whole["hue_sweep"]["green"] == combined["hue_sweep"]["green"] > 0
-    assert (tmp_path / "combined" / "sweep_090_dE.png").is_file() and whole["notes"] == []
+    assert (tmp_path / "combined" / "sweep_090_dE.png").is_file()
+    assert [n[:22] for n in whole["notes"]] == ["boundary at sweep_090:"]  # the closing note, nothing else
+    assert combined["notes"] == whole["notes"]
     only_turntable = verify.verify_asset(layer, out_dir=tmp_path / "tt", width=48, height=48,
                                          views=["turntable_030"], bench_dir=tmp_path / "none")
     assert any(n.startswith("hue check not run") for n in only_turntable["notes"])

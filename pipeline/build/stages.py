@@ -62,6 +62,8 @@ BIRD_FIELDS = {
     "geometry.card_lift_deg": "card_lift_deg", "geometry.card_bend": "card_bend",
     "geometry.card_root_depth_m": "card_root_depth_m", "geometry.body_voxel_m": "body_voxel_m",
     "thickness.base_nm": "thickness_base_nm", "thickness.top_nm": "thickness_top_nm",
+    "thickness.correlation_length_m": "thickness_correlation_length_m", "thickness.spread": "thickness_spread",
+    "thickness.jitter_nm": "thickness_jitter_nm",
     "textures.body_resolution": "body_texture_resolution",
     "textures.feather_resolution": "feather_texture_resolution",
 }
@@ -116,7 +118,7 @@ def _bird_load(folder: Path):
 def _body_save(body, folder: Path) -> None:
     import numpy as np
 
-    arrays, parts = _parts_arrays([body.part])
+    arrays, parts = _parts_arrays([body.part] + ([body.wings] if body.wings is not None else []))
     arrays.update({f"mesh/{f}": np.ascontiguousarray(getattr(body.mesh, f)) for f in ("vertices_m", "faces", "normals")})
     np.savez(folder / "body.npz", **arrays)
     (folder / "body.json").write_text(json.dumps({"parts": parts}, sort_keys=True))
@@ -129,7 +131,8 @@ def _body_load(folder: Path):
     arrays = load_npz(folder / "body.npz")
     meta = json.loads((folder / "body.json").read_text())
     mesh = BodyMesh(**{f: arrays[f"mesh/{f}"] for f in ("vertices_m", "faces", "normals")})
-    return Body(mesh=mesh, part=_parts_from(arrays, meta["parts"])[0])
+    parts = _parts_from(arrays, meta["parts"])
+    return Body(mesh=mesh, part=parts[0], wings=parts[1] if len(parts) > 1 else None)
 
 
 BIRD = Codec("bird", _bird_save, _bird_load)

@@ -6,7 +6,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -35,10 +35,15 @@ class Body:
         ``"Body"``: vertices split at UV seams, st from xatlas (on the coarse mesh, interpolated by subdivision),
         primvar ``neckS`` ((V,) float32 in [0, 1], the neck coordinate clipped to [0, 1]) and ``neckBand``
         ((V,) float32, 1 inside the neck band).
+    wings : MeshPart
+        ``"Wings"``: the two folded wings, closed surfaces of their own resting on the torso
+        (:func:`pipeline.geometry.sdf.wings_sdf`), unwrapped in the same xatlas atlas as the body, so they share
+        the body's material and texture (which paints their pale coverts and two dark bars).
     """
 
     mesh: _body.BodyMesh
     part: MeshPart
+    wings: MeshPart = None
 
 
 def _check_params(params) -> BirdParams:
@@ -47,40 +52,54 @@ def _check_params(params) -> BirdParams:
     return params
 
 
-def build_body(params: BirdParams) -> Body:
-    """Mesh the body (torso, neck, head, folded wings, tail) and give it UVs. Depends on ``params.body_key()``.
+def _surface_part(name, field, points, faces, st, levels):
+    """Subdivide one seam-split piece of the atlas onto ``field``; (welded vertices, faces in them, MeshPart)."""
+    welded, to_welded, faces, st = _body.subdivide_onto_surface(field, points, faces, st, levels)
+    normals = _sdf.sdf_gradient(field, welded)
+    pts = welded[to_welded]
+    part = MeshPart(name=name, points_m=pts.astype(np.float32),
+                    face_vertex_counts=np.full(len(faces), 3, dtype=np.int32),
+                    face_vertex_indices=faces.reshape(-1).astype(np.int32),
+                    normals=normals[to_welded].astype(np.float32), st=np.clip(st, 0.0, 1.0).astype(np.float32),
+                    material="body", display_color=BODY_DISPLAY_COLOR, primvars={})
+    return welded, to_welded[faces], normals, part
 
-    The coarse body (surface nets at :data:`body.UNWRAP_VOXEL_M`) is unwrapped by xatlas, then subdivided
-    ``body.subdivision_levels(params.body_voxel_m)`` times onto the implicit surface (see :mod:`.body`);
-    normals are the field's gradient at the final vertices.
+
+def build_body(params: BirdParams) -> Body:
+    """Mesh the body (torso, neck, head, tail) and the folded wings, and give them UVs in one atlas. Depends on
+    ``params.body_key()``.
+
+    The coarse body and wings (surface nets at :data:`body.UNWRAP_VOXEL_M`) are unwrapped together by xatlas,
+    then each is subdivided ``body.subdivision_levels(params.body_voxel_m)`` times onto its own implicit
+    surface (see :mod:`.body`); normals are the field's gradient at the final vertices.
     """
     params = _check_params(params)
     levels = _body.subdivision_levels(params.body_voxel_m)
     coarse = _body.build_body_mesh(_body.UNWRAP_VOXEL_M)
-    at = _uv.atlas(coarse.vertices_m, coarse.faces)
-    welded, to_welded, faces, st = _body.subdivide_onto_surface(
-        _sdf.body_sdf, coarse.vertices_m[at.vmapping], at.faces, at.st, levels)
-    normals = _sdf.sdf_gradient(_sdf.body_sdf, welded)
-    mesh = _body.BodyMesh(vertices_m=welded, faces=to_welded[faces], normals=normals)
-    points = welded[to_welded]
+    wings = _body.mesh_field(_sdf.wings_sdf, _sdf.WINGS_BOUNDS_M, _body.UNWRAP_VOXEL_M)
+    n_body = len(coarse.vertices_m)
+    at = _uv.atlas(np.concatenate([coarse.vertices_m, wings.vertices_m]),
+                   np.concatenate([coarse.faces, wings.faces + n_body]))
+    points = np.concatenate([coarse.vertices_m, wings.vertices_m])[at.vmapping]
+    on_wing = at.vmapping[at.faces[:, 0]] >= n_body  # atlas faces keep the input order: body, then wings
+
+    def piece(mask):
+        f = at.faces[mask]
+        used, inverse = np.unique(f, return_inverse=True)
+        return points[used], inverse.reshape(-1, 3), at.st[used]
+
+    welded, faces, normals, part = _surface_part("Body", _sdf.body_sdf, *piece(~on_wing), levels)
+    _, _, _, wing_part = _surface_part("Wings", _sdf.wings_sdf, *piece(on_wing), levels)
+    mesh = _body.BodyMesh(vertices_m=welded, faces=faces, normals=normals)
+    points = part.points_m.astype(np.float64)
     s, _ = _neck.neck_s(points)
     band = _neck.in_band(points)
-    part = MeshPart(
-        name="Body",
-        points_m=points.astype(np.float32),
-        face_vertex_counts=np.full(len(faces), 3, dtype=np.int32),
-        face_vertex_indices=faces.reshape(-1).astype(np.int32),
-        normals=normals[to_welded].astype(np.float32),
-        st=np.clip(st, 0.0, 1.0).astype(np.float32),
-        material="body",
-        display_color=BODY_DISPLAY_COLOR,
-        primvars={
-            "neckS": Primvar(np.clip(s, 0.0, 1.0).astype(np.float32), "vertex",
-                             "neck coordinate: 0 at the neck base, 1 at its top below the head, clipped"),
-            "neckBand": Primvar(band.astype(np.float32), "vertex", "1 in the neck band, else 0"),
-        },
-    )
-    return Body(mesh=mesh, part=part)
+    part = replace(part, primvars={
+        "neckS": Primvar(np.clip(s, 0.0, 1.0).astype(np.float32), "vertex",
+                         "neck coordinate: 0 at the neck base, 1 at its top below the head, clipped"),
+        "neckBand": Primvar(band.astype(np.float32), "vertex", "1 in the neck band, else 0"),
+    })
+    return Body(mesh=mesh, part=part, wings=wing_part)
 
 
 def build_cards(body: Body, params: BirdParams) -> _cards.FeatherCards:
@@ -90,7 +109,7 @@ def build_cards(body: Body, params: BirdParams) -> _cards.FeatherCards:
 
 
 def build_bird(params: BirdParams, body: Body | None = None) -> Bird:
-    """The whole rock dove: Body, NeckFeathers, Beak, Cere, Eyes, Legs.
+    """The whole rock dove: Body, Wings, NeckFeathers, Beak, Cere, Eyes, Legs.
 
     Parameters
     ----------
@@ -101,4 +120,5 @@ def build_bird(params: BirdParams, body: Body | None = None) -> Bird:
     params = _check_params(params)
     body = build_body(params) if body is None else body
     cards = build_cards(body, params)
-    return Bird(parts=(body.part, cards.part()) + _parts.build_parts())
+    wings = (body.wings,) if body.wings is not None else ()
+    return Bird(parts=(body.part,) + wings + (cards.part(),) + _parts.build_parts())

@@ -213,8 +213,11 @@ def build_cards(vertices_m: np.ndarray, faces: np.ndarray, params) -> FeatherCar
 
     s, _ = _neck.neck_s(roots)
     s = np.clip(s, 0.0, 1.0)
-    thickness = _thickness.card_thickness_nm(s, params.thickness_base_nm, params.thickness_top_nm,
-                                             stream(params.seed, STREAM_THICKNESS))
+    thickness = _thickness.card_thickness_nm(
+        _thickness.neck_height(roots), params.thickness_base_nm, params.thickness_top_nm,
+        stream(params.seed, STREAM_THICKNESS), points_m=roots,
+        correlation_length_m=params.thickness_correlation_length_m, spread=params.thickness_spread,
+        jitter_nm=params.thickness_jitter_nm)
     return FeatherCards(
         points_m=pts.reshape(-1, 3).astype(np.float32),
         normals=normals.reshape(-1, 3).astype(np.float32),

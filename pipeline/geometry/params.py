@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, fields, replace
 
+from pipeline.geometry import thickness as _thickness
 from pipeline.geometry.body import VOXEL_RANGE_M
 
 #: Measured film thickness at the base of the neck, nm (Yoshioka et al. 2007).
@@ -83,16 +84,25 @@ class BirdParams:
     thickness_top_nm : (float, float)
         Film thickness range at the top of the neck (s = 1), nm, within [1, 5000] (measured: 600-700).
         The paper preset sets both ranges to (650, 650).
+    thickness_correlation_length_m : float
+        Correlation length of the smooth random thickness field over the neck skin, metres, 0.0005 .. 0.2
+        (default 0.008: a few feathers across, so neighbouring feathers share their colour).
+    thickness_spread : float
+        Standard deviation of that field as a fraction of the half-width of the thickness range at the card's
+        height, 0 .. 2 (default 0.5; values beyond the range are clipped to it).
+    thickness_jitter_nm : float
+        Standard deviation of each card's own independent thickness jitter, nm, 0 .. 100 (default 3).
     body_texture_resolution : int
         Width = height of the body base-colour texture, texels, 16 .. 8192 (default 1024).
     feather_texture_resolution : int
         Width = height of the feather textures, texels, 16 .. 4096 (default 256).
     body_voxel_m : float
         Detail of the body surface: about its edge length, metres, 0.0008 .. 0.01 (default 0.002, as in
-        schemas/config.schema.json). The body is meshed and unwrapped on an 8 mm grid, then subdivided
-        ``k = max(0, round(log2(0.008 / body_voxel_m)))`` times onto the implicit surface, 4x the triangles
-        each: 0.002 gives k = 2 (70,144 triangles), 0.004 gives k = 1 (17,536), from about 0.0057 up k = 0
-        (4,384). Values between those snap to the nearest level.
+        schemas/config.schema.json). The body and the wings are meshed and unwrapped on an 8 mm grid, then
+        subdivided ``k = max(0, round(log2(0.008 / body_voxel_m)))`` times onto their implicit surfaces, 4x the
+        triangles each: 0.002 gives k = 2 (58,112 body + 38,272 wing triangles), 0.004 gives k = 1
+        (14,528 + 9,568), from about 0.0057 up k = 0 (3,632 + 2,392). Values between those snap to the nearest
+        level.
     """
 
     seed: int = 0
@@ -105,6 +115,9 @@ class BirdParams:
     card_root_depth_m: tuple = (0.0005, 0.0012)
     thickness_base_nm: tuple = MEASURED_BASE_NM
     thickness_top_nm: tuple = MEASURED_TOP_NM
+    thickness_correlation_length_m: float = _thickness.DEFAULT_CORRELATION_LENGTH_M
+    thickness_spread: float = _thickness.DEFAULT_SPREAD
+    thickness_jitter_nm: float = _thickness.DEFAULT_JITTER_NM
     body_texture_resolution: int = 1024
     feather_texture_resolution: int = 256
     body_voxel_m: float = 0.002
@@ -121,6 +134,11 @@ class BirdParams:
         s(self, "card_root_depth_m", _check_range("card_root_depth_m", self.card_root_depth_m, 0.0, 0.002, "m"))
         s(self, "thickness_base_nm", _check_range("thickness_base_nm", self.thickness_base_nm, 1.0, 5000.0, "nm"))
         s(self, "thickness_top_nm", _check_range("thickness_top_nm", self.thickness_top_nm, 1.0, 5000.0, "nm"))
+        s(self, "thickness_correlation_length_m", _check_number(
+            "thickness_correlation_length_m", self.thickness_correlation_length_m, 0.0005, 0.2, "m"))
+        s(self, "thickness_spread", _check_number("thickness_spread", self.thickness_spread, 0.0, 2.0, ""))
+        s(self, "thickness_jitter_nm", _check_number("thickness_jitter_nm", self.thickness_jitter_nm, 0.0, 100.0,
+                                                     "nm"))
         s(self, "body_texture_resolution",
           _check_number("body_texture_resolution", self.body_texture_resolution, 16, 8192, "texels", integer=True))
         s(self, "feather_texture_resolution",

@@ -1,14 +1,21 @@
 """The bird's other parts: beak, cere, eyes, legs and feet. Surfaces of revolution, each closed and smooth.
 
 A surface of revolution has a natural parametrisation, used as its st: u around (0 .. 1, the seam vertices
-duplicated), v along the profile (0 .. 1). Proportions of a rock dove: beak about 2 cm, dark with a pale
-tip; white cere over the nostrils; orange eyes; short red legs, three toes forward and one back.
+duplicated), v along the profile (0 .. 1).
+
+Rock-dove numbers (Columba livia; Wikipedia, "Rock dove", Description, after Gibbs, Barnes and Cox, "Pigeons
+and Doves", 2001): bill about 1.8 cm, grey-black, "with a conspicuous off-white cere" at its base; iris
+orange, red or golden; feet purplish-red; tarsus 2.6-3.5 cm. The bill here is short and stout (a quarter of
+its length deep at the base), slightly flattened side to side, pointing forward and a little down, rooted
+:data:`BILL_EMBED_M` inside the head; its exposed length (:data:`BILL_LENGTH_M`, from where it leaves the
+head's surface to the tip) is what tests compare with the cited 1.8 cm.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from pipeline.geometry import sdf as _sdf
 from pipeline.geometry.types import MeshPart
 
 #: Segments around every surface of revolution.
@@ -17,8 +24,24 @@ AROUND = 20
 #: Display colours (linear RGB).
 BEAK_COLOR = (0.035, 0.03, 0.03)
 CERE_COLOR = (0.75, 0.74, 0.70)
-EYE_COLOR = (0.75, 0.25, 0.03)
-LEG_COLOR = (0.55, 0.08, 0.07)
+#: Orange-red iris (sRGB ~ (0.88, 0.36, 0.12)); the cited range is orange, red or golden.
+EYE_COLOR = (0.75, 0.11, 0.013)
+#: Purplish-red feet and legs (sRGB ~ (0.78, 0.25, 0.33)).
+LEG_COLOR = (0.57, 0.05, 0.09)
+
+#: Exposed bill length from the head's surface to the tip, metres: about 1.8 cm (Wikipedia, "Rock dove").
+BILL_LENGTH_M = 0.018
+#: Depth of the bill at its base (twice its radius there), metres: stout, about a quarter of its length.
+BILL_BASE_DEPTH_M = 0.0062
+#: How far the bill's root is sunk into the head, metres (so no gap shows where it meets the face).
+BILL_EMBED_M = 0.004
+#: Direction of the bill: forward (+Z) and a little down.
+BILL_DIRECTION = (0.0, -0.30, 1.0)
+#: Height of the bill's axis in the head's centre plane, metres: the axis leaves the face ~5 mm lower, a little
+#: below the eyes, as the gape of a pigeon lies.
+BILL_AXIS_Y_M = 0.2145
+#: Length of the cere along the bill from the face, metres (it covers the nostrils on the base third).
+CERE_LENGTH_M = 0.0075
 
 
 def revolve(z_m: np.ndarray, radius_m: np.ndarray, around: int = AROUND):
@@ -136,23 +159,43 @@ def tube_piece(length_m: float, r0_m: float, r1_m: float, m: int = 14):
     return revolve(z, r)
 
 
+def bill_root_m() -> np.ndarray:
+    """(3,) point where the bill's axis leaves the head's surface (the body field's zero set), metres."""
+    d = np.asarray(BILL_DIRECTION, dtype=np.float64)
+    d /= np.linalg.norm(d)
+    start = np.array([0.0, BILL_AXIS_Y_M, float(_sdf.HEAD.centre_m[2])])
+    # march out along the bill's direction from inside the head to the first point outside (0.05 mm steps)
+    ts = np.arange(0.0, 0.05, 0.00005)
+    pts = start[None, :] + ts[:, None] * d[None, :]
+    outside = np.flatnonzero(_sdf.body_sdf(pts) > 0.0)
+    return pts[outside[0]]
+
+
 def build_beak() -> MeshPart:
-    """The beak: slender, slightly flattened side to side, pointing forward and a little down."""
-    length = 0.026
-    z = _profile_z(length, 16)
+    """The bill: short and stout (:data:`BILL_LENGTH_M` exposed), flattened side to side, slightly hooked down
+    at the blunt tip; rooted :data:`BILL_EMBED_M` inside the head."""
+    length = BILL_LENGTH_M + BILL_EMBED_M
+    z = _profile_z(length, 18)
     v = z / length
-    r = 0.0046 * (1.0 - v) ** 0.8 * np.sqrt(np.clip(v * 8.0, 0.0, 1.0))
+    # full depth over the embedded root, then a taper that stays stout to the last quarter and rounds off
+    r = 0.5 * BILL_BASE_DEPTH_M * np.sqrt(np.clip(1.0 - v**2.4, 0.0, 1.0)) * np.sqrt(np.clip(v * 12.0, 0.0, 1.0))
     r[-1] = 0.0
-    piece = revolve(z, r)
-    return _part("Beak", [place(piece, (0.0, 0.2075, 0.0985), (0.0, -0.26, 1.0), (0.8, 1.0))],
-                 "beak", BEAK_COLOR)
+    d = np.asarray(BILL_DIRECTION, dtype=np.float64)
+    d /= np.linalg.norm(d)
+    root = bill_root_m() - BILL_EMBED_M * d
+    return _part("Beak", [place(revolve(z, r), root, d, (0.75, 1.0))], "beak", BEAK_COLOR)
 
 
 def build_cere() -> MeshPart:
-    """The cere: a white, powdery swelling over the nostrils at the base of the upper beak."""
-    piece = ellipsoid_piece(0.0055)
-    return _part("Cere", [place(piece, (0.0, 0.2118, 0.0990), (0.0, -0.22, 1.0), (0.8, 0.5))],
-                 "cere", CERE_COLOR)
+    """The cere: the off-white, powdery swelling over the nostrils on top of the base of the bill."""
+    d = np.asarray(BILL_DIRECTION, dtype=np.float64)
+    d /= np.linalg.norm(d)
+    up = np.array([0.0, 1.0, 0.0]) - d[1] * d
+    up /= np.linalg.norm(up)
+    # an ellipsoid from 1 mm inside the face to CERE_LENGTH_M along the bill, riding on its upper edge
+    start = bill_root_m() - 0.001 * d + 0.42 * BILL_BASE_DEPTH_M * up
+    piece = ellipsoid_piece(0.5 * (CERE_LENGTH_M + 0.001))
+    return _part("Cere", [place(piece, start, d, (0.62, 0.34))], "cere", CERE_COLOR)
 
 
 def build_eyes() -> MeshPart:

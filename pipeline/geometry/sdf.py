@@ -113,9 +113,10 @@ BREAST = Ellipsoid((0.0, 0.122, 0.045), (0.043, 0.047, 0.045), None)
 BELLY = Ellipsoid((0.0, 0.080, 0.008), (0.036, 0.037, 0.050), None)
 #: Neck: a tapered capsule from the shoulders to under the head, leaning forward.
 NECK = TaperedCapsule((0.0, 0.150, 0.040), (0.0, 0.203, 0.072), 0.026, 0.0165)
-#: Head (slightly elongated front to back).
-HEAD = Ellipsoid((0.0, 0.214, 0.083), (0.0185, 0.0195, 0.0235), rotation_x(10 * _DEG))
-#: Folded wings on each side, tips crossing over the rump toward the tail.
+#: Head: rounded (a rock dove's small round head), only slightly longer front to back than it is high.
+HEAD = Ellipsoid((0.0, 0.214, 0.083), (0.0190, 0.0200, 0.0215), rotation_x(10 * _DEG))
+#: Folded wings on each side, tips crossing over the rump toward the tail: their own closed surfaces
+#: (:func:`wings_sdf`, the ``Wings`` part), resting on the torso, not part of :func:`body_sdf`.
 WING_L = Ellipsoid((0.036, 0.125, -0.045), (0.016, 0.040, 0.098), rotation_x(-16 * _DEG) @ rotation_y(4 * _DEG))
 WING_R = Ellipsoid((-0.036, 0.125, -0.045), (0.016, 0.040, 0.098), rotation_x(-16 * _DEG) @ rotation_y(-4 * _DEG))
 #: Tail: a flat, broad fan behind the rump, tip at about z = -0.19.
@@ -132,7 +133,7 @@ BODY_BOUNDS_M = (np.array([-0.062, 0.030, -0.205]), np.array([0.062, 0.240, 0.11
 
 
 def body_sdf(p: np.ndarray) -> np.ndarray:
-    """Signed distance to the body surface (negative inside), metres.
+    """Signed distance to the body surface (torso, breast, belly, neck, head, tail; negative inside), metres.
 
     Parameters
     ----------
@@ -150,10 +151,19 @@ def body_sdf(p: np.ndarray) -> np.ndarray:
     d = smooth_union(d, BELLY.sdf_xyz(x, y, z), 0.02)
     d = smooth_union(d, NECK.sdf_xyz(x, y, z), 0.03)
     d = smooth_union(d, HEAD.sdf_xyz(x, y, z), 0.012)
-    d = smooth_union(d, WING_L.sdf_xyz(x, y, z), 0.010)
-    d = smooth_union(d, WING_R.sdf_xyz(x, y, z), 0.010)
     d = smooth_union(d, TAIL.sdf_xyz(x, y, z), 0.014)
     return d
+
+
+#: Axis-aligned box that holds both folded wings, metres (min corner, max corner).
+WINGS_BOUNDS_M = (np.array([-0.056, 0.070, -0.150]), np.array([0.056, 0.175, 0.055]))
+
+
+def wings_sdf(p: np.ndarray) -> np.ndarray:
+    """Signed distance to the two folded wings (negative inside), metres: (N, 3) points -> (N,) float64."""
+    p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
+    x, y, z = (np.ascontiguousarray(p[:, a]) for a in range(3))
+    return np.minimum(WING_L.sdf_xyz(x, y, z), WING_R.sdf_xyz(x, y, z))
 
 
 def sdf_gradient(sdf, p: np.ndarray, step_m: float = 1e-4) -> np.ndarray:

@@ -238,6 +238,9 @@ def write_html(path, report: dict, images: dict) -> str:
         f"Goals: median dE2000 &le; {report.get('goals', {}).get('median_dE', '')}, "
         f"p95 &le; {report.get('goals', {}).get('p95_dE', '')} over feather pixels away from silhouette edges.</p>",
     ]
+    hero = images.get("views", {}).get("hero", {}).get("gl") or images.get("views", {}).get("hero", {}).get("reference")
+    if hero:
+        parts.append(f"<h2>Hero view</h2><img src='{e(hero)}' alt='hero view' style='image-rendering:auto'>")
     failures = report.get("failures") or []
     if failures:
         parts.append("<h2>Failures</h2><ul>" + "".join(f"<li>{e(str(f))}</li>" for f in failures) + "</ul>")

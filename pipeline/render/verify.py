@@ -49,6 +49,7 @@ import numpy as np
 
 from ..build.publish import MARKER
 from . import compare as cmp
+from .boundary import boundary_note, boundary_shape
 
 #: The light-view angle (deg) of the extra sweep view: 90 deg is the paper's green/purple flip.
 BOUNDARY_SWEEP_ANGLE_DEG = 90.0
@@ -127,9 +128,9 @@ def run_validation(layer_path: str) -> dict:
 
 
 def verification_views(scene, width: int, height: int, n_views: int = DEFAULT_VIEWS) -> list:
-    """The default views (``n_views`` of them) plus the light sweep at :data:`BOUNDARY_SWEEP_ANGLE_DEG`
-    (same still camera)."""
-    from .views import default_views, light_sweep_views
+    """The default views (``n_views`` of them), the light sweep at :data:`BOUNDARY_SWEEP_ANGLE_DEG` (same still
+    camera), and the hero 3/4 view at ``HERO_SCALE`` times the size (:func:`pipeline.render.views.hero_view`)."""
+    from .views import HERO_SCALE, default_views, hero_view, light_sweep_views
 
     views = default_views(scene, width, height, n=n_views)
     sweep = [v for v in views if v.name.startswith("sweep_")]
@@ -142,6 +143,7 @@ def verification_views(scene, width: int, height: int, n_views: int = DEFAULT_VI
                                   yfov_deg=float(np.degrees(s.yfov_rad)), camera_direction=(eye - neck) / dist)
         if extra[0].name not in {v.name for v in views}:
             views.append(extra[0])
+    views.append(hero_view(scene.bounds_m, HERO_SCALE * width, HERO_SCALE * height))
     return views
 
 
@@ -363,12 +365,9 @@ def _render_and_check(scene, lut, views, out: str, *, subfolders: bool, say) -> 
         hue = boundary = None
         if sweep:
             cls = m.cls if m is not None else _reference_classes(ref_results[i], scene)
-            if m is not None:
-                pixels = np.asarray(cmp.gl_arrays(gl_results[i])["rgb"], np.float64)[cls >= 0]
-            else:
-                pixels = ref_results[i].rgb[cls >= 0].astype(np.float64)
-            hue = cmp.hue_histogram(pixels)
-            boundary = cmp.boundary_straightness(cls)
+            rgb = np.asarray(cmp.gl_arrays(gl_results[i])["rgb"] if m is not None else ref_results[i].rgb, np.float64)
+            hue = cmp.hue_histogram(rgb[cls >= 0])
+            boundary = {**cmp.boundary_straightness(cls), **boundary_shape(rgb, cls >= 0)}
         files, rows = {}, []
         ref_png = to_display8(ref_results[i].rgb)
         files["reference"] = os.path.basename(save_png(ref_png, os.path.join(folder, f"{v.name}_reference.png")))
@@ -525,6 +524,8 @@ def _combine(layer, scene, lut, notes, results: dict, out_dir, width, height, be
         notes.append("hue check not run: no light-sweep view among the views checked "
                      f"({', '.join(r['view'] for r in results)})")
 
+    notes.extend(boundary_note(r["view"], r["boundary"]) for r in sweeps
+                 if r["view"] == f"sweep_{int(round(BOUNDARY_SWEEP_ANGLE_DEG)):03d}")
     say("writing the report")
     t = time.perf_counter()
     images = {"views": {}}
@@ -579,7 +580,7 @@ def _combine(layer, scene, lut, notes, results: dict, out_dir, width, height, be
         "hue_sweep": hue,
         "boundary": {"per_view": {r["view"]: r["boundary"] for r in sweeps},
                      "method": "TLS line through green/purple boundary points; RMS perpendicular distance (px) "
-                               "and RMS / boundary length"},
+                               "and RMS / boundary length; coherence and curvature: pipeline.render.boundary"},
         "film": film,
         "lut": lut_info,
         "variants": dict(scene.variants),
@@ -629,6 +630,10 @@ def summary(report: dict) -> dict:
         "notes": list(report.get("notes", [])),
         "hue_sweep": {k: report["hue_sweep"][k] for k in ("green", "purple", "grey", "other")},
         "boundary_rms_px": {k: v["rms_px"] for k, v in report["boundary"]["per_view"].items()},
+        "boundary_shape": {k: {"green_share": v["coherence"]["green"]["largest_share"],
+                               "purple_share": v["coherence"]["purple"]["largest_share"],
+                               "line_over_curve": v["curvature"]["ratio"]}
+                           for k, v in report["boundary"]["per_view"].items() if "coherence" in v},
         "timings_s": report["timings_s"],
     }
 

@@ -6,6 +6,10 @@ local -Z with +Y up; ``camera_to_world`` is a 4x4 matrix acting on column vector
 - :func:`turntable_views`: the camera orbits the bird about the world Y axis through the centre of the scene
   bounds; the light is **fixed relative to the camera** (a key light above and to the left of the camera,
   :data:`TURNTABLE_LIGHT_CAMERA`), so every frame is lit from the front as seen.
+  The camera is at eye level (:data:`TURNTABLE_ELEVATION_DEG`): a few degrees above the centre, about the
+  height of the bird's own eye at the framing distance, as a look-dev artist shoots a turntable; never below.
+- :func:`hero_view`: the 3/4 front view a look-dev artist shows first, at :data:`HERO_SCALE` times the
+  verification size (1024 x 1024 by default), camera at eye level in front of the bird's left shoulder.
 - :func:`light_sweep_views`: the paper's experiment. The camera stays still, framing the neck; a D65-white
   directional light (``light_rgb = (1, 1, 1)`` in lin_rec709) rotates about the camera's up axis through the
   neck, so the angle ``alpha`` between the light direction ``L`` and the view direction ``V`` (both from the
@@ -24,6 +28,16 @@ import numpy as np
 D65_WHITE_RGB = (1.0, 1.0, 1.0)
 #: Turntable key light in camera coordinates (from the surface toward the light): up-left-front.
 TURNTABLE_LIGHT_CAMERA = (-0.4, 0.5, 0.77)
+#: Turntable camera elevation above the horizontal through the scene's centre, degrees: at the framing distance
+#: of the default bird (~0.6 m) 8 degrees puts the camera ~0.08 m above the centre, at about the bird's eye height.
+TURNTABLE_ELEVATION_DEG = 8.0
+#: The hero view: azimuth (0 = in front of the beak, positive toward the bird's left, +X), elevation (degrees),
+#: and its size as a multiple of the verification views' size (512 -> 1024).
+HERO_AZIMUTH_DEG = 40.0
+HERO_ELEVATION_DEG = 8.0
+HERO_SCALE = 2
+#: Hero camera distance as a fraction of the turntable's (the bird fills ~80 % of the picture's height).
+HERO_ZOOM = 0.72
 #: Default vertical fields of view, degrees.
 TURNTABLE_YFOV_DEG = 35.0
 SWEEP_YFOV_DEG = 30.0
@@ -175,7 +189,7 @@ def turntable_views(
     n: int,
     width: int,
     height: int,
-    elevation_deg: float = 15.0,
+    elevation_deg: float = TURNTABLE_ELEVATION_DEG,
     start_azimuth_deg: float = 30.0,
     yfov_deg: float = TURNTABLE_YFOV_DEG,
     light_rgb=D65_WHITE_RGB,
@@ -224,6 +238,25 @@ def turntable_views(
             View(f"turntable_{int(round(az_deg)) % 360:03d}", c2w, yfov, width, height, light, light_rgb)
         )
     return views
+
+
+def hero_view(scene_bounds, width: int, height: int, azimuth_deg: float = HERO_AZIMUTH_DEG,
+              elevation_deg: float = HERO_ELEVATION_DEG, yfov_deg: float = TURNTABLE_YFOV_DEG,
+              light_rgb=D65_WHITE_RGB) -> View:
+    """The hero 3/4 view, named ``hero``: one turntable frame at ``azimuth_deg``, the camera :data:`HERO_ZOOM` of
+    the turntable's distance from the centre (the turntable frames the bounding sphere, which leaves the bird
+    at about half the picture's height).
+
+    Parameters are as for :func:`turntable_views` (``width`` x ``height`` in pixels, angles in degrees); the key
+    light is the turntable's, fixed relative to the camera (up, left and in front of it).
+    """
+    v = turntable_views(scene_bounds, 1, width, height, elevation_deg=elevation_deg, start_azimuth_deg=azimuth_deg,
+                        yfov_deg=yfov_deg, light_rgb=light_rgb)[0]
+    c2w = v.camera_to_world.copy()
+    b = np.asarray(scene_bounds, dtype=np.float64)
+    centre = b.mean(axis=0)
+    c2w[:3, 3] = centre + HERO_ZOOM * (c2w[:3, 3] - centre)
+    return View("hero", c2w, v.yfov_rad, width, height, v.light_direction, v.light_rgb)
 
 
 def light_sweep_views(
