@@ -201,7 +201,8 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     r = rockdove("build", "--out", "b/p", "--no-verify", *TINY, cwd=tmp_path, env_extra=env, timeout=300)
     assert r.returncode == 0, r.stderr
     first = json.loads(r.stdout)
-    assert first["ran"] == ["body", "bird", "thickness_range", "lut", "texture_images", "textures", "usd_layers"]
+    assert first["ran"] == ["body", "bird", "thickness_range", "lut", "texture_images", "textures", "usd_geometry",
+                            "usd_layers"]
     asset = tmp_path / "b/p"
     assert (asset / "pigeon.usda").is_file() and (asset / "textures/thinfilm_lut.exr").is_file()
     # the LUT spans the thickness range on the mesh, no more
@@ -235,7 +236,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert r.returncode == 0, r.stderr
     third = json.loads(r.stdout)
     assert third["ran"] == ["lut", "textures", "usd_layers", "verify"]
-    assert {"body", "bird", "thickness_range", "texture_images"} == set(third["reused"])
+    assert {"body", "bird", "thickness_range", "texture_images", "usd_geometry"} == set(third["reused"])
     assert _verify_record(third)["items_ran"] == views
     # physical-only shading: no bake at all (the lut stage is not in the graph), verified with a note
     r = rockdove("build", "--out", "b/p", "--set", "shading.variant=physical", *TINY, cwd=tmp_path, env_extra=env,

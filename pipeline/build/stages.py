@@ -17,9 +17,14 @@ stage                   configuration                                 inputs
 ``textures``            -- (physical-only: ``film``)                  lut, texture_images (pipeline.usd.textures_io);
                                                                       physical-only: thickness_range, texture_images
                                                                       (no LUT EXR; exact preview colour)
-``usd_layers``          ``film``, ``shading``                         bird, lut (pipeline.usd.stage.write_layers);
-                                                                      physical-only: bird
-``usdz``                -- (present when ``usd.usdz``)                usd_layers, textures (pipeline.usd.usdz)
+``usd_geometry``        --                                            bird (pipeline.usd.stage.write_geometry:
+                                                                      ``pigeon_geom.usdc``, crate)
+``usd_layers``          ``film``, ``shading``                         bird, lut, usd_geometry
+                                                                      (pipeline.usd.stage.write_looks: pigeon.usda,
+                                                                      pigeon_payload.usda, pigeon_looks.usda);
+                                                                      physical-only: bird, usd_geometry
+``usdz``                -- (present when ``usd.usdz``)                usd_geometry, usd_layers, textures
+                                                                      (pipeline.usd.usdz)
 ``verify``              ``verify.width``, ``verify.height``,          every published stage: the assembled asset.
                         ``verify.views``                              One item per view (pipeline.render.verify),
                                                                       keyed by its plan entry: the view's camera,
@@ -29,7 +34,7 @@ stage                   configuration                                 inputs
 
 Because keys use the *content* of upstream outputs, a new seed that leaves the thickness range unchanged
 re-bakes nothing, and a film change re-bakes the LUT and rewrites textures (the preview mixes in the LUT) and
-layers but reuses the bird. Physical-only shading needs no bake: the graph has no ``lut`` stage. Verification
+the small layers but reuses the bird and the geometry layer (``usd_geometry``), whose bytes stay as they were. Physical-only shading needs no bake: the graph has no ``lut`` stage. Verification
 re-renders only the views whose plan entry changed: a change that leaves the rendered scene as it was (e.g.
 ``usd.usdz``) revalidates and rewrites the report but renders nothing; a film change re-renders every view.
 Until a module this file needs has landed, :func:`make_stages` says which one is missing (a one-line error,
@@ -277,20 +282,29 @@ def run_textures(ctx: Context):
                        thickness_range_nm=tuple(ctx.inputs["thickness_range"]))
 
 
+def run_usd_geometry(ctx: Context):
+    """The geometry layer (crate), which depends on the bird alone: a film change leaves its bytes as they were."""
+    from ..usd.stage import write_geometry
+
+    write_geometry(str(ctx.workdir), ctx.inputs["bird"])
+
+
 def run_usd_layers(ctx: Context):
+    """Every other layer (interface, payload, looks), authored over the cached geometry layer."""
     from ..usd.material import lut_info
-    from ..usd.stage import write_layers
+    from ..usd.stage import GEOMETRY_LAYER, write_looks
 
     lut = lut_info(ctx.inputs["lut"]) if "lut" in ctx.inputs else None
-    write_layers(str(ctx.workdir), ctx.inputs["bird"], film_from_config(ctx.config["film"]), lut,
-                 version=__version__, shading=ctx.config["shading"]["variant"])
+    write_looks(str(ctx.workdir), ctx.inputs["bird"], film_from_config(ctx.config["film"]), lut,
+                version=__version__, geometry=str(ctx.inputs["usd_geometry"] / GEOMETRY_LAYER),
+                shading=ctx.config["shading"]["variant"])
 
 
 def run_usdz(ctx: Context):
     from ..usd.usdz import USDZ_NAME, write_usdz
 
     scratch = ctx.workdir / "layout"
-    for dep in ("usd_layers", "textures"):
+    for dep in ("usd_geometry", "usd_layers", "textures"):
         shutil.copytree(ctx.inputs[dep], scratch, dirs_exist_ok=True)
     write_usdz(str(scratch))
     (scratch / USDZ_NAME).rename(ctx.workdir / USDZ_NAME)
@@ -315,7 +329,8 @@ def _missing(names: list[str]) -> list[str]:
 
 REQUIRED = ["pipeline.geometry:build_bird", "pipeline.geometry:build_body", "pipeline.lut.bake:bake", "pipeline.textures:feather_textures",
             "pipeline.textures:body_base_colour", "pipeline.usd.textures_io:write_textures",
-            "pipeline.usd.stage:write_layers", "pipeline.usd.usdz:write_usdz"]
+            "pipeline.usd.stage:write_geometry", "pipeline.usd.stage:write_looks",
+            "pipeline.usd.usdz:write_usdz"]
 REQUIRED_VERIFY = ["pipeline.render.verify:verify_asset"]
 
 
@@ -413,13 +428,16 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
                             modules=("pipeline.usd.textures_io", "pipeline.lut.reference", "pipeline.films",
                                      "pipeline.optics", "pipeline.spectral"),
                             libraries=LIBS_USD + ("colour-science", "scipy"), codec=FILES, publish=""))
+    stages.append(Stage("usd_geometry", run_usd_geometry, deps=("bird",), modules=("pipeline.usd",),
+                        data=("schemas/plugInfo.json", "schemas/generatedSchema.usda"), libraries=LIBS_USD,
+                        codec=FILES, publish=""))
     stages.append(Stage("usd_layers", run_usd_layers, config=("film", "shading"),
-                        deps=("bird", "lut") if baked else ("bird",),
+                        deps=("bird", "lut", "usd_geometry") if baked else ("bird", "usd_geometry"),
                         modules=("pipeline.usd", "pipeline.films"), data=("materials", "schemas/plugInfo.json",
                                                                            "schemas/generatedSchema.usda"),
                         libraries=LIBS_USD, codec=FILES, publish=""))
     if config["usd"]["usdz"]:
-        stages.append(Stage("usdz", run_usdz, deps=("usd_layers", "textures"), modules=("pipeline.usd",),
+        stages.append(Stage("usdz", run_usdz, deps=("usd_geometry", "usd_layers", "textures"), modules=("pipeline.usd",),
                             libraries=LIBS_USD, codec=FILES, publish=""))
     if verify:
         # Per-view items planned from the assembled asset: a view re-renders only when its own plan entry (its
