@@ -214,7 +214,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     r = rockdove("build", "--out", "b/p", *TINY, cwd=tmp_path, env_extra=env, timeout=300)
     assert r.returncode == 0, r.stderr
     second = json.loads(r.stdout)
-    assert second["ran"] == ["verify"] and second["verified"] is True
+    assert second["ran"] == ["verify_rays", "verify"] and second["verified"] is True
     views = ["turntable_030", "turntable_210", "sweep_060", "sweep_120", "sweep_090"]
     assert _verify_record(second)["items_ran"] == views
     assert json.loads((asset / "verify/report.json").read_text())["passed"] is True
@@ -227,7 +227,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
                  cwd=tmp_path, env_extra=env, timeout=300)
     assert r.returncode == 0, r.stderr
     meta = json.loads(r.stdout)
-    assert meta["ran"] == ["usdz", "verify"] and meta["verified"] is True
+    assert meta["ran"] == ["usdz", "verify_rays", "verify"] and meta["verified"] is True
     assert _verify_record(meta)["items_ran"] == [] and _verify_record(meta)["items_reused"] == views
     assert (asset / "pigeon.usdz").is_file() and (asset / "verify/sweep_090_gl.png").is_file()
     # film index change: LUT, textures (the preview mixes the LUT in), layers and every view; geometry reused
@@ -235,9 +235,13 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
                  timeout=300)
     assert r.returncode == 0, r.stderr
     third = json.loads(r.stdout)
-    assert third["ran"] == ["lut", "textures", "usd_layers", "verify"]
+    assert third["ran"] == ["lut", "textures", "usd_layers", "verify_rays", "verify"]
     assert {"body", "bird", "thickness_range", "texture_images", "usd_geometry"} == set(third["reused"])
     assert _verify_record(third)["items_ran"] == views
+    # ... but not the reference's ray casts: one cached item per camera, keyed by the geometry they hit
+    rays = _verify_record(third, "verify_rays")
+    assert rays["items_ran"] == [] and len(rays["items_reused"]) == 3  # two turntable cameras, one sweep camera
+    assert rays["items_reused"] == _verify_record(second, "verify_rays")["items_ran"]
     # physical-only shading: no bake at all (the lut stage is not in the graph), verified with a note
     r = rockdove("build", "--out", "b/p", "--set", "shading.variant=physical", *TINY, cwd=tmp_path, env_extra=env,
                  timeout=300)
@@ -252,5 +256,5 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert report["passed"] and report["lut"]["verification_only"] and "physical-only" in report["notes"][0]
 
 
-def _verify_record(summary: dict) -> dict:
-    return next(s for s in summary["stages"] if s["name"] == "verify")
+def _verify_record(summary: dict, name: str = "verify") -> dict:
+    return next(s for s in summary["stages"] if s["name"] == name)

@@ -348,13 +348,71 @@ def plan_verify(ctx: Context) -> dict:
     return plan_views(str(ctx.asset_dir), **_verify_size(ctx))
 
 
+def plan_rays(ctx: Context) -> dict:
+    """One item per distinct camera of the verification views: the camera (pipeline.render.reference.camera_key)
+    and the digest of the geometry the rays hit (``ray_digest``: meshes, feather st and alpha), not the film or
+    the LUT, so the reference's ray casts survive a film change."""
+    from ..render.reference import camera_key, ray_digest
+    from ..render.verify import verification_scene, verification_views
+
+    size = _verify_size(ctx)
+    with verification_scene(str(ctx.asset_dir)) as (_, scene, _, _):
+        digest = ray_digest(scene)
+        views = verification_views(scene, size["width"], size["height"], size["n_views"])
+    return {f"camera-{camera_key(v)[:16]}": {"camera": camera_key(v), "geometry": digest} for v in views}
+
+
+def run_rays(ctx: Context) -> dict:
+    """Cast the reference's primary rays of the cameras to redo (``ctx.items``), in one call (one BVH)."""
+    from ..render.reference import cast_hits, camera_key
+    from ..render.verify import verification_scene, verification_views
+
+    size = _verify_size(ctx)
+    wanted = {cfg["camera"]: name for name, cfg in ctx.items.items()}
+    with verification_scene(str(ctx.asset_dir)) as (_, scene, _, _):
+        views = verification_views(scene, size["width"], size["height"], size["n_views"])
+        hits = cast_hits(scene, [v for v in views if camera_key(v) in wanted])
+    return {wanted[key]: (key, value) for key, value in hits.items()}
+
+
+def _hits_save(value, folder: Path) -> None:
+    import numpy as np
+
+    camera, hits = value
+    np.savez(folder / "hits.npz", **hits.to_arrays())
+    (folder / "hits.json").write_text(json.dumps({"camera": camera, "stats": hits.stats}, sort_keys=True))
+
+
+def _hits_load(folder: Path) -> dict:
+    # the arrays are loaded by the stage that uses them (load_hits), not by the graph
+    return {"dir": str(folder), "camera": json.loads((folder / "hits.json").read_text())["camera"]}
+
+
+HITS = Codec("hits", _hits_save, _hits_load)
+
+
+def combine_rays(ctx: Context, items: dict) -> dict:
+    """``{"hits": {camera_key: the cached item's folder}}`` (content-keyed, read-only cache entries)."""
+    return {"hits": {value["camera"]: value["dir"] for value in items.values()}}
+
+
+def load_hits(value: dict) -> dict:
+    """The :class:`pipeline.render.reference.Hits` of a ``verify_rays`` value, by camera key."""
+    from ..render.reference import Hits
+
+    return {key: Hits.from_arrays(load_npz(Path(d) / "hits.npz"),
+                                  json.loads((Path(d) / "hits.json").read_text())["stats"])
+            for key, d in value["hits"].items()}
+
+
 def run_verify(ctx: Context) -> dict:
-    """Render and check the views to redo (``ctx.items``), in one call (one GL context, shared reference rays);
-    each view's images go into ``ctx.workdir / <view>`` (pipeline.render.verify.verify_views)."""
+    """Render and check the views to redo (``ctx.items``), in one call (one GL context); the reference reuses
+    the ray casts of ``verify_rays``. Each view's images go into ``ctx.workdir / <view>``
+    (pipeline.render.verify.verify_views)."""
     from ..render.verify import verify_views
 
     return verify_views(str(ctx.asset_dir), views=list(ctx.items), out_dir=str(ctx.workdir), subfolders=True,
-                        **_verify_size(ctx))
+                        hits=load_hits(ctx.inputs["verify_rays"]), **_verify_size(ctx))
 
 
 def combine_verify(ctx: Context, views: dict) -> dict:
@@ -443,8 +501,14 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
         # Per-view items planned from the assembled asset: a view re-renders only when its own plan entry (its
         # parameters, the digest of the scene content it renders) or the verify code changes. The stage itself
         # (validation and the report) reruns whenever any published file changes.
+        published = tuple(s.name for s in stages if s.publish is not None)
+        # The reference's ray casts, one item per camera keyed by the geometry they hit: a film change reuses them.
+        stages.append(Stage("verify_rays", run_rays, config=("verify.width", "verify.height", "verify.views"),
+                            deps=published, modules=("pipeline.render", "pipeline.usd"), libraries=LIBS_RENDER,
+                            codec=JSON, needs_asset=True, item_plan=plan_rays, batch=True, combine=combine_rays,
+                            item_codec=HITS))
         stages.append(Stage("verify", run_verify, config=("verify.width", "verify.height", "verify.views"),
-                            deps=tuple(s.name for s in stages if s.publish is not None),
+                            deps=published + ("verify_rays",),
                             modules=("pipeline.render", "pipeline.usd", "pipeline.lut", "pipeline.films",
                                      "pipeline.optics", "pipeline.spectral"),
                             data=("materials", "schemas/plugInfo.json", "schemas/generatedSchema.usda"),
