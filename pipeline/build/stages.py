@@ -25,6 +25,11 @@ stage                   configuration                                 inputs
                                                                       physical-only: bird, usd_geometry
 ``usdz``                -- (present when ``usd.usdz``)                usd_geometry, usd_layers, textures
                                                                       (pipeline.usd.usdz)
+``verify_rays``         as ``verify``                                 every published stage: the assembled asset.
+                                                                      One item per camera: the reference's ray
+                                                                      casts (pipeline.render.reference.cast_hits),
+                                                                      keyed by the camera and ray_digest (geometry,
+                                                                      feather alpha; not film or LUT)
 ``verify``              ``verify.width``, ``verify.height``,          every published stage: the assembled asset.
                         ``verify.views``                              One item per view (pipeline.render.verify),
                                                                       keyed by its plan entry: the view's camera,
@@ -36,7 +41,8 @@ Because keys use the *content* of upstream outputs, a new seed that leaves the t
 re-bakes nothing, and a film change re-bakes the LUT and rewrites textures (the preview mixes in the LUT) and
 the small layers but reuses the bird and the geometry layer (``usd_geometry``), whose bytes stay as they were. Physical-only shading needs no bake: the graph has no ``lut`` stage. Verification
 re-renders only the views whose plan entry changed: a change that leaves the rendered scene as it was (e.g.
-``usd.usdz``) revalidates and rewrites the report but renders nothing; a film change re-renders every view.
+``usd.usdz``) revalidates and rewrites the report but renders nothing; a film change re-renders every view, but
+with the reference's ray casts of ``verify_rays``, which depend on the geometry and the cameras only.
 Until a module this file needs has landed, :func:`make_stages` says which one is missing (a one-line error,
 exit 2) rather than building something partial.
 """
