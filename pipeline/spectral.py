@@ -43,9 +43,9 @@ _REFERENCE_STEP_NM = 1.0  # grid of the reference white (the CMFS table's own st
 
 
 def _colour():
-    import colour  # imported lazily: colour-science takes ~1 s to import
+    from ._compat import import_colour  # imported lazily: colour-science takes ~1 s to import
 
-    return colour
+    return import_colour()
 
 
 def _check_wavelengths(wavelength_nm) -> np.ndarray:

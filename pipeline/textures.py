@@ -51,7 +51,9 @@ def _smoothstep(e0, e1, x):
 
 
 def _linear(srgb8) -> np.ndarray:
-    import colour
+    from ._compat import import_colour
+
+    colour = import_colour()
 
     return np.asarray(colour.cctf_decoding(np.asarray(srgb8, dtype=np.float64) / 255.0, function="sRGB"))
 

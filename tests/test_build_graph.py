@@ -160,9 +160,11 @@ def _real_partial_stages(card_count=12):
                 codec=S.LUT),
         G.Stage("texture_images", lambda ctx: synthetic_textures(16), codec=S.IMAGES),
         G.Stage("textures", S.run_textures, deps=("lut", "texture_images"), codec=G.FILES, publish=""),
-        G.Stage("usd_layers", S.run_usd_layers, config=("film", "shading"), deps=("bird", "lut"),
+        G.Stage("usd_geometry", S.run_usd_geometry, deps=("bird",), modules=("pipeline.usd",), codec=G.FILES,
+                publish=""),
+        G.Stage("usd_layers", S.run_usd_layers, config=("film", "shading"), deps=("bird", "lut", "usd_geometry"),
                 modules=("pipeline.usd",), codec=G.FILES, publish=""),
-        G.Stage("usdz", S.run_usdz, deps=("usd_layers", "textures"), codec=G.FILES, publish=""),
+        G.Stage("usdz", S.run_usdz, deps=("usd_geometry", "usd_layers", "textures"), codec=G.FILES, publish=""),
     ]
 
 
@@ -176,7 +178,8 @@ def test_real_usd_stages_build_a_valid_asset_and_rebuild_incrementally(tmp_path)
     asset.mkdir()
     graph.assemble(asset)
     names = {str(p.relative_to(asset)) for p in asset.rglob("*") if p.is_file()}
-    assert {"pigeon.usda", "pigeon_payload.usda", "pigeon.usdz", "textures/thinfilm_lut.exr"} <= names
+    assert {"pigeon.usda", "pigeon_payload.usda", "pigeon_looks.usda", "pigeon_geom.usdc", "pigeon.usdz",
+            "textures/thinfilm_lut.exr"} <= names
     # the LUT spans exactly the (rounded-out) range on the mesh
     lo, hi = graph.value("thickness_range")
     d = graph.value("bird").part("NeckFeathers").primvars["thickness"].values
@@ -194,8 +197,10 @@ def test_real_usd_stages_build_a_valid_asset_and_rebuild_incrementally(tmp_path)
                                               "film.cauchy_a=1.6"), G.Cache(tmp_path / "cache"))
     g2.run()
     st = _status(g2)
-    assert st["bird"] == st["thickness_range"] == st["texture_images"] == "reused"
+    assert st["bird"] == st["thickness_range"] == st["texture_images"] == st["usd_geometry"] == "reused"
     assert st["lut"] == st["textures"] == st["usd_layers"] == st["usdz"] == "ran"
+    geometry = "pigeon_geom.usdc"
+    assert (g2.entry_dir("usd_geometry") / geometry).read_bytes() == (asset / geometry).read_bytes()
 
 
 def test_half_precision_lut_is_a_half_exr_that_validates(tmp_path):

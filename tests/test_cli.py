@@ -194,7 +194,8 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     r = rockdove("build", "--out", "b/p", "--no-verify", *TINY, cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     first = json.loads(r.stdout)
-    assert first["ran"] == ["body", "bird", "thickness_range", "lut", "texture_images", "textures", "usd_layers"]
+    assert first["ran"] == ["body", "bird", "thickness_range", "lut", "texture_images", "textures", "usd_geometry",
+                            "usd_layers"]
     asset = tmp_path / "b/p"
     assert (asset / "pigeon.usda").is_file() and (asset / "textures/thinfilm_lut.exr").is_file()
     # the LUT spans the thickness range on the mesh, no more
@@ -206,7 +207,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     r = rockdove("build", "--out", "b/p", *TINY, cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     second = json.loads(r.stdout)
-    assert second["ran"] == ["verify"] and second["verified"] is True
+    assert second["ran"] == ["verify_rays", "verify"] and second["verified"] is True
     views = ["turntable_030", "turntable_210", "sweep_060", "sweep_120", "sweep_090", "hero"]
     assert _verify_record(second)["items_ran"] == views
     assert json.loads((asset / "verify/report.json").read_text())["passed"] is True
@@ -219,7 +220,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
                  cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     meta = json.loads(r.stdout)
-    assert meta["ran"] == ["usdz", "verify"] and meta["verified"] is True
+    assert meta["ran"] == ["usdz", "verify_rays", "verify"] and meta["verified"] is True
     assert _verify_record(meta)["items_ran"] == [] and _verify_record(meta)["items_reused"] == views
     assert (asset / "pigeon.usdz").is_file() and (asset / "verify/sweep_090_gl.png").is_file()
     # film index change: LUT, textures (the preview mixes the LUT in), layers and every view; geometry reused
@@ -227,9 +228,13 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
                  timeout=300)
     assert r.returncode == 0, r.stderr
     third = json.loads(r.stdout)
-    assert third["ran"] == ["lut", "textures", "usd_layers", "verify"]
-    assert {"body", "bird", "thickness_range", "texture_images"} == set(third["reused"])
+    assert third["ran"] == ["lut", "textures", "usd_layers", "verify_rays", "verify"]
+    assert {"body", "bird", "thickness_range", "texture_images", "usd_geometry"} == set(third["reused"])
     assert _verify_record(third)["items_ran"] == views
+    # ... but not the reference's ray casts: one cached item per camera, keyed by the geometry they hit
+    rays = _verify_record(third, "verify_rays")
+    assert rays["items_ran"] == [] and 3 <= len(rays["items_reused"]) < len(views)  # the sweep shares a camera
+    assert rays["items_reused"] == _verify_record(second, "verify_rays")["items_ran"]
     # physical-only shading: no bake at all (the lut stage is not in the graph), verified with a note
     r = rockdove("build", "--out", "b/p", "--set", "shading.variant=physical", *TINY, cwd=tmp_path, standin=False,
                  timeout=300)
@@ -244,8 +249,8 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert report["passed"] and report["lut"]["verification_only"] and "physical-only" in report["notes"][0]
 
 
-def _verify_record(summary: dict) -> dict:
-    return next(s for s in summary["stages"] if s["name"] == "verify")
+def _verify_record(summary: dict, name: str = "verify") -> dict:
+    return next(s for s in summary["stages"] if s["name"] == name)
 
 
 def test_every_listed_command_has_a_module_with_the_command_interface():

@@ -174,3 +174,17 @@ def test_spectral_module_imports_colour_lazily():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          cwd=str(__import__('pathlib').Path(spectral.__file__).parents[1]))
     assert out.stdout.strip() == "False"
+
+
+def test_colour_is_imported_without_matplotlib_and_its_plotting_still_imports_on_request():
+    """pipeline._compat.import_colour keeps colour-science's plotting (matplotlib, pyplot) off the build's path;
+    a fresh interpreter, because this one may have colour imported already."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from pipeline import spectral; spectral.spectral_weights([400.0, 500.0, 600.0]); "
+            "assert 'matplotlib' not in sys.modules, 'matplotlib imported'; "
+            "assert 'colour.plotting' not in sys.modules; "
+            "import colour.plotting; assert callable(colour.plotting.plot_single_sd); print('ok')")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0 and r.stdout.strip() == "ok", r.stderr

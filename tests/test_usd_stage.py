@@ -199,8 +199,31 @@ def test_rebuild_is_byte_identical(asset, tmp_path):
     a, b = asset["dir"], again["dir"]
     names = sorted(os.path.relpath(os.path.join(d, f), a) for d, _, fs in os.walk(a) for f in fs)
     assert "pigeon.usdz" in names and "textures/thinfilm_lut.exr" in names
+    assert {"pigeon_geom.usdc", "pigeon_looks.usda", "pigeon_payload.usda"} <= set(names)
+    with open(os.path.join(a, "pigeon_geom.usdc"), "rb") as fh:
+        assert fh.read(8) == b"PXR-USDC"  # the geometry is a crate file, and rebuilt byte for byte
     match, mismatch, errors = filecmp.cmpfiles(a, b, names, shallow=False)
     assert mismatch == [] and errors == [] and len(match) == len(names)
+
+
+def test_film_change_rewrites_the_looks_and_leaves_the_geometry_layer_bytes(asset, tmp_path):
+    """Layers split by what changes them: another film gives another looks layer over the same geometry."""
+    from pxr import Sdf, Usd
+
+    other = _build(tmp_path / "pigeon", film=get_film("paper"))
+    same = [n for n in ("pigeon_geom.usdc", "pigeon.usda", "pigeon_payload.usda")
+            if filecmp.cmp(os.path.join(asset["dir"], n), os.path.join(other["dir"], n), shallow=False)]
+    assert same == ["pigeon_geom.usdc", "pigeon.usda", "pigeon_payload.usda"]
+    assert not filecmp.cmp(asset["looks"], other["looks"], shallow=False)
+    assert Sdf.Layer.FindOrOpen(asset["payload"]).subLayerPaths == ["./pigeon_looks.usda", "./pigeon_geom.usdc"]
+    geom = Sdf.Layer.FindOrOpen(asset["geometry"])
+    assert geom.GetFileFormat().formatId == "usdc" and not geom.GetPrimAtPath("/Pigeon/Looks")
+    assert not geom.GetAttributeAtPath("/Pigeon/Geom/NeckFeathers.rockdove:film:cauchyA")
+    looks = Sdf.Layer.FindOrOpen(asset["looks"])
+    assert not looks.GetAttributeAtPath("/Pigeon/Geom/NeckFeathers.points")
+    composed = Usd.Stage.Open(other["interface"])
+    film = composed.GetPrimAtPath("/Pigeon/Geom/NeckFeathers")
+    assert film.GetTypeName() == "Mesh" and film.GetAttribute("rockdove:film:model").Get() == "paper"
 
 
 def test_usdz_reopens_and_holds_every_texture(asset):

@@ -12,6 +12,7 @@ import pytest
 from pipeline.assemble import assemble
 from pipeline.films import get_film
 from pipeline.usd.synthetic import synthetic_bird, synthetic_lut, synthetic_textures
+from pipeline.usd.stage import GEOMETRY_LAYER, LOOKS_LAYER
 from pipeline.usd.validate import validate_asset
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -29,19 +30,23 @@ def good(tmp_path_factory):
 
 @pytest.fixture
 def broken(good, tmp_path):
-    """A copy of the good asset (without its usdz) and a function to edit its payload layer."""
-    from pxr import Sdf
-
+    """A copy of the good asset (without its usdz) and a function to edit one of its payload's layers (default
+    the looks; ``GEOMETRY_LAYER`` for the meshes), written back in its own format (usda text, usdc crate)."""
     out = str(tmp_path / "pigeon")
     shutil.copytree(good, out, ignore=shutil.ignore_patterns("*.usdz"))
 
-    def edit(fn):
-        layer = Sdf.Layer.OpenAsAnonymous(os.path.join(out, "pigeon_payload.usda"))
-        fn(layer)
-        with open(os.path.join(out, "pigeon_payload.usda"), "w") as fh:
-            fh.write(layer.ExportToString())
+    def edit(fn, name=LOOKS_LAYER):
+        _edit_layer(os.path.join(out, name), fn)
 
     return out, edit
+
+
+def _edit_layer(path, fn):
+    from pxr import Sdf
+
+    layer = Sdf.Layer.OpenAsAnonymous(path)
+    fn(layer)
+    assert layer.Export(path), path
 
 
 def _errors(report, check):
@@ -80,7 +85,7 @@ def test_wrong_primvar_size_is_reported(broken):
 
     out, edit = broken
     edit(lambda layer: layer.GetAttributeAtPath(f"{FEATHERS}.primvars:neckS").SetInfo(
-        "default", Vt.FloatArray([0.5] * 5)))
+        "default", Vt.FloatArray([0.5] * 5)), GEOMETRY_LAYER)
     (issue,) = _errors(validate_asset(out), "primvar")
     assert issue.path == f"{FEATHERS}.primvars:neckS"
     assert "5 values" in issue.message and "expected 24" in issue.message
@@ -111,7 +116,7 @@ def test_thickness_outside_the_lut_domain_is_reported(broken):
         attr = layer.GetAttributeAtPath(f"{FEATHERS}.primvars:thickness")
         attr.default = Vt.FloatArray([900.0] * len(attr.default))
 
-    edit(fn)
+    edit(fn, GEOMETRY_LAYER)
     (issue,) = _errors(validate_asset(out), "thinFilm")
     assert issue.path == f"{FEATHERS}.primvars:thickness"
     assert "[900, 900] nm, outside the LUT domain [450, 750]" in issue.message
@@ -222,14 +227,20 @@ def test_lutless_asset_is_clean_but_still_checked(lutless, tmp_path):
     assert report.clean and report.counts["thin films"] == 1, report.format()
     out = str(tmp_path / "pigeon")
     shutil.copytree(lutless, out)
-    layer = Sdf.Layer.OpenAsAnonymous(os.path.join(out, "pigeon_payload.usda"))
-    spec = Sdf.CreatePrimInLayer(layer, "/Pigeon/Looks/FeatherMaterial/LutTexture")
-    spec.specifier, spec.typeName = Sdf.SpecifierDef, "Shader"
-    Sdf.AttributeSpec(spec, "info:id", Sdf.ValueTypeNames.Token, Sdf.VariabilityUniform).default = "ND_image_color3"
-    counts = layer.GetAttributeAtPath(f"{FEATHERS}.faceVertexCounts").default
-    layer.GetAttributeAtPath(f"{FEATHERS}.primvars:thickness").default = [0.0] * 3  # wrong size and <= 0 nm
-    with open(os.path.join(out, "pigeon_payload.usda"), "w") as fh:
-        fh.write(layer.ExportToString())
+    def add_lut_texture(layer):
+        spec = Sdf.CreatePrimInLayer(layer, "/Pigeon/Looks/FeatherMaterial/LutTexture")
+        spec.specifier, spec.typeName = Sdf.SpecifierDef, "Shader"
+        Sdf.AttributeSpec(spec, "info:id", Sdf.ValueTypeNames.Token,
+                          Sdf.VariabilityUniform).default = "ND_image_color3"
+
+    counts = []
+
+    def bad_thickness(layer):
+        counts.extend(layer.GetAttributeAtPath(f"{FEATHERS}.faceVertexCounts").default)
+        layer.GetAttributeAtPath(f"{FEATHERS}.primvars:thickness").default = [0.0] * 3  # wrong size and <= 0 nm
+
+    _edit_layer(os.path.join(out, LOOKS_LAYER), add_lut_texture)
+    _edit_layer(os.path.join(out, GEOMETRY_LAYER), bad_thickness)
     report = validate_asset(out)
     tf = {(i.path, i.message.split(" (")[0]) for i in _errors(report, "thinFilm")}
     assert ("/Pigeon/Looks/FeatherMaterial", "holds the baked LUT network") in tf, report.format()

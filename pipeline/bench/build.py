@@ -5,8 +5,13 @@ shared machine):
 
 - cold build of the default asset without verification (fresh cache); goal < 5 s;
 - no-op rebuild (same configuration, warm cache); goal <= 10 % of the cold build;
-- film index change only: which stages ran and which were reused (goal: LUT and material rerun, geometry
-  reused);
+- film-only rebuild (``--set film.cauchy_a=...``, no verify; a new value each repeat) as a ratio of the cold
+  build; goal <= 10 %; which stages ran (goal: LUT, textures, looks layer and usdz; geometry reused);
+- verification after a film-only change as a ratio of a cold verification of the same asset (both: the
+  ``verify_rays`` + ``verify`` stage seconds of a build's ``--json``); goal <= 30 %; the ray-cast items the
+  film change reused;
+- the geometry payload written as usda against usdc at 1,500 and 100k cards: size and write time
+  (in process: ``pipeline.usd.stage.author_geometry`` once, then ``Sdf.Layer.Export`` to each format);
 - scaling with the card count (1k, 10k, 100k): cold build time and the build process's peak memory
   (``ru_maxrss`` of the child from ``os.wait4``);
 - the end-to-end trade-off LUT size x precision (float32, half) against the verification dE2000 and the build
@@ -34,6 +39,12 @@ COLD_GOAL_S = 5.0
 QUICK = ["geometry.body_voxel_m=0.008", "textures.body_resolution=64", "textures.feather_resolution=32",
          "lut.angles=64", "lut.thicknesses=16", "usd.usdz=false"]
 NOOP_GOAL_RATIO = 0.10
+FILM_GOAL_RATIO = 0.10
+VERIFY_GOAL_RATIO = 0.30
+#: Film indices of the film-only rebuilds (one per repeat; each differs from the last build's).
+FILM_VALUES = (1.55, 1.56, 1.57, 1.58, 1.59)
+FORMAT_CARDS = (1500, 100000)
+SECTIONS = ("cold", "film", "verify", "formats", "scaling", "tradeoff")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -44,6 +55,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", metavar="FILE", help="also write the results as JSON to FILE")
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                         help="configuration override applied to every build of the benchmark (repeatable)")
+    parser.add_argument("--sections", default=",".join(SECTIONS),
+                        help=f"comma-separated rows to measure (default all: {','.join(SECTIONS)}); the cold build "
+                             "is always measured, every ratio against it")
 
 
 def _build_rss(workdir: Path, *args: str, cache: str = "cache", allow_fail: bool = False) -> dict:
@@ -77,6 +91,12 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace) -> int:
     repeats = 1 if args.quick else max(1, args.repeats)
+    sections = [x.strip() for x in args.sections.split(",") if x.strip()]
+    unknown = [x for x in sections if x not in SECTIONS]
+    if unknown:
+        print(f"rockdove bench build: --sections {unknown[0]!r} is unknown; allowed: {', '.join(SECTIONS)}",
+              file=sys.stderr)
+        return 2
     preset = ["--preset", args.preset, "--no-verify"]
     for item in (QUICK if args.quick else []) + list(args.overrides):
         preset += ["--set", item]
@@ -102,16 +122,21 @@ def _run(args: argparse.Namespace) -> int:
               f"{100 * noop_s / cold_s:.1f} % of cold, goal <= {100 * NOOP_GOAL_RATIO:g} %: "
               f"{'met' if noop_s <= NOOP_GOAL_RATIO * cold_s else 'NOT met'}; stages ran: {noop[-1]['ran'] or 'none'}")
 
-        # film index change only
-        film = _build_rss(tmp, *preset, "--set", "film.cauchy_a=1.55", cache="cold0")
-        results["film_change"] = {"wall_s": film["wall_s"], "ran": film["ran"], "reused": film["reused"]}
-        print(f"film index change: {film['wall_s']:.2f} s; ran {film['ran']}; reused {film['reused']}")
+        if "film" in sections:
+            results["film_change"] = _film_rows(tmp, preset, repeats, cold_s)
+        if "verify" in sections:
+            results["verify_after_film_change"] = _verify_rows(tmp, preset, args)
+        if "formats" in sections:
+            results["payload_formats"] = _format_rows((200, 1000) if args.quick else FORMAT_CARDS)
 
         # scaling with the card count: the body (its UV atlas dominates a cold build and does not depend on the
         # card count) comes from the cache, so the rows show what the card count costs
-        counts = (200, 1000) if args.quick else (1000, 10000, 100000)
+        counts = ()
+        if "scaling" in sections:
+            counts = (200, 1000) if args.quick else (1000, 10000, 100000)
         results["scaling"] = []
-        print("cards   build s (body cached)   stages ran s   peak RSS MiB")
+        if counts:
+            print("cards   build s (body cached)   stages ran s   peak RSS MiB")
         for n in counts:
             r = _build_rss(tmp, *preset, "--set", f"geometry.card_count={n}", cache="cold0")
             ran_s = sum(st["seconds"] for st in r["stages"] if st["status"] == "ran")
@@ -121,10 +146,78 @@ def _run(args: argparse.Namespace) -> int:
             print(f"{n:>7d}   {r['wall_s']:>18.2f}   {ran_s:>12.2f}   {r['peak_rss_mib']:>12.0f}")
 
         # LUT size x precision against verification dE2000
-        results["lut_tradeoff"] = _lut_tradeoff(tmp, args, preset)
+        if "tradeoff" in sections:
+            results["lut_tradeoff"] = _lut_tradeoff(tmp, args, preset)
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=1))
     return 0
+
+
+def _film_rows(tmp: Path, preset: list[str], repeats: int, cold_s: float) -> dict:
+    """Film-only rebuilds on the warm cache of the first cold build (no verify), one new film index each."""
+    rows = [_build_rss(tmp, *preset, "--set", f"film.cauchy_a={FILM_VALUES[i % len(FILM_VALUES)]}", cache="cold0")
+            for i in range(repeats)]
+    wall = _median(rows, "wall_s")
+    stages = {st["name"]: st["seconds"] for st in rows[-1]["stages"] if st["status"] == "ran"}
+    out = {"wall_s": wall, "inside_s": _median(rows, "seconds"), "ratio": wall / cold_s, "goal_ratio": FILM_GOAL_RATIO,
+           "ran": rows[-1]["ran"], "reused": rows[-1]["reused"], "stage_s": stages}
+    print(f"film-only rebuild (no verify): {wall:.2f} s wall (inside {out['inside_s']:.2f} s) = "
+          f"{100 * out['ratio']:.1f} % of cold, goal <= {100 * FILM_GOAL_RATIO:g} %: "
+          f"{'met' if out['ratio'] <= FILM_GOAL_RATIO else 'NOT met'}; ran "
+          + ", ".join(f"{k} {v:.2f} s" for k, v in stages.items()))
+    return out
+
+
+def _verify_seconds(summary: dict) -> tuple[float, dict]:
+    stages = {st["name"]: st for st in summary["stages"] if st["name"] in ("verify_rays", "verify")}
+    return sum(st["seconds"] for st in stages.values()), stages
+
+
+def _verify_rows(tmp: Path, preset: list[str], args) -> dict:
+    """A cold verification (fresh cache, asset built first without verify) and a verification after a film-only
+    change on that cache, each the seconds of the verify_rays + verify stages of one build."""
+    with_verify = [a for a in preset if a != "--no-verify"]
+    size = ["--set", "verify.width=128", "--set", "verify.height=128"] if args.quick else []
+    _build_rss(tmp, *preset, *size, cache="verify")
+    cold = _build_rss(tmp, *with_verify, *size, cache="verify", allow_fail=True)
+    film = _build_rss(tmp, *with_verify, *size, "--set", "film.cauchy_a=1.56", cache="verify", allow_fail=True)
+    cold_v, _ = _verify_seconds(cold)
+    film_v, stages = _verify_seconds(film)
+    rays = stages.get("verify_rays", {})
+    out = {"cold_verify_s": cold_v, "film_verify_s": film_v, "ratio": film_v / cold_v, "goal_ratio": VERIFY_GOAL_RATIO,
+           "rays_reused": rays.get("items_reused", []), "rays_ran": rays.get("items_ran", []),
+           "views_ran": stages.get("verify", {}).get("items_ran", []), "verified": [cold["verified"], film["verified"]]}
+    print(f"verify after a film-only change: {film_v:.2f} s against a cold verify of {cold_v:.2f} s = "
+          f"{100 * out['ratio']:.1f} %, goal <= {100 * VERIFY_GOAL_RATIO:g} %: "
+          f"{'met' if out['ratio'] <= VERIFY_GOAL_RATIO else 'NOT met'}; ray casts reused for "
+          f"{len(out['rays_reused'])} cameras, ran for {len(out['rays_ran'])}; views re-rendered {len(out['views_ran'])}")
+    return out
+
+
+def _format_rows(counts) -> list[dict]:
+    """The geometry payload (pipeline.usd.stage.author_geometry) written as usda and as usdc: size, write time."""
+    from ..geometry import build_bird
+    from ..geometry.params import BirdParams
+    from ..usd.stage import author_geometry, new_stage
+
+    rows = []
+    print("cards    usda MB   usda write s   usdc MB   usdc write s")
+    with tempfile.TemporaryDirectory(prefix="rockdove-bench-formats-") as tmp:
+        for n in counts:
+            stage = new_stage()
+            author_geometry(stage, build_bird(BirdParams(card_count=n)))
+            row = {"cards": n}
+            for fmt in ("usda", "usdc"):
+                path = os.path.join(tmp, f"geom_{n}.{fmt}")
+                t0 = time.perf_counter()
+                if not stage.GetRootLayer().Export(path):
+                    raise RuntimeError(f"USD could not write {path}")
+                row[f"{fmt}_write_s"] = time.perf_counter() - t0
+                row[f"{fmt}_mb"] = os.path.getsize(path) / 1e6
+            rows.append(row)
+            print(f"{n:>7d}   {row['usda_mb']:>7.2f}   {row['usda_write_s']:>12.3f}   {row['usdc_mb']:>7.2f}   "
+                  f"{row['usdc_write_s']:>12.3f}")
+    return rows
 
 
 def _lut_tradeoff(tmp: Path, args, preset: list[str]) -> dict | str:

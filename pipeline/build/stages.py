@@ -17,9 +17,19 @@ stage                   configuration                                 inputs
 ``textures``            -- (physical-only: ``film``)                  lut, texture_images (pipeline.usd.textures_io);
                                                                       physical-only: thickness_range, texture_images
                                                                       (no LUT EXR; exact preview colour)
-``usd_layers``          ``film``, ``shading``                         bird, lut (pipeline.usd.stage.write_layers);
-                                                                      physical-only: bird
-``usdz``                -- (present when ``usd.usdz``)                usd_layers, textures (pipeline.usd.usdz)
+``usd_geometry``        --                                            bird (pipeline.usd.stage.write_geometry:
+                                                                      ``pigeon_geom.usdc``, crate)
+``usd_layers``          ``film``, ``shading``                         bird, lut, usd_geometry
+                                                                      (pipeline.usd.stage.write_looks: pigeon.usda,
+                                                                      pigeon_payload.usda, pigeon_looks.usda);
+                                                                      physical-only: bird, usd_geometry
+``usdz``                -- (present when ``usd.usdz``)                usd_geometry, usd_layers, textures
+                                                                      (pipeline.usd.usdz)
+``verify_rays``         as ``verify``                                 every published stage: the assembled asset.
+                                                                      One item per camera: the reference's ray
+                                                                      casts (pipeline.render.reference.cast_hits),
+                                                                      keyed by the camera and ray_digest (geometry,
+                                                                      feather alpha; not film or LUT)
 ``verify``              ``verify.width``, ``verify.height``,          every published stage: the assembled asset.
                         ``verify.views``                              One item per view (pipeline.render.verify),
                                                                       keyed by its plan entry: the view's camera,
@@ -29,9 +39,10 @@ stage                   configuration                                 inputs
 
 Because keys use the *content* of upstream outputs, a new seed that leaves the thickness range unchanged
 re-bakes nothing, and a film change re-bakes the LUT and rewrites textures (the preview mixes in the LUT) and
-layers but reuses the bird. Physical-only shading needs no bake: the graph has no ``lut`` stage. Verification
+the small layers but reuses the bird and the geometry layer (``usd_geometry``), whose bytes stay as they were. Physical-only shading needs no bake: the graph has no ``lut`` stage. Verification
 re-renders only the views whose plan entry changed: a change that leaves the rendered scene as it was (e.g.
-``usd.usdz``) revalidates and rewrites the report but renders nothing; a film change re-renders every view.
+``usd.usdz``) revalidates and rewrites the report but renders nothing; a film change re-renders every view, but
+with the reference's ray casts of ``verify_rays``, which depend on the geometry and the cameras only.
 Until a module this file needs has landed, :func:`make_stages` says which one is missing (a one-line error,
 exit 2) rather than building something partial.
 """
@@ -280,20 +291,29 @@ def run_textures(ctx: Context):
                        thickness_range_nm=tuple(ctx.inputs["thickness_range"]))
 
 
+def run_usd_geometry(ctx: Context):
+    """The geometry layer (crate), which depends on the bird alone: a film change leaves its bytes as they were."""
+    from ..usd.stage import write_geometry
+
+    write_geometry(str(ctx.workdir), ctx.inputs["bird"])
+
+
 def run_usd_layers(ctx: Context):
+    """Every other layer (interface, payload, looks), authored over the cached geometry layer."""
     from ..usd.material import lut_info
-    from ..usd.stage import write_layers
+    from ..usd.stage import GEOMETRY_LAYER, write_looks
 
     lut = lut_info(ctx.inputs["lut"]) if "lut" in ctx.inputs else None
-    write_layers(str(ctx.workdir), ctx.inputs["bird"], film_from_config(ctx.config["film"]), lut,
-                 version=__version__, shading=ctx.config["shading"]["variant"])
+    write_looks(str(ctx.workdir), ctx.inputs["bird"], film_from_config(ctx.config["film"]), lut,
+                version=__version__, geometry=str(ctx.inputs["usd_geometry"] / GEOMETRY_LAYER),
+                shading=ctx.config["shading"]["variant"])
 
 
 def run_usdz(ctx: Context):
     from ..usd.usdz import USDZ_NAME, write_usdz
 
     scratch = ctx.workdir / "layout"
-    for dep in ("usd_layers", "textures"):
+    for dep in ("usd_geometry", "usd_layers", "textures"):
         shutil.copytree(ctx.inputs[dep], scratch, dirs_exist_ok=True)
     write_usdz(str(scratch))
     (scratch / USDZ_NAME).rename(ctx.workdir / USDZ_NAME)
@@ -318,7 +338,8 @@ def _missing(names: list[str]) -> list[str]:
 
 REQUIRED = ["pipeline.geometry:build_bird", "pipeline.geometry:build_body", "pipeline.lut.bake:bake", "pipeline.textures:feather_textures",
             "pipeline.textures:body_base_colour", "pipeline.usd.textures_io:write_textures",
-            "pipeline.usd.stage:write_layers", "pipeline.usd.usdz:write_usdz"]
+            "pipeline.usd.stage:write_geometry", "pipeline.usd.stage:write_looks",
+            "pipeline.usd.usdz:write_usdz"]
 REQUIRED_VERIFY = ["pipeline.render.verify:verify_asset"]
 
 
@@ -336,13 +357,71 @@ def plan_verify(ctx: Context) -> dict:
     return plan_views(str(ctx.asset_dir), **_verify_size(ctx))
 
 
+def plan_rays(ctx: Context) -> dict:
+    """One item per distinct camera of the verification views: the camera (pipeline.render.reference.camera_key)
+    and the digest of the geometry the rays hit (``ray_digest``: meshes, feather st and alpha), not the film or
+    the LUT, so the reference's ray casts survive a film change."""
+    from ..render.reference import camera_key, ray_digest
+    from ..render.verify import verification_scene, verification_views
+
+    size = _verify_size(ctx)
+    with verification_scene(str(ctx.asset_dir)) as (_, scene, _, _):
+        digest = ray_digest(scene)
+        views = verification_views(scene, size["width"], size["height"], size["n_views"])
+    return {f"camera-{camera_key(v)[:16]}": {"camera": camera_key(v), "geometry": digest} for v in views}
+
+
+def run_rays(ctx: Context) -> dict:
+    """Cast the reference's primary rays of the cameras to redo (``ctx.items``), in one call (one BVH)."""
+    from ..render.reference import cast_hits, camera_key
+    from ..render.verify import verification_scene, verification_views
+
+    size = _verify_size(ctx)
+    wanted = {cfg["camera"]: name for name, cfg in ctx.items.items()}
+    with verification_scene(str(ctx.asset_dir)) as (_, scene, _, _):
+        views = verification_views(scene, size["width"], size["height"], size["n_views"])
+        hits = cast_hits(scene, [v for v in views if camera_key(v) in wanted])
+    return {wanted[key]: (key, value) for key, value in hits.items()}
+
+
+def _hits_save(value, folder: Path) -> None:
+    import numpy as np
+
+    camera, hits = value
+    np.savez(folder / "hits.npz", **hits.to_arrays())
+    (folder / "hits.json").write_text(json.dumps({"camera": camera, "stats": hits.stats}, sort_keys=True))
+
+
+def _hits_load(folder: Path) -> dict:
+    # the arrays are loaded by the stage that uses them (load_hits), not by the graph
+    return {"dir": str(folder), "camera": json.loads((folder / "hits.json").read_text())["camera"]}
+
+
+HITS = Codec("hits", _hits_save, _hits_load)
+
+
+def combine_rays(ctx: Context, items: dict) -> dict:
+    """``{"hits": {camera_key: the cached item's folder}}`` (content-keyed, read-only cache entries)."""
+    return {"hits": {value["camera"]: value["dir"] for value in items.values()}}
+
+
+def load_hits(value: dict) -> dict:
+    """The :class:`pipeline.render.reference.Hits` of a ``verify_rays`` value, by camera key."""
+    from ..render.reference import Hits
+
+    return {key: Hits.from_arrays(load_npz(Path(d) / "hits.npz"),
+                                  json.loads((Path(d) / "hits.json").read_text())["stats"])
+            for key, d in value["hits"].items()}
+
+
 def run_verify(ctx: Context) -> dict:
-    """Render and check the views to redo (``ctx.items``), in one call (one GL context, shared reference rays);
-    each view's images go into ``ctx.workdir / <view>`` (pipeline.render.verify.verify_views)."""
+    """Render and check the views to redo (``ctx.items``), in one call (one GL context); the reference reuses
+    the ray casts of ``verify_rays``. Each view's images go into ``ctx.workdir / <view>``
+    (pipeline.render.verify.verify_views)."""
     from ..render.verify import verify_views
 
     return verify_views(str(ctx.asset_dir), views=list(ctx.items), out_dir=str(ctx.workdir), subfolders=True,
-                        **_verify_size(ctx))
+                        hits=load_hits(ctx.inputs["verify_rays"]), **_verify_size(ctx))
 
 
 def combine_verify(ctx: Context, views: dict) -> dict:
@@ -416,20 +495,29 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
                             modules=("pipeline.usd.textures_io", "pipeline.lut.reference", "pipeline.films",
                                      "pipeline.optics", "pipeline.spectral"),
                             libraries=LIBS_USD + ("colour-science", "scipy"), codec=FILES, publish=""))
+    stages.append(Stage("usd_geometry", run_usd_geometry, deps=("bird",), modules=("pipeline.usd",),
+                        data=("schemas/plugInfo.json", "schemas/generatedSchema.usda"), libraries=LIBS_USD,
+                        codec=FILES, publish=""))
     stages.append(Stage("usd_layers", run_usd_layers, config=("film", "shading"),
-                        deps=("bird", "lut") if baked else ("bird",),
+                        deps=("bird", "lut", "usd_geometry") if baked else ("bird", "usd_geometry"),
                         modules=("pipeline.usd", "pipeline.films"), data=("materials", "schemas/plugInfo.json",
                                                                            "schemas/generatedSchema.usda"),
                         libraries=LIBS_USD, codec=FILES, publish=""))
     if config["usd"]["usdz"]:
-        stages.append(Stage("usdz", run_usdz, deps=("usd_layers", "textures"), modules=("pipeline.usd",),
+        stages.append(Stage("usdz", run_usdz, deps=("usd_geometry", "usd_layers", "textures"), modules=("pipeline.usd",),
                             libraries=LIBS_USD, codec=FILES, publish=""))
     if verify:
         # Per-view items planned from the assembled asset: a view re-renders only when its own plan entry (its
         # parameters, the digest of the scene content it renders) or the verify code changes. The stage itself
         # (validation and the report) reruns whenever any published file changes.
+        published = tuple(s.name for s in stages if s.publish is not None)
+        # The reference's ray casts, one item per camera keyed by the geometry they hit: a film change reuses them.
+        stages.append(Stage("verify_rays", run_rays, config=("verify.width", "verify.height", "verify.views"),
+                            deps=published, modules=("pipeline.render", "pipeline.usd"), libraries=LIBS_RENDER,
+                            codec=JSON, needs_asset=True, item_plan=plan_rays, batch=True, combine=combine_rays,
+                            item_codec=HITS))
         stages.append(Stage("verify", run_verify, config=("verify.width", "verify.height", "verify.views"),
-                            deps=tuple(s.name for s in stages if s.publish is not None),
+                            deps=published + ("verify_rays",),
                             modules=("pipeline.render", "pipeline.usd", "pipeline.lut", "pipeline.films",
                                      "pipeline.optics", "pipeline.spectral"),
                             data=("materials", "schemas/plugInfo.json", "schemas/generatedSchema.usda"),

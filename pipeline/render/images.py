@@ -18,7 +18,9 @@ def linear_to_srgb8(rgb) -> np.ndarray:
     reference PNGs are comparable. (``pipeline.spectral.RGB_to_preview8`` desaturates out-of-gamut colours
     instead of clipping them; it is not used here.) NaN shows as black, +inf as 1.
     """
-    import colour
+    from .._compat import import_colour
+
+    colour = import_colour()
 
     rgb = np.nan_to_num(np.asarray(rgb, dtype=np.float64), nan=0.0, posinf=1.0, neginf=0.0)
     enc = colour.cctf_encoding(np.clip(rgb, 0.0, 1.0), function="sRGB")

@@ -44,6 +44,7 @@ The PNGs use the GL path's tone mapping (:func:`to_display8`); the comparison us
 
 from __future__ import annotations
 
+import hashlib
 import time
 from dataclasses import dataclass, field
 
@@ -367,7 +368,90 @@ def _first_opaque_hits(geom: _SceneGeometry, origin, dirs, stats: dict):
     return face, point, bary
 
 
-def render_reference(scene, views, structural_fn=None) -> list[ReferenceResult]:
+@dataclass(frozen=True)
+class Hits:
+    """The first opaque hit of every primary ray of one camera (:func:`cast_hits`): what the geometry and the
+    camera decide, before any shading, so it can be cached across film changes.
+
+    Attributes
+    ----------
+    face : ndarray, (R,) int64
+        Index into the scene's concatenated triangles (parts in ``scene.parts`` order), -1 for a miss;
+        R = width * height, row-major from the top-left pixel.
+    point : ndarray, (R, 3) float64
+        World position of the hit, metres (0 for a miss).
+    bary : ndarray, (R, 3) float64
+        Barycentric coordinates of the hit in its triangle (0 for a miss).
+    stats : dict
+        ``rays`` and ``alpha_layers`` (feather layers the rays passed through).
+    """
+
+    face: np.ndarray
+    point: np.ndarray
+    bary: np.ndarray
+    stats: dict
+
+    def to_arrays(self) -> dict:
+        """Compact arrays for storage (the hit rays only; exact round trip through :meth:`from_arrays`)."""
+        hit = np.nonzero(self.face >= 0)[0]
+        return {"n_rays": np.int64(self.face.size), "hit": hit.astype(np.int64), "face": self.face[hit],
+                "point": self.point[hit], "bary": self.bary[hit]}
+
+    @classmethod
+    def from_arrays(cls, arrays, stats: dict) -> "Hits":
+        n, hit = int(arrays["n_rays"]), np.asarray(arrays["hit"], np.int64)
+        face = np.full(n, -1, np.int64)
+        point, bary = np.zeros((n, 3)), np.zeros((n, 3))
+        face[hit], point[hit], bary[hit] = arrays["face"], arrays["point"], arrays["bary"]
+        return cls(face, point, bary, dict(stats))
+
+
+def camera_key(view) -> str:
+    """sha256 of what a view's primary rays depend on: its camera pose, vertical field of view and size (not
+    its light). Views that share a camera (the light sweep) share their :class:`Hits`."""
+    m = np.ascontiguousarray(view.camera_to_world, np.float64)
+    head = f"{float(view.yfov_rad)!r}:{int(view.width)}x{int(view.height)}:".encode()
+    return hashlib.sha256(head + m.tobytes()).hexdigest()
+
+
+def ray_digest(scene) -> str:
+    """sha256 of what the ray casts read from a scene: every part's positions and triangles, which parts are
+    alpha-tested feathers, their ``st``, opacity thresholds and base-colour texture bytes (the alpha). Not the
+    film, the LUT, normals, masks or colours: a film change leaves it, and so the cached :class:`Hits`, as
+    they were."""
+    h = hashlib.sha256()
+    for p in scene.parts:
+        h.update(f"{p.name}:{bool(p.is_feather)}:{float(p.opacity_threshold)!r}\0".encode())
+        arrays = [np.asarray(p.positions_m, np.float64), np.asarray(p.triangles, np.int64)]
+        if p.is_feather:
+            arrays.append(np.asarray(p.st, np.float64))
+        for a in arrays:
+            h.update(f"{a.shape}".encode() + np.ascontiguousarray(a).tobytes())
+        if p.is_feather and p.base_colour_texture:
+            with open(p.base_colour_texture, "rb") as f:
+                h.update(f.read())
+    return h.hexdigest()
+
+
+def cast_hits(scene, views) -> dict:
+    """Cast the primary rays of every distinct camera among ``views``: ``{camera_key(view): Hits}``."""
+    geom = _SceneGeometry(scene)
+    out: dict = {}
+    for v in views:
+        key = camera_key(v)
+        if key not in out:
+            out[key] = _cast(geom, v)
+    return out
+
+
+def _cast(geom: "_SceneGeometry", view) -> Hits:
+    origin, dirs, _ = camera_rays(view)
+    stats = {"rays": int(len(dirs))}
+    face, point, bary = _first_opaque_hits(geom, origin, dirs, stats)
+    return Hits(face, point, bary, stats)
+
+
+def render_reference(scene, views, structural_fn=None, hits=None) -> list[ReferenceResult]:
     """Render ``views`` of ``scene`` on the CPU with the exact spectral thin-film model.
 
     Parameters
@@ -378,6 +462,9 @@ def render_reference(scene, views, structural_fn=None) -> list[ReferenceResult]:
     structural_fn : callable, optional
         ``f(cos_theta (P,), thickness_nm (P,)) -> (P, 3)`` lin_rec709; default the exact model of
         :func:`structural_rgb` for ``scene.film`` (tests may substitute a simpler one).
+    hits : mapping, optional
+        Ready-made :class:`Hits` by :func:`camera_key` (e.g. cached by the build for this scene's
+        :func:`ray_digest`); cameras not in it are cast here. Either way the result is the same.
 
     Returns
     -------
@@ -396,7 +483,7 @@ def render_reference(scene, views, structural_fn=None) -> list[ReferenceResult]:
         if has_feathers and scene.film is None:
             raise ValueError(f"scene {scene.root_layer!r} has feather parts but no RockDoveThinFilmAPI film")
     geom = _SceneGeometry(scene)
-    hits_cache: dict = {}  # the light sweep keeps its camera still: cast its rays once
+    hits_cache: dict = dict(hits or {})  # the light sweep keeps its camera still: cast its rays once
     return [_render_view(geom, scene, v, structural_fn, hits_cache) for v in views]
 
 
@@ -405,13 +492,12 @@ def _render_view(geom: _SceneGeometry, scene, view, structural_fn, hits_cache: d
 
     t0 = time.perf_counter()
     h, w = view.height, view.width
-    key = (np.asarray(view.camera_to_world, np.float64).tobytes(), float(view.yfov_rad), w, h)
+    key = camera_key(view)
     if key not in hits_cache:
-        origin, dirs, fwd = camera_rays(view)
-        cast_stats = {"rays": int(len(dirs))}
-        hits_cache[key] = (origin, dirs, fwd, *_first_opaque_hits(geom, origin, dirs, cast_stats), cast_stats)
-    origin, dirs, fwd, face, point, bary, cast_stats = hits_cache[key]
-    stats = dict(cast_stats)
+        hits_cache[key] = _cast(geom, view)
+    origin, dirs, fwd = camera_rays(view)
+    face, point, bary = hits_cache[key].face, hits_cache[key].point, hits_cache[key].bary
+    stats = dict(hits_cache[key].stats)
     t1 = time.perf_counter()
 
     hit = np.nonzero(face >= 0)[0]

@@ -136,7 +136,9 @@ def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 
 
 def hue_png(path, hue: dict, title: str) -> str:
     """Bar chart of a :func:`pipeline.render.compare.hue_histogram`, bars coloured by their hue."""
-    import colour
+    from .._compat import import_colour
+
+    colour = import_colour()
 
     edges = np.asarray(hue["bin_edges_deg"])
     centres = 0.5 * (edges[:-1] + edges[1:])

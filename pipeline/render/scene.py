@@ -315,7 +315,9 @@ def read_texture(path, srgb: bool) -> np.ndarray:
     if a.ndim == 2:
         a = a[:, :, None]
     if srgb:
-        import colour
+        from .._compat import import_colour
+
+        colour = import_colour()
 
         nc = 3 if a.shape[2] >= 3 else 1
         a = a.copy()

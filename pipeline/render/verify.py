@@ -333,7 +333,7 @@ def _check_size(width, height) -> None:
             raise ValueError(f"{key} must be an integer >= 16, got {v!r}")
 
 
-def _render_and_check(scene, lut, views, out: str, *, subfolders: bool, say) -> dict:
+def _render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits=None) -> dict:
     """Render ``views`` (GL and reference), compare, write each view's images; ``{name: view result}``."""
     from . import report as rep
     from .images import save_png
@@ -352,7 +352,7 @@ def _render_and_check(scene, lut, views, out: str, *, subfolders: bool, say) -> 
     t_gl = (time.perf_counter() - t) / len(views)
     say(f"CPU reference ({len(views)} views)")
     t = time.perf_counter()
-    ref_results = render_reference(scene, views)
+    ref_results = render_reference(scene, views, hits=hits)
     t_ref = (time.perf_counter() - t) / len(views)
     say("comparing")
     results = {}
@@ -395,7 +395,7 @@ def _render_and_check(scene, lut, views, out: str, *, subfolders: bool, say) -> 
 
 
 def verify_views(asset, views=None, out_dir=None, width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE,
-                 n_views: int = DEFAULT_VIEWS, subfolders: bool = False, progress=None) -> dict:
+                 n_views: int = DEFAULT_VIEWS, subfolders: bool = False, progress=None, hits=None) -> dict:
     """Render and check a subset of the verification views; results that can be cached and combined.
 
     Parameters
@@ -413,6 +413,9 @@ def verify_views(asset, views=None, out_dir=None, width: int = DEFAULT_SIZE, hei
     subfolders : bool
         Write each view's images into ``out_dir/<view>/`` (one cacheable folder per view).
     progress : callable, optional
+    hits : mapping, optional
+        Ready-made reference ray casts (:func:`pipeline.render.reference.cast_hits`, e.g. cached by the build
+        keyed by :func:`pipeline.render.reference.ray_digest` and the camera); the results do not change.
 
     Returns
     -------
@@ -429,7 +432,7 @@ def verify_views(asset, views=None, out_dir=None, width: int = DEFAULT_SIZE, hei
         out = os.path.abspath(os.fspath(out_dir)) if out_dir else _default_out_dir(layer)
         os.makedirs(out, exist_ok=True)
         chosen = _select(verification_views(scene, int(width), int(height), n_views), views)
-        results = _render_and_check(scene, lut, chosen, out, subfolders=subfolders, say=say)
+        results = _render_and_check(scene, lut, chosen, out, subfolders=subfolders, say=say, hits=hits)
     for r in results.values():
         r["notes"] = list(notes)
     return results

@@ -10,12 +10,21 @@ usd-exchange-samples):
   configuration's ``shading.variant`` chooses what the set holds (:data:`SHADING_CHOICES`): ``"both"`` (the
   above), ``"baked"`` (only baked) or ``"physical"`` (only physical, the default; an asset without a LUT: no
   LUT texture, no baked MaterialX network, no ``rockdove:lut:*`` attributes).
-- ``DIR/pigeon_payload.usda`` (contents): ``/Pigeon/Geom/<part>`` meshes and ``/Pigeon/Looks/<Kind>Material``
-  materials bound with MaterialBindingAPI; ``RockDoveThinFilmAPI`` on the feather mesh.
+- ``DIR/pigeon_payload.usda`` (contents, a few lines): sublayers the two layers below, split by what changes
+  them, so a film change rewrites the small looks layer and leaves the big geometry layer's bytes as they were:
 
-Authoring functions take a stage and return; they never save. :func:`write_layers` is the only function here
-that writes files (into the folder it is handed). Layers are written with ``Sdf.Layer.ExportToString``: no
-timestamps, attributes in authoring order, so the same inputs give byte-identical files.
+  - ``DIR/pigeon_looks.usda`` (:data:`LOOKS_LAYER`, stronger): ``/Pigeon/Looks/<Kind>Material`` materials and,
+    as an ``over`` on the feather mesh, ``RockDoveThinFilmAPI`` (the film and the LUT). Depends on the film,
+    the LUT, the shading choice and the parts' material kinds; text, because people read it.
+  - ``DIR/pigeon_geom.usdc`` (:data:`GEOMETRY_LAYER`): ``/Pigeon/Geom/<part>`` meshes, their primvars and
+    their material bindings (relationships to the looks' paths). Depends on the bird only; crate, because
+    its arrays are big (NVIDIA's UsdAsciiPerformanceChecker: large arrays belong in usdc).
+
+Authoring functions take a stage and return; they never save. :func:`write_layers` and its two halves
+:func:`write_geometry` and :func:`write_looks` are the only functions here that write files (into the folder
+they are handed). Text layers are written with ``Sdf.Layer.ExportToString`` and the crate layer with
+``Sdf.Layer.Export``: no timestamps, attributes in authoring order, so the same inputs give byte-identical
+files (tested for both formats).
 """
 
 from __future__ import annotations
@@ -35,6 +44,9 @@ from .material import (
 ROOT = "/Pigeon"
 INTERFACE_LAYER = "pigeon.usda"
 PAYLOAD_LAYER = "pigeon_payload.usda"
+#: The payload's sublayers (strongest first): film-dependent looks (text) and bird-only geometry (crate).
+LOOKS_LAYER = "pigeon_looks.usda"
+GEOMETRY_LAYER = "pigeon_geom.usdc"
 SHADING_VARIANT_SET = "shading"
 SHADING_VARIANTS = ("baked", "physical")
 DEFAULT_SHADING = "baked"
@@ -151,15 +163,57 @@ def author_mesh(stage, path, part):
     return mesh
 
 
-def author_contents(stage, bird, film, lut: dict | None, textures: dict | None = None,
-                    variants=SHADING_VARIANTS):
-    """Author the payload contents: ``/Pigeon`` with ``Geom`` meshes and ``Looks`` materials, bound.
+def _feather_part(bird):
+    names = [p.name for p in bird.parts]
+    if len(set(names)) != len(names):
+        raise ValueError(f"bird: part names must be unique, got {names}")
+    feathers = [p for p in bird.parts if p.material == FEATHER_MATERIAL]
+    if len(feathers) != 1:
+        raise ValueError(f"bird: exactly one part with material 'feather' expected (all cards in one mesh), "
+                         f"got {[p.name for p in feathers]}")
+    if "thickness" not in feathers[0].primvars:
+        raise ValueError(f"part {feathers[0].name!r}: feather part needs a 'thickness' primvar (nm, vertex)")
+    return feathers[0]
+
+
+def author_geometry(stage, bird):
+    """Author the geometry half of the payload: ``/Pigeon/Geom`` meshes, each bound to its kind's material
+    ``/Pigeon/Looks/<Kind>Material`` (a relationship only: the materials are :func:`author_looks`'s).
 
     Parameters
     ----------
     stage : Usd.Stage
-        From :func:`new_stage`.
+        From :func:`new_stage`; its edit target receives the meshes.
     bird : pipeline.geometry.Bird
+
+    Returns
+    -------
+    Usd.Prim
+        ``/Pigeon``.
+    """
+    from pxr import UsdGeom, UsdShade
+
+    _feather_part(bird)
+    root = UsdGeom.Xform.Define(stage, ROOT)
+    UsdGeom.Scope.Define(stage, f"{ROOT}/Geom")
+    for part in bird.parts:
+        mesh = author_mesh(stage, f"{ROOT}/Geom/{part.name}", part)
+        binding = UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim())
+        binding.GetDirectBindingRel().SetTargets([f"{ROOT}/Looks/{material_name(part.material)}"])
+    return root.GetPrim()
+
+
+def author_looks(stage, bird, film, lut: dict | None, textures: dict | None = None, variants=SHADING_VARIANTS):
+    """Author the looks half of the payload: ``/Pigeon/Looks`` materials, and ``RockDoveThinFilmAPI`` (film and
+    LUT) on the feather mesh authored by :func:`author_geometry` (an ``over`` in the edit target).
+
+    Parameters
+    ----------
+    stage : Usd.Stage
+        A stage that composes the geometry (e.g. its layer as a weaker sublayer) so the feather prim is a Mesh;
+        the edit target receives the looks.
+    bird : pipeline.geometry.Bird
+        Only its parts' names, material kinds and display colours are read.
     film : pipeline.films.FilmModel
         The film the LUT was baked from (recorded with RockDoveThinFilmAPI on the feather mesh).
     lut : dict or None
@@ -175,50 +229,39 @@ def author_contents(stage, bird, film, lut: dict | None, textures: dict | None =
     Usd.Prim
         ``/Pigeon``.
     """
-    from pxr import UsdGeom, UsdShade
+    from pxr import UsdGeom
 
     from .schema import apply_thin_film
 
     textures = {**texture_asset_paths(), **(textures or {})}
-    names = [p.name for p in bird.parts]
-    if len(set(names)) != len(names):
-        raise ValueError(f"bird: part names must be unique, got {names}")
-    feathers = [p for p in bird.parts if p.material == FEATHER_MATERIAL]
-    if len(feathers) != 1:
-        raise ValueError(f"bird: exactly one part with material 'feather' expected (all cards in one mesh), "
-                         f"got {[p.name for p in feathers]}")
+    feather = _feather_part(bird)
     root = UsdGeom.Xform.Define(stage, ROOT)
-    UsdGeom.Scope.Define(stage, f"{ROOT}/Geom")
     UsdGeom.Scope.Define(stage, f"{ROOT}/Looks")
     film_ior = float(np.real(film.n_film(FILM_IOR_WAVELENGTH_NM)))
-    materials = {}
+    done = set()
     for part in bird.parts:  # one material per kind, in part order
         kind = part.material
-        if kind in materials:
+        if kind in done:
             continue
+        done.add(kind)
         path = f"{ROOT}/Looks/{material_name(kind)}"
         if kind == FEATHER_MATERIAL:
-            materials[kind] = author_feather_material(stage, path, lut=lut, film_ior=film_ior, textures=textures,
-                                                      variants=variants)
+            author_feather_material(stage, path, lut=lut, film_ior=film_ior, textures=textures, variants=variants)
         elif kind == "body":
-            materials[kind] = author_body_material(stage, path, texture=textures["body_base"])
+            author_body_material(stage, path, texture=textures["body_base"])
         else:
-            materials[kind] = author_constant_material(stage, path, part.display_color)
-    for part in bird.parts:
-        mesh = author_mesh(stage, f"{ROOT}/Geom/{part.name}", part)
-        binding = UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim())
-        binding.Bind(materials[part.material])
-        if part.material == FEATHER_MATERIAL:
-            if "thickness" not in part.primvars:
-                raise ValueError(f"part {part.name!r}: feather part needs a 'thickness' primvar (nm, vertex)")
-            lut_kw = {} if lut is None else dict(
-                lut_file=textures["lut"], lut_colour_space=lut["colour_space"],
-                angle_warp_gamma=lut["angle_warp_gamma"], thickness_range_nm=lut["thickness_range_nm"],
-                illuminant=lut["illuminant"], observer=lut["observer"])
-            apply_thin_film(
-                mesh.GetPrim(), model=film.name, cauchy_a=film.cauchy_a, cauchy_b_nm2=film.cauchy_b_nm2,
-                incident_index=float(np.real(film.n_incident)), substrate_index=float(np.real(film.n_substrate)),
-                **({"lut_file": None} | lut_kw))
+            author_constant_material(stage, path, part.display_color)
+    mesh = stage.GetPrimAtPath(f"{ROOT}/Geom/{feather.name}")
+    if not mesh:
+        raise ValueError(f"stage has no {ROOT}/Geom/{feather.name}: compose the geometry layer before the looks")
+    lut_kw = {} if lut is None else dict(
+        lut_file=textures["lut"], lut_colour_space=lut["colour_space"],
+        angle_warp_gamma=lut["angle_warp_gamma"], thickness_range_nm=lut["thickness_range_nm"],
+        illuminant=lut["illuminant"], observer=lut["observer"])
+    apply_thin_film(
+        mesh, model=film.name, cauchy_a=film.cauchy_a, cauchy_b_nm2=film.cauchy_b_nm2,
+        incident_index=float(np.real(film.n_incident)), substrate_index=float(np.real(film.n_substrate)),
+        **({"lut_file": None} | lut_kw))
     return root.GetPrim()
 
 
@@ -277,9 +320,33 @@ def author_interface(stage, *, extent, version: str, payload: str = f"./{PAYLOAD
     return prim
 
 
-def write_layers(out_dir: str, bird, film, lut: dict | None, *, version: str, textures: dict | None = None,
-                 shading: str | None = None) -> dict:
-    """Author both layers and write them into ``out_dir`` (the only file writer of this module).
+def _export(stage_or_layer, path: str) -> None:
+    """Write a layer: text via ExportToString (``.usda``), crate via Export (``.usdc``); byte-identical for the
+    same content either way."""
+    layer = stage_or_layer.GetRootLayer() if hasattr(stage_or_layer, "GetRootLayer") else stage_or_layer
+    if path.endswith(".usdc"):
+        if not layer.Export(path):
+            raise RuntimeError(f"USD could not write {path!r}")
+        return
+    with open(path, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write(layer.ExportToString())
+
+
+def write_geometry(out_dir: str, bird) -> str:
+    """Author :func:`author_geometry` and write it as ``out_dir/pigeon_geom.usdc`` (crate); returns its path."""
+    stage = new_stage()
+    author_geometry(stage, bird)
+    out_dir = os.path.abspath(out_dir)
+    os.makedirs(out_dir, exist_ok=True)
+    path = os.path.join(out_dir, GEOMETRY_LAYER)
+    _export(stage, path)
+    return path
+
+
+def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geometry: str,
+                textures: dict | None = None, shading: str | None = None) -> dict:
+    """Write every layer but the geometry: the interface (``pigeon.usda``), the payload (``pigeon_payload.usda``,
+    sublayering looks over geometry) and the looks (``pigeon_looks.usda``, :func:`author_looks`).
 
     Parameters
     ----------
@@ -290,6 +357,8 @@ def write_layers(out_dir: str, bird, film, lut: dict | None, *, version: str, te
         :func:`pipeline.usd.material.lut_info`; None for an asset without a LUT (physical-only shading).
     version : str
         assetInfo version.
+    geometry : str
+        The geometry layer (:func:`write_geometry`) the looks are authored over; read, not copied or changed.
     textures : dict, optional
         Texture role -> asset path.
     shading : {"both", "baked", "physical"}, optional
@@ -299,23 +368,52 @@ def write_layers(out_dir: str, bird, film, lut: dict | None, *, version: str, te
     Returns
     -------
     dict[str, str]
-        ``{"interface": DIR/pigeon.usda, "payload": DIR/pigeon_payload.usda}`` (absolute paths).
+        ``interface``, ``payload``, ``looks``: absolute paths.
     """
+    from pxr import Sdf, Usd
+
     shading = shading or ("both" if lut is not None else "physical")
     variants = shading_variants(shading)
     if lut is None and "baked" in variants:
         raise ValueError(f"shading={shading!r} needs a LUT (lut=None); without one only 'physical' is possible")
-    contents = new_stage()
-    author_contents(contents, bird, film, lut, textures, variants=variants)
+    geometry_layer = Sdf.Layer.OpenAsAnonymous(os.path.abspath(geometry))
+    if geometry_layer is None:
+        raise ValueError(f"geometry={geometry!r} is not a readable USD layer")
+    looks = new_stage()
+    composed = Usd.Stage.CreateInMemory()
+    composed.GetRootLayer().subLayerPaths = [looks.GetRootLayer().identifier, geometry_layer.identifier]
+    composed.SetEditTarget(Usd.EditTarget(looks.GetRootLayer()))
+    author_looks(composed, bird, film, lut, textures, variants=variants)
+    payload = Sdf.Layer.CreateAnonymous(".usda")  # a bare layer: no stage to recompose its relative sublayers
+    payload.defaultPrim = ROOT.lstrip("/")
+    for key, value in (("upAxis", "Y"), ("metersPerUnit", 1.0)):  # as new_stage, for tools opening it alone
+        payload.pseudoRoot.SetInfo(key, value)
+    payload.subLayerPaths = [f"./{LOOKS_LAYER}", f"./{GEOMETRY_LAYER}"]
     interface = new_stage(load_payloads=False)
     author_interface(interface, extent=bird_extent(bird), version=version, variants=variants)
     out_dir = os.path.abspath(out_dir)
     os.makedirs(out_dir, exist_ok=True)
-    paths = {"interface": os.path.join(out_dir, INTERFACE_LAYER), "payload": os.path.join(out_dir, PAYLOAD_LAYER)}
-    for key, stage in (("payload", contents), ("interface", interface)):
-        with open(paths[key], "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(stage.GetRootLayer().ExportToString())
+    paths = {"interface": os.path.join(out_dir, INTERFACE_LAYER), "payload": os.path.join(out_dir, PAYLOAD_LAYER),
+             "looks": os.path.join(out_dir, LOOKS_LAYER)}
+    for key, stage in (("looks", looks), ("payload", payload), ("interface", interface)):
+        _export(stage, paths[key])
     return paths
+
+
+def write_layers(out_dir: str, bird, film, lut: dict | None, *, version: str, textures: dict | None = None,
+                 shading: str | None = None) -> dict:
+    """Write every layer of the asset into ``out_dir``: :func:`write_geometry` then :func:`write_looks`.
+
+    Returns
+    -------
+    dict[str, str]
+        ``interface`` (pigeon.usda), ``payload`` (pigeon_payload.usda), ``looks`` (pigeon_looks.usda),
+        ``geometry`` (pigeon_geom.usdc): absolute paths.
+    """
+    geometry = write_geometry(out_dir, bird)
+    paths = write_looks(out_dir, bird, film, lut, version=version, geometry=geometry, textures=textures,
+                        shading=shading)
+    return {**paths, "geometry": geometry}
 
 
 def open_asset(path: str, shading: str | None = None):

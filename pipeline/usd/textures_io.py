@@ -102,7 +102,9 @@ def feather_preview(base_rgba: np.ndarray, mask: np.ndarray, lut=None, *, cos_th
     ndarray, (H, W, 4) uint8
         sRGB-encoded RGB, A copied from ``base_rgba``.
     """
-    import colour
+    from .._compat import import_colour
+
+    colour = import_colour()
 
     base_rgba = _check_uint8("base_rgba", base_rgba, (4,))
     mask = _check_uint8("mask", mask, (1,))
