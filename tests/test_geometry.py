@@ -192,6 +192,8 @@ def test_bill_is_short_and_stout_with_the_cere_at_its_base(bird):
     near_face = beak[np.abs((beak - face) @ d) < 0.001]
     depth = np.ptp(near_face[:, 1])
     assert depth >= 0.25 * exposed, (depth, exposed)  # stout, not a needle
+    mid = beak[np.abs((beak - (face + 0.5 * exposed * d)) @ d) < 0.001]
+    assert np.ptp(mid[:, 1]) >= 0.75 * depth  # and stays stout (the old conical bill: 0.54 at mid-length)
     cere = bird.part("Cere").points_m.astype(np.float64)
     along = (cere - face) @ d
     assert along.min() < 0.0 < along.max() <= exposed / 2  # from the face over the base of the bill

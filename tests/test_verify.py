@@ -190,8 +190,9 @@ def test_physical_only_asset_is_verified_with_a_verification_only_lut_and_says_s
     assert p.returncode == 0, (p.stdout, p.stderr)
     assert "note: physical-only asset (no LUT)" in p.stdout and "verification-only LUT" in p.stdout
     report = json.loads((out / "report.json").read_text())
-    assert report["passed"] and len(report["views"]) == 5 and all(m["n_pixels"] > 0 for m in report["views"][2:])
-    assert len(report["notes"]) == 1 and "verification-only LUT" in report["notes"][0]
+    assert report["passed"] and len(report["views"]) == 6 and all(m["n_pixels"] > 0 for m in report["views"][2:])
+    assert len(report["notes"]) == 2 and "verification-only LUT" in report["notes"][0]
+    assert report["notes"][1].startswith("boundary at sweep_090:")  # the closing note on the pattern
     assert report["lut"]["verification_only"] and report["lut"]["shape"] == [1, 256]  # paper: uniform film
     assert report["variants"] == {"shading": "physical"} and report["film"]["lut_file"] is None
     assert not os.path.exists(os.path.join(asset["dir"], "textures", "thinfilm_lut.exr"))  # nothing added
