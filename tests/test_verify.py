@@ -148,15 +148,15 @@ def test_views_checked_one_at_a_time_combine_into_the_same_report(assets, tmp_pa
     assert (plan["hero"]["view"]["width"], plan["hero"]["view"]["height"]) == (96, 96)  # twice the size
     assert len({p["scene"] for p in plan.values()}) == 1 and plan == verify.plan_views(layer, 48, 48)
     assert verify.plan_views(layer, 64, 48)["sweep_090"] != plan["sweep_090"]  # the size is part of a view
-    names = ["turntable_030", "sweep_090"]
-    whole = verify.verify_asset(layer, out_dir=tmp_path / "whole", width=48, height=48, views=names,
+    names = ["turntable_030", "sweep_090"]  # at 64 x 64: at 48 the 200-card neck shows ~20 chromatic pixels
+    whole = verify.verify_asset(layer, out_dir=tmp_path / "whole", width=64, height=64, views=names,
                                 bench_dir=tmp_path / "none")
     parts = {}
     for n in names:  # separately, each in its own folder, as cached build items
-        parts.update(verify.verify_views(layer, [n], out_dir=tmp_path / "items", width=48, height=48,
+        parts.update(verify.verify_views(layer, [n], out_dir=tmp_path / "items", width=64, height=64,
                                          subfolders=True))
     assert os.path.isfile(tmp_path / "items" / "sweep_090" / "sweep_090_gl.png")
-    combined = verify.report_from_views(layer, parts, out_dir=tmp_path / "combined", width=48, height=48,
+    combined = verify.report_from_views(layer, parts, out_dir=tmp_path / "combined", width=64, height=64,
                                         bench_dir=tmp_path / "none", reused=["turntable_030"])
     assert whole["passed"] and combined["passed"], (whole["failures"], combined["failures"])
     assert [m["view"] for m in combined["views"]] == names and combined["views_reused"] == ["turntable_030"]
