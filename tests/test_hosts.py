@@ -115,3 +115,18 @@ def test_materialx_host_draws_the_written_network_not_a_copy_of_it(small_asset, 
     images = materialx.render(str(folder / "pigeon.usda"), views, None)
     m = host_metrics(images, render_reference(scene, views, lobe="view_angle"), scene)
     assert m["median_dE"] > 2.0, m
+
+
+@pytest.mark.gl
+def test_glsl_host_renders_the_written_asset_as_the_verifier_does(small_asset):
+    from pipeline.hosts import glsl
+    from pipeline.render.gl import render_views
+    from pipeline.render.scene import load_scene
+    from pipeline.render.verify import verification_views
+
+    scene = load_scene(small_asset)
+    views = [v for v in verification_views(scene, 32, 32) if v.name == "sweep_090"]
+    assert glsl.cannot_draw(small_asset) is None
+    images = glsl.render(small_asset, views, None)
+    np.testing.assert_array_equal(images["sweep_090"], render_views(scene, views)[0].radiance_rgb)
+    assert images["sweep_090"].shape == (32, 32, 3) and images["sweep_090"].max() > 0

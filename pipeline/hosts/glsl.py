@@ -1,8 +1,9 @@
 """The ``glsl`` host: the project's own paper shaders (``materials/glsl/thinfilm.*``) drawn by pyrender through
 EGL (:mod:`pipeline.render.gl`), compared with the paper's half-angle model.
 
-It draws the LUT the asset names (or, for a LUT-less physical-only asset, the verification-only LUT that
-:func:`pipeline.render.verify.verification_scene` bakes in memory from the film the asset records).
+It draws the LUT the asset names. A LUT-less (physical-only) asset has nothing for these shaders to draw
+(:func:`cannot_draw`); ``rockdove verify`` checks such an asset with a verification-only LUT of its own
+(:func:`pipeline.render.verify.verification_scene`) and hands its GL renders to the host check directly.
 """
 
 from __future__ import annotations
@@ -33,15 +34,25 @@ def render_scene(scene, views, lut=None) -> list:
     return render_views(scene, views, lut=lut)
 
 
+def cannot_draw(asset_path: str) -> str | None:
+    """Why the GLSL shaders cannot draw this asset (it has no LUT), else None."""
+    from ..render.scene import load_scene
+
+    try:
+        load_scene(asset_path)  # a LUT-less film is refused here (rockdove:lut:file does not resolve)
+    except ValueError as exc:
+        return f"the GLSL shaders cannot draw this asset without a LUT: {exc}"
+    return None
+
+
 def render(asset_path: str, views, out_dir: str) -> dict:
     """Render ``views`` of the written asset with the GLSL shaders; see :mod:`pipeline.hosts`."""
-    from ..render.verify import verification_scene
+    from ..render.scene import load_scene
     from . import HostError
 
     views = list(views)
     try:
-        with verification_scene(asset_path) as (_, scene, lut, _):
-            results = render_scene(scene, views, lut)
+        results = render_scene(load_scene(asset_path), views)
     except (ValueError, RuntimeError, OSError) as exc:
         raise HostError(NAME, str(exc)) from None
     images = {r.view.name: r.radiance_rgb for r in results}

@@ -156,7 +156,7 @@ def check_hosts(asset_layer: str, scene, views, selection, refs_by_lobe: dict, o
         name, variant, lobe = module.NAME, module.VARIANT, module.LOBE
         entry = {"name": name, "variant": variant, "lobe": lobe}
         cannot = getattr(module, "cannot_draw", None)
-        reason = cannot(asset_layer) if cannot is not None else None
+        reason = cannot(asset_layer) if cannot is not None and name not in rendered else None
         if reason:
             entries.append({**entry, "skipped": True, "reason": reason, "passed": None})
             continue
