@@ -179,3 +179,30 @@ def test_authored_usd_network_rebuilt_as_hydra_does_validates_and_generates_glsl
     ctx.registerSourceCodeSearchPath(mx.getDefaultDataSearchPath())
     material = [n for n in rebuilt.getNodes() if n.getType() == "material"][0]
     assert "void main()" in gen.generate("rebuilt", material, ctx).getSourceCode(mx_gen.PIXEL_STAGE)
+
+
+def test_standalone_document_carries_the_default_builds_constants(doc):
+    """materials/thinfilm.mtlx used on its own with the default build's LUT must be exact: its Lut* constants
+    are the default configuration's LUT (size, warp, the thickness range on the default bird, rounded outward
+    as the build does), FilmIor/SubstrateIor the default film, and the thickness default lies inside the LUT
+    (a host that falls back to it, as generated OSL does, shows a colour of the bird, not the thinnest)."""
+    import math
+
+    from pipeline.build.stages import bird_params, film_from_config
+    from pipeline.config import load_config
+    from pipeline.geometry import build_bird
+    from pipeline.usd.stage import FILM_IOR_WAVELENGTH_NM
+
+    cfg = load_config()
+    d = np.asarray(build_bird(bird_params(cfg)).part("NeckFeathers").primvars["thickness"].values, np.float64)
+    lo, hi = float(math.floor(d.min())), float(math.ceil(d.max()))
+    film = film_from_config(cfg["film"])
+    n_inc = float(np.real(film.n_incident))
+    expected = {"LutAngleCount": cfg["lut"]["angles"], "LutThicknessCount": cfg["lut"]["thicknesses"],
+                "LutAngleWarpGamma": cfg["lut"]["angle_warp_gamma"], "LutThicknessLoNm": lo, "LutThicknessHiNm": hi,
+                "FilmIor": float(np.real(film.n_film(FILM_IOR_WAVELENGTH_NM))) / n_inc,
+                "SubstrateIor": float(np.real(film.n_substrate)) / n_inc}
+    got = {name: doc.getNode(name).getInput("value").getValue() for name in expected}
+    assert got == pytest.approx(expected, rel=1e-6)
+    default = doc.getNode("ThicknessPrimvar").getInput("default").getValue()
+    assert lo <= default <= hi

@@ -226,3 +226,27 @@ def test_display_transform_is_the_clipped_srgb_oetf():
     grey = reference.to_display8(np.array([[0.18, 0.18, 0.18]]))[0, 0]
     assert grey == round(255 * (1.055 * 0.18 ** (1 / 2.4) - 0.055))
     assert reference.to_display8(np.array([[np.nan, np.inf, 0.5]]))[0, :2].tolist() == [0, 255]
+
+
+def test_view_angle_lobe_is_mask_times_the_film_at_n_dot_v_whatever_the_light(tmp_path):
+    """The view_angle lobe (mirror lobe of a smooth film under a uniform unit environment): a feather pixel is
+    mask * structural(|N.V|), base colour black, independent of the View's light; the body is black; both lobes
+    of one call share the ray casts (same part ids and coverage)."""
+    scene = _scene(tmp_path, alpha_left=255, mask_value=128)
+    views = [_view(light=(0.0, 0.0, 1.0), eye=(0.05, 0.02, 0.3)), _view(light=(0.8, 0.0, 0.6), eye=(0.05, 0.02, 0.3))]
+    lobes = reference.render_reference_lobes(scene, views, ("half_angle", "view_angle"),
+                                             structural_fn=lambda c, d: np.stack([c, 1 - c, 0 * c], axis=1))
+    va, ha = lobes["view_angle"], lobes["half_angle"]
+    feather = va[0].part_id == 1
+    np.testing.assert_array_equal(va[0].part_id, ha[0].part_id)
+    np.testing.assert_array_equal(va[0].rgb, va[1].rgb)  # no light
+    origin, dirs, _ = reference.camera_rays(views[0])
+    n_dot_v = np.abs(dirs.reshape(16, 16, 3)[..., 2])[feather]  # N = +Z
+    m = 128 / 255
+    np.testing.assert_allclose(va[0].cos_theta[feather], n_dot_v, rtol=1e-5)
+    np.testing.assert_allclose(va[0].rgb[feather], m * np.stack([n_dot_v, 1 - n_dot_v, 0 * n_dot_v], 1), rtol=1e-4,
+                               atol=1e-6)
+    assert np.all(va[0].rgb[va[0].part_id == 2] == 0)  # other parts: diffuse off
+    assert not np.allclose(ha[1].rgb[feather], va[1].rgb[feather], atol=1e-3)  # a different model
+    with pytest.raises(ValueError, match="lobe"):
+        reference.render_reference(scene, views, lobe="phong")

@@ -117,7 +117,7 @@ def test_universal_and_mtlx_surfaces_resolve(stage):
     universal, _, _ = feather.ComputeSurfaceSource()
     mtlx, _, _ = feather.ComputeSurfaceSource("mtlx")
     assert universal.GetShaderId() == "UsdPreviewSurface"
-    assert mtlx.GetShaderId() == "ND_open_pbr_surface_surfaceshader"
+    assert mtlx.GetShaderId() == "ND_surface"  # the baked network: a bare Lambert BSDF (materials/thinfilm.mtlx)
     assert universal.GetInput("opacityThreshold").Get() == 0.5
     src = universal.GetInput("diffuseColor").GetConnectedSources()[0][0].source
     tex = UsdShade.Shader(src.GetPrim())
@@ -162,9 +162,10 @@ def test_shading_variants_switch_the_mtlx_network(asset):
 
     st, baked = surface("baked")
     assert baked.GetPath().name == "MtlxBakedSurface"
-    mix = baked.GetInput("base_color").GetConnectedSources()[0][0].source
+    bsdf = UsdShade.Shader(baked.GetInput("bsdf").GetConnectedSources()[0][0].source.GetPrim())
+    assert bsdf.GetShaderId() == "ND_oren_nayar_diffuse_bsdf" and bsdf.GetInput("roughness").Get() == 0.0  # Lambert
+    mix = bsdf.GetInput("color").GetConnectedSources()[0][0].source
     assert UsdShade.Shader(mix.GetPrim()).GetShaderId() == "ND_mix_color3"
-    assert baked.GetInput("specular_weight").Get() == 0.0
     st, physical = surface("physical")
     assert physical.GetPath().name == "MtlxPhysicalSurface"
     thick = UsdShade.Shader(physical.GetInput("thin_film_thickness").GetConnectedSources()[0][0].source.GetPrim())
@@ -375,3 +376,41 @@ def test_lutless_layers_refuse_a_baked_variant(tmp_path):
     with pytest.raises(ValueError, match="lut=None needs film and thickness_range_nm"):
         write_textures(str(tmp_path), None, feather, body)
     assert not (tmp_path / "textures").exists()  # nothing written
+
+
+def _source(shader_input):
+    from pxr import UsdShade
+
+    return UsdShade.Shader(shader_input.GetConnectedSources()[0][0].source.GetPrim())
+
+
+def test_physical_variant_is_the_recorded_film_in_each_shaders_units(asset):
+    """OpenPBR's thin film lies on the base's specular_ior: the authored network must put the recorded film
+    (RockDoveThinFilmAPI: film index at 550 nm, substrate index) on the recorded substrate, with the thickness
+    primvar in micrometres. Fails on an asset whose specular_ior is left at OpenPBR's 1.5 (film on glass)."""
+    from pxr import UsdShade
+
+    from pipeline.usd.schema import read_thin_film
+    from pipeline.usd.stage import FILM_IOR_WAVELENGTH_NM, open_asset
+
+    st = open_asset(asset["interface"], shading="physical")
+    film = read_thin_film(st.GetPrimAtPath("/Pigeon/Geom/NeckFeathers"))
+    surface = UsdShade.Material(st.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial")).ComputeSurfaceSource("mtlx")[0]
+    assert surface.GetShaderId() == "ND_open_pbr_surface_surfaceshader"
+
+    def value(name):
+        inp = surface.GetInput(name)
+        assert inp, f"{name} is not authored (OpenPBR's default would be used)"
+        return _source(inp).GetInput("value").Get() if inp.HasConnectedSource() else inp.Get()
+
+    n_incident = film["incident_index"]
+    n_550 = film["cauchy_a"] + film["cauchy_b_nm2"] / FILM_IOR_WAVELENGTH_NM**2
+    assert value("specular_ior") == pytest.approx(film["substrate_index"] / n_incident, abs=1e-6)
+    assert value("specular_ior") == pytest.approx(1.0)  # the asset models a film in air
+    assert value("thin_film_ior") == pytest.approx(n_550 / n_incident, abs=1e-5)
+    thickness = _source(surface.GetInput("thin_film_thickness"))
+    assert thickness.GetShaderId() == "ND_multiply_float" and thickness.GetInput("in2").Get() == pytest.approx(1e-3)
+    primvar = _source(thickness.GetInput("in1"))
+    assert primvar.GetShaderId() == "ND_geompropvalue_float"
+    assert primvar.GetInput("geomprop").Get() == film["thickness_primvar"] and film["thickness_units"] == "nm"
+    assert _source(surface.GetInput("thin_film_weight")).GetPath().name == "MaskTexture"

@@ -45,7 +45,7 @@ def assets(tmp_path_factory):
 def test_verify_passes_on_a_small_assembled_asset_and_writes_the_report(assets):
     out = assets["base"] / "report_good"
     p = _rockdove("verify", os.path.dirname(assets["good"]), "--out", str(out), "--width", "96", "--height", "96",
-                  "--json")
+                  "--json", "--hosts", "glsl")  # the other hosts: tests/test_hosts.py
     assert p.returncode == 0, (p.stdout, p.stderr)
     assert "NaN" not in p.stdout  # strict JSON
     summary = json.loads(p.stdout)
@@ -186,7 +186,8 @@ def test_physical_only_asset_is_verified_with_a_verification_only_lut_and_says_s
                      shading="physical")
     assert "lut" not in asset
     out = tmp_path / "report"
-    p = _rockdove("verify", asset["dir"], "--out", str(out), "--width", "64", "--height", "64", "--quiet")
+    p = _rockdove("verify", asset["dir"], "--out", str(out), "--width", "64", "--height", "64", "--quiet",
+                  "--hosts", "glsl")
     assert p.returncode == 0, (p.stdout, p.stderr)
     assert "note: physical-only asset (no LUT)" in p.stdout and "verification-only LUT" in p.stdout
     report = json.loads((out / "report.json").read_text())

@@ -1,6 +1,8 @@
-"""``rockdove verify ASSET [--out DIR] [--json] [--width W --height H] [--views N] [--view NAME ...]``: validate an
-asset, render it with the GLSL shaders and with the exact CPU reference, check and report
-(:func:`pipeline.render.verify.verify_asset`).
+"""``rockdove verify ASSET [--out DIR] [--json] [--width W --height H] [--views N] [--view NAME ...] [--hosts LIST]``:
+validate an asset, render it with the GLSL shaders, with every host asked for (:mod:`pipeline.hosts`; default
+every host available here) and with the exact CPU reference, check and report
+(:func:`pipeline.render.verify.verify_asset`). An unavailable host is printed as SKIPPED with its reason; a
+host that fails is printed with its error and fails the verification.
 
 A physical-only asset (no LUT) is checked with a verification-only LUT baked in memory from the film it
 records; the report's notes (printed here) say so, as they say when a check could not run (e.g. ``--view``
@@ -49,6 +51,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="turntable + light-sweep views (default 4), plus the sweep at the flip")
     parser.add_argument("--view", dest="names", action="append", default=None, metavar="NAME",
                         help="check only this view (repeatable), e.g. --view sweep_090; default all")
+    parser.add_argument("--hosts", default=None, metavar="LIST",
+                        help="comma-separated hosts that also render the views, each checked against the exact "
+                             "reference of its lighting model: glsl, materialx, materialx_physical, blender, web "
+                             "(default: every host available on this machine; glsl always runs)")
     parser.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
 
 
@@ -60,8 +66,9 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet and not args.json:
             print(f"rockdove verify: {msg}", file=sys.stderr)
 
+    hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
     report = verify_asset(args.asset, out_dir=args.out, width=args.width, height=args.height, progress=progress,
-                          views=args.names, n_views=args.views)
+                          views=args.names, n_views=args.views, hosts=hosts)
     short = summary(report)
     if args.json:
         from ..render.report import strict_json
@@ -77,6 +84,15 @@ def run(args: argparse.Namespace) -> int:
         for name, b in report["boundary"]["per_view"].items():
             print(f"boundary {name}: {b['n_points']} points, RMS {b['rms_px']:.2f} px "
                   f"({b['rms_fraction']:.4f} of its length)")
+        for h in report.get("hosts", []):
+            if h.get("skipped"):
+                print(f"host {h['name']}: SKIPPED ({h['reason']})")
+            elif h.get("error"):
+                print(f"host {h['name']}: ERROR {h['error']}")
+            else:
+                print(f"host {h['name']} ({h['variant']}, {h['lobe']}): {h['n_pixels']} px  dE2000 median "
+                      f"{h['median_dE']:.3f}  p95 {h['p95_dE']:.3f}  green {h['green_px']}  purple {h['purple_px']}  "
+                      f"hue agreement {h['hue_agreement']:.1%}  {'ok' if h['passed'] else 'FAIL'}")
         for note in report.get("notes", []):
             print(f"note: {note}")
         print(f"report: {report['out_dir']}/report.html")

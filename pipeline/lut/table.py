@@ -17,7 +17,15 @@ Thickness axis. Nodes are uniform in nm over ``thickness_range_nm = (lo, hi)``:
 Texture coordinates. Texel centres of an N-texel axis sit at ``(k + 0.5) / N``; a node coordinate
 ``x in [0, 1]`` maps to ``u = (x * (N - 1) + 0.5) / N``. With linear filtering and clamp-to-edge wrapping this
 makes a GPU lookup exactly the piecewise-linear interpolation between nodes that :meth:`ThinFilmLUT.sample`
-computes. In the EXR file and in USD the bottom image row is ``i = 0`` (USD's ``st`` has t = 0 at the bottom);
+computes, **as long as the texture is not minified**: hosts that mipmap image nodes (MaterialX renderers,
+Storm) pick a mip level from the screen derivative of the angle coordinate and average ``2**level`` texels
+along *both* axes, so the thickness rows mix as well. Measured with MaterialX's generated GLSL (LUT
+mipmapped, trilinear): on the default bird at 512 x 512 the cost is median dE2000 0.017, p95 0.05; on a
+sphere of constant thickness at 256 x 256 (the worst case: the angle changes fast over the whole disc) the
+default 256 x 64 layout errs median 0.8-1.0, p95 10-13, and a tall 64 x 256 layout (same texel count and bake
+time; `lut.angles = 64`, `lut.thicknesses = 256`; its own error vs the exact film max 0.27 instead of 0.05)
+errs median 0.01-0.02, p95 0.35-0.54, max 1.9 (``pipeline/hosts/materialx.py``, ``docs/design.md``).
+In the EXR file and in USD the bottom image row is ``i = 0`` (USD's ``st`` has t = 0 at the bottom);
 uploaded to OpenGL, row 0 of ``rgb`` is t = 0.
 """
 

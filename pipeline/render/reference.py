@@ -39,6 +39,17 @@ test_spectral_step_is_exact_against_a_finer_grid``). Pixels are de-duplicated on
 phase ``4 pi n d cos(theta_b) / lambda`` changes by less than 5e-5 rad within one key, far below anything
 visible (measured < 0.005 dE2000), so this is still the exact model per pixel, not an interpolated table.
 
+Lighting models (``lobe``, :data:`LOBES`; the hosts of :mod:`pipeline.hosts` name theirs):
+
+- ``"half_angle"`` (the default, above): the paper's model under the View's one directional light;
+- ``"view_angle"``: the smooth film's mirror lobe alone under a uniform white environment of unit radiance.
+  For a smooth film the mirror direction makes the angle of incidence the view angle, so the film lit by
+  the environment from the mirror direction reflects ``R(|N.V|)`` of unit radiance: a feather pixel is
+  ``mask * structural(cos_theta = |N.V|)``; no light, base colour black (diffuse off), other parts 0.
+  This is what the MaterialX baked network (``LUT(|N.V|)``) and the hosts' own thin-film BSDFs draw under
+  that environment with the base colour set to black. Both lobes of one call share the ray casts
+  (:func:`render_reference_lobes`).
+
 The PNGs use the GL path's tone mapping (:func:`to_display8`); the comparison uses the linear data.
 """
 
@@ -63,6 +74,8 @@ COS_THETA_QUANTUM = 2e-6
 THICKNESS_QUANTUM_NM = 0.002
 #: Pixels per chunk of the spectral evaluation (bounds memory: chunk x wavelengths x 8 bytes per array).
 SPECTRAL_CHUNK = 4096
+#: The lighting models the reference renders (module docstring, "Lighting models").
+LOBES = ("half_angle", "view_angle")
 
 
 @dataclass
@@ -81,9 +94,10 @@ class ReferenceResult:
     depth_m : ndarray, (H, W) float32
         Eye-space depth (distance along the camera's -Z), metres; +inf on the background.
     n_dot_l : ndarray, (H, W) float32
-        ``max(dot(N, L), 0)`` of the shaded surface (0 on the background).
+        ``max(dot(N, L), 0)`` of the shaded surface (0 on the background); with the ``view_angle`` lobe, 1 on
+        feather pixels (lit by the environment) and 0 elsewhere.
     cos_theta : ndarray, (H, W) float32
-        ``dot(L, H)`` on feather pixels, NaN elsewhere.
+        ``dot(L, H)`` (``|dot(N, V)|`` with the ``view_angle`` lobe) on feather pixels, NaN elsewhere.
     thickness_nm : ndarray, (H, W) float32
         Interpolated film thickness on feather pixels, NaN elsewhere.
     mask : ndarray, (H, W) float32
@@ -451,7 +465,7 @@ def _cast(geom: "_SceneGeometry", view) -> Hits:
     return Hits(face, point, bary, stats)
 
 
-def render_reference(scene, views, structural_fn=None, hits=None) -> list[ReferenceResult]:
+def render_reference(scene, views, structural_fn=None, hits=None, lobe: str = "half_angle") -> list[ReferenceResult]:
     """Render ``views`` of ``scene`` on the CPU with the exact spectral thin-film model.
 
     Parameters
@@ -465,6 +479,8 @@ def render_reference(scene, views, structural_fn=None, hits=None) -> list[Refere
     hits : mapping, optional
         Ready-made :class:`Hits` by :func:`camera_key` (e.g. cached by the build for this scene's
         :func:`ray_digest`); cameras not in it are cast here. Either way the result is the same.
+    lobe : str
+        The lighting model, one of :data:`LOBES` (module docstring).
 
     Returns
     -------
@@ -475,6 +491,21 @@ def render_reference(scene, views, structural_fn=None, hits=None) -> list[Refere
     ValueError
         ``views`` is empty, or the scene has feathers but no thin-film parameters.
     """
+    return render_reference_lobes(scene, views, (lobe,), structural_fn, hits=hits)[lobe]
+
+
+def render_reference_lobes(scene, views, lobes=LOBES, structural_fn=None, hits=None) -> dict:
+    """:func:`render_reference` for several lighting models at once, sharing the scene's ray casts.
+
+    Returns
+    -------
+    dict
+        lobe -> list of ReferenceResult (one per view, in order).
+    """
+    lobes = tuple(dict.fromkeys(lobes))
+    bad = [lb for lb in lobes if lb not in LOBES]
+    if bad or not lobes:
+        raise ValueError(f"lobe: {bad or lobes!r} not allowed; use one of {list(LOBES)}")
     views = list(views)
     if not views:
         raise ValueError("views must hold at least one View, got none")
@@ -484,10 +515,11 @@ def render_reference(scene, views, structural_fn=None, hits=None) -> list[Refere
             raise ValueError(f"scene {scene.root_layer!r} has feather parts but no RockDoveThinFilmAPI film")
     geom = _SceneGeometry(scene)
     hits_cache: dict = dict(hits or {})  # the light sweep keeps its camera still: cast its rays once
-    return [_render_view(geom, scene, v, structural_fn, hits_cache) for v in views]
+    return {lb: [_render_view(geom, scene, v, structural_fn, hits_cache, lb) for v in views] for lb in lobes}
 
 
-def _render_view(geom: _SceneGeometry, scene, view, structural_fn, hits_cache: dict) -> ReferenceResult:
+def _render_view(geom: _SceneGeometry, scene, view, structural_fn, hits_cache: dict,
+                 lobe: str = "half_angle") -> ReferenceResult:
     from .scene import sample_texture
 
     t0 = time.perf_counter()
@@ -527,7 +559,12 @@ def _render_view(geom: _SceneGeometry, scene, view, structural_fn, hits_cache: d
         if geom.is_feather[p]:  # a feather without a mask texture is structural everywhere (mask = 1)
             tex = geom.mask_tex[p]
             mask[sel] = sample_texture(tex, st[sel])[:, 0] if tex is not None else 1.0
-    cos_theta = np.sqrt(np.clip((1.0 + V @ L) / 2.0, 0.0, 1.0))
+    view_angle = lobe == "view_angle"
+    if view_angle:  # mirror lobe under a uniform unit environment: incidence = view angle; base black
+        cos_theta = np.clip(np.abs(np.einsum("ij,ij->i", N, V)), 0.0, 1.0)
+        base = np.zeros_like(base)
+    else:
+        cos_theta = np.sqrt(np.clip((1.0 + V @ L) / 2.0, 0.0, 1.0))
     thickness = geom.interp(geom.thickness, f, b)
     colour = base.copy()
     structural = feather & (mask > 0)
@@ -541,8 +578,12 @@ def _render_view(geom: _SceneGeometry, scene, view, structural_fn, hits_cache: d
         m = mask[structural, None]
         colour[structural] = base[structural] * (1.0 - m) + s_rgb * m
     t3 = time.perf_counter()
-    n_dot_l = np.maximum(N @ L, 0.0)
-    radiance = colour * light[None, :] * n_dot_l[:, None]
+    if view_angle:  # the environment lights every feather pixel with unit radiance; other parts are black
+        n_dot_l = feather.astype(np.float64)
+        radiance = colour * n_dot_l[:, None]
+    else:
+        n_dot_l = np.maximum(N @ L, 0.0)
+        radiance = colour * light[None, :] * n_dot_l[:, None]
 
     def image(fill, values, dtype):
         out = np.full(h * w, fill, dtype) if np.ndim(values) == 1 else np.full((h * w, values.shape[1]), fill, dtype)

@@ -220,7 +220,8 @@ def write_html(path, report: dict, images: dict) -> str:
     report : dict
         As written to report.json (see :func:`pipeline.render.verify.verify_asset`).
     images : dict
-        ``"views"``: ``{view: {"gl": file, "reference": file, "dE": file}}``; optional ``"contact_sheet"``,
+        ``"views"``: ``{view: {"gl": file, "reference": file, "dE": file}}``; optional ``"hosts"``
+        (``{host: {view: {"host", "reference", "dE": file}}}``), ``"contact_sheet"``,
         ``"lut"``, ``"spectra"``, ``"hue"``, ``"bench"`` (list) file names, relative to the page.
     """
     e = html.escape
@@ -272,6 +273,33 @@ def write_html(path, report: dict, images: dict) -> str:
                        ("lut", "The LUT"), ("spectra", "Film reflectance spectra")):
         if images.get(key):
             parts.append(f"<h2>{e(title)}</h2><img src='{e(images[key])}' alt='{e(key)}'>")
+    host_rows = report.get("hosts") or []
+    if host_rows:
+        parts.append("<h2>Hosts</h2><p>Each host renders the written asset with its own code and is compared with "
+                     "the exact reference of the lighting model it evaluates (half_angle: the paper's light; "
+                     "view_angle: uniform white environment, film colour at |N.V|), over feather-tip pixels.</p>"
+                     "<table><tr><th>host</th><th>variant</th><th>lobe</th><th>pixels</th><th>median dE</th>"
+                     "<th>p95 dE</th><th>green</th><th>purple</th><th>hue agreement</th><th>passed</th></tr>")
+        for h in host_rows:
+            if h.get("skipped") or h.get("error"):
+                why = f"skipped: {h['reason']}" if h.get("skipped") else f"error: {h['error']}"
+                parts.append(f"<tr><td style='text-align:left'>{e(h['name'])}</td>"
+                             f"<td colspan='9' style='text-align:left'>{e(why)}</td></tr>")
+                continue
+            parts.append(
+                f"<tr><td style='text-align:left'>{e(h['name'])}</td><td>{e(h['variant'])}</td><td>{e(h['lobe'])}</td>"
+                f"<td>{h['n_pixels']}</td><td>{_fmt(h['median_dE'])}</td><td>{_fmt(h['p95_dE'])}</td>"
+                f"<td>{h['green_px']}</td><td>{h['purple_px']}</td><td>{_fmt(h['hue_agreement'])}</td>"
+                f"<td>{'yes' if h['passed'] else 'no'}</td></tr>")
+        parts.append("</table>")
+        for host, per_view in (images.get("hosts") or {}).items():
+            for name, files in per_view.items():
+                parts.append(f"<h3>{e(host)}: {e(name)}</h3><div class='row'>")
+                for k in ("host", "reference", "dE"):
+                    if files.get(k):
+                        parts.append(f"<figure><img src='{e(files[k])}' alt='{e(host)} {e(name)} {k}'>"
+                                     f"<figcaption>{e(host) if k == 'host' else k}</figcaption></figure>")
+                parts.append("</div>")
     parts.append("<h2>Renders and dE2000 maps</h2>")
     for name, files in images.get("views", {}).items():
         parts.append(f"<h3>{e(name)}</h3><div class='row'>")

@@ -333,8 +333,13 @@ def _check_size(width, height) -> None:
             raise ValueError(f"{key} must be an integer >= 16, got {v!r}")
 
 
-def _render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits=None) -> dict:
-    """Render ``views`` (GL and reference), compare, write each view's images; ``{name: view result}``."""
+def _render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits=None, refs=None,
+                      gl_images=None) -> dict:
+    """Render ``views`` (GL and reference), compare, write each view's images; ``{name: view result}``.
+
+    ``refs``: the half-angle references of ``views`` when already rendered (:func:`verify_asset` renders every
+    lobe the hosts need in one call, sharing the ray casts); ``gl_images``: a dict that receives each view's
+    GL radiance (the ``glsl`` host's images); ``hits``: cached ray casts (:func:`pipeline.render.reference.cast_hits`)."""
     from . import report as rep
     from .images import save_png
     from .reference import render_reference, to_display8
@@ -352,8 +357,10 @@ def _render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hit
     t_gl = (time.perf_counter() - t) / len(views)
     say(f"CPU reference ({len(views)} views)")
     t = time.perf_counter()
-    ref_results = render_reference(scene, views, hits=hits)
+    ref_results = render_reference(scene, views, hits=hits) if refs is None else refs
     t_ref = (time.perf_counter() - t) / len(views)
+    if gl_images is not None and gl_results is not None:
+        gl_images.update({v.name: cmp.gl_arrays(r)["rgb"] for v, r in zip(views, gl_results)})
     say("comparing")
     results = {}
     for i, v in enumerate(views):
@@ -451,7 +458,7 @@ def report_from_views(asset, view_results: dict, out_dir=None, width: int = DEFA
 
 
 def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE,
-                 bench_dir=None, progress=None, views=None, n_views: int = DEFAULT_VIEWS) -> dict:
+                 bench_dir=None, progress=None, views=None, n_views: int = DEFAULT_VIEWS, hosts=("glsl",)) -> dict:
     """Validate, render and check an asset; write the report into ``out_dir``; return the report dict.
 
     Parameters
@@ -471,26 +478,49 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
         light-sweep view the hue check cannot run: the report says so in ``notes`` (it is not counted as met).
     n_views : int
         Turntable + sweep views (:func:`pipeline.render.views.default_views`), plus the boundary sweep view.
+    hosts : iterable of str or None
+        Hosts (:data:`pipeline.hosts.HOSTS`) that render the same views, each compared with the reference of
+        its lobe (:mod:`pipeline.render.host_check`); None: every registered host available here. ``glsl``
+        always runs. Unavailable hosts are reported as skipped with their reason; a host that fails or misses
+        its goals fails the verification.
 
     Returns
     -------
-    dict: the content of report.json; ``report["passed"]`` says whether verification passed,
+    dict: the content of report.json (``report["hosts"]``: one entry per host); ``report["passed"]`` says whether verification passed,
     ``report["failures"]`` why not, ``report["notes"]`` what was not or differently checked (e.g. a
     physical-only asset's verification-only LUT).
     """
+    from ..hosts import select
+    from .host_check import check_hosts
+    from .reference import render_reference_lobes
+
     _check_size(width, height)
     say = progress or (lambda msg: None)
     t_start = time.perf_counter()
+    selection = select(hosts)  # unknown names: ValueError before any work
     with verification_scene(asset) as (layer, scene, lut, notes):
         out = os.path.abspath(os.fspath(out_dir)) if out_dir else _default_out_dir(layer)
         os.makedirs(out, exist_ok=True)
         chosen = _select(verification_views(scene, int(width), int(height), n_views), views)
-        results = _render_and_check(scene, lut, chosen, out, subfolders=False, say=say)
-        return _combine(layer, scene, lut, notes, results, out, width, height, bench_dir, say, t_start=t_start)
+        lobes = ("half_angle", *(m.LOBE for m in selection.available))
+        say(f"CPU reference ({len(chosen)} views, lobes {', '.join(dict.fromkeys(lobes))})")
+        t = time.perf_counter()
+        refs = render_reference_lobes(scene, chosen, lobes)
+        t_ref = time.perf_counter() - t
+        gl_images = {}
+        results = _render_and_check(scene, lut, chosen, out, subfolders=False, say=say, refs=refs["half_angle"],
+                                    gl_images=gl_images)
+        for r in results.values():
+            r["timings_s"]["reference"] = t_ref / len(chosen)
+        t = time.perf_counter()
+        host_entries, host_images = check_hosts(layer, scene, chosen, selection, refs, out,
+                                                rendered={"glsl": gl_images} if gl_images else None, say=say)
+        return _combine(layer, scene, lut, notes, results, out, width, height, bench_dir, say, t_start=t_start,
+                        hosts=(host_entries, host_images, time.perf_counter() - t))
 
 
 def _combine(layer, scene, lut, notes, results: dict, out_dir, width, height, bench_dir, say, *, reused=(),
-             t_start) -> dict:
+             t_start, hosts=None) -> dict:
     from . import report as rep
 
     out = os.path.abspath(os.fspath(out_dir)) if out_dir else _default_out_dir(layer)
@@ -557,6 +587,16 @@ def _combine(layer, scene, lut, notes, results: dict, out_dir, width, height, be
         images["spectra"] = os.path.basename(rep.spectra_png(os.path.join(out, "spectra.png"), scene.film,
                                                              thickness_nm=thicknesses))
     images["hue"] = os.path.basename(rep.hue_png(os.path.join(out, "hue.png"), hue, "light sweep"))
+    host_entries = []
+    if hosts is not None:
+        host_entries, images["hosts"], timings["hosts"] = hosts
+        for h in host_entries:
+            if h.get("skipped"):  # reported with its reason (report["hosts"], the CLI's SKIPPED line)
+                continue
+            if h.get("error"):
+                failures.append(f"host {h['name']} failed: {h['error']}")
+            elif not h["passed"]:
+                failures.append(f"host {h['name']} ({h['variant']}, {h['lobe']} lobe): {'; '.join(h['failures'])}")
     bench = bench_dir if bench_dir is not None else os.path.join(os.getcwd(), "build", "bench")
     images["bench"] = rep.copy_bench_plots(out, bench)
     timings["report"] = time.perf_counter() - t
@@ -581,6 +621,7 @@ def _combine(layer, scene, lut, notes, results: dict, out_dir, width, height, be
         "view_setup": [r["setup"] for r in results],
         "reference": [r["reference"] for r in results],
         "hue_sweep": hue,
+        "hosts": host_entries,
         "boundary": {"per_view": {r["view"]: r["boundary"] for r in sweeps},
                      "method": "TLS line through green/purple boundary points; RMS perpendicular distance (px) "
                                "and RMS / boundary length; coherence and curvature: pipeline.render.boundary"},
@@ -637,6 +678,7 @@ def summary(report: dict) -> dict:
                                "purple_share": v["coherence"]["purple"]["largest_share"],
                                "line_over_curve": v["curvature"]["ratio"]}
                            for k, v in report["boundary"]["per_view"].items() if "coherence" in v},
+        "hosts": [{k: v for k, v in h.items() if k not in ("per_view", "failures")} for h in report.get("hosts", [])],
         "timings_s": report["timings_s"],
     }
 

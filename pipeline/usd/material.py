@@ -18,7 +18,8 @@ Units of the physical variant (method.md, "Conventions of neighbouring standards
 ``thin_film_thickness`` is in micrometres, so the network feeds ``thickness_nm * 0.001`` (node
 ``ThicknessUm``); Autodesk standard_surface's ``thin_film_thickness`` is in nanometres and would take the
 primvar unchanged. ``thin_film_ior`` is the film's Cauchy index at :data:`pipeline.usd.stage.FILM_IOR_WAVELENGTH_NM`
-(550 nm): OpenPBR's film has one real index, so dispersion is dropped in that variant.
+(550 nm): OpenPBR's film has one real index, so dispersion is dropped in that variant. The film lies on the
+base's ``specular_ior``, set to the recorded substrate index (``SubstrateIor``; 1.0 for the asset's film in air).
 
 Body and the other parts get plain UsdPreviewSurface materials: the body from ``body_base.png``, the others a
 constant colour (their ``display_color``).
@@ -56,7 +57,7 @@ OPACITY_THRESHOLD = 0.5
 _SDF_TYPES = {
     "float": "Float", "integer": "Int", "boolean": "Bool", "string": "String", "filename": "Asset",
     "color3": "Color3f", "color4": "Color4f", "vector2": "Float2", "vector3": "Float3", "vector4": "Float4",
-    "surfaceshader": "Token", "material": "Token",
+    "surfaceshader": "Token", "material": "Token", "BSDF": "Token", "EDF": "Token",
 }
 
 
@@ -237,7 +238,7 @@ def _st_reader(stage, path):
 
 
 def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, textures: dict | None = None,
-                            variants=("baked", "physical")):
+                            variants=("baked", "physical"), substrate_ior: float = 1.0):
     """Define the feather material: universal preview network plus the MaterialX thin-film network.
 
     Parameters
@@ -248,7 +249,12 @@ def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, t
     lut : dict or None
         :func:`lut_info` of the baked LUT; None for a physical-only material (no LUT network).
     film_ior : float
-        Film index handed to the physical variant's ``thin_film_ior`` (the build uses n at 550 nm).
+        Film index handed to the physical variant's ``thin_film_ior`` (the build uses n at 550 nm, relative
+        to the incident medium).
+    substrate_ior : float
+        Index of the medium under the film (relative to the incident medium), the physical variant's
+        ``specular_ior``: OpenPBR puts the film on the base's dielectric interface. 1.0 for the asset's film
+        in air.
     textures : dict, optional
         Texture role -> asset path; default :func:`texture_asset_paths`.
     variants : sequence of {"baked", "physical"}
@@ -275,6 +281,8 @@ def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, t
             raise ValueError(f"lut: not a valid LUT description: {lut}")
     if not film_ior > 0:
         raise ValueError(f"film_ior must be > 0, got {film_ior}")
+    if not substrate_ior > 0:
+        raise ValueError(f"substrate_ior must be > 0, got {substrate_ior}")
     material = UsdShade.Material.Define(stage, path)
     base = material.GetPath()
 
@@ -290,7 +298,7 @@ def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, t
 
     # MaterialX network, copied from materials/thinfilm.mtlx, then the build's values
     shaders = copy_mtlx_network(load_thinfilm_document(), material, roots=[MTLX_SURFACES[v] for v in variants])
-    values = {"FilmIor": float(film_ior)}
+    values = {"FilmIor": float(film_ior), "SubstrateIor": float(substrate_ior)}
     if lut is not None:
         values.update({
             "LutAngleCount": float(lut["n_angle"]),

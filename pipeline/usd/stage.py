@@ -60,7 +60,9 @@ def shading_variants(shading: str) -> tuple:
         raise ValueError(f"shading={shading!r}; allowed: {sorted(SHADING_CHOICES)}")
     return SHADING_CHOICES[shading]
 FEATHER_MATERIAL = "feather"
-#: Wavelength at which the physical variant's thin_film_ior samples the film's Cauchy index (mid-visible).
+#: Wavelength at which the physical variant's thin_film_ior samples the film's Cauchy index: OpenPBR's film has
+#: one real index; 550 nm is next to the peak of the CIE photopic luminosity curve V(lambda) (555 nm), where the
+#: colour-matching functions weigh the spectrum most (keratin: n = 1.5515 there, 1.569 at 400 nm, 1.544 at 700 nm).
 FILM_IOR_WAVELENGTH_NM = 550.0
 
 THICKNESS_DOC = ("Film (keratin cortex) thickness of the feather barbules at this vertex, in nanometres; the "
@@ -237,7 +239,9 @@ def author_looks(stage, bird, film, lut: dict | None, textures: dict | None = No
     feather = _feather_part(bird)
     root = UsdGeom.Xform.Define(stage, ROOT)
     UsdGeom.Scope.Define(stage, f"{ROOT}/Looks")
-    film_ior = float(np.real(film.n_film(FILM_IOR_WAVELENGTH_NM)))
+    n_incident = float(np.real(film.n_incident))  # OpenPBR's indices are relative to the medium above
+    film_ior = float(np.real(film.n_film(FILM_IOR_WAVELENGTH_NM))) / n_incident
+    substrate_ior = float(np.real(film.n_substrate)) / n_incident
     done = set()
     for part in bird.parts:  # one material per kind, in part order
         kind = part.material
@@ -246,7 +250,8 @@ def author_looks(stage, bird, film, lut: dict | None, textures: dict | None = No
         done.add(kind)
         path = f"{ROOT}/Looks/{material_name(kind)}"
         if kind == FEATHER_MATERIAL:
-            author_feather_material(stage, path, lut=lut, film_ior=film_ior, textures=textures, variants=variants)
+            author_feather_material(stage, path, lut=lut, film_ior=film_ior, textures=textures, variants=variants,
+                                    substrate_ior=substrate_ior)
         elif kind == "body":
             author_body_material(stage, path, texture=textures["body_base"])
         else:

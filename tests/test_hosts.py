@@ -1,0 +1,132 @@
+"""The hosts (pipeline.hosts): registry, selection with reasons, and ``verify --hosts`` on a small asset with
+MaterialX's generated GLSL (baked and physical networks) against the exact reference of the view_angle lobe."""
+
+import sys
+import types
+
+import numpy as np
+import pytest
+
+from pipeline import hosts
+from pipeline.hosts import HostError
+
+
+def test_registry_maps_every_host_to_its_module_and_glsl_always_runs_first():
+    assert set(hosts.HOSTS) >= {"glsl", "materialx", "blender", "web"}
+    assert all(m == f"pipeline.hosts.{n}" for n, m in hosts.HOSTS.items())
+    sel = hosts.select(["materialx"])
+    assert [m.NAME for m in sel.available][0] == "glsl"
+    for module in sel.available:
+        assert module.LOBE in hosts.LOBES and module.VARIANT in ("glsl", "baked", "physical")
+        assert module.unavailable() is None
+
+
+def test_select_names_unknown_hosts_and_gives_reasons_for_missing_ones(monkeypatch):
+    with pytest.raises(ValueError, match="'nope' unknown; allowed: glsl"):
+        hosts.select(["glsl", "nope"])
+    monkeypatch.setitem(hosts.HOSTS, "ghost", "pipeline.hosts.no_such_module")
+    fake = types.ModuleType("fake_host")
+    fake.unavailable = lambda: "bpy is not installed"
+    monkeypatch.setitem(sys.modules, "fake_host", fake)
+    monkeypatch.setitem(hosts.HOSTS, "fake", "fake_host")
+    sel = hosts.select(["ghost", "fake"])
+    assert [m.NAME for m in sel.available] == ["glsl"]
+    assert "pipeline.hosts.no_such_module is not part of this installation" in sel.unavailable["ghost"]
+    assert sel.unavailable["fake"] == "bpy is not installed"
+    err = HostError("blender", "no display")
+    assert err.name == "blender" and "blender" in str(err) and "no display" in str(err)
+
+
+@pytest.fixture(scope="module")
+def small_asset(tmp_path_factory):
+    """A small asset of the default (measured, keratin) preset: thickness varies, both shading variants."""
+    from pipeline.assemble import assemble
+
+    return assemble(tmp_path_factory.mktemp("hosts") / "pigeon", card_count=150, usdz=False)["interface"]
+
+
+def _broken_host(monkeypatch):
+    broken = types.ModuleType("broken_host")
+    broken.NAME, broken.VARIANT, broken.LOBE = "broken", "baked", "view_angle"
+    broken.unavailable = lambda: None
+
+    def render(asset_path, views, out_dir):
+        raise HostError("broken", "shader compile error: 0:1(1): syntax error")
+
+    broken.render = render
+    monkeypatch.setitem(sys.modules, "broken_host", broken)
+    monkeypatch.setitem(hosts.HOSTS, "broken", "broken_host")
+
+
+@pytest.mark.gl
+def test_verify_hosts_reports_each_host_and_a_failing_one_does_not_stop_the_others(small_asset, tmp_path,
+                                                                                    monkeypatch):
+    """MaterialX's own GLSL of the asset's baked network matches the exact view_angle reference (dE goals); the
+    physical network (OpenPBR's thin film) shows green and purple; a host that raises HostError is reported by
+    name and fails the verification while the others still run; a missing host is skipped with its reason."""
+    from pipeline.render.verify import verify_asset
+
+    _broken_host(monkeypatch)
+    monkeypatch.setitem(hosts.HOSTS, "ghost", "pipeline.hosts.no_such_module")
+    report = verify_asset(small_asset, out_dir=tmp_path / "report", width=64, height=64, views=["sweep_060"],
+                          hosts=["materialx", "broken", "materialx_physical", "ghost"])
+    by_name = {h["name"]: h for h in report["hosts"]}
+    assert [h["name"] for h in report["hosts"]] == ["glsl", "materialx", "broken", "materialx_physical", "ghost"]
+    for name in ("glsl", "materialx", "materialx_physical"):
+        h = by_name[name]
+        assert {"variant", "median_dE", "p95_dE", "green_px", "purple_px", "hue_agreement", "passed"} <= set(h)
+        assert h["n_pixels"] > 50, name
+    baked = by_name["materialx"]
+    assert baked["variant"] == "baked" and baked["lobe"] == "view_angle"
+    assert baked["passed"] and baked["median_dE"] <= 1.0 and baked["p95_dE"] <= 2.0, baked
+    physical = by_name["materialx_physical"]
+    assert physical["variant"] == "physical" and np.isfinite(physical["median_dE"])
+    assert physical["green_px"] > 0 and physical["purple_px"] > 0, physical
+    assert by_name["broken"]["passed"] is False and "syntax error" in by_name["broken"]["error"]
+    assert by_name["ghost"]["skipped"] and "no_such_module" in by_name["ghost"]["reason"]
+    assert not report["passed"] and any("host broken failed" in f for f in report["failures"])
+    html = (tmp_path / "report" / "report.html").read_text()
+    assert "sweep_060_materialx.png" in html and "sweep_060_view_angle_reference.png" in html
+    assert (tmp_path / "report" / "sweep_060_materialx.png").exists()
+
+
+@pytest.mark.gl
+def test_materialx_host_draws_the_written_network_not_a_copy_of_it(small_asset, tmp_path):
+    """Break the written network (LUT angle count off by a factor 4, as a stale standalone .mtlx would): the
+    host, which reads what was written, must then disagree with the reference."""
+    import shutil
+
+    from pxr import Sdf
+
+    from pipeline.hosts import materialx
+    from pipeline.render.host_check import host_metrics
+    from pipeline.render.reference import render_reference
+    from pipeline.render.scene import load_scene
+    from pipeline.render.verify import verification_views
+
+    folder = tmp_path / "broken"
+    shutil.copytree(small_asset.rsplit("/", 1)[0], folder)
+    payload = Sdf.Layer.FindOrOpen(str(folder / "pigeon_payload.usda"))
+    attr = payload.GetAttributeAtPath("/Pigeon/Looks/FeatherMaterial/LutAngleCount.inputs:value")
+    attr.default = attr.default / 4
+    payload.Save()
+    scene = load_scene(str(folder))
+    views = [v for v in verification_views(scene, 48, 48) if v.name == "sweep_060"]
+    images = materialx.render(str(folder / "pigeon.usda"), views, None)
+    m = host_metrics(images, render_reference(scene, views, lobe="view_angle"), scene)
+    assert m["median_dE"] > 2.0, m
+
+
+@pytest.mark.gl
+def test_glsl_host_renders_the_written_asset_as_the_verifier_does(small_asset):
+    from pipeline.hosts import glsl
+    from pipeline.render.gl import render_views
+    from pipeline.render.scene import load_scene
+    from pipeline.render.verify import verification_views
+
+    scene = load_scene(small_asset)
+    views = [v for v in verification_views(scene, 32, 32) if v.name == "sweep_090"]
+    assert glsl.cannot_draw(small_asset) is None
+    images = glsl.render(small_asset, views, None)
+    np.testing.assert_array_equal(images["sweep_090"], render_views(scene, views)[0].radiance_rgb)
+    assert images["sweep_090"].shape == (32, 32, 3) and images["sweep_090"].max() > 0
