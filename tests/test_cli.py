@@ -21,7 +21,7 @@ STANDIN = f"{ROOT / 'tests' / 'test_build_graph.py'}:standin_stages"
 
 
 def rockdove(*args, cwd, env_extra=None, timeout=60):
-    env = {**os.environ, "ROCKDOVE_BUILD_STAGES": STANDIN, "PYTHONPATH": str(ROOT)}
+    env = {**os.environ, "ROCKDOVE_BUILD_STAGES": STANDIN}
     env.pop("ROCKDOVE_DEBUG", None)
     env.update(env_extra or {})
     return subprocess.run([sys.executable, "-m", "pipeline.cli", *args], cwd=cwd, env=env, capture_output=True,

@@ -26,7 +26,7 @@ BASE = ["build", "--out", "b/pigeon", "--set", "geometry.card_count=40", "--quie
 
 
 def _env(**extra):
-    env = {**os.environ, "ROCKDOVE_BUILD_STAGES": STANDIN, "PYTHONPATH": str(ROOT)}
+    env = {**os.environ, "ROCKDOVE_BUILD_STAGES": STANDIN}
     env.pop("ROCKDOVE_DEBUG", None)
     env.update(extra)
     return env

@@ -8,6 +8,7 @@ import sys
 
 import pytest
 
+from conftest import OUTSIDE
 from pipeline import resources
 from pipeline.usd.schema import ATTRIBUTE_TYPES, SCHEMA_NAME, apply_thin_film, read_thin_film, register
 
@@ -46,10 +47,9 @@ def test_pluginfo_declares_a_single_apply_api_schema_for_meshes():
 
 
 def _python(code):
-    root = os.path.dirname(str(resources.folder("schemas")))
-    env = dict(os.environ, PYTHONPATH=root)
+    env = dict(os.environ)
     env.pop("PXR_PLUGINPATH_NAME", None)
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=root, env=env,
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=OUTSIDE, env=env,
                          timeout=120)
     assert out.returncode == 0, out.stderr
     return out.stdout

@@ -14,7 +14,7 @@ from pipeline.films import get_film
 from pipeline.usd.synthetic import synthetic_bird, synthetic_lut, synthetic_textures
 from pipeline.usd.validate import validate_asset
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from conftest import OUTSIDE
 FEATHERS = "/Pigeon/Geom/NeckFeathers"
 
 
@@ -170,9 +170,8 @@ def test_unresolved_mtlx_surface_is_reported_in_its_variant_only(broken):
 
 
 def _cli(*args):
-    env = dict(os.environ, PYTHONPATH=ROOT)
     return subprocess.run([sys.executable, "-m", "pipeline.cli", "validate", *args], capture_output=True,
-                          text=True, cwd=ROOT, env=env, timeout=120)
+                          text=True, cwd=OUTSIDE, timeout=120)
 
 
 def test_cli_exit_statuses_and_json(good, broken, tmp_path):

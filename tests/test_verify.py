@@ -15,7 +15,8 @@ from pipeline.render.reference import render_reference
 from pipeline.render.scene import RenderScene, ScenePart, ThinFilmParams
 from pipeline.render.views import light_sweep_views
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from conftest import OUTSIDE
+
 PAPER_FILM = dict(model="paper", cauchy_a=1.5, cauchy_b_nm2=0.0, incident_index=1.0, substrate_index=1.0,
                   thickness_primvar="thickness", thickness_units="nm", lut_file="unused.exr",
                   lut_colour_space="lin_rec709", angle_warp_gamma=1.0, thickness_range_nm=(480.0, 700.0))
@@ -24,7 +25,7 @@ PAPER_FILM = dict(model="paper", cauchy_a=1.5, cauchy_b_nm2=0.0, incident_index=
 def _rockdove(*args, timeout=300):
     env = dict(os.environ, PYOPENGL_PLATFORM="egl")
     exe = os.path.join(os.path.dirname(sys.executable), "rockdove")
-    return subprocess.run([exe, *args], capture_output=True, text=True, cwd=ROOT, env=env, timeout=timeout)
+    return subprocess.run([exe, *args], capture_output=True, text=True, cwd=OUTSIDE, env=env, timeout=timeout)
 
 
 @pytest.fixture(scope="module")
