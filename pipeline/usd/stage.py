@@ -24,6 +24,7 @@ import os
 
 import numpy as np
 
+from ..geometry.types import drop_unreferenced_points
 from .material import (
     author_body_material,
     author_constant_material,
@@ -119,6 +120,7 @@ def author_mesh(stage, path, part):
     from pxr import Sdf, UsdGeom, Vt
 
     _check_part(part)
+    part = drop_unreferenced_points(part)  # every point a face uses: validators reject unused topology
     mesh = UsdGeom.Mesh.Define(stage, path)
     points = np.ascontiguousarray(part.points_m, dtype=np.float32)
     mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
