@@ -20,6 +20,8 @@ variant sets on the default prim (here ``shading`` = baked / physical), runs:
    An asset without a LUT (physical-only shading: no ``rockdove:lut:*`` attributes) is valid: its film
    attributes must be complete and finite, its thickness primvar present, finite and > 0 nm, and its bound
    material must not hold the baked LUT network (which would read a LUT the asset does not have).
+7. NVIDIA's asset validator (:mod:`pipeline.usd.nvidia`), once over all variants; its ``ND_*``
+   not-in-sdrRegistry findings are left to check 2.
 6. Materials: ``ComputeSurfaceSource()`` (universal) resolves for every material, and
    ``ComputeSurfaceSource("mtlx")`` for every material with an ``outputs:mtlx:surface``; that network, turned
    back into a MaterialX document as Hydra's HdMtlx does, passes MaterialX's ``validate()``.
@@ -580,6 +582,11 @@ def validate_asset(path) -> Report:
         for issue in issues + mx_issues + tex_issues + pv_issues + tf_issues + mat_issues:
             found.setdefault((issue.check, issue.path, issue.message, issue.severity), []).append(label)
     counts["variant combinations"] = len(combos)
+    from .nvidia import run_nvidia_validator
+
+    nv_issues, counts["nvidia ND_* ids left to mtlx"] = run_nvidia_validator(root)
+    for issue in nv_issues:  # the NVIDIA validator walks the variants itself
+        found.setdefault((issue.check, issue.path, issue.message, issue.severity), []).extend(report.variants or [""])
     report.counts = counts
     for (check, where, message, severity), labels in found.items():
         variants = () if len(labels) == len(combos) else tuple(l for l in labels if l)
