@@ -218,7 +218,7 @@ def author_contents(stage, bird, film, lut: dict | None, textures: dict | None =
                 angle_warp_gamma=lut["angle_warp_gamma"], thickness_range_nm=lut["thickness_range_nm"],
                 illuminant=lut["illuminant"], observer=lut["observer"])
             apply_thin_film(
-                mesh.GetPrim(), model=film.name, cauchy_a=film.cauchy_a, cauchy_b_nm2=film.cauchy_b_nm2,
+                mesh.GetPrim(), model=film.name, cauchy_a=film.cauchy_a, cauchy_b_nm2=film.cauchy_b_nm2, k=film.k,
                 incident_index=float(np.real(film.n_incident)), substrate_index=float(np.real(film.n_substrate)),
                 **({"lut_file": None} | lut_kw))
     return root.GetPrim()

@@ -393,7 +393,7 @@ def _check_lutless_film(prim, film: dict) -> list:
     from pxr import UsdGeom, UsdShade
 
     issues = []
-    for key, attr in (("cauchy_a", "film:cauchyA"), ("cauchy_b_nm2", "film:cauchyB_nm2"),
+    for key, attr in (("cauchy_a", "film:cauchyA"), ("cauchy_b_nm2", "film:cauchyB_nm2"), ("k", "film:k"),
                       ("incident_index", "film:incidentIndex"), ("substrate_index", "film:substrateIndex")):
         v = film.get(key)
         if not isinstance(v, float) or not np.isfinite(v):
@@ -427,6 +427,7 @@ _PROVENANCE = {
     "model": ("rockdove:film:model", "film:name"),
     "cauchy_a": ("rockdove:film:cauchyA", "film:cauchyA"),
     "cauchy_b_nm2": ("rockdove:film:cauchyB_nm2", "film:cauchyB_nm2"),
+    "k": ("rockdove:film:k", "film:k"),
     "incident_index": ("rockdove:film:incidentIndex", "film:incidentIndex"),
     "substrate_index": ("rockdove:film:substrateIndex", "film:substrateIndex"),
     "illuminant": ("rockdove:lut:illuminant", "illuminant"),
