@@ -245,8 +245,11 @@ def read_texture_asset(resolved: str):
     return img
 
 
-def check_textures(stage, decoded: dict | None = None) -> tuple[list, int, dict]:
+def check_textures(stage, decoded: dict | None = None, skip=frozenset()) -> tuple[list, int, dict]:
     """Every asset-valued attribute resolves to a file that reads.
+
+    ``skip`` holds authored paths that must not be read (outside the asset: reported by
+    :func:`pipeline.usd.dependencies.scan_dependencies`).
 
     ``decoded`` ({resolved path: decoded object}, filled in place) skips files already read, e.g. by the same
     check in another variant of the stage; a file that failed to read is not in it and is tried again.
@@ -267,6 +270,8 @@ def check_textures(stage, decoded: dict | None = None) -> tuple[list, int, dict]
             if value is None or not value.path:
                 continue
             n += 1
+            if value.path in skip:
+                continue
             if not value.resolvedPath:
                 issues.append(Issue("texture", str(attr.GetPath()), f"asset {value.path!r} does not resolve "
                                     "(missing file); expected an existing texture next to the layer"))
@@ -536,8 +541,14 @@ def _variant_combinations(stage) -> list[dict]:
     return [dict(zip(names, combo)) for combo in itertools.product(*choices)] or [{}]
 
 
-def validate_asset(path) -> Report:
+def validate_asset(path, allow_external: bool = False) -> Report:
     """Validate the asset at ``path`` (folder, root layer or usdz) over every variant combination.
+
+    First the layer graph is scanned without composing it (:func:`pipeline.usd.dependencies.scan_dependencies`):
+    a layer that does not parse, or a layer outside the asset (absolute path or one that leaves its folder),
+    ends the validation there, before USD composes (reads) anything. Asset-valued attributes outside the asset
+    are reported and not read, and NVIDIA's validator (which would read them) is not run; ``allow_external``
+    turns those reports into warnings and reads the files.
 
     Returns
     -------
@@ -548,9 +559,16 @@ def validate_asset(path) -> Report:
     from .material import load_mtlx_libraries
     from .schema import register
 
+    from .dependencies import scan_dependencies
+
     root = resolve_root_layer(path)
     register()
     report = Report(path=root)
+    deps = scan_dependencies(root, allow_external)
+    report.issues += deps.issues
+    if any(i.check == "layer" or i.message.startswith("layer path") for i in deps.errors):
+        return report  # composing would read a broken layer or a layer from elsewhere
+    skip = frozenset() if allow_external else frozenset(deps.external)
     try:
         stage = Usd.Stage.Open(root, Usd.Stage.LoadAll)
     except Exception as exc:  # pxr raises Tf.ErrorException for unparsable layers and damaged packages
@@ -576,7 +594,7 @@ def validate_asset(path) -> Report:
                 stage.GetDefaultPrim().GetVariantSet(name).SetVariantSelection(value)
         issues = run_usd_validation(stage, validators)
         mx_issues, counts["mtlx shaders"] = check_mtlx_shaders(stage, library)
-        tex_issues, counts["assets"], decoded = check_textures(stage, decoded_textures)
+        tex_issues, counts["assets"], decoded = check_textures(stage, decoded_textures, skip)
         pv_issues, counts["primvars"] = check_primvars(stage)
         tf_issues, counts["thin films"] = check_thin_film(stage, decoded)
         mat_issues, counts["materials"] = check_materials(stage, library)
@@ -585,7 +603,11 @@ def validate_asset(path) -> Report:
     counts["variant combinations"] = len(combos)
     from .nvidia import run_nvidia_validator
 
-    nv_issues, counts["nvidia ND_* ids left to mtlx"] = run_nvidia_validator(root)
+    if skip:
+        nv_issues = [Issue("nvidia", root, "NVIDIA's validator was not run: it would read the files outside the "
+                           "asset (allow them with --allow-external-assets)", "warning")]
+    else:
+        nv_issues, counts["nvidia ND_* ids left to mtlx"] = run_nvidia_validator(root)
     for issue in nv_issues:  # the NVIDIA validator walks the variants itself
         found.setdefault((issue.check, issue.path, issue.message, issue.severity), []).extend(report.variants or [""])
     report.counts = counts
