@@ -20,11 +20,14 @@ variant sets on the default prim (here ``shading`` = baked / physical), runs:
    An asset without a LUT (physical-only shading: no ``rockdove:lut:*`` attributes) is valid: its film
    attributes must be complete and finite, its thickness primvar present, finite and > 0 nm, and its bound
    material must not hold the baked LUT network (which would read a LUT the asset does not have).
-7. NVIDIA's asset validator (:mod:`pipeline.usd.nvidia`), once over all variants; its ``ND_*``
-   not-in-sdrRegistry findings are left to check 2.
 6. Materials: ``ComputeSurfaceSource()`` (universal) resolves for every material, and
    ``ComputeSurfaceSource("mtlx")`` for every material with an ``outputs:mtlx:surface``; that network, turned
    back into a MaterialX document as Hydra's HdMtlx does, passes MaterialX's ``validate()``.
+7. NVIDIA's asset validator (:mod:`pipeline.usd.nvidia`), once over all variants; its ``ND_*``
+   not-in-sdrRegistry findings are left to check 2.
+
+Before all of these, :mod:`pipeline.usd.dependencies` scans the layers without composing them (layers that do
+not parse, asset paths outside the asset).
 
 Each problem is an :class:`Issue` naming the check, the prim/attribute path, the value and what was
 expected. Issues found in several variants are reported once, with the variants listed.
