@@ -226,8 +226,8 @@ def test_cli_reports_a_broken_usdz_beside_good_layers(good, tmp_path):
     result = _cli(str(out))
     assert result.returncode == 1, result.stdout + result.stderr
     assert "pigeon.usda: clean" in result.stdout
-    assert "pigeon.usdz: NOT CLEAN" in result.stdout and "ERROR open:" in result.stdout
-    assert "parse error" in result.stdout and "1 error(s) in" in result.stderr
+    assert "pigeon.usdz: NOT CLEAN" in result.stdout and "ERROR layer:" in result.stdout
+    assert "does not parse: parse error" in result.stdout and "1 error(s) in" in result.stderr
 
 
 @pytest.fixture(scope="module")
