@@ -9,7 +9,7 @@ OUT    ?= build/pigeon
 
 export PYOPENGL_PLATFORM ?= egl
 
-.PHONY: asset test bench venv clean
+.PHONY: asset test bench venv clean smoke-installed
 
 venv: $(STAMP)
 
@@ -25,6 +25,11 @@ asset: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
+
+# CI: build the sdist and the wheel, pip install the wheel into a fresh venv, build/validate/verify a small asset
+# from outside the checkout (.ci/smoke-installed).
+smoke-installed: $(STAMP)
+	.ci/smoke-installed $(PYTHON)
 
 bench: $(STAMP)
 	$(BIN)/rockdove bench

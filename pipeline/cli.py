@@ -29,6 +29,7 @@ COMMANDS: dict[str, str] = {
     "validate": "validate a USD asset (UsdValidation + MaterialX node definitions + textures)",
     "bench": "benchmarks: LUT bake speed against error, geometry and build scaling",
     "config": "print the effective build configuration with units",
+    "schema-path": "print the folder holding the USD schema plugin, for PXR_PLUGINPATH_NAME",
 }
 
 
@@ -39,8 +40,13 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"rockdove: error: {message}\n")
 
 
+def _module_name(name: str) -> str:
+    """The module of command ``name``: ``schema-path`` lives in ``pipeline/commands/schema_path.py``."""
+    return name.replace("-", "_")
+
+
 def _module(name: str):
-    return importlib.import_module(f"pipeline.commands.{name}")
+    return importlib.import_module(f"pipeline.commands.{_module_name(name)}")
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:

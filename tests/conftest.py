@@ -1,10 +1,14 @@
-"""Shared test set-up. Offscreen GL (EGL) is chosen before anything imports OpenGL."""
+"""Shared test set-up. Offscreen GL (EGL) is chosen before anything imports OpenGL.
+
+The tests import ``pipeline`` as installed in the venv (``make test`` installs it editable); nothing here puts
+the checkout on ``sys.path``, and command-line tests run the installed ``rockdove`` from a folder outside the
+checkout (:data:`OUTSIDE`), so a file missing from the package fails them.
+"""
 
 import os
-import sys
+import tempfile
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if ROOT not in sys.path:
-    sys.path.insert(0, ROOT)
+#: A working directory outside the checkout for subprocesses (``python -m`` puts its cwd on sys.path).
+OUTSIDE = tempfile.gettempdir()

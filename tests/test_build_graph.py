@@ -101,6 +101,19 @@ def test_code_change_invalidates_a_stage(tmp_path, monkeypatch):
         G.source_digest(G.Stage("s", lambda ctx: 1, modules=("pipeline.pkg.nothing",)))
 
 
+def test_a_stage_whose_data_is_missing_or_empty_cannot_be_keyed(tmp_path, monkeypatch):
+    """A stage key never silently hashes nothing: a data folder that is absent or empty is an error naming it."""
+    from pipeline import resources
+    from pipeline.errors import ResourceMissing
+
+    (tmp_path / "materials" / "empty").mkdir(parents=True)
+    monkeypatch.setattr(resources, "folder", lambda name: tmp_path / name)
+    with pytest.raises(ResourceMissing, match="materials/glsl"):
+        G.source_digest(G.Stage("s", lambda ctx: 1, data=("materials/glsl",)))
+    with pytest.raises(ValueError, match="'materials/empty'.*holds no files"):
+        G.source_digest(G.Stage("s", lambda ctx: 1, data=("materials/empty",)))
+
+
 def test_key_reads_exactly_the_declared_config(tmp_path):
     stage = G.Stage("s", standin_body, config=("lut.angles",))
     a, b, c = _cfg(), _cfg("lut.method=spectral", "geometry.seed=3"), _cfg("lut.angles=12")

@@ -56,6 +56,7 @@ BAD = [
     ("negative-index", ["--set", "film.n_substrate=-1"], ["film.n_substrate", "-1"]),
     ("bad-precision", ["--set", "lut.precision=double"], ["lut.precision", "double", "half"]),
     ("bad-colour-space", ["--set", "lut.colour_space=srgb"], ["lut.colour_space", "srgb", "lin_rec709"]),
+    ("acescg-asset", ["--set", "lut.colour_space=acescg"], ["lut.colour_space", "acescg", "lin_rec709"]),
     ("bad-shading", ["--set", "shading.variant=none"], ["shading.variant", "none", "physical"]),
     ("zero-width", ["--set", "verify.width=0"], ["verify.width", "0", ">= 16"]),
     ("negative-seed", ["--set", "geometry.seed=-1"], ["geometry.seed", "-1", ">= 0"]),

@@ -478,3 +478,33 @@ def test_coarser_bodies_are_closed_too(voxel_m):
     assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
     welded = trimesh.Trimesh(b.part.points_m, b.part.face_vertex_indices.reshape(-1, 3), process=True)
     assert welded.is_watertight and len(welded.vertices) == len(b.mesh.vertices_m)
+
+
+# ---- unreferenced points ------------------------------------------------------------------------------
+def test_drop_unreferenced_points_keeps_every_face_and_its_vertex_data():
+    from pipeline.geometry import Primvar
+    from pipeline.geometry.types import drop_unreferenced_points
+
+    pts = np.arange(15, dtype=np.float32).reshape(5, 3)  # points 1 and 3 are used by no face
+    part = MeshPart("Beak", pts, np.array([3], np.int32), np.array([4, 0, 2], np.int32), pts / 20, pts[:, :2] / 20,
+                    "beak", (0.1, 0.1, 0.1), {"s": Primvar(np.arange(5, dtype=np.float32)),
+                                              "f": Primvar(np.array([7.0], np.float32), "uniform")})
+    out = drop_unreferenced_points(part)
+    assert out.n_points == 3 and sorted(set(out.face_vertex_indices)) == [0, 1, 2]
+    assert np.array_equal(out.points_m[out.face_vertex_indices], pts[[4, 0, 2]])  # same triangle, same corners
+    assert np.array_equal(out.normals[out.face_vertex_indices], part.normals[[4, 0, 2]])
+    assert np.array_equal(out.st[out.face_vertex_indices], part.st[[4, 0, 2]])
+    assert np.array_equal(out.primvars["s"].values, [0.0, 2.0, 4.0])
+    assert out.primvars["f"] is part.primvars["f"]  # uniform: follows faces, not points
+    assert out.face_vertex_indices.dtype == np.int32
+    assert drop_unreferenced_points(out) is out  # nothing to drop: the same part
+
+
+def test_every_bird_part_written_references_all_its_points(bird):
+    """NVIDIA's UnusedMeshTopologyChecker flagged Beak, Cere, Eyes and Legs; what the asset writes has none."""
+    from pipeline.geometry.types import drop_unreferenced_points
+
+    for p in bird.parts:
+        out = drop_unreferenced_points(p)
+        assert np.unique(out.face_vertex_indices).size == out.n_points, p.name
+        assert np.array_equal(out.points_m[out.face_vertex_indices], p.points_m[p.face_vertex_indices]), p.name

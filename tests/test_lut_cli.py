@@ -10,13 +10,13 @@ import pytest
 
 from pipeline.lut import read_exr
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from conftest import OUTSIDE
 
 
 def _rockdove(*args, cwd=None):
     env = dict(os.environ)
     env.pop("ROCKDOVE_DEBUG", None)
-    return subprocess.run([sys.executable, "-m", "pipeline.cli", *args], cwd=cwd or ROOT, env=env,
+    return subprocess.run([sys.executable, "-m", "pipeline.cli", *args], cwd=cwd or OUTSIDE, env=env,
                           capture_output=True, text=True, timeout=120)
 
 

@@ -82,6 +82,24 @@ def test_meshes_carry_normals_st_display_colour_extent_and_binding(stage):
     assert len(feathers.GetFaceVertexCountsAttr().Get()) == CARDS  # all cards in one mesh
 
 
+def test_author_mesh_writes_only_points_that_a_face_uses(tmp_path):
+    import dataclasses
+
+    from pxr import Usd, UsdGeom
+
+    from pipeline.usd.stage import author_mesh
+
+    part = synthetic_bird(CARDS, seed=3).part("Beak")
+    extra = dataclasses.replace(part, points_m=np.vstack([part.points_m, [[9.0, 9.0, 9.0]]]).astype(np.float32),
+                                normals=np.vstack([part.normals, [[0.0, 1.0, 0.0]]]).astype(np.float32),
+                                st=np.vstack([part.st, [[0.5, 0.5]]]).astype(np.float32))
+    stage = Usd.Stage.CreateInMemory()
+    mesh = author_mesh(stage, "/Beak", extra)
+    pts = np.asarray(mesh.GetPointsAttr().Get())
+    assert len(pts) == part.n_points and not np.any(np.all(pts == 9.0, axis=1))
+    assert np.unique(np.asarray(mesh.GetFaceVertexIndicesAttr().Get())).size == len(pts)
+
+
 def test_thickness_primvar_is_documented_float_vertex_nm(stage):
     from pxr import UsdGeom
 

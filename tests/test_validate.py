@@ -15,7 +15,7 @@ from pipeline.usd.synthetic import synthetic_bird, synthetic_lut, synthetic_text
 from pipeline.usd.stage import GEOMETRY_LAYER, LOOKS_LAYER
 from pipeline.usd.validate import validate_asset
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from conftest import OUTSIDE
 FEATHERS = "/Pigeon/Geom/NeckFeathers"
 
 
@@ -61,6 +61,31 @@ def test_good_asset_is_clean_in_every_variant_and_as_usdz(good):
     assert report.counts["thin films"] == 1 and report.counts["materials"] == 3
     usdz = validate_asset(os.path.join(good, "pigeon.usdz"))
     assert usdz.clean, usdz.format()
+
+
+def test_nvidia_validator_runs_and_its_nd_sdr_findings_are_left_to_materialx(good):
+    report = validate_asset(good)
+    assert not [i for i in report.errors if i.check.startswith("nvidia:")], report.format()
+    # usd-core has no MaterialX Sdr plugin: NVIDIA's validator fails every ND_* id; check 2 covers them instead
+    assert report.counts["nvidia ND_* ids left to mtlx"] >= report.counts["mtlx shaders"]
+    assert not any("sdrRegistry" in i.message for i in report.issues)
+
+
+def test_nvidia_validator_findings_are_reported_as_errors(broken):
+    from pxr import Vt
+
+    out, edit = broken
+
+    def fn(layer):  # a point no face uses
+        attr = layer.GetAttributeAtPath("/Pigeon/Geom/Beak.points")
+        attr.default = Vt.Vec3fArray(list(attr.default) + [(1.0, 1.0, 1.0)])
+        for name in ("normals", "primvars:st"):
+            a = layer.GetAttributeAtPath(f"/Pigeon/Geom/Beak.{name}")
+            a.default = type(a.default)(list(a.default) + [a.default[0]])
+
+    edit(fn)
+    (issue,) = _errors(validate_asset(out), "nvidia:UnusedMeshTopologyChecker")
+    assert issue.path == "/Pigeon/Geom/Beak" and "not referenced by the faces" in issue.message
 
 
 def test_missing_texture_is_reported_with_its_attribute(broken):
@@ -175,9 +200,8 @@ def test_unresolved_mtlx_surface_is_reported_in_its_variant_only(broken):
 
 
 def _cli(*args):
-    env = dict(os.environ, PYTHONPATH=ROOT)
     return subprocess.run([sys.executable, "-m", "pipeline.cli", "validate", *args], capture_output=True,
-                          text=True, cwd=ROOT, env=env, timeout=120)
+                          text=True, cwd=OUTSIDE, timeout=120)
 
 
 def test_cli_exit_statuses_and_json(good, broken, tmp_path):
@@ -207,8 +231,8 @@ def test_cli_reports_a_broken_usdz_beside_good_layers(good, tmp_path):
     result = _cli(str(out))
     assert result.returncode == 1, result.stdout + result.stderr
     assert "pigeon.usda: clean" in result.stdout
-    assert "pigeon.usdz: NOT CLEAN" in result.stdout and "ERROR open:" in result.stdout
-    assert "parse error" in result.stdout and "1 error(s) in" in result.stderr
+    assert "pigeon.usdz: NOT CLEAN" in result.stdout and "ERROR layer:" in result.stdout
+    assert "does not parse: parse error" in result.stdout and "1 error(s) in" in result.stderr
 
 
 @pytest.fixture(scope="module")
@@ -246,3 +270,77 @@ def test_lutless_asset_is_clean_but_still_checked(lutless, tmp_path):
     assert ("/Pigeon/Looks/FeatherMaterial", "holds the baked LUT network") in tf, report.format()
     assert any("expected finite values > 0 nm" in i.message for i in _errors(report, "thinFilm"))
     assert any(i.path.endswith("primvars:thickness") for i in _errors(report, "primvar")) and len(counts)
+
+
+# -- assets from elsewhere: outside paths and layers that do not parse ----------------------------------------
+BASE_FILE = "/Pigeon/Looks/FeatherMaterial/BaseColorTexture.inputs:file"
+
+
+def _point_texture_at(edit, path):
+    edit(lambda layer: setattr(layer.GetAttributeAtPath(BASE_FILE), "default", path))
+
+
+@pytest.mark.parametrize("where", ["absolute", "leaves the folder"])
+def test_a_texture_outside_the_asset_is_reported_and_not_read(broken, tmp_path, monkeypatch, where):
+    from pipeline.usd import validate as V
+
+    out, edit = broken
+    outside = tmp_path / "elsewhere" / "feather_base.png"  # a good PNG: only the path is wrong
+    outside.parent.mkdir()
+    shutil.copy(os.path.join(out, "textures", "feather_base.png"), outside)
+    authored = str(outside) if where == "absolute" else os.path.relpath(outside, out)
+    _point_texture_at(edit, authored)
+    read = []
+    real_read = V.read_texture_asset
+    monkeypatch.setattr(V, "read_texture_asset", lambda p: read.append(p) or real_read(p))
+    report = validate_asset(out)
+    (issue,) = _errors(report, "assetPath")
+    assert issue.path == BASE_FILE and repr(authored) in issue.message and "not read" in issue.message
+    assert ("is absolute" if where == "absolute" else "leaves the asset's folder") in issue.message
+    assert not [p for p in read if "elsewhere" in p], read  # never opened
+    allowed = validate_asset(out, allow_external=True)
+    assert allowed.clean, allowed.format()  # the flag reads it (a good PNG) and keeps the report as a warning
+    assert [i.check for i in allowed.issues if i.check == "assetPath"] == ["assetPath"]
+    assert any("elsewhere" in p for p in read)
+
+
+def test_a_payload_from_elsewhere_is_not_composed(good, tmp_path):
+    from pxr import Sdf
+
+    out = tmp_path / "pigeon"
+    shutil.copytree(good, out, ignore=shutil.ignore_patterns("*.usdz"))
+    layer = Sdf.Layer.FindOrOpen(str(out / "pigeon.usda"))
+    prim = layer.GetPrimAtPath("/Pigeon")
+    prim.payloadList.ClearEdits()
+    prim.payloadList.prependedItems = [Sdf.Payload(str(out / "pigeon_payload.usda"))]
+    layer.Save()
+    report = validate_asset(str(out))
+    assert [(i.check, i.path) for i in report.errors] == [("assetPath", str(out / "pigeon.usda"))], report.format()
+    assert "layer path" in report.errors[0].message and report.counts == {}  # nothing composed or checked
+
+
+def test_a_layer_that_does_not_parse_is_reported_with_its_line(broken):
+    out, _ = broken
+    payload = os.path.join(out, "pigeon_payload.usda")
+    text = open(payload).read()
+    with open(payload, "w") as fh:
+        fh.write(text[: len(text) // 2])  # truncated mid-file
+    line = text[: len(text) // 2].count("\n") + 1
+    (issue,) = validate_asset(out).errors
+    assert issue.check == "layer" and issue.path == payload
+    assert f"line {line}," in issue.message and "does not parse" in issue.message and "parse error" in issue.message
+    res = _cli(out)
+    assert res.returncode == 1 and f"line {line}," in res.stdout and "Traceback" not in res.stderr
+    verify = subprocess.run([sys.executable, "-m", "pipeline.cli", "verify", out, "--width", "32", "--height", "32"],
+                            capture_output=True, text=True, cwd=OUTSIDE, timeout=120)
+    assert verify.returncode == 1, verify.stderr
+    assert f"{payload}: line {line}," in verify.stderr and "Traceback" not in verify.stderr
+
+
+def test_verify_refuses_an_asset_that_names_files_elsewhere(broken):
+    out, edit = broken
+    _point_texture_at(edit, "/etc/passwd")
+    verify = subprocess.run([sys.executable, "-m", "pipeline.cli", "verify", out, "--width", "32", "--height", "32"],
+                            capture_output=True, text=True, cwd=OUTSIDE, timeout=120)
+    assert verify.returncode == 1 and "'/etc/passwd' is absolute" in verify.stderr, verify.stderr
+    assert not os.path.exists(os.path.join(out, "verify"))  # stopped before rendering anything

@@ -16,7 +16,8 @@ from pipeline.render.reference import render_reference
 from pipeline.render.scene import RenderScene, ScenePart, ThinFilmParams
 from pipeline.render.views import light_sweep_views
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from conftest import OUTSIDE
+
 PAPER_FILM = dict(model="paper", cauchy_a=1.5, cauchy_b_nm2=0.0, incident_index=1.0, substrate_index=1.0,
                   thickness_primvar="thickness", thickness_units="nm", lut_file="unused.exr",
                   lut_colour_space="lin_rec709", angle_warp_gamma=1.0, thickness_range_nm=(480.0, 700.0))
@@ -25,7 +26,7 @@ PAPER_FILM = dict(model="paper", cauchy_a=1.5, cauchy_b_nm2=0.0, incident_index=
 def _rockdove(*args, timeout=300):
     env = dict(os.environ, PYOPENGL_PLATFORM="egl")
     exe = os.path.join(os.path.dirname(sys.executable), "rockdove")
-    return subprocess.run([exe, *args], capture_output=True, text=True, cwd=ROOT, env=env, timeout=timeout)
+    return subprocess.run([exe, *args], capture_output=True, text=True, cwd=OUTSIDE, env=env, timeout=timeout)
 
 
 @pytest.fixture(scope="module")
@@ -73,6 +74,56 @@ def test_verify_fails_with_exit_1_when_the_lut_is_not_the_film(assets):
     assert "dE2000" in p.stderr and "failed" in p.stderr
     report = json.loads((out / "report.json").read_text())
     assert not report["passed"] and any("median dE2000" in f for f in report["failures"])
+
+
+ABSORBING_K = 0.05  # film index 1.5 + 0.05 i: the wave through a 650 nm film loses about 80 % at 550 nm
+
+
+@pytest.fixture(scope="module")
+def absorbing(tmp_path_factory):
+    """A small paper-preset asset whose film absorbs (k = 0.05): LUT, schema and verification all carry k."""
+    from pipeline.assemble import assemble
+    from pipeline.films import FilmModel
+
+    film = FilmModel("paper", cauchy_a=1.5, k=ABSORBING_K)
+    base = tmp_path_factory.mktemp("absorbing")
+    return assemble(base / "pigeon", preset="paper", card_count=200, usdz=False, film=film)["interface"]
+
+
+@pytest.mark.gl
+def test_an_absorbing_film_builds_records_k_and_verifies(absorbing, tmp_path):
+    from pipeline.films import FilmModel
+    from pipeline.render.scene import load_scene
+    from pipeline.lut.reference import reference_colour
+
+    assert load_scene(absorbing).film.k == pytest.approx(ABSORBING_K)
+    # k changes the colour: otherwise this test could not tell a film that carries k from one that drops it
+    clear = reference_colour(0.7, 650.0, FilmModel("paper", cauchy_a=1.5), colour_space="lin_rec709")
+    absorbed = reference_colour(0.7, 650.0, FilmModel("paper", cauchy_a=1.5, k=ABSORBING_K),
+                                colour_space="lin_rec709")
+    assert np.abs(np.asarray(clear) - np.asarray(absorbed)).max() > 0.02
+    p = _rockdove("verify", os.path.dirname(absorbing), "--out", str(tmp_path / "r"), "--width", "96", "--height",
+                  "96", "--json")
+    assert p.returncode == 0, (p.stdout, p.stderr)
+    report = json.loads((tmp_path / "r" / "report.json").read_text())
+    assert report["passed"] and report["film"]["k"] == pytest.approx(ABSORBING_K)
+
+
+def test_a_schema_that_drops_k_disagrees_with_the_lut_it_records(absorbing, tmp_path):
+    import shutil
+
+    from pxr import Sdf
+
+    from pipeline.usd.validate import validate_asset
+
+    out = tmp_path / "pigeon"
+    shutil.copytree(os.path.dirname(absorbing), out)
+    layer = Sdf.Layer.FindOrOpen(str(out / "pigeon_payload.usda"))
+    layer.GetAttributeAtPath("/Pigeon/Geom/NeckFeathers.rockdove:film:k").default = 0.0
+    layer.Save()
+    issues = [i for i in validate_asset(str(out)).errors if i.check == "thinFilm"]
+    assert [i.path for i in issues] == ["/Pigeon/Geom/NeckFeathers.rockdove:film:k"], issues
+    assert "differs from the LUT file's film:k = '0.05'" in issues[0].message
 
 
 def test_verify_bad_usage_exits_2(tmp_path):

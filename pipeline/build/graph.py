@@ -236,7 +236,11 @@ def source_digest(stage: Stage) -> str:
         _hash_file(h, p, p.name)
     for d in stage.data:
         top = resources.path(d)
-        for p in _files_of(top):
+        data_files = _files_of(top)
+        if not data_files:  # an empty data folder would key the stage on nothing
+            raise ValueError(f"stage {stage.name!r} reads data {d!r}, but {top} holds no files; "
+                             "the stage cannot be keyed (reinstall rockdove)")
+        for p in data_files:
             _hash_file(h, p, f"{d}/{p.relative_to(top)}" if top.is_dir() else d)
     return h.hexdigest()
 

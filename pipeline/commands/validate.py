@@ -19,6 +19,14 @@ import sys
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("path", help="asset folder (pigeon.usda and pigeon.usdz), a root layer, or a .usdz")
     parser.add_argument("--json", action="store_true", help="print the report(s) as JSON on stdout")
+    add_external_argument(parser)
+
+
+def add_external_argument(parser: argparse.ArgumentParser) -> None:
+    """``--allow-external-assets`` (shared with ``rockdove verify``)."""
+    parser.add_argument("--allow-external-assets", action="store_true",
+                        help="read files the asset names by absolute paths or outside its folder (by default "
+                             "they are reported as errors and never read)")
 
 
 def targets(path: str) -> list[str]:
@@ -42,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
         paths = targets(args.path)
     except (FileNotFoundError, ValueError) as exc:
         raise UsageError(str(exc)) from None
-    reports = [validate_asset(p) for p in paths]
+    reports = [validate_asset(p, allow_external=args.allow_external_assets) for p in paths]
     if args.json:
         json.dump({"clean": all(r.clean for r in reports), "reports": [r.to_dict() for r in reports]},
                   sys.stdout, indent=2, sort_keys=True)

@@ -56,6 +56,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "reference of its lighting model: glsl, materialx, materialx_physical, blender, web "
                              "(default: every host available on this machine; glsl always runs)")
     parser.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    from .validate import add_external_argument
+
+    add_external_argument(parser)
+
+
+def check_dependencies(asset: str, allow_external: bool) -> None:
+    """Before anything reads the asset: its layers parse and it names no file outside itself (unless allowed).
+
+    Raises
+    ------
+    VerificationFailed
+        Naming each broken layer (file, line, USD's message) or outside path.
+    """
+    from ..errors import UsageError, VerificationFailed
+    from ..usd.dependencies import scan_dependencies
+    from ..usd.validate import resolve_root_layer
+
+    try:
+        root = resolve_root_layer(asset)
+    except (FileNotFoundError, ValueError) as exc:
+        raise UsageError(str(exc)) from None
+    deps = scan_dependencies(root, allow_external)
+    if deps.errors:
+        raise VerificationFailed("; ".join(f"{i.path}: {i.message}" for i in deps.errors))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -66,6 +90,7 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet and not args.json:
             print(f"rockdove verify: {msg}", file=sys.stderr)
 
+    check_dependencies(args.asset, args.allow_external_assets)
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
     report = verify_asset(args.asset, out_dir=args.out, width=args.width, height=args.height, progress=progress,
                           views=args.names, n_views=args.views, hosts=hosts)

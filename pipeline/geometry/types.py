@@ -93,6 +93,32 @@ class MeshPart:
         return int(self.face_vertex_counts.shape[0])
 
 
+def drop_unreferenced_points(part: MeshPart) -> MeshPart:
+    """``part`` without the points no face references (and their normals, st and vertex primvars).
+
+    USD asset validators (NVIDIA's ``UnusedMeshTopologyChecker``) reject meshes whose points are not all used
+    by ``faceVertexIndices``. Kept points keep their order; indices are renumbered. Uniform, faceVarying and
+    constant primvars are unchanged (they do not follow points).
+
+    Returns
+    -------
+    MeshPart
+        ``part`` itself when every point is referenced, else a copy.
+    """
+    import dataclasses
+
+    used = np.zeros(part.n_points, dtype=bool)
+    used[np.asarray(part.face_vertex_indices, dtype=np.int64)] = True
+    if used.all():
+        return part
+    new_index = np.cumsum(used, dtype=np.int64) - 1
+    primvars = {name: dataclasses.replace(pv, values=np.asarray(pv.values)[used])
+                if pv.interpolation == "vertex" else pv for name, pv in part.primvars.items()}
+    return dataclasses.replace(
+        part, points_m=part.points_m[used], normals=part.normals[used], st=part.st[used], primvars=primvars,
+        face_vertex_indices=new_index[part.face_vertex_indices].astype(part.face_vertex_indices.dtype))
+
+
 @dataclass(frozen=True)
 class Bird:
     """The whole bird: ``Body`` is one closed surface; all feather cards are in one ``NeckFeathers`` part.

@@ -59,6 +59,8 @@ class ThinFilmParams:
         ``n(lambda) = cauchy_a + cauchy_b_nm2 / lambda_nm**2`` (dimensionless).
     cauchy_b_nm2 : float
         Cauchy B coefficient, nm^2.
+    k : float
+        ``rockdove:film:k``: constant extinction coefficient, the film index is ``n(lambda) + i k`` (k >= 0).
     incident_index, substrate_index : float
         Refractive indices of the incident medium (air) and the substrate below the film.
     thickness_primvar : str
@@ -90,11 +92,14 @@ class ThinFilmParams:
     thickness_range_nm: tuple
     illuminant: str = "D65"
     observer: str = "CIE 1931 2 Degree Standard Observer"
+    k: float = 0.0
 
     def film_index(self, wavelength_nm):
-        """Film refractive index ``A + B / lambda^2`` (Cauchy), for ``wavelength_nm`` (nm), same shape."""
+        """Film index ``A + B / lambda^2 (+ i k)`` (Cauchy), for ``wavelength_nm`` (nm), same shape; complex
+        when ``k != 0``."""
         lam = np.asarray(wavelength_nm, dtype=np.float64)
-        return self.cauchy_a + self.cauchy_b_nm2 / lam**2
+        n = self.cauchy_a + self.cauchy_b_nm2 / lam**2
+        return n + 1j * self.k if self.k else n
 
     def to_dict(self) -> dict:
         d = dict(self.__dict__)
@@ -492,6 +497,7 @@ def _film_params(prim) -> ThinFilmParams | None:
         model=str(attr_model.Get()),
         cauchy_a=float(get(FILM_PREFIX + "cauchyA")[1]),
         cauchy_b_nm2=float(get(FILM_PREFIX + "cauchyB_nm2")[1]),
+        k=float(get(FILM_PREFIX + "k", required=False)[1] or 0.0),  # the schema's fallback: not absorbing
         incident_index=float(get(FILM_PREFIX + "incidentIndex")[1]),
         substrate_index=float(get(FILM_PREFIX + "substrateIndex")[1]),
         thickness_primvar=str(get(FILM_PREFIX + "thicknessPrimvar")[1]),

@@ -206,7 +206,8 @@ def verification_lut(film_record: dict, thickness_range_nm):
     from ..lut.table import ThinFilmLUT
 
     film = FilmModel(name=str(film_record["model"]), cauchy_a=film_record["cauchy_a"],
-                     cauchy_b_nm2=film_record["cauchy_b_nm2"], n_incident=film_record["incident_index"],
+                     cauchy_b_nm2=film_record["cauchy_b_nm2"], k=film_record.get("k") or 0.0,
+                     n_incident=film_record["incident_index"],
                      n_substrate=film_record["substrate_index"])
     lo, hi = (float(v) for v in thickness_range_nm)
     lut = bake(angles=VERIFY_LUT_ANGLES, thicknesses=1 if lo == hi else VERIFY_LUT_THICKNESSES,

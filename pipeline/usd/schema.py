@@ -28,6 +28,7 @@ _ATTRS = {
     "film:model": "model",
     "film:cauchyA": "cauchy_a",
     "film:cauchyB_nm2": "cauchy_b_nm2",
+    "film:k": "k",
     "film:incidentIndex": "incident_index",
     "film:substrateIndex": "substrate_index",
     "film:thicknessPrimvar": "thickness_primvar",
@@ -46,6 +47,7 @@ ATTRIBUTE_TYPES = {
     "film:model": "token",
     "film:cauchyA": "float",
     "film:cauchyB_nm2": "float",
+    "film:k": "float",
     "film:incidentIndex": "float",
     "film:substrateIndex": "float",
     "film:thicknessPrimvar": "token",
@@ -83,7 +85,7 @@ def has_thin_film(prim) -> bool:
 def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, incident_index: float,
                     substrate_index: float, lut_file: str | None, lut_colour_space: str | None = None,
                     angle_warp_gamma: float | None = None, thickness_range_nm: tuple[float, float] | None = None,
-                    illuminant: str = "D65",
+                    illuminant: str = "D65", k: float = 0.0,
                     observer: str = "CIE 1931 2 Degree Standard Observer",
                     thickness_primvar: str = "thickness") -> None:
     """Apply ``RockDoveThinFilmAPI`` to a Mesh prim and author every attribute (nothing left to fallbacks).
@@ -98,6 +100,8 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
         Film index ``n(lambda) = cauchy_a + cauchy_b_nm2 / lambda_nm**2``.
     incident_index, substrate_index : float
         Indices of the media above and below the film.
+    k : float
+        Constant extinction coefficient of the film (index ``n + i k``, ``k >= 0`` absorbs).
     lut_file : str or None
         Asset path of the LUT EXR, relative to the layer (``./textures/thinfilm_lut.exr``). None for an asset
         without a LUT (physical-only shading): then only the ``film:*`` attributes are authored, no ``lut:*``.
@@ -123,6 +127,7 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
         "film:model": model,
         "film:cauchyA": float(cauchy_a),
         "film:cauchyB_nm2": float(cauchy_b_nm2),
+        "film:k": float(k),
         "film:incidentIndex": float(incident_index),
         "film:substrateIndex": float(substrate_index),
         "film:thicknessPrimvar": thickness_primvar,
@@ -149,7 +154,7 @@ def read_thin_film(prim) -> dict:
     Returns
     -------
     dict
-        ``model`` (str), ``cauchy_a``, ``cauchy_b_nm2``, ``incident_index``, ``substrate_index`` (float),
+        ``model`` (str), ``cauchy_a``, ``cauchy_b_nm2``, ``k``, ``incident_index``, ``substrate_index`` (float),
         ``thickness_primvar``, ``thickness_units`` (str), ``lut_file`` (str, the authored asset path),
         ``lut_file_resolved`` (str, absolute path or "" when it does not resolve), ``lut_colour_space``,
         ``angle_warp_gamma`` (float), ``thickness_range_nm`` ((lo, hi) float nm), ``illuminant``, ``observer``.
@@ -174,6 +179,8 @@ def read_thin_film(prim) -> dict:
             out["lut_file_resolved"] = (value.resolvedPath or "") if value is not None else ""
         elif key == "thickness_range_nm":
             out[key] = (float(value[0]), float(value[1])) if value is not None else None
+        elif key == "k" and value is None:  # not authored (older assets) and no registry fallback: not absorbing
+            out[key] = 0.0
         elif isinstance(value, float):
             out[key] = float(value)
         else:

@@ -33,6 +33,7 @@ import os
 
 import numpy as np
 
+from ..geometry.types import drop_unreferenced_points
 from .material import (
     author_body_material,
     author_constant_material,
@@ -133,6 +134,7 @@ def author_mesh(stage, path, part):
     from pxr import Sdf, UsdGeom, Vt
 
     _check_part(part)
+    part = drop_unreferenced_points(part)  # every point a face uses: validators reject unused topology
     mesh = UsdGeom.Mesh.Define(stage, path)
     points = np.ascontiguousarray(part.points_m, dtype=np.float32)
     mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
@@ -264,7 +266,7 @@ def author_looks(stage, bird, film, lut: dict | None, textures: dict | None = No
         angle_warp_gamma=lut["angle_warp_gamma"], thickness_range_nm=lut["thickness_range_nm"],
         illuminant=lut["illuminant"], observer=lut["observer"])
     apply_thin_film(
-        mesh, model=film.name, cauchy_a=film.cauchy_a, cauchy_b_nm2=film.cauchy_b_nm2,
+        mesh, model=film.name, cauchy_a=film.cauchy_a, cauchy_b_nm2=film.cauchy_b_nm2, k=film.k,
         incident_index=float(np.real(film.n_incident)), substrate_index=float(np.real(film.n_substrate)),
         **({"lut_file": None} | lut_kw))
     return root.GetPrim()

@@ -23,6 +23,11 @@ variant sets on the default prim (here ``shading`` = baked / physical), runs:
 6. Materials: ``ComputeSurfaceSource()`` (universal) resolves for every material, and
    ``ComputeSurfaceSource("mtlx")`` for every material with an ``outputs:mtlx:surface``; that network, turned
    back into a MaterialX document as Hydra's HdMtlx does, passes MaterialX's ``validate()``.
+7. NVIDIA's asset validator (:mod:`pipeline.usd.nvidia`), once over all variants; its ``ND_*``
+   not-in-sdrRegistry findings are left to check 2.
+
+Before all of these, :mod:`pipeline.usd.dependencies` scans the layers without composing them (layers that do
+not parse, asset paths outside the asset).
 
 Each problem is an :class:`Issue` naming the check, the prim/attribute path, the value and what was
 expected. Issues found in several variants are reported once, with the variants listed.
@@ -244,8 +249,11 @@ def read_texture_asset(resolved: str):
     return img
 
 
-def check_textures(stage, decoded: dict | None = None) -> tuple[list, int, dict]:
+def check_textures(stage, decoded: dict | None = None, skip=frozenset()) -> tuple[list, int, dict]:
     """Every asset-valued attribute resolves to a file that reads.
+
+    ``skip`` holds authored paths that must not be read (outside the asset: reported by
+    :func:`pipeline.usd.dependencies.scan_dependencies`).
 
     ``decoded`` ({resolved path: decoded object}, filled in place) skips files already read, e.g. by the same
     check in another variant of the stage; a file that failed to read is not in it and is tried again.
@@ -266,6 +274,8 @@ def check_textures(stage, decoded: dict | None = None) -> tuple[list, int, dict]
             if value is None or not value.path:
                 continue
             n += 1
+            if value.path in skip:
+                continue
             if not value.resolvedPath:
                 issues.append(Issue("texture", str(attr.GetPath()), f"asset {value.path!r} does not resolve "
                                     "(missing file); expected an existing texture next to the layer"))
@@ -392,7 +402,7 @@ def _check_lutless_film(prim, film: dict) -> list:
     from pxr import UsdGeom, UsdShade
 
     issues = []
-    for key, attr in (("cauchy_a", "film:cauchyA"), ("cauchy_b_nm2", "film:cauchyB_nm2"),
+    for key, attr in (("cauchy_a", "film:cauchyA"), ("cauchy_b_nm2", "film:cauchyB_nm2"), ("k", "film:k"),
                       ("incident_index", "film:incidentIndex"), ("substrate_index", "film:substrateIndex")):
         v = film.get(key)
         if not isinstance(v, float) or not np.isfinite(v):
@@ -426,6 +436,7 @@ _PROVENANCE = {
     "model": ("rockdove:film:model", "film:name"),
     "cauchy_a": ("rockdove:film:cauchyA", "film:cauchyA"),
     "cauchy_b_nm2": ("rockdove:film:cauchyB_nm2", "film:cauchyB_nm2"),
+    "k": ("rockdove:film:k", "film:k"),
     "incident_index": ("rockdove:film:incidentIndex", "film:incidentIndex"),
     "substrate_index": ("rockdove:film:substrateIndex", "film:substrateIndex"),
     "illuminant": ("rockdove:lut:illuminant", "illuminant"),
@@ -534,8 +545,14 @@ def _variant_combinations(stage) -> list[dict]:
     return [dict(zip(names, combo)) for combo in itertools.product(*choices)] or [{}]
 
 
-def validate_asset(path) -> Report:
+def validate_asset(path, allow_external: bool = False) -> Report:
     """Validate the asset at ``path`` (folder, root layer or usdz) over every variant combination.
+
+    First the layer graph is scanned without composing it (:func:`pipeline.usd.dependencies.scan_dependencies`):
+    a layer that does not parse, or a layer outside the asset (absolute path or one that leaves its folder),
+    ends the validation there, before USD composes (reads) anything. Asset-valued attributes outside the asset
+    are reported and not read, and NVIDIA's validator (which would read them) is not run; ``allow_external``
+    turns those reports into warnings and reads the files.
 
     Returns
     -------
@@ -546,9 +563,16 @@ def validate_asset(path) -> Report:
     from .material import load_mtlx_libraries
     from .schema import register
 
+    from .dependencies import scan_dependencies
+
     root = resolve_root_layer(path)
     register()
     report = Report(path=root)
+    deps = scan_dependencies(root, allow_external)
+    report.issues += deps.issues
+    if any(i.check == "layer" or i.message.startswith("layer path") for i in deps.errors):
+        return report  # composing would read a broken layer or a layer from elsewhere
+    skip = frozenset() if allow_external else frozenset(deps.external)
     try:
         stage = Usd.Stage.Open(root, Usd.Stage.LoadAll)
     except Exception as exc:  # pxr raises Tf.ErrorException for unparsable layers and damaged packages
@@ -574,13 +598,22 @@ def validate_asset(path) -> Report:
                 stage.GetDefaultPrim().GetVariantSet(name).SetVariantSelection(value)
         issues = run_usd_validation(stage, validators)
         mx_issues, counts["mtlx shaders"] = check_mtlx_shaders(stage, library)
-        tex_issues, counts["assets"], decoded = check_textures(stage, decoded_textures)
+        tex_issues, counts["assets"], decoded = check_textures(stage, decoded_textures, skip)
         pv_issues, counts["primvars"] = check_primvars(stage)
         tf_issues, counts["thin films"] = check_thin_film(stage, decoded)
         mat_issues, counts["materials"] = check_materials(stage, library)
         for issue in issues + mx_issues + tex_issues + pv_issues + tf_issues + mat_issues:
             found.setdefault((issue.check, issue.path, issue.message, issue.severity), []).append(label)
     counts["variant combinations"] = len(combos)
+    from .nvidia import run_nvidia_validator
+
+    if skip:
+        nv_issues = [Issue("nvidia", root, "NVIDIA's validator was not run: it would read the files outside the "
+                           "asset (allow them with --allow-external-assets)", "warning")]
+    else:
+        nv_issues, counts["nvidia ND_* ids left to mtlx"] = run_nvidia_validator(root)
+    for issue in nv_issues:  # the NVIDIA validator walks the variants itself
+        found.setdefault((issue.check, issue.path, issue.message, issue.severity), []).extend(report.variants or [""])
     report.counts = counts
     for (check, where, message, severity), labels in found.items():
         variants = () if len(labels) == len(combos) else tuple(l for l in labels if l)
