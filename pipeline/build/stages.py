@@ -20,6 +20,8 @@ stage                   configuration                                 inputs
 ``usd_layers``          ``film``, ``shading``                         bird, lut (pipeline.usd.stage.write_layers);
                                                                       physical-only: bird
 ``usdz``                -- (present when ``usd.usdz``)                usd_layers, textures (pipeline.usd.usdz)
+``gltf``                -- (present when ``gltf.glb``)                usd_layers, textures: reads the assembled
+                                                                      asset (pipeline.web.gltf.export_glb)
 ``verify``              ``verify.width``, ``verify.height``,          every published stage: the assembled asset.
                         ``verify.views``                              One item per view (pipeline.render.verify),
                                                                       keyed by its plan entry: the view's camera,
@@ -297,6 +299,13 @@ def run_usdz(ctx: Context):
     shutil.rmtree(scratch)
 
 
+def run_gltf(ctx: Context) -> None:
+    """``pigeon.glb``: the assembled (written) USD asset exported to glTF 2.0 (pipeline.web.gltf)."""
+    from ..web.gltf import GLB_NAME, export_glb
+
+    export_glb(str(ctx.asset_dir), ctx.workdir / GLB_NAME, version=__version__)
+
+
 def _missing(names: list[str]) -> list[str]:
     """The ``module:name`` items whose module file does not exist or does not mention ``name``.
 
@@ -421,6 +430,12 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
     if config["usd"]["usdz"]:
         stages.append(Stage("usdz", run_usdz, deps=("usd_layers", "textures"), modules=("pipeline.usd",),
                             libraries=LIBS_USD, codec=FILES, publish=""))
+    if config["gltf"]["glb"]:
+        # reads the written asset (so it runs once it is assembled); keyed by the files it translates
+        stages.append(Stage("gltf", run_gltf, deps=("usd_layers", "textures"),
+                            modules=("pipeline.web.gltf", "pipeline.render.scene", "pipeline.render.verify"),
+                            libraries=LIBS_USD + ("pygltflib", "pillow"), codec=FILES, needs_asset=True,
+                            publish=""))
     if verify:
         # Per-view items planned from the assembled asset: a view re-renders only when its own plan entry (its
         # parameters, the digest of the scene content it renders) or the verify code changes. The stage itself
