@@ -354,11 +354,20 @@ def run_verify(ctx: Context) -> dict:
 def combine_verify(ctx: Context, views: dict) -> dict:
     """Validate the assembled asset and join the per-view results (fresh or cached) into the report in the
     stage's folder (published as ``verify/``); the value is the verdict."""
+    from ..render.scene import resolve_asset_path
     from ..render.verify import report_from_views
+    from .publish import published_path
 
     size = _verify_size(ctx)
+    published = published_path(resolve_asset_path(ctx.asset_dir))
+    if "gltf" in ctx.inputs:  # the interactive view of the report (verify/viewer.html)
+        from ..web.gltf import GLB_NAME
+        from ..web.viewer import write_viewer
+
+        write_viewer(str(ctx.asset_dir), ctx.inputs["gltf"] / GLB_NAME, ctx.workdir, asset_name=str(published))
     report = report_from_views(str(ctx.asset_dir), views, out_dir=str(ctx.workdir), width=size["width"],
-                               height=size["height"], bench_dir=str(ctx.workdir / "no-bench"))
+                               height=size["height"], bench_dir=str(ctx.workdir / "no-bench"),
+                               published_asset=str(published))
     return {"passed": bool(report.get("passed")), "reason": "; ".join(map(str, report.get("failures", []))),
             "views": [v["view"] for v in report.get("views", []) if isinstance(v, dict)],
             "notes": list(report.get("notes", []))}
@@ -443,7 +452,8 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
         stages.append(Stage("verify", run_verify, config=("verify.width", "verify.height", "verify.views"),
                             deps=tuple(s.name for s in stages if s.publish is not None),
                             modules=("pipeline.render", "pipeline.usd", "pipeline.lut", "pipeline.films",
-                                     "pipeline.optics", "pipeline.spectral"),
+                                     "pipeline.optics", "pipeline.spectral", "pipeline.web",
+                                     "pipeline.build.publish"),
                             data=("materials", "schemas/plugInfo.json", "schemas/generatedSchema.usda"),
                             libraries=LIBS_RENDER, codec=JSON, needs_asset=True, publish="verify",
                             item_plan=plan_verify, batch=True, combine=combine_verify, item_codec=VIEW_RESULT))

@@ -231,13 +231,19 @@ def write_html(path, report: dict, images: dict) -> str:
         "<style>body{font-family:sans-serif;margin:1.5em;max-width:1200px}table{border-collapse:collapse}"
         "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#eee}"
         "img{max-width:100%;image-rendering:pixelated}.row{display:flex;gap:8px}.row figure{margin:0;flex:1}"
-        "figcaption{font-size:80%;color:#555}</style></head><body>",
+        "figcaption{font-size:100%;color:#222}h1{font-size:1.6em}"
+        ".viewer{width:100%;height:600px;border:1px solid #ccc}</style></head><body>",
         f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>" + notes_html,
         f"<p>Asset: <code>{e(str(report.get('asset', '')))}</code><br>",
         f"Configuration hash: <code>{e(str(report.get('configuration_hash') or 'not recorded'))}</code><br>",
         f"Goals: median dE2000 &le; {report.get('goals', {}).get('median_dE', '')}, "
         f"p95 &le; {report.get('goals', {}).get('p95_dE', '')} over feather pixels away from silhouette edges.</p>",
     ]
+    if images.get("viewer"):  # the interactive view first, the tables after it
+        parts.append(f"<h2>Interactive view</h2><p>Drag to orbit, wheel to zoom, slide to turn the light; switch "
+                     f"between the paper's baked LUT (our GLSL in WebGL2) and three.js's KHR_materials_iridescence "
+                     f"shading of pigeon.glb. <a href='{e(images['viewer'])}'>Open it full size</a>.</p>"
+                     f"<iframe class='viewer' src='{e(images['viewer'])}' title='interactive view'></iframe>")
     failures = report.get("failures") or []
     if failures:
         parts.append("<h2>Failures</h2><ul>" + "".join(f"<li>{e(str(f))}</li>" for f in failures) + "</ul>")
