@@ -107,7 +107,11 @@ class Browser:
                 continue
             chunk = os.read(self._from_child, 1 << 20)
             if not chunk:
-                raise BrowserError(f"chromium closed its DevTools pipe ({step}): {self._stderr_tail()}")
+                try:
+                    status = f"exited with status {self.process.wait(timeout=5)}"
+                except subprocess.TimeoutExpired:
+                    status = "closed its DevTools pipe"
+                raise BrowserError(f"{os.path.basename(self.executable)} {status} ({step}) {self._stderr_tail()}")
             self._buffer += chunk
         raw, self._buffer = self._buffer.split(b"\0", 1)
         return json.loads(raw)
