@@ -201,9 +201,11 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     r = rockdove("build", "--out", "b/p", "--no-verify", *TINY, cwd=tmp_path, env_extra=env, timeout=300)
     assert r.returncode == 0, r.stderr
     first = json.loads(r.stdout)
-    assert first["ran"] == ["body", "bird", "thickness_range", "lut", "texture_images", "textures", "usd_layers"]
+    assert first["ran"] == ["body", "bird", "thickness_range", "lut", "texture_images", "textures", "usd_layers",
+                            "gltf"]
     asset = tmp_path / "b/p"
     assert (asset / "pigeon.usda").is_file() and (asset / "textures/thinfilm_lut.exr").is_file()
+    assert (asset / "pigeon.glb").is_file()
     # the LUT spans the thickness range on the mesh, no more
     from pipeline.lut.exr import read_exr
 
@@ -214,6 +216,12 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert r.returncode == 0, r.stderr
     second = json.loads(r.stdout)
     assert second["ran"] == ["verify"] and second["verified"] is True
+    assert "gltf" in second["reused"]  # nothing the glb reads changed
+    # the report names the published asset, not the staging folder, and shows the interactive view first
+    report_html = (asset / "verify/report.html").read_text()
+    assert str(asset / "pigeon.usda") in report_html and ".rockdove-tmp-" not in report_html
+    assert report_html.index("viewer.html") < report_html.index("<table>")
+    assert (asset / "verify/viewer.html").is_file() and (asset / "verify/viewer_data.js").is_file()
     views = ["turntable_030", "turntable_210", "sweep_060", "sweep_120", "sweep_090"]
     assert _verify_record(second)["items_ran"] == views
     assert json.loads((asset / "verify/report.json").read_text())["passed"] is True
@@ -234,7 +242,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
                  timeout=300)
     assert r.returncode == 0, r.stderr
     third = json.loads(r.stdout)
-    assert third["ran"] == ["lut", "textures", "usd_layers", "verify"]
+    assert third["ran"] == ["lut", "textures", "usd_layers", "gltf", "verify"]
     assert {"body", "bird", "thickness_range", "texture_images"} == set(third["reused"])
     assert _verify_record(third)["items_ran"] == views
     # physical-only shading: no bake at all (the lut stage is not in the graph), verified with a note
@@ -249,6 +257,14 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert not (asset / "textures/thinfilm_lut.exr").exists()
     report = json.loads((asset / "verify/report.json").read_text())
     assert report["passed"] and report["lut"]["verification_only"] and "physical-only" in report["notes"][0]
+    assert "gltf" in fourth["ran"] and (asset / "pigeon.glb").is_file()
+    # gltf.glb = false: no glb, and no viewer in the report (it shows the glb)
+    r = rockdove("build", "--out", "b/p", "--set", "shading.variant=physical", "--set", "gltf.glb=false", *TINY,
+                 cwd=tmp_path, env_extra=env, timeout=300)
+    assert r.returncode == 0, r.stderr
+    fifth = json.loads(r.stdout)
+    assert "gltf" not in fifth["ran"] + fifth["reused"] and not (asset / "pigeon.glb").exists()
+    assert not (asset / "verify/viewer.html").exists()
 
 
 def _verify_record(summary: dict) -> dict:

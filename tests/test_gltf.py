@@ -96,7 +96,7 @@ def test_thickness_texture_returns_each_vertex_thickness(synthetic_glb):
     np.testing.assert_allclose(d, expected, atol=1e-3)
 
 
-def test_asset_without_rockdove_data_gets_a_clear_message(tmp_path):
+def test_asset_without_rockdove_data_gets_a_clear_message(tmp_path, capsys):
     from pxr import Usd, UsdGeom
 
     from pipeline.web.gltf import export_glb
@@ -112,3 +112,17 @@ def test_asset_without_rockdove_data_gets_a_clear_message(tmp_path):
     with pytest.raises(ValueError, match="no rockdove thin-film data.*RockDoveThinFilmAPI"):
         export_glb(tmp_path / "plain.usda", tmp_path / "plain.glb")
     assert not (tmp_path / "plain.glb").exists()
+    # the command says it in one line, exit status 2
+    from pipeline.cli import main
+
+    assert main(["gltf", str(tmp_path / "plain.usda"), "--out", str(tmp_path / "plain.glb")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "no rockdove thin-film data" in err
+
+
+def test_gltf_command_exports_and_validates(synthetic_glb, tmp_path, capsys):
+    from pipeline.cli import main
+
+    assert main(["gltf", str(synthetic_glb[0]), "--out", str(tmp_path / "p.glb"), "--validate"]) == 0
+    out = capsys.readouterr().out
+    assert "glTF-Validator: 0 errors" in out and (tmp_path / "p.glb").is_file()

@@ -57,21 +57,37 @@ def test_viewer_loads_shows_green_and_purple_and_the_light_turns_them(web_asset)
     assert green2 > 20 and purple2 > 20, (green2, purple2)  # three.js's own iridescence shows both too
 
 
-def test_web_host_renders_linear_green_and_purple_on_black(web_asset, tmp_path):
+@pytest.mark.gl
+def test_web_host_agrees_with_the_exact_view_angle_reference(web_asset, tmp_path):
+    """three.js's KHR_materials_iridescence of pigeon.glb (the web host, lobe view_angle) against the exact film
+    colour at cos = |N.V| times the mask (the same pixels' N.V, thickness and mask from our GL renderer in its
+    |N.V| mode): linear float, background 0, green and purple, hue classes and dE2000 close."""
     from pipeline.hosts import web
-    from pipeline.render.compare import hue_classes
+    from pipeline.render import compare as cmp
+    from pipeline.render.gl import GLRenderer
+    from pipeline.render.reference import structural_rgb
     from pipeline.render.scene import load_scene
     from pipeline.render.views import default_views
 
     asset, _ = web_asset
-    view = [v for v in default_views(load_scene(asset), 96, 96, n=2) if v.name.startswith("sweep_")][0]
-    images = web.render(str(asset), [view], str(tmp_path))
-    rgb = images[view.name]
+    scene = load_scene(asset)
+    view = [v for v in default_views(scene, 96, 96, n=2) if v.name.startswith("sweep_")][0]
+    rgb = web.render(str(asset), [view], str(tmp_path))[view.name]
     assert rgb.shape == (96, 96, 3) and rgb.dtype == np.float32
     assert np.all(rgb[0, 0] == 0)  # background 0
-    _, _, cls = hue_classes(rgb)
-    assert np.sum(cls == 1) > 10 and np.sum(cls == 2) > 10
     assert (tmp_path / f"web_{view.name}.png").is_file()
+    g = GLRenderer(scene, angle_mode="materialx_baked", width=96, height=96).render(view)
+    tips = cmp.erode(g.part_mask("NeckFeathers") & (g.mask >= 0.5), 1)
+    ref = np.zeros_like(rgb)
+    ref[tips] = structural_rgb(g.cos_theta[tips].astype(np.float64), g.thickness_nm[tips].astype(np.float64),
+                               scene.film) * g.mask[tips][:, None]
+    _, _, web_cls = cmp.hue_classes(rgb[tips])
+    _, _, ref_cls = cmp.hue_classes(ref[tips])
+    assert np.sum(web_cls == 1) > 10 and np.sum(web_cls == 2) > 10
+    both = (ref_cls == 1) | (ref_cls == 2)
+    assert np.mean(web_cls[both] == ref_cls[both]) > 0.9
+    de = cmp.delta_e_map(rgb, ref, tips)[tips]
+    assert np.median(de) < 6.0, np.median(de)
 
 
 def test_a_browser_that_cannot_start_is_a_named_host_failure(web_asset, tmp_path):

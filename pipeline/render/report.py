@@ -67,9 +67,17 @@ def de_map_png(path, de_map, title: str) -> str:
     return os.fspath(path)
 
 
-def contact_sheet(path, rows, label_px: int = 14) -> str:
-    """Tile rows of equally sized uint8 RGB images, each row ``(label, [img, ...])``; returns the path."""
-    from PIL import Image, ImageDraw
+#: What each column of a verification contact-sheet row shows (pipeline.render.verify: GL, reference, dE map).
+SHEET_COLUMNS = ("GLSL", "reference", f"dE2000 0-{DE_MAP_MAX:g}")
+
+
+def contact_sheet(path, rows, label_px: int = 28, columns=SHEET_COLUMNS) -> str:
+    """Tile rows of equally sized uint8 RGB images, each row ``(label, [img, ...])``; returns the path.
+
+    Each row gets a header of ``label_px`` pixels: its label over the first tile, and over each tile what its
+    column shows (``columns``), in a font sized to the header (legible at the report's width).
+    """
+    from PIL import Image, ImageDraw, ImageFont
 
     rows = list(rows)
     if not rows:
@@ -78,10 +86,13 @@ def contact_sheet(path, rows, label_px: int = 14) -> str:
     ncol = max(len(imgs) for _, imgs in rows)
     sheet = Image.new("RGB", (ncol * w, len(rows) * (h + label_px)), (32, 32, 32))
     draw = ImageDraw.Draw(sheet)
+    font = ImageFont.load_default(size=max(10, int(label_px * 0.6)))
     for r, (label, imgs) in enumerate(rows):
         y = r * (h + label_px)
-        draw.text((2, y + 1), str(label), fill=(230, 230, 230))
         for c, img in enumerate(imgs):
+            column = columns[c] if columns and c < len(columns) else ""
+            text = f"{label}  {column}" if c == 0 else column
+            draw.text((c * w + 4, y + label_px * 0.15), text.strip(), fill=(235, 235, 235), font=font)
             tile = Image.fromarray(np.ascontiguousarray(img[..., :3])).resize((w, h))
             sheet.paste(tile, (c * w, y + label_px))
     sheet.save(path)
