@@ -38,7 +38,7 @@ def unavailable() -> str | None:
     try:
         find_chromium()
         three_folder()
-    except (BrowserError, RuntimeError) as exc:
+    except (BrowserError, OSError) as exc:  # no chromium; three not installed (ResourceMissing)
         return str(exc)
     return None
 

@@ -46,11 +46,20 @@ def web_folder() -> Path:
 
 
 def three_folder() -> Path:
-    """``materials/web/node_modules`` with the npm package three in it (else a one-line error saying how)."""
+    """``materials/web/node_modules`` with the npm package three in it.
+
+    Raises
+    ------
+    pipeline.errors.ResourceMissing
+        three is not installed (a ``FileNotFoundError``: the CLI prints it in one line, exit 2).
+    """
+    from ..errors import ResourceMissing
+
     nm = web_folder() / "node_modules"
     if not (nm / "three" / "package.json").is_file():
-        raise RuntimeError(f"the npm package three is not installed in {nm.parent}; run `npm ci --prefix "
-                           f"{nm.parent}` (make asset / make test do)")
+        raise ResourceMissing(f"the npm package three (for verify/viewer.html) is not installed in {nm.parent}; run "
+                              f"`npm ci --prefix {nm.parent}` (make asset / make test do), or build with "
+                              "--set gltf.glb=false (no glb, no viewer)")
     return nm
 
 
