@@ -141,7 +141,8 @@ window.addEventListener("resize", draw);
 applyMode("lut");
 setLight(Number(slider.value));
 draw();
-status.textContent = `${D.asset_name}: drag to orbit, wheel to zoom`;
+status.textContent = `${D.asset_name}: drag to orbit, wheel to zoom` +
+  (D.lut.verification_only ? " (the asset has no LUT: the LUT mode shows a verification-only LUT)" : "");
 
 /**
  * Render one verification view into a float target and return its linear radiance.

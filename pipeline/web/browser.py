@@ -182,7 +182,8 @@ class Browser:
                 except OSError:
                     pass
                 setattr(self, fd, None)
-        self._stderr.close() if hasattr(self, "_stderr") else None
+        if hasattr(self, "_stderr"):
+            self._stderr.close()
         shutil.rmtree(self.profile, ignore_errors=True)
 
     def __enter__(self) -> "Browser":
