@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import io
 import os
+from pathlib import Path
 
 import numpy as np
 
@@ -164,7 +165,7 @@ def scene_to_glb(scene, version: str = "") -> bytes:
 
     def texture(path_or_png, name: str, sampler: int = 0) -> int:
         if name not in textures:
-            png = path_or_png if isinstance(path_or_png, bytes) else open(path_or_png, "rb").read()
+            png = path_or_png if isinstance(path_or_png, bytes) else Path(path_or_png).read_bytes()
             gltf.textures.append(Texture(source=blob.image(png, name), sampler=sampler, name=name))
             textures[name] = len(gltf.textures) - 1
         return textures[name]
