@@ -9,9 +9,26 @@ OUT    ?= build/pigeon
 
 export PYOPENGL_PLATFORM ?= egl
 
-.PHONY: asset test bench venv clean smoke-installed
+.PHONY: asset test bench venv web clean smoke-installed
 
 venv: $(STAMP)
+
+# The web viewer copies three.js from npm beside verify/viewer.html; the tests validate pigeon.glb with the
+# Khronos glTF-Validator (npm) and drive Debian's chromium. Each install runs only when missing (stamps).
+WEB          := materials/web
+NPM_STAMP    := $(WEB)/node_modules/.installed
+BROWSER_STAMP := $(VENV)/.chromium
+
+web: $(NPM_STAMP) $(BROWSER_STAMP)
+
+$(NPM_STAMP): $(WEB)/package.json $(WEB)/package-lock.json
+	@command -v npm >/dev/null || (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq nodejs npm)
+	cd $(WEB) && npm ci --no-audit --no-fund --ignore-scripts --loglevel=error
+	@touch $(NPM_STAMP)
+
+$(BROWSER_STAMP): $(STAMP)
+	@command -v chromium >/dev/null || (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium)
+	@touch $(BROWSER_STAMP)
 
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -19,11 +36,11 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	@touch $(STAMP)
 
-asset: $(STAMP)
+asset: $(STAMP) $(NPM_STAMP)
 	$(BIN)/rockdove build --out $(OUT)
 	@echo "asset written to $(OUT)/pigeon.usda"
 
-test: $(STAMP)
+test: $(STAMP) $(NPM_STAMP) $(BROWSER_STAMP)
 	$(BIN)/python -m pytest -q
 
 # CI: build the sdist and the wheel, pip install the wheel into a fresh venv, build/validate/verify a small asset

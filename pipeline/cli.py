@@ -27,6 +27,7 @@ COMMANDS: dict[str, str] = {
     "render": "render an asset offscreen with the GLSL shaders (pyrender, EGL)",
     "verify": "validate an asset and check its renders against the exact spectral reference",
     "validate": "validate a USD asset (UsdValidation + MaterialX node definitions + textures)",
+    "gltf": "export an asset to glTF 2.0 (pigeon.glb, KHR_materials_iridescence) and validate it",
     "bench": "benchmarks: LUT bake speed against error, geometry and build scaling",
     "config": "print the effective build configuration with units",
     "schema-path": "print the folder holding the USD schema plugin, for PXR_PLUGINPATH_NAME",

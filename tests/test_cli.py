@@ -196,9 +196,10 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert r.returncode == 0, r.stderr
     first = json.loads(r.stdout)
     assert first["ran"] == ["body", "bird", "thickness_range", "lut", "texture_images", "textures", "usd_geometry",
-                            "usd_layers"]
+                            "usd_layers", "gltf"]
     asset = tmp_path / "b/p"
     assert (asset / "pigeon.usda").is_file() and (asset / "textures/thinfilm_lut.exr").is_file()
+    assert (asset / "pigeon.glb").is_file()
     # the LUT spans the thickness range on the mesh, no more
     from pipeline.lut.exr import read_exr
 
@@ -209,6 +210,12 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert r.returncode == 0, r.stderr
     second = json.loads(r.stdout)
     assert second["ran"] == ["verify_rays", "verify"] and second["verified"] is True
+    assert "gltf" in second["reused"]  # nothing the glb reads changed
+    # the report names the published asset, not the staging folder, and shows the interactive view first
+    report_html = (asset / "verify/report.html").read_text()
+    assert str(asset / "pigeon.usda") in report_html and ".rockdove-tmp-" not in report_html
+    assert report_html.index("viewer.html") < report_html.index("<table>")
+    assert (asset / "verify/viewer.html").is_file() and (asset / "verify/viewer_data.js").is_file()
     views = ["turntable_030", "turntable_210", "sweep_060", "sweep_120", "sweep_090", "hero"]
     assert _verify_record(second)["items_ran"] == views
     assert json.loads((asset / "verify/report.json").read_text())["passed"] is True
@@ -224,12 +231,14 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert meta["ran"] == ["usdz", "verify_rays", "verify"] and meta["verified"] is True
     assert _verify_record(meta)["items_ran"] == [] and _verify_record(meta)["items_reused"] == views
     assert (asset / "pigeon.usdz").is_file() and (asset / "verify/sweep_090_gl.png").is_file()
-    # film index change: LUT, textures (the preview mixes the LUT in), layers and every view; geometry reused
-    r = rockdove("build", "--out", "b/p", "--set", "film.cauchy_a=1.56", *TINY, cwd=tmp_path, standin=False,
-                 timeout=300)
+    # film index change: LUT, textures (the preview mixes the LUT in), layers and every view; geometry reused;
+    # gltf.glb = false: no glb, and no viewer in the report (it shows the glb)
+    r = rockdove("build", "--out", "b/p", "--set", "film.cauchy_a=1.56", "--set", "gltf.glb=false", *TINY,
+                 cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     third = json.loads(r.stdout)
     assert third["ran"] == ["lut", "textures", "usd_layers", "verify_rays", "verify"]
+    assert not (asset / "pigeon.glb").exists() and not (asset / "verify/viewer.html").exists()
     assert {"body", "bird", "thickness_range", "texture_images", "usd_geometry"} == set(third["reused"])
     assert _verify_record(third)["items_ran"] == views
     # ... but not the reference's ray casts: one cached item per camera, keyed by the geometry they hit
@@ -249,6 +258,8 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert not (asset / "textures/thinfilm_lut.exr").exists()
     report = json.loads((asset / "verify/report.json").read_text())
     assert report["passed"] and report["lut"]["verification_only"] and "physical-only" in report["notes"][0]
+    assert "gltf" in fourth["ran"] and (asset / "pigeon.glb").is_file()  # a LUT-less asset exports too
+    assert (asset / "verify/viewer.html").is_file()
 
 
 def _verify_record(summary: dict, name: str = "verify") -> dict:

@@ -203,7 +203,10 @@ def _hash_file(h, path: Path, label: str) -> None:
 
 def _files_of(path: Path, pattern: str = "*") -> list[Path]:
     if path.is_dir():
-        return sorted(p for p in path.rglob(pattern) if p.is_file() and "__pycache__" not in p.parts)
+        # npm packages installed beside data files (materials/web/node_modules) are keyed by the pinned versions
+        # in package.json / package-lock.json, not by hashing thousands of installed files
+        return sorted(p for p in path.rglob(pattern)
+                      if p.is_file() and "__pycache__" not in p.parts and "node_modules" not in p.parts)
     return [path] if path.is_file() else []
 
 

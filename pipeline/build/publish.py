@@ -115,6 +115,16 @@ def recover(out: Path) -> None:
         shutil.rmtree(p, ignore_errors=True)
 
 
+def published_path(path) -> Path:
+    """Where ``path`` (inside a staging folder ``.<name>.rockdove-tmp-XXXX``) will be once published; other
+    paths unchanged. Reports name the asset by this path, not by the temporary folder."""
+    path = Path(path)
+    for i, part in enumerate(path.parts):
+        if part.startswith(".") and _TMP in part:
+            return Path(*path.parts[:i], part[1:part.index(_TMP)], *path.parts[i + 1:])
+    return path
+
+
 def make_staging(out: Path) -> Path:
     """A fresh folder beside ``out`` (same file system) to assemble the new asset in."""
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -30,6 +30,8 @@ stage                   configuration                                 inputs
                                                                       casts (pipeline.render.reference.cast_hits),
                                                                       keyed by the camera and ray_digest (geometry,
                                                                       feather alpha; not film or LUT)
+``gltf``                -- (present when ``gltf.glb``)                usd_geometry, usd_layers, textures: reads the
+                                                                      assembled asset (pipeline.web.gltf.export_glb)
 ``verify``              ``verify.width``, ``verify.height``,          every published stage: the assembled asset.
                         ``verify.views``                              One item per view (pipeline.render.verify),
                                                                       keyed by its plan entry: the view's camera,
@@ -320,6 +322,13 @@ def run_usdz(ctx: Context):
     shutil.rmtree(scratch)
 
 
+def run_gltf(ctx: Context) -> None:
+    """``pigeon.glb``: the assembled (written) USD asset exported to glTF 2.0 (pipeline.web.gltf)."""
+    from ..web.gltf import GLB_NAME, export_glb
+
+    export_glb(str(ctx.asset_dir), ctx.workdir / GLB_NAME, version=__version__)
+
+
 def _missing(names: list[str]) -> list[str]:
     """The ``module:name`` items whose module file does not exist or does not mention ``name``.
 
@@ -427,11 +436,20 @@ def run_verify(ctx: Context) -> dict:
 def combine_verify(ctx: Context, views: dict) -> dict:
     """Validate the assembled asset and join the per-view results (fresh or cached) into the report in the
     stage's folder (published as ``verify/``); the value is the verdict."""
+    from ..render.scene import resolve_asset_path
     from ..render.verify import report_from_views
+    from .publish import published_path
 
     size = _verify_size(ctx)
+    published = published_path(resolve_asset_path(ctx.asset_dir))
+    if "gltf" in ctx.inputs:  # the interactive view of the report (verify/viewer.html)
+        from ..web.gltf import GLB_NAME
+        from ..web.viewer import write_viewer
+
+        write_viewer(str(ctx.asset_dir), ctx.inputs["gltf"] / GLB_NAME, ctx.workdir, asset_name=str(published))
     report = report_from_views(str(ctx.asset_dir), views, out_dir=str(ctx.workdir), width=size["width"],
-                               height=size["height"], bench_dir=str(ctx.workdir / "no-bench"))
+                               height=size["height"], bench_dir=str(ctx.workdir / "no-bench"),
+                               published_asset=str(published))
     return {"passed": bool(report.get("passed")), "reason": "; ".join(map(str, report.get("failures", []))),
             "views": [v["view"] for v in report.get("views", []) if isinstance(v, dict)],
             "notes": list(report.get("notes", []))}
@@ -506,6 +524,12 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
     if config["usd"]["usdz"]:
         stages.append(Stage("usdz", run_usdz, deps=("usd_geometry", "usd_layers", "textures"), modules=("pipeline.usd",),
                             libraries=LIBS_USD, codec=FILES, publish=""))
+    if config["gltf"]["glb"]:
+        # reads the written asset (so it runs once it is assembled); keyed by the files it translates
+        stages.append(Stage("gltf", run_gltf, deps=("usd_geometry", "usd_layers", "textures"),
+                            modules=("pipeline.web.gltf", "pipeline.render.scene", "pipeline.render.verify"),
+                            libraries=LIBS_USD + ("pygltflib", "pillow"), codec=FILES, needs_asset=True,
+                            publish=""))
     if verify:
         # Per-view items planned from the assembled asset: a view re-renders only when its own plan entry (its
         # parameters, the digest of the scene content it renders) or the verify code changes. The stage itself
@@ -519,7 +543,8 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
         stages.append(Stage("verify", run_verify, config=("verify.width", "verify.height", "verify.views"),
                             deps=published + ("verify_rays",),
                             modules=("pipeline.render", "pipeline.usd", "pipeline.lut", "pipeline.films",
-                                     "pipeline.optics", "pipeline.spectral"),
+                                     "pipeline.optics", "pipeline.spectral", "pipeline.web",
+                                     "pipeline.build.publish"),
                             data=("materials", "schemas/plugInfo.json", "schemas/generatedSchema.usda"),
                             libraries=LIBS_RENDER, codec=JSON, needs_asset=True, publish="verify",
                             item_plan=plan_verify, batch=True, combine=combine_verify, item_codec=VIEW_RESULT))

@@ -67,9 +67,17 @@ def de_map_png(path, de_map, title: str) -> str:
     return os.fspath(path)
 
 
-def contact_sheet(path, rows, label_px: int = 14) -> str:
-    """Tile rows of equally sized uint8 RGB images, each row ``(label, [img, ...])``; returns the path."""
-    from PIL import Image, ImageDraw
+#: What each column of a verification contact-sheet row shows (pipeline.render.verify: GL, reference, dE map).
+SHEET_COLUMNS = ("GLSL", "reference", f"dE2000 0-{DE_MAP_MAX:g}")
+
+
+def contact_sheet(path, rows, label_px: int = 28, columns=SHEET_COLUMNS) -> str:
+    """Tile rows of equally sized uint8 RGB images, each row ``(label, [img, ...])``; returns the path.
+
+    Each row gets a header of ``label_px`` pixels: its label over the first tile, and over each tile what its
+    column shows (``columns``), in a font sized to the header (legible at the report's width).
+    """
+    from PIL import Image, ImageDraw, ImageFont
 
     rows = list(rows)
     if not rows:
@@ -78,10 +86,13 @@ def contact_sheet(path, rows, label_px: int = 14) -> str:
     ncol = max(len(imgs) for _, imgs in rows)
     sheet = Image.new("RGB", (ncol * w, len(rows) * (h + label_px)), (32, 32, 32))
     draw = ImageDraw.Draw(sheet)
+    font = ImageFont.load_default(size=max(10, int(label_px * 0.6)))
     for r, (label, imgs) in enumerate(rows):
         y = r * (h + label_px)
-        draw.text((2, y + 1), str(label), fill=(230, 230, 230))
         for c, img in enumerate(imgs):
+            column = columns[c] if columns and c < len(columns) else ""
+            text = f"{label}  {column}" if c == 0 else column
+            draw.text((c * w + 4, y + label_px * 0.15), text.strip(), fill=(235, 235, 235), font=font)
             tile = Image.fromarray(np.ascontiguousarray(img[..., :3])).resize((w, h))
             sheet.paste(tile, (c * w, y + label_px))
     sheet.save(path)
@@ -234,13 +245,19 @@ def write_html(path, report: dict, images: dict) -> str:
         "<style>body{font-family:sans-serif;margin:1.5em;max-width:1200px}table{border-collapse:collapse}"
         "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#eee}"
         "img{max-width:100%;image-rendering:pixelated}.row{display:flex;gap:8px}.row figure{margin:0;flex:1}"
-        "figcaption{font-size:80%;color:#555}</style></head><body>",
+        "figcaption{font-size:100%;color:#222}h1{font-size:1.6em}"
+        ".viewer{width:100%;height:600px;border:1px solid #ccc}</style></head><body>",
         f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>" + notes_html,
         f"<p>Asset: <code>{e(str(report.get('asset', '')))}</code><br>",
         f"Configuration hash: <code>{e(str(report.get('configuration_hash') or 'not recorded'))}</code><br>",
         f"Goals: median dE2000 &le; {report.get('goals', {}).get('median_dE', '')}, "
         f"p95 &le; {report.get('goals', {}).get('p95_dE', '')} over feather pixels away from silhouette edges.</p>",
     ]
+    if images.get("viewer"):  # the interactive view first, the tables after it
+        parts.append(f"<h2>Interactive view</h2><p>Drag to orbit, wheel to zoom, slide to turn the light; switch "
+                     f"between the paper's baked LUT (our GLSL in WebGL2) and three.js's KHR_materials_iridescence "
+                     f"shading of pigeon.glb. <a href='{e(images['viewer'])}'>Open it full size</a>.</p>"
+                     f"<iframe class='viewer' src='{e(images['viewer'])}' title='interactive view'></iframe>")
     hero = images.get("views", {}).get("hero", {}).get("gl") or images.get("views", {}).get("hero", {}).get("reference")
     if hero:
         parts.append(f"<h2>Hero view</h2><img src='{e(hero)}' alt='hero view' style='image-rendering:auto'>")

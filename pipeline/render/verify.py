@@ -447,15 +447,19 @@ def verify_views(asset, views=None, out_dir=None, width: int = DEFAULT_SIZE, hei
 
 
 def report_from_views(asset, view_results: dict, out_dir=None, width: int = DEFAULT_SIZE,
-                      height: int = DEFAULT_SIZE, bench_dir=None, progress=None, *, reused=()) -> dict:
+                      height: int = DEFAULT_SIZE, bench_dir=None, progress=None, *, reused=(),
+                      published_asset=None) -> dict:
     """Validate the asset and combine per-view results (:func:`verify_views`, possibly from a cache) into the
     report (``report.json``, ``report.html`` and the images in ``out_dir``); returns the report dict.
 
     ``reused`` names the views whose results came from a cache (recorded in the report).
+    ``published_asset``: the root layer's path once published (the build verifies a staging folder), which the
+    report names instead of the layer read.
     """
     with verification_scene(asset) as (layer, scene, lut, notes):
         return _combine(layer, scene, lut, notes, view_results, out_dir, width, height, bench_dir,
-                        progress or (lambda msg: None), reused=reused, t_start=time.perf_counter())
+                        progress or (lambda msg: None), reused=reused, t_start=time.perf_counter(),
+                        published_asset=published_asset)
 
 
 def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE,
@@ -521,7 +525,7 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
 
 
 def _combine(layer, scene, lut, notes, results: dict, out_dir, width, height, bench_dir, say, *, reused=(),
-             t_start, hosts=None) -> dict:
+             t_start, hosts=None, published_asset=None) -> dict:
     from . import report as rep
 
     out = os.path.abspath(os.fspath(out_dir)) if out_dir else _default_out_dir(layer)
@@ -607,8 +611,10 @@ def _combine(layer, scene, lut, notes, results: dict, out_dir, width, height, be
     film = scene.film.to_dict() if scene.film is not None else None
     if film is not None and lut is not None:
         film["lut_file"] = None  # the verification-only LUT's temporary file is gone
+    if os.path.isfile(os.path.join(out, "viewer.html")):  # written beside the report (pipeline.web.viewer)
+        images["viewer"] = "viewer.html"
     report = {
-        "asset": layer,
+        "asset": published_asset or layer,
         "asset_sha256": digest(layer),
         "out_dir": out,
         "passed": not failures,

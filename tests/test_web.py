@@ -1,0 +1,103 @@
+"""The web viewer and the web host in a real browser (Debian's headless chromium, WebGL2 on SwiftShader)."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+
+
+@pytest.fixture(scope="session")
+def web_asset(tmp_path_factory):
+    """A synthetic asset (ring of cards, 480-700 nm) with a real keratin LUT, its GLB and its viewer page."""
+    from pipeline.films import get_film
+    from pipeline.lut.bake import bake
+    from pipeline.render.synthetic import THICKNESS_RANGE_NM, write_synthetic_asset
+    from pipeline.web.gltf import export_glb
+    from pipeline.web.viewer import write_viewer
+
+    root = tmp_path_factory.mktemp("web")
+    lut = bake(angles=64, thicknesses=16, thickness_range=THICKNESS_RANGE_NM, film=get_film("keratin"))
+    write_synthetic_asset(root / "asset", lut=lut, n_cards=12)
+    export_glb(root / "asset", root / "asset" / "pigeon.glb")
+    page = write_viewer(root / "asset", root / "asset" / "pigeon.glb", root / "verify")
+    return root / "asset", page
+
+
+def _hue_counts(png: bytes):
+    from PIL import Image
+
+    from pipeline.render.compare import hue_classes
+
+    srgb = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), np.float64) / 255.0
+    linear = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
+    _, _, cls = hue_classes(linear)
+    return int(np.sum(cls == 1)), int(np.sum(cls == 2)), linear
+
+
+def test_viewer_loads_shows_green_and_purple_and_the_light_turns_them(web_asset):
+    from pipeline.web.browser import Browser
+
+    _, page_path = web_asset
+    with Browser() as browser:
+        page = browser.open(f"file://{page_path}", 480, 400, timeout_s=120)
+        ready = page.evaluate("window.rockdoveReady", timeout_s=120, step="viewer ready")
+        assert ready["feathers"] == 1 and ready["webgl2"]
+        green0, purple0, before = _hue_counts(page.screenshot())
+        page.evaluate("window.rockdoveSetLight(Number(document.getElementById('light').value) + 60)")
+        green1, purple1, after = _hue_counts(page.screenshot())
+        page.evaluate("document.querySelector('input[value=physical]').click()")
+        green2, purple2, _ = _hue_counts(page.screenshot())
+        errors = page.errors
+    assert errors == []
+    assert green0 > 50 and purple0 > 50, (green0, purple0)
+    assert np.mean(np.abs(after - before)) > 0.005  # the light turned: the picture changed
+    assert (green1, purple1) != (green0, purple0)
+    assert green2 > 20 and purple2 > 20, (green2, purple2)  # three.js's own iridescence shows both too
+
+
+@pytest.mark.gl
+def test_web_host_agrees_with_the_exact_view_angle_reference(web_asset, tmp_path):
+    """three.js's KHR_materials_iridescence of pigeon.glb (the web host, lobe view_angle) against the exact film
+    colour at cos = |N.V| times the mask (the same pixels' N.V, thickness and mask from our GL renderer in its
+    |N.V| mode): linear float, background 0, green and purple, hue classes and dE2000 close."""
+    from pipeline.hosts import web
+    from pipeline.render import compare as cmp
+    from pipeline.render.gl import GLRenderer
+    from pipeline.render.reference import structural_rgb
+    from pipeline.render.scene import load_scene
+    from pipeline.render.views import default_views
+
+    asset, _ = web_asset
+    scene = load_scene(asset)
+    view = [v for v in default_views(scene, 96, 96, n=2) if v.name.startswith("sweep_")][0]
+    rgb = web.render(str(asset), [view], str(tmp_path))[view.name]
+    assert rgb.shape == (96, 96, 3) and rgb.dtype == np.float32
+    assert np.all(rgb[0, 0] == 0)  # background 0
+    assert (tmp_path / f"web_{view.name}.png").is_file()
+    g = GLRenderer(scene, angle_mode="materialx_baked", width=96, height=96).render(view)
+    tips = cmp.erode(g.part_mask("NeckFeathers") & (g.mask >= 0.5), 1)
+    ref = np.zeros_like(rgb)
+    ref[tips] = structural_rgb(g.cos_theta[tips].astype(np.float64), g.thickness_nm[tips].astype(np.float64),
+                               scene.film) * g.mask[tips][:, None]
+    _, _, web_cls = cmp.hue_classes(rgb[tips])
+    _, _, ref_cls = cmp.hue_classes(ref[tips])
+    assert np.sum(web_cls == 1) > 10 and np.sum(web_cls == 2) > 10
+    both = (ref_cls == 1) | (ref_cls == 2)
+    assert np.mean(web_cls[both] == ref_cls[both]) > 0.9
+    de = cmp.delta_e_map(rgb, ref, tips)[tips]
+    assert np.median(de) < 6.0, np.median(de)
+
+
+def test_a_browser_that_cannot_start_is_a_named_host_failure(web_asset, tmp_path):
+    from pipeline.hosts import HostError, web
+    from pipeline.render.scene import load_scene
+    from pipeline.render.views import default_views
+    from pipeline.web.browser import Browser
+
+    asset, _ = web_asset
+    views = default_views(load_scene(asset), 32, 32, n=1)
+    with pytest.raises(HostError, match=r"host 'web': false exited with status 1 \(start\)"):
+        web.render(str(asset), views, str(tmp_path), browser_factory=lambda: Browser(executable="false",
+                                                                                   start_timeout_s=20))
