@@ -1,6 +1,7 @@
 """The ``rockdove`` command line.
 
 This module only parses arguments and dispatches. Each sub-command lives in ``pipeline/commands/<name>.py``
+(hyphens in a command name become underscores)
 and exposes::
 
     HELP: str                                   # one line for ``rockdove --help``
@@ -30,6 +31,7 @@ COMMANDS: dict[str, str] = {
     "validate": "validate a USD asset (UsdValidation + MaterialX node definitions + textures)",
     "bench": "benchmarks: LUT bake speed against error, geometry and build scaling",
     "config": "print the effective build configuration with units",
+    "blender-addon": "write the Blender add-on (rockdove_blender.zip) that builds the thin-film material on USD import",
 }
 
 
@@ -40,13 +42,18 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"rockdove: error: {message}\n")
 
 
+def _module_name(name: str) -> str:
+    """Command name -> module name under pipeline.commands (``blender-addon`` -> ``blender_addon``)."""
+    return name.replace("-", "_")
+
+
 def _module(name: str):
-    return importlib.import_module(f"pipeline.commands.{name}")
+    return importlib.import_module(f"pipeline.commands.{_module_name(name)}")
 
 
 def _available() -> dict[str, str]:
     here = os.path.join(os.path.dirname(__file__), "commands")
-    return {n: h for n, h in COMMANDS.items() if os.path.exists(os.path.join(here, f"{n}.py"))}
+    return {n: h for n, h in COMMANDS.items() if os.path.exists(os.path.join(here, f"{_module_name(n)}.py"))}
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
