@@ -217,3 +217,22 @@ def test_blender_host_raises_host_error_naming_itself_when_the_addon_finds_no_fi
     with pytest.raises(HostError, match="no thin-film material") as info:
         host.render(path, [view], str(tmp_path / "out"))
     assert info.value.host == "blender"
+
+
+@needs_bpy
+@pytest.mark.slow
+def test_without_the_addon_blender_still_shows_green_and_purple_feathers(asset, blender_renders, tmp_path):
+    """Blender's importer alone draws the UsdPreviewSurface atlas through previewST: each card its thickness's
+    colour, so the neck is green and purple, not one flat colour."""
+    from pipeline.render import compare as cmp
+    from pipeline.render.reference import render_reference
+
+    scene, views, _, _ = blender_renders
+    images = host.run_blender(asset["usdz"], views, str(tmp_path), addon=False, lobe="as_imported", samples=4)
+    classes = []
+    for ref in render_reference(scene, views):
+        feather_ids = [i + 1 for i, p in enumerate(scene.parts) if p.is_feather]
+        tips = np.isin(ref.part_id, feather_ids) & (ref.mask >= cmp.STRUCTURAL_MASK)
+        classes.append(cmp.hue_classes(images[ref.view][tips])[2])
+    cls = np.concatenate(classes)
+    assert (cls == 1).mean() > 0.1 and (cls == 2).mean() > 0.1, np.bincount(cls, minlength=4)

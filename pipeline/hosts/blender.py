@@ -114,8 +114,19 @@ def read_exr_rgb(path: str) -> np.ndarray:
     return np.ascontiguousarray(rgb, dtype=np.float32)
 
 
-def render(asset_path: str, views, out_dir: str, *, samples: int = SAMPLES) -> dict:
-    """Render ``views`` of the written asset in Blender (Cycles, CPU) with the rockdove add-on.
+def render(asset_path: str, views, out_dir: str) -> dict:
+    """The host interface: :func:`run_blender` with the add-on, the ``view_angle`` lobe, :data:`SAMPLES`."""
+    return run_blender(asset_path, views, out_dir)
+
+
+#: What :func:`run_blender` can draw: the film lobe alone (the verification render), or the asset as Blender
+#: imported it (every material untouched) under the same white world: what a user sees.
+LOBES = (LOBE, "as_imported")
+
+
+def run_blender(asset_path: str, views, out_dir: str, *, addon: bool = True, lobe: str = LOBE,
+                samples: int = SAMPLES) -> dict:
+    """Render ``views`` of the written asset in Blender (Cycles, CPU), with or without the rockdove add-on.
 
     Parameters
     ----------
@@ -124,6 +135,10 @@ def render(asset_path: str, views, out_dir: str, *, samples: int = SAMPLES) -> d
     views : list of pipeline.render.views.View
     out_dir : str
         Receives ``blender/``: the add-on zip, Blender's user folders, the job, one EXR and one PNG per view.
+    addon : bool
+        Install and enable the add-on first (False: Blender's importer alone, the UsdPreviewSurface look).
+    lobe : str
+        One of :data:`LOBES`.
     samples : int
         Cycles samples per pixel.
 
@@ -147,6 +162,8 @@ def render(asset_path: str, views, out_dir: str, *, samples: int = SAMPLES) -> d
         raise ValueError("views must hold at least one View, got none")
     if int(samples) < 1:
         raise ValueError(f"samples must be >= 1, got {samples!r}")
+    if lobe not in LOBES or (lobe == LOBE and not addon):
+        raise ValueError(f"lobe={lobe!r} with addon={addon}; allowed: {LOBES[0]!r} (needs the add-on) or {LOBES[1]!r}")
     asset_path = os.path.abspath(os.fspath(asset_path))
     if not os.path.isfile(asset_path):
         raise HostError(NAME, f"no asset at {asset_path!r}")
@@ -159,9 +176,9 @@ def render(asset_path: str, views, out_dir: str, *, samples: int = SAMPLES) -> d
     job = {
         "asset": asset_path,
         "root_object": _root_object(asset_path),
-        "addon_zip": addon_zip(work),
+        "addon_zip": addon_zip(work) if addon else None,
         "addon_module": ADDON_MODULE,
-        "lobe": LOBE,
+        "lobe": lobe,
         "environment_radiance": ENVIRONMENT_RADIANCE,
         "samples": int(samples),
         "transparent_bounces": TRANSPARENT_BOUNCES,

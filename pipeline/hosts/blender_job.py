@@ -12,7 +12,8 @@ Steps (the job file, written by :func:`pipeline.hosts.blender.render`, gives eve
    (``bpy.ops.preferences.addon_install`` / ``addon_enable``; the parent points Blender's user folders
    into the job folder, so nothing is installed outside it);
 2. ``bpy.ops.wm.usd_import`` of the asset: the add-on builds the thin-film material;
-3. the ``view_angle`` lobe (BRIEF "hosts interface"): the film lobe alone under a uniform white world of unit
+3. ``lobe = "as_imported"`` leaves every material as imported (what a user sees, with or without the add-on);
+   ``lobe = "view_angle"`` (BRIEF "hosts interface"): the film lobe alone under a uniform white world of unit
    radiance. The add-on's base BSDF is turned black (its base-colour link removed), every other material
    becomes black diffuse (still occluding), and no object is seen by glossy rays, so each film pixel
    reflects the environment itself (no inter-reflection, as the reference assumes);
@@ -103,14 +104,16 @@ def run(job: dict) -> None:
     import mathutils
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    bpy.ops.preferences.addon_install(filepath=job["addon_zip"], overwrite=True)
-    bpy.ops.preferences.addon_enable(module=job["addon_module"])
-    addon = sys.modules[job["addon_module"]]
+    addon = None
+    if job["addon_zip"]:
+        bpy.ops.preferences.addon_install(filepath=job["addon_zip"], overwrite=True)
+        bpy.ops.preferences.addon_enable(module=job["addon_module"])
+        addon = sys.modules[job["addon_module"]]
     result = bpy.ops.wm.usd_import(filepath=job["asset"])
     if "FINISHED" not in result:
         raise RuntimeError(f"usd_import of {job['asset']} returned {result}")
-    films = [m.name for m in bpy.data.materials if m.get(addon.MATERIAL_TAG)]
-    if not films:
+    films = [m.name for m in bpy.data.materials if addon is not None and m.get(addon.MATERIAL_TAG)]
+    if addon is not None and not films:
         raise RuntimeError(f"the add-on built no thin-film material for {job['asset']}")
     root = bpy.data.objects.get(job["root_object"])
     if root is None:
@@ -118,7 +121,7 @@ def run(job: dict) -> None:
     to_blender = root.matrix_world.copy()  # the importer's up-axis conversion
     if job["lobe"] == "view_angle":
         film_lobe_only(bpy, addon)
-    else:
+    elif job["lobe"] != "as_imported":
         raise RuntimeError(f"lobe {job['lobe']!r} is not rendered by this host")
     _world(bpy, job["environment_radiance"])
 

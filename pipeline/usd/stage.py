@@ -51,6 +51,8 @@ FEATHER_MATERIAL = "feather"
 #: Wavelength at which the physical variant's thin_film_ior samples the film's Cauchy index (mid-visible).
 FILM_IOR_WAVELENGTH_NM = 550.0
 
+PREVIEW_ST_DOC = ("Texture coordinates of this vertex in feather_preview.png, the UsdPreviewSurface atlas: the "
+                  "feather's st inside the tile of the card's film thickness (pipeline.usd.textures_io.preview_st).")
 THICKNESS_DOC = ("Film (keratin cortex) thickness of the feather barbules at this vertex, in nanometres; the "
                  "thin-film LUT is indexed by it (RockDoveThinFilmAPI rockdove:film:thicknessPrimvar).")
 
@@ -105,12 +107,15 @@ def _check_part(part) -> None:
             raise ValueError(f"part {part.name!r}: {what}")
 
 
-def author_mesh(stage, path, part):
+def author_mesh(stage, path, part, preview_range_nm=None):
     """Define one ``UsdGeom.Mesh`` from a :class:`pipeline.geometry.MeshPart`.
 
     Authors points (m), topology, vertex normals, ``primvars:st`` (texCoord2f, vertex),
     ``primvars:displayColor`` (constant, linear), every extra primvar (float/floatN, documented), extent,
-    ``subdivisionScheme = none`` (the meshes are final polygons) and ``doubleSided`` for feather cards.
+    ``subdivisionScheme = none`` (the meshes are final polygons) and ``doubleSided`` for feather cards. With
+    ``preview_range_nm`` (the film's thickness range, nm) also ``primvars:previewST`` (texCoord2f, vertex), the
+    coordinates into the preview atlas (:func:`pipeline.usd.textures_io.preview_st`; needs a ``thickness``
+    primvar).
 
     Returns
     -------
@@ -148,6 +153,13 @@ def author_mesh(stage, path, part):
         doc = THICKNESS_DOC if name == "thickness" else pv.doc
         if doc:
             primvar.GetAttr().SetDocumentation(doc)
+    if preview_range_nm is not None:
+        from .textures_io import PREVIEW_PRIMVAR, preview_st
+
+        coords = preview_st(part.st, part.primvars["thickness"].values, preview_range_nm)
+        pst = api.CreatePrimvar(PREVIEW_PRIMVAR, Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex)
+        pst.Set(Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(coords)))
+        pst.GetAttr().SetDocumentation(PREVIEW_ST_DOC)
     return mesh
 
 
@@ -205,12 +217,17 @@ def author_contents(stage, bird, film, lut: dict | None, textures: dict | None =
         else:
             materials[kind] = author_constant_material(stage, path, part.display_color)
     for part in bird.parts:
-        mesh = author_mesh(stage, f"{ROOT}/Geom/{part.name}", part)
+        feather = part.material == FEATHER_MATERIAL
+        if feather and "thickness" not in part.primvars:
+            raise ValueError(f"part {part.name!r}: feather part needs a 'thickness' primvar (nm, vertex)")
+        preview_range = None
+        if feather:  # the preview atlas spans the LUT's thickness axis, or the mesh's range without a LUT
+            d = np.asarray(part.primvars["thickness"].values, np.float64)
+            preview_range = lut["thickness_range_nm"] if lut is not None else (float(d.min()), float(d.max()))
+        mesh = author_mesh(stage, f"{ROOT}/Geom/{part.name}", part, preview_range)
         binding = UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim())
         binding.Bind(materials[part.material])
-        if part.material == FEATHER_MATERIAL:
-            if "thickness" not in part.primvars:
-                raise ValueError(f"part {part.name!r}: feather part needs a 'thickness' primvar (nm, vertex)")
+        if feather:
             lut_kw = {} if lut is None else dict(
                 lut_file=textures["lut"], lut_colour_space=lut["colour_space"],
                 angle_warp_gamma=lut["angle_warp_gamma"], thickness_range_nm=lut["thickness_range_nm"],
