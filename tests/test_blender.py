@@ -236,3 +236,43 @@ def test_without_the_addon_blender_still_shows_green_and_purple_feathers(asset, 
         classes.append(cmp.hue_classes(images[ref.view][tips])[2])
     cls = np.concatenate(classes)
     assert (cls == 1).mean() > 0.1 and (cls == 2).mean() > 0.1, np.bincount(cls, minlength=4)
+
+
+ROUND_TRIP = r"""
+import sys
+from pipeline.hosts.blender_job import bundled_pxr_first
+bundled_pxr_first()
+import bpy
+asset, out, zip_path = sys.argv[1:4]
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.wm.usd_import(filepath=asset)
+props = dict(bpy.data.objects["NeckFeathers"].data.items())
+print("IMPORTED", props["rockdove:film:cauchyA"], props["rockdove:film:substrateIndex"], props["rockdove:film:model"])
+bpy.ops.wm.usd_export(filepath=out)
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.preferences.addon_install(filepath=zip_path, overwrite=True)
+bpy.ops.preferences.addon_enable(module="rockdove_blender")
+bpy.ops.wm.usd_import(filepath=out)
+print("REIMPORTED", [m.name for m in bpy.data.materials if m.get("rockdove:thinFilm")])
+"""
+
+
+@needs_bpy
+@pytest.mark.slow
+def test_film_record_survives_blender_import_and_export_through_user_properties(asset, tmp_path):
+    from pxr import Usd
+
+    out = str(tmp_path / "exported.usda")
+    user = tmp_path / "user"
+    env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), BLENDER_USER_SCRIPTS=str(user / "scripts"),
+               BLENDER_USER_CONFIG=str(user / "config"), BLENDER_USER_EXTENSIONS=str(user / "extensions"))
+    p = subprocess.run([sys.executable, "-c", ROUND_TRIP, asset["interface"], out, host.addon_zip(tmp_path)],
+                       capture_output=True, text=True, env=env, timeout=300, cwd=tmp_path)
+    assert p.returncode == 0, p.stderr[-2000:]
+    imported = [ln for ln in p.stdout.splitlines() if ln.startswith("IMPORTED")][0].split()
+    assert float(imported[1]) == pytest.approx(1.532) and float(imported[2]) == 1.0 and imported[3] == "keratin"
+    stage = Usd.Stage.Open(out)
+    mesh = [q for q in stage.Traverse() if q.GetName() == "NeckFeathers" and q.GetTypeName() == "Mesh"][0]
+    assert mesh.GetAttribute("rockdove:film:cauchyB_nm2").Get() == pytest.approx(5890.0)  # the schema's name
+    assert "RockDoveThinFilmAPI" not in mesh.GetMetadata("apiSchemas").ApplyOperations([])  # schema dropped
+    assert "NeckFeathersThinFilm" in [ln for ln in p.stdout.splitlines() if ln.startswith("REIMPORTED")][0]

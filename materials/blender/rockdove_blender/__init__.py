@@ -207,7 +207,10 @@ def apply_to_import(import_context) -> list:
         record = film_record(prim) if prim else {}
         if not record:
             continue
-        objects = [i for i in ids if isinstance(i, bpy.types.Object) and i.type == "MESH"]
+        # the prim map gives the object for a mesh prim merged with its parent Xform, else the mesh datablock
+        meshes = {i.data for i in ids if isinstance(i, bpy.types.Object) and i.type == "MESH"}
+        meshes |= {i for i in ids if isinstance(i, bpy.types.Mesh)}
+        objects = [ob for ob in bpy.data.objects if ob.type == "MESH" and ob.data in meshes]
         if not objects:
             continue
         material_prim = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0].GetPrim()
