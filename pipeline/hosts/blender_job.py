@@ -14,7 +14,8 @@ Steps (the job file, written by :func:`pipeline.hosts.blender.render`, gives eve
 2. ``bpy.ops.wm.usd_import`` of the asset: the add-on builds the thin-film material;
 3. ``lobe = "as_imported"`` leaves every material as imported (what a user sees, with or without the add-on);
    ``lobe = "view_angle"`` (BRIEF "hosts interface"): the film lobe alone under a uniform white world of unit
-   radiance. The add-on's base BSDF is turned black (its base-colour link removed), every other material
+   radiance. The add-on's film is made smooth (roughness 0: the mirror lobe), its base BSDF is turned black
+   (its base-colour link removed), every other material
    becomes black diffuse (still occluding), and no object is seen by glossy rays, so each film pixel
    reflects the environment itself (no inter-reflection, as the reference assumes);
 4. per view: a camera with the View's OpenGL ``camera_to_world`` mapped through the importer's up-axis
@@ -67,6 +68,7 @@ def film_lobe_only(bpy, addon) -> int:
         for slot in ob.material_slots:
             mat = slot.material
             if mat is not None and mat.get(addon.MATERIAL_TAG):
+                mat.node_tree.nodes[addon.NODE_FILM].inputs["Roughness"].default_value = 0.0  # smooth film
                 base = mat.node_tree.nodes[addon.NODE_BASE]
                 for link in list(base.inputs["Base Color"].links):
                     mat.node_tree.links.remove(link)
