@@ -216,7 +216,7 @@ def test_blender_host_raises_host_error_naming_itself_when_the_addon_finds_no_fi
     view = View("v", np.eye(4), 0.5, 8, 8, (0, 0, 1), (1, 1, 1))
     with pytest.raises(HostError, match="no thin-film material") as info:
         host.render(path, [view], str(tmp_path / "out"))
-    assert info.value.host == "blender"
+    assert "'blender'" in str(info.value)
 
 
 @needs_bpy

@@ -30,5 +30,5 @@ class HostError(Exception):
 
     def __init__(self, host: str, message: str):
         super().__init__(f"host {host!r}: {message}")
-        self.host = host
+        self.host = self.name = host
         self.message = message
