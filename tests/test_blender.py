@@ -25,10 +25,18 @@ def _rockdove(*args):
 
 @pytest.fixture(scope="module")
 def asset(tmp_path_factory):
-    """A small measured-preset asset (keratin film, graded thickness), usda and usdz."""
+    """A small measured-preset asset (keratin film, graded thickness), usda and usdz; a coarse body (5 mm voxels,
+    25k triangles instead of 78k) keeps the build and Blender's import short."""
+    from pipeline import textures
     from pipeline.assemble import assemble
+    from pipeline.geometry import build_bird
+    from pipeline.geometry.params import BirdParams
 
-    return assemble(tmp_path_factory.mktemp("blender") / "pigeon", preset="measured", card_count=300, usdz=True)
+    params = BirdParams.measured(card_count=300, body_voxel_m=0.005, body_texture_resolution=256)
+    bird = build_bird(params)
+    return assemble(tmp_path_factory.mktemp("blender") / "pigeon", preset="measured", usdz=True, bird=bird,
+                    feather_textures=textures.feather_textures(params),
+                    body_texture=textures.body_base_colour(params, bird))
 
 
 def test_addon_zip_holds_the_module_from_the_data_files_and_is_reproducible(tmp_path):
