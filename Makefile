@@ -8,6 +8,8 @@ STAMP  := $(VENV)/.installed
 OUT    ?= build/pigeon
 
 export PYOPENGL_PLATFORM ?= egl
+# Shared libraries that bpy (Blender as a Python module, in the test extra) links and a minimal Debian lacks.
+BPY_DEBS := libx11-6 libxrender1 libxfixes3 libxi6 libxkbcommon0 libxext6 libsm6 libice6 libgl1
 
 .PHONY: asset test bench venv web clean smoke-installed
 
@@ -32,6 +34,8 @@ $(BROWSER_STAMP): $(STAMP)
 
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	@dpkg -s $(BPY_DEBS) >/dev/null 2>&1 || ! command -v apt-get >/dev/null || \
+		(apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $(BPY_DEBS))
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	@touch $(STAMP)

@@ -1,7 +1,8 @@
 """The ``rockdove`` command line.
 
 This module only parses arguments and dispatches. :data:`COMMANDS` names every sub-command with its one-line
-help (the only copy of it); each lives in ``pipeline/commands/<name>.py`` and exposes::
+help (the only copy of it); each lives in ``pipeline/commands/<name>.py`` (hyphens become underscores) and
+exposes::
 
     def add_arguments(parser: argparse.ArgumentParser) -> None
     def run(args: argparse.Namespace) -> int    # exit status: 0 ok, 1 failed check, 2 bad usage
@@ -31,6 +32,7 @@ COMMANDS: dict[str, str] = {
     "bench": "benchmarks: LUT bake speed against error, geometry and build scaling",
     "config": "print the effective build configuration with units",
     "schema-path": "print the folder holding the USD schema plugin, for PXR_PLUGINPATH_NAME",
+    "blender-addon": "write the Blender add-on (rockdove_blender.zip) that builds the thin-film material on USD import",
 }
 
 
@@ -42,7 +44,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _module_name(name: str) -> str:
-    """The module of command ``name``: ``schema-path`` lives in ``pipeline/commands/schema_path.py``."""
+    """Command name -> module name under pipeline.commands (``schema-path`` -> ``schema_path``)."""
     return name.replace("-", "_")
 
 

@@ -134,3 +134,22 @@ def test_apply_and_read_round_trip_and_refusals():
                         thickness_range_nm=(1, 2))
     with pytest.raises(ValueError, match=SCHEMA_NAME):
         read_thin_film(stage.DefinePrim("/Plain", "Mesh"))
+
+
+def test_every_film_value_is_also_a_custom_user_property_that_survives_schema_dropping_tools():
+    from pxr import Usd
+
+    from pipeline.usd.schema import ATTRIBUTE_TYPES, USER_PROPERTIES_PREFIX, apply_thin_film, register
+
+    register()
+    stage = Usd.Stage.CreateInMemory()
+    mesh = stage.DefinePrim("/M", "Mesh")
+    apply_thin_film(mesh, model="keratin", cauchy_a=1.532, cauchy_b_nm2=5890.0, incident_index=1.0,
+                    substrate_index=1.0, lut_file="./textures/thinfilm_lut.exr", lut_colour_space="lin_rec709",
+                    angle_warp_gamma=2.0, thickness_range_nm=(480, 700))
+    for name in ATTRIBUTE_TYPES:
+        schema_attr = mesh.GetAttribute(f"rockdove:{name}")
+        user = mesh.GetAttribute(USER_PROPERTIES_PREFIX + name)
+        assert user and user.IsCustom() and not schema_attr.IsCustom(), name
+        value = schema_attr.Get()
+        assert user.Get() == (value.path if ATTRIBUTE_TYPES[name] == "asset" else value), name

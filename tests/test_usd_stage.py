@@ -143,7 +143,7 @@ def test_universal_and_mtlx_surfaces_resolve(stage):
     assert tex.GetInput("sourceColorSpace").Get() == "sRGB"
     assert (tex.GetInput("wrapS").Get(), tex.GetInput("wrapT").Get()) == ("clamp", "clamp")
     reader = UsdShade.Shader(stage.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial/StReader"))
-    assert reader.GetInput("varname").GetTypeName() == "string" and reader.GetInput("varname").Get() == "st"
+    assert reader.GetInput("varname").GetTypeName() == "string" and reader.GetInput("varname").Get() == "previewST"
     body = UsdShade.Material(stage.GetPrimAtPath("/Pigeon/Looks/BodyMaterial"))
     assert body.ComputeSurfaceSource()[0].GetShaderId() == "UsdPreviewSurface"
     body_tex = UsdShade.Shader(stage.GetPrimAtPath("/Pigeon/Looks/BodyMaterial/BaseColorTexture"))
@@ -194,23 +194,70 @@ def test_shading_variants_switch_the_mtlx_network(asset):
     assert UsdShade.Material(st.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial")).ComputeSurfaceSource()[0]
 
 
-def test_preview_texture_mixes_base_and_a_static_structural_colour_by_the_mask(asset):
+def _preview_tiles(preview, thickness_range_nm):
+    """The atlas tiles of feather_preview.png, thinnest first (bottom row first), and their thickness, nm."""
+    from pipeline.usd.textures_io import PREVIEW_TILE_TEXELS, preview_atlas_shape, preview_tile_thickness_nm
+
+    d = preview_tile_thickness_nm(thickness_range_nm)
+    cols, rows = preview_atlas_shape(d.size)
+    t = PREVIEW_TILE_TEXELS
+    assert preview.shape == (rows * t, cols * t, 4)
+    tiles = [preview[(rows - 1 - k // cols) * t:(rows - k // cols) * t, (k % cols) * t:(k % cols + 1) * t]
+             for k in range(d.size)]
+    return tiles, d
+
+
+def _tile(image, t):
+    from PIL import Image
+
+    return np.asarray(Image.fromarray(image).resize((t, t), Image.BOX))
+
+
+def test_preview_atlas_mixes_base_and_the_structural_colour_of_each_thickness_by_the_mask(asset):
     import colour
     from PIL import Image
 
     from pipeline.lut.exr import read_exr
+    from pipeline.usd.textures_io import PREVIEW_COS_THETA, PREVIEW_TILE_TEXELS
 
     lut = read_exr(asset["lut"])
-    base = np.asarray(Image.open(asset["feather_base"]))
-    mask = np.asarray(Image.open(asset["feather_mask"]))
-    preview = np.asarray(Image.open(asset["feather_preview"]))
-    assert preview.shape == base.shape and np.array_equal(preview[..., 3], base[..., 3])
-    lo, hi = lut.thickness_range_nm
-    structural = colour.cctf_encoding(np.clip(lut.sample(1.0, 0.5 * (lo + hi)), 0, 1), function="sRGB")
-    tip, plain = mask == 255, mask == 0
+    t = PREVIEW_TILE_TEXELS
+    base = _tile(np.asarray(Image.open(asset["feather_base"])), t)
+    mask = _tile(np.asarray(Image.open(asset["feather_mask"])), t)
+    tiles, d = _preview_tiles(np.asarray(Image.open(asset["feather_preview"])), lut.thickness_range_nm)
+    assert len(tiles) > 1  # the synthetic bird's thickness varies: one tile per thickness step
+    tip, plain = (mask == 255) & (base[..., 3] == 255), (mask == 0) & (base[..., 3] == 255)
     assert tip.any() and plain.any()
-    assert np.abs(preview[tip][:, :3] - np.round(structural * 255)).max() <= 1
-    assert np.array_equal(preview[plain][:, :3], base[plain][:, :3])
+    for tile, dk in zip(tiles, d):
+        assert np.abs(tile[..., 3].astype(int) - base[..., 3]).max() <= 1
+        structural = colour.cctf_encoding(np.clip(lut.sample(PREVIEW_COS_THETA, dk), 0, 1), function="sRGB")
+        assert np.abs(tile[tip][:, :3] - np.round(structural * 255)).max() <= 1, dk
+        assert np.abs(tile[plain][:, :3].astype(int) - base[plain][:, :3]).max() <= 1
+    assert len({tuple(tile[tip][0, :3]) for tile in tiles}) > len(tiles) // 2  # the colours differ
+
+
+def test_each_card_reads_the_preview_tile_of_its_own_thickness(stage, asset):
+    from pxr import UsdGeom
+
+    from pipeline.lut.exr import read_exr
+    from pipeline.usd.textures_io import PREVIEW_COLUMNS, PREVIEW_TILE_TEXELS
+
+    lut = read_exr(asset["lut"])
+    api = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Pigeon/Geom/NeckFeathers"))
+    pst = np.asarray(api.GetPrimvar("previewST").Get())
+    st = np.asarray(api.GetPrimvar("st").Get())
+    d = np.asarray(api.GetPrimvar("thickness").Get(), np.float64)
+    assert api.GetPrimvar("previewST").GetInterpolation() == "vertex" and pst.shape == st.shape
+    from pipeline.usd.textures_io import preview_tile_thickness_nm
+
+    tiles = preview_tile_thickness_nm(lut.thickness_range_nm)
+    cols = min(tiles.size, PREVIEW_COLUMNS)
+    rows = -(-tiles.size // cols)
+    k = (np.floor(pst[:, 0] * cols) + cols * np.floor(pst[:, 1] * rows)).astype(int)
+    nearest = np.argmin(np.abs(d[:, None] - tiles[None, :]), axis=1)
+    assert np.array_equal(k, nearest)  # the tile whose thickness is nearest the card's
+    inner = np.stack([(pst[:, 0] * cols) % 1.0, (pst[:, 1] * rows) % 1.0], axis=1) * PREVIEW_TILE_TEXELS
+    assert np.allclose(inner, 0.5 + st * (PREVIEW_TILE_TEXELS - 1), atol=2e-3)  # the feather's st in the tile
 
 
 def test_rebuild_is_byte_identical(asset, tmp_path):
@@ -346,19 +393,23 @@ def test_physical_only_asset_has_no_lut_and_only_the_physical_variant(physical):
         assert report.clean and report.variants == ["shading=physical"], report.format()
 
 
-def test_physical_only_preview_is_the_exact_colour_at_normal_incidence_and_mid_thickness(physical):
+def test_physical_only_preview_atlas_holds_the_exact_colours(physical):
     import colour
     from PIL import Image
 
     from pipeline.assemble import thickness_domain_nm
     from pipeline.lut.reference import reference_colour
+    from pipeline.usd.textures_io import PREVIEW_COS_THETA, PREVIEW_TILE_TEXELS
 
-    lo, hi = thickness_domain_nm(synthetic_bird(CARDS, seed=3))
-    exact = reference_colour(1.0, 0.5 * (lo + hi), get_film("keratin"), colour_space="lin_rec709")
-    structural = colour.cctf_encoding(np.clip(exact, 0, 1), function="sRGB")
-    mask = np.asarray(Image.open(physical["feather_mask"]))
-    preview = np.asarray(Image.open(physical["feather_preview"]))
-    assert np.abs(preview[mask == 255][:, :3] - np.round(structural * 255)).max() <= 1
+    mask = _tile(np.asarray(Image.open(physical["feather_mask"])), PREVIEW_TILE_TEXELS)
+    alpha = _tile(np.asarray(Image.open(physical["feather_base"])), PREVIEW_TILE_TEXELS)[..., 3]
+    tiles, d = _preview_tiles(np.asarray(Image.open(physical["feather_preview"])),
+                              thickness_domain_nm(synthetic_bird(CARDS, seed=3)))
+    for k in (0, len(d) // 2, len(d) - 1):
+        exact = reference_colour(PREVIEW_COS_THETA, d[k], get_film("keratin"), colour_space="lin_rec709")
+        structural = colour.cctf_encoding(np.clip(exact, 0, 1), function="sRGB")
+        tip = (mask == 255) & (alpha == 255)
+        assert tip.any() and np.abs(tiles[k][tip][:, :3] - np.round(structural * 255)).max() <= 1
 
 
 def test_baked_only_asset_has_only_the_baked_variant(tmp_path):

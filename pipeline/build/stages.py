@@ -508,7 +508,7 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
         stages.append(Stage("textures", run_textures, deps=("lut", "texture_images"),
                             modules=("pipeline.usd.textures_io", "pipeline.lut.exr"), libraries=LIBS_USD,
                             codec=FILES, publish=""))
-    else:  # the preview colour is computed from the film (pipeline.lut.reference) at mid thickness
+    else:  # the preview colours are computed from the film (pipeline.lut.reference) over the thickness range
         stages.append(Stage("textures", run_textures, config=("film",), deps=("thickness_range", "texture_images"),
                             modules=("pipeline.usd.textures_io", "pipeline.lut.reference", "pipeline.films",
                                      "pipeline.optics", "pipeline.spectral"),

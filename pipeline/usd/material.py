@@ -3,8 +3,9 @@
 Every feather material carries two surface outputs (docs/design.md, "USD asset"; issue 4):
 
 - ``outputs:surface``: UsdPreviewSurface, works in every Hydra delegate. ``diffuseColor`` and ``opacity`` come
-  from ``feather_preview.png`` (base colour mixed by the mask with a static preview of the structural colour,
-  see :mod:`pipeline.usd.textures_io`), ``opacityThreshold = 0.5``.
+  from ``feather_preview.png``, an atlas of the feather with the structural colour of each thickness at one
+  representative angle, read through the mesh's ``previewST`` primvar (each card the tile of its own
+  thickness, see :mod:`pipeline.usd.textures_io`), ``opacityThreshold = 0.5``.
 - ``outputs:mtlx:surface``: the MaterialX network of ``materials/thinfilm.mtlx``, copied node for node into
   UsdShade shaders whose ``info:id`` is the MaterialX nodedef name (``ND_*``). The document is data: this
   module reads it, never spells nodes in Python; only the build parameters (LUT size, warp, thickness range,
@@ -228,12 +229,12 @@ def _preview_surface(stage, path):
     return surf
 
 
-def _st_reader(stage, path):
+def _st_reader(stage, path, varname: str = "st"):
     from pxr import Sdf, UsdShade
 
     reader = UsdShade.Shader.Define(stage, path)
     reader.SetShaderId("UsdPrimvarReader_float2")
-    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st")  # a string, not a token (USD >= 20.11)
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set(varname)  # a string, not a token (USD >= 20.11)
     return reader.CreateOutput("result", Sdf.ValueTypeNames.Float2)
 
 
@@ -286,8 +287,10 @@ def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, t
     material = UsdShade.Material.Define(stage, path)
     base = material.GetPath()
 
-    # universal network
-    st = _st_reader(stage, base.AppendChild("StReader"))
+    # universal network: the preview atlas through the mesh's previewST (one tile per card thickness)
+    from .textures_io import PREVIEW_PRIMVAR
+
+    st = _st_reader(stage, base.AppendChild("StReader"), PREVIEW_PRIMVAR)
     preview_tex = _preview_texture(stage, base.AppendChild("PreviewTexture"), textures["feather_preview"], st,
                                    colour_space="sRGB")
     surf = _preview_surface(stage, base.AppendChild("PreviewSurface"))

@@ -15,6 +15,15 @@ stage first, nothing here depends on the registry: :func:`apply_thin_film` adds 
 prim's ``apiSchemas`` and authors every attribute with its declared type (:data:`ATTRIBUTE_TYPES`, checked
 against generatedSchema.usda by the tests), and :func:`has_thin_film` reads the ``apiSchemas`` list itself,
 so the written layers and what is read back are the same whether or not the registry knows the schema.
+
+Surviving tools that drop schemas: :func:`apply_thin_film` also authors every value as a custom attribute
+``userProperties:rockdove:<name>`` (an asset path as its string). Measured with Blender 5.0.1 (``bpy``, default
+USD import and export options) on a mesh carrying the three candidates: the schema's own attributes
+(``custom = false``) and constant primvars (``primvars:rockdove...``, interpolation constant) are dropped on
+import, and so is ``customData``; ``userProperties:rockdove:film:cauchyA`` arrives as the mesh's custom
+property ``rockdove:film:cauchyA`` (namespace ``userProperties:`` stripped; token values as strings, float2 as
+an array) and Blender's export writes it back as the custom attribute ``rockdove:film:cauchyA`` on the mesh:
+the schema's attribute name, without the ``apiSchemas`` entry. So ``userProperties:`` is the copy kept.
 """
 
 from __future__ import annotations
@@ -22,6 +31,9 @@ from __future__ import annotations
 from .. import resources
 
 SCHEMA_NAME = "RockDoveThinFilmAPI"
+#: Namespace of the copy of the schema's values that survives tools which drop applied API schemas (module
+#: docstring, "Surviving tools that drop schemas").
+USER_PROPERTIES_PREFIX = "userProperties:rockdove:"
 
 # attribute name (after the "rockdove:" namespace) -> key in the dict read_thin_film returns
 _ATTRS = {
@@ -146,6 +158,9 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
     for name, value in values.items():
         type_name = Sdf.ValueTypeNames.Find(ATTRIBUTE_TYPES[name])
         prim.CreateAttribute(f"rockdove:{name}", type_name, custom=False).Set(value)
+        if ATTRIBUTE_TYPES[name] == "asset":  # tools keep strings, not asset paths
+            type_name, value = Sdf.ValueTypeNames.String, value.path
+        prim.CreateAttribute(USER_PROPERTIES_PREFIX + name, type_name, custom=True).Set(value)
 
 
 def read_thin_film(prim) -> dict:

@@ -66,6 +66,8 @@ FEATHER_MATERIAL = "feather"
 #: colour-matching functions weigh the spectrum most (keratin: n = 1.5515 there, 1.569 at 400 nm, 1.544 at 700 nm).
 FILM_IOR_WAVELENGTH_NM = 550.0
 
+PREVIEW_ST_DOC = ("Texture coordinates of this vertex in feather_preview.png, the UsdPreviewSurface atlas: the "
+                  "feather's st inside the tile of the card's film thickness (pipeline.usd.textures_io.preview_st).")
 THICKNESS_DOC = ("Film (keratin cortex) thickness of the feather barbules at this vertex, in nanometres; the "
                  "thin-film LUT is indexed by it (RockDoveThinFilmAPI rockdove:film:thicknessPrimvar).")
 
@@ -120,12 +122,15 @@ def _check_part(part) -> None:
             raise ValueError(f"part {part.name!r}: {what}")
 
 
-def author_mesh(stage, path, part):
+def author_mesh(stage, path, part, preview_range_nm=None):
     """Define one ``UsdGeom.Mesh`` from a :class:`pipeline.geometry.MeshPart`.
 
     Authors points (m), topology, vertex normals, ``primvars:st`` (texCoord2f, vertex),
     ``primvars:displayColor`` (constant, linear), every extra primvar (float/floatN, documented), extent,
-    ``subdivisionScheme = none`` (the meshes are final polygons) and ``doubleSided`` for feather cards.
+    ``subdivisionScheme = none`` (the meshes are final polygons) and ``doubleSided`` for feather cards. With
+    ``preview_range_nm`` (the film's thickness range, nm) also ``primvars:previewST`` (texCoord2f, vertex), the
+    coordinates into the preview atlas (:func:`pipeline.usd.textures_io.preview_st`; needs a ``thickness``
+    primvar).
 
     Returns
     -------
@@ -164,6 +169,13 @@ def author_mesh(stage, path, part):
         doc = THICKNESS_DOC if name == "thickness" else pv.doc
         if doc:
             primvar.GetAttr().SetDocumentation(doc)
+    if preview_range_nm is not None:
+        from .textures_io import PREVIEW_PRIMVAR, preview_st
+
+        coords = preview_st(part.st, part.primvars["thickness"].values, preview_range_nm)
+        pst = api.CreatePrimvar(PREVIEW_PRIMVAR, Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex)
+        pst.Set(Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(coords)))
+        pst.GetAttr().SetDocumentation(PREVIEW_ST_DOC)
     return mesh
 
 
@@ -201,7 +213,11 @@ def author_geometry(stage, bird):
     root = UsdGeom.Xform.Define(stage, ROOT)
     UsdGeom.Scope.Define(stage, f"{ROOT}/Geom")
     for part in bird.parts:
-        mesh = author_mesh(stage, f"{ROOT}/Geom/{part.name}", part)
+        preview_range = None
+        if part.material == FEATHER_MATERIAL:  # the preview atlas spans the mesh's thickness range, rounded
+            d = np.asarray(part.primvars["thickness"].values, np.float64)  # outward as the LUT axis is
+            preview_range = (float(d.min()), float(d.max()))
+        mesh = author_mesh(stage, f"{ROOT}/Geom/{part.name}", part, preview_range)
         binding = UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim())
         binding.GetDirectBindingRel().SetTargets([f"{ROOT}/Looks/{material_name(part.material)}"])
     return root.GetPrim()

@@ -3,17 +3,22 @@
 - PNG via Pillow with fixed options (``compress_level`` fixed, no ``optimize``, no text/time chunks): the same
   pixels give the same bytes.
 - The LUT via :func:`pipeline.lut.exr.write_exr` (float32 or half RGB, ZIP, sorted header, no timestamp).
-- ``feather_preview.png``: the universal UsdPreviewSurface network cannot look the LUT up per fragment (the
-  LUT is indexed by angle and per-vertex thickness, a texture by st), so it shows a *static* preview:
-  ``mix(base, LUT(cos_theta_preview, thickness_preview_nm), mask)`` with one representative structural colour
-  for every feather: by default at normal incidence (cos theta = 1, light and eye along the normal) and the
-  middle of the LUT's thickness range. The mix is done in linear light (sRGB decoded and re-encoded with
-  colour-science, IEC 61966-2-1); out-of-gamut colours are clipped to [0, 1] for the 8-bit file.
-- An asset without a LUT (physical-only shading, ``lut=None``) has no ``thinfilm_lut.exr``; its preview colour
-  is the *exact* spectral colour at the same point (normal incidence, middle of the thickness range on the
-  mesh): :func:`pipeline.lut.reference.reference_colour`, one Airy spectrum at 0.1 nm integrated under D65
-  with the CIE 1931 2 degree observer, in lin_rec709 (:func:`preview_colour`). With a LUT the preview uses the
-  LUT's value there, which differs from it by the LUT's error only.
+- ``feather_preview.png``: what UsdPreviewSurface viewers show (Blender's importer, usdview without MaterialX,
+  Quick Look). Their network cannot look the LUT up per fragment (it is indexed by angle and thickness), so
+  the preview is an *atlas* of :data:`PREVIEW_TILES` copies of the feather, each ``mix(base, structural, mask)``
+  with the structural colour of one thickness at one representative angle. Each card reads the tile of its
+  own thickness (cards have one thickness each) through the texcoord primvar ``previewST``
+  (:func:`preview_st`, authored on the feather mesh), so the viewers show the film's spatial variation, green
+  and purple feathers, with one UsdUVTexture and a binary ``opacityThreshold`` cut-out. Tiles sit on
+  :data:`PREVIEW_COLUMNS` columns, bottom row first (texture t = 0 at the image's bottom), tile k at
+  thickness ``lo + k (hi - lo) / (K - 1)`` over the film's thickness range rounded outward to whole nm
+  (:func:`preview_range_nm`; one tile when the range is one value). The angle is
+  :data:`PREVIEW_COS_THETA` (module constant, with how it was chosen). The mix is done in linear light (sRGB
+  decoded and re-encoded with colour-science, IEC 61966-2-1); out-of-gamut colours are clipped to [0, 1].
+- An asset without a LUT (physical-only shading, ``lut=None``) has no ``thinfilm_lut.exr``; its preview colours
+  are the *exact* spectral colours at the same points: :func:`pipeline.lut.reference.reference_colour`, one
+  Airy spectrum at 0.1 nm integrated under D65 with the CIE 1931 2 degree observer, in lin_rec709
+  (:func:`preview_colour`). With a LUT the preview uses the LUT's values there, which differ by the LUT's error.
 """
 
 from __future__ import annotations
@@ -26,8 +31,102 @@ from .material import TEXTURE_FILES
 
 #: Pillow PNG options: fixed so that encoding is reproducible (zlib level 6 is Pillow's default, made explicit).
 PNG_OPTIONS = {"compress_level": 6, "optimize": False}
-#: cos theta of the static structural colour in feather_preview.png (normal incidence).
-PREVIEW_COS_THETA = 1.0
+#: cos theta of the structural colours of feather_preview.png: 0.86 (31 degrees), the median |N.V| over the
+#: feather-tip pixels of the default verification views (4 turntable + the light sweep, 128 px, measured on the
+#: default build: median 0.865, quartiles 0.65 and 0.96): the incidence a viewer most often sees the tips at.
+PREVIEW_COS_THETA = 0.86
+#: Thickness tiles of the preview atlas (cards round to the nearest; 32 over the default ~208 nm range is a
+#: 6.7 nm step, a hue step of ~13 degrees at the film's ~175 nm per colour order).
+PREVIEW_TILES = 32
+#: Columns of the atlas; texels per tile side (the feather preview is resized to it).
+PREVIEW_COLUMNS = 8
+PREVIEW_TILE_TEXELS = 128
+#: The feather mesh's texcoord primvar into the atlas (authored by pipeline.usd.stage).
+PREVIEW_PRIMVAR = "previewST"
+
+
+def preview_range_nm(thickness_range_nm) -> tuple[float, float]:
+    """The atlas's thickness range: ``(lo, hi)`` nm rounded outward to whole nm, so that callers holding the
+    mesh's exact range and callers holding the build's rounded one (the LUT axis) pick the same tiles."""
+    lo, hi = (float(v) for v in thickness_range_nm)
+    if not (np.isfinite(lo) and np.isfinite(hi) and 0 <= lo <= hi):
+        raise ValueError(f"thickness_range_nm must be finite (lo, hi) with 0 <= lo <= hi nm, got {thickness_range_nm!r}")
+    return float(np.floor(lo)), float(np.ceil(hi))
+
+
+def preview_tile_thickness_nm(thickness_range_nm) -> np.ndarray:
+    """(K,) float64 thickness of each atlas tile, nm (K = 1 when the range is one value, else PREVIEW_TILES)."""
+    lo, hi = preview_range_nm(thickness_range_nm)
+    return np.array([lo]) if hi == lo else np.linspace(lo, hi, PREVIEW_TILES)
+
+
+def preview_atlas_shape(n_tiles: int) -> tuple[int, int]:
+    """(columns, rows) of an atlas of ``n_tiles`` tiles."""
+    cols = min(int(n_tiles), PREVIEW_COLUMNS)
+    return cols, -(-int(n_tiles) // cols)
+
+
+def preview_st(st, thickness_nm, thickness_range_nm) -> np.ndarray:
+    """Texture coordinates of the preview atlas: each vertex's feather ``st`` inside the tile of its thickness.
+
+    Parameters
+    ----------
+    st : ndarray, (V, 2)
+        Feather texture coordinates in [0, 1] (t = 0 at the image's bottom).
+    thickness_nm : ndarray, (V,)
+        Film thickness per vertex, nm.
+    thickness_range_nm : (float, float)
+        The film's thickness range (:func:`preview_range_nm` rounds it).
+
+    Returns
+    -------
+    ndarray, (V, 2) float32
+        ``st`` mapped onto the texel centres of the tile (no bilinear bleeding between tiles at the edges).
+    """
+    st = np.asarray(st, np.float64)
+    d = np.asarray(thickness_nm, np.float64).reshape(-1)
+    if st.ndim != 2 or st.shape[1] != 2 or st.shape[0] != d.size:
+        raise ValueError(f"st must be (V, 2) and thickness_nm (V,), got {st.shape} and {d.shape}")
+    tiles = preview_tile_thickness_nm(thickness_range_nm)
+    k = np.zeros(d.size, np.int64) if tiles.size == 1 else np.clip(
+        np.rint((d - tiles[0]) / (tiles[-1] - tiles[0]) * (tiles.size - 1)), 0, tiles.size - 1).astype(np.int64)
+    cols, rows = preview_atlas_shape(tiles.size)
+    t = PREVIEW_TILE_TEXELS
+    inner = 0.5 + np.clip(st, 0.0, 1.0) * (t - 1)  # texel coordinate inside the tile, centre to centre
+    s = ((k % cols) * t + inner[:, 0]) / (cols * t)
+    v = ((k // cols) * t + inner[:, 1]) / (rows * t)
+    return np.stack([s, v], axis=1).astype(np.float32)
+
+
+def feather_preview_atlas(base_rgba: np.ndarray, mask: np.ndarray, structural_rgb) -> np.ndarray:
+    """The preview atlas: one :func:`feather_preview` tile per structural colour, resized to
+    :data:`PREVIEW_TILE_TEXELS`, on :data:`PREVIEW_COLUMNS` columns from the bottom row up.
+
+    Parameters
+    ----------
+    base_rgba, mask
+        As :func:`feather_preview`.
+    structural_rgb : array_like, (K, 3)
+        Linear structural colour of each tile.
+
+    Returns
+    -------
+    ndarray, (rows * T, columns * T, 4) uint8
+        sRGB RGB, linear alpha.
+    """
+    from PIL import Image
+
+    colours = np.asarray(structural_rgb, np.float64).reshape(-1, 3)
+    cols, rows = preview_atlas_shape(len(colours))
+    t = PREVIEW_TILE_TEXELS
+    atlas = np.zeros((rows * t, cols * t, 4), np.uint8)
+    for k, c in enumerate(colours):
+        tile = feather_preview(base_rgba, mask, structural_rgb=c)
+        if tile.shape[:2] != (t, t):
+            tile = np.asarray(Image.fromarray(tile, "RGBA").resize((t, t), Image.BOX))
+        top = (rows - 1 - k // cols) * t  # image row 0 is the top (t = 1)
+        atlas[top:top + t, (k % cols) * t:(k % cols + 1) * t] = tile
+    return atlas
 
 
 def _check_uint8(name: str, a, channels: tuple[int, ...]) -> np.ndarray:
@@ -136,8 +235,7 @@ def feather_preview(base_rgba: np.ndarray, mask: np.ndarray, lut=None, *, cos_th
 
 
 def write_textures(out_dir: str, lut, feather_textures: dict, body_texture: np.ndarray, *,
-                   preview_cos_theta: float = PREVIEW_COS_THETA,
-                   preview_thickness_nm: float | None = None, film=None,
+                   preview_cos_theta: float = PREVIEW_COS_THETA, film=None,
                    thickness_range_nm: tuple[float, float] | None = None) -> dict[str, str]:
     """Write every texture of the asset into ``out_dir/textures/``.
 
@@ -153,13 +251,13 @@ def write_textures(out_dir: str, lut, feather_textures: dict, body_texture: np.n
         ``"base"``: (H, W, 4) uint8 sRGB RGBA (A = silhouette); ``"mask"``: (H, W) uint8 raw.
     body_texture : ndarray, (H, W, 3) uint8
         sRGB body colour in the body's UVs.
-    preview_cos_theta, preview_thickness_nm
-        See :func:`feather_preview`.
+    preview_cos_theta : float
+        Angle of the preview atlas's colours (:data:`PREVIEW_COS_THETA`).
     film : pipeline.films.FilmModel, optional
-        Required when ``lut`` is None: the film of the preview colour.
+        Required when ``lut`` is None: the film of the preview colours.
     thickness_range_nm : (float, float), optional
-        Required when ``lut`` is None (unless ``preview_thickness_nm`` is given): the thickness range on the
-        mesh, nm; the preview uses its middle.
+        Required when ``lut`` is None: the thickness range on the mesh, nm (with a LUT, the LUT's range); the
+        atlas's tiles span it (:func:`preview_tile_thickness_nm`).
 
     Returns
     -------
@@ -176,15 +274,15 @@ def write_textures(out_dir: str, lut, feather_textures: dict, body_texture: np.n
     mask = _check_uint8("feather_textures['mask']", feather_textures["mask"], (1,))
     body = _check_uint8("body_texture", body_texture, (3,))
     if lut is not None:
-        preview = feather_preview(base, mask, lut, cos_theta=preview_cos_theta, thickness_nm=preview_thickness_nm)
+        tiles = preview_tile_thickness_nm(lut.thickness_range_nm)
+        colours = np.stack([lut.sample(preview_cos_theta, d) for d in tiles])
     else:
-        if film is None or (preview_thickness_nm is None and thickness_range_nm is None):
-            raise ValueError("lut=None needs film and thickness_range_nm (or preview_thickness_nm) for the static "
-                             f"preview colour, got film={film!r}, thickness_range_nm={thickness_range_nm!r}")
-        d = (0.5 * (float(thickness_range_nm[0]) + float(thickness_range_nm[1])) if preview_thickness_nm is None
-             else float(preview_thickness_nm))
-        preview = feather_preview(base, mask, cos_theta=preview_cos_theta,
-                                  structural_rgb=preview_colour(film, d, preview_cos_theta))
+        if film is None or thickness_range_nm is None:
+            raise ValueError("lut=None needs film and thickness_range_nm for the preview colours, got "
+                             f"film={film!r}, thickness_range_nm={thickness_range_nm!r}")
+        tiles = preview_tile_thickness_nm(thickness_range_nm)
+        colours = np.stack([preview_colour(film, d, preview_cos_theta) for d in tiles])
+    preview = feather_preview_atlas(base, mask, colours)
     tex_dir = os.path.join(os.path.abspath(out_dir), "textures")
     os.makedirs(tex_dir, exist_ok=True)
     paths = {role: os.path.join(tex_dir, name) for role, name in TEXTURE_FILES.items()}
