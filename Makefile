@@ -8,8 +8,13 @@ STAMP  := $(VENV)/.installed
 OUT    ?= build/pigeon
 
 export PYOPENGL_PLATFORM ?= egl
-# Shared libraries that bpy (Blender as a Python module, in the test extra) links and a minimal Debian lacks.
-BPY_DEBS := libx11-6 libxrender1 libxfixes3 libxi6 libxkbcommon0 libxext6 libsm6 libice6 libgl1
+# Blender as a Python module (bpy, cp311) for the blender host: it pins numpy < 2, which rockdove's own
+# dependencies have outgrown, so it gets a venv of its own; the host finds it through $ROCKDOVE_BPY_PYTHON.
+# BPY_DEBS: shared libraries bpy links and a minimal Debian lacks.
+BPY_VENV  := .venv-bpy
+BPY_STAMP := $(BPY_VENV)/.installed
+BPY_DEBS  := libx11-6 libxrender1 libxfixes3 libxi6 libxkbcommon0 libxext6 libsm6 libice6 libgl1
+export ROCKDOVE_BPY_PYTHON ?= $(abspath $(BPY_VENV))/bin/python
 
 .PHONY: asset test bench venv web clean smoke-installed
 
@@ -34,17 +39,22 @@ $(BROWSER_STAMP): $(STAMP)
 
 $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	@dpkg -s $(BPY_DEBS) >/dev/null 2>&1 || ! command -v apt-get >/dev/null || \
-		(apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $(BPY_DEBS))
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	@touch $(STAMP)
+
+$(BPY_STAMP):
+	@dpkg -s $(BPY_DEBS) >/dev/null 2>&1 || ! command -v apt-get >/dev/null || \
+		(apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $(BPY_DEBS))
+	@test -x $(BPY_VENV)/bin/python || $(PYTHON) -m venv $(BPY_VENV)
+	$(BPY_VENV)/bin/python -m pip install --quiet 'bpy==5.0.1'
+	@touch $(BPY_STAMP)
 
 asset: $(STAMP) $(NPM_STAMP)
 	$(BIN)/rockdove build --out $(OUT)
 	@echo "asset written to $(OUT)/pigeon.usda"
 
-test: $(STAMP) $(NPM_STAMP) $(BROWSER_STAMP)
+test: $(STAMP) $(NPM_STAMP) $(BROWSER_STAMP) $(BPY_STAMP)
 	$(BIN)/python -m pytest -q
 
 # CI: build the sdist and the wheel, pip install the wheel into a fresh venv, build/validate/verify a small asset

@@ -101,7 +101,7 @@ def _inspect(tmp_path, asset_path, use_addon=True):
     user = tmp_path / "user"
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), BLENDER_USER_SCRIPTS=str(user / "scripts"),
                BLENDER_USER_CONFIG=str(user / "config"), BLENDER_USER_EXTENSIONS=str(user / "extensions"))
-    p = subprocess.run([sys.executable, "-c", INSPECT, zip_path, str(asset_path), "1" if use_addon else "0"],
+    p = subprocess.run([host.bpy_python(), "-c", INSPECT, zip_path, str(asset_path), "1" if use_addon else "0"],
                        capture_output=True, text=True, env=env, timeout=300, cwd=tmp_path)
     assert p.returncode == 0, p.stderr[-2000:]
     line = [ln for ln in p.stdout.splitlines() if ln.startswith("RESULT ")][-1]
@@ -164,6 +164,8 @@ def blender_renders(asset, tmp_path_factory):
 @needs_bpy
 @pytest.mark.slow
 def test_blender_host_renders_green_and_purple_feathers_with_the_views_camera(blender_renders):
+    from scipy import ndimage
+
     from pipeline.render import compare as cmp
     from pipeline.render.reference import render_reference
 
@@ -179,8 +181,11 @@ def test_blender_host_renders_green_and_purple_feathers_with_the_views_camera(bl
         tips = np.isin(ref.part_id, feather_ids) & (ref.mask >= cmp.STRUCTURAL_MASK)
         assert tips.sum() > 20, v.name
         classes.append(cmp.hue_classes(img[tips])[2])
-        # camera: the background (no surface in the reference) is black in Blender too
-        assert np.all(img[~ref.coverage] == 0.0), v.name
+        # camera: the background (no surface in the reference) is black in Blender too, but for a stray pixel
+        # on the silhouette, where a card's alpha edge crosses a pixel centre in one renderer and not the other
+        lit_bg = (~ref.coverage) & (img.max(axis=2) > 0)
+        assert not (lit_bg & ~ndimage.binary_dilation(ref.coverage)).any(), v.name  # none away from it
+        assert lit_bg.sum() <= 0.002 * lit_bg.size + 1, (v.name, int(lit_bg.sum()))
         assert np.median(img[tips].sum(axis=1)) > 0.05  # the film lobe is lit by the white world
     cls = np.concatenate(classes)
     assert (cls == 1).sum() > 10 and (cls == 2).sum() > 10  # green and purple both present
@@ -274,7 +279,7 @@ def test_film_record_survives_blender_import_and_export_through_user_properties(
     user = tmp_path / "user"
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), BLENDER_USER_SCRIPTS=str(user / "scripts"),
                BLENDER_USER_CONFIG=str(user / "config"), BLENDER_USER_EXTENSIONS=str(user / "extensions"))
-    p = subprocess.run([sys.executable, "-c", ROUND_TRIP, asset["interface"], out, host.addon_zip(tmp_path)],
+    p = subprocess.run([host.bpy_python(), "-c", ROUND_TRIP, asset["interface"], out, host.addon_zip(tmp_path)],
                        capture_output=True, text=True, env=env, timeout=300, cwd=tmp_path)
     assert p.returncode == 0, p.stderr[-2000:]
     imported = [ln for ln in p.stdout.splitlines() if ln.startswith("IMPORTED")][0].split()

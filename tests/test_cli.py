@@ -272,6 +272,6 @@ def test_every_listed_command_has_a_module_with_the_command_interface():
     from pipeline.cli import COMMANDS, build_parser
 
     for name in COMMANDS:
-        mod = importlib.import_module(f"pipeline.commands.{name}")
+        mod = importlib.import_module(f"pipeline.commands.{name.replace('-', '_')}")
         assert callable(mod.add_arguments) and callable(mod.run), name
         build_parser(name)  # its arguments are added without error

@@ -9,6 +9,7 @@ import pytest
 
 from pipeline import hosts
 from pipeline.hosts import HostError
+from pipeline.usd.stage import LOOKS_LAYER
 
 
 def test_registry_maps_every_host_to_its_module_and_glsl_always_runs_first():
@@ -68,7 +69,7 @@ def test_verify_hosts_reports_each_host_and_a_failing_one_does_not_stop_the_othe
 
     _broken_host(monkeypatch)
     monkeypatch.setitem(hosts.HOSTS, "ghost", "pipeline.hosts.no_such_module")
-    report = verify_asset(small_asset, out_dir=tmp_path / "report", width=64, height=64, views=["sweep_060"],
+    report = verify_asset(small_asset, out_dir=tmp_path / "report", width=96, height=96, views=["sweep_060"],
                           hosts=["materialx", "broken", "materialx_physical", "ghost"])
     by_name = {h["name"]: h for h in report["hosts"]}
     assert [h["name"] for h in report["hosts"]] == ["glsl", "materialx", "broken", "materialx_physical", "ghost"]
@@ -106,12 +107,12 @@ def test_materialx_host_draws_the_written_network_not_a_copy_of_it(small_asset, 
 
     folder = tmp_path / "broken"
     shutil.copytree(small_asset.rsplit("/", 1)[0], folder)
-    payload = Sdf.Layer.FindOrOpen(str(folder / "pigeon_payload.usda"))
+    payload = Sdf.Layer.FindOrOpen(str(folder / LOOKS_LAYER))  # the materials' layer
     attr = payload.GetAttributeAtPath("/Pigeon/Looks/FeatherMaterial/LutAngleCount.inputs:value")
     attr.default = attr.default / 4
     payload.Save()
     scene = load_scene(str(folder))
-    views = [v for v in verification_views(scene, 48, 48) if v.name == "sweep_060"]
+    views = [v for v in verification_views(scene, 96, 96) if v.name == "sweep_060"]
     images = materialx.render(str(folder / "pigeon.usda"), views, None)
     m = host_metrics(images, render_reference(scene, views, lobe="view_angle"), scene)
     assert m["median_dE"] > 2.0, m

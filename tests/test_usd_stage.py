@@ -194,6 +194,15 @@ def test_shading_variants_switch_the_mtlx_network(asset):
     assert UsdShade.Material(st.GetPrimAtPath("/Pigeon/Looks/FeatherMaterial")).ComputeSurfaceSource()[0]
 
 
+def _mesh_thickness_range(stage) -> tuple:
+    """(min, max) nm of the feather mesh's thickness primvar: what the preview atlas spans."""
+    from pxr import UsdGeom
+
+    prim = stage.GetPrimAtPath("/Pigeon/Geom/NeckFeathers")
+    d = np.asarray(UsdGeom.PrimvarsAPI(prim).GetPrimvar("thickness").Get(), np.float64)
+    return float(d.min()), float(d.max())
+
+
 def _preview_tiles(preview, thickness_range_nm):
     """The atlas tiles of feather_preview.png, thinnest first (bottom row first), and their thickness, nm."""
     from pipeline.usd.textures_io import PREVIEW_TILE_TEXELS, preview_atlas_shape, preview_tile_thickness_nm
@@ -213,7 +222,7 @@ def _tile(image, t):
     return np.asarray(Image.fromarray(image).resize((t, t), Image.BOX))
 
 
-def test_preview_atlas_mixes_base_and_the_structural_colour_of_each_thickness_by_the_mask(asset):
+def test_preview_atlas_mixes_base_and_the_structural_colour_of_each_thickness_by_the_mask(asset, stage):
     import colour
     from PIL import Image
 
@@ -224,7 +233,7 @@ def test_preview_atlas_mixes_base_and_the_structural_colour_of_each_thickness_by
     t = PREVIEW_TILE_TEXELS
     base = _tile(np.asarray(Image.open(asset["feather_base"])), t)
     mask = _tile(np.asarray(Image.open(asset["feather_mask"])), t)
-    tiles, d = _preview_tiles(np.asarray(Image.open(asset["feather_preview"])), lut.thickness_range_nm)
+    tiles, d = _preview_tiles(np.asarray(Image.open(asset["feather_preview"])), _mesh_thickness_range(stage))
     assert len(tiles) > 1  # the synthetic bird's thickness varies: one tile per thickness step
     tip, plain = (mask == 255) & (base[..., 3] == 255), (mask == 0) & (base[..., 3] == 255)
     assert tip.any() and plain.any()
@@ -250,7 +259,8 @@ def test_each_card_reads_the_preview_tile_of_its_own_thickness(stage, asset):
     assert api.GetPrimvar("previewST").GetInterpolation() == "vertex" and pst.shape == st.shape
     from pipeline.usd.textures_io import preview_tile_thickness_nm
 
-    tiles = preview_tile_thickness_nm(lut.thickness_range_nm)
+    tiles = preview_tile_thickness_nm((d.min(), d.max()))  # the mesh's range, whatever the LUT's (synthetic here)
+    assert tuple(lut.thickness_range_nm) != (d.min(), d.max())
     cols = min(tiles.size, PREVIEW_COLUMNS)
     rows = -(-tiles.size // cols)
     k = (np.floor(pst[:, 0] * cols) + cols * np.floor(pst[:, 1] * rows)).astype(int)
@@ -442,8 +452,8 @@ def test_lutless_layers_refuse_a_baked_variant(tmp_path):
     from pipeline.usd.textures_io import write_textures
 
     feather, body = synthetic_textures()
-    with pytest.raises(ValueError, match="lut=None needs film and thickness_range_nm"):
-        write_textures(str(tmp_path), None, feather, body)
+    with pytest.raises(ValueError, match="lut=None needs the film"):
+        write_textures(str(tmp_path), None, feather, body, thickness_range_nm=(500.0, 600.0))
     assert not (tmp_path / "textures").exists()  # nothing written
 
 

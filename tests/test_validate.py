@@ -83,7 +83,7 @@ def test_nvidia_validator_findings_are_reported_as_errors(broken):
             a = layer.GetAttributeAtPath(f"/Pigeon/Geom/Beak.{name}")
             a.default = type(a.default)(list(a.default) + [a.default[0]])
 
-    edit(fn)
+    edit(fn, GEOMETRY_LAYER)
     (issue,) = _errors(validate_asset(out), "nvidia:UnusedMeshTopologyChecker")
     assert issue.path == "/Pigeon/Geom/Beak" and "not referenced by the faces" in issue.message
 
@@ -321,7 +321,7 @@ def test_a_payload_from_elsewhere_is_not_composed(good, tmp_path):
 
 def test_a_layer_that_does_not_parse_is_reported_with_its_line(broken):
     out, _ = broken
-    payload = os.path.join(out, "pigeon_payload.usda")
+    payload = os.path.join(out, LOOKS_LAYER)  # the text layer of the payload
     text = open(payload).read()
     with open(payload, "w") as fh:
         fh.write(text[: len(text) // 2])  # truncated mid-file

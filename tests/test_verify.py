@@ -15,6 +15,7 @@ from pipeline.render import compare as cmp
 from pipeline.render.reference import render_reference
 from pipeline.render.scene import RenderScene, ScenePart, ThinFilmParams
 from pipeline.render.views import light_sweep_views
+from pipeline.usd.stage import LOOKS_LAYER
 
 from conftest import OUTSIDE
 
@@ -118,7 +119,7 @@ def test_a_schema_that_drops_k_disagrees_with_the_lut_it_records(absorbing, tmp_
 
     out = tmp_path / "pigeon"
     shutil.copytree(os.path.dirname(absorbing), out)
-    layer = Sdf.Layer.FindOrOpen(str(out / "pigeon_payload.usda"))
+    layer = Sdf.Layer.FindOrOpen(str(out / LOOKS_LAYER))  # the film record's layer
     layer.GetAttributeAtPath("/Pigeon/Geom/NeckFeathers.rockdove:film:k").default = 0.0
     layer.Save()
     issues = [i for i in validate_asset(str(out)).errors if i.check == "thinFilm"]

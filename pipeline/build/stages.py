@@ -286,11 +286,12 @@ def run_textures(ctx: Context):
     from ..usd.textures_io import write_textures
 
     feathers, body = ctx.inputs["texture_images"]
+    span = tuple(ctx.inputs["thickness_range"])  # the preview atlas spans the mesh's range, as previewST does
     if "lut" in ctx.inputs:
-        write_textures(str(ctx.workdir), ctx.inputs["lut"], feathers, body)
+        write_textures(str(ctx.workdir), ctx.inputs["lut"], feathers, body, thickness_range_nm=span)
     else:
         write_textures(str(ctx.workdir), None, feathers, body, film=film_from_config(ctx.config["film"]),
-                       thickness_range_nm=tuple(ctx.inputs["thickness_range"]))
+                       thickness_range_nm=span)
 
 
 def run_usd_geometry(ctx: Context):
@@ -505,7 +506,7 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
     stages.append(Stage("texture_images", run_texture_images, config=tuple(BIRD_FIELDS), deps=("bird",),
                         modules=("pipeline.textures",), libraries=LIBS_GEOMETRY + ("pillow",), codec=IMAGES))
     if baked:
-        stages.append(Stage("textures", run_textures, deps=("lut", "texture_images"),
+        stages.append(Stage("textures", run_textures, deps=("lut", "thickness_range", "texture_images"),
                             modules=("pipeline.usd.textures_io", "pipeline.lut.exr"), libraries=LIBS_USD,
                             codec=FILES, publish=""))
     else:  # the preview colours are computed from the film (pipeline.lut.reference) over the thickness range

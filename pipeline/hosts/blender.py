@@ -19,6 +19,8 @@ the tip mask is fractional. Output: float32 EXR written by Blender, read with Op
 
 from __future__ import annotations
 
+import functools
+import importlib.util
 import json
 import os
 import subprocess
@@ -48,13 +50,42 @@ THREADS = 2
 TIMEOUT_S = 900
 
 
-def unavailable() -> str | None:
-    """None when bpy (Blender as a Python module, 4.2 or later) can be imported here, else why not."""
-    import importlib.util
+#: Names a Python interpreter that has bpy, for when the one running rockdove has not: bpy 5.0 pins numpy < 2,
+#: which rockdove's other dependencies (colour-science 0.4.7) have outgrown, so the two usually live in separate
+#: environments (``make`` puts bpy in ``.venv-bpy``). A setting of where a tool is, like ``PXR_PLUGINPATH_NAME``.
+BPY_PYTHON_ENV = "ROCKDOVE_BPY_PYTHON"
 
-    if importlib.util.find_spec("bpy") is None:
-        return "bpy is not installed (pip install 'bpy==5.0.1', in rockdove's test extra)"
-    return None
+
+@functools.lru_cache(maxsize=None)
+def _probe(exe: str) -> str | None:
+    """None when ``exe`` runs and imports bpy, else why not (one line)."""
+    try:
+        p = subprocess.run([exe, "-c", "import importlib.util, sys; sys.exit(importlib.util.find_spec('bpy') is None)"],
+                           capture_output=True, text=True, timeout=120)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return f"${BPY_PYTHON_ENV}={exe!r} does not run: {exc}"
+    return None if p.returncode == 0 else f"${BPY_PYTHON_ENV}={exe!r} has no bpy (pip install 'bpy==5.0.1' there)"
+
+
+def bpy_python() -> str:
+    """The Python interpreter that runs Blender's side (:mod:`pipeline.hosts.blender_job`): this one when it has
+    bpy, else ``$ROCKDOVE_BPY_PYTHON``. Raises :class:`HostError` naming why neither can."""
+    reason = unavailable()
+    if reason:
+        raise HostError(NAME, reason)
+    return sys.executable if importlib.util.find_spec("bpy") is not None else os.environ[BPY_PYTHON_ENV]
+
+
+def unavailable() -> str | None:
+    """None when bpy (Blender as a Python module, 4.2 or later) can run, here or in ``$ROCKDOVE_BPY_PYTHON``;
+    else why not."""
+    if importlib.util.find_spec("bpy") is not None:
+        return None
+    exe = os.environ.get(BPY_PYTHON_ENV, "").strip()
+    if not exe:
+        return (f"bpy is not installed in this Python and ${BPY_PYTHON_ENV} names no Python that has it "
+                "(pip install 'bpy==5.0.1' in a Python 3.11 environment of its own; make test does)")
+    return _probe(exe)
 
 
 def addon_zip(out_dir) -> str:
@@ -154,9 +185,7 @@ def run_blender(asset_path: str, views, out_dir: str, *, addon: bool = True, lob
     """
     from ..render.images import linear_to_srgb8, save_png
 
-    reason = unavailable()
-    if reason:
-        raise HostError(NAME, reason)
+    python = bpy_python()
     views = list(views)
     if not views:
         raise ValueError("views must hold at least one View, got none")
@@ -194,7 +223,9 @@ def run_blender(asset_path: str, views, out_dir: str, *, addon: bool = True, lob
                BLENDER_USER_SCRIPTS=os.path.join(user, "scripts"),
                BLENDER_USER_EXTENSIONS=os.path.join(user, "extensions"))
     try:
-        proc = subprocess.run([sys.executable, "-m", "pipeline.hosts.blender_job", job_path], env=env,
+        # run by file: the interpreter with bpy need not have rockdove installed (the job imports none of it)
+        job_file = importlib.util.find_spec("pipeline.hosts.blender_job").origin
+        proc = subprocess.run([python, job_file, job_path], env=env,
                               capture_output=True, text=True, timeout=TIMEOUT_S, cwd=work)
     except subprocess.TimeoutExpired:
         raise HostError(NAME, f"Blender did not finish within {TIMEOUT_S} s") from None

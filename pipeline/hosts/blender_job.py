@@ -1,4 +1,5 @@
-"""The Blender side of :mod:`pipeline.hosts.blender`: run as ``python -m pipeline.hosts.blender_job JOB.json``.
+"""The Blender side of :mod:`pipeline.hosts.blender`: run as ``PYTHON path/to/blender_job.py JOB.json`` by a Python
+that has bpy (:func:`pipeline.hosts.blender.bpy_python`); it imports nothing but the standard library and bpy.
 
 It runs in its own process because ``bpy`` bundles its own USD (0.25.08) while rockdove uses usd-core: the
 add-on's ``USDHook`` gets the import's stage as a bundled-USD object, which only bpy's own ``pxr`` Python

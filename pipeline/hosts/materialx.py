@@ -323,15 +323,18 @@ def _draw(scene, networks: dict, sources: dict, views, *, base_black: bool, name
     import pyrender
     from OpenGL import GL
 
-    w, h = views[0].width, views[0].height
-    if any((v.width, v.height) != (w, h) for v in views):
-        raise HostError(name, "all views must have the same size")
-    offscreen = pyrender.OffscreenRenderer(w, h)
-    try:
-        offscreen._platform.make_current()
-        return _draw_in_context(GL, scene, networks, sources, views, base_black, name, w, h)
-    finally:
-        offscreen.delete()
+    sizes: dict = {}  # one offscreen context per image size (the hero view is larger than the others)
+    for v in views:
+        sizes.setdefault((v.width, v.height), []).append(v)
+    out = {}
+    for (w, h), group in sizes.items():
+        offscreen = pyrender.OffscreenRenderer(w, h)
+        try:
+            offscreen._platform.make_current()
+            out.update(_draw_in_context(GL, scene, networks, sources, group, base_black, name, w, h))
+        finally:
+            offscreen.delete()
+    return {v.name: out[v.name] for v in views}
 
 
 def _draw_in_context(GL, scene, networks, sources, views, base_black, name, w, h) -> dict:

@@ -235,8 +235,8 @@ def feather_preview(base_rgba: np.ndarray, mask: np.ndarray, lut=None, *, cos_th
 
 
 def write_textures(out_dir: str, lut, feather_textures: dict, body_texture: np.ndarray, *,
-                   preview_cos_theta: float = PREVIEW_COS_THETA, film=None,
-                   thickness_range_nm: tuple[float, float] | None = None) -> dict[str, str]:
+                   thickness_range_nm: tuple[float, float], preview_cos_theta: float = PREVIEW_COS_THETA,
+                   film=None) -> dict[str, str]:
     """Write every texture of the asset into ``out_dir/textures/``.
 
     Parameters
@@ -255,9 +255,10 @@ def write_textures(out_dir: str, lut, feather_textures: dict, body_texture: np.n
         Angle of the preview atlas's colours (:data:`PREVIEW_COS_THETA`).
     film : pipeline.films.FilmModel, optional
         Required when ``lut`` is None: the film of the preview colours.
-    thickness_range_nm : (float, float), optional
-        Required when ``lut`` is None: the thickness range on the mesh, nm (with a LUT, the LUT's range); the
-        atlas's tiles span it (:func:`preview_tile_thickness_nm`).
+    thickness_range_nm : (float, float)
+        The thickness range on the mesh, nm: the atlas's tiles span it (:func:`preview_tile_thickness_nm`), as
+        the mesh's ``previewST`` does (:func:`pipeline.usd.stage.author_geometry`), so the two always agree,
+        whatever the LUT's own range.
 
     Returns
     -------
@@ -273,14 +274,12 @@ def write_textures(out_dir: str, lut, feather_textures: dict, body_texture: np.n
     base = _check_uint8("feather_textures['base']", feather_textures["base"], (4,))
     mask = _check_uint8("feather_textures['mask']", feather_textures["mask"], (1,))
     body = _check_uint8("body_texture", body_texture, (3,))
+    tiles = preview_tile_thickness_nm(thickness_range_nm)
     if lut is not None:
-        tiles = preview_tile_thickness_nm(lut.thickness_range_nm)
         colours = np.stack([lut.sample(preview_cos_theta, d) for d in tiles])
     else:
-        if film is None or thickness_range_nm is None:
-            raise ValueError("lut=None needs film and thickness_range_nm for the preview colours, got "
-                             f"film={film!r}, thickness_range_nm={thickness_range_nm!r}")
-        tiles = preview_tile_thickness_nm(thickness_range_nm)
+        if film is None:
+            raise ValueError("lut=None needs the film for the preview colours, got film=None")
         colours = np.stack([preview_colour(film, d, preview_cos_theta) for d in tiles])
     preview = feather_preview_atlas(base, mask, colours)
     tex_dir = os.path.join(os.path.abspath(out_dir), "textures")
