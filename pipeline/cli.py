@@ -30,6 +30,7 @@ COMMANDS: dict[str, str] = {
     "validate": "validate a USD asset (UsdValidation + MaterialX node definitions + textures)",
     "bench": "benchmarks: LUT bake speed against error, geometry and build scaling",
     "config": "print the effective build configuration with units",
+    "sweep": "build (and verify) every point of a parameter grid on Dask (a local cluster or --scheduler)",
 }
 
 
