@@ -291,6 +291,7 @@ def write_index(root: Path, doc: dict, axes_keys: list[str], axes_values: list[l
     refresh = f'<meta http-equiv="refresh" content="{REFRESH_S}">' if running else ""
     failed = sum(1 for p in points if p.get("status") not in (None, "pending", "ok"))
     state = (f"running: {done} of {total} points done" if running else
+             f"interrupted: {done} of {total} points done" if doc["state"] == "interrupted" else
              f"finished: {total - failed} of {total} points ok" + (f", {failed} failed" if failed else "")
              + f" in {doc['seconds']:.1f} s")
     page = f"""<!doctype html>
@@ -440,12 +441,14 @@ def run(args: argparse.Namespace) -> int:
             print(f"rockdove sweep: [{doc['done']}/{doc['total']}] {r['name']}: {r['status']}"
                   + (f" in {r['seconds']:.1f} s" if "seconds" in r else "")
                   + (f": {r['error']}" if r.get("error") else ""), file=sys.stderr)
+        doc["state"] = "finished"
     finally:
+        if doc["state"] == "running":  # interrupted (Ctrl-C) or the scheduler went away: say so, no refresh
+            doc["state"] = "interrupted"
+        save()
         client.close()
         if cluster is not None:
             cluster.close()
-    doc["state"] = "finished"
-    save()
     failed = [r["name"] for r in records if r["status"] != "ok"]
     if args.json:
         print(json.dumps(doc, indent=1, default=str))
