@@ -479,3 +479,25 @@ def test_clean_temporaries_spares_this_process_other_threads(tmp_path):
     mine.mkdir()
     cache.clean_temporaries()
     assert mine.exists()
+
+
+def test_clean_temporaries_removes_a_zombie_writers_folder(tmp_path):
+    """A killed writer whose parent died too stays a zombie where PID 1 does not reap (a killed Dask worker):
+    it no longer writes, so its temporary goes."""
+    import subprocess
+    import sys
+    import time
+
+    p = subprocess.Popen([sys.executable, "-c", "pass"])  # exits; not waited for: a zombie meanwhile
+    try:
+        t0 = time.monotonic()
+        while Path(f"/proc/{p.pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z":
+            assert time.monotonic() - t0 < 30
+            time.sleep(0.02)
+        cache = G.Cache(tmp_path)
+        zombie = tmp_path / "body" / f".tmp-{p.pid}-abc"
+        zombie.mkdir(parents=True)
+        cache.clean_temporaries()
+        assert not zombie.exists()
+    finally:
+        p.wait()

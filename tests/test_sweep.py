@@ -156,26 +156,25 @@ def test_sweep_on_external_scheduler_shares_cache_matches_serial_build_and_fails
     assert "refresh" not in page and "film.cauchy_a = 1.6" in page and "feather_preview.png" in page
 
 
-def test_worker_killed_mid_point_is_retried_on_another_worker(dask_cluster, tmp_path, shared_cache):
+def test_worker_killed_mid_point_is_retried_on_another_worker(dask_cluster, tmp_path):
     """SIGKILL the whole `dask worker` (nanny and process) running a point: Dask reschedules the point on the
     other worker and the sweep completes; the killed build left no half-written asset."""
     from distributed import Client
 
     proc = subprocess.Popen([sys.executable, "-m", "pipeline.cli", "sweep", "--out", "s", "--scheduler",
                              dask_cluster["address"], "--no-verify", "--grid", "geometry.seed=[1]", *CHEAP_ARGS,
-                             "--cache", shared_cache],
+                             "--cache", "cache"],
                             cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(ROOT)}, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     try:
         with Client(dask_cluster["address"], timeout="30s") as c:
-            t0, victim = time.monotonic(), None
-            while victim is None and time.monotonic() - t0 < 120:
-                busy = {w: ts for w, ts in c.processing().items() if ts}
-                if busy:
-                    victim = next(iter(busy))
-                time.sleep(0.2)
-            assert victim is not None, "the point never started"
-            time.sleep(1.5)  # the build is under way
+            # mid-point: the build has taken the lock of the body entry it is computing (fresh cache)
+            t0 = time.monotonic()
+            while not list((tmp_path / "cache").glob("body/.lock-*")) and time.monotonic() - t0 < 120:
+                time.sleep(0.02)
+            busy = [w for w, ts in c.processing().items() if ts]
+            assert len(busy) == 1, "the point never started"
+            victim = busy[0]
             name = c.scheduler_info(n_workers=-1)["workers"][victim]["name"]
             os.killpg(dask_cluster["procs"][name].pid, signal.SIGKILL)
         out, err = proc.communicate(timeout=300)
@@ -187,6 +186,7 @@ def test_worker_killed_mid_point_is_retried_on_another_worker(dask_cluster, tmp_
     assert p["status"] == "ok" and p["worker"] != victim
     assert (tmp_path / "s/points/geometry.seed=1/pigeon.usda").is_file()
     assert not [q for q in (tmp_path / "s/points").iterdir() if "rockdove-tmp" in q.name]
+    assert not list((tmp_path / "cache").glob("*/.tmp-*"))  # the killed build's temporaries were cleaned
 
 
 # ----------------------------------------------------------------------------------------------- local cluster

@@ -296,6 +296,22 @@ def folder_digest(folder: Path) -> str:
 
 
 # ----------------------------------------------------------------------------------------------- cache
+def _pid_alive(pid: int) -> bool:
+    """Whether process ``pid`` still runs: it exists (another user's counts) and is not a zombie (a killed
+    process whose parent died too stays a zombie where PID 1 does not reap, e.g. a killed Dask worker)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return True  # no /proc: exists is all we know
+    return stat[stat.rindex(")") + 2:][:1] not in ("Z", "X")
+
+
 class Cache:
     """Stage values on disk: ``ROOT/<stage>/<key>/{meta.json, value/...}``, written atomically, read-only."""
 
@@ -364,13 +380,9 @@ class Cache:
         may be shared by builds of different outputs, which hold different locks)."""
         for tmp in self.root.glob("*/.tmp-*"):
             try:
-                pid = int(tmp.name.split("-")[1])
-                os.kill(pid, 0)
-                alive = True  # this very process too: another thread of it (a Dask worker's) may be writing
-            except (ValueError, IndexError, ProcessLookupError):
+                alive = _pid_alive(int(tmp.name.split("-")[1]))  # this very process too: another thread may write
+            except (ValueError, IndexError):
                 alive = False
-            except PermissionError:  # exists, another user's
-                alive = True
             if not alive:
                 shutil.rmtree(tmp, ignore_errors=True)
 
