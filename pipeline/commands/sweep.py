@@ -384,7 +384,7 @@ def _client(args):
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..config import load_config
+    from ..config import config_hash, load_config
     from ..errors import UsageError
 
     t0 = time.perf_counter()
@@ -407,12 +407,10 @@ def run(args: argparse.Namespace) -> int:
         base += ["--set", o]
 
     records = []
-    for i, p in enumerate(points):
+    for p in points:
         rec = {"name": p.name, "index": list(p.index), "overrides": list(p.overrides), "values": p.values,
                "asset": str(Path(POINTS) / p.name), "status": "pending"}
         try:
-            from ..config import config_hash
-
             rec["config_hash"] = config_hash(load_config(preset=args.preset, config_file=args.config,
                                                          overrides=[*args.overrides, *p.overrides]))
         except ValueError as exc:  # this point alone is invalid: it fails, the others run
