@@ -33,6 +33,7 @@ COMMANDS: dict[str, str] = {
     "config": "print the effective build configuration with units",
     "schema-path": "print the folder holding the USD schema plugin, for PXR_PLUGINPATH_NAME",
     "blender-addon": "write the Blender add-on (rockdove_blender.zip) that builds the thin-film material on USD import",
+    "sweep": "build (and verify) every point of a parameter grid on Dask (a local cluster or --scheduler)",
 }
 
 

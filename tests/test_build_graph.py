@@ -349,3 +349,80 @@ def test_planned_batch_items_are_keyed_by_their_plan_not_by_upstream_bytes(tmp_p
     g, rec = build([1, 5, 3], metadata="b")
     assert rec.status == "reused" and rec.items_reused == ["view_0", "view_1", "view_2"]
     assert not list((tmp_path / "cache" / "verify.items").glob(".tmp-*"))  # the batch scratch is gone
+
+
+# ------------------------------------------------------------------------------ concurrent processes, one cache
+def _slow_counted(ctx):
+    """A stage that records each run (one line per run, O_APPEND) and is slow enough for runs to overlap."""
+    import time
+
+    with open(ctx.config["log"], "a") as f:
+        f.write(f"{os.getpid()}\n")
+    time.sleep(0.5)
+    return {"x": np.arange(1000, dtype=np.float64) * ctx.config["scale"]}
+
+
+def _graph_in_process(cache_root, log, scale, start, result_q):
+    start.wait()
+    stages = [G.Stage("slow", _slow_counted, config=("log", "scale"), codec=G.NPZ)]
+    g = G.Graph(stages, {"log": str(log), "scale": scale}, G.Cache(cache_root))
+    g.run()
+    result_q.put((g.records["slow"].status, g.records["slow"].digest, float(g.value("slow")["x"].sum())))
+
+
+def test_cache_under_concurrent_processes_computes_each_entry_once(tmp_path):
+    """Four processes build the same stage against one cache at the same moment: it runs once, the others wait
+    and reuse the one entry (same digest, same value); a different key in parallel is not held up by it."""
+    import multiprocessing as mp
+
+    ctx = mp.get_context("fork")
+    start, q = ctx.Event(), ctx.Queue()
+    log = tmp_path / "runs.log"
+    procs = [ctx.Process(target=_graph_in_process, args=(tmp_path / "cache", log, 1.0, start, q)) for _ in range(4)]
+    procs.append(ctx.Process(target=_graph_in_process, args=(tmp_path / "cache", tmp_path / "other.log", 2.0, start, q)))
+    for p in procs:
+        p.start()
+    start.set()
+    results = [q.get(timeout=60) for _ in procs]
+    for p in procs:
+        p.join(timeout=60)
+        assert p.exitcode == 0
+    assert len(log.read_text().split()) == 1  # computed once
+    same = [r for r in results if r[2] == 999 * 1000 / 2]
+    assert len(same) == 4 and sorted(r[0] for r in same) == ["ran", "reused", "reused", "reused"]
+    assert len({r[1] for r in same}) == 1
+    assert len((tmp_path / "other.log").read_text().split()) == 1
+    # entries complete, read-only, no temporaries or lock files left behind
+    left = sorted(p.name for p in (tmp_path / "cache" / "slow").iterdir())
+    assert len(left) == 2 and not any(n.startswith(".") for n in left)
+
+
+def test_clean_temporaries_spares_this_process_other_threads(tmp_path):
+    cache = G.Cache(tmp_path)
+    (tmp_path / "lut").mkdir()
+    mine = tmp_path / "lut" / f".tmp-{os.getpid()}-abc"  # another thread of this process is writing it
+    mine.mkdir()
+    cache.clean_temporaries()
+    assert mine.exists()
+
+
+def test_clean_temporaries_removes_a_zombie_writers_folder(tmp_path):
+    """A killed writer whose parent died too stays a zombie where PID 1 does not reap (a killed Dask worker):
+    it no longer writes, so its temporary goes."""
+    import subprocess
+    import sys
+    import time
+
+    p = subprocess.Popen([sys.executable, "-c", "pass"])  # exits; not waited for: a zombie meanwhile
+    try:
+        t0 = time.monotonic()
+        while Path(f"/proc/{p.pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z":
+            assert time.monotonic() - t0 < 30
+            time.sleep(0.02)
+        cache = G.Cache(tmp_path)
+        zombie = tmp_path / "body" / f".tmp-{p.pid}-abc"
+        zombie.mkdir(parents=True)
+        cache.clean_temporaries()
+        assert not zombie.exists()
+    finally:
+        p.wait()

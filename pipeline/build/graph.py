@@ -15,6 +15,8 @@ key is the sha256 of
 A stage whose key has an entry in the :class:`Cache` is reused without running, and its value is loaded only
 if a stage that runs needs it. Entries are written into a temporary folder and renamed into place (atomic; a
 concurrent build that wrote the same entry first wins), their files are made read-only and loaded read-only.
+Builds in several processes sharing one cache (``rockdove sweep``'s workers) compute an entry once: the first
+to miss it takes an exclusive lock on that entry (``Cache.entry_lock``) and the others wait, then reuse it.
 
 Fan-out stages (``Stage.items``) split their work into named items (e.g. one per verification view), each with
 its own key = stage key + the item's own configuration, so only the items whose inputs changed are redone.
@@ -27,6 +29,8 @@ the upstream digests, so an upstream change that leaves an item's plan entry unc
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import functools
 import hashlib
 import importlib.metadata
@@ -287,6 +291,22 @@ def folder_digest(folder: Path) -> str:
 
 
 # ----------------------------------------------------------------------------------------------- cache
+def _pid_alive(pid: int) -> bool:
+    """Whether process ``pid`` still runs: it exists (another user's counts) and is not a zombie (a killed
+    process whose parent died too stays a zombie where PID 1 does not reap, e.g. a killed Dask worker)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return True  # no /proc: exists is all we know
+    return stat[stat.rindex(")") + 2:][:1] not in ("Z", "X")
+
+
 class Cache:
     """Stage values on disk: ``ROOT/<stage>/<key>/{meta.json, value/...}``, written atomically, read-only."""
 
@@ -329,18 +349,35 @@ class Cache:
             if tmp.exists():
                 shutil.rmtree(tmp, ignore_errors=True)
 
+    @contextlib.contextmanager
+    def entry_lock(self, stage: str, key: str):
+        """Hold the exclusive right to compute entry ``(stage, key)`` among the processes (and threads) sharing
+        this cache: ``fcntl.flock`` on ``ROOT/<stage>/.lock-<key>``, waited for without a timeout (a holder that
+        dies releases it). The lock file is removed while still held: whoever locks it, or a new one, afterwards
+        finds the entry stored (or, if the holder failed, computes it), so mutual exclusion is never needed
+        past that point."""
+        parent = self.root / stage
+        parent.mkdir(parents=True, exist_ok=True)
+        path = parent / f".lock-{key}"
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            try:
+                yield
+            finally:
+                with contextlib.suppress(OSError):
+                    os.unlink(path)
+        finally:
+            os.close(fd)  # releases the lock
+
     def clean_temporaries(self) -> None:
         """Remove temporary entry folders left by killed builds: those whose writer process is gone (a cache
         may be shared by builds of different outputs, which hold different locks)."""
         for tmp in self.root.glob("*/.tmp-*"):
             try:
-                pid = int(tmp.name.split("-")[1])
-                os.kill(pid, 0)
-                alive = pid != os.getpid()
-            except (ValueError, IndexError, ProcessLookupError):
+                alive = _pid_alive(int(tmp.name.split("-")[1]))  # this very process too: another thread may write
+            except (ValueError, IndexError):
                 alive = False
-            except PermissionError:  # exists, another user's
-                alive = True
             if not alive:
                 shutil.rmtree(tmp, ignore_errors=True)
 
@@ -441,11 +478,18 @@ class Graph:
         key = stage_key(stage, self.config, digests, source)
         t0 = time.perf_counter()
         meta = self.cache.lookup(stage.name, key)
-        if meta is not None:
-            rec = StageRecord(stage.name, key, "reused", time.perf_counter() - t0, meta["digest"],
-                              items_reused=meta.get("items", []))
-            self.records[stage.name] = rec
-            return rec
+        if meta is None:  # another process sharing the cache may be computing it: wait for it, do not redo it
+            with self.cache.entry_lock(stage.name, key):
+                meta = self.cache.lookup(stage.name, key)
+                if meta is None:
+                    return self._compute_stage(stage, key, digests, source, asset_dir, t0)
+        rec = StageRecord(stage.name, key, "reused", time.perf_counter() - t0, meta["digest"],
+                          items_reused=meta.get("items", []))
+        self.records[stage.name] = rec
+        return rec
+
+    def _compute_stage(self, stage: Stage, key: str, digests: dict, source: str, asset_dir, t0: float) -> StageRecord:
+        """Run ``stage`` (its entry is missing and this process holds its lock) and store its entry."""
         ran, reused = [], []
         extra = {"items": []}  # filled in by a fan-out stage's fill, before store() writes the metadata
         fan_out = stage.items is not None or stage.item_plan is not None

@@ -15,10 +15,12 @@ import json
 import shutil
 import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
 from ..config import DEFAULT_PRESET, config_hash, load_config
+from ..errors import VerificationFailed
 
 DEFAULT_OUT = "build/pigeon"
 
@@ -43,6 +45,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(default: wait until it finishes)")
     parser.add_argument("--json", action="store_true", help="print a JSON summary (stages ran and reused) on stdout")
     parser.add_argument("--quiet", action="store_true", help="no progress bar and no summary text")
+
+
+class BuildFailed(VerificationFailed):
+    """Verification failed; ``summary`` is the build summary (what ran, where the report is)."""
+
+    def __init__(self, message: str, summary: dict):
+        super().__init__(message)
+        self.summary = summary
 
 
 def _raise_interrupt(signum, frame):
@@ -90,10 +100,44 @@ def _notes(verdicts: dict) -> list:
     return [n for v in verdicts.values() if isinstance(v, dict) for n in v.get("notes", [])]
 
 
+def parse_args(argv: list[str]) -> argparse.Namespace:
+    """``rockdove build``'s options from ``argv`` (e.g. ``["--out", "o/p", "--set", "lut.angles=64"]``), for
+    callers of :func:`build` such as ``rockdove sweep``: one parser, the same defaults and checks."""
+    parser = argparse.ArgumentParser(prog="rockdove build", add_help=False, exit_on_error=False)
+    add_arguments(parser)
+    return parser.parse_args(argv)
+
+
 def run(args: argparse.Namespace) -> int:
+    try:
+        summary = build(args)
+    except BuildFailed as exc:
+        if args.json:  # the summary still says what ran and where the report is
+            print(json.dumps(exc.summary, indent=1))
+        raise
+    if args.json:
+        print(json.dumps(summary, indent=1))
+    elif not args.quiet:
+        print(f"rockdove build: {summary['out']} ({len(summary['ran'])} stages ran: {', '.join(summary['ran']) or '-'}; "
+              f"{len(summary['reused'])} reused) in {summary['seconds']:.2f} s")
+        if summary["verified"]:
+            print(f"rockdove build: verified: renders match the exact spectral reference; report "
+                  f"{Path(summary['out']) / 'verify' / 'report.html'}")
+        elif summary["verified"] is None:
+            print("rockdove build: not verified (--no-verify)")
+        for note in summary["notes"]:
+            print(f"rockdove build: note: {note}")
+    return 0
+
+
+def build(args: argparse.Namespace) -> dict:
+    """Build, verify and publish the asset ``args`` (:func:`parse_args`) ask for; return the summary that
+    ``--json`` prints. Raises :class:`UsageError` for bad configuration or output (nothing written) and
+    :class:`BuildFailed` (a :class:`VerificationFailed` carrying the summary) when verification fails.
+    Callable from any thread: SIGTERM is handled only when called from the main thread."""
     from ..build.graph import Cache, Graph
     from ..build.publish import OutputLock, check_output, make_staging, publish, recover, write_marker
-    from ..errors import UsageError, VerificationFailed
+    from ..errors import UsageError
 
     t0 = time.perf_counter()
     config = load_config(preset=args.preset, config_file=args.config, overrides=args.overrides)
@@ -109,7 +153,8 @@ def run(args: argparse.Namespace) -> int:
     stages = build_stages.make_stages(config, verify=not args.no_verify)
     chash = config_hash(config)
 
-    old_term = signal.signal(signal.SIGTERM, _raise_interrupt)
+    main_thread = threading.current_thread() is threading.main_thread()
+    old_term = signal.signal(signal.SIGTERM, _raise_interrupt) if main_thread else None
     staging = None
     progress = _Progress(len(stages), args.quiet)
     try:
@@ -128,33 +173,19 @@ def run(args: argparse.Namespace) -> int:
             verdicts = {n: graph.value(n) for n, s in graph.stages.items() if s.needs_asset}
             failed = [n for n, v in verdicts.items() if isinstance(v, dict) and v.get("passed") is False]
             if failed:
-                if args.json:  # the summary still says what ran and where the report is
-                    print(json.dumps(_summary(graph, args, out, cache_dir, chash, t0, verified=False,
-                                              report=str(graph.entry_dir(failed[0])), notes=_notes(verdicts)),
-                                     indent=1))
-                raise VerificationFailed(
+                raise BuildFailed(
                     f"stage {failed[0]!r} failed ({verdicts[failed[0]].get('reason', 'see its report')}); "
-                    f"{out} was left unchanged; report in {graph.entry_dir(failed[0])}")
+                    f"{out} was left unchanged; report in {graph.entry_dir(failed[0])}",
+                    _summary(graph, args, out, cache_dir, chash, t0, verified=False,
+                             report=str(graph.entry_dir(failed[0])), notes=_notes(verdicts)))
             publish(staging, out)
             staging = None
     finally:
         progress.close()
         if staging is not None and staging.exists():
             shutil.rmtree(staging, ignore_errors=True)
-        signal.signal(signal.SIGTERM, old_term)
+        if main_thread:
+            signal.signal(signal.SIGTERM, old_term)
 
-    summary = _summary(graph, args, out, cache_dir, chash, t0, verified=bool(verdicts) or None,
-                       report=str(out / "verify") if verdicts else None, notes=_notes(verdicts))
-    if args.json:
-        print(json.dumps(summary, indent=1))
-    elif not args.quiet:
-        print(f"rockdove build: {out} ({len(summary['ran'])} stages ran: {', '.join(summary['ran']) or '-'}; "
-              f"{len(summary['reused'])} reused) in {summary['seconds']:.2f} s")
-        if summary["verified"]:
-            print(f"rockdove build: verified: renders match the exact spectral reference; report "
-                  f"{out / 'verify' / 'report.html'}")
-        elif summary["verified"] is None:
-            print("rockdove build: not verified (--no-verify)")
-        for note in summary["notes"]:
-            print(f"rockdove build: note: {note}")
-    return 0
+    return _summary(graph, args, out, cache_dir, chash, t0, verified=bool(verdicts) or None,
+                    report=str(out / "verify") if verdicts else None, notes=_notes(verdicts))
