@@ -21,7 +21,6 @@ import pytest
 from pipeline.commands import sweep as S
 from pipeline.errors import UsageError
 
-ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
 CHEAP = ["geometry.body_voxel_m=0.01", "geometry.card_count=60", "textures.feather_resolution=32",
          "textures.body_resolution=32", "lut.angles=32", "lut.thicknesses=8", "usd.usdz=false"]
@@ -29,9 +28,8 @@ CHEAP_ARGS = [a for s in CHEAP for a in ("--set", s)]
 
 
 def rockdove(*args, cwd, timeout=300):
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "PYOPENGL_PLATFORM": "egl"}
-    for k in ("ROCKDOVE_DEBUG", "ROCKDOVE_BUILD_STAGES"):
-        env.pop(k, None)
+    env = {**os.environ, "PYOPENGL_PLATFORM": "egl"}
+    env.pop("ROCKDOVE_DEBUG", None)
     return subprocess.run([sys.executable, "-m", "pipeline.cli", *args], cwd=cwd, env=env, capture_output=True,
                           text=True, timeout=timeout)
 
@@ -96,8 +94,7 @@ def shared_cache(tmp_path_factory):
 def dask_cluster(tmp_path_factory):
     """A real ``dask scheduler`` and two ``dask worker`` processes (one thread each) on 127.0.0.1."""
     d = tmp_path_factory.mktemp("dask")
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "PYOPENGL_PLATFORM": "egl"}
-    env.pop("ROCKDOVE_BUILD_STAGES", None)
+    env = {**os.environ, "PYOPENGL_PLATFORM": "egl"}
     sched_file = d / "scheduler.json"
     common = dict(cwd=d, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     procs = {"scheduler": subprocess.Popen([str(BIN / "dask"), "scheduler", "--host", "127.0.0.1", "--port", "0",
@@ -164,7 +161,7 @@ def test_worker_killed_mid_point_is_retried_on_another_worker(dask_cluster, tmp_
     proc = subprocess.Popen([sys.executable, "-m", "pipeline.cli", "sweep", "--out", "s", "--scheduler",
                              dask_cluster["address"], "--no-verify", "--grid", "geometry.seed=[1]", *CHEAP_ARGS,
                              "--cache", "cache"],
-                            cwd=tmp_path, env={**os.environ, "PYTHONPATH": str(ROOT)}, stdout=subprocess.PIPE,
+                            cwd=tmp_path, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     try:
         with Client(dask_cluster["address"], timeout="30s") as c:
