@@ -2,6 +2,7 @@
 and Cycles renders of the written asset compared with the exact view_angle reference."""
 
 import json
+import importlib.util
 import os
 import subprocess
 import sys
@@ -64,9 +65,11 @@ def test_host_declares_the_interface():
 
 
 # -- in Blender ------------------------------------------------------------------------------------------------
+JOB_DIR = os.path.dirname(importlib.util.find_spec("pipeline.hosts.blender_job").origin)
 INSPECT = r"""
 import json, sys
-from pipeline.hosts.blender_job import bundled_pxr_first
+sys.path.insert(0, sys.argv.pop())  # the folder of blender_job.py: the Python with bpy need not have rockdove
+from blender_job import bundled_pxr_first
 bundled_pxr_first()
 import bpy
 zip_path, asset, use_addon = sys.argv[1], sys.argv[2], sys.argv[3] == "1"
@@ -101,7 +104,8 @@ def _inspect(tmp_path, asset_path, use_addon=True):
     user = tmp_path / "user"
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), BLENDER_USER_SCRIPTS=str(user / "scripts"),
                BLENDER_USER_CONFIG=str(user / "config"), BLENDER_USER_EXTENSIONS=str(user / "extensions"))
-    p = subprocess.run([host.bpy_python(), "-c", INSPECT, zip_path, str(asset_path), "1" if use_addon else "0"],
+    p = subprocess.run([host.bpy_python(), "-c", INSPECT, zip_path, str(asset_path), "1" if use_addon else "0",
+                        JOB_DIR],
                        capture_output=True, text=True, env=env, timeout=300, cwd=tmp_path)
     assert p.returncode == 0, p.stderr[-2000:]
     line = [ln for ln in p.stdout.splitlines() if ln.startswith("RESULT ")][-1]
@@ -253,7 +257,8 @@ def test_without_the_addon_blender_still_shows_green_and_purple_feathers(asset, 
 
 ROUND_TRIP = r"""
 import sys
-from pipeline.hosts.blender_job import bundled_pxr_first
+sys.path.insert(0, sys.argv.pop())  # the folder of blender_job.py: the Python with bpy need not have rockdove
+from blender_job import bundled_pxr_first
 bundled_pxr_first()
 import bpy
 asset, out, zip_path = sys.argv[1:4]
@@ -279,7 +284,8 @@ def test_film_record_survives_blender_import_and_export_through_user_properties(
     user = tmp_path / "user"
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), BLENDER_USER_SCRIPTS=str(user / "scripts"),
                BLENDER_USER_CONFIG=str(user / "config"), BLENDER_USER_EXTENSIONS=str(user / "extensions"))
-    p = subprocess.run([host.bpy_python(), "-c", ROUND_TRIP, asset["interface"], out, host.addon_zip(tmp_path)],
+    p = subprocess.run([host.bpy_python(), "-c", ROUND_TRIP, asset["interface"], out, host.addon_zip(tmp_path),
+                        JOB_DIR],
                        capture_output=True, text=True, env=env, timeout=300, cwd=tmp_path)
     assert p.returncode == 0, p.stderr[-2000:]
     imported = [ln for ln in p.stdout.splitlines() if ln.startswith("IMPORTED")][0].split()

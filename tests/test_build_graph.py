@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import importlib
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -172,7 +173,8 @@ def _real_partial_stages(card_count=12):
         G.Stage("lut", S.run_lut, config=("film", "lut"), deps=("thickness_range",), modules=("pipeline.lut",),
                 codec=S.LUT),
         G.Stage("texture_images", lambda ctx: synthetic_textures(16), codec=S.IMAGES),
-        G.Stage("textures", S.run_textures, deps=("lut", "texture_images"), codec=G.FILES, publish=""),
+        G.Stage("textures", S.run_textures, deps=("lut", "thickness_range", "texture_images"), codec=G.FILES,
+                publish=""),
         G.Stage("usd_geometry", S.run_usd_geometry, deps=("bird",), modules=("pipeline.usd",), codec=G.FILES,
                 publish=""),
         G.Stage("usd_layers", S.run_usd_layers, config=("film", "shading"), deps=("bird", "lut", "usd_geometry"),

@@ -94,6 +94,14 @@ class Browser:
         lines = [ln for ln in self._stderr.read().decode(errors="replace").splitlines() if ln.strip()]
         return " | ".join(lines[-3:])
 
+    def _gone(self, step: str) -> "BrowserError":
+        """The error for a browser whose pipe closed (it exited, or is about to): its exit status if it has one."""
+        try:
+            status = f"exited with status {self.process.wait(timeout=5)}"
+        except subprocess.TimeoutExpired:
+            status = "closed its DevTools pipe"
+        return BrowserError(f"{os.path.basename(self.executable)} {status} ({step}) {self._stderr_tail()}")
+
     def _read_message(self, deadline: float, step: str) -> dict:
         while b"\0" not in self._buffer:
             left = deadline - time.monotonic()
@@ -107,11 +115,7 @@ class Browser:
                 continue
             chunk = os.read(self._from_child, 1 << 20)
             if not chunk:
-                try:
-                    status = f"exited with status {self.process.wait(timeout=5)}"
-                except subprocess.TimeoutExpired:
-                    status = "closed its DevTools pipe"
-                raise BrowserError(f"{os.path.basename(self.executable)} {status} ({step}) {self._stderr_tail()}")
+                raise self._gone(step)
             self._buffer += chunk
         raw, self._buffer = self._buffer.split(b"\0", 1)
         return json.loads(raw)
@@ -125,8 +129,8 @@ class Browser:
             msg["sessionId"] = session
         try:
             os.write(self._to_child, json.dumps(msg).encode() + b"\0")
-        except OSError as exc:
-            raise BrowserError(f"chromium is gone ({step or method}): {exc}; {self._stderr_tail()}") from None
+        except OSError:  # a closed pipe: the browser exited (whether a read or this write noticed first)
+            raise self._gone(step or method) from None
         deadline = time.monotonic() + timeout_s
         while True:
             reply = self._read_message(deadline, step or method)
