@@ -443,17 +443,22 @@ def combine_verify(ctx: Context, views: dict) -> dict:
 
     size = _verify_size(ctx)
     published = published_path(resolve_asset_path(ctx.asset_dir))
+    skipped = []
     if "gltf" in ctx.inputs:  # the interactive view of the report (verify/viewer.html)
+        from ..errors import ResourceMissing
         from ..web.gltf import GLB_NAME
         from ..web.viewer import write_viewer
 
-        write_viewer(str(ctx.asset_dir), ctx.inputs["gltf"] / GLB_NAME, ctx.workdir, asset_name=str(published))
+        try:
+            write_viewer(str(ctx.asset_dir), ctx.inputs["gltf"] / GLB_NAME, ctx.workdir, asset_name=str(published))
+        except ResourceMissing as exc:  # e.g. a wheel install without npm's three.js: the report, without it
+            skipped.append(f"no interactive viewer in the report: {exc}")
     report = report_from_views(str(ctx.asset_dir), views, out_dir=str(ctx.workdir), width=size["width"],
                                height=size["height"], bench_dir=str(ctx.workdir / "no-bench"),
                                published_asset=str(published))
     return {"passed": bool(report.get("passed")), "reason": "; ".join(map(str, report.get("failures", []))),
             "views": [v["view"] for v in report.get("views", []) if isinstance(v, dict)],
-            "notes": list(report.get("notes", []))}
+            "notes": list(report.get("notes", [])) + skipped}
 
 
 def _view_save(value: dict, folder: Path) -> None:
