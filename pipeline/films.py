@@ -154,6 +154,15 @@ FILMS: dict[str, FilmModel] = {
 }
 
 
+def as_film(film) -> FilmModel:
+    """``film`` itself when it is a :class:`FilmModel`, else the registered film of that name (:func:`get_film`)."""
+    if isinstance(film, FilmModel):
+        return film
+    if isinstance(film, str):
+        return get_film(film)
+    raise ValueError(f"film must be one of {sorted(FILMS)} or a FilmModel, got {film!r}")
+
+
 def get_film(name: str = DEFAULT_FILM) -> FilmModel:
     """The registered film model called ``name`` (one of :data:`FILMS`); ValueError otherwise."""
     try:

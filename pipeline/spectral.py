@@ -181,7 +181,7 @@ def reference_white_xy(illuminant: str = DEFAULT_ILLUMINANT) -> np.ndarray:
     return xyz[:2] / xyz.sum()
 
 
-def _check_colour_space(colour_space) -> str:
+def check_colour_space(colour_space) -> str:
     if colour_space not in COLOUR_SPACES:
         raise ValueError(f"colour_space must be one of {COLOUR_SPACES}, got {colour_space!r}")
     return colour_space
@@ -191,7 +191,7 @@ def _check_colour_space(colour_space) -> str:
 def _xyz_to_rgb_matrix_t(colour_space: str) -> np.ndarray:
     """(3, 3) matrix M with ``rgb = XYZ @ M`` (row vectors), built with colour.XYZ_to_RGB."""
     colour = _colour()
-    _check_colour_space(colour_space)
+    check_colour_space(colour_space)
     m = colour.XYZ_to_RGB(
         np.eye(3),
         colour.RGB_COLOURSPACES[_COLOURSPACE_NAMES[colour_space]],
@@ -216,12 +216,12 @@ def XYZ_to_RGB(XYZ, colour_space="lin_rec709") -> np.ndarray:
     -------
     ndarray, (..., 3), float64, unclipped (out-of-gamut colours keep negative components).
     """
-    return np.asarray(XYZ, dtype=np.float64) @ _xyz_to_rgb_matrix_t(_check_colour_space(colour_space))
+    return np.asarray(XYZ, dtype=np.float64) @ _xyz_to_rgb_matrix_t(check_colour_space(colour_space))
 
 
 def RGB_to_XYZ(RGB, colour_space="lin_rec709") -> np.ndarray:
     """Inverse of :func:`XYZ_to_RGB`: (..., 3) linear RGB -> (..., 3) CIE XYZ."""
-    m = _xyz_to_rgb_matrix_t(_check_colour_space(colour_space))
+    m = _xyz_to_rgb_matrix_t(check_colour_space(colour_space))
     return np.asarray(RGB, dtype=np.float64) @ np.linalg.inv(m)
 
 
@@ -270,7 +270,7 @@ def RGB_to_preview8(rgb, colour_space="lin_rec709") -> np.ndarray:
         raise ValueError(f"rgb must have a trailing axis of 3, got shape {rgb.shape}")
     if not np.all(np.isfinite(rgb)):
         raise ValueError("rgb must be finite (got NaN or inf)")
-    if _check_colour_space(colour_space) != "lin_rec709":
+    if check_colour_space(colour_space) != "lin_rec709":
         rgb = XYZ_to_RGB(RGB_to_XYZ(rgb, colour_space), "lin_rec709")
     weights = np.asarray(colour.RGB_COLOURSPACES["ITU-R BT.709"].matrix_RGB_to_XYZ)[1]
     lum = (rgb @ weights)[..., None]

@@ -221,16 +221,6 @@ def _format_rows(counts) -> list[dict]:
 
 
 def _lut_tradeoff(tmp: Path, args, preset: list[str]) -> dict | str:
-    try:
-        from ..build.stages import REQUIRED_VERIFY, _missing
-
-        missing = _missing(REQUIRED_VERIFY)
-    except ImportError as exc:  # pragma: no cover - stages module is part of the package
-        missing = [str(exc)]
-    if missing:
-        msg = f"LUT size/precision vs verification dE2000: not measured, verification is not available ({missing[0]})"
-        print(msg)
-        return msg
     sizes = ((32, 8), (128, 32)) if args.quick else ((32, 8), (64, 16), (128, 32), (256, 64), (512, 128))
     rows = []
     print("angles x thicknesses  precision  build s   lut s   median dE  p95 dE  max dE  verification")

@@ -57,11 +57,9 @@ import math
 import shutil
 from pathlib import Path
 
-
 from .. import __version__
 from ..config import get
-from ..errors import UsageError
-from .graph import FILES, JSON, Codec, Context, Stage, load_npz, module_base
+from .graph import FILES, JSON, Codec, Context, Stage, load_npz
 
 LIBS_GEOMETRY = ("numpy", "scipy", "trimesh", "xatlas")
 LIBS_COLOUR = ("numpy", "scipy", "colour-science")
@@ -330,29 +328,6 @@ def run_gltf(ctx: Context) -> None:
     export_glb(str(ctx.asset_dir), ctx.workdir / GLB_NAME, version=__version__)
 
 
-def _missing(names: list[str]) -> list[str]:
-    """The ``module:name`` items whose module file does not exist or does not mention ``name``.
-
-    Checked on the source text, not by importing, so that a no-op rebuild does not pay for importing the
-    whole pipeline (scipy, trimesh...) just to key stages it will not run.
-    """
-    out = []
-    for dotted in names:
-        mod, _, attr = dotted.rpartition(":")
-        base = module_base(mod)
-        path = base / "__init__.py" if base.is_dir() else base.with_suffix(".py")
-        if not path.is_file() or (attr and attr not in path.read_text(encoding="utf-8")):
-            out.append(dotted)
-    return out
-
-
-REQUIRED = ["pipeline.geometry:build_bird", "pipeline.geometry:build_body", "pipeline.lut.bake:bake", "pipeline.textures:feather_textures",
-            "pipeline.textures:body_base_colour", "pipeline.usd.textures_io:write_textures",
-            "pipeline.usd.stage:write_geometry", "pipeline.usd.stage:write_looks",
-            "pipeline.usd.usdz:write_usdz"]
-REQUIRED_VERIFY = ["pipeline.render.verify:verify_asset"]
-
-
 def _verify_size(ctx: Context) -> dict:
     v = ctx.config["verify"]
     return {"width": v["width"], "height": v["height"], "n_views": v["views"]}
@@ -484,18 +459,7 @@ VIEW_RESULT = Codec("view_result", _view_save, _view_load)
 
 
 def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
-    """The build graph for ``config``: only the stages the scene needs (no bake for physical-only shading).
-
-    Raises
-    ------
-    UsageError
-        A pipeline module the graph needs has not landed yet, or the configuration asks for what the
-        modules cannot do yet (both name the missing piece).
-    """
-    missing = _missing(REQUIRED + (REQUIRED_VERIFY if verify else []))
-    if missing:
-        raise UsageError(f"the build pipeline is incomplete: {', '.join(missing)} not available yet"
-                         + ("; try --no-verify" if set(missing) <= set(REQUIRED_VERIFY) else ""))
+    """The build graph for ``config``: only the stages the scene needs (no bake for physical-only shading)."""
     baked = config["shading"]["variant"] != "physical"  # physical-only shading needs no bake
     stages = [
         Stage("body", run_body, config=BODY_FIELDS, modules=("pipeline.geometry",), libraries=LIBS_GEOMETRY,

@@ -45,7 +45,8 @@ import numbers
 
 import numpy as np
 
-from ..spectral import DEFAULT_OBSERVER, WAVELENGTH_RANGE_NM
+from ..films import as_film
+from ..spectral import DEFAULT_OBSERVER, WAVELENGTH_RANGE_NM, check_colour_space
 from .table import ThinFilmLUT
 
 DEFAULT_ANGLES = 256
@@ -80,16 +81,6 @@ _CHUNK_ELEMENTS = 2_000_000
 
 
 # -- helpers ------------------------------------------------------------------------------------------
-def _resolve_film(film):
-    from .. import films
-
-    if isinstance(film, films.FilmModel):
-        return film
-    if isinstance(film, str):
-        return films.get_film(film)
-    raise ValueError(f"film must be one of {sorted(films.FILMS)} or a FilmModel, got {film!r}")
-
-
 def _check_count(name, value, minimum):
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
         raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
@@ -412,11 +403,11 @@ def bake(
     angles = _check_count("angles", angles, 2)
     thicknesses = _check_count("thicknesses", thicknesses, 1)
     lo, hi = _check_range(thickness_range)
-    film_model = _resolve_film(film)
+    film_model = as_film(film)
     if not isinstance(method, str) or method not in BAKE_METHODS:
         raise ValueError(f"method must be one of {sorted(BAKE_METHODS)}, got {method!r}")
     gamma = _check_positive("angle_warp_gamma", angle_warp_gamma)
-    from .reference import check_colour_space, check_illuminant
+    from .reference import check_illuminant
 
     colour_space = check_colour_space(colour_space)
     illuminant = check_illuminant(illuminant)

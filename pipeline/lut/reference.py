@@ -17,7 +17,6 @@ import functools
 import numpy as np
 
 from ..spectral import WAVELENGTH_RANGE_NM
-from ..spectral import _check_colour_space as check_colour_space  # one check of the working-space name
 
 REFERENCE_STEP_NM = 0.1
 REFERENCE_RANGE_NM = WAVELENGTH_RANGE_NM  # where the colour tables are defined
@@ -77,9 +76,9 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
     ndarray, shape broadcast(cos_theta, thickness_nm) + (3,), float64
     """
     from .. import optics
-    from .bake import _resolve_film
+    from ..films import as_film
 
-    film = _resolve_film(film)
+    film = as_film(film)
     c, d = np.broadcast_arrays(np.asarray(cos_theta, dtype=np.float64), np.asarray(thickness_nm, dtype=np.float64))
     shape = c.shape
     c, d = c.ravel(), d.ravel()
