@@ -242,6 +242,22 @@ def RGB_to_Lab(rgb, colour_space="lin_rec709") -> np.ndarray:
     return XYZ_to_Lab(RGB_to_XYZ(rgb, colour_space))
 
 
+def linear_to_srgb8(rgb) -> np.ndarray:
+    """(..., 3) linear lin_rec709 -> (..., 3) uint8: sRGB OETF (IEC 61966-2-1) of the value clipped to [0, 1].
+
+    This is docs/design.md's display transform, for GL renders, reference renders and the textures alike, so
+    their PNGs are comparable. (``pipeline.spectral.RGB_to_preview8`` desaturates out-of-gamut colours
+    instead of clipping them; it is not used here.) NaN shows as black, +inf as 1.
+    """
+    from ._compat import import_colour
+
+    colour = import_colour()
+
+    rgb = np.nan_to_num(np.asarray(rgb, dtype=np.float64), nan=0.0, posinf=1.0, neginf=0.0)
+    enc = colour.cctf_encoding(np.clip(rgb, 0.0, 1.0), function="sRGB")
+    return np.round(np.clip(enc, 0.0, 1.0) * 255.0).astype(np.uint8)
+
+
 def RGB_to_preview8(rgb, colour_space="lin_rec709") -> np.ndarray:
     """8-bit sRGB preview of linear working RGB, for people (PNG previews), not for data.
 

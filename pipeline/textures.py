@@ -59,7 +59,7 @@ def _linear(srgb8) -> np.ndarray:
 
 
 def _encode(linear: np.ndarray) -> np.ndarray:
-    from pipeline.render.images import linear_to_srgb8  # the project's one sRGB 8-bit encoding
+    from pipeline.spectral import linear_to_srgb8  # the project's one sRGB 8-bit encoding
 
     return linear_to_srgb8(linear)
 

@@ -219,13 +219,15 @@ def test_render_needs_views_and_film(tmp_path):
 
 
 def test_display_transform_is_the_clipped_srgb_oetf():
+    from pipeline.spectral import linear_to_srgb8
+
     # the sRGB OETF of the clipped value, rounded: checked against the formula, not against itself
     rgb = np.array([[0.0, 1.0, 2.0], [-0.05, 0.3, 0.1]])
-    assert reference.to_display8(rgb).tolist() == [[0, 255, 255], [0, round(255 * (1.055 * 0.3 ** (1 / 2.4) - 0.055)),
+    assert linear_to_srgb8(rgb).tolist() == [[0, 255, 255], [0, round(255 * (1.055 * 0.3 ** (1 / 2.4) - 0.055)),
                                                                      round(255 * (1.055 * 0.1 ** (1 / 2.4) - 0.055))]]
-    grey = reference.to_display8(np.array([[0.18, 0.18, 0.18]]))[0, 0]
+    grey = linear_to_srgb8(np.array([[0.18, 0.18, 0.18]]))[0, 0]
     assert grey == round(255 * (1.055 * 0.18 ** (1 / 2.4) - 0.055))
-    assert reference.to_display8(np.array([[np.nan, np.inf, 0.5]]))[0, :2].tolist() == [0, 255]
+    assert linear_to_srgb8(np.array([[np.nan, np.inf, 0.5]]))[0, :2].tolist() == [0, 255]
 
 
 def test_view_angle_lobe_is_mask_times_the_film_at_n_dot_v_whatever_the_light(tmp_path):

@@ -150,7 +150,8 @@ def test_load_scene_reads_the_asset_written_by_pipeline_assemble(tmp_path):
 def test_display_images_use_the_srgb_oetf_of_the_clipped_value_and_linear_averaging(tmp_path):
     from PIL import Image
 
-    from pipeline.render.images import box_downsample, contact_sheet, linear_to_srgb8
+    from pipeline.render.images import box_downsample, contact_sheet
+    from pipeline.spectral import linear_to_srgb8
 
     # sRGB OETF (IEC 61966-2-1): 0.5 linear -> 0.7354 -> 188; out-of-range values clip
     assert linear_to_srgb8(np.array([[0.0, 0.5, 1.0], [-0.2, 2.0, 0.0031308]])).tolist() == [[0, 188, 255],
@@ -161,9 +162,12 @@ def test_display_images_use_the_srgb_oetf_of_the_clipped_value_and_linear_averag
     np.testing.assert_array_equal(box_downsample(np.eye(4), 4), [[0.25]])
     with pytest.raises(ValueError, match="factor"):
         box_downsample(img, 3)
-    tiles = [np.full((10, 12, 4), 255, np.uint8)] * 3
-    path = contact_sheet(tiles, ["a", "b", "c"], tmp_path / "sheet.png", columns=2)
+    tile = np.full((10, 12, 4), 255, np.uint8)
+    tile[:, :6, 3] = 0  # the left half transparent: the background shows through
+    path = contact_sheet(tmp_path / "sheet.png", [[("a", tile), ("b", tile)], [("c", tile)]], label_px=16)
     with Image.open(path) as im:
         assert im.size == (2 * 12, 2 * (10 + 16))
-    with pytest.raises(ValueError, match="label"):
-        contact_sheet(tiles, ["a"], tmp_path / "x.png")
+        px = np.asarray(im)
+    assert px[16 + 5, 2].tolist() == [32, 32, 32] and px[16 + 5, 8].tolist() == [255, 255, 255]
+    with pytest.raises(ValueError, match="at least one"):
+        contact_sheet(tmp_path / "x.png", [[]])

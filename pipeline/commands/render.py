@@ -51,9 +51,10 @@ def _check(args) -> None:
 def run(args: argparse.Namespace) -> int:
     _check(args)
     from ..render.gl import render_views
-    from ..render.images import box_downsample, contact_sheet, linear_to_srgb8, save_png
+    from ..render.images import box_downsample, contact_sheet, save_png
     from ..render.scene import load_scene
     from ..render.views import View, default_views
+    from ..spectral import linear_to_srgb8
 
     t0 = time.perf_counter()
     scene = load_scene(args.asset, variants={"shading": args.shading} if args.shading else None)
@@ -75,7 +76,8 @@ def run(args: argparse.Namespace) -> int:
         previews.append(img)
         path = save_png(img, os.path.join(args.out, f"{r.view.name}.png"))
         print(f"{path}  ({r.seconds * 1e3:.1f} ms)")
-    sheet = contact_sheet(previews, [r.view.name for r in results], os.path.join(args.out, "contact_sheet.png"))
+    tiles = [(r.view.name, img) for r, img in zip(results, previews)]
+    sheet = contact_sheet(os.path.join(args.out, "contact_sheet.png"), [tiles[i:i + 4] for i in range(0, len(tiles), 4)])
     t_write = time.perf_counter() - t2
     print(sheet)
     print(f"load {t_load:.2f} s, render {len(results)} views at {args.width}x{args.height} ({k}x{k} samples per "

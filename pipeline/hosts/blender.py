@@ -183,7 +183,8 @@ def run_blender(asset_path: str, views, out_dir: str, *, addon: bool = True, lob
     HostError
         bpy is missing, Blender fails to import or render, or the add-on builds no thin-film material.
     """
-    from ..render.images import linear_to_srgb8, save_png
+    from ..spectral import linear_to_srgb8
+    from ..render.images import save_png
 
     python = bpy_python()
     views = list(views)

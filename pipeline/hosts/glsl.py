@@ -57,7 +57,8 @@ def render(asset_path: str, views, out_dir: str) -> dict:
         raise HostError(NAME, str(exc)) from None
     images = {r.view.name: r.radiance_rgb for r in results}
     if out_dir:
-        from ..render.images import linear_to_srgb8, save_png
+        from ..spectral import linear_to_srgb8
+        from ..render.images import save_png
 
         os.makedirs(out_dir, exist_ok=True)
         for name, rgb in images.items():

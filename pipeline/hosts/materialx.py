@@ -225,7 +225,8 @@ def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str,
     except Exception as exc:
         raise HostError(name, f"GL drawing failed: {type(exc).__name__}: {exc}") from None
     if out_dir:
-        from ..render.images import linear_to_srgb8, save_png
+        from ..spectral import linear_to_srgb8
+        from ..render.images import save_png
 
         os.makedirs(out_dir, exist_ok=True)
         for view_name, rgb in images.items():

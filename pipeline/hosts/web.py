@@ -73,7 +73,8 @@ def render(asset_path: str, views: list, out_dir: str, *, browser_factory=None) 
     dict
         ``{view.name: (H, W, 3) float32}`` linear Rec.709 radiance, unclipped, background 0.
     """
-    from ..render.images import linear_to_srgb8, save_png
+    from ..spectral import linear_to_srgb8
+    from ..render.images import save_png
     from ..web.browser import Browser, BrowserError
     from ..web.viewer import write_viewer
 

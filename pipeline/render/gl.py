@@ -26,7 +26,6 @@ clipped linear value (:mod:`pipeline.render.images`).
 
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass
 
@@ -98,7 +97,7 @@ class RenderResult:
 
     def preview8(self) -> np.ndarray:
         """Display image, (H, W, 4) uint8 RGBA: sRGB OETF of the clipped radiance; alpha = coverage."""
-        from .images import linear_to_srgb8
+        from ..spectral import linear_to_srgb8
 
         rgb8 = linear_to_srgb8(self.radiance_rgb)
         a = (np.clip(self.alpha, 0, 1) * 255 + 0.5).astype(np.uint8)

@@ -146,7 +146,8 @@ def check_hosts(asset_layer: str, scene, views, selection, refs_by_lobe: dict, o
         host name -> {view: {"host": file, "reference": file}} for the report page.
     """
     from . import report as rep
-    from .images import linear_to_srgb8, save_png
+    from ..spectral import linear_to_srgb8
+    from .images import save_png
     from ..hosts import HostError
 
     say = say or (lambda msg: None)

@@ -11,22 +11,6 @@ import os
 import numpy as np
 
 
-def linear_to_srgb8(rgb) -> np.ndarray:
-    """(..., 3) linear lin_rec709 -> (..., 3) uint8: sRGB OETF (IEC 61966-2-1) of the value clipped to [0, 1].
-
-    This is docs/design.md's display transform, the same as the CPU reference's ``to_display8``, so GL and
-    reference PNGs are comparable. (``pipeline.spectral.RGB_to_preview8`` desaturates out-of-gamut colours
-    instead of clipping them; it is not used here.) NaN shows as black, +inf as 1.
-    """
-    from .._compat import import_colour
-
-    colour = import_colour()
-
-    rgb = np.nan_to_num(np.asarray(rgb, dtype=np.float64), nan=0.0, posinf=1.0, neginf=0.0)
-    enc = colour.cctf_encoding(np.clip(rgb, 0.0, 1.0), function="sRGB")
-    return np.round(np.clip(enc, 0.0, 1.0) * 255.0).astype(np.uint8)
-
-
 def box_downsample(image, factor: int) -> np.ndarray:
     """Average ``factor`` x ``factor`` blocks of an (H, W[, C]) image (H, W multiples of ``factor``).
 
@@ -51,28 +35,38 @@ def save_png(image: np.ndarray, path) -> str:
     return os.fspath(path)
 
 
-def contact_sheet(images, labels, path, columns: int = 4, background=(40, 40, 40)) -> str:
-    """Tile uint8 RGBA/RGB images (composited over ``background``) with a label under each; returns path."""
-    from PIL import Image, ImageDraw
+def contact_sheet(path, rows, label_px: int = 28, background=(32, 32, 32)) -> str:
+    """Tile rows of titled uint8 images into one PNG; returns the path.
 
-    images = list(images)
-    labels = list(labels)
-    if not images or len(images) != len(labels):
-        raise ValueError(f"need one label per image, got {len(images)} images and {len(labels)} labels")
-    label_h = 16
-    cw = max(i.shape[1] for i in images)
-    ch = max(i.shape[0] for i in images) + label_h
-    cols = min(columns, len(images))
-    rows = -(-len(images) // cols)
-    sheet = Image.new("RGB", (cols * cw, rows * ch), background)
+    Parameters
+    ----------
+    path : path
+        The PNG to write.
+    rows : sequence of sequences of (str, ndarray)
+        Each row's tiles, ``(title, image)``: (H, W, 3) RGB or (H, W, 4) RGBA uint8 (composited over
+        ``background``). Every tile is shown at the size of the first one.
+    label_px : int
+        Height of the header above each row, holding each tile's title in a font sized to it (legible at a
+        report's width).
+    """
+    from PIL import Image, ImageDraw, ImageFont
+
+    rows = [list(r) for r in rows]
+    if not rows or not all(rows):
+        raise ValueError("rows must hold at least one row, each of at least one (title, image) tile")
+    h, w = rows[0][0][1].shape[:2]
+    ncol = max(len(r) for r in rows)
+    sheet = Image.new("RGB", (ncol * w, len(rows) * (h + label_px)), background)
     draw = ImageDraw.Draw(sheet)
-    for k, (img, lab) in enumerate(zip(images, labels)):
-        tile = Image.fromarray(np.ascontiguousarray(img, dtype=np.uint8))
-        x, y = (k % cols) * cw, (k // cols) * ch
-        if tile.mode == "RGBA":
-            sheet.paste(tile.convert("RGB"), (x, y), tile)
-        else:
-            sheet.paste(tile, (x, y))
-        draw.text((x + 4, y + img.shape[0] + 2), str(lab), fill=(230, 230, 230))
+    font = ImageFont.load_default(size=max(10, int(label_px * 0.6)))
+    for r, row in enumerate(rows):
+        y = r * (h + label_px)
+        for c, (title, img) in enumerate(row):
+            draw.text((c * w + 4, y + label_px * 0.15), str(title).strip(), fill=(235, 235, 235), font=font)
+            tile = Image.fromarray(np.ascontiguousarray(img, dtype=np.uint8)).resize((w, h))
+            if tile.mode == "RGBA":
+                sheet.paste(tile.convert("RGB"), (c * w, y + label_px), tile)
+            else:
+                sheet.paste(tile, (c * w, y + label_px))
     sheet.save(os.fspath(path))
     return os.fspath(path)

@@ -50,7 +50,7 @@ Lighting models (``lobe``, :data:`LOBES`; the hosts of :mod:`pipeline.hosts` nam
   that environment with the base colour set to black. Both lobes of one call share the ray casts
   (:func:`render_reference_lobes`).
 
-The PNGs use the GL path's tone mapping (:func:`to_display8`); the comparison uses the linear data.
+The PNGs use the GL path's tone mapping (:func:`pipeline.spectral.linear_to_srgb8`); the comparison uses the linear data.
 """
 
 from __future__ import annotations
@@ -122,25 +122,10 @@ class ReferenceResult:
 
     @property
     def display8(self) -> np.ndarray:
-        """(H, W, 3) uint8 sRGB image of :attr:`rgb` (:func:`to_display8`)."""
-        return to_display8(self.rgb)
+        """(H, W, 3) uint8 sRGB image of :attr:`rgb` (:func:`pipeline.spectral.linear_to_srgb8`)."""
+        from ..spectral import linear_to_srgb8
 
-
-def to_display8(rgb_linear) -> np.ndarray:
-    """The GL path's display transform, :func:`pipeline.render.images.linear_to_srgb8` (docs/design.md: the
-    sRGB OETF of the linear value clipped to [0, 1]), with NaN shown black and +Inf white.
-
-    Parameters
-    ----------
-    rgb_linear : ndarray, (..., 3), linear lin_rec709
-
-    Returns
-    -------
-    ndarray, (..., 3) uint8
-    """
-    from .images import linear_to_srgb8
-
-    return linear_to_srgb8(rgb_linear)
+        return linear_to_srgb8(self.rgb)
 
 
 # -- exact structural colour -------------------------------------------------------------------------------

@@ -7,7 +7,7 @@ browser from disk with no server. Figures are drawn with matplotlib's object API
 Files (``DIR`` is the output folder):
 
 - ``<view>_gl.png``, ``<view>_reference.png``: the two renders through the display transform
-  (:func:`pipeline.render.reference.to_display8`);
+  (:func:`pipeline.spectral.linear_to_srgb8`);
 - ``<view>_dE.png``: the dE2000 map with a colour bar (grey where not compared);
 - ``contact_sheet.png``: one row per view, GL | reference | dE;
 - ``lut.png`` (the LUT the asset names), ``spectra.png`` (film reflectance spectra), ``hue.png`` (hue
@@ -71,39 +71,25 @@ def de_map_png(path, de_map, title: str) -> str:
 SHEET_COLUMNS = ("GLSL", "reference", f"dE2000 0-{DE_MAP_MAX:g}")
 
 
-def contact_sheet(path, rows, label_px: int = 28, columns=SHEET_COLUMNS) -> str:
-    """Tile rows of equally sized uint8 RGB images, each row ``(label, [img, ...])``; returns the path.
+def contact_sheet(path, rows, columns=SHEET_COLUMNS) -> str:
+    """The verification contact sheet: one row per view, ``(label, [GL, reference, dE map])``, each tile titled
+    by what its column shows (``columns``), the first also by the view's label
+    (:func:`pipeline.render.images.contact_sheet`)."""
+    from .images import contact_sheet as tile_sheet
 
-    Each row gets a header of ``label_px`` pixels: its label over the first tile, and over each tile what its
-    column shows (``columns``), in a font sized to the header (legible at the report's width).
-    """
-    from PIL import Image, ImageDraw, ImageFont
-
-    rows = list(rows)
-    if not rows:
-        raise ValueError("rows must hold at least one (label, images) row, got none")
-    h, w = rows[0][1][0].shape[:2]
-    ncol = max(len(imgs) for _, imgs in rows)
-    sheet = Image.new("RGB", (ncol * w, len(rows) * (h + label_px)), (32, 32, 32))
-    draw = ImageDraw.Draw(sheet)
-    font = ImageFont.load_default(size=max(10, int(label_px * 0.6)))
-    for r, (label, imgs) in enumerate(rows):
-        y = r * (h + label_px)
-        for c, img in enumerate(imgs):
-            column = columns[c] if columns and c < len(columns) else ""
-            text = f"{label}  {column}" if c == 0 else column
-            draw.text((c * w + 4, y + label_px * 0.15), text.strip(), fill=(235, 235, 235), font=font)
-            tile = Image.fromarray(np.ascontiguousarray(img[..., :3])).resize((w, h))
-            sheet.paste(tile, (c * w, y + label_px))
-    sheet.save(path)
-    return os.fspath(path)
+    titled = []
+    for label, imgs in rows:
+        titles = [columns[c] if c < len(columns) else "" for c in range(len(imgs))]
+        titles[0] = f"{label}  {titles[0]}".strip()
+        titled.append([(t, np.asarray(img)[..., :3]) for t, img in zip(titles, imgs)])
+    return tile_sheet(path, titled)
 
 
 def lut_png(path, lut) -> str:
     """The LUT as the display shows it, over its real axes (cos theta on x, thickness on y)."""
-    from .reference import to_display8
+    from ..spectral import linear_to_srgb8
 
-    img = to_display8(lut.rgb)  # row 0 = thinnest
+    img = linear_to_srgb8(lut.rgb)  # row 0 = thinnest
     fig = _figure(6.0, 3.6)
     ax = fig.add_subplot(1, 1, 1)
     lo, hi = lut.thickness_range_nm

@@ -343,7 +343,8 @@ def _render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hit
     GL radiance (the ``glsl`` host's images); ``hits``: cached ray casts (:func:`pipeline.render.reference.cast_hits`)."""
     from . import report as rep
     from .images import save_png
-    from .reference import render_reference, to_display8
+    from ..spectral import linear_to_srgb8
+    from .reference import render_reference
 
     failures_all = []
     say(f"GL renders ({len(views)} views)")
@@ -377,10 +378,10 @@ def _render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hit
             hue = cmp.hue_histogram(rgb[cls >= 0])
             boundary = {**cmp.boundary_straightness(cls), **boundary_shape(rgb, cls >= 0)}
         files, rows = {}, []
-        ref_png = to_display8(ref_results[i].rgb)
+        ref_png = linear_to_srgb8(ref_results[i].rgb)
         files["reference"] = os.path.basename(save_png(ref_png, os.path.join(folder, f"{v.name}_reference.png")))
         if gl_results is not None:
-            gl_png = to_display8(cmp.gl_arrays(gl_results[i])["rgb"])
+            gl_png = linear_to_srgb8(cmp.gl_arrays(gl_results[i])["rgb"])
             files["gl"] = os.path.basename(save_png(gl_png, os.path.join(folder, f"{v.name}_gl.png")))
             rows.append(gl_png)
         rows.append(ref_png)
