@@ -94,12 +94,17 @@ class ThinFilmParams:
     observer: str = "CIE 1931 2 Degree Standard Observer"
     k: float = 0.0
 
+    def film(self):
+        """The recorded film as a :class:`pipeline.films.FilmModel` (its index model is the one of the bake)."""
+        from ..films import FilmModel
+
+        return FilmModel(self.model, self.cauchy_a, self.cauchy_b_nm2, k=self.k, n_incident=self.incident_index,
+                         n_substrate=self.substrate_index)
+
     def film_index(self, wavelength_nm):
-        """Film index ``A + B / lambda^2 (+ i k)`` (Cauchy), for ``wavelength_nm`` (nm), same shape; complex
-        when ``k != 0``."""
-        lam = np.asarray(wavelength_nm, dtype=np.float64)
-        n = self.cauchy_a + self.cauchy_b_nm2 / lam**2
-        return n + 1j * self.k if self.k else n
+        """Film index ``A + B / lambda^2 (+ i k)`` for ``wavelength_nm`` (nm), same shape; complex when ``k != 0``
+        (:meth:`pipeline.films.FilmModel.n_film`)."""
+        return self.film().n_film(wavelength_nm)
 
     def to_dict(self) -> dict:
         d = dict(self.__dict__)
