@@ -217,6 +217,8 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
     half = 0.5 * (s_hi - s_lo)
     sig = np.linspace(s_lo, s_hi, 17)
     coef = interface_coefficients(film, cos_theta, 1.0 / sig)
+    if coef is None:
+        raise _refused(film)
     d_max = float(np.max(thickness_nm))
     d_min = float(np.min(thickness_nm))
     q = coef["n_b"] * coef["cos_b"]  # (A, S): n_b cos theta_b
@@ -264,8 +266,8 @@ class _Layout:
         n_sorted = n_nodes[order]
         lams, omegas, self.groups = [], [], []
         start = 0
-        for n in np.unique(n_sorted):
-            i0, i1 = np.searchsorted(n_sorted, n, "left"), np.searchsorted(n_sorted, n, "right")
+        values, first, counts = np.unique(n_sorted, return_index=True, return_counts=True)
+        for n, i0, i1 in zip(values.tolist(), first.tolist(), (first + counts).tolist()):
             wl, w = product_weights(int(n), illuminant, colour_space)
             lams.append(np.tile(wl, i1 - i0))
             omegas.append(w)
@@ -292,18 +294,16 @@ class _Layout:
                 nr, i1 - i0, 3)
 
 
-def _full_form(film, layout, thickness_nm, out, chunk):
+def _full_form(coef, layout, thickness_nm, out, chunk):
     """Unpolarised Airy reflectance at the layout's nodes, full real form.
 
     Per polarisation, with ``p = ab`` and ``s2 = sin^2(phi / 2)`` (Born & Wolf 7.6.1 in half-angle form, as
     :func:`.bake.sample_colour`), ``R = ((a + b)^2 - 4 p s2) / ((1 + p)^2 - 4 p s2)``, written as
     ``R = 1 - (1 - a^2)(1 - b^2) / ((1 + p)^2 - 4 p s2)``: the constant 1 integrates to the weights' sum (the
     white), so each node costs one sine and three operations per polarisation. For ``p <= 0`` (a film in air)
-    the denominator is a sum of non-negative terms, so float32 is safe (phase rounding ~2e-6 rad).
+    the denominator is a sum of non-negative terms, so float32 is safe (phase rounding ~2e-6 rad). ``coef``: the
+    layout's interface coefficients (:func:`.bake.interface_coefficients`, pairwise).
     """
-    from .bake import interface_coefficients
-
-    coef = interface_coefficients(film, layout.cos, layout.lam, outer=False)
     products = [coef[f"a_{pol}"] * coef[f"b_{pol}"] for pol in ("s", "p")]
     dtype = np.float32 if max(float(p.max(initial=-1.0)) for p in products) <= 0.0 else np.float64
     half_k = (2.0 * np.pi * coef["n_b"] * coef["cos_b"] / layout.lam).astype(dtype)
@@ -338,7 +338,7 @@ def _full_form(film, layout, thickness_nm, out, chunk):
         out[rows, layout.cols] += white[None]
 
 
-def _series_form(film, layout, thickness_nm, n_terms, out, chunk):
+def _series_form(coef, layout, thickness_nm, n_terms, out, chunk):
     """The truncated Poisson series (``n_terms`` per layout column) at the layout's nodes.
 
     With ``s2 = sin^2(phi / 2)`` the closed form is rewritten without cancellation near the resonances
@@ -351,9 +351,7 @@ def _series_form(film, layout, thickness_nm, n_terms, out, chunk):
     float64 first (``M phi`` reaches thousands of radians).
     """
     from . import fourier
-    from .bake import interface_coefficients
 
-    coef = interface_coefficients(film, layout.cos, layout.lam, outer=False)
     cycles = coef["n_b"] * coef["cos_b"] / layout.lam  # phi / (4 pi d): phase cycles per nm of film, / 2
     m = np.repeat(np.asarray(n_terms, dtype=np.float64)[layout.cols],
                   [n for (i0, i1, n, _) in layout.groups for _ in range(i1 - i0)])
@@ -420,17 +418,11 @@ def quadrature_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour
     ValueError
         For films with complex interface coefficients (absorbing, or total internal reflection).
     """
-    from .bake import interface_coefficients
 
     cos_theta = np.asarray(cos_theta, dtype=np.float64)
     thickness_nm = np.asarray(thickness_nm, dtype=np.float64)
-    s_lo, s_hi = _sigma_range()
-    if film.k != 0 or interface_coefficients(film, cos_theta, np.array([1.0 / s_hi, 1.0 / s_lo])) is None:
-        raise ValueError(
-            f"method 'quadrature' needs a non-absorbing film without total internal reflection (real interface "
-            f"coefficients); film {film.name!r} is not (k = {film.k!r}, substrate {film.n_substrate!r}; use "
-            f"'spectral')"
-        )
+    if not real_coefficients(film, cos_theta):
+        raise _refused(film)
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
     panel_nodes = angle_panel_nodes(film, cos_theta, thickness_nm)
     if panel_nodes is None:
@@ -459,24 +451,52 @@ def quadrature_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour
     return out, meta
 
 
+def real_coefficients(film, cos_theta) -> bool:
+    """True when both interfaces have real Fresnel coefficients at every angle: no absorption (``k = 0``, real
+    substrate) and no total internal reflection (``n_a sin theta <= min(n_b, n_c)`` over the spectrum; ``n_b`` is
+    smallest at the longest wavelength for a Cauchy film)."""
+    if film.k != 0 or isinstance(film.n_substrate, complex):
+        return False
+    s_lo, s_hi = _sigma_range()
+    n_b = float(np.min(film.n_film(np.array([1.0 / s_hi, 1.0 / s_lo]))))
+    cos_min = float(np.min(cos_theta)) if np.size(cos_theta) else 1.0
+    return film.n_incident**2 * (1.0 - cos_min**2) <= min(n_b, float(film.n_substrate)) ** 2
+
+
+def _refused(film):
+    return ValueError(
+        f"method 'quadrature' needs a non-absorbing film without total internal reflection (real interface "
+        f"coefficients); film {film.name!r} is not (k = {film.k!r}, substrate {film.n_substrate!r}; use 'spectral')"
+    )
+
+
 def _direct_columns(cos_theta, thickness_nm, film, out, illuminant, colour_space, series_tol):
     """Product integration of every column of ``cos_theta`` into ``out`` (T, A, 3); returns the plan."""
+    from .bake import interface_coefficients
+
     n_nodes, n_terms = column_plan(film, cos_theta, thickness_nm, series_tol=series_tol)
     bare = np.nonzero(thickness_nm == 0.0)[0]
     films_rows = np.nonzero(thickness_nm > 0.0)[0]
     d = thickness_nm[films_rows]
+    layouts = []
     for series in (False, True):
         cols = np.nonzero((n_terms > 0) == series)[0]
-        if not cols.size:
-            continue
-        layout = _Layout(cols, n_nodes[cols], cos_theta, illuminant, colour_space)
+        if cols.size:
+            layouts.append((series, cols, _Layout(cols, n_nodes[cols], cos_theta, illuminant, colour_space)))
+    # the interface coefficients of every node of both forms in one call
+    coef_all = interface_coefficients(film, np.concatenate([lay.cos for _, _, lay in layouts]),
+                                      np.concatenate([lay.lam for _, _, lay in layouts]), outer=False)
+    start = 0
+    for series, cols, layout in layouts:
+        coef = {k: v[start : start + layout.size] for k, v in coef_all.items()}
+        start += layout.size
         chunk = max(1, _CHUNK_SAMPLES // layout.size)
         if d.size:
             sub = np.empty((d.shape[0], cos_theta.shape[0], 3))
             if series:
-                _series_form(film, layout, d, n_terms, sub, chunk)
+                _series_form(coef, layout, d, n_terms, sub, chunk)
             else:
-                _full_form(film, layout, d, sub, chunk)
+                _full_form(coef, layout, d, sub, chunk)
             out[films_rows[:, None], cols[None, :]] = sub[:, cols]
         if bare.size:
             _bare(film, layout, out, bare)
