@@ -147,19 +147,23 @@ def product_weights(n_nodes: int, illuminant: str = "D65", colour_space: str | N
     y_ref = _unmapped(np.clip((1.0 / wl_ref - mid) / half, -1.0, 1.0), alpha)
     # l_k(y_l) = (v_k / (y_l - y_k)) / s_l, s_l = sum_j v_j / (y_l - y_j) (barycentric formula of the second
     # kind), so Omega_k = v_k sum_l (W_l / s_l) / (y_l - y_k): two passes over the (n, L) Cauchy matrix
-    inv = y_ref[None, :] - y[:, None]  # (n, L)
-    hit = inv == 0.0
-    inv[hit] = 1.0
-    np.divide(1.0, inv, out=inv)
-    s = v @ inv  # (L,)
-    on_node = hit.any(axis=0)
-    s[on_node] = 1.0
-    u = w_ref / s[:, None]
-    omega = v[:, None] * (inv @ u)
-    if on_node.any():  # reference wavelengths that are nodes: l_k(y_l) = delta_kl
-        k_hit, l_hit = np.nonzero(hit)
-        omega -= v[:, None] * (inv[:, on_node] @ u[on_node])
-        np.add.at(omega, k_hit, w_ref[l_hit])
+    omega = np.zeros((n, 3))
+    block = max(64, _CHUNK_SAMPLES // (4 * n))  # reference wavelengths per block: the (n, block) matrix stays small
+    for l0 in range(0, y_ref.shape[0], block):
+        inv = y_ref[None, l0 : l0 + block] - y[:, None]  # (n, B)
+        hit = inv == 0.0
+        inv[hit] = 1.0
+        np.divide(1.0, inv, out=inv)
+        s = v @ inv  # (B,)
+        on_node = hit.any(axis=0)
+        s[on_node] = 1.0
+        u = w_ref[l0 : l0 + block] / s[:, None]
+        u[on_node] = 0.0
+        omega += inv @ u
+        if on_node.any():  # reference wavelengths that are nodes: l_k(y_l) = delta_kl
+            k_hit, l_hit = np.nonzero(hit)
+            np.add.at(omega, k_hit, w_ref[l0 + l_hit] / v[k_hit, None])
+    omega *= v[:, None]
     sigma = mid + half * _mapped(y, alpha)  # decreasing in k: reverse so wavelengths increase
     wl = np.ascontiguousarray((1.0 / sigma)[::-1])
     omega = np.ascontiguousarray(omega[::-1])
