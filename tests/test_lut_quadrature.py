@@ -45,6 +45,14 @@ def test_non_dispersive_limit_matches_the_fourier_route():
     assert de[:, q.cos_theta > 2e-3].max() < 2e-3
 
 
+def test_acescg_table_equals_the_acescg_reference():
+    lut = bake(angles=16, thicknesses=2, thickness_range=(500.0, 700.0), film="keratin", method="quadrature",
+               colour_space="acescg", angle_warp_gamma=2.0)
+    c, d = np.meshgrid(lut.cos_theta, lut.thickness_nm)
+    ref = reference_colour(c, d, "keratin", colour_space="acescg")
+    assert delta_E(lut.rgb, ref, "acescg")[c > 2e-3].max() < 2e-3
+
+
 def test_zero_thickness_row_is_the_bare_interface():
     film = FilmModel("coated", cauchy_a=1.45, cauchy_b_nm2=4000.0, n_substrate=1.7)
     lut = bake(angles=12, thicknesses=3, thickness_range=(0.0, 300.0), film=film, method="quadrature")
@@ -86,9 +94,11 @@ def test_auto_picks_quadrature_for_dispersive_films_and_fourier_without_dispersi
     assert bake(angles=8, thicknesses=2, film="paper").metadata["method"] == "fourier"
 
 
-def test_default_size_columns_interpolated_in_angle_equal_the_reference():
-    # at 256 angles the columns with cos theta >= 0.1 come from a few Chebyshev angles (angle_panel_nodes)
-    lut = bake(angles=256, thicknesses=3, film="keratin", method="quadrature")
+@pytest.mark.parametrize("thickness_range", [(480.0, 700.0), (150.0, 1000.0)])
+def test_default_size_columns_interpolated_in_angle_equal_the_reference(thickness_range):
+    # at 256 angles the columns with cos theta >= ANGLE_PANEL_COS come from a few Chebyshev angles
+    # (angle_panel_nodes); the rows include both ends of the range
+    lut = bake(angles=256, thicknesses=3, thickness_range=thickness_range, film="keratin", method="quadrature")
     assert "Chebyshev angles" in lut.metadata["method:quadratureAnglePanel"]
     c, d = np.meshgrid(lut.cos_theta, lut.thickness_nm)
     de = delta_E(lut.rgb, reference_colour(c, d, "keratin"))

@@ -25,8 +25,9 @@ Methods (registry :data:`BAKE_METHODS`, names validated like colour-science's ``
     dispersion) is interpolated on mapped Chebyshev points, and the colour weights are integrated against the
     interpolating polynomials once per node count, so the continuous spectrum is integrated with 30-60 nodes per
     texel instead of hundreds of samples; near grazing incidence the truncated Poisson series of ``"fourier"``
-    is interpolated instead of the resonant Airy function. Absorbing films and total internal reflection are
-    refused.
+    is interpolated instead of the resonant Airy function, and the columns with ``cos theta >= 0.02`` are
+    interpolated in angle from exact colours at a few Chebyshev angles. Absorbing films and total internal
+    reflection are refused.
 ``"auto"``
     ``"fourier"`` when the film allows it, else ``"quadrature"`` for real interface coefficients (dispersive
     films such as keratin; faster than ``"spectral_fast"`` and exact, measured by ``rockdove bench lut``),

@@ -37,14 +37,18 @@ and ``N`` would grow like ``1 / cos theta``; there the series form is used inste
 polynomial of degree ``M`` in ``phi`` (entire in ``sigma``: ``N = K_SERIES * M * Phi + N_MIN`` nodes). The
 dropped terms are those of the Fourier route: ``M`` is :func:`pipeline.lut.fourier.n_terms_needed` at the
 film's smallest optical path difference, i.e. harmonics whose spectral integral ``integral w c_m cos(m phi)``
-has died out (``|G(m OPD)|`` below the tolerance; with dispersion the local frequency of ``cos(m phi)`` in
-``sigma`` is the group path ``m d phi'(sigma) / (2 pi d)``, larger than the phase path, so ``G``'s tail bounds it).
+has died out (``|G(m OPD)|`` below the tolerance, ``G``'s envelope from the coarse :func:`tail_table`; with
+dispersion the local frequency of ``cos(m phi)`` in ``sigma`` is the group path, larger than the phase path, so
+``G``'s tail at the phase path bounds it). It is evaluated without cancellation near the resonances in half-angle
+form (:func:`_series_form`).
 
 Angle axis. Away from grazing the colour is an analytic, slowly varying function of ``cos theta`` too: columns
 with ``cos theta >= ANGLE_PANEL_COS`` are interpolated (barycentric, Chebyshev points) from the exact colours at
 ``K_ANGLE * Psi + N_ANGLE_MIN`` Chebyshev angles, ``Psi`` the phase change over the panel at the largest thickness
-(:func:`angle_panel_nodes`; 25 angles instead of 230 columns for the default LUT, reproducing the per-column
-quadrature to its float32 floor, 1e-6 in linear colour). The resonant columns below it are integrated one by one.
+(:func:`angle_panel_nodes`; 30 angles instead of 250 columns for the default LUT, reproducing the per-column
+quadrature to its own error level). Even near grazing the colour varies smoothly with the angle, because the
+resonances that sharpen there are integrated over the spectrum; only the few columns below ``ANGLE_PANEL_COS``
+are integrated one by one.
 
 Limits: ``cos theta = 0`` takes ``R = 1`` (the limit of any film); ``d = 0`` is the bare interface (the Poisson
 kernel at ``phi = 0``, evaluated in the full form). Absorbing films and total internal reflection make ``a, b``
@@ -58,21 +62,26 @@ import functools
 import numpy as np
 
 # N = K_FULL * Phi / delta + N_MIN (full Airy form) or K_SERIES * M * Phi + N_MIN (truncated series), rounded up
-# to NODE_LADDER so that the product weights are computed for few node counts per process. Measured on the
-# keratin and paper films over 480-700 nm (texel error < 1e-6 in linear colour against the reference):
+# to NODE_LADDER so that the product weights are computed for few node counts per process. Measured on the default
+# keratin LUT (benchmarks/README.md): every texel within 4e-4 dE2000 (~1e-6 in linear colour) of the 0.1 nm
+# reference; K_FULL = 2.5, N_MIN = 16 errs 4e-3 and K_FULL = 2 errs 0.02.
 K_FULL = 3.0
 K_SERIES = 0.6
 N_MIN = 20
 NODE_LADDER = (8, 24, 28, 32, 40, 48, 56, 64, 80, 96, 112, 128, 160, 192, 224, 256, 320, 384, 448, 512, 640, 768,
                1024, 1280, 1536, 2048, 2560, 3072, 4096)
-# the series form costs about this much more per node than the full form (four float32 sines instead of one)
+# Relative cost per node of the series form in the choice between the forms. Measured per node it is ~3-4x the
+# full form (four float32 sines and float64 phase reduction instead of one sine), but on the default keratin LUT
+# 1.6 and 4 give the same bake time (interleaved A/B: 12.0 vs 11.6 ms): only the two most grazing columns differ.
 SERIES_COST = 1.6
 # Columns with cos theta >= ANGLE_PANEL_COS are interpolated from K_ANGLE * Psi + N_ANGLE_MIN Chebyshev angles
-# (angle_panel_nodes); measured on keratin 480-700 nm: 16 angles over 0.1-1 reproduce the per-column quadrature to
-# 6e-6, 24 to its float32 floor (1e-6).
-ANGLE_PANEL_COS = 0.1
+# (angle_panel_nodes). Measured on keratin at 256 x 64 texels, 480-700 nm: panels from cos theta 0.1, 0.05, 0.03,
+# 0.02 and 0.015 all keep every texel within 4e-4 dE2000 of the reference (the per-column quadrature's own level;
+# 16 angles over 0.1-1 already reproduce it to 6e-6 in linear colour); from 0.02 the bake is a third faster than
+# from 0.1 (interleaved A/B). 150-1000 nm (35 angles): 3.6e-4.
+ANGLE_PANEL_COS = 0.02
 K_ANGLE = 1.5
-N_ANGLE_MIN = 12
+N_ANGLE_MIN = 16
 # At most this many nodes per column (the 0.1 nm reference has 4201 samples): reached only by films starting at
 # d = 0 (no series form) at cos theta -> 0.
 MAX_NODES = 4096
@@ -142,19 +151,23 @@ def product_weights(n_nodes: int, illuminant: str = "D65", colour_space: str | N
     y_ref = _unmapped(np.clip((1.0 / wl_ref - mid) / half, -1.0, 1.0), alpha)
     # l_k(y_l) = (v_k / (y_l - y_k)) / s_l, s_l = sum_j v_j / (y_l - y_j) (barycentric formula of the second
     # kind), so Omega_k = v_k sum_l (W_l / s_l) / (y_l - y_k): two passes over the (n, L) Cauchy matrix
-    inv = y_ref[None, :] - y[:, None]  # (n, L)
-    hit = inv == 0.0
-    inv[hit] = 1.0
-    np.divide(1.0, inv, out=inv)
-    s = v @ inv  # (L,)
-    on_node = hit.any(axis=0)
-    s[on_node] = 1.0
-    u = w_ref / s[:, None]
-    omega = v[:, None] * (inv @ u)
-    if on_node.any():  # reference wavelengths that are nodes: l_k(y_l) = delta_kl
-        k_hit, l_hit = np.nonzero(hit)
-        omega -= v[:, None] * (inv[:, on_node] @ u[on_node])
-        np.add.at(omega, k_hit, w_ref[l_hit])
+    omega = np.zeros((n, 3))
+    block = max(64, _CHUNK_SAMPLES // (4 * n))  # reference wavelengths per block: the (n, block) matrix stays small
+    for l0 in range(0, y_ref.shape[0], block):
+        inv = y_ref[None, l0 : l0 + block] - y[:, None]  # (n, B)
+        hit = inv == 0.0
+        inv[hit] = 1.0
+        np.divide(1.0, inv, out=inv)
+        s = v @ inv  # (B,)
+        on_node = hit.any(axis=0)
+        s[on_node] = 1.0
+        u = w_ref[l0 : l0 + block] / s[:, None]
+        u[on_node] = 0.0
+        omega += inv @ u
+        if on_node.any():  # reference wavelengths that are nodes: l_k(y_l) = delta_kl
+            k_hit, l_hit = np.nonzero(hit)
+            np.add.at(omega, k_hit, w_ref[l0 + l_hit] / v[k_hit, None])
+    omega *= v[:, None]
     sigma = mid + half * _mapped(y, alpha)  # decreasing in k: reverse so wavelengths increase
     wl = np.ascontiguousarray((1.0 / sigma)[::-1])
     omega = np.ascontiguousarray(omega[::-1])
@@ -186,7 +199,8 @@ def _ladder(n):
     return np.where(big, np.ceil(n / 1024.0) * 1024.0, out).astype(np.int64)
 
 
-def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL, table=None):
+def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL, table=None, illuminant="D65",
+                colour_space="lin_rec709"):
     """Form and node count per angle column.
 
     Parameters
@@ -197,7 +211,8 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
     series_tol : float
         Tolerance of the truncated series (:func:`pipeline.lut.fourier.n_terms_needed`).
     table : GTable or None
-        Table for the series' term counts (default :func:`tail_table`, built when needed).
+        Table for the series' term counts (default :func:`tail_table` of ``illuminant`` and ``colour_space``).
+    illuminant, colour_space : str
 
     Returns
     -------
@@ -212,6 +227,8 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
     half = 0.5 * (s_hi - s_lo)
     sig = np.linspace(s_lo, s_hi, 17)
     coef = interface_coefficients(film, cos_theta, 1.0 / sig)
+    if coef is None:
+        raise _refused(film)
     d_max = float(np.max(thickness_nm))
     d_min = float(np.min(thickness_nm))
     q = coef["n_b"] * coef["cos_b"]  # (A, S): n_b cos theta_b
@@ -233,7 +250,7 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
         rho_min = np.minimum((-coef["a_s"] * coef["b_s"]).min(axis=1), (-coef["a_p"] * coef["b_p"]).min(axis=1))
         cand = np.nonzero((n_full > 2.0 * N_MIN) & (cos_theta > 0.0) & (rho_min >= 0.0))[0]
         if cand.size:
-            table = tail_table() if table is None else table
+            table = tail_table(illuminant, colour_space) if table is None else table
             opd_min = 2.0 * d_min * q[cand].min(axis=1)
             m = np.zeros(cand.size, np.int64)
             for pol in ("s", "p"):
@@ -259,8 +276,8 @@ class _Layout:
         n_sorted = n_nodes[order]
         lams, omegas, self.groups = [], [], []
         start = 0
-        for n in np.unique(n_sorted):
-            i0, i1 = np.searchsorted(n_sorted, n, "left"), np.searchsorted(n_sorted, n, "right")
+        values, first, counts = np.unique(n_sorted, return_index=True, return_counts=True)
+        for n, i0, i1 in zip(values.tolist(), first.tolist(), (first + counts).tolist()):
             wl, w = product_weights(int(n), illuminant, colour_space)
             lams.append(np.tile(wl, i1 - i0))
             omegas.append(w)
@@ -287,18 +304,16 @@ class _Layout:
                 nr, i1 - i0, 3)
 
 
-def _full_form(film, layout, thickness_nm, out, chunk):
+def _full_form(coef, layout, thickness_nm, out, chunk):
     """Unpolarised Airy reflectance at the layout's nodes, full real form.
 
     Per polarisation, with ``p = ab`` and ``s2 = sin^2(phi / 2)`` (Born & Wolf 7.6.1 in half-angle form, as
     :func:`.bake.sample_colour`), ``R = ((a + b)^2 - 4 p s2) / ((1 + p)^2 - 4 p s2)``, written as
     ``R = 1 - (1 - a^2)(1 - b^2) / ((1 + p)^2 - 4 p s2)``: the constant 1 integrates to the weights' sum (the
     white), so each node costs one sine and three operations per polarisation. For ``p <= 0`` (a film in air)
-    the denominator is a sum of non-negative terms, so float32 is safe (phase rounding ~2e-6 rad).
+    the denominator is a sum of non-negative terms, so float32 is safe (phase rounding ~2e-6 rad). ``coef``: the
+    layout's interface coefficients (:func:`.bake.interface_coefficients`, pairwise).
     """
-    from .bake import interface_coefficients
-
-    coef = interface_coefficients(film, layout.cos, layout.lam, outer=False)
     products = [coef[f"a_{pol}"] * coef[f"b_{pol}"] for pol in ("s", "p")]
     dtype = np.float32 if max(float(p.max(initial=-1.0)) for p in products) <= 0.0 else np.float64
     half_k = (2.0 * np.pi * coef["n_b"] * coef["cos_b"] / layout.lam).astype(dtype)
@@ -333,7 +348,7 @@ def _full_form(film, layout, thickness_nm, out, chunk):
         out[rows, layout.cols] += white[None]
 
 
-def _series_form(film, layout, thickness_nm, n_terms, out, chunk):
+def _series_form(coef, layout, thickness_nm, n_terms, out, chunk):
     """The truncated Poisson series (``n_terms`` per layout column) at the layout's nodes.
 
     With ``s2 = sin^2(phi / 2)`` the closed form is rewritten without cancellation near the resonances
@@ -346,9 +361,7 @@ def _series_form(film, layout, thickness_nm, n_terms, out, chunk):
     float64 first (``M phi`` reaches thousands of radians).
     """
     from . import fourier
-    from .bake import interface_coefficients
 
-    coef = interface_coefficients(film, layout.cos, layout.lam, outer=False)
     cycles = coef["n_b"] * coef["cos_b"] / layout.lam  # phi / (4 pi d): phase cycles per nm of film, / 2
     m = np.repeat(np.asarray(n_terms, dtype=np.float64)[layout.cols],
                   [n for (i0, i1, n, _) in layout.groups for _ in range(i1 - i0)])
@@ -385,8 +398,9 @@ def _bare(film, layout, out, rows):
     layout.reduce(np.broadcast_to(r[None, :], (rows.size, layout.size)), out, rows)
 
 
-# samples (thickness rows x nodes) evaluated per chunk: small enough for the temporaries to stay in cache
-_CHUNK_SAMPLES = 1 << 17
+# samples (thickness rows x nodes) evaluated per chunk (interleaved A/B on the default keratin LUT: 2^19 is ~10%
+# faster than 2^17 and 20% faster than 2^15; the temporaries stay below ~10 MB)
+_CHUNK_SAMPLES = 1 << 19
 
 
 def quadrature_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_space="lin_rec709",
@@ -414,17 +428,11 @@ def quadrature_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour
     ValueError
         For films with complex interface coefficients (absorbing, or total internal reflection).
     """
-    from .bake import interface_coefficients
 
     cos_theta = np.asarray(cos_theta, dtype=np.float64)
     thickness_nm = np.asarray(thickness_nm, dtype=np.float64)
-    s_lo, s_hi = _sigma_range()
-    if film.k != 0 or interface_coefficients(film, cos_theta, np.array([1.0 / s_hi, 1.0 / s_lo])) is None:
-        raise ValueError(
-            f"method 'quadrature' needs a non-absorbing film without total internal reflection (real interface "
-            f"coefficients); film {film.name!r} is not (k = {film.k!r}, substrate {film.n_substrate!r}; use "
-            f"'spectral')"
-        )
+    if not real_coefficients(film, cos_theta):
+        raise _refused(film)
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
     panel_nodes = angle_panel_nodes(film, cos_theta, thickness_nm)
     if panel_nodes is None:
@@ -453,24 +461,53 @@ def quadrature_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour
     return out, meta
 
 
+def real_coefficients(film, cos_theta) -> bool:
+    """True when both interfaces have real Fresnel coefficients at every angle: no absorption (``k = 0``, real
+    substrate) and no total internal reflection (``n_a sin theta <= min(n_b, n_c)`` over the spectrum; ``n_b`` is
+    smallest at the longest wavelength for a Cauchy film)."""
+    if film.k != 0 or isinstance(film.n_substrate, complex):
+        return False
+    s_lo, s_hi = _sigma_range()
+    n_b = float(np.min(film.n_film(np.array([1.0 / s_hi, 1.0 / s_lo]))))
+    cos_min = float(np.min(cos_theta)) if np.size(cos_theta) else 1.0
+    return film.n_incident**2 * (1.0 - cos_min**2) <= min(n_b, float(film.n_substrate)) ** 2
+
+
+def _refused(film):
+    return ValueError(
+        f"method 'quadrature' needs a non-absorbing film without total internal reflection (real interface "
+        f"coefficients); film {film.name!r} is not (k = {film.k!r}, substrate {film.n_substrate!r}; use 'spectral')"
+    )
+
+
 def _direct_columns(cos_theta, thickness_nm, film, out, illuminant, colour_space, series_tol):
     """Product integration of every column of ``cos_theta`` into ``out`` (T, A, 3); returns the plan."""
-    n_nodes, n_terms = column_plan(film, cos_theta, thickness_nm, series_tol=series_tol)
+    from .bake import interface_coefficients
+
+    n_nodes, n_terms = column_plan(film, cos_theta, thickness_nm, series_tol=series_tol, illuminant=illuminant,
+                                   colour_space=colour_space)
     bare = np.nonzero(thickness_nm == 0.0)[0]
     films_rows = np.nonzero(thickness_nm > 0.0)[0]
     d = thickness_nm[films_rows]
+    layouts = []
     for series in (False, True):
         cols = np.nonzero((n_terms > 0) == series)[0]
-        if not cols.size:
-            continue
-        layout = _Layout(cols, n_nodes[cols], cos_theta, illuminant, colour_space)
+        if cols.size:
+            layouts.append((series, cols, _Layout(cols, n_nodes[cols], cos_theta, illuminant, colour_space)))
+    # the interface coefficients of every node of both forms in one call
+    coef_all = interface_coefficients(film, np.concatenate([lay.cos for _, _, lay in layouts]),
+                                      np.concatenate([lay.lam for _, _, lay in layouts]), outer=False)
+    start = 0
+    for series, cols, layout in layouts:
+        coef = {k: v[start : start + layout.size] for k, v in coef_all.items()}
+        start += layout.size
         chunk = max(1, _CHUNK_SAMPLES // layout.size)
         if d.size:
             sub = np.empty((d.shape[0], cos_theta.shape[0], 3))
             if series:
-                _series_form(film, layout, d, n_terms, sub, chunk)
+                _series_form(coef, layout, d, n_terms, sub, chunk)
             else:
-                _full_form(film, layout, d, sub, chunk)
+                _full_form(coef, layout, d, sub, chunk)
             out[films_rows[:, None], cols[None, :]] = sub[:, cols]
         if bare.size:
             _bare(film, layout, out, bare)
