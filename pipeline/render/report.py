@@ -209,6 +209,14 @@ def _fmt(v, digits=3):
     return html.escape(str(v))
 
 
+def _figure_row(title: str, files: dict, captions: dict) -> str:
+    """One report row: a heading and, for each key of ``captions`` that ``files`` names, the image captioned."""
+    e = html.escape
+    figs = "".join(f"<figure><img src='{e(files[k])}' alt='{e(title)} {e(k)}'><figcaption>{e(c)}</figcaption>"
+                   f"</figure>" for k, c in captions.items() if files.get(k))
+    return f"<h3>{e(title)}</h3><div class='row'>{figs}</div>"
+
+
 def write_html(path, report: dict, images: dict) -> str:
     """A self-contained page (relative image links) summarising ``report``.
 
@@ -297,20 +305,11 @@ def write_html(path, report: dict, images: dict) -> str:
         parts.append("</table>")
         for host, per_view in (images.get("hosts") or {}).items():
             for name, files in per_view.items():
-                parts.append(f"<h3>{e(host)}: {e(name)}</h3><div class='row'>")
-                for k in ("host", "reference", "dE"):
-                    if files.get(k):
-                        parts.append(f"<figure><img src='{e(files[k])}' alt='{e(host)} {e(name)} {k}'>"
-                                     f"<figcaption>{e(host) if k == 'host' else k}</figcaption></figure>")
-                parts.append("</div>")
+                parts.append(_figure_row(f"{host}: {name}", files, {"host": host, "reference": "reference",
+                                                                     "dE": "dE"}))
     parts.append("<h2>Renders and dE2000 maps</h2>")
     for name, files in images.get("views", {}).items():
-        parts.append(f"<h3>{e(name)}</h3><div class='row'>")
-        for k in ("gl", "reference", "dE"):
-            if files.get(k):
-                parts.append(f"<figure><img src='{e(files[k])}' alt='{e(name)} {k}'>"
-                             f"<figcaption>{k}</figcaption></figure>")
-        parts.append("</div>")
+        parts.append(_figure_row(name, files, {"gl": "gl", "reference": "reference", "dE": "dE"}))
     if images.get("bench"):
         parts.append("<h2>Benchmarks</h2>" + "".join(f"<img src='{e(f)}' alt='{e(f)}'>" for f in images["bench"]))
     t = report.get("timings_s", {})
