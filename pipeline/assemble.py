@@ -112,7 +112,7 @@ def assemble(out_dir, *, preset: str = "measured", card_count: int | None = None
 
     from .usd.material import lut_info
     from .usd.stage import shading_variants, write_layers
-    from .usd.textures_io import write_textures
+    from .usd.textures_io import write_base_textures, write_film_textures
     from .usd.usdz import write_usdz
 
     if preset not in PRESET_FILMS:
@@ -143,8 +143,8 @@ def assemble(out_dir, *, preset: str = "measured", card_count: int | None = None
 
     def fill(tmp: str) -> dict:
         written = {"dir": tmp}
-        written.update(write_textures(tmp, lut, feather_textures, body_texture, film=film,
-                                      thickness_range_nm=(lo, hi)))
+        written.update(write_base_textures(tmp, feather_textures, body_texture))
+        written.update(write_film_textures(tmp, lut, feather_textures, film=film, thickness_range_nm=(lo, hi)))
         written.update(write_layers(tmp, bird, film, lut_info(lut) if lut is not None else None,
                                     version=__version__, shading=shading))
         if usdz:

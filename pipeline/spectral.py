@@ -22,13 +22,24 @@ grid over 360-780 nm (x, y = 0.31272, 0.32903); adapting from it rather than fro
 (0.3127, 0.3290) makes a perfect reflector exactly (1, 1, 1) in ``lin_rec709`` (the difference is ~1e-4).
 Results are not clipped: thin-film colours are often out of gamut (negative components).
 
-CIELAB uses the same reference white at Y = 1; CIEDE2000 is colour-science's ``delta_E(..., "CIE 2000")``
-(Sharma, Wu and Dalal 2005).
+CIELAB (CIE 15:2004, eq. 8.1-8.3, with the exact constants 216/24389 and 24389/27) uses the same reference
+white at Y = 1; CIEDE2000 follows Sharma, Wu and Dalal (2005), eq. 1-24; the sRGB transfer functions are
+IEC 61966-2-1. These three formulas are written here in numpy and tested against colour-science's
+``XYZ_to_Lab``, ``delta_E(..., "CIE 2000")`` and ``cctf_encoding/decoding(..., "sRGB")`` (tests/test_spectral.py).
+
+Keeping colour-science off the hot path: importing colour-science takes ~1 s (scipy.interpolate, its
+colour models), far more than a LUT bake. The only things taken from it are data (the CMF and illuminant
+tables, the RGB colourspace matrices), so they are read from colour-science once per installed version and
+kept as ``.npz`` files in ``$XDG_CACHE_HOME/rockdove/colour-science-<version>/`` (``~/.cache`` by default;
+:func:`colour_data`). A film-only rebuild then bakes, measures and encodes its LUT without importing
+colour-science. If the folder cannot be written, the values are simply recomputed in each process.
 """
 
 from __future__ import annotations
 
+import os
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 
@@ -60,26 +71,73 @@ def _check_wavelengths(wavelength_nm) -> np.ndarray:
     return lam
 
 
+def _colour_cache_dir() -> Path:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        tag = version("colour-science")
+    except PackageNotFoundError:  # e.g. a source checkout of colour on sys.path
+        tag = "unknown"
+    root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(root) / "rockdove" / f"colour-science-{tag}"
+
+
+def colour_data(name: str, compute) -> dict:
+    """Arrays derived from colour-science's data, cached on disk per colour-science version (module docstring).
+
+    Parameters
+    ----------
+    name : str
+        File stem, unique per content (e.g. ``"tables-D65-CIE_1931_2_Degree_Standard_Observer"``).
+    compute : callable () -> dict of str -> ndarray
+        Builds the arrays (imports colour-science); called when the file is missing or unreadable.
+
+    Returns
+    -------
+    dict of str -> ndarray (read-only)
+    """
+    path = _colour_cache_dir() / f"{name}.npz"
+    arrays = None
+    try:
+        with np.load(path, allow_pickle=False) as f:
+            arrays = {k: f[k] for k in f.files}
+    except (OSError, ValueError, EOFError):  # missing, or torn by a crash: recompute below
+        pass
+    if arrays is None:
+        arrays = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in compute().items()}
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+            with open(tmp, "wb") as f:
+                np.savez(f, **arrays)
+            os.replace(tmp, path)  # atomic: concurrent processes see the old file or the whole new one
+        except OSError:
+            pass  # read-only home: recompute next time
+    for a in arrays.values():
+        a.setflags(write=False)
+    return arrays
+
+
 @lru_cache(maxsize=8)
 def _tables(illuminant: str, observer: str):
-    colour = _colour()
-    if observer not in colour.MSDS_CMFS:
-        raise ValueError(f"observer must be one of colour.MSDS_CMFS (e.g. {DEFAULT_OBSERVER!r}), got {observer!r}")
-    if illuminant not in colour.SDS_ILLUMINANTS:
-        raise ValueError(f"illuminant must be one of colour.SDS_ILLUMINANTS (e.g. 'D65'), got {illuminant!r}")
-    cmfs = colour.MSDS_CMFS[observer]
-    sd = colour.SDS_ILLUMINANTS[illuminant]
-    lo, hi = WAVELENGTH_RANGE_NM
-    for what, table in (("observer", cmfs), ("illuminant", sd)):
-        if table.wavelengths[0] > lo or table.wavelengths[-1] < hi:
-            raise ValueError(f"{what} {table.name!r} does not cover {lo:g}-{hi:g} nm")
-    cw = np.array(cmfs.wavelengths, dtype=np.float64)
-    cv = np.array(cmfs.values, dtype=np.float64)
-    sw = np.array(sd.wavelengths, dtype=np.float64)
-    sv = np.array(sd.values, dtype=np.float64)
-    for a in (cw, cv, sw, sv):
-        a.setflags(write=False)
-    return cw, cv, sw, sv
+    def compute() -> dict:
+        colour = _colour()
+        if observer not in colour.MSDS_CMFS:
+            raise ValueError(f"observer must be one of colour.MSDS_CMFS (e.g. {DEFAULT_OBSERVER!r}), got {observer!r}")
+        if illuminant not in colour.SDS_ILLUMINANTS:
+            raise ValueError(f"illuminant must be one of colour.SDS_ILLUMINANTS (e.g. 'D65'), got {illuminant!r}")
+        cmfs = colour.MSDS_CMFS[observer]
+        sd = colour.SDS_ILLUMINANTS[illuminant]
+        lo, hi = WAVELENGTH_RANGE_NM
+        for what, table in (("observer", cmfs), ("illuminant", sd)):
+            if table.wavelengths[0] > lo or table.wavelengths[-1] < hi:
+                raise ValueError(f"{what} {table.name!r} does not cover {lo:g}-{hi:g} nm")
+        return {"cmfs_wavelength_nm": cmfs.wavelengths, "cmfs": cmfs.values,
+                "illuminant_wavelength_nm": sd.wavelengths, "illuminant": sd.values}
+
+    slug = "".join(c if c.isalnum() or c in "-." else "_" for c in f"{illuminant}-{observer}")
+    t = colour_data(f"tables-{slug}", compute)
+    return t["cmfs_wavelength_nm"], t["cmfs"], t["illuminant_wavelength_nm"], t["illuminant"]
 
 
 def cmfs_illuminant(wavelength_nm, illuminant=DEFAULT_ILLUMINANT, observer=DEFAULT_OBSERVER):
@@ -189,19 +247,29 @@ def check_colour_space(colour_space) -> str:
 
 @lru_cache(maxsize=4)
 def _xyz_to_rgb_matrix_t(colour_space: str) -> np.ndarray:
-    """(3, 3) matrix M with ``rgb = XYZ @ M`` (row vectors), built with colour.XYZ_to_RGB."""
-    colour = _colour()
+    """(3, 3) matrix M with ``rgb = XYZ @ M`` (row vectors), built with colour.XYZ_to_RGB (cached on disk)."""
     check_colour_space(colour_space)
-    m = colour.XYZ_to_RGB(
-        np.eye(3),
-        colour.RGB_COLOURSPACES[_COLOURSPACE_NAMES[colour_space]],
-        illuminant=reference_white_xy(),
-        chromatic_adaptation_transform=CHROMATIC_ADAPTATION,
-        apply_cctf_encoding=False,
-    )
-    m = np.array(m, dtype=np.float64)
-    m.setflags(write=False)
-    return m
+    white = reference_white_xy()
+
+    def compute() -> dict:
+        colour = _colour()
+        m = colour.XYZ_to_RGB(np.eye(3), colour.RGB_COLOURSPACES[_COLOURSPACE_NAMES[colour_space]],
+                              illuminant=white, chromatic_adaptation_transform=CHROMATIC_ADAPTATION,
+                              apply_cctf_encoding=False)
+        return {"matrix": m}
+
+    # the white is derived from the tables; naming the file by it keeps a matrix from outliving its white
+    return colour_data(f"xyz-to-{colour_space}-{CHROMATIC_ADAPTATION}-{white[0]:.15f}-{white[1]:.15f}",
+                       compute)["matrix"]
+
+
+@lru_cache(maxsize=1)
+def _rec709_luminance() -> np.ndarray:
+    """Y row of ITU-R BT.709's RGB -> XYZ matrix (colour-science's), (3,): Y = rgb @ weights."""
+    def compute() -> dict:
+        return {"weights": np.asarray(_colour().RGB_COLOURSPACES["ITU-R BT.709"].matrix_RGB_to_XYZ)[1]}
+
+    return colour_data("rec709-luminance", compute)["weights"]
 
 
 def XYZ_to_RGB(XYZ, colour_space="lin_rec709") -> np.ndarray:
@@ -225,21 +293,87 @@ def RGB_to_XYZ(RGB, colour_space="lin_rec709") -> np.ndarray:
     return np.asarray(RGB, dtype=np.float64) @ np.linalg.inv(m)
 
 
+#: CIE 15:2004 CIELAB constants, exact rationals: epsilon = (6/29)^3, kappa = (29/3)^3.
+_LAB_EPSILON = 216.0 / 24389.0
+_LAB_KAPPA = 24389.0 / 27.0
+
+
 def XYZ_to_Lab(XYZ) -> np.ndarray:
-    """CIELAB (L in [0, 100]) of XYZ with the reference D65 white at Y = 1. (..., 3) -> (..., 3)."""
-    colour = _colour()
-    return np.asarray(colour.XYZ_to_Lab(np.asarray(XYZ, dtype=np.float64), illuminant=reference_white_xy()))
+    """CIELAB (L in [0, 100]) of XYZ with the reference D65 white at Y = 1. (..., 3) -> (..., 3).
+
+    CIE 15:2004 eq. 8.1-8.3: ``f(t) = t^(1/3)`` above epsilon, ``(kappa t + 16) / 116`` below;
+    ``L = 116 f(Y/Yn) - 16``, ``a = 500 (f(X/Xn) - f(Y/Yn))``, ``b = 200 (f(Y/Yn) - f(Z/Zn))``.
+    """
+    xy = reference_white_xy()
+    white = np.array([xy[0] / xy[1], 1.0, (1.0 - xy[0] - xy[1]) / xy[1]])
+    t = np.asarray(XYZ, dtype=np.float64) / white
+    f = np.where(t > _LAB_EPSILON, np.cbrt(t), (_LAB_KAPPA * t + 16.0) / 116.0)
+    return np.stack([116.0 * f[..., 1] - 16.0, 500.0 * (f[..., 0] - f[..., 1]), 200.0 * (f[..., 1] - f[..., 2])],
+                    axis=-1)
 
 
 def delta_E_2000(Lab_a, Lab_b) -> np.ndarray:
-    """CIEDE2000 colour difference (colour-science, method "CIE 2000"); (..., 3), (..., 3) -> (...)."""
-    colour = _colour()
-    return np.asarray(colour.delta_E(np.asarray(Lab_a, float), np.asarray(Lab_b, float), method="CIE 2000"))
+    """CIEDE2000 colour difference, k_L = k_C = k_H = 1; (..., 3), (..., 3) -> (...).
+
+    Sharma, Wu and Dalal (2005), "The CIEDE2000 color-difference formula: implementation notes,
+    supplementary test data, and mathematical observations", Color Res. Appl. 30(1), eq. 1-24 (hue angles
+    in degrees; h' = 0 where a' = b' = 0; the mean hue and the hue difference follow their eq. 10 and 14).
+    """
+    L1, a1, b1 = np.moveaxis(np.asarray(Lab_a, dtype=np.float64), -1, 0)
+    L2, a2, b2 = np.moveaxis(np.asarray(Lab_b, dtype=np.float64), -1, 0)
+    c_bar = 0.5 * (np.hypot(a1, b1) + np.hypot(a2, b2))
+    c7 = c_bar ** 7
+    g = 0.5 * (1.0 - np.sqrt(c7 / (c7 + 25.0 ** 7)))                      # eq. 4
+    a1p, a2p = (1.0 + g) * a1, (1.0 + g) * a2                             # eq. 5
+    c1p, c2p = np.hypot(a1p, b1), np.hypot(a2p, b2)                       # eq. 6
+    h1p = np.degrees(np.arctan2(b1, a1p)) % 360.0                         # eq. 7
+    h2p = np.degrees(np.arctan2(b2, a2p)) % 360.0
+    h1p = np.where((a1p == 0) & (b1 == 0), 0.0, h1p)
+    h2p = np.where((a2p == 0) & (b2 == 0), 0.0, h2p)
+    zero = c1p * c2p == 0
+    dh = h2p - h1p                                                        # eq. 10
+    dh = np.where(dh > 180.0, dh - 360.0, np.where(dh < -180.0, dh + 360.0, dh))
+    dh = np.where(zero, 0.0, dh)
+    dL, dC = L2 - L1, c2p - c1p                                           # eq. 8, 9
+    dH = 2.0 * np.sqrt(c1p * c2p) * np.sin(np.radians(0.5 * dh))          # eq. 11
+    L_bar, C_bar = 0.5 * (L1 + L2), 0.5 * (c1p + c2p)                     # eq. 12, 13
+    h_sum = h1p + h2p                                                     # eq. 14
+    h_bar = np.where(np.abs(h1p - h2p) <= 180.0, 0.5 * h_sum,
+                     np.where(h_sum < 360.0, 0.5 * (h_sum + 360.0), 0.5 * (h_sum - 360.0)))
+    h_bar = np.where(zero, h_sum, h_bar)
+    t = (1.0 - 0.17 * np.cos(np.radians(h_bar - 30.0)) + 0.24 * np.cos(np.radians(2.0 * h_bar))
+         + 0.32 * np.cos(np.radians(3.0 * h_bar + 6.0)) - 0.20 * np.cos(np.radians(4.0 * h_bar - 63.0)))  # eq. 15
+    d_theta = 30.0 * np.exp(-(((h_bar - 275.0) / 25.0) ** 2))             # eq. 16
+    c_bar7 = C_bar ** 7
+    r_c = 2.0 * np.sqrt(c_bar7 / (c_bar7 + 25.0 ** 7))                    # eq. 17
+    l50 = (L_bar - 50.0) ** 2
+    s_l = 1.0 + 0.015 * l50 / np.sqrt(20.0 + l50)                         # eq. 18
+    s_c = 1.0 + 0.045 * C_bar                                             # eq. 19
+    s_h = 1.0 + 0.015 * C_bar * t                                         # eq. 20
+    r_t = -np.sin(np.radians(2.0 * d_theta)) * r_c                        # eq. 21
+    tl, tc, th = dL / s_l, dC / s_c, dH / s_h
+    return np.sqrt(tl * tl + tc * tc + th * th + r_t * tc * th)          # eq. 22
 
 
 def RGB_to_Lab(rgb, colour_space="lin_rec709") -> np.ndarray:
     """CIELAB of linear working RGB: :func:`RGB_to_XYZ` then :func:`XYZ_to_Lab`."""
     return XYZ_to_Lab(RGB_to_XYZ(rgb, colour_space))
+
+
+def srgb_encode(linear) -> np.ndarray:
+    """sRGB OETF (IEC 61966-2-1:1999, eq. 5): ``12.92 L`` for L <= 0.0031308, else ``1.055 L^(1/2.4) - 0.055``.
+    Values below 0 are not clipped (the linear segment continues)."""
+    x = np.asarray(linear, dtype=np.float64)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(np.maximum(x, 0.0031308), 1.0 / 2.4) - 0.055)
+
+
+def srgb_decode(encoded) -> np.ndarray:
+    """Inverse of :func:`srgb_encode` (IEC 61966-2-1:1999, eq. 2): ``V / 12.92`` at or below the encoded break
+    point ``12.92 * 0.0031308`` (= 0.04044994; the standard rounds it to 0.04045, colour-science uses this
+    exact one, and no 8-bit value lies between them), else ``((V + 0.055) / 1.055)^2.4``."""
+    v = np.asarray(encoded, dtype=np.float64)
+    knee = 12.92 * 0.0031308
+    return np.where(v <= knee, v / 12.92, np.power((np.maximum(v, knee) + 0.055) / 1.055, 2.4))
 
 
 def linear_to_srgb8(rgb) -> np.ndarray:
@@ -249,12 +383,8 @@ def linear_to_srgb8(rgb) -> np.ndarray:
     their PNGs are comparable. (``pipeline.spectral.RGB_to_preview8`` desaturates out-of-gamut colours
     instead of clipping them; it is not used here.) NaN shows as black, +inf as 1.
     """
-    from ._compat import import_colour
-
-    colour = import_colour()
-
     rgb = np.nan_to_num(np.asarray(rgb, dtype=np.float64), nan=0.0, posinf=1.0, neginf=0.0)
-    enc = colour.cctf_encoding(np.clip(rgb, 0.0, 1.0), function="sRGB")
+    enc = srgb_encode(np.clip(rgb, 0.0, 1.0))
     return np.round(np.clip(enc, 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
@@ -269,7 +399,7 @@ def RGB_to_preview8(rgb, colour_space="lin_rec709") -> np.ndarray:
        ``Y + s (rgb - Y)`` with ``s = Y / (Y - min(rgb))``. Hue and luminance are kept, saturation drops;
        a colour with Y <= 0 becomes black;
     3. over range: clip each component to 1 (highlights may shift hue, as in most displays);
-    4. sRGB OETF (IEC 61966-2-1, colour-science's ``cctf_encoding(..., "sRGB")``), round to 0-255.
+    4. sRGB OETF (IEC 61966-2-1, :func:`srgb_encode`), round to 0-255.
 
     Parameters
     ----------
@@ -280,7 +410,6 @@ def RGB_to_preview8(rgb, colour_space="lin_rec709") -> np.ndarray:
     -------
     ndarray, (..., 3), uint8
     """
-    colour = _colour()
     rgb = np.asarray(rgb, dtype=np.float64)
     if rgb.shape[-1:] != (3,):
         raise ValueError(f"rgb must have a trailing axis of 3, got shape {rgb.shape}")
@@ -288,13 +417,12 @@ def RGB_to_preview8(rgb, colour_space="lin_rec709") -> np.ndarray:
         raise ValueError("rgb must be finite (got NaN or inf)")
     if check_colour_space(colour_space) != "lin_rec709":
         rgb = XYZ_to_RGB(RGB_to_XYZ(rgb, colour_space), "lin_rec709")
-    weights = np.asarray(colour.RGB_COLOURSPACES["ITU-R BT.709"].matrix_RGB_to_XYZ)[1]
-    lum = (rgb @ weights)[..., None]
+    lum = (rgb @ _rec709_luminance())[..., None]
     low = rgb.min(axis=-1, keepdims=True)
     neg = low < 0
     with np.errstate(divide="ignore", invalid="ignore"):
         s = np.where(neg & (lum > 0), lum / (lum - low), 1.0)
     mapped = np.where(neg, np.where(lum > 0, lum + s * (rgb - lum), 0.0), rgb)
     mapped = np.clip(mapped, 0.0, 1.0)
-    encoded = np.asarray(colour.cctf_encoding(mapped, function="sRGB"))
+    encoded = srgb_encode(mapped)
     return np.round(np.clip(encoded, 0.0, 1.0) * 255.0).astype(np.uint8)

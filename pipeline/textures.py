@@ -51,11 +51,9 @@ def _smoothstep(e0, e1, x):
 
 
 def _linear(srgb8) -> np.ndarray:
-    from ._compat import import_colour
+    from .spectral import srgb_decode
 
-    colour = import_colour()
-
-    return np.asarray(colour.cctf_decoding(np.asarray(srgb8, dtype=np.float64) / 255.0, function="sRGB"))
+    return srgb_decode(np.asarray(srgb8, dtype=np.float64) / 255.0)
 
 
 def _encode(linear: np.ndarray) -> np.ndarray:

@@ -182,9 +182,75 @@ def test_colour_is_imported_without_matplotlib_and_its_plotting_still_imports_on
     import subprocess
     import sys
 
-    code = ("import sys; from pipeline import spectral; spectral.spectral_weights([400.0, 500.0, 600.0]); "
+    code = ("import sys; from pipeline._compat import import_colour; import_colour(); "
             "assert 'matplotlib' not in sys.modules, 'matplotlib imported'; "
             "assert 'colour.plotting' not in sys.modules; "
             "import colour.plotting; assert callable(colour.plotting.plot_single_sd); print('ok')")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0 and r.stdout.strip() == "ok", r.stderr
+
+
+def test_lab_delta_e_2000_and_srgb_formulas_agree_with_colour_science():
+    """The numpy CIELAB (CIE 15:2004), CIEDE2000 (Sharma et al. 2005) and sRGB (IEC 61966-2-1) of
+    pipeline.spectral against colour-science's own, over random colours and the formula's edge cases: neutral
+    colours (a = b = 0, where h' is defined as 0), hue differences either side of 180 degrees, negative a."""
+    from pipeline._compat import import_colour
+
+    colour = import_colour()
+    rng = np.random.default_rng(7)
+    lab_a = np.column_stack([rng.uniform(0, 100, 4000), rng.uniform(-120, 120, 4000), rng.uniform(-120, 120, 4000)])
+    lab_b = lab_a + rng.normal(0, 8, lab_a.shape)
+    edge_a = np.array([[50, 0, 0], [50, 0, 0], [60, 10, 0.001], [60, -10, 0.001], [30, -5, -40], [70, 1e-9, 0]])
+    edge_b = np.array([[55, 0, 0], [50, 10, 10], [60, -10, -0.001], [60, 10, -0.001], [31, 5, 40], [70, 0, 1e-9]])
+    for a, b in ((lab_a, lab_b), (edge_a, edge_b)):
+        ours = delta_E_2000(a, b)
+        theirs = np.asarray(colour.delta_E(a, b, method="CIE 2000"))
+        np.testing.assert_allclose(ours, theirs, rtol=1e-10, atol=1e-10)
+    xyz = rng.uniform(-0.05, 1.2, (3000, 3))
+    np.testing.assert_allclose(spectral.XYZ_to_Lab(xyz),
+                               colour.XYZ_to_Lab(xyz, illuminant=spectral.reference_white_xy()), rtol=0, atol=1e-10)
+    v = np.concatenate([np.linspace(-0.1, 1.1, 2001), [0.0031308, 0.04045]])
+    np.testing.assert_allclose(spectral.srgb_encode(v), colour.cctf_encoding(v, function="sRGB"), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(spectral.srgb_decode(v), colour.cctf_decoding(v, function="sRGB"), rtol=0, atol=1e-14)
+
+
+def test_colour_data_is_read_from_colour_science_once_and_a_warm_process_never_imports_it(tmp_path):
+    """The CMF / illuminant tables and RGB matrices are colour-science's, cached per colour-science version: a
+    second process bakes, measures and encodes a LUT without importing colour-science, with the same bytes; a
+    torn cache file is recomputed."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import sys, hashlib; from pipeline.lut.bake import bake; from pipeline.lut.reference import lut_error; "
+            "from pipeline.spectral import linear_to_srgb8; "
+            "lut = bake(angles=32, thicknesses=8, thickness_range=(500.0, 700.0), film='keratin'); "
+            "err = lut_error(lut, 'keratin', n_points=50); "
+            "h = hashlib.sha256(lut.rgb.tobytes() + linear_to_srgb8(lut.rgb).tobytes()).hexdigest(); "
+            "print(h, repr(err['max']), 'colour' in sys.modules)")
+    env = {**os.environ, "XDG_CACHE_HOME": str(tmp_path)}
+
+    def run() -> list[str]:
+        r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300)
+        assert r.returncode == 0, r.stderr
+        return r.stdout.split()
+
+    cold, warm = run(), run()
+    assert cold[2] == "True" and warm[2] == "False"  # read from colour-science once, then from the cache
+    assert warm[:2] == cold[:2]
+    files = sorted(tmp_path.glob("rockdove/colour-science-*/*.npz"))
+    assert files, "nothing cached"
+    for f in files:
+        f.write_bytes(b"torn")
+    assert run() == cold  # unreadable files are recomputed from colour-science
+
+
+def test_cached_tables_are_colour_sciences_tables():
+    from pipeline._compat import import_colour
+
+    colour = import_colour()
+    cw, cv, sw, sv = spectral._tables("D65", spectral.DEFAULT_OBSERVER)
+    cmfs = colour.MSDS_CMFS[spectral.DEFAULT_OBSERVER]
+    d65 = colour.SDS_ILLUMINANTS["D65"]
+    assert np.array_equal(cw, cmfs.wavelengths) and np.array_equal(cv, cmfs.values)
+    assert np.array_equal(sw, d65.wavelengths) and np.array_equal(sv, d65.values)

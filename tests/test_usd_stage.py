@@ -449,11 +449,11 @@ def test_lutless_layers_refuse_a_baked_variant(tmp_path):
     with pytest.raises(ValueError, match="shading='gold'"):
         write_layers(str(tmp_path), synthetic_bird(CARDS, seed=3), get_film("keratin"), None, version="0",
                      shading="gold")
-    from pipeline.usd.textures_io import write_textures
+    from pipeline.usd.textures_io import write_film_textures
 
     feather, body = synthetic_textures()
     with pytest.raises(ValueError, match="lut=None needs the film"):
-        write_textures(str(tmp_path), None, feather, body, thickness_range_nm=(500.0, 600.0))
+        write_film_textures(str(tmp_path), None, feather, thickness_range_nm=(500.0, 600.0))
     assert not (tmp_path / "textures").exists()  # nothing written
 
 

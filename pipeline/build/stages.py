@@ -14,23 +14,27 @@ stage                   configuration                                 inputs
                                                                       range; one texel high when uniform); absent
                                                                       for ``shading.variant = "physical"``
 ``texture_images``      as ``bird`` (BirdParams)                      bird (pipeline.textures)
-``textures``            -- (physical-only: ``film``)                  lut, texture_images (pipeline.usd.textures_io);
-                                                                      physical-only: thickness_range, texture_images
-                                                                      (no LUT EXR; exact preview colour)
+``textures``            --                                            texture_images: the textures a film change
+                                                                      leaves alone (feather base and mask, body
+                                                                      colour; pipeline.usd.textures_io)
+``film_textures``       -- (physical-only: ``film``)                  lut, thickness_range, texture_images: the LUT
+                                                                      EXR and the preview atlas; physical-only: no
+                                                                      LUT EXR, exact preview colours
 ``usd_geometry``        --                                            bird (pipeline.usd.stage.write_geometry:
                                                                       ``pigeon_geom.usdc``, crate)
 ``usd_layers``          ``film``, ``shading``                         bird, lut, usd_geometry
                                                                       (pipeline.usd.stage.write_looks: pigeon.usda,
                                                                       pigeon_payload.usda, pigeon_looks.usda);
                                                                       physical-only: bird, usd_geometry
-``usdz``                -- (present when ``usd.usdz``)                usd_geometry, usd_layers, textures
+``usdz``                -- (present when ``usd.usdz``)                usd_geometry, usd_layers, textures,
+                                                                      film_textures
                                                                       (pipeline.usd.usdz)
 ``verify_rays``         as ``verify``                                 every published stage: the assembled asset.
                                                                       One item per camera: the reference's ray
                                                                       casts (pipeline.render.reference.cast_hits),
                                                                       keyed by the camera and ray_digest (geometry,
                                                                       feather alpha; not film or LUT)
-``gltf``                -- (present when ``gltf.glb``)                usd_geometry, usd_layers, textures: reads the
+``gltf``                -- (present when ``gltf.glb``)                usd_geometry, usd_layers, (film_)textures: reads the
                                                                       assembled asset (pipeline.web.gltf.export_glb)
 ``verify``              ``verify.width``, ``verify.height``,          every published stage: the assembled asset.
                         ``verify.views``                              One item per view (pipeline.render.verify),
@@ -40,7 +44,7 @@ stage                   configuration                                 inputs
 ======================  ===========================================  ==============================================
 
 Because keys use the *content* of upstream outputs, a new seed that leaves the thickness range unchanged
-re-bakes nothing, and a film change re-bakes the LUT and rewrites textures (the preview mixes in the LUT) and
+re-bakes nothing, and a film change re-bakes the LUT and rewrites film_textures (the preview mixes in the LUT) and
 the small layers but reuses the bird and the geometry layer (``usd_geometry``), whose bytes stay as they were. Physical-only shading needs no bake: the graph has no ``lut`` stage. Verification
 re-renders only the views whose plan entry changed: a change that leaves the rendered scene as it was (e.g.
 ``usd.usdz``) revalidates and rewrites the report but renders nothing; a film change re-renders every view, but
@@ -279,17 +283,25 @@ def run_texture_images(ctx: Context):
 
 
 def run_textures(ctx: Context):
-    """The textures; without a ``lut`` input (physical-only shading) no LUT EXR, and the preview's structural
-    colour is the film's exact colour at mid thickness (so this stage then reads ``film`` and the range)."""
-    from ..usd.textures_io import write_textures
+    """The textures that do not depend on the film (feather base and mask, body colour)."""
+    from ..usd.textures_io import write_base_textures
 
     feathers, body = ctx.inputs["texture_images"]
+    write_base_textures(str(ctx.workdir), feathers, body)
+
+
+def run_film_textures(ctx: Context):
+    """The LUT EXR and the preview atlas; without a ``lut`` input (physical-only shading) no LUT EXR, and the
+    preview's structural colours are the film's exact colours (so this stage then reads ``film``)."""
+    from ..usd.textures_io import write_film_textures
+
+    feathers, _ = ctx.inputs["texture_images"]
     span = tuple(ctx.inputs["thickness_range"])  # the preview atlas spans the mesh's range, as previewST does
     if "lut" in ctx.inputs:
-        write_textures(str(ctx.workdir), ctx.inputs["lut"], feathers, body, thickness_range_nm=span)
+        write_film_textures(str(ctx.workdir), ctx.inputs["lut"], feathers, thickness_range_nm=span)
     else:
-        write_textures(str(ctx.workdir), None, feathers, body, film=film_from_config(ctx.config["film"]),
-                       thickness_range_nm=span)
+        write_film_textures(str(ctx.workdir), None, feathers, film=film_from_config(ctx.config["film"]),
+                            thickness_range_nm=span)
 
 
 def run_usd_geometry(ctx: Context):
@@ -314,7 +326,7 @@ def run_usdz(ctx: Context):
     from ..usd.usdz import USDZ_NAME, write_usdz
 
     scratch = ctx.workdir / "layout"
-    for dep in ("usd_geometry", "usd_layers", "textures"):
+    for dep in ("usd_geometry", "usd_layers", "textures", "film_textures"):
         shutil.copytree(ctx.inputs[dep], scratch, dirs_exist_ok=True)
     write_usdz(str(scratch))
     (scratch / USDZ_NAME).rename(ctx.workdir / USDZ_NAME)
@@ -474,12 +486,15 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
                             libraries=LIBS_COLOUR, codec=LUT))
     stages.append(Stage("texture_images", run_texture_images, config=tuple(BIRD_FIELDS), deps=("bird",),
                         modules=("pipeline.textures",), libraries=LIBS_GEOMETRY + ("pillow",), codec=IMAGES))
+    stages.append(Stage("textures", run_textures, deps=("texture_images",), modules=("pipeline.usd.textures_io",),
+                        libraries=LIBS_USD, codec=FILES, publish=""))
     if baked:
-        stages.append(Stage("textures", run_textures, deps=("lut", "thickness_range", "texture_images"),
-                            modules=("pipeline.usd.textures_io", "pipeline.lut.exr"), libraries=LIBS_USD,
-                            codec=FILES, publish=""))
+        stages.append(Stage("film_textures", run_film_textures, deps=("lut", "thickness_range", "texture_images"),
+                            modules=("pipeline.usd.textures_io", "pipeline.lut.exr", "pipeline.spectral"),
+                            libraries=LIBS_USD, codec=FILES, publish=""))
     else:  # the preview colours are computed from the film (pipeline.lut.reference) over the thickness range
-        stages.append(Stage("textures", run_textures, config=("film",), deps=("thickness_range", "texture_images"),
+        stages.append(Stage("film_textures", run_film_textures, config=("film",),
+                            deps=("thickness_range", "texture_images"),
                             modules=("pipeline.usd.textures_io", "pipeline.lut.reference", "pipeline.films",
                                      "pipeline.optics", "pipeline.spectral"),
                             libraries=LIBS_USD + ("colour-science", "scipy"), codec=FILES, publish=""))
@@ -492,11 +507,12 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
                                                                            "schemas/generatedSchema.usda"),
                         libraries=LIBS_USD, codec=FILES, publish=""))
     if config["usd"]["usdz"]:
-        stages.append(Stage("usdz", run_usdz, deps=("usd_geometry", "usd_layers", "textures"), modules=("pipeline.usd",),
+        stages.append(Stage("usdz", run_usdz, deps=("usd_geometry", "usd_layers", "textures", "film_textures"),
+                            modules=("pipeline.usd",),
                             libraries=LIBS_USD, codec=FILES, publish=""))
     if config["gltf"]["glb"]:
         # reads the written asset (so it runs once it is assembled); keyed by the files it translates
-        stages.append(Stage("gltf", run_gltf, deps=("usd_geometry", "usd_layers", "textures"),
+        stages.append(Stage("gltf", run_gltf, deps=("usd_geometry", "usd_layers", "textures", "film_textures"),
                             modules=("pipeline.web.gltf", "pipeline.render.scene", "pipeline.render.verify"),
                             libraries=LIBS_USD + ("pygltflib", "pillow"), codec=FILES, needs_asset=True,
                             publish=""))

@@ -448,8 +448,8 @@ def quadrature_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour
         out[:, direct] = sub[:, : direct.size]
         # (A_panel, n) @ (T, n, 3): barycentric interpolation in cos theta
         out[:, panel] = _barycentric_matrix(panel_nodes, cos_theta[panel]) @ sub[:, direct.size :]
-        panel_meta = (f"{panel_nodes.shape[0]} Chebyshev angles on cos_theta {panel_nodes.min()!r}.."
-                      f"{panel_nodes.max()!r} for {int(panel.sum())} columns")
+        panel_meta = (f"{panel_nodes.shape[0]} Chebyshev angles on cos_theta {float(panel_nodes.min())!r}.."
+                      f"{float(panel_nodes.max())!r} for {int(panel.sum())} columns")
     meta = {
         "quadratureNodesMean": f"{n_nodes.mean():.1f}",
         "quadratureNodesMax": str(int(n_nodes.max())),

@@ -14,7 +14,7 @@
   thickness ``lo + k (hi - lo) / (K - 1)`` over the film's thickness range rounded outward to whole nm
   (:func:`preview_range_nm`; one tile when the range is one value). The angle is
   :data:`PREVIEW_COS_THETA` (module constant, with how it was chosen). The mix is done in linear light (sRGB
-  decoded and re-encoded with colour-science, IEC 61966-2-1); out-of-gamut colours are clipped to [0, 1].
+  decoded and re-encoded, IEC 61966-2-1: :func:`pipeline.spectral.srgb_encode`); out-of-gamut colours are clipped to [0, 1].
 - An asset without a LUT (physical-only shading, ``lut=None``) has no ``thinfilm_lut.exr``; its preview colours
   are the *exact* spectral colours at the same points: :func:`pipeline.lut.reference.reference_colour`, one
   Airy spectrum at 0.1 nm integrated under D65 with the CIE 1931 2 degree observer, in lin_rec709
@@ -120,8 +120,11 @@ def feather_preview_atlas(base_rgba: np.ndarray, mask: np.ndarray, structural_rg
     cols, rows = preview_atlas_shape(len(colours))
     t = PREVIEW_TILE_TEXELS
     atlas = np.zeros((rows * t, cols * t, 4), np.uint8)
-    for k, c in enumerate(colours):
-        tile = feather_preview(base_rgba, mask, structural_rgb=c)
+    base_rgba = _check_uint8("base_rgba", base_rgba, (4,))
+    mask = _check_uint8("mask", mask, (1,))
+    if mask.shape[:2] != base_rgba.shape[:2] or not np.all(np.isfinite(colours)):
+        raise ValueError(f"mask {mask.shape[:2]} must match base_rgba {base_rgba.shape[:2]} and the colours be finite")
+    for k, tile in enumerate(_mixed_tiles(base_rgba, mask, colours)):
         if tile.shape[:2] != (t, t):
             tile = np.asarray(Image.fromarray(tile, "RGBA").resize((t, t), Image.BOX))
         top = (rows - 1 - k // cols) * t  # image row 0 is the top (t = 1)
@@ -201,10 +204,6 @@ def feather_preview(base_rgba: np.ndarray, mask: np.ndarray, lut=None, *, cos_th
     ndarray, (H, W, 4) uint8
         sRGB-encoded RGB, A copied from ``base_rgba``.
     """
-    from .._compat import import_colour
-
-    colour = import_colour()
-
     base_rgba = _check_uint8("base_rgba", base_rgba, (4,))
     mask = _check_uint8("mask", mask, (1,))
     mask = mask.reshape(mask.shape[:2])
@@ -218,26 +217,84 @@ def feather_preview(base_rgba: np.ndarray, mask: np.ndarray, lut=None, *, cos_th
     if lut is not None:
         lo, hi = lut.thickness_range_nm
         d = 0.5 * (lo + hi) if thickness_nm is None else float(thickness_nm)
-        structural = np.clip(lut.sample(cos_theta, d), 0.0, 1.0)  # (3,) linear
+        structural = lut.sample(cos_theta, d)  # (3,) linear
     else:
         structural = np.asarray(structural_rgb, np.float64).reshape(-1)
         if structural.shape != (3,) or not np.all(np.isfinite(structural)):
             raise ValueError(f"structural_rgb must be 3 finite linear values, got {structural_rgb!r}")
-        structural = np.clip(structural, 0.0, 1.0)
-    base_lin = colour.cctf_decoding(base_rgba[..., :3] / 255.0, function="sRGB")
-    m = (mask / 255.0)[..., None]
-    mixed = base_lin * (1.0 - m) + structural * m
-    srgb = colour.cctf_encoding(np.clip(mixed, 0.0, 1.0), function="sRGB")
-    out = np.empty_like(base_rgba)
-    out[..., :3] = np.round(srgb * 255.0).astype(np.uint8)
-    out[..., 3] = base_rgba[..., 3]
-    return out
+    return next(_mixed_tiles(base_rgba, mask, structural[None, :]))
 
 
-def write_textures(out_dir: str, lut, feather_textures: dict, body_texture: np.ndarray, *,
-                   thickness_range_nm: tuple[float, float], preview_cos_theta: float = PREVIEW_COS_THETA,
-                   film=None) -> dict[str, str]:
-    """Write every texture of the asset into ``out_dir/textures/``.
+def _mixed_tiles(base_rgba: np.ndarray, mask: np.ndarray, colours: np.ndarray):
+    """Yield ``mix(base, clip(colour, 0, 1), mask)`` in linear light, sRGB-encoded, one (H, W, 4) uint8 tile per
+    colour of ``colours`` (K, 3).
+
+    A texel's result depends only on its channel, its 8-bit base value and its 8-bit mask, and a feather texture
+    has ~900 such triples per channel against 65k texels: each distinct one is mixed and encoded once per colour
+    (the same floating-point operations per value, so the bytes are those of the texel-by-texel formula).
+    """
+    from pipeline.spectral import srgb_decode, srgb_encode
+
+    h, w = mask.shape[:2]
+    channel = np.broadcast_to(np.arange(3), (h, w, 3))
+    keys = (channel * 65536 + base_rgba[..., :3].astype(np.int64) * 256
+            + mask.reshape(h, w, 1).astype(np.int64)).reshape(-1)
+    uniq, inverse = np.unique(keys, return_inverse=True)
+    ch, b8, m8 = uniq // 65536, (uniq // 256) % 256, uniq % 256
+    m = m8 / 255.0
+    base_part = srgb_decode(b8 / 255.0) * (1.0 - m)
+    for c in np.clip(np.asarray(colours, np.float64), 0.0, 1.0):
+        encoded = np.round(srgb_encode(np.clip(base_part + c[ch] * m, 0.0, 1.0)) * 255.0).astype(np.uint8)
+        out = np.empty_like(base_rgba)
+        out[..., :3] = encoded[inverse].reshape(h, w, 3)
+        out[..., 3] = base_rgba[..., 3]
+        yield out
+
+
+def _texture_paths(out_dir: str) -> dict[str, str]:
+    tex_dir = os.path.join(os.path.abspath(out_dir), "textures")
+    os.makedirs(tex_dir, exist_ok=True)
+    return {role: os.path.join(tex_dir, name) for role, name in TEXTURE_FILES.items()}
+
+
+def _feather_images(feather_textures: dict) -> tuple[np.ndarray, np.ndarray]:
+    missing = {"base", "mask"} - set(feather_textures)
+    if missing:
+        raise ValueError(f"feather_textures lacks {sorted(missing)}; it needs 'base' (RGBA) and 'mask' (grey)")
+    return (_check_uint8("feather_textures['base']", feather_textures["base"], (4,)),
+            _check_uint8("feather_textures['mask']", feather_textures["mask"], (1,)))
+
+
+def write_base_textures(out_dir: str, feather_textures: dict, body_texture: np.ndarray) -> dict[str, str]:
+    """Write the textures that do not depend on the film into ``out_dir/textures/``: ``feather_base.png``,
+    ``feather_mask.png`` and ``body_base.png`` (a film change leaves them, and their bytes, as they were).
+
+    Parameters
+    ----------
+    out_dir : str
+        Asset folder; ``textures/`` is created inside.
+    feather_textures : dict
+        ``"base"``: (H, W, 4) uint8 sRGB RGBA (A = silhouette); ``"mask"``: (H, W) uint8 raw.
+    body_texture : ndarray, (H, W, 3) uint8
+        sRGB body colour in the body's UVs.
+
+    Returns
+    -------
+    dict[str, str]
+        Texture role -> absolute path written; keys sorted.
+    """
+    base, mask = _feather_images(feather_textures)
+    body = _check_uint8("body_texture", body_texture, (3,))
+    paths = _texture_paths(out_dir)
+    written = {role: write_png(paths[role], img)
+               for role, img in (("feather_base", base), ("feather_mask", mask), ("body_base", body))}
+    return dict(sorted(written.items()))
+
+
+def write_film_textures(out_dir: str, lut, feather_textures: dict, *, thickness_range_nm: tuple[float, float],
+                        preview_cos_theta: float = PREVIEW_COS_THETA, film=None) -> dict[str, str]:
+    """Write the textures that depend on the film into ``out_dir/textures/``: the LUT (``thinfilm_lut.exr``)
+    and the UsdPreviewSurface atlas ``feather_preview.png``.
 
     Parameters
     ----------
@@ -248,49 +305,33 @@ def write_textures(out_dir: str, lut, feather_textures: dict, body_texture: np.n
         metadata). None for an asset without a LUT (physical-only shading): no EXR, and the preview's
         structural colour is :func:`preview_colour` of ``film``.
     feather_textures : dict
-        ``"base"``: (H, W, 4) uint8 sRGB RGBA (A = silhouette); ``"mask"``: (H, W) uint8 raw.
-    body_texture : ndarray, (H, W, 3) uint8
-        sRGB body colour in the body's UVs.
-    preview_cos_theta : float
-        Angle of the preview atlas's colours (:data:`PREVIEW_COS_THETA`).
-    film : pipeline.films.FilmModel, optional
-        Required when ``lut`` is None: the film of the preview colours.
+        As :func:`write_base_textures` (the preview mixes the feather's base and mask).
     thickness_range_nm : (float, float)
         The thickness range on the mesh, nm: the atlas's tiles span it (:func:`preview_tile_thickness_nm`), as
         the mesh's ``previewST`` does (:func:`pipeline.usd.stage.author_geometry`), so the two always agree,
         whatever the LUT's own range.
+    preview_cos_theta : float
+        Angle of the preview atlas's colours (:data:`PREVIEW_COS_THETA`).
+    film : pipeline.films.FilmModel, optional
+        Required when ``lut`` is None: the film of the preview colours.
 
     Returns
     -------
     dict[str, str]
-        Texture role (``lut`` when written, ``feather_base``, ``feather_mask``, ``feather_preview``,
-        ``body_base``) -> absolute path written; keys sorted.
+        Texture role (``lut`` when written, ``feather_preview``) -> absolute path written; keys sorted.
     """
-    from pipeline.lut.exr import write_exr
-
-    missing = {"base", "mask"} - set(feather_textures)
-    if missing:
-        raise ValueError(f"feather_textures lacks {sorted(missing)}; it needs 'base' (RGBA) and 'mask' (grey)")
-    base = _check_uint8("feather_textures['base']", feather_textures["base"], (4,))
-    mask = _check_uint8("feather_textures['mask']", feather_textures["mask"], (1,))
-    body = _check_uint8("body_texture", body_texture, (3,))
+    base, mask = _feather_images(feather_textures)
     tiles = preview_tile_thickness_nm(thickness_range_nm)
     if lut is not None:
-        colours = np.stack([lut.sample(preview_cos_theta, d) for d in tiles])
+        colours = lut.sample(np.full(tiles.size, preview_cos_theta), tiles)
     else:
         if film is None:
             raise ValueError("lut=None needs the film for the preview colours, got film=None")
         colours = np.stack([preview_colour(film, d, preview_cos_theta) for d in tiles])
-    preview = feather_preview_atlas(base, mask, colours)
-    tex_dir = os.path.join(os.path.abspath(out_dir), "textures")
-    os.makedirs(tex_dir, exist_ok=True)
-    paths = {role: os.path.join(tex_dir, name) for role, name in TEXTURE_FILES.items()}
+    paths = _texture_paths(out_dir)
+    written = {"feather_preview": write_png(paths["feather_preview"], feather_preview_atlas(base, mask, colours))}
     if lut is not None:
-        write_exr(lut, paths["lut"])
-    else:
-        del paths["lut"]
-    write_png(paths["feather_base"], base)
-    write_png(paths["feather_mask"], mask)
-    write_png(paths["feather_preview"], preview)
-    write_png(paths["body_base"], body)
-    return dict(sorted(paths.items()))
+        from pipeline.lut.exr import write_exr
+
+        written["lut"] = write_exr(lut, paths["lut"])
+    return dict(sorted(written.items()))
