@@ -173,13 +173,15 @@ def _real_partial_stages(card_count=12):
         G.Stage("lut", S.run_lut, config=("film", "lut"), deps=("thickness_range",), modules=("pipeline.lut",),
                 codec=S.LUT),
         G.Stage("texture_images", lambda ctx: synthetic_textures(16), codec=S.IMAGES),
-        G.Stage("textures", S.run_textures, deps=("lut", "thickness_range", "texture_images"), codec=G.FILES,
-                publish=""),
+        G.Stage("textures", S.run_textures, deps=("texture_images",), codec=G.FILES, publish=""),
+        G.Stage("film_textures", S.run_film_textures, deps=("lut", "thickness_range", "texture_images"),
+                codec=G.FILES, publish=""),
         G.Stage("usd_geometry", S.run_usd_geometry, deps=("bird",), modules=("pipeline.usd",), codec=G.FILES,
                 publish=""),
         G.Stage("usd_layers", S.run_usd_layers, config=("film", "shading"), deps=("bird", "lut", "usd_geometry"),
                 modules=("pipeline.usd",), codec=G.FILES, publish=""),
-        G.Stage("usdz", S.run_usdz, deps=("usd_geometry", "usd_layers", "textures"), codec=G.FILES, publish=""),
+        G.Stage("usdz", S.run_usdz, deps=("usd_geometry", "usd_layers", "textures", "film_textures"), codec=G.FILES,
+                publish=""),
     ]
 
 
@@ -213,7 +215,8 @@ def test_real_usd_stages_build_a_valid_asset_and_rebuild_incrementally(tmp_path)
     g2.run()
     st = _status(g2)
     assert st["bird"] == st["thickness_range"] == st["texture_images"] == st["usd_geometry"] == "reused"
-    assert st["lut"] == st["textures"] == st["usd_layers"] == st["usdz"] == "ran"
+    assert st["lut"] == st["film_textures"] == st["usd_layers"] == st["usdz"] == "ran"
+    assert st["textures"] == "reused"  # the film-independent PNGs
     geometry = "pigeon_geom.usdc"
     assert (g2.entry_dir("usd_geometry") / geometry).read_bytes() == (asset / geometry).read_bytes()
 

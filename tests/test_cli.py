@@ -195,8 +195,8 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     r = rockdove("build", "--out", "b/p", "--no-verify", *TINY, cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     first = json.loads(r.stdout)
-    assert first["ran"] == ["body", "bird", "thickness_range", "lut", "texture_images", "textures", "usd_geometry",
-                            "usd_layers", "gltf"]
+    assert first["ran"] == ["body", "bird", "thickness_range", "lut", "texture_images", "textures", "film_textures",
+                            "usd_geometry", "usd_layers", "gltf"]
     asset = tmp_path / "b/p"
     assert (asset / "pigeon.usda").is_file() and (asset / "textures/thinfilm_lut.exr").is_file()
     assert (asset / "pigeon.glb").is_file()
@@ -237,9 +237,9 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
                  cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     third = json.loads(r.stdout)
-    assert third["ran"] == ["lut", "textures", "usd_layers", "verify_rays", "verify"]
+    assert third["ran"] == ["lut", "film_textures", "usd_layers", "verify_rays", "verify"]
     assert not (asset / "pigeon.glb").exists() and not (asset / "verify/viewer.html").exists()
-    assert {"body", "bird", "thickness_range", "texture_images", "usd_geometry"} == set(third["reused"])
+    assert {"body", "bird", "thickness_range", "texture_images", "textures", "usd_geometry"} == set(third["reused"])
     assert _verify_record(third)["items_ran"] == views
     # ... but not the reference's ray casts: one cached item per camera, keyed by the geometry they hit
     rays = _verify_record(third, "verify_rays")
@@ -254,7 +254,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     pattern = [n for n in fourth["notes"] if n.startswith("boundary at sweep_090:")]  # verify's closing note
     assert len(pattern) == 1 and len(fourth["notes"]) == 2 and "verification-only LUT" in fourth["notes"][0]
     assert [n[:22] for n in third["notes"]] == ["boundary at sweep_090:"]
-    assert {"textures", "usd_layers", "verify"} <= set(fourth["ran"])
+    assert {"film_textures", "usd_layers", "verify"} <= set(fourth["ran"])
     assert not (asset / "textures/thinfilm_lut.exr").exists()
     report = json.loads((asset / "verify/report.json").read_text())
     assert report["passed"] and report["lut"]["verification_only"] and "physical-only" in report["notes"][0]
