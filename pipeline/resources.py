@@ -73,3 +73,29 @@ def path(name: str) -> Path:
 def package_root() -> Path:
     """The directory of the ``pipeline`` package's own sources (for hashing code into stage keys)."""
     return Path(str(importlib.resources.files("pipeline")))
+
+
+def user_cache_dir(*parts: str) -> Path:
+    """Where rockdove keeps values derived from installed libraries, keyed by their content or version:
+    ``$XDG_CACHE_HOME/rockdove/<parts...>`` (``~/.cache`` when unset). Everything in it can be deleted at any
+    time; it is recomputed on demand. Not created here (see :func:`write_cached`)."""
+    import os
+
+    root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(root, "rockdove", *parts)
+
+
+def write_cached(path: Path, data: bytes) -> bool:
+    """Write ``data`` to ``path`` in :func:`user_cache_dir` atomically (a reader sees the old file or the whole new
+    one, also with concurrent writers). Returns False, and writes nothing, where the folder is not writable:
+    a cache that cannot be kept is recomputed next time."""
+    import os
+
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        tmp.write_bytes(data)
+        os.replace(tmp, path)
+        return True
+    except OSError:
+        return False

@@ -31,13 +31,12 @@ Keeping colour-science off the hot path: importing colour-science takes ~1 s (sc
 colour models), far more than a LUT bake. The only things taken from it are data (the CMF and illuminant
 tables, the RGB colourspace matrices), so they are read from colour-science once per installed version and
 kept as ``.npz`` files in ``$XDG_CACHE_HOME/rockdove/colour-science-<version>/`` (``~/.cache`` by default;
-:func:`colour_data`). A film-only rebuild then bakes, measures and encodes its LUT without importing
+:func:`colour_data`, :func:`pipeline.resources.user_cache_dir`). A film-only rebuild then bakes, measures and encodes its LUT without importing
 colour-science. If the folder cannot be written, the values are simply recomputed in each process.
 """
 
 from __future__ import annotations
 
-import os
 from functools import lru_cache
 from pathlib import Path
 
@@ -74,12 +73,13 @@ def _check_wavelengths(wavelength_nm) -> np.ndarray:
 def _colour_cache_dir() -> Path:
     from importlib.metadata import PackageNotFoundError, version
 
+    from .resources import user_cache_dir
+
     try:
         tag = version("colour-science")
     except PackageNotFoundError:  # e.g. a source checkout of colour on sys.path
         tag = "unknown"
-    root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(root) / "rockdove" / f"colour-science-{tag}"
+    return user_cache_dir(f"colour-science-{tag}")
 
 
 def colour_data(name: str, compute) -> dict:
@@ -104,15 +104,14 @@ def colour_data(name: str, compute) -> dict:
     except (OSError, ValueError, EOFError):  # missing, or torn by a crash: recompute below
         pass
     if arrays is None:
+        import io
+
+        from .resources import write_cached
+
         arrays = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in compute().items()}
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-            with open(tmp, "wb") as f:
-                np.savez(f, **arrays)
-            os.replace(tmp, path)  # atomic: concurrent processes see the old file or the whole new one
-        except OSError:
-            pass  # read-only home: recompute next time
+        buf = io.BytesIO()
+        np.savez(buf, **arrays)
+        write_cached(path, buf.getvalue())
     for a in arrays.values():
         a.setflags(write=False)
     return arrays

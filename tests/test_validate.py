@@ -344,3 +344,39 @@ def test_verify_refuses_an_asset_that_names_files_elsewhere(broken):
                             capture_output=True, text=True, cwd=OUTSIDE, timeout=120)
     assert verify.returncode == 1 and "'/etc/passwd' is absolute" in verify.stderr, verify.stderr
     assert not os.path.exists(os.path.join(out, "verify"))  # stopped before rendering anything
+
+
+def test_nvidia_mesh_rule_findings_are_memoised_by_the_meshes_and_a_mesh_change_reruns_them(good, broken, tmp_path,
+                                                                                           monkeypatch):
+    """pipeline.usd.nvidia keeps the mesh rules' findings by a digest of the composed meshes: a second run
+    reports what the memo holds (a planted finding shows it is read), a moved point misses it."""
+    import json
+
+    import usd_validation_nvidia as nv
+    from pxr import Vt
+
+    from pipeline.usd import nvidia
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    root = os.path.join(good, "pigeon.usda")
+    first, _ = nvidia.run_nvidia_validator(root)
+    full, _ = nvidia._findings(nv.ValidationEngine(variants=True).validate(root), root)
+    assert {(i.check, i.path, i.message, i.severity) for i in first} == {(f"nvidia:{r}", w, m, s) for r, w, m, s in full}
+    (memo,) = (tmp_path / "cache").rglob("*.json")
+    planted = ["ManifoldChecker", "/Pigeon/Geom/Beak", "planted finding", "warning"]
+    memo.write_text(json.dumps([planted]))
+    second, _ = nvidia.run_nvidia_validator(root)
+    assert [i.message for i in second if i.check == "nvidia:ManifoldChecker"] == ["planted finding"]
+
+    out, edit = broken
+
+    def move_a_point(layer):
+        attr = layer.GetAttributeAtPath("/Pigeon/Geom/Beak.points")
+        pts = list(attr.default)
+        pts[0] = (pts[0][0] + 1e-3, pts[0][1], pts[0][2])
+        attr.default = Vt.Vec3fArray(pts)
+
+    edit(move_a_point, GEOMETRY_LAYER)
+    third, _ = nvidia.run_nvidia_validator(os.path.join(out, "pigeon.usda"))
+    assert "planted finding" not in [i.message for i in third]
+    assert len(list((tmp_path / "cache").rglob("*.json"))) == 2
