@@ -380,3 +380,38 @@ def test_nvidia_mesh_rule_findings_are_memoised_by_the_meshes_and_a_mesh_change_
     third, _ = nvidia.run_nvidia_validator(os.path.join(out, "pigeon.usda"))
     assert "planted finding" not in [i.message for i in third]
     assert len(list((tmp_path / "cache").rglob("*.json"))) == 2
+
+
+def test_the_mesh_memo_survives_a_film_change_but_not_a_normals_change(broken):
+    """The film record sits on the feather mesh (ThinFilmAPI): changing it must not invalidate the memoised
+    mesh findings; the meshes' normals are read by NormalsWindingsChecker and must."""
+    from pxr import Vt
+
+    from pipeline.usd import nvidia
+
+    out, edit = broken
+    root = os.path.join(out, "pigeon.usda")
+    before = nvidia.mesh_digest(root)
+    edit(lambda layer: _set_film_attr(layer, 1.49))
+    assert nvidia.mesh_digest(root) == before
+
+    def flip_normals(layer):
+        attr = layer.GetAttributeAtPath("/Pigeon/Geom/Beak.normals")
+        attr.default = Vt.Vec3fArray([(-n[0], -n[1], -n[2]) for n in attr.default])
+
+    edit(flip_normals, GEOMETRY_LAYER)
+    assert nvidia.mesh_digest(root) != before
+
+
+def _set_film_attr(layer, value):
+    specs = [s for s in _all_attribute_specs(layer) if s.name.endswith("rockdove:film:cauchyA")]
+    assert specs, "no film record in the looks layer"
+    for spec in specs:
+        spec.default = value
+
+
+def _all_attribute_specs(layer):
+    found = []
+    layer.Traverse(layer.pseudoRoot.path, lambda path: found.append(layer.GetAttributeAtPath(path))
+                   if path.IsPropertyPath() and layer.GetAttributeAtPath(path) else None)
+    return found

@@ -10,8 +10,8 @@ usd-core ships no MaterialX Sdr plugin, so ``UsdShadeShaderSdrCompliance`` fails
 check_mtlx_shaders` checks the same ids, inputs and outputs against MaterialX's own node definitions.
 
 Its mesh-topology rules (:data:`MESH_RULES`) take ~90% of its time (on the default asset ManifoldChecker alone
-takes 4.3 of 5.8 s) and read nothing but the meshes. Their findings are kept, per validator version, under
-:func:`pipeline.resources.user_cache_dir`, keyed by a digest of every attribute of every composed Mesh prim in
+takes 4.3 of 5.8 s) and read nothing but the meshes' geometry. Their findings are kept, per validator version,
+under :func:`pipeline.resources.user_cache_dir`, keyed by a digest of the geometry of every composed Mesh prim in
 every variant (:func:`mesh_digest`): revalidating an asset whose meshes did not change (a film change, a
 repeated ``rockdove validate``) reuses them and runs only the other rules. Meshes with time samples are
 never memoised.
@@ -37,14 +37,18 @@ MESH_RULES = ("ManifoldChecker", "ZeroAreaFaceChecker", "WeldChecker", "NormalsW
 
 
 def mesh_digest(root_layer: str) -> str | None:
-    """sha256 of every attribute (name, type, value, interpolation, elementSize) of every Mesh prim of the
-    composed asset, in each variant combination; None when a mesh attribute has time samples."""
+    """sha256 of what the :data:`MESH_RULES` read of every Mesh prim of the composed asset, in each variant
+    combination: the UsdGeom.Mesh schema's attributes (points, topology, normals, orientation, ...) and the
+    ``primvars:normals`` primvar (name, type, value, interpolation, elementSize), not other primvars or applied
+    schemas (the film record lives on the feather mesh and changes with the film). None when one of them has
+    time samples."""
     import numpy as np
     from pxr import Usd, UsdGeom
 
     from .validate import _variant_combinations
 
     stage = Usd.Stage.Open(root_layer, Usd.Stage.LoadAll)
+    read = set(UsdGeom.Mesh.GetSchemaAttributeNames(True)) | {"primvars:normals", "primvars:normals:indices"}
     h = hashlib.sha256()
     for combo in _variant_combinations(stage):
         with Usd.EditContext(stage, stage.GetSessionLayer()):
@@ -56,6 +60,8 @@ def mesh_digest(root_layer: str) -> str | None:
                 continue
             h.update(str(prim.GetPath()).encode() + b"\0")
             for attr in prim.GetAttributes():
+                if attr.GetName() not in read:
+                    continue
                 if attr.GetNumTimeSamples():
                     return None
                 value = attr.Get()
