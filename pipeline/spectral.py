@@ -70,6 +70,7 @@ def _check_wavelengths(wavelength_nm) -> np.ndarray:
     return lam
 
 
+@lru_cache(maxsize=1)
 def _colour_cache_dir() -> Path:
     from importlib.metadata import PackageNotFoundError, version
 

@@ -131,13 +131,36 @@ def product_weights(n_nodes: int, illuminant: str = "D65", colour_space: str | N
         ``1 / sigma_k``.
     weights : ndarray, shape (n_nodes, 3)
         ``Omega_k = sum_l W_l l_k(sigma_l)`` with ``W`` the 0.1 nm reference weights: ``R(nodes) @ weights`` is the
-        reference integral of the interpolant of ``R``. Both arrays read-only (cached per process).
+        reference integral of the interpolant of ``R``. Both arrays read-only (cached per process, and on disk by
+        :func:`pipeline.spectral.colour_data` under the hash of the code that computes them).
     """
-    from .reference import colour_weights, reference_wavelengths
+    from ..spectral import colour_data
 
     n = int(n_nodes)
     if n < 2:
         raise ValueError(f"n_nodes must be >= 2, got {n_nodes!r}")
+    # film-independent: kept on disk beside colour-science's tables, keyed by the code that computes them
+    found = colour_data(f"product-weights-{n}-{illuminant}-{colour_space}-{_code_digest()}",
+                        lambda: dict(zip(("wavelength_nm", "weights"), _product_weights(n, illuminant, colour_space))))
+    return found["wavelength_nm"], found["weights"]
+
+
+@functools.lru_cache(maxsize=1)
+def _code_digest() -> str:
+    """sha256 (16 hex digits) of the modules whose code decides :func:`product_weights`."""
+    import hashlib
+    import importlib
+
+    h = hashlib.sha256()
+    for name in (__name__, "pipeline.lut.reference", "pipeline.spectral"):
+        with open(importlib.import_module(name).__file__, "rb") as f:
+            h.update(f.read())
+    return h.hexdigest()[:16]
+
+
+def _product_weights(n: int, illuminant: str, colour_space: str | None):
+    from .reference import colour_weights, reference_wavelengths
+
     s_lo, s_hi = _sigma_range()
     mid, half = 0.5 * (s_hi + s_lo), 0.5 * (s_hi - s_lo)
     alpha = map_alpha(n)
