@@ -7,6 +7,7 @@ shared machine):
 - no-op rebuild (same configuration, warm cache); goal <= 10 % of the cold build;
 - film-only rebuild (``--set film.cauchy_a=...``, no verify; a new value each repeat) as a ratio of the cold
   build; goal <= 10 %; which stages ran (goal: LUT, textures, looks layer and usdz; geometry reused);
+  and its floor: a fresh interpreter importing only the libraries a film rebuild must use;
 - verification after a film-only change as a ratio of a cold verification of the same asset (both: the
   ``verify_rays`` + ``verify`` stage seconds of a build's ``--json``); goal <= 30 %; the ray-cast items the
   film change reused;
@@ -165,7 +166,25 @@ def _film_rows(tmp: Path, preset: list[str], repeats: int, cold_s: float) -> dic
           f"{100 * out['ratio']:.1f} % of cold, goal <= {100 * FILM_GOAL_RATIO:g} %: "
           f"{'met' if out['ratio'] <= FILM_GOAL_RATIO else 'NOT met'}; ran "
           + ", ".join(f"{k} {v:.2f} s" for k, v in stages.items()))
+    floor = statistics.median(_import_floor_s() for _ in range(repeats))
+    out.update(floor_s=floor, floor_ratio=floor / cold_s, floor_libraries=list(FILM_FLOOR_IMPORTS))
+    print(f"  its floor: a fresh interpreter importing what a film rebuild must use ({', '.join(FILM_FLOOR_IMPORTS)}) "
+          f"takes {floor:.2f} s = {100 * out['floor_ratio']:.1f} % of cold")
     return out
+
+
+#: The libraries a film-only rebuild cannot avoid: the LUT (numpy, OpenEXR), the looks layer (pxr, MaterialX),
+#: the preview and glTF (Pillow, pygltflib), the configuration (jsonschema).
+FILM_FLOOR_IMPORTS = ("numpy", "pxr.Usd", "pxr.UsdShade", "OpenEXR", "MaterialX", "PIL.Image", "pygltflib",
+                      "jsonschema")
+
+
+def _import_floor_s() -> float:
+    """Wall time of a fresh interpreter that imports :data:`FILM_FLOOR_IMPORTS` and does nothing else."""
+    code = "import " + ", ".join(FILM_FLOOR_IMPORTS)
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-c", code], check=True)
+    return time.perf_counter() - t0
 
 
 def _verify_seconds(summary: dict) -> tuple[float, dict]:
