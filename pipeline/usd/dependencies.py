@@ -33,7 +33,7 @@ class Dependencies:
 
     Attributes
     ----------
-    issues : list of pipeline.usd.validate.Issue
+    issues : list of pipeline.usd.issues.Issue
     layers : list of str
         Identifiers of the layers that were opened (the root first).
     external : set of str
@@ -95,7 +95,7 @@ def _open_layer(identifier: str, issues: list):
     """Open one layer; a parse error becomes a ``layer`` issue naming the file and line."""
     from pxr import Sdf, Tf
 
-    from .validate import Issue
+    from .issues import Issue
 
     try:
         layer = Sdf.Layer.FindOrOpen(identifier)
@@ -130,7 +130,7 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
     """
     from pxr import Sdf
 
-    from .validate import Issue
+    from .issues import Issue
 
     root = os.path.abspath(os.fspath(root_layer))
     root_dir = os.path.dirname(root)

@@ -28,12 +28,12 @@ def run_nvidia_validator(root_layer: str) -> tuple[list, int]:
     Returns
     -------
     (issues, number of findings dropped as ND_* ids usd-core's Sdr registry cannot know)
-        ``issues``: :class:`pipeline.usd.validate.Issue` with check ``nvidia:<Rule>``; a finding repeated in
+        ``issues``: :class:`pipeline.usd.issues.Issue` with check ``nvidia:<Rule>``; a finding repeated in
         several variants is listed once.
     """
     import usd_validation_nvidia as nv
 
-    from .validate import Issue
+    from .issues import Issue
 
     results = nv.ValidationEngine(variants=True).validate(root_layer)
     issues, seen, dropped = [], set(), 0

@@ -35,6 +35,7 @@ import numpy as np
 
 from ..geometry.types import drop_unreferenced_points
 from .material import (
+    PREVIEW_PRIMVAR,
     author_body_material,
     author_constant_material,
     author_feather_material,
@@ -170,7 +171,7 @@ def author_mesh(stage, path, part, preview_range_nm=None):
         if doc:
             primvar.GetAttr().SetDocumentation(doc)
     if preview_range_nm is not None:
-        from .textures_io import PREVIEW_PRIMVAR, preview_st
+        from .textures_io import preview_st
 
         coords = preview_st(part.st, part.primvars["thickness"].values, preview_range_nm)
         pst = api.CreatePrimvar(PREVIEW_PRIMVAR, Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex)

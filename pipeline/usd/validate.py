@@ -42,6 +42,7 @@ import re
 import tempfile
 from dataclasses import dataclass, field
 
+from .issues import Issue
 from .material import _SDF_TYPES
 
 #: The UsdValidation error replaced by :func:`check_mtlx_shaders` for MaterialX (ND_*) shader ids.
@@ -50,36 +51,6 @@ MISSING_SHADER_ID = "MissingShaderIdInRegistry"
 # Sdf value type name -> MaterialX type: the inverse of the authoring table (material._SDF_TYPES); token (outputs
 # of surface shaders / materials) has no single MaterialX type
 _MX_TYPES = {sdf.lower(): mx for mx, sdf in _SDF_TYPES.items() if sdf != "Token"} | {"token": None}
-
-
-@dataclass(frozen=True)
-class Issue:
-    """One problem found in an asset.
-
-    Attributes
-    ----------
-    check : str
-        ``usdValidation:<validator>:<error name>``, ``mtlx``, ``texture``, ``primvar``, ``thinFilm``,
-        ``material`` or ``open``.
-    path : str
-        Prim or property path (or file) the problem is about.
-    message : str
-        What is wrong: the value found and what was expected.
-    severity : str
-        ``error`` or ``warning``; only errors make a report unclean.
-    variants : tuple of str
-        Variant selections (``shading=baked``...) in which it was found; empty when not variant-specific.
-    """
-
-    check: str
-    path: str
-    message: str
-    severity: str = "error"
-    variants: tuple = ()
-
-    def to_dict(self) -> dict:
-        return {"check": self.check, "path": self.path, "message": self.message, "severity": self.severity,
-                "variants": list(self.variants)}
 
 
 @dataclass
