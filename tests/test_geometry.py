@@ -463,6 +463,18 @@ def test_same_params_and_seed_give_identical_bird(body):
     assert not np.array_equal(other.points_m, build_cards(body, p).points_m)
 
 
+def test_the_band_area_kept_with_the_body_gives_the_cards_an_estimate_would(body):
+    """build_body estimates the card band's area once; cards from a body without it (re-estimated per call,
+    as before) are the same to the byte, and a wrong area changes them (so the kept value is really used)."""
+    assert body.card_band_area_m2 == neck.band_area_m2(body.mesh.vertices_m, body.mesh.faces, cards_mod.BAND_S_MAX)
+    p = BirdParams(card_count=200)
+    kept, estimated = build_cards(body, p), build_cards(dataclasses.replace(body, card_band_area_m2=None), p)
+    for field in dataclasses.fields(kept):
+        assert getattr(kept, field.name).tobytes() == getattr(estimated, field.name).tobytes(), field.name
+    wrong = build_cards(dataclasses.replace(body, card_band_area_m2=2.0 * body.card_band_area_m2), p)
+    assert not np.array_equal(wrong.root_skin_m, kept.root_skin_m)
+
+
 def test_body_build_is_deterministic():
     p = BirdParams(body_voxel_m=0.004)  # one subdivision level: xatlas, subdivision, weld, relaxation
     a, b = build_body(p), build_body(p)

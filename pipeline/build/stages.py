@@ -132,7 +132,8 @@ def _body_save(body, folder: Path) -> None:
     arrays, parts = _parts_arrays([body.part] + ([body.wings] if body.wings is not None else []))
     arrays.update({f"mesh/{f}": np.ascontiguousarray(getattr(body.mesh, f)) for f in ("vertices_m", "faces", "normals")})
     np.savez(folder / "body.npz", **arrays)
-    (folder / "body.json").write_text(json.dumps({"parts": parts}, sort_keys=True))
+    (folder / "body.json").write_text(json.dumps({"parts": parts, "card_band_area_m2": body.card_band_area_m2},
+                                                 sort_keys=True))
 
 
 def _body_load(folder: Path):
@@ -143,7 +144,8 @@ def _body_load(folder: Path):
     meta = json.loads((folder / "body.json").read_text())
     mesh = BodyMesh(**{f: arrays[f"mesh/{f}"] for f in ("vertices_m", "faces", "normals")})
     parts = _parts_from(arrays, meta["parts"])
-    return Body(mesh=mesh, part=parts[0], wings=parts[1] if len(parts) > 1 else None)
+    return Body(mesh=mesh, part=parts[0], wings=parts[1] if len(parts) > 1 else None,
+                card_band_area_m2=meta.get("card_band_area_m2"))
 
 
 BIRD = Codec("bird", _bird_save, _bird_load)
