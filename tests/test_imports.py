@@ -36,7 +36,7 @@ LAYERS = [
     ({"lut"},
      "the thin-film colour table baked from the physics, its exact reference and its files"),
     ({"geometry"},
-     "the bird's meshes and thickness field: numpy values, no USD (reads the LUT's cos/thickness axes at most)"),
+     "the bird's meshes and film-thickness field as numpy values, ranges from the config; knows nothing of USD"),
     ({"textures"},
      "images derived from the LUT and the geometry (feather base, mask, body colour)"),
     ({"usd"},

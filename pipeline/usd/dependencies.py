@@ -21,6 +21,8 @@ import posixpath
 import re
 from dataclasses import dataclass, field
 
+from .issues import Issue, only_errors
+
 #: ``file:line:column: message`` as USD's text parser reports a syntax error.
 _PARSE_ERROR = re.compile(r"(?P<file>[^\s']+?):(?P<line>\d+):(?P<col>\d+): (?P<msg>[^\n]*)")
 #: A URI scheme (``https:``, ``omniverse:``) or a drive letter (``C:``): not a relative path.
@@ -46,7 +48,7 @@ class Dependencies:
 
     @property
     def errors(self) -> list:
-        return [i for i in self.issues if i.severity == "error"]
+        return only_errors(self.issues)
 
 
 def _outside(anchored: str, root_dir: str, root_package: str | None) -> bool:
@@ -95,8 +97,6 @@ def _open_layer(identifier: str, issues: list):
     """Open one layer; a parse error becomes a ``layer`` issue naming the file and line."""
     from pxr import Sdf, Tf
 
-    from .issues import Issue
-
     try:
         layer = Sdf.Layer.FindOrOpen(identifier)
     except Tf.ErrorException as exc:
@@ -129,8 +129,6 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
     Dependencies
     """
     from pxr import Sdf
-
-    from .issues import Issue
 
     root = os.path.abspath(os.fspath(root_layer))
     root_dir = os.path.dirname(root)

@@ -36,3 +36,8 @@ class Issue:
     def to_dict(self) -> dict:
         return {"check": self.check, "path": self.path, "message": self.message, "severity": self.severity,
                 "variants": list(self.variants)}
+
+
+def only_errors(issues) -> list:
+    """The issues of severity ``error``, the ones that make an asset unclean."""
+    return [i for i in issues if i.severity == "error"]

@@ -42,7 +42,7 @@ import re
 import tempfile
 from dataclasses import dataclass, field
 
-from .issues import Issue
+from .issues import Issue, only_errors
 from .material import _SDF_TYPES
 
 #: The UsdValidation error replaced by :func:`check_mtlx_shaders` for MaterialX (ND_*) shader ids.
@@ -64,7 +64,7 @@ class Report:
 
     @property
     def errors(self) -> list:
-        return [i for i in self.issues if i.severity == "error"]
+        return only_errors(self.issues)
 
     @property
     def clean(self) -> bool:
