@@ -82,6 +82,14 @@ def modules() -> dict[str, Path]:
     return found
 
 
+def _from_target(package: str, node: ast.ImportFrom) -> str:
+    """The absolute module a ``from ... import`` statement in ``package`` names (``..films`` -> pipeline.films)."""
+    if not node.level:
+        return node.module or ""
+    parts = package.split(".")
+    return ".".join(parts[: len(parts) - node.level + 1] + ([node.module] if node.module else []))
+
+
 @functools.cache
 def imports() -> tuple[tuple[str, str, int, tuple[str, ...]], ...]:
     """Every import of a ``pipeline`` module: (importer, imported module, line, names taken from it)."""
@@ -95,11 +103,7 @@ def imports() -> tuple[tuple[str, str, int, tuple[str, ...]], ...]:
                     if alias.name in mods:
                         rows.append((module, alias.name, node.lineno, ()))
             elif isinstance(node, ast.ImportFrom):
-                if node.level:
-                    base = package.split(".")[: len(package.split(".")) - node.level + 1]
-                    target = ".".join(base + ([node.module] if node.module else []))
-                else:
-                    target = node.module or ""
+                target = _from_target(package, node)
                 if target != "pipeline" and not target.startswith("pipeline."):
                     continue
                 from_package = []
@@ -203,11 +207,7 @@ def private_violations() -> list[tuple[str, str, str]]:
                     if alias.asname and alias.name in mods:
                         bound[alias.asname] = alias.name
             elif isinstance(node, ast.ImportFrom):
-                if node.level:
-                    base = package.split(".")[: len(package.split(".")) - node.level + 1]
-                    target = ".".join(base + ([node.module] if node.module else []))
-                else:
-                    target = node.module or ""
+                target = _from_target(package, node)
                 for alias in node.names:
                     if f"{target}.{alias.name}" in mods:
                         bound[alias.asname or alias.name] = f"{target}.{alias.name}"
