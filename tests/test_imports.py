@@ -82,6 +82,12 @@ def modules() -> dict[str, Path]:
     return found
 
 
+@functools.cache
+def tree(module: str) -> ast.Module:
+    path = modules()[module]
+    return ast.parse(path.read_text(), str(path))
+
+
 def _from_target(package: str, node: ast.ImportFrom) -> str:
     """The absolute module a ``from ... import`` statement in ``package`` names (``..films`` -> pipeline.films)."""
     if not node.level:
@@ -97,7 +103,7 @@ def imports() -> tuple[tuple[str, str, int, tuple[str, ...]], ...]:
     rows = []
     for module, path in mods.items():
         package = module if path.name == "__init__.py" else module.rpartition(".")[0]
-        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        for node in ast.walk(tree(module)):
             if isinstance(node, ast.Import):
                 for alias in node.names:
                     if alias.name in mods:
@@ -199,9 +205,8 @@ def private_violations() -> list[tuple[str, str, str]]:
             bad += [(importer, imported, f"{name} (line {line})") for name in names if is_private(name)]
     for module, path in mods.items():
         bound = {}  # local name -> module it refers to, for module objects bound by an import statement
-        tree = ast.parse(path.read_text(), str(path))
         package = module if path.name == "__init__.py" else module.rpartition(".")[0]
-        for node in ast.walk(tree):
+        for node in ast.walk(tree(module)):
             if isinstance(node, ast.Import):
                 for alias in node.names:
                     if alias.asname and alias.name in mods:
@@ -211,7 +216,7 @@ def private_violations() -> list[tuple[str, str, str]]:
                 for alias in node.names:
                     if f"{target}.{alias.name}" in mods:
                         bound[alias.asname or alias.name] = f"{target}.{alias.name}"
-        for node in ast.walk(tree):
+        for node in ast.walk(tree(module)):
             if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in bound
                     and is_private(node.attr) and package_of(bound[node.value.id]) != package_of(module)):
                 bad.append((module, bound[node.value.id], f"{node.value.id}.{node.attr} (line {node.lineno})"))
