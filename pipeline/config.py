@@ -130,6 +130,24 @@ def _schema_at(schema: dict, path: Iterable) -> dict:
     return node
 
 
+@functools.cache
+def limits(key: str) -> tuple:
+    """The schema's inclusive ``(minimum, maximum)`` of dotted config ``key``; of its items for a ``[lo, hi]`` pair.
+
+    The one source of the parameters' ranges: code that checks a value the config also carries (e.g.
+    :class:`pipeline.geometry.BirdParams`) reads its range here, so that what the schema accepts it accepts.
+
+    >>> limits("geometry.card_count")
+    (1, 1000000)
+    """
+    node = _schema_at(load_schema(), key.split("."))
+    if node.get("type") == "array":
+        node = node.get("items", {})
+    if "minimum" not in node or "maximum" not in node:
+        raise KeyError(f"config key {key!r} has no minimum and maximum in schemas/config.schema.json")
+    return node["minimum"], node["maximum"]
+
+
 def _num(x) -> str:
     return str(int(x)) if float(x).is_integer() else f"{x:g}"
 

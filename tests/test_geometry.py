@@ -15,6 +15,7 @@ from pipeline.geometry import Bird, BirdParams, MeshPart, build_bird, build_body
 from pipeline.geometry import body as body_mod
 from pipeline.geometry import cards as cards_mod
 from pipeline.geometry import checks, neck, sdf, uv
+from pipeline.geometry import params as params_mod
 from pipeline.geometry import thickness as thickness_mod
 from pipeline.geometry.thickness import neck_height, thickness_bounds_nm
 
@@ -46,6 +47,69 @@ def small_cards(body):
 def test_bad_parameter_raises_value_error_naming_it(field, value):
     with pytest.raises(ValueError, match=field):
         BirdParams(**{field: value})
+
+
+@pytest.fixture(scope="module")
+def base_config():
+    from pipeline import config
+
+    return config.load_config(preset="measured")
+
+
+def _accepted(cfg, field):
+    """(schema accepts, BirdParams accepts) the config."""
+    import copy
+
+    from pipeline import config
+    from pipeline.errors import UsageError
+
+    try:
+        config.validate(copy.deepcopy(cfg))
+        schema_ok = True
+    except UsageError:
+        schema_ok = False
+    try:
+        BirdParams.from_config(cfg)
+        params_ok = True
+    except ValueError as e:
+        assert field in str(e)
+        params_ok = False
+    return schema_ok, params_ok
+
+
+@pytest.mark.parametrize("field", sorted(params_mod.CONFIG_KEYS))
+def test_the_schema_and_bird_params_accept_the_same_values_at_both_ends_of_each_range(base_config, field):
+    """One source of the ranges: at each end of the schema's range (and the next value beyond it, 2^63 for the
+    seed) a config passes the schema exactly when BirdParams accepts it, and a pair [hi, lo] fails both."""
+    import copy
+
+    from pipeline.config import limits
+
+    key = params_mod.CONFIG_KEYS[field]
+    section, name = key.split(".")
+    lo, hi = limits(key)
+    default = getattr(BirdParams(), field)
+    if isinstance(default, int):
+        below, above = lo - 1, hi + 1
+    else:
+        below, above = float(np.nextafter(lo, -np.inf)), float(np.nextafter(hi, np.inf))
+    if isinstance(default, tuple):
+        cases = [([lo, lo], True), ([hi, hi], True), ([lo, hi], True), ([below, hi], False), ([lo, above], False)]
+        cases += [([hi, lo], False)] if hi > lo else []
+    else:
+        cases = [(lo, True), (hi, True), (below, False), (above, False)]
+    for value, inside in cases:
+        cfg = copy.deepcopy(base_config)
+        cfg[section][name] = value
+        assert _accepted(cfg, field) == (inside, inside), (key, value)
+
+
+def test_the_seed_goes_up_to_the_largest_toml_integer():
+    from pipeline import config
+
+    assert config.limits("geometry.seed") == (0, 2**63 - 1)
+    cfg = config.load_config(preset="measured", overrides=[f"geometry.seed={2**63 - 1}"])
+    assert BirdParams.from_config(cfg).seed == 2**63 - 1
 
 
 def test_presets_measured_and_paper():
@@ -461,6 +525,18 @@ def test_same_params_and_seed_give_identical_bird(body):
     _assert_parts_equal(build_bird(p, body=body), build_bird(p, body=body))
     other = build_cards(body, BirdParams(card_count=500, seed=8))
     assert not np.array_equal(other.points_m, build_cards(body, p).points_m)
+
+
+def test_the_band_area_kept_with_the_body_gives_the_cards_an_estimate_would(body):
+    """build_body estimates the card band's area once; cards from a body without it (re-estimated per call,
+    as before) are the same to the byte, and a wrong area changes them (so the kept value is really used)."""
+    assert body.card_band_area_m2 == neck.band_area_m2(body.mesh.vertices_m, body.mesh.faces, cards_mod.BAND_S_MAX)
+    p = BirdParams(card_count=200)
+    kept, estimated = build_cards(body, p), build_cards(dataclasses.replace(body, card_band_area_m2=None), p)
+    for field in dataclasses.fields(kept):
+        assert getattr(kept, field.name).tobytes() == getattr(estimated, field.name).tobytes(), field.name
+    wrong = build_cards(dataclasses.replace(body, card_band_area_m2=2.0 * body.card_band_area_m2), p)
+    assert not np.array_equal(wrong.root_skin_m, kept.root_skin_m)
 
 
 def test_body_build_is_deterministic():

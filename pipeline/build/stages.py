@@ -62,26 +62,12 @@ import shutil
 from pathlib import Path
 
 from .. import __version__
-from ..config import get
 from .graph import FILES, JSON, Codec, Context, Stage, load_npz
 
 LIBS_GEOMETRY = ("numpy", "scipy", "trimesh", "xatlas")
 LIBS_COLOUR = ("numpy", "scipy", "colour-science")
 LIBS_USD = ("numpy", "usd-core", "MaterialX", "OpenEXR", "pillow")
 LIBS_RENDER = LIBS_USD + ("pyrender", "PyOpenGL", "trimesh", "embreex", "colour-science")
-
-# configuration key -> BirdParams field
-BIRD_FIELDS = {
-    "geometry.seed": "seed", "geometry.card_count": "card_count", "geometry.card_length_m": "card_length_m",
-    "geometry.card_width_m": "card_width_m", "geometry.card_jitter": "card_jitter",
-    "geometry.card_lift_deg": "card_lift_deg", "geometry.card_bend": "card_bend",
-    "geometry.card_root_depth_m": "card_root_depth_m", "geometry.body_voxel_m": "body_voxel_m",
-    "thickness.base_nm": "thickness_base_nm", "thickness.top_nm": "thickness_top_nm",
-    "thickness.correlation_length_m": "thickness_correlation_length_m", "thickness.spread": "thickness_spread",
-    "thickness.jitter_nm": "thickness_jitter_nm",
-    "textures.body_resolution": "body_texture_resolution",
-    "textures.feather_resolution": "feather_texture_resolution",
-}
 
 
 # ----------------------------------------------------------------------------------------------- codecs
@@ -136,7 +122,8 @@ def _body_save(body, folder: Path) -> None:
     arrays, parts = _parts_arrays([body.part] + ([body.wings] if body.wings is not None else []))
     arrays.update({f"mesh/{f}": np.ascontiguousarray(getattr(body.mesh, f)) for f in ("vertices_m", "faces", "normals")})
     np.savez(folder / "body.npz", **arrays)
-    (folder / "body.json").write_text(json.dumps({"parts": parts}, sort_keys=True))
+    (folder / "body.json").write_text(json.dumps({"parts": parts, "card_band_area_m2": body.card_band_area_m2},
+                                                 sort_keys=True))
 
 
 def _body_load(folder: Path):
@@ -147,7 +134,8 @@ def _body_load(folder: Path):
     meta = json.loads((folder / "body.json").read_text())
     mesh = BodyMesh(**{f: arrays[f"mesh/{f}"] for f in ("vertices_m", "faces", "normals")})
     parts = _parts_from(arrays, meta["parts"])
-    return Body(mesh=mesh, part=parts[0], wings=parts[1] if len(parts) > 1 else None)
+    return Body(mesh=mesh, part=parts[0], wings=parts[1] if len(parts) > 1 else None,
+                card_band_area_m2=meta.get("card_band_area_m2"))
 
 
 BIRD = Codec("bird", _bird_save, _bird_load)
@@ -205,14 +193,10 @@ def film_from_config(film_cfg: dict):
 
 
 def bird_params(config: dict):
-    """:class:`pipeline.geometry.BirdParams` from the configuration (every field in :data:`BIRD_FIELDS`)."""
+    """:class:`pipeline.geometry.BirdParams` from the configuration (the keys of ``params.CONFIG_KEYS``)."""
     from ..geometry.params import BirdParams
 
-    values = {}
-    for key, fld in BIRD_FIELDS.items():
-        v = get(config, key)
-        values[fld] = tuple(v) if isinstance(v, list) else v
-    return BirdParams(**values)
+    return BirdParams.from_config(config)
 
 
 #: Random points at which the build measures its LUT, as shipped (after any half rounding), against the exact
@@ -472,11 +456,14 @@ VIEW_RESULT = Codec("view_result", _view_save, _view_load)
 
 def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
     """The build graph for ``config``: only the stages the scene needs (no bake for physical-only shading)."""
+    from ..geometry.params import CONFIG_KEYS
+
     baked = config["shading"]["variant"] != "physical"  # physical-only shading needs no bake
+    bird_keys = tuple(CONFIG_KEYS.values())
     stages = [
         Stage("body", run_body, config=BODY_FIELDS, modules=("pipeline.geometry",), libraries=LIBS_GEOMETRY,
               codec=BODY),
-        Stage("bird", run_bird, config=tuple(BIRD_FIELDS), deps=("body",), modules=("pipeline.geometry",),
+        Stage("bird", run_bird, config=bird_keys, deps=("body",), modules=("pipeline.geometry",),
               libraries=LIBS_GEOMETRY, codec=BIRD),
         Stage("thickness_range", run_thickness_range, deps=("bird",), codec=JSON),
     ]
@@ -484,7 +471,7 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
         stages.append(Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",),
                             modules=("pipeline.lut", "pipeline.films", "pipeline.optics", "pipeline.spectral"),
                             libraries=LIBS_COLOUR, codec=LUT))
-    stages.append(Stage("texture_images", run_texture_images, config=tuple(BIRD_FIELDS), deps=("bird",),
+    stages.append(Stage("texture_images", run_texture_images, config=bird_keys, deps=("bird",),
                         modules=("pipeline.textures",), libraries=LIBS_GEOMETRY + ("pillow",), codec=IMAGES))
     stages.append(Stage("textures", run_textures, deps=("texture_images",), modules=("pipeline.usd.textures_io",),
                         libraries=LIBS_USD, codec=FILES, publish=""))

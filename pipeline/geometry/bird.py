@@ -39,11 +39,15 @@ class Body:
         ``"Wings"``: the two folded wings, closed surfaces of their own resting on the torso
         (:func:`pipeline.geometry.sdf.wings_sdf`), unwrapped in the same xatlas atlas as the body, so they share
         the body's material and texture (which paints their pale coverts and two dark bars).
+    card_band_area_m2 : float or None
+        Area of the band the feather cards are placed on, m^2 (:func:`pipeline.geometry.cards.band_area_m2` of
+        ``mesh``): estimated once here instead of on every :func:`build_cards`; None: estimated when needed.
     """
 
     mesh: _body.BodyMesh
     part: MeshPart
     wings: MeshPart = None
+    card_band_area_m2: float | None = None
 
 
 def _check_params(params) -> BirdParams:
@@ -99,13 +103,14 @@ def build_body(params: BirdParams) -> Body:
                          "neck coordinate: 0 at the neck base, 1 at its top below the head, clipped"),
         "neckBand": Primvar(band.astype(np.float32), "vertex", "1 in the neck band, else 0"),
     })
-    return Body(mesh=mesh, part=part, wings=wing_part)
+    return Body(mesh=mesh, part=part, wings=wing_part,
+                card_band_area_m2=_cards.band_area_m2(mesh.vertices_m, mesh.faces))
 
 
 def build_cards(body: Body, params: BirdParams) -> _cards.FeatherCards:
     """The neck feather cards on ``body`` (see :mod:`pipeline.geometry.cards`)."""
     params = _check_params(params)
-    return _cards.build_cards(body.mesh.vertices_m, body.mesh.faces, params)
+    return _cards.build_cards(body.mesh.vertices_m, body.mesh.faces, params, body.card_band_area_m2)
 
 
 def build_bird(params: BirdParams, body: Body | None = None) -> Bird:

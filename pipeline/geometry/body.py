@@ -46,8 +46,6 @@ SUBDIVISION_PROJECTION_STEPS = 3
 #: meshes the thin tail (22 mm) and the wing creases as one closed surface; 6 mm does not (one
 #: non-manifold edge where a wing meets the neck), so the grid is fixed rather than derived from the detail.
 UNWRAP_VOXEL_M = 0.008
-#: Allowed body detail (``body_voxel_m``), metres.
-VOXEL_RANGE_M = (0.0008, 0.01)
 #: Tangential relaxation after each subdivision level: iterations, and the fraction of the way to the
 #: neighbours' mean moved per iteration (2 and 0.5: more iterations changed the angles by < 1 degree).
 RELAX_ITERATIONS = 2
@@ -178,7 +176,9 @@ def mesh_field(field, bounds_m, voxel_m: float) -> BodyMesh:
 
 
 def _check_voxel(voxel_m) -> float:
-    lo, hi = VOXEL_RANGE_M
+    from pipeline.config import limits
+
+    lo, hi = limits("geometry.body_voxel_m")  # the config's range (schemas/config.schema.json)
     try:
         v = float(voxel_m)
     except (TypeError, ValueError):

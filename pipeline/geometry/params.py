@@ -10,8 +10,8 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, fields, replace
 
+from pipeline.config import get, limits
 from pipeline.geometry import thickness as _thickness
-from pipeline.geometry.body import VOXEL_RANGE_M
 
 #: Measured film thickness at the base of the neck, nm (Yoshioka et al. 2007).
 MEASURED_BASE_NM = (480.0, 580.0)
@@ -19,6 +19,22 @@ MEASURED_BASE_NM = (480.0, 580.0)
 MEASURED_TOP_NM = (600.0, 700.0)
 #: The seed paper's single film thickness, nm.
 PAPER_THICKNESS_NM = 650.0
+
+
+#: BirdParams field -> its key in the build configuration. Each field's allowed range is that key's minimum and
+#: maximum in schemas/config.schema.json (:func:`pipeline.config.limits`): the schema is the user-facing contract
+#: and the one place the ranges are written, so a config the schema accepts gives valid BirdParams and back.
+CONFIG_KEYS = {
+    "seed": "geometry.seed", "card_count": "geometry.card_count", "card_length_m": "geometry.card_length_m",
+    "card_width_m": "geometry.card_width_m", "card_jitter": "geometry.card_jitter",
+    "card_lift_deg": "geometry.card_lift_deg", "card_bend": "geometry.card_bend",
+    "card_root_depth_m": "geometry.card_root_depth_m", "body_voxel_m": "geometry.body_voxel_m",
+    "thickness_base_nm": "thickness.base_nm", "thickness_top_nm": "thickness.top_nm",
+    "thickness_correlation_length_m": "thickness.correlation_length_m", "thickness_spread": "thickness.spread",
+    "thickness_jitter_nm": "thickness.jitter_nm",
+    "body_texture_resolution": "textures.body_resolution",
+    "feather_texture_resolution": "textures.feather_resolution",
+}
 
 
 def _check_range(name, value, lo_allowed, hi_allowed, unit):
@@ -55,9 +71,22 @@ def _check_number(name, value, lo_allowed, hi_allowed, unit, integer=False):
     return value
 
 
+#: (field, kind, unit) in the order BirdParams checks them; kind: "int", "number" or "pair" (lo <= hi).
+_CHECKS = (
+    ("seed", "int", ""), ("card_count", "int", "cards"), ("card_length_m", "pair", "m"),
+    ("card_width_m", "pair", "m"), ("card_jitter", "number", ""), ("card_lift_deg", "number", "deg"),
+    ("card_bend", "number", ""), ("card_root_depth_m", "pair", "m"), ("thickness_base_nm", "pair", "nm"),
+    ("thickness_top_nm", "pair", "nm"), ("thickness_correlation_length_m", "number", "m"),
+    ("thickness_spread", "number", ""), ("thickness_jitter_nm", "number", "nm"),
+    ("body_texture_resolution", "int", "texels"), ("feather_texture_resolution", "int", "texels"),
+    ("body_voxel_m", "number", "m"),
+)
+
+
 @dataclass(frozen=True)
 class BirdParams:
-    """Everything that shapes the procedural rock dove. Validated on construction (ValueError naming the field).
+    """Everything that shapes the procedural rock dove. Validated on construction (ValueError naming the field)
+    against the ranges of the configuration's keys in schemas/config.schema.json (:data:`CONFIG_KEYS`).
 
     Attributes
     ----------
@@ -123,28 +152,13 @@ class BirdParams:
     body_voxel_m: float = 0.002
 
     def __post_init__(self):
-        s = object.__setattr__
-        s(self, "seed", _check_number("seed", self.seed, 0, 2**63 - 1, "", integer=True))
-        s(self, "card_count", _check_number("card_count", self.card_count, 1, 1_000_000, "cards", integer=True))
-        s(self, "card_length_m", _check_range("card_length_m", self.card_length_m, 0.001, 0.05, "m"))
-        s(self, "card_width_m", _check_range("card_width_m", self.card_width_m, 0.0005, 0.03, "m"))
-        s(self, "card_jitter", _check_number("card_jitter", self.card_jitter, 0.0, 1.0, ""))
-        s(self, "card_lift_deg", _check_number("card_lift_deg", self.card_lift_deg, 0.0, 45.0, "deg"))
-        s(self, "card_bend", _check_number("card_bend", self.card_bend, 0.0, 0.5, ""))
-        s(self, "card_root_depth_m", _check_range("card_root_depth_m", self.card_root_depth_m, 0.0, 0.002, "m"))
-        s(self, "thickness_base_nm", _check_range("thickness_base_nm", self.thickness_base_nm, 1.0, 5000.0, "nm"))
-        s(self, "thickness_top_nm", _check_range("thickness_top_nm", self.thickness_top_nm, 1.0, 5000.0, "nm"))
-        s(self, "thickness_correlation_length_m", _check_number(
-            "thickness_correlation_length_m", self.thickness_correlation_length_m, 0.0005, 0.2, "m"))
-        s(self, "thickness_spread", _check_number("thickness_spread", self.thickness_spread, 0.0, 2.0, ""))
-        s(self, "thickness_jitter_nm", _check_number("thickness_jitter_nm", self.thickness_jitter_nm, 0.0, 100.0,
-                                                     "nm"))
-        s(self, "body_texture_resolution",
-          _check_number("body_texture_resolution", self.body_texture_resolution, 16, 8192, "texels", integer=True))
-        s(self, "feather_texture_resolution",
-          _check_number("feather_texture_resolution", self.feather_texture_resolution, 16, 4096, "texels",
-                        integer=True))
-        s(self, "body_voxel_m", _check_number("body_voxel_m", self.body_voxel_m, *VOXEL_RANGE_M, "m"))
+        for name, kind, unit in _CHECKS:
+            value = getattr(self, name)
+            if kind == "pair":
+                value = _check_range(name, value, *limits(CONFIG_KEYS[name]), unit)
+            else:
+                value = _check_number(name, value, *limits(CONFIG_KEYS[name]), unit, integer=kind == "int")
+            object.__setattr__(self, name, value)
 
     @classmethod
     def measured(cls, **overrides) -> "BirdParams":
@@ -165,6 +179,12 @@ class BirdParams:
         if unknown:
             raise ValueError(f"unknown BirdParams fields {unknown}; known: {sorted(known)}")
         return cls(**values)
+
+    @classmethod
+    def from_config(cls, config: dict) -> "BirdParams":
+        """From a build configuration (:func:`pipeline.config.load_config`): the keys of :data:`CONFIG_KEYS`."""
+        values = {name: get(config, key) for name, key in CONFIG_KEYS.items()}
+        return cls(**{name: tuple(v) if isinstance(v, list) else v for name, v in values.items()})
 
     def to_dict(self) -> dict:
         """Plain mapping of every field (tuples as lists), e.g. for hashing a build step's inputs."""

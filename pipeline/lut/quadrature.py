@@ -244,7 +244,7 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
     n_terms : ndarray of int, shape (A,)
         0 for the full Airy form, else the series' term count ``M``.
     """
-    from .bake import interface_coefficients
+    from .interfaces import interface_coefficients
 
     s_lo, s_hi = _sigma_range()
     half = 0.5 * (s_hi - s_lo)
@@ -335,7 +335,7 @@ def _full_form(coef, layout, thickness_nm, out, chunk):
     ``R = 1 - (1 - a^2)(1 - b^2) / ((1 + p)^2 - 4 p s2)``: the constant 1 integrates to the weights' sum (the
     white), so each node costs one sine and three operations per polarisation. For ``p <= 0`` (a film in air)
     the denominator is a sum of non-negative terms, so float32 is safe (phase rounding ~2e-6 rad). ``coef``: the
-    layout's interface coefficients (:func:`.bake.interface_coefficients`, pairwise).
+    layout's interface coefficients (:func:`.interfaces.interface_coefficients`, pairwise).
     """
     products = [coef[f"a_{pol}"] * coef[f"b_{pol}"] for pol in ("s", "p")]
     dtype = np.float32 if max(float(p.max(initial=-1.0)) for p in products) <= 0.0 else np.float64
@@ -505,7 +505,7 @@ def _refused(film):
 
 def _direct_columns(cos_theta, thickness_nm, film, out, illuminant, colour_space, series_tol):
     """Product integration of every column of ``cos_theta`` into ``out`` (T, A, 3); returns the plan."""
-    from .bake import interface_coefficients
+    from .interfaces import interface_coefficients
 
     n_nodes, n_terms = column_plan(film, cos_theta, thickness_nm, series_tol=series_tol, illuminant=illuminant,
                                    colour_space=colour_space)

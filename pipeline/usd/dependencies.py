@@ -21,6 +21,8 @@ import posixpath
 import re
 from dataclasses import dataclass, field
 
+from .issues import Issue, only_errors
+
 #: ``file:line:column: message`` as USD's text parser reports a syntax error.
 _PARSE_ERROR = re.compile(r"(?P<file>[^\s']+?):(?P<line>\d+):(?P<col>\d+): (?P<msg>[^\n]*)")
 #: A URI scheme (``https:``, ``omniverse:``) or a drive letter (``C:``): not a relative path.
@@ -33,7 +35,7 @@ class Dependencies:
 
     Attributes
     ----------
-    issues : list of pipeline.usd.validate.Issue
+    issues : list of pipeline.usd.issues.Issue
     layers : list of str
         Identifiers of the layers that were opened (the root first).
     external : set of str
@@ -46,7 +48,7 @@ class Dependencies:
 
     @property
     def errors(self) -> list:
-        return [i for i in self.issues if i.severity == "error"]
+        return only_errors(self.issues)
 
 
 def _outside(anchored: str, root_dir: str, root_package: str | None) -> bool:
@@ -95,8 +97,6 @@ def _open_layer(identifier: str, issues: list):
     """Open one layer; a parse error becomes a ``layer`` issue naming the file and line."""
     from pxr import Sdf, Tf
 
-    from .validate import Issue
-
     try:
         layer = Sdf.Layer.FindOrOpen(identifier)
     except Tf.ErrorException as exc:
@@ -129,8 +129,6 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
     Dependencies
     """
     from pxr import Sdf
-
-    from .validate import Issue
 
     root = os.path.abspath(os.fspath(root_layer))
     root_dir = os.path.dirname(root)

@@ -45,6 +45,9 @@ TEXTURE_FILES = {
     "feather_preview": "feather_preview.png",
     "body_base": "body_base.png",
 }
+#: The feather mesh's texcoord primvar into the preview atlas (textures_io), authored by pipeline.usd.stage and read
+#: by the preview material.
+PREVIEW_PRIMVAR = "previewST"
 #: shading variant -> the MaterialX surface shader node of thinfilm.mtlx it connects
 MTLX_SURFACES = {"baked": "MtlxBakedSurface", "physical": "MtlxPhysicalSurface"}
 #: image nodes of thinfilm.mtlx -> texture role
@@ -288,7 +291,6 @@ def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, t
     base = material.GetPath()
 
     # universal network: the preview atlas through the mesh's previewST (one tile per card thickness)
-    from .textures_io import PREVIEW_PRIMVAR
 
     st = _st_reader(stage, base.AppendChild("StReader"), PREVIEW_PRIMVAR)
     preview_tex = _preview_texture(stage, base.AppendChild("PreviewTexture"), textures["feather_preview"], st,

@@ -45,12 +45,12 @@ def mesh_digest(root_layer: str) -> str | None:
     import numpy as np
     from pxr import Usd, UsdGeom
 
-    from .validate import _variant_combinations
+    from .stage import variant_combinations
 
     stage = Usd.Stage.Open(root_layer, Usd.Stage.LoadAll)
     read = set(UsdGeom.Mesh.GetSchemaAttributeNames(True)) | {"primvars:normals", "primvars:normals:indices"}
     h = hashlib.sha256()
-    for combo in _variant_combinations(stage):
+    for combo in variant_combinations(stage):
         with Usd.EditContext(stage, stage.GetSessionLayer()):
             for name, value in combo.items():
                 stage.GetDefaultPrim().GetVariantSet(name).SetVariantSelection(value)
@@ -128,13 +128,13 @@ def run_nvidia_validator(root_layer: str) -> tuple[list, int]:
     Returns
     -------
     (issues, number of findings dropped as ND_* ids usd-core's Sdr registry cannot know)
-        ``issues``: :class:`pipeline.usd.validate.Issue` with check ``nvidia:<Rule>``; a finding repeated in
+        ``issues``: :class:`pipeline.usd.issues.Issue` with check ``nvidia:<Rule>``; a finding repeated in
         several variants is listed once. The :data:`MESH_RULES` findings come from the memo when the asset's
         meshes were validated before (module docstring).
     """
     import usd_validation_nvidia as nv
 
-    from .validate import Issue
+    from .issues import Issue
 
     engine = nv.ValidationEngine(variants=True)
     mesh_rules = [r for r in engine.rules if r.__name__ in MESH_RULES]

@@ -35,6 +35,7 @@ import numpy as np
 
 from ..geometry.types import drop_unreferenced_points
 from .material import (
+    PREVIEW_PRIMVAR,
     author_body_material,
     author_constant_material,
     author_feather_material,
@@ -170,7 +171,7 @@ def author_mesh(stage, path, part, preview_range_nm=None):
         if doc:
             primvar.GetAttr().SetDocumentation(doc)
     if preview_range_nm is not None:
-        from .textures_io import PREVIEW_PRIMVAR, preview_st
+        from .textures_io import preview_st
 
         coords = preview_st(part.st, part.primvars["thickness"].values, preview_range_nm)
         pst = api.CreatePrimvar(PREVIEW_PRIMVAR, Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex)
@@ -437,6 +438,20 @@ def write_layers(out_dir: str, bird, film, lut: dict | None, *, version: str, te
     paths = write_looks(out_dir, bird, film, lut, version=version, geometry=geometry, textures=textures,
                         shading=shading)
     return {**paths, "geometry": geometry}
+
+
+def variant_combinations(stage) -> list[dict]:
+    """Every combination of the default prim's variant selections, as ``{set name: variant}`` dicts (sets in
+    name order); ``[{}]`` without a default prim or variant sets."""
+    import itertools
+
+    prim = stage.GetDefaultPrim()
+    if not prim:
+        return [{}]
+    sets = prim.GetVariantSets()
+    names = sorted(sets.GetNames())
+    choices = [sets.GetVariantSet(n).GetVariantNames() for n in names]
+    return [dict(zip(names, combo)) for combo in itertools.product(*choices)] or [{}]
 
 
 def open_asset(path: str, shading: str | None = None):

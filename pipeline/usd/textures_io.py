@@ -41,8 +41,6 @@ PREVIEW_TILES = 32
 #: Columns of the atlas; texels per tile side (the feather preview is resized to it).
 PREVIEW_COLUMNS = 8
 PREVIEW_TILE_TEXELS = 128
-#: The feather mesh's texcoord primvar into the atlas (authored by pipeline.usd.stage).
-PREVIEW_PRIMVAR = "previewST"
 
 
 def preview_range_nm(thickness_range_nm) -> tuple[float, float]:

@@ -36,12 +36,12 @@ expected. Issues found in several variants are reported once, with the variants 
 from __future__ import annotations
 
 import io
-import itertools
 import os
 import re
 import tempfile
 from dataclasses import dataclass, field
 
+from .issues import Issue, only_errors
 from .material import _SDF_TYPES
 
 #: The UsdValidation error replaced by :func:`check_mtlx_shaders` for MaterialX (ND_*) shader ids.
@@ -50,36 +50,6 @@ MISSING_SHADER_ID = "MissingShaderIdInRegistry"
 # Sdf value type name -> MaterialX type: the inverse of the authoring table (material._SDF_TYPES); token (outputs
 # of surface shaders / materials) has no single MaterialX type
 _MX_TYPES = {sdf.lower(): mx for mx, sdf in _SDF_TYPES.items() if sdf != "Token"} | {"token": None}
-
-
-@dataclass(frozen=True)
-class Issue:
-    """One problem found in an asset.
-
-    Attributes
-    ----------
-    check : str
-        ``usdValidation:<validator>:<error name>``, ``mtlx``, ``texture``, ``primvar``, ``thinFilm``,
-        ``material`` or ``open``.
-    path : str
-        Prim or property path (or file) the problem is about.
-    message : str
-        What is wrong: the value found and what was expected.
-    severity : str
-        ``error`` or ``warning``; only errors make a report unclean.
-    variants : tuple of str
-        Variant selections (``shading=baked``...) in which it was found; empty when not variant-specific.
-    """
-
-    check: str
-    path: str
-    message: str
-    severity: str = "error"
-    variants: tuple = ()
-
-    def to_dict(self) -> dict:
-        return {"check": self.check, "path": self.path, "message": self.message, "severity": self.severity,
-                "variants": list(self.variants)}
 
 
 @dataclass
@@ -93,7 +63,7 @@ class Report:
 
     @property
     def errors(self) -> list:
-        return [i for i in self.issues if i.severity == "error"]
+        return only_errors(self.issues)
 
     @property
     def clean(self) -> bool:
@@ -535,16 +505,6 @@ def check_materials(stage, library=None) -> tuple[list, int]:
 
 
 # -- driver -------------------------------------------------------------------------------------------------
-def _variant_combinations(stage) -> list[dict]:
-    prim = stage.GetDefaultPrim()
-    if not prim:
-        return [{}]
-    sets = prim.GetVariantSets()
-    names = sorted(sets.GetNames())
-    choices = [sets.GetVariantSet(n).GetVariantNames() for n in names]
-    return [dict(zip(names, combo)) for combo in itertools.product(*choices)] or [{}]
-
-
 def validate_asset(path, allow_external: bool = False) -> Report:
     """Validate the asset at ``path`` (folder, root layer or usdz) over every variant combination.
 
@@ -560,10 +520,10 @@ def validate_asset(path, allow_external: bool = False) -> Report:
     """
     from pxr import Usd
 
+    from .dependencies import scan_dependencies
     from .material import load_mtlx_libraries
     from .schema import register
-
-    from .dependencies import scan_dependencies
+    from .stage import variant_combinations
 
     root = resolve_root_layer(path)
     register()
@@ -586,7 +546,7 @@ def validate_asset(path, allow_external: bool = False) -> Report:
     validators = _validators()
     found: dict[tuple, list] = {}
     decoded_textures = {}  # resolved path -> decoded texture: the variants share their files, read each once
-    combos = _variant_combinations(stage)
+    combos = variant_combinations(stage)
     counts = {}
     for combo in combos:
         label = ", ".join(f"{k}={v}" for k, v in combo.items())
