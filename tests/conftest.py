@@ -84,9 +84,8 @@ def paper_asset(build_root):
 
 @pytest.fixture(scope="session")
 def physical_asset(build_root):
-    """The paper preset with ``shading.variant = physical``: no LUT. Read-only."""
-    return real_build(build_root / "physical" / "pigeon", build_root / "cache", "shading.variant=physical",
-                      preset="paper")
+    """The default (measured) preset with ``shading.variant = physical``: no LUT. Read-only."""
+    return real_build(build_root / "physical" / "pigeon", build_root / "cache", 'shading.variant="physical"')
 
 
 def copy_asset(asset, dest) -> Path:
