@@ -339,8 +339,9 @@ def test_usdz_reopens_and_holds_every_texture(asset):
 
 
 def test_failed_build_keeps_previous_asset_and_leaves_no_temporaries(build_root, tmp_path, monkeypatch):
-    """A build that fails mid-way (here: writing the layers raises) publishes nothing: the asset already there
-    is left as it was, and no staging folder is left beside it."""
+    """A build that fails mid-way (here: the glTF export, which runs on the asset assembled in the staging folder
+    beside the output) publishes nothing: the asset already there is left as it was, and no staging folder is
+    left beside it."""
     from pipeline.build import stages
 
     out = tmp_path / "pigeon"
@@ -348,11 +349,12 @@ def test_failed_build_keeps_previous_asset_and_leaves_no_temporaries(build_root,
     before = {n: open(first[n], "rb").read() for n in ("payload", "looks", "lut")}
 
     def fails(ctx):
-        raise ValueError("usd_layers failed on purpose")
+        assert ctx.asset_dir.name.startswith(".pigeon.") and ctx.asset_dir.parent == tmp_path  # the staging
+        raise ValueError("gltf failed on purpose")
 
-    monkeypatch.setattr(stages, "run_usd_layers", fails)
+    monkeypatch.setattr(stages, "run_gltf", fails)
     with pytest.raises(ValueError, match="on purpose"):
-        real_build(out, build_root / "cache", "film.cauchy_a=1.6")  # a new film: the layers must be rewritten
+        real_build(out, build_root / "cache", "film.cauchy_a=1.6")  # a new film: layers and glb are rewritten
     assert {n: open(first[n], "rb").read() for n in before} == before
     assert sorted(p for p in os.listdir(tmp_path) if not p.endswith(".rockdove.lock")) == ["pigeon"]
     umask = os.umask(0)
