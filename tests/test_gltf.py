@@ -124,3 +124,18 @@ def test_gltf_command_exports_and_validates(built_glb, tmp_path, capsys):
     assert main(["gltf", str(built_glb[0]), "--out", str(tmp_path / "p.glb"), "--validate"]) == 0
     out = capsys.readouterr().out
     assert "glTF-Validator: 0 errors" in out and (tmp_path / "p.glb").is_file()
+
+
+def test_an_absorbing_film_exports_the_real_part_of_its_index():
+    """glTF's iridescence takes a real index: an absorbing film (n + i k) exports n, without a ComplexWarning
+    that would say the imaginary part was dropped by accident."""
+    import warnings
+
+    from pipeline.render.scene import ThinFilmParams
+    from pipeline.web.gltf import IOR_WAVELENGTH_NM, film_ior
+
+    film = ThinFilmParams("keratin", 1.532, 5890.0, 1.0, 1.0, "thickness", "nm", "", "lin_rec709", 1.0,
+                          (480.0, 700.0), k=0.05)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert film_ior(film) == pytest.approx(1.532 + 5890.0 / IOR_WAVELENGTH_NM**2)
