@@ -25,19 +25,10 @@ def _rockdove(*args):
 
 
 @pytest.fixture(scope="module")
-def asset(tmp_path_factory):
-    """A small measured-preset asset (keratin film, graded thickness), usda and usdz; a coarse body (5 mm voxels,
-    25k triangles instead of 78k) keeps the build and Blender's import short."""
-    from pipeline import textures
-    from pipeline.assemble import assemble
-    from pipeline.geometry import build_bird
-    from pipeline.geometry.params import BirdParams
-
-    params = BirdParams.measured(card_count=300, body_voxel_m=0.005, body_texture_resolution=256)
-    bird = build_bird(params)
-    return assemble(tmp_path_factory.mktemp("blender") / "pigeon", preset="measured", usdz=True, bird=bird,
-                    feather_textures=textures.feather_textures(params),
-                    body_texture=textures.body_base_colour(params, bird))
+def asset(small_asset):
+    """The session's small real build (measured preset: keratin film, graded thickness; coarse body), its
+    layers and its usdz."""
+    return {"interface": str(small_asset / "pigeon.usda"), "usdz": str(small_asset / "pigeon.usdz")}
 
 
 def test_addon_zip_holds_the_module_from_the_data_files_and_is_reproducible(tmp_path):

@@ -1,7 +1,7 @@
 """The build graph: content keys, the cache, early cut-off, fan-out items, and the incremental rules.
 
 Most tests use the stand-in pipeline of ``tests/standins.py`` (same shape and rules as the real one); the
-tests at the end run the real stages on small configurations.
+tests at the end run the real stages (:func:`pipeline.build.stages.make_stages`) on small configurations.
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ import pytest
 
 from pipeline.build import graph as G
 from pipeline.config import load_config
+from conftest import SMALL_BUILD
 from standins import standin_body, standin_stages  # tests/ is on sys.path under pytest
 
 
@@ -157,39 +158,25 @@ def test_graph_rejects_bad_order_and_duplicates(tmp_path):
 
 
 # ------------------------------------------------------------------------------------- real stage wiring
-def _real_partial_stages(card_count=12):
-    """The real stages from bake to usdz, fed a synthetic bird and textures (pipeline.usd.synthetic) so they
-    run before the geometry and texture modules land and stay small."""
-    from pipeline.build import stages as S
-    from pipeline.usd.synthetic import synthetic_bird, synthetic_textures
+def _real_stages(cfg, upto=None):
+    """The real stages of ``rockdove build --no-verify`` for ``cfg``; with ``upto`` only those up to that stage."""
+    from pipeline.build.stages import make_stages
 
-    def bird(ctx):
-        return synthetic_bird(card_count=card_count, seed=ctx.config["geometry"]["seed"],
-                              thickness_range_nm=tuple(ctx.config["thickness"]["base_nm"]))
+    stages = make_stages(cfg, verify=False)
+    names = [st.name for st in stages]
+    return stages if upto is None else stages[:names.index(upto) + 1]
 
-    return [
-        G.Stage("bird", bird, config=("geometry.seed", "thickness.base_nm"), codec=S.BIRD),
-        G.Stage("thickness_range", S.run_thickness_range, deps=("bird",)),
-        G.Stage("lut", S.run_lut, config=("film", "lut"), deps=("thickness_range",), modules=("pipeline.lut",),
-                codec=S.LUT),
-        G.Stage("texture_images", lambda ctx: synthetic_textures(16), codec=S.IMAGES),
-        G.Stage("textures", S.run_textures, deps=("texture_images",), codec=G.FILES, publish=""),
-        G.Stage("film_textures", S.run_film_textures, deps=("lut", "thickness_range", "texture_images"),
-                codec=G.FILES, publish=""),
-        G.Stage("usd_geometry", S.run_usd_geometry, deps=("bird",), modules=("pipeline.usd",), codec=G.FILES,
-                publish=""),
-        G.Stage("usd_layers", S.run_usd_layers, config=("film", "shading"), deps=("bird", "lut", "usd_geometry"),
-                modules=("pipeline.usd",), codec=G.FILES, publish=""),
-        G.Stage("usdz", S.run_usdz, deps=("usd_geometry", "usd_layers", "textures", "film_textures"), codec=G.FILES,
-                publish=""),
-    ]
+
+def _real_cfg(*overrides):
+    """The measured preset at the small size of the session's builds (tests/conftest.py), plus ``overrides``."""
+    return load_config(preset="measured", overrides=[*SMALL_BUILD, *overrides])
 
 
 def test_real_usd_stages_build_a_valid_asset_and_rebuild_incrementally(tmp_path):
     from pipeline.build import stages as S
 
-    cfg = _cfg("lut.angles=16", "lut.thicknesses=4", "lut.method=spectral_fast")
-    graph = G.Graph(_real_partial_stages(), cfg, G.Cache(tmp_path / "cache"))
+    cfg = _real_cfg("lut.angles=16", "lut.thicknesses=4", "lut.method=spectral_fast")
+    graph = G.Graph(_real_stages(cfg), cfg, G.Cache(tmp_path / "cache"))
     graph.run()
     asset = tmp_path / "asset"
     asset.mkdir()
@@ -210,11 +197,11 @@ def test_real_usd_stages_build_a_valid_asset_and_rebuild_incrementally(tmp_path)
     assert np.array_equal(bird2.part("NeckFeathers").points_m, graph.value("bird").part("NeckFeathers").points_m)
     assert np.array_equal(S.LUT.load(graph.entry_dir("lut")).rgb, lut.rgb)
     # a film change re-bakes and rewrites the material; the bird is reused
-    g2 = G.Graph(_real_partial_stages(), _cfg("lut.angles=16", "lut.thicknesses=4", "lut.method=spectral_fast",
-                                              "film.cauchy_a=1.6"), G.Cache(tmp_path / "cache"))
+    cfg2 = _real_cfg("lut.angles=16", "lut.thicknesses=4", "lut.method=spectral_fast", "film.cauchy_a=1.6")
+    g2 = G.Graph(_real_stages(cfg2), cfg2, G.Cache(tmp_path / "cache"))
     g2.run()
     st = _status(g2)
-    assert st["bird"] == st["thickness_range"] == st["texture_images"] == st["usd_geometry"] == "reused"
+    assert st["body"] == st["bird"] == st["thickness_range"] == st["texture_images"] == st["usd_geometry"] == "reused"
     assert st["lut"] == st["film_textures"] == st["usd_layers"] == st["usdz"] == "ran"
     assert st["textures"] == "reused"  # the film-independent PNGs
     geometry = "pigeon_geom.usdc"
@@ -227,8 +214,9 @@ def test_half_precision_lut_is_a_half_exr_that_validates(tmp_path):
     from pipeline.lut.exr import read_exr
     from pipeline.usd.validate import validate_asset
 
-    cfg = _cfg("lut.angles=96", "lut.thicknesses=24", "lut.method=spectral_fast", "lut.precision=half")
-    graph = G.Graph(_real_partial_stages()[:-1], cfg, G.Cache(tmp_path / "cache"))
+    cfg = _real_cfg("lut.angles=96", "lut.thicknesses=24", "lut.method=spectral_fast", "lut.precision=half",
+                    "usd.usdz=false")
+    graph = G.Graph(_real_stages(cfg), cfg, G.Cache(tmp_path / "cache"))
     graph.run()
     rgb = graph.value("lut").rgb
     assert np.array_equal(rgb, rgb.astype(np.float16).astype(np.float32))
@@ -250,8 +238,8 @@ def test_half_precision_lut_is_a_half_exr_that_validates(tmp_path):
     err = lut_error(read_exr(exr), film, n_points=LUT_ERROR_POINTS)
     assert read_exr(exr).metadata["estimatedMaxDeltaE2000"] == f"{err['max']:.4g}"
     # negative control: the float32 bake of the same table measures differently, so the check above can tell
-    g32 = G.Graph(_real_partial_stages()[:3], _cfg("lut.angles=96", "lut.thicknesses=24", "lut.method=spectral_fast"),
-                  G.Cache(tmp_path / "c32"))
+    cfg32 = _real_cfg("lut.angles=96", "lut.thicknesses=24", "lut.method=spectral_fast")
+    g32 = G.Graph(_real_stages(cfg32, upto="lut"), cfg32, G.Cache(tmp_path / "cache"))
     g32.run()
     f32 = dataclasses.replace(read_exr(exr), rgb=g32.value("lut").rgb)
     assert f"{lut_error(f32, film, n_points=LUT_ERROR_POINTS)['max']:.4g}" != f"{err['max']:.4g}"
@@ -261,8 +249,8 @@ def test_build_lut_records_its_measured_error(tmp_path):
     from pipeline.build.stages import LUT_ERROR_POINTS
 
     def recorded(*sets):
-        graph = G.Graph(_real_partial_stages()[:3], _cfg("lut.method=spectral_fast", *sets),
-                        G.Cache(tmp_path / "-".join(sets)))
+        cfg = _real_cfg("lut.method=spectral_fast", *sets)
+        graph = G.Graph(_real_stages(cfg, upto="lut"), cfg, G.Cache(tmp_path / "cache"))
         graph.run()
         return graph.value("lut").metadata
 

@@ -1,9 +1,9 @@
 """The ``build`` and ``config`` commands through the real CLI (subprocess): bad inputs and the happy paths.
 
 Every bad input must exit 2 with exactly one line on stderr naming the problem, no traceback, and write
-nothing (no output folder, lock file or cache). Builds here run the real command with the stand-in stages of
+nothing (no output folder, lock file or cache). Most builds here run the real command with the stand-in stages of
 tests/standins.py patched in by tests/launcher.py, so they test the command and the framework in a fraction of a
-second each; the real stages run in the last test.
+second each; the physical-only and --cache builds and the last test run the real stages.
 """
 
 from __future__ import annotations
@@ -161,10 +161,26 @@ def test_film_change_through_cli_rebakes_lut_and_material_only(tmp_path):
     assert {"body", "cards", "textures"} <= set(r["reused"])
 
 
-def test_physical_only_build_has_no_lut(tmp_path):
-    r = json.loads(rockdove("build", "--out", "b/p", "--set", "shading.variant=physical", "--json",
-                            "--no-verify", cwd=tmp_path).stdout)
-    assert "lut" not in r["ran"] + r["reused"]
+def _small_real(cache: Path, body_from: Path) -> list:
+    """Options of a small real build (tests/conftest.py's SMALL_BUILD) into a cache seeded with the session's
+    body (the one expensive stage, same configuration), so the real stages run in seconds."""
+    from conftest import SMALL_BUILD
+
+    import shutil
+
+    shutil.copytree(body_from / "body", cache / "body")
+    return ["--cache", str(cache)] + [a for s in SMALL_BUILD for a in ("--set", s)]
+
+
+def test_physical_only_build_has_no_lut(tmp_path, small_asset, build_root):
+    """The real stages: physical-only shading has no lut stage and writes no EXR."""
+    r = rockdove("build", "--out", "b/p", "--set", 'shading.variant="physical"', "--json", "--no-verify",
+                 *_small_real(tmp_path / "c", build_root / "cache"), cwd=tmp_path, standin=False, timeout=300)
+    assert r.returncode == 0, r.stderr
+    s = json.loads(r.stdout)
+    assert "lut" not in s["ran"] + s["reused"] and {"textures", "usd_layers"} <= set(s["ran"])
+    assert "body" in s["reused"] and not (tmp_path / "b/p/textures/thinfilm_lut.exr").exists()
+    assert (tmp_path / "b/p/textures/feather_preview.png").is_file()
 
 
 def test_failed_verification_exits_1_and_keeps_the_old_asset(tmp_path):
@@ -177,11 +193,16 @@ def test_failed_verification_exits_1_and_keeps_the_old_asset(tmp_path):
     assert not [p for p in (tmp_path / "b").iterdir() if "rockdove-tmp" in p.name]
 
 
-def test_cache_option_and_no_verify(tmp_path):
-    r = rockdove("build", "--out", "o/p", "--cache", "c", "--no-verify", "--json", cwd=tmp_path)
+def test_cache_option_and_no_verify(tmp_path, small_asset, build_root):
+    """The real stages: --cache puts every stage's entry there (none beside the output); --no-verify runs no
+    verification stage and says so."""
+    r = rockdove("build", "--out", "o/p", "--no-verify", "--json", *_small_real(tmp_path / "c", build_root / "cache"),
+                 cwd=tmp_path, standin=False, timeout=300)
+    assert r.returncode == 0, r.stderr
     s = json.loads(r.stdout)
-    assert r.returncode == 0 and "verify" not in s["ran"] and (tmp_path / "c" / "lut").is_dir()
-    assert not (tmp_path / "o" / ".rockdove-cache").exists()
+    assert s["verified"] is None and not {"verify", "verify_rays"} & set(s["ran"] + s["reused"])
+    assert {p.name for p in (tmp_path / "c").iterdir()} == set(s["ran"] + s["reused"])
+    assert not (tmp_path / "o" / ".rockdove-cache").exists() and not (tmp_path / "o/p/verify").exists()
 
 
 # ------------------------------------------------------------------------------------- the real pipeline

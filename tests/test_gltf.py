@@ -7,21 +7,19 @@ import pytest
 
 
 @pytest.fixture(scope="session")
-def synthetic_glb(tmp_path_factory):
-    """A synthetic rockdove asset (ring of cards, 480-700 nm) exported to GLB: (asset dir, glb path, summary)."""
-    from pipeline.render.synthetic import write_synthetic_asset
+def built_glb(small_asset, tmp_path_factory):
+    """The ``pigeon.glb`` the small real build published (its ``gltf`` stage), and the summary of exporting
+    that asset again: (asset dir, glb path, summary)."""
     from pipeline.web.gltf import export_glb
 
-    root = tmp_path_factory.mktemp("gltf")
-    write_synthetic_asset(root / "asset", n_cards=8)
-    summary = export_glb(root / "asset", root / "pigeon.glb")
-    return root / "asset", root / "pigeon.glb", summary
+    summary = export_glb(small_asset, tmp_path_factory.mktemp("gltf") / "pigeon.glb")
+    return small_asset, small_asset / "pigeon.glb", summary
 
 
-def test_glb_validates_with_zero_errors(synthetic_glb):
+def test_glb_validates_with_zero_errors(built_glb):
     from pipeline.web.gltf import validate_glb
 
-    report = validate_glb(synthetic_glb[1])
+    report = validate_glb(built_glb[1])
     issues = report["issues"]
     assert issues["numErrors"] == 0, issues["messages"]
     assert issues["numWarnings"] == 0, issues["messages"]
@@ -29,24 +27,24 @@ def test_glb_validates_with_zero_errors(synthetic_glb):
     assert report["info"]["maxUVs"] == 2
 
 
-def test_validator_reports_a_broken_glb(synthetic_glb, tmp_path):
+def test_validator_reports_a_broken_glb(built_glb, tmp_path):
     """The validator really checks: a GLB whose index accessor points past its vertices has errors."""
     import pygltflib
 
     from pipeline.web.gltf import validate_glb
 
-    gltf = pygltflib.GLTF2().load(str(synthetic_glb[1]))
+    gltf = pygltflib.GLTF2().load(str(built_glb[1]))
     gltf.accessors[gltf.meshes[0].primitives[0].attributes.POSITION].count = 1
     gltf.save(str(tmp_path / "broken.glb"))
     assert validate_glb(tmp_path / "broken.glb")["issues"]["numErrors"] > 0
 
 
-def test_feather_material_carries_the_film(synthetic_glb):
+def test_feather_material_carries_the_film(built_glb):
     import pygltflib
 
     from pipeline.render.scene import load_scene
 
-    asset, glb, summary = synthetic_glb
+    asset, glb, summary = built_glb
     scene = load_scene(asset)
     gltf = pygltflib.GLTF2().load(str(glb))
     feathers = next(m for m in gltf.materials if m.name == "NeckFeathersMaterial")
@@ -62,7 +60,7 @@ def test_feather_material_carries_the_film(synthetic_glb):
     assert summary["ior_wavelength_nm"] == 550.0
 
 
-def test_thickness_texture_returns_each_vertex_thickness(synthetic_glb):
+def test_thickness_texture_returns_each_vertex_thickness(built_glb):
     """Reading the glTF the way a renderer does (G of the ramp at TEXCOORD_1, linear filtering, then
     mix(min, max, G)) gives back the USD thickness primvar per vertex."""
     import io
@@ -72,7 +70,7 @@ def test_thickness_texture_returns_each_vertex_thickness(synthetic_glb):
 
     from pipeline.render.scene import load_scene
 
-    asset, glb, _ = synthetic_glb
+    asset, glb, _ = built_glb
     gltf = pygltflib.GLTF2().load(str(glb))
     blob = gltf.binary_blob()
 
@@ -120,9 +118,24 @@ def test_asset_without_rockdove_data_gets_a_clear_message(tmp_path, capsys):
     assert len(err.splitlines()) == 1 and "no rockdove thin-film data" in err
 
 
-def test_gltf_command_exports_and_validates(synthetic_glb, tmp_path, capsys):
+def test_gltf_command_exports_and_validates(built_glb, tmp_path, capsys):
     from pipeline.cli import main
 
-    assert main(["gltf", str(synthetic_glb[0]), "--out", str(tmp_path / "p.glb"), "--validate"]) == 0
+    assert main(["gltf", str(built_glb[0]), "--out", str(tmp_path / "p.glb"), "--validate"]) == 0
     out = capsys.readouterr().out
     assert "glTF-Validator: 0 errors" in out and (tmp_path / "p.glb").is_file()
+
+
+def test_an_absorbing_film_exports_the_real_part_of_its_index():
+    """glTF's iridescence takes a real index: an absorbing film (n + i k) exports n, without a ComplexWarning
+    that would say the imaginary part was dropped by accident."""
+    import warnings
+
+    from pipeline.render.scene import ThinFilmParams
+    from pipeline.web.gltf import IOR_WAVELENGTH_NM, film_ior
+
+    film = ThinFilmParams("keratin", 1.532, 5890.0, 1.0, 1.0, "thickness", "nm", "", "lin_rec709", 1.0,
+                          (480.0, 700.0), k=0.05)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert film_ior(film) == pytest.approx(1.532 + 5890.0 / IOR_WAVELENGTH_NM**2)

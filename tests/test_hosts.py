@@ -1,6 +1,7 @@
 """The hosts (pipeline.hosts): registry, selection with reasons, and ``verify --hosts`` on a small asset with
 MaterialX's generated GLSL (baked and physical networks) against the exact reference of the view_angle lobe."""
 
+import os
 import sys
 import types
 
@@ -39,11 +40,9 @@ def test_select_names_unknown_hosts_and_gives_reasons_for_missing_ones(monkeypat
 
 
 @pytest.fixture(scope="module")
-def small_asset(tmp_path_factory):
-    """A small asset of the default (measured, keratin) preset: thickness varies, both shading variants."""
-    from pipeline.assemble import assemble
-
-    return assemble(tmp_path_factory.mktemp("hosts") / "pigeon", card_count=150, usdz=False)["interface"]
+def asset_layer(small_asset):
+    """The root layer of the session's small real build (measured preset: thickness varies, both variants)."""
+    return str(small_asset / "pigeon.usda")
 
 
 def _broken_host(monkeypatch):
@@ -60,7 +59,7 @@ def _broken_host(monkeypatch):
 
 
 @pytest.mark.gl
-def test_verify_hosts_reports_each_host_and_a_failing_one_does_not_stop_the_others(small_asset, tmp_path,
+def test_verify_hosts_reports_each_host_and_a_failing_one_does_not_stop_the_others(asset_layer, tmp_path,
                                                                                     monkeypatch):
     """MaterialX's own GLSL of the asset's baked network matches the exact view_angle reference (dE goals); the
     physical network (OpenPBR's thin film) shows green and purple; a host that raises HostError is reported by
@@ -69,7 +68,7 @@ def test_verify_hosts_reports_each_host_and_a_failing_one_does_not_stop_the_othe
 
     _broken_host(monkeypatch)
     monkeypatch.setitem(hosts.HOSTS, "ghost", "pipeline.hosts.no_such_module")
-    report = verify_asset(small_asset, out_dir=tmp_path / "report", width=96, height=96, views=["sweep_060"],
+    report = verify_asset(asset_layer, out_dir=tmp_path / "report", width=96, height=96, views=["sweep_060"],
                           hosts=["materialx", "broken", "materialx_physical", "ghost"])
     by_name = {h["name"]: h for h in report["hosts"]}
     assert [h["name"] for h in report["hosts"]] == ["glsl", "materialx", "broken", "materialx_physical", "ghost"]
@@ -92,7 +91,7 @@ def test_verify_hosts_reports_each_host_and_a_failing_one_does_not_stop_the_othe
 
 
 @pytest.mark.gl
-def test_materialx_host_draws_the_written_network_not_a_copy_of_it(small_asset, tmp_path):
+def test_materialx_host_draws_the_written_network_not_a_copy_of_it(asset_layer, tmp_path):
     """Break the written network (LUT angle count off by a factor 4, as a stale standalone .mtlx would): the
     host, which reads what was written, must then disagree with the reference."""
     import shutil
@@ -106,7 +105,7 @@ def test_materialx_host_draws_the_written_network_not_a_copy_of_it(small_asset, 
     from pipeline.render.verify import verification_views
 
     folder = tmp_path / "broken"
-    shutil.copytree(small_asset.rsplit("/", 1)[0], folder)
+    shutil.copytree(os.path.dirname(asset_layer), folder)
     payload = Sdf.Layer.FindOrOpen(str(folder / LOOKS_LAYER))  # the materials' layer
     attr = payload.GetAttributeAtPath("/Pigeon/Looks/FeatherMaterial/LutAngleCount.inputs:value")
     attr.default = attr.default / 4
@@ -119,15 +118,15 @@ def test_materialx_host_draws_the_written_network_not_a_copy_of_it(small_asset, 
 
 
 @pytest.mark.gl
-def test_glsl_host_renders_the_written_asset_as_the_verifier_does(small_asset):
+def test_glsl_host_renders_the_written_asset_as_the_verifier_does(asset_layer):
     from pipeline.hosts import glsl
     from pipeline.render.gl import render_views
     from pipeline.render.scene import load_scene
     from pipeline.render.verify import verification_views
 
-    scene = load_scene(small_asset)
+    scene = load_scene(asset_layer)
     views = [v for v in verification_views(scene, 32, 32) if v.name == "sweep_090"]
-    assert glsl.cannot_draw(small_asset) is None
-    images = glsl.render(small_asset, views, None)
+    assert glsl.cannot_draw(asset_layer) is None
+    images = glsl.render(asset_layer, views, None)
     np.testing.assert_array_equal(images["sweep_090"], render_views(scene, views)[0].radiance_rgb)
     assert images["sweep_090"].shape == (32, 32, 3) and images["sweep_090"].max() > 0

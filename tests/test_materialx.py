@@ -47,10 +47,28 @@ def test_glsl_generation_of_the_baked_network_reads_thickness_and_three_textures
     assert "mx_image_color3" in pixel and "void main()" in pixel
 
 
+def _call_arguments(source: str, function: str) -> dict:
+    """Parameter name -> argument expression of the (last) call to ``function`` in generated GLSL."""
+    import re
+
+    signature = re.search(rf"void {function}\(([^)]*)\)", source).group(1)
+    params = [p.split()[-1] for p in signature.split(",")]
+    call = re.findall(rf"\n\s*{function}\(([^;]*)\);", source)[-1]
+    return dict(zip(params, (a.strip() for a in call.split(","))))
+
+
 def test_glsl_generation_of_the_physical_network_drives_the_thin_film(doc):
+    """The generated OpenPBR call takes its film from our network: thickness = the thickness primvar in
+    micrometres, weight = the tip mask, index = the film's, specular_ior = the recorded substrate."""
     _, pixel = _glsl(doc, MTLX_MATERIALS["physical"])
-    assert "LutTexture_file" not in pixel  # no LUT: OpenPBR's own thin film
-    assert "thin_film" in pixel and "void main()" in pixel
+    assert "LutTexture_file" not in pixel and "void main()" in pixel  # no LUT: OpenPBR's own thin film
+    args = _call_arguments(pixel, "NG_open_pbr_surface_surfaceshader")
+    assert args["thin_film_weight"] == "MaskTexture_out"
+    assert args["thin_film_ior"] == "MtlxPhysicalSurface_thin_film_ior"
+    assert args["specular_ior"] == "MtlxPhysicalSurface_specular_ior"
+    assert args["thin_film_thickness"] == "ThicknessUm_out"
+    assert "float ThicknessUm_out = ThicknessPrimvar_out * ThicknessUm_in2;" in pixel
+    assert "float ThicknessPrimvar_out = vd.i_geomprop_thickness;" in pixel
 
 
 def _stage_with_material(lut):

@@ -6,13 +6,15 @@ import numpy as np
 import pytest
 
 from pipeline.render import scene as sc
-from pipeline.render.synthetic import BODY_CENTRE_M, BODY_RADIUS_M, THICKNESS_RANGE_NM, write_synthetic_asset
 from pipeline.render.views import View, default_views, hero_view, light_sweep_views, look_at, turntable_views
+
+from conftest import built_value, copy_asset
 
 
 @pytest.fixture(scope="module")
-def asset(tmp_path_factory):
-    return write_synthetic_asset(tmp_path_factory.mktemp("asset"))
+def asset(small_asset):
+    """The root layer of the session's small real build (measured preset, both shading variants)."""
+    return str(small_asset / "pigeon.usda")
 
 
 def test_fan_triangulation_of_mixed_polygons_keeps_area_and_winding():
@@ -25,38 +27,56 @@ def test_fan_triangulation_of_mixed_polygons_keeps_area_and_winding():
         sc.fan_triangulate([2], [0, 1])
 
 
-def test_load_scene_reads_parts_world_transform_and_primvars(asset):
-    s = sc.load_scene(asset)
-    assert [p.name for p in s.parts] == ["Body", "NeckFeathers"]
-    body, feathers = s.parts
-    assert body.material_kind == "body" and feathers.material_kind == "feather"
-    # the Body's translate op is applied: sphere of BODY_RADIUS_M about BODY_CENTRE_M
-    r = np.linalg.norm(body.positions_m - np.asarray(BODY_CENTRE_M), axis=1)
-    np.testing.assert_allclose(r, BODY_RADIUS_M, rtol=1e-5)
-    # outward unit normals
-    np.testing.assert_allclose(np.linalg.norm(body.normals, axis=1), 1, atol=1e-5)
-    assert np.all(np.sum(body.normals * (body.positions_m - BODY_CENTRE_M), axis=1) > 0)
-    # quads -> 2 triangles each; triangles wind counter-clockwise about their normals
-    assert feathers.triangles.shape == (2 * len(feathers.positions_m) // 4, 3)
-    tri_n = feathers.triangle_normals
-    vert_n = feathers.normals[feathers.triangles[:, 0]]
-    assert np.all(np.sum(tri_n * vert_n, axis=1) > 0.99)
-    assert feathers.thickness_nm.min() == THICKNESS_RANGE_NM[0] and feathers.thickness_nm.max() == THICKNESS_RANGE_NM[1]
-    assert feathers.st.shape == (len(feathers.positions_m), 2) and feathers.neck_s is not None
-    assert feathers.base_colour_texture.endswith("textures/feather_base.png")
-    assert feathers.mask_texture.endswith("textures/feather_mask.png")
-    assert body.mask_texture is None and body.thickness_nm is None
+def test_load_scene_reads_every_part_as_the_build_generated_it_in_both_variants(small_asset):
+    """The reader against the real authoring code: each part's world points, triangles, primvars and texture
+    paths, and the film and LUT, read back from the files equal what the build generated (its cached bird
+    and LUT), whichever shading variant is selected."""
+    from pipeline.geometry.types import drop_unreferenced_points
+
+    bird, lut = built_value(small_asset, "bird"), built_value(small_asset, "lut")
+    tex = small_asset / "textures"
+    for variant in ("baked", "physical"):
+        s = sc.load_scene(small_asset, variants={"shading": variant})
+        assert s.variants == {"shading": variant}
+        assert [p.name for p in s.parts] == [p.name for p in bird.parts]
+        for src in map(drop_unreferenced_points, bird.parts):  # as written (validators reject unused points)
+            got = s.part(src.name)
+            assert got.material_kind == src.material
+            np.testing.assert_allclose(got.positions_m, src.points_m, atol=1e-6)
+            assert len(got.triangles) == int(np.sum(np.asarray(src.face_vertex_counts) - 2))
+            np.testing.assert_allclose(np.linalg.norm(got.normals, axis=1), 1, atol=1e-5)
+        feathers, body = s.part("NeckFeathers"), s.part("Body")
+        np.testing.assert_array_equal(feathers.thickness_nm, drop_unreferenced_points(
+            bird.part("NeckFeathers")).primvars["thickness"].values)
+        assert feathers.st.shape == (len(feathers.positions_m), 2) and feathers.neck_s is not None
+        assert feathers.base_colour_texture == str(tex / "feather_base.png")
+        assert feathers.mask_texture == str(tex / "feather_mask.png")
+        assert body.base_colour_texture == str(tex / "body_base.png")
+        assert body.mask_texture is None and body.thickness_nm is None
+        # triangles wind counter-clockwise about the outward normals of the (convex-ish) body
+        tri_n = body.triangle_normals
+        vert_n = body.normals[body.triangles].mean(axis=1)
+        assert np.mean(np.sum(tri_n * vert_n, axis=1) > 0) > 0.99
+        f = s.film
+        assert f.model == "keratin" and f.cauchy_a == pytest.approx(1.532) and f.cauchy_b_nm2 == pytest.approx(5890)
+        assert f.thickness_primvar == "thickness" and f.lut_file == str(tex / "thinfilm_lut.exr")
+        assert f.thickness_range_nm == tuple(built_value(small_asset, "thickness_range")) == lut.thickness_range_nm
+        assert f.angle_warp_gamma == lut.angle_warp_gamma
+        np.testing.assert_array_equal(s.load_lut().rgb, lut.rgb)
 
 
-def test_load_scene_reads_thin_film_attributes_and_lut(asset):
-    s = sc.load_scene(asset)
-    f = s.film
-    assert f.model == "paper" and f.cauchy_a == pytest.approx(1.5) and f.thickness_primvar == "thickness"
-    assert f.thickness_range_nm == THICKNESS_RANGE_NM and f.lut_file.endswith("thinfilm_lut.exr")
-    lut = s.load_lut()
-    assert lut.thickness_range_nm == THICKNESS_RANGE_NM
-    # the synthetic gradient LUT: R = angle node coordinate, G = thickness node coordinate
-    np.testing.assert_allclose(lut.sample(0.25, THICKNESS_RANGE_NM[1]), [0.25, 1.0, 0.25], atol=1e-6)
+def test_load_scene_applies_world_transforms(small_asset, tmp_path):
+    """A translate op authored over the Body (in the interface layer of a copy) moves its points read back."""
+    from pxr import Gf, Usd, UsdGeom
+
+    copy = copy_asset(small_asset, tmp_path / "pigeon")
+    stage = Usd.Stage.Open(str(copy / "pigeon.usda"))
+    UsdGeom.Xformable(stage.GetPrimAtPath("/Pigeon/Geom/Body")).AddTranslateOp().Set(Gf.Vec3d(0.1, -0.2, 0.3))
+    stage.GetRootLayer().Save()
+    before, after = sc.load_scene(small_asset), sc.load_scene(copy)
+    np.testing.assert_allclose(after.part("Body").positions_m, before.part("Body").positions_m + [0.1, -0.2, 0.3],
+                               atol=1e-6)
+    np.testing.assert_array_equal(after.part("Beak").positions_m, before.part("Beak").positions_m)
 
 
 def test_load_scene_variants_and_bad_input(asset, tmp_path):
@@ -115,36 +135,6 @@ def test_views_are_deterministic_serialisable_and_sweep_the_light_view_angle(ass
         turntable_views(s.bounds_m, 0, 32, 32)
     with pytest.raises(ValueError, match="width"):
         View("x", np.eye(4), 0.5, 0, 10, [0, 0, 1], [1, 1, 1])
-
-
-def test_load_scene_reads_the_asset_written_by_pipeline_assemble(tmp_path):
-    """The reader against the real authoring code (pipeline.assemble on the USD stage's synthetic inputs)."""
-    from pipeline.assemble import assemble
-    from pipeline.films import get_film
-    from pipeline.usd.synthetic import synthetic_bird, synthetic_lut, synthetic_textures
-
-    feather, body = synthetic_textures()
-    bird, lut, film = synthetic_bird(6, seed=1), synthetic_lut(), get_film("keratin")
-    out = assemble(tmp_path / "pigeon", bird=bird, lut=lut, feather_textures=feather, body_texture=body,
-                   film=film, usdz=False)
-    for variant in ("baked", "physical"):
-        s = sc.load_scene(out["dir"], variants={"shading": variant})
-        assert s.variants == {"shading": variant}
-        by_name = {p.name: p for p in s.parts}
-        for src in bird.parts:
-            got = by_name[src.name]
-            assert got.material_kind == src.material
-            np.testing.assert_allclose(got.positions_m, src.points_m, atol=1e-6)
-            assert len(got.triangles) == int(np.sum(np.asarray(src.face_vertex_counts) - 2))
-        feathers = by_name["NeckFeathers"]
-        np.testing.assert_array_equal(feathers.thickness_nm, bird.parts[2].primvars["thickness"].values)
-        assert feathers.base_colour_texture == out["feather_base"] and feathers.mask_texture == out["feather_mask"]
-        assert by_name["Body"].base_colour_texture == out["body_base"]
-        assert s.film.lut_file == out["lut"] and s.film.thickness_range_nm == lut.thickness_range_nm
-        assert s.film.angle_warp_gamma == lut.angle_warp_gamma
-        assert s.film.cauchy_a == pytest.approx(film.cauchy_a)
-        assert s.film.cauchy_b_nm2 == pytest.approx(film.cauchy_b_nm2) and s.film.model == film.name
-        np.testing.assert_array_equal(s.load_lut().rgb, lut.rgb)
 
 
 def test_display_images_use_the_srgb_oetf_of_the_clipped_value_and_linear_averaging(tmp_path):

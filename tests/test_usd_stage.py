@@ -1,5 +1,6 @@
 """The USD asset: layers, meshes, primvars, materials, variants, schema values, byte-identical rebuilds, usdz,
-atomic publication. Built from small synthetic stage inputs (pipeline.usd.synthetic) so it runs in seconds."""
+atomic publication. Read from the session's small real builds (tests/conftest.py: the build graph that
+``rockdove build`` runs, at a small size)."""
 
 import filecmp
 import os
@@ -7,25 +8,36 @@ import os
 import numpy as np
 import pytest
 
-from pipeline.assemble import assemble
 from pipeline.films import get_film
-from pipeline.usd.synthetic import synthetic_bird, synthetic_lut, synthetic_textures
+from pipeline.geometry.types import drop_unreferenced_points
 
-CARDS = 10
+from conftest import SMALL_BUILD, built_value, real_build
+
+#: ``geometry.card_count`` of the small builds
+CARDS = int(dict(s.split("=") for s in SMALL_BUILD)["geometry.card_count"])
 
 
-def _build(out_dir, **kw):
-    feather, body = synthetic_textures()
-    args = dict(bird=synthetic_bird(CARDS, seed=3), lut=synthetic_lut(), feather_textures=feather,
-                body_texture=body, film=get_film("keratin"))
-    args.update(kw)
-    return assemble(out_dir, **args)
+def _paths(folder) -> dict:
+    """The files of an asset folder by role (absolute paths; ``lut`` only when the EXR exists)."""
+    d = str(folder)
+    paths = {"dir": d, "interface": os.path.join(d, "pigeon.usda"), "payload": os.path.join(d, "pigeon_payload.usda"),
+             "looks": os.path.join(d, "pigeon_looks.usda"), "geometry": os.path.join(d, "pigeon_geom.usdc"),
+             "usdz": os.path.join(d, "pigeon.usdz"), "lut": os.path.join(d, "textures", "thinfilm_lut.exr")}
+    for role in ("feather_base", "feather_mask", "feather_preview", "body_base"):
+        paths[role] = os.path.join(d, "textures", f"{role}.png")
+    return {k: v for k, v in paths.items() if k == "dir" or os.path.exists(v)}
 
 
 @pytest.fixture(scope="module")
-def asset(tmp_path_factory):
-    out = tmp_path_factory.mktemp("asset") / "pigeon"
-    return _build(out)
+def asset(small_asset):
+    """The small real build (measured preset, both variants): its files by role. Read-only."""
+    return _paths(small_asset)
+
+
+@pytest.fixture(scope="module")
+def bird(small_asset):
+    """The bird that build generated (its cached ``bird`` stage value)."""
+    return built_value(small_asset, "bird")
 
 
 @pytest.fixture(scope="module")
@@ -57,11 +69,10 @@ def test_interface_layer_metadata_kind_assetinfo_payload(asset, stage):
     assert vset.GetVariantNames() == ["baked", "physical"] and vset.GetVariantSelection() == "baked"
 
 
-def test_meshes_carry_normals_st_display_colour_extent_and_binding(stage):
+def test_meshes_carry_normals_st_display_colour_extent_and_binding(stage, bird):
     from pxr import UsdGeom, UsdShade
 
-    bird = synthetic_bird(CARDS, seed=3)
-    for part in bird.parts:
+    for part in map(drop_unreferenced_points, bird.parts):  # as written: validators reject unused points
         mesh = UsdGeom.Mesh(stage.GetPrimAtPath(f"/Pigeon/Geom/{part.name}"))
         assert mesh, part.name
         pts = np.asarray(mesh.GetPointsAttr().Get())
@@ -79,17 +90,18 @@ def test_meshes_carry_normals_st_display_colour_extent_and_binding(stage):
         assert mat.GetPath().GetParentPath() == "/Pigeon/Looks"
     feathers = UsdGeom.Mesh(stage.GetPrimAtPath("/Pigeon/Geom/NeckFeathers"))
     assert feathers.GetDoubleSidedAttr().Get() is True
-    assert len(feathers.GetFaceVertexCountsAttr().Get()) == CARDS  # all cards in one mesh
+    n_faces = len(bird.part("NeckFeathers").face_vertex_counts)  # all cards in one mesh
+    assert len(feathers.GetFaceVertexCountsAttr().Get()) == n_faces and n_faces % CARDS == 0
 
 
-def test_author_mesh_writes_only_points_that_a_face_uses(tmp_path):
+def test_author_mesh_writes_only_points_that_a_face_uses(bird):
     import dataclasses
 
     from pxr import Usd, UsdGeom
 
     from pipeline.usd.stage import author_mesh
 
-    part = synthetic_bird(CARDS, seed=3).part("Beak")
+    part = drop_unreferenced_points(bird.part("Beak"))
     extra = dataclasses.replace(part, points_m=np.vstack([part.points_m, [[9.0, 9.0, 9.0]]]).astype(np.float32),
                                 normals=np.vstack([part.normals, [[0.0, 1.0, 0.0]]]).astype(np.float32),
                                 st=np.vstack([part.st, [[0.5, 0.5]]]).astype(np.float32))
@@ -100,13 +112,13 @@ def test_author_mesh_writes_only_points_that_a_face_uses(tmp_path):
     assert np.unique(np.asarray(mesh.GetFaceVertexIndicesAttr().Get())).size == len(pts)
 
 
-def test_thickness_primvar_is_documented_float_vertex_nm(stage):
+def test_thickness_primvar_is_documented_float_vertex_nm(stage, bird):
     from pxr import UsdGeom
 
     pv = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Pigeon/Geom/NeckFeathers")).GetPrimvar("thickness")
     assert pv.GetTypeName() == "float[]" and pv.GetInterpolation() == "vertex"
     assert "nanometres" in pv.GetAttr().GetDocumentation()
-    expected = synthetic_bird(CARDS, seed=3).part("NeckFeathers").primvars["thickness"].values
+    expected = drop_unreferenced_points(bird.part("NeckFeathers")).primvars["thickness"].values
     assert np.array_equal(np.asarray(pv.Get()), expected)
 
 
@@ -234,7 +246,7 @@ def test_preview_atlas_mixes_base_and_the_structural_colour_of_each_thickness_by
     base = _tile(np.asarray(Image.open(asset["feather_base"])), t)
     mask = _tile(np.asarray(Image.open(asset["feather_mask"])), t)
     tiles, d = _preview_tiles(np.asarray(Image.open(asset["feather_preview"])), _mesh_thickness_range(stage))
-    assert len(tiles) > 1  # the synthetic bird's thickness varies: one tile per thickness step
+    assert len(tiles) > 1  # the measured film's thickness varies: one tile per thickness step
     tip, plain = (mask == 255) & (base[..., 3] == 255), (mask == 0) & (base[..., 3] == 255)
     assert tip.any() and plain.any()
     for tile, dk in zip(tiles, d):
@@ -259,7 +271,7 @@ def test_each_card_reads_the_preview_tile_of_its_own_thickness(stage, asset):
     assert api.GetPrimvar("previewST").GetInterpolation() == "vertex" and pst.shape == st.shape
     from pipeline.usd.textures_io import preview_tile_thickness_nm
 
-    tiles = preview_tile_thickness_nm((d.min(), d.max()))  # the mesh's range, whatever the LUT's (synthetic here)
+    tiles = preview_tile_thickness_nm((d.min(), d.max()))  # the mesh's range, not the LUT's (rounded out to nm)
     assert tuple(lut.thickness_range_nm) != (d.min(), d.max())
     cols = min(tiles.size, PREVIEW_COLUMNS)
     rows = -(-tiles.size // cols)
@@ -271,22 +283,24 @@ def test_each_card_reads_the_preview_tile_of_its_own_thickness(stage, asset):
 
 
 def test_rebuild_is_byte_identical(asset, tmp_path):
-    again = _build(tmp_path / "pigeon")
+    """The same configuration built again from nothing (a fresh cache) gives the same bytes in every file."""
+    again = _paths(real_build(tmp_path / "pigeon", tmp_path / "cache"))
     a, b = asset["dir"], again["dir"]
     names = sorted(os.path.relpath(os.path.join(d, f), a) for d, _, fs in os.walk(a) for f in fs)
     assert "pigeon.usdz" in names and "textures/thinfilm_lut.exr" in names
-    assert {"pigeon_geom.usdc", "pigeon_looks.usda", "pigeon_payload.usda"} <= set(names)
+    assert {"pigeon_geom.usdc", "pigeon_looks.usda", "pigeon_payload.usda", "pigeon.glb"} <= set(names)
     with open(os.path.join(a, "pigeon_geom.usdc"), "rb") as fh:
         assert fh.read(8) == b"PXR-USDC"  # the geometry is a crate file, and rebuilt byte for byte
     match, mismatch, errors = filecmp.cmpfiles(a, b, names, shallow=False)
     assert mismatch == [] and errors == [] and len(match) == len(names)
 
 
-def test_film_change_rewrites_the_looks_and_leaves_the_geometry_layer_bytes(asset, tmp_path):
+def test_film_change_rewrites_the_looks_and_leaves_the_geometry_layer_bytes(asset, build_root, tmp_path):
     """Layers split by what changes them: another film gives another looks layer over the same geometry."""
     from pxr import Sdf, Usd
 
-    other = _build(tmp_path / "pigeon", film=get_film("paper"))
+    other = _paths(real_build(tmp_path / "pigeon", build_root / "cache", 'film.model="paper"', "film.cauchy_a=1.5",
+                              "film.cauchy_b_nm2=0.0"))
     same = [n for n in ("pigeon_geom.usdc", "pigeon.usda", "pigeon_payload.usda")
             if filecmp.cmp(os.path.join(asset["dir"], n), os.path.join(other["dir"], n), shallow=False)]
     assert same == ["pigeon_geom.usdc", "pigeon.usda", "pigeon_payload.usda"]
@@ -324,52 +338,62 @@ def test_usdz_reopens_and_holds_every_texture(asset):
     assert len(set(resolved)) == 5
 
 
-def test_failed_build_keeps_previous_asset_and_leaves_no_temporaries(asset, tmp_path):
+def test_failed_build_keeps_previous_asset_and_leaves_no_temporaries(build_root, tmp_path, monkeypatch):
+    """A build that fails mid-way (here: the glTF export, which runs on the asset assembled in the staging folder
+    beside the output) publishes nothing: the asset already there is left as it was, and no staging folder is
+    left beside it."""
+    from pipeline.build import stages
+
     out = tmp_path / "pigeon"
-    first = _build(out)
-    before = open(first["payload"], "rb").read()
-    feather, _ = synthetic_textures()
-    with pytest.raises(ValueError, match="body_texture"):
-        _build(out, body_texture=np.zeros((4, 4, 3), np.float32))  # wrong dtype: fails mid-build
-    assert open(first["payload"], "rb").read() == before
-    assert sorted(os.listdir(tmp_path)) == ["pigeon"]
+    first = _paths(real_build(out, build_root / "cache"))
+    before = {n: open(first[n], "rb").read() for n in ("payload", "looks", "lut")}
+
+    def fails(ctx):
+        assert ctx.asset_dir.name.startswith(".pigeon.") and ctx.asset_dir.parent == tmp_path  # the staging
+        raise ValueError("gltf failed on purpose")
+
+    monkeypatch.setattr(stages, "run_gltf", fails)
+    with pytest.raises(ValueError, match="on purpose"):
+        real_build(out, build_root / "cache", "film.cauchy_a=1.6")  # a new film: layers and glb are rewritten
+    assert {n: open(first[n], "rb").read() for n in before} == before
+    assert sorted(p for p in os.listdir(tmp_path) if not p.endswith(".rockdove.lock")) == ["pigeon"]
     umask = os.umask(0)
     os.umask(umask)
     assert os.stat(out).st_mode & 0o777 == 0o777 & ~umask  # not mkdtemp's 0700
 
 
-def test_bad_inputs_raise_value_errors_naming_them(tmp_path):
+def test_bad_inputs_raise_value_errors_naming_them(bird, tmp_path):
+    from pipeline.errors import UsageError
     from pipeline.geometry import Bird
+    from pipeline.usd.stage import write_layers
 
-    bird = synthetic_bird(3)
-    with pytest.raises(ValueError, match="preset"):
-        _build(tmp_path / "x", preset="pigeon")
+    with pytest.raises(UsageError, match="pigeon"):
+        real_build(tmp_path / "x", tmp_path / "cache", preset="pigeon")
     no_feathers = Bird(tuple(p for p in bird.parts if p.material != "feather"))
     with pytest.raises(ValueError, match="feather"):
-        _build(tmp_path / "x", bird=no_feathers)
+        write_layers(str(tmp_path / "y"), no_feathers, get_film("keratin"), None, version="0", shading="physical")
     assert not (tmp_path / "x").exists()
 
 
-@pytest.mark.slow
-def test_assemble_with_the_real_stages_gives_a_clean_asset(tmp_path):
-    """The default chain (build_bird, lut.bake, textures) at a small size: the paper preset's single film
-    thickness gives a one-texel-high LUT whose domain is exactly 650 nm, and the asset validates clean."""
+def test_paper_preset_bakes_a_one_texel_high_lut_over_exactly_650_nm_and_validates(paper_asset):
+    """The paper preset's single film thickness gives a one-texel-high LUT whose domain is exactly 650 nm, and
+    the asset validates clean."""
     from pipeline.lut.exr import read_exr
     from pipeline.usd.validate import validate_asset
 
-    written = assemble(tmp_path / "pigeon", preset="paper", card_count=40, lut_angles=16, usdz=False)
-    lut = read_exr(written["lut"])
-    assert lut.n_thickness == 1 and lut.thickness_range_nm == (650.0, 650.0) and lut.n_angle == 16
+    lut = read_exr(_paths(paper_asset)["lut"])
+    angles = int(dict(s.split("=") for s in SMALL_BUILD)["lut.angles"])
+    assert lut.n_thickness == 1 and lut.thickness_range_nm == (650.0, 650.0) and lut.n_angle == angles
     assert lut.metadata["film:name"] == "paper"  # the baker's provenance, which validation compares with USD
-    report = validate_asset(written["dir"])
+    report = validate_asset(str(paper_asset))
     assert report.clean, report.format()
-    assert "usdz" not in written and not os.path.exists(os.path.join(written["dir"], "pigeon.usdz"))
 
 
 # ------------------------------------------------------------------------- shading.variant: physical / baked only
 @pytest.fixture(scope="module")
-def physical(tmp_path_factory):
-    return _build(tmp_path_factory.mktemp("physical") / "pigeon", shading="physical", usdz=True)
+def physical(physical_asset):
+    """The small physical-only build (measured preset: keratin, thickness varies): its files by role."""
+    return _paths(physical_asset)
 
 
 def test_physical_only_asset_has_no_lut_and_only_the_physical_variant(physical):
@@ -407,14 +431,14 @@ def test_physical_only_preview_atlas_holds_the_exact_colours(physical):
     import colour
     from PIL import Image
 
-    from pipeline.assemble import thickness_domain_nm
+    from pipeline.usd.stage import open_asset
     from pipeline.lut.reference import reference_colour
     from pipeline.usd.textures_io import PREVIEW_COS_THETA, PREVIEW_TILE_TEXELS
 
     mask = _tile(np.asarray(Image.open(physical["feather_mask"])), PREVIEW_TILE_TEXELS)
     alpha = _tile(np.asarray(Image.open(physical["feather_base"])), PREVIEW_TILE_TEXELS)[..., 3]
     tiles, d = _preview_tiles(np.asarray(Image.open(physical["feather_preview"])),
-                              thickness_domain_nm(synthetic_bird(CARDS, seed=3)))
+                              _mesh_thickness_range(open_asset(physical["interface"])))
     for k in (0, len(d) // 2, len(d) - 1):
         exact = reference_colour(PREVIEW_COS_THETA, d[k], get_film("keratin"), colour_space="lin_rec709")
         structural = colour.cctf_encoding(np.clip(exact, 0, 1), function="sRGB")
@@ -422,13 +446,15 @@ def test_physical_only_preview_atlas_holds_the_exact_colours(physical):
         assert tip.any() and np.abs(tiles[k][tip][:, :3] - np.round(structural * 255)).max() <= 1
 
 
-def test_baked_only_asset_has_only_the_baked_variant(tmp_path):
+def test_baked_only_asset_has_only_the_baked_variant(build_root, tmp_path):
     from pxr import Usd, UsdShade
 
     from pipeline.usd.stage import open_asset
     from pipeline.usd.validate import validate_asset
 
-    a = _build(tmp_path / "pigeon", shading="baked", usdz=False)
+    a = _paths(real_build(tmp_path / "pigeon", build_root / "cache", 'shading.variant="baked"', "usd.usdz=false",
+                          "gltf.glb=false"))
+    assert "usdz" not in a  # usd.usdz = false writes none
     stage = open_asset(a["interface"])
     vset = stage.GetPrimAtPath("/Pigeon").GetVariantSet("shading")
     assert vset.GetVariantNames() == ["baked"] and vset.GetVariantSelection() == "baked"
@@ -440,18 +466,18 @@ def test_baked_only_asset_has_only_the_baked_variant(tmp_path):
     assert report.clean and report.variants == ["shading=baked"], report.format()
 
 
-def test_lutless_layers_refuse_a_baked_variant(tmp_path):
+def test_lutless_layers_refuse_a_baked_variant(small_asset, bird, tmp_path):
     from pipeline.usd.stage import write_layers
 
     with pytest.raises(ValueError, match="shading='both' needs a LUT"):
-        write_layers(str(tmp_path), synthetic_bird(CARDS, seed=3), get_film("keratin"), None, version="0",
+        write_layers(str(tmp_path), bird, get_film("keratin"), None, version="0",
                      shading="both")
     with pytest.raises(ValueError, match="shading='gold'"):
-        write_layers(str(tmp_path), synthetic_bird(CARDS, seed=3), get_film("keratin"), None, version="0",
+        write_layers(str(tmp_path), bird, get_film("keratin"), None, version="0",
                      shading="gold")
     from pipeline.usd.textures_io import write_film_textures
 
-    feather, body = synthetic_textures()
+    feather, body = built_value(small_asset, "texture_images")
     with pytest.raises(ValueError, match="lut=None needs the film"):
         write_film_textures(str(tmp_path), None, feather, thickness_range_nm=(500.0, 600.0))
     assert not (tmp_path / "textures").exists()  # nothing written

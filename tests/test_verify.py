@@ -1,4 +1,4 @@
-"""End-to-end tests of ``rockdove verify`` on a small synthetic asset, and of the boundary measure on rendered
+"""End-to-end tests of ``rockdove verify`` on the session's small real builds, and of the boundary measure on rendered
 scenes with uniform and graded film thickness."""
 
 import json
@@ -17,7 +17,7 @@ from pipeline.render.scene import RenderScene, ScenePart, ThinFilmParams
 from pipeline.render.views import light_sweep_views
 from pipeline.usd.stage import LOOKS_LAYER
 
-from conftest import OUTSIDE
+from conftest import OUTSIDE, copy_asset, real_build
 
 PAPER_FILM = dict(model="paper", cauchy_a=1.5, cauchy_b_nm2=0.0, incident_index=1.0, substrate_index=1.0,
                   thickness_primvar="thickness", thickness_units="nm", lut_file="unused.exr",
@@ -31,20 +31,28 @@ def _rockdove(*args, timeout=300):
 
 
 @pytest.fixture(scope="module")
-def assets(tmp_path_factory):
-    """A small asset built by the real assembly (paper preset), and a synthetic one in the same layout whose
-    LUT is a gradient, not the film's colour."""
-    from pipeline.assemble import assemble
-    from pipeline.render.synthetic import gradient_lut, write_synthetic_asset
+def assets(paper_asset, small_asset, tmp_path_factory):
+    """The small real paper-preset build, and a copy of the measured one whose LUT (same header: film, range,
+    warp) holds a gradient, not the film's colour: R = the angle node coordinate, G = the thickness one."""
+    import dataclasses
+
+    from pipeline.lut.exr import read_exr, write_exr
 
     base = tmp_path_factory.mktemp("verify")
-    good = assemble(base / "paper", preset="paper", card_count=200, usdz=False)["interface"]
-    wrong = write_synthetic_asset(base / "wrong_lut", lut=gradient_lut())
-    return {"good": good, "wrong": os.path.dirname(wrong), "base": base}
+    wrong = copy_asset(small_asset, base / "wrong_lut")
+    exr = wrong / "textures" / "thinfilm_lut.exr"
+    lut = read_exr(exr)
+    rgb = np.zeros_like(lut.rgb)
+    rgb[..., 0] = np.linspace(0.0, 1.0, lut.n_angle)[None, :]
+    rgb[..., 1] = np.linspace(0.0, 1.0, lut.n_thickness)[:, None]
+    rgb[..., 2] = 0.25
+    os.chmod(exr, 0o644)
+    write_exr(dataclasses.replace(lut, rgb=rgb), exr)
+    return {"good": str(paper_asset / "pigeon.usda"), "wrong": str(wrong), "base": base}
 
 
 @pytest.mark.gl
-def test_verify_passes_on_a_small_assembled_asset_and_writes_the_report(assets):
+def test_verify_passes_on_a_small_built_asset_and_writes_the_report(assets):
     out = assets["base"] / "report_good"
     p = _rockdove("verify", os.path.dirname(assets["good"]), "--out", str(out), "--width", "96", "--height", "96",
                   "--json", "--hosts", "glsl")  # the other hosts: tests/test_hosts.py
@@ -70,7 +78,7 @@ def test_verify_passes_on_a_small_assembled_asset_and_writes_the_report(assets):
 @pytest.mark.gl
 def test_verify_fails_with_exit_1_when_the_lut_is_not_the_film(assets):
     out = assets["base"] / "report_wrong"
-    p = _rockdove("verify", assets["wrong"], "--out", str(out), "--width", "48", "--height", "48")
+    p = _rockdove("verify", assets["wrong"], "--out", str(out), "--width", "48", "--height", "48", "--hosts", "glsl")
     assert p.returncode == 1, (p.stdout, p.stderr)
     assert "dE2000" in p.stderr and "failed" in p.stderr
     report = json.loads((out / "report.json").read_text())
@@ -81,14 +89,10 @@ ABSORBING_K = 0.05  # film index 1.5 + 0.05 i: the wave through a 650 nm film lo
 
 
 @pytest.fixture(scope="module")
-def absorbing(tmp_path_factory):
-    """A small paper-preset asset whose film absorbs (k = 0.05): LUT, schema and verification all carry k."""
-    from pipeline.assemble import assemble
-    from pipeline.films import FilmModel
-
-    film = FilmModel("paper", cauchy_a=1.5, k=ABSORBING_K)
-    base = tmp_path_factory.mktemp("absorbing")
-    return assemble(base / "pigeon", preset="paper", card_count=200, usdz=False, film=film)["interface"]
+def absorbing(build_root):
+    """A small paper-preset build whose film absorbs (k = 0.05): LUT, schema and verification all carry k."""
+    return str(real_build(build_root / "absorbing" / "pigeon", build_root / "cache", f"film.k={ABSORBING_K}",
+                          preset="paper") / "pigeon.usda")
 
 
 @pytest.mark.gl
@@ -227,18 +231,10 @@ def test_views_checked_one_at_a_time_combine_into_the_same_report(assets, tmp_pa
 
 
 @pytest.mark.gl
-def test_physical_only_asset_is_verified_with_a_verification_only_lut_and_says_so(tmp_path):
-    from pipeline.assemble import assemble
-    from pipeline.films import get_film
-    from pipeline.usd.synthetic import synthetic_bird, synthetic_textures
-
-    feather, body = synthetic_textures()
-    asset = assemble(tmp_path / "physical", bird=synthetic_bird(60, seed=1, thickness_range_nm=(650.0, 650.0)),
-                     feather_textures=feather, body_texture=body, film=get_film("paper"), usdz=False,
-                     shading="physical")
-    assert "lut" not in asset
+def test_physical_only_asset_is_verified_with_a_verification_only_lut_and_says_so(physical_asset, tmp_path):
+    asset = str(physical_asset)
     out = tmp_path / "report"
-    p = _rockdove("verify", asset["dir"], "--out", str(out), "--width", "64", "--height", "64", "--quiet",
+    p = _rockdove("verify", asset, "--out", str(out), "--width", "64", "--height", "64", "--quiet",
                   "--hosts", "glsl")
     assert p.returncode == 0, (p.stdout, p.stderr)
     assert "note: physical-only asset (no LUT)" in p.stdout and "verification-only LUT" in p.stdout
@@ -246,7 +242,8 @@ def test_physical_only_asset_is_verified_with_a_verification_only_lut_and_says_s
     assert report["passed"] and len(report["views"]) == 6 and all(m["n_pixels"] > 0 for m in report["views"][2:])
     assert len(report["notes"]) == 2 and "verification-only LUT" in report["notes"][0]
     assert report["notes"][1].startswith("boundary at sweep_090:")  # the closing note on the pattern
-    assert report["lut"]["verification_only"] and report["lut"]["shape"] == [1, 256]  # paper: uniform film
+    # measured film: the thickness varies, so the verification-only LUT has a thickness axis
+    assert report["lut"]["verification_only"] and report["lut"]["shape"][0] > 1 and report["lut"]["shape"][1] == 256
     assert report["variants"] == {"shading": "physical"} and report["film"]["lut_file"] is None
-    assert not os.path.exists(os.path.join(asset["dir"], "textures", "thinfilm_lut.exr"))  # nothing added
+    assert not os.path.exists(os.path.join(asset, "textures", "thinfilm_lut.exr"))  # nothing added
     assert "verification-only LUT" in (out / "report.html").read_text()

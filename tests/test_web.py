@@ -9,20 +9,12 @@ import pytest
 
 
 @pytest.fixture(scope="session")
-def web_asset(tmp_path_factory):
-    """A synthetic asset (ring of cards, 480-700 nm) with a real keratin LUT, its GLB and its viewer page."""
-    from pipeline.films import get_film
-    from pipeline.lut.bake import bake
-    from pipeline.render.synthetic import THICKNESS_RANGE_NM, write_synthetic_asset
-    from pipeline.web.gltf import export_glb
+def web_asset(small_asset, tmp_path_factory):
+    """The small real build (keratin film, 480-700 nm), its published pigeon.glb and a viewer page for it."""
     from pipeline.web.viewer import write_viewer
 
-    root = tmp_path_factory.mktemp("web")
-    lut = bake(angles=64, thicknesses=16, thickness_range=THICKNESS_RANGE_NM, film=get_film("keratin"))
-    write_synthetic_asset(root / "asset", lut=lut, n_cards=12)
-    export_glb(root / "asset", root / "asset" / "pigeon.glb")
-    page = write_viewer(root / "asset", root / "asset" / "pigeon.glb", root / "verify")
-    return root / "asset", page
+    page = write_viewer(small_asset, small_asset / "pigeon.glb", tmp_path_factory.mktemp("web") / "verify")
+    return small_asset, page
 
 
 def _hue_counts(png: bytes):

@@ -12,7 +12,8 @@ Rows (medians of ``--repeats`` runs, ``time.perf_counter``, all in one process):
 - ``total``: load + gl cold + reference, against the goal.
 
 The asset: ``--asset`` (folder or root layer); by default ``build/pigeon`` when it has been built, else the
-synthetic test asset (:mod:`pipeline.render.synthetic`) in a temporary folder; the output says which.
+default asset built (``rockdove build --no-verify``, the real build graph) into a temporary folder; the output
+says which.
 """
 
 from __future__ import annotations
@@ -21,6 +22,8 @@ import argparse
 import json
 import os
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 
@@ -32,7 +35,7 @@ DEFAULT_ASSET = os.path.join("build", "pigeon")
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--asset", metavar="PATH", help=f"asset folder or root layer (default {DEFAULT_ASSET} "
-                                                        "if built, else a synthetic asset)")
+                                                        "if built, else the default asset built into a temporary folder)")
     parser.add_argument("--width", type=int, default=512, help="image width (default 512)")
     parser.add_argument("--height", type=int, default=512, help="image height (default 512)")
     parser.add_argument("--repeats", type=int, default=3, help="repeats per GL row (median; default 3)")
@@ -66,10 +69,14 @@ def run(args: argparse.Namespace) -> int:
     elif os.path.exists(os.path.join(DEFAULT_ASSET, "pigeon.usda")):
         asset, label = DEFAULT_ASSET, DEFAULT_ASSET
     else:
-        from ..render.synthetic import write_synthetic_asset
-
         tmp = tempfile.TemporaryDirectory(prefix="rockdove-bench-render-")
-        asset, label = write_synthetic_asset(tmp.name), "synthetic asset (build/pigeon not built)"
+        asset = os.path.join(tmp.name, "pigeon")
+        cmd = [sys.executable, "-m", "pipeline.cli", "build", "--out", asset, "--no-verify", "--quiet"]
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        if proc.returncode != 0:
+            tmp.cleanup()
+            raise RuntimeError(f"building the default asset for the benchmark failed: {proc.stderr.strip()}")
+        label = "default asset built into a temporary folder (build/pigeon not built)"
     rows = {}
     try:
         t_load, scene = _median_time(lambda: load_scene(asset), args.repeats)

@@ -170,8 +170,10 @@ def build(args: argparse.Namespace) -> dict:
                                    "stages": {n: r.key for n, r in graph.records.items()}})
             graph.run(asset_dir=staging, needs_asset=True)
             graph.assemble(staging, needs_asset=True)
-            verdicts = {n: graph.value(n) for n, s in graph.stages.items() if s.needs_asset}
-            failed = [n for n, v in verdicts.items() if isinstance(v, dict) and v.get("passed") is False]
+            # the verdicts of the verification stages: the values with a "passed" key (not the glb or the rays)
+            values = {n: graph.value(n) for n, s in graph.stages.items() if s.needs_asset}
+            verdicts = {n: v for n, v in values.items() if isinstance(v, dict) and "passed" in v}
+            failed = [n for n, v in verdicts.items() if v["passed"] is False]
             if failed:
                 raise BuildFailed(
                     f"stage {failed[0]!r} failed ({verdicts[failed[0]].get('reason', 'see its report')}); "

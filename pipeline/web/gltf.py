@@ -90,8 +90,9 @@ def thickness_ramp_png(texels: int = THICKNESS_RAMP_TEXELS) -> bytes:
 
 
 def film_ior(film, wavelength_nm: float = IOR_WAVELENGTH_NM) -> float:
-    """The film's Cauchy index at ``wavelength_nm`` (``film``: :class:`pipeline.render.scene.ThinFilmParams`)."""
-    return float(film.film_index(wavelength_nm))
+    """The film's Cauchy index at ``wavelength_nm`` (``film``: :class:`pipeline.render.scene.ThinFilmParams`): its
+    real part: ``KHR_materials_iridescence`` has no extinction, so an absorbing film (k > 0) is exported without it."""
+    return float(np.real(film.film_index(wavelength_nm)))
 
 
 class _Blob:
