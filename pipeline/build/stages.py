@@ -412,12 +412,12 @@ def run_verify(ctx: Context) -> dict:
 def combine_verify(ctx: Context, views: dict) -> dict:
     """Validate the assembled asset and join the per-view results (fresh or cached) into the report in the
     stage's folder (published as ``verify/``); the value is the verdict."""
-    from ..render.scene import resolve_asset_path
+    from ..usd.layout import resolve_root_layer
     from ..render.verify import report_from_views
     from .publish import published_path
 
     size = _verify_size(ctx)
-    published = published_path(resolve_asset_path(ctx.asset_dir))
+    published = published_path(resolve_root_layer(ctx.asset_dir))
     skipped = []
     if "gltf" in ctx.inputs:  # the interactive view of the report (verify/viewer.html)
         from ..errors import ResourceMissing

@@ -71,11 +71,11 @@ def check_dependencies(asset: str, allow_external: bool) -> None:
     """
     from ..errors import UsageError, VerificationFailed
     from ..usd.dependencies import scan_dependencies
-    from ..usd.validate import resolve_root_layer
+    from ..usd.layout import resolve_root_layer
 
     try:
         root = resolve_root_layer(asset)
-    except (FileNotFoundError, ValueError) as exc:
+    except ValueError as exc:
         raise UsageError(str(exc)) from None
     deps = scan_dependencies(root, allow_external)
     if deps.errors:

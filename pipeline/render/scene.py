@@ -230,22 +230,6 @@ class RenderScene:
 
 
 # -- helpers ----------------------------------------------------------------------------------------------
-def resolve_asset_path(asset) -> str:
-    """``asset``: a path to the asset folder (containing ``pigeon.usda``) or to a root layer. Returns the layer."""
-    path = os.path.abspath(os.fspath(asset))
-    if os.path.isdir(path):
-        cand = [os.path.join(path, n) for n in ("pigeon.usda", "pigeon.usdc", "pigeon.usd", "pigeon.usdz")]
-        found = [c for c in cand if os.path.isfile(c)]
-        if not found:
-            raise ValueError(f"asset={asset!r} is a folder without pigeon.usda/.usdc/.usd/.usdz")
-        return found[0]
-    if not os.path.isfile(path):
-        raise ValueError(f"asset={asset!r} does not exist; give the asset folder or its root layer")
-    if not path.endswith((".usda", ".usdc", ".usd", ".usdz")):
-        raise ValueError(f"asset={asset!r} is not a USD layer (.usda/.usdc/.usd/.usdz)")
-    return path
-
-
 def fan_triangulate(face_vertex_counts, face_vertex_indices, left_handed: bool = False) -> np.ndarray:
     """Fan-triangulate polygons: face ``(v0, v1, ..., vk)`` -> ``(v0, vi, vi+1)``, i = 1..k-1.
 
@@ -643,7 +627,9 @@ def load_scene(path, variants: dict | None = None) -> RenderScene:
     """
     from pxr import Sdf, Usd, UsdGeom
 
-    layer_path = resolve_asset_path(path)
+    from ..usd.layout import resolve_root_layer
+
+    layer_path = resolve_root_layer(path)
     register_schema()
     try:
         stage = Usd.Stage.Open(layer_path, Usd.Stage.LoadAll)

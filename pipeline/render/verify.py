@@ -47,7 +47,7 @@ import time
 
 import numpy as np
 
-from ..build.publish import MARKER
+from ..usd.layout import MARKER
 from . import compare as cmp
 from .boundary import boundary_note, boundary_shape
 
@@ -252,9 +252,10 @@ def verification_scene(asset):
     the context, and a note saying so (:data:`PHYSICAL_ONLY_NOTE`); ``scene.root_layer`` stays the asset's.
     """
     from ..lut.exr import write_exr
-    from .scene import load_scene, resolve_asset_path
+    from ..usd.layout import resolve_root_layer
+    from .scene import load_scene
 
-    layer = resolve_asset_path(asset)
+    layer = resolve_root_layer(asset)
     info = _lutless_film(layer)
     if info is None:
         yield layer, load_scene(layer), None, []
