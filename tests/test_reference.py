@@ -1,10 +1,11 @@
-"""Tests of the CPU reference render (pipeline.render.reference) on tiny hand-made scenes."""
+"""Tests of the CPU reference render (pipeline.verify.reference_image) on tiny hand-made scenes."""
 
 import numpy as np
 import pytest
 from PIL import Image
 
-from pipeline.render import reference
+from pipeline.verify import rays
+from pipeline.verify import reference_image as reference
 from pipeline.render.scene import RenderScene, ScenePart, ThinFilmParams
 from pipeline.render.views import View, look_at
 
@@ -54,7 +55,7 @@ def _red(c, d):
 
 def test_camera_rays_follow_the_opengl_pinhole_convention():
     v = _view(size=4)
-    origin, dirs, fwd = reference.camera_rays(v)
+    origin, dirs, fwd = rays.camera_rays(v)
     np.testing.assert_allclose(origin, [0, 0, 0.3])
     np.testing.assert_allclose(fwd, [0, 0, -1], atol=1e-12)
     assert dirs.shape == (16, 3)
@@ -95,10 +96,10 @@ def test_cached_hits_give_the_same_render_and_follow_the_geometry_not_the_film(t
 
     scene = _scene(tmp_path)
     views = [_view((0.0, 0.0, 1.0)), _view((0.0, 0.6, 0.8)), _view(eye=(0.02, 0.0, 0.3))]
-    hits = reference.cast_hits(scene, views)
+    hits = rays.cast_hits(scene, views)
     assert len(hits) == 2  # the first two views share a camera
-    stored = {k: reference.Hits.from_arrays(h.to_arrays(), h.stats) for k, h in hits.items()}
-    assert stored.keys() == {reference.camera_key(v) for v in views}
+    stored = {k: rays.Hits.from_arrays(h.to_arrays(), h.stats) for k, h in hits.items()}
+    assert stored.keys() == {rays.camera_key(v) for v in views}
     fresh = reference.render_reference(scene, views, structural_fn=_red)
     cached = reference.render_reference(scene, views, structural_fn=_red, hits=stored)
     for a, b in zip(fresh, cached):
@@ -106,12 +107,12 @@ def test_cached_hits_give_the_same_render_and_follow_the_geometry_not_the_film(t
             np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
         assert a.stats == b.stats
     # hits handed in are used as they are (not re-cast): emptied ones render the background
-    empty = {k: reference.Hits(np.full_like(h.face, -1), h.point, h.bary, h.stats) for k, h in hits.items()}
+    empty = {k: rays.Hits(np.full_like(h.face, -1), h.point, h.bary, h.stats) for k, h in hits.items()}
     assert not reference.render_reference(scene, views[:1], structural_fn=_red, hits=empty)[0].coverage.any()
-    digest = reference.ray_digest(scene)
-    assert reference.ray_digest(dataclasses.replace(scene, film=_film(1.6, 5000.0))) == digest
+    digest = rays.ray_digest(scene)
+    assert rays.ray_digest(dataclasses.replace(scene, film=_film(1.6, 5000.0))) == digest
     moved = dataclasses.replace(scene.parts[1], positions_m=scene.parts[1].positions_m + np.float32(0.001))
-    assert reference.ray_digest(dataclasses.replace(scene, parts=(scene.parts[0], moved))) != digest
+    assert rays.ray_digest(dataclasses.replace(scene, parts=(scene.parts[0], moved))) != digest
 
 
 def test_lambert_and_two_sided_cards(tmp_path):
@@ -151,7 +152,7 @@ def test_pixels_equal_the_exact_spectral_colour_times_n_dot_l(tmp_path):
     res = reference.render_reference(scene, [v])[0]
     feather = res.part_id == 1
     assert feather.sum() > 20
-    origin, dirs, _ = reference.camera_rays(v)
+    origin, dirs, _ = rays.camera_rays(v)
     dirs = dirs.reshape(12, 12, 3)[feather]
     hit = origin + dirs * (-origin[2] / dirs[:, 2:3])  # intersection with the plane z = 0
     t = (hit[:, 1] + 0.05) / 0.1
@@ -242,7 +243,7 @@ def test_view_angle_lobe_is_mask_times_the_film_at_n_dot_v_whatever_the_light(tm
     feather = va[0].part_id == 1
     np.testing.assert_array_equal(va[0].part_id, ha[0].part_id)
     np.testing.assert_array_equal(va[0].rgb, va[1].rgb)  # no light
-    origin, dirs, _ = reference.camera_rays(views[0])
+    origin, dirs, _ = rays.camera_rays(views[0])
     n_dot_v = np.abs(dirs.reshape(16, 16, 3)[..., 2])[feather]  # N = +Z
     m = 128 / 255
     np.testing.assert_allclose(va[0].cos_theta[feather], n_dot_v, rtol=1e-5)

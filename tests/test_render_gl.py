@@ -52,8 +52,8 @@ def _front_view(distance_m=0.12, yfov_deg=30.0, light=LIGHT):
 
 def _pixel_rays(view):
     """Unit world directions from the eye through each pixel centre, (H, W, 3); row 0 at the top (the CPU
-    reference's pinhole rays, pipeline.render.reference.camera_rays)."""
-    from pipeline.render.reference import camera_rays
+    reference's pinhole rays, pipeline.verify.rays.camera_rays)."""
+    from pipeline.verify.rays import camera_rays
 
     return camera_rays(view)[1].reshape(view.height, view.width, 3)
 
@@ -262,9 +262,9 @@ def test_render_cli_writes_pngs_and_exit_codes(coarse, tmp_path, capsys):
 
 
 def test_gl_agrees_with_the_cpu_ray_cast_given_the_same_lut(coarse):
-    """Same scene, views and LUT: pyrender and the CPU reference (pipeline.render.reference, trimesh rays) must
+    """Same scene, views and LUT: pyrender and the CPU reference (pipeline.verify.reference_image, trimesh rays) must
     agree pixel for pixel; catches camera, row-order, texture-origin or normal conventions drifting apart."""
-    from pipeline.render.reference import render_reference
+    from pipeline.verify.reference_image import render_reference
 
     scene, lut, results, _ = coarse
     gl = [results[k] for k in ("front", "turntable_030", "sweep_060", "sweep_120")]

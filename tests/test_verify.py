@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from pipeline.render import boundary
-from pipeline.render import compare as cmp
-from pipeline.render.reference import render_reference
+from pipeline.verify import boundary
+from pipeline.verify import compare as cmp
+from pipeline.verify.reference_image import render_reference
 from pipeline.render.scene import RenderScene, ScenePart, ThinFilmParams
 from pipeline.render.views import light_sweep_views
 from pipeline.usd.stage import LOOKS_LAYER
@@ -136,7 +136,7 @@ def test_verify_bad_usage_exits_2(tmp_path):
 
 @pytest.mark.gl
 def test_a_missing_validator_is_a_failure_not_a_pass(assets, monkeypatch, tmp_path):
-    from pipeline.render import verify
+    from pipeline.verify import run as verify
 
     monkeypatch.setitem(sys.modules, "pipeline.usd.validate", None)  # import fails as if absent
     report = verify.verify_asset(assets["wrong"], out_dir=tmp_path, width=32, height=32)
@@ -192,7 +192,7 @@ def test_boundary_is_straight_for_uniform_thickness_and_bends_for_a_gradient(tmp
 def test_views_checked_one_at_a_time_combine_into_the_same_report(assets, tmp_path):
     """Per-view results (as the build caches them) give the same metrics as one call over the same views; a
     subset without a light-sweep view says the hue check did not run rather than passing it silently."""
-    from pipeline.render import verify
+    from pipeline.verify import run as verify
 
     layer = assets["good"]
     plan = verify.plan_views(layer, 48, 48)

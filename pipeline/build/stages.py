@@ -27,13 +27,13 @@ stage                   configuration                                 inputs
                                                                       (pipeline.usd.usdz)
 ``verify_rays``         as ``verify``                                 every published stage: the assembled asset.
                                                                       One item per camera: the reference's ray
-                                                                      casts (pipeline.render.reference.cast_hits),
+                                                                      casts (pipeline.verify.rays.cast_hits),
                                                                       keyed by the camera and ray_digest (geometry,
                                                                       feather alpha; not film or LUT)
 ``gltf``                -- (present when ``gltf.glb``)                usd_geometry, usd_layers, textures: reads the
                                                                       assembled asset (pipeline.web.gltf.export_glb)
 ``verify``              ``verify.width``, ``verify.height``,          every published stage: the assembled asset.
-                        ``verify.views``                              One item per view (pipeline.render.verify),
+                        ``verify.views``                              One item per view (pipeline.verify.run),
                                                                       keyed by its plan entry: the view's camera,
                                                                       light and size and the digest of the scene
                                                                       content it renders, plus the verify code
@@ -334,20 +334,20 @@ def _verify_size(ctx: Context) -> dict:
 
 
 def plan_verify(ctx: Context) -> dict:
-    """The verification views and what each reads (pipeline.render.verify.plan_views): its camera, light and
+    """The verification views and what each reads (pipeline.verify.run.plan_views): its camera, light and
     size, and the digest of the scene content it renders (meshes, textures, film, LUT; not file bytes that do
     not change a render, e.g. the usdz or assetInfo). A view whose entry is unchanged is not re-rendered."""
-    from ..render.verify import plan_views
+    from ..verify.run import plan_views
 
     return plan_views(str(ctx.asset_dir), **_verify_size(ctx))
 
 
 def plan_rays(ctx: Context) -> dict:
-    """One item per distinct camera of the verification views: the camera (pipeline.render.reference.camera_key)
+    """One item per distinct camera of the verification views: the camera (pipeline.verify.rays.camera_key)
     and the digest of the geometry the rays hit (``ray_digest``: meshes, feather st and alpha), not the film or
     the LUT, so the reference's ray casts survive a film change."""
-    from ..render.reference import camera_key, ray_digest
-    from ..render.verify import verification_scene, verification_views
+    from ..verify.rays import camera_key, ray_digest
+    from ..verify.run import verification_scene, verification_views
 
     size = _verify_size(ctx)
     with verification_scene(str(ctx.asset_dir)) as (_, scene, _, _):
@@ -358,8 +358,8 @@ def plan_rays(ctx: Context) -> dict:
 
 def run_rays(ctx: Context) -> dict:
     """Cast the reference's primary rays of the cameras to redo (``ctx.items``), in one call (one BVH)."""
-    from ..render.reference import cast_hits, camera_key
-    from ..render.verify import verification_scene, verification_views
+    from ..verify.rays import cast_hits, camera_key
+    from ..verify.run import verification_scene, verification_views
 
     size = _verify_size(ctx)
     wanted = {cfg["camera"]: name for name, cfg in ctx.items.items()}
@@ -391,8 +391,8 @@ def combine_rays(ctx: Context, items: dict) -> dict:
 
 
 def load_hits(value: dict) -> dict:
-    """The :class:`pipeline.render.reference.Hits` of a ``verify_rays`` value, by camera key."""
-    from ..render.reference import Hits
+    """The :class:`pipeline.verify.rays.Hits` of a ``verify_rays`` value, by camera key."""
+    from ..verify.rays import Hits
 
     return {key: Hits.from_arrays(load_npz(Path(d) / "hits.npz"),
                                   json.loads((Path(d) / "hits.json").read_text())["stats"])
@@ -402,8 +402,8 @@ def load_hits(value: dict) -> dict:
 def run_verify(ctx: Context) -> dict:
     """Render and check the views to redo (``ctx.items``), in one call (one GL context); the reference reuses
     the ray casts of ``verify_rays``. Each view's images go into ``ctx.workdir / <view>``
-    (pipeline.render.verify.verify_views)."""
-    from ..render.verify import verify_views
+    (pipeline.verify.run.verify_views)."""
+    from ..verify.run import verify_views
 
     return verify_views(str(ctx.asset_dir), views=list(ctx.items), out_dir=str(ctx.workdir), subfolders=True,
                         hits=load_hits(ctx.inputs["verify_rays"]), **_verify_size(ctx))
@@ -413,7 +413,7 @@ def combine_verify(ctx: Context, views: dict) -> dict:
     """Validate the assembled asset and join the per-view results (fresh or cached) into the report in the
     stage's folder (published as ``verify/``); the value is the verdict."""
     from ..usd.layout import resolve_root_layer
-    from ..render.verify import report_from_views
+    from ..verify.run import report_from_views
     from .publish import published_path
 
     size = _verify_size(ctx)
@@ -497,7 +497,7 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
     if config["gltf"]["glb"]:
         # reads the written asset (so it runs once it is assembled); keyed by the files it translates
         stages.append(Stage("gltf", run_gltf, deps=("usd_geometry", "usd_layers", "textures"),
-                            modules=("pipeline.web.gltf", "pipeline.render.scene", "pipeline.render.verify"),
+                            modules=("pipeline.web.gltf", "pipeline.render.scene", "pipeline.verify.run"),
                             libraries=LIBS_USD + ("pygltflib", "pillow"), codec=FILES, needs_asset=True,
                             publish=""))
     if verify:

@@ -1,7 +1,7 @@
 """``rockdove verify ASSET [--out DIR] [--json] [--width W --height H] [--views N] [--view NAME ...] [--hosts LIST]``:
 validate an asset, render it with the GLSL shaders, with every host asked for (:mod:`pipeline.hosts`; default
 every host available here) and with the exact CPU reference, check and report
-(:func:`pipeline.render.verify.verify_asset`). An unavailable host is printed as SKIPPED with its reason; a
+(:func:`pipeline.verify.run.verify_asset`). An unavailable host is printed as SKIPPED with its reason; a
 host that fails is printed with its error and fails the verification.
 
 A physical-only asset (no LUT) is checked with a verification-only LUT baked in memory from the film it
@@ -84,7 +84,7 @@ def check_dependencies(asset: str, allow_external: bool) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..errors import VerificationFailed
-    from ..render.verify import summary, verify_asset
+    from ..verify.run import summary, verify_asset
 
     def progress(msg: str) -> None:
         if not args.quiet and not args.json:
@@ -96,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
                           views=args.names, n_views=args.views, hosts=hosts)
     short = summary(report)
     if args.json:
-        from ..render.report import strict_json
+        from ..verify.report import strict_json
 
         json.dump(strict_json(short), sys.stdout, indent=2, allow_nan=False)
         sys.stdout.write("\n")

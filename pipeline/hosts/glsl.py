@@ -3,7 +3,7 @@ EGL (:mod:`pipeline.render.gl`), compared with the paper's half-angle model.
 
 It draws the LUT the asset names. A LUT-less (physical-only) asset has nothing for these shaders to draw
 (:func:`cannot_draw`); ``rockdove verify`` checks such an asset with a verification-only LUT of its own
-(:func:`pipeline.render.verify.verification_scene`) and hands its GL renders to the host check directly.
+(:func:`pipeline.verify.run.verification_scene`) and hands its GL renders to the host check directly.
 """
 
 from __future__ import annotations

@@ -245,7 +245,7 @@ def export_glb(asset, out_path, *, version: str = "") -> dict:
     ValueError
         ``asset`` is not a USD asset, or has no rockdove thin-film data (one line, naming the asset).
     """
-    from ..render.verify import verification_scene
+    from ..verify.run import verification_scene
 
     # the verifier's reader: a physical-only asset (no LUT) is read through a wrapper that records a
     # verification-only LUT; only its thickness range (the mesh's, whole nm) reaches the GLB

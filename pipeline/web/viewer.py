@@ -110,7 +110,7 @@ def write_viewer(asset, glb_path, out_dir, asset_name: str | None = None) -> str
     ----------
     asset : path
         The written asset (folder or root layer): its scene and LUT (a physical-only asset: the
-        verification-only LUT, :func:`pipeline.render.verify.verification_scene`).
+        verification-only LUT, :func:`pipeline.verify.run.verification_scene`).
     glb_path : path
         Its ``pigeon.glb`` (:func:`pipeline.web.gltf.export_glb`).
     out_dir : path
@@ -118,7 +118,7 @@ def write_viewer(asset, glb_path, out_dir, asset_name: str | None = None) -> str
     asset_name : str, optional
         Shown on the page (default: the asset folder's name).
     """
-    from ..render.verify import verification_scene
+    from ..verify.run import verification_scene
 
     out = Path(out_dir)
     (out / "three").mkdir(parents=True, exist_ok=True)

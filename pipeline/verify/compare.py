@@ -458,7 +458,7 @@ def compare(gl_result, ref_result, scene, erode_px: int = 1) -> ViewMetrics:
     Parameters
     ----------
     gl_result : pipeline.render.gl.RenderResult
-    ref_result : pipeline.render.reference.ReferenceResult
+    ref_result : pipeline.verify.reference_image.ReferenceResult
     scene : pipeline.render.scene.RenderScene
         Gives the feather part ids (``index + 1`` of feather parts).
     """

@@ -67,7 +67,7 @@ def de_map_png(path, de_map, title: str) -> str:
     return os.fspath(path)
 
 
-#: What each column of a verification contact-sheet row shows (pipeline.render.verify: GL, reference, dE map).
+#: What each column of a verification contact-sheet row shows (pipeline.verify.run: GL, reference, dE map).
 SHEET_COLUMNS = ("GLSL", "reference", f"dE2000 0-{DE_MAP_MAX:g}")
 
 
@@ -75,7 +75,7 @@ def contact_sheet(path, rows, columns=SHEET_COLUMNS) -> str:
     """The verification contact sheet: one row per view, ``(label, [GL, reference, dE map])``, each tile titled
     by what its column shows (``columns``), the first also by the view's label
     (:func:`pipeline.render.images.contact_sheet`)."""
-    from .images import contact_sheet as tile_sheet
+    from ..render.images import contact_sheet as tile_sheet
 
     titled = []
     for label, imgs in rows:
@@ -132,7 +132,7 @@ def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 
 
 
 def hue_png(path, hue: dict, title: str) -> str:
-    """Bar chart of a :func:`pipeline.render.compare.hue_histogram`, bars coloured by their hue."""
+    """Bar chart of a :func:`pipeline.verify.compare.hue_histogram`, bars coloured by their hue."""
     from .._compat import import_colour
 
     colour = import_colour()
@@ -223,7 +223,7 @@ def write_html(path, report: dict, images: dict) -> str:
     Parameters
     ----------
     report : dict
-        As written to report.json (see :func:`pipeline.render.verify.verify_asset`).
+        As written to report.json (see :func:`pipeline.verify.run.verify_asset`).
     images : dict
         ``"views"``: ``{view: {"gl": file, "reference": file, "dE": file}}``; optional ``"hosts"``
         (``{host: {view: {"host", "reference", "dE": file}}}``), ``"contact_sheet"``,

@@ -8,11 +8,11 @@
    plus the sweep at the flip itself (:data:`BOUNDARY_SWEEP_ANGLE_DEG`), where the green/purple boundary
    crosses the neck;
 4. GL renders (:func:`pipeline.render.gl.render_views`) and the reference
-   (:func:`pipeline.render.reference.render_reference`), timed;
-5. per view :func:`pipeline.render.compare.compare` (dE2000 goals, NaN/Inf, black holes), the hue histogram
+   (:func:`pipeline.verify.reference_image.render_reference`), timed;
+5. per view :func:`pipeline.verify.compare.compare` (dE2000 goals, NaN/Inf, black holes), the hue histogram
    over the sweep views (both green and purple must appear), and the boundary straightness of every sweep view
    (reported: the paper preset keeps the boundary straight, the measured one bends it);
-6. the report (:mod:`pipeline.render.report`).
+6. the report (:mod:`pipeline.verify.report`).
 
 Pass: validation clean, every view within the dE goals with no NaN/Inf and no black holes, and both hues in
 the sweep.
@@ -130,7 +130,7 @@ def run_validation(layer_path: str) -> dict:
 def verification_views(scene, width: int, height: int, n_views: int = DEFAULT_VIEWS) -> list:
     """The default views (``n_views`` of them), the light sweep at :data:`BOUNDARY_SWEEP_ANGLE_DEG` (same still
     camera), and the hero 3/4 view at ``HERO_SCALE`` times the size (:func:`pipeline.render.views.hero_view`)."""
-    from .views import HERO_SCALE, default_views, hero_view, light_sweep_views
+    from ..render.views import HERO_SCALE, default_views, hero_view, light_sweep_views
 
     views = default_views(scene, width, height, n=n_views)
     sweep = [v for v in views if v.name.startswith("sweep_")]
@@ -253,7 +253,7 @@ def verification_scene(asset):
     """
     from ..lut.exr import write_exr
     from ..usd.layout import resolve_root_layer
-    from .scene import load_scene
+    from ..render.scene import load_scene
 
     layer = resolve_root_layer(asset)
     info = _lutless_film(layer)
@@ -341,17 +341,17 @@ def _render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hit
 
     ``refs``: the half-angle references of ``views`` when already rendered (:func:`verify_asset` renders every
     lobe the hosts need in one call, sharing the ray casts); ``gl_images``: a dict that receives each view's
-    GL radiance (the ``glsl`` host's images); ``hits``: cached ray casts (:func:`pipeline.render.reference.cast_hits`)."""
+    GL radiance (the ``glsl`` host's images); ``hits``: cached ray casts (:func:`pipeline.verify.rays.cast_hits`)."""
     from . import report as rep
-    from .images import save_png
+    from ..render.images import save_png
     from ..spectral import linear_to_srgb8
-    from .reference import render_reference
+    from .reference_image import render_reference
 
     failures_all = []
     say(f"GL renders ({len(views)} views)")
     t = time.perf_counter()
     try:
-        from .gl import render_views
+        from ..render.gl import render_views
 
         gl_results = render_views(scene, views, lut=lut)
     except ImportError as exc:
@@ -424,8 +424,8 @@ def verify_views(asset, views=None, out_dir=None, width: int = DEFAULT_SIZE, hei
         Write each view's images into ``out_dir/<view>/`` (one cacheable folder per view).
     progress : callable, optional
     hits : mapping, optional
-        Ready-made reference ray casts (:func:`pipeline.render.reference.cast_hits`, e.g. cached by the build
-        keyed by :func:`pipeline.render.reference.ray_digest` and the camera); the results do not change.
+        Ready-made reference ray casts (:func:`pipeline.verify.rays.cast_hits`, e.g. cached by the build
+        keyed by :func:`pipeline.verify.rays.ray_digest` and the camera); the results do not change.
 
     Returns
     -------
@@ -487,7 +487,7 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
         Turntable + sweep views (:func:`pipeline.render.views.default_views`), plus the boundary sweep view.
     hosts : iterable of str or None
         Hosts (:data:`pipeline.hosts.HOSTS`) that render the same views, each compared with the reference of
-        its lobe (:mod:`pipeline.render.host_check`); None: every registered host available here. ``glsl``
+        its lobe (:mod:`pipeline.verify.host_check`); None: every registered host available here. ``glsl``
         always runs. Unavailable hosts are reported as skipped with their reason; a host that fails or misses
         its goals fails the verification.
 
@@ -499,7 +499,7 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
     """
     from ..hosts import select
     from .host_check import check_hosts
-    from .reference import render_reference_lobes
+    from .reference_image import render_reference_lobes
 
     _check_size(width, height)
     say = progress or (lambda msg: None)
@@ -633,7 +633,7 @@ def _combine(layer, scene, lut, notes, results: dict, out_dir, width, height, be
         "hosts": host_entries,
         "boundary": {"per_view": {r["view"]: r["boundary"] for r in sweeps},
                      "method": "TLS line through green/purple boundary points; RMS perpendicular distance (px) "
-                               "and RMS / boundary length; coherence and curvature: pipeline.render.boundary"},
+                               "and RMS / boundary length; coherence and curvature: pipeline.verify.boundary"},
         "film": film,
         "lut": lut_info,
         "variants": dict(scene.variants),

@@ -2,19 +2,19 @@
 lighting model it evaluates, over the feather-tip pixels.
 
 Per host, over every view: the feather pixels of the reference (its part ids, eroded by one pixel as the GL
-comparison does, :func:`pipeline.render.compare.comparison_mask`) whose structural mask is >=
-:data:`pipeline.render.compare.STRUCTURAL_MASK` (0.5). A host returns radiance only (no part ids), so its
+comparison does, :func:`pipeline.verify.compare.comparison_mask`) whose structural mask is >=
+:data:`pipeline.verify.compare.STRUCTURAL_MASK` (0.5). A host returns radiance only (no part ids), so its
 silhouette is the reference's.
 
-- ``median_dE``, ``p95_dE``: CIEDE2000 of the unclipped linear radiance (:func:`pipeline.render.compare.
+- ``median_dE``, ``p95_dE``: CIEDE2000 of the unclipped linear radiance (:func:`pipeline.verify.compare.
   delta_e_map`);
 - ``green_px``, ``purple_px``: host pixels in the green / purple hue bands
-  (:func:`pipeline.render.compare.hue_classes`, strict bands);
+  (:func:`pipeline.verify.compare.hue_classes`, strict bands);
 - ``hue_agreement``: fraction of the pixels whose class (green, purple, other: grey and other hues together)
   is the reference's.
 
 Pass (:func:`host_passed`): networks that claim the exact colour (``glsl``, ``baked``) meet the dE goals
-(median <= :data:`pipeline.render.compare.MEDIAN_DE_GOAL`, p95 <= :data:`~pipeline.render.compare.P95_DE_GOAL`);
+(median <= :data:`pipeline.verify.compare.MEDIAN_DE_GOAL`, p95 <= :data:`~pipeline.verify.compare.P95_DE_GOAL`);
 a host's own thin-film BSDF (``physical``), an approximation, shows green and purple and agrees on the hue
 class of >= :data:`MIN_HUE_AGREEMENT` of the pixels (its dE is reported, not held to the goal).
 """
@@ -147,7 +147,7 @@ def check_hosts(asset_layer: str, scene, views, selection, refs_by_lobe: dict, o
     """
     from . import report as rep
     from ..spectral import linear_to_srgb8
-    from .images import save_png
+    from ..render.images import save_png
     from ..hosts import HostError
 
     say = say or (lambda msg: None)
