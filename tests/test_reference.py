@@ -6,7 +6,9 @@ from PIL import Image
 
 from pipeline.verify import rays
 from pipeline.verify import reference_image as reference
-from pipeline.render.scene import RenderScene, ScenePart, ThinFilmParams
+from pipeline.films import FilmModel
+from pipeline.render.film import ThinFilmParams
+from pipeline.render.scene import RenderScene, ScenePart
 from pipeline.render.views import View, look_at
 
 BODY_RGB = np.array([0.2, 0.4, 0.6])
@@ -24,7 +26,8 @@ def _quad(z, size, normal_sign=1.0):
 
 
 def _film(a=1.5, b=0.0):
-    return ThinFilmParams("paper", a, b, 1.0, 1.0, "thickness", "nm", "unused.exr", "lin_rec709", 1.0, (650.0, 650.0))
+    return ThinFilmParams(FilmModel("paper", a, b), lut_file="unused.exr", lut_colour_space="lin_rec709",
+                          angle_warp_gamma=1.0, thickness_range_nm=(650.0, 650.0))
 
 
 def _scene(tmp_path, alpha_left=0, mask_value=255, normal_sign=1.0, thickness=(650.0, 650.0), film=None):

@@ -9,6 +9,7 @@ from scipy import ndimage
 
 from pipeline.lut import ThinFilmLUT
 from pipeline.render import scene as sc
+from pipeline.render import texture
 from pipeline.render.synthetic import (
     CARD_SIZE_M,
     NECK_CENTRE_M,
@@ -118,8 +119,8 @@ def test_alpha_discards_outside_the_feather_silhouette(coarse):
     s = (hit[..., 0] - NECK_CENTRE_M[0]) / CARD_SIZE_M + 0.5
     t = (hit[..., 1] - NECK_CENTRE_M[1]) / CARD_SIZE_M + 0.5
     on_card = (s > 0.03) & (s < 0.97) & (t > 0.03) & (t < 0.97)
-    base = sc.read_texture(scene.part("NeckFeathers").base_colour_texture, srgb=True)
-    alpha = sc.sample_texture(base, np.stack([s, t], axis=-1))[..., 3]
+    base = texture.read_texture(scene.part("NeckFeathers").base_colour_texture, srgb=True)
+    alpha = texture.sample_texture(base, np.stack([s, t], axis=-1))[..., 3]
     # card 0 lies in the plane at 0.12 m along the view axis; other cards (behind it) may show through
     feather = (res.part_id == scene.part_id("NeckFeathers")) & _card0(res)
     sure_in = on_card & (alpha > 0.9)
@@ -134,8 +135,8 @@ def test_feather_colour_matches_the_shading_formula_on_the_cpu(coarse):
     """radiance = mix(base, LUT(dot(L, H), d), mask) * light_rgb * max(N.L, 0), per pixel, 8-bit tolerance."""
     scene, lut, results, _ = coarse
     part = scene.part("NeckFeathers")
-    base_img = sc.read_texture(part.base_colour_texture, srgb=True)
-    mask_img = sc.read_texture(part.mask_texture, srgb=False)
+    base_img = texture.read_texture(part.base_colour_texture, srgb=True)
+    mask_img = texture.read_texture(part.mask_texture, srgb=False)
     lo, hi = THICKNESS_RANGE_NM
     checked = 0
     for name, res in results.items():
@@ -151,8 +152,8 @@ def test_feather_colour_matches_the_shading_formula_on_the_cpu(coarse):
         st = res.st[px]
         # the cards' thickness runs linearly from lo at t = 0 to hi at t = 1
         np.testing.assert_allclose(res.thickness_nm[px], lo + (hi - lo) * st[:, 1], atol=0.05, err_msg=name)
-        base = sc.sample_texture(base_img, st)[:, :3]
-        mask = sc.sample_texture(mask_img, st)[:, 0]
+        base = texture.sample_texture(base_img, st)[:, :3]
+        mask = texture.sample_texture(mask_img, st)[:, 0]
         np.testing.assert_allclose(res.mask[px], mask, atol=2e-3, err_msg=name)
         structural = lut.sample(cos_theta, res.thickness_nm[px])
         colour = base + (structural - base) * mask[:, None]

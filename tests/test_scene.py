@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from pipeline.render import scene as sc
+from pipeline.render import texture, triangulate
 from pipeline.render.synthetic import BODY_CENTRE_M, BODY_RADIUS_M, THICKNESS_RANGE_NM, write_synthetic_asset
 from pipeline.render.views import View, default_views, hero_view, light_sweep_views, look_at, turntable_views
 
@@ -18,11 +19,11 @@ def asset(tmp_path_factory):
 def test_fan_triangulation_of_mixed_polygons_keeps_area_and_winding():
     counts = [3, 4, 5]
     idx = np.arange(12)
-    tris = sc.fan_triangulate(counts, idx)
+    tris = triangulate.fan_triangulate(counts, idx)
     assert tris.tolist() == [[0, 1, 2], [3, 4, 5], [3, 5, 6], [7, 8, 9], [7, 9, 10], [7, 10, 11]]
-    assert sc.fan_triangulate(counts, idx, left_handed=True)[1].tolist() == [3, 5, 4]
+    assert triangulate.fan_triangulate(counts, idx, left_handed=True)[1].tolist() == [3, 5, 4]
     with pytest.raises(ValueError, match="face_vertex_counts"):
-        sc.fan_triangulate([2], [0, 1])
+        triangulate.fan_triangulate([2], [0, 1])
 
 
 def test_load_scene_reads_parts_world_transform_and_primvars(asset):
@@ -51,7 +52,7 @@ def test_load_scene_reads_parts_world_transform_and_primvars(asset):
 def test_load_scene_reads_thin_film_attributes_and_lut(asset):
     s = sc.load_scene(asset)
     f = s.film
-    assert f.model == "paper" and f.cauchy_a == pytest.approx(1.5) and f.thickness_primvar == "thickness"
+    assert f.model.name == "paper" and f.model.cauchy_a == pytest.approx(1.5) and f.thickness_primvar == "thickness"
     assert f.thickness_range_nm == THICKNESS_RANGE_NM and f.lut_file.endswith("thinfilm_lut.exr")
     lut = s.load_lut()
     assert lut.thickness_range_nm == THICKNESS_RANGE_NM
@@ -75,10 +76,10 @@ def test_texture_sampling_uses_texel_centres_and_bottom_origin():
     img[0, :, 0] = 1.0  # top row
     img[:, :, 0] += np.arange(4)  # columns 0..3
     # bottom-left texel centre
-    assert sc.sample_texture(img, [0.125, 0.25])[0] == pytest.approx(0.0)
-    assert sc.sample_texture(img, [0.125, 0.75])[0] == pytest.approx(1.0)  # top row
-    assert sc.sample_texture(img, [0.375, 0.5])[0] == pytest.approx(1.5)  # halfway between rows
-    assert sc.sample_texture(img, [0.0, 0.0])[0] == pytest.approx(0.0)  # clamp to edge
+    assert texture.sample_texture(img, [0.125, 0.25])[0] == pytest.approx(0.0)
+    assert texture.sample_texture(img, [0.125, 0.75])[0] == pytest.approx(1.0)  # top row
+    assert texture.sample_texture(img, [0.375, 0.5])[0] == pytest.approx(1.5)  # halfway between rows
+    assert texture.sample_texture(img, [0.0, 0.0])[0] == pytest.approx(0.0)  # clamp to edge
 
 
 def test_views_are_deterministic_serialisable_and_sweep_the_light_view_angle(asset):
@@ -142,8 +143,8 @@ def test_load_scene_reads_the_asset_written_by_pipeline_assemble(tmp_path):
         assert by_name["Body"].base_colour_texture == out["body_base"]
         assert s.film.lut_file == out["lut"] and s.film.thickness_range_nm == lut.thickness_range_nm
         assert s.film.angle_warp_gamma == lut.angle_warp_gamma
-        assert s.film.cauchy_a == pytest.approx(film.cauchy_a)
-        assert s.film.cauchy_b_nm2 == pytest.approx(film.cauchy_b_nm2) and s.film.model == film.name
+        assert s.film.model.cauchy_a == pytest.approx(film.cauchy_a)
+        assert s.film.model.cauchy_b_nm2 == pytest.approx(film.cauchy_b_nm2) and s.film.model.name == film.name
         np.testing.assert_array_equal(s.load_lut().rgb, lut.rgb)
 
 

@@ -13,15 +13,17 @@ from PIL import Image
 from pipeline.verify import boundary
 from pipeline.verify import compare as cmp
 from pipeline.verify.reference_image import render_reference
-from pipeline.render.scene import RenderScene, ScenePart, ThinFilmParams
+from pipeline.films import FilmModel
+from pipeline.render.film import ThinFilmParams
+from pipeline.render.scene import RenderScene, ScenePart
 from pipeline.render.views import light_sweep_views
 from pipeline.usd.stage import LOOKS_LAYER
 
 from conftest import OUTSIDE
 
-PAPER_FILM = dict(model="paper", cauchy_a=1.5, cauchy_b_nm2=0.0, incident_index=1.0, substrate_index=1.0,
-                  thickness_primvar="thickness", thickness_units="nm", lut_file="unused.exr",
-                  lut_colour_space="lin_rec709", angle_warp_gamma=1.0, thickness_range_nm=(480.0, 700.0))
+PAPER_FILM = dict(model=FilmModel("paper", cauchy_a=1.5), thickness_primvar="thickness", thickness_units="nm",
+                  lut_file="unused.exr", lut_colour_space="lin_rec709", angle_warp_gamma=1.0,
+                  thickness_range_nm=(480.0, 700.0))
 
 
 def _rockdove(*args, timeout=300):
@@ -97,7 +99,7 @@ def test_an_absorbing_film_builds_records_k_and_verifies(absorbing, tmp_path):
     from pipeline.render.scene import load_scene
     from pipeline.lut.reference import reference_colour
 
-    assert load_scene(absorbing).film.k == pytest.approx(ABSORBING_K)
+    assert load_scene(absorbing).film.model.k == pytest.approx(ABSORBING_K)
     # k changes the colour: otherwise this test could not tell a film that carries k from one that drops it
     clear = reference_colour(0.7, 650.0, FilmModel("paper", cauchy_a=1.5), colour_space="lin_rec709")
     absorbed = reference_colour(0.7, 650.0, FilmModel("paper", cauchy_a=1.5, k=ABSORBING_K),

@@ -52,7 +52,7 @@ class SceneGeometry:
     def __init__(self, scene):
         import trimesh
 
-        from ..render.scene import read_texture
+        from ..render.texture import read_texture
 
         verts, faces, part_of_face, offset = [], [], [], 0
         for i, p in enumerate(scene.parts):
@@ -93,7 +93,7 @@ class SceneGeometry:
         tex = self.base_tex[part]
         if tex is None or tex.shape[2] not in (2, 4):
             return np.ones(len(st))
-        from ..render.scene import sample_texture
+        from ..render.texture import sample_texture
 
         return sample_texture(tex, st)[:, -1]
 

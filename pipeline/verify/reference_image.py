@@ -147,8 +147,8 @@ _WEIGHTS_CACHE: dict = {}
 
 
 def film_indices(film):
-    """``(n_film(lambda) callable, n_incident, n_substrate)`` of a :class:`~pipeline.render.scene.ThinFilmParams`."""
-    return film.film_index, float(film.incident_index), float(film.substrate_index)
+    """``(n_film(lambda) callable, n_incident, n_substrate)`` of a :class:`~pipeline.render.film.ThinFilmParams`."""
+    return film.model.n_film, float(film.model.n_incident), float(film.model.n_substrate)
 
 
 def structural_rgb_at_step(cos_theta, thickness_nm, film, step_nm: float) -> np.ndarray:
@@ -290,7 +290,7 @@ def render_reference_lobes(scene, views, lobes=LOBES, structural_fn=None, hits=N
 
 def _render_view(geom: SceneGeometry, scene, view, structural_fn, hits_cache: dict,
                  lobe: str = "half_angle") -> ReferenceResult:
-    from ..render.scene import sample_texture
+    from ..render.texture import sample_texture
 
     t0 = time.perf_counter()
     h, w = view.height, view.width

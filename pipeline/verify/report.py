@@ -116,11 +116,12 @@ def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 
     for i, d in enumerate(thickness_nm):
         ax = fig.add_subplot(len(thickness_nm), 1, i + 1)
         for c in cos_theta:
-            r = optics.reflectance(wl, c, d, n_film=film.film_index(wl), n_incident=film.incident_index,
-                                   n_substrate=film.substrate_index)
+            r = optics.reflectance(wl, c, d, n_film=film.model.n_film(wl), n_incident=film.model.n_incident,
+                                   n_substrate=film.model.n_substrate)
             ax.plot(wl, r, lw=0.8, label=f"cos theta = {c:g}")
         ax.set_ylabel("R")
-        ax.set_title(f"d = {d:g} nm, {film.model}: n = {film.cauchy_a:g} + {film.cauchy_b_nm2:g} / lambda^2",
+        m = film.model
+        ax.set_title(f"d = {d:g} nm, {m.name}: n = {m.cauchy_a:g} + {m.cauchy_b_nm2:g} / lambda^2",
                      fontsize=9)
         ax.set_ylim(0, 1)
         if i == 0:

@@ -26,23 +26,21 @@ a subset; a subset without a light-sweep view cannot run the hue check, and the 
 Assets without a LUT (``shading.variant = "physical"``): the renderers here draw the paper's LUT method (the
 GLSL shaders) and the exact spectra (the reference); neither is a renderer's thin-film BSDF. Rather than skip
 the GL/reference comparison, :func:`verification_scene` bakes a *verification-only* LUT in memory from the film
-the asset records (RockDoveThinFilmAPI), at the build's default size, and reads the asset through a temporary
-wrapper layer that adds it; every check then runs (geometry, textures, thickness primvar, film against the
-exact reference) and the report's ``notes`` say that the asset's own physical MaterialX network was only
-validated, not rendered. Nothing is written into the asset.
+the asset records (RockDoveThinFilmAPI), at the build's default size
+(:meth:`pipeline.render.scene.RenderScene.load_lut`); every check then runs (geometry, textures, thickness
+primvar, film against the exact reference) and the report's ``notes`` say that the asset's own physical
+MaterialX network was only validated, not rendered. Nothing is written into the asset.
 """
 
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import hashlib
 import json
 import os
 import platform
 import shutil
 import sys
-import tempfile
 import time
 
 import numpy as np
@@ -152,9 +150,6 @@ def _default_out_dir(layer_path: str) -> str:
 
 
 # -- assets without a LUT (physical-only shading) ------------------------------------------------------------
-#: Size of the verification-only LUT baked for an asset that has none (issue 2's default size).
-VERIFY_LUT_ANGLES = 256
-VERIFY_LUT_THICKNESSES = 64
 PHYSICAL_ONLY_NOTE = (
     "physical-only asset (no LUT): its MaterialX shading hands the film to a renderer's own thin-film BSDF, which "
     "no renderer here implements; the GL renderer draws the paper's LUT method, so verification baked a "
@@ -163,111 +158,25 @@ PHYSICAL_ONLY_NOTE = (
     "thickness primvar and film are verified; the physical MaterialX network itself is only validated")
 
 
-def _lutless_film(layer: str) -> dict | None:
-    """The thin film of an asset that records one without a LUT (no ``rockdove:lut:file``), else None."""
-    import math
-
-    from pxr import Usd, UsdGeom
-
-    from ..usd.schema import has_thin_film, read_thin_film
-
-    stage = Usd.Stage.Open(layer, Usd.Stage.LoadAll)
-    for prim in Usd.PrimRange(stage.GetPseudoRoot()):
-        if not has_thin_film(prim) or prim.GetAttribute("rockdove:lut:file").HasAuthoredValue():
-            continue
-        film = read_thin_film(prim)
-        pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "thickness")
-        d = np.asarray(pv.ComputeFlattened() if pv else [], np.float64)
-        if d.size == 0 or not np.all(np.isfinite(d)):
-            raise ValueError(f"asset {layer!r}: {prim.GetPath()} records a film but no finite thickness primvar")
-        return {"prim": str(prim.GetPath()), "film": film, "default_prim": stage.GetDefaultPrim().GetName(),
-                "up_axis": UsdGeom.GetStageUpAxis(stage), "meters_per_unit": UsdGeom.GetStageMetersPerUnit(stage),
-                "thickness_range_nm": (float(math.floor(d.min())), float(math.ceil(d.max())))}
-    return None
-
-
-def verification_lut(film_record: dict, thickness_range_nm):
-    """The verification-only LUT of a LUT-less asset: baked (default method) from the film it records.
-
-    Parameters
-    ----------
-    film_record : dict
-        :func:`pipeline.usd.schema.read_thin_film` of the feathers.
-    thickness_range_nm : (float, float)
-        The thickness range on the mesh, nm (whole nm, rounded outward, as the build's LUT).
-
-    Returns
-    -------
-    ThinFilmLUT
-        ``metadata["purpose"]`` says it is verification-only.
-    """
-    from ..films import FilmModel
-    from ..lut.bake import bake
-    from ..lut.table import ThinFilmLUT
-
-    film = FilmModel(name=str(film_record["model"]), cauchy_a=film_record["cauchy_a"],
-                     cauchy_b_nm2=film_record["cauchy_b_nm2"], k=film_record.get("k") or 0.0,
-                     n_incident=film_record["incident_index"],
-                     n_substrate=film_record["substrate_index"])
-    lo, hi = (float(v) for v in thickness_range_nm)
-    lut = bake(angles=VERIFY_LUT_ANGLES, thicknesses=1 if lo == hi else VERIFY_LUT_THICKNESSES,
-               thickness_range=(lo, hi), film=film)
-    return ThinFilmLUT(lut.rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
-                       colour_space=lut.colour_space,
-                       metadata={**lut.metadata, "purpose": "verification only (rockdove verify, in memory): the "
-                                 "asset has no LUT"})
-
-
-def _wrapper_layer(path: str, layer: str, info: dict, lut_file: str, lut) -> str:
-    """A root layer that sublayers the asset and adds the ``rockdove:lut:*`` attributes of ``lut_file``."""
-    from pxr import Gf, Sdf, Usd, UsdGeom
-
-    wrapper = Sdf.Layer.CreateNew(path)
-    wrapper.subLayerPaths.append(os.path.abspath(layer))
-    wrapper.defaultPrim = info["default_prim"]
-    spec = Sdf.CreatePrimInLayer(wrapper, info["prim"])
-    lo, hi = lut.thickness_range_nm
-    values = {"file": (Sdf.ValueTypeNames.Asset, Sdf.AssetPath(lut_file)),
-              "colorSpace": (Sdf.ValueTypeNames.Token, lut.colour_space),
-              "angleWarpGamma": (Sdf.ValueTypeNames.Float, float(lut.angle_warp_gamma)),
-              "thicknessRangeNm": (Sdf.ValueTypeNames.Float2, Gf.Vec2f(lo, hi)),
-              "illuminant": (Sdf.ValueTypeNames.Token, str(lut.metadata.get("illuminant", "D65"))),
-              "observer": (Sdf.ValueTypeNames.String, str(lut.metadata.get("observer", "")))}
-    for name, (type_name, value) in values.items():
-        Sdf.AttributeSpec(spec, f"rockdove:lut:{name}", type_name).default = value
-    wrapper.Save()
-    stage = Usd.Stage.Open(wrapper, Usd.Stage.LoadNone)  # stage metadata comes from the root layer only
-    UsdGeom.SetStageUpAxis(stage, info["up_axis"])
-    UsdGeom.SetStageMetersPerUnit(stage, info["meters_per_unit"])
-    wrapper.Save()
-    return path
-
-
 @contextlib.contextmanager
 def verification_scene(asset):
-    """Read an asset back for verification: ``(root layer, RenderScene, LUT override or None, notes)``.
+    """Read an asset back for verification: ``(root layer, RenderScene, LUT baked in memory or None, notes)``.
 
-    An asset with a LUT is read as it is. A LUT-less (physical-only) asset gets a verification-only LUT
-    (:func:`verification_lut`), written with a wrapper layer into a temporary folder that lives as long as
-    the context, and a note saying so (:data:`PHYSICAL_ONLY_NOTE`); ``scene.root_layer`` stays the asset's.
+    An asset with a LUT is read as it is. For a LUT-less (physical-only) asset the renderers draw a LUT baked in
+    memory from the film it records (:meth:`pipeline.render.scene.RenderScene.load_lut`), returned here with
+    a note saying so (:data:`PHYSICAL_ONLY_NOTE`). Nothing is written. (A context manager so that callers
+    need not change if reading ever holds resources again.)
     """
-    from ..lut.exr import write_exr
-    from ..usd.layout import resolve_root_layer
     from ..render.scene import load_scene
 
-    layer = resolve_root_layer(asset)
-    info = _lutless_film(layer)
-    if info is None:
-        yield layer, load_scene(layer), None, []
+    scene = load_scene(asset)
+    if scene.film is None or scene.film.lut_file is not None:
+        yield scene.root_layer, scene, None, []
         return
-    lut = verification_lut(info["film"], info["thickness_range_nm"])
-    with tempfile.TemporaryDirectory(prefix="rockdove-verify-") as tmp:
-        lut_file = write_exr(lut, os.path.join(tmp, "verification_lut.exr"))
-        wrapper = _wrapper_layer(os.path.join(tmp, "verify_root.usda"), layer, info, lut_file, lut)
-        scene = dataclasses.replace(load_scene(wrapper), root_layer=layer)
-        lo, hi = lut.thickness_range_nm
-        note = PHYSICAL_ONLY_NOTE.format(shape=f"{lut.n_thickness} x {lut.n_angle}", lo=lo, hi=hi)
-        yield layer, scene, lut, [note]
+    lut = scene.load_lut()
+    lo, hi = lut.thickness_range_nm
+    note = PHYSICAL_ONLY_NOTE.format(shape=f"{lut.n_thickness} x {lut.n_angle}", lo=lo, hi=hi)
+    yield scene.root_layer, scene, lut, [note]
 
 
 # -- per-view rendering and checks ---------------------------------------------------------------------------
@@ -589,7 +498,7 @@ def _combine(layer, scene, lut, notes, results: dict, out_dir, width, height, be
                         "metadata": dict(lut_used.metadata), "verification_only": lut is not None}
         except (ValueError, OSError) as exc:
             failures.append(f"LUT {scene.film.lut_file!r} could not be read: {exc}")
-        lo, hi = scene.film.thickness_range_nm
+        lo, hi = scene.thickness_range_nm
         thicknesses = sorted({lo, 0.5 * (lo + hi), hi})
         images["spectra"] = os.path.basename(rep.spectra_png(os.path.join(out, "spectra.png"), scene.film,
                                                              thickness_nm=thicknesses))
@@ -611,8 +520,6 @@ def _combine(layer, scene, lut, notes, results: dict, out_dir, width, height, be
 
     config = _asset_configuration(layer)
     film = scene.film.to_dict() if scene.film is not None else None
-    if film is not None and lut is not None:
-        film["lut_file"] = None  # the verification-only LUT's temporary file is gone
     if os.path.isfile(os.path.join(out, "viewer.html")):  # written beside the report (pipeline.web.viewer)
         images["viewer"] = "viewer.html"
     report = {
