@@ -103,7 +103,7 @@ def test_materialx_host_draws_the_written_network_not_a_copy_of_it(small_asset, 
     from pipeline.verify.host_check import host_metrics
     from pipeline.verify.reference_image import render_reference
     from pipeline.render.scene import load_scene
-    from pipeline.verify.run import verification_views
+    from pipeline.verify.inputs import verification_views
 
     folder = tmp_path / "broken"
     shutil.copytree(small_asset.rsplit("/", 1)[0], folder)
@@ -123,7 +123,7 @@ def test_glsl_host_renders_the_written_asset_as_the_verifier_does(small_asset):
     from pipeline.hosts import glsl
     from pipeline.render.gl import render_views
     from pipeline.render.scene import load_scene
-    from pipeline.verify.run import verification_views
+    from pipeline.verify.inputs import verification_views
 
     scene = load_scene(small_asset)
     views = [v for v in verification_views(scene, 32, 32) if v.name == "sweep_090"]

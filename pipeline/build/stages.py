@@ -334,10 +334,10 @@ def _verify_size(ctx: Context) -> dict:
 
 
 def plan_verify(ctx: Context) -> dict:
-    """The verification views and what each reads (pipeline.verify.run.plan_views): its camera, light and
+    """The verification views and what each reads (pipeline.verify.inputs.plan_views): its camera, light and
     size, and the digest of the scene content it renders (meshes, textures, film, LUT; not file bytes that do
     not change a render, e.g. the usdz or assetInfo). A view whose entry is unchanged is not re-rendered."""
-    from ..verify.run import plan_views
+    from ..verify.inputs import plan_views
 
     return plan_views(str(ctx.asset_dir), **_verify_size(ctx))
 
@@ -346,8 +346,8 @@ def plan_rays(ctx: Context) -> dict:
     """One item per distinct camera of the verification views: the camera (pipeline.verify.rays.camera_key)
     and the digest of the geometry the rays hit (``ray_digest``: meshes, feather st and alpha), not the film or
     the LUT, so the reference's ray casts survive a film change."""
+    from ..verify.inputs import verification_scene, verification_views
     from ..verify.rays import camera_key, ray_digest
-    from ..verify.run import verification_scene, verification_views
 
     size = _verify_size(ctx)
     with verification_scene(str(ctx.asset_dir)) as (_, scene, _, _):
@@ -358,8 +358,8 @@ def plan_rays(ctx: Context) -> dict:
 
 def run_rays(ctx: Context) -> dict:
     """Cast the reference's primary rays of the cameras to redo (``ctx.items``), in one call (one BVH)."""
+    from ..verify.inputs import verification_scene, verification_views
     from ..verify.rays import cast_hits, camera_key
-    from ..verify.run import verification_scene, verification_views
 
     size = _verify_size(ctx)
     wanted = {cfg["camera"]: name for name, cfg in ctx.items.items()}
@@ -497,7 +497,7 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
     if config["gltf"]["glb"]:
         # reads the written asset (so it runs once it is assembled); keyed by the files it translates
         stages.append(Stage("gltf", run_gltf, deps=("usd_geometry", "usd_layers", "textures"),
-                            modules=("pipeline.web.gltf", "pipeline.render.scene", "pipeline.verify.run"),
+                            modules=("pipeline.web.gltf", "pipeline.render"),
                             libraries=LIBS_USD + ("pygltflib", "pillow"), codec=FILES, needs_asset=True,
                             publish=""))
     if verify:
@@ -507,12 +507,12 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
         published = tuple(s.name for s in stages if s.publish is not None)
         # The reference's ray casts, one item per camera keyed by the geometry they hit: a film change reuses them.
         stages.append(Stage("verify_rays", run_rays, config=("verify.width", "verify.height", "verify.views"),
-                            deps=published, modules=("pipeline.render", "pipeline.usd"), libraries=LIBS_RENDER,
+                            deps=published, modules=("pipeline.render", "pipeline.verify", "pipeline.usd"), libraries=LIBS_RENDER,
                             codec=JSON, needs_asset=True, item_plan=plan_rays, batch=True, combine=combine_rays,
                             item_codec=HITS))
         stages.append(Stage("verify", run_verify, config=("verify.width", "verify.height", "verify.views"),
                             deps=published + ("verify_rays",),
-                            modules=("pipeline.render", "pipeline.usd", "pipeline.lut", "pipeline.films",
+                            modules=("pipeline.render", "pipeline.verify", "pipeline.usd", "pipeline.lut", "pipeline.films",
                                      "pipeline.optics", "pipeline.spectral", "pipeline.web",
                                      "pipeline.build.publish"),
                             data=("materials", "schemas/plugInfo.json", "schemas/generatedSchema.usda"),

@@ -55,6 +55,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="comma-separated hosts that also render the views, each checked against the exact "
                              "reference of its lighting model: glsl, materialx, materialx_physical, blender, web "
                              "(default: every host available on this machine; glsl always runs)")
+    parser.add_argument("--bench-dir", default=None, metavar="DIR",
+                        help="show the benchmark plots (*.png) of DIR in the report, e.g. build/bench "
+                             "(default: none)")
     parser.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     from .validate import add_external_argument
 
@@ -84,7 +87,8 @@ def check_dependencies(asset: str, allow_external: bool) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..errors import VerificationFailed
-    from ..verify.run import summary, verify_asset
+    from ..verify.run import verify_asset
+    from ..verify.verdict import summary
 
     def progress(msg: str) -> None:
         if not args.quiet and not args.json:
@@ -93,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
     check_dependencies(args.asset, args.allow_external_assets)
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
     report = verify_asset(args.asset, out_dir=args.out, width=args.width, height=args.height, progress=progress,
-                          views=args.names, n_views=args.views, hosts=hosts)
+                          views=args.names, n_views=args.views, hosts=hosts, bench_dir=args.bench_dir)
     short = summary(report)
     if args.json:
         from ..verify.report import strict_json

@@ -11,7 +11,8 @@ Files (``DIR`` is the output folder):
 - ``<view>_dE.png``: the dE2000 map with a colour bar (grey where not compared);
 - ``contact_sheet.png``: one row per view, GL | reference | dE;
 - ``lut.png`` (the LUT the asset names), ``spectra.png`` (film reflectance spectra), ``hue.png`` (hue
-  histogram across the light sweep), ``bench_*.png`` copied from ``build/bench`` when present;
+  histogram across the light sweep), ``bench_*.png`` copied from the benchmark folder the caller names
+  (``rockdove verify --bench-dir DIR``; none by default);
 - ``report.json`` and ``report.html``.
 """
 
