@@ -7,6 +7,7 @@ from PIL import Image
 from pipeline.verify import rays
 from pipeline.verify import reference_image as reference
 from pipeline.films import FilmModel
+from pipeline.lut.reference import reference_colour
 from pipeline.render.film import ThinFilmParams
 from pipeline.render.scene import RenderScene, ScenePart
 from pipeline.render.views import View, look_at
@@ -184,13 +185,13 @@ def test_spectral_step_is_exact_against_a_finer_grid():
     exact = np.empty((c.size, 3))
     for (lo, hi), step in zip(bands, (0.004, 0.01, 0.01, 0.05, 0.05, 0.05)):
         sel = (c >= lo) & (c < hi)
-        exact[sel] = reference.structural_rgb_at_step(c[sel], d[sel], film, step)
+        exact[sel] = reference_colour(c[sel], d[sel], film.model, steps_nm=((0.0, step),))
     ours = reference.structural_rgb(c, d, film)
     lab = lambda x: spectral.RGB_to_Lab(np.clip(x, 0, 1))  # noqa: E731 - the displayed colour
     assert np.max(spectral.delta_E_2000(lab(ours), lab(exact))) < 0.01
     # and near grazing the fine steps are needed: a uniform 1 nm grid is visibly wrong there
     sel = (c > 0.001) & (c < 0.03)
-    coarse = reference.structural_rgb_at_step(c[sel], d[sel], film, 1.0)
+    coarse = reference_colour(c[sel], d[sel], film.model, steps_nm=((0.0, 1.0),))
     assert np.max(spectral.delta_E_2000(lab(coarse), lab(exact[sel]))) > 0.02
 
 
@@ -204,8 +205,8 @@ def test_deduplication_keys_are_far_below_visible():
     c = rng.uniform(0.05, 1.0, 200)
     d = rng.uniform(480.0, 700.0, 200)
     a = reference.structural_rgb(c, d, film)
-    b = reference.structural_rgb_at_step(c + 0.5 * reference.COS_THETA_QUANTUM,
-                                         d + 0.5 * reference.THICKNESS_QUANTUM_NM, film, 1.0)
+    b = reference_colour(c + 0.5 * reference.COS_THETA_QUANTUM, d + 0.5 * reference.THICKNESS_QUANTUM_NM, film.model,
+                         steps_nm=((0.0, 1.0),))
     lab = lambda x: spectral.RGB_to_Lab(np.clip(x, 0, 1))  # noqa: E731
     assert np.max(spectral.delta_E_2000(lab(a), lab(b))) < 0.01
     stats = {}

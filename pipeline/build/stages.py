@@ -212,7 +212,7 @@ def bird_params(config: dict):
 
 
 #: Random points at which the build measures its LUT, as shipped (after any half rounding), against the exact
-#: 0.1 nm reference (pipeline.lut.reference.lut_error, as bake's error_points),
+#: reference (pipeline.lut.reference.lut_error, as bake's error_points),
 #: recorded in the EXR header (rockdove:estimatedMaxDeltaE2000, ...P99...). 200 points add ~0.05 s to the
 #: default 256 x 64 keratin bake (pipeline.lut.reference.lut_error right after the bake in a fresh process:
 #: 0.051-0.054 s over 3 runs; 50 points 0.012-0.018 s).

@@ -16,23 +16,20 @@ with the model of docs/design.md, "Conventions":
 
 The exact structural colour
 ---------------------------
-The Airy reflectance of the film (Born and Wolf, Principles of Optics, 7th ed., section 7.6.1, eq. 58;
-method.md step 1) is evaluated by :func:`pipeline.optics.reflectance` with the film read from the USD
-(``n(lambda) = cauchyA + cauchyB_nm2 / lambda^2`` and the incident/substrate indices of
-``RockDoveThinFilmAPI``), on a wavelength grid over 360-780 nm, and integrated to lin_rec709 with
-:func:`pipeline.spectral.spectral_weights` (CIE 1931 2 degree observer, D65, normalised so that a perfect
-reflector is Y = 1). The wavelength step depends on cos_theta, because near grazing incidence both Fresnel
-coefficients tend to -1 and the film becomes a high-finesse resonator whose spectrum is a comb of sharp
-lines: :data:`SPECTRAL_STEPS_NM` gives the step per cos_theta band. Measured (keratin film, 450-720 nm,
-random samples per band, dE2000 of the displayed colour against a 0.004-0.02 nm integration): 2 nm errs
-<= 0.0056 for cos_theta >= 0.08 (0.026 at 0.03-0.08), 1 nm <= 0.0033 at 0.03-0.08, 0.5 nm <= 0.0013 at 0.01-0.03,
-0.1 nm <= 0.0001 at 0.003-0.01, 0.05 nm <= 0.0001 at 0.001-0.003, 0.01 nm <= 0.005 below 0.001 (where even
-the comparison grid barely resolves the lines; the colour tends to white there). Every band stays below
-0.01 dE2000, two orders of magnitude under the verification goal (checked by ``tests/test_reference.py::
-test_spectral_step_is_exact_against_a_finer_grid``). Pixels are de-duplicated on quantised
-``(cos_theta, thickness_nm)`` keys (steps :data:`COS_THETA_QUANTUM`, :data:`THICKNESS_QUANTUM_NM`): the film
-phase ``4 pi n d cos(theta_b) / lambda`` changes by less than 5e-5 rad within one key, far below anything
-visible (measured < 0.005 dE2000), so this is still the exact model per pixel, not an interpolated table.
+The film colour is :func:`pipeline.lut.reference.reference_colour` (the project's one definition of the exact
+colour: the Airy spectrum of the film read from the USD integrated to lin_rec709, D65) at each pixel's
+``(cos_theta, thickness_nm)``, with the wavelength steps :data:`IMAGE_STEPS_NM`: the reference's own steps
+below cos_theta 0.01 (where the spectrum is a comb of sharp lines) and coarser ones in the smooth bands above.
+Measured (keratin film, 450-720 nm, random samples per band, dE2000 of the displayed colour against a
+0.004-0.02 nm integration): 2 nm errs <= 0.0056 for cos_theta >= 0.08, 1 nm <= 0.0033 at 0.03-0.08, 0.5 nm
+<= 0.0013 at 0.01-0.03, 0.1 nm <= 0.0001 at 0.003-0.01, 0.05 nm <= 0.0001 at 0.001-0.003, 0.01 nm <= 0.005
+below 0.001. Every band stays below 0.01 dE2000, two orders of magnitude under the verification goal (checked
+by ``tests/test_reference.py::test_spectral_step_is_exact_against_a_finer_grid``), at a twentieth of the cost
+of the reference's 0.1 nm in the smooth bands (the spectral integral is most of a reference image's time).
+Pixels are de-duplicated on quantised ``(cos_theta, thickness_nm)`` keys (steps :data:`COS_THETA_QUANTUM`,
+:data:`THICKNESS_QUANTUM_NM`): the film phase ``4 pi n d cos(theta_b) / lambda`` changes by less than 5e-5 rad
+within one key, far below anything visible (measured < 0.005 dE2000), so this is still the exact model per
+pixel, not an interpolated table.
 
 Lighting models (``lobe``, :data:`LOBES`; the hosts of :mod:`pipeline.hosts` name theirs):
 
@@ -55,18 +52,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..lut.reference import reference_colour
 from .rays import SceneGeometry, camera_key, camera_rays, cast_view
 
-#: Wavelength range of the spectral integral, nm (the CIE 1931 2 degree CMFs are negligible outside).
-WAVELENGTH_RANGE_NM = (360.0, 780.0)
-#: Wavelength step per cos_theta band: ``(cos_theta_lo, step_nm)``; a pixel uses the step of the last
-#: band whose lower bound it reaches. See the module docstring for how they were chosen.
-SPECTRAL_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, 0.1), (0.01, 0.5), (0.03, 1.0), (0.08, 2.0))
+#: Wavelength step per cos_theta band of the reference images, ``(cos_theta_lo, step_nm)``
+#: (:func:`pipeline.lut.reference.reference_step_nm`); see the module docstring for how they were chosen.
+IMAGE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, 0.1), (0.01, 0.5), (0.03, 1.0), (0.08, 2.0))
 #: De-duplication keys (see module docstring).
 COS_THETA_QUANTUM = 2e-6
 THICKNESS_QUANTUM_NM = 0.002
-#: Pixels per chunk of the spectral evaluation (bounds memory: chunk x wavelengths x 8 bytes per array).
-SPECTRAL_CHUNK = 4096
 #: The lighting models the reference renders (module docstring, "Lighting models").
 LOBES = ("half_angle", "view_angle")
 
@@ -122,87 +116,15 @@ class ReferenceResult:
 
 
 # -- exact structural colour -------------------------------------------------------------------------------
-def _wavelengths(step_nm: float) -> np.ndarray:
-    lo, hi = WAVELENGTH_RANGE_NM
-    n = int(round((hi - lo) / step_nm)) + 1
-    return np.linspace(lo, hi, n)
-
-
-def _weights(step_nm: float):
-    """(wavelengths (n,), weights (n, 3)) such that ``rgb = R(lambda) @ weights``; cached per step."""
-    from .. import spectral
-
-    key = float(step_nm)
-    if key not in _WEIGHTS_CACHE:
-        wl = _wavelengths(step_nm)
-        w = np.asarray(spectral.spectral_weights(wl, colour_space="lin_rec709"), dtype=np.float64)
-        if w.shape != (len(wl), 3):
-            raise ValueError(f"spectral_weights returned shape {w.shape}, expected {(len(wl), 3)}")
-        w.setflags(write=False)
-        _WEIGHTS_CACHE[key] = (wl, w)
-    return _WEIGHTS_CACHE[key]
-
-
-_WEIGHTS_CACHE: dict = {}
-
-
-def film_indices(film):
-    """``(n_film(lambda) callable, n_incident, n_substrate)`` of a :class:`~pipeline.render.film.ThinFilmParams`."""
-    return film.model.n_film, float(film.model.n_incident), float(film.model.n_substrate)
-
-
-def structural_rgb_at_step(cos_theta, thickness_nm, film, step_nm: float) -> np.ndarray:
-    """Exact film colour integrated on a uniform wavelength grid of ``step_nm``.
-
-    Parameters
-    ----------
-    cos_theta : ndarray, (P,)
-        Cosine of the angle of incidence on the film, in the incident medium, in [0, 1].
-    thickness_nm : ndarray, (P,)
-        Film thickness, nm.
-    film : ThinFilmParams
-        Film indices (see :func:`film_indices`).
-    step_nm : float
-        Wavelength step over :data:`WAVELENGTH_RANGE_NM`.
-
-    Returns
-    -------
-    ndarray, (P, 3) float64, linear lin_rec709 (unclipped).
-    """
-    from .. import optics
-
-    cos_theta = np.asarray(cos_theta, np.float64).reshape(-1)
-    thickness_nm = np.asarray(thickness_nm, np.float64).reshape(-1)
-    wl, w = _weights(step_nm)
-    n_film, n_inc, n_sub = film_indices(film)
-    n_wl = n_film(wl)[None, :]
-    out = np.empty((cos_theta.size, 3))
-    chunk = max(1, int(SPECTRAL_CHUNK * 421 / len(wl)))
-    for s in range(0, cos_theta.size, chunk):
-        c = cos_theta[s : s + chunk, None]
-        d = thickness_nm[s : s + chunk, None]
-        refl = optics.reflectance(wl[None, :], c, d, n_film=n_wl, n_incident=n_inc, n_substrate=n_sub)
-        out[s : s + chunk] = refl @ w
-    return out
-
-
-def spectral_step_nm(cos_theta) -> np.ndarray:
-    """Wavelength step (nm) used at each ``cos_theta`` (:data:`SPECTRAL_STEPS_NM`), same shape."""
-    c = np.asarray(cos_theta, np.float64)
-    step = np.full(c.shape, SPECTRAL_STEPS_NM[0][1])
-    for lo, s in SPECTRAL_STEPS_NM[1:]:
-        step = np.where(c >= lo, s, step)
-    return step
-
-
 def structural_rgb(cos_theta, thickness_nm, film, stats: dict | None = None) -> np.ndarray:
-    """Exact structural colour per pixel, de-duplicated on fine keys and with a cos_theta-dependent step.
+    """Exact structural colour per pixel (:func:`pipeline.lut.reference.reference_colour` with
+    :data:`IMAGE_STEPS_NM`), de-duplicated on fine keys.
 
     Parameters
     ----------
     cos_theta : ndarray, (P,), in [0, 1]
     thickness_nm : ndarray, (P,), nm, >= 0
-    film : ThinFilmParams
+    film : pipeline.render.film.ThinFilmParams
     stats : dict, optional
         Receives ``spectral_pixels`` and ``spectral_keys``.
 
@@ -224,11 +146,7 @@ def structural_rgb(cos_theta, thickness_nm, film, stats: dict | None = None) -> 
     inverse = inverse.reshape(-1)
     uc = np.clip(uniq[:, 0] * COS_THETA_QUANTUM, 0.0, 1.0)
     ud = uniq[:, 1] * THICKNESS_QUANTUM_NM
-    urgb = np.empty((len(uniq), 3))
-    steps = spectral_step_nm(uc)
-    for s in np.unique(steps):
-        sel = steps == s
-        urgb[sel] = structural_rgb_at_step(uc[sel], ud[sel], film, float(s))
+    urgb = reference_colour(uc, ud, film.model, colour_space="lin_rec709", steps_nm=IMAGE_STEPS_NM)
     if stats is not None:
         stats["spectral_pixels"] = stats.get("spectral_pixels", 0) + int(c.size)
         stats["spectral_keys"] = stats.get("spectral_keys", 0) + int(len(uniq))

@@ -111,8 +111,9 @@ def lut_png(path, lut) -> str:
 def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 0.707, 0.3, 0.05)) -> str:
     """Reflectance spectra of the asset's film (exact Airy, 0.1 nm) for a few thicknesses and angles."""
     from .. import optics
+    from ..lut.reference import reference_wavelengths
 
-    wl = np.linspace(360.0, 780.0, 4201)
+    wl = reference_wavelengths()
     fig = _figure(7.0, 2.6 * len(thickness_nm))
     for i, d in enumerate(thickness_nm):
         ax = fig.add_subplot(len(thickness_nm), 1, i + 1)
