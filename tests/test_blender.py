@@ -161,8 +161,8 @@ def blender_renders(asset, tmp_path_factory):
 def test_blender_host_renders_green_and_purple_feathers_with_the_views_camera(blender_renders):
     from scipy import ndimage
 
-    from pipeline.render import compare as cmp
-    from pipeline.render.reference import render_reference
+    from pipeline.verify import compare as cmp
+    from pipeline.verify.reference_image import render_reference
 
     scene, views, images, out = blender_renders
     refs = {r.view: r for r in render_reference(scene, views)}  # same camera: same silhouette
@@ -191,11 +191,11 @@ def test_blender_host_renders_green_and_purple_feathers_with_the_views_camera(bl
 def test_blender_host_hues_agree_with_the_exact_view_angle_reference(blender_renders):
     import inspect
 
-    from pipeline.render import compare as cmp
-    from pipeline.render.reference import render_reference
+    from pipeline.verify import compare as cmp
+    from pipeline.verify.reference_image import render_reference
 
     if "lobe" not in inspect.signature(render_reference).parameters:
-        pytest.skip("pipeline.render.reference has no view_angle lobe in this branch (it comes with issue 9's "
+        pytest.skip("pipeline.verify.reference_image has no view_angle lobe in this branch (it comes with issue 9's "
                     "MaterialX hosts)")
     scene, views, images, _ = blender_renders
     agree, total = 0, 0
@@ -232,8 +232,8 @@ def test_blender_host_raises_host_error_naming_itself_when_the_addon_finds_no_fi
 def test_without_the_addon_blender_still_shows_green_and_purple_feathers(asset, blender_renders, tmp_path):
     """Blender's importer alone draws the UsdPreviewSurface atlas through previewST: each card its thickness's
     colour, so the neck is green and purple, not one flat colour."""
-    from pipeline.render import compare as cmp
-    from pipeline.render.reference import render_reference
+    from pipeline.verify import compare as cmp
+    from pipeline.verify.reference_image import render_reference
 
     scene, views, _, _ = blender_renders
     images = host.run_blender(asset["usdz"], views, str(tmp_path), addon=False, lobe="as_imported", samples=4)

@@ -1,4 +1,4 @@
-"""pipeline.render.boundary: coherence of the hue classes and curvature of the green/purple boundary (issue 12).
+"""pipeline.verify.boundary: coherence of the hue classes and curvature of the green/purple boundary (issue 12).
 
 Synthetic class images: a straight boundary, a curved one, and speckle (a mosaic of independently coloured
 'feathers', the pattern of the old per-card uniform thickness draw).
@@ -7,7 +7,7 @@ Synthetic class images: a straight boundary, a curved one, and speckle (a mosaic
 import numpy as np
 import pytest
 
-from pipeline.render import boundary
+from pipeline.verify import boundary
 
 
 def _two_regions(boundary_row, h=80, w=120):

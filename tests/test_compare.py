@@ -1,10 +1,10 @@
-"""Tests of pipeline.render.compare: dE2000 maps and statistics, the pixel mask, hue classes and the
+"""Tests of pipeline.verify.compare: dE2000 maps and statistics, the pixel mask, hue classes and the
 green/purple boundary straightness measure."""
 
 import numpy as np
 import pytest
 
-from pipeline.render import compare
+from pipeline.verify import compare
 
 FEATHER = 2  # part id of the feathers in these synthetic images (0 = background, 1 = body)
 

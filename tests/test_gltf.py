@@ -52,11 +52,11 @@ def test_feather_material_carries_the_film(built_glb):
     ir = feathers.extensions["KHR_materials_iridescence"]
     film = scene.film
     # the Cauchy index at the stated wavelength, n = A + B / lambda^2
-    assert ir["iridescenceIor"] == pytest.approx(film.cauchy_a + film.cauchy_b_nm2 / 550.0**2)
+    assert ir["iridescenceIor"] == pytest.approx(film.model.cauchy_a + film.model.cauchy_b_nm2 / 550.0**2)
     assert feathers.extras["rockdove"]["iridescenceIorWavelengthNm"] == 550.0
     assert (ir["iridescenceThicknessMinimum"], ir["iridescenceThicknessMaximum"]) == tuple(film.thickness_range_nm)
     assert ir["iridescenceThicknessTexture"]["texCoord"] == 1
-    assert feathers.extensions["KHR_materials_ior"]["ior"] == film.substrate_index
+    assert feathers.extensions["KHR_materials_ior"]["ior"] == film.model.n_substrate
     assert summary["ior_wavelength_nm"] == 550.0
 
 

@@ -64,7 +64,7 @@ def test_verify_hosts_reports_each_host_and_a_failing_one_does_not_stop_the_othe
     """MaterialX's own GLSL of the asset's baked network matches the exact view_angle reference (dE goals); the
     physical network (OpenPBR's thin film) shows green and purple; a host that raises HostError is reported by
     name and fails the verification while the others still run; a missing host is skipped with its reason."""
-    from pipeline.render.verify import verify_asset
+    from pipeline.verify.run import verify_asset
 
     _broken_host(monkeypatch)
     monkeypatch.setitem(hosts.HOSTS, "ghost", "pipeline.hosts.no_such_module")
@@ -99,10 +99,10 @@ def test_materialx_host_draws_the_written_network_not_a_copy_of_it(asset_layer, 
     from pxr import Sdf
 
     from pipeline.hosts import materialx
-    from pipeline.render.host_check import host_metrics
-    from pipeline.render.reference import render_reference
+    from pipeline.verify.host_check import host_metrics
+    from pipeline.verify.reference_image import render_reference
     from pipeline.render.scene import load_scene
-    from pipeline.render.verify import verification_views
+    from pipeline.verify.inputs import verification_views
 
     folder = tmp_path / "broken"
     shutil.copytree(os.path.dirname(asset_layer), folder)
@@ -122,7 +122,7 @@ def test_glsl_host_renders_the_written_asset_as_the_verifier_does(asset_layer):
     from pipeline.hosts import glsl
     from pipeline.render.gl import render_views
     from pipeline.render.scene import load_scene
-    from pipeline.render.verify import verification_views
+    from pipeline.verify.inputs import verification_views
 
     scene = load_scene(asset_layer)
     views = [v for v in verification_views(scene, 32, 32) if v.name == "sweep_090"]

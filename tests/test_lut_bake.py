@@ -261,3 +261,15 @@ def test_random_films_on_a_substrate_match_the_reference_at_the_nodes(seed):
         c, d = np.meshgrid(lut.cos_theta, lut.thickness_nm)
         assert delta_E(lut.rgb, reference_colour(c, d, film)).max() < 0.02, (method, film, rng_nm)
     assert bake(angles=8, thicknesses=2, thickness_range=rng_nm, film=film).metadata["method"] == "fourier"
+
+
+def test_reference_colour_is_converged_at_grazing_where_a_uniform_0_1_nm_grid_is_not():
+    """The exact reference refines its wavelength step near grazing incidence (the film's spectrum becomes a
+    comb of lines a fraction of a nm wide): within 5e-4 dE2000 of a 0.002 nm integration at cos theta
+    0.0005-0.003, where a uniform 0.1 nm grid errs by more than 2e-3."""
+    rng = np.random.default_rng(3)
+    c = rng.uniform(0.0005, 0.003, 16)
+    d = rng.uniform(450.0, 720.0, 16)
+    fine = reference_colour(c, d, "keratin", steps_nm=((0.0, 0.002),))
+    assert delta_E(reference_colour(c, d, "keratin"), fine).max() < 5e-4
+    assert delta_E(reference_colour(c, d, "keratin", steps_nm=((0.0, REFERENCE_STEP_NM),)), fine).max() > 2e-3

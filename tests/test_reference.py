@@ -1,11 +1,15 @@
-"""Tests of the CPU reference render (pipeline.render.reference) on tiny hand-made scenes."""
+"""Tests of the CPU reference render (pipeline.verify.reference_image) on tiny hand-made scenes."""
 
 import numpy as np
 import pytest
 from PIL import Image
 
-from pipeline.render import reference
-from pipeline.render.scene import RenderScene, ScenePart, ThinFilmParams
+from pipeline.verify import rays
+from pipeline.verify import reference_image as reference
+from pipeline.films import FilmModel
+from pipeline.lut.reference import reference_colour
+from pipeline.render.film import ThinFilmParams
+from pipeline.render.scene import RenderScene, ScenePart
 from pipeline.render.views import View, look_at
 
 BODY_RGB = np.array([0.2, 0.4, 0.6])
@@ -23,7 +27,8 @@ def _quad(z, size, normal_sign=1.0):
 
 
 def _film(a=1.5, b=0.0):
-    return ThinFilmParams("paper", a, b, 1.0, 1.0, "thickness", "nm", "unused.exr", "lin_rec709", 1.0, (650.0, 650.0))
+    return ThinFilmParams(FilmModel("paper", a, b), lut_file="unused.exr", lut_colour_space="lin_rec709",
+                          angle_warp_gamma=1.0, thickness_range_nm=(650.0, 650.0))
 
 
 def _scene(tmp_path, alpha_left=0, mask_value=255, normal_sign=1.0, thickness=(650.0, 650.0), film=None):
@@ -54,7 +59,7 @@ def _red(c, d):
 
 def test_camera_rays_follow_the_opengl_pinhole_convention():
     v = _view(size=4)
-    origin, dirs, fwd = reference.camera_rays(v)
+    origin, dirs, fwd = rays.camera_rays(v)
     np.testing.assert_allclose(origin, [0, 0, 0.3])
     np.testing.assert_allclose(fwd, [0, 0, -1], atol=1e-12)
     assert dirs.shape == (16, 3)
@@ -95,10 +100,10 @@ def test_cached_hits_give_the_same_render_and_follow_the_geometry_not_the_film(t
 
     scene = _scene(tmp_path)
     views = [_view((0.0, 0.0, 1.0)), _view((0.0, 0.6, 0.8)), _view(eye=(0.02, 0.0, 0.3))]
-    hits = reference.cast_hits(scene, views)
+    hits = rays.cast_hits(scene, views)
     assert len(hits) == 2  # the first two views share a camera
-    stored = {k: reference.Hits.from_arrays(h.to_arrays(), h.stats) for k, h in hits.items()}
-    assert stored.keys() == {reference.camera_key(v) for v in views}
+    stored = {k: rays.Hits.from_arrays(h.to_arrays(), h.stats) for k, h in hits.items()}
+    assert stored.keys() == {rays.camera_key(v) for v in views}
     fresh = reference.render_reference(scene, views, structural_fn=_red)
     cached = reference.render_reference(scene, views, structural_fn=_red, hits=stored)
     for a, b in zip(fresh, cached):
@@ -106,12 +111,12 @@ def test_cached_hits_give_the_same_render_and_follow_the_geometry_not_the_film(t
             np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
         assert a.stats == b.stats
     # hits handed in are used as they are (not re-cast): emptied ones render the background
-    empty = {k: reference.Hits(np.full_like(h.face, -1), h.point, h.bary, h.stats) for k, h in hits.items()}
+    empty = {k: rays.Hits(np.full_like(h.face, -1), h.point, h.bary, h.stats) for k, h in hits.items()}
     assert not reference.render_reference(scene, views[:1], structural_fn=_red, hits=empty)[0].coverage.any()
-    digest = reference.ray_digest(scene)
-    assert reference.ray_digest(dataclasses.replace(scene, film=_film(1.6, 5000.0))) == digest
+    digest = rays.ray_digest(scene)
+    assert rays.ray_digest(dataclasses.replace(scene, film=_film(1.6, 5000.0))) == digest
     moved = dataclasses.replace(scene.parts[1], positions_m=scene.parts[1].positions_m + np.float32(0.001))
-    assert reference.ray_digest(dataclasses.replace(scene, parts=(scene.parts[0], moved))) != digest
+    assert rays.ray_digest(dataclasses.replace(scene, parts=(scene.parts[0], moved))) != digest
 
 
 def test_lambert_and_two_sided_cards(tmp_path):
@@ -151,7 +156,7 @@ def test_pixels_equal_the_exact_spectral_colour_times_n_dot_l(tmp_path):
     res = reference.render_reference(scene, [v])[0]
     feather = res.part_id == 1
     assert feather.sum() > 20
-    origin, dirs, _ = reference.camera_rays(v)
+    origin, dirs, _ = rays.camera_rays(v)
     dirs = dirs.reshape(12, 12, 3)[feather]
     hit = origin + dirs * (-origin[2] / dirs[:, 2:3])  # intersection with the plane z = 0
     t = (hit[:, 1] + 0.05) / 0.1
@@ -180,13 +185,13 @@ def test_spectral_step_is_exact_against_a_finer_grid():
     exact = np.empty((c.size, 3))
     for (lo, hi), step in zip(bands, (0.004, 0.01, 0.01, 0.05, 0.05, 0.05)):
         sel = (c >= lo) & (c < hi)
-        exact[sel] = reference.structural_rgb_at_step(c[sel], d[sel], film, step)
+        exact[sel] = reference_colour(c[sel], d[sel], film.model, steps_nm=((0.0, step),))
     ours = reference.structural_rgb(c, d, film)
     lab = lambda x: spectral.RGB_to_Lab(np.clip(x, 0, 1))  # noqa: E731 - the displayed colour
     assert np.max(spectral.delta_E_2000(lab(ours), lab(exact))) < 0.01
     # and near grazing the fine steps are needed: a uniform 1 nm grid is visibly wrong there
     sel = (c > 0.001) & (c < 0.03)
-    coarse = reference.structural_rgb_at_step(c[sel], d[sel], film, 1.0)
+    coarse = reference_colour(c[sel], d[sel], film.model, steps_nm=((0.0, 1.0),))
     assert np.max(spectral.delta_E_2000(lab(coarse), lab(exact[sel]))) > 0.02
 
 
@@ -200,8 +205,8 @@ def test_deduplication_keys_are_far_below_visible():
     c = rng.uniform(0.05, 1.0, 200)
     d = rng.uniform(480.0, 700.0, 200)
     a = reference.structural_rgb(c, d, film)
-    b = reference.structural_rgb_at_step(c + 0.5 * reference.COS_THETA_QUANTUM,
-                                         d + 0.5 * reference.THICKNESS_QUANTUM_NM, film, 1.0)
+    b = reference_colour(c + 0.5 * reference.COS_THETA_QUANTUM, d + 0.5 * reference.THICKNESS_QUANTUM_NM, film.model,
+                         steps_nm=((0.0, 1.0),))
     lab = lambda x: spectral.RGB_to_Lab(np.clip(x, 0, 1))  # noqa: E731
     assert np.max(spectral.delta_E_2000(lab(a), lab(b))) < 0.01
     stats = {}
@@ -242,7 +247,7 @@ def test_view_angle_lobe_is_mask_times_the_film_at_n_dot_v_whatever_the_light(tm
     feather = va[0].part_id == 1
     np.testing.assert_array_equal(va[0].part_id, ha[0].part_id)
     np.testing.assert_array_equal(va[0].rgb, va[1].rgb)  # no light
-    origin, dirs, _ = reference.camera_rays(views[0])
+    origin, dirs, _ = rays.camera_rays(views[0])
     n_dot_v = np.abs(dirs.reshape(16, 16, 3)[..., 2])[feather]  # N = +Z
     m = 128 / 255
     np.testing.assert_allclose(va[0].cos_theta[feather], n_dot_v, rtol=1e-5)

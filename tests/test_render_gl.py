@@ -17,6 +17,7 @@ from scipy import ndimage
 
 from pipeline.lut import ThinFilmLUT
 from pipeline.render import scene as sc
+from pipeline.render import texture
 from pipeline.render.views import View, default_views, look_at
 
 pytestmark = pytest.mark.gl
@@ -135,8 +136,8 @@ def _front_view(distance_m=0.12, yfov_deg=30.0, light=LIGHT):
 
 def _pixel_rays(view):
     """Unit world directions from the eye through each pixel centre, (H, W, 3); row 0 at the top (the CPU
-    reference's pinhole rays, pipeline.render.reference.camera_rays)."""
-    from pipeline.render.reference import camera_rays
+    reference's pinhole rays, pipeline.verify.rays.camera_rays)."""
+    from pipeline.verify.rays import camera_rays
 
     return camera_rays(view)[1].reshape(view.height, view.width, 3)
 
@@ -203,8 +204,8 @@ def test_alpha_discards_outside_the_feather_silhouette(coarse):
     s = (hit[..., 0] - NECK_CENTRE_M[0]) / CARD_SIZE_M + 0.5
     t = (hit[..., 1] - NECK_CENTRE_M[1]) / CARD_SIZE_M + 0.5
     on_card = (s > 0.03) & (s < 0.97) & (t > 0.03) & (t < 0.97)
-    base = sc.read_texture(scene.part("NeckFeathers").base_colour_texture, srgb=True)
-    alpha = sc.sample_texture(base, np.stack([s, t], axis=-1))[..., 3]
+    base = texture.read_texture(scene.part("NeckFeathers").base_colour_texture, srgb=True)
+    alpha = texture.sample_texture(base, np.stack([s, t], axis=-1))[..., 3]
     # card 0 lies in the plane at 0.12 m along the view axis; other cards (behind it) may show through
     feather = (res.part_id == scene.part_id("NeckFeathers")) & _card0(res)
     sure_in = on_card & (alpha > 0.9)
@@ -219,8 +220,8 @@ def test_feather_colour_matches_the_shading_formula_on_the_cpu(coarse):
     """radiance = mix(base, LUT(dot(L, H), d), mask) * light_rgb * max(N.L, 0), per pixel, 8-bit tolerance."""
     scene, lut, results, _ = coarse
     part = scene.part("NeckFeathers")
-    base_img = sc.read_texture(part.base_colour_texture, srgb=True)
-    mask_img = sc.read_texture(part.mask_texture, srgb=False)
+    base_img = texture.read_texture(part.base_colour_texture, srgb=True)
+    mask_img = texture.read_texture(part.mask_texture, srgb=False)
     lo, hi = THICKNESS_RANGE_NM
     checked = 0
     for name, res in results.items():
@@ -236,8 +237,8 @@ def test_feather_colour_matches_the_shading_formula_on_the_cpu(coarse):
         st = res.st[px]
         # the cards' thickness runs linearly from lo at t = 0 to hi at t = 1
         np.testing.assert_allclose(res.thickness_nm[px], lo + (hi - lo) * st[:, 1], atol=0.05, err_msg=name)
-        base = sc.sample_texture(base_img, st)[:, :3]
-        mask = sc.sample_texture(mask_img, st)[:, 0]
+        base = texture.sample_texture(base_img, st)[:, :3]
+        mask = texture.sample_texture(mask_img, st)[:, 0]
         np.testing.assert_allclose(res.mask[px], mask, atol=2e-3, err_msg=name)
         structural = lut.sample(cos_theta, res.thickness_nm[px])
         colour = base + (structural - base) * mask[:, None]
@@ -348,9 +349,9 @@ def test_render_cli_writes_pngs_and_exit_codes(small_asset, tmp_path, capsys):
 
 
 def test_gl_agrees_with_the_cpu_ray_cast_given_the_same_lut(coarse):
-    """Same scene, views and LUT: pyrender and the CPU reference (pipeline.render.reference, trimesh rays) must
+    """Same scene, views and LUT: pyrender and the CPU reference (pipeline.verify.reference_image, trimesh rays) must
     agree pixel for pixel; catches camera, row-order, texture-origin or normal conventions drifting apart."""
-    from pipeline.render.reference import render_reference
+    from pipeline.verify.reference_image import render_reference
 
     scene, lut, results, _ = coarse
     gl = [results[k] for k in ("front", "turntable_030", "sweep_060", "sweep_120")]
@@ -368,7 +369,7 @@ def test_gl_agrees_with_the_cpu_ray_cast_on_the_real_asset(small_asset):
     """The same agreement on the small real build, with its own LUT: every part (body, wings, beak, eyes, legs,
     bent and lifted feather cards), both renderers' default views."""
     from pipeline.render.gl import render_views
-    from pipeline.render.reference import render_reference
+    from pipeline.verify.reference_image import render_reference
 
     scene = sc.load_scene(small_asset)
     lut = scene.load_lut()

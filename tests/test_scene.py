@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from pipeline.render import scene as sc
+from pipeline.render import texture, triangulate
 from pipeline.render.views import View, default_views, hero_view, light_sweep_views, look_at, turntable_views
 
 from conftest import built_value, copy_asset
@@ -20,11 +21,11 @@ def asset(small_asset):
 def test_fan_triangulation_of_mixed_polygons_keeps_area_and_winding():
     counts = [3, 4, 5]
     idx = np.arange(12)
-    tris = sc.fan_triangulate(counts, idx)
+    tris = triangulate.fan_triangulate(counts, idx)
     assert tris.tolist() == [[0, 1, 2], [3, 4, 5], [3, 5, 6], [7, 8, 9], [7, 9, 10], [7, 10, 11]]
-    assert sc.fan_triangulate(counts, idx, left_handed=True)[1].tolist() == [3, 5, 4]
+    assert triangulate.fan_triangulate(counts, idx, left_handed=True)[1].tolist() == [3, 5, 4]
     with pytest.raises(ValueError, match="face_vertex_counts"):
-        sc.fan_triangulate([2], [0, 1])
+        triangulate.fan_triangulate([2], [0, 1])
 
 
 def test_load_scene_reads_every_part_as_the_build_generated_it_in_both_variants(small_asset):
@@ -58,7 +59,8 @@ def test_load_scene_reads_every_part_as_the_build_generated_it_in_both_variants(
         vert_n = body.normals[body.triangles].mean(axis=1)
         assert np.mean(np.sum(tri_n * vert_n, axis=1) > 0) > 0.99
         f = s.film
-        assert f.model == "keratin" and f.cauchy_a == pytest.approx(1.532) and f.cauchy_b_nm2 == pytest.approx(5890)
+        assert f.model.name == "keratin" and f.model.cauchy_a == pytest.approx(1.532)
+        assert f.model.cauchy_b_nm2 == pytest.approx(5890)
         assert f.thickness_primvar == "thickness" and f.lut_file == str(tex / "thinfilm_lut.exr")
         assert f.thickness_range_nm == tuple(built_value(small_asset, "thickness_range")) == lut.thickness_range_nm
         assert f.angle_warp_gamma == lut.angle_warp_gamma
@@ -95,10 +97,10 @@ def test_texture_sampling_uses_texel_centres_and_bottom_origin():
     img[0, :, 0] = 1.0  # top row
     img[:, :, 0] += np.arange(4)  # columns 0..3
     # bottom-left texel centre
-    assert sc.sample_texture(img, [0.125, 0.25])[0] == pytest.approx(0.0)
-    assert sc.sample_texture(img, [0.125, 0.75])[0] == pytest.approx(1.0)  # top row
-    assert sc.sample_texture(img, [0.375, 0.5])[0] == pytest.approx(1.5)  # halfway between rows
-    assert sc.sample_texture(img, [0.0, 0.0])[0] == pytest.approx(0.0)  # clamp to edge
+    assert texture.sample_texture(img, [0.125, 0.25])[0] == pytest.approx(0.0)
+    assert texture.sample_texture(img, [0.125, 0.75])[0] == pytest.approx(1.0)  # top row
+    assert texture.sample_texture(img, [0.375, 0.5])[0] == pytest.approx(1.5)  # halfway between rows
+    assert texture.sample_texture(img, [0.0, 0.0])[0] == pytest.approx(0.0)  # clamp to edge
 
 
 def test_views_are_deterministic_serialisable_and_sweep_the_light_view_angle(asset):

@@ -20,7 +20,7 @@ def web_asset(small_asset, tmp_path_factory):
 def _hue_counts(png: bytes):
     from PIL import Image
 
-    from pipeline.render.compare import hue_classes
+    from pipeline.verify.compare import hue_classes
 
     srgb = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), np.float64) / 255.0
     linear = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
@@ -55,9 +55,9 @@ def test_web_host_agrees_with_the_exact_view_angle_reference(web_asset, tmp_path
     colour at cos = |N.V| times the mask (the same pixels' N.V, thickness and mask from our GL renderer in its
     |N.V| mode): linear float, background 0, green and purple, hue classes and dE2000 close."""
     from pipeline.hosts import web
-    from pipeline.render import compare as cmp
+    from pipeline.verify import compare as cmp
     from pipeline.render.gl import GLRenderer
-    from pipeline.render.reference import structural_rgb
+    from pipeline.verify.reference_image import structural_rgb
     from pipeline.render.scene import load_scene
     from pipeline.render.views import default_views
 

@@ -3,8 +3,8 @@
 For each row (method, setting, LUT size, angle warp, film) the bake is timed with ``time.perf_counter``
 (median of at least ``--repeats`` warm runs, more for fast rows until the runs fill 0.3 s, after one untimed
 warm-up so per-process caches such as the Fourier G table are excluded; the G table's one-time build is
-reported on its own), and the LUT is checked against the exact 0.1 nm
-reference (:mod:`pipeline.lut.reference`) at the same random points for every row of a film: max, p99 and
+reported on its own), and the LUT is checked against the exact
+reference (:func:`pipeline.lut.reference.reference_colour`) at the same random points for every row of a film: max, p99 and
 median CIEDE2000. Outputs: a table on stdout, ``lut_bench.json`` (rows) and ``lut_bench.png`` (time against max
 error, log-log) in ``--out``. The straightforward 1 nm per-wavelength bake is one of the rows; the speed ratio
 default / straightforward is measured in the same run, and the default setting is checked to sit on the Pareto
@@ -122,7 +122,7 @@ def _plot(rows: list[dict], path: str) -> None:
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("bake time, s (median of warm runs)")
-    ax.set_ylabel("max dE2000 vs 0.1 nm reference")
+    ax.set_ylabel("max dE2000 vs the exact reference")
     ax.set_title("thin-film LUT bake: time against error (red: default, blue: Pareto front)")
     ax.legend(handles=handles, fontsize=7)
     fig.tight_layout()

@@ -8,7 +8,7 @@ Rows (medians of ``--repeats`` runs, ``time.perf_counter``, all in one process):
   compilation, mesh and float-texture upload, 4 renders and float read-backs, renderer deleted;
 - ``gl setup`` and ``gl 4 views warm``: the same split in two, with one :class:`~pipeline.render.gl.GLRenderer`
   (its construction; then the 4 renders on the live renderer);
-- ``reference``: :func:`pipeline.render.reference.render_reference` on the same views, when that module exists;
+- ``reference``: :func:`pipeline.verify.reference_image.render_reference` on the same views, when that module exists;
 - ``total``: load + gl cold + reference, against the goal.
 
 The asset: ``--asset`` (folder or root layer); by default ``build/pigeon`` when it has been built, else the
@@ -102,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
         if args.no_reference:
             ref_note = "skipped (--no-reference)"
         else:
-            from ..render.reference import render_reference
+            from ..verify.reference_image import render_reference
 
             t_ref, _ = _median_time(lambda: render_reference(scene, views), args.reference_repeats)
             rows["reference (4 views)"] = t_ref

@@ -29,8 +29,8 @@ from pathlib import Path
 
 from .. import __version__
 from ..errors import UsageError
+from ..usd.layout import MARKER
 
-MARKER = ".rockdove-asset.json"
 _TMP = ".rockdove-tmp-"
 _OLD = ".rockdove-old-"
 

@@ -31,13 +31,13 @@ stage                   configuration                                 inputs
                                                                       (pipeline.usd.usdz)
 ``verify_rays``         as ``verify``                                 every published stage: the assembled asset.
                                                                       One item per camera: the reference's ray
-                                                                      casts (pipeline.render.reference.cast_hits),
+                                                                      casts (pipeline.verify.rays.cast_hits),
                                                                       keyed by the camera and ray_digest (geometry,
                                                                       feather alpha; not film or LUT)
 ``gltf``                -- (present when ``gltf.glb``)                usd_geometry, usd_layers, (film_)textures: reads the
                                                                       assembled asset (pipeline.web.gltf.export_glb)
 ``verify``              ``verify.width``, ``verify.height``,          every published stage: the assembled asset.
-                        ``verify.views``                              One item per view (pipeline.render.verify),
+                        ``verify.views``                              One item per view (pipeline.verify.run),
                                                                       keyed by its plan entry: the view's camera,
                                                                       light and size and the digest of the scene
                                                                       content it renders, plus the verify code
@@ -200,7 +200,7 @@ def bird_params(config: dict):
 
 
 #: Random points at which the build measures its LUT, as shipped (after any half rounding), against the exact
-#: 0.1 nm reference (pipeline.lut.reference.lut_error, as bake's error_points),
+#: reference (pipeline.lut.reference.lut_error, as bake's error_points),
 #: recorded in the EXR header (rockdove:estimatedMaxDeltaE2000, ...P99...). 200 points add ~0.05 s to the
 #: default 256 x 64 keratin bake (pipeline.lut.reference.lut_error right after the bake in a fresh process:
 #: 0.051-0.054 s over 3 runs; 50 points 0.012-0.018 s).
@@ -330,20 +330,20 @@ def _verify_size(ctx: Context) -> dict:
 
 
 def plan_verify(ctx: Context) -> dict:
-    """The verification views and what each reads (pipeline.render.verify.plan_views): its camera, light and
+    """The verification views and what each reads (pipeline.verify.inputs.plan_views): its camera, light and
     size, and the digest of the scene content it renders (meshes, textures, film, LUT; not file bytes that do
     not change a render, e.g. the usdz or assetInfo). A view whose entry is unchanged is not re-rendered."""
-    from ..render.verify import plan_views
+    from ..verify.inputs import plan_views
 
     return plan_views(str(ctx.asset_dir), **_verify_size(ctx))
 
 
 def plan_rays(ctx: Context) -> dict:
-    """One item per distinct camera of the verification views: the camera (pipeline.render.reference.camera_key)
+    """One item per distinct camera of the verification views: the camera (pipeline.verify.rays.camera_key)
     and the digest of the geometry the rays hit (``ray_digest``: meshes, feather st and alpha), not the film or
     the LUT, so the reference's ray casts survive a film change."""
-    from ..render.reference import camera_key, ray_digest
-    from ..render.verify import verification_scene, verification_views
+    from ..verify.inputs import verification_scene, verification_views
+    from ..verify.rays import camera_key, ray_digest
 
     size = _verify_size(ctx)
     with verification_scene(str(ctx.asset_dir)) as (_, scene, _, _):
@@ -354,8 +354,8 @@ def plan_rays(ctx: Context) -> dict:
 
 def run_rays(ctx: Context) -> dict:
     """Cast the reference's primary rays of the cameras to redo (``ctx.items``), in one call (one BVH)."""
-    from ..render.reference import cast_hits, camera_key
-    from ..render.verify import verification_scene, verification_views
+    from ..verify.inputs import verification_scene, verification_views
+    from ..verify.rays import cast_hits, camera_key
 
     size = _verify_size(ctx)
     wanted = {cfg["camera"]: name for name, cfg in ctx.items.items()}
@@ -387,8 +387,8 @@ def combine_rays(ctx: Context, items: dict) -> dict:
 
 
 def load_hits(value: dict) -> dict:
-    """The :class:`pipeline.render.reference.Hits` of a ``verify_rays`` value, by camera key."""
-    from ..render.reference import Hits
+    """The :class:`pipeline.verify.rays.Hits` of a ``verify_rays`` value, by camera key."""
+    from ..verify.rays import Hits
 
     return {key: Hits.from_arrays(load_npz(Path(d) / "hits.npz"),
                                   json.loads((Path(d) / "hits.json").read_text())["stats"])
@@ -398,8 +398,8 @@ def load_hits(value: dict) -> dict:
 def run_verify(ctx: Context) -> dict:
     """Render and check the views to redo (``ctx.items``), in one call (one GL context); the reference reuses
     the ray casts of ``verify_rays``. Each view's images go into ``ctx.workdir / <view>``
-    (pipeline.render.verify.verify_views)."""
-    from ..render.verify import verify_views
+    (pipeline.verify.run.verify_views)."""
+    from ..verify.run import verify_views
 
     return verify_views(str(ctx.asset_dir), views=list(ctx.items), out_dir=str(ctx.workdir), subfolders=True,
                         hits=load_hits(ctx.inputs["verify_rays"]), **_verify_size(ctx))
@@ -408,12 +408,12 @@ def run_verify(ctx: Context) -> dict:
 def combine_verify(ctx: Context, views: dict) -> dict:
     """Validate the assembled asset and join the per-view results (fresh or cached) into the report in the
     stage's folder (published as ``verify/``); the value is the verdict."""
-    from ..render.scene import resolve_asset_path
-    from ..render.verify import report_from_views
+    from ..usd.layout import resolve_root_layer
+    from ..verify.run import report_from_views
     from .publish import published_path
 
     size = _verify_size(ctx)
-    published = published_path(resolve_asset_path(ctx.asset_dir))
+    published = published_path(resolve_root_layer(ctx.asset_dir))
     skipped = []
     if "gltf" in ctx.inputs:  # the interactive view of the report (verify/viewer.html)
         from ..errors import ResourceMissing
@@ -500,7 +500,7 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
     if config["gltf"]["glb"]:
         # reads the written asset (so it runs once it is assembled); keyed by the files it translates
         stages.append(Stage("gltf", run_gltf, deps=("usd_geometry", "usd_layers", "textures", "film_textures"),
-                            modules=("pipeline.web.gltf", "pipeline.render.scene", "pipeline.render.verify"),
+                            modules=("pipeline.web.gltf", "pipeline.render"),
                             libraries=LIBS_USD + ("pygltflib", "pillow"), codec=FILES, needs_asset=True,
                             publish=""))
     if verify:
@@ -510,12 +510,12 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
         published = tuple(s.name for s in stages if s.publish is not None)
         # The reference's ray casts, one item per camera keyed by the geometry they hit: a film change reuses them.
         stages.append(Stage("verify_rays", run_rays, config=("verify.width", "verify.height", "verify.views"),
-                            deps=published, modules=("pipeline.render", "pipeline.usd"), libraries=LIBS_RENDER,
+                            deps=published, modules=("pipeline.render", "pipeline.verify", "pipeline.usd"), libraries=LIBS_RENDER,
                             codec=JSON, needs_asset=True, item_plan=plan_rays, batch=True, combine=combine_rays,
                             item_codec=HITS))
         stages.append(Stage("verify", run_verify, config=("verify.width", "verify.height", "verify.views"),
                             deps=published + ("verify_rays",),
-                            modules=("pipeline.render", "pipeline.usd", "pipeline.lut", "pipeline.films",
+                            modules=("pipeline.render", "pipeline.verify", "pipeline.usd", "pipeline.lut", "pipeline.films",
                                      "pipeline.optics", "pipeline.spectral", "pipeline.web",
                                      "pipeline.build.publish"),
                             data=("materials", "schemas/plugInfo.json", "schemas/generatedSchema.usda"),

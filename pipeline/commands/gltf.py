@@ -29,10 +29,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from .. import __version__
     from ..errors import VerificationFailed
-    from ..render.scene import resolve_asset_path
+    from ..usd.layout import resolve_root_layer
     from ..web.gltf import GLB_NAME, export_glb, validate_glb
 
-    layer = resolve_asset_path(args.asset)
+    layer = resolve_root_layer(args.asset)
     out = args.out or os.path.join(os.path.dirname(layer), GLB_NAME)
     if not out.endswith(".glb"):
         raise ValueError(f"--out must name a .glb file, got {out!r}")

@@ -111,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"  {lut.n_thickness} x {lut.n_angle} texels ({lut.n_thickness * lut.n_angle}), film {md['film']}, "
           f"method {md['method']}, baked in {bake_s:.3f} s (incl. one-time colour tables of this process)")
     if args.error_points:
-        print(f"  estimated error vs the 0.1 nm reference: max dE2000 {md['estimatedMaxDeltaE2000']}, "
+        print(f"  estimated error vs the exact reference: max dE2000 {md['estimatedMaxDeltaE2000']}, "
               f"p99 {md['estimatedP99DeltaE2000']} ({md['estimatedErrorSample']})")
     else:
         print("  estimated error: not measured (--error-points 0)")

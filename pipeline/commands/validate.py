@@ -32,7 +32,7 @@ def add_external_argument(parser: argparse.ArgumentParser) -> None:
 def targets(path: str) -> list[str]:
     """The layers to validate for ``path``: a folder gives its root layer and, if present, its usdz."""
     from pipeline.usd.usdz import USDZ_NAME
-    from pipeline.usd.validate import resolve_root_layer
+    from pipeline.usd.layout import resolve_root_layer
 
     root = resolve_root_layer(path)
     out = [root]
@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         paths = targets(args.path)
-    except (FileNotFoundError, ValueError) as exc:
+    except ValueError as exc:
         raise UsageError(str(exc)) from None
     reports = [validate_asset(p, allow_external=args.allow_external_assets) for p in paths]
     if args.json:

@@ -1,7 +1,7 @@
 """``rockdove verify ASSET [--out DIR] [--json] [--width W --height H] [--views N] [--view NAME ...] [--hosts LIST]``:
 validate an asset, render it with the GLSL shaders, with every host asked for (:mod:`pipeline.hosts`; default
 every host available here) and with the exact CPU reference, check and report
-(:func:`pipeline.render.verify.verify_asset`). An unavailable host is printed as SKIPPED with its reason; a
+(:func:`pipeline.verify.run.verify_asset`). An unavailable host is printed as SKIPPED with its reason; a
 host that fails is printed with its error and fails the verification.
 
 A physical-only asset (no LUT) is checked with a verification-only LUT baked in memory from the film it
@@ -55,6 +55,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="comma-separated hosts that also render the views, each checked against the exact "
                              "reference of its lighting model: glsl, materialx, materialx_physical, blender, web "
                              "(default: every host available on this machine; glsl always runs)")
+    parser.add_argument("--bench-dir", default=None, metavar="DIR",
+                        help="show the benchmark plots (*.png) of DIR in the report, e.g. build/bench "
+                             "(default: none)")
     parser.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     from .validate import add_external_argument
 
@@ -71,11 +74,11 @@ def check_dependencies(asset: str, allow_external: bool) -> None:
     """
     from ..errors import UsageError, VerificationFailed
     from ..usd.dependencies import scan_dependencies
-    from ..usd.validate import resolve_root_layer
+    from ..usd.layout import resolve_root_layer
 
     try:
         root = resolve_root_layer(asset)
-    except (FileNotFoundError, ValueError) as exc:
+    except ValueError as exc:
         raise UsageError(str(exc)) from None
     deps = scan_dependencies(root, allow_external)
     if deps.errors:
@@ -84,7 +87,8 @@ def check_dependencies(asset: str, allow_external: bool) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..errors import VerificationFailed
-    from ..render.verify import summary, verify_asset
+    from ..verify.run import verify_asset
+    from ..verify.verdict import summary
 
     def progress(msg: str) -> None:
         if not args.quiet and not args.json:
@@ -93,10 +97,10 @@ def run(args: argparse.Namespace) -> int:
     check_dependencies(args.asset, args.allow_external_assets)
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
     report = verify_asset(args.asset, out_dir=args.out, width=args.width, height=args.height, progress=progress,
-                          views=args.names, n_views=args.views, hosts=hosts)
+                          views=args.names, n_views=args.views, hosts=hosts, bench_dir=args.bench_dir)
     short = summary(report)
     if args.json:
-        from ..render.report import strict_json
+        from ..verify.report import strict_json
 
         json.dump(strict_json(short), sys.stdout, indent=2, allow_nan=False)
         sys.stdout.write("\n")

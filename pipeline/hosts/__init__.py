@@ -6,7 +6,7 @@ A host module (registered in :data:`HOSTS`, imported lazily) defines
 - ``VARIANT`` (str): the network it draws: ``"glsl"`` (our paper shaders), ``"baked"`` (the MaterialX LUT
   network), ``"physical"`` (the host's own thin-film BSDF);
 - ``LOBE`` (str): the lighting model of the exact reference it is compared with, one of :data:`LOBES`
-  (:func:`pipeline.render.reference.render_reference`'s ``lobe``);
+  (:func:`pipeline.verify.reference_image.render_reference`'s ``lobe``);
 - ``unavailable() -> str | None``: None when it can run on this machine, else the reason;
 - optionally ``cannot_draw(asset_path) -> str | None``: why it cannot draw this asset (e.g. the asset has no
   shading variant of its network): the verifier then skips it with that reason;

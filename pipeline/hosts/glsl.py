@@ -2,8 +2,8 @@
 EGL (:mod:`pipeline.render.gl`), compared with the paper's half-angle model.
 
 It draws the LUT the asset names. A LUT-less (physical-only) asset has nothing for these shaders to draw
-(:func:`cannot_draw`); ``rockdove verify`` checks such an asset with a verification-only LUT of its own
-(:func:`pipeline.render.verify.verification_scene`) and hands its GL renders to the host check directly.
+(:func:`cannot_draw`); ``rockdove verify`` checks such an asset with a LUT baked in memory
+(:meth:`pipeline.render.scene.RenderScene.load_lut`) and hands its GL renders to the host check directly.
 """
 
 from __future__ import annotations
@@ -39,9 +39,11 @@ def cannot_draw(asset_path: str) -> str | None:
     from ..render.scene import load_scene
 
     try:
-        load_scene(asset_path)  # a LUT-less film is refused here (rockdove:lut:file does not resolve)
+        film = load_scene(asset_path).film
     except ValueError as exc:
-        return f"the GLSL shaders cannot draw this asset without a LUT: {exc}"
+        return f"the GLSL shaders cannot draw this asset: {exc}"
+    if film is not None and film.lut_file is None:
+        return "the GLSL shaders cannot draw this asset without a LUT: it records no rockdove:lut:file"
     return None
 
 

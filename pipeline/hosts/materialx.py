@@ -63,9 +63,9 @@ def cannot_draw(asset_path: str, variant: str = VARIANT) -> str | None:
     """Why this host cannot draw this asset (it carries no ``shading`` variant ``variant``), else None."""
     from pxr import Usd
 
-    from ..render.scene import resolve_asset_path
+    from ..usd.layout import resolve_root_layer
 
-    stage = Usd.Stage.Open(resolve_asset_path(asset_path), Usd.Stage.LoadNone)
+    stage = Usd.Stage.Open(resolve_root_layer(asset_path), Usd.Stage.LoadNone)
     root = stage.GetDefaultPrim()
     vsets = root.GetVariantSets() if root else None
     have = list(vsets.GetVariantSet("shading").GetVariantNames()) if vsets and vsets.HasVariantSet("shading") else []
@@ -203,11 +203,12 @@ def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str,
     HostError
         The asset cannot be read, the shader does not compile or link, or GL fails.
     """
-    from ..render.scene import load_scene, resolve_asset_path
+    from ..render.scene import load_scene
+    from ..usd.layout import resolve_root_layer
 
     views = list(views)
     try:
-        layer = resolve_asset_path(asset_path)
+        layer = resolve_root_layer(asset_path)
         scene = load_scene(layer, variants={"shading": variant})
         networks = feather_networks(layer, variant)
         sources = {}

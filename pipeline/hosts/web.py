@@ -44,10 +44,10 @@ def unavailable() -> str | None:
 
 
 def _glb_of(asset_path: str, out_dir: Path) -> Path:
-    from ..render.scene import resolve_asset_path
+    from ..usd.layout import resolve_root_layer
     from ..web.gltf import GLB_NAME, export_glb
 
-    layer = resolve_asset_path(asset_path)
+    layer = resolve_root_layer(asset_path)
     written = Path(layer).parent / GLB_NAME
     if written.is_file():
         return written

@@ -266,7 +266,7 @@ def _bake_fourier(cos_theta, thickness_nm, film, *, illuminant, colour_space, fo
         # series too slow (OPD -> 0 with |rho| -> 1) or no film: the exact Airy spectrum at the reference step
         ti, aj = np.nonzero(fallback)
         rgb[ti, aj] = reference_colour(cos_theta[aj], thickness_nm[ti], film, illuminant=illuminant,
-                                       colour_space=colour_space)
+                                       colour_space=colour_space, steps_nm=((0.0, REFERENCE_STEP_NM),))
     meta = {
         "fourierTolerance": repr(float(fourier_tol)),
         "fourierMaxTerms": str(int(max_terms)),
@@ -425,7 +425,7 @@ def bake(
 def error_metadata(err: dict) -> dict[str, str]:
     """Header strings of a :func:`pipeline.lut.reference.lut_error` result."""
     return {
-        "estimatedError": f"max dE2000 {err['max']:.4g}, p99 {err['p99']:.4g} against the 0.1 nm Airy reference",
+        "estimatedError": f"max dE2000 {err['max']:.4g}, p99 {err['p99']:.4g} against the exact Airy reference",
         "estimatedMaxDeltaE2000": f"{err['max']:.4g}",
         "estimatedP99DeltaE2000": f"{err['p99']:.4g}",
         "estimatedMedianDeltaE2000": f"{err['median']:.4g}",

@@ -93,9 +93,9 @@ DEFAULT_SERIES_TOL = 1e-5
 
 
 def _sigma_range():
-    from .reference import REFERENCE_RANGE_NM
+    from ..spectral import WAVELENGTH_RANGE_NM
 
-    lo, hi = REFERENCE_RANGE_NM
+    lo, hi = WAVELENGTH_RANGE_NM
     return 1.0 / hi, 1.0 / lo
 
 

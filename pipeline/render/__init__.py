@@ -1,4 +1,5 @@
-"""Verification renders: read the written USD back (:mod:`.scene`), cameras and lights (:mod:`.views`), the
-GLSL/pyrender offscreen renderer (:mod:`.gl`), PNG helpers (:mod:`.images`); the CPU reference, comparison and
-report live beside them. Heavy libraries (pxr, pyrender, OpenGL) are imported inside the functions that use
-them, so importing this package is cheap."""
+"""The renderer: read the written USD back for drawing (:mod:`.scene`), cameras and lights (:mod:`.views`), the
+GLSL/pyrender offscreen renderer (:mod:`.gl`), PNG helpers (:mod:`.images`). Verification (the exact reference,
+comparison, report) builds on it in :mod:`pipeline.verify`; nothing here imports hosts, verification or the
+build. Heavy libraries (pxr, pyrender, OpenGL) are imported inside the functions that use them, so importing
+this package is cheap."""

@@ -32,7 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import resources
-from .scene import RenderScene, ScenePart, read_texture
+from .scene import RenderScene, ScenePart
+from .texture import read_texture
 from .views import View
 
 VERTEX_SHADER = "thinfilm.vert"

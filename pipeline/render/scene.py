@@ -17,12 +17,12 @@ What is read (names from docs/design.md, "USD asset" and "Textures"):
   ``"body"``), the ``BaseColorTexture`` / ``MaskTexture`` shaders' ``inputs:file`` resolved to absolute
   paths, and a constant base colour (``inputs:diffuseColor`` / ``inputs:base_color`` of the bound
   material's shaders, else ``primvars:displayColor``) for parts without a texture;
-- the thin-film physics authored with ``RockDoveThinFilmAPI`` (:class:`ThinFilmParams`).
+- the thin-film physics authored with ``RockDoveThinFilmAPI``, read by :func:`pipeline.render.film.read_film`
+  through the schema's one reader (:class:`pipeline.render.film.ThinFilmParams`; an asset without a LUT reads
+  too, ``lut_file = None``).
 
-Conventions: texture images are returned by :func:`read_texture` with row 0 at the *top* of the image (file
-order); :func:`sample_texture` looks up USD ``st`` (t = 0 at the bottom) the way OpenGL does with an image
-uploaded bottom-row-first, bilinear, texel centres at ``(k + 0.5) / N``, clamp-to-edge. sRGB textures are
-decoded to linear with the IEC 61966-2-1 EOTF (colour-science ``cctf_decoding``); raw textures are not.
+Helpers by concern: :mod:`.usd_read` (primvars, materials), :mod:`.triangulate` (faces to triangles, vertex
+normals), :mod:`.texture` (decoding and sampling the texture images the parts name).
 """
 
 from __future__ import annotations
@@ -32,85 +32,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..usd.material import OPACITY_THRESHOLD
-
-#: Attribute-name prefix of the RockDoveThinFilmAPI schema (docs/design.md, "USD asset").
-FILM_PREFIX = "rockdove:film:"
-LUT_PREFIX = "rockdove:lut:"
-#: Shader prim names of the materials (docs/design.md, "USD asset").
-BASE_COLOR_SHADER = "BaseColorTexture"
-MASK_SHADER = "MaskTexture"
-#: Shader inputs that may hold a constant base colour for untextured parts (UsdPreviewSurface, MaterialX).
-CONSTANT_COLOUR_INPUTS = ("diffuseColor", "base_color", "baseColor")
-#: The feathers' alpha cut-off when none is authored: the one the asset authors (UsdPreviewSurface
-#: ``opacityThreshold``, :data:`pipeline.usd.material.OPACITY_THRESHOLD`; docs/design.md "Conventions").
-DEFAULT_OPACITY_THRESHOLD = OPACITY_THRESHOLD
-
-
-@dataclass(frozen=True)
-class ThinFilmParams:
-    """The thin-film physics authored on the feathers with ``RockDoveThinFilmAPI``.
-
-    Attributes
-    ----------
-    model : str
-        ``rockdove:film:model``, e.g. ``"keratin_cauchy"`` or ``"paper"``.
-    cauchy_a : float
-        ``n(lambda) = cauchy_a + cauchy_b_nm2 / lambda_nm**2`` (dimensionless).
-    cauchy_b_nm2 : float
-        Cauchy B coefficient, nm^2.
-    k : float
-        ``rockdove:film:k``: constant extinction coefficient, the film index is ``n(lambda) + i k`` (k >= 0).
-    incident_index, substrate_index : float
-        Refractive indices of the incident medium (air) and the substrate below the film.
-    thickness_primvar : str
-        Name of the primvar holding the film thickness (without ``primvars:``).
-    thickness_units : str
-        ``"nm"``.
-    lut_file : str
-        Absolute path of the LUT EXR.
-    lut_colour_space : str
-        Colour space of the LUT (``lin_rec709`` or ``acescg``).
-    angle_warp_gamma : float
-        LUT angle-axis warp, ``cos_theta = x ** gamma``.
-    thickness_range_nm : (float, float)
-        LUT thickness axis ``(lo, hi)``, nm.
-    illuminant, observer : str
-        Colorimetry the LUT was baked with.
-    """
-
-    model: str
-    cauchy_a: float
-    cauchy_b_nm2: float
-    incident_index: float
-    substrate_index: float
-    thickness_primvar: str
-    thickness_units: str
-    lut_file: str
-    lut_colour_space: str
-    angle_warp_gamma: float
-    thickness_range_nm: tuple
-    illuminant: str = "D65"
-    observer: str = "CIE 1931 2 Degree Standard Observer"
-    k: float = 0.0
-
-    def film(self):
-        """The recorded film as a :class:`pipeline.films.FilmModel` (its index model is the one of the bake)."""
-        from ..films import FilmModel
-
-        return FilmModel(self.model, self.cauchy_a, self.cauchy_b_nm2, k=self.k, n_incident=self.incident_index,
-                         n_substrate=self.substrate_index)
-
-    def film_index(self, wavelength_nm):
-        """Film index ``A + B / lambda^2 (+ i k)`` for ``wavelength_nm`` (nm), same shape; complex when ``k != 0``
-        (:meth:`pipeline.films.FilmModel.n_film`)."""
-        return self.film().n_film(wavelength_nm)
-
-    def to_dict(self) -> dict:
-        d = dict(self.__dict__)
-        d["thickness_range_nm"] = list(self.thickness_range_nm)
-        return d
-
+from .film import ThinFilmParams, lut_to_draw, read_film, thickness_range_nm
+from .triangulate import fan_triangulate, fan_triangulate_corners, vertex_normals
+from .usd_read import DEFAULT_OPACITY_THRESHOLD, material_info, primvar_array
 
 @dataclass(frozen=True, eq=False)
 class ScenePart:
@@ -222,156 +146,21 @@ class RenderScene:
         """Id of a part in the renderers' part-id images (index + 1; 0 is background)."""
         return [p.name for p in self.parts].index(self.part(name).name) + 1
 
+    @property
+    def thickness_range_nm(self) -> tuple:
+        """The film's thickness range, nm: its LUT's, or for a LUT-less film the feathers' thicknesses rounded
+        outward to whole nm (:func:`pipeline.render.film.thickness_range_nm`)."""
+        if self.film is None:
+            raise ValueError(f"the scene {self.root_layer!r} has no thin-film feathers")
+        feathers = [p.thickness_nm for p in self.parts if p.is_feather and p.thickness_nm is not None]
+        return thickness_range_nm(self.film, np.concatenate(feathers) if feathers else [])
+
     def load_lut(self):
-        """Read the LUT EXR named by ``rockdove:lut:file`` into a :class:`pipeline.lut.ThinFilmLUT`."""
+        """The :class:`pipeline.lut.ThinFilmLUT` to draw the film with: the EXR named by ``rockdove:lut:file``,
+        or for a LUT-less asset one baked in memory (:func:`pipeline.render.film.lut_to_draw`)."""
         if self.film is None:
             raise ValueError(f"the scene {self.root_layer!r} has no thin-film feathers, so no LUT")
-        return read_lut(self.film.lut_file)
-
-
-# -- helpers ----------------------------------------------------------------------------------------------
-def resolve_asset_path(asset) -> str:
-    """``asset``: a path to the asset folder (containing ``pigeon.usda``) or to a root layer. Returns the layer."""
-    path = os.path.abspath(os.fspath(asset))
-    if os.path.isdir(path):
-        cand = [os.path.join(path, n) for n in ("pigeon.usda", "pigeon.usdc", "pigeon.usd", "pigeon.usdz")]
-        found = [c for c in cand if os.path.isfile(c)]
-        if not found:
-            raise ValueError(f"asset={asset!r} is a folder without pigeon.usda/.usdc/.usd/.usdz")
-        return found[0]
-    if not os.path.isfile(path):
-        raise ValueError(f"asset={asset!r} does not exist; give the asset folder or its root layer")
-    if not path.endswith((".usda", ".usdc", ".usd", ".usdz")):
-        raise ValueError(f"asset={asset!r} is not a USD layer (.usda/.usdc/.usd/.usdz)")
-    return path
-
-
-def fan_triangulate(face_vertex_counts, face_vertex_indices, left_handed: bool = False) -> np.ndarray:
-    """Fan-triangulate polygons: face ``(v0, v1, ..., vk)`` -> ``(v0, vi, vi+1)``, i = 1..k-1.
-
-    Parameters
-    ----------
-    face_vertex_counts : array_like, (F,) int
-        Vertices per face, each >= 3.
-    face_vertex_indices : array_like, (sum(counts),) int
-        Concatenated face vertex indices.
-    left_handed : bool
-        USD ``orientation = leftHanded``: the winding is reversed so output triangles are counter-clockwise.
-
-    Returns
-    -------
-    ndarray, (sum(counts - 2), 3) int64
-        Triangles. Indices are into ``face_vertex_indices``'s vertex numbering.
-    """
-    counts = np.asarray(face_vertex_counts, dtype=np.int64)
-    fvi = np.asarray(face_vertex_indices, dtype=np.int64)
-    if counts.size and counts.min() < 3:
-        raise ValueError(f"face_vertex_counts must all be >= 3, got a face with {int(counts.min())}")
-    if counts.sum() != fvi.size:
-        raise ValueError(f"face_vertex_indices has {fvi.size} entries, face_vertex_counts sum to {counts.sum()}")
-    tri_corners = fan_triangulate_corners(counts)
-    tris = fvi[tri_corners]
-    if left_handed:
-        tris = tris[:, [0, 2, 1]]
-    return tris
-
-
-def fan_triangulate_corners(face_vertex_counts) -> np.ndarray:
-    """Like :func:`fan_triangulate` but returns indices of face *corners* (positions in face_vertex_indices)."""
-    counts = np.asarray(face_vertex_counts, dtype=np.int64)
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    ntri = counts - 2
-    face = np.repeat(np.arange(counts.size), ntri)
-    first_tri = np.concatenate([[0], np.cumsum(ntri)[:-1]])
-    k = np.arange(ntri.sum()) - first_tri[face] + 1
-    s = starts[face]
-    return np.stack([s, s + k, s + k + 1], axis=1)
-
-
-def vertex_normals(positions, triangles) -> np.ndarray:
-    """Area-weighted vertex normals, (V, 3) float32 unit (zero-area vertices get +Y)."""
-    p = np.asarray(positions, dtype=np.float64)
-    t = np.asarray(triangles)
-    fn = np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]])
-    n = np.zeros_like(p)
-    for c in range(3):
-        np.add.at(n, t[:, c], fn)
-    norm = np.linalg.norm(n, axis=1, keepdims=True)
-    n = np.where(norm > 1e-30, n / np.maximum(norm, 1e-30), [0.0, 1.0, 0.0])
-    return n.astype(np.float32)
-
-
-def read_texture(path, srgb: bool) -> np.ndarray:
-    """Read a PNG (any Pillow format) as linear float32, (H, W, C), row 0 = top of the image.
-
-    ``srgb``: decode the colour channels with the sRGB EOTF (alpha, a 4th channel, stays linear). Values in
-    [0, 1]. Grey images give C = 1, grey+alpha C = 2.
-    """
-    from PIL import Image
-
-    with Image.open(path) as im:
-        mode = im.mode
-        if mode in ("P", "CMYK", "YCbCr", "LAB", "HSV", "1"):
-            im = im.convert("RGBA" if "transparency" in im.info else "RGB")
-        arr = np.asarray(im)
-    if arr.dtype == np.uint16 or arr.dtype == np.int32:
-        a = arr.astype(np.float32) / 65535.0
-    elif arr.dtype == np.uint8:
-        a = arr.astype(np.float32) / 255.0
-    elif arr.dtype == np.bool_:
-        a = arr.astype(np.float32)
-    else:
-        a = arr.astype(np.float32)
-    if a.ndim == 2:
-        a = a[:, :, None]
-    if srgb:
-        from .._compat import import_colour
-
-        colour = import_colour()
-
-        nc = 3 if a.shape[2] >= 3 else 1
-        a = a.copy()
-        a[:, :, :nc] = colour.cctf_decoding(a[:, :, :nc], function="sRGB")
-    return np.ascontiguousarray(a, dtype=np.float32)
-
-
-def sample_texture(image, st) -> np.ndarray:
-    """Bilinear, clamp-to-edge lookup of ``image`` at USD ``st``, as OpenGL does (texel centres at (k+.5)/N).
-
-    Parameters
-    ----------
-    image : ndarray, (H, W, C)
-        Row 0 = top of the image (as :func:`read_texture` returns it); ``t = 0`` is the bottom row.
-    st : ndarray, (..., 2)
-
-    Returns
-    -------
-    ndarray, (..., C) float64
-    """
-    img = np.asarray(image, dtype=np.float64)
-    h, w = img.shape[:2]
-    st = np.asarray(st, dtype=np.float64)
-    x = np.clip(st[..., 0] * w - 0.5, 0, w - 1)
-    y = np.clip(st[..., 1] * h - 0.5, 0, h - 1)  # from the bottom
-    x0 = np.minimum(np.floor(x).astype(np.intp), max(w - 2, 0))
-    y0 = np.minimum(np.floor(y).astype(np.intp), max(h - 2, 0))
-    x1 = np.minimum(x0 + 1, w - 1)
-    y1 = np.minimum(y0 + 1, h - 1)
-    tx = (x - x0)[..., None]
-    ty = (y - y0)[..., None]
-    rows0, rows1 = h - 1 - y0, h - 1 - y1  # bottom-up -> top-down rows
-    c0 = img[rows0, x0] * (1 - tx) + img[rows0, x1] * tx
-    c1 = img[rows1, x0] * (1 - tx) + img[rows1, x1] * tx
-    return c0 * (1 - ty) + c1 * ty
-
-
-def read_lut(path):
-    """Read a LUT EXR (:func:`pipeline.lut.exr.read_exr`) into a :class:`pipeline.lut.ThinFilmLUT`."""
-    from pipeline.lut.exr import read_exr
-
-    if not os.path.isfile(path):
-        raise ValueError(f"LUT file {path!r} (rockdove:lut:file) does not exist")
-    return read_exr(path)
+        return lut_to_draw(self.film, self.thickness_range_nm)
 
 
 # -- USD reading ------------------------------------------------------------------------------------------
@@ -391,131 +180,6 @@ def register_schema() -> None:
         pass
 
 
-def _asset_abs(attr, value) -> str | None:
-    """Absolute path of an asset-valued attribute (resolved by Ar, else anchored to the authoring layer)."""
-    if value is None:
-        return None
-    resolved = getattr(value, "resolvedPath", "") or ""
-    raw = getattr(value, "path", str(value))
-    if not raw:
-        return None
-    if resolved:
-        return os.path.abspath(resolved)
-    for spec in attr.GetPropertyStack():
-        if spec.HasDefaultValue() or spec.default is not None:
-            return os.path.abspath(spec.layer.ComputeAbsolutePath(raw))
-    return os.path.abspath(raw)
-
-
-def _primvar_array(pv, n_points: int, face_vertex_counts, name: str, prim_path: str):
-    """Flattened primvar values and interpolation ('vertex' or 'faceVarying'; constant/uniform expanded)."""
-    vals = pv.ComputeFlattened()
-    if vals is None:
-        return None, None
-    a = np.asarray(vals)
-    interp = pv.GetInterpolation()
-    n_faces = len(face_vertex_counts)
-    if interp == "constant":
-        return np.repeat(a.reshape(1, *a.shape[1:]) if a.ndim else a[None], n_points, axis=0), "vertex"
-    if interp == "uniform":
-        if len(a) != n_faces:
-            raise ValueError(f"{prim_path}: primvar {name} is uniform with {len(a)} values for {n_faces} faces")
-        return np.repeat(a, face_vertex_counts, axis=0), "faceVarying"
-    if interp in ("vertex", "varying"):
-        if len(a) != n_points:
-            raise ValueError(f"{prim_path}: primvar {name} has {len(a)} values for {n_points} points")
-        return a, "vertex"
-    if interp == "faceVarying":
-        if len(a) != int(np.sum(face_vertex_counts)):
-            raise ValueError(f"{prim_path}: faceVarying primvar {name} has {len(a)} values")
-        return a, "faceVarying"
-    raise ValueError(f"{prim_path}: primvar {name} has unsupported interpolation {interp!r}")
-
-
-def _material_info(prim, stage):
-    """(material kind from the name, base texture, srgb?, mask texture, constant colour, opacity threshold)."""
-    from pxr import Usd, UsdShade
-
-    mat, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
-    if not mat:
-        return None, None, True, None, None, DEFAULT_OPACITY_THRESHOLD
-    name = mat.GetPrim().GetName()
-    kind = name[: -len("Material")].lower() if name.endswith("Material") and len(name) > 8 else name.lower()
-    base = mask = colour_const = None
-    srgb = True
-    threshold = DEFAULT_OPACITY_THRESHOLD
-    for p in Usd.PrimRange(mat.GetPrim()):
-        if not p.IsA(UsdShade.Shader):
-            continue
-        sh = UsdShade.Shader(p)
-        if p.GetName() in (BASE_COLOR_SHADER, MASK_SHADER):
-            inp = sh.GetInput("file")
-            if not inp:
-                raise ValueError(f"{p.GetPath()}: texture shader has no inputs:file")
-            path = _asset_abs(inp.GetAttr(), inp.Get())
-            if path is None:
-                raise ValueError(f"{p.GetPath()}: inputs:file is empty")
-            if not os.path.isfile(path):
-                raise ValueError(f"{p.GetPath()}: texture {path!r} does not exist")
-            if p.GetName() == BASE_COLOR_SHADER:
-                base = path
-                cs = sh.GetInput("sourceColorSpace")
-                cs_val = cs.Get() if cs else None
-                if cs_val is None:  # MaterialX: colorspace metadata on the file input
-                    cs_val = inp.GetAttr().GetColorSpace() or "sRGB"
-                srgb = str(cs_val).lower() not in ("raw", "lin_rec709", "linear")
-            else:
-                mask = path
-        for key in CONSTANT_COLOUR_INPUTS:
-            inp = sh.GetInput(key)
-            if inp and colour_const is None and not inp.HasConnectedSource():
-                v = inp.Get()
-                if v is not None:
-                    colour_const = np.asarray(v, dtype=np.float32).reshape(3)
-        thr = sh.GetInput("opacityThreshold")
-        if thr and thr.Get() is not None and float(thr.Get()) > 0:
-            threshold = float(thr.Get())
-    return kind, base, srgb, mask, colour_const, threshold
-
-
-def _film_params(prim) -> ThinFilmParams | None:
-    attr_model = prim.GetAttribute(FILM_PREFIX + "model")
-    if not attr_model or attr_model.Get() is None:
-        return None
-
-    def get(name, required=True):
-        a = prim.GetAttribute(name)
-        v = a.Get() if a else None
-        if v is None and required:
-            raise ValueError(f"{prim.GetPath()}: RockDoveThinFilmAPI attribute {name} is missing")
-        return a, v
-
-    a_lut, lut = get(LUT_PREFIX + "file")
-    lut_path = _asset_abs(a_lut, lut)
-    if lut_path is None or not os.path.isfile(lut_path):
-        raise ValueError(f"{prim.GetPath()}: rockdove:lut:file {getattr(lut, 'path', lut)!r} does not resolve "
-                         "to a file")
-    rng = get(LUT_PREFIX + "thicknessRangeNm")[1]
-    _, illum = get(LUT_PREFIX + "illuminant", required=False)
-    _, obs = get(LUT_PREFIX + "observer", required=False)
-    return ThinFilmParams(
-        model=str(attr_model.Get()),
-        cauchy_a=float(get(FILM_PREFIX + "cauchyA")[1]),
-        cauchy_b_nm2=float(get(FILM_PREFIX + "cauchyB_nm2")[1]),
-        k=float(get(FILM_PREFIX + "k", required=False)[1] or 0.0),  # the schema's fallback: not absorbing
-        incident_index=float(get(FILM_PREFIX + "incidentIndex")[1]),
-        substrate_index=float(get(FILM_PREFIX + "substrateIndex")[1]),
-        thickness_primvar=str(get(FILM_PREFIX + "thicknessPrimvar")[1]),
-        thickness_units=str(get(FILM_PREFIX + "thicknessUnits")[1]),
-        lut_file=lut_path,
-        lut_colour_space=str(get(LUT_PREFIX + "colorSpace")[1]),
-        angle_warp_gamma=float(get(LUT_PREFIX + "angleWarpGamma")[1]),
-        thickness_range_nm=(float(rng[0]), float(rng[1])),
-        illuminant=str(illum) if illum is not None else "D65",
-        observer=str(obs) if obs is not None else "CIE 1931 2 Degree Standard Observer",
-    )
-
-
 def _read_mesh(prim, xcache, meters_per_unit, stage):
     from pxr import UsdGeom
 
@@ -533,7 +197,7 @@ def _read_mesh(prim, xcache, meters_per_unit, stage):
         raise ValueError(f"{path}: faceVertexIndices out of range for {len(pts)} points")
     left = mesh.GetOrientationAttr().Get() == "leftHanded"
 
-    film = _film_params(prim)
+    film = read_film(prim)
     pvapi = UsdGeom.PrimvarsAPI(prim)
     attrs = {}  # name -> (values, interpolation)
     want = {"st": "st", "neck_s": "neckS"}
@@ -542,14 +206,14 @@ def _read_mesh(prim, xcache, meters_per_unit, stage):
     for key, pv_name in want.items():
         pv = pvapi.GetPrimvar(pv_name)
         if pv and pv.HasValue():
-            attrs[key] = _primvar_array(pv, len(pts), counts, pv_name, path)
+            attrs[key] = primvar_array(pv, len(pts), counts, pv_name, path)
     if film is not None and "thickness" not in attrs:
         raise ValueError(f"{path}: thickness primvar primvars:{film.thickness_primvar} is missing")
     normals = mesh.GetNormalsAttr().Get()
     n_interp = mesh.GetNormalsInterpolation()
     pv_n = pvapi.GetPrimvar("normals")
     if pv_n and pv_n.HasValue():
-        attrs["normals"] = _primvar_array(pv_n, len(pts), counts, "normals", path)
+        attrs["normals"] = primvar_array(pv_n, len(pts), counts, "normals", path)
     elif normals is not None and len(normals):
         class _N:  # adapter so authored normals go through the same interpolation handling
             def ComputeFlattened(self):
@@ -558,7 +222,7 @@ def _read_mesh(prim, xcache, meters_per_unit, stage):
             def GetInterpolation(self):
                 return n_interp
 
-        attrs["normals"] = _primvar_array(_N(), len(pts), counts, "normals", path)
+        attrs["normals"] = primvar_array(_N(), len(pts), counts, "normals", path)
 
     face_varying = any(interp == "faceVarying" for _, interp in attrs.values())
     if face_varying:  # split vertices per face corner
@@ -593,7 +257,7 @@ def _read_mesh(prim, xcache, meters_per_unit, stage):
     if thickness is not None and film is not None and film.thickness_units != "nm":
         raise ValueError(f"{path}: rockdove:film:thicknessUnits={film.thickness_units!r}; only 'nm' is allowed")
 
-    kind, base_tex, srgb, mask_tex, colour_const, threshold = _material_info(prim, stage)
+    kind, base_tex, srgb, mask_tex, colour_const, threshold = material_info(prim, stage)
     if film is not None:
         kind = "feather"
     if kind is None:
@@ -643,7 +307,9 @@ def load_scene(path, variants: dict | None = None) -> RenderScene:
     """
     from pxr import Sdf, Usd, UsdGeom
 
-    layer_path = resolve_asset_path(path)
+    from ..usd.layout import resolve_root_layer
+
+    layer_path = resolve_root_layer(path)
     register_schema()
     try:
         stage = Usd.Stage.Open(layer_path, Usd.Stage.LoadAll)

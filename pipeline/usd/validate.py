@@ -42,6 +42,7 @@ import tempfile
 from dataclasses import dataclass, field
 
 from .issues import Issue, only_errors
+from .layout import resolve_root_layer
 from .material import _SDF_TYPES
 
 #: The UsdValidation error replaced by :func:`check_mtlx_shaders` for MaterialX (ND_*) shader ids.
@@ -87,22 +88,6 @@ class Report:
             where = f" [{', '.join(i.variants)}]" if i.variants else ""
             lines.append(f"  {i.severity.upper()} {i.check}: {i.path}: {i.message}{where}")
         return "\n".join(lines)
-
-
-def resolve_root_layer(path: str) -> str:
-    """The root layer of an asset given its folder (containing pigeon.usda) or a layer/usdz path."""
-    path = os.fspath(path)
-    if os.path.isdir(path):
-        for name in ("pigeon.usda", "pigeon.usdz"):
-            cand = os.path.join(path, name)
-            if os.path.isfile(cand):
-                return cand
-        raise FileNotFoundError(f"path={path!r} is a folder without pigeon.usda or pigeon.usdz")
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"path={path!r} does not exist")
-    if not path.endswith((".usda", ".usdc", ".usd", ".usdz")):
-        raise ValueError(f"path={path!r} is not a USD layer (.usda, .usdc, .usd or .usdz)")
-    return path
 
 
 # -- 1. UsdValidation -------------------------------------------------------------------------------------

@@ -90,9 +90,9 @@ def thickness_ramp_png(texels: int = THICKNESS_RAMP_TEXELS) -> bytes:
 
 
 def film_ior(film, wavelength_nm: float = IOR_WAVELENGTH_NM) -> float:
-    """The film's Cauchy index at ``wavelength_nm`` (``film``: :class:`pipeline.render.scene.ThinFilmParams`): its
+    """The film's Cauchy index at ``wavelength_nm`` (``film``: :class:`pipeline.render.film.ThinFilmParams`): its
     real part: ``KHR_materials_iridescence`` has no extinction, so an absorbing film (k > 0) is exported without it."""
-    return float(np.real(film.film_index(wavelength_nm)))
+    return float(np.real(film.model.n_film(wavelength_nm)))
 
 
 class _Blob:
@@ -171,7 +171,7 @@ def scene_to_glb(scene, version: str = "") -> bytes:
             textures[name] = len(gltf.textures) - 1
         return textures[name]
 
-    lo, hi = (float(v) for v in film.thickness_range_nm)
+    lo, hi = scene.thickness_range_nm  # a LUT-less film: the feathers' thicknesses, whole nm
     root_children = []
     for part in scene.parts:
         attributes = Attributes(
@@ -203,10 +203,10 @@ def scene_to_glb(scene, version: str = "") -> bytes:
                 iridescence["iridescenceTexture"] = {"index": texture(part.mask_texture,
                                                                       os.path.basename(part.mask_texture))}
             material.extensions = {"KHR_materials_iridescence": iridescence,
-                                   "KHR_materials_ior": {"ior": float(film.substrate_index)}}
+                                   "KHR_materials_ior": {"ior": float(film.model.n_substrate)}}
             material.extras = {"rockdove": {
-                "filmModel": film.model, "cauchyA": film.cauchy_a, "cauchyB_nm2": film.cauchy_b_nm2,
-                "incidentIndex": film.incident_index, "substrateIndex": film.substrate_index,
+                "filmModel": film.model.name, "cauchyA": film.model.cauchy_a, "cauchyB_nm2": film.model.cauchy_b_nm2,
+                "incidentIndex": film.model.n_incident, "substrateIndex": film.model.n_substrate,
                 "iridescenceIorWavelengthNm": IOR_WAVELENGTH_NM, "thicknessRangeNm": [lo, hi],
                 "thicknessRampTexels": THICKNESS_RAMP_TEXELS}}
         gltf.materials.append(material)
@@ -246,20 +246,18 @@ def export_glb(asset, out_path, *, version: str = "") -> dict:
     ValueError
         ``asset`` is not a USD asset, or has no rockdove thin-film data (one line, naming the asset).
     """
-    from ..render.verify import verification_scene
+    from ..render.scene import load_scene
 
-    # the verifier's reader: a physical-only asset (no LUT) is read through a wrapper that records a
-    # verification-only LUT; only its thickness range (the mesh's, whole nm) reaches the GLB
-    with verification_scene(asset) as (_layer, scene, _lut, _notes):
-        data = scene_to_glb(scene, version=version)
+    scene = load_scene(asset)  # the verifier's reader; a physical-only asset (no LUT) reads too
+    data = scene_to_glb(scene, version=version)
     out_path = os.fspath(out_path)
     tmp = f"{out_path}.tmp-{os.getpid()}"
     with open(tmp, "wb") as f:
         f.write(data)
     os.replace(tmp, out_path)
     return {"path": out_path, "bytes": len(data), "iridescence_ior": film_ior(scene.film),
-            "ior_wavelength_nm": IOR_WAVELENGTH_NM, "thickness_range_nm": list(scene.film.thickness_range_nm),
-            "substrate_ior": scene.film.substrate_index}
+            "ior_wavelength_nm": IOR_WAVELENGTH_NM, "thickness_range_nm": list(scene.thickness_range_nm),
+            "substrate_ior": scene.film.model.n_substrate}
 
 
 #: Seconds the glTF-Validator may take (node start-up plus validation; a 2 MB GLB takes about 1 s).

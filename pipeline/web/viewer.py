@@ -110,7 +110,7 @@ def write_viewer(asset, glb_path, out_dir, asset_name: str | None = None) -> str
     ----------
     asset : path
         The written asset (folder or root layer): its scene and LUT (a physical-only asset: the
-        verification-only LUT, :func:`pipeline.render.verify.verification_scene`).
+        LUT baked in memory, :meth:`pipeline.render.scene.RenderScene.load_lut`).
     glb_path : path
         Its ``pigeon.glb`` (:func:`pipeline.web.gltf.export_glb`).
     out_dir : path
@@ -118,16 +118,15 @@ def write_viewer(asset, glb_path, out_dir, asset_name: str | None = None) -> str
     asset_name : str, optional
         Shown on the page (default: the asset folder's name).
     """
-    from ..render.verify import verification_scene
+    from ..render.scene import load_scene
 
     out = Path(out_dir)
     (out / "three").mkdir(parents=True, exist_ok=True)
     nm = three_folder()
     web = web_folder()
-    with verification_scene(asset) as (layer, scene, lut_override, _notes):
-        lut = lut_override if lut_override is not None else scene.load_lut()
-        data = viewer_data(scene, lut, Path(glb_path).read_bytes(),
-                           asset_name or os.path.basename(os.path.dirname(layer)))
+    scene = load_scene(asset)
+    data = viewer_data(scene, scene.load_lut(), Path(glb_path).read_bytes(),
+                       asset_name or os.path.basename(os.path.dirname(scene.root_layer)))
     (out / "viewer_data.js").write_text("window.ROCKDOVE_DATA = " + json.dumps(data) + ";\n")
     tags = []
     modules = {**{n: nm / p for n, p in THREE_MODULES.items()}, "viewer_app.js": web / "viewer_app.js"}

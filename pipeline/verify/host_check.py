@@ -2,19 +2,19 @@
 lighting model it evaluates, over the feather-tip pixels.
 
 Per host, over every view: the feather pixels of the reference (its part ids, eroded by one pixel as the GL
-comparison does, :func:`pipeline.render.compare.comparison_mask`) whose structural mask is >=
-:data:`pipeline.render.compare.STRUCTURAL_MASK` (0.5). A host returns radiance only (no part ids), so its
+comparison does, :func:`pipeline.verify.compare.comparison_mask`) whose structural mask is >=
+:data:`pipeline.verify.compare.STRUCTURAL_MASK` (0.5). A host returns radiance only (no part ids), so its
 silhouette is the reference's.
 
-- ``median_dE``, ``p95_dE``: CIEDE2000 of the unclipped linear radiance (:func:`pipeline.render.compare.
+- ``median_dE``, ``p95_dE``: CIEDE2000 of the unclipped linear radiance (:func:`pipeline.verify.compare.
   delta_e_map`);
 - ``green_px``, ``purple_px``: host pixels in the green / purple hue bands
-  (:func:`pipeline.render.compare.hue_classes`, strict bands);
+  (:func:`pipeline.verify.compare.hue_classes`, strict bands);
 - ``hue_agreement``: fraction of the pixels whose class (green, purple, other: grey and other hues together)
   is the reference's.
 
 Pass (:func:`host_passed`): networks that claim the exact colour (``glsl``, ``baked``) meet the dE goals
-(median <= :data:`pipeline.render.compare.MEDIAN_DE_GOAL`, p95 <= :data:`~pipeline.render.compare.P95_DE_GOAL`);
+(median <= :data:`pipeline.verify.compare.MEDIAN_DE_GOAL`, p95 <= :data:`~pipeline.verify.compare.P95_DE_GOAL`);
 a host's own thin-film BSDF (``physical``), an approximation, shows green and purple and agrees on the hue
 class of >= :data:`MIN_HUE_AGREEMENT` of the pixels (its dE is reported, not held to the goal).
 """
@@ -25,7 +25,7 @@ import os
 
 import numpy as np
 
-from . import compare as cmp
+from . import compare
 
 #: Share of feather-tip pixels whose green/purple/other class must match the reference (physical variants).
 MIN_HUE_AGREEMENT = 0.85
@@ -34,7 +34,7 @@ EXACT_VARIANTS = ("glsl", "baked")
 
 
 def _classes(rgb: np.ndarray) -> np.ndarray:
-    cls = cmp.hue_classes(np.asarray(rgb, np.float64), sides=False)[2]
+    cls = compare.hue_classes(np.asarray(rgb, np.float64), sides=False)[2]
     return np.where((cls == 1) | (cls == 2), cls, 3).astype(np.int8)
 
 
@@ -69,8 +69,8 @@ def host_metrics(images: dict, refs: list, scene) -> dict:
         if img.shape != ref.rgb.shape:
             raise ValueError(f"view {ref.view!r}: host image {img.shape}, expected {ref.rgb.shape}")
         img = np.where(np.isfinite(img), img, 0.0)
-        sel = cmp.comparison_mask(ref.part_id, ref.part_id, feather_ids, 1) & (ref.mask >= cmp.STRUCTURAL_MASK)
-        de = cmp.delta_e_map(img, ref.rgb.astype(np.float64), sel)
+        sel = compare.comparison_mask(ref.part_id, ref.part_id, feather_ids, 1) & (ref.mask >= compare.STRUCTURAL_MASK)
+        de = compare.delta_e_map(img, ref.rgb.astype(np.float64), sel)
         maps[ref.view] = de
         vals = de[sel]
         des.append(vals)
@@ -101,10 +101,10 @@ def host_passed(variant: str, metrics: dict) -> tuple[bool, list]:
     if metrics["n_pixels"] == 0:
         return False, ["no feather-tip pixels to compare"]
     if variant in EXACT_VARIANTS:
-        if not metrics["median_dE"] <= cmp.MEDIAN_DE_GOAL:
-            why.append(f"median dE2000 {metrics['median_dE']:.3f} > {cmp.MEDIAN_DE_GOAL}")
-        if not metrics["p95_dE"] <= cmp.P95_DE_GOAL:
-            why.append(f"p95 dE2000 {metrics['p95_dE']:.3f} > {cmp.P95_DE_GOAL}")
+        if not metrics["median_dE"] <= compare.MEDIAN_DE_GOAL:
+            why.append(f"median dE2000 {metrics['median_dE']:.3f} > {compare.MEDIAN_DE_GOAL}")
+        if not metrics["p95_dE"] <= compare.P95_DE_GOAL:
+            why.append(f"p95 dE2000 {metrics['p95_dE']:.3f} > {compare.P95_DE_GOAL}")
     else:
         for hue in ("green_px", "purple_px"):
             if metrics[hue] == 0:
@@ -147,7 +147,7 @@ def check_hosts(asset_layer: str, scene, views, selection, refs_by_lobe: dict, o
     """
     from . import report as rep
     from ..spectral import linear_to_srgb8
-    from .images import save_png
+    from ..render.images import save_png
     from ..hosts import HostError
 
     say = say or (lambda msg: None)

@@ -11,7 +11,8 @@ Files (``DIR`` is the output folder):
 - ``<view>_dE.png``: the dE2000 map with a colour bar (grey where not compared);
 - ``contact_sheet.png``: one row per view, GL | reference | dE;
 - ``lut.png`` (the LUT the asset names), ``spectra.png`` (film reflectance spectra), ``hue.png`` (hue
-  histogram across the light sweep), ``bench_*.png`` copied from ``build/bench`` when present;
+  histogram across the light sweep), ``bench_*.png`` copied from the benchmark folder the caller names
+  (``rockdove verify --bench-dir DIR``; none by default);
 - ``report.json`` and ``report.html``.
 """
 
@@ -67,7 +68,7 @@ def de_map_png(path, de_map, title: str) -> str:
     return os.fspath(path)
 
 
-#: What each column of a verification contact-sheet row shows (pipeline.render.verify: GL, reference, dE map).
+#: What each column of a verification contact-sheet row shows (pipeline.verify.run: GL, reference, dE map).
 SHEET_COLUMNS = ("GLSL", "reference", f"dE2000 0-{DE_MAP_MAX:g}")
 
 
@@ -75,7 +76,7 @@ def contact_sheet(path, rows, columns=SHEET_COLUMNS) -> str:
     """The verification contact sheet: one row per view, ``(label, [GL, reference, dE map])``, each tile titled
     by what its column shows (``columns``), the first also by the view's label
     (:func:`pipeline.render.images.contact_sheet`)."""
-    from .images import contact_sheet as tile_sheet
+    from ..render.images import contact_sheet as tile_sheet
 
     titled = []
     for label, imgs in rows:
@@ -110,17 +111,19 @@ def lut_png(path, lut) -> str:
 def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 0.707, 0.3, 0.05)) -> str:
     """Reflectance spectra of the asset's film (exact Airy, 0.1 nm) for a few thicknesses and angles."""
     from .. import optics
+    from ..lut.reference import reference_wavelengths
 
-    wl = np.linspace(360.0, 780.0, 4201)
+    wl = reference_wavelengths()
     fig = _figure(7.0, 2.6 * len(thickness_nm))
     for i, d in enumerate(thickness_nm):
         ax = fig.add_subplot(len(thickness_nm), 1, i + 1)
         for c in cos_theta:
-            r = optics.reflectance(wl, c, d, n_film=film.film_index(wl), n_incident=film.incident_index,
-                                   n_substrate=film.substrate_index)
+            r = optics.reflectance(wl, c, d, n_film=film.model.n_film(wl), n_incident=film.model.n_incident,
+                                   n_substrate=film.model.n_substrate)
             ax.plot(wl, r, lw=0.8, label=f"cos theta = {c:g}")
         ax.set_ylabel("R")
-        ax.set_title(f"d = {d:g} nm, {film.model}: n = {film.cauchy_a:g} + {film.cauchy_b_nm2:g} / lambda^2",
+        m = film.model
+        ax.set_title(f"d = {d:g} nm, {m.name}: n = {m.cauchy_a:g} + {m.cauchy_b_nm2:g} / lambda^2",
                      fontsize=9)
         ax.set_ylim(0, 1)
         if i == 0:
@@ -132,7 +135,7 @@ def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 
 
 
 def hue_png(path, hue: dict, title: str) -> str:
-    """Bar chart of a :func:`pipeline.render.compare.hue_histogram`, bars coloured by their hue."""
+    """Bar chart of a :func:`pipeline.verify.compare.hue_histogram`, bars coloured by their hue."""
     from .._compat import import_colour
 
     colour = import_colour()
@@ -223,7 +226,7 @@ def write_html(path, report: dict, images: dict) -> str:
     Parameters
     ----------
     report : dict
-        As written to report.json (see :func:`pipeline.render.verify.verify_asset`).
+        As written to report.json (see :func:`pipeline.verify.run.verify_asset`).
     images : dict
         ``"views"``: ``{view: {"gl": file, "reference": file, "dE": file}}``; optional ``"hosts"``
         (``{host: {view: {"host", "reference", "dE": file}}}``), ``"contact_sheet"``,

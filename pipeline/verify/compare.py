@@ -458,7 +458,7 @@ def compare(gl_result, ref_result, scene, erode_px: int = 1) -> ViewMetrics:
     Parameters
     ----------
     gl_result : pipeline.render.gl.RenderResult
-    ref_result : pipeline.render.reference.ReferenceResult
+    ref_result : pipeline.verify.reference_image.ReferenceResult
     scene : pipeline.render.scene.RenderScene
         Gives the feather part ids (``index + 1`` of feather parts).
     """
@@ -467,3 +467,13 @@ def compare(gl_result, ref_result, scene, erode_px: int = 1) -> ViewMetrics:
     return compare_arrays(ref_result.view, g["rgb"], ref_result.rgb, g["part_id"], ref_result.part_id,
                           feather_ids, ref_n_dot_l=ref_result.n_dot_l, ref_mask=ref_result.mask,
                           erode_px=erode_px)
+
+
+def reference_classes(ref_result, scene) -> np.ndarray:
+    """Hue classes of the reference's feather pixels (used when there is no GL render)."""
+    feather = np.isin(ref_result.part_id, [i + 1 for i, p in enumerate(scene.parts) if p.is_feather])
+    feather &= ref_result.mask >= STRUCTURAL_MASK
+    cls = np.full(feather.shape, -1, np.int8)
+    if feather.any():
+        cls[feather] = hue_classes(ref_result.rgb[feather].astype(np.float64), sides=True)[2]
+    return cls

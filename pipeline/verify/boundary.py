@@ -5,7 +5,7 @@ moves with the light; one fixed film thickness makes it a straight line; an unco
 thickness makes a salt-and-pepper of both colours. Two measures per view tell the three apart (issue 12):
 
 Coherence (:func:`class_coherence`)
-    Feather pixels are classified by CIELAB hue (:func:`pipeline.render.compare.hue_classes`, the strict
+    Feather pixels are classified by CIELAB hue (:func:`pipeline.verify.compare.hue_classes`, the strict
     bands: green, purple, other chromatic hue; grey pixels are left out). For each class, the share of its
     pixels held by its largest connected region. "Connected" is 4-connected, optionally after bridging gaps
     of up to ``2 * reach_px`` grey or non-feather pixels (a 4-connected dilation of the class by ``reach_px``
@@ -17,7 +17,7 @@ Coherence (:func:`class_coherence`)
     as coherent. A coherent pattern has shares near 1; speckle breaks the classes into many regions.
 
 Curvature (:func:`boundary_curvature`)
-    The green/purple contact zone (:func:`pipeline.render.compare.boundary_points`, on the hue *sides*) is
+    The green/purple contact zone (:func:`pipeline.verify.compare.boundary_points`, on the hue *sides*) is
     reduced to its centreline (mean point of ``bin_px`` bins along its principal axis), and two models of the
     centreline's perpendicular offset ``o`` as a function of the position ``t`` along that axis are fitted by
     least squares: a straight line ``o = a + b t`` and a smooth curve, the cubic ``o = a + b t + c t^2 + d t^3``
@@ -54,7 +54,7 @@ CURVED_RATIO = 2.0
 STRAIGHT_FRACTION = 0.02
 #: Degree of the smooth curve fitted to the boundary's centreline.
 CURVE_DEGREE = 3
-#: Class labels of the strict hue bands (pipeline.render.compare.hue_classes).
+#: Class labels of the strict hue bands (pipeline.verify.compare.hue_classes).
 CLASSES = {"green": 1, "purple": 2, "other": 3}
 
 
@@ -131,7 +131,7 @@ def boundary_curvature(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0
     Parameters
     ----------
     cls : ndarray, shape (H, W), int
-        Hue sides (:func:`pipeline.render.compare.hue_classes` with ``sides=True``: 1 green, 2 purple).
+        Hue sides (:func:`pipeline.verify.compare.hue_classes` with ``sides=True``: 1 green, 2 purple).
     min_points : int
         Fewer centreline points than this (or than ``degree + 3``) give no measure (NaN).
     bin_px : float
