@@ -131,11 +131,11 @@ def test_an_absorbing_film_exports_the_real_part_of_its_index():
     that would say the imaginary part was dropped by accident."""
     import warnings
 
-    from pipeline.render.scene import ThinFilmParams
+    from pipeline.films import FilmModel
+    from pipeline.render.film import ThinFilmParams
     from pipeline.web.gltf import IOR_WAVELENGTH_NM, film_ior
 
-    film = ThinFilmParams("keratin", 1.532, 5890.0, 1.0, 1.0, "thickness", "nm", "", "lin_rec709", 1.0,
-                          (480.0, 700.0), k=0.05)
+    film = ThinFilmParams(FilmModel("keratin", 1.532, 5890.0, k=0.05))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert film_ior(film) == pytest.approx(1.532 + 5890.0 / IOR_WAVELENGTH_NM**2)
