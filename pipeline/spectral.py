@@ -312,6 +312,17 @@ def XYZ_to_Lab(XYZ) -> np.ndarray:
                     axis=-1)
 
 
+def Lab_to_XYZ(Lab) -> np.ndarray:
+    """Inverse of :func:`XYZ_to_Lab` (CIE 15:2004 eq. 8.4-8.6, the same white). (..., 3) -> (..., 3)."""
+    lab = np.asarray(Lab, dtype=np.float64)
+    xy = reference_white_xy()
+    white = np.array([xy[0] / xy[1], 1.0, (1.0 - xy[0] - xy[1]) / xy[1]])
+    fy = (lab[..., 0] + 16.0) / 116.0
+    f = np.stack([fy + lab[..., 1] / 500.0, fy, fy - lab[..., 2] / 200.0], axis=-1)
+    t = np.where(f ** 3 > _LAB_EPSILON, f ** 3, (116.0 * f - 16.0) / _LAB_KAPPA)
+    return t * white
+
+
 def delta_E_2000(Lab_a, Lab_b) -> np.ndarray:
     """CIEDE2000 colour difference, k_L = k_C = k_H = 1; (..., 3), (..., 3) -> (...).
 

@@ -209,6 +209,9 @@ def test_lab_delta_e_2000_and_srgb_formulas_agree_with_colour_science():
     xyz = rng.uniform(-0.05, 1.2, (3000, 3))
     np.testing.assert_allclose(spectral.XYZ_to_Lab(xyz),
                                colour.XYZ_to_Lab(xyz, illuminant=spectral.reference_white_xy()), rtol=0, atol=1e-10)
+    np.testing.assert_allclose(spectral.Lab_to_XYZ(lab_a),
+                               colour.Lab_to_XYZ(lab_a, illuminant=spectral.reference_white_xy()), rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(spectral.Lab_to_XYZ(spectral.XYZ_to_Lab(xyz)), xyz, rtol=1e-10, atol=1e-12)
     v = np.concatenate([np.linspace(-0.1, 1.1, 2001), [0.0031308, 0.04045]])
     np.testing.assert_allclose(spectral.srgb_encode(v), colour.cctf_encoding(v, function="sRGB"), rtol=0, atol=1e-14)
     np.testing.assert_allclose(spectral.srgb_decode(v), colour.cctf_decoding(v, function="sRGB"), rtol=0, atol=1e-14)

@@ -3,7 +3,7 @@
 Conventions (docs/design.md, "Conventions"): :func:`read_texture` returns row 0 at the *top* of the image (file
 order); :func:`sample_texture` looks up USD ``st`` (t = 0 at the bottom) the way OpenGL does with an image
 uploaded bottom-row-first: bilinear, texel centres at ``(k + 0.5) / N``, clamp-to-edge. sRGB textures are
-decoded to linear with the IEC 61966-2-1 EOTF (colour-science ``cctf_decoding``); raw textures are not.
+decoded to linear with the IEC 61966-2-1 EOTF (:func:`pipeline.spectral.srgb_decode`); raw textures are not.
 """
 
 from __future__ import annotations
@@ -35,13 +35,16 @@ def read_texture(path, srgb: bool) -> np.ndarray:
     if a.ndim == 2:
         a = a[:, :, None]
     if srgb:
-        from .._compat import import_colour
-
-        colour = import_colour()
+        from ..spectral import srgb_decode
 
         nc = 3 if a.shape[2] >= 3 else 1
         a = a.copy()
-        a[:, :, :nc] = colour.cctf_decoding(a[:, :, :nc], function="sRGB")
+        if arr.dtype == np.uint8:  # 256 possible codes: decode each once (same values, element by element)
+            table = srgb_decode(np.arange(256).astype(np.float32) / 255.0).astype(np.float32)
+            codes = arr if arr.ndim == 3 else arr[:, :, None]
+            a[:, :, :nc] = table[codes[:, :, :nc]]
+        else:
+            a[:, :, :nc] = srgb_decode(a[:, :, :nc])
     return np.ascontiguousarray(a, dtype=np.float32)
 
 

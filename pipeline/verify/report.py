@@ -136,15 +136,12 @@ def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 
 
 def hue_png(path, hue: dict, title: str) -> str:
     """Bar chart of a :func:`pipeline.verify.compare.hue_histogram`, bars coloured by their hue."""
-    from .._compat import import_colour
-
-    colour = import_colour()
+    from ..spectral import Lab_to_XYZ, XYZ_to_RGB, srgb_encode
 
     edges = np.asarray(hue["bin_edges_deg"])
     centres = 0.5 * (edges[:-1] + edges[1:])
     lab = np.stack([np.full_like(centres, 60.0), 40 * np.cos(np.radians(centres)), 40 * np.sin(np.radians(centres))], 1)
-    cs = colour.RGB_COLOURSPACES["sRGB"]
-    rgb = colour.XYZ_to_RGB(colour.Lab_to_XYZ(lab, cs.whitepoint), cs, apply_cctf_encoding=True)
+    rgb = srgb_encode(np.clip(XYZ_to_RGB(Lab_to_XYZ(lab), "lin_rec709"), 0.0, 1.0))  # the bins' own hues, displayed
     fig = _figure(6.0, 3.0)
     ax = fig.add_subplot(1, 1, 1)
     ax.bar(centres, hue["counts"], width=np.diff(edges) * 0.9, color=np.clip(rgb, 0, 1), edgecolor="k", lw=0.3)
