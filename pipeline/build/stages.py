@@ -346,9 +346,9 @@ def plan_rays(ctx: Context) -> dict:
     from ..verify.rays import camera_key, ray_digest
 
     size = _verify_size(ctx)
-    with verification_scene(str(ctx.asset_dir)) as (_, scene, _, _):
-        digest = ray_digest(scene)
-        views = verification_views(scene, size["width"], size["height"], size["n_views"])
+    _, scene, _, _ = verification_scene(str(ctx.asset_dir))
+    digest = ray_digest(scene)
+    views = verification_views(scene, size["width"], size["height"], size["n_views"])
     return {f"camera-{camera_key(v)[:16]}": {"camera": camera_key(v), "geometry": digest} for v in views}
 
 
@@ -359,9 +359,9 @@ def run_rays(ctx: Context) -> dict:
 
     size = _verify_size(ctx)
     wanted = {cfg["camera"]: name for name, cfg in ctx.items.items()}
-    with verification_scene(str(ctx.asset_dir)) as (_, scene, _, _):
-        views = verification_views(scene, size["width"], size["height"], size["n_views"])
-        hits = cast_hits(scene, [v for v in views if camera_key(v) in wanted])
+    _, scene, _, _ = verification_scene(str(ctx.asset_dir))
+    views = verification_views(scene, size["width"], size["height"], size["n_views"])
+    hits = cast_hits(scene, [v for v in views if camera_key(v) in wanted])
     return {wanted[key]: (key, value) for key, value in hits.items()}
 
 
@@ -425,8 +425,7 @@ def combine_verify(ctx: Context, views: dict) -> dict:
         except ResourceMissing as exc:  # e.g. a wheel install without npm's three.js: the report, without it
             skipped.append(f"no interactive viewer in the report: {exc}")
     report = report_from_views(str(ctx.asset_dir), views, out_dir=str(ctx.workdir), width=size["width"],
-                               height=size["height"], bench_dir=str(ctx.workdir / "no-bench"),
-                               published_asset=str(published))
+                               height=size["height"], published_asset=str(published))
     return {"passed": bool(report.get("passed")), "reason": "; ".join(map(str, report.get("failures", []))),
             "views": [v["view"] for v in report.get("views", []) if isinstance(v, dict)],
             "notes": list(report.get("notes", [])) + skipped}

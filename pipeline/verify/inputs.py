@@ -4,7 +4,6 @@ re-render only the views whose inputs changed."""
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
 
@@ -24,25 +23,22 @@ PHYSICAL_ONLY_NOTE = (
     "thickness primvar and film are verified; the physical MaterialX network itself is only validated")
 
 
-@contextlib.contextmanager
 def verification_scene(asset):
     """Read an asset back for verification: ``(root layer, RenderScene, LUT baked in memory or None, notes)``.
 
     An asset with a LUT is read as it is. For a LUT-less (physical-only) asset the renderers draw a LUT baked in
     memory from the film it records (:meth:`pipeline.render.scene.RenderScene.load_lut`), returned here with
-    a note saying so (:data:`PHYSICAL_ONLY_NOTE`). Nothing is written. (A context manager so that callers
-    need not change if reading ever holds resources again.)
+    a note saying so (:data:`PHYSICAL_ONLY_NOTE`). Nothing is written.
     """
     from ..render.scene import load_scene
 
     scene = load_scene(asset)
     if scene.film is None or scene.film.lut_file is not None:
-        yield scene.root_layer, scene, None, []
-        return
+        return scene.root_layer, scene, None, []
     lut = scene.load_lut()
     lo, hi = lut.thickness_range_nm
     note = PHYSICAL_ONLY_NOTE.format(shape=f"{lut.n_thickness} x {lut.n_angle}", lo=lo, hi=hi)
-    yield scene.root_layer, scene, lut, [note]
+    return scene.root_layer, scene, lut, [note]
 
 
 def verification_views(scene, width: int, height: int, n_views: int = DEFAULT_VIEWS) -> list:
@@ -123,7 +119,7 @@ def plan_views(asset, width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE, n_v
     key each view by its entry (pipeline.build.stages) and re-render only views whose entry changed.
     """
     check_size(width, height)
-    with verification_scene(asset) as (_, scene, _, _):
-        digest = scene_digest(scene)
-        return {v.name: {"view": v.to_dict(), "scene": digest}
-                for v in verification_views(scene, int(width), int(height), n_views)}
+    _, scene, _, _ = verification_scene(asset)
+    digest = scene_digest(scene)
+    return {v.name: {"view": v.to_dict(), "scene": digest}
+            for v in verification_views(scene, int(width), int(height), n_views)}

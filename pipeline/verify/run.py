@@ -147,11 +147,11 @@ def verify_views(asset, views=None, out_dir=None, width: int = DEFAULT_SIZE, hei
     """
     check_size(width, height)
     say = progress or (lambda msg: None)
-    with verification_scene(asset) as (layer, scene, lut, notes):
-        out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)
-        os.makedirs(out, exist_ok=True)
-        chosen = select_views(verification_views(scene, int(width), int(height), n_views), views)
-        results = render_and_check(scene, lut, chosen, out, subfolders=subfolders, say=say, hits=hits)
+    layer, scene, lut, notes = verification_scene(asset)
+    out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)
+    os.makedirs(out, exist_ok=True)
+    chosen = select_views(verification_views(scene, int(width), int(height), n_views), views)
+    results = render_and_check(scene, lut, chosen, out, subfolders=subfolders, say=say, hits=hits)
     for r in results.values():
         r["notes"] = list(notes)
     return results
@@ -167,10 +167,10 @@ def report_from_views(asset, view_results: dict, out_dir=None, width: int = DEFA
     ``published_asset``: the root layer's path once published (the build verifies a staging folder), which the
     report names instead of the layer read.
     """
-    with verification_scene(asset) as (layer, scene, lut, notes):
-        return combine(layer, scene, lut, notes, view_results, out_dir, width, height, bench_dir,
-                        progress or (lambda msg: None), reused=reused, t_start=time.perf_counter(),
-                        published_asset=published_asset)
+    layer, scene, lut, notes = verification_scene(asset)
+    return combine(layer, scene, lut, notes, view_results, out_dir, width, height, bench_dir,
+                    progress or (lambda msg: None), reused=reused, t_start=time.perf_counter(),
+                    published_asset=published_asset)
 
 
 def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE,
@@ -215,22 +215,22 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
     say = progress or (lambda msg: None)
     t_start = time.perf_counter()
     selection = select(hosts)  # unknown names: ValueError before any work
-    with verification_scene(asset) as (layer, scene, lut, notes):
-        out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)
-        os.makedirs(out, exist_ok=True)
-        chosen = select_views(verification_views(scene, int(width), int(height), n_views), views)
-        lobes = ("half_angle", *(m.LOBE for m in selection.available))
-        say(f"CPU reference ({len(chosen)} views, lobes {', '.join(dict.fromkeys(lobes))})")
-        t = time.perf_counter()
-        refs = render_reference_lobes(scene, chosen, lobes)
-        t_ref = time.perf_counter() - t
-        gl_images = {}
-        results = render_and_check(scene, lut, chosen, out, subfolders=False, say=say, refs=refs["half_angle"],
-                                    gl_images=gl_images)
-        for r in results.values():
-            r["timings_s"]["reference"] = t_ref / len(chosen)
-        t = time.perf_counter()
-        host_entries, host_images = check_hosts(layer, scene, chosen, selection, refs, out,
-                                                rendered={"glsl": gl_images} if gl_images else None, say=say)
-        return combine(layer, scene, lut, notes, results, out, width, height, bench_dir, say, t_start=t_start,
-                        hosts=(host_entries, host_images, time.perf_counter() - t))
+    layer, scene, lut, notes = verification_scene(asset)
+    out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)
+    os.makedirs(out, exist_ok=True)
+    chosen = select_views(verification_views(scene, int(width), int(height), n_views), views)
+    lobes = ("half_angle", *(m.LOBE for m in selection.available))
+    say(f"CPU reference ({len(chosen)} views, lobes {', '.join(dict.fromkeys(lobes))})")
+    t = time.perf_counter()
+    refs = render_reference_lobes(scene, chosen, lobes)
+    t_ref = time.perf_counter() - t
+    gl_images = {}
+    results = render_and_check(scene, lut, chosen, out, subfolders=False, say=say, refs=refs["half_angle"],
+                                gl_images=gl_images)
+    for r in results.values():
+        r["timings_s"]["reference"] = t_ref / len(chosen)
+    t = time.perf_counter()
+    host_entries, host_images = check_hosts(layer, scene, chosen, selection, refs, out,
+                                            rendered={"glsl": gl_images} if gl_images else None, say=say)
+    return combine(layer, scene, lut, notes, results, out, width, height, bench_dir, say, t_start=t_start,
+                    hosts=(host_entries, host_images, time.perf_counter() - t))
