@@ -5,10 +5,21 @@ Geometry knows nothing of USD: it returns numpy arrays in :class:`MeshPart` / :c
 :func:`build_cards` to cache the body separately.
 """
 
-from pipeline.geometry.bird import Body, build_bird, build_body, build_cards
-from pipeline.geometry.cards import FeatherCards
-from pipeline.geometry.params import BirdParams
-from pipeline.geometry.types import Bird, MeshPart, Primvar
+import importlib
 
-__all__ = ["Bird", "BirdParams", "Body", "FeatherCards", "MeshPart", "Primvar", "build_bird", "build_body",
-           "build_cards"]
+#: Public name -> the module defining it. Imported on first use (PEP 562), so that ``pipeline.geometry.params``
+#: can be read (the build graph does on every run, even a no-op) without importing numpy and the mesher.
+_EXPORTS = {"Bird": "types", "BirdParams": "params", "Body": "bird", "FeatherCards": "cards", "MeshPart": "types",
+            "Primvar": "types", "build_bird": "bird", "build_body": "bird", "build_cards": "bird"}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'pipeline.geometry' has no attribute {name!r}")
+    return getattr(importlib.import_module(f"pipeline.geometry.{_EXPORTS[name]}"), name)
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_EXPORTS))

@@ -11,7 +11,6 @@ import math
 from dataclasses import asdict, dataclass, fields, replace
 
 from pipeline.config import get, limits
-from pipeline.geometry import thickness as _thickness
 
 #: Measured film thickness at the base of the neck, nm (Yoshioka et al. 2007).
 MEASURED_BASE_NM = (480.0, 580.0)
@@ -19,6 +18,12 @@ MEASURED_BASE_NM = (480.0, 580.0)
 MEASURED_TOP_NM = (600.0, 700.0)
 #: The seed paper's single film thickness, nm.
 PAPER_THICKNESS_NM = 650.0
+#: Defaults of the thickness field's parameters (pipeline.geometry.thickness; schemas/config.schema.json
+#: documents the same values). Here rather than in thickness.py so that reading the parameters (the build
+#: graph does on every run, even a no-op) imports no numpy.
+DEFAULT_CORRELATION_LENGTH_M = 0.008
+DEFAULT_SPREAD = 0.5
+DEFAULT_JITTER_NM = 3.0
 
 
 #: BirdParams field -> its key in the build configuration. Each field's allowed range is that key's minimum and
@@ -144,9 +149,9 @@ class BirdParams:
     card_root_depth_m: tuple = (0.0005, 0.0012)
     thickness_base_nm: tuple = MEASURED_BASE_NM
     thickness_top_nm: tuple = MEASURED_TOP_NM
-    thickness_correlation_length_m: float = _thickness.DEFAULT_CORRELATION_LENGTH_M
-    thickness_spread: float = _thickness.DEFAULT_SPREAD
-    thickness_jitter_nm: float = _thickness.DEFAULT_JITTER_NM
+    thickness_correlation_length_m: float = DEFAULT_CORRELATION_LENGTH_M
+    thickness_spread: float = DEFAULT_SPREAD
+    thickness_jitter_nm: float = DEFAULT_JITTER_NM
     body_texture_resolution: int = 1024
     feather_texture_resolution: int = 256
     body_voxel_m: float = 0.002

@@ -41,15 +41,12 @@ from __future__ import annotations
 import numpy as np
 
 from pipeline.geometry import sdf as _sdf
+from pipeline.geometry.params import DEFAULT_CORRELATION_LENGTH_M, DEFAULT_JITTER_NM, DEFAULT_SPREAD
 
 #: Random Fourier features M of the smooth field (its marginal is within ~1/M of a normal's).
 FIELD_FEATURES = 256
 #: Cards evaluated per block (bounds the (block, M) temporary to ~16 MB).
 FIELD_BLOCK = 8192
-#: Defaults of the field's parameters (schemas/config.schema.json documents the same values).
-DEFAULT_CORRELATION_LENGTH_M = 0.008
-DEFAULT_SPREAD = 0.5
-DEFAULT_JITTER_NM = 3.0
 
 
 def smoothstep(s: np.ndarray) -> np.ndarray:
