@@ -37,6 +37,7 @@ colour-science. If the folder cannot be written, the values are simply recompute
 
 from __future__ import annotations
 
+import zipfile
 from functools import lru_cache
 from pathlib import Path
 
@@ -83,7 +84,7 @@ def _colour_cache_dir() -> Path:
     return user_cache_dir(f"colour-science-{tag}")
 
 
-def colour_data(name: str, compute) -> dict:
+def colour_data(name: str, compute, keys: tuple[str, ...]) -> dict:
     """Arrays derived from colour-science's data, cached on disk per colour-science version (module docstring).
 
     Parameters
@@ -91,7 +92,10 @@ def colour_data(name: str, compute) -> dict:
     name : str
         File stem, unique per content (e.g. ``"tables-D65-CIE_1931_2_Degree_Standard_Observer"``).
     compute : callable () -> dict of str -> ndarray
-        Builds the arrays (imports colour-science); called when the file is missing or unreadable.
+        Builds the arrays (imports colour-science); called when the file is missing, unreadable or lacks one of
+        ``keys``.
+    keys : tuple of str
+        The arrays the caller reads.
 
     Returns
     -------
@@ -102,7 +106,9 @@ def colour_data(name: str, compute) -> dict:
     try:
         with np.load(path, allow_pickle=False) as f:
             arrays = {k: f[k] for k in f.files}
-    except (OSError, ValueError, EOFError):  # missing, or torn by a crash: recompute below
+        if not set(keys) <= set(arrays):
+            arrays = None  # written by another layout of the same name: rebuild it
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile):  # missing, or torn by a crash: recompute below
         pass
     if arrays is None:
         import io
@@ -136,7 +142,8 @@ def _tables(illuminant: str, observer: str):
                 "illuminant_wavelength_nm": sd.wavelengths, "illuminant": sd.values}
 
     slug = "".join(c if c.isalnum() or c in "-." else "_" for c in f"{illuminant}-{observer}")
-    t = colour_data(f"tables-{slug}", compute)
+    t = colour_data(f"tables-{slug}", compute,
+                    ("cmfs_wavelength_nm", "cmfs", "illuminant_wavelength_nm", "illuminant"))
     return t["cmfs_wavelength_nm"], t["cmfs"], t["illuminant_wavelength_nm"], t["illuminant"]
 
 
@@ -260,7 +267,7 @@ def _xyz_to_rgb_matrix_t(colour_space: str) -> np.ndarray:
 
     # the white is derived from the tables; naming the file by it keeps a matrix from outliving its white
     return colour_data(f"xyz-to-{colour_space}-{CHROMATIC_ADAPTATION}-{white[0]:.15f}-{white[1]:.15f}",
-                       compute)["matrix"]
+                       compute, ("matrix",))["matrix"]
 
 
 @lru_cache(maxsize=1)
@@ -269,7 +276,7 @@ def _rec709_luminance() -> np.ndarray:
     def compute() -> dict:
         return {"weights": np.asarray(_colour().RGB_COLOURSPACES["ITU-R BT.709"].matrix_RGB_to_XYZ)[1]}
 
-    return colour_data("rec709-luminance", compute)["weights"]
+    return colour_data("rec709-luminance", compute, ("weights",))["weights"]
 
 
 def XYZ_to_RGB(XYZ, colour_space="lin_rec709") -> np.ndarray:

@@ -246,6 +246,10 @@ def test_colour_data_is_read_from_colour_science_once_and_a_warm_process_never_i
     for f in files:
         f.write_bytes(b"torn")
     assert run() == cold  # unreadable files are recomputed from colour-science
+    for f in files:
+        with open(f, "wb") as fh:
+            np.savez(fh, other=np.zeros(1))
+    assert run() == cold  # so are readable files that lack the arrays asked for
 
 
 def test_cached_tables_are_colour_sciences_tables():

@@ -140,8 +140,9 @@ def product_weights(n_nodes: int, illuminant: str = "D65", colour_space: str | N
     if n < 2:
         raise ValueError(f"n_nodes must be >= 2, got {n_nodes!r}")
     # film-independent: kept on disk beside colour-science's tables, keyed by the code that computes them
+    keys = ("wavelength_nm", "weights")
     found = colour_data(f"product-weights-{n}-{illuminant}-{colour_space}-{_code_digest()}",
-                        lambda: dict(zip(("wavelength_nm", "weights"), _product_weights(n, illuminant, colour_space))))
+                        lambda: dict(zip(keys, _product_weights(n, illuminant, colour_space))), keys)
     return found["wavelength_nm"], found["weights"]
 
 
