@@ -28,6 +28,7 @@ constant colour (their ``display_color``).
 
 from __future__ import annotations
 
+import functools
 import os
 
 from .. import resources
@@ -70,8 +71,11 @@ def texture_asset_paths() -> dict[str, str]:
     return {role: f"./textures/{name}" for role, name in TEXTURE_FILES.items()}
 
 
+@functools.lru_cache(maxsize=1)
 def load_mtlx_libraries():
-    """The MaterialX standard data libraries (stdlib, pbrlib, bxdf...) as one document."""
+    """The MaterialX standard data libraries (stdlib, pbrlib, bxdf...) as one document, read once per process
+    (~65 ms: a long-lived process, e.g. a sweep's worker, rebuilding looks layers reuses it). Shared: callers
+    use it as a data library (``setDataLibrary``, ``getNodeDef``) and must not change it."""
     import MaterialX as mx
 
     lib = mx.createDocument()
