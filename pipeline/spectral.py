@@ -400,10 +400,37 @@ def linear_to_srgb8(rgb) -> np.ndarray:
     This is docs/design.md's display transform, for GL renders, reference renders and the textures alike, so
     their PNGs are comparable. (``pipeline.spectral.RGB_to_preview8`` desaturates out-of-gamut colours
     instead of clipping them; it is not used here.) NaN shows as black, +inf as 1.
+
+    The code of a value is ``round(255 * srgb_encode(clip(v, 0, 1)))``. That is a non-decreasing step function
+    of ``v``, so it is computed by looking ``v`` up among the 255 linear values where it steps
+    (:func:`_srgb8_steps`, found once by bisection on that very formula): the same codes, without a power per
+    value (a 1024 x 1024 render: 0.33 s -> 0.22 s).
     """
-    rgb = np.nan_to_num(np.asarray(rgb, dtype=np.float64), nan=0.0, posinf=1.0, neginf=0.0)
-    enc = srgb_encode(np.clip(rgb, 0.0, 1.0))
-    return np.round(np.clip(enc, 0.0, 1.0) * 255.0).astype(np.uint8)
+    rgb = np.asarray(rgb, dtype=np.float64)
+    if not np.isfinite(rgb).all():
+        rgb = np.nan_to_num(rgb, nan=0.0, posinf=1.0, neginf=0.0)
+    return np.searchsorted(_srgb8_steps(), rgb, side="right").astype(np.uint8)
+
+
+def _srgb8_code(v) -> np.ndarray:
+    """The 8-bit code of linear values by the formula itself (:func:`linear_to_srgb8`'s definition)."""
+    return np.round(np.clip(srgb_encode(np.clip(v, 0.0, 1.0)), 0.0, 1.0) * 255.0)
+
+
+@lru_cache(maxsize=1)
+def _srgb8_steps() -> np.ndarray:
+    """(255,) float64: entry k - 1 is the smallest linear value whose code is >= k. Bisection over the ordered
+    bit patterns of the non-negative float64s in [0, 1], so each step is exact to the last bit."""
+    lo = np.zeros(255, np.int64)  # code(lo) < k
+    hi = np.full(255, np.float64(1.0).view(np.int64))  # code(hi) >= k
+    k = np.arange(1, 256)
+    while np.any(hi - lo > 1):
+        mid = lo + (hi - lo) // 2
+        above = _srgb8_code(mid.view(np.float64)) >= k
+        hi, lo = np.where(above, mid, hi), np.where(above, lo, mid)
+    steps = hi.view(np.float64)
+    steps.setflags(write=False)
+    return steps
 
 
 def RGB_to_preview8(rgb, colour_space="lin_rec709") -> np.ndarray:

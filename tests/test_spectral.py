@@ -261,3 +261,20 @@ def test_cached_tables_are_colour_sciences_tables():
     d65 = colour.SDS_ILLUMINANTS["D65"]
     assert np.array_equal(cw, cmfs.wavelengths) and np.array_equal(cv, cmfs.values)
     assert np.array_equal(sw, d65.wavelengths) and np.array_equal(sv, d65.values)
+
+
+def test_linear_to_srgb8_gives_the_rounded_srgb_curve_exactly_even_at_each_step():
+    """linear_to_srgb8 looks values up among precomputed steps; it must give exactly round(255 encode(v)) for
+    every value, including the floats on either side of each step (found here by inverting the curve)."""
+    rng = np.random.default_rng(3)
+    near = spectral.srgb_decode((np.arange(1, 256) - 0.5) / 255.0)
+    around = np.concatenate([near + d for d in np.linspace(-4e-12, 4e-12, 41)])
+    for _ in range(3):  # walk a few ulps either side of each approximate step
+        around = np.concatenate([around, np.nextafter(around, -1.0), np.nextafter(around, 2.0)])
+    v = np.concatenate([around, rng.uniform(-0.1, 1.1, 300000), rng.uniform(0.0, 0.01, 100000),
+                        [0.0, -0.0, 1.0, 0.0031308, 1e-300, -1e-300]])
+    expected = np.round(np.clip(spectral.srgb_encode(np.clip(v, 0.0, 1.0)), 0.0, 1.0) * 255.0).astype(np.uint8)
+    assert np.array_equal(spectral.linear_to_srgb8(v), expected)
+    assert np.array_equal(spectral.linear_to_srgb8(v.reshape(-1, 1, 2) if v.size % 2 == 0 else v[:-1].reshape(-1, 1, 2)),
+                          (expected if v.size % 2 == 0 else expected[:-1]).reshape(-1, 1, 2))
+    assert spectral.linear_to_srgb8([np.nan, np.inf, -np.inf, 2.0, -1.0]).tolist() == [0, 255, 0, 255, 0]
