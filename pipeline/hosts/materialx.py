@@ -238,22 +238,23 @@ def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str,
 def _compile(vert: str, frag: str, name: str) -> int:
     from OpenGL import GL
 
+    def check(ok, log: bytes, what: str):
+        if not ok:
+            lines = log.decode(errors="replace").strip().splitlines()
+            raise HostError(name, f"generated shader does not {what}: {lines[0] if lines else '?'}")
+
     def stage(kind, src):
         sh = GL.glCreateShader(kind)
         GL.glShaderSource(sh, src)
         GL.glCompileShader(sh)
-        if not GL.glGetShaderiv(sh, GL.GL_COMPILE_STATUS):
-            log = GL.glGetShaderInfoLog(sh).decode(errors="replace").strip().splitlines()
-            raise HostError(name, f"generated shader does not compile: {log[0] if log else '?'}")
+        check(GL.glGetShaderiv(sh, GL.GL_COMPILE_STATUS), GL.glGetShaderInfoLog(sh), "compile")
         return sh
 
     prog = GL.glCreateProgram()
     for s in (stage(GL.GL_VERTEX_SHADER, vert), stage(GL.GL_FRAGMENT_SHADER, frag)):
         GL.glAttachShader(prog, s)
     GL.glLinkProgram(prog)
-    if not GL.glGetProgramiv(prog, GL.GL_LINK_STATUS):
-        log = GL.glGetProgramInfoLog(prog).decode(errors="replace").strip().splitlines()
-        raise HostError(name, f"generated shader does not link: {log[0] if log else '?'}")
+    check(GL.glGetProgramiv(prog, GL.GL_LINK_STATUS), GL.glGetProgramInfoLog(prog), "link")
     return prog
 
 

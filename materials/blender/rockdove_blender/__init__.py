@@ -160,21 +160,22 @@ def build_material(name: str, record: dict, base_image, mask_image, uv_name: str
     mix = nodes.new("ShaderNodeMixShader")
     links.new(base.outputs["BSDF"], mix.inputs[1])
     links.new(film.outputs["BSDF"], mix.inputs[2])
-    if mask_image is not None:
+    def image_node(node_name, image):  # an image read at the feather's UVs, clamped like the GL sampler
         tex = nodes.new("ShaderNodeTexImage")
-        tex.name = tex.label = NODE_MASK_TEXTURE
-        tex.image, tex.extension = mask_image, "EXTEND"
+        tex.name = tex.label = node_name
+        tex.image, tex.extension = image, "EXTEND"
         links.new(uv.outputs["UV"], tex.inputs["Vector"])
+        return tex
+
+    if mask_image is not None:
+        tex = image_node(NODE_MASK_TEXTURE, mask_image)
         links.new(tex.outputs["Color"], mix.inputs["Fac"])
     else:
         mix.inputs["Fac"].default_value = 1.0
 
     surface = mix.outputs["Shader"]
     if base_image is not None:
-        tex = nodes.new("ShaderNodeTexImage")
-        tex.name = tex.label = NODE_BASE_TEXTURE
-        tex.image, tex.extension = base_image, "EXTEND"
-        links.new(uv.outputs["UV"], tex.inputs["Vector"])
+        tex = image_node(NODE_BASE_TEXTURE, base_image)
         links.new(tex.outputs["Color"], base.inputs["Base Color"])
         cut = nodes.new("ShaderNodeMath")
         cut.operation = "GREATER_THAN"  # binary cut-out, like opacityThreshold: 1 where alpha > 0.5
