@@ -97,15 +97,18 @@ def preview_st(st, thickness_nm, thickness_range_nm) -> np.ndarray:
 
 
 def feather_preview_atlas(base_rgba: np.ndarray, mask: np.ndarray, structural_rgb) -> np.ndarray:
-    """The preview atlas: one :func:`feather_preview` tile per structural colour, resized to
-    :data:`PREVIEW_TILE_TEXELS`, on :data:`PREVIEW_COLUMNS` columns from the bottom row up.
+    """The preview atlas: per structural colour one tile, the feather base mixed by the mask with that colour
+    (clipped to [0, 1]) in linear light, resized to :data:`PREVIEW_TILE_TEXELS`, on :data:`PREVIEW_COLUMNS`
+    columns from the bottom row up.
 
     Parameters
     ----------
-    base_rgba, mask
-        As :func:`feather_preview`.
+    base_rgba : ndarray, (H, W, 4) uint8
+        sRGB-encoded base colour, linear alpha (feather_base.png).
+    mask : ndarray, (H, W) or (H, W, 1) uint8
+        1 (255) where structural colour is drawn (feather_mask.png), raw.
     structural_rgb : array_like, (K, 3)
-        Linear structural colour of each tile.
+        Linear structural colour of each tile (:meth:`ThinFilmLUT.sample` or :func:`preview_colour`).
 
     Returns
     -------
@@ -176,51 +179,6 @@ def preview_colour(film, thickness_nm: float, cos_theta: float = PREVIEW_COS_THE
     if not (np.isfinite(thickness_nm) and thickness_nm >= 0):
         raise ValueError(f"thickness_nm must be a finite thickness >= 0 nm, got {thickness_nm!r}")
     return np.asarray(reference_colour(cos_theta, float(thickness_nm), film, colour_space="lin_rec709"), np.float64)
-
-
-def feather_preview(base_rgba: np.ndarray, mask: np.ndarray, lut=None, *, cos_theta: float = PREVIEW_COS_THETA,
-                    thickness_nm: float | None = None, structural_rgb=None) -> np.ndarray:
-    """The static preview texture: feather base mixed by the mask with one structural colour.
-
-    Parameters
-    ----------
-    base_rgba : ndarray, (H, W, 4) uint8
-        sRGB-encoded base colour, linear alpha (feather_base.png).
-    mask : ndarray, (H, W) or (H, W, 1) uint8
-        1 (255) where structural colour is drawn (feather_mask.png), raw.
-    lut : ThinFilmLUT, optional
-        Source of the structural colour, sampled at (``cos_theta``, ``thickness_nm``).
-    cos_theta : float
-        Angle of the preview colour (default normal incidence).
-    thickness_nm : float, optional
-        Film thickness of the preview colour; default the middle of ``lut.thickness_range_nm``.
-    structural_rgb : array_like (3,), optional
-        The structural colour itself (linear), instead of ``lut`` (e.g. :func:`preview_colour`).
-
-    Returns
-    -------
-    ndarray, (H, W, 4) uint8
-        sRGB-encoded RGB, A copied from ``base_rgba``.
-    """
-    base_rgba = _check_uint8("base_rgba", base_rgba, (4,))
-    mask = _check_uint8("mask", mask, (1,))
-    mask = mask.reshape(mask.shape[:2])
-    if mask.shape != base_rgba.shape[:2]:
-        raise ValueError(f"mask shape {mask.shape} must match base_rgba {base_rgba.shape[:2]}")
-    if not 0.0 <= cos_theta <= 1.0:
-        raise ValueError(f"cos_theta must be in [0, 1], got {cos_theta}")
-    if (lut is None) == (structural_rgb is None):
-        raise ValueError("give exactly one of lut and structural_rgb, got "
-                         f"lut={type(lut).__name__}, structural_rgb={structural_rgb!r}")
-    if lut is not None:
-        lo, hi = lut.thickness_range_nm
-        d = 0.5 * (lo + hi) if thickness_nm is None else float(thickness_nm)
-        structural = lut.sample(cos_theta, d)  # (3,) linear
-    else:
-        structural = np.asarray(structural_rgb, np.float64).reshape(-1)
-        if structural.shape != (3,) or not np.all(np.isfinite(structural)):
-            raise ValueError(f"structural_rgb must be 3 finite linear values, got {structural_rgb!r}")
-    return next(_mixed_tiles(base_rgba, mask, structural[None, :]))
 
 
 def _mixed_tiles(base_rgba: np.ndarray, mask: np.ndarray, colours: np.ndarray):
