@@ -44,13 +44,13 @@ stage                   configuration                                 inputs
 ======================  ===========================================  ==============================================
 
 Because keys use the *content* of upstream outputs, a new seed that leaves the thickness range unchanged
-re-bakes nothing, and a film change re-bakes the LUT and rewrites film_textures (the preview mixes in the LUT) and
-the small layers but reuses the bird and the geometry layer (``usd_geometry``), whose bytes stay as they were. Physical-only shading needs no bake: the graph has no ``lut`` stage. Verification
+re-bakes nothing, and a film change re-bakes the LUT and rewrites film_textures (the preview mixes in the LUT)
+and the small layers but reuses the bird, the film-independent textures and the geometry layer
+(``usd_geometry``), whose bytes stay as they were. Physical-only shading needs no bake: the graph has no ``lut``
+stage. Verification
 re-renders only the views whose plan entry changed: a change that leaves the rendered scene as it was (e.g.
 ``usd.usdz``) revalidates and rewrites the report but renders nothing; a film change re-renders every view, but
 with the reference's ray casts of ``verify_rays``, which depend on the geometry and the cameras only.
-Until a module this file needs has landed, :func:`make_stages` says which one is missing (a one-line error,
-exit 2) rather than building something partial.
 """
 
 from __future__ import annotations
