@@ -172,27 +172,64 @@ def test_pixels_equal_the_exact_spectral_colour_times_n_dot_l(tmp_path):
     np.testing.assert_allclose(res.rgb[feather], expected, atol=2e-4)
 
 
-def test_spectral_step_is_exact_against_a_finer_grid():
+@pytest.mark.parametrize("thickness_nm", [(450.0, 720.0), (1500.0, 2000.0), (4000.0, 5000.0)])
+def test_spectral_step_is_exact_against_a_finer_grid(thickness_nm):
     """The cos_theta-dependent wavelength steps err by < 0.01 dE2000 against a much finer integration
-    everywhere, grazing included (where the spectrum is a comb of sharp lines)."""
+    everywhere, grazing included (where the spectrum is a comb of sharp lines), at every thickness the
+    configuration allows (thicker films scale the steps down: their fringes are narrower)."""
     from pipeline import spectral
 
     film = _film(1.532, 5890.0)
     rng = np.random.default_rng(1)
     bands = [(0.0, 0.001), (0.001, 0.003), (0.003, 0.01), (0.01, 0.03), (0.03, 0.1), (0.1, 1.0)]
-    c = np.concatenate([rng.uniform(lo, hi, 25) for lo, hi in bands])
-    d = rng.uniform(450.0, 720.0, c.size)
+    n = 12 if thickness_nm[0] > 1000 else 25
+    c = np.concatenate([rng.uniform(lo, hi, n) for lo, hi in bands])
+    d = rng.uniform(*thickness_nm, c.size)
     exact = np.empty((c.size, 3))
-    for (lo, hi), step in zip(bands, (0.004, 0.01, 0.01, 0.05, 0.05, 0.05)):
+    for (lo, hi), step in zip(bands, (0.002, 0.005, 0.01, 0.02, 0.02, 0.05)):
         sel = (c >= lo) & (c < hi)
         exact[sel] = reference_colour(c[sel], d[sel], film.model, steps_nm=((0.0, step),))
     ours = reference.structural_rgb(c, d, film)
     lab = lambda x: spectral.RGB_to_Lab(np.clip(x, 0, 1))  # noqa: E731 - the displayed colour
     assert np.max(spectral.delta_E_2000(lab(ours), lab(exact))) < 0.01
-    # and near grazing the fine steps are needed: a uniform 1 nm grid is visibly wrong there
-    sel = (c > 0.001) & (c < 0.03)
-    coarse = reference_colour(c[sel], d[sel], film.model, steps_nm=((0.0, 1.0),))
-    assert np.max(spectral.delta_E_2000(lab(coarse), lab(exact[sel]))) > 0.02
+    if thickness_nm[0] > 1000:  # the steps validated for a 720 nm film are visibly wrong here, unscaled
+        plain = reference_colour(c, d, film.model, steps_nm=reference.IMAGE_STEPS_NM)
+        assert np.max(spectral.delta_E_2000(lab(plain), lab(exact))) > 0.02
+    else:  # and near grazing the fine steps are needed: a uniform 1 nm grid is visibly wrong there
+        sel = (c > 0.001) & (c < 0.03)
+        coarse = reference_colour(c[sel], d[sel], film.model, steps_nm=((0.0, 1.0),))
+        assert np.max(spectral.delta_E_2000(lab(coarse), lab(exact[sel]))) > 0.02
+
+
+def test_coarse_steps_integrate_the_cubic_interpolant_against_the_fine_weights():
+    """A step coarser than 0.1 nm integrates the spectrum's cubic interpolant against the 0.1 nm weights:
+    exact for any cubic spectrum (a perfect reflector stays Y = 1), and the same number as interpolating by
+    hand and integrating on the 0.1 nm grid."""
+    from pipeline.lut import reference as lut_reference
+
+    fine = lut_reference.reference_wavelengths(0.1)
+    w_fine = lut_reference.colour_weights(fine, colour_space=None)
+    for step in (0.5, 4.0):
+        coarse = lut_reference.reference_wavelengths(step)
+        w = lut_reference.product_weights(step, colour_space=None)
+        assert w.shape == (coarse.size, 3)
+        assert np.sum(w[:, 1]) == pytest.approx(1.0, abs=1e-12)  # R = 1: Y = 1
+        x = (coarse - 570.0) / 210.0
+        cubic = 0.4 + 0.2 * x - 0.3 * x**2 + 0.25 * x**3
+        xf = (fine - 570.0) / 210.0
+        assert cubic @ w == pytest.approx((0.4 + 0.2 * xf - 0.3 * xf**2 + 0.25 * xf**3) @ w_fine, abs=1e-12)
+    # a smooth non-polynomial spectrum: equal to its own cubic interpolation integrated on the fine grid
+    coarse = lut_reference.reference_wavelengths(4.0)
+    spectrum = 0.5 + 0.4 * np.sin(coarse / 23.0)
+    t = (fine - coarse[0]) / 4.0
+    k0 = np.clip(np.floor(t).astype(int) - 1, 0, coarse.size - 4)
+    by_hand = np.zeros_like(fine)
+    for j in range(4):
+        lj = np.prod([(t - (k0 + m)) / (j - m) for m in range(4) if m != j], axis=0)
+        by_hand += lj * spectrum[k0 + j]
+    assert spectrum @ lut_reference.product_weights(4.0, colour_space=None) == pytest.approx(by_hand @ w_fine, abs=1e-12)
+    with pytest.raises(ValueError, match="step_nm"):
+        lut_reference.product_weights(300.0)
 
 
 def test_deduplication_keys_are_far_below_visible():

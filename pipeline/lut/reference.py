@@ -20,6 +20,25 @@ are 0.1 nm (cos >= 0.003), 0.05 nm (0.001-0.003) and 0.01 nm below: every band w
 the LUT tests' tolerances (2e-3). Callers that need less (the verification's images, whose goals are dE ~ 1)
 pass coarser ``steps_nm`` for the smooth bands; the bakers' product integration uses the 0.1 nm grid
 (:func:`reference_wavelengths`, :data:`REFERENCE_STEP_NM`).
+
+Steps coarser than the 0.1 nm definition grid
+---------------------------------------------
+A point whose step is coarser than :data:`REFERENCE_STEP_NM` samples the spectrum on that coarser grid and
+integrates its piecewise-cubic interpolant (4-point Lagrange, :func:`product_weights`) against the 0.1 nm
+grid's colour weights: product integration (Davis and Rabinowitz, Methods of Numerical Integration, 2nd ed.,
+section 2.5). The tabulated observer and illuminant are never undersampled, only the spectrum, which is smooth
+away from grazing; and a spectrum the interpolant reproduces (any cubic, e.g. R = 1, the perfect reflector)
+integrates to exactly the 0.1 nm reference. Measured (keratin, 450-720 nm, cos theta >= 0.08, max dE2000
+against a 0.02 nm integration): a 4 nm cubic step errs 0.0012, where the trapezoid rule's 2 nm step erred 0.0045.
+
+A band table is validated up to a film thickness: the film's round-trip phase ``4 pi n_b d cos(theta_b) /
+lambda`` advances in proportion to ``d``, so the spectrum of a thicker film is the same comb of fringes
+compressed in wavelength (for 720 nm of keratin one fringe spans 57 nm at 360 nm; for 5000 nm, 8 nm). Callers
+with coarse steps pass ``calibrated_thickness_nm``: a thicker point's step is then scaled by
+``calibrated_thickness_nm / d`` (the same phase step per sample) and snapped down to :data:`STEP_LADDER_NM`.
+Measured (keratin, 30 random points per cos theta band, max dE2000 against a 0.002-0.02 nm integration): the
+verification images' steps, unscaled, erred up to 0.044 dE2000 at 1500-2000 nm and 0.47 at 4000-5000 nm
+(thicknesses the configuration allows); scaled from 720 nm, <= 0.0081 at every thickness up to 5000 nm.
 """
 
 from __future__ import annotations
@@ -38,6 +57,9 @@ REFERENCE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, REFERENCE_STEP_NM))
 ILLUMINANTS = ("D65",)
 #: Points x wavelengths per chunk of the spectral evaluation (bounds memory near 1.7 M complex samples).
 _CHUNK_SAMPLES = 4096 * 421
+#: The wavelength steps (nm) a thickness-scaled step is snapped down to; each divides the 420 nm range, so every
+#: grid ends exactly on both ends of :data:`pipeline.spectral.WAVELENGTH_RANGE_NM`.
+STEP_LADDER_NM = (0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0)
 
 
 def check_illuminant(illuminant) -> str:
@@ -66,6 +88,44 @@ def reference_step_nm(cos_theta, steps_nm=REFERENCE_STEPS_NM) -> np.ndarray:
     return step
 
 
+def snap_step_nm(step_nm) -> np.ndarray:
+    """Each step snapped down to the largest :data:`STEP_LADDER_NM` value not above it (the smallest below)."""
+    ladder = np.asarray(STEP_LADDER_NM)
+    i = np.searchsorted(ladder, np.asarray(step_nm, np.float64), side="right") - 1
+    return ladder[np.clip(i, 0, ladder.size - 1)]
+
+
+def product_weights(step_nm: float, *, illuminant: str = "D65", colour_space: str | None = "lin_rec709") -> np.ndarray:
+    """Colour weights (N, 3) of the ``step_nm`` grid that integrate the spectrum's piecewise-cubic interpolant
+    against the 0.1 nm reference grid (module docstring, "Steps coarser than the 0.1 nm definition grid").
+
+    ``R_coarse @ W`` equals ``R_fine @ colour_weights(0.1 nm grid)`` where ``R_fine`` is ``R_coarse``
+    interpolated at the 0.1 nm wavelengths with the 4-point Lagrange stencil nearest each (one-sided at the
+    ends). Cached per step (read-only).
+    """
+    return _product_weights_cached(float(step_nm), illuminant, colour_space)
+
+
+@functools.lru_cache(maxsize=32)
+def _product_weights_cached(step_nm: float, illuminant: str, colour_space: str | None) -> np.ndarray:
+    fine = reference_wavelengths(REFERENCE_STEP_NM)
+    coarse = reference_wavelengths(step_nm)
+    if coarse.size < 4 or not np.isclose(coarse[1] - coarse[0], step_nm):
+        raise ValueError(f"step_nm must divide the wavelength range into at least 3 steps, got {step_nm!r}")
+    w_fine = colour_weights(fine, illuminant=illuminant, colour_space=colour_space)
+    t = (fine - coarse[0]) / (coarse[1] - coarse[0])
+    k0 = np.clip(np.floor(t).astype(np.int64) - 1, 0, coarse.size - 4)
+    out = np.zeros((coarse.size, w_fine.shape[1]))
+    for j in range(4):
+        lagrange = np.ones_like(t)
+        for m in range(4):
+            if m != j:
+                lagrange *= (t - (k0 + m)) / (j - m)
+        np.add.at(out, k0 + j, lagrange[:, None] * w_fine)
+    out.setflags(write=False)
+    return out
+
+
 @functools.lru_cache(maxsize=32)
 def _weights_cached(key: bytes, n: int, illuminant: str, colour_space: str | None) -> np.ndarray:
     from .. import spectral
@@ -84,7 +144,7 @@ def colour_weights(wavelength_nm, *, illuminant: str = "D65", colour_space: str 
 
 
 def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_space="lin_rec709",
-                     steps_nm=REFERENCE_STEPS_NM) -> np.ndarray:
+                     steps_nm=REFERENCE_STEPS_NM, calibrated_thickness_nm: float | None = None) -> np.ndarray:
     """The exact colour of a film at arbitrary points: the Airy spectrum integrated with the colour weights.
 
     Parameters
@@ -98,8 +158,11 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
         ``colour_space=None`` returns CIE XYZ.
     steps_nm : tuple of (cos_theta_lo, step_nm)
         Wavelength step per cos theta band (:func:`reference_step_nm`); default :data:`REFERENCE_STEPS_NM`,
-        within 2e-4 dE2000 of the converged integral everywhere (module docstring).
-
+        within 2e-4 dE2000 of the converged integral everywhere (module docstring). Steps coarser than
+        :data:`REFERENCE_STEP_NM` integrate the cubic interpolant (:func:`product_weights`).
+    calibrated_thickness_nm : float, optional
+        The thickness up to which ``steps_nm`` was validated: thicker points scale their step by
+        ``calibrated_thickness_nm / thickness_nm``, snapped down to :data:`STEP_LADDER_NM` (module docstring).
     Returns
     -------
     ndarray, shape broadcast(cos_theta, thickness_nm) + (3,), float64, linear (unclipped)
@@ -113,10 +176,16 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
     c, d = c.ravel(), d.ravel()
     out = np.empty((c.shape[0], 3))
     steps = reference_step_nm(c, steps_nm)
+    if calibrated_thickness_nm is not None:
+        thick = d > float(calibrated_thickness_nm)
+        steps[thick] = snap_step_nm(steps[thick] * (float(calibrated_thickness_nm) / d[thick]))
     for step in np.unique(steps):
         sel = np.nonzero(steps == step)[0]
         wl = reference_wavelengths(float(step))
-        w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
+        if step > REFERENCE_STEP_NM:
+            w = product_weights(float(step), illuminant=check_illuminant(illuminant), colour_space=colour_space)
+        else:
+            w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
         n_film = film.n_film(wl)[None, :]
         chunk = max(1, _CHUNK_SAMPLES // wl.shape[0])
         for i in range(0, sel.size, chunk):

@@ -19,13 +19,18 @@ The exact structural colour
 The film colour is :func:`pipeline.lut.reference.reference_colour` (the project's one definition of the exact
 colour: the Airy spectrum of the film read from the USD integrated to lin_rec709, D65) at each pixel's
 ``(cos_theta, thickness_nm)``, with the wavelength steps :data:`IMAGE_STEPS_NM`: the reference's own steps
-below cos_theta 0.01 (where the spectrum is a comb of sharp lines) and coarser ones in the smooth bands above.
-Measured (keratin film, 450-720 nm, random samples per band, dE2000 of the displayed colour against a
-0.004-0.02 nm integration): 2 nm errs <= 0.0056 for cos_theta >= 0.08, 1 nm <= 0.0033 at 0.03-0.08, 0.5 nm
-<= 0.0013 at 0.01-0.03, 0.1 nm <= 0.0001 at 0.003-0.01, 0.05 nm <= 0.0001 at 0.001-0.003, 0.01 nm <= 0.005
-below 0.001. Every band stays below 0.01 dE2000, two orders of magnitude under the verification goal (checked
-by ``tests/test_reference.py::test_spectral_step_is_exact_against_a_finer_grid``), at a twentieth of the cost
-of the reference's 0.1 nm in the smooth bands (the spectral integral is most of a reference image's time).
+below cos_theta 0.01 (where the spectrum is a comb of sharp lines) and coarser ones in the smooth bands above,
+where the spectrum is sampled coarsely and its cubic interpolant integrated against the 0.1 nm colour weights
+(product integration, :func:`pipeline.lut.reference.product_weights`). The steps were validated up to
+:data:`IMAGE_STEPS_CALIBRATED_NM` of film; thicker pixels scale their step down in proportion (the film's phase
+advances in proportion to its thickness). Measured (keratin film, random samples per band, dE2000 of the
+displayed colour against a 0.002-0.02 nm integration): 4 nm errs <= 0.0006 for cos_theta >= 0.08 (the
+trapezoid rule needed 2 nm for 0.0045 there), 1 nm <= 0.0002 at 0.03-0.08, 0.5 nm <= 0.0002 at 0.01-0.03,
+0.1 nm <= 0.0001 at 0.003-0.01, 0.05 nm <= 0.0001 at 0.001-0.003, 0.01 nm <= 0.003 below 0.001; with the
+thickness scaling every band stays within 0.0081 at 450-5000 nm (unscaled, 0.47 at 4000-5000 nm). So every
+band stays below 0.01 dE2000, two orders of magnitude under the verification goal (checked by
+``tests/test_reference.py::test_spectral_step_is_exact_against_a_finer_grid``), at a fortieth of the cost of
+the reference's 0.1 nm in the smooth bands (the spectral integral is most of a reference image's time).
 Pixels are de-duplicated on quantised ``(cos_theta, thickness_nm)`` keys (steps :data:`COS_THETA_QUANTUM`,
 :data:`THICKNESS_QUANTUM_NM`): the film phase ``4 pi n d cos(theta_b) / lambda`` changes by less than 5e-5 rad
 within one key, far below anything visible (measured < 0.005 dE2000), so this is still the exact model per
@@ -57,7 +62,9 @@ from .rays import SceneGeometry, camera_key, camera_rays, cast_view
 
 #: Wavelength step per cos_theta band of the reference images, ``(cos_theta_lo, step_nm)``
 #: (:func:`pipeline.lut.reference.reference_step_nm`); see the module docstring for how they were chosen.
-IMAGE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, 0.1), (0.01, 0.5), (0.03, 1.0), (0.08, 2.0))
+IMAGE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, 0.1), (0.01, 0.5), (0.03, 1.0), (0.08, 4.0))
+#: The film thickness (nm) up to which :data:`IMAGE_STEPS_NM` was validated; thicker pixels scale their steps down.
+IMAGE_STEPS_CALIBRATED_NM = 720.0
 #: De-duplication keys (see module docstring).
 COS_THETA_QUANTUM = 2e-6
 THICKNESS_QUANTUM_NM = 0.002
@@ -118,7 +125,7 @@ class ReferenceResult:
 # -- exact structural colour -------------------------------------------------------------------------------
 def structural_rgb(cos_theta, thickness_nm, film, stats: dict | None = None) -> np.ndarray:
     """Exact structural colour per pixel (:func:`pipeline.lut.reference.reference_colour` with
-    :data:`IMAGE_STEPS_NM`), de-duplicated on fine keys.
+    :data:`IMAGE_STEPS_NM` scaled from :data:`IMAGE_STEPS_CALIBRATED_NM`), de-duplicated on fine keys.
 
     Parameters
     ----------
@@ -146,7 +153,8 @@ def structural_rgb(cos_theta, thickness_nm, film, stats: dict | None = None) -> 
     inverse = inverse.reshape(-1)
     uc = np.clip(uniq[:, 0] * COS_THETA_QUANTUM, 0.0, 1.0)
     ud = uniq[:, 1] * THICKNESS_QUANTUM_NM
-    urgb = reference_colour(uc, ud, film.model, colour_space="lin_rec709", steps_nm=IMAGE_STEPS_NM)
+    urgb = reference_colour(uc, ud, film.model, colour_space="lin_rec709", steps_nm=IMAGE_STEPS_NM,
+                            calibrated_thickness_nm=IMAGE_STEPS_CALIBRATED_NM)
     if stats is not None:
         stats["spectral_pixels"] = stats.get("spectral_pixels", 0) + int(c.size)
         stats["spectral_keys"] = stats.get("spectral_keys", 0) + int(len(uniq))
