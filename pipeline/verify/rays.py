@@ -23,25 +23,34 @@ import numpy as np
 MAX_ALPHA_LAYERS = 24
 
 
-def camera_rays(view):
+def camera_rays(view, pixels=None):
     """Primary rays through the pixel centres of ``view``'s pinhole camera.
+
+    Parameters
+    ----------
+    view : pipeline.render.views.View
+    pixels : array_like of int, optional
+        Flat pixel indices (row-major from the top-left pixel) whose rays to return; default every pixel. The
+        shading needs only the rays that hit something, a fraction of the image.
 
     Returns
     -------
     origin : ndarray, (3,) world metres
-    directions : ndarray, (H * W, 3) unit world directions, row-major from the top-left pixel
+    directions : ndarray, (H * W, 3) (or (len(pixels), 3)) unit world directions
     forward : ndarray, (3,) the camera's viewing axis (its -Z) in world space
     """
     h, w = view.height, view.width
     tan_half = np.tan(0.5 * view.yfov_rad)
     aspect = w / h
-    x = (2.0 * (np.arange(w) + 0.5) / w - 1.0) * tan_half * aspect
-    y = (1.0 - 2.0 * (np.arange(h) + 0.5) / h) * tan_half
-    xx, yy = np.meshgrid(x, y)
-    d_cam = np.stack([xx, yy, -np.ones_like(xx)], axis=-1).reshape(-1, 3)
+    idx = np.arange(h * w) if pixels is None else np.asarray(pixels, np.int64).reshape(-1)
+    row, col = np.divmod(idx, w)
+    d_cam = np.empty((idx.size, 3))
+    d_cam[:, 0] = (2.0 * (col + 0.5) / w - 1.0) * tan_half * aspect
+    d_cam[:, 1] = (1.0 - 2.0 * (row + 0.5) / h) * tan_half
+    d_cam[:, 2] = -1.0
     m = np.asarray(view.camera_to_world, np.float64)
     d = d_cam @ m[:3, :3].T
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    d /= np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
     fwd = -m[:3, 2] / np.linalg.norm(m[:3, 2])
     return m[:3, 3].copy(), d, fwd
 
