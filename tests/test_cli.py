@@ -200,7 +200,7 @@ def test_cache_option_and_no_verify(tmp_path, small_asset, build_root):
                  cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     s = json.loads(r.stdout)
-    assert s["verified"] is None and not {"verify", "verify_rays"} & set(s["ran"] + s["reused"])
+    assert s["verified"] is None and not {"verify", "verify_rays", "verify_surfaces"} & set(s["ran"] + s["reused"])
     assert {p.name for p in (tmp_path / "c").iterdir()} == set(s["ran"] + s["reused"])
     assert not (tmp_path / "o" / ".rockdove-cache").exists() and not (tmp_path / "o/p/verify").exists()
 
@@ -230,7 +230,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     r = rockdove("build", "--out", "b/p", *TINY, cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     second = json.loads(r.stdout)
-    assert second["ran"] == ["verify_rays", "verify"] and second["verified"] is True
+    assert second["ran"] == ["verify_rays", "verify_surfaces", "verify"] and second["verified"] is True
     assert "gltf" in second["reused"]  # nothing the glb reads changed
     # the report names the published asset, not the staging folder, and shows the interactive view first
     report_html = (asset / "verify/report.html").read_text()
@@ -249,7 +249,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
                  cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     meta = json.loads(r.stdout)
-    assert meta["ran"] == ["usdz", "verify_rays", "verify"] and meta["verified"] is True
+    assert meta["ran"] == ["usdz", "verify_rays", "verify_surfaces", "verify"] and meta["verified"] is True
     assert _verify_record(meta)["items_ran"] == [] and _verify_record(meta)["items_reused"] == views
     assert (asset / "pigeon.usdz").is_file() and (asset / "verify/sweep_090_gl.png").is_file()
     # film index change: LUT, textures (the preview mixes the LUT in), layers and every view; geometry reused;
@@ -258,7 +258,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
                  cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     third = json.loads(r.stdout)
-    assert third["ran"] == ["lut", "film_textures", "usd_layers", "verify_rays", "verify"]
+    assert third["ran"] == ["lut", "film_textures", "usd_layers", "verify_rays", "verify_surfaces", "verify"]
     assert not (asset / "pigeon.glb").exists() and not (asset / "verify/viewer.html").exists()
     assert {"body", "bird", "thickness_range", "texture_images", "textures", "usd_geometry"} == set(third["reused"])
     assert _verify_record(third)["items_ran"] == views
@@ -266,6 +266,9 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     rays = _verify_record(third, "verify_rays")
     assert rays["items_ran"] == [] and 3 <= len(rays["items_reused"]) < len(views)  # the sweep shares a camera
     assert rays["items_reused"] == _verify_record(second, "verify_rays")["items_ran"]
+    # ... nor what the reference shades at those hits before the film (normals, textures, thickness)
+    surfaces = _verify_record(third, "verify_surfaces")
+    assert surfaces["items_ran"] == [] and surfaces["items_reused"] == rays["items_reused"]
     # physical-only shading: no bake at all (the lut stage is not in the graph), verified with a note
     r = rockdove("build", "--out", "b/p", "--set", "shading.variant=physical", *TINY, cwd=tmp_path, standin=False,
                  timeout=300)

@@ -119,6 +119,40 @@ def test_cached_hits_give_the_same_render_and_follow_the_geometry_not_the_film(t
     assert rays.ray_digest(dataclasses.replace(scene, parts=(scene.parts[0], moved))) != digest
 
 
+def test_cached_surfaces_give_the_same_render_and_follow_the_shading_inputs_not_the_film(tmp_path):
+    """Surfaces cached by camera (cast_surfaces, stored as arrays) render exactly as shading afresh, under any
+    light and film, without loading the scene's geometry; their key (surface_digest) ignores the film and
+    changes with the normals, thickness and textures (not only with what the rays hit)."""
+    import dataclasses
+
+    scene = _scene(tmp_path, thickness=(500.0, 700.0))
+    views = [_view((0.0, 0.0, 1.0)), _view((0.0, 0.6, 0.8)), _view(eye=(0.02, 0.0, 0.3))]
+    surfaces = reference.cast_surfaces(scene, views)
+    assert surfaces.keys() == {rays.camera_key(v) for v in views} and len(surfaces) == 2
+    stored = {k: reference.Surface.from_arrays(srf.to_arrays(), srf.stats) for k, srf in surfaces.items()}
+    fresh = reference.render_reference(scene, views)
+    no_geometry = dataclasses.replace(scene, parts=tuple(dataclasses.replace(p, positions_m=p.positions_m * np.nan)
+                                                         for p in scene.parts))
+    cached = reference.render_reference(no_geometry, views, surfaces=stored)  # the geometry is never read
+    for a, b in zip(fresh, cached):
+        for f in ("rgb", "part_id", "depth_m", "n_dot_l", "cos_theta", "thickness_nm", "mask"):
+            np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+    # a film change shades the same surfaces with the new film
+    other = _film(1.6, 5000.0)
+    np.testing.assert_array_equal(
+        reference.render_reference(dataclasses.replace(scene, film=other), views[:1])[0].rgb,
+        reference.render_reference(dataclasses.replace(no_geometry, film=other), views[:1], surfaces=stored)[0].rgb)
+    digest = reference.surface_digest(scene)
+    assert reference.surface_digest(dataclasses.replace(scene, film=other)) == digest
+    feather = scene.parts[0]
+    for change in ({"thickness_nm": feather.thickness_nm + np.float32(1.0)},
+                   {"normals": -feather.normals},
+                   {"mask_texture": str(tmp_path / "base.png")}):
+        changed = dataclasses.replace(scene, parts=(dataclasses.replace(feather, **change), scene.parts[1]))
+        assert reference.surface_digest(changed) != digest, change
+        assert rays.ray_digest(changed) == rays.ray_digest(scene), change  # the rays need not be cast again
+
+
 def test_lambert_and_two_sided_cards(tmp_path):
     light = np.array([0.0, 0.6, 0.8])
     front = reference.render_reference(_scene(tmp_path, alpha_left=255), [_view(light)], structural_fn=_red)[0]

@@ -34,6 +34,13 @@ stage                   configuration                                 inputs
                                                                       casts (pipeline.verify.rays.cast_hits),
                                                                       keyed by the camera and ray_digest (geometry,
                                                                       feather alpha; not film or LUT)
+``verify_surfaces``     as ``verify``                                 every published stage, verify_rays. One item
+                                                                      per camera: what the reference shades at the
+                                                                      hits before any light or film
+                                                                      (pipeline.verify.reference_image.cast_surfaces),
+                                                                      keyed by the camera and surface_digest
+                                                                      (+ normals, st, thickness, base colours,
+                                                                      masks; not film or LUT)
 ``gltf``                -- (present when ``gltf.glb``)                usd_geometry, usd_layers, (film_)textures: reads the
                                                                       assembled asset (pipeline.web.gltf.export_glb)
 ``verify``              ``verify.width``, ``verify.height``,          every published stage: the assembled asset.
@@ -50,7 +57,8 @@ and the small layers but reuses the bird, the film-independent textures and the 
 stage. Verification
 re-renders only the views whose plan entry changed: a change that leaves the rendered scene as it was (e.g.
 ``usd.usdz``) revalidates and rewrites the report but renders nothing; a film change re-renders every view, but
-with the reference's ray casts of ``verify_rays``, which depend on the geometry and the cameras only.
+with the reference's ray casts of ``verify_rays``, which depend on the geometry and the cameras only, and the
+shading inputs at their hits of ``verify_surfaces`` (a thickness or texture change recomputes those, not the rays).
 """
 
 from __future__ import annotations
@@ -365,20 +373,34 @@ def run_rays(ctx: Context) -> dict:
     return {wanted[key]: (key, value) for key, value in hits.items()}
 
 
-def _hits_save(value, folder: Path) -> None:
-    import numpy as np
+def _camera_item_codec(name: str, stem: str) -> Codec:
+    """A per-camera item ``(camera key, value)`` whose value has ``to_arrays()`` and ``stats``
+    (:class:`pipeline.verify.rays.Hits`, :class:`pipeline.verify.reference_image.Surface`): ``<stem>.npz`` and
+    ``<stem>.json``. Loading gives only ``{"dir", "camera"}``: the arrays are read by the stage that uses them."""
+    def save(value, folder: Path) -> None:
+        import numpy as np
 
-    camera, hits = value
-    np.savez(folder / "hits.npz", **hits.to_arrays())
-    (folder / "hits.json").write_text(json.dumps({"camera": camera, "stats": hits.stats}, sort_keys=True))
+        camera, item = value
+        np.savez(folder / f"{stem}.npz", **item.to_arrays())
+        (folder / f"{stem}.json").write_text(json.dumps({"camera": camera, "stats": item.stats}, sort_keys=True))
+
+    def load(folder: Path) -> dict:
+        return {"dir": str(folder), "camera": json.loads((folder / f"{stem}.json").read_text())["camera"]}
+
+    return Codec(name, save, load)
 
 
-def _hits_load(folder: Path) -> dict:
-    # the arrays are loaded by the stage that uses them (load_hits), not by the graph
-    return {"dir": str(folder), "camera": json.loads((folder / "hits.json").read_text())["camera"]}
+def _load_camera_items(value: dict, key: str, stem: str, cls) -> dict:
+    """``{camera key: cls.from_arrays(...)}`` of a per-camera stage's value (``value[key]``: camera -> folder)."""
+    out = {}
+    for camera, d in value[key].items():
+        stats = json.loads((Path(d) / f"{stem}.json").read_text())["stats"]
+        out[camera] = cls.from_arrays(load_npz(Path(d) / f"{stem}.npz"), stats)
+    return out
 
 
-HITS = Codec("hits", _hits_save, _hits_load)
+HITS = _camera_item_codec("hits", "hits")
+SURFACES = _camera_item_codec("surface", "surface")
 
 
 def combine_rays(ctx: Context, items: dict) -> dict:
@@ -390,19 +412,59 @@ def load_hits(value: dict) -> dict:
     """The :class:`pipeline.verify.rays.Hits` of a ``verify_rays`` value, by camera key."""
     from ..verify.rays import Hits
 
-    return {key: Hits.from_arrays(load_npz(Path(d) / "hits.npz"),
-                                  json.loads((Path(d) / "hits.json").read_text())["stats"])
-            for key, d in value["hits"].items()}
+    return _load_camera_items(value, "hits", "hits", Hits)
+
+
+def plan_surfaces(ctx: Context) -> dict:
+    """One item per distinct camera: the camera and the digest of what the reference shades at its hits before
+    any light or film (pipeline.verify.reference_image.surface_digest: the ray casts' geometry, normals, st,
+    thickness, base colours and masks), so a film or light change reuses them."""
+    from ..verify.inputs import verification_scene, verification_views
+    from ..verify.rays import camera_key
+    from ..verify.reference_image import surface_digest
+
+    size = _verify_size(ctx)
+    _, scene, _, _ = verification_scene(str(ctx.asset_dir))
+    digest = surface_digest(scene)
+    views = verification_views(scene, size["width"], size["height"], size["n_views"])
+    return {f"camera-{camera_key(v)[:16]}": {"camera": camera_key(v), "surface": digest} for v in views}
+
+
+def run_surfaces(ctx: Context) -> dict:
+    """The reference's surfaces of the cameras to redo (``ctx.items``), from the ray casts of ``verify_rays``."""
+    from ..verify.inputs import verification_scene, verification_views
+    from ..verify.rays import camera_key
+    from ..verify.reference_image import cast_surfaces
+
+    size = _verify_size(ctx)
+    wanted = {cfg["camera"]: name for name, cfg in ctx.items.items()}
+    _, scene, _, _ = verification_scene(str(ctx.asset_dir))
+    views = verification_views(scene, size["width"], size["height"], size["n_views"])
+    hits = load_hits(ctx.inputs["verify_rays"])
+    surfaces = cast_surfaces(scene, [v for v in views if camera_key(v) in wanted], hits=hits)
+    return {wanted[key]: (key, value) for key, value in surfaces.items()}
+
+
+def combine_surfaces(ctx: Context, items: dict) -> dict:
+    """``{"surfaces": {camera_key: the cached item's folder}}``."""
+    return {"surfaces": {value["camera"]: value["dir"] for value in items.values()}}
+
+
+def load_surfaces(value: dict) -> dict:
+    """The :class:`pipeline.verify.reference_image.Surface` of a ``verify_surfaces`` value, by camera key."""
+    from ..verify.reference_image import Surface
+
+    return _load_camera_items(value, "surfaces", "surface", Surface)
 
 
 def run_verify(ctx: Context) -> dict:
     """Render and check the views to redo (``ctx.items``), in one call (one GL context); the reference reuses
-    the ray casts of ``verify_rays``. Each view's images go into ``ctx.workdir / <view>``
+    the surfaces of ``verify_surfaces`` (shading inputs at the ray casts' hits). Each view's images go into ``ctx.workdir / <view>``
     (pipeline.verify.run.verify_views)."""
     from ..verify.run import verify_views
 
     return verify_views(str(ctx.asset_dir), views=list(ctx.items), out_dir=str(ctx.workdir), subfolders=True,
-                        hits=load_hits(ctx.inputs["verify_rays"]), **_verify_size(ctx))
+                        surfaces=load_surfaces(ctx.inputs["verify_surfaces"]), **_verify_size(ctx))
 
 
 def combine_verify(ctx: Context, views: dict) -> dict:
@@ -512,8 +574,13 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
                             deps=published, modules=("pipeline.render", "pipeline.verify", "pipeline.usd"), libraries=LIBS_RENDER,
                             codec=JSON, needs_asset=True, item_plan=plan_rays, batch=True, combine=combine_rays,
                             item_codec=HITS))
+        # What the reference shades at those hits before any light or film (normals, textures, thickness).
+        stages.append(Stage("verify_surfaces", run_surfaces, config=("verify.width", "verify.height", "verify.views"),
+                            deps=published + ("verify_rays",), modules=("pipeline.render", "pipeline.verify", "pipeline.usd"),
+                            libraries=LIBS_RENDER, codec=JSON, needs_asset=True, item_plan=plan_surfaces, batch=True,
+                            combine=combine_surfaces, item_codec=SURFACES))
         stages.append(Stage("verify", run_verify, config=("verify.width", "verify.height", "verify.views"),
-                            deps=published + ("verify_rays",),
+                            deps=published + ("verify_surfaces",),
                             modules=("pipeline.render", "pipeline.verify", "pipeline.usd", "pipeline.lut", "pipeline.films",
                                      "pipeline.optics", "pipeline.spectral", "pipeline.web",
                                      "pipeline.build.publish"),

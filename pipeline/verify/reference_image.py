@@ -97,7 +97,8 @@ class ReferenceResult:
     mask : ndarray, (H, W) float32
         Structural-colour mask on feather pixels, 0 elsewhere.
     timings_s : dict
-        Wall time of the stages (``rays``, ``spectral``, ``shade``), seconds.
+        Wall time of the stages (``rays``: the ray casts and the :class:`Surface` when not given; ``spectral``;
+        ``shade``), seconds.
     stats : dict
         Counts: rays, hits, alpha layers used, spectral evaluations, de-duplicated keys.
     """
@@ -163,7 +164,8 @@ def structural_rgb(cos_theta, thickness_nm, film, stats: dict | None = None) -> 
     return urgb[inverse]
 
 
-def render_reference(scene, views, structural_fn=None, hits=None, lobe: str = "half_angle") -> list[ReferenceResult]:
+def render_reference(scene, views, structural_fn=None, hits=None, lobe: str = "half_angle",
+                     surfaces=None) -> list[ReferenceResult]:
     """Render ``views`` of ``scene`` on the CPU with the exact spectral thin-film model.
 
     Parameters
@@ -179,6 +181,10 @@ def render_reference(scene, views, structural_fn=None, hits=None, lobe: str = "h
         :func:`~pipeline.verify.rays.ray_digest`); cameras not in it are cast here. Either way the result is the same.
     lobe : str
         The lighting model, one of :data:`LOBES` (module docstring).
+    surfaces : mapping, optional
+        Ready-made :class:`Surface` by camera key (:func:`cast_surfaces`, e.g. cached by the build for this
+        scene's :func:`surface_digest`); with one for every camera the scene's geometry is not even loaded. Either
+        way the result is the same.
 
     Returns
     -------
@@ -189,11 +195,11 @@ def render_reference(scene, views, structural_fn=None, hits=None, lobe: str = "h
     ValueError
         ``views`` is empty, or the scene has feathers but no thin-film parameters.
     """
-    return render_reference_lobes(scene, views, (lobe,), structural_fn, hits=hits)[lobe]
+    return render_reference_lobes(scene, views, (lobe,), structural_fn, hits=hits, surfaces=surfaces)[lobe]
 
 
-def render_reference_lobes(scene, views, lobes=LOBES, structural_fn=None, hits=None) -> dict:
-    """:func:`render_reference` for several lighting models at once, sharing the scene's ray casts.
+def render_reference_lobes(scene, views, lobes=LOBES, structural_fn=None, hits=None, surfaces=None) -> dict:
+    """:func:`render_reference` for several lighting models at once, sharing the scene's ray casts and surfaces.
 
     Returns
     -------
@@ -211,33 +217,128 @@ def render_reference_lobes(scene, views, lobes=LOBES, structural_fn=None, hits=N
     if structural_fn is None:
         if has_feathers and scene.film is None:
             raise ValueError(f"scene {scene.root_layer!r} has feather parts but no RockDoveThinFilmAPI film")
-    geom = SceneGeometry(scene)
+    geometry = _LazyGeometry(scene)
     hits_cache: dict = dict(hits or {})  # the light sweep keeps its camera still: cast its rays once
-    return {lb: [_render_view(geom, scene, v, structural_fn, hits_cache, lb) for v in views] for lb in lobes}
+    surface_cache: dict = dict(surfaces or {})
+    return {lb: [_render_view(geometry, scene, v, structural_fn, hits_cache, surface_cache, lb) for v in views]
+            for lb in lobes}
 
 
-def _render_view(geom: SceneGeometry, scene, view, structural_fn, hits_cache: dict,
-                 lobe: str = "half_angle") -> ReferenceResult:
+class _LazyGeometry:
+    """The scene's :class:`SceneGeometry`, built on first use (not at all when every camera's surface is given)."""
+
+    def __init__(self, scene):
+        self.scene, self._geom = scene, None
+
+    def get(self) -> SceneGeometry:
+        if self._geom is None:
+            self._geom = SceneGeometry(self.scene)
+        return self._geom
+
+
+@dataclass(frozen=True)
+class Surface:
+    """What the reference shades at each hit pixel of one camera, before any light or film: the part of
+    :func:`render_reference` that depends on the geometry, the textures and the camera only, so a build caches
+    it across film and light changes (:func:`surface_digest`, :func:`~pipeline.verify.rays.camera_key`).
+
+    Attributes
+    ----------
+    n_pixels : int
+        ``width * height``.
+    hit : ndarray, (P,) int64
+        Flat indices (row-major from the top-left pixel) of the pixels whose ray hit a surface.
+    part : ndarray, (P,) int32
+        Index in ``scene.parts`` of the part hit.
+    normal, view_dir : ndarray, (P, 3) float64
+        Unit interpolated normal (flipped towards the viewer on two-sided feather cards) and unit direction to
+        the camera ``V``.
+    base : ndarray, (P, 3) float64
+        Base colour (texture sampled bilinearly or the part's constant), linear.
+    mask : ndarray, (P,) float64
+        Structural-colour mask (feathers; 0 elsewhere).
+    thickness_nm : ndarray, (P,) float64
+        Interpolated film thickness (0 on parts without a film).
+    depth_m : ndarray, (P,) float64
+        Eye-space depth along the camera's -Z, metres.
+    stats : dict
+        The ray casts' ``rays`` and ``alpha_layers``.
+    """
+
+    n_pixels: int
+    hit: np.ndarray
+    part: np.ndarray
+    normal: np.ndarray
+    view_dir: np.ndarray
+    base: np.ndarray
+    mask: np.ndarray
+    thickness_nm: np.ndarray
+    depth_m: np.ndarray
+    stats: dict
+
+    ARRAYS = ("hit", "part", "normal", "view_dir", "base", "mask", "thickness_nm", "depth_m")
+
+    def to_arrays(self) -> dict:
+        """Arrays for storage (exact round trip through :meth:`from_arrays`)."""
+        return {"n_pixels": np.int64(self.n_pixels), **{k: getattr(self, k) for k in self.ARRAYS}}
+
+    @classmethod
+    def from_arrays(cls, arrays, stats: dict) -> "Surface":
+        return cls(int(arrays["n_pixels"]), **{k: np.asarray(arrays[k]) for k in cls.ARRAYS}, stats=dict(stats))
+
+
+def surface_digest(scene) -> str:
+    """sha256 of what a :class:`Surface` reads from a scene beyond the ray casts
+    (:func:`~pipeline.verify.rays.ray_digest`, included): every part's normals, ``st``, thickness, base colour
+    (constant, texture bytes and encoding) and mask texture bytes. Not the film or the LUT: a film change
+    leaves it, and so the cached surfaces, as they were."""
+    import hashlib
+
+    from .rays import ray_digest
+
+    h = hashlib.sha256(ray_digest(scene).encode())
+    for p in scene.parts:
+        meta = f"{p.name}:{bool(p.base_colour_srgb)}:{np.asarray(p.base_colour, np.float64).tolist()!r}\0"
+        h.update(meta.encode())
+        for a in (p.normals, p.st, p.thickness_nm):
+            if a is not None:
+                a = np.ascontiguousarray(a)
+                h.update(f"{a.dtype.str}{a.shape}".encode() + a.tobytes())
+        for path in (p.base_colour_texture, p.mask_texture):
+            h.update(b"\0tex\0")
+            if path:
+                with open(path, "rb") as f:
+                    h.update(f.read())
+    return h.hexdigest()
+
+
+def cast_surfaces(scene, views, hits=None) -> dict:
+    """The :class:`Surface` of every distinct camera among ``views``: ``{camera_key(view): Surface}``.
+
+    ``hits``: ready-made ray casts by camera key (:func:`pipeline.verify.rays.cast_hits`); others are cast here."""
+    geometry = _LazyGeometry(scene)
+    hits_cache = dict(hits or {})
+    out: dict = {}
+    for v in views:
+        key = camera_key(v)
+        if key not in out:
+            out[key] = _surface(geometry, v, hits_cache)
+    return out
+
+
+def _surface(geometry: _LazyGeometry, view, hits_cache: dict) -> Surface:
     from ..render.texture import sample_texture
 
-    t0 = time.perf_counter()
-    h, w = view.height, view.width
+    geom = geometry.get()
     key = camera_key(view)
     if key not in hits_cache:
         hits_cache[key] = cast_view(geom, view)
     face, point, bary = hits_cache[key].face, hits_cache[key].point, hits_cache[key].bary
-    stats = dict(hits_cache[key].stats)
-    t1 = time.perf_counter()
-
     hit = np.nonzero(face >= 0)[0]
     origin, dirs, fwd = camera_rays(view, hit)  # the rays of the hit pixels only
-    stats["hits"] = int(hit.size)
     f, b = face[hit], bary[hit]
     part = geom.part_of_face[f]
     V = -dirs
-    L = np.asarray(view.light_direction, np.float64)
-    L = L / np.linalg.norm(L)
-    light = np.asarray(view.light_rgb, np.float64)
     N = geom.interp(geom.normals, f, b)
     N /= np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-30)
     feather = geom.is_feather[part]
@@ -257,13 +358,38 @@ def _render_view(geom: SceneGeometry, scene, view, structural_fn, hits_cache: di
         if geom.is_feather[p]:  # a feather without a mask texture is structural everywhere (mask = 1)
             tex = geom.mask_tex[p]
             mask[sel] = sample_texture(tex, st[sel])[:, 0] if tex is not None else 1.0
+    return Surface(n_pixels=int(face.size), hit=hit, part=part.astype(np.int32), normal=N, view_dir=V, base=base,
+                   mask=mask, thickness_nm=geom.interp(geom.thickness, f, b), depth_m=(point[hit] - origin) @ fwd,
+                   stats=dict(hits_cache[key].stats))
+
+
+def _render_view(geometry: _LazyGeometry, scene, view, structural_fn, hits_cache: dict, surface_cache: dict,
+                 lobe: str = "half_angle") -> ReferenceResult:
+    t0 = time.perf_counter()
+    h, w = view.height, view.width
+    key = camera_key(view)
+    if key not in surface_cache:
+        surface_cache[key] = _surface(geometry, view, hits_cache)
+    srf = surface_cache[key]
+    if srf.n_pixels != h * w:
+        raise ValueError(f"the surface of camera {key[:12]} holds {srf.n_pixels} pixels, view {view.name!r} {h * w}")
+    stats = dict(srf.stats)
+    t1 = time.perf_counter()
+
+    hit, part, N, V = srf.hit, srf.part, srf.normal, srf.view_dir
+    stats["hits"] = int(hit.size)
+    feather = np.array([p.is_feather for p in scene.parts], bool)[part]
+    L = np.asarray(view.light_direction, np.float64)
+    L = L / np.linalg.norm(L)
+    light = np.asarray(view.light_rgb, np.float64)
+    base, mask = srf.base, srf.mask
     view_angle = lobe == "view_angle"
     if view_angle:  # mirror lobe under a uniform unit environment: incidence = view angle; base black
         cos_theta = np.clip(np.abs(np.einsum("ij,ij->i", N, V)), 0.0, 1.0)
         base = np.zeros_like(base)
     else:
         cos_theta = np.sqrt(np.clip((1.0 + V @ L) / 2.0, 0.0, 1.0))
-    thickness = geom.interp(geom.thickness, f, b)
+    thickness = srf.thickness_nm
     colour = base.copy()
     structural = feather & (mask > 0)
     t2 = time.perf_counter()
@@ -295,7 +421,7 @@ def _render_view(geom: SceneGeometry, scene, view, structural_fn, hits_cache: di
         rgb=image(0.0, radiance, np.float32),
         coverage=image(False, np.ones(hit.size, bool), bool),
         part_id=image(0, part + 1, np.int32),
-        depth_m=image(np.inf, (point[hit] - origin) @ fwd, np.float32),
+        depth_m=image(np.inf, srf.depth_m, np.float32),
         n_dot_l=image(0.0, n_dot_l, np.float32),
         cos_theta=image(np.nan, feather_cos, np.float32),
         thickness_nm=image(np.nan, feather_d, np.float32),

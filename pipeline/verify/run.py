@@ -45,13 +45,14 @@ from .inputs import DEFAULT_SIZE, DEFAULT_VIEWS, check_size, select_views, verif
 from .verdict import combine, default_out_dir
 
 
-def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits=None, refs=None,
+def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits=None, surfaces=None, refs=None,
                       gl_images=None) -> dict:
     """Render ``views`` (GL and reference), compare, write each view's images; ``{name: view result}``.
 
     ``refs``: the half-angle references of ``views`` when already rendered (:func:`verify_asset` renders every
     lobe the hosts need in one call, sharing the ray casts); ``gl_images``: a dict that receives each view's
-    GL radiance (the ``glsl`` host's images); ``hits``: cached ray casts (:func:`pipeline.verify.rays.cast_hits`)."""
+    GL radiance (the ``glsl`` host's images); ``hits``: cached ray casts (:func:`pipeline.verify.rays.cast_hits`);
+    ``surfaces``: cached shading inputs at those hits (:func:`pipeline.verify.reference_image.cast_surfaces`)."""
     from ..render.images import save_png
     from ..spectral import linear_to_srgb8
     from .reference_image import render_reference
@@ -69,7 +70,7 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
     t_gl = (time.perf_counter() - t) / len(views)
     say(f"CPU reference ({len(views)} views)")
     t = time.perf_counter()
-    ref_results = render_reference(scene, views, hits=hits) if refs is None else refs
+    ref_results = render_reference(scene, views, hits=hits, surfaces=surfaces) if refs is None else refs
     t_ref = (time.perf_counter() - t) / len(views)
     if gl_images is not None and gl_results is not None:
         gl_images.update({v.name: compare.gl_arrays(r)["rgb"] for v, r in zip(views, gl_results)})
@@ -114,7 +115,8 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
 
 
 def verify_views(asset, views=None, out_dir=None, width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE,
-                 n_views: int = DEFAULT_VIEWS, subfolders: bool = False, progress=None, hits=None) -> dict:
+                 n_views: int = DEFAULT_VIEWS, subfolders: bool = False, progress=None, hits=None,
+                 surfaces=None) -> dict:
     """Render and check a subset of the verification views; results that can be cached and combined.
 
     Parameters
@@ -135,6 +137,10 @@ def verify_views(asset, views=None, out_dir=None, width: int = DEFAULT_SIZE, hei
     hits : mapping, optional
         Ready-made reference ray casts (:func:`pipeline.verify.rays.cast_hits`, e.g. cached by the build
         keyed by :func:`pipeline.verify.rays.ray_digest` and the camera); the results do not change.
+    surfaces : mapping, optional
+        Ready-made reference surfaces (:func:`pipeline.verify.reference_image.cast_surfaces`, e.g. cached by the
+        build keyed by :func:`pipeline.verify.reference_image.surface_digest` and the camera); the results do not
+        change.
 
     Returns
     -------
@@ -151,7 +157,8 @@ def verify_views(asset, views=None, out_dir=None, width: int = DEFAULT_SIZE, hei
     out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)
     os.makedirs(out, exist_ok=True)
     chosen = select_views(verification_views(scene, int(width), int(height), n_views), views)
-    results = render_and_check(scene, lut, chosen, out, subfolders=subfolders, say=say, hits=hits)
+    results = render_and_check(scene, lut, chosen, out, subfolders=subfolders, say=say, hits=hits,
+                               surfaces=surfaces)
     for r in results.values():
         r["notes"] = list(notes)
     return results
