@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -58,20 +59,27 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
     from .reference_image import render_reference
 
     failures_all = []
-    say(f"GL renders ({len(views)} views)")
-    t = time.perf_counter()
-    try:
+
+    def gl_pass():
+        t = time.perf_counter()
         from ..render.gl import render_views
 
-        gl_results = render_views(scene, views, lut=lut)
-    except ImportError as exc:
-        gl_results = None
-        failures_all.append(f"GL renderer pipeline.render.gl is not available ({exc})")
-    t_gl = (time.perf_counter() - t) / len(views)
-    say(f"CPU reference ({len(views)} views)")
-    t = time.perf_counter()
-    ref_results = render_reference(scene, views, hits=hits, surfaces=surfaces) if refs is None else refs
-    t_ref = (time.perf_counter() - t) / len(views)
+        return render_views(scene, views, lut=lut), (time.perf_counter() - t) / len(views)
+
+    # The GL renders run in a worker thread while this one computes the reference: both spend their time in
+    # code that releases the GIL (llvmpipe's rasteriser, numpy's spectral integrals), so on two cores they
+    # overlap. The GL context is created, used and deleted in that one thread.
+    say(f"GL renders and CPU reference ({len(views)} views)")
+    with ThreadPoolExecutor(1, thread_name_prefix="rockdove-gl") as pool:
+        gl_future = pool.submit(gl_pass)
+        t = time.perf_counter()
+        ref_results = render_reference(scene, views, hits=hits, surfaces=surfaces) if refs is None else refs
+        t_ref = (time.perf_counter() - t) / len(views)
+        try:
+            gl_results, t_gl = gl_future.result()
+        except ImportError as exc:
+            gl_results, t_gl = None, 0.0
+            failures_all.append(f"GL renderer pipeline.render.gl is not available ({exc})")
     if gl_images is not None and gl_results is not None:
         gl_images.update({v.name: compare.gl_arrays(r)["rgb"] for v, r in zip(views, gl_results)})
     say("comparing")
