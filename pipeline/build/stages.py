@@ -346,31 +346,46 @@ def plan_verify(ctx: Context) -> dict:
     return plan_views(str(ctx.asset_dir), **_verify_size(ctx))
 
 
-def plan_rays(ctx: Context) -> dict:
-    """One item per distinct camera of the verification views: the camera (pipeline.verify.rays.camera_key)
-    and the digest of the geometry the rays hit (``ray_digest``: meshes, feather st and alpha), not the film or
-    the LUT, so the reference's ray casts survive a film change."""
+def _camera_plan(ctx: Context, label: str, digest_fn) -> dict:
+    """One item per distinct camera of the verification views: ``{"camera": camera_key, label: digest_fn(scene)}``."""
     from ..verify.inputs import verification_scene, verification_views
-    from ..verify.rays import camera_key, ray_digest
+    from ..verify.rays import camera_key
 
     size = _verify_size(ctx)
     _, scene, _, _ = verification_scene(str(ctx.asset_dir))
-    digest = ray_digest(scene)
+    digest = digest_fn(scene)
     views = verification_views(scene, size["width"], size["height"], size["n_views"])
-    return {f"camera-{camera_key(v)[:16]}": {"camera": camera_key(v), "geometry": digest} for v in views}
+    return {f"camera-{camera_key(v)[:16]}": {"camera": camera_key(v), label: digest} for v in views}
 
 
-def run_rays(ctx: Context) -> dict:
-    """Cast the reference's primary rays of the cameras to redo (``ctx.items``), in one call (one BVH)."""
+def _run_cameras(ctx: Context, cast) -> dict:
+    """``cast(scene, views)`` (-> ``{camera_key: value}``) for the cameras to redo (``ctx.items``), in one call;
+    ``{item name: (camera_key, value)}``."""
     from ..verify.inputs import verification_scene, verification_views
-    from ..verify.rays import cast_hits, camera_key
+    from ..verify.rays import camera_key
 
     size = _verify_size(ctx)
     wanted = {cfg["camera"]: name for name, cfg in ctx.items.items()}
     _, scene, _, _ = verification_scene(str(ctx.asset_dir))
     views = verification_views(scene, size["width"], size["height"], size["n_views"])
-    hits = cast_hits(scene, [v for v in views if camera_key(v) in wanted])
-    return {wanted[key]: (key, value) for key, value in hits.items()}
+    values = cast(scene, [v for v in views if camera_key(v) in wanted])
+    return {wanted[key]: (key, value) for key, value in values.items()}
+
+
+def plan_rays(ctx: Context) -> dict:
+    """One item per distinct camera of the verification views: the camera (pipeline.verify.rays.camera_key)
+    and the digest of the geometry the rays hit (``ray_digest``: meshes, feather st and alpha), not the film or
+    the LUT, so the reference's ray casts survive a film change."""
+    from ..verify.rays import ray_digest
+
+    return _camera_plan(ctx, "geometry", ray_digest)
+
+
+def run_rays(ctx: Context) -> dict:
+    """Cast the reference's primary rays of the cameras to redo (``ctx.items``), in one call (one BVH)."""
+    from ..verify.rays import cast_hits
+
+    return _run_cameras(ctx, cast_hits)
 
 
 def _camera_item_codec(name: str, stem: str) -> Codec:
@@ -419,30 +434,17 @@ def plan_surfaces(ctx: Context) -> dict:
     """One item per distinct camera: the camera and the digest of what the reference shades at its hits before
     any light or film (pipeline.verify.reference_image.surface_digest: the ray casts' geometry, normals, st,
     thickness, base colours and masks), so a film or light change reuses them."""
-    from ..verify.inputs import verification_scene, verification_views
-    from ..verify.rays import camera_key
     from ..verify.reference_image import surface_digest
 
-    size = _verify_size(ctx)
-    _, scene, _, _ = verification_scene(str(ctx.asset_dir))
-    digest = surface_digest(scene)
-    views = verification_views(scene, size["width"], size["height"], size["n_views"])
-    return {f"camera-{camera_key(v)[:16]}": {"camera": camera_key(v), "surface": digest} for v in views}
+    return _camera_plan(ctx, "surface", surface_digest)
 
 
 def run_surfaces(ctx: Context) -> dict:
     """The reference's surfaces of the cameras to redo (``ctx.items``), from the ray casts of ``verify_rays``."""
-    from ..verify.inputs import verification_scene, verification_views
-    from ..verify.rays import camera_key
     from ..verify.reference_image import cast_surfaces
 
-    size = _verify_size(ctx)
-    wanted = {cfg["camera"]: name for name, cfg in ctx.items.items()}
-    _, scene, _, _ = verification_scene(str(ctx.asset_dir))
-    views = verification_views(scene, size["width"], size["height"], size["n_views"])
     hits = load_hits(ctx.inputs["verify_rays"])
-    surfaces = cast_surfaces(scene, [v for v in views if camera_key(v) in wanted], hits=hits)
-    return {wanted[key]: (key, value) for key, value in surfaces.items()}
+    return _run_cameras(ctx, lambda scene, views: cast_surfaces(scene, views, hits=hits))
 
 
 def combine_surfaces(ctx: Context, items: dict) -> dict:
