@@ -35,6 +35,14 @@ def save_png(image: np.ndarray, path) -> str:
     return os.fspath(path)
 
 
+def label_font(px: int):
+    """The font of the project's image labels (contact-sheet titles, dE-map titles and colour bars): Pillow's
+    bundled sans (no system font needed) at ``px`` pixels."""
+    from PIL import ImageFont
+
+    return ImageFont.load_default(size=max(1, int(px)))
+
+
 def contact_sheet(path, rows, label_px: int = 28, background=(32, 32, 32)) -> str:
     """Tile rows of titled uint8 images into one PNG; returns the path.
 
@@ -49,7 +57,7 @@ def contact_sheet(path, rows, label_px: int = 28, background=(32, 32, 32)) -> st
         Height of the header above each row, holding each tile's title in a font sized to it (legible at a
         report's width).
     """
-    from PIL import Image, ImageDraw, ImageFont
+    from PIL import Image, ImageDraw
 
     rows = [list(r) for r in rows]
     if not rows or not all(rows):
@@ -58,7 +66,7 @@ def contact_sheet(path, rows, label_px: int = 28, background=(32, 32, 32)) -> st
     ncol = max(len(r) for r in rows)
     sheet = Image.new("RGB", (ncol * w, len(rows) * (h + label_px)), background)
     draw = ImageDraw.Draw(sheet)
-    font = ImageFont.load_default(size=max(10, int(label_px * 0.6)))
+    font = label_font(max(10, int(label_px * 0.6)))
     for r, row in enumerate(rows):
         y = r * (h + label_px)
         for c, (title, img) in enumerate(row):
