@@ -1,11 +1,13 @@
 """The verification report's images (pipeline.verify.report): the dE2000 map drawn pixel for pixel with its colour
-bar and title, and the colormap lookup."""
+bar and title, the colormap lookup, and the matplotlib charts' fixed margins holding their labels."""
 
 import numpy as np
 import pytest
 from matplotlib import colormaps
 from PIL import Image
 
+from pipeline.films import get_film
+from pipeline.render.film import ThinFilmParams
 from pipeline.verify import report
 
 
@@ -77,3 +79,24 @@ def test_de_map_png_has_a_colour_bar_from_the_colormap_top_to_bottom_and_a_title
     de_map = report.de_map_png(tmp_path / "untitled.png", de, "")
     with Image.open(de_map) as im:
         assert not (np.asarray(im)[:y - 1, x:x + w] < 128).all(-1).any()
+
+
+def _white_border(path, px=2):
+    with Image.open(path) as im:
+        a = np.asarray(im.convert("RGB"))
+    edges = np.concatenate([a[:px].reshape(-1, 3), a[-px:].reshape(-1, 3), a[:, :px].reshape(-1, 3),
+                            a[:, -px:].reshape(-1, 3)])
+    return a, (edges == 255).all()
+
+
+def test_charts_fit_their_labels_in_their_fixed_margins(tmp_path):
+    film = ThinFilmParams(model=get_film("keratin"))
+    a, white = _white_border(report.spectra_png(tmp_path / "s.png", film, thickness_nm=(500.0, 650.0)))
+    assert a.shape == (520, 700, 3) and white
+    tab10 = [np.round(np.asarray(colormaps["tab10"](i)[:3]) * 255) for i in range(4)]
+    assert all((np.abs(a.astype(int) - c).sum(-1) < 20).sum() > 100 for c in tab10)  # the four angles' lines
+    edges = np.linspace(0.0, 360.0, 13)
+    hue = {"bin_edges_deg": edges, "counts": [999999 // (i + 1) for i in range(12)], "green_band_deg": [100.0, 210.0],
+           "purple_band_deg": [280.0, 15.0], "green": 1, "purple": 2, "grey": 3, "other": 4}
+    a, white = _white_border(report.hue_png(tmp_path / "h.png", hue, "light sweep"))  # 6-digit tick labels
+    assert a.shape == (300, 600, 3) and white

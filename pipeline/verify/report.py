@@ -32,13 +32,28 @@ DE_MAP_MAX = 5.0
 DE_COLORMAP = "magma"
 
 
-def _figure(w_in=5.0, h_in=4.0):
+def _figure(w_in, h_in, margins_in, rows: int = 1, gap_in: float = 0.0):
+    """A Figure on an Agg canvas, its subplots placed by fixed margins ``(left, right, bottom, top)`` and a
+    ``gap_in`` between ``rows`` stacked ones, all in inches (at 100 dpi). Fixed in place of ``tight_layout``,
+    which draws the whole figure once more to measure its labels; the margins fit this module's labels."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(w_in, h_in), dpi=100)
     FigureCanvasAgg(fig)
+    left, right, bottom, top = margins_in
+    axes_h = (h_in - bottom - top - (rows - 1) * gap_in) / rows
+    fig.subplots_adjust(left=left / w_in, right=1.0 - right / w_in, bottom=bottom / h_in, top=1.0 - top / h_in,
+                        hspace=gap_in / axes_h)
     return fig
+
+
+def _save_figure(fig, path) -> str:
+    """Draw ``fig`` once and write it with :func:`pipeline.render.images.save_png`, the display PNGs' writer."""
+    from ..render.images import save_png
+
+    fig.canvas.draw()
+    return save_png(np.asarray(fig.canvas.buffer_rgba())[..., :3], path)
 
 
 def de_colour(de_map, vmax: float = DE_MAP_MAX) -> np.ndarray:
@@ -133,7 +148,7 @@ def lut_png(path, lut) -> str:
     from ..spectral import linear_to_srgb8
 
     img = linear_to_srgb8(lut.rgb)  # row 0 = thinnest
-    fig = _figure(6.0, 3.6)
+    fig = _figure(6.0, 3.6, (0.85, 0.3, 0.6, 0.35))
     ax = fig.add_subplot(1, 1, 1)
     lo, hi = lut.thickness_range_nm
     if hi == lo:
@@ -145,9 +160,7 @@ def lut_png(path, lut) -> str:
     ax.set_xlabel(f"cos theta (warped axis, gamma = {lut.angle_warp_gamma:g})")
     ax.set_ylabel("film thickness (nm)")
     ax.set_title(f"LUT {lut.n_thickness} x {lut.n_angle}, {lut.colour_space} (display: clipped sRGB)", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path)
-    return os.fspath(path)
+    return _save_figure(fig, path)
 
 
 def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 0.707, 0.3, 0.05)) -> str:
@@ -156,7 +169,7 @@ def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 
     from ..lut.reference import reference_wavelengths
 
     wl = reference_wavelengths()
-    fig = _figure(7.0, 2.6 * len(thickness_nm))
+    fig = _figure(7.0, 2.6 * len(thickness_nm), (0.7, 0.3, 0.6, 0.35), rows=len(thickness_nm), gap_in=0.58)
     for i, d in enumerate(thickness_nm):
         ax = fig.add_subplot(len(thickness_nm), 1, i + 1)
         for c in cos_theta:
@@ -171,9 +184,7 @@ def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 
         if i == 0:
             ax.legend(fontsize=7, loc="upper right")
     ax.set_xlabel("wavelength (nm)")
-    fig.tight_layout()
-    fig.savefig(path)
-    return os.fspath(path)
+    return _save_figure(fig, path)
 
 
 def hue_png(path, hue: dict, title: str) -> str:
@@ -184,7 +195,7 @@ def hue_png(path, hue: dict, title: str) -> str:
     centres = 0.5 * (edges[:-1] + edges[1:])
     lab = np.stack([np.full_like(centres, 60.0), 40 * np.cos(np.radians(centres)), 40 * np.sin(np.radians(centres))], 1)
     rgb = srgb_encode(np.clip(XYZ_to_RGB(Lab_to_XYZ(lab), "lin_rec709"), 0.0, 1.0))  # the bins' own hues, displayed
-    fig = _figure(6.0, 3.0)
+    fig = _figure(6.0, 3.0, (1.0, 0.2, 0.6, 0.35))  # left: room for 6-digit counts (matplotlib goes to 1e6 above)
     ax = fig.add_subplot(1, 1, 1)
     ax.bar(centres, hue["counts"], width=np.diff(edges) * 0.9, color=np.clip(rgb, 0, 1), edgecolor="k", lw=0.3)
     for band, name in ((hue["green_band_deg"], "green"), (hue["purple_band_deg"], "purple")):
@@ -195,9 +206,7 @@ def hue_png(path, hue: dict, title: str) -> str:
     ax.set_ylabel("pixels")
     ax.set_title(f"{title}: green {hue['green']}, purple {hue['purple']}, grey {hue['grey']}, other {hue['other']}",
                  fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path)
-    return os.fspath(path)
+    return _save_figure(fig, path)
 
 
 def copy_bench_plots(out_dir, bench_dir) -> list[str]:
