@@ -26,12 +26,19 @@ def box_downsample(image, factor: int) -> np.ndarray:
     return a.reshape(h // factor, factor, w // factor, factor, *a.shape[2:]).mean(axis=(1, 3))
 
 
+#: zlib level of the display PNGs (renders, verification images, contact sheets; not the asset's textures,
+#: which :mod:`pipeline.usd.textures_io` writes with fixed options of its own). Level 1 against Pillow's
+#: default 6, measured on one verification's 14 images (33 MB of pixels): 2.2x faster, 23 % larger (1.6 MB).
+DISPLAY_PNG_LEVEL = 1
+
+
 def save_png(image: np.ndarray, path) -> str:
-    """Write a uint8 (H, W, 3|4) image; returns the path."""
+    """Write a uint8 (H, W, 3|4) image (zlib level :data:`DISPLAY_PNG_LEVEL`); returns the path."""
     from PIL import Image
 
     img = np.ascontiguousarray(image, dtype=np.uint8)
-    Image.fromarray(img, "RGBA" if img.shape[2] == 4 else "RGB").save(os.fspath(path))
+    Image.fromarray(img, "RGBA" if img.shape[2] == 4 else "RGB").save(os.fspath(path),
+                                                                      compress_level=DISPLAY_PNG_LEVEL)
     return os.fspath(path)
 
 
@@ -76,5 +83,4 @@ def contact_sheet(path, rows, label_px: int = 28, background=(32, 32, 32)) -> st
                 sheet.paste(tile.convert("RGB"), (c * w, y + label_px), tile)
             else:
                 sheet.paste(tile, (c * w, y + label_px))
-    sheet.save(os.fspath(path))
-    return os.fspath(path)
+    return save_png(np.asarray(sheet), path)
