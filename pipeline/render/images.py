@@ -26,13 +26,28 @@ def box_downsample(image, factor: int) -> np.ndarray:
     return a.reshape(h // factor, factor, w // factor, factor, *a.shape[2:]).mean(axis=(1, 3))
 
 
+#: zlib level of the display PNGs (renders, verification images, contact sheets; not the asset's textures,
+#: which :mod:`pipeline.usd.textures_io` writes with fixed options of its own). Level 1 against Pillow's
+#: default 6, measured on one verification's 14 images (33 MB of pixels): 2.2x faster, 23 % larger (1.6 MB).
+DISPLAY_PNG_LEVEL = 1
+
+
 def save_png(image: np.ndarray, path) -> str:
-    """Write a uint8 (H, W, 3|4) image; returns the path."""
+    """Write a uint8 (H, W, 3|4) image (zlib level :data:`DISPLAY_PNG_LEVEL`); returns the path."""
     from PIL import Image
 
     img = np.ascontiguousarray(image, dtype=np.uint8)
-    Image.fromarray(img, "RGBA" if img.shape[2] == 4 else "RGB").save(os.fspath(path))
+    Image.fromarray(img, "RGBA" if img.shape[2] == 4 else "RGB").save(os.fspath(path),
+                                                                      compress_level=DISPLAY_PNG_LEVEL)
     return os.fspath(path)
+
+
+def label_font(px: int):
+    """The font of the project's image labels (contact-sheet titles, dE-map titles and colour bars): Pillow's
+    bundled sans (no system font needed) at ``px`` pixels."""
+    from PIL import ImageFont
+
+    return ImageFont.load_default(size=max(1, int(px)))
 
 
 def contact_sheet(path, rows, label_px: int = 28, background=(32, 32, 32)) -> str:
@@ -49,7 +64,7 @@ def contact_sheet(path, rows, label_px: int = 28, background=(32, 32, 32)) -> st
         Height of the header above each row, holding each tile's title in a font sized to it (legible at a
         report's width).
     """
-    from PIL import Image, ImageDraw, ImageFont
+    from PIL import Image, ImageDraw
 
     rows = [list(r) for r in rows]
     if not rows or not all(rows):
@@ -58,7 +73,7 @@ def contact_sheet(path, rows, label_px: int = 28, background=(32, 32, 32)) -> st
     ncol = max(len(r) for r in rows)
     sheet = Image.new("RGB", (ncol * w, len(rows) * (h + label_px)), background)
     draw = ImageDraw.Draw(sheet)
-    font = ImageFont.load_default(size=max(10, int(label_px * 0.6)))
+    font = label_font(max(10, int(label_px * 0.6)))
     for r, row in enumerate(rows):
         y = r * (h + label_px)
         for c, (title, img) in enumerate(row):
@@ -68,5 +83,4 @@ def contact_sheet(path, rows, label_px: int = 28, background=(32, 32, 32)) -> st
                 sheet.paste(tile.convert("RGB"), (c * w, y + label_px), tile)
             else:
                 sheet.paste(tile, (c * w, y + label_px))
-    sheet.save(os.fspath(path))
-    return os.fspath(path)
+    return save_png(np.asarray(sheet), path)

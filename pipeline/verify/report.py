@@ -1,14 +1,15 @@
 """The verification report: per-view PNGs, a contact sheet, matplotlib figures, report.json and report.html.
 
 Everything is written into one folder and referenced by relative file names, so ``report.html`` opens in a
-browser from disk with no server. Figures are drawn with matplotlib's object API (``Figure`` +
-``FigureCanvasAgg``), which needs no display and leaves pyplot's global state alone.
+browser from disk with no server. The dE2000 maps are drawn with Pillow, their pixels the measured values
+one to one; the charts with matplotlib's object API (``Figure`` + ``FigureCanvasAgg``), which needs no
+display and leaves pyplot's global state alone.
 
 Files (``DIR`` is the output folder):
 
 - ``<view>_gl.png``, ``<view>_reference.png``: the two renders through the display transform
   (:func:`pipeline.spectral.linear_to_srgb8`);
-- ``<view>_dE.png``: the dE2000 map with a colour bar (grey where not compared);
+- ``<view>_dE.png``: the dE2000 map, pixel for pixel, with a colour bar (grey where not compared);
 - ``contact_sheet.png``: one row per view, GL | reference | dE;
 - ``lut.png`` (the LUT the asset names), ``spectra.png`` (film reflectance spectra), ``hue.png`` (hue
   histogram across the light sweep), ``bench_*.png`` copied from the benchmark folder the caller names
@@ -31,41 +32,97 @@ DE_MAP_MAX = 5.0
 DE_COLORMAP = "magma"
 
 
-def _figure(w_in=5.0, h_in=4.0):
+def _figure(w_in, h_in, margins_in, rows: int = 1, gap_in: float = 0.0):
+    """A Figure on an Agg canvas, its subplots placed by fixed margins ``(left, right, bottom, top)`` and a
+    ``gap_in`` between ``rows`` stacked ones, all in inches (at 100 dpi). Fixed in place of ``tight_layout``,
+    which draws the whole figure once more to measure its labels; the margins fit this module's labels."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(w_in, h_in), dpi=100)
     FigureCanvasAgg(fig)
+    left, right, bottom, top = margins_in
+    axes_h = (h_in - bottom - top - (rows - 1) * gap_in) / rows
+    fig.subplots_adjust(left=left / w_in, right=1.0 - right / w_in, bottom=bottom / h_in, top=1.0 - top / h_in,
+                        hspace=gap_in / axes_h)
     return fig
 
 
+def _save_figure(fig, path) -> str:
+    """Draw ``fig`` once and write it with :func:`pipeline.render.images.save_png`, the display PNGs' writer."""
+    from ..render.images import save_png
+
+    fig.canvas.draw()
+    return save_png(np.asarray(fig.canvas.buffer_rgba())[..., :3], path)
+
+
 def de_colour(de_map, vmax: float = DE_MAP_MAX) -> np.ndarray:
-    """(H, W) dE map -> (H, W, 3) uint8 with the :data:`DE_COLORMAP`; NaN (not compared) is mid grey."""
+    """(H, W) dE map -> (H, W, 3) uint8 with the :data:`DE_COLORMAP`; NaN (not compared) is mid grey.
+
+    The colormap's own lookup (matplotlib's ``Colormap.__call__`` on floats: entry ``floor(x N)``, x = 1 the
+    last entry) on a uint8 copy of its table, grey appended, so a megapixel map costs one index and one take."""
     from matplotlib import colormaps
 
+    cmap = colormaps[DE_COLORMAP]
+    table = np.vstack([(cmap(np.arange(cmap.N))[:, :3] * 255).round(), [96, 96, 96]]).astype(np.uint8)
     de = np.asarray(de_map, np.float64)
-    rgba = colormaps[DE_COLORMAP](np.clip(np.nan_to_num(de, nan=0.0) / vmax, 0.0, 1.0))
-    out = (rgba[..., :3] * 255).round().astype(np.uint8)
-    out[~np.isfinite(de)] = 96
-    return out
+    x = np.clip(np.nan_to_num(de, nan=0.0) / vmax, 0.0, 1.0)
+    index = np.where(np.isfinite(de), np.minimum((x * cmap.N).astype(np.intp), cmap.N - 1), cmap.N)
+    return np.take(table, index, axis=0)
+
+
+#: The dE map's colour-bar label.
+DE_BAR_LABEL = "dE2000 (grey: not compared)"
 
 
 def de_map_png(path, de_map, title: str) -> str:
-    """The dE2000 map with a colour bar, as a matplotlib figure saved to PNG."""
+    """The dE2000 map under its title, beside a colour bar from 0 to :data:`DE_MAP_MAX` (a tick every whole dE;
+    only the two ends on a map too short for six labels), as PNG.
+
+    The map's pixels are :func:`de_colour` of ``de_map`` one to one (no resampling: every compared pixel is
+    shown as it was measured), at ``(pad, header)`` of the image; the bar is :func:`de_colour` of a ramp from
+    ``DE_MAP_MAX`` (top) to 0 (bottom), as tall as the map. Drawn with Pillow, text in
+    :func:`pipeline.render.images.label_font` sized to the map (legible when the report shows it scaled down).
+    """
+    from PIL import Image, ImageDraw
+
+    from ..render.images import label_font, save_png
+
     de = np.asarray(de_map, np.float64)
     h, w = de.shape
-    fig = _figure(5.5, 5.0 * h / w + 0.6)
-    ax = fig.add_subplot(1, 1, 1)
-    shown = np.ma.masked_invalid(de)
-    im = ax.imshow(shown, cmap=DE_COLORMAP, vmin=0.0, vmax=DE_MAP_MAX, interpolation="nearest")
-    ax.set_facecolor("#606060")
-    ax.set_title(title, fontsize=9)
-    ax.set_xticks([])
-    ax.set_yticks([])
-    fig.colorbar(im, ax=ax, label="dE2000 (grey: not compared)")
-    fig.savefig(path)
-    return os.fspath(path)
+    f = max(12, round(max(h, w) / 36))  # text height, px
+    pad, header, gap, bar_w, tick = max(2, f // 2), round(1.8 * f), f, max(8, round(0.9 * f)), max(3, f // 3)
+    font = label_font(f)
+    ticks = np.arange(0.0, math.floor(DE_MAP_MAX) + 1.0)  # every whole dE; only the ends where labels would touch
+    if (h - 1) / DE_MAP_MAX < 1.5 * f:
+        ticks = np.array([0.0, DE_MAP_MAX])
+    labels = [f"{t:g}" for t in ticks]
+    bar_x = pad + w + gap
+    text_x = bar_x + bar_w + tick + max(2, f // 4)
+    name_x = text_x + round(max(font.getlength(t) for t in labels)) + pad
+    # the bar's name, rotated to read bottom to top, shrunk towards the bar's height (the image grows below a
+    # small map rather than the name shrinking past legibility)
+    name_font = label_font(max(10, min(f, int(f * h / (font.getlength(DE_BAR_LABEL) + 2 * pad)))))
+    box = name_font.getbbox(DE_BAR_LABEL)
+    name = Image.new("RGB", (box[2] + 2, box[3] + 2), "white")
+    ImageDraw.Draw(name).text((1, 1), DE_BAR_LABEL, fill="black", font=name_font)
+    name = name.rotate(90, expand=True)
+    width = name_x + name.width + pad
+    sheet = Image.new("RGB", (width, header + max(h, name.height) + pad), "white")
+    draw = ImageDraw.Draw(sheet)
+    title_font = font if font.getlength(title) <= width - 2 * pad else label_font(
+        int(f * (width - 2 * pad) / font.getlength(title)))
+    draw.text((pad, header // 2), title, fill="black", font=title_font, anchor="lm")
+    ramp = np.repeat(np.linspace(DE_MAP_MAX, 0.0, h)[:, None], bar_w, axis=1)
+    for x0, img in ((pad, de_colour(de)), (bar_x, de_colour(ramp))):
+        draw.rectangle((x0 - 1, header - 1, x0 + img.shape[1], header + h), outline="black")
+        sheet.paste(Image.fromarray(img), (x0, header))
+    for t, label in zip(ticks, labels):
+        y = header + round((1.0 - t / DE_MAP_MAX) * (h - 1))
+        draw.line((bar_x + bar_w, y, bar_x + bar_w + tick, y), fill="black")
+        draw.text((text_x, y), label, fill="black", font=font, anchor="lm")
+    sheet.paste(name, (name_x, header + max(0, h - name.height) // 2))
+    return save_png(np.asarray(sheet), path)
 
 
 #: What each column of a verification contact-sheet row shows (pipeline.verify.run: GL, reference, dE map).
@@ -91,7 +148,7 @@ def lut_png(path, lut) -> str:
     from ..spectral import linear_to_srgb8
 
     img = linear_to_srgb8(lut.rgb)  # row 0 = thinnest
-    fig = _figure(6.0, 3.6)
+    fig = _figure(6.0, 3.6, (0.85, 0.3, 0.6, 0.35))
     ax = fig.add_subplot(1, 1, 1)
     lo, hi = lut.thickness_range_nm
     if hi == lo:
@@ -103,9 +160,7 @@ def lut_png(path, lut) -> str:
     ax.set_xlabel(f"cos theta (warped axis, gamma = {lut.angle_warp_gamma:g})")
     ax.set_ylabel("film thickness (nm)")
     ax.set_title(f"LUT {lut.n_thickness} x {lut.n_angle}, {lut.colour_space} (display: clipped sRGB)", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path)
-    return os.fspath(path)
+    return _save_figure(fig, path)
 
 
 def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 0.707, 0.3, 0.05)) -> str:
@@ -114,7 +169,7 @@ def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 
     from ..lut.reference import reference_wavelengths
 
     wl = reference_wavelengths()
-    fig = _figure(7.0, 2.6 * len(thickness_nm))
+    fig = _figure(7.0, 2.6 * len(thickness_nm), (0.7, 0.3, 0.6, 0.35), rows=len(thickness_nm), gap_in=0.58)
     for i, d in enumerate(thickness_nm):
         ax = fig.add_subplot(len(thickness_nm), 1, i + 1)
         for c in cos_theta:
@@ -129,9 +184,7 @@ def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 
         if i == 0:
             ax.legend(fontsize=7, loc="upper right")
     ax.set_xlabel("wavelength (nm)")
-    fig.tight_layout()
-    fig.savefig(path)
-    return os.fspath(path)
+    return _save_figure(fig, path)
 
 
 def hue_png(path, hue: dict, title: str) -> str:
@@ -142,7 +195,7 @@ def hue_png(path, hue: dict, title: str) -> str:
     centres = 0.5 * (edges[:-1] + edges[1:])
     lab = np.stack([np.full_like(centres, 60.0), 40 * np.cos(np.radians(centres)), 40 * np.sin(np.radians(centres))], 1)
     rgb = srgb_encode(np.clip(XYZ_to_RGB(Lab_to_XYZ(lab), "lin_rec709"), 0.0, 1.0))  # the bins' own hues, displayed
-    fig = _figure(6.0, 3.0)
+    fig = _figure(6.0, 3.0, (1.0, 0.2, 0.6, 0.35))  # left: room for 6-digit counts (matplotlib goes to 1e6 above)
     ax = fig.add_subplot(1, 1, 1)
     ax.bar(centres, hue["counts"], width=np.diff(edges) * 0.9, color=np.clip(rgb, 0, 1), edgecolor="k", lw=0.3)
     for band, name in ((hue["green_band_deg"], "green"), (hue["purple_band_deg"], "purple")):
@@ -153,9 +206,7 @@ def hue_png(path, hue: dict, title: str) -> str:
     ax.set_ylabel("pixels")
     ax.set_title(f"{title}: green {hue['green']}, purple {hue['purple']}, grey {hue['grey']}, other {hue['other']}",
                  fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path)
-    return os.fspath(path)
+    return _save_figure(fig, path)
 
 
 def copy_bench_plots(out_dir, bench_dir) -> list[str]:
