@@ -224,6 +224,25 @@ def test_views_checked_one_at_a_time_combine_into_the_same_report(assets, tmp_pa
 
 
 @pytest.mark.gl
+def test_an_image_that_cannot_be_written_fails_the_views_it_belongs_to(assets, tmp_path, monkeypatch):
+    """The per-view images are written in a background thread; a write that fails is raised from verify_views,
+    not lost with the thread."""
+    from pipeline.render import images
+    from pipeline.verify import run as verify
+
+    real = images.save_png
+
+    def full_disk(image, path):
+        if str(path).endswith("_gl.png"):
+            raise OSError(28, "No space left on device", str(path))
+        return real(image, path)
+
+    monkeypatch.setattr(images, "save_png", full_disk)
+    with pytest.raises(OSError, match="No space left"):
+        verify.verify_views(assets["good"], ["turntable_030"], out_dir=tmp_path / "x", width=48, height=48)
+
+
+@pytest.mark.gl
 def test_physical_only_asset_is_verified_with_a_verification_only_lut_and_says_so(physical_asset, tmp_path):
     asset = str(physical_asset)
     out = tmp_path / "report"

@@ -84,41 +84,55 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
         gl_images.update({v.name: compare.gl_arrays(r)["rgb"] for v, r in zip(views, gl_results)})
     say("comparing")
     results = {}
-    for i, v in enumerate(views):
-        t = time.perf_counter()
-        folder = os.path.join(out, v.name) if subfolders else out
-        os.makedirs(folder, exist_ok=True)
-        m = compare.compare(gl_results[i], ref_results[i], scene) if gl_results is not None else None
-        sweep = v.name.startswith("sweep_")
-        hue = boundary = None
-        if sweep:
-            cls = m.cls if m is not None else compare.reference_classes(ref_results[i], scene)
-            rgb = np.asarray(compare.gl_arrays(gl_results[i])["rgb"] if m is not None else ref_results[i].rgb, np.float64)
-            hue = compare.hue_histogram(rgb[cls >= 0])
-            boundary = {**compare.boundary_straightness(cls), **boundary_shape(rgb, cls >= 0)}
-        files, rows = {}, []
-        ref_png = linear_to_srgb8(ref_results[i].rgb)
-        files["reference"] = os.path.basename(save_png(ref_png, os.path.join(folder, f"{v.name}_reference.png")))
-        if gl_results is not None:
-            gl_png = linear_to_srgb8(compare.gl_arrays(gl_results[i])["rgb"])
-            files["gl"] = os.path.basename(save_png(gl_png, os.path.join(folder, f"{v.name}_gl.png")))
-            rows.append(gl_png)
-        rows.append(ref_png)
-        if m is not None:
-            files["dE"] = os.path.basename(report.de_map_png(
-                os.path.join(folder, f"{v.name}_dE.png"), m.de_map,
-                f"{v.name}: dE2000 median {m.de_median:.2f}, p95 {m.de_p95:.2f}, max {m.de_max:.2f}"))
-            rows.append(report.de_colour(m.de_map))
-        results[v.name] = {
-            "view": v.name, "setup": v.to_dict(), "sweep": sweep,
-            "metrics": m.summary() if m is not None else None,
-            "failures": list(failures_all) + (list(m.failures) if m is not None else []),
-            "reference": {"view": ref_results[i].view, "timings_s": ref_results[i].timings_s,
-                          "stats": ref_results[i].stats},
-            "hue": hue, "boundary": boundary, "files": files, "dir": os.path.abspath(folder),
-            "timings_s": {"gl": t_gl, "reference": t_ref, "compare": time.perf_counter() - t},
-            "sheet_row": rows,
-        }
+    # The images are encoded in a writer thread (zlib runs outside the GIL) while this one compares the next
+    # view; every write is waited for, and its error raised, before the results are returned.
+    with ThreadPoolExecutor(1, thread_name_prefix="rockdove-png") as writer:
+        writes = []
+
+        def write(files: dict, key: str, path: str, fn, *args):
+            files[key] = os.path.basename(path)
+            writes.append(writer.submit(fn, *args))
+
+        for i, v in enumerate(views):
+            t = time.perf_counter()
+            folder = os.path.join(out, v.name) if subfolders else out
+            os.makedirs(folder, exist_ok=True)
+            m = compare.compare(gl_results[i], ref_results[i], scene) if gl_results is not None else None
+            sweep = v.name.startswith("sweep_")
+            hue = boundary = None
+            if sweep:
+                cls = m.cls if m is not None else compare.reference_classes(ref_results[i], scene)
+                rgb = np.asarray(compare.gl_arrays(gl_results[i])["rgb"] if m is not None else ref_results[i].rgb,
+                                 np.float64)
+                hue = compare.hue_histogram(rgb[cls >= 0])
+                boundary = {**compare.boundary_straightness(cls), **boundary_shape(rgb, cls >= 0)}
+            files, rows = {}, []
+            ref_png = linear_to_srgb8(ref_results[i].rgb)
+            path = os.path.join(folder, f"{v.name}_reference.png")
+            write(files, "reference", path, save_png, ref_png, path)
+            if gl_results is not None:
+                gl_png = linear_to_srgb8(compare.gl_arrays(gl_results[i])["rgb"])
+                path = os.path.join(folder, f"{v.name}_gl.png")
+                write(files, "gl", path, save_png, gl_png, path)
+                rows.append(gl_png)
+            rows.append(ref_png)
+            if m is not None:
+                path = os.path.join(folder, f"{v.name}_dE.png")
+                write(files, "dE", path, report.de_map_png, path, m.de_map,
+                      f"{v.name}: dE2000 median {m.de_median:.2f}, p95 {m.de_p95:.2f}, max {m.de_max:.2f}")
+                rows.append(report.de_colour(m.de_map))
+            results[v.name] = {
+                "view": v.name, "setup": v.to_dict(), "sweep": sweep,
+                "metrics": m.summary() if m is not None else None,
+                "failures": list(failures_all) + (list(m.failures) if m is not None else []),
+                "reference": {"view": ref_results[i].view, "timings_s": ref_results[i].timings_s,
+                              "stats": ref_results[i].stats},
+                "hue": hue, "boundary": boundary, "files": files, "dir": os.path.abspath(folder),
+                "timings_s": {"gl": t_gl, "reference": t_ref, "compare": time.perf_counter() - t},
+                "sheet_row": rows,
+            }
+        for w in writes:
+            w.result()
     return results
 
 
