@@ -12,7 +12,8 @@ shared machine):
   notebook does), against the same goal;
 - verification after a film-only change as a ratio of a cold verification of the same asset (both: the
   ``verify_rays`` + ``verify_surfaces`` + ``verify`` stage seconds of a build's ``--json``); goal <= 30 %; the
-  ray-cast and surface items the film change reused;
+  ray-cast and surface items the film change reused; and the same verification in a warm process (the build
+  function called again, as a sweep's worker does);
 - the geometry payload written as usda against usdc at 1,500 and 100k cards: size and write time
   (in process: ``pipeline.usd.stage.author_geometry`` once, then ``Sdf.Layer.Export`` to each format);
 - scaling with the card count (1k, 10k, 100k): cold build time and the build process's peak memory
@@ -185,33 +186,43 @@ def _film_rows(tmp: Path, preset: list[str], repeats: int, cold_s: float) -> dic
     return out
 
 
-#: One process: a first film-only rebuild (pays the imports, untimed), then ``repeats`` timed ones, each through
-#: pipeline.commands.build.build, the function ``rockdove build`` and the sweep's workers run. Prints the seconds.
+#: One process: a first film-only rebuild (pays the imports, untimed), then the timed ones, each through
+#: pipeline.commands.build.build, the function ``rockdove build`` and the sweep's workers run. Prints, per timed
+#: rebuild, its seconds and the seconds of its verification stages (0 with --no-verify).
 _WARM_SCRIPT = """
 import contextlib, io, json, sys, time
 from pipeline.commands import build as B
-common, values = json.loads(sys.argv[1]), json.loads(sys.argv[2])
-times = []
+common, values, verify_stages = json.loads(sys.argv[1]), json.loads(sys.argv[2]), json.loads(sys.argv[3])
+rows = []
 for i, v in enumerate(values):
     args = B.parse_args([*common, "--set", f"film.cauchy_a={v}"])
     t0 = time.perf_counter()
     with contextlib.redirect_stdout(io.StringIO()):
         summary = B.build(args)
-    if i:
-        times.append(time.perf_counter() - t0)
+    wall = time.perf_counter() - t0
     assert "lut" in summary["ran"] and "usd_geometry" in summary["reused"], summary["ran"]
-print(json.dumps(times))
+    if i:
+        rows.append({"wall_s": wall, "verify_s": sum(st["seconds"] for st in summary["stages"]
+                                                      if st["name"] in verify_stages)})
+print(json.dumps(rows))
 """
 
 
+def _warm_rows(tmp: Path, preset: list[str], repeats: int, cache: str, first_value: float,
+               user_cache: Path | None = None) -> list[dict]:
+    """Film-only rebuilds inside one process that has rebuilt once already (its imports and per-process caches
+    warm), on ``cache``: per timed rebuild ``{"wall_s", "verify_s"}``."""
+    common = ["--out", str(tmp / "out" / "pigeon"), "--cache", str(tmp / cache), "--json", "--quiet", *preset]
+    values = [first_value + 0.005 * i for i in range(repeats + 1)]  # none of them the last CLI run's value
+    env = None if user_cache is None else {**os.environ, "XDG_CACHE_HOME": str(user_cache)}
+    r = subprocess.run([sys.executable, "-c", _WARM_SCRIPT, json.dumps(common), json.dumps(values),
+                        json.dumps(VERIFY_STAGES)], capture_output=True, text=True, check=True, env=env)
+    return json.loads(r.stdout)
+
+
 def _warm_film_s(tmp: Path, preset: list[str], repeats: int) -> float:
-    """Median seconds of a film-only rebuild inside a process that has rebuilt once already (its imports and
-    per-process caches warm), on the cold build's cache."""
-    common = ["--out", str(tmp / "out" / "pigeon"), "--cache", str(tmp / "cold0"), "--json", "--quiet", *preset]
-    values = [1.50 + 0.005 * i for i in range(repeats + 1)]  # none of them the last CLI run's value
-    r = subprocess.run([sys.executable, "-c", _WARM_SCRIPT, json.dumps(common), json.dumps(values)],
-                       capture_output=True, text=True, check=True)
-    return statistics.median(json.loads(r.stdout))
+    """Median seconds of a film-only rebuild (no verify) in a warm process, on the cold build's cache."""
+    return _median(_warm_rows(tmp, preset, repeats, "cold0", 1.50), "wall_s")
 
 
 #: The libraries a film-only rebuild cannot avoid: the LUT (numpy, OpenEXR), the looks layer (pxr, MaterialX),
@@ -247,16 +258,22 @@ def _verify_rows(tmp: Path, preset: list[str], args) -> dict:
                       user_cache=user)
     cold_v, _ = _verify_seconds(cold)
     film_v, stages = _verify_seconds(film)
+    warm = _median(_warm_rows(tmp, with_verify + size, 1 if args.quick else 2, "verify", 1.60, user_cache=user),
+                   "verify_s")
     rays, surfaces = stages.get("verify_rays", {}), stages.get("verify_surfaces", {})
     out = {"cold_verify_s": cold_v, "film_verify_s": film_v, "ratio": film_v / cold_v, "goal_ratio": VERIFY_GOAL_RATIO,
            "rays_reused": rays.get("items_reused", []), "rays_ran": rays.get("items_ran", []),
            "surfaces_reused": surfaces.get("items_reused", []), "surfaces_ran": surfaces.get("items_ran", []),
-           "views_ran": stages.get("verify", {}).get("items_ran", []), "verified": [cold["verified"], film["verified"]]}
+           "views_ran": stages.get("verify", {}).get("items_ran", []), "verified": [cold["verified"], film["verified"]],
+           "warm_process_s": warm, "warm_process_ratio": warm / cold_v}
     print(f"verify after a film-only change: {film_v:.2f} s against a cold verify of {cold_v:.2f} s = "
           f"{100 * out['ratio']:.1f} %, goal <= {100 * VERIFY_GOAL_RATIO:g} %: "
           f"{'met' if out['ratio'] <= VERIFY_GOAL_RATIO else 'NOT met'}; ray casts and surfaces reused for "
           f"{len(out['rays_reused'])} and {len(out['surfaces_reused'])} cameras, ran for {len(out['rays_ran'])} and "
           f"{len(out['surfaces_ran'])}; views re-rendered {len(out['views_ran'])}")
+    print(f"  in a warm process (as a sweep's Dask worker verifies its next point): {warm:.2f} s = "
+          f"{100 * out['warm_process_ratio']:.1f} % of the cold verify, goal <= {100 * VERIFY_GOAL_RATIO:g} %: "
+          f"{'met' if out['warm_process_ratio'] <= VERIFY_GOAL_RATIO else 'NOT met'}")
     return out
 
 
