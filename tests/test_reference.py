@@ -215,17 +215,17 @@ def test_spectral_step_is_exact_against_a_finer_grid(thickness_nm):
 
     film = _film(1.532, 5890.0)
     rng = np.random.default_rng(1)
-    bands = [(0.0, 0.001), (0.001, 0.003), (0.003, 0.01), (0.01, 0.03), (0.03, 0.1), (0.1, 1.0)]
+    bands = [(0.0, 0.001), (0.001, 0.003), (0.003, 0.01), (0.01, 0.03), (0.03, 0.08), (0.08, 0.12), (0.12, 1.0)]
     n = 12 if thickness_nm[0] > 1000 else 25
     c = np.concatenate([rng.uniform(lo, hi, n) for lo, hi in bands])
     d = rng.uniform(*thickness_nm, c.size)
     exact = np.empty((c.size, 3))
-    for (lo, hi), step in zip(bands, (0.002, 0.005, 0.01, 0.02, 0.02, 0.05)):
+    for (lo, hi), step in zip(bands, (0.002, 0.005, 0.01, 0.02, 0.02, 0.02, 0.05)):
         sel = (c >= lo) & (c < hi)
         exact[sel] = reference_colour(c[sel], d[sel], film.model, steps_nm=((0.0, step),))
     ours = reference.structural_rgb(c, d, film)
     lab = lambda x: spectral.RGB_to_Lab(np.clip(x, 0, 1))  # noqa: E731 - the displayed colour
-    assert np.max(spectral.delta_E_2000(lab(ours), lab(exact))) < 0.01
+    assert np.max(spectral.delta_E_2000(lab(ours), lab(exact))) < 0.005  # measured <= 0.0017 (module docstring)
     if thickness_nm[0] > 1000:  # the steps validated for a 720 nm film are visibly wrong here, unscaled
         plain = reference_colour(c, d, film.model, steps_nm=reference.IMAGE_STEPS_NM)
         assert np.max(spectral.delta_E_2000(lab(plain), lab(exact))) > 0.02
