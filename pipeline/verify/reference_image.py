@@ -31,7 +31,8 @@ at 0.03-0.05, 0.5 nm <= 0.0003 at 0.01-0.03, 0.1 nm <= 0.0001 at 0.003-0.01, 0.0
 0.01 nm <= 0.0016 below 0.001, at every thickness once scaled (the previous fixed steps erred up to 0.039 at
 1500-2000 nm and 0.80 at 4000-5000 nm). So every band stays below 0.01 dE2000, two orders of magnitude under the
 verification goal (checked by ``tests/test_reference.py::test_spectral_step_is_exact_against_a_finer_grid``), at
-a fortieth of the cost of the reference's 0.1 nm in the smooth bands (the spectral integral is most of a reference image's time).
+a fortieth of the cost of the reference's 0.1 nm in the smooth bands (the spectral integral is most of a
+reference image's time).
 Pixels are de-duplicated on quantised ``(cos_theta, thickness_nm)`` keys (steps :data:`COS_THETA_QUANTUM`,
 :data:`THICKNESS_QUANTUM_NM`): the film phase ``4 pi n d cos(theta_b) / lambda`` changes by less than 5e-5 rad
 within one key, far below anything visible (measured < 0.005 dE2000), so this is still the exact model per
