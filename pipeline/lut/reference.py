@@ -165,6 +165,7 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
     calibrated_thickness_nm : float, optional
         The thickness up to which ``steps_nm`` was validated: thicker points scale their step by
         ``calibrated_thickness_nm / thickness_nm``, snapped down to :data:`STEP_LADDER_NM` (module docstring).
+
     Returns
     -------
     ndarray, shape broadcast(cos_theta, thickness_nm) + (3,), float64, linear (unclipped)
