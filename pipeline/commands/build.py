@@ -136,7 +136,7 @@ def build(args: argparse.Namespace) -> dict:
     :class:`BuildFailed` (a :class:`VerificationFailed` carrying the summary) when verification fails.
     Callable from any thread: SIGTERM is handled only when called from the main thread."""
     from ..build.graph import Cache, Graph
-    from ..build.publish import OutputLock, check_output, make_staging, publish, recover, write_marker
+    from ..build.publish import OutputLock, check_output, make_staging, publish, read_marker, recover, write_marker
     from ..errors import UsageError
 
     t0 = time.perf_counter()
@@ -152,6 +152,12 @@ def build(args: argparse.Namespace) -> dict:
 
     stages = build_stages.make_stages(config, verify=not args.no_verify)
     chash = config_hash(config)
+    if not args.no_verify and (read_marker(out) or {}).get("config_hash") != chash:
+        # A new configuration will most likely be verified: start the verification's worker process now, so that
+        # its imports (pyrender, ~2 s) run on the other core while the LUT, textures and layers are built.
+        from ..verify import worker
+
+        worker.prestart()
 
     main_thread = threading.current_thread() is threading.main_thread()
     old_term = signal.signal(signal.SIGTERM, _raise_interrupt) if main_thread else None

@@ -40,7 +40,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import compare, report
+from . import compare, report, worker
 from .boundary import boundary_shape
 from .inputs import DEFAULT_SIZE, DEFAULT_VIEWS, check_size, select_views, verification_scene, verification_views
 from .verdict import combine, default_out_dir
@@ -59,27 +59,19 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
     from .reference_image import render_reference
 
     failures_all = []
-
-    def gl_pass():
-        t = time.perf_counter()
-        from ..render.gl import render_views
-
-        return render_views(scene, views, lut=lut), (time.perf_counter() - t) / len(views)
-
-    # The GL renders run in a worker thread while this one computes the reference: both spend their time in
-    # code that releases the GIL (llvmpipe's rasteriser, numpy's spectral integrals), so on two cores they
-    # overlap. The GL context is created, used and deleted in that one thread.
+    # The GL renders run in the worker process (pipeline.verify.worker: the other core, its imports done
+    # ahead when the build started it) while this process computes the reference.
     say(f"GL renders and CPU reference ({len(views)} views)")
-    with ThreadPoolExecutor(1, thread_name_prefix="rockdove-gl") as pool:
-        gl_future = pool.submit(gl_pass)
-        t = time.perf_counter()
-        ref_results = render_reference(scene, views, hits=hits, surfaces=surfaces) if refs is None else refs
-        t_ref = (time.perf_counter() - t) / len(views)
-        try:
-            gl_results, t_gl = gl_future.result()
-        except ImportError as exc:
-            gl_results, t_gl = None, 0.0
-            failures_all.append(f"GL renderer pipeline.render.gl is not available ({exc})")
+    gl_pending = worker.submit("pipeline.verify.worker:render_timed", scene, list(views), lut)
+    t = time.perf_counter()
+    ref_results = render_reference(scene, views, hits=hits, surfaces=surfaces) if refs is None else refs
+    t_ref = (time.perf_counter() - t) / len(views)
+    try:
+        gl_results, t_gl = gl_pending.result()
+        t_gl /= len(views)
+    except worker.WorkerError as exc:
+        gl_results, t_gl = None, 0.0
+        failures_all.append(f"GL renders (pipeline.render.gl) failed: {exc}")
     if gl_images is not None and gl_results is not None:
         gl_images.update({v.name: compare.gl_arrays(r)["rgb"] for v, r in zip(views, gl_results)})
     say("comparing")

@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from . import compare, provenance, report
+from . import compare, provenance, report, worker
 from .boundary import boundary_note
 from .inputs import BOUNDARY_SWEEP_ANGLE_DEG
 
@@ -34,11 +34,8 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
     os.makedirs(out, exist_ok=True)
     timings, failures, notes = {}, [], list(notes)
     say("validating")
-    t = time.perf_counter()
-    validation = provenance.run_validation(layer)
-    timings["validation"] = time.perf_counter() - t
-    if not validation["passed"]:
-        failures.append("validation: " + (validation["error"] or "the validator reported problems"))
+    # in the worker process, while this one draws the report (pipeline.verify.worker)
+    validation_pending = worker.submit("pipeline.verify.worker:validate_timed", layer)
     results = list(results.values())
     for key in ("gl", "reference", "compare"):
         timings[key] = sum(r["timings_s"][key] for r in results)
@@ -106,6 +103,9 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
                 failures.append(f"host {h['name']} ({h['variant']}, {h['lobe']} lobe): {'; '.join(h['failures'])}")
     images["bench"] = report.copy_bench_plots(out, bench_dir) if bench_dir is not None else []
     timings["report"] = time.perf_counter() - t
+    validation, timings["validation"] = _validation(validation_pending, layer)
+    if not validation["passed"]:
+        failures.insert(0, "validation: " + (validation["error"] or "the validator reported problems"))
     timings["total"] = time.perf_counter() - t_start
 
     config = provenance.asset_configuration(layer)
@@ -144,6 +144,18 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
     report.write_json(os.path.join(out, "report.json"), result)
     report.write_html(os.path.join(out, "report.html"), result, images)
     return result
+
+
+def _validation(pending, layer) -> tuple[dict, float]:
+    """The validation sent to the worker and its seconds; run here if the worker process failed (a validation
+    is never skipped), reported as a failed validation if it raised there."""
+    try:
+        return pending.result()
+    except worker.WorkerFailed:
+        t = time.perf_counter()
+        return provenance.run_validation(layer), time.perf_counter() - t
+    except worker.RemoteError as exc:
+        return {"passed": False, "details": None, "error": f"validation raised: {exc}"}, 0.0
 
 
 def summary(report: dict) -> dict:

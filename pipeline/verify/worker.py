@@ -1,0 +1,296 @@
+"""The verification's worker process: the GL renders and the asset's validation run there, beside the work
+of the calling process, started ahead of need.
+
+Why a process: a verification's two halves are the GL renders (:func:`pipeline.render.gl.render_views`) and the
+exact CPU reference; its last steps are the validation and the report. A thread of the same process overlaps
+them only where both leave Python, but pyrender's import (~2 s: trimesh, scipy, networkx, pyglet, PyOpenGL), its
+scene set-up, NVIDIA's validator and matplotlib hold the GIL. A process of its own runs them on the other core
+(:func:`pipeline.verify.run.render_and_check` sends the renders, :func:`pipeline.verify.verdict.combine` the
+validation while it draws the charts), and the build starts it as soon as it knows a verification will render
+(:func:`prestart`), so the GL import is done while the LUT, textures and layers are written. It also keeps a
+crash in the GL driver out of the build: the verification reports it as a failure instead of dying with it.
+
+The worker is a plain ``python -m pipeline.verify.worker`` child holding one end of a socket pair. It is
+started with ``subprocess``, not ``multiprocessing``: Dask's worker processes are daemonic, and daemonic
+processes may not start ``multiprocessing`` children. Its stdout goes to the caller's stderr, so that
+``--json`` output stays clean.
+
+A request names a module-level function by ``"module:function"``. Requests and replies go over a
+:class:`multiprocessing.connection.Connection`, one in flight at a time, in order. They are pickled with
+protocol 5, and numpy arrays travel out of band, as their raw bytes. The default views' GL results are ~120 MB:
+0.2-0.3 s from the end of the renders to the caller's arrays.
+
+:func:`shared` is the process's worker: started on first use (or by :func:`prestart`), reused by every
+verification of the process (a sweep's Dask worker, a notebook), restarted if it died, stopped at exit. The
+environment (``PYOPENGL_PLATFORM``, ``XDG_CACHE_HOME``) is the parent's at start.
+"""
+
+from __future__ import annotations
+
+import atexit
+import importlib
+import os
+import pickle
+import socket
+import subprocess
+import sys
+import threading
+import traceback
+from multiprocessing.connection import Connection
+from pathlib import Path
+
+#: What the worker imports before its first request: the GL renders' modules (the first request, the slowest
+#: import).
+PRELOAD = ("pipeline.render.gl",)
+
+
+def _send(conn: Connection, obj) -> None:
+    """Pickle ``obj`` with its contiguous arrays out of band (pickle protocol 5): each array's bytes go through
+    the socket as they are, not copied into the pickle first."""
+    buffers = []
+    meta = pickle.dumps(obj, protocol=5, buffer_callback=buffers.append)
+    raws = [b.raw() for b in buffers]
+    conn.send((meta, [r.nbytes for r in raws]))
+    for r in raws:
+        conn.send_bytes(r)
+
+
+def _recv(conn: Connection):
+    """What :func:`_send` sent; arrays come back writable."""
+    meta, sizes = conn.recv()
+    buffers = []
+    for n in sizes:
+        b = bytearray(n)
+        conn.recv_bytes_into(b)
+        buffers.append(b)
+    return pickle.loads(meta, buffers=buffers)
+
+
+class WorkerError(RuntimeError):
+    """A request to the worker did not give its result (:class:`WorkerFailed` or :class:`RemoteError`)."""
+
+
+class WorkerFailed(WorkerError):
+    """The worker process exited or could not start; the message says how."""
+
+
+class RemoteError(WorkerError):
+    """A request raised in the worker; the message carries its type, message and traceback."""
+
+
+class Worker:
+    """One worker process (module docstring). Thread-safe: requests are serialised.
+
+    Use :meth:`call` (blocking) or :meth:`submit` (a :class:`Pending` whose ``result()`` blocks), then
+    :meth:`close`.
+    """
+
+    def __init__(self, preload=PRELOAD):
+        parent, child = socket.socketpair()
+        env = dict(os.environ)
+        root = str(Path(__file__).resolve().parents[2])  # the folder holding the ``pipeline`` package
+        env["PYTHONPATH"] = os.pathsep.join([root, *filter(None, [env.get("PYTHONPATH")])])
+        try:
+            self._proc = subprocess.Popen(
+                [sys.executable, "-m", "pipeline.verify.worker", str(child.fileno()), ",".join(preload)],
+                pass_fds=(child.fileno(),), env=env, stdin=subprocess.DEVNULL, stdout=2, close_fds=True)
+        except OSError as exc:
+            parent.close()
+            raise WorkerFailed(f"could not start the verification worker process ({exc})") from None
+        finally:
+            child.close()
+        self._conn = Connection(parent.detach())
+        self._lock = threading.Lock()  # one request at a time: request order = reply order
+        self._pending: list[Pending] = []
+        self._closed = False
+
+    @property
+    def alive(self) -> bool:
+        return not self._closed and self._proc.poll() is None
+
+    def submit(self, fn: str, *args) -> "Pending":
+        """Send ``fn(*args)`` (``fn`` = ``"package.module:function"``) to the worker; returns without waiting for
+        it to run. A reply still in flight is received first (kept for its :class:`Pending`): a large request
+        written while the worker writes a large reply that nobody reads would block both processes."""
+        with self._lock:
+            if self._closed:
+                raise WorkerFailed("the verification worker is closed")
+            while self._pending:
+                self._receive_one()
+            pending = Pending(self, fn)
+            try:
+                _send(self._conn, (fn, args))
+            except OSError as exc:
+                raise self._failure(exc) from None
+            self._pending.append(pending)
+            return pending
+
+    def call(self, fn: str, *args):
+        """``fn(*args)`` in the worker; its result, or its exception as :class:`RemoteError`."""
+        return self.submit(fn, *args).result()
+
+    def _receive_until(self, pending: "Pending") -> None:
+        with self._lock:
+            while not pending.done:
+                self._receive_one()
+
+    def _receive_one(self) -> None:
+        """The next reply, for the oldest request (the lock held); if the worker died, every request fails."""
+        try:
+            status, payload = _recv(self._conn)
+        except (EOFError, OSError) as exc:
+            failure = self._failure(exc)
+            for p in self._pending:
+                p._set(False, failure)
+            self._pending.clear()
+            return
+        self._pending.pop(0)._set(status == "ok", payload)
+
+    def _failure(self, exc) -> WorkerFailed:
+        try:
+            code = self._proc.wait(timeout=1.0)
+        except subprocess.TimeoutExpired:
+            code = None
+        how = f"exited with status {code}" if code is not None else f"stopped answering ({exc})"
+        return WorkerFailed(f"the verification worker process (pid {self._proc.pid}) {how}")
+
+    def close(self) -> None:
+        """Stop the worker (at once: a request in flight is abandoned)."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._conn.close()
+        except OSError:
+            pass
+        if self._proc.poll() is None:
+            self._proc.terminate()
+            try:
+                self._proc.wait(timeout=5.0)
+            except subprocess.TimeoutExpired:
+                self._proc.kill()
+                self._proc.wait()
+
+
+class Pending:
+    """A request sent to a :class:`Worker`; :meth:`result` waits for its reply."""
+
+    def __init__(self, worker: Worker | None, fn: str):
+        self._worker, self.fn = worker, fn
+        self.done, self._ok, self._value = False, False, None
+
+    @classmethod
+    def failed(cls, fn: str, error: WorkerError) -> "Pending":
+        """A request that could not be sent: its :meth:`result` raises ``error``."""
+        p = cls(None, fn)
+        p._set(False, error)
+        return p
+
+    def _set(self, ok: bool, value) -> None:
+        self.done, self._ok, self._value = True, ok, value
+
+    def result(self):
+        if not self.done:
+            self._worker._receive_until(self)
+        if self._ok:
+            return self._value
+        if isinstance(self._value, WorkerError):
+            raise self._value
+        raise RemoteError(f"{self.fn} failed in the verification worker: {self._value}")
+
+
+# -- the process's worker ----------------------------------------------------------------------------------
+_SHARED: Worker | None = None
+_SHARED_LOCK = threading.Lock()
+
+
+def shared() -> Worker:
+    """The process's worker, started (or restarted, if it died) now. Raises :class:`WorkerFailed` if it cannot
+    start."""
+    global _SHARED
+    with _SHARED_LOCK:
+        if _SHARED is None or not _SHARED.alive:
+            _SHARED = Worker()
+        return _SHARED
+
+
+def submit(fn: str, *args) -> Pending:
+    """``fn(*args)`` sent to the process's worker (:func:`shared`); if the worker cannot start, a
+    :meth:`Pending.failed` that says why. Returns at once; ``result()`` waits."""
+    try:
+        return shared().submit(fn, *args)
+    except WorkerFailed as exc:
+        return Pending.failed(fn, exc)
+
+
+def prestart() -> None:
+    """Start the process's worker now, so that its imports run while other work goes on; never raises (if it
+    cannot start, :func:`shared` says why when a render needs it)."""
+    try:
+        shared()
+    except WorkerFailed:
+        pass
+
+
+@atexit.register
+def _close_shared() -> None:
+    if _SHARED is not None:
+        _SHARED.close()
+
+
+# -- the worker side ---------------------------------------------------------------------------------------
+def render_timed(scene, views, lut=None):
+    """:func:`pipeline.render.gl.render_views` (physical angle mode) and its wall seconds, import included when
+    it was not preloaded: ``(results, seconds)``. What the verification asks the worker for."""
+    import time
+
+    t = time.perf_counter()
+    from ..render.gl import render_views
+
+    return render_views(scene, views, lut=lut), time.perf_counter() - t
+
+
+def validate_timed(layer_path: str):
+    """:func:`pipeline.verify.provenance.run_validation` of ``layer_path`` and its wall seconds."""
+    import time
+
+    t = time.perf_counter()
+    from .provenance import run_validation
+
+    return run_validation(layer_path), time.perf_counter() - t
+
+
+def _resolve(name: str):
+    module, _, attr = name.partition(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+def _serve(fd: int, preload: list[str]) -> None:
+    conn = Connection(fd)
+    try:
+        for module in preload:
+            importlib.import_module(module)
+        if "pipeline.render.gl" in preload:
+            from pipeline._compat import import_pyrender
+
+            import_pyrender()
+    except ImportError:  # a request that needs the module raises it again, to the caller
+        pass
+    while True:
+        try:
+            fn, args = _recv(conn)
+        except (EOFError, OSError):  # the parent closed its end or died
+            return
+        try:
+            reply = ("ok", _resolve(fn)(*args))
+        except BaseException as exc:  # noqa: BLE001 - every failure goes back to the caller
+            traceback.print_exc()  # the whole story on stderr (the parent's); the caller gets the one line
+            reply = ("error", f"{type(exc).__name__}: {exc}")
+        try:
+            _send(conn, reply)
+        except (EOFError, OSError):
+            return
+
+
+if __name__ == "__main__":
+    _serve(int(sys.argv[1]), [m for m in sys.argv[2].split(",") if m])

@@ -1,0 +1,87 @@
+"""The verification's worker process (pipeline.verify.worker): results, errors, a dead worker, large messages
+both ways, a clean stdout, and GL renders identical to the ones made in this process."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+
+import numpy as np
+import pytest
+
+from pipeline.verify import worker
+
+
+@pytest.fixture
+def w():
+    wk = worker.Worker(preload=())
+    yield wk
+    wk.close()
+
+
+def test_a_call_runs_in_another_process_and_arrays_come_back_equal_and_writable(w):
+    assert w.call("os:getpid") not in (os.getpid(), None)
+    a = w.call("numpy:arange", 0, 2_000_000, 1, "float32")  # 8 MB: out of band
+    assert a.dtype == np.float32 and a.shape == (2_000_000,) and a[-1] == 1_999_999
+    a[0] = 7  # writable: callers may edit results in place
+    assert w.call("numpy:sum", np.full((100, 100), 2.0)) == 20000.0  # an array argument
+
+
+def test_an_exception_in_the_worker_is_a_remote_error_naming_it_and_the_worker_goes_on(w):
+    with pytest.raises(worker.RemoteError, match=r"math:sqrt failed .*ValueError: math domain error"):
+        w.call("math:sqrt", -1.0)
+    assert w.call("math:sqrt", 4.0) == 2.0
+
+
+def test_a_killed_worker_fails_its_requests_with_its_exit_status_and_shared_restarts_it():
+    first = worker.shared()
+    pid = first.call("os:getpid")
+    pending = first.submit("time:sleep", 30)
+    os.kill(pid, signal.SIGKILL)
+    with pytest.raises(worker.WorkerFailed, match=r"exited with status -9"):
+        pending.result()
+    assert not first.alive
+    again = worker.shared()
+    assert again is not first and again.alive and again.call("os:getpid") != pid
+
+
+def test_a_large_request_sent_while_a_large_reply_is_unread_does_not_block(w):
+    big_reply = w.submit("numpy:ones", (4096, 4096))  # 128 MB back, not read yet
+    done = {}
+
+    def second():
+        done["sum"] = w.call("numpy:sum", np.ones((2048, 2048)))  # 32 MB out
+
+    t = threading.Thread(target=second, daemon=True)
+    t.start()
+    t.join(timeout=60)
+    assert not t.is_alive(), "the second request blocked behind the unread reply"
+    assert done["sum"] == 2048 * 2048
+    assert big_reply.result().shape == (4096, 4096)
+
+
+def test_what_the_worker_prints_goes_to_stderr_not_to_the_callers_stdout():
+    code = ("import json; from pipeline.verify import worker; "
+            "worker.shared().call('builtins:print', 'from-the-worker'); print(json.dumps({'ok': 1}))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
+    assert json.loads(r.stdout) == {"ok": 1}
+    assert "from-the-worker" in r.stderr
+
+
+def test_gl_renders_from_the_worker_equal_the_ones_made_here(small_asset):
+    from pipeline.render.gl import render_views
+    from pipeline.verify.inputs import verification_scene, verification_views
+
+    layer, scene, lut, _ = verification_scene(small_asset)
+    views = verification_views(scene, 48, 48, 3)[:2]
+    here = render_views(scene, views, lut=lut)
+    there, seconds = worker.shared().call("pipeline.verify.worker:render_timed", scene, views, lut)
+    assert seconds > 0 and len(there) == len(here)
+    for a, b in zip(here, there):
+        assert a.view == b.view and a.part_names == b.part_names
+        for name in ("radiance_rgb", "alpha", "part_id", "depth_m", "cos_theta", "thickness_nm", "mask", "st"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
