@@ -402,14 +402,70 @@ def linear_to_srgb8(rgb) -> np.ndarray:
     instead of clipping them; it is not used here.) NaN shows as black, +inf as 1.
 
     The code of a value is ``round(255 * srgb_encode(clip(v, 0, 1)))``. That is a non-decreasing step function
-    of ``v``, so it is computed by looking ``v`` up among the 255 linear values where it steps
-    (:func:`_srgb8_steps`, found once by bisection on that very formula): the same codes, without a power per
-    value (a 1024 x 1024 render: 0.33 s -> 0.22 s).
+    of ``v`` with 255 steps (:func:`_srgb8_steps`, found once by bisection on that very formula), at least
+    3e-4 apart. So [0, 1] is cut into :data:`_SRGB8_CELLS` equal cells, each holding at most one step
+    (:func:`_srgb8_cells`), and a value's code is its cell's code at the cell's start, plus one if the value is
+    at or above the step inside the cell: a multiply, a cast and two table look-ups per value, with no power
+    and no search, giving the same codes as the formula for every float64 and float32. float32 images are
+    read as they are (with their own table of steps), not copied to float64. Done in blocks that stay in the
+    cache. A 1024 x 1024 x 3 image (uniform in [-0.05, 1.1]), median of 5 runs alternating with the former
+    binary search among the steps, in one process on 2 shared cores: float64 0.197 s -> 0.023 s (8.7x),
+    float32 0.212 s -> 0.024 s (9.0x).
     """
-    rgb = np.asarray(rgb, dtype=np.float64)
-    if not np.isfinite(rgb).all():
-        rgb = np.nan_to_num(rgb, nan=0.0, posinf=1.0, neginf=0.0)
-    return np.searchsorted(_srgb8_steps(), rgb, side="right").astype(np.uint8)
+    rgb = np.asarray(rgb)
+    if rgb.dtype != np.float32:
+        rgb = np.asarray(rgb, dtype=np.float64)
+    code_at, step = _srgb8_cells(rgb.dtype)
+    flat = rgb.reshape(-1)
+    out = np.empty(flat.shape, np.uint8)
+    block = max(1, min(_SRGB8_BLOCK, flat.size))
+    scaled = np.empty(block, rgb.dtype)
+    cell = np.empty(block, np.intp)
+    step_of = np.empty(block, rgb.dtype)
+    above = np.empty(block, bool)
+    with np.errstate(over="ignore"):
+        for start in range(0, flat.size, block):
+            v = flat[start:start + block]
+            n = v.size
+            x, c, s, a, o = scaled[:n], cell[:n], step_of[:n], above[:n], out[start:start + n]
+            np.multiply(v, _SRGB8_CELLS, out=x)  # exact (a power of two); beyond the float range: inf
+            np.fmax(x, 0, out=x)  # NaN, -inf and negatives -> cell 0 (NaN then never compares >= a step)
+            np.fmin(x, _SRGB8_CELLS - 1, out=x)  # 1, above 1 and +inf -> the last cell
+            c[...] = x  # truncation = floor (x >= 0)
+            code_at.take(c, out=o, mode="clip")
+            step.take(c, out=s, mode="clip")
+            np.greater_equal(v, s, out=a)  # False against NaN, the step of a cell without one
+            np.add(o, a, out=o)
+    return out.reshape(rgb.shape)
+
+
+_SRGB8_CELLS = 1 << 14  # cells over [0, 1]: 6.1e-5 wide, 5 times narrower than the closest two steps
+_SRGB8_BLOCK = 1 << 16  # values per block of linear_to_srgb8 (its scratch arrays stay in the cache)
+
+
+@lru_cache(maxsize=2)
+def _srgb8_cells(dtype) -> tuple[np.ndarray, np.ndarray]:
+    """(code_at, step), each (_SRGB8_CELLS,), for :func:`linear_to_srgb8` on ``dtype`` (float64 or float32)
+    values. Cell ``c`` holds the values in ``[c, c + 1) / _SRGB8_CELLS``; ``code_at[c]`` is the code at its
+    start (the number of steps at or below it), ``step[c]`` the one step strictly inside it, NaN if none.
+    For float32 the steps are the smallest float32s at or above the float64 steps, so that comparing a float32
+    with them is comparing its exact float64 value with the float64 steps."""
+    steps = _srgb8_steps()
+    if np.dtype(dtype) == np.float32:
+        steps32 = steps.astype(np.float32)
+        steps32 = np.where(steps32.astype(np.float64) < steps, np.nextafter(steps32, np.float32(2.0)), steps32)
+        steps = steps32.astype(np.float64)
+    edges = np.arange(_SRGB8_CELLS + 1, dtype=np.float64) / _SRGB8_CELLS
+    code_at = np.searchsorted(steps, edges[:-1], side="right")
+    inside = np.searchsorted(steps, edges[1:], side="left") - code_at
+    if inside.max() > 1:  # a property of the sRGB curve and _SRGB8_CELLS
+        raise AssertionError("two sRGB 8-bit steps in one cell; use more cells")
+    step = np.full(_SRGB8_CELLS, np.nan, dtype)
+    step[inside == 1] = steps[code_at[inside == 1]]
+    code_at = code_at.astype(np.uint8)
+    code_at.setflags(write=False)
+    step.setflags(write=False)
+    return code_at, step
 
 
 def _srgb8_code(v) -> np.ndarray:

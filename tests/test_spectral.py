@@ -278,3 +278,43 @@ def test_linear_to_srgb8_gives_the_rounded_srgb_curve_exactly_even_at_each_step(
     even = 2 * (v.size // 2)  # any array shape, not only 1-D
     assert np.array_equal(spectral.linear_to_srgb8(v[:even].reshape(-1, 1, 2)), expected[:even].reshape(-1, 1, 2))
     assert spectral.linear_to_srgb8([np.nan, np.inf, -np.inf, 2.0, -1.0]).tolist() == [0, 255, 0, 255, 0]
+
+
+def test_linear_to_srgb8_cell_tables_match_the_formula_on_every_step_neighbour_sweep_and_float32():
+    """linear_to_srgb8 reads a code and at most one step per cell of [0, 1]; it must equal the formula
+    (``_srgb8_code``) exactly: at every step and the float64s either side, at every cell edge, on random
+    values, on a log sweep down to 1e-12, for float32 input (the float32 just below / at / above each step),
+    and for NaN / +-inf, in blocks of any size and any array shape."""
+    rng = np.random.default_rng(11)
+    steps = spectral._srgb8_steps()
+    edges = np.arange(spectral._SRGB8_CELLS + 1) / spectral._SRGB8_CELLS
+    special = np.concatenate([steps, edges])
+    near = np.concatenate([special, np.nextafter(special, -np.inf), np.nextafter(special, np.inf)])
+    sweep = np.geomspace(1e-12, 1.0, 200001)
+    v64 = np.concatenate([near, rng.uniform(-0.1, 1.1, 2_000_003), sweep, -sweep,
+                          [0.0, -0.0, 1.0, 5e-324, -5e-324, 1e300, -1e300, np.finfo(np.float64).max]])
+
+    def code(v):
+        return spectral._srgb8_code(np.asarray(v, np.float64)).astype(np.uint8)
+
+    got = spectral.linear_to_srgb8(v64)
+    assert got.dtype == np.uint8 and got.shape == v64.shape
+    wrong = np.flatnonzero(got != code(v64))
+    assert wrong.size == 0, f"{wrong.size} float64 values differ, e.g. {v64[wrong[:3]].tolist()}"
+
+    s32 = steps.astype(np.float32)
+    near32 = np.concatenate([s32, np.nextafter(s32, np.float32(-1)), np.nextafter(s32, np.float32(2)),
+                             edges.astype(np.float32)])
+    v32 = np.concatenate([near32, rng.uniform(-0.1, 1.1, 1_000_001).astype(np.float32), sweep.astype(np.float32),
+                          np.array([0.0, -0.0, 1.0, 1e-45, 3e38], np.float32)])
+    assert v32.dtype == np.float32
+    got32 = spectral.linear_to_srgb8(v32)
+    wrong = np.flatnonzero(got32 != code(v32))
+    assert wrong.size == 0, f"{wrong.size} float32 values differ, e.g. {v32[wrong[:3]].tolist()}"
+
+    odd = np.array([np.nan, -np.nan, np.inf, -np.inf, 0.5])
+    assert spectral.linear_to_srgb8(odd).tolist() == [0, 0, 255, 0, 188]
+    assert spectral.linear_to_srgb8(odd.astype(np.float32)).tolist() == [0, 0, 255, 0, 188]
+    image = v64[:3 * 700 * 500].reshape(700, 500, 3)[:, ::2]  # not contiguous, not a whole number of blocks
+    assert np.array_equal(spectral.linear_to_srgb8(image), code(image))
+    assert spectral.linear_to_srgb8(np.empty((0, 3))).shape == (0, 3)
