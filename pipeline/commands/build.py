@@ -152,9 +152,11 @@ def build(args: argparse.Namespace) -> dict:
 
     stages = build_stages.make_stages(config, verify=not args.no_verify)
     chash = config_hash(config)
-    if not args.no_verify and (read_marker(out) or {}).get("config_hash") != chash:
-        # A new configuration will most likely be verified: start the verification's worker process now, so that
-        # its imports (pyrender, ~2 s) run on the other core while the LUT, textures and layers are built.
+    verified_before = (out / "verify" / "report.json").is_file()
+    if not args.no_verify and ((read_marker(out) or {}).get("config_hash") != chash or not verified_before):
+        # A new configuration, or one not verified yet, will most likely render: start the verification's worker
+        # process now, so that its imports (pyrender, ~2 s) run on the other core while the LUT, textures and
+        # layers are built.
         from ..verify import worker
 
         worker.prestart()
