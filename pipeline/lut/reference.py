@@ -145,8 +145,167 @@ def colour_weights(wavelength_nm, *, illuminant: str = "D65", colour_space: str 
     return _weights_cached(wl.tobytes(), wl.shape[0], illuminant, colour_space)
 
 
+# --------------------------------------------------------------------------- wavenumber-grid interpolant
+#: Points of the Lagrange stencil of the wavenumber interpolant (:func:`interpolant_weights`), even.
+INTERPOLANT_ORDER = 16
+#: Interval counts of the wavenumber grids (about 9% apart), so that a process builds few sets of weights.
+NODE_LADDER = tuple(sorted({int(round(16 * 1.09**k)) for k in range(80)}))
+
+
+def _sigma_range() -> tuple[float, float]:
+    lo, hi = WAVELENGTH_RANGE_NM
+    return 1.0 / hi, 1.0 / lo
+
+
+@functools.lru_cache(maxsize=64)
+def wavenumber_nodes(n_intervals: int, order: int = INTERPOLANT_ORDER) -> np.ndarray:
+    """Wavelengths (nm, increasing, read-only) whose wavenumbers ``1 / lambda`` split
+    :data:`pipeline.spectral.WAVELENGTH_RANGE_NM` into ``n_intervals`` equal intervals, plus ``order / 2 - 1`` nodes
+    beyond each end so that every ``order``-point stencil is centred (``n_intervals + order - 1`` nodes)."""
+    s_lo, s_hi = _sigma_range()
+    n, ext = int(n_intervals), int(order) // 2 - 1
+    sigma = s_hi - (s_hi - s_lo) * (np.arange(-ext, n + ext + 1) / n)
+    wl = 1.0 / sigma
+    wl[ext], wl[ext + n] = WAVELENGTH_RANGE_NM
+    wl.setflags(write=False)
+    return wl
+
+
+def interpolant_weights(n_intervals: int, order: int = INTERPOLANT_ORDER, *, illuminant: str = "D65",
+                        colour_space: str | None = "lin_rec709") -> np.ndarray:
+    """Colour weights (n_intervals + 1, 3) of :func:`wavenumber_nodes` that integrate the spectrum's piecewise
+    Lagrange interpolant in wavenumber (``order`` points, the stencil nearest each wavelength, one-sided at the
+    ends) against the 0.1 nm reference grid's colour weights (module docstring). Cached (read-only)."""
+    return _interpolant_weights_cached(int(n_intervals), int(order), check_illuminant(illuminant), colour_space)
+
+
+@functools.lru_cache(maxsize=64)
+def _interpolant_weights_cached(n: int, order: int, illuminant: str, colour_space: str | None) -> np.ndarray:
+    if order < 2 or order % 2 or n < 1:
+        raise ValueError(f"order must be even and >= 2 and n_intervals >= 1, got order {order!r}, n_intervals {n!r}")
+    fine = reference_wavelengths(REFERENCE_STEP_NM)
+    w_fine = colour_weights(fine, illuminant=illuminant, colour_space=colour_space)
+    s_lo, s_hi = _sigma_range()
+    ext = order // 2 - 1
+    t = (s_hi - 1.0 / fine) * (n / (s_hi - s_lo)) + ext  # node index of each fine wavelength (increasing lambda)
+    k0 = np.minimum(np.floor(t).astype(np.int64) - ext, n - 1)  # centred stencils (the last interval's at 780 nm)  # centred stencils (the last interval's at 780 nm)
+    out = np.zeros((n + 2 * ext + 1, w_fine.shape[1]))
+    for j in range(order):
+        lagrange = np.ones_like(t)
+        for m in range(order):
+            if m != j:
+                lagrange *= (t - (k0 + m)) / (j - m)
+        np.add.at(out, k0 + j, lagrange[:, None] * w_fine)
+    out.setflags(write=False)
+    return out
+
+
+def interval_count(cos_theta, thickness_nm, film, kappa, max_step_rad) -> np.ndarray:
+    """Intervals of the wavenumber grid per point (module docstring): the largest phase step of one interval (at
+    the short end of the spectrum, where normal dispersion makes the phase steepest) at most
+    ``min(kappa * delta, max_step_rad)``, ``delta = -ln max|r_ab r_bc|`` the half-width of the strip of analyticity
+    of the Airy reflectance in the phase (the s coefficients, the larger in modulus, at both ends of the spectrum),
+    rounded up to :data:`NODE_LADDER`. Real films only (:func:`real_film`)."""
+    c = np.asarray(cos_theta, np.float64)
+    d = np.asarray(thickness_nm, np.float64)
+    s_lo, s_hi = _sigma_range()
+    eps = 1e-4 * (s_hi - s_lo)
+    n_a, n_c = float(film.n_incident), float(np.real(film.n_substrate))
+    x = n_a * c
+    x2 = x * x
+    z = x if n_c == n_a else np.sqrt((n_c - n_a) * (n_c + n_a) + x2)
+    rho = np.zeros(c.shape)
+    q = []
+    for sigma in (s_hi, s_hi - eps, s_lo):
+        n_b = float(np.real(film.n_film(1.0 / sigma)))
+        y = np.sqrt((n_b - n_a) * (n_b + n_a) + x2)  # n_b cos theta_b
+        q.append(y)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ab = np.abs((x - y) * (y - z) / ((x + y) * (y + z)))
+        np.fmax(rho, ab, out=rho)  # 0/0 (grazing, n_c = n_a): rho stays as it is, those points take R = 1
+    slope = (4.0 * np.pi / eps) * d * (q[0] * s_hi - q[1] * (s_hi - eps))  # d phi / d sigma, rad nm
+    with np.errstate(divide="ignore"):
+        step = np.minimum(-kappa * np.log(rho), max_step_rad)
+    need = slope * ((s_hi - s_lo) / step)
+    ladder = np.asarray(NODE_LADDER)
+    i = np.searchsorted(ladder, need, side="left")
+    if np.any(i >= ladder.size):
+        raise ValueError(f"points need more than {ladder[-1]} intervals: interpolate nearer grazing incidence")
+    return ladder[i]
+
+
+# --------------------------------------------------------------------------- the spectra of real films
+#: Elements (points x wavelengths) per chunk of the real kernel: its float32 temporaries stay in the L2 cache.
+_KERNEL_CHUNK = 1 << 15
+#: Points with cos theta below this are evaluated in float64 (module docstring, "The real-film kernel").
+FLOAT32_MIN_COS = 0.05
+
+
+def real_film(film) -> bool:
+    """True when :func:`_real_colour` applies: real indices (no absorption) and a film index at least the
+    incident medium's at every wavelength (so no total internal reflection in the film for any angle) and a
+    substrate index at least the incident medium's."""
+    if film.k != 0 or isinstance(film.n_substrate, complex):
+        return False
+    n_b = np.real(film.n_film(np.asarray(WAVELENGTH_RANGE_NM, np.float64)))
+    return bool(n_b.min() >= film.n_incident and film.n_substrate >= film.n_incident)
+
+
+def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, out, dtype=np.float32):
+    """``out = R @ weights`` with ``R`` the unpolarised Airy reflectance of a real film (:func:`real_film`) at every
+    point (rows) and wavelength (columns), evaluated in the transmission form of module docstring,
+    "The real-film kernel"."""
+    lam = np.asarray(wavelength_nm, np.float64)
+    n_a, n_c = float(film.n_incident), float(film.n_substrate)
+    n_b = np.real(film.n_film(lam)).astype(np.float64)
+    u = (n_b - n_a) * (n_b + n_a)  # q_b^2 = u + (n_a cos)^2
+    inv_nb4 = 1.0 / n_b**4
+    kk = 2.0 * np.pi / lam  # phi / 2 = kk d q_b
+    white = weights.sum(axis=0)
+    c = np.asarray(cos_theta, np.float64)
+    ca2 = (n_a * c) ** 2
+    q_c = n_a * c if n_c == n_a else np.sqrt((n_c - n_a) * (n_c + n_a) + ca2)
+    # per polarisation and point: P = 4 x z, S = (x + z)^2, M = x^2 + z^2, Q = x^2 z^2 with x, z the admittances
+    # of the incident medium and the substrate (s: n cos, p: cos / n)
+    consts = []
+    for x, z in ((n_a * c, q_c), (c / n_a, q_c / (n_c * n_c))):
+        consts.append([v.astype(dtype)[:, None] for v in (4.0 * x * z, (x + z) ** 2, x * x + z * z, (x * z) ** 2)])
+    grazing = c == 0.0  # R = 1 (the limit of any film; the form below is 0/0 there when n_c = n_a)
+    u32, inv32, kk32 = (v.astype(dtype)[None, :] for v in (u, inv_nb4, kk))
+    ca32, d32 = ca2.astype(dtype)[:, None], np.asarray(thickness_nm, np.float64).astype(dtype)[:, None]
+    w32 = weights.astype(dtype)
+    rows_per = max(1, _KERNEL_CHUNK // lam.size)
+    for i in range(0, c.size, rows_per):
+        r = slice(i, i + rows_per)
+        y = u32 + ca32[r]  # q_b^2
+        s2 = np.sqrt(y)
+        s2 *= kk32
+        s2 *= d32[r]
+        np.sin(s2, out=s2)
+        s2 *= s2  # sin^2(phi / 2)
+        t = None
+        for pol, (p, s, m, q) in enumerate(consts):
+            yp = y if pol == 0 else y * inv32  # the film's admittance squared
+            den = yp - m[r]
+            den *= yp
+            den += q[r]
+            den *= s2
+            num = yp * s[r]
+            den += num
+            np.multiply(yp, p[r], out=num)
+            num /= den
+            if t is None:
+                t = num
+            else:
+                t += num
+        # 1 - R = T = (T_s + T_p) / 2
+        out[r] = white - 0.5 * (t @ w32)
+    out[grazing] = white
+
+
 def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_space="lin_rec709",
-                     steps_nm=REFERENCE_STEPS_NM, calibrated_thickness_nm: float | None = None) -> np.ndarray:
+                     steps_nm=REFERENCE_STEPS_NM, calibrated_thickness_nm: float | None = None,
+                     interpolation=None, order: int = INTERPOLANT_ORDER) -> np.ndarray:
     """The exact colour of a film at arbitrary points: the Airy spectrum integrated with the colour weights.
 
     Parameters
@@ -165,12 +324,19 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
     calibrated_thickness_nm : float, optional
         The thickness up to which ``steps_nm`` was validated: thicker points scale their step by
         ``calibrated_thickness_nm / thickness_nm``, snapped down to :data:`STEP_LADDER_NM` (module docstring).
+    interpolation : tuple (cos_theta_lo, kappa, max_step_rad), optional
+        Points with ``cos_theta >= cos_theta_lo`` sample the spectrum on a wavenumber grid whose phase step is at
+        most ``min(kappa * delta, max_step_rad)`` (:func:`interval_count`) and integrate its ``order``-point
+        Lagrange interpolant against the 0.1 nm weights (:func:`interpolant_weights`), with the real-film kernel
+        (module docstring, "Wavenumber interpolation"). Only for real films (:func:`real_film`); other films, and
+        the points below ``cos_theta_lo``, take ``steps_nm``.
+    order : int
+        Points of the interpolant's stencil (even); default :data:`INTERPOLANT_ORDER`.
 
     Returns
     -------
     ndarray, shape broadcast(cos_theta, thickness_nm) + (3,), float64, linear (unclipped)
     """
-    from .. import optics
     from ..films import as_film
 
     film = as_film(film)
@@ -178,25 +344,50 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
     shape = c.shape
     c, d = c.ravel(), d.ravel()
     out = np.empty((c.shape[0], 3))
-    steps = reference_step_nm(c, steps_nm)
+    illuminant = check_illuminant(illuminant)
+    direct = np.ones(c.shape[0], bool)
+    if interpolation is not None and real_film(film):
+        cos_lo, kappa, max_step_rad = (float(v) for v in interpolation)
+        direct = c < cos_lo
+        interp = np.nonzero(~direct)[0]
+        counts = interval_count(c[interp], d[interp], film, kappa, max_step_rad)
+        for n in np.unique(counts):
+            rows = interp[counts == n]
+            wl = wavenumber_nodes(int(n), order)
+            w = interpolant_weights(int(n), order, illuminant=illuminant, colour_space=colour_space)
+            for dtype, sel in ((np.float32, c[rows] >= FLOAT32_MIN_COS), (np.float64, c[rows] < FLOAT32_MIN_COS)):
+                if sel.any():
+                    sub = np.empty((int(sel.sum()), 3))
+                    _real_colour(wl, w, c[rows[sel]], d[rows[sel]], film, sub, dtype)
+                    out[rows[sel]] = sub
+    rest = np.nonzero(direct)[0]
+    steps = reference_step_nm(c[rest], steps_nm)
     if calibrated_thickness_nm is not None:
-        thick = d > float(calibrated_thickness_nm)
-        steps[thick] = snap_step_nm(steps[thick] * (float(calibrated_thickness_nm) / d[thick]))
+        thick = d[rest] > float(calibrated_thickness_nm)
+        steps[thick] = snap_step_nm(steps[thick] * (float(calibrated_thickness_nm) / d[rest][thick]))
     for step in np.unique(steps):
-        sel = np.nonzero(steps == step)[0]
+        rows = rest[steps == step]
         wl = reference_wavelengths(float(step))
         if step > REFERENCE_STEP_NM:
-            w = product_weights(float(step), illuminant=check_illuminant(illuminant), colour_space=colour_space)
+            w = product_weights(float(step), illuminant=illuminant, colour_space=colour_space)
         else:
             w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
-        n_film = film.n_film(wl)[None, :]
-        chunk = max(1, _CHUNK_SAMPLES // wl.shape[0])
-        for i in range(0, sel.size, chunk):
-            rows = sel[i : i + chunk]
-            r = optics.reflectance(wl[None, :], c[rows, None], d[rows, None], n_film=n_film,
-                                   n_incident=film.n_incident, n_substrate=film.n_substrate)
-            out[rows] = r @ w
+        out[rows] = _sampled_colour(wl, w, c[rows], d[rows], film)
     return out.reshape(shape + (3,))
+
+
+def _sampled_colour(wl, w, c, d, film) -> np.ndarray:
+    """``R @ w`` with ``R`` from :func:`pipeline.optics.reflectance` at the wavelengths ``wl`` (any film), chunked."""
+    from .. import optics
+
+    out = np.empty((c.shape[0], 3))
+    n_film = film.n_film(wl)[None, :]
+    chunk = max(1, _CHUNK_SAMPLES // wl.shape[0])
+    for i in range(0, c.size, chunk):
+        r = optics.reflectance(wl[None, :], c[i : i + chunk, None], d[i : i + chunk, None], n_film=n_film,
+                               n_incident=film.n_incident, n_substrate=film.n_substrate)
+        out[i : i + chunk] = r @ w
+    return out
 
 
 def colour_to_Lab(rgb, colour_space: str | None = "lin_rec709", illuminant: str = "D65") -> np.ndarray:

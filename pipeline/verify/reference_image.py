@@ -68,6 +68,10 @@ IMAGE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, 0.1), (0.01, 0.5), (0.03, 
                   (0.12, 4.0))
 #: The film thickness (nm) up to which :data:`IMAGE_STEPS_NM` was validated; thicker pixels scale their steps down.
 IMAGE_STEPS_CALIBRATED_NM = 720.0
+#: Real films from cos_theta 0.01 up: the wavenumber interpolant, ``(cos_theta_lo, kappa, max_step_rad)``, and its
+#: stencil (:func:`pipeline.lut.reference.reference_colour`'s ``interpolation`` and ``order``; module docstring).
+IMAGE_INTERPOLATION = (0.01, 0.35, 0.6)
+IMAGE_INTERPOLANT_ORDER = 16
 #: De-duplication keys (see module docstring).
 COS_THETA_QUANTUM = 2e-6
 THICKNESS_QUANTUM_NM = 0.002
@@ -160,7 +164,8 @@ def structural_rgb(cos_theta, thickness_nm, film, stats: dict | None = None) -> 
     uc = np.clip((uniq // stride) * COS_THETA_QUANTUM, 0.0, 1.0)
     ud = (uniq % stride) * THICKNESS_QUANTUM_NM
     urgb = reference_colour(uc, ud, film.model, colour_space="lin_rec709", steps_nm=IMAGE_STEPS_NM,
-                            calibrated_thickness_nm=IMAGE_STEPS_CALIBRATED_NM)
+                            calibrated_thickness_nm=IMAGE_STEPS_CALIBRATED_NM, interpolation=IMAGE_INTERPOLATION,
+                            order=IMAGE_INTERPOLANT_ORDER)
     if stats is not None:
         stats["spectral_pixels"] = stats.get("spectral_pixels", 0) + int(c.size)
         stats["spectral_keys"] = stats.get("spectral_keys", 0) + int(len(uniq))
