@@ -383,3 +383,28 @@ def test_wavenumber_interpolant_integrates_polynomials_in_wavenumber_exactly():
     assert err[1] < 1e-6 < err[0]
     with pytest.raises(ValueError, match="order"):
         lut_reference.interpolant_weights(40, 5)
+
+
+def test_interpolation_leaves_what_it_cannot_do_to_the_wavelength_steps():
+    """Absorbing films, and points whose grid would exceed NODE_LADDER (a dense film near grazing), take the
+    wavelength steps exactly as without ``interpolation``; a film less dense than its substrate runs in float64."""
+    from pipeline.lut import reference as lut_reference
+
+    steps = reference.IMAGE_STEPS_NM
+    interp = reference.IMAGE_INTERPOLATION
+    c = np.array([0.0101, 0.02, 0.5, 1.0])
+    d = np.array([5000.0, 5000.0, 600.0, 0.0])
+    absorbing = FilmModel("absorbing", 1.5, k=0.01)
+    np.testing.assert_array_equal(reference_colour(c, d, absorbing, steps_nm=steps, interpolation=interp),
+                                  reference_colour(c, d, absorbing, steps_nm=steps))
+    dense = FilmModel("dense", 2.6)
+    assert lut_reference.interval_count(c, d, dense, *interp[1:]).tolist()[:2] == [0, 0]
+    np.testing.assert_array_equal(reference_colour(c[:2], d[:2], dense, steps_nm=steps, interpolation=interp),
+                                  reference_colour(c[:2], d[:2], dense, steps_nm=steps))
+    on_melanin = FilmModel("on-melanin", 1.56, 4000.0, n_substrate=1.75)
+    n = lut_reference.interval_count(c[2:3], d[2:3], on_melanin, *interp[1:])[0]
+    expected = np.empty((1, 3))
+    lut_reference._real_colour(lut_reference.wavenumber_nodes(n), lut_reference.interpolant_weights(n), c[2:3],
+                               d[2:3], on_melanin, expected, np.float64)
+    got = reference_colour(c[2:3], d[2:3], on_melanin, interpolation=interp)
+    np.testing.assert_array_equal(got, expected)

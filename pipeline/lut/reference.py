@@ -82,8 +82,8 @@ The real-film kernel
 With admittances ``x, y, z`` of the incident medium, the film and the substrate (s: ``n cos``, p: ``cos / n``;
 :mod:`pipeline.optics` eq. 4) the Airy reflectance of one polarisation is, exactly,
 ``1 - R = 4 x z y^2 / (y^2 (x + z)^2 + (y^2 - x^2)(y^2 - z^2) sin^2(phi / 2))``: no square root but the phase's,
-and for a film at least as dense as both media (:func:`real_film`) a sum of non-negative terms, so float32 loses
-nothing to cancellation. :func:`_real_colour` evaluates it in chunks that stay in cache (one float32 sine and
+and for a film at least as dense as both media a sum of non-negative terms, so float32 loses nothing to
+cancellation (a film less dense than its substrate runs in float64). :func:`_real_colour` evaluates it in chunks that stay in cache (one float32 sine and
 about 20 passes per sample; numpy's float64 sine alone costs ~40 ns per sample on this machine, float32 ~4 ns).
 Float32 rounds the phase (up to 280 rad at 5000 nm) to ~3e-5 rad, which near-grazing resonances amplify: against
 the float64 kernel it errs <= 1.8e-4 dE2000 from cos theta 0.12 (450-720 nm), <= 3.5e-4 at 0.05-0.12 (4000-5000
@@ -273,14 +273,12 @@ def interval_count(cos_theta, thickness_nm, film, kappa, max_step_rad) -> np.nda
             ab = np.abs((x - y) * (y - z) / ((x + y) * (y + z)))
         np.fmax(rho, ab, out=rho)  # 0/0 (grazing, n_c = n_a): rho stays as it is, those points take R = 1
     slope = (4.0 * np.pi / eps) * d * (q[0] * s_hi - q[1] * (s_hi - eps))  # d phi / d sigma, rad nm
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore"):  # rho = 1 (grazing): step 0, no grid
         step = np.minimum(-kappa * np.log(rho), max_step_rad)
-    need = slope * ((s_hi - s_lo) / step)
+        need = slope * ((s_hi - s_lo) / step)
     ladder = np.asarray(NODE_LADDER)
     i = np.searchsorted(ladder, need, side="left")
-    if np.any(i >= ladder.size):
-        raise ValueError(f"points need more than {ladder[-1]} intervals: interpolate nearer grazing incidence")
-    return ladder[i]
+    return np.where(i < ladder.size, ladder[np.minimum(i, ladder.size - 1)], 0)
 
 
 # --------------------------------------------------------------------------- the spectra of real films
@@ -298,6 +296,13 @@ def real_film(film) -> bool:
         return False
     n_b = np.real(film.n_film(np.asarray(WAVELENGTH_RANGE_NM, np.float64)))
     return bool(n_b.min() >= film.n_incident and film.n_substrate >= film.n_incident)
+
+
+def _film_densest(film) -> bool:
+    """The film's index is at least the substrate's (and, for a :func:`real_film`, the incident medium's) at every
+    wavelength: the kernel's denominator is then a sum of non-negative terms."""
+    n_b = np.real(film.n_film(np.asarray(WAVELENGTH_RANGE_NM, np.float64)))
+    return bool(n_b.min() >= np.real(film.n_substrate))
 
 
 def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, out, dtype=np.float32):
@@ -397,14 +402,17 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
     direct = np.ones(c.shape[0], bool)
     if interpolation is not None and real_film(film):
         cos_lo, kappa, max_step_rad = (float(v) for v in interpolation)
-        direct = c < cos_lo
-        interp = np.nonzero(~direct)[0]
+        interp = np.nonzero(c >= cos_lo)[0]
         counts = interval_count(c[interp], d[interp], film, kappa, max_step_rad)
+        interp, counts = interp[counts > 0], counts[counts > 0]
+        direct[interp] = False
+        # float32 where the kernel's terms cannot cancel (module docstring, "The real-film kernel")
+        cos32 = FLOAT32_MIN_COS if _film_densest(film) else np.inf
         for n in np.unique(counts):
             rows = interp[counts == n]
             wl = wavenumber_nodes(int(n), order)
             w = interpolant_weights(int(n), order, illuminant=illuminant, colour_space=colour_space)
-            for dtype, sel in ((np.float32, c[rows] >= FLOAT32_MIN_COS), (np.float64, c[rows] < FLOAT32_MIN_COS)):
+            for dtype, sel in ((np.float32, c[rows] >= cos32), (np.float64, c[rows] < cos32)):
                 if sel.any():
                     sub = np.empty((int(sel.sum()), 3))
                     _real_colour(wl, w, c[rows[sel]], d[rows[sel]], film, sub, dtype)
