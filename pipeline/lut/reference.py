@@ -238,13 +238,16 @@ def _interpolant_weights_cached(n: int, order: int, illuminant: str, colour_spac
     ext = order // 2 - 1
     t = (s_hi - 1.0 / fine) * (n / (s_hi - s_lo)) + ext  # node index of each fine wavelength (increasing lambda)
     k0 = np.minimum(np.floor(t).astype(np.int64) - ext, n - 1)  # centred stencils (the last interval's at 780 nm)  # centred stencils (the last interval's at 780 nm)
-    out = np.zeros((n + 2 * ext + 1, w_fine.shape[1]))
+    x = t - k0  # position in the stencil, in [ext, ext + 1] (up to ext + 2 at 780 nm)
+    lagrange = np.ones((order, t.size))
     for j in range(order):
-        lagrange = np.ones_like(t)
         for m in range(order):
             if m != j:
-                lagrange *= (t - (k0 + m)) / (j - m)
-        np.add.at(out, k0 + j, lagrange[:, None] * w_fine)
+                lagrange[j] *= (x - m) / (j - m)
+    index = (k0[None, :] + np.arange(order)[:, None]).ravel()
+    size = n + 2 * ext + 1
+    out = np.stack([np.bincount(index, weights=(lagrange * w_fine[:, ch]).ravel(), minlength=size)
+                    for ch in range(w_fine.shape[1])], axis=1)
     out.setflags(write=False)
     return out
 
