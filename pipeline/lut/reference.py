@@ -325,8 +325,10 @@ def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, out, dty
     # per polarisation and point: P = 4 x z, S = (x + z)^2, M = x^2 + z^2, Q = x^2 z^2 with x, z the admittances
     # of the incident medium and the substrate (s: n cos, p: cos / n)
     consts = []
+    symmetric = n_c == n_a  # then x = z and the terms reduce to P = S = 4 x^2 and x^2 (passed as Q)
     for x, z in ((n_a * c, q_c), (c / n_a, q_c / (n_c * n_c))):
-        consts.append([v.astype(dtype)[:, None] for v in (4.0 * x * z, (x + z) ** 2, x * x + z * z, (x * z) ** 2)])
+        terms = (4.0 * x * x, None, None, x * x) if symmetric else (4.0 * x * z, (x + z) ** 2, x * x + z * z, (x * z) ** 2)
+        consts.append([None if v is None else v.astype(dtype)[:, None] for v in terms])
     grazing = c == 0.0  # R = 1 (the limit of any film; the form below is 0/0 there when n_c = n_a)
     u32, inv32, kk32 = (v.astype(dtype)[None, :] for v in (u, inv_nb4, kk))
     ca32, d32 = ca2.astype(dtype)[:, None], np.asarray(thickness_nm, np.float64).astype(dtype)[:, None]
@@ -343,13 +345,20 @@ def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, out, dty
         t = None
         for pol, (p, s, m, q) in enumerate(consts):
             yp = y if pol == 0 else y * inv32  # the film's admittance squared
-            den = yp - m[r]
-            den *= yp
-            den += q[r]
-            den *= s2
-            num = yp * s[r]
-            den += num
-            np.multiply(yp, p[r], out=num)
+            if symmetric:  # x = z: S = P, (y^2 - x^2)(y^2 - z^2) = (y^2 - x^2)^2
+                den = yp - q[r]
+                den *= den
+                den *= s2
+                num = yp * p[r]
+                den += num
+            else:
+                den = yp - m[r]
+                den *= yp
+                den += q[r]
+                den *= s2
+                num = yp * s[r]
+                den += num
+                np.multiply(yp, p[r], out=num)
             num /= den
             if t is None:
                 t = num
