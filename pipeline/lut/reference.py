@@ -48,12 +48,12 @@ For real films (:func:`real_film`) callers may pass ``interpolation=(cos_theta_l
 from ``cos_theta_lo`` up sample the spectrum on a grid uniform in wavenumber ``sigma = 1 / lambda`` (where the
 fringes are uniform: the phase ``phi = 4 pi d sigma n_b cos theta_b`` is nearly linear in ``sigma``) and integrate
 its piecewise ``order``-point Lagrange interpolant against the 0.1 nm weights (:func:`interpolant_weights`; the grid
-runs ``order / 2 - 1`` nodes past both ends of the spectrum so every stencil is centred: one-sided 16-point
-stencils, where the weights are small but not nil, erred 0.0047 dE2000 with 16 points and 0.24 with 24). The grid's phase step follows the film: the Airy reflectance is a
-Poisson kernel in ``phi`` with poles at ``Im phi = +-delta``, ``delta = -ln max|r_ab r_bc|`` (its harmonics decay like
-``e^{-m delta}``), so one interval spans at most ``min(kappa * delta, max_step_rad)`` radians at the steepest (blue)
-end (:func:`interval_count`): few nodes at normal incidence, more towards grazing, and thicker films scale
-themselves. Measured (max dE2000 by :func:`delta_E`, unclipped, against a 0.02 nm integration (0.05 nm from
+runs ``order / 2 - 1`` nodes past both ends of the spectrum so every stencil is centred: one-sided end stencils,
+where the weights are small but not nil, erred 0.0047 dE2000 with 16 points and 0.24 with 24 at a 0.8 rad cap).
+The grid's phase step follows the film: the Airy reflectance is a Poisson kernel in ``phi`` with poles at
+``Im phi = +-delta``, ``delta = -ln max|r_ab r_bc|`` (its harmonics decay like ``e^{-m delta}``), so one interval
+spans at most ``min(kappa * delta, max_step_rad)`` radians at the steepest (blue) end (:func:`interval_count`): few
+nodes at normal incidence, more towards grazing, and thicker films scale themselves. Measured (max dE2000 by :func:`delta_E`, unclipped, against a 0.02 nm integration (0.05 nm from
 cos theta 0.12); random points per cos theta band, 150 at 450-720 nm and 60 at 1500-2000 and 4000-5000 nm of
 keratin, 150 at 450-720 nm of the paper film): with ``(0.01, 0.35, 0.6)`` and 16 points (the images' setting,
 :data:`pipeline.verify.reference_image.IMAGE_INTERPOLATION`),
@@ -240,7 +240,7 @@ def _interpolant_weights_cached(n: int, order: int, illuminant: str, colour_spac
     s_lo, s_hi = _sigma_range()
     ext = order // 2 - 1
     t = (s_hi - 1.0 / fine) * (n / (s_hi - s_lo)) + ext  # node index of each fine wavelength (increasing lambda)
-    k0 = np.minimum(np.floor(t).astype(np.int64) - ext, n - 1)  # centred stencils (the last interval's at 780 nm)  # centred stencils (the last interval's at 780 nm)
+    k0 = np.minimum(np.floor(t).astype(np.int64) - ext, n - 1)  # centred (the last interval's at 780 nm)
     x = t - k0  # position in the stencil, in [ext, ext + 1] (up to ext + 2 at 780 nm)
     lagrange = np.ones((order, t.size))
     for j in range(order):
@@ -330,7 +330,10 @@ def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, out, dty
     consts = []
     symmetric = n_c == n_a  # then x = z and the terms reduce to P = S = 4 x^2 and x^2 (passed as Q)
     for x, z in ((n_a * c, q_c), (c / n_a, q_c / (n_c * n_c))):
-        terms = (4.0 * x * x, None, None, x * x) if symmetric else (4.0 * x * z, (x + z) ** 2, x * x + z * z, (x * z) ** 2)
+        if symmetric:
+            terms = (4.0 * x * x, None, None, x * x)
+        else:
+            terms = (4.0 * x * z, (x + z) ** 2, x * x + z * z, (x * z) ** 2)
         consts.append([None if v is None else v.astype(dtype)[:, None] for v in terms])
     grazing = c == 0.0  # R = 1 (the limit of any film; the form below is 0/0 there when n_c = n_a)
     u32, inv32, kk32 = (v.astype(dtype)[None, :] for v in (u, inv_nb4, kk))
