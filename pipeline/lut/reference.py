@@ -55,7 +55,8 @@ The grid's phase step follows the film: the Airy reflectance is a Poisson kernel
 spans at most ``min(kappa * delta, max_step_rad)`` radians at the steepest (blue) end (:func:`interval_count`): few
 nodes at normal incidence, more towards grazing, and thicker films scale themselves. Measured (max dE2000 by
 :func:`delta_E`, unclipped, against a 0.02 nm integration (0.05 nm from cos theta 0.12); random points per cos theta
-band, 150 at 450-720 nm and 60 at 1500-2000 and 4000-5000 nm of keratin, 150 at 450-720 nm of the paper film): with ``(0.01, 0.35, 0.6)`` and 16 points (the images' setting,
+band, 150 at 450-720 nm and 60 at 1500-2000 and 4000-5000 nm of keratin, 150 at 450-720 nm of the paper film):
+with ``(0.01, 0.35, 0.6)`` and 16 points (the images' setting,
 :data:`pipeline.verify.reference_image.IMAGE_INTERPOLATION`),
 
     ============  ==========  ===========  ===========  ======  ==================================
