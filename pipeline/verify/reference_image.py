@@ -18,21 +18,24 @@ The exact structural colour
 ---------------------------
 The film colour is :func:`pipeline.lut.reference.reference_colour` (the project's one definition of the exact
 colour: the Airy spectrum of the film read from the USD integrated to lin_rec709, D65) at each pixel's
-``(cos_theta, thickness_nm)``, with the wavelength steps :data:`IMAGE_STEPS_NM`: the reference's own steps
-below cos_theta 0.01 (where the spectrum is a comb of sharp lines) and coarser ones in the smooth bands above,
-where the spectrum is sampled coarsely and its cubic interpolant integrated against the 0.1 nm colour weights
-(product integration, :func:`pipeline.lut.reference.product_weights`). The steps were validated up to
-:data:`IMAGE_STEPS_CALIBRATED_NM` of film; thicker pixels scale their step down in proportion (the film's phase
-advances in proportion to its thickness). Measured (keratin film, 40 random samples per band, dE2000 of the
-displayed colour against a 0.002-0.02 nm integration, films of 450-720, 700-1000, 1500-2000 and 4000-5000 nm):
-4 nm errs <= 0.0010 for cos_theta >= 0.12 (but 0.011 at 0.08-0.12, where the fringes sharpen), 3 nm <= 0.0017 at
-0.08-0.12, 2 nm <= 0.0016 at 0.05-0.08 (these three also with 300 samples per band at 450-720 nm), 1 nm <= 0.0001
-at 0.03-0.05, 0.5 nm <= 0.0003 at 0.01-0.03, 0.1 nm <= 0.0001 at 0.003-0.01, 0.05 nm <= 0.0001 at 0.001-0.003,
-0.01 nm <= 0.0016 below 0.001, at every thickness once scaled (the previous fixed steps erred up to 0.039 at
-1500-2000 nm and 0.80 at 4000-5000 nm). So every band stays below 0.01 dE2000, two orders of magnitude under the
-verification goal (checked by ``tests/test_reference.py::test_spectral_step_is_exact_against_a_finer_grid``), at
-a fortieth of the cost of the reference's 0.1 nm in the smooth bands (the spectral integral is most of a
-reference image's time).
+``(cos_theta, thickness_nm)``. For real films (every registered one) from cos_theta 0.01 up it samples the
+spectrum on a wavenumber grid whose phase step follows the film (:data:`IMAGE_INTERPOLATION`: at most
+``min(0.35 delta, 0.6 rad)``, ``delta`` the Airy function's strip of analyticity in phase) and integrates its
+centred 16-point Lagrange interpolant against the 0.1 nm colour weights, with a float32 kernel away from grazing
+(:mod:`pipeline.lut.reference`, "Wavenumber interpolation": every band within 0.0008 dE2000 of a 0.02-0.05 nm
+integration at 450-720, 1500-2000 and 4000-5000 nm, keratin and the paper film; the default views' keys 9.6x
+faster than with the wavelength steps below). Below cos_theta 0.01, and for films with complex indices, it takes the
+wavelength steps :data:`IMAGE_STEPS_NM`: the reference's own steps below cos_theta 0.01 (where the spectrum is a
+comb of sharp lines) and coarser ones in the smooth bands above, where the spectrum's cubic interpolant is
+integrated against the 0.1 nm colour weights (product integration, :func:`pipeline.lut.reference.product_weights`).
+Those steps were validated up to :data:`IMAGE_STEPS_CALIBRATED_NM` of film; thicker pixels scale their step down in
+proportion (the film's phase advances in proportion to its thickness). Measured (keratin film, 40 random samples
+per band, dE2000 of the displayed colour against a 0.002-0.02 nm integration, films of 450-720, 700-1000,
+1500-2000 and 4000-5000 nm): 4 nm errs <= 0.0010 for cos_theta >= 0.12 (but 0.011 at 0.08-0.12, where the
+fringes sharpen), 3 nm <= 0.0017 at 0.08-0.12, 2 nm <= 0.0016 at 0.05-0.08, 1 nm <= 0.0001 at 0.03-0.05, 0.5 nm
+<= 0.0003 at 0.01-0.03, 0.1 nm <= 0.0001 at 0.003-0.01, 0.05 nm <= 0.0001 at 0.001-0.003, 0.01 nm <= 0.0016 below
+0.001, at every thickness once scaled. So every band stays below 0.01 dE2000, two orders of magnitude under the
+verification goal (checked by ``tests/test_reference.py::test_spectral_step_is_exact_against_a_finer_grid``).
 Pixels are de-duplicated on quantised ``(cos_theta, thickness_nm)`` keys (steps :data:`COS_THETA_QUANTUM`,
 :data:`THICKNESS_QUANTUM_NM`): the film phase ``4 pi n d cos(theta_b) / lambda`` changes by less than 5e-5 rad
 within one key, far below anything visible (measured < 0.005 dE2000), so this is still the exact model per
@@ -68,6 +71,10 @@ IMAGE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, 0.1), (0.01, 0.5), (0.03, 
                   (0.12, 4.0))
 #: The film thickness (nm) up to which :data:`IMAGE_STEPS_NM` was validated; thicker pixels scale their steps down.
 IMAGE_STEPS_CALIBRATED_NM = 720.0
+#: Real films from cos_theta 0.01 up: the wavenumber interpolant, ``(cos_theta_lo, kappa, max_step_rad)``, and its
+#: stencil (:func:`pipeline.lut.reference.reference_colour`'s ``interpolation`` and ``order``; module docstring).
+IMAGE_INTERPOLATION = (0.01, 0.35, 0.6)
+IMAGE_INTERPOLANT_ORDER = 16
 #: De-duplication keys (see module docstring).
 COS_THETA_QUANTUM = 2e-6
 THICKNESS_QUANTUM_NM = 0.002
@@ -160,7 +167,8 @@ def structural_rgb(cos_theta, thickness_nm, film, stats: dict | None = None) -> 
     uc = np.clip((uniq // stride) * COS_THETA_QUANTUM, 0.0, 1.0)
     ud = (uniq % stride) * THICKNESS_QUANTUM_NM
     urgb = reference_colour(uc, ud, film.model, colour_space="lin_rec709", steps_nm=IMAGE_STEPS_NM,
-                            calibrated_thickness_nm=IMAGE_STEPS_CALIBRATED_NM)
+                            calibrated_thickness_nm=IMAGE_STEPS_CALIBRATED_NM, interpolation=IMAGE_INTERPOLATION,
+                            order=IMAGE_INTERPOLANT_ORDER)
     if stats is not None:
         stats["spectral_pixels"] = stats.get("spectral_pixels", 0) + int(c.size)
         stats["spectral_keys"] = stats.get("spectral_keys", 0) + int(len(uniq))
