@@ -79,9 +79,22 @@ def test_gl_renders_from_the_worker_equal_the_ones_made_here(small_asset):
     layer, scene, lut, _ = verification_scene(small_asset)
     views = verification_views(scene, 48, 48, 3)[:2]
     here = render_views(scene, views, lut=lut)
-    there, seconds = worker.shared().call("pipeline.verify.worker:render_timed", scene, views, lut)
-    assert seconds > 0 and len(there) == len(here)
-    for a, b in zip(here, there):
+    renders = worker.GLRenders(scene, views, lut)
+    there = [renders.result(i) for i in range(len(views))]
+    assert all(seconds > 0 for _, seconds in there)
+    for a, (b, _) in zip(here, there):
         assert a.view == b.view and a.part_names == b.part_names
         for name in ("radiance_rgb", "alpha", "part_id", "depth_m", "cos_theta", "thickness_nm", "mask", "st"):
             np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+
+
+def test_gl_renders_that_cannot_open_fail_every_view_with_the_opening_error():
+    from pipeline.render.views import View
+
+    view = View(name="v", camera_to_world=np.eye(4), yfov_rad=0.6, width=16, height=16,
+                light_direction=np.array([0.0, 0.0, 1.0]), light_rgb=np.ones(3))
+    renders = worker.GLRenders("not a scene", [view, view], None)
+    for i in range(2):
+        with pytest.raises(worker.RemoteError, match=r"gl_open failed .*scene must be a RenderScene"):
+            renders.result(i)
+    assert worker.shared().call("os:getpid") > 0  # the worker serves on

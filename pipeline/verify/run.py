@@ -43,7 +43,7 @@ import numpy as np
 from . import compare, report, worker
 from .boundary import boundary_shape
 from .inputs import DEFAULT_SIZE, DEFAULT_VIEWS, check_size, select_views, verification_scene, verification_views
-from .verdict import combine, default_out_dir
+from .verdict import combine, default_out_dir, start_validation
 
 
 def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits=None, surfaces=None, refs=None,
@@ -59,21 +59,15 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
     from .reference_image import render_reference
 
     failures_all = []
-    # The GL renders run in the worker process (pipeline.verify.worker: the other core, its imports done
-    # ahead when the build started it) while this process computes the reference.
+    # The GL renders run in the worker process (pipeline.verify.worker: the other core, its imports done ahead
+    # when the build started it), one reply per view: this process computes the reference, then compares each
+    # view as soon as it is rendered, while the worker renders the next.
     say(f"GL renders and CPU reference ({len(views)} views)")
-    gl_pending = worker.submit("pipeline.verify.worker:render_timed", scene, list(views), lut)
+    gl = worker.GLRenders(scene, views, lut)
+    start_validation(scene.root_layer)  # queued behind the renders: done while the views are compared
     t = time.perf_counter()
     ref_results = render_reference(scene, views, hits=hits, surfaces=surfaces) if refs is None else refs
     t_ref = (time.perf_counter() - t) / len(views)
-    try:
-        gl_results, t_gl = gl_pending.result()
-        t_gl /= len(views)
-    except worker.WorkerError as exc:
-        gl_results, t_gl = None, 0.0
-        failures_all.append(f"GL renders (pipeline.render.gl) failed: {exc}")
-    if gl_images is not None and gl_results is not None:
-        gl_images.update({v.name: compare.gl_arrays(r)["rgb"] for v, r in zip(views, gl_results)})
     say("comparing")
     results = {}
     # The images are encoded in a writer thread (zlib runs outside the GIL) while this one compares the next
@@ -86,15 +80,23 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
             writes.append(writer.submit(fn, *args))
 
         for i, v in enumerate(views):
+            try:
+                gl_result, t_gl = gl.result(i)
+            except worker.WorkerError as exc:
+                gl_result, t_gl = None, 0.0
+                failure = f"GL renders (pipeline.render.gl) failed: {exc}"
+                failures_all += [failure] if failure not in failures_all else []
+            if gl_images is not None and gl_result is not None:
+                gl_images[v.name] = compare.gl_arrays(gl_result)["rgb"]
             t = time.perf_counter()
             folder = os.path.join(out, v.name) if subfolders else out
             os.makedirs(folder, exist_ok=True)
-            m = compare.compare(gl_results[i], ref_results[i], scene) if gl_results is not None else None
+            m = compare.compare(gl_result, ref_results[i], scene) if gl_result is not None else None
             sweep = v.name.startswith("sweep_")
             hue = boundary = None
             if sweep:
                 cls = m.cls if m is not None else compare.reference_classes(ref_results[i], scene)
-                rgb = np.asarray(compare.gl_arrays(gl_results[i])["rgb"] if m is not None else ref_results[i].rgb,
+                rgb = np.asarray(compare.gl_arrays(gl_result)["rgb"] if m is not None else ref_results[i].rgb,
                                  np.float64)
                 hue = compare.hue_histogram(rgb[cls >= 0])
                 boundary = {**compare.boundary_straightness(cls), **boundary_shape(rgb, cls >= 0)}
@@ -102,8 +104,8 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
             ref_png = linear_to_srgb8(ref_results[i].rgb)
             path = os.path.join(folder, f"{v.name}_reference.png")
             write(files, "reference", path, save_png, ref_png, path)
-            if gl_results is not None:
-                gl_png = linear_to_srgb8(compare.gl_arrays(gl_results[i])["rgb"])
+            if gl_result is not None:
+                gl_png = linear_to_srgb8(compare.gl_arrays(gl_result)["rgb"])
                 path = os.path.join(folder, f"{v.name}_gl.png")
                 write(files, "gl", path, save_png, gl_png, path)
                 rows.append(gl_png)

@@ -34,8 +34,9 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
     os.makedirs(out, exist_ok=True)
     timings, failures, notes = {}, [], list(notes)
     say("validating")
-    # in the worker process, while this one draws the report (pipeline.verify.worker)
-    validation_pending = worker.submit("pipeline.verify.worker:validate_timed", layer)
+    # in the worker process, while this one draws the report (pipeline.verify.worker); usually started already,
+    # behind the GL renders
+    validation_pending = start_validation(layer)
     results = list(results.values())
     for key in ("gl", "reference", "compare"):
         timings[key] = sum(r["timings_s"][key] for r in results)
@@ -104,6 +105,7 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
     images["bench"] = report.copy_bench_plots(out, bench_dir) if bench_dir is not None else []
     timings["report"] = time.perf_counter() - t
     validation, timings["validation"] = _validation(validation_pending, layer)
+    _VALIDATIONS.pop(_asset_state(layer), None)
     if not validation["passed"]:
         failures.insert(0, "validation: " + (validation["error"] or "the validator reported problems"))
     timings["total"] = time.perf_counter() - t_start
@@ -144,6 +146,36 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
     report.write_json(os.path.join(out, "report.json"), result)
     report.write_html(os.path.join(out, "report.html"), result, images)
     return result
+
+
+#: Validations sent to the worker, by :func:`_asset_state` (collected and dropped by :func:`combine`).
+_VALIDATIONS: dict = {}
+
+
+def _asset_state(layer) -> tuple:
+    """The root layer and the path, size and mtime of every file in its folder, without the verification's own
+    output folder (:func:`default_out_dir`): what a validation of the asset reads."""
+    root = os.path.dirname(os.path.abspath(layer))
+    skip = default_out_dir(layer)
+    files = []
+    for folder, dirs, names in os.walk(root):
+        dirs[:] = sorted(d for d in dirs if os.path.join(folder, d) != skip)
+        for n in sorted(names):
+            st = os.stat(os.path.join(folder, n))
+            files.append((os.path.relpath(os.path.join(folder, n), root), st.st_size, st.st_mtime_ns))
+    return os.path.abspath(layer), tuple(files)
+
+
+def start_validation(layer) -> "worker.Pending":
+    """Send the validation of ``layer``'s asset to the worker process, once per state of its files: the GL
+    renders' caller starts it behind them (:func:`pipeline.verify.run.render_and_check`), so that it runs while
+    the views are compared, and :func:`combine` collects it; a changed file sends a new one."""
+    key = _asset_state(layer)
+    if key not in _VALIDATIONS:
+        if len(_VALIDATIONS) >= 8:  # never collected (a verification that raised): forget the oldest
+            _VALIDATIONS.pop(next(iter(_VALIDATIONS)))
+        _VALIDATIONS[key] = worker.submit("pipeline.verify.worker:validate_timed", layer)
+    return _VALIDATIONS[key]
 
 
 def _validation(pending, layer) -> tuple[dict, float]:

@@ -35,6 +35,7 @@ import socket
 import subprocess
 import sys
 import threading
+import time
 import traceback
 from multiprocessing.connection import Connection
 from pathlib import Path
@@ -44,12 +45,22 @@ from pathlib import Path
 PRELOAD = ("pipeline.render.gl",)
 
 
-def _send(conn: Connection, obj) -> None:
-    """Pickle ``obj`` with its contiguous arrays out of band (pickle protocol 5): each array's bytes go through
-    the socket as they are, not copied into the pickle first."""
+#: A request at most this large (pickle and arrays, bytes) is sent while earlier replies are still unread: it fits
+#: in the socket's buffer (Linux: ~200 kB), so it cannot block on a worker that is itself blocked writing a reply.
+SMALL_REQUEST_BYTES = 64 * 1024
+
+
+def _pack(obj) -> tuple[bytes, list]:
+    """``obj`` pickled (protocol 5) with its contiguous arrays out of band: ``(pickle, raw buffers)``."""
     buffers = []
     meta = pickle.dumps(obj, protocol=5, buffer_callback=buffers.append)
-    raws = [b.raw() for b in buffers]
+    return meta, [b.raw() for b in buffers]
+
+
+def _send(conn: Connection, packed) -> None:
+    """Send :func:`_pack`'s output: each array's bytes go through the socket as they are, not copied into the
+    pickle first."""
+    meta, raws = packed
     conn.send((meta, [r.nbytes for r in raws]))
     for r in raws:
         conn.send_bytes(r)
@@ -110,16 +121,19 @@ class Worker:
 
     def submit(self, fn: str, *args) -> "Pending":
         """Send ``fn(*args)`` (``fn`` = ``"package.module:function"``) to the worker; returns without waiting for
-        it to run. A reply still in flight is received first (kept for its :class:`Pending`): a large request
-        written while the worker writes a large reply that nobody reads would block both processes."""
+        it to run. Before a request larger than :data:`SMALL_REQUEST_BYTES`, the replies still in flight are
+        received (kept for their :class:`Pending`): a large request written while the worker writes a large
+        reply that nobody reads would block both processes. Small requests queue behind them."""
+        packed = _pack((fn, args))
+        size = len(packed[0]) + sum(r.nbytes for r in packed[1])
         with self._lock:
             if self._closed:
                 raise WorkerFailed("the verification worker is closed")
-            while self._pending:
+            while self._pending and size > SMALL_REQUEST_BYTES:
                 self._receive_one()
             pending = Pending(self, fn)
             try:
-                _send(self._conn, (fn, args))
+                _send(self._conn, packed)
             except OSError as exc:
                 raise self._failure(exc) from None
             self._pending.append(pending)
@@ -223,6 +237,28 @@ def submit(fn: str, *args) -> Pending:
         return Pending.failed(fn, exc)
 
 
+class GLRenders:
+    """The GL renders of ``views`` in the process's worker, sent at once, one reply per view
+    (:meth:`result`), so the caller can compare a view while the next one renders. The renderer is opened
+    for the first view's size and closed after the last, as :func:`pipeline.render.gl.render_views` does, so
+    the images are the same."""
+
+    def __init__(self, scene, views, lut=None):
+        views = list(views)
+        if not views:
+            raise ValueError("views must contain at least one View, got none")
+        self._open = submit(f"{__name__}:gl_open", scene, lut, views[0].width, views[0].height)
+        self._views = [submit(f"{__name__}:gl_render", v) for v in views]
+        submit(f"{__name__}:gl_close")
+
+    def result(self, i: int):
+        """View ``i``'s ``(RenderResult, seconds)``, the seconds with its share of opening the renderer;
+        :class:`WorkerError` if the renderer could not open (its error) or the view failed."""
+        open_s = self._open.result()
+        image, seconds = self._views[i].result()
+        return image, seconds + open_s / len(self._views)
+
+
 def prestart() -> None:
     """Start the process's worker now, so that its imports run while other work goes on; never raises (if it
     cannot start, :func:`shared` says why when a render needs it)."""
@@ -239,21 +275,38 @@ def _close_shared() -> None:
 
 
 # -- the worker side ---------------------------------------------------------------------------------------
-def render_timed(scene, views, lut=None):
-    """:func:`pipeline.render.gl.render_views` (physical angle mode) and its wall seconds, import included when
-    it was not preloaded: ``(results, seconds)``. What the verification asks the worker for."""
-    import time
+_RENDERER = None  # the worker's open GLRenderer (gl_open .. gl_close)
 
+
+def gl_open(scene, lut, width: int, height: int) -> float:
+    """Open the worker's :class:`pipeline.render.gl.GLRenderer` for ``scene`` (closing any open one), as
+    :func:`pipeline.render.gl.render_views` does; its seconds (the import too, when not preloaded)."""
+    global _RENDERER
     t = time.perf_counter()
-    from ..render.gl import render_views
+    gl_close()
+    from ..render.gl import GLRenderer
 
-    return render_views(scene, views, lut=lut), time.perf_counter() - t
+    _RENDERER = GLRenderer(scene, lut=lut, width=width, height=height)
+    return time.perf_counter() - t
+
+
+def gl_render(view):
+    """One view with the open renderer: ``(RenderResult, seconds)``."""
+    if _RENDERER is None:
+        raise RuntimeError("no GL renderer is open")
+    t = time.perf_counter()
+    return _RENDERER.render(view), time.perf_counter() - t
+
+
+def gl_close() -> None:
+    global _RENDERER
+    if _RENDERER is not None:
+        renderer, _RENDERER = _RENDERER, None
+        renderer.delete()
 
 
 def validate_timed(layer_path: str):
     """:func:`pipeline.verify.provenance.run_validation` of ``layer_path`` and its wall seconds."""
-    import time
-
     t = time.perf_counter()
     from .provenance import run_validation
 
@@ -287,7 +340,7 @@ def _serve(fd: int, preload: list[str]) -> None:
             traceback.print_exc()  # the whole story on stderr (the parent's); the caller gets the one line
             reply = ("error", f"{type(exc).__name__}: {exc}")
         try:
-            _send(conn, reply)
+            _send(conn, _pack(reply))
         except (EOFError, OSError):
             return
 
