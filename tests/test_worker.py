@@ -77,10 +77,12 @@ def test_gl_renders_from_the_worker_equal_the_ones_made_here(small_asset):
     from pipeline.verify.inputs import verification_scene, verification_views
 
     layer, scene, lut, _ = verification_scene(small_asset)
-    views = verification_views(scene, 48, 48, 3)[:2]
+    every = verification_views(scene, 48, 32, 3)
+    views = [every[0], every[-1]]  # a turntable frame and the hero (twice the size)
+    assert views[1].width == 2 * views[0].width
     here = render_views(scene, views, lut=lut)
-    renders = worker.GLRenders(scene, views, lut)
-    there = [renders.result(i) for i in range(len(views))]
+    renders = worker.GLRenders(scene, views[::-1], lut)  # the other order, opened at the hero's size
+    there = [renders.result(i) for i in range(len(views))][::-1]
     assert all(seconds > 0 for _, seconds in there)
     for a, (b, _) in zip(here, there):
         assert a.view == b.view and a.part_names == b.part_names

@@ -63,7 +63,9 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
     # when the build started it), one reply per view: this process computes the reference, then compares each
     # view as soon as it is rendered, while the worker renders the next.
     say(f"GL renders and CPU reference ({len(views)} views)")
-    gl = worker.GLRenders(scene, views, lut)
+    # the largest views first (the hero): rendered while the reference integrates, so no view waits for long
+    order = sorted(range(len(views)), key=lambda i: -views[i].width * views[i].height)
+    gl = worker.GLRenders(scene, [views[i] for i in order], lut)
     start_validation(scene.root_layer)  # queued behind the renders: done while the views are compared
     t = time.perf_counter()
     ref_results = render_reference(scene, views, hits=hits, surfaces=surfaces) if refs is None else refs
@@ -79,9 +81,10 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
             files[key] = os.path.basename(path)
             writes.append(writer.submit(fn, *args))
 
-        for i, v in enumerate(views):
+        for k, i in enumerate(order):
+            v = views[i]
             try:
-                gl_result, t_gl = gl.result(i)
+                gl_result, t_gl = gl.result(k)
             except worker.WorkerError as exc:
                 gl_result, t_gl = None, 0.0
                 failure = f"GL renders (pipeline.render.gl) failed: {exc}"
@@ -127,7 +130,7 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
             }
         for w in writes:
             w.result()
-    return results
+    return {v.name: results[v.name] for v in views}  # in the views' order
 
 
 def verify_views(asset, views=None, out_dir=None, width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE,

@@ -16,9 +16,11 @@ processes may not start ``multiprocessing`` children. Its stdout goes to the cal
 ``--json`` output stays clean.
 
 A request names a module-level function by ``"module:function"``. Requests and replies go over a
-:class:`multiprocessing.connection.Connection`, one in flight at a time, in order. They are pickled with
+:class:`multiprocessing.connection.Connection` and are run and answered in order. They are pickled with
 protocol 5, and numpy arrays travel out of band, as their raw bytes. The default views' GL results are ~120 MB:
-0.2-0.3 s from the end of the renders to the caller's arrays.
+0.2-0.3 s from the end of the renders to the caller's arrays. The worker reads requests in its main thread
+(also while its preload imports run in another) and writes replies from a sender thread, so a large request
+never waits on a large reply the caller has not read yet, nor on the preload.
 
 :func:`shared` is the process's worker: started on first use (or by :func:`prestart`), reused by every
 verification of the process (a sweep's Dask worker, a notebook), restarted if it died, stopped at exit. The
@@ -31,6 +33,7 @@ import atexit
 import importlib
 import os
 import pickle
+import queue
 import socket
 import subprocess
 import sys
@@ -43,11 +46,6 @@ from pathlib import Path
 #: What the worker imports before its first request: the GL renders' modules (the first request, the slowest
 #: import).
 PRELOAD = ("pipeline.render.gl",)
-
-
-#: A request at most this large (pickle and arrays, bytes) is sent while earlier replies are still unread: it fits
-#: in the socket's buffer (Linux: ~200 kB), so it cannot block on a worker that is itself blocked writing a reply.
-SMALL_REQUEST_BYTES = 64 * 1024
 
 
 def _pack(obj) -> tuple[bytes, list]:
@@ -121,16 +119,12 @@ class Worker:
 
     def submit(self, fn: str, *args) -> "Pending":
         """Send ``fn(*args)`` (``fn`` = ``"package.module:function"``) to the worker; returns without waiting for
-        it to run. Before a request larger than :data:`SMALL_REQUEST_BYTES`, the replies still in flight are
-        received (kept for their :class:`Pending`): a large request written while the worker writes a large
-        reply that nobody reads would block both processes. Small requests queue behind them."""
+        it to run (the worker reads requests while it works and writes replies from a thread of their own, so a
+        large request never waits on an unread large reply)."""
         packed = _pack((fn, args))
-        size = len(packed[0]) + sum(r.nbytes for r in packed[1])
         with self._lock:
             if self._closed:
                 raise WorkerFailed("the verification worker is closed")
-            while self._pending and size > SMALL_REQUEST_BYTES:
-                self._receive_one()
             pending = Pending(self, fn)
             try:
                 _send(self._conn, packed)
@@ -318,31 +312,54 @@ def _resolve(name: str):
     return getattr(importlib.import_module(module), attr)
 
 
-def _serve(fd: int, preload: list[str]) -> None:
-    conn = Connection(fd)
+def _preload(modules: list[str]) -> None:
     try:
-        for module in preload:
+        for module in modules:
             importlib.import_module(module)
-        if "pipeline.render.gl" in preload:
+        if "pipeline.render.gl" in modules:
             from pipeline._compat import import_pyrender
 
             import_pyrender()
     except ImportError:  # a request that needs the module raises it again, to the caller
         pass
+
+
+def _send_replies(conn: Connection, replies: queue.Queue) -> None:
+    """The worker's sender thread: writes the packed replies in order while the main thread runs the next
+    request (a large reply waits for the caller to read it without holding up the work)."""
+    while (packed := replies.get()) is not None:
+        try:
+            _send(conn, packed)
+        except (EOFError, OSError):  # the caller is gone; the main thread sees it on its next read
+            return
+
+
+def _serve(fd: int, preload: list[str]) -> None:
+    """The worker's loop. Requests are read by this (main) thread, also while the preload imports run in
+    another, so a caller's large request never waits on them; they are run in order, here (one GL context, one
+    thread), and the replies written by :func:`_send_replies`."""
+    conn = Connection(fd)
+    loading = threading.Thread(target=_preload, args=(preload,), name="rockdove-preload", daemon=True)
+    loading.start()
+    replies: queue.Queue = queue.Queue()
+    sender = threading.Thread(target=_send_replies, args=(conn, replies), name="rockdove-reply", daemon=True)
+    sender.start()
     while True:
         try:
             fn, args = _recv(conn)
         except (EOFError, OSError):  # the parent closed its end or died
-            return
+            break
+        loading.join()
         try:
             reply = ("ok", _resolve(fn)(*args))
         except BaseException as exc:  # noqa: BLE001 - every failure goes back to the caller
             traceback.print_exc()  # the whole story on stderr (the parent's); the caller gets the one line
             reply = ("error", f"{type(exc).__name__}: {exc}")
         try:
-            _send(conn, _pack(reply))
-        except (EOFError, OSError):
-            return
+            replies.put(_pack(reply))
+        except Exception as exc:  # noqa: BLE001 - a result that cannot be pickled
+            replies.put(_pack(("error", f"{fn} returned what cannot be sent back: {type(exc).__name__}: {exc}")))
+    replies.put(None)
 
 
 if __name__ == "__main__":
