@@ -100,3 +100,34 @@ def test_gl_renders_that_cannot_open_fail_every_view_with_the_opening_error():
         with pytest.raises(worker.RemoteError, match=r"gl_open failed .*scene must be a RenderScene"):
             renders.result(i)
     assert worker.shared().call("os:getpid") > 0  # the worker serves on
+
+
+def test_the_worker_exits_when_its_caller_is_killed():
+    code = ("import os, sys; from pipeline.verify import worker; w = worker.shared(); "
+            "print(w.call('os:getpid'), flush=True); sys.stdin.read()")
+    caller = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        pid = int(caller.stdout.readline())
+        os.kill(pid, 0)  # alive
+        caller.kill()  # SIGKILL: no atexit, the socket just closes
+        caller.wait(timeout=30)
+        for _ in range(100):
+            try:
+                os.kill(pid, 0)
+            except ProcessLookupError:
+                break
+            threading.Event().wait(0.1)
+            if _process_state(pid) == "Z":  # exited, waiting to be reaped by init
+                break
+        else:
+            pytest.fail(f"the worker (pid {pid}) outlived its killed caller by 10 s")
+    finally:
+        caller.kill()
+
+
+def _process_state(pid: int) -> str:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return "gone"
