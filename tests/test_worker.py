@@ -131,3 +131,30 @@ def _process_state(pid: int) -> str:
             return f.read().rsplit(")", 1)[1].split()[0]
     except OSError:
         return "gone"
+
+
+def test_a_forked_child_starts_a_worker_of_its_own_and_its_exit_leaves_its_parents_alone():
+    # in a script of its own: the child exits normally, running its atexit handlers (which must not stop the
+    # parent's worker)
+    code = """if True:
+        import os, sys
+        from pipeline.verify import worker
+        first = worker.shared()
+        mine = first.call("os:getpid")
+        pid = os.fork()
+        if pid == 0:  # a child that never renders: its exit must not stop the parent's worker
+            sys.exit(0)
+        os.waitpid(pid, 0)
+        pid = os.fork()
+        if pid == 0:  # a child that renders: a worker of its own
+            print("child", worker.shared().call("os:getpid"), flush=True)
+            sys.exit(0)
+        os.waitpid(pid, 0)
+        assert worker.shared() is first
+        print("parent", mine, first.call("os:getpid"), flush=True)
+    """
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    lines = dict(line.split(" ", 1) for line in r.stdout.splitlines())
+    parent_before, parent_after = lines["parent"].split()
+    assert parent_before == parent_after != lines["child"]

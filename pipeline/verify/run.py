@@ -88,7 +88,8 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
             except worker.WorkerError as exc:
                 gl_result, t_gl = None, 0.0
                 failure = f"GL renders (pipeline.render.gl) failed: {exc}"
-                failures_all += [failure] if failure not in failures_all else []
+                if failure not in failures_all:
+                    failures_all.append(failure)
             if gl_images is not None and gl_result is not None:
                 gl_images[v.name] = compare.gl_arrays(gl_result)["rgb"]
             t = time.perf_counter()

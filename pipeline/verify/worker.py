@@ -84,7 +84,8 @@ class WorkerFailed(WorkerError):
 
 
 class RemoteError(WorkerError):
-    """A request raised in the worker; the message carries its type, message and traceback."""
+    """A request raised in the worker; the message carries its type and message (the worker prints the
+    traceback on its stderr, which is the caller's)."""
 
 
 class Worker:
@@ -115,6 +116,8 @@ class Worker:
 
     @property
     def alive(self) -> bool:
+        """The process runs and is this process's child (in a forked child, ``poll()`` finds no child of its own
+        and says it exited, so :func:`shared` starts a new worker and :meth:`close` leaves the parent's alone)."""
         return not self._closed and self._proc.poll() is None
 
     def submit(self, fn: str, *args) -> "Pending":
@@ -313,6 +316,7 @@ def _resolve(name: str):
 
 
 def _preload(modules: list[str]) -> None:
+    """Import ``modules`` (the worker's preload thread), pyrender too for the GL renderer."""
     try:
         for module in modules:
             importlib.import_module(module)
