@@ -158,3 +158,39 @@ def test_a_forked_child_starts_a_worker_of_its_own_and_its_exit_leaves_its_paren
     lines = dict(line.split(" ", 1) for line in r.stdout.splitlines())
     parent_before, parent_after = lines["parent"].split()
     assert parent_before == parent_after != lines["child"]
+
+
+def test_a_validation_the_worker_could_not_run_runs_here_and_one_that_raised_there_fails(small_asset):
+    from pipeline.verify import verdict
+    from pipeline.verify.inputs import verification_scene
+
+    layer = verification_scene(small_asset)[0]
+    gone = worker.Pending.failed("pipeline.verify.worker:validate_timed", worker.WorkerFailed("the worker exited"))
+    validation, seconds = verdict._validation(gone, layer)
+    assert validation["passed"] and validation["error"] is None and seconds > 0  # ran in this process
+    raised = worker.Pending.failed("pipeline.verify.worker:validate_timed", worker.RemoteError("OSError: boom"))
+    validation, _ = verdict._validation(raised, layer)
+    assert not validation["passed"] and "boom" in validation["error"]
+
+
+def test_a_started_validation_is_taken_once_and_a_changed_asset_is_validated_anew(small_asset, tmp_path):
+    import shutil
+
+    from pipeline.verify import verdict
+    from pipeline.verify.inputs import verification_scene
+
+    asset = tmp_path / "pigeon"
+    shutil.copytree(small_asset, asset, ignore=shutil.ignore_patterns("verify"))
+    layer = verification_scene(asset)[0]
+    verdict.start_validation(layer)
+    verdict.start_validation(layer)  # the same files: not sent twice
+    started = verdict._VALIDATIONS[verdict._asset_state(layer)]
+    assert verdict._take_validation(layer) is started
+    assert verdict._asset_state(layer) not in verdict._VALIDATIONS
+    verdict.start_validation(layer)
+    old_key = verdict._asset_state(layer)
+    old = verdict._VALIDATIONS[old_key]
+    (asset / "pigeon.usda").write_text((asset / "pigeon.usda").read_text() + "\n")
+    fresh = verdict._take_validation(layer)
+    assert fresh is not old and fresh.result()[0]["passed"]
+    assert verdict._VALIDATIONS.pop(old_key) is old  # left for its own (now stale) files

@@ -36,7 +36,7 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
     say("validating")
     # in the worker process, while this one draws the report (pipeline.verify.worker); usually started already,
     # behind the GL renders
-    validation_pending = start_validation(layer)
+    validation_pending = _take_validation(layer)
     results = list(results.values())
     for key in ("gl", "reference", "compare"):
         timings[key] = sum(r["timings_s"][key] for r in results)
@@ -105,7 +105,6 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
     images["bench"] = report.copy_bench_plots(out, bench_dir) if bench_dir is not None else []
     timings["report"] = time.perf_counter() - t
     validation, timings["validation"] = _validation(validation_pending, layer)
-    _VALIDATIONS.pop(_asset_state(layer), None)
     if not validation["passed"]:
         failures.insert(0, "validation: " + (validation["error"] or "the validator reported problems"))
     timings["total"] = time.perf_counter() - t_start
@@ -148,7 +147,7 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
     return result
 
 
-#: Validations sent to the worker, by :func:`_asset_state` (collected and dropped by :func:`combine`).
+#: Validations sent to the worker, by :func:`_asset_state` (taken by :func:`combine`).
 _VALIDATIONS: dict = {}
 
 
@@ -166,16 +165,21 @@ def _asset_state(layer) -> tuple:
     return os.path.abspath(layer), tuple(files)
 
 
-def start_validation(layer) -> "worker.Pending":
+def start_validation(layer) -> None:
     """Send the validation of ``layer``'s asset to the worker process, once per state of its files: the GL
     renders' caller starts it behind them (:func:`pipeline.verify.run.render_and_check`), so that it runs while
-    the views are compared, and :func:`combine` collects it; a changed file sends a new one."""
+    the views are compared, and :func:`combine` takes it; a changed file sends a new one."""
     key = _asset_state(layer)
     if key not in _VALIDATIONS:
-        if len(_VALIDATIONS) >= 8:  # never collected (a verification that raised): forget the oldest
+        if len(_VALIDATIONS) >= 8:  # never taken (a verification that raised): forget the oldest
             _VALIDATIONS.pop(next(iter(_VALIDATIONS)))
         _VALIDATIONS[key] = worker.submit("pipeline.verify.worker:validate_timed", layer)
-    return _VALIDATIONS[key]
+
+
+def _take_validation(layer) -> "worker.Pending":
+    """The validation started for the asset's files as they are now (:func:`start_validation`), else a new one."""
+    return _VALIDATIONS.pop(_asset_state(layer), None) or worker.submit("pipeline.verify.worker:validate_timed",
+                                                                         layer)
 
 
 def _validation(pending, layer) -> tuple[dict, float]:
