@@ -10,10 +10,10 @@ validation while it draws the charts), and the build starts it as soon as it kno
 (:func:`prestart`), so the GL import is done while the LUT, textures and layers are written. It also keeps a
 crash in the GL driver out of the build: the verification reports it as a failure instead of dying with it.
 
-The worker is a plain ``python -m pipeline.verify.worker`` child holding one end of a socket pair. It is
-started with ``subprocess``, not ``multiprocessing``: Dask's worker processes are daemonic, and daemonic
-processes may not start ``multiprocessing`` children. Its stdout goes to the caller's stderr, so that
-``--json`` output stays clean.
+The worker is a plain ``python -c`` child (:data:`_BOOT`: the caller's ``sys.path``, then :func:`_serve`)
+holding one end of a socket pair. It is started with ``subprocess``, not ``multiprocessing``: Dask's worker
+processes are daemonic, and daemonic processes may not start ``multiprocessing`` children. Its stdout goes to
+the caller's stderr, so that ``--json`` output stays clean.
 
 A request names a module-level function by ``"module:function"``. Requests and replies go over a
 :class:`multiprocessing.connection.Connection` and are run and answered in order. They are pickled with
@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import atexit
 import importlib
-import os
+import json
 import pickle
 import queue
 import socket
@@ -41,7 +41,11 @@ import threading
 import time
 import traceback
 from multiprocessing.connection import Connection
-from pathlib import Path
+
+#: The worker's start: the caller's ``sys.path`` (so it imports the very ``pipeline`` and libraries the caller
+#: does, however they were installed), then :func:`_serve` on the socket.
+_BOOT = ("import json, sys; sys.path[:] = json.loads(sys.argv[3]); from pipeline.verify.worker import _serve; "
+         "_serve(int(sys.argv[1]), [m for m in sys.argv[2].split(',') if m])")
 
 #: What the worker imports before its first request: the GL renders' modules (the first request, the slowest
 #: import).
@@ -97,13 +101,10 @@ class Worker:
 
     def __init__(self, preload=PRELOAD):
         parent, child = socket.socketpair()
-        env = dict(os.environ)
-        root = str(Path(__file__).resolve().parents[2])  # the folder holding the ``pipeline`` package
-        env["PYTHONPATH"] = os.pathsep.join([root, *filter(None, [env.get("PYTHONPATH")])])
         try:
             self._proc = subprocess.Popen(
-                [sys.executable, "-m", "pipeline.verify.worker", str(child.fileno()), ",".join(preload)],
-                pass_fds=(child.fileno(),), env=env, stdin=subprocess.DEVNULL, stdout=2, close_fds=True)
+                [sys.executable, "-c", _BOOT, str(child.fileno()), ",".join(preload), json.dumps(sys.path)],
+                pass_fds=(child.fileno(),), stdin=subprocess.DEVNULL, stdout=2, close_fds=True)
         except OSError as exc:
             parent.close()
             raise WorkerFailed(f"could not start the verification worker process ({exc})") from None
@@ -365,6 +366,3 @@ def _serve(fd: int, preload: list[str]) -> None:
             replies.put(_pack(("error", f"{fn} returned what cannot be sent back: {type(exc).__name__}: {exc}")))
     replies.put(None)
 
-
-if __name__ == "__main__":
-    _serve(int(sys.argv[1]), [m for m in sys.argv[2].split(",") if m])
