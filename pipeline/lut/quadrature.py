@@ -61,6 +61,8 @@ import functools
 
 import numpy as np
 
+from .reference import sigma_range
+
 # N = K_FULL * Phi / delta + N_MIN (full Airy form) or K_SERIES * M * Phi + N_MIN (truncated series), rounded up
 # to NODE_LADDER so that the product weights are computed for few node counts per process. Measured on the default
 # keratin LUT (benchmarks/README.md): every texel within 4e-4 dE2000 (~1e-6 in linear colour) of the 0.1 nm
@@ -90,13 +92,6 @@ MAP_EPS = 1e-9
 # Fourier-term tolerance for the truncated series (linear colour units): the dropped harmonics' spectral
 # integrals are below this (as pipeline.lut.fourier).
 DEFAULT_SERIES_TOL = 1e-5
-
-
-def _sigma_range():
-    from ..spectral import WAVELENGTH_RANGE_NM
-
-    lo, hi = WAVELENGTH_RANGE_NM
-    return 1.0 / hi, 1.0 / lo
 
 
 def map_alpha(n_nodes: int) -> float:
@@ -162,7 +157,7 @@ def _code_digest() -> str:
 def _product_weights(n: int, illuminant: str, colour_space: str | None):
     from .reference import colour_weights, reference_wavelengths
 
-    s_lo, s_hi = _sigma_range()
+    s_lo, s_hi = sigma_range()
     mid, half = 0.5 * (s_hi + s_lo), 0.5 * (s_hi - s_lo)
     alpha = map_alpha(n)
     j = np.arange(n)
@@ -247,7 +242,7 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
     """
     from .interfaces import interface_coefficients
 
-    s_lo, s_hi = _sigma_range()
+    s_lo, s_hi = sigma_range()
     half = 0.5 * (s_hi - s_lo)
     sig = np.linspace(s_lo, s_hi, 17)
     coef = interface_coefficients(film, cos_theta, 1.0 / sig)
@@ -491,7 +486,7 @@ def real_coefficients(film, cos_theta) -> bool:
     smallest at the longest wavelength for a Cauchy film)."""
     if film.k != 0 or isinstance(film.n_substrate, complex):
         return False
-    s_lo, s_hi = _sigma_range()
+    s_lo, s_hi = sigma_range()
     n_b = float(np.min(film.n_film(np.array([1.0 / s_hi, 1.0 / s_lo]))))
     cos_min = float(np.min(cos_theta)) if np.size(cos_theta) else 1.0
     return film.n_incident**2 * (1.0 - cos_min**2) <= min(n_b, float(film.n_substrate)) ** 2
@@ -551,7 +546,7 @@ def angle_panel_nodes(film, cos_theta, thickness_nm):
     if not panel.any():
         return None
     lo, hi = float(cos_theta[panel].min()), float(cos_theta[panel].max())
-    s_lo, s_hi = _sigma_range()
+    s_lo, s_hi = sigma_range()
     sig = np.array([s_lo, s_hi])
     n = np.real(film.n_film(1.0 / sig))
     n_a2 = film.n_incident**2

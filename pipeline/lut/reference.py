@@ -205,7 +205,8 @@ INTERPOLANT_ORDER = 16
 NODE_LADDER = tuple(sorted({int(round(16 * 1.09**k)) for k in range(80)}))
 
 
-def _sigma_range() -> tuple[float, float]:
+def sigma_range() -> tuple[float, float]:
+    """The wavenumbers ``(1 / 780, 1 / 380)`` nm^-1 of :data:`pipeline.spectral.WAVELENGTH_RANGE_NM`, increasing."""
     lo, hi = WAVELENGTH_RANGE_NM
     return 1.0 / hi, 1.0 / lo
 
@@ -215,7 +216,7 @@ def wavenumber_nodes(n_intervals: int, order: int = INTERPOLANT_ORDER) -> np.nda
     """Wavelengths (nm, increasing, read-only) whose wavenumbers ``1 / lambda`` split
     :data:`pipeline.spectral.WAVELENGTH_RANGE_NM` into ``n_intervals`` equal intervals, plus ``order / 2 - 1`` nodes
     beyond each end so that every ``order``-point stencil is centred (``n_intervals + order - 1`` nodes)."""
-    s_lo, s_hi = _sigma_range()
+    s_lo, s_hi = sigma_range()
     n, ext = int(n_intervals), int(order) // 2 - 1
     sigma = s_hi - (s_hi - s_lo) * (np.arange(-ext, n + ext + 1) / n)
     wl = 1.0 / sigma
@@ -226,9 +227,10 @@ def wavenumber_nodes(n_intervals: int, order: int = INTERPOLANT_ORDER) -> np.nda
 
 def interpolant_weights(n_intervals: int, order: int = INTERPOLANT_ORDER, *, illuminant: str = "D65",
                         colour_space: str | None = "lin_rec709") -> np.ndarray:
-    """Colour weights (n_intervals + 1, 3) of :func:`wavenumber_nodes` that integrate the spectrum's piecewise
-    Lagrange interpolant in wavenumber (``order`` points, the stencil nearest each wavelength, one-sided at the
-    ends) against the 0.1 nm reference grid's colour weights (module docstring). Cached (read-only)."""
+    """Colour weights (n_intervals + order - 1, 3), one row per node of :func:`wavenumber_nodes`, that integrate
+    the spectrum's piecewise Lagrange interpolant in wavenumber (``order`` points, the centred stencil of each
+    wavelength's interval, reaching the nodes past the ends) against the 0.1 nm reference grid's colour weights
+    (module docstring). Cached (read-only)."""
     return _interpolant_weights_cached(int(n_intervals), int(order), check_illuminant(illuminant), colour_space)
 
 
@@ -238,7 +240,7 @@ def _interpolant_weights_cached(n: int, order: int, illuminant: str, colour_spac
         raise ValueError(f"order must be even and >= 2 and n_intervals >= 1, got order {order!r}, n_intervals {n!r}")
     fine = reference_wavelengths(REFERENCE_STEP_NM)
     w_fine = colour_weights(fine, illuminant=illuminant, colour_space=colour_space)
-    s_lo, s_hi = _sigma_range()
+    s_lo, s_hi = sigma_range()
     ext = order // 2 - 1
     t = (s_hi - 1.0 / fine) * (n / (s_hi - s_lo)) + ext  # node index of each fine wavelength (increasing lambda)
     k0 = np.minimum(np.floor(t).astype(np.int64) - ext, n - 1)  # centred (the last interval's at 780 nm)
@@ -264,7 +266,7 @@ def interval_count(cos_theta, thickness_nm, film, kappa, max_step_rad) -> np.nda
     rounded up to :data:`NODE_LADDER`. Real films only (:func:`real_film`)."""
     c = np.asarray(cos_theta, np.float64)
     d = np.asarray(thickness_nm, np.float64)
-    s_lo, s_hi = _sigma_range()
+    s_lo, s_hi = sigma_range()
     eps = 1e-4 * (s_hi - s_lo)
     n_a, n_c = float(film.n_incident), float(np.real(film.n_substrate))
     x = n_a * c
