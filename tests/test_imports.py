@@ -49,6 +49,8 @@ LAYERS = [
      "compares every host's render with the exact reference and writes the report"),
     ({"build"},
      "the build graph: runs the stages above into the output folder and publishes atomically"),
+    ({"server"},
+     "the build server: runs CLI commands in a warm process (pipeline.cli.run, named in its start-up command)"),
     ({"bench", "commands"},
      "benchmarks and one module per CLI command, calling the stages"),
     ({"cli"},
