@@ -21,9 +21,9 @@ is imported; it uses the standard library only):
   command in the server (``KeyboardInterrupt``: exit status 130, as without a server).
 - One command at a time: while the server is busy, another client runs its command itself (no queueing, so
   parallel builds stay parallel).
-- Staleness: each request carries :func:`source_stamp` (the package's ``.py`` files and the ``sys.path``
-  folders, by size and modification time). If it differs from the server's own, the code on disk changed
-  since the server started (an edit, a ``pip install``): the server exits and the client runs the command
+- Staleness: at each request the server takes :func:`source_stamp` again (the package's files and the
+  ``sys.path`` folders, by size and modification time; the client's ``sys.path`` is the server's, less its first
+  entry). If it differs from the one taken at the start, the code on disk changed since the server started (an edit, a ``pip install``): the server exits and the client runs the command
   itself, saying so on stderr.
 - The server exits after ``--idle-minutes`` without a command (default :data:`IDLE_MINUTES`), on
   ``rockdove server stop`` and on SIGTERM; its output (and its verification worker's) goes to its log,
@@ -119,18 +119,20 @@ def paths(key: str | None = None, create: bool = True) -> dict[str, str]:
 
 
 def source_stamp() -> str:
-    """What the server's code is: a digest of the size and modification time of every ``.py`` file of the
-    package and of every ``sys.path`` folder (a folder's time changes when a ``pip install`` adds or removes a
-    distribution in it)."""
+    """What the server's code is: a digest of the size and modification time of every file of the package (its
+    ``.py`` files and data folders: shaders, schemas, node definitions; not ``node_modules``) and of every
+    ``sys.path`` folder (a folder's time changes when a ``pip install`` adds or removes a distribution in it)."""
+    from . import resources
+
     h = hashlib.sha256()
-    stack = [_package_dir()]
+    stack = [_package_dir(), *(str(resources.folder(name)) for name in resources.FOLDERS)]
     while stack:
         with os.scandir(stack.pop()) as it:
             for e in sorted(it, key=lambda e: e.name):
                 if e.is_dir(follow_symlinks=False):
-                    if e.name != "__pycache__":
+                    if e.name not in ("__pycache__", "node_modules"):
                         stack.append(e.path)
-                elif e.name.endswith(".py"):
+                elif not e.name.endswith(".pyc"):
                     st = e.stat()
                     h.update(f"{e.path}\0{st.st_size}\0{st.st_mtime_ns}\n".encode())
     for p in sys.path[1:]:
@@ -211,7 +213,6 @@ def forward(argv: list[str]) -> int | None:
         return None
     with s:
         request = {"op": "run", "argv": argv, "sys_argv": sys.argv, "cwd": os.getcwd(), "env": dict(os.environ),
-                   "stamp": source_stamp(),
                    "pid": os.getpid()}
         try:
             data = _frame(request)
@@ -386,7 +387,7 @@ class _Server:
             return
         with self.lock:
             busy = self.busy or self.stopping
-            stale = not busy and request.get("stamp") != self.stamp
+            stale = not busy and source_stamp() != self.stamp  # the same files the client would import
             if not busy and len(fds) == 3:
                 self.busy = True
                 if stale:

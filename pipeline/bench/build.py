@@ -15,6 +15,9 @@ shared machine):
   ray-cast and surface items the film change reused; the two builds' whole-process wall times (the
   verification's worker process starts with the build, so part of its work precedes the verify stages); and
   the same verification in a warm process (the build function called again, as a sweep's worker does);
+- the film-only rebuild and the verification after a film change again through the build server
+  (``rockdove server start`` in a runtime folder of the benchmark's own; each build a new ``rockdove`` process
+  whose command the server runs), against the same goals; the other rows run with ``--no-server``;
 - the geometry payload written as usda against usdc at 1,500 and 100k cards: size and write time
   (in process: ``pipeline.usd.stage.author_geometry`` once, then ``Sdf.Layer.Export`` to each format);
 - scaling with the card count (1k, 10k, 100k): cold build time and the build process's peak memory
@@ -29,6 +32,7 @@ for); ``inside`` is the build command's own time from its ``--json`` summary.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import statistics
@@ -67,17 +71,51 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "is always measured, every ratio against it")
 
 
+def _env(user_cache: Path | None = None, served: Path | None = None) -> dict:
+    """The environment of the benchmark's ``rockdove`` processes: ``$XDG_CACHE_HOME`` = ``user_cache`` (default
+    the user's), ``$XDG_RUNTIME_DIR`` = ``served`` (where :func:`_server` runs a build server)."""
+    env = dict(os.environ)
+    if user_cache is not None:
+        env["XDG_CACHE_HOME"] = str(user_cache)
+    if served is not None:
+        env["XDG_RUNTIME_DIR"] = str(served)
+    return env
+
+
+@contextlib.contextmanager
+def _server(tmp: Path, user_cache: Path | None = None):
+    """A build server (``rockdove server start``) for the environment :func:`_env` gives ``user_cache``, in a
+    runtime folder of its own (never the user's server): yields that folder, for :func:`_build_rss`'s
+    ``served``; stopped at the end."""
+    runtime = tmp / f"run-{len(list(tmp.glob('run-*')))}"
+    runtime.mkdir(mode=0o700)
+    env = _env(user_cache, runtime)
+    cli = [sys.executable, "-m", "pipeline.cli", "server"]
+    r = subprocess.run([*cli, "start", "--json"], env=env, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise RuntimeError(f"rockdove server start exited {r.returncode}: {r.stderr.strip()}")
+    try:
+        yield runtime
+        r = subprocess.run([*cli, "status", "--json"], env=env, capture_output=True, text=True)
+        served = json.loads(r.stdout).get("served", 0) if r.returncode == 0 else 0
+    finally:
+        subprocess.run([*cli, "stop"], env=env, capture_output=True, text=True)
+    if served == 0:
+        raise RuntimeError(f"the build server in {runtime} ran none of the benchmark's builds")
+
+
 def _build_rss(workdir: Path, *args: str, cache: str = "cache", allow_fail: bool = False,
-               user_cache: Path | None = None) -> dict:
+               user_cache: Path | None = None, served: Path | None = None) -> dict:
     """One ``rockdove build`` process: wall time, peak resident memory (MiB, ``os.wait4``), its --json summary.
-    ``user_cache``: the build's ``$XDG_CACHE_HOME`` (pipeline.resources.user_cache_dir), default the user's."""
-    cmd = [sys.executable, "-m", "pipeline.cli", "build", "--out", str(workdir / "out" / "pigeon"),
-           "--cache", str(workdir / cache), "--json", "--quiet", *args]
+    ``user_cache``: the build's ``$XDG_CACHE_HOME`` (pipeline.resources.user_cache_dir), default the user's.
+    ``served``: the runtime folder of a :func:`_server` that runs the command (else ``--no-server``: a user's
+    own server never runs the benchmark's builds; the memory is then the client's)."""
+    cmd = [sys.executable, "-m", "pipeline.cli", *([] if served else ["--no-server"]), "build",
+           "--out", str(workdir / "out" / "pigeon"), "--cache", str(workdir / cache), "--json", "--quiet", *args]
     out_path = workdir / "summary.json"
     t0 = time.perf_counter()
     with open(out_path, "w") as out, open(workdir / "stderr.txt", "w") as errf:
-        env = None if user_cache is None else {**os.environ, "XDG_CACHE_HOME": str(user_cache)}
-        proc = subprocess.Popen(cmd, stdout=out, stderr=errf, env=env)
+        proc = subprocess.Popen(cmd, stdout=out, stderr=errf, env=_env(user_cache, served))
         _, status, usage = os.wait4(proc.pid, 0)
         proc.returncode = os.waitstatus_to_exitcode(status)
     wall = time.perf_counter() - t0
@@ -184,6 +222,18 @@ def _film_rows(tmp: Path, preset: list[str], repeats: int, cold_s: float) -> dic
     print(f"  in a warm process (pipeline.commands.build.build called again, as a sweep's Dask worker or a notebook "
           f"does): {warm:.3f} s = {100 * out['warm_process_ratio']:.1f} % of cold, goal <= {100 * FILM_GOAL_RATIO:g} %: "
           f"{'met' if out['warm_process_ratio'] <= FILM_GOAL_RATIO else 'NOT met'}")
+    with _server(tmp) as served:
+        cold_served = _build_rss(tmp, *preset, cache="served", served=served)
+        rows = [_build_rss(tmp, *preset, "--set", f"film.cauchy_a={FILM_VALUES[i % len(FILM_VALUES)]}",
+                           cache="served", served=served) for i in range(repeats)]
+    wall = _median(rows, "wall_s")
+    out.update(server_s=wall, server_ratio=wall / cold_s, server_cold_s=cold_served["wall_s"],
+               server_ratio_to_served_cold=wall / cold_served["wall_s"])
+    print(f"  through the build server (`rockdove server start`; each rebuild a new `rockdove` process whose command "
+          f"the server runs): {wall:.3f} s = {100 * out['server_ratio']:.1f} % of the cold build, goal <= "
+          f"{100 * FILM_GOAL_RATIO:g} %: {'met' if out['server_ratio'] <= FILM_GOAL_RATIO else 'NOT met'} (a cold build "
+          f"through the server: {cold_served['wall_s']:.2f} s, of which this is "
+          f"{100 * out['server_ratio_to_served_cold']:.1f} %)")
     return out
 
 
@@ -288,6 +338,23 @@ def _verify_rows(tmp: Path, preset: list[str], args) -> dict:
     print(f"  in a warm process (as a sweep's Dask worker verifies its next point): {warm:.2f} s = "
           f"{100 * out['warm_process_ratio']:.1f} % of the cold verify, goal <= {100 * VERIFY_GOAL_RATIO:g} %: "
           f"{'met' if out['warm_process_ratio'] <= VERIFY_GOAL_RATIO else 'NOT met'}")
+    user = tmp / "user-cache-served"
+    with _server(tmp, user) as served:
+        _build_rss(tmp, *preset, *size, cache="verify-served", user_cache=user, served=served)
+        cold = _build_rss(tmp, *with_verify, *size, cache="verify-served", allow_fail=True, user_cache=user,
+                          served=served)
+        films = [_build_rss(tmp, *with_verify, *size, "--set", f"film.cauchy_a={FILM_VALUES[i % len(FILM_VALUES)]}",
+                            cache="verify-served", allow_fail=True, user_cache=user, served=served)
+                 for i in range(repeats)]
+    served_cold, served_film = _verify_seconds(cold)[0], statistics.median(_verify_seconds(f)[0] for f in films)
+    out.update(server_cold_verify_s=served_cold, server_film_verify_s=served_film,
+               server_ratio=served_film / served_cold, server_ratio_to_cold=served_film / cold_v,
+               server_film_build_wall_s=_median(films, "wall_s"))
+    print(f"  through the build server (each build a new `rockdove` process whose command the server runs): "
+          f"{served_film:.2f} s against a cold verify through it of {served_cold:.2f} s = "
+          f"{100 * out['server_ratio']:.1f} % (of the cold verify above: {100 * out['server_ratio_to_cold']:.1f} %), "
+          f"goal <= {100 * VERIFY_GOAL_RATIO:g} %: {'met' if out['server_ratio'] <= VERIFY_GOAL_RATIO else 'NOT met'}; "
+          f"the whole film-change build {out['server_film_build_wall_s']:.2f} s")
     return out
 
 
