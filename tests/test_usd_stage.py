@@ -257,6 +257,34 @@ def test_preview_atlas_mixes_base_and_the_structural_colour_of_each_thickness_by
     assert len({tuple(tile[tip][0, :3]) for tile in tiles}) > len(tiles) // 2  # the colours differ
 
 
+@pytest.mark.parametrize("side", [40, 256])
+def test_preview_atlas_is_the_texel_by_texel_mix_of_each_tile_resized(side):
+    """feather_preview_atlas's bytes are those of the plain formula: every texel mixed in linear light and
+    sRGB-encoded (its alpha kept), each tile resized alone with Pillow's box filter, placed bottom row first;
+    random texels (every one distinct), colours out of [0, 1] included, up- and down-sized tiles."""
+    from PIL import Image
+
+    from pipeline.spectral import srgb_decode, srgb_encode
+    from pipeline.usd.textures_io import PREVIEW_TILE_TEXELS, feather_preview_atlas, preview_atlas_shape
+
+    rng = np.random.default_rng(side)
+    base = rng.integers(0, 256, (side, side, 4), dtype=np.uint8)
+    mask = rng.choice(np.array([0, 1, 37, 128, 254, 255], np.uint8), (side, side))
+    colours = rng.uniform(-0.2, 1.2, (11, 3))
+    t = PREVIEW_TILE_TEXELS
+    cols, rows = preview_atlas_shape(len(colours))
+    expected = np.zeros((rows * t, cols * t, 4), np.uint8)
+    m = mask[..., None] / 255.0
+    for k, c in enumerate(colours):
+        tile = base.copy()
+        lin = srgb_decode(base[..., :3] / 255.0) * (1.0 - m) + np.clip(c, 0.0, 1.0) * m
+        tile[..., :3] = np.round(srgb_encode(np.clip(lin, 0.0, 1.0)) * 255.0).astype(np.uint8)
+        tile = np.asarray(Image.fromarray(tile, "RGBA").resize((t, t), Image.BOX))
+        top = (rows - 1 - k // cols) * t
+        expected[top:top + t, (k % cols) * t:(k % cols + 1) * t] = tile
+    np.testing.assert_array_equal(feather_preview_atlas(base, mask, colours), expected)
+
+
 def test_each_card_reads_the_preview_tile_of_its_own_thickness(stage, asset):
     from pxr import UsdGeom
 
