@@ -257,6 +257,32 @@ def test_preview_atlas_mixes_base_and_the_structural_colour_of_each_thickness_by
     assert len({tuple(tile[tip][0, :3]) for tile in tiles}) > len(tiles) // 2  # the colours differ
 
 
+def test_write_png_is_lossless_and_byte_deterministic(tmp_path):
+    """write_png (PNG_OPTIONS: a fixed zlib level and strategy) decodes to the same pixels for grey, RGB and
+    RGBA, writes the same bytes twice, and holds only the IHDR, IDAT and IEND chunks (no time or text)."""
+    import struct
+
+    from PIL import Image
+
+    from pipeline.usd.textures_io import write_png
+
+    rng = np.random.default_rng(7)
+    smooth = np.linspace(0, 255, 96 * 64).reshape(96, 64).astype(np.uint8)
+    for shape in [(96, 64), (96, 64, 3), (96, 64, 4)]:
+        pixels = rng.integers(0, 256, shape, dtype=np.uint8)
+        pixels[:48] = smooth[:48, :, None] if len(shape) == 3 else smooth[:48]
+        a, b = (write_png(str(tmp_path / f"{name}.png"), pixels) for name in "ab")
+        data = open(a, "rb").read()
+        assert data == open(b, "rb").read()
+        np.testing.assert_array_equal(np.asarray(Image.open(a)), pixels)
+        chunks, pos = [], 8
+        while pos < len(data):
+            length, kind = struct.unpack(">I4s", data[pos:pos + 8])
+            chunks.append(kind.decode())
+            pos += 12 + length
+        assert chunks[0] == "IHDR" and chunks[-1] == "IEND" and set(chunks[1:-1]) == {"IDAT"}, chunks
+
+
 @pytest.mark.parametrize("side", [40, 256])
 def test_preview_atlas_is_the_texel_by_texel_mix_of_each_tile_resized(side):
     """feather_preview_atlas's bytes are those of the plain formula: every texel mixed in linear light and
