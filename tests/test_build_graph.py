@@ -49,6 +49,56 @@ def test_second_build_reuses_every_stage(tmp_path):
     assert {n: r.key for n, r in first.records.items()} == {n: r.key for n, r in second.records.items()}
 
 
+def _geometry(ctx):
+    return {"points": np.arange(6.0)}
+
+
+def _film(ctx):
+    return {"sum": float(ctx.inputs["geometry"]["points"].sum() * ctx.config["film"]["cauchy_a"])}
+
+
+def test_a_shared_codec_loads_each_cache_entry_once_per_process(tmp_path):
+    """A film change in the same process hands the rerun stage the geometry loaded by an earlier build (a shared
+    codec), not a fresh read; an entry deleted and written again is read again; other codecs read every time."""
+    loads = []
+
+    def load(folder):
+        loads.append(folder)
+        return G.load_npz(folder / "value.npz")
+
+    def stages(shared):
+        codec = G.Codec("geometry_test", G.NPZ.save, load, shared=shared)
+        return [G.Stage("geometry", _geometry, codec=codec), G.Stage("film", _film, config=("film",),
+                                                                     deps=("geometry",))]
+
+    def build(a, shared=True):
+        g = G.Graph(stages(shared), _cfg(f"film.cauchy_a={a}"), G.Cache(tmp_path / "cache"))
+        g.run()
+        return g
+
+    build(1.5)
+    assert len(loads) == 1  # loaded back from its temporary folder after it ran
+    first = build(1.6)
+    assert first.records["film"].status == "ran" and first.records["geometry"].status == "reused"
+    assert len(loads) == 2  # read from its cache entry
+    second = build(1.7)
+    assert second.records["film"].status == "ran" and second.records["geometry"].status == "reused"
+    assert len(loads) == 2 and second.value("geometry") is first.value("geometry")
+    assert second.value("film") == {"sum": 15.0 * 1.7}
+    import shutil
+
+    shutil.rmtree(second.entry_dir("geometry").parent)  # the whole entry: written again by the next build
+    third = build(1.8)
+    assert third.records["geometry"].status == "ran" and len(loads) == 3
+    build(1.9)
+    assert len(loads) == 4  # the new entry, read once
+    build(2.0)
+    assert len(loads) == 4
+    build(2.1, shared=False)
+    build(2.2, shared=False)
+    assert len(loads) == 6
+
+
 def test_film_change_rebakes_lut_and_rewrites_material_but_reuses_geometry(tmp_path):
     _build(tmp_path, _cfg())
     g = _build(tmp_path, _cfg("film.cauchy_a=1.6"))

@@ -41,6 +41,7 @@ import os
 import shutil
 import sys
 import tempfile
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -56,11 +57,40 @@ GRAPH_VERSION = 1  # bump when the key recipe or the entry layout changes
 # ----------------------------------------------------------------------------------------------- codecs
 @dataclass(frozen=True)
 class Codec:
-    """How a stage's value is stored in its cache folder: ``save(value, folder)``, ``load(folder) -> value``."""
+    """How a stage's value is stored in its cache folder: ``save(value, folder)``, ``load(folder) -> value``.
+
+    ``shared``: the loaded value is immutable (frozen dataclasses, tuples, read-only mappings and arrays), so a
+    process loads each cache entry once and hands every later build the same value (:func:`load_entry`).
+    """
 
     name: str
     save: Callable[[Any, Path], None]
     load: Callable[[Path], Any]
+    shared: bool = False
+
+
+#: Values of ``shared`` codecs loaded in this process, most recent last: (codec, folder, inode, mtime) -> value.
+_LOADED: dict = {}
+_LOADED_MAX = 8
+_LOADED_LOCK = threading.Lock()
+
+
+def load_entry(codec: Codec, folder: Path) -> Any:
+    """``codec.load(folder)``, once per process for a ``shared`` codec: an entry's files never change once
+    written (its folder is named by the content key of everything that made it, filled in a temporary folder,
+    renamed into place and made read-only), so a long-lived process (a sweep worker, a build server) rebuilding
+    after a film change does not re-read the unchanged geometry. Keyed by the folder and its inode and mtime,
+    so an entry deleted and written again is read again."""
+    if not codec.shared:
+        return codec.load(folder)
+    st = folder.stat()
+    key = (codec.name, str(folder), st.st_ino, st.st_mtime_ns)
+    with _LOADED_LOCK:  # builds may run in threads of one process (a Dask worker's)
+        value = _LOADED.pop(key) if key in _LOADED else codec.load(folder)
+        _LOADED[key] = value  # most recent last
+        while len(_LOADED) > _LOADED_MAX:
+            del _LOADED[next(iter(_LOADED))]
+    return value
 
 
 def _json_save(value, folder: Path) -> None:
@@ -462,7 +492,7 @@ class Graph:
         if name not in self._values:
             rec = self.records[name]
             stage = self.stages[name]
-            self._values[name] = stage.codec.load(self.cache.entry(name, rec.key) / "value")
+            self._values[name] = load_entry(stage.codec, self.cache.entry(name, rec.key) / "value")
         return self._values[name]
 
     def entry_dir(self, name: str) -> Path:
