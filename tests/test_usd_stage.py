@@ -392,6 +392,25 @@ def test_usdz_reopens_and_holds_every_texture(asset):
     assert len(set(resolved)) == 5
 
 
+def test_usdz_in_place_is_the_same_package_as_from_a_copy(asset, tmp_path):
+    """write_usdz(in_place=True) (the build's usdz stage, packaging its own scratch copy) writes the bytes of the
+    copying route, which leaves the folder's files as they were; both equal the built package."""
+    import shutil
+
+    from pipeline.usd.usdz import ZIP_EPOCH, write_usdz
+
+    copied, in_place = tmp_path / "copied", tmp_path / "in_place"
+    for folder in (copied, in_place):
+        shutil.copytree(asset["dir"], folder, ignore=shutil.ignore_patterns("*.usdz", "*.glb"))
+    looks_mtime = os.stat(copied / "pigeon_looks.usda").st_mtime_ns
+    a = write_usdz(str(copied))
+    b = write_usdz(str(in_place), in_place=True)
+    assert open(a, "rb").read() == open(b, "rb").read() == open(asset["usdz"], "rb").read()
+    assert os.stat(copied / "pigeon_looks.usda").st_mtime_ns == looks_mtime != ZIP_EPOCH * 10**9
+    assert os.stat(in_place / "textures" / "feather_base.png").st_mtime == ZIP_EPOCH
+    assert sorted(os.listdir(in_place)) == sorted(os.listdir(copied))  # no temporaries left
+
+
 def test_failed_build_keeps_previous_asset_and_leaves_no_temporaries(build_root, tmp_path, monkeypatch):
     """A build that fails mid-way (here: the glTF export, which runs on the asset assembled in the staging folder
     beside the output) publishes nothing: the asset already there is left as it was, and no staging folder is

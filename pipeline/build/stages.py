@@ -321,7 +321,7 @@ def run_usdz(ctx: Context):
     scratch = ctx.workdir / "layout"
     for dep in ("usd_geometry", "usd_layers", "textures", "film_textures"):
         shutil.copytree(ctx.inputs[dep], scratch, dirs_exist_ok=True)
-    write_usdz(str(scratch))
+    write_usdz(str(scratch), in_place=True)  # scratch holds copies: package them without a second copy
     (scratch / USDZ_NAME).rename(ctx.workdir / USDZ_NAME)
     shutil.rmtree(scratch)
 
