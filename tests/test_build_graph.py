@@ -153,6 +153,53 @@ def test_code_change_invalidates_a_stage(tmp_path, monkeypatch):
         G.source_digest(G.Stage("s", lambda ctx: 1, modules=("pipeline.pkg.nothing",)))
 
 
+def test_source_digest_is_remembered_until_a_file_or_folder_it_read_changes(tmp_path, monkeypatch):
+    """A process computes a stage's source digest once per state of its files: the remembered digest is the one a
+    fresh process computes, and an edited (same size), added, removed or renamed module file in a sub-package, a
+    new data file and a new sibling module of a file module each change it; links to folders are not followed."""
+    from pipeline import resources
+
+    root = tmp_path / "pipeline"
+    (root / "pkg" / "sub").mkdir(parents=True)
+    (root / "pkg" / "__init__.py").write_text("")
+    (root / "pkg" / "sub" / "a.py").write_text("A = 1\n")
+    (root / "one.py").write_text("ONE = 1\n")
+    (tmp_path / "materials" / "glsl").mkdir(parents=True)
+    (tmp_path / "materials" / "glsl" / "x.frag").write_text("void main() {}\n")
+    (tmp_path / "elsewhere").mkdir()
+    (tmp_path / "elsewhere" / "z.py").write_text("Z = 1\n")
+    os.symlink(tmp_path / "elsewhere", root / "pkg" / "linked")
+    monkeypatch.setattr(resources, "package_root", lambda: root)
+    monkeypatch.setattr(resources, "folder", lambda name: tmp_path / name)
+    stage = G.Stage("s", lambda ctx: 1, modules=("pipeline.pkg", "pipeline.one"), data=("materials/glsl",))
+
+    def fresh():
+        monkeypatch.setattr(G, "_SOURCE_MEMO", {})
+        return G.source_digest(stage)
+
+    digests = [fresh()]
+    assert G.source_digest(stage) == digests[-1]  # remembered
+    changes = [(lambda: (root / "pkg" / "sub" / "a.py").write_text("A = 2\n"), None),
+               (lambda: (root / "pkg" / "sub" / "b.py").write_text("B = 1\n"), None),
+               (lambda: (root / "pkg" / "sub" / "b.py").rename(root / "pkg" / "sub" / "c.py"), None),
+               (lambda: (root / "pkg" / "sub" / "c.py").unlink(), 1),  # the files after the first edit again
+               (lambda: (tmp_path / "materials" / "glsl" / "y.frag").write_text("\n"), None),
+               (lambda: (root / "one").mkdir(), None)]  # pipeline.one is now a package (with no file yet)
+    for change, same_as in changes:
+        change()
+        remembered = G.source_digest(stage) if same_as is not None or not (root / "one").is_dir() else None
+        if remembered is None:  # a package with no .py file cannot be keyed, remembered or not
+            with pytest.raises(ValueError, match="pipeline.one"):
+                G.source_digest(stage)
+            (root / "one" / "__init__.py").write_text("ONE = 1\n")
+            remembered = G.source_digest(stage)
+        assert remembered == fresh()
+        assert remembered == digests[same_as] if same_as is not None else remembered not in digests
+        digests.append(remembered)
+    (tmp_path / "elsewhere" / "z.py").write_text("Z = 2\n")  # behind a link: not part of the stage
+    assert G.source_digest(stage) == digests[-1] == fresh()
+
+
 def test_a_stage_whose_data_is_missing_or_empty_cannot_be_keyed(tmp_path, monkeypatch):
     """A stage key never silently hashes nothing: a data folder that is absent or empty is an error naming it."""
     from pipeline import resources
