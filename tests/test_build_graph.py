@@ -200,6 +200,23 @@ def test_source_digest_is_remembered_until_a_file_or_folder_it_read_changes(tmp_
     assert G.source_digest(stage) == digests[-1] == fresh()
 
 
+def test_folder_digest_streams_the_files_a_stage_wrote(tmp_path):
+    """A stage's content digest is sha256 over (relative path, NUL, bytes, NUL) of its files in path order, read
+    without keeping them: a long-lived process rebuilding many assets does not hold their bytes."""
+    import hashlib
+
+    (tmp_path / "textures").mkdir()
+    files = {"b.usda": b"#usda 1.0\n", "textures/a.png": bytes(range(256)) * 5000, "a.bin": b""}
+    for name, data in files.items():
+        (tmp_path / name).write_bytes(data)
+    expected = hashlib.sha256()
+    for name in sorted(files, key=lambda n: str(tmp_path / n)):
+        expected.update(name.encode() + b"\0" + files[name] + b"\0")
+    before = G._source_bytes.cache_info().currsize
+    assert G.folder_digest(tmp_path) == expected.hexdigest()
+    assert G._source_bytes.cache_info().currsize == before
+
+
 def test_a_stage_whose_data_is_missing_or_empty_cannot_be_keyed(tmp_path, monkeypatch):
     """A stage key never silently hashes nothing: a data folder that is absent or empty is an error naming it."""
     from pipeline import resources

@@ -235,12 +235,20 @@ def _source_bytes(path: Path, mtime_ns: int, size: int) -> bytes:
     return path.read_bytes()
 
 
-def _hash_file(h, path: Path, label: str, seen: dict | None = None) -> None:
-    st = path.stat()
-    if seen is not None:
-        seen[str(path)] = (st.st_mtime_ns, st.st_size)
+def _hash_file(h, path: Path, label: str, seen: dict | None = None, *, remember: bool = True) -> None:
+    """Add ``label``, NUL, the file's bytes, NUL to ``h``. ``remember``: the bytes of a source or data file are
+    kept (:func:`_source_bytes`); the files a stage wrote (``remember=False``, :func:`folder_digest`) are streamed,
+    so a long-lived process does not keep every asset it built (~7.5 MB per film rebuild) in memory."""
     h.update(label.encode() + b"\0")
-    h.update(_source_bytes(path, st.st_mtime_ns, st.st_size))
+    if remember:
+        st = path.stat()
+        if seen is not None:
+            seen[str(path)] = (st.st_mtime_ns, st.st_size)
+        h.update(_source_bytes(path, st.st_mtime_ns, st.st_size))
+    else:
+        with open(path, "rb") as f:
+            while chunk := f.read(1 << 20):
+                h.update(chunk)
     h.update(b"\0")
 
 
@@ -367,7 +375,7 @@ def folder_digest(folder: Path) -> str:
     """sha256 over the relative paths and bytes of every file under ``folder``."""
     h = hashlib.sha256()
     for p in _files_of(folder):
-        _hash_file(h, p, str(p.relative_to(folder)))
+        _hash_file(h, p, str(p.relative_to(folder)), remember=False)
     return h.hexdigest()
 
 
