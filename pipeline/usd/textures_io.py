@@ -31,9 +31,9 @@ import numpy as np
 from .material import TEXTURE_FILES
 
 #: Pillow PNG options: fixed so that encoding is reproducible. zlib level 4 with its default strategy (Pillow's own
-#: default is level 6, Z_FILTERED): measured on the default build (median of 9, one process), the preview atlas
-#: (rewritten on every film change) encodes in 0.53x the time at +1.6% bytes (154,271 -> 156,726), body_base.png
-#: +5% (175,405 -> 184,789), feather_base.png 29.5 -> 39.7 kB, feather_mask.png unchanged.
+#: default is level 6, Z_FILTERED): measured on the default build's images (median of 7, one process), the preview
+#: atlas (rewritten on every film change) encodes in 0.62x the time at +0.2% bytes (148,862 -> 149,108),
+#: body_base.png in 0.64x at +5% (175,405 -> 184,789), feather_base.png 29.5 -> 39.7 kB, feather_mask.png unchanged.
 PNG_OPTIONS = {"compress_level": 4, "compress_type": zlib.Z_DEFAULT_STRATEGY, "optimize": False}
 #: cos theta of the structural colours of feather_preview.png: 0.86 (31 degrees), the median |N.V| over the
 #: feather-tip pixels of the default verification views (4 turntable + the light sweep, 128 px, measured on the
