@@ -49,6 +49,56 @@ def test_second_build_reuses_every_stage(tmp_path):
     assert {n: r.key for n, r in first.records.items()} == {n: r.key for n, r in second.records.items()}
 
 
+def _geometry(ctx):
+    return {"points": np.arange(6.0)}
+
+
+def _film(ctx):
+    return {"sum": float(ctx.inputs["geometry"]["points"].sum() * ctx.config["film"]["cauchy_a"])}
+
+
+def test_a_shared_codec_loads_each_cache_entry_once_per_process(tmp_path):
+    """A film change in the same process hands the rerun stage the geometry loaded by an earlier build (a shared
+    codec), not a fresh read; an entry deleted and written again is read again; other codecs read every time."""
+    loads = []
+
+    def load(folder):
+        loads.append(folder)
+        return G.load_npz(folder / "value.npz")
+
+    def stages(shared):
+        codec = G.Codec("geometry_test", G.NPZ.save, load, shared=shared)
+        return [G.Stage("geometry", _geometry, codec=codec), G.Stage("film", _film, config=("film",),
+                                                                     deps=("geometry",))]
+
+    def build(a, shared=True):
+        g = G.Graph(stages(shared), _cfg(f"film.cauchy_a={a}"), G.Cache(tmp_path / "cache"))
+        g.run()
+        return g
+
+    build(1.5)
+    assert len(loads) == 1  # loaded back from its temporary folder after it ran
+    first = build(1.6)
+    assert first.records["film"].status == "ran" and first.records["geometry"].status == "reused"
+    assert len(loads) == 2  # read from its cache entry
+    second = build(1.7)
+    assert second.records["film"].status == "ran" and second.records["geometry"].status == "reused"
+    assert len(loads) == 2 and second.value("geometry") is first.value("geometry")
+    assert second.value("film") == {"sum": 15.0 * 1.7}
+    import shutil
+
+    shutil.rmtree(second.entry_dir("geometry").parent)  # the whole entry: written again by the next build
+    third = build(1.8)
+    assert third.records["geometry"].status == "ran" and len(loads) == 3
+    build(1.9)
+    assert len(loads) == 4  # the new entry, read once
+    build(2.0)
+    assert len(loads) == 4
+    build(2.1, shared=False)
+    build(2.2, shared=False)
+    assert len(loads) == 6
+
+
 def test_film_change_rebakes_lut_and_rewrites_material_but_reuses_geometry(tmp_path):
     _build(tmp_path, _cfg())
     g = _build(tmp_path, _cfg("film.cauchy_a=1.6"))
@@ -101,6 +151,70 @@ def test_code_change_invalidates_a_stage(tmp_path, monkeypatch):
     assert G.source_digest(stage) != before
     with pytest.raises(ValueError, match="pkg.nothing"):
         G.source_digest(G.Stage("s", lambda ctx: 1, modules=("pipeline.pkg.nothing",)))
+
+
+def test_source_digest_is_remembered_until_a_file_or_folder_it_read_changes(tmp_path, monkeypatch):
+    """A process computes a stage's source digest once per state of its files: the remembered digest is the one a
+    fresh process computes, and an edited (same size), added, removed or renamed module file in a sub-package, a
+    new data file and a new sibling module of a file module each change it; links to folders are not followed."""
+    from pipeline import resources
+
+    root = tmp_path / "pipeline"
+    (root / "pkg" / "sub").mkdir(parents=True)
+    (root / "pkg" / "__init__.py").write_text("")
+    (root / "pkg" / "sub" / "a.py").write_text("A = 1\n")
+    (root / "one.py").write_text("ONE = 1\n")
+    (tmp_path / "materials" / "glsl").mkdir(parents=True)
+    (tmp_path / "materials" / "glsl" / "x.frag").write_text("void main() {}\n")
+    (tmp_path / "elsewhere").mkdir()
+    (tmp_path / "elsewhere" / "z.py").write_text("Z = 1\n")
+    os.symlink(tmp_path / "elsewhere", root / "pkg" / "linked")
+    monkeypatch.setattr(resources, "package_root", lambda: root)
+    monkeypatch.setattr(resources, "folder", lambda name: tmp_path / name)
+    stage = G.Stage("s", lambda ctx: 1, modules=("pipeline.pkg", "pipeline.one"), data=("materials/glsl",))
+
+    def fresh():
+        monkeypatch.setattr(G, "_SOURCE_MEMO", {})
+        return G.source_digest(stage)
+
+    digests = [fresh()]
+    assert G.source_digest(stage) == digests[-1]  # remembered
+    changes = [(lambda: (root / "pkg" / "sub" / "a.py").write_text("A = 2\n"), None),
+               (lambda: (root / "pkg" / "sub" / "b.py").write_text("B = 1\n"), None),
+               (lambda: (root / "pkg" / "sub" / "b.py").rename(root / "pkg" / "sub" / "c.py"), None),
+               (lambda: (root / "pkg" / "sub" / "c.py").unlink(), 1),  # the files after the first edit again
+               (lambda: (tmp_path / "materials" / "glsl" / "y.frag").write_text("\n"), None),
+               (lambda: (root / "one").mkdir(), None)]  # pipeline.one is now a package (with no file yet)
+    for change, same_as in changes:
+        change()
+        remembered = G.source_digest(stage) if same_as is not None or not (root / "one").is_dir() else None
+        if remembered is None:  # a package with no .py file cannot be keyed, remembered or not
+            with pytest.raises(ValueError, match="pipeline.one"):
+                G.source_digest(stage)
+            (root / "one" / "__init__.py").write_text("ONE = 1\n")
+            remembered = G.source_digest(stage)
+        assert remembered == fresh()
+        assert remembered == digests[same_as] if same_as is not None else remembered not in digests
+        digests.append(remembered)
+    (tmp_path / "elsewhere" / "z.py").write_text("Z = 2\n")  # behind a link: not part of the stage
+    assert G.source_digest(stage) == digests[-1] == fresh()
+
+
+def test_folder_digest_streams_the_files_a_stage_wrote(tmp_path):
+    """A stage's content digest is sha256 over (relative path, NUL, bytes, NUL) of its files in path order, read
+    without keeping them: a long-lived process rebuilding many assets does not hold their bytes."""
+    import hashlib
+
+    (tmp_path / "textures").mkdir()
+    files = {"b.usda": b"#usda 1.0\n", "textures/a.png": bytes(range(256)) * 5000, "a.bin": b""}
+    for name, data in files.items():
+        (tmp_path / name).write_bytes(data)
+    expected = hashlib.sha256()
+    for name in sorted(files, key=lambda n: str(tmp_path / n)):
+        expected.update(name.encode() + b"\0" + files[name] + b"\0")
+    before = G._source_bytes.cache_info().currsize
+    assert G.folder_digest(tmp_path) == expected.hexdigest()
+    assert G._source_bytes.cache_info().currsize == before
 
 
 def test_a_stage_whose_data_is_missing_or_empty_cannot_be_keyed(tmp_path, monkeypatch):

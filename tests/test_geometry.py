@@ -584,3 +584,17 @@ def test_every_bird_part_written_references_all_its_points(bird):
         out = drop_unreferenced_points(p)
         assert np.unique(out.face_vertex_indices).size == out.n_points, p.name
         assert np.array_equal(out.points_m[out.face_vertex_indices], p.points_m[p.face_vertex_indices]), p.name
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_point_bounds_are_the_per_coordinate_min_and_max(dtype):
+    """point_bounds (the USD extents and glTF accessor bounds) gives exactly numpy's per-column min and max, in the
+    points' dtype, for one point, many points, and a strided view."""
+    from pipeline.geometry.types import point_bounds
+
+    rng = np.random.default_rng(11)
+    pts = rng.normal(size=(1001, 3)).astype(dtype)
+    for p in (pts, pts[:1], pts[::3], rng.normal(size=(7, 2)).astype(dtype)):
+        got = point_bounds(p)
+        assert got.dtype == dtype and got.shape == (2, p.shape[1])
+        np.testing.assert_array_equal(got, np.stack([p.min(axis=0), p.max(axis=0)]))

@@ -362,6 +362,38 @@ def test_real_film_kernel_is_the_airy_reflectance(film):
     assert not lut_reference.real_film(FilmModel("absorbing", 1.5, k=0.01))  # those take optics.reflectance
 
 
+@pytest.mark.parametrize("film", [FilmModel("keratin", 1.532, 5890.0),
+                                  FilmModel("glass-on-melanin", 1.56, 4000.0, n_substrate=1.75),
+                                  FilmModel("absorbing", 1.5, k=0.01)])
+def test_wavelength_steps_integrate_the_airy_reflectance(film):
+    """reference_colour's wavelength-step bands (the LUT error check's reference) are optics.reflectance integrated
+    with the band's weights: to rounding for every film, real ones through the float64 kernel included, in each
+    band of REFERENCE_STEPS_NM (0.01, 0.05, 0.1 nm), a coarse (product-weight) step, grazing and d = 0 included
+    (no film between equal media at grazing: R = 0, not the grazing limit R = 1 of a film)."""
+    from pipeline import optics
+    from pipeline.lut import reference as lut_reference
+
+    rng = np.random.default_rng(5)
+    c = np.concatenate([[0.0, 0.0, 1.0, 0.0005, 0.002], rng.uniform(0.003, 1.0, 6)])
+    d = np.concatenate([[600.0, 0.0, 0.0, 700.0, 5000.0], rng.uniform(0.0, 5000.0, 6)])
+
+    def integrated(step, rows):
+        wl = lut_reference.reference_wavelengths(step)
+        w = (lut_reference.product_weights(step) if step > lut_reference.REFERENCE_STEP_NM
+             else lut_reference.colour_weights(wl))
+        r = optics.reflectance(wl[None, :], c[rows, None], d[rows, None], n_film=film.n_film(wl)[None, :],
+                               n_incident=film.n_incident, n_substrate=film.n_substrate)
+        return r @ w
+
+    steps = lut_reference.reference_step_nm(c)
+    expected = np.empty((c.size, 3))
+    for step in np.unique(steps):
+        expected[steps == step] = integrated(float(step), steps == step)
+    np.testing.assert_allclose(reference_colour(c, d, film), expected, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(reference_colour(c[5:], d[5:], film, steps_nm=((0.0, 2.0),)),
+                               integrated(2.0, slice(5, None)), rtol=0, atol=1e-12)
+
+
 def test_wavenumber_interpolant_integrates_polynomials_in_wavenumber_exactly():
     """interpolant_weights: a polynomial of degree < order in 1 / lambda integrates to its 0.1 nm reference
     integral (a perfect reflector has Y = 1), and a smooth fringe spectrum converges fast with the order."""

@@ -68,7 +68,8 @@ def test_load_scene_reads_every_part_as_the_build_generated_it_in_both_variants(
 
 
 def test_load_scene_applies_world_transforms(small_asset, tmp_path):
-    """A translate op authored over the Body (in the interface layer of a copy) moves its points read back."""
+    """A translate op authored over the Body (in the interface layer of a copy) moves its points read back; a rotation
+    and scale over the Wings turn and scale their points and turn their normals."""
     from pxr import Gf, Usd, UsdGeom
 
     copy = copy_asset(small_asset, tmp_path / "pigeon")
@@ -79,6 +80,17 @@ def test_load_scene_applies_world_transforms(small_asset, tmp_path):
     np.testing.assert_allclose(after.part("Body").positions_m, before.part("Body").positions_m + [0.1, -0.2, 0.3],
                                atol=1e-6)
     np.testing.assert_array_equal(after.part("Beak").positions_m, before.part("Beak").positions_m)
+    # the 3x3 block too: rotateY 90 degrees with a uniform scale 2 (they commute): (x, y, z) -> 2 (z, y, -x), and
+    # the normals turn with it (unit length)
+    wings = UsdGeom.Xformable(stage.GetPrimAtPath("/Pigeon/Geom/Wings"))
+    wings.AddRotateYOp().Set(90.0)
+    wings.AddScaleOp().Set(Gf.Vec3f(2.0, 2.0, 2.0))
+    stage.GetRootLayer().Save()
+    turned, was = sc.load_scene(copy).part("Wings"), before.part("Wings")
+    x, y, z = was.positions_m.T.astype(np.float64)
+    np.testing.assert_allclose(turned.positions_m, 2.0 * np.stack([z, y, -x], axis=1), atol=1e-6)
+    x, y, z = was.normals.T.astype(np.float64)
+    np.testing.assert_allclose(turned.normals, np.stack([z, y, -x], axis=1), atol=1e-6)
 
 
 def test_load_scene_variants_and_bad_input(asset, tmp_path):

@@ -257,6 +257,60 @@ def test_preview_atlas_mixes_base_and_the_structural_colour_of_each_thickness_by
     assert len({tuple(tile[tip][0, :3]) for tile in tiles}) > len(tiles) // 2  # the colours differ
 
 
+def test_write_png_is_lossless_and_byte_deterministic(tmp_path):
+    """write_png (PNG_OPTIONS: a fixed zlib level and strategy) decodes to the same pixels for grey, RGB and
+    RGBA, writes the same bytes twice, and holds only the IHDR, IDAT and IEND chunks (no time or text)."""
+    import struct
+
+    from PIL import Image
+
+    from pipeline.usd.textures_io import write_png
+
+    rng = np.random.default_rng(7)
+    smooth = np.linspace(0, 255, 96 * 64).reshape(96, 64).astype(np.uint8)
+    for shape in [(96, 64), (96, 64, 3), (96, 64, 4)]:
+        pixels = rng.integers(0, 256, shape, dtype=np.uint8)
+        pixels[:48] = smooth[:48, :, None] if len(shape) == 3 else smooth[:48]
+        a, b = (write_png(str(tmp_path / f"{name}.png"), pixels) for name in "ab")
+        data = open(a, "rb").read()
+        assert data == open(b, "rb").read()
+        np.testing.assert_array_equal(np.asarray(Image.open(a)), pixels)
+        chunks, pos = [], 8
+        while pos < len(data):
+            length, kind = struct.unpack(">I4s", data[pos:pos + 8])
+            chunks.append(kind.decode())
+            pos += 12 + length
+        assert chunks[0] == "IHDR" and chunks[-1] == "IEND" and set(chunks[1:-1]) == {"IDAT"}, chunks
+
+
+@pytest.mark.parametrize("side", [40, 256])
+def test_preview_atlas_is_the_texel_by_texel_mix_of_each_tile_resized(side):
+    """feather_preview_atlas's bytes are those of the plain formula: every texel mixed in linear light and
+    sRGB-encoded (its alpha kept), each tile resized alone with Pillow's box filter, placed bottom row first;
+    random texels (every one distinct), colours out of [0, 1] included, up- and down-sized tiles."""
+    from PIL import Image
+
+    from pipeline.spectral import srgb_decode, srgb_encode
+    from pipeline.usd.textures_io import PREVIEW_TILE_TEXELS, feather_preview_atlas, preview_atlas_shape
+
+    rng = np.random.default_rng(side)
+    base = rng.integers(0, 256, (side, side, 4), dtype=np.uint8)
+    mask = rng.choice(np.array([0, 1, 37, 128, 254, 255], np.uint8), (side, side))
+    colours = rng.uniform(-0.2, 1.2, (11, 3))
+    t = PREVIEW_TILE_TEXELS
+    cols, rows = preview_atlas_shape(len(colours))
+    expected = np.zeros((rows * t, cols * t, 4), np.uint8)
+    m = mask[..., None] / 255.0
+    for k, c in enumerate(colours):
+        tile = base.copy()
+        lin = srgb_decode(base[..., :3] / 255.0) * (1.0 - m) + np.clip(c, 0.0, 1.0) * m
+        tile[..., :3] = np.round(srgb_encode(np.clip(lin, 0.0, 1.0)) * 255.0).astype(np.uint8)
+        tile = np.asarray(Image.fromarray(tile, "RGBA").resize((t, t), Image.BOX))
+        top = (rows - 1 - k // cols) * t
+        expected[top:top + t, (k % cols) * t:(k % cols + 1) * t] = tile
+    np.testing.assert_array_equal(feather_preview_atlas(base, mask, colours), expected)
+
+
 def test_each_card_reads_the_preview_tile_of_its_own_thickness(stage, asset):
     from pxr import UsdGeom
 
@@ -336,6 +390,25 @@ def test_usdz_reopens_and_holds_every_texture(asset):
                 read_texture_asset(path)  # decodes from inside the package
                 resolved.append(path)
     assert len(set(resolved)) == 5
+
+
+def test_usdz_in_place_is_the_same_package_as_from_a_copy(asset, tmp_path):
+    """write_usdz(in_place=True) (the build's usdz stage, packaging its own scratch copy) writes the bytes of the
+    copying route, which leaves the folder's files as they were; both equal the built package."""
+    import shutil
+
+    from pipeline.usd.usdz import ZIP_EPOCH, write_usdz
+
+    copied, in_place = tmp_path / "copied", tmp_path / "in_place"
+    for folder in (copied, in_place):
+        shutil.copytree(asset["dir"], folder, ignore=shutil.ignore_patterns("*.usdz", "*.glb"))
+    looks_mtime = os.stat(copied / "pigeon_looks.usda").st_mtime_ns
+    a = write_usdz(str(copied))
+    b = write_usdz(str(in_place), in_place=True)
+    assert open(a, "rb").read() == open(b, "rb").read() == open(asset["usdz"], "rb").read()
+    assert os.stat(copied / "pigeon_looks.usda").st_mtime_ns == looks_mtime != ZIP_EPOCH * 10**9
+    assert os.stat(in_place / "textures" / "feather_base.png").st_mtime == ZIP_EPOCH
+    assert sorted(os.listdir(in_place)) == sorted(os.listdir(copied))  # no temporaries left
 
 
 def test_failed_build_keeps_previous_asset_and_leaves_no_temporaries(build_root, tmp_path, monkeypatch):

@@ -67,6 +67,7 @@ import dataclasses
 import json
 import math
 import shutil
+import types
 from pathlib import Path
 
 from .. import __version__
@@ -146,8 +147,8 @@ def _body_load(folder: Path):
                 card_band_area_m2=meta.get("card_band_area_m2"))
 
 
-BIRD = Codec("bird", _bird_save, _bird_load)
-BODY = Codec("body", _body_save, _body_load)
+BIRD = Codec("bird", _bird_save, _bird_load, shared=True)  # frozen dataclasses of read-only arrays (no stage edits them)
+BODY = Codec("body", _body_save, _body_load, shared=True)
 
 
 def _lut_save(lut, folder: Path) -> None:
@@ -183,10 +184,10 @@ def _images_save(value, folder: Path) -> None:
 def _images_load(folder: Path):
     arrays = load_npz(folder / "images.npz")
     feathers = {k[len("feather_"):]: v for k, v in arrays.items() if k.startswith("feather_")}
-    return feathers, arrays["body"]
+    return types.MappingProxyType(feathers), arrays["body"]
 
 
-IMAGES = Codec("images", _images_save, _images_load)
+IMAGES = Codec("images", _images_save, _images_load, shared=True)  # a read-only mapping of read-only arrays
 
 
 # ----------------------------------------------------------------------------------------------- stages
@@ -320,7 +321,7 @@ def run_usdz(ctx: Context):
     scratch = ctx.workdir / "layout"
     for dep in ("usd_geometry", "usd_layers", "textures", "film_textures"):
         shutil.copytree(ctx.inputs[dep], scratch, dirs_exist_ok=True)
-    write_usdz(str(scratch))
+    write_usdz(str(scratch), in_place=True)  # scratch holds copies: package them without a second copy
     (scratch / USDZ_NAME).rename(ctx.workdir / USDZ_NAME)
     shutil.rmtree(scratch)
 

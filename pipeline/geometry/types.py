@@ -16,6 +16,14 @@ INTERPOLATIONS = ("constant", "uniform", "vertex", "faceVarying")
 MATERIALS = ("body", "feather", "beak", "eye", "cere", "leg")
 
 
+def point_bounds(points) -> np.ndarray:
+    """``[min, max]`` per coordinate of (N, D) points, shape (2, D), their dtype: the values of
+    ``points.min(axis=0)`` and ``points.max(axis=0)`` from contiguous columns (numpy 2.4 reduces the first axis of
+    an (N, 3) array element by element: 12.6 ms for 112k float32 points against 0.27 ms)."""
+    columns = np.ascontiguousarray(np.asarray(points).T)
+    return np.stack([columns.min(axis=1), columns.max(axis=1)])
+
+
 @dataclass(frozen=True)
 class Primvar:
     """One extra per-mesh attribute.

@@ -33,7 +33,7 @@ import os
 
 import numpy as np
 
-from ..geometry.types import drop_unreferenced_points
+from ..geometry.types import drop_unreferenced_points, point_bounds
 from .material import (
     PREVIEW_PRIMVAR,
     author_body_material,
@@ -102,7 +102,7 @@ def material_name(kind: str) -> str:
 
 
 def _extent(points: np.ndarray) -> np.ndarray:
-    return np.stack([points.min(axis=0), points.max(axis=0)]).astype(np.float32)
+    return point_bounds(points).astype(np.float32)
 
 
 def _check_part(part) -> None:

@@ -29,8 +29,12 @@ def _fixed_time() -> int:
         raise ValueError(f"SOURCE_DATE_EPOCH must be an integer (seconds), got {value!r}") from None
 
 
-def write_usdz(out_dir: str, root_layer: str = "pigeon.usda") -> str:
+def write_usdz(out_dir: str, root_layer: str = "pigeon.usda", *, in_place: bool = False) -> str:
     """Package ``out_dir/root_layer`` and its dependencies into ``out_dir/pigeon.usdz``.
+
+    ``in_place=True`` packages ``out_dir``'s own files, setting their modification times to the fixed time,
+    instead of a scratch copy of them: for a caller whose ``out_dir`` is already its own scratch copy (the build's
+    usdz stage), the same bytes without copying the asset a second time.
 
     Returns
     -------
@@ -59,12 +63,16 @@ def write_usdz(out_dir: str, root_layer: str = "pigeon.usda") -> str:
     target = os.path.join(out_dir, USDZ_NAME)
     stamp = _fixed_time()
     with tempfile.TemporaryDirectory(prefix=".usdz-", dir=out_dir) as scratch:
-        src = os.path.join(scratch, "asset")
-        shutil.copytree(out_dir, src, ignore=lambda d, names: [n for n in names if n.endswith(".usdz")
-                                                               or n.startswith(".usdz-")])
-        for folder, _, files in os.walk(src):
+        src = out_dir
+        if not in_place:
+            src = os.path.join(scratch, "asset")
+            shutil.copytree(out_dir, src, ignore=lambda d, names: [n for n in names if n.endswith(".usdz")
+                                                                   or n.startswith(".usdz-")])
+        for folder, dirs, files in os.walk(src):
+            dirs[:] = [d for d in dirs if not d.startswith(".usdz-")]
             for name in files:
-                os.utime(os.path.join(folder, name), (stamp, stamp))
+                if not name.endswith(".usdz"):
+                    os.utime(os.path.join(folder, name), (stamp, stamp))
         package = os.path.join(scratch, USDZ_NAME)
         if not UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(os.path.join(src, root_layer)), package):
             raise RuntimeError(f"UsdUtils.CreateNewUsdzPackage failed for {root!r}")

@@ -43,6 +43,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..geometry.types import point_bounds
+
 #: The file the build writes beside ``pigeon.usda``.
 GLB_NAME = "pigeon.glb"
 #: Wavelength at which the film's dispersive (Cauchy) index is given to glTF's single ``iridescenceIor``, nm.
@@ -119,8 +121,8 @@ class _Blob:
         acc = Accessor(bufferView=self.view(array.tobytes(), target), componentType=component,
                        count=int(array.shape[0]), type=kind)
         if with_bounds:
-            acc.min = [float(v) for v in array.min(axis=0)]
-            acc.max = [float(v) for v in array.max(axis=0)]
+            lo, hi = point_bounds(array)
+            acc.min, acc.max = [float(v) for v in lo], [float(v) for v in hi]
         self.gltf.accessors.append(acc)
         return len(self.gltf.accessors) - 1
 
