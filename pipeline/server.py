@@ -539,6 +539,7 @@ def serve(run_command, idle_minutes: float = IDLE_MINUTES) -> None:
     os.chmod(sock_path, 0o600)
     inode = os.stat(sock_path).st_ino
     listener.listen(16)
+    server.last = time.monotonic()  # the idle time counts from here, not from before the preload
 
     def on_term(signum, frame):
         server.stopping = True  # seen by the main loop after the command this interrupts, if any
