@@ -118,6 +118,11 @@ def run(argv: list[str]) -> int:
     except KeyboardInterrupt:
         print(f"rockdove {args.command}: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader of stdout went away (`rockdove ... | head`): no traceback
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # so the final flush is quiet too
+        os.close(devnull)
+        return 141
 
 
 if __name__ == "__main__":

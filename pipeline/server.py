@@ -259,21 +259,25 @@ def _wait(s: socket.socket) -> int:
 
 # -- starting, stopping, asking ----------------------------------------------------------------------------
 def status(key: str | None = None) -> dict | None:
-    """The running server's state (pid, started, served, busy, idle seconds, peak memory, log), or None."""
+    """The running server's state (pid, started, served, busy, idle seconds, peak memory, log, and ``stale``:
+    whether the code installed now differs from the code it runs), or None."""
     return _control("status", key)
 
 
 def start(idle_minutes: float = IDLE_MINUTES, wait_s: float = 180.0) -> dict:
-    """Start this interpreter's and environment's server in the background (unless it runs already) and wait
-    until it takes commands: its :func:`status`. Raises :class:`ServerError` with the log's last lines if it
+    """Start this interpreter's and environment's server in the background (unless it runs already, on the code
+    installed now: one on older code is stopped and replaced) and wait until it takes commands: its
+    :func:`status`. Raises :class:`ServerError` with the log's last lines if it
     exits first."""
     import subprocess
 
     if idle_minutes <= 0:
         raise ValueError(f"--idle-minutes must be > 0, got {idle_minutes:g}")
     running = status()
-    if running is not None:
+    if running is not None and not running.get("stale"):
         return {**running, "already": True}
+    if running is not None:  # it runs code older than what is installed now: replace it
+        stop()
     p = paths()
     with open(p["log"], "ab") as log:
         proc = subprocess.Popen([sys.executable, "-c", _BOOT, json.dumps(sys.path), str(idle_minutes)],
@@ -348,7 +352,7 @@ class _Server:
         return {"pid": os.getpid(), "key": self.key, "started": self.started, "served": served, "busy": busy,
                 "idle_s": 0.0 if busy else round(idle, 1), "idle_limit_s": self.idle_s,
                 "peak_rss_mib": round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
-                "socket": self.paths["socket"], "log": self.paths["log"]}
+                "socket": self.paths["socket"], "log": self.paths["log"], "stale": source_stamp() != self.stamp}
 
     # the acceptor thread: takes connections, answers status/stop/busy/stale itself, hands commands over
     def accept_loop(self, listener: socket.socket) -> None:
@@ -403,6 +407,8 @@ class _Server:
 
     # the main thread: runs commands (KeyboardInterrupt reaches only the main thread)
     def main_loop(self) -> None:
+        import gc
+
         while True:
             with self.lock:
                 while self.job is None and not self.stopping:
@@ -431,6 +437,7 @@ class _Server:
             except OSError:
                 pass
             conn.close()
+            gc.collect()  # after the reply: the client does not wait for it
 
     def _run(self, conn: socket.socket, fds: list[int], request: dict) -> int:
         """Run the request's command with the client's streams, environment, folder and ``sys.argv``: its exit
@@ -504,9 +511,6 @@ class _Server:
             os.environ.update(saved_env)
             os.chdir(saved_cwd)
             sys.argv = saved_argv
-        import gc
-
-        gc.collect()
         return int(code)
 
 

@@ -126,6 +126,14 @@ def test_bad_input_through_the_server_is_one_line_and_status_2(served, tmp_path)
     assert status(env)["served"] == before + 1
     r = cli(env, "config", "--json", "--set", "lut.angles=48")
     assert r.returncode == 0 and json.loads(r.stdout)["config"]["lut"]["angles"] == 48
+    # a reader that has gone away (`rockdove config | head -1`, head done): no traceback, served or not
+    for no_server in ([], ["--no-server"]):
+        read_end, write_end = os.pipe()
+        os.close(read_end)
+        r = subprocess.run([sys.executable, "-m", "pipeline.cli", *no_server, "config", "--verbose"], cwd=OUTSIDE,
+                           env=env, stdout=write_end, stderr=subprocess.PIPE, text=True, timeout=120)
+        os.close(write_end)
+        assert r.returncode == 141 and "Traceback" not in r.stderr, r.stderr
 
 
 def test_ctrl_c_interrupts_the_served_command_and_the_server_goes_on(served, tmp_path):
@@ -166,18 +174,26 @@ def test_a_busy_server_lets_the_next_command_run_in_its_own_process(served, tmp_
 
 
 def test_changed_code_stops_the_server_and_the_command_runs_here(tmp_path):
-    """A folder on sys.path changes (as when pip installs into site-packages): the server's code is stale."""
+    """A folder on sys.path changes (as when pip installs into site-packages): the server's code is stale.
+    ``status`` says so, ``start`` replaces it, and a command sent to a stale server runs in its own process."""
     extra = tmp_path / "extra"
     extra.mkdir()
     env = _env(tmp_path, PYTHONPATH=str(extra))
     info = start(env)
     assert cli(env, "config", "--json").returncode == 0 and status(env)["served"] == 1
+    assert status(env)["stale"] is False
     time.sleep(0.02)
     (extra / "new_module.py").write_text("")
+    assert status(env)["stale"] is True
+    assert "older code" in cli(env, "server", "status").stdout
+    replaced = start(env)
+    assert replaced["pid"] != info["pid"] and not replaced["stale"]
+    time.sleep(0.02)
+    (extra / "other_module.py").write_text("")
     r = cli(env, "config", "--json")
     assert r.returncode == 0 and json.loads(r.stdout)["preset"] == "measured"
     assert "older code" in r.stderr
-    assert _wait_until(lambda: not Path(info["socket"]).exists(), 30)
+    assert _wait_until(lambda: not Path(replaced["socket"]).exists(), 30)
     assert cli(env, "server", "status").returncode == 1
 
 

@@ -27,6 +27,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _describe(info: dict) -> str:
     up = time.time() - info["started"]
     state = "running a command" if info["busy"] else f"idle {info['idle_s']:.0f} s (exits after {info['idle_limit_s']:.0f} s)"
+    if info.get("stale"):
+        state += "; runs older code than is installed now (it stops at the next command; `start` replaces it)"
     return (f"pid {info['pid']}, up {up:.0f} s, {info['served']} commands served, {state}, peak memory "
             f"{info['peak_rss_mib']:.0f} MiB\n  socket {info['socket']}\n  log    {info['log']}")
 
