@@ -5,29 +5,31 @@ numpy, jsonschema, pygltflib, OpenEXR and Pillow, and a verification waits for i
 start. A researcher who rebuilds many times pays that each time. With ``rockdove server start``, a long-lived
 process keeps those imports and the verification worker warm, and each later ``rockdove build`` (or
 :data:`SERVED` command) is handed to it: the same pattern as Gradle's daemon, Bazel's server or mypy's dmypy.
+Before it takes commands it imports :data:`PRELOAD`, starts the verification worker and builds a small asset
+(:data:`WARM_UP`, ~2.5 s), so that its first command is served as warm as the next.
 
-How a command is served (the client is :func:`forward`, called by :func:`pipeline.cli.main` before anything heavy
-is imported; it uses the standard library only):
+How a command is served (the client is :func:`forward`, called by :func:`pipeline.cli.main` before anything heavy is
+imported; it uses the standard library only):
 
 - The server listens on a Unix socket in a folder only the user can enter (``$XDG_RUNTIME_DIR/rockdove``, else
   ``$TMPDIR/rockdove-<uid>``), named by :func:`server_key`: a digest of the interpreter, the package's folder,
   ``sys.path`` (less its first entry, the script's or working folder) and the environment (less
-  :data:`VOLATILE_ENV`). A ``rockdove`` started with another interpreter, install or environment finds no
-  server of its own and runs the command itself.
-- The client sends its arguments (and ``sys.argv``, which reports record), working folder and whole environment, and passes its stdin, stdout and
-  stderr (``SCM_RIGHTS``); the server runs :func:`pipeline.cli.run` with them in place of its own (``dup2``),
-  so output, ``--json`` and terminal detection are the client's, and sends back the exit status, which the
-  client exits with. Ctrl-C (SIGINT, SIGTERM, SIGHUP) in the client, or the client's death, interrupts the
-  command in the server (``KeyboardInterrupt``: exit status 130, as without a server).
-- One command at a time: while the server is busy, another client runs its command itself (no queueing, so
-  parallel builds stay parallel).
-- Staleness: at each request the server takes :func:`source_stamp` again (the package's files and the
-  ``sys.path`` folders, by size and modification time; the client's ``sys.path`` is the server's, less its first
-  entry). If it differs from the one taken at the start, the code on disk changed since the server started (an edit, a ``pip install``): the server exits and the client runs the command
-  itself, saying so on stderr.
-- The server exits after ``--idle-minutes`` without a command (default :data:`IDLE_MINUTES`), on
-  ``rockdove server stop`` and on SIGTERM; its output (and its verification worker's) goes to its log,
-  ``<key>.log`` beside the socket.
+  :data:`VOLATILE_ENV`). A ``rockdove`` started with another interpreter, install or environment finds no server of
+  its own and runs the command itself.
+- The client sends its arguments (and ``sys.argv``, which reports record), working folder and whole environment, and
+  passes its stdin, stdout and stderr (``SCM_RIGHTS``); the server runs :func:`pipeline.cli.run` with them in place
+  of its own (``dup2``), so output, ``--json`` and terminal detection are the client's, and sends back the exit
+  status, which the client exits with. Ctrl-C (SIGINT, SIGTERM, SIGHUP) in the client, or the client's death,
+  interrupts the command in the server (``KeyboardInterrupt``: exit status 130, as without a server).
+- One command at a time: while the server is busy, another client runs its command itself (no queueing, so parallel
+  builds stay parallel).
+- Staleness: at each request the server takes :func:`source_stamp` again (the package's files and the ``sys.path``
+  folders, by size and modification time; the client's ``sys.path`` is the server's, less its first entry). If it
+  differs from the one taken at the start, the code on disk changed since the server started (an edit, a ``pip
+  install``): the server exits and the client runs the command itself, saying so on stderr.
+- The server exits after ``--idle-minutes`` without a command (default :data:`IDLE_MINUTES`), on ``rockdove server
+  stop`` and on SIGTERM; its output (and its verification worker's) goes to its log, ``<key>.log`` beside the
+  socket.
 
 What persists between served commands is what persists between builds in one process anyway (a Dask sweep's
 worker runs many builds): the imports, the verification worker, the memoised validations. The environment,
@@ -62,6 +64,13 @@ PRELOAD = ("numpy", "scipy.ndimage", "jsonschema", "OpenEXR", "PIL.Image", "PIL.
            "pipeline.usd.textures_io", "pipeline.usd.usdz", "pipeline.web.gltf", "pipeline.render.scene",
            "pipeline.verify.run", "pipeline.verify.verdict", "pipeline.verify.report", "pipeline.commands.verify",
            "pipeline.commands.validate", "pipeline.render.gl")
+#: The warm-up: a small asset built (not verified) into a temporary folder before the server takes commands, so
+#: that its first command finds what only a first build sets up (MaterialX's libraries, the schema's
+#: registration, library versions, colour tables, first calls into numpy and pxr: ~1 s) done, as the next does.
+WARM_UP = ("build", "--no-verify", "--quiet", "--set", "geometry.body_voxel_m=0.008",
+           "--set", "geometry.card_count=200", "--set", "textures.body_resolution=64",
+           "--set", "textures.feather_resolution=32",
+           "--set", "lut.angles=32", "--set", "lut.thicknesses=8")
 _HEADER = struct.Struct("!I")
 _BOOT = ("import json, sys; sys.path[:] = json.loads(sys.argv[1]); from pipeline.cli import run; "
          "from pipeline.server import serve; serve(run, float(sys.argv[2]))")
@@ -514,6 +523,23 @@ class _Server:
         return int(code)
 
 
+def _warm_up(run_command) -> None:
+    """Run :data:`WARM_UP` into a temporary folder (removed after); a failure is logged, not fatal (a command
+    that meets the same failure reports it)."""
+    import tempfile
+
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="rockdove-server-warm-up-") as tmp:
+        try:
+            out, cache = os.path.join(tmp, "pigeon"), os.path.join(tmp, "cache")
+            code = run_command([WARM_UP[0], "--out", out, "--cache", cache, *WARM_UP[1:]])
+        except BaseException as exc:  # noqa: BLE001 - SystemExit from argparse included
+            code = repr(exc)
+    sys.stdout.flush()
+    print(f"rockdove server: warm-up build {'done' if code == 0 else f'failed ({code})'} in "
+          f"{time.perf_counter() - t0:.2f} s", file=sys.stderr, flush=True)
+
+
 def serve(run_command, idle_minutes: float = IDLE_MINUTES) -> None:
     """The server process (:func:`start` runs it detached; ``rockdove server start --foreground`` here): preload,
     listen, run each command with ``run_command(argv) -> exit status`` (:func:`pipeline.cli.run`) until stopped
@@ -532,6 +558,7 @@ def serve(run_command, idle_minutes: float = IDLE_MINUTES) -> None:
 
     worker.set_output(os.dup(2))  # the log, also while a command has the client's stderr on fd 2
     worker.prestart()
+    _warm_up(run_command)
     sock_path = server.paths["socket"]
     if os.path.exists(sock_path):
         if _connect(sock_path, 5.0) is not None:
