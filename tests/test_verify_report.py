@@ -134,3 +134,21 @@ def test_film_charts_drawn_ahead_are_the_report_charts_of_the_same_film_and_lut_
     for inputs in (("lut", other_lut), ("spectra", other_film, thicknesses), ("spectra", film, [480.0, 700.0])):
         assert verdict._take_chart(inputs, lambda *args: "drawn now") == "drawn now"
     verdict._CHARTS.clear()
+
+
+def test_library_versions_are_read_once_and_each_call_gets_its_own_dict(monkeypatch):
+    from importlib import metadata
+
+    from pipeline.verify import provenance
+
+    provenance._library_versions.cache_clear()
+    first = provenance.library_versions()
+    assert first["numpy"] == metadata.version("numpy") and first["PIL"] == metadata.version("pillow")
+    first["numpy"] = "edited by a caller"
+
+    def no_second_read(name):
+        raise AssertionError(f"metadata read again for {name}")
+
+    monkeypatch.setattr(metadata, "version", no_second_read)
+    again = provenance.library_versions()
+    assert again["numpy"] == np.__version__ and again is not first
