@@ -102,40 +102,6 @@ def test_charts_fit_their_labels_in_their_fixed_margins(tmp_path):
     assert a.shape == (300, 600, 3) and white
 
 
-def test_film_charts_drawn_ahead_are_the_report_charts_of_the_same_film_and_lut_taken_once():
-    """The verification draws lut.png and spectra.png while the GL renders run (verdict.prepare_film_charts);
-    the report takes those pixels only for the very film and LUT they were drawn from, once."""
-    from dataclasses import replace
-    from types import SimpleNamespace
-
-    from pipeline.lut.table import ThinFilmLUT
-    from pipeline.verify import verdict
-
-    film = ThinFilmParams(model=get_film("keratin"))
-    lut = ThinFilmLUT(np.random.default_rng(5).uniform(0, 1, (8, 16, 3)).astype(np.float32), (480.0, 700.0), 2.0)
-    scene = SimpleNamespace(film=film, thickness_range_nm=(480.0, 700.0), load_lut=lambda: lut)
-    verdict._CHARTS.clear()
-    verdict.prepare_film_charts(scene, None)  # None: the asset's own LUT (scene.load_lut), as combine takes it
-    assert len(verdict._CHARTS) == 2
-
-    def not_again(*args):
-        raise AssertionError("drawn again")
-
-    thicknesses = verdict._chart_thicknesses(scene)
-    assert thicknesses == [480.0, 590.0, 700.0]
-    np.testing.assert_array_equal(verdict._take_chart(("lut", lut), not_again), report.lut_chart(lut))
-    np.testing.assert_array_equal(verdict._take_chart(("spectra", film, thicknesses), not_again),
-                                  report.spectra_chart(film, thicknesses))
-    assert not verdict._CHARTS  # taken once
-
-    verdict.prepare_film_charts(scene, None)
-    other_film = ThinFilmParams(model=replace(film.model, cauchy_a=1.6))
-    other_lut = ThinFilmLUT(lut.rgb * 0.5, lut.thickness_range_nm, lut.angle_warp_gamma)
-    for inputs in (("lut", other_lut), ("spectra", other_film, thicknesses), ("spectra", film, [480.0, 700.0])):
-        assert verdict._take_chart(inputs, lambda *args: "drawn now") == "drawn now"
-    verdict._CHARTS.clear()
-
-
 def test_library_versions_are_read_once_and_each_call_gets_its_own_dict(monkeypatch):
     from importlib import metadata
 

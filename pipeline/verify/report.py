@@ -48,17 +48,12 @@ def _figure(w_in, h_in, margins_in, rows: int = 1, gap_in: float = 0.0):
     return fig
 
 
-def _drawn(fig) -> np.ndarray:
-    """``fig`` drawn once: its pixels, (H, W, 3) uint8."""
-    fig.canvas.draw()
-    return np.array(np.asarray(fig.canvas.buffer_rgba())[..., :3])
-
-
 def _save_figure(fig, path) -> str:
     """Draw ``fig`` once and write it with :func:`pipeline.render.images.save_png`, the display PNGs' writer."""
     from ..render.images import save_png
 
-    return save_png(_drawn(fig), path)
+    fig.canvas.draw()
+    return save_png(np.asarray(fig.canvas.buffer_rgba())[..., :3], path)
 
 
 def de_colour(de_map, vmax: float = DE_MAP_MAX) -> np.ndarray:
@@ -150,13 +145,6 @@ def contact_sheet(path, rows, columns=SHEET_COLUMNS) -> str:
 
 def lut_png(path, lut) -> str:
     """The LUT as the display shows it, over its real axes (cos theta on x, thickness on y)."""
-    from ..render.images import save_png
-
-    return save_png(lut_chart(lut), path)
-
-
-def lut_chart(lut) -> np.ndarray:
-    """:func:`lut_png`'s pixels, (H, W, 3) uint8."""
     from ..spectral import linear_to_srgb8
 
     img = linear_to_srgb8(lut.rgb)  # row 0 = thinnest
@@ -172,18 +160,11 @@ def lut_chart(lut) -> np.ndarray:
     ax.set_xlabel(f"cos theta (warped axis, gamma = {lut.angle_warp_gamma:g})")
     ax.set_ylabel("film thickness (nm)")
     ax.set_title(f"LUT {lut.n_thickness} x {lut.n_angle}, {lut.colour_space} (display: clipped sRGB)", fontsize=9)
-    return _drawn(fig)
+    return _save_figure(fig, path)
 
 
 def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 0.707, 0.3, 0.05)) -> str:
     """Reflectance spectra of the asset's film (exact Airy, 0.1 nm) for a few thicknesses and angles."""
-    from ..render.images import save_png
-
-    return save_png(spectra_chart(film, thickness_nm, cos_theta), path)
-
-
-def spectra_chart(film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 0.707, 0.3, 0.05)) -> np.ndarray:
-    """:func:`spectra_png`'s pixels, (H, W, 3) uint8."""
     from .. import optics
     from ..lut.reference import reference_wavelengths
 
@@ -203,7 +184,7 @@ def spectra_chart(film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 0.70
         if i == 0:
             ax.legend(fontsize=7, loc="upper right")
     ax.set_xlabel("wavelength (nm)")
-    return _drawn(fig)
+    return _save_figure(fig, path)
 
 
 def hue_png(path, hue: dict, title: str) -> str:

@@ -43,7 +43,7 @@ import numpy as np
 from . import compare, report, worker
 from .boundary import boundary_shape, class_shape
 from .inputs import DEFAULT_SIZE, DEFAULT_VIEWS, check_size, select_views, verification_scene, verification_views
-from .verdict import combine, default_out_dir, prepare_film_charts, start_validation
+from .verdict import combine, default_out_dir, start_validation
 
 
 def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits=None, surfaces=None, refs=None,
@@ -70,7 +70,6 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
     t = time.perf_counter()
     ref_results = render_reference(scene, views, hits=hits, surfaces=surfaces) if refs is None else refs
     t_ref = (time.perf_counter() - t) / len(views)
-    prepare_film_charts(scene, lut)  # the report's, while the worker renders (they do not depend on the renders)
     say("comparing")
     results = {}
     # The images are encoded in a writer thread (zlib runs outside the GIL) while this one compares the next

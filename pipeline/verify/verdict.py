@@ -4,17 +4,13 @@ validation, the hue check over the light sweep, the boundary notes and the hosts
 
 from __future__ import annotations
 
-import hashlib
 import os
-import pickle
 import shutil
 import sys
-import threading
 import time
 
 import numpy as np
 
-from ..render.images import save_png
 from . import compare, provenance, report, worker
 from .boundary import boundary_note
 from .inputs import BOUNDARY_SWEEP_ANGLE_DEG
@@ -83,8 +79,7 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
     if scene.film is not None:
         try:
             lut_used = lut if lut is not None else scene.load_lut()
-            images["lut"] = os.path.basename(save_png(_take_chart(("lut", lut_used), report.lut_chart),
-                                                      os.path.join(out, "lut.png")))
+            images["lut"] = os.path.basename(report.lut_png(os.path.join(out, "lut.png"), lut_used))
             lut_info = {"file": None if lut is not None else scene.film.lut_file,
                         "shape": [lut_used.n_thickness, lut_used.n_angle],
                         "thickness_range_nm": list(lut_used.thickness_range_nm),
@@ -92,8 +87,10 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
                         "metadata": dict(lut_used.metadata), "verification_only": lut is not None}
         except (ValueError, OSError) as exc:
             failures.append(f"LUT {scene.film.lut_file!r} could not be read: {exc}")
-        spectra = _take_chart(("spectra", scene.film, _chart_thicknesses(scene)), report.spectra_chart)
-        images["spectra"] = os.path.basename(save_png(spectra, os.path.join(out, "spectra.png")))
+        lo, hi = scene.thickness_range_nm
+        thicknesses = sorted({lo, 0.5 * (lo + hi), hi})
+        images["spectra"] = os.path.basename(report.spectra_png(os.path.join(out, "spectra.png"), scene.film,
+                                                             thickness_nm=thicknesses))
     images["hue"] = os.path.basename(report.hue_png(os.path.join(out, "hue.png"), hue, "light sweep"))
     host_entries = []
     if hosts is not None:
@@ -148,58 +145,6 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
     report.write_json(os.path.join(out, "report.json"), result)
     report.write_html(os.path.join(out, "report.html"), result, images)
     return result
-
-
-#: Film charts drawn ahead (:func:`prepare_film_charts`), by the digest of what they were drawn from.
-_CHARTS: dict = {}
-_CHARTS_LOCK = threading.Lock()
-
-
-def _chart_thicknesses(scene) -> list:
-    """The film thicknesses (nm) of the report's spectra: the ends and the middle of the scene's range."""
-    lo, hi = scene.thickness_range_nm
-    return sorted({lo, 0.5 * (lo + hi), hi})
-
-
-def _chart_key(inputs: tuple) -> str:
-    """The digest of a chart's kind and everything it is drawn from (pickled: the LUT's table, the film's model)."""
-    return hashlib.sha256(pickle.dumps(inputs, protocol=5)).hexdigest()
-
-
-def prepare_film_charts(scene, lut) -> None:
-    """Draw the report's charts of the film ahead: ``lut.png`` (of ``lut``, or the asset's LUT when None, as
-    :func:`combine` takes it) and ``spectra.png``. They depend on the film alone, not on the renders, so the
-    verification draws them while the worker renders the views (:func:`pipeline.verify.run.render_and_check`),
-    and :func:`combine` takes them instead of drawing them again; pixels drawn from the same inputs by the same
-    code. A chart that cannot be drawn here is left to :func:`combine`, which reports why."""
-    if scene.film is None:
-        return
-    todo = [(("spectra", scene.film, _chart_thicknesses(scene)), report.spectra_chart)]
-    try:
-        todo.append((("lut", lut if lut is not None else scene.load_lut()), report.lut_chart))
-    except (ValueError, OSError):
-        pass
-    for inputs, draw in todo:
-        key = _chart_key(inputs)
-        with _CHARTS_LOCK:
-            if key in _CHARTS:
-                continue
-        try:
-            image = draw(*inputs[1:])
-        except (ValueError, OSError):
-            continue
-        with _CHARTS_LOCK:
-            while len(_CHARTS) >= 4:  # never taken (a verification that stopped before its report): the oldest go
-                _CHARTS.pop(next(iter(_CHARTS)))
-            _CHARTS[key] = image
-
-
-def _take_chart(inputs: tuple, draw):
-    """The chart of ``inputs`` (its kind, then ``draw``'s arguments) drawn ahead by :func:`prepare_film_charts`,
-    else drawn now."""
-    with _CHARTS_LOCK:
-        image = _CHARTS.pop(_chart_key(inputs), None)
-    return image if image is not None else draw(*inputs[1:])
 
 
 #: Validations sent to the worker, by :func:`_asset_state` (taken by :func:`combine`).
