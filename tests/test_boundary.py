@@ -79,3 +79,18 @@ def test_boundary_shape_classifies_rendered_colours():
     assert "sweep_090" in note and "not coherent" in note and "irregular" in note
     with pytest.raises(ValueError, match="rgb_linear"):
         boundary.boundary_shape(rgb[:10], region)
+
+
+def test_class_shape_of_a_comparison_is_the_boundary_shape_of_its_colours():
+    """The verification measures the shape from the classes the comparison made (ViewMetrics.strict and .cls):
+    the same result as classifying the render's colours again."""
+    from pipeline.verify import compare
+
+    green = np.array([0.02, 0.15, 0.04])
+    purple = np.array([0.29, 0.056, 0.24])
+    cls = _two_regions(lambda x: 15 + 40 * ((x - 60) / 60.0) ** 2)
+    rgb = np.where((cls == 1)[..., None], green, purple) * np.random.default_rng(1).uniform(0.5, 1.0, (*cls.shape, 1))
+    part = np.ones(cls.shape, np.int32)
+    m = compare.compare_arrays("sweep_090", rgb, rgb, part, part, [1])
+    assert (m.cls >= 0).sum() > 5000
+    np.testing.assert_equal(boundary.class_shape(m.strict, m.cls), boundary.boundary_shape(rgb, m.cls >= 0))

@@ -153,3 +153,59 @@ def test_bad_shapes_raise_value_error_naming_the_argument():
         compare.comparison_mask(part[None], part, [FEATHER])
     with pytest.raises(ValueError, match="pixels"):
         compare.erode(part > 0, -1)
+
+
+def test_erode_is_the_whole_image_erosion():
+    """erode works inside the mask's bounding box: the same pixels as scipy's erosion of the whole image, masks
+    touching the image border and an empty mask included."""
+    from scipy import ndimage
+
+    rng = np.random.default_rng(3)
+    masks = [rng.uniform(size=(30, 40)) < 0.8, np.zeros((12, 9), bool), np.ones((7, 11), bool)]
+    blob = np.zeros((50, 60), bool)
+    blob[10:31, 22:47] = True
+    blob[25:29, 5:23] = True  # a bar reaching left of the blob
+    masks += [blob, blob & (rng.uniform(size=blob.shape) < 0.95)]
+    for mask in masks:
+        for px in (1, 2, 3):
+            expected = ndimage.binary_erosion(mask, structure=np.ones((3, 3), bool), iterations=px, border_value=0)
+            np.testing.assert_array_equal(compare.erode(mask, px), expected)
+
+
+def test_compare_arrays_gives_the_numbers_of_the_whole_image_formulation():
+    """The comparison converts only the compared pixels; its dE map, black holes, hue histogram and class images
+    are those computed over whole images (non-finite values read as 0, as the statistics do)."""
+    rng = np.random.default_rng(7)
+    h, w = 40, 48
+    ref = rng.uniform(0.0, 0.6, (h, w, 3)).astype(np.float32)
+    gl = (ref * rng.uniform(0.9, 1.1, (h, w, 3))).astype(np.float32)
+    gl[12:15, 10:30] = 0.0  # black holes
+    gl[20, 20] = np.nan
+    gl[21, 22] = np.inf
+    part = np.zeros((h, w), np.int32)
+    part[5:35, 6:44] = FEATHER
+    part[18:22, 30:34] = 1
+    ref_part = part.copy()
+    ref_part[30, 8] = 1  # the renders disagree here
+    n_dot_l = rng.uniform(0.0, 1.0, (h, w))
+    ref_mask = rng.uniform(0.0, 1.0, (h, w))
+    m = compare.compare_arrays("v", gl, ref, part, ref_part, [FEATHER], ref_n_dot_l=n_dot_l, ref_mask=ref_mask)
+
+    mask = compare.comparison_mask(part, ref_part, [FEATHER])
+    safe_gl = np.where(np.isfinite(gl), gl, 0.0).astype(np.float64)
+    de = compare.delta_e_map(safe_gl, ref.astype(np.float64), mask)
+    np.testing.assert_array_equal(m.de_map, de)
+    vals = de[mask]
+    assert (m.n_pixels, m.de_median, m.de_p95, m.de_max) == (vals.size, np.median(vals), np.percentile(vals, 95),
+                                                             vals.max())
+    lit = mask & (n_dot_l >= compare.LIT_N_DOT_L)
+    black = lit & (np.abs(safe_gl).max(axis=2) < compare.BLACK_RADIANCE)
+    assert (m.n_lit, m.n_black) == (lit.sum(), black.sum()) and m.n_black > 10
+    hue_mask = mask & (ref_mask >= compare.STRUCTURAL_MASK)
+    assert m.hue == compare.hue_histogram(safe_gl[hue_mask])
+    for img, sides in ((m.cls, True), (m.strict, False)):
+        expected = np.full((h, w), -1, np.int8)
+        expected[hue_mask] = compare.hue_classes(safe_gl[hue_mask], sides=sides)[2]
+        np.testing.assert_array_equal(img, expected)
+    assert not m.finite and "de_map" not in m.summary() and "strict" not in m.summary()
+    assert m.summary()["hue"] == m.hue and m.summary()["hue"] is not m.hue

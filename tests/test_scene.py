@@ -175,3 +175,26 @@ def test_display_images_use_the_srgb_oetf_of_the_clipped_value_and_linear_averag
     assert px[16 + 5, 2].tolist() == [32, 32, 32] and px[16 + 5, 8].tolist() == [255, 255, 255]
     with pytest.raises(ValueError, match="at least one"):
         contact_sheet(tmp_path / "x.png", [[]])
+
+
+def test_display_pngs_decode_to_their_pixels_rgb_and_rgba_and_depend_on_the_pixels_alone(tmp_path):
+    """save_png writes its own PNG (encode_png: the Up filter, zlib outside the GIL); Pillow reads back every
+    pixel, for RGB and RGBA, sizes down to 1 x 1, and wrapping differences between rows (0 below 255)."""
+    from PIL import Image
+
+    from pipeline.render.images import encode_png, save_png
+
+    rng = np.random.default_rng(11)
+    ramp = np.zeros((4, 3, 3), np.uint8)
+    ramp[1::2] = 255  # rows alternate 0 / 255: every Up difference wraps
+    images = [rng.integers(0, 256, (37, 53, 3), dtype=np.uint8), rng.integers(0, 256, (5, 7, 4), dtype=np.uint8),
+              np.full((1, 1, 3), 200, np.uint8), ramp]
+    for k, img in enumerate(images):
+        path = save_png(img, tmp_path / f"{k}.png")
+        with Image.open(path) as im:
+            assert im.format == "PNG" and im.mode == ("RGBA" if img.shape[2] == 4 else "RGB")
+            np.testing.assert_array_equal(np.asarray(im), img)
+        assert open(path, "rb").read() == encode_png(img.copy())  # the same pixels, the same bytes
+    for bad in (np.zeros((4, 4), np.uint8), np.zeros((4, 4, 2), np.uint8), np.zeros((0, 4, 3), np.uint8)):
+        with pytest.raises(ValueError, match="image must be"):
+            encode_png(bad)

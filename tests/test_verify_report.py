@@ -100,3 +100,21 @@ def test_charts_fit_their_labels_in_their_fixed_margins(tmp_path):
            "purple_band_deg": [280.0, 15.0], "green": 1, "purple": 2, "grey": 3, "other": 4}
     a, white = _white_border(report.hue_png(tmp_path / "h.png", hue, "light sweep"))  # 6-digit tick labels
     assert a.shape == (300, 600, 3) and white
+
+
+def test_library_versions_are_read_once_and_each_call_gets_its_own_dict(monkeypatch):
+    from importlib import metadata
+
+    from pipeline.verify import provenance
+
+    provenance._library_versions.cache_clear()
+    first = provenance.library_versions()
+    assert first["numpy"] == metadata.version("numpy") and first["PIL"] == metadata.version("pillow")
+    first["numpy"] = "edited by a caller"
+
+    def no_second_read(name):
+        raise AssertionError(f"metadata read again for {name}")
+
+    monkeypatch.setattr(metadata, "version", no_second_read)
+    again = provenance.library_versions()
+    assert again["numpy"] == np.__version__ and again is not first

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .compare import boundary_points, hue_classes
+from .compare import boundary_points, lab_hue_classes, rgb_to_lab
 
 #: A class is coherent when its largest connected region holds at least this share of its pixels. Issue 12
 #: asks >= 0.7 of the measured preset; the old per-card uniform draw, which keeps the base-to-top gradient (so
@@ -192,8 +192,16 @@ def boundary_shape(rgb_linear: np.ndarray, region: np.ndarray, reach_px: int = C
     sides = np.full(region.shape, -1, np.int8)
     if region.any():
         px = np.where(np.isfinite(rgb[region]), rgb[region], 0.0)
-        strict[region] = hue_classes(px)[2]
-        sides[region] = hue_classes(px, sides=True)[2]
+        lab = rgb_to_lab(px)
+        strict[region] = lab_hue_classes(lab)[2]
+        sides[region] = lab_hue_classes(lab, sides=True)[2]
+    return class_shape(strict, sides, reach_px)
+
+
+def class_shape(strict: np.ndarray, sides: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> dict:
+    """:func:`boundary_shape` of pixels already classified: ``strict`` the strict hue bands and ``sides`` the hue
+    sides (:func:`pipeline.verify.compare.hue_classes` without and with ``sides=True``) of the same pixels, -1
+    elsewhere; e.g. :class:`pipeline.verify.compare.ViewMetrics`' ``strict`` and ``cls``."""
     coherence = class_coherence(strict, reach_px)
     curvature = boundary_curvature(sides)
     shares = [coherence[k]["largest_share"] for k in ("green", "purple")]

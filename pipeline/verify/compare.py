@@ -30,7 +30,8 @@ Checks
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from copy import deepcopy
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -83,7 +84,21 @@ def erode(mask: np.ndarray, pixels: int) -> np.ndarray:
         raise ValueError(f"pixels must be >= 0, got {pixels}")
     if pixels == 0:
         return mask.copy()
-    return ndimage.binary_erosion(mask, structure=np.ones((3, 3), bool), iterations=pixels, border_value=0)
+    out = np.zeros_like(mask)
+    box = _bounding_box(mask)
+    if box is not None:  # outside the mask's bounding box every pixel is background, as the border is: eroding
+        # the box alone (its border taken as background) is the whole image's erosion, for a fraction of the work
+        out[box] = ndimage.binary_erosion(mask[box], structure=np.ones((3, 3), bool), iterations=pixels,
+                                          border_value=0)
+    return out
+
+
+def _bounding_box(mask: np.ndarray) -> tuple[slice, slice] | None:
+    """The smallest ``(rows, columns)`` slices holding every True pixel of an (H, W) mask; None if it has none."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if rows.size == 0:
+        return None
+    return slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)
 
 
 def comparison_mask(gl_part, ref_part, feather_part_ids, erode_px: int = 1) -> np.ndarray:
@@ -173,7 +188,12 @@ def hue_classes(rgb_linear: np.ndarray, sides: bool = False) -> tuple[np.ndarray
     cls : ndarray, shape (...), int8: 0 grey (C*ab / L* < HUE_MIN_SATURATION or L* < HUE_MIN_LIGHTNESS),
         1 green, 2 purple, 3 other hue
     """
-    lab = rgb_to_lab(rgb_linear)
+    return lab_hue_classes(rgb_to_lab(rgb_linear), sides)
+
+
+def lab_hue_classes(lab: np.ndarray, sides: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`hue_classes` of colours already in CIELAB (:func:`rgb_to_lab`), shape (..., 3)."""
+    lab = np.asarray(lab, np.float64)
     h = np.degrees(np.arctan2(lab[..., 2], lab[..., 1])) % 360.0
     c = np.hypot(lab[..., 1], lab[..., 2])
     if sides:
@@ -198,11 +218,17 @@ def hue_histogram(rgb_pixels: np.ndarray) -> dict:
     dict with ``bin_edges_deg`` (list), ``counts`` (list), ``green``, ``purple``, ``grey``, ``other`` (int)
     """
     rgb_pixels = np.asarray(rgb_pixels, np.float64).reshape(-1, 3)
+    return lab_hue_histogram(rgb_to_lab(rgb_pixels) if len(rgb_pixels) else np.zeros((0, 3)))
+
+
+def lab_hue_histogram(lab_pixels: np.ndarray) -> dict:
+    """:func:`hue_histogram` of pixels already in CIELAB (:func:`rgb_to_lab`), shape (N, 3)."""
+    lab_pixels = np.asarray(lab_pixels, np.float64).reshape(-1, 3)
     edges = np.arange(0.0, 360.0 + HUE_BIN_DEG, HUE_BIN_DEG)
-    if len(rgb_pixels) == 0:
+    if len(lab_pixels) == 0:
         counts, cls = np.zeros(len(edges) - 1, int), np.zeros(0, np.int8)
     else:
-        h, _, cls = hue_classes(rgb_pixels)
+        h, _, cls = lab_hue_classes(lab_pixels)
         counts, _ = np.histogram(h[cls > 0], bins=edges)
     return {
         "bin_edges_deg": edges.tolist(),
@@ -347,6 +373,9 @@ class ViewMetrics:
     cls : ndarray, shape (H, W), int8
         Hue side (:func:`hue_classes` with ``sides=True``) of the GL render's compared structural pixels, -1 elsewhere
         (not serialised); the input of :func:`boundary_straightness`.
+    strict : ndarray, shape (H, W), int8
+        The strict hue bands (:func:`hue_classes`, ``sides=False``) of the same pixels, -1 elsewhere (not
+        serialised); with ``cls`` the input of :func:`pipeline.verify.boundary.class_shape`.
     """
 
     view: str
@@ -365,13 +394,21 @@ class ViewMetrics:
     failures: list = field(default_factory=list)
     de_map: np.ndarray | None = field(default=None, repr=False)
     cls: np.ndarray | None = field(default=None, repr=False)
+    strict: np.ndarray | None = field(default=None, repr=False)
 
     def summary(self) -> dict:
         """JSON-ready dict of every metric (no images)."""
-        d = asdict(self)
-        d.pop("de_map")
-        d.pop("cls")
-        return d
+        return {f.name: _copy(getattr(self, f.name)) for f in fields(self) if f.name not in _IMAGES}
+
+
+#: The fields of :class:`ViewMetrics` that are images (not in its summary).
+_IMAGES = ("de_map", "cls", "strict")
+
+
+def _copy(value):
+    """A field's value as :func:`dataclasses.asdict` gives it (containers copied deeply, so the summary shares no
+    list or dict with the metrics), without copying the images first."""
+    return deepcopy(value) if isinstance(value, (dict, list)) else value
 
 
 def compare_arrays(
@@ -400,27 +437,40 @@ def compare_arrays(
         :data:`STRUCTURAL_MASK` (all compared pixels without it).
     erode_px : int
     """
-    gl_rgb = _as_image("gl_rgb", gl_rgb, 3).astype(np.float64)
-    ref_rgb = _as_image("ref_rgb", ref_rgb, 3).astype(np.float64)
+    from .. import spectral
+
+    # Only the compared pixels are converted, classified and checked (a few per cent of the image); every number
+    # is that of the whole-image formulation: the dE map is NaN elsewhere, and the black-hole and hue pixels are
+    # subsets of the compared ones. Non-finite values count as 0 in the statistics (``finite`` reports them).
+    gl_rgb = _as_image("gl_rgb", gl_rgb, 3)
+    ref_rgb = _as_image("ref_rgb", ref_rgb, 3)
+    if gl_rgb.shape != ref_rgb.shape:
+        raise ValueError(f"gl_rgb {gl_rgb.shape} and ref_rgb {ref_rgb.shape} must have the same shape")
     finite = bool(np.isfinite(gl_rgb).all() and np.isfinite(ref_rgb).all())
     mask = comparison_mask(gl_part, ref_part, feather_part_ids, erode_px)
-    safe_gl = np.where(np.isfinite(gl_rgb), gl_rgb, 0.0)
-    safe_ref = np.where(np.isfinite(ref_rgb), ref_rgb, 0.0)
-    de = delta_e_map(safe_gl, safe_ref, mask)
-    vals = de[mask]
-    n = int(vals.size)
+    gl_px, ref_px = (_finite_or_zero(a[mask]) for a in (gl_rgb, ref_rgb))
+    n = int(gl_px.shape[0])
+    lab_gl = rgb_to_lab(gl_px)
+    de = np.full(mask.shape, np.nan)
+    vals = np.asarray(spectral.delta_E_2000(lab_gl, rgb_to_lab(ref_px)), np.float64) if n else np.zeros(0)
+    de[mask] = vals
     stats = (np.median(vals), np.percentile(vals, 95), vals.max(), vals.mean()) if n else (np.nan,) * 4
     if ref_n_dot_l is not None:
-        lit = mask & (np.asarray(ref_n_dot_l) >= LIT_N_DOT_L)
-        black = lit & (np.abs(safe_gl).max(axis=2) < BLACK_RADIANCE)
-        n_lit, n_black = int(lit.sum()), int(black.sum())
+        lit = np.asarray(ref_n_dot_l)[mask] >= LIT_N_DOT_L
+        n_lit = int(lit.sum())
+        n_black = int(np.sum(np.abs(gl_px[lit]).max(axis=1) < BLACK_RADIANCE))
     else:
         n_lit = n_black = 0
     black_fraction = n_black / n_lit if n_lit else 0.0
-    hue_mask = mask & (np.asarray(ref_mask) >= STRUCTURAL_MASK) if ref_mask is not None else mask
+    structural = np.asarray(ref_mask)[mask] >= STRUCTURAL_MASK if ref_mask is not None else np.ones(n, bool)
+    hue_mask = np.zeros(mask.shape, bool)
+    hue_mask[mask] = structural
+    lab_hue = lab_gl[structural]
     cls_img = np.full(mask.shape, -1, np.int8)
-    if hue_mask.any():
-        cls_img[hue_mask] = hue_classes(safe_gl[hue_mask], sides=True)[2]
+    strict_img = np.full(mask.shape, -1, np.int8)
+    if lab_hue.size:
+        cls_img[hue_mask] = lab_hue_classes(lab_hue, sides=True)[2]
+        strict_img[hue_mask] = lab_hue_classes(lab_hue)[2]
     failures = []
     if not finite:
         failures.append(f"{view}: NaN or Inf in a render")
@@ -435,8 +485,15 @@ def compare_arrays(
         view=view, n_pixels=n, de_median=float(stats[0]), de_p95=float(stats[1]), de_max=float(stats[2]),
         de_mean=float(stats[3]), de_fraction_over_p95_goal=float(np.mean(vals > P95_DE_GOAL)) if n else float("nan"),
         finite=finite, n_lit=n_lit, n_black=n_black, black_fraction=black_fraction,
-        hue=hue_histogram(safe_gl[hue_mask]), passed=not failures, failures=failures, de_map=de, cls=cls_img,
+        hue=lab_hue_histogram(lab_hue), passed=not failures, failures=failures, de_map=de, cls=cls_img,
+        strict=strict_img,
     )
+
+
+def _finite_or_zero(rgb_pixels: np.ndarray) -> np.ndarray:
+    """(N, 3) pixels as float64, NaN and Inf replaced by 0."""
+    a = np.asarray(rgb_pixels, np.float64)
+    return np.where(np.isfinite(a), a, 0.0)
 
 
 def gl_arrays(result) -> dict:

@@ -7,6 +7,7 @@ import hashlib
 import json
 import os
 import platform
+from functools import lru_cache
 
 from ..usd.layout import MARKER
 
@@ -15,7 +16,16 @@ LIBRARIES = ("numpy", "scipy", "colour", "trimesh", "embreex", "pxr", "pyrender"
 
 
 def library_versions() -> dict:
-    """Versions of Python, rockdove and the libraries the verification uses (None when not installed)."""
+    """Versions of Python, rockdove and the libraries the verification uses (None when not installed).
+
+    Read once per process (:func:`_library_versions`: the installed distributions' metadata, ~12 directory scans
+    of ``sys.path``; a process keeps the modules it imported, so later reads could only tell about files it does
+    not run); each call returns a dict of its own."""
+    return dict(_library_versions())
+
+
+@lru_cache(maxsize=1)
+def _library_versions() -> dict:
     from importlib import metadata
 
     from .. import __version__

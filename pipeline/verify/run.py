@@ -41,7 +41,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from . import compare, report, worker
-from .boundary import boundary_shape
+from .boundary import boundary_shape, class_shape
 from .inputs import DEFAULT_SIZE, DEFAULT_VIEWS, check_size, select_views, verification_scene, verification_views
 from .verdict import combine, default_out_dir, start_validation
 
@@ -98,10 +98,14 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
             m = compare.compare(gl_result, ref_results[i], scene) if gl_result is not None else None
             sweep = v.name.startswith("sweep_")
             hue = boundary = None
-            if sweep:
-                cls = m.cls if m is not None else compare.reference_classes(ref_results[i], scene)
-                rgb = np.asarray(compare.gl_arrays(gl_result)["rgb"] if m is not None else ref_results[i].rgb,
-                                 np.float64)
+            if sweep and m is not None:  # the comparison classified the pixels: its classes and histogram
+                # (that of the GL colours themselves when they are finite, which the comparison reads as 0)
+                hue = m.hue if m.finite else compare.hue_histogram(
+                    np.asarray(compare.gl_arrays(gl_result)["rgb"], np.float64)[m.cls >= 0])
+                boundary = {**compare.boundary_straightness(m.cls), **class_shape(m.strict, m.cls)}
+            elif sweep:
+                cls = compare.reference_classes(ref_results[i], scene)
+                rgb = np.asarray(ref_results[i].rgb, np.float64)
                 hue = compare.hue_histogram(rgb[cls >= 0])
                 boundary = {**compare.boundary_straightness(cls), **boundary_shape(rgb, cls >= 0)}
             files, rows = {}, []
