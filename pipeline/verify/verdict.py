@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 import shutil
 import sys
+import threading
 import time
 
 import numpy as np
@@ -149,6 +150,7 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
 
 #: Validations sent to the worker, by :func:`_asset_state` (taken by :func:`combine`).
 _VALIDATIONS: dict = {}
+_VALIDATIONS_LOCK = threading.Lock()  # verifications in several threads of one process (a threaded Dask worker)
 
 
 def _asset_state(layer) -> tuple:
@@ -170,16 +172,19 @@ def start_validation(layer) -> None:
     renders' caller starts it behind them (:func:`pipeline.verify.run.render_and_check`), so that it runs while
     the views are compared, and :func:`combine` takes it; a changed file sends a new one."""
     key = _asset_state(layer)
-    if key not in _VALIDATIONS:
-        if len(_VALIDATIONS) >= 8:  # never taken (a verification that raised): forget the oldest
-            _VALIDATIONS.pop(next(iter(_VALIDATIONS)))
-        _VALIDATIONS[key] = worker.submit("pipeline.verify.worker:validate_timed", layer)
+    with _VALIDATIONS_LOCK:
+        if key not in _VALIDATIONS:
+            if len(_VALIDATIONS) >= 8:  # never taken (a verification that raised): forget the oldest
+                _VALIDATIONS.pop(next(iter(_VALIDATIONS)))
+            _VALIDATIONS[key] = worker.submit("pipeline.verify.worker:validate_timed", layer)
 
 
 def _take_validation(layer) -> "worker.Pending":
     """The validation started for the asset's files as they are now (:func:`start_validation`), else a new one."""
-    return _VALIDATIONS.pop(_asset_state(layer), None) or worker.submit("pipeline.verify.worker:validate_timed",
-                                                                         layer)
+    key = _asset_state(layer)
+    with _VALIDATIONS_LOCK:
+        started = _VALIDATIONS.pop(key, None)
+    return started or worker.submit("pipeline.verify.worker:validate_timed", layer)
 
 
 def _validation(pending, layer) -> tuple[dict, float]:
