@@ -252,9 +252,7 @@ def _wait(s: socket.socket) -> int:
     try:
         while True:
             try:
-                reply = _read_message(s)
-            except InterruptedError:
-                continue
+                reply = _read_message(s)  # a signal's handler runs in here; the read resumes (PEP 475)
             except (OSError, EOFError, ValueError):
                 print("rockdove: the build server stopped during the command (its log: "
                       f"{paths()['log']}); run it again, or with --no-server", file=sys.stderr)
@@ -349,7 +347,6 @@ class _Server:
         self.lock = threading.Lock()
         self.busy = False
         self.stopping = False
-        self.running_pid = None
         self.wake = threading.Condition(self.lock)
         self.job = None
 
