@@ -20,7 +20,8 @@ imported; it uses the standard library only):
   passes its stdin, stdout and stderr (``SCM_RIGHTS``); the server runs :func:`pipeline.cli.run` with them in place
   of its own (``dup2``), so output, ``--json`` and terminal detection are the client's, and sends back the exit
   status, which the client exits with. Ctrl-C (SIGINT, SIGTERM, SIGHUP) in the client, or the client's death,
-  interrupts the command in the server (``KeyboardInterrupt``: exit status 130, as without a server).
+  interrupts the command in the server (SIGUSR1 to its main thread, then ``KeyboardInterrupt``: exit status 130,
+  as without a server; also in a blocking system call).
 - One command at a time: while the server is busy, another client runs its command itself (no queueing, so parallel
   builds stay parallel).
 - Staleness: at each request the server takes :func:`source_stamp` again (the package's files and the ``sys.path``
@@ -78,6 +79,10 @@ _BOOT = ("import json, sys; sys.path[:] = json.loads(sys.argv[1]); from pipeline
 
 class ServerError(RuntimeError):
     """The server could not be started, reached or stopped; the message says why."""
+
+
+class _Stop(BaseException):
+    """Raised in the server's main thread by SIGTERM or SIGINT between commands: it exits."""
 
 
 # -- where a server lives ----------------------------------------------------------------------------------
@@ -347,6 +352,7 @@ class _Server:
         self.lock = threading.Lock()
         self.busy = False
         self.stopping = False
+        self.in_command = False  # the main thread runs a client's command (signals interrupt it)
         self.wake = threading.Condition(self.lock)
         self.job = None
 
@@ -448,25 +454,22 @@ class _Server:
     def _run(self, conn: socket.socket, fds: list[int], request: dict) -> int:
         """Run the request's command with the client's streams, environment, folder and ``sys.argv``: its exit
         status."""
-        import _thread
         import threading
 
         conn.settimeout(None)
         conn.sendall(_frame({"status": "running"}))
-        state = {"running": True}
-        state_lock = threading.Lock()
+        main = threading.main_thread().ident
 
         def watch():
-            """A signal from the client, or its end, interrupts the command."""
+            """A signal from the client, or its end, interrupts the command: SIGUSR1 to the main thread, a real
+            signal, so that a command blocked in a system call (a lock held by another build, a read) wakes too."""
             while True:
                 try:
                     msg = _read_message(conn)
                 except (OSError, EOFError, ValueError):
                     msg = None
-                with state_lock:
-                    if not state["running"]:
-                        return
-                    _thread.interrupt_main()
+                if self.in_command:
+                    signal.pthread_kill(main, signal.SIGUSR1)
                 if msg is None:
                     return
 
@@ -485,7 +488,11 @@ class _Server:
             threading.Thread(target=watch, daemon=True, name="rockdove-client-watch").start()
             os.chdir(request["cwd"])
             sys.argv = list(request.get("sys_argv") or ["rockdove", *request["argv"]])
-            code = self.run_command(list(request["argv"]))
+            self.in_command = True  # from here on SIGUSR1 interrupts (_on_client_interrupt)
+            try:
+                code = self.run_command(list(request["argv"]))
+            finally:
+                self.in_command = False
         except SystemExit as exc:
             code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
             if not isinstance(exc.code, (int, type(None))):
@@ -493,14 +500,14 @@ class _Server:
         except KeyboardInterrupt:
             print("rockdove: interrupted", file=sys.stderr)
             code = 130
+        except _Stop:
+            raise
         except BaseException:  # noqa: BLE001 - the client gets the traceback and status 1, the server lives
             import traceback
 
             traceback.print_exc()
             code = 1
         finally:
-            with state_lock:
-                state["running"] = False
             try:
                 sys.stdout.flush()
                 sys.stderr.flush()
@@ -569,18 +576,26 @@ def serve(run_command, idle_minutes: float = IDLE_MINUTES) -> None:
     listener.listen(16)
     server.last = time.monotonic()  # the idle time counts from here, not from before the preload
 
-    def on_term(signum, frame):
-        server.stopping = True  # seen by the main loop after the command this interrupts, if any
-        raise KeyboardInterrupt
+    def on_stop(signum, frame):
+        """SIGTERM, or Ctrl-C of a foreground server: stop, after interrupting the command that runs, if any."""
+        server.stopping = True  # seen by the main loop after the command
+        raise KeyboardInterrupt if server.in_command else _Stop()
 
-    signal.signal(signal.SIGTERM, on_term)
+    def on_client_interrupt(signum, frame):
+        """SIGUSR1, sent by the thread that watches the client (Ctrl-C there, or its end)."""
+        if server.in_command:  # a late one, after the command, is dropped
+            raise KeyboardInterrupt
+
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, on_stop)
+    signal.signal(signal.SIGUSR1, on_client_interrupt)
     print(f"rockdove server: pid {os.getpid()} serving {sock_path} (key {server.key}), ready in "
           f"{time.perf_counter() - t0:.2f} s", file=sys.stderr, flush=True)
     try:
         threading.Thread(target=server.accept_loop, args=(listener,), daemon=True, name="rockdove-accept").start()
         server.main_loop()
-    except KeyboardInterrupt:
-        pass  # SIGTERM while idle
+    except (KeyboardInterrupt, _Stop):
+        pass  # SIGTERM or SIGINT while idle
     finally:
         try:
             if os.stat(sock_path).st_ino == inode:  # ours, not a newer server's
