@@ -281,10 +281,11 @@ def start(idle_minutes: float = IDLE_MINUTES, wait_s: float = 180.0) -> dict:
     installed now: one on older code is stopped and replaced) and wait until it takes commands: its
     :func:`status`. Raises :class:`ServerError` with the log's last lines if it
     exits first."""
+    import math
     import subprocess
 
-    if idle_minutes <= 0:
-        raise ValueError(f"--idle-minutes must be > 0, got {idle_minutes:g}")
+    if not math.isfinite(idle_minutes) or idle_minutes <= 0:
+        raise ValueError(f"--idle-minutes must be a number > 0, got {idle_minutes:g}")
     running = status()
     if running is not None and not running.get("stale"):
         return {**running, "already": True}

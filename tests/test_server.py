@@ -231,5 +231,8 @@ def test_a_server_folder_others_can_enter_is_refused(tmp_path):
 
 
 def test_bad_idle_minutes_is_a_usage_error(tmp_path):
-    r = cli(_env(tmp_path), "server", "start", "--idle-minutes", "0")
-    assert r.returncode == 2 and "--idle-minutes must be > 0" in r.stderr
+    for bad in ("0", "-1", "nan", "inf"):
+        r = cli(_env(tmp_path), "server", "start", "--idle-minutes", bad)
+        assert r.returncode == 2 and "--idle-minutes must be a number > 0" in r.stderr, (bad, r.stderr)
+    r = cli(_env(tmp_path), "server", "start", "--idle-minutes", "soon")
+    assert r.returncode == 2 and "--idle-minutes" in r.stderr and "Traceback" not in r.stderr

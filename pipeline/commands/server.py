@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 
@@ -26,7 +27,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _describe(info: dict) -> str:
     up = time.time() - info["started"]
-    state = "running a command" if info["busy"] else f"idle {info['idle_s']:.0f} s (exits after {info['idle_limit_s']:.0f} s)"
+    if info["busy"]:
+        state = "running a command"
+    else:
+        state = f"idle {info['idle_s']:.0f} s (exits after {info['idle_limit_s']:.0f} s)"
     if info.get("stale"):
         state += "; runs older code than is installed now (it stops at the next command; `start` replaces it)"
     return (f"pid {info['pid']}, up {up:.0f} s, {info['served']} commands served, {state}, peak memory "
@@ -36,8 +40,8 @@ def _describe(info: dict) -> str:
 def run(args: argparse.Namespace) -> int:
     try:
         if args.action == "start":
-            if args.idle_minutes <= 0:
-                raise ValueError(f"--idle-minutes must be > 0, got {args.idle_minutes:g}")
+            if not math.isfinite(args.idle_minutes) or args.idle_minutes <= 0:
+                raise ValueError(f"--idle-minutes must be a number > 0, got {args.idle_minutes:g}")
             if args.foreground:
                 server.exec_foreground(args.idle_minutes)  # does not return
             info = server.start(args.idle_minutes)
