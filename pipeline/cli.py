@@ -10,8 +10,8 @@ exposes::
 Sub-command modules are imported only when their command runs, so ``rockdove --help`` stays fast and
 needs no display. When a build server runs (``rockdove server start``, :mod:`pipeline.server`), :func:`main`
 hands the :data:`pipeline.server.SERVED` commands to it before importing anything heavy; ``--no-server``
-runs the command here all the same. Errors become one line on stderr: ``ValueError`` (and :class:`UsageError`) exit 2,
-:class:`VerificationFailed` exits 1; tracebacks only with ``ROCKDOVE_DEBUG=1``.
+runs the command here all the same. Errors become one line on stderr: ``ValueError`` (and
+:class:`UsageError`) exit 2, :class:`VerificationFailed` exits 1; tracebacks only with ``ROCKDOVE_DEBUG=1``.
 """
 
 from __future__ import annotations

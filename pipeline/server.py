@@ -136,19 +136,16 @@ def source_stamp() -> str:
     """What the server's code is: a digest of the size and modification time of every file of the package (its
     ``.py`` files and data folders: shaders, schemas, node definitions; not ``node_modules``) and of every
     ``sys.path`` folder (a folder's time changes when a ``pip install`` adds or removes a distribution in it)."""
+    from pathlib import Path
+
     from . import resources
+    from .build.graph import files_of
 
     h = hashlib.sha256()
-    stack = [_package_dir(), *(str(resources.folder(name)) for name in resources.FOLDERS)]
-    while stack:
-        with os.scandir(stack.pop()) as it:
-            for e in sorted(it, key=lambda e: e.name):
-                if e.is_dir(follow_symlinks=False):
-                    if e.name not in ("__pycache__", "node_modules"):
-                        stack.append(e.path)
-                elif not e.name.endswith(".pyc"):
-                    st = e.stat()
-                    h.update(f"{e.path}\0{st.st_size}\0{st.st_mtime_ns}\n".encode())
+    for top in (_package_dir(), *(resources.folder(name) for name in resources.FOLDERS)):
+        for path in files_of(Path(top)):  # without __pycache__ and node_modules, as the stages' keys
+            st = path.stat()
+            h.update(f"{path}\0{st.st_size}\0{st.st_mtime_ns}\n".encode())
     for p in sys.path[1:]:
         try:
             h.update(f"{p}\0{os.stat(p or '.').st_mtime_ns}\n".encode())
@@ -226,8 +223,7 @@ def forward(argv: list[str]) -> int | None:
     if s is None:
         return None
     with s:
-        request = {"op": "run", "argv": argv, "sys_argv": sys.argv, "cwd": os.getcwd(), "env": dict(os.environ),
-                   "pid": os.getpid()}
+        request = {"op": "run", "argv": argv, "sys_argv": sys.argv, "cwd": os.getcwd(), "env": dict(os.environ)}
         try:
             data = _frame(request)
             sent = socket.send_fds(s, [data], [0, 1, 2])
@@ -281,11 +277,9 @@ def start(idle_minutes: float = IDLE_MINUTES, wait_s: float = 180.0) -> dict:
     installed now: one on older code is stopped and replaced) and wait until it takes commands: its
     :func:`status`. Raises :class:`ServerError` with the log's last lines if it
     exits first."""
-    import math
     import subprocess
 
-    if not math.isfinite(idle_minutes) or idle_minutes <= 0:
-        raise ValueError(f"--idle-minutes must be a number > 0, got {idle_minutes:g}")
+    argv = _boot_argv(idle_minutes)
     running = status()
     if running is not None and not running.get("stale"):
         return {**running, "already": True}
@@ -293,8 +287,7 @@ def start(idle_minutes: float = IDLE_MINUTES, wait_s: float = 180.0) -> dict:
         stop()
     p = paths()
     with open(p["log"], "ab") as log:
-        proc = subprocess.Popen([sys.executable, "-c", _BOOT, json.dumps(sys.path), str(idle_minutes)],
-                                stdin=subprocess.DEVNULL, stdout=log, stderr=log, close_fds=True,
+        proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=log, stderr=log, close_fds=True,
                                 start_new_session=True, cwd="/")
     deadline = time.monotonic() + wait_s
     while time.monotonic() < deadline:
@@ -313,7 +306,17 @@ def start(idle_minutes: float = IDLE_MINUTES, wait_s: float = 180.0) -> dict:
 def exec_foreground(idle_minutes: float = IDLE_MINUTES) -> None:
     """Become the server (``exec`` of the same start-up command :func:`start` runs in the background): output on
     this process's stdout and stderr, until stopped, idle or interrupted."""
-    os.execv(sys.executable, [sys.executable, "-c", _BOOT, json.dumps(sys.path), str(idle_minutes)])
+    os.execv(sys.executable, _boot_argv(idle_minutes))
+
+
+def _boot_argv(idle_minutes: float) -> list[str]:
+    """The server's start-up command (:data:`_BOOT` with this process's ``sys.path``); ``ValueError`` unless
+    ``idle_minutes`` is a finite number > 0."""
+    import math
+
+    if not math.isfinite(idle_minutes) or idle_minutes <= 0:
+        raise ValueError(f"--idle-minutes must be a number > 0, got {idle_minutes:g}")
+    return [sys.executable, "-c", _BOOT, json.dumps(sys.path), str(idle_minutes)]
 
 
 def stop(key: str | None = None, wait_s: float = 30.0) -> dict | None:

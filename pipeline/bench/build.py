@@ -83,10 +83,11 @@ def _env(user_cache: Path | None = None, served: Path | None = None) -> dict:
 
 
 @contextlib.contextmanager
-def _server(tmp: Path, user_cache: Path | None = None):
+def _server(tmp: Path, builds: int, user_cache: Path | None = None):
     """A build server (``rockdove server start``) for the environment :func:`_env` gives ``user_cache``, in a
     runtime folder of its own (never the user's server): yields that folder, for :func:`_build_rss`'s
-    ``served``; stopped at the end."""
+    ``served``; stopped at the end. ``RuntimeError`` unless it ran all ``builds`` (a build it did not take ran in
+    its own process: the row would time the wrong thing)."""
     runtime = tmp / f"run-{len(list(tmp.glob('run-*')))}"
     runtime.mkdir(mode=0o700)
     env = _env(user_cache, runtime)
@@ -100,8 +101,8 @@ def _server(tmp: Path, user_cache: Path | None = None):
         served = json.loads(r.stdout).get("served", 0) if r.returncode == 0 else 0
     finally:
         subprocess.run([*cli, "stop"], env=env, capture_output=True, text=True)
-    if served == 0:
-        raise RuntimeError(f"the build server in {runtime} ran none of the benchmark's builds")
+    if served != builds:
+        raise RuntimeError(f"the build server in {runtime} ran {served} of the benchmark's {builds} builds")
 
 
 def _build_rss(workdir: Path, *args: str, cache: str = "cache", allow_fail: bool = False,
@@ -222,7 +223,7 @@ def _film_rows(tmp: Path, preset: list[str], repeats: int, cold_s: float) -> dic
     print(f"  in a warm process (pipeline.commands.build.build called again, as a sweep's Dask worker or a notebook "
           f"does): {warm:.3f} s = {100 * out['warm_process_ratio']:.1f} % of cold, goal <= {100 * FILM_GOAL_RATIO:g} %: "
           f"{'met' if out['warm_process_ratio'] <= FILM_GOAL_RATIO else 'NOT met'}")
-    with _server(tmp) as served:
+    with _server(tmp, 1 + repeats) as served:
         cold_served = _build_rss(tmp, *preset, cache="served", served=served)
         rows = [_build_rss(tmp, *preset, "--set", f"film.cauchy_a={FILM_VALUES[i % len(FILM_VALUES)]}",
                            cache="served", served=served) for i in range(repeats)]
@@ -265,7 +266,7 @@ def _warm_rows(tmp: Path, preset: list[str], repeats: int, cache: str, first_val
     warm), on ``cache``: per timed rebuild ``{"wall_s", "verify_s"}``."""
     common = ["--out", str(tmp / "out" / "pigeon"), "--cache", str(tmp / cache), "--json", "--quiet", *preset]
     values = [first_value + 0.005 * i for i in range(repeats + 1)]  # none of them the last CLI run's value
-    env = None if user_cache is None else {**os.environ, "XDG_CACHE_HOME": str(user_cache)}
+    env = _env(user_cache)
     r = subprocess.run([sys.executable, "-c", _WARM_SCRIPT, json.dumps(common), json.dumps(values),
                         json.dumps(VERIFY_STAGES)], capture_output=True, text=True, check=True, env=env)
     return json.loads(r.stdout)
@@ -339,7 +340,7 @@ def _verify_rows(tmp: Path, preset: list[str], args) -> dict:
           f"{100 * out['warm_process_ratio']:.1f} % of the cold verify, goal <= {100 * VERIFY_GOAL_RATIO:g} %: "
           f"{'met' if out['warm_process_ratio'] <= VERIFY_GOAL_RATIO else 'NOT met'}")
     user = tmp / "user-cache-served"
-    with _server(tmp, user) as served:
+    with _server(tmp, 2 + repeats, user) as served:
         _build_rss(tmp, *preset, *size, cache="verify-served", user_cache=user, served=served)
         cold = _build_rss(tmp, *with_verify, *size, cache="verify-served", allow_fail=True, user_cache=user,
                           served=served)

@@ -252,7 +252,7 @@ def _hash_file(h, path: Path, label: str, seen: dict | None = None, *, remember:
     h.update(b"\0")
 
 
-def _files_of(path: Path, pattern: str = "*", seen: dict | None = None) -> list[Path]:
+def files_of(path: Path, pattern: str = "*", seen: dict | None = None) -> list[Path]:
     """The files under ``path`` (or ``path`` itself) whose names match ``pattern``, sorted; ``seen`` receives the
     (mtime, size) of every folder listed, taken before it is listed."""
     if path.is_dir():
@@ -286,12 +286,12 @@ def module_base(module: str) -> Path:
 
 def module_files(module: str, seen: dict | None = None) -> list[Path]:
     """The ``.py`` files of ``module`` (a package: all of them), found by path without importing it (``seen``: as
-    :func:`_files_of`, and the folder holding the module)."""
+    :func:`files_of`, and the folder holding the module)."""
     base = module_base(module)
     if seen is not None:
         st = os.stat(base.parent)
         seen[str(base.parent)] = (st.st_mtime_ns, st.st_size)
-    files = _files_of(base, "*.py", seen) if base.is_dir() else _files_of(base.with_suffix(".py"))
+    files = files_of(base, "*.py", seen) if base.is_dir() else files_of(base.with_suffix(".py"))
     if not files:
         raise ValueError(f"module {module!r} has no source under {resources.package_root()}; "
                          "the stage cannot be keyed")
@@ -330,7 +330,7 @@ def source_digest(stage: Stage) -> str:
     for p in sorted(files):
         _hash_file(h, p, p.name, seen)
     for d, top in zip(stage.data, tops):
-        data_files = _files_of(top, seen=seen)
+        data_files = files_of(top, seen=seen)
         if not data_files:  # an empty data folder would key the stage on nothing
             raise ValueError(f"stage {stage.name!r} reads data {d!r}, but {top} holds no files; "
                              "the stage cannot be keyed (reinstall rockdove)")
@@ -374,7 +374,7 @@ def stage_key(stage: Stage, config: dict | None, input_digests: Mapping[str, str
 def folder_digest(folder: Path) -> str:
     """sha256 over the relative paths and bytes of every file under ``folder``."""
     h = hashlib.sha256()
-    for p in _files_of(folder):
+    for p in files_of(folder):
         _hash_file(h, p, str(p.relative_to(folder)), remember=False)
     return h.hexdigest()
 
@@ -426,7 +426,7 @@ class Cache:
             meta = {"stage": stage, "key": key, "digest": folder_digest(value_dir),
                     "seconds": time.perf_counter() - t0, **(extra or {})}
             (tmp / "meta.json").write_text(json.dumps(meta, indent=1, sort_keys=True))
-            for p in _files_of(tmp):
+            for p in files_of(tmp):
                 p.chmod(0o444)
             try:
                 os.rename(tmp, self.entry(stage, key))
@@ -652,7 +652,7 @@ class Graph:
                 continue
             src = self.entry_dir(name)
             dst = asset_dir / stage.publish
-            for p in _files_of(src):
+            for p in files_of(src):
                 if p.parent == src and p.name in CODEC_FILES:
                     continue  # the cache's own record of the stage's value, not part of the asset
                 target = dst / p.relative_to(src)

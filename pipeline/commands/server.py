@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 
@@ -40,8 +39,6 @@ def _describe(info: dict) -> str:
 def run(args: argparse.Namespace) -> int:
     try:
         if args.action == "start":
-            if not math.isfinite(args.idle_minutes) or args.idle_minutes <= 0:
-                raise ValueError(f"--idle-minutes must be a number > 0, got {args.idle_minutes:g}")
             if args.foreground:
                 server.exec_foreground(args.idle_minutes)  # does not return
             info = server.start(args.idle_minutes)
