@@ -43,7 +43,7 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	@# An editable install is not byte-compiled (a wheel's is, by pip); with PYTHONDONTWRITEBYTECODE set, every
 	@# rockdove process would compile the package again (~0.2 s). Changed files are recompiled as usual.
-	$(BIN)/python -m compileall -q pipeline
+	$(BIN)/python -m compileall -q pipeline/rockdove
 	@touch $(STAMP)
 
 $(BPY_STAMP):

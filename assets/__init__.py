@@ -1,1 +1,1 @@
-"""Data package: the files in this folder ship inside rockdove (found with pipeline.resources)."""
+"""Data package: the files in this folder ship inside rockdove (found with rockdove.resources)."""

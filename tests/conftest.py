@@ -1,6 +1,6 @@
 """Shared test set-up. Offscreen GL (EGL) is chosen before anything imports OpenGL.
 
-The tests import ``pipeline`` as installed in the venv (``make test`` installs it editable); nothing here puts
+The tests import ``rockdove`` as installed in the venv (``make test`` installs it editable); nothing here puts
 the checkout on ``sys.path``, and command-line tests run the installed ``rockdove`` from a folder outside the
 checkout (:data:`OUTSIDE`), so a file missing from the package fails them.
 """
@@ -33,9 +33,9 @@ SMALL_BUILD = ("geometry.body_voxel_m=0.008", "geometry.card_count=200", "textur
 
 def real_build(out, cache, *sets, preset="measured", verify=False) -> Path:
     """Build an asset with the real build graph, in process, through the function ``rockdove build`` runs
-    (:func:`pipeline.commands.build.build`), with :data:`SMALL_BUILD` and ``sets`` (``KEY=VALUE``) over
+    (:func:`rockdove.commands.build.build`), with :data:`SMALL_BUILD` and ``sets`` (``KEY=VALUE``) over
     ``preset``; ``cache`` is the stage cache (share one to build the body once). Returns the asset folder."""
-    from pipeline.commands.build import build, parse_args
+    from rockdove.commands.build import build, parse_args
 
     argv = ["--out", str(out), "--cache", str(cache), "--preset", preset, "--quiet"]
     for s in (*SMALL_BUILD, *sets):
@@ -51,9 +51,9 @@ def built_value(asset, stage: str, cache=None):
     stage cache (default: the session's, ``<build_root>/cache`` beside ``<build_root>/<name>/pigeon``) by the key
     recorded in the asset's marker: what the generator had in memory, to compare with what a reader gets back
     from the files."""
-    from pipeline.build import stages as S
-    from pipeline.build.graph import Cache
-    from pipeline.config import load_config
+    from rockdove.graph import stages as S
+    from rockdove.graph.engine import Cache
+    from rockdove.config import load_config
 
     asset = Path(asset)
     marker = json.loads((asset / ".rockdove-asset.json").read_text())

@@ -9,7 +9,7 @@
   given (so a test releases it when it is ready, with no race against a clock), else until it is killed.
 
 Production code reads no environment variable or file for any of this: the doubles are patched in here, the
-way a pytest fixture would, before :func:`pipeline.cli.main` runs.
+way a pytest fixture would, before :func:`rockdove.cli.main` runs.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ def _pause(point: str, release: str | None) -> None:
 
 
 def _patch(standin: bool, point: str | None, release: str | None) -> None:
-    from pipeline.build import graph, publish, stages
+    from rockdove.graph import engine as graph, publish, stages
 
     if standin:
         from standins import standin_stages
@@ -79,7 +79,7 @@ def main() -> int:
     ns = parser.parse_args()
     args = ns.args[1:] if ns.args[:1] == ["--"] else ns.args
     _patch(ns.standin, ns.pause_after, ns.release)
-    from pipeline.cli import main as cli_main
+    from rockdove.cli import main as cli_main
 
     return cli_main(args)
 

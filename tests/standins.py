@@ -1,8 +1,8 @@
-"""A small stand-in pipeline with the same shape and rules as the real one (pipeline/build/stages.py).
+"""A small stand-in pipeline with the same shape and rules as the real one (pipeline/rockdove/graph/stages.py).
 
 geometry -> thickness range -> LUT (only for baked shading, one texel high when the film is uniform) -> textures
 -> USD layers -> usdz -> per-view verification, each in well under a millisecond, so the graph framework and
-the ``build`` command are tested fast. Tests pass it to :class:`pipeline.build.graph.Graph` directly, and the
+the ``build`` command are tested fast. Tests pass it to :class:`rockdove.graph.engine.Graph` directly, and the
 CLI tests run the real command with it through ``tests/launcher.py`` (which patches it in: production code
 reads no test hook).
 """
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.build import graph as G
+from rockdove.graph import engine as G
 
 
 def standin_body(ctx):

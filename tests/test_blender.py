@@ -11,9 +11,9 @@ import zipfile
 import numpy as np
 import pytest
 
-from pipeline import resources
-from pipeline.hosts import HostError
-from pipeline.hosts import blender as host
+from rockdove import resources
+from rockdove.hosts import HostError
+from rockdove.hosts import blender as host
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 needs_bpy = pytest.mark.skipif(host.unavailable() is not None, reason=str(host.unavailable()))
@@ -56,7 +56,7 @@ def test_host_declares_the_interface():
 
 
 # -- in Blender ------------------------------------------------------------------------------------------------
-JOB_DIR = os.path.dirname(importlib.util.find_spec("pipeline.hosts.blender_job").origin)
+JOB_DIR = os.path.dirname(importlib.util.find_spec("rockdove.hosts.blender_job").origin)
 INSPECT = r"""
 import json, sys
 sys.path.insert(0, sys.argv.pop())  # the folder of blender_job.py: the Python with bpy need not have rockdove
@@ -106,7 +106,7 @@ def _inspect(tmp_path, asset_path, use_addon=True):
 @needs_bpy
 @pytest.mark.slow
 def test_addon_builds_the_physical_film_material_on_a_plain_usdz_import(tmp_path, asset):
-    from pipeline.films import get_film
+    from rockdove.films import get_film
 
     got = _inspect(tmp_path, asset["usdz"])
     feathers = got["NeckFeathers"]
@@ -147,8 +147,8 @@ def test_a_usd_without_rockdove_data_imports_as_without_the_addon(tmp_path):
 
 @pytest.fixture(scope="module")
 def blender_renders(asset, tmp_path_factory):
-    from pipeline.render.scene import load_scene
-    from pipeline.render.views import default_views
+    from rockdove.render.scene import load_scene
+    from rockdove.render.views import default_views
 
     scene = load_scene(asset["interface"])
     views = default_views(scene, 64, 64, n=2)  # a turntable view and the light sweep's still camera
@@ -161,8 +161,8 @@ def blender_renders(asset, tmp_path_factory):
 def test_blender_host_renders_green_and_purple_feathers_with_the_views_camera(blender_renders):
     from scipy import ndimage
 
-    from pipeline.verify import compare as cmp
-    from pipeline.verify.reference_image import render_reference
+    from rockdove.verify import compare as cmp
+    from rockdove.verify.reference_image import render_reference
 
     scene, views, images, out = blender_renders
     refs = {r.view: r for r in render_reference(scene, views)}  # same camera: same silhouette
@@ -191,11 +191,11 @@ def test_blender_host_renders_green_and_purple_feathers_with_the_views_camera(bl
 def test_blender_host_hues_agree_with_the_exact_view_angle_reference(blender_renders):
     import inspect
 
-    from pipeline.verify import compare as cmp
-    from pipeline.verify.reference_image import render_reference
+    from rockdove.verify import compare as cmp
+    from rockdove.verify.reference_image import render_reference
 
     if "lobe" not in inspect.signature(render_reference).parameters:
-        pytest.skip("pipeline.verify.reference_image has no view_angle lobe in this branch (it comes with issue 9's "
+        pytest.skip("rockdove.verify.reference_image has no view_angle lobe in this branch (it comes with issue 9's "
                     "MaterialX hosts)")
     scene, views, images, _ = blender_renders
     agree, total = 0, 0
@@ -214,7 +214,7 @@ def test_blender_host_hues_agree_with_the_exact_view_angle_reference(blender_ren
 def test_blender_host_raises_host_error_naming_itself_when_the_addon_finds_no_film(tmp_path):
     from pxr import Usd, UsdGeom
 
-    from pipeline.render.views import View
+    from rockdove.render.views import View
 
     path = str(tmp_path / "plain.usda")
     stage = Usd.Stage.CreateNew(path)
@@ -232,8 +232,8 @@ def test_blender_host_raises_host_error_naming_itself_when_the_addon_finds_no_fi
 def test_without_the_addon_blender_still_shows_green_and_purple_feathers(asset, blender_renders, tmp_path):
     """Blender's importer alone draws the UsdPreviewSurface atlas through previewST: each card its thickness's
     colour, so the neck is green and purple, not one flat colour."""
-    from pipeline.verify import compare as cmp
-    from pipeline.verify.reference_image import render_reference
+    from rockdove.verify import compare as cmp
+    from rockdove.verify.reference_image import render_reference
 
     scene, views, _, _ = blender_renders
     images = host.run_blender(asset["usdz"], views, str(tmp_path), addon=False, lobe="as_imported", samples=4)

@@ -1,4 +1,4 @@
-"""pipeline.verify.boundary: coherence of the hue classes and curvature of the green/purple boundary (issue 12).
+"""rockdove.verify.boundary: coherence of the hue classes and curvature of the green/purple boundary (issue 12).
 
 Synthetic class images: a straight boundary, a curved one, and speckle (a mosaic of independently coloured
 'feathers', the pattern of the old per-card uniform thickness draw).
@@ -7,7 +7,7 @@ Synthetic class images: a straight boundary, a curved one, and speckle (a mosaic
 import numpy as np
 import pytest
 
-from pipeline.verify import boundary
+from rockdove.verify import boundary
 
 
 def _two_regions(boundary_row, h=80, w=120):
@@ -84,7 +84,7 @@ def test_boundary_shape_classifies_rendered_colours():
 def test_class_shape_of_a_comparison_is_the_boundary_shape_of_its_colours():
     """The verification measures the shape from the classes the comparison made (ViewMetrics.strict and .cls):
     the same result as classifying the render's colours again."""
-    from pipeline.verify import compare
+    from rockdove.verify import compare
 
     green = np.array([0.02, 0.15, 0.04])
     purple = np.array([0.29, 0.056, 0.24])

@@ -1,7 +1,7 @@
 """The build graph: content keys, the cache, early cut-off, fan-out items, and the incremental rules.
 
 Most tests use the stand-in pipeline of ``tests/standins.py`` (same shape and rules as the real one); the
-tests at the end run the real stages (:func:`pipeline.build.stages.make_stages`) on small configurations.
+tests at the end run the real stages (:func:`rockdove.graph.stages.make_stages`) on small configurations.
 """
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipeline.build import graph as G
-from pipeline.config import load_config
+from rockdove.graph import engine as G
+from rockdove.config import load_config
 from conftest import SMALL_BUILD
 from standins import standin_body, standin_stages  # tests/ is on sys.path under pytest
 
@@ -145,19 +145,19 @@ def test_code_change_invalidates_a_stage(tmp_path, monkeypatch):
     (root / "pkg").mkdir(parents=True)
     (root / "pkg" / "mod.py").write_text("X = 1\n")
     monkeypatch.setattr(G.resources, "package_root", lambda: root)
-    stage = G.Stage("s", lambda ctx: {"ok": 1}, modules=("pipeline.pkg.mod",))
+    stage = G.Stage("s", lambda ctx: {"ok": 1}, modules=("rockdove.pkg.mod",))
     before = G.source_digest(stage)
     (root / "pkg" / "mod.py").write_text("X = 2\n")
     assert G.source_digest(stage) != before
     with pytest.raises(ValueError, match="pkg.nothing"):
-        G.source_digest(G.Stage("s", lambda ctx: 1, modules=("pipeline.pkg.nothing",)))
+        G.source_digest(G.Stage("s", lambda ctx: 1, modules=("rockdove.pkg.nothing",)))
 
 
 def test_source_digest_is_remembered_until_a_file_or_folder_it_read_changes(tmp_path, monkeypatch):
     """A process computes a stage's source digest once per state of its files: the remembered digest is the one a
     fresh process computes, and an edited (same size), added, removed or renamed module file in a sub-package, a
     new data file and a new sibling module of a file module each change it; links to folders are not followed."""
-    from pipeline import resources
+    from rockdove import resources
 
     root = tmp_path / "pipeline"
     (root / "pkg" / "sub").mkdir(parents=True)
@@ -171,7 +171,7 @@ def test_source_digest_is_remembered_until_a_file_or_folder_it_read_changes(tmp_
     os.symlink(tmp_path / "elsewhere", root / "pkg" / "linked")
     monkeypatch.setattr(resources, "package_root", lambda: root)
     monkeypatch.setattr(resources, "folder", lambda name: tmp_path / name)
-    stage = G.Stage("s", lambda ctx: 1, modules=("pipeline.pkg", "pipeline.one"), data=("materials/glsl",))
+    stage = G.Stage("s", lambda ctx: 1, modules=("rockdove.pkg", "rockdove.one"), data=("materials/glsl",))
 
     def fresh():
         monkeypatch.setattr(G, "_SOURCE_MEMO", {})
@@ -184,12 +184,12 @@ def test_source_digest_is_remembered_until_a_file_or_folder_it_read_changes(tmp_
                (lambda: (root / "pkg" / "sub" / "b.py").rename(root / "pkg" / "sub" / "c.py"), None),
                (lambda: (root / "pkg" / "sub" / "c.py").unlink(), 1),  # the files after the first edit again
                (lambda: (tmp_path / "materials" / "glsl" / "y.frag").write_text("\n"), None),
-               (lambda: (root / "one").mkdir(), None)]  # pipeline.one is now a package (with no file yet)
+               (lambda: (root / "one").mkdir(), None)]  # rockdove.one is now a package (with no file yet)
     for change, same_as in changes:
         change()
         remembered = G.source_digest(stage) if same_as is not None or not (root / "one").is_dir() else None
         if remembered is None:  # a package with no .py file cannot be keyed, remembered or not
-            with pytest.raises(ValueError, match="pipeline.one"):
+            with pytest.raises(ValueError, match="rockdove.one"):
                 G.source_digest(stage)
             (root / "one" / "__init__.py").write_text("ONE = 1\n")
             remembered = G.source_digest(stage)
@@ -219,8 +219,8 @@ def test_folder_digest_streams_the_files_a_stage_wrote(tmp_path):
 
 def test_a_stage_whose_data_is_missing_or_empty_cannot_be_keyed(tmp_path, monkeypatch):
     """A stage key never silently hashes nothing: a data folder that is absent or empty is an error naming it."""
-    from pipeline import resources
-    from pipeline.errors import ResourceMissing
+    from rockdove import resources
+    from rockdove.errors import ResourceMissing
 
     (tmp_path / "materials" / "empty").mkdir(parents=True)
     monkeypatch.setattr(resources, "folder", lambda name: tmp_path / name)
@@ -274,7 +274,7 @@ def test_graph_rejects_bad_order_and_duplicates(tmp_path):
 # ------------------------------------------------------------------------------------- real stage wiring
 def _real_stages(cfg, upto=None):
     """The real stages of ``rockdove build --no-verify`` for ``cfg``; with ``upto`` only those up to that stage."""
-    from pipeline.build.stages import make_stages
+    from rockdove.graph.stages import make_stages
 
     stages = make_stages(cfg, verify=False)
     names = [st.name for st in stages]
@@ -287,7 +287,7 @@ def _real_cfg(*overrides):
 
 
 def test_real_usd_stages_build_a_valid_asset_and_rebuild_incrementally(tmp_path):
-    from pipeline.build import stages as S
+    from rockdove.graph import stages as S
 
     cfg = _real_cfg("lut.angles=16", "lut.thicknesses=4", "lut.method=spectral_fast")
     graph = G.Graph(_real_stages(cfg), cfg, G.Cache(tmp_path / "cache"))
@@ -302,7 +302,7 @@ def test_real_usd_stages_build_a_valid_asset_and_rebuild_incrementally(tmp_path)
     lo, hi = graph.value("thickness_range")
     d = graph.value("bird").part("NeckFeathers").primvars["thickness"].values
     assert lo <= d.min() and d.max() <= hi and hi - lo < (d.max() - d.min()) + 2
-    from pipeline.lut.exr import read_exr
+    from rockdove.lut.exr import read_exr
 
     lut = read_exr(asset / "textures" / "thinfilm_lut.exr")
     assert lut.thickness_range_nm == (lo, hi) and lut.rgb.shape == (4, 16, 3)
@@ -325,8 +325,8 @@ def test_real_usd_stages_build_a_valid_asset_and_rebuild_incrementally(tmp_path)
 def test_half_precision_lut_is_a_half_exr_that_validates(tmp_path):
     import OpenEXR
 
-    from pipeline.lut.exr import read_exr
-    from pipeline.usd.validate import validate_asset
+    from rockdove.lut.exr import read_exr
+    from rockdove.usd.validate import validate_asset
 
     cfg = _real_cfg("lut.angles=96", "lut.thicknesses=24", "lut.method=spectral_fast", "lut.precision=half",
                     "usd.usdz=false")
@@ -345,8 +345,8 @@ def test_half_precision_lut_is_a_half_exr_that_validates(tmp_path):
     report = validate_asset(asset)
     assert report.clean, report.format()
     # the recorded error is that of the table as shipped (half values), not of the float32 bake
-    from pipeline.build.stages import LUT_ERROR_POINTS, film_from_config
-    from pipeline.lut.reference import lut_error
+    from rockdove.graph.stages import LUT_ERROR_POINTS, film_from_config
+    from rockdove.lut.reference import lut_error
 
     film = film_from_config(cfg["film"])
     err = lut_error(read_exr(exr), film, n_points=LUT_ERROR_POINTS)
@@ -360,7 +360,7 @@ def test_half_precision_lut_is_a_half_exr_that_validates(tmp_path):
 
 
 def test_build_lut_records_its_measured_error(tmp_path):
-    from pipeline.build.stages import LUT_ERROR_POINTS
+    from rockdove.graph.stages import LUT_ERROR_POINTS
 
     def recorded(*sets):
         cfg = _real_cfg("lut.method=spectral_fast", *sets)
@@ -377,8 +377,8 @@ def test_build_lut_records_its_measured_error(tmp_path):
 
 
 def test_schema_lut_defaults_are_the_bakers():
-    from pipeline.config import defaults
-    B = importlib.import_module("pipeline.lut.bake")  # the package re-exports the function bake
+    from rockdove.config import defaults
+    B = importlib.import_module("rockdove.lut.bake")  # the package re-exports the function bake
 
     lut = defaults()["lut"]
     assert lut["angle_warp_gamma"] == B.DEFAULT_ANGLE_WARP_GAMMA == 1.0

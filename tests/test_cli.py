@@ -222,7 +222,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert (asset / "pigeon.usda").is_file() and (asset / "textures/thinfilm_lut.exr").is_file()
     assert (asset / "pigeon.glb").is_file()
     # the LUT spans the thickness range on the mesh, no more
-    from pipeline.lut.exr import read_exr
+    from rockdove.lut.exr import read_exr
 
     lo, hi = read_exr(asset / "textures/thinfilm_lut.exr").thickness_range_nm
     assert 480 <= lo < 600 and 600 < hi <= 700
@@ -293,9 +293,9 @@ def _verify_record(summary: dict, name: str = "verify") -> dict:
 def test_every_listed_command_has_a_module_with_the_command_interface():
     import importlib
 
-    from pipeline.cli import COMMANDS, build_parser
+    from rockdove.cli import COMMANDS, build_parser
 
     for name in COMMANDS:
-        mod = importlib.import_module(f"pipeline.commands.{name.replace('-', '_')}")
+        mod = importlib.import_module(f"rockdove.commands.{name.replace('-', '_')}")
         assert callable(mod.add_arguments) and callable(mod.run), name
         build_parser(name)  # its arguments are added without error

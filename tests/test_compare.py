@@ -1,10 +1,10 @@
-"""Tests of pipeline.verify.compare: dE2000 maps and statistics, the pixel mask, hue classes and the
+"""Tests of rockdove.verify.compare: dE2000 maps and statistics, the pixel mask, hue classes and the
 green/purple boundary straightness measure."""
 
 import numpy as np
 import pytest
 
-from pipeline.verify import compare
+from rockdove.verify import compare
 
 FEATHER = 2  # part id of the feathers in these synthetic images (0 = background, 1 = body)
 
@@ -44,7 +44,7 @@ def test_known_colour_shift_gives_the_colour_science_delta_e():
     m = compare.compare_arrays("v", shifted, rgb, part, part, [FEATHER])
     mask = np.isfinite(m.de_map)
     expected = colour.delta_E(_lab_oracle(shifted[mask]), _lab_oracle(rgb[mask]), method="CIE 2000")
-    # pipeline.spectral uses the D65 white integrated from the CIE tables, colour-science's sRGB the rounded
+    # rockdove.spectral uses the D65 white integrated from the CIE tables, colour-science's sRGB the rounded
     # chromaticity (0.3127, 0.3290): they agree to ~5e-4 relative
     np.testing.assert_allclose(m.de_map[mask], expected, rtol=2e-3, atol=1e-6)
     assert m.de_median == pytest.approx(np.median(expected), rel=2e-3)

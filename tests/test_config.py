@@ -7,8 +7,8 @@ import json
 import jsonschema
 import pytest
 
-from pipeline import config as C
-from pipeline.errors import UsageError
+from rockdove import config as C
+from rockdove.errors import UsageError
 
 
 def test_schema_is_valid_draft_2020_12_and_documents_every_parameter():

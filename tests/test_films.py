@@ -7,8 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from pipeline import optics
-from pipeline.films import DEFAULT_FILM, FILMS, FilmModel, get_film
+from rockdove import optics
+from rockdove.films import DEFAULT_FILM, FILMS, FilmModel, get_film
 
 
 def test_registry_holds_the_paper_and_keratin_films_and_the_default_is_the_paper():

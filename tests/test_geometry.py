@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 import trimesh
 
-from pipeline.geometry import Bird, BirdParams, MeshPart, build_bird, build_body, build_cards
-from pipeline.geometry import body as body_mod
-from pipeline.geometry import cards as cards_mod
-from pipeline.geometry import checks, neck, sdf, uv
-from pipeline.geometry import params as params_mod
-from pipeline.geometry import thickness as thickness_mod
-from pipeline.geometry.thickness import neck_height, thickness_bounds_nm
+from rockdove.geometry import Bird, BirdParams, MeshPart, build_bird, build_body, build_cards
+from rockdove.geometry import body as body_mod
+from rockdove.geometry import cards as cards_mod
+from rockdove.geometry import checks, neck, sdf, uv
+from rockdove.geometry import params as params_mod
+from rockdove.geometry import thickness as thickness_mod
+from rockdove.geometry.thickness import neck_height, thickness_bounds_nm
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +51,7 @@ def test_bad_parameter_raises_value_error_naming_it(field, value):
 
 @pytest.fixture(scope="module")
 def base_config():
-    from pipeline import config
+    from rockdove import config
 
     return config.load_config(preset="measured")
 
@@ -60,8 +60,8 @@ def _accepted(cfg, field):
     """(schema accepts, BirdParams accepts) the config."""
     import copy
 
-    from pipeline import config
-    from pipeline.errors import UsageError
+    from rockdove import config
+    from rockdove.errors import UsageError
 
     try:
         config.validate(copy.deepcopy(cfg))
@@ -83,7 +83,7 @@ def test_the_schema_and_bird_params_accept_the_same_values_at_both_ends_of_each_
     seed) a config passes the schema exactly when BirdParams accepts it, and a pair [hi, lo] fails both."""
     import copy
 
-    from pipeline.config import limits
+    from rockdove.config import limits
 
     key = params_mod.CONFIG_KEYS[field]
     section, name = key.split(".")
@@ -105,7 +105,7 @@ def test_the_schema_and_bird_params_accept_the_same_values_at_both_ends_of_each_
 
 
 def test_the_seed_goes_up_to_the_largest_toml_integer():
-    from pipeline import config
+    from rockdove import config
 
     assert config.limits("geometry.seed") == (0, 2**63 - 1)
     cfg = config.load_config(preset="measured", overrides=[f"geometry.seed={2**63 - 1}"])
@@ -119,7 +119,7 @@ def test_presets_measured_and_paper():
     assert BirdParams().card_count >= 1000
     # the body detail default is the configuration schema's (one default, not two)
     import json
-    from pipeline import resources
+    from rockdove import resources
 
     schema = json.loads(resources.path("schemas/config.schema.json").read_text())
     assert BirdParams().body_voxel_m == schema["properties"]["geometry"]["properties"]["body_voxel_m"]["default"]
@@ -242,7 +242,7 @@ def test_folded_wings_are_their_own_closed_parts_resting_on_the_torso(body, bird
 def test_bill_is_short_and_stout_with_the_cere_at_its_base(bird):
     """Bill about 1.8 cm (Wikipedia, "Rock dove"): measured on the built bird from where its axis leaves the
     head's surface to its tip; stout (depth at the face >= a quarter of that); the cere on its base third."""
-    from pipeline.geometry import parts
+    from rockdove.geometry import parts
 
     d = np.asarray(parts.BILL_DIRECTION, float)
     d /= np.linalg.norm(d)
@@ -266,7 +266,7 @@ def test_bill_is_short_and_stout_with_the_cere_at_its_base(bird):
 
 def test_iris_is_orange_red_and_feet_red(bird):
     """Iris orange-red, feet purplish-red (Wikipedia, "Rock dove"): CIELAB hue of the parts' colours."""
-    from pipeline.spectral import RGB_to_Lab
+    from rockdove.spectral import RGB_to_Lab
 
     for name, (h_lo, h_hi) in (("Eyes", (35.0, 55.0)), ("Legs", (0.0, 25.0))):
         lab = np.asarray(RGB_to_Lab(np.asarray(bird.part(name).display_color, float)))
@@ -396,7 +396,7 @@ def test_card_uvs_u_across_v_root_to_tip(small_cards):
 
 
 def test_default_cards_hide_at_least_95_percent_of_the_band(body, bird):
-    from pipeline.textures import feather_textures
+    from rockdove.textures import feather_textures
 
     c = build_cards(body, BirdParams())
     v, f = body.mesh.vertices_m, body.mesh.faces
@@ -558,8 +558,8 @@ def test_coarser_bodies_are_closed_too(voxel_m):
 
 # ---- unreferenced points ------------------------------------------------------------------------------
 def test_drop_unreferenced_points_keeps_every_face_and_its_vertex_data():
-    from pipeline.geometry import Primvar
-    from pipeline.geometry.types import drop_unreferenced_points
+    from rockdove.geometry import Primvar
+    from rockdove.geometry.types import drop_unreferenced_points
 
     pts = np.arange(15, dtype=np.float32).reshape(5, 3)  # points 1 and 3 are used by no face
     part = MeshPart("Beak", pts, np.array([3], np.int32), np.array([4, 0, 2], np.int32), pts / 20, pts[:, :2] / 20,
@@ -578,7 +578,7 @@ def test_drop_unreferenced_points_keeps_every_face_and_its_vertex_data():
 
 def test_every_bird_part_written_references_all_its_points(bird):
     """NVIDIA's UnusedMeshTopologyChecker flagged Beak, Cere, Eyes and Legs; what the asset writes has none."""
-    from pipeline.geometry.types import drop_unreferenced_points
+    from rockdove.geometry.types import drop_unreferenced_points
 
     for p in bird.parts:
         out = drop_unreferenced_points(p)
@@ -590,7 +590,7 @@ def test_every_bird_part_written_references_all_its_points(bird):
 def test_point_bounds_are_the_per_coordinate_min_and_max(dtype):
     """point_bounds (the USD extents and glTF accessor bounds) gives exactly numpy's per-column min and max, in the
     points' dtype, for one point, many points, and a strided view."""
-    from pipeline.geometry.types import point_bounds
+    from rockdove.geometry.types import point_bounds
 
     rng = np.random.default_rng(11)
     pts = rng.normal(size=(1001, 3)).astype(dtype)

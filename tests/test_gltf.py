@@ -1,4 +1,4 @@
-"""glTF export (pipeline.web.gltf): pigeon.glb validates with the Khronos glTF-Validator and carries the film."""
+"""glTF export (rockdove.web.gltf): pigeon.glb validates with the Khronos glTF-Validator and carries the film."""
 
 from __future__ import annotations
 
@@ -10,14 +10,14 @@ import pytest
 def built_glb(small_asset, tmp_path_factory):
     """The ``pigeon.glb`` the small real build published (its ``gltf`` stage), and the summary of exporting
     that asset again: (asset dir, glb path, summary)."""
-    from pipeline.web.gltf import export_glb
+    from rockdove.web.gltf import export_glb
 
     summary = export_glb(small_asset, tmp_path_factory.mktemp("gltf") / "pigeon.glb")
     return small_asset, small_asset / "pigeon.glb", summary
 
 
 def test_glb_validates_with_zero_errors(built_glb):
-    from pipeline.web.gltf import validate_glb
+    from rockdove.web.gltf import validate_glb
 
     report = validate_glb(built_glb[1])
     issues = report["issues"]
@@ -31,7 +31,7 @@ def test_validator_reports_a_broken_glb(built_glb, tmp_path):
     """The validator really checks: a GLB whose index accessor points past its vertices has errors."""
     import pygltflib
 
-    from pipeline.web.gltf import validate_glb
+    from rockdove.web.gltf import validate_glb
 
     gltf = pygltflib.GLTF2().load(str(built_glb[1]))
     gltf.accessors[gltf.meshes[0].primitives[0].attributes.POSITION].count = 1
@@ -42,7 +42,7 @@ def test_validator_reports_a_broken_glb(built_glb, tmp_path):
 def test_feather_material_carries_the_film(built_glb):
     import pygltflib
 
-    from pipeline.render.scene import load_scene
+    from rockdove.render.scene import load_scene
 
     asset, glb, summary = built_glb
     scene = load_scene(asset)
@@ -68,7 +68,7 @@ def test_thickness_texture_returns_each_vertex_thickness(built_glb):
     import pygltflib
     from PIL import Image
 
-    from pipeline.render.scene import load_scene
+    from rockdove.render.scene import load_scene
 
     asset, glb, _ = built_glb
     gltf = pygltflib.GLTF2().load(str(glb))
@@ -97,7 +97,7 @@ def test_thickness_texture_returns_each_vertex_thickness(built_glb):
 def test_asset_without_rockdove_data_gets_a_clear_message(tmp_path, capsys):
     from pxr import Usd, UsdGeom
 
-    from pipeline.web.gltf import export_glb
+    from rockdove.web.gltf import export_glb
 
     stage = Usd.Stage.CreateNew(str(tmp_path / "plain.usda"))
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
@@ -111,7 +111,7 @@ def test_asset_without_rockdove_data_gets_a_clear_message(tmp_path, capsys):
         export_glb(tmp_path / "plain.usda", tmp_path / "plain.glb")
     assert not (tmp_path / "plain.glb").exists()
     # the command says it in one line, exit status 2
-    from pipeline.cli import main
+    from rockdove.cli import main
 
     assert main(["gltf", str(tmp_path / "plain.usda"), "--out", str(tmp_path / "plain.glb")]) == 2
     err = capsys.readouterr().err.strip()
@@ -119,7 +119,7 @@ def test_asset_without_rockdove_data_gets_a_clear_message(tmp_path, capsys):
 
 
 def test_gltf_command_exports_and_validates(built_glb, tmp_path, capsys):
-    from pipeline.cli import main
+    from rockdove.cli import main
 
     assert main(["gltf", str(built_glb[0]), "--out", str(tmp_path / "p.glb"), "--validate"]) == 0
     out = capsys.readouterr().out
@@ -131,9 +131,9 @@ def test_an_absorbing_film_exports_the_real_part_of_its_index():
     that would say the imaginary part was dropped by accident."""
     import warnings
 
-    from pipeline.films import FilmModel
-    from pipeline.render.film import ThinFilmParams
-    from pipeline.web.gltf import IOR_WAVELENGTH_NM, film_ior
+    from rockdove.films import FilmModel
+    from rockdove.render.film import ThinFilmParams
+    from rockdove.web.gltf import IOR_WAVELENGTH_NM, film_ior
 
     film = ThinFilmParams(FilmModel("keratin", 1.532, 5890.0, k=0.05))
     with warnings.catch_warnings():

@@ -1,4 +1,4 @@
-"""The hosts (pipeline.hosts): registry, selection with reasons, and ``verify --hosts`` on a small asset with
+"""The hosts (rockdove.hosts): registry, selection with reasons, and ``verify --hosts`` on a small asset with
 MaterialX's generated GLSL (baked and physical networks) against the exact reference of the view_angle lobe."""
 
 import os
@@ -8,14 +8,14 @@ import types
 import numpy as np
 import pytest
 
-from pipeline import hosts
-from pipeline.hosts import HostError
-from pipeline.usd.stage import LOOKS_LAYER
+from rockdove import hosts
+from rockdove.hosts import HostError
+from rockdove.usd.stage import LOOKS_LAYER
 
 
 def test_registry_maps_every_host_to_its_module_and_glsl_always_runs_first():
     assert set(hosts.HOSTS) >= {"glsl", "materialx", "blender", "web"}
-    assert all(m == f"pipeline.hosts.{n}" for n, m in hosts.HOSTS.items())
+    assert all(m == f"rockdove.hosts.{n}" for n, m in hosts.HOSTS.items())
     sel = hosts.select(["materialx"])
     assert [m.NAME for m in sel.available][0] == "glsl"
     for module in sel.available:
@@ -26,14 +26,14 @@ def test_registry_maps_every_host_to_its_module_and_glsl_always_runs_first():
 def test_select_names_unknown_hosts_and_gives_reasons_for_missing_ones(monkeypatch):
     with pytest.raises(ValueError, match="'nope' unknown; allowed: glsl"):
         hosts.select(["glsl", "nope"])
-    monkeypatch.setitem(hosts.HOSTS, "ghost", "pipeline.hosts.no_such_module")
+    monkeypatch.setitem(hosts.HOSTS, "ghost", "rockdove.hosts.no_such_module")
     fake = types.ModuleType("fake_host")
     fake.unavailable = lambda: "bpy is not installed"
     monkeypatch.setitem(sys.modules, "fake_host", fake)
     monkeypatch.setitem(hosts.HOSTS, "fake", "fake_host")
     sel = hosts.select(["ghost", "fake"])
     assert [m.NAME for m in sel.available] == ["glsl"]
-    assert "pipeline.hosts.no_such_module is not part of this installation" in sel.unavailable["ghost"]
+    assert "rockdove.hosts.no_such_module is not part of this installation" in sel.unavailable["ghost"]
     assert sel.unavailable["fake"] == "bpy is not installed"
     err = HostError("blender", "no display")
     assert err.name == "blender" and "blender" in str(err) and "no display" in str(err)
@@ -64,10 +64,10 @@ def test_verify_hosts_reports_each_host_and_a_failing_one_does_not_stop_the_othe
     """MaterialX's own GLSL of the asset's baked network matches the exact view_angle reference (dE goals); the
     physical network (OpenPBR's thin film) shows green and purple; a host that raises HostError is reported by
     name and fails the verification while the others still run; a missing host is skipped with its reason."""
-    from pipeline.verify.run import verify_asset
+    from rockdove.verify.run import verify_asset
 
     _broken_host(monkeypatch)
-    monkeypatch.setitem(hosts.HOSTS, "ghost", "pipeline.hosts.no_such_module")
+    monkeypatch.setitem(hosts.HOSTS, "ghost", "rockdove.hosts.no_such_module")
     report = verify_asset(asset_layer, out_dir=tmp_path / "report", width=96, height=96, views=["sweep_060"],
                           hosts=["materialx", "broken", "materialx_physical", "ghost"])
     by_name = {h["name"]: h for h in report["hosts"]}
@@ -98,11 +98,11 @@ def test_materialx_host_draws_the_written_network_not_a_copy_of_it(asset_layer, 
 
     from pxr import Sdf
 
-    from pipeline.hosts import materialx
-    from pipeline.verify.host_check import host_metrics
-    from pipeline.verify.reference_image import render_reference
-    from pipeline.render.scene import load_scene
-    from pipeline.verify.inputs import verification_views
+    from rockdove.hosts import materialx
+    from rockdove.verify.host_check import host_metrics
+    from rockdove.verify.reference_image import render_reference
+    from rockdove.render.scene import load_scene
+    from rockdove.verify.inputs import verification_views
 
     folder = tmp_path / "broken"
     shutil.copytree(os.path.dirname(asset_layer), folder)
@@ -119,10 +119,10 @@ def test_materialx_host_draws_the_written_network_not_a_copy_of_it(asset_layer, 
 
 @pytest.mark.gl
 def test_glsl_host_renders_the_written_asset_as_the_verifier_does(asset_layer):
-    from pipeline.hosts import glsl
-    from pipeline.render.gl import render_views
-    from pipeline.render.scene import load_scene
-    from pipeline.verify.inputs import verification_views
+    from rockdove.hosts import glsl
+    from rockdove.render.gl import render_views
+    from rockdove.render.scene import load_scene
+    from rockdove.verify.inputs import verification_views
 
     scene = load_scene(asset_layer)
     views = [v for v in verification_views(scene, 32, 32) if v.name == "sweep_090"]

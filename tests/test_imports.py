@@ -1,18 +1,18 @@
-"""The import graph of ``pipeline/``: no cycle, no edge against the data flow, no private name across packages.
+"""The import graph of ``pipeline/rockdove/``: no cycle, no edge against the data flow, no private name across packages.
 
 The graph is read from the source with :mod:`ast` (nothing is imported), with module-level and
 function-level imports, absolute and relative. An edge ``a -> b`` means module ``a`` names module ``b`` in an
 import statement:
 
-- ``import pipeline.x.y`` and ``from pipeline.x.y import name`` give ``a -> pipeline.x.y``;
-- ``from pipeline.x import y`` gives ``a -> pipeline.x.y`` when ``y`` is a submodule (the statement imports
-  that module), else ``a -> pipeline.x`` (the name comes from the package's ``__init__``);
+- ``import rockdove.x.y`` and ``from rockdove.x.y import name`` give ``a -> rockdove.x.y``;
+- ``from rockdove.x import y`` gives ``a -> rockdove.x.y`` when ``y`` is a submodule (the statement imports
+  that module), else ``a -> rockdove.x`` (the name comes from the package's ``__init__``);
 - a package ``__init__`` re-exporting its submodules has edges to them like any other module, so a submodule
   that imports a name from its own package ``__init__`` closes a cycle.
 
 The implicit import of every parent package when a submodule loads is not an edge (it is what makes a package
-at all). The ``pipeline`` package is cut at its first level: ``pipeline.lut.bake`` belongs to package ``lut``,
-``pipeline.films`` to ``films``, ``pipeline/__init__.py`` to ``pipeline``.
+at all). The ``rockdove`` package is cut at its first level: ``rockdove.lut.bake`` belongs to package ``lut``,
+``rockdove.films`` to ``films``, ``pipeline/rockdove/__init__.py`` to ``rockdove``.
 """
 
 from __future__ import annotations
@@ -22,14 +22,14 @@ import collections
 import functools
 from pathlib import Path
 
-import pipeline
+import rockdove
 
-ROOT = Path(pipeline.__file__).resolve().parent
+ROOT = Path(rockdove.__file__).resolve().parent
 
 # The data flow, low to high (docs/design.md, /work/shared/ARCHITECTURE.md): a module may import modules of its
 # own layer or of lower layers only. Packages within one layer may import each other, but only one way.
 LAYERS = [
-    ({"pipeline", "errors", "_compat", "resources", "config"},
+    ({"rockdove", "errors", "_compat", "resources", "config"},
      "foundations: the version, error types, optional-import shims, data-file lookup and the checked config"),
     ({"films", "optics", "spectral"},
      "physics: film model -> Airy reflectance -> spectrum to colour; knows nothing of tables, meshes or USD"),
@@ -47,10 +47,10 @@ LAYERS = [
      "host adapters at the edge: each reads the written asset and renders it in one host"),
     ({"verify"},
      "compares every host's render with the exact reference and writes the report"),
-    ({"build"},
+    ({"graph"},
      "the build graph: runs the stages above into the output folder and publishes atomically"),
     ({"server"},
-     "the build server: runs CLI commands in a warm process (pipeline.cli.run, named in its start-up command)"),
+     "the build server: runs CLI commands in a warm process (rockdove.cli.run, named in its start-up command)"),
     ({"bench", "commands"},
      "benchmarks and one module per CLI command, calling the stages"),
     ({"cli"},
@@ -60,7 +60,7 @@ LAYER_OF = {package: rank for rank, (packages, _reason) in enumerate(LAYERS) for
 
 
 def package_of(module: str) -> str:
-    """``pipeline.lut.bake`` -> ``lut``; ``pipeline`` -> ``pipeline``."""
+    """``rockdove.lut.bake`` -> ``lut``; ``rockdove`` -> ``rockdove``."""
     parts = module.split(".")
     return parts[1] if len(parts) > 1 else parts[0]
 
@@ -71,7 +71,7 @@ def is_private(name: str) -> bool:
 
 @functools.cache
 def modules() -> dict[str, Path]:
-    """Dotted module name -> source file, for every module of the installed ``pipeline`` package."""
+    """Dotted module name -> source file, for every module of the installed ``rockdove`` package."""
     found = {}
     for path in sorted(ROOT.rglob("*.py")):
         rel = path.relative_to(ROOT.parent).with_suffix("")
@@ -91,7 +91,7 @@ def tree(module: str) -> ast.Module:
 
 
 def _from_target(package: str, node: ast.ImportFrom) -> str:
-    """The absolute module a ``from ... import`` statement in ``package`` names (``..films`` -> pipeline.films)."""
+    """The absolute module a ``from ... import`` statement in ``package`` names (``..films`` -> rockdove.films)."""
     if not node.level:
         return node.module or ""
     parts = package.split(".")
@@ -100,7 +100,7 @@ def _from_target(package: str, node: ast.ImportFrom) -> str:
 
 @functools.cache
 def imports() -> tuple[tuple[str, str, int, tuple[str, ...]], ...]:
-    """Every import of a ``pipeline`` module: (importer, imported module, line, names taken from it)."""
+    """Every import of a ``rockdove`` module: (importer, imported module, line, names taken from it)."""
     mods = modules()
     rows = []
     for module, path in mods.items():
@@ -112,7 +112,7 @@ def imports() -> tuple[tuple[str, str, int, tuple[str, ...]], ...]:
                         rows.append((module, alias.name, node.lineno, ()))
             elif isinstance(node, ast.ImportFrom):
                 target = _from_target(package, node)
-                if target != "pipeline" and not target.startswith("pipeline."):
+                if target != "rockdove" and not target.startswith("rockdove."):
                     continue
                 from_package = []
                 for alias in node.names:
@@ -233,10 +233,10 @@ def test_the_graph_sees_the_imports_it_should():
     """Negative control for the parser: known edges of each kind are found (else the tests below pass on an
     empty graph)."""
     graph = edges()
-    assert "pipeline.lut.table" in graph["pipeline.lut.bake"]          # relative, module level
-    assert "pipeline.films" in graph["pipeline.lut.bake"]              # relative to the parent package
-    assert "pipeline.lut.bake" in graph["pipeline.lut"]                # a package __init__ re-exporting
-    assert "pipeline.lut.exr" in graph["pipeline.usd.textures_io"]     # absolute, inside a function
+    assert "rockdove.lut.table" in graph["rockdove.lut.bake"]          # relative, module level
+    assert "rockdove.films" in graph["rockdove.lut.bake"]              # relative to the parent package
+    assert "rockdove.lut.bake" in graph["rockdove.lut"]                # a package __init__ re-exporting
+    assert "rockdove.lut.exr" in graph["rockdove.usd.textures_io"]     # absolute, inside a function
     assert len(modules()) > 60
 
 

@@ -4,11 +4,11 @@
 import numpy as np
 import pytest
 
-from pipeline import optics
-from pipeline.lut import ThinFilmLUT, bake, lut_error, reference_colour, write_preview_png
-from pipeline.lut.bake import BAKE_METHODS, DEFAULT_ANGLES, DEFAULT_THICKNESSES, fourier_supported
-from pipeline.lut import fourier
-from pipeline.lut.reference import REFERENCE_STEP_NM, colour_weights, delta_E, reference_wavelengths
+from rockdove import optics
+from rockdove.lut import ThinFilmLUT, bake, lut_error, reference_colour, write_preview_png
+from rockdove.lut.bake import BAKE_METHODS, DEFAULT_ANGLES, DEFAULT_THICKNESSES, fourier_supported
+from rockdove.lut import fourier
+from rockdove.lut.reference import REFERENCE_STEP_NM, colour_weights, delta_E, reference_wavelengths
 
 GOAL_MAX, GOAL_P99 = 0.5, 0.1  # issue 2: dE2000 at the default LUT size, grazing included
 
@@ -79,7 +79,7 @@ def test_fourier_and_spectral_methods_agree():
 
 
 def test_auto_picks_fourier_only_where_it_is_exact():
-    from pipeline.films import FilmModel, get_film
+    from rockdove.films import FilmModel, get_film
 
     assert fourier_supported(get_film("paper"))
     assert not fourier_supported(get_film("keratin"))
@@ -156,7 +156,7 @@ def test_acescg_table_is_the_same_colour():
     a = bake(angles=16, thicknesses=3)
     b = bake(angles=16, thicknesses=3, colour_space="acescg")
     assert b.colour_space == "acescg"
-    from pipeline.spectral import RGB_to_Lab, delta_E_2000
+    from rockdove.spectral import RGB_to_Lab, delta_E_2000
 
     assert delta_E_2000(RGB_to_Lab(a.rgb, "lin_rec709"), RGB_to_Lab(b.rgb, "acescg")).max() < 1e-3
 
@@ -232,7 +232,7 @@ def test_reference_integration_agrees_with_colour_science_sd_to_XYZ():
     # same Airy spectrum, integrated independently by colour-science (D65 passed explicitly: its default is E)
     import colour
 
-    from pipeline.spectral import XYZ_to_Lab, delta_E_2000
+    from rockdove.spectral import XYZ_to_Lab, delta_E_2000
 
     wl = np.arange(360.0, 781.0, 1.0)
     shape = colour.SpectralShape(360, 780, 1)
@@ -250,7 +250,7 @@ def test_reference_integration_agrees_with_colour_science_sd_to_XYZ():
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_random_films_on_a_substrate_match_the_reference_at_the_nodes(seed):
     # r_bc != -r_ab once the substrate differs from the incident medium: the general Poisson kernel
-    from pipeline.films import FilmModel
+    from rockdove.films import FilmModel
 
     rng = np.random.default_rng(seed)
     film = FilmModel("random", cauchy_a=rng.uniform(1.2, 2.4), n_substrate=rng.uniform(1.0, 2.0))

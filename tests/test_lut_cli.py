@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from pipeline.lut import read_exr
+from rockdove.lut import read_exr
 
 from conftest import OUTSIDE
 
@@ -16,7 +16,7 @@ from conftest import OUTSIDE
 def _rockdove(*args, cwd=None):
     env = dict(os.environ)
     env.pop("ROCKDOVE_DEBUG", None)
-    return subprocess.run([sys.executable, "-m", "pipeline.cli", *args], cwd=cwd or OUTSIDE, env=env,
+    return subprocess.run([sys.executable, "-m", "rockdove.cli", *args], cwd=cwd or OUTSIDE, env=env,
                           capture_output=True, text=True, timeout=120)
 
 

@@ -5,8 +5,8 @@ import os
 import numpy as np
 import pytest
 
-from pipeline.lut import ThinFilmLUT
-from pipeline.lut.exr import read_exr, write_exr
+from rockdove.lut import ThinFilmLUT
+from rockdove.lut.exr import read_exr, write_exr
 
 
 def _lut(n_thickness=6, n_angle=11, rng=(480.0, 700.0)):

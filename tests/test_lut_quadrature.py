@@ -1,14 +1,14 @@
-"""The product-integration baker (``method="quadrature"``, pipeline.lut.quadrature) against the 0.1 nm reference:
+"""The product-integration baker (``method="quadrature"``, rockdove.lut.quadrature) against the 0.1 nm reference:
 dispersive keratin at many texels (grazing and the thickness extremes included), the non-dispersive limit
 against the exact Fourier route, the product weights' exactness for polynomials, and the films it refuses."""
 
 import numpy as np
 import pytest
 
-from pipeline.films import FilmModel
-from pipeline.lut import bake, reference_colour
-from pipeline.lut import quadrature
-from pipeline.lut.reference import colour_weights, delta_E, reference_wavelengths
+from rockdove.films import FilmModel
+from rockdove.lut import bake, reference_colour
+from rockdove.lut import quadrature
+from rockdove.lut.reference import colour_weights, delta_E, reference_wavelengths
 
 
 @pytest.fixture(scope="module")

@@ -4,8 +4,8 @@ faithfully into USD, and its LUT texcoord arithmetic is exactly ThinFilmLUT.texc
 import numpy as np
 import pytest
 
-from pipeline.lut import ThinFilmLUT
-from pipeline.usd.material import (
+from rockdove.lut import ThinFilmLUT
+from rockdove.usd.material import (
     MTLX_MATERIALS,
     author_feather_material,
     load_thinfilm_document,
@@ -160,7 +160,7 @@ def test_lut_texcoords_match_the_table_contract_exactly(shape, rng_nm, gamma):
 def test_lut_texture_is_raw_in_the_working_space_and_tagged_otherwise(doc, space, tag):
     from pxr import UsdShade
 
-    from pipeline.usd.material import MTLX_WORKING_SPACE
+    from rockdove.usd.material import MTLX_WORKING_SPACE
 
     assert doc.getColorSpace() == MTLX_WORKING_SPACE
     lut = ThinFilmLUT(np.zeros((2, 4, 3), np.float32), (500.0, 600.0), colour_space=space)
@@ -176,7 +176,7 @@ def test_authored_usd_network_rebuilt_as_hydra_does_validates_and_generates_glsl
     import MaterialX.PyMaterialXGenShader as mx_gen
     from pxr import UsdShade
 
-    from pipeline.usd.material import usd_to_mtlx_document
+    from rockdove.usd.material import usd_to_mtlx_document
 
     lut = ThinFilmLUT(np.zeros((4, 8, 3), np.float32), (500.0, 700.0), angle_warp_gamma=2.0)
     stage, _ = _stage_with_material(lut)
@@ -206,10 +206,10 @@ def test_standalone_document_carries_the_default_builds_constants(doc):
     (a host that falls back to it, as generated OSL does, shows a colour of the bird, not the thinnest)."""
     import math
 
-    from pipeline.build.stages import bird_params, film_from_config
-    from pipeline.config import load_config
-    from pipeline.geometry import build_bird
-    from pipeline.usd.stage import FILM_IOR_WAVELENGTH_NM
+    from rockdove.graph.stages import bird_params, film_from_config
+    from rockdove.config import load_config
+    from rockdove.geometry import build_bird
+    from rockdove.usd.stage import FILM_IOR_WAVELENGTH_NM
 
     cfg = load_config()
     d = np.asarray(build_bird(bird_params(cfg)).part("NeckFeathers").primvars["thickness"].values, np.float64)

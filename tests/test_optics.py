@@ -1,4 +1,4 @@
-"""Laws of thin-film optics checked on pipeline.optics, and agreement with two independent oracles.
+"""Laws of thin-film optics checked on rockdove.optics, and agreement with two independent oracles.
 
 Oracles and their limits (measured here, see each test):
 - ``tmm.coh_tmm`` (Byrnes): n + ik convention like ours, angle in radians, handles complex indices and TIR.
@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from pipeline import optics
-from pipeline.optics import film_phase, fresnel_r, reflectance, snell_cos, transmittance
+from rockdove import optics
+from rockdove.optics import film_phase, fresnel_r, reflectance, snell_cos, transmittance
 
 TOL = 1e-10
 PROPS = settings(max_examples=150, deadline=None)
@@ -74,7 +74,7 @@ def test_agrees_with_tmm_coh_tmm_including_complex_indices_and_tir():
 
 
 def _airy_longdouble(lam, c, d, na, nb, nc, pol):
-    """Eq. (3) of pipeline.optics in extended precision (x87 80-bit): an oracle near grazing incidence."""
+    """Eq. (3) of rockdove.optics in extended precision (x87 80-bit): an oracle near grazing incidence."""
     L, C = np.longdouble, np.clongdouble
     lam, c, d, na, nb, nc = L(lam), L(c), L(d), L(na), C(nb), C(nc)
 

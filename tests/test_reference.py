@@ -1,16 +1,16 @@
-"""Tests of the CPU reference render (pipeline.verify.reference_image) on tiny hand-made scenes."""
+"""Tests of the CPU reference render (rockdove.verify.reference_image) on tiny hand-made scenes."""
 
 import numpy as np
 import pytest
 from PIL import Image
 
-from pipeline.verify import rays
-from pipeline.verify import reference_image as reference
-from pipeline.films import FilmModel
-from pipeline.lut.reference import reference_colour
-from pipeline.render.film import ThinFilmParams
-from pipeline.render.scene import RenderScene, ScenePart
-from pipeline.render.views import View, look_at
+from rockdove.verify import rays
+from rockdove.verify import reference_image as reference
+from rockdove.films import FilmModel
+from rockdove.lut.reference import reference_colour
+from rockdove.render.film import ThinFilmParams
+from rockdove.render.scene import RenderScene, ScenePart
+from rockdove.render.views import View, look_at
 
 BODY_RGB = np.array([0.2, 0.4, 0.6])
 
@@ -181,7 +181,7 @@ def test_pixels_equal_the_exact_spectral_colour_times_n_dot_l(tmp_path):
     """One opaque feather quad facing the camera, graded thickness: every feather pixel equals the exact
     colour of its own (cos_theta, thickness) (integrated here at 0.1 nm, independently of the reference's
     step choice) times N.L."""
-    from pipeline import optics, spectral
+    from rockdove import optics, spectral
 
     light = np.array([0.6, 0.0, 0.8])
     film = _film(1.532, 5890.0)
@@ -211,7 +211,7 @@ def test_spectral_step_is_exact_against_a_finer_grid(thickness_nm):
     """The cos_theta-dependent wavelength steps err by < 0.01 dE2000 against a much finer integration
     everywhere, grazing included (where the spectrum is a comb of sharp lines), at every thickness the
     configuration allows (thicker films scale the steps down: their fringes are narrower)."""
-    from pipeline import spectral
+    from rockdove import spectral
 
     film = _film(1.532, 5890.0)
     rng = np.random.default_rng(1)
@@ -244,7 +244,7 @@ def test_coarse_steps_integrate_the_cubic_interpolant_against_the_fine_weights()
     """A step coarser than 0.1 nm integrates the spectrum's cubic interpolant against the 0.1 nm weights:
     exact for any cubic spectrum (a perfect reflector stays Y = 1), and the same number as interpolating by
     hand and integrating on the 0.1 nm grid."""
-    from pipeline.lut import reference as lut_reference
+    from rockdove.lut import reference as lut_reference
 
     fine = lut_reference.reference_wavelengths(0.1)
     w_fine = lut_reference.colour_weights(fine, colour_space=None)
@@ -274,7 +274,7 @@ def test_coarse_steps_integrate_the_cubic_interpolant_against_the_fine_weights()
 def test_deduplication_keys_are_far_below_visible():
     """structural_rgb de-duplicates on quantised (cos_theta, d); perturbing inputs within a key changes the
     colour by far less than 0.01 dE2000."""
-    from pipeline import spectral
+    from rockdove import spectral
 
     film = _film(1.532, 5890.0)
     rng = np.random.default_rng(2)
@@ -300,7 +300,7 @@ def test_render_needs_views_and_film(tmp_path):
 
 
 def test_display_transform_is_the_clipped_srgb_oetf():
-    from pipeline.spectral import linear_to_srgb8
+    from rockdove.spectral import linear_to_srgb8
 
     # the sRGB OETF of the clipped value, rounded: checked against the formula, not against itself
     rgb = np.array([[0.0, 1.0, 2.0], [-0.05, 0.3, 0.1]])
@@ -341,8 +341,8 @@ def test_real_film_kernel_is_the_airy_reflectance(film):
     """The reference's real-film kernel (transmission form, float32 or float64) integrates the same spectrum as
     optics.reflectance on the same nodes: to rounding in float64, within 1e-4 of linear colour in float32 at
     cos_theta >= 0.05 and films up to 5000 nm; grazing (R = 1) and bare interfaces (d = 0) included."""
-    from pipeline import optics
-    from pipeline.lut import reference as lut_reference
+    from rockdove import optics
+    from rockdove.lut import reference as lut_reference
 
     rng = np.random.default_rng(3)
     c = np.concatenate([[0.0, 1.0, 0.3], rng.uniform(0.0, 1.0, 60)])
@@ -370,8 +370,8 @@ def test_wavelength_steps_integrate_the_airy_reflectance(film):
     with the band's weights: to rounding for every film, real ones through the float64 kernel included, in each
     band of REFERENCE_STEPS_NM (0.01, 0.05, 0.1 nm), a coarse (product-weight) step, grazing and d = 0 included
     (no film between equal media at grazing: R = 0, not the grazing limit R = 1 of a film)."""
-    from pipeline import optics
-    from pipeline.lut import reference as lut_reference
+    from rockdove import optics
+    from rockdove.lut import reference as lut_reference
 
     rng = np.random.default_rng(5)
     c = np.concatenate([[0.0, 0.0, 1.0, 0.0005, 0.002], rng.uniform(0.003, 1.0, 6)])
@@ -397,7 +397,7 @@ def test_wavelength_steps_integrate_the_airy_reflectance(film):
 def test_wavenumber_interpolant_integrates_polynomials_in_wavenumber_exactly():
     """interpolant_weights: a polynomial of degree < order in 1 / lambda integrates to its 0.1 nm reference
     integral (a perfect reflector has Y = 1), and a smooth fringe spectrum converges fast with the order."""
-    from pipeline.lut import reference as lut_reference
+    from rockdove.lut import reference as lut_reference
 
     fine = lut_reference.reference_wavelengths(0.1)
     w_fine = lut_reference.colour_weights(fine, colour_space=None)
@@ -420,7 +420,7 @@ def test_wavenumber_interpolant_integrates_polynomials_in_wavenumber_exactly():
 def test_interpolation_leaves_what_it_cannot_do_to_the_wavelength_steps():
     """Absorbing films, and points whose grid would exceed NODE_LADDER (a dense film near grazing), take the
     wavelength steps exactly as without ``interpolation``; a film less dense than its substrate runs in float64."""
-    from pipeline.lut import reference as lut_reference
+    from rockdove.lut import reference as lut_reference
 
     steps = reference.IMAGE_STEPS_NM
     interp = reference.IMAGE_INTERPOLATION

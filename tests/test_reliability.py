@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.build import publish as P
+from rockdove.graph import publish as P
 
 LAUNCHER = str(Path(__file__).with_name("launcher.py"))
 BASE = ["build", "--out", "b/pigeon", "--set", "geometry.card_count=40", "--quiet"]

@@ -1,10 +1,10 @@
-"""The pyrender/GLSL renderer (pipeline.render.gl), checked against the shading formula of docs/design.md
+"""The pyrender/GLSL renderer (rockdove.render.gl), checked against the shading formula of docs/design.md
 evaluated on the CPU from the LUT at each pixel's interpolated inputs.
 
 The formula checks need a scene whose geometry is known in closed form (a card facing the camera at a known
 distance, a thickness that runs linearly up each card) and LUTs chosen to expose lookup errors, so this module
-writes a minimal analytic scene with the real authoring functions (pipeline.usd.textures_io.write_base_textures / write_film_textures,
-pipeline.usd.stage.write_layers): a UV-sphere body and a ring of square feather cards. The renderer's agreement
+writes a minimal analytic scene with the real authoring functions (rockdove.usd.textures_io.write_base_textures / write_film_textures,
+rockdove.usd.stage.write_layers): a UV-sphere body and a ring of square feather cards. The renderer's agreement
 with the CPU reference and the ``rockdove render`` command also run on the session's small real build.
 """
 
@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from pipeline.lut import ThinFilmLUT
-from pipeline.render import scene as sc
-from pipeline.render import texture
-from pipeline.render.views import View, default_views, look_at
+from rockdove.lut import ThinFilmLUT
+from rockdove.render import scene as sc
+from rockdove.render import texture
+from rockdove.render.views import View, default_views, look_at
 
 pytestmark = pytest.mark.gl
 
@@ -83,12 +83,12 @@ def _feather_textures(size=64):
 
 def write_analytic_asset(out_dir, lut, n_cards=6) -> str:
     """Write the analytic scene as an asset with the real authoring functions; return its root layer."""
-    from pipeline import __version__
-    from pipeline.films import get_film
-    from pipeline.geometry import Bird, MeshPart, Primvar
-    from pipeline.usd.material import lut_info
-    from pipeline.usd.stage import write_layers
-    from pipeline.usd.textures_io import write_base_textures, write_film_textures
+    from rockdove import __version__
+    from rockdove.films import get_film
+    from rockdove.geometry import Bird, MeshPart, Primvar
+    from rockdove.usd.material import lut_info
+    from rockdove.usd.stage import write_layers
+    from rockdove.usd.textures_io import write_base_textures, write_film_textures
 
     f32, i32 = np.float32, np.int32
     spts, snrm, sst, squads = _uv_sphere(BODY_RADIUS_M, BODY_CENTRE_M)
@@ -136,8 +136,8 @@ def _front_view(distance_m=0.12, yfov_deg=30.0, light=LIGHT):
 
 def _pixel_rays(view):
     """Unit world directions from the eye through each pixel centre, (H, W, 3); row 0 at the top (the CPU
-    reference's pinhole rays, pipeline.verify.rays.camera_rays)."""
-    from pipeline.verify.rays import camera_rays
+    reference's pinhole rays, rockdove.verify.rays.camera_rays)."""
+    from rockdove.verify.rays import camera_rays
 
     return camera_rays(view)[1].reshape(view.height, view.width, 3)
 
@@ -145,7 +145,7 @@ def _pixel_rays(view):
 @pytest.fixture(scope="module")
 def coarse(tmp_path_factory):
     """The analytic asset with the coarse LUT, rendered (front view + the default views) by one renderer."""
-    from pipeline.render.gl import GLRenderer
+    from rockdove.render.gl import GLRenderer
 
     lut = _coarse_lut()
     root = write_analytic_asset(tmp_path_factory.mktemp("coarse"), lut=lut)
@@ -273,7 +273,7 @@ def test_the_lut_texel_mapping_is_not_the_naive_one(coarse):
 
 
 def test_float_lut_upload_is_not_quantised(tmp_path):
-    from pipeline.render.gl import render_views
+    from rockdove.render.gl import render_views
 
     lut = _fine_lut()
     scene = sc.load_scene(write_analytic_asset(tmp_path, lut=lut))
@@ -290,7 +290,7 @@ def test_float_lut_upload_is_not_quantised(tmp_path):
 
 
 def test_materialx_baked_angle_uses_n_dot_v(coarse):
-    from pipeline.render.gl import render_views
+    from rockdove.render.gl import render_views
 
     scene, lut, results, _ = coarse
     view = results["front"].view
@@ -304,8 +304,8 @@ def test_materialx_baked_angle_uses_n_dot_v(coarse):
 
 
 def test_one_renderer_is_reused_across_views(coarse, monkeypatch):
-    from pipeline._compat import import_pyrender
-    from pipeline.render.gl import render_views
+    from rockdove._compat import import_pyrender
+    from rockdove.render.gl import render_views
 
     pyrender = import_pyrender()
     created = []
@@ -330,7 +330,7 @@ def test_render_cli_writes_pngs_and_exit_codes(small_asset, tmp_path, capsys):
     """``rockdove render`` on the small real build."""
     from PIL import Image
 
-    from pipeline.cli import main
+    from rockdove.cli import main
 
     scene = sc.load_scene(small_asset)
     out = tmp_path / "renders"
@@ -349,9 +349,9 @@ def test_render_cli_writes_pngs_and_exit_codes(small_asset, tmp_path, capsys):
 
 
 def test_gl_agrees_with_the_cpu_ray_cast_given_the_same_lut(coarse):
-    """Same scene, views and LUT: pyrender and the CPU reference (pipeline.verify.reference_image, trimesh rays) must
+    """Same scene, views and LUT: pyrender and the CPU reference (rockdove.verify.reference_image, trimesh rays) must
     agree pixel for pixel; catches camera, row-order, texture-origin or normal conventions drifting apart."""
-    from pipeline.verify.reference_image import render_reference
+    from rockdove.verify.reference_image import render_reference
 
     scene, lut, results, _ = coarse
     gl = [results[k] for k in ("front", "turntable_030", "sweep_060", "sweep_120")]
@@ -368,8 +368,8 @@ def test_gl_agrees_with_the_cpu_ray_cast_given_the_same_lut(coarse):
 def test_gl_agrees_with_the_cpu_ray_cast_on_the_real_asset(small_asset):
     """The same agreement on the small real build, with its own LUT: every part (body, wings, beak, eyes, legs,
     bent and lifted feather cards), both renderers' default views."""
-    from pipeline.render.gl import render_views
-    from pipeline.verify.reference_image import render_reference
+    from rockdove.render.gl import render_views
+    from rockdove.verify.reference_image import render_reference
 
     scene = sc.load_scene(small_asset)
     lut = scene.load_lut()

@@ -1,12 +1,12 @@
-"""pipeline.resources: the data folders ship inside the package and are found through importlib.resources."""
+"""rockdove.resources: the data folders ship inside the package and are found through importlib.resources."""
 
 import tomllib
 from pathlib import Path
 
 import pytest
 
-from pipeline import resources
-from pipeline.errors import ResourceMissing
+from rockdove import resources
+from rockdove.errors import ResourceMissing
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -28,6 +28,6 @@ def test_a_missing_resource_names_itself():
 
 def test_pyproject_lists_every_subpackage_so_the_wheel_carries_it():
     listed = set(tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
-    on_disk = {"pipeline." + p.parent.name for p in (REPO / "pipeline").glob("*/__init__.py")} | {"pipeline"}
+    on_disk = {"rockdove." + p.parent.name for p in (REPO / "pipeline" / "rockdove").glob("*/__init__.py")} | {"rockdove"}
     assert on_disk <= listed, f"add to pyproject.toml [tool.setuptools] packages: {sorted(on_disk - listed)}"
-    assert {f"pipeline.{d}" for d in resources.FOLDERS} <= listed
+    assert {f"rockdove.{d}" for d in resources.FOLDERS} <= listed

@@ -1,13 +1,13 @@
-"""Reading a written asset back (pipeline.render.scene) and the views (pipeline.render.views)."""
+"""Reading a written asset back (rockdove.render.scene) and the views (rockdove.render.views)."""
 
 import json
 
 import numpy as np
 import pytest
 
-from pipeline.render import scene as sc
-from pipeline.render import texture, triangulate
-from pipeline.render.views import View, default_views, hero_view, light_sweep_views, look_at, turntable_views
+from rockdove.render import scene as sc
+from rockdove.render import texture, triangulate
+from rockdove.render.views import View, default_views, hero_view, light_sweep_views, look_at, turntable_views
 
 from conftest import built_value, copy_asset
 
@@ -32,7 +32,7 @@ def test_load_scene_reads_every_part_as_the_build_generated_it_in_both_variants(
     """The reader against the real authoring code: each part's world points, triangles, primvars and texture
     paths, and the film and LUT, read back from the files equal what the build generated (its cached bird
     and LUT), whichever shading variant is selected."""
-    from pipeline.geometry.types import drop_unreferenced_points
+    from rockdove.geometry.types import drop_unreferenced_points
 
     bird, lut = built_value(small_asset, "bird"), built_value(small_asset, "lut")
     tex = small_asset / "textures"
@@ -154,8 +154,8 @@ def test_views_are_deterministic_serialisable_and_sweep_the_light_view_angle(ass
 def test_display_images_use_the_srgb_oetf_of_the_clipped_value_and_linear_averaging(tmp_path):
     from PIL import Image
 
-    from pipeline.render.images import box_downsample, contact_sheet
-    from pipeline.spectral import linear_to_srgb8
+    from rockdove.render.images import box_downsample, contact_sheet
+    from rockdove.spectral import linear_to_srgb8
 
     # sRGB OETF (IEC 61966-2-1): 0.5 linear -> 0.7354 -> 188; out-of-range values clip
     assert linear_to_srgb8(np.array([[0.0, 0.5, 1.0], [-0.2, 2.0, 0.0031308]])).tolist() == [[0, 188, 255],
@@ -182,7 +182,7 @@ def test_display_pngs_decode_to_their_pixels_rgb_and_rgba_and_depend_on_the_pixe
     pixel, for RGB and RGBA, sizes down to 1 x 1, and wrapping differences between rows (0 below 255)."""
     from PIL import Image
 
-    from pipeline.render.images import encode_png, save_png
+    from rockdove.render.images import encode_png, save_png
 
     rng = np.random.default_rng(11)
     ramp = np.zeros((4, 3, 3), np.uint8)

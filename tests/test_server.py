@@ -1,4 +1,4 @@
-"""The build server (pipeline/server.py): ``rockdove server start`` runs later commands in a warm process.
+"""The build server (pipeline/rockdove/server.py): ``rockdove server start`` runs later commands in a warm process.
 
 Each test drives the real CLI in fresh interpreters, with one environment for the server and its clients (the
 server serves only the interpreter and environment it was started with) and a runtime folder of its own
@@ -32,12 +32,12 @@ def _env(tmp: Path, **extra) -> dict:
 
 
 def cli(env, *args, timeout=300, **kw):
-    return subprocess.run([sys.executable, "-m", "pipeline.cli", *args], cwd=OUTSIDE, env=env, capture_output=True,
+    return subprocess.run([sys.executable, "-m", "rockdove.cli", *args], cwd=OUTSIDE, env=env, capture_output=True,
                           text=True, timeout=timeout, **kw)
 
 
 def popen(env, *args):
-    return subprocess.Popen([sys.executable, "-m", "pipeline.cli", *args], cwd=OUTSIDE, env=env,
+    return subprocess.Popen([sys.executable, "-m", "rockdove.cli", *args], cwd=OUTSIDE, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
@@ -97,14 +97,14 @@ def test_served_build_is_the_same_as_a_build_here(served, tmp_path):
     env, _, _ = served
     before = status(env)["served"]
     size = ["--set", "verify.width=96", "--set", "verify.height=96"]
-    r = subprocess.run([sys.executable, "-m", "pipeline.cli", "build", "--out", "a/pigeon", "--cache", "cache-a",
+    r = subprocess.run([sys.executable, "-m", "rockdove.cli", "build", "--out", "a/pigeon", "--cache", "cache-a",
                         "--json", "--quiet", *SETS, *size], cwd=tmp_path, env=env, capture_output=True, text=True,
                        timeout=300)
     assert r.returncode == 0, r.stderr
     summary = json.loads(r.stdout)
     assert summary["verified"] is True and (tmp_path / "a" / "pigeon" / "pigeon.usda").is_file()  # the client's cwd
     assert status(env)["served"] == before + 1
-    local = subprocess.run([sys.executable, "-m", "pipeline.cli", "--no-server", "build", "--out", "b/pigeon",
+    local = subprocess.run([sys.executable, "-m", "rockdove.cli", "--no-server", "build", "--out", "b/pigeon",
                             "--cache", "cache-b", "--json", "--quiet", *SETS, *size], cwd=tmp_path, env=env,
                            capture_output=True, text=True, timeout=300)
     assert local.returncode == 0, local.stderr
@@ -130,7 +130,7 @@ def test_bad_input_through_the_server_is_one_line_and_status_2(served, tmp_path)
     for no_server in ([], ["--no-server"]):
         read_end, write_end = os.pipe()
         os.close(read_end)
-        r = subprocess.run([sys.executable, "-m", "pipeline.cli", *no_server, "config", "--verbose"], cwd=OUTSIDE,
+        r = subprocess.run([sys.executable, "-m", "rockdove.cli", *no_server, "config", "--verbose"], cwd=OUTSIDE,
                            env=env, stdout=write_end, stderr=subprocess.PIPE, text=True, timeout=120)
         os.close(write_end)
         assert r.returncode == 141 and "Traceback" not in r.stderr, r.stderr

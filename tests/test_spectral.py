@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline import optics, spectral
-from pipeline.spectral import (
+from rockdove import optics, spectral
+from rockdove.spectral import (
     COLOUR_SPACES,
     RGB_to_Lab,
     RGB_to_preview8,
@@ -170,19 +170,19 @@ def test_spectral_module_imports_colour_lazily():
     import subprocess
     import sys
 
-    code = "import sys, pipeline.spectral, pipeline.optics, pipeline.films; print('colour' in sys.modules)"
+    code = "import sys, rockdove.spectral, rockdove.optics, rockdove.films; print('colour' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          cwd=str(__import__('pathlib').Path(spectral.__file__).parents[1]))
     assert out.stdout.strip() == "False"
 
 
 def test_colour_is_imported_without_matplotlib_and_its_plotting_still_imports_on_request():
-    """pipeline._compat.import_colour keeps colour-science's plotting (matplotlib, pyplot) off the build's path;
+    """rockdove._compat.import_colour keeps colour-science's plotting (matplotlib, pyplot) off the build's path;
     a fresh interpreter, because this one may have colour imported already."""
     import subprocess
     import sys
 
-    code = ("import sys; from pipeline._compat import import_colour; import_colour(); "
+    code = ("import sys; from rockdove._compat import import_colour; import_colour(); "
             "assert 'matplotlib' not in sys.modules, 'matplotlib imported'; "
             "assert 'colour.plotting' not in sys.modules; "
             "import colour.plotting; assert callable(colour.plotting.plot_single_sd); print('ok')")
@@ -192,9 +192,9 @@ def test_colour_is_imported_without_matplotlib_and_its_plotting_still_imports_on
 
 def test_lab_delta_e_2000_and_srgb_formulas_agree_with_colour_science():
     """The numpy CIELAB (CIE 15:2004), CIEDE2000 (Sharma et al. 2005) and sRGB (IEC 61966-2-1) of
-    pipeline.spectral against colour-science's own, over random colours and the formula's edge cases: neutral
+    rockdove.spectral against colour-science's own, over random colours and the formula's edge cases: neutral
     colours (a = b = 0, where h' is defined as 0), hue differences either side of 180 degrees, negative a."""
-    from pipeline._compat import import_colour
+    from rockdove._compat import import_colour
 
     colour = import_colour()
     rng = np.random.default_rng(7)
@@ -225,8 +225,8 @@ def test_colour_data_is_read_from_colour_science_once_and_a_warm_process_never_i
     import subprocess
     import sys
 
-    code = ("import sys, hashlib; from pipeline.lut.bake import bake; from pipeline.lut.reference import lut_error; "
-            "from pipeline.spectral import linear_to_srgb8; "
+    code = ("import sys, hashlib; from rockdove.lut.bake import bake; from rockdove.lut.reference import lut_error; "
+            "from rockdove.spectral import linear_to_srgb8; "
             "lut = bake(angles=32, thicknesses=8, thickness_range=(500.0, 700.0), film='keratin'); "
             "err = lut_error(lut, 'keratin', n_points=50); "
             "h = hashlib.sha256(lut.rgb.tobytes() + linear_to_srgb8(lut.rgb).tobytes()).hexdigest(); "
@@ -253,7 +253,7 @@ def test_colour_data_is_read_from_colour_science_once_and_a_warm_process_never_i
 
 
 def test_cached_tables_are_colour_sciences_tables():
-    from pipeline._compat import import_colour
+    from rockdove._compat import import_colour
 
     colour = import_colour()
     cw, cv, sw, sv = spectral._tables("D65", spectral.DEFAULT_OBSERVER)

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.commands import sweep as S
-from pipeline.errors import UsageError
+from rockdove.commands import sweep as S
+from rockdove.errors import UsageError
 
 BIN = Path(sys.executable).parent
 CHEAP = ["geometry.body_voxel_m=0.01", "geometry.card_count=60", "textures.feather_resolution=32",
@@ -30,7 +30,7 @@ CHEAP_ARGS = [a for s in CHEAP for a in ("--set", s)]
 def rockdove(*args, cwd, timeout=300):
     env = {**os.environ, "PYOPENGL_PLATFORM": "egl"}
     env.pop("ROCKDOVE_DEBUG", None)
-    return subprocess.run([sys.executable, "-m", "pipeline.cli", *args], cwd=cwd, env=env, capture_output=True,
+    return subprocess.run([sys.executable, "-m", "rockdove.cli", *args], cwd=cwd, env=env, capture_output=True,
                           text=True, timeout=timeout)
 
 
@@ -158,7 +158,7 @@ def test_worker_killed_mid_point_is_retried_on_another_worker(dask_cluster, tmp_
     other worker and the sweep completes; the killed build left no half-written asset."""
     from distributed import Client
 
-    proc = subprocess.Popen([sys.executable, "-m", "pipeline.cli", "sweep", "--out", "s", "--scheduler",
+    proc = subprocess.Popen([sys.executable, "-m", "rockdove.cli", "sweep", "--out", "s", "--scheduler",
                              dask_cluster["address"], "--no-verify", "--grid", "geometry.seed=[1]", *CHEAP_ARGS,
                              "--cache", "cache"],
                             cwd=tmp_path, stdout=subprocess.PIPE,

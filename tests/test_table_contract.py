@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from pipeline.lut import ThinFilmLUT
+from rockdove.lut import ThinFilmLUT
 
 
 def _gradient_lut(n_thickness=5, n_angle=9, gamma=2.0, rng=(480.0, 700.0)):

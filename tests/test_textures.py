@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from pipeline import textures
-from pipeline.geometry import BirdParams, build_body
-from pipeline.geometry import sdf
+from rockdove import textures
+from rockdove.geometry import BirdParams, build_body
+from rockdove.geometry import sdf
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +88,7 @@ def test_body_texture_matches_the_3d_colour_at_the_vertices(coarse_body):
 
 
 def test_body_texture_accepts_params_bird_or_part_and_is_deterministic(coarse_body):
-    from pipeline.geometry import Bird
+    from rockdove.geometry import Bird
 
     p = BirdParams(body_texture_resolution=64)
     a = textures.body_base_colour(p, Bird((coarse_body.part,)))

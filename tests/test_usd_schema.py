@@ -9,8 +9,8 @@ import sys
 import pytest
 
 from conftest import OUTSIDE
-from pipeline import resources
-from pipeline.usd.schema import ATTRIBUTE_TYPES, SCHEMA_NAME, apply_thin_film, read_thin_film, register
+from rockdove import resources
+from rockdove.usd.schema import ATTRIBUTE_TYPES, SCHEMA_NAME, apply_thin_film, read_thin_film, register
 
 DESIGN_ATTRS = {  # docs/design.md, "USD asset"
     "rockdove:film:model": "token", "rockdove:film:cauchyA": "float", "rockdove:film:cauchyB_nm2": "float",
@@ -78,7 +78,7 @@ def _python(code):
 def test_registry_definition_matches_generated_schema():
     # a fresh interpreter: USD builds its schema registry once per process, at the first stage opened
     names = _python(
-        "from pipeline.usd.schema import register, SCHEMA_NAME\n"
+        "from rockdove.usd.schema import register, SCHEMA_NAME\n"
         "assert register()\n"
         "from pxr import Usd\n"
         "d = Usd.SchemaRegistry().FindAppliedAPIPrimDefinition(SCHEMA_NAME)\n"
@@ -97,7 +97,7 @@ def test_applied_schema_is_written_the_same_whether_or_not_usd_registered_it():
         "import sys\n"
         "from pxr import Usd\n"
         "{first}"
-        "from pipeline.usd.schema import apply_thin_film, read_thin_film, register\n"
+        "from rockdove.usd.schema import apply_thin_film, read_thin_film, register\n"
         "known = register()\n"
         "stage = Usd.Stage.CreateInMemory()\n"
         "mesh = stage.DefinePrim('/M', 'Mesh')\n"
@@ -139,7 +139,7 @@ def test_apply_and_read_round_trip_and_refusals():
 def test_every_film_value_is_also_a_custom_user_property_that_survives_schema_dropping_tools():
     from pxr import Usd
 
-    from pipeline.usd.schema import ATTRIBUTE_TYPES, USER_PROPERTIES_PREFIX, apply_thin_film, register
+    from rockdove.usd.schema import ATTRIBUTE_TYPES, USER_PROPERTIES_PREFIX, apply_thin_film, register
 
     register()
     stage = Usd.Stage.CreateInMemory()

@@ -8,8 +8,8 @@ import os
 import numpy as np
 import pytest
 
-from pipeline.films import get_film
-from pipeline.geometry.types import drop_unreferenced_points
+from rockdove.films import get_film
+from rockdove.geometry.types import drop_unreferenced_points
 
 from conftest import SMALL_BUILD, built_value, real_build
 
@@ -42,7 +42,7 @@ def bird(small_asset):
 
 @pytest.fixture(scope="module")
 def stage(asset):
-    from pipeline.usd.stage import open_asset
+    from rockdove.usd.stage import open_asset
 
     return open_asset(asset["interface"])
 
@@ -99,7 +99,7 @@ def test_author_mesh_writes_only_points_that_a_face_uses(bird):
 
     from pxr import Usd, UsdGeom
 
-    from pipeline.usd.stage import author_mesh
+    from rockdove.usd.stage import author_mesh
 
     part = drop_unreferenced_points(bird.part("Beak"))
     extra = dataclasses.replace(part, points_m=np.vstack([part.points_m, [[9.0, 9.0, 9.0]]]).astype(np.float32),
@@ -123,8 +123,8 @@ def test_thickness_primvar_is_documented_float_vertex_nm(stage, bird):
 
 
 def test_schema_records_the_film_and_lut(stage, asset):
-    from pipeline.lut.exr import read_exr
-    from pipeline.usd.schema import read_thin_film
+    from rockdove.lut.exr import read_exr
+    from rockdove.usd.schema import read_thin_film
 
     film = read_thin_film(stage.GetPrimAtPath("/Pigeon/Geom/NeckFeathers"))
     keratin = get_film("keratin")
@@ -183,7 +183,7 @@ def test_feather_texture_shaders_named_for_the_renderer(stage):
 def test_shading_variants_switch_the_mtlx_network(asset):
     from pxr import UsdShade
 
-    from pipeline.usd.stage import open_asset
+    from rockdove.usd.stage import open_asset
 
     def surface(variant):
         st = open_asset(asset["interface"], shading=variant)
@@ -217,7 +217,7 @@ def _mesh_thickness_range(stage) -> tuple:
 
 def _preview_tiles(preview, thickness_range_nm):
     """The atlas tiles of feather_preview.png, thinnest first (bottom row first), and their thickness, nm."""
-    from pipeline.usd.textures_io import PREVIEW_TILE_TEXELS, preview_atlas_shape, preview_tile_thickness_nm
+    from rockdove.usd.textures_io import PREVIEW_TILE_TEXELS, preview_atlas_shape, preview_tile_thickness_nm
 
     d = preview_tile_thickness_nm(thickness_range_nm)
     cols, rows = preview_atlas_shape(d.size)
@@ -238,8 +238,8 @@ def test_preview_atlas_mixes_base_and_the_structural_colour_of_each_thickness_by
     import colour
     from PIL import Image
 
-    from pipeline.lut.exr import read_exr
-    from pipeline.usd.textures_io import PREVIEW_COS_THETA, PREVIEW_TILE_TEXELS
+    from rockdove.lut.exr import read_exr
+    from rockdove.usd.textures_io import PREVIEW_COS_THETA, PREVIEW_TILE_TEXELS
 
     lut = read_exr(asset["lut"])
     t = PREVIEW_TILE_TEXELS
@@ -264,7 +264,7 @@ def test_write_png_is_lossless_and_byte_deterministic(tmp_path):
 
     from PIL import Image
 
-    from pipeline.usd.textures_io import write_png
+    from rockdove.usd.textures_io import write_png
 
     rng = np.random.default_rng(7)
     smooth = np.linspace(0, 255, 96 * 64).reshape(96, 64).astype(np.uint8)
@@ -290,8 +290,8 @@ def test_preview_atlas_is_the_texel_by_texel_mix_of_each_tile_resized(side):
     random texels (every one distinct), colours out of [0, 1] included, up- and down-sized tiles."""
     from PIL import Image
 
-    from pipeline.spectral import srgb_decode, srgb_encode
-    from pipeline.usd.textures_io import PREVIEW_TILE_TEXELS, feather_preview_atlas, preview_atlas_shape
+    from rockdove.spectral import srgb_decode, srgb_encode
+    from rockdove.usd.textures_io import PREVIEW_TILE_TEXELS, feather_preview_atlas, preview_atlas_shape
 
     rng = np.random.default_rng(side)
     base = rng.integers(0, 256, (side, side, 4), dtype=np.uint8)
@@ -314,8 +314,8 @@ def test_preview_atlas_is_the_texel_by_texel_mix_of_each_tile_resized(side):
 def test_each_card_reads_the_preview_tile_of_its_own_thickness(stage, asset):
     from pxr import UsdGeom
 
-    from pipeline.lut.exr import read_exr
-    from pipeline.usd.textures_io import PREVIEW_COLUMNS, PREVIEW_TILE_TEXELS
+    from rockdove.lut.exr import read_exr
+    from rockdove.usd.textures_io import PREVIEW_COLUMNS, PREVIEW_TILE_TEXELS
 
     lut = read_exr(asset["lut"])
     api = UsdGeom.PrimvarsAPI(stage.GetPrimAtPath("/Pigeon/Geom/NeckFeathers"))
@@ -323,7 +323,7 @@ def test_each_card_reads_the_preview_tile_of_its_own_thickness(stage, asset):
     st = np.asarray(api.GetPrimvar("st").Get())
     d = np.asarray(api.GetPrimvar("thickness").Get(), np.float64)
     assert api.GetPrimvar("previewST").GetInterpolation() == "vertex" and pst.shape == st.shape
-    from pipeline.usd.textures_io import preview_tile_thickness_nm
+    from rockdove.usd.textures_io import preview_tile_thickness_nm
 
     tiles = preview_tile_thickness_nm((d.min(), d.max()))  # the mesh's range, not the LUT's (rounded out to nm)
     assert tuple(lut.thickness_range_nm) != (d.min(), d.max())
@@ -373,8 +373,8 @@ def test_film_change_rewrites_the_looks_and_leaves_the_geometry_layer_bytes(asse
 def test_usdz_reopens_and_holds_every_texture(asset):
     from pxr import Sdf, Usd
 
-    from pipeline.usd.usdz import usdz_contents
-    from pipeline.usd.validate import read_texture_asset
+    from rockdove.usd.usdz import usdz_contents
+    from rockdove.usd.validate import read_texture_asset
 
     names = usdz_contents(asset["usdz"])
     assert names[0] == "pigeon.usda"
@@ -397,7 +397,7 @@ def test_usdz_in_place_is_the_same_package_as_from_a_copy(asset, tmp_path):
     copying route, which leaves the folder's files as they were; both equal the built package."""
     import shutil
 
-    from pipeline.usd.usdz import ZIP_EPOCH, write_usdz
+    from rockdove.usd.usdz import ZIP_EPOCH, write_usdz
 
     copied, in_place = tmp_path / "copied", tmp_path / "in_place"
     for folder in (copied, in_place):
@@ -415,7 +415,7 @@ def test_failed_build_keeps_previous_asset_and_leaves_no_temporaries(build_root,
     """A build that fails mid-way (here: the glTF export, which runs on the asset assembled in the staging folder
     beside the output) publishes nothing: the asset already there is left as it was, and no staging folder is
     left beside it."""
-    from pipeline.build import stages
+    from rockdove.graph import stages
 
     out = tmp_path / "pigeon"
     first = _paths(real_build(out, build_root / "cache"))
@@ -436,9 +436,9 @@ def test_failed_build_keeps_previous_asset_and_leaves_no_temporaries(build_root,
 
 
 def test_bad_inputs_raise_value_errors_naming_them(bird, tmp_path):
-    from pipeline.errors import UsageError
-    from pipeline.geometry import Bird
-    from pipeline.usd.stage import write_layers
+    from rockdove.errors import UsageError
+    from rockdove.geometry import Bird
+    from rockdove.usd.stage import write_layers
 
     with pytest.raises(UsageError, match="pigeon"):
         real_build(tmp_path / "x", tmp_path / "cache", preset="pigeon")
@@ -451,8 +451,8 @@ def test_bad_inputs_raise_value_errors_naming_them(bird, tmp_path):
 def test_paper_preset_bakes_a_one_texel_high_lut_over_exactly_650_nm_and_validates(paper_asset):
     """The paper preset's single film thickness gives a one-texel-high LUT whose domain is exactly 650 nm, and
     the asset validates clean."""
-    from pipeline.lut.exr import read_exr
-    from pipeline.usd.validate import validate_asset
+    from rockdove.lut.exr import read_exr
+    from rockdove.usd.validate import validate_asset
 
     lut = read_exr(_paths(paper_asset)["lut"])
     angles = int(dict(s.split("=") for s in SMALL_BUILD)["lut.angles"])
@@ -472,10 +472,10 @@ def physical(physical_asset):
 def test_physical_only_asset_has_no_lut_and_only_the_physical_variant(physical):
     from pxr import Usd, UsdShade
 
-    from pipeline.usd.schema import read_thin_film
-    from pipeline.usd.stage import open_asset
-    from pipeline.usd.usdz import usdz_contents
-    from pipeline.usd.validate import validate_asset
+    from rockdove.usd.schema import read_thin_film
+    from rockdove.usd.stage import open_asset
+    from rockdove.usd.usdz import usdz_contents
+    from rockdove.usd.validate import validate_asset
 
     assert "lut" not in physical
     assert not os.path.exists(os.path.join(physical["dir"], "textures", "thinfilm_lut.exr"))
@@ -504,9 +504,9 @@ def test_physical_only_preview_atlas_holds_the_exact_colours(physical):
     import colour
     from PIL import Image
 
-    from pipeline.usd.stage import open_asset
-    from pipeline.lut.reference import reference_colour
-    from pipeline.usd.textures_io import PREVIEW_COS_THETA, PREVIEW_TILE_TEXELS
+    from rockdove.usd.stage import open_asset
+    from rockdove.lut.reference import reference_colour
+    from rockdove.usd.textures_io import PREVIEW_COS_THETA, PREVIEW_TILE_TEXELS
 
     mask = _tile(np.asarray(Image.open(physical["feather_mask"])), PREVIEW_TILE_TEXELS)
     alpha = _tile(np.asarray(Image.open(physical["feather_base"])), PREVIEW_TILE_TEXELS)[..., 3]
@@ -522,8 +522,8 @@ def test_physical_only_preview_atlas_holds_the_exact_colours(physical):
 def test_baked_only_asset_has_only_the_baked_variant(build_root, tmp_path):
     from pxr import Usd, UsdShade
 
-    from pipeline.usd.stage import open_asset
-    from pipeline.usd.validate import validate_asset
+    from rockdove.usd.stage import open_asset
+    from rockdove.usd.validate import validate_asset
 
     a = _paths(real_build(tmp_path / "pigeon", build_root / "cache", 'shading.variant="baked"', "usd.usdz=false",
                           "gltf.glb=false"))
@@ -540,7 +540,7 @@ def test_baked_only_asset_has_only_the_baked_variant(build_root, tmp_path):
 
 
 def test_lutless_layers_refuse_a_baked_variant(small_asset, bird, tmp_path):
-    from pipeline.usd.stage import write_layers
+    from rockdove.usd.stage import write_layers
 
     with pytest.raises(ValueError, match="shading='both' needs a LUT"):
         write_layers(str(tmp_path), bird, get_film("keratin"), None, version="0",
@@ -548,7 +548,7 @@ def test_lutless_layers_refuse_a_baked_variant(small_asset, bird, tmp_path):
     with pytest.raises(ValueError, match="shading='gold'"):
         write_layers(str(tmp_path), bird, get_film("keratin"), None, version="0",
                      shading="gold")
-    from pipeline.usd.textures_io import write_film_textures
+    from rockdove.usd.textures_io import write_film_textures
 
     feather, body = built_value(small_asset, "texture_images")
     with pytest.raises(ValueError, match="lut=None needs the film"):
@@ -568,8 +568,8 @@ def test_physical_variant_is_the_recorded_film_in_each_shaders_units(asset):
     primvar in micrometres. Fails on an asset whose specular_ior is left at OpenPBR's 1.5 (film on glass)."""
     from pxr import UsdShade
 
-    from pipeline.usd.schema import read_thin_film
-    from pipeline.usd.stage import FILM_IOR_WAVELENGTH_NM, open_asset
+    from rockdove.usd.schema import read_thin_film
+    from rockdove.usd.stage import FILM_IOR_WAVELENGTH_NM, open_asset
 
     st = open_asset(asset["interface"], shading="physical")
     film = read_thin_film(st.GetPrimAtPath("/Pigeon/Geom/NeckFeathers"))

@@ -9,9 +9,9 @@ import sys
 
 import pytest
 
-from pipeline.lut.exr import read_exr
-from pipeline.usd.stage import GEOMETRY_LAYER, LOOKS_LAYER
-from pipeline.usd.validate import validate_asset
+from rockdove.lut.exr import read_exr
+from rockdove.usd.stage import GEOMETRY_LAYER, LOOKS_LAYER
+from rockdove.usd.validate import validate_asset
 
 from conftest import OUTSIDE, built_value, copy_asset
 
@@ -169,7 +169,7 @@ def test_schema_film_that_is_not_the_lut_film_is_reported(paper_asset, tmp_path)
     records (paper) no longer matches the LUT it names."""
     import dataclasses
 
-    from pipeline.lut.exr import write_exr
+    from rockdove.lut.exr import write_exr
 
     out = copy_asset(paper_asset, tmp_path / "pigeon")
     exr = out / "textures" / "thinfilm_lut.exr"
@@ -212,7 +212,7 @@ def test_unresolved_mtlx_surface_is_reported_in_its_variant_only(broken):
 
 
 def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "pipeline.cli", "validate", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "rockdove.cli", "validate", *args], capture_output=True,
                           text=True, cwd=OUTSIDE, timeout=120)
 
 
@@ -291,7 +291,7 @@ def _point_texture_at(edit, path):
 
 @pytest.mark.parametrize("where", ["absolute", "leaves the folder"])
 def test_a_texture_outside_the_asset_is_reported_and_not_read(broken, tmp_path, monkeypatch, where):
-    from pipeline.usd import validate as V
+    from rockdove.usd import validate as V
 
     out, edit = broken
     outside = tmp_path / "elsewhere" / "feather_base.png"  # a good PNG: only the path is wrong
@@ -340,7 +340,7 @@ def test_a_layer_that_does_not_parse_is_reported_with_its_line(broken):
     assert f"line {line}," in issue.message and "the layer does not parse" in issue.message
     res = _cli(out)
     assert res.returncode == 1 and f"line {line}," in res.stdout and "Traceback" not in res.stderr
-    verify = subprocess.run([sys.executable, "-m", "pipeline.cli", "verify", out, "--width", "32", "--height", "32"],
+    verify = subprocess.run([sys.executable, "-m", "rockdove.cli", "verify", out, "--width", "32", "--height", "32"],
                             capture_output=True, text=True, cwd=OUTSIDE, timeout=120)
     assert verify.returncode == 1, verify.stderr
     assert f"{payload}: line {line}," in verify.stderr and "Traceback" not in verify.stderr
@@ -349,7 +349,7 @@ def test_a_layer_that_does_not_parse_is_reported_with_its_line(broken):
 def test_verify_refuses_an_asset_that_names_files_elsewhere(broken):
     out, edit = broken
     _point_texture_at(edit, "/etc/passwd")
-    verify = subprocess.run([sys.executable, "-m", "pipeline.cli", "verify", out, "--width", "32", "--height", "32"],
+    verify = subprocess.run([sys.executable, "-m", "rockdove.cli", "verify", out, "--width", "32", "--height", "32"],
                             capture_output=True, text=True, cwd=OUTSIDE, timeout=120)
     assert verify.returncode == 1 and "'/etc/passwd' is absolute" in verify.stderr, verify.stderr
     assert not os.path.exists(os.path.join(out, "verify"))  # stopped before rendering anything
@@ -357,14 +357,14 @@ def test_verify_refuses_an_asset_that_names_files_elsewhere(broken):
 
 def test_nvidia_mesh_rule_findings_are_memoised_by_the_meshes_and_a_mesh_change_reruns_them(good, broken, tmp_path,
                                                                                            monkeypatch):
-    """pipeline.usd.nvidia keeps the mesh rules' findings by a digest of the composed meshes: a second run
+    """rockdove.usd.nvidia keeps the mesh rules' findings by a digest of the composed meshes: a second run
     reports what the memo holds (a planted finding shows it is read), a moved point misses it."""
     import json
 
     import usd_validation_nvidia as nv
     from pxr import Vt
 
-    from pipeline.usd import nvidia
+    from rockdove.usd import nvidia
 
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     root = os.path.join(good, "pigeon.usda")
@@ -396,7 +396,7 @@ def test_the_mesh_memo_survives_a_film_change_but_not_a_normals_change(broken):
     mesh findings; the meshes' normals are read by NormalsWindingsChecker and must."""
     from pxr import Vt
 
-    from pipeline.usd import nvidia
+    from rockdove.usd import nvidia
 
     out, edit = broken
     root = os.path.join(out, "pigeon.usda")

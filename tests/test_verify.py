@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from pipeline.verify import boundary
-from pipeline.verify import compare as cmp
-from pipeline.verify.reference_image import render_reference
-from pipeline.films import FilmModel
-from pipeline.render.film import ThinFilmParams
-from pipeline.render.scene import RenderScene, ScenePart
-from pipeline.render.views import light_sweep_views
-from pipeline.usd.stage import LOOKS_LAYER
+from rockdove.verify import boundary
+from rockdove.verify import compare as cmp
+from rockdove.verify.reference_image import render_reference
+from rockdove.films import FilmModel
+from rockdove.render.film import ThinFilmParams
+from rockdove.render.scene import RenderScene, ScenePart
+from rockdove.render.views import light_sweep_views
+from rockdove.usd.stage import LOOKS_LAYER
 
 from conftest import OUTSIDE, copy_asset, real_build
 
@@ -38,7 +38,7 @@ def assets(paper_asset, small_asset, tmp_path_factory):
     warp) holds a gradient, not the film's colour: R = the angle node coordinate, G = the thickness one."""
     import dataclasses
 
-    from pipeline.lut.exr import read_exr, write_exr
+    from rockdove.lut.exr import read_exr, write_exr
 
     base = tmp_path_factory.mktemp("verify")
     wrong = copy_asset(small_asset, base / "wrong_lut")
@@ -99,9 +99,9 @@ def absorbing(build_root):
 
 @pytest.mark.gl
 def test_an_absorbing_film_builds_records_k_and_verifies(absorbing, tmp_path):
-    from pipeline.films import FilmModel
-    from pipeline.render.scene import load_scene
-    from pipeline.lut.reference import reference_colour
+    from rockdove.films import FilmModel
+    from rockdove.render.scene import load_scene
+    from rockdove.lut.reference import reference_colour
 
     assert load_scene(absorbing).film.model.k == pytest.approx(ABSORBING_K)
     # k changes the colour: otherwise this test could not tell a film that carries k from one that drops it
@@ -121,7 +121,7 @@ def test_a_schema_that_drops_k_disagrees_with_the_lut_it_records(absorbing, tmp_
 
     from pxr import Sdf
 
-    from pipeline.usd.validate import validate_asset
+    from rockdove.usd.validate import validate_asset
 
     out = tmp_path / "pigeon"
     shutil.copytree(os.path.dirname(absorbing), out)
@@ -188,8 +188,8 @@ def test_boundary_is_straight_for_uniform_thickness_and_bends_for_a_gradient(tmp
 def test_views_checked_one_at_a_time_combine_into_the_same_report(assets, tmp_path):
     """Per-view results (as the build caches them) give the same metrics as one call over the same views; a
     subset without a light-sweep view says the hue check did not run rather than passing it silently."""
-    from pipeline.verify import run as verify
-    from pipeline.verify.inputs import plan_views
+    from rockdove.verify import run as verify
+    from rockdove.verify.inputs import plan_views
 
     layer = assets["good"]
     plan = plan_views(layer, 48, 48)
@@ -227,8 +227,8 @@ def test_views_checked_one_at_a_time_combine_into_the_same_report(assets, tmp_pa
 def test_an_image_that_cannot_be_written_fails_the_views_it_belongs_to(assets, tmp_path, monkeypatch):
     """The per-view images are written in a background thread; a write that fails is raised from verify_views,
     not lost with the thread."""
-    from pipeline.render import images
-    from pipeline.verify import run as verify
+    from rockdove.render import images
+    from rockdove.verify import run as verify
 
     real = images.save_png
 

@@ -1,4 +1,4 @@
-"""The verification report's images (pipeline.verify.report): the dE2000 map drawn pixel for pixel with its colour
+"""The verification report's images (rockdove.verify.report): the dE2000 map drawn pixel for pixel with its colour
 bar and title, the colormap lookup, and the matplotlib charts' fixed margins holding their labels."""
 
 import numpy as np
@@ -6,9 +6,9 @@ import pytest
 from matplotlib import colormaps
 from PIL import Image
 
-from pipeline.films import get_film
-from pipeline.render.film import ThinFilmParams
-from pipeline.verify import report
+from rockdove.films import get_film
+from rockdove.render.film import ThinFilmParams
+from rockdove.verify import report
 
 
 def _cmap8(x):
@@ -105,7 +105,7 @@ def test_charts_fit_their_labels_in_their_fixed_margins(tmp_path):
 def test_library_versions_are_read_once_and_each_call_gets_its_own_dict(monkeypatch):
     from importlib import metadata
 
-    from pipeline.verify import provenance
+    from rockdove.verify import provenance
 
     provenance._library_versions.cache_clear()
     first = provenance.library_versions()

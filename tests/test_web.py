@@ -11,7 +11,7 @@ import pytest
 @pytest.fixture(scope="session")
 def web_asset(small_asset, tmp_path_factory):
     """The small real build (keratin film, 480-700 nm), its published pigeon.glb and a viewer page for it."""
-    from pipeline.web.viewer import write_viewer
+    from rockdove.web.viewer import write_viewer
 
     page = write_viewer(small_asset, small_asset / "pigeon.glb", tmp_path_factory.mktemp("web") / "verify")
     return small_asset, page
@@ -20,7 +20,7 @@ def web_asset(small_asset, tmp_path_factory):
 def _hue_counts(png: bytes):
     from PIL import Image
 
-    from pipeline.verify.compare import hue_classes
+    from rockdove.verify.compare import hue_classes
 
     srgb = np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), np.float64) / 255.0
     linear = np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
@@ -29,7 +29,7 @@ def _hue_counts(png: bytes):
 
 
 def test_viewer_loads_shows_green_and_purple_and_the_light_turns_them(web_asset):
-    from pipeline.web.browser import Browser
+    from rockdove.web.browser import Browser
 
     _, page_path = web_asset
     with Browser() as browser:
@@ -54,12 +54,12 @@ def test_web_host_agrees_with_the_exact_view_angle_reference(web_asset, tmp_path
     """three.js's KHR_materials_iridescence of pigeon.glb (the web host, lobe view_angle) against the exact film
     colour at cos = |N.V| times the mask (the same pixels' N.V, thickness and mask from our GL renderer in its
     |N.V| mode): linear float, background 0, green and purple, hue classes and dE2000 close."""
-    from pipeline.hosts import web
-    from pipeline.verify import compare as cmp
-    from pipeline.render.gl import GLRenderer
-    from pipeline.verify.reference_image import structural_rgb
-    from pipeline.render.scene import load_scene
-    from pipeline.render.views import default_views
+    from rockdove.hosts import web
+    from rockdove.verify import compare as cmp
+    from rockdove.render.gl import GLRenderer
+    from rockdove.verify.reference_image import structural_rgb
+    from rockdove.render.scene import load_scene
+    from rockdove.render.views import default_views
 
     asset, _ = web_asset
     scene = load_scene(asset)
@@ -83,10 +83,10 @@ def test_web_host_agrees_with_the_exact_view_angle_reference(web_asset, tmp_path
 
 
 def test_a_browser_that_cannot_start_is_a_named_host_failure(web_asset, tmp_path):
-    from pipeline.hosts import HostError, web
-    from pipeline.render.scene import load_scene
-    from pipeline.render.views import default_views
-    from pipeline.web.browser import Browser
+    from rockdove.hosts import HostError, web
+    from rockdove.render.scene import load_scene
+    from rockdove.render.views import default_views
+    from rockdove.web.browser import Browser
 
     asset, _ = web_asset
     views = default_views(load_scene(asset), 32, 32, n=1)

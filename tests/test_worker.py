@@ -1,4 +1,4 @@
-"""The verification's worker process (pipeline.verify.worker): results, errors, a dead worker, large messages
+"""The verification's worker process (rockdove.verify.worker): results, errors, a dead worker, large messages
 both ways, a clean stdout, and GL renders identical to the ones made in this process."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import threading
 import numpy as np
 import pytest
 
-from pipeline.verify import worker
+from rockdove.verify import worker
 
 
 @pytest.fixture
@@ -65,7 +65,7 @@ def test_a_large_request_sent_while_a_large_reply_is_unread_does_not_block(w):
 
 
 def test_what_the_worker_prints_goes_to_stderr_not_to_the_callers_stdout():
-    code = ("import json; from pipeline.verify import worker; "
+    code = ("import json; from rockdove.verify import worker; "
             "worker.shared().call('builtins:print', 'from-the-worker'); print(json.dumps({'ok': 1}))")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
     assert json.loads(r.stdout) == {"ok": 1}
@@ -73,8 +73,8 @@ def test_what_the_worker_prints_goes_to_stderr_not_to_the_callers_stdout():
 
 
 def test_gl_renders_from_the_worker_equal_the_ones_made_here(small_asset):
-    from pipeline.render.gl import render_views
-    from pipeline.verify.inputs import verification_scene, verification_views
+    from rockdove.render.gl import render_views
+    from rockdove.verify.inputs import verification_scene, verification_views
 
     layer, scene, lut, _ = verification_scene(small_asset)
     every = verification_views(scene, 48, 32, 3)
@@ -91,7 +91,7 @@ def test_gl_renders_from_the_worker_equal_the_ones_made_here(small_asset):
 
 
 def test_gl_renders_that_cannot_open_fail_every_view_with_the_opening_error():
-    from pipeline.render.views import View
+    from rockdove.render.views import View
 
     view = View(name="v", camera_to_world=np.eye(4), yfov_rad=0.6, width=16, height=16,
                 light_direction=np.array([0.0, 0.0, 1.0]), light_rgb=np.ones(3))
@@ -103,7 +103,7 @@ def test_gl_renders_that_cannot_open_fail_every_view_with_the_opening_error():
 
 
 def test_the_worker_exits_when_its_caller_is_killed():
-    code = ("import os, sys; from pipeline.verify import worker; w = worker.shared(); "
+    code = ("import os, sys; from rockdove.verify import worker; w = worker.shared(); "
             "print(w.call('os:getpid'), flush=True); sys.stdin.read()")
     caller = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     try:
@@ -138,7 +138,7 @@ def test_a_forked_child_starts_a_worker_of_its_own_and_its_exit_leaves_its_paren
     # parent's worker)
     code = """if True:
         import os, sys
-        from pipeline.verify import worker
+        from rockdove.verify import worker
         first = worker.shared()
         mine = first.call("os:getpid")
         pid = os.fork()
@@ -161,14 +161,14 @@ def test_a_forked_child_starts_a_worker_of_its_own_and_its_exit_leaves_its_paren
 
 
 def test_a_validation_the_worker_could_not_run_runs_here_and_one_that_raised_there_fails(small_asset):
-    from pipeline.verify import verdict
-    from pipeline.verify.inputs import verification_scene
+    from rockdove.verify import verdict
+    from rockdove.verify.inputs import verification_scene
 
     layer = verification_scene(small_asset)[0]
-    gone = worker.Pending.failed("pipeline.verify.worker:validate_timed", worker.WorkerFailed("the worker exited"))
+    gone = worker.Pending.failed("rockdove.verify.worker:validate_timed", worker.WorkerFailed("the worker exited"))
     validation, seconds = verdict._validation(gone, layer)
     assert validation["passed"] and validation["error"] is None and seconds > 0  # ran in this process
-    raised = worker.Pending.failed("pipeline.verify.worker:validate_timed", worker.RemoteError("OSError: boom"))
+    raised = worker.Pending.failed("rockdove.verify.worker:validate_timed", worker.RemoteError("OSError: boom"))
     validation, _ = verdict._validation(raised, layer)
     assert not validation["passed"] and "boom" in validation["error"]
 
@@ -176,8 +176,8 @@ def test_a_validation_the_worker_could_not_run_runs_here_and_one_that_raised_the
 def test_a_started_validation_is_taken_once_and_a_changed_asset_is_validated_anew(small_asset, tmp_path):
     import shutil
 
-    from pipeline.verify import verdict
-    from pipeline.verify.inputs import verification_scene
+    from rockdove.verify import verdict
+    from rockdove.verify.inputs import verification_scene
 
     asset = tmp_path / "pigeon"
     shutil.copytree(small_asset, asset, ignore=shutil.ignore_patterns("verify"))

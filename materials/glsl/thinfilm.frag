@@ -18,14 +18,14 @@
 //   u_angle_mode == 1 (MaterialX baked): cos_theta = |dot(N, V)|, the view-only approximation the baked
 //                      MaterialX network must use because pattern graphs cannot see lights; selectable so
 //                      the two definitions can be compared in renders.
-// LUT lookup (pipeline/lut/table.py): x = pow(clamp(cos_theta, 0, 1), 1 / gamma),
+// LUT lookup (pipeline/rockdove/lut/table.py): x = pow(clamp(cos_theta, 0, 1), 1 / gamma),
 //   y = clamp((d - lo) / (hi - lo), 0, 1) (0 when lo == hi), u = (x (N - 1) + 0.5) / N,
 //   v = (y (M - 1) + 0.5) / M, linear filtering, clamp-to-edge: exactly ThinFilmLUT.sample.
 // Shading: colour = mix(base_rgb, structural, mask); radiance = colour * light_rgb * max(dot(N, L), 0);
 //   fragments with base alpha < u_alpha_threshold (USD opacityThreshold, 0.5) are discarded.
 // Textures are uploaded as float data already decoded to linear (sRGB EOTF applied on the CPU).
 //
-// Outputs (float render targets, read back by pipeline/render/gl.py):
+// Outputs (float render targets, read back by pipeline/rockdove/render/gl.py):
 //   0  (radiance_r, radiance_g, radiance_b, coverage)            linear lin_rec709, coverage 1
 //   1  (part_id, view_depth_m, cos_theta, thickness_nm)          part id = index + 1; 0 = background
 //   2  (n_dot_l, mask, s, t)                                     shading inputs, for verification

@@ -1,7 +1,7 @@
 #version 330 core
 // rockdove thin-film feathers and Lambert body: vertex stage.
 //
-// Loaded by pipeline/render/gl.py through pyrender's ShaderProgramCache; pyrender replaces the *_LOC
+// Loaded by pipeline/rockdove/render/gl.py through pyrender's ShaderProgramCache; pyrender replaces the *_LOC
 // names below by the attribute locations of the primitive's buffers (position is always 0).
 // Attributes rockdove passes (docs/design.md "Conventions"):
 //   position    world position, metres (parts are already in world space; M * inst_m is the identity

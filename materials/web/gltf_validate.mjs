@@ -1,5 +1,5 @@
 // Validate one glTF/GLB file with the Khronos glTF-Validator (npm package gltf-validator) and print its
-// report as JSON on stdout. Usage: node gltf_validate.mjs FILE.glb   (run by pipeline.web.gltf.validate_glb)
+// report as JSON on stdout. Usage: node gltf_validate.mjs FILE.glb   (run by rockdove.web.gltf.validate_glb)
 import { readFileSync } from "node:fs";
 import { basename } from "node:path";
 import { createRequire } from "node:module";

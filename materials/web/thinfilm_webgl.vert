@@ -2,7 +2,7 @@
 // (GLSL ES 3.00) for three.js's RawShaderMaterial over the meshes of pigeon.glb.
 // Differences from the desktop shader, all forced by the glTF: texcoords follow glTF (v = 1 - t, so textures
 // are sampled as uploaded, flipY = false), and the film thickness arrives as TEXCOORD_1 (three.js `uv1`) into
-// the thickness ramp of pigeon.glb (pipeline/web/gltf.py): u = (0.5 + g (N - 1)) / N, g = (d - lo) / (hi - lo),
+// the thickness ramp of pigeon.glb (pipeline/rockdove/web/gltf.py): u = (0.5 + g (N - 1)) / N, g = (d - lo) / (hi - lo),
 // decoded here exactly instead of sampling the 8-bit ramp.
 precision highp float;
 

@@ -2,7 +2,7 @@
 // vertical axis, and a switch between (a) the paper's baked-LUT shading (thinfilm_webgl.vert/.frag, our
 // GLSL ported to WebGL2, reading the float LUT) and (b) three.js's own KHR_materials_iridescence shading.
 // Data (window.ROCKDOVE_DATA, viewer_data.js): the GLB (base64), the float LUT, the shaders, the start camera
-// and light. Also used headless by pipeline/hosts/web.py through window.rockdoveRender (linear float pixels).
+// and light. Also used headless by pipeline/rockdove/hosts/web.py through window.rockdoveRender (linear float pixels).
 import * as THREE from "three";
 import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";

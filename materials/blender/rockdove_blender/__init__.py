@@ -39,7 +39,7 @@ import bpy
 
 FILM_PREFIX = "rockdove:film:"
 #: Wavelength at which Blender's single film index samples the Cauchy index, nm (the asset's MaterialX physical
-#: variant uses the same: pipeline.usd.stage.FILM_IOR_WAVELENGTH_NM).
+#: variant uses the same: rockdove.usd.stage.FILM_IOR_WAVELENGTH_NM).
 FILM_IOR_WAVELENGTH_NM = 550.0
 #: Opacity cut of the feather cards (the asset's ``opacityThreshold``).
 OPACITY_THRESHOLD = 0.5

@@ -1,0 +1,129 @@
+"""The ``rockdove`` command line.
+
+This module only parses arguments and dispatches. :data:`COMMANDS` names every sub-command with its one-line
+help (the only copy of it); each lives in ``pipeline/rockdove/commands/<name>.py`` (hyphens become underscores) and
+exposes::
+
+    def add_arguments(parser: argparse.ArgumentParser) -> None
+    def run(args: argparse.Namespace) -> int    # exit status: 0 ok, 1 failed check, 2 bad usage
+
+Sub-command modules are imported only when their command runs, so ``rockdove --help`` stays fast and
+needs no display. When a build server runs (``rockdove server start``, :mod:`rockdove.server`), :func:`main`
+hands the :data:`rockdove.server.SERVED` commands to it before importing anything heavy; ``--no-server``
+runs the command here all the same. Errors become one line on stderr: ``ValueError`` (and
+:class:`UsageError`) exit 2, :class:`VerificationFailed` exits 1; tracebacks only with ``ROCKDOVE_DEBUG=1``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+
+from . import __version__
+
+# name -> one-line help. The module rockdove.commands.<name> implements it.
+COMMANDS: dict[str, str] = {
+    "build": "build the pigeon USD asset (incremental; verifies unless --no-verify)",
+    "lut": "bake a thin-film colour LUT over angle and thickness into OpenEXR",
+    "render": "render an asset offscreen with the GLSL shaders (pyrender, EGL)",
+    "verify": "validate an asset and check its renders against the exact spectral reference",
+    "validate": "validate a USD asset (UsdValidation + MaterialX node definitions + textures)",
+    "gltf": "export an asset to glTF 2.0 (pigeon.glb, KHR_materials_iridescence) and validate it",
+    "bench": "benchmarks: LUT bake speed against error, geometry and build scaling",
+    "config": "print the effective build configuration with units",
+    "schema-path": "print the folder holding the USD schema plugin, for PXR_PLUGINPATH_NAME",
+    "blender-addon": "write the Blender add-on (rockdove_blender.zip) that builds the thin-film material on USD import",
+    "sweep": "build (and verify) every point of a parameter grid on Dask (a local cluster or --scheduler)",
+    "server": "start, stop or query the build server that runs later commands with warm imports",
+}
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse parser whose errors are one line and exit status 2 (argparse's own convention)."""
+
+    def error(self, message: str):  # noqa: D401 - argparse API
+        self.exit(2, f"rockdove: error: {message}\n")
+
+
+def _module_name(name: str) -> str:
+    """Command name -> module name under rockdove.commands (``schema-path`` -> ``schema_path``)."""
+    return name.replace("-", "_")
+
+
+def _module(name: str):
+    return importlib.import_module(f"rockdove.commands.{_module_name(name)}")
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The top-level parser; only ``command``'s module is imported to add its arguments."""
+    parser = _Parser(
+        prog="rockdove",
+        description="Build, render and verify a USD rock dove whose neck feathers shimmer by thin-film interference.",
+    )
+    parser.add_argument("--version", action="version", version=f"rockdove {__version__}")
+    parser.add_argument("--no-server", action="store_true",
+                        help="run the command in this process even when a build server is running")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for name, help_ in COMMANDS.items():
+        p = sub.add_parser(name, help=help_, description=help_)
+        if name == command:
+            _module(name).add_arguments(p)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The ``rockdove`` console script: the command in the build server when one runs for this interpreter and
+    environment (and the command is one it serves), else :func:`run` here."""
+    # Offscreen GL must be chosen before anything imports OpenGL (also the server's key: see rockdove.server).
+    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+    argv = list(sys.argv[1:] if argv is None else argv)
+    command = _command(argv)
+    if command is not None and "--no-server" not in argv[:argv.index(command)]:
+        from . import server
+
+        if command in server.SERVED:
+            code = server.forward(argv)
+            if code is not None:
+                return code
+    return run(argv)
+
+
+def _command(argv: list[str]) -> str | None:
+    return next((a for a in argv if not a.startswith("-")), None)
+
+
+def run(argv: list[str]) -> int:
+    """Parse ``argv`` and run its command in this process: the exit status."""
+    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+    command = _command(argv)
+    parser = build_parser(command if command in COMMANDS else None)
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    from .errors import VerificationFailed
+
+    try:
+        return int(_module(args.command).run(args) or 0)
+    except VerificationFailed as exc:
+        print(f"rockdove {args.command}: failed: {exc}", file=sys.stderr)
+        return 1
+    except (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError) as exc:
+        if os.environ.get("ROCKDOVE_DEBUG"):
+            raise
+        print(f"rockdove {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"rockdove {args.command}: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:  # the reader of stdout went away (`rockdove ... | head`): no traceback
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # so the final flush is quiet too
+        os.close(devnull)
+        return 141
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,30 @@
+"""``rockdove blender-addon --out DIR``: write the Blender add-on ``DIR/rockdove_blender.zip``.
+
+Install it in Blender 4.2 or later with Edit > Preferences > Add-ons > Install from Disk, or from Python::
+
+    bpy.ops.preferences.addon_install(filepath="DIR/rockdove_blender.zip")
+    bpy.ops.preferences.addon_enable(module="rockdove_blender")
+
+Then File > Import > Universal Scene Description of ``pigeon.usda`` or ``pigeon.usdz`` gives the neck
+feathers Cycles' physical thin film (see ``materials/blender/rockdove_blender/__init__.py``).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "write the Blender add-on (rockdove_blender.zip) that builds the thin-film material on USD import"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", required=True, metavar="DIR", help="folder to write rockdove_blender.zip into")
+
+
+def run(args: argparse.Namespace) -> int:
+    from rockdove.hosts.blender import ADDON_MODULE, addon_zip
+
+    path = addon_zip(args.out)
+    print(path)
+    print(f'install: bpy.ops.preferences.addon_install(filepath="{path}"); '
+          f'bpy.ops.preferences.addon_enable(module="{ADDON_MODULE}")')
+    return 0

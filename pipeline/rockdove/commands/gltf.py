@@ -1,0 +1,63 @@
+"""``rockdove gltf ASSET [--out F.glb] [--validate] [--json]``: export a written asset to glTF 2.0
+(:func:`rockdove.web.gltf.export_glb`), optionally checked by the Khronos glTF-Validator.
+
+The build already writes ``pigeon.glb`` (unless ``gltf.glb = false``); this exports any rockdove asset after the
+fact, e.g. one built with it off. An asset without rockdove thin-film data is refused in one line.
+
+Exit status 0 on success, 1 when the validator reports errors, 2 on bad usage (not a rockdove asset).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+HELP = "export an asset to glTF 2.0 (pigeon.glb, KHR_materials_iridescence) and validate it"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("asset", metavar="ASSET", help="the asset folder or its root layer (pigeon.usda)")
+    parser.add_argument("--out", metavar="F.glb", default=None, help="output file (default: pigeon.glb beside the "
+                        "root layer)")
+    parser.add_argument("--validate", action="store_true",
+                        help="run the Khronos glTF-Validator (npm gltf-validator, needs node) on the result")
+    parser.add_argument("--json", action="store_true", help="print the export (and validation) summary as JSON")
+
+
+def run(args: argparse.Namespace) -> int:
+    from .. import __version__
+    from ..errors import VerificationFailed
+    from ..usd.layout import resolve_root_layer
+    from ..web.gltf import GLB_NAME, export_glb, validate_glb
+
+    layer = resolve_root_layer(args.asset)
+    out = args.out or os.path.join(os.path.dirname(layer), GLB_NAME)
+    if not out.endswith(".glb"):
+        raise ValueError(f"--out must name a .glb file, got {out!r}")
+    summary = export_glb(layer, out, version=__version__)
+    if args.validate:
+        try:
+            report = validate_glb(out)
+        except RuntimeError as exc:
+            raise ValueError(str(exc)) from None
+        issues = report["issues"]
+        summary["validation"] = {k: issues[k] for k in ("numErrors", "numWarnings", "numInfos", "numHints")}
+        summary["validation"]["messages"] = issues["messages"][:20]
+    if args.json:
+        json.dump(summary, sys.stdout, indent=2)
+        sys.stdout.write("\n")
+    else:
+        print(f"wrote {summary['path']} ({summary['bytes']} bytes): iridescenceIor {summary['iridescence_ior']:.4f} "
+              f"at {summary['ior_wavelength_nm']:g} nm, thickness {summary['thickness_range_nm'][0]:g}-"
+              f"{summary['thickness_range_nm'][1]:g} nm, substrate ior {summary['substrate_ior']:g}")
+        if args.validate:
+            v = summary["validation"]
+            print(f"glTF-Validator: {v['numErrors']} errors, {v['numWarnings']} warnings, {v['numInfos']} infos, "
+                  f"{v['numHints']} hints")
+            for m in v["messages"]:
+                print(f"  {m['code']}: {m['message']} ({m.get('pointer', '')})")
+    if args.validate and summary["validation"]["numErrors"]:
+        raise VerificationFailed(f"glTF-Validator found {summary['validation']['numErrors']} errors in {out}")
+    return 0

@@ -1,0 +1,63 @@
+"""``rockdove validate PATH [--json]``: validate a USD asset (see :mod:`rockdove.usd.validate`).
+
+PATH is an asset folder, a root layer or a ``.usdz``. For a folder, both forms of the asset are validated:
+``pigeon.usda`` (with its payload and textures) and, when present, the self-contained ``pigeon.usdz``.
+
+Exit status: 0 clean, 1 not clean (:class:`rockdove.errors.VerificationFailed`), 2 bad usage (missing path,
+not a USD layer).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("path", help="asset folder (pigeon.usda and pigeon.usdz), a root layer, or a .usdz")
+    parser.add_argument("--json", action="store_true", help="print the report(s) as JSON on stdout")
+    add_external_argument(parser)
+
+
+def add_external_argument(parser: argparse.ArgumentParser) -> None:
+    """``--allow-external-assets`` (shared with ``rockdove verify``)."""
+    parser.add_argument("--allow-external-assets", action="store_true",
+                        help="read files the asset names by absolute paths or outside its folder (by default "
+                             "they are reported as errors and never read)")
+
+
+def targets(path: str) -> list[str]:
+    """The layers to validate for ``path``: a folder gives its root layer and, if present, its usdz."""
+    from rockdove.usd.usdz import USDZ_NAME
+    from rockdove.usd.layout import resolve_root_layer
+
+    root = resolve_root_layer(path)
+    out = [root]
+    usdz = os.path.join(path, USDZ_NAME)
+    if os.path.isdir(path) and os.path.isfile(usdz) and os.path.abspath(usdz) != os.path.abspath(root):
+        out.append(usdz)
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    from rockdove.errors import UsageError, VerificationFailed
+    from rockdove.usd.validate import validate_asset
+
+    try:
+        paths = targets(args.path)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    reports = [validate_asset(p, allow_external=args.allow_external_assets) for p in paths]
+    if args.json:
+        json.dump({"clean": all(r.clean for r in reports), "reports": [r.to_dict() for r in reports]},
+                  sys.stdout, indent=2, sort_keys=True)
+        sys.stdout.write("\n")
+    else:
+        print("\n".join(r.format() for r in reports))
+    failed = [r for r in reports if not r.clean]
+    if failed:
+        raise VerificationFailed("; ".join(f"{len(r.errors)} error(s) in {r.path}" for r in failed))
+    return 0

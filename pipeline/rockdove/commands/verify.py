@@ -1,0 +1,130 @@
+"""``rockdove verify ASSET [--out DIR] [--json] [--width W --height H] [--views N] [--view NAME ...] [--hosts LIST]``:
+validate an asset, render it with the GLSL shaders, with every host asked for (:mod:`rockdove.hosts`; default
+every host available here) and with the exact CPU reference, check and report
+(:func:`rockdove.verify.run.verify_asset`). An unavailable host is printed as SKIPPED with its reason; a
+host that fails is printed with its error and fails the verification.
+
+A physical-only asset (no LUT) is checked with a verification-only LUT baked in memory from the film it
+records; the report's notes (printed here) say so, as they say when a check could not run (e.g. ``--view``
+without a light-sweep view: no hue check).
+
+Exit status 0 when everything passes, 1 when a check fails (:class:`rockdove.errors.VerificationFailed`),
+2 on bad usage (a ``ValueError``, turned into one line by the CLI).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+
+
+def _size(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer number of pixels, got {text!r}") from None
+    if v < 16 or v > 8192:
+        raise argparse.ArgumentTypeError(f"must be between 16 and 8192 pixels, got {v}")
+    return v
+
+
+def _count(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer number of views, got {text!r}") from None
+    if not 1 <= v <= 64:
+        raise argparse.ArgumentTypeError(f"must be between 1 and 64 views, got {v}")
+    return v
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("asset", metavar="ASSET", help="the asset folder or its root layer (pigeon.usda)")
+    parser.add_argument("--out", metavar="DIR", default=None,
+                        help="report folder (default: verify/ beside the root layer)")
+    parser.add_argument("--json", action="store_true", help="print the report summary as JSON on stdout")
+    parser.add_argument("--width", type=_size, default=512, metavar="W", help="render width, pixels (default 512)")
+    parser.add_argument("--height", type=_size, default=512, metavar="H", help="render height, pixels (default 512)")
+    parser.add_argument("--views", type=_count, default=4, metavar="N",
+                        help="turntable + light-sweep views (default 4), plus the sweep at the flip")
+    parser.add_argument("--view", dest="names", action="append", default=None, metavar="NAME",
+                        help="check only this view (repeatable), e.g. --view sweep_090; default all")
+    parser.add_argument("--hosts", default=None, metavar="LIST",
+                        help="comma-separated hosts that also render the views, each checked against the exact "
+                             "reference of its lighting model: glsl, materialx, materialx_physical, blender, web "
+                             "(default: every host available on this machine; glsl always runs)")
+    parser.add_argument("--bench-dir", default=None, metavar="DIR",
+                        help="show the benchmark plots (*.png) of DIR in the report, e.g. build/bench "
+                             "(default: none)")
+    parser.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    from .validate import add_external_argument
+
+    add_external_argument(parser)
+
+
+def check_dependencies(asset: str, allow_external: bool) -> None:
+    """Before anything reads the asset: its layers parse and it names no file outside itself (unless allowed).
+
+    Raises
+    ------
+    VerificationFailed
+        Naming each broken layer (file, line, USD's message) or outside path.
+    """
+    from ..errors import UsageError, VerificationFailed
+    from ..usd.dependencies import scan_dependencies
+    from ..usd.layout import resolve_root_layer
+
+    try:
+        root = resolve_root_layer(asset)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    deps = scan_dependencies(root, allow_external)
+    if deps.errors:
+        raise VerificationFailed("; ".join(f"{i.path}: {i.message}" for i in deps.errors))
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..errors import VerificationFailed
+    from ..verify.run import verify_asset
+    from ..verify.verdict import summary
+
+    def progress(msg: str) -> None:
+        if not args.quiet and not args.json:
+            print(f"rockdove verify: {msg}", file=sys.stderr)
+
+    check_dependencies(args.asset, args.allow_external_assets)
+    hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
+    report = verify_asset(args.asset, out_dir=args.out, width=args.width, height=args.height, progress=progress,
+                          views=args.names, n_views=args.views, hosts=hosts, bench_dir=args.bench_dir)
+    short = summary(report)
+    if args.json:
+        from ..verify.report import strict_json
+
+        json.dump(strict_json(short), sys.stdout, indent=2, allow_nan=False)
+        sys.stdout.write("\n")
+    else:
+        for m in report["views"]:
+            print(f"{m['view']:>16}: {m['n_pixels']:7d} px  dE2000 median {m['de_median']:.3f}  "
+                  f"p95 {m['de_p95']:.3f}  max {m['de_max']:.3f}  {'ok' if m['passed'] else 'FAIL'}")
+        h = report["hue_sweep"]
+        print(f"light sweep hues: green {h['green']}, purple {h['purple']}, grey {h['grey']}, other {h['other']}")
+        for name, b in report["boundary"]["per_view"].items():
+            print(f"boundary {name}: {b['n_points']} points, RMS {b['rms_px']:.2f} px "
+                  f"({b['rms_fraction']:.4f} of its length)")
+        for h in report.get("hosts", []):
+            if h.get("skipped"):
+                print(f"host {h['name']}: SKIPPED ({h['reason']})")
+            elif h.get("error"):
+                print(f"host {h['name']}: ERROR {h['error']}")
+            else:
+                print(f"host {h['name']} ({h['variant']}, {h['lobe']}): {h['n_pixels']} px  dE2000 median "
+                      f"{h['median_dE']:.3f}  p95 {h['p95_dE']:.3f}  green {h['green_px']}  purple {h['purple_px']}  "
+                      f"hue agreement {h['hue_agreement']:.1%}  {'ok' if h['passed'] else 'FAIL'}")
+        for note in report.get("notes", []):
+            print(f"note: {note}")
+        print(f"report: {report['out_dir']}/report.html")
+    if not report["passed"]:
+        raise VerificationFailed("; ".join(report["failures"]))
+    return 0

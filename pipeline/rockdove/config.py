@@ -1,0 +1,299 @@
+"""The build configuration: TOML layers checked against ``schemas/config.schema.json``.
+
+The JSON Schema (draft 2020-12) is the single source of every parameter's documentation, unit, range and
+default; this module only reads it. The effective configuration is built from layers, later wins:
+
+1. the schema's defaults,
+2. a preset, ``assets/pigeon/<preset>.toml`` (default ``measured``),
+3. ``--config FILE.toml``,
+4. ``--set KEY=VALUE`` overrides (dotted keys; values are TOML literals, a bare word is a string).
+
+Every problem is a :class:`rockdove.errors.UsageError` whose one-line message names the key, the value and what
+the schema allows, so the CLI prints it and exits 2 before anything is written.
+"""
+
+from __future__ import annotations
+
+import copy
+import functools
+import hashlib
+import json
+import os
+import re
+import tomllib
+from pathlib import Path
+from typing import Any, Iterable
+
+from . import resources
+from .errors import UsageError
+
+DEFAULT_PRESET = "measured"
+
+_KEY_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
+_BARE_WORD_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_.+-]*$")
+
+
+@functools.lru_cache(maxsize=1)
+def _schema_text() -> str:
+    return resources.path("schemas/config.schema.json").read_text(encoding="utf-8")
+
+
+def load_schema() -> dict:
+    """The configuration's JSON Schema (a fresh copy; the file is read once)."""
+    return json.loads(_schema_text())
+
+
+def presets() -> list[str]:
+    """Names of the presets in ``assets/pigeon/`` (file stems), sorted."""
+    return sorted(p.stem for p in resources.path("assets/pigeon").glob("*.toml"))
+
+
+def preset_path(name: str) -> Path:
+    """Path of preset ``name``; :class:`UsageError` naming the allowed presets when there is none."""
+    allowed = presets()
+    if name not in allowed:
+        raise UsageError(f"preset {name!r} is unknown; allowed: {', '.join(allowed)}")
+    return resources.path(f"assets/pigeon/{name}.toml")
+
+
+def _defaults_of(node: dict) -> Any:
+    if node.get("type") == "object" and "properties" in node:
+        return {k: _defaults_of(v) for k, v in node["properties"].items()}
+    return copy.deepcopy(node.get("default"))
+
+
+def defaults() -> dict:
+    """The configuration made of the schema's defaults alone."""
+    return _defaults_of(load_schema())
+
+
+def _merge(base: dict, layer: dict) -> dict:
+    out = dict(base)
+    for k, v in layer.items():
+        out[k] = _merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else copy.deepcopy(v)
+    return out
+
+
+def read_toml(path: str | os.PathLike, what: str = "config file") -> dict:
+    """Read a TOML file; one-line :class:`UsageError` when it is missing, unreadable or malformed."""
+    p = Path(path)
+    if not p.exists():
+        raise UsageError(f"{what} {str(p)!r} does not exist")
+    if p.is_dir():
+        raise UsageError(f"{what} {str(p)!r} is a directory, not a TOML file")
+    try:
+        with open(p, "rb") as f:
+            return tomllib.load(f)
+    except tomllib.TOMLDecodeError as exc:
+        raise UsageError(f"{what} {str(p)!r} is not valid TOML: {exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UsageError(f"{what} {str(p)!r} cannot be read: {exc}") from None
+
+
+def parse_set(item: str) -> tuple[str, Any]:
+    """Parse one ``--set KEY=VALUE``: a dotted key and a TOML literal (a bare word is taken as a string).
+
+    Examples: ``lut.angles=128``, ``thickness.base_nm=[500, 560]``, ``film.model=keratin``.
+    """
+    if "=" not in item:
+        raise UsageError(f"--set {item!r} is not KEY=VALUE; e.g. --set lut.angles=128")
+    key, text = (s.strip() for s in item.split("=", 1))
+    if not _KEY_RE.match(key):
+        raise UsageError(f"--set {item!r}: key {key!r} is not a dotted name like 'lut.angles'")
+    if text == "":
+        raise UsageError(f"--set {item!r}: the value is empty; give a TOML literal, e.g. {key}=1")
+    try:
+        value = tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        if _BARE_WORD_RE.match(text) and text not in ("true", "false"):
+            value = text
+        else:
+            raise UsageError(f"--set {item!r}: value {text!r} is not a TOML literal (number, string, "
+                             f"true/false, [list])") from None
+    return key, value
+
+
+def _nest(key: str, value: Any) -> dict:
+    out: Any = value
+    for part in reversed(key.split(".")):
+        out = {part: out}
+    return out
+
+
+def _schema_at(schema: dict, path: Iterable) -> dict:
+    node = schema
+    for part in path:
+        if isinstance(part, int):
+            node = node.get("items", {})
+        else:
+            node = node.get("properties", {}).get(part, {})
+    return node
+
+
+@functools.cache
+def limits(key: str) -> tuple:
+    """The schema's inclusive ``(minimum, maximum)`` of dotted config ``key``; of its items for a ``[lo, hi]`` pair.
+
+    The one source of the parameters' ranges: code that checks a value the config also carries (e.g.
+    :class:`rockdove.geometry.BirdParams`) reads its range here, so that what the schema accepts it accepts.
+
+    >>> limits("geometry.card_count")
+    (1, 1000000)
+    """
+    node = _schema_at(load_schema(), key.split("."))
+    if node.get("type") == "array":
+        node = node.get("items", {})
+    if "minimum" not in node or "maximum" not in node:
+        raise KeyError(f"config key {key!r} has no minimum and maximum in schemas/config.schema.json")
+    return node["minimum"], node["maximum"]
+
+
+def _num(x) -> str:
+    return str(int(x)) if float(x).is_integer() else f"{x:g}"
+
+
+def allowed(node: dict) -> str:
+    """What a schema node allows, in words, with its unit: e.g. ``integer 2 to 4096 texels``."""
+    unit = node.get("unit") or ""
+    if "enum" in node:
+        return "one of " + ", ".join(json.dumps(v) for v in node["enum"])
+    types = node.get("type")
+    types = [types] if isinstance(types, str) else list(types or [])
+    nullable = "null" in types
+    types = [t for t in types if t != "null"]
+    if types == ["array"]:
+        items = node.get("items", {})
+        n = node.get("minItems"), node.get("maxItems")
+        size = f"{n[0]}" if n[0] == n[1] else f"{n[0]}..{n[1]}"
+        inner = allowed({**items, "unit": items.get("unit") or unit}) if items else "values"
+        desc = f"a list of {size} ({inner})"
+        if node.get("range"):
+            desc += f", {node['range']}"
+        return desc
+    words = " or ".join(types) if types else "a value"
+    lo = node.get("minimum", node.get("exclusiveMinimum"))
+    hi = node.get("maximum", node.get("exclusiveMaximum"))
+    if lo is not None or hi is not None:
+        lo_s = ("> " if "exclusiveMinimum" in node else ">= ") + _num(lo) if lo is not None else ""
+        hi_s = ("< " if "exclusiveMaximum" in node else "<= ") + _num(hi) if hi is not None else ""
+        words += " " + " and ".join(s for s in (lo_s, hi_s) if s)
+    if "minLength" in node:
+        words += " (non-empty)"
+    if unit:
+        words += f" {unit}"
+    if nullable:
+        words += " (or unset: the model's value)"
+    return words
+
+
+def _dotted(path: Iterable) -> str:
+    out = ""
+    for p in path:
+        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
+    return out
+
+
+def _error_message(err, schema: dict) -> str:
+    path = list(err.absolute_path)
+    if err.validator == "additionalProperties":
+        node = _schema_at(schema, path)
+        known = set(node.get("properties", {}))
+        extra = sorted(set(err.instance) - known) if isinstance(err.instance, dict) else []
+        key = _dotted(path + extra[:1])
+        where = f"[{_dotted(path)}]" if path else "the top level"
+        return (f"config key {key!r} is unknown; allowed keys in {where}: {', '.join(sorted(known))}")
+    key = _dotted(path)
+    node = _schema_at(schema, path)
+    if err.validator == "type" and node.get("type") == "object":
+        return (f"config key {key!r}: value {json.dumps(err.instance)} is not a table; allowed: a table with "
+                f"keys {', '.join(sorted(node.get('properties', {})))}")
+    what = {"type": "has the wrong type", "enum": "is not allowed", "minimum": "is out of range",
+            "maximum": "is out of range", "exclusiveMinimum": "is out of range", "exclusiveMaximum": "is out of range",
+            "minItems": "has too few items", "maxItems": "has too many items", "minLength": "is empty"}
+    verb = what.get(err.validator, "is not allowed")
+    return f"config key {key!r}: value {json.dumps(err.instance)} {verb}; allowed: {allowed(node)}"
+
+
+def validate(config: dict) -> dict:
+    """Check ``config`` against the schema and the rules the schema cannot say (ranges with lo <= hi).
+
+    Returns the configuration with integer-typed values as ``int``; raises :class:`UsageError` (one line
+    naming the first problem's key, value and what is allowed).
+    """
+    import jsonschema
+
+    schema = load_schema()
+    validator = jsonschema.Draft202012Validator(schema)
+    errors = sorted(validator.iter_errors(config), key=lambda e: (list(map(str, e.absolute_path)), e.validator))
+    if errors:
+        # deepest first is the most specific (an item's range before the list's type)
+        err = max(errors, key=lambda e: len(e.absolute_path)) if len(errors) > 1 else errors[0]
+        raise UsageError(_error_message(err, schema))
+    for sect, node in schema["properties"].items():
+        for key, sub in node.get("properties", {}).items():
+            value = config.get(sect, {}).get(key)
+            if sub.get("range") and isinstance(value, list) and value[0] > value[1]:
+                raise UsageError(f"config key '{sect}.{key}': value {json.dumps(value)} is an empty range "
+                                 f"(lo > hi); allowed: {allowed(sub)}")
+            if sub.get("type") == "integer" and isinstance(value, float):
+                config[sect][key] = int(value)
+    return config
+
+
+def load_config(*, preset: str | None = DEFAULT_PRESET, config_file: str | os.PathLike | None = None,
+                overrides: Iterable[str] = ()) -> dict:
+    """The effective, validated configuration.
+
+    Parameters
+    ----------
+    preset : str or None
+        Name of a preset in ``assets/pigeon/`` (``measured`` or ``paper``); None = the schema's defaults only.
+    config_file : path or None
+        A TOML file layered on top of the preset.
+    overrides : iterable of str
+        ``KEY=VALUE`` items (``--set``), applied last.
+    """
+    layers = []
+    if preset is not None:
+        layers.append(read_toml(preset_path(preset), what=f"preset {preset!r}"))
+    if config_file is not None:
+        layers.append(read_toml(config_file))
+    for item in overrides:
+        layers.append(_nest(*parse_set(item)))
+    config = defaults()
+    for layer in layers:
+        config = _merge(config, layer)
+    return validate(config)
+
+
+def canonical_json(value: Any) -> str:
+    """Deterministic JSON text (sorted keys, no spaces) used for hashing."""
+    return json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=True)
+
+
+def config_hash(config: dict) -> str:
+    """sha256 (hex) of the canonical JSON of ``config``."""
+    return hashlib.sha256(canonical_json(config).encode()).hexdigest()
+
+
+def get(config: dict, key: str) -> Any:
+    """The value at dotted ``key`` (``"lut"`` gives the section, ``"lut.angles"`` one value)."""
+    node: Any = config
+    for part in key.split("."):
+        node = node[part]
+    return node
+
+
+def describe(config: dict) -> list[dict]:
+    """One row per parameter: ``{"key", "value", "unit", "default", "allowed", "description"}``, schema order."""
+    schema = load_schema()
+    rows = []
+    for key, node in schema["properties"].items():
+        subs = node.get("properties")
+        items = subs.items() if subs else [(None, node)]
+        for sub, leaf in items:
+            dotted = f"{key}.{sub}" if sub else key
+            rows.append({"key": dotted, "value": get(config, dotted), "unit": leaf.get("unit", ""),
+                         "default": leaf.get("default"), "allowed": allowed(leaf),
+                         "description": leaf.get("description", "")})
+    return rows

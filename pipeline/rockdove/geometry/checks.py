@@ -1,0 +1,117 @@
+"""Measurements of the feather cards against the body: how much of the neck band they hide, how far their
+roots are from the skin, whether any card vertex beyond the root is inside the body.
+
+Coverage is measured by ray casting (trimesh ray queries, Embree when installed): uniform random points on the
+band's skin, each looked at from outside along a direction (the skin normal, optionally tilted), and counted
+hidden when the first opaque thing the ray meets before the skin is a card. With a feather ``alpha`` texture,
+a card hit only counts where the texture's alpha is >= 0.5 (the renderers' ``opacityThreshold``), i.e. the
+feather silhouette, not the card rectangle. Rays whose first opaque hit is another part of the body (the
+point is not visible from that direction at all) are left out.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rockdove.geometry import neck as _neck
+from rockdove.geometry import sdf as _sdf
+
+#: Rays start this far outside the skin, metres (beyond the highest card tip).
+RAY_START_M = 0.02
+#: A first body hit within this distance of the target counts as the target itself, metres.
+TARGET_TOLERANCE_M = 0.001
+
+
+def _tilted(n: np.ndarray, tilt_deg: float, rng: np.random.Generator) -> np.ndarray:
+    """Unit directions at ``tilt_deg`` from each normal (N, 3), toward random tangent azimuths."""
+    if tilt_deg == 0:
+        return n
+    helper = np.where(np.abs(n[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
+    t1 = np.cross(n, helper)
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    t2 = np.cross(n, t1)
+    phi = rng.uniform(0.0, 2.0 * np.pi, len(n))[:, None]
+    a = np.deg2rad(tilt_deg)
+    d = np.cos(a) * n + np.sin(a) * (np.cos(phi) * t1 + np.sin(phi) * t2)
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def band_coverage(body_vertices_m, body_faces, cards, rays: int = 2000, tilt_deg: float = 0.0, seed: int = 0,
+                  alpha: np.ndarray | None = None) -> float:
+    """Fraction of the neck band's skin hidden behind cards, seen from outside.
+
+    Parameters
+    ----------
+    body_vertices_m, body_faces : np.ndarray
+        (V, 3) and (F, 3) welded body mesh.
+    cards : FeatherCards
+        The cards.
+    rays : int
+        Number of random band points.
+    tilt_deg : float
+        Angle between the viewing ray and the skin normal, degrees (azimuth random).
+    seed : int
+        Seed of the band points and azimuths.
+    alpha : np.ndarray, optional
+        (H, W) feather alpha in [0, 255] (row 0 = tip, v = 1); when given, card hits outside the silhouette
+        (alpha < 128) do not hide.
+
+    Returns
+    -------
+    float
+        Hidden fraction in [0, 1] of the rays whose target is visible from outside at all.
+    """
+    import trimesh
+
+    rng = np.random.default_rng(seed)
+    target, _, _ = _neck.sample_band_uniform(body_vertices_m, body_faces, rays, rng)
+    normal = _sdf.sdf_gradient(_sdf.body_sdf, target)
+    view = _tilted(normal, tilt_deg, rng)
+    origin = target + RAY_START_M * view
+    card_tri = cards.triangles()
+    n_card_tri = len(card_tri)
+    verts = np.concatenate([cards.points_m.astype(np.float64), body_vertices_m])
+    faces = np.concatenate([card_tri, np.asarray(body_faces) + len(cards.points_m)])
+    scene = trimesh.Trimesh(verts, faces, process=False)
+    loc, ray_id, tri_id = scene.ray.intersects_location(origin, -view, multiple_hits=True)
+    dist = np.einsum("ij,ij->i", loc - origin[ray_id], -view[ray_id])
+    is_card = tri_id < n_card_tri
+    opaque = np.ones(len(tri_id), dtype=bool)
+    if alpha is not None:
+        tri = scene.triangles[tri_id[is_card]]
+        bary = trimesh.triangles.points_to_barycentric(tri, loc[is_card])
+        st = np.einsum("nk,nkd->nd", bary, cards.st.astype(np.float64)[card_tri[tri_id[is_card]]])
+        h, w = alpha.shape
+        col = np.clip((st[:, 0] * w).astype(int), 0, w - 1)
+        row = np.clip(((1.0 - st[:, 1]) * h).astype(int), 0, h - 1)
+        opaque[is_card] = alpha[row, col] >= 128
+    keep = opaque & (dist > 0)
+    ray_id, dist, is_card = ray_id[keep], dist[keep], is_card[keep]
+    order = np.lexsort((dist, ray_id))
+    ray_id, dist, is_card = ray_id[order], dist[order], is_card[order]
+    first = np.unique(ray_id, return_index=True)[1]
+    d, hidden = dist[first], is_card[first]
+    visible_skin = (~hidden) & (np.abs(d - RAY_START_M) < TARGET_TOLERANCE_M)
+    counted = hidden.sum() + visible_skin.sum()
+    if counted == 0:
+        raise ValueError("no band point is visible from outside in this direction")
+    return float(hidden.sum() / counted)
+
+
+def root_skin_distance_m(body_vertices_m, body_faces, cards) -> np.ndarray:
+    """(2 N,) unsigned distance, metres, of each root-row vertex to the body mesh."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(body_vertices_m, body_faces, process=False)
+    roots = cards.points_m.reshape(cards.count, -1, 3)[:, :2].reshape(-1, 3).astype(np.float64)
+    _, dist, _ = trimesh.proximity.closest_point(mesh, roots)
+    return dist
+
+
+def beyond_root_signed_distance_m(body_vertices_m, body_faces, cards) -> np.ndarray:
+    """(N (VERTICES_PER_CARD - 2),) trimesh signed distance (positive INSIDE) of every vertex beyond the root row."""
+    import trimesh
+
+    mesh = trimesh.Trimesh(body_vertices_m, body_faces, process=False)
+    rest = cards.points_m.reshape(cards.count, -1, 3)[:, 2:].reshape(-1, 3).astype(np.float64)
+    return trimesh.proximity.signed_distance(mesh, rest)

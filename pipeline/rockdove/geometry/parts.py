@@ -1,0 +1,231 @@
+"""The bird's other parts: beak, cere, eyes, legs and feet. Surfaces of revolution, each closed and smooth.
+
+A surface of revolution has a natural parametrisation, used as its st: u around (0 .. 1, the seam vertices
+duplicated), v along the profile (0 .. 1).
+
+Rock-dove numbers (Columba livia; Wikipedia, "Rock dove", Description, after Gibbs, Barnes and Cox, "Pigeons
+and Doves", 2001): bill about 1.8 cm, grey-black, "with a conspicuous off-white cere" at its base; iris
+orange, red or golden; feet purplish-red; tarsus 2.6-3.5 cm. The bill here is short and stout (a quarter of
+its length deep at the base), slightly flattened side to side, pointing forward and a little down, rooted
+:data:`BILL_EMBED_M` inside the head; its exposed length (:data:`BILL_LENGTH_M`, from where it leaves the
+head's surface to the tip) is what tests compare with the cited 1.8 cm.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rockdove.geometry import sdf as _sdf
+from rockdove.geometry.types import MeshPart
+
+#: Segments around every surface of revolution.
+AROUND = 20
+
+#: Display colours (linear RGB).
+BEAK_COLOR = (0.035, 0.03, 0.03)
+CERE_COLOR = (0.75, 0.74, 0.70)
+#: Orange-red iris (sRGB ~ (0.88, 0.36, 0.12)); the cited range is orange, red or golden.
+EYE_COLOR = (0.75, 0.11, 0.013)
+#: Purplish-red feet and legs (sRGB ~ (0.78, 0.25, 0.33)).
+LEG_COLOR = (0.57, 0.05, 0.09)
+
+#: Exposed bill length from the head's surface to the tip, metres: about 1.8 cm (Wikipedia, "Rock dove").
+BILL_LENGTH_M = 0.018
+#: Depth of the bill at its base (twice its radius there), metres: stout, about a quarter of its length.
+BILL_BASE_DEPTH_M = 0.0062
+#: How far the bill's root is sunk into the head, metres (so no gap shows where it meets the face).
+BILL_EMBED_M = 0.004
+#: Direction of the bill: forward (+Z) and a little down.
+BILL_DIRECTION = (0.0, -0.30, 1.0)
+#: Height of the bill's axis in the head's centre plane, metres: the axis leaves the face ~5 mm lower, a little
+#: below the eyes, as the gape of a pigeon lies.
+BILL_AXIS_Y_M = 0.2145
+#: Length of the cere along the bill from the face, metres (it covers the nostrils on the base third).
+CERE_LENGTH_M = 0.0075
+
+
+def revolve(z_m: np.ndarray, radius_m: np.ndarray, around: int = AROUND):
+    """Closed surface of revolution about +Z of a profile from pole to pole.
+
+    Parameters
+    ----------
+    z_m : np.ndarray
+        (M,) positions along the axis, increasing, metres.
+    radius_m : np.ndarray
+        (M,) radii; the first and last are the poles (radius 0).
+    around : int
+        Segments around.
+
+    Returns
+    -------
+    vertices : np.ndarray
+        (M * (around + 1), 3) float64 (every ring has a duplicated seam vertex; the poles are rings of
+        coincident points).
+    normals : np.ndarray
+        (same, 3) unit outward normals.
+    st : np.ndarray
+        (same, 2) u around, v along.
+    faces : np.ndarray
+        (2 (M - 1) around, 3) int64, counter-clockwise seen from outside; degenerate triangles at the poles
+        are dropped.
+    """
+    z = np.asarray(z_m, dtype=np.float64)
+    r = np.asarray(radius_m, dtype=np.float64)
+    m = len(z)
+    phi = np.linspace(0.0, 2.0 * np.pi, around + 1)
+    cos, sin = np.cos(phi), np.sin(phi)
+    verts = np.stack([r[:, None] * cos[None, :], r[:, None] * sin[None, :],
+                      np.broadcast_to(z[:, None], (m, around + 1))], axis=-1)
+    # profile normal: perpendicular to the profile tangent (dz, dr) -> (dz, -dr) rotated outward
+    dz, dr = np.gradient(z), np.gradient(r)
+    nr, nz = dz, -dr
+    ln = np.hypot(nr, nz)
+    nr, nz = nr / ln, nz / ln
+    nrm = np.stack([nr[:, None] * cos[None, :], nr[:, None] * sin[None, :],
+                    np.broadcast_to(nz[:, None], (m, around + 1))], axis=-1)
+    st = np.stack(np.broadcast_arrays((phi / (2.0 * np.pi))[None, :], np.linspace(0.0, 1.0, m)[:, None]),
+                  axis=-1)
+    idx = np.arange(m * (around + 1)).reshape(m, around + 1)
+    a, b = idx[:-1, :-1], idx[:-1, 1:]
+    c, d = idx[1:, 1:], idx[1:, :-1]
+    # u runs counter-clockwise about +Z and v toward +Z, so (a, b, c) and (a, c, d) wind outward
+    tri_lo = np.stack([a, b, c], axis=-1)  # uses ring j twice: degenerate on the first pole
+    tri_hi = np.stack([a, c, d], axis=-1)  # uses ring j + 1 twice: degenerate on the last pole
+    faces = np.concatenate([tri_lo[1:].reshape(-1, 3), tri_hi[:-1].reshape(-1, 3)])
+    return verts.reshape(-1, 3), nrm.reshape(-1, 3), st.reshape(-1, 2).astype(np.float64), faces
+
+
+def _frame(direction: np.ndarray, up: np.ndarray = np.array([0.0, 1.0, 0.0])) -> np.ndarray:
+    """(3, 3) rotation whose third column is ``direction`` (unit) and whose second leans to ``up``."""
+    zc = direction / np.linalg.norm(direction)
+    xc = np.cross(up, zc)
+    if np.linalg.norm(xc) < 1e-8:
+        xc = np.cross(np.array([1.0, 0.0, 0.0]), zc)
+    xc /= np.linalg.norm(xc)
+    yc = np.cross(zc, xc)
+    return np.stack([xc, yc, zc], axis=1)
+
+
+def place(piece, origin_m, direction, scale_xy=(1.0, 1.0)):
+    """Scale a revolved piece across its axis, turn its +Z to ``direction`` and move it to ``origin_m``."""
+    verts, nrm, st, faces = piece
+    s = np.array([scale_xy[0], scale_xy[1], 1.0])
+    rot = _frame(np.asarray(direction, dtype=np.float64))
+    v = (verts * s) @ rot.T + np.asarray(origin_m)
+    n = nrm / s  # normals transform by the inverse scale
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    return v, n @ rot.T, st, faces
+
+
+def _concat(pieces):
+    vs, ns, sts, fs = [], [], [], []
+    offset = 0
+    for v, n, st, f in pieces:
+        vs.append(v)
+        ns.append(n)
+        sts.append(st)
+        fs.append(f + offset)
+        offset += len(v)
+    return np.concatenate(vs), np.concatenate(ns), np.concatenate(sts), np.concatenate(fs)
+
+
+def _part(name, pieces, material, color) -> MeshPart:
+    v, n, st, f = _concat(pieces)
+    return MeshPart(name=name, points_m=v.astype(np.float32),
+                    face_vertex_counts=np.full(len(f), 3, dtype=np.int32),
+                    face_vertex_indices=f.reshape(-1).astype(np.int32), normals=n.astype(np.float32),
+                    st=st.astype(np.float32), material=material, display_color=color, primvars={})
+
+
+def _profile_z(length_m, m=16):
+    """(m,) positions along a profile from pole (z = 0) to pole (z = length), denser near the poles."""
+    return (0.5 - 0.5 * np.cos(np.linspace(0.0, np.pi, m))) * length_m
+
+
+def ellipsoid_piece(radius_m: float, m: int = 12):
+    """A sphere of ``radius_m`` along +Z from its south pole at z = 0 (scale across for an ellipsoid)."""
+    a = np.linspace(0.0, np.pi, m)
+    return revolve(radius_m * (1.0 - np.cos(a)), radius_m * np.sin(a))
+
+
+def tube_piece(length_m: float, r0_m: float, r1_m: float, m: int = 14):
+    """A rounded tapered tube of ``length_m`` along +Z, radius r0 at the base to r1 near the end."""
+    z = _profile_z(length_m, m)
+    v = z / length_m
+    body = r0_m + (r1_m - r0_m) * v
+    cap = np.sqrt(np.clip(np.minimum(v, 1.0 - v) * length_m / max(r0_m, r1_m), 0.0, 1.0))
+    r = body * np.minimum(1.0, 1.6 * cap)
+    r[0] = r[-1] = 0.0
+    return revolve(z, r)
+
+
+def bill_root_m() -> np.ndarray:
+    """(3,) point where the bill's axis leaves the head's surface (the body field's zero set), metres."""
+    d = np.asarray(BILL_DIRECTION, dtype=np.float64)
+    d /= np.linalg.norm(d)
+    start = np.array([0.0, BILL_AXIS_Y_M, float(_sdf.HEAD.centre_m[2])])
+    # march out along the bill's direction from inside the head to the first point outside (0.05 mm steps)
+    ts = np.arange(0.0, 0.05, 0.00005)
+    pts = start[None, :] + ts[:, None] * d[None, :]
+    outside = np.flatnonzero(_sdf.body_sdf(pts) > 0.0)
+    return pts[outside[0]]
+
+
+def build_beak() -> MeshPart:
+    """The bill: short and stout (:data:`BILL_LENGTH_M` exposed), flattened side to side, slightly hooked down
+    at the blunt tip; rooted :data:`BILL_EMBED_M` inside the head."""
+    length = BILL_LENGTH_M + BILL_EMBED_M
+    z = _profile_z(length, 18)
+    v = z / length
+    # full depth over the embedded root, then a taper that stays stout to the last quarter and rounds off
+    r = 0.5 * BILL_BASE_DEPTH_M * np.sqrt(np.clip(1.0 - v**2.4, 0.0, 1.0)) * np.sqrt(np.clip(v * 12.0, 0.0, 1.0))
+    r[-1] = 0.0
+    d = np.asarray(BILL_DIRECTION, dtype=np.float64)
+    d /= np.linalg.norm(d)
+    root = bill_root_m() - BILL_EMBED_M * d
+    return _part("Beak", [place(revolve(z, r), root, d, (0.75, 1.0))], "beak", BEAK_COLOR)
+
+
+def build_cere() -> MeshPart:
+    """The cere: the off-white, powdery swelling over the nostrils on top of the base of the bill."""
+    d = np.asarray(BILL_DIRECTION, dtype=np.float64)
+    d /= np.linalg.norm(d)
+    up = np.array([0.0, 1.0, 0.0]) - d[1] * d
+    up /= np.linalg.norm(up)
+    # an ellipsoid from 1 mm inside the face to CERE_LENGTH_M along the bill, riding on its upper edge
+    start = bill_root_m() - 0.001 * d + 0.42 * BILL_BASE_DEPTH_M * up
+    piece = ellipsoid_piece(0.5 * (CERE_LENGTH_M + 0.001))
+    return _part("Cere", [place(piece, start, d, (0.62, 0.34))], "cere", CERE_COLOR)
+
+
+def build_eyes() -> MeshPart:
+    """Two eyes on the sides of the head (one part)."""
+    r = 0.0042
+    pieces = []
+    for side in (1.0, -1.0):
+        centre = np.array([side * 0.0142, 0.2185, 0.0905])
+        outward = np.array([side, 0.15, 0.25])
+        outward /= np.linalg.norm(outward)
+        pieces.append(place(ellipsoid_piece(r), centre - r * outward, outward))
+    return _part("Eyes", pieces, "eye", EYE_COLOR)
+
+
+def build_legs() -> MeshPart:
+    """Both legs: tarsus from inside the belly to the foot, three toes forward and one back; soles at y = 0."""
+    pieces = []
+    toe_r = 0.0019
+    for side in (1.0, -1.0):
+        hip = np.array([side * 0.016, 0.064, 0.010])
+        foot = np.array([side * 0.019, toe_r, 0.020])
+        pieces.append(place(tube_piece(np.linalg.norm(foot - hip) + 0.002, 0.0036, 0.0028),
+                            hip, foot - hip))
+        for yaw_deg, length in ((-28.0, 0.026), (0.0, 0.032), (28.0, 0.026), (180.0, 0.018)):
+            yaw = np.deg2rad(yaw_deg * side)
+            d = np.array([np.sin(yaw), -0.04, np.cos(yaw)])
+            pieces.append(place(tube_piece(length, toe_r, 0.0011), foot - 0.002 * d, d))
+    return _part("Legs", pieces, "leg", LEG_COLOR)
+
+
+def build_parts() -> tuple:
+    """Beak, cere, eyes and legs, in that order (each a :class:`MeshPart`)."""
+    return (build_beak(), build_cere(), build_eyes(), build_legs())

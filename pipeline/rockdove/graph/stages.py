@@ -1,0 +1,593 @@
+"""The real build stages: each wires one module of the pipeline into the graph (:mod:`rockdove.graph.engine`).
+
+Stages (dependencies first) and what each reads:
+
+======================  ===========================================  ==============================================
+stage                   configuration                                 inputs
+======================  ===========================================  ==============================================
+``body``                ``geometry.body_voxel_m``, body texture res.  -- (rockdove.geometry.build_body)
+``bird``                ``geometry``, ``thickness``, textures res.    body (rockdove.geometry.build_bird: cards,
+                                                                      beak, eyes, legs around that body)
+``thickness_range``     --                                            bird: (floor min, ceil max) of the feathers'
+                                                                      ``thickness`` primvar, nm
+``lut``                 ``film``, ``lut``                             thickness_range (baked over exactly that
+                                                                      range; one texel high when uniform); absent
+                                                                      for ``shading.variant = "physical"``
+``texture_images``      as ``bird`` (BirdParams)                      bird (rockdove.textures)
+``textures``            --                                            texture_images: the textures a film change
+                                                                      leaves alone (feather base and mask, body
+                                                                      colour; rockdove.usd.textures_io)
+``film_textures``       -- (physical-only: ``film``)                  lut, thickness_range, texture_images: the LUT
+                                                                      EXR and the preview atlas; physical-only: no
+                                                                      LUT EXR, exact preview colours
+``usd_geometry``        --                                            bird (rockdove.usd.stage.write_geometry:
+                                                                      ``pigeon_geom.usdc``, crate)
+``usd_layers``          ``film``, ``shading``                         bird, lut, usd_geometry
+                                                                      (rockdove.usd.stage.write_looks: pigeon.usda,
+                                                                      pigeon_payload.usda, pigeon_looks.usda);
+                                                                      physical-only: bird, usd_geometry
+``usdz``                -- (present when ``usd.usdz``)                usd_geometry, usd_layers, textures,
+                                                                      film_textures
+                                                                      (rockdove.usd.usdz)
+``verify_rays``         as ``verify``                                 every published stage: the assembled asset.
+                                                                      One item per camera: the reference's ray
+                                                                      casts (rockdove.verify.rays.cast_hits),
+                                                                      keyed by the camera and ray_digest (geometry,
+                                                                      feather alpha; not film or LUT)
+``verify_surfaces``     as ``verify``                                 every published stage, verify_rays. One item
+                                                                      per camera: what the reference shades at the
+                                                                      hits before any light or film
+                                                                      (rockdove.verify.reference_image.cast_surfaces),
+                                                                      keyed by the camera and surface_digest
+                                                                      (+ normals, st, thickness, base colours,
+                                                                      masks; not film or LUT)
+``gltf``                -- (present when ``gltf.glb``)                usd_geometry, usd_layers, (film_)textures: reads the
+                                                                      assembled asset (rockdove.web.gltf.export_glb)
+``verify``              ``verify.width``, ``verify.height``,          every published stage: the assembled asset.
+                        ``verify.views``                              One item per view (rockdove.verify.run),
+                                                                      keyed by its plan entry: the view's camera,
+                                                                      light and size and the digest of the scene
+                                                                      content it renders, plus the verify code
+======================  ===========================================  ==============================================
+
+Because keys use the *content* of upstream outputs, a new seed that leaves the thickness range unchanged
+re-bakes nothing, and a film change re-bakes the LUT and rewrites film_textures (the preview mixes in the LUT)
+and the small layers but reuses the bird, the film-independent textures and the geometry layer
+(``usd_geometry``), whose bytes stay as they were. Physical-only shading needs no bake: the graph has no ``lut``
+stage. Verification
+re-renders only the views whose plan entry changed: a change that leaves the rendered scene as it was (e.g.
+``usd.usdz``) revalidates and rewrites the report but renders nothing; a film change re-renders every view, but
+with the reference's ray casts of ``verify_rays``, which depend on the geometry and the cameras only, and the
+shading inputs at their hits of ``verify_surfaces`` (a thickness or texture change recomputes those, not the rays).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import shutil
+import types
+from pathlib import Path
+
+from .. import __version__
+from .engine import FILES, JSON, Codec, Context, Stage, load_npz
+
+LIBS_GEOMETRY = ("numpy", "scipy", "trimesh", "xatlas")
+LIBS_COLOUR = ("numpy", "scipy", "colour-science")
+LIBS_USD = ("numpy", "usd-core", "MaterialX", "OpenEXR", "pillow")
+LIBS_RENDER = LIBS_USD + ("pyrender", "PyOpenGL", "trimesh", "embreex", "colour-science")
+
+
+# ----------------------------------------------------------------------------------------------- codecs
+def _parts_arrays(parts_in) -> tuple[dict, list]:
+    import numpy as np
+
+    arrays, parts = {}, []
+    for i, part in enumerate(parts_in):
+        for f in ("points_m", "face_vertex_counts", "face_vertex_indices", "normals", "st"):
+            arrays[f"{i}/{f}"] = np.ascontiguousarray(getattr(part, f))
+        pv = {}
+        for name, p in part.primvars.items():
+            arrays[f"{i}/primvar/{name}"] = np.ascontiguousarray(p.values)
+            pv[name] = {"interpolation": p.interpolation, "doc": p.doc}
+        parts.append({"name": part.name, "material": part.material,
+                      "display_color": [float(c) for c in part.display_color], "primvars": pv})
+    return arrays, parts
+
+
+def _parts_from(arrays: dict, meta_parts: list) -> tuple:
+    from ..geometry.types import MeshPart, Primvar
+
+    parts = []
+    for i, p in enumerate(meta_parts):
+        pv = {n: Primvar(arrays[f"{i}/primvar/{n}"], d["interpolation"], d["doc"]) for n, d in p["primvars"].items()}
+        parts.append(MeshPart(name=p["name"], points_m=arrays[f"{i}/points_m"],
+                              face_vertex_counts=arrays[f"{i}/face_vertex_counts"],
+                              face_vertex_indices=arrays[f"{i}/face_vertex_indices"], normals=arrays[f"{i}/normals"],
+                              st=arrays[f"{i}/st"], material=p["material"], display_color=tuple(p["display_color"]),
+                              primvars=pv))
+    return tuple(parts)
+
+
+def _bird_save(bird, folder: Path) -> None:
+    import numpy as np
+
+    arrays, parts = _parts_arrays(bird.parts)
+    np.savez(folder / "bird.npz", **arrays)
+    (folder / "bird.json").write_text(json.dumps({"parts": parts}, sort_keys=True))
+
+
+def _bird_load(folder: Path):
+    from ..geometry.types import Bird
+
+    meta = json.loads((folder / "bird.json").read_text())
+    return Bird(parts=_parts_from(load_npz(folder / "bird.npz"), meta["parts"]))
+
+
+def _body_save(body, folder: Path) -> None:
+    import numpy as np
+
+    arrays, parts = _parts_arrays([body.part] + ([body.wings] if body.wings is not None else []))
+    arrays.update({f"mesh/{f}": np.ascontiguousarray(getattr(body.mesh, f)) for f in ("vertices_m", "faces", "normals")})
+    np.savez(folder / "body.npz", **arrays)
+    (folder / "body.json").write_text(json.dumps({"parts": parts, "card_band_area_m2": body.card_band_area_m2},
+                                                 sort_keys=True))
+
+
+def _body_load(folder: Path):
+    from ..geometry.bird import Body
+    from ..geometry.body import BodyMesh
+
+    arrays = load_npz(folder / "body.npz")
+    meta = json.loads((folder / "body.json").read_text())
+    mesh = BodyMesh(**{f: arrays[f"mesh/{f}"] for f in ("vertices_m", "faces", "normals")})
+    parts = _parts_from(arrays, meta["parts"])
+    return Body(mesh=mesh, part=parts[0], wings=parts[1] if len(parts) > 1 else None,
+                card_band_area_m2=meta.get("card_band_area_m2"))
+
+
+BIRD = Codec("bird", _bird_save, _bird_load, shared=True)  # frozen dataclasses of read-only arrays (no stage edits them)
+BODY = Codec("body", _body_save, _body_load, shared=True)
+
+
+def _lut_save(lut, folder: Path) -> None:
+    import numpy as np
+
+    np.save(folder / "rgb.npy", np.ascontiguousarray(lut.rgb, dtype=np.float32))
+    (folder / "lut.json").write_text(json.dumps({
+        "thickness_range_nm": list(lut.thickness_range_nm), "angle_warp_gamma": lut.angle_warp_gamma,
+        "colour_space": lut.colour_space, "metadata": {k: str(v) for k, v in lut.metadata.items()}}, sort_keys=True))
+
+
+def _lut_load(folder: Path):
+    import numpy as np
+
+    from ..lut.table import ThinFilmLUT
+
+    meta = json.loads((folder / "lut.json").read_text())
+    return ThinFilmLUT(np.load(folder / "rgb.npy"), tuple(meta["thickness_range_nm"]),
+                       angle_warp_gamma=meta["angle_warp_gamma"], colour_space=meta["colour_space"],
+                       metadata=meta["metadata"])
+
+
+LUT = Codec("lut", _lut_save, _lut_load)
+
+
+def _images_save(value, folder: Path) -> None:
+    import numpy as np
+
+    feathers, body = value
+    np.savez(folder / "images.npz", body=body, **{f"feather_{k}": v for k, v in feathers.items()})
+
+
+def _images_load(folder: Path):
+    arrays = load_npz(folder / "images.npz")
+    feathers = {k[len("feather_"):]: v for k, v in arrays.items() if k.startswith("feather_")}
+    return types.MappingProxyType(feathers), arrays["body"]
+
+
+IMAGES = Codec("images", _images_save, _images_load, shared=True)  # a read-only mapping of read-only arrays
+
+
+# ----------------------------------------------------------------------------------------------- stages
+def film_from_config(film_cfg: dict):
+    """The :class:`rockdove.films.FilmModel` of a ``[film]`` section (unset coefficients: the model's)."""
+    from ..films import get_film
+
+    base = get_film(film_cfg["model"])
+    changes = {k: film_cfg[k] for k in ("cauchy_a", "cauchy_b_nm2", "k", "n_incident", "n_substrate")
+               if film_cfg.get(k) is not None}
+    return dataclasses.replace(base, **changes)
+
+
+def bird_params(config: dict):
+    """:class:`rockdove.geometry.BirdParams` from the configuration (the keys of ``params.CONFIG_KEYS``)."""
+    from ..geometry.params import BirdParams
+
+    return BirdParams.from_config(config)
+
+
+#: Random points at which the build measures its LUT, as shipped (after any half rounding), against the exact
+#: reference (rockdove.lut.reference.lut_error, as bake's error_points),
+#: recorded in the EXR header (rockdove:estimatedMaxDeltaE2000, ...P99...). 200 points add ~0.05 s to the
+#: default 256 x 64 keratin bake (rockdove.lut.reference.lut_error right after the bake in a fresh process:
+#: 0.051-0.054 s over 3 runs; 50 points 0.012-0.018 s).
+LUT_ERROR_POINTS = 200
+
+BODY_FIELDS = ("geometry.body_voxel_m", "textures.body_resolution")  # BirdParams.body_key()
+
+
+def run_body(ctx: Context):
+    from ..geometry import build_body
+    from ..geometry.params import BirdParams
+
+    return build_body(BirdParams(body_voxel_m=ctx.config["geometry"]["body_voxel_m"],
+                                 body_texture_resolution=ctx.config["textures"]["body_resolution"]))
+
+
+def run_bird(ctx: Context):
+    from ..geometry import build_bird
+
+    return build_bird(bird_params(ctx.config), body=ctx.inputs["body"])
+
+
+def run_thickness_range(ctx: Context):
+    """(lo, hi) nm present on the feathers, rounded outward to whole nm (the LUT's thickness axis)."""
+    import numpy as np
+
+    d = np.asarray(ctx.inputs["bird"].part("NeckFeathers").primvars["thickness"].values, dtype=np.float64)
+    return [float(math.floor(d.min())), float(math.ceil(d.max()))]
+
+
+def run_lut(ctx: Context):
+    """Bake over the thickness range on the mesh, round to half floats when ``lut.precision = "half"``, then
+    measure the table as shipped against the exact reference at :data:`LUT_ERROR_POINTS` points (recorded in
+    its metadata, hence in the EXR header)."""
+    import numpy as np
+
+    from ..lut.bake import bake, error_metadata
+    from ..lut.reference import lut_error
+    from ..lut.table import ThinFilmLUT
+
+    lo, hi = ctx.inputs["thickness_range"]
+    cfg = ctx.config["lut"]
+    film = film_from_config(ctx.config["film"])
+    lut = bake(angles=cfg["angles"], thicknesses=1 if lo == hi else cfg["thicknesses"], thickness_range=(lo, hi),
+               film=film, method=cfg["method"], angle_warp_gamma=cfg["angle_warp_gamma"],
+               colour_space=cfg["colour_space"])
+    rgb, metadata = lut.rgb, dict(lut.metadata)
+    if cfg["precision"] == "half":
+        # the values the HALF EXR holds (rockdove.lut.exr writes HALF channels for metadata precision "half")
+        rgb = lut.rgb.astype(np.float16).astype(np.float32)
+        metadata["precision"] = "half"
+    lut = ThinFilmLUT(rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
+                      colour_space=lut.colour_space, metadata=metadata)
+    metadata.update(error_metadata(lut_error(lut, film, n_points=LUT_ERROR_POINTS)))
+    return ThinFilmLUT(rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
+                       colour_space=lut.colour_space, metadata=metadata)
+
+
+def run_texture_images(ctx: Context):
+    from .. import textures
+
+    params = bird_params(ctx.config)
+    return textures.feather_textures(params), textures.body_base_colour(params, ctx.inputs["bird"])
+
+
+def run_textures(ctx: Context):
+    """The textures that do not depend on the film (feather base and mask, body colour)."""
+    from ..usd.textures_io import write_base_textures
+
+    feathers, body = ctx.inputs["texture_images"]
+    write_base_textures(str(ctx.workdir), feathers, body)
+
+
+def run_film_textures(ctx: Context):
+    """The LUT EXR and the preview atlas; without a ``lut`` input (physical-only shading) no LUT EXR, and the
+    preview's structural colours are the film's exact colours (so this stage then reads ``film``)."""
+    from ..usd.textures_io import write_film_textures
+
+    feathers, _ = ctx.inputs["texture_images"]
+    span = tuple(ctx.inputs["thickness_range"])  # the preview atlas spans the mesh's range, as previewST does
+    if "lut" in ctx.inputs:
+        write_film_textures(str(ctx.workdir), ctx.inputs["lut"], feathers, thickness_range_nm=span)
+    else:
+        write_film_textures(str(ctx.workdir), None, feathers, film=film_from_config(ctx.config["film"]),
+                            thickness_range_nm=span)
+
+
+def run_usd_geometry(ctx: Context):
+    """The geometry layer (crate), which depends on the bird alone: a film change leaves its bytes as they were."""
+    from ..usd.stage import write_geometry
+
+    write_geometry(str(ctx.workdir), ctx.inputs["bird"])
+
+
+def run_usd_layers(ctx: Context):
+    """Every other layer (interface, payload, looks), authored over the cached geometry layer."""
+    from ..usd.material import lut_info
+    from ..usd.stage import GEOMETRY_LAYER, write_looks
+
+    lut = lut_info(ctx.inputs["lut"]) if "lut" in ctx.inputs else None
+    write_looks(str(ctx.workdir), ctx.inputs["bird"], film_from_config(ctx.config["film"]), lut,
+                version=__version__, geometry=str(ctx.inputs["usd_geometry"] / GEOMETRY_LAYER),
+                shading=ctx.config["shading"]["variant"])
+
+
+def run_usdz(ctx: Context):
+    from ..usd.usdz import USDZ_NAME, write_usdz
+
+    scratch = ctx.workdir / "layout"
+    for dep in ("usd_geometry", "usd_layers", "textures", "film_textures"):
+        shutil.copytree(ctx.inputs[dep], scratch, dirs_exist_ok=True)
+    write_usdz(str(scratch), in_place=True)  # scratch holds copies: package them without a second copy
+    (scratch / USDZ_NAME).rename(ctx.workdir / USDZ_NAME)
+    shutil.rmtree(scratch)
+
+
+def run_gltf(ctx: Context) -> None:
+    """``pigeon.glb``: the assembled (written) USD asset exported to glTF 2.0 (rockdove.web.gltf)."""
+    from ..web.gltf import GLB_NAME, export_glb
+
+    export_glb(str(ctx.asset_dir), ctx.workdir / GLB_NAME, version=__version__)
+
+
+def _verify_size(ctx: Context) -> dict:
+    v = ctx.config["verify"]
+    return {"width": v["width"], "height": v["height"], "n_views": v["views"]}
+
+
+def plan_verify(ctx: Context) -> dict:
+    """The verification views and what each reads (rockdove.verify.inputs.plan_views): its camera, light and
+    size, and the digest of the scene content it renders (meshes, textures, film, LUT; not file bytes that do
+    not change a render, e.g. the usdz or assetInfo). A view whose entry is unchanged is not re-rendered."""
+    from ..verify.inputs import plan_views
+
+    return plan_views(str(ctx.asset_dir), **_verify_size(ctx))
+
+
+def _camera_plan(ctx: Context, label: str, digest_fn) -> dict:
+    """One item per distinct camera of the verification views: ``{"camera": camera_key, label: digest_fn(scene)}``."""
+    from ..verify.inputs import verification_scene, verification_views
+    from ..verify.rays import camera_key
+
+    size = _verify_size(ctx)
+    _, scene, _, _ = verification_scene(str(ctx.asset_dir))
+    digest = digest_fn(scene)
+    views = verification_views(scene, size["width"], size["height"], size["n_views"])
+    return {f"camera-{camera_key(v)[:16]}": {"camera": camera_key(v), label: digest} for v in views}
+
+
+def _run_cameras(ctx: Context, cast) -> dict:
+    """``cast(scene, views)`` (-> ``{camera_key: value}``) for the cameras to redo (``ctx.items``), in one call;
+    ``{item name: (camera_key, value)}``."""
+    from ..verify.inputs import verification_scene, verification_views
+    from ..verify.rays import camera_key
+
+    size = _verify_size(ctx)
+    wanted = {cfg["camera"]: name for name, cfg in ctx.items.items()}
+    _, scene, _, _ = verification_scene(str(ctx.asset_dir))
+    views = verification_views(scene, size["width"], size["height"], size["n_views"])
+    values = cast(scene, [v for v in views if camera_key(v) in wanted])
+    return {wanted[key]: (key, value) for key, value in values.items()}
+
+
+def plan_rays(ctx: Context) -> dict:
+    """One item per distinct camera of the verification views: the camera (rockdove.verify.rays.camera_key)
+    and the digest of the geometry the rays hit (``ray_digest``: meshes, feather st and alpha), not the film or
+    the LUT, so the reference's ray casts survive a film change."""
+    from ..verify.rays import ray_digest
+
+    return _camera_plan(ctx, "geometry", ray_digest)
+
+
+def run_rays(ctx: Context) -> dict:
+    """Cast the reference's primary rays of the cameras to redo (``ctx.items``), in one call (one BVH)."""
+    from ..verify.rays import cast_hits
+
+    return _run_cameras(ctx, cast_hits)
+
+
+def _camera_item_codec(name: str, stem: str) -> Codec:
+    """A per-camera item ``(camera key, value)`` whose value has ``to_arrays()`` and ``stats``
+    (:class:`rockdove.verify.rays.Hits`, :class:`rockdove.verify.reference_image.Surface`): ``<stem>.npz`` and
+    ``<stem>.json``. Loading gives only ``{"dir", "camera"}``: the arrays are read by the stage that uses them."""
+    def save(value, folder: Path) -> None:
+        import numpy as np
+
+        camera, item = value
+        np.savez(folder / f"{stem}.npz", **item.to_arrays())
+        (folder / f"{stem}.json").write_text(json.dumps({"camera": camera, "stats": item.stats}, sort_keys=True))
+
+    def load(folder: Path) -> dict:
+        return {"dir": str(folder), "camera": json.loads((folder / f"{stem}.json").read_text())["camera"]}
+
+    return Codec(name, save, load)
+
+
+def _load_camera_items(value: dict, key: str, stem: str, cls) -> dict:
+    """``{camera key: cls.from_arrays(...)}`` of a per-camera stage's value (``value[key]``: camera -> folder)."""
+    out = {}
+    for camera, d in value[key].items():
+        stats = json.loads((Path(d) / f"{stem}.json").read_text())["stats"]
+        out[camera] = cls.from_arrays(load_npz(Path(d) / f"{stem}.npz"), stats)
+    return out
+
+
+HITS = _camera_item_codec("hits", "hits")
+SURFACES = _camera_item_codec("surface", "surface")
+
+
+def combine_rays(ctx: Context, items: dict) -> dict:
+    """``{"hits": {camera_key: the cached item's folder}}`` (content-keyed, read-only cache entries)."""
+    return {"hits": {value["camera"]: value["dir"] for value in items.values()}}
+
+
+def load_hits(value: dict) -> dict:
+    """The :class:`rockdove.verify.rays.Hits` of a ``verify_rays`` value, by camera key."""
+    from ..verify.rays import Hits
+
+    return _load_camera_items(value, "hits", "hits", Hits)
+
+
+def plan_surfaces(ctx: Context) -> dict:
+    """One item per distinct camera: the camera and the digest of what the reference shades at its hits before
+    any light or film (rockdove.verify.reference_image.surface_digest: the ray casts' geometry, normals, st,
+    thickness, base colours and masks), so a film or light change reuses them."""
+    from ..verify.reference_image import surface_digest
+
+    return _camera_plan(ctx, "surface", surface_digest)
+
+
+def run_surfaces(ctx: Context) -> dict:
+    """The reference's surfaces of the cameras to redo (``ctx.items``), from the ray casts of ``verify_rays``."""
+    from ..verify.reference_image import cast_surfaces
+
+    hits = load_hits(ctx.inputs["verify_rays"])
+    return _run_cameras(ctx, lambda scene, views: cast_surfaces(scene, views, hits=hits))
+
+
+def combine_surfaces(ctx: Context, items: dict) -> dict:
+    """``{"surfaces": {camera_key: the cached item's folder}}``."""
+    return {"surfaces": {value["camera"]: value["dir"] for value in items.values()}}
+
+
+def load_surfaces(value: dict) -> dict:
+    """The :class:`rockdove.verify.reference_image.Surface` of a ``verify_surfaces`` value, by camera key."""
+    from ..verify.reference_image import Surface
+
+    return _load_camera_items(value, "surfaces", "surface", Surface)
+
+
+def run_verify(ctx: Context) -> dict:
+    """Render and check the views to redo (``ctx.items``), in one call (one GL context); the reference reuses
+    the surfaces of ``verify_surfaces`` (shading inputs at the ray casts' hits). Each view's images go into ``ctx.workdir / <view>``
+    (rockdove.verify.run.verify_views)."""
+    from ..verify.run import verify_views
+
+    return verify_views(str(ctx.asset_dir), views=list(ctx.items), out_dir=str(ctx.workdir), subfolders=True,
+                        surfaces=load_surfaces(ctx.inputs["verify_surfaces"]), **_verify_size(ctx))
+
+
+def combine_verify(ctx: Context, views: dict) -> dict:
+    """Validate the assembled asset and join the per-view results (fresh or cached) into the report in the
+    stage's folder (published as ``verify/``); the value is the verdict."""
+    from ..usd.layout import resolve_root_layer
+    from ..verify.run import report_from_views
+    from .publish import published_path
+
+    size = _verify_size(ctx)
+    published = published_path(resolve_root_layer(ctx.asset_dir))
+    skipped = []
+    if "gltf" in ctx.inputs:  # the interactive view of the report (verify/viewer.html)
+        from ..errors import ResourceMissing
+        from ..web.gltf import GLB_NAME
+        from ..web.viewer import write_viewer
+
+        try:
+            write_viewer(str(ctx.asset_dir), ctx.inputs["gltf"] / GLB_NAME, ctx.workdir, asset_name=str(published))
+        except ResourceMissing as exc:  # e.g. a wheel install without npm's three.js: the report, without it
+            skipped.append(f"no interactive viewer in the report: {exc}")
+    report = report_from_views(str(ctx.asset_dir), views, out_dir=str(ctx.workdir), width=size["width"],
+                               height=size["height"], published_asset=str(published))
+    return {"passed": bool(report.get("passed")), "reason": "; ".join(map(str, report.get("failures", []))),
+            "views": [v["view"] for v in report.get("views", []) if isinstance(v, dict)],
+            "notes": list(report.get("notes", [])) + skipped}
+
+
+def _view_save(value: dict, folder: Path) -> None:
+    import numpy as np
+
+    np.savez(folder / "sheet_row.npz", *[np.ascontiguousarray(a) for a in value["sheet_row"]])
+    data = {k: v for k, v in value.items() if k not in ("sheet_row", "dir")}
+    (folder / "view.json").write_text(json.dumps(data, sort_keys=True, default=lambda o: o.tolist()
+                                                 if hasattr(o, "tolist") else str(o)))
+
+
+def _view_load(folder: Path) -> dict:
+    import numpy as np
+
+    value = json.loads((folder / "view.json").read_text())
+    with np.load(folder / "sheet_row.npz", allow_pickle=False) as z:
+        value["sheet_row"] = [z[f"arr_{i}"] for i in range(len(z.files))]
+    value["dir"] = str(folder)  # the view's images sit beside its result
+    return value
+
+
+VIEW_RESULT = Codec("view_result", _view_save, _view_load)
+
+
+def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
+    """The build graph for ``config``: only the stages the scene needs (no bake for physical-only shading)."""
+    from ..geometry.params import CONFIG_KEYS
+
+    baked = config["shading"]["variant"] != "physical"  # physical-only shading needs no bake
+    bird_keys = tuple(CONFIG_KEYS.values())
+    stages = [
+        Stage("body", run_body, config=BODY_FIELDS, modules=("rockdove.geometry",), libraries=LIBS_GEOMETRY,
+              codec=BODY),
+        Stage("bird", run_bird, config=bird_keys, deps=("body",), modules=("rockdove.geometry",),
+              libraries=LIBS_GEOMETRY, codec=BIRD),
+        Stage("thickness_range", run_thickness_range, deps=("bird",), codec=JSON),
+    ]
+    if baked:
+        stages.append(Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",),
+                            modules=("rockdove.lut", "rockdove.films", "rockdove.optics", "rockdove.spectral"),
+                            libraries=LIBS_COLOUR, codec=LUT))
+    stages.append(Stage("texture_images", run_texture_images, config=bird_keys, deps=("bird",),
+                        modules=("rockdove.textures",), libraries=LIBS_GEOMETRY + ("pillow",), codec=IMAGES))
+    stages.append(Stage("textures", run_textures, deps=("texture_images",), modules=("rockdove.usd.textures_io",),
+                        libraries=LIBS_USD, codec=FILES, publish=""))
+    if baked:
+        stages.append(Stage("film_textures", run_film_textures, deps=("lut", "thickness_range", "texture_images"),
+                            modules=("rockdove.usd.textures_io", "rockdove.lut.exr", "rockdove.spectral"),
+                            libraries=LIBS_USD, codec=FILES, publish=""))
+    else:  # the preview colours are computed from the film (rockdove.lut.reference) over the thickness range
+        stages.append(Stage("film_textures", run_film_textures, config=("film",),
+                            deps=("thickness_range", "texture_images"),
+                            modules=("rockdove.usd.textures_io", "rockdove.lut.reference", "rockdove.films",
+                                     "rockdove.optics", "rockdove.spectral"),
+                            libraries=LIBS_USD + ("colour-science", "scipy"), codec=FILES, publish=""))
+    stages.append(Stage("usd_geometry", run_usd_geometry, deps=("bird",), modules=("rockdove.usd",),
+                        data=("schemas/plugInfo.json", "schemas/generatedSchema.usda"), libraries=LIBS_USD,
+                        codec=FILES, publish=""))
+    stages.append(Stage("usd_layers", run_usd_layers, config=("film", "shading"),
+                        deps=("bird", "lut", "usd_geometry") if baked else ("bird", "usd_geometry"),
+                        modules=("rockdove.usd", "rockdove.films"), data=("materials", "schemas/plugInfo.json",
+                                                                           "schemas/generatedSchema.usda"),
+                        libraries=LIBS_USD, codec=FILES, publish=""))
+    if config["usd"]["usdz"]:
+        stages.append(Stage("usdz", run_usdz, deps=("usd_geometry", "usd_layers", "textures", "film_textures"),
+                            modules=("rockdove.usd",),
+                            libraries=LIBS_USD, codec=FILES, publish=""))
+    if config["gltf"]["glb"]:
+        # reads the written asset (so it runs once it is assembled); keyed by the files it translates
+        stages.append(Stage("gltf", run_gltf, deps=("usd_geometry", "usd_layers", "textures", "film_textures"),
+                            modules=("rockdove.web.gltf", "rockdove.render"),
+                            libraries=LIBS_USD + ("pygltflib", "pillow"), codec=FILES, needs_asset=True,
+                            publish=""))
+    if verify:
+        # Per-view items planned from the assembled asset: a view re-renders only when its own plan entry (its
+        # parameters, the digest of the scene content it renders) or the verify code changes. The stage itself
+        # (validation and the report) reruns whenever any published file changes.
+        published = tuple(s.name for s in stages if s.publish is not None)
+        # The reference's ray casts, one item per camera keyed by the geometry they hit: a film change reuses them.
+        stages.append(Stage("verify_rays", run_rays, config=("verify.width", "verify.height", "verify.views"),
+                            deps=published, modules=("rockdove.render", "rockdove.verify", "rockdove.usd"), libraries=LIBS_RENDER,
+                            codec=JSON, needs_asset=True, item_plan=plan_rays, batch=True, combine=combine_rays,
+                            item_codec=HITS))
+        # What the reference shades at those hits before any light or film (normals, textures, thickness).
+        stages.append(Stage("verify_surfaces", run_surfaces, config=("verify.width", "verify.height", "verify.views"),
+                            deps=published + ("verify_rays",), modules=("rockdove.render", "rockdove.verify", "rockdove.usd"),
+                            libraries=LIBS_RENDER, codec=JSON, needs_asset=True, item_plan=plan_surfaces, batch=True,
+                            combine=combine_surfaces, item_codec=SURFACES))
+        stages.append(Stage("verify", run_verify, config=("verify.width", "verify.height", "verify.views"),
+                            deps=published + ("verify_surfaces",),
+                            modules=("rockdove.render", "rockdove.verify", "rockdove.usd", "rockdove.lut", "rockdove.films",
+                                     "rockdove.optics", "rockdove.spectral", "rockdove.web",
+                                     "rockdove.graph.publish"),
+                            data=("materials", "schemas/plugInfo.json", "schemas/generatedSchema.usda"),
+                            libraries=LIBS_RENDER, codec=JSON, needs_asset=True, publish="verify",
+                            item_plan=plan_verify, batch=True, combine=combine_verify, item_codec=VIEW_RESULT))
+    return stages

@@ -1,0 +1,131 @@
+"""Hosts: adapters at the edge that read the WRITTEN asset and render it with their own code.
+
+A host module (registered in :data:`HOSTS`, imported lazily) defines
+
+- ``NAME`` (str): its registry name;
+- ``VARIANT`` (str): the network it draws: ``"glsl"`` (our paper shaders), ``"baked"`` (the MaterialX LUT
+  network), ``"physical"`` (the host's own thin-film BSDF);
+- ``LOBE`` (str): the lighting model of the exact reference it is compared with, one of :data:`LOBES`
+  (:func:`rockdove.verify.reference_image.render_reference`'s ``lobe``);
+- ``unavailable() -> str | None``: None when it can run on this machine, else the reason;
+- optionally ``cannot_draw(asset_path) -> str | None``: why it cannot draw this asset (e.g. the asset has no
+  shading variant of its network): the verifier then skips it with that reason;
+- ``render(asset_path, views, out_dir) -> {view.name: (H, W, 3) float32 linear Rec.709 radiance}``, drawn
+  with each :class:`rockdove.render.views.View`'s camera exactly, background 0; raises :class:`HostError`
+  when the host fails.
+
+:func:`select` turns a list of names into the hosts that can run and the reasons the others cannot;
+``rockdove verify --hosts`` reports both (a missing host is a skip with its reason, never a silent pass).
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from types import ModuleType
+
+#: host name -> module (imported only when the host is asked for).
+HOSTS = {
+    "glsl": "rockdove.hosts.glsl",
+    "materialx": "rockdove.hosts.materialx",
+    "materialx_physical": "rockdove.hosts.materialx_physical",
+    "blender": "rockdove.hosts.blender",
+    "web": "rockdove.hosts.web",
+}
+#: The lighting models a host can be compared under (docs/design.md "Hosts"):
+#: ``half_angle``: the paper's Lambert x colour(cos = L.H) under the View's one directional light;
+#: ``view_angle``: the smooth film's mirror lobe alone under a uniform white environment of unit radiance,
+#: so a feather-tip pixel is the exact film colour at cos = |N.V| (times the mask), base colour black.
+LOBES = ("half_angle", "view_angle")
+#: The host every verification runs (our own GLSL shaders).
+ALWAYS = "glsl"
+
+
+class HostError(RuntimeError):
+    """A host failed to render (no display, import error, shader compile error...).
+
+    Parameters
+    ----------
+    name : str
+        The host's registry name.
+    message : str
+        What went wrong, one line.
+    """
+
+    def __init__(self, name: str, message: str):
+        super().__init__(f"host {name!r}: {message}")
+        self.name = name
+        self.message = message
+
+
+def load(name: str) -> ModuleType:
+    """The module of host ``name``.
+
+    Raises
+    ------
+    ValueError
+        ``name`` is not in :data:`HOSTS`.
+    ImportError
+        The module is absent or fails to import (:func:`select` turns that into a reason).
+    """
+    if name not in HOSTS:
+        raise ValueError(f"host {name!r} is unknown; allowed: {', '.join(HOSTS)}")
+    return importlib.import_module(HOSTS[name])
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The outcome of :func:`select`: ``available`` host modules in the order asked, and the
+    ``unavailable`` ones as ``{name: reason}``."""
+
+    available: tuple
+    unavailable: dict
+
+
+def _reason(name: str) -> tuple[ModuleType | None, str | None]:
+    try:
+        module = load(name)
+    except ModuleNotFoundError as exc:
+        if exc.name and HOSTS[name].startswith(exc.name):
+            return None, f"its module {HOSTS[name]} is not part of this installation"
+        return None, f"its module {HOSTS[name]} cannot be imported: {exc}"
+    except ImportError as exc:
+        return None, f"its module {HOSTS[name]} cannot be imported: {exc}"
+    try:
+        reason = module.unavailable()
+    except Exception as exc:  # a probe that crashes is a reason, not a crash of verify
+        return None, f"{HOSTS[name]}.unavailable() raised {type(exc).__name__}: {exc}"
+    return (None, str(reason)) if reason else (module, None)
+
+
+def select(names=None) -> Selection:
+    """The hosts among ``names`` that can run here, and why the others cannot.
+
+    Parameters
+    ----------
+    names : iterable of str, optional
+        Host names (:data:`HOSTS`); default every registered host. :data:`ALWAYS` (``glsl``) is always
+        included, first.
+
+    Returns
+    -------
+    Selection
+
+    Raises
+    ------
+    ValueError
+        A name is not a registered host (one line naming it and the allowed names).
+    """
+    names = list(HOSTS) if names is None else [str(n).strip() for n in names]
+    unknown = [n for n in names if n not in HOSTS]
+    if unknown:
+        raise ValueError(f"hosts: {', '.join(map(repr, unknown))} unknown; allowed: {', '.join(HOSTS)}")
+    ordered = list(dict.fromkeys([ALWAYS, *names]))
+    available, missing = [], {}
+    for name in ordered:
+        module, reason = _reason(name)
+        if module is None:
+            missing[name] = reason
+        else:
+            available.append(module)
+    return Selection(tuple(available), missing)

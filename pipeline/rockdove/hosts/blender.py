@@ -1,0 +1,250 @@
+"""The Blender host: the written asset imported by Blender (``bpy``) with the rockdove add-on, drawn by Cycles.
+
+What it checks is Blender's own code on the asset as a Blender user gets it: the add-on zip
+(:func:`addon_zip`, ``rockdove blender-addon``) installed and enabled with Blender's operators, a plain
+``bpy.ops.wm.usd_import`` (the add-on's ``USDHook`` builds the Principled thin-film material from the
+asset's ``rockdove:film:*`` records), and Cycles' own thin-film BSDF (``VARIANT = "physical"``).
+
+Lighting model (``LOBE = "view_angle"``, BRIEF "hosts interface"): the film's mirror lobe alone under a
+uniform white world of unit radiance, base colour black, other parts black; a feather-tip pixel is then the
+film's reflectance at ``cos theta = |N.V|`` (for a smooth film the mirror direction makes the incidence angle
+the view angle). The Blender side is :mod:`rockdove.hosts.blender_job`, run in a subprocess because bpy's
+bundled USD and usd-core's ``pxr`` cannot share one process (see there).
+
+Cycles runs on the CPU with :data:`SAMPLES` samples per pixel and a 0.01 px pixel filter (the reference
+samples pixel centres); with a smooth film, a uniform world and binary cut-outs the only noise left is where
+the tip mask is fractional. Output: float32 EXR written by Blender, read with OpenEXR, linear Rec.709
+(Blender's scene-linear space), background 0 (transparent film, premultiplied).
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+import zipfile
+
+import numpy as np
+
+from . import HostError
+
+NAME = "blender"
+VARIANT = "physical"
+LOBE = "view_angle"
+#: The add-on's Python module (the folder inside the zip) and its source folder among the data files.
+ADDON_MODULE = "rockdove_blender"
+ADDON_SOURCE = f"materials/blender/{ADDON_MODULE}"
+ADDON_ZIP = f"{ADDON_MODULE}.zip"
+#: Cycles samples per pixel: enough where the tip mask is fractional (elsewhere every sample is equal).
+SAMPLES = 16
+#: Transparent bounces: feather layers a camera ray may cross (as the reference's MAX_ALPHA_LAYERS).
+TRANSPARENT_BOUNCES = 24
+#: Radiance of the uniform white world (the view_angle lobe's environment).
+ENVIRONMENT_RADIANCE = 1.0
+#: Render threads (the machine's 2 cores; Cycles' default would take every core).
+THREADS = 2
+#: Seconds before a Blender run is given up (import ~2 s, 64x64 renders take a second each).
+TIMEOUT_S = 900
+
+
+#: Names a Python interpreter that has bpy, for when the one running rockdove has not: bpy 5.0 pins numpy < 2,
+#: which rockdove's other dependencies (colour-science 0.4.7) have outgrown, so the two usually live in separate
+#: environments (``make`` puts bpy in ``.venv-bpy``). A setting of where a tool is, like ``PXR_PLUGINPATH_NAME``.
+BPY_PYTHON_ENV = "ROCKDOVE_BPY_PYTHON"
+
+
+@functools.lru_cache(maxsize=None)
+def _probe(exe: str) -> str | None:
+    """None when ``exe`` runs and imports bpy, else why not (one line)."""
+    try:
+        p = subprocess.run([exe, "-c", "import importlib.util, sys; sys.exit(importlib.util.find_spec('bpy') is None)"],
+                           capture_output=True, text=True, timeout=120)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return f"${BPY_PYTHON_ENV}={exe!r} does not run: {exc}"
+    return None if p.returncode == 0 else f"${BPY_PYTHON_ENV}={exe!r} has no bpy (pip install 'bpy==5.0.1' there)"
+
+
+def bpy_python() -> str:
+    """The Python interpreter that runs Blender's side (:mod:`rockdove.hosts.blender_job`): this one when it has
+    bpy, else ``$ROCKDOVE_BPY_PYTHON``. Raises :class:`HostError` naming why neither can."""
+    reason = unavailable()
+    if reason:
+        raise HostError(NAME, reason)
+    return sys.executable if importlib.util.find_spec("bpy") is not None else os.environ[BPY_PYTHON_ENV]
+
+
+def unavailable() -> str | None:
+    """None when bpy (Blender as a Python module, 4.2 or later) can run, here or in ``$ROCKDOVE_BPY_PYTHON``;
+    else why not."""
+    if importlib.util.find_spec("bpy") is not None:
+        return None
+    exe = os.environ.get(BPY_PYTHON_ENV, "").strip()
+    if not exe:
+        return (f"bpy is not installed in this Python and ${BPY_PYTHON_ENV} names no Python that has it "
+                "(pip install 'bpy==5.0.1' in a Python 3.11 environment of its own; make test does)")
+    return _probe(exe)
+
+
+def addon_zip(out_dir) -> str:
+    """Write ``out_dir/rockdove_blender.zip``, the Blender add-on, from its sources among the data files.
+
+    The zip holds the folder ``rockdove_blender/`` (so Blender installs the module ``rockdove_blender``),
+    its files in sorted order with a fixed timestamp: the same sources give the same bytes.
+
+    Returns
+    -------
+    str
+        Absolute path of the zip.
+    """
+    from .. import resources
+
+    source = resources.path(ADDON_SOURCE)
+    out_dir = os.path.abspath(os.fspath(out_dir))
+    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+        raise NotADirectoryError(f"--out: {out_dir!r} exists and is not a folder")
+    os.makedirs(out_dir, exist_ok=True)
+    files = sorted(p for p in source.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
+    path = os.path.join(out_dir, ADDON_ZIP)
+    tmp = path + ".part"
+    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
+        for f in files:
+            info = zipfile.ZipInfo(f"{ADDON_MODULE}/{f.relative_to(source).as_posix()}", (1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = 0o644 << 16
+            zf.writestr(info, f.read_bytes())
+    os.replace(tmp, path)
+    return path
+
+
+def _root_object(asset_path: str) -> str:
+    from pxr import Sdf
+
+    layer = Sdf.Layer.FindOrOpen(asset_path)
+    if layer is None or not layer.defaultPrim:
+        raise HostError(NAME, f"{asset_path}: not a USD layer with a defaultPrim")
+    return layer.defaultPrim
+
+
+def read_exr_rgb(path: str) -> np.ndarray:
+    """(H, W, 3) float32 RGB of an EXR Blender wrote (RGBA, premultiplied: background 0)."""
+    import OpenEXR
+
+    with OpenEXR.File(path) as f:
+        channels = {name: np.array(ch.pixels) for name, ch in f.channels().items()}
+    if "RGBA" in channels:
+        rgb = channels["RGBA"][..., :3]
+    elif "RGB" in channels:
+        rgb = channels["RGB"]
+    elif all(c in channels for c in "RGB"):
+        rgb = np.stack([channels[c] for c in "RGB"], axis=-1)
+    else:
+        raise HostError(NAME, f"{path}: no RGB channels (has {sorted(channels)})")
+    return np.ascontiguousarray(rgb, dtype=np.float32)
+
+
+def render(asset_path: str, views, out_dir: str) -> dict:
+    """The host interface: :func:`run_blender` with the add-on, the ``view_angle`` lobe, :data:`SAMPLES`."""
+    return run_blender(asset_path, views, out_dir)
+
+
+#: What :func:`run_blender` can draw: the film lobe alone (the verification render), or the asset as Blender
+#: imported it (every material untouched) under the same white world: what a user sees.
+LOBES = (LOBE, "as_imported")
+
+
+def run_blender(asset_path: str, views, out_dir: str, *, addon: bool = True, lobe: str = LOBE,
+                samples: int = SAMPLES) -> dict:
+    """Render ``views`` of the written asset in Blender (Cycles, CPU), with or without the rockdove add-on.
+
+    Parameters
+    ----------
+    asset_path : str
+        ``pigeon.usda`` or ``pigeon.usdz``.
+    views : list of rockdove.render.views.View
+    out_dir : str
+        Receives ``blender/``: the add-on zip, Blender's user folders, the job, one EXR and one PNG per view.
+    addon : bool
+        Install and enable the add-on first (False: Blender's importer alone, the UsdPreviewSurface look).
+    lobe : str
+        One of :data:`LOBES`.
+    samples : int
+        Cycles samples per pixel.
+
+    Returns
+    -------
+    dict
+        view name -> (H, W, 3) float32 linear Rec.709 radiance, background 0.
+
+    Raises
+    ------
+    HostError
+        bpy is missing, Blender fails to import or render, or the add-on builds no thin-film material.
+    """
+    from ..spectral import linear_to_srgb8
+    from ..render.images import save_png
+
+    python = bpy_python()
+    views = list(views)
+    if not views:
+        raise ValueError("views must hold at least one View, got none")
+    if int(samples) < 1:
+        raise ValueError(f"samples must be >= 1, got {samples!r}")
+    if lobe not in LOBES or (lobe == LOBE and not addon):
+        raise ValueError(f"lobe={lobe!r} with addon={addon}; allowed: {LOBES[0]!r} (needs the add-on) or {LOBES[1]!r}")
+    asset_path = os.path.abspath(os.fspath(asset_path))
+    if not os.path.isfile(asset_path):
+        raise HostError(NAME, f"no asset at {asset_path!r}")
+    work = os.path.join(os.path.abspath(out_dir), NAME)
+    os.makedirs(work, exist_ok=True)
+    for v in views:
+        stale = os.path.join(work, f"{v.name}.exr")
+        if os.path.exists(stale):
+            os.remove(stale)
+    job = {
+        "asset": asset_path,
+        "root_object": _root_object(asset_path),
+        "addon_zip": addon_zip(work) if addon else None,
+        "addon_module": ADDON_MODULE,
+        "lobe": lobe,
+        "environment_radiance": ENVIRONMENT_RADIANCE,
+        "samples": int(samples),
+        "transparent_bounces": TRANSPARENT_BOUNCES,
+        "threads": THREADS,
+        "out_dir": work,
+        "views": [v.to_dict() for v in views],
+    }
+    job_path = os.path.join(work, "job.json")
+    with open(job_path, "w", encoding="utf-8") as fh:
+        json.dump(job, fh, indent=1)
+    user = os.path.join(work, "user")  # Blender's user folders (installed add-ons, preferences) stay in here
+    env = dict(os.environ, BLENDER_USER_RESOURCES=user, BLENDER_USER_CONFIG=os.path.join(user, "config"),
+               BLENDER_USER_SCRIPTS=os.path.join(user, "scripts"),
+               BLENDER_USER_EXTENSIONS=os.path.join(user, "extensions"))
+    try:
+        # run by file: the interpreter with bpy need not have rockdove installed (the job imports none of it)
+        job_file = importlib.util.find_spec("rockdove.hosts.blender_job").origin
+        proc = subprocess.run([python, job_file, job_path], env=env,
+                              capture_output=True, text=True, timeout=TIMEOUT_S, cwd=work)
+    except subprocess.TimeoutExpired:
+        raise HostError(NAME, f"Blender did not finish within {TIMEOUT_S} s") from None
+    with open(os.path.join(work, "blender.log"), "w", encoding="utf-8") as fh:
+        fh.write(proc.stdout + "\n--- stderr ---\n" + proc.stderr)
+    if proc.returncode != 0:
+        lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
+        raise HostError(NAME, f"Blender exited with status {proc.returncode}: "
+                              f"{lines[-1] if lines else 'no message'} (log: {work}/blender.log)")
+    out = {}
+    for v in views:
+        exr = os.path.join(work, f"{v.name}.exr")
+        if not os.path.isfile(exr):
+            raise HostError(NAME, f"Blender wrote no image for view {v.name!r} ({exr})")
+        rgb = read_exr_rgb(exr)
+        if rgb.shape != (v.height, v.width, 3):
+            raise HostError(NAME, f"view {v.name!r}: Blender image is {rgb.shape[:2]}, expected "
+                                  f"{(v.height, v.width)}")
+        save_png(linear_to_srgb8(rgb), os.path.join(work, f"{v.name}.png"))
+        out[v.name] = rgb
+    return out

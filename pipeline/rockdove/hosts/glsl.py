@@ -1,0 +1,68 @@
+"""The ``glsl`` host: the project's own paper shaders (``materials/glsl/thinfilm.*``) drawn by pyrender through
+EGL (:mod:`rockdove.render.gl`), compared with the paper's half-angle model.
+
+It draws the LUT the asset names. A LUT-less (physical-only) asset has nothing for these shaders to draw
+(:func:`cannot_draw`); ``rockdove verify`` checks such an asset with a LUT baked in memory
+(:meth:`rockdove.render.scene.RenderScene.load_lut`) and hands its GL renders to the host check directly.
+"""
+
+from __future__ import annotations
+
+import os
+
+NAME = "glsl"
+VARIANT = "glsl"
+LOBE = "half_angle"
+
+
+def unavailable() -> str | None:
+    """None when pyrender and PyOpenGL import, else why not."""
+    for module, package in (("pyrender", "pyrender"), ("OpenGL.GL", "PyOpenGL")):
+        try:
+            __import__(module)
+        except ImportError as exc:
+            return f"{package} is not installed ({exc})"
+    return None
+
+
+def render_scene(scene, views, lut=None) -> list:
+    """:func:`rockdove.render.gl.render_views` of an already-read scene: the full
+    :class:`~rockdove.render.gl.RenderResult` per view (with part ids, cos_theta, ...), which the verifier
+    also uses for its per-view checks."""
+    from ..render.gl import render_views
+
+    return render_views(scene, views, lut=lut)
+
+
+def cannot_draw(asset_path: str) -> str | None:
+    """Why the GLSL shaders cannot draw this asset (it has no LUT), else None."""
+    from ..render.scene import load_scene
+
+    try:
+        film = load_scene(asset_path).film
+    except ValueError as exc:
+        return f"the GLSL shaders cannot draw this asset: {exc}"
+    if film is not None and film.lut_file is None:
+        return "the GLSL shaders cannot draw this asset without a LUT: it records no rockdove:lut:file"
+    return None
+
+
+def render(asset_path: str, views, out_dir: str) -> dict:
+    """Render ``views`` of the written asset with the GLSL shaders; see :mod:`rockdove.hosts`."""
+    from ..render.scene import load_scene
+    from . import HostError
+
+    views = list(views)
+    try:
+        results = render_scene(load_scene(asset_path), views)
+    except (ValueError, RuntimeError, OSError) as exc:
+        raise HostError(NAME, str(exc)) from None
+    images = {r.view.name: r.radiance_rgb for r in results}
+    if out_dir:
+        from ..spectral import linear_to_srgb8
+        from ..render.images import save_png
+
+        os.makedirs(out_dir, exist_ok=True)
+        for name, rgb in images.items():
+            save_png(linear_to_srgb8(rgb), os.path.join(out_dir, f"{name}_{NAME}.png"))
+    return images

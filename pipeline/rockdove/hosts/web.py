@@ -1,0 +1,106 @@
+"""The web host: three.js's own ``KHR_materials_iridescence`` shading of the asset's ``pigeon.glb``, drawn by
+headless Chromium (Debian's ``chromium``, WebGL2 on SwiftShader).
+
+It reads the written asset: its ``pigeon.glb`` (exported from the USD when the asset has none, e.g. built with
+``gltf.glb = false``), opens the offline viewer page (:mod:`rockdove.web.viewer`) and asks the page to draw each
+View into a float render target (``window.rockdoveRender``): no light, base colour black, a uniform white
+environment of unit radiance (``LOBE = "view_angle"``: the smooth film's mirror lobe, so a feather-tip pixel is
+the film's reflectance colour at ``cos = |N.V|`` as three.js evaluates it, Belcour & Barla 2017, and its
+split-sum image-based lighting). Every browser step has a time limit; a browser that cannot start or a page that
+fails raises :class:`rockdove.hosts.HostError` naming this host.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from . import HostError
+
+NAME = "web"
+VARIANT = "physical"
+LOBE = "view_angle"
+#: Seconds for the page to load the GLB and draw its first frame (SwiftShader, 2 cores: about 10 s).
+PAGE_TIMEOUT_S = 120.0
+#: Seconds for one View to render and read back.
+VIEW_TIMEOUT_S = 120.0
+
+
+def unavailable() -> str | None:
+    """None when Chromium and the npm package three are installed, else why not."""
+    from ..web.browser import BrowserError, find_chromium
+    from ..web.viewer import three_folder
+
+    try:
+        find_chromium()
+        three_folder()
+    except (BrowserError, OSError) as exc:  # no chromium; three not installed (ResourceMissing)
+        return str(exc)
+    return None
+
+
+def _glb_of(asset_path: str, out_dir: Path) -> Path:
+    from ..usd.layout import resolve_root_layer
+    from ..web.gltf import GLB_NAME, export_glb
+
+    layer = resolve_root_layer(asset_path)
+    written = Path(layer).parent / GLB_NAME
+    if written.is_file():
+        return written
+    export_glb(layer, out_dir / GLB_NAME)
+    return out_dir / GLB_NAME
+
+
+def render(asset_path: str, views: list, out_dir: str, *, browser_factory=None) -> dict:
+    """Render ``views`` of the asset with three.js in headless Chromium.
+
+    Parameters
+    ----------
+    asset_path : str
+        The asset folder or its root layer.
+    views : list of rockdove.render.views.View
+    out_dir : str
+        Where the page (``web/viewer.html`` and its files) and the PNGs (``web_<view>.png``) go.
+    browser_factory : callable, optional
+        Returns a started :class:`rockdove.web.browser.Browser` (tests pass one that fails to start).
+
+    Returns
+    -------
+    dict
+        ``{view.name: (H, W, 3) float32}`` linear Rec.709 radiance, unclipped, background 0.
+    """
+    from ..spectral import linear_to_srgb8
+    from ..render.images import save_png
+    from ..web.browser import Browser, BrowserError
+    from ..web.viewer import write_viewer
+
+    out = Path(out_dir)
+    page_dir = out / "web"
+    page_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        page_path = write_viewer(asset_path, _glb_of(asset_path, page_dir), page_dir)
+    except (ValueError, RuntimeError, OSError) as exc:
+        raise HostError(NAME, f"could not write the viewer page: {exc}") from None
+    images = {}
+    try:
+        with (browser_factory or Browser)() as browser:
+            page = browser.open(Path(page_path).as_uri(), 320, 240, timeout_s=PAGE_TIMEOUT_S)
+            page.evaluate("window.rockdoveReady", timeout_s=PAGE_TIMEOUT_S, step="load pigeon.glb in three.js")
+            for view in views:
+                spec = {"camera_to_world": view.camera_to_world.reshape(-1).tolist(), "yfov_rad": view.yfov_rad,
+                        "width": view.width, "height": view.height,
+                        "light_direction": view.light_direction.tolist(), "light_rgb": view.light_rgb.tolist()}
+                res = page.evaluate(f"window.rockdoveRender({json.dumps(spec)}, 'physical')",
+                                    timeout_s=VIEW_TIMEOUT_S, step=f"render {view.name}")
+                rgb = np.frombuffer(base64.b64decode(res["rgb_f32"]), np.float32)
+                images[view.name] = rgb.reshape(view.height, view.width, 3).copy()
+                save_png(linear_to_srgb8(images[view.name]), os.fspath(out / f"web_{view.name}.png"))
+            if page.errors:
+                raise HostError(NAME, "the page reported errors: " + "; ".join(page.errors[:3]))
+    except BrowserError as exc:
+        raise HostError(NAME, str(exc)) from None
+    return images

@@ -1,0 +1,434 @@
+"""Bakers of the thin-film colour LUT over (cos theta, film thickness).
+
+Methods (registry :data:`BAKE_METHODS`, names validated like colour-science's ``*_METHODS``):
+
+``"spectral"``
+    The straightforward baseline: :func:`rockdove.optics.reflectance` on a uniform wavelength grid
+    (``spectral_step_nm``, default 1 nm) for every texel, then ``R @ W`` with the colour weights of
+    :func:`rockdove.spectral.spectral_weights`. Works for any film (absorbing, total internal reflection).
+``"spectral_fast"``
+    The same sampling for films with real interface coefficients, but the Fresnel coefficients are computed once
+    per (angle, wavelength) and only the phase per texel (real arithmetic Airy form, Born & Wolf 7.6.1), with a
+    finer step ``grazing_step_nm`` in the angle columns with ``cos theta < grazing_cos`` where the film is a
+    high-finesse resonator (and the reference's 0.1 nm below ``cos theta = 0.005``). Was ``"auto"``'s choice for
+    dispersive films before ``"quadrature"``.
+``"fourier"``
+    The exact Fourier route of method.md (:mod:`.fourier`): ``c0 W0 + 2 sum c_m G(m OPD)`` with the
+    closed-form Poisson-kernel coefficients per polarisation and terms dropped below ``fourier_tol``;
+    texels whose series would need more than ``max_terms`` terms (thickness -> 0 at grazing) and texels of zero
+    thickness (the bare interface) are computed like the reference (Airy spectrum at 0.1 nm), and
+    ``cos theta = 0`` takes the limit R = 1. Exact only for a
+    non-dispersive, non-absorbing film without total internal reflection; refused otherwise.
+``"quadrature"``
+    Exact for any film with real interface coefficients, dispersive or not (:mod:`.quadrature`): product
+    integration in wavenumber. The Airy reflectance (analytic in ``sigma = 1 / lambda`` even with Cauchy
+    dispersion) is interpolated on mapped Chebyshev points, and the colour weights are integrated against the
+    interpolating polynomials once per node count, so the continuous spectrum is integrated with 30-60 nodes per
+    texel instead of hundreds of samples; near grazing incidence the truncated Poisson series of ``"fourier"``
+    is interpolated instead of the resonant Airy function, and the columns with ``cos theta >= 0.02`` are
+    interpolated in angle from exact colours at a few Chebyshev angles. Absorbing films and total internal
+    reflection are refused.
+``"auto"``
+    ``"fourier"`` when the film allows it, else ``"quadrature"`` for real interface coefficients (dispersive
+    films such as keratin; faster than ``"spectral_fast"`` and exact, measured by ``rockdove bench lut``),
+    else ``"spectral"``.
+
+Unpolarised light is the mean of the s and p reflectances. The optical path difference of the film is
+``OPD = 2 n_b d cos(theta_b)`` (nm), ``phi = 2 pi OPD / lambda``.
+
+References: Born, M. & Wolf, E., *Principles of Optics*, 7th ed., sec. 7.6.1 (Airy formula); method.md
+(the Fourier form and its coefficients); the table layout is fixed by :mod:`.table`.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+from ..films import as_film
+from ..spectral import DEFAULT_OBSERVER, WAVELENGTH_RANGE_NM, check_colour_space
+from .interfaces import interface_coefficients
+from .table import ThinFilmLUT
+
+DEFAULT_ANGLES = 256
+DEFAULT_THICKNESSES = 64
+DEFAULT_THICKNESS_RANGE_NM = (480.0, 700.0)  # Yoshioka et al. 2007: 480-580 nm at the base, 600-700 at the tip
+# Chosen with ``rockdove bench lut`` (benchmarks/README.md): at 256 angles every gamma in 1-3 meets the goal
+# with the same error (max dE2000 ~0.05, set by the thickness axis' 3.5 nm spacing; in the grazing band the
+# error is ~0.05-0.1 for all of them, at the level of the 0.1 nm reference's own sampling error), while
+# gamma > 1 puts more texels where the Fourier series needs 10-50 terms and keratin needs 0.25 nm sampling, so
+# it only costs time: gamma = 1 is the fastest setting that meets the goal. Smaller tables may want gamma > 1.
+DEFAULT_ANGLE_WARP_GAMMA = 1.0
+# Terms dropped below 1e-4 (absolute, linear colour units, white = 1): 9.3 terms per texel on average and a
+# texel error of 8e-4 dE2000 at most on the default grid (1e-3: 6.2 terms, 0.02; 1e-5: 13.9 terms, 2e-4).
+# The LUT's error is set by interpolation between texels (~0.05), so smaller tolerances only cost time.
+DEFAULT_FOURIER_TOL = 1e-4
+DEFAULT_MAX_TERMS = 512
+DEFAULT_SPECTRAL_STEP_NM = 1.0
+# spectral_fast for dispersive films: step outside / inside the grazing band cos theta < DEFAULT_GRAZING_COS.
+# Measured on the default keratin LUT (bench): 2 / 0.25 nm gives the same error as 1 / 0.1 nm (max 0.047,
+# p99 0.037) in half the time; 1 nm in the grazing band errs p99 0.10 there (the resonances are ~1 nm wide).
+DEFAULT_FAST_STEP_NM = 2.0
+DEFAULT_GRAZING_STEP_NM = 0.25
+DEFAULT_GRAZING_COS = 0.05
+# Below this the resonances are narrower than 0.25 nm (dE2000 0.2 at cos theta ~ 1e-3 with 0.25 nm sampling):
+# spectral_fast samples those columns at the reference's 0.1 nm step. The default LUT has 2 such columns.
+EXTREME_GRAZING_COS = 0.005
+# The observer and wavelength range of the colour tables the bakers integrate with (rockdove.spectral).
+OBSERVER = DEFAULT_OBSERVER
+
+# Memory bound for the sampled methods: (texels x wavelengths) evaluated per chunk.
+_CHUNK_ELEMENTS = 2_000_000
+
+
+# -- helpers ------------------------------------------------------------------------------------------
+def _check_count(name, value, minimum):
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def _check_positive(name, value):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a positive number, got {value!r}") from None
+    if not (np.isfinite(v) and v > 0):
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    return v
+
+
+def _check_range(thickness_range):
+    try:
+        lo, hi = (float(v) for v in thickness_range)
+    except (TypeError, ValueError):
+        raise ValueError(f"thickness_range must be a (lo, hi) pair of numbers in nm, got {thickness_range!r}") from None
+    if not (np.isfinite(lo) and np.isfinite(hi)) or lo < 0 or hi < lo:
+        raise ValueError(f"thickness_range must satisfy 0 <= lo <= hi (nm, finite), got {thickness_range!r}")
+    return lo, hi
+
+
+def wavelength_grid(step_nm: float) -> np.ndarray:
+    """Uniform wavelengths over 360-780 nm with the given step (nm), end points included when they fall on it."""
+    lo, hi = WAVELENGTH_RANGE_NM
+    n = int(np.floor((hi - lo) / step_nm + 1e-9)) + 1
+    return lo + step_nm * np.arange(n)
+
+
+def _texel_chunks(n_angle, n_wavelength):
+    rows = max(1, _CHUNK_ELEMENTS // max(1, n_angle * n_wavelength))
+    return rows
+
+
+# -- methods ------------------------------------------------------------------------------------------
+def _bake_spectral(cos_theta, thickness_nm, film, *, illuminant, colour_space, spectral_step_nm, **_):
+    """Straightforward per-wavelength bake with :func:`rockdove.optics.reflectance`; shape (M, N, 3)."""
+    from .. import optics
+    from .reference import colour_weights
+
+    wl = wavelength_grid(spectral_step_nm)
+    w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
+    n_film = film.n_film(wl)
+    out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
+    rows = _texel_chunks(cos_theta.shape[0], wl.shape[0])
+    for i in range(0, thickness_nm.shape[0], rows):
+        d = thickness_nm[i : i + rows, None, None]
+        r = optics.reflectance(
+            wl[None, None, :], cos_theta[None, :, None], d, n_film=n_film,
+            n_incident=film.n_incident, n_substrate=film.n_substrate,
+        )
+        out[i : i + rows] = r @ w
+    return out, {"spectralStepNm": repr(float(spectral_step_nm))}
+
+
+def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
+    """Colour by wavelength sampling, real-coefficient Airy form, for a grid of texels.
+
+    Parameters
+    ----------
+    cos_theta : ndarray, shape (A,)
+    thickness_nm : ndarray, shape (T,)
+    film : FilmModel (real coefficients, see :func:`interface_coefficients`)
+    wavelength_nm : ndarray, shape (L,)
+    weights : ndarray, shape (L, 3)
+        ``R @ weights`` is the colour.
+
+    Returns
+    -------
+    ndarray, shape (T, A, 3), float64
+    """
+    coef = interface_coefficients(film, cos_theta, wavelength_nm)
+    if coef is None:
+        raise ValueError(f"film {film.name!r} has complex interface coefficients; use method='spectral'")
+    # Airy form in half-angle variables, stable near grazing where a b -> -1 (p = a b, s2 = sin^2(phi / 2)):
+    #   R = ((a + b)^2 - 4 p s2) / ((1 + p)^2 - 4 p s2)
+    # For p <= 0 (e.g. a film in air, b = -a) both terms of the denominator are >= 0, so float32 is safe and
+    # halves memory traffic (phase rounding ~2e-6 rad at 700 nm, R ~1e-7: far below 1e-3 dE2000); otherwise
+    # float64. phi / 2 = 2 pi n_b cos_b d / lambda.
+    products = [coef[f"a_{pol}"] * coef[f"b_{pol}"] for pol in ("s", "p")]
+    dtype = np.float32 if max(float(p.max()) for p in products) <= 0.0 else np.float64
+    half_k = (2.0 * np.pi * coef["n_b"] * coef["cos_b"] / wavelength_nm[None, :]).astype(dtype)
+    terms = []
+    degenerate = np.zeros(half_k.shape, bool)
+    for pol, p in zip(("s", "p"), products):
+        a, b = coef[f"a_{pol}"], coef[f"b_{pol}"]
+        terms.append(tuple(v.astype(dtype) for v in ((a + b) ** 2, -4.0 * p, (1.0 + p) ** 2)))
+        degenerate |= (1.0 + p) ** 2 == 0.0  # a b = -1 (cos theta = 0): R = 1 for any film with d > 0
+    fix_cols = np.nonzero(degenerate.any(axis=1))[0]
+    w = np.asarray(weights, dtype=dtype)
+    out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
+    rows = _texel_chunks(cos_theta.shape[0], wavelength_nm.shape[0])
+    for i in range(0, thickness_nm.shape[0], rows):
+        s2 = np.sin(thickness_nm[i : i + rows, None, None].astype(dtype) * half_k[None])
+        s2 *= s2
+        r = np.zeros_like(s2)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            for num0, slope, den0 in terms:
+                x = slope * s2
+                x_num = num0 + x
+                x += den0
+                x_num /= x
+                r += x_num
+        if fix_cols.size:
+            sub = r[:, fix_cols]
+            sub[np.broadcast_to(degenerate[fix_cols][None], sub.shape)] = 2.0
+            r[:, fix_cols] = sub
+        out[i : i + rows] = (r @ w) * 0.5
+    bare = thickness_nm == 0.0
+    if np.any(bare):
+        # no film: the bare incident | substrate interface (the Airy form's d -> 0 limit is ambiguous at grazing)
+        from .. import optics
+
+        r = optics.reflectance(wavelength_nm[None, :], cos_theta[:, None], 0.0, n_film=film.n_film(wavelength_nm),
+                               n_incident=film.n_incident, n_substrate=film.n_substrate)
+        out[bare] = (r @ weights)[None]
+    return out
+
+
+def _bake_spectral_fast(cos_theta, thickness_nm, film, *, illuminant, colour_space, fast_step_nm,
+                        grazing_step_nm, grazing_cos, **_):
+    from .reference import REFERENCE_STEP_NM, colour_weights
+
+    out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
+    graze = cos_theta < grazing_cos
+    # below cos theta ~ 5e-3 the resonances get narrower than any fixed step: sample like the reference there
+    extreme = cos_theta < EXTREME_GRAZING_COS
+    bands = ((~graze, fast_step_nm), (graze & ~extreme, grazing_step_nm),
+             (extreme, min(grazing_step_nm, REFERENCE_STEP_NM)))
+    for mask, step in bands:
+        if np.any(mask):
+            wl = wavelength_grid(step)
+            w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
+            out[:, mask] = sample_colour(cos_theta[mask], thickness_nm, film, wl, w)
+    meta = {
+        "spectralStepNm": repr(float(fast_step_nm)),
+        "grazingStepNm": repr(float(grazing_step_nm)),
+        "grazingCosTheta": repr(float(grazing_cos)),
+        "extremeGrazing": f"cos_theta < {EXTREME_GRAZING_COS!r} at {min(grazing_step_nm, REFERENCE_STEP_NM)!r} nm",
+    }
+    return out, meta
+
+
+def fourier_supported(film) -> bool:
+    """True when the exact Fourier form applies: non-dispersive, non-absorbing, real coefficients (no TIR)."""
+    if film.is_dispersive or film.k != 0 or isinstance(film.n_substrate, complex):
+        return False
+    n_b = float(np.real(film.n_film(550.0)))
+    return film.n_incident <= min(n_b, float(film.n_substrate))
+
+
+def _bake_fourier(cos_theta, thickness_nm, film, *, illuminant, colour_space, fourier_tol, max_terms, **_):
+    from . import fourier
+    from .reference import REFERENCE_STEP_NM, reference_colour
+
+    if not fourier_supported(film):
+        raise ValueError(
+            f"method 'fourier' needs a non-dispersive, non-absorbing film without total internal reflection; "
+            f"film {film.name!r} is not (use 'spectral_fast', 'spectral' or 'auto')"
+        )
+    table = fourier.g_table(illuminant, colour_space)
+    coef = interface_coefficients(film, cos_theta, np.array([550.0]))  # any wavelength: no dispersion
+    n_b = float(coef["n_b"][0, 0])
+    opd = 2.0 * n_b * thickness_nm[:, None] * coef["cos_b"][None, :, 0]  # (T, A) nm
+    shape = opd.shape
+    cs = [fourier.airy_fourier_coefficients(coef[f"a_{pol}"][:, 0], coef[f"b_{pol}"][:, 0]) for pol in ("s", "p")]
+    c0, c1, rho = (np.stack([c[i] for c in cs], axis=1) for i in range(3))  # (A, 2) each
+    m = np.max(
+        [fourier.n_terms_needed(c1[None, :, p], rho[None, :, p], opd, table, fourier_tol) for p in (0, 1)],
+        axis=0,
+    )
+    fallback = (m > max_terms) | (opd <= 0.0)  # slow series, or no film (d = 0: the bare interface)
+    m = np.where(fallback, 0, m)
+    rgb = fourier.fourier_colour_grid(c0, c1, rho, opd, m, table)
+    n_terms_total = np.broadcast_to(m.max(axis=0)[None, :], shape)
+    if np.any(fallback):
+        # series too slow (OPD -> 0 with |rho| -> 1) or no film: the exact Airy spectrum at the reference step
+        ti, aj = np.nonzero(fallback)
+        rgb[ti, aj] = reference_colour(cos_theta[aj], thickness_nm[ti], film, illuminant=illuminant,
+                                       colour_space=colour_space, steps_nm=((0.0, REFERENCE_STEP_NM),))
+    meta = {
+        "fourierTolerance": repr(float(fourier_tol)),
+        "fourierMaxTerms": str(int(max_terms)),
+        "fourierTermsMean": f"{n_terms_total.mean():.2f}",
+        "fourierTermsMax": str(int(n_terms_total.max())),
+        "fourierSampledTexels": f"{int(fallback.sum())} (at {REFERENCE_STEP_NM} nm)",
+    }
+    return rgb, meta
+
+
+def _bake_quadrature(cos_theta, thickness_nm, film, *, illuminant, colour_space, **_):
+    from .quadrature import quadrature_colour
+
+    return quadrature_colour(cos_theta, thickness_nm, film, illuminant=illuminant, colour_space=colour_space)
+
+
+def _bake_auto(cos_theta, thickness_nm, film, **kw):
+    if fourier_supported(film):
+        return "fourier", _bake_fourier(cos_theta, thickness_nm, film, **kw)
+    if interface_coefficients(film, cos_theta, np.array([WAVELENGTH_RANGE_NM[0], WAVELENGTH_RANGE_NM[1]])) is not None:
+        # dispersive film with real coefficients: product integration beats sampling (rockdove bench lut)
+        return "quadrature", _bake_quadrature(cos_theta, thickness_nm, film, **kw)
+    # absorbing film or substrate, or total internal reflection: the general path (accuracy not benchmarked)
+    return "spectral", _bake_spectral(cos_theta, thickness_nm, film, **kw)
+
+
+BAKE_METHODS = {
+    "auto": _bake_auto,
+    "fourier": _bake_fourier,
+    "spectral_fast": _bake_spectral_fast,
+    "quadrature": _bake_quadrature,
+    "spectral": _bake_spectral,
+}
+"""Supported bake methods: name -> implementation (``"auto"`` picks among the others)."""
+
+
+def bake(
+    *,
+    angles: int = DEFAULT_ANGLES,
+    thicknesses: int = DEFAULT_THICKNESSES,
+    thickness_range=DEFAULT_THICKNESS_RANGE_NM,
+    film="paper",
+    method: str = "auto",
+    angle_warp_gamma: float = DEFAULT_ANGLE_WARP_GAMMA,
+    colour_space: str = "lin_rec709",
+    illuminant: str = "D65",
+    spectral_step_nm: float = DEFAULT_SPECTRAL_STEP_NM,
+    fast_step_nm: float = DEFAULT_FAST_STEP_NM,
+    grazing_step_nm: float = DEFAULT_GRAZING_STEP_NM,
+    grazing_cos: float = DEFAULT_GRAZING_COS,
+    fourier_tol: float = DEFAULT_FOURIER_TOL,
+    max_terms: int = DEFAULT_MAX_TERMS,
+    error_points: int = 0,
+    error_seed: int = 0,
+) -> ThinFilmLUT:
+    """Bake structural colour over (cos theta, thickness) into a :class:`ThinFilmLUT`.
+
+    Parameters
+    ----------
+    angles : int >= 2
+        Angle texels; nodes ``cos_theta_j = (j / (angles - 1)) ** angle_warp_gamma``.
+    thicknesses : int >= 1
+        Thickness texels, uniform over ``thickness_range``. ``1`` (or ``lo == hi``) gives a one-texel-high
+        LUT (the paper's 1-D texture) at the mid-point of the range.
+    thickness_range : (float, float)
+        ``(lo, hi)`` film thickness in nm, ``0 <= lo <= hi``.
+    film : str or FilmModel
+        ``"paper"`` (n = 1.5, the default), ``"keratin"`` (dispersive) or any :class:`rockdove.films.FilmModel`.
+    method : str
+        One of :data:`BAKE_METHODS`.
+    angle_warp_gamma : float > 0
+        Warp of the angle axis (``> 1`` puts texels near grazing).
+    colour_space, illuminant : str
+        Working colour space of the table (``lin_rec709`` or ``acescg``) and illuminant (``D65``).
+    spectral_step_nm : float
+        Wavelength step of ``"spectral"``.
+    fast_step_nm, grazing_step_nm, grazing_cos : float
+        Steps of ``"spectral_fast"`` outside / inside the grazing band ``cos theta < grazing_cos``.
+    fourier_tol : float
+        Remainder bound below which Fourier terms are dropped (linear colour units).
+    max_terms : int
+        Texels whose series needs more terms are sampled at 0.1 nm instead.
+    error_points : int
+        If > 0, measure the LUT against the exact reference at this many random points (grazing included) and
+        record max / p99 / median dE2000 in the metadata (:func:`rockdove.lut.reference.lut_error`).
+    error_seed : int
+        Seed of those points.
+
+    Returns
+    -------
+    ThinFilmLUT
+        ``rgb`` shape (n_thickness, angles, 3) float32; metadata records the film, illuminant, observer,
+        colour space, method and its parameters (and the measured error when asked).
+    """
+    angles = _check_count("angles", angles, 2)
+    thicknesses = _check_count("thicknesses", thicknesses, 1)
+    lo, hi = _check_range(thickness_range)
+    film_model = as_film(film)
+    if not isinstance(method, str) or method not in BAKE_METHODS:
+        raise ValueError(f"method must be one of {sorted(BAKE_METHODS)}, got {method!r}")
+    gamma = _check_positive("angle_warp_gamma", angle_warp_gamma)
+    from .reference import check_illuminant
+
+    colour_space = check_colour_space(colour_space)
+    illuminant = check_illuminant(illuminant)
+    kw = dict(
+        illuminant=illuminant,
+        colour_space=colour_space,
+        spectral_step_nm=_check_positive("spectral_step_nm", spectral_step_nm),
+        fast_step_nm=_check_positive("fast_step_nm", fast_step_nm),
+        grazing_step_nm=_check_positive("grazing_step_nm", grazing_step_nm),
+        grazing_cos=_check_positive("grazing_cos", grazing_cos),
+        fourier_tol=_check_positive("fourier_tol", fourier_tol),
+        max_terms=_check_count("max_terms", max_terms, 0),
+    )
+    error_points = _check_count("error_points", error_points, 0)
+
+    if thicknesses == 1 or lo == hi:
+        lo = hi = 0.5 * (lo + hi)
+        thicknesses = 1
+    rng = (lo, hi)
+    x = np.linspace(0.0, 1.0, angles)
+    cos_theta = x**gamma
+    thickness_nm = np.linspace(lo, hi, thicknesses)
+
+    impl = BAKE_METHODS[method]
+    if method == "auto":
+        used, (rgb, meta) = impl(cos_theta, thickness_nm, film_model, **kw)
+    else:
+        used, (rgb, meta) = method, impl(cos_theta, thickness_nm, film_model, **kw)
+    metadata = {f"film:{k}": v for k, v in film_model.describe().items()}
+    metadata.update(
+        {
+            "film": film_model.name,
+            "illuminant": illuminant,
+            "observer": OBSERVER,
+            "wavelengthRangeNm": f"{WAVELENGTH_RANGE_NM[0]!r} {WAVELENGTH_RANGE_NM[1]!r}",
+            "polarization": "unpolarized (mean of s and p)",
+            "method": used,
+            "methodRequested": method,
+            "estimatedError": "not measured at bake time (bake(error_points=0))",
+        }
+    )
+    metadata.update({f"method:{k}": v for k, v in meta.items()})
+    lut = ThinFilmLUT(rgb.astype(np.float32), rng, angle_warp_gamma=gamma, colour_space=colour_space,
+                      metadata=metadata)
+    if error_points:
+        from .reference import lut_error
+
+        err = lut_error(lut, film_model, n_points=error_points, seed=error_seed)
+        metadata.update(error_metadata(err))
+        lut = ThinFilmLUT(lut.rgb, rng, angle_warp_gamma=gamma, colour_space=colour_space, metadata=metadata)
+    return lut
+
+
+def error_metadata(err: dict) -> dict[str, str]:
+    """Header strings of a :func:`rockdove.lut.reference.lut_error` result."""
+    return {
+        "estimatedError": f"max dE2000 {err['max']:.4g}, p99 {err['p99']:.4g} against the exact Airy reference",
+        "estimatedMaxDeltaE2000": f"{err['max']:.4g}",
+        "estimatedP99DeltaE2000": f"{err['p99']:.4g}",
+        "estimatedMedianDeltaE2000": f"{err['median']:.4g}",
+        "estimatedErrorSample": f"{err['n_points']} random points, seed {err['seed']}, "
+        f"{err['grazing_fraction']:.0%} with cos_theta < {err['grazing_cos']}",
+    }

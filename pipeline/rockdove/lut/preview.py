@@ -1,0 +1,38 @@
+"""sRGB PNG preview of a thin-film LUT, for people (the data is the EXR).
+
+Layout as the EXR: x = angle node (left: grazing incidence cos theta = 0, right: normal incidence), bottom row =
+thinnest film. Colours map to 8 bits with :func:`rockdove.spectral.RGB_to_preview8` (out-of-gamut colours
+desaturated toward their own luminance, then clipped and sRGB-encoded). Tables lower than
+:data:`MIN_PREVIEW_HEIGHT` rows (a one-texel-high LUT) have each row repeated so the strip is visible.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from .table import ThinFilmLUT
+
+MIN_PREVIEW_HEIGHT = 32  # px
+
+
+def preview_image(lut: ThinFilmLUT) -> np.ndarray:
+    """The preview as an (H, n_angle, 3) uint8 array, top row = thickest film."""
+    from .. import spectral
+
+    img = spectral.RGB_to_preview8(lut.rgb[::-1], colour_space=lut.colour_space)
+    if img.shape[0] < MIN_PREVIEW_HEIGHT:
+        img = np.repeat(img, -(-MIN_PREVIEW_HEIGHT // img.shape[0]), axis=0)
+    return np.ascontiguousarray(img)
+
+
+def write_preview_png(lut: ThinFilmLUT, path) -> str:
+    """Write the sRGB preview PNG of ``lut`` to ``path`` (deterministic bytes: no time stamp); returns the path."""
+    from PIL import Image
+
+    if not isinstance(lut, ThinFilmLUT):
+        raise ValueError(f"lut must be a ThinFilmLUT, got {type(lut).__name__}")
+    path = os.fspath(path)
+    Image.fromarray(preview_image(lut), mode="RGB").save(path, format="PNG", optimize=False)
+    return path

@@ -1,0 +1,101 @@
+"""The data files rockdove reads at run time, found through :mod:`importlib.resources`.
+
+Shaders and MaterialX documents (``materials/``), the USD schema and the configuration's JSON Schema
+(``schemas/``) and the preset recipes (``assets/``) live at the top of the repository. ``pyproject.toml``
+maps each folder into the package as a data sub-package (``rockdove.materials``, ``rockdove.schemas``,
+``rockdove.assets``), so a wheel carries them and an editable install reads them from the checkout; this
+module is the only place that knows that. The model is trimesh's ``resources`` module.
+
+Names are relative paths whose first part is the folder: ``"materials/thinfilm.mtlx"``,
+``"schemas/plugInfo.json"``, ``"assets/pigeon"``.
+
+Examples
+--------
+>>> from rockdove import resources
+>>> resources.path("materials/glsl/thinfilm.frag").name
+'thinfilm.frag'
+>>> resources.path("materials/nothing.txt")
+Traceback (most recent call last):
+...
+rockdove.errors.ResourceMissing: rockdove data file 'materials/nothing.txt' is missing from the installed package (...)
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.resources
+from pathlib import Path
+
+from .errors import ResourceMissing
+
+#: The data folders and the sub-package each ships as.
+FOLDERS = {"materials": "rockdove.materials", "schemas": "rockdove.schemas", "assets": "rockdove.assets"}
+
+
+@functools.lru_cache(maxsize=None)
+def folder(name: str) -> Path:
+    """The directory of data folder ``name`` (one of :data:`FOLDERS`), as a real path on disk.
+
+    Raises
+    ------
+    ResourceMissing
+        When the package was installed without that folder.
+    """
+    if name not in FOLDERS:
+        raise ValueError(f"data folder must be one of {', '.join(FOLDERS)}, got {name!r}")
+    try:
+        root = importlib.resources.files(FOLDERS[name])
+    except ModuleNotFoundError as exc:
+        raise ResourceMissing(f"rockdove data folder {name!r} is missing from the installed package "
+                              f"(no module {FOLDERS[name]}); reinstall rockdove") from exc
+    path = Path(str(root))
+    if not path.is_dir():
+        raise ResourceMissing(f"rockdove data folder {name!r} is not a folder on disk ({path}); "
+                              "install rockdove from a wheel or a checkout, not a zip")
+    return path
+
+
+def path(name: str) -> Path:
+    """The file or folder ``name`` (``"<folder>/<relative path>"``) on disk.
+
+    Raises
+    ------
+    ResourceMissing
+        Naming ``name`` when it is not in the installed package.
+    """
+    top, _, rest = name.partition("/")
+    p = folder(top) / rest if rest else folder(top)
+    if not p.exists():
+        raise ResourceMissing(f"rockdove data file {name!r} is missing from the installed package ({p})")
+    return p
+
+
+def package_root() -> Path:
+    """The directory of the ``rockdove`` package's own sources (for hashing code into stage keys)."""
+    return Path(str(importlib.resources.files("rockdove")))
+
+
+def user_cache_dir(*parts: str) -> Path:
+    """Where rockdove keeps values derived from installed libraries, keyed by their content or version:
+    ``$XDG_CACHE_HOME/rockdove/<parts...>`` (``~/.cache`` when unset). Everything in it can be deleted at any
+    time; it is recomputed on demand. Not created here (see :func:`write_cached`)."""
+    import os
+
+    root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(root, "rockdove", *parts)
+
+
+def write_cached(path: Path, data: bytes) -> bool:
+    """Write ``data`` to ``path`` in :func:`user_cache_dir` atomically (a reader sees the old file or the whole new
+    one, also with concurrent writers). Returns False, and writes nothing, where the folder is not writable:
+    a cache that cannot be kept is recomputed next time."""
+    import os
+
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        tmp.write_bytes(data)
+        os.replace(tmp, path)
+        return True
+    except OSError:
+        return False

@@ -1,0 +1,301 @@
+"""Procedural textures: the feather base colour + alpha silhouette and mask (the seed paper's two feather
+textures), and the body's base colour in its xatlas UVs.
+
+Image convention (docs/design.md, Textures): uint8 arrays, row 0 is the TOP of the image, so texel
+(row, col) of an (H, W) image sits at st = ((col + 0.5) / W, 1 - (row + 0.5) / H) (USD's st has t = 0 at
+the bottom). On a feather card u runs across the feather and v from the root (0) to the tip (1): the tip is
+at the top of the feather images. Base colours are sRGB-encoded; alpha and the mask are linear.
+
+Colours are blended in linear Rec.709 and encoded with colour-science's sRGB CCTF (IEC 61966-2-1). The
+rock-dove palette (blue-grey body, darker head and neck, two black wing bars, dark terminal tail band) follows
+field-guide descriptions of Columba livia; the values are chosen by eye.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: sRGB 8-bit palette of the body.
+BODY_SRGB = (150, 158, 172)
+HEAD_SRGB = (104, 110, 126)
+NECK_SRGB = (84, 90, 102)
+WING_SRGB = (162, 169, 181)
+WING_BAR_SRGB = (28, 28, 32)
+PRIMARIES_SRGB = (88, 92, 102)
+TAIL_SRGB = (120, 127, 140)
+TAIL_BAND_SRGB = (36, 36, 42)
+
+#: sRGB 8-bit colours of a neck feather: the vane, the rachis, the downy base.
+VANE_SRGB = (56, 61, 66)
+RACHIS_SRGB = (110, 112, 116)
+DOWN_SRGB = (128, 132, 138)
+
+#: Where the mask turns on along the feather: v from MASK_START to MASK_FULL (the tip part is structural).
+MASK_START_V = 0.42
+MASK_FULL_V = 0.60
+#: Barbs across the vane (count from root to tip) and their slant (dv per unit of |u - 0.5|).
+BARB_COUNT = 42
+BARB_SLANT = 0.9
+
+
+def _resolution(value, name="resolution_or_params", attr="feather_texture_resolution") -> int:
+    res = getattr(value, attr, value)
+    if isinstance(res, bool) or not isinstance(res, (int, np.integer)) or not 16 <= res <= 8192:
+        raise ValueError(f"{name}={value!r} must be BirdParams or an integer resolution in [16, 8192]")
+    return int(res)
+
+
+def _smoothstep(e0, e1, x):
+    t = np.clip((np.asarray(x, dtype=np.float64) - e0) / (e1 - e0), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def _linear(srgb8) -> np.ndarray:
+    from .spectral import srgb_decode
+
+    return srgb_decode(np.asarray(srgb8, dtype=np.float64) / 255.0)
+
+
+def _encode(linear: np.ndarray) -> np.ndarray:
+    from rockdove.spectral import linear_to_srgb8  # the project's one sRGB 8-bit encoding
+
+    return linear_to_srgb8(linear)
+
+
+def _mix(a, b, w):
+    w = np.asarray(w, dtype=np.float64)[..., None]
+    return a * (1.0 - w) + b * w
+
+
+def feather_uv(resolution: int) -> tuple[np.ndarray, np.ndarray]:
+    """(R, R) u and v at texel centres, with row 0 at the top (v near 1, the feather tip)."""
+    c = (np.arange(resolution) + 0.5) / resolution
+    u, v = np.meshgrid(c, 1.0 - c)
+    return u, v
+
+
+def feather_half_width(v: np.ndarray) -> np.ndarray:
+    """Half-width of the feather silhouette in u at v (0 root .. 1 tip): quill, widening vane, rounded tip."""
+    vv = np.clip((np.asarray(v, dtype=np.float64) - 0.06) / 0.92, 0.0, None)
+    widen = 0.47 * (0.12 + 0.88 * np.sin(0.5 * np.pi * np.clip(vv / 0.62, 0.0, 1.0)))
+    tip = 0.47 * np.sqrt(np.clip(1.0 - ((vv - 0.62) / 0.38) ** 2, 0.0, 1.0))
+    w = np.where(vv < 0.62, widen, tip)
+    quill = np.where(np.asarray(v) < 0.09, 0.018, 0.0)
+    return np.where(np.asarray(v) < 0.06, quill, np.maximum(w, quill))
+
+
+def feather_textures(resolution_or_params=256) -> dict:
+    """The two feather textures of the seed paper, procedurally.
+
+    Parameters
+    ----------
+    resolution_or_params : int or BirdParams
+        Width = height R in texels (16 .. 8192), or BirdParams (its ``feather_texture_resolution``).
+
+    Returns
+    -------
+    dict
+        ``"base"``: (R, R, 4) uint8 RGBA, sRGB colour of the feather (dark slate vane with barbs, pale rachis,
+        downy base) and its silhouette in alpha (0 outside, 255 inside, antialiased over a texel);
+        ``"mask"``: (R, R) uint8, 255 on the tip part (v >= 0.60) where structural colour is drawn, 0 below
+        v = 0.42 and outside the silhouette.
+    """
+    res = _resolution(resolution_or_params)
+    u, v = feather_uv(res)
+    x = np.abs(u - 0.5)
+    half = feather_half_width(v)
+    # ragged vane edge: barbs end at slightly different lengths
+    phase = (v - BARB_SLANT * x) * BARB_COUNT
+    ragged = 1.0 - 0.03 * np.abs(np.sin(np.pi * phase * 0.5)) * _smoothstep(0.1, 0.3, v)
+    texel = 1.0 / res
+    alpha = np.clip(((half * ragged) - x) / texel + 0.5, 0.0, 1.0)
+
+    vane = _linear(VANE_SRGB)
+    down = _linear(DOWN_SRGB)
+    rachis = _linear(RACHIS_SRGB)
+    barbs = 0.8 + 0.2 * np.cos(2.0 * np.pi * phase)  # light/dark alternation of barbs
+    col = _mix(vane[None, None, :], down[None, None, :], 1.0 - _smoothstep(0.15, 0.38, v))
+    col = col * barbs[..., None]
+    rachis_half = np.maximum(0.012 * (1.0 - 0.75 * v), 0.6 * texel)
+    col = _mix(col, rachis[None, None, :], np.clip((rachis_half - x) / texel + 0.5, 0.0, 1.0) * (v < 0.97))
+    base = np.concatenate([_encode(col), np.round(alpha * 255.0).astype(np.uint8)[..., None]], axis=-1)
+    mask = _smoothstep(MASK_START_V, MASK_FULL_V, v) * (alpha > 0.0)
+    return {"base": base, "mask": np.round(mask * 255.0).astype(np.uint8)}
+
+
+# ---- body --------------------------------------------------------------------------------------------
+def body_colour_at(points_m: np.ndarray) -> np.ndarray:
+    """Linear Rec.709 base colour of the body at surface points.
+
+    Parameters
+    ----------
+    points_m : np.ndarray
+        (N, 3) points on the body surface, metres.
+
+    Returns
+    -------
+    np.ndarray
+        (N, 3) float64 linear RGB.
+
+    Each layer (wings, tail, neck, head) is evaluated only where its weight is above 0: elsewhere a mix with
+    weight 0 would leave the colour unchanged, bit for bit.
+    """
+    from rockdove.geometry import neck as _neck
+    from rockdove.geometry import sdf as _sdf
+
+    p = np.asarray(points_m, dtype=np.float64).reshape(-1, 3)
+    col = np.broadcast_to(_linear(BODY_SRGB), p.shape).copy()
+
+    # folded wings: pale coverts, two black bars across the rear of the wing, darker primaries at the tip
+    for wing in (_sdf.WING_L, _sdf.WING_R):
+        on_wing = 1.0 - _smoothstep(-0.001, 0.004, wing.sdf(p))
+        i = np.flatnonzero(on_wing > 0.0)  # the rest keeps its colour exactly (a mix with weight 0)
+        q = wing.local(p[i]) / np.asarray(wing.radii_m)
+        along = q[:, 2] + 0.30 * q[:, 1]  # bars slant down and back
+        bar = np.zeros(len(i))
+        for centre in (-0.10, -0.36):
+            bar = np.maximum(bar, 1.0 - _smoothstep(0.045, 0.07, np.abs(along - centre)))
+        bar *= _smoothstep(-0.75, -0.45, q[:, 1])  # the bars fade out toward the lower edge of the wing
+        primaries = _smoothstep(-0.55, -0.70, q[:, 2])
+        wing_col = _mix(np.broadcast_to(_linear(WING_SRGB), q.shape), _linear(PRIMARIES_SRGB), primaries)
+        wing_col = _mix(wing_col, _linear(WING_BAR_SRGB), bar)
+        col[i] = _mix(col[i], wing_col, on_wing[i])
+
+    # tail: grey with a dark band near its tip
+    on_tail = 1.0 - _smoothstep(-0.001, 0.004, _sdf.TAIL.sdf(p))
+    i = np.flatnonzero(on_tail > 0.0)
+    qt = _sdf.TAIL.local(p[i]) / np.asarray(_sdf.TAIL.radii_m)
+    band = _smoothstep(-0.62, -0.72, qt[:, 2])
+    tail_col = _mix(np.broadcast_to(_linear(TAIL_SRGB), qt.shape), _linear(TAIL_BAND_SRGB), band)
+    col[i] = _mix(col[i], tail_col, on_tail[i] * _smoothstep(-0.2, -0.4, qt[:, 2]))
+
+    # darker neck and head
+    s, r = _neck.neck_s(p)
+    near_neck = 1.0 - _smoothstep(0.030, 0.045, r)
+    neck_w = _smoothstep(-0.25, 0.05, s) * near_neck
+    i = np.flatnonzero(neck_w > 0.0)
+    col[i] = _mix(col[i], _linear(NECK_SRGB), neck_w[i])
+    head_w = 1.0 - _smoothstep(-0.001, 0.006, _sdf.HEAD.sdf(p))
+    head_w = np.maximum(head_w, _smoothstep(1.0, 1.15, s) * near_neck)
+    i = np.flatnonzero(head_w > 0.0)
+    col[i] = _mix(col[i], _linear(HEAD_SRGB), head_w[i])
+    return col
+
+
+#: Widening of a triangle's texel box, texels: far above what the barycentric tolerance (1e-9) admits outside a
+#: triangle (1e-9 of its size), far below a texel.
+BBOX_SLACK_TEXELS = 1e-6
+
+
+def rasterize_uv(st: np.ndarray, faces: np.ndarray, resolution: int, chunk: int = 4096):
+    """Which triangle covers each texel, with barycentrics (vectorised over triangles and texels).
+
+    Parameters
+    ----------
+    st : np.ndarray
+        (V, 2) texture coordinates in [0, 1].
+    faces : np.ndarray
+        (F, 3) triangles.
+    resolution : int
+        Width = height R.
+
+    Returns
+    -------
+    rows, cols : np.ndarray
+        (K,) covered texels (row 0 at the top, i.e. t = 1).
+    face : np.ndarray
+        (K,) triangle covering each.
+    bary : np.ndarray
+        (K, 3) barycentric weights of the triangle's corners at the texel centre.
+    """
+    res = int(resolution)
+    xy = np.stack([st[:, 0] * res - 0.5, (1.0 - st[:, 1]) * res - 0.5], axis=1)  # texel-centre units
+    out = ([], [], [], [])
+    for start in range(0, len(faces), chunk):  # chunks bound the memory; each is vectorised
+        f = faces[start:start + chunk]
+        tri = xy[f]  # (C, 3, 2)
+        # texel centres (integers here) within the triangle's bounding box, widened by BBOX_SLACK_TEXELS so
+        # that no centre the barycentric test below accepts is left out
+        lo = np.clip(np.ceil(tri.min(axis=1) - BBOX_SLACK_TEXELS).astype(np.int64), 0, res - 1)
+        hi = np.clip(np.floor(tri.max(axis=1) + BBOX_SLACK_TEXELS).astype(np.int64), 0, res - 1)
+        nx = np.maximum(hi[:, 0] - lo[:, 0] + 1, 0)
+        ny = np.maximum(hi[:, 1] - lo[:, 1] + 1, 0)
+        n = nx * ny
+        tid = np.repeat(np.arange(len(f)), n)
+        local = np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)
+        px = lo[tid, 0] + local % nx[tid]
+        py = lo[tid, 1] + local // nx[tid]
+        a, b, c = tri[tid, 0], tri[tid, 1], tri[tid, 2]
+        v0, v1 = b - a, c - a
+        v2 = np.stack([px, py], axis=1) - a
+        den = v0[:, 0] * v1[:, 1] - v1[:, 0] * v0[:, 1]
+        ok = np.abs(den) > 1e-12
+        den = np.where(ok, den, 1.0)
+        w1 = (v2[:, 0] * v1[:, 1] - v1[:, 0] * v2[:, 1]) / den
+        w2 = (v0[:, 0] * v2[:, 1] - v2[:, 0] * v0[:, 1]) / den
+        w0 = 1.0 - w1 - w2
+        inside = ok & (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9)
+        out[0].append(py[inside])
+        out[1].append(px[inside])
+        out[2].append(start + tid[inside])
+        out[3].append(np.stack([w0, w1, w2], axis=1)[inside])
+    return tuple(np.concatenate(o) for o in out)
+
+
+def _body_parts(bird) -> list:
+    """The parts painted with the body texture: ``Body`` and, when the bird has them, the ``Wings``."""
+    from rockdove.geometry.types import Bird, MeshPart
+
+    if isinstance(bird, MeshPart):
+        return [bird]
+    if isinstance(bird, Bird):
+        return [bird.part("Body")] + [p for p in bird.parts if p.name == "Wings"]
+    part = getattr(bird, "part", None)  # rockdove.geometry.Body
+    if isinstance(part, MeshPart):
+        wings = getattr(bird, "wings", None)
+        return [part] + ([wings] if isinstance(wings, MeshPart) else [])
+    raise ValueError(f"bird={type(bird).__name__} must be a Bird, a Body or the Body MeshPart")
+
+
+def body_base_colour(resolution_or_params, bird) -> np.ndarray:
+    """The body's base-colour texture in its xatlas UVs.
+
+    Every texel covered by a UV triangle gets the colour of its 3-D point (:func:`body_colour_at`); the empty
+    texels between charts take the colour of the nearest covered texel, so bilinear filtering and mipmaps do
+    not bleed background into the seams.
+
+    Parameters
+    ----------
+    resolution_or_params : int or BirdParams
+        Width = height R in texels (16 .. 8192), or BirdParams (its ``body_texture_resolution``).
+    bird : Bird, Body or MeshPart
+        The bird (its ``"Body"`` and ``"Wings"`` parts, which share the atlas), the Body, or the Body MeshPart.
+
+    Returns
+    -------
+    np.ndarray
+        (R, R, 3) uint8, sRGB.
+    """
+    from scipy import ndimage
+
+    res = _resolution(resolution_or_params, attr="body_texture_resolution")
+    parts = _body_parts(bird)
+    for part in parts:
+        if not np.all(part.face_vertex_counts == 3):
+            raise ValueError(f"bird's {part.name} part must be triangles")
+    # the parts share one atlas: rasterise them as one mesh
+    offsets = np.cumsum([0] + [len(p.points_m) for p in parts])
+    faces = np.concatenate([p.face_vertex_indices.reshape(-1, 3).astype(np.int64) + o
+                            for p, o in zip(parts, offsets)])
+    st = np.concatenate([p.st for p in parts]).astype(np.float64)
+    points = np.concatenate([p.points_m for p in parts]).astype(np.float64)
+    rows, cols, face, bary = rasterize_uv(st, faces, res)
+    pts = np.einsum("nk,nkd->nd", bary, points[faces[face]])
+    img = np.zeros((res, res, 3), dtype=np.uint8)
+    img[rows, cols] = _encode(body_colour_at(pts))
+    empty = np.ones((res, res), dtype=bool)
+    empty[rows, cols] = False
+    if empty.any():
+        _, (ri, ci) = ndimage.distance_transform_edt(empty, return_indices=True)
+        img = img[ri, ci]
+    return img

@@ -1,0 +1,53 @@
+"""The asset folder's layout: the names of the files a rockdove asset folder holds, and finding its root layer.
+
+An asset folder (docs/design.md, "USD asset") holds the interface layer ``pigeon.usda`` (the root layer a
+reader opens), the layers it composes (:mod:`rockdove.usd.stage`), ``pigeon.usdz``, ``textures/`` and, once a
+build published it, :data:`MARKER`. Readers (the validator, the renderer, hosts, ``rockdove gltf``) find the
+root layer with :func:`resolve_root_layer`, the one resolver, so they accept the same paths and fail with the
+same one-line error.
+"""
+
+from __future__ import annotations
+
+import os
+
+#: The file a published build leaves in the asset folder (:mod:`rockdove.graph.publish` writes it): tool,
+#: version, configuration hash, preset, stage keys. A folder without it was not made by rockdove.
+MARKER = ".rockdove-asset.json"
+#: Root-layer names looked for in an asset folder, in this order (the build writes the first and the usdz).
+ROOT_LAYER_NAMES = ("pigeon.usda", "pigeon.usdc", "pigeon.usd", "pigeon.usdz")
+#: Extensions of a USD layer given by its path.
+USD_EXTENSIONS = (".usda", ".usdc", ".usd", ".usdz")
+
+
+def resolve_root_layer(asset) -> str:
+    """The root layer of an asset given its folder (one of :data:`ROOT_LAYER_NAMES` inside) or a layer's path.
+
+    Parameters
+    ----------
+    asset : str or os.PathLike
+        The asset folder or a root layer (``.usda``, ``.usdc``, ``.usd`` or ``.usdz``).
+
+    Returns
+    -------
+    str
+        Absolute path of the root layer.
+
+    Raises
+    ------
+    ValueError
+        The path does not exist, is a folder without a root layer, or is not a USD layer (one line, naming
+        the path and what is allowed).
+    """
+    path = os.path.abspath(os.fspath(asset))
+    if os.path.isdir(path):
+        for name in ROOT_LAYER_NAMES:
+            cand = os.path.join(path, name)
+            if os.path.isfile(cand):
+                return cand
+        raise ValueError(f"asset={os.fspath(asset)!r} is a folder without {' or '.join(ROOT_LAYER_NAMES)}")
+    if not os.path.isfile(path):
+        raise ValueError(f"asset={os.fspath(asset)!r} does not exist; give the asset folder or its root layer")
+    if not path.endswith(USD_EXTENSIONS):
+        raise ValueError(f"asset={os.fspath(asset)!r} is not a USD layer ({', '.join(USD_EXTENSIONS)})")
+    return path

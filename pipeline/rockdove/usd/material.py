@@ -1,0 +1,456 @@
+"""Material networks of the asset: the universal UsdPreviewSurface networks and the MaterialX thin-film network.
+
+Every feather material carries two surface outputs (docs/design.md, "USD asset"; issue 4):
+
+- ``outputs:surface``: UsdPreviewSurface, works in every Hydra delegate. ``diffuseColor`` and ``opacity`` come
+  from ``feather_preview.png``, an atlas of the feather with the structural colour of each thickness at one
+  representative angle, read through the mesh's ``previewST`` primvar (each card the tile of its own
+  thickness, see :mod:`rockdove.usd.textures_io`), ``opacityThreshold = 0.5``.
+- ``outputs:mtlx:surface``: the MaterialX network of ``materials/thinfilm.mtlx``, copied node for node into
+  UsdShade shaders whose ``info:id`` is the MaterialX nodedef name (``ND_*``). The document is data: this
+  module reads it, never spells nodes in Python; only the build parameters (LUT size, warp, thickness range,
+  film index, texture paths) are set on the copied shaders. The ``shading`` variant set of the interface layer
+  (:mod:`rockdove.usd.stage`) reconnects ``outputs:mtlx:surface`` between ``MtlxBakedSurface`` (the LUT
+  method, the default) and ``MtlxPhysicalSurface`` (OpenPBR's own thin film). An asset built with only one
+  of them (configuration ``shading.variant = "baked"`` or ``"physical"``) carries only the nodes upstream of
+  that surface: a physical-only asset (no LUT) has no LUT constants, no ``LutTexture`` and no baked surface.
+
+Units of the physical variant (method.md, "Conventions of neighbouring standards"): OpenPBR's
+``thin_film_thickness`` is in micrometres, so the network feeds ``thickness_nm * 0.001`` (node
+``ThicknessUm``); Autodesk standard_surface's ``thin_film_thickness`` is in nanometres and would take the
+primvar unchanged. ``thin_film_ior`` is the film's Cauchy index at :data:`rockdove.usd.stage.FILM_IOR_WAVELENGTH_NM`
+(550 nm): OpenPBR's film has one real index, so dispersion is dropped in that variant. The film lies on the
+base's ``specular_ior``, set to the recorded substrate index (``SubstrateIor``; 1.0 for the asset's film in air).
+
+Body and the other parts get plain UsdPreviewSurface materials: the body from ``body_base.png``, the others a
+constant colour (their ``display_color``).
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+
+from .. import resources
+
+
+#: The colour space of thinfilm.mtlx (its ``colorspace`` attribute): linear Rec.709, the project's working space.
+MTLX_WORKING_SPACE = "lin_rec709"
+#: MaterialX surfacematerial names in thinfilm.mtlx, by shading variant.
+MTLX_MATERIALS = {"baked": "ThinFilmBaked", "physical": "ThinFilmPhysical"}
+#: Texture roles -> file names under textures/ (docs/design.md, "Textures").
+TEXTURE_FILES = {
+    "lut": "thinfilm_lut.exr",
+    "feather_base": "feather_base.png",
+    "feather_mask": "feather_mask.png",
+    "feather_preview": "feather_preview.png",
+    "body_base": "body_base.png",
+}
+#: The feather mesh's texcoord primvar into the preview atlas (textures_io), authored by rockdove.usd.stage and read
+#: by the preview material.
+PREVIEW_PRIMVAR = "previewST"
+#: shading variant -> the MaterialX surface shader node of thinfilm.mtlx it connects
+MTLX_SURFACES = {"baked": "MtlxBakedSurface", "physical": "MtlxPhysicalSurface"}
+#: image nodes of thinfilm.mtlx -> texture role
+_MTLX_IMAGES = {"LutTexture": "lut", "BaseColorTexture": "feather_base", "MaskTexture": "feather_mask"}
+#: Roughness of the universal previews: 1 with metallic 0 is as close to Lambert as UsdPreviewSurface gets.
+PREVIEW_ROUGHNESS = 1.0
+#: Opacity cut of the feather cards (docs/design.md, "Shading model").
+OPACITY_THRESHOLD = 0.5
+
+# MaterialX type -> Sdf value type name
+_SDF_TYPES = {
+    "float": "Float", "integer": "Int", "boolean": "Bool", "string": "String", "filename": "Asset",
+    "color3": "Color3f", "color4": "Color4f", "vector2": "Float2", "vector3": "Float3", "vector4": "Float4",
+    "surfaceshader": "Token", "material": "Token", "BSDF": "Token", "EDF": "Token",
+}
+
+
+def texture_asset_paths() -> dict[str, str]:
+    """Texture role -> asset path as authored in the layers (``./textures/<file>``)."""
+    return {role: f"./textures/{name}" for role, name in TEXTURE_FILES.items()}
+
+
+@functools.lru_cache(maxsize=1)
+def load_mtlx_libraries():
+    """The MaterialX standard data libraries (stdlib, pbrlib, bxdf...) as one document, read once per process
+    (~65 ms: a long-lived process, e.g. a sweep's worker, rebuilding looks layers reuses it). Shared: callers
+    use it as a data library (``setDataLibrary``, ``getNodeDef``) and must not change it."""
+    import MaterialX as mx
+
+    lib = mx.createDocument()
+    mx.loadLibraries(mx.getDefaultDataLibraryFolders(), mx.getDefaultDataSearchPath(), lib)
+    return lib
+
+
+def load_thinfilm_document(path: str | os.PathLike | None = None):
+    """Read ``materials/thinfilm.mtlx`` with the standard libraries attached as its data library.
+
+    Returns
+    -------
+    MaterialX.Document
+    """
+    import MaterialX as mx
+
+    path = os.fspath(resources.path("materials/thinfilm.mtlx") if path is None else path)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"path: no MaterialX document at {path!r}")
+    doc = mx.createDocument()
+    mx.readFromXmlFile(doc, path)
+    doc.setDataLibrary(load_mtlx_libraries())
+    return doc
+
+
+def _usd_value(mx_input, type_name: str):
+    from pxr import Gf, Sdf
+
+    value = mx_input.getValue()
+    if type_name == "filename":
+        return Sdf.AssetPath(_asset(str(value)))
+    if type_name in ("color3", "vector3"):
+        return Gf.Vec3f(*value.asTuple())
+    if type_name in ("color4", "vector4"):
+        return Gf.Vec4f(*value.asTuple())
+    if type_name == "vector2":
+        return Gf.Vec2f(*value.asTuple())
+    return value
+
+
+def _asset(path: str) -> str:
+    return path if path.startswith(("./", "../", "/")) else f"./{path}"
+
+
+def mtlx_nodes(doc) -> list:
+    """Top-level shading nodes of a document, in document order, without the surfacematerial nodes."""
+    return [n for n in doc.getNodes() if n.getType() != "material"]
+
+
+def upstream_nodes(doc, roots) -> set:
+    """Names of the nodes ``roots`` (node names) depend on, themselves included."""
+    nodes = {n.getName(): n for n in mtlx_nodes(doc)}
+    missing = [r for r in roots if r not in nodes]
+    if missing:
+        raise ValueError(f"roots: {missing} are not nodes of the MaterialX document; nodes: {sorted(nodes)}")
+    seen, todo = set(), list(roots)
+    while todo:
+        name = todo.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        todo += [i.getNodeName() for i in nodes[name].getInputs() if i.getNodeName()]
+    return seen
+
+
+def copy_mtlx_network(doc, material, roots=None) -> dict:
+    """Copy the nodes of a MaterialX document into ``material`` as UsdShade shaders (``info:id = ND_*``).
+
+    Parameters
+    ----------
+    doc : MaterialX.Document
+        With its data library set (:func:`load_thinfilm_document`).
+    material : UsdShade.Material
+        Shaders are defined as its children, named as the MaterialX nodes.
+    roots : iterable of str, optional
+        Copy only these nodes and what they depend on (:func:`upstream_nodes`); default every node.
+
+    Returns
+    -------
+    dict[str, UsdShade.Shader]
+        Node name -> shader.
+    """
+    from pxr import Sdf, UsdShade
+
+    stage = material.GetPrim().GetStage()
+    base = material.GetPath()
+    keep = upstream_nodes(doc, roots) if roots is not None else None
+    copied = [n for n in mtlx_nodes(doc) if keep is None or n.getName() in keep]
+    shaders = {}
+    for node in copied:
+        nodedef = node.getNodeDef()
+        if nodedef is None:
+            raise ValueError(f"MaterialX node {node.getName()!r} ({node.getCategory()}) has no nodedef")
+        shader = UsdShade.Shader.Define(stage, base.AppendChild(node.getName()))
+        shader.SetShaderId(nodedef.getName())
+        out_type = nodedef.getActiveOutputs()[0].getType()
+        shader.CreateOutput("out", getattr(Sdf.ValueTypeNames, _SDF_TYPES[out_type]))
+        shaders[node.getName()] = shader
+    for node in copied:
+        shader = shaders[node.getName()]
+        for inp in node.getInputs():
+            t = inp.getType()
+            usd_in = shader.CreateInput(inp.getName(), getattr(Sdf.ValueTypeNames, _SDF_TYPES[t]))
+            upstream = inp.getNodeName()
+            if upstream:
+                usd_in.ConnectToSource(shaders[upstream].ConnectableAPI(), "out")
+            else:
+                usd_in.Set(_usd_value(inp, t))
+            if inp.hasColorSpace():
+                usd_in.GetAttr().SetColorSpace(inp.getColorSpace())
+    return shaders
+
+
+def lut_info(lut) -> dict:
+    """The values of a ThinFilmLUT that the material and the schema need (plain data, cacheable).
+
+    Returns
+    -------
+    dict
+        ``n_angle``, ``n_thickness`` (int), ``angle_warp_gamma`` (float), ``thickness_range_nm`` ((lo, hi)
+        nm), ``colour_space`` (str), ``illuminant``, ``observer`` (str, from the LUT metadata when present).
+    """
+    md = dict(lut.metadata)
+    return {
+        "n_angle": int(lut.n_angle),
+        "n_thickness": int(lut.n_thickness),
+        "angle_warp_gamma": float(lut.angle_warp_gamma),
+        "thickness_range_nm": (float(lut.thickness_range_nm[0]), float(lut.thickness_range_nm[1])),
+        "colour_space": str(lut.colour_space),
+        "illuminant": str(md.get("illuminant", "D65")),
+        "observer": str(md.get("observer", "CIE 1931 2 Degree Standard Observer")),
+    }
+
+
+def _preview_texture(stage, path, file: str, st_output, *, colour_space: str, wrap: str = "clamp"):
+    from pxr import Sdf, UsdShade
+
+    tex = UsdShade.Shader.Define(stage, path)
+    tex.SetShaderId("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(file))
+    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(st_output)
+    tex.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set(wrap)
+    tex.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set(wrap)
+    tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set(colour_space)
+    tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+    tex.CreateOutput("a", Sdf.ValueTypeNames.Float)
+    return tex
+
+
+def _preview_surface(stage, path):
+    from pxr import Sdf, UsdShade
+
+    surf = UsdShade.Shader.Define(stage, path)
+    surf.SetShaderId("UsdPreviewSurface")
+    surf.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(PREVIEW_ROUGHNESS)
+    surf.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(0.0)
+    surf.CreateOutput("surface", Sdf.ValueTypeNames.Token)
+    return surf
+
+
+def _st_reader(stage, path, varname: str = "st"):
+    from pxr import Sdf, UsdShade
+
+    reader = UsdShade.Shader.Define(stage, path)
+    reader.SetShaderId("UsdPrimvarReader_float2")
+    reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set(varname)  # a string, not a token (USD >= 20.11)
+    return reader.CreateOutput("result", Sdf.ValueTypeNames.Float2)
+
+
+def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, textures: dict | None = None,
+                            variants=("baked", "physical"), substrate_ior: float = 1.0):
+    """Define the feather material: universal preview network plus the MaterialX thin-film network.
+
+    Parameters
+    ----------
+    stage : Usd.Stage
+    path : str or Sdf.Path
+        Material prim path, e.g. ``/Pigeon/Looks/FeatherMaterial``.
+    lut : dict or None
+        :func:`lut_info` of the baked LUT; None for a physical-only material (no LUT network).
+    film_ior : float
+        Film index handed to the physical variant's ``thin_film_ior`` (the build uses n at 550 nm, relative
+        to the incident medium).
+    substrate_ior : float
+        Index of the medium under the film (relative to the incident medium), the physical variant's
+        ``specular_ior``: OpenPBR puts the film on the base's dielectric interface. 1.0 for the asset's film
+        in air.
+    textures : dict, optional
+        Texture role -> asset path; default :func:`texture_asset_paths`.
+    variants : sequence of {"baked", "physical"}
+        The shading variants the asset carries: only the MaterialX nodes upstream of their surfaces are
+        copied. ``"baked"`` needs ``lut``.
+
+    Returns
+    -------
+    UsdShade.Material
+        ``outputs:surface`` -> ``PreviewSurface``; ``outputs:mtlx:surface`` -> ``MtlxBakedSurface`` when
+        ``"baked"`` is in ``variants``, else ``MtlxPhysicalSurface``.
+    """
+    from pxr import Sdf, UsdShade
+
+    textures = {**texture_asset_paths(), **(textures or {})}
+    variants = tuple(variants)
+    if not variants or any(v not in MTLX_SURFACES for v in variants) or len(set(variants)) != len(variants):
+        raise ValueError(f"variants={variants!r}; allowed: distinct names from {sorted(MTLX_SURFACES)}")
+    if lut is None and "baked" in variants:
+        raise ValueError(f"lut=None with variants={variants!r}: the baked variant needs a LUT (use ('physical',))")
+    if lut is not None:
+        lo, hi = lut["thickness_range_nm"]
+        if not (lut["n_angle"] >= 2 and lut["n_thickness"] >= 1 and 0 <= lo <= hi and lut["angle_warp_gamma"] > 0):
+            raise ValueError(f"lut: not a valid LUT description: {lut}")
+    if not film_ior > 0:
+        raise ValueError(f"film_ior must be > 0, got {film_ior}")
+    if not substrate_ior > 0:
+        raise ValueError(f"substrate_ior must be > 0, got {substrate_ior}")
+    material = UsdShade.Material.Define(stage, path)
+    base = material.GetPath()
+
+    # universal network: the preview atlas through the mesh's previewST (one tile per card thickness)
+
+    st = _st_reader(stage, base.AppendChild("StReader"), PREVIEW_PRIMVAR)
+    preview_tex = _preview_texture(stage, base.AppendChild("PreviewTexture"), textures["feather_preview"], st,
+                                   colour_space="sRGB")
+    surf = _preview_surface(stage, base.AppendChild("PreviewSurface"))
+    surf.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(preview_tex.GetOutput("rgb"))
+    surf.CreateInput("opacity", Sdf.ValueTypeNames.Float).ConnectToSource(preview_tex.GetOutput("a"))
+    surf.CreateInput("opacityThreshold", Sdf.ValueTypeNames.Float).Set(OPACITY_THRESHOLD)
+    material.CreateSurfaceOutput().ConnectToSource(surf.GetOutput("surface"))
+
+    # MaterialX network, copied from materials/thinfilm.mtlx, then the build's values
+    shaders = copy_mtlx_network(load_thinfilm_document(), material, roots=[MTLX_SURFACES[v] for v in variants])
+    values = {"FilmIor": float(film_ior), "SubstrateIor": float(substrate_ior)}
+    if lut is not None:
+        values.update({
+            "LutAngleCount": float(lut["n_angle"]),
+            "LutThicknessCount": float(lut["n_thickness"]),
+            "LutAngleWarpGamma": float(lut["angle_warp_gamma"]),
+            "LutThicknessLoNm": float(lo),
+            "LutThicknessHiNm": float(hi),
+        })
+    for name, value in values.items():
+        if name in shaders:  # e.g. FilmIor only feeds the physical surface
+            shaders[name].GetInput("value").Set(value)
+    for name, role in _MTLX_IMAGES.items():
+        if name in shaders:
+            shaders[name].GetInput("file").Set(Sdf.AssetPath(textures[role]))
+    if "LutTexture" in shaders:
+        shaders["LutTexture"].GetInput("file").GetAttr().SetColorSpace(lut_texture_colour_space(lut["colour_space"]))
+    default = "baked" if "baked" in variants else variants[0]
+    material.CreateSurfaceOutput("mtlx").ConnectToSource(shaders[MTLX_SURFACES[default]].GetOutput("out"))
+    return material
+
+
+def _mx_value_string(value, mx_type: str) -> str:
+    if mx_type == "filename":
+        return value.path
+    if mx_type == "boolean":
+        return "true" if value else "false"
+    if mx_type == "integer":
+        return str(int(value))
+    if mx_type == "float":
+        return repr(float(value))
+    if mx_type.startswith(("color", "vector")):
+        return ", ".join(repr(float(x)) for x in value)
+    return str(value)
+
+
+def usd_to_mtlx_document(surface_shader, library=None):
+    """Rebuild a MaterialX document from a UsdShade network of ``ND_*`` shaders, as Hydra does for Storm.
+
+    Hydra's MaterialX path (HdMtlx) turns the network upstream of ``outputs:mtlx:surface`` into a MaterialX
+    document before generating shader code; usd-core ships no MaterialX plugin, so this reproduces that step
+    to check the *authored* network (with the build's values) rather than only ``thinfilm.mtlx``.
+
+    Parameters
+    ----------
+    surface_shader : UsdShade.Shader
+        The ``ND_*`` surface shader (``ComputeSurfaceSource("mtlx")``).
+    library : MaterialX.Document, optional
+        Standard libraries (:func:`load_mtlx_libraries`).
+
+    Returns
+    -------
+    MaterialX.Document
+        Nodes named as the USD shaders, plus a ``surfacematerial`` node named after the USD material.
+
+    Raises
+    ------
+    ValueError
+        A shader's id is not a MaterialX nodedef, or an input is not declared by it.
+    """
+    import MaterialX as mx
+    from pxr import UsdShade
+
+    library = library or load_mtlx_libraries()
+    doc = mx.createDocument()
+    doc.setDataLibrary(library)
+    doc.setColorSpace(MTLX_WORKING_SPACE)
+    done = {}
+
+    def add(shader):
+        name = shader.GetPath().name
+        if name in done:
+            return done[name]
+        sid = shader.GetShaderId() or ""
+        nodedef = library.getNodeDef(sid)
+        if nodedef is None:
+            raise ValueError(f"{shader.GetPath()}: info:id {sid!r} is not a MaterialX nodedef")
+        node = doc.addNode(nodedef.getNodeString(), name, nodedef.getType())
+        node.setNodeDefString(sid)
+        done[name] = node
+        for inp in shader.GetInputs():
+            mx_in = nodedef.getActiveInput(inp.GetBaseName())
+            if mx_in is None:
+                raise ValueError(f"{inp.GetAttr().GetPath()}: {sid} declares no input {inp.GetBaseName()!r}")
+            target = node.addInput(mx_in.getName(), mx_in.getType())
+            sources = inp.GetConnectedSources()[0]
+            if sources:
+                target.setNodeName(add(UsdShade.Shader(sources[0].source.GetPrim())).getName())
+            elif inp.Get() is not None:
+                target.setValueString(_mx_value_string(inp.Get(), mx_in.getType()))
+            if inp.GetAttr().HasColorSpace():
+                target.setColorSpace(inp.GetAttr().GetColorSpace())
+        return node
+
+    surface = add(surface_shader)
+    material = doc.addNode("surfacematerial", f"{surface_shader.GetPrim().GetParent().GetName()}_mtlx", "material")
+    material.addInput("surfaceshader", "surfaceshader").setNodeName(surface.getName())
+    return doc
+
+
+def lut_texture_colour_space(colour_space: str) -> str:
+    """Colour-space tag of the LUT texture in the MaterialX network.
+
+    ``"raw"`` (no transform, issue 4: the LUT is linear data) when the LUT is in the document's working space
+    ``lin_rec709``, where raw and lin_rec709 read identically; a LUT baked in another space (``acescg``) keeps
+    its own name, so that a colour-managed renderer converts it into its working space instead of
+    misreading it.
+    """
+    return "raw" if colour_space == MTLX_WORKING_SPACE else colour_space
+
+
+def mtlx_surface_path(material_path, variant: str):
+    """Path of the ``out`` output of the MaterialX surface shader a shading variant connects."""
+    from pxr import Sdf
+
+    if variant not in MTLX_SURFACES:
+        raise ValueError(f"variant={variant!r} is not a shading variant; use one of {sorted(MTLX_SURFACES)}")
+    return Sdf.Path(str(material_path)).AppendChild(MTLX_SURFACES[variant]).AppendProperty("outputs:out")
+
+
+def author_body_material(stage, path, *, texture: str | None = None):
+    """Define the body material: UsdPreviewSurface with ``BaseColorTexture`` (body_base.png, sRGB)."""
+    from pxr import Sdf, UsdShade
+
+    texture = texture or texture_asset_paths()["body_base"]
+    material = UsdShade.Material.Define(stage, path)
+    base = material.GetPath()
+    st = _st_reader(stage, base.AppendChild("StReader"))
+    tex = _preview_texture(stage, base.AppendChild("BaseColorTexture"), texture, st, colour_space="sRGB")
+    surf = _preview_surface(stage, base.AppendChild("PreviewSurface"))
+    surf.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.GetOutput("rgb"))
+    material.CreateSurfaceOutput().ConnectToSource(surf.GetOutput("surface"))
+    return material
+
+
+def author_constant_material(stage, path, colour_linear):
+    """Define a UsdPreviewSurface material with a constant linear diffuse colour (beak, eyes, legs...)."""
+    from pxr import Gf, Sdf, UsdShade
+
+    c = tuple(float(v) for v in colour_linear)
+    if len(c) != 3:
+        raise ValueError(f"colour_linear must be 3 floats, got {colour_linear!r}")
+    material = UsdShade.Material.Define(stage, path)
+    surf = _preview_surface(stage, material.GetPath().AppendChild("PreviewSurface"))
+    surf.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*c))
+    material.CreateSurfaceOutput().ConnectToSource(surf.GetOutput("surface"))
+    return material

@@ -1,0 +1,152 @@
+"""NVIDIA's asset validator (PyPI ``usd-validation-nvidia``) over a written asset, as :class:`Issue` s.
+
+The validator runs USD's ComplianceChecker rules plus NVIDIA's own (unused mesh topology, ASCII layers
+holding large arrays, manifold meshes, indexed primvars...) over every variant of the asset. Its severities
+map to ours: ``ERROR`` (the rule itself broke) and ``FAILURE`` (the asset breaks the rule) are errors,
+``WARNING`` is a warning, ``INFO`` is dropped.
+
+usd-core ships no MaterialX Sdr plugin, so ``UsdShadeShaderSdrCompliance`` fails every ``ND_*`` shader id
+("not found in sdrRegistry"). Those findings, and only those, are dropped: :func:`rockdove.usd.validate.
+check_mtlx_shaders` checks the same ids, inputs and outputs against MaterialX's own node definitions.
+
+Its mesh-topology rules (:data:`MESH_RULES`) take ~90% of its time (on the default asset ManifoldChecker alone
+takes 4.3 of 5.8 s) and read nothing but the meshes' geometry. Their findings are kept, per validator version,
+under :func:`rockdove.resources.user_cache_dir`, keyed by a digest of the geometry of every composed Mesh prim in
+every variant (:func:`mesh_digest`): revalidating an asset whose meshes did not change (a film change, a
+repeated ``rockdove validate``) reuses them and runs only the other rules. Meshes with time samples are
+never memoised.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+
+#: NVIDIA's rule for shader ids and the message it gives an id its Sdr registry lacks.
+SDR_RULE = "UsdShadeShaderSdrCompliance"
+_MISSING_ND = re.compile(r"shaderId '(ND_[A-Za-z0-9_]+)' .*not found in sdrRegistry")
+
+_SEVERITY = {"ERROR": "error", "FAILURE": "error", "WARNING": "warning"}
+
+
+
+#: NVIDIA's rules that read only the meshes' own attributes (points, topology, normals): memoised by mesh_digest.
+MESH_RULES = ("ManifoldChecker", "ZeroAreaFaceChecker", "WeldChecker", "NormalsWindingsChecker",
+              "ValidateTopologyChecker")
+
+
+def mesh_digest(root_layer: str) -> str | None:
+    """sha256 of what the :data:`MESH_RULES` read of every Mesh prim of the composed asset, in each variant
+    combination: the UsdGeom.Mesh schema's attributes (points, topology, normals, orientation, ...) and the
+    ``primvars:normals`` primvar (name, type, value, interpolation, elementSize), not other primvars or applied
+    schemas (the film record lives on the feather mesh and changes with the film). None when one of them has
+    time samples."""
+    import numpy as np
+    from pxr import Usd, UsdGeom
+
+    from .stage import variant_combinations
+
+    stage = Usd.Stage.Open(root_layer, Usd.Stage.LoadAll)
+    read = set(UsdGeom.Mesh.GetSchemaAttributeNames(True)) | {"primvars:normals", "primvars:normals:indices"}
+    h = hashlib.sha256()
+    for combo in variant_combinations(stage):
+        with Usd.EditContext(stage, stage.GetSessionLayer()):
+            for name, value in combo.items():
+                stage.GetDefaultPrim().GetVariantSet(name).SetVariantSelection(value)
+        h.update(json.dumps(combo, sort_keys=True).encode())
+        for prim in stage.Traverse():
+            if not prim.IsA(UsdGeom.Mesh):
+                continue
+            h.update(str(prim.GetPath()).encode() + b"\0")
+            for attr in prim.GetAttributes():
+                if attr.GetName() not in read:
+                    continue
+                if attr.GetNumTimeSamples():
+                    return None
+                value = attr.Get()
+                meta = (attr.GetName(), str(attr.GetTypeName()), attr.GetMetadata("interpolation"),
+                        attr.GetMetadata("elementSize"))
+                h.update(repr(meta).encode())
+                try:
+                    arr = np.ascontiguousarray(value)
+                except (TypeError, ValueError):
+                    arr = None
+                if arr is not None and arr.dtype.kind in "biuf":  # numbers: their bytes and shape
+                    h.update(repr(arr.shape).encode() + arr.tobytes())
+                else:  # tokens, strings, None: their text (an object array's bytes would be its pointers)
+                    h.update(repr(value).encode())
+    return h.hexdigest()
+
+
+def _findings(results, root_layer: str) -> tuple[list, int]:
+    """(rule, where, message, severity) of each finding we keep, in order, and the ND_* findings dropped."""
+    kept, dropped = [], 0
+    for found in results.issues():
+        severity = _SEVERITY.get(found.severity.name)
+        if severity is None:
+            continue
+        rule = found.rule.__name__ if found.rule is not None else "engine"
+        message = " ".join(str(found.message).split())
+        if rule == SDR_RULE and _MISSING_ND.search(message):
+            dropped += 1
+            continue
+        where = str(found.at.path) if found.at is not None and hasattr(found.at, "path") else (
+            found.at.as_str() if found.at is not None else root_layer)
+        kept.append((rule, where, message, severity))
+    return kept, dropped
+
+
+def _mesh_findings(nv, rules: list, root_layer: str) -> list:
+    """The findings of ``rules`` (the MESH_RULES) on ``root_layer``, from the memo when its meshes were seen."""
+    from importlib.metadata import version
+
+    from ..resources import user_cache_dir, write_cached
+
+    digest = mesh_digest(root_layer)
+    path = None
+    if digest is not None:
+        names = ",".join(sorted(r.__name__ for r in rules))
+        key = hashlib.sha256(f"{names}\0{digest}".encode()).hexdigest()
+        path = user_cache_dir(f"usd-validation-nvidia-{version('usd-validation-nvidia')}", f"{key}.json")
+        try:
+            return [tuple(f) for f in json.loads(path.read_text())]
+        except (OSError, ValueError):
+            pass  # not seen yet, or a torn file: run the rules
+    engine = nv.ValidationEngine(init_rules=False, variants=True)
+    for rule in rules:
+        engine.enable_rule(rule)
+    findings, _ = _findings(engine.validate(root_layer), root_layer)
+    if path is not None:
+        write_cached(path, json.dumps(findings).encode())
+    return findings
+
+
+def run_nvidia_validator(root_layer: str) -> tuple[list, int]:
+    """Validate ``root_layer`` (a file path: layer or usdz) with every default rule, over all variants.
+
+    Returns
+    -------
+    (issues, number of findings dropped as ND_* ids usd-core's Sdr registry cannot know)
+        ``issues``: :class:`rockdove.usd.issues.Issue` with check ``nvidia:<Rule>``; a finding repeated in
+        several variants is listed once. The :data:`MESH_RULES` findings come from the memo when the asset's
+        meshes were validated before (module docstring).
+    """
+    import usd_validation_nvidia as nv
+
+    from .issues import Issue
+
+    engine = nv.ValidationEngine(variants=True)
+    mesh_rules = [r for r in engine.rules if r.__name__ in MESH_RULES]
+    for rule in mesh_rules:
+        engine.disable_rule(rule)
+    findings, dropped = _findings(engine.validate(root_layer), root_layer)
+    findings += _mesh_findings(nv, mesh_rules, root_layer)
+    issues, seen = [], set()
+    for rule, where, message, severity in findings:
+        key = (rule, where, message, severity)
+        if key in seen:
+            continue
+        seen.add(key)
+        issues.append(Issue(f"nvidia:{rule}", where, message, severity))
+    return issues, dropped

@@ -1,0 +1,303 @@
+"""Write the asset's textures into ``DIR/textures/`` deterministically (docs/design.md, "Textures").
+
+- PNG via Pillow with fixed options (:data:`PNG_OPTIONS`: zlib level and strategy fixed, no ``optimize``, no
+  text/time chunks): the same pixels give the same bytes.
+- The LUT via :func:`rockdove.lut.exr.write_exr` (float32 or half RGB, ZIP, sorted header, no timestamp).
+- ``feather_preview.png``: what UsdPreviewSurface viewers show (Blender's importer, usdview without MaterialX,
+  Quick Look). Their network cannot look the LUT up per fragment (it is indexed by angle and thickness), so
+  the preview is an *atlas* of :data:`PREVIEW_TILES` copies of the feather, each ``mix(base, structural, mask)``
+  with the structural colour of one thickness at one representative angle. Each card reads the tile of its
+  own thickness (cards have one thickness each) through the texcoord primvar ``previewST``
+  (:func:`preview_st`, authored on the feather mesh), so the viewers show the film's spatial variation, green
+  and purple feathers, with one UsdUVTexture and a binary ``opacityThreshold`` cut-out. Tiles sit on
+  :data:`PREVIEW_COLUMNS` columns, bottom row first (texture t = 0 at the image's bottom), tile k at
+  thickness ``lo + k (hi - lo) / (K - 1)`` over the film's thickness range rounded outward to whole nm
+  (:func:`preview_range_nm`; one tile when the range is one value). The angle is
+  :data:`PREVIEW_COS_THETA` (module constant, with how it was chosen). The mix is done in linear light (sRGB
+  decoded and re-encoded, IEC 61966-2-1: :func:`rockdove.spectral.srgb_encode`); out-of-gamut colours are clipped to [0, 1].
+- An asset without a LUT (physical-only shading, ``lut=None``) has no ``thinfilm_lut.exr``; its preview colours
+  are the *exact* spectral colours at the same points: :func:`rockdove.lut.reference.reference_colour`, one
+  Airy spectrum at 0.1 nm integrated under D65 with the CIE 1931 2 degree observer, in lin_rec709
+  (:func:`preview_colour`). With a LUT the preview uses the LUT's values there, which differ by the LUT's error.
+"""
+
+from __future__ import annotations
+
+import os
+import zlib
+
+import numpy as np
+
+from .material import TEXTURE_FILES
+
+#: Pillow PNG options: fixed so that encoding is reproducible. zlib level 4 with its default strategy (Pillow's own
+#: default is level 6, Z_FILTERED): measured on the default build's images (median of 7, one process), the preview
+#: atlas (rewritten on every film change) encodes in 0.62x the time at +0.2% bytes (148,862 -> 149,108),
+#: body_base.png in 0.64x at +5% (175,405 -> 184,789), feather_base.png 29.5 -> 39.7 kB, feather_mask.png unchanged.
+PNG_OPTIONS = {"compress_level": 4, "compress_type": zlib.Z_DEFAULT_STRATEGY, "optimize": False}
+#: cos theta of the structural colours of feather_preview.png: 0.86 (31 degrees), the median |N.V| over the
+#: feather-tip pixels of the default verification views (4 turntable + the light sweep, 128 px, measured on the
+#: default build: median 0.865, quartiles 0.65 and 0.96): the incidence a viewer most often sees the tips at.
+PREVIEW_COS_THETA = 0.86
+#: Thickness tiles of the preview atlas (cards round to the nearest; 32 over the default ~208 nm range is a
+#: 6.7 nm step, a hue step of ~13 degrees at the film's ~175 nm per colour order).
+PREVIEW_TILES = 32
+#: Columns of the atlas; texels per tile side (the feather preview is resized to it).
+PREVIEW_COLUMNS = 8
+PREVIEW_TILE_TEXELS = 128
+
+
+def preview_range_nm(thickness_range_nm) -> tuple[float, float]:
+    """The atlas's thickness range: ``(lo, hi)`` nm rounded outward to whole nm, so that callers holding the
+    mesh's exact range and callers holding the build's rounded one (the LUT axis) pick the same tiles."""
+    lo, hi = (float(v) for v in thickness_range_nm)
+    if not (np.isfinite(lo) and np.isfinite(hi) and 0 <= lo <= hi):
+        raise ValueError(f"thickness_range_nm must be finite (lo, hi) with 0 <= lo <= hi nm, got {thickness_range_nm!r}")
+    return float(np.floor(lo)), float(np.ceil(hi))
+
+
+def preview_tile_thickness_nm(thickness_range_nm) -> np.ndarray:
+    """(K,) float64 thickness of each atlas tile, nm (K = 1 when the range is one value, else PREVIEW_TILES)."""
+    lo, hi = preview_range_nm(thickness_range_nm)
+    return np.array([lo]) if hi == lo else np.linspace(lo, hi, PREVIEW_TILES)
+
+
+def preview_atlas_shape(n_tiles: int) -> tuple[int, int]:
+    """(columns, rows) of an atlas of ``n_tiles`` tiles."""
+    cols = min(int(n_tiles), PREVIEW_COLUMNS)
+    return cols, -(-int(n_tiles) // cols)
+
+
+def preview_st(st, thickness_nm, thickness_range_nm) -> np.ndarray:
+    """Texture coordinates of the preview atlas: each vertex's feather ``st`` inside the tile of its thickness.
+
+    Parameters
+    ----------
+    st : ndarray, (V, 2)
+        Feather texture coordinates in [0, 1] (t = 0 at the image's bottom).
+    thickness_nm : ndarray, (V,)
+        Film thickness per vertex, nm.
+    thickness_range_nm : (float, float)
+        The film's thickness range (:func:`preview_range_nm` rounds it).
+
+    Returns
+    -------
+    ndarray, (V, 2) float32
+        ``st`` mapped onto the texel centres of the tile (no bilinear bleeding between tiles at the edges).
+    """
+    st = np.asarray(st, np.float64)
+    d = np.asarray(thickness_nm, np.float64).reshape(-1)
+    if st.ndim != 2 or st.shape[1] != 2 or st.shape[0] != d.size:
+        raise ValueError(f"st must be (V, 2) and thickness_nm (V,), got {st.shape} and {d.shape}")
+    tiles = preview_tile_thickness_nm(thickness_range_nm)
+    k = np.zeros(d.size, np.int64) if tiles.size == 1 else np.clip(
+        np.rint((d - tiles[0]) / (tiles[-1] - tiles[0]) * (tiles.size - 1)), 0, tiles.size - 1).astype(np.int64)
+    cols, rows = preview_atlas_shape(tiles.size)
+    t = PREVIEW_TILE_TEXELS
+    inner = 0.5 + np.clip(st, 0.0, 1.0) * (t - 1)  # texel coordinate inside the tile, centre to centre
+    s = ((k % cols) * t + inner[:, 0]) / (cols * t)
+    v = ((k // cols) * t + inner[:, 1]) / (rows * t)
+    return np.stack([s, v], axis=1).astype(np.float32)
+
+
+def feather_preview_atlas(base_rgba: np.ndarray, mask: np.ndarray, structural_rgb) -> np.ndarray:
+    """The preview atlas: per structural colour one tile, the feather base mixed by the mask with that colour
+    (clipped to [0, 1]) in linear light, resized to :data:`PREVIEW_TILE_TEXELS`, on :data:`PREVIEW_COLUMNS`
+    columns from the bottom row up.
+
+    Parameters
+    ----------
+    base_rgba : ndarray, (H, W, 4) uint8
+        sRGB-encoded base colour, linear alpha (feather_base.png).
+    mask : ndarray, (H, W) or (H, W, 1) uint8
+        1 (255) where structural colour is drawn (feather_mask.png), raw.
+    structural_rgb : array_like, (K, 3)
+        Linear structural colour of each tile (:meth:`ThinFilmLUT.sample` or :func:`preview_colour`).
+
+    Returns
+    -------
+    ndarray, (rows * T, columns * T, 4) uint8
+        sRGB RGB, linear alpha.
+    """
+    from PIL import Image
+
+    colours = np.asarray(structural_rgb, np.float64).reshape(-1, 3)
+    cols, rows = preview_atlas_shape(len(colours))
+    t = PREVIEW_TILE_TEXELS
+    atlas = np.zeros((rows * t, cols * t, 4), np.uint8)
+    base_rgba = _check_uint8("base_rgba", base_rgba, (4,))
+    mask = _check_uint8("mask", mask, (1,))
+    if mask.shape[:2] != base_rgba.shape[:2] or not np.all(np.isfinite(colours)):
+        raise ValueError(f"mask {mask.shape[:2]} must match base_rgba {base_rgba.shape[:2]} and the colours be finite")
+    for k, tile in enumerate(_mixed_tiles(base_rgba, mask, colours)):
+        if tile.shape[:2] != (t, t):
+            tile = np.asarray(Image.fromarray(tile, "RGBA").resize((t, t), Image.BOX))
+        top = (rows - 1 - k // cols) * t  # image row 0 is the top (t = 1)
+        atlas[top:top + t, (k % cols) * t:(k % cols + 1) * t] = tile
+    return atlas
+
+
+def _check_uint8(name: str, a, channels: tuple[int, ...]) -> np.ndarray:
+    a = np.asarray(a)
+    if a.dtype != np.uint8:
+        raise ValueError(f"{name} must be uint8, got dtype {a.dtype}")
+    c = 1 if a.ndim == 2 else (a.shape[2] if a.ndim == 3 else -1)
+    if a.ndim not in (2, 3) or c not in channels or min(a.shape[:2]) < 1:
+        raise ValueError(f"{name} must have shape (H, W) or (H, W, C) with C in {channels}, got {a.shape}")
+    return np.ascontiguousarray(a)
+
+
+def write_png(path: str, pixels: np.ndarray) -> str:
+    """Write a uint8 (H, W), (H, W, 3) or (H, W, 4) image, row 0 at the top, with fixed encoder options."""
+    from PIL import Image
+
+    pixels = np.ascontiguousarray(pixels)
+    if pixels.ndim == 3 and pixels.shape[2] == 1:
+        pixels = np.ascontiguousarray(pixels[..., 0])
+    if pixels.dtype != np.uint8 or not (pixels.ndim == 2 or (pixels.ndim == 3 and pixels.shape[2] in (3, 4))):
+        raise ValueError(f"pixels must be uint8 (H, W), (H, W, 3) or (H, W, 4), got {pixels.dtype} {pixels.shape}")
+    Image.fromarray(pixels).save(path, format="PNG", **PNG_OPTIONS)  # mode L / RGB / RGBA from the shape
+    return path
+
+
+def preview_colour(film, thickness_nm: float, cos_theta: float = PREVIEW_COS_THETA) -> np.ndarray:
+    """The exact structural colour of ``film`` at one point, linear lin_rec709 (D65, CIE 1931 2 degree).
+
+    Parameters
+    ----------
+    film : rockdove.films.FilmModel or str
+    thickness_nm : float
+        Film thickness, nm.
+    cos_theta : float
+        Cosine of the angle of incidence, in [0, 1].
+
+    Returns
+    -------
+    ndarray, (3,) float64
+        Unclipped linear RGB (:func:`rockdove.lut.reference.reference_colour`).
+    """
+    from rockdove.lut.reference import reference_colour
+
+    if not 0.0 <= cos_theta <= 1.0:
+        raise ValueError(f"cos_theta must be in [0, 1], got {cos_theta}")
+    if not (np.isfinite(thickness_nm) and thickness_nm >= 0):
+        raise ValueError(f"thickness_nm must be a finite thickness >= 0 nm, got {thickness_nm!r}")
+    return np.asarray(reference_colour(cos_theta, float(thickness_nm), film, colour_space="lin_rec709"), np.float64)
+
+
+def _mixed_tiles(base_rgba: np.ndarray, mask: np.ndarray, colours: np.ndarray):
+    """Yield ``mix(base, clip(colour, 0, 1), mask)`` in linear light, sRGB-encoded, one (H, W, 4) uint8 tile per
+    colour of ``colours`` (K, 3).
+
+    A texel's result depends only on its 8-bit base RGBA and its 8-bit mask, and a feather texture has a few
+    thousand distinct such texels against 65k (each output channel only on its channel's base value and the mask:
+    ~900 distinct pairs): each distinct channel value is mixed and encoded once per colour (the same
+    floating-point operations per value, so the bytes are those of the texel-by-texel formula), the distinct
+    texels are packed as 32-bit RGBA, and a tile is one gather of those.
+    """
+    from rockdove.spectral import srgb_decode, srgb_encode
+
+    h, w = mask.shape[:2]
+    b = base_rgba.astype(np.int64)
+    key = (((b[..., 0] * 256 + b[..., 1]) * 256 + b[..., 2]) * 256 + mask.reshape(h, w)) * 256 + b[..., 3]
+    texels, inverse = np.unique(key.reshape(-1), return_inverse=True)
+    alpha, m8 = texels % 256, (texels // 256) % 256
+    rgb8 = np.stack([(texels // 256 ** (4 - ch)) % 256 for ch in range(3)], axis=1)  # (U, 3) base R, G, B
+    channel_keys = np.arange(3) * 65536 + rgb8 * 256 + m8[:, None]
+    uniq, channel_index = np.unique(channel_keys.reshape(-1), return_inverse=True)
+    ch, b8, m8 = uniq // 65536, (uniq // 256) % 256, uniq % 256
+    m = m8 / 255.0
+    base_part = srgb_decode(b8 / 255.0) * (1.0 - m)
+    clipped = np.clip(np.asarray(colours, np.float64).reshape(-1, 3), 0.0, 1.0)
+    encoded = np.round(srgb_encode(np.clip(base_part + clipped[:, ch] * m, 0.0, 1.0)) * 255.0).astype(np.uint8)
+    rgba = np.empty((texels.size, 4), np.uint8)
+    rgba[:, 3] = alpha
+    for row in encoded:  # (K, distinct channel values)
+        rgba[:, :3] = row[channel_index].reshape(-1, 3)
+        yield rgba.view(np.uint32).reshape(-1)[inverse.reshape(-1)].view(np.uint8).reshape(h, w, 4)
+
+
+def _texture_paths(out_dir: str) -> dict[str, str]:
+    tex_dir = os.path.join(os.path.abspath(out_dir), "textures")
+    os.makedirs(tex_dir, exist_ok=True)
+    return {role: os.path.join(tex_dir, name) for role, name in TEXTURE_FILES.items()}
+
+
+def _feather_images(feather_textures: dict) -> tuple[np.ndarray, np.ndarray]:
+    missing = {"base", "mask"} - set(feather_textures)
+    if missing:
+        raise ValueError(f"feather_textures lacks {sorted(missing)}; it needs 'base' (RGBA) and 'mask' (grey)")
+    return (_check_uint8("feather_textures['base']", feather_textures["base"], (4,)),
+            _check_uint8("feather_textures['mask']", feather_textures["mask"], (1,)))
+
+
+def write_base_textures(out_dir: str, feather_textures: dict, body_texture: np.ndarray) -> dict[str, str]:
+    """Write the textures that do not depend on the film into ``out_dir/textures/``: ``feather_base.png``,
+    ``feather_mask.png`` and ``body_base.png`` (a film change leaves them, and their bytes, as they were).
+
+    Parameters
+    ----------
+    out_dir : str
+        Asset folder; ``textures/`` is created inside.
+    feather_textures : dict
+        ``"base"``: (H, W, 4) uint8 sRGB RGBA (A = silhouette); ``"mask"``: (H, W) uint8 raw.
+    body_texture : ndarray, (H, W, 3) uint8
+        sRGB body colour in the body's UVs.
+
+    Returns
+    -------
+    dict[str, str]
+        Texture role -> absolute path written; keys sorted.
+    """
+    base, mask = _feather_images(feather_textures)
+    body = _check_uint8("body_texture", body_texture, (3,))
+    paths = _texture_paths(out_dir)
+    written = {role: write_png(paths[role], img)
+               for role, img in (("feather_base", base), ("feather_mask", mask), ("body_base", body))}
+    return dict(sorted(written.items()))
+
+
+def write_film_textures(out_dir: str, lut, feather_textures: dict, *, thickness_range_nm: tuple[float, float],
+                        preview_cos_theta: float = PREVIEW_COS_THETA, film=None) -> dict[str, str]:
+    """Write the textures that depend on the film into ``out_dir/textures/``: the LUT (``thinfilm_lut.exr``)
+    and the UsdPreviewSurface atlas ``feather_preview.png``.
+
+    Parameters
+    ----------
+    out_dir : str
+        Asset folder; ``textures/`` is created inside.
+    lut : ThinFilmLUT or None
+        Written as ``thinfilm_lut.exr`` (:func:`rockdove.lut.exr.write_exr`, its precision from the LUT's
+        metadata). None for an asset without a LUT (physical-only shading): no EXR, and the preview's
+        structural colour is :func:`preview_colour` of ``film``.
+    feather_textures : dict
+        As :func:`write_base_textures` (the preview mixes the feather's base and mask).
+    thickness_range_nm : (float, float)
+        The thickness range on the mesh, nm: the atlas's tiles span it (:func:`preview_tile_thickness_nm`), as
+        the mesh's ``previewST`` does (:func:`rockdove.usd.stage.author_geometry`), so the two always agree,
+        whatever the LUT's own range.
+    preview_cos_theta : float
+        Angle of the preview atlas's colours (:data:`PREVIEW_COS_THETA`).
+    film : rockdove.films.FilmModel, optional
+        Required when ``lut`` is None: the film of the preview colours.
+
+    Returns
+    -------
+    dict[str, str]
+        Texture role (``lut`` when written, ``feather_preview``) -> absolute path written; keys sorted.
+    """
+    base, mask = _feather_images(feather_textures)
+    tiles = preview_tile_thickness_nm(thickness_range_nm)
+    if lut is not None:
+        colours = lut.sample(np.full(tiles.size, preview_cos_theta), tiles)
+    else:
+        if film is None:
+            raise ValueError("lut=None needs the film for the preview colours, got film=None")
+        colours = np.stack([preview_colour(film, d, preview_cos_theta) for d in tiles])
+    paths = _texture_paths(out_dir)
+    written = {"feather_preview": write_png(paths["feather_preview"], feather_preview_atlas(base, mask, colours))}
+    if lut is not None:
+        from rockdove.lut.exr import write_exr
+
+        written["lut"] = write_exr(lut, paths["lut"])
+    return dict(sorted(written.items()))

@@ -1,0 +1,567 @@
+"""Validate a written asset: USD's validation framework plus rockdove's own checks.
+
+:func:`validate_asset` opens the root layer from disk (payloads loaded) and, for every combination of the
+variant sets on the default prim (here ``shading`` = baked / physical), runs:
+
+1. ``pxr.UsdValidation``: every registered validator over the stage. usd-core ships no MaterialX Sdr plugin,
+   so ``usdShadeValidators:ShaderSdrCompliance`` reports ``MissingShaderIdInRegistry`` for every ``ND_*``
+   shader; that one error, for ``ND_*`` ids only, is replaced by check 2.
+2. MaterialX node definitions: each ``ND_*`` ``info:id`` exists in MaterialX's standard data libraries
+   (stdlib, pbrlib, bxdf, ...), and each authored input and output has a name the nodedef declares and the
+   matching type.
+3. Textures: every asset-valued attribute (shader ``inputs:file``, ``rockdove:lut:file``) resolves and reads
+   (PNG via Pillow, EXR via :func:`rockdove.lut.exr.read_exr`); works inside a usdz too (read through Ar).
+4. Topology: every primvar's (and normals') element count matches its interpolation (vertex = points,
+   faceVarying = face corners, uniform = faces, constant = 1), indices in range.
+5. Thin film: on prims with ``RockDoveThinFilmAPI``, the thickness primvar's range lies inside the LUT's
+   domain ``rockdove:lut:thicknessRangeNm``, which must agree with the range in the LUT EXR header; the
+   bound material's LUT constants (``LutAngleCount``... of thinfilm.mtlx) must describe that EXR, and the
+   film attributes must match the provenance the baker wrote into the EXR header (film, illuminant...).
+   An asset without a LUT (physical-only shading: no ``rockdove:lut:*`` attributes) is valid: its film
+   attributes must be complete and finite, its thickness primvar present, finite and > 0 nm, and its bound
+   material must not hold the baked LUT network (which would read a LUT the asset does not have).
+6. Materials: ``ComputeSurfaceSource()`` (universal) resolves for every material, and
+   ``ComputeSurfaceSource("mtlx")`` for every material with an ``outputs:mtlx:surface``; that network, turned
+   back into a MaterialX document as Hydra's HdMtlx does, passes MaterialX's ``validate()``.
+7. NVIDIA's asset validator (:mod:`rockdove.usd.nvidia`), once over all variants; its ``ND_*``
+   not-in-sdrRegistry findings are left to check 2.
+
+Before all of these, :mod:`rockdove.usd.dependencies` scans the layers without composing them (layers that do
+not parse, asset paths outside the asset).
+
+Each problem is an :class:`Issue` naming the check, the prim/attribute path, the value and what was
+expected. Issues found in several variants are reported once, with the variants listed.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import re
+import tempfile
+from dataclasses import dataclass, field
+
+from .issues import Issue, only_errors
+from .layout import resolve_root_layer
+from .material import _SDF_TYPES
+
+#: The UsdValidation error replaced by :func:`check_mtlx_shaders` for MaterialX (ND_*) shader ids.
+MISSING_SHADER_ID = "MissingShaderIdInRegistry"
+
+# Sdf value type name -> MaterialX type: the inverse of the authoring table (material._SDF_TYPES); token (outputs
+# of surface shaders / materials) has no single MaterialX type
+_MX_TYPES = {sdf.lower(): mx for mx, sdf in _SDF_TYPES.items() if sdf != "Token"} | {"token": None}
+
+
+@dataclass
+class Report:
+    """Result of :func:`validate_asset`: ``clean`` when no issue has severity ``error``."""
+
+    path: str
+    issues: list = field(default_factory=list)
+    variants: list = field(default_factory=list)
+    counts: dict = field(default_factory=dict)
+
+    @property
+    def errors(self) -> list:
+        return only_errors(self.issues)
+
+    @property
+    def clean(self) -> bool:
+        return not self.errors
+
+    def checks(self) -> set:
+        """Names of the checks that reported something."""
+        return {i.check for i in self.issues}
+
+    def to_dict(self) -> dict:
+        return {"path": self.path, "clean": self.clean, "variants": list(self.variants),
+                "counts": dict(sorted(self.counts.items())), "issues": [i.to_dict() for i in self.issues]}
+
+    def format(self) -> str:
+        """A readable multi-line report."""
+        lines = [f"{self.path}: {'clean' if self.clean else 'NOT CLEAN'} "
+                 f"({len(self.errors)} error(s), {len(self.issues) - len(self.errors)} warning(s))",
+                 "  variants: " + (", ".join(self.variants) or "(none)"),
+                 "  checked: " + ", ".join(f"{k} {v}" for k, v in sorted(self.counts.items()))]
+        for i in self.issues:
+            where = f" [{', '.join(i.variants)}]" if i.variants else ""
+            lines.append(f"  {i.severity.upper()} {i.check}: {i.path}: {i.message}{where}")
+        return "\n".join(lines)
+
+
+# -- 1. UsdValidation -------------------------------------------------------------------------------------
+def _validators():
+    from pxr import UsdValidation
+
+    reg = UsdValidation.ValidationRegistry()
+    names = sorted(m.name for m in reg.GetAllValidatorMetadata())
+    return reg.GetOrLoadValidatorsByName(names)
+
+
+def run_usd_validation(stage, validators=None) -> list:
+    """Every registered ``pxr.UsdValidation`` validator over ``stage``, minus ND_* MissingShaderIdInRegistry."""
+    from pxr import UsdShade, UsdValidation
+
+    context = UsdValidation.ValidationContext(validators or _validators())
+    issues = []
+    for err in context.Validate(stage):
+        if err.GetType() == UsdValidation.ValidationErrorType.None_:
+            continue
+        sites = [s.GetProperty().GetPath() if s.IsProperty() else s.GetPrim().GetPath() if s.IsPrim() else
+                 s.GetLayer().identifier if s.GetLayer() else "" for s in err.GetSites()]
+        if err.GetName() == MISSING_SHADER_ID:
+            prims = [stage.GetPrimAtPath(str(p).split(".")[0]) for p in sites]
+            ids = [UsdShade.Shader(p).GetShaderId() if p and p.IsA(UsdShade.Shader) else None for p in prims]
+            if ids and all(i and i.startswith("ND_") for i in ids):
+                continue  # checked against MaterialX's own node definitions instead
+        validator = err.GetValidator().GetMetadata().name if err.GetValidator() else "usdValidation"
+        severity = "error" if err.GetType() == UsdValidation.ValidationErrorType.Error else "warning"
+        issues.append(Issue(f"usdValidation:{validator}:{err.GetName()}", ", ".join(str(s) for s in sites) or "/",
+                            err.GetMessage(), severity))
+    return issues
+
+
+# -- 2. MaterialX node definitions --------------------------------------------------------------------------
+def check_mtlx_shaders(stage, library=None) -> tuple[list, int]:
+    """Check every ``ND_*`` shader's id, input names/types and output types against MaterialX's nodedefs.
+
+    Returns
+    -------
+    (issues, number of ND_ shaders checked)
+    """
+    from pxr import Usd, UsdShade
+
+    from .material import load_mtlx_libraries
+
+    library = library or load_mtlx_libraries()
+    issues, n = [], 0
+    for prim in Usd.PrimRange(stage.GetPseudoRoot()):
+        if not prim.IsA(UsdShade.Shader):
+            continue
+        shader = UsdShade.Shader(prim)
+        sid = shader.GetShaderId() or ""
+        if not sid.startswith("ND_"):
+            continue
+        n += 1
+        nodedef = library.getNodeDef(sid)
+        if nodedef is None:
+            issues.append(Issue("mtlx", f"{prim.GetPath()}.info:id",
+                                f"info:id {sid!r} is not a MaterialX node definition (stdlib/pbrlib/bxdf)"))
+            continue
+        for inp in shader.GetInputs():
+            name = inp.GetBaseName()
+            mx_in = nodedef.getActiveInput(name)
+            got = _MX_TYPES.get(str(inp.GetTypeName()), str(inp.GetTypeName()))
+            if mx_in is None:
+                issues.append(Issue("mtlx", str(inp.GetAttr().GetPath()),
+                                    f"input {name!r} is not declared by {sid} (inputs: "
+                                    f"{sorted(i.getName() for i in nodedef.getActiveInputs())})"))
+            elif got != mx_in.getType() and not (got is None and _SDF_TYPES.get(mx_in.getType()) == "Token"):
+                # a token input carries a closure (BSDF, EDF, surfaceshader): any of the token-typed MaterialX types
+                issues.append(Issue("mtlx", str(inp.GetAttr().GetPath()),
+                                    f"input {name!r} has type {inp.GetTypeName()} ({got}), {sid} expects "
+                                    f"{mx_in.getType()}"))
+        for out in shader.GetOutputs():
+            name = out.GetBaseName()
+            mx_out = nodedef.getActiveOutput(name)
+            got = _MX_TYPES.get(str(out.GetTypeName()), str(out.GetTypeName()))
+            if mx_out is None:
+                issues.append(Issue("mtlx", str(out.GetAttr().GetPath()),
+                                    f"output {name!r} is not declared by {sid}"))
+            elif got is not None and got != mx_out.getType():
+                issues.append(Issue("mtlx", str(out.GetAttr().GetPath()),
+                                    f"output {name!r} has type {out.GetTypeName()}, {sid} gives {mx_out.getType()}"))
+    return issues, n
+
+
+# -- 3. textures --------------------------------------------------------------------------------------------
+def _read_asset_bytes(resolved: str) -> bytes:
+    from pxr import Ar
+
+    asset = Ar.GetResolver().OpenAsset(Ar.ResolvedPath(resolved))
+    if asset is None:
+        raise OSError(f"cannot open {resolved!r}")
+    return bytes(asset.GetBuffer())
+
+
+def read_texture_asset(resolved: str):
+    """Decode a resolved texture (a file or a usdz member): a PIL image for PNG, a ThinFilmLUT for EXR."""
+    from PIL import Image
+
+    from rockdove.lut.exr import read_exr
+
+    data = _read_asset_bytes(resolved)
+    name = resolved.rstrip("]").lower()
+    if name.endswith(".exr"):
+        with tempfile.TemporaryDirectory() as tmp:
+            p = os.path.join(tmp, "lut.exr")
+            with open(p, "wb") as fh:
+                fh.write(data)
+            return read_exr(p)
+    img = Image.open(io.BytesIO(data))
+    img.load()
+    return img
+
+
+def check_textures(stage, decoded: dict | None = None, skip=frozenset()) -> tuple[list, int, dict]:
+    """Every asset-valued attribute resolves to a file that reads.
+
+    ``skip`` holds authored paths that must not be read (outside the asset: reported by
+    :func:`rockdove.usd.dependencies.scan_dependencies`).
+
+    ``decoded`` ({resolved path: decoded object}, filled in place) skips files already read, e.g. by the same
+    check in another variant of the stage; a file that failed to read is not in it and is tried again.
+
+    Returns
+    -------
+    (issues, number of asset attributes checked, {resolved path: decoded object})
+    """
+    from pxr import Sdf, Usd
+
+    issues, n = [], 0
+    decoded = {} if decoded is None else decoded
+    for prim in Usd.PrimRange(stage.GetPseudoRoot()):
+        for attr in prim.GetAttributes():
+            if attr.GetTypeName() != Sdf.ValueTypeNames.Asset:
+                continue
+            value = attr.Get()
+            if value is None or not value.path:
+                continue
+            n += 1
+            if value.path in skip:
+                continue
+            if not value.resolvedPath:
+                issues.append(Issue("texture", str(attr.GetPath()), f"asset {value.path!r} does not resolve "
+                                    "(missing file); expected an existing texture next to the layer"))
+                continue
+            if value.resolvedPath in decoded:
+                continue
+            try:
+                decoded[value.resolvedPath] = read_texture_asset(value.resolvedPath)
+            except Exception as exc:  # any decoder failure is the finding
+                why = re.sub(r" ?<[^<>]* at 0x[0-9a-fA-F]+>", "", str(exc)) or type(exc).__name__
+                issues.append(Issue("texture", str(attr.GetPath()),
+                                    f"asset {value.path!r} ({value.resolvedPath}) does not read: {why}"))
+    return issues, n, decoded
+
+
+# -- 4. primvar sizes ---------------------------------------------------------------------------------------
+def check_primvars(stage) -> tuple[list, int]:
+    """Primvar (and normals) element counts against topology, and index ranges."""
+    import numpy as np
+    from pxr import Usd, UsdGeom
+
+    issues, n = [], 0
+    for prim in Usd.PrimRange(stage.GetPseudoRoot()):
+        if not prim.IsA(UsdGeom.Mesh):
+            continue
+        mesh = UsdGeom.Mesh(prim)
+        points = mesh.GetPointsAttr().Get() or []
+        counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get() or [], np.int64)
+        indices = np.asarray(mesh.GetFaceVertexIndicesAttr().Get() or [], np.int64)
+        expected = {"vertex": len(points), "varying": len(points), "faceVarying": int(counts.sum()),
+                    "uniform": len(counts), "constant": 1}
+        path = prim.GetPath()
+        if int(counts.sum()) != len(indices):
+            issues.append(Issue("primvar", f"{path}.faceVertexIndices", f"{len(indices)} indices, but "
+                                f"faceVertexCounts sum to {int(counts.sum())}"))
+        if len(indices) and (indices.min() < 0 or indices.max() >= len(points)):
+            issues.append(Issue("primvar", f"{path}.faceVertexIndices",
+                                f"indices span [{indices.min()}, {indices.max()}], expected [0, {len(points)})"))
+        normals = mesh.GetNormalsAttr().Get()
+        if normals is not None:
+            interp = mesh.GetNormalsInterpolation()
+            if len(normals) != expected.get(interp, -1):
+                issues.append(Issue("primvar", f"{path}.normals", f"{len(normals)} normals with interpolation "
+                                    f"{interp!r}, expected {expected.get(interp)}"))
+        for pv in UsdGeom.PrimvarsAPI(prim).GetPrimvars():
+            value = pv.Get()
+            if value is None:
+                continue
+            n += 1
+            interp = pv.GetInterpolation()
+            size = expected.get(interp)
+            elems = len(value) // max(pv.GetElementSize(), 1) if hasattr(value, "__len__") else 1
+            if pv.IsIndexed():
+                idx = np.asarray(pv.GetIndices(), np.int64)
+                if len(idx) and (idx.min() < 0 or idx.max() >= elems):
+                    issues.append(Issue("primvar", str(pv.GetAttr().GetPath()),
+                                        f"indices span [{idx.min()}, {idx.max()}], expected [0, {elems})"))
+                elems = len(idx)
+            if size is not None and elems != size:
+                issues.append(Issue("primvar", str(pv.GetAttr().GetPath()),
+                                    f"{elems} values with interpolation {interp!r}, expected {size} "
+                                    f"({len(points)} points, {len(counts)} faces, {int(counts.sum())} corners)"))
+    return issues, n
+
+
+# -- 5. thin film / LUT domain ------------------------------------------------------------------------------
+def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
+    """Thickness primvar inside the LUT domain; schema range agrees with the EXR header."""
+    import numpy as np
+    from pxr import Usd, UsdGeom
+
+    from .schema import has_thin_film, read_thin_film
+
+    issues, n = [], 0
+    for prim in Usd.PrimRange(stage.GetPseudoRoot()):
+        if not has_thin_film(prim):
+            continue
+        n += 1
+        film = read_thin_film(prim)
+        if not film["lut_file"] and not any(prim.GetAttribute(f"rockdove:lut:{a}").HasAuthoredValue() for a in
+                                            ("colorSpace", "angleWarpGamma", "thicknessRangeNm")):
+            issues += _check_lutless_film(prim, film)
+            continue
+        rng = film["thickness_range_nm"]
+        where = f"{prim.GetPath()}.rockdove:lut:thicknessRangeNm"
+        if rng is None:
+            issues.append(Issue("thinFilm", where, "not authored; expected the LUT's (lo, hi) in nm"))
+            continue
+        lo, hi = rng
+        lut = decoded.get(film["lut_file_resolved"])
+        if lut is not None and hasattr(lut, "thickness_range_nm"):
+            elo, ehi = lut.thickness_range_nm
+            if not (np.isclose(lo, elo, rtol=0, atol=1e-3) and np.isclose(hi, ehi, rtol=0, atol=1e-3)):
+                issues.append(Issue("thinFilm", where, f"({lo}, {hi}) nm differs from the LUT file's header "
+                                    f"rockdove:thicknessRangeNm ({elo}, {ehi})"))
+            if not np.isclose(film["angle_warp_gamma"], lut.angle_warp_gamma, rtol=1e-6):
+                issues.append(Issue("thinFilm", f"{prim.GetPath()}.rockdove:lut:angleWarpGamma",
+                                    f"{film['angle_warp_gamma']} differs from the LUT file's {lut.angle_warp_gamma}"))
+            issues += _check_lut_constants(prim, lut)
+            issues += _check_film_provenance(prim, film, lut)
+        pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "")
+        values = pv.ComputeFlattened() if pv else None
+        if values is None or len(values) == 0:
+            issues.append(Issue("thinFilm", f"{prim.GetPath()}.primvars:{film['thickness_primvar']}",
+                                "thickness primvar missing or empty"))
+            continue
+        d = np.asarray(values, np.float64)
+        tol = 1e-3  # nm: float32 rounding of authored values
+        if d.min() < lo - tol or d.max() > hi + tol:
+            issues.append(Issue("thinFilm", str(pv.GetAttr().GetPath()),
+                                f"thickness spans [{d.min():.6g}, {d.max():.6g}] nm, outside the LUT domain "
+                                f"[{lo:.6g}, {hi:.6g}] nm (rockdove:lut:thicknessRangeNm)"))
+    return issues, n
+
+
+#: Names of the shaders of the baked LUT network (thinfilm.mtlx) that read the LUT.
+LUT_NETWORK_SHADERS = ("LutTexture", "LutAngleCount", "LutThicknessCount", "LutAngleWarpGamma", "LutThicknessLoNm",
+                       "LutThicknessHiNm")
+
+
+def _check_lutless_film(prim, film: dict) -> list:
+    """A film recorded without a LUT (physical-only asset): complete film, sane thickness, no LUT network."""
+    import numpy as np
+    from pxr import UsdGeom, UsdShade
+
+    issues = []
+    for key, attr in (("cauchy_a", "film:cauchyA"), ("cauchy_b_nm2", "film:cauchyB_nm2"), ("k", "film:k"),
+                      ("incident_index", "film:incidentIndex"), ("substrate_index", "film:substrateIndex")):
+        v = film.get(key)
+        if not isinstance(v, float) or not np.isfinite(v):
+            issues.append(Issue("thinFilm", f"{prim.GetPath()}.rockdove:{attr}", f"{v!r}; expected a finite number"))
+    if film.get("thickness_units") != "nm":
+        issues.append(Issue("thinFilm", f"{prim.GetPath()}.rockdove:film:thicknessUnits",
+                            f"{film.get('thickness_units')!r}; expected 'nm'"))
+    pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "")
+    values = pv.ComputeFlattened() if pv else None
+    if values is None or len(values) == 0:
+        issues.append(Issue("thinFilm", f"{prim.GetPath()}.primvars:{film['thickness_primvar']}",
+                            "thickness primvar missing or empty"))
+    else:
+        d = np.asarray(values, np.float64)
+        if not np.all(np.isfinite(d)) or d.min() <= 0:
+            issues.append(Issue("thinFilm", str(pv.GetAttr().GetPath()),
+                                f"thickness spans [{np.nanmin(d):.6g}, {np.nanmax(d):.6g}] nm; expected finite "
+                                "values > 0 nm"))
+    material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
+    if material:
+        present = [n for n in LUT_NETWORK_SHADERS if material.GetPrim().GetChild(n)]
+        if present:
+            issues.append(Issue("thinFilm", str(material.GetPath()),
+                                f"holds the baked LUT network ({', '.join(present)}) but {prim.GetPath()} records no "
+                                "LUT (no rockdove:lut:file): a physical-only asset carries only the physical network"))
+    return issues
+
+
+#: read_thin_film key -> (schema attribute, LUT EXR metadata key written by rockdove.lut.bake)
+_PROVENANCE = {
+    "model": ("rockdove:film:model", "film:name"),
+    "cauchy_a": ("rockdove:film:cauchyA", "film:cauchyA"),
+    "cauchy_b_nm2": ("rockdove:film:cauchyB_nm2", "film:cauchyB_nm2"),
+    "k": ("rockdove:film:k", "film:k"),
+    "incident_index": ("rockdove:film:incidentIndex", "film:incidentIndex"),
+    "substrate_index": ("rockdove:film:substrateIndex", "film:substrateIndex"),
+    "illuminant": ("rockdove:lut:illuminant", "illuminant"),
+    "observer": ("rockdove:lut:observer", "observer"),
+    "lut_colour_space": ("rockdove:lut:colorSpace", None),
+}
+
+
+def _check_film_provenance(prim, film: dict, lut) -> list:
+    """The schema's film must be the one the LUT was baked from (the EXR header's provenance, when recorded)."""
+    issues = []
+    for key, (attr, meta_key) in _PROVENANCE.items():
+        if meta_key is None:
+            recorded = lut.colour_space
+        elif meta_key in lut.metadata:
+            recorded = lut.metadata[meta_key]
+        else:
+            continue
+        got = film.get(key)
+        if isinstance(got, float):
+            try:
+                same = abs(got - float(recorded)) <= 1e-6 * max(1.0, abs(float(recorded)))
+            except ValueError:
+                same = False
+        else:
+            same = str(got) == str(recorded)
+        if not same:
+            issues.append(Issue("thinFilm", f"{prim.GetPath()}.{attr}",
+                                f"{got!r} differs from the LUT file's {meta_key or 'colour space'} = {recorded!r}: "
+                                "the schema must record the film the LUT was baked from"))
+    return issues
+
+
+def _check_lut_constants(prim, lut) -> list:
+    """The MaterialX network's LUT constants (texel counts, warp, range) must describe the LUT file it reads."""
+    from pxr import UsdShade
+
+    material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
+    if not material:
+        return [Issue("thinFilm", str(prim.GetPath()), "feather mesh has no bound material")]
+    lo, hi = lut.thickness_range_nm
+    expected = {"LutAngleCount": lut.n_angle, "LutThicknessCount": lut.n_thickness,
+                "LutAngleWarpGamma": lut.angle_warp_gamma, "LutThicknessLoNm": lo, "LutThicknessHiNm": hi}
+    issues = []
+    for name, want in expected.items():
+        shader = UsdShade.Shader(material.GetPrim().GetChild(name))
+        if not shader:
+            continue  # a material without the LUT network (e.g. hand-made) has nothing to disagree with
+        got = shader.GetInput("value").Get() if shader.GetInput("value") else None
+        if got is None or abs(float(got) - float(want)) > 1e-4 * max(1.0, abs(float(want))):
+            issues.append(Issue("thinFilm", f"{shader.GetPath()}.inputs:value",
+                                f"{got} does not describe the LUT file it reads: expected {want} "
+                                f"({lut.n_thickness} x {lut.n_angle} texels, gamma {lut.angle_warp_gamma}, "
+                                f"range ({lo}, {hi}) nm)"))
+    return issues
+
+
+# -- 6. surface sources -------------------------------------------------------------------------------------
+def check_materials(stage, library=None) -> tuple[list, int]:
+    """Universal and (where authored) mtlx surface sources resolve to shaders; the mtlx network, rebuilt as a
+    MaterialX document the way Hydra does (:func:`rockdove.usd.material.usd_to_mtlx_document`), validates."""
+    from pxr import Usd, UsdShade
+
+    from .material import load_mtlx_libraries, usd_to_mtlx_document
+
+    library = library or load_mtlx_libraries()
+
+    issues, n = [], 0
+    for prim in Usd.PrimRange(stage.GetPseudoRoot()):
+        if not prim.IsA(UsdShade.Material):
+            continue
+        n += 1
+        mat = UsdShade.Material(prim)
+        contexts = [("", "outputs:surface")]
+        if prim.HasAttribute("outputs:mtlx:surface"):
+            contexts.append(("mtlx", "outputs:mtlx:surface"))
+        for ctx, attr in contexts:
+            shader, _, _ = mat.ComputeSurfaceSource(ctx)
+            if not shader:
+                issues.append(Issue("material", f"{prim.GetPath()}.{attr}",
+                                    f"ComputeSurfaceSource({ctx!r}) does not resolve to a shader"))
+            elif ctx == "mtlx" and not (shader.GetShaderId() or "").startswith("ND_"):
+                issues.append(Issue("material", f"{prim.GetPath()}.{attr}",
+                                    f"mtlx surface {shader.GetPath()} has id {shader.GetShaderId()!r}, "
+                                    "expected a MaterialX ND_* surface shader"))
+            elif ctx == "mtlx":
+                try:
+                    ok, why = usd_to_mtlx_document(shader, library).validate()
+                except ValueError:
+                    continue  # the id/input itself is reported by check_mtlx_shaders
+                if not ok:
+                    issues.append(Issue("material", f"{prim.GetPath()}.{attr}",
+                                        f"the network upstream of {shader.GetPath()} is not a valid MaterialX "
+                                        f"graph: {why.strip()}"))
+    return issues, n
+
+
+# -- driver -------------------------------------------------------------------------------------------------
+def validate_asset(path, allow_external: bool = False) -> Report:
+    """Validate the asset at ``path`` (folder, root layer or usdz) over every variant combination.
+
+    First the layer graph is scanned without composing it (:func:`rockdove.usd.dependencies.scan_dependencies`):
+    a layer that does not parse, or a layer outside the asset (absolute path or one that leaves its folder),
+    ends the validation there, before USD composes (reads) anything. Asset-valued attributes outside the asset
+    are reported and not read, and NVIDIA's validator (which would read them) is not run; ``allow_external``
+    turns those reports into warnings and reads the files.
+
+    Returns
+    -------
+    Report
+    """
+    from pxr import Usd
+
+    from .dependencies import scan_dependencies
+    from .material import load_mtlx_libraries
+    from .schema import register
+    from .stage import variant_combinations
+
+    root = resolve_root_layer(path)
+    register()
+    report = Report(path=root)
+    deps = scan_dependencies(root, allow_external)
+    report.issues += deps.issues
+    if any(i.check == "layer" or i.message.startswith("layer path") for i in deps.errors):
+        return report  # composing would read a broken layer or a layer from elsewhere
+    skip = frozenset() if allow_external else frozenset(deps.external)
+    try:
+        stage = Usd.Stage.Open(root, Usd.Stage.LoadAll)
+    except Exception as exc:  # pxr raises Tf.ErrorException for unparsable layers and damaged packages
+        why = " ".join(str(exc).split())
+        report.issues.append(Issue("open", root, f"USD could not open the layer: {why}"))
+        return report
+    if stage is None:
+        report.issues.append(Issue("open", root, "USD could not open the layer"))
+        return report
+    library = load_mtlx_libraries()
+    validators = _validators()
+    found: dict[tuple, list] = {}
+    decoded_textures = {}  # resolved path -> decoded texture: the variants share their files, read each once
+    combos = variant_combinations(stage)
+    counts = {}
+    for combo in combos:
+        label = ", ".join(f"{k}={v}" for k, v in combo.items())
+        if label:
+            report.variants.append(label)
+        session = stage.GetSessionLayer()
+        with Usd.EditContext(stage, session):
+            for name, value in combo.items():
+                stage.GetDefaultPrim().GetVariantSet(name).SetVariantSelection(value)
+        issues = run_usd_validation(stage, validators)
+        mx_issues, counts["mtlx shaders"] = check_mtlx_shaders(stage, library)
+        tex_issues, counts["assets"], decoded = check_textures(stage, decoded_textures, skip)
+        pv_issues, counts["primvars"] = check_primvars(stage)
+        tf_issues, counts["thin films"] = check_thin_film(stage, decoded)
+        mat_issues, counts["materials"] = check_materials(stage, library)
+        for issue in issues + mx_issues + tex_issues + pv_issues + tf_issues + mat_issues:
+            found.setdefault((issue.check, issue.path, issue.message, issue.severity), []).append(label)
+    counts["variant combinations"] = len(combos)
+    from .nvidia import run_nvidia_validator
+
+    if skip:
+        nv_issues = [Issue("nvidia", root, "NVIDIA's validator was not run: it would read the files outside the "
+                           "asset (allow them with --allow-external-assets)", "warning")]
+    else:
+        nv_issues, counts["nvidia ND_* ids left to mtlx"] = run_nvidia_validator(root)
+    for issue in nv_issues:  # the NVIDIA validator walks the variants itself
+        found.setdefault((issue.check, issue.path, issue.message, issue.severity), []).extend(report.variants or [""])
+    report.counts = counts
+    for (check, where, message, severity), labels in found.items():
+        variants = () if len(labels) == len(combos) else tuple(l for l in labels if l)
+        report.issues.append(Issue(check, where, message, severity, variants))
+    report.issues.sort(key=lambda i: (i.severity != "error", i.check, i.path))
+    return report

@@ -1,0 +1,189 @@
+"""Verification of the hosts (:mod:`rockdove.hosts`): each host's renders against the exact reference of the
+lighting model it evaluates, over the feather-tip pixels.
+
+Per host, over every view: the feather pixels of the reference (its part ids, eroded by one pixel as the GL
+comparison does, :func:`rockdove.verify.compare.comparison_mask`) whose structural mask is >=
+:data:`rockdove.verify.compare.STRUCTURAL_MASK` (0.5). A host returns radiance only (no part ids), so its
+silhouette is the reference's.
+
+- ``median_dE``, ``p95_dE``: CIEDE2000 of the unclipped linear radiance (:func:`rockdove.verify.compare.
+  delta_e_map`);
+- ``green_px``, ``purple_px``: host pixels in the green / purple hue bands
+  (:func:`rockdove.verify.compare.hue_classes`, strict bands);
+- ``hue_agreement``: fraction of the pixels whose class (green, purple, other: grey and other hues together)
+  is the reference's.
+
+Pass (:func:`host_passed`): networks that claim the exact colour (``glsl``, ``baked``) meet the dE goals
+(median <= :data:`rockdove.verify.compare.MEDIAN_DE_GOAL`, p95 <= :data:`~rockdove.verify.compare.P95_DE_GOAL`);
+a host's own thin-film BSDF (``physical``), an approximation, shows green and purple and agrees on the hue
+class of >= :data:`MIN_HUE_AGREEMENT` of the pixels (its dE is reported, not held to the goal).
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from . import compare
+
+#: Share of feather-tip pixels whose green/purple/other class must match the reference (physical variants).
+MIN_HUE_AGREEMENT = 0.85
+#: Variants held to the dE goals.
+EXACT_VARIANTS = ("glsl", "baked")
+
+
+def _classes(rgb: np.ndarray) -> np.ndarray:
+    cls = compare.hue_classes(np.asarray(rgb, np.float64), sides=False)[2]
+    return np.where((cls == 1) | (cls == 2), cls, 3).astype(np.int8)
+
+
+def host_metrics(images: dict, refs: list, scene) -> dict:
+    """dE and hue statistics of one host's renders against the references of its lobe.
+
+    Parameters
+    ----------
+    images : dict
+        view name -> (H, W, 3) linear radiance (the host's ``render``).
+    refs : list of ReferenceResult
+        The reference of the host's lobe, one per view.
+    scene : RenderScene
+
+    Returns
+    -------
+    dict
+        ``n_pixels``, ``median_dE``, ``p95_dE``, ``green_px``, ``purple_px``, ``hue_agreement``, ``per_view``
+        (``{view: {"n_pixels", "median_dE", "p95_dE"}}``), and ``de_maps`` (``{view: (H, W)}``, not JSON).
+
+    Raises
+    ------
+    ValueError
+        A view is missing from ``images`` or has the wrong shape.
+    """
+    feather_ids = [i + 1 for i, p in enumerate(scene.parts) if p.is_feather]
+    des, host_cls, ref_cls, per_view, maps = [], [], [], {}, {}
+    for ref in refs:
+        if ref.view not in images:
+            raise ValueError(f"the host returned no image for view {ref.view!r}; it returned {sorted(images)}")
+        img = np.asarray(images[ref.view], np.float64)
+        if img.shape != ref.rgb.shape:
+            raise ValueError(f"view {ref.view!r}: host image {img.shape}, expected {ref.rgb.shape}")
+        img = np.where(np.isfinite(img), img, 0.0)
+        sel = compare.comparison_mask(ref.part_id, ref.part_id, feather_ids, 1) & (ref.mask >= compare.STRUCTURAL_MASK)
+        de = compare.delta_e_map(img, ref.rgb.astype(np.float64), sel)
+        maps[ref.view] = de
+        vals = de[sel]
+        des.append(vals)
+        host_cls.append(_classes(img[sel]))
+        ref_cls.append(_classes(ref.rgb[sel]))
+        per_view[ref.view] = {"n_pixels": int(vals.size),
+                              "median_dE": float(np.median(vals)) if vals.size else float("nan"),
+                              "p95_dE": float(np.percentile(vals, 95)) if vals.size else float("nan")}
+    de = np.concatenate(des) if des else np.zeros(0)
+    hc = np.concatenate(host_cls) if host_cls else np.zeros(0, np.int8)
+    rc = np.concatenate(ref_cls) if ref_cls else np.zeros(0, np.int8)
+    n = int(de.size)
+    return {
+        "n_pixels": n,
+        "median_dE": float(np.median(de)) if n else float("nan"),
+        "p95_dE": float(np.percentile(de, 95)) if n else float("nan"),
+        "green_px": int(np.sum(hc == 1)),
+        "purple_px": int(np.sum(hc == 2)),
+        "hue_agreement": float(np.mean(hc == rc)) if n else float("nan"),
+        "per_view": per_view,
+        "de_maps": maps,
+    }
+
+
+def host_passed(variant: str, metrics: dict) -> tuple[bool, list]:
+    """Whether a host's metrics meet its goals (module docstring); ``(passed, reasons it failed)``."""
+    why = []
+    if metrics["n_pixels"] == 0:
+        return False, ["no feather-tip pixels to compare"]
+    if variant in EXACT_VARIANTS:
+        if not metrics["median_dE"] <= compare.MEDIAN_DE_GOAL:
+            why.append(f"median dE2000 {metrics['median_dE']:.3f} > {compare.MEDIAN_DE_GOAL}")
+        if not metrics["p95_dE"] <= compare.P95_DE_GOAL:
+            why.append(f"p95 dE2000 {metrics['p95_dE']:.3f} > {compare.P95_DE_GOAL}")
+    else:
+        for hue in ("green_px", "purple_px"):
+            if metrics[hue] == 0:
+                why.append(f"no {hue.split('_')[0]} feather pixels")
+        if not metrics["hue_agreement"] >= MIN_HUE_AGREEMENT:
+            why.append(f"hue class agrees with the reference on {metrics['hue_agreement']:.1%} of the feather-tip "
+                       f"pixels < {MIN_HUE_AGREEMENT:.0%}")
+    return not why, why
+
+
+def check_hosts(asset_layer: str, scene, views, selection, refs_by_lobe: dict, out_dir: str, *, rendered=None,
+                say=None) -> tuple[list, dict]:
+    """Render the views in every selected host and compare each with its lobe's reference.
+
+    Parameters
+    ----------
+    asset_layer : str
+        The asset's root layer (hosts read the written asset).
+    scene : RenderScene
+    views : list of View
+    selection : rockdove.hosts.Selection
+    refs_by_lobe : dict
+        lobe -> list of ReferenceResult (one per view), for every lobe of the selected hosts.
+    out_dir : str
+        Where ``<view>_<host>.png`` and ``<view>_<host>_reference.png`` go.
+    rendered : dict, optional
+        host name -> images already rendered (the verifier's own GL renders for ``glsl``).
+    say : callable, optional
+
+    Returns
+    -------
+    entries : list of dict
+        Per host (in the selection's order, skipped ones last): ``name``, ``variant``, ``lobe``, ``median_dE``,
+        ``p95_dE``, ``green_px``, ``purple_px``, ``hue_agreement``, ``passed``, ``failures``, ``per_view``;
+        a host that raised :class:`rockdove.hosts.HostError` has ``error`` and ``passed`` False; an
+        unavailable one, or one whose optional ``cannot_draw(asset_layer) -> str | None`` gives a reason (the
+        asset lacks the network it draws), ``skipped`` True and ``reason``.
+    images : dict
+        host name -> {view: {"host": file, "reference": file}} for the report page.
+    """
+    from . import report as rep
+    from ..spectral import linear_to_srgb8
+    from ..render.images import save_png
+    from ..hosts import HostError
+
+    say = say or (lambda msg: None)
+    rendered = rendered or {}
+    entries, files = [], {}
+    for module in selection.available:
+        name, variant, lobe = module.NAME, module.VARIANT, module.LOBE
+        entry = {"name": name, "variant": variant, "lobe": lobe}
+        cannot = getattr(module, "cannot_draw", None)
+        reason = cannot(asset_layer) if cannot is not None and name not in rendered else None
+        if reason:
+            entries.append({**entry, "skipped": True, "reason": reason, "passed": None})
+            continue
+        try:
+            if name in rendered:
+                images = rendered[name]
+            else:
+                say(f"host {name} ({variant}, {lobe}): rendering {len(views)} views")
+                images = module.render(asset_layer, list(views), out_dir)
+            m = host_metrics(images, refs_by_lobe[lobe], scene)
+        except (HostError, ValueError) as exc:
+            entries.append({**entry, "passed": False, "error": str(exc)})
+            continue
+        passed, why = host_passed(variant, m)
+        maps = m.pop("de_maps")
+        entries.append({**entry, **m, "passed": passed, "failures": why})
+        files[name] = {}
+        for ref in refs_by_lobe[lobe]:
+            host_png = save_png(linear_to_srgb8(images[ref.view]), os.path.join(out_dir, f"{ref.view}_{name}.png"))
+            ref_png = os.path.join(out_dir, f"{ref.view}_{lobe}_reference.png")
+            if not os.path.exists(ref_png):
+                save_png(linear_to_srgb8(ref.rgb), ref_png)
+            de_png = rep.de_map_png(os.path.join(out_dir, f"{ref.view}_{name}_dE.png"), maps[ref.view],
+                                    f"{name} {ref.view}: dE2000 median {m['per_view'][ref.view]['median_dE']:.2f}")
+            files[name][ref.view] = {"host": os.path.basename(host_png), "reference": os.path.basename(ref_png),
+                                     "dE": os.path.basename(de_png)}
+    for name, reason in selection.unavailable.items():
+        entries.append({"name": name, "skipped": True, "reason": reason, "passed": None})
+    return entries, files

@@ -1,0 +1,125 @@
+"""What a verification reads: the asset as a scene (:func:`verification_scene`), the views it renders
+(:func:`verification_views`), and their digests (:func:`scene_digest`, :func:`plan_views`) that let a build
+re-render only the views whose inputs changed."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+
+import numpy as np
+
+#: The light-view angle (deg) of the extra sweep view: 90 deg is the paper's green/purple flip.
+BOUNDARY_SWEEP_ANGLE_DEG = 90.0
+DEFAULT_SIZE = 512
+#: Turntable + light-sweep views of rockdove.render.views.default_views (the boundary sweep view is added).
+DEFAULT_VIEWS = 4
+#: The report's note for an asset without a LUT (physical-only shading).
+PHYSICAL_ONLY_NOTE = (
+    "physical-only asset (no LUT): its MaterialX shading hands the film to a renderer's own thin-film BSDF, which "
+    "no renderer here implements; the GL renderer draws the paper's LUT method, so verification baked a "
+    "verification-only LUT ({shape}, {lo:g}-{hi:g} nm, not part of the asset) in memory from the film the asset "
+    "records (RockDoveThinFilmAPI) and checked it against the exact spectral reference: geometry, textures, "
+    "thickness primvar and film are verified; the physical MaterialX network itself is only validated")
+
+
+def verification_scene(asset):
+    """Read an asset back for verification: ``(root layer, RenderScene, LUT baked in memory or None, notes)``.
+
+    An asset with a LUT is read as it is. For a LUT-less (physical-only) asset the renderers draw a LUT baked in
+    memory from the film it records (:meth:`rockdove.render.scene.RenderScene.load_lut`), returned here with
+    a note saying so (:data:`PHYSICAL_ONLY_NOTE`). Nothing is written.
+    """
+    from ..render.scene import load_scene
+
+    scene = load_scene(asset)
+    if scene.film is None or scene.film.lut_file is not None:
+        return scene.root_layer, scene, None, []
+    lut = scene.load_lut()
+    lo, hi = lut.thickness_range_nm
+    note = PHYSICAL_ONLY_NOTE.format(shape=f"{lut.n_thickness} x {lut.n_angle}", lo=lo, hi=hi)
+    return scene.root_layer, scene, lut, [note]
+
+
+def verification_views(scene, width: int, height: int, n_views: int = DEFAULT_VIEWS) -> list:
+    """The default views (``n_views`` of them), the light sweep at :data:`BOUNDARY_SWEEP_ANGLE_DEG` (same still
+    camera), and the hero 3/4 view at ``HERO_SCALE`` times the size (:func:`rockdove.render.views.hero_view`)."""
+    from ..render.views import HERO_SCALE, default_views, hero_view, light_sweep_views
+
+    views = default_views(scene, width, height, n=n_views)
+    sweep = [v for v in views if v.name.startswith("sweep_")]
+    if sweep:
+        s = sweep[0]
+        neck = np.asarray(scene.neck_centre_m, np.float64)
+        eye = s.camera_to_world[:3, 3]
+        dist = float(np.linalg.norm(eye - neck))
+        extra = light_sweep_views(neck, 1, width, height, angles_deg=[BOUNDARY_SWEEP_ANGLE_DEG], distance_m=dist,
+                                  yfov_deg=float(np.degrees(s.yfov_rad)), camera_direction=(eye - neck) / dist)
+        if extra[0].name not in {v.name for v in views}:
+            views.append(extra[0])
+    views.append(hero_view(scene.bounds_m, HERO_SCALE * width, HERO_SCALE * height))
+    return views
+
+
+def check_size(width, height) -> None:
+    for key, v in (("width", width), ("height", height)):
+        if isinstance(v, bool) or int(v) != v or int(v) < 16:
+            raise ValueError(f"{key} must be an integer >= 16, got {v!r}")
+
+
+def select_views(all_views: list, names) -> list:
+    if names is None:
+        return list(all_views)
+    known = {v.name: v for v in all_views}
+    names = list(names)
+    unknown = [n for n in names if n not in known]
+    if unknown or not names:
+        raise ValueError(f"views={names!r}: unknown or none; allowed names: {sorted(known)}")
+    return [known[n] for n in dict.fromkeys(names)]
+
+
+def scene_digest(scene) -> str:
+    """sha256 of what a verification view reads from a scene: every part's arrays, material values and texture
+    bytes, the film and the LUT's bytes, the variant selections; not file paths (an asset moved or rebuilt
+    with the same content has the same digest)."""
+    h = hashlib.sha256()
+
+    def add(label, data: bytes):
+        h.update(label.encode() + b"\0" + data + b"\0")
+
+    def add_file(label, path):
+        if path:
+            with open(path, "rb") as f:
+                add(label, f.read())
+
+    for p in scene.parts:
+        meta = {"name": p.name, "kind": p.material_kind, "srgb": bool(p.base_colour_srgb),
+                "base_colour": np.asarray(p.base_colour, np.float64).tolist(),
+                "opacity_threshold": float(p.opacity_threshold)}
+        add("part", json.dumps(meta, sort_keys=True).encode())
+        for f in ("positions_m", "normals", "triangles", "st", "thickness_nm", "neck_s"):
+            a = getattr(p, f)
+            if a is not None:
+                a = np.ascontiguousarray(a)
+                add(f"{p.name}.{f}:{a.dtype.str}:{a.shape}", a.tobytes())
+        add_file(f"{p.name}.base", p.base_colour_texture)
+        add_file(f"{p.name}.mask", p.mask_texture)
+    if scene.film is not None:
+        film = {k: v for k, v in scene.film.to_dict().items() if k != "lut_file"}
+        add("film", json.dumps(film, sort_keys=True, default=str).encode())
+        add_file("lut", scene.film.lut_file)
+    add("variants", json.dumps(dict(scene.variants), sort_keys=True).encode())
+    return h.hexdigest()
+
+
+def plan_views(asset, width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE, n_views: int = DEFAULT_VIEWS) -> dict:
+    """What each verification view reads: ``{view name: {"view": View.to_dict(), "scene": scene_digest}}``.
+
+    Two plans are equal exactly when the renders and checks of those views would be the same, so a build can
+    key each view by its entry (rockdove.graph.stages) and re-render only views whose entry changed.
+    """
+    check_size(width, height)
+    _, scene, _, _ = verification_scene(asset)
+    digest = scene_digest(scene)
+    return {v.name: {"view": v.to_dict(), "scene": digest}
+            for v in verification_views(scene, int(width), int(height), n_views)}

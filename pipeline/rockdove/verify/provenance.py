@@ -1,0 +1,102 @@
+"""What a verification report records about what it verified: the asset's hash and configuration, the library
+versions, and the asset validator's verdict (:func:`rockdove.usd.validate.validate_asset`)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import platform
+from functools import lru_cache
+
+from ..usd.layout import MARKER
+
+LIBRARIES = ("numpy", "scipy", "colour", "trimesh", "embreex", "pxr", "pyrender", "OpenGL", "PIL",
+             "matplotlib", "OpenEXR", "MaterialX")
+
+
+def library_versions() -> dict:
+    """Versions of Python, rockdove and the libraries the verification uses (None when not installed).
+
+    Read once per process (:func:`_library_versions`: the installed distributions' metadata, ~12 directory scans
+    of ``sys.path``; a process keeps the modules it imported, so later reads could only tell about files it does
+    not run); each call returns a dict of its own."""
+    return dict(_library_versions())
+
+
+@lru_cache(maxsize=1)
+def _library_versions() -> dict:
+    from importlib import metadata
+
+    from .. import __version__
+
+    dist = {"colour": "colour-science", "PIL": "pillow", "pxr": "usd-core", "OpenGL": "PyOpenGL"}
+    out = {"python": platform.python_version(), "rockdove": __version__}
+    for name in LIBRARIES:
+        try:
+            out[name] = metadata.version(dist.get(name, name))
+        except metadata.PackageNotFoundError:
+            out[name] = None
+    return out
+
+
+def asset_configuration(layer_path: str) -> dict:
+    """What the asset records about the configuration it was built from: the build marker
+    (:data:`rockdove.usd.layout.MARKER`, beside the root layer) and any root-layer ``customLayerData`` or default-prim
+    ``assetInfo`` key containing "config"; empty when the asset records nothing (e.g. a bare assembly)."""
+    from pxr import Sdf
+
+    found = {}
+    marker = os.path.join(os.path.dirname(os.path.abspath(layer_path)), MARKER)
+    if os.path.isfile(marker):
+        try:
+            with open(marker, encoding="utf-8") as f:
+                found["marker"] = json.load(f)
+        except (OSError, ValueError) as exc:
+            found["marker_error"] = f"{marker}: {exc}"
+    layer = Sdf.Layer.FindOrOpen(layer_path)
+    if layer is None:
+        return found
+
+    def pick(d, where):
+        for k, v in dict(d or {}).items():
+            if "config" in k.lower():
+                found[f"{where}:{k}"] = v
+
+    pick(layer.customLayerData, "customLayerData")
+    prim = layer.GetPrimAtPath(f"/{layer.defaultPrim}") if layer.defaultPrim else None
+    if prim:
+        pick(prim.assetInfo, "assetInfo")
+    return json.loads(json.dumps(found, default=str))
+
+
+def config_hash(config: dict):
+    """The configuration hash the asset records (the build marker's ``config_hash``), else None."""
+    marker = config.get("marker")
+    if isinstance(marker, dict) and marker.get("config_hash"):
+        return marker["config_hash"]
+    for k, v in config.items():
+        if "hash" in k.lower():
+            return v
+    return None
+
+
+
+def run_validation(layer_path: str) -> dict:
+    """Run the asset validator; returns ``{"passed": bool, "details": ..., "error": str | None}``."""
+    from ..usd.validate import validate_asset
+
+    try:
+        result = validate_asset(layer_path)
+    except ValueError as exc:
+        return {"passed": False, "details": None, "error": f"validation raised: {exc}"}
+    return {"passed": result.clean, "details": json.loads(json.dumps(result.to_dict(), default=str)), "error": None}
+
+
+def file_sha256(path) -> str:
+    """sha256 of a file (used to record what was verified)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()

@@ -1,0 +1,239 @@
+"""Primary rays of the CPU reference: one ray per pixel centre, first opaque hit through alpha-cut-out feathers.
+
+For each :class:`rockdove.render.views.View` the reference casts one primary ray through every pixel centre
+of the same pinhole camera as the GL renderer (OpenGL convention: the camera looks down its -Z, +Y up,
+vertical field of view ``yfov_rad``, square pixels) and finds the first surface with trimesh's ray queries
+(Embree through embreex when installed: ``trimesh.ray.has_embree``). Feather cards are alpha-tested: a hit
+where the feather base texture's alpha is below the part's ``opacity_threshold`` (0.5) is skipped and the ray
+continues from just behind it (up to :data:`MAX_ALPHA_LAYERS` layers, vectorised over all rays still
+travelling). The hits (:class:`Hits`) depend on the geometry and the camera only (:func:`ray_digest`,
+:func:`camera_key`), so the build caches them across film changes; :mod:`rockdove.verify.reference_image`
+shades them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Feather layers a ray may pass through (alpha-cut-out parts) before the reference gives up and keeps the
+#: last hit. Overlapping neck feathers are rarely more than a few layers deep where their alpha is < 0.5.
+MAX_ALPHA_LAYERS = 24
+
+
+def camera_rays(view, pixels=None):
+    """Primary rays through the pixel centres of ``view``'s pinhole camera.
+
+    Parameters
+    ----------
+    view : rockdove.render.views.View
+    pixels : array_like of int, optional
+        Flat pixel indices (row-major from the top-left pixel) whose rays to return; default every pixel. The
+        shading needs only the rays that hit something, a fraction of the image.
+
+    Returns
+    -------
+    origin : ndarray, (3,) world metres
+    directions : ndarray, (H * W, 3) (or (len(pixels), 3)) unit world directions
+    forward : ndarray, (3,) the camera's viewing axis (its -Z) in world space
+    """
+    h, w = view.height, view.width
+    tan_half = np.tan(0.5 * view.yfov_rad)
+    aspect = w / h
+    idx = np.arange(h * w) if pixels is None else np.asarray(pixels, np.int64).reshape(-1)
+    row, col = np.divmod(idx, w)
+    d_cam = np.empty((idx.size, 3))
+    d_cam[:, 0] = (2.0 * (col + 0.5) / w - 1.0) * tan_half * aspect
+    d_cam[:, 1] = (1.0 - 2.0 * (row + 0.5) / h) * tan_half
+    d_cam[:, 2] = -1.0
+    m = np.asarray(view.camera_to_world, np.float64)
+    d = d_cam @ m[:3, :3].T
+    d /= np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
+    fwd = -m[:3, 2] / np.linalg.norm(m[:3, 2])
+    return m[:3, 3].copy(), d, fwd
+
+
+class SceneGeometry:
+    """All parts in one trimesh for ray queries, plus per-face part index and the loaded textures."""
+
+    def __init__(self, scene):
+        import trimesh
+
+        from ..render.texture import read_texture
+
+        verts, faces, part_of_face, offset = [], [], [], 0
+        for i, p in enumerate(scene.parts):
+            verts.append(np.asarray(p.positions_m, np.float64))
+            faces.append(np.asarray(p.triangles, np.int64) + offset)
+            part_of_face.append(np.full(len(p.triangles), i, np.int32))
+            offset += len(p.positions_m)
+        self.vertices = np.concatenate(verts)
+        self.faces = np.concatenate(faces)
+        self.part_of_face = np.concatenate(part_of_face)
+        self.face_offset = np.concatenate([[0], np.cumsum([len(p.triangles) for p in scene.parts])])
+        self.mesh = trimesh.Trimesh(self.vertices, self.faces, process=False)
+        self.normals = np.concatenate([np.asarray(p.normals, np.float64) for p in scene.parts])
+        self.st = np.concatenate([np.asarray(p.st, np.float64) for p in scene.parts])
+        self.thickness = np.concatenate(
+            [np.asarray(p.thickness_nm, np.float64) if p.thickness_nm is not None else np.zeros(len(p.positions_m))
+             for p in scene.parts]
+        )
+        self.is_feather = np.array([p.is_feather for p in scene.parts])
+        self.threshold = np.array([p.opacity_threshold for p in scene.parts])
+        self.base_tex, self.mask_tex = [], []
+        for p in scene.parts:
+            base = p.base_colour_texture
+            self.base_tex.append(read_texture(base, p.base_colour_srgb) if base else None)
+            self.mask_tex.append(read_texture(p.mask_texture, False) if p.mask_texture else None)
+        self.base_const = [np.asarray(p.base_colour, np.float64) for p in scene.parts]
+        self.scale = float(np.linalg.norm(self.vertices.max(axis=0) - self.vertices.min(axis=0)))
+
+    def barycentric(self, face, points):
+        import trimesh
+
+        return trimesh.triangles.points_to_barycentric(self.vertices[self.faces[face]], points)
+
+    def interp(self, attr, face, bary):
+        return np.einsum("nk,nk...->n...", bary, attr[self.faces[face]])
+
+    def alpha(self, part, st):
+        tex = self.base_tex[part]
+        if tex is None or tex.shape[2] not in (2, 4):
+            return np.ones(len(st))
+        from ..render.texture import sample_texture
+
+        return sample_texture(tex, st)[:, -1]
+
+
+def _first_opaque_hits(geom: SceneGeometry, origin, dirs, stats: dict):
+    """First hit along each ray that is not an alpha-cut-out feather fragment.
+
+    Returns
+    -------
+    face : (R,) int64, -1 for a miss; point : (R, 3); bary : (R, 3)
+    """
+    n = len(dirs)
+    face = np.full(n, -1, np.int64)
+    point = np.zeros((n, 3))
+    bary = np.zeros((n, 3))
+    live = np.arange(n)
+    origins = np.broadcast_to(origin, (n, 3)).copy()
+    last = np.full(n, -1, np.int64)
+    offset = max(geom.scale * 1e-6, 1e-9)
+    layers = 0
+    for layers in range(1, MAX_ALPHA_LAYERS + 1):
+        tri, ray, loc = geom.mesh.ray.intersects_id(
+            origins[live], dirs[live], multiple_hits=False, return_locations=True
+        )
+        if len(tri) == 0:
+            break
+        rays = live[ray]
+        tri = np.asarray(tri, np.int64)
+        stuck = last[rays] == tri  # re-hit the face we just left (float32 precision): step further
+        b = geom.barycentric(tri, loc)
+        part = geom.part_of_face[tri]
+        transparent = np.zeros(len(tri), bool)
+        for p in np.unique(part[geom.is_feather[part]]):
+            sel = part == p
+            st = geom.interp(geom.st, tri[sel], b[sel])
+            transparent[sel] = geom.alpha(p, st) < geom.threshold[p]
+        transparent |= stuck
+        keep = ~transparent
+        if layers == MAX_ALPHA_LAYERS:  # give up: keep what we have
+            keep[:] = True
+        face[rays[keep]] = tri[keep]
+        point[rays[keep]] = loc[keep]
+        bary[rays[keep]] = b[keep]
+        go = rays[~keep]
+        last[go] = tri[~keep]
+        origins[go] = loc[~keep] + dirs[go] * offset * np.where(stuck[~keep], 10.0, 1.0)[:, None]
+        live = go
+        if live.size == 0:
+            break
+    stats["alpha_layers"] = int(layers)
+    return face, point, bary
+
+
+@dataclass(frozen=True)
+class Hits:
+    """The first opaque hit of every primary ray of one camera (:func:`cast_hits`): what the geometry and the
+    camera decide, before any shading, so it can be cached across film changes.
+
+    Attributes
+    ----------
+    face : ndarray, (R,) int64
+        Index into the scene's concatenated triangles (parts in ``scene.parts`` order), -1 for a miss;
+        R = width * height, row-major from the top-left pixel.
+    point : ndarray, (R, 3) float64
+        World position of the hit, metres (0 for a miss).
+    bary : ndarray, (R, 3) float64
+        Barycentric coordinates of the hit in its triangle (0 for a miss).
+    stats : dict
+        ``rays`` and ``alpha_layers`` (feather layers the rays passed through).
+    """
+
+    face: np.ndarray
+    point: np.ndarray
+    bary: np.ndarray
+    stats: dict
+
+    def to_arrays(self) -> dict:
+        """Compact arrays for storage (the hit rays only; exact round trip through :meth:`from_arrays`)."""
+        hit = np.nonzero(self.face >= 0)[0]
+        return {"n_rays": np.int64(self.face.size), "hit": hit.astype(np.int64), "face": self.face[hit],
+                "point": self.point[hit], "bary": self.bary[hit]}
+
+    @classmethod
+    def from_arrays(cls, arrays, stats: dict) -> "Hits":
+        n, hit = int(arrays["n_rays"]), np.asarray(arrays["hit"], np.int64)
+        face = np.full(n, -1, np.int64)
+        point, bary = np.zeros((n, 3)), np.zeros((n, 3))
+        face[hit], point[hit], bary[hit] = arrays["face"], arrays["point"], arrays["bary"]
+        return cls(face, point, bary, dict(stats))
+
+
+def camera_key(view) -> str:
+    """sha256 of what a view's primary rays depend on: its camera pose, vertical field of view and size (not
+    its light). Views that share a camera (the light sweep) share their :class:`Hits`."""
+    m = np.ascontiguousarray(view.camera_to_world, np.float64)
+    head = f"{float(view.yfov_rad)!r}:{int(view.width)}x{int(view.height)}:".encode()
+    return hashlib.sha256(head + m.tobytes()).hexdigest()
+
+
+def ray_digest(scene) -> str:
+    """sha256 of what the ray casts read from a scene: every part's positions and triangles, which parts are
+    alpha-tested feathers, their ``st``, opacity thresholds and base-colour texture bytes (the alpha). Not the
+    film, the LUT, normals, masks or colours: a film change leaves it, and so the cached :class:`Hits`, as
+    they were."""
+    h = hashlib.sha256()
+    for p in scene.parts:
+        h.update(f"{p.name}:{bool(p.is_feather)}:{float(p.opacity_threshold)!r}\0".encode())
+        arrays = [np.asarray(p.positions_m, np.float64), np.asarray(p.triangles, np.int64)]
+        if p.is_feather:
+            arrays.append(np.asarray(p.st, np.float64))
+        for a in arrays:
+            h.update(f"{a.shape}".encode() + np.ascontiguousarray(a).tobytes())
+        if p.is_feather and p.base_colour_texture:
+            with open(p.base_colour_texture, "rb") as f:
+                h.update(f.read())
+    return h.hexdigest()
+
+
+def cast_hits(scene, views) -> dict:
+    """Cast the primary rays of every distinct camera among ``views``: ``{camera_key(view): Hits}``."""
+    geom = SceneGeometry(scene)
+    out: dict = {}
+    for v in views:
+        key = camera_key(v)
+        if key not in out:
+            out[key] = cast_view(geom, v)
+    return out
+
+
+def cast_view(geom: "SceneGeometry", view) -> Hits:
+    origin, dirs, _ = camera_rays(view)
+    stats = {"rays": int(len(dirs))}
+    face, point, bary = _first_opaque_hits(geom, origin, dirs, stats)
+    return Hits(face, point, bary, stats)

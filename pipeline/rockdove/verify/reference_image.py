@@ -1,0 +1,455 @@
+"""The independent CPU reference images: the exact spectral thin-film model shaded per pixel, no LUT.
+
+For each :class:`rockdove.render.views.View` the reference takes the first opaque hit of every pixel's primary
+ray (:mod:`rockdove.verify.rays`: the GL renderer's pinhole camera, feather cards alpha-tested) and shades it
+with the model of docs/design.md, "Conventions":
+
+- normals, ``st`` and the film thickness are interpolated with the hit's barycentric coordinates;
+  textures are sampled bilinearly, clamp-to-edge, texel centres at (k + 0.5) / N, t = 0 at the image's
+  bottom (:func:`rockdove.render.texture.sample_texture`, the convention OpenGL uses);
+- cards are two-sided: the interpolated ``N`` is flipped when ``dot(N, V) < 0``, so it faces the viewer
+  (as ``materials/glsl/thinfilm.frag`` does); a feather part without a mask texture has mask 1;
+- ``cos_theta = dot(L, H) = sqrt((1 + dot(L, V)) / 2)``, ``H = normalize(L + V)``;
+- ``structural = exact spectral colour of the film at (cos_theta, thickness_nm)``;
+  ``colour = mix(base_rgb, structural, mask)``; ``radiance = colour * light_rgb * max(dot(N, L), 0)``;
+  other parts ``base_rgb * light_rgb * max(dot(N, L), 0)``; no ambient term.
+
+The exact structural colour
+---------------------------
+The film colour is :func:`rockdove.lut.reference.reference_colour` (the project's one definition of the exact
+colour: the Airy spectrum of the film read from the USD integrated to lin_rec709, D65) at each pixel's
+``(cos_theta, thickness_nm)``. For real films (every registered one) from cos_theta 0.01 up it samples the
+spectrum on a wavenumber grid whose phase step follows the film (:data:`IMAGE_INTERPOLATION`: at most
+``min(0.35 delta, 0.6 rad)``, ``delta`` the Airy function's strip of analyticity in phase) and integrates its
+centred 16-point Lagrange interpolant against the 0.1 nm colour weights, with a float32 kernel away from grazing
+(:mod:`rockdove.lut.reference`, "Wavenumber interpolation": every band within 0.0008 dE2000 of a 0.02-0.05 nm
+integration at 450-720, 1500-2000 and 4000-5000 nm, keratin and the paper film; the default views' keys 9.6x
+faster than with the wavelength steps below). Below cos_theta 0.01, and for films with complex indices, it takes the
+wavelength steps :data:`IMAGE_STEPS_NM`: the reference's own steps below cos_theta 0.01 (where the spectrum is a
+comb of sharp lines) and coarser ones in the smooth bands above, where the spectrum's cubic interpolant is
+integrated against the 0.1 nm colour weights (product integration, :func:`rockdove.lut.reference.product_weights`).
+Those steps were validated up to :data:`IMAGE_STEPS_CALIBRATED_NM` of film; thicker pixels scale their step down in
+proportion (the film's phase advances in proportion to its thickness). Measured (keratin film, 40 random samples
+per band, dE2000 of the displayed colour against a 0.002-0.02 nm integration, films of 450-720, 700-1000,
+1500-2000 and 4000-5000 nm): 4 nm errs <= 0.0010 for cos_theta >= 0.12 (but 0.011 at 0.08-0.12, where the
+fringes sharpen), 3 nm <= 0.0017 at 0.08-0.12, 2 nm <= 0.0016 at 0.05-0.08, 1 nm <= 0.0001 at 0.03-0.05, 0.5 nm
+<= 0.0003 at 0.01-0.03, 0.1 nm <= 0.0001 at 0.003-0.01, 0.05 nm <= 0.0001 at 0.001-0.003, 0.01 nm <= 0.0016 below
+0.001, at every thickness once scaled. So every band stays below 0.01 dE2000, two orders of magnitude under the
+verification goal (checked by ``tests/test_reference.py::test_spectral_step_is_exact_against_a_finer_grid``).
+Pixels are de-duplicated on quantised ``(cos_theta, thickness_nm)`` keys (steps :data:`COS_THETA_QUANTUM`,
+:data:`THICKNESS_QUANTUM_NM`): the film phase ``4 pi n d cos(theta_b) / lambda`` changes by less than 5e-5 rad
+within one key, far below anything visible (measured < 0.005 dE2000), so this is still the exact model per
+pixel, not an interpolated table.
+
+Lighting models (``lobe``, :data:`LOBES`; the hosts of :mod:`rockdove.hosts` name theirs):
+
+- ``"half_angle"`` (the default, above): the paper's model under the View's one directional light;
+- ``"view_angle"``: the smooth film's mirror lobe alone under a uniform white environment of unit radiance.
+  For a smooth film the mirror direction makes the angle of incidence the view angle, so the film lit by
+  the environment from the mirror direction reflects ``R(|N.V|)`` of unit radiance: a feather pixel is
+  ``mask * structural(cos_theta = |N.V|)``; no light, base colour black (diffuse off), other parts 0.
+  This is what the MaterialX baked network (``LUT(|N.V|)``) and the hosts' own thin-film BSDFs draw under
+  that environment with the base colour set to black. Both lobes of one call share the ray casts
+  (:func:`render_reference_lobes`).
+
+The PNGs use the GL path's tone mapping (:func:`rockdove.spectral.linear_to_srgb8`); the comparison uses the linear data.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..lut.reference import reference_colour
+from .rays import SceneGeometry, camera_key, camera_rays, cast_view
+
+#: Wavelength step per cos_theta band of the reference images, ``(cos_theta_lo, step_nm)``
+#: (:func:`rockdove.lut.reference.reference_step_nm`); see the module docstring for how they were chosen.
+IMAGE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, 0.1), (0.01, 0.5), (0.03, 1.0), (0.05, 2.0), (0.08, 3.0),
+                  (0.12, 4.0))
+#: The film thickness (nm) up to which :data:`IMAGE_STEPS_NM` was validated; thicker pixels scale their steps down.
+IMAGE_STEPS_CALIBRATED_NM = 720.0
+#: Real films from cos_theta 0.01 up: the wavenumber interpolant, ``(cos_theta_lo, kappa, max_step_rad)``, and its
+#: stencil (:func:`rockdove.lut.reference.reference_colour`'s ``interpolation`` and ``order``; module docstring).
+IMAGE_INTERPOLATION = (0.01, 0.35, 0.6)
+IMAGE_INTERPOLANT_ORDER = 16
+#: De-duplication keys (see module docstring).
+COS_THETA_QUANTUM = 2e-6
+THICKNESS_QUANTUM_NM = 0.002
+#: The lighting models the reference renders (module docstring, "Lighting models").
+LOBES = ("half_angle", "view_angle")
+
+
+@dataclass
+class ReferenceResult:
+    """The reference render of one view.
+
+    Attributes
+    ----------
+    view : str
+    rgb : ndarray, (H, W, 3) float32
+        Linear lin_rec709 radiance (light_rgb = (1, 1, 1) is D65 white); 0 on the background.
+    coverage : ndarray, (H, W) bool
+        A surface was hit.
+    part_id : ndarray, (H, W) int32
+        ``index + 1`` of the part in ``scene.parts`` (0 = background), as the GL renderer numbers them.
+    depth_m : ndarray, (H, W) float32
+        Eye-space depth (distance along the camera's -Z), metres; +inf on the background.
+    n_dot_l : ndarray, (H, W) float32
+        ``max(dot(N, L), 0)`` of the shaded surface (0 on the background); with the ``view_angle`` lobe, 1 on
+        feather pixels (lit by the environment) and 0 elsewhere.
+    cos_theta : ndarray, (H, W) float32
+        ``dot(L, H)`` (``|dot(N, V)|`` with the ``view_angle`` lobe) on feather pixels, NaN elsewhere.
+    thickness_nm : ndarray, (H, W) float32
+        Interpolated film thickness on feather pixels, NaN elsewhere.
+    mask : ndarray, (H, W) float32
+        Structural-colour mask on feather pixels, 0 elsewhere.
+    timings_s : dict
+        Wall time of the stages (``rays``: the ray casts and the :class:`Surface` when not given; ``spectral``;
+        ``shade``), seconds.
+    stats : dict
+        Counts: rays, hits, alpha layers used, spectral evaluations, de-duplicated keys.
+    """
+
+    view: str
+    rgb: np.ndarray
+    coverage: np.ndarray
+    part_id: np.ndarray
+    depth_m: np.ndarray
+    n_dot_l: np.ndarray
+    cos_theta: np.ndarray
+    thickness_nm: np.ndarray
+    mask: np.ndarray
+    timings_s: dict = field(default_factory=dict)
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def display8(self) -> np.ndarray:
+        """(H, W, 3) uint8 sRGB image of :attr:`rgb` (:func:`rockdove.spectral.linear_to_srgb8`)."""
+        from ..spectral import linear_to_srgb8
+
+        return linear_to_srgb8(self.rgb)
+
+
+# -- exact structural colour -------------------------------------------------------------------------------
+def structural_rgb(cos_theta, thickness_nm, film, stats: dict | None = None) -> np.ndarray:
+    """Exact structural colour per pixel (:func:`rockdove.lut.reference.reference_colour` with
+    :data:`IMAGE_STEPS_NM` scaled from :data:`IMAGE_STEPS_CALIBRATED_NM`), de-duplicated on fine keys.
+
+    Parameters
+    ----------
+    cos_theta : ndarray, (P,), in [0, 1]
+    thickness_nm : ndarray, (P,), nm, >= 0
+    film : rockdove.render.film.ThinFilmParams
+    stats : dict, optional
+        Receives ``spectral_pixels`` and ``spectral_keys``.
+
+    Returns
+    -------
+    ndarray, (P, 3) float64, linear lin_rec709.
+    """
+    c = np.clip(np.asarray(cos_theta, np.float64).reshape(-1), 0.0, 1.0)
+    d = np.asarray(thickness_nm, np.float64).reshape(-1)
+    if c.shape != d.shape:
+        raise ValueError(f"cos_theta {c.shape} and thickness_nm {d.shape} must have the same length")
+    if not (np.all(np.isfinite(d)) and np.all(d >= 0)):
+        raise ValueError(f"thickness_nm must be finite and >= 0, got min {np.nanmin(d) if d.size else 'n/a'}")
+    out = np.zeros((c.size, 3))
+    if c.size == 0:
+        return out
+    kc = np.round(c / COS_THETA_QUANTUM).astype(np.int64)  # 0 .. 5e5
+    kd = np.round(d / THICKNESS_QUANTUM_NM).astype(np.int64)
+    stride = int(kd.max()) + 1  # one int64 key per (cos, d) pair: 1-D unique is several times faster
+    uniq, inverse = np.unique(kc * stride + kd, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    uc = np.clip((uniq // stride) * COS_THETA_QUANTUM, 0.0, 1.0)
+    ud = (uniq % stride) * THICKNESS_QUANTUM_NM
+    urgb = reference_colour(uc, ud, film.model, colour_space="lin_rec709", steps_nm=IMAGE_STEPS_NM,
+                            calibrated_thickness_nm=IMAGE_STEPS_CALIBRATED_NM, interpolation=IMAGE_INTERPOLATION,
+                            order=IMAGE_INTERPOLANT_ORDER)
+    if stats is not None:
+        stats["spectral_pixels"] = stats.get("spectral_pixels", 0) + int(c.size)
+        stats["spectral_keys"] = stats.get("spectral_keys", 0) + int(len(uniq))
+    return urgb[inverse]
+
+
+def render_reference(scene, views, structural_fn=None, hits=None, lobe: str = "half_angle",
+                     surfaces=None) -> list[ReferenceResult]:
+    """Render ``views`` of ``scene`` on the CPU with the exact spectral thin-film model.
+
+    Parameters
+    ----------
+    scene : rockdove.render.scene.RenderScene
+        The asset read back from USD.
+    views : sequence of rockdove.render.views.View
+    structural_fn : callable, optional
+        ``f(cos_theta (P,), thickness_nm (P,)) -> (P, 3)`` lin_rec709; default the exact model of
+        :func:`structural_rgb` for ``scene.film`` (tests may substitute a simpler one).
+    hits : mapping, optional
+        Ready-made :class:`rockdove.verify.rays.Hits` by :func:`~rockdove.verify.rays.camera_key` (e.g. cached by the build for this scene's
+        :func:`~rockdove.verify.rays.ray_digest`); cameras not in it are cast here. Either way the result is the same.
+    lobe : str
+        The lighting model, one of :data:`LOBES` (module docstring).
+    surfaces : mapping, optional
+        Ready-made :class:`Surface` by camera key (:func:`cast_surfaces`, e.g. cached by the build for this
+        scene's :func:`surface_digest`); with one for every camera the scene's geometry is not even loaded. Either
+        way the result is the same.
+
+    Returns
+    -------
+    list of ReferenceResult, one per view, in order.
+
+    Raises
+    ------
+    ValueError
+        ``views`` is empty, or the scene has feathers but no thin-film parameters.
+    """
+    return render_reference_lobes(scene, views, (lobe,), structural_fn, hits=hits, surfaces=surfaces)[lobe]
+
+
+def render_reference_lobes(scene, views, lobes=LOBES, structural_fn=None, hits=None, surfaces=None) -> dict:
+    """:func:`render_reference` for several lighting models at once, sharing the scene's ray casts and surfaces.
+
+    Returns
+    -------
+    dict
+        lobe -> list of ReferenceResult (one per view, in order).
+    """
+    lobes = tuple(dict.fromkeys(lobes))
+    bad = [lb for lb in lobes if lb not in LOBES]
+    if bad or not lobes:
+        raise ValueError(f"lobe: {bad or lobes!r} not allowed; use one of {list(LOBES)}")
+    views = list(views)
+    if not views:
+        raise ValueError("views must hold at least one View, got none")
+    has_feathers = any(p.is_feather for p in scene.parts)
+    if structural_fn is None:
+        if has_feathers and scene.film is None:
+            raise ValueError(f"scene {scene.root_layer!r} has feather parts but no RockDoveThinFilmAPI film")
+    geometry = _LazyGeometry(scene)
+    hits_cache: dict = dict(hits or {})  # the light sweep keeps its camera still: cast its rays once
+    surface_cache: dict = dict(surfaces or {})
+    return {lb: [_render_view(geometry, scene, v, structural_fn, hits_cache, surface_cache, lb) for v in views]
+            for lb in lobes}
+
+
+class _LazyGeometry:
+    """The scene's :class:`SceneGeometry`, built on first use (not at all when every camera's surface is given)."""
+
+    def __init__(self, scene):
+        self.scene, self._geom = scene, None
+
+    def get(self) -> SceneGeometry:
+        if self._geom is None:
+            self._geom = SceneGeometry(self.scene)
+        return self._geom
+
+
+#: The precision a :class:`Surface` keeps its values in (computed in float64, then rounded once, cached or not).
+#: Its rounding (relative 6e-8) is below the reference's de-duplication keys (cos theta to 2e-6, thickness to
+#: 0.002 nm); measured on the default asset's six views against float64 surfaces: radiance within 2.1e-6, dE2000
+#: within 0.0011 (dark pixels), inside the reference's 0.005 budget. It halves the cache (58 -> 30 MB for the
+#: default verification's 5 cameras).
+SURFACE_DTYPE = np.float32
+
+
+@dataclass(frozen=True)
+class Surface:
+    """What the reference shades at each hit pixel of one camera, before any light or film: the part of
+    :func:`render_reference` that depends on the geometry, the textures and the camera only, so a build caches
+    it across film and light changes (:func:`surface_digest`, :func:`~rockdove.verify.rays.camera_key`).
+
+    Attributes
+    ----------
+    n_pixels : int
+        ``width * height``.
+    hit : ndarray, (P,) int32
+        Flat indices (row-major from the top-left pixel) of the pixels whose ray hit a surface.
+    part : ndarray, (P,) int32
+        Index in ``scene.parts`` of the part hit.
+    normal, view_dir : ndarray, (P, 3) float32
+        Unit interpolated normal (flipped towards the viewer on two-sided feather cards) and unit direction to
+        the camera ``V``.
+    base : ndarray, (P, 3) float32
+        Base colour (texture sampled bilinearly or the part's constant), linear.
+    mask : ndarray, (P,) float32
+        Structural-colour mask (feathers; 0 elsewhere).
+    thickness_nm : ndarray, (P,) float32
+        Interpolated film thickness (0 on parts without a film).
+    depth_m : ndarray, (P,) float32
+        Eye-space depth along the camera's -Z, metres.
+    stats : dict
+        The ray casts' ``rays`` and ``alpha_layers``.
+    """
+
+    n_pixels: int
+    hit: np.ndarray
+    part: np.ndarray
+    normal: np.ndarray
+    view_dir: np.ndarray
+    base: np.ndarray
+    mask: np.ndarray
+    thickness_nm: np.ndarray
+    depth_m: np.ndarray
+    stats: dict
+
+    ARRAYS = ("hit", "part", "normal", "view_dir", "base", "mask", "thickness_nm", "depth_m")
+
+    def to_arrays(self) -> dict:
+        """Arrays for storage (exact round trip through :meth:`from_arrays`)."""
+        return {"n_pixels": np.int64(self.n_pixels), **{k: getattr(self, k) for k in self.ARRAYS}}
+
+    @classmethod
+    def from_arrays(cls, arrays, stats: dict) -> "Surface":
+        return cls(int(arrays["n_pixels"]), **{k: np.asarray(arrays[k]) for k in cls.ARRAYS}, stats=dict(stats))
+
+
+def surface_digest(scene) -> str:
+    """sha256 of what a :class:`Surface` reads from a scene beyond the ray casts
+    (:func:`~rockdove.verify.rays.ray_digest`, included): every part's normals, ``st``, thickness, base colour
+    (constant, texture bytes and encoding) and mask texture bytes. Not the film or the LUT: a film change
+    leaves it, and so the cached surfaces, as they were."""
+    import hashlib
+
+    from .rays import ray_digest
+
+    h = hashlib.sha256(ray_digest(scene).encode())
+    for p in scene.parts:
+        meta = f"{p.name}:{bool(p.base_colour_srgb)}:{np.asarray(p.base_colour, np.float64).tolist()!r}\0"
+        h.update(meta.encode())
+        for a in (p.normals, p.st, p.thickness_nm):
+            if a is not None:
+                a = np.ascontiguousarray(a)
+                h.update(f"{a.dtype.str}{a.shape}".encode() + a.tobytes())
+        for path in (p.base_colour_texture, p.mask_texture):
+            h.update(b"\0tex\0")
+            if path:
+                with open(path, "rb") as f:
+                    h.update(f.read())
+    return h.hexdigest()
+
+
+def cast_surfaces(scene, views, hits=None) -> dict:
+    """The :class:`Surface` of every distinct camera among ``views``: ``{camera_key(view): Surface}``.
+
+    ``hits``: ready-made ray casts by camera key (:func:`rockdove.verify.rays.cast_hits`); others are cast here."""
+    geometry = _LazyGeometry(scene)
+    hits_cache = dict(hits or {})
+    out: dict = {}
+    for v in views:
+        key = camera_key(v)
+        if key not in out:
+            out[key] = _surface(geometry, v, hits_cache)
+    return out
+
+
+def _surface(geometry: _LazyGeometry, view, hits_cache: dict) -> Surface:
+    from ..render.texture import sample_texture
+
+    geom = geometry.get()
+    key = camera_key(view)
+    if key not in hits_cache:
+        hits_cache[key] = cast_view(geom, view)
+    face, point, bary = hits_cache[key].face, hits_cache[key].point, hits_cache[key].bary
+    hit = np.nonzero(face >= 0)[0]
+    origin, dirs, fwd = camera_rays(view, hit)  # the rays of the hit pixels only
+    f, b = face[hit], bary[hit]
+    part = geom.part_of_face[f]
+    V = -dirs
+    N = geom.interp(geom.normals, f, b)
+    N /= np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-30)
+    feather = geom.is_feather[part]
+    back = np.einsum("ij,ij->i", N, V) < 0
+    N[feather & back] *= -1.0  # two-sided cards: the (interpolated) normal faces the viewer, as in the GLSL
+    st = geom.interp(geom.st, f, b)
+    base = np.empty((hit.size, 3))
+    mask = np.zeros(hit.size)
+    for p in np.unique(part):
+        sel = part == p
+        tex = geom.base_tex[p]
+        if tex is None:
+            base[sel] = geom.base_const[p][None, :]
+        else:
+            rgb = sample_texture(tex, st[sel])
+            base[sel] = rgb[:, :3] if tex.shape[2] >= 3 else np.repeat(rgb[:, :1], 3, axis=1)
+        if geom.is_feather[p]:  # a feather without a mask texture is structural everywhere (mask = 1)
+            tex = geom.mask_tex[p]
+            mask[sel] = sample_texture(tex, st[sel])[:, 0] if tex is not None else 1.0
+    f32 = SURFACE_DTYPE
+    return Surface(n_pixels=int(face.size), hit=hit.astype(np.int32), part=part.astype(np.int32),
+                   normal=N.astype(f32), view_dir=V.astype(f32), base=base.astype(f32), mask=mask.astype(f32),
+                   thickness_nm=geom.interp(geom.thickness, f, b).astype(f32),
+                   depth_m=((point[hit] - origin) @ fwd).astype(f32), stats=dict(hits_cache[key].stats))
+
+
+def _render_view(geometry: _LazyGeometry, scene, view, structural_fn, hits_cache: dict, surface_cache: dict,
+                 lobe: str = "half_angle") -> ReferenceResult:
+    t0 = time.perf_counter()
+    h, w = view.height, view.width
+    key = camera_key(view)
+    if key not in surface_cache:
+        surface_cache[key] = _surface(geometry, view, hits_cache)
+    srf = surface_cache[key]
+    if srf.n_pixels != h * w:
+        raise ValueError(f"the surface of camera {key[:12]} holds {srf.n_pixels} pixels, view {view.name!r} {h * w}")
+    stats = dict(srf.stats)
+    t1 = time.perf_counter()
+
+    hit, part = srf.hit, srf.part
+    N, V = srf.normal.astype(np.float64), srf.view_dir.astype(np.float64)  # shaded in double precision
+    stats["hits"] = int(hit.size)
+    feather = np.array([p.is_feather for p in scene.parts], bool)[part]
+    L = np.asarray(view.light_direction, np.float64)
+    L = L / np.linalg.norm(L)
+    light = np.asarray(view.light_rgb, np.float64)
+    base, mask = srf.base.astype(np.float64), srf.mask.astype(np.float64)
+    view_angle = lobe == "view_angle"
+    if view_angle:  # mirror lobe under a uniform unit environment: incidence = view angle; base black
+        cos_theta = np.clip(np.abs(np.einsum("ij,ij->i", N, V)), 0.0, 1.0)
+        base = np.zeros_like(base)
+    else:
+        cos_theta = np.sqrt(np.clip((1.0 + V @ L) / 2.0, 0.0, 1.0))
+    thickness = srf.thickness_nm.astype(np.float64)
+    colour = base.copy()
+    structural = feather & (mask > 0)
+    t2 = time.perf_counter()
+    if structural.any():
+        c, d = cos_theta[structural], thickness[structural]
+        if structural_fn is None:
+            s_rgb = structural_rgb(c, d, scene.film, stats)
+        else:
+            s_rgb = np.asarray(structural_fn(c, d), np.float64).reshape(-1, 3)
+        m = mask[structural, None]
+        colour[structural] = base[structural] * (1.0 - m) + s_rgb * m
+    t3 = time.perf_counter()
+    if view_angle:  # the environment lights every feather pixel with unit radiance; other parts are black
+        n_dot_l = feather.astype(np.float64)
+        radiance = colour * n_dot_l[:, None]
+    else:
+        n_dot_l = np.maximum(N @ L, 0.0)
+        radiance = colour * light[None, :] * n_dot_l[:, None]
+
+    def image(fill, values, dtype):
+        out = np.full(h * w, fill, dtype) if np.ndim(values) == 1 else np.full((h * w, values.shape[1]), fill, dtype)
+        out[hit] = values
+        return out.reshape((h, w) + out.shape[1:])
+
+    feather_cos = np.where(feather, cos_theta, np.nan)
+    feather_d = np.where(feather, thickness, np.nan)
+    res = ReferenceResult(
+        view=view.name,
+        rgb=image(0.0, radiance, np.float32),
+        coverage=image(False, np.ones(hit.size, bool), bool),
+        part_id=image(0, part + 1, np.int32),
+        depth_m=image(np.inf, srf.depth_m, np.float32),
+        n_dot_l=image(0.0, n_dot_l, np.float32),
+        cos_theta=image(np.nan, feather_cos, np.float32),
+        thickness_nm=image(np.nan, feather_d, np.float32),
+        mask=image(0.0, np.where(feather, mask, 0.0), np.float32),
+    )
+    t4 = time.perf_counter()
+    res.timings_s = {"rays": t1 - t0, "shade": (t2 - t1) + (t4 - t3), "spectral": t3 - t2, "total": t4 - t0}
+    res.stats = stats
+    return res

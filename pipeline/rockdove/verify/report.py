@@ -1,0 +1,378 @@
+"""The verification report: per-view PNGs, a contact sheet, matplotlib figures, report.json and report.html.
+
+Everything is written into one folder and referenced by relative file names, so ``report.html`` opens in a
+browser from disk with no server. The dE2000 maps are drawn with Pillow, their pixels the measured values
+one to one; the charts with matplotlib's object API (``Figure`` + ``FigureCanvasAgg``), which needs no
+display and leaves pyplot's global state alone.
+
+Files (``DIR`` is the output folder):
+
+- ``<view>_gl.png``, ``<view>_reference.png``: the two renders through the display transform
+  (:func:`rockdove.spectral.linear_to_srgb8`);
+- ``<view>_dE.png``: the dE2000 map, pixel for pixel, with a colour bar (grey where not compared);
+- ``contact_sheet.png``: one row per view, GL | reference | dE;
+- ``lut.png`` (the LUT the asset names), ``spectra.png`` (film reflectance spectra), ``hue.png`` (hue
+  histogram across the light sweep), ``bench_*.png`` copied from the benchmark folder the caller names
+  (``rockdove verify --bench-dir DIR``; none by default);
+- ``report.json`` and ``report.html``.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import math
+import os
+import shutil
+
+import numpy as np
+
+#: Colour-bar range of the dE2000 maps (the p95 goal is 2; everything above 5 saturates).
+DE_MAP_MAX = 5.0
+DE_COLORMAP = "magma"
+
+
+def _figure(w_in, h_in, margins_in, rows: int = 1, gap_in: float = 0.0):
+    """A Figure on an Agg canvas, its subplots placed by fixed margins ``(left, right, bottom, top)`` and a
+    ``gap_in`` between ``rows`` stacked ones, all in inches (at 100 dpi). Fixed in place of ``tight_layout``,
+    which draws the whole figure once more to measure its labels; the margins fit this module's labels."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(w_in, h_in), dpi=100)
+    FigureCanvasAgg(fig)
+    left, right, bottom, top = margins_in
+    axes_h = (h_in - bottom - top - (rows - 1) * gap_in) / rows
+    fig.subplots_adjust(left=left / w_in, right=1.0 - right / w_in, bottom=bottom / h_in, top=1.0 - top / h_in,
+                        hspace=gap_in / axes_h)
+    return fig
+
+
+def _save_figure(fig, path) -> str:
+    """Draw ``fig`` once and write it with :func:`rockdove.render.images.save_png`, the display PNGs' writer."""
+    from ..render.images import save_png
+
+    fig.canvas.draw()
+    return save_png(np.asarray(fig.canvas.buffer_rgba())[..., :3], path)
+
+
+def de_colour(de_map, vmax: float = DE_MAP_MAX) -> np.ndarray:
+    """(H, W) dE map -> (H, W, 3) uint8 with the :data:`DE_COLORMAP`; NaN (not compared) is mid grey.
+
+    The colormap's own lookup (matplotlib's ``Colormap.__call__`` on floats: entry ``floor(x N)``, x = 1 the
+    last entry) on a uint8 copy of its table, grey appended, so a megapixel map costs one index and one take."""
+    from matplotlib import colormaps
+
+    cmap = colormaps[DE_COLORMAP]
+    table = np.vstack([(cmap(np.arange(cmap.N))[:, :3] * 255).round(), [96, 96, 96]]).astype(np.uint8)
+    de = np.asarray(de_map, np.float64)
+    x = np.clip(np.nan_to_num(de, nan=0.0) / vmax, 0.0, 1.0)
+    index = np.where(np.isfinite(de), np.minimum((x * cmap.N).astype(np.intp), cmap.N - 1), cmap.N)
+    return np.take(table, index, axis=0)
+
+
+#: The dE map's colour-bar label.
+DE_BAR_LABEL = "dE2000 (grey: not compared)"
+
+
+def de_map_png(path, de_map, title: str) -> str:
+    """The dE2000 map under its title, beside a colour bar from 0 to :data:`DE_MAP_MAX` (a tick every whole dE;
+    only the two ends on a map too short for six labels), as PNG.
+
+    The map's pixels are :func:`de_colour` of ``de_map`` one to one (no resampling: every compared pixel is
+    shown as it was measured), at ``(pad, header)`` of the image; the bar is :func:`de_colour` of a ramp from
+    ``DE_MAP_MAX`` (top) to 0 (bottom), as tall as the map. Drawn with Pillow, text in
+    :func:`rockdove.render.images.label_font` sized to the map (legible when the report shows it scaled down).
+    """
+    from PIL import Image, ImageDraw
+
+    from ..render.images import label_font, save_png
+
+    de = np.asarray(de_map, np.float64)
+    h, w = de.shape
+    f = max(12, round(max(h, w) / 36))  # text height, px
+    pad, header, gap, bar_w, tick = max(2, f // 2), round(1.8 * f), f, max(8, round(0.9 * f)), max(3, f // 3)
+    font = label_font(f)
+    ticks = np.arange(0.0, math.floor(DE_MAP_MAX) + 1.0)  # every whole dE; only the ends where labels would touch
+    if (h - 1) / DE_MAP_MAX < 1.5 * f:
+        ticks = np.array([0.0, DE_MAP_MAX])
+    labels = [f"{t:g}" for t in ticks]
+    bar_x = pad + w + gap
+    text_x = bar_x + bar_w + tick + max(2, f // 4)
+    name_x = text_x + round(max(font.getlength(t) for t in labels)) + pad
+    # the bar's name, rotated to read bottom to top, shrunk towards the bar's height (the image grows below a
+    # small map rather than the name shrinking past legibility)
+    name_font = label_font(max(10, min(f, int(f * h / (font.getlength(DE_BAR_LABEL) + 2 * pad)))))
+    box = name_font.getbbox(DE_BAR_LABEL)
+    name = Image.new("RGB", (box[2] + 2, box[3] + 2), "white")
+    ImageDraw.Draw(name).text((1, 1), DE_BAR_LABEL, fill="black", font=name_font)
+    name = name.rotate(90, expand=True)
+    width = name_x + name.width + pad
+    sheet = Image.new("RGB", (width, header + max(h, name.height) + pad), "white")
+    draw = ImageDraw.Draw(sheet)
+    title_font = font if font.getlength(title) <= width - 2 * pad else label_font(
+        int(f * (width - 2 * pad) / font.getlength(title)))
+    draw.text((pad, header // 2), title, fill="black", font=title_font, anchor="lm")
+    ramp = np.repeat(np.linspace(DE_MAP_MAX, 0.0, h)[:, None], bar_w, axis=1)
+    for x0, img in ((pad, de_colour(de)), (bar_x, de_colour(ramp))):
+        draw.rectangle((x0 - 1, header - 1, x0 + img.shape[1], header + h), outline="black")
+        sheet.paste(Image.fromarray(img), (x0, header))
+    for t, label in zip(ticks, labels):
+        y = header + round((1.0 - t / DE_MAP_MAX) * (h - 1))
+        draw.line((bar_x + bar_w, y, bar_x + bar_w + tick, y), fill="black")
+        draw.text((text_x, y), label, fill="black", font=font, anchor="lm")
+    sheet.paste(name, (name_x, header + max(0, h - name.height) // 2))
+    return save_png(np.asarray(sheet), path)
+
+
+#: What each column of a verification contact-sheet row shows (rockdove.verify.run: GL, reference, dE map).
+SHEET_COLUMNS = ("GLSL", "reference", f"dE2000 0-{DE_MAP_MAX:g}")
+
+
+def contact_sheet(path, rows, columns=SHEET_COLUMNS) -> str:
+    """The verification contact sheet: one row per view, ``(label, [GL, reference, dE map])``, each tile titled
+    by what its column shows (``columns``), the first also by the view's label
+    (:func:`rockdove.render.images.contact_sheet`)."""
+    from ..render.images import contact_sheet as tile_sheet
+
+    titled = []
+    for label, imgs in rows:
+        titles = [columns[c] if c < len(columns) else "" for c in range(len(imgs))]
+        titles[0] = f"{label}  {titles[0]}".strip()
+        titled.append([(t, np.asarray(img)[..., :3]) for t, img in zip(titles, imgs)])
+    return tile_sheet(path, titled)
+
+
+def lut_png(path, lut) -> str:
+    """The LUT as the display shows it, over its real axes (cos theta on x, thickness on y)."""
+    from ..spectral import linear_to_srgb8
+
+    img = linear_to_srgb8(lut.rgb)  # row 0 = thinnest
+    fig = _figure(6.0, 3.6, (0.85, 0.3, 0.6, 0.35))
+    ax = fig.add_subplot(1, 1, 1)
+    lo, hi = lut.thickness_range_nm
+    if hi == lo:
+        lo, hi = lo - 5.0, hi + 5.0
+    ax.imshow(img, origin="lower", aspect="auto", extent=(0.0, 1.0, lo, hi), interpolation="nearest")
+    ticks = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
+    ax.set_xticks(ticks)
+    ax.set_xticklabels([f"{t ** lut.angle_warp_gamma:.2f}" for t in ticks])
+    ax.set_xlabel(f"cos theta (warped axis, gamma = {lut.angle_warp_gamma:g})")
+    ax.set_ylabel("film thickness (nm)")
+    ax.set_title(f"LUT {lut.n_thickness} x {lut.n_angle}, {lut.colour_space} (display: clipped sRGB)", fontsize=9)
+    return _save_figure(fig, path)
+
+
+def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 0.707, 0.3, 0.05)) -> str:
+    """Reflectance spectra of the asset's film (exact Airy, 0.1 nm) for a few thicknesses and angles."""
+    from .. import optics
+    from ..lut.reference import reference_wavelengths
+
+    wl = reference_wavelengths()
+    fig = _figure(7.0, 2.6 * len(thickness_nm), (0.7, 0.3, 0.6, 0.35), rows=len(thickness_nm), gap_in=0.58)
+    for i, d in enumerate(thickness_nm):
+        ax = fig.add_subplot(len(thickness_nm), 1, i + 1)
+        for c in cos_theta:
+            r = optics.reflectance(wl, c, d, n_film=film.model.n_film(wl), n_incident=film.model.n_incident,
+                                   n_substrate=film.model.n_substrate)
+            ax.plot(wl, r, lw=0.8, label=f"cos theta = {c:g}")
+        ax.set_ylabel("R")
+        m = film.model
+        ax.set_title(f"d = {d:g} nm, {m.name}: n = {m.cauchy_a:g} + {m.cauchy_b_nm2:g} / lambda^2",
+                     fontsize=9)
+        ax.set_ylim(0, 1)
+        if i == 0:
+            ax.legend(fontsize=7, loc="upper right")
+    ax.set_xlabel("wavelength (nm)")
+    return _save_figure(fig, path)
+
+
+def hue_png(path, hue: dict, title: str) -> str:
+    """Bar chart of a :func:`rockdove.verify.compare.hue_histogram`, bars coloured by their hue."""
+    from ..spectral import Lab_to_XYZ, XYZ_to_RGB, srgb_encode
+
+    edges = np.asarray(hue["bin_edges_deg"])
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    lab = np.stack([np.full_like(centres, 60.0), 40 * np.cos(np.radians(centres)), 40 * np.sin(np.radians(centres))], 1)
+    rgb = srgb_encode(np.clip(XYZ_to_RGB(Lab_to_XYZ(lab), "lin_rec709"), 0.0, 1.0))  # the bins' own hues, displayed
+    fig = _figure(6.0, 3.0, (1.0, 0.2, 0.6, 0.35))  # left: room for 6-digit counts (matplotlib goes to 1e6 above)
+    ax = fig.add_subplot(1, 1, 1)
+    ax.bar(centres, hue["counts"], width=np.diff(edges) * 0.9, color=np.clip(rgb, 0, 1), edgecolor="k", lw=0.3)
+    for band, name in ((hue["green_band_deg"], "green"), (hue["purple_band_deg"], "purple")):
+        ax.axvline(band[0], color="k", ls=":", lw=0.8)
+        ax.text(band[0] + 2, ax.get_ylim()[1] * 0.9, name, fontsize=7)
+    ax.set_xlim(0, 360)
+    ax.set_xlabel("CIELAB hue angle h_ab (deg)")
+    ax.set_ylabel("pixels")
+    ax.set_title(f"{title}: green {hue['green']}, purple {hue['purple']}, grey {hue['grey']}, other {hue['other']}",
+                 fontsize=8)
+    return _save_figure(fig, path)
+
+
+def copy_bench_plots(out_dir, bench_dir) -> list[str]:
+    """Copy ``bench_dir/*.png`` into ``out_dir`` as ``bench_<name>.png``; returns the new file names."""
+    if not bench_dir or not os.path.isdir(bench_dir):
+        return []
+    names = []
+    for name in sorted(os.listdir(bench_dir)):
+        if name.lower().endswith(".png"):
+            new = f"bench_{name}"
+            shutil.copyfile(os.path.join(bench_dir, name), os.path.join(out_dir, new))
+            names.append(new)
+    return names
+
+
+def _json_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    return str(o)
+
+
+def _finite(o):
+    """Replace NaN/Inf floats by None so report.json is strict JSON."""
+    if isinstance(o, float) and not math.isfinite(o):
+        return None
+    if isinstance(o, dict):
+        return {k: _finite(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_finite(v) for v in o]
+    return o
+
+
+def strict_json(obj):
+    """``obj`` as plain JSON data: numpy values to Python, anything else unknown to str, NaN/Inf to None."""
+    return _finite(json.loads(json.dumps(obj, default=_json_default)))
+
+
+def write_json(path, report: dict) -> str:
+    """Write the report as strict JSON (NaN -> null), sorted keys, 2-space indent."""
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(strict_json(report), f, indent=2, sort_keys=True, allow_nan=False)
+        f.write("\n")
+    return os.fspath(path)
+
+
+def _fmt(v, digits=3):
+    if isinstance(v, float):
+        return "n/a" if not math.isfinite(v) else f"{v:.{digits}f}"
+    return html.escape(str(v))
+
+
+def _figure_row(title: str, files: dict, captions: dict) -> str:
+    """One report row: a heading and, for each key of ``captions`` that ``files`` names, the image captioned."""
+    e = html.escape
+    figs = "".join(f"<figure><img src='{e(files[k])}' alt='{e(title)} {e(k)}'><figcaption>{e(c)}</figcaption>"
+                   f"</figure>" for k, c in captions.items() if files.get(k))
+    return f"<h3>{e(title)}</h3><div class='row'>{figs}</div>"
+
+
+def write_html(path, report: dict, images: dict) -> str:
+    """A self-contained page (relative image links) summarising ``report``.
+
+    Parameters
+    ----------
+    report : dict
+        As written to report.json (see :func:`rockdove.verify.run.verify_asset`).
+    images : dict
+        ``"views"``: ``{view: {"gl": file, "reference": file, "dE": file}}``; optional ``"hosts"``
+        (``{host: {view: {"host", "reference", "dE": file}}}``), ``"contact_sheet"``,
+        ``"lut"``, ``"spectra"``, ``"hue"``, ``"bench"`` (list) file names, relative to the page.
+    """
+    e = html.escape
+    status = "PASSED" if report.get("passed") else "FAILED"
+    colour = "#1a7f37" if report.get("passed") else "#b42318"
+    notes = report.get("notes") or []
+    notes_html = ("<h2>Notes</h2><ul>" + "".join(f"<li>{e(str(n))}</li>" for n in notes) + "</ul>") if notes else ""
+    parts = [
+        "<!DOCTYPE html><html><head><meta charset='utf-8'><title>rockdove verification</title>",
+        "<style>body{font-family:sans-serif;margin:1.5em;max-width:1200px}table{border-collapse:collapse}"
+        "td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}th{background:#eee}"
+        "img{max-width:100%;image-rendering:pixelated}.row{display:flex;gap:8px}.row figure{margin:0;flex:1}"
+        "figcaption{font-size:100%;color:#222}h1{font-size:1.6em}"
+        ".viewer{width:100%;height:600px;border:1px solid #ccc}</style></head><body>",
+        f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>" + notes_html,
+        f"<p>Asset: <code>{e(str(report.get('asset', '')))}</code><br>",
+        f"Configuration hash: <code>{e(str(report.get('configuration_hash') or 'not recorded'))}</code><br>",
+        f"Goals: median dE2000 &le; {report.get('goals', {}).get('median_dE', '')}, "
+        f"p95 &le; {report.get('goals', {}).get('p95_dE', '')} over feather pixels away from silhouette edges.</p>",
+    ]
+    if images.get("viewer"):  # the interactive view first, the tables after it
+        parts.append(f"<h2>Interactive view</h2><p>Drag to orbit, wheel to zoom, slide to turn the light; switch "
+                     f"between the paper's baked LUT (our GLSL in WebGL2) and three.js's KHR_materials_iridescence "
+                     f"shading of pigeon.glb. <a href='{e(images['viewer'])}'>Open it full size</a>.</p>"
+                     f"<iframe class='viewer' src='{e(images['viewer'])}' title='interactive view'></iframe>")
+    hero = images.get("views", {}).get("hero", {}).get("gl") or images.get("views", {}).get("hero", {}).get("reference")
+    if hero:
+        parts.append(f"<h2>Hero view</h2><img src='{e(hero)}' alt='hero view' style='image-rendering:auto'>")
+    failures = report.get("failures") or []
+    if failures:
+        parts.append("<h2>Failures</h2><ul>" + "".join(f"<li>{e(str(f))}</li>" for f in failures) + "</ul>")
+    parts.append("<h2>Per view</h2><table><tr><th>view</th><th>pixels</th><th>median dE</th><th>p95 dE</th>"
+                 "<th>max dE</th><th>&gt; 2</th><th>black</th><th>green</th><th>purple</th><th>passed</th></tr>")
+    for m in report.get("views", []):
+        parts.append(
+            f"<tr><td style='text-align:left'>{e(m['view'])}</td><td>{m['n_pixels']}</td>"
+            f"<td>{_fmt(m['de_median'])}</td><td>{_fmt(m['de_p95'])}</td><td>{_fmt(m['de_max'])}</td>"
+            f"<td>{_fmt(m['de_fraction_over_p95_goal'], 4)}</td>"
+            f"<td>{m['n_black']}/{m['n_lit']}</td><td>{m['hue']['green']}</td><td>{m['hue']['purple']}</td>"
+            f"<td>{'yes' if m['passed'] else 'no'}</td></tr>"
+        )
+    parts.append("</table>")
+    b = report.get("boundary", {})
+    if b:
+        parts.append("<h2>Green/purple boundary straightness</h2><p>RMS perpendicular distance of the boundary "
+                     "pixels from their total-least-squares line (paper preset: straight; measured preset: bent).</p>"
+                     "<table><tr><th>view</th><th>points</th><th>RMS (px)</th><th>length (px)</th>"
+                     "<th>RMS / length</th></tr>")
+        for name, s in b.get("per_view", {}).items():
+            parts.append(f"<tr><td style='text-align:left'>{e(name)}</td><td>{s['n_points']}</td>"
+                         f"<td>{_fmt(s['rms_px'])}</td><td>{_fmt(s['length_px'], 1)}</td>"
+                         f"<td>{_fmt(s['rms_fraction'], 4)}</td></tr>")
+        parts.append("</table>")
+    for key, title in (("hue", "Hue histogram across the light sweep"), ("contact_sheet", "Contact sheet"),
+                       ("lut", "The LUT"), ("spectra", "Film reflectance spectra")):
+        if images.get(key):
+            parts.append(f"<h2>{e(title)}</h2><img src='{e(images[key])}' alt='{e(key)}'>")
+    host_rows = report.get("hosts") or []
+    if host_rows:
+        parts.append("<h2>Hosts</h2><p>Each host renders the written asset with its own code and is compared with "
+                     "the exact reference of the lighting model it evaluates (half_angle: the paper's light; "
+                     "view_angle: uniform white environment, film colour at |N.V|), over feather-tip pixels.</p>"
+                     "<table><tr><th>host</th><th>variant</th><th>lobe</th><th>pixels</th><th>median dE</th>"
+                     "<th>p95 dE</th><th>green</th><th>purple</th><th>hue agreement</th><th>passed</th></tr>")
+        for h in host_rows:
+            if h.get("skipped") or h.get("error"):
+                why = f"skipped: {h['reason']}" if h.get("skipped") else f"error: {h['error']}"
+                parts.append(f"<tr><td style='text-align:left'>{e(h['name'])}</td>"
+                             f"<td colspan='9' style='text-align:left'>{e(why)}</td></tr>")
+                continue
+            parts.append(
+                f"<tr><td style='text-align:left'>{e(h['name'])}</td><td>{e(h['variant'])}</td><td>{e(h['lobe'])}</td>"
+                f"<td>{h['n_pixels']}</td><td>{_fmt(h['median_dE'])}</td><td>{_fmt(h['p95_dE'])}</td>"
+                f"<td>{h['green_px']}</td><td>{h['purple_px']}</td><td>{_fmt(h['hue_agreement'])}</td>"
+                f"<td>{'yes' if h['passed'] else 'no'}</td></tr>")
+        parts.append("</table>")
+        for host, per_view in (images.get("hosts") or {}).items():
+            for name, files in per_view.items():
+                parts.append(_figure_row(f"{host}: {name}", files, {"host": host, "reference": "reference",
+                                                                     "dE": "dE"}))
+    parts.append("<h2>Renders and dE2000 maps</h2>")
+    for name, files in images.get("views", {}).items():
+        parts.append(_figure_row(name, files, {"gl": "gl", "reference": "reference", "dE": "dE"}))
+    if images.get("bench"):
+        parts.append("<h2>Benchmarks</h2>" + "".join(f"<img src='{e(f)}' alt='{e(f)}'>" for f in images["bench"]))
+    t = report.get("timings_s", {})
+    if t:
+        parts.append("<h2>Timings (s)</h2><table>" + "".join(
+            f"<tr><th style='text-align:left'>{e(k)}</th><td>{_fmt(v)}</td></tr>" for k, v in t.items()) + "</table>")
+    lib = report.get("versions", {})
+    if lib:
+        parts.append("<h2>Library versions</h2><table>" + "".join(
+            f"<tr><th style='text-align:left'>{e(k)}</th><td>{e(str(v))}</td></tr>" for k, v in lib.items())
+            + "</table>")
+    parts.append("<p>Full data: <a href='report.json'>report.json</a></p></body></html>")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("\n".join(parts))
+    return os.fspath(path)

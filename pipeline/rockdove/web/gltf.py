@@ -1,0 +1,303 @@
+"""Export a written rockdove USD asset to one glTF 2.0 binary file (``pigeon.glb``) with ``KHR_materials_iridescence``.
+
+One source of truth: the exporter reads the asset *as written* (the USD layers on disk, through the verifier's own
+reader :func:`rockdove.render.scene.load_scene`), not the build's memory, so ``pigeon.glb`` is a translation of
+``pigeon.usda`` exactly as ``pigeon.usdz`` is, and the same function exports any rockdove asset after the fact.
+
+What is written (glTF 2.0, Khronos 2021; extensions from the Khronos registry):
+
+- one node per visible USD mesh (``Body``, ``NeckFeathers``, ``Beak``, ...), in world space, metres, Y up (the
+  asset's own conventions are glTF's: the bird faces +Z); positions, unit normals, ``TEXCOORD_0`` = USD
+  ``st`` with ``v = 1 - t`` (glTF's image origin is the top-left);
+- feathers: ``baseColorTexture`` = ``feather_base.png`` (sRGB; A = silhouette) with ``alphaMode: MASK`` at the
+  asset's ``opacityThreshold`` and ``doubleSided`` (cards);
+  ``KHR_materials_iridescence``: ``iridescenceFactor`` 1 scaled by ``iridescenceTexture`` = ``feather_mask.png``
+  (R: 1 on the tip that shows structural colour), ``iridescenceIor`` = the film's Cauchy index ``A + B / lambda^2``
+  at :data:`IOR_WAVELENGTH_NM` (glTF takes one non-dispersive index; 550 nm, the same wavelength the USD
+  physical variant uses), ``iridescenceThicknessMinimum/Maximum`` = the LUT's thickness range (nm, the unit glTF
+  uses) and ``iridescenceThicknessTexture`` carrying each vertex's thickness: its G channel is an 8-bit linear ramp
+  (:data:`THICKNESS_RAMP_TEXELS` texels, ``G_i = i / (N - 1)``) sampled through a second UV set ``TEXCOORD_1``
+  with ``u = (0.5 + g (N - 1)) / N``, ``g = (d - min) / (max - min)``: linear filtering of a linear ramp returns
+  ``g`` itself, so the thickness a renderer reads, ``mix(min, max, G)``, is the primvar's value interpolated
+  across the card, not quantised to 8 bits (only the GPU's filtering weights round);
+  ``KHR_materials_ior``: ``ior`` = the substrate index the asset records (``rockdove:film:substrateIndex``; 1.0
+  for the default film in air). The extension allows ``ior = 1.0`` (its schema: ``>= 1``, or the special 0);
+  three.js turns it into a base F0 of 0, so the film's Airy reflectance is evaluated over a substrate of index 1
+  (``Fresnel0ToIor(0) = 1``) and the only specular reflection is the film's;
+  metallic 0, roughness 0: the smooth film's mirror lobe;
+- other parts: their base colour (texture or constant, linear), metallic 0, roughness 1.
+
+The film record itself goes into the feathers' material ``extras.rockdove`` (model, Cauchy A and B, indices,
+thickness range, the wavelength of ``iridescenceIor``), so nothing of the physics is lost.
+
+Library: pygltflib (the glTF 2.0 schema as dataclasses, with GLB read/write) builds the document; extensions it
+has no classes for are plain dicts. trimesh's exporter was not used: it writes its own material model and
+cannot author ``KHR_materials_iridescence`` or a second UV set for one texture.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..geometry.types import point_bounds
+
+#: The file the build writes beside ``pigeon.usda``.
+GLB_NAME = "pigeon.glb"
+#: Wavelength at which the film's dispersive (Cauchy) index is given to glTF's single ``iridescenceIor``, nm.
+#: The same as :data:`rockdove.usd.stage.FILM_IOR_WAVELENGTH_NM` (the USD physical variant's ``thin_film_ior``).
+IOR_WAVELENGTH_NM = 550.0
+#: Texels of the thickness ramp texture (a power of two, so every glTF viewer samples it without resizing).
+THICKNESS_RAMP_TEXELS = 256
+EXTENSIONS = ("KHR_materials_iridescence", "KHR_materials_ior")
+
+_ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
+_FLOAT, _UNSIGNED_SHORT, _UNSIGNED_INT = 5126, 5123, 5125
+_LINEAR, _LINEAR_MIPMAP_LINEAR, _CLAMP_TO_EDGE = 9729, 9987, 33071
+
+
+def thickness_texcoords(thickness_nm, lo_nm: float, hi_nm: float, texels: int = THICKNESS_RAMP_TEXELS) -> np.ndarray:
+    """``TEXCOORD_1`` of the thickness ramp for each vertex.
+
+    Parameters
+    ----------
+    thickness_nm : array_like, (V,)
+        Film thickness per vertex, nm.
+    lo_nm, hi_nm : float
+        ``iridescenceThicknessMinimum`` / ``Maximum``, nm (``lo_nm == hi_nm``: every vertex reads texel 0).
+    texels : int
+        Width of the ramp.
+
+    Returns
+    -------
+    ndarray, (V, 2) float32
+        ``u = (0.5 + g (N - 1)) / N`` with ``g = clip((d - lo) / (hi - lo), 0, 1)``, ``v = 0.5``.
+    """
+    d = np.asarray(thickness_nm, dtype=np.float64)
+    g = np.clip((d - lo_nm) / (hi_nm - lo_nm), 0.0, 1.0) if hi_nm > lo_nm else np.zeros_like(d)
+    return np.stack([(0.5 + g * (texels - 1)) / texels, np.full_like(g, 0.5)], axis=1).astype(np.float32)
+
+
+def thickness_ramp_png(texels: int = THICKNESS_RAMP_TEXELS) -> bytes:
+    """The ramp image (``texels`` x 1, grey, ``G_i = i / (N - 1)`` in 8 bits), PNG bytes."""
+    from PIL import Image
+
+    ramp = np.round(np.linspace(0.0, 255.0, texels)).astype(np.uint8)[None, :]
+    buf = io.BytesIO()
+    Image.fromarray(np.repeat(ramp[..., None], 3, axis=2), "RGB").save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def film_ior(film, wavelength_nm: float = IOR_WAVELENGTH_NM) -> float:
+    """The film's Cauchy index at ``wavelength_nm`` (``film``: :class:`rockdove.render.film.ThinFilmParams`): its
+    real part: ``KHR_materials_iridescence`` has no extinction, so an absorbing film (k > 0) is exported without it."""
+    return float(np.real(film.model.n_film(wavelength_nm)))
+
+
+class _Blob:
+    """The GLB's binary chunk: buffer views appended with 4-byte alignment."""
+
+    def __init__(self, gltf):
+        self.gltf, self.data = gltf, bytearray()
+
+    def view(self, payload: bytes, target: int | None = None) -> int:
+        from pygltflib import BufferView
+
+        self.data.extend(b"\0" * (-len(self.data) % 4))
+        self.gltf.bufferViews.append(BufferView(buffer=0, byteOffset=len(self.data), byteLength=len(payload),
+                                                target=target))
+        self.data.extend(payload)
+        return len(self.gltf.bufferViews) - 1
+
+    def accessor(self, array: np.ndarray, kind: str, target: int, with_bounds: bool = False) -> int:
+        from pygltflib import Accessor
+
+        array = np.ascontiguousarray(array)
+        component = {np.dtype(np.float32): _FLOAT, np.dtype(np.uint16): _UNSIGNED_SHORT,
+                     np.dtype(np.uint32): _UNSIGNED_INT}[array.dtype]
+        acc = Accessor(bufferView=self.view(array.tobytes(), target), componentType=component,
+                       count=int(array.shape[0]), type=kind)
+        if with_bounds:
+            lo, hi = point_bounds(array)
+            acc.min, acc.max = [float(v) for v in lo], [float(v) for v in hi]
+        self.gltf.accessors.append(acc)
+        return len(self.gltf.accessors) - 1
+
+    def image(self, png: bytes, name: str) -> int:
+        from pygltflib import Image
+
+        self.gltf.images.append(Image(name=name, bufferView=self.view(png), mimeType="image/png"))
+        return len(self.gltf.images) - 1
+
+
+def _unit(normals: np.ndarray) -> np.ndarray:
+    n = np.asarray(normals, dtype=np.float64)
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    n = np.where(length > 1e-12, n / np.maximum(length, 1e-30), np.array([0.0, 1.0, 0.0]))
+    return n.astype(np.float32)
+
+
+def scene_to_glb(scene, version: str = "") -> bytes:
+    """The GLB bytes of a :class:`rockdove.render.scene.RenderScene` that has thin-film feathers.
+
+    Raises
+    ------
+    ValueError
+        The scene records no film (not a rockdove asset) or a feather part has no thickness.
+    """
+    from pygltflib import (GLTF2, Asset, Attributes, Buffer, Material, Mesh, Node, PbrMetallicRoughness,
+                           Primitive, Sampler, Scene, Texture, TextureInfo)
+
+    film = scene.film
+    if film is None:
+        raise ValueError(f"asset {scene.root_layer!r} has no rockdove thin-film data: no mesh applies "
+                         "RockDoveThinFilmAPI (rockdove:film:*), so there is no film to export as "
+                         "KHR_materials_iridescence; build it with `rockdove build`")
+    gltf = GLTF2(asset=Asset(version="2.0", generator=f"rockdove {version}".strip()))
+    gltf.extensionsUsed = list(EXTENSIONS)
+    blob = _Blob(gltf)
+    gltf.samplers = [Sampler(magFilter=_LINEAR, minFilter=_LINEAR_MIPMAP_LINEAR, wrapS=_CLAMP_TO_EDGE,
+                             wrapT=_CLAMP_TO_EDGE),
+                     # the ramp must not be mipmapped: averaging neighbouring texels of a ramp along u is fine,
+                     # but mip levels of a 1-texel-high ramp would blur it along u at a distance
+                     Sampler(magFilter=_LINEAR, minFilter=_LINEAR, wrapS=_CLAMP_TO_EDGE, wrapT=_CLAMP_TO_EDGE)]
+    textures: dict[str, int] = {}
+
+    def texture(path_or_png, name: str, sampler: int = 0) -> int:
+        if name not in textures:
+            png = path_or_png if isinstance(path_or_png, bytes) else Path(path_or_png).read_bytes()
+            gltf.textures.append(Texture(source=blob.image(png, name), sampler=sampler, name=name))
+            textures[name] = len(gltf.textures) - 1
+        return textures[name]
+
+    lo, hi = scene.thickness_range_nm  # a LUT-less film: the feathers' thicknesses, whole nm
+    root_children = []
+    for part in scene.parts:
+        attributes = Attributes(
+            POSITION=blob.accessor(part.positions_m.astype(np.float32), "VEC3", _ARRAY_BUFFER, with_bounds=True),
+            NORMAL=blob.accessor(_unit(part.normals), "VEC3", _ARRAY_BUFFER))
+        if part.base_colour_texture or part.mask_texture:  # untextured parts carry no UVs (nothing reads them)
+            attributes.TEXCOORD_0 = blob.accessor(np.stack([part.st[:, 0], 1.0 - part.st[:, 1]], axis=1)
+                                                  .astype(np.float32), "VEC2", _ARRAY_BUFFER)
+        pbr = PbrMetallicRoughness(metallicFactor=0.0, roughnessFactor=1.0)
+        if part.base_colour_texture:
+            pbr.baseColorTexture = TextureInfo(index=texture(part.base_colour_texture,
+                                                             os.path.basename(part.base_colour_texture)))
+        else:
+            pbr.baseColorFactor = [float(c) for c in part.base_colour] + [1.0]
+        material = Material(name=f"{part.name}Material", pbrMetallicRoughness=pbr)
+        if part.is_feather:
+            if part.thickness_nm is None:
+                raise ValueError(f"asset {scene.root_layer!r}: {part.path} records a film but no thickness primvar")
+            attributes.TEXCOORD_1 = blob.accessor(thickness_texcoords(part.thickness_nm, lo, hi), "VEC2",
+                                                  _ARRAY_BUFFER)
+            pbr.roughnessFactor = 0.0
+            material.alphaMode, material.alphaCutoff, material.doubleSided = "MASK", float(part.opacity_threshold), True
+            iridescence = {"iridescenceFactor": 1.0, "iridescenceIor": film_ior(film),
+                           "iridescenceThicknessMinimum": lo, "iridescenceThicknessMaximum": hi,
+                           "iridescenceThicknessTexture": {"index": texture(thickness_ramp_png(),
+                                                                            "thickness_ramp.png", sampler=1),
+                                                           "texCoord": 1}}
+            if part.mask_texture:
+                iridescence["iridescenceTexture"] = {"index": texture(part.mask_texture,
+                                                                      os.path.basename(part.mask_texture))}
+            material.extensions = {"KHR_materials_iridescence": iridescence,
+                                   "KHR_materials_ior": {"ior": float(film.model.n_substrate)}}
+            material.extras = {"rockdove": {
+                "filmModel": film.model.name, "cauchyA": film.model.cauchy_a, "cauchyB_nm2": film.model.cauchy_b_nm2,
+                "incidentIndex": film.model.n_incident, "substrateIndex": film.model.n_substrate,
+                "iridescenceIorWavelengthNm": IOR_WAVELENGTH_NM, "thicknessRangeNm": [lo, hi],
+                "thicknessRampTexels": THICKNESS_RAMP_TEXELS}}
+        gltf.materials.append(material)
+        tris = np.asarray(part.triangles).reshape(-1)
+        index_dtype = np.uint16 if len(part.positions_m) <= 65535 else np.uint32
+        primitive = Primitive(attributes=attributes, material=len(gltf.materials) - 1,
+                              indices=blob.accessor(tris.astype(index_dtype), "SCALAR", _ELEMENT_ARRAY_BUFFER))
+        gltf.meshes.append(Mesh(name=part.name, primitives=[primitive]))
+        gltf.nodes.append(Node(name=part.name, mesh=len(gltf.meshes) - 1))
+        root_children.append(len(gltf.nodes) - 1)
+    gltf.nodes.append(Node(name="Pigeon", children=root_children))
+    gltf.scenes = [Scene(name="Pigeon", nodes=[len(gltf.nodes) - 1])]
+    gltf.scene = 0
+    blob.data.extend(b"\0" * (-len(blob.data) % 4))
+    gltf.buffers = [Buffer(byteLength=len(blob.data))]
+    gltf.set_binary_blob(bytes(blob.data))
+    return b"".join(gltf.save_to_bytes())
+
+
+def export_glb(asset, out_path, *, version: str = "") -> dict:
+    """Read a written rockdove asset and write it as one GLB file.
+
+    Parameters
+    ----------
+    asset : str or os.PathLike
+        The asset folder (containing ``pigeon.usda``) or its root layer.
+    out_path : str or os.PathLike
+        The ``.glb`` to write (replaced atomically).
+
+    Returns
+    -------
+    dict
+        ``{"path", "bytes", "iridescence_ior", "ior_wavelength_nm", "thickness_range_nm", "substrate_ior"}``.
+
+    Raises
+    ------
+    ValueError
+        ``asset`` is not a USD asset, or has no rockdove thin-film data (one line, naming the asset).
+    """
+    from ..render.scene import load_scene
+
+    scene = load_scene(asset)  # the verifier's reader; a physical-only asset (no LUT) reads too
+    data = scene_to_glb(scene, version=version)
+    out_path = os.fspath(out_path)
+    tmp = f"{out_path}.tmp-{os.getpid()}"
+    with open(tmp, "wb") as f:
+        f.write(data)
+    os.replace(tmp, out_path)
+    return {"path": out_path, "bytes": len(data), "iridescence_ior": film_ior(scene.film),
+            "ior_wavelength_nm": IOR_WAVELENGTH_NM, "thickness_range_nm": list(scene.thickness_range_nm),
+            "substrate_ior": scene.film.model.n_substrate}
+
+
+#: Seconds the glTF-Validator may take (node start-up plus validation; a 2 MB GLB takes about 1 s).
+VALIDATOR_TIMEOUT_S = 120
+
+
+def validate_glb(path) -> dict:
+    """Validate ``path`` with the Khronos glTF-Validator (npm ``gltf-validator``, run by Node.js).
+
+    Returns
+    -------
+    dict
+        The validator's report: ``report["issues"]`` has ``numErrors``, ``numWarnings``, ``numInfos``,
+        ``numHints`` and ``messages`` (code, message, severity, pointer).
+
+    Raises
+    ------
+    RuntimeError
+        Node.js or the npm package is missing (the message says how to install them), or the validator failed.
+    """
+    import json
+    import shutil
+    import subprocess
+
+    from .. import resources
+
+    node = shutil.which("node")
+    if node is None:
+        raise RuntimeError("glTF validation needs Node.js (`node`), which is not on PATH; apt-get install nodejs")
+    script = resources.path("materials/web/gltf_validate.mjs")
+    if not (script.parent / "node_modules" / "gltf-validator").is_dir():
+        raise RuntimeError(f"the npm package gltf-validator is not installed in {script.parent}; run "
+                           f"`npm ci --prefix {script.parent}` (make test does)")
+    try:
+        res = subprocess.run([node, str(script), os.path.abspath(os.fspath(path))], capture_output=True,
+                             text=True, timeout=VALIDATOR_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        raise RuntimeError(f"glTF-Validator did not finish within {VALIDATOR_TIMEOUT_S} s on {path}") from None
+    if res.returncode != 0:
+        raise RuntimeError(f"glTF-Validator failed on {path}: {res.stderr.strip().splitlines()[-1:]}")
+    return json.loads(res.stdout)

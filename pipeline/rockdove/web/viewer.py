@@ -1,0 +1,141 @@
+"""Write the offline interactive viewer ``verify/viewer.html``: pigeon.glb in three.js, beside its data.
+
+The page opens from the file system: a ``file://`` page in Chromium may neither ``fetch`` files nor load module
+scripts from disk (origin ``null``), so everything arrives through classic ``<script src>`` tags beside the page:
+
+- ``viewer_data.js``: the GLB (base64), the asset's float LUT (base64 float32), the WebGL2 shaders
+  (``materials/web/thinfilm_webgl.*``, our GLSL ported), the start camera and light;
+- ``three/*.js``: the ES modules of the npm package ``three`` (pinned in ``materials/web/package.json``) and
+  ``viewer_app.js``, each copied verbatim into a JavaScript string;
+- ``viewer_loader.js``: makes each module a ``blob:`` URL (same origin as the page) with its imports pointed at
+  its dependencies' blob URLs, then imports the app.
+
+Sources live in ``materials/web/`` and are found with :func:`rockdove.resources.path`; three.js is read from
+``materials/web/node_modules`` (``make`` runs ``npm ci`` there).
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+VIEWER_NAME = "viewer.html"
+#: Page sources copied as they are.
+PAGE_FILES = ("viewer.html", "viewer_loader.js")
+#: ES modules of the npm package three, by the name viewer_loader.js knows them.
+THREE_MODULES = {
+    "three.core.js": "three/build/three.core.js",
+    "three.module.js": "three/build/three.module.js",
+    "BufferGeometryUtils.js": "three/examples/jsm/utils/BufferGeometryUtils.js",
+    "SkeletonUtils.js": "three/examples/jsm/utils/SkeletonUtils.js",
+    "GLTFLoader.js": "three/examples/jsm/loaders/GLTFLoader.js",
+    "OrbitControls.js": "three/examples/jsm/controls/OrbitControls.js",
+}
+#: The light-view angle (degrees) of the viewer's start light: the green side of the paper's flip.
+START_LIGHT_VIEW_DEG = 60.0
+
+
+def web_folder() -> Path:
+    from .. import resources
+
+    return resources.path("materials/web")
+
+
+def three_folder() -> Path:
+    """``materials/web/node_modules`` with the npm package three in it.
+
+    Raises
+    ------
+    rockdove.errors.ResourceMissing
+        three is not installed (a ``FileNotFoundError``: the CLI prints it in one line, exit 2).
+    """
+    from ..errors import ResourceMissing
+
+    nm = web_folder() / "node_modules"
+    if not (nm / "three" / "package.json").is_file():
+        raise ResourceMissing(f"the npm package three (for verify/viewer.html) is not installed in {nm.parent}; run "
+                              f"`npm ci --prefix {nm.parent}` (make asset / make test do), or build with "
+                              "--set gltf.glb=false (no glb, no viewer)")
+    return nm
+
+
+def _module_script(name: str, source: str) -> str:
+    return f"(window.ROCKDOVE_MODULES = window.ROCKDOVE_MODULES || {{}})[{json.dumps(name)}] = {json.dumps(source)};\n"
+
+
+def start_view(scene):
+    """The viewer's first camera and light: the verification's light-sweep camera on the neck, lit at
+    :data:`START_LIGHT_VIEW_DEG` between light and view (``rockdove.render.views``)."""
+    from ..render.views import default_views, light_sweep_views
+
+    sweep = [v for v in default_views(scene, 512, 512, n=2) if v.name.startswith("sweep_")][0]
+    neck = np.asarray(scene.neck_centre_m, np.float64)
+    eye = sweep.camera_to_world[:3, 3]
+    dist = float(np.linalg.norm(eye - neck))
+    return light_sweep_views(neck, 1, 512, 512, angles_deg=[START_LIGHT_VIEW_DEG], distance_m=dist,
+                             yfov_deg=float(np.degrees(sweep.yfov_rad)), camera_direction=(eye - neck) / dist)[0]
+
+
+def viewer_data(scene, lut, glb_bytes: bytes, asset_name: str) -> dict:
+    """What ``viewer_data.js`` holds (JSON-serialisable)."""
+    from .gltf import THICKNESS_RAMP_TEXELS
+
+    view = start_view(scene)
+    web = web_folder()
+    rgb = np.ascontiguousarray(lut.rgb, dtype=np.float32)  # (n_thickness, n_angle, 3), row 0 thinnest
+    return {
+        "asset_name": asset_name,
+        "glb": base64.b64encode(glb_bytes).decode("ascii"),
+        "lut": {"rgb_f32": base64.b64encode(rgb.tobytes()).decode("ascii"), "n_angle": int(rgb.shape[1]),
+                "n_thickness": int(rgb.shape[0]), "angle_warp_gamma": float(lut.angle_warp_gamma),
+                "thickness_range_nm": [float(v) for v in lut.thickness_range_nm],
+                "colour_space": lut.colour_space,
+                "verification_only": "purpose" in lut.metadata},
+        "ramp_texels": THICKNESS_RAMP_TEXELS,
+        "shaders": {"vert": (web / "thinfilm_webgl.vert").read_text(), "frag": (web / "thinfilm_webgl.frag").read_text()},
+        "camera": {"eye_m": view.camera_to_world[:3, 3].tolist(), "target_m": [float(v) for v in scene.neck_centre_m],
+                   "yfov_deg": float(np.degrees(view.yfov_rad))},
+        "light": {"direction": view.light_direction.tolist()},
+    }
+
+
+def write_viewer(asset, glb_path, out_dir, asset_name: str | None = None) -> str:
+    """Write ``viewer.html`` and the files beside it into ``out_dir``; return the page's path.
+
+    Parameters
+    ----------
+    asset : path
+        The written asset (folder or root layer): its scene and LUT (a physical-only asset: the
+        LUT baked in memory, :meth:`rockdove.render.scene.RenderScene.load_lut`).
+    glb_path : path
+        Its ``pigeon.glb`` (:func:`rockdove.web.gltf.export_glb`).
+    out_dir : path
+        Folder of the page (the asset's ``verify/``).
+    asset_name : str, optional
+        Shown on the page (default: the asset folder's name).
+    """
+    from ..render.scene import load_scene
+
+    out = Path(out_dir)
+    (out / "three").mkdir(parents=True, exist_ok=True)
+    nm = three_folder()
+    web = web_folder()
+    scene = load_scene(asset)
+    data = viewer_data(scene, scene.load_lut(), Path(glb_path).read_bytes(),
+                       asset_name or os.path.basename(os.path.dirname(scene.root_layer)))
+    (out / "viewer_data.js").write_text("window.ROCKDOVE_DATA = " + json.dumps(data) + ";\n")
+    tags = []
+    modules = {**{n: nm / p for n, p in THREE_MODULES.items()}, "viewer_app.js": web / "viewer_app.js"}
+    for name, src in modules.items():
+        (out / "three" / name).write_text(_module_script(name, src.read_text(encoding="utf-8")))
+        tags.append(f'<script src="three/{name}"></script>')
+    for name in PAGE_FILES:
+        text = (web / name).read_text(encoding="utf-8")
+        if name == VIEWER_NAME:
+            text = text.replace("<!--MODULE_SCRIPTS-->", "\n".join(tags))
+        (out / name).write_text(text)
+    return str(out / VIEWER_NAME)
