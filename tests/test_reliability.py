@@ -283,3 +283,25 @@ def test_clean_temporaries_spares_live_writers_and_removes_dead_ones(tmp_path):
         live.kill()
         live.wait()
         zombie.wait()
+
+
+# ----------------------------------------------------------------------------------------------- memory
+@pytest.mark.parametrize("argv, words", [
+    # issue 23: inside the old ranges, these passed 8.5 GB (body texture) and 4 GB (LUT) of RSS
+    (["build", "--out", "b", "--set", "textures.body_resolution=8192"], ["textures.body_resolution", "<= 4096"]),
+    (["lut", "--out", "l.exr", "--angles", "16000", "--thicknesses", "16000"], ["--angles", "[2, 4096]", "16000"]),
+    (["lut", "--out", "l.exr", "--thicknesses", "4097"], ["--thicknesses", "[1, 4096]"]),
+])
+def test_sizes_past_the_memory_budget_exit_2_naming_the_key_and_range(tmp_path, argv, words):
+    r = subprocess.run([sys.executable, "-m", "rockdove.cli", *argv], cwd=tmp_path, env=ENV, capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and all(w in r.stderr for w in words), r.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_lut_bakers_limits_are_the_schemas():
+    from rockdove.config import load_schema
+    from rockdove.lut.bake import MAX_ANGLES, MAX_THICKNESSES
+
+    lut = load_schema()["properties"]["lut"]["properties"]
+    assert (lut["angles"]["maximum"], lut["thicknesses"]["maximum"]) == (MAX_ANGLES, MAX_THICKNESSES)
