@@ -51,6 +51,8 @@ LAYERS = [
      "the build graph: runs the stages above into the output folder and publishes atomically"),
     ({"server"},
      "the build server: runs CLI commands in a warm process (rockdove.cli.run, named in its start-up command)"),
+    ({"api"},
+     "the library API: configuration, build and verification as typed values (what the commands call)"),
     ({"bench", "commands"},
      "benchmarks and one module per CLI command, calling the stages"),
     ({"cli"},
