@@ -341,3 +341,30 @@ def test_watch_rebuilds_on_an_edit_not_without_one_survives_a_bad_edit_and_ends_
     assert "stopped watching" in err and "Traceback" not in err
     assert err.count("not valid TOML") == 1
     assert not list((tmp_path / "b").glob(".p.rockdove-tmp-*"))
+
+
+def test_api_build_returns_a_typed_result_and_a_failed_verification_raises_with_it(tmp_path, monkeypatch):
+    """The library API in this process (stand-in stages): values in, a BuildResult out; overrides as a mapping
+    and as KEY=VALUE strings give the same configuration; a failed verification publishes nothing and raises
+    BuildFailed carrying what ran."""
+    from standins import standin_stages
+
+    from rockdove import api
+    from rockdove.graph import stages
+
+    monkeypatch.setattr(stages, "make_stages", standin_stages)
+    config = api.load_config(preset="paper", overrides={"film.cauchy_a": 1.55})
+    assert config == api.load_config(preset="paper", overrides=["film.cauchy_a=1.55"])
+    with pytest.raises(api.UsageError, match="lut.angles"):
+        api.load_config(overrides={"lut.angles": 1})
+    result = api.build(config, tmp_path / "p", cache=tmp_path / "c")
+    assert result.verified is True and result.report_dir == tmp_path / "p" / "verify"
+    assert "lut" in result.ran and not result.reused and set(result.keys) == {s.name for s in result.stages}
+    again = api.build(config, tmp_path / "p", cache=tmp_path / "c", verify=False)
+    assert again.ran == [] and again.verified is None and again.keys["lut"] == result.keys["lut"]
+    bad = api.load_config(preset="paper", overrides={"film.cauchy_a": 1.55, "verify.width": 17})
+    with pytest.raises(api.BuildFailed) as info:
+        api.build(bad, tmp_path / "p", cache=tmp_path / "c")
+    assert info.value.result.verified is False and "stand-in width 17" in info.value.result.failure
+    assert "verify" in info.value.result.ran
+    assert json.loads((tmp_path / "p" / ".rockdove-asset.json").read_text())["config_hash"] == result.config_hash

@@ -49,8 +49,6 @@ LAYERS = [
      "compares every host's render with the exact reference and writes the report"),
     ({"graph"},
      "the build graph: runs the stages above into the output folder and publishes atomically"),
-    ({"server"},
-     "the build server: runs CLI commands in a warm process (rockdove.cli.run, named in its start-up command)"),
     ({"api"},
      "the library API: configuration, build and verification as typed values (what the commands call)"),
     ({"bench", "commands"},
