@@ -58,6 +58,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--bench-dir", default=None, metavar="DIR",
                         help="show the benchmark plots (*.png) of DIR in the report, e.g. build/bench "
                              "(default: none)")
+    parser.add_argument("--junit", metavar="FILE", default=None,
+                        help="also write the verification as JUnit XML (a test case per validator, view and host "
+                             "view) for CI test-result pages")
     parser.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     from .validate import add_external_argument
 
@@ -79,6 +82,10 @@ def run(args: argparse.Namespace) -> int:
                         progress=progress)
     report = result.report
     short = summary(report)
+    if args.junit:
+        from ..verify.junit import write_junit
+
+        write_junit(report, args.junit)
     if args.json:
         from ..verify.report import strict_json
 

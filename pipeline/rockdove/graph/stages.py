@@ -28,7 +28,7 @@ stage                   configuration                                 inputs
                                                                       physical-only: bird, usd_geometry
 ``usdz``                -- (present when ``usd.usdz``)                usd_geometry, usd_layers, textures,
                                                                       film_textures
-                                                                      (rockdove.usd.usdz)
+                                                                      (rockdove.usd.usdz: pigeon.usdz, pigeon_ar.usdz)
 ``verify_rays``         as ``verify``                                 every published stage: the assembled asset.
                                                                       One item per camera: the reference's ray
                                                                       casts (rockdove.verify.rays.cast_hits),
@@ -316,13 +316,15 @@ def run_usd_layers(ctx: Context):
 
 
 def run_usdz(ctx: Context):
-    from ..usd.usdz import USDZ_NAME, write_usdz
+    from ..usd.usdz import AR_USDZ_NAME, USDZ_NAME, write_ar_usdz, write_usdz
 
     scratch = ctx.workdir / "layout"
     for dep in ("usd_geometry", "usd_layers", "textures", "film_textures"):
         shutil.copytree(ctx.inputs[dep], scratch, dirs_exist_ok=True)
     write_usdz(str(scratch), in_place=True)  # scratch holds copies: package them without a second copy
-    (scratch / USDZ_NAME).rename(ctx.workdir / USDZ_NAME)
+    write_ar_usdz(str(scratch))  # the flattened UsdPreviewSurface package for AR Quick Look
+    for name in (USDZ_NAME, AR_USDZ_NAME):
+        (scratch / name).rename(ctx.workdir / name)
     shutil.rmtree(scratch)
 
 
