@@ -5,7 +5,7 @@ imports nothing but the standard library, bpy and that job module.
 The asset is imported exactly as a Blender user imports it (the add-on enabled, ``wm.usd_import``, every material
 as the add-on built it), then staged as a look-dev artist stages a hero shot:
 
-- a neutral grey ground (Principled, roughness 0.7) through the bird's lowest point, catching its shadow,
+- the job's neutral grey ground (Principled, roughness 0.7) at the bird's lowest point, catching its shadow,
   curving up far behind the bird into a wall (a photo studio's cyclorama: no horizon line);
 - a world of a sky gradient (warm grey horizon to pale blue zenith) at moderate strength: the fill and the
   background above the horizon;
@@ -28,20 +28,9 @@ import blender_job as bj  # the sibling job module (this file is run by path: it
 
 
 def _ground(bpy, to_blender, job):
-    """A photo studio's cyclorama as a bowl (USD world, Y up, centred under the bird at ``ground_y_m``): a flat
-    floor to 0.7 of ``ground_radius_m``, curving up (quarter circle) into a wall of ``0.6 x`` that radius, so no
-    horizon cuts the picture; neutral grey, smooth-shaded."""
-    import math
-
-    big, y0 = float(job["ground_radius_m"]), float(job["ground_y_m"])
-    floor, bend = 0.7 * big, 0.3 * big
-    profile = [(0.0, 0.0), *((floor + bend * math.sin(a), bend * (1 - math.cos(a)))
-                            for a in (0.5 * math.pi * k / 8 for k in range(9))), (big, 0.6 * big)]
-    n = 96
-    verts = [(r * math.sin(2 * math.pi * j / n), y0 + y, r * math.cos(2 * math.pi * j / n))
-             for r, y in profile for j in range(n)]
-    faces = [(i * n + j, i * n + (j + 1) % n, (i + 1) * n + (j + 1) % n, (i + 1) * n + j)
-             for i in range(len(profile) - 1) for j in range(n)]
+    """The ground the job names (USD world metres: :func:`rockdove.render.beauty.cyclorama`), neutral grey."""
+    verts = [tuple(v) for v in job["ground_vertices_m"]]
+    faces = [tuple(f) for f in job["ground_quads"]]
     mesh = bpy.data.meshes.new("rockdove_ground")
     mesh.from_pydata(verts, [], faces)
     mesh.shade_smooth()

@@ -106,6 +106,26 @@ def ground_y_m(scene) -> float:
     return float(scene.bounds_m[0, 1])
 
 
+def cyclorama(scene, views, segments: int = 96) -> tuple[np.ndarray, np.ndarray]:
+    """The ground both renderers draw, a photo studio's cyclorama as a bowl centred under the bird: a flat floor
+    at :func:`ground_y_m` to 0.7 of its radius (:data:`GROUND_RADIUS` x the farthest camera's distance), curving
+    up (a quarter circle) into a wall 0.6 x the radius high, so no horizon line crosses the picture; the wall's
+    top is 31 degrees above the bird, below the sun. ``(vertices (V, 3) metres, quads (F, 4))``, normals up
+    and inward (counter-clockwise seen from inside)."""
+    centre = scene.bounds_m.mean(axis=0)
+    big = GROUND_RADIUS * max(float(np.linalg.norm(v.eye_m - centre)) for v in views)
+    a = np.linspace(0.0, 0.5 * math.pi, 9)
+    r = np.concatenate([[0.0], 0.7 * big + 0.3 * big * np.sin(a), [big]])
+    y = np.concatenate([[0.0], 0.3 * big * (1 - np.cos(a)), [0.6 * big]]) + ground_y_m(scene)
+    phi = 2 * math.pi * np.arange(segments) / segments
+    verts = np.stack([np.outer(r, np.sin(phi)) + centre[0], np.repeat(y[:, None], segments, 1),
+                      np.outer(r, np.cos(phi)) + centre[2]], axis=-1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(len(r) - 1), np.arange(segments), indexing="ij")
+    k = (j + 1) % segments
+    quads = np.stack([i * segments + j, (i + 1) * segments + j, (i + 1) * segments + k, i * segments + k], -1)
+    return verts, quads.reshape(-1, 4)
+
+
 def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
     """Render ``views`` with Cycles through the add-on (:mod:`rockdove.hosts.blender_beauty_job`); returns
     ``{view name: (H, W, 3) uint8}`` (display-referred, AgX). Raises HostError when Blender cannot."""
@@ -119,13 +139,12 @@ def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
     for v in views:
         if os.path.exists(os.path.join(work, f"{v.name}.png")):
             os.remove(os.path.join(work, f"{v.name}.png"))
-    centre = scene.bounds_m.mean(axis=0)
-    radius = GROUND_RADIUS * max(float(np.linalg.norm(v.eye_m - centre)) for v in views)
+    verts, quads = cyclorama(scene, views)
     job = {
         "asset": os.path.abspath(layer), "root_object": bl._root_object(layer), "addon_zip": bl.addon_zip(work),
         "addon_module": bl.ADDON_MODULE, "out_dir": work, "samples": int(samples), "threads": bl.THREADS,
-        "transparent_bounces": bl.TRANSPARENT_BOUNCES, "ground_y_m": ground_y_m(scene),
-        "ground_radius_m": radius, "ground_albedo": GROUND_ALBEDO, "sky_horizon_rgb": SKY_HORIZON_RGB,
+        "transparent_bounces": bl.TRANSPARENT_BOUNCES, "ground_vertices_m": np.round(verts, 6).tolist(),
+        "ground_quads": quads.tolist(), "ground_albedo": GROUND_ALBEDO, "sky_horizon_rgb": SKY_HORIZON_RGB,
         "sky_zenith_rgb": SKY_ZENITH_RGB, "sky_strength": SKY_STRENGTH, "sun_strength": SUN_STRENGTH,
         "sun_rgb": SUN_RGB, "sun_angle_deg": SUN_ANGLE_DEG, "look": LOOK, "exposure": EXPOSURE,
         "views": [{**v.to_dict(), "sun_direction": v.light_direction.tolist()} for v in views],
@@ -208,3 +227,32 @@ def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", wi
                    + (f"; not Cycles: {fallback}" if fallback else ""))
     return {"renderer": used, "files": files, "caption": caption, "seconds": seconds, "size": [width, height],
             "samples": samples if used == "cycles" else None, "fallback": fallback}
+
+
+def settings(overrides=None) -> dict:
+    """The ``[beauty]`` settings: the schema's defaults (schemas/config.schema.json) under ``overrides``, checked
+    against its ranges (ValueError naming the key)."""
+    from ..config import defaults
+
+    out = {**defaults()["beauty"], **{k: v for k, v in (overrides or {}).items() if v is not None}}
+    if out["renderer"] not in RENDERERS:
+        raise ValueError(f"beauty.renderer: {out['renderer']!r} is not one of {', '.join(RENDERERS)}")
+    for key, lo in (("width", 64), ("height", 64), ("samples", 1)):
+        if not isinstance(out[key], int) or isinstance(out[key], bool) or not lo <= out[key] <= 4096:
+            raise ValueError(f"beauty.{key}: {out[key]!r} is not an integer from {lo} to 4096")
+    return out
+
+
+def for_report(layer: str, scene, out_dir: str, settings: dict, *, cycles_ok: bool, lut=None) -> tuple:
+    """:func:`render_beauty` as the verification report takes it: ``(entry or None, note or None)``. The picture
+    is not a measurement, so a renderer that fails leaves the report without it and a note saying why, never a
+    failed verification; asking for Cycles and getting GL is noted too."""
+    keys = ("renderer", "width", "height", "samples")
+    try:
+        entry = render_beauty(layer, scene, out_dir, cycles_ok=cycles_ok, lut=lut,
+                              **{k: settings[k] for k in keys if k in settings})
+    except Exception as exc:  # noqa: BLE001 - any renderer's error: the report goes on without the picture
+        return None, f"no beauty render: {type(exc).__name__}: {exc}"
+    if entry is not None and settings.get("renderer") == "cycles" and entry["renderer"] != "cycles":
+        return entry, f"beauty render: Cycles was asked for, drawn with GL instead ({entry['fallback']})"
+    return entry, None
