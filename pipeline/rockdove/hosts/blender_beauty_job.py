@@ -23,6 +23,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+import time
 
 import blender_job as bj  # the sibling job module (this file is run by path: its folder is sys.path[0])
 
@@ -116,14 +117,17 @@ def run(job: dict) -> None:
     sun = _sun(bpy, mathutils, to_blender, job)
     scene = bpy.context.scene
     _settings(scene, job)
+    seconds = {}
     for view in job["views"]:
         scene.render.resolution_x, scene.render.resolution_y = int(view["width"]), int(view["height"])
         scene.camera = bj._camera(bpy, mathutils, to_blender, view)
         _aim(sun, mathutils, to_blender, view["sun_direction"])
         scene.render.filepath = os.path.join(job["out_dir"], f"{view['name']}.png")
+        t = time.perf_counter()
         bpy.ops.render.render(write_still=True)
+        seconds[view["name"]] = time.perf_counter() - t
     with open(os.path.join(job["out_dir"], "done.json"), "w", encoding="utf-8") as fh:
-        json.dump({"films": films, "blender": bpy.app.version_string}, fh)
+        json.dump({"films": films, "blender": bpy.app.version_string, "render_s": seconds}, fh)
 
 
 if __name__ == "__main__":
