@@ -115,11 +115,11 @@ def test_settings_take_the_schema_defaults_and_reject_bad_values():
 
 def test_the_build_report_opens_with_the_beauty_render_at_the_configured_size(build_root):
     asset = real_build(build_root / "beauty" / "pigeon", build_root / "cache", "verify.width=128",
-                       "verify.height=128", "verify.views=2", "beauty.width=160", "beauty.height=96", verify=True)
+                       "verify.height=128", "verify.views=2", "beauty.width=160", "beauty.height=112", verify=True)
     page = (asset / "verify" / "report.html").read_text()
     first = re.search(r"<img src='([^']+)'", page).group(1)
     assert first == "beauty_34.png" and "Beauty render: GL" in page
-    assert Image.open(asset / "verify" / first).size == (160, 96)
+    assert Image.open(asset / "verify" / first).size == (160, 112)
 
 
 @needs_bpy

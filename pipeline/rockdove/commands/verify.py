@@ -49,7 +49,7 @@ def _samples(text: str) -> int:
 def _beauty_size(text: str) -> tuple:
     w, sep, h = text.lower().partition("x")
     if not sep or not w.isdigit() or not h.isdigit() or not (64 <= int(w) <= 4096 and 64 <= int(h) <= 4096):
-        raise argparse.ArgumentTypeError(f"{text!r} is not WxH with each 64 to 4096 pixels, e.g. 960x640")
+        raise argparse.ArgumentTypeError(f"{text!r} is not WxH with each 64 to 4096 pixels, e.g. 768x512")
     return int(w), int(h)
 
 
@@ -75,9 +75,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the report's opening picture: Cycles through the Blender add-on, GL, or auto "
                              "(default: Cycles when the blender host runs, else GL; [beauty] in the schema)")
     parser.add_argument("--beauty-size", type=_beauty_size, default=(None, None), metavar="WxH",
-                        help="beauty render size, pixels (default 960x640)")
+                        help="beauty render size, pixels (default 768x512)")
     parser.add_argument("--beauty-samples", type=_samples, default=None, metavar="N",
-                        help="Cycles samples per pixel of the beauty render (default 64, adaptive)")
+                        help="Cycles samples per pixel of the beauty render (default 32, adaptive, denoised)")
     parser.add_argument("--junit", metavar="FILE", default=None,
                         help="also write the verification as JUnit XML (a test case per validator, view and host "
                              "view) for CI test-result pages")

@@ -150,10 +150,10 @@ def render(asset_path: str, views, out_dir: str) -> dict:
     return run_blender(asset_path, views, out_dir)
 
 
-def run_job(job: dict, work: str, module: str = "rockdove.hosts.blender_job") -> None:
+def run_job(job: dict, work: str, module: str = "rockdove.hosts.blender_job", timeout_s: float = TIMEOUT_S) -> None:
     """Write ``job`` as ``work/job.json`` and run the job script ``module`` on it with :func:`bpy_python`,
     Blender's user folders inside ``work``; its output goes to ``work/blender.log``. Raises :class:`HostError`
-    when Blender fails or times out."""
+    when Blender fails or does not finish within ``timeout_s`` seconds."""
     python = bpy_python()
     job_path = os.path.join(work, "job.json")
     with open(job_path, "w", encoding="utf-8") as fh:
@@ -166,9 +166,9 @@ def run_job(job: dict, work: str, module: str = "rockdove.hosts.blender_job") ->
         # run by file: the interpreter with bpy need not have rockdove installed (the job imports none of it)
         job_file = importlib.util.find_spec(module).origin
         proc = subprocess.run([python, job_file, job_path], env=env,
-                              capture_output=True, text=True, timeout=TIMEOUT_S, cwd=work)
+                              capture_output=True, text=True, timeout=timeout_s, cwd=work)
     except subprocess.TimeoutExpired:
-        raise HostError(NAME, f"Blender did not finish within {TIMEOUT_S} s") from None
+        raise HostError(NAME, f"Blender did not finish within {timeout_s:g} s") from None
     with open(os.path.join(work, "blender.log"), "w", encoding="utf-8") as fh:
         fh.write(proc.stdout + "\n--- stderr ---\n" + proc.stderr)
     if proc.returncode != 0:

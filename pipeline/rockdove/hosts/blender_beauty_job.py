@@ -92,10 +92,11 @@ def _settings(scene, job):
     c.adaptive_threshold = 0.02
     c.use_denoising = True
     c.denoiser = "OPENIMAGEDENOISE"
-    c.max_bounces, c.diffuse_bounces, c.glossy_bounces = 8, 3, 3
+    c.max_bounces, c.diffuse_bounces, c.glossy_bounces, c.transmission_bounces = 6, 2, 2, 2
     c.transparent_max_bounces = int(job["transparent_bounces"])
     c.seed = 0
     scene.render.film_transparent = False
+    scene.render.use_persistent_data = True  # the second view reuses the first's BVH and shaders
     scene.render.resolution_percentage = 100
     scene.render.threads_mode = "FIXED"
     scene.render.threads = int(job["threads"])

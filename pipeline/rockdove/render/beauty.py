@@ -53,6 +53,9 @@ SKY_STRENGTH = 0.45
 #: Neutral grey ground: albedo, and the radius of its cyclorama in multiples of the farthest camera's distance.
 GROUND_ALBEDO = 0.30
 GROUND_RADIUS = 3.0
+#: Seconds before a Cycles beauty render is given up (and drawn with GL): a 768 x 512, 32-sample pair took
+#: ~16 min on the 2 shared cores under a load of ~13 (measured; about 2 min unloaded).
+TIMEOUT_S = 3600
 #: AgX look and exposure (stops) of the Cycles picture.
 LOOK = "AgX - Medium High Contrast"
 EXPOSURE = 0.0
@@ -149,7 +152,7 @@ def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
         "sun_rgb": SUN_RGB, "sun_angle_deg": SUN_ANGLE_DEG, "look": LOOK, "exposure": EXPOSURE,
         "views": [{**v.to_dict(), "sun_direction": v.light_direction.tolist()} for v in views],
     }
-    bl.run_job(job, work, "rockdove.hosts.blender_beauty_job")
+    bl.run_job(job, work, "rockdove.hosts.blender_beauty_job", timeout_s=TIMEOUT_S)
     out = {}
     for v in views:
         path = os.path.join(work, f"{v.name}.png")
@@ -162,8 +165,8 @@ def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
     return out
 
 
-def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", width: int = 960,
-                  height: int = 640, samples: int = 64, cycles_ok: bool = True, lut=None) -> dict | None:
+def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", width: int = 768,
+                  height: int = 512, samples: int = 32, cycles_ok: bool = True, lut=None) -> dict | None:
     """Render the beauty views into ``out_dir`` (``beauty_34.png``, ``beauty_side.png``) and describe them.
 
     Parameters
