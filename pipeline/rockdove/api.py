@@ -240,7 +240,7 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
 def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, out: str | os.PathLike | None = None,
            width: int | None = None, height: int | None = None, views: Iterable[str] | None = None,
            n_views: int | None = None, bench_dir: str | os.PathLike | None = None, allow_external: bool = False,
-           progress: Callable[[str], None] | None = None) -> Verification:
+           progress: Callable[[str], None] | None = None, beauty: dict | None = None) -> Verification:
     """Validate an asset, render it with the GLSL shaders and every host in ``hosts`` and check each against the
     exact spectral reference of its lighting model; write the report.
 
@@ -261,6 +261,9 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, out:
         A folder of benchmark plots (``*.png``) to show in the report.
     allow_external : bool
         Allow the asset's layers to name files outside its folder (refused by default).
+    beauty : dict, optional
+        ``[beauty]`` settings (renderer, width, height, samples; None values: the defaults) of the picture the
+        report opens with (:mod:`rockdove.render.beauty`).
 
     Returns :class:`Verification` (a failed check: ``passed`` False). Raises :class:`UsageError` for bad usage
     and :class:`VerificationFailed`, before rendering, when the asset's layers do not parse or name files outside
@@ -273,5 +276,5 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, out:
     report = verify_asset(os.fspath(asset), out_dir=out, width=width or DEFAULT_SIZE, height=height or DEFAULT_SIZE,
                           progress=progress, views=None if views is None else list(views),
                           n_views=n_views or DEFAULT_VIEWS, hosts=None if hosts is None else list(hosts),
-                          bench_dir=bench_dir)
+                          bench_dir=bench_dir, beauty=beauty)
     return Verification.from_report(report)

@@ -26,11 +26,12 @@ def default_out_dir(layer_path: str) -> str:
 
 
 def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, bench_dir, say, *, reused=(),
-             t_start, hosts=None, published_asset=None) -> dict:
+             t_start, hosts=None, published_asset=None, beauty=None) -> dict:
     """Validate the asset and join per-view results into the verdict and the report (``report.json``,
     ``report.html`` and their images in ``out_dir``, default ``verify/`` beside the root layer); returns the
     report dict. ``bench_dir``: a folder whose benchmark plots (``*.png``) the report shows; None: none (the
-    report reads no folder it is not given)."""
+    report reads no folder it is not given). ``beauty``: the ``[beauty]`` settings and ``cycles_ok`` of the
+    picture the report opens with (:func:`rockdove.render.beauty.for_report`); None: no picture."""
     out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)
     os.makedirs(out, exist_ok=True)
     timings, failures, notes = {}, [], list(notes)
@@ -104,6 +105,14 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
             elif not h["passed"]:
                 failures.append(f"host {h['name']} ({h['variant']}, {h['lobe']} lobe): {'; '.join(h['failures'])}")
     images["bench"] = report.copy_bench_plots(out, bench_dir) if bench_dir is not None else []
+    if beauty is not None:
+        from ..render.beauty import for_report
+
+        say("beauty render")
+        images["beauty"], note = for_report(layer, scene, out, beauty, cycles_ok=beauty.get("cycles_ok", False),
+                                            lut=lut)
+        notes.extend([note] if note else [])
+        timings["beauty"] = images["beauty"]["seconds"] if images["beauty"] else 0.0
     timings["report"] = time.perf_counter() - t
     validation, timings["validation"] = _validation(validation_pending, layer)
     if not validation["passed"]:
@@ -130,6 +139,7 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
         "reference": [r["reference"] for r in results],
         "hue_sweep": hue,
         "hosts": host_entries,
+        "beauty": images.get("beauty"),
         "boundary": {"per_view": {r["view"]: r["boundary"] for r in sweeps},
                      "method": "TLS line through green/purple boundary points; RMS perpendicular distance (px) "
                                "and RMS / boundary length; coherence and curvature: rockdove.verify.boundary"},
