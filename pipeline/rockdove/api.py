@@ -195,12 +195,11 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
     chash = config_hash(config)
     if verify and ((read_marker(out) or {}).get("config_hash") != chash
                    or not (out / "verify" / "report.json").is_file()):
-        # A new configuration, or one not verified yet, will most likely render: start the verification's worker
-        # process now, so that its imports (pyrender, ~2 s) run on the other core while the LUT, textures and
-        # layers are built.
-        from .verify import worker
+        # A new configuration, or one not verified yet, will most likely render: import the GL renderer
+        # (pyrender, ~2 s) in a thread now, while the LUT, textures and layers are built.
+        from .verify.gl_renders import prestart
 
-        worker.prestart()
+        prestart()
 
     main_thread = threading.current_thread() is threading.main_thread()
     old_term = signal.signal(signal.SIGTERM, _raise_interrupt) if main_thread else None
