@@ -11,7 +11,8 @@ export PYOPENGL_PLATFORM ?= egl
 # Blender as a Python module (bpy, cp311) for the blender host: it pins numpy < 2, which rockdove's own
 # dependencies have outgrown, so it gets a venv of its own; the host finds it beside .venv (or through
 # $ROCKDOVE_BPY_PYTHON). bpy 4.2 LTS and 4.4 (the first with the USD import's prim map) get venvs too: the add-on's
-# tests run the README's Blender steps on each (tests/test_blender_addon.py). ~0.9-1 GB and 4-6 min each.
+# tests run the README's Blender steps on each (tests/test_blender_addon.py). ~0.9-1 GB and 4-6 min each. They
+# were built on numpy 1.x (as their Blender bundles: 4.4 prints a numpy traceback on `import bpy` with numpy 2).
 # BPY_DEBS: shared libraries bpy links and a minimal Debian lacks.
 BPY_VENV  := .venv-bpy
 BPY_STAMP := $(BPY_VENV)/.installed
@@ -61,7 +62,7 @@ bpy: $(BPY_STAMP) $(BPY_OLD)
 
 $(BPY_VENV)-%/.installed: $(BPY_STAMP)
 	@test -x $(BPY_VENV)-$*/bin/python || $(PYTHON) -m venv $(BPY_VENV)-$*
-	$(BPY_VENV)-$*/bin/python -m pip install --quiet 'bpy==$(BPY_PIN_$*)'
+	$(BPY_VENV)-$*/bin/python -m pip install --quiet 'bpy==$(BPY_PIN_$*)' 'numpy<2'
 	@touch $@
 
 asset: $(STAMP) $(NPM_STAMP)

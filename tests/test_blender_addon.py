@@ -85,6 +85,7 @@ def _run(python, script, tmp_path, *args):
     p = subprocess.run([python, "-c", script, *map(str, args)], capture_output=True, text=True,
                        env=_env(tmp_path), timeout=300, cwd=tmp_path)
     assert p.returncode == 0, (p.returncode, p.stderr[-2000:])  # 134 was the abort of bpy's pxr_boost
+    assert "Traceback" not in p.stdout + p.stderr, (p.stdout + p.stderr)[-2000:]
     result = json.loads([ln for ln in p.stdout.splitlines() if ln.startswith("RESULT ")][-1][len("RESULT "):])
     return result, [ln for ln in p.stdout.splitlines() if ln.startswith("rockdove:")]
 
@@ -189,7 +190,7 @@ def _film_mesh(path, **film):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("version", HOOKS)
+@pytest.mark.parametrize("version", HOOKS[:1])
 def test_a_film_with_an_impossible_index_is_named_in_one_line_and_left_as_imported(version, tmp_path):
     path = _film_mesh(tmp_path / "bad.usda", cauchyA=float("nan"), substrateIndex=1.0)
     with_addon, lines = _steps(version, tmp_path / "a", path)
