@@ -3,7 +3,7 @@
 ``--grid 'KEY=[V1, V2, ...]'`` gives one axis (values are TOML literals exactly as ``--set`` takes them, bare
 words included); several ``--grid`` make their product. ``--preset``, ``--config`` and ``--set`` are the base
 of every point; a point's grid values are applied last. Each point is one call of ``rockdove build``'s
-:func:`rockdove.commands.build.build` on a Dask worker, into ``DIR/points/<name>`` (``<name>``: the point's
+:func:`rockdove.api.build` on a Dask worker, into ``DIR/points/<name>`` (``<name>``: the point's
 ``KEY=VALUE`` pairs joined by ``__``, stable across runs), all sharing one stage cache (``DIR/.rockdove-cache``
 unless ``--cache``): the body and bird are built once per geometry, whichever worker gets there first
 (:meth:`rockdove.graph.engine.Cache.entry_lock`), and every point is byte-identical to a serial ``rockdove
@@ -222,33 +222,37 @@ def _restore_malloc_thresholds() -> None:
 _ONE_POINT_AT_A_TIME = threading.Lock()  # a worker with several threads builds one point at a time (GL, memory)
 
 
-def build_point(name: str, argv: list[str], out: str, verify: bool) -> dict:
-    """Build one point on a Dask worker: ``rockdove build`` (:func:`rockdove.commands.build.build`) with
-    ``argv`` (the base options, the point's ``--set`` items, ``--cache``) into ``out``. Returns the point's
-    record; a bad configuration, a failed verification or any other error is recorded, not raised, so the
-    point fails alone (only a worker's death makes Dask retry it elsewhere)."""
+def build_point(name: str, base: dict, overrides: list[str], out: str, verify: bool) -> dict:
+    """Build one point on a Dask worker with :func:`rockdove.api.build`: the configuration of ``base``
+    (``preset``, ``config_file``, ``overrides``) and the point's ``overrides`` (``KEY=VALUE``), into ``out``
+    with ``base["cache"]``. Returns the point's record; a bad configuration, a failed verification or any other
+    error is recorded, not raised, so the point fails alone (only a worker's death makes Dask retry it
+    elsewhere)."""
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")  # before anything imports OpenGL
     _restore_malloc_thresholds()
-    from . import build as B
-    from ..errors import VerificationFailed
+    from .. import api
 
     record: dict = {"name": name, "pid": os.getpid(), "worker": _worker_address()}
     t0 = time.perf_counter()
+    result = None
     with _ONE_POINT_AT_A_TIME:
         try:
-            summary = B.build(B.parse_args([*argv, "--out", out, "--quiet", *([] if verify else ["--no-verify"])]))
+            config = api.load_config(preset=base["preset"], config_file=base["config_file"],
+                                     overrides=[*base["overrides"], *overrides])
+            result = api.build(config, out, cache=base["cache"], verify=verify, quiet=True)
             record["status"] = "ok"
-        except VerificationFailed as exc:
-            summary = getattr(exc, "summary", None)
+        except api.BuildFailed as exc:
+            result = exc.result
             record.update(status="failed", error=str(exc))
-        except (ValueError, argparse.ArgumentError, OSError) as exc:
-            summary = None
+        except api.VerificationFailed as exc:
+            record.update(status="failed", error=str(exc))
+        except (ValueError, OSError) as exc:
             record.update(status="invalid" if isinstance(exc, ValueError) else "error", error=str(exc))
         except Exception as exc:  # noqa: BLE001 - the point fails alone, with its message
-            summary = None
             record.update(status="error", error=f"{type(exc).__name__}: {exc}")
     record["seconds"] = round(time.perf_counter() - t0, 3)
-    if summary:
+    if result is not None:
+        summary = result.as_dict()
         record["config_hash"] = summary["config_hash"]
         record["build"] = {k: summary[k] for k in ("ran", "reused", "seconds")}
         record["verify"] = _verify_summary(summary)
@@ -436,11 +440,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--out {args.out!r} exists and is not a folder")
     cache = Path(args.cache).resolve() if args.cache else root / ".rockdove-cache"
     points = grid_points(axes)
-    base = ["--preset", args.preset, "--cache", str(cache)]
-    if args.config:
-        base += ["--config", str(Path(args.config).resolve())]
-    for o in args.overrides:
-        base += ["--set", o]
+    base = {"preset": args.preset, "config_file": str(Path(args.config).resolve()) if args.config else None,
+            "overrides": list(args.overrides), "cache": str(cache)}
 
     records = []
     for p in points:
@@ -483,8 +484,7 @@ def run(args: argparse.Namespace) -> int:
               f"progress in {root / 'index.html'}", file=sys.stderr)
         futures = {}
         for p, r in todo:
-            f = client.submit(build_point, p.name, [*base, *sum([["--set", o] for o in p.overrides], [])],
-                              str(root / POINTS / p.name), not args.no_verify, pure=False,
+            f = client.submit(build_point, p.name, base, list(p.overrides), str(root / POINTS / p.name), not args.no_verify, pure=False,
                               key=f"rockdove-point-{p.name}-{os.urandom(4).hex()}")
             futures[f] = r
         for f in as_completed(list(futures)):

@@ -78,7 +78,7 @@ _LOADED_LOCK = threading.Lock()
 def load_entry(codec: Codec, folder: Path) -> Any:
     """``codec.load(folder)``, once per process for a ``shared`` codec: an entry's files never change once
     written (its folder is named by the content key of everything that made it, filled in a temporary folder,
-    renamed into place and made read-only), so a long-lived process (a sweep worker, a build server) rebuilding
+    renamed into place and made read-only), so a long-lived process (a sweep worker, `rockdove build --watch`) rebuilding
     after a film change does not re-read the unchanged geometry. Keyed by the folder and its inode and mtime,
     so an entry deleted and written again is read again."""
     if not codec.shared:
