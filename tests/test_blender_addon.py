@@ -163,7 +163,7 @@ print("RESULT " + json.dumps({"ok": ok, "films": {ob.name: ob.material_slots[0].
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("version", HOOKS)
+@pytest.mark.parametrize("version", HOOKS[:1])
 def test_without_a_prim_map_the_hook_finds_this_imports_neck_by_selection_name_and_points(version, tmp_path, usdz):
     got, lines = _run(WHEELS[version], OLD_CONTEXT, tmp_path, host.addon_zip(tmp_path), usdz)
     assert got["ok"] and lines == [f"rockdove: thin-film material on {NECK}"]

@@ -140,6 +140,7 @@ def test_storm_hosts_are_skipped_with_how_to_install_when_no_python_has_bpy(monk
     real = importlib.util.find_spec
     monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "bpy" else real(name, *a))
     monkeypatch.delenv(blender.BPY_PYTHON_ENV, raising=False)
+    monkeypatch.setattr(blender, "bpy_places", lambda: ["/nonexistent/.venv-bpy/bin/python"])  # nor make's venv
     sel = hosts.select(["storm", "storm_physical"])
     assert [m.NAME for m in sel.available] == ["glsl"]
     assert "pip install 'bpy==5.0.1'" in sel.unavailable["storm"] and "storm_physical" in sel.unavailable
