@@ -192,6 +192,33 @@ def render(asset_path: str, views, out_dir: str) -> dict:
     return run_blender(asset_path, views, out_dir)
 
 
+def run_job(job: dict, work: str, module: str = "rockdove.hosts.blender_job", timeout_s: float = TIMEOUT_S) -> None:
+    """Write ``job`` as ``work/job.json`` and run the job script ``module`` on it with :func:`bpy_python`,
+    Blender's user folders inside ``work``; its output goes to ``work/blender.log``. Raises :class:`HostError`
+    when Blender fails or does not finish within ``timeout_s`` seconds."""
+    python = bpy_python()
+    job_path = os.path.join(work, "job.json")
+    with open(job_path, "w", encoding="utf-8") as fh:
+        json.dump(job, fh, indent=1)
+    user = os.path.join(work, "user")  # Blender's user folders (installed add-ons, preferences) stay in here
+    env = dict(os.environ, BLENDER_USER_RESOURCES=user, BLENDER_USER_CONFIG=os.path.join(user, "config"),
+               BLENDER_USER_SCRIPTS=os.path.join(user, "scripts"),
+               BLENDER_USER_EXTENSIONS=os.path.join(user, "extensions"))
+    try:
+        # run by file: the interpreter with bpy need not have rockdove installed (the job imports none of it)
+        job_file = importlib.util.find_spec(module).origin
+        proc = subprocess.run([python, job_file, job_path], env=env,
+                              capture_output=True, text=True, timeout=timeout_s, cwd=work)
+    except subprocess.TimeoutExpired:
+        raise HostError(NAME, f"Blender did not finish within {timeout_s:g} s") from None
+    with open(os.path.join(work, "blender.log"), "w", encoding="utf-8") as fh:
+        fh.write(proc.stdout + "\n--- stderr ---\n" + proc.stderr)
+    if proc.returncode != 0:
+        lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
+        raise HostError(NAME, f"Blender exited with status {proc.returncode}: "
+                              f"{lines[-1] if lines else 'no message'} (log: {work}/blender.log)")
+
+
 #: What :func:`run_blender` can draw: the film lobe alone (the verification render), or the asset as Blender
 #: imported it (every material untouched) under the same white world: what a user sees.
 LOBES = (LOBE, "as_imported")
@@ -228,7 +255,7 @@ def run_blender(asset_path: str, views, out_dir: str, *, addon: bool = True, lob
     from ..spectral import linear_to_srgb8
     from ..render.images import save_png
 
-    python = bpy_python()
+    bpy_python()  # bpy missing: HostError before any work
     views = list(views)
     if not views:
         raise ValueError("views must hold at least one View, got none")
@@ -258,26 +285,7 @@ def run_blender(asset_path: str, views, out_dir: str, *, addon: bool = True, lob
         "out_dir": work,
         "views": [v.to_dict() for v in views],
     }
-    job_path = os.path.join(work, "job.json")
-    with open(job_path, "w", encoding="utf-8") as fh:
-        json.dump(job, fh, indent=1)
-    user = os.path.join(work, "user")  # Blender's user folders (installed add-ons, preferences) stay in here
-    env = dict(os.environ, BLENDER_USER_RESOURCES=user, BLENDER_USER_CONFIG=os.path.join(user, "config"),
-               BLENDER_USER_SCRIPTS=os.path.join(user, "scripts"),
-               BLENDER_USER_EXTENSIONS=os.path.join(user, "extensions"))
-    try:
-        # run by file: the interpreter with bpy need not have rockdove installed (the job imports none of it)
-        job_file = importlib.util.find_spec("rockdove.hosts.blender_job").origin
-        proc = subprocess.run([python, job_file, job_path], env=env,
-                              capture_output=True, text=True, timeout=TIMEOUT_S, cwd=work)
-    except subprocess.TimeoutExpired:
-        raise HostError(NAME, f"Blender did not finish within {TIMEOUT_S} s") from None
-    with open(os.path.join(work, "blender.log"), "w", encoding="utf-8") as fh:
-        fh.write(proc.stdout + "\n--- stderr ---\n" + proc.stderr)
-    if proc.returncode != 0:
-        lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
-        raise HostError(NAME, f"Blender exited with status {proc.returncode}: "
-                              f"{lines[-1] if lines else 'no message'} (log: {work}/blender.log)")
+    run_job(job, work)
     out = {}
     for v in views:
         exr = os.path.join(work, f"{v.name}.exr")

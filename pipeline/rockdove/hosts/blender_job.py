@@ -84,10 +84,9 @@ def _camera(bpy, mathutils, to_blender, view: dict):
     return cam
 
 
-def run(job: dict) -> None:
-    import bpy
-    import mathutils
-
+def import_asset(bpy, job: dict):
+    """Steps 1-2 (module docstring) in an empty scene: ``(add-on module or None, thin-film material names,
+    the importer's up-axis conversion matrix)``."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     addon = None
     if job["addon_zip"]:
@@ -103,7 +102,14 @@ def run(job: dict) -> None:
     root = bpy.data.objects.get(job["root_object"])
     if root is None:
         raise RuntimeError(f"no imported object {job['root_object']!r} (the asset's root prim)")
-    to_blender = root.matrix_world.copy()  # the importer's up-axis conversion
+    return addon, films, root.matrix_world.copy()  # the importer's up-axis conversion
+
+
+def run(job: dict) -> None:
+    import bpy
+    import mathutils
+
+    addon, films, to_blender = import_asset(bpy, job)
     if job["lobe"] == "view_angle":
         film_lobe_only(bpy, addon)
     elif job["lobe"] != "as_imported":

@@ -5,8 +5,9 @@ Storm is the one in the bpy wheel (USD 25.08 with imaging, hdSt, HdMtlx, Materia
 in an EGL pbuffer with an OpenGL 4.5 compatibility context. Everything the host adds is in the stage's session
 layer (the asset's files are never written): a camera per View (clipping range 1 mm - 1 km), a dome light with a
 white texture of unit radiance (:data:`ENVIRONMENT_RADIANCE`: the ``view_angle`` lobe's uniform environment), the
-``shading`` variant selection, and the lobe's one change to the network: base colour black (the feather's
-``StructuralMix.bg`` / OpenPBR ``base_color`` set to 0, as the other hosts draw the film lobe alone).
+``shading`` variant selection, and the lobe's changes: base colour black (the feather's ``StructuralMix.bg`` /
+OpenPBR ``base_color`` set to 0, as the other hosts draw the film lobe alone) and the parts without a MaterialX
+material black (UsdPreviewSurface diffuse 0, ior 1), as the exact reference draws them.
 
 Three hosts, one per network a Storm user sees (:data:`VARIANTS`):
 
