@@ -216,8 +216,10 @@ def bundled_pxr() -> str | None:
     import os
     import sys
 
-    site = os.path.join(bpy.utils.resource_path("LOCAL"), "python", "lib",
-                        f"python{sys.version_info.major}.{sys.version_info.minor}", "site-packages")
+    lib = os.path.join(bpy.utils.resource_path("LOCAL"), "python", "lib")
+    sites = [os.path.join(lib, f"python{sys.version_info.major}.{sys.version_info.minor}", "site-packages"),
+             os.path.join(lib, "site-packages")]  # Linux and macOS; Windows
+    site = next((s for s in sites if os.path.isdir(os.path.join(s, "pxr"))), sites[0])
     bundled = os.path.isdir(os.path.join(site, "pxr"))
     loaded = sys.modules.get("pxr")
     if loaded is not None:
