@@ -280,7 +280,7 @@ def imported_meshes(import_context, prims) -> dict:
     Blender has one (4.4 and later), else by :func:`find_imported` over the objects the importer selected."""
     get_prim_map = getattr(import_context, "get_prim_map", None)
     if get_prim_map is None:
-        layer = bpy.context.view_layer
+        layer = bpy.context.view_layer or bpy.context.scene.view_layers[0]  # a job's end may have no window
         points = [(p.GetPath(), len(p.GetAttribute("points").Get() or ())) for p in prims]
         return find_imported(points, [ob for ob in layer.objects if ob.select_get(view_layer=layer)])
     prim_map = {str(path): ids for path, ids in get_prim_map().items()}
