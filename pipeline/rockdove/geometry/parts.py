@@ -198,7 +198,7 @@ def build_cere() -> MeshPart:
     return _part("Cere", [place(piece, start, d, (0.62, 0.34))], "cere", CERE_COLOR)
 
 
-EYE_CENTRE_M, EYE_RADIUS_M = (0.0146, 0.2185, 0.0905), 0.0042
+EYE_CENTRE_M, EYE_RADIUS_M = (0.0142, 0.2185, 0.0905), 0.0042
 #: Grey orbital ring (linear RGB): the rock dove's narrow bluish-grey orbital skin (Gibbs et al. 2001).
 EYE_RING_COLOR = (0.30, 0.32, 0.36)
 #: The ring's inner and outer radius about the eye's axis, metres: 1 .. 2 mm of bare skin round the eye.

@@ -50,8 +50,9 @@ COAT_WIDTH_M = (0.013, 0.018)
 COAT_LIFT, COAT_BEND, COAT_DEPTH_M, COAT_CLEARANCE_M = 0.04, 0.03, 0.0008, 0.0007
 #: Direction the coat lies in before projection onto the skin: tailward and down.
 COAT_FLOW = np.array([0.0, -0.55, -0.83])
-#: Coat roots are kept off the neck band (by this margin in the neck's radius, m) and off the head.
-COAT_NECK_MARGIN_M, COAT_HEAD_MARGIN_M = 0.003, 0.004
+#: Coat roots are kept off the neck band (by this margin in the neck's radius, m: the neck cards lying down from
+#: the band cover it) and off the head, so no coat card stands in front of the iridescent cards.
+COAT_NECK_MARGIN_M, COAT_HEAD_MARGIN_M = 0.010, 0.004
 STREAM_COAT = 4
 
 
@@ -125,7 +126,7 @@ def coat_region(points_m) -> np.ndarray:
     """(N,) bool: body points that carry contour-feather cards: not the neck band, the head, or the flank under
     the folded wing (a wing-width margin inside its outline, so the coat meets the wing's edge)."""
     s, r = _neck.neck_s(points_m)
-    neck = (s >= -0.05) & (r <= _sdf.NECK_BAND_RADIUS_M + COAT_NECK_MARGIN_M)
+    neck = ((s >= -0.1) & (r <= _sdf.NECK_BAND_RADIUS_M + COAT_NECK_MARGIN_M)) | (s > 0.9)
     poly = wing_outline_yz()
     inner = poly + 0.25 * (poly.mean(0) - poly)  # the outline shrunk by a quarter toward its centre
     under_wing = (np.abs(points_m[:, 0]) > 0.012) & inside_polygon(points_m[:, 1:3], inner)

@@ -112,17 +112,26 @@ _DEG = np.pi / 180.0
 #: Body axis above the horizontal, degrees.
 BODY_PITCH_DEG = 44.0
 #: Torso: the trunk, tilted nose-up by BODY_PITCH_DEG.
-TORSO = Ellipsoid((0.0, 0.098, -0.012), (0.034, 0.044, 0.076), rotation_x(-BODY_PITCH_DEG * _DEG))
+TORSO = Ellipsoid((0.0, 0.098, -0.012), (0.045, 0.044, 0.076), rotation_x(-BODY_PITCH_DEG * _DEG))
 #: The full breast in front of and below the neck.
 BREAST = Ellipsoid((0.0, 0.122, 0.046), (0.041, 0.046, 0.042), None)
 #: Belly, between the legs.
-BELLY = Ellipsoid((0.0, 0.061, 0.000), (0.029, 0.032, 0.040), None)
+BELLY = Ellipsoid((0.0, 0.061, 0.000), (0.034, 0.032, 0.040), None)
 #: Rump and tail coverts: the trunk tapering into the tail along the slope of the back.
 RUMP = Ellipsoid((0.0, 0.059, -0.067), (0.024, 0.016, 0.026), rotation_x(-28 * _DEG))
 #: Neck: a tapered capsule from the shoulders to under the head, leaning forward.
 NECK = TaperedCapsule((0.0, 0.150, 0.040), (0.0, 0.203, 0.072), 0.026, 0.0165)
 #: Head: small and rounded, only slightly longer front to back than it is high.
-HEAD = Ellipsoid((0.0, 0.214, 0.083), (0.0205, 0.0195, 0.0215), rotation_x(10 * _DEG))
+HEAD = Ellipsoid((0.0, 0.214, 0.083), (0.0190, 0.0200, 0.0215), rotation_x(10 * _DEG))
+#: Around the neck band the body keeps the shoulders and breast the iridescent cards were tuned on (issue 12's
+#: coherent green/purple field at the 90 degree sweep): torso and breast of the earlier bird, blended into the
+#: new trunk over NECK_BLEND_RADII_M from the neck axis, so the band, its cards and their thickness field stay
+#: as they were.
+NECK_TORSO = Ellipsoid((0.0, 0.112, -0.005), (0.048, 0.050, 0.088), rotation_x(-22 * _DEG))
+NECK_BREAST = Ellipsoid((0.0, 0.122, 0.045), (0.043, 0.047, 0.045), None)
+BELLY_NECK = Ellipsoid((0.0, 0.080, 0.008), (0.036, 0.037, 0.050), None)
+NECK_BLEND_RADII_M = (0.050, 0.064)
+NECK_BLEND_S = (-0.55, -0.3)
 
 #: Neck axis for the band coordinate s: s = 0 at the base of the neck, s = 1 at its top below the head.
 NECK_BASE_M = np.array([0.0, 0.150, 0.038])
@@ -131,7 +140,7 @@ NECK_TOP_M = np.array([0.0, 0.197, 0.068])
 NECK_BAND_RADIUS_M = 0.034
 
 #: Axis-aligned box that holds the whole body surface, metres (min corner, max corner).
-BODY_BOUNDS_M = (np.array([-0.050, 0.030, -0.125]), np.array([0.050, 0.240, 0.110]))
+BODY_BOUNDS_M = (np.array([-0.062, 0.030, -0.205]), np.array([0.062, 0.240, 0.115]))
 
 
 def body_sdf(p: np.ndarray) -> np.ndarray:
@@ -152,9 +161,26 @@ def body_sdf(p: np.ndarray) -> np.ndarray:
     d = smooth_union(TORSO.sdf_xyz(x, y, z), BREAST.sdf_xyz(x, y, z), 0.035)
     d = smooth_union(d, BELLY.sdf_xyz(x, y, z), 0.035)
     d = smooth_union(d, RUMP.sdf_xyz(x, y, z), 0.02)
+    # the neck band's surroundings (see NECK_TORSO): weight 1 near the neck axis, 0 on the trunk
+    q = p - NECK_BASE_M
+    axis = NECK_TOP_M - NECK_BASE_M
+    s = (q @ axis) / (axis @ axis)
+    r = np.linalg.norm(q - s[:, None] * axis, axis=1)
+    w = _smooth01(NECK_BLEND_S[0], NECK_BLEND_S[1], s) * (1.0 - _smooth01(*NECK_BLEND_RADII_M, r))
+    i = np.flatnonzero(w > 0.0)
+    if len(i):
+        xi, yi, zi = x[i], y[i], z[i]
+        old = smooth_union(NECK_TORSO.sdf_xyz(xi, yi, zi), NECK_BREAST.sdf_xyz(xi, yi, zi), 0.025)
+        old = smooth_union(old, BELLY_NECK.sdf_xyz(xi, yi, zi), 0.02)
+        d[i] = w[i] * old + (1.0 - w[i]) * d[i]
     d = smooth_union(d, NECK.sdf_xyz(x, y, z), 0.03)
     d = smooth_union(d, HEAD.sdf_xyz(x, y, z), 0.012)
     return d
+
+
+def _smooth01(e0, e1, x):
+    t = np.clip((x - e0) / (e1 - e0), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
 
 
 def sdf_gradient(sdf, p: np.ndarray, step_m: float = 1e-4) -> np.ndarray:

@@ -22,7 +22,7 @@ import numpy as np
 RANGES = {
     "total_length": (29.0, 37.0, "cm", "G", "bill tip to tail tip, straight"),
     "body_axis": (30.0, 45.0, "deg", "I", "tail base to neck base, above the horizontal"),
-    "head_to_body_width": (0.40, 0.60, "", "I", "head width / feathered body width"),
+    "head_to_body_width": (0.40, 0.60, "", "I", "head width / body width (Body, both without cards)"),
     "head_above_back": (2.0, 12.0, "cm", "I", "eye height over the highest point of the back"),
     "breast_ahead_of_feet": (1.5, 8.0, "cm", "I", "breast front ahead of the ankles"),
     "tail_length": (9.5, 12.0, "cm", "G", "tip to the skin the central rectrices leave"),
@@ -134,7 +134,7 @@ def measures(scene) -> dict:
     m["wing_overhang"] = 100 * (np.abs(wings[:, 0]).max() - np.abs(feathered[:, 0]).max())
     eye_mid = eyes.mean(0)
     head = bp[(bp[:, 1] > eye_mid[1] - 0.012) & (np.linalg.norm(bp - eye_mid, axis=1) < 0.035)]
-    m["head_to_body_width"] = np.ptp(head[:, 0]) / np.ptp(feathered[:, 0])
+    m["head_to_body_width"] = np.ptp(head[:, 0]) / np.ptp(bp[:, 0])
     m["head_above_back"] = 100 * (eye_mid[1] - trunk[:, 1].max())
     ankles = [legs[(s * legs[:, 0] > 0) & (legs[:, 1] < legs[:, 1].min() + 0.004)].mean(0) for s in (1, -1)]
     m["breast_ahead_of_feet"] = 100 * (trunk[:, 2].max() - np.mean([k[2] for k in ankles]))
