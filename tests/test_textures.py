@@ -76,7 +76,7 @@ def test_body_texture_matches_the_3d_colour_at_the_vertices(coarse_body):
     assert img.shape == (res, res, 3) and img.dtype == np.uint8
     part = coarse_body.part
     st = part.st.astype(np.float64)
-    assert st[:, 1].min() >= plumage.PALETTE_STRIP - 1e-6  # the body's charts leave the palette strip free
+    assert st[:, 1].min() >= plumage.ATLAS_START - 1e-6  # the body's charts leave the palette strip free
     col = np.clip((st[:, 0] * res).astype(int), 0, res - 1)
     row = np.clip(((1.0 - st[:, 1]) * res).astype(int), 0, res - 1)
     looked_up = img[row, col].astype(int)
@@ -85,6 +85,8 @@ def test_body_texture_matches_the_3d_colour_at_the_vertices(coarse_body):
     assert np.median(err) <= 3 and np.percentile(err, 90) <= 20
     strip = img[res - int(res * plumage.PALETTE_STRIP):]
     assert np.array_equal(strip, textures.palette_strip(res))  # the feather tiles, as painted
+    guard = img[res - int(res * (plumage.PALETTE_STRIP + plumage.ATLAS_START) / 2):res - len(strip)]
+    assert len(guard) > 0 and np.all(guard == strip[:1])  # above them, their top row: no chart bleeds in
     assert not np.any(np.all(img == 0, axis=-1))  # every texel filled (seams padded)
 
 

@@ -315,7 +315,11 @@ def body_base_colour(resolution_or_params, bird) -> np.ndarray:
     img[rows, cols] = _encode(body_colour_at(pts))
     empty = np.ones((res, res), dtype=bool)
     empty[rows, cols] = False
-    strip = palette_strip(res)
+    from rockdove.geometry import plumage as _pl
+
+    strip = palette_strip(res)  # and its top row repeated over half the guard band below the body's charts
+    guard = int(0.5 * res * (_pl.ATLAS_START - _pl.PALETTE_STRIP))
+    strip = np.concatenate([np.repeat(strip[:1], guard, axis=0), strip])
     img[res - len(strip):], empty[res - len(strip):] = strip, False
     if empty.any():
         _, (ri, ci) = ndimage.distance_transform_edt(empty, return_indices=True)

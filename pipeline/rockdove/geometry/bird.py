@@ -72,7 +72,7 @@ def build_body(params: BirdParams) -> Body:
     """Mesh the body (torso, breast, rump, neck, head) and give it UVs. Depends on ``params.body_key()``.
 
     The coarse body (surface nets at :data:`body.UNWRAP_VOXEL_M`) is unwrapped by xatlas into the texture above
-    the palette strip of the feather cards (:data:`plumage.PALETTE_STRIP`), then subdivided
+    the palette strip of the feather cards (:data:`plumage.ATLAS_START`), then subdivided
     ``body.subdivision_levels(params.body_voxel_m)`` times onto the implicit surface (see :mod:`.body`); normals
     are the field's gradient at the final vertices.
     """
@@ -81,7 +81,7 @@ def build_body(params: BirdParams) -> Body:
     coarse = _body.build_body_mesh(_body.UNWRAP_VOXEL_M)
     at = _uv.atlas(coarse.vertices_m, coarse.faces)
     st = at.st.astype(np.float64)  # the body's charts above the feathers' palette strip of the texture
-    st[:, 1] = _plumage.PALETTE_STRIP + (1.0 - _plumage.PALETTE_STRIP) * st[:, 1]
+    st[:, 1] = _plumage.ATLAS_START + (1.0 - _plumage.ATLAS_START) * st[:, 1]
     welded, faces, normals, part = _surface_part("Body", _sdf.body_sdf, coarse.vertices_m[at.vmapping], at.faces,
                                                  st, levels)
     mesh = _body.BodyMesh(vertices_m=welded, faces=faces, normals=normals)

@@ -34,6 +34,9 @@ from rockdove.geometry.types import MeshPart
 CARD_PARTS = ("CoatFeathers", "Wings", "Tail")
 #: Fraction of the body texture's height (at its bottom, t in [0, PALETTE_STRIP]) holding the feather tiles.
 PALETTE_STRIP = 0.125
+#: Where the body's charts begin (t): a guard band above the strip, so that filtering and mipmaps at a card's tip
+#: take the strip's own colours, not a neighbouring chart's.
+ATLAS_START = 0.145
 #: Feather tiles side by side in the strip; tile i spans s in [i, i + 1] / TILES.
 TILES = 32
 #: Tiles 0 .. RAMP - 1: the coat's greys from the dark neck to the pale wing (rockdove.textures.palette_colours).
