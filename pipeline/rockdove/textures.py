@@ -195,8 +195,8 @@ def palette_strip(resolution: int) -> np.ndarray:
     col = palette_colours()[tile][None, :, :] * shade[..., None]
     black = np.zeros((rows, res))
     bar, rect, prim, bar2 = (tile == t for t in (_pl.T_BAR, _pl.T_RECTRIX, _pl.T_PRIMARY, _pl.T_BAR2))
-    black[:, bar] = (_smoothstep(0.52, 0.58, v) * (1 - _smoothstep(0.8, 0.86, v)) * np.ones((1, bar.sum())))
-    black[:, bar2] = (_smoothstep(0.6, 0.64, v) * (1 - _smoothstep(0.74, 0.78, v)) * np.ones((1, bar2.sum())))
+    black[:, bar] = (_smoothstep(0.56, 0.62, v) * (1 - _smoothstep(0.8, 0.86, v)) * np.ones((1, bar.sum())))
+    black[:, bar2] = (_smoothstep(0.6, 0.63, v) * (1 - _smoothstep(0.71, 0.74, v)) * np.ones((1, bar2.sum())))
     black[:, rect] = _smoothstep(0.8, 0.86, v) * np.ones((1, rect.sum()))
     black[:, prim] = 0.5 * _smoothstep(0.55, 0.9, v) * np.ones((1, prim.sum()))
     col = _mix(col, _linear(WING_BAR_SRGB) * 0.8, black)

@@ -46,11 +46,12 @@ T_WHITE, T_BAR, T_RECTRIX, T_PRIMARY, T_BAR2 = 20, 21, 22, 23, 24
 SHAPE_V = np.array([0.0, 0.3, 0.62, 0.86, 1.0])
 SHAPE_W = np.array([0.45, 0.92, 1.0, 0.72, 0.0])
 VERTICES_PER_CARD = 2 * (len(SHAPE_V) - 1) + 1
-#: Coat cards: count, length and width ranges (m), lift and bend (as in cards.py), root depth (m), clearance (m).
+#: Coat cards: count, length and width ranges (m), lift and bend (as in cards.py: low, so the shingles stack
+#: ~1 mm deep and shadow maps see one smooth coat), root depth (m), clearance (m).
 COAT_COUNT = 1400
 COAT_LENGTH_M = (0.018, 0.026)
 COAT_WIDTH_M = (0.013, 0.018)
-COAT_LIFT, COAT_BEND, COAT_DEPTH_M, COAT_CLEARANCE_M = 0.04, 0.03, 0.0008, 0.0007
+COAT_LIFT, COAT_BEND, COAT_DEPTH_M, COAT_CLEARANCE_M = 0.015, 0.01, 0.0008, 0.0005
 #: Direction the coat lies in before projection onto the skin: tailward and down.
 COAT_FLOW = np.array([0.0, -0.55, -0.83])
 #: Coat roots are kept off the neck band (by this margin in the neck's radius, m: the neck cards lying down from
