@@ -131,6 +131,9 @@ def run(args: argparse.Namespace) -> int:
                 print(f"host {h['name']} ({h['variant']}, {h['lobe']}): {h['n_pixels']} px  dE2000 median "
                       f"{h['median_dE']:.3f}  p95 {h['p95_dE']:.3f}  green {h['green_px']}  purple {h['purple_px']}  "
                       f"hue agreement {h['hue_agreement']:.1%}  {'ok' if h['passed'] else 'FAIL'}")
+        from ..verify.anatomy import format_rows
+
+        print("anatomy (rockdove.verify.anatomy):", *format_rows(report["anatomy"]), sep="\n")
         if report.get("beauty"):
             print(f"beauty render ({report['beauty']['renderer']}): {report['beauty']['seconds']:.1f} s")
         for note in result.notes:
