@@ -1,6 +1,6 @@
 """``rockdove verify ASSET [--out DIR] [--json] [--width W --height H] [--views N] [--view NAME ...] [--hosts LIST]``:
 validate an asset, render it with the GLSL shaders, with every host asked for (:mod:`rockdove.hosts`; default
-every host available here) and with the exact CPU reference, check and report
+hosts.DEFAULT where available; "all" every host) and with the exact CPU reference, check and report
 (:func:`rockdove.verify.run.verify_asset`). An unavailable host is printed as SKIPPED with its reason; a
 host that fails is printed with its error and fails the verification.
 
@@ -67,7 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--hosts", default=None, metavar="LIST",
                         help="comma-separated hosts that also render the views, each checked against the exact "
                              "reference of its lighting model: glsl, materialx, materialx_physical, blender, web "
-                             "(default: every host available on this machine; glsl always runs)")
+                             "(default: glsl, materialx, materialx_physical, blender, web where available; 'all' adds Storm's; glsl always runs)")
     parser.add_argument("--bench-dir", default=None, metavar="DIR",
                         help="show the benchmark plots (*.png) of DIR in the report, e.g. build/bench "
                              "(default: none)")
