@@ -37,7 +37,8 @@ unitScale - unitScale): median dE2000 6.3 -> 2.7, hue agreement 66 % -> 84 % at 
 as in the exact reference. Without the ``uv_scale`` / ``uv_offset`` connections the primvar coordinates alone do
 not help (median 6.4 at 256 px). Not adopted yet: MaterialX 1.39's ``ND_image`` nodedefs declare no ``uv_scale`` /
 ``uv_offset`` (``Document.validate`` rejects them; they are inputs of MaterialX's hardware image node
-implementation, which HdMtlx connects), so the asset would carry inputs outside the nodedef.
+implementation: HdMtlx and MaterialX 1.39.5's GLSL generator both honour a connection to them), so the asset
+would carry inputs outside the nodedef.
 """
 
 from __future__ import annotations
