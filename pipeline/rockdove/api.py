@@ -195,12 +195,11 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
     chash = config_hash(config)
     if verify and ((read_marker(out) or {}).get("config_hash") != chash
                    or not (out / "verify" / "report.json").is_file()):
-        # A new configuration, or one not verified yet, will most likely render: start the verification's worker
-        # process now, so that its imports (pyrender, ~2 s) run on the other core while the LUT, textures and
-        # layers are built.
-        from .verify import worker
+        # A new configuration, or one not verified yet, will most likely render: import the GL renderer
+        # (pyrender, ~2 s) in a thread now, while the LUT, textures and layers are built.
+        from .verify.gl_renders import prestart
 
-        worker.prestart()
+        prestart()
 
     main_thread = threading.current_thread() is threading.main_thread()
     old_term = signal.signal(signal.SIGTERM, _raise_interrupt) if main_thread else None
@@ -249,7 +248,7 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, out:
     asset : path
         The asset folder or its root layer (``pigeon.usda``).
     hosts : iterable of str, optional
-        Host names (:data:`rockdove.hosts.HOSTS`); default every host available here (``glsl`` always runs).
+        Host names (:data:`rockdove.hosts.HOSTS`); default :data:`rockdove.hosts.DEFAULT` where available, ``["all"]`` every host (``glsl`` always runs).
         Unavailable hosts are skipped with their reason; a host that fails or misses its goals fails.
     out : path, optional
         Report folder (default ``verify/`` beside the root layer).

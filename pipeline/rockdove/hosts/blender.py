@@ -52,40 +52,82 @@ TIMEOUT_S = 900
 
 #: Names a Python interpreter that has bpy, for when the one running rockdove has not: bpy 5.0 pins numpy < 2,
 #: which rockdove's other dependencies (colour-science 0.4.7) have outgrown, so the two usually live in separate
-#: environments (``make`` puts bpy in ``.venv-bpy``). A setting of where a tool is, like ``PXR_PLUGINPATH_NAME``.
+#: environments. A setting of where a tool is, like ``PXR_PLUGINPATH_NAME``.
 BPY_PYTHON_ENV = "ROCKDOVE_BPY_PYTHON"
+#: The venv ``make`` puts bpy in, beside ``.venv`` in the checkout; looked for where no setting names one.
+BPY_VENV = ".venv-bpy"
+#: How to give rockdove a bpy, the end of every "not found" reason (the SKIPPED line of ``rockdove verify``).
+BPY_HOW = (f"set {BPY_PYTHON_ENV}=/path/to/bin/python of a Python 3.11 with pip install 'bpy==5.0.1', "
+           f"or run make test (it makes {BPY_VENV} beside .venv)")
+
+
+#: The oldest bpy module whose bundled ``pxr`` lets the add-on's USD hook run (the 4.2 wheels ship none).
+BPY_MIN = (4, 4)
+_PROBE = ("import importlib.metadata as m, importlib.util, sys\n"
+          "if importlib.util.find_spec('bpy') is None: sys.exit(3)\n"
+          "try: print(m.version('bpy'))\nexcept m.PackageNotFoundError: print('')")
 
 
 @functools.lru_cache(maxsize=None)
 def _probe(exe: str) -> str | None:
-    """None when ``exe`` runs and imports bpy, else why not (one line)."""
+    """None when ``exe`` runs and has a bpy of :data:`BPY_MIN` or later, else why not (a few words)."""
     try:
-        p = subprocess.run([exe, "-c", "import importlib.util, sys; sys.exit(importlib.util.find_spec('bpy') is None)"],
-                           capture_output=True, text=True, timeout=120)
+        p = subprocess.run([exe, "-c", _PROBE], capture_output=True, text=True, timeout=120)
     except (OSError, subprocess.TimeoutExpired) as exc:
-        return f"${BPY_PYTHON_ENV}={exe!r} does not run: {exc}"
-    return None if p.returncode == 0 else f"${BPY_PYTHON_ENV}={exe!r} has no bpy (pip install 'bpy==5.0.1' there)"
+        return f"does not run ({exc})"
+    if p.returncode != 0:
+        return "has no bpy"
+    version = p.stdout.strip()
+    parts = tuple(int(x) for x in version.split(".")[:2] if x.isdigit())
+    if version and parts < BPY_MIN:
+        return (f"has bpy {version}, which cannot run the add-on's USD hook as a module (no pxr); "
+                f"bpy {'.'.join(map(str, BPY_MIN))} or later can")
+    return None
+
+
+def bpy_places() -> list:
+    """Where :func:`bpy_python` looks when this Python has no bpy, in order: ``$ROCKDOVE_BPY_PYTHON`` alone where
+    it is set; else ``.venv-bpy/bin/python`` beside this Python's venv (``make``'s ``.venv`` and ``.venv-bpy``
+    share the checkout) and in the checkout rockdove runs from (an editable install whose venv is elsewhere)."""
+    exe = os.environ.get(BPY_PYTHON_ENV, "").strip()
+    if exe:
+        return [exe]
+    from .. import resources
+
+    roots = [os.path.dirname(os.path.abspath(sys.prefix)), str(resources.folder("materials").parent)]
+    return list(dict.fromkeys(os.path.join(r, BPY_VENV, "bin", "python") for r in roots))
+
+
+def _find() -> tuple:
+    """(the Python with bpy, None) or (None, why there is none)."""
+    if importlib.util.find_spec("bpy") is not None:
+        return sys.executable, None
+    places, tried = bpy_places(), []
+    for exe in places:
+        if exe == os.environ.get(BPY_PYTHON_ENV, "").strip() or os.path.exists(exe):
+            why = _probe(exe)
+            if why is None:
+                return exe, None
+            env = os.environ.get(BPY_PYTHON_ENV, "").strip() == exe
+            tried.append(f"{'$' + BPY_PYTHON_ENV + '=' if env else ''}{exe} {why}")
+    if not tried:
+        tried = [f"no {BPY_VENV} at {', '.join(os.path.dirname(os.path.dirname(e)) for e in places)}"]
+    return None, f"bpy is not in this Python and {'; '.join(tried)}; {BPY_HOW}"
 
 
 def bpy_python() -> str:
     """The Python interpreter that runs Blender's side (:mod:`rockdove.hosts.blender_job`): this one when it has
-    bpy, else ``$ROCKDOVE_BPY_PYTHON``. Raises :class:`HostError` naming why neither can."""
-    reason = unavailable()
-    if reason:
-        raise HostError(NAME, reason)
-    return sys.executable if importlib.util.find_spec("bpy") is not None else os.environ[BPY_PYTHON_ENV]
+    bpy, else the first of :func:`bpy_places` that has. Raises :class:`HostError` naming why none can."""
+    exe, why = _find()
+    if why:
+        raise HostError(NAME, why)
+    return exe
 
 
 def unavailable() -> str | None:
-    """None when bpy (Blender as a Python module, 4.2 or later) can run, here or in ``$ROCKDOVE_BPY_PYTHON``;
-    else why not."""
-    if importlib.util.find_spec("bpy") is not None:
-        return None
-    exe = os.environ.get(BPY_PYTHON_ENV, "").strip()
-    if not exe:
-        return (f"bpy is not installed in this Python and ${BPY_PYTHON_ENV} names no Python that has it "
-                "(pip install 'bpy==5.0.1' in a Python 3.11 environment of its own; make test does)")
-    return _probe(exe)
+    """None when bpy (Blender as a Python module, 4.4 or later for the add-on's USD hook) can run: here or in a
+    Python :func:`bpy_python` finds; else why not, and how to point rockdove at one."""
+    return _find()[1]
 
 
 def addon_zip(out_dir) -> str:

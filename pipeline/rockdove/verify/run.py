@@ -40,10 +40,11 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import compare, report, worker
+from . import compare, report
+from .gl_renders import GLRenderError, GLRenders
 from .boundary import boundary_shape, class_shape
 from .inputs import DEFAULT_SIZE, DEFAULT_VIEWS, check_size, select_views, verification_scene, verification_views
-from .verdict import combine, default_out_dir, start_validation
+from .verdict import combine, default_out_dir
 
 
 def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits=None, surfaces=None, refs=None,
@@ -59,14 +60,12 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
     from .reference_image import render_reference
 
     failures_all = []
-    # The GL renders run in the worker process (rockdove.verify.worker: the other core, its imports done ahead
-    # when the build started it), one reply per view: this process computes the reference, then compares each
-    # view as soon as it is rendered, while the worker renders the next.
+    # The GL renders run in a thread of their own (rockdove.verify.gl_renders), one result per view: this thread
+    # computes the reference, then compares each view as soon as it is rendered, while the next one is drawn.
     say(f"GL renders and CPU reference ({len(views)} views)")
     # the largest views first (the hero): rendered while the reference integrates, so no view waits for long
     order = sorted(range(len(views)), key=lambda i: -views[i].width * views[i].height)
-    gl = worker.GLRenders(scene, [views[i] for i in order], lut)
-    start_validation(scene.root_layer)  # queued behind the renders: done while the views are compared
+    gl = GLRenders(scene, [views[i] for i in order], lut)
     t = time.perf_counter()
     ref_results = render_reference(scene, views, hits=hits, surfaces=surfaces) if refs is None else refs
     t_ref = (time.perf_counter() - t) / len(views)
@@ -85,7 +84,7 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
             v = views[i]
             try:
                 gl_result, t_gl = gl.result(k)
-            except worker.WorkerError as exc:
+            except GLRenderError as exc:
                 gl_result, t_gl = None, 0.0
                 failure = f"GL renders (rockdove.render.gl) failed: {exc}"
                 if failure not in failures_all:
