@@ -40,6 +40,19 @@ def _count(text: str) -> int:
     return v
 
 
+def _samples(text: str) -> int:
+    if not text.isdigit() or not 1 <= int(text) <= 4096:
+        raise argparse.ArgumentTypeError(f"must be an integer from 1 to 4096 samples per pixel, got {text!r}")
+    return int(text)
+
+
+def _beauty_size(text: str) -> tuple:
+    w, sep, h = text.lower().partition("x")
+    if not sep or not w.isdigit() or not h.isdigit() or not (64 <= int(w) <= 4096 and 64 <= int(h) <= 4096):
+        raise argparse.ArgumentTypeError(f"{text!r} is not WxH with each 64 to 4096 pixels, e.g. 768x512")
+    return int(w), int(h)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("asset", metavar="ASSET", help="the asset folder or its root layer (pigeon.usda)")
     parser.add_argument("--out", metavar="DIR", default=None,
@@ -58,6 +71,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--bench-dir", default=None, metavar="DIR",
                         help="show the benchmark plots (*.png) of DIR in the report, e.g. build/bench "
                              "(default: none)")
+    parser.add_argument("--beauty", default=None, choices=("auto", "cycles", "gl", "off"),
+                        help="the report's opening picture: Cycles through the Blender add-on, GL, or auto "
+                             "(default: Cycles when the blender host runs, else GL; [beauty] in the schema)")
+    parser.add_argument("--beauty-size", type=_beauty_size, default=(None, None), metavar="WxH",
+                        help="beauty render size, pixels (default 768x512)")
+    parser.add_argument("--beauty-samples", type=_samples, default=None, metavar="N",
+                        help="Cycles samples per pixel of the beauty render (default 32, adaptive, denoised)")
     parser.add_argument("--junit", metavar="FILE", default=None,
                         help="also write the verification as JUnit XML (a test case per validator, view and host "
                              "view) for CI test-result pages")
@@ -67,40 +87,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_external_argument(parser)
 
 
-def check_dependencies(asset: str, allow_external: bool) -> None:
-    """Before anything reads the asset: its layers parse and it names no file outside itself (unless allowed).
-
-    Raises
-    ------
-    VerificationFailed
-        Naming each broken layer (file, line, USD's message) or outside path.
-    """
-    from ..errors import UsageError, VerificationFailed
-    from ..usd.dependencies import scan_dependencies
-    from ..usd.layout import resolve_root_layer
-
-    try:
-        root = resolve_root_layer(asset)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
-    deps = scan_dependencies(root, allow_external)
-    if deps.errors:
-        raise VerificationFailed("; ".join(f"{i.path}: {i.message}" for i in deps.errors))
-
-
 def run(args: argparse.Namespace) -> int:
+    from .. import api
     from ..errors import VerificationFailed
-    from ..verify.run import verify_asset
     from ..verify.verdict import summary
 
     def progress(msg: str) -> None:
         if not args.quiet and not args.json:
             print(f"rockdove verify: {msg}", file=sys.stderr)
 
-    check_dependencies(args.asset, args.allow_external_assets)
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
-    report = verify_asset(args.asset, out_dir=args.out, width=args.width, height=args.height, progress=progress,
-                          views=args.names, n_views=args.views, hosts=hosts, bench_dir=args.bench_dir)
+    result = api.verify(args.asset, hosts, out=args.out, width=args.width, height=args.height, views=args.names,
+                        n_views=args.views, bench_dir=args.bench_dir, allow_external=args.allow_external_assets,
+                        progress=progress, beauty={"renderer": args.beauty, "width": args.beauty_size[0],
+                                                   "height": args.beauty_size[1], "samples": args.beauty_samples})
+    report = result.report
     short = summary(report)
     if args.junit:
         from ..verify.junit import write_junit
@@ -120,18 +121,21 @@ def run(args: argparse.Namespace) -> int:
         for name, b in report["boundary"]["per_view"].items():
             print(f"boundary {name}: {b['n_points']} points, RMS {b['rms_px']:.2f} px "
                   f"({b['rms_fraction']:.4f} of its length)")
-        for h in report.get("hosts", []):
-            if h.get("skipped"):
-                print(f"host {h['name']}: SKIPPED ({h['reason']})")
-            elif h.get("error"):
-                print(f"host {h['name']}: ERROR {h['error']}")
+        for host in result.hosts:
+            h = host.entry
+            if host.status == "skipped":
+                print(f"host {host.name}: SKIPPED ({host.reason})")
+            elif host.status == "error":
+                print(f"host {host.name}: ERROR {host.reason}")
             else:
                 print(f"host {h['name']} ({h['variant']}, {h['lobe']}): {h['n_pixels']} px  dE2000 median "
                       f"{h['median_dE']:.3f}  p95 {h['p95_dE']:.3f}  green {h['green_px']}  purple {h['purple_px']}  "
                       f"hue agreement {h['hue_agreement']:.1%}  {'ok' if h['passed'] else 'FAIL'}")
-        for note in report.get("notes", []):
+        if report.get("beauty"):
+            print(f"beauty render ({report['beauty']['renderer']}): {report['beauty']['seconds']:.1f} s")
+        for note in result.notes:
             print(f"note: {note}")
-        print(f"report: {report['out_dir']}/report.html")
-    if not report["passed"]:
-        raise VerificationFailed("; ".join(report["failures"]))
+        print(f"report: {result.report_dir / 'report.html'}")
+    if not result.passed:
+        raise VerificationFailed("; ".join(result.failures))
     return 0

@@ -492,10 +492,28 @@ def combine_verify(ctx: Context, views: dict) -> dict:
         except ResourceMissing as exc:  # e.g. a wheel install without npm's three.js: the report, without it
             skipped.append(f"no interactive viewer in the report: {exc}")
     report = report_from_views(str(ctx.asset_dir), views, out_dir=str(ctx.workdir), width=size["width"],
-                               height=size["height"], published_asset=str(published))
-    return {"passed": bool(report.get("passed")), "reason": "; ".join(map(str, report.get("failures", []))),
-            "views": [v["view"] for v in report.get("views", []) if isinstance(v, dict)],
-            "notes": list(report.get("notes", [])) + skipped}
+                               height=size["height"], published_asset=str(published), beauty=ctx.config["beauty"])
+    return dataclasses.asdict(Verdict(bool(report["passed"]), "; ".join(map(str, report["failures"])),
+                                      [v["view"] for v in report["views"]], list(report["notes"]) + skipped))
+
+
+#: The verification stage: its value is a :class:`Verdict`.
+VERIFY = "verify"
+
+
+@dataclasses.dataclass(frozen=True)
+class Verdict:
+    """The build's verification: ``passed``, ``reason`` (its failures, joined), the views checked, notes."""
+
+    passed: bool
+    reason: str = ""
+    views: list | tuple = ()
+    notes: list | tuple = ()
+
+
+def verdict(graph) -> Verdict | None:
+    """The verdict of a graph's verification stage, None when it has none (built without verification)."""
+    return Verdict(**graph.value(VERIFY)) if VERIFY in graph.records else None
 
 
 def _view_save(value: dict, folder: Path) -> None:
@@ -584,10 +602,10 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
                             deps=published + ("verify_rays",), modules=("rockdove.render", "rockdove.verify", "rockdove.usd"),
                             libraries=LIBS_RENDER, codec=JSON, needs_asset=True, item_plan=plan_surfaces, batch=True,
                             combine=combine_surfaces, item_codec=SURFACES))
-        stages.append(Stage("verify", run_verify, config=("verify.width", "verify.height", "verify.views"),
+        stages.append(Stage(VERIFY, run_verify, config=("verify.width", "verify.height", "verify.views", "beauty"),
                             deps=published + ("verify_surfaces",),
                             modules=("rockdove.render", "rockdove.verify", "rockdove.usd", "rockdove.lut", "rockdove.films",
-                                     "rockdove.optics", "rockdove.spectral", "rockdove.web",
+                                     "rockdove.optics", "rockdove.spectral", "rockdove.web", "rockdove.hosts",
                                      "rockdove.graph.publish"),
                             data=("materials", "schemas/plugInfo.json", "schemas/generatedSchema.usda"),
                             libraries=LIBS_RENDER, codec=JSON, needs_asset=True, publish="verify",
