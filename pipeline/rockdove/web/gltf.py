@@ -258,10 +258,11 @@ def scene_to_glb(scene, version: str = "") -> bytes:
                 # variants) shows: the USD preview's atlas, each card the colour of its own thickness
                 attributes.TEXCOORD_2 = blob.accessor(np.stack([part.preview_st[:, 0], 1.0 - part.preview_st[:, 1]],
                                                                axis=1).astype(np.float32), "VEC2", _ARRAY_BUFFER)
+                atlas = TextureInfo(index=texture(preview, os.path.basename(preview)), texCoord=2)
                 material = Material(name=f"{part.name}Preview", alphaMode="MASK", doubleSided=True,
-                                    alphaCutoff=float(part.opacity_threshold), pbrMetallicRoughness=PbrMetallicRoughness(
-                                        metallicFactor=0.0, roughnessFactor=roughness, baseColorTexture=TextureInfo(
-                                            index=texture(preview, os.path.basename(preview)), texCoord=2)))
+                                    alphaCutoff=float(part.opacity_threshold),
+                                    pbrMetallicRoughness=PbrMetallicRoughness(metallicFactor=0.0, baseColorTexture=atlas,
+                                                                              roughnessFactor=roughness))
                 primitive_extensions = {"KHR_materials_variants": {"mappings": [
                     {"material": film_index, "variants": [0]},
                     {"material": len(gltf.materials), "variants": [1]}]}}
