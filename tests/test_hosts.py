@@ -132,7 +132,7 @@ def test_glsl_host_renders_the_written_asset_as_the_verifier_does(asset_layer):
     assert images["sweep_090"].shape == (32, 32, 3) and images["sweep_090"].max() > 0
 
 
-def test_storm_hosts_are_skipped_with_how_to_install_when_no_python_has_bpy(monkeypatch):
+def test_storm_hosts_are_skipped_with_how_to_install_when_no_python_has_bpy(monkeypatch, tmp_path):
     import importlib.util
 
     from rockdove.hosts import blender
@@ -140,6 +140,7 @@ def test_storm_hosts_are_skipped_with_how_to_install_when_no_python_has_bpy(monk
     real = importlib.util.find_spec
     monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "bpy" else real(name, *a))
     monkeypatch.delenv(blender.BPY_PYTHON_ENV, raising=False)
+    monkeypatch.setattr(blender, "bpy_places", lambda: [str(tmp_path / "no-venv-bpy" / "bin" / "python")])
     sel = hosts.select(["storm", "storm_physical"])
     assert [m.NAME for m in sel.available] == ["glsl"]
     assert "pip install 'bpy==5.0.1'" in sel.unavailable["storm"] and "storm_physical" in sel.unavailable
@@ -154,7 +155,7 @@ def test_storm_host_that_cannot_start_names_itself_and_its_error(tmp_path):
     bad = tmp_path / "pigeon.usda"
     bad.write_text("not a USD layer\n")
     view = View("v", np.eye(4), 0.5, 8, 8, np.array([0.0, 0.0, 1.0]), np.ones(3))
-    with pytest.raises(HostError, match=r"host 'storm_physical': Storm failed: storm: .*\(log: .*storm.log\)"):
+    with pytest.raises(HostError, match=r"host 'storm_physical': Storm exited with status 1: storm: .*\(log: .*blender.log\)"):
         storm.PHYSICAL.render(str(bad), [view], str(tmp_path))
 
 
@@ -176,3 +177,13 @@ def test_storm_draws_the_physical_network_green_and_purple_as_the_reference(asse
     assert (tmp_path / "storm_physical" / "sweep_060.png").is_file()
     m = host_metrics(images, render_reference(scene, views, lobe="view_angle"), scene)
     assert host_passed("physical", m) == (True, []), m
+
+
+def test_the_default_hosts_leave_out_the_slow_ones_and_all_names_every_host(monkeypatch):
+    """``select()`` with no names asks for :data:`hosts.DEFAULT` (no Storm: its frames cost 5-45 s each);
+    ``["all"]`` asks for every registered host. Asked-for hosts are either available or skipped with a reason."""
+    monkeypatch.setattr(hosts, "_reason", lambda name: (None, f"{name} probed"))
+    default = hosts.select()
+    assert list(default.unavailable) == list(dict.fromkeys([hosts.ALWAYS, *hosts.DEFAULT]))
+    assert not any(n.startswith("storm") for n in default.unavailable)
+    assert set(hosts.select(["all"]).unavailable) == set(hosts.HOSTS)

@@ -165,7 +165,7 @@ def main(argv=None) -> int:
     try:
         run(job)
     except Exception as exc:  # one line for the host's HostError; the log keeps the rest
-        print(f"storm: {type(exc).__name__}: {exc}", file=sys.stderr)
+        print(f"storm: {type(exc).__name__}: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
     return 0
 
