@@ -159,8 +159,9 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
         "versions": provenance.library_versions(),
         "argv": list(sys.argv),
     }
-    report.write_json(os.path.join(out, "report.json"), result)
-    report.write_html(os.path.join(out, "report.html"), result, images)
+    shipped = report.portable(result, [os.path.dirname(layer), os.path.dirname(published_asset or layer)])
+    report.write_json(os.path.join(out, "report.json"), shipped)  # no build machine's path in what ships
+    report.write_html(os.path.join(out, "report.html"), shipped, images)
     return result
 
 
