@@ -24,15 +24,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--validate", action="store_true",
                         help="run the Khronos glTF-Validator (npm gltf-validator, needs node) on the result")
     parser.add_argument("--json", action="store_true", help="print the export (and validation) summary as JSON")
+    from .validate import add_external_argument
+
+    add_external_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     from .. import __version__
     from ..errors import VerificationFailed
-    from ..usd.layout import resolve_root_layer
+    from ..usd.dependencies import require_inside
     from ..web.gltf import GLB_NAME, export_glb, validate_glb
 
-    layer = resolve_root_layer(args.asset)
+    layer = require_inside(args.asset, args.allow_external_assets)
     out = args.out or os.path.join(os.path.dirname(layer), GLB_NAME)
     if not out.endswith(".glb"):
         raise ValueError(f"--out must name a .glb file, got {out!r}")

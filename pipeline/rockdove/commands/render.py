@@ -33,6 +33,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the shading variant to select (baked or physical; default: as authored)")
     parser.add_argument("--angle", default="physical", choices=("physical", "materialx_baked"),
                         help="film angle: physical = dot(L, H) (the paper), materialx_baked = |dot(N, V)|")
+    from .validate import add_external_argument
+
+    add_external_argument(parser)
 
 
 def _check(args) -> None:
@@ -50,6 +53,9 @@ def _check(args) -> None:
 
 def run(args: argparse.Namespace) -> int:
     _check(args)
+    from ..usd.dependencies import require_inside
+
+    require_inside(args.asset, args.allow_external_assets)
     from ..render.gl import render_views
     from ..render.images import box_downsample, contact_sheet, save_png
     from ..render.scene import load_scene

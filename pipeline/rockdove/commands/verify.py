@@ -64,27 +64,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_external_argument(parser)
 
 
-def check_dependencies(asset: str, allow_external: bool) -> None:
-    """Before anything reads the asset: its layers parse and it names no file outside itself (unless allowed).
-
-    Raises
-    ------
-    VerificationFailed
-        Naming each broken layer (file, line, USD's message) or outside path.
-    """
-    from ..errors import UsageError, VerificationFailed
-    from ..usd.dependencies import scan_dependencies
-    from ..usd.layout import resolve_root_layer
-
-    try:
-        root = resolve_root_layer(asset)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
-    deps = scan_dependencies(root, allow_external)
-    if deps.errors:
-        raise VerificationFailed("; ".join(f"{i.path}: {i.message}" for i in deps.errors))
-
-
 def run(args: argparse.Namespace) -> int:
     from ..errors import VerificationFailed
     from ..verify.run import verify_asset
@@ -94,7 +73,9 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet and not args.json:
             print(f"rockdove verify: {msg}", file=sys.stderr)
 
-    check_dependencies(args.asset, args.allow_external_assets)
+    from ..usd.dependencies import require_inside
+
+    require_inside(args.asset, args.allow_external_assets)
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
     report = verify_asset(args.asset, out_dir=args.out, width=args.width, height=args.height, progress=progress,
                           views=args.names, n_views=args.views, hosts=hosts, bench_dir=args.bench_dir)

@@ -505,7 +505,7 @@ def validate_asset(path, allow_external: bool = False) -> Report:
     """
     from pxr import Usd
 
-    from .dependencies import scan_dependencies
+    from .dependencies import blocking, scan_dependencies
     from .material import load_mtlx_libraries
     from .schema import register
     from .stage import variant_combinations
@@ -515,8 +515,8 @@ def validate_asset(path, allow_external: bool = False) -> Report:
     report = Report(path=root)
     deps = scan_dependencies(root, allow_external)
     report.issues += deps.issues
-    if any(i.check == "layer" or i.message.startswith("layer path") for i in deps.errors):
-        return report  # composing would read a broken layer or a layer from elsewhere
+    if blocking(deps):
+        return report  # composing would read a broken layer or a layer or clip from elsewhere
     skip = frozenset() if allow_external else frozenset(deps.external)
     try:
         stage = Usd.Stage.Open(root, Usd.Stage.LoadAll)
