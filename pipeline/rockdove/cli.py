@@ -11,7 +11,7 @@ Sub-command modules are imported only when their command runs, so ``rockdove --h
 needs no display. When a build server runs (``rockdove server start``, :mod:`rockdove.server`), :func:`main`
 hands the :data:`rockdove.server.SERVED` commands to it before importing anything heavy; ``--no-server``
 runs the command here all the same. Errors become one line on stderr: ``ValueError`` (and
-:class:`UsageError`) exit 2, :class:`VerificationFailed` exits 1; tracebacks only with ``ROCKDOVE_DEBUG=1``.
+:class:`UsageError`) and ``OSError`` (a full disk) exit 2, :class:`VerificationFailed` exits 1; tracebacks only with ``ROCKDOVE_DEBUG=1``.
 """
 
 from __future__ import annotations
@@ -123,6 +123,12 @@ def run(argv: list[str]) -> int:
         os.dup2(devnull, sys.stdout.fileno())  # so the final flush is quiet too
         os.close(devnull)
         return 141
+    except OSError as exc:  # the machine said no (a full disk, a read-only file system): one line, exit 2
+        if os.environ.get("ROCKDOVE_DEBUG"):
+            raise
+        print(f"rockdove {args.command}: error: {exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else ""),
+              file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

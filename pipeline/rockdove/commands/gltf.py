@@ -39,6 +39,9 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or os.path.join(os.path.dirname(layer), GLB_NAME)
     if not out.endswith(".glb"):
         raise ValueError(f"--out must name a .glb file, got {out!r}")
+    from ..graph.publish import check_output_file
+
+    check_output_file(out, _ours)
     summary = export_glb(layer, out, version=__version__)
     if args.validate:
         try:
@@ -64,3 +67,18 @@ def run(args: argparse.Namespace) -> int:
     if args.validate and summary["validation"]["numErrors"]:
         raise VerificationFailed(f"glTF-Validator found {summary['validation']['numErrors']} errors in {out}")
     return 0
+
+
+def _ours(path) -> bool:
+    """Whether ``path`` is a .glb rockdove wrote: its JSON chunk's ``asset.generator`` starts with ``rockdove``."""
+    import struct
+
+    with open(path, "rb") as fh:
+        head = fh.read(20)
+        if len(head) < 20 or head[:4] != b"glTF":
+            return False
+        doc = fh.read(min(struct.unpack_from("<I", head, 12)[0], 1 << 26))
+    try:
+        return str(json.loads(doc).get("asset", {}).get("generator", "")).startswith("rockdove")
+    except (ValueError, AttributeError):
+        return False

@@ -47,8 +47,9 @@ def _check(args) -> None:
         raise ValueError(f"--supersample must be in [1, 4], got {args.supersample}")
     if args.views < 1:
         raise ValueError(f"--views must be >= 1, got {args.views}")
-    if os.path.exists(args.out) and not os.path.isdir(args.out):
-        raise ValueError(f"--out {args.out!r} exists and is not a folder")
+    from ..graph.publish import claim_output
+
+    claim_output(args.out, "renders", create=False)  # a folder rockdove did not write is refused, before rendering
 
 
 def run(args: argparse.Namespace) -> int:
@@ -56,6 +57,7 @@ def run(args: argparse.Namespace) -> int:
     from ..usd.dependencies import require_inside
 
     require_inside(args.asset, args.allow_external_assets)
+    from ..graph.publish import claim_output
     from ..render.gl import render_views
     from ..render.images import box_downsample, contact_sheet, save_png
     from ..render.scene import load_scene
@@ -72,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     t1 = time.perf_counter()
     results = render_views(scene, big, angle_mode=args.angle)
     t_render = time.perf_counter() - t1
-    os.makedirs(args.out, exist_ok=True)
+    args.out = str(claim_output(args.out, "renders"))
     t2 = time.perf_counter()
     previews = []
     for r in results:

@@ -75,7 +75,11 @@ def run(args: argparse.Namespace) -> int:
 
     from ..usd.dependencies import require_inside
 
-    require_inside(args.asset, args.allow_external_assets)
+    from ..graph.publish import claim_output
+    from ..verify.verdict import default_out_dir
+
+    root = require_inside(args.asset, args.allow_external_assets)
+    args.out = str(claim_output(args.out or default_out_dir(root), "verification report"))
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
     report = verify_asset(args.asset, out_dir=args.out, width=args.width, height=args.height, progress=progress,
                           views=args.names, n_views=args.views, hosts=hosts, bench_dir=args.bench_dir)
