@@ -200,7 +200,7 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
     -------
     Dependencies
     """
-    from pxr import Sdf
+    from pxr import Ar, Sdf
 
     root = os.path.abspath(os.fspath(root_layer))
     root_dir = os.path.dirname(root)
@@ -229,6 +229,9 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
                 out.issues.append(Issue("assetPath", spec_path, f"{kind} {what} does not evaluate (not read)"))
                 continue
             anchored = Sdf.ComputeAssetPathRelativeToLayer(layer, value) if value else value
+            if anchored and not os.path.isabs(anchored) and not Ar.IsPackageRelativePath(anchored):
+                # a search-path form ("c.usda") of a file that is not there: judged as relative to the layer
+                anchored = os.path.join(os.path.dirname(layer.realPath or root), anchored)
             why = None
             if os.path.isabs(value) or _SCHEME.match(value) or value.startswith("\\\\"):
                 why = "is absolute: an asset must be relocatable, its paths relative to the layer"
