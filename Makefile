@@ -57,7 +57,14 @@ asset: $(STAMP) $(NPM_STAMP)
 	$(BIN)/rockdove build --out $(OUT)
 	@echo "asset written to $(OUT)/pigeon.usda"
 
-test: $(STAMP) $(NPM_STAMP) $(BROWSER_STAMP) $(BPY_STAMP)
+# Reference files the tests check against, from PyPI packages (tests/fetched.py): OpenUSD's ARKit compliance
+# checkers of v23.11 and v24.08 (usd-core wheels) and the JUnit schema CI tools read (pytest's sdist).
+FETCH_STAMP := $(VENV)/fetched/.installed
+
+$(FETCH_STAMP): $(STAMP) tests/fetched.py
+	$(BIN)/python tests/fetched.py $(FETCH_STAMP)
+
+test: $(STAMP) $(NPM_STAMP) $(BROWSER_STAMP) $(BPY_STAMP) $(FETCH_STAMP)
 	$(BIN)/python -m pytest -q
 
 # CI: build the sdist and the wheel, pip install the wheel into a fresh venv, build/validate/verify a small asset

@@ -32,18 +32,13 @@ SMALL_BUILD = ("geometry.body_voxel_m=0.008", "geometry.card_count=200", "textur
 
 
 def real_build(out, cache, *sets, preset="measured", verify=False) -> Path:
-    """Build an asset with the real build graph, in process, through the function ``rockdove build`` runs
-    (:func:`rockdove.commands.build.build`), with :data:`SMALL_BUILD` and ``sets`` (``KEY=VALUE``) over
-    ``preset``; ``cache`` is the stage cache (share one to build the body once). Returns the asset folder."""
-    from rockdove.commands.build import build, parse_args
+    """Build an asset with the real build graph, in process, through :func:`rockdove.api.build` (what
+    ``rockdove build`` runs), with :data:`SMALL_BUILD` and ``sets`` (``KEY=VALUE``) over ``preset``; ``cache``
+    is the stage cache (share one to build the body once). Returns the asset folder."""
+    from rockdove import api
 
-    argv = ["--out", str(out), "--cache", str(cache), "--preset", preset, "--quiet"]
-    for s in (*SMALL_BUILD, *sets):
-        argv += ["--set", s]
-    if not verify:
-        argv.append("--no-verify")
-    build(parse_args(argv))
-    return Path(out)
+    config = api.load_config(preset=preset, overrides=[*SMALL_BUILD, *sets])
+    return api.build(config, out, cache=cache, verify=verify, quiet=True).out
 
 
 def built_value(asset, stage: str, cache=None):
@@ -57,7 +52,7 @@ def built_value(asset, stage: str, cache=None):
 
     asset = Path(asset)
     marker = json.loads((asset / ".rockdove-asset.json").read_text())
-    config = load_config(preset=marker["preset"], overrides=list(SMALL_BUILD))  # codecs only: any config
+    config = load_config(overrides=list(SMALL_BUILD))  # codecs only: any config
     codec = {s.name: s.codec for s in S.make_stages(config)}[stage]
     cache = Path(cache) if cache is not None else asset.parent.parent / "cache"
     return codec.load(Cache(cache).entry(stage, marker["stages"][stage]) / "value")

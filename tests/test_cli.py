@@ -299,3 +299,72 @@ def test_every_listed_command_has_a_module_with_the_command_interface():
         mod = importlib.import_module(f"rockdove.commands.{name.replace('-', '_')}")
         assert callable(mod.add_arguments) and callable(mod.run), name
         build_parser(name)  # its arguments are added without error
+
+
+def test_watch_rebuilds_on_an_edit_not_without_one_survives_a_bad_edit_and_ends_on_ctrl_c(tmp_path):
+    """``rockdove build --watch``: one process; an edit of the --config file rebuilds (the film stages run, the
+    geometry is reused), no edit builds nothing, a malformed edit prints its one-line error and keeps watching,
+    a repaired file builds again, and Ctrl-C (SIGINT) ends it with status 0 and no staging folder left."""
+    import select
+    import signal
+
+    config = tmp_path / "look.toml"
+    config.write_text("[film]\ncauchy_a = 1.50\n")
+    cmd = [sys.executable, LAUNCHER, "--standin", "--", "build", "--watch", "--json", "--quiet", "--no-verify",
+           "--config", str(config), "--out", "b/p"]
+    proc = subprocess.Popen(cmd, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+    def line(timeout: float):
+        ready, _, _ = select.select([proc.stdout], [], [], timeout)
+        return json.loads(proc.stdout.readline()) if ready else None
+
+    try:
+        first = line(60)
+        assert first is not None and "lut" in first["ran"] and "body" in first["ran"]
+        assert line(1.5) is None  # nothing changed: no rebuild
+        config.write_text("[film]\ncauchy_a = 1.60\n")
+        second = line(60)
+        assert second is not None and "lut" in second["ran"] and "body" in second["reused"]
+        config.write_text("[film\ncauchy_a = 1.7\n")
+        bad = line(60)
+        assert bad is not None and "not valid TOML" in bad["error"] and proc.poll() is None
+        config.write_text("[film]\ncauchy_a = 1.70\n")
+        third = line(60)
+        assert third is not None and "lut" in third["ran"] and third["config_hash"] != second["config_hash"]
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, err
+    assert "stopped watching" in err and "Traceback" not in err
+    assert err.count("not valid TOML") == 1
+    assert not list((tmp_path / "b").glob(".p.rockdove-tmp-*"))
+
+
+def test_api_build_returns_a_typed_result_and_a_failed_verification_raises_with_it(tmp_path, monkeypatch):
+    """The library API in this process (stand-in stages): values in, a BuildResult out; overrides as a mapping
+    and as KEY=VALUE strings give the same configuration; a failed verification publishes nothing and raises
+    BuildFailed carrying what ran."""
+    from standins import standin_stages
+
+    from rockdove import api
+    from rockdove.graph import stages
+
+    monkeypatch.setattr(stages, "make_stages", standin_stages)
+    config = api.load_config(preset="paper", overrides={"film.cauchy_a": 1.55})
+    assert config == api.load_config(preset="paper", overrides=["film.cauchy_a=1.55"])
+    with pytest.raises(api.UsageError, match="lut.angles"):
+        api.load_config(overrides={"lut.angles": 1})
+    result = api.build(config, tmp_path / "p", cache=tmp_path / "c")
+    assert result.verified is True and result.report_dir == tmp_path / "p" / "verify"
+    assert "lut" in result.ran and not result.reused and set(result.keys) == {s.name for s in result.stages}
+    again = api.build(config, tmp_path / "p", cache=tmp_path / "c", verify=False)
+    assert again.ran == [] and again.verified is None and again.keys["lut"] == result.keys["lut"]
+    bad = api.load_config(preset="paper", overrides={"film.cauchy_a": 1.55, "verify.width": 17})
+    with pytest.raises(api.BuildFailed) as info:
+        api.build(bad, tmp_path / "p", cache=tmp_path / "c")
+    assert info.value.result.verified is False and "stand-in width 17" in info.value.result.failure
+    assert "verify" in info.value.result.ran
+    assert json.loads((tmp_path / "p" / ".rockdove-asset.json").read_text())["config_hash"] == result.config_hash

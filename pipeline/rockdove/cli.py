@@ -8,9 +8,8 @@ exposes::
     def run(args: argparse.Namespace) -> int    # exit status: 0 ok, 1 failed check, 2 bad usage
 
 Sub-command modules are imported only when their command runs, so ``rockdove --help`` stays fast and
-needs no display. When a build server runs (``rockdove server start``, :mod:`rockdove.server`), :func:`main`
-hands the :data:`rockdove.server.SERVED` commands to it before importing anything heavy; ``--no-server``
-runs the command here all the same. Errors become one line on stderr: ``ValueError`` (and
+needs no display. The commands call :mod:`rockdove.api`; a warm process is ``rockdove build --watch`` or the
+API itself. Errors become one line on stderr: ``ValueError`` (and
 :class:`UsageError`) and ``OSError`` (a full disk) exit 2, :class:`VerificationFailed` exits 1; tracebacks only with ``ROCKDOVE_DEBUG=1``.
 """
 
@@ -36,7 +35,6 @@ COMMANDS: dict[str, str] = {
     "schema-path": "print the folder holding the USD schema plugin, for PXR_PLUGINPATH_NAME",
     "blender-addon": "write the Blender add-on (rockdove_blender.zip) that builds the thin-film material on USD import",
     "sweep": "build (and verify) every point of a parameter grid on Dask (a local cluster or --scheduler)",
-    "server": "start, stop or query the build server that runs later commands with warm imports",
 }
 
 
@@ -63,8 +61,6 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         description="Build, render and verify a USD rock dove whose neck feathers shimmer by thin-film interference.",
     )
     parser.add_argument("--version", action="version", version=f"rockdove {__version__}")
-    parser.add_argument("--no-server", action="store_true",
-                        help="run the command in this process even when a build server is running")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name, help_ in COMMANDS.items():
         p = sub.add_parser(name, help=help_, description=help_)
@@ -73,30 +69,15 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    """The ``rockdove`` console script: the command in the build server when one runs for this interpreter and
-    environment (and the command is one it serves), else :func:`run` here."""
-    # Offscreen GL must be chosen before anything imports OpenGL (also the server's key: see rockdove.server).
-    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-    argv = list(sys.argv[1:] if argv is None else argv)
-    command = _command(argv)
-    if command is not None and "--no-server" not in argv[:argv.index(command)]:
-        from . import server
-
-        if command in server.SERVED:
-            code = server.forward(argv)
-            if code is not None:
-                return code
-    return run(argv)
-
-
 def _command(argv: list[str]) -> str | None:
     return next((a for a in argv if not a.startswith("-")), None)
 
 
-def run(argv: list[str]) -> int:
-    """Parse ``argv`` and run its command in this process: the exit status."""
-    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+def main(argv: list[str] | None = None) -> int:
+    """The ``rockdove`` console script: parse ``argv`` (default ``sys.argv[1:]``) and run its command; the exit
+    status."""
+    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")  # offscreen GL, chosen before anything imports OpenGL
+    argv = list(sys.argv[1:] if argv is None else argv)
     command = _command(argv)
     parser = build_parser(command if command in COMMANDS else None)
     args = parser.parse_args(argv)

@@ -24,7 +24,7 @@ import os
 import re
 import tomllib
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, Mapping
 
 from . import resources
 from .errors import UsageError
@@ -267,7 +267,7 @@ def validate(config: dict) -> dict:
 
 
 def load_config(*, preset: str | None = DEFAULT_PRESET, config_file: str | os.PathLike | None = None,
-                overrides: Iterable[str] = ()) -> dict:
+                overrides: Mapping[str, Any] | Iterable[str] = ()) -> dict:
     """The effective, validated configuration.
 
     Parameters
@@ -276,16 +276,24 @@ def load_config(*, preset: str | None = DEFAULT_PRESET, config_file: str | os.Pa
         Name of a preset in ``assets/pigeon/`` (``measured`` or ``paper``); None = the schema's defaults only.
     config_file : path or None
         A TOML file layered on top of the preset.
-    overrides : iterable of str
-        ``KEY=VALUE`` items (``--set``), applied last.
+    overrides : mapping or iterable of str
+        ``{dotted key: value}`` or ``KEY=VALUE`` items (``--set``: TOML literals), applied last, in order.
     """
     layers = []
     if preset is not None:
         layers.append(read_toml(preset_path(preset), what=f"preset {preset!r}"))
     if config_file is not None:
         layers.append(read_toml(config_file))
-    for item in overrides:
-        layers.append(_nest(*parse_set(item)))
+    if isinstance(overrides, Mapping):
+        for key, value in overrides.items():
+            if not isinstance(key, str) or not _KEY_RE.match(key):
+                raise UsageError(f"override key {key!r} is not a dotted name like 'lut.angles'")
+            layers.append(_nest(key, value))
+    else:
+        if isinstance(overrides, str):
+            raise UsageError(f"overrides must be a mapping or a list of KEY=VALUE strings, got the string {overrides!r}")
+        for item in overrides:
+            layers.append(_nest(*parse_set(item)))
     config = defaults()
     for layer in layers:
         config = _merge(config, layer)

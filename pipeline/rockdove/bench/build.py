@@ -15,9 +15,10 @@ shared machine):
   ray-cast and surface items the film change reused; the two builds' whole-process wall times (the
   verification's worker process starts with the build, so part of its work precedes the verify stages); and
   the same verification in a warm process (the build function called again, as a sweep's worker does);
-- the film-only rebuild and the verification after a film change again through the build server
-  (``rockdove server start`` in a runtime folder of the benchmark's own; each build a new ``rockdove`` process
-  whose command the server runs), against the same goals; the other rows run with ``--no-server``;
+- cold, no-op and film-only builds three ways, in one table: each a new ``rockdove build`` process; through
+  :func:`rockdove.api.build` called again in one process (a notebook, a sweep's worker); and through
+  ``rockdove build --watch`` (one warm process, its ``--config`` file edited; timed from the write to the
+  rebuild's summary line, so its poll interval counts);
 - the geometry payload written as usda against usdc at 1,500 and 100k cards: size and write time
   (in process: ``rockdove.usd.stage.author_geometry`` once, then ``Sdf.Layer.Export`` to each format);
 - scaling with the card count (1k, 10k, 100k): cold build time and the build process's peak memory
@@ -32,7 +33,6 @@ for); ``inside`` is the build command's own time from its ``--json`` summary.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import os
 import statistics
@@ -71,52 +71,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "is always measured, every ratio against it")
 
 
-def _env(user_cache: Path | None = None, served: Path | None = None) -> dict:
+def _env(user_cache: Path | None = None) -> dict:
     """The environment of the benchmark's ``rockdove`` processes: ``$XDG_CACHE_HOME`` = ``user_cache`` (default
-    the user's), ``$XDG_RUNTIME_DIR`` = ``served`` (where :func:`_server` runs a build server)."""
+    the user's)."""
     env = dict(os.environ)
     if user_cache is not None:
         env["XDG_CACHE_HOME"] = str(user_cache)
-    if served is not None:
-        env["XDG_RUNTIME_DIR"] = str(served)
     return env
 
 
-@contextlib.contextmanager
-def _server(tmp: Path, builds: int, user_cache: Path | None = None):
-    """A build server (``rockdove server start``) for the environment :func:`_env` gives ``user_cache``, in a
-    runtime folder of its own (never the user's server): yields that folder, for :func:`_build_rss`'s
-    ``served``; stopped at the end. ``RuntimeError`` unless it ran all ``builds`` (a build it did not take ran in
-    its own process: the row would time the wrong thing)."""
-    runtime = tmp / f"run-{len(list(tmp.glob('run-*')))}"
-    runtime.mkdir(mode=0o700)
-    env = _env(user_cache, runtime)
-    cli = [sys.executable, "-m", "rockdove.cli", "server"]
-    r = subprocess.run([*cli, "start", "--json"], env=env, capture_output=True, text=True)
-    if r.returncode != 0:
-        raise RuntimeError(f"rockdove server start exited {r.returncode}: {r.stderr.strip()}")
-    try:
-        yield runtime
-        r = subprocess.run([*cli, "status", "--json"], env=env, capture_output=True, text=True)
-        served = json.loads(r.stdout).get("served", 0) if r.returncode == 0 else 0
-    finally:
-        subprocess.run([*cli, "stop"], env=env, capture_output=True, text=True)
-    if served != builds:
-        raise RuntimeError(f"the build server in {runtime} ran {served} of the benchmark's {builds} builds")
-
-
 def _build_rss(workdir: Path, *args: str, cache: str = "cache", allow_fail: bool = False,
-               user_cache: Path | None = None, served: Path | None = None) -> dict:
+               user_cache: Path | None = None) -> dict:
     """One ``rockdove build`` process: wall time, peak resident memory (MiB, ``os.wait4``), its --json summary.
-    ``user_cache``: the build's ``$XDG_CACHE_HOME`` (rockdove.resources.user_cache_dir), default the user's.
-    ``served``: the runtime folder of a :func:`_server` that runs the command (else ``--no-server``: a user's
-    own server never runs the benchmark's builds; the memory is then the client's)."""
-    cmd = [sys.executable, "-m", "rockdove.cli", *([] if served else ["--no-server"]), "build",
+    ``user_cache``: the build's ``$XDG_CACHE_HOME`` (rockdove.resources.user_cache_dir), default the user's."""
+    cmd = [sys.executable, "-m", "rockdove.cli", "build",
            "--out", str(workdir / "out" / "pigeon"), "--cache", str(workdir / cache), "--json", "--quiet", *args]
     out_path = workdir / "summary.json"
     t0 = time.perf_counter()
     with open(out_path, "w") as out, open(workdir / "stderr.txt", "w") as errf:
-        proc = subprocess.Popen(cmd, stdout=out, stderr=errf, env=_env(user_cache, served))
+        proc = subprocess.Popen(cmd, stdout=out, stderr=errf, env=_env(user_cache))
         _, status, usage = os.wait4(proc.pid, 0)
         proc.returncode = os.waitstatus_to_exitcode(status)
     wall = time.perf_counter() - t0
@@ -172,7 +145,13 @@ def _run(args: argparse.Namespace) -> int:
               f"{'met' if noop_s <= NOOP_GOAL_RATIO * cold_s else 'NOT met'}; stages ran: {noop[-1]['ran'] or 'none'}")
 
         if "film" in sections:
-            results["film_change"] = _film_rows(tmp, preset, repeats, cold_s)
+            results["film_change"] = film = _film_rows(tmp, preset, repeats, cold_s)
+            results["api"] = api = _api_table(tmp, preset, repeats)
+            watch = film["watch"]
+            print("                 new process   API (one process)   --watch")
+            for label, key, new in (("cold", "cold_s", cold_s), ("no-op", "noop_s", noop_s),
+                                    ("film-only", "film_s", film["wall_s"])):
+                print(f"{label:>12s} s   {new:>11.3f}   {api[key]:>17.3f}   {watch[key]:>7.3f}")
         if "verify" in sections:
             results["verify_after_film_change"] = _verify_rows(tmp, preset, args)
         if "formats" in sections:
@@ -223,53 +202,101 @@ def _film_rows(tmp: Path, preset: list[str], repeats: int, cold_s: float) -> dic
     print(f"  in a warm process (rockdove.commands.build.build called again, as a sweep's Dask worker or a notebook "
           f"does): {warm:.3f} s = {100 * out['warm_process_ratio']:.1f} % of cold, goal <= {100 * FILM_GOAL_RATIO:g} %: "
           f"{'met' if out['warm_process_ratio'] <= FILM_GOAL_RATIO else 'NOT met'}")
-    with _server(tmp, 1 + repeats) as served:
-        cold_served = _build_rss(tmp, *preset, cache="served", served=served)
-        rows = [_build_rss(tmp, *preset, "--set", f"film.cauchy_a={FILM_VALUES[i % len(FILM_VALUES)]}",
-                           cache="served", served=served) for i in range(repeats)]
-    wall = _median(rows, "wall_s")
-    out.update(server_s=wall, server_ratio=wall / cold_s, server_cold_s=cold_served["wall_s"],
-               server_ratio_to_served_cold=wall / cold_served["wall_s"])
-    print(f"  through the build server (`rockdove server start`; each rebuild a new `rockdove` process whose command "
-          f"the server runs): {wall:.3f} s = {100 * out['server_ratio']:.1f} % of the cold build, goal <= "
-          f"{100 * FILM_GOAL_RATIO:g} %: {'met' if out['server_ratio'] <= FILM_GOAL_RATIO else 'NOT met'} (a cold build "
-          f"through the server: {cold_served['wall_s']:.2f} s, of which this is "
-          f"{100 * out['server_ratio_to_served_cold']:.1f} %)")
+    watch = _watch_rows(tmp, preset, repeats)
+    out.update(watch=watch, watch_ratio=watch["film_s"] / cold_s)
+    print(f"  through `rockdove build --watch` (one warm process; the --config file edited, timed from the write to "
+          f"the rebuild's summary line, poll interval included): film {watch['film_s']:.3f} s = "
+          f"{100 * out['watch_ratio']:.1f} % of cold, goal <= {100 * FILM_GOAL_RATIO:g} %: "
+          f"{'met' if out['watch_ratio'] <= FILM_GOAL_RATIO else 'NOT met'}; its first (cold) build "
+          f"{watch['cold_s']:.2f} s, no-op (the file touched, unchanged) {watch['noop_s']:.3f} s")
     return out
 
 
-#: One process: a first film-only rebuild (pays the imports, untimed), then the timed ones, each through
-#: rockdove.commands.build.build, the function ``rockdove build`` and the sweep's workers run. Prints, per timed
-#: rebuild, its seconds and the seconds of its verification stages (0 with --no-verify).
-_WARM_SCRIPT = """
-import contextlib, io, json, sys, time
-from rockdove.commands import build as B
-common, values, verify_stages = json.loads(sys.argv[1]), json.loads(sys.argv[2]), json.loads(sys.argv[3])
+#: One process calling :func:`rockdove.api.build` for each configuration of ``steps`` in turn (``KEY=VALUE``
+#: lists over the preset): per step its seconds, stages ran and the seconds of its verification stages.
+_API_SCRIPT = """
+import json, sys, time
+from rockdove import api
+out, cache, preset, steps, verify, verify_stages = json.loads(sys.argv[1])
 rows = []
-for i, v in enumerate(values):
-    args = B.parse_args([*common, "--set", f"film.cauchy_a={v}"])
+for sets in steps:
     t0 = time.perf_counter()
-    with contextlib.redirect_stdout(io.StringIO()):
-        summary = B.build(args)
-    wall = time.perf_counter() - t0
-    assert "lut" in summary["ran"] and "usd_geometry" in summary["reused"], summary["ran"]
-    if i:
-        rows.append({"wall_s": wall, "verify_s": sum(st["seconds"] for st in summary["stages"]
-                                                      if st["name"] in verify_stages)})
+    r = api.build(api.load_config(preset=preset, overrides=sets), out, cache=cache, verify=verify, quiet=True)
+    rows.append({"wall_s": time.perf_counter() - t0, "ran": r.ran,
+                 "verify_s": sum(s.seconds for s in r.stages if s.name in verify_stages)})
 print(json.dumps(rows))
 """
+
+
+def _api_rows(tmp: Path, spec: dict, steps: list[list[str]], cache: str, user_cache: Path | None = None) -> list:
+    """:data:`_API_SCRIPT` in a fresh process: one row per step (see there)."""
+    doc = [str(tmp / "out" / "pigeon"), str(tmp / cache), spec["preset"], [[*spec["sets"], *s] for s in steps],
+           spec["verify"], list(VERIFY_STAGES)]
+    r = subprocess.run([sys.executable, "-c", _API_SCRIPT, json.dumps(doc)], capture_output=True, text=True,
+                       env=_env(user_cache))
+    if r.returncode != 0:
+        raise RuntimeError(f"the API benchmark process exited {r.returncode}: {r.stderr.strip()[-400:]}")
+    return json.loads(r.stdout)
+
+
+def _spec(preset: list[str]) -> dict:
+    """The CLI options of :func:`_run`'s ``preset`` list as the API takes them."""
+    sets = [preset[i + 1] for i, a in enumerate(preset) if a == "--set"]
+    return {"preset": preset[preset.index("--preset") + 1], "sets": sets, "verify": "--no-verify" not in preset}
 
 
 def _warm_rows(tmp: Path, preset: list[str], repeats: int, cache: str, first_value: float,
                user_cache: Path | None = None) -> list[dict]:
     """Film-only rebuilds inside one process that has rebuilt once already (its imports and per-process caches
     warm), on ``cache``: per timed rebuild ``{"wall_s", "verify_s"}``."""
-    common = ["--out", str(tmp / "out" / "pigeon"), "--cache", str(tmp / cache), "--json", "--quiet", *preset]
     values = [first_value + 0.005 * i for i in range(repeats + 1)]  # none of them the last CLI run's value
-    env = _env(user_cache)
-    r = subprocess.run([sys.executable, "-c", _WARM_SCRIPT, json.dumps(common), json.dumps(values),
-                        json.dumps(VERIFY_STAGES)], capture_output=True, text=True, check=True, env=env)
-    return json.loads(r.stdout)
+    return _api_rows(tmp, _spec(preset), [[f"film.cauchy_a={v}"] for v in values], cache, user_cache)[1:]
+
+
+def _api_table(tmp: Path, preset: list[str], repeats: int) -> dict:
+    """Cold, no-op and film-only builds through the API in one fresh process (the cold one pays the imports),
+    ``repeats`` processes: medians."""
+    rows = [_api_rows(tmp, _spec(preset), [[], [], ["film.cauchy_a=1.57"], ["film.cauchy_a=1.58"]], f"api{i}")
+            for i in range(repeats)]
+    med = lambda j: statistics.median(r[j]["wall_s"] for r in rows)  # noqa: E731
+    return {"cold_s": med(0), "noop_s": med(1), "film_s": statistics.median(
+        [r[2]["wall_s"] for r in rows] + [r[3]["wall_s"] for r in rows]), "film_ran": rows[-1][3]["ran"]}
+
+
+def _watch_rows(tmp: Path, preset: list[str], repeats: int) -> dict:
+    """``rockdove build --watch --json`` on a --config file of its own: the first build (cold, fresh cache), then
+    per repeat the file touched unchanged (a no-op rebuild) and edited with a new film (a film-only rebuild),
+    each timed from the write to the rebuild's one-line summary on stdout."""
+    config = tmp / "watch.toml"
+    config.write_text("[film]\ncauchy_a = 1.54\n")
+    cmd = [sys.executable, "-m", "rockdove.cli", "build", "--watch", "--config", str(config), "--out",
+           str(tmp / "watch" / "pigeon"), "--cache", str(tmp / "watch-cache"), "--json", "--quiet", *preset]
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=_env())
+    try:
+        def next_summary() -> dict:
+            line = proc.stdout.readline()
+            if not line:
+                raise RuntimeError(f"rockdove build --watch exited {proc.wait()}")
+            return json.loads(line)
+
+        next_summary()
+        cold = time.perf_counter() - t0
+        noops, films = [], []
+        for i in range(repeats):
+            time.sleep(0.3)
+            t = time.perf_counter()
+            os.utime(config)
+            next_summary()
+            noops.append(time.perf_counter() - t)
+            t = time.perf_counter()
+            config.write_text(f"[film]\ncauchy_a = {FILM_VALUES[i % len(FILM_VALUES)]}\n")
+            ran = next_summary()["ran"]
+            films.append(time.perf_counter() - t)
+    finally:
+        proc.terminate()
+        proc.wait()
+    return {"cold_s": cold, "noop_s": statistics.median(noops), "film_s": statistics.median(films), "film_ran": ran}
 
 
 def _warm_film_s(tmp: Path, preset: list[str], repeats: int) -> float:
@@ -339,23 +366,6 @@ def _verify_rows(tmp: Path, preset: list[str], args) -> dict:
     print(f"  in a warm process (as a sweep's Dask worker verifies its next point): {warm:.2f} s = "
           f"{100 * out['warm_process_ratio']:.1f} % of the cold verify, goal <= {100 * VERIFY_GOAL_RATIO:g} %: "
           f"{'met' if out['warm_process_ratio'] <= VERIFY_GOAL_RATIO else 'NOT met'}")
-    user = tmp / "user-cache-served"
-    with _server(tmp, 2 + repeats, user) as served:
-        _build_rss(tmp, *preset, *size, cache="verify-served", user_cache=user, served=served)
-        cold = _build_rss(tmp, *with_verify, *size, cache="verify-served", allow_fail=True, user_cache=user,
-                          served=served)
-        films = [_build_rss(tmp, *with_verify, *size, "--set", f"film.cauchy_a={FILM_VALUES[i % len(FILM_VALUES)]}",
-                            cache="verify-served", allow_fail=True, user_cache=user, served=served)
-                 for i in range(repeats)]
-    served_cold, served_film = _verify_seconds(cold)[0], statistics.median(_verify_seconds(f)[0] for f in films)
-    out.update(server_cold_verify_s=served_cold, server_film_verify_s=served_film,
-               server_ratio=served_film / served_cold, server_ratio_to_cold=served_film / cold_v,
-               server_film_build_wall_s=_median(films, "wall_s"))
-    print(f"  through the build server (each build a new `rockdove` process whose command the server runs): "
-          f"{served_film:.2f} s against a cold verify through it of {served_cold:.2f} s = "
-          f"{100 * out['server_ratio']:.1f} % (of the cold verify above: {100 * out['server_ratio_to_cold']:.1f} %), "
-          f"goal <= {100 * VERIFY_GOAL_RATIO:g} %: {'met' if out['server_ratio'] <= VERIFY_GOAL_RATIO else 'NOT met'}; "
-          f"the whole film-change build {out['server_film_build_wall_s']:.2f} s")
     return out
 
 

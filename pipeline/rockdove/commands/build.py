@@ -1,4 +1,5 @@
-"""``rockdove build``: build the pigeon asset incrementally and publish it atomically.
+"""``rockdove build``: build the pigeon asset incrementally and publish it atomically
+(:func:`rockdove.api.build`; this module turns options into its arguments and its result into text).
 
 Order of work: configuration checked (exit 2 on any problem, nothing written) -> output checked (a folder
 rockdove created, or a new/empty one) -> lock taken (a second build of the same output waits) -> leftovers of
@@ -12,17 +13,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import shutil
-import signal
 import sys
-import threading
 import time
 from pathlib import Path
 
-from ..config import DEFAULT_PRESET, config_hash, load_config
-from ..errors import VerificationFailed
-
-DEFAULT_OUT = "build/pigeon"
+from ..api import DEFAULT_OUT
+from ..config import DEFAULT_PRESET
 
 
 def add_config_arguments(parser: argparse.ArgumentParser) -> None:
@@ -45,18 +41,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(default: wait until it finishes)")
     parser.add_argument("--json", action="store_true", help="print a JSON summary (stages ran and reused) on stdout")
     parser.add_argument("--quiet", action="store_true", help="no progress bar and no summary text")
-
-
-class BuildFailed(VerificationFailed):
-    """Verification failed; ``summary`` is the build summary (what ran, where the report is)."""
-
-    def __init__(self, message: str, summary: dict):
-        super().__init__(message)
-        self.summary = summary
-
-
-def _raise_interrupt(signum, frame):
-    raise KeyboardInterrupt(f"signal {signum}")
+    parser.add_argument("--watch", action="store_true",
+                        help="stay running: rebuild (in this warm process) whenever the --config file or the "
+                             "preset file changes; a failed rebuild prints its error and keeps watching; Ctrl-C ends")
 
 
 class _Progress:
@@ -83,119 +70,95 @@ class _Progress:
             self.bar.close()
 
 
-def _summary(graph, args, out, cache_dir, chash, t0, *, verified, report, notes=()) -> dict:
-    """The --json summary: which stages ran and which were reused (and, for per-view verification, which views
-    were rendered and which reused), keys, timings, the verdict and its notes (what was checked differently)."""
-    records = [r.as_dict() for r in graph.records.values()]
-    return {
-        "out": str(out), "cache": str(cache_dir), "preset": args.preset, "config_hash": chash,
-        "ran": [r["name"] for r in records if r["status"] == "ran"],
-        "reused": [r["name"] for r in records if r["status"] == "reused"],
-        "stages": records, "verified": verified, "report": report, "notes": list(notes),
-        "seconds": round(time.perf_counter() - t0, 4),
-    }
+def _print(result, args) -> None:
+    if args.json:  # a failed build's summary still says what ran and where the report is
+        print(json.dumps({**result.as_dict(), "preset": args.preset}, indent=None if args.watch else 1), flush=True)
+    elif not args.quiet and result.verified is not False:
+        print(f"rockdove build: {result.out} ({len(result.ran)} stages ran: {', '.join(result.ran) or '-'}; "
+              f"{len(result.reused)} reused) in {result.seconds:.2f} s")
+        if result.verified:
+            print(f"rockdove build: verified: renders match the exact spectral reference; report "
+                  f"{result.report_dir / 'report.html'}")
+        else:
+            print("rockdove build: not verified (--no-verify)")
+        for note in result.notes:
+            print(f"rockdove build: note: {note}")
 
 
-def _notes(verdicts: dict) -> list:
-    return [n for v in verdicts.values() if isinstance(v, dict) for n in v.get("notes", [])]
+def build_once(args: argparse.Namespace):
+    """One ``rockdove build`` of ``args`` through :func:`rockdove.api.build`: its result, printed."""
+    from .. import api
 
+    config = api.load_config(preset=args.preset, config_file=args.config, overrides=args.overrides)
+    from ..graph.stages import make_stages
 
-def parse_args(argv: list[str]) -> argparse.Namespace:
-    """``rockdove build``'s options from ``argv`` (e.g. ``["--out", "o/p", "--set", "lut.angles=64"]``), for
-    callers of :func:`build` such as ``rockdove sweep``: one parser, the same defaults and checks."""
-    parser = argparse.ArgumentParser(prog="rockdove build", add_help=False, exit_on_error=False)
-    add_arguments(parser)
-    return parser.parse_args(argv)
+    progress = _Progress(len(make_stages(config, verify=not args.no_verify)), args.quiet)
+    try:
+        result = api.build(config, args.out, cache=args.cache, verify=not args.no_verify,
+                           lock_timeout=args.lock_timeout, quiet=args.quiet, progress=progress)
+    except api.BuildFailed as exc:
+        progress.close()
+        _print(exc.result, args)
+        raise
+    progress.close()
+    _print(result, args)
+    return result
 
 
 def run(args: argparse.Namespace) -> int:
-    try:
-        summary = build(args)
-    except BuildFailed as exc:
-        if args.json:  # the summary still says what ran and where the report is
-            print(json.dumps(exc.summary, indent=1))
-        raise
-    if args.json:
-        print(json.dumps(summary, indent=1))
-    elif not args.quiet:
-        print(f"rockdove build: {summary['out']} ({len(summary['ran'])} stages ran: {', '.join(summary['ran']) or '-'}; "
-              f"{len(summary['reused'])} reused) in {summary['seconds']:.2f} s")
-        if summary["verified"]:
-            print(f"rockdove build: verified: renders match the exact spectral reference; report "
-                  f"{Path(summary['out']) / 'verify' / 'report.html'}")
-        elif summary["verified"] is None:
-            print("rockdove build: not verified (--no-verify)")
-        for note in summary["notes"]:
-            print(f"rockdove build: note: {note}")
+    if args.watch:
+        return watch(args)
+    build_once(args)
     return 0
 
 
-def build(args: argparse.Namespace) -> dict:
-    """Build, verify and publish the asset ``args`` (:func:`parse_args`) ask for; return the summary that
-    ``--json`` prints. Raises :class:`UsageError` for bad configuration or output (nothing written) and
-    :class:`BuildFailed` (a :class:`VerificationFailed` carrying the summary) when verification fails.
-    Callable from any thread: SIGTERM is handled only when called from the main thread."""
-    from ..graph.engine import Cache, Graph
-    from ..graph.publish import OutputLock, check_output, make_staging, publish, read_marker, recover, write_marker
-    from ..errors import UsageError
+#: Seconds between two looks at the watched files' modification times.
+POLL_S = 0.1
 
-    t0 = time.perf_counter()
-    config = load_config(preset=args.preset, config_file=args.config, overrides=args.overrides)
-    if not args.out.strip():
-        raise UsageError("--out is empty; give the asset folder, e.g. --out build/pigeon")
-    out = Path(args.out)
-    check_output(out)
-    cache_dir = Path(args.cache) if args.cache else out.parent / ".rockdove-cache"
-    if cache_dir.exists() and not cache_dir.is_dir():
-        raise UsageError(f"--cache {str(cache_dir)!r} exists and is not a folder")
-    from ..graph import stages as build_stages
 
-    stages = build_stages.make_stages(config, verify=not args.no_verify)
-    chash = config_hash(config)
-    verified_before = (out / "verify" / "report.json").is_file()
-    if not args.no_verify and ((read_marker(out) or {}).get("config_hash") != chash or not verified_before):
-        # A new configuration, or one not verified yet, will most likely render: start the verification's worker
-        # process now, so that its imports (pyrender, ~2 s) run on the other core while the LUT, textures and
-        # layers are built.
-        from ..verify import worker
+def watched_files(args: argparse.Namespace) -> list[Path]:
+    """The files whose content makes the configuration: the preset's TOML and the --config file (``--set``
+    values are literals: they read no file)."""
+    from ..config import preset_path
 
-        worker.prestart()
+    files = [preset_path(args.preset)] if args.preset is not None else []
+    return files + ([Path(args.config)] if args.config else [])
 
-    main_thread = threading.current_thread() is threading.main_thread()
-    old_term = signal.signal(signal.SIGTERM, _raise_interrupt) if main_thread else None
-    staging = None
-    progress = _Progress(len(stages), args.quiet)
+
+def _stamp(files: list[Path]) -> tuple:
+    def one(p: Path):
+        try:
+            st = p.stat()
+        except OSError:
+            return None  # missing: its return is a change too
+        return st.st_mtime_ns, st.st_size, st.st_ino
+    return tuple(one(p) for p in files)
+
+
+def watch(args: argparse.Namespace, *, poll_s: float = POLL_S) -> int:
+    """``rockdove build --watch``: build now, then again each time a :func:`watched_files` file changes (its
+    modification time, size or inode, polled every ``poll_s`` seconds; no sockets, no daemon), in this process,
+    so imports and unchanged stage values stay warm. A build that fails (bad configuration, failed verification)
+    prints its one-line error (with --json, a ``{"error": ...}`` line) and the watch goes on; Ctrl-C ends it
+    (a build in progress removes its staging folder first)."""
+    from ..errors import VerificationFailed
+
+    files = watched_files(args)
     try:
-        with OutputLock(out, timeout_s=args.lock_timeout, quiet=args.quiet):
-            recover(out)
-            cache = Cache(cache_dir)
-            cache.clean_temporaries()
-            graph = Graph(stages, config, cache, progress=progress)
-            graph.run()
-            staging = make_staging(out)
-            graph.assemble(staging)
-            write_marker(staging, {"config_hash": chash, "preset": args.preset,
-                                   "stages": {n: r.key for n, r in graph.records.items()}})
-            graph.run(asset_dir=staging, needs_asset=True)
-            graph.assemble(staging, needs_asset=True)
-            # the verdicts of the verification stages: the values with a "passed" key (not the glb or the rays)
-            values = {n: graph.value(n) for n, s in graph.stages.items() if s.needs_asset}
-            verdicts = {n: v for n, v in values.items() if isinstance(v, dict) and "passed" in v}
-            failed = [n for n, v in verdicts.items() if v["passed"] is False]
-            if failed:
-                raise BuildFailed(
-                    f"stage {failed[0]!r} failed ({verdicts[failed[0]].get('reason', 'see its report')}); "
-                    f"{out} was left unchanged; report in {graph.entry_dir(failed[0])}",
-                    _summary(graph, args, out, cache_dir, chash, t0, verified=False,
-                             report=str(graph.entry_dir(failed[0])), notes=_notes(verdicts)))
-            publish(staging, out)
-            staging = None
-    finally:
-        progress.close()
-        if staging is not None and staging.exists():
-            shutil.rmtree(staging, ignore_errors=True)
-        if main_thread:
-            signal.signal(signal.SIGTERM, old_term)
-
-    return _summary(graph, args, out, cache_dir, chash, t0, verified=bool(verdicts) or None,
-                    report=str(out / "verify") if verdicts else None, notes=_notes(verdicts))
+        while True:
+            stamp = _stamp(files)  # before the build: an edit during it starts the next one
+            try:
+                build_once(args)
+            except (ValueError, OSError, VerificationFailed) as exc:
+                kind = "failed" if isinstance(exc, VerificationFailed) else "error"
+                print(f"rockdove build: {kind}: {exc}", file=sys.stderr, flush=True)
+                if args.json:
+                    print(json.dumps({"error": str(exc), "kind": kind}), flush=True)
+            if not args.quiet:
+                print(f"rockdove build: watching {', '.join(map(str, files))} (Ctrl-C ends)", file=sys.stderr,
+                      flush=True)
+            while _stamp(files) == stamp:
+                time.sleep(poll_s)
+    except KeyboardInterrupt:
+        print("rockdove build: stopped watching", file=sys.stderr)
+    return 0

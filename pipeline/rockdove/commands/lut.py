@@ -34,9 +34,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
     parser.add_argument("--out", required=True, metavar="PATH.exr", help="output EXR file (preview: PATH.png)")
-    parser.add_argument("--angles", type=int, default=DEFAULT_ANGLES, metavar="N", help="angle texels (>= 2)")
+    parser.add_argument("--angles", type=int, default=DEFAULT_ANGLES, metavar="N", help="angle texels (2 .. 4096)")
     parser.add_argument("--thicknesses", type=int, default=DEFAULT_THICKNESSES, metavar="M",
-                        help="thickness texels (>= 1; 1 gives the paper's one-texel-high LUT)")
+                        help="thickness texels (1 .. 4096; 1 gives the paper's one-texel-high LUT)")
     parser.add_argument("--thickness-range", type=float, nargs=2, default=DEFAULT_THICKNESS_RANGE_NM,
                         metavar=("LO", "HI"), help="film thickness range in nm (LO == HI: one texel high)")
     parser.add_argument("--film", default="paper", help="film model: paper (n = 1.5) or keratin (dispersive)")

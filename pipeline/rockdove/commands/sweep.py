@@ -3,14 +3,18 @@
 ``--grid 'KEY=[V1, V2, ...]'`` gives one axis (values are TOML literals exactly as ``--set`` takes them, bare
 words included); several ``--grid`` make their product. ``--preset``, ``--config`` and ``--set`` are the base
 of every point; a point's grid values are applied last. Each point is one call of ``rockdove build``'s
-:func:`rockdove.commands.build.build` on a Dask worker, into ``DIR/points/<name>`` (``<name>``: the point's
+:func:`rockdove.api.build` on a Dask worker, into ``DIR/points/<name>`` (``<name>``: the point's
 ``KEY=VALUE`` pairs joined by ``__``, stable across runs), all sharing one stage cache (``DIR/.rockdove-cache``
 unless ``--cache``): the body and bird are built once per geometry, whichever worker gets there first
 (:meth:`rockdove.graph.engine.Cache.entry_lock`), and every point is byte-identical to a serial ``rockdove
 build`` with the same overrides.
 
 Dask runs it: a ``distributed.LocalCluster`` of ``--workers`` processes (one thread each) by default, or the
-cluster of ``--scheduler tcp://HOST:PORT`` (its workers must have rockdove installed and see ``DIR``). A worker
+cluster of ``--scheduler tcp://HOST:PORT`` (its workers must have rockdove installed and see ``DIR``). The
+local cluster is private: TLS with a certificate made for this sweep and held in memory
+(``Security.temporary()``), so another local user who finds its port cannot submit code to run as you. An
+external cluster that uses TLS takes ``--security FILE`` (Dask configuration YAML, its
+``distributed.comm.tls`` section) or Dask's own configuration. A worker
 that dies mid-point has the point rescheduled on another worker by Dask's scheduler (up to its
 ``distributed.scheduler.allowed-failures``); the killed build leaves no half-written asset and its cache
 temporaries are cleaned by the next build.
@@ -54,6 +58,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="sweep folder: DIR/points/<point>/, DIR/sweep.json, DIR/index.html")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="an existing Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: a local cluster)")
+    parser.add_argument("--security", metavar="FILE",
+                        help="with --scheduler tls://...: Dask configuration YAML with the cluster's TLS files "
+                             "(distributed.comm.tls: ca-file, client.cert, client.key); default: Dask's config")
     parser.add_argument("--workers", type=int, metavar="N",
                         help="worker processes of the local cluster (default: the CPU count)")
     parser.add_argument("--cache", metavar="DIR", help="shared stage cache (default DIR/.rockdove-cache)")
@@ -215,33 +222,37 @@ def _restore_malloc_thresholds() -> None:
 _ONE_POINT_AT_A_TIME = threading.Lock()  # a worker with several threads builds one point at a time (GL, memory)
 
 
-def build_point(name: str, argv: list[str], out: str, verify: bool) -> dict:
-    """Build one point on a Dask worker: ``rockdove build`` (:func:`rockdove.commands.build.build`) with
-    ``argv`` (the base options, the point's ``--set`` items, ``--cache``) into ``out``. Returns the point's
-    record; a bad configuration, a failed verification or any other error is recorded, not raised, so the
-    point fails alone (only a worker's death makes Dask retry it elsewhere)."""
+def build_point(name: str, base: dict, overrides: list[str], out: str, verify: bool) -> dict:
+    """Build one point on a Dask worker with :func:`rockdove.api.build`: the configuration of ``base``
+    (``preset``, ``config_file``, ``overrides``) and the point's ``overrides`` (``KEY=VALUE``), into ``out``
+    with ``base["cache"]``. Returns the point's record; a bad configuration, a failed verification or any other
+    error is recorded, not raised, so the point fails alone (only a worker's death makes Dask retry it
+    elsewhere)."""
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")  # before anything imports OpenGL
     _restore_malloc_thresholds()
-    from . import build as B
-    from ..errors import VerificationFailed
+    from .. import api
 
     record: dict = {"name": name, "pid": os.getpid(), "worker": _worker_address()}
     t0 = time.perf_counter()
+    result = None
     with _ONE_POINT_AT_A_TIME:
         try:
-            summary = B.build(B.parse_args([*argv, "--out", out, "--quiet", *([] if verify else ["--no-verify"])]))
+            config = api.load_config(preset=base["preset"], config_file=base["config_file"],
+                                     overrides=[*base["overrides"], *overrides])
+            result = api.build(config, out, cache=base["cache"], verify=verify, quiet=True)
             record["status"] = "ok"
-        except VerificationFailed as exc:
-            summary = getattr(exc, "summary", None)
+        except api.BuildFailed as exc:
+            result = exc.result
             record.update(status="failed", error=str(exc))
-        except (ValueError, argparse.ArgumentError, OSError) as exc:
-            summary = None
+        except api.VerificationFailed as exc:
+            record.update(status="failed", error=str(exc))
+        except (ValueError, OSError) as exc:
             record.update(status="invalid" if isinstance(exc, ValueError) else "error", error=str(exc))
         except Exception as exc:  # noqa: BLE001 - the point fails alone, with its message
-            summary = None
             record.update(status="error", error=f"{type(exc).__name__}: {exc}")
     record["seconds"] = round(time.perf_counter() - t0, 3)
-    if summary:
+    if result is not None:
+        summary = result.as_dict()
         record["config_hash"] = summary["config_hash"]
         record["build"] = {k: summary[k] for k in ("ran", "reused", "seconds")}
         record["verify"] = _verify_summary(summary)
@@ -363,23 +374,52 @@ def _write_atomic(path: Path, text: str) -> None:
 
 
 # ----------------------------------------------------------------------------------------------- running
+def _security(path: str | None):
+    """``--security FILE``: a Dask ``Security`` from the file's ``distributed.comm.tls`` keys over Dask's own
+    configuration (None: Dask's configuration alone). Raises UsageError naming what is wrong."""
+    import copy
+
+    import dask
+    import yaml
+    from distributed.security import Security
+
+    from ..errors import UsageError
+
+    if path is None:
+        return Security()
+    try:
+        doc = yaml.safe_load(Path(path).read_text())
+        doc["distributed"]["comm"]["tls"].items()
+    except (OSError, yaml.YAMLError, KeyError, TypeError, AttributeError) as exc:
+        raise UsageError(f"--security {path!r}: not a Dask configuration with distributed.comm.tls "
+                         f"({type(exc).__name__}: {exc})") from None
+    with dask.config.set(dask.config.update(copy.deepcopy(dask.config.config), doc)):
+        return Security()  # its files are read on connecting: a missing one is the connection's error
+
+
 def _client(args):
-    """A Dask client on ``--scheduler`` or on a new LocalCluster (returned to be closed)."""
+    """A Dask client on ``--scheduler`` or on a new private LocalCluster (returned to be closed)."""
     import logging
+
+    from distributed import Client, LocalCluster
+    from distributed.security import Security
 
     from ..errors import UsageError
 
     if args.scheduler:
-        from distributed import Client
-
+        security = _security(args.security)
+        if args.scheduler.startswith("tls://") and not security.require_encryption and not security.tls_ca_file:
+            raise UsageError(f"--scheduler {args.scheduler!r} uses TLS: give --security FILE with the cluster's "
+                             "CA, certificate and key (or set distributed.comm.tls in Dask's configuration)")
         try:
-            return Client(args.scheduler, timeout="10s"), None
-        except (OSError, TimeoutError) as exc:
-            raise UsageError(f"--scheduler {args.scheduler!r}: cannot reach a Dask scheduler there ({exc})") from None
-    from distributed import Client, LocalCluster
-
+            return Client(args.scheduler, timeout="10s", security=security), None
+        except Exception as exc:  # noqa: BLE001 - OSError, TimeoutError, or the TLS handshake's own errors
+            raise UsageError(f"--scheduler {args.scheduler!r}: cannot connect to a Dask scheduler there "
+                             f"({type(exc).__name__}: {exc})") from None
+    if args.security:
+        raise UsageError("--security applies to --scheduler only (the local cluster makes its own certificate)")
     cluster = LocalCluster(n_workers=args.workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=logging.ERROR)
+                           dashboard_address=None, silence_logs=logging.ERROR, security=Security.temporary())
     return Client(cluster), cluster
 
 
@@ -400,11 +440,8 @@ def run(args: argparse.Namespace) -> int:
     root = claim_output(args.out, "sweep", create=False)  # checked now, made once the cluster is up
     cache = Path(args.cache).resolve() if args.cache else root / ".rockdove-cache"
     points = grid_points(axes)
-    base = ["--preset", args.preset, "--cache", str(cache)]
-    if args.config:
-        base += ["--config", str(Path(args.config).resolve())]
-    for o in args.overrides:
-        base += ["--set", o]
+    base = {"preset": args.preset, "config_file": str(Path(args.config).resolve()) if args.config else None,
+            "overrides": list(args.overrides), "cache": str(cache)}
 
     records = []
     for p in points:
@@ -448,8 +485,7 @@ def run(args: argparse.Namespace) -> int:
               f"progress in {root / 'index.html'}", file=sys.stderr)
         futures = {}
         for p, r in todo:
-            f = client.submit(build_point, p.name, [*base, *sum([["--set", o] for o in p.overrides], [])],
-                              str(root / POINTS / p.name), not args.no_verify, pure=False,
+            f = client.submit(build_point, p.name, base, list(p.overrides), str(root / POINTS / p.name), not args.no_verify, pure=False,
                               key=f"rockdove-point-{p.name}-{os.urandom(4).hex()}")
             futures[f] = r
         for f in as_completed(list(futures)):

@@ -58,6 +58,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--bench-dir", default=None, metavar="DIR",
                         help="show the benchmark plots (*.png) of DIR in the report, e.g. build/bench "
                              "(default: none)")
+    parser.add_argument("--junit", metavar="FILE", default=None,
+                        help="also write the verification as JUnit XML (a test case per validator, view and host "
+                             "view) for CI test-result pages")
     parser.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     from .validate import add_external_argument
 
@@ -65,25 +68,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from .. import api
     from ..errors import VerificationFailed
-    from ..verify.run import verify_asset
     from ..verify.verdict import summary
 
     def progress(msg: str) -> None:
         if not args.quiet and not args.json:
             print(f"rockdove verify: {msg}", file=sys.stderr)
 
-    from ..usd.dependencies import require_inside
-
-    from ..graph.publish import claim_output
-    from ..verify.verdict import default_out_dir
-
-    root = require_inside(args.asset, args.allow_external_assets)
-    args.out = str(claim_output(args.out or default_out_dir(root), "verification report"))
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
-    report = verify_asset(args.asset, out_dir=args.out, width=args.width, height=args.height, progress=progress,
-                          views=args.names, n_views=args.views, hosts=hosts, bench_dir=args.bench_dir)
+    result = api.verify(args.asset, hosts, out=args.out, width=args.width, height=args.height, views=args.names,
+                        n_views=args.views, bench_dir=args.bench_dir, allow_external=args.allow_external_assets,
+                        progress=progress)
+    report = result.report
     short = summary(report)
+    if args.junit:
+        from ..verify.junit import write_junit
+
+        write_junit(report, args.junit)
     if args.json:
         from ..verify.report import strict_json
 
@@ -98,18 +100,19 @@ def run(args: argparse.Namespace) -> int:
         for name, b in report["boundary"]["per_view"].items():
             print(f"boundary {name}: {b['n_points']} points, RMS {b['rms_px']:.2f} px "
                   f"({b['rms_fraction']:.4f} of its length)")
-        for h in report.get("hosts", []):
-            if h.get("skipped"):
-                print(f"host {h['name']}: SKIPPED ({h['reason']})")
-            elif h.get("error"):
-                print(f"host {h['name']}: ERROR {h['error']}")
+        for host in result.hosts:
+            h = host.entry
+            if host.status == "skipped":
+                print(f"host {host.name}: SKIPPED ({host.reason})")
+            elif host.status == "error":
+                print(f"host {host.name}: ERROR {host.reason}")
             else:
                 print(f"host {h['name']} ({h['variant']}, {h['lobe']}): {h['n_pixels']} px  dE2000 median "
                       f"{h['median_dE']:.3f}  p95 {h['p95_dE']:.3f}  green {h['green_px']}  purple {h['purple_px']}  "
                       f"hue agreement {h['hue_agreement']:.1%}  {'ok' if h['passed'] else 'FAIL'}")
-        for note in report.get("notes", []):
+        for note in result.notes:
             print(f"note: {note}")
-        print(f"report: {report['out_dir']}/report.html")
-    if not report["passed"]:
-        raise VerificationFailed("; ".join(report["failures"]))
+        print(f"report: {result.report_dir / 'report.html'}")
+    if not result.passed:
+        raise VerificationFailed("; ".join(result.failures))
     return 0

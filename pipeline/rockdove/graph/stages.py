@@ -28,7 +28,7 @@ stage                   configuration                                 inputs
                                                                       physical-only: bird, usd_geometry
 ``usdz``                -- (present when ``usd.usdz``)                usd_geometry, usd_layers, textures,
                                                                       film_textures
-                                                                      (rockdove.usd.usdz)
+                                                                      (rockdove.usd.usdz: pigeon.usdz, pigeon_ar.usdz)
 ``verify_rays``         as ``verify``                                 every published stage: the assembled asset.
                                                                       One item per camera: the reference's ray
                                                                       casts (rockdove.verify.rays.cast_hits),
@@ -316,13 +316,15 @@ def run_usd_layers(ctx: Context):
 
 
 def run_usdz(ctx: Context):
-    from ..usd.usdz import USDZ_NAME, write_usdz
+    from ..usd.usdz import AR_USDZ_NAME, USDZ_NAME, write_ar_usdz, write_usdz
 
     scratch = ctx.workdir / "layout"
     for dep in ("usd_geometry", "usd_layers", "textures", "film_textures"):
         shutil.copytree(ctx.inputs[dep], scratch, dirs_exist_ok=True)
     write_usdz(str(scratch), in_place=True)  # scratch holds copies: package them without a second copy
-    (scratch / USDZ_NAME).rename(ctx.workdir / USDZ_NAME)
+    write_ar_usdz(str(scratch))  # the flattened UsdPreviewSurface package for AR Quick Look
+    for name in (USDZ_NAME, AR_USDZ_NAME):
+        (scratch / name).rename(ctx.workdir / name)
     shutil.rmtree(scratch)
 
 
@@ -491,9 +493,27 @@ def combine_verify(ctx: Context, views: dict) -> dict:
             skipped.append(f"no interactive viewer in the report: {exc}")
     report = report_from_views(str(ctx.asset_dir), views, out_dir=str(ctx.workdir), width=size["width"],
                                height=size["height"], published_asset=str(published))
-    return {"passed": bool(report.get("passed")), "reason": "; ".join(map(str, report.get("failures", []))),
-            "views": [v["view"] for v in report.get("views", []) if isinstance(v, dict)],
-            "notes": list(report.get("notes", [])) + skipped}
+    return dataclasses.asdict(Verdict(bool(report["passed"]), "; ".join(map(str, report["failures"])),
+                                      [v["view"] for v in report["views"]], list(report["notes"]) + skipped))
+
+
+#: The verification stage: its value is a :class:`Verdict`.
+VERIFY = "verify"
+
+
+@dataclasses.dataclass(frozen=True)
+class Verdict:
+    """The build's verification: ``passed``, ``reason`` (its failures, joined), the views checked, notes."""
+
+    passed: bool
+    reason: str = ""
+    views: list | tuple = ()
+    notes: list | tuple = ()
+
+
+def verdict(graph) -> Verdict | None:
+    """The verdict of a graph's verification stage, None when it has none (built without verification)."""
+    return Verdict(**graph.value(VERIFY)) if VERIFY in graph.records else None
 
 
 def _view_save(value: dict, folder: Path) -> None:
@@ -582,7 +602,7 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
                             deps=published + ("verify_rays",), modules=("rockdove.render", "rockdove.verify", "rockdove.usd"),
                             libraries=LIBS_RENDER, codec=JSON, needs_asset=True, item_plan=plan_surfaces, batch=True,
                             combine=combine_surfaces, item_codec=SURFACES))
-        stages.append(Stage("verify", run_verify, config=("verify.width", "verify.height", "verify.views"),
+        stages.append(Stage(VERIFY, run_verify, config=("verify.width", "verify.height", "verify.views"),
                             deps=published + ("verify_surfaces",),
                             modules=("rockdove.render", "rockdove.verify", "rockdove.usd", "rockdove.lut", "rockdove.films",
                                      "rockdove.optics", "rockdove.spectral", "rockdove.web",

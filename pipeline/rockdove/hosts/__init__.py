@@ -24,13 +24,17 @@ import importlib
 from dataclasses import dataclass
 from types import ModuleType
 
-#: host name -> module (imported only when the host is asked for).
+#: host name -> module, or ``module:attribute`` for one of several hosts a module defines (e.g. Storm's three
+#: networks); imported only when the host is asked for.
 HOSTS = {
     "glsl": "rockdove.hosts.glsl",
     "materialx": "rockdove.hosts.materialx",
     "materialx_physical": "rockdove.hosts.materialx_physical",
     "blender": "rockdove.hosts.blender",
     "web": "rockdove.hosts.web",
+    "storm": "rockdove.hosts.storm:BAKED",
+    "storm_physical": "rockdove.hosts.storm:PHYSICAL",
+    "storm_preview": "rockdove.hosts.storm:PREVIEW",
 }
 #: The lighting models a host can be compared under (docs/design.md "Hosts"):
 #: ``half_angle``: the paper's Lambert x colour(cos = L.H) under the View's one directional light;
@@ -70,7 +74,9 @@ def load(name: str) -> ModuleType:
     """
     if name not in HOSTS:
         raise ValueError(f"host {name!r} is unknown; allowed: {', '.join(HOSTS)}")
-    return importlib.import_module(HOSTS[name])
+    module, _, attr = HOSTS[name].partition(":")
+    loaded = importlib.import_module(module)
+    return getattr(loaded, attr) if attr else loaded
 
 
 @dataclass(frozen=True)
@@ -86,7 +92,7 @@ def _reason(name: str) -> tuple[ModuleType | None, str | None]:
     try:
         module = load(name)
     except ModuleNotFoundError as exc:
-        if exc.name and HOSTS[name].startswith(exc.name):
+        if exc.name and HOSTS[name].partition(":")[0].startswith(exc.name):
             return None, f"its module {HOSTS[name]} is not part of this installation"
         return None, f"its module {HOSTS[name]} cannot be imported: {exc}"
     except ImportError as exc:

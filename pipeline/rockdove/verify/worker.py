@@ -104,8 +104,7 @@ class Worker:
         try:
             self._proc = subprocess.Popen(
                 [sys.executable, "-c", _BOOT, str(child.fileno()), ",".join(preload), json.dumps(sys.path)],
-                pass_fds=(child.fileno(),), stdin=subprocess.DEVNULL, stdout=2 if _OUTPUT is None else _OUTPUT,
-                stderr=_OUTPUT, close_fds=True)
+                pass_fds=(child.fileno(),), stdin=subprocess.DEVNULL, stdout=2, close_fds=True)
         except OSError as exc:
             parent.close()
             raise WorkerFailed(f"could not start the verification worker process ({exc})") from None
@@ -213,17 +212,6 @@ class Pending:
 
 
 # -- the process's worker ----------------------------------------------------------------------------------
-_OUTPUT: int | None = None  # where workers' stdout and stderr go (set_output); None: the caller's stderr
-
-
-def set_output(fd: int | None) -> None:
-    """Send the output of workers started from now on to file descriptor ``fd`` instead of this process's
-    stderr. The build server (:mod:`rockdove.server`) points it at its log: a worker outlives the command that
-    started it, and must not hold that command's client's stderr open."""
-    global _OUTPUT
-    _OUTPUT = fd
-
-
 _SHARED: Worker | None = None
 _SHARED_LOCK = threading.Lock()
 

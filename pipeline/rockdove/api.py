@@ -1,0 +1,281 @@
+"""rockdove's library API: configuration, build and verification as values, in any Python process.
+
+The three-line notebook use::
+
+    from rockdove import api
+    result = api.build(api.load_config(preset="paper", overrides={"lut.angles": 128}), "build/pigeon")
+    print(result.ran, result.reused, result.verified, result.report_dir)
+
+A warm process rebuilds fast: the second :func:`build` after a film change re-bakes the LUT and rewrites the
+small layers only, with every import and the unchanged geometry already in memory. ``rockdove build``,
+``rockdove verify``, ``rockdove sweep``'s Dask workers, the benchmarks and the tests all call these functions;
+the command line only turns options into their arguments and results into text.
+
+Errors: :class:`rockdove.errors.UsageError` (a ``ValueError``) for bad configuration, output or asset, naming
+what was wrong, before anything is written; :class:`BuildFailed` when the build's verification fails (nothing
+published; ``exc.result`` says what ran and where the report is).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterable, Mapping
+
+from .config import DEFAULT_PRESET, config_hash
+from .config import load_config as _load_config
+from .errors import UsageError, VerificationFailed
+from .graph.engine import StageRecord
+
+__all__ = ["load_config", "build", "verify", "BuildResult", "BuildFailed", "Verification", "HostResult",
+           "StageRecord", "UsageError", "VerificationFailed", "DEFAULT_OUT"]
+
+DEFAULT_OUT = "build/pigeon"
+
+
+def load_config(preset: str | None = DEFAULT_PRESET, config_file: str | os.PathLike | None = None,
+                overrides: Mapping[str, Any] | Iterable[str] = ()) -> dict:
+    """The effective, validated build configuration (a plain dict, as ``rockdove config --json`` prints it).
+
+    ``preset``: ``assets/pigeon/<preset>.toml`` (None: the schema's defaults); ``config_file``: a TOML file over
+    it; ``overrides``: ``{dotted key: value}`` (e.g. ``{"film.cauchy_a": 1.55}``) or ``KEY=VALUE`` strings as
+    ``--set`` takes them, applied last. :class:`UsageError` naming the key, value and allowed range."""
+    return _load_config(preset=preset, config_file=config_file, overrides=overrides)
+
+
+# ----------------------------------------------------------------------------------------------- results
+@dataclass(frozen=True)
+class BuildResult:
+    """A finished build. ``verified``: True (the verification passed), None (built with ``verify=False``);
+    a failed verification raises :class:`BuildFailed` carrying a result with ``verified=False``.
+    ``report_dir``: the folder holding ``report.html`` and ``report.json`` (the published ``verify/``, or the
+    failed verification's folder in the cache)."""
+
+    out: Path
+    cache: Path
+    config_hash: str
+    stages: tuple[StageRecord, ...]
+    verified: bool | None
+    report_dir: Path | None
+    notes: tuple[str, ...]
+    seconds: float
+    failure: str | None = None
+
+    @property
+    def ran(self) -> list[str]:
+        return [s.name for s in self.stages if s.status == "ran"]
+
+    @property
+    def reused(self) -> list[str]:
+        return [s.name for s in self.stages if s.status == "reused"]
+
+    @property
+    def keys(self) -> dict[str, str]:
+        return {s.name: s.key for s in self.stages}
+
+    def stage(self, name: str) -> StageRecord:
+        return next(s for s in self.stages if s.name == name)
+
+    def as_dict(self) -> dict:
+        """The ``rockdove build --json`` summary."""
+        return {"out": str(self.out), "cache": str(self.cache), "config_hash": self.config_hash,
+                "ran": self.ran, "reused": self.reused, "stages": [s.as_dict() for s in self.stages],
+                "verified": self.verified, "report": None if self.report_dir is None else str(self.report_dir),
+                "notes": list(self.notes), "seconds": round(self.seconds, 4)}
+
+
+class BuildFailed(VerificationFailed):
+    """The build's verification failed: nothing was published; ``result`` (:class:`BuildResult`) says what ran
+    and where the report is."""
+
+    def __init__(self, message: str, result: BuildResult):
+        super().__init__(message)
+        self.result = result
+
+
+@dataclass(frozen=True)
+class HostResult:
+    """One host's check in a verification: ``status`` is ``"passed"``, ``"failed"``, ``"skipped"`` (not
+    available here: ``reason`` says why) or ``"error"`` (it did not render: ``reason`` is its error)."""
+
+    name: str
+    status: str
+    reason: str | None
+    entry: dict = field(repr=False)  # the report's entry (lobe, variant, dE, hue agreement, per view)
+
+    @classmethod
+    def from_entry(cls, entry: dict) -> "HostResult":
+        if entry.get("skipped"):
+            return cls(entry["name"], "skipped", entry.get("reason"), entry)
+        if entry.get("error"):
+            return cls(entry["name"], "error", str(entry["error"]), entry)
+        return cls(entry["name"], "passed" if entry.get("passed") else "failed",
+                   "; ".join(entry.get("failures", [])) or None, entry)
+
+
+@dataclass(frozen=True)
+class Verification:
+    """A finished verification: ``passed`` (validation clean, every view and every host that ran within its
+    goals), ``failures`` (why not), ``notes`` (what was checked differently), per-host results, and the report
+    (``report_dir/report.html``; ``report`` is the content of ``report.json``)."""
+
+    passed: bool
+    failures: tuple[str, ...]
+    notes: tuple[str, ...]
+    hosts: tuple[HostResult, ...]
+    report_dir: Path
+    report: dict = field(repr=False)
+
+    @classmethod
+    def from_report(cls, report: dict) -> "Verification":
+        return cls(passed=bool(report["passed"]), failures=tuple(map(str, report["failures"])),
+                   notes=tuple(map(str, report.get("notes", []))),
+                   hosts=tuple(HostResult.from_entry(h) for h in report.get("hosts", [])),
+                   report_dir=Path(report["out_dir"]), report=report)
+
+
+# ----------------------------------------------------------------------------------------------- build
+def _raise_interrupt(signum, frame):
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
+def _result(graph, out: Path, cache_dir: Path, chash: str, t0: float, verified, report_dir, notes=(),
+            failure=None) -> BuildResult:
+    return BuildResult(out=out, cache=cache_dir, config_hash=chash, stages=tuple(graph.records.values()), verified=verified,
+                       report_dir=report_dir, notes=tuple(notes), seconds=time.perf_counter() - t0, failure=failure)
+
+
+def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os.PathLike | None = None,
+          verify: bool = True, lock_timeout: float | None = None, quiet: bool = False,
+          progress: Callable[[str], None] | None = None) -> BuildResult:
+    """Build, verify and publish the asset of ``config`` (:func:`load_config`) into ``out``, incrementally.
+
+    Parameters
+    ----------
+    config : dict
+        The configuration (:func:`load_config`); validated again here.
+    out : path
+        The asset folder: new, empty, or one rockdove built (anything else is refused before any work).
+    cache : path, optional
+        The stage cache (default ``.rockdove-cache`` beside ``out``); builds of any output may share one.
+    verify : bool
+        Run the verification stages (GL renders against the exact reference) on the staged asset before it is
+        published; a failure publishes nothing and raises :class:`BuildFailed`.
+    lock_timeout : float, optional
+        Seconds to wait for another build of the same output (default: until it finishes), then UsageError.
+    quiet : bool
+        Say nothing on stderr while waiting for that lock.
+    progress : callable, optional
+        ``progress(stage_name)`` as each stage starts.
+
+    Order of work: output checked -> lock taken -> leftovers of killed builds cleaned -> stages run or reused
+    -> asset assembled in a staging folder beside ``out``, marker written -> verification on the staged asset
+    -> atomic swap into place. Ctrl-C (and SIGTERM, when called from the main thread) removes the staging folder.
+    """
+    from .config import validate
+    from .graph import stages as build_stages
+    from .graph.engine import Cache, Graph
+    from .graph.publish import OutputLock, check_output, make_staging, publish, read_marker, recover, write_marker
+
+    t0 = time.perf_counter()
+    config = validate(config)
+    if not str(out).strip():
+        raise UsageError("--out is empty; give the asset folder, e.g. --out build/pigeon")
+    out = Path(out)
+    check_output(out)
+    cache_dir = Path(cache) if cache is not None else out.parent / ".rockdove-cache"
+    if cache_dir.exists() and not cache_dir.is_dir():
+        raise UsageError(f"--cache {str(cache_dir)!r} exists and is not a folder")
+    stages = build_stages.make_stages(config, verify=verify)
+    chash = config_hash(config)
+    if verify and ((read_marker(out) or {}).get("config_hash") != chash
+                   or not (out / "verify" / "report.json").is_file()):
+        # A new configuration, or one not verified yet, will most likely render: start the verification's worker
+        # process now, so that its imports (pyrender, ~2 s) run on the other core while the LUT, textures and
+        # layers are built.
+        from .verify import worker
+
+        worker.prestart()
+
+    main_thread = threading.current_thread() is threading.main_thread()
+    old_term = signal.signal(signal.SIGTERM, _raise_interrupt) if main_thread else None
+    staging = None
+    try:
+        with OutputLock(out, timeout_s=lock_timeout, quiet=quiet):
+            recover(out)
+            store = Cache(cache_dir)
+            store.clean_temporaries()
+            graph = Graph(stages, config, store, progress=progress)
+            graph.run()
+            staging = make_staging(out)
+            graph.assemble(staging)
+            write_marker(staging, {"config_hash": chash, "stages": {n: r.key for n, r in graph.records.items()}})
+            graph.run(asset_dir=staging, needs_asset=True)
+            graph.assemble(staging, needs_asset=True)
+            verdict = build_stages.verdict(graph)
+            if verdict is not None and not verdict.passed:
+                report_dir = graph.entry_dir(build_stages.VERIFY)
+                message = f"verification failed ({verdict.reason or 'see its report'}); {out} was left unchanged; " \
+                          f"report in {report_dir}"
+                raise BuildFailed(message, _result(graph, out, cache_dir, chash, t0, False, report_dir,
+                                                   verdict.notes, failure=verdict.reason))
+            publish(staging, out)
+            staging = None
+    finally:
+        if staging is not None and staging.exists():
+            shutil.rmtree(staging, ignore_errors=True)
+        if main_thread:
+            signal.signal(signal.SIGTERM, old_term)
+    if verdict is None:
+        return _result(graph, out, cache_dir, chash, t0, None, None)
+    return _result(graph, out, cache_dir, chash, t0, True, out / "verify", verdict.notes)
+
+
+# ----------------------------------------------------------------------------------------------- verify
+def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, out: str | os.PathLike | None = None,
+           width: int | None = None, height: int | None = None, views: Iterable[str] | None = None,
+           n_views: int | None = None, bench_dir: str | os.PathLike | None = None, allow_external: bool = False,
+           progress: Callable[[str], None] | None = None) -> Verification:
+    """Validate an asset, render it with the GLSL shaders and every host in ``hosts`` and check each against the
+    exact spectral reference of its lighting model; write the report.
+
+    Parameters
+    ----------
+    asset : path
+        The asset folder or its root layer (``pigeon.usda``).
+    hosts : iterable of str, optional
+        Host names (:data:`rockdove.hosts.HOSTS`); default every host available here (``glsl`` always runs).
+        Unavailable hosts are skipped with their reason; a host that fails or misses its goals fails.
+    out : path, optional
+        Report folder (default ``verify/`` beside the root layer).
+    width, height, n_views : int, optional
+        Render size (pixels) and turntable + light-sweep views (defaults: :mod:`rockdove.verify.inputs`).
+    views : iterable of str, optional
+        Check only these views (e.g. ``["sweep_090"]``).
+    bench_dir : path, optional
+        A folder of benchmark plots (``*.png``) to show in the report.
+    allow_external : bool
+        Allow the asset's layers to name files outside its folder (refused by default).
+
+    Returns :class:`Verification` (a failed check: ``passed`` False). Raises :class:`UsageError` for bad usage
+    and :class:`VerificationFailed`, before rendering, when the asset's layers do not parse or name files outside
+    it.
+    """
+    from .verify.inputs import DEFAULT_SIZE, DEFAULT_VIEWS
+    from .graph.publish import claim_output
+    from .usd.dependencies import require_inside
+    from .verify.run import verify_asset
+    from .verify.verdict import default_out_dir
+
+    root = require_inside(asset, allow_external)  # nothing from elsewhere is read, nothing of the user's overwritten
+    out = claim_output(out or default_out_dir(root), "verification report")
+    report = verify_asset(os.fspath(asset), out_dir=out, width=width or DEFAULT_SIZE, height=height or DEFAULT_SIZE,
+                          progress=progress, views=None if views is None else list(views),
+                          n_views=n_views or DEFAULT_VIEWS, hosts=None if hosts is None else list(hosts),
+                          bench_dir=bench_dir)
+    return Verification.from_report(report)

@@ -1,0 +1,137 @@
+"""The ``storm`` hosts: the written asset, unchanged, drawn by Hydra Storm (usdview's renderer).
+
+Storm is the one in the bpy wheel (USD 25.08 with imaging, hdSt, HdMtlx, MaterialX 1.39.3), run by
+:mod:`rockdove.hosts.storm_job` in the Python that has bpy (:func:`rockdove.hosts.blender.bpy_python`), headless
+in an EGL pbuffer with an OpenGL 4.5 compatibility context. Everything the host adds is in the stage's session
+layer (the asset's files are never written): a camera per View (clipping range 1 mm - 1 km), a dome light with a
+white texture of unit radiance (:data:`ENVIRONMENT_RADIANCE`: the ``view_angle`` lobe's uniform environment), the
+``shading`` variant selection, and the lobe's one change to the network: base colour black (the feather's
+``StructuralMix.bg`` / OpenPBR ``base_color`` set to 0, as the other hosts draw the film lobe alone).
+
+Three hosts, one per network a Storm user sees (:data:`VARIANTS`):
+
+- ``storm``: the ``baked`` MaterialX network (the LUT method), held to the dE goals;
+- ``storm_physical``: the ``physical`` network (OpenPBR's thin film), green, purple and hue agreement;
+- ``storm_preview``: the UsdPreviewSurface network as a Storm without MaterialX draws it (the material's
+  ``outputs:mtlx:surface`` disconnected in the session layer), checked for green and purple only: its atlas
+  holds each thickness's colour at one angle, not the view-angle lobe.
+
+Output: FrameRecorder's colour AOV with colour correction off, written as EXR (linear Rec.709, background 0).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import subprocess
+from types import SimpleNamespace
+
+from . import HostError
+
+LOBE = "view_angle"
+ENVIRONMENT_RADIANCE = 1.0
+#: Seconds before a Storm run is given up (a 512 px frame: 5-45 s, mostly shader compilation).
+TIMEOUT_S = 900
+#: host name -> (network drawn, session-layer overrides of the feather material: shader.input -> value)
+VARIANTS = {
+    "storm": ("baked", {"StructuralMix.bg": [0.0, 0.0, 0.0]}),
+    "storm_physical": ("physical", {"MtlxPhysicalSurface.base_color": [0.0, 0.0, 0.0]}),
+    "storm_preview": ("preview", {}),
+}
+#: The feather material's prim name (rockdove.usd.stage).
+FEATHER_MATERIAL = "FeatherMaterial"
+#: How to install what this host needs.
+INSTALL = "pip install 'bpy==5.0.1' in a Python 3.11 environment of its own and set $ROCKDOVE_BPY_PYTHON (make test does)"
+
+
+def unavailable() -> str | None:
+    """None when a Python with bpy (whose USD has imaging) can run here, else why not."""
+    from . import blender
+
+    return blender.unavailable()
+
+
+def _cannot_draw(variant: str):
+    def cannot_draw(asset_path: str) -> str | None:
+        if variant == "preview":
+            return None
+        from .materialx import cannot_draw as mx_cannot
+
+        return mx_cannot(asset_path, variant)
+    return cannot_draw
+
+
+def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
+    """Render ``views`` of the written asset in Storm with host ``name``'s network (:data:`VARIANTS`).
+
+    Returns
+    -------
+    dict
+        view name -> (H, W, 3) float32 linear Rec.709 radiance, background 0.
+
+    Raises
+    ------
+    HostError
+        bpy is missing, Storm cannot start (no EGL, a shader that fails to compile) or writes no image.
+    """
+    from . import blender
+    from ..render.images import save_png
+    from ..spectral import linear_to_srgb8
+
+    variant, overrides = VARIANTS[name]
+    try:
+        python = blender.bpy_python()
+    except HostError as exc:
+        raise HostError(name, exc.message) from None
+    views = list(views)
+    if not views:
+        raise ValueError("views must hold at least one View, got none")
+    asset_path = os.path.abspath(os.fspath(asset_path))
+    if not os.path.isfile(asset_path):
+        raise HostError(name, f"no asset at {asset_path!r}")
+    work = os.path.join(os.path.abspath(out_dir), name)
+    os.makedirs(work, exist_ok=True)
+    for v in views:
+        if os.path.exists(os.path.join(work, f"{v.name}.exr")):
+            os.remove(os.path.join(work, f"{v.name}.exr"))
+    job = {"asset": asset_path, "variant": variant, "overrides": {FEATHER_MATERIAL: overrides},
+           "environment_radiance": ENVIRONMENT_RADIANCE, "out_dir": work, "views": [v.to_dict() for v in views]}
+    job_path = os.path.join(work, "job.json")
+    with open(job_path, "w", encoding="utf-8") as fh:
+        json.dump(job, fh, indent=1)
+    script = importlib.util.find_spec("rockdove.hosts.storm_job").origin
+    try:
+        proc = subprocess.run([python, script, job_path], capture_output=True, text=True, timeout=TIMEOUT_S,
+                              cwd=work)
+    except subprocess.TimeoutExpired:
+        raise HostError(name, f"Storm did not finish within {TIMEOUT_S} s") from None
+    log = os.path.join(work, "storm.log")
+    with open(log, "w", encoding="utf-8") as fh:
+        fh.write(proc.stdout + "\n--- stderr ---\n" + proc.stderr)
+    if proc.returncode != 0:
+        lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("storm: ")] or proc.stderr.splitlines()
+        raise HostError(name, f"Storm failed: {(lines[-1] if lines else 'no message')[:300]} (log: {log})")
+    out = {}
+    for v in views:
+        exr = os.path.join(work, f"{v.name}.exr")
+        if not os.path.isfile(exr):
+            raise HostError(name, f"Storm wrote no image for view {v.name!r} ({exr}; log: {log})")
+        rgb = blender.read_exr_rgb(exr)
+        if rgb.shape != (v.height, v.width, 3):
+            raise HostError(name, f"view {v.name!r}: Storm image is {rgb.shape[:2]}, expected {(v.height, v.width)}")
+        save_png(linear_to_srgb8(rgb), os.path.join(work, f"{v.name}.png"))
+        out[v.name] = rgb
+    return out
+
+
+def _host(name: str) -> SimpleNamespace:
+    variant = VARIANTS[name][0]
+    return SimpleNamespace(NAME=name, VARIANT=variant, LOBE=LOBE, unavailable=unavailable,
+                           cannot_draw=_cannot_draw(variant),
+                           render=lambda asset_path, views, out_dir: render_variant(asset_path, views, out_dir,
+                                                                                    name=name))
+
+
+#: The registry's host objects (rockdove.hosts.HOSTS: ``rockdove.hosts.storm:BAKED`` ...).
+BAKED, PHYSICAL, PREVIEW = (_host(n) for n in VARIANTS)
