@@ -132,7 +132,7 @@ def test_glsl_host_renders_the_written_asset_as_the_verifier_does(asset_layer):
     assert images["sweep_090"].shape == (32, 32, 3) and images["sweep_090"].max() > 0
 
 
-def test_storm_hosts_are_skipped_with_how_to_install_when_no_python_has_bpy(monkeypatch):
+def test_storm_hosts_are_skipped_with_how_to_install_when_no_python_has_bpy(monkeypatch, tmp_path):
     import importlib.util
 
     from rockdove.hosts import blender
@@ -140,6 +140,7 @@ def test_storm_hosts_are_skipped_with_how_to_install_when_no_python_has_bpy(monk
     real = importlib.util.find_spec
     monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "bpy" else real(name, *a))
     monkeypatch.delenv(blender.BPY_PYTHON_ENV, raising=False)
+    monkeypatch.setattr(blender, "bpy_places", lambda: [str(tmp_path / "no-venv-bpy" / "bin" / "python")])
     sel = hosts.select(["storm", "storm_physical"])
     assert [m.NAME for m in sel.available] == ["glsl"]
     assert "pip install 'bpy==5.0.1'" in sel.unavailable["storm"] and "storm_physical" in sel.unavailable
@@ -154,7 +155,7 @@ def test_storm_host_that_cannot_start_names_itself_and_its_error(tmp_path):
     bad = tmp_path / "pigeon.usda"
     bad.write_text("not a USD layer\n")
     view = View("v", np.eye(4), 0.5, 8, 8, np.array([0.0, 0.0, 1.0]), np.ones(3))
-    with pytest.raises(HostError, match=r"host 'storm_physical': Storm failed: storm: .*\(log: .*storm.log\)"):
+    with pytest.raises(HostError, match=r"host 'storm_physical': Storm exited with status 1: storm: .*\(log: .*blender.log\)"):
         storm.PHYSICAL.render(str(bad), [view], str(tmp_path))
 
 

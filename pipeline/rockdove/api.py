@@ -195,12 +195,11 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
     chash = config_hash(config)
     if verify and ((read_marker(out) or {}).get("config_hash") != chash
                    or not (out / "verify" / "report.json").is_file()):
-        # A new configuration, or one not verified yet, will most likely render: start the verification's worker
-        # process now, so that its imports (pyrender, ~2 s) run on the other core while the LUT, textures and
-        # layers are built.
-        from .verify import worker
+        # A new configuration, or one not verified yet, will most likely render: import the GL renderer
+        # (pyrender, ~2 s) in a thread now, while the LUT, textures and layers are built.
+        from .verify.gl_renders import prestart
 
-        worker.prestart()
+        prestart()
 
     main_thread = threading.current_thread() is threading.main_thread()
     old_term = signal.signal(signal.SIGTERM, _raise_interrupt) if main_thread else None
@@ -240,7 +239,7 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
 def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, out: str | os.PathLike | None = None,
            width: int | None = None, height: int | None = None, views: Iterable[str] | None = None,
            n_views: int | None = None, bench_dir: str | os.PathLike | None = None, allow_external: bool = False,
-           progress: Callable[[str], None] | None = None) -> Verification:
+           progress: Callable[[str], None] | None = None, beauty: dict | None = None) -> Verification:
     """Validate an asset, render it with the GLSL shaders and every host in ``hosts`` and check each against the
     exact spectral reference of its lighting model; write the report.
 
@@ -261,6 +260,9 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, out:
         A folder of benchmark plots (``*.png``) to show in the report.
     allow_external : bool
         Allow the asset's layers to name files outside its folder (refused by default).
+    beauty : dict, optional
+        ``[beauty]`` settings (renderer, width, height, samples; None values: the defaults) of the picture the
+        report opens with (:mod:`rockdove.render.beauty`).
 
     Returns :class:`Verification` (a failed check: ``passed`` False). Raises :class:`UsageError` for bad usage
     and :class:`VerificationFailed`, before rendering, when the asset's layers do not parse or name files outside
@@ -277,5 +279,5 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, out:
     report = verify_asset(os.fspath(asset), out_dir=out, width=width or DEFAULT_SIZE, height=height or DEFAULT_SIZE,
                           progress=progress, views=None if views is None else list(views),
                           n_views=n_views or DEFAULT_VIEWS, hosts=None if hosts is None else list(hosts),
-                          bench_dir=bench_dir)
+                          bench_dir=bench_dir, beauty=beauty)
     return Verification.from_report(report)

@@ -40,6 +40,19 @@ def _count(text: str) -> int:
     return v
 
 
+def _samples(text: str) -> int:
+    if not text.isdigit() or not 1 <= int(text) <= 4096:
+        raise argparse.ArgumentTypeError(f"must be an integer from 1 to 4096 samples per pixel, got {text!r}")
+    return int(text)
+
+
+def _beauty_size(text: str) -> tuple:
+    w, sep, h = text.lower().partition("x")
+    if not sep or not w.isdigit() or not h.isdigit() or not (64 <= int(w) <= 4096 and 64 <= int(h) <= 4096):
+        raise argparse.ArgumentTypeError(f"{text!r} is not WxH with each 64 to 4096 pixels, e.g. 768x512")
+    return int(w), int(h)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("asset", metavar="ASSET", help="the asset folder or its root layer (pigeon.usda)")
     parser.add_argument("--out", metavar="DIR", default=None,
@@ -58,6 +71,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--bench-dir", default=None, metavar="DIR",
                         help="show the benchmark plots (*.png) of DIR in the report, e.g. build/bench "
                              "(default: none)")
+    parser.add_argument("--beauty", default=None, choices=("auto", "cycles", "gl", "off"),
+                        help="the report's opening picture: Cycles through the Blender add-on, GL, or auto "
+                             "(default: Cycles when the blender host runs, else GL; [beauty] in the schema)")
+    parser.add_argument("--beauty-size", type=_beauty_size, default=(None, None), metavar="WxH",
+                        help="beauty render size, pixels (default 768x512)")
+    parser.add_argument("--beauty-samples", type=_samples, default=None, metavar="N",
+                        help="Cycles samples per pixel of the beauty render (default 32, adaptive, denoised)")
     parser.add_argument("--junit", metavar="FILE", default=None,
                         help="also write the verification as JUnit XML (a test case per validator, view and host "
                              "view) for CI test-result pages")
@@ -79,7 +99,8 @@ def run(args: argparse.Namespace) -> int:
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
     result = api.verify(args.asset, hosts, out=args.out, width=args.width, height=args.height, views=args.names,
                         n_views=args.views, bench_dir=args.bench_dir, allow_external=args.allow_external_assets,
-                        progress=progress)
+                        progress=progress, beauty={"renderer": args.beauty, "width": args.beauty_size[0],
+                                                   "height": args.beauty_size[1], "samples": args.beauty_samples})
     report = result.report
     short = summary(report)
     if args.junit:
@@ -110,6 +131,8 @@ def run(args: argparse.Namespace) -> int:
                 print(f"host {h['name']} ({h['variant']}, {h['lobe']}): {h['n_pixels']} px  dE2000 median "
                       f"{h['median_dE']:.3f}  p95 {h['p95_dE']:.3f}  green {h['green_px']}  purple {h['purple_px']}  "
                       f"hue agreement {h['hue_agreement']:.1%}  {'ok' if h['passed'] else 'FAIL'}")
+        if report.get("beauty"):
+            print(f"beauty render ({report['beauty']['renderer']}): {report['beauty']['seconds']:.1f} s")
         for note in result.notes:
             print(f"note: {note}")
         print(f"report: {result.report_dir / 'report.html'}")

@@ -492,7 +492,7 @@ def combine_verify(ctx: Context, views: dict) -> dict:
         except ResourceMissing as exc:  # e.g. a wheel install without npm's three.js: the report, without it
             skipped.append(f"no interactive viewer in the report: {exc}")
     report = report_from_views(str(ctx.asset_dir), views, out_dir=str(ctx.workdir), width=size["width"],
-                               height=size["height"], published_asset=str(published))
+                               height=size["height"], published_asset=str(published), beauty=ctx.config["beauty"])
     return dataclasses.asdict(Verdict(bool(report["passed"]), "; ".join(map(str, report["failures"])),
                                       [v["view"] for v in report["views"]], list(report["notes"]) + skipped))
 
@@ -602,10 +602,10 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
                             deps=published + ("verify_rays",), modules=("rockdove.render", "rockdove.verify", "rockdove.usd"),
                             libraries=LIBS_RENDER, codec=JSON, needs_asset=True, item_plan=plan_surfaces, batch=True,
                             combine=combine_surfaces, item_codec=SURFACES))
-        stages.append(Stage(VERIFY, run_verify, config=("verify.width", "verify.height", "verify.views"),
+        stages.append(Stage(VERIFY, run_verify, config=("verify.width", "verify.height", "verify.views", "beauty"),
                             deps=published + ("verify_surfaces",),
                             modules=("rockdove.render", "rockdove.verify", "rockdove.usd", "rockdove.lut", "rockdove.films",
-                                     "rockdove.optics", "rockdove.spectral", "rockdove.web",
+                                     "rockdove.optics", "rockdove.spectral", "rockdove.web", "rockdove.hosts",
                                      "rockdove.graph.publish"),
                             data=("materials", "schemas/plugInfo.json", "schemas/generatedSchema.usda"),
                             libraries=LIBS_RENDER, codec=JSON, needs_asset=True, publish="verify",

@@ -5,8 +5,9 @@ Storm is the one in the bpy wheel (USD 25.08 with imaging, hdSt, HdMtlx, Materia
 in an EGL pbuffer with an OpenGL 4.5 compatibility context. Everything the host adds is in the stage's session
 layer (the asset's files are never written): a camera per View (clipping range 1 mm - 1 km), a dome light with a
 white texture of unit radiance (:data:`ENVIRONMENT_RADIANCE`: the ``view_angle`` lobe's uniform environment), the
-``shading`` variant selection, and the lobe's one change to the network: base colour black (the feather's
-``StructuralMix.bg`` / OpenPBR ``base_color`` set to 0, as the other hosts draw the film lobe alone).
+``shading`` variant selection, and the lobe's changes: base colour black (the feather's ``StructuralMix.bg`` /
+OpenPBR ``base_color`` set to 0, as the other hosts draw the film lobe alone) and the parts without a MaterialX
+material black (UsdPreviewSurface diffuse 0, ior 1), as the exact reference draws them.
 
 Three hosts, one per network a Storm user sees (:data:`VARIANTS`):
 
@@ -21,10 +22,7 @@ Output: FrameRecorder's colour AOV with colour correction off, written as EXR (l
 
 from __future__ import annotations
 
-import importlib.util
-import json
 import os
-import subprocess
 from types import SimpleNamespace
 
 from . import HostError
@@ -80,10 +78,6 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
     from ..spectral import linear_to_srgb8
 
     variant, overrides = VARIANTS[name]
-    try:
-        python = blender.bpy_python()
-    except HostError as exc:
-        raise HostError(name, exc.message) from None
     views = list(views)
     if not views:
         raise ValueError("views must hold at least one View, got none")
@@ -97,21 +91,12 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
             os.remove(os.path.join(work, f"{v.name}.exr"))
     job = {"asset": asset_path, "variant": variant, "overrides": {FEATHER_MATERIAL: overrides},
            "environment_radiance": ENVIRONMENT_RADIANCE, "out_dir": work, "views": [v.to_dict() for v in views]}
-    job_path = os.path.join(work, "job.json")
-    with open(job_path, "w", encoding="utf-8") as fh:
-        json.dump(job, fh, indent=1)
-    script = importlib.util.find_spec("rockdove.hosts.storm_job").origin
-    try:
-        proc = subprocess.run([python, script, job_path], capture_output=True, text=True, timeout=TIMEOUT_S,
-                              cwd=work)
-    except subprocess.TimeoutExpired:
-        raise HostError(name, f"Storm did not finish within {TIMEOUT_S} s") from None
-    log = os.path.join(work, "storm.log")
-    with open(log, "w", encoding="utf-8") as fh:
-        fh.write(proc.stdout + "\n--- stderr ---\n" + proc.stderr)
-    if proc.returncode != 0:
-        lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("storm: ")] or proc.stderr.splitlines()
-        raise HostError(name, f"Storm failed: {(lines[-1] if lines else 'no message')[:300]} (log: {log})")
+    log = os.path.join(work, "blender.log")
+    try:  # the bpy Python, found and run as the Blender host runs its job (log: work/blender.log)
+        blender.run_job(job, work, module="rockdove.hosts.storm_job", timeout_s=TIMEOUT_S)
+    except HostError as exc:
+        raise HostError(name, exc.message.replace("Blender exited", "Storm exited")
+                        .replace("Blender did not", "Storm did not")) from None
     out = {}
     for v in views:
         exr = os.path.join(work, f"{v.name}.exr")

@@ -4,7 +4,8 @@ has imaging: UsdImagingGL, hdSt, HdMtlx; usd-core has none). It imports nothing 
 ``python storm_job.py job.json``: open the written asset, add in the stage's SESSION layer only (the asset's
 files are never edited) a camera per view, a dome light with a white texture (uniform environment of unit
 radiance), the shading variant selection and the lobe's overrides (:func:`_session`), and record each view with
-``UsdAppUtils.FrameRecorder`` (Storm, no colour correction) into ``<view>.exr``: linear Rec.709, background 0.
+``UsdAppUtils.FrameRecorder`` (Storm, no colour correction); parts without a MaterialX material are
+black (they only occlude, as in the exact reference) into ``<view>.exr``: linear Rec.709, background 0.
 """
 
 import ctypes
@@ -81,6 +82,19 @@ def white_png(path: str) -> str:
     return path
 
 
+def _black(surface) -> None:
+    """A UsdPreviewSurface that reflects nothing: diffuse 0, ior 1 (Fresnel F0 = 0)."""
+    from pxr import Gf, Sdf, UsdShade
+
+    if not surface.IsValid():
+        return
+    shader = UsdShade.Shader(surface)
+    diffuse = shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f)
+    diffuse.GetAttr().SetConnections([])
+    diffuse.Set(Gf.Vec3f(0.0, 0.0, 0.0))
+    shader.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(1.0)
+
+
 def _session(stage, job):
     """The session layer's opinions: variant, lobe overrides, dome light, cameras. Returns camera paths."""
     from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
@@ -94,7 +108,9 @@ def _session(stage, job):
             continue
         mtl = UsdShade.Material(prim)
         out = mtl.GetSurfaceOutput("mtlx")
-        if job["variant"] == "preview" and out.GetAttr().IsValid():
+        if not out.GetAttr().IsValid() or not out.HasConnectedSource():
+            _black(prim.GetChild("PreviewSurface"))  # other parts: black, they only occlude (the lobe)
+        elif job["variant"] == "preview":
             out.GetAttr().SetConnections([])  # a Storm without MaterialX: the UsdPreviewSurface network
         for name, value in job.get("overrides", {}).get(prim.GetName(), {}).items():
             shader, inp = name.split(".")
@@ -149,7 +165,7 @@ def main(argv=None) -> int:
     try:
         run(job)
     except Exception as exc:  # one line for the host's HostError; the log keeps the rest
-        print(f"storm: {type(exc).__name__}: {exc}", file=sys.stderr)
+        print(f"storm: {type(exc).__name__}: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
     return 0
 

@@ -268,6 +268,17 @@ def _figure_row(title: str, files: dict, captions: dict) -> str:
     return f"<h3>{e(title)}</h3><div class='row'>{figs}</div>"
 
 
+def _beauty(images: dict) -> str:
+    """The picture the page opens with (:func:`rockdove.render.beauty.for_report`): its views, its caption."""
+    b = images.get("beauty")
+    if not b:
+        return ""
+    e = html.escape
+    figs = "".join(f"<figure><img src='{e(f)}' alt='beauty render, {e(name)}' style='image-rendering:auto'></figure>"
+                   for name, f in b["files"].items())
+    return f"<div class='row'>{figs}</div><p><small>Beauty render: {e(b['caption'])}</small></p>"
+
+
 def write_html(path, report: dict, images: dict) -> str:
     """A self-contained page (relative image links) summarising ``report``.
 
@@ -278,7 +289,8 @@ def write_html(path, report: dict, images: dict) -> str:
     images : dict
         ``"views"``: ``{view: {"gl": file, "reference": file, "dE": file}}``; optional ``"hosts"``
         (``{host: {view: {"host", "reference", "dE": file}}}``), ``"contact_sheet"``,
-        ``"lut"``, ``"spectra"``, ``"hue"``, ``"bench"`` (list) file names, relative to the page.
+        ``"lut"``, ``"spectra"``, ``"hue"``, ``"bench"`` (list) file names, relative to the page; ``"beauty"``
+        (:func:`rockdove.render.beauty.render_beauty`'s entry), the picture the page opens with.
     """
     e = html.escape
     status = "PASSED" if report.get("passed") else "FAILED"
@@ -292,7 +304,7 @@ def write_html(path, report: dict, images: dict) -> str:
         "img{max-width:100%;image-rendering:pixelated}.row{display:flex;gap:8px}.row figure{margin:0;flex:1}"
         "figcaption{font-size:100%;color:#222}h1{font-size:1.6em}"
         ".viewer{width:100%;height:600px;border:1px solid #ccc}</style></head><body>",
-        f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>" + notes_html,
+        f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>" + _beauty(images) + notes_html,
         f"<p>Asset: <code>{e(str(report.get('asset', '')))}</code><br>",
         f"Configuration hash: <code>{e(str(report.get('configuration_hash') or 'not recorded'))}</code><br>",
         f"Goals: median dE2000 &le; {report.get('goals', {}).get('median_dE', '')}, "

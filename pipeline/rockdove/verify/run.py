@@ -40,10 +40,11 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import compare, report, worker
+from . import compare, report
+from .gl_renders import GLRenderError, GLRenders
 from .boundary import boundary_shape, class_shape
 from .inputs import DEFAULT_SIZE, DEFAULT_VIEWS, check_size, select_views, verification_scene, verification_views
-from .verdict import combine, default_out_dir, start_validation
+from .verdict import combine, default_out_dir
 
 
 def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits=None, surfaces=None, refs=None,
@@ -59,14 +60,12 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
     from .reference_image import render_reference
 
     failures_all = []
-    # The GL renders run in the worker process (rockdove.verify.worker: the other core, its imports done ahead
-    # when the build started it), one reply per view: this process computes the reference, then compares each
-    # view as soon as it is rendered, while the worker renders the next.
+    # The GL renders run in a thread of their own (rockdove.verify.gl_renders), one result per view: this thread
+    # computes the reference, then compares each view as soon as it is rendered, while the next one is drawn.
     say(f"GL renders and CPU reference ({len(views)} views)")
     # the largest views first (the hero): rendered while the reference integrates, so no view waits for long
     order = sorted(range(len(views)), key=lambda i: -views[i].width * views[i].height)
-    gl = worker.GLRenders(scene, [views[i] for i in order], lut)
-    start_validation(scene.root_layer)  # queued behind the renders: done while the views are compared
+    gl = GLRenders(scene, [views[i] for i in order], lut)
     t = time.perf_counter()
     ref_results = render_reference(scene, views, hits=hits, surfaces=surfaces) if refs is None else refs
     t_ref = (time.perf_counter() - t) / len(views)
@@ -85,7 +84,7 @@ def render_and_check(scene, lut, views, out: str, *, subfolders: bool, say, hits
             v = views[i]
             try:
                 gl_result, t_gl = gl.result(k)
-            except worker.WorkerError as exc:
+            except GLRenderError as exc:
                 gl_result, t_gl = None, 0.0
                 failure = f"GL renders (rockdove.render.gl) failed: {exc}"
                 if failure not in failures_all:
@@ -190,22 +189,24 @@ def verify_views(asset, views=None, out_dir=None, width: int = DEFAULT_SIZE, hei
 
 def report_from_views(asset, view_results: dict, out_dir=None, width: int = DEFAULT_SIZE,
                       height: int = DEFAULT_SIZE, bench_dir=None, progress=None, *, reused=(),
-                      published_asset=None) -> dict:
+                      published_asset=None, beauty=None) -> dict:
     """Validate the asset and combine per-view results (:func:`verify_views`, possibly from a cache) into the
     report (``report.json``, ``report.html`` and the images in ``out_dir``); returns the report dict.
 
     ``reused`` names the views whose results came from a cache (recorded in the report).
     ``published_asset``: the root layer's path once published (the build verifies a staging folder), which the
-    report names instead of the layer read.
+    report names instead of the layer read. ``beauty``: the ``[beauty]`` settings of the picture the report
+    opens with (:mod:`rockdove.render.beauty`; ``auto`` is GL here: no Blender host runs); None: none.
     """
     layer, scene, lut, notes = verification_scene(asset)
     return combine(layer, scene, lut, notes, view_results, out_dir, width, height, bench_dir,
                     progress or (lambda msg: None), reused=reused, t_start=time.perf_counter(),
-                    published_asset=published_asset)
+                    published_asset=published_asset, beauty=beauty)
 
 
 def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE,
-                 bench_dir=None, progress=None, views=None, n_views: int = DEFAULT_VIEWS, hosts=("glsl",)) -> dict:
+                 bench_dir=None, progress=None, views=None, n_views: int = DEFAULT_VIEWS, hosts=("glsl",),
+                 beauty=None) -> dict:
     """Validate, render and check an asset; write the report into ``out_dir``; return the report dict.
 
     Parameters
@@ -231,6 +232,10 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
         its lobe (:mod:`rockdove.verify.host_check`); None: every registered host available here. ``glsl``
         always runs. Unavailable hosts are reported as skipped with their reason; a host that fails or misses
         its goals fails the verification.
+    beauty : dict, optional
+        ``[beauty]`` settings (renderer, width, height, samples) of the picture the report opens with
+        (:mod:`rockdove.render.beauty`; ``auto`` takes Cycles when the blender host is among ``hosts`` and
+        available); default the schema's defaults; ``{"renderer": "off"}``: none.
 
     Returns
     -------
@@ -263,5 +268,8 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
     t = time.perf_counter()
     host_entries, host_images = check_hosts(layer, scene, chosen, selection, refs, out,
                                             rendered={"glsl": gl_images} if gl_images else None, say=say)
+    from ..render.beauty import settings
+
+    beauty = {**settings(beauty), "cycles_ok": any(m.NAME == "blender" for m in selection.available)}
     return combine(layer, scene, lut, notes, results, out, width, height, bench_dir, say, t_start=t_start,
-                    hosts=(host_entries, host_images, time.perf_counter() - t))
+                    hosts=(host_entries, host_images, time.perf_counter() - t), beauty=beauty)

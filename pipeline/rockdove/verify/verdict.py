@@ -7,12 +7,12 @@ from __future__ import annotations
 import os
 import shutil
 import sys
-import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import compare, provenance, report, worker
+from . import compare, provenance, report
 from .boundary import boundary_note
 from .inputs import BOUNDARY_SWEEP_ANGLE_DEG
 
@@ -26,18 +26,21 @@ def default_out_dir(layer_path: str) -> str:
 
 
 def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, bench_dir, say, *, reused=(),
-             t_start, hosts=None, published_asset=None) -> dict:
+             t_start, hosts=None, published_asset=None, beauty=None) -> dict:
     """Validate the asset and join per-view results into the verdict and the report (``report.json``,
     ``report.html`` and their images in ``out_dir``, default ``verify/`` beside the root layer); returns the
     report dict. ``bench_dir``: a folder whose benchmark plots (``*.png``) the report shows; None: none (the
-    report reads no folder it is not given)."""
+    report reads no folder it is not given). ``beauty``: the ``[beauty]`` settings and ``cycles_ok`` of the
+    picture the report opens with (:func:`rockdove.render.beauty.for_report`); None: no picture."""
     out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)
     os.makedirs(out, exist_ok=True)
     timings, failures, notes = {}, [], list(notes)
     say("validating")
-    # in the worker process, while this one draws the report (rockdove.verify.worker); usually started already,
-    # behind the GL renders
-    validation_pending = _take_validation(layer)
+    # in a thread, while this one draws the report (pxr's validators and the charts' PNG encoding leave the GIL
+    # in parts)
+    validating = ThreadPoolExecutor(1, thread_name_prefix="rockdove-validate")
+    validation_pending = validating.submit(_validate_timed, layer)
+    validating.shutdown(wait=False)
     results = list(results.values())
     for key in ("gl", "reference", "compare"):
         timings[key] = sum(r["timings_s"][key] for r in results)
@@ -104,8 +107,16 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
             elif not h["passed"]:
                 failures.append(f"host {h['name']} ({h['variant']}, {h['lobe']} lobe): {'; '.join(h['failures'])}")
     images["bench"] = report.copy_bench_plots(out, bench_dir) if bench_dir is not None else []
+    if beauty is not None:
+        from ..render.beauty import for_report
+
+        say("beauty render")
+        images["beauty"], note = for_report(layer, scene, out, beauty, cycles_ok=beauty.get("cycles_ok", False),
+                                            lut=lut)
+        notes.extend([note] if note else [])
+        timings["beauty"] = images["beauty"]["seconds"] if images["beauty"] else 0.0
     timings["report"] = time.perf_counter() - t
-    validation, timings["validation"] = _validation(validation_pending, layer)
+    validation, timings["validation"] = validation_pending.result()
     if not validation["passed"]:
         failures.insert(0, "validation: " + (validation["error"] or "the validator reported problems"))
     timings["total"] = time.perf_counter() - t_start
@@ -130,6 +141,7 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
         "reference": [r["reference"] for r in results],
         "hue_sweep": hue,
         "hosts": host_entries,
+        "beauty": images.get("beauty"),
         "boundary": {"per_view": {r["view"]: r["boundary"] for r in sweeps},
                      "method": "TLS line through green/purple boundary points; RMS perpendicular distance (px) "
                                "and RMS / boundary length; coherence and curvature: rockdove.verify.boundary"},
@@ -148,55 +160,13 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
     return result
 
 
-#: Validations sent to the worker, by :func:`_asset_state` (taken by :func:`combine`).
-_VALIDATIONS: dict = {}
-_VALIDATIONS_LOCK = threading.Lock()  # verifications in several threads of one process (a threaded Dask worker)
-
-
-def _asset_state(layer) -> tuple:
-    """The root layer and the path, size and mtime of every file in its folder, without the verification's own
-    output folder (:func:`default_out_dir`): what a validation of the asset reads."""
-    root = os.path.dirname(os.path.abspath(layer))
-    skip = default_out_dir(layer)
-    files = []
-    for folder, dirs, names in os.walk(root):
-        dirs[:] = sorted(d for d in dirs if os.path.join(folder, d) != skip)
-        for n in sorted(names):
-            st = os.stat(os.path.join(folder, n))
-            files.append((os.path.relpath(os.path.join(folder, n), root), st.st_size, st.st_mtime_ns))
-    return os.path.abspath(layer), tuple(files)
-
-
-def start_validation(layer) -> None:
-    """Send the validation of ``layer``'s asset to the worker process, once per state of its files: the GL
-    renders' caller starts it behind them (:func:`rockdove.verify.run.render_and_check`), so that it runs while
-    the views are compared, and :func:`combine` takes it; a changed file sends a new one."""
-    key = _asset_state(layer)
-    with _VALIDATIONS_LOCK:
-        if key not in _VALIDATIONS:
-            if len(_VALIDATIONS) >= 8:  # never taken (a verification that raised): forget the oldest
-                _VALIDATIONS.pop(next(iter(_VALIDATIONS)))
-            _VALIDATIONS[key] = worker.submit("rockdove.verify.worker:validate_timed", layer)
-
-
-def _take_validation(layer) -> "worker.Pending":
-    """The validation started for the asset's files as they are now (:func:`start_validation`), else a new one."""
-    key = _asset_state(layer)
-    with _VALIDATIONS_LOCK:
-        started = _VALIDATIONS.pop(key, None)
-    return started or worker.submit("rockdove.verify.worker:validate_timed", layer)
-
-
-def _validation(pending, layer) -> tuple[dict, float]:
-    """The validation sent to the worker and its seconds; run here if the worker process failed (a validation
-    is never skipped), reported as a failed validation if it raised there."""
+def _validate_timed(layer) -> tuple[dict, float]:
+    t = time.perf_counter()
     try:
-        return pending.result()
-    except worker.WorkerFailed:
-        t = time.perf_counter()
-        return provenance.run_validation(layer), time.perf_counter() - t
-    except worker.RemoteError as exc:
-        return {"passed": False, "details": None, "error": f"validation raised: {exc}"}, 0.0
+        validation = provenance.run_validation(layer)
+    except Exception as exc:  # noqa: BLE001 - a validator that raises is a failure, never a pass
+        validation = {"passed": False, "details": None, "error": f"validation raised: {type(exc).__name__}: {exc}"}
+    return validation, time.perf_counter() - t
 
 
 def summary(report: dict) -> dict:

@@ -1,0 +1,98 @@
+"""The verification's GL renders in a thread of this process, one result per view, beside the CPU reference.
+
+:func:`rockdove.verify.run.render_and_check` asks for every view at once (:class:`GLRenders`) and compares each
+as soon as it is drawn, while the thread draws the next one and this thread integrates the reference: llvmpipe
+draws and reads back outside the GIL (its own threads), numpy's reference mostly too. A thread, not a process:
+measured (docs/design.md, "The GL renders"), a worker process saved nothing once the imports are warm and cost
+a second interpreter, a socket protocol and pickled images; Dask's daemonic workers need nothing special either.
+:func:`prestart` imports pyrender in a thread as soon as a build knows it will render, so the ~2 s import runs
+while the LUT, textures and layers are written.
+
+All GL calls of one :class:`GLRenders` run on its own single thread (an EGL context is current on one thread).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+
+class GLRenderError(RuntimeError):
+    """The GL renderer could not open, or a view failed to render; the message says why."""
+
+
+def _import_gl() -> None:
+    from .._compat import import_pyrender
+    from ..render import gl  # noqa: F401
+
+    import_pyrender()
+
+
+_PRESTARTED: threading.Thread | None = None
+
+
+def prestart() -> None:
+    """Import the GL renderer's modules in a background thread now (once per process); never raises (a render
+    that needs them raises the import error itself)."""
+    global _PRESTARTED
+    if _PRESTARTED is None:
+        def run():
+            try:
+                _import_gl()
+            except Exception:  # noqa: BLE001 - reported by the render that needs it
+                pass
+        _PRESTARTED = threading.Thread(target=run, name="rockdove-gl-import", daemon=True)
+        _PRESTARTED.start()
+
+
+class GLRenders:
+    """The GL renders of ``views`` (:class:`rockdove.render.gl.GLRenderer` opened at the first view's size and
+    closed after the last, as :func:`rockdove.render.gl.render_views` does, so the images are the same), drawn
+    in order on a thread of their own; :meth:`result` waits for one."""
+
+    def __init__(self, scene, views, lut=None):
+        views = list(views)
+        if not views:
+            raise ValueError("views must contain at least one View, got none")
+        pool = ThreadPoolExecutor(1, thread_name_prefix="rockdove-gl")
+        state: dict = {}
+
+        def open_() -> float:
+            t = time.perf_counter()
+            if _PRESTARTED is not None:
+                _PRESTARTED.join()
+            from ..render.gl import GLRenderer
+
+            state["renderer"] = GLRenderer(scene, lut=lut, width=views[0].width, height=views[0].height)
+            return time.perf_counter() - t
+
+        def render(view):
+            if "renderer" not in state:
+                raise GLRenderError("no GL renderer is open")
+            t = time.perf_counter()
+            return state["renderer"].render(view), time.perf_counter() - t
+
+        def close() -> None:
+            if "renderer" in state:
+                state.pop("renderer").delete()
+
+        self._open = pool.submit(open_)
+        self._views = [pool.submit(render, v) for v in views]
+        pool.submit(close)
+        pool.shutdown(wait=False)
+
+    def result(self, i: int):
+        """View ``i``'s ``(RenderResult, seconds)``, the seconds with its share of opening the renderer;
+        :class:`GLRenderError` naming the renderer's error when it could not open or the view failed."""
+        try:
+            open_s = self._open.result()
+        except Exception as exc:  # noqa: BLE001 - e.g. no EGL display: the verification fails with it
+            raise GLRenderError(f"the GL renderer could not open: {type(exc).__name__}: {exc}") from exc
+        try:
+            image, seconds = self._views[i].result()
+        except GLRenderError:
+            raise
+        except Exception as exc:  # noqa: BLE001
+            raise GLRenderError(f"{type(exc).__name__}: {exc}") from exc
+        return image, seconds + open_s / len(self._views)
