@@ -575,16 +575,30 @@ def test_out_folders_and_files_of_the_user_are_never_overwritten(good, tmp_path)
         (tmp_path / folder).mkdir(exist_ok=True)
         (tmp_path / folder / name).write_text("mine\n")
         mine[tmp_path / folder / name] = "mine\n"
-    (tmp_path / "my.glb").write_text("mine\n")
+    for name in ("my.glb", "L.exr", "Z/rockdove_blender.zip"):
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).write_text("mine\n")
+        mine[tmp_path / name] = "mine\n"
     runs = [_rockdove("sweep", "--out", str(tmp_path / "D"), "--grid", "lut.angles=[16, 32]", "--no-verify"),
             _rockdove("render", good, "--out", str(tmp_path / "R"), "--views", "1", "--width", "16", "--height", "16"),
             _rockdove("verify", good, "--out", str(tmp_path / "V"), "--width", "16", "--height", "16"),
-            _rockdove("gltf", good, "--out", str(tmp_path / "my.glb"))]
+            _rockdove("gltf", good, "--out", str(tmp_path / "my.glb")),
+            _rockdove("lut", "--out", str(tmp_path / "L.exr"), "--angles", "8", "--thicknesses", "4"),
+            _rockdove("blender-addon", "--out", str(tmp_path / "Z"))]
     for r in runs:
         assert r.returncode == 2 and "rockdove did not" in r.stderr and len(r.stderr.splitlines()) == 1, r.stderr
-    assert all(p.read_text() == text for p, text in mine.items()) and (tmp_path / "my.glb").read_text() == "mine\n"
+    assert all(p.read_text() == text for p, text in mine.items())
     assert sorted(p.name for p in (tmp_path / "D").iterdir()) == ["index.html", "sweep.json"]
     for _ in range(2):  # a folder rockdove made is rockdove's: rendered into again
         r = _rockdove("render", good, "--out", str(tmp_path / "new"), "--views", "1", "--width", "16", "--height", "16")
         assert r.returncode == 0, r.stderr
     assert (tmp_path / "new/.rockdove-output.json").is_file() and (tmp_path / "new/contact_sheet.png").is_file()
+
+    (tmp_path / "new").chmod(0o555)  # read-only: refused before rendering (as a user without root's override)
+    try:
+        cmd = [sys.executable, "-m", "rockdove.cli", "render", good, "--out", str(tmp_path / "new"), "--views", "1"]
+        cmd = cmd if os.geteuid() else ["setpriv", "--bounding-set=-dac_override,-dac_read_search,-fowner", "--", *cmd]
+        r = subprocess.run(cmd, capture_output=True, text=True, cwd=OUTSIDE, timeout=120)
+        assert r.returncode == 2 and "is not writable (read-only)" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    finally:
+        (tmp_path / "new").chmod(0o755)

@@ -116,6 +116,16 @@ def check_output_file(out, ours) -> None:
     _check_writable(out, real_output(path.parent), deep=False)
 
 
+def starts_like(magic: bytes, tag: bytes = b""):
+    """``ours`` for :func:`check_output_file`: the file starts with ``magic`` and holds ``tag`` in its first 64 KiB
+    (e.g. an EXR whose header names ``rockdove:``)."""
+    def ours(path) -> bool:
+        with open(path, "rb") as fh:
+            head = fh.read(1 << 16)
+        return head.startswith(magic) and tag in head
+    return ours
+
+
 def _remove(path: Path) -> None:
     """Remove a leftover of a killed or failed build: a link is unlinked (never followed), a folder removed even
     where a read-only mode inside it stops ``rmtree`` (it is ours: make it writable first)."""
