@@ -12,7 +12,7 @@ export PYOPENGL_PLATFORM ?= egl
 # dependencies have outgrown, so it gets a venv of its own; the host finds it beside .venv (or through
 # $ROCKDOVE_BPY_PYTHON). bpy 4.2 LTS and 4.4 (the first with the USD import's prim map) get venvs too: the add-on's
 # tests run the README's Blender steps on each (tests/test_blender_addon.py). ~0.9-1 GB and 4-6 min each. They
-# were built on numpy 1.x (as their Blender bundles: 4.4 prints a numpy traceback on `import bpy` with numpy 2).
+# were built on numpy 1.x (as their Blender bundles: 4.3 and 4.4 print a numpy traceback on `import bpy` with numpy 2).
 # BPY_DEBS: shared libraries bpy links and a minimal Debian lacks.
 BPY_VENV  := .venv-bpy
 BPY_STAMP := $(BPY_VENV)/.installed

@@ -39,6 +39,11 @@ bl_info = {
     "category": "Import-Export",
 }
 
+import importlib.util
+import math
+import os
+import sys
+
 import bpy
 
 FILM_PREFIX = "rockdove:film:"
@@ -83,9 +88,8 @@ def film_ior(record: dict) -> float:
 
 def _texture_bytes(asset_path):
     """(file path or None, bytes or None) of a resolved Sdf.AssetPath (a file, or a file inside a usdz)."""
-    import os
-
     from pxr import Ar
+
 
     resolved = asset_path.resolvedPath if asset_path is not None else ""
     if not resolved:
@@ -94,6 +98,20 @@ def _texture_bytes(asset_path):
         return resolved, None
     asset = Ar.GetResolver().OpenAsset(Ar.ResolvedPath(resolved))
     return None, (bytes(asset.GetBuffer()) if asset is not None else None)
+
+
+def _outside(asset_path, stage) -> str | None:
+    """The resolved path of a texture that lies outside the asset (the root layer's folder, or its usdz), else
+    None: a texture of the asset, or none."""
+    from pxr import Ar
+
+
+    resolved = asset_path.resolvedPath if asset_path is not None else ""
+    if not resolved:
+        return None
+    outer = Ar.SplitPackageRelativePathOuter(resolved)[0] if Ar.IsPackageRelativePath(resolved) else resolved
+    folder = os.path.dirname(os.path.realpath(stage.GetRootLayer().realPath))
+    return None if os.path.commonpath([os.path.realpath(outer), folder]) == folder else resolved
 
 
 def _load_image(name: str, asset_path, colour_space: str):
@@ -120,19 +138,9 @@ def _shader_file(material_prim, shader_name: str):
 
 
 def build_material(name: str, record: dict, base_image, mask_image, uv_name: str, thickness_attribute: str):
-    """The physical thin-film material: ``cutout(mix(base, film, mask))``.
-
-    Parameters
-    ----------
-    record : dict
-        :func:`film_record` of the mesh.
-    base_image, mask_image : bpy.types.Image or None
-        Feather base colour (sRGB, alpha = silhouette) and tip mask; None: base black and opaque, mask 1.
-    uv_name : str
-        UV map of the feather's ``st``.
-    thickness_attribute : str
-        Point attribute holding the film thickness, nm.
-    """
+    """The physical thin-film material ``cutout(mix(base, film, mask))`` of a :func:`film_record`: ``base_image``
+    and ``mask_image`` are the feather base colour (sRGB, alpha = silhouette) and tip mask (None: base black and
+    opaque, mask 1), read at the UV map ``uv_name``; ``thickness_attribute`` holds the film thickness, nm."""
     mat = bpy.data.materials.new(name)
     mat.use_nodes = True
     mat[MATERIAL_TAG] = True
@@ -212,12 +220,10 @@ def bundled_pxr() -> str | None:
     str or None
         None when the ``pxr`` this process will use is Blender's; else why the hook cannot run (one line).
     """
-    import importlib.util
-    import os
-    import sys
-
-    site = os.path.join(bpy.utils.resource_path("LOCAL"), "python", "lib",
-                        f"python{sys.version_info.major}.{sys.version_info.minor}", "site-packages")
+    lib = os.path.join(bpy.utils.resource_path("LOCAL"), "python", "lib")
+    sites = [os.path.join(lib, f"python{sys.version_info.major}.{sys.version_info.minor}", "site-packages"),
+             os.path.join(lib, "site-packages")]  # Linux and macOS; Windows
+    site = next((s for s in sites if os.path.isdir(os.path.join(s, "pxr"))), sites[0])
     bundled = os.path.isdir(os.path.join(site, "pxr"))
     loaded = sys.modules.get("pxr")
     if loaded is not None:
@@ -274,7 +280,7 @@ def imported_meshes(import_context, prims) -> dict:
     Blender has one (4.4 and later), else by :func:`find_imported` over the objects the importer selected."""
     get_prim_map = getattr(import_context, "get_prim_map", None)
     if get_prim_map is None:
-        layer = bpy.context.view_layer
+        layer = bpy.context.view_layer or bpy.context.scene.view_layers[0]  # a job's end may have no window
         points = [(p.GetPath(), len(p.GetAttribute("points").Get() or ())) for p in prims]
         return find_imported(points, [ob for ob in layer.objects if ob.select_get(view_layer=layer)])
     prim_map = {str(path): ids for path, ids in get_prim_map().items()}
@@ -292,8 +298,6 @@ def imported_meshes(import_context, prims) -> dict:
 
 def check_record(record: dict) -> str | None:
     """None when a film record can be built in Blender, else what is wrong with it (one line)."""
-    import math
-
     def number(key, low):
         value = record.get(key, low)
         ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value >= low
@@ -330,15 +334,18 @@ def apply_to_import(import_context) -> list:
         why = check_record(record) or next(
             (f"no '{thickness_attribute}' attribute on the imported mesh {ob.data.name!r}" for ob in objects
              if thickness_attribute not in ob.data.attributes), None)
+        material_prim = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0].GetPrim()
+        files = [_shader_file(material_prim, name) for name in (BASE_TEXTURE_SHADER, MASK_TEXTURE_SHADER)]
+        outside = [o for o in (_outside(f, stage) for f in files) if o]
+        why = why or (f"its texture {outside[0]} lies outside the asset, not read" if outside else None)
         if why:
             print(f"rockdove: {path}: {why}; left as imported")
             continue
-        plan.append((path, prim, record, objects, thickness_attribute))
+        plan.append((path, prim, record, objects, thickness_attribute, files))
     done = []
-    for path, prim, record, objects, thickness_attribute in plan:
-        material_prim = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0].GetPrim()
-        base = _load_image(f"{prim.GetName()}_base", _shader_file(material_prim, BASE_TEXTURE_SHADER), "sRGB")
-        mask = _load_image(f"{prim.GetName()}_mask", _shader_file(material_prim, MASK_TEXTURE_SHADER), "Non-Color")
+    for path, prim, record, objects, thickness_attribute, (base_file, mask_file) in plan:
+        base = _load_image(f"{prim.GetName()}_base", base_file, "sRGB")
+        mask = _load_image(f"{prim.GetName()}_mask", mask_file, "Non-Color")
         for ob in objects:
             mesh = ob.data
             uv_name = "st" if "st" in mesh.uv_layers else (mesh.uv_layers[0].name if mesh.uv_layers else "st")

@@ -36,6 +36,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the shading variant to select (baked or physical; default: as authored)")
     parser.add_argument("--angle", default="physical", choices=("physical", "materialx_baked"),
                         help="film angle: physical = dot(L, H) (the paper), materialx_baked = |dot(N, V)|")
+    from .validate import add_external_argument
+
+    add_external_argument(parser)
 
 
 def _check(args) -> None:
@@ -49,12 +52,17 @@ def _check(args) -> None:
     if args.views < 1 or args.views * args.width * args.height > MAX_SHEET_PX:
         raise ValueError(f"--views must be >= 1 and --views x --width x --height <= {MAX_SHEET_PX} pixels (the "
                          f"memory budget), got {args.views} x {args.width} x {args.height}")
-    if os.path.exists(args.out) and not os.path.isdir(args.out):
-        raise ValueError(f"--out {args.out!r} exists and is not a folder")
+    from ..graph.publish import claim_output
+
+    claim_output(args.out, "renders", create=False)  # a folder rockdove did not write is refused, before rendering
 
 
 def run(args: argparse.Namespace) -> int:
     _check(args)
+    from ..usd.dependencies import require_inside
+
+    require_inside(args.asset, args.allow_external_assets)
+    from ..graph.publish import claim_output
     from ..render.gl import GLRenderer
     from ..render.images import box_downsample, contact_sheet, save_png
     from ..render.scene import load_scene
@@ -69,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     big = [View(v.name, v.camera_to_world, v.yfov_rad, v.width * k, v.height * k, v.light_direction, v.light_rgb)
            for v in views]
     t1 = time.perf_counter()
-    os.makedirs(args.out, exist_ok=True)
+    args.out = str(claim_output(args.out, "renders"))
     tiles, t_write = [], 0.0
     with GLRenderer(scene, angle_mode=args.angle, width=big[0].width, height=big[0].height) as renderer:
         for v in big:  # one view's float buffers at a time: memory does not grow with --views

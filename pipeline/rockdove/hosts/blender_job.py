@@ -6,7 +6,6 @@ add-on's ``USDHook`` gets the import's stage as a bundled-USD object, which only
 package can read, and ``import pxr`` in a process that also uses usd-core finds usd-core's (measured: "No
 to_python converter found for C++ type ... UsdStage"). The add-on itself puts bpy's bundled ``pxr`` on
 ``sys.path`` when it is enabled, as it does for any user; this module imports nothing of rockdove that uses USD.
-:func:`bundled_pxr_first` does the same for jobs that use ``pxr`` themselves.
 
 Steps (the job file, written by :func:`rockdove.hosts.blender.render`, gives every value):
 
@@ -31,23 +30,6 @@ from __future__ import annotations
 import json
 import os
 import sys
-
-
-def bundled_pxr_first() -> None:
-    """Put the pxr package bpy bundles first on sys.path (before anything imports pxr)."""
-    import importlib.util
-
-    spec = importlib.util.find_spec("bpy")
-    if spec is None or spec.origin is None:
-        raise RuntimeError("bpy is not installed")
-    root = os.path.dirname(spec.origin)
-    for version in sorted(os.listdir(root)):
-        site = os.path.join(root, version, "python", "lib", f"python{sys.version_info.major}.{sys.version_info.minor}",
-                            "site-packages")
-        if os.path.isdir(os.path.join(site, "pxr")):
-            sys.path.insert(0, site)
-            return
-    raise RuntimeError(f"bpy at {root} bundles no pxr package")
 
 
 def _black_material(bpy):
