@@ -9,14 +9,19 @@ OUT    ?= build/pigeon
 
 export PYOPENGL_PLATFORM ?= egl
 # Blender as a Python module (bpy, cp311) for the blender host: it pins numpy < 2, which rockdove's own
-# dependencies have outgrown, so it gets a venv of its own; the host finds it through $ROCKDOVE_BPY_PYTHON.
+# dependencies have outgrown, so it gets a venv of its own; the host finds it beside .venv (or through
+# $ROCKDOVE_BPY_PYTHON). bpy 4.2 LTS and 4.4 (the first with the USD import's prim map) get venvs too: the add-on's
+# tests run the README's Blender steps on each (tests/test_blender_addon.py). ~0.9-1 GB and 4-6 min each. They
+# were built on numpy 1.x (as their Blender bundles: 4.3 and 4.4 print a numpy traceback on `import bpy` with numpy 2).
 # BPY_DEBS: shared libraries bpy links and a minimal Debian lacks.
 BPY_VENV  := .venv-bpy
 BPY_STAMP := $(BPY_VENV)/.installed
+BPY_PIN_4.2 := 4.2.23
+BPY_PIN_4.4 := 4.4.0
+BPY_OLD   := $(foreach v,4.2 4.4,$(BPY_VENV)-$(v)/.installed)
 BPY_DEBS  := libx11-6 libxrender1 libxfixes3 libxi6 libxkbcommon0 libxext6 libsm6 libice6 libgl1
-export ROCKDOVE_BPY_PYTHON ?= $(abspath $(BPY_VENV))/bin/python
 
-.PHONY: asset test bench venv web clean smoke-installed
+.PHONY: asset test bench venv web bpy clean smoke-installed
 
 venv: $(STAMP)
 
@@ -53,11 +58,25 @@ $(BPY_STAMP):
 	$(BPY_VENV)/bin/python -m pip install --quiet 'bpy==5.0.1'
 	@touch $(BPY_STAMP)
 
+bpy: $(BPY_STAMP) $(BPY_OLD)
+
+$(BPY_VENV)-%/.installed: $(BPY_STAMP)
+	@test -x $(BPY_VENV)-$*/bin/python || $(PYTHON) -m venv $(BPY_VENV)-$*
+	$(BPY_VENV)-$*/bin/python -m pip install --quiet 'bpy==$(BPY_PIN_$*)' 'numpy<2'
+	@touch $@
+
 asset: $(STAMP) $(NPM_STAMP)
 	$(BIN)/rockdove build --out $(OUT)
 	@echo "asset written to $(OUT)/pigeon.usda"
 
-test: $(STAMP) $(NPM_STAMP) $(BROWSER_STAMP) $(BPY_STAMP)
+# Reference files the tests check against, from PyPI packages (tests/fetched.py): OpenUSD's ARKit compliance
+# checkers of v23.11 and v24.08 (usd-core wheels) and the JUnit schema CI tools read (pytest's sdist).
+FETCH_STAMP := $(VENV)/fetched/.installed
+
+$(FETCH_STAMP): $(STAMP) tests/fetched.py
+	$(BIN)/python tests/fetched.py $(FETCH_STAMP)
+
+test: $(STAMP) $(NPM_STAMP) $(BROWSER_STAMP) $(BPY_STAMP) $(BPY_OLD) $(FETCH_STAMP)
 	$(BIN)/python -m pytest -q
 
 # CI: build the sdist and the wheel, pip install the wheel into a fresh venv, build/validate/verify a small asset

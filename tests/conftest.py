@@ -26,9 +26,11 @@ from pathlib import Path  # noqa: E402
 import pytest  # noqa: E402
 
 #: The settings of the small real builds the tests share: a coarse body (8 mm: k = 0 subdivisions), 200 cards,
-#: small textures and LUT. Everything else is the preset's, so these are the assets ``rockdove build`` writes.
+#: small textures and LUT, a small beauty render. Everything else is the preset's, so these are the assets
+#: ``rockdove build`` writes.
 SMALL_BUILD = ("geometry.body_voxel_m=0.008", "geometry.card_count=200", "textures.body_resolution=64",
-               "textures.feather_resolution=32", "lut.angles=32", "lut.thicknesses=8")
+               "textures.feather_resolution=32", "lut.angles=32", "lut.thicknesses=8", "beauty.width=128",
+               "beauty.height=96")
 
 
 def real_build(out, cache, *sets, preset="measured", verify=False) -> Path:

@@ -4,7 +4,8 @@
 
 - ``--standin`` replaces the build's stages with the stand-in pipeline of ``tests/standins.py``.
 - ``--pause-after POINT`` stops the build right after POINT: a stage name, ``assemble`` (the first
-  assembly of the staging folder) or ``publish-swap`` (the atomic swap done, the old asset not yet removed). The
+  assembly of the staging folder), ``publish-swap`` (the atomic swap done, the old asset not yet removed) or
+  ``store:STAGE`` (inside the cache's store of STAGE: its temporary folder filled, not yet renamed). The
   launcher prints ``paused after POINT`` on stderr and waits: until FILE exists when ``--release FILE`` is
   given (so a test releases it when it is ready, with no race against a clock), else until it is killed.
 
@@ -46,6 +47,17 @@ def _patch(standin: bool, point: str | None, release: str | None) -> None:
                 _pause(point, release)
 
         graph.Graph.assemble = assemble
+    elif point.startswith("store:"):
+        store = graph.Cache.store
+
+        def paused_store(self, stage, key, fill, extra=None):
+            def fill_then_pause(folder):
+                fill(folder)
+                if stage == point[6:]:
+                    _pause(point, release)
+            return store(self, stage, key, fill_then_pause, extra)
+
+        graph.Cache.store = paused_store
     elif point == "publish-swap":
         exchange = publish._exchange
 

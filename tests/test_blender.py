@@ -1,7 +1,6 @@
 """The Blender add-on and the blender host (issue 9): the add-on zip, its install and USD import hook in bpy,
 and Cycles renders of the written asset compared with the exact view_angle reference."""
 
-import json
 import importlib.util
 import os
 import subprocess
@@ -17,6 +16,7 @@ from rockdove.hosts import blender as host
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 needs_bpy = pytest.mark.skipif(host.unavailable() is not None, reason=str(host.unavailable()))
+_BPY_PYTHON = None if host.unavailable() else host.bpy_python()
 
 
 def _rockdove(*args):
@@ -55,96 +55,52 @@ def test_host_declares_the_interface():
     assert callable(host.render)
 
 
-# -- in Blender ------------------------------------------------------------------------------------------------
-JOB_DIR = os.path.dirname(importlib.util.find_spec("rockdove.hosts.blender_job").origin)
-INSPECT = r"""
-import json, sys
-sys.path.insert(0, sys.argv.pop())  # the folder of blender_job.py: the Python with bpy need not have rockdove
-from blender_job import bundled_pxr_first
-bundled_pxr_first()
-import bpy
-zip_path, asset, use_addon = sys.argv[1], sys.argv[2], sys.argv[3] == "1"
-bpy.ops.wm.read_factory_settings(use_empty=True)
-if use_addon:
-    bpy.ops.preferences.addon_install(filepath=zip_path, overwrite=True)
-    bpy.ops.preferences.addon_enable(module="rockdove_blender")
-bpy.ops.wm.usd_import(filepath=asset)
-out = {}
-for ob in bpy.data.objects:
-    if ob.type != "MESH":
-        continue
-    mat = ob.material_slots[0].material if ob.material_slots else None
-    info = {"material": mat.name if mat else None, "tagged": bool(mat and mat.get("rockdove:thinFilm")),
-            "props": {k: (list(v) if hasattr(v, "__len__") and not isinstance(v, str) else v)
-                      for k, v in ob.data.items()}}
-    if mat is not None and info["tagged"]:
-        nt = mat.node_tree
-        film = nt.nodes["rockdove film"]
-        info.update(ior=film.inputs["IOR"].default_value, film_ior=film.inputs["Thin Film IOR"].default_value,
-                    thickness_from=[l.from_node.attribute_name for l in film.inputs["Thin Film Thickness"].links],
-                    images={n.name: [n.image.colorspace_settings.name, n.image.packed_file is not None,
-                                     n.image.size[0]] for n in nt.nodes if n.bl_idname == "ShaderNodeTexImage"},
-                    cut=[n.operation for n in nt.nodes if n.bl_idname == "ShaderNodeMath"])
-    out[ob.name] = info
-print("RESULT " + json.dumps(out))
-"""
+# -- finding Blender: where make test put it, or where the user says ---------------------------------------------
+@pytest.fixture
+def elsewhere(tmp_path, monkeypatch):
+    """rockdove run from a venv ``tmp/.venv`` and a package outside any checkout, ROCKDOVE_BPY_PYTHON unset."""
+    monkeypatch.delenv(host.BPY_PYTHON_ENV, raising=False)
+    monkeypatch.setattr(sys, "prefix", str(tmp_path / ".venv"))
+    monkeypatch.setattr(resources, "folder", lambda name: tmp_path / "site" / "rockdove" / name)
+    monkeypatch.setattr(host.importlib.util, "find_spec", lambda name, *a: None if name == "bpy" else _find(name, *a))
+    return tmp_path
 
 
-def _inspect(tmp_path, asset_path, use_addon=True):
-    zip_path = host.addon_zip(tmp_path)
-    user = tmp_path / "user"
-    env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), BLENDER_USER_SCRIPTS=str(user / "scripts"),
-               BLENDER_USER_CONFIG=str(user / "config"), BLENDER_USER_EXTENSIONS=str(user / "extensions"))
-    p = subprocess.run([host.bpy_python(), "-c", INSPECT, zip_path, str(asset_path), "1" if use_addon else "0",
-                        JOB_DIR],
-                       capture_output=True, text=True, env=env, timeout=300, cwd=tmp_path)
-    assert p.returncode == 0, p.stderr[-2000:]
-    line = [ln for ln in p.stdout.splitlines() if ln.startswith("RESULT ")][-1]
-    return json.loads(line[len("RESULT "):])
+_find = importlib.util.find_spec
+
+
+def test_without_bpy_the_reason_names_where_it_looked_and_how_to_point_rockdove_at_one(elsewhere, monkeypatch):
+    why = host.unavailable()
+    assert f"no .venv-bpy at {elsewhere}/.venv-bpy, {elsewhere}/site/rockdove/.venv-bpy" in why
+    assert "set ROCKDOVE_BPY_PYTHON=" in why and "make test" in why
+    with pytest.raises(HostError, match="ROCKDOVE_BPY_PYTHON"):
+        host.bpy_python()
+    monkeypatch.setenv(host.BPY_PYTHON_ENV, sys.executable)  # a Python without bpy
+    assert f"$ROCKDOVE_BPY_PYTHON={sys.executable} has no bpy; set" in host.unavailable()
 
 
 @needs_bpy
-@pytest.mark.slow
-def test_addon_builds_the_physical_film_material_on_a_plain_usdz_import(tmp_path, asset):
-    from rockdove.films import get_film
-
-    got = _inspect(tmp_path, asset["usdz"])
-    feathers = got["NeckFeathers"]
-    assert feathers["tagged"], got
-    keratin = get_film("keratin")
-    assert feathers["ior"] == pytest.approx(float(np.real(keratin.n_substrate)))  # film in air: 1.0, not 1.5
-    assert feathers["film_ior"] == pytest.approx(keratin.cauchy_a + keratin.cauchy_b_nm2 / 550.0 ** 2, abs=1e-5)
-    assert feathers["thickness_from"] == ["thickness"]
-    images = feathers["images"]
-    assert images["rockdove base colour"][:2] == ["sRGB", True]  # read from inside the usdz, packed
-    assert images["rockdove tip mask"][:2] == ["Non-Color", True] and images["rockdove tip mask"][2] > 8
-    assert feathers["cut"] == ["GREATER_THAN"]  # binary cut-out, no alpha blending
-    assert not any(v["tagged"] for k, v in got.items() if k != "NeckFeathers")  # the body keeps its material
+def test_bpy_python_finds_the_venv_make_made_beside_this_venv(elsewhere, monkeypatch):
+    real = _BPY_PYTHON
+    made = elsewhere / ".venv-bpy" / "bin" / "python"
+    made.parent.mkdir(parents=True)
+    made.write_text(f'#!/bin/sh\nexec "{real}" "$@"\n')  # a venv's python, as far as running it goes
+    made.chmod(0o755)
+    assert host.unavailable() is None and host.bpy_python() == str(made)
+    monkeypatch.setenv(host.BPY_PYTHON_ENV, real)  # a setting wins over the place
+    assert host.bpy_python() == real
 
 
-@needs_bpy
-@pytest.mark.slow
-def test_a_usd_without_rockdove_data_imports_as_without_the_addon(tmp_path):
-    from pxr import Sdf, Usd, UsdGeom, UsdShade
-
-    path = str(tmp_path / "plain.usda")
-    stage = Usd.Stage.CreateNew(path)
-    mesh = UsdGeom.Mesh.Define(stage, "/M")
-    mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
-    mesh.CreateFaceVertexCountsAttr([3])
-    mesh.CreateFaceVertexIndicesAttr([0, 1, 2])
-    mat = UsdShade.Material.Define(stage, "/Mat")
-    surf = UsdShade.Shader.Define(stage, "/Mat/S")
-    surf.SetShaderId("UsdPreviewSurface")
-    surf.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set((0.2, 0.4, 0.6))
-    mat.CreateSurfaceOutput().ConnectToSource(surf.ConnectableAPI(), "surface")
-    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(mat)
-    stage.GetRootLayer().Save()
-    with_addon = _inspect(tmp_path / "a", path, use_addon=True)
-    without = _inspect(tmp_path / "b", path, use_addon=False)
-    assert with_addon == without and with_addon["M"]["material"] == "Mat"
+def test_rockdove_in_the_checkouts_venv_finds_the_checkouts_bpy_venv_with_no_setting():
+    env = {k: v for k, v in os.environ.items() if k != host.BPY_PYTHON_ENV}
+    exe = os.path.join(os.path.dirname(sys.executable), "python")
+    p = subprocess.run([exe, "-c", "from rockdove.hosts import blender as b; print(b.unavailable())"],
+                       capture_output=True, text=True, env=env, cwd="/", timeout=120)
+    has = os.path.exists(os.path.join(ROOT, ".venv-bpy", "bin", "python"))
+    assert p.stdout.strip() == "None" if has else f"no .venv-bpy at {ROOT}/.venv-bpy" in p.stdout, p
 
 
+# -- in Blender (the add-on's import on each Blender version: test_blender_addon.py) --------------------------------
 @pytest.fixture(scope="module")
 def blender_renders(asset, tmp_path_factory):
     from rockdove.render.scene import load_scene
@@ -248,9 +204,6 @@ def test_without_the_addon_blender_still_shows_green_and_purple_feathers(asset, 
 
 ROUND_TRIP = r"""
 import sys
-sys.path.insert(0, sys.argv.pop())  # the folder of blender_job.py: the Python with bpy need not have rockdove
-from blender_job import bundled_pxr_first
-bundled_pxr_first()
 import bpy
 asset, out, zip_path = sys.argv[1:4]
 bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -275,8 +228,7 @@ def test_film_record_survives_blender_import_and_export_through_user_properties(
     user = tmp_path / "user"
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), BLENDER_USER_SCRIPTS=str(user / "scripts"),
                BLENDER_USER_CONFIG=str(user / "config"), BLENDER_USER_EXTENSIONS=str(user / "extensions"))
-    p = subprocess.run([host.bpy_python(), "-c", ROUND_TRIP, asset["interface"], out, host.addon_zip(tmp_path),
-                        JOB_DIR],
+    p = subprocess.run([host.bpy_python(), "-c", ROUND_TRIP, asset["interface"], out, host.addon_zip(tmp_path)],
                        capture_output=True, text=True, env=env, timeout=300, cwd=tmp_path)
     assert p.returncode == 0, p.stderr[-2000:]
     imported = [ln for ln in p.stdout.splitlines() if ln.startswith("IMPORTED")][0].split()

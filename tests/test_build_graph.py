@@ -438,27 +438,6 @@ def test_schema_lut_defaults_are_the_bakers():
     assert (lut["angles"], lut["thicknesses"]) == (B.DEFAULT_ANGLES, B.DEFAULT_THICKNESSES)
 
 
-def test_clean_temporaries_spares_live_writers(tmp_path):
-    cache = G.Cache(tmp_path)
-    (tmp_path / "lut").mkdir()
-    dead = subprocess_pid_that_exited()
-    live = tmp_path / "lut" / f".tmp-{os.getppid()}-abc"
-    gone = tmp_path / "lut" / f".tmp-{dead}-abc"
-    live.mkdir()
-    gone.mkdir()
-    cache.clean_temporaries()
-    assert live.exists() and not gone.exists()
-
-
-def subprocess_pid_that_exited() -> int:
-    import subprocess
-    import sys
-
-    p = subprocess.Popen([sys.executable, "-c", "pass"])
-    p.wait()
-    return p.pid
-
-
 def test_planned_batch_items_are_keyed_by_their_plan_not_by_upstream_bytes(tmp_path):
     """item_plan + batch (the real verify stage's shape): items are named and keyed at run time by what they
     read; an upstream change that leaves an item's plan entry alone redoes nothing; the items to redo run in
@@ -556,32 +535,3 @@ def test_cache_under_concurrent_processes_computes_each_entry_once(tmp_path):
     assert len(left) == 2 and not any(n.startswith(".") for n in left)
 
 
-def test_clean_temporaries_spares_this_process_other_threads(tmp_path):
-    cache = G.Cache(tmp_path)
-    (tmp_path / "lut").mkdir()
-    mine = tmp_path / "lut" / f".tmp-{os.getpid()}-abc"  # another thread of this process is writing it
-    mine.mkdir()
-    cache.clean_temporaries()
-    assert mine.exists()
-
-
-def test_clean_temporaries_removes_a_zombie_writers_folder(tmp_path):
-    """A killed writer whose parent died too stays a zombie where PID 1 does not reap (a killed Dask worker):
-    it no longer writes, so its temporary goes."""
-    import subprocess
-    import sys
-    import time
-
-    p = subprocess.Popen([sys.executable, "-c", "pass"])  # exits; not waited for: a zombie meanwhile
-    try:
-        t0 = time.monotonic()
-        while Path(f"/proc/{p.pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z":
-            assert time.monotonic() - t0 < 30
-            time.sleep(0.02)
-        cache = G.Cache(tmp_path)
-        zombie = tmp_path / "body" / f".tmp-{p.pid}-abc"
-        zombie.mkdir(parents=True)
-        cache.clean_temporaries()
-        assert not zombie.exists()
-    finally:
-        p.wait()

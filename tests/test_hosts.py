@@ -15,11 +15,11 @@ from rockdove.usd.stage import LOOKS_LAYER
 
 def test_registry_maps_every_host_to_its_module_and_glsl_always_runs_first():
     assert set(hosts.HOSTS) >= {"glsl", "materialx", "blender", "web"}
-    assert all(m == f"rockdove.hosts.{n}" for n, m in hosts.HOSTS.items())
+    assert all(m.partition(":")[0] in (f"rockdove.hosts.{n}", "rockdove.hosts.storm") for n, m in hosts.HOSTS.items())
     sel = hosts.select(["materialx"])
     assert [m.NAME for m in sel.available][0] == "glsl"
     for module in sel.available:
-        assert module.LOBE in hosts.LOBES and module.VARIANT in ("glsl", "baked", "physical")
+        assert module.LOBE in hosts.LOBES and module.VARIANT in ("glsl", "baked", "physical", "preview")
         assert module.unavailable() is None
 
 
@@ -130,3 +130,60 @@ def test_glsl_host_renders_the_written_asset_as_the_verifier_does(asset_layer):
     images = glsl.render(asset_layer, views, None)
     np.testing.assert_array_equal(images["sweep_090"], render_views(scene, views)[0].radiance_rgb)
     assert images["sweep_090"].shape == (32, 32, 3) and images["sweep_090"].max() > 0
+
+
+def test_storm_hosts_are_skipped_with_how_to_install_when_no_python_has_bpy(monkeypatch, tmp_path):
+    import importlib.util
+
+    from rockdove.hosts import blender
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "bpy" else real(name, *a))
+    monkeypatch.delenv(blender.BPY_PYTHON_ENV, raising=False)
+    monkeypatch.setattr(blender, "bpy_places", lambda: [str(tmp_path / "no-venv-bpy" / "bin" / "python")])
+    sel = hosts.select(["storm", "storm_physical"])
+    assert [m.NAME for m in sel.available] == ["glsl"]
+    assert "pip install 'bpy==5.0.1'" in sel.unavailable["storm"] and "storm_physical" in sel.unavailable
+
+
+def test_storm_host_that_cannot_start_names_itself_and_its_error(tmp_path):
+    from rockdove.hosts import storm
+    from rockdove.render.views import View
+
+    if storm.unavailable():
+        pytest.skip(storm.unavailable())
+    bad = tmp_path / "pigeon.usda"
+    bad.write_text("not a USD layer\n")
+    view = View("v", np.eye(4), 0.5, 8, 8, np.array([0.0, 0.0, 1.0]), np.ones(3))
+    with pytest.raises(HostError, match=r"host 'storm_physical': Storm exited with status 1: storm: .*\(log: .*blender.log\)"):
+        storm.PHYSICAL.render(str(bad), [view], str(tmp_path))
+
+
+@pytest.mark.gl
+def test_storm_draws_the_physical_network_green_and_purple_as_the_reference(asset_layer, tmp_path):
+    """Real Hydra Storm (bpy's USD) on the written asset: OpenPBR's thin film shows green and purple where the
+    exact view-angle reference does (one small view: a Storm frame costs 5-45 s)."""
+    from rockdove.hosts import storm
+    from rockdove.render.scene import load_scene
+    from rockdove.verify.host_check import host_metrics, host_passed
+    from rockdove.verify.inputs import verification_views
+    from rockdove.verify.reference_image import render_reference
+
+    if storm.unavailable():
+        pytest.skip(storm.unavailable())
+    scene = load_scene(os.path.dirname(asset_layer))
+    views = [v for v in verification_views(scene, 128, 128) if v.name == "sweep_060"]
+    images = storm.PHYSICAL.render(asset_layer, views, str(tmp_path))
+    assert (tmp_path / "storm_physical" / "sweep_060.png").is_file()
+    m = host_metrics(images, render_reference(scene, views, lobe="view_angle"), scene)
+    assert host_passed("physical", m) == (True, []), m
+
+
+def test_the_default_hosts_leave_out_the_slow_ones_and_all_names_every_host(monkeypatch):
+    """``select()`` with no names asks for :data:`hosts.DEFAULT` (no Storm: its frames cost 5-45 s each);
+    ``["all"]`` asks for every registered host. Asked-for hosts are either available or skipped with a reason."""
+    monkeypatch.setattr(hosts, "_reason", lambda name: (None, f"{name} probed"))
+    default = hosts.select()
+    assert list(default.unavailable) == list(dict.fromkeys([hosts.ALWAYS, *hosts.DEFAULT]))
+    assert not any(n.startswith("storm") for n in default.unavailable)
+    assert set(hosts.select(["all"]).unavailable) == set(hosts.HOSTS)

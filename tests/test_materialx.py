@@ -156,8 +156,8 @@ def test_lut_texcoords_match_the_table_contract_exactly(shape, rng_nm, gamma):
     assert np.allclose(uv[:, 1], v, rtol=0, atol=1e-12)
 
 
-@pytest.mark.parametrize("space, tag", [("lin_rec709", "raw"), ("acescg", "acescg")])
-def test_lut_texture_is_raw_in_the_working_space_and_tagged_otherwise(doc, space, tag):
+@pytest.mark.parametrize("space, tag", [("lin_rec709", "lin_rec709"), ("acescg", "acescg")])
+def test_lut_texture_is_tagged_with_the_space_it_was_baked_in_a_name_materialx_knows(doc, space, tag):
     from pxr import UsdShade
 
     from rockdove.usd.material import MTLX_WORKING_SPACE
@@ -188,7 +188,7 @@ def test_authored_usd_network_rebuilt_as_hydra_does_validates_and_generates_glsl
     if variant == "baked":
         assert rebuilt.getNode("LutAngleCount").getInput("value").getValue() == 8.0
         lut_file = rebuilt.getNode("LutTexture").getInput("file")
-        assert lut_file.getValueString() == "./textures/thinfilm_lut.exr" and lut_file.getColorSpace() == "raw"
+        assert lut_file.getValueString() == "./textures/thinfilm_lut.exr" and lut_file.getColorSpace() == "lin_rec709"
     else:
         assert rebuilt.getNode("LutTexture") is None  # only what the surface reaches
         assert rebuilt.getNode("FilmIor").getInput("value").getValue() == pytest.approx(1.55)

@@ -196,7 +196,7 @@ def test_local_cluster_default_verifies_points_and_lays_out_the_index(tmp_path, 
                  cwd=tmp_path)
     doc = json.loads((tmp_path / "s/sweep.json").read_text())
     assert r.returncode == 0, (r.stderr, doc)
-    assert doc["scheduler"].startswith("tcp://127.0.0.1") and doc["workers"] == 2 and doc["verify"] is True
+    assert doc["scheduler"].startswith("tls://127.0.0.1") and doc["workers"] == 2 and doc["verify"] is True
     for p in doc["points"]:
         assert p["status"] == "ok" and p["verify"]["passed"] is True and p["verify"]["hue"]["green"] > 0
         assert p["images"]["sweep"] and p["images"]["hue"]
@@ -204,3 +204,74 @@ def test_local_cluster_default_verifies_points_and_lays_out_the_index(tmp_path, 
     page = (tmp_path / "s/index.html").read_text()
     assert page.count("<td>") == 2 and "geometry.seed = 0" in page and "film.cauchy_a = 1.5" in page
     assert page.count("hue.png") == 2 and page.count("sweep_") >= 2 and "<progress" in page
+
+
+# ----------------------------------------------------------------------------------------------- privacy
+def _ns(**kw):
+    import argparse
+
+    return argparse.Namespace(**{"scheduler": None, "security": None, "workers": 1, **kw})
+
+
+def _pems(sec, folder: Path) -> dict:
+    """Write a Security's in-memory PEM texts to files (as a cluster's admin would hand them out)."""
+    paths = {}
+    for name in ("tls_ca_file", "tls_client_cert", "tls_client_key"):
+        paths[name] = folder / f"{name}.pem"
+        paths[name].write_text(getattr(sec, name))
+    return paths
+
+
+@pytest.fixture(scope="module")
+def private_cluster():
+    """The cluster a local sweep starts (one worker), and its client."""
+    client, cluster = S._client(_ns())
+    try:
+        yield client, cluster
+    finally:
+        client.close()
+        cluster.close()
+
+
+def test_local_cluster_is_private_a_client_without_its_certificate_cannot_submit(private_cluster, tmp_path):
+    """Issue 23: another local user who found the sweep's port ran code as the sweep's user. The sweep's
+    cluster speaks TLS with a certificate of its own: a plain TCP client and a TLS client with another
+    certificate both fail to connect; the sweep's own client runs work."""
+    from distributed import Client
+    from distributed.security import Security
+
+    client, cluster = private_cluster
+    address = cluster.scheduler_address
+    assert address.startswith("tls://127.0.0.1:"), address
+    assert client.submit(os.getpid, pure=False).result(timeout=60) != os.getpid()  # with them it runs
+    marker = tmp_path / "ran"
+    for kw in (dict(address=address.replace("tls://", "tcp://")), dict(address=address, security=Security.temporary())):
+        with pytest.raises(Exception):  # noqa: B017 - refused by the handshake, whatever the exception
+            with Client(**kw, timeout="3s") as intruder:
+                intruder.submit(marker.write_text, "pwned", pure=False).result(timeout=10)
+    assert not marker.exists()
+
+
+def test_external_tls_cluster_takes_a_security_file_and_refuses_without_one(private_cluster, tmp_path):
+    """--scheduler tls://... as a studio's TLS cluster: the credentials come from --security FILE (here the
+    private cluster's own, written out as an admin would hand them out)."""
+    import yaml
+
+    address = private_cluster[1].scheduler_address
+    pem = _pems(private_cluster[1].security, tmp_path)
+    with pytest.raises(UsageError, match="uses TLS: give --security FILE"):
+        S._client(_ns(scheduler=address, workers=None))
+    conf = tmp_path / "tls.yaml"
+    conf.write_text(yaml.safe_dump({"distributed": {"comm": {"require-encryption": True, "tls": {
+        "ca-file": str(pem["tls_ca_file"]),
+        "client": {"cert": str(pem["tls_client_cert"]), "key": str(pem["tls_client_key"])}}}}}))
+    client, none = S._client(_ns(scheduler=address, security=str(conf), workers=None))
+    try:
+        assert none is None and client.submit(sum, [1, 2]).result(timeout=60) == 3
+    finally:
+        client.close()
+    (tmp_path / "bad.yaml").write_text("distributed: {}\n")
+    with pytest.raises(UsageError, match="not a Dask configuration with distributed.comm.tls"):
+        S._client(_ns(scheduler=address, security=str(tmp_path / "bad.yaml"), workers=None))
+    with pytest.raises(UsageError, match="--security applies to --scheduler only"):
+        S._client(_ns(security=str(conf)))

@@ -172,9 +172,9 @@ def test_feather_texture_shaders_named_for_the_renderer(stage):
     assert base.GetInput("file").Get().path == "./textures/feather_base.png"
     assert base.GetInput("file").GetAttr().GetColorSpace() == "srgb_texture"
     assert mask.GetInput("file").Get().path == "./textures/feather_mask.png"
-    assert mask.GetInput("file").GetAttr().GetColorSpace() == "raw"
+    assert mask.GetInput("file").GetAttr().GetColorSpace() == "lin_rec709"
     assert lut.GetInput("file").Get().path == "./textures/thinfilm_lut.exr"
-    assert lut.GetInput("file").GetAttr().GetColorSpace() == "raw"  # linear data, as the LUT is lin_rec709
+    assert lut.GetInput("file").GetAttr().GetColorSpace() == "lin_rec709"  # linear, in the working space
     for name in ("uaddressmode", "vaddressmode"):
         assert lut.GetInput(name).Get() == "clamp"
     assert lut.GetInput("filtertype").Get() == "linear"

@@ -6,7 +6,7 @@
 //     u = (x (N - 1) + 0.5) / N, v = (y (M - 1) + 0.5) / M, bilinear, clamp-to-edge (ThinFilmLUT.sample);
 //     done here with texelFetch on the float LUT, because WebGL2 filters float textures only with the optional
 //     OES_texture_float_linear;
-//   colour = mix(base_rgb, structural, mask); radiance = colour * light_rgb * max(dot(N, L), 0);
+//   colour = mix(base_rgb, structural, mask); radiance = colour * (light_rgb * max(dot(N, L), 0) + ambient);
 //   two-sided cards (N flipped toward the viewer); base alpha < u_alpha_threshold is discarded.
 // Output: linear radiance, or its sRGB encoding (IEC 61966-2-1) when u_encode_srgb == 1 (the screen).
 precision highp float;
@@ -34,6 +34,7 @@ uniform vec2 u_lut_size;          // (n_angle, n_thickness)
 uniform float u_lut_gamma;        // angle-axis warp: cos_theta = x ** gamma
 uniform vec2 u_lut_range_nm;      // (lo, hi)
 uniform int u_encode_srgb;
+uniform float u_ambient;          // the interactive view's ambient (a fraction of white); 0 in verification renders
 
 vec3 lut_fetch(int i, int j)
 {
@@ -81,6 +82,6 @@ void main()
         float mask = u_has_mask_tex == 1 ? texture(u_mask_tex, frag_st).r : 1.0;
         colour = mix(base.rgb, structural, mask);
     }
-    vec3 radiance = colour * u_light_rgb * max(dot(N, L), 0.0);
+    vec3 radiance = colour * (u_light_rgb * max(dot(N, L), 0.0) + vec3(u_ambient));
     out_colour = vec4(u_encode_srgb == 1 ? srgb_encode(radiance) : radiance, 1.0);
 }

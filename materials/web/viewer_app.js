@@ -24,6 +24,10 @@ renderer.setPixelRatio(1);
 renderer.toneMapping = THREE.NoToneMapping;
 renderer.outputColorSpace = THREE.SRGBColorSpace;
 const BACKGROUND = new THREE.Color(0.05, 0.05, 0.055);
+// Ambient of the interactive view, a fraction of the light's radiance: the side away from the light is dark grey,
+// not black (the LUT shader adds colour * u_ambient; the physical modes scale the white environment by it).
+// Verification renders (renderView) use none in the LUT mode and the unit environment in the physical one.
+const AMBIENT = 0.15;
 
 const scene = new THREE.Scene();
 const camera = new THREE.PerspectiveCamera(D.camera.yfov_deg, 1, 0.005, 20);
@@ -88,18 +92,24 @@ function lutMaterial(physical, isFeather) {
       u_lut_size: { value: new THREE.Vector2(nA, nT) },
       u_lut_gamma: { value: D.lut.angle_warp_gamma },
       u_lut_range_nm: { value: new THREE.Vector2(D.lut.thickness_range_nm[0], D.lut.thickness_range_nm[1]) },
-      u_thickness_range_nm: { value: new THREE.Vector2(...(ir ? ir.iridescenceThicknessRange : [0, 0])) },
+      u_thickness_range_nm: { value: new THREE.Vector2(ir ? ir.iridescenceThicknessMinimum : 0,
+                                                       ir ? ir.iridescenceThicknessMaximum : 0) },
+      u_ambient: { value: AMBIENT },
       u_ramp_texels: { value: D.ramp_texels },
       u_encode_srgb: { value: 1 },
     },
   });
 }
 
+// Modes: "lut" (our GLSL), "physical" (KHR_materials_iridescence: the glb's thin_film variant), "preview" (the
+// glb's default material, what a glTF viewer without the extension shows), "plain" (the same meshes with a plain
+// textured material: the baseline of the frame-time benchmark).
 let mode = "lut";
 function applyMode(m) {
   mode = m;
-  for (const p of parts) { p.mesh.material = m === "lut" ? p.lut : p.physical; }
-  scene.environment = m === "physical" ? envTexture : null;
+  for (const p of parts) { p.mesh.material = p[m]; }
+  scene.environment = m === "physical" || m === "preview" ? envTexture : null;
+  scene.environmentIntensity = AMBIENT;
 }
 
 function setLight(azimuthDeg) {
@@ -126,11 +136,35 @@ function draw() {
 }
 
 const gltf = await new Promise((resolve, reject) => new GLTFLoader().parse(bytesOf(D.glb).buffer, "", resolve, reject));
-gltf.scene.traverse((o) => {
-  if (!o.isMesh) { return; }
-  const isFeather = o.material.iridescence > 0;
-  parts.push({ mesh: o, physical: o.material, lut: lutMaterial(o.material, isFeather), feather: isFeather });
-});
+// KHR_materials_variants: the glb's default feather material is the preview atlas; the film is the variant
+// "thin_film" (three.js's GLTFLoader keeps the extension in userData, the app selects a variant)
+const variants = (gltf.userData.gltfExtensions?.KHR_materials_variants?.variants || []).map((v) => v.name);
+const meshes = [];
+gltf.scene.traverse((o) => { if (o.isMesh) { meshes.push(o); } });
+for (const o of meshes) {
+  const mapping = (o.userData.gltfExtensions?.KHR_materials_variants?.mappings || [])
+    .find((m) => m.variants.includes(variants.indexOf("thin_film")));
+  const physical = mapping ? await gltf.parser.getDependency("material", mapping.material) : o.material;
+  const isFeather = physical.iridescence > 0;
+  const plain = new THREE.MeshBasicMaterial({ map: physical.map, color: physical.color, alphaTest: physical.alphaTest,
+                                              side: physical.side });
+  parts.push({ mesh: o, physical, preview: o.material, plain, lut: lutMaterial(physical, isFeather),
+               feather: isFeather });
+}
+// the start view frames the whole bird: the start camera's direction, at the distance where the bird's bounding
+// sphere fills the narrower field of view
+const sphere = new THREE.Box3().setFromObject(gltf.scene).getBoundingSphere(new THREE.Sphere());
+const startDirection = new THREE.Vector3().fromArray(D.camera.eye_m)
+  .sub(new THREE.Vector3().fromArray(D.camera.target_m)).normalize();
+function frameBird() {
+  const aspect = canvas.clientWidth / Math.max(canvas.clientHeight, 1);
+  const half = THREE.MathUtils.degToRad(D.camera.yfov_deg) / 2;
+  const narrow = Math.min(half, Math.atan(Math.tan(half) * aspect));
+  controls.target.copy(sphere.center);
+  camera.position.copy(sphere.center).addScaledVector(startDirection, 1.05 * sphere.radius / Math.sin(narrow));
+  controls.update();
+}
+frameBird();
 scene.add(gltf.scene);
 slider.addEventListener("input", () => { setLight(Number(slider.value)); draw(); });
 for (const r of document.querySelectorAll('input[name="mode"]')) {
@@ -168,8 +202,10 @@ function renderView(view, renderMode) {
     p.lut.uniforms.u_light_dir.value.copy(L);
     p.lut.uniforms.u_light_rgb.value.fromArray(view.light_rgb);
     p.lut.uniforms.u_encode_srgb.value = 0;
+    p.lut.uniforms.u_ambient.value = 0;
   }
   if (renderMode === "physical") {
+    scene.environmentIntensity = 1;
     light.intensity = 0;
     for (const p of parts) { p.physical.color.setRGB(0, 0, 0); }
   }
@@ -184,7 +220,11 @@ function renderView(view, renderMode) {
   // restore the interactive state
   light.intensity = saved.intensity;
   light.color.setRGB(1, 1, 1);
-  parts.forEach((p, i) => { p.physical.color.copy(saved.colours[i]); p.lut.uniforms.u_light_rgb.value.set(1, 1, 1); });
+  parts.forEach((p, i) => {
+    p.physical.color.copy(saved.colours[i]);
+    p.lut.uniforms.u_light_rgb.value.set(1, 1, 1);
+    p.lut.uniforms.u_ambient.value = AMBIENT;
+  });
   applyMode(saved.mode);
   setLight(Number(slider.value));
   draw();
@@ -201,6 +241,24 @@ function renderView(view, renderMode) {
   return { width: view.width, height: view.height, rgb_f32: btoa(s) };
 }
 window.rockdoveRender = renderView;
+// Frame time of the interactive view in one mode: `frames` draws at the canvas's size, each waited for (a 1-pixel
+// read-back), after one warm-up draw (shader compilation); milliseconds per frame (rockdove bench viewer).
+window.rockdoveFrameTime = (benchMode, frames) => {
+  const gl = renderer.getContext(), px = new Uint8Array(4);
+  const saved = mode;
+  applyMode(benchMode);
+  draw();
+  gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
+  const t0 = performance.now();
+  for (let i = 0; i < frames; i++) {
+    draw();
+    gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
+  }
+  const ms = (performance.now() - t0) / frames;
+  applyMode(saved);
+  draw();
+  return ms;
+};
 window.rockdoveSetLight = (deg) => { slider.value = String(deg); slider.dispatchEvent(new Event("input")); };
 
 export const ready = { parts: parts.length, feathers: parts.filter((p) => p.feather).length, webgl2: renderer.capabilities.isWebGL2 !== false };

@@ -20,9 +20,13 @@ What the hook reads (the rockdove asset's own records, docs/design.md "USD asset
 - the feather base colour (``BaseColorTexture``, sRGB, alpha = silhouette) and tip mask (``MaskTexture``, raw)
   of the bound material: ``mix(base BSDF, film BSDF, mask)``, cut out where alpha < 0.5 (binary, no blend).
 
-Assets without ``rockdove:film:*`` attributes are left exactly as Blender's importer made them. The add-on
-opens no network connection and writes no file: textures inside a usdz are read through USD's resolver and
-packed into the blend file.
+Blender versions: 4.4 and later hand the hook the import's prim map; 4.2 and 4.3 do not, and the hook finds the
+objects with :func:`find_imported`. As a Python module (``pip install bpy``) the hook needs bpy's bundled ``pxr``,
+which :func:`bundled_pxr` puts on ``sys.path``; the 4.2 and 4.3 wheels ship none, so there (and in a Blender
+without USD hooks) :func:`register` says so in one line and imports stay Blender's own. A film record that fails
+:func:`check_record` is named in one line and left as imported; so are assets without ``rockdove:film:*``
+attributes, exactly as Blender's importer made them. The add-on opens no network connection and writes no file:
+textures inside a usdz are read through USD's resolver and packed into the blend file.
 """
 
 bl_info = {
@@ -34,6 +38,11 @@ bl_info = {
     "description": "Builds the physical thin-film material of rockdove USD assets on import",
     "category": "Import-Export",
 }
+
+import importlib.util
+import math
+import os
+import sys
 
 import bpy
 
@@ -79,9 +88,8 @@ def film_ior(record: dict) -> float:
 
 def _texture_bytes(asset_path):
     """(file path or None, bytes or None) of a resolved Sdf.AssetPath (a file, or a file inside a usdz)."""
-    import os
-
     from pxr import Ar
+
 
     resolved = asset_path.resolvedPath if asset_path is not None else ""
     if not resolved:
@@ -90,6 +98,20 @@ def _texture_bytes(asset_path):
         return resolved, None
     asset = Ar.GetResolver().OpenAsset(Ar.ResolvedPath(resolved))
     return None, (bytes(asset.GetBuffer()) if asset is not None else None)
+
+
+def _outside(asset_path, stage) -> str | None:
+    """The resolved path of a texture that lies outside the asset (the root layer's folder, or its usdz), else
+    None: a texture of the asset, or none."""
+    from pxr import Ar
+
+
+    resolved = asset_path.resolvedPath if asset_path is not None else ""
+    if not resolved:
+        return None
+    outer = Ar.SplitPackageRelativePathOuter(resolved)[0] if Ar.IsPackageRelativePath(resolved) else resolved
+    folder = os.path.dirname(os.path.realpath(stage.GetRootLayer().realPath))
+    return None if os.path.commonpath([os.path.realpath(outer), folder]) == folder else resolved
 
 
 def _load_image(name: str, asset_path, colour_space: str):
@@ -116,19 +138,9 @@ def _shader_file(material_prim, shader_name: str):
 
 
 def build_material(name: str, record: dict, base_image, mask_image, uv_name: str, thickness_attribute: str):
-    """The physical thin-film material: ``cutout(mix(base, film, mask))``.
-
-    Parameters
-    ----------
-    record : dict
-        :func:`film_record` of the mesh.
-    base_image, mask_image : bpy.types.Image or None
-        Feather base colour (sRGB, alpha = silhouette) and tip mask; None: base black and opaque, mask 1.
-    uv_name : str
-        UV map of the feather's ``st``.
-    thickness_attribute : str
-        Point attribute holding the film thickness, nm.
-    """
+    """The physical thin-film material ``cutout(mix(base, film, mask))`` of a :func:`film_record`: ``base_image``
+    and ``mask_image`` are the feather base colour (sRGB, alpha = silhouette) and tip mask (None: base black and
+    opaque, mask 1), read at the UV map ``uv_name``; ``thickness_attribute`` holds the film thickness, nm."""
     mat = bpy.data.materials.new(name)
     mat.use_nodes = True
     mat[MATERIAL_TAG] = True
@@ -195,72 +207,194 @@ def build_material(name: str, record: dict, base_image, mask_image, uv_name: str
     return mat
 
 
+def bundled_pxr() -> str | None:
+    """Make Blender's own ``pxr`` Python package importable, before any USD import needs it.
+
+    The USD hooks hand the import's stage to Python as an object of Blender's USD, which only Blender's own
+    ``pxr`` can take: without it a bpy-module process aborts on the first USD import (pip's bpy keeps its
+    bundled ``pxr`` under ``bpy/<version>/python/.../site-packages``, off ``sys.path``). This puts that
+    folder first on ``sys.path`` when ``pxr`` is not imported yet.
+
+    Returns
+    -------
+    str or None
+        None when the ``pxr`` this process will use is Blender's; else why the hook cannot run (one line).
+    """
+    lib = os.path.join(bpy.utils.resource_path("LOCAL"), "python", "lib")
+    sites = [os.path.join(lib, f"python{sys.version_info.major}.{sys.version_info.minor}", "site-packages"),
+             os.path.join(lib, "site-packages")]  # Linux and macOS; Windows
+    site = next((s for s in sites if os.path.isdir(os.path.join(s, "pxr"))), sites[0])
+    bundled = os.path.isdir(os.path.join(site, "pxr"))
+    loaded = sys.modules.get("pxr")
+    if loaded is not None:
+        where, site_real = os.path.realpath(os.path.dirname(loaded.__file__ or "")), os.path.realpath(site)
+        if bundled and os.path.commonpath([where, site_real]) != site_real:
+            return f"this process imported another USD's pxr ({where}) before Blender's ({site})"
+        return None
+    if bundled:
+        if site not in sys.path:
+            sys.path.insert(0, site)
+        return None
+    if not bpy.app.binary_path:  # Blender as a Python module: only its bundled pxr matches its USD
+        return (f"the bpy {bpy.app.version_string} module ships no pxr Python package (the 4.2 and 4.3 wheels have none), "
+                "so USD import hooks cannot run in it; Blender 4.2+ itself or bpy 4.4+ can")
+    if importlib.util.find_spec("pxr") is None:  # else a Blender built on the system's USD, with its pxr
+        return f"Blender {bpy.app.version_string} has no pxr Python package"
+    return None
+
+
+def _base_name(name: str) -> str:
+    """A Blender ID name without the ``.001`` suffix Blender adds where the name is taken."""
+    stem, dot, num = name.rpartition(".")
+    return stem if dot and len(num) == 3 and num.isdigit() else name
+
+
+def find_imported(meshes, candidates) -> dict:
+    """The objects that the USD importer made of mesh prims, without a prim map (Blender 4.2 and 4.3).
+
+    ``meshes`` are ``(USD path, point count)`` pairs; ``candidates`` are this import's objects: the ones Blender's
+    importer leaves selected (4.2 to 5.0 deselect everything, select what they created, then call the hooks).
+    An object is a prim's when its mesh is named after the prim (Blender's ``.001`` suffixes aside), the object
+    after the prim or after its parent Xform (where the importer merged the two), its parent object after one of
+    the prim's ancestors, and its mesh has the prim's point count.
+
+    Returns
+    -------
+    dict
+        USD path -> list of bpy objects, for the prims that matched.
+    """
+    out = {}
+    for path, n_points in meshes:
+        *ancestors, name = str(path).strip("/").split("/")
+        found = [ob for ob in candidates if ob.type == "MESH" and _base_name(ob.data.name) == name
+                 and _base_name(ob.name) in (name, *ancestors[-1:])
+                 and (ob.parent is None or _base_name(ob.parent.name) in ancestors)
+                 and len(ob.data.vertices) == n_points]
+        if found:
+            out[str(path)] = found
+    return out
+
+
+def imported_meshes(import_context, prims) -> dict:
+    """USD path -> the mesh objects this import made of it, for ``prims``: by the import's prim map where
+    Blender has one (4.4 and later), else by :func:`find_imported` over the objects the importer selected."""
+    get_prim_map = getattr(import_context, "get_prim_map", None)
+    if get_prim_map is None:
+        layer = bpy.context.view_layer or bpy.context.scene.view_layers[0]  # a job's end may have no window
+        points = [(p.GetPath(), len(p.GetAttribute("points").Get() or ())) for p in prims]
+        return find_imported(points, [ob for ob in layer.objects if ob.select_get(view_layer=layer)])
+    prim_map = {str(path): ids for path, ids in get_prim_map().items()}
+    out = {}
+    for prim in prims:
+        ids = prim_map.get(str(prim.GetPath()), [])
+        # the object for a mesh prim merged with its parent Xform, else the mesh datablock
+        meshes = {i.data for i in ids if isinstance(i, bpy.types.Object) and i.type == "MESH"}
+        meshes |= {i for i in ids if isinstance(i, bpy.types.Mesh)}
+        objects = [ob for ob in bpy.data.objects if ob.type == "MESH" and ob.data in meshes]
+        if objects:
+            out[str(prim.GetPath())] = objects
+    return out
+
+
+def check_record(record: dict) -> str | None:
+    """None when a film record can be built in Blender, else what is wrong with it (one line)."""
+    def number(key, low):
+        value = record.get(key, low)
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value >= low
+        return None if ok else f"{FILM_PREFIX}{key} = {value!r} is not a finite number >= {low}"
+
+    units = record.get("thicknessUnits", "nm")
+    name = record.get("thicknessPrimvar", "thickness")
+    return (number("cauchyA", 1.0) or number("substrateIndex", 1.0) or number("cauchyB_nm2", 0.0)
+            or (None if film_ior(record) >= 1.0 else f"the film index at 550 nm, {film_ior(record)}, is below 1")
+            or (None if units == "nm" else f"{FILM_PREFIX}thicknessUnits = {units!r}, not 'nm'")
+            or (None if isinstance(name, str) and name.strip() else f"{FILM_PREFIX}thicknessPrimvar = {name!r}"))
+
+
 def apply_to_import(import_context) -> list:
     """Build the thin-film material of every rockdove film mesh of one USD import.
+
+    Every film is checked before any material is built; a film that fails a check is named in one line and its
+    meshes are left as imported.
 
     Returns
     -------
     list of str
         USD paths of the meshes given a thin-film material (empty for a non-rockdove asset).
     """
-    from pxr import UsdShade
+    from pxr import UsdGeom, UsdShade
 
     stage = import_context.get_stage()
-    done = []
-    for path, ids in import_context.get_prim_map().items():
-        prim = stage.GetPrimAtPath(path)
-        record = film_record(prim) if prim else {}
-        if not record:
-            continue
-        # the prim map gives the object for a mesh prim merged with its parent Xform, else the mesh datablock
-        meshes = {i.data for i in ids if isinstance(i, bpy.types.Object) and i.type == "MESH"}
-        meshes |= {i for i in ids if isinstance(i, bpy.types.Mesh)}
-        objects = [ob for ob in bpy.data.objects if ob.type == "MESH" and ob.data in meshes]
-        if not objects:
-            continue
-        material_prim = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0].GetPrim()
-        base = _load_image(f"{prim.GetName()}_base", _shader_file(material_prim, BASE_TEXTURE_SHADER), "sRGB")
-        mask = _load_image(f"{prim.GetName()}_mask", _shader_file(material_prim, MASK_TEXTURE_SHADER), "Non-Color")
+    films = {str(p.GetPath()): (p, r) for p in stage.Traverse() if p.IsA(UsdGeom.Mesh) and (r := film_record(p))}
+    found = imported_meshes(import_context, [p for p, _ in films.values()]) if films else {}
+    plan = []
+    for path, objects in found.items():
+        prim, record = films[path]
         thickness_attribute = str(record.get("thicknessPrimvar") or "thickness")
+        why = check_record(record) or next(
+            (f"no '{thickness_attribute}' attribute on the imported mesh {ob.data.name!r}" for ob in objects
+             if thickness_attribute not in ob.data.attributes), None)
+        material_prim = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0].GetPrim()
+        files = [_shader_file(material_prim, name) for name in (BASE_TEXTURE_SHADER, MASK_TEXTURE_SHADER)]
+        outside = [o for o in (_outside(f, stage) for f in files) if o]
+        why = why or (f"its texture {outside[0]} lies outside the asset, not read" if outside else None)
+        if why:
+            print(f"rockdove: {path}: {why}; left as imported")
+            continue
+        plan.append((path, prim, record, objects, thickness_attribute, files))
+    done = []
+    for path, prim, record, objects, thickness_attribute, (base_file, mask_file) in plan:
+        base = _load_image(f"{prim.GetName()}_base", base_file, "sRGB")
+        mask = _load_image(f"{prim.GetName()}_mask", mask_file, "Non-Color")
         for ob in objects:
             mesh = ob.data
-            if thickness_attribute not in mesh.attributes:
-                print(f"rockdove: {path}: no '{thickness_attribute}' attribute on the imported mesh; left as imported")
-                continue
             uv_name = "st" if "st" in mesh.uv_layers else (mesh.uv_layers[0].name if mesh.uv_layers else "st")
             mat = build_material(f"{prim.GetName()}ThinFilm", record, base, mask, uv_name, thickness_attribute)
-            mat[MATERIAL_TAG] = str(path)
+            mat[MATERIAL_TAG] = path
             if len(ob.material_slots) == 0:
                 mesh.materials.append(mat)
             for slot in ob.material_slots:
                 slot.material = mat
-            done.append(str(path))
+        done.append(path)
     return done
 
 
-class RockdoveUSDHook(bpy.types.USDHook):
-    """Builds the physical thin-film material of rockdove assets when a USD file is imported."""
+def on_import(import_context):
+    """The ``USDHook.on_import`` of the add-on: never breaks Blender's own import; says what happened."""
+    try:
+        done = apply_to_import(import_context)
+    except Exception as exc:
+        print(f"rockdove: thin-film material not built ({type(exc).__name__}: {exc}); "
+              "the asset keeps Blender's UsdPreviewSurface material")
+        return False
+    if done:
+        print(f"rockdove: thin-film material on {', '.join(done)}")
+    return True
 
-    bl_idname = "rockdove_usd_hook"
-    bl_label = "rockdove thin film"
-    bl_description = "Build the Principled thin-film material of rockdove assets on USD import"
 
-    @staticmethod
-    def on_import(import_context):
-        try:
-            done = apply_to_import(import_context)
-        except Exception as exc:  # never break Blender's own import; say what happened
-            print(f"rockdove: thin-film material not built ({type(exc).__name__}: {exc}); "
-                  "the asset keeps Blender's UsdPreviewSurface material")
-            return False
-        if done:
-            print(f"rockdove: thin-film material on {', '.join(done)}")
-        return True
+#: The registered USDHook class (None: not registered, see :func:`register`).
+_hook = None
 
 
 def register():
-    bpy.utils.register_class(RockdoveUSDHook)
+    """Register the USD import hook where it can run, else say in one line why not (imports stay Blender's)."""
+    global _hook
+    usd_hook = getattr(bpy.types, "USDHook", None)
+    why = (f"Blender {bpy.app.version_string} has no USD import hooks (bpy.types.USDHook)" if usd_hook is None
+           else bundled_pxr())
+    if why:
+        print(f"rockdove: thin-film material off: {why}; USD imports keep Blender's UsdPreviewSurface material")
+        return
+    _hook = type("RockdoveUSDHook", (usd_hook,), {
+        "__doc__": "Builds the physical thin-film material of rockdove assets when a USD file is imported.",
+        "bl_idname": "rockdove_usd_hook", "bl_label": "rockdove thin film",
+        "bl_description": "Build the Principled thin-film material of rockdove assets on USD import",
+        "on_import": staticmethod(on_import)})
+    bpy.utils.register_class(_hook)
 
 
 def unregister():
-    bpy.utils.unregister_class(RockdoveUSDHook)
+    global _hook
+    if _hook is not None:
+        bpy.utils.unregister_class(_hook)
+        _hook = None

@@ -34,9 +34,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
     parser.add_argument("--out", required=True, metavar="PATH.exr", help="output EXR file (preview: PATH.png)")
-    parser.add_argument("--angles", type=int, default=DEFAULT_ANGLES, metavar="N", help="angle texels (>= 2)")
+    parser.add_argument("--angles", type=int, default=DEFAULT_ANGLES, metavar="N", help="angle texels (2 .. 4096)")
     parser.add_argument("--thicknesses", type=int, default=DEFAULT_THICKNESSES, metavar="M",
-                        help="thickness texels (>= 1; 1 gives the paper's one-texel-high LUT)")
+                        help="thickness texels (1 .. 4096; 1 gives the paper's one-texel-high LUT)")
     parser.add_argument("--thickness-range", type=float, nargs=2, default=DEFAULT_THICKNESS_RANGE_NM,
                         metavar=("LO", "HI"), help="film thickness range in nm (LO == HI: one texel high)")
     parser.add_argument("--film", default="paper", help="film model: paper (n = 1.5) or keratin (dispersive)")
@@ -75,6 +75,11 @@ def run(args: argparse.Namespace) -> int:
     from ..lut import bake, write_exr, write_preview_png
 
     out = _check_out(args.out)
+    from ..graph.publish import check_output_file, starts_like
+
+    ours = starts_like(b"\x76\x2f\x31\x01", b"rockdove:format")  # an EXR rockdove wrote: never the user's files
+    check_output_file(out, ours)
+    check_output_file(os.path.splitext(out)[0] + ".png", lambda p: os.path.isfile(out) and ours(out))
     if args.error_points < 0:
         raise ValueError(f"--error-points must be >= 0, got {args.error_points}")
     t0 = time.perf_counter()

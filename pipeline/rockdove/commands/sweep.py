@@ -10,7 +10,11 @@ unless ``--cache``): the body and bird are built once per geometry, whichever wo
 build`` with the same overrides.
 
 Dask runs it: a ``distributed.LocalCluster`` of ``--workers`` processes (one thread each) by default, or the
-cluster of ``--scheduler tcp://HOST:PORT`` (its workers must have rockdove installed and see ``DIR``). A worker
+cluster of ``--scheduler tcp://HOST:PORT`` (its workers must have rockdove installed and see ``DIR``). The
+local cluster is private: TLS with a certificate made for this sweep and held in memory
+(``Security.temporary()``), so another local user who finds its port cannot submit code to run as you. An
+external cluster that uses TLS takes ``--security FILE`` (Dask configuration YAML, its
+``distributed.comm.tls`` section) or Dask's own configuration. A worker
 that dies mid-point has the point rescheduled on another worker by Dask's scheduler (up to its
 ``distributed.scheduler.allowed-failures``); the killed build leaves no half-written asset and its cache
 temporaries are cleaned by the next build.
@@ -54,6 +58,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="sweep folder: DIR/points/<point>/, DIR/sweep.json, DIR/index.html")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="an existing Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: a local cluster)")
+    parser.add_argument("--security", metavar="FILE",
+                        help="with --scheduler tls://...: Dask configuration YAML with the cluster's TLS files "
+                             "(distributed.comm.tls: ca-file, client.cert, client.key); default: Dask's config")
     parser.add_argument("--workers", type=int, metavar="N",
                         help="worker processes of the local cluster (default: the CPU count)")
     parser.add_argument("--cache", metavar="DIR", help="shared stage cache (default DIR/.rockdove-cache)")
@@ -367,23 +374,52 @@ def _write_atomic(path: Path, text: str) -> None:
 
 
 # ----------------------------------------------------------------------------------------------- running
+def _security(path: str | None):
+    """``--security FILE``: a Dask ``Security`` from the file's ``distributed.comm.tls`` keys over Dask's own
+    configuration (None: Dask's configuration alone). Raises UsageError naming what is wrong."""
+    import copy
+
+    import dask
+    import yaml
+    from distributed.security import Security
+
+    from ..errors import UsageError
+
+    if path is None:
+        return Security()
+    try:
+        doc = yaml.safe_load(Path(path).read_text())
+        doc["distributed"]["comm"]["tls"].items()
+    except (OSError, yaml.YAMLError, KeyError, TypeError, AttributeError) as exc:
+        raise UsageError(f"--security {path!r}: not a Dask configuration with distributed.comm.tls "
+                         f"({type(exc).__name__}: {exc})") from None
+    with dask.config.set(dask.config.update(copy.deepcopy(dask.config.config), doc)):
+        return Security()  # its files are read on connecting: a missing one is the connection's error
+
+
 def _client(args):
-    """A Dask client on ``--scheduler`` or on a new LocalCluster (returned to be closed)."""
+    """A Dask client on ``--scheduler`` or on a new private LocalCluster (returned to be closed)."""
     import logging
+
+    from distributed import Client, LocalCluster
+    from distributed.security import Security
 
     from ..errors import UsageError
 
     if args.scheduler:
-        from distributed import Client
-
+        security = _security(args.security)
+        if args.scheduler.startswith("tls://") and not security.require_encryption and not security.tls_ca_file:
+            raise UsageError(f"--scheduler {args.scheduler!r} uses TLS: give --security FILE with the cluster's "
+                             "CA, certificate and key (or set distributed.comm.tls in Dask's configuration)")
         try:
-            return Client(args.scheduler, timeout="10s"), None
-        except (OSError, TimeoutError) as exc:
-            raise UsageError(f"--scheduler {args.scheduler!r}: cannot reach a Dask scheduler there ({exc})") from None
-    from distributed import Client, LocalCluster
-
+            return Client(args.scheduler, timeout="10s", security=security), None
+        except Exception as exc:  # noqa: BLE001 - OSError, TimeoutError, or the TLS handshake's own errors
+            raise UsageError(f"--scheduler {args.scheduler!r}: cannot connect to a Dask scheduler there "
+                             f"({type(exc).__name__}: {exc})") from None
+    if args.security:
+        raise UsageError("--security applies to --scheduler only (the local cluster makes its own certificate)")
     cluster = LocalCluster(n_workers=args.workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=logging.ERROR)
+                           dashboard_address=None, silence_logs=logging.ERROR, security=Security.temporary())
     return Client(cluster), cluster
 
 
@@ -399,9 +435,9 @@ def run(args: argparse.Namespace) -> int:
     if args.scheduler and not re.match(r"^(tcp|tls|inproc|ucx|ws|wss)://\S+$", args.scheduler):
         raise UsageError(f"--scheduler {args.scheduler!r} is not a Dask address like tcp://HOST:PORT")
     load_config(preset=args.preset, config_file=args.config, overrides=args.overrides)  # the base: exit 2
-    root = Path(args.out).resolve()
-    if root.exists() and not root.is_dir():
-        raise UsageError(f"--out {args.out!r} exists and is not a folder")
+    from ..graph.publish import claim_output
+
+    root = claim_output(args.out, "sweep", create=False)  # checked now, made once the cluster is up
     cache = Path(args.cache).resolve() if args.cache else root / ".rockdove-cache"
     points = grid_points(axes)
     base = {"preset": args.preset, "config_file": str(Path(args.config).resolve()) if args.config else None,
@@ -419,6 +455,7 @@ def run(args: argparse.Namespace) -> int:
         records.append(rec)
 
     client, cluster = _client(args)  # an unreachable scheduler is bad usage: nothing written yet
+    claim_output(root, "sweep")
     (root / POINTS).mkdir(parents=True, exist_ok=True)
     doc = {"tool": "rockdove", "state": "running", "grid": {k: [lit for lit, _ in vals] for k, vals in axes},
            "base": {"preset": args.preset, "config": args.config, "set": list(args.overrides)},

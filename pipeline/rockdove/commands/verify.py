@@ -1,6 +1,6 @@
 """``rockdove verify ASSET [--out DIR] [--json] [--width W --height H] [--views N] [--view NAME ...] [--hosts LIST]``:
 validate an asset, render it with the GLSL shaders, with every host asked for (:mod:`rockdove.hosts`; default
-every host available here) and with the exact CPU reference, check and report
+hosts.DEFAULT where available; "all" every host) and with the exact CPU reference, check and report
 (:func:`rockdove.verify.run.verify_asset`). An unavailable host is printed as SKIPPED with its reason; a
 host that fails is printed with its error and fails the verification.
 
@@ -25,8 +25,11 @@ def _size(text: str) -> int:
         v = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"must be an integer number of pixels, got {text!r}") from None
-    if v < 16 or v > 8192:
-        raise argparse.ArgumentTypeError(f"must be between 16 and 8192 pixels, got {v}")
+    from ..config import limits
+
+    lo, hi = limits("verify.width")  # the config's range: past it a verification passes the memory budget
+    if v < lo or v > hi:
+        raise argparse.ArgumentTypeError(f"must be between {lo} and {hi} pixels, got {v}")
     return v
 
 
@@ -38,6 +41,19 @@ def _count(text: str) -> int:
     if not 1 <= v <= 64:
         raise argparse.ArgumentTypeError(f"must be between 1 and 64 views, got {v}")
     return v
+
+
+def _samples(text: str) -> int:
+    if not text.isdigit() or not 1 <= int(text) <= 4096:
+        raise argparse.ArgumentTypeError(f"must be an integer from 1 to 4096 samples per pixel, got {text!r}")
+    return int(text)
+
+
+def _beauty_size(text: str) -> tuple:
+    w, sep, h = text.lower().partition("x")
+    if not sep or not w.isdigit() or not h.isdigit() or not (64 <= int(w) <= 4096 and 64 <= int(h) <= 4096):
+        raise argparse.ArgumentTypeError(f"{text!r} is not WxH with each 64 to 4096 pixels, e.g. 768x512")
+    return int(w), int(h)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -54,10 +70,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--hosts", default=None, metavar="LIST",
                         help="comma-separated hosts that also render the views, each checked against the exact "
                              "reference of its lighting model: glsl, materialx, materialx_physical, blender, web "
-                             "(default: every host available on this machine; glsl always runs)")
+                             "(default: glsl, materialx, materialx_physical, blender, web where available; 'all' adds Storm's; glsl always runs)")
     parser.add_argument("--bench-dir", default=None, metavar="DIR",
                         help="show the benchmark plots (*.png) of DIR in the report, e.g. build/bench "
                              "(default: none)")
+    parser.add_argument("--beauty", default=None, choices=("auto", "cycles", "gl", "off"),
+                        help="the report's opening picture: Cycles through the Blender add-on, GL, or auto "
+                             "(default: Cycles when the blender host runs, else GL; [beauty] in the schema)")
+    parser.add_argument("--beauty-size", type=_beauty_size, default=(None, None), metavar="WxH",
+                        help="beauty render size, pixels (default 768x512)")
+    parser.add_argument("--beauty-samples", type=_samples, default=None, metavar="N",
+                        help="Cycles samples per pixel of the beauty render (default 32, adaptive, denoised)")
+    parser.add_argument("--junit", metavar="FILE", default=None,
+                        help="also write the verification as JUnit XML (a test case per validator, view and host "
+                             "view) for CI test-result pages")
     parser.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     from .validate import add_external_argument
 
@@ -76,9 +102,14 @@ def run(args: argparse.Namespace) -> int:
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
     result = api.verify(args.asset, hosts, out=args.out, width=args.width, height=args.height, views=args.names,
                         n_views=args.views, bench_dir=args.bench_dir, allow_external=args.allow_external_assets,
-                        progress=progress)
+                        progress=progress, beauty={"renderer": args.beauty, "width": args.beauty_size[0],
+                                                   "height": args.beauty_size[1], "samples": args.beauty_samples})
     report = result.report
     short = summary(report)
+    if args.junit:
+        from ..verify.junit import write_junit
+
+        write_junit(report, args.junit)
     if args.json:
         from ..verify.report import strict_json
 
@@ -103,6 +134,11 @@ def run(args: argparse.Namespace) -> int:
                 print(f"host {h['name']} ({h['variant']}, {h['lobe']}): {h['n_pixels']} px  dE2000 median "
                       f"{h['median_dE']:.3f}  p95 {h['p95_dE']:.3f}  green {h['green_px']}  purple {h['purple_px']}  "
                       f"hue agreement {h['hue_agreement']:.1%}  {'ok' if h['passed'] else 'FAIL'}")
+        from ..verify.anatomy import format_rows
+
+        print("anatomy (rockdove.verify.anatomy):", *format_rows(report["anatomy"]), sep="\n")
+        if report.get("beauty"):
+            print(f"beauty render ({report['beauty']['renderer']}): {report['beauty']['seconds']:.1f} s")
         for note in result.notes:
             print(f"note: {note}")
         print(f"report: {result.report_dir / 'report.html'}")

@@ -321,24 +321,42 @@ def folder_digest(folder: Path) -> str:
 
 
 # ----------------------------------------------------------------------------------------------- cache
-def _pid_alive(pid: int) -> bool:
-    """Whether process ``pid`` still runs: it exists (another user's counts) and is not a zombie (a killed
-    process whose parent died too stays a zombie where PID 1 does not reap, e.g. a killed Dask worker)."""
+# this process's temporary folders and held entry locks, never opened by its own clean: on NFS, flock is a POSIX
+# lock, which does not conflict within a process and is dropped when any of its descriptors closes
+_LIVE: set[Path] = set()
+_ORPHAN_S = 3600  # a temporary folder with no .owner yet (its writer died in the instant before naming it)
+
+
+def _owner() -> str:
+    """Who writes a temporary folder, for people: host, boot id, PID namespace and pid (a pid alone names no
+    process on another machine or in another container)."""
+    boot = ns = None
+    with contextlib.suppress(OSError):
+        boot, ns = Path("/proc/sys/kernel/random/boot_id").read_text().strip(), os.readlink("/proc/self/ns/pid")
+    return json.dumps({"host": os.uname().nodename, "boot_id": boot, "pid_ns": ns, "pid": os.getpid()})
+
+
+def _take(path: Path) -> int | None:
+    """A descriptor of ``path`` with an exclusive flock taken without waiting, or None when someone holds it
+    (or it cannot be opened)."""
     try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
+        fd = os.open(path, os.O_RDWR)
     except OSError:
-        return True  # no /proc: exists is all we know
-    return stat[stat.rindex(")") + 2:][:1] not in ("Z", "X")
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        return fd
+    except OSError:
+        os.close(fd)
+        return None
 
 
 class Cache:
-    """Stage values on disk: ``ROOT/<stage>/<key>/{meta.json, value/...}``, written atomically, read-only."""
+    """Stage values on disk: ``ROOT/<stage>/<key>/{meta.json, value/...}``, written atomically, read-only.
+
+    The folder may be shared by builds on several machines (a sweep's workers over NFS) or in several PID
+    namespaces: writers say who they are by holding locks (``fcntl.flock``, which NFSv4 serves across hosts and
+    releases when a client's lease lapses), never by a pid a reader would look up in its own process table."""
 
     def __init__(self, root: str | os.PathLike):
         self.root = Path(root)
@@ -354,12 +372,29 @@ class Cache:
         except (OSError, ValueError):
             return None
 
+    @contextlib.contextmanager
+    def temporary(self, parent: Path):
+        """A folder ``parent/.tmp-<host>-<pid>-XXXX`` of this writer's, removed at the end unless renamed away.
+        Its ``.owner`` file (:func:`_owner`) is locked before it gets that name and stays locked while the
+        writer lives: a cleaner anywhere that can take the lock knows the writer is gone."""
+        parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".tmp-{os.uname().nodename}-{os.getpid()}-", dir=parent))
+        _LIVE.add(tmp)
+        fd = os.open(tmp / ".owner.new", os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            os.write(fd, _owner().encode())
+            os.rename(tmp / ".owner.new", tmp / ".owner")
+            yield tmp
+        finally:
+            if tmp.exists():
+                shutil.rmtree(tmp, ignore_errors=True)
+            _LIVE.discard(tmp)
+            os.close(fd)
+
     def store(self, stage: str, key: str, fill: Callable[[Path], Any], extra: dict | None = None) -> dict:
         """Create entry ``(stage, key)`` by ``fill(folder)`` in a temporary folder renamed into place."""
-        parent = self.root / stage
-        parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".tmp-{os.getpid()}-", dir=parent))
-        try:
+        with self.temporary(self.root / stage) as tmp:
             value_dir = tmp / "value"
             value_dir.mkdir()
             t0 = time.perf_counter()
@@ -374,42 +409,57 @@ class Cache:
             except OSError:  # another build stored the same entry first: same key, same content
                 if self.lookup(stage, key) is None:
                     raise
+            else:
+                os.unlink(self.entry(stage, key) / ".owner")
             return meta
-        finally:
-            if tmp.exists():
-                shutil.rmtree(tmp, ignore_errors=True)
 
     @contextlib.contextmanager
     def entry_lock(self, stage: str, key: str):
         """Hold the exclusive right to compute entry ``(stage, key)`` among the processes (and threads) sharing
         this cache: ``fcntl.flock`` on ``ROOT/<stage>/.lock-<key>``, waited for without a timeout (a holder that
-        dies releases it). The lock file is removed while still held: whoever locks it, or a new one, afterwards
-        finds the entry stored (or, if the holder failed, computes it), so mutual exclusion is never needed
-        past that point."""
+        dies releases it). The holder removes the file on leaving; a waiter that got the lock of a file removed
+        meanwhile (by the holder or by :meth:`clean_temporaries`) tries again on the file now at that path."""
         parent = self.root / stage
         parent.mkdir(parents=True, exist_ok=True)
         path = parent / f".lock-{key}"
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-        try:
+        while True:
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
             fcntl.flock(fd, fcntl.LOCK_EX)
-            try:
-                yield
-            finally:
-                with contextlib.suppress(OSError):
-                    os.unlink(path)
+            with contextlib.suppress(OSError):
+                if os.path.samestat(os.fstat(fd), os.stat(path)):
+                    break
+            os.close(fd)
+        _LIVE.add(path)
+        try:
+            yield
         finally:
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+            _LIVE.discard(path)
             os.close(fd)  # releases the lock
 
     def clean_temporaries(self) -> None:
-        """Remove temporary entry folders left by killed builds: those whose writer process is gone (a cache
-        may be shared by builds of different outputs, which hold different locks)."""
+        """Remove what killed builds left: temporary folders whose ``.owner`` lock nobody holds (a folder with
+        no ``.owner`` once it is an hour old) and ``.lock-*`` files nobody holds. Never a live writer's, on
+        whatever machine or PID namespace it runs."""
         for tmp in self.root.glob("*/.tmp-*"):
-            try:
-                alive = _pid_alive(int(tmp.name.split("-")[1]))  # this very process too: another thread may write
-            except (ValueError, IndexError):
-                alive = False
-            if not alive:
-                shutil.rmtree(tmp, ignore_errors=True)
+            if tmp in _LIVE or not tmp.is_dir():
+                continue
+            fd = _take(tmp / ".owner")
+            if fd is None:
+                with contextlib.suppress(OSError):
+                    if (tmp / ".owner").exists() or time.time() - tmp.stat().st_mtime < _ORPHAN_S:
+                        continue
+            shutil.rmtree(tmp, ignore_errors=True)
+            if fd is not None:
+                os.close(fd)
+        for lock in self.root.glob("*/.lock-*"):
+            fd = None if lock in _LIVE else _take(lock)
+            if fd is not None:
+                with contextlib.suppress(OSError):
+                    if os.path.samestat(os.fstat(fd), os.stat(lock)):
+                        os.unlink(lock)
+                os.close(fd)
 
 
 # ----------------------------------------------------------------------------------------------- running
@@ -564,10 +614,7 @@ class Graph:
 
     def _run_batch(self, stage: Stage, iname: str, keys: dict, todo: dict, asset_dir) -> None:
         """Run the ``todo`` items of a batch stage in one call, then store each as its own cache entry."""
-        parent = self.cache.root / iname
-        parent.mkdir(parents=True, exist_ok=True)
-        scratch = Path(tempfile.mkdtemp(prefix=f".tmp-{os.getpid()}-batch-", dir=parent))
-        try:
+        with self.cache.temporary(self.cache.root / iname) as scratch:
             for n in todo:
                 (scratch / n).mkdir()
             ctx = self._context(stage, scratch, asset_dir)
@@ -582,8 +629,6 @@ class Graph:
                         os.rename(p, ifolder / p.name)
                     stage.item_codec.save(values[n], ifolder)
                 self.cache.store(iname, keys[n], ifill, {"item": n})
-        finally:
-            shutil.rmtree(scratch, ignore_errors=True)
 
     def assemble(self, asset_dir: Path, *, needs_asset: bool = False) -> None:
         """Copy the files of the publishing stages (those with ``needs_asset == needs_asset``) into

@@ -28,7 +28,7 @@ stage                   configuration                                 inputs
                                                                       physical-only: bird, usd_geometry
 ``usdz``                -- (present when ``usd.usdz``)                usd_geometry, usd_layers, textures,
                                                                       film_textures
-                                                                      (rockdove.usd.usdz)
+                                                                      (rockdove.usd.usdz: pigeon.usdz, pigeon_ar.usdz)
 ``verify_rays``         as ``verify``                                 every published stage: the assembled asset.
                                                                       One item per camera: the reference's ray
                                                                       casts (rockdove.verify.rays.cast_hits),
@@ -316,13 +316,15 @@ def run_usd_layers(ctx: Context):
 
 
 def run_usdz(ctx: Context):
-    from ..usd.usdz import USDZ_NAME, write_usdz
+    from ..usd.usdz import AR_USDZ_NAME, USDZ_NAME, write_ar_usdz, write_usdz
 
     scratch = ctx.workdir / "layout"
     for dep in ("usd_geometry", "usd_layers", "textures", "film_textures"):
         shutil.copytree(ctx.inputs[dep], scratch, dirs_exist_ok=True)
     write_usdz(str(scratch), in_place=True)  # scratch holds copies: package them without a second copy
-    (scratch / USDZ_NAME).rename(ctx.workdir / USDZ_NAME)
+    write_ar_usdz(str(scratch))  # the flattened UsdPreviewSurface package for AR Quick Look
+    for name in (USDZ_NAME, AR_USDZ_NAME):
+        (scratch / name).rename(ctx.workdir / name)
     shutil.rmtree(scratch)
 
 
@@ -490,7 +492,7 @@ def combine_verify(ctx: Context, views: dict) -> dict:
         except ResourceMissing as exc:  # e.g. a wheel install without npm's three.js: the report, without it
             skipped.append(f"no interactive viewer in the report: {exc}")
     report = report_from_views(str(ctx.asset_dir), views, out_dir=str(ctx.workdir), width=size["width"],
-                               height=size["height"], published_asset=str(published))
+                               height=size["height"], published_asset=str(published), beauty=ctx.config["beauty"])
     return dataclasses.asdict(Verdict(bool(report["passed"]), "; ".join(map(str, report["failures"])),
                                       [v["view"] for v in report["views"]], list(report["notes"]) + skipped))
 
@@ -590,7 +592,7 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
                             deps=published + ("verify_rays",),
                             libraries=LIBS_RENDER, codec=JSON, needs_asset=True, item_plan=plan_surfaces, batch=True,
                             combine=combine_surfaces, item_codec=SURFACES))
-        stages.append(Stage(VERIFY, run_verify, config=("verify.width", "verify.height", "verify.views"),
+        stages.append(Stage(VERIFY, run_verify, config=("verify.width", "verify.height", "verify.views", "beauty"),
                             deps=published + ("verify_surfaces",),
                             data=("materials", *schema), libraries=LIBS_RENDER, codec=JSON, needs_asset=True,
                             publish="verify",

@@ -24,14 +24,22 @@ import importlib
 from dataclasses import dataclass
 from types import ModuleType
 
-#: host name -> module (imported only when the host is asked for).
+#: host name -> module, or ``module:attribute`` for one of several hosts a module defines (e.g. Storm's three
+#: networks); imported only when the host is asked for.
 HOSTS = {
     "glsl": "rockdove.hosts.glsl",
     "materialx": "rockdove.hosts.materialx",
     "materialx_physical": "rockdove.hosts.materialx_physical",
     "blender": "rockdove.hosts.blender",
     "web": "rockdove.hosts.web",
+    "storm": "rockdove.hosts.storm:BAKED",
+    "storm_physical": "rockdove.hosts.storm:PHYSICAL",
+    "storm_preview": "rockdove.hosts.storm:PREVIEW",
 }
+#: The hosts a verification runs when none are named (``hosts=None``): those whose frames cost seconds. Storm's
+#: (a 512 px frame is 5-45 s, mostly shader compilation) and the OSL renderer's are named explicitly
+#: (``--hosts storm,storm_physical,...``) or with ``all``.
+DEFAULT = ("glsl", "materialx", "materialx_physical", "blender", "web")
 #: The lighting models a host can be compared under (docs/design.md "Hosts"):
 #: ``half_angle``: the paper's Lambert x colour(cos = L.H) under the View's one directional light;
 #: ``view_angle``: the smooth film's mirror lobe alone under a uniform white environment of unit radiance,
@@ -70,7 +78,9 @@ def load(name: str) -> ModuleType:
     """
     if name not in HOSTS:
         raise ValueError(f"host {name!r} is unknown; allowed: {', '.join(HOSTS)}")
-    return importlib.import_module(HOSTS[name])
+    module, _, attr = HOSTS[name].partition(":")
+    loaded = importlib.import_module(module)
+    return getattr(loaded, attr) if attr else loaded
 
 
 @dataclass(frozen=True)
@@ -86,7 +96,7 @@ def _reason(name: str) -> tuple[ModuleType | None, str | None]:
     try:
         module = load(name)
     except ModuleNotFoundError as exc:
-        if exc.name and HOSTS[name].startswith(exc.name):
+        if exc.name and HOSTS[name].partition(":")[0].startswith(exc.name):
             return None, f"its module {HOSTS[name]} is not part of this installation"
         return None, f"its module {HOSTS[name]} cannot be imported: {exc}"
     except ImportError as exc:
@@ -104,8 +114,8 @@ def select(names=None) -> Selection:
     Parameters
     ----------
     names : iterable of str, optional
-        Host names (:data:`HOSTS`); default every registered host. :data:`ALWAYS` (``glsl``) is always
-        included, first.
+        Host names (:data:`HOSTS`), or ``["all"]`` for every registered host; default :data:`DEFAULT`.
+        :data:`ALWAYS` (``glsl``) is always included, first.
 
     Returns
     -------
@@ -116,7 +126,9 @@ def select(names=None) -> Selection:
     ValueError
         A name is not a registered host (one line naming it and the allowed names).
     """
-    names = list(HOSTS) if names is None else [str(n).strip() for n in names]
+    names = list(DEFAULT) if names is None else [str(n).strip() for n in names]
+    if names == ["all"]:
+        names = list(HOSTS)
     unknown = [n for n in names if n not in HOSTS]
     if unknown:
         raise ValueError(f"hosts: {', '.join(map(repr, unknown))} unknown; allowed: {', '.join(HOSTS)}")

@@ -52,40 +52,82 @@ TIMEOUT_S = 900
 
 #: Names a Python interpreter that has bpy, for when the one running rockdove has not: bpy 5.0 pins numpy < 2,
 #: which rockdove's other dependencies (colour-science 0.4.7) have outgrown, so the two usually live in separate
-#: environments (``make`` puts bpy in ``.venv-bpy``). A setting of where a tool is, like ``PXR_PLUGINPATH_NAME``.
+#: environments. A setting of where a tool is, like ``PXR_PLUGINPATH_NAME``.
 BPY_PYTHON_ENV = "ROCKDOVE_BPY_PYTHON"
+#: The venv ``make`` puts bpy in, beside ``.venv`` in the checkout; looked for where no setting names one.
+BPY_VENV = ".venv-bpy"
+#: How to give rockdove a bpy, the end of every "not found" reason (the SKIPPED line of ``rockdove verify``).
+BPY_HOW = (f"set {BPY_PYTHON_ENV}=/path/to/bin/python of a Python 3.11 with pip install 'bpy==5.0.1', "
+           f"or run make test (it makes {BPY_VENV} beside .venv)")
+
+
+#: The oldest bpy module whose bundled ``pxr`` lets the add-on's USD hook run (the 4.2 wheels ship none).
+BPY_MIN = (4, 4)
+_PROBE = ("import importlib.metadata as m, importlib.util, sys\n"
+          "if importlib.util.find_spec('bpy') is None: sys.exit(3)\n"
+          "try: print(m.version('bpy'))\nexcept m.PackageNotFoundError: print('')")
 
 
 @functools.lru_cache(maxsize=None)
 def _probe(exe: str) -> str | None:
-    """None when ``exe`` runs and imports bpy, else why not (one line)."""
+    """None when ``exe`` runs and has a bpy of :data:`BPY_MIN` or later, else why not (a few words)."""
     try:
-        p = subprocess.run([exe, "-c", "import importlib.util, sys; sys.exit(importlib.util.find_spec('bpy') is None)"],
-                           capture_output=True, text=True, timeout=120)
+        p = subprocess.run([exe, "-c", _PROBE], capture_output=True, text=True, timeout=120)
     except (OSError, subprocess.TimeoutExpired) as exc:
-        return f"${BPY_PYTHON_ENV}={exe!r} does not run: {exc}"
-    return None if p.returncode == 0 else f"${BPY_PYTHON_ENV}={exe!r} has no bpy (pip install 'bpy==5.0.1' there)"
+        return f"does not run ({exc})"
+    if p.returncode != 0:
+        return "has no bpy"
+    version = p.stdout.strip()
+    parts = tuple(int(x) for x in version.split(".")[:2] if x.isdigit())
+    if version and parts < BPY_MIN:
+        return (f"has bpy {version}, which cannot run the add-on's USD hook as a module (no pxr); "
+                f"bpy {'.'.join(map(str, BPY_MIN))} or later can")
+    return None
+
+
+def bpy_places() -> list:
+    """Where :func:`bpy_python` looks when this Python has no bpy, in order: ``$ROCKDOVE_BPY_PYTHON`` alone where
+    it is set; else ``.venv-bpy/bin/python`` beside this Python's venv (``make``'s ``.venv`` and ``.venv-bpy``
+    share the checkout) and in the checkout rockdove runs from (an editable install whose venv is elsewhere)."""
+    exe = os.environ.get(BPY_PYTHON_ENV, "").strip()
+    if exe:
+        return [exe]
+    from .. import resources
+
+    roots = [os.path.dirname(os.path.abspath(sys.prefix)), str(resources.folder("materials").parent)]
+    return list(dict.fromkeys(os.path.join(r, BPY_VENV, "bin", "python") for r in roots))
+
+
+def _find() -> tuple:
+    """(the Python with bpy, None) or (None, why there is none)."""
+    if importlib.util.find_spec("bpy") is not None:
+        return sys.executable, None
+    places, tried = bpy_places(), []
+    for exe in places:
+        if exe == os.environ.get(BPY_PYTHON_ENV, "").strip() or os.path.exists(exe):
+            why = _probe(exe)
+            if why is None:
+                return exe, None
+            env = os.environ.get(BPY_PYTHON_ENV, "").strip() == exe
+            tried.append(f"{'$' + BPY_PYTHON_ENV + '=' if env else ''}{exe} {why}")
+    if not tried:
+        tried = [f"no {BPY_VENV} at {', '.join(os.path.dirname(os.path.dirname(e)) for e in places)}"]
+    return None, f"bpy is not in this Python and {'; '.join(tried)}; {BPY_HOW}"
 
 
 def bpy_python() -> str:
     """The Python interpreter that runs Blender's side (:mod:`rockdove.hosts.blender_job`): this one when it has
-    bpy, else ``$ROCKDOVE_BPY_PYTHON``. Raises :class:`HostError` naming why neither can."""
-    reason = unavailable()
-    if reason:
-        raise HostError(NAME, reason)
-    return sys.executable if importlib.util.find_spec("bpy") is not None else os.environ[BPY_PYTHON_ENV]
+    bpy, else the first of :func:`bpy_places` that has. Raises :class:`HostError` naming why none can."""
+    exe, why = _find()
+    if why:
+        raise HostError(NAME, why)
+    return exe
 
 
 def unavailable() -> str | None:
-    """None when bpy (Blender as a Python module, 4.2 or later) can run, here or in ``$ROCKDOVE_BPY_PYTHON``;
-    else why not."""
-    if importlib.util.find_spec("bpy") is not None:
-        return None
-    exe = os.environ.get(BPY_PYTHON_ENV, "").strip()
-    if not exe:
-        return (f"bpy is not installed in this Python and ${BPY_PYTHON_ENV} names no Python that has it "
-                "(pip install 'bpy==5.0.1' in a Python 3.11 environment of its own; make test does)")
-    return _probe(exe)
+    """None when bpy (Blender as a Python module, 4.4 or later for the add-on's USD hook) can run: here or in a
+    Python :func:`bpy_python` finds; else why not, and how to point rockdove at one."""
+    return _find()[1]
 
 
 def addon_zip(out_dir) -> str:
@@ -150,6 +192,33 @@ def render(asset_path: str, views, out_dir: str) -> dict:
     return run_blender(asset_path, views, out_dir)
 
 
+def run_job(job: dict, work: str, module: str = "rockdove.hosts.blender_job", timeout_s: float = TIMEOUT_S) -> None:
+    """Write ``job`` as ``work/job.json`` and run the job script ``module`` on it with :func:`bpy_python`,
+    Blender's user folders inside ``work``; its output goes to ``work/blender.log``. Raises :class:`HostError`
+    when Blender fails or does not finish within ``timeout_s`` seconds."""
+    python = bpy_python()
+    job_path = os.path.join(work, "job.json")
+    with open(job_path, "w", encoding="utf-8") as fh:
+        json.dump(job, fh, indent=1)
+    user = os.path.join(work, "user")  # Blender's user folders (installed add-ons, preferences) stay in here
+    env = dict(os.environ, BLENDER_USER_RESOURCES=user, BLENDER_USER_CONFIG=os.path.join(user, "config"),
+               BLENDER_USER_SCRIPTS=os.path.join(user, "scripts"),
+               BLENDER_USER_EXTENSIONS=os.path.join(user, "extensions"))
+    try:
+        # run by file: the interpreter with bpy need not have rockdove installed (the job imports none of it)
+        job_file = importlib.util.find_spec(module).origin
+        proc = subprocess.run([python, job_file, job_path], env=env,
+                              capture_output=True, text=True, timeout=timeout_s, cwd=work)
+    except subprocess.TimeoutExpired:
+        raise HostError(NAME, f"Blender did not finish within {timeout_s:g} s") from None
+    with open(os.path.join(work, "blender.log"), "w", encoding="utf-8") as fh:
+        fh.write(proc.stdout + "\n--- stderr ---\n" + proc.stderr)
+    if proc.returncode != 0:
+        lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
+        raise HostError(NAME, f"Blender exited with status {proc.returncode}: "
+                              f"{lines[-1] if lines else 'no message'} (log: {work}/blender.log)")
+
+
 #: What :func:`run_blender` can draw: the film lobe alone (the verification render), or the asset as Blender
 #: imported it (every material untouched) under the same white world: what a user sees.
 LOBES = (LOBE, "as_imported")
@@ -186,7 +255,7 @@ def run_blender(asset_path: str, views, out_dir: str, *, addon: bool = True, lob
     from ..spectral import linear_to_srgb8
     from ..render.images import save_png
 
-    python = bpy_python()
+    bpy_python()  # bpy missing: HostError before any work
     views = list(views)
     if not views:
         raise ValueError("views must hold at least one View, got none")
@@ -216,26 +285,7 @@ def run_blender(asset_path: str, views, out_dir: str, *, addon: bool = True, lob
         "out_dir": work,
         "views": [v.to_dict() for v in views],
     }
-    job_path = os.path.join(work, "job.json")
-    with open(job_path, "w", encoding="utf-8") as fh:
-        json.dump(job, fh, indent=1)
-    user = os.path.join(work, "user")  # Blender's user folders (installed add-ons, preferences) stay in here
-    env = dict(os.environ, BLENDER_USER_RESOURCES=user, BLENDER_USER_CONFIG=os.path.join(user, "config"),
-               BLENDER_USER_SCRIPTS=os.path.join(user, "scripts"),
-               BLENDER_USER_EXTENSIONS=os.path.join(user, "extensions"))
-    try:
-        # run by file: the interpreter with bpy need not have rockdove installed (the job imports none of it)
-        job_file = importlib.util.find_spec("rockdove.hosts.blender_job").origin
-        proc = subprocess.run([python, job_file, job_path], env=env,
-                              capture_output=True, text=True, timeout=TIMEOUT_S, cwd=work)
-    except subprocess.TimeoutExpired:
-        raise HostError(NAME, f"Blender did not finish within {TIMEOUT_S} s") from None
-    with open(os.path.join(work, "blender.log"), "w", encoding="utf-8") as fh:
-        fh.write(proc.stdout + "\n--- stderr ---\n" + proc.stderr)
-    if proc.returncode != 0:
-        lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
-        raise HostError(NAME, f"Blender exited with status {proc.returncode}: "
-                              f"{lines[-1] if lines else 'no message'} (log: {work}/blender.log)")
+    run_job(job, work)
     out = {}
     for v in views:
         exr = os.path.join(work, f"{v.name}.exr")

@@ -4,8 +4,8 @@ that has bpy (:func:`rockdove.hosts.blender.bpy_python`); it imports nothing but
 It runs in its own process because ``bpy`` bundles its own USD (0.25.08) while rockdove uses usd-core: the
 add-on's ``USDHook`` gets the import's stage as a bundled-USD object, which only bpy's own ``pxr`` Python
 package can read, and ``import pxr`` in a process that also uses usd-core finds usd-core's (measured: "No
-to_python converter found for C++ type ... UsdStage"). So this module puts bpy's bundled ``pxr`` first on
-``sys.path`` before anything imports ``pxr``, and imports nothing of rockdove that uses USD.
+to_python converter found for C++ type ... UsdStage"). The add-on itself puts bpy's bundled ``pxr`` on
+``sys.path`` when it is enabled, as it does for any user; this module imports nothing of rockdove that uses USD.
 
 Steps (the job file, written by :func:`rockdove.hosts.blender.render`, gives every value):
 
@@ -30,23 +30,6 @@ from __future__ import annotations
 import json
 import os
 import sys
-
-
-def bundled_pxr_first() -> None:
-    """Put the pxr package bpy bundles first on sys.path (before anything imports pxr)."""
-    import importlib.util
-
-    spec = importlib.util.find_spec("bpy")
-    if spec is None or spec.origin is None:
-        raise RuntimeError("bpy is not installed")
-    root = os.path.dirname(spec.origin)
-    for version in sorted(os.listdir(root)):
-        site = os.path.join(root, version, "python", "lib", f"python{sys.version_info.major}.{sys.version_info.minor}",
-                            "site-packages")
-        if os.path.isdir(os.path.join(site, "pxr")):
-            sys.path.insert(0, site)
-            return
-    raise RuntimeError(f"bpy at {root} bundles no pxr package")
 
 
 def _black_material(bpy):
@@ -101,11 +84,9 @@ def _camera(bpy, mathutils, to_blender, view: dict):
     return cam
 
 
-def run(job: dict) -> None:
-    bundled_pxr_first()
-    import bpy
-    import mathutils
-
+def import_asset(bpy, job: dict):
+    """Steps 1-2 (module docstring) in an empty scene: ``(add-on module or None, thin-film material names,
+    the importer's up-axis conversion matrix)``."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     addon = None
     if job["addon_zip"]:
@@ -121,7 +102,14 @@ def run(job: dict) -> None:
     root = bpy.data.objects.get(job["root_object"])
     if root is None:
         raise RuntimeError(f"no imported object {job['root_object']!r} (the asset's root prim)")
-    to_blender = root.matrix_world.copy()  # the importer's up-axis conversion
+    return addon, films, root.matrix_world.copy()  # the importer's up-axis conversion
+
+
+def run(job: dict) -> None:
+    import bpy
+    import mathutils
+
+    addon, films, to_blender = import_asset(bpy, job)
     if job["lobe"] == "view_angle":
         film_lobe_only(bpy, addon)
     elif job["lobe"] != "as_imported":

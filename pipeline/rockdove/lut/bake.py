@@ -80,12 +80,17 @@ OBSERVER = DEFAULT_OBSERVER
 
 # Memory bound for the sampled methods: (texels x wavelengths) evaluated per chunk.
 _CHUNK_ELEMENTS = 2_000_000
+# The largest LUT (the schema's lut.angles / lut.thicknesses ranges): a 4096 x 4096 bake, its error check, EXR
+# and preview stay within the 4 GiB memory budget (``rockdove bench memory``) and every GPU's texture limit.
+MAX_ANGLES = MAX_THICKNESSES = 4096
 
 
 # -- helpers ------------------------------------------------------------------------------------------
-def _check_count(name, value, minimum):
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+def _check_count(name, value, minimum, maximum=None):
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not (
+            minimum <= value <= (maximum if maximum is not None else value)):
+        within = f"in [{minimum}, {maximum}]" if maximum is not None else f">= {minimum}"
+        raise ValueError(f"{name} must be an integer {within}, got {value!r}")
     return int(value)
 
 
@@ -361,8 +366,8 @@ def bake(
         ``rgb`` shape (n_thickness, angles, 3) float32; metadata records the film, illuminant, observer,
         colour space, method and its parameters (and the measured error when asked).
     """
-    angles = _check_count("angles", angles, 2)
-    thicknesses = _check_count("thicknesses", thicknesses, 1)
+    angles = _check_count("angles", angles, 2, MAX_ANGLES)
+    thicknesses = _check_count("thicknesses", thicknesses, 1, MAX_THICKNESSES)
     lo, hi = _check_range(thickness_range)
     film_model = as_film(film)
     if not isinstance(method, str) or method not in BAKE_METHODS:

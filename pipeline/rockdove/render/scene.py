@@ -60,6 +60,8 @@ class ScenePart:
         Film thickness per vertex, nm (feathers only).
     neck_s : ndarray, (V,) float32 or None
         ``primvars:neckS`` in [0, 1] when authored.
+    preview_st : ndarray, (V, 2) float32 or None
+        ``primvars:previewST`` (texcoords into the UsdPreviewSurface atlas) when authored.
     base_colour_texture : str or None
         Absolute path of the base colour image (RGB or RGBA; A is the feather silhouette).
     base_colour_srgb : bool
@@ -81,6 +83,7 @@ class ScenePart:
     st: np.ndarray
     thickness_nm: np.ndarray | None = None
     neck_s: np.ndarray | None = None
+    preview_st: np.ndarray | None = None
     base_colour_texture: str | None = None
     base_colour_srgb: bool = True
     mask_texture: str | None = None
@@ -200,7 +203,7 @@ def _read_mesh(prim, xcache, meters_per_unit, stage):
     film = read_film(prim)
     pvapi = UsdGeom.PrimvarsAPI(prim)
     attrs = {}  # name -> (values, interpolation)
-    want = {"st": "st", "neck_s": "neckS"}
+    want = {"st": "st", "neck_s": "neckS", "preview_st": "previewST"}
     if film is not None:
         want["thickness"] = film.thickness_primvar
     for key, pv_name in want.items():
@@ -255,6 +258,7 @@ def _read_mesh(prim, xcache, meters_per_unit, stage):
     st = np.asarray(out["st"], dtype=np.float32).reshape(n_v, 2) if "st" in out else np.zeros((n_v, 2), np.float32)
     thickness = np.asarray(out["thickness"], dtype=np.float32).reshape(n_v) if "thickness" in out else None
     neck_s = np.asarray(out["neck_s"], dtype=np.float32).reshape(n_v) if "neck_s" in out else None
+    preview_st = np.asarray(out["preview_st"], np.float32).reshape(n_v, 2) if "preview_st" in out else None
     if thickness is not None and film is not None and film.thickness_units != "nm":
         raise ValueError(f"{path}: rockdove:film:thicknessUnits={film.thickness_units!r}; only 'nm' is allowed")
 
@@ -277,6 +281,7 @@ def _read_mesh(prim, xcache, meters_per_unit, stage):
         st=np.ascontiguousarray(st),
         thickness_nm=thickness,
         neck_s=neck_s,
+        preview_st=preview_st,
         base_colour_texture=base_tex,
         base_colour_srgb=srgb,
         mask_texture=mask_tex,

@@ -408,14 +408,11 @@ def usd_to_mtlx_document(surface_shader, library=None):
 
 
 def lut_texture_colour_space(colour_space: str) -> str:
-    """Colour-space tag of the LUT texture in the MaterialX network.
-
-    ``"raw"`` (no transform, issue 4: the LUT is linear data) when the LUT is in the document's working space
-    ``lin_rec709``, where raw and lin_rec709 read identically; a LUT baked in another space (``acescg``) keeps
-    its own name, so that a colour-managed renderer converts it into its working space instead of
-    misreading it.
-    """
-    return "raw" if colour_space == MTLX_WORKING_SPACE else colour_space
+    """Colour-space tag of the LUT texture in the MaterialX network: the space the LUT was baked in (MaterialX
+    names: ``lin_rec709``, ``acescg``), so a colour-managed renderer reads a LUT in the working space unchanged
+    and converts one baked in another space. Never ``"raw"``: MaterialX's default colour management and Storm
+    know no such space (Storm warns "Unsupported color space transform from raw to lin_rec709")."""
+    return str(colour_space)
 
 
 def mtlx_surface_path(material_path, variant: str):

@@ -8,6 +8,15 @@ Reproducibility: usd-core's zip writer stores each source file's modification ti
 package is therefore made from a scratch copy of the asset whose files all carry one fixed time,
 ``SOURCE_DATE_EPOCH`` when set (the reproducible-builds convention) else 1980-01-01 (the zip epoch), so the
 same asset gives a byte-identical package (tested) and the files in ``out_dir`` are left untouched.
+
+``DIR/pigeon_ar.usdz`` (:func:`write_ar_usdz`): the same bird for AR Quick Look, as
+``UsdUtils.CreateNewARKitUsdzPackage`` makes one: a single flattened ``.usdc`` layer first in the package, then
+its textures, and only UsdPreviewSurface networks (the rules of OpenUSD's ARKit compliance checker, v23.11, which
+allow no MaterialX ``ND_*`` shader). Flattening bakes the ``shading`` variant's selection, so the package gives up
+what the layered asset has: the ``shading`` variant set (and the MaterialX networks it switches), the LUT
+(``rockdove:lut:file``, an EXR no AR viewer reads: the film's other records stay), and the payload split (the
+geometry is loaded, not deferred). The feathers show the preview atlas ``feather_preview.png`` through
+``previewST``, as every UsdPreviewSurface viewer of the full asset does.
 """
 
 from __future__ import annotations
@@ -15,6 +24,9 @@ from __future__ import annotations
 import os
 
 USDZ_NAME = "pigeon.usdz"
+AR_USDZ_NAME = "pigeon_ar.usdz"
+#: Shader ids of UsdPreviewSurface networks (the ids ARKit's rules of v23.11 allow); every other shader is dropped.
+PREVIEW_SHADER_IDS = ("UsdPreviewSurface", "UsdUVTexture", "UsdTransform2d", "UsdPrimvarReader_")
 #: 1980-01-01T00:00:00Z, the earliest time a zip (DOS) timestamp can hold.
 ZIP_EPOCH = 315532800
 
@@ -27,6 +39,88 @@ def _fixed_time() -> int:
         return max(int(value), ZIP_EPOCH)
     except ValueError:
         raise ValueError(f"SOURCE_DATE_EPOCH must be an integer (seconds), got {value!r}") from None
+
+
+def ar_layer(root: str):
+    """The asset at ``root`` flattened into one anonymous layer holding UsdPreviewSurface networks only.
+
+    Every shader whose ``info:id`` is not a :data:`PREVIEW_SHADER_IDS` one, every material output other than
+    ``outputs:surface`` / ``outputs:displacement`` (``outputs:mtlx:surface``) and ``rockdove:lut:file`` go."""
+    from pxr import Sdf, Usd
+
+    stage = Usd.Stage.Open(root, Usd.Stage.LoadAll)
+    layer = stage.Flatten(addSourceFileComment=False)
+    dropped = []
+
+    def walk(spec):
+        for child in list(spec.nameChildren):
+            ident = child.attributes.get("info:id")
+            ident = ident.default if ident is not None else None
+            if child.typeName == "Shader" and not str(ident or "").startswith(PREVIEW_SHADER_IDS):
+                dropped.append(child.path)
+            else:
+                walk(child)
+        for prop in list(spec.properties):
+            extra_output = spec.typeName == "Material" and prop.name.startswith("outputs:") and prop.name not in (
+                "outputs:surface", "outputs:displacement")
+            if extra_output or prop.name == "rockdove:lut:file":
+                spec.RemoveProperty(prop)
+
+    walk(layer.pseudoRoot)
+    for path in dropped:
+        parent = layer.GetPrimAtPath(path.GetParentPath())
+        del parent.nameChildren[path.name]
+    return layer
+
+
+def write_ar_usdz(out_dir: str, root_layer: str = "pigeon.usda") -> str:
+    """``out_dir/pigeon_ar.usdz``: :func:`ar_layer` of ``out_dir/root_layer`` as ``pigeon_ar.usdc``, packaged by
+    ``UsdUtils.CreateNewARKitUsdzPackage`` with its textures (fixed file times, as :func:`write_usdz`).
+
+    Returns the package's absolute path; raises ``FileNotFoundError`` without the root layer, ``RuntimeError``
+    when USD could not write the package."""
+    import shutil
+    import tempfile
+
+    from pxr import Sdf, UsdUtils
+
+    from .schema import register
+
+    register()
+    out_dir = os.path.abspath(out_dir)
+    root = os.path.join(out_dir, root_layer)
+    if not os.path.isfile(root):
+        raise FileNotFoundError(f"out_dir: no root layer {root!r} to package")
+    stamp = _fixed_time()
+    with tempfile.TemporaryDirectory(prefix=".usdz-", dir=out_dir) as scratch:
+        layer = ar_layer(root)
+        used = []
+
+        def localise(path: str) -> str:  # Flatten anchors asset paths: copy what lies in the asset into scratch
+            rel = os.path.relpath(path, out_dir) if os.path.isabs(path) else None
+            if rel is None or rel.startswith(os.pardir):
+                return path
+            if rel == root_layer:  # assetInfo's identifier: the package's own layer now
+                return "./pigeon_ar.usdc"
+            if rel.lower().endswith((".png", ".jpg", ".jpeg")):
+                used.append(rel)
+            return "./" + rel.replace(os.sep, "/")  # no build machine's path in the package
+
+        UsdUtils.ModifyAssetPaths(layer, localise)
+        for rel in used:
+            os.makedirs(os.path.join(scratch, os.path.dirname(rel)), exist_ok=True)
+            shutil.copyfile(os.path.join(out_dir, rel), os.path.join(scratch, rel))
+        flat = os.path.join(scratch, "pigeon_ar.usdc")
+        layer.Export(flat)
+        for folder, _, files in os.walk(scratch):
+            for name in files:
+                os.utime(os.path.join(folder, name), (stamp, stamp))
+        package = os.path.join(scratch, AR_USDZ_NAME)
+        if not UsdUtils.CreateNewARKitUsdzPackage(Sdf.AssetPath(flat), package):
+            raise RuntimeError(f"UsdUtils.CreateNewARKitUsdzPackage failed for {root!r}")
+        target = os.path.join(out_dir, AR_USDZ_NAME)
+        os.replace(package, target)
+    return target
 
 
 def write_usdz(out_dir: str, root_layer: str = "pigeon.usda", *, in_place: bool = False) -> str:

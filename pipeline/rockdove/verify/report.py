@@ -23,6 +23,7 @@ import html
 import json
 import math
 import os
+import re
 import shutil
 
 import numpy as np
@@ -246,6 +247,27 @@ def strict_json(obj):
     return _finite(json.loads(json.dumps(obj, default=_json_default)))
 
 
+def portable(obj, roots):
+    """``obj`` with the build machine's paths taken out, for the files a report ships: a path inside one of
+    ``roots`` (the asset folder, staged and published) relative to it, any other absolute path on this machine
+    (its first folder exists here; USD prim paths such as ``/Pigeon/Geom`` do not) as its file name."""
+    prefixes = sorted({os.path.abspath(r).rstrip(os.sep) for r in roots}, key=len, reverse=True)
+
+    def local(m):
+        p = m.group(0)
+        inside = [r for r in prefixes if p == r or p.startswith(r + os.sep)]
+        return os.path.relpath(p, inside[0]) if inside else os.path.basename(p) if os.path.isdir(
+            os.sep + p.split(os.sep)[1]) else p
+
+    def fix(v):
+        if isinstance(v, dict):
+            return {k: fix(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [fix(x) for x in v]
+        return re.sub(r"(?<![\w.@:])/[^\s'\"<>@\]\[,;)(]+", local, v) if isinstance(v, str) else v
+    return fix(obj)
+
+
 def write_json(path, report: dict) -> str:
     """Write the report as strict JSON (NaN -> null), sorted keys, 2-space indent."""
     with open(path, "w", encoding="utf-8") as f:
@@ -268,6 +290,17 @@ def _figure_row(title: str, files: dict, captions: dict) -> str:
     return f"<h3>{e(title)}</h3><div class='row'>{figs}</div>"
 
 
+def _beauty(images: dict) -> str:
+    """The picture the page opens with (:func:`rockdove.render.beauty.for_report`): its views, its caption."""
+    b = images.get("beauty")
+    if not b:
+        return ""
+    e = html.escape
+    figs = "".join(f"<figure><img src='{e(f)}' alt='beauty render, {e(name)}' style='image-rendering:auto'></figure>"
+                   for name, f in b["files"].items())
+    return f"<div class='row'>{figs}</div><p><small>Beauty render: {e(b['caption'])}</small></p>"
+
+
 def write_html(path, report: dict, images: dict) -> str:
     """A self-contained page (relative image links) summarising ``report``.
 
@@ -278,7 +311,8 @@ def write_html(path, report: dict, images: dict) -> str:
     images : dict
         ``"views"``: ``{view: {"gl": file, "reference": file, "dE": file}}``; optional ``"hosts"``
         (``{host: {view: {"host", "reference", "dE": file}}}``), ``"contact_sheet"``,
-        ``"lut"``, ``"spectra"``, ``"hue"``, ``"bench"`` (list) file names, relative to the page.
+        ``"lut"``, ``"spectra"``, ``"hue"``, ``"bench"`` (list) file names, relative to the page; ``"beauty"``
+        (:func:`rockdove.render.beauty.render_beauty`'s entry), the picture the page opens with.
     """
     e = html.escape
     status = "PASSED" if report.get("passed") else "FAILED"
@@ -292,7 +326,7 @@ def write_html(path, report: dict, images: dict) -> str:
         "img{max-width:100%;image-rendering:pixelated}.row{display:flex;gap:8px}.row figure{margin:0;flex:1}"
         "figcaption{font-size:100%;color:#222}h1{font-size:1.6em}"
         ".viewer{width:100%;height:600px;border:1px solid #ccc}</style></head><body>",
-        f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>" + notes_html,
+        f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>" + _beauty(images) + notes_html,
         f"<p>Asset: <code>{e(str(report.get('asset', '')))}</code><br>",
         f"Configuration hash: <code>{e(str(report.get('configuration_hash') or 'not recorded'))}</code><br>",
         f"Goals: median dE2000 &le; {report.get('goals', {}).get('median_dE', '')}, "

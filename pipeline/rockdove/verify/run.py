@@ -189,22 +189,24 @@ def verify_views(asset, views=None, out_dir=None, width: int = DEFAULT_SIZE, hei
 
 def report_from_views(asset, view_results: dict, out_dir=None, width: int = DEFAULT_SIZE,
                       height: int = DEFAULT_SIZE, bench_dir=None, progress=None, *, reused=(),
-                      published_asset=None) -> dict:
+                      published_asset=None, beauty=None) -> dict:
     """Validate the asset and combine per-view results (:func:`verify_views`, possibly from a cache) into the
     report (``report.json``, ``report.html`` and the images in ``out_dir``); returns the report dict.
 
     ``reused`` names the views whose results came from a cache (recorded in the report).
     ``published_asset``: the root layer's path once published (the build verifies a staging folder), which the
-    report names instead of the layer read.
+    report names instead of the layer read. ``beauty``: the ``[beauty]`` settings of the picture the report
+    opens with (:mod:`rockdove.render.beauty`; ``auto`` is GL here: no Blender host runs); None: none.
     """
     layer, scene, lut, notes = verification_scene(asset)
     return combine(layer, scene, lut, notes, view_results, out_dir, width, height, bench_dir,
                     progress or (lambda msg: None), reused=reused, t_start=time.perf_counter(),
-                    published_asset=published_asset)
+                    published_asset=published_asset, beauty=beauty)
 
 
 def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE,
-                 bench_dir=None, progress=None, views=None, n_views: int = DEFAULT_VIEWS, hosts=("glsl",)) -> dict:
+                 bench_dir=None, progress=None, views=None, n_views: int = DEFAULT_VIEWS, hosts=("glsl",),
+                 beauty=None) -> dict:
     """Validate, render and check an asset; write the report into ``out_dir``; return the report dict.
 
     Parameters
@@ -230,6 +232,10 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
         its lobe (:mod:`rockdove.verify.host_check`); None: every registered host available here. ``glsl``
         always runs. Unavailable hosts are reported as skipped with their reason; a host that fails or misses
         its goals fails the verification.
+    beauty : dict, optional
+        ``[beauty]`` settings (renderer, width, height, samples) of the picture the report opens with
+        (:mod:`rockdove.render.beauty`; ``auto`` takes Cycles when the blender host is among ``hosts`` and
+        available); default the schema's defaults; ``{"renderer": "off"}``: none.
 
     Returns
     -------
@@ -262,26 +268,8 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
     t = time.perf_counter()
     host_entries, host_images = check_hosts(layer, scene, chosen, selection, refs, out,
                                             rendered={"glsl": gl_images} if gl_images else None, say=say)
+    from ..render.beauty import settings
+
+    beauty = {**settings(beauty), "cycles_ok": any(m.NAME == "blender" for m in selection.available)}
     return combine(layer, scene, lut, notes, results, out, width, height, bench_dir, say, t_start=t_start,
-                    hosts=(host_entries, host_images, time.perf_counter() - t))
-
-
-def check_dependencies(asset: str, allow_external: bool) -> None:
-    """Before anything reads the asset: its layers parse and it names no file outside itself (unless allowed).
-
-    Raises
-    ------
-    VerificationFailed
-        Naming each broken layer (file, line, USD's message) or outside path.
-    """
-    from ..errors import UsageError, VerificationFailed
-    from ..usd.dependencies import scan_dependencies
-    from ..usd.layout import resolve_root_layer
-
-    try:
-        root = resolve_root_layer(asset)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
-    deps = scan_dependencies(root, allow_external)
-    if deps.errors:
-        raise VerificationFailed("; ".join(f"{i.path}: {i.message}" for i in deps.errors))
+                    hosts=(host_entries, host_images, time.perf_counter() - t), beauty=beauty)

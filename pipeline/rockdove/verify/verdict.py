@@ -13,6 +13,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from . import compare, provenance, report
+from .anatomy import measure_scene
 from .boundary import boundary_note
 from .inputs import BOUNDARY_SWEEP_ANGLE_DEG
 
@@ -26,11 +27,12 @@ def default_out_dir(layer_path: str) -> str:
 
 
 def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, bench_dir, say, *, reused=(),
-             t_start, hosts=None, published_asset=None) -> dict:
+             t_start, hosts=None, published_asset=None, beauty=None) -> dict:
     """Validate the asset and join per-view results into the verdict and the report (``report.json``,
     ``report.html`` and their images in ``out_dir``, default ``verify/`` beside the root layer); returns the
     report dict. ``bench_dir``: a folder whose benchmark plots (``*.png``) the report shows; None: none (the
-    report reads no folder it is not given)."""
+    report reads no folder it is not given). ``beauty``: the ``[beauty]`` settings and ``cycles_ok`` of the
+    picture the report opens with (:func:`rockdove.render.beauty.for_report`); None: no picture."""
     out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)
     os.makedirs(out, exist_ok=True)
     timings, failures, notes = {}, [], list(notes)
@@ -106,10 +108,20 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
             elif not h["passed"]:
                 failures.append(f"host {h['name']} ({h['variant']}, {h['lobe']} lobe): {'; '.join(h['failures'])}")
     images["bench"] = report.copy_bench_plots(out, bench_dir) if bench_dir is not None else []
+    if beauty is not None:
+        from ..render.beauty import for_report
+
+        say("beauty render")
+        images["beauty"], note = for_report(layer, scene, out, beauty, cycles_ok=beauty.get("cycles_ok", False),
+                                            lut=lut)
+        notes.extend([note] if note else [])
+        timings["beauty"] = images["beauty"]["seconds"] if images["beauty"] else 0.0
     timings["report"] = time.perf_counter() - t
     validation, timings["validation"] = validation_pending.result()
     if not validation["passed"]:
         failures.insert(0, "validation: " + (validation["error"] or "the validator reported problems"))
+    anatomy = measure_scene(scene)  # the bird against its published measures (rockdove.verify.anatomy)
+    failures.extend(anatomy["failures"])
     timings["total"] = time.perf_counter() - t_start
 
     config = provenance.asset_configuration(layer)
@@ -132,6 +144,8 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
         "reference": [r["reference"] for r in results],
         "hue_sweep": hue,
         "hosts": host_entries,
+        "anatomy": anatomy,
+        "beauty": images.get("beauty"),
         "boundary": {"per_view": {r["view"]: r["boundary"] for r in sweeps},
                      "method": "TLS line through green/purple boundary points; RMS perpendicular distance (px) "
                                "and RMS / boundary length; coherence and curvature: rockdove.verify.boundary"},
@@ -145,8 +159,9 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
         "versions": provenance.library_versions(),
         "argv": list(sys.argv),
     }
-    report.write_json(os.path.join(out, "report.json"), result)
-    report.write_html(os.path.join(out, "report.html"), result, images)
+    shipped = report.portable(result, [os.path.dirname(layer), os.path.dirname(published_asset or layer)])
+    report.write_json(os.path.join(out, "report.json"), shipped)  # no build machine's path in what ships
+    report.write_html(os.path.join(out, "report.html"), shipped, images)
     return result
 
 
@@ -177,5 +192,6 @@ def summary(report: dict) -> dict:
                                "line_over_curve": v["curvature"]["ratio"]}
                            for k, v in report["boundary"]["per_view"].items() if "coherence" in v},
         "hosts": [{k: v for k, v in h.items() if k not in ("per_view", "failures")} for h in report.get("hosts", [])],
+        "anatomy": {r["name"]: r["value"] for r in report["anatomy"]["measures"]},
         "timings_s": report["timings_s"],
     }

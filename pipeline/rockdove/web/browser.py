@@ -221,6 +221,22 @@ class Page:
                 out.append("log: " + str(p["entry"].get("text")))
         return out
 
+    @property
+    def console(self) -> list[str]:
+        """Every console message (any level: log, info, warning, error) and browser log entry so far, one line
+        each as ``level: text`` (a deprecation warning of three.js shows here, not in :attr:`errors`)."""
+        out = []
+        for ev in self.browser._events:
+            p = ev.get("params", {})
+            if ev.get("sessionId") != self.session:
+                continue
+            if ev["method"] == "Runtime.consoleAPICalled":
+                out.append(f"{p.get('type')}: " + " ".join(str(a.get("value", a.get("description", "")))
+                                                           for a in p.get("args", [])))
+            elif ev["method"] == "Log.entryAdded":
+                out.append(f"{p['entry'].get('level')}: {p['entry'].get('text')}")
+        return out
+
     def evaluate(self, expression: str, timeout_s: float = 60.0, step: str | None = None):
         """The value of ``expression`` (awaited if it is a promise), as JSON-compatible Python data."""
         res = self.browser.call("Runtime.evaluate", {"expression": expression, "awaitPromise": True,

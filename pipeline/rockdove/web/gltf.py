@@ -25,6 +25,14 @@ What is written (glTF 2.0, Khronos 2021; extensions from the Khronos registry):
   three.js turns it into a base F0 of 0, so the film's Airy reflectance is evaluated over a substrate of index 1
   (``Fresnel0ToIor(0) = 1``) and the only specular reflection is the film's;
   metallic 0, roughness 0: the smooth film's mirror lobe;
+- the feathers' default material (``NeckFeathersPreview``): what a consumer without ``KHR_materials_iridescence``
+  shows (Blender 5.0's importer ignores the extension silently; many engines do), the USD preview's own network:
+  base colour = the atlas ``feather_preview.png`` through ``TEXCOORD_2`` = the mesh's ``previewST`` (each card the
+  colour of its own thickness), its roughness, the same mask and sides. The film material above is the
+  ``KHR_materials_variants`` variant ``thin_film`` (``preview`` names the default): three.js's GLTFLoader keeps
+  the extension in ``userData`` and our viewer and web host select the variant. Measured: a base colour under
+  the film instead would be counted twice by three.js (its diffuse is only scaled by ``1 - F`` of the film);
+  with the variant the web host's numbers are those of the film alone, unchanged;
 - other parts: their base colour (texture or constant, linear), metallic 0, roughness 1.
 
 The film record itself goes into the feathers' material ``extras.rockdove`` (model, Cauchy A and B, indices,
@@ -52,7 +60,9 @@ GLB_NAME = "pigeon.glb"
 IOR_WAVELENGTH_NM = 550.0
 #: Texels of the thickness ramp texture (a power of two, so every glTF viewer samples it without resizing).
 THICKNESS_RAMP_TEXELS = 256
-EXTENSIONS = ("KHR_materials_iridescence", "KHR_materials_ior")
+EXTENSIONS = ("KHR_materials_iridescence", "KHR_materials_ior", "KHR_materials_variants")
+#: ``KHR_materials_variants`` of the feathers: the film (``KHR_materials_iridescence``) and the preview atlas.
+FILM_VARIANT, PREVIEW_VARIANT = "thin_film", "preview"
 
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 _FLOAT, _UNSIGNED_SHORT, _UNSIGNED_INT = 5126, 5123, 5125
@@ -140,6 +150,26 @@ def _unit(normals: np.ndarray) -> np.ndarray:
     return n.astype(np.float32)
 
 
+def preview_material_texture(stage, prim_path: str) -> tuple[str | None, float]:
+    """The resolved file of the ``diffuseColor`` texture of the UsdPreviewSurface bound to ``prim_path`` (the
+    feathers' ``feather_preview.png``, read through ``previewST``) and its ``roughness``; (None, 1) without one."""
+    from pxr import UsdShade
+
+    material = UsdShade.MaterialBindingAPI(stage.GetPrimAtPath(prim_path)).ComputeBoundMaterial()[0]
+    surface = material.ComputeSurfaceSource()[0] if material else None
+    if not surface:
+        return None, 1.0
+    rough = surface.GetInput("roughness")
+    roughness = float(rough.Get()) if rough and rough.Get() is not None else 0.5
+    colour = surface.GetInput("diffuseColor")
+    sources = colour.GetConnectedSources()[0] if colour else []
+    if not sources:
+        return None, roughness
+    file = UsdShade.Shader(sources[0].source.GetPrim()).GetInput("file")
+    value = file.Get() if file else None
+    return (value.resolvedPath or None) if value is not None else None, roughness
+
+
 def scene_to_glb(scene, version: str = "") -> bytes:
     """The GLB bytes of a :class:`rockdove.render.scene.RenderScene` that has thin-film feathers.
 
@@ -157,7 +187,6 @@ def scene_to_glb(scene, version: str = "") -> bytes:
                          "RockDoveThinFilmAPI (rockdove:film:*), so there is no film to export as "
                          "KHR_materials_iridescence; build it with `rockdove build`")
     gltf = GLTF2(asset=Asset(version="2.0", generator=f"rockdove {version}".strip()))
-    gltf.extensionsUsed = list(EXTENSIONS)
     blob = _Blob(gltf)
     gltf.samplers = [Sampler(magFilter=_LINEAR, minFilter=_LINEAR_MIPMAP_LINEAR, wrapS=_CLAMP_TO_EDGE,
                              wrapT=_CLAMP_TO_EDGE),
@@ -174,7 +203,13 @@ def scene_to_glb(scene, version: str = "") -> bytes:
         return textures[name]
 
     lo, hi = scene.thickness_range_nm  # a LUT-less film: the feathers' thicknesses, whole nm
+    stage = None
     root_children = []
+
+    def add_material(material) -> int:
+        gltf.materials.append(material)
+        return len(gltf.materials) - 1
+
     for part in scene.parts:
         attributes = Attributes(
             POSITION=blob.accessor(part.positions_m.astype(np.float32), "VEC3", _ARRAY_BUFFER, with_bounds=True),
@@ -189,6 +224,7 @@ def scene_to_glb(scene, version: str = "") -> bytes:
         else:
             pbr.baseColorFactor = [float(c) for c in part.base_colour] + [1.0]
         material = Material(name=f"{part.name}Material", pbrMetallicRoughness=pbr)
+        primitive_extensions = None
         if part.is_feather:
             if part.thickness_nm is None:
                 raise ValueError(f"asset {scene.root_layer!r}: {part.path} records a film but no thickness primvar")
@@ -211,14 +247,38 @@ def scene_to_glb(scene, version: str = "") -> bytes:
                 "incidentIndex": film.model.n_incident, "substrateIndex": film.model.n_substrate,
                 "iridescenceIorWavelengthNm": IOR_WAVELENGTH_NM, "thicknessRangeNm": [lo, hi],
                 "thicknessRampTexels": THICKNESS_RAMP_TEXELS}}
-        gltf.materials.append(material)
+            film_index = add_material(material)
+            if stage is None:
+                from pxr import Usd
+
+                stage = Usd.Stage.Open(scene.root_layer)
+            preview, roughness = preview_material_texture(stage, part.path)
+            if preview is not None and part.preview_st is not None:
+                # the default material, what a consumer without KHR_materials_iridescence (or that ignores the
+                # variants) shows: the USD preview's atlas, each card the colour of its own thickness
+                attributes.TEXCOORD_2 = blob.accessor(np.stack([part.preview_st[:, 0], 1.0 - part.preview_st[:, 1]],
+                                                               axis=1).astype(np.float32), "VEC2", _ARRAY_BUFFER)
+                atlas = TextureInfo(index=texture(preview, os.path.basename(preview)), texCoord=2)
+                material = Material(name=f"{part.name}Preview", alphaMode="MASK", doubleSided=True,
+                                    alphaCutoff=float(part.opacity_threshold),
+                                    pbrMetallicRoughness=PbrMetallicRoughness(metallicFactor=0.0, baseColorTexture=atlas,
+                                                                              roughnessFactor=roughness))
+                primitive_extensions = {"KHR_materials_variants": {"mappings": [
+                    {"material": film_index, "variants": [0]},
+                    {"material": len(gltf.materials), "variants": [1]}]}}
+                gltf.extensions = {"KHR_materials_variants": {"variants": [{"name": FILM_VARIANT},
+                                                                           {"name": PREVIEW_VARIANT}]}}
+            else:
+                material = None
+        index = add_material(material) if material is not None else len(gltf.materials) - 1
         tris = np.asarray(part.triangles).reshape(-1)
         index_dtype = np.uint16 if len(part.positions_m) <= 65535 else np.uint32
-        primitive = Primitive(attributes=attributes, material=len(gltf.materials) - 1,
+        primitive = Primitive(attributes=attributes, material=index, extensions=primitive_extensions or {},
                               indices=blob.accessor(tris.astype(index_dtype), "SCALAR", _ELEMENT_ARRAY_BUFFER))
         gltf.meshes.append(Mesh(name=part.name, primitives=[primitive]))
         gltf.nodes.append(Node(name=part.name, mesh=len(gltf.meshes) - 1))
         root_children.append(len(gltf.nodes) - 1)
+    gltf.extensionsUsed = [e for e in EXTENSIONS if e != "KHR_materials_variants" or gltf.extensions]
     gltf.nodes.append(Node(name="Pigeon", children=root_children))
     gltf.scenes = [Scene(name="Pigeon", nodes=[len(gltf.nodes) - 1])]
     gltf.scene = 0

@@ -125,8 +125,10 @@ def write_viewer(asset, glb_path, out_dir, asset_name: str | None = None) -> str
     nm = three_folder()
     web = web_folder()
     scene = load_scene(asset)
-    data = viewer_data(scene, scene.load_lut(), Path(glb_path).read_bytes(),
-                       asset_name or os.path.basename(os.path.dirname(scene.root_layer)))
+    name = asset_name or scene.root_layer  # a path shows as its asset folder's name: no build machine's path
+    if os.path.isabs(name) or os.sep in name:
+        name = os.path.basename(os.path.dirname(name) if name.endswith((".usda", ".usd", ".usdc", ".usdz")) else name)
+    data = viewer_data(scene, scene.load_lut(), Path(glb_path).read_bytes(), name)
     (out / "viewer_data.js").write_text("window.ROCKDOVE_DATA = " + json.dumps(data) + ";\n")
     tags = []
     modules = {**{n: nm / p for n, p in THREE_MODULES.items()}, "viewer_app.js": web / "viewer_app.js"}

@@ -1,0 +1,135 @@
+"""The Blender side of the beauty render (:mod:`rockdove.render.beauty`): run as ``PYTHON blender_beauty_job.py
+JOB.json`` by a Python that has bpy; like :mod:`rockdove.hosts.blender_job` (whose import steps it calls) it
+imports nothing but the standard library, bpy and that job module.
+
+The asset is imported exactly as a Blender user imports it (the add-on enabled, ``wm.usd_import``, every material
+as the add-on built it), then staged as a look-dev artist stages a hero shot:
+
+- the job's neutral grey ground (Principled, roughness 0.7) at the bird's lowest point, catching its shadow,
+  curving up far behind the bird into a wall (a photo studio's cyclorama: no horizon line);
+- a world of a sky gradient (warm grey horizon to pale blue zenith) at moderate strength: the fill and the
+  background above the horizon;
+- a warm sun (angular diameter ``sun_angle_deg``: soft shadows), its strength from the job, its direction each
+  view's own (a key light placed for that camera);
+- Cycles on the CPU, ``samples`` with adaptive sampling and OpenImageDenoise, the AgX view transform;
+- one camera per view (the job's OpenGL ``camera_to_world`` through the importer's up-axis conversion, as the
+  verification host does), written as an 8-bit PNG through the view transform.
+
+Every value comes from the job file (:func:`rockdove.render.beauty.render_cycles` writes it).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+
+import blender_job as bj  # the sibling job module (this file is run by path: its folder is sys.path[0])
+
+
+def _ground(bpy, to_blender, job):
+    """The ground the job names (USD world metres: :func:`rockdove.render.beauty.cyclorama`), neutral grey."""
+    verts = [tuple(v) for v in job["ground_vertices_m"]]
+    faces = [tuple(f) for f in job["ground_quads"]]
+    mesh = bpy.data.meshes.new("rockdove_ground")
+    mesh.from_pydata(verts, [], faces)
+    mesh.shade_smooth()
+    ob = bpy.data.objects.new("rockdove_ground", mesh)
+    bpy.context.scene.collection.objects.link(ob)
+    ob.matrix_world = to_blender.copy()
+    mat = bpy.data.materials.new("rockdove_ground")
+    mat.use_nodes = True  # Blender 4.x; always so in 5.x
+    bsdf = mat.node_tree.nodes.get("Principled BSDF")
+    g = float(job["ground_albedo"])
+    bsdf.inputs["Base Color"].default_value = (g, g, g, 1.0)
+    bsdf.inputs["Roughness"].default_value = 0.7
+    ob.data.materials.append(mat)
+    return ob
+
+
+def _sky(bpy, job):
+    """World: a vertical gradient of the ray direction's up component, horizon to zenith, at ``sky_strength``."""
+    world = bpy.data.worlds.new("rockdove_sky")
+    world.use_nodes = True
+    nt = world.node_tree
+    coords = nt.nodes.new("ShaderNodeTexCoord")
+    sep = nt.nodes.new("ShaderNodeSeparateXYZ")
+    ramp = nt.nodes.new("ShaderNodeValToRGB")
+    nt.links.new(coords.outputs["Generated"], sep.inputs[0])
+    nt.links.new(sep.outputs["Z"], ramp.inputs["Fac"])  # Blender is Z up: Z is the direction's elevation sine
+    stops = ramp.color_ramp.elements
+    stops[0].position, stops[0].color = 0.0, (*job["sky_horizon_rgb"], 1.0)
+    stops[1].position, stops[1].color = 1.0, (*job["sky_zenith_rgb"], 1.0)
+    bg = nt.nodes["Background"]
+    nt.links.new(ramp.outputs["Color"], bg.inputs["Color"])
+    bg.inputs["Strength"].default_value = float(job["sky_strength"])
+    bpy.context.scene.world = world
+
+
+def _sun(bpy, mathutils, to_blender, job):
+    data = bpy.data.lights.new("rockdove_sun", "SUN")
+    data.energy = float(job["sun_strength"])  # W/m^2
+    data.color = tuple(job["sun_rgb"])
+    data.angle = float(job["sun_angle_deg"]) * 3.141592653589793 / 180.0
+    ob = bpy.data.objects.new("rockdove_sun", data)
+    bpy.context.scene.collection.objects.link(ob)
+    return ob
+
+
+def _aim(ob, mathutils, to_blender, towards_usd) -> None:
+    """Turn the sun so it shines from ``towards_usd`` (USD world, from the bird toward the sun)."""
+    towards = (to_blender.to_3x3() @ mathutils.Vector(towards_usd)).normalized()
+    ob.rotation_euler = towards.to_track_quat("Z", "Y").to_euler()  # a sun shines down its local -Z
+
+
+def _settings(scene, job):
+    scene.render.engine = "CYCLES"
+    c = scene.cycles
+    c.device = "CPU"
+    c.samples = int(job["samples"])
+    c.use_adaptive_sampling = True
+    c.adaptive_threshold = 0.02
+    c.use_denoising = True
+    c.denoiser = "OPENIMAGEDENOISE"
+    c.max_bounces, c.diffuse_bounces, c.glossy_bounces, c.transmission_bounces = 6, 2, 2, 2
+    c.transparent_max_bounces = int(job["transparent_bounces"])
+    c.seed = 0
+    scene.render.film_transparent = False
+    scene.render.use_persistent_data = True  # the second view reuses the first's BVH and shaders
+    scene.render.resolution_percentage = 100
+    scene.render.threads_mode = "FIXED"
+    scene.render.threads = int(job["threads"])
+    settings = scene.render.image_settings
+    settings.file_format, settings.color_mode, settings.color_depth = "PNG", "RGB", "8"
+    scene.view_settings.view_transform = "AgX"
+    scene.view_settings.look = job["look"]
+    scene.view_settings.exposure = float(job["exposure"])
+
+
+def run(job: dict) -> None:
+    import bpy
+    import mathutils
+
+    _, films, to_blender = bj.import_asset(bpy, job)
+    _ground(bpy, to_blender, job)
+    _sky(bpy, job)
+    sun = _sun(bpy, mathutils, to_blender, job)
+    scene = bpy.context.scene
+    _settings(scene, job)
+    seconds = {}
+    for view in job["views"]:
+        scene.render.resolution_x, scene.render.resolution_y = int(view["width"]), int(view["height"])
+        scene.camera = bj._camera(bpy, mathutils, to_blender, view)
+        _aim(sun, mathutils, to_blender, view["sun_direction"])
+        scene.render.filepath = os.path.join(job["out_dir"], f"{view['name']}.png")
+        t = time.perf_counter()
+        bpy.ops.render.render(write_still=True)
+        seconds[view["name"]] = time.perf_counter() - t
+    with open(os.path.join(job["out_dir"], "done.json"), "w", encoding="utf-8") as fh:
+        json.dump({"films": films, "blender": bpy.app.version_string, "render_s": seconds}, fh)
+
+
+if __name__ == "__main__":
+    with open(sys.argv[1], encoding="utf-8") as fh:
+        run(json.load(fh))

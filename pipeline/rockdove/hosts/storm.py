@@ -1,0 +1,143 @@
+"""The ``storm`` hosts: the written asset, unchanged, drawn by Hydra Storm (usdview's renderer).
+
+Storm is the one in the bpy wheel (USD 25.08 with imaging, hdSt, HdMtlx, MaterialX 1.39.3), run by
+:mod:`rockdove.hosts.storm_job` in the Python that has bpy (:func:`rockdove.hosts.blender.bpy_python`), headless
+in an EGL pbuffer with an OpenGL 4.5 compatibility context. Everything the host adds is in the stage's session
+layer (the asset's files are never written): a camera per View (clipping range 1 mm - 1 km), a dome light with a
+white texture of unit radiance (:data:`ENVIRONMENT_RADIANCE`: the ``view_angle`` lobe's uniform environment), the
+``shading`` variant selection, and the lobe's changes: base colour black (the feather's ``StructuralMix.bg`` /
+OpenPBR ``base_color`` set to 0, as the other hosts draw the film lobe alone) and the parts without a MaterialX
+material black (UsdPreviewSurface diffuse 0, ior 1), as the exact reference draws them.
+
+Three hosts, one per network a Storm user sees (:data:`VARIANTS`):
+
+- ``storm``: the ``baked`` MaterialX network (the LUT method), held to the dE goals;
+- ``storm_physical``: the ``physical`` network (OpenPBR's thin film), green, purple and hue agreement;
+- ``storm_preview``: the UsdPreviewSurface network as a Storm without MaterialX draws it (the material's
+  ``outputs:mtlx:surface`` disconnected in the session layer), checked for green and purple only: its atlas
+  holds each thickness's colour at one angle, not the view-angle lobe.
+
+Output: FrameRecorder's colour AOV with colour correction off, written as EXR (linear Rec.709, background 0).
+
+Why ``storm`` (baked) speckles, measured with session-layer probes on the default asset (256 and 512 px,
+sweep_060; the LUT replaced by one whose mip levels are flat colours shows the level each pixel reads): the
+speckle is the LUT read at mip levels 3 and up in the 2x2 quads that straddle triangle edges (the cards'
+diagonals and outlines), and it stays when *both* LUT coordinates are constants of the material (``CosTheta.in``
+and ``ThicknessY.in`` set to 0.5: true derivatives 0). So it is not the network's maths (no branch before the
+lookup in Storm's GLSL, no ``abs``/``pow`` kink): every value Storm reads from its material-parameter buffer
+(``shaderData[...]``: each authored input, and the ``uv_scale`` / ``uv_offset`` that MaterialX's hardware image
+node multiplies into every ``texcoord``) is wrong in the helper pixels of those quads on Mesa llvmpipe, so any
+lookup whose coordinate passes through one gets a wrong level of detail. Storm's UsdPreviewSurface path is spared
+because its ``UsdUVTexture`` samples the ``st`` interpolant directly. What fixes it (same probe, session layer
+only): every LUT and feather-image coordinate computed from interpolants only, i.e. vertex primvars on the
+feather mesh ``lutScale = ((N - 1) / N, 0)``, ``lutOffset = (0.5 / N, v(thickness))``, ``unitScale = (1, 1)``,
+texcoord ``(|N.V|, |N.V|)`` (no ``clamp`` node: its bounds are parameters too) and the three image nodes'
+``uv_scale`` / ``uv_offset`` connected to them (LUT: lutScale / lutOffset; base and mask: unitScale /
+unitScale - unitScale): median dE2000 6.3 -> 2.7, hue agreement 66 % -> 84 % at 512 px, coherent green and purple
+as in the exact reference. Without the ``uv_scale`` / ``uv_offset`` connections the primvar coordinates alone do
+not help (median 6.4 at 256 px). Not adopted yet: MaterialX 1.39's ``ND_image`` nodedefs declare no ``uv_scale`` /
+``uv_offset`` (``Document.validate`` rejects them; they are inputs of MaterialX's hardware image node
+implementation: HdMtlx and MaterialX 1.39.5's GLSL generator both honour a connection to them), so the asset
+would carry inputs outside the nodedef.
+"""
+
+from __future__ import annotations
+
+import os
+from types import SimpleNamespace
+
+from . import HostError
+
+LOBE = "view_angle"
+ENVIRONMENT_RADIANCE = 1.0
+#: Seconds before a Storm run is given up (a 512 px frame: 5-45 s, mostly shader compilation).
+TIMEOUT_S = 900
+#: host name -> (network drawn, session-layer overrides of the feather material: shader.input -> value)
+VARIANTS = {
+    "storm": ("baked", {"StructuralMix.bg": [0.0, 0.0, 0.0]}),
+    "storm_physical": ("physical", {"MtlxPhysicalSurface.base_color": [0.0, 0.0, 0.0]}),
+    "storm_preview": ("preview", {}),
+}
+#: The feather material's prim name (rockdove.usd.stage).
+FEATHER_MATERIAL = "FeatherMaterial"
+#: How to install what this host needs.
+INSTALL = "pip install 'bpy==5.0.1' in a Python 3.11 environment of its own and set $ROCKDOVE_BPY_PYTHON (make test does)"
+
+
+def unavailable() -> str | None:
+    """None when a Python with bpy (whose USD has imaging) can run here, else why not."""
+    from . import blender
+
+    return blender.unavailable()
+
+
+def _cannot_draw(variant: str):
+    def cannot_draw(asset_path: str) -> str | None:
+        if variant == "preview":
+            return None
+        from .materialx import cannot_draw as mx_cannot
+
+        return mx_cannot(asset_path, variant)
+    return cannot_draw
+
+
+def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
+    """Render ``views`` of the written asset in Storm with host ``name``'s network (:data:`VARIANTS`).
+
+    Returns
+    -------
+    dict
+        view name -> (H, W, 3) float32 linear Rec.709 radiance, background 0.
+
+    Raises
+    ------
+    HostError
+        bpy is missing, Storm cannot start (no EGL, a shader that fails to compile) or writes no image.
+    """
+    from . import blender
+    from ..render.images import save_png
+    from ..spectral import linear_to_srgb8
+
+    variant, overrides = VARIANTS[name]
+    views = list(views)
+    if not views:
+        raise ValueError("views must hold at least one View, got none")
+    asset_path = os.path.abspath(os.fspath(asset_path))
+    if not os.path.isfile(asset_path):
+        raise HostError(name, f"no asset at {asset_path!r}")
+    work = os.path.join(os.path.abspath(out_dir), name)
+    os.makedirs(work, exist_ok=True)
+    for v in views:
+        if os.path.exists(os.path.join(work, f"{v.name}.exr")):
+            os.remove(os.path.join(work, f"{v.name}.exr"))
+    job = {"asset": asset_path, "variant": variant, "overrides": {FEATHER_MATERIAL: overrides},
+           "environment_radiance": ENVIRONMENT_RADIANCE, "out_dir": work, "views": [v.to_dict() for v in views]}
+    log = os.path.join(work, "blender.log")
+    try:  # the bpy Python, found and run as the Blender host runs its job (log: work/blender.log)
+        blender.run_job(job, work, module="rockdove.hosts.storm_job", timeout_s=TIMEOUT_S)
+    except HostError as exc:
+        raise HostError(name, exc.message.replace("Blender exited", "Storm exited")
+                        .replace("Blender did not", "Storm did not")) from None
+    out = {}
+    for v in views:
+        exr = os.path.join(work, f"{v.name}.exr")
+        if not os.path.isfile(exr):
+            raise HostError(name, f"Storm wrote no image for view {v.name!r} ({exr}; log: {log})")
+        rgb = blender.read_exr_rgb(exr)
+        if rgb.shape != (v.height, v.width, 3):
+            raise HostError(name, f"view {v.name!r}: Storm image is {rgb.shape[:2]}, expected {(v.height, v.width)}")
+        save_png(linear_to_srgb8(rgb), os.path.join(work, f"{v.name}.png"))
+        out[v.name] = rgb
+    return out
+
+
+def _host(name: str) -> SimpleNamespace:
+    variant = VARIANTS[name][0]
+    return SimpleNamespace(NAME=name, VARIANT=variant, LOBE=LOBE, unavailable=unavailable,
+                           cannot_draw=_cannot_draw(variant),
+                           render=lambda asset_path, views, out_dir: render_variant(asset_path, views, out_dir,
+                                                                                    name=name))
+
+
+#: The registry's host objects (rockdove.hosts.HOSTS: ``rockdove.hosts.storm:BAKED`` ...).
+BAKED, PHYSICAL, PREVIEW = (_host(n) for n in VARIANTS)

@@ -1,0 +1,174 @@
+"""Storm's side of :mod:`rockdove.hosts.storm`, run as a script by the Python that has bpy (its bundled USD 25.08
+has imaging: UsdImagingGL, hdSt, HdMtlx; usd-core has none). It imports nothing of rockdove.
+
+``python storm_job.py job.json``: open the written asset, add in the stage's SESSION layer only (the asset's
+files are never edited) a camera per view, a dome light with a white texture (uniform environment of unit
+radiance), the shading variant selection and the lobe's overrides (:func:`_session`), and record each view with
+``UsdAppUtils.FrameRecorder`` (Storm, no colour correction); parts without a MaterialX material are
+black (they only occlude, as in the exact reference) into ``<view>.exr``: linear Rec.709, background 0.
+"""
+
+import ctypes
+import json
+import os
+import struct
+import sys
+import zlib
+
+
+def bundled_usd_first() -> str:
+    """Put bpy's bundled site-packages (pxr with imaging, MaterialX) first on sys.path and point HdMtlx at its
+    MaterialX libraries; returns the bpy folder."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("bpy")
+    if spec is None or spec.origin is None:
+        raise RuntimeError("bpy is not installed in this Python")
+    root = os.path.dirname(spec.origin)
+    ver = f"python{sys.version_info.major}.{sys.version_info.minor}"
+    for version in sorted(os.listdir(root)):
+        site = os.path.join(root, version, "python", "lib", ver, "site-packages")
+        if os.path.isdir(os.path.join(site, "pxr", "UsdImagingGL")):
+            sys.path.insert(0, site)
+            os.environ.setdefault("PXR_MTLX_STDLIB_SEARCH_PATHS", os.path.join(root, "lib", "materialx", "libraries"))
+            return root
+    raise RuntimeError(f"bpy at {root} bundles no pxr with imaging (pxr.UsdImagingGL)")
+
+
+def egl_context(width: int = 1024, height: int = 1024):
+    """Make an EGL surfaceless OpenGL context current: a COMPATIBILITY profile (Storm's GL calls post "invalid
+    enum" in a core profile). Returns the objects to keep alive."""
+    egl = ctypes.CDLL("libEGL.so.1")
+    vp = ctypes.c_void_p
+    egl.eglGetProcAddress.restype = vp
+    egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
+    egl.eglCreateContext.restype = vp
+    egl.eglCreateContext.argtypes = [vp, vp, vp, ctypes.POINTER(ctypes.c_int)]
+    egl.eglInitialize.argtypes = [vp, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int)]
+    egl.eglChooseConfig.argtypes = [vp, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(vp), ctypes.c_int,
+                                    ctypes.POINTER(ctypes.c_int)]
+    egl.eglMakeCurrent.argtypes = [vp, vp, vp, vp]
+    get_display = ctypes.CFUNCTYPE(vp, ctypes.c_uint, vp, vp)(egl.eglGetProcAddress(b"eglGetPlatformDisplayEXT"))
+    dpy = get_display(0x31DD, None, None)  # EGL_PLATFORM_SURFACELESS_MESA
+    major, minor = ctypes.c_int(), ctypes.c_int()
+    if not dpy or not egl.eglInitialize(dpy, ctypes.byref(major), ctypes.byref(minor)):
+        raise RuntimeError("EGL: no surfaceless display (Mesa's libEGL with EGL_MESA_platform_surfaceless)")
+    attrs = (ctypes.c_int * 5)(0x3033, 0x0001, 0x3040, 0x0008, 0x3038)  # PBUFFER_BIT surface, OPENGL_BIT
+    cfg, n = vp(), ctypes.c_int()
+    if not egl.eglChooseConfig(dpy, attrs, ctypes.byref(cfg), 1, ctypes.byref(n)) or n.value < 1:
+        raise RuntimeError("EGL: no OpenGL config")
+    egl.eglBindAPI(0x30A2)  # EGL_OPENGL_API
+    ctx_attrs = (ctypes.c_int * 7)(0x3098, 4, 0x30FB, 5, 0x30FD, 0x2, 0x3038)  # 4.5, COMPATIBILITY profile
+    ctx = egl.eglCreateContext(dpy, cfg, None, ctx_attrs)
+    egl.eglCreatePbufferSurface.restype = vp
+    egl.eglCreatePbufferSurface.argtypes = [vp, vp, ctypes.POINTER(ctypes.c_int)]
+    # a pbuffer, so that the default framebuffer is complete (Storm's present step draws into it)
+    surf = egl.eglCreatePbufferSurface(dpy, cfg, (ctypes.c_int * 5)(0x3057, width, 0x3056, height, 0x3038))
+    if not ctx or not surf or not egl.eglMakeCurrent(dpy, surf, surf, ctx):
+        raise RuntimeError("EGL: cannot make an OpenGL 4.5 compatibility context current")
+    return egl, dpy, ctx, surf
+
+
+def white_png(path: str) -> str:
+    """A 4 x 2 white RGB PNG (the dome light's texture: white in every colour space)."""
+    raw = b"".join(b"\x00" + b"\xff" * 12 for _ in range(2))
+
+    def chunk(tag, data):
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+    with open(path, "wb") as fh:
+        fh.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 4, 2, 8, 2, 0, 0, 0))
+                 + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+    return path
+
+
+def _black(surface) -> None:
+    """A UsdPreviewSurface that reflects nothing: diffuse 0, ior 1 (Fresnel F0 = 0)."""
+    from pxr import Gf, Sdf, UsdShade
+
+    if not surface.IsValid():
+        return
+    shader = UsdShade.Shader(surface)
+    diffuse = shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f)
+    diffuse.GetAttr().SetConnections([])
+    diffuse.Set(Gf.Vec3f(0.0, 0.0, 0.0))
+    shader.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(1.0)
+
+
+def _session(stage, job):
+    """The session layer's opinions: variant, lobe overrides, dome light, cameras. Returns camera paths."""
+    from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
+
+    stage.SetEditTarget(stage.GetSessionLayer())
+    root = stage.GetDefaultPrim()
+    if job["variant"] in ("baked", "physical"):
+        root.GetVariantSet("shading").SetVariantSelection(job["variant"])
+    for prim in stage.Traverse():
+        if not prim.IsA(UsdShade.Material):
+            continue
+        mtl = UsdShade.Material(prim)
+        out = mtl.GetSurfaceOutput("mtlx")
+        if not out.GetAttr().IsValid() or not out.HasConnectedSource():
+            _black(prim.GetChild("PreviewSurface"))  # other parts: black, they only occlude (the lobe)
+        elif job["variant"] == "preview":
+            out.GetAttr().SetConnections([])  # a Storm without MaterialX: the UsdPreviewSurface network
+        for name, value in job.get("overrides", {}).get(prim.GetName(), {}).items():
+            shader, inp = name.split(".")
+            attr = prim.GetChild(shader).GetAttribute(f"inputs:{inp}")
+            if attr.IsValid():
+                attr.SetConnections([])
+                attr.Set(Gf.Vec3f(*value) if isinstance(value, list) else value)
+    dome = UsdLux.DomeLight.Define(stage, "/RockdoveStorm/Environment")
+    dome.CreateTextureFileAttr(Sdf.AssetPath(white_png(os.path.join(job["out_dir"], "white.png"))))
+    dome.CreateIntensityAttr(float(job["environment_radiance"]))
+    dome.CreateExposureAttr(0.0)
+    cams = []
+    for view in job["views"]:
+        cam = UsdGeom.Camera.Define(stage, f"/RockdoveStorm/Cam_{view['name']}")
+        vert = 2.0 * 50.0 * __import__("math").tan(float(view["yfov_rad"]) / 2.0)
+        cam.CreateFocalLengthAttr(50.0)
+        cam.CreateVerticalApertureAttr(vert)
+        cam.CreateHorizontalApertureAttr(vert * view["width"] / view["height"])
+        cam.CreateClippingRangeAttr(Gf.Vec2f(1e-3, 1e3))
+        m = Gf.Matrix4d(*[float(x) for row in view["camera_to_world"] for x in row]).GetTranspose()
+        cam.AddTransformOp().Set(m)
+        cams.append(cam)
+    return cams
+
+
+def run(job: dict) -> None:
+    bundled_usd_first()
+    keep = egl_context(max(v["width"] for v in job["views"]), max(v["height"] for v in job["views"]))  # noqa: F841 (the context must live while Storm draws)
+    from pxr import Usd, UsdAppUtils
+
+    stage = Usd.Stage.Open(job["asset"])
+    if stage is None:
+        raise RuntimeError(f"{job['asset']}: not a USD stage")
+    cams = _session(stage, job)
+    rec = UsdAppUtils.FrameRecorder("HdStormRendererPlugin", True)
+    rec.SetColorCorrectionMode("disabled")
+    rec.SetCameraLightEnabled(False)
+    rec.SetDomeLightVisibility(False)
+    rec.SetComplexity(1.0)
+    for view, cam in zip(job["views"], cams):
+        rec.SetImageWidth(int(view["width"]))
+        path = os.path.join(job["out_dir"], f"{view['name']}.exr")
+        if not rec.Record(stage, cam, Usd.TimeCode.Default(), path):
+            raise RuntimeError(f"Storm: FrameRecorder.Record failed for view {view['name']!r}")
+        print(f"storm: {view['name']} -> {path}", flush=True)
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    with open(argv[0], encoding="utf-8") as fh:
+        job = json.load(fh)
+    try:
+        run(job)
+    except Exception as exc:  # one line for the host's HostError; the log keeps the rest
+        print(f"storm: {type(exc).__name__}: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

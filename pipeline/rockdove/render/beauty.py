@@ -1,0 +1,261 @@
+"""The beauty render: the picture the verification report opens with, the bird as a look-dev artist shows it.
+
+Not a measurement (the verification views are, :mod:`rockdove.render.views`): the written asset standing on a
+neutral grey ground under a sky of moderate strength and a warm key sun at :data:`SUN_ELEVATION_DEG` with soft
+shadows, from a 3/4 view and a side view (:func:`beauty_views`), framed on every mesh under the default prim
+(new parts included) with headroom.
+
+Two renderers (:data:`RENDERERS`):
+
+- ``cycles``: Blender's Cycles through the rockdove add-on, as a Blender user imports the asset
+  (:mod:`rockdove.hosts.blender_beauty_job`): soft sun shadows, sky light and bounce, OpenImageDenoise, AgX;
+- ``gl``: the GLSL path (:mod:`rockdove.render.beauty_gl`): the verification shaders under the sun and a few
+  sky lights, the sun's shadow from a shadow map, a filmic curve;
+
+``auto`` takes Cycles when the Blender host is available and asked for, else GL, and says which and why in
+the caption (:func:`render_beauty`). ``off`` renders nothing. Sizes and samples are ``[beauty]`` config keys
+(schemas/config.schema.json).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+
+import numpy as np
+
+from .views import View, look_at
+
+RENDERERS = ("auto", "cycles", "gl", "off")
+#: (name, azimuth, elevation) of the two cameras, degrees; azimuth 0 is in front of the beak, positive toward the
+#: bird's left (+X; the bird faces +Z, Y is up), as in rockdove.render.views.
+VIEWS = (("beauty_34", 35.0, 15.0), ("beauty_side", 90.0, 5.0))
+#: Vertical field of view, degrees (a short telephoto: little perspective distortion of the bird).
+YFOV_DEG = 24.0
+#: Fraction of the frame's height (or width) the bird may fill: the rest is headroom and ground.
+FILL = 0.78
+#: How far below the frame's centre the bird's projected centre sits, as a fraction of the frame's height: a
+#: little more room above the head than below the feet, where the shadow lies.
+LOWER = 0.03
+#: The key sun: elevation above the ground, azimuth relative to the camera (negative: from the camera's left,
+#: toward the beak), angular diameter (soft shadow edges), strength (W/m^2, Blender's sun irradiance) and
+#: colour (warm, about 4800 K, linear Rec.709).
+SUN_ELEVATION_DEG = 40.0
+SUN_AZIMUTH_FROM_CAMERA_DEG = -45.0
+SUN_ANGLE_DEG = 4.0
+SUN_STRENGTH = 3.0
+SUN_RGB = (1.0, 0.87, 0.74)
+#: The sky (world) gradient, linear Rec.709, and its strength: a cool fill about 1/3 of the sun on the ground.
+SKY_HORIZON_RGB = (0.80, 0.82, 0.85)
+SKY_ZENITH_RGB = (0.42, 0.55, 0.80)
+SKY_STRENGTH = 0.45
+#: Neutral grey ground: albedo, and the radius of its cyclorama in multiples of the farthest camera's distance.
+GROUND_ALBEDO = 0.30
+GROUND_RADIUS = 3.0
+#: Seconds before a Cycles beauty render is given up (and drawn with GL): the 768 x 512, 32-sample pair took
+#: 513 s + 891 s of Cycles on the 2 shared cores at a load average of 13-19 (measured; done.json's render_s).
+TIMEOUT_S = 3600
+#: AgX look and exposure (stops) of the Cycles picture.
+LOOK = "AgX - Medium High Contrast"
+EXPOSURE = 0.0
+
+
+def _direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
+    a, e = math.radians(azimuth_deg), math.radians(elevation_deg)
+    return np.array([math.sin(a) * math.cos(e), math.sin(e), math.cos(a) * math.cos(e)])
+
+
+def _points(scene, limit: int = 40000) -> np.ndarray:
+    """World positions of every part (a strided subset of at most ``limit``), metres."""
+    pts = np.concatenate([p.positions_m for p in scene.parts]).astype(np.float64)
+    return pts[:: max(1, len(pts) // limit)]
+
+
+def frame(points, azimuth_deg: float, elevation_deg: float, width: int, height: int,
+          yfov_deg: float = YFOV_DEG, fill: float = FILL, lower: float = LOWER) -> np.ndarray:
+    """Camera-to-world (OpenGL) of a camera at ``azimuth_deg``/``elevation_deg`` that frames every point: its
+    projection spans at most ``fill`` of the frame's height and width, centred across and ``lower`` of the
+    height below the middle."""
+    pts = np.asarray(points, np.float64)
+    d = _direction(azimuth_deg, elevation_deg)
+    ty = math.tan(math.radians(yfov_deg) / 2)
+    tx = ty * width / height
+    target = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
+    for _ in range(3):  # distance to fit, then re-centre the projection; converges in two or three rounds
+        c2w = look_at(target + d, target)
+        right, up = c2w[:3, 0], c2w[:3, 1]
+        q = pts - target
+        x, y, z = q @ right, q @ up, q @ d
+        dist = float(np.max(z + np.maximum(np.abs(x) / (fill * tx), np.abs(y) / (fill * ty))))
+        depth = dist - z
+        sx, sy = x / depth, y / depth
+        cx, cy = 0.5 * (sx.max() + sx.min()), 0.5 * (sy.max() + sy.min()) + 2 * lower * ty
+        target = target + dist * (cx * right + cy * up)
+    return look_at(target + dist * d, target)
+
+
+def beauty_views(scene, width: int, height: int) -> list[View]:
+    """The 3/4 and side views (:data:`VIEWS`) of ``scene``, ``width`` x ``height`` px, each with its key sun
+    (``light_direction``, toward the sun; ``light_rgb`` = :data:`SUN_RGB` x :data:`SUN_STRENGTH`)."""
+    pts = _points(scene)
+    return [View(name, frame(pts, az, el, width, height), math.radians(YFOV_DEG), width, height,
+                 _direction(az + SUN_AZIMUTH_FROM_CAMERA_DEG, SUN_ELEVATION_DEG),
+                 np.asarray(SUN_RGB) * SUN_STRENGTH) for name, az, el in VIEWS]
+
+
+def ground_y_m(scene) -> float:
+    """Height of the ground: the lowest point of the bird (its toes), metres."""
+    return float(scene.bounds_m[0, 1])
+
+
+def cyclorama(scene, views, segments: int = 96) -> tuple[np.ndarray, np.ndarray]:
+    """The ground both renderers draw, a photo studio's cyclorama as a bowl centred under the bird: a flat floor
+    at :func:`ground_y_m` to 0.7 of its radius (:data:`GROUND_RADIUS` x the farthest camera's distance), curving
+    up (a quarter circle) into a wall 0.6 x the radius high, so no horizon line crosses the picture; the wall's
+    top is 31 degrees above the bird, below the sun. ``(vertices (V, 3) metres, quads (F, 4))``, normals up
+    and inward (counter-clockwise seen from inside)."""
+    centre = scene.bounds_m.mean(axis=0)
+    big = GROUND_RADIUS * max(float(np.linalg.norm(v.eye_m - centre)) for v in views)
+    a = np.linspace(0.0, 0.5 * math.pi, 9)
+    r = np.concatenate([[0.0], 0.7 * big + 0.3 * big * np.sin(a), [big]])
+    y = np.concatenate([[0.0], 0.3 * big * (1 - np.cos(a)), [0.6 * big]]) + ground_y_m(scene)
+    phi = 2 * math.pi * np.arange(segments) / segments
+    verts = np.stack([np.outer(r, np.sin(phi)) + centre[0], np.repeat(y[:, None], segments, 1),
+                      np.outer(r, np.cos(phi)) + centre[2]], axis=-1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(len(r) - 1), np.arange(segments), indexing="ij")
+    k = (j + 1) % segments
+    quads = np.stack([i * segments + j, (i + 1) * segments + j, (i + 1) * segments + k, i * segments + k], -1)
+    return verts, quads.reshape(-1, 4)
+
+
+def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
+    """Render ``views`` with Cycles through the add-on (:mod:`rockdove.hosts.blender_beauty_job`); returns
+    ``{view name: (H, W, 3) uint8}`` (display-referred, AgX). Raises HostError when Blender cannot."""
+    from PIL import Image
+
+    from ..hosts import HostError
+    from ..hosts import blender as bl
+
+    work = os.path.join(os.path.abspath(out_dir), "beauty_cycles")
+    os.makedirs(work, exist_ok=True)
+    for v in views:
+        if os.path.exists(os.path.join(work, f"{v.name}.png")):
+            os.remove(os.path.join(work, f"{v.name}.png"))
+    verts, quads = cyclorama(scene, views)
+    job = {
+        "asset": os.path.abspath(layer), "root_object": bl._root_object(layer), "addon_zip": bl.addon_zip(work),
+        "addon_module": bl.ADDON_MODULE, "out_dir": work, "samples": int(samples), "threads": bl.THREADS,
+        "transparent_bounces": bl.TRANSPARENT_BOUNCES, "ground_vertices_m": np.round(verts, 6).tolist(),
+        "ground_quads": quads.tolist(), "ground_albedo": GROUND_ALBEDO, "sky_horizon_rgb": SKY_HORIZON_RGB,
+        "sky_zenith_rgb": SKY_ZENITH_RGB, "sky_strength": SKY_STRENGTH, "sun_strength": SUN_STRENGTH,
+        "sun_rgb": SUN_RGB, "sun_angle_deg": SUN_ANGLE_DEG, "look": LOOK, "exposure": EXPOSURE,
+        "views": [{**v.to_dict(), "sun_direction": v.light_direction.tolist()} for v in views],
+    }
+    bl.run_job(job, work, "rockdove.hosts.blender_beauty_job", timeout_s=TIMEOUT_S)
+    out = {}
+    for v in views:
+        path = os.path.join(work, f"{v.name}.png")
+        if not os.path.isfile(path):
+            raise HostError(bl.NAME, f"Blender wrote no beauty image for {v.name!r} ({path})")
+        out[v.name] = np.asarray(Image.open(path).convert("RGB"))
+        if out[v.name].shape != (v.height, v.width, 3):
+            raise HostError(bl.NAME, f"{v.name}: Blender image is {out[v.name].shape[:2]}, expected "
+                                     f"{(v.height, v.width)}")
+    return out
+
+
+def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", width: int = 768,
+                  height: int = 512, samples: int = 32, cycles_ok: bool = True, lut=None) -> dict | None:
+    """Render the beauty views into ``out_dir`` (``beauty_34.png``, ``beauty_side.png``) and describe them.
+
+    Parameters
+    ----------
+    layer : str
+        The asset's root layer (Cycles imports it).
+    scene : RenderScene
+        The same asset read back (framing, the GL path).
+    renderer : str
+        One of :data:`RENDERERS`.
+    width, height : int
+        Pixels of each view.
+    samples : int
+        Cycles samples per pixel (adaptive: the most a pixel takes).
+    cycles_ok : bool
+        Whether ``auto`` may take Cycles (False where the verification was not asked to run Blender).
+    lut : ThinFilmLUT, optional
+        The film's LUT for the GL path (default the asset's).
+
+    Returns
+    -------
+    dict or None
+        ``{"renderer": "cycles"|"gl", "files": {view: file name}, "caption": str, "seconds": float,
+        "size": [w, h], "samples": int or None, "fallback": reason or None}``; None for ``renderer="off"``.
+    """
+    from ..hosts import HostError
+    from ..hosts import blender as bl
+    from .images import save_png
+
+    if renderer not in RENDERERS:
+        raise ValueError(f"beauty renderer {renderer!r} is not one of {', '.join(RENDERERS)}")
+    if renderer == "off":
+        return None
+    views = beauty_views(scene, int(width), int(height))
+    t = time.perf_counter()
+    fallback, images, used = None, None, "gl"
+    if renderer == "cycles" or (renderer == "auto" and cycles_ok):
+        fallback = bl.unavailable()
+        if fallback is None:
+            try:
+                images, used = render_cycles(layer, scene, views, out_dir, samples), "cycles"
+            except HostError as exc:
+                fallback = str(exc)
+    elif renderer == "auto":
+        fallback = "the Blender host was not among the hosts asked for"
+    if images is None:
+        from .beauty_gl import render_gl
+
+        images = render_gl(scene, views, ground_y_m(scene), lut=lut)
+    seconds = time.perf_counter() - t
+    files = {}
+    for name, img in images.items():
+        files[name] = os.path.basename(save_png(img, os.path.join(out_dir, f"{name}.png")))
+    if used == "cycles":
+        caption = (f"Cycles (Blender, through the rockdove add-on), {samples} samples per pixel, adaptive, "
+                   f"OpenImageDenoise, AgX; sky light and a {SUN_ANGLE_DEG:g} degree warm sun at "
+                   f"{SUN_ELEVATION_DEG:g} degrees; {width} x {height} px, {seconds:.1f} s")
+    else:
+        caption = (f"GL (the verification's GLSL shaders in pyrender): the sun's shadow from a shadow map, sky "
+                   f"fill lights, filmic curve; {width} x {height} px, {seconds:.1f} s"
+                   + (f"; not Cycles: {fallback}" if fallback else ""))
+    return {"renderer": used, "files": files, "caption": caption, "seconds": seconds, "size": [width, height],
+            "samples": samples if used == "cycles" else None, "fallback": fallback}
+
+
+def settings(overrides=None) -> dict:
+    """The ``[beauty]`` settings: the schema's defaults (schemas/config.schema.json) under ``overrides``, checked
+    against its ranges (ValueError naming the key)."""
+    from ..config import defaults
+
+    out = {**defaults()["beauty"], **{k: v for k, v in (overrides or {}).items() if v is not None}}
+    if out["renderer"] not in RENDERERS:
+        raise ValueError(f"beauty.renderer: {out['renderer']!r} is not one of {', '.join(RENDERERS)}")
+    for key, lo in (("width", 64), ("height", 64), ("samples", 1)):
+        if not isinstance(out[key], int) or isinstance(out[key], bool) or not lo <= out[key] <= 4096:
+            raise ValueError(f"beauty.{key}: {out[key]!r} is not an integer from {lo} to 4096")
+    return out
+
+
+def for_report(layer: str, scene, out_dir: str, settings: dict, *, cycles_ok: bool, lut=None) -> tuple:
+    """:func:`render_beauty` as the verification report takes it: ``(entry or None, note or None)``. The picture
+    is not a measurement, so a renderer that fails leaves the report without it and a note saying why, never a
+    failed verification; asking for Cycles and getting GL is noted too."""
+    keys = ("renderer", "width", "height", "samples")
+    try:
+        entry = render_beauty(layer, scene, out_dir, cycles_ok=cycles_ok, lut=lut,
+                              **{k: settings[k] for k in keys if k in settings})
+    except Exception as exc:  # noqa: BLE001 - any renderer's error: the report goes on without the picture
+        return None, f"no beauty render: {type(exc).__name__}: {exc}"
+    if entry is not None and settings.get("renderer") == "cycles" and entry["renderer"] != "cycles":
+        return entry, f"beauty render: Cycles was asked for, drawn with GL instead ({entry['fallback']})"
+    return entry, None
