@@ -269,9 +269,13 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, out:
     it.
     """
     from .verify.inputs import DEFAULT_SIZE, DEFAULT_VIEWS
-    from .verify.run import check_dependencies, verify_asset
+    from .graph.publish import claim_output
+    from .usd.dependencies import require_inside
+    from .verify.run import verify_asset
+    from .verify.verdict import default_out_dir
 
-    check_dependencies(os.fspath(asset), allow_external)
+    root = require_inside(asset, allow_external)  # nothing from elsewhere is read, nothing of the user's overwritten
+    out = claim_output(out or default_out_dir(root), "verification report")
     report = verify_asset(os.fspath(asset), out_dir=out, width=width or DEFAULT_SIZE, height=height or DEFAULT_SIZE,
                           progress=progress, views=None if views is None else list(views),
                           n_views=n_views or DEFAULT_VIEWS, hosts=None if hosts is None else list(hosts),

@@ -25,8 +25,11 @@ def _size(text: str) -> int:
         v = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"must be an integer number of pixels, got {text!r}") from None
-    if v < 16 or v > 8192:
-        raise argparse.ArgumentTypeError(f"must be between 16 and 8192 pixels, got {v}")
+    from ..config import limits
+
+    lo, hi = limits("verify.width")  # the config's range: past it a verification passes the memory budget
+    if v < lo or v > hi:
+        raise argparse.ArgumentTypeError(f"must be between {lo} and {hi} pixels, got {v}")
     return v
 
 
