@@ -292,25 +292,34 @@ def test_cache_shared_across_pid_namespaces_spares_live_writers_and_cleans_kille
     cards store), A is paused mid-point, B builds from start to end (and cleans at its start). A's folder
     survives and A publishes; K's folder and lock go; every point equals a serial build with its own cache."""
     shared = tmp_path / "shared"
-    k = _ns_start(tmp_path, _point("k", 1, "store:cards"), pad=40)
-    wait_for_line(k, "paused after store:cards")
-    os.killpg(k.pid, signal.SIGKILL)  # mid-point: its cards folder half-way to the cache, its lock file held
-    k.wait(10)
-    assert len(list(shared.glob("cards/.tmp-*"))) == 1 and list(shared.glob("cards/.lock-*"))
-    release = tmp_path / "release-a"
-    a = _ns_start(tmp_path, _point("a", 2, "store:cards", release), pad=60)
-    wait_for_line(a, "paused after store:cards")
-    (a_tmp,) = shared.glob("cards/.tmp-*")  # A's own (A's build, at its start, cleaned K's: K is dead)
-    b = subprocess.run(_in_namespace(_point("b", 3), 0), cwd=tmp_path, env=ENV, capture_output=True, text=True,
-                       timeout=60)
-    assert b.returncode == 0, b.stderr
-    assert list(shared.glob("cards/.tmp-*")) == [a_tmp] and (a_tmp / "value").is_dir()  # A's work is kept
-    owner = json.loads((a_tmp / ".owner").read_text())  # who writes it, beyond a pid
-    assert owner["host"] == os.uname().nodename and owner["pid_ns"] != os.readlink("/proc/self/ns/pid")
-    assert owner["boot_id"] == Path("/proc/sys/kernel/random/boot_id").read_text().strip()
-    release.touch()
-    _, err = a.communicate(timeout=60)
-    assert a.returncode == 0, err
+    procs = []
+    try:
+        k = _ns_start(tmp_path, _point("k", 1, "store:cards"), pad=40)
+        procs.append(k)
+        wait_for_line(k, "paused after store:cards")
+        os.killpg(k.pid, signal.SIGKILL)  # mid-point: its cards folder half-way to the cache, its lock file held
+        k.wait(10)
+        assert len(list(shared.glob("cards/.tmp-*"))) == 1 and list(shared.glob("cards/.lock-*"))
+        release = tmp_path / "release-a"
+        a = _ns_start(tmp_path, _point("a", 2, "store:cards", release), pad=60)
+        procs.append(a)
+        wait_for_line(a, "paused after store:cards")
+        (a_tmp,) = shared.glob("cards/.tmp-*")  # A's own (A's build, at its start, cleaned K's: K is dead)
+        b = subprocess.run(_in_namespace(_point("b", 3), 0), cwd=tmp_path, env=ENV, capture_output=True, text=True,
+                           timeout=60)
+        assert b.returncode == 0, b.stderr
+        assert list(shared.glob("cards/.tmp-*")) == [a_tmp] and (a_tmp / "value").is_dir()  # A's work is kept
+        owner = json.loads((a_tmp / ".owner").read_text())  # who writes it, beyond a pid
+        assert owner["host"] == os.uname().nodename and owner["pid_ns"] != os.readlink("/proc/self/ns/pid")
+        assert owner["boot_id"] == Path("/proc/sys/kernel/random/boot_id").read_text().strip()
+        release.touch()
+        _, err = a.communicate(timeout=60)
+        assert a.returncode == 0, err
+    finally:  # a failed assertion leaves no paused writer behind (each is the leader of its session)
+        for p in procs:
+            if p.poll() is None:
+                os.killpg(p.pid, signal.SIGKILL)
+                p.wait(10)
     again = subprocess.run(_in_namespace(_point("k", 1), 20), cwd=tmp_path, env=ENV, capture_output=True,
                            text=True, timeout=60)
     assert again.returncode == 0, again.stderr
@@ -377,6 +386,13 @@ def test_clean_temporaries_spares_live_writers_and_removes_dead_ones(tmp_path):
     (["build", "--out", "b", "--set", "textures.body_resolution=8192"], ["textures.body_resolution", "<= 4096"]),
     (["lut", "--out", "l.exr", "--angles", "16000", "--thicknesses", "16000"], ["--angles", "[2, 4096]", "16000"]),
     (["lut", "--out", "l.exr", "--thicknesses", "4097"], ["--thicknesses", "[1, 4096]"]),
+    # a 4096 px verification passed 8.3 GB, a 2048 px one 5.3 GB
+    (["build", "--out", "b", "--set", "verify.width=4096"], ["verify.width", "<= 1024"]),
+    (["verify", "b", "--height", "4096"], ["--height", "between 16 and 1024"]),
+    # an 8192 px render passed 8.6 GB; every view's buffers were kept until all were rendered
+    (["render", "b", "--out", "r", "--width", "8192", "--supersample", "1"], ["--width x --supersample", "4096"]),
+    (["render", "b", "--out", "r", "--height", "2048", "--supersample", "4"], ["--height x --supersample", "4096"]),
+    (["render", "b", "--out", "r", "--views", "1000"], ["--views x --width x --height", "1000 x 512 x 512"]),
 ])
 def test_sizes_past_the_memory_budget_exit_2_naming_the_key_and_range(tmp_path, argv, words):
     r = subprocess.run([sys.executable, "-m", "rockdove.cli", *argv], cwd=tmp_path, env=ENV, capture_output=True,

@@ -248,7 +248,7 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, out:
     asset : path
         The asset folder or its root layer (``pigeon.usda``).
     hosts : iterable of str, optional
-        Host names (:data:`rockdove.hosts.HOSTS`); default every host available here (``glsl`` always runs).
+        Host names (:data:`rockdove.hosts.HOSTS`); default :data:`rockdove.hosts.DEFAULT` where available, ``["all"]`` every host (``glsl`` always runs).
         Unavailable hosts are skipped with their reason; a host that fails or misses its goals fails.
     out : path, optional
         Report folder (default ``verify/`` beside the root layer).

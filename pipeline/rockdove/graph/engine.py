@@ -380,7 +380,9 @@ def folder_digest(folder: Path) -> str:
 
 
 # ----------------------------------------------------------------------------------------------- cache
-_LIVE: set[Path] = set()  # this process's temporary folders (a lock of another thread of ours may not conflict)
+# this process's temporary folders and held entry locks, never opened by its own clean: on NFS, flock is a POSIX
+# lock, which does not conflict within a process and is dropped when any of its descriptors closes
+_LIVE: set[Path] = set()
 _ORPHAN_S = 3600  # a temporary folder with no .owner yet (its writer died in the instant before naming it)
 
 
@@ -486,11 +488,13 @@ class Cache:
                 if os.path.samestat(os.fstat(fd), os.stat(path)):
                     break
             os.close(fd)
+        _LIVE.add(path)
         try:
             yield
         finally:
             with contextlib.suppress(OSError):
                 os.unlink(path)
+            _LIVE.discard(path)
             os.close(fd)  # releases the lock
 
     def clean_temporaries(self) -> None:
@@ -509,7 +513,7 @@ class Cache:
             if fd is not None:
                 os.close(fd)
         for lock in self.root.glob("*/.lock-*"):
-            fd = _take(lock)
+            fd = None if lock in _LIVE else _take(lock)
             if fd is not None:
                 with contextlib.suppress(OSError):
                     if os.path.samestat(os.fstat(fd), os.stat(lock)):
