@@ -180,7 +180,7 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
     from .config import validate
     from .graph import stages as build_stages
     from .graph.engine import Cache, Graph
-    from .graph.publish import OutputLock, check_output, make_staging, publish, read_marker, recover, write_marker
+    from .graph.publish import OutputLock, check_output, make_staging, publish, recover, write_marker
 
     t0 = time.perf_counter()
     config = validate(config)
@@ -193,14 +193,6 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
         raise UsageError(f"--cache {str(cache_dir)!r} exists and is not a folder")
     stages = build_stages.make_stages(config, verify=verify)
     chash = config_hash(config)
-    if verify and ((read_marker(out) or {}).get("config_hash") != chash
-                   or not (out / "verify" / "report.json").is_file()):
-        # A new configuration, or one not verified yet, will most likely render: import the GL renderer
-        # (pyrender, ~2 s) in a thread now, while the LUT, textures and layers are built.
-        from .verify.gl_renders import prestart
-
-        prestart()
-
     main_thread = threading.current_thread() is threading.main_thread()
     old_term = signal.signal(signal.SIGTERM, _raise_interrupt) if main_thread else None
     staging = None
