@@ -60,8 +60,9 @@ def rows() -> list[tuple[str, list[str]]]:
     out.append((f"verify {lim['verify.width']} x {lim['verify.height']} px",
                 build(f"verify.width={lim['verify.width']}", f"verify.height={lim['verify.height']}",
                       "verify.views=1", verify=True)))
-    out.append((f"verify.views={lim['verify.views']} (128 px)",
-                build(f"verify.views={lim['verify.views']}", "verify.width=128", "verify.height=128", verify=True)))
+    out.append((f"verify.views={lim['verify.views']} at {lim['verify.width']} px (the largest verification)",
+                build(f"verify.views={lim['verify.views']}", f"verify.width={lim['verify.width']}",
+                      f"verify.height={lim['verify.height']}", verify=True)))
     return out
 
 

@@ -38,8 +38,11 @@ def _count(text: str) -> int:
         v = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"must be an integer number of views, got {text!r}") from None
-    if not 1 <= v <= 64:
-        raise argparse.ArgumentTypeError(f"must be between 1 and 64 views, got {v}")
+    from ..config import limits
+
+    lo, hi = limits("verify.views")  # the config's range (the memory budget)
+    if not lo <= v <= hi:
+        raise argparse.ArgumentTypeError(f"must be between {lo} and {hi} views, got {v}")
     return v
 
 
