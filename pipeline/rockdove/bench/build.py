@@ -199,7 +199,7 @@ def _film_rows(tmp: Path, preset: list[str], repeats: int, cold_s: float) -> dic
           f"takes {floor:.2f} s = {100 * out['floor_ratio']:.1f} % of cold")
     warm = _warm_film_s(tmp, preset, repeats)
     out.update(warm_process_s=warm, warm_process_ratio=warm / cold_s)
-    print(f"  in a warm process (rockdove.commands.build.build called again, as a sweep's Dask worker or a notebook "
+    print(f"  in a warm process (rockdove.api.build called again, as a sweep's Dask worker or a notebook "
           f"does): {warm:.3f} s = {100 * out['warm_process_ratio']:.1f} % of cold, goal <= {100 * FILM_GOAL_RATIO:g} %: "
           f"{'met' if out['warm_process_ratio'] <= FILM_GOAL_RATIO else 'NOT met'}")
     watch = _watch_rows(tmp, preset, repeats)
