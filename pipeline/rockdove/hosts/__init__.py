@@ -35,6 +35,7 @@ HOSTS = {
     "storm": "rockdove.hosts.storm:BAKED",
     "storm_physical": "rockdove.hosts.storm:PHYSICAL",
     "storm_preview": "rockdove.hosts.storm:PREVIEW",
+    "osl": "rockdove.hosts.osl",
 }
 #: The lighting models a host can be compared under (docs/design.md "Hosts"):
 #: ``half_angle``: the paper's Lambert x colour(cos = L.H) under the View's one directional light;
