@@ -68,8 +68,50 @@ def generate_osl(doc, material_name: str) -> str:
     cms = mx_gen.DefaultColorManagementSystem.create(gen.getTarget())
     cms.loadLibrary(doc.getDataLibrary() or doc)
     gen.setColorManagementSystem(cms)
-    ctx.getOptions().targetColorSpaceOverride = "lin_rec709"
+    opts = ctx.getOptions()
+    opts.targetColorSpaceOverride = "lin_rec709"
+    # OSL's texture() (OpenImageIO) puts t = 0 at the image's first row, MaterialX puts v = 0 at its bottom
+    opts.fileTextureVerticalFlip = True
     return gen.generate(material_name, node, ctx).getSourceCode(mx_gen.PIXEL_STAGE)
+
+
+#: Put at the top of the generated source (after its ``#include "mx_funcs.h"``), for Cycles: its ``getattribute``
+#: fills a ``float``, ``float[4]`` or a point/vector/normal/colour but no ``float[2]``, the type MaterialX's
+#: ``mx_geompropvalue_vector2`` reads a ``vector2`` primvar into (``st``), so that read always failed and returned
+#: its default (measured, bpy 5.0.1: ``getattribute("st", float[2])`` 0 where ``getattribute("st", vector)`` gives
+#: the UV map). The mapping renames ``getattribute`` to overloads that pass every other type through unchanged and
+#: read a ``float[2]`` through a ``vector``; the generated functions themselves are left as MaterialX wrote them.
+CYCLES_GETATTRIBUTE = """
+// rockdove (hosts/osl.py CYCLES_GETATTRIBUTE): Cycles' getattribute fills no float[2]; read it through a vector.
+int rd_getattribute(string name, output float value) { return getattribute(name, value); }
+int rd_getattribute(string name, output int value) { return getattribute(name, value); }
+int rd_getattribute(string name, output string value) { return getattribute(name, value); }
+int rd_getattribute(string name, output color value) { return getattribute(name, value); }
+int rd_getattribute(string name, output vector value) { return getattribute(name, value); }
+int rd_getattribute(string name, output float value[2])
+{
+    vector v = 0;
+    int found = getattribute(name, v);
+    if (found) { value[0] = v[0]; value[1] = v[1]; }
+    return found;
+}
+#define getattribute rd_getattribute
+"""
+_INCLUDE = '#include "mx_funcs.h"\n'
+
+
+def for_cycles(source: str) -> str:
+    """The generated OSL with :data:`CYCLES_GETATTRIBUTE` after its include line."""
+    head, sep, body = source.partition(_INCLUDE)
+    if not sep:
+        raise ValueError('the generated OSL does not start with #include "mx_funcs.h"')
+    return head + sep + CYCLES_GETATTRIBUTE + body
+
+
+def geomprops(doc) -> list:
+    """The primvar names the network reads (``geompropvalue`` nodes' ``geomprop``), in document order."""
+    names = [n.getInputValue("geomprop") for n in doc.getNodes() if n.getCategory() == "geompropvalue"]
+    return list(dict.fromkeys(str(n) for n in names if n))
 
 
 def osl_headers() -> list:
@@ -137,8 +179,8 @@ def render(asset_path: str, views, out_dir: str) -> dict:
         for mesh, net in networks.items():
             source = os.path.join(work, f"{net['material']}.osl")
             with open(source, "w", encoding="utf-8") as fh:
-                fh.write(generate_osl(lobe_document(net), net["material"]))
-            shaders[mesh] = source
+                fh.write(for_cycles(generate_osl(lobe_document(net), net["material"])))
+            shaders[mesh] = {"source": source, "attributes": geomprops(net["doc"])}
     except ValueError as exc:
         raise HostError(NAME, f"cannot turn the asset's MaterialX network into OSL: {exc}") from None
     except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)

@@ -28,17 +28,44 @@ def compile_shaders(shaders: dict) -> dict:
     import _cycles
 
     out = {}
-    for mesh, source in shaders.items():
+    for mesh, shader in shaders.items():
+        source = shader["source"]
         oso = os.path.splitext(source)[0] + ".oso"
         if not _cycles.osl_compile(source, oso) or not os.path.isfile(oso):
             print(f"OSL compile of {os.path.basename(source)} (for {mesh}) failed", file=sys.stderr)
             sys.exit(1)
-        out[mesh] = oso
+        out[mesh] = dict(shader, oso=oso)
     return out
 
 
-def script_material(bpy, name: str, oso: str):
-    """A material whose surface is one Script node running ``oso`` (its parameters keep their defaults)."""
+def request_attributes(material, output, names) -> None:
+    """Make Cycles export the mesh attributes ``names`` to this material's shaders.
+
+    Cycles exports a mesh attribute (or UV map) only where one of its own nodes asks for it by name; a Script
+    node's ``getattribute`` calls are invisible to it (they return 0: the neck read its defaults). Each name
+    gets an Attribute node, summed into a Displacement of scale 0 on the Material Output (bump mode): nodes
+    Cycles keeps (an unlinked node or an AOV output is dropped, measured) and that move nothing."""
+    if not names:
+        return
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    disp = nodes.new("ShaderNodeDisplacement")
+    disp.inputs["Scale"].default_value = 0.0
+    links.new(disp.outputs["Displacement"], output.inputs["Displacement"])
+    target = disp.inputs["Height"]
+    for name in names:
+        attr = nodes.new("ShaderNodeAttribute")
+        attr.attribute_name = name
+        add = nodes.new("ShaderNodeMath")
+        add.operation = "ADD"
+        links.new(add.outputs[0], target)
+        links.new(attr.outputs["Fac"], add.inputs[0])
+        target = add.inputs[1]
+    material.displacement_method = "BUMP"
+
+
+def script_material(bpy, name: str, oso: str, attributes=()):
+    """A material whose surface is one Script node running ``oso`` (its parameters keep their defaults), with
+    the mesh ``attributes`` it reads exported to it (:func:`request_attributes`)."""
     import glob
 
     import cycles.osl
@@ -59,6 +86,7 @@ def script_material(bpy, name: str, oso: str):
         raise RuntimeError(f"Script node for {oso}: {'; '.join(errors) or 'no closure output out'}")
     output = nodes.new("ShaderNodeOutputMaterial")
     mat.node_tree.links.new(script.outputs["out"], output.inputs["Surface"])
+    request_attributes(mat, output, attributes)
     return mat
 
 
@@ -69,15 +97,16 @@ def run(job: dict) -> None:
     compiled = compile_shaders(job["shaders"])
     _, _, to_blender = blender_job.import_asset(bpy, job)
     black = blender_job._black_material(bpy)
-    by_name = {mesh.rsplit("/", 1)[-1]: oso for mesh, oso in compiled.items()}
+    by_name = {mesh.rsplit("/", 1)[-1]: shader for mesh, shader in compiled.items()}
     drawn = []
     for ob in bpy.data.objects:
         ob.visible_glossy = False
         if ob.type != "MESH":
             continue
-        oso = by_name.get(ob.name) or by_name.get(ob.data.name)
-        material = script_material(bpy, f"rockdove_osl_{ob.name}", oso) if oso else black
-        if oso:
+        shader = by_name.get(ob.name) or by_name.get(ob.data.name)
+        material = (script_material(bpy, f"rockdove_osl_{ob.name}", shader["oso"], shader["attributes"])
+                    if shader else black)
+        if shader:
             drawn.append(ob.name)
         ob.data.materials.clear()
         ob.data.materials.append(material)
