@@ -100,7 +100,7 @@ def run(job: dict) -> None:
     by_name = {mesh.rsplit("/", 1)[-1]: shader for mesh, shader in compiled.items()}
     drawn = []
     for ob in bpy.data.objects:
-        ob.visible_glossy = False
+        ob.visible_glossy = ob.visible_diffuse = False  # the lobe sees the uniform world alone, unoccluded
         if ob.type != "MESH":
             continue
         shader = by_name.get(ob.name) or by_name.get(ob.data.name)
