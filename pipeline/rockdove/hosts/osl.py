@@ -140,6 +140,21 @@ def lobe_document(net: dict):
     return doc
 
 
+def _compiler_error(work: str) -> str | None:
+    """The OSL compiler's first error line in ``work/blender.log`` (``FILE.osl:LINE: error: ...``), with the
+    shader named, or None when the job failed otherwise."""
+    try:
+        with open(os.path.join(work, "blender.log"), encoding="utf-8", errors="replace") as fh:
+            lines = fh.read().splitlines()
+    except OSError:
+        return None
+    errors = [ln.strip() for ln in lines if ".osl:" in ln and "error" in ln.lower()]
+    if not errors:
+        return None
+    failed = next((ln.strip() for ln in lines if ln.startswith("OSL compile of ")), "the OSL compiler failed")
+    return f"{failed}: {errors[0]} (log: {work}/blender.log)"
+
+
 def render(asset_path: str, views, out_dir: str) -> dict:
     """Render ``views`` of the asset's ``baked`` network as generated OSL in Cycles (module docstring).
 
@@ -195,7 +210,7 @@ def render(asset_path: str, views, out_dir: str) -> dict:
     try:
         blender.run_job(job, work, module="rockdove.hosts.osl_job", timeout_s=TIMEOUT_S)
     except HostError as exc:
-        raise HostError(NAME, exc.message.replace("Blender exited", "Cycles (OSL) exited")) from None
+        raise HostError(NAME, _compiler_error(work) or exc.message.replace("Blender exited", "Cycles (OSL) exited")) from None
     out = {}
     for v in views:
         exr = os.path.join(work, f"{v.name}.exr")
