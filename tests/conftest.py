@@ -60,6 +60,17 @@ def built_value(asset, stage: str, cache=None):
     return codec.load(Cache(cache).entry(stage, marker["stages"][stage]) / "value")
 
 
+@pytest.fixture(scope="session", autouse=True)
+def user_cache(tmp_path_factory):
+    """The tests' own user cache (``$XDG_CACHE_HOME``, inherited by every subprocess): the developer's
+    ``~/.cache/rockdove`` is never read or written by the suite."""
+    mp = pytest.MonkeyPatch()
+    folder = tmp_path_factory.mktemp("xdg-cache")
+    mp.setenv("XDG_CACHE_HOME", str(folder))
+    yield folder
+    mp.undo()
+
+
 @pytest.fixture(scope="session")
 def build_root(tmp_path_factory):
     """One folder for the session's small builds, with one stage cache (``cache/``) they all share."""

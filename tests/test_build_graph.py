@@ -140,64 +140,116 @@ def test_verification_rerenders_only_views_whose_inputs_changed(tmp_path):
     assert g.records["verify"].items_ran == ["view_000", "view_001", "view_002"]
 
 
-def test_code_change_invalidates_a_stage(tmp_path, monkeypatch):
-    root = tmp_path / "pipeline"
-    (root / "pkg").mkdir(parents=True)
-    (root / "pkg" / "mod.py").write_text("X = 1\n")
-    monkeypatch.setattr(G.resources, "package_root", lambda: root)
-    stage = G.Stage("s", lambda ctx: {"ok": 1}, modules=("rockdove.pkg.mod",))
-    before = G.source_digest(stage)
-    (root / "pkg" / "mod.py").write_text("X = 2\n")
-    assert G.source_digest(stage) != before
-    with pytest.raises(ValueError, match="pkg.nothing"):
-        G.source_digest(G.Stage("s", lambda ctx: 1, modules=("rockdove.pkg.nothing",)))
-
-
-def test_source_digest_is_remembered_until_a_file_or_folder_it_read_changes(tmp_path, monkeypatch):
-    """A process computes a stage's source digest once per state of its files: the remembered digest is the one a
-    fresh process computes, and an edited (same size), added, removed or renamed module file in a sub-package, a
-    new data file and a new sibling module of a file module each change it; links to folders are not followed."""
+def _fake_package(tmp_path, monkeypatch, files: dict) -> Path:
+    """A package ``rockdove`` of ``files`` (relative path -> source) standing in for the installed one."""
     from rockdove import resources
 
-    root = tmp_path / "pipeline"
-    (root / "pkg" / "sub").mkdir(parents=True)
-    (root / "pkg" / "__init__.py").write_text("")
-    (root / "pkg" / "sub" / "a.py").write_text("A = 1\n")
-    (root / "one.py").write_text("ONE = 1\n")
+    root = tmp_path / "rockdove"
+    for rel, text in {"__init__.py": "", **files}.items():
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        (root / rel).write_text(text)
+    monkeypatch.setattr(resources, "package_root", lambda: root)
+    monkeypatch.setattr(G, "_SOURCE_MEMO", {})
+    return root
+
+
+def _function(path: Path, name: str):
+    """Function ``name`` of the module file ``path``, compiled from its definition there (so its source file is
+    ``path``; the module's own imports are not run)."""
+    import ast
+
+    tree = ast.parse(path.read_text())
+    tree.body = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == name]
+    namespace: dict = {"__name__": "fake"}
+    exec(compile(tree, str(path), "exec"), namespace)
+    return namespace[name]
+
+
+FAKE = {
+    "graph/__init__.py": "", "graph/engine.py": "from ..config import X\n", "config.py": "X = 1\n",
+    # the imports are what the key reads; the fake package is not importable, so running the stage skips them
+    "wiring.py": "from .geo import types\n\n\ndef run(ctx):\n    if ctx is None:\n        from .tex import paint\n"
+                 "    return 1\n\n\ndef other(ctx):\n    return types.Y\n",
+    "tex.py": "from .sdf import field\n\n\ndef paint():\n    return field()\n",
+    "sdf.py": "def field():\n    return 1\n",
+    "geo/__init__.py": "", "geo/types.py": "Y = 2\n",
+    "hosts/__init__.py": "HOSTS = {'glsl': 'rockdove.hosts.glsl'}\n", "hosts/glsl.py": "Z = 3\n",
+    "unrelated.py": "# nothing a stage reaches\nU = 1\n",
+}
+
+
+def test_an_edit_a_stage_reaches_only_indirectly_reruns_it_and_an_unrelated_edit_reuses_it(tmp_path, monkeypatch):
+    """The stale-key case of issue 24: the stage's function imports tex, which imports sdf; an edit to sdf's
+    function (reached only through tex) reruns the stage, and a comment added to a module outside its import
+    closure (unrelated.py, geo/types.py: used by another function of the same wiring module) reuses it."""
+    root = _fake_package(tmp_path, monkeypatch, FAKE)
+    stage = G.Stage("s", _function(root / "wiring.py", "run"), codec=G.JSON)
+    cfg = _cfg()
+
+    def status():
+        graph = G.Graph([stage], cfg, G.Cache(tmp_path / "cache"))
+        graph.run()
+        return graph.records["s"].status
+
+    assert status() == "ran" and status() == "reused"
+    (root / "sdf.py").write_text("def field():\n    return 2\n")  # same size as before, other code
+    assert status() == "ran" and status() == "reused"
+    (root / "unrelated.py").write_text("# nothing a stage reaches, edited\nU = 1\n")
+    (root / "geo" / "types.py").write_text("Y = 2  # a comment\n")
+    assert status() == "reused"
+    (root / "config.py").write_text("X = 1  # the engine's own closure\n")
+    assert status() == "ran"
+    other = G.Stage("o", _function(root / "wiring.py", "other"))
+    before = G.source_digest(other)
+    (root / "geo" / "types.py").write_text("Y = 3\n")
+    assert G.source_digest(other) != before
+
+
+def test_modules_named_by_strings_are_followed_and_the_digest_is_remembered_until_a_file_changes(
+        tmp_path, monkeypatch):
+    """A registry that imports by name ("rockdove.hosts.glsl") is part of the closure; a process remembers a
+    digest until a file it read or a folder it listed changes (a new file in a listed folder recomputes it, to
+    the same digest when nothing imports the file), and the remembered digest is the one a fresh process
+    computes."""
+    root = _fake_package(tmp_path, monkeypatch, {**FAKE, "wiring.py": "def run(ctx):\n    from . import hosts\n"})
     (tmp_path / "materials" / "glsl").mkdir(parents=True)
     (tmp_path / "materials" / "glsl" / "x.frag").write_text("void main() {}\n")
-    (tmp_path / "elsewhere").mkdir()
-    (tmp_path / "elsewhere" / "z.py").write_text("Z = 1\n")
-    os.symlink(tmp_path / "elsewhere", root / "pkg" / "linked")
-    monkeypatch.setattr(resources, "package_root", lambda: root)
-    monkeypatch.setattr(resources, "folder", lambda name: tmp_path / name)
-    stage = G.Stage("s", lambda ctx: 1, modules=("rockdove.pkg", "rockdove.one"), data=("materials/glsl",))
+    monkeypatch.setattr(G.resources, "folder", lambda name: tmp_path / name)
+    stage = G.Stage("s", _function(root / "wiring.py", "run"), data=("materials/glsl",))
 
     def fresh():
         monkeypatch.setattr(G, "_SOURCE_MEMO", {})
         return G.source_digest(stage)
 
-    digests = [fresh()]
-    assert G.source_digest(stage) == digests[-1]  # remembered
-    changes = [(lambda: (root / "pkg" / "sub" / "a.py").write_text("A = 2\n"), None),
-               (lambda: (root / "pkg" / "sub" / "b.py").write_text("B = 1\n"), None),
-               (lambda: (root / "pkg" / "sub" / "b.py").rename(root / "pkg" / "sub" / "c.py"), None),
-               (lambda: (root / "pkg" / "sub" / "c.py").unlink(), 1),  # the files after the first edit again
-               (lambda: (tmp_path / "materials" / "glsl" / "y.frag").write_text("\n"), None),
-               (lambda: (root / "one").mkdir(), None)]  # rockdove.one is now a package (with no file yet)
-    for change, same_as in changes:
-        change()
-        remembered = G.source_digest(stage) if same_as is not None or not (root / "one").is_dir() else None
-        if remembered is None:  # a package with no .py file cannot be keyed, remembered or not
-            with pytest.raises(ValueError, match="rockdove.one"):
-                G.source_digest(stage)
-            (root / "one" / "__init__.py").write_text("ONE = 1\n")
-            remembered = G.source_digest(stage)
-        assert remembered == fresh()
-        assert remembered == digests[same_as] if same_as is not None else remembered not in digests
-        digests.append(remembered)
-    (tmp_path / "elsewhere" / "z.py").write_text("Z = 2\n")  # behind a link: not part of the stage
-    assert G.source_digest(stage) == digests[-1] == fresh()
+    first = fresh()
+    assert G.source_digest(stage) == first
+    (root / "hosts" / "glsl.py").write_text("Z = 4\n")
+    second = G.source_digest(stage)
+    assert second != first and second == fresh()
+    (root / "hosts" / "new.py").write_text("N = 1\n")  # nobody imports it
+    assert G.source_digest(stage) == second == fresh()
+    (tmp_path / "materials" / "glsl" / "y.frag").write_text("\n")
+    assert G.source_digest(stage) not in (first, second)
+
+
+def test_the_real_stages_are_keyed_by_the_code_they_reach_and_not_by_what_they_do_not():
+    """The stale keys issue 24 found: texture_images reaches spectral, geometry.sdf and geometry.neck; usd_geometry
+    geometry.types; gltf geometry.types and usd.schema. None of the stages reaches the CLI, the commands, the API
+    or the benchmarks, and the LUT reaches no geometry (a geometry edit reuses the bake)."""
+    from rockdove.graph import code, stages
+
+    graph = {s.name: s for s in stages.make_stages(_cfg())}
+    root = G.resources.package_root().resolve()
+    files = {name: {str(p.relative_to(root)) for p in code.code_files(s, [graph[d] for d in s.deps])}
+             for name, s in graph.items()}
+    assert {"spectral.py", "geometry/sdf.py", "geometry/neck.py", "textures.py"} <= files["texture_images"]
+    assert "geometry/types.py" in files["usd_geometry"]
+    assert {"geometry/types.py", "usd/schema.py", "web/gltf.py"} <= files["gltf"]
+    assert {"verify/run.py", "render/gl.py", "verify/gl_renders.py", "hosts/glsl.py"} <= files["verify"]
+    for name, fs in files.items():
+        assert not {f for f in fs if f.split("/")[0] in ("commands", "bench") or f in ("cli.py", "api.py")}, name
+        assert "graph/engine.py" in fs and "graph/stages.py" in fs
+    assert not {f for f in files["lut"] if f.startswith("geometry/")}
 
 
 def test_folder_digest_streams_the_files_a_stage_wrote(tmp_path):
@@ -212,9 +264,9 @@ def test_folder_digest_streams_the_files_a_stage_wrote(tmp_path):
     expected = hashlib.sha256()
     for name in sorted(files, key=lambda n: str(tmp_path / n)):
         expected.update(name.encode() + b"\0" + files[name] + b"\0")
-    before = G._source_bytes.cache_info().currsize
+    before = G.code._bytes.cache_info().currsize
     assert G.folder_digest(tmp_path) == expected.hexdigest()
-    assert G._source_bytes.cache_info().currsize == before
+    assert G.code._bytes.cache_info().currsize == before
 
 
 def test_a_stage_whose_data_is_missing_or_empty_cannot_be_keyed(tmp_path, monkeypatch):

@@ -368,3 +368,18 @@ def test_api_build_returns_a_typed_result_and_a_failed_verification_raises_with_
     assert info.value.result.verified is False and "stand-in width 17" in info.value.result.failure
     assert "verify" in info.value.result.ran
     assert json.loads((tmp_path / "p" / ".rockdove-asset.json").read_text())["config_hash"] == result.config_hash
+
+
+def test_config_paths_lists_the_user_cache_in_use_and_the_suite_has_its_own(tmp_path, user_cache):
+    """``rockdove config --paths`` names the user cache of this environment and what each folder in it holds;
+    the suite runs with its own (conftest's session fixture), never the developer's ~/.cache."""
+    assert Path(os.environ["XDG_CACHE_HOME"]) == user_cache != Path.home() / ".cache"
+    xdg = tmp_path / "xdg"
+    (xdg / "rockdove" / "code").mkdir(parents=True)
+    env = {**os.environ, "XDG_CACHE_HOME": str(xdg)}
+    r = subprocess.run([sys.executable, "-m", "rockdove.cli", "config", "--paths", "--json"], cwd=tmp_path, env=env,
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    rows = json.loads(r.stdout)
+    assert rows[0]["path"] == str(xdg / "rockdove")
+    assert any(row["path"] == str(xdg / "rockdove" / "code") and "imports" in row["what"] for row in rows)

@@ -23,8 +23,9 @@ def test_glb_validates_with_zero_errors(built_glb):
     issues = report["issues"]
     assert issues["numErrors"] == 0, issues["messages"]
     assert issues["numWarnings"] == 0, issues["messages"]
-    assert set(report["info"]["extensionsUsed"]) == {"KHR_materials_iridescence", "KHR_materials_ior"}
-    assert report["info"]["maxUVs"] == 2
+    assert set(report["info"]["extensionsUsed"]) == {"KHR_materials_iridescence", "KHR_materials_ior",
+                                                     "KHR_materials_variants"}
+    assert report["info"]["maxUVs"] == 3
 
 
 def test_validator_reports_a_broken_glb(built_glb, tmp_path):
@@ -60,6 +61,80 @@ def test_feather_material_carries_the_film(built_glb):
     assert summary["ior_wavelength_nm"] == 550.0
 
 
+def test_default_feather_material_is_the_preview_atlas_and_the_film_a_variant(built_glb):
+    """A consumer without KHR_materials_iridescence (or that ignores the variants) gets the USD preview's atlas
+    through previewST (TEXCOORD_2); the variant thin_film maps the primitive to the film material."""
+    import pygltflib
+
+    from rockdove.render.scene import load_scene
+
+    asset, glb, _ = built_glb
+    gltf = pygltflib.GLTF2().load(str(glb))
+    blob = gltf.binary_blob()
+    assert [v["name"] for v in gltf.extensions["KHR_materials_variants"]["variants"]] == ["thin_film", "preview"]
+    prim = next(m for m in gltf.meshes if m.name == "NeckFeathers").primitives[0]
+    default = gltf.materials[prim.material]
+    assert default.name == "NeckFeathersPreview" and not default.extensions
+    tex = default.pbrMetallicRoughness.baseColorTexture
+    assert tex.texCoord == 2 and gltf.images[gltf.textures[tex.index].source].name == "feather_preview.png"
+    assert (default.alphaMode, default.doubleSided) == ("MASK", True)
+    mappings = {tuple(m["variants"]): gltf.materials[m["material"]]
+                for m in prim.extensions["KHR_materials_variants"]["mappings"]}
+    assert "KHR_materials_iridescence" in mappings[(0,)].extensions and mappings[(1,)] is default
+    acc = gltf.accessors[prim.attributes.TEXCOORD_2]
+    bv = gltf.bufferViews[acc.bufferView]
+    uv2 = np.frombuffer(blob[bv.byteOffset:bv.byteOffset + bv.byteLength], np.float32).reshape(-1, 2)
+    preview_st = load_scene(asset).part("NeckFeathers").preview_st
+    np.testing.assert_allclose(uv2, np.stack([preview_st[:, 0], 1.0 - preview_st[:, 1]], axis=1))
+
+
+_BLENDER_IMPORT = """
+import bpy, json, sys
+import numpy as np
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.import_scene.gltf(filepath=sys.argv[-1])
+obj = bpy.data.objects["NeckFeathers"]
+mat = obj.material_slots[0].material
+bsdf = next(n for n in mat.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+link = bsdf.inputs["Base Color"].links[0]
+image = link.from_node.image
+uv_node = next((n for n in mat.node_tree.nodes if n.type == "UVMAP"), None)
+uv_layer = obj.data.uv_layers[uv_node.uv_map] if uv_node else obj.data.uv_layers.active
+uv = np.zeros(2 * len(uv_layer.data)); uv_layer.data.foreach_get("uv", uv); uv = uv.reshape(-1, 2)
+w, h = image.size
+px = np.asarray(image.pixels[:], np.float32).reshape(h, w, 4)  # linear, bottom row first
+rgb = []  # the atlas's opaque texels under each card (its UV box), sRGB as stored
+for poly in obj.data.polygons:
+    box = uv[list(poly.loop_indices)]
+    (i0, j0), (i1, j1) = np.floor(box.min(0) * (w, h)).astype(int), np.ceil(box.max(0) * (w, h)).astype(int)
+    tile = px[max(j0, 0):j1, max(i0, 0):i1].reshape(-1, 4)
+    rgb.extend(tile[tile[:, 3] > 0.5, :3][::7].tolist())
+print(json.dumps({"material": mat.name, "image": image.name, "rgb": rgb}))
+"""
+
+
+def test_blenders_gltf_importer_shows_green_and_purple_feathers(built_glb):
+    """Blender 5.0's importer (no KHR_materials_iridescence) takes the default material: the preview atlas, whose
+    colours at the feathers' texcoords (as Blender reads them) hold green and purple."""
+    import json
+    import subprocess
+
+    from rockdove.hosts.blender import bpy_python, unavailable
+    from rockdove.verify.compare import hue_classes
+
+    if unavailable():
+        pytest.skip(f"bpy is not available: {unavailable()}")
+    res = subprocess.run([bpy_python(), "-c", _BLENDER_IMPORT, "--", str(built_glb[1])], capture_output=True,
+                         text=True, timeout=300)
+    assert res.returncode == 0, res.stderr[-2000:]
+    got = json.loads(res.stdout.strip().splitlines()[-1])
+    assert got["material"] == "NeckFeathersPreview" and got["image"].startswith("feather_preview")
+    srgb = np.asarray(got["rgb"], np.float64)
+    _, _, cls = hue_classes(np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4))
+    green, purple = int(np.sum(cls == 1)), int(np.sum(cls == 2))
+    assert green > 0.05 * len(cls) and purple > 0.05 * len(cls), (green, purple, len(cls))
+
+
 def test_thickness_texture_returns_each_vertex_thickness(built_glb):
     """Reading the glTF the way a renderer does (G of the ramp at TEXCOORD_1, linear filtering, then
     mix(min, max, G)) gives back the USD thickness primvar per vertex."""
@@ -81,7 +156,7 @@ def test_thickness_texture_returns_each_vertex_thickness(built_glb):
     mesh = next(m for m in gltf.meshes if m.name == "NeckFeathers")
     acc = gltf.accessors[mesh.primitives[0].attributes.TEXCOORD_1]
     uv1 = np.frombuffer(view_bytes(acc.bufferView), np.float32).reshape(-1, 2)
-    ir = gltf.materials[mesh.primitives[0].material].extensions["KHR_materials_iridescence"]
+    ir = next(m for m in gltf.materials if m.name == "NeckFeathersMaterial").extensions["KHR_materials_iridescence"]
     tex = gltf.textures[ir["iridescenceThicknessTexture"]["index"]]
     ramp = np.asarray(Image.open(io.BytesIO(view_bytes(gltf.images[tex.source].bufferView))))[0, :, 1] / 255.0
     n = ramp.size

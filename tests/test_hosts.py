@@ -177,3 +177,13 @@ def test_storm_draws_the_physical_network_green_and_purple_as_the_reference(asse
     assert (tmp_path / "storm_physical" / "sweep_060.png").is_file()
     m = host_metrics(images, render_reference(scene, views, lobe="view_angle"), scene)
     assert host_passed("physical", m) == (True, []), m
+
+
+def test_the_default_hosts_leave_out_the_slow_ones_and_all_names_every_host(monkeypatch):
+    """``select()`` with no names asks for :data:`hosts.DEFAULT` (no Storm: its frames cost 5-45 s each);
+    ``["all"]`` asks for every registered host. Asked-for hosts are either available or skipped with a reason."""
+    monkeypatch.setattr(hosts, "_reason", lambda name: (None, f"{name} probed"))
+    default = hosts.select()
+    assert list(default.unavailable) == list(dict.fromkeys([hosts.ALWAYS, *hosts.DEFAULT]))
+    assert not any(n.startswith("storm") for n in default.unavailable)
+    assert set(hosts.select(["all"]).unavailable) == set(hosts.HOSTS)

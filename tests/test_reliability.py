@@ -170,6 +170,92 @@ def test_fallback_publish_replaces_the_asset(tmp_path, monkeypatch):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["pigeon"]
 
 
+# -- hostile outputs and one-line errors (issue 23: "Why" 4, 5, 6, 8) -----------------------------------------
+def _no_override(cmd):
+    """``cmd`` without the capabilities that let root write into read-only folders (as an unprivileged user)."""
+    return cmd if os.geteuid() else ["setpriv", "--bounding-set=-dac_override,-dac_read_search,-fowner", "--", *cmd]
+
+
+def _one_line(r, code=2, text=""):
+    assert r.returncode == code, (r.returncode, r.stderr)
+    assert "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1 and text in r.stderr, r.stderr
+
+
+def test_a_read_only_asset_folder_is_refused_before_anything_is_written(tmp_path):
+    assert run(tmp_path).returncode == 0
+    out = tmp_path / "b/pigeon"
+    old = snapshot(out)
+    (out / "textures").chmod(0o555)
+    out.chmod(0o555)
+    try:
+        r = subprocess.run(_no_override(_cmd(["--set", "film.cauchy_a=1.61"])), cwd=tmp_path, env=ENV,
+                           capture_output=True, text=True, timeout=60)
+        _one_line(r, 2, "is not writable (read-only)")
+        assert snapshot(out) == old and leftovers(tmp_path) == []
+    finally:
+        out.chmod(0o755)
+        (out / "textures").chmod(0o755)
+    assert run(tmp_path, "--set", "film.cauchy_a=1.61").returncode == 0  # writable again: it builds
+
+
+def test_a_symlinked_out_publishes_inside_its_target_and_keeps_the_link(tmp_path):
+    (tmp_path / "b/real").mkdir(parents=True)
+    (tmp_path / "b/pigeon").symlink_to("real/asset")
+    for a in ("1.61", "1.62"):  # the first publishes into the link's (missing) target, the second replaces it
+        r = run(tmp_path, "--set", f"film.cauchy_a={a}")
+        assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
+        assert (tmp_path / "b/pigeon").is_symlink() and a.encode() in (tmp_path / "b/real/asset/pigeon.usda").read_bytes()
+    assert leftovers(tmp_path) == [] and sorted(p.name for p in (tmp_path / "b/real").iterdir()) == [
+        ".asset.rockdove.lock", "asset"]
+
+
+def test_leftovers_of_earlier_builds_are_removed_even_read_only_ones_and_orphan_links(tmp_path):
+    assert run(tmp_path).returncode == 0
+    stale = tmp_path / f"b/.pigeon{P._TMP}stale"
+    (stale / "textures").mkdir(parents=True)
+    (stale / "textures/x.png").write_text("x")
+    (stale / "textures").chmod(0o555)
+    stale.chmod(0o555)
+    (tmp_path / f"b/.pigeon{P._TMP}link").symlink_to(tmp_path / "b/pigeon")  # an earlier build's orphan link
+    r = subprocess.run(_no_override(_cmd(["--set", "film.cauchy_a=1.61"])), cwd=tmp_path, env=ENV,
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert leftovers(tmp_path) == [] and (tmp_path / "b/pigeon/pigeon.usda").is_file()
+
+
+def test_a_full_disk_is_one_line_and_the_old_asset_stays(tmp_path):
+    """ENOSPC on a 4 MiB tmpfs mounted in a private mount namespace (as root, or as a user in a user namespace)."""
+    script = (f"mount -t tmpfs -o size=4m tmpfs {tmp_path} && cd {tmp_path} && {' '.join(_cmd([]))} && "
+              f"head -c 8m /dev/zero > fill 2>/dev/null; {' '.join(_cmd(['--set', 'film.cauchy_a=1.61']))}; echo rc=$?; "
+              "grep -c 1.61 b/pigeon/pigeon.usda; ls -a b")
+    unshare = ["unshare", "--mount"] if os.geteuid() == 0 else ["unshare", "--user", "--map-root-user", "--mount"]
+    r = subprocess.run([*unshare, "sh", "-c", script], env=ENV, capture_output=True, text=True, timeout=120)
+    assert "rc=2\n0\n" in r.stdout, (r.stdout, r.stderr)  # exit 2; the old asset (no 1.61) in place
+    assert r.stderr.strip().splitlines() == ["rockdove build: error: No space left on device"], r.stderr
+    assert not [n for n in r.stdout.split() if P._TMP in n or P._OLD in n]
+
+
+@pytest.mark.parametrize("value, says", [
+    ("film.cauchy_a=1979-05-27", "config key 'film.cauchy_a': value 1979-05-27 (a TOML date) has the wrong type; "
+                                 "allowed: number >= 1 and <= 3"),
+    ("film.cauchy_a=07:32:00", "value 07:32:00 (a TOML time) has the wrong type"),
+    ("thickness.spread=nan", "config key 'thickness.spread': value nan is not a finite number; allowed: number >= 0 "
+                             "and <= 2"),
+    ("thickness.base_nm=[500, inf]", "config key 'thickness.base_nm[1]': value inf is not a finite number"),
+    ("lut.angles=-inf", "config key 'lut.angles': value -inf is not a finite number; allowed: integer >= 2"),
+])
+def test_bad_config_values_are_one_line_naming_the_dotted_key_and_its_range(tmp_path, value, says):
+    r = run(tmp_path, "--set", value)
+    _one_line(r, 2, says)
+    assert "_spread" not in r.stderr and not (tmp_path / "b").exists()
+
+
+@pytest.mark.parametrize("seconds", ["-1", "nan", "inf"])
+def test_lock_timeout_must_be_a_finite_number_of_seconds(tmp_path, seconds):
+    _one_line(run(tmp_path, "--lock-timeout", seconds), 2, "--lock-timeout must be a finite number of seconds >= 0")
+    assert not (tmp_path / "b").exists()
+
+
 # ----------------------------------------------------------------------------------------------- a shared cache
 _UNSHARE = ["unshare", "--pid", "--fork", "--mount-proc"]
 needs_namespaces = pytest.mark.skipif(os.geteuid() != 0 or subprocess.run(
@@ -206,25 +292,34 @@ def test_cache_shared_across_pid_namespaces_spares_live_writers_and_cleans_kille
     cards store), A is paused mid-point, B builds from start to end (and cleans at its start). A's folder
     survives and A publishes; K's folder and lock go; every point equals a serial build with its own cache."""
     shared = tmp_path / "shared"
-    k = _ns_start(tmp_path, _point("k", 1, "store:cards"), pad=40)
-    wait_for_line(k, "paused after store:cards")
-    os.killpg(k.pid, signal.SIGKILL)  # mid-point: its cards folder half-way to the cache, its lock file held
-    k.wait(10)
-    assert len(list(shared.glob("cards/.tmp-*"))) == 1 and list(shared.glob("cards/.lock-*"))
-    release = tmp_path / "release-a"
-    a = _ns_start(tmp_path, _point("a", 2, "store:cards", release), pad=60)
-    wait_for_line(a, "paused after store:cards")
-    (a_tmp,) = shared.glob("cards/.tmp-*")  # A's own (A's build, at its start, cleaned K's: K is dead)
-    b = subprocess.run(_in_namespace(_point("b", 3), 0), cwd=tmp_path, env=ENV, capture_output=True, text=True,
-                       timeout=60)
-    assert b.returncode == 0, b.stderr
-    assert list(shared.glob("cards/.tmp-*")) == [a_tmp] and (a_tmp / "value").is_dir()  # A's work is kept
-    owner = json.loads((a_tmp / ".owner").read_text())  # who writes it, beyond a pid
-    assert owner["host"] == os.uname().nodename and owner["pid_ns"] != os.readlink("/proc/self/ns/pid")
-    assert owner["boot_id"] == Path("/proc/sys/kernel/random/boot_id").read_text().strip()
-    release.touch()
-    _, err = a.communicate(timeout=60)
-    assert a.returncode == 0, err
+    procs = []
+    try:
+        k = _ns_start(tmp_path, _point("k", 1, "store:cards"), pad=40)
+        procs.append(k)
+        wait_for_line(k, "paused after store:cards")
+        os.killpg(k.pid, signal.SIGKILL)  # mid-point: its cards folder half-way to the cache, its lock file held
+        k.wait(10)
+        assert len(list(shared.glob("cards/.tmp-*"))) == 1 and list(shared.glob("cards/.lock-*"))
+        release = tmp_path / "release-a"
+        a = _ns_start(tmp_path, _point("a", 2, "store:cards", release), pad=60)
+        procs.append(a)
+        wait_for_line(a, "paused after store:cards")
+        (a_tmp,) = shared.glob("cards/.tmp-*")  # A's own (A's build, at its start, cleaned K's: K is dead)
+        b = subprocess.run(_in_namespace(_point("b", 3), 0), cwd=tmp_path, env=ENV, capture_output=True, text=True,
+                           timeout=60)
+        assert b.returncode == 0, b.stderr
+        assert list(shared.glob("cards/.tmp-*")) == [a_tmp] and (a_tmp / "value").is_dir()  # A's work is kept
+        owner = json.loads((a_tmp / ".owner").read_text())  # who writes it, beyond a pid
+        assert owner["host"] == os.uname().nodename and owner["pid_ns"] != os.readlink("/proc/self/ns/pid")
+        assert owner["boot_id"] == Path("/proc/sys/kernel/random/boot_id").read_text().strip()
+        release.touch()
+        _, err = a.communicate(timeout=60)
+        assert a.returncode == 0, err
+    finally:  # a failed assertion leaves no paused writer behind (each is the leader of its session)
+        for p in procs:
+            if p.poll() is None:
+                os.killpg(p.pid, signal.SIGKILL)
+                p.wait(10)
     again = subprocess.run(_in_namespace(_point("k", 1), 20), cwd=tmp_path, env=ENV, capture_output=True,
                            text=True, timeout=60)
     assert again.returncode == 0, again.stderr
@@ -291,6 +386,15 @@ def test_clean_temporaries_spares_live_writers_and_removes_dead_ones(tmp_path):
     (["build", "--out", "b", "--set", "textures.body_resolution=8192"], ["textures.body_resolution", "<= 4096"]),
     (["lut", "--out", "l.exr", "--angles", "16000", "--thicknesses", "16000"], ["--angles", "[2, 4096]", "16000"]),
     (["lut", "--out", "l.exr", "--thicknesses", "4097"], ["--thicknesses", "[1, 4096]"]),
+    # a 4096 px verification passed 8.3 GB, a 2048 px one 5.3 GB
+    (["build", "--out", "b", "--set", "verify.width=4096"], ["verify.width", "<= 1024"]),
+    (["verify", "b", "--height", "4096"], ["--height", "between 16 and 1024"]),
+    # 64 views at 1024 px passed 5.2 GB (a verification's memory grows with its views)
+    (["build", "--out", "b", "--set", "verify.views=64"], ["verify.views", "<= 16"]),
+    # an 8192 px render passed 8.6 GB; every view's buffers were kept until all were rendered
+    (["render", "b", "--out", "r", "--width", "8192", "--supersample", "1"], ["--width x --supersample", "4096"]),
+    (["render", "b", "--out", "r", "--height", "2048", "--supersample", "4"], ["--height x --supersample", "4096"]),
+    (["render", "b", "--out", "r", "--views", "1000"], ["--views x --width x --height", "1000 x 512 x 512"]),
 ])
 def test_sizes_past_the_memory_budget_exit_2_naming_the_key_and_range(tmp_path, argv, words):
     r = subprocess.run([sys.executable, "-m", "rockdove.cli", *argv], cwd=tmp_path, env=ENV, capture_output=True,

@@ -336,7 +336,8 @@ def test_render_cli_writes_pngs_and_exit_codes(small_asset, tmp_path, capsys):
     out = tmp_path / "renders"
     assert main(["render", scene.root_layer, "--out", str(out), "--width", "48", "--height", "40", "--views", "3"]) == 0
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["contact_sheet.png", "sweep_090.png", "turntable_030.png", "turntable_210.png"]
+    assert names == [".rockdove-output.json", "contact_sheet.png", "sweep_090.png", "turntable_030.png",
+                     "turntable_210.png"]  # the marker: a folder rockdove made, so a later render may write again
     with Image.open(out / "sweep_090.png") as im:
         assert im.size == (48, 40)
     printed = capsys.readouterr().out

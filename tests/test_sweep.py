@@ -222,53 +222,56 @@ def _pems(sec, folder: Path) -> dict:
     return paths
 
 
-def test_local_cluster_is_private_a_client_without_its_certificate_cannot_submit(tmp_path):
+@pytest.fixture(scope="module")
+def private_cluster():
+    """The cluster a local sweep starts (one worker), and its client."""
+    client, cluster = S._client(_ns())
+    try:
+        yield client, cluster
+    finally:
+        client.close()
+        cluster.close()
+
+
+def test_local_cluster_is_private_a_client_without_its_certificate_cannot_submit(private_cluster, tmp_path):
     """Issue 23: another local user who found the sweep's port ran code as the sweep's user. The sweep's
     cluster speaks TLS with a certificate of its own: a plain TCP client and a TLS client with another
     certificate both fail to connect; the sweep's own client runs work."""
     from distributed import Client
     from distributed.security import Security
 
-    client, cluster = S._client(_ns())
+    client, cluster = private_cluster
+    address = cluster.scheduler_address
+    assert address.startswith("tls://127.0.0.1:"), address
+    assert client.submit(os.getpid, pure=False).result(timeout=60) != os.getpid()  # with them it runs
+    marker = tmp_path / "ran"
+    for kw in (dict(address=address.replace("tls://", "tcp://")), dict(address=address, security=Security.temporary())):
+        with pytest.raises(Exception):  # noqa: B017 - refused by the handshake, whatever the exception
+            with Client(**kw, timeout="3s") as intruder:
+                intruder.submit(marker.write_text, "pwned", pure=False).result(timeout=10)
+    assert not marker.exists()
+
+
+def test_external_tls_cluster_takes_a_security_file_and_refuses_without_one(private_cluster, tmp_path):
+    """--scheduler tls://... as a studio's TLS cluster: the credentials come from --security FILE (here the
+    private cluster's own, written out as an admin would hand them out)."""
+    import yaml
+
+    address = private_cluster[1].scheduler_address
+    pem = _pems(private_cluster[1].security, tmp_path)
+    with pytest.raises(UsageError, match="uses TLS: give --security FILE"):
+        S._client(_ns(scheduler=address, workers=None))
+    conf = tmp_path / "tls.yaml"
+    conf.write_text(yaml.safe_dump({"distributed": {"comm": {"require-encryption": True, "tls": {
+        "ca-file": str(pem["tls_ca_file"]),
+        "client": {"cert": str(pem["tls_client_cert"]), "key": str(pem["tls_client_key"])}}}}}))
+    client, none = S._client(_ns(scheduler=address, security=str(conf), workers=None))
     try:
-        address = cluster.scheduler_address
-        assert address.startswith("tls://127.0.0.1:"), address
-        assert client.submit(os.getpid, pure=False).result(timeout=60) != os.getpid()  # with them it runs
-        marker = tmp_path / "ran"
-        attempts = [dict(address=address.replace("tls://", "tcp://")),
-                    dict(address=address, security=Security.temporary())]
-        for kw in attempts:
-            with pytest.raises(Exception):  # noqa: B017 - refused by the handshake, whatever the exception
-                with Client(**kw, timeout="3s") as intruder:
-                    intruder.submit(marker.write_text, "pwned", pure=False).result(timeout=10)
-        assert not marker.exists()
+        assert none is None and client.submit(sum, [1, 2]).result(timeout=60) == 3
     finally:
         client.close()
-        cluster.close()
-
-
-def test_external_tls_cluster_takes_a_security_file_and_refuses_without_one(tmp_path):
-    import yaml
-    from distributed import LocalCluster
-    from distributed.security import Security
-
-    sec = Security.temporary()
-    pem = _pems(sec, tmp_path)
-    with LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None, security=sec) as cluster:
-        address = cluster.scheduler_address
-        with pytest.raises(UsageError, match="uses TLS: give --security FILE"):
-            S._client(_ns(scheduler=address, workers=None))
-        conf = tmp_path / "tls.yaml"
-        conf.write_text(yaml.safe_dump({"distributed": {"comm": {"require-encryption": True, "tls": {
-            "ca-file": str(pem["tls_ca_file"]),
-            "client": {"cert": str(pem["tls_client_cert"]), "key": str(pem["tls_client_key"])}}}}}))
-        client, none = S._client(_ns(scheduler=address, security=str(conf), workers=None))
-        try:
-            assert none is None and client.submit(sum, [1, 2]).result(timeout=60) == 3
-        finally:
-            client.close()
-        (tmp_path / "bad.yaml").write_text("distributed: {}\n")
-        with pytest.raises(UsageError, match="not a Dask configuration with distributed.comm.tls"):
-            S._client(_ns(scheduler=address, security=str(tmp_path / "bad.yaml"), workers=None))
+    (tmp_path / "bad.yaml").write_text("distributed: {}\n")
+    with pytest.raises(UsageError, match="not a Dask configuration with distributed.comm.tls"):
+        S._client(_ns(scheduler=address, security=str(tmp_path / "bad.yaml"), workers=None))
     with pytest.raises(UsageError, match="--security applies to --scheduler only"):
         S._client(_ns(security=str(conf)))

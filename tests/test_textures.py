@@ -5,7 +5,7 @@ import pytest
 
 from rockdove import textures
 from rockdove.geometry import BirdParams, build_body
-from rockdove.geometry import sdf
+from rockdove.geometry import plumage, sdf
 
 
 @pytest.fixture(scope="module")
@@ -74,17 +74,37 @@ def test_body_texture_matches_the_3d_colour_at_the_vertices(coarse_body):
     res = 256
     img = textures.body_base_colour(res, coarse_body)
     assert img.shape == (res, res, 3) and img.dtype == np.uint8
-    for part in (coarse_body.part, coarse_body.wings):  # the wings share the body's atlas and texture
-        st = part.st.astype(np.float64)
-        col = np.clip((st[:, 0] * res).astype(int), 0, res - 1)
-        row = np.clip(((1.0 - st[:, 1]) * res).astype(int), 0, res - 1)
-        looked_up = img[row, col].astype(int)
-        expected = textures._encode(textures.body_colour_at(part.points_m.astype(np.float64))).astype(int)
-        err = np.abs(looked_up - expected).max(axis=1)
-        assert np.median(err) <= 3 and np.percentile(err, 90) <= 20, part.name
-    wing_luma = _luma(textures._encode(textures.body_colour_at(coarse_body.wings.points_m.astype(np.float64))))
-    assert np.mean(wing_luma < 0.4 * np.median(wing_luma)) > 0.02  # the dark bars and primaries are on the Wings
+    part = coarse_body.part
+    st = part.st.astype(np.float64)
+    assert st[:, 1].min() >= plumage.ATLAS_START - 1e-6  # the body's charts leave the palette strip free
+    col = np.clip((st[:, 0] * res).astype(int), 0, res - 1)
+    row = np.clip(((1.0 - st[:, 1]) * res).astype(int), 0, res - 1)
+    looked_up = img[row, col].astype(int)
+    expected = textures._encode(textures.body_colour_at(part.points_m.astype(np.float64))).astype(int)
+    err = np.abs(looked_up - expected).max(axis=1)
+    assert np.median(err) <= 3 and np.percentile(err, 90) <= 20
+    strip = img[res - int(res * plumage.PALETTE_STRIP):]
+    assert np.array_equal(strip, textures.palette_strip(res))  # the feather tiles, as painted
+    guard = img[res - int(res * (plumage.PALETTE_STRIP + plumage.ATLAS_START) / 2):res - len(strip)]
+    assert len(guard) > 0 and np.all(guard == strip[:1])  # above them, their top row: no chart bleeds in
     assert not np.any(np.all(img == 0, axis=-1))  # every texel filled (seams padded)
+
+
+def test_palette_tiles_bar_band_and_ramp():
+    res = 512
+    strip = textures.palette_strip(res).astype(float) @ np.array([0.2126, 0.7152, 0.0722])
+    rows, tile_w = strip.shape[0], res // plumage.TILES
+
+    def along(tile):  # luminance along the rachis of a tile, from the quill (v = 0) to the tip (v = 1)
+        return strip[::-1, int((tile + 0.5) * tile_w) + 2]
+
+    ramp = [along(t)[rows // 2] for t in range(plumage.RAMP)]
+    assert np.all(np.diff(ramp) > 0)  # the coat's greys from the dark neck to the pale coverts
+    for tile, lo, hi in ((plumage.T_BAR, 0.6, 0.78), (plumage.T_RECTRIX, 0.88, 0.99)):
+        a = along(tile)
+        band = a[int(lo * rows):int(hi * rows)].mean()
+        assert band < 0.4 * a[int(0.2 * rows):int(0.45 * rows)].mean(), tile  # the black band
+    assert along(plumage.T_WHITE)[rows // 2] > along(plumage.RAMP - 1)[rows // 2]  # the white rump
 
 
 def test_body_texture_accepts_params_bird_or_part_and_is_deterministic(coarse_body):
@@ -98,21 +118,15 @@ def test_body_texture_accepts_params_bird_or_part_and_is_deterministic(coarse_bo
         textures.body_base_colour(64, object())
 
 
-def test_body_palette_blue_grey_body_dark_neck_wing_bars_tail_band():
+def test_body_palette_blue_grey_body_dark_neck_white_rump():
     side = np.array([[0.0, 0.05, 0.0]]) + sdf.BELLY.centre_m  # a point toward the belly
     side = side - sdf.body_sdf(side)[:, None] * sdf.sdf_gradient(sdf.body_sdf, side)
     neck_pt = np.array([[0.0, 0.175, 0.056 + 0.024]])  # throat, in front of the neck
-    tail_tip = np.array([sdf.TAIL.centre_m]) + sdf.TAIL.rotation @ np.array([0.0, 0.0, -0.066])
-    lin = textures.body_colour_at(np.concatenate([side, neck_pt, tail_tip]))
-    body_c, neck_c, tail_c = lin
+    rump = np.array([[0.0, 0.088, -0.062]])
+    body_c, neck_c, rump_c = textures.body_colour_at(np.concatenate([side, neck_pt, rump]))
     assert body_c[2] > body_c[0]  # blue-grey
     assert neck_c.sum() < 0.7 * body_c.sum()  # darker neck
-    assert tail_c.sum() < 0.3 * body_c.sum()  # dark tail band
-    # the folded wing has black bars: sample its outer surface along its length
-    z = np.linspace(-0.9, 0.9, 400)
-    local = np.stack([np.full_like(z, 1.0), np.full_like(z, 0.0), z], 1) * np.asarray(sdf.WING_L.radii_m)
-    local[:, 0] *= np.sqrt(1 - z**2)
-    pts = local @ sdf.WING_L.rotation.T + np.asarray(sdf.WING_L.centre_m)
-    luma = textures.body_colour_at(pts) @ np.array([0.2126, 0.7152, 0.0722])
-    dark = luma < 0.4 * np.median(luma)
-    assert dark.any() and np.count_nonzero(np.diff(dark.astype(int)) == 1) == 2  # two separate bars
+    assert rump_c.sum() > 1.5 * body_c.sum()  # white rump patch
+    tiles = textures.coat_tiles(np.concatenate([side, neck_pt, rump]))
+    assert tiles[2] == plumage.T_WHITE and tiles[1] < tiles[0] < plumage.RAMP  # darker tiles on the neck
+

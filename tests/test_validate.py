@@ -424,3 +424,181 @@ def _all_attribute_specs(layer):
     layer.Traverse(layer.pseudoRoot.path, lambda path: found.append(layer.GetAttributeAtPath(path))
                    if path.IsPropertyPath() and layer.GetAttributeAtPath(path) else None)
     return found
+
+
+# -- one rule for files from elsewhere, in every reader (issue 23: "Why" 2, 3, 8) -----------------------------
+def _rockdove(*args, timeout=120):
+    return subprocess.run([sys.executable, "-m", "rockdove.cli", *args], capture_output=True, text=True, cwd=OUTSIDE,
+                          timeout=timeout)
+
+
+def _readers(out, tmp_path):
+    """validate, gltf and render of ``out``: each exits 1 with one line (and the report), writes nothing."""
+    runs = {"validate": _rockdove("validate", out), "gltf": _rockdove("gltf", out, "--out", str(tmp_path / "o.glb")),
+            "render": _rockdove("render", out, "--out", str(tmp_path / "r"), "--views", "1", "--width", "16",
+                                "--height", "16")}
+    for name, r in runs.items():
+        assert r.returncode == 1 and "Traceback" not in r.stderr, (name, r.stderr)
+    assert not (tmp_path / "o.glb").exists() and not (tmp_path / "r").exists()
+    return runs
+
+
+@pytest.mark.parametrize("target", ["a good PNG", "a FIFO (blocks whoever opens it)"])
+def test_a_symlink_to_a_file_elsewhere_is_refused_unopened_by_every_reader(broken, tmp_path, target):
+    out, _ = broken
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    link = os.path.join(out, "textures", "feather_base.png")
+    if target.startswith("a FIFO"):
+        os.mkfifo(elsewhere / "secret")
+    else:
+        shutil.copy(link, elsewhere / "secret")
+    os.remove(link)
+    os.symlink(elsewhere / "secret", link)
+    for name, r in _readers(out, tmp_path).items():  # a FIFO opened would hang the reader past the timeout
+        text = r.stdout + r.stderr
+        assert f"asset path './textures/feather_base.png' is a symlink to {elsewhere / 'secret'}" in text, (name, text)
+
+
+def test_a_symlinked_sublayer_elsewhere_is_not_composed(broken, tmp_path):
+    out, _ = broken
+    looks = os.path.join(out, LOOKS_LAYER)
+    shutil.move(looks, tmp_path / "looks.usda")
+    os.symlink(tmp_path / "looks.usda", looks)
+    report = validate_asset(out)
+    assert [i.check for i in report.errors] == ["assetPath"] and report.counts == {}, report.format()
+    assert f"layer path './{LOOKS_LAYER}' is a symlink to {tmp_path / 'looks.usda'}" in report.errors[0].message
+
+
+def _set_clips(out, clip):
+    from pxr import Sdf
+
+    layer = Sdf.Layer.FindOrOpen(os.path.join(out, "pigeon.usda"))
+    layer.GetPrimAtPath("/Pigeon").SetInfo("clips", {"default": {"primPath": "/Pigeon", **clip}})
+    layer.Save()
+
+
+@pytest.mark.parametrize("key, where", [("assetPaths", "absolute"), ("assetPaths", "../"),
+                                        ("manifestAssetPath", "../"), ("templateAssetPath", "../")])
+def test_value_clips_elsewhere_are_refused(broken, tmp_path, key, where):
+    from pxr import Gf, Sdf, Vt
+
+    out, _ = broken
+    (tmp_path / "clips").mkdir()
+    for name in ("clip.usda", "clip.001.usda"):  # valid clip layers: only where they are is wrong
+        (tmp_path / "clips" / name).write_text('#usda 1.0\ndef Xform "Pigeon" {}\n')
+    path = str(tmp_path / "clips/clip.usda") if where == "absolute" else "../clips/clip.usda"
+    clip = {"active": Vt.Vec2dArray([Gf.Vec2d(0, 0)]), "assetPaths": Sdf.AssetPathArray([Sdf.AssetPath("c.usda")])}
+    if key == "templateAssetPath":
+        clip = {"templateAssetPath": "../clips/clip.###.usda", "templateStartTime": 1.0, "templateEndTime": 1.0,
+                "templateStride": 1.0}
+    else:
+        clip[key] = Sdf.AssetPathArray([Sdf.AssetPath(path)]) if key == "assetPaths" else Sdf.AssetPath(path)
+    _set_clips(out, clip)
+    report = validate_asset(out)
+    assert any(i.check == "assetPath" and f"clips[default].{key}" in i.path and "clip" in i.message
+               for i in report.errors), report.format()
+    assert report.counts == {}  # nothing composed, so no clip opened
+
+
+@pytest.mark.parametrize("bad", ["a clip layer that does not parse", "assetPaths that are not assets"])
+def test_a_broken_clip_is_an_error_line_not_a_traceback(broken, tmp_path, bad):
+    from pxr import Gf, Vt
+
+    out, _ = broken
+    if bad.startswith("a clip layer"):
+        with open(os.path.join(out, "clip.usda"), "w") as fh:
+            fh.write('#usda 1.0\ndef Xform "Pigeon" { float x = [\n')
+        from pxr import Sdf
+
+        _set_clips(out, {"active": Vt.Vec2dArray([Gf.Vec2d(0, 0)]),
+                         "assetPaths": Sdf.AssetPathArray([Sdf.AssetPath("./clip.usda")])})
+        says = "clip.usda: line 3, column 1: the layer does not parse"
+    else:
+        _set_clips(out, {"active": Vt.Vec2dArray([Gf.Vec2d(0, 0)]), "assetPaths": "./clip.usda"})
+        says = "/Pigeon clips[default].assetPaths: './clip.usda' is not an asset[] list"
+    for name, r in _readers(out, tmp_path).items():
+        assert says in r.stdout + r.stderr, (name, r.stdout, r.stderr)
+
+
+@pytest.mark.parametrize("layer, old", [("pigeon.usda", "@./pigeon_payload.usda@"),
+                                        (LOOKS_LAYER, "@./textures/feather_base.png@")])
+def test_an_asset_path_expression_is_reported_as_what_it_is(broken, tmp_path, layer, old):
+    out, _ = broken
+    path = os.path.join(out, layer)
+    text = open(path).read()
+    assert old in text
+    with open(path, "w") as fh:
+        fh.write(text.replace(old, '@`"/etc/passwd"`@'))
+    for name, r in _readers(out, tmp_path).items():
+        assert """path expression '`"/etc/passwd"`' (= '/etc/passwd') is absolute""" in r.stdout + r.stderr, name
+
+
+def test_gltf_and_render_refuse_a_looks_layer_naming_etc_passwd(broken, tmp_path):
+    out, _ = broken
+    _point_texture_at(broken[1], "/etc/passwd")
+    runs = _readers(out, tmp_path)
+    assert all("asset path '/etc/passwd' is absolute" in r.stderr for n, r in runs.items() if n != "validate")
+    ok = _rockdove("gltf", out, "--out", str(tmp_path / "o.glb"), "--allow-external-assets")
+    assert ok.returncode == 0 and b"root:x:0" in (tmp_path / "o.glb").read_bytes()  # read only when allowed
+
+
+def test_a_usdz_of_100k_files_is_one_summary(good, tmp_path):
+    import zipfile
+
+    big = tmp_path / "big.usdz"
+    with zipfile.ZipFile(os.path.join(good, "pigeon.usdz")) as src, zipfile.ZipFile(big, "w") as dst:
+        for info in src.infolist():
+            dst.writestr(info, src.read(info))
+        for i in range(100_000):
+            dst.writestr(f"junk/f{i:06d}.txt", b"x")
+    r = _rockdove("validate", str(big))
+    assert r.returncode == 1 and len(r.stdout.splitlines()) <= 5 and len(r.stderr.splitlines()) == 1, r.stdout[:2000]
+    n = len(zipfile.ZipFile(big).namelist())
+    assert f"the package holds {n:,} files (first: pigeon.usda" in r.stdout and "at most 10,000" in r.stdout
+
+
+def test_a_report_of_many_issues_is_summarised_per_check():
+    from rockdove.usd.validate import Issue, Report
+
+    report = Report("x.usdz", [Issue("texture", f"/P{i}", "bad") for i in range(5000)] + [Issue("mtlx", "/M", "m")])
+    lines = report.format().splitlines()
+    assert len(lines) == 3 + 20 + 1 + 1 and lines[-1] == "  ... and 4,980 more texture errors (not shown)"
+    d = report.to_dict(per_check=10)
+    assert len(d["issues"]) == 11 and d["omitted"] == {"texture errors": 4990} and d["n_errors"] == 5001
+
+
+# -- never overwrite what rockdove did not write (issue 23: "Why" 4) -------------------------------------------
+def test_out_folders_and_files_of_the_user_are_never_overwritten(good, tmp_path):
+    mine = {}
+    for folder, name in (("D", "index.html"), ("D", "sweep.json"), ("R", "contact_sheet.png"), ("V", "report.html")):
+        (tmp_path / folder).mkdir(exist_ok=True)
+        (tmp_path / folder / name).write_text("mine\n")
+        mine[tmp_path / folder / name] = "mine\n"
+    for name in ("my.glb", "L.exr", "Z/rockdove_blender.zip"):
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        (tmp_path / name).write_text("mine\n")
+        mine[tmp_path / name] = "mine\n"
+    runs = [_rockdove("sweep", "--out", str(tmp_path / "D"), "--grid", "lut.angles=[16, 32]", "--no-verify"),
+            _rockdove("render", good, "--out", str(tmp_path / "R"), "--views", "1", "--width", "16", "--height", "16"),
+            _rockdove("verify", good, "--out", str(tmp_path / "V"), "--width", "16", "--height", "16"),
+            _rockdove("gltf", good, "--out", str(tmp_path / "my.glb")),
+            _rockdove("lut", "--out", str(tmp_path / "L.exr"), "--angles", "8", "--thicknesses", "4"),
+            _rockdove("blender-addon", "--out", str(tmp_path / "Z"))]
+    for r in runs:
+        assert r.returncode == 2 and "rockdove did not" in r.stderr and len(r.stderr.splitlines()) == 1, r.stderr
+    assert all(p.read_text() == text for p, text in mine.items())
+    assert sorted(p.name for p in (tmp_path / "D").iterdir()) == ["index.html", "sweep.json"]
+    for _ in range(2):  # a folder rockdove made is rockdove's: rendered into again
+        r = _rockdove("render", good, "--out", str(tmp_path / "new"), "--views", "1", "--width", "16", "--height", "16")
+        assert r.returncode == 0, r.stderr
+    assert (tmp_path / "new/.rockdove-output.json").is_file() and (tmp_path / "new/contact_sheet.png").is_file()
+
+    (tmp_path / "new").chmod(0o555)  # read-only: refused before rendering (as a user without root's override)
+    try:
+        cmd = [sys.executable, "-m", "rockdove.cli", "render", good, "--out", str(tmp_path / "new"), "--views", "1"]
+        cmd = cmd if os.geteuid() else ["setpriv", "--bounding-set=-dac_override,-dac_read_search,-fowner", "--", *cmd]
+        r = subprocess.run(cmd, capture_output=True, text=True, cwd=OUTSIDE, timeout=120)
+        assert r.returncode == 2 and "is not writable (read-only)" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    finally:
+        (tmp_path / "new").chmod(0o755)

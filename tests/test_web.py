@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import json
 
 import numpy as np
 import pytest
@@ -93,3 +94,62 @@ def test_a_browser_that_cannot_start_is_a_named_host_failure(web_asset, tmp_path
     with pytest.raises(HostError, match=r"host 'web': false exited with status 1 \(start\)"):
         web.render(str(asset), views, str(tmp_path), browser_factory=lambda: Browser(executable="false",
                                                                                    start_timeout_s=20))
+
+
+def test_viewer_console_is_clean_frames_the_bird_and_its_unlit_side_is_dark_grey(web_asset):
+    """No console message at all (three.js's deprecation warnings are warnings, not errors), the start view holds
+    the whole bird (no bird pixel on the canvas's edge), and with the light behind the bird its pixels are dark
+    grey (ambient), not black, in the LUT and the physical mode."""
+    from PIL import Image
+
+    from rockdove.web.browser import Browser
+
+    _, page_path = web_asset
+    with Browser() as browser:
+        page = browser.open(f"file://{page_path}", 480, 400, timeout_s=120)
+        page.evaluate("window.rockdoveReady", timeout_s=120, step="viewer ready")
+        height = int(page.evaluate("document.getElementById('view').getBoundingClientRect().height"))
+        shots = {}
+        for mode in ("lut", "physical", "preview"):
+            page.evaluate(f"document.querySelector('input[value={mode}]').click()")
+            for azimuth in (0, 180):
+                page.evaluate(f"window.rockdoveSetLight({azimuth})")
+                shots[mode, azimuth] = np.asarray(Image.open(io.BytesIO(page.screenshot())).convert("RGB"),
+                                                  np.int32)[:height]
+        console = page.console
+    assert console == []
+    for (mode, azimuth), im in shots.items():
+        bird = np.abs(im - im[0, 0]).max(-1) > 6
+        ys, xs = np.nonzero(bird)
+        assert bird.sum() > 2000, (mode, azimuth)
+        inside = ys.min() > 0 and xs.min() > 0 and ys.max() < im.shape[0] - 1 and xs.max() < im.shape[1] - 1
+        assert inside, (mode, azimuth)
+        assert np.percentile(im[bird].max(-1), 5) > 20, (mode, azimuth)  # dark grey at the darkest, not black
+
+
+def test_no_build_machine_path_in_the_verify_folder(small_asset, tmp_path):
+    """Every file a report ships (the whole verify folder: report, images, the viewer and the web host's page)
+    names no folder of this machine, also when the build names the asset by its absolute path."""
+    import os
+    import subprocess
+    import sys
+
+    from conftest import OUTSIDE, copy_asset
+    from rockdove.web.viewer import write_viewer
+
+    asset = copy_asset(small_asset, tmp_path / "copy" / "pigeon")
+    exe = os.path.join(os.path.dirname(sys.executable), "rockdove")
+    p = subprocess.run([exe, "verify", str(asset), "--width", "48", "--height", "48", "--hosts", "glsl,web",
+                        "--quiet"], capture_output=True, text=True, cwd=OUTSIDE, timeout=600,
+                       env=dict(os.environ, PYOPENGL_PLATFORM="egl"))
+    assert p.returncode == 0, p.stderr[-2000:]
+    write_viewer(asset, asset / "pigeon.glb", asset / "verify" / "built", asset_name=str(asset / "pigeon.usda"))
+    machine = {str(tmp_path), str(OUTSIDE), os.path.dirname(os.path.dirname(__file__)), sys.prefix}
+    files = [f for f in (asset / "verify").rglob("*") if f.is_file()]
+    assert len(files) > 20 and any(f.name == "viewer_data.js" for f in files)
+    for f in files:
+        data = f.read_bytes()
+        for path in machine:
+            assert path.encode() not in data, (f, path)
+    report = json.loads((asset / "verify" / "report.json").read_text())
+    assert report["asset"] == "pigeon.usda" and report["out_dir"] == "verify"

@@ -148,12 +148,14 @@ for (const o of meshes) {
   const isFeather = physical.iridescence > 0;
   const plain = new THREE.MeshBasicMaterial({ map: physical.map, color: physical.color, alphaTest: physical.alphaTest,
                                               side: physical.side });
-  parts.push({ mesh: o, physical, preview: o.material, plain, lut: lutMaterial(physical, isFeather), feather: isFeather });
+  parts.push({ mesh: o, physical, preview: o.material, plain, lut: lutMaterial(physical, isFeather),
+               feather: isFeather });
 }
 // the start view frames the whole bird: the start camera's direction, at the distance where the bird's bounding
 // sphere fills the narrower field of view
 const sphere = new THREE.Box3().setFromObject(gltf.scene).getBoundingSphere(new THREE.Sphere());
-const startDirection = new THREE.Vector3().fromArray(D.camera.eye_m).sub(new THREE.Vector3().fromArray(D.camera.target_m)).normalize();
+const startDirection = new THREE.Vector3().fromArray(D.camera.eye_m)
+  .sub(new THREE.Vector3().fromArray(D.camera.target_m)).normalize();
 function frameBird() {
   const aspect = canvas.clientWidth / Math.max(canvas.clientHeight, 1);
   const half = THREE.MathUtils.degToRad(D.camera.yfov_deg) / 2;

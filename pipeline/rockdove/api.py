@@ -180,7 +180,7 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
     from .config import validate
     from .graph import stages as build_stages
     from .graph.engine import Cache, Graph
-    from .graph.publish import OutputLock, check_output, make_staging, publish, read_marker, recover, write_marker
+    from .graph.publish import OutputLock, check_output, make_staging, publish, recover, write_marker
 
     t0 = time.perf_counter()
     config = validate(config)
@@ -193,14 +193,6 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
         raise UsageError(f"--cache {str(cache_dir)!r} exists and is not a folder")
     stages = build_stages.make_stages(config, verify=verify)
     chash = config_hash(config)
-    if verify and ((read_marker(out) or {}).get("config_hash") != chash
-                   or not (out / "verify" / "report.json").is_file()):
-        # A new configuration, or one not verified yet, will most likely render: import the GL renderer
-        # (pyrender, ~2 s) in a thread now, while the LUT, textures and layers are built.
-        from .verify.gl_renders import prestart
-
-        prestart()
-
     main_thread = threading.current_thread() is threading.main_thread()
     old_term = signal.signal(signal.SIGTERM, _raise_interrupt) if main_thread else None
     staging = None
@@ -248,7 +240,7 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, out:
     asset : path
         The asset folder or its root layer (``pigeon.usda``).
     hosts : iterable of str, optional
-        Host names (:data:`rockdove.hosts.HOSTS`); default every host available here (``glsl`` always runs).
+        Host names (:data:`rockdove.hosts.HOSTS`); default :data:`rockdove.hosts.DEFAULT` where available, ``["all"]`` every host (``glsl`` always runs).
         Unavailable hosts are skipped with their reason; a host that fails or misses its goals fails.
     out : path, optional
         Report folder (default ``verify/`` beside the root layer).
@@ -269,9 +261,13 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, out:
     it.
     """
     from .verify.inputs import DEFAULT_SIZE, DEFAULT_VIEWS
-    from .verify.run import check_dependencies, verify_asset
+    from .graph.publish import claim_output
+    from .usd.dependencies import require_inside
+    from .verify.run import verify_asset
+    from .verify.verdict import default_out_dir
 
-    check_dependencies(os.fspath(asset), allow_external)
+    root = require_inside(asset, allow_external)  # nothing from elsewhere is read, nothing of the user's overwritten
+    out = claim_output(out or default_out_dir(root), "verification report")
     report = verify_asset(os.fspath(asset), out_dir=out, width=width or DEFAULT_SIZE, height=height or DEFAULT_SIZE,
                           progress=progress, views=None if views is None else list(views),
                           n_views=n_views or DEFAULT_VIEWS, hosts=None if hosts is None else list(hosts),

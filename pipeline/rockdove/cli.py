@@ -10,7 +10,7 @@ exposes::
 Sub-command modules are imported only when their command runs, so ``rockdove --help`` stays fast and
 needs no display. The commands call :mod:`rockdove.api`; a warm process is ``rockdove build --watch`` or the
 API itself. Errors become one line on stderr: ``ValueError`` (and
-:class:`UsageError`) exit 2, :class:`VerificationFailed` exits 1; tracebacks only with ``ROCKDOVE_DEBUG=1``.
+:class:`UsageError`) and ``OSError`` (a full disk) exit 2, :class:`VerificationFailed` exits 1; tracebacks only with ``ROCKDOVE_DEBUG=1``.
 """
 
 from __future__ import annotations
@@ -104,6 +104,12 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(devnull, sys.stdout.fileno())  # so the final flush is quiet too
         os.close(devnull)
         return 141
+    except OSError as exc:  # the machine said no (a full disk, a read-only file system): one line, exit 2
+        if os.environ.get("ROCKDOVE_DEBUG"):
+            raise
+        print(f"rockdove {args.command}: error: {exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else ""),
+              file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

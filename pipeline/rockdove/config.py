@@ -15,9 +15,11 @@ the schema allows, so the CLI prints it and exits 2 before anything is written.
 from __future__ import annotations
 
 import copy
+import datetime
 import functools
 import hashlib
 import json
+import math
 import os
 import re
 import tomllib
@@ -193,6 +195,29 @@ def _dotted(path: Iterable) -> str:
     return out
 
 
+def _show(value) -> str:
+    """A value as TOML wrote it (``nan``, ``inf``, a date named as one), JSON otherwise."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, (datetime.date, datetime.time)):
+        kind = "date-time" if isinstance(value, datetime.datetime) else type(value).__name__
+        return f"{value.isoformat()} (a TOML {kind})"
+    if isinstance(value, list):
+        return "[" + ", ".join(map(_show, value)) + "]"
+    return json.dumps(value, default=str)
+
+
+def _check_finite(config: dict, schema: dict, path=()) -> None:
+    """NaN and infinity are no value of any key (JSON Schema's ranges let NaN through): one line naming the key."""
+    items = config.items() if isinstance(config, dict) else enumerate(config) if isinstance(config, list) else ()
+    for k, v in items:
+        if isinstance(v, float) and not math.isfinite(v):
+            node = _schema_at(schema, [*path, k])
+            raise UsageError(f"config key {_dotted([*path, k])!r}: value {_show(v)} is not a finite number; "
+                             f"allowed: {allowed(node) if node else 'a finite number'}")
+        _check_finite(v, schema, (*path, k))
+
+
 def _error_message(err, schema: dict) -> str:
     path = list(err.absolute_path)
     if err.validator == "additionalProperties":
@@ -205,13 +230,13 @@ def _error_message(err, schema: dict) -> str:
     key = _dotted(path)
     node = _schema_at(schema, path)
     if err.validator == "type" and node.get("type") == "object":
-        return (f"config key {key!r}: value {json.dumps(err.instance)} is not a table; allowed: a table with "
+        return (f"config key {key!r}: value {_show(err.instance)} is not a table; allowed: a table with "
                 f"keys {', '.join(sorted(node.get('properties', {})))}")
     what = {"type": "has the wrong type", "enum": "is not allowed", "minimum": "is out of range",
             "maximum": "is out of range", "exclusiveMinimum": "is out of range", "exclusiveMaximum": "is out of range",
             "minItems": "has too few items", "maxItems": "has too many items", "minLength": "is empty"}
     verb = what.get(err.validator, "is not allowed")
-    return f"config key {key!r}: value {json.dumps(err.instance)} {verb}; allowed: {allowed(node)}"
+    return f"config key {key!r}: value {_show(err.instance)} {verb}; allowed: {allowed(node)}"
 
 
 def validate(config: dict) -> dict:
@@ -223,6 +248,7 @@ def validate(config: dict) -> dict:
     import jsonschema
 
     schema = load_schema()
+    _check_finite(config, schema)
     validator = jsonschema.Draft202012Validator(schema)
     errors = sorted(validator.iter_errors(config), key=lambda e: (list(map(str, e.absolute_path)), e.validator))
     if errors:
@@ -233,7 +259,7 @@ def validate(config: dict) -> dict:
         for key, sub in node.get("properties", {}).items():
             value = config.get(sect, {}).get(key)
             if sub.get("range") and isinstance(value, list) and value[0] > value[1]:
-                raise UsageError(f"config key '{sect}.{key}': value {json.dumps(value)} is an empty range "
+                raise UsageError(f"config key '{sect}.{key}': value {_show(value)} is an empty range "
                                  f"(lo > hi); allowed: {allowed(sub)}")
             if sub.get("type") == "integer" and isinstance(value, float):
                 config[sect][key] = int(value)

@@ -77,11 +77,14 @@ def _colour_cache_dir() -> Path:
 
     from .resources import user_cache_dir
 
+    import hashlib
+
     try:
         tag = version("colour-science")
     except PackageNotFoundError:  # e.g. a source checkout of colour on sys.path
         tag = "unknown"
-    return user_cache_dir(f"colour-science-{tag}")
+    code = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:12]  # the code deriving the tables, too
+    return user_cache_dir(f"colour-science-{tag}-{code}")
 
 
 def colour_data(name: str, compute, keys: tuple[str, ...]) -> dict:

@@ -123,56 +123,28 @@ def feather_textures(resolution_or_params=256) -> dict:
     return {"base": base, "mask": np.round(mask * 255.0).astype(np.uint8)}
 
 
-# ---- body --------------------------------------------------------------------------------------------
+# ---- body and the feather cards' palette ---------------------------------------------------------------
+#: The white rump patch of the wild-type rock dove (Gibbs, Barnes and Cox 2001: "white lower back"), sRGB.
+RUMP_SRGB = (236, 238, 240)
+
+
 def body_colour_at(points_m: np.ndarray) -> np.ndarray:
-    """Linear Rec.709 base colour of the body at surface points.
+    """Linear Rec.709 base colour of the body at surface points: (N, 3) metres -> (N, 3) float64.
 
-    Parameters
-    ----------
-    points_m : np.ndarray
-        (N, 3) points on the body surface, metres.
-
-    Returns
-    -------
-    np.ndarray
-        (N, 3) float64 linear RGB.
-
-    Each layer (wings, tail, neck, head) is evaluated only where its weight is above 0: elsewhere a mix with
-    weight 0 would leave the colour unchanged, bit for bit.
+    Blue-grey, the dark slate head and neck, the white rump patch over the tail base. Each layer is evaluated
+    only where its weight is above 0: elsewhere a mix with weight 0 would leave the colour unchanged, bit for bit.
     """
     from rockdove.geometry import neck as _neck
     from rockdove.geometry import sdf as _sdf
 
     p = np.asarray(points_m, dtype=np.float64).reshape(-1, 3)
     col = np.broadcast_to(_linear(BODY_SRGB), p.shape).copy()
-
-    # folded wings: pale coverts, two black bars across the rear of the wing, darker primaries at the tip
-    for wing in (_sdf.WING_L, _sdf.WING_R):
-        on_wing = 1.0 - _smoothstep(-0.001, 0.004, wing.sdf(p))
-        i = np.flatnonzero(on_wing > 0.0)  # the rest keeps its colour exactly (a mix with weight 0)
-        q = wing.local(p[i]) / np.asarray(wing.radii_m)
-        along = q[:, 2] + 0.30 * q[:, 1]  # bars slant down and back
-        bar = np.zeros(len(i))
-        for centre in (-0.10, -0.36):
-            bar = np.maximum(bar, 1.0 - _smoothstep(0.045, 0.07, np.abs(along - centre)))
-        bar *= _smoothstep(-0.75, -0.45, q[:, 1])  # the bars fade out toward the lower edge of the wing
-        primaries = _smoothstep(-0.55, -0.70, q[:, 2])
-        wing_col = _mix(np.broadcast_to(_linear(WING_SRGB), q.shape), _linear(PRIMARIES_SRGB), primaries)
-        wing_col = _mix(wing_col, _linear(WING_BAR_SRGB), bar)
-        col[i] = _mix(col[i], wing_col, on_wing[i])
-
-    # tail: grey with a dark band near its tip
-    on_tail = 1.0 - _smoothstep(-0.001, 0.004, _sdf.TAIL.sdf(p))
-    i = np.flatnonzero(on_tail > 0.0)
-    qt = _sdf.TAIL.local(p[i]) / np.asarray(_sdf.TAIL.radii_m)
-    band = _smoothstep(-0.62, -0.72, qt[:, 2])
-    tail_col = _mix(np.broadcast_to(_linear(TAIL_SRGB), qt.shape), _linear(TAIL_BAND_SRGB), band)
-    col[i] = _mix(col[i], tail_col, on_tail[i] * _smoothstep(-0.2, -0.4, qt[:, 2]))
-
-    # darker neck and head
+    rump = 1.0 - _smoothstep(0.012, 0.02, np.linalg.norm((p - np.array([0.0, 0.088, -0.062])) * [0.8, 1.2, 0.7], axis=1))
+    i = np.flatnonzero(rump > 0.0)
+    col[i] = _mix(col[i], _linear(RUMP_SRGB), rump[i])
     s, r = _neck.neck_s(p)
-    near_neck = 1.0 - _smoothstep(0.030, 0.045, r)
-    neck_w = _smoothstep(-0.25, 0.05, s) * near_neck
+    near_neck = 1.0 - _smoothstep(0.030, 0.05, r)
+    neck_w = _smoothstep(-0.45, 0.05, s) * near_neck
     i = np.flatnonzero(neck_w > 0.0)
     col[i] = _mix(col[i], _linear(NECK_SRGB), neck_w[i])
     head_w = 1.0 - _smoothstep(-0.001, 0.006, _sdf.HEAD.sdf(p))
@@ -180,6 +152,55 @@ def body_colour_at(points_m: np.ndarray) -> np.ndarray:
     i = np.flatnonzero(head_w > 0.0)
     col[i] = _mix(col[i], _linear(HEAD_SRGB), head_w[i])
     return col
+
+
+def palette_colours() -> np.ndarray:
+    """(TILES, 3) linear colour of each feather tile (rockdove.geometry.plumage): the grey ramp from the neck's
+    slate to the coverts' pale grey, white, wing bar, rectrix and primary."""
+    from rockdove.geometry import plumage as _pl
+
+    w = np.linspace(0.0, 1.0, _pl.RAMP)[:, None]
+    out = np.broadcast_to(_linear(BODY_SRGB), (_pl.TILES, 3)).copy()
+    out[:_pl.RAMP] = _linear(NECK_SRGB) * (1 - w) + _linear(WING_SRGB) * w
+    for tile, srgb in ((_pl.T_WHITE, RUMP_SRGB), (_pl.T_BAR, WING_SRGB), (_pl.T_RECTRIX, TAIL_SRGB),
+                       (_pl.T_PRIMARY, PRIMARIES_SRGB), (_pl.T_BAR2, WING_SRGB)):
+        out[tile] = _linear(srgb)
+    return out
+
+
+def coat_tiles(points_m) -> np.ndarray:
+    """(N,) int: the palette tile (ramp or white) nearest :func:`body_colour_at` at each point."""
+    from rockdove.geometry import plumage as _pl
+
+    pal = palette_colours()[:_pl.T_WHITE + 1]
+    col = body_colour_at(points_m)
+    return np.argmin(((col[:, None, :] - pal[None]) ** 2).sum(-1), axis=1)
+
+
+def palette_strip(resolution: int) -> np.ndarray:
+    """(rows, R, 3) uint8 sRGB: the feather tiles of the body texture's bottom strip (rockdove.geometry.plumage),
+    each a feather drawn across its tile (vane, pale rachis, barbs, downy base); the wing-bar tile has the black
+    subterminal band (coverts; a narrower one on the secondaries' tile), the rectrix tile the dark terminal band, the primary tile a darker tip."""
+    from rockdove.geometry import plumage as _pl
+
+    res = int(resolution)
+    rows = max(1, int(round(res * _pl.PALETTE_STRIP)))
+    tv = 1.0 - (np.arange(rows) + 0.5) / rows  # row 0 at the top of the strip
+    v = np.clip((tv - 0.04) / 0.92, 0.0, 1.0)[:, None]  # feather coordinate (cards map v into [0.04, 0.96])
+    sc = (np.arange(res) + 0.5) / res * _pl.TILES
+    tile, u = np.minimum(sc.astype(int), _pl.TILES - 1), np.clip((sc % 1.0 - 0.1) / 0.8, 0.0, 1.0)
+    x = np.abs(u - 0.5)[None, :]
+    shade = (0.78 + 0.22 * (1.0 - (2 * x) ** 2)) * (0.9 + 0.1 * np.cos(2 * np.pi * (v - 0.9 * x) * BARB_COUNT / 2))
+    shade = shade * (0.82 + 0.18 * _smoothstep(0.0, 0.35, v)) + 0.25 * (x < 0.035) * (v < 0.97)
+    col = palette_colours()[tile][None, :, :] * shade[..., None]
+    black = np.zeros((rows, res))
+    bar, rect, prim, bar2 = (tile == t for t in (_pl.T_BAR, _pl.T_RECTRIX, _pl.T_PRIMARY, _pl.T_BAR2))
+    black[:, bar] = (_smoothstep(0.56, 0.62, v) * (1 - _smoothstep(0.8, 0.86, v)) * np.ones((1, bar.sum())))
+    black[:, bar2] = (_smoothstep(0.6, 0.63, v) * (1 - _smoothstep(0.71, 0.74, v)) * np.ones((1, bar2.sum())))
+    black[:, rect] = _smoothstep(0.8, 0.86, v) * np.ones((1, rect.sum()))
+    black[:, prim] = 0.5 * _smoothstep(0.55, 0.9, v) * np.ones((1, prim.sum()))
+    col = _mix(col, _linear(WING_BAR_SRGB) * 0.8, black)
+    return _encode(col)
 
 
 #: Widening of a triangle's texel box, texels: far above what the barycentric tolerance (1e-9) admits outside a
@@ -243,25 +264,24 @@ def rasterize_uv(st: np.ndarray, faces: np.ndarray, resolution: int, chunk: int 
 
 
 def _body_parts(bird) -> list:
-    """The parts painted with the body texture: ``Body`` and, when the bird has them, the ``Wings``."""
+    """The part painted into the body texture's charts: ``Body`` (the feather cards use the palette strip)."""
     from rockdove.geometry.types import Bird, MeshPart
 
     if isinstance(bird, MeshPart):
         return [bird]
     if isinstance(bird, Bird):
-        return [bird.part("Body")] + [p for p in bird.parts if p.name == "Wings"]
+        return [bird.part("Body")]
     part = getattr(bird, "part", None)  # rockdove.geometry.Body
     if isinstance(part, MeshPart):
-        wings = getattr(bird, "wings", None)
-        return [part] + ([wings] if isinstance(wings, MeshPart) else [])
+        return [part]
     raise ValueError(f"bird={type(bird).__name__} must be a Bird, a Body or the Body MeshPart")
 
 
 def body_base_colour(resolution_or_params, bird) -> np.ndarray:
     """The body's base-colour texture in its xatlas UVs.
 
-    Every texel covered by a UV triangle gets the colour of its 3-D point (:func:`body_colour_at`); the empty
-    texels between charts take the colour of the nearest covered texel, so bilinear filtering and mipmaps do
+    Every texel covered by a UV triangle gets the colour of its 3-D point (:func:`body_colour_at`); the bottom
+    strip holds the feather cards' tiles (:func:`palette_strip`); the empty texels between charts take the colour of the nearest covered texel, so bilinear filtering and mipmaps do
     not bleed background into the seams.
 
     Parameters
@@ -295,6 +315,12 @@ def body_base_colour(resolution_or_params, bird) -> np.ndarray:
     img[rows, cols] = _encode(body_colour_at(pts))
     empty = np.ones((res, res), dtype=bool)
     empty[rows, cols] = False
+    from rockdove.geometry import plumage as _pl
+
+    strip = palette_strip(res)  # and its top row repeated over half the guard band below the body's charts
+    guard = int(0.5 * res * (_pl.ATLAS_START - _pl.PALETTE_STRIP))
+    strip = np.concatenate([np.repeat(strip[:1], guard, axis=0), strip])
+    img[res - len(strip):], empty[res - len(strip):] = strip, False
     if empty.any():
         _, (ri, ci) = ndimage.distance_transform_edt(empty, return_indices=True)
         img = img[ri, ci]

@@ -35,6 +35,7 @@ def _limit(key: str, end: str = "maximum"):
 
 def rows() -> list[tuple[str, list[str]]]:
     """(label, rockdove argv) per row; the values are read from the schema (and the LUT baker's limits)."""
+    from ..commands.render import MAX_SIDE_PX
     from ..lut.bake import MAX_ANGLES, MAX_THICKNESSES
 
     def build(*sets, verify=False):
@@ -45,7 +46,11 @@ def rows() -> list[tuple[str, list[str]]]:
                                   "lut.thicknesses", "geometry.card_count", "verify.width", "verify.height",
                                   "verify.views")}
     out = [("defaults", build())]
-    out += [(f"{k}={v}", build(f"{k}={v}")) for k, v in lim.items() if k.startswith(("textures", "geometry"))]
+    out += [(f"{k}={v}", build(f"{k}={v}")) for k, v in lim.items() if k.startswith("textures")]
+    side = MAX_SIDE_PX // 2  # the asset just built (4096 px feather textures), at the largest rendered side
+    out.append((f"rockdove render {side} px x supersample 2", ["render", "out", "--out", "render", "--views", "1",
+                                                               "--width", str(side), "--height", str(side)]))
+    out += [(f"{k}={v}", build(f"{k}={v}")) for k, v in lim.items() if k.startswith("geometry")]
     out.append((f"lut.angles={lim['lut.angles']} x lut.thicknesses={lim['lut.thicknesses']}",
                 build(f"lut.angles={lim['lut.angles']}", f"lut.thicknesses={lim['lut.thicknesses']}")))
     voxel = _limit("geometry.body_voxel_m", "minimum")
@@ -55,8 +60,9 @@ def rows() -> list[tuple[str, list[str]]]:
     out.append((f"verify {lim['verify.width']} x {lim['verify.height']} px",
                 build(f"verify.width={lim['verify.width']}", f"verify.height={lim['verify.height']}",
                       "verify.views=1", verify=True)))
-    out.append((f"verify.views={lim['verify.views']} (128 px)",
-                build(f"verify.views={lim['verify.views']}", "verify.width=128", "verify.height=128", verify=True)))
+    out.append((f"verify.views={lim['verify.views']} at {lim['verify.width']} px (the largest verification)",
+                build(f"verify.views={lim['verify.views']}", f"verify.width={lim['verify.width']}",
+                      f"verify.height={lim['verify.height']}", verify=True)))
     return out
 
 

@@ -12,6 +12,7 @@ feathers Cycles' physical thin film (see ``materials/blender/rockdove_blender/__
 from __future__ import annotations
 
 import argparse
+import os
 
 HELP = "write the Blender add-on (rockdove_blender.zip) that builds the thin-film material on USD import"
 
@@ -23,6 +24,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from rockdove.hosts.blender import ADDON_MODULE, addon_zip
 
+    from rockdove.graph.publish import check_output_file, starts_like
+    from rockdove.hosts.blender import ADDON_ZIP
+
+    check_output_file(os.path.join(args.out, ADDON_ZIP), starts_like(b"PK", b"rockdove_blender/"))
     path = addon_zip(args.out)
     print(path)
     print(f'install: bpy.ops.preferences.addon_install(filepath="{path}"); '

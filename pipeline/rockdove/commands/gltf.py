@@ -24,18 +24,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--validate", action="store_true",
                         help="run the Khronos glTF-Validator (npm gltf-validator, needs node) on the result")
     parser.add_argument("--json", action="store_true", help="print the export (and validation) summary as JSON")
+    from .validate import add_external_argument
+
+    add_external_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     from .. import __version__
     from ..errors import VerificationFailed
-    from ..usd.layout import resolve_root_layer
+    from ..usd.dependencies import require_inside
     from ..web.gltf import GLB_NAME, export_glb, validate_glb
 
-    layer = resolve_root_layer(args.asset)
+    layer = require_inside(args.asset, args.allow_external_assets)
     out = args.out or os.path.join(os.path.dirname(layer), GLB_NAME)
     if not out.endswith(".glb"):
         raise ValueError(f"--out must name a .glb file, got {out!r}")
+    from ..graph.publish import check_output_file
+
+    check_output_file(out, _ours)
     summary = export_glb(layer, out, version=__version__)
     if args.validate:
         try:
@@ -61,3 +67,18 @@ def run(args: argparse.Namespace) -> int:
     if args.validate and summary["validation"]["numErrors"]:
         raise VerificationFailed(f"glTF-Validator found {summary['validation']['numErrors']} errors in {out}")
     return 0
+
+
+def _ours(path) -> bool:
+    """Whether ``path`` is a .glb rockdove wrote: its JSON chunk's ``asset.generator`` starts with ``rockdove``."""
+    import struct
+
+    with open(path, "rb") as fh:
+        head = fh.read(20)
+        if len(head) < 20 or head[:4] != b"glTF":
+            return False
+        doc = fh.read(min(struct.unpack_from("<I", head, 12)[0], 1 << 26))
+    try:
+        return str(json.loads(doc).get("asset", {}).get("generator", "")).startswith("rockdove")
+    except (ValueError, AttributeError):
+        return False

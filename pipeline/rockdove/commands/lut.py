@@ -75,6 +75,11 @@ def run(args: argparse.Namespace) -> int:
     from ..lut import bake, write_exr, write_preview_png
 
     out = _check_out(args.out)
+    from ..graph.publish import check_output_file, starts_like
+
+    ours = starts_like(b"\x76\x2f\x31\x01", b"rockdove:format")  # an EXR rockdove wrote: never the user's files
+    check_output_file(out, ours)
+    check_output_file(os.path.splitext(out)[0] + ".png", lambda p: os.path.isfile(out) and ours(out))
     if args.error_points < 0:
         raise ValueError(f"--error-points must be >= 0, got {args.error_points}")
     t0 = time.perf_counter()

@@ -15,8 +15,11 @@ import time
 
 import numpy as np
 
-#: Largest accepted image side, pixels (float buffers: 3 x 16 bytes per pixel).
-MAX_SIDE_PX = 8192
+#: Largest rendered side, pixels: --width (--height) x --supersample. One view's buffers (~46 bytes a pixel) and
+#: the GL context's at 4096 x 4096 stay within the 4 GiB memory budget; views are rendered one at a time, and
+#: the 8-bit images the contact sheet gathers (4 bytes a pixel) are bounded by MAX_SHEET_PX.
+MAX_SIDE_PX = 4096
+MAX_SHEET_PX = 2**27
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -33,24 +36,34 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the shading variant to select (baked or physical; default: as authored)")
     parser.add_argument("--angle", default="physical", choices=("physical", "materialx_baked"),
                         help="film angle: physical = dot(L, H) (the paper), materialx_baked = |dot(N, V)|")
+    from .validate import add_external_argument
+
+    add_external_argument(parser)
 
 
 def _check(args) -> None:
-    for key in ("width", "height"):
-        v = getattr(args, key)
-        if not 1 <= v <= MAX_SIDE_PX:
-            raise ValueError(f"--{key} must be in [1, {MAX_SIDE_PX}] pixels, got {v}")
     if not 1 <= args.supersample <= 4:
         raise ValueError(f"--supersample must be in [1, 4], got {args.supersample}")
-    if args.views < 1:
-        raise ValueError(f"--views must be >= 1, got {args.views}")
-    if os.path.exists(args.out) and not os.path.isdir(args.out):
-        raise ValueError(f"--out {args.out!r} exists and is not a folder")
+    for key in ("width", "height"):
+        v = getattr(args, key)
+        if not 1 <= v * args.supersample <= MAX_SIDE_PX:
+            raise ValueError(f"--{key} x --supersample must be in [1, {MAX_SIDE_PX}] pixels (the memory budget), "
+                             f"got {v} x {args.supersample}")
+    if args.views < 1 or args.views * args.width * args.height > MAX_SHEET_PX:
+        raise ValueError(f"--views must be >= 1 and --views x --width x --height <= {MAX_SHEET_PX} pixels (the "
+                         f"memory budget), got {args.views} x {args.width} x {args.height}")
+    from ..graph.publish import claim_output
+
+    claim_output(args.out, "renders", create=False)  # a folder rockdove did not write is refused, before rendering
 
 
 def run(args: argparse.Namespace) -> int:
     _check(args)
-    from ..render.gl import render_views
+    from ..usd.dependencies import require_inside
+
+    require_inside(args.asset, args.allow_external_assets)
+    from ..graph.publish import claim_output
+    from ..render.gl import GLRenderer
     from ..render.images import box_downsample, contact_sheet, save_png
     from ..render.scene import load_scene
     from ..render.views import View, default_views
@@ -64,23 +77,25 @@ def run(args: argparse.Namespace) -> int:
     big = [View(v.name, v.camera_to_world, v.yfov_rad, v.width * k, v.height * k, v.light_direction, v.light_rgb)
            for v in views]
     t1 = time.perf_counter()
-    results = render_views(scene, big, angle_mode=args.angle)
-    t_render = time.perf_counter() - t1
-    os.makedirs(args.out, exist_ok=True)
+    args.out = str(claim_output(args.out, "renders"))
+    tiles, t_write = [], 0.0
+    with GLRenderer(scene, angle_mode=args.angle, width=big[0].width, height=big[0].height) as renderer:
+        for v in big:  # one view's float buffers at a time: memory does not grow with --views
+            r = renderer.render(v)
+            t2 = time.perf_counter()
+            rgb, alpha = box_downsample(r.radiance_rgb, k), box_downsample(r.alpha, k)
+            img = np.dstack([linear_to_srgb8(rgb), (np.clip(alpha, 0, 1) * 255 + 0.5).astype(np.uint8)])
+            tiles.append((r.view.name, img))
+            path = save_png(img, os.path.join(args.out, f"{r.view.name}.png"))
+            print(f"{path}  ({r.seconds * 1e3:.1f} ms)")
+            del r, rgb, alpha
+            t_write += time.perf_counter() - t2
+    t_render = time.perf_counter() - t1 - t_write
     t2 = time.perf_counter()
-    previews = []
-    for r in results:
-        rgb = box_downsample(r.radiance_rgb, k)
-        alpha = box_downsample(r.alpha, k)
-        img = np.dstack([linear_to_srgb8(rgb), (np.clip(alpha, 0, 1) * 255 + 0.5).astype(np.uint8)])
-        previews.append(img)
-        path = save_png(img, os.path.join(args.out, f"{r.view.name}.png"))
-        print(f"{path}  ({r.seconds * 1e3:.1f} ms)")
-    tiles = [(r.view.name, img) for r, img in zip(results, previews)]
     sheet = contact_sheet(os.path.join(args.out, "contact_sheet.png"), [tiles[i:i + 4] for i in range(0, len(tiles), 4)])
-    t_write = time.perf_counter() - t2
+    t_write += time.perf_counter() - t2
     print(sheet)
-    print(f"load {t_load:.2f} s, render {len(results)} views at {args.width}x{args.height} ({k}x{k} samples per "
+    print(f"load {t_load:.2f} s, render {len(big)} views at {args.width}x{args.height} ({k}x{k} samples per "
           f"pixel) {t_render:.2f} s "
           f"(incl. context and upload), write {t_write:.2f} s")
     return 0

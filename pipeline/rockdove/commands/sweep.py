@@ -435,9 +435,9 @@ def run(args: argparse.Namespace) -> int:
     if args.scheduler and not re.match(r"^(tcp|tls|inproc|ucx|ws|wss)://\S+$", args.scheduler):
         raise UsageError(f"--scheduler {args.scheduler!r} is not a Dask address like tcp://HOST:PORT")
     load_config(preset=args.preset, config_file=args.config, overrides=args.overrides)  # the base: exit 2
-    root = Path(args.out).resolve()
-    if root.exists() and not root.is_dir():
-        raise UsageError(f"--out {args.out!r} exists and is not a folder")
+    from ..graph.publish import claim_output
+
+    root = claim_output(args.out, "sweep", create=False)  # checked now, made once the cluster is up
     cache = Path(args.cache).resolve() if args.cache else root / ".rockdove-cache"
     points = grid_points(axes)
     base = {"preset": args.preset, "config_file": str(Path(args.config).resolve()) if args.config else None,
@@ -455,6 +455,7 @@ def run(args: argparse.Namespace) -> int:
         records.append(rec)
 
     client, cluster = _client(args)  # an unreachable scheduler is bad usage: nothing written yet
+    claim_output(root, "sweep")
     (root / POINTS).mkdir(parents=True, exist_ok=True)
     doc = {"tool": "rockdove", "state": "running", "grid": {k: [lit for lit, _ in vals] for k, vals in axes},
            "base": {"preset": args.preset, "config": args.config, "set": list(args.overrides)},

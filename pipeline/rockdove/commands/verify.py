@@ -1,6 +1,6 @@
 """``rockdove verify ASSET [--out DIR] [--json] [--width W --height H] [--views N] [--view NAME ...] [--hosts LIST]``:
 validate an asset, render it with the GLSL shaders, with every host asked for (:mod:`rockdove.hosts`; default
-every host available here) and with the exact CPU reference, check and report
+hosts.DEFAULT where available; "all" every host) and with the exact CPU reference, check and report
 (:func:`rockdove.verify.run.verify_asset`). An unavailable host is printed as SKIPPED with its reason; a
 host that fails is printed with its error and fails the verification.
 
@@ -25,8 +25,11 @@ def _size(text: str) -> int:
         v = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"must be an integer number of pixels, got {text!r}") from None
-    if v < 16 or v > 8192:
-        raise argparse.ArgumentTypeError(f"must be between 16 and 8192 pixels, got {v}")
+    from ..config import limits
+
+    lo, hi = limits("verify.width")  # the config's range: past it a verification passes the memory budget
+    if v < lo or v > hi:
+        raise argparse.ArgumentTypeError(f"must be between {lo} and {hi} pixels, got {v}")
     return v
 
 
@@ -35,8 +38,11 @@ def _count(text: str) -> int:
         v = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"must be an integer number of views, got {text!r}") from None
-    if not 1 <= v <= 64:
-        raise argparse.ArgumentTypeError(f"must be between 1 and 64 views, got {v}")
+    from ..config import limits
+
+    lo, hi = limits("verify.views")  # the config's range (the memory budget)
+    if not lo <= v <= hi:
+        raise argparse.ArgumentTypeError(f"must be between {lo} and {hi} views, got {v}")
     return v
 
 
@@ -67,7 +73,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--hosts", default=None, metavar="LIST",
                         help="comma-separated hosts that also render the views, each checked against the exact "
                              "reference of its lighting model: glsl, materialx, materialx_physical, blender, web "
-                             "(default: every host available on this machine; glsl always runs)")
+                             "(default: glsl, materialx, materialx_physical, blender, web where available; 'all' adds Storm's; glsl always runs)")
     parser.add_argument("--bench-dir", default=None, metavar="DIR",
                         help="show the benchmark plots (*.png) of DIR in the report, e.g. build/bench "
                              "(default: none)")
@@ -131,6 +137,9 @@ def run(args: argparse.Namespace) -> int:
                 print(f"host {h['name']} ({h['variant']}, {h['lobe']}): {h['n_pixels']} px  dE2000 median "
                       f"{h['median_dE']:.3f}  p95 {h['p95_dE']:.3f}  green {h['green_px']}  purple {h['purple_px']}  "
                       f"hue agreement {h['hue_agreement']:.1%}  {'ok' if h['passed'] else 'FAIL'}")
+        from ..verify.anatomy import format_rows
+
+        print("anatomy (rockdove.verify.anatomy):", *format_rows(report["anatomy"]), sep="\n")
         if report.get("beauty"):
             print(f"beauty render ({report['beauty']['renderer']}): {report['beauty']['seconds']:.1f} s")
         for note in result.notes:

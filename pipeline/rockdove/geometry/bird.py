@@ -14,6 +14,7 @@ from rockdove.geometry import body as _body
 from rockdove.geometry import cards as _cards
 from rockdove.geometry import neck as _neck
 from rockdove.geometry import parts as _parts
+from rockdove.geometry import plumage as _plumage
 from rockdove.geometry import sdf as _sdf
 from rockdove.geometry import uv as _uv
 from rockdove.geometry.params import BirdParams
@@ -35,10 +36,8 @@ class Body:
         ``"Body"``: vertices split at UV seams, st from xatlas (on the coarse mesh, interpolated by subdivision),
         primvar ``neckS`` ((V,) float32 in [0, 1], the neck coordinate clipped to [0, 1]) and ``neckBand``
         ((V,) float32, 1 inside the neck band).
-    wings : MeshPart
-        ``"Wings"``: the two folded wings, closed surfaces of their own resting on the torso
-        (:func:`rockdove.geometry.sdf.wings_sdf`), unwrapped in the same xatlas atlas as the body, so they share
-        the body's material and texture (which paints their pale coverts and two dark bars).
+    wings : None
+        Kept for cached bodies of earlier builds: the wings are feather cards now (:mod:`.plumage`).
     card_band_area_m2 : float or None
         Area of the band the feather cards are placed on, m^2 (:func:`rockdove.geometry.cards.band_area_m2` of
         ``mesh``): estimated once here instead of on every :func:`build_cards`; None: estimated when needed.
@@ -70,30 +69,21 @@ def _surface_part(name, field, points, faces, st, levels):
 
 
 def build_body(params: BirdParams) -> Body:
-    """Mesh the body (torso, neck, head, tail) and the folded wings, and give them UVs in one atlas. Depends on
-    ``params.body_key()``.
+    """Mesh the body (torso, breast, rump, neck, head) and give it UVs. Depends on ``params.body_key()``.
 
-    The coarse body and wings (surface nets at :data:`body.UNWRAP_VOXEL_M`) are unwrapped together by xatlas,
-    then each is subdivided ``body.subdivision_levels(params.body_voxel_m)`` times onto its own implicit
-    surface (see :mod:`.body`); normals are the field's gradient at the final vertices.
+    The coarse body (surface nets at :data:`body.UNWRAP_VOXEL_M`) is unwrapped by xatlas into the texture above
+    the palette strip of the feather cards (:data:`plumage.ATLAS_START`), then subdivided
+    ``body.subdivision_levels(params.body_voxel_m)`` times onto the implicit surface (see :mod:`.body`); normals
+    are the field's gradient at the final vertices.
     """
     params = _check_params(params)
     levels = _body.subdivision_levels(params.body_voxel_m)
     coarse = _body.build_body_mesh(_body.UNWRAP_VOXEL_M)
-    wings = _body.mesh_field(_sdf.wings_sdf, _sdf.WINGS_BOUNDS_M, _body.UNWRAP_VOXEL_M)
-    n_body = len(coarse.vertices_m)
-    at = _uv.atlas(np.concatenate([coarse.vertices_m, wings.vertices_m]),
-                   np.concatenate([coarse.faces, wings.faces + n_body]))
-    points = np.concatenate([coarse.vertices_m, wings.vertices_m])[at.vmapping]
-    on_wing = at.vmapping[at.faces[:, 0]] >= n_body  # atlas faces keep the input order: body, then wings
-
-    def piece(mask):
-        f = at.faces[mask]
-        used, inverse = np.unique(f, return_inverse=True)
-        return points[used], inverse.reshape(-1, 3), at.st[used]
-
-    welded, faces, normals, part = _surface_part("Body", _sdf.body_sdf, *piece(~on_wing), levels)
-    _, _, _, wing_part = _surface_part("Wings", _sdf.wings_sdf, *piece(on_wing), levels)
+    at = _uv.atlas(coarse.vertices_m, coarse.faces)
+    st = at.st.astype(np.float64)  # the body's charts above the feathers' palette strip of the texture
+    st[:, 1] = _plumage.ATLAS_START + (1.0 - _plumage.ATLAS_START) * st[:, 1]
+    welded, faces, normals, part = _surface_part("Body", _sdf.body_sdf, coarse.vertices_m[at.vmapping], at.faces,
+                                                 st, levels)
     mesh = _body.BodyMesh(vertices_m=welded, faces=faces, normals=normals)
     points = part.points_m.astype(np.float64)
     s, _ = _neck.neck_s(points)
@@ -103,7 +93,7 @@ def build_body(params: BirdParams) -> Body:
                          "neck coordinate: 0 at the neck base, 1 at its top below the head, clipped"),
         "neckBand": Primvar(band.astype(np.float32), "vertex", "1 in the neck band, else 0"),
     })
-    return Body(mesh=mesh, part=part, wings=wing_part,
+    return Body(mesh=mesh, part=part, wings=None,
                 card_band_area_m2=_cards.band_area_m2(mesh.vertices_m, mesh.faces))
 
 
@@ -114,7 +104,7 @@ def build_cards(body: Body, params: BirdParams) -> _cards.FeatherCards:
 
 
 def build_bird(params: BirdParams, body: Body | None = None) -> Bird:
-    """The whole rock dove: Body, Wings, NeckFeathers, Beak, Cere, Eyes, Legs.
+    """The whole rock dove: Body, CoatFeathers, Wings, Tail, NeckFeathers, Beak, Cere, Eyes, EyeRings, Legs.
 
     Parameters
     ----------
@@ -125,5 +115,5 @@ def build_bird(params: BirdParams, body: Body | None = None) -> Bird:
     params = _check_params(params)
     body = build_body(params) if body is None else body
     cards = build_cards(body, params)
-    wings = (body.wings,) if body.wings is not None else ()
-    return Bird(parts=(body.part,) + wings + (cards.part(),) + _parts.build_parts())
+    plumage = _plumage.build_plumage(body.mesh.vertices_m, body.mesh.faces, params.seed)
+    return Bird(parts=(body.part,) + plumage + (cards.part(),) + _parts.build_parts())

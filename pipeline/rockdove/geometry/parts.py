@@ -198,16 +198,56 @@ def build_cere() -> MeshPart:
     return _part("Cere", [place(piece, start, d, (0.62, 0.34))], "cere", CERE_COLOR)
 
 
+EYE_CENTRE_M, EYE_RADIUS_M = (0.0142, 0.2185, 0.0905), 0.0042
+#: Grey orbital ring (linear RGB): the rock dove's narrow bluish-grey orbital skin (Gibbs et al. 2001).
+EYE_RING_COLOR = (0.30, 0.32, 0.36)
+#: The ring's inner and outer radius about the eye's axis, metres: 1 .. 2 mm of bare skin round the eye.
+EYE_RING_RADII_M = (0.0036, 0.0054)
+
+
+def _eye_axis(side):
+    outward = np.array([side, 0.15, 0.25])
+    return np.array([side * EYE_CENTRE_M[0], *EYE_CENTRE_M[1:]]), outward / np.linalg.norm(outward)
+
+
 def build_eyes() -> MeshPart:
-    """Two eyes on the sides of the head (one part)."""
-    r = 0.0042
+    """Two eyes on the sides of the head (one part): orange-red iris."""
+    r = EYE_RADIUS_M
     pieces = []
     for side in (1.0, -1.0):
-        centre = np.array([side * 0.0142, 0.2185, 0.0905])
-        outward = np.array([side, 0.15, 0.25])
-        outward /= np.linalg.norm(outward)
+        centre, outward = _eye_axis(side)
         pieces.append(place(ellipsoid_piece(r), centre - r * outward, outward))
     return _part("Eyes", pieces, "eye", EYE_COLOR)
+
+
+def build_eye_rings() -> MeshPart:
+    """Two thin grey orbital rings (one part): annuli from the eye's surface out onto the head's skin."""
+    pieces = []
+    k = AROUND + 4
+    phi = np.linspace(0.0, 2.0 * np.pi, k + 1)[:-1]
+    rho = np.linspace(*EYE_RING_RADII_M, 3)
+    for side in (1.0, -1.0):
+        centre, axis = _eye_axis(side)
+        rot = _frame(axis)
+        local = np.stack(np.broadcast_arrays(rho[:, None] * np.cos(phi), rho[:, None] * np.sin(phi), 0.0), -1)
+        p = local.reshape(-1, 3) @ rot.T + centre
+        eye_h = np.sqrt(np.clip(EYE_RADIUS_M ** 2 - np.repeat(rho, k) ** 2, 0.0, None))
+        n = _sdf.sdf_gradient(_sdf.body_sdf, p)
+        skin = p - (_sdf.body_sdf(p) - 0.00025)[:, None] * n  # onto the skin, 0.25 mm out
+        h = np.maximum((skin - centre) @ axis, eye_h + 0.0001)  # and never under the eye's surface
+        p = p + (h - (p - centre) @ axis)[:, None] * axis
+        idx = np.arange(3 * k).reshape(3, k)
+        a, b, c, d = idx[:-1], np.roll(idx[:-1], -1, 1), np.roll(idx[1:], -1, 1), idx[1:]
+        faces = np.concatenate([np.stack([a, d, c], -1).reshape(-1, 3), np.stack([a, c, b], -1).reshape(-1, 3)])
+        nrm = 0.5 * n + 0.5 * axis
+        pieces.append((p, nrm / np.linalg.norm(nrm, axis=1, keepdims=True), np.zeros((len(p), 2)), faces))
+    return _part("EyeRings", pieces, "eyering", EYE_RING_COLOR)
+
+
+#: Legs: the tarsus from the hip (inside the belly, so the tibia stays in the body's contour) to the ankle on
+#: the ground, metres; three toes forward, one back (lengths m).
+HIP_M, ANKLE_M = (0.016, 0.056, 0.006), (0.019, 0.0019, 0.022)
+TOES = ((-28.0, 0.026), (0.0, 0.031), (28.0, 0.026), (180.0, 0.017))
 
 
 def build_legs() -> MeshPart:
@@ -215,11 +255,10 @@ def build_legs() -> MeshPart:
     pieces = []
     toe_r = 0.0019
     for side in (1.0, -1.0):
-        hip = np.array([side * 0.016, 0.064, 0.010])
-        foot = np.array([side * 0.019, toe_r, 0.020])
-        pieces.append(place(tube_piece(np.linalg.norm(foot - hip) + 0.002, 0.0036, 0.0028),
-                            hip, foot - hip))
-        for yaw_deg, length in ((-28.0, 0.026), (0.0, 0.032), (28.0, 0.026), (180.0, 0.018)):
+        hip = np.array([side * HIP_M[0], *HIP_M[1:]])
+        foot = np.array([side * ANKLE_M[0], *ANKLE_M[1:]])
+        pieces.append(place(tube_piece(np.linalg.norm(foot - hip) + 0.002, 0.0034, 0.0026), hip, foot - hip))
+        for yaw_deg, length in TOES:
             yaw = np.deg2rad(yaw_deg * side)
             d = np.array([np.sin(yaw), -0.04, np.cos(yaw)])
             pieces.append(place(tube_piece(length, toe_r, 0.0011), foot - 0.002 * d, d))
@@ -227,5 +266,5 @@ def build_legs() -> MeshPart:
 
 
 def build_parts() -> tuple:
-    """Beak, cere, eyes and legs, in that order (each a :class:`MeshPart`)."""
-    return (build_beak(), build_cere(), build_eyes(), build_legs())
+    """Beak, cere, eyes, eye rings and legs, in that order (each a :class:`MeshPart`)."""
+    return (build_beak(), build_cere(), build_eyes(), build_eye_rings(), build_legs())

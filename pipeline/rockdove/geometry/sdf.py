@@ -5,9 +5,8 @@ Primitives and the polynomial smooth minimum follow Inigo Quilez, "distance func
 linearly interpolated radius along the segment. Smooth union:
 ``h = clip(0.5 + 0.5 (b - a) / k, 0, 1); d = mix(b, a, h) - k h (1 - h)``.
 
-The bird faces +Z, Y up, metres, feet at y = 0 (docs/design.md, Conventions). Proportions of a rock dove
-(Columba livia): about 32 cm from beak tip to tail tip, body about 11 cm deep; the shapes below were tuned by
-eye against side-view photographs.
+The bird faces +Z, Y up, metres, feet at y = 0 (docs/design.md, Conventions). Proportions: see the body's
+section below; the shapes were tuned against side-view photographs and the measures of rockdove.verify.anatomy.
 """
 
 from __future__ import annotations
@@ -102,25 +101,37 @@ def smooth_union(a: np.ndarray, b: np.ndarray, k_m: float) -> np.ndarray:
     return b * (1.0 - h) + a * h - k_m * h * (1.0 - h)
 
 
-# ---- the rock dove's body: torso, breast, neck, head, folded wings, tail (one closed surface) ----------
+# ---- the rock dove's body: torso, breast, belly, rump, neck, head (one closed surface) ------------------
+# Measurements of Columba livia (cited in rockdove.verify.anatomy, which checks the written asset against them):
+# total length 29-37 cm, tail 9.5-12 cm, tarsus 2.6-3.5 cm (Gibbs, Barnes and Cox, "Pigeons and Doves", 2001;
+# Wikipedia, "Rock dove"). Standing, the trunk is held 30-45 degrees nose-up with the breast full and forward,
+# the small head held up over it and the back sloping on into the tail (issue 21, from side-view photographs).
+# The folded wings and the tail are feather cards (rockdove.geometry.plumage), not part of this field.
 _DEG = np.pi / 180.0
 
-#: Torso, tilted nose-up by 22 degrees like a standing pigeon.
-TORSO = Ellipsoid((0.0, 0.112, -0.005), (0.048, 0.050, 0.088), rotation_x(-22 * _DEG))
+#: Body axis above the horizontal, degrees.
+BODY_PITCH_DEG = 44.0
+#: Torso: the trunk, tilted nose-up by BODY_PITCH_DEG.
+TORSO = Ellipsoid((0.0, 0.098, -0.012), (0.045, 0.044, 0.076), rotation_x(-BODY_PITCH_DEG * _DEG))
 #: The full breast in front of and below the neck.
-BREAST = Ellipsoid((0.0, 0.122, 0.045), (0.043, 0.047, 0.045), None)
+BREAST = Ellipsoid((0.0, 0.122, 0.046), (0.041, 0.046, 0.042), None)
 #: Belly, between the legs.
-BELLY = Ellipsoid((0.0, 0.080, 0.008), (0.036, 0.037, 0.050), None)
+BELLY = Ellipsoid((0.0, 0.061, 0.000), (0.034, 0.032, 0.040), None)
+#: Rump and tail coverts: the trunk tapering into the tail along the slope of the back.
+RUMP = Ellipsoid((0.0, 0.059, -0.067), (0.024, 0.016, 0.026), rotation_x(-28 * _DEG))
 #: Neck: a tapered capsule from the shoulders to under the head, leaning forward.
 NECK = TaperedCapsule((0.0, 0.150, 0.040), (0.0, 0.203, 0.072), 0.026, 0.0165)
-#: Head: rounded (a rock dove's small round head), only slightly longer front to back than it is high.
+#: Head: small and rounded, only slightly longer front to back than it is high.
 HEAD = Ellipsoid((0.0, 0.214, 0.083), (0.0190, 0.0200, 0.0215), rotation_x(10 * _DEG))
-#: Folded wings on each side, tips crossing over the rump toward the tail: their own closed surfaces
-#: (:func:`wings_sdf`, the ``Wings`` part), resting on the torso, not part of :func:`body_sdf`.
-WING_L = Ellipsoid((0.036, 0.125, -0.045), (0.016, 0.040, 0.098), rotation_x(-16 * _DEG) @ rotation_y(4 * _DEG))
-WING_R = Ellipsoid((-0.036, 0.125, -0.045), (0.016, 0.040, 0.098), rotation_x(-16 * _DEG) @ rotation_y(-4 * _DEG))
-#: Tail: a flat, broad fan behind the rump, tip at about z = -0.19.
-TAIL = Ellipsoid((0.0, 0.086, -0.126), (0.034, 0.011, 0.068), rotation_x(-14 * _DEG))
+#: Around the neck band the body keeps the shoulders and breast the iridescent cards were tuned on (issue 12's
+#: coherent green/purple field at the 90 degree sweep): torso and breast of the earlier bird, blended into the
+#: new trunk over NECK_BLEND_RADII_M from the neck axis, so the band, its cards and their thickness field stay
+#: as they were.
+NECK_TORSO = Ellipsoid((0.0, 0.112, -0.005), (0.048, 0.050, 0.088), rotation_x(-22 * _DEG))
+NECK_BREAST = Ellipsoid((0.0, 0.122, 0.045), (0.043, 0.047, 0.045), None)
+BELLY_NECK = Ellipsoid((0.0, 0.080, 0.008), (0.036, 0.037, 0.050), None)
+NECK_BLEND_RADII_M = (0.050, 0.064)
+NECK_BLEND_S = (-0.55, -0.3)
 
 #: Neck axis for the band coordinate s: s = 0 at the base of the neck, s = 1 at its top below the head.
 NECK_BASE_M = np.array([0.0, 0.150, 0.038])
@@ -133,7 +144,7 @@ BODY_BOUNDS_M = (np.array([-0.062, 0.030, -0.205]), np.array([0.062, 0.240, 0.11
 
 
 def body_sdf(p: np.ndarray) -> np.ndarray:
-    """Signed distance to the body surface (torso, breast, belly, neck, head, tail; negative inside), metres.
+    """Signed distance to the body surface (torso, breast, belly, rump, neck, head; negative inside), metres.
 
     Parameters
     ----------
@@ -147,23 +158,29 @@ def body_sdf(p: np.ndarray) -> np.ndarray:
     """
     p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
     x, y, z = (np.ascontiguousarray(p[:, a]) for a in range(3))
-    d = smooth_union(TORSO.sdf_xyz(x, y, z), BREAST.sdf_xyz(x, y, z), 0.025)
-    d = smooth_union(d, BELLY.sdf_xyz(x, y, z), 0.02)
+    d = smooth_union(TORSO.sdf_xyz(x, y, z), BREAST.sdf_xyz(x, y, z), 0.035)
+    d = smooth_union(d, BELLY.sdf_xyz(x, y, z), 0.035)
+    d = smooth_union(d, RUMP.sdf_xyz(x, y, z), 0.02)
+    # the neck band's surroundings (see NECK_TORSO): weight 1 near the neck axis, 0 on the trunk
+    q = p - NECK_BASE_M
+    axis = NECK_TOP_M - NECK_BASE_M
+    s = (q @ axis) / (axis @ axis)
+    r = np.linalg.norm(q - s[:, None] * axis, axis=1)
+    w = _smooth01(NECK_BLEND_S[0], NECK_BLEND_S[1], s) * (1.0 - _smooth01(*NECK_BLEND_RADII_M, r))
+    i = np.flatnonzero(w > 0.0)
+    if len(i):
+        xi, yi, zi = x[i], y[i], z[i]
+        old = smooth_union(NECK_TORSO.sdf_xyz(xi, yi, zi), NECK_BREAST.sdf_xyz(xi, yi, zi), 0.025)
+        old = smooth_union(old, BELLY_NECK.sdf_xyz(xi, yi, zi), 0.02)
+        d[i] = w[i] * old + (1.0 - w[i]) * d[i]
     d = smooth_union(d, NECK.sdf_xyz(x, y, z), 0.03)
     d = smooth_union(d, HEAD.sdf_xyz(x, y, z), 0.012)
-    d = smooth_union(d, TAIL.sdf_xyz(x, y, z), 0.014)
     return d
 
 
-#: Axis-aligned box that holds both folded wings, metres (min corner, max corner).
-WINGS_BOUNDS_M = (np.array([-0.056, 0.070, -0.150]), np.array([0.056, 0.175, 0.055]))
-
-
-def wings_sdf(p: np.ndarray) -> np.ndarray:
-    """Signed distance to the two folded wings (negative inside), metres: (N, 3) points -> (N,) float64."""
-    p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
-    x, y, z = (np.ascontiguousarray(p[:, a]) for a in range(3))
-    return np.minimum(WING_L.sdf_xyz(x, y, z), WING_R.sdf_xyz(x, y, z))
+def _smooth01(e0, e1, x):
+    t = np.clip((x - e0) / (e1 - e0), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
 
 
 def sdf_gradient(sdf, p: np.ndarray, step_m: float = 1e-4) -> np.ndarray:

@@ -13,7 +13,7 @@ import numpy as np
 INTERPOLATIONS = ("constant", "uniform", "vertex", "faceVarying")
 
 #: Allowed material names of a :class:`MeshPart`.
-MATERIALS = ("body", "feather", "beak", "eye", "cere", "leg")
+MATERIALS = ("body", "feather", "beak", "eye", "cere", "leg", "eyering")
 
 
 def point_bounds(points) -> np.ndarray:

@@ -4,9 +4,9 @@ A :class:`Stage` is a named pure function of its part of the configuration and i
 key is the sha256 of
 
 - the configuration keys it declares (``Stage.config``, dotted, e.g. ``"lut"`` or ``"geometry.seed"``),
-- the source of the code it uses: every ``.py`` file of the modules it declares (``Stage.modules``; a package
-  means all its files) plus the file that defines its function, and any data files (``Stage.data``), so
-  editing the code invalidates it,
+- the source of the code it can execute, derived from the source (:mod:`rockdove.graph.code`: what its
+  functions, its codecs and its inputs' loaders reach, and the import closure of those modules inside the
+  package), and any data files it declares (``Stage.data``), so editing the code invalidates it,
 - the versions of the libraries it declares (``Stage.libraries``) and of Python,
 - the *content digests* of its upstream outputs (not their keys): a stage whose inputs changed but produced
   the same bytes does not rerun its dependants (early cut-off; e.g. a new seed that leaves the thickness
@@ -31,11 +31,9 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
-import fnmatch
 import functools
 import hashlib
 import importlib.metadata
-import inspect
 import json
 import os
 import shutil
@@ -50,6 +48,8 @@ from typing import Any, Callable, Iterable, Mapping
 
 from .. import resources
 from ..config import canonical_json, get
+from . import code
+from .code import files_of
 
 GRAPH_VERSION = 1  # bump when the key recipe or the entry layout changes
 
@@ -175,8 +175,6 @@ class Stage:
         Dotted configuration keys it reads.
     deps : tuple of str
         Names of upstream stages (earlier in the list).
-    modules : tuple of str
-        Python modules/packages whose source enters the key (e.g. ``"rockdove.lut"``).
     data : tuple of str
         Data files or folders (relative to the repository root) whose bytes enter the key.
     libraries : tuple of str
@@ -204,7 +202,6 @@ class Stage:
     run: Callable[[Context], Any]
     config: tuple[str, ...] = ()
     deps: tuple[str, ...] = ()
-    modules: tuple[str, ...] = ()
     data: tuple[str, ...] = ()
     libraries: tuple[str, ...] = ("numpy",)
     codec: Codec = JSON
@@ -228,23 +225,14 @@ def _nested(config: dict, keys: Iterable[str]) -> dict:
     return out
 
 
-@functools.lru_cache(maxsize=4096)
-def _source_bytes(path: Path, mtime_ns: int, size: int) -> bytes:
-    """A source or data file's bytes, read once per process and version of the file (several stages key on
-    the same modules; a long-lived process, e.g. a sweep's worker, still sees an edited file)."""
-    return path.read_bytes()
-
-
 def _hash_file(h, path: Path, label: str, seen: dict | None = None, *, remember: bool = True) -> None:
     """Add ``label``, NUL, the file's bytes, NUL to ``h``. ``remember``: the bytes of a source or data file are
-    kept (:func:`_source_bytes`); the files a stage wrote (``remember=False``, :func:`folder_digest`) are streamed,
-    so a long-lived process does not keep every asset it built (~7.5 MB per film rebuild) in memory."""
+    kept (:func:`rockdove.graph.code.read`); the files a stage wrote (``remember=False``, :func:`folder_digest`)
+    are streamed, so a long-lived process does not keep every asset it built (~7.5 MB per film rebuild) in
+    memory."""
     h.update(label.encode() + b"\0")
     if remember:
-        st = path.stat()
-        if seen is not None:
-            seen[str(path)] = (st.st_mtime_ns, st.st_size)
-        h.update(_source_bytes(path, st.st_mtime_ns, st.st_size))
+        h.update(code.read(path, seen))
     else:
         with open(path, "rb") as f:
             while chunk := f.read(1 << 20):
@@ -252,55 +240,9 @@ def _hash_file(h, path: Path, label: str, seen: dict | None = None, *, remember:
     h.update(b"\0")
 
 
-def files_of(path: Path, pattern: str = "*", seen: dict | None = None) -> list[Path]:
-    """The files under ``path`` (or ``path`` itself) whose names match ``pattern``, sorted; ``seen`` receives the
-    (mtime, size) of every folder listed, taken before it is listed."""
-    if path.is_dir():
-        # npm packages installed beside data files (materials/web/node_modules) are keyed by the pinned versions
-        # in package.json / package-lock.json, not by hashing thousands of installed files
-        # (pruned while walking: node_modules holds ~1,300 files the listing would otherwise visit every build)
-        found, todo = [], [str(path)]
-        while todo:  # os.walk's files, without following links to folders
-            folder = todo.pop()
-            if seen is not None:
-                st = os.stat(folder)
-                seen[folder] = (st.st_mtime_ns, st.st_size)
-            with os.scandir(folder) as entries:
-                for e in entries:
-                    if e.is_dir():
-                        if not e.is_symlink() and e.name not in ("__pycache__", "node_modules"):
-                            todo.append(e.path)
-                    elif fnmatch.fnmatchcase(e.name, pattern):
-                        found.append(Path(e.path))
-        return sorted(p for p in found if p.is_file())
-    return [path] if path.is_file() else []
-
-
-def module_base(module: str) -> Path:
-    """Where ``module`` (``rockdove.x.y``) lives: the package folder or the path without ``.py``, unchecked."""
-    top, *rest = module.split(".")
-    if top != "rockdove":
-        raise ValueError(f"module must be inside the rockdove package, got {module!r}")
-    return resources.package_root().joinpath(*rest)
-
-
-def module_files(module: str, seen: dict | None = None) -> list[Path]:
-    """The ``.py`` files of ``module`` (a package: all of them), found by path without importing it (``seen``: as
-    :func:`files_of`, and the folder holding the module)."""
-    base = module_base(module)
-    if seen is not None:
-        st = os.stat(base.parent)
-        seen[str(base.parent)] = (st.st_mtime_ns, st.st_size)
-    files = files_of(base, "*.py", seen) if base.is_dir() else files_of(base.with_suffix(".py"))
-    if not files:
-        raise ValueError(f"module {module!r} has no source under {resources.package_root()}; "
-                         "the stage cannot be keyed")
-    return files
-
-
-#: source_digest per stage (its modules, data and function, the package and data folders they resolve to) ->
-#: (paths, their (mtime, size) when read, digest): valid while none of the files it hashed and none of the
-#: folders it listed changed (an edited, added or removed file changes its folder's mtime).
+#: source_digest per stage (its callables, the callables of its inputs' codecs, its data, the package and data
+#: folders they resolve to) -> (paths, their (mtime, size) when read, digest): valid while none of the files it
+#: hashed and none of the folders it listed changed (an edited, added or removed file changes its folder's mtime).
 _SOURCE_MEMO: dict = {}
 
 
@@ -311,24 +253,23 @@ def _state(paths) -> tuple | None:
         return None
 
 
-def source_digest(stage: Stage) -> str:
-    """sha256 of the code and data a stage uses (its modules, its function's file, its data files).
+def source_digest(stage: Stage, inputs: Iterable[Stage] = ()) -> str:
+    """sha256 of the code a stage can execute (:func:`rockdove.graph.code.code_files`: derived from the source of
+    its callables and of its ``inputs``' loaders) and of its data files.
 
-    Computed once per process and per state of those files and of the folders listed for them (a build checks
-    every stage's code: listing and hashing ~100 files took ~17 ms per warm build, a stat of each ~1 ms)."""
+    Computed once per process and per state of those files and of the folders listed for them (a warm no-op
+    build checks every stage's code with a stat of each file)."""
+    inputs = tuple(inputs)
     tops = tuple(resources.path(d) for d in stage.data)
-    memo_key = (str(resources.package_root()), stage.modules, stage.data, tuple(map(str, tops)), stage.run)
+    root = resources.package_root().resolve()
+    memo_key = (str(root), tuple(code.callables(stage, inputs)), stage.data, tuple(map(str, tops)))
     hit = _SOURCE_MEMO.get(memo_key)
     if hit is not None and _state(hit[0]) == hit[1]:
         return hit[2]
     seen: dict = {}
     h = hashlib.sha256()
-    files = {p for m in stage.modules for p in module_files(m, seen)}
-    fn_file = inspect.getsourcefile(stage.run)
-    if fn_file:
-        files.add(Path(fn_file).resolve())
-    for p in sorted(files):
-        _hash_file(h, p, p.name, seen)
+    for p in code.code_files(stage, inputs, seen):
+        _hash_file(h, p, str(p.relative_to(root.parent)) if p.is_relative_to(root.parent) else p.name, seen)
     for d, top in zip(stage.data, tops):
         data_files = files_of(top, seen=seen)
         if not data_files:  # an empty data folder would key the stage on nothing
@@ -380,7 +321,9 @@ def folder_digest(folder: Path) -> str:
 
 
 # ----------------------------------------------------------------------------------------------- cache
-_LIVE: set[Path] = set()  # this process's temporary folders (a lock of another thread of ours may not conflict)
+# this process's temporary folders and held entry locks, never opened by its own clean: on NFS, flock is a POSIX
+# lock, which does not conflict within a process and is dropped when any of its descriptors closes
+_LIVE: set[Path] = set()
 _ORPHAN_S = 3600  # a temporary folder with no .owner yet (its writer died in the instant before naming it)
 
 
@@ -486,11 +429,13 @@ class Cache:
                 if os.path.samestat(os.fstat(fd), os.stat(path)):
                     break
             os.close(fd)
+        _LIVE.add(path)
         try:
             yield
         finally:
             with contextlib.suppress(OSError):
                 os.unlink(path)
+            _LIVE.discard(path)
             os.close(fd)  # releases the lock
 
     def clean_temporaries(self) -> None:
@@ -509,7 +454,7 @@ class Cache:
             if fd is not None:
                 os.close(fd)
         for lock in self.root.glob("*/.lock-*"):
-            fd = _take(lock)
+            fd = None if lock in _LIVE else _take(lock)
             if fd is not None:
                 with contextlib.suppress(OSError):
                     if os.path.samestat(os.fstat(fd), os.stat(lock)):
@@ -609,7 +554,7 @@ class Graph:
 
     def _run_stage(self, stage: Stage, asset_dir) -> StageRecord:
         digests = {d: self.records[d].digest for d in stage.deps}
-        source = source_digest(stage)
+        source = source_digest(stage, [self.stages[d] for d in stage.deps])
         key = stage_key(stage, self.config, digests, source)
         t0 = time.perf_counter()
         meta = self.cache.lookup(stage.name, key)

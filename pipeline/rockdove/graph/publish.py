@@ -35,33 +35,120 @@ _TMP = ".rockdove-tmp-"
 _OLD = ".rockdove-old-"
 
 
+#: The file that says rockdove created an output folder that is not an asset (``render``, ``verify``, ``sweep``).
+OUTPUT_MARKER = ".rockdove-output.json"
+
+
+def real_output(out) -> Path:
+    """``out`` with symlinks resolved: a symlinked ``--out`` is followed and the asset published inside its
+    target (the link stays as it is). A symlink loop is a :class:`UsageError`."""
+    try:
+        return Path(out).resolve()
+    except (RuntimeError, OSError) as exc:  # RuntimeError: a symlink loop (Python 3.11)
+        raise UsageError(f"--out {str(out)!r} cannot be resolved: {exc}") from None
+
+
 def lock_path(out: Path) -> Path:
+    out = real_output(out)
     return out.parent / f".{out.name}.rockdove.lock"
+
+
+def _check_writable(out: Path, real: Path, deep: bool = True) -> None:
+    """The folders rockdove would create or replace in must be writable (before anything is written): ``real``
+    (or its nearest existing parent), and with ``deep`` its parent and every folder inside it."""
+    probe = real
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir():
+        raise UsageError(f"--out {str(out)!r}: {str(probe)!r} is a file, so the folder cannot be created")
+    folders = [probe] + ([probe.parent] + [Path(d) for d, _, _ in os.walk(real)][1:] if deep and probe == real else [])
+    for folder in folders:
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise UsageError(f"--out {str(out)!r}: {str(folder)!r} is not writable (read-only), so rockdove cannot "
+                             "replace what is there; make it writable or choose another --out")
 
 
 def check_output(out: Path) -> None:
     """Refuse, before anything is written, an output we may not or cannot replace (:class:`UsageError`)."""
     if str(out) in ("", ".", "/") or out.name in ("", ".", ".."):
         raise UsageError(f"--out {str(out)!r} is not a folder name rockdove can publish to; give e.g. build/pigeon")
-    if out.exists() and not out.is_dir():
+    real = real_output(out)
+    if real.exists() and not real.is_dir():
         raise UsageError(f"--out {str(out)!r} exists and is not a folder; allowed: a new folder or one rockdove built")
-    if out.is_dir() and not (out / MARKER).is_file() and any(out.iterdir()):
+    if real.is_dir() and not (real / MARKER).is_file() and any(real.iterdir()):
         raise UsageError(f"--out {str(out)!r} is a non-empty folder that rockdove did not create (no {MARKER}); "
                          "refusing to replace it: choose another --out or remove it yourself")
-    parent = out.parent
-    probe = parent
-    while not probe.exists():
-        probe = probe.parent
-    if not probe.is_dir():
-        raise UsageError(f"--out {str(out)!r}: {str(probe)!r} is a file, so the folder cannot be created")
-    if not os.access(probe, os.W_OK | os.X_OK):
-        raise UsageError(f"--out {str(out)!r}: {str(probe)!r} is not writable")
+    _check_writable(out, real)
+
+
+def claim_output(out, what: str, create: bool = True) -> Path:
+    """The folder ``--out`` of a command that writes files (``render``, ``verify``, ``sweep``), resolved.
+
+    Refused (:class:`UsageError`, nothing written) when it is a file, a non-empty folder rockdove did not create
+    (no :data:`OUTPUT_MARKER` or :data:`MARKER`, and not inside an asset folder rockdove built), or not
+    writable. ``create`` makes it and writes :data:`OUTPUT_MARKER`; without it, only the checks run.
+    """
+    if not str(out).strip():
+        raise UsageError(f"--out is empty; give the folder {what} writes into")
+    real = real_output(out)
+    if real.exists() and not real.is_dir():
+        raise UsageError(f"--out {str(out)!r} exists and is not a folder")
+    ours = any((real / m).is_file() for m in (OUTPUT_MARKER, MARKER)) or (real.parent / MARKER).is_file()
+    if real.is_dir() and not ours and any(real.iterdir()):
+        raise UsageError(f"--out {str(out)!r} is a non-empty folder that rockdove did not create (no {OUTPUT_MARKER})"
+                         f"; refusing to write the {what} into it: choose another --out or remove it yourself")
+    _check_writable(out, real)
+    if create:
+        real.mkdir(parents=True, exist_ok=True)
+        if not ours:
+            (real / OUTPUT_MARKER).write_text(json.dumps({"tool": "rockdove", "version": __version__,
+                                                          "output": what}) + "\n")
+    return real
+
+
+def check_output_file(out, ours) -> None:
+    """Refuse (:class:`UsageError`) an ``--out`` file that exists and ``ours(path)`` does not recognise as
+    written by rockdove, or whose folder is not writable."""
+    path = Path(out)
+    if path.is_dir() or (path.exists() and not ours(path)):
+        raise UsageError(f"--out {str(out)!r} exists and rockdove did not write it; refusing to overwrite it: "
+                         "choose another --out or remove it yourself")
+    _check_writable(out, real_output(path.parent), deep=False)
+
+
+def starts_like(magic: bytes, tag: bytes = b""):
+    """``ours`` for :func:`check_output_file`: the file starts with ``magic`` and holds ``tag`` in its first 64 KiB
+    (e.g. an EXR whose header names ``rockdove:``)."""
+    def ours(path) -> bool:
+        with open(path, "rb") as fh:
+            head = fh.read(1 << 16)
+        return head.startswith(magic) and tag in head
+    return ours
+
+
+def _remove(path: Path) -> None:
+    """Remove a leftover of a killed or failed build: a link is unlinked (never followed), a folder removed even
+    where a read-only mode inside it stops ``rmtree`` (it is ours: make it writable first)."""
+    if path.is_symlink():
+        path.unlink()
+        return
+
+    def fix(fn, p, _exc):
+        try:
+            os.chmod(os.path.dirname(p), 0o700)
+            fn(p)
+        except OSError:
+            pass
+
+    shutil.rmtree(path, onerror=fix)
 
 
 class OutputLock:
     """Exclusive lock of one output folder for the whole build (context manager)."""
 
     def __init__(self, out: Path, timeout_s: float | None = None, quiet: bool = False):
+        if timeout_s is not None and not (isinstance(timeout_s, (int, float)) and 0 <= timeout_s < float("inf")):
+            raise UsageError(f"--lock-timeout must be a finite number of seconds >= 0, got {timeout_s!r}")
         self.out, self.path, self.timeout_s, self.quiet = out, lock_path(out), timeout_s, quiet
         self._fd: int | None = None
 
@@ -105,14 +192,17 @@ class OutputLock:
 def recover(out: Path) -> None:
     """Undo what a killed build left beside ``out`` (call while holding its lock).
 
-    Restores ``out`` from a ``-old`` folder if ``out`` is missing; removes staging and ``-old`` folders.
+    Restores ``out`` from a ``-old`` folder if ``out`` is missing; removes staging and ``-old`` folders, also
+    read-only ones and the links an earlier rockdove left beside a symlinked ``out``.
     """
-    olds = sorted(out.parent.glob(f".{out.name}{_OLD}*"), key=lambda p: p.stat().st_mtime)
-    if not out.exists() and olds:
-        os.rename(olds[-1], out)
+    real = real_output(out)
+    olds = sorted(real.parent.glob(f".{real.name}{_OLD}*"), key=lambda p: p.stat().st_mtime)
+    if not real.exists() and olds:
+        os.rename(olds[-1], real)
         olds = olds[:-1]
-    for p in olds + list(out.parent.glob(f".{out.name}{_TMP}*")):
-        shutil.rmtree(p, ignore_errors=True)
+    beside = {real.parent, Path(os.path.abspath(out)).parent}
+    for p in olds + [p for d in beside for name in {real.name, Path(out).name} for p in d.glob(f".{name}{_TMP}*")]:
+        _remove(p)
 
 
 def published_path(path) -> Path:
@@ -127,6 +217,7 @@ def published_path(path) -> Path:
 
 def make_staging(out: Path) -> Path:
     """A fresh folder beside ``out`` (same file system) to assemble the new asset in."""
+    out = real_output(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{out.name}{_TMP}", dir=out.parent))
     umask = os.umask(0)
@@ -176,13 +267,14 @@ def publish(staging: Path, out: Path) -> None:
     if not (staging / MARKER).is_file():
         raise ValueError(f"staging folder {str(staging)!r} has no {MARKER}")
     check_output(out)
+    out = real_output(out)
     if out.exists():
         if _exchange(staging, out):
-            shutil.rmtree(staging)  # now holds the old asset
+            _remove(staging)  # now holds the old asset
             return
         old = out.parent / f".{out.name}{_OLD}{os.getpid()}-{os.urandom(4).hex()}"
         os.rename(out, old)
         os.rename(staging, out)
-        shutil.rmtree(old)
+        _remove(old)
     else:
         os.rename(staging, out)

@@ -544,47 +544,37 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
 
     baked = config["shading"]["variant"] != "physical"  # physical-only shading needs no bake
     bird_keys = tuple(CONFIG_KEYS.values())
+    schema = ("schemas/plugInfo.json", "schemas/generatedSchema.usda")
     stages = [
-        Stage("body", run_body, config=BODY_FIELDS, modules=("rockdove.geometry",), libraries=LIBS_GEOMETRY,
-              codec=BODY),
-        Stage("bird", run_bird, config=bird_keys, deps=("body",), modules=("rockdove.geometry",),
-              libraries=LIBS_GEOMETRY, codec=BIRD),
+        Stage("body", run_body, config=BODY_FIELDS, libraries=LIBS_GEOMETRY, codec=BODY),
+        Stage("bird", run_bird, config=bird_keys, deps=("body",), libraries=LIBS_GEOMETRY, codec=BIRD),
         Stage("thickness_range", run_thickness_range, deps=("bird",), codec=JSON),
     ]
     if baked:
-        stages.append(Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",),
-                            modules=("rockdove.lut", "rockdove.films", "rockdove.optics", "rockdove.spectral"),
-                            libraries=LIBS_COLOUR, codec=LUT))
+        stages.append(Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",), libraries=LIBS_COLOUR,
+                            codec=LUT))
     stages.append(Stage("texture_images", run_texture_images, config=bird_keys, deps=("bird",),
-                        modules=("rockdove.textures",), libraries=LIBS_GEOMETRY + ("pillow",), codec=IMAGES))
-    stages.append(Stage("textures", run_textures, deps=("texture_images",), modules=("rockdove.usd.textures_io",),
-                        libraries=LIBS_USD, codec=FILES, publish=""))
+                        libraries=LIBS_GEOMETRY + ("pillow",), codec=IMAGES))
+    stages.append(Stage("textures", run_textures, deps=("texture_images",), libraries=LIBS_USD, codec=FILES,
+                        publish=""))
     if baked:
         stages.append(Stage("film_textures", run_film_textures, deps=("lut", "thickness_range", "texture_images"),
-                            modules=("rockdove.usd.textures_io", "rockdove.lut.exr", "rockdove.spectral"),
                             libraries=LIBS_USD, codec=FILES, publish=""))
     else:  # the preview colours are computed from the film (rockdove.lut.reference) over the thickness range
         stages.append(Stage("film_textures", run_film_textures, config=("film",),
                             deps=("thickness_range", "texture_images"),
-                            modules=("rockdove.usd.textures_io", "rockdove.lut.reference", "rockdove.films",
-                                     "rockdove.optics", "rockdove.spectral"),
                             libraries=LIBS_USD + ("colour-science", "scipy"), codec=FILES, publish=""))
-    stages.append(Stage("usd_geometry", run_usd_geometry, deps=("bird",), modules=("rockdove.usd",),
-                        data=("schemas/plugInfo.json", "schemas/generatedSchema.usda"), libraries=LIBS_USD,
+    stages.append(Stage("usd_geometry", run_usd_geometry, deps=("bird",), data=schema, libraries=LIBS_USD,
                         codec=FILES, publish=""))
     stages.append(Stage("usd_layers", run_usd_layers, config=("film", "shading"),
                         deps=("bird", "lut", "usd_geometry") if baked else ("bird", "usd_geometry"),
-                        modules=("rockdove.usd", "rockdove.films"), data=("materials", "schemas/plugInfo.json",
-                                                                           "schemas/generatedSchema.usda"),
-                        libraries=LIBS_USD, codec=FILES, publish=""))
+                        data=("materials", *schema), libraries=LIBS_USD, codec=FILES, publish=""))
     if config["usd"]["usdz"]:
         stages.append(Stage("usdz", run_usdz, deps=("usd_geometry", "usd_layers", "textures", "film_textures"),
-                            modules=("rockdove.usd",),
                             libraries=LIBS_USD, codec=FILES, publish=""))
     if config["gltf"]["glb"]:
         # reads the written asset (so it runs once it is assembled); keyed by the files it translates
         stages.append(Stage("gltf", run_gltf, deps=("usd_geometry", "usd_layers", "textures", "film_textures"),
-                            modules=("rockdove.web.gltf", "rockdove.render"),
                             libraries=LIBS_USD + ("pygltflib", "pillow"), codec=FILES, needs_asset=True,
                             publish=""))
     if verify:
@@ -594,20 +584,17 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
         published = tuple(s.name for s in stages if s.publish is not None)
         # The reference's ray casts, one item per camera keyed by the geometry they hit: a film change reuses them.
         stages.append(Stage("verify_rays", run_rays, config=("verify.width", "verify.height", "verify.views"),
-                            deps=published, modules=("rockdove.render", "rockdove.verify", "rockdove.usd"), libraries=LIBS_RENDER,
+                            deps=published, libraries=LIBS_RENDER,
                             codec=JSON, needs_asset=True, item_plan=plan_rays, batch=True, combine=combine_rays,
                             item_codec=HITS))
         # What the reference shades at those hits before any light or film (normals, textures, thickness).
         stages.append(Stage("verify_surfaces", run_surfaces, config=("verify.width", "verify.height", "verify.views"),
-                            deps=published + ("verify_rays",), modules=("rockdove.render", "rockdove.verify", "rockdove.usd"),
+                            deps=published + ("verify_rays",),
                             libraries=LIBS_RENDER, codec=JSON, needs_asset=True, item_plan=plan_surfaces, batch=True,
                             combine=combine_surfaces, item_codec=SURFACES))
         stages.append(Stage(VERIFY, run_verify, config=("verify.width", "verify.height", "verify.views", "beauty"),
                             deps=published + ("verify_surfaces",),
-                            modules=("rockdove.render", "rockdove.verify", "rockdove.usd", "rockdove.lut", "rockdove.films",
-                                     "rockdove.optics", "rockdove.spectral", "rockdove.web", "rockdove.hosts",
-                                     "rockdove.graph.publish"),
-                            data=("materials", "schemas/plugInfo.json", "schemas/generatedSchema.usda"),
-                            libraries=LIBS_RENDER, codec=JSON, needs_asset=True, publish="verify",
+                            data=("materials", *schema), libraries=LIBS_RENDER, codec=JSON, needs_asset=True,
+                            publish="verify",
                             item_plan=plan_verify, batch=True, combine=combine_verify, item_codec=VIEW_RESULT))
     return stages

@@ -37,6 +37,10 @@ HOSTS = {
     "storm_preview": "rockdove.hosts.storm:PREVIEW",
     "osl": "rockdove.hosts.osl",
 }
+#: The hosts a verification runs when none are named (``hosts=None``): those whose frames cost seconds. Storm's
+#: (a 512 px frame is 5-45 s, mostly shader compilation) and the OSL renderer's are named explicitly
+#: (``--hosts storm,storm_physical,...``) or with ``all``.
+DEFAULT = ("glsl", "materialx", "materialx_physical", "blender", "web")
 #: The lighting models a host can be compared under (docs/design.md "Hosts"):
 #: ``half_angle``: the paper's Lambert x colour(cos = L.H) under the View's one directional light;
 #: ``view_angle``: the smooth film's mirror lobe alone under a uniform white environment of unit radiance,
@@ -111,8 +115,8 @@ def select(names=None) -> Selection:
     Parameters
     ----------
     names : iterable of str, optional
-        Host names (:data:`HOSTS`); default every registered host. :data:`ALWAYS` (``glsl``) is always
-        included, first.
+        Host names (:data:`HOSTS`), or ``["all"]`` for every registered host; default :data:`DEFAULT`.
+        :data:`ALWAYS` (``glsl``) is always included, first.
 
     Returns
     -------
@@ -123,7 +127,9 @@ def select(names=None) -> Selection:
     ValueError
         A name is not a registered host (one line naming it and the allowed names).
     """
-    names = list(HOSTS) if names is None else [str(n).strip() for n in names]
+    names = list(DEFAULT) if names is None else [str(n).strip() for n in names]
+    if names == ["all"]:
+        names = list(HOSTS)
     unknown = [n for n in names if n not in HOSTS]
     if unknown:
         raise ValueError(f"hosts: {', '.join(map(repr, unknown))} unknown; allowed: {', '.join(HOSTS)}")

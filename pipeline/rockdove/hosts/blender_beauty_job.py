@@ -108,7 +108,6 @@ def _settings(scene, job):
 
 
 def run(job: dict) -> None:
-    bj.bundled_pxr_first()
     import bpy
     import mathutils
 

@@ -53,8 +53,8 @@ SKY_STRENGTH = 0.45
 #: Neutral grey ground: albedo, and the radius of its cyclorama in multiples of the farthest camera's distance.
 GROUND_ALBEDO = 0.30
 GROUND_RADIUS = 3.0
-#: Seconds before a Cycles beauty render is given up (and drawn with GL): a 768 x 512, 32-sample pair took
-#: ~16 min on the 2 shared cores under a load of ~13 (measured; about 2 min unloaded).
+#: Seconds before a Cycles beauty render is given up (and drawn with GL): the 768 x 512, 32-sample pair took
+#: 513 s + 891 s of Cycles on the 2 shared cores at a load average of 13-19 (measured; done.json's render_s).
 TIMEOUT_S = 3600
 #: AgX look and exposure (stops) of the Cycles picture.
 LOOK = "AgX - Medium High Contrast"

@@ -7,11 +7,18 @@ texture files) must be relative and stay inside the asset: inside the root layer
 package for a ``.usdz``. :func:`scan_dependencies` walks the layer graph statically with ``Sdf`` (no stage is
 composed, no texture is read) and reports
 
-- ``assetPath`` issues: absolute paths (``/etc/passwd``, ``C:/x``, ``https://...``) and paths that leave the
-  asset's folder (``../../x.png``). The layers such a path names are not opened, and :func:`external_paths`
-  lists the authored paths so callers never read them, unless ``allow_external`` (then they are warnings);
-- ``layer`` issues: a layer that does not parse, with its file, line and USD's message, or a composed layer
-  that does not exist.
+- ``assetPath`` issues: absolute paths (``/etc/passwd``, ``C:/x``, ``https://...``), paths that leave the
+  asset's folder (``../../x.png``) and paths inside it that are symlinks to files elsewhere (resolved with
+  ``realpath``, which opens nothing), of sublayers, references, payloads, value clips (``clips`` metadata:
+  ``assetPaths``, ``manifestAssetPath``, ``templateAssetPath``) and asset-valued attributes; asset-path
+  expressions (`` @`"..."`@ ``) are evaluated with the root layer's ``expressionVariables`` and judged by
+  their value. The files such a path names are not opened, and :attr:`Dependencies.external` lists the
+  authored paths so callers never read them, unless ``allow_external`` (then they are warnings);
+- ``layer`` issues: a layer (or clip layer) that does not parse, with its file, line and USD's message, a
+  composed layer that does not exist, or a usdz of more than :data:`MAX_PACKAGE_FILES` files;
+- ``clip`` issues: a ``clips`` value that is not what USD's value clips take.
+
+:func:`require_inside` is the one gate of the commands that read an asset (``validate`` applies it per check).
 """
 
 from __future__ import annotations
@@ -51,20 +58,85 @@ class Dependencies:
         return only_errors(self.issues)
 
 
-def _outside(anchored: str, root_dir: str, root_package: str | None) -> bool:
-    """True when an anchored asset path is outside the asset (folder, or package for a usdz root)."""
+def _outside(anchored: str, root_dir: str, root_package: str | None) -> str | None:
+    """Why an anchored asset path is outside the asset (folder, or package for a usdz root), else None.
+
+    Symlinks are resolved (``realpath``, which opens nothing): a link inside the folder to a file elsewhere is
+    outside."""
     from pxr import Ar
 
+    where = "package" if root_package else "folder"
     if Ar.IsPackageRelativePath(anchored):
         outer, inner = Ar.SplitPackageRelativePathOuter(anchored)
         inner = posixpath.normpath(inner.replace("\\", "/"))
         if inner == ".." or inner.startswith("../") or inner.startswith("/"):
-            return True
+            return f"leaves the asset's package ({anchored})"
         anchored = outer
         if root_package is not None:
-            return os.path.normpath(outer) != root_package
+            return None if os.path.normpath(outer) == root_package else f"leaves the asset's package ({anchored})"
     path = os.path.normpath(anchored)
-    return os.path.commonpath([path, root_dir]) != root_dir
+    if os.path.commonpath([path, root_dir]) != root_dir:
+        return f"leaves the asset's {where} ({anchored})"
+    real = os.path.realpath(path)
+    real_root = os.path.realpath(root_dir)
+    if os.path.commonpath([real, real_root]) != real_root:
+        return f"is a symlink to {real}, outside the asset's {where}"
+    return None
+
+
+def _clip_paths(layer, issues: list) -> list[tuple[str, str, bool]]:
+    """(where, authored path, names a layer) of every value clip (``clips`` metadata) in ``layer``: asset paths,
+    manifests and templates (a template's ``#`` frame digits as ``0``). A malformed ``clips`` value is an
+    issue."""
+    from pxr import Sdf
+
+    found = []
+
+    def visit(path):
+        if not path.IsPrimPath():
+            return
+        spec = layer.GetPrimAtPath(path)
+        if spec is None or not spec.HasInfo("clips"):
+            return
+        where = f"{path} clips"
+        clips = spec.GetInfo("clips")
+        if not isinstance(clips, dict):
+            issues.append(Issue("clip", where, f"is a {type(clips).__name__}, expected a dictionary of clip sets"))
+            return
+        for name, clip in clips.items():
+            if not isinstance(clip, dict):
+                issues.append(Issue("clip", f"{where}[{name}]", f"is a {type(clip).__name__}, expected a dictionary"))
+                continue
+            paths = clip.get("assetPaths", [])
+            if isinstance(paths, str) or not all(isinstance(a, Sdf.AssetPath) for a in (
+                    paths if hasattr(paths, "__iter__") else [paths])):
+                issues.append(Issue("clip", f"{where}[{name}].assetPaths", f"{paths!r} is not an asset[] list"))
+                paths = []
+            found.extend((f"{where}[{name}].assetPaths", a.path, True) for a in paths if a.path)
+            manifest = clip.get("manifestAssetPath")
+            if manifest is not None and not isinstance(manifest, Sdf.AssetPath):
+                issues.append(Issue("clip", f"{where}[{name}].manifestAssetPath", f"{manifest!r} is not an asset"))
+            elif manifest is not None and manifest.path:
+                found.append((f"{where}[{name}].manifestAssetPath", manifest.path, True))
+            template = clip.get("templateAssetPath")
+            if template is not None and not isinstance(template, str):
+                issues.append(Issue("clip", f"{where}[{name}].templateAssetPath", f"{template!r} is not a string"))
+            elif template:
+                found.append((f"{where}[{name}].templateAssetPath", template.replace("#", "0"), False))
+
+    layer.Traverse(Sdf.Path.absoluteRootPath, visit)
+    return found
+
+
+def _evaluate(authored: str, variables: dict) -> tuple[str | None, str]:
+    """An authored asset path, with an asset-path expression (`` `"..."` ``) evaluated: (path or None, prefix)."""
+    from pxr import Sdf
+
+    if not Sdf.VariableExpression.IsExpression(authored):
+        return authored, f"path {authored!r}"
+    result = Sdf.VariableExpression(authored).Evaluate(variables)
+    value = result.value if isinstance(result.value, str) and not result.errors else None
+    return value, f"path expression {authored!r}" + (f" (= {value!r})" if value is not None else "")
 
 
 def _asset_values(layer) -> list[tuple[str, str]]:
@@ -128,7 +200,7 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
     -------
     Dependencies
     """
-    from pxr import Sdf
+    from pxr import Ar, Sdf
 
     root = os.path.abspath(os.fspath(root_layer))
     root_dir = os.path.dirname(root)
@@ -136,34 +208,93 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
     severity = "warning" if allow_external else "error"
     allowed = " (read because external assets are allowed)" if allow_external else " (not read)"
     out = Dependencies()
-    queue, seen = [root], {root}
+    if root_package and _package_too_big(root, out.issues):
+        return out
+    queue, seen, variables = [root], {root}, None
     while queue:
         identifier = queue.pop(0)
         layer = _open_layer(identifier, out.issues)
         if layer is None:
             continue
         out.layers.append(layer.identifier)
+        variables = dict(layer.expressionVariables) if variables is None else variables  # the root layer's
         where = layer.identifier if layer.identifier != root else os.fspath(root_layer)
-        composed = [(where, p) for p in layer.GetCompositionAssetDependencies()]
-        for spec_path, authored in composed + _asset_values(layer):
-            is_layer = (spec_path, authored) in composed
-            anchored = Sdf.ComputeAssetPathRelativeToLayer(layer, authored)
-            why = None
-            if os.path.isabs(authored) or _SCHEME.match(authored) or authored.startswith("\\\\"):
-                why = "is absolute: an asset must be relocatable, its paths relative to the layer"
-            elif _outside(anchored, root_dir, root_package):
-                why = f"leaves the asset's {'package' if root_package else 'folder'} ({anchored})"
-            if why:
+        found = [(where, p, "layer") for p in layer.GetCompositionAssetDependencies()]
+        found += [(w, p, "clip" if is_layer else "clip template") for w, p, is_layer in _clip_paths(layer, out.issues)]
+        found += [(w, p, "asset") for w, p in _asset_values(layer)]
+        for spec_path, authored, kind in found:
+            value, what = _evaluate(authored, variables)
+            if value is None:
                 out.external.add(authored)
-                kind = "layer" if is_layer else "asset"
-                out.issues.append(Issue("assetPath", spec_path, f"{kind} path {authored!r} {why}{allowed}",
-                                        severity))
+                out.issues.append(Issue("assetPath", spec_path, f"{kind} {what} does not evaluate (not read)"))
+                continue
+            anchored = Sdf.ComputeAssetPathRelativeToLayer(layer, value) if value else value
+            if anchored and not os.path.isabs(anchored) and not Ar.IsPackageRelativePath(anchored):
+                # a search-path form ("c.usda") of a file that is not there: judged as relative to the layer
+                anchored = os.path.join(os.path.dirname(layer.realPath or root), anchored)
+            why = None
+            if os.path.isabs(value) or _SCHEME.match(value) or value.startswith("\\\\"):
+                why = "is absolute: an asset must be relocatable, its paths relative to the layer"
+            elif value:
+                why = _outside(anchored, root_dir, root_package)
+            if why:
+                out.external.update((authored, value))  # USD gives an expression's value to readers
+                out.issues.append(Issue("assetPath", spec_path, f"{kind} {what} {why}{allowed}", severity))
                 if not allow_external:
                     continue
-            if is_layer and anchored not in seen:
+            if kind in ("layer", "clip") and anchored and anchored not in seen:
                 seen.add(anchored)
                 queue.append(anchored)
     return out
+
+
+#: Most files a ``.usdz`` may hold: more is refused before any validator lists each one.
+MAX_PACKAGE_FILES = 10000
+
+
+def _package_too_big(path: str, issues: list) -> bool:
+    """A usdz with more than :data:`MAX_PACKAGE_FILES` files is one issue (count and the first few names)."""
+    from pxr import Sdf
+
+    zf = Sdf.ZipFile.Open(path)
+    names = list(zf.GetFileNames()) if zf else []
+    if len(names) <= MAX_PACKAGE_FILES:
+        return False
+    issues.append(Issue("layer", path, f"the package holds {len(names):,} files (first: {', '.join(names[:3])}, ...); "
+                        f"a rockdove asset holds at most {MAX_PACKAGE_FILES:,}: not opened"))
+    return True
+
+
+def blocking(deps: Dependencies) -> list:
+    """The errors that must stop a reader before USD composes: broken layers and layers or clips from elsewhere."""
+    return [i for i in deps.errors if i.check in ("layer", "clip") or not i.message.startswith("asset ")]
+
+
+def require_inside(asset, allow_external: bool = False) -> str:
+    """The root layer of ``asset`` (folder or layer) once :func:`scan_dependencies` found nothing wrong: for the
+    commands that read an asset (``verify``, ``render``, ``gltf``) before they open anything.
+
+    Raises
+    ------
+    UsageError
+        ``asset`` is not an asset (exit 2).
+    VerificationFailed
+        Naming the first broken layers or paths outside the asset, and how many (exit 1).
+    """
+    from ..errors import UsageError, VerificationFailed
+    from .layout import resolve_root_layer
+
+    try:
+        root = resolve_root_layer(asset)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    errors = scan_dependencies(root, allow_external).errors
+    if errors:
+        more = f"; and {len(errors) - 5} more" if len(errors) > 5 else ""
+        hint = " (--allow-external-assets reads files from elsewhere)" if any(
+            i.check == "assetPath" for i in errors) else ""
+        raise VerificationFailed("; ".join(f"{i.path}: {i.message}" for i in errors[:5]) + more + hint)
+    return root
 
 
 def external_paths(root_layer: str, allow_external: bool = False) -> set:

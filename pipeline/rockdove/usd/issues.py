@@ -1,11 +1,12 @@
 """One problem found in an asset (:class:`Issue`), the unit every check of :mod:`.validate`,
 :mod:`.dependencies` and :mod:`.nvidia` reports in. Its own module so that those checkers depend on it and
-not on the validator that calls them (``rockdove.usd.validate`` re-exports it).
+not on the validator that calls them (``rockdove.usd.validate`` re-exports it), and :class:`Report`, what
+:func:`rockdove.usd.validate.validate_asset` returns.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 
 @dataclass(frozen=True)
@@ -41,3 +42,55 @@ class Issue:
 def only_errors(issues) -> list:
     """The issues of severity ``error``, the ones that make an asset unclean."""
     return [i for i in issues if i.severity == "error"]
+
+
+@dataclass
+class Report:
+    """Result of :func:`validate_asset`: ``clean`` when no issue has severity ``error``."""
+
+    path: str
+    issues: list = field(default_factory=list)
+    variants: list = field(default_factory=list)
+    counts: dict = field(default_factory=dict)
+
+    @property
+    def errors(self) -> list:
+        return only_errors(self.issues)
+
+    @property
+    def clean(self) -> bool:
+        return not self.errors
+
+    def checks(self) -> set:
+        """Names of the checks that reported something."""
+        return {i.check for i in self.issues}
+
+    def _shown(self, per_check: int) -> tuple[list, dict]:
+        """The first ``per_check`` issues of each (check, severity) and how many of each were left out."""
+        shown, left = [], {}
+        for i in self.issues:
+            key = f"{i.check} {i.severity}s"
+            left[key] = left.get(key, 0) + 1
+            if left[key] <= per_check:
+                shown.append(i)
+        return shown, {k: n - per_check for k, n in left.items() if n > per_check}
+
+    def to_dict(self, per_check: int = 1000) -> dict:
+        """JSON-ready; at most ``per_check`` issues of each check and severity, ``omitted`` counts the rest."""
+        shown, left = self._shown(per_check)
+        return {"path": self.path, "clean": self.clean, "variants": list(self.variants),
+                "counts": dict(sorted(self.counts.items())), "issues": [i.to_dict() for i in shown],
+                "n_errors": len(self.errors), "n_warnings": len(self.issues) - len(self.errors), "omitted": left}
+
+    def format(self, per_check: int = 20) -> str:
+        """A readable multi-line report: the first ``per_check`` issues of each check and severity, then a count."""
+        shown, left = self._shown(per_check)
+        lines = [f"{self.path}: {'clean' if self.clean else 'NOT CLEAN'} "
+                 f"({len(self.errors)} error(s), {len(self.issues) - len(self.errors)} warning(s))",
+                 "  variants: " + (", ".join(self.variants) or "(none)"),
+                 "  checked: " + ", ".join(f"{k} {v}" for k, v in sorted(self.counts.items()))]
+        for i in shown:
+            where = f" [{', '.join(i.variants)}]" if i.variants else ""
+            lines.append(f"  {i.severity.upper()} {i.check}: {i.path}: {i.message}{where}")
+        lines += [f"  ... and {n:,} more {key} (not shown)" for key, n in left.items()]
+        return "\n".join(lines)

@@ -33,6 +33,7 @@ import os
 
 import numpy as np
 
+from ..geometry.plumage import CARD_PARTS
 from ..geometry.types import drop_unreferenced_points, point_bounds
 from .material import (
     PREVIEW_PRIMVAR,
@@ -128,7 +129,8 @@ def author_mesh(stage, path, part, preview_range_nm=None):
 
     Authors points (m), topology, vertex normals, ``primvars:st`` (texCoord2f, vertex),
     ``primvars:displayColor`` (constant, linear), every extra primvar (float/floatN, documented), extent,
-    ``subdivisionScheme = none`` (the meshes are final polygons) and ``doubleSided`` for feather cards. With
+    ``subdivisionScheme = none`` (the meshes are final polygons) and ``doubleSided`` for feather cards (the neck's
+    and :data:`rockdove.geometry.plumage.CARD_PARTS`). With
     ``preview_range_nm`` (the film's thickness range, nm) also ``primvars:previewST`` (texCoord2f, vertex), the
     coordinates into the preview atlas (:func:`rockdove.usd.textures_io.preview_st`; needs a ``thickness``
     primvar).
@@ -151,7 +153,7 @@ def author_mesh(stage, path, part, preview_range_nm=None):
     mesh.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(part.normals, np.float32)))
     mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
     mesh.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(_extent(points)))
-    mesh.CreateDoubleSidedAttr(part.material == FEATHER_MATERIAL)
+    mesh.CreateDoubleSidedAttr(part.material == FEATHER_MATERIAL or part.name in CARD_PARTS)
     api = UsdGeom.PrimvarsAPI(mesh)
     st = api.CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex)
     st.Set(Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(part.st, np.float32)))

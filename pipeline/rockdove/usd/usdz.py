@@ -61,8 +61,9 @@ def ar_layer(root: str):
             else:
                 walk(child)
         for prop in list(spec.properties):
-            if (spec.typeName == "Material" and prop.name.startswith("outputs:")
-                    and prop.name not in ("outputs:surface", "outputs:displacement")) or prop.name == "rockdove:lut:file":
+            extra_output = spec.typeName == "Material" and prop.name.startswith("outputs:") and prop.name not in (
+                "outputs:surface", "outputs:displacement")
+            if extra_output or prop.name == "rockdove:lut:file":
                 spec.RemoveProperty(prop)
 
     walk(layer.pseudoRoot)

@@ -39,9 +39,8 @@ import io
 import os
 import re
 import tempfile
-from dataclasses import dataclass, field
 
-from .issues import Issue, only_errors
+from .issues import Issue, Report, only_errors  # noqa: F401 (re-exported)
 from .layout import resolve_root_layer
 from .material import _SDF_TYPES
 
@@ -51,43 +50,6 @@ MISSING_SHADER_ID = "MissingShaderIdInRegistry"
 # Sdf value type name -> MaterialX type: the inverse of the authoring table (material._SDF_TYPES); token (outputs
 # of surface shaders / materials) has no single MaterialX type
 _MX_TYPES = {sdf.lower(): mx for mx, sdf in _SDF_TYPES.items() if sdf != "Token"} | {"token": None}
-
-
-@dataclass
-class Report:
-    """Result of :func:`validate_asset`: ``clean`` when no issue has severity ``error``."""
-
-    path: str
-    issues: list = field(default_factory=list)
-    variants: list = field(default_factory=list)
-    counts: dict = field(default_factory=dict)
-
-    @property
-    def errors(self) -> list:
-        return only_errors(self.issues)
-
-    @property
-    def clean(self) -> bool:
-        return not self.errors
-
-    def checks(self) -> set:
-        """Names of the checks that reported something."""
-        return {i.check for i in self.issues}
-
-    def to_dict(self) -> dict:
-        return {"path": self.path, "clean": self.clean, "variants": list(self.variants),
-                "counts": dict(sorted(self.counts.items())), "issues": [i.to_dict() for i in self.issues]}
-
-    def format(self) -> str:
-        """A readable multi-line report."""
-        lines = [f"{self.path}: {'clean' if self.clean else 'NOT CLEAN'} "
-                 f"({len(self.errors)} error(s), {len(self.issues) - len(self.errors)} warning(s))",
-                 "  variants: " + (", ".join(self.variants) or "(none)"),
-                 "  checked: " + ", ".join(f"{k} {v}" for k, v in sorted(self.counts.items()))]
-        for i in self.issues:
-            where = f" [{', '.join(i.variants)}]" if i.variants else ""
-            lines.append(f"  {i.severity.upper()} {i.check}: {i.path}: {i.message}{where}")
-        return "\n".join(lines)
 
 
 # -- 1. UsdValidation -------------------------------------------------------------------------------------
@@ -296,157 +258,8 @@ def check_primvars(stage) -> tuple[list, int]:
     return issues, n
 
 
-# -- 5. thin film / LUT domain ------------------------------------------------------------------------------
-def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
-    """Thickness primvar inside the LUT domain; schema range agrees with the EXR header."""
-    import numpy as np
-    from pxr import Usd, UsdGeom
-
-    from .schema import has_thin_film, read_thin_film
-
-    issues, n = [], 0
-    for prim in Usd.PrimRange(stage.GetPseudoRoot()):
-        if not has_thin_film(prim):
-            continue
-        n += 1
-        film = read_thin_film(prim)
-        if not film["lut_file"] and not any(prim.GetAttribute(f"rockdove:lut:{a}").HasAuthoredValue() for a in
-                                            ("colorSpace", "angleWarpGamma", "thicknessRangeNm")):
-            issues += _check_lutless_film(prim, film)
-            continue
-        rng = film["thickness_range_nm"]
-        where = f"{prim.GetPath()}.rockdove:lut:thicknessRangeNm"
-        if rng is None:
-            issues.append(Issue("thinFilm", where, "not authored; expected the LUT's (lo, hi) in nm"))
-            continue
-        lo, hi = rng
-        lut = decoded.get(film["lut_file_resolved"])
-        if lut is not None and hasattr(lut, "thickness_range_nm"):
-            elo, ehi = lut.thickness_range_nm
-            if not (np.isclose(lo, elo, rtol=0, atol=1e-3) and np.isclose(hi, ehi, rtol=0, atol=1e-3)):
-                issues.append(Issue("thinFilm", where, f"({lo}, {hi}) nm differs from the LUT file's header "
-                                    f"rockdove:thicknessRangeNm ({elo}, {ehi})"))
-            if not np.isclose(film["angle_warp_gamma"], lut.angle_warp_gamma, rtol=1e-6):
-                issues.append(Issue("thinFilm", f"{prim.GetPath()}.rockdove:lut:angleWarpGamma",
-                                    f"{film['angle_warp_gamma']} differs from the LUT file's {lut.angle_warp_gamma}"))
-            issues += _check_lut_constants(prim, lut)
-            issues += _check_film_provenance(prim, film, lut)
-        pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "")
-        values = pv.ComputeFlattened() if pv else None
-        if values is None or len(values) == 0:
-            issues.append(Issue("thinFilm", f"{prim.GetPath()}.primvars:{film['thickness_primvar']}",
-                                "thickness primvar missing or empty"))
-            continue
-        d = np.asarray(values, np.float64)
-        tol = 1e-3  # nm: float32 rounding of authored values
-        if d.min() < lo - tol or d.max() > hi + tol:
-            issues.append(Issue("thinFilm", str(pv.GetAttr().GetPath()),
-                                f"thickness spans [{d.min():.6g}, {d.max():.6g}] nm, outside the LUT domain "
-                                f"[{lo:.6g}, {hi:.6g}] nm (rockdove:lut:thicknessRangeNm)"))
-    return issues, n
-
-
-#: Names of the shaders of the baked LUT network (thinfilm.mtlx) that read the LUT.
-LUT_NETWORK_SHADERS = ("LutTexture", "LutAngleCount", "LutThicknessCount", "LutAngleWarpGamma", "LutThicknessLoNm",
-                       "LutThicknessHiNm")
-
-
-def _check_lutless_film(prim, film: dict) -> list:
-    """A film recorded without a LUT (physical-only asset): complete film, sane thickness, no LUT network."""
-    import numpy as np
-    from pxr import UsdGeom, UsdShade
-
-    issues = []
-    for key, attr in (("cauchy_a", "film:cauchyA"), ("cauchy_b_nm2", "film:cauchyB_nm2"), ("k", "film:k"),
-                      ("incident_index", "film:incidentIndex"), ("substrate_index", "film:substrateIndex")):
-        v = film.get(key)
-        if not isinstance(v, float) or not np.isfinite(v):
-            issues.append(Issue("thinFilm", f"{prim.GetPath()}.rockdove:{attr}", f"{v!r}; expected a finite number"))
-    if film.get("thickness_units") != "nm":
-        issues.append(Issue("thinFilm", f"{prim.GetPath()}.rockdove:film:thicknessUnits",
-                            f"{film.get('thickness_units')!r}; expected 'nm'"))
-    pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "")
-    values = pv.ComputeFlattened() if pv else None
-    if values is None or len(values) == 0:
-        issues.append(Issue("thinFilm", f"{prim.GetPath()}.primvars:{film['thickness_primvar']}",
-                            "thickness primvar missing or empty"))
-    else:
-        d = np.asarray(values, np.float64)
-        if not np.all(np.isfinite(d)) or d.min() <= 0:
-            issues.append(Issue("thinFilm", str(pv.GetAttr().GetPath()),
-                                f"thickness spans [{np.nanmin(d):.6g}, {np.nanmax(d):.6g}] nm; expected finite "
-                                "values > 0 nm"))
-    material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
-    if material:
-        present = [n for n in LUT_NETWORK_SHADERS if material.GetPrim().GetChild(n)]
-        if present:
-            issues.append(Issue("thinFilm", str(material.GetPath()),
-                                f"holds the baked LUT network ({', '.join(present)}) but {prim.GetPath()} records no "
-                                "LUT (no rockdove:lut:file): a physical-only asset carries only the physical network"))
-    return issues
-
-
-#: read_thin_film key -> (schema attribute, LUT EXR metadata key written by rockdove.lut.bake)
-_PROVENANCE = {
-    "model": ("rockdove:film:model", "film:name"),
-    "cauchy_a": ("rockdove:film:cauchyA", "film:cauchyA"),
-    "cauchy_b_nm2": ("rockdove:film:cauchyB_nm2", "film:cauchyB_nm2"),
-    "k": ("rockdove:film:k", "film:k"),
-    "incident_index": ("rockdove:film:incidentIndex", "film:incidentIndex"),
-    "substrate_index": ("rockdove:film:substrateIndex", "film:substrateIndex"),
-    "illuminant": ("rockdove:lut:illuminant", "illuminant"),
-    "observer": ("rockdove:lut:observer", "observer"),
-    "lut_colour_space": ("rockdove:lut:colorSpace", None),
-}
-
-
-def _check_film_provenance(prim, film: dict, lut) -> list:
-    """The schema's film must be the one the LUT was baked from (the EXR header's provenance, when recorded)."""
-    issues = []
-    for key, (attr, meta_key) in _PROVENANCE.items():
-        if meta_key is None:
-            recorded = lut.colour_space
-        elif meta_key in lut.metadata:
-            recorded = lut.metadata[meta_key]
-        else:
-            continue
-        got = film.get(key)
-        if isinstance(got, float):
-            try:
-                same = abs(got - float(recorded)) <= 1e-6 * max(1.0, abs(float(recorded)))
-            except ValueError:
-                same = False
-        else:
-            same = str(got) == str(recorded)
-        if not same:
-            issues.append(Issue("thinFilm", f"{prim.GetPath()}.{attr}",
-                                f"{got!r} differs from the LUT file's {meta_key or 'colour space'} = {recorded!r}: "
-                                "the schema must record the film the LUT was baked from"))
-    return issues
-
-
-def _check_lut_constants(prim, lut) -> list:
-    """The MaterialX network's LUT constants (texel counts, warp, range) must describe the LUT file it reads."""
-    from pxr import UsdShade
-
-    material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
-    if not material:
-        return [Issue("thinFilm", str(prim.GetPath()), "feather mesh has no bound material")]
-    lo, hi = lut.thickness_range_nm
-    expected = {"LutAngleCount": lut.n_angle, "LutThicknessCount": lut.n_thickness,
-                "LutAngleWarpGamma": lut.angle_warp_gamma, "LutThicknessLoNm": lo, "LutThicknessHiNm": hi}
-    issues = []
-    for name, want in expected.items():
-        shader = UsdShade.Shader(material.GetPrim().GetChild(name))
-        if not shader:
-            continue  # a material without the LUT network (e.g. hand-made) has nothing to disagree with
-        got = shader.GetInput("value").Get() if shader.GetInput("value") else None
-        if got is None or abs(float(got) - float(want)) > 1e-4 * max(1.0, abs(float(want))):
-            issues.append(Issue("thinFilm", f"{shader.GetPath()}.inputs:value",
-                                f"{got} does not describe the LUT file it reads: expected {want} "
-                                f"({lut.n_thickness} x {lut.n_angle} texels, gamma {lut.angle_warp_gamma}, "
-                                f"range ({lo}, {hi}) nm)"))
-    return issues
+# -- 5. thin film / LUT domain: rockdove.usd.validate_film
+from .validate_film import LUT_NETWORK_SHADERS, check_thin_film  # noqa: E402,F401 (part of this module's API)
 
 
 # -- 6. surface sources -------------------------------------------------------------------------------------
@@ -505,7 +318,7 @@ def validate_asset(path, allow_external: bool = False) -> Report:
     """
     from pxr import Usd
 
-    from .dependencies import scan_dependencies
+    from .dependencies import blocking, scan_dependencies
     from .material import load_mtlx_libraries
     from .schema import register
     from .stage import variant_combinations
@@ -515,8 +328,8 @@ def validate_asset(path, allow_external: bool = False) -> Report:
     report = Report(path=root)
     deps = scan_dependencies(root, allow_external)
     report.issues += deps.issues
-    if any(i.check == "layer" or i.message.startswith("layer path") for i in deps.errors):
-        return report  # composing would read a broken layer or a layer from elsewhere
+    if blocking(deps):
+        return report  # composing would read a broken layer or a layer or clip from elsewhere
     skip = frozenset() if allow_external else frozenset(deps.external)
     try:
         stage = Usd.Stage.Open(root, Usd.Stage.LoadAll)

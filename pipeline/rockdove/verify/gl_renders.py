@@ -5,45 +5,20 @@ as soon as it is drawn, while the thread draws the next one and this thread inte
 draws and reads back outside the GIL (its own threads), numpy's reference mostly too. A thread, not a process:
 measured (docs/design.md, "The GL renders"), a worker process saved nothing once the imports are warm and cost
 a second interpreter, a socket protocol and pickled images; Dask's daemonic workers need nothing special either.
-:func:`prestart` imports pyrender in a thread as soon as a build knows it will render, so the ~2 s import runs
-while the LUT, textures and layers are written.
+pyrender is imported by the first render of a process (~2 s; importing it ahead in a thread while the build
+imported pxr deadlocked a CLI build, so it is not).
 
 All GL calls of one :class:`GLRenders` run on its own single thread (an EGL context is current on one thread).
 """
 
 from __future__ import annotations
 
-import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 
 
 class GLRenderError(RuntimeError):
     """The GL renderer could not open, or a view failed to render; the message says why."""
-
-
-def _import_gl() -> None:
-    from .._compat import import_pyrender
-    from ..render import gl  # noqa: F401
-
-    import_pyrender()
-
-
-_PRESTARTED: threading.Thread | None = None
-
-
-def prestart() -> None:
-    """Import the GL renderer's modules in a background thread now (once per process); never raises (a render
-    that needs them raises the import error itself)."""
-    global _PRESTARTED
-    if _PRESTARTED is None:
-        def run():
-            try:
-                _import_gl()
-            except Exception:  # noqa: BLE001 - reported by the render that needs it
-                pass
-        _PRESTARTED = threading.Thread(target=run, name="rockdove-gl-import", daemon=True)
-        _PRESTARTED.start()
 
 
 class GLRenders:
@@ -60,8 +35,6 @@ class GLRenders:
 
         def open_() -> float:
             t = time.perf_counter()
-            if _PRESTARTED is not None:
-                _PRESTARTED.join()
             from ..render.gl import GLRenderer
 
             state["renderer"] = GLRenderer(scene, lut=lut, width=views[0].width, height=views[0].height)

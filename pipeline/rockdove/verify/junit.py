@@ -8,8 +8,8 @@ own ``--junitxml`` output with it). One ``<testsuites>``, one ``<testsuite>`` pe
   are the ``<failure>``, its warnings go to ``<system-out>``;
 - ``rockdove.glsl``: a test case per view (our GLSL against the exact reference), the light sweep's hues;
 - ``rockdove.host.NAME``: per host a test case per view and one for the host's own verdict over all its views
-  (``all views``; a failed exact host also fails each view whose numbers miss the dE goals); a host not available here is ``<skipped>`` with its reason, a host that
-  raised is an ``<error>``.
+  (``all views``; a failed exact host also fails each view whose numbers miss the dE goals); a host not
+  available here is ``<skipped>`` with its reason, a host that raised is an ``<error>``.
 
 Every failure message carries its numbers (``median dE2000 4.210 > 3.2``) and every test case its metrics in
 ``<system-out>``. Times are seconds with three decimals (the schema's ``SUREFIRE_TIME``).
@@ -55,7 +55,8 @@ class _Suite:
             ET.SubElement(tc, "error", message=error, type="error").text = error
             self.counts["errors"] += 1
         elif failures:
-            message = message or (failures[0] if len(failures) == 1 else f"{failures[0]} (and {len(failures) - 1} more)")
+            more = f" (and {len(failures) - 1} more)" if len(failures) > 1 else ""
+            message = message or failures[0] + more
             ET.SubElement(tc, "failure", message=message, type="VerificationFailed").text = "\n".join(failures)
             self.counts["failures"] += 1
         if out:

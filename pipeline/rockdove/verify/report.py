@@ -23,6 +23,7 @@ import html
 import json
 import math
 import os
+import re
 import shutil
 
 import numpy as np
@@ -244,6 +245,27 @@ def _finite(o):
 def strict_json(obj):
     """``obj`` as plain JSON data: numpy values to Python, anything else unknown to str, NaN/Inf to None."""
     return _finite(json.loads(json.dumps(obj, default=_json_default)))
+
+
+def portable(obj, roots):
+    """``obj`` with the build machine's paths taken out, for the files a report ships: a path inside one of
+    ``roots`` (the asset folder, staged and published) relative to it, any other absolute path on this machine
+    (its first folder exists here; USD prim paths such as ``/Pigeon/Geom`` do not) as its file name."""
+    prefixes = sorted({os.path.abspath(r).rstrip(os.sep) for r in roots}, key=len, reverse=True)
+
+    def local(m):
+        p = m.group(0)
+        inside = [r for r in prefixes if p == r or p.startswith(r + os.sep)]
+        return os.path.relpath(p, inside[0]) if inside else os.path.basename(p) if os.path.isdir(
+            os.sep + p.split(os.sep)[1]) else p
+
+    def fix(v):
+        if isinstance(v, dict):
+            return {k: fix(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [fix(x) for x in v]
+        return re.sub(r"(?<![\w.@:])/[^\s'\"<>@\]\[,;)(]+", local, v) if isinstance(v, str) else v
+    return fix(obj)
 
 
 def write_json(path, report: dict) -> str:

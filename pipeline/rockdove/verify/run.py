@@ -273,24 +273,3 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
     beauty = {**settings(beauty), "cycles_ok": any(m.NAME == "blender" for m in selection.available)}
     return combine(layer, scene, lut, notes, results, out, width, height, bench_dir, say, t_start=t_start,
                     hosts=(host_entries, host_images, time.perf_counter() - t), beauty=beauty)
-
-
-def check_dependencies(asset: str, allow_external: bool) -> None:
-    """Before anything reads the asset: its layers parse and it names no file outside itself (unless allowed).
-
-    Raises
-    ------
-    VerificationFailed
-        Naming each broken layer (file, line, USD's message) or outside path.
-    """
-    from ..errors import UsageError, VerificationFailed
-    from ..usd.dependencies import scan_dependencies
-    from ..usd.layout import resolve_root_layer
-
-    try:
-        root = resolve_root_layer(asset)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
-    deps = scan_dependencies(root, allow_external)
-    if deps.errors:
-        raise VerificationFailed("; ".join(f"{i.path}: {i.message}" for i in deps.errors))

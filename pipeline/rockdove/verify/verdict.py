@@ -13,6 +13,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from . import compare, provenance, report
+from .anatomy import measure_scene
 from .boundary import boundary_note
 from .inputs import BOUNDARY_SWEEP_ANGLE_DEG
 
@@ -119,6 +120,8 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
     validation, timings["validation"] = validation_pending.result()
     if not validation["passed"]:
         failures.insert(0, "validation: " + (validation["error"] or "the validator reported problems"))
+    anatomy = measure_scene(scene)  # the bird against its published measures (rockdove.verify.anatomy)
+    failures.extend(anatomy["failures"])
     timings["total"] = time.perf_counter() - t_start
 
     config = provenance.asset_configuration(layer)
@@ -141,6 +144,7 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
         "reference": [r["reference"] for r in results],
         "hue_sweep": hue,
         "hosts": host_entries,
+        "anatomy": anatomy,
         "beauty": images.get("beauty"),
         "boundary": {"per_view": {r["view"]: r["boundary"] for r in sweeps},
                      "method": "TLS line through green/purple boundary points; RMS perpendicular distance (px) "
@@ -155,8 +159,9 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
         "versions": provenance.library_versions(),
         "argv": list(sys.argv),
     }
-    report.write_json(os.path.join(out, "report.json"), result)
-    report.write_html(os.path.join(out, "report.html"), result, images)
+    shipped = report.portable(result, [os.path.dirname(layer), os.path.dirname(published_asset or layer)])
+    report.write_json(os.path.join(out, "report.json"), shipped)  # no build machine's path in what ships
+    report.write_html(os.path.join(out, "report.html"), shipped, images)
     return result
 
 
@@ -187,5 +192,6 @@ def summary(report: dict) -> dict:
                                "line_over_curve": v["curvature"]["ratio"]}
                            for k, v in report["boundary"]["per_view"].items() if "coherence" in v},
         "hosts": [{k: v for k, v in h.items() if k not in ("per_view", "failures")} for h in report.get("hosts", [])],
+        "anatomy": {r["name"]: r["value"] for r in report["anatomy"]["measures"]},
         "timings_s": report["timings_s"],
     }

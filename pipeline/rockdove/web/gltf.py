@@ -25,6 +25,14 @@ What is written (glTF 2.0, Khronos 2021; extensions from the Khronos registry):
   three.js turns it into a base F0 of 0, so the film's Airy reflectance is evaluated over a substrate of index 1
   (``Fresnel0ToIor(0) = 1``) and the only specular reflection is the film's;
   metallic 0, roughness 0: the smooth film's mirror lobe;
+- the feathers' default material (``NeckFeathersPreview``): what a consumer without ``KHR_materials_iridescence``
+  shows (Blender 5.0's importer ignores the extension silently; many engines do), the USD preview's own network:
+  base colour = the atlas ``feather_preview.png`` through ``TEXCOORD_2`` = the mesh's ``previewST`` (each card the
+  colour of its own thickness), its roughness, the same mask and sides. The film material above is the
+  ``KHR_materials_variants`` variant ``thin_film`` (``preview`` names the default): three.js's GLTFLoader keeps
+  the extension in ``userData`` and our viewer and web host select the variant. Measured: a base colour under
+  the film instead would be counted twice by three.js (its diffuse is only scaled by ``1 - F`` of the film);
+  with the variant the web host's numbers are those of the film alone, unchanged;
 - other parts: their base colour (texture or constant, linear), metallic 0, roughness 1.
 
 The film record itself goes into the feathers' material ``extras.rockdove`` (model, Cauchy A and B, indices,
@@ -179,7 +187,6 @@ def scene_to_glb(scene, version: str = "") -> bytes:
                          "RockDoveThinFilmAPI (rockdove:film:*), so there is no film to export as "
                          "KHR_materials_iridescence; build it with `rockdove build`")
     gltf = GLTF2(asset=Asset(version="2.0", generator=f"rockdove {version}".strip()))
-    gltf.extensionsUsed = list(EXTENSIONS)
     blob = _Blob(gltf)
     gltf.samplers = [Sampler(magFilter=_LINEAR, minFilter=_LINEAR_MIPMAP_LINEAR, wrapS=_CLAMP_TO_EDGE,
                              wrapT=_CLAMP_TO_EDGE),
@@ -251,10 +258,11 @@ def scene_to_glb(scene, version: str = "") -> bytes:
                 # variants) shows: the USD preview's atlas, each card the colour of its own thickness
                 attributes.TEXCOORD_2 = blob.accessor(np.stack([part.preview_st[:, 0], 1.0 - part.preview_st[:, 1]],
                                                                axis=1).astype(np.float32), "VEC2", _ARRAY_BUFFER)
+                atlas = TextureInfo(index=texture(preview, os.path.basename(preview)), texCoord=2)
                 material = Material(name=f"{part.name}Preview", alphaMode="MASK", doubleSided=True,
-                                    alphaCutoff=float(part.opacity_threshold), pbrMetallicRoughness=PbrMetallicRoughness(
-                                        metallicFactor=0.0, roughnessFactor=roughness, baseColorTexture=TextureInfo(
-                                            index=texture(preview, os.path.basename(preview)), texCoord=2)))
+                                    alphaCutoff=float(part.opacity_threshold),
+                                    pbrMetallicRoughness=PbrMetallicRoughness(metallicFactor=0.0, baseColorTexture=atlas,
+                                                                              roughnessFactor=roughness))
                 primitive_extensions = {"KHR_materials_variants": {"mappings": [
                     {"material": film_index, "variants": [0]},
                     {"material": len(gltf.materials), "variants": [1]}]}}

@@ -1,0 +1,206 @@
+"""The rock dove measured on the written asset, beside the published ranges: a change that breaks the bird's
+silhouette, posture or colour pattern fails the verification.
+
+Every measure reads the composed USD from disk (:func:`rockdove.render.scene.load_scene`: world space, metres;
+reported in cm and degrees), by prim name (``Body``, ``CoatFeathers``, ``Wings``, ``Tail``, ``Beak``, ``Cere``,
+``Eyes``, ``EyeRings``, ``Legs``) and the textures the parts' materials name, never the generator's numbers.
+
+Sources of the ranges: [G] Gibbs, Barnes and Cox, "Pigeons and Doves" (Pica Press 2001), as quoted by Wikipedia,
+"Rock dove" (Description): length 29-37 cm, tail 9.5-11 cm (issue 21 allows to 12), bill about 1.8 cm, tarsus
+2.6-3.5 cm; iris orange, red or golden, bare skin round the eye bluish-grey; bill grey-black with a conspicuous
+off-white cere; white lower back, two black wing bars, a black band at the end of the tail. [I] issue 21,
+from side-view photographs of standing birds: body axis 30-45 degrees above the horizontal with the breast full
+and forward, head about half the body's width and held up, tail reaching 3-6 cm beyond the folded wing tips,
+wings flush with the body (never wider), tips meeting over the rump, toes on the ground, tibia in the contour.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: name -> (low, high, unit, source, what). None: unbounded on that side.
+RANGES = {
+    "total_length": (29.0, 37.0, "cm", "G", "bill tip to tail tip, straight"),
+    "body_axis": (30.0, 45.0, "deg", "I", "tail base to neck base, above the horizontal"),
+    "head_to_body_width": (0.40, 0.60, "", "I", "head width / body width (Body, both without cards)"),
+    "head_above_back": (2.0, 12.0, "cm", "I", "eye height over the highest point of the back"),
+    "breast_ahead_of_feet": (1.5, 8.0, "cm", "I", "breast front ahead of the ankles"),
+    "tail_length": (9.5, 12.0, "cm", "G", "tip to the skin the central rectrices leave"),
+    "tail_beyond_wings": (3.0, 6.0, "cm", "I", "tail tip beyond the folded wing tips"),
+    "tail_band_contrast": (None, 0.5, "", "G", "luminance of the tail's last 12 % / its middle"),
+    "wing_overhang": (None, 0.0, "cm", "I", "folded wings' half-width beyond the feathered body's"),
+    "wing_tip_gap": (0.0, 2.5, "cm", "I", "distance between the two wing tips over the rump"),
+    "tarsus_visible": (2.5, 3.5, "cm", "G", "ankle to where the leg enters the feathers"),
+    "toes_ground": (-0.1, 0.1, "cm", "I", "lowest toe point above the ground (y = 0)"),
+    "tibia_hidden": (0.0, None, "cm", "I", "depth of the legs' tops inside the body"),
+    "bill_length": (1.5, 2.2, "cm", "G", "bill tip to the face"),
+    "bill_luminance": (None, 0.1, "", "G", "bill's linear luminance (grey-black)"),
+    "cere_luminance": (0.4, None, "", "G", "cere's linear luminance (off-white)"),
+    "iris_hue": (0.0, 40.0, "deg", "G", "iris hue (sRGB HSV; orange-red)"),
+    "eye_ring_width": (0.05, 0.3, "cm", "G", "bare orbital ring beyond the eye"),
+    "eye_ring_saturation": (None, 0.3, "", "G", "orbital ring's saturation (grey)"),
+    "rump_luminance": (0.5, None, "", "G", "lightest coat over the rump (white patch)"),
+}
+_LUM = np.array([0.2126, 0.7152, 0.0722])  # Rec.709 relative luminance of linear RGB
+
+
+def _pts(scene, *names):
+    return np.concatenate([p.positions_m for p in scene.parts if p.name in names]).astype(np.float64)
+
+
+def _part(scene, name):
+    for p in scene.parts:
+        if p.name == name:
+            return p
+    raise ValueError(f"the asset has no mesh {name!r} (parts: {[p.name for p in scene.parts]})")
+
+
+def _axis(points):
+    c = points.mean(0)
+    return c, np.linalg.svd(points - c, full_matrices=False)[2][0]
+
+
+def _mesh(scene, *names):
+    import trimesh
+
+    parts = [_part(scene, n) for n in names]
+    offs = np.cumsum([0] + [len(p.positions_m) for p in parts])
+    return trimesh.Trimesh(np.concatenate([p.positions_m for p in parts]).astype(np.float64),
+                           np.concatenate([p.triangles + o for p, o in zip(parts, offs)]), process=False)
+
+
+def _first_hit(mesh, origin, direction) -> float:
+    loc, ray, _ = mesh.ray.intersects_location(origin[None], direction[None], multiple_hits=True)
+    d = (loc - origin) @ direction
+    d = d[d > 1e-6]
+    return float(d.min()) if len(d) else float("inf")
+
+
+def _colours(part, n=4000, seed=0):
+    """(n, 3) surface points and (n, 3) linear base colours sampled uniformly over a part."""
+    from ..render.texture import read_texture, sample_texture
+
+    p, t = part.positions_m.astype(np.float64), part.triangles
+    tri = p[t]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    rng = np.random.default_rng(seed)
+    f = rng.choice(len(t), n, p=area / area.sum())
+    r1, r2 = np.sqrt(rng.random(n)), rng.random(n)
+    w = np.stack([1 - r1, r1 * (1 - r2), r1 * r2], 1)
+    pts = np.einsum("nk,nkd->nd", w, tri[f])
+    if part.base_colour_texture is None:
+        return pts, np.broadcast_to(part.base_colour, (n, 3)).astype(np.float64)
+    st = np.einsum("nk,nkd->nd", w, part.st.astype(np.float64)[t[f]])
+    img = read_texture(part.base_colour_texture, part.base_colour_srgb)
+    return pts, np.asarray(sample_texture(img, st), np.float64)[:, :3]
+
+
+def _hsv(linear):
+    from ..spectral import linear_to_srgb8
+
+    c = np.asarray(linear_to_srgb8(np.asarray(linear, float)[None]), float)[0] / 255.0
+    mx, mn = c.max(), c.min()
+    if mx == mn:
+        return 0.0, 0.0
+    h = {0: (c[1] - c[2]) / (mx - mn), 1: 2 + (c[2] - c[0]) / (mx - mn), 2: 4 + (c[0] - c[1]) / (mx - mn)}
+    return float((60.0 * h[int(np.argmax(c))]) % 360.0), float((mx - mn) / mx)
+
+
+def measures(scene) -> dict:
+    """Every measure of :data:`RANGES` on a :class:`rockdove.render.scene.RenderScene`: name -> value."""
+    import trimesh
+
+    body = _part(scene, "Body")
+    bp = body.positions_m.astype(np.float64)
+    trunk = bp[body.neck_s <= 0.0] if body.neck_s is not None else bp
+    feathered = _pts(scene, "Body", "CoatFeathers")
+    wings, tail, legs = _pts(scene, "Wings"), _pts(scene, "Tail"), _pts(scene, "Legs")
+    beak, eyes, rings = _pts(scene, "Beak"), _pts(scene, "Eyes"), _pts(scene, "EyeRings")
+    m = {}
+    tc, ta = _axis(tail)
+    ta = ta if ta[2] < 0 else -ta  # pointing away from the body
+    tail_proj = (tail - tc) @ ta
+    neck_base = bp[(body.neck_s > 0.0) & (body.neck_s < 0.08)].mean(0)
+    a = neck_base - (tc + tail_proj.min() * ta)
+    m["body_axis"] = np.degrees(np.arctan2(a[1], np.hypot(a[0], a[2])))
+    tail_tip = tail[np.argmax(tail_proj)]
+    bill_tip = beak[np.argmax(beak[:, 2])]
+    m["total_length"] = 100 * np.linalg.norm(bill_tip - tail_tip)
+    up = np.cross(np.cross(ta, [0.0, 1.0, 0.0]), ta)  # the tail's upper side
+    m["tail_length"] = 100 * _first_hit(_mesh(scene, "Body"), tail_tip + 0.002 * up / np.linalg.norm(up), -ta)
+    m["tail_beyond_wings"] = 100 * (tail_proj.max() - ((wings - tc) @ ta).max())
+    tips = [w[np.argmax((w - tc) @ ta)] for w in (wings[wings[:, 0] > 0], wings[wings[:, 0] < 0])]
+    m["wing_tip_gap"] = 100 * np.linalg.norm(tips[0] - tips[1])
+    m["wing_overhang"] = 100 * (np.abs(wings[:, 0]).max() - np.abs(feathered[:, 0]).max())
+    eye_mid = eyes.mean(0)
+    head = bp[(bp[:, 1] > eye_mid[1] - 0.012) & (np.linalg.norm(bp - eye_mid, axis=1) < 0.035)]
+    m["head_to_body_width"] = np.ptp(head[:, 0]) / np.ptp(bp[:, 0])
+    m["head_above_back"] = 100 * (eye_mid[1] - trunk[:, 1].max())
+    ankles = [legs[(s * legs[:, 0] > 0) & (legs[:, 1] < legs[:, 1].min() + 0.004)].mean(0) for s in (1, -1)]
+    m["breast_ahead_of_feet"] = 100 * (trunk[:, 2].max() - np.mean([k[2] for k in ankles]))
+    cover = _mesh(scene, *[n for n in ("Body", "CoatFeathers", "Wings", "Tail") if any(p.name == n for p in scene.parts)])
+    closed = trimesh.Trimesh(bp, body.triangles, process=False)
+    vis, depth = [], []
+    for s, ankle in zip((1, -1), ankles):
+        side = legs[(s * legs[:, 0] > 0) & (legs[:, 1] > 0.01)]
+        c, d = _axis(side)
+        d = d if d[1] > 0 else -d
+        base = c + ((ankle - c) @ d) * d
+        vis.append(_first_hit(cover, base, d))
+        top = side[np.argmax(side @ d)]
+        depth.append(float(trimesh.proximity.signed_distance(closed, top[None])[0]))
+    m["tarsus_visible"] = 100 * float(np.mean(vis))
+    m["tibia_hidden"] = 100 * min(depth)
+    m["toes_ground"] = 100 * legs[:, 1].min()
+    back = eye_mid - bill_tip
+    m["bill_length"] = 100 * _first_hit(_mesh(scene, "Body"), bill_tip, back / np.linalg.norm(back))
+    for name, key in (("Beak", "bill_luminance"), ("Cere", "cere_luminance")):
+        m[key] = float(_part(scene, name).base_colour @ _LUM)
+    m["iris_hue"] = _hsv(_part(scene, "Eyes").base_colour)[0]
+    m["eye_ring_saturation"] = _hsv(_part(scene, "EyeRings").base_colour)[1]
+    widths = []
+    for s in (1, -1):
+        e, r = eyes[s * eyes[:, 0] > 0], rings[s * rings[:, 0] > 0]
+        c = e.mean(0)
+        widths.append(np.linalg.norm(r - c, axis=1).max() - np.linalg.norm(e - c, axis=1).max())
+    m["eye_ring_width"] = 100 * float(np.mean(widths))
+    pts, col = _colours(_part(scene, "Tail"))
+    f = ((pts - tc) @ ta - tail_proj.min()) / np.ptp(tail_proj)
+    lum = col @ _LUM
+    m["tail_band_contrast"] = float(lum[f > 0.88].mean() / max(lum[(f > 0.3) & (f < 0.7)].mean(), 1e-6))
+    pts, col = _colours(_part(scene, "CoatFeathers"), 20000)
+    root = tc + tail_proj.min() * ta
+    rump = (np.abs(pts[:, 0]) < 0.02) & (pts[:, 1] > root[1]) & (pts[:, 2] > root[2]) & (pts[:, 2] < root[2] + 0.05)
+    m["rump_luminance"] = float(np.percentile(col[rump] @ _LUM, 95)) if rump.any() else 0.0
+    return {k: float(v) for k, v in m.items()}
+
+
+def check(values: dict) -> dict:
+    """``{"passed", "failures", "measures": [{name, value, low, high, unit, source, what, passed}]}``."""
+    rows, failures = [], []
+    for name, (lo, hi, unit, src, what) in RANGES.items():
+        v = values.get(name, float("nan"))
+        ok = bool(np.isfinite(v) and (lo is None or v >= lo) and (hi is None or v <= hi))
+        rows.append({"name": name, "value": round(v, 3), "low": lo, "high": hi, "unit": unit, "source": src,
+                     "what": what, "passed": ok})
+        if not ok:
+            failures.append(f"anatomy: {name} = {v:.3g} {unit} outside [{lo}, {hi}] ({what})".replace("  ", " "))
+    return {"passed": not failures, "failures": failures, "measures": rows}
+
+
+def measure_scene(scene) -> dict:
+    """:func:`check` of :func:`measures`; an asset without the bird's parts fails with the reason, not a crash."""
+    try:
+        return check(measures(scene))
+    except (ValueError, IndexError) as exc:
+        return {"passed": False, "failures": [f"anatomy: cannot measure the asset: {exc}"], "measures": []}
+
+
+def format_rows(result: dict) -> list[str]:
+    """One line per measure: name, value, range, pass/fail."""
+    out = []
+    for r in result["measures"]:
+        rng = f"[{'' if r['low'] is None else r['low']}, {'' if r['high'] is None else r['high']}]"
+        out.append(f"{r['name']:>22}: {r['value']:8.3f} {r['unit']:<3} {rng:<14} {'ok' if r['passed'] else 'FAIL'}"
+                   f"  ({r['what']})")
+    return out
