@@ -105,17 +105,9 @@ def import_asset(bpy, job: dict):
     return addon, films, root.matrix_world.copy()  # the importer's up-axis conversion
 
 
-def run(job: dict) -> None:
-    import bpy
-    import mathutils
-
-    addon, films, to_blender = import_asset(bpy, job)
-    if job["lobe"] == "view_angle":
-        film_lobe_only(bpy, addon)
-    elif job["lobe"] != "as_imported":
-        raise RuntimeError(f"lobe {job['lobe']!r} is not rendered by this host")
-    _world(bpy, job["environment_radiance"])
-
+def render_views(bpy, mathutils, to_blender, job: dict) -> None:
+    """Step 4 (module docstring): Cycles on the CPU as the job says, one EXR per View with its camera exactly
+    (also the OSL host's, :mod:`rockdove.hosts.osl_job`)."""
     scene = bpy.context.scene
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
@@ -140,6 +132,19 @@ def run(job: dict) -> None:
         scene.camera = _camera(bpy, mathutils, to_blender, view)
         scene.render.filepath = os.path.join(job["out_dir"], f"{view['name']}.exr")
         bpy.ops.render.render(write_still=True)
+
+
+def run(job: dict) -> None:
+    import bpy
+    import mathutils
+
+    addon, films, to_blender = import_asset(bpy, job)
+    if job["lobe"] == "view_angle":
+        film_lobe_only(bpy, addon)
+    elif job["lobe"] != "as_imported":
+        raise RuntimeError(f"lobe {job['lobe']!r} is not rendered by this host")
+    _world(bpy, job["environment_radiance"])
+    render_views(bpy, mathutils, to_blender, job)
     with open(os.path.join(job["out_dir"], "done.json"), "w", encoding="utf-8") as fh:
         json.dump({"films": films, "blender": bpy.app.version_string}, fh)
 

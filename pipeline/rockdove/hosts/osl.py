@@ -1,0 +1,224 @@
+"""The ``osl`` host: the asset's ``baked`` MaterialX network as OSL written by MaterialX's own generator,
+compiled by Blender's bundled OSL compiler and rendered by Cycles with OSL on (the MaterialX path of Arnold,
+RenderMan, Karma CPU and Cycles' OSL mode).
+
+What MaterialX does: the network upstream of the feather material's ``outputs:mtlx:surface``, rebuilt from the
+written USD (:func:`rockdove.hosts.materialx.feather_networks`, as Hydra's HdMtlx does) becomes one OSL shader
+by ``OslShaderGenerator`` 1.39 (the pip MaterialX); every colour, texture lookup, ``geompropvalue`` (OSL
+``getattribute``) and closure is that generated code. What this host changes in the MaterialX document before
+generating, as the Storm host does in its session layer: ``StructuralMix.bg`` set to black (the film lobe alone)
+and each ``image`` node's ``file`` made absolute (the generated OSL is compiled outside the asset folder).
+
+What Cycles does (:mod:`rockdove.hosts.osl_job`, in the bpy Python): ``_cycles.osl_compile`` (OSL 1.14) compiles
+the source with MaterialX's OSL headers (``mx_funcs.h`` and the stdlib ``genosl`` includes) beside it; the
+asset is imported by Blender's USD importer (:func:`rockdove.hosts.blender_job.import_asset`, no add-on); the
+feather material becomes one Script node with the compiled shader feeding the Material Output; every other part
+black; a uniform white world of unit radiance; each View's camera exactly (:mod:`rockdove.hosts.blender_job`).
+
+Output: float32 EXR, linear Rec.709, background 0.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+
+from . import HostError
+
+NAME = "osl"
+VARIANT = "baked"
+LOBE = "view_angle"
+ENVIRONMENT_RADIANCE = 1.0
+#: Cycles samples per pixel (the shading is deterministic; samples only resolve cut-out edges).
+SAMPLES = 8
+#: Seconds before a Cycles OSL run is given up.
+TIMEOUT_S = 900
+
+
+def unavailable() -> str | None:
+    """None when MaterialX's OSL generator and a Python with bpy (Cycles, OSL) can run here, else why not."""
+    try:
+        import MaterialX.PyMaterialXGenOsl  # noqa: F401
+    except ImportError as exc:
+        return f"MaterialX is not installed ({exc}); pip install MaterialX"
+    from . import blender
+
+    return blender.unavailable()
+
+
+def cannot_draw(asset_path: str) -> str | None:
+    """Why this host cannot draw the asset (no ``baked`` shading variant), else None."""
+    from .materialx import cannot_draw as mx_cannot
+
+    return mx_cannot(asset_path, VARIANT)
+
+
+def generate_osl(doc, material_name: str) -> str:
+    """OSL source of ``material_name`` (a ``surfacematerial`` of ``doc``) by MaterialX's ``OslShaderGenerator``."""
+    import MaterialX as mx
+    import MaterialX.PyMaterialXGenOsl as mx_osl
+    import MaterialX.PyMaterialXGenShader as mx_gen
+
+    node = doc.getNode(material_name)
+    if node is None:
+        raise ValueError(f"material_name={material_name!r} is not a node of the MaterialX document")
+    gen = mx_osl.OslShaderGenerator.create()
+    ctx = mx_gen.GenContext(gen)
+    ctx.registerSourceCodeSearchPath(mx.getDefaultDataSearchPath())
+    cms = mx_gen.DefaultColorManagementSystem.create(gen.getTarget())
+    cms.loadLibrary(doc.getDataLibrary() or doc)
+    gen.setColorManagementSystem(cms)
+    opts = ctx.getOptions()
+    opts.targetColorSpaceOverride = "lin_rec709"
+    # OSL's texture() (OpenImageIO) puts t = 0 at the image's first row, MaterialX puts v = 0 at its bottom
+    opts.fileTextureVerticalFlip = True
+    return gen.generate(material_name, node, ctx).getSourceCode(mx_gen.PIXEL_STAGE)
+
+
+#: Put at the top of the generated source (after its ``#include "mx_funcs.h"``), for Cycles: its ``getattribute``
+#: fills a ``float``, ``float[4]`` or a point/vector/normal/colour but no ``float[2]``, the type MaterialX's
+#: ``mx_geompropvalue_vector2`` reads a ``vector2`` primvar into (``st``), so that read always failed and returned
+#: its default (measured, bpy 5.0.1: ``getattribute("st", float[2])`` 0 where ``getattribute("st", vector)`` gives
+#: the UV map). The mapping renames ``getattribute`` to overloads that pass every other type through unchanged and
+#: read a ``float[2]`` through a ``vector``; the generated functions themselves are left as MaterialX wrote them.
+CYCLES_GETATTRIBUTE = """
+// rockdove (hosts/osl.py CYCLES_GETATTRIBUTE): Cycles' getattribute fills no float[2]; read it through a vector.
+int rd_getattribute(string name, output float value) { return getattribute(name, value); }
+int rd_getattribute(string name, output int value) { return getattribute(name, value); }
+int rd_getattribute(string name, output string value) { return getattribute(name, value); }
+int rd_getattribute(string name, output color value) { return getattribute(name, value); }
+int rd_getattribute(string name, output vector value) { return getattribute(name, value); }
+int rd_getattribute(string name, output float value[2])
+{
+    vector v = 0;
+    int found = getattribute(name, v);
+    if (found) { value[0] = v[0]; value[1] = v[1]; }
+    return found;
+}
+#define getattribute rd_getattribute
+"""
+_INCLUDE = '#include "mx_funcs.h"\n'
+
+
+def for_cycles(source: str) -> str:
+    """The generated OSL with :data:`CYCLES_GETATTRIBUTE` after its include line."""
+    head, sep, body = source.partition(_INCLUDE)
+    if not sep:
+        raise ValueError('the generated OSL does not start with #include "mx_funcs.h"')
+    return head + sep + CYCLES_GETATTRIBUTE + body
+
+
+def geomprops(doc) -> list:
+    """The primvar names the network reads (``geompropvalue`` nodes' ``geomprop``), in document order."""
+    names = [n.getInputValue("geomprop") for n in doc.getNodes() if n.getCategory() == "geompropvalue"]
+    return list(dict.fromkeys(str(n) for n in names if n))
+
+
+def osl_headers() -> list:
+    """MaterialX's OSL include files (``mx_funcs.h`` and what it includes), from the pip MaterialX's libraries."""
+    import MaterialX as mx
+
+    found = mx.getDefaultDataSearchPath().find("libraries/stdlib/genosl/include/mx_funcs.h").asString()
+    if os.path.isfile(found):
+        inc = os.path.dirname(found)
+        return sorted(os.path.join(inc, f) for f in os.listdir(inc) if f.endswith(".h"))
+    raise HostError(NAME, "MaterialX's OSL headers (libraries/stdlib/genosl/include/mx_funcs.h) are not found")
+
+
+def lobe_document(net: dict):
+    """The feather network of :func:`rockdove.hosts.materialx.feather_networks` made ready for this host: base
+    colour black (``StructuralMix.bg`` = 0, the film lobe alone) and image files absolute."""
+    doc = net["doc"]
+    mix = doc.getNode("StructuralMix")
+    if mix is None or mix.getInput("bg") is None:
+        raise ValueError("the baked network has no StructuralMix.bg (base colour) to turn black")
+    bg = mix.getInput("bg")
+    bg.removeAttribute("nodename")
+    bg.setValueString("0, 0, 0")
+    for node_name, path in net["files"].items():
+        doc.getNode(node_name).getInput("file").setValueString(os.path.abspath(path))
+    return doc
+
+
+def _compiler_error(work: str) -> str | None:
+    """The OSL compiler's first error line in ``work/blender.log`` (``FILE.osl:LINE: error: ...``), with the
+    shader named, or None when the job failed otherwise."""
+    try:
+        with open(os.path.join(work, "blender.log"), encoding="utf-8", errors="replace") as fh:
+            lines = fh.read().splitlines()
+    except OSError:
+        return None
+    errors = [ln.strip() for ln in lines if ".osl:" in ln and "error" in ln.lower()]
+    if not errors:
+        return None
+    failed = next((ln.strip() for ln in lines if ln.startswith("OSL compile of ")), "the OSL compiler failed")
+    return f"{failed}: {errors[0]} (log: {work}/blender.log)"
+
+
+def render(asset_path: str, views, out_dir: str) -> dict:
+    """Render ``views`` of the asset's ``baked`` network as generated OSL in Cycles (module docstring).
+
+    Returns
+    -------
+    dict
+        view name -> (H, W, 3) float32 linear Rec.709 radiance, background 0.
+
+    Raises
+    ------
+    HostError
+        bpy is missing, MaterialX cannot generate the OSL, the OSL compiler rejects it (its error line), or
+        Cycles writes no image.
+    """
+    from . import blender
+    from .blender import _root_object
+    from .materialx import feather_networks
+    from ..render.images import save_png
+    from ..spectral import linear_to_srgb8
+    from ..usd.layout import resolve_root_layer
+
+    views = list(views)
+    if not views:
+        raise ValueError("views must hold at least one View, got none")
+    blender.bpy_python()
+    try:
+        layer = resolve_root_layer(asset_path)
+        networks = feather_networks(layer, VARIANT)
+    except (ValueError, RuntimeError, OSError) as exc:
+        raise HostError(NAME, f"cannot read the asset's MaterialX network: {exc}") from None
+    work = os.path.join(os.path.abspath(out_dir), NAME)
+    os.makedirs(work, exist_ok=True)
+    for header in osl_headers():
+        shutil.copyfile(header, os.path.join(work, os.path.basename(header)))
+    shaders = {}
+    try:
+        for mesh, net in networks.items():
+            source = os.path.join(work, f"{net['material']}.osl")
+            with open(source, "w", encoding="utf-8") as fh:
+                fh.write(for_cycles(generate_osl(lobe_document(net), net["material"])))
+            shaders[mesh] = {"source": source, "attributes": geomprops(net["doc"])}
+    except ValueError as exc:
+        raise HostError(NAME, f"cannot turn the asset's MaterialX network into OSL: {exc}") from None
+    except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
+        raise HostError(NAME, f"MaterialX OSL generation failed: {type(exc).__name__}: {exc}") from None
+    for v in views:
+        if os.path.exists(os.path.join(work, f"{v.name}.exr")):
+            os.remove(os.path.join(work, f"{v.name}.exr"))
+    job = {"asset": os.path.abspath(layer), "root_object": _root_object(layer), "addon_zip": None,
+           "shaders": shaders, "environment_radiance": ENVIRONMENT_RADIANCE, "samples": SAMPLES,
+           "transparent_bounces": blender.TRANSPARENT_BOUNCES, "threads": blender.THREADS, "out_dir": work,
+           "views": [v.to_dict() for v in views]}
+    try:
+        blender.run_job(job, work, module="rockdove.hosts.osl_job", timeout_s=TIMEOUT_S)
+    except HostError as exc:
+        raise HostError(NAME, _compiler_error(work) or exc.message.replace("Blender exited", "Cycles (OSL) exited")) from None
+    out = {}
+    for v in views:
+        exr = os.path.join(work, f"{v.name}.exr")
+        if not os.path.isfile(exr):
+            raise HostError(NAME, f"Cycles wrote no image for view {v.name!r} ({exr}; log: {work}/blender.log)")
+        rgb = blender.read_exr_rgb(exr)
+        if rgb.shape != (v.height, v.width, 3):
+            raise HostError(NAME, f"view {v.name!r}: image is {rgb.shape[:2]}, expected {(v.height, v.width)}")
+        save_png(linear_to_srgb8(rgb), os.path.join(work, f"{v.name}.png"))
+        out[v.name] = rgb
+    return out

@@ -1,0 +1,134 @@
+"""The Cycles side of :mod:`rockdove.hosts.osl`: run as ``PYTHON path/to/osl_job.py JOB.json`` by a Python that has
+bpy (:func:`rockdove.hosts.blender.bpy_python`); it imports nothing but the standard library, bpy and its sibling
+:mod:`rockdove.hosts.blender_job` (by file, also stdlib + bpy only).
+
+Steps (the job file, written by :func:`rockdove.hosts.osl.render`, gives every value):
+
+1. compile each generated ``.osl`` with Blender's bundled OSL compiler (``_cycles.osl_compile``), MaterialX's
+   headers beside it; a shader that fails prints the compiler's error lines and the job exits 1 naming it;
+2. import the asset with Blender's USD importer, no add-on (:func:`blender_job.import_asset`);
+3. on each mesh the job names, the material becomes a Script node of the compiled shader into the Material
+   Output's surface; every other material black diffuse (occluding); no object seen by glossy rays;
+4. a uniform white world of unit radiance, Cycles on the CPU with OSL on, each View's camera exactly
+   (:func:`blender_job.render_views`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import blender_job  # noqa: E402  (stdlib + bpy only, run by file beside this one)
+
+
+def compile_shaders(shaders: dict) -> dict:
+    """Mesh path -> compiled ``.oso`` path; exits 1 naming the first shader the compiler rejects."""
+    import _cycles
+
+    out = {}
+    for mesh, shader in shaders.items():
+        source = shader["source"]
+        oso = os.path.splitext(source)[0] + ".oso"
+        if not _cycles.osl_compile(source, oso) or not os.path.isfile(oso):
+            print(f"OSL compile of {os.path.basename(source)} (for {mesh}) failed", file=sys.stderr)
+            sys.exit(1)
+        out[mesh] = dict(shader, oso=oso)
+    return out
+
+
+def request_attributes(material, output, names) -> None:
+    """Make Cycles export the mesh attributes ``names`` to this material's shaders.
+
+    Cycles exports a mesh attribute (or UV map) only where one of its own nodes asks for it by name; a Script
+    node's ``getattribute`` calls are invisible to it (they return 0: the neck read its defaults). Each name
+    gets an Attribute node, summed into a Displacement of scale 0 on the Material Output (bump mode): nodes
+    Cycles keeps (an unlinked node or an AOV output is dropped, measured) and that move nothing."""
+    if not names:
+        return
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    disp = nodes.new("ShaderNodeDisplacement")
+    disp.inputs["Scale"].default_value = 0.0
+    links.new(disp.outputs["Displacement"], output.inputs["Displacement"])
+    target = disp.inputs["Height"]
+    for name in names:
+        attr = nodes.new("ShaderNodeAttribute")
+        attr.attribute_name = name
+        add = nodes.new("ShaderNodeMath")
+        add.operation = "ADD"
+        links.new(add.outputs[0], target)
+        links.new(attr.outputs["Fac"], add.inputs[0])
+        target = add.inputs[1]
+    material.displacement_method = "BUMP"
+
+
+def script_material(bpy, name: str, oso: str, attributes=()):
+    """A material whose surface is one Script node running ``oso`` (its parameters keep their defaults), with
+    the mesh ``attributes`` it reads exported to it (:func:`request_attributes`)."""
+    import glob
+
+    import cycles.osl
+
+    # the Script node's parameter query (oslquery) lives in bpy's bundled site-packages, not on sys.path
+    bundled = glob.glob(os.path.join(bpy.utils.resource_path("LOCAL"), "python", "lib", "python3*", "site-packages"))
+    sys.path.extend(p for p in bundled if p not in sys.path)
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    nodes = mat.node_tree.nodes
+    nodes.clear()
+    script = nodes.new("ShaderNodeScript")
+    script.mode = "EXTERNAL"
+    script.filepath = oso
+    errors = []
+    cycles.osl.update_script_node(script, lambda kind, msg: errors.append(msg) if "ERROR" in kind else None)
+    if errors or "out" not in script.outputs:
+        raise RuntimeError(f"Script node for {oso}: {'; '.join(errors) or 'no closure output out'}")
+    output = nodes.new("ShaderNodeOutputMaterial")
+    mat.node_tree.links.new(script.outputs["out"], output.inputs["Surface"])
+    request_attributes(mat, output, attributes)
+    return mat
+
+
+def run(job: dict) -> None:
+    import bpy
+    import mathutils
+
+    compiled = compile_shaders(job["shaders"])
+    _, _, to_blender = blender_job.import_asset(bpy, job)
+    black = blender_job._black_material(bpy)
+    by_name = {mesh.rsplit("/", 1)[-1]: shader for mesh, shader in compiled.items()}
+    drawn = []
+    for ob in bpy.data.objects:
+        ob.visible_glossy = ob.visible_diffuse = False  # the lobe sees the uniform world alone, unoccluded
+        if ob.type != "MESH":
+            continue
+        shader = by_name.get(ob.name) or by_name.get(ob.data.name)
+        material = (script_material(bpy, f"rockdove_osl_{ob.name}", shader["oso"], shader["attributes"])
+                    if shader else black)
+        if shader:
+            drawn.append(ob.name)
+        ob.data.materials.clear()
+        ob.data.materials.append(material)
+    missing = sorted(set(by_name) - set(drawn))
+    if missing:
+        raise RuntimeError(f"no imported mesh named {', '.join(missing)} (objects: {[o.name for o in bpy.data.objects]})")
+    blender_job._world(bpy, job["environment_radiance"])
+    bpy.context.scene.cycles.shading_system = True  # OSL (CPU only)
+    blender_job.render_views(bpy, mathutils, to_blender, job)
+    with open(os.path.join(job["out_dir"], "done.json"), "w", encoding="utf-8") as fh:
+        json.dump({"drawn": drawn, "blender": bpy.app.version_string}, fh)
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if len(argv) != 1:
+        print("usage: python osl_job.py JOB.json", file=sys.stderr)
+        return 2
+    with open(argv[0], encoding="utf-8") as fh:
+        run(json.load(fh))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,81 @@
+"""The ``osl`` host: the asset's ``baked`` MaterialX network as OSL written by MaterialX, compiled by Blender's OSL
+compiler and rendered by Cycles with OSL on (one small view: Cycles is slow)."""
+
+import os
+
+import numpy as np
+import pytest
+
+from rockdove import hosts
+from rockdove.hosts import HostError, osl
+
+
+@pytest.fixture(scope="module")
+def asset_layer(small_asset):
+    return str(small_asset / "pigeon.usda")
+
+
+def _sweep_view(asset_layer, size=96):
+    from rockdove.render.scene import load_scene
+    from rockdove.verify.inputs import verification_views
+
+    scene = load_scene(os.path.dirname(asset_layer))
+    return scene, [v for v in verification_views(scene, size, size) if v.name == "sweep_060"]
+
+
+def test_generated_osl_reads_the_primvars_cycles_is_asked_to_export(asset_layer):
+    """The source is MaterialX's, with the Cycles getattribute mapping after its include, base colour black and
+    absolute texture paths; the primvars it reads are the asset's ``st`` and ``thickness``."""
+    from rockdove.hosts.materialx import feather_networks
+
+    (net,) = feather_networks(asset_layer, "baked").values()
+    assert osl.geomprops(net["doc"]) == ["thickness", "st"] or sorted(osl.geomprops(net["doc"])) == ["st", "thickness"]
+    src = osl.for_cycles(osl.generate_osl(osl.lobe_document(net), net["material"]))
+    assert src.index('#include "mx_funcs.h"') < src.index("#define getattribute rd_getattribute") < src.index("shader ")
+    assert "mx_geompropvalue_vector2" in src and "float value[2]" in src  # MaterialX's own function, unchanged
+    for path in net["files"].values():
+        assert f'"{os.path.abspath(path)}"' in src
+    with pytest.raises(ValueError, match="mx_funcs.h"):
+        osl.for_cycles("shader s() {}\n")
+
+
+def test_osl_host_draws_the_neck_as_the_exact_reference(asset_layer, tmp_path):
+    """Cycles OSL on the written asset: the neck is not black (st and thickness reach getattribute) and agrees
+    with the exact view-angle reference (at 96 px the cut-out edges are a larger share than at 512 px)."""
+    from rockdove.verify.host_check import host_metrics
+    from rockdove.verify.reference_image import render_reference
+
+    if osl.unavailable():
+        pytest.skip(osl.unavailable())
+    scene, views = _sweep_view(asset_layer)
+    images = osl.render(asset_layer, views, str(tmp_path))
+    rgb = images["sweep_060"]
+    assert rgb.shape == (96, 96, 3) and np.isfinite(rgb).all()
+    assert (tmp_path / "osl" / "sweep_060.png").is_file()
+    m = host_metrics(images, render_reference(scene, views, lobe="view_angle"), scene)
+    assert m["median_dE"] < 3.0 and m["green_px"] > 0 and m["purple_px"] > 0 and m["hue_agreement"] > 0.85, m
+
+
+def test_a_shader_the_compiler_rejects_is_named_with_its_error_line(asset_layer, tmp_path, monkeypatch):
+    if osl.unavailable():
+        pytest.skip(osl.unavailable())
+    real = osl.generate_osl
+    monkeypatch.setattr(osl, "generate_osl", lambda doc, name: real(doc, name).replace("out = ", "out = ;", 1))
+    _, views = _sweep_view(asset_layer, 16)
+    with pytest.raises(HostError, match=r"host 'osl': OSL compile of FeatherMaterial_mtlx\.osl .*failed: "
+                                        r".*FeatherMaterial_mtlx\.osl:\d+: error"):
+        osl.render(asset_layer, views, str(tmp_path))
+
+
+def test_osl_is_skipped_with_how_to_install_when_no_python_has_bpy(monkeypatch, tmp_path):
+    import importlib.util
+
+    from rockdove.hosts import blender
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "bpy" else real(name, *a))
+    monkeypatch.delenv(blender.BPY_PYTHON_ENV, raising=False)
+    monkeypatch.setattr(blender, "bpy_places", lambda: [str(tmp_path / "no-venv-bpy" / "bin" / "python")])
+    sel = hosts.select(["osl"])
+    assert [m.NAME for m in sel.available] == ["glsl"]
+    assert "pip install 'bpy==5.0.1'" in sel.unavailable["osl"]
