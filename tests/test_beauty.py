@@ -10,6 +10,7 @@ import pytest
 from PIL import Image
 
 from rockdove.hosts import blender
+from rockdove.hosts import beauty as HB
 from rockdove.render import beauty as B
 from rockdove.render.scene import load_scene
 
@@ -65,7 +66,7 @@ def check_picture(scene, views, images):
 
 
 def test_gl_beauty_is_a_framed_lit_picture_with_a_shadow(scene, tmp_path):
-    entry = B.render_beauty(scene.root_layer, scene, str(tmp_path), renderer="gl", width=W, height=H)
+    entry = HB.render_beauty(scene.root_layer, scene, str(tmp_path), renderer="gl", width=W, height=H)
     assert entry["renderer"] == "gl" and entry["fallback"] is None and "GL" in entry["caption"]
     images = {n: np.asarray(Image.open(tmp_path / f)) for n, f in entry["files"].items()}
     assert sorted(images) == ["beauty_34", "beauty_side"]
@@ -89,7 +90,7 @@ def test_missing_blender_falls_back_to_gl_and_says_so(scene, tmp_path, monkeypat
     find_spec = blender.importlib.util.find_spec
     monkeypatch.setattr(blender.importlib.util, "find_spec", lambda name, *a: None if name == "bpy" else find_spec(name))
     monkeypatch.setenv(blender.BPY_PYTHON_ENV, str(tmp_path / "no-python"))
-    entry, note = B.for_report(scene.root_layer, scene, str(tmp_path), {"renderer": "cycles", "width": 64,
+    entry, note = HB.for_report(scene.root_layer, scene, str(tmp_path), {"renderer": "cycles", "width": 64,
                                                                        "height": 64}, cycles_ok=True)
     assert entry["renderer"] == "gl" and "no-python" in entry["fallback"]
     assert "not Cycles" in entry["caption"] and "no-python" in entry["caption"]
@@ -98,10 +99,10 @@ def test_missing_blender_falls_back_to_gl_and_says_so(scene, tmp_path, monkeypat
 
 
 def test_auto_takes_gl_where_blender_was_not_asked_for(scene, tmp_path):
-    entry = B.render_beauty(scene.root_layer, scene, str(tmp_path), renderer="auto", width=64, height=64,
+    entry = HB.render_beauty(scene.root_layer, scene, str(tmp_path), renderer="auto", width=64, height=64,
                             cycles_ok=False)
-    assert entry["renderer"] == "gl" and "not among the hosts" in entry["caption"]
-    assert B.render_beauty(scene.root_layer, scene, str(tmp_path), renderer="off") is None
+    assert entry["renderer"] == "gl" and "Blender host was not named" in entry["caption"]
+    assert HB.render_beauty(scene.root_layer, scene, str(tmp_path), renderer="off") is None
 
 
 def test_settings_take_the_schema_defaults_and_reject_bad_values():
@@ -124,7 +125,7 @@ def test_the_build_report_opens_with_the_beauty_render_at_the_configured_size(bu
 
 @needs_bpy
 def test_cycles_beauty_through_the_addon(scene, tmp_path):
-    entry = B.render_beauty(scene.root_layer, scene, str(tmp_path), renderer="cycles", width=W, height=H,
+    entry = HB.render_beauty(scene.root_layer, scene, str(tmp_path), renderer="cycles", width=W, height=H,
                             samples=4)
     assert entry["renderer"] == "cycles" and entry["fallback"] is None and "Cycles" in entry["caption"]
     images = {n: np.asarray(Image.open(tmp_path / f)) for n, f in entry["files"].items()}

@@ -15,15 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
-#: sRGB 8-bit palette of the body.
-BODY_SRGB = (150, 158, 172)
-HEAD_SRGB = (104, 110, 126)
-NECK_SRGB = (84, 90, 102)
-WING_SRGB = (162, 169, 181)
-WING_BAR_SRGB = (28, 28, 32)
-PRIMARIES_SRGB = (88, 92, 102)
-TAIL_SRGB = (120, 127, 140)
-TAIL_BAND_SRGB = (36, 36, 42)
+from .geometry.colours import (BODY_SRGB, HEAD_SRGB, NECK_SRGB, PRIMARIES_SRGB, RUMP_SRGB, TAIL_BAND_SRGB,  # noqa: F401
+                              TAIL_SRGB, WING_BAR_SRGB, WING_SRGB, body_colour_at, coat_tiles, palette_colours)
+from .geometry.colours import linear as _linear, mix as _mix, smoothstep as _smoothstep
 
 #: sRGB 8-bit colours of a neck feather: the vane, the rachis, the downy base.
 VANE_SRGB = (56, 61, 66)
@@ -45,26 +39,10 @@ def _resolution(value, name="resolution_or_params", attr="feather_texture_resolu
     return int(res)
 
 
-def _smoothstep(e0, e1, x):
-    t = np.clip((np.asarray(x, dtype=np.float64) - e0) / (e1 - e0), 0.0, 1.0)
-    return t * t * (3.0 - 2.0 * t)
-
-
-def _linear(srgb8) -> np.ndarray:
-    from .spectral import srgb_decode
-
-    return srgb_decode(np.asarray(srgb8, dtype=np.float64) / 255.0)
-
-
 def _encode(linear: np.ndarray) -> np.ndarray:
     from rockdove.spectral import linear_to_srgb8  # the project's one sRGB 8-bit encoding
 
     return linear_to_srgb8(linear)
-
-
-def _mix(a, b, w):
-    w = np.asarray(w, dtype=np.float64)[..., None]
-    return a * (1.0 - w) + b * w
 
 
 def feather_uv(resolution: int) -> tuple[np.ndarray, np.ndarray]:
@@ -125,58 +103,6 @@ def feather_textures(resolution_or_params=256) -> dict:
 
 # ---- body and the feather cards' palette ---------------------------------------------------------------
 #: The white rump patch of the wild-type rock dove (Gibbs, Barnes and Cox 2001: "white lower back"), sRGB.
-RUMP_SRGB = (236, 238, 240)
-
-
-def body_colour_at(points_m: np.ndarray) -> np.ndarray:
-    """Linear Rec.709 base colour of the body at surface points: (N, 3) metres -> (N, 3) float64.
-
-    Blue-grey, the dark slate head and neck, the white rump patch over the tail base. Each layer is evaluated
-    only where its weight is above 0: elsewhere a mix with weight 0 would leave the colour unchanged, bit for bit.
-    """
-    from rockdove.geometry import neck as _neck
-    from rockdove.geometry import sdf as _sdf
-
-    p = np.asarray(points_m, dtype=np.float64).reshape(-1, 3)
-    col = np.broadcast_to(_linear(BODY_SRGB), p.shape).copy()
-    rump = 1.0 - _smoothstep(0.012, 0.02, np.linalg.norm((p - np.array([0.0, 0.088, -0.062])) * [0.8, 1.2, 0.7], axis=1))
-    i = np.flatnonzero(rump > 0.0)
-    col[i] = _mix(col[i], _linear(RUMP_SRGB), rump[i])
-    s, r = _neck.neck_s(p)
-    near_neck = 1.0 - _smoothstep(0.030, 0.05, r)
-    neck_w = _smoothstep(-0.45, 0.05, s) * near_neck
-    i = np.flatnonzero(neck_w > 0.0)
-    col[i] = _mix(col[i], _linear(NECK_SRGB), neck_w[i])
-    head_w = 1.0 - _smoothstep(-0.001, 0.006, _sdf.HEAD.sdf(p))
-    head_w = np.maximum(head_w, _smoothstep(1.0, 1.15, s) * near_neck)
-    i = np.flatnonzero(head_w > 0.0)
-    col[i] = _mix(col[i], _linear(HEAD_SRGB), head_w[i])
-    return col
-
-
-def palette_colours() -> np.ndarray:
-    """(TILES, 3) linear colour of each feather tile (rockdove.geometry.plumage): the grey ramp from the neck's
-    slate to the coverts' pale grey, white, wing bar, rectrix and primary."""
-    from rockdove.geometry import plumage as _pl
-
-    w = np.linspace(0.0, 1.0, _pl.RAMP)[:, None]
-    out = np.broadcast_to(_linear(BODY_SRGB), (_pl.TILES, 3)).copy()
-    out[:_pl.RAMP] = _linear(NECK_SRGB) * (1 - w) + _linear(WING_SRGB) * w
-    for tile, srgb in ((_pl.T_WHITE, RUMP_SRGB), (_pl.T_BAR, WING_SRGB), (_pl.T_RECTRIX, TAIL_SRGB),
-                       (_pl.T_PRIMARY, PRIMARIES_SRGB), (_pl.T_BAR2, WING_SRGB)):
-        out[tile] = _linear(srgb)
-    return out
-
-
-def coat_tiles(points_m) -> np.ndarray:
-    """(N,) int: the palette tile (ramp or white) nearest :func:`body_colour_at` at each point."""
-    from rockdove.geometry import plumage as _pl
-
-    pal = palette_colours()[:_pl.T_WHITE + 1]
-    col = body_colour_at(points_m)
-    return np.argmin(((col[:, None, :] - pal[None]) ** 2).sum(-1), axis=1)
-
-
 def palette_strip(resolution: int) -> np.ndarray:
     """(rows, R, 3) uint8 sRGB: the feather tiles of the body texture's bottom strip (rockdove.geometry.plumage),
     each a feather drawn across its tile (vane, pale rachis, barbs, downy base); the wing-bar tile has the black

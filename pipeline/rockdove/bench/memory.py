@@ -35,7 +35,7 @@ def _limit(key: str, end: str = "maximum"):
 
 def rows() -> list[tuple[str, list[str]]]:
     """(label, rockdove argv) per row; the values are read from the schema (and the LUT baker's limits)."""
-    from ..commands.render import MAX_SIDE_PX
+    from ..render.images import MAX_SIDE_PX
     from ..lut.bake import MAX_ANGLES, MAX_THICKNESSES
 
     def build(*sets, verify=False):

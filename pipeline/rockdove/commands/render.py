@@ -15,11 +15,7 @@ import time
 
 import numpy as np
 
-#: Largest rendered side, pixels: --width (--height) x --supersample. One view's buffers (~46 bytes a pixel) and
-#: the GL context's at 4096 x 4096 stay within the 4 GiB memory budget; views are rendered one at a time, and
-#: the 8-bit images the contact sheet gathers (4 bytes a pixel) are bounded by MAX_SHEET_PX.
-MAX_SIDE_PX = 4096
-MAX_SHEET_PX = 2**27
+from ..render.images import MAX_SHEET_PX, MAX_SIDE_PX
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

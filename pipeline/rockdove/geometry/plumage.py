@@ -23,6 +23,8 @@ cards need no material of their own.
 
 from __future__ import annotations
 
+from .colours import RAMP, T_BAR, T_BAR2, T_PRIMARY, T_RECTRIX, T_WHITE, TILES  # noqa: F401 (the tile layout)
+
 import numpy as np
 
 from rockdove.geometry import cards as _cards
@@ -38,10 +40,7 @@ PALETTE_STRIP = 0.125
 #: take the strip's own colours, not a neighbouring chart's.
 ATLAS_START = 0.145
 #: Feather tiles side by side in the strip; tile i spans s in [i, i + 1] / TILES.
-TILES = 32
 #: Tiles 0 .. RAMP - 1: the coat's greys from the dark neck to the pale wing (rockdove.textures.palette_colours).
-RAMP = 20
-T_WHITE, T_BAR, T_RECTRIX, T_PRIMARY, T_BAR2 = 20, 21, 22, 23, 24
 #: The card outline: rows at v (quill 0 .. tip 1) and their widths as fractions of the card width (tip: 0).
 SHAPE_V = np.array([0.0, 0.3, 0.62, 0.86, 1.0])
 SHAPE_W = np.array([0.45, 0.92, 1.0, 0.72, 0.0])
@@ -139,7 +138,7 @@ def coat_region(points_m) -> np.ndarray:
 
 def build_coat(vertices_m, faces, seed: int, count: int = COAT_COUNT) -> MeshPart:
     """``CoatFeathers``: ``count`` contour-feather cards on blue-noise roots over :func:`coat_region`."""
-    from rockdove.textures import coat_tiles
+    from .colours import coat_tiles
 
     rng = _cards.stream(seed, STREAM_COAT)
     cand, _, _ = _neck.sample_triangles(vertices_m, faces, int(4 * count), rng)

@@ -161,7 +161,7 @@ def addon_zip(out_dir) -> str:
     return path
 
 
-def _root_object(asset_path: str) -> str:
+def root_object(asset_path: str) -> str:
     from pxr import Sdf
 
     layer = Sdf.Layer.FindOrOpen(asset_path)
@@ -274,7 +274,7 @@ def run_blender(asset_path: str, views, out_dir: str, *, addon: bool = True, lob
             os.remove(stale)
     job = {
         "asset": asset_path,
-        "root_object": _root_object(asset_path),
+        "root_object": root_object(asset_path),
         "addon_zip": addon_zip(work) if addon else None,
         "addon_module": ADDON_MODULE,
         "lobe": lobe,

@@ -15,7 +15,7 @@ as the add-on built it), then staged as a look-dev artist stages a hero shot:
 - one camera per view (the job's OpenGL ``camera_to_world`` through the importer's up-axis conversion, as the
   verification host does), written as an 8-bit PNG through the view transform.
 
-Every value comes from the job file (:func:`rockdove.render.beauty.render_cycles` writes it).
+Every value comes from the job file (:func:`rockdove.hosts.beauty.render_cycles` writes it).
 """
 
 from __future__ import annotations

@@ -170,7 +170,7 @@ def render(asset_path: str, views, out_dir: str) -> dict:
         Cycles writes no image.
     """
     from . import blender
-    from .blender import _root_object
+    from .blender import root_object
     from .materialx import feather_networks
     from ..render.images import save_png
     from ..spectral import linear_to_srgb8
@@ -203,7 +203,7 @@ def render(asset_path: str, views, out_dir: str) -> dict:
     for v in views:
         if os.path.exists(os.path.join(work, f"{v.name}.exr")):
             os.remove(os.path.join(work, f"{v.name}.exr"))
-    job = {"asset": os.path.abspath(layer), "root_object": _root_object(layer), "addon_zip": None,
+    job = {"asset": os.path.abspath(layer), "root_object": root_object(layer), "addon_zip": None,
            "shaders": shaders, "environment_radiance": ENVIRONMENT_RADIANCE, "samples": SAMPLES,
            "transparent_bounces": blender.TRANSPARENT_BOUNCES, "threads": blender.THREADS, "out_dir": work,
            "views": [v.to_dict() for v in views]}

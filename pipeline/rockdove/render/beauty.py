@@ -12,7 +12,7 @@ Two renderers (:data:`RENDERERS`):
 - ``gl``: the GLSL path (:mod:`rockdove.render.beauty_gl`): the verification shaders under the sun and a few
   sky lights, the sun's shadow from a shadow map, a filmic curve;
 
-``auto`` takes Cycles when the Blender host is available and asked for, else GL, and says which and why in
+``auto`` takes Cycles when the Blender host is available and named (``--hosts blender``), else GL, and says which and why in
 the caption (:func:`render_beauty`). ``off`` renders nothing. Sizes and samples are ``[beauty]`` config keys
 (schemas/config.schema.json).
 """
@@ -129,109 +129,6 @@ def cyclorama(scene, views, segments: int = 96) -> tuple[np.ndarray, np.ndarray]
     return verts, quads.reshape(-1, 4)
 
 
-def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
-    """Render ``views`` with Cycles through the add-on (:mod:`rockdove.hosts.blender_beauty_job`); returns
-    ``{view name: (H, W, 3) uint8}`` (display-referred, AgX). Raises HostError when Blender cannot."""
-    from PIL import Image
-
-    from ..hosts import HostError
-    from ..hosts import blender as bl
-
-    work = os.path.join(os.path.abspath(out_dir), "beauty_cycles")
-    os.makedirs(work, exist_ok=True)
-    for v in views:
-        if os.path.exists(os.path.join(work, f"{v.name}.png")):
-            os.remove(os.path.join(work, f"{v.name}.png"))
-    verts, quads = cyclorama(scene, views)
-    job = {
-        "asset": os.path.abspath(layer), "root_object": bl._root_object(layer), "addon_zip": bl.addon_zip(work),
-        "addon_module": bl.ADDON_MODULE, "out_dir": work, "samples": int(samples), "threads": bl.THREADS,
-        "transparent_bounces": bl.TRANSPARENT_BOUNCES, "ground_vertices_m": np.round(verts, 6).tolist(),
-        "ground_quads": quads.tolist(), "ground_albedo": GROUND_ALBEDO, "sky_horizon_rgb": SKY_HORIZON_RGB,
-        "sky_zenith_rgb": SKY_ZENITH_RGB, "sky_strength": SKY_STRENGTH, "sun_strength": SUN_STRENGTH,
-        "sun_rgb": SUN_RGB, "sun_angle_deg": SUN_ANGLE_DEG, "look": LOOK, "exposure": EXPOSURE,
-        "views": [{**v.to_dict(), "sun_direction": v.light_direction.tolist()} for v in views],
-    }
-    bl.run_job(job, work, "rockdove.hosts.blender_beauty_job", timeout_s=TIMEOUT_S)
-    out = {}
-    for v in views:
-        path = os.path.join(work, f"{v.name}.png")
-        if not os.path.isfile(path):
-            raise HostError(bl.NAME, f"Blender wrote no beauty image for {v.name!r} ({path})")
-        out[v.name] = np.asarray(Image.open(path).convert("RGB"))
-        if out[v.name].shape != (v.height, v.width, 3):
-            raise HostError(bl.NAME, f"{v.name}: Blender image is {out[v.name].shape[:2]}, expected "
-                                     f"{(v.height, v.width)}")
-    return out
-
-
-def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", width: int = 768,
-                  height: int = 512, samples: int = 32, cycles_ok: bool = True, lut=None) -> dict | None:
-    """Render the beauty views into ``out_dir`` (``beauty_34.png``, ``beauty_side.png``) and describe them.
-
-    Parameters
-    ----------
-    layer : str
-        The asset's root layer (Cycles imports it).
-    scene : RenderScene
-        The same asset read back (framing, the GL path).
-    renderer : str
-        One of :data:`RENDERERS`.
-    width, height : int
-        Pixels of each view.
-    samples : int
-        Cycles samples per pixel (adaptive: the most a pixel takes).
-    cycles_ok : bool
-        Whether ``auto`` may take Cycles (False where the verification was not asked to run Blender).
-    lut : ThinFilmLUT, optional
-        The film's LUT for the GL path (default the asset's).
-
-    Returns
-    -------
-    dict or None
-        ``{"renderer": "cycles"|"gl", "files": {view: file name}, "caption": str, "seconds": float,
-        "size": [w, h], "samples": int or None, "fallback": reason or None}``; None for ``renderer="off"``.
-    """
-    from ..hosts import HostError
-    from ..hosts import blender as bl
-    from .images import save_png
-
-    if renderer not in RENDERERS:
-        raise ValueError(f"beauty renderer {renderer!r} is not one of {', '.join(RENDERERS)}")
-    if renderer == "off":
-        return None
-    views = beauty_views(scene, int(width), int(height))
-    t = time.perf_counter()
-    fallback, images, used = None, None, "gl"
-    if renderer == "cycles" or (renderer == "auto" and cycles_ok):
-        fallback = bl.unavailable()
-        if fallback is None:
-            try:
-                images, used = render_cycles(layer, scene, views, out_dir, samples), "cycles"
-            except HostError as exc:
-                fallback = str(exc)
-    elif renderer == "auto":
-        fallback = "the Blender host was not among the hosts asked for"
-    if images is None:
-        from .beauty_gl import render_gl
-
-        images = render_gl(scene, views, ground_y_m(scene), lut=lut)
-    seconds = time.perf_counter() - t
-    files = {}
-    for name, img in images.items():
-        files[name] = os.path.basename(save_png(img, os.path.join(out_dir, f"{name}.png")))
-    if used == "cycles":
-        caption = (f"Cycles (Blender, through the rockdove add-on), {samples} samples per pixel, adaptive, "
-                   f"OpenImageDenoise, AgX; sky light and a {SUN_ANGLE_DEG:g} degree warm sun at "
-                   f"{SUN_ELEVATION_DEG:g} degrees; {width} x {height} px, {seconds:.1f} s")
-    else:
-        caption = (f"GL (the verification's GLSL shaders in pyrender): the sun's shadow from a shadow map, sky "
-                   f"fill lights, filmic curve; {width} x {height} px, {seconds:.1f} s"
-                   + (f"; not Cycles: {fallback}" if fallback else ""))
-    return {"renderer": used, "files": files, "caption": caption, "seconds": seconds, "size": [width, height],
-            "samples": samples if used == "cycles" else None, "fallback": fallback}
-
-
 def settings(overrides=None) -> dict:
     """The ``[beauty]`` settings: the schema's defaults (schemas/config.schema.json) under ``overrides``, checked
     against its ranges (ValueError naming the key)."""
@@ -244,18 +141,3 @@ def settings(overrides=None) -> dict:
         if not isinstance(out[key], int) or isinstance(out[key], bool) or not lo <= out[key] <= 4096:
             raise ValueError(f"beauty.{key}: {out[key]!r} is not an integer from {lo} to 4096")
     return out
-
-
-def for_report(layer: str, scene, out_dir: str, settings: dict, *, cycles_ok: bool, lut=None) -> tuple:
-    """:func:`render_beauty` as the verification report takes it: ``(entry or None, note or None)``. The picture
-    is not a measurement, so a renderer that fails leaves the report without it and a note saying why, never a
-    failed verification; asking for Cycles and getting GL is noted too."""
-    keys = ("renderer", "width", "height", "samples")
-    try:
-        entry = render_beauty(layer, scene, out_dir, cycles_ok=cycles_ok, lut=lut,
-                              **{k: settings[k] for k in keys if k in settings})
-    except Exception as exc:  # noqa: BLE001 - any renderer's error: the report goes on without the picture
-        return None, f"no beauty render: {type(exc).__name__}: {exc}"
-    if entry is not None and settings.get("renderer") == "cycles" and entry["renderer"] != "cycles":
-        return entry, f"beauty render: Cycles was asked for, drawn with GL instead ({entry['fallback']})"
-    return entry, None

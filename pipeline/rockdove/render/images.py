@@ -11,6 +11,12 @@ import os
 import numpy as np
 
 
+#: `rockdove render`'s largest rendered side, pixels: --width (--height) x --supersample. One view's buffers (~46 bytes a pixel) and
+#: the GL context's at 4096 x 4096 stay within the 4 GiB memory budget; views are rendered one at a time, and
+#: the 8-bit images the contact sheet gathers (4 bytes a pixel) are bounded by MAX_SHEET_PX.
+MAX_SIDE_PX = 4096
+MAX_SHEET_PX = 2**27
+
 def box_downsample(image, factor: int) -> np.ndarray:
     """Average ``factor`` x ``factor`` blocks of an (H, W[, C]) image (H, W multiples of ``factor``).
 

@@ -291,7 +291,7 @@ def _figure_row(title: str, files: dict, captions: dict) -> str:
 
 
 def _beauty(images: dict) -> str:
-    """The picture the page opens with (:func:`rockdove.render.beauty.for_report`): its views, its caption."""
+    """The picture the page opens with (:func:`rockdove.hosts.beauty.for_report`): its views, its caption."""
     b = images.get("beauty")
     if not b:
         return ""
@@ -312,7 +312,7 @@ def write_html(path, report: dict, images: dict) -> str:
         ``"views"``: ``{view: {"gl": file, "reference": file, "dE": file}}``; optional ``"hosts"``
         (``{host: {view: {"host", "reference", "dE": file}}}``), ``"contact_sheet"``,
         ``"lut"``, ``"spectra"``, ``"hue"``, ``"bench"`` (list) file names, relative to the page; ``"beauty"``
-        (:func:`rockdove.render.beauty.render_beauty`'s entry), the picture the page opens with.
+        (:func:`rockdove.hosts.beauty.render_beauty`'s entry), the picture the page opens with.
     """
     e = html.escape
     status = "PASSED" if report.get("passed") else "FAILED"

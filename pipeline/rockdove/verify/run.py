@@ -234,8 +234,8 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
         its goals fails the verification.
     beauty : dict, optional
         ``[beauty]`` settings (renderer, width, height, samples) of the picture the report opens with
-        (:mod:`rockdove.render.beauty`; ``auto`` takes Cycles when the blender host is among ``hosts`` and
-        available); default the schema's defaults; ``{"renderer": "off"}``: none.
+        (:mod:`rockdove.render.beauty`; ``auto`` takes Cycles when ``hosts`` names the blender host and it is
+        available, else GL); default the schema's defaults; ``{"renderer": "off"}``: none.
 
     Returns
     -------
@@ -270,6 +270,9 @@ def verify_asset(asset, out_dir=None, width: int = DEFAULT_SIZE, height: int = D
                                             rendered={"glsl": gl_images} if gl_images else None, say=say)
     from ..render.beauty import settings
 
-    beauty = {**settings(beauty), "cycles_ok": any(m.NAME == "blender" for m in selection.available)}
+    # auto takes Cycles only when the blender host was named (--hosts blender): a default verification would
+    # otherwise spend minutes of CPU path tracing (768 x 512 x 2 views at 32 samples: 2-4 min on 2 idle cores)
+    named = hosts is not None and "blender" in hosts
+    beauty = {**settings(beauty), "cycles_ok": named and any(m.NAME == "blender" for m in selection.available)}
     return combine(layer, scene, lut, notes, results, out, width, height, bench_dir, say, t_start=t_start,
                     hosts=(host_entries, host_images, time.perf_counter() - t), beauty=beauty)

@@ -32,7 +32,7 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
     ``report.html`` and their images in ``out_dir``, default ``verify/`` beside the root layer); returns the
     report dict. ``bench_dir``: a folder whose benchmark plots (``*.png``) the report shows; None: none (the
     report reads no folder it is not given). ``beauty``: the ``[beauty]`` settings and ``cycles_ok`` of the
-    picture the report opens with (:func:`rockdove.render.beauty.for_report`); None: no picture."""
+    picture the report opens with (:func:`rockdove.hosts.beauty.for_report`); None: no picture."""
     out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)
     os.makedirs(out, exist_ok=True)
     timings, failures, notes = {}, [], list(notes)
@@ -109,7 +109,7 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
                 failures.append(f"host {h['name']} ({h['variant']}, {h['lobe']} lobe): {'; '.join(h['failures'])}")
     images["bench"] = report.copy_bench_plots(out, bench_dir) if bench_dir is not None else []
     if beauty is not None:
-        from ..render.beauty import for_report
+        from ..hosts.beauty import for_report
 
         say("beauty render")
         images["beauty"], note = for_report(layer, scene, out, beauty, cycles_ok=beauty.get("cycles_ok", False),
