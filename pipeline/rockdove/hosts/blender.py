@@ -22,6 +22,7 @@ from __future__ import annotations
 import functools
 import importlib.util
 import json
+import contextlib
 import os
 import subprocess
 import sys
@@ -252,8 +253,6 @@ def run_blender(asset_path: str, views, out_dir: str, *, addon: bool = True, lob
     HostError
         bpy is missing, Blender fails to import or render, or the add-on builds no thin-film material.
     """
-    from ..spectral import linear_to_srgb8
-    from ..render.images import save_png
 
     bpy_python()  # bpy missing: HostError before any work
     views = list(views)
@@ -286,14 +285,31 @@ def run_blender(asset_path: str, views, out_dir: str, *, addon: bool = True, lob
         "views": [v.to_dict() for v in views],
     }
     run_job(job, work)
+    return read_views(NAME, "Blender", views, work)
+
+
+def clear_views(views, work: str) -> None:
+    """Remove the views' images a job wrote into ``work`` before, so a job that writes none is caught."""
+    for v in views:
+        with contextlib.suppress(FileNotFoundError):
+            os.remove(os.path.join(work, f"{v.name}.exr"))
+
+
+def read_views(host: str, renderer: str, views, work: str) -> dict:
+    """The ``<view>.exr`` a job of host ``host`` (drawn by ``renderer``, for messages) wrote into ``work``: view name
+    -> (H, W, 3) float32 linear radiance, each also written as ``<view>.png``. Raises :class:`HostError` for a
+    missing image or one of the wrong size (naming the job's log)."""
+    from ..render.images import save_png
+    from ..spectral import linear_to_srgb8
+
     out = {}
     for v in views:
         exr = os.path.join(work, f"{v.name}.exr")
         if not os.path.isfile(exr):
-            raise HostError(NAME, f"Blender wrote no image for view {v.name!r} ({exr})")
+            raise HostError(host, f"{renderer} wrote no image for view {v.name!r} ({exr}; log: {work}/blender.log)")
         rgb = read_exr_rgb(exr)
         if rgb.shape != (v.height, v.width, 3):
-            raise HostError(NAME, f"view {v.name!r}: Blender image is {rgb.shape[:2]}, expected "
+            raise HostError(host, f"view {v.name!r}: {renderer} image is {rgb.shape[:2]}, expected "
                                   f"{(v.height, v.width)}")
         save_png(linear_to_srgb8(rgb), os.path.join(work, f"{v.name}.png"))
         out[v.name] = rgb

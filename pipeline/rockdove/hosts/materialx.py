@@ -87,25 +87,35 @@ def generate_glsl(doc, material_name: str) -> tuple[str, str]:
     ValueError
         ``material_name`` is not a node of ``doc``.
     """
-    import MaterialX as mx
     import MaterialX.PyMaterialXGenGlsl as mx_glsl
+    import MaterialX.PyMaterialXGenShader as mx_gen
+
+    shader = generate(doc, material_name, mx_glsl.GlslShaderGenerator.create(), hwTransparency=True)
+    return shader.getSourceCode(mx_gen.VERTEX_STAGE), shader.getSourceCode(mx_gen.PIXEL_STAGE)
+
+
+def generate(doc, material_name: str, generator, **options):
+    """MaterialX's ``generator`` run on ``material_name`` (a ``surfacematerial`` of ``doc``): the shader, with the
+    document's colour management, the working space ``lin_rec709``, images flipped to the renderers' first-row
+    convention (``fileTextureVerticalFlip``) and any other generator ``options``. ValueError when the node is
+    not in ``doc``."""
+    import MaterialX as mx
     import MaterialX.PyMaterialXGenShader as mx_gen
 
     node = doc.getNode(material_name)
     if node is None:
         raise ValueError(f"material_name={material_name!r} is not a node of the MaterialX document")
-    gen = mx_glsl.GlslShaderGenerator.create()
-    ctx = mx_gen.GenContext(gen)
+    ctx = mx_gen.GenContext(generator)
     ctx.registerSourceCodeSearchPath(mx.getDefaultDataSearchPath())
-    cms = mx_gen.DefaultColorManagementSystem.create(gen.getTarget())
+    cms = mx_gen.DefaultColorManagementSystem.create(generator.getTarget())
     cms.loadLibrary(doc.getDataLibrary() or doc)
-    gen.setColorManagementSystem(cms)
+    generator.setColorManagementSystem(cms)
     opts = ctx.getOptions()
-    opts.fileTextureVerticalFlip = True
-    opts.hwTransparency = True
     opts.targetColorSpaceOverride = "lin_rec709"
-    shader = gen.generate(material_name, node, ctx)
-    return shader.getSourceCode(mx_gen.VERTEX_STAGE), shader.getSourceCode(mx_gen.PIXEL_STAGE)
+    opts.fileTextureVerticalFlip = True
+    for name, value in options.items():
+        setattr(opts, name, value)
+    return generator.generate(material_name, node, ctx)
 
 
 #: Declared at the top of the generated main(): the interpolated normal flipped towards the viewer.

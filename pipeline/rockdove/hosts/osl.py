@@ -55,24 +55,14 @@ def cannot_draw(asset_path: str) -> str | None:
 
 def generate_osl(doc, material_name: str) -> str:
     """OSL source of ``material_name`` (a ``surfacematerial`` of ``doc``) by MaterialX's ``OslShaderGenerator``."""
-    import MaterialX as mx
     import MaterialX.PyMaterialXGenOsl as mx_osl
     import MaterialX.PyMaterialXGenShader as mx_gen
 
-    node = doc.getNode(material_name)
-    if node is None:
-        raise ValueError(f"material_name={material_name!r} is not a node of the MaterialX document")
-    gen = mx_osl.OslShaderGenerator.create()
-    ctx = mx_gen.GenContext(gen)
-    ctx.registerSourceCodeSearchPath(mx.getDefaultDataSearchPath())
-    cms = mx_gen.DefaultColorManagementSystem.create(gen.getTarget())
-    cms.loadLibrary(doc.getDataLibrary() or doc)
-    gen.setColorManagementSystem(cms)
-    opts = ctx.getOptions()
-    opts.targetColorSpaceOverride = "lin_rec709"
-    # OSL's texture() (OpenImageIO) puts t = 0 at the image's first row, MaterialX puts v = 0 at its bottom
-    opts.fileTextureVerticalFlip = True
-    return gen.generate(material_name, node, ctx).getSourceCode(mx_gen.PIXEL_STAGE)
+    from .materialx import generate
+
+    # fileTextureVerticalFlip (set by generate): OSL's texture() (OpenImageIO) puts t = 0 at the image's first
+    # row, MaterialX puts v = 0 at its bottom
+    return generate(doc, material_name, mx_osl.OslShaderGenerator.create()).getSourceCode(mx_gen.PIXEL_STAGE)
 
 
 #: Put at the top of the generated source (after its ``#include "mx_funcs.h"``), for Cycles: its ``getattribute``
@@ -172,8 +162,6 @@ def render(asset_path: str, views, out_dir: str) -> dict:
     from . import blender
     from .blender import root_object
     from .materialx import feather_networks
-    from ..render.images import save_png
-    from ..spectral import linear_to_srgb8
     from ..usd.layout import resolve_root_layer
 
     views = list(views)
@@ -200,9 +188,7 @@ def render(asset_path: str, views, out_dir: str) -> dict:
         raise HostError(NAME, f"cannot turn the asset's MaterialX network into OSL: {exc}") from None
     except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
         raise HostError(NAME, f"MaterialX OSL generation failed: {type(exc).__name__}: {exc}") from None
-    for v in views:
-        if os.path.exists(os.path.join(work, f"{v.name}.exr")):
-            os.remove(os.path.join(work, f"{v.name}.exr"))
+    blender.clear_views(views, work)
     job = {"asset": os.path.abspath(layer), "root_object": root_object(layer), "addon_zip": None,
            "shaders": shaders, "environment_radiance": ENVIRONMENT_RADIANCE, "samples": SAMPLES,
            "transparent_bounces": blender.TRANSPARENT_BOUNCES, "threads": blender.THREADS, "out_dir": work,
@@ -211,14 +197,4 @@ def render(asset_path: str, views, out_dir: str) -> dict:
         blender.run_job(job, work, module="rockdove.hosts.osl_job", timeout_s=TIMEOUT_S)
     except HostError as exc:
         raise HostError(NAME, _compiler_error(work) or exc.message.replace("Blender exited", "Cycles (OSL) exited")) from None
-    out = {}
-    for v in views:
-        exr = os.path.join(work, f"{v.name}.exr")
-        if not os.path.isfile(exr):
-            raise HostError(NAME, f"Cycles wrote no image for view {v.name!r} ({exr}; log: {work}/blender.log)")
-        rgb = blender.read_exr_rgb(exr)
-        if rgb.shape != (v.height, v.width, 3):
-            raise HostError(NAME, f"view {v.name!r}: image is {rgb.shape[:2]}, expected {(v.height, v.width)}")
-        save_png(linear_to_srgb8(rgb), os.path.join(work, f"{v.name}.png"))
-        out[v.name] = rgb
-    return out
+    return blender.read_views(NAME, "Cycles (OSL)", views, work)

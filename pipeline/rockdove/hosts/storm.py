@@ -95,8 +95,6 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
         bpy is missing, Storm cannot start (no EGL, a shader that fails to compile) or writes no image.
     """
     from . import blender
-    from ..render.images import save_png
-    from ..spectral import linear_to_srgb8
 
     variant, overrides = VARIANTS[name]
     views = list(views)
@@ -107,28 +105,15 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
         raise HostError(name, f"no asset at {asset_path!r}")
     work = os.path.join(os.path.abspath(out_dir), name)
     os.makedirs(work, exist_ok=True)
-    for v in views:
-        if os.path.exists(os.path.join(work, f"{v.name}.exr")):
-            os.remove(os.path.join(work, f"{v.name}.exr"))
+    blender.clear_views(views, work)
     job = {"asset": asset_path, "variant": variant, "overrides": {FEATHER_MATERIAL: overrides},
            "environment_radiance": ENVIRONMENT_RADIANCE, "out_dir": work, "views": [v.to_dict() for v in views]}
-    log = os.path.join(work, "blender.log")
     try:  # the bpy Python, found and run as the Blender host runs its job (log: work/blender.log)
         blender.run_job(job, work, module="rockdove.hosts.storm_job", timeout_s=TIMEOUT_S)
     except HostError as exc:
         raise HostError(name, exc.message.replace("Blender exited", "Storm exited")
                         .replace("Blender did not", "Storm did not")) from None
-    out = {}
-    for v in views:
-        exr = os.path.join(work, f"{v.name}.exr")
-        if not os.path.isfile(exr):
-            raise HostError(name, f"Storm wrote no image for view {v.name!r} ({exr}; log: {log})")
-        rgb = blender.read_exr_rgb(exr)
-        if rgb.shape != (v.height, v.width, 3):
-            raise HostError(name, f"view {v.name!r}: Storm image is {rgb.shape[:2]}, expected {(v.height, v.width)}")
-        save_png(linear_to_srgb8(rgb), os.path.join(work, f"{v.name}.png"))
-        out[v.name] = rgb
-    return out
+    return blender.read_views(name, "Storm", views, work)
 
 
 def _host(name: str) -> SimpleNamespace:
