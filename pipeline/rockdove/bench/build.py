@@ -347,7 +347,8 @@ def _verify_rows(tmp: Path, preset: list[str], args) -> dict:
         last_film = film
     cold_v, film_v = statistics.median(colds), statistics.median(films)
     warm = _median(_warm_rows(tmp, with_verify + size, repeats, cache, 1.60, user_cache=user), "verify_s")
-    items = json.loads((Path(last_film["report"]) / "report.json").read_text())["cache"] if last_film.get("report") else {}
+    report = Path(last_film["report"] or "") / "report.json"
+    items = json.loads(report.read_text())["cache"] if last_film.get("report") else {}
     ran, reused = items.get("ran", {}), items.get("reused", {})
     out = {"cold_verify_s": cold_v, "film_verify_s": film_v, "ratio": film_v / cold_v, "goal_ratio": VERIFY_GOAL_RATIO,
            "cold_verify_runs_s": colds, "film_verify_runs_s": films,
