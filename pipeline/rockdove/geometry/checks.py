@@ -64,7 +64,7 @@ def band_coverage(body_vertices_m, body_faces, cards, rays: int = 2000, tilt_deg
     import trimesh
 
     rng = np.random.default_rng(seed)
-    target, _, _ = _neck.sample_band_uniform(body_vertices_m, body_faces, rays, rng)
+    target = _neck.sample_band_uniform(body_vertices_m, body_faces, rays, rng)
     normal = _sdf.sdf_gradient(_sdf.body_sdf, target)
     view = _tilted(normal, tilt_deg, rng)
     origin = target + RAY_START_M * view
