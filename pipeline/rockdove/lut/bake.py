@@ -130,7 +130,7 @@ def _texel_chunks(n_angle, n_wavelength):
 def _bake_spectral(cos_theta, thickness_nm, film, *, illuminant, colour_space, spectral_step_nm, **_):
     """Straightforward per-wavelength bake with :func:`rockdove.optics.reflectance`; shape (M, N, 3)."""
     from .. import optics
-    from .reference import colour_weights
+    from .weights import colour_weights
 
     wl = wavelength_grid(spectral_step_nm)
     w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
@@ -213,7 +213,7 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
 
 def _bake_spectral_fast(cos_theta, thickness_nm, film, *, illuminant, colour_space, fast_step_nm,
                         grazing_step_nm, grazing_cos, **_):
-    from .reference import REFERENCE_STEP_NM, colour_weights
+    from .weights import REFERENCE_STEP_NM, colour_weights
 
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
     graze = cos_theta < grazing_cos
@@ -373,7 +373,7 @@ def bake(
     if not isinstance(method, str) or method not in BAKE_METHODS:
         raise ValueError(f"method must be one of {sorted(BAKE_METHODS)}, got {method!r}")
     gamma = _check_positive("angle_warp_gamma", angle_warp_gamma)
-    from .reference import check_illuminant
+    from .weights import check_illuminant
 
     colour_space = check_colour_space(colour_space)
     illuminant = check_illuminant(illuminant)

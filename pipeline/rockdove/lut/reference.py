@@ -106,35 +106,17 @@ import functools
 import numpy as np
 
 from ..spectral import WAVELENGTH_RANGE_NM
+from .weights import (INTERPOLANT_ORDER, REFERENCE_STEP_NM, check_illuminant, colour_weights, interpolant_weights,
+                      product_weights, reference_wavelengths, sigma_range, wavenumber_nodes)
 
-#: The exact reference's wavelength step away from grazing (cos theta >= 0.003), nm; the bakers' grid.
-REFERENCE_STEP_NM = 0.1
 #: Wavelength step per cos theta band: ``(cos_theta_lo, step_nm)``; a point uses the step of the last band whose
 #: lower bound it reaches (module docstring: each band within 2e-4 dE2000 of the converged integral).
 REFERENCE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, REFERENCE_STEP_NM))
-ILLUMINANTS = ("D65",)
 #: Points x wavelengths per chunk of the spectral evaluation (bounds memory near 1.7 M complex samples).
 _CHUNK_SAMPLES = 4096 * 421
 #: The wavelength steps (nm) a thickness-scaled step is snapped down to; each divides the 420 nm range, so every
 #: grid ends exactly on both ends of :data:`rockdove.spectral.WAVELENGTH_RANGE_NM`.
 STEP_LADDER_NM = (0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0)
-
-
-def check_illuminant(illuminant) -> str:
-    if illuminant not in ILLUMINANTS:
-        raise ValueError(f"illuminant must be one of {list(ILLUMINANTS)}, got {illuminant!r}")
-    return illuminant
-
-
-@functools.lru_cache(maxsize=16)
-def reference_wavelengths(step_nm: float = REFERENCE_STEP_NM) -> np.ndarray:
-    """The uniform grid over :data:`rockdove.spectral.WAVELENGTH_RANGE_NM` every ``step_nm`` nm (default 0.1 nm:
-    shape (4201,)), read-only."""
-    lo, hi = WAVELENGTH_RANGE_NM
-    n = int(round((hi - lo) / step_nm)) + 1
-    wl = np.linspace(lo, hi, n)
-    wl.setflags(write=False)
-    return wl
 
 
 def reference_step_nm(cos_theta, steps_nm=REFERENCE_STEPS_NM) -> np.ndarray:
@@ -153,112 +135,9 @@ def snap_step_nm(step_nm) -> np.ndarray:
     return ladder[np.clip(i, 0, ladder.size - 1)]
 
 
-def product_weights(step_nm: float, *, illuminant: str = "D65", colour_space: str | None = "lin_rec709") -> np.ndarray:
-    """Colour weights (N, 3) of the ``step_nm`` grid that integrate the spectrum's piecewise-cubic interpolant
-    against the 0.1 nm reference grid (module docstring, "Steps coarser than the 0.1 nm definition grid").
-
-    ``R_coarse @ W`` equals ``R_fine @ colour_weights(0.1 nm grid)`` where ``R_fine`` is ``R_coarse``
-    interpolated at the 0.1 nm wavelengths with the 4-point Lagrange stencil nearest each (one-sided at the
-    ends). Cached per step (read-only).
-    """
-    return _product_weights_cached(float(step_nm), illuminant, colour_space)
-
-
-@functools.lru_cache(maxsize=32)
-def _product_weights_cached(step_nm: float, illuminant: str, colour_space: str | None) -> np.ndarray:
-    fine = reference_wavelengths(REFERENCE_STEP_NM)
-    coarse = reference_wavelengths(step_nm)
-    if coarse.size < 4 or not np.isclose(coarse[1] - coarse[0], step_nm):
-        raise ValueError(f"step_nm must divide the wavelength range into at least 3 steps, got {step_nm!r}")
-    w_fine = colour_weights(fine, illuminant=illuminant, colour_space=colour_space)
-    t = (fine - coarse[0]) / (coarse[1] - coarse[0])
-    k0 = np.clip(np.floor(t).astype(np.int64) - 1, 0, coarse.size - 4)
-    out = np.zeros((coarse.size, w_fine.shape[1]))
-    for j in range(4):
-        lagrange = np.ones_like(t)
-        for m in range(4):
-            if m != j:
-                lagrange *= (t - (k0 + m)) / (j - m)
-        np.add.at(out, k0 + j, lagrange[:, None] * w_fine)
-    out.setflags(write=False)
-    return out
-
-
-@functools.lru_cache(maxsize=32)
-def _weights_cached(key: bytes, n: int, illuminant: str, colour_space: str | None) -> np.ndarray:
-    from .. import spectral
-
-    wl = np.frombuffer(key, dtype=np.float64, count=n)
-    w = np.ascontiguousarray(spectral.spectral_weights(wl, illuminant=illuminant, colour_space=colour_space),
-                             dtype=np.float64)
-    w.setflags(write=False)
-    return w
-
-
-def colour_weights(wavelength_nm, *, illuminant: str = "D65", colour_space: str | None = "lin_rec709") -> np.ndarray:
-    """Colour weights ``W`` (shape (N, 3)) with ``R @ W`` = linear colour; cached per grid (read-only)."""
-    wl = np.ascontiguousarray(wavelength_nm, dtype=np.float64)
-    return _weights_cached(wl.tobytes(), wl.shape[0], illuminant, colour_space)
-
-
 # --------------------------------------------------------------------------- wavenumber-grid interpolant
-#: Points of the Lagrange stencil of the wavenumber interpolant (:func:`interpolant_weights`), even.
-INTERPOLANT_ORDER = 16
 #: Interval counts of the wavenumber grids (about 9% apart), so that a process builds few sets of weights.
 NODE_LADDER = tuple(sorted({int(round(16 * 1.09**k)) for k in range(80)}))
-
-
-def sigma_range() -> tuple[float, float]:
-    """The wavenumbers ``(1 / 780, 1 / 380)`` nm^-1 of :data:`rockdove.spectral.WAVELENGTH_RANGE_NM`, increasing."""
-    lo, hi = WAVELENGTH_RANGE_NM
-    return 1.0 / hi, 1.0 / lo
-
-
-@functools.lru_cache(maxsize=64)
-def wavenumber_nodes(n_intervals: int, order: int = INTERPOLANT_ORDER) -> np.ndarray:
-    """Wavelengths (nm, increasing, read-only) whose wavenumbers ``1 / lambda`` split
-    :data:`rockdove.spectral.WAVELENGTH_RANGE_NM` into ``n_intervals`` equal intervals, plus ``order / 2 - 1`` nodes
-    beyond each end so that every ``order``-point stencil is centred (``n_intervals + order - 1`` nodes)."""
-    s_lo, s_hi = sigma_range()
-    n, ext = int(n_intervals), int(order) // 2 - 1
-    sigma = s_hi - (s_hi - s_lo) * (np.arange(-ext, n + ext + 1) / n)
-    wl = 1.0 / sigma
-    wl[ext], wl[ext + n] = WAVELENGTH_RANGE_NM
-    wl.setflags(write=False)
-    return wl
-
-
-def interpolant_weights(n_intervals: int, order: int = INTERPOLANT_ORDER, *, illuminant: str = "D65",
-                        colour_space: str | None = "lin_rec709") -> np.ndarray:
-    """Colour weights (n_intervals + order - 1, 3), one row per node of :func:`wavenumber_nodes`, that integrate
-    the spectrum's piecewise Lagrange interpolant in wavenumber (``order`` points, the centred stencil of each
-    wavelength's interval, reaching the nodes past the ends) against the 0.1 nm reference grid's colour weights
-    (module docstring). Cached (read-only)."""
-    return _interpolant_weights_cached(int(n_intervals), int(order), check_illuminant(illuminant), colour_space)
-
-
-@functools.lru_cache(maxsize=64)
-def _interpolant_weights_cached(n: int, order: int, illuminant: str, colour_space: str | None) -> np.ndarray:
-    if order < 2 or order % 2 or n < 1:
-        raise ValueError(f"order must be even and >= 2 and n_intervals >= 1, got order {order!r}, n_intervals {n!r}")
-    fine = reference_wavelengths(REFERENCE_STEP_NM)
-    w_fine = colour_weights(fine, illuminant=illuminant, colour_space=colour_space)
-    s_lo, s_hi = sigma_range()
-    ext = order // 2 - 1
-    t = (s_hi - 1.0 / fine) * (n / (s_hi - s_lo)) + ext  # node index of each fine wavelength (increasing lambda)
-    k0 = np.minimum(np.floor(t).astype(np.int64) - ext, n - 1)  # centred (the last interval's at 780 nm)
-    x = t - k0  # position in the stencil, in [ext, ext + 1] (up to ext + 2 at 780 nm)
-    lagrange = np.ones((order, t.size))
-    for j in range(order):
-        for m in range(order):
-            if m != j:
-                lagrange[j] *= (x - m) / (j - m)
-    index = (k0[None, :] + np.arange(order)[:, None]).ravel()
-    size = n + 2 * ext + 1
-    out = np.stack([np.bincount(index, weights=(lagrange * w_fine[:, ch]).ravel(), minlength=size)
-                    for ch in range(w_fine.shape[1])], axis=1)
-    out.setflags(write=False)
-    return out
 
 
 def interval_count(cos_theta, thickness_nm, film, kappa, max_step_rad) -> np.ndarray:
