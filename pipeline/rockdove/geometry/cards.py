@@ -129,14 +129,6 @@ def snap_to_skin(points_m: np.ndarray):
     return n, points_m - _sdf.body_sdf(points_m)[:, None] * n
 
 
-def centre_rows(roots, n, t, v, length, depth, lift: float, bend: float) -> np.ndarray:
-    """(N, R, 3) centre lines c(v) = p + L v t + h(v) n at the rows ``v`` (R,) of cards rooted at ``roots`` (N, 3)
-    (module docstring); ``length`` (N,), ``depth`` (N,) or one value, metres."""
-    v = v[None, :]
-    h = -np.reshape(depth, (-1, 1)) * (1.0 - v) ** 4 + length[:, None] * (lift * v + bend * v ** 2)
-    return roots[:, None] + (length[:, None] * v)[..., None] * t[:, None] + h[..., None] * n[:, None]
-
-
 def card_frames(n: np.ndarray, rng: np.random.Generator, jitter: float):
     """Lie direction t and across direction b of each card (both (N, 3) unit) from the skin normals n (N, 3)."""
     axis = _sdf.NECK_TOP_M - _sdf.NECK_BASE_M
@@ -174,7 +166,10 @@ def build_cards(body, params) -> FeatherCards:
     k = QUADS_PER_CARD
     v = np.arange(k + 1) / k  # (K+1,)
     lift = np.sin(np.deg2rad(params.card_lift_deg))
-    centre = centre_rows(roots, n, t, v, length, depth, lift, params.card_bend)  # (N, K+1, 3)
+    h = (-depth[:, None] * (1.0 - v[None, :]) ** 4
+         + length[:, None] * (lift * v[None, :] + params.card_bend * v[None, :] ** 2))  # (N, K+1)
+    centre = (roots[:, None, :] + (length[:, None] * v[None, :])[..., None] * t[:, None, :]
+              + h[..., None] * n[:, None, :])  # (N, K+1, 3)
     half = (0.5 * width)[:, None, None] * b[:, None, :]
     pts = np.stack([centre - half, centre + half], axis=2)  # (N, K+1, 2, 3): left, right
     above = pts[:, 1:].reshape(-1, 3)

@@ -40,7 +40,7 @@ ATLAS_START = 0.145
 SHAPE_V = np.array([0.0, 0.3, 0.62, 0.86, 1.0])
 SHAPE_W = np.array([0.45, 0.92, 1.0, 0.72, 0.0])
 VERTICES_PER_CARD = 2 * (len(SHAPE_V) - 1) + 1
-#: Coat cards: count, length and width ranges (m), lift and bend (cards.centre_rows: low, so the shingles stack
+#: Coat cards: count, length and width ranges (m), lift and bend (as in cards.py: low, so the shingles stack
 #: ~1 mm deep and shadow maps see one smooth coat), root depth (m), clearance (m).
 COAT_COUNT = 1400
 COAT_LENGTH_M = (0.018, 0.026)
@@ -85,7 +85,9 @@ def _part(name, pieces) -> MeshPart:
 
 def _shingles(roots, n, t, length, lift, bend, depth, clearance):
     """Centre rows and across directions of cards rooted at ``roots`` lying along ``t`` over skin normals ``n``."""
-    centre = _cards.centre_rows(roots, n, t, SHAPE_V, length, depth, lift, bend)
+    v = SHAPE_V[None, :]  # the neck cards' centre line (cards.py), at the rows of the feather outline
+    h = -depth * (1.0 - v) ** 4 + length[:, None] * (lift * v + bend * v * v)
+    centre = roots[:, None] + (length[:, None] * v)[..., None] * t[:, None] + h[..., None] * n[:, None]
     rest = centre[:, 1:].reshape(-1, 3)
     centre[:, 1:] = _cards._push_out(rest, np.repeat(n, len(SHAPE_V) - 1, axis=0), clearance).reshape(
         centre[:, 1:].shape)
