@@ -68,13 +68,13 @@ def _colour_cache_dir() -> Path:
 
     from .resources import user_cache_dir
 
-    import hashlib
+    from .digest import file_sha256
 
     try:
         tag = version("colour-science")
     except PackageNotFoundError:  # e.g. a source checkout of colour on sys.path
         tag = "unknown"
-    code = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:12]  # the code deriving the tables, too
+    code = file_sha256(__file__)[:12]  # the code deriving the tables, too
     return user_cache_dir(f"colour-science-{tag}-{code}")
 
 

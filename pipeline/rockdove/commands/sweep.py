@@ -43,6 +43,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .build import add_config_arguments
+from ..resources import write_atomic
 
 HELP = "build (and verify) every point of a parameter grid on Dask (a local cluster or --scheduler)"
 POINTS = "points"
@@ -340,7 +341,7 @@ td,th{{border:1px solid #ccc;padding:4px;vertical-align:top;font-size:12px}} img
 {chr(10).join(rows)}
 </table></body></html>
 """
-    _write_atomic(root / "index.html", page)
+    write_atomic(root / "index.html", page)
 
 
 def _cell(p: dict | None, root: Path) -> str:
@@ -365,12 +366,6 @@ def _cell(p: dict | None, root: Path) -> str:
         parts.append(f'<img src="{e(_rel(imgs["preview"], root))}" alt="LUT preview"><div>LUT preview '
                      "(not verified: no renders)</div>")
     return "".join(parts)
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
 
 
 # ----------------------------------------------------------------------------------------------- running
@@ -466,7 +461,7 @@ def run(args: argparse.Namespace) -> int:
     def save():
         doc["done"] = sum(1 for r in records if r["status"] != "pending")
         doc["seconds"] = round(time.perf_counter() - t0, 3)
-        _write_atomic(root / "sweep.json", json.dumps(doc, indent=1, default=str) + "\n")
+        write_atomic(root / "sweep.json", json.dumps(doc, indent=1, default=str) + "\n")
         write_index(root, doc, keys, labels)
 
     todo = [(p, r) for p, r in zip(points, records) if r["status"] == "pending"]

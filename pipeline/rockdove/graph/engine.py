@@ -47,6 +47,7 @@ from typing import Any, Callable, Iterable, Mapping
 
 
 from .. import resources
+from ..digest import Digest
 from ..config import canonical_json, get
 from . import code
 from .code import files_of
@@ -226,21 +227,6 @@ def _nested(config: dict, keys: Iterable[str]) -> dict:
     return out
 
 
-def _hash_file(h, path: Path, label: str, seen: dict | None = None, *, remember: bool = True) -> None:
-    """Add ``label``, NUL, the file's bytes, NUL to ``h``. ``remember``: the bytes of a source or data file are
-    kept (:func:`rockdove.graph.code.read`); the files a stage wrote (``remember=False``, :func:`folder_digest`)
-    are streamed, so a long-lived process does not keep every asset it built (~7.5 MB per film rebuild) in
-    memory."""
-    h.update(label.encode() + b"\0")
-    if remember:
-        h.update(code.read(path, seen))
-    else:
-        with open(path, "rb") as f:
-            while chunk := f.read(1 << 20):
-                h.update(chunk)
-    h.update(b"\0")
-
-
 #: source_digest per stage (its callables, the callables of its inputs' codecs, its data, the package and data
 #: folders they resolve to) -> (paths, their (mtime, size) when read, digest): valid while none of the files it
 #: hashed and none of the folders it listed changed (an edited, added or removed file changes its folder's mtime).
@@ -268,16 +254,16 @@ def source_digest(stage: Stage, inputs: Iterable[Stage] = ()) -> str:
     if hit is not None and _state(hit[0]) == hit[1]:
         return hit[2]
     seen: dict = {}
-    h = hashlib.sha256()
+    h = Digest()  # source and data files are read once per process (rockdove.graph.code.read)
     for p in code.code_files(stage, inputs, seen):
-        _hash_file(h, p, str(p.relative_to(root.parent)) if p.is_relative_to(root.parent) else p.name, seen)
+        h.add(str(p.relative_to(root.parent)) if p.is_relative_to(root.parent) else p.name, code.read(p, seen))
     for d, top in zip(stage.data, tops):
         data_files = files_of(top, seen=seen)
         if not data_files:  # an empty data folder would key the stage on nothing
             raise ValueError(f"stage {stage.name!r} reads data {d!r}, but {top} holds no files; "
                              "the stage cannot be keyed (reinstall rockdove)")
         for p in data_files:
-            _hash_file(h, p, f"{d}/{p.relative_to(top)}" if top.is_dir() else d, seen)
+            h.add(f"{d}/{p.relative_to(top)}" if top.is_dir() else d, code.read(p, seen))
     digest = h.hexdigest()
     _SOURCE_MEMO[memo_key] = (tuple(seen), tuple(seen.values()), digest)
     return digest
@@ -314,10 +300,11 @@ def stage_key(stage: Stage, config: dict | None, input_digests: Mapping[str, str
 
 
 def folder_digest(folder: Path) -> str:
-    """sha256 over the relative paths and bytes of every file under ``folder``."""
-    h = hashlib.sha256()
+    """sha256 over the relative paths and bytes of every file under ``folder`` (streamed: a long-lived process
+    does not keep the assets it built in memory)."""
+    h = Digest()
     for p in files_of(folder):
-        _hash_file(h, p, str(p.relative_to(folder)), remember=False)
+        h.file(str(p.relative_to(folder)), p)
     return h.hexdigest()
 
 

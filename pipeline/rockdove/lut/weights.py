@@ -190,14 +190,14 @@ def chebyshev_weights(n_nodes: int, illuminant: str = "D65", colour_space: str |
 @functools.lru_cache(maxsize=1)
 def _code_digest() -> str:
     """sha256 (16 hex digits) of the modules whose code decides :func:`chebyshev_weights`."""
-    import hashlib
     import importlib
 
-    h = hashlib.sha256()
+    from ..digest import Digest
+
+    d = Digest()
     for name in (__name__, "rockdove.spectral"):
-        with open(importlib.import_module(name).__file__, "rb") as f:
-            h.update(f.read())
-    return h.hexdigest()[:16]
+        d.file(name, importlib.import_module(name).__file__)
+    return d.hexdigest()[:16]
 
 
 def _chebyshev_weights(n: int, illuminant: str, colour_space: str | None):
