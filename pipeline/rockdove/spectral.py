@@ -29,17 +29,17 @@ IEC 61966-2-1. These three formulas are written here in numpy and tested against
 
 Keeping colour-science off the hot path: importing colour-science takes ~1 s (scipy.interpolate, its
 colour models), far more than a LUT bake. The only things taken from it are data (the CMF and illuminant
-tables, the RGB colourspace matrices), so they are read from colour-science once per installed version and
-kept as ``.npz`` files in ``$XDG_CACHE_HOME/rockdove/colour-science-<version>/`` (``~/.cache`` by default;
-:func:`colour_data`, :func:`rockdove.resources.user_cache_dir`). A film-only rebuild then bakes, measures and encodes its LUT without importing
-colour-science. If the folder cannot be written, the values are simply recomputed in each process.
+tables, the RGB colourspace matrices), so they are read from colour-science once and kept as ``.npz`` files in
+``$XDG_CACHE_HOME/rockdove/colour-science-<key>/`` (``~/.cache`` by default; :func:`colour_data`), keyed by the
+code that computes them, the installed distributions and Python (:func:`rockdove.sources.cache_dir`). A
+film-only rebuild then bakes, measures and encodes its LUT without importing colour-science. If the folder
+cannot be written, the values are simply recomputed in each process.
 """
 
 from __future__ import annotations
 
 import zipfile
 from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
 
@@ -71,24 +71,8 @@ def _check_wavelengths(wavelength_nm) -> np.ndarray:
     return lam
 
 
-@lru_cache(maxsize=1)
-def _colour_cache_dir() -> Path:
-    from importlib.metadata import PackageNotFoundError, version
-
-    from .resources import user_cache_dir
-
-    import hashlib
-
-    try:
-        tag = version("colour-science")
-    except PackageNotFoundError:  # e.g. a source checkout of colour on sys.path
-        tag = "unknown"
-    code = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:12]  # the code deriving the tables, too
-    return user_cache_dir(f"colour-science-{tag}-{code}")
-
-
 def colour_data(name: str, compute, keys: tuple[str, ...]) -> dict:
-    """Arrays derived from colour-science's data, cached on disk per colour-science version (module docstring).
+    """Arrays derived from colour-science's data, cached on disk by what computes them (module docstring).
 
     Parameters
     ----------
@@ -104,7 +88,9 @@ def colour_data(name: str, compute, keys: tuple[str, ...]) -> dict:
     -------
     dict of str -> ndarray (read-only)
     """
-    path = _colour_cache_dir() / f"{name}.npz"
+    from .sources import cache_dir
+
+    path = cache_dir("colour-science", compute) / f"{name}.npz"
     arrays = None
     try:
         with np.load(path, allow_pickle=False) as f:
