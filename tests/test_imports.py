@@ -31,7 +31,7 @@ ROOT = Path(rockdove.__file__).resolve().parent
 LAYERS = [
     ({"rockdove", "errors", "_compat", "resources", "config"},
      "foundations: the version, error types, optional-import shims, data-file lookup and the checked config"),
-    ({"films", "optics", "spectral"},
+    ({"films", "optics", "spectral", "srgb"},
      "physics: film model -> Airy reflectance -> spectrum to colour; knows nothing of tables, meshes or USD"),
     ({"lut"},
      "the thin-film colour table baked from the physics, its exact reference and its files"),
