@@ -1,10 +1,9 @@
 """Exact colour of dispersive films by product integration in wavenumber (method ``"quadrature"`` of the baker).
 
-A texel's colour is ``C = integral R(sigma) w(sigma) dsigma`` over ``sigma = 1 / lambda``, with ``w`` the colour
-weights (CMFs times illuminant, a perfect reflector at Y = 1, then the working space's matrix) and ``R`` the
-unpolarised Airy reflectance (Born & Wolf, *Principles of Optics*, 7th ed., sec. 7.6.1). The weights carry all
-the fine structure (tabulated CMFs and D65 kink every 1 and 5 nm); ``R`` is analytic in ``sigma`` for a real
-film, even a dispersive one:
+A texel's colour is ``C = integral R(sigma) w(sigma) dsigma`` over ``sigma = 1 / lambda``, ``w`` the colour
+weights and ``R`` the unpolarised Airy reflectance (Born & Wolf, *Principles of Optics*, 7th ed., sec. 7.6.1).
+The weights carry all the fine structure (the tables kink every 1 and 5 nm); ``R`` is analytic in ``sigma`` for a
+real film, even a dispersive one:
 
     R(sigma) = (a^2 + b^2 + 2ab cos phi) / (1 + a^2 b^2 + 2ab cos phi),
     phi(sigma) = 4 pi d sigma sqrt(n(sigma)^2 - n_a^2 sin^2 theta),   n(sigma) = A + B sigma^2 (Cauchy),
@@ -21,14 +20,10 @@ Node count. ``R`` is a Poisson kernel in ``phi`` with poles at ``Im phi = +-delt
 ``phi`` spanning ``2 Phi`` over the spectrum the error decays like ``exp(-c N delta / Phi)`` (Bernstein
 ellipse), so ``N = K_FULL * Phi / delta + N_MIN`` (``K_FULL`` measured). Near grazing ``|ab| -> 1`` and ``N``
 would grow like ``1 / cos theta``; there the truncated Poisson series of :mod:`.fourier` (``rho = -ab``) is
-interpolated instead, a trigonometric polynomial of degree ``M`` (``N = K_SERIES * M * Phi + N_MIN``):
-
-    R(phi) = c_0 + 2 c_1 sum_{m=1..M} rho^(m-1) cos(m phi)
-           = c_0 + 2 c_1 [cos phi - rho - rho^M cos((M+1) phi) + rho^(M+1) cos(M phi)] / (1 - 2 rho cos phi + rho^2)
-
-``M`` is :func:`rockdove.lut.fourier.n_terms_needed` at the film's smallest optical path difference (with
+interpolated instead, ``R(phi) = c_0 + 2 c_1 sum_{m=1..M} rho^(m-1) cos(m phi)``, a trigonometric polynomial
+of degree ``M`` (``N = K_SERIES * M * Phi + N_MIN``, summed in closed form by :func:`_series_form`). ``M`` is :func:`rockdove.lut.fourier.n_terms_needed` at the film's smallest optical path difference (with
 dispersion the local frequency of ``cos(m phi)`` is the group path, larger than the phase path, so ``G``'s tail
-at the phase path bounds it), evaluated in half-angle form without cancellation (:func:`_series_form`).
+at the phase path bounds it).
 
 Angle axis. Away from grazing the colour is analytic and slowly varying in ``cos theta`` too: the columns with
 ``cos theta >= ANGLE_PANEL_COS`` are interpolated (barycentric, Chebyshev points) from the exact colours at
@@ -53,8 +48,7 @@ K_SERIES = 0.6
 N_MIN = 20
 NODE_LADDER = (8, 24, 28, 32, 40, 48, 56, 64, 80, 96, 112, 128, 160, 192, 224, 256, 320, 384, 448, 512, 640, 768,
                1024, 1280, 1536, 2048, 2560, 3072, 4096)
-# Relative cost per node of the series form when choosing the form (1.6 and 4 bake the default keratin LUT in the
-# same time: only the two most grazing columns differ).
+# Relative cost per node of the series form (1.6 and 4 bake the default keratin LUT in the same time).
 SERIES_COST = 1.6
 # The angle panel (angle_panel_nodes). Measured on keratin at 256 x 64 texels, 480-700 nm: panels from cos theta
 # 0.1 down to 0.015 all keep every texel within 4e-4 dE2000 of the reference (150-1000 nm, 35 angles: 3.6e-4);
@@ -141,7 +135,7 @@ class _Layout:
         self.size = start
 
     def white(self):
-        """Per layout column, the weights' sum (shape (n_cols, 3)): the colour of R = 1."""
+        """Per layout column, the weights' sum (n_cols, 3): the colour of R = 1."""
         w = np.empty((self.cols.size, 3))
         for (i0, i1, n, s0), om in zip(self.groups, self.omegas):
             w[i0:i1] = om.sum(axis=0)
@@ -199,16 +193,14 @@ def _full_form(coef, layout, thickness_nm, out, chunk):
 
 
 def _series_form(coef, layout, thickness_nm, n_terms, out, chunk):
-    """The truncated Poisson series (``n_terms`` per layout column) at the layout's nodes.
-
-    With ``s2 = sin^2(phi / 2)`` the closed form is rewritten without cancellation near the resonances
-    (``cos phi - rho = (1 - rho) - 2 s2``, ``1 - 2 rho cos phi + rho^2 = (1 - rho)^2 + 4 rho s2``):
+    """The truncated Poisson series (``n_terms`` per layout column) at the layout's nodes, its geometric sum in
+    half-angle form (``s2 = sin^2(phi / 2)``), without cancellation near the resonances:
 
         sum_{m=1..M} rho^(m-1) cos(m phi)
             = [((1 - rho) - 2 s2)(1 - rho^M cos(M phi)) + rho^M sin(M phi) sin(phi)] / ((1 - rho)^2 + 4 rho s2),
 
-    so float32 trigonometry suffices; the phases ``phi / 2`` and ``M phi`` are reduced modulo one period in
-    float64 first (``M phi`` reaches thousands of radians).
+    so float32 trigonometry suffices once ``phi / 2`` and ``M phi`` (thousands of radians) are reduced modulo one
+    period in float64.
     """
     from . import fourier
 
