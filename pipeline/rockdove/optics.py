@@ -283,11 +283,8 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
     qb2 = _q_squared(n_b, n_a, cos_a)
     qc2 = _q_squared(n_c, n_a, cos_a)
     real = qb2.dtype.kind != "c" and qc2.dtype.kind != "c"
-    if real:
-        fast = (qb2 > 0) & (qc2 >= 0)
-        all_fast = bool(np.all(fast))
-    else:
-        all_fast = False
+    fast = (qb2 > 0) & (qc2 >= 0) if real else None
+    all_fast = real and bool(np.all(fast))
 
     if real and (all_fast or np.any(fast)):
         # Real arithmetic wherever it is valid; the complex path on the rest (TIR, q_b = 0, and the 0/0

@@ -135,7 +135,7 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
         a, b = coef[f"a_{pol}"], coef[f"b_{pol}"]
         terms.append(tuple(v.astype(dtype) for v in ((a + b) ** 2, -4.0 * p, (1.0 + p) ** 2)))
         degenerate |= (1.0 + p) ** 2 == 0.0  # a b = -1 (cos theta = 0): R = 1 for any film with d > 0
-    fix_cols = np.nonzero(degenerate.any(axis=1))[0]
+    any_degenerate = bool(degenerate.any())
     w = np.asarray(weights, dtype=dtype)
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
     rows = _texel_chunks(cos_theta.shape[0], wavelength_nm.shape[0])
@@ -150,10 +150,8 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
                 x += den0
                 x_num /= x
                 r += x_num
-        if fix_cols.size:
-            sub = r[:, fix_cols]
-            sub[np.broadcast_to(degenerate[fix_cols][None], sub.shape)] = 2.0
-            r[:, fix_cols] = sub
+        if any_degenerate:
+            r[:, degenerate] = 2.0  # R = 1 for both polarisations
         out[i : i + rows] = (r @ w) * 0.5
     bare = thickness_nm == 0.0
     if np.any(bare):

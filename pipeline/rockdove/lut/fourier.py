@@ -59,16 +59,10 @@ class GTable:
     g_tail: np.ndarray
 
     @functools.cached_property
-    def g_padded(self) -> np.ndarray:
-        """``g`` with two zero rows appended (shape (n_x + 2, 3)): lookups beyond the end read 0."""
-        p = np.vstack([self.g, np.zeros((2, 3))])
-        p.setflags(write=False)
-        return p
-
-    @functools.cached_property
     def g_padded32(self) -> np.ndarray:
-        """:attr:`g_padded` in float32 (relative rounding 6e-8), for the bandwidth-bound term sums."""
-        p = self.g_padded.astype(np.float32)
+        """``g`` in float32 (relative rounding 6e-8, for the bandwidth-bound term sums) with two zero rows
+        appended (shape (n_x + 2, 3)): lookups beyond the end read 0."""
+        p = np.vstack([self.g, np.zeros((2, 3))]).astype(np.float32)
         p.setflags(write=False)
         return p
 
@@ -201,7 +195,7 @@ def fourier_colour_grid(c0, c1, rho, opd_nm, n_terms, table: GTable) -> np.ndarr
         f = opd[:, cols, None] * ((m1[:mb] + 1.0) / table.step_nm)[None, None, :]  # (T, Ab, Mb)
         k = f.astype(np.int32)
         frac = f - k
-        np.minimum(k, n_x, out=k)  # beyond the table: the zero rows of g_padded
+        np.minimum(k, n_x, out=k)  # beyond the table: the zero rows of g_padded32
         cb = np.broadcast_to(coef[cols, :mb][None], f.shape)
         data = np.empty(f.shape + (2,), np.float32)  # float32 halves memory traffic; G is ~1, tol >= 1e-6
         data[..., 1] = cb * frac

@@ -132,8 +132,8 @@ def real_film(film) -> bool:
     return bool(n_b.min() >= film.n_incident and film.n_substrate >= film.n_incident)
 
 
-def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, out, dtype=np.float32):
-    """``out = R @ weights`` with ``R`` the unpolarised Airy reflectance of a real film (:func:`real_film`) at every
+def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, dtype=np.float32):
+    """``R @ weights`` (points, 3) with ``R`` the unpolarised Airy reflectance of a real film (:func:`real_film`) at every
     point (rows) and wavelength (columns), in the transmission form of the module docstring ("The real-film
     kernel"), computed in ``dtype``; ``cos_theta = 0`` gives R = 1."""
     lam = np.asarray(wavelength_nm, np.float64)
@@ -160,6 +160,7 @@ def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, out, dty
     u32, inv32, kk32 = (v.astype(dtype)[None, :] for v in (u, inv_nb4, kk))
     ca32, d32 = ca2.astype(dtype)[:, None], np.asarray(thickness_nm, np.float64).astype(dtype)[:, None]
     w32 = weights.astype(dtype)
+    out = np.empty((c.size, 3))
     rows_per = max(1, _KERNEL_CHUNK // lam.size)
     for i in range(0, c.size, rows_per):
         r = slice(i, i + rows_per)
@@ -194,6 +195,7 @@ def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, out, dty
         # 1 - R = T = (T_s + T_p) / 2
         out[r] = white - 0.5 * (t @ w32)
     out[grazing] = white
+    return out
 
 
 def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_space="lin_rec709",
@@ -230,9 +232,7 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
             w = interpolant_weights(int(n), order, illuminant=illuminant, colour_space=colour_space)
             for dtype, sel in ((np.float32, c[rows] >= cos32), (np.float64, c[rows] < cos32)):
                 if sel.any():
-                    sub = np.empty((int(sel.sum()), 3))
-                    _real_colour(wl, w, c[rows[sel]], d[rows[sel]], film, sub, dtype)
-                    out[rows[sel]] = sub
+                    out[rows[sel]] = _real_colour(wl, w, c[rows[sel]], d[rows[sel]], film, dtype)
     rest = np.nonzero(direct)[0]
     steps = reference_step_nm(c[rest], steps_nm)
     if calibrated_thickness_nm is not None:
@@ -250,9 +250,7 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
             w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
         rows = rest[sel & kernel]
         if rows.size:
-            sub = np.empty((rows.size, 3))
-            _real_colour(wl, w, c[rows], d[rows], film, sub, np.float64)
-            out[rows] = sub
+            out[rows] = _real_colour(wl, w, c[rows], d[rows], film, np.float64)
         rows = rest[sel & ~kernel]
         if rows.size:
             out[rows] = _sampled_colour(wl, w, c[rows], d[rows], film)

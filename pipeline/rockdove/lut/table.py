@@ -26,12 +26,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 
-def _readonly(a: np.ndarray) -> np.ndarray:
-    a = np.ascontiguousarray(a)
-    a.setflags(write=False)
-    return a
-
-
 @dataclass(frozen=True, eq=False)
 class ThinFilmLUT:
     """Baked structural colour over (cos theta, thickness) (module docstring): ``rgb`` read-only float32, the
@@ -59,7 +53,9 @@ class ThinFilmLUT:
             )
         if not (np.isfinite(self.angle_warp_gamma) and self.angle_warp_gamma > 0):
             raise ValueError(f"angle_warp_gamma must be > 0, got {self.angle_warp_gamma}")
-        object.__setattr__(self, "rgb", _readonly(rgb))
+        rgb = np.ascontiguousarray(rgb)
+        rgb.setflags(write=False)
+        object.__setattr__(self, "rgb", rgb)
         object.__setattr__(self, "thickness_range_nm", (lo, hi))
         object.__setattr__(self, "angle_warp_gamma", float(self.angle_warp_gamma))
         object.__setattr__(self, "metadata", dict(self.metadata))
