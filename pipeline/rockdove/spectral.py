@@ -19,16 +19,16 @@ CIELAB (CIE 15:2004, eq. 8.1-8.3, exact constants 216/24389 and 24389/27) uses t
 follows Sharma, Wu and Dalal (2005), eq. 1-24; both are tested against colour-science (tests/test_spectral.py).
 The sRGB transfer functions and the 8-bit display encoding are :mod:`rockdove.srgb`'s (re-exported here).
 
-Importing colour-science takes ~1 s, far more than a LUT bake, and only its data are used: they are read once per
-installed version and kept as ``.npz`` in ``$XDG_CACHE_HOME/rockdove/colour-science-<version>-<code>/``
-(:func:`colour_data`), so a film-only rebuild never imports it. An unwritable folder means recomputing per process.
+Importing colour-science takes ~1 s, far more than a LUT bake, and only its data are used: they are read once and
+kept as ``.npz`` in ``$XDG_CACHE_HOME/rockdove/colour-science-<key>/``, keyed by the code that computes them, the
+installed distributions and Python (:func:`colour_data`, :func:`rockdove.sources.cache_dir`), so a film-only
+rebuild never imports it. An unwritable folder means recomputing per process.
 """
 
 from __future__ import annotations
 
 import zipfile
 from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
 
@@ -62,27 +62,13 @@ def _check_wavelengths(wavelength_nm) -> np.ndarray:
     return lam
 
 
-@lru_cache(maxsize=1)
-def _colour_cache_dir() -> Path:
-    from importlib.metadata import PackageNotFoundError, version
-
-    import hashlib
-
-    from .resources import user_cache_dir
-
-    try:
-        tag = version("colour-science")
-    except PackageNotFoundError:  # e.g. a source checkout of colour on sys.path
-        tag = "unknown"
-    code = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:12]  # the code deriving the tables, too
-    return user_cache_dir(f"colour-science-{tag}-{code}")
-
-
 def colour_data(name: str, compute, keys: tuple[str, ...]) -> dict:
     """Read-only arrays derived from colour-science's data, from ``<name>.npz`` in the cache (module docstring);
     ``compute()`` (which may import colour-science) builds them where the file is missing, torn or lacks one of
     ``keys``. ``name`` must be unique per content."""
-    path = _colour_cache_dir() / f"{name}.npz"
+    from .sources import cache_dir
+
+    path = cache_dir("colour-science", compute) / f"{name}.npz"
     arrays = None
     try:
         with np.load(path, allow_pickle=False) as f:

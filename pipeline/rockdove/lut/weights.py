@@ -177,22 +177,9 @@ def chebyshev_weights(n_nodes: int, illuminant: str = "D65", colour_space: str |
     if n < 2:
         raise ValueError(f"n_nodes must be >= 2, got {n_nodes!r}")
     keys = ("wavelength_nm", "weights")
-    found = colour_data(f"product-weights-{n}-{illuminant}-{colour_space}-{_code_digest()}",
+    found = colour_data(f"product-weights-{n}-{illuminant}-{colour_space}",
                         lambda: dict(zip(keys, _chebyshev_weights(n, illuminant, colour_space))), keys)
     return found["wavelength_nm"], found["weights"]
-
-
-@functools.lru_cache(maxsize=1)
-def _code_digest() -> str:
-    """sha256 (16 hex digits) of the modules whose code decides :func:`chebyshev_weights`."""
-    import hashlib
-    import importlib
-
-    h = hashlib.sha256()
-    for name in (__name__, "rockdove.spectral"):
-        with open(importlib.import_module(name).__file__, "rb") as f:
-            h.update(f.read())
-    return h.hexdigest()[:16]
 
 
 def _chebyshev_weights(n: int, illuminant: str, colour_space: str | None):
