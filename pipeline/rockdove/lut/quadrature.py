@@ -21,9 +21,9 @@ Node count. ``R`` is a Poisson kernel in ``phi`` with poles at ``Im phi = +-delt
 ellipse), so ``N = K_FULL * Phi / delta + N_MIN`` (``K_FULL`` measured). Near grazing ``|ab| -> 1`` and ``N``
 would grow like ``1 / cos theta``; there the truncated Poisson series of :mod:`.fourier` (``rho = -ab``) is
 interpolated instead, ``R(phi) = c_0 + 2 c_1 sum_{m=1..M} rho^(m-1) cos(m phi)``, a trigonometric polynomial
-of degree ``M`` (``N = K_SERIES * M * Phi + N_MIN``, summed in closed form by :func:`_series_form`). ``M`` is :func:`rockdove.lut.fourier.n_terms_needed` at the film's smallest optical path difference (with
-dispersion the local frequency of ``cos(m phi)`` is the group path, larger than the phase path, so ``G``'s tail
-at the phase path bounds it).
+of degree ``M`` (``N = K_SERIES * M * Phi + N_MIN``, summed in closed form by :func:`_series_form`), ``M`` from
+:func:`rockdove.lut.fourier.n_terms_needed` at the film's smallest optical path difference (with dispersion the
+local frequency of ``cos(m phi)`` is the group path, larger than the phase path: ``G``'s tail there bounds it).
 
 Angle axis. Away from grazing the colour is analytic and slowly varying in ``cos theta`` too: the columns with
 ``cos theta >= ANGLE_PANEL_COS`` are interpolated (barycentric, Chebyshev points) from the exact colours at

@@ -133,9 +133,8 @@ def real_film(film) -> bool:
 
 
 def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, dtype=np.float32):
-    """``R @ weights`` (points, 3) with ``R`` the unpolarised Airy reflectance of a real film (:func:`real_film`) at every
-    point (rows) and wavelength (columns), in the transmission form of the module docstring ("The real-film
-    kernel"), computed in ``dtype``; ``cos_theta = 0`` gives R = 1."""
+    """``R @ weights`` (points, 3), ``R`` the unpolarised Airy reflectance of a real film (:func:`real_film`) at each
+    point and wavelength in the transmission form (module docstring) in ``dtype``; ``cos_theta = 0`` gives R = 1."""
     lam = np.asarray(wavelength_nm, np.float64)
     n_a, n_c = float(film.n_incident), float(film.n_substrate)
     n_b = np.real(film.n_film(lam)).astype(np.float64)
