@@ -19,11 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# Leertouwer, Wilts & Stavenga 2011, bird feather keratin, Cauchy fit (lambda in nm).
-KERATIN_CAUCHY_A = 1.532
+KERATIN_CAUCHY_A = 1.532  # Leertouwer, Wilts & Stavenga 2011, bird feather keratin (lambda in nm)
 KERATIN_CAUCHY_B_NM2 = 5.89e3
-# The seed paper's constant film index (keratin, no dispersion) and its surrounding medium (air).
-PAPER_FILM_INDEX = 1.5
+PAPER_FILM_INDEX = 1.5  # the seed paper's constant keratin index, in air
 AIR_INDEX = 1.0
 
 DEFAULT_FILM = "paper"
@@ -40,10 +38,8 @@ def _check_index(name: str, value) -> complex:
     if z.real <= 0:
         raise ValueError(f"{name} must have a positive real part, got {value!r}")
     if z.imag < 0:
-        raise ValueError(
-            f"{name} must have a non-negative imaginary part (convention n + ik, k >= 0 absorbs), "
-            f"got {value!r}"
-        )
+        raise ValueError(f"{name} must have a non-negative imaginary part (convention n + ik, k >= 0 absorbs), "
+                         f"got {value!r}")
     return z
 
 

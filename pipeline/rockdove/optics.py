@@ -1,12 +1,9 @@
 """Airy reflectance and transmittance of one thin film (s, p and unpolarised light).
 
-Geometry: light arrives from a transparent incident medium a (index ``n_incident``, real), at an angle of
-incidence theta_a with ``cos_theta = cos(theta_a)``, onto a film b (``n_film``, thickness d) on a
-semi-infinite substrate c (``n_substrate``). Complex indices follow ``n + i k`` with ``k >= 0`` absorbing
-(fields ~ exp(i (k_z z - omega t))), the convention of ``tmm`` and ``colour.phenomena``.
+Light arrives from a transparent incident medium a (``n_incident``, real) at ``cos_theta = cos(theta_a)`` onto a
+film b (``n_film``, thickness d) on a semi-infinite substrate c (``n_substrate``); complex indices are ``n + i k``,
+``k >= 0`` absorbing (the convention of ``tmm`` and ``colour.phenomena``, :mod:`rockdove.films`).
 
-Formulas
---------
 Normal wave-vector components (in units of the vacuum wave number k0 = 2 pi / lambda), from Snell's law
 n_j sin(theta_j) = n_a sin(theta_a):
 
@@ -23,16 +20,14 @@ formulae; the convention of the ``tmm`` package; at normal incidence r_p = -r_s)
 
 i.e. r = (eta_1 - eta_2) / (eta_1 + eta_2) with the (tilted) admittances eta_s = q, eta_p = q / n**2.
 
-Airy summation of the multiply reflected waves in the film (Born & Wolf sec. 1.6.4, a homogeneous
-dielectric film, and sec. 7.6.1; Heavens, Optical Properties of Thin Solid Films, 1955):
+Airy summation of the waves reflected in the film (Born & Wolf sec. 1.6.4 and 7.6.1; Heavens, Optical Properties
+of Thin Solid Films, 1955):
 
     r = (r_ab + r_bc e^{i phi}) / (1 + r_ab r_bc e^{i phi}),    phi = 4 pi n_b d cos(theta_b) / lambda  (3)
 
-``phi`` is :func:`film_phase`. Eq. (3) is 0/0 where q_b -> 0 (a film at its own critical angle, or
-grazing incidence on a film of the incident medium's index) and overflows for thick evanescent films, so
-it is evaluated in the algebraically identical characteristic-matrix form (Born & Wolf sec. 1.6.2, the
-characteristic matrix of a stratified medium; Macleod, Thin-Film Optical Filters, ch. 2, written here for
-n + ik), with delta = phi / 2 = k0 q_b d:
+``phi`` is :func:`film_phase`. Eq. (3) is 0/0 where q_b -> 0 (a film at its own critical angle) and overflows for
+thick evanescent films, so it is evaluated in the identical characteristic-matrix form (Born & Wolf sec. 1.6.2;
+Macleod, Thin-Film Optical Filters, ch. 2, for n + ik), with delta = phi / 2 = k0 q_b d:
 
     B = cos(delta) - i eta_c sin(delta) / eta_b,    C = eta_c cos(delta) - i eta_b sin(delta)
     r = (eta_a B - C) / (eta_a B + C),               t-power  T = 4 eta_a Re(eta_c) / |eta_a B + C|**2    (4)

@@ -40,9 +40,8 @@ import numpy as np
 
 from .weights import chebyshev, chebyshev_weights, sigma_range
 
-# Node counts, rounded up to NODE_LADDER (few sets of product weights per process). Measured on the default
-# keratin LUT (benchmarks/README.md): every texel within 4e-4 dE2000 of the 0.1 nm reference (K_FULL = 2.5 with
-# N_MIN = 16 errs 4e-3, K_FULL = 2 errs 0.02).
+# Node counts, rounded up to NODE_LADDER. On the default keratin LUT every texel is within 4e-4 dE2000 of the
+# 0.1 nm reference (K_FULL = 2.5 with N_MIN = 16 errs 4e-3, K_FULL = 2 errs 0.02; benchmarks/README.md).
 K_FULL = 3.0
 K_SERIES = 0.6
 N_MIN = 20
@@ -91,8 +90,7 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
     n_terms = np.zeros(cos_theta.shape[0], np.int64)
     n_series = np.full(cos_theta.shape[0], np.inf)
     if d_min > 0.0:
-        # columns where the full form needs many nodes: try the truncated series
-        # (rho = -ab >= 0, as for a film in air: the float32 closed form below has no cancellation there)
+        # columns where the full form needs many nodes and rho = -ab >= 0 (no cancellation in float32): the series
         rho_min = np.minimum((-coef["a_s"] * coef["b_s"]).min(axis=1), (-coef["a_p"] * coef["b_p"]).min(axis=1))
         cand = np.nonzero((n_full > 2.0 * N_MIN) & (cos_theta > 0.0) & (rho_min >= 0.0))[0]
         if cand.size:
