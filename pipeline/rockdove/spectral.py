@@ -21,7 +21,8 @@ The sRGB transfer functions and the 8-bit display encoding are :mod:`rockdove.sr
 
 Importing colour-science takes ~1 s, far more than a LUT bake, and only its data are used: they are read once and
 kept as ``.npz`` in ``$XDG_CACHE_HOME/rockdove/colour-science-<key>/``, keyed by the code that computes them, the
-installed distributions and Python (:func:`colour_data`, :func:`rockdove.sources.cache_dir`), so a film-only rebuild never imports it. An unwritable folder means recomputing per process.
+installed distributions and Python (:func:`colour_data`, :func:`rockdove.sources.cache_dir`), so a film-only
+rebuild never imports it. An unwritable folder means recomputing per process.
 """
 
 from __future__ import annotations
@@ -223,15 +224,19 @@ _LAB_EPSILON = 216.0 / 24389.0
 _LAB_KAPPA = 24389.0 / 27.0
 
 
+def _lab_white() -> np.ndarray:
+    """XYZ (Yn = 1) of the reference white, from its chromaticity."""
+    xy = reference_white_xy()
+    return np.array([xy[0] / xy[1], 1.0, (1.0 - xy[0] - xy[1]) / xy[1]])
+
+
 def XYZ_to_Lab(XYZ) -> np.ndarray:
     """CIELAB (L in [0, 100]) of XYZ with the reference D65 white at Y = 1. (..., 3) -> (..., 3).
 
     CIE 15:2004 eq. 8.1-8.3: ``f(t) = t^(1/3)`` above epsilon, ``(kappa t + 16) / 116`` below;
     ``L = 116 f(Y/Yn) - 16``, ``a = 500 (f(X/Xn) - f(Y/Yn))``, ``b = 200 (f(Y/Yn) - f(Z/Zn))``.
     """
-    xy = reference_white_xy()
-    white = np.array([xy[0] / xy[1], 1.0, (1.0 - xy[0] - xy[1]) / xy[1]])
-    t = np.asarray(XYZ, dtype=np.float64) / white
+    t = np.asarray(XYZ, dtype=np.float64) / _lab_white()
     f = np.where(t > _LAB_EPSILON, np.cbrt(t), (_LAB_KAPPA * t + 16.0) / 116.0)
     return np.stack([116.0 * f[..., 1] - 16.0, 500.0 * (f[..., 0] - f[..., 1]), 200.0 * (f[..., 1] - f[..., 2])],
                     axis=-1)
@@ -240,12 +245,10 @@ def XYZ_to_Lab(XYZ) -> np.ndarray:
 def Lab_to_XYZ(Lab) -> np.ndarray:
     """Inverse of :func:`XYZ_to_Lab` (CIE 15:2004 eq. 8.4-8.6, the same white). (..., 3) -> (..., 3)."""
     lab = np.asarray(Lab, dtype=np.float64)
-    xy = reference_white_xy()
-    white = np.array([xy[0] / xy[1], 1.0, (1.0 - xy[0] - xy[1]) / xy[1]])
     fy = (lab[..., 0] + 16.0) / 116.0
     f = np.stack([fy + lab[..., 1] / 500.0, fy, fy - lab[..., 2] / 200.0], axis=-1)
     t = np.where(f ** 3 > _LAB_EPSILON, f ** 3, (116.0 * f - 16.0) / _LAB_KAPPA)
-    return t * white
+    return t * _lab_white()
 
 
 def delta_E_2000(Lab_a, Lab_b) -> np.ndarray:

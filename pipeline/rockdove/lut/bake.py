@@ -49,12 +49,11 @@ OBSERVER = DEFAULT_OBSERVER
 
 # Memory bound for the sampled methods: (texels x wavelengths) evaluated per chunk.
 _CHUNK_ELEMENTS = 2_000_000
-# The largest LUT (the schema's lut.angles / lut.thicknesses ranges): a 4096 x 4096 bake, its error check, EXR
-# and preview stay within the 4 GiB memory budget (``rockdove bench memory``) and every GPU's texture limit.
+# The largest LUT (the schema's ranges): a 4096 x 4096 bake, its error check, EXR and preview stay within the 4 GiB
+# budget (``rockdove bench memory``) and every GPU's texture limit.
 MAX_ANGLES = MAX_THICKNESSES = 4096
 
 
-# -- helpers ------------------------------------------------------------------------------------------
 def _check_count(name, value, minimum, maximum=None):
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not (
             minimum <= value <= (maximum if maximum is not None else value)):
@@ -94,7 +93,6 @@ def _texel_chunks(n_angle, n_wavelength):
     return max(1, _CHUNK_ELEMENTS // max(1, n_angle * n_wavelength))
 
 
-# -- methods ------------------------------------------------------------------------------------------
 def _bake_spectral(cos_theta, thickness_nm, film, *, illuminant, colour_space, spectral_step_nm, **_):
     """Straightforward per-wavelength bake with :func:`rockdove.optics.reflectance`; shape (M, N, 3)."""
     from .. import optics
@@ -121,11 +119,9 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
     coef = interface_coefficients(film, cos_theta, wavelength_nm)
     if coef is None:
         raise ValueError(f"film {film.name!r} has complex interface coefficients; use method='spectral'")
-    # Airy form in half-angle variables, stable near grazing where a b -> -1 (p = a b, s2 = sin^2(phi / 2)):
-    #   R = ((a + b)^2 - 4 p s2) / ((1 + p)^2 - 4 p s2)
-    # For p <= 0 (e.g. a film in air, b = -a) both terms of the denominator are >= 0, so float32 is safe and
-    # halves memory traffic (phase rounding ~2e-6 rad at 700 nm, R ~1e-7: far below 1e-3 dE2000); otherwise
-    # float64. phi / 2 = 2 pi n_b cos_b d / lambda.
+    # Airy form in half-angle variables, stable near grazing (p = a b, s2 = sin^2(phi / 2), phi / 2 = 2 pi n_b
+    # cos_b d / lambda): R = ((a + b)^2 - 4 p s2) / ((1 + p)^2 - 4 p s2). For p <= 0 (a film in air) the
+    # denominator has no cancellation, so float32 (phase rounding ~2e-6 rad, R ~1e-7) halves memory traffic.
     products = [coef[f"a_{pol}"] * coef[f"b_{pol}"] for pol in ("s", "p")]
     dtype = np.float32 if max(float(p.max()) for p in products) <= 0.0 else np.float64
     half_k = (2.0 * np.pi * coef["n_b"] * coef["cos_b"] / wavelength_nm[None, :]).astype(dtype)
@@ -135,7 +131,7 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
         a, b = coef[f"a_{pol}"], coef[f"b_{pol}"]
         terms.append(tuple(v.astype(dtype) for v in ((a + b) ** 2, -4.0 * p, (1.0 + p) ** 2)))
         degenerate |= (1.0 + p) ** 2 == 0.0  # a b = -1 (cos theta = 0): R = 1 for any film with d > 0
-    fix_cols = np.nonzero(degenerate.any(axis=1))[0]
+    any_degenerate = bool(degenerate.any())
     w = np.asarray(weights, dtype=dtype)
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
     rows = _texel_chunks(cos_theta.shape[0], wavelength_nm.shape[0])
@@ -150,10 +146,8 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
                 x += den0
                 x_num /= x
                 r += x_num
-        if fix_cols.size:
-            sub = r[:, fix_cols]
-            sub[np.broadcast_to(degenerate[fix_cols][None], sub.shape)] = 2.0
-            r[:, fix_cols] = sub
+        if any_degenerate:
+            r[:, degenerate] = 2.0  # R = 1 for both polarisations
         out[i : i + rows] = (r @ w) * 0.5
     bare = thickness_nm == 0.0
     if np.any(bare):
