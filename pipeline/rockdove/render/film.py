@@ -95,6 +95,9 @@ def read_film(prim) -> ThinFilmParams | None:
     missing = [k for k in _REQUIRED if rec[k] is None]
     if missing:
         raise ValueError(f"{prim.GetPath()}: RockDoveThinFilmAPI attributes {missing} are missing")
+    if rec["thickness_units"] != "nm":
+        raise ValueError(f"{prim.GetPath()}: rockdove:film:thicknessUnits={rec['thickness_units']!r}; only 'nm' is "
+                         "allowed")
     lut_file = None
     if rec["lut_file"]:
         lut_file = rec["lut_file_resolved"] and os.path.abspath(rec["lut_file_resolved"])
