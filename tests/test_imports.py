@@ -32,7 +32,7 @@ LAYERS = [
     ({"rockdove", "errors", "_compat", "resources", "config", "sources"},
      "foundations: the version, error types, optional-import shims, data-file lookup, the checked config and "
      "the digest of the code a callable can execute"),
-    ({"films", "optics", "spectral"},
+    ({"films", "optics", "spectral", "srgb"},
      "physics: film model -> Airy reflectance -> spectrum to colour; knows nothing of tables, meshes or USD"),
     ({"lut"},
      "the thin-film colour table baked from the physics, its exact reference and its files"),

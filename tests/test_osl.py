@@ -48,7 +48,7 @@ def test_osl_host_draws_the_neck_as_the_exact_reference(asset_layer, tmp_path):
     if osl.unavailable():
         pytest.skip(osl.unavailable())
     scene, views = _sweep_view(asset_layer)
-    images = osl.render(asset_layer, views, str(tmp_path))
+    images = osl.BAKED.render(asset_layer, views, str(tmp_path))
     rgb = images["sweep_060"]
     assert rgb.shape == (96, 96, 3) and np.isfinite(rgb).all()
     assert (tmp_path / "osl" / "sweep_060.png").is_file()
@@ -64,7 +64,7 @@ def test_a_shader_the_compiler_rejects_is_named_with_its_error_line(asset_layer,
     _, views = _sweep_view(asset_layer, 16)
     with pytest.raises(HostError, match=r"host 'osl': OSL compile of FeatherMaterial_mtlx\.osl .*failed: "
                                         r".*FeatherMaterial_mtlx\.osl:\d+: error"):
-        osl.render(asset_layer, views, str(tmp_path))
+        osl.BAKED.render(asset_layer, views, str(tmp_path))
 
 
 def test_osl_is_skipped_with_how_to_install_when_no_python_has_bpy(monkeypatch, tmp_path):

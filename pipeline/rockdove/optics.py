@@ -159,24 +159,9 @@ def _q(q2, n_j, n_a, cos_a, real: bool):
 
 
 def snell_cos(n1, n2, cos1):
-    """Cosine of the refraction angle in medium 2, complex-safe (Snell's law n1 sin1 = n2 sin2).
-
-    Parameters
-    ----------
-    n1 : array_like, real, > 0
-        Index of the medium the light comes from (where ``cos1`` is measured).
-    n2 : array_like, real or complex (n + ik, k >= 0)
-        Index of the medium the light enters.
-    cos1 : array_like, in [0, 1]
-        Cosine of the angle of incidence in medium 1.
-
-    Returns
-    -------
-    ndarray, broadcast shape
-        ``cos2 = q2 / n2`` with ``q2 = n2 cos2`` on the branch Im(q2) >= 0 (eq. 1). float64 when every
-        result is real (real indices, no total internal reflection), complex128 otherwise, like
-        :func:`numpy.emath.sqrt`. Beyond the critical angle cos2 is purely imaginary.
-    """
+    """Cosine of the refraction angle into medium ``n2`` (n + ik) from the real ``n1`` at ``cos1`` in [0, 1]
+    (Snell's law): ``q2 / n2`` on the branch Im(q2) >= 0 of eq. (1); float64 when every result is real, else
+    complex128 (purely imaginary beyond the critical angle)."""
     n1 = _as_index("n1", n1, real_only=True)
     n2 = _as_index("n2", n2)
     cos1 = _as_real("cos1", cos1, lo=0.0, hi=1.0)
@@ -186,26 +171,9 @@ def snell_cos(n1, n2, cos1):
 
 
 def fresnel_r(n1, n2, cos1, cos2, polarization):
-    """Fresnel amplitude reflection coefficient of the interface 1|2 (eq. 2, Born & Wolf convention).
-
-    ``r_s = (n1 cos1 - n2 cos2) / (n1 cos1 + n2 cos2)``, ``r_p = (n2 cos1 - n1 cos2) / (n2 cos1 + n1 cos2)``
-    (so ``r_p = -r_s`` at normal incidence; the ``tmm`` package's convention). With this convention the
-    film's amplitude reflectance is the Airy sum of eq. (3) for both polarisations.
-
-    Parameters
-    ----------
-    n1, n2 : array_like, real or complex
-        Indices of the two media (n + ik, k >= 0).
-    cos1, cos2 : array_like, real or complex
-        Cosines of the angles in media 1 and 2; ``cos2`` from :func:`snell_cos` (complex beyond the
-        critical angle).
-    polarization : {"s", "p"}
-
-    Returns
-    -------
-    ndarray, broadcast shape, float64 if every input is real else complex128
-        Where both media are the same at grazing incidence (0/0), r = 0 (no interface).
-    """
+    """Fresnel amplitude reflection coefficient of the interface 1|2 for ``polarization`` "s" or "p" (eq. 2, the
+    Born & Wolf and ``tmm`` convention, with which eq. 3 holds for both), ``cos2`` from :func:`snell_cos`; float64
+    if every input is real. Where both media are the same at grazing incidence (0/0), r = 0 (no interface)."""
     if polarization not in ("s", "p"):
         raise ValueError(f"polarization must be 's' or 'p', got {polarization!r}")
     n1, n2, cos1, cos2 = (np.asarray(x) for x in (n1, n2, cos1, cos2))
@@ -223,23 +191,9 @@ def fresnel_r(n1, n2, cos1, cos2, polarization):
 
 
 def film_phase(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident=1.0):
-    """Round-trip phase difference of the film, ``phi = 4 pi n_b d cos(theta_b) / lambda`` (eq. 3).
-
-    Parameters
-    ----------
-    wavelength_nm : array_like, nm, > 0
-    cos_theta : array_like, in [0, 1]
-        Cosine of the angle of incidence in the incident medium.
-    thickness_nm : array_like, nm, >= 0
-    n_film : number, array or callable n(wavelength_nm)
-    n_incident : number, real, > 0
-
-    Returns
-    -------
-    ndarray, broadcast shape, radians
-        float64 when the film is transparent and not beyond its critical angle; complex128 otherwise
-        (Im(phi) >= 0: ``e^{i phi}`` is the attenuation of one round trip).
-    """
+    """Round-trip phase difference of the film, ``phi = 4 pi n_b d cos(theta_b) / lambda`` (eq. 3), radians, with
+    ``cos_theta`` in the incident medium: float64 for a transparent film short of its critical angle, else
+    complex128 (Im(phi) >= 0: ``e^{i phi}`` is the attenuation of one round trip)."""
     lam = _as_real("wavelength_nm", wavelength_nm, lo=0.0, lo_open=True)
     cos_theta = _as_real("cos_theta", cos_theta, lo=0.0, hi=1.0)
     d = _as_real("thickness_nm", thickness_nm, lo=0.0)
@@ -251,22 +205,6 @@ def film_phase(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident=1.0):
 
 
 # --------------------------------------------------------------------------- the solver
-def _mul_add(a, u, b):
-    """a * u + b, in place in the product where shapes allow (saves a full-size temporary)."""
-    r = np.multiply(a, u)
-    if r.ndim and r.shape == np.broadcast_shapes(r.shape, np.shape(b)):
-        r += b
-        return r
-    return r + b
-
-
-def _div(num, den):
-    if num.ndim and num.shape == np.broadcast_shapes(num.shape, np.shape(den)):
-        num /= den
-        return num
-    return num / den
-
-
 def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t):
     """Eq. (4) in real arithmetic: real indices, q_b > 0, q_c >= 0.
 
@@ -278,12 +216,7 @@ def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t):
     a0 = (eta_a - eta_c)**2, a1 = (eta_a eta_c / eta_b - eta_b)**2 - a0, b0 = (eta_a + eta_c)**2,
     b1 = (eta_a eta_c / eta_b + eta_b)**2 - b0. Per sample this costs one sine and a division.
     """
-    u = np.asarray(k0d * qb, dtype=np.float64)  # delta; then sin(delta)**2 in place
-    if u.ndim:
-        np.sin(u, out=u)
-        np.multiply(u, u, out=u)
-    else:
-        u = np.sin(u) ** 2
+    u = np.square(np.sin(np.asarray(k0d * qb, dtype=np.float64)))  # sin(delta)**2
     out = {}
     degenerate = False
     for pol in pols:
@@ -296,13 +229,13 @@ def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t):
         b0 = (ea + ec) ** 2
         a1 = (eaec / eb - eb) ** 2 - a0
         b1 = (eaec / eb + eb) ** 2 - b0
-        den = _mul_add(b1, u, b0)
-        num = _mul_add(a1, u, a0)
+        den = b1 * u + b0
+        num = a1 * u + a0
         # den == 0 only where eta_a = eta_c = 0 (grazing, substrate of the incident index) and u = 0:
         # the result is NaN there and _solve hands those elements to the complex path (as it would any
         # overflow of a1, b1, which the range of q_b**2 > 0 rules out in practice).
         with np.errstate(invalid="ignore", divide="ignore"):
-            out[pol] = (_div(num, den), np.divide(4.0 * eaec, den) if want_t else None)
+            out[pol] = (num / den, np.divide(4.0 * eaec, den) if want_t else None)
         degenerate = degenerate or bool(np.any(b0 == 0)) or not (np.all(np.isfinite(a1)) and np.all(np.isfinite(b1)))
     return out, degenerate
 
@@ -412,70 +345,32 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
             v *= 0.5
         else:
             v = res[polarization][k]
-        v = np.asarray(v, dtype=np.float64)
-        if v.shape != shape:
-            v = np.array(np.broadcast_to(v, shape))
-        if v.ndim:
-            np.clip(v, 0.0, 1.0, out=v)  # rounding only: |excess| ~ 1e-16
-        else:
-            v = np.clip(v, 0.0, 1.0)
-        result.append(v)
+        result.append(np.clip(np.broadcast_to(np.asarray(v, dtype=np.float64), shape), 0.0, 1.0))  # rounding: 1e-16
     return result[0], (result[1] if want_t else None)
 
 
 def reflectance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.0, n_substrate=1.0,
                 polarization="unpolarized"):
-    """Reflectance R = |r|**2 of one film (Airy summation, eqs. 3-4 of the module docstring).
+    """Reflectance R = |r|**2 of one film (Airy summation, eqs. 3-4 of the module docstring), float64 in [0, 1],
+    the broadcast shape of all array arguments.
 
-    Parameters
-    ----------
-    wavelength_nm : array_like, nm, finite, > 0
-        Vacuum wavelength.
-    cos_theta : array_like, in [0, 1]
-        Cosine of the angle of incidence in the incident medium (1 = normal, 0 = grazing).
-    thickness_nm : array_like, nm, finite, >= 0
-        Film thickness; 0 gives the bare incident|substrate interface.
-    n_film, n_substrate : number, array broadcastable with ``wavelength_nm``, or callable n(wavelength_nm)
-        Real or complex (n + ik, k >= 0 absorbs); real part > 0. An array follows numpy broadcasting
-        against all other arguments, so give it the wavelength array's shape (e.g. (W, 1, 1) for
-        wavelengths on the first of three axes); a callable is evaluated on ``wavelength_nm`` as given.
-    n_incident : number, array or callable
-        Real, > 0 (reflectance is measured in a transparent medium).
-    polarization : {"s", "p", "unpolarized"}
-        "unpolarized" is the mean of the s and p reflectances.
+    ``wavelength_nm`` (vacuum, > 0) and ``thickness_nm`` (>= 0; 0 gives the bare incident|substrate interface) in
+    nm; ``cos_theta`` in [0, 1] is the angle of incidence in the incident medium (1 = normal). ``n_film`` and
+    ``n_substrate``: a number, an array broadcast against all other arguments (give it the wavelengths' shape,
+    e.g. (W, 1, 1)) or a callable n(wavelength_nm); n + ik with k >= 0 absorbing; ``n_incident`` real.
+    "unpolarized" is the mean of the s and p reflectances. ValueError names the argument and the value for
+    NaN/inf, out-of-range values, a complex ``n_incident`` or an unknown polarization.
 
-    Returns
-    -------
-    ndarray, float64, broadcast shape of all array arguments, in [0, 1]
-
-    Raises
-    ------
-    ValueError
-        NaN/inf, ``thickness_nm < 0``, ``cos_theta`` outside [0, 1], ``wavelength_nm <= 0``, an index with
-        a non-positive real part or negative imaginary part, a complex ``n_incident``, an unknown
-        polarization. The message names the argument and the offending value.
-
-    Notes
-    -----
-    Real indices without total internal reflection take a real-arithmetic fast path (one sine per sample;
-    coefficients are computed on the broadcast shape of wavelength, angle and indices only); other elements
-    (absorption, TIR, a film exactly at its critical angle) the complex path, several times slower. Both are
-    exact to rounding. Peak memory is a few float64 arrays of the output shape: chunk calls of more than
-    ~1e7 samples.
+    Real indices without total internal reflection take the real fast path (one sine per sample); absorption,
+    TIR and a film at its critical angle the complex path, several times slower: both exact to rounding. Peak
+    memory is a few float64 arrays of the output shape: chunk calls above ~1e7 samples.
     """
     return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, False)[0]
 
 
 def transmittance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.0, n_substrate=1.0,
                   polarization="unpolarized"):
-    """Transmittance T into the substrate: the ratio of normal power fluxes (eq. 4), same arguments as
-    :func:`reflectance`.
-
-    For an absorbing film or substrate R + T < 1 (the rest is absorbed in the film); without absorption
-    R + T = 1 to rounding; beyond the substrate's critical angle T = 0.
-
-    Returns
-    -------
-    ndarray, float64, broadcast shape, in [0, 1]
-    """
+    """Transmittance T in [0, 1] into the substrate, the ratio of normal power fluxes (eq. 4); the arguments of
+    :func:`reflectance`. R + T = 1 to rounding without absorption, < 1 with it; T = 0 beyond the substrate's
+    critical angle."""
     return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, True)[1]
