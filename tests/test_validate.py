@@ -371,7 +371,7 @@ def test_nvidia_mesh_rule_findings_are_memoised_by_the_meshes_and_a_mesh_change_
     first, _ = nvidia.run_nvidia_validator(root)
     full, _ = nvidia._findings(nv.ValidationEngine(variants=True).validate(root), root)
     assert {(i.check, i.path, i.message, i.severity) for i in first} == {(f"nvidia:{r}", w, m, s) for r, w, m, s in full}
-    (memo,) = (tmp_path / "cache").rglob("*.json")
+    (memo,) = (tmp_path / "cache").rglob("usd-validation-nvidia-*/[!k]*.json")  # not its key.json
     planted = ["ManifoldChecker", "/Pigeon/Geom/Beak", "planted finding", "warning"]
     memo.write_text(json.dumps([planted]))
     second, _ = nvidia.run_nvidia_validator(root)
@@ -388,7 +388,7 @@ def test_nvidia_mesh_rule_findings_are_memoised_by_the_meshes_and_a_mesh_change_
     edit(move_a_point, GEOMETRY_LAYER)
     third, _ = nvidia.run_nvidia_validator(os.path.join(out, "pigeon.usda"))
     assert "planted finding" not in [i.message for i in third]
-    assert len(list((tmp_path / "cache").rglob("*.json"))) == 2
+    assert len(list((tmp_path / "cache").rglob("usd-validation-nvidia-*/[!k]*.json"))) == 2
 
 
 def test_the_mesh_memo_survives_a_film_change_but_not_a_normals_change(broken):
