@@ -1,10 +1,9 @@
 """Exact colour of dispersive films by product integration in wavenumber (method ``"quadrature"`` of the baker).
 
-A texel's colour is ``C = integral R(sigma) w(sigma) dsigma`` over ``sigma = 1 / lambda``, with ``w`` the colour
-weights (CMFs times illuminant, a perfect reflector at Y = 1, then the working space's matrix) and ``R`` the
-unpolarised Airy reflectance (Born & Wolf, *Principles of Optics*, 7th ed., sec. 7.6.1). The weights carry all
-the fine structure (tabulated CMFs and D65 kink every 1 and 5 nm); ``R`` is analytic in ``sigma`` for a real
-film, even a dispersive one:
+A texel's colour is ``C = integral R(sigma) w(sigma) dsigma`` over ``sigma = 1 / lambda``, ``w`` the colour
+weights and ``R`` the unpolarised Airy reflectance (Born & Wolf, *Principles of Optics*, 7th ed., sec. 7.6.1).
+The weights carry all the fine structure (the tables kink every 1 and 5 nm); ``R`` is analytic in ``sigma`` for a
+real film, even a dispersive one:
 
     R(sigma) = (a^2 + b^2 + 2ab cos phi) / (1 + a^2 b^2 + 2ab cos phi),
     phi(sigma) = 4 pi d sigma sqrt(n(sigma)^2 - n_a^2 sin^2 theta),   n(sigma) = A + B sigma^2 (Cauchy),
@@ -21,14 +20,10 @@ Node count. ``R`` is a Poisson kernel in ``phi`` with poles at ``Im phi = +-delt
 ``phi`` spanning ``2 Phi`` over the spectrum the error decays like ``exp(-c N delta / Phi)`` (Bernstein
 ellipse), so ``N = K_FULL * Phi / delta + N_MIN`` (``K_FULL`` measured). Near grazing ``|ab| -> 1`` and ``N``
 would grow like ``1 / cos theta``; there the truncated Poisson series of :mod:`.fourier` (``rho = -ab``) is
-interpolated instead, a trigonometric polynomial of degree ``M`` (``N = K_SERIES * M * Phi + N_MIN``):
-
-    R(phi) = c_0 + 2 c_1 sum_{m=1..M} rho^(m-1) cos(m phi)
-           = c_0 + 2 c_1 [cos phi - rho - rho^M cos((M+1) phi) + rho^(M+1) cos(M phi)] / (1 - 2 rho cos phi + rho^2)
-
-``M`` is :func:`rockdove.lut.fourier.n_terms_needed` at the film's smallest optical path difference (with
-dispersion the local frequency of ``cos(m phi)`` is the group path, larger than the phase path, so ``G``'s tail
-at the phase path bounds it), evaluated in half-angle form without cancellation (:func:`_series_form`).
+interpolated instead, ``R(phi) = c_0 + 2 c_1 sum_{m=1..M} rho^(m-1) cos(m phi)``, a trigonometric polynomial
+of degree ``M`` (``N = K_SERIES * M * Phi + N_MIN``, summed in closed form by :func:`_series_form`), ``M`` from
+:func:`rockdove.lut.fourier.n_terms_needed` at the film's smallest optical path difference (with dispersion the
+local frequency of ``cos(m phi)`` is the group path, larger than the phase path: ``G``'s tail there bounds it).
 
 Angle axis. Away from grazing the colour is analytic and slowly varying in ``cos theta`` too: the columns with
 ``cos theta >= ANGLE_PANEL_COS`` are interpolated (barycentric, Chebyshev points) from the exact colours at
@@ -45,16 +40,14 @@ import numpy as np
 
 from .weights import chebyshev, chebyshev_weights, sigma_range
 
-# Node counts, rounded up to NODE_LADDER (few sets of product weights per process). Measured on the default
-# keratin LUT (benchmarks/README.md): every texel within 4e-4 dE2000 of the 0.1 nm reference (K_FULL = 2.5 with
-# N_MIN = 16 errs 4e-3, K_FULL = 2 errs 0.02).
+# Node counts, rounded up to NODE_LADDER. On the default keratin LUT every texel is within 4e-4 dE2000 of the
+# 0.1 nm reference (K_FULL = 2.5 with N_MIN = 16 errs 4e-3, K_FULL = 2 errs 0.02; benchmarks/README.md).
 K_FULL = 3.0
 K_SERIES = 0.6
 N_MIN = 20
 NODE_LADDER = (8, 24, 28, 32, 40, 48, 56, 64, 80, 96, 112, 128, 160, 192, 224, 256, 320, 384, 448, 512, 640, 768,
                1024, 1280, 1536, 2048, 2560, 3072, 4096)
-# Relative cost per node of the series form when choosing the form (1.6 and 4 bake the default keratin LUT in the
-# same time: only the two most grazing columns differ).
+# Relative cost per node of the series form (1.6 and 4 bake the default keratin LUT in the same time).
 SERIES_COST = 1.6
 # The angle panel (angle_panel_nodes). Measured on keratin at 256 x 64 texels, 480-700 nm: panels from cos theta
 # 0.1 down to 0.015 all keep every texel within 4e-4 dE2000 of the reference (150-1000 nm, 35 angles: 3.6e-4);
@@ -97,8 +90,7 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
     n_terms = np.zeros(cos_theta.shape[0], np.int64)
     n_series = np.full(cos_theta.shape[0], np.inf)
     if d_min > 0.0:
-        # columns where the full form needs many nodes: try the truncated series
-        # (rho = -ab >= 0, as for a film in air: the float32 closed form below has no cancellation there)
+        # columns where the full form needs many nodes and rho = -ab >= 0 (no cancellation in float32): the series
         rho_min = np.minimum((-coef["a_s"] * coef["b_s"]).min(axis=1), (-coef["a_p"] * coef["b_p"]).min(axis=1))
         cand = np.nonzero((n_full > 2.0 * N_MIN) & (cos_theta > 0.0) & (rho_min >= 0.0))[0]
         if cand.size:
@@ -141,7 +133,7 @@ class _Layout:
         self.size = start
 
     def white(self):
-        """Per layout column, the weights' sum (shape (n_cols, 3)): the colour of R = 1."""
+        """Per layout column, the weights' sum (n_cols, 3): the colour of R = 1."""
         w = np.empty((self.cols.size, 3))
         for (i0, i1, n, s0), om in zip(self.groups, self.omegas):
             w[i0:i1] = om.sum(axis=0)
@@ -199,16 +191,14 @@ def _full_form(coef, layout, thickness_nm, out, chunk):
 
 
 def _series_form(coef, layout, thickness_nm, n_terms, out, chunk):
-    """The truncated Poisson series (``n_terms`` per layout column) at the layout's nodes.
-
-    With ``s2 = sin^2(phi / 2)`` the closed form is rewritten without cancellation near the resonances
-    (``cos phi - rho = (1 - rho) - 2 s2``, ``1 - 2 rho cos phi + rho^2 = (1 - rho)^2 + 4 rho s2``):
+    """The truncated Poisson series (``n_terms`` per layout column) at the layout's nodes, its geometric sum in
+    half-angle form (``s2 = sin^2(phi / 2)``), without cancellation near the resonances:
 
         sum_{m=1..M} rho^(m-1) cos(m phi)
             = [((1 - rho) - 2 s2)(1 - rho^M cos(M phi)) + rho^M sin(M phi) sin(phi)] / ((1 - rho)^2 + 4 rho s2),
 
-    so float32 trigonometry suffices; the phases ``phi / 2`` and ``M phi`` are reduced modulo one period in
-    float64 first (``M phi`` reaches thousands of radians).
+    so float32 trigonometry suffices once ``phi / 2`` and ``M phi`` (thousands of radians) are reduced modulo one
+    period in float64.
     """
     from . import fourier
 
