@@ -33,14 +33,14 @@ LOBE = "view_angle"
 
 
 def unavailable() -> str | None:
-    """None when MaterialX's GLSL generator and an offscreen GL context can be used here, else why not."""
-    for module, package in (("MaterialX.PyMaterialXGenGlsl", "MaterialX"), ("pyrender", "pyrender"),
-                            ("OpenGL.GL", "PyOpenGL")):
-        try:
-            __import__(module)
-        except ImportError as exc:
-            return f"{package} is not installed ({exc})"
-    return None
+    """None when MaterialX's GLSL generator and an offscreen GL context (:func:`glsl.unavailable`) can be used."""
+    from . import glsl
+
+    try:
+        import MaterialX.PyMaterialXGenGlsl  # noqa: F401
+    except ImportError as exc:
+        return f"MaterialX is not installed ({exc})"
+    return glsl.unavailable()
 
 
 def cannot_draw(asset_path: str, variant: str = VARIANT) -> str | None:
@@ -116,20 +116,9 @@ def two_sided(pixel_source: str) -> str:
 
 
 def feather_networks(layer: str, variant: str) -> dict:
-    """The MaterialX networks of the asset's meshes under shading variant ``variant``.
-
-    Returns
-    -------
-    dict
-        Mesh prim path -> ``{"doc": MaterialX.Document, "material": surfacematerial node name,
-        "files": {image node name: resolved file path}}`` for every mesh bound to a material with an
-        ``outputs:mtlx:surface``.
-
-    Raises
-    ------
-    ValueError
-        The asset has no ``shading`` variant ``variant``, or no mesh has a MaterialX material.
-    """
+    """Mesh prim path -> ``{"doc": MaterialX.Document, "material": surfacematerial name, "files": {image node:
+    resolved file}}`` of every mesh bound to a material with an ``outputs:mtlx:surface``, under shading variant
+    ``variant``. ValueError when the asset has no such variant or no mesh has a MaterialX material."""
     from pxr import Usd, UsdGeom, UsdShade
 
     from ..usd.material import load_mtlx_libraries, usd_to_mtlx_document

@@ -52,25 +52,18 @@ void main() { out1 = vec4(0.0, 0.0, 0.0, 1.0); }
 
 
 def _texture(image: np.ndarray, *, mipmaps: bool = True) -> int:
-    """Upload (H, W, C) uint8 or float32 pixels, row 0 first (as a host uploads a file's rows), mipmapped."""
+    """Upload (H, W[, C]) pixels (uint8 as c / 255) as 32-bit float, row 0 first (as a host uploads a file's rows)."""
     from OpenGL import GL
 
-    data = np.ascontiguousarray(image)
-    if data.ndim == 2:
-        data = data[:, :, None]
+    data = np.asarray(image, np.float32) / (255.0 if image.dtype == np.uint8 else 1.0)
+    data = np.ascontiguousarray(data.reshape(*data.shape[:2], -1))
     c = data.shape[2]
     fmt = {1: GL.GL_RED, 2: GL.GL_RG, 3: GL.GL_RGB, 4: GL.GL_RGBA}[c]
-    if data.dtype == np.uint8:
-        internal = {1: GL.GL_R8, 2: GL.GL_RG8, 3: GL.GL_RGB8, 4: GL.GL_RGBA8}[c]
-        kind = GL.GL_UNSIGNED_BYTE
-    else:
-        data = data.astype(np.float32)
-        internal = {1: GL.GL_R32F, 2: GL.GL_RG32F, 3: GL.GL_RGB32F, 4: GL.GL_RGBA32F}[c]
-        kind = GL.GL_FLOAT
+    internal = {1: GL.GL_R32F, 2: GL.GL_RG32F, 3: GL.GL_RGB32F, 4: GL.GL_RGBA32F}[c]
     tex = GL.glGenTextures(1)
     GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
     GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 1)
-    GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, internal, data.shape[1], data.shape[0], 0, fmt, kind, data)
+    GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, internal, data.shape[1], data.shape[0], 0, fmt, GL.GL_FLOAT, data)
     GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 4)
     if mipmaps:
         GL.glGenerateMipmap(GL.GL_TEXTURE_2D)
@@ -204,6 +197,8 @@ def _bind_samplers(GL, prog, net: dict, env: int, black: int, base_black: bool) 
     for i in range(GL.glGetProgramiv(prog, GL.GL_ACTIVE_UNIFORMS)):
         uname, _, utype = GL.glGetActiveUniform(prog, i)
         uname = uname.decode() if isinstance(uname, bytes) else str(uname)
+        if utype == GL.GL_FLOAT_MAT3:
+            _document_matrix(GL, prog, uname, net["doc"])
         if utype != GL.GL_SAMPLER_2D:
             continue
         if uname in ("u_envRadiance", "u_envIrradiance"):
@@ -228,6 +223,19 @@ def _bind_samplers(GL, prog, net: dict, env: int, black: int, base_black: bool) 
     if loc >= 0:
         GL.glUniform1f(loc, 1.0)
     return textures
+
+
+def _document_matrix(GL, prog, uname: str, doc) -> None:
+    """Bind uniform ``<node>_<input>`` to the document's matrix33 at float precision, as MaterialX's viewer binds
+    its uniforms: the generated default is printed with 6 decimals (the LUT transform's 0.005757 for 0.0057566)."""
+    node_name, _, input_name = uname.rpartition("_")
+    node = doc.getNode(node_name)
+    inp = node.getInput(input_name) if node is not None else None
+    if inp is not None:
+        source = inp.getConnectedNode()
+        text = (source.getInput("value") if source is not None and source.getCategory() == "constant" else inp)
+        values = np.array([float(v) for v in text.getValueString().split(",")], np.float32)
+        GL.glUniformMatrix3fv(GL.glGetUniformLocation(prog, uname), 1, GL.GL_FALSE, values)
 
 
 def _vertex_array(GL, prog, part) -> int:

@@ -145,6 +145,7 @@ def lobe_document(net: dict, base: str = VARIANTS["osl"][1]):
     if bg is None:
         raise ValueError(f"the network has no {base} (base colour) to turn black")
     bg.removeAttribute("nodename")
+    bg.removeAttribute("output")
     bg.setValueString("0, 0, 0")
     for node_name, path in net["files"].items():
         doc.getNode(node_name).getInput("file").setValueString(os.path.abspath(path))
@@ -171,6 +172,7 @@ def to_working_space(doc, material_name: str) -> None:
                 stem = f"{node.getName()}_{inp.getName()}_acescg"
                 vec = doc.addNode("convert", f"{stem}_vector", "vector3")
                 vec.addInput("in", "color3").setConnectedNode(upstream)
+                vec.getInput("in").setOutputString(inp.getOutputString())
                 xform = doc.addNode("transformmatrix", stem, "vector3")
                 xform.addInput("in", "vector3").setConnectedNode(vec)
                 xform.addInput("mat", "matrix33").setValue(matrix)
