@@ -89,28 +89,16 @@ def wavelength_grid(step_nm: float) -> np.ndarray:
     return lo + step_nm * np.arange(n)
 
 
-def _texel_chunks(n_angle, n_wavelength):
-    return max(1, _CHUNK_ELEMENTS // max(1, n_angle * n_wavelength))
-
-
 def _bake_spectral(cos_theta, thickness_nm, film, *, illuminant, colour_space, spectral_step_nm, **_):
-    """Straightforward per-wavelength bake with :func:`rockdove.optics.reflectance`; shape (M, N, 3)."""
-    from .. import optics
+    """Straightforward per-wavelength bake with :func:`rockdove.optics.reflectance`; shape (T, A, 3)."""
+    from .reference import sampled_colour
     from .weights import colour_weights
 
     wl = wavelength_grid(spectral_step_nm)
-    w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
-    n_film = film.n_film(wl)
-    out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
-    rows = _texel_chunks(cos_theta.shape[0], wl.shape[0])
-    for i in range(0, thickness_nm.shape[0], rows):
-        d = thickness_nm[i : i + rows, None, None]
-        r = optics.reflectance(
-            wl[None, None, :], cos_theta[None, :, None], d, n_film=n_film,
-            n_incident=film.n_incident, n_substrate=film.n_substrate,
-        )
-        out[i : i + rows] = r @ w
-    return out, {"spectralStepNm": repr(float(spectral_step_nm))}
+    c, d = np.meshgrid(cos_theta, thickness_nm)
+    rgb = sampled_colour(wl, colour_weights(wl, illuminant=illuminant, colour_space=colour_space), c.ravel(),
+                          d.ravel(), film)
+    return rgb.reshape(c.shape + (3,)), {"spectralStepNm": repr(float(spectral_step_nm))}
 
 
 def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
@@ -134,7 +122,7 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
     any_degenerate = bool(degenerate.any())
     w = np.asarray(weights, dtype=dtype)
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
-    rows = _texel_chunks(cos_theta.shape[0], wavelength_nm.shape[0])
+    rows = max(1, _CHUNK_ELEMENTS // max(1, cos_theta.shape[0] * wavelength_nm.shape[0]))
     for i in range(0, thickness_nm.shape[0], rows):
         s2 = np.sin(thickness_nm[i : i + rows, None, None].astype(dtype) * half_k[None])
         s2 *= s2

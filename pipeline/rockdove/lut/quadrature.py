@@ -250,7 +250,9 @@ def quadrature_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour
     cos_theta = np.asarray(cos_theta, dtype=np.float64)
     thickness_nm = np.asarray(thickness_nm, dtype=np.float64)
     if not real_coefficients(film, cos_theta):
-        raise _refused(film)
+        raise ValueError(f"method 'quadrature' needs a non-absorbing film without total internal reflection (real "
+                         f"interface coefficients); film {film.name!r} is not (k = {film.k!r}, substrate "
+                         f"{film.n_substrate!r}; use 'spectral')")
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
     panel_nodes = angle_panel_nodes(film, cos_theta, thickness_nm)
     if panel_nodes is None:
@@ -289,13 +291,6 @@ def real_coefficients(film, cos_theta) -> bool:
     n_b = float(np.min(film.n_film(np.array([1.0 / s_hi, 1.0 / s_lo]))))
     cos_min = float(np.min(cos_theta)) if np.size(cos_theta) else 1.0
     return film.n_incident**2 * (1.0 - cos_min**2) <= min(n_b, float(film.n_substrate)) ** 2
-
-
-def _refused(film):  # an error to raise
-    return ValueError(
-        f"method 'quadrature' needs a non-absorbing film without total internal reflection (real interface "
-        f"coefficients); film {film.name!r} is not (k = {film.k!r}, substrate {film.n_substrate!r}; use 'spectral')"
-    )
 
 
 def _direct_columns(cos_theta, thickness_nm, film, out, illuminant, colour_space, series_tol):

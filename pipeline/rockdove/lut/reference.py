@@ -246,11 +246,11 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
             out[rows] = _real_colour(wl, w, c[rows], d[rows], film, np.float64)
         rows = rest[sel & ~kernel]
         if rows.size:
-            out[rows] = _sampled_colour(wl, w, c[rows], d[rows], film)
+            out[rows] = sampled_colour(wl, w, c[rows], d[rows], film)
     return out.reshape(shape + (3,))
 
 
-def _sampled_colour(wl, w, c, d, film) -> np.ndarray:
+def sampled_colour(wl, w, c, d, film) -> np.ndarray:
     """``R @ w`` with ``R`` from :func:`rockdove.optics.reflectance` at the wavelengths ``wl`` (any film), chunked."""
     from .. import optics
 
