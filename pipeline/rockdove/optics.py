@@ -287,13 +287,10 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
         with np.errstate(invalid="ignore", divide="ignore"):
             res, degenerate = _fast_real(k0d, cos_a, n_a, n_b, n_c, _q(np.maximum(qb2, 0), n_b, n_a, cos_a, True),
                                          _q(np.maximum(qc2, 0), n_c, n_a, cos_a, True), pols, want_t)
-        slow = None if all_fast else ~np.broadcast_to(fast, shape)
-        if degenerate:
-            nan = np.zeros(shape, dtype=bool)
-            for pol in pols:
-                nan |= np.isnan(res[pol][0])
-            slow = nan if slow is None else slow | nan
-        if slow is not None and slow.any():
+        slow = ~np.broadcast_to(fast, shape)
+        for pol in pols if degenerate else ():
+            slow = slow | np.isnan(res[pol][0])
+        if slow.any():
             sub = [np.broadcast_to(x, shape)[slow] for x in (k0d, cos_a, n_a, n_b, n_c, qb2, qc2)]
             k0d_s, cos_s, na_s, nb_s, nc_s, qb2_s, qc2_s = sub
             res_slow = _general_complex(k0d_s, cos_s, na_s, nb_s, nc_s, _q(qb2_s + 0j, nb_s, na_s, cos_s, False),
@@ -326,16 +323,12 @@ def reflectance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.
     """Reflectance R = |r|**2 of one film (Airy summation, eqs. 3-4 of the module docstring), float64 in [0, 1],
     the broadcast shape of all array arguments.
 
-    ``wavelength_nm`` (vacuum, > 0) and ``thickness_nm`` (>= 0; 0 gives the bare incident|substrate interface) in
-    nm; ``cos_theta`` in [0, 1] is the angle of incidence in the incident medium (1 = normal). ``n_film`` and
-    ``n_substrate``: a number, an array broadcast against all other arguments (give it the wavelengths' shape,
-    e.g. (W, 1, 1)) or a callable n(wavelength_nm); n + ik with k >= 0 absorbing; ``n_incident`` real.
-    "unpolarized" is the mean of the s and p reflectances. ValueError names the argument and the value for
-    NaN/inf, out-of-range values, a complex ``n_incident`` or an unknown polarization.
-
-    Real indices without total internal reflection take the real fast path (one sine per sample); absorption,
-    TIR and a film at its critical angle the complex path, several times slower: both exact to rounding. Peak
-    memory is a few float64 arrays of the output shape: chunk calls above ~1e7 samples.
+    ``wavelength_nm`` (vacuum, > 0) and ``thickness_nm`` (>= 0; 0: the bare incident|substrate interface) in nm;
+    ``cos_theta`` in [0, 1] in the incident medium. ``n_film`` and ``n_substrate``: a number, an array broadcast
+    against the other arguments (give it the wavelengths' shape) or a callable n(wavelength_nm), n + ik with k >= 0;
+    ``n_incident`` real. "unpolarized" is the mean of s and p. A ValueError names the offending argument and value.
+    Real indices without TIR take the real fast path (one sine per sample), the rest the complex path, both exact
+    to rounding; memory is a few float64 arrays of the output shape (chunk calls above ~1e7 samples).
     """
     return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, False)[0]
 

@@ -105,13 +105,12 @@ def _tables(illuminant: str, observer: str):
         for what, table in (("observer", cmfs), ("illuminant", sd)):
             if table.wavelengths[0] > lo or table.wavelengths[-1] < hi:
                 raise ValueError(f"{what} {table.name!r} does not cover {lo:g}-{hi:g} nm")
-        return {"cmfs_wavelength_nm": cmfs.wavelengths, "cmfs": cmfs.values,
-                "illuminant_wavelength_nm": sd.wavelengths, "illuminant": sd.values}
+        return dict(zip(keys, (cmfs.wavelengths, cmfs.values, sd.wavelengths, sd.values)))
 
+    keys = ("cmfs_wavelength_nm", "cmfs", "illuminant_wavelength_nm", "illuminant")
     slug = "".join(c if c.isalnum() or c in "-." else "_" for c in f"{illuminant}-{observer}")
-    t = colour_data(f"tables-{slug}", compute,
-                    ("cmfs_wavelength_nm", "cmfs", "illuminant_wavelength_nm", "illuminant"))
-    return t["cmfs_wavelength_nm"], t["cmfs"], t["illuminant_wavelength_nm"], t["illuminant"]
+    t = colour_data(f"tables-{slug}", compute, keys)
+    return tuple(t[k] for k in keys)
 
 
 def cmfs_illuminant(wavelength_nm, illuminant=DEFAULT_ILLUMINANT, observer=DEFAULT_OBSERVER):

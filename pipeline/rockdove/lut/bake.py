@@ -305,28 +305,22 @@ def bake(
         lo = hi = 0.5 * (lo + hi)
         thicknesses = 1
     rng = (lo, hi)
-    x = np.linspace(0.0, 1.0, angles)
-    cos_theta = x**gamma
+    cos_theta = np.linspace(0.0, 1.0, angles) ** gamma
     thickness_nm = np.linspace(lo, hi, thicknesses)
 
-    impl = BAKE_METHODS[method]
-    if method == "auto":
-        used, (rgb, meta) = impl(cos_theta, thickness_nm, film_model, **kw)
-    else:
-        used, (rgb, meta) = method, impl(cos_theta, thickness_nm, film_model, **kw)
+    result = BAKE_METHODS[method](cos_theta, thickness_nm, film_model, **kw)
+    used, (rgb, meta) = result if method == "auto" else (method, result)  # "auto" says which method it used
     metadata = {f"film:{k}": v for k, v in film_model.describe().items()}
-    metadata.update(
-        {
-            "film": film_model.name,
-            "illuminant": illuminant,
-            "observer": OBSERVER,
-            "wavelengthRangeNm": f"{WAVELENGTH_RANGE_NM[0]!r} {WAVELENGTH_RANGE_NM[1]!r}",
-            "polarization": "unpolarized (mean of s and p)",
-            "method": used,
-            "methodRequested": method,
-            "estimatedError": "not measured at bake time (bake(error_points=0))",
-        }
-    )
+    metadata.update({
+        "film": film_model.name,
+        "illuminant": illuminant,
+        "observer": OBSERVER,
+        "wavelengthRangeNm": f"{WAVELENGTH_RANGE_NM[0]!r} {WAVELENGTH_RANGE_NM[1]!r}",
+        "polarization": "unpolarized (mean of s and p)",
+        "method": used,
+        "methodRequested": method,
+        "estimatedError": "not measured at bake time (bake(error_points=0))",
+    })
     metadata.update({f"method:{k}": v for k, v in meta.items()})
     lut = ThinFilmLUT(rgb.astype(np.float32), rng, angle_warp_gamma=gamma, colour_space=colour_space,
                       metadata=metadata)

@@ -32,12 +32,11 @@ a 0.8 rad cap: 0.0015). Below cos theta 0.01 (thousands of nodes) the points kee
 
 The real-film kernel (:func:`_real_colour`). With admittances ``x, y, z`` of the incident medium, film and
 substrate (s: ``n cos``, p: ``cos / n``; :mod:`rockdove.optics` eq. 4) one polarisation's Airy reflectance is
-exactly ``1 - R = 4 x z y^2 / (y^2 (x + z)^2 + (y^2 - x^2)(y^2 - z^2) sin^2(phi / 2))`` (between equal media
-``4 x^2 y^2 / (4 x^2 y^2 + (y^2 - x^2)^2 sin^2(phi / 2))``): for a film at least as dense as both media a sum
-of non-negative terms, so float32 loses nothing to cancellation (otherwise float64). Float32 rounds the phase
-(up to 280 rad at 5000 nm) to ~3e-5 rad, which resonances amplify (2.1e-3 dE2000 at cos theta 0.001-0.01,
-4000-5000 nm; <= 3.5e-4 from 0.05), so points below :data:`FLOAT32_MIN_COS` and the points on wavelength steps
-run in float64 (equal to :func:`rockdove.optics.reflectance` to 1e-14, 2.7x faster than its general form).
+exactly ``1 - R = 4 x z y^2 / (y^2 (x + z)^2 + (y^2 - x^2)(y^2 - z^2) sin^2(phi / 2))``: for a film at least as
+dense as both media a sum of non-negative terms, so float32 loses nothing to cancellation. Float32 rounds the
+phase (280 rad at 5000 nm) to ~3e-5 rad, which resonances amplify (2.1e-3 dE2000 at cos theta 0.001-0.01; <=
+3.5e-4 from 0.05), so points below :data:`FLOAT32_MIN_COS` and on wavelength steps run in float64 (equal to
+:func:`rockdove.optics.reflectance` to 1e-14, 2.7x faster).
 """
 
 from __future__ import annotations
