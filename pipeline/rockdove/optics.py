@@ -4,8 +4,7 @@ Light arrives from a transparent incident medium a (``n_incident``, real) at ``c
 film b (``n_film``, thickness d) on a semi-infinite substrate c (``n_substrate``); complex indices are ``n + i k``,
 ``k >= 0`` absorbing (the convention of ``tmm`` and ``colour.phenomena``, :mod:`rockdove.films`).
 
-Normal wave-vector components (in units of the vacuum wave number k0 = 2 pi / lambda), from Snell's law
-n_j sin(theta_j) = n_a sin(theta_a):
+Normal wave-vector components (in units of k0 = 2 pi / lambda), by Snell's law n_j sin(theta_j) = n_a sin(theta_a):
 
     q_j = n_j cos(theta_j) = sqrt(n_j**2 - n_a**2 sin(theta_a)**2)
         = sqrt((n_j - n_a)(n_j + n_a) + (n_a cos_theta)**2)                                   (1)
@@ -13,8 +12,7 @@ n_j sin(theta_j) = n_a sin(theta_a):
 evaluated in the second form so that n_j == n_a gives q_j = n_a cos_theta exactly, on the branch Im(q_j) >= 0:
 beyond the critical angle q_j = +i |q_j|, an evanescent wave decaying away from the interface.
 
-Fresnel amplitude coefficients (Born & Wolf, Principles of Optics, 7th ed., sec. 1.5.2, the Fresnel
-formulae; the convention of the ``tmm`` package; at normal incidence r_p = -r_s):
+Fresnel amplitude coefficients (Born & Wolf, Principles of Optics, 7th ed., sec. 1.5.2; ``tmm``'s convention):
 
     r_s = (n1 cos1 - n2 cos2) / (n1 cos1 + n2 cos2),    r_p = (n2 cos1 - n1 cos2) / (n2 cos1 + n1 cos2)  (2)
 
@@ -40,9 +38,8 @@ sum of squares in real arithmetic (the fast path, an order of magnitude cheaper)
     R = [(eta_a - eta_c)**2 cos**2 + (eta_a eta_c S - eta_b sin)**2] / Den,   T = 4 eta_a eta_c / Den,
     Den = (eta_a + eta_c)**2 cos**2 + (eta_a eta_c S + eta_b sin)**2,   S = sin(delta) / eta_b.
 
-Limits: at grazing incidence (cos_theta = 0, eta_a = 0) R = 1 and T = 0 for any stack; at d = 0 the film
-disappears and R is the bare a|c Fresnel value. Where every interface vanishes at once (equal indices at
-grazing incidence, the only 0/0 left in eq. 4) the result is R = 0, T = 1: no interface, no reflection.
+Limits: at grazing incidence (eta_a = 0) R = 1 and T = 0 for any stack; at d = 0, the bare a|c Fresnel value;
+where every interface vanishes (equal indices at grazing, the only 0/0 left in eq. 4) R = 0, T = 1.
 """
 
 from __future__ import annotations

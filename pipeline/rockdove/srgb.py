@@ -1,8 +1,5 @@
-"""The sRGB transfer functions (IEC 61966-2-1:1999) and the exact 8-bit display encoding of linear Rec.709.
-
-Tested against colour-science's ``cctf_encoding/decoding(..., "sRGB")`` (tests/test_spectral.py). Re-exported by
-:mod:`rockdove.spectral`.
-"""
+"""The sRGB transfer functions (IEC 61966-2-1:1999) and the exact 8-bit display encoding of linear Rec.709
+(tested against colour-science's ``cctf_encoding/decoding``, tests/test_spectral.py; re-exported by spectral)."""
 
 from __future__ import annotations
 

@@ -1,19 +1,14 @@
 """Bakers of the thin-film colour LUT over (cos theta, film thickness) (registry :data:`BAKE_METHODS`).
 
-``"spectral"``: :func:`rockdove.optics.reflectance` on a uniform wavelength grid (``spectral_step_nm``) for every
-texel, then ``R @ W`` with the colour weights: the baseline, for any film (absorbing, total internal reflection).
-``"spectral_fast"``: the same sampling for real interface coefficients, with the Fresnel coefficients computed
-once per (angle, wavelength) and only the phase per texel (the real Airy form, Born & Wolf 7.6.1), and finer
-steps in the resonant band ``cos theta < grazing_cos``. ``"fourier"``: the exact Fourier route of method.md
-(:mod:`.fourier`) for non-dispersive real films; texels whose series would need more than ``max_terms`` terms
-and the bare interface (d = 0) are integrated like the reference. ``"quadrature"``: product integration in
-wavenumber (:mod:`.quadrature`), exact for any film with real interface coefficients, dispersive or not.
-``"auto"``: ``"fourier"`` where it applies, else ``"quadrature"`` (dispersive films such as keratin: faster than
-``"spectral_fast"`` and exact, ``rockdove bench lut``), else ``"spectral"``.
-
-Unpolarised light is the mean of the s and p reflectances; ``OPD = 2 n_b d cos(theta_b)`` (nm), ``phi = 2 pi
-OPD / lambda``. References: Born, M. & Wolf, E., *Principles of Optics*, 7th ed., sec. 7.6.1 (Airy formula);
-method.md (the Fourier form); the table layout is :mod:`.table`'s.
+``"spectral"``: :func:`rockdove.optics.reflectance` on a uniform wavelength grid (``spectral_step_nm``), then
+``R @ W``: the baseline, for any film (absorbing, total internal reflection). ``"spectral_fast"``: the same for
+real interface coefficients, the Fresnel coefficients once per (angle, wavelength) and the phase per texel (the
+real Airy form, Born & Wolf, *Principles of Optics*, 7th ed., sec. 7.6.1), finer steps below ``grazing_cos``.
+``"fourier"``: method.md's exact Fourier route (:mod:`.fourier`) for non-dispersive real films (texels needing
+more than ``max_terms`` terms, and d = 0, are integrated like the reference). ``"quadrature"``: product
+integration in wavenumber (:mod:`.quadrature`), exact for any real-coefficient film. ``"auto"``: ``"fourier"``
+where it applies, else ``"quadrature"`` (faster than ``"spectral_fast"`` and exact, ``rockdove bench lut``), else
+``"spectral"``. Unpolarised light is the mean of s and p; the table layout is :mod:`.table`'s.
 """
 
 from __future__ import annotations

@@ -8,13 +8,11 @@ real film, even a dispersive one:
     R(sigma) = (a^2 + b^2 + 2ab cos phi) / (1 + a^2 b^2 + 2ab cos phi),
     phi(sigma) = 4 pi d sigma sqrt(n(sigma)^2 - n_a^2 sin^2 theta),   n(sigma) = A + B sigma^2 (Cauchy),
 
-with slowly varying Fresnel coefficients ``a(sigma), b(sigma)``. So, as Filon and Clenshaw-Curtis product rules
-split an oscillatory integral (Filon 1928; Sloan & Smith, Numer. Math. 34, 1980), ``R`` is replaced by its
-interpolant on ``N`` Chebyshev points under the Kosloff-Tal-Ezer map (Kosloff & Tal-Ezer, J. Comput. Phys. 104,
-1993; Hale & Trefethen, SIAM J. Numer. Anal. 46, 2008), and the weights are integrated against the Lagrange
-basis exactly, once per node count (:func:`.weights.chebyshev_weights`): ``C ~= sum_k Omega_k R(sigma_k)``,
-``Omega_k = integral w l_k dsigma`` on the 0.1 nm reference grid. The only error is the interpolation
-error of the analytic ``R``; dispersion costs nothing.
+with slowly varying Fresnel coefficients ``a, b``. So, as Filon and Clenshaw-Curtis product rules split an
+oscillatory integral (Filon 1928; Sloan & Smith, Numer. Math. 34, 1980), ``R`` is replaced by its interpolant on
+``N`` Chebyshev points under the Kosloff-Tal-Ezer map (J. Comput. Phys. 104, 1993; Hale & Trefethen, SIAM J.
+Numer. Anal. 46, 2008), integrated exactly against the weights (:func:`.weights.chebyshev_weights`): the only
+error is the interpolation error of the analytic ``R``, and dispersion costs nothing.
 
 Node count. ``R`` is a Poisson kernel in ``phi`` with poles at ``Im phi = +-delta``, ``delta = -ln |ab|``; with
 ``phi`` spanning ``2 Phi`` over the spectrum the error decays like ``exp(-c N delta / Phi)`` (Bernstein
@@ -25,10 +23,9 @@ of degree ``M`` (``N = K_SERIES * M * Phi + N_MIN``, summed in closed form by :f
 :func:`rockdove.lut.fourier.n_terms_needed` at the film's smallest optical path difference (with dispersion the
 local frequency of ``cos(m phi)`` is the group path, larger than the phase path: ``G``'s tail there bounds it).
 
-Angle axis. Away from grazing the colour is analytic and slowly varying in ``cos theta`` too: the columns with
-``cos theta >= ANGLE_PANEL_COS`` are interpolated (barycentric, Chebyshev points) from the exact colours at
-``K_ANGLE * Psi + N_ANGLE_MIN`` angles, ``Psi`` the phase change over the panel at the largest thickness
-(:func:`angle_panel_nodes`; 30 angles instead of 250 columns for the default LUT).
+Angle axis. Away from grazing the colour is analytic in ``cos theta`` too: the columns with ``cos theta >=
+ANGLE_PANEL_COS`` are interpolated from the exact colours at a few Chebyshev angles (:func:`angle_panel_nodes`;
+30 instead of 250 columns for the default LUT).
 
 Limits: ``cos theta = 0`` takes ``R = 1``; ``d = 0`` is the bare interface. Absorbing films and total internal
 reflection make ``a, b`` complex: refused (use ``"spectral"``).
@@ -98,10 +95,9 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
             opd_min = 2.0 * d_min * q[cand].min(axis=1)
             m = np.zeros(cand.size, np.int64)
             for pol in ("s", "p"):
-                c0, c1, rho_p = fourier.airy_fourier_coefficients(coef[f"a_{pol}"][cand], coef[f"b_{pol}"][cand])
-                c1m = np.abs(c1).max(axis=1)
-                rm = np.abs(rho_p).max(axis=1)
-                m = np.maximum(m, fourier.n_terms_needed(c1m, rm, opd_min, table, series_tol))
+                _, c1, rho_p = fourier.airy_fourier_coefficients(coef[f"a_{pol}"][cand], coef[f"b_{pol}"][cand])
+                m = np.maximum(m, fourier.n_terms_needed(np.abs(c1).max(axis=1), np.abs(rho_p).max(axis=1), opd_min,
+                                                         table, series_tol))
             n_terms[cand] = np.maximum(m, 1)  # (c_1 = 0 at cos theta -> 0: one term, the series is then c_0)
             n_series[cand] = K_SERIES * m * dphi[cand] + N_MIN
     use_series = SERIES_COST * n_series < n_full

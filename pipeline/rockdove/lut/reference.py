@@ -47,8 +47,7 @@ from ..spectral import WAVELENGTH_RANGE_NM
 from .weights import (INTERPOLANT_ORDER, REFERENCE_STEP_NM, check_illuminant, colour_weights, interpolant_weights,
                       product_weights, reference_wavelengths, sigma_range, wavenumber_nodes)
 
-#: Wavelength step per cos theta band: ``(cos_theta_lo, step_nm)``; a point uses the step of the last band whose
-#: lower bound it reaches (module docstring: each band within 2e-4 dE2000 of the converged integral).
+#: Wavelength step per cos theta band ``(cos_theta_lo, step_nm)``: each within 2e-4 dE2000 (module docstring).
 REFERENCE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, REFERENCE_STEP_NM))
 #: Points x wavelengths per chunk of the spectral evaluation (bounds memory near 1.7 M complex samples).
 _CHUNK_SAMPLES = 4096 * 421
