@@ -200,13 +200,16 @@ def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t):
         b0 = (ea + ec) ** 2
         a1 = (eaec / eb - eb) ** 2 - a0
         b1 = (eaec / eb + eb) ** 2 - b0
-        den = b1 * u + b0
-        num = a1 * u + a0
+        den = b1 * u  # in place from here: the arrays have the output's size
+        den += b0
+        num = a1 * u
+        num += a0
         # den == 0 only where eta_a = eta_c = 0 (grazing, substrate of the incident index) and u = 0:
         # the result is NaN there and _solve hands those elements to the complex path (as it would any
         # overflow of a1, b1, which the range of q_b**2 > 0 rules out in practice).
         with np.errstate(invalid="ignore", divide="ignore"):
-            out[pol] = (num / den, np.divide(4.0 * eaec, den) if want_t else None)
+            num /= den
+            out[pol] = (num, np.divide(4.0 * eaec, den) if want_t else None)
         degenerate = degenerate or bool(np.any(b0 == 0)) or not (np.all(np.isfinite(a1)) and np.all(np.isfinite(b1)))
     return out, degenerate
 

@@ -85,15 +85,20 @@ def wavelength_grid(step_nm: float) -> np.ndarray:
 
 
 def _bake_spectral(cos_theta, thickness_nm, film, *, illuminant, colour_space, spectral_step_nm, **_):
-    """Straightforward per-wavelength bake with :func:`rockdove.optics.reflectance`; shape (T, A, 3)."""
-    from .reference import sampled_colour
+    """Straightforward per-wavelength bake with :func:`rockdove.optics.reflectance`; shape (T, A, 3). Rows of
+    texels at a time, so the Fresnel terms are computed per (angle, wavelength), not per texel."""
+    from .. import optics
     from .weights import colour_weights
 
     wl = wavelength_grid(spectral_step_nm)
-    c, d = np.meshgrid(cos_theta, thickness_nm)
-    rgb = sampled_colour(wl, colour_weights(wl, illuminant=illuminant, colour_space=colour_space), c.ravel(),
-                          d.ravel(), film)
-    return rgb.reshape(c.shape + (3,)), {"spectralStepNm": repr(float(spectral_step_nm))}
+    w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
+    out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
+    rows = max(1, _CHUNK_ELEMENTS // max(1, cos_theta.shape[0] * wl.shape[0]))
+    for i in range(0, thickness_nm.shape[0], rows):
+        r = optics.reflectance(wl[None, None, :], cos_theta[None, :, None], thickness_nm[i : i + rows, None, None],
+                               n_film=film.n_film(wl), n_incident=film.n_incident, n_substrate=film.n_substrate)
+        out[i : i + rows] = r @ w
+    return out, {"spectralStepNm": repr(float(spectral_step_nm))}
 
 
 def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):

@@ -60,12 +60,9 @@ DEFAULT_SERIES_TOL = 1e-5
 
 def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL, illuminant="D65",
                 colour_space="lin_rec709"):
-    """Form and node count per angle column of a film with real interface coefficients: ``(n_nodes, n_terms)``,
-    each (A,) int, the node count on :data:`NODE_LADDER` and 0 for the full Airy form, else the series' ``M``.
-
-    The series' term counts take a coarse ``G`` table (2 nm steps, a 2^17-point FFT): its envelope matches the
-    fine table's to 0.1% down to 3e-4 of the white (conservative below) and builds in ~20 ms, not 0.1-0.7 s.
-    """
+    """``(n_nodes, n_terms)`` per angle column, each (A,) int: the node count on :data:`NODE_LADDER`, and 0 for
+    the full Airy form, else the series' ``M``, counted on a coarse ``G`` table (2 nm, a 2^17-point FFT: its
+    envelope is the fine one's to 0.1% down to 3e-4 of the white, conservative below, in ~20 ms, not 0.1-0.7 s)."""
     from . import fourier
     from .interfaces import interface_coefficients
 
@@ -145,13 +142,10 @@ class _Layout:
 
 
 def _full_form(coef, layout, thickness_nm, out, chunk):
-    """Unpolarised Airy reflectance at the layout's nodes (``coef``: their interface coefficients), full form.
-
-    Per polarisation, with ``p = ab`` and ``s2 = sin^2(phi / 2)`` (Born & Wolf 7.6.1 in half-angle form, as
-    :func:`.bake.sample_colour`), ``R = ((a + b)^2 - 4 p s2) / ((1 + p)^2 - 4 p s2) = 1 - (1 - a^2)(1 - b^2) /
-    ((1 + p)^2 - 4 p s2)``: the 1 integrates to the white, so a node costs one sine and three operations per
-    polarisation. For ``p <= 0`` (a film in air) the denominator has no cancellation: float32 is safe.
-    """
+    """The full Airy form at the layout's nodes (``coef``: their interface coefficients): with ``p = ab``, ``s2 =
+    sin^2(phi / 2)`` (Born & Wolf 7.6.1, half-angle form as :func:`.bake.sample_colour`), ``R = 1 - (1 - a^2)(1 -
+    b^2) / ((1 + p)^2 - 4 p s2)``, the 1 integrating to the white: one sine and three operations per polarisation,
+    in float32 for ``p <= 0`` (a film in air), where the denominator has no cancellation."""
     products = [coef[f"a_{pol}"] * coef[f"b_{pol}"] for pol in ("s", "p")]
     dtype = np.float32 if max(float(p.max(initial=-1.0)) for p in products) <= 0.0 else np.float64
     half_k = (2.0 * np.pi * coef["n_b"] * coef["cos_b"] / layout.lam).astype(dtype)

@@ -77,11 +77,9 @@ NODE_LADDER = tuple(sorted({int(round(16 * 1.09**k)) for k in range(80)}))
 
 
 def interval_count(cos_theta, thickness_nm, film, kappa, max_step_rad) -> np.ndarray:
-    """Intervals of the wavenumber grid per point (module docstring): the largest phase step of one interval (at
-    the short end of the spectrum, where normal dispersion makes the phase steepest) at most
-    ``min(kappa * delta, max_step_rad)``, ``delta = -ln max|r_ab r_bc|`` the half-width of the strip of analyticity
-    of the Airy reflectance in the phase (the s coefficients, the larger in modulus, at both ends of the spectrum),
-    rounded up to :data:`NODE_LADDER`. Real films only (:func:`real_film`)."""
+    """Intervals of the wavenumber grid per point (real films; module docstring): one interval's phase step at the
+    steep (blue) end at most ``min(kappa * delta, max_step_rad)``, ``delta = -ln max|r_ab r_bc|`` (the larger, s,
+    coefficients at both ends of the spectrum), rounded up to :data:`NODE_LADDER`."""
     c = np.asarray(cos_theta, np.float64)
     d = np.asarray(thickness_nm, np.float64)
     s_lo, s_hi = sigma_range()
