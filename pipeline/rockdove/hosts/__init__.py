@@ -35,7 +35,8 @@ HOSTS = {
     "storm": "rockdove.hosts.storm:BAKED",
     "storm_physical": "rockdove.hosts.storm:PHYSICAL",
     "storm_preview": "rockdove.hosts.storm:PREVIEW",
-    "osl": "rockdove.hosts.osl",
+    "osl": "rockdove.hosts.osl:BAKED",
+    "osl_physical": "rockdove.hosts.osl:PHYSICAL",
 }
 #: The hosts a verification runs when none are named (``hosts=None``): those whose frames cost seconds. Storm's
 #: (a 512 px frame is 5-45 s, mostly shader compilation) and the OSL renderer's are named explicitly
@@ -51,15 +52,7 @@ ALWAYS = "glsl"
 
 
 class HostError(RuntimeError):
-    """A host failed to render (no display, import error, shader compile error...).
-
-    Parameters
-    ----------
-    name : str
-        The host's registry name.
-    message : str
-        What went wrong, one line.
-    """
+    """Host ``name`` failed to render (no display, import error, shader compile error...): ``message``, one line."""
 
     def __init__(self, name: str, message: str):
         super().__init__(f"host {name!r}: {message}")
@@ -68,15 +61,8 @@ class HostError(RuntimeError):
 
 
 def load(name: str) -> ModuleType:
-    """The module of host ``name``.
-
-    Raises
-    ------
-    ValueError
-        ``name`` is not in :data:`HOSTS`.
-    ImportError
-        The module is absent or fails to import (:func:`select` turns that into a reason).
-    """
+    """The module of host ``name``; ValueError for an unknown name, ImportError (:func:`select` turns it into a
+    reason) for a module that is absent or fails to import."""
     if name not in HOSTS:
         raise ValueError(f"host {name!r} is unknown; allowed: {', '.join(HOSTS)}")
     module, _, attr = HOSTS[name].partition(":")
@@ -96,12 +82,10 @@ class Selection:
 def _reason(name: str) -> tuple[ModuleType | None, str | None]:
     try:
         module = load(name)
-    except ModuleNotFoundError as exc:
-        if exc.name and HOSTS[name].partition(":")[0].startswith(exc.name):
-            return None, f"its module {HOSTS[name]} is not part of this installation"
-        return None, f"its module {HOSTS[name]} cannot be imported: {exc}"
     except ImportError as exc:
-        return None, f"its module {HOSTS[name]} cannot be imported: {exc}"
+        gone = isinstance(exc, ModuleNotFoundError) and exc.name and HOSTS[name].startswith(exc.name)
+        return None, f"its module {HOSTS[name]} " + ("is not part of this installation" if gone else
+                                                     f"cannot be imported: {exc}")
     try:
         reason = module.unavailable()
     except Exception as exc:  # a probe that crashes is a reason, not a crash of verify
@@ -110,35 +94,14 @@ def _reason(name: str) -> tuple[ModuleType | None, str | None]:
 
 
 def select(names=None) -> Selection:
-    """The hosts among ``names`` that can run here, and why the others cannot.
-
-    Parameters
-    ----------
-    names : iterable of str, optional
-        Host names (:data:`HOSTS`), or ``["all"]`` for every registered host; default :data:`DEFAULT`.
-        :data:`ALWAYS` (``glsl``) is always included, first.
-
-    Returns
-    -------
-    Selection
-
-    Raises
-    ------
-    ValueError
-        A name is not a registered host (one line naming it and the allowed names).
-    """
+    """The hosts among ``names`` (:data:`HOSTS`, ``["all"]`` for every one; default :data:`DEFAULT`) that can run
+    here, :data:`ALWAYS` first, and why the others cannot. ValueError (one line) names an unknown host."""
     names = list(DEFAULT) if names is None else [str(n).strip() for n in names]
     if names == ["all"]:
         names = list(HOSTS)
     unknown = [n for n in names if n not in HOSTS]
     if unknown:
         raise ValueError(f"hosts: {', '.join(map(repr, unknown))} unknown; allowed: {', '.join(HOSTS)}")
-    ordered = list(dict.fromkeys([ALWAYS, *names]))
-    available, missing = [], {}
-    for name in ordered:
-        module, reason = _reason(name)
-        if module is None:
-            missing[name] = reason
-        else:
-            available.append(module)
-    return Selection(tuple(available), missing)
+    found = {name: _reason(name) for name in dict.fromkeys([ALWAYS, *names])}
+    return Selection(tuple(m for m, _ in found.values() if m is not None),
+                     {name: why for name, (m, why) in found.items() if m is None})

@@ -21,17 +21,12 @@ def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
     ``{view name: (H, W, 3) uint8}`` (display-referred, AgX). Raises HostError when Blender cannot."""
     from PIL import Image
 
-
     work = os.path.join(os.path.abspath(out_dir), "beauty_cycles")
     os.makedirs(work, exist_ok=True)
-    for v in views:
-        if os.path.exists(os.path.join(work, f"{v.name}.png")):
-            os.remove(os.path.join(work, f"{v.name}.png"))
+    bl.clear_views(views, work, "png")
     verts, quads = cyclorama(scene, views)
     job = {
-        "asset": os.path.abspath(layer), "root_object": bl.root_object(layer), "addon_zip": bl.addon_zip(work),
-        "addon_module": bl.ADDON_MODULE, "out_dir": work, "samples": int(samples), "threads": bl.THREADS,
-        "transparent_bounces": bl.TRANSPARENT_BOUNCES, "ground_vertices_m": np.round(verts, 6).tolist(),
+        **bl.base_job(os.path.abspath(layer), views, work, samples), "ground_vertices_m": np.round(verts, 6).tolist(),
         "ground_quads": quads.tolist(), "ground_albedo": GROUND_ALBEDO, "sky_horizon_rgb": SKY_HORIZON_RGB,
         "sky_zenith_rgb": SKY_ZENITH_RGB, "sky_strength": SKY_STRENGTH, "sun_strength": SUN_STRENGTH,
         "sun_rgb": SUN_RGB, "sun_angle_deg": SUN_ANGLE_DEG, "look": LOOK, "exposure": EXPOSURE,
@@ -52,30 +47,14 @@ def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
 
 def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", width: int = 768,
                   height: int = 512, samples: int = 32, cycles_ok: bool = True, lut=None) -> dict | None:
-    """Render the beauty views into ``out_dir`` (``beauty_34.png``, ``beauty_side.png``) and describe them.
+    """Render the beauty views (``beauty_34.png``, ``beauty_side.png``, ``width`` x ``height`` px) into ``out_dir``
+    and describe them: ``{"renderer": "cycles"|"gl", "files": {view: file name}, "caption", "seconds", "size":
+    [w, h], "samples": int or None, "fallback": reason or None}``; None for ``renderer="off"``.
 
-    Parameters
-    ----------
-    layer : str
-        The asset's root layer (Cycles imports it).
-    scene : RenderScene
-        The same asset read back (framing, the GL path).
-    renderer : str
-        One of :data:`RENDERERS`.
-    width, height : int
-        Pixels of each view.
-    samples : int
-        Cycles samples per pixel (adaptive: the most a pixel takes).
-    cycles_ok : bool
-        Whether ``auto`` may take Cycles (False where the verification was not asked to run Blender).
-    lut : ThinFilmLUT, optional
-        The film's LUT for the GL path (default the asset's).
-
-    Returns
-    -------
-    dict or None
-        ``{"renderer": "cycles"|"gl", "files": {view: file name}, "caption": str, "seconds": float,
-        "size": [w, h], "samples": int or None, "fallback": reason or None}``; None for ``renderer="off"``.
+    ``layer`` is the asset's root layer (Cycles imports it), ``scene`` the same asset read back (framing, the GL
+    path), ``renderer`` one of :data:`RENDERERS`, ``samples`` the most a pixel takes in Cycles (adaptive);
+    ``cycles_ok``: whether ``auto`` may take Cycles (False where the verification was not asked to run Blender);
+    ``lut``: the GL path's film LUT (default the asset's).
     """
     from ..render.images import save_png
 

@@ -1,6 +1,6 @@
 """The Blender side of the beauty render (:mod:`rockdove.render.beauty`): run as ``PYTHON blender_beauty_job.py
-JOB.json`` by a Python that has bpy; like :mod:`rockdove.hosts.blender_job` (whose import steps it calls) it
-imports nothing but the standard library, bpy and that job module.
+JOB.json`` by a Python that has bpy; it imports nothing but the standard library, bpy and
+:mod:`rockdove.hosts.blender_job`, whose import, Cycles and camera steps it takes.
 
 The asset is imported exactly as a Blender user imports it (the add-on enabled, ``wm.usd_import``, every material
 as the add-on built it), then staged as a look-dev artist stages a hero shot:
@@ -12,8 +12,7 @@ as the add-on built it), then staged as a look-dev artist stages a hero shot:
 - a warm sun (angular diameter ``sun_angle_deg``: soft shadows), its strength from the job, its direction each
   view's own (a key light placed for that camera);
 - Cycles on the CPU, ``samples`` with adaptive sampling and OpenImageDenoise, the AgX view transform;
-- one camera per view (the job's OpenGL ``camera_to_world`` through the importer's up-axis conversion, as the
-  verification host does), written as an 8-bit PNG through the view transform.
+- one camera per view (as the verification host's), written as an 8-bit PNG through the view transform.
 
 Every value comes from the job file (:func:`rockdove.hosts.beauty.render_cycles` writes it).
 """
@@ -23,7 +22,6 @@ from __future__ import annotations
 import json
 import os
 import sys
-import time
 
 import blender_job as bj  # the sibling job module (this file is run by path: its folder is sys.path[0])
 
@@ -67,7 +65,7 @@ def _sky(bpy, job):
     bpy.context.scene.world = world
 
 
-def _sun(bpy, mathutils, to_blender, job):
+def _sun(bpy, job):
     data = bpy.data.lights.new("rockdove_sun", "SUN")
     data.energy = float(job["sun_strength"])  # W/m^2
     data.color = tuple(job["sun_rgb"])
@@ -84,22 +82,15 @@ def _aim(ob, mathutils, to_blender, towards_usd) -> None:
 
 
 def _settings(scene, job):
-    scene.render.engine = "CYCLES"
+    bj.cycles(scene, job)
     c = scene.cycles
-    c.device = "CPU"
-    c.samples = int(job["samples"])
     c.use_adaptive_sampling = True
     c.adaptive_threshold = 0.02
     c.use_denoising = True
     c.denoiser = "OPENIMAGEDENOISE"
     c.max_bounces, c.diffuse_bounces, c.glossy_bounces, c.transmission_bounces = 6, 2, 2, 2
-    c.transparent_max_bounces = int(job["transparent_bounces"])
-    c.seed = 0
     scene.render.film_transparent = False
     scene.render.use_persistent_data = True  # the second view reuses the first's BVH and shaders
-    scene.render.resolution_percentage = 100
-    scene.render.threads_mode = "FIXED"
-    scene.render.threads = int(job["threads"])
     settings = scene.render.image_settings
     settings.file_format, settings.color_mode, settings.color_depth = "PNG", "RGB", "8"
     scene.view_settings.view_transform = "AgX"
@@ -114,18 +105,10 @@ def run(job: dict) -> None:
     _, films, to_blender = bj.import_asset(bpy, job)
     _ground(bpy, to_blender, job)
     _sky(bpy, job)
-    sun = _sun(bpy, mathutils, to_blender, job)
-    scene = bpy.context.scene
-    _settings(scene, job)
-    seconds = {}
-    for view in job["views"]:
-        scene.render.resolution_x, scene.render.resolution_y = int(view["width"]), int(view["height"])
-        scene.camera = bj._camera(bpy, mathutils, to_blender, view)
-        _aim(sun, mathutils, to_blender, view["sun_direction"])
-        scene.render.filepath = os.path.join(job["out_dir"], f"{view['name']}.png")
-        t = time.perf_counter()
-        bpy.ops.render.render(write_still=True)
-        seconds[view["name"]] = time.perf_counter() - t
+    sun = _sun(bpy, job)
+    _settings(bpy.context.scene, job)
+    seconds = bj.shoot(bpy, mathutils, to_blender, job, "png",
+                       aim=lambda view: _aim(sun, mathutils, to_blender, view["sun_direction"]))
     with open(os.path.join(job["out_dir"], "done.json"), "w", encoding="utf-8") as fh:
         json.dump({"films": films, "blender": bpy.app.version_string, "render_s": seconds}, fh)
 

@@ -56,23 +56,10 @@ def _glb_of(asset_path: str, out_dir: Path) -> Path:
 
 
 def render(asset_path: str, views: list, out_dir: str, *, browser_factory=None) -> dict:
-    """Render ``views`` of the asset with three.js in headless Chromium.
-
-    Parameters
-    ----------
-    asset_path : str
-        The asset folder or its root layer.
-    views : list of rockdove.render.views.View
-    out_dir : str
-        Where the page (``web/viewer.html`` and its files) and the PNGs (``web_<view>.png``) go.
-    browser_factory : callable, optional
-        Returns a started :class:`rockdove.web.browser.Browser` (tests pass one that fails to start).
-
-    Returns
-    -------
-    dict
-        ``{view.name: (H, W, 3) float32}`` linear Rec.709 radiance, unclipped, background 0.
-    """
+    """Render ``views`` of the asset (folder or root layer) with three.js in headless Chromium: ``{view.name: (H, W,
+    3) float32}`` linear Rec.709 radiance, unclipped, background 0. The page (``web/viewer.html`` and its files) and
+    the PNGs (``web_<view>.png``) go into ``out_dir``; ``browser_factory`` returns a started
+    :class:`rockdove.web.browser.Browser` (tests pass one that fails to start)."""
     from ..spectral import linear_to_srgb8
     from ..render.images import save_png
     from ..web.browser import Browser, BrowserError

@@ -44,9 +44,8 @@ class _Suite:
         self.el = ET.SubElement(root, "testsuite", name=name, time=_time(seconds))
         self.counts = {"tests": 0, "failures": 0, "errors": 0, "skipped": 0}
 
-    def case(self, name: str, classname: str, *, failures=(), message=None, error=None, skipped=None, out="",
-             seconds=0.0):
-        tc = ET.SubElement(self.el, "testcase", name=name, classname=classname, time=_time(seconds))
+    def case(self, name: str, classname: str, *, failures=(), message=None, error=None, skipped=None, out=""):
+        tc = ET.SubElement(self.el, "testcase", name=name, classname=classname, time=_time(0.0))
         self.counts["tests"] += 1
         if skipped is not None:
             ET.SubElement(tc, "skipped", message=skipped)
@@ -111,23 +110,18 @@ def _host(root, h, goals) -> dict:
     from .host_check import EXACT_VARIANTS
 
     name = h["name"]
-    suite = _Suite(root, f"rockdove.host.{name}")
     cls = f"rockdove.host.{name}"
-    if h.get("skipped"):
-        suite.case("all views", cls, skipped=f"host {name} not available: {h['reason']}")
-        return suite.close()
-    if h.get("error"):
-        suite.case("all views", cls, error=f"host {name} failed: {h['error']}")
+    suite = _Suite(root, cls)
+    if h.get("skipped") or h.get("error"):
+        suite.case("all views", cls, skipped=f"host {name} not available: {h['reason']}" if h.get("skipped") else None,
+                   error=None if h.get("skipped") else f"host {name} failed: {h['error']}")
         return suite.close()
     # the host is judged over all its views (rockdove.verify.host_check): a view fails only within a failed
     # exact host, where its own numbers miss the goals (a view with no feather pixels never does)
     blame = h.get("variant") in EXACT_VARIANTS and not h["passed"]
     for view, m in (h.get("per_view") or {}).items():
-        fail = []
-        if blame and m["n_pixels"] and not m["median_dE"] <= goals["median_dE"]:
-            fail.append(f"{view}: median dE2000 {_num(m['median_dE'])} > {goals['median_dE']}")
-        if blame and m["n_pixels"] and not m["p95_dE"] <= goals["p95_dE"]:
-            fail.append(f"{view}: p95 dE2000 {_num(m['p95_dE'])} > {goals['p95_dE']}")
+        fail = [f"{view}: {k[:-3]} dE2000 {_num(m[k])} > {goals[k]}" for k in ("median_dE", "p95_dE")
+                if blame and m["n_pixels"] and not m[k] <= goals[k]]
         suite.case(view, cls, failures=fail, out=f"{m['n_pixels']} px, dE2000 median {_num(m['median_dE'])}, "
                                                  f"p95 {_num(m['p95_dE'])} ({h['variant']}, {h['lobe']} lobe)")
     suite.case("all views", cls, failures=[f"host {name}: {f}" for f in h.get("failures", [])] if not h["passed"]

@@ -46,13 +46,8 @@ def web_folder() -> Path:
 
 
 def three_folder() -> Path:
-    """``materials/web/node_modules`` with the npm package three in it.
-
-    Raises
-    ------
-    rockdove.errors.ResourceMissing
-        three is not installed (a ``FileNotFoundError``: the CLI prints it in one line, exit 2).
-    """
+    """``materials/web/node_modules`` with the npm package three in it; ResourceMissing (a ``FileNotFoundError``: the
+    CLI prints it in one line, exit 2) where three is not installed."""
     from ..errors import ResourceMissing
 
     nm = web_folder() / "node_modules"
@@ -61,10 +56,6 @@ def three_folder() -> Path:
                               f"`npm ci --prefix {nm.parent}` (make asset / make test do), or build with "
                               "--set gltf.glb=false (no glb, no viewer)")
     return nm
-
-
-def _module_script(name: str, source: str) -> str:
-    return f"(window.ROCKDOVE_MODULES = window.ROCKDOVE_MODULES || {{}})[{json.dumps(name)}] = {json.dumps(source)};\n"
 
 
 def start_view(scene):
@@ -104,20 +95,10 @@ def viewer_data(scene, lut, glb_bytes: bytes, asset_name: str) -> dict:
 
 
 def write_viewer(asset, glb_path, out_dir, asset_name: str | None = None) -> str:
-    """Write ``viewer.html`` and the files beside it into ``out_dir``; return the page's path.
-
-    Parameters
-    ----------
-    asset : path
-        The written asset (folder or root layer): its scene and LUT (a physical-only asset: the
-        LUT baked in memory, :meth:`rockdove.render.scene.RenderScene.load_lut`).
-    glb_path : path
-        Its ``pigeon.glb`` (:func:`rockdove.web.gltf.export_glb`).
-    out_dir : path
-        Folder of the page (the asset's ``verify/``).
-    asset_name : str, optional
-        Shown on the page (default: the asset folder's name).
-    """
+    """Write ``viewer.html`` and the files beside it into ``out_dir`` (the asset's ``verify/``); return the page's
+    path. ``asset`` (folder or root layer) gives the scene and LUT (a physical-only asset's is baked in memory,
+    :meth:`rockdove.render.scene.RenderScene.load_lut`), ``glb_path`` its ``pigeon.glb``; ``asset_name`` is shown
+    on the page (default: the asset folder's name)."""
     from ..render.scene import load_scene
 
     out = Path(out_dir)
@@ -133,7 +114,9 @@ def write_viewer(asset, glb_path, out_dir, asset_name: str | None = None) -> str
     tags = []
     modules = {**{n: nm / p for n, p in THREE_MODULES.items()}, "viewer_app.js": web / "viewer_app.js"}
     for name, src in modules.items():
-        (out / "three" / name).write_text(_module_script(name, src.read_text(encoding="utf-8")))
+        source = json.dumps(src.read_text(encoding="utf-8"))
+        (out / "three" / name).write_text(f"(window.ROCKDOVE_MODULES = window.ROCKDOVE_MODULES || {{}})"
+                                          f"[{json.dumps(name)}] = {source};\n")
         tags.append(f'<script src="three/{name}"></script>')
     for name in PAGE_FILES:
         text = (web / name).read_text(encoding="utf-8")
