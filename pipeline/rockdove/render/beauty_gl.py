@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from . import beauty as B
-from .views import View, look_at
+from .views import View, direction, look_at
 
 #: Samples of each picture pixel per axis (anti-aliasing of the edges: the shaders sample pixel centres).
 SUPERSAMPLE = 2
@@ -50,7 +50,7 @@ def _ground_part(scene, views):
 def _sky_lights() -> list[tuple[np.ndarray, np.ndarray]]:
     """(direction, weight x colour) of the sky's lights: a Lambert surface lit by them shows albedo x the sky's
     radiance (strength x colour) when horizontal (sum of weight x sin(elevation) = 1), as under Cycles' world."""
-    dirs = [B._direction(60.0 + 360.0 * k / SKY_LIGHTS, 35.0) for k in range(SKY_LIGHTS)] + [np.array([0.0, 1.0, 0.0])]
+    dirs = [direction(60.0 + 360.0 * k / SKY_LIGHTS, 35.0) for k in range(SKY_LIGHTS)] + [np.array([0.0, 1.0, 0.0])]
     horizon, zenith = np.asarray(B.SKY_HORIZON_RGB), np.asarray(B.SKY_ZENITH_RGB)
     rgb = [0.5 * (horizon + zenith)] * SKY_LIGHTS + [zenith]
     total = sum(d[1] for d in dirs)
