@@ -64,12 +64,12 @@ def test_verify_hosts_reports_each_host_and_a_failing_one_does_not_stop_the_othe
     """MaterialX's own GLSL of the asset's baked network matches the exact view_angle reference (dE goals); the
     physical network (OpenPBR's thin film) shows green and purple; a host that raises HostError is reported by
     name and fails the verification while the others still run; a missing host is skipped with its reason."""
-    from rockdove.verify.run import verify_asset
+    from rockdove.graph.verification import verify
 
     _broken_host(monkeypatch)
     monkeypatch.setitem(hosts.HOSTS, "ghost", "rockdove.hosts.no_such_module")
-    report = verify_asset(asset_layer, out_dir=tmp_path / "report", width=96, height=96, views=["sweep_060"],
-                          hosts=["materialx", "broken", "materialx_physical", "ghost"])
+    report = verify(asset_layer, ["materialx", "broken", "materialx_physical", "ghost"], cache=tmp_path / "cache",
+                    out_dir=tmp_path / "report", width=96, height=96, views=["sweep_060"])
     by_name = {h["name"]: h for h in report["hosts"]}
     assert [h["name"] for h in report["hosts"]] == ["glsl", "materialx", "broken", "materialx_physical", "ghost"]
     for name in ("glsl", "materialx", "materialx_physical"):

@@ -1,7 +1,5 @@
-"""``rockdove lut``: bake a thin-film colour LUT into OpenEXR, with an sRGB PNG preview beside it.
-
-The EXR is published atomically (written to a temporary file in the same folder, then ``os.replace``); the
-preview goes to the same path with the suffix ``.png``. Every argument is checked before anything is written.
+"""``rockdove lut``: bake a thin-film colour LUT into OpenEXR, with an sRGB PNG preview beside it, both
+published atomically once every argument is checked.
 """
 
 from __future__ import annotations
