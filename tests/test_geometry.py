@@ -354,8 +354,8 @@ def test_card_roots_are_blue_noise_in_the_band(body):
     assert r.max() <= sdf.NECK_BAND_RADIUS_M + 0.0005
     nn = cKDTree(c.root_skin_m).query(c.root_skin_m, k=2)[0][:, 1]
     rng = np.random.default_rng(1)
-    uni, _, _ = neck.sample_band_uniform(body.mesh.vertices_m, body.mesh.faces, n, rng,
-                                         s_max=1.0 + cards_mod.TOP_MARGIN_S)
+    uni = neck.sample_band_uniform(body.mesh.vertices_m, body.mesh.faces, n, rng,
+                                   s_max=1.0 + cards_mod.TOP_MARGIN_S)
     nn_uni = cKDTree(uni).query(uni, k=2)[0][:, 1]
     # Poisson-disk: no two samples close together, unlike independent uniform samples
     assert nn.min() > 5.0 * nn_uni.min()

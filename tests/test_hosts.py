@@ -107,8 +107,8 @@ def test_materialx_host_draws_the_written_network_not_a_copy_of_it(asset_layer, 
     folder = tmp_path / "broken"
     shutil.copytree(os.path.dirname(asset_layer), folder)
     payload = Sdf.Layer.FindOrOpen(str(folder / LOOKS_LAYER))  # the materials' layer
-    attr = payload.GetAttributeAtPath("/Pigeon/Looks/FeatherMaterial/LutAngleCount.inputs:value")
-    attr.default = attr.default / 4
+    attr = payload.GetAttributeAtPath("/Pigeon/Looks/FeatherMaterial/LutTransform.inputs:value")
+    attr.default = attr.default * 0.25
     payload.Save()
     scene = load_scene(str(folder))
     views = [v for v in verification_views(scene, 96, 96) if v.name == "sweep_060"]

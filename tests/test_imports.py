@@ -29,9 +29,10 @@ ROOT = Path(rockdove.__file__).resolve().parent
 # The data flow, low to high (docs/design.md, /work/shared/ARCHITECTURE.md): a module may import modules of its
 # own layer or of lower layers only. Packages within one layer may import each other, but only one way.
 LAYERS = [
-    ({"rockdove", "errors", "_compat", "resources", "config"},
-     "foundations: the version, error types, optional-import shims, data-file lookup and the checked config"),
-    ({"films", "optics", "spectral"},
+    ({"rockdove", "errors", "_compat", "resources", "config", "sources"},
+     "foundations: the version, error types, optional-import shims, data-file lookup, the checked config and "
+     "the digest of the code a callable can execute"),
+    ({"films", "optics", "spectral", "srgb"},
      "physics: film model -> Airy reflectance -> spectrum to colour; knows nothing of tables, meshes or USD"),
     ({"lut"},
      "the thin-film colour table baked from the physics, its exact reference and its files"),

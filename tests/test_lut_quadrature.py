@@ -7,7 +7,7 @@ import pytest
 
 from rockdove.films import FilmModel
 from rockdove.lut import bake, reference_colour
-from rockdove.lut import quadrature
+from rockdove.lut import quadrature, weights
 from rockdove.lut.reference import colour_weights, delta_E, reference_wavelengths
 
 
@@ -64,10 +64,10 @@ def test_product_weights_integrate_polynomials_like_the_reference():
     # sum_k Omega_k p(y_k) = the 0.1 nm reference sum of W p for any polynomial p of degree < N in the mapped
     # variable y (Kosloff-Tal-Ezer map of the normalised wavenumber)
     n = 24
-    wl, omega = quadrature.product_weights(n)
+    wl, omega = weights.chebyshev_weights(n)
     wl_ref = reference_wavelengths()
     w_ref = colour_weights(wl_ref)
-    alpha = quadrature.map_alpha(n)
+    alpha = weights.map_alpha(n)
     assert 0.0 < alpha < 1.0
 
     def y(wavelength):

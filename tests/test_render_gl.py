@@ -155,8 +155,7 @@ def coarse(tmp_path_factory):
         results = {"front": r.render(front)}
         for v in default_views(scene, SIZE, SIZE):
             results[v.name] = r.render(v)
-        n_renders = r.n_renders
-    return scene, lut, results, n_renders
+    return scene, lut, results
 
 
 def _card0(res, distance_m=0.12):
@@ -172,8 +171,7 @@ def _feather_interior(res, scene, erode=2):
 
 
 def test_renders_are_finite_and_lit_feathers_are_not_black(coarse):
-    scene, _, results, n_renders = coarse
-    assert n_renders == len(results)
+    scene, _, results = coarse
     lit_views = {}
     for name, res in results.items():
         for a in (res.radiance_rgb, res.depth_m, res.cos_theta, res.thickness_nm, res.st):
@@ -194,7 +192,7 @@ def test_renders_are_finite_and_lit_feathers_are_not_black(coarse):
 
 def test_alpha_discards_outside_the_feather_silhouette(coarse):
     """Front view of card 0: a pixel shows the feather exactly where the base texture's alpha >= 0.5."""
-    scene, _, results, _ = coarse
+    scene, _, results = coarse
     res = results["front"]
     view = res.view
     rays = _pixel_rays(view)
@@ -218,7 +216,7 @@ def test_alpha_discards_outside_the_feather_silhouette(coarse):
 
 def test_feather_colour_matches_the_shading_formula_on_the_cpu(coarse):
     """radiance = mix(base, LUT(dot(L, H), d), mask) * light_rgb * max(N.L, 0), per pixel, 8-bit tolerance."""
-    scene, lut, results, _ = coarse
+    scene, lut, results = coarse
     part = scene.part("NeckFeathers")
     base_img = texture.read_texture(part.base_colour_texture, srgb=True)
     mask_img = texture.read_texture(part.mask_texture, srgb=False)
@@ -256,7 +254,7 @@ def test_feather_colour_matches_the_shading_formula_on_the_cpu(coarse):
 
 def test_the_lut_texel_mapping_is_not_the_naive_one(coarse):
     """Guards the test above: the naive lookup (u = x, no texel-centre offset) differs measurably here."""
-    scene, lut, results, _ = coarse
+    scene, lut, results = coarse
     res = results["front"]
     px = _feather_interior(res, scene) & (res.mask >= 0.99999)
     x = res.cos_theta[px] ** (1 / lut.angle_warp_gamma)
@@ -292,7 +290,7 @@ def test_float_lut_upload_is_not_quantised(tmp_path):
 def test_materialx_baked_angle_uses_n_dot_v(coarse):
     from rockdove.render.gl import render_views
 
-    scene, lut, results, _ = coarse
+    scene, lut, results = coarse
     view = results["front"].view
     (res,) = render_views(scene, [view], angle_mode="materialx_baked", lut=lut)
     px = _feather_interior(res, scene) & _card0(res)
@@ -317,7 +315,7 @@ def test_one_renderer_is_reused_across_views(coarse, monkeypatch):
             super().__init__(*a, **k)
 
     monkeypatch.setattr(pyrender, "OffscreenRenderer", Counting)
-    scene, lut, results, _ = coarse
+    scene, lut, results = coarse
     views = [results["front"].view, results["sweep_060"].view, results["front"].view]
     out = render_views(scene, views, lut=lut)
     assert len(created) == 1
@@ -354,7 +352,7 @@ def test_gl_agrees_with_the_cpu_ray_cast_given_the_same_lut(coarse):
     agree pixel for pixel; catches camera, row-order, texture-origin or normal conventions drifting apart."""
     from rockdove.verify.reference_image import render_reference
 
-    scene, lut, results, _ = coarse
+    scene, lut, results = coarse
     gl = [results[k] for k in ("front", "turntable_030", "sweep_060", "sweep_120")]
     ref = render_reference(scene, [r.view for r in gl], structural_fn=lambda c, d: lut.sample(c, d))
     for g, r in zip(gl, ref):
@@ -388,7 +386,7 @@ def test_gl_agrees_with_the_cpu_ray_cast_on_the_real_asset(small_asset):
 
 
 def test_part_mask_selects_pixels_by_prim_name(coarse):
-    scene, _, results, _ = coarse
+    scene, _, results = coarse
     res = results["front"]
     np.testing.assert_array_equal(res.part_mask("NeckFeathers"), res.part_id == scene.part_id("NeckFeathers"))
     assert res.part_mask("Body").sum() > 0

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rockdove import optics, spectral
+from rockdove import optics, spectral, srgb
 from rockdove.spectral import (
     COLOUR_SPACES,
     RGB_to_Lab,
@@ -286,8 +286,8 @@ def test_linear_to_srgb8_cell_tables_match_the_formula_on_every_step_neighbour_s
     values, on a log sweep down to 1e-12, for float32 input (the float32 just below / at / above each step),
     and for NaN / +-inf, in blocks of any size and any array shape."""
     rng = np.random.default_rng(11)
-    steps = spectral._srgb8_steps()
-    edges = np.arange(spectral._SRGB8_CELLS + 1) / spectral._SRGB8_CELLS
+    steps = srgb._srgb8_steps()
+    edges = np.arange(srgb._SRGB8_CELLS + 1) / srgb._SRGB8_CELLS
     special = np.concatenate([steps, edges])
     near = np.concatenate([special, np.nextafter(special, -np.inf), np.nextafter(special, np.inf)])
     sweep = np.geomspace(1e-12, 1.0, 200001)
@@ -295,7 +295,7 @@ def test_linear_to_srgb8_cell_tables_match_the_formula_on_every_step_neighbour_s
                           [0.0, -0.0, 1.0, 5e-324, -5e-324, 1e300, -1e300, np.finfo(np.float64).max]])
 
     def code(v):
-        return spectral._srgb8_code(np.asarray(v, np.float64)).astype(np.uint8)
+        return srgb._srgb8_code(np.asarray(v, np.float64)).astype(np.uint8)
 
     got = spectral.linear_to_srgb8(v64)
     assert got.dtype == np.uint8 and got.shape == v64.shape

@@ -1,23 +1,21 @@
 """Procedural textures: the feather base colour + alpha silhouette and mask (the seed paper's two feather
-textures), and the body's base colour in its xatlas UVs.
+textures), and the body's base colour in its xatlas UVs with the feather cards' palette strip.
 
-Image convention (docs/design.md, Textures): uint8 arrays, row 0 is the TOP of the image, so texel
-(row, col) of an (H, W) image sits at st = ((col + 0.5) / W, 1 - (row + 0.5) / H) (USD's st has t = 0 at
-the bottom). On a feather card u runs across the feather and v from the root (0) to the tip (1): the tip is
-at the top of the feather images. Base colours are sRGB-encoded; alpha and the mask are linear.
-
-Colours are blended in linear Rec.709 and encoded with colour-science's sRGB CCTF (IEC 61966-2-1). The
-rock-dove palette (blue-grey body, darker head and neck, two black wing bars, dark terminal tail band) follows
-field-guide descriptions of Columba livia; the values are chosen by eye.
+Image convention (docs/design.md, Textures): uint8 arrays, row 0 is the TOP of the image, so texel (row, col) of
+an (H, W) image sits at st = ((col + 0.5) / W, 1 - (row + 0.5) / H) (USD's st has t = 0 at the bottom). On a
+feather card u runs across the feather and v from the root (0) to the tip (1): the tip is at the top of the
+feather images. Colours are blended in linear Rec.709 and encoded sRGB (:func:`rockdove.spectral.linear_to_srgb8`);
+alpha and the mask are linear. The palette: :mod:`rockdove.geometry.colours`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .geometry.colours import (BODY_SRGB, HEAD_SRGB, NECK_SRGB, PRIMARIES_SRGB, RUMP_SRGB, TAIL_BAND_SRGB,  # noqa: F401
-                              TAIL_SRGB, WING_BAR_SRGB, WING_SRGB, body_colour_at, coat_tiles, palette_colours)
-from .geometry.colours import linear as _linear, mix as _mix, smoothstep as _smoothstep
+from .geometry import plumage as _pl
+from .geometry.colours import WING_BAR_SRGB, body_colour_at, coat_tiles, palette_colours  # noqa: F401
+from .geometry.colours import linear as _linear, mix as _mix
+from .geometry.sdf import smoothstep as _smoothstep
 
 #: sRGB 8-bit colours of a neck feather: the vane, the rachis, the downy base.
 VANE_SRGB = (56, 61, 66)
@@ -32,10 +30,11 @@ BARB_COUNT = 42
 BARB_SLANT = 0.9
 
 
-def _resolution(value, name="resolution_or_params", attr="feather_texture_resolution") -> int:
+def _resolution(value, attr="feather_texture_resolution") -> int:
+    """The resolution an int or a BirdParams (its ``attr``) gives; ValueError outside [16, 8192]."""
     res = getattr(value, attr, value)
     if isinstance(res, bool) or not isinstance(res, (int, np.integer)) or not 16 <= res <= 8192:
-        raise ValueError(f"{name}={value!r} must be BirdParams or an integer resolution in [16, 8192]")
+        raise ValueError(f"resolution_or_params={value!r} must be BirdParams or an integer resolution in [16, 8192]")
     return int(res)
 
 
@@ -43,13 +42,6 @@ def _encode(linear: np.ndarray) -> np.ndarray:
     from rockdove.spectral import linear_to_srgb8  # the project's one sRGB 8-bit encoding
 
     return linear_to_srgb8(linear)
-
-
-def feather_uv(resolution: int) -> tuple[np.ndarray, np.ndarray]:
-    """(R, R) u and v at texel centres, with row 0 at the top (v near 1, the feather tip)."""
-    c = (np.arange(resolution) + 0.5) / resolution
-    u, v = np.meshgrid(c, 1.0 - c)
-    return u, v
 
 
 def feather_half_width(v: np.ndarray) -> np.ndarray:
@@ -63,23 +55,13 @@ def feather_half_width(v: np.ndarray) -> np.ndarray:
 
 
 def feather_textures(resolution_or_params=256) -> dict:
-    """The two feather textures of the seed paper, procedurally.
-
-    Parameters
-    ----------
-    resolution_or_params : int or BirdParams
-        Width = height R in texels (16 .. 8192), or BirdParams (its ``feather_texture_resolution``).
-
-    Returns
-    -------
-    dict
-        ``"base"``: (R, R, 4) uint8 RGBA, sRGB colour of the feather (dark slate vane with barbs, pale rachis,
-        downy base) and its silhouette in alpha (0 outside, 255 inside, antialiased over a texel);
-        ``"mask"``: (R, R) uint8, 255 on the tip part (v >= 0.60) where structural colour is drawn, 0 below
-        v = 0.42 and outside the silhouette.
-    """
+    """The seed paper's two feather textures, R x R texels (16 .. 8192, or BirdParams' ``feather_texture_resolution``):
+    ``"base"`` (R, R, 4) uint8 RGBA, the sRGB feather (dark slate vane with barbs, pale rachis, downy base) with its
+    silhouette in alpha (antialiased over a texel); ``"mask"`` (R, R) uint8, 255 on the tip (v >= MASK_FULL_V)
+    where structural colour is drawn, 0 below MASK_START_V and outside the silhouette."""
     res = _resolution(resolution_or_params)
-    u, v = feather_uv(res)
+    c = (np.arange(res) + 0.5) / res
+    u, v = np.meshgrid(c, 1.0 - c)  # at texel centres, row 0 at the top (the tip)
     x = np.abs(u - 0.5)
     half = feather_half_width(v)
     # ragged vane edge: barbs end at slightly different lengths
@@ -102,13 +84,11 @@ def feather_textures(resolution_or_params=256) -> dict:
 
 
 # ---- body and the feather cards' palette ---------------------------------------------------------------
-#: The white rump patch of the wild-type rock dove (Gibbs, Barnes and Cox 2001: "white lower back"), sRGB.
 def palette_strip(resolution: int) -> np.ndarray:
     """(rows, R, 3) uint8 sRGB: the feather tiles of the body texture's bottom strip (rockdove.geometry.plumage),
-    each a feather drawn across its tile (vane, pale rachis, barbs, downy base); the wing-bar tile has the black
-    subterminal band (coverts; a narrower one on the secondaries' tile), the rectrix tile the dark terminal band, the primary tile a darker tip."""
-    from rockdove.geometry import plumage as _pl
-
+    each a feather drawn across its tile (vane, pale rachis, barbs, downy base); the wing-bar tiles have the black
+    subterminal band (narrower on the secondaries'), the rectrix tile the dark terminal band, the primary tile a
+    darker tip."""
     res = int(resolution)
     rows = max(1, int(round(res * _pl.PALETTE_STRIP)))
     tv = 1.0 - (np.arange(rows) + 0.5) / rows  # row 0 at the top of the strip
@@ -135,26 +115,9 @@ BBOX_SLACK_TEXELS = 1e-6
 
 
 def rasterize_uv(st: np.ndarray, faces: np.ndarray, resolution: int, chunk: int = 4096):
-    """Which triangle covers each texel, with barycentrics (vectorised over triangles and texels).
-
-    Parameters
-    ----------
-    st : np.ndarray
-        (V, 2) texture coordinates in [0, 1].
-    faces : np.ndarray
-        (F, 3) triangles.
-    resolution : int
-        Width = height R.
-
-    Returns
-    -------
-    rows, cols : np.ndarray
-        (K,) covered texels (row 0 at the top, i.e. t = 1).
-    face : np.ndarray
-        (K,) triangle covering each.
-    bary : np.ndarray
-        (K, 3) barycentric weights of the triangle's corners at the texel centre.
-    """
+    """Which of the triangles ``faces`` (F, 3) with texture coordinates ``st`` (V, 2) covers each texel centre of
+    an R x R image (vectorised over triangles and texels): (rows, cols, face, barycentrics (K, 3)) of the K covered
+    texels, row 0 at the top (t = 1)."""
     res = int(resolution)
     xy = np.stack([st[:, 0] * res - 0.5, (1.0 - st[:, 1]) * res - 0.5], axis=1)  # texel-centre units
     out = ([], [], [], [])
@@ -189,60 +152,31 @@ def rasterize_uv(st: np.ndarray, faces: np.ndarray, resolution: int, chunk: int 
     return tuple(np.concatenate(o) for o in out)
 
 
-def _body_parts(bird) -> list:
-    """The part painted into the body texture's charts: ``Body`` (the feather cards use the palette strip)."""
-    from rockdove.geometry.types import Bird, MeshPart
-
-    if isinstance(bird, MeshPart):
-        return [bird]
-    if isinstance(bird, Bird):
-        return [bird.part("Body")]
-    part = getattr(bird, "part", None)  # rockdove.geometry.Body
-    if isinstance(part, MeshPart):
-        return [part]
-    raise ValueError(f"bird={type(bird).__name__} must be a Bird, a Body or the Body MeshPart")
-
-
 def body_base_colour(resolution_or_params, bird) -> np.ndarray:
-    """The body's base-colour texture in its xatlas UVs.
+    """(R, R, 3) uint8 sRGB base colour of the body in its xatlas UVs (R: 16 .. 8192 or BirdParams'
+    ``body_texture_resolution``; ``bird``: a Bird, a Body or the Body MeshPart).
 
-    Every texel covered by a UV triangle gets the colour of its 3-D point (:func:`body_colour_at`); the bottom
-    strip holds the feather cards' tiles (:func:`palette_strip`); the empty texels between charts take the colour of the nearest covered texel, so bilinear filtering and mipmaps do
-    not bleed background into the seams.
-
-    Parameters
-    ----------
-    resolution_or_params : int or BirdParams
-        Width = height R in texels (16 .. 8192), or BirdParams (its ``body_texture_resolution``).
-    bird : Bird, Body or MeshPart
-        The bird (its ``"Body"`` and ``"Wings"`` parts, which share the atlas), the Body, or the Body MeshPart.
-
-    Returns
-    -------
-    np.ndarray
-        (R, R, 3) uint8, sRGB.
+    Every texel a UV triangle covers gets the colour of its 3-D point (:func:`body_colour_at`); the bottom strip
+    holds the feather cards' tiles (:func:`palette_strip`); the empty texels between charts take the colour of the
+    nearest covered texel, so bilinear filtering and mipmaps do not bleed background into the seams.
     """
     from scipy import ndimage
 
+    from rockdove.geometry.types import Bird, MeshPart
+
     res = _resolution(resolution_or_params, attr="body_texture_resolution")
-    parts = _body_parts(bird)
-    for part in parts:
-        if not np.all(part.face_vertex_counts == 3):
-            raise ValueError(f"bird's {part.name} part must be triangles")
-    # the parts share one atlas: rasterise them as one mesh
-    offsets = np.cumsum([0] + [len(p.points_m) for p in parts])
-    faces = np.concatenate([p.face_vertex_indices.reshape(-1, 3).astype(np.int64) + o
-                            for p, o in zip(parts, offsets)])
-    st = np.concatenate([p.st for p in parts]).astype(np.float64)
-    points = np.concatenate([p.points_m for p in parts]).astype(np.float64)
+    part = bird.part("Body") if isinstance(bird, Bird) else getattr(bird, "part", bird)  # Body.part
+    if not isinstance(part, MeshPart):
+        raise ValueError(f"bird={type(bird).__name__} must be a Bird, a Body or the Body MeshPart")
+    faces = part.face_vertex_indices.reshape(-1, 3).astype(np.int64)
+    st = part.st.astype(np.float64)
+    points = part.points_m.astype(np.float64)
     rows, cols, face, bary = rasterize_uv(st, faces, res)
     pts = np.einsum("nk,nkd->nd", bary, points[faces[face]])
     img = np.zeros((res, res, 3), dtype=np.uint8)
     img[rows, cols] = _encode(body_colour_at(pts))
     empty = np.ones((res, res), dtype=bool)
     empty[rows, cols] = False
-    from rockdove.geometry import plumage as _pl
-
     strip = palette_strip(res)  # and its top row repeated over half the guard band below the body's charts
     guard = int(0.5 * res * (_pl.ATLAS_START - _pl.PALETTE_STRIP))
     strip = np.concatenate([np.repeat(strip[:1], guard, axis=0), strip])

@@ -10,7 +10,7 @@ import importlib
 #: Public name -> the module defining it. Imported on first use (PEP 562), so that ``rockdove.geometry.params``
 #: can be read (the build graph does on every run, even a no-op) without importing numpy and the mesher.
 _EXPORTS = {"Bird": "types", "BirdParams": "params", "Body": "bird", "FeatherCards": "cards", "MeshPart": "types",
-            "Primvar": "types", "build_bird": "bird", "build_body": "bird", "build_cards": "bird"}
+            "Primvar": "types", "build_bird": "bird", "build_body": "bird", "build_cards": "cards"}
 
 __all__ = sorted(_EXPORTS)
 

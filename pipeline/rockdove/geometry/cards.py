@@ -23,7 +23,7 @@ import numpy as np
 from rockdove.geometry import neck as _neck
 from rockdove.geometry import sdf as _sdf
 from rockdove.geometry import thickness as _thickness
-from rockdove.geometry.types import MeshPart, Primvar
+from rockdove.geometry.types import MeshPart, Primvar, unit
 
 #: Quads along each card (K): a slightly curved strip.
 QUADS_PER_CARD = 3
@@ -55,27 +55,11 @@ def stream(seed: int, which: int) -> np.random.Generator:
 
 @dataclass(frozen=True)
 class FeatherCards:
-    """All cards. N cards of ``VERTICES_PER_CARD`` vertices each, card-major.
-
-    Attributes
-    ----------
-    points_m : np.ndarray
-        (N * VERTICES_PER_CARD, 3) float32, metres.
-    normals : np.ndarray
-        (N * VERTICES_PER_CARD, 3) float32 unit, facing outward (away from the skin).
-    st : np.ndarray
-        (N * VERTICES_PER_CARD, 2) float32: u across the card (0 .. 1), v from root (0) to tip (1).
-    quads : np.ndarray
-        (N * K, 4) int32, counter-clockwise seen from outside.
-    root_skin_m : np.ndarray
-        (N, 3) float64 skin point each card grows from.
-    skin_normal : np.ndarray
-        (N, 3) float64 outward skin normal there.
-    neck_s : np.ndarray
-        (N,) float32 neck coordinate of each root.
-    thickness_nm : np.ndarray
-        (N,) float32 film thickness of each card.
-    """
+    """N cards of :data:`VERTICES_PER_CARD` vertices each, card-major: ``points_m`` float32 metres, ``normals``
+    float32 unit, facing away from the skin, ``st`` float32 (u across the card, v from root 0 to tip 1), ``quads``
+    (N K, 4) int32 counter-clockwise seen from outside; per card: ``root_skin_m`` (N, 3) the skin point it grows
+    from, ``skin_normal`` (N, 3) the outward normal there, ``neck_s`` (N,) float32 its neck coordinate and
+    ``thickness_nm`` (N,) float32 its film thickness."""
 
     points_m: np.ndarray
     normals: np.ndarray
@@ -88,7 +72,6 @@ class FeatherCards:
 
     @property
     def count(self) -> int:
-        """Number of cards N."""
         return int(self.root_skin_m.shape[0])
 
     def triangles(self) -> np.ndarray:
@@ -117,10 +100,6 @@ class FeatherCards:
         )
 
 
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-20)
-
-
 def _push_out(points: np.ndarray, direction: np.ndarray, clearance_m: float, steps: int = 8) -> np.ndarray:
     """Move (M, 3) points closer than ``clearance_m`` to the skin (or inside) out of the body.
 
@@ -144,50 +123,40 @@ def _push_out(points: np.ndarray, direction: np.ndarray, clearance_m: float, ste
     return p
 
 
+def snap_to_skin(points_m: np.ndarray):
+    """(outward unit normals (N, 3), the points moved onto the body field's zero set) of points near the skin."""
+    n = _sdf.sdf_gradient(_sdf.body_sdf, points_m)
+    return n, points_m - _sdf.body_sdf(points_m)[:, None] * n
+
+
 def card_frames(n: np.ndarray, rng: np.random.Generator, jitter: float):
     """Lie direction t and across direction b of each card (both (N, 3) unit) from the skin normals n (N, 3)."""
-    flow = -_neck.neck_axis_direction() + TAILWARD_MIX * np.array([0.0, 0.0, -1.0])
+    axis = _sdf.NECK_TOP_M - _sdf.NECK_BASE_M
+    flow = -axis / np.linalg.norm(axis) + TAILWARD_MIX * np.array([0.0, 0.0, -1.0])
     f = flow[None, :] - (n @ flow)[:, None] * n
     weak = np.linalg.norm(f, axis=1) < 0.2  # skin facing along the flow: fall back to straight down
     if weak.any():
         down = np.array([0.0, -1.0, 0.0])
         f[weak] = down - (n[weak] @ down)[:, None] * n[weak]
-    f = _unit(f)
+    f = unit(f)
     count = len(n)
     yaw = np.deg2rad(YAW_JITTER_DEG) * jitter * rng.uniform(-1.0, 1.0, count)
     roll = np.deg2rad(ROLL_JITTER_DEG) * jitter * rng.uniform(-1.0, 1.0, count)
     t = f * np.cos(yaw)[:, None] + np.cross(n, f) * np.sin(yaw)[:, None]
     b = np.cross(t, n)
     b = b * np.cos(roll)[:, None] - n * np.sin(roll)[:, None]
-    return t, _unit(b)
+    return t, unit(b)
 
 
-def band_area_m2(vertices_m: np.ndarray, faces: np.ndarray) -> float:
-    """Area, m^2, of the band the card roots are placed on (up to :data:`BAND_S_MAX`), a property of the body
-    alone: :func:`rockdove.geometry.build_body` keeps it with the body (``Body.card_band_area_m2``)."""
-    return _neck.band_area_m2(vertices_m, faces, BAND_S_MAX)
-
-
-def build_cards(vertices_m: np.ndarray, faces: np.ndarray, params, band_area_m2: float | None = None) -> FeatherCards:
-    """Place ``params.card_count`` feather cards on the neck band of the welded body mesh.
-
-    Parameters
-    ----------
-    vertices_m : np.ndarray
-        (V, 3) welded body vertices, metres (``BodyMesh.vertices_m``).
-    faces : np.ndarray
-        (F, 3) body triangles.
-    params : BirdParams
-        Card count, sizes, jitter, lift, bend, root depth, thickness ranges and seed.
-    band_area_m2 : float, optional
-        :func:`band_area_m2` of this mesh, when known (estimated otherwise: 200k samples, ~45 ms).
-    """
+def build_cards(body, params) -> FeatherCards:
+    """``params.card_count`` feather cards (sizes, jitter, lift, bend, root depth, thickness field and seed from
+    the :class:`BirdParams` ``params``) on the neck band of ``body`` (a :class:`rockdove.geometry.Body`: its
+    welded mesh and, when known, its band's area; else that is estimated, 200k samples, ~45 ms)."""
     n_cards = params.card_count
-    roots, _, _ = _neck.blue_noise_band(vertices_m, faces, n_cards, stream(params.seed, STREAM_PLACEMENT),
-                                        s_max=BAND_S_MAX, area_m2=band_area_m2)
-    # snap the roots exactly onto the field's zero set (the mesh is a chordal approximation)
-    n = _sdf.sdf_gradient(_sdf.body_sdf, roots)
-    roots = roots - _sdf.body_sdf(roots)[:, None] * n
+    roots = _neck.blue_noise_band(body.mesh.vertices_m, body.mesh.faces, n_cards,
+                                  stream(params.seed, STREAM_PLACEMENT), s_max=BAND_S_MAX,
+                                  area_m2=body.card_band_area_m2)
+    n, roots = snap_to_skin(roots)  # the mesh is a chordal approximation of the field's zero set
     rng = stream(params.seed, STREAM_JITTER)
     t, b = card_frames(n, rng, params.card_jitter)
     length = rng.uniform(*params.card_length_m, n_cards)
@@ -210,7 +179,7 @@ def build_cards(vertices_m: np.ndarray, faces: np.ndarray, params, band_area_m2:
     mid = pts.mean(axis=2)  # (N, K+1, 3)
     along = np.gradient(mid, axis=1)
     across = pts[:, :, 1] - pts[:, :, 0]
-    nrm = _unit(np.cross(across, along))  # (N, K+1, 3), outward: b x t = n
+    nrm = unit(np.cross(across, along))  # (N, K+1, 3), outward: b x t = n
     normals = np.repeat(nrm[:, :, None, :], 2, axis=2)
 
     st = np.empty((n_cards, k + 1, 2, 2), dtype=np.float32)
@@ -223,11 +192,7 @@ def build_cards(vertices_m: np.ndarray, faces: np.ndarray, params, band_area_m2:
 
     s, _ = _neck.neck_s(roots)
     s = np.clip(s, 0.0, 1.0)
-    thickness = _thickness.card_thickness_nm(
-        _thickness.neck_height(roots), params.thickness_base_nm, params.thickness_top_nm,
-        stream(params.seed, STREAM_THICKNESS), points_m=roots,
-        correlation_length_m=params.thickness_correlation_length_m, spread=params.thickness_spread,
-        jitter_nm=params.thickness_jitter_nm)
+    thickness = _thickness.card_thickness_nm(roots, params, stream(params.seed, STREAM_THICKNESS))
     return FeatherCards(
         points_m=pts.reshape(-1, 3).astype(np.float32),
         normals=normals.reshape(-1, 3).astype(np.float32),

@@ -38,33 +38,14 @@ def _tilted(n: np.ndarray, tilt_deg: float, rng: np.random.Generator) -> np.ndar
 
 def band_coverage(body_vertices_m, body_faces, cards, rays: int = 2000, tilt_deg: float = 0.0, seed: int = 0,
                   alpha: np.ndarray | None = None) -> float:
-    """Fraction of the neck band's skin hidden behind cards, seen from outside.
-
-    Parameters
-    ----------
-    body_vertices_m, body_faces : np.ndarray
-        (V, 3) and (F, 3) welded body mesh.
-    cards : FeatherCards
-        The cards.
-    rays : int
-        Number of random band points.
-    tilt_deg : float
-        Angle between the viewing ray and the skin normal, degrees (azimuth random).
-    seed : int
-        Seed of the band points and azimuths.
-    alpha : np.ndarray, optional
-        (H, W) feather alpha in [0, 255] (row 0 = tip, v = 1); when given, card hits outside the silhouette
-        (alpha < 128) do not hide.
-
-    Returns
-    -------
-    float
-        Hidden fraction in [0, 1] of the rays whose target is visible from outside at all.
-    """
+    """Fraction in [0, 1] of the neck band's skin hidden behind ``cards`` (FeatherCards) on the welded body mesh,
+    seen from outside: ``rays`` random band points (``seed``) looked at at ``tilt_deg`` from the skin normal
+    (random azimuth), counting only the points visible from there at all. ``alpha``: (H, W) feather alpha in
+    [0, 255] (row 0 = tip, v = 1); when given, card hits outside the silhouette (alpha < 128) do not hide."""
     import trimesh
 
     rng = np.random.default_rng(seed)
-    target, _, _ = _neck.sample_band_uniform(body_vertices_m, body_faces, rays, rng)
+    target = _neck.sample_band_uniform(body_vertices_m, body_faces, rays, rng)
     normal = _sdf.sdf_gradient(_sdf.body_sdf, target)
     view = _tilted(normal, tilt_deg, rng)
     origin = target + RAY_START_M * view

@@ -1,11 +1,17 @@
 """The bird's colour field: the base colour of the body's surface at any point (blue-grey, the slate head and
-neck, the white rump patch) and the palette of the feather tiles the coat, wing and tail cards sample. Part of the
-bird's recipe (geometry): :mod:`rockdove.textures` paints images from it and :mod:`rockdove.geometry.plumage`
-picks each coat card's tile from it."""
+neck, the white rump patch) and the palette of the feather tiles the coat, wing and tail cards sample.
+:mod:`rockdove.textures` paints images from it and :mod:`rockdove.geometry.plumage` picks each coat card's tile.
+
+The rock-dove palette follows field-guide descriptions of Columba livia (Gibbs, Barnes and Cox, "Pigeons and
+Doves", 2001: blue-grey, darker head and neck, two black wing bars, a dark terminal tail band, "white lower
+back"); the values are chosen by eye.
+"""
 
 from __future__ import annotations
 
 import numpy as np
+
+from .sdf import smoothstep
 
 #: sRGB 8-bit palette of the body.
 BODY_SRGB = (150, 158, 172)
@@ -15,32 +21,28 @@ WING_SRGB = (162, 169, 181)
 WING_BAR_SRGB = (28, 28, 32)
 PRIMARIES_SRGB = (88, 92, 102)
 TAIL_SRGB = (120, 127, 140)
-TAIL_BAND_SRGB = (36, 36, 42)
-
 RUMP_SRGB = (236, 238, 240)
+#: Display colour (linear RGB) of the body and the cards that sample its texture: rock-dove blue-grey.
+BODY_DISPLAY_COLOR = (0.25, 0.28, 0.33)
 
-#: The feather tiles of the coat's palette strip (rockdove.geometry.plumage, rockdove.textures.palette_strip).
+#: The feather tiles of the palette strip (rockdove.geometry.plumage, rockdove.textures.palette_strip): tile i
+#: spans s in [i, i + 1] / TILES; tiles 0 .. RAMP - 1 are the coat's greys from the dark neck to the pale wing.
 TILES = 32
 RAMP = 20
 T_WHITE, T_BAR, T_RECTRIX, T_PRIMARY, T_BAR2 = 20, 21, 22, 23, 24
 
-def smoothstep(e0, e1, x):
-    t = np.clip((np.asarray(x, dtype=np.float64) - e0) / (e1 - e0), 0.0, 1.0)
-    return t * t * (3.0 - 2.0 * t)
-
-
 
 def linear(srgb8) -> np.ndarray:
+    """Linear Rec.709 of 8-bit sRGB values (colour-science's CCTF, IEC 61966-2-1)."""
     from ..spectral import srgb_decode
 
     return srgb_decode(np.asarray(srgb8, dtype=np.float64) / 255.0)
 
 
-
 def mix(a, b, w):
+    """``a (1 - w) + b w``, the weights ``w`` over the last axis of the colours."""
     w = np.asarray(w, dtype=np.float64)[..., None]
     return a * (1.0 - w) + b * w
-
 
 
 def body_colour_at(points_m: np.ndarray) -> np.ndarray:
@@ -70,8 +72,8 @@ def body_colour_at(points_m: np.ndarray) -> np.ndarray:
 
 
 def palette_colours() -> np.ndarray:
-    """(TILES, 3) linear colour of each feather tile (rockdove.geometry.plumage): the grey ramp from the neck's
-    slate to the coverts' pale grey, white, wing bar, rectrix and primary."""
+    """(TILES, 3) linear colour of each feather tile: the grey ramp from the neck's slate to the coverts' pale
+    grey, white, wing bar, rectrix and primary."""
     w = np.linspace(0.0, 1.0, RAMP)[:, None]
     out = np.broadcast_to(linear(BODY_SRGB), (TILES, 3)).copy()
     out[:RAMP] = linear(NECK_SRGB) * (1 - w) + linear(WING_SRGB) * w
@@ -86,5 +88,3 @@ def coat_tiles(points_m) -> np.ndarray:
     pal = palette_colours()[:T_WHITE + 1]
     col = body_colour_at(points_m)
     return np.argmin(((col[:, None, :] - pal[None]) ** 2).sum(-1), axis=1)
-
-

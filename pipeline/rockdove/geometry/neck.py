@@ -31,20 +31,8 @@ WEIGHT_EXPONENT = 8.0
 
 
 def neck_s(points_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Neck coordinate of points.
-
-    Parameters
-    ----------
-    points_m : np.ndarray
-        (N, 3) points, metres.
-
-    Returns
-    -------
-    s : np.ndarray
-        (N,) float64 projection on the neck axis, 0 at its base, 1 at its top (not clipped).
-    radius_m : np.ndarray
-        (N,) float64 distance from the neck axis line, metres.
-    """
+    """(s, radius_m) of (N, 3) points, float64: the projection on the neck axis, 0 at its base and 1 at its top
+    (not clipped), and the distance from the axis line, metres."""
     p = np.asarray(points_m, dtype=np.float64).reshape(-1, 3)
     axis = _sdf.NECK_TOP_M - _sdf.NECK_BASE_M
     length = np.linalg.norm(axis)
@@ -60,91 +48,55 @@ def in_band(points_m: np.ndarray, s_max: float = 1.0) -> np.ndarray:
     return (s >= 0.0) & (s <= s_max) & (r <= _sdf.NECK_BAND_RADIUS_M)
 
 
-def neck_axis_direction() -> np.ndarray:
-    """(3,) unit vector up the neck, from its base to its top."""
-    axis = _sdf.NECK_TOP_M - _sdf.NECK_BASE_M
-    return axis / np.linalg.norm(axis)
-
-
 def band_faces(vertices_m: np.ndarray, faces: np.ndarray, s_max: float = 1.0) -> np.ndarray:
     """(F,) bool: triangles with at least one corner in the band (a superset used to draw candidates)."""
     vin = in_band(vertices_m, s_max)
     return vin[faces].any(axis=1)
 
 
-def sample_triangles(vertices_m, faces, count: int, rng: np.random.Generator):
-    """Uniform random points on a triangle set, by area (Turk 1990).
-
-    Returns
-    -------
-    points_m : np.ndarray
-        (count, 3).
-    face_index : np.ndarray
-        (count,) int64 triangle of each point.
-    barycentric : np.ndarray
-        (count, 3) weights of the triangle's corners.
-    """
+def triangle_areas(vertices_m, faces) -> np.ndarray:
+    """(F,) areas of the triangles ``faces`` (F, 3), m^2."""
     tri = vertices_m[faces]
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    cdf = np.cumsum(area)
+    return 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+
+
+def sample_triangles(vertices_m, faces, count: int, rng: np.random.Generator) -> np.ndarray:
+    """(count, 3) uniform random points on a triangle set, by area (Turk 1990)."""
+    tri = vertices_m[faces]
+    cdf = np.cumsum(triangle_areas(vertices_m, faces))
     face_index = np.searchsorted(cdf, rng.random(count) * cdf[-1], side="right")
     face_index = np.minimum(face_index, len(faces) - 1)
     r1 = np.sqrt(rng.random(count))
     r2 = rng.random(count)
     bary = np.stack([1.0 - r1, r1 * (1.0 - r2), r1 * r2], axis=1)
-    points = np.einsum("nk,nkd->nd", bary, tri[face_index])
-    return points, face_index, bary
+    return np.einsum("nk,nkd->nd", bary, tri[face_index])
 
 
-def band_area_m2(vertices_m, faces, s_max: float = 1.0, rng=None, samples: int = 200_000) -> float:
-    """Area of the neck band, m^2 (Monte Carlo over the candidate triangles, deterministic by default)."""
-    rng = np.random.default_rng(12345) if rng is None else rng
+def band_area_m2(vertices_m, faces, s_max: float = 1.0) -> float:
+    """Area of the neck band up to ``s_max``, m^2 (Monte Carlo, 200k samples of a fixed seed, over the candidate
+    triangles)."""
     sel = faces[band_faces(vertices_m, faces, s_max)]
-    tri = vertices_m[sel]
-    total = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
-    pts, _, _ = sample_triangles(vertices_m, sel, samples, rng)
-    return float(total * in_band(pts, s_max).mean())
+    pts = sample_triangles(vertices_m, sel, 200_000, np.random.default_rng(12345))
+    return float(triangle_areas(vertices_m, sel).sum() * in_band(pts, s_max).mean())
 
 
-def sample_band_uniform(vertices_m, faces, count: int, rng: np.random.Generator, s_max: float = 1.0):
-    """Exactly ``count`` independent uniform points in the band (rejection from the candidate triangles).
-
-    Returns ``(points_m (count, 3), face_index (count,) into faces, barycentric (count, 3))``.
-    """
-    face_ids = np.flatnonzero(band_faces(vertices_m, faces, s_max))
-    sub = faces[face_ids]
-    pts_out, fid_out, bary_out = [], [], []
+def sample_band_uniform(vertices_m, faces, count: int, rng: np.random.Generator, s_max: float = 1.0) -> np.ndarray:
+    """(count, 3) independent uniform points in the band (rejection from the candidate triangles)."""
+    sub = faces[band_faces(vertices_m, faces, s_max)]
+    out = []
     have = 0
     batch = int(count * 1.5) + 64
     while have < count:  # a few rounds of rejection, never a loop over points
-        pts, fid, bary = sample_triangles(vertices_m, sub, batch, rng)
-        keep = in_band(pts, s_max)
-        pts_out.append(pts[keep])
-        fid_out.append(face_ids[fid[keep]])
-        bary_out.append(bary[keep])
-        have += int(keep.sum())
-    return (np.concatenate(pts_out)[:count], np.concatenate(fid_out)[:count], np.concatenate(bary_out)[:count])
+        pts = sample_triangles(vertices_m, sub, batch, rng)
+        out.append(pts[in_band(pts, s_max)])
+        have += len(out[-1])
+    return np.concatenate(out)[:count]
 
 
 def eliminate(points_m: np.ndarray, count: int, area_m2: float, rng: np.random.Generator) -> np.ndarray:
-    """Weighted sample elimination (Yuksel 2015) in parallel rounds, down to exactly ``count`` samples.
-
-    Parameters
-    ----------
-    points_m : np.ndarray
-        (M, 3) candidate points on a surface, M >= count.
-    count : int
-        Samples to keep, N.
-    area_m2 : float
-        Area of the sampled surface (sets r_max).
-    rng : np.random.Generator
-        Breaks ties between equal weights.
-
-    Returns
-    -------
-    np.ndarray
-        (N,) sorted int64 indices into ``points_m`` of the kept samples.
-    """
+    """Sorted int64 indices of the ``count`` samples of the (M, 3) candidates ``points_m`` on a surface of
+    ``area_m2`` (which sets r_max) that weighted sample elimination (Yuksel 2015, in parallel rounds: module
+    docstring) keeps; ``rng`` breaks ties between equal weights."""
     m = len(points_m)
     if count > m:
         raise ValueError(f"count={count} must not exceed the number of candidates ({m})")
@@ -188,25 +140,11 @@ def eliminate(points_m: np.ndarray, count: int, area_m2: float, rng: np.random.G
 
 
 def blue_noise_band(vertices_m, faces, count: int, rng: np.random.Generator, s_max: float = 1.0,
-                    area_m2: float | None = None):
-    """Exactly ``count`` blue-noise points in the neck band (up to ``s_max``), uniform in area.
-
-    ``area_m2`` is the band's area, :func:`band_area_m2` of the same mesh and ``s_max``; pass it when sampling
-    one body many times (estimating it costs more than the sampling at a thousand points), else it is estimated.
-
-    Returns
-    -------
-    points_m : np.ndarray
-        (count, 3) on the triangle mesh.
-    face_index : np.ndarray
-        (count,) triangle of each point.
-    barycentric : np.ndarray
-        (count, 3).
-    """
-    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
-        raise ValueError(f"count={count!r} must be an integer >= 1")
+                    area_m2: float | None = None) -> np.ndarray:
+    """(count, 3) blue-noise points in the neck band up to ``s_max``, uniform in area. ``area_m2``: the band's
+    area (:func:`band_area_m2`), worth passing when sampling one body many times (estimating it costs more than
+    sampling a thousand points), else estimated."""
     m = int(np.ceil(CANDIDATES_PER_SAMPLE * count)) + 8
-    pts, fid, bary = sample_band_uniform(vertices_m, faces, m, rng, s_max)
+    pts = sample_band_uniform(vertices_m, faces, m, rng, s_max)
     area = band_area_m2(vertices_m, faces, s_max) if area_m2 is None else area_m2
-    keep = eliminate(pts, int(count), area, rng)
-    return pts[keep], fid[keep], bary[keep]
+    return pts[eliminate(pts, int(count), area, rng)]

@@ -2,7 +2,8 @@
 
 The thickness presets follow ../shared/reference/method.md: the measured cortex thickness of rock-dove neck
 barbules is 480-580 nm at the base of the neck and 600-700 nm towards the top (Yoshioka, Nakamura and
-Kinoshita, J. Phys. Soc. Jpn. 76(1), 2007); the seed paper uses 650 nm everywhere.
+Kinoshita, J. Phys. Soc. Jpn. 76(1), 2007); the seed paper uses 650 nm everywhere. This module imports no numpy:
+the build graph reads the parameters on every run, even a no-op.
 """
 
 from __future__ import annotations
@@ -18,17 +19,10 @@ MEASURED_BASE_NM = (480.0, 580.0)
 MEASURED_TOP_NM = (600.0, 700.0)
 #: The seed paper's single film thickness, nm.
 PAPER_THICKNESS_NM = 650.0
-#: Defaults of the thickness field's parameters (rockdove.geometry.thickness; schemas/config.schema.json
-#: documents the same values). Here rather than in thickness.py so that reading the parameters (the build
-#: graph does on every run, even a no-op) imports no numpy.
-DEFAULT_CORRELATION_LENGTH_M = 0.008
-DEFAULT_SPREAD = 0.5
-DEFAULT_JITTER_NM = 3.0
-
 
 #: BirdParams field -> its key in the build configuration. Each field's allowed range is that key's minimum and
 #: maximum in schemas/config.schema.json (:func:`rockdove.config.limits`): the schema is the user-facing contract
-#: and the one place the ranges are written, so a config the schema accepts gives valid BirdParams and back.
+#: and the one place the ranges (and the meanings of the keys) are written.
 CONFIG_KEYS = {
     "seed": "geometry.seed", "card_count": "geometry.card_count", "card_length_m": "geometry.card_length_m",
     "card_width_m": "geometry.card_width_m", "card_jitter": "geometry.card_jitter",
@@ -42,101 +36,51 @@ CONFIG_KEYS = {
 }
 
 
-def _check_range(name, value, lo_allowed, hi_allowed, unit):
-    """Validate a (min, max) pair of finite numbers within [lo_allowed, hi_allowed] with min <= max."""
-    try:
-        pair = tuple(float(v) for v in value)
-    except TypeError:
-        raise ValueError(f"{name}={value!r} must be a (min, max) pair in {unit}") from None
-    if len(pair) != 2:
-        raise ValueError(f"{name}={value!r} must be a (min, max) pair in {unit}, got {len(pair)} values")
-    lo, hi = pair
-    if not (math.isfinite(lo) and math.isfinite(hi)):
-        raise ValueError(f"{name}={value!r} must be finite")
-    if lo > hi:
-        raise ValueError(f"{name}={value!r}: min {lo} is above max {hi}")
-    if lo < lo_allowed or hi > hi_allowed:
-        raise ValueError(f"{name}={value!r} must lie within [{lo_allowed}, {hi_allowed}] {unit}")
-    return pair
-
-
-def _check_number(name, value, lo_allowed, hi_allowed, unit, integer=False):
-    if integer:
+def _check(name, value, default, lo_allowed, hi_allowed):
+    """``value`` of the field ``name`` checked as its ``default`` is typed (int, float, or a (min, max) pair of
+    floats with min <= max) and within [lo_allowed, hi_allowed]; ValueError naming the field."""
+    unit = name.rsplit("_", 1)[-1] if name.endswith(("_m", "_nm", "_deg")) else ""
+    if isinstance(default, tuple):
+        try:
+            pair = tuple(float(v) for v in value)
+        except TypeError:
+            raise ValueError(f"{name}={value!r} must be a (min, max) pair in {unit}") from None
+        if len(pair) != 2:
+            raise ValueError(f"{name}={value!r} must be a (min, max) pair in {unit}, got {len(pair)} values")
+        if not all(math.isfinite(v) for v in pair):
+            raise ValueError(f"{name}={value!r} must be finite")
+        if pair[0] > pair[1]:
+            raise ValueError(f"{name}={value!r}: min {pair[0]} is above max {pair[1]}")
+        checked = pair
+    elif isinstance(default, int):
         if isinstance(value, bool) or not isinstance(value, int):
             raise ValueError(f"{name}={value!r} must be an integer")
+        checked = value
     else:
         try:
-            value = float(value)
+            checked = float(value)
         except (TypeError, ValueError):
             raise ValueError(f"{name}={value!r} must be a number in {unit}") from None
-        if not math.isfinite(value):
+        if not math.isfinite(checked):
             raise ValueError(f"{name}={value!r} must be finite")
-    if value < lo_allowed or value > hi_allowed:
+    ends = checked if isinstance(checked, tuple) else (checked, checked)
+    if ends[0] < lo_allowed or ends[1] > hi_allowed:
         raise ValueError(f"{name}={value!r} must lie within [{lo_allowed}, {hi_allowed}] {unit}")
-    return value
-
-
-#: (field, kind, unit) in the order BirdParams checks them; kind: "int", "number" or "pair" (lo <= hi).
-_CHECKS = (
-    ("seed", "int", ""), ("card_count", "int", "cards"), ("card_length_m", "pair", "m"),
-    ("card_width_m", "pair", "m"), ("card_jitter", "number", ""), ("card_lift_deg", "number", "deg"),
-    ("card_bend", "number", ""), ("card_root_depth_m", "pair", "m"), ("thickness_base_nm", "pair", "nm"),
-    ("thickness_top_nm", "pair", "nm"), ("thickness_correlation_length_m", "number", "m"),
-    ("thickness_spread", "number", ""), ("thickness_jitter_nm", "number", "nm"),
-    ("body_texture_resolution", "int", "texels"), ("feather_texture_resolution", "int", "texels"),
-    ("body_voxel_m", "number", "m"),
-)
+    return checked
 
 
 @dataclass(frozen=True)
 class BirdParams:
-    """Everything that shapes the procedural rock dove. Validated on construction (ValueError naming the field)
-    against the ranges of the configuration's keys in schemas/config.schema.json (:data:`CONFIG_KEYS`).
+    """Everything that shapes the procedural rock dove, validated on construction (ValueError naming the field)
+    against the ranges of the configuration keys of :data:`CONFIG_KEYS` (their meanings: the schema).
 
-    Attributes
-    ----------
-    seed : int
-        Seed of every random choice (card placement, jitter, thickness variation). >= 0.
-    card_count : int
-        Exact number of neck feather cards, 1 .. 1,000,000 (default 1500).
-    card_length_m : (float, float)
-        Range of card lengths, metres, within [0.001, 0.05] (default 10-15 mm, a rock dove's neck feathers).
-    card_width_m : (float, float)
-        Range of card widths, metres, within [0.0005, 0.03] (default 5-8 mm).
-    card_jitter : float
-        0 .. 1, scales the seeded jitter of each card's direction on the skin (up to +-20 deg at 1) and of its
-        roll about its own axis (up to +-15 deg at 1).
-    card_lift_deg : float
-        Angle between a card and the skin at its root, degrees, 0 .. 45 (default 6).
-    card_bend : float
-        Extra rise of the tip away from the skin, as a fraction of the card length, 0 .. 0.5 (default 0.08):
-        the card bends gently away from the skin, quadratically along its length.
-    card_root_depth_m : (float, float)
-        Range of depths of a card's root under the skin, metres, within [0, 0.002] (default 0.5-1.2 mm).
-    thickness_base_nm : (float, float)
-        Film thickness range at the base of the neck (s = 0), nm, within [1, 5000] (measured: 480-580).
-    thickness_top_nm : (float, float)
-        Film thickness range at the top of the neck (s = 1), nm, within [1, 5000] (measured: 600-700).
-        The paper preset sets both ranges to (650, 650).
-    thickness_correlation_length_m : float
-        Correlation length of the smooth random thickness field over the neck skin, metres, 0.0005 .. 0.2
-        (default 0.008: a few feathers across, so neighbouring feathers share their colour).
-    thickness_spread : float
-        Standard deviation of that field as a fraction of the half-width of the thickness range at the card's
-        height, 0 .. 2 (default 0.5; values beyond the range are clipped to it).
-    thickness_jitter_nm : float
-        Standard deviation of each card's own independent thickness jitter, nm, 0 .. 100 (default 3).
-    body_texture_resolution : int
-        Width = height of the body base-colour texture, texels, 16 .. 8192 (default 1024).
-    feather_texture_resolution : int
-        Width = height of the feather textures, texels, 16 .. 4096 (default 256).
-    body_voxel_m : float
-        Detail of the body surface: about its edge length, metres, 0.0008 .. 0.01 (default 0.002, as in
-        schemas/config.schema.json). The body and the wings are meshed and unwrapped on an 8 mm grid, then
-        subdivided ``k = max(0, round(log2(0.008 / body_voxel_m)))`` times onto their implicit surfaces, 4x the
-        triangles each: 0.002 gives k = 2 (58,112 body + 38,272 wing triangles), 0.004 gives k = 1
-        (14,528 + 9,568), from about 0.0057 up k = 0 (3,632 + 2,392). Values between those snap to the nearest
-        level.
+    ``seed`` seeds every random choice; ``card_*`` shape the neck feather cards (count; length, width and root
+    depth ranges, m; ``card_jitter`` 0 .. 1 scales the seeded yaw (+-20 deg) and roll (+-15 deg); lift at the
+    root, deg; ``card_bend``, the tip's extra rise as a fraction of the length); ``thickness_*`` the film
+    thickness field (:mod:`rockdove.geometry.thickness`: ranges at the neck's base and top, nm; correlation
+    length, m; spread, a fraction of the range's half-width; per-card jitter, nm); the texture resolutions are
+    texels; ``body_voxel_m`` is about the body's edge length, m, snapped to a subdivision level of the 8 mm
+    unwrap mesh (:func:`rockdove.geometry.body.subdivision_levels`).
     """
 
     seed: int = 0
@@ -149,21 +93,17 @@ class BirdParams:
     card_root_depth_m: tuple = (0.0005, 0.0012)
     thickness_base_nm: tuple = MEASURED_BASE_NM
     thickness_top_nm: tuple = MEASURED_TOP_NM
-    thickness_correlation_length_m: float = DEFAULT_CORRELATION_LENGTH_M
-    thickness_spread: float = DEFAULT_SPREAD
-    thickness_jitter_nm: float = DEFAULT_JITTER_NM
+    thickness_correlation_length_m: float = 0.008
+    thickness_spread: float = 0.5
+    thickness_jitter_nm: float = 3.0
     body_texture_resolution: int = 1024
     feather_texture_resolution: int = 256
     body_voxel_m: float = 0.002
 
     def __post_init__(self):
-        for name, kind, unit in _CHECKS:
-            value = getattr(self, name)
-            if kind == "pair":
-                value = _check_range(name, value, *limits(CONFIG_KEYS[name]), unit)
-            else:
-                value = _check_number(name, value, *limits(CONFIG_KEYS[name]), unit, integer=kind == "int")
-            object.__setattr__(self, name, value)
+        for f in fields(self):
+            value = _check(f.name, getattr(self, f.name), f.default, *limits(CONFIG_KEYS[f.name]))
+            object.__setattr__(self, f.name, value)
 
     @classmethod
     def measured(cls, **overrides) -> "BirdParams":
@@ -178,7 +118,7 @@ class BirdParams:
 
     @classmethod
     def from_dict(cls, values: dict) -> "BirdParams":
-        """Build from a mapping of field names (unknown names raise ValueError naming them)."""
+        """From a mapping of field names (unknown names raise ValueError naming them)."""
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(values) - known)
         if unknown:

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from rockdove.geometry import sdf as _sdf
-from rockdove.geometry.types import MeshPart
+from rockdove.geometry.types import MeshPart, triangle_part
 
 #: Segments around every surface of revolution.
 AROUND = 20
@@ -45,30 +45,10 @@ CERE_LENGTH_M = 0.0075
 
 
 def revolve(z_m: np.ndarray, radius_m: np.ndarray, around: int = AROUND):
-    """Closed surface of revolution about +Z of a profile from pole to pole.
-
-    Parameters
-    ----------
-    z_m : np.ndarray
-        (M,) positions along the axis, increasing, metres.
-    radius_m : np.ndarray
-        (M,) radii; the first and last are the poles (radius 0).
-    around : int
-        Segments around.
-
-    Returns
-    -------
-    vertices : np.ndarray
-        (M * (around + 1), 3) float64 (every ring has a duplicated seam vertex; the poles are rings of
-        coincident points).
-    normals : np.ndarray
-        (same, 3) unit outward normals.
-    st : np.ndarray
-        (same, 2) u around, v along.
-    faces : np.ndarray
-        (2 (M - 1) around, 3) int64, counter-clockwise seen from outside; degenerate triangles at the poles
-        are dropped.
-    """
+    """Closed surface of revolution about +Z of a profile from pole to pole: ``z_m`` (M,) increasing, ``radius_m``
+    (M,), 0 at both ends. Returns (vertices, unit outward normals, st (u around, v along), faces): every ring has a
+    duplicated seam vertex and the poles are rings of coincident points; faces (2 (M - 1) around, 3) wind
+    counter-clockwise seen from outside, without the degenerate triangles at the poles."""
     z = np.asarray(z_m, dtype=np.float64)
     r = np.asarray(radius_m, dtype=np.float64)
     m = len(z)
@@ -117,26 +97,6 @@ def place(piece, origin_m, direction, scale_xy=(1.0, 1.0)):
     return v, n @ rot.T, st, faces
 
 
-def _concat(pieces):
-    vs, ns, sts, fs = [], [], [], []
-    offset = 0
-    for v, n, st, f in pieces:
-        vs.append(v)
-        ns.append(n)
-        sts.append(st)
-        fs.append(f + offset)
-        offset += len(v)
-    return np.concatenate(vs), np.concatenate(ns), np.concatenate(sts), np.concatenate(fs)
-
-
-def _part(name, pieces, material, color) -> MeshPart:
-    v, n, st, f = _concat(pieces)
-    return MeshPart(name=name, points_m=v.astype(np.float32),
-                    face_vertex_counts=np.full(len(f), 3, dtype=np.int32),
-                    face_vertex_indices=f.reshape(-1).astype(np.int32), normals=n.astype(np.float32),
-                    st=st.astype(np.float32), material=material, display_color=color, primvars={})
-
-
 def _profile_z(length_m, m=16):
     """(m,) positions along a profile from pole (z = 0) to pole (z = length), denser near the poles."""
     return (0.5 - 0.5 * np.cos(np.linspace(0.0, np.pi, m))) * length_m
@@ -183,7 +143,7 @@ def build_beak() -> MeshPart:
     d = np.asarray(BILL_DIRECTION, dtype=np.float64)
     d /= np.linalg.norm(d)
     root = bill_root_m() - BILL_EMBED_M * d
-    return _part("Beak", [place(revolve(z, r), root, d, (0.75, 1.0))], "beak", BEAK_COLOR)
+    return triangle_part("Beak", [place(revolve(z, r), root, d, (0.75, 1.0))], "beak", BEAK_COLOR)
 
 
 def build_cere() -> MeshPart:
@@ -195,7 +155,7 @@ def build_cere() -> MeshPart:
     # an ellipsoid from 1 mm inside the face to CERE_LENGTH_M along the bill, riding on its upper edge
     start = bill_root_m() - 0.001 * d + 0.42 * BILL_BASE_DEPTH_M * up
     piece = ellipsoid_piece(0.5 * (CERE_LENGTH_M + 0.001))
-    return _part("Cere", [place(piece, start, d, (0.62, 0.34))], "cere", CERE_COLOR)
+    return triangle_part("Cere", [place(piece, start, d, (0.62, 0.34))], "cere", CERE_COLOR)
 
 
 EYE_CENTRE_M, EYE_RADIUS_M = (0.0142, 0.2185, 0.0905), 0.0042
@@ -217,7 +177,7 @@ def build_eyes() -> MeshPart:
     for side in (1.0, -1.0):
         centre, outward = _eye_axis(side)
         pieces.append(place(ellipsoid_piece(r), centre - r * outward, outward))
-    return _part("Eyes", pieces, "eye", EYE_COLOR)
+    return triangle_part("Eyes", pieces, "eye", EYE_COLOR)
 
 
 def build_eye_rings() -> MeshPart:
@@ -241,7 +201,7 @@ def build_eye_rings() -> MeshPart:
         faces = np.concatenate([np.stack([a, d, c], -1).reshape(-1, 3), np.stack([a, c, b], -1).reshape(-1, 3)])
         nrm = 0.5 * n + 0.5 * axis
         pieces.append((p, nrm / np.linalg.norm(nrm, axis=1, keepdims=True), np.zeros((len(p), 2)), faces))
-    return _part("EyeRings", pieces, "eyering", EYE_RING_COLOR)
+    return triangle_part("EyeRings", pieces, "eyering", EYE_RING_COLOR)
 
 
 #: Legs: the tarsus from the hip (inside the belly, so the tibia stays in the body's contour) to the ankle on
@@ -262,7 +222,7 @@ def build_legs() -> MeshPart:
             yaw = np.deg2rad(yaw_deg * side)
             d = np.array([np.sin(yaw), -0.04, np.cos(yaw)])
             pieces.append(place(tube_piece(length, toe_r, 0.0011), foot - 0.002 * d, d))
-    return _part("Legs", pieces, "leg", LEG_COLOR)
+    return triangle_part("Legs", pieces, "leg", LEG_COLOR)
 
 
 def build_parts() -> tuple:

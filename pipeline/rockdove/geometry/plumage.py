@@ -1,36 +1,33 @@
 """The rock dove's plumage in real-time terms: feather-shaped cards over the body, the folded wings, the tail.
 
-Each feather is a card of feather-shaped geometry (Unreal Engine's and Weta's groom-card technique without the
-alpha: the outline is in the mesh, so every host draws it opaque, without alpha sorting or an alpha test): a
-strip of :data:`SHAPE_V` rows from the quill (v = 0) to a pointed, rounded tip (v = 1) whose half-widths follow
-:data:`SHAPE_W`, 9 vertices and 7 triangles. Every card samples the body's texture: its st lies in one tile of
-the palette strip along the bottom of ``body_base.png`` (:data:`PALETTE_STRIP`, painted by
-:func:`rockdove.textures.palette_strip`), a feather image (vane, rachis, barbs) in one colour of the coat, so the
-cards need no material of their own.
+Each feather is a card of feather-shaped geometry (the groom-card technique of Unreal Engine and Weta without the
+alpha: the outline is in the mesh, so every host draws it opaque, without alpha sorting or test): :data:`SHAPE_V`
+rows from the quill (v = 0) to a pointed, rounded tip (v = 1) of half-widths :data:`SHAPE_W`, 9 vertices and 7
+triangles. Its st lies in one tile of the palette strip along the bottom of ``body_base.png``
+(:data:`PALETTE_STRIP`, painted by :func:`rockdove.textures.palette_strip`): a feather image in one colour of the
+coat, so the cards need no material of their own.
 
-- ``CoatFeathers``: contour feathers (about 2 cm long, chosen by eye against photographs) on blue-noise roots over the body outside the
-  neck band and the head (Yuksel's sample elimination, :func:`rockdove.geometry.neck.eliminate`), lying
-  tailward and down like shingles; normals are the body field's gradient at each vertex, so the coat shades as
-  one smooth surface; colour tiles from :func:`rockdove.textures.coat_tiles` (grey, the dark neck and the white
-  rump).
+- ``CoatFeathers``: contour feathers (about 2 cm, chosen by eye against photographs) on blue-noise roots over the
+  body outside the neck band and the head (:func:`rockdove.geometry.neck.eliminate`), lying tailward and down
+  like shingles; normals are the body field's gradient, so the coat shades as one smooth surface; tiles from
+  :func:`rockdove.geometry.colours.coat_tiles` (grey, the dark neck, the white rump).
 - ``Wings``: each folded wing as layered rows (primaries under secondaries and tertials, greater coverts over
-  them, median coverts on top), laid out in the side view and draped over the body at the row's layer offset
-  (:func:`drape_x`), so a wing lies flush on flank and back; the primaries run on past the rump, tips meeting
-  over the tail. The greater coverts and the secondaries/tertials carry the black subterminal band: the rock
-  dove's two wing bars.
+  them, median coverts on top) laid out in the side view and draped over the body at the row's layer offset
+  (:func:`drape_x`); the primaries run on past the rump, tips meeting over the tail. The greater coverts and the
+  secondaries/tertials carry the black subterminal band: the rock dove's two wing bars.
 - ``Tail``: twelve rectrices (Columba livia has 12) in a shallow fan from the rump, with the dark terminal band.
 """
 
 from __future__ import annotations
-
-from .colours import RAMP, T_BAR, T_BAR2, T_PRIMARY, T_RECTRIX, T_WHITE, TILES  # noqa: F401 (the tile layout)
 
 import numpy as np
 
 from rockdove.geometry import cards as _cards
 from rockdove.geometry import neck as _neck
 from rockdove.geometry import sdf as _sdf
-from rockdove.geometry.types import MeshPart
+from rockdove.geometry.colours import (BODY_DISPLAY_COLOR, RAMP, T_BAR, T_BAR2, T_PRIMARY, T_RECTRIX,  # noqa: F401
+                                       T_WHITE, TILES, coat_tiles)
+from rockdove.geometry.types import MeshPart, triangle_part, unit
 
 #: The parts made of feather cards (two-sided, bound to the body's material).
 CARD_PARTS = ("CoatFeathers", "Wings", "Tail")
@@ -39,8 +36,6 @@ PALETTE_STRIP = 0.125
 #: Where the body's charts begin (t): a guard band above the strip, so that filtering and mipmaps at a card's tip
 #: take the strip's own colours, not a neighbouring chart's.
 ATLAS_START = 0.145
-#: Feather tiles side by side in the strip; tile i spans s in [i, i + 1] / TILES.
-#: Tiles 0 .. RAMP - 1: the coat's greys from the dark neck to the pale wing (rockdove.textures.palette_colours).
 #: The card outline: rows at v (quill 0 .. tip 1) and their widths as fractions of the card width (tip: 0).
 SHAPE_V = np.array([0.0, 0.3, 0.62, 0.86, 1.0])
 SHAPE_W = np.array([0.45, 0.92, 1.0, 0.72, 0.0])
@@ -59,10 +54,6 @@ COAT_NECK_MARGIN_M, COAT_HEAD_MARGIN_M = 0.010, 0.004
 STREAM_COAT = 4
 
 
-def _unit(v):
-    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-20)
-
-
 def strips(centre, across, width, tile):
     """Feather cards from their centre lines: (N, R, 3) rows (the last the tip), (N, R, 3) unit across
     directions (t x n: counter-clockwise seen from the outside n), (N,) widths (m), (N,) tile indices.
@@ -74,7 +65,7 @@ def strips(centre, across, width, tile):
     pts = np.concatenate([np.stack([centre[:, :-1] - half, centre[:, :-1] + half], axis=2).reshape(n, -1, 3),
                           centre[:, -1:]], axis=1)
     along = np.gradient(centre, axis=1)
-    nrm = _unit(np.cross(across, along))
+    nrm = unit(np.cross(across, along))
     normals = np.concatenate([np.repeat(nrm[:, :-1], 2, axis=1), nrm[:, -1:]], axis=1)
     su = np.concatenate([np.tile([0.1, 0.9], rows - 1), [0.5]])
     sv = np.concatenate([np.repeat(SHAPE_V[:-1], 2), [1.0]])
@@ -89,23 +80,18 @@ def strips(centre, across, width, tile):
 
 
 def _part(name, pieces) -> MeshPart:
-    pts, nrm, st, faces = (np.concatenate(a) for a in zip(*pieces))
-    offsets = np.repeat(np.cumsum([0] + [len(p[0]) for p in pieces[:-1]]), [len(p[3]) for p in pieces])
-    faces = faces + offsets[:, None]
-    return MeshPart(name=name, points_m=pts.astype(np.float32), face_vertex_counts=np.full(len(faces), 3, np.int32),
-                    face_vertex_indices=faces.reshape(-1).astype(np.int32), normals=_unit(nrm).astype(np.float32),
-                    st=st.astype(np.float32), material="body", display_color=(0.25, 0.28, 0.33), primvars={})
+    return triangle_part(name, [(p, unit(n), st, f) for p, n, st, f in pieces], "body", BODY_DISPLAY_COLOR)
 
 
-def _shingles(roots, n, t, length, width, lift, bend, depth, clearance):
+def _shingles(roots, n, t, length, lift, bend, depth, clearance):
     """Centre rows and across directions of cards rooted at ``roots`` lying along ``t`` over skin normals ``n``."""
-    v = SHAPE_V[None, :]
+    v = SHAPE_V[None, :]  # the neck cards' centre line (cards.py), at the rows of the feather outline
     h = -depth * (1.0 - v) ** 4 + length[:, None] * (lift * v + bend * v * v)
     centre = roots[:, None] + (length[:, None] * v)[..., None] * t[:, None] + h[..., None] * n[:, None]
     rest = centre[:, 1:].reshape(-1, 3)
     centre[:, 1:] = _cards._push_out(rest, np.repeat(n, len(SHAPE_V) - 1, axis=0), clearance).reshape(
         centre[:, 1:].shape)
-    return centre, np.repeat(_unit(np.cross(t, n))[:, None], len(SHAPE_V), axis=1)
+    return centre, np.repeat(unit(np.cross(t, n))[:, None], len(SHAPE_V), axis=1)
 
 
 def wing_outline_yz() -> np.ndarray:
@@ -121,7 +107,8 @@ def inside_polygon(yz, poly) -> np.ndarray:
     y, z = yz[:, 0:1], yz[:, 1:2]
     a, b = poly[None, :, :], np.roll(poly, -1, 0)[None, :, :]
     crosses = (a[..., 0] > y) != (b[..., 0] > y)
-    zc = a[..., 1] + (y - a[..., 0]) * (b[..., 1] - a[..., 1]) / np.where(b[..., 0] == a[..., 0], 1e-12, b[..., 0] - a[..., 0])
+    dy = np.where(b[..., 0] == a[..., 0], 1e-12, b[..., 0] - a[..., 0])
+    zc = a[..., 1] + (y - a[..., 0]) * (b[..., 1] - a[..., 1]) / dy
     return (crosses & (z < zc)).sum(1) % 2 == 1
 
 
@@ -138,22 +125,17 @@ def coat_region(points_m) -> np.ndarray:
 
 def build_coat(vertices_m, faces, seed: int, count: int = COAT_COUNT) -> MeshPart:
     """``CoatFeathers``: ``count`` contour-feather cards on blue-noise roots over :func:`coat_region`."""
-    from .colours import coat_tiles
-
     rng = _cards.stream(seed, STREAM_COAT)
-    cand, _, _ = _neck.sample_triangles(vertices_m, faces, int(4 * count), rng)
-    tri = vertices_m[faces]
-    total = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1).sum()
+    cand = _neck.sample_triangles(vertices_m, faces, int(4 * count), rng)
     keep = coat_region(cand)
     cand = cand[keep]
-    roots = cand[_neck.eliminate(cand, min(count, len(cand)), total * keep.mean(), rng)]
-    n = _sdf.sdf_gradient(_sdf.body_sdf, roots)
-    roots = roots - _sdf.body_sdf(roots)[:, None] * n
+    area = _neck.triangle_areas(vertices_m, faces).sum() * keep.mean()
+    n, roots = _cards.snap_to_skin(cand[_neck.eliminate(cand, min(count, len(cand)), area, rng)])
     t = COAT_FLOW[None] - (n @ COAT_FLOW)[:, None] * n
     yaw = np.deg2rad(12.0) * rng.uniform(-1, 1, len(roots))
-    t = _unit(_unit(t) * np.cos(yaw)[:, None] + np.cross(n, _unit(t)) * np.sin(yaw)[:, None])
+    t = unit(unit(t) * np.cos(yaw)[:, None] + np.cross(n, unit(t)) * np.sin(yaw)[:, None])
     length, width = rng.uniform(*COAT_LENGTH_M, len(roots)), rng.uniform(*COAT_WIDTH_M, len(roots))
-    centre, across = _shingles(roots, n, t, length, width, COAT_LIFT, COAT_BEND, COAT_DEPTH_M, COAT_CLEARANCE_M)
+    centre, across = _shingles(roots, n, t, length, COAT_LIFT, COAT_BEND, COAT_DEPTH_M, COAT_CLEARANCE_M)
     pts, _, st, tris = strips(centre, across, width, coat_tiles(roots))
     pts = pts.reshape(len(roots), VERTICES_PER_CARD, 3)
     rest = pts[:, 2:].reshape(-1, 3)  # beyond the quill the card's edges clear the skin too (concave places)
@@ -213,9 +195,9 @@ def build_wings() -> MeshPart:
             centre = np.stack([side * x, yz[..., 0], yz[..., 1]], -1)
             grad = _sdf.sdf_gradient(_sdf.body_sdf, centre.reshape(-1, 3)).reshape(centre.shape)
             w = np.clip(1.0 - _sdf.body_sdf(centre.reshape(-1, 3)).reshape(off.shape) / 0.012, 0, 1)[..., None]
-            hint = _unit(w * grad + (1 - w) * np.array([side, 0.5, 0.0]))
-            t = _unit(np.gradient(centre, axis=1))
-            across = _unit(np.cross(t, hint))
+            hint = unit(w * grad + (1 - w) * np.array([side, 0.5, 0.0]))
+            t = unit(np.gradient(centre, axis=1))
+            across = unit(np.cross(t, hint))
             pts, nrm, st, tris = strips(centre, across, np.full(count, width),
                                         np.full(count, COVERT_TILE if tile is None else tile))
             pieces.append((pts, nrm, st, tris))
@@ -235,14 +217,15 @@ def build_tail() -> MeshPart:
     pitch, yaw = np.deg2rad(TAIL_PITCH_DEG), np.deg2rad(TAIL_FAN_DEG) * k / np.abs(k).max()
     d = np.stack([np.sin(yaw) * np.cos(pitch), np.full_like(yaw, -np.sin(pitch)), -np.cos(yaw) * np.cos(pitch)], 1)
     length = TAIL_LENGTH_M[0] + (TAIL_LENGTH_M[1] - TAIL_LENGTH_M[0]) * f
-    root = np.stack([TAIL_SPREAD_M * k / np.abs(k).max(), TAIL_ROOT_M[0] + 0.002 * (1 - f), np.full_like(k, TAIL_ROOT_M[1])], 1)
+    root = np.stack([TAIL_SPREAD_M * k / np.abs(k).max(), TAIL_ROOT_M[0] + 0.002 * (1 - f),
+                     np.full_like(k, TAIL_ROOT_M[1])], 1)
     v = SHAPE_V[None, :, None]
     droop = (-0.004 * f[:, None] * SHAPE_V[None, :] ** 2)[..., None] * np.array([0.0, 1.0, 0.0])
     centre = root[:, None] + length[:, None, None] * v * d[:, None] + droop
     order = np.argsort(-f, kind="stable")  # outer rectrices first, the central pair last (drawn on top)
     centre = centre[order]
-    t = _unit(np.gradient(centre, axis=1))
-    across = _unit(np.cross(t, np.array([0.0, 1.0, 0.0])))
+    t = unit(np.gradient(centre, axis=1))
+    across = unit(np.cross(t, np.array([0.0, 1.0, 0.0])))
     return _part("Tail", [strips(centre, across, np.full(TAIL_COUNT, TAIL_WIDTH_M), np.full(TAIL_COUNT, T_RECTRIX))])
 
 

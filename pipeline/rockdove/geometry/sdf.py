@@ -15,17 +15,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rockdove.geometry.types import unit
+
 
 def rotation_x(angle_rad: float) -> np.ndarray:
     """(3, 3) rotation about +X by ``angle_rad`` (right-handed)."""
     c, s = np.cos(angle_rad), np.sin(angle_rad)
     return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-
-
-def rotation_y(angle_rad: float) -> np.ndarray:
-    """(3, 3) rotation about +Y by ``angle_rad`` (right-handed)."""
-    c, s = np.cos(angle_rad), np.sin(angle_rad)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
 @dataclass(frozen=True)
@@ -36,16 +32,8 @@ class Ellipsoid:
     radii_m: tuple
     rotation: np.ndarray = None
 
-    def local(self, p: np.ndarray) -> np.ndarray:
-        """(N, 3) world points -> (N, 3) local coordinates (metres, unrotated, centred)."""
-        q = p - np.asarray(self.centre_m)
-        if self.rotation is None:
-            return q
-        r = self.rotation  # q @ r written out: numpy's matmul with a 3-wide inner axis is slow for large N
-        return q[:, 0:1] * r[0] + q[:, 1:2] * r[1] + q[:, 2:3] * r[2]
-
     def sdf(self, p: np.ndarray) -> np.ndarray:
-        """(N,) approximate signed distance, metres (Quilez's ellipsoid bound), at (N, 3) points ``p``."""
+        """(N,) approximate signed distance, metres (Quilez's bound), at (N, 3) points ``p``."""
         p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
         return self.sdf_xyz(p[:, 0], p[:, 1], p[:, 2])
 
@@ -78,13 +66,8 @@ class TaperedCapsule:
     ra_m: float
     rb_m: float
 
-    def sdf(self, p: np.ndarray) -> np.ndarray:
-        """(N,) approximate signed distance, metres, at (N, 3) points ``p``."""
-        p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
-        return self.sdf_xyz(p[:, 0], p[:, 1], p[:, 2])
-
     def sdf_xyz(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
-        """:meth:`sdf` on separate (N,) coordinate arrays."""
+        """(N,) approximate signed distance, metres, at the points of the (N,) coordinate arrays."""
         a, b = np.asarray(self.a_m, dtype=np.float64), np.asarray(self.b_m, dtype=np.float64)
         ba = b - a
         px, py, pz = x - a[0], y - a[1], z - a[2]
@@ -144,18 +127,8 @@ BODY_BOUNDS_M = (np.array([-0.062, 0.030, -0.205]), np.array([0.062, 0.240, 0.11
 
 
 def body_sdf(p: np.ndarray) -> np.ndarray:
-    """Signed distance to the body surface (torso, breast, belly, rump, neck, head; negative inside), metres.
-
-    Parameters
-    ----------
-    p : np.ndarray
-        (N, 3) points, metres.
-
-    Returns
-    -------
-    np.ndarray
-        (N,) float64, an approximate (Lipschitz <~ 1) signed distance.
-    """
+    """(N,) float64 signed distance, metres (approximate: Lipschitz <~ 1), from (N, 3) points to the body surface
+    (torso, breast, belly, rump, neck, head; negative inside)."""
     p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
     x, y, z = (np.ascontiguousarray(p[:, a]) for a in range(3))
     d = smooth_union(TORSO.sdf_xyz(x, y, z), BREAST.sdf_xyz(x, y, z), 0.035)
@@ -166,7 +139,7 @@ def body_sdf(p: np.ndarray) -> np.ndarray:
     axis = NECK_TOP_M - NECK_BASE_M
     s = (q @ axis) / (axis @ axis)
     r = np.linalg.norm(q - s[:, None] * axis, axis=1)
-    w = _smooth01(NECK_BLEND_S[0], NECK_BLEND_S[1], s) * (1.0 - _smooth01(*NECK_BLEND_RADII_M, r))
+    w = smoothstep(NECK_BLEND_S[0], NECK_BLEND_S[1], s) * (1.0 - smoothstep(*NECK_BLEND_RADII_M, r))
     i = np.flatnonzero(w > 0.0)
     if len(i):
         xi, yi, zi = x[i], y[i], z[i]
@@ -178,8 +151,9 @@ def body_sdf(p: np.ndarray) -> np.ndarray:
     return d
 
 
-def _smooth01(e0, e1, x):
-    t = np.clip((x - e0) / (e1 - e0), 0.0, 1.0)
+def smoothstep(e0, e1, x):
+    """Hermite smoothstep of ``x`` between the edges ``e0`` and ``e1``: 0 below, 1 above, 3 t^2 - 2 t^3 between."""
+    t = np.clip((np.asarray(x, dtype=np.float64) - e0) / (e1 - e0), 0.0, 1.0)
     return t * t * (3.0 - 2.0 * t)
 
 
@@ -191,4 +165,4 @@ def sdf_gradient(sdf, p: np.ndarray, step_m: float = 1e-4) -> np.ndarray:
         e = np.zeros(3)
         e[axis] = step_m
         g[:, axis] = sdf(p + e) - sdf(p - e)
-    return g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-20)
+    return unit(g)

@@ -1,10 +1,9 @@
-"""Data types that geometry hands to the USD stage (docs/design.md, "Geometry" section).
-
-Geometry knows nothing of USD: every part is plain numpy arrays in metres, Y up, bird facing +Z.
-"""
+"""Data types that geometry hands to the USD stage (docs/design.md, "Geometry" section): plain numpy arrays in
+metres, Y up, bird facing +Z; geometry knows nothing of USD."""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,19 +23,15 @@ def point_bounds(points) -> np.ndarray:
     return np.stack([columns.min(axis=1), columns.max(axis=1)])
 
 
+def unit(v: np.ndarray) -> np.ndarray:
+    """``v`` scaled to unit length along its last axis (zero vectors stay zero)."""
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-20)
+
+
 @dataclass(frozen=True)
 class Primvar:
-    """One extra per-mesh attribute.
-
-    Attributes
-    ----------
-    values : np.ndarray
-        ``(V,)`` or ``(V, k)`` for ``"vertex"``, ``(F, ...)`` for ``"uniform"``, one value for ``"constant"``.
-    interpolation : str
-        One of :data:`INTERPOLATIONS`.
-    doc : str
-        One line: what the values are and their unit.
-    """
+    """One extra per-mesh attribute: ``values`` (V,) or (V, k) for ``"vertex"``, (F, ...) for ``"uniform"``, one
+    value for ``"constant"``; ``doc``: one line, what the values are and their unit."""
 
     values: np.ndarray
     interpolation: str = "vertex"
@@ -51,29 +46,12 @@ class Primvar:
 
 @dataclass(frozen=True)
 class MeshPart:
-    """One mesh of the bird, ready to be written as a ``UsdGeom.Mesh``.
+    """One mesh of the bird, ready to be written as a ``UsdGeom.Mesh`` named ``name``.
 
-    Attributes
-    ----------
-    name : str
-        USD prim name: ``"Body"``, ``"NeckFeathers"``, ``"Beak"``, ``"Eyes"``, ``"Legs"``, ...
-    points_m : np.ndarray
-        ``(V, 3)`` float32, metres.
-    face_vertex_counts : np.ndarray
-        ``(F,)`` int32.
-    face_vertex_indices : np.ndarray
-        ``(sum(face_vertex_counts),)`` int32, counter-clockwise seen from outside.
-    normals : np.ndarray
-        ``(V, 3)`` float32, unit, vertex interpolation, outward.
-    st : np.ndarray
-        ``(V, 2)`` float32 in [0, 1], vertex interpolation (vertices are split at UV seams).
-    material : str
-        One of :data:`MATERIALS`.
-    display_color : tuple
-        Linear RGB ``(r, g, b)``, a fallback for viewers without materials.
-    primvars : dict
-        ``name -> Primvar``; feathers carry ``"thickness"`` ((V,) float32 nm, vertex) and ``"neckS"``
-        ((V,) float32 in [0, 1], vertex).
+    ``points_m`` (V, 3) float32 metres; ``face_vertex_counts`` (F,) int32; ``face_vertex_indices`` int32,
+    counter-clockwise seen from outside; ``normals`` (V, 3) float32 unit, outward; ``st`` (V, 2) float32 in
+    [0, 1] (vertices are split at UV seams); ``material`` one of :data:`MATERIALS`; ``display_color`` linear RGB,
+    the fallback of viewers without materials; ``primvars`` name -> :class:`Primvar`.
     """
 
     name: str
@@ -92,29 +70,29 @@ class MeshPart:
 
     @property
     def n_points(self) -> int:
-        """Number of vertices ``V``."""
         return int(self.points_m.shape[0])
 
     @property
     def n_faces(self) -> int:
-        """Number of faces ``F``."""
         return int(self.face_vertex_counts.shape[0])
 
 
+def triangle_part(name: str, pieces, material: str, display_color: tuple, primvars: dict | None = None) -> MeshPart:
+    """One triangle :class:`MeshPart` from ``pieces`` of ``(points (V, 3), normals (V, 3), st (V, 2), faces (F, 3))``,
+    each piece's faces indexing its own points."""
+    offsets = np.cumsum([0] + [len(p[0]) for p in pieces[:-1]])
+    points, normals, st = (np.concatenate([p[i] for p in pieces]) for i in range(3))
+    faces = np.concatenate([p[3] + o for p, o in zip(pieces, offsets)])
+    return MeshPart(name=name, points_m=points.astype(np.float32),
+                    face_vertex_counts=np.full(len(faces), 3, dtype=np.int32),
+                    face_vertex_indices=faces.reshape(-1).astype(np.int32), normals=normals.astype(np.float32),
+                    st=st.astype(np.float32), material=material, display_color=display_color, primvars=primvars or {})
+
+
 def drop_unreferenced_points(part: MeshPart) -> MeshPart:
-    """``part`` without the points no face references (and their normals, st and vertex primvars).
-
-    USD asset validators (NVIDIA's ``UnusedMeshTopologyChecker``) reject meshes whose points are not all used
-    by ``faceVertexIndices``. Kept points keep their order; indices are renumbered. Uniform, faceVarying and
-    constant primvars are unchanged (they do not follow points).
-
-    Returns
-    -------
-    MeshPart
-        ``part`` itself when every point is referenced, else a copy.
-    """
-    import dataclasses
-
+    """``part`` without the points no face references (and their normals, st and vertex primvars), or ``part``
+    itself when every point is used: NVIDIA's ``UnusedMeshTopologyChecker`` rejects unused points. Kept points
+    keep their order; uniform, faceVarying and constant primvars do not follow points and stay as they are."""
     used = np.zeros(part.n_points, dtype=bool)
     used[np.asarray(part.face_vertex_indices, dtype=np.int64)] = True
     if used.all():
@@ -129,17 +107,13 @@ def drop_unreferenced_points(part: MeshPart) -> MeshPart:
 
 @dataclass(frozen=True)
 class Bird:
-    """The whole bird: ``Body`` is one closed surface; all feather cards are in one ``NeckFeathers`` part.
-
-    Attributes
-    ----------
-    parts : tuple of MeshPart
-    """
+    """The whole bird: its :class:`MeshPart` s in order (``Body`` is one closed surface; all neck cards are in
+    one ``NeckFeathers`` part)."""
 
     parts: tuple
 
     def part(self, name: str) -> MeshPart:
-        """Return the part called ``name``; ValueError naming the known parts if absent."""
+        """The part called ``name``; ValueError naming the known parts if absent."""
         for p in self.parts:
             if p.name == name:
                 return p
@@ -147,5 +121,4 @@ class Bird:
 
     @property
     def names(self) -> tuple:
-        """Names of the parts, in order."""
         return tuple(p.name for p in self.parts)

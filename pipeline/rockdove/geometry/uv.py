@@ -20,17 +20,8 @@ CHART_MAX_ITERATIONS = 1
 
 @dataclass(frozen=True)
 class UVAtlas:
-    """Result of :func:`atlas`.
-
-    Attributes
-    ----------
-    vmapping : np.ndarray
-        (V',) int64, the input vertex each output vertex copies.
-    faces : np.ndarray
-        (F, 3) int64, triangles in output vertex indices (same order and winding as the input faces).
-    st : np.ndarray
-        (V', 2) float32 in [0, 1].
-    """
+    """:func:`atlas`'s result: ``vmapping`` (V',) int64, the input vertex each output vertex copies; ``faces``
+    (F, 3) int64 in output vertices (the input's order and winding); ``st`` (V', 2) float32 in [0, 1]."""
 
     vmapping: np.ndarray
     faces: np.ndarray
@@ -38,23 +29,11 @@ class UVAtlas:
 
 
 def atlas(vertices_m: np.ndarray, faces: np.ndarray) -> UVAtlas:
-    """Parametrize a triangle mesh with xatlas; vertices are split at seams.
-
-    Parameters
-    ----------
-    vertices_m : np.ndarray
-        (V, 3) positions, metres.
-    faces : np.ndarray
-        (F, 3) triangle indices.
-    """
+    """Parametrize a triangle mesh ((V, 3) metres, (F, 3)) with xatlas; vertices are split at seams."""
     import xatlas
 
     vertices_m = np.ascontiguousarray(vertices_m, dtype=np.float32)
     faces = np.ascontiguousarray(faces, dtype=np.uint32)
-    if vertices_m.ndim != 2 or vertices_m.shape[1] != 3:
-        raise ValueError(f"vertices_m must have shape (V, 3), got {vertices_m.shape}")
-    if faces.ndim != 2 or faces.shape[1] != 3:
-        raise ValueError(f"faces must have shape (F, 3), got {faces.shape}")
     at = xatlas.Atlas()
     at.add_mesh(vertices_m, faces)
     chart_options = xatlas.ChartOptions()

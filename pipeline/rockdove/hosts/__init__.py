@@ -27,7 +27,8 @@ HOSTS = {
     "storm": "rockdove.hosts.storm:BAKED",
     "storm_physical": "rockdove.hosts.storm:PHYSICAL",
     "storm_preview": "rockdove.hosts.storm:PREVIEW",
-    "osl": "rockdove.hosts.osl",
+    "osl": "rockdove.hosts.osl:BAKED",
+    "osl_physical": "rockdove.hosts.osl:PHYSICAL",
 }
 #: The hosts a verification runs when none are named: those whose frames cost seconds. Storm's (5-45 s a 512 px
 #: frame, mostly shader compilation) and the OSL renderer's are named explicitly or with ``all``.

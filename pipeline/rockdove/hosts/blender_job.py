@@ -138,6 +138,9 @@ def render_views(bpy, mathutils, to_blender, job: dict) -> None:
     settings.file_format = "OPEN_EXR"
     settings.color_depth = "32"
     settings.color_mode = "RGBA"
+    if job.get("exr_colorspace"):  # the OSL host's (set after file_format, which resets it)
+        settings.color_management = "OVERRIDE"
+        settings.linear_colorspace_settings.name = job["exr_colorspace"]
     scene.view_settings.view_transform = "Standard"
     shoot(bpy, mathutils, to_blender, job, "exr")
 

@@ -1,38 +1,47 @@
-"""The ``osl`` host: the asset's ``baked`` MaterialX network as OSL written by MaterialX's own generator,
-compiled by Blender's bundled OSL compiler and rendered by Cycles with OSL on (the MaterialX path of Arnold,
-RenderMan, Karma CPU and Cycles' OSL mode).
+"""The ``osl`` and ``osl_physical`` hosts: the asset's ``baked`` and ``physical`` MaterialX networks as OSL written
+by MaterialX's own generator, compiled by Blender's bundled OSL compiler and rendered by Cycles with OSL on (the
+MaterialX path of Arnold, RenderMan, Karma CPU and Cycles' OSL mode).
 
 What MaterialX does: the network upstream of the feather material's ``outputs:mtlx:surface``, rebuilt from the
 written USD (:func:`rockdove.hosts.materialx.feather_networks`, as Hydra's HdMtlx does) becomes one OSL shader
 by ``OslShaderGenerator`` 1.39 (the pip MaterialX); every colour, texture lookup, ``geompropvalue`` (OSL
 ``getattribute``) and closure is that generated code. What this host changes in the MaterialX document before
-generating, as the Storm host does in its session layer: ``StructuralMix.bg`` set to black (the film lobe alone)
-and each ``image`` node's ``file`` made absolute (the generated OSL is compiled outside the asset folder).
+generating (:func:`lobe_document`), as the Storm host does in its session layer: the base colour black (the
+film lobe alone), each ``image`` node's ``file`` made absolute (the shader is compiled outside the asset
+folder), and the colours handed to the closures converted into the renderer's working space (:data:`WORKING_SPACE`).
 
 What Cycles does (:mod:`rockdove.hosts.osl_job`, in the bpy Python): ``_cycles.osl_compile`` (OSL 1.14) compiles
 the source with MaterialX's OSL headers (``mx_funcs.h`` and the stdlib ``genosl`` includes) beside it; the
 asset is imported by Blender's USD importer (:func:`rockdove.hosts.blender_job.import_asset`, no add-on); the
-feather material becomes one Script node with the compiled shader feeding the Material Output; every other part
-black; a uniform white world of unit radiance; each View's camera exactly (:mod:`rockdove.hosts.blender_job`).
-
-Output: float32 EXR, linear Rec.709, background 0.
+working space is set to ACEScg; the feather material becomes one Script node with the compiled shader feeding
+the Material Output; every other part black; a uniform white world of unit radiance; each View's camera exactly
+(:mod:`rockdove.hosts.blender_job`). Output: float32 EXR written in linear Rec.709, background 0.
 """
 
 from __future__ import annotations
 
 import os
 import shutil
+from types import SimpleNamespace
 
 from . import HostError
 
-NAME = "osl"
-VARIANT = "baked"
+#: host name -> (the ``shading`` variant drawn, its base-colour input ``node.input``, set to black)
+VARIANTS = {"osl": ("baked", "StructuralMix.bg"), "osl_physical": ("physical", "MtlxPhysicalSurface.base_color")}
 LOBE = "view_angle"
 ENVIRONMENT_RADIANCE = 1.0
 #: Cycles samples per pixel (the shading is deterministic; samples only resolve cut-out edges).
 SAMPLES = 8
 #: Seconds before a Cycles OSL run is given up.
 TIMEOUT_S = 900
+#: Cycles' working space (Blender's per-file setting) and the space of the EXR it writes. Cycles clamps a BSDF's
+#: negative weights to 0 (``kernel/closure/alloc.h``, ``bsdf_alloc``), so in Blender's default Linear Rec.709
+#: the LUT's colours outside the Rec.709 gamut (a negative channel on 11 % of its texels) lose that channel
+#: (measured, one pixel: albedo (-0.042, 0.452, 0.327) renders (0, 0.452, 0.327), an emission keeps -0.042).
+#: Every LUT colour lies inside ACEScg (its smallest channel there is 0.026), the working space of ACES
+#: studios: there the albedo is positive, and Blender converts the render back to linear Rec.709 on write,
+#: negative channels kept (the same pixel renders (-0.042, 0.452, 0.327)).
+WORKING_SPACE, EXR_SPACE = "ACEScg", "Linear Rec.709"
 
 
 def unavailable() -> str | None:
@@ -44,13 +53,6 @@ def unavailable() -> str | None:
     from . import blender
 
     return blender.unavailable()
-
-
-def cannot_draw(asset_path: str) -> str | None:
-    """Why this host cannot draw the asset (no ``baked`` shading variant), else None."""
-    from .materialx import cannot_draw as mx_cannot
-
-    return mx_cannot(asset_path, VARIANT)
 
 
 def generate_osl(doc, material_name: str) -> str:
@@ -71,6 +73,17 @@ def generate_osl(doc, material_name: str) -> str:
 #: its default (measured, bpy 5.0.1: ``getattribute("st", float[2])`` 0 where ``getattribute("st", vector)`` gives
 #: the UV map). The mapping renames ``getattribute`` to overloads that pass every other type through unchanged and
 #: read a ``float[2]`` through a ``vector``; the generated functions themselves are left as MaterialX wrote them.
+#: Second, every ``texture()`` call gets ``"width", 0``: the image at the pixel centre, no footprint filtering.
+#: OpenImageIO otherwise picks a coarse mip level of the card atlas (base colour, cut-out, mask) on small cards and
+#: dims whole cards by the mask's average, an antialiased picture, not a wrong colour, that a per-pixel comparison
+#: with the point-sampled reference counts as error (measured, default asset, sweep_060, 512 px: p95 dE2000 4.3
+#: without, 0.4 with); it is the choice :data:`rockdove.hosts.materialx.MIPMAPPED_IMAGES` makes for the atlas.
+#: On the LUT it changes nothing measurable (same median and p95 with and without it).
+#: Third, Cycles (bpy 5.0.1) drops the thin film of a ``dielectric_bsdf`` (its ``thinfilm_*`` keywords) but keeps
+#: it on a ``generalized_schlick_bsdf`` (measured, one pixel, a film of n 2.0, 600 nm on glass 1.5 at normal
+#: incidence: 0.04 grey against the Principled BSDF's coloured (0.056, 0.149, 0.136); OpenPBR's film in air,
+#: specular_ior 1, renders black). A reflection-only dielectric with a film becomes the generalized Schlick lobe
+#: with exponent -ior, which Cycles reads as the real dielectric Fresnel of that ior (as its Principled BSDF does).
 CYCLES_GETATTRIBUTE = """
 // rockdove (hosts/osl.py CYCLES_GETATTRIBUTE): Cycles' getattribute fills no float[2]; read it through a vector.
 int rd_getattribute(string name, output float value) { return getattribute(name, value); }
@@ -86,6 +99,18 @@ int rd_getattribute(string name, output float value[2])
     return found;
 }
 #define getattribute rd_getattribute
+// rockdove: images at the pixel centre (no OpenImageIO footprint filtering), as the reference samples the atlas.
+#define texture(...) texture(__VA_ARGS__, "width", 0.0)
+// rockdove: Cycles drops a dielectric_bsdf's thin film; a reflection with a film goes through generalized_schlick.
+closure color rd_dielectric_bsdf(normal N, vector U, color rt, color tt, float rx, float ry, float ior, string dist,
+                                 float thickness, float film_ior)
+{
+    if (thickness <= 0.0 || tt != color(0))
+        return dielectric_bsdf(N, U, rt, tt, rx, ry, ior, dist, "thinfilm_thickness", thickness, "thinfilm_ior", film_ior);
+    return generalized_schlick_bsdf(N, U, rt, color(0), rx, ry, color(pow((ior - 1) / (ior + 1), 2)), color(1), -ior,
+                                    dist, "thinfilm_thickness", thickness, "thinfilm_ior", film_ior);
+}
+#define dielectric_bsdf(N, U, rt, tt, rx, ry, ior, dist, k1, d, k2, n) rd_dielectric_bsdf(N, U, rt, tt, rx, ry, ior, dist, d, n)
 """
 _INCLUDE = '#include "mx_funcs.h"\n'
 
@@ -112,22 +137,51 @@ def osl_headers() -> list:
     if os.path.isfile(found):
         inc = os.path.dirname(found)
         return sorted(os.path.join(inc, f) for f in os.listdir(inc) if f.endswith(".h"))
-    raise HostError(NAME, "MaterialX's OSL headers (libraries/stdlib/genosl/include/mx_funcs.h) are not found")
+    raise HostError("osl", "MaterialX's OSL headers (libraries/stdlib/genosl/include/mx_funcs.h) are not found")
 
 
-def lobe_document(net: dict):
-    """The feather network of :func:`rockdove.hosts.materialx.feather_networks` made ready for this host: base
-    colour black (``StructuralMix.bg`` = 0, the film lobe alone) and image files absolute."""
+def lobe_document(net: dict, base: str = VARIANTS["osl"][1]):
+    """The feather network of :func:`rockdove.hosts.materialx.feather_networks` made ready for this host: the
+    ``base`` colour input (``node.input``) black (the film lobe alone), image files absolute and the closures'
+    colours in the working space (:func:`to_working_space`)."""
     doc = net["doc"]
-    mix = doc.getNode("StructuralMix")
-    if mix is None or mix.getInput("bg") is None:
-        raise ValueError("the baked network has no StructuralMix.bg (base colour) to turn black")
-    bg = mix.getInput("bg")
+    node, _, name = base.partition(".")
+    bg = doc.getNode(node).getInput(name) if doc.getNode(node) is not None else None
+    if bg is None:
+        raise ValueError(f"the network has no {base} (base colour) to turn black")
     bg.removeAttribute("nodename")
     bg.setValueString("0, 0, 0")
     for node_name, path in net["files"].items():
         doc.getNode(node_name).getInput("file").setValueString(os.path.abspath(path))
+    to_working_space(doc, net["material"])
     return doc
+
+
+def to_working_space(doc, material_name: str) -> None:
+    """Every colour the network computes for a closure (a connected ``color3`` input of the surface shader or
+    of a BSDF it reads) converted from the document's lin_rec709 into ACEScg (:data:`WORKING_SPACE`) by MaterialX
+    nodes: ``convert``, ``transformmatrix`` by the inverse of MaterialX's own ``NG_acescg_to_lin_rec709`` matrix
+    (Blender's ACEScg agrees with it to 6e-7), ``convert``. Linear, so it is the conversion a colour-managed
+    renderer applies to the textures. Unconnected colours are the nodedefs' greys and white, unchanged by it."""
+    graph = doc.getDataLibrary().getNodeGraph("NG_acescg_to_lin_rec709_color3")
+    matrix = graph.getNode("mat").getInputValue("value").getInverse()
+    todo = [doc.getNode(material_name)]
+    while todo:
+        node = todo.pop()
+        for inp in node.getInputs():
+            upstream = inp.getConnectedNode()
+            if upstream is not None and inp.getType() in ("surfaceshader", "BSDF", "EDF"):
+                todo.append(upstream)
+            elif upstream is not None and inp.getType() == "color3":
+                stem = f"{node.getName()}_{inp.getName()}_acescg"
+                vec = doc.addNode("convert", f"{stem}_vector", "vector3")
+                vec.addInput("in", "color3").setConnectedNode(upstream)
+                xform = doc.addNode("transformmatrix", stem, "vector3")
+                xform.addInput("in", "vector3").setConnectedNode(vec)
+                xform.addInput("mat", "matrix33").setValue(matrix)
+                col = doc.addNode("convert", f"{stem}_color", "color3")
+                col.addInput("in", "vector3").setConnectedNode(xform)
+                inp.setConnectedNode(col)
 
 
 def _compiler_error(work: str) -> str | None:
@@ -145,8 +199,8 @@ def _compiler_error(work: str) -> str | None:
     return f"{failed}: {errors[0]} (log: {work}/blender.log)"
 
 
-def render(asset_path: str, views, out_dir: str) -> dict:
-    """Render ``views`` of the asset's ``baked`` network as generated OSL in Cycles (module docstring).
+def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
+    """Render ``views`` of host ``name``'s network (:data:`VARIANTS`) as generated OSL in Cycles (module docstring).
 
     Returns
     -------
@@ -164,16 +218,17 @@ def render(asset_path: str, views, out_dir: str) -> dict:
     from .materialx import feather_networks
     from ..usd.layout import resolve_root_layer
 
+    variant, base = VARIANTS[name]
     views = list(views)
     if not views:
         raise ValueError("views must hold at least one View, got none")
     blender.bpy_python()
     try:
         layer = resolve_root_layer(asset_path)
-        networks = feather_networks(layer, VARIANT)
+        networks = feather_networks(layer, variant)
     except (ValueError, RuntimeError, OSError) as exc:
-        raise HostError(NAME, f"cannot read the asset's MaterialX network: {exc}") from None
-    work = os.path.join(os.path.abspath(out_dir), NAME)
+        raise HostError(name, f"cannot read the asset's MaterialX network: {exc}") from None
+    work = os.path.join(os.path.abspath(out_dir), name)
     os.makedirs(work, exist_ok=True)
     for header in osl_headers():
         shutil.copyfile(header, os.path.join(work, os.path.basename(header)))
@@ -182,19 +237,34 @@ def render(asset_path: str, views, out_dir: str) -> dict:
         for mesh, net in networks.items():
             source = os.path.join(work, f"{net['material']}.osl")
             with open(source, "w", encoding="utf-8") as fh:
-                fh.write(for_cycles(generate_osl(lobe_document(net), net["material"])))
+                fh.write(for_cycles(generate_osl(lobe_document(net, base), net["material"])))
             shaders[mesh] = {"source": source, "attributes": geomprops(net["doc"])}
     except ValueError as exc:
-        raise HostError(NAME, f"cannot turn the asset's MaterialX network into OSL: {exc}") from None
+        raise HostError(name, f"cannot turn the asset's MaterialX network into OSL: {exc}") from None
     except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
-        raise HostError(NAME, f"MaterialX OSL generation failed: {type(exc).__name__}: {exc}") from None
+        raise HostError(name, f"MaterialX OSL generation failed: {type(exc).__name__}: {exc}") from None
     blender.clear_views(views, work)
     job = {"asset": os.path.abspath(layer), "root_object": root_object(layer), "addon_zip": None,
            "shaders": shaders, "environment_radiance": ENVIRONMENT_RADIANCE, "samples": SAMPLES,
+           "working_space": WORKING_SPACE, "exr_colorspace": EXR_SPACE,
            "transparent_bounces": blender.TRANSPARENT_BOUNCES, "threads": blender.THREADS, "out_dir": work,
            "views": [v.to_dict() for v in views]}
     try:
         blender.run_job(job, work, module="rockdove.hosts.osl_job", timeout_s=TIMEOUT_S)
     except HostError as exc:
-        raise HostError(NAME, _compiler_error(work) or exc.message.replace("Blender exited", "Cycles (OSL) exited")) from None
-    return blender.read_views(NAME, "Cycles (OSL)", views, work)
+        raise HostError(name, _compiler_error(work) or exc.message.replace("Blender exited", "Cycles (OSL) exited")) from None
+    return blender.read_views(name, "Cycles (OSL)", views, work)
+
+
+def _host(name: str) -> SimpleNamespace:
+    from .materialx import cannot_draw
+
+    variant = VARIANTS[name][0]
+    return SimpleNamespace(NAME=name, VARIANT=variant, LOBE=LOBE, unavailable=unavailable,
+                           cannot_draw=lambda asset_path: cannot_draw(asset_path, variant),
+                           render=lambda asset_path, views, out_dir: render_variant(asset_path, views, out_dir,
+                                                                                    name=name))
+
+
+#: The registry's host objects (rockdove.hosts.HOSTS: ``rockdove.hosts.osl:BAKED``, ``...:PHYSICAL``).
+BAKED, PHYSICAL = (_host(n) for n in VARIANTS)

@@ -9,8 +9,9 @@ Steps (the job file, written by :func:`rockdove.hosts.osl.render`, gives every v
 2. import the asset with Blender's USD importer, no add-on (:func:`blender_job.import_asset`);
 3. on each mesh the job names, the material becomes a Script node of the compiled shader into the Material
    Output's surface; every other material black diffuse (occluding); no object seen by glossy rays;
-4. a uniform white world of unit radiance, Cycles on the CPU with OSL on, each View's camera exactly
-   (:func:`blender_job.render_views`).
+4. the working space the job names (ACEScg, :data:`rockdove.hosts.osl.WORKING_SPACE`), a uniform white world of
+   unit radiance, Cycles on the CPU with OSL on, each View's camera exactly (:func:`blender_job.render_views`),
+   written in the job's ``exr_colorspace``.
 """
 
 from __future__ import annotations
@@ -96,6 +97,8 @@ def run(job: dict) -> None:
 
     compiled = compile_shaders(job["shaders"])
     _, _, to_blender = blender_job.import_asset(bpy, job)
+    # colours stay as the shader computes them (in ACEScg), the render is written in linear Rec.709 (osl.py)
+    bpy.ops.wm.set_working_color_space(working_space=job["working_space"], convert_colors=False)
     black = blender_job._black_material(bpy)
     by_name = {mesh.rsplit("/", 1)[-1]: shader for mesh, shader in compiled.items()}
     drawn = []

@@ -1,43 +1,19 @@
-"""Bakers of the thin-film colour LUT over (cos theta, film thickness).
+"""Bakers of the thin-film colour LUT over (cos theta, film thickness) (registry :data:`BAKE_METHODS`).
 
-Methods (registry :data:`BAKE_METHODS`, names validated like colour-science's ``*_METHODS``):
+``"spectral"``: :func:`rockdove.optics.reflectance` on a uniform wavelength grid (``spectral_step_nm``) for every
+texel, then ``R @ W`` with the colour weights: the baseline, for any film (absorbing, total internal reflection).
+``"spectral_fast"``: the same sampling for real interface coefficients, with the Fresnel coefficients computed
+once per (angle, wavelength) and only the phase per texel (the real Airy form, Born & Wolf 7.6.1), and finer
+steps in the resonant band ``cos theta < grazing_cos``. ``"fourier"``: the exact Fourier route of method.md
+(:mod:`.fourier`) for non-dispersive real films; texels whose series would need more than ``max_terms`` terms
+and the bare interface (d = 0) are integrated like the reference. ``"quadrature"``: product integration in
+wavenumber (:mod:`.quadrature`), exact for any film with real interface coefficients, dispersive or not.
+``"auto"``: ``"fourier"`` where it applies, else ``"quadrature"`` (dispersive films such as keratin: faster than
+``"spectral_fast"`` and exact, ``rockdove bench lut``), else ``"spectral"``.
 
-``"spectral"``
-    The straightforward baseline: :func:`rockdove.optics.reflectance` on a uniform wavelength grid
-    (``spectral_step_nm``, default 1 nm) for every texel, then ``R @ W`` with the colour weights of
-    :func:`rockdove.spectral.spectral_weights`. Works for any film (absorbing, total internal reflection).
-``"spectral_fast"``
-    The same sampling for films with real interface coefficients, but the Fresnel coefficients are computed once
-    per (angle, wavelength) and only the phase per texel (real arithmetic Airy form, Born & Wolf 7.6.1), with a
-    finer step ``grazing_step_nm`` in the angle columns with ``cos theta < grazing_cos`` where the film is a
-    high-finesse resonator (and the reference's 0.1 nm below ``cos theta = 0.005``). Was ``"auto"``'s choice for
-    dispersive films before ``"quadrature"``.
-``"fourier"``
-    The exact Fourier route of method.md (:mod:`.fourier`): ``c0 W0 + 2 sum c_m G(m OPD)`` with the
-    closed-form Poisson-kernel coefficients per polarisation and terms dropped below ``fourier_tol``;
-    texels whose series would need more than ``max_terms`` terms (thickness -> 0 at grazing) and texels of zero
-    thickness (the bare interface) are computed like the reference (Airy spectrum at 0.1 nm), and
-    ``cos theta = 0`` takes the limit R = 1. Exact only for a
-    non-dispersive, non-absorbing film without total internal reflection; refused otherwise.
-``"quadrature"``
-    Exact for any film with real interface coefficients, dispersive or not (:mod:`.quadrature`): product
-    integration in wavenumber. The Airy reflectance (analytic in ``sigma = 1 / lambda`` even with Cauchy
-    dispersion) is interpolated on mapped Chebyshev points, and the colour weights are integrated against the
-    interpolating polynomials once per node count, so the continuous spectrum is integrated with 30-60 nodes per
-    texel instead of hundreds of samples; near grazing incidence the truncated Poisson series of ``"fourier"``
-    is interpolated instead of the resonant Airy function, and the columns with ``cos theta >= 0.02`` are
-    interpolated in angle from exact colours at a few Chebyshev angles. Absorbing films and total internal
-    reflection are refused.
-``"auto"``
-    ``"fourier"`` when the film allows it, else ``"quadrature"`` for real interface coefficients (dispersive
-    films such as keratin; faster than ``"spectral_fast"`` and exact, measured by ``rockdove bench lut``),
-    else ``"spectral"``.
-
-Unpolarised light is the mean of the s and p reflectances. The optical path difference of the film is
-``OPD = 2 n_b d cos(theta_b)`` (nm), ``phi = 2 pi OPD / lambda``.
-
-References: Born, M. & Wolf, E., *Principles of Optics*, 7th ed., sec. 7.6.1 (Airy formula); method.md
-(the Fourier form and its coefficients); the table layout is fixed by :mod:`.table`.
+Unpolarised light is the mean of the s and p reflectances; ``OPD = 2 n_b d cos(theta_b)`` (nm), ``phi = 2 pi
+OPD / lambda``. References: Born, M. & Wolf, E., *Principles of Optics*, 7th ed., sec. 7.6.1 (Airy formula);
+method.md (the Fourier form); the table layout is :mod:`.table`'s.
 """
 
 from __future__ import annotations
@@ -54,38 +30,30 @@ from .table import ThinFilmLUT
 DEFAULT_ANGLES = 256
 DEFAULT_THICKNESSES = 64
 DEFAULT_THICKNESS_RANGE_NM = (480.0, 700.0)  # Yoshioka et al. 2007: 480-580 nm at the base, 600-700 at the tip
-# Chosen with ``rockdove bench lut`` (benchmarks/README.md): at 256 angles every gamma in 1-3 meets the goal
-# with the same error (max dE2000 ~0.05, set by the thickness axis' 3.5 nm spacing; in the grazing band the
-# error is ~0.05-0.1 for all of them, at the level of the 0.1 nm reference's own sampling error), while
-# gamma > 1 puts more texels where the Fourier series needs 10-50 terms and keratin needs 0.25 nm sampling, so
-# it only costs time: gamma = 1 is the fastest setting that meets the goal. Smaller tables may want gamma > 1.
+# ``rockdove bench lut`` (benchmarks/README.md): at 256 angles every gamma in 1-3 errs the same (max dE2000 ~0.05,
+# set by the thickness axis' 3.5 nm spacing), and gamma > 1 only costs time (more texels where the series is long).
 DEFAULT_ANGLE_WARP_GAMMA = 1.0
-# Terms dropped below 1e-4 (absolute, linear colour units, white = 1): 9.3 terms per texel on average and a
-# texel error of 8e-4 dE2000 at most on the default grid (1e-3: 6.2 terms, 0.02; 1e-5: 13.9 terms, 2e-4).
-# The LUT's error is set by interpolation between texels (~0.05), so smaller tolerances only cost time.
+# Terms dropped below 1e-4 (linear colour, white = 1): 9.3 terms per texel and a texel error <= 8e-4 dE2000 on the
+# default grid (1e-3: 6.2 terms, 0.02; 1e-5: 13.9, 2e-4), under the LUT's interpolation error (~0.05).
 DEFAULT_FOURIER_TOL = 1e-4
 DEFAULT_MAX_TERMS = 512
 DEFAULT_SPECTRAL_STEP_NM = 1.0
-# spectral_fast for dispersive films: step outside / inside the grazing band cos theta < DEFAULT_GRAZING_COS.
-# Measured on the default keratin LUT (bench): 2 / 0.25 nm gives the same error as 1 / 0.1 nm (max 0.047,
-# p99 0.037) in half the time; 1 nm in the grazing band errs p99 0.10 there (the resonances are ~1 nm wide).
+# spectral_fast: step outside / inside cos theta < DEFAULT_GRAZING_COS. On the default keratin LUT 2 / 0.25 nm errs
+# as 1 / 0.1 nm (max 0.047, p99 0.037) in half the time; 1 nm in the band errs p99 0.10 (~1 nm wide resonances).
 DEFAULT_FAST_STEP_NM = 2.0
 DEFAULT_GRAZING_STEP_NM = 0.25
 DEFAULT_GRAZING_COS = 0.05
-# Below this the resonances are narrower than 0.25 nm (dE2000 0.2 at cos theta ~ 1e-3 with 0.25 nm sampling):
-# spectral_fast samples those columns at the reference's 0.1 nm step. The default LUT has 2 such columns.
+# Below this the resonances are narrower than 0.25 nm (dE2000 0.2 at cos theta ~ 1e-3): sampled at 0.1 nm.
 EXTREME_GRAZING_COS = 0.005
-# The observer and wavelength range of the colour tables the bakers integrate with (rockdove.spectral).
 OBSERVER = DEFAULT_OBSERVER
 
 # Memory bound for the sampled methods: (texels x wavelengths) evaluated per chunk.
 _CHUNK_ELEMENTS = 2_000_000
-# The largest LUT (the schema's lut.angles / lut.thicknesses ranges): a 4096 x 4096 bake, its error check, EXR
-# and preview stay within the 4 GiB memory budget (``rockdove bench memory``) and every GPU's texture limit.
+# The largest LUT (the schema's ranges): a 4096 x 4096 bake, its error check, EXR and preview stay within the 4 GiB
+# budget (``rockdove bench memory``) and every GPU's texture limit.
 MAX_ANGLES = MAX_THICKNESSES = 4096
 
 
-# -- helpers ------------------------------------------------------------------------------------------
 def _check_count(name, value, minimum, maximum=None):
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not (
             minimum <= value <= (maximum if maximum is not None else value)):
@@ -122,15 +90,13 @@ def wavelength_grid(step_nm: float) -> np.ndarray:
 
 
 def _texel_chunks(n_angle, n_wavelength):
-    rows = max(1, _CHUNK_ELEMENTS // max(1, n_angle * n_wavelength))
-    return rows
+    return max(1, _CHUNK_ELEMENTS // max(1, n_angle * n_wavelength))
 
 
-# -- methods ------------------------------------------------------------------------------------------
 def _bake_spectral(cos_theta, thickness_nm, film, *, illuminant, colour_space, spectral_step_nm, **_):
     """Straightforward per-wavelength bake with :func:`rockdove.optics.reflectance`; shape (M, N, 3)."""
     from .. import optics
-    from .reference import colour_weights
+    from .weights import colour_weights
 
     wl = wavelength_grid(spectral_step_nm)
     w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
@@ -148,29 +114,14 @@ def _bake_spectral(cos_theta, thickness_nm, film, *, illuminant, colour_space, s
 
 
 def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
-    """Colour by wavelength sampling, real-coefficient Airy form, for a grid of texels.
-
-    Parameters
-    ----------
-    cos_theta : ndarray, shape (A,)
-    thickness_nm : ndarray, shape (T,)
-    film : FilmModel (real coefficients, see :func:`interface_coefficients`)
-    wavelength_nm : ndarray, shape (L,)
-    weights : ndarray, shape (L, 3)
-        ``R @ weights`` is the colour.
-
-    Returns
-    -------
-    ndarray, shape (T, A, 3), float64
-    """
+    """Colour (T, A, 3) of the texels ``thickness_nm`` (T,) x ``cos_theta`` (A,) of a film with real coefficients,
+    ``R @ weights`` with the spectrum sampled at ``wavelength_nm`` (L,) in the real Airy form."""
     coef = interface_coefficients(film, cos_theta, wavelength_nm)
     if coef is None:
         raise ValueError(f"film {film.name!r} has complex interface coefficients; use method='spectral'")
-    # Airy form in half-angle variables, stable near grazing where a b -> -1 (p = a b, s2 = sin^2(phi / 2)):
-    #   R = ((a + b)^2 - 4 p s2) / ((1 + p)^2 - 4 p s2)
-    # For p <= 0 (e.g. a film in air, b = -a) both terms of the denominator are >= 0, so float32 is safe and
-    # halves memory traffic (phase rounding ~2e-6 rad at 700 nm, R ~1e-7: far below 1e-3 dE2000); otherwise
-    # float64. phi / 2 = 2 pi n_b cos_b d / lambda.
+    # Airy form in half-angle variables, stable near grazing (p = a b, s2 = sin^2(phi / 2), phi / 2 = 2 pi n_b
+    # cos_b d / lambda): R = ((a + b)^2 - 4 p s2) / ((1 + p)^2 - 4 p s2). For p <= 0 (a film in air) the
+    # denominator has no cancellation, so float32 (phase rounding ~2e-6 rad, R ~1e-7) halves memory traffic.
     products = [coef[f"a_{pol}"] * coef[f"b_{pol}"] for pol in ("s", "p")]
     dtype = np.float32 if max(float(p.max()) for p in products) <= 0.0 else np.float64
     half_k = (2.0 * np.pi * coef["n_b"] * coef["cos_b"] / wavelength_nm[None, :]).astype(dtype)
@@ -180,7 +131,7 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
         a, b = coef[f"a_{pol}"], coef[f"b_{pol}"]
         terms.append(tuple(v.astype(dtype) for v in ((a + b) ** 2, -4.0 * p, (1.0 + p) ** 2)))
         degenerate |= (1.0 + p) ** 2 == 0.0  # a b = -1 (cos theta = 0): R = 1 for any film with d > 0
-    fix_cols = np.nonzero(degenerate.any(axis=1))[0]
+    any_degenerate = bool(degenerate.any())
     w = np.asarray(weights, dtype=dtype)
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
     rows = _texel_chunks(cos_theta.shape[0], wavelength_nm.shape[0])
@@ -195,10 +146,8 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
                 x += den0
                 x_num /= x
                 r += x_num
-        if fix_cols.size:
-            sub = r[:, fix_cols]
-            sub[np.broadcast_to(degenerate[fix_cols][None], sub.shape)] = 2.0
-            r[:, fix_cols] = sub
+        if any_degenerate:
+            r[:, degenerate] = 2.0  # R = 1 for both polarisations
         out[i : i + rows] = (r @ w) * 0.5
     bare = thickness_nm == 0.0
     if np.any(bare):
@@ -213,7 +162,7 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
 
 def _bake_spectral_fast(cos_theta, thickness_nm, film, *, illuminant, colour_space, fast_step_nm,
                         grazing_step_nm, grazing_cos, **_):
-    from .reference import REFERENCE_STEP_NM, colour_weights
+    from .weights import REFERENCE_STEP_NM, colour_weights
 
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
     graze = cos_theta < grazing_cos
@@ -237,10 +186,9 @@ def _bake_spectral_fast(cos_theta, thickness_nm, film, *, illuminant, colour_spa
 
 def fourier_supported(film) -> bool:
     """True when the exact Fourier form applies: non-dispersive, non-absorbing, real coefficients (no TIR)."""
-    if film.is_dispersive or film.k != 0 or isinstance(film.n_substrate, complex):
-        return False
-    n_b = float(np.real(film.n_film(550.0)))
-    return film.n_incident <= min(n_b, float(film.n_substrate))
+    from .reference import real_film
+
+    return not film.is_dispersive and real_film(film)
 
 
 def _bake_fourier(cos_theta, thickness_nm, film, *, illuminant, colour_space, fourier_tol, max_terms, **_):
@@ -291,8 +239,9 @@ def _bake_quadrature(cos_theta, thickness_nm, film, *, illuminant, colour_space,
 def _bake_auto(cos_theta, thickness_nm, film, **kw):
     if fourier_supported(film):
         return "fourier", _bake_fourier(cos_theta, thickness_nm, film, **kw)
-    if interface_coefficients(film, cos_theta, np.array([WAVELENGTH_RANGE_NM[0], WAVELENGTH_RANGE_NM[1]])) is not None:
-        # dispersive film with real coefficients: product integration beats sampling (rockdove bench lut)
+    from .quadrature import real_coefficients
+
+    if real_coefficients(film, cos_theta):  # dispersive: product integration beats sampling (rockdove bench lut)
         return "quadrature", _bake_quadrature(cos_theta, thickness_nm, film, **kw)
     # absorbing film or substrate, or total internal reflection: the general path (accuracy not benchmarked)
     return "spectral", _bake_spectral(cos_theta, thickness_nm, film, **kw)
@@ -327,44 +276,19 @@ def bake(
     error_points: int = 0,
     error_seed: int = 0,
 ) -> ThinFilmLUT:
-    """Bake structural colour over (cos theta, thickness) into a :class:`ThinFilmLUT`.
+    """Bake structural colour over (cos theta, thickness) into a :class:`ThinFilmLUT` (rgb (n_thickness, angles, 3)
+    float32; the metadata record the film, illuminant, observer, colour space, method and its parameters).
 
-    Parameters
-    ----------
-    angles : int >= 2
-        Angle texels; nodes ``cos_theta_j = (j / (angles - 1)) ** angle_warp_gamma``.
-    thicknesses : int >= 1
-        Thickness texels, uniform over ``thickness_range``. ``1`` (or ``lo == hi``) gives a one-texel-high
-        LUT (the paper's 1-D texture) at the mid-point of the range.
-    thickness_range : (float, float)
-        ``(lo, hi)`` film thickness in nm, ``0 <= lo <= hi``.
-    film : str or FilmModel
-        ``"paper"`` (n = 1.5, the default), ``"keratin"`` (dispersive) or any :class:`rockdove.films.FilmModel`.
-    method : str
-        One of :data:`BAKE_METHODS`.
-    angle_warp_gamma : float > 0
-        Warp of the angle axis (``> 1`` puts texels near grazing).
-    colour_space, illuminant : str
-        Working colour space of the table (``lin_rec709`` or ``acescg``) and illuminant (``D65``).
-    spectral_step_nm : float
-        Wavelength step of ``"spectral"``.
-    fast_step_nm, grazing_step_nm, grazing_cos : float
-        Steps of ``"spectral_fast"`` outside / inside the grazing band ``cos theta < grazing_cos``.
-    fourier_tol : float
-        Remainder bound below which Fourier terms are dropped (linear colour units).
-    max_terms : int
-        Texels whose series needs more terms are sampled at 0.1 nm instead.
-    error_points : int
-        If > 0, measure the LUT against the exact reference at this many random points (grazing included) and
-        record max / p99 / median dE2000 in the metadata (:func:`rockdove.lut.reference.lut_error`).
-    error_seed : int
-        Seed of those points.
-
-    Returns
-    -------
-    ThinFilmLUT
-        ``rgb`` shape (n_thickness, angles, 3) float32; metadata records the film, illuminant, observer,
-        colour space, method and its parameters (and the measured error when asked).
+    ``angles >= 2`` nodes ``cos_theta_j = (j / (angles - 1)) ** angle_warp_gamma`` (``gamma > 1`` puts texels near
+    grazing); ``thicknesses >= 1`` nodes uniform over ``thickness_range = (lo, hi)`` nm, ``0 <= lo <= hi`` (1, or
+    ``lo == hi``, gives the paper's one-texel-high LUT at the mid-point). ``film``: ``"paper"`` (n = 1.5),
+    ``"keratin"`` (dispersive) or any :class:`rockdove.films.FilmModel`; ``method`` one of :data:`BAKE_METHODS`;
+    ``colour_space`` ``lin_rec709`` or ``acescg``. Method parameters: ``spectral_step_nm`` (``"spectral"``);
+    ``fast_step_nm`` / ``grazing_step_nm`` outside / inside ``cos theta < grazing_cos`` (``"spectral_fast"``);
+    ``fourier_tol`` (linear colour) below which Fourier terms are dropped, and ``max_terms``, beyond which a
+    texel is integrated at 0.1 nm instead (``"fourier"``). ``error_points > 0`` measures the LUT against the exact
+    reference at that many random points (seed ``error_seed``; :func:`rockdove.lut.reference.lut_error`) and
+    records max / p99 / median dE2000 in the metadata.
     """
     angles = _check_count("angles", angles, 2, MAX_ANGLES)
     thicknesses = _check_count("thicknesses", thicknesses, 1, MAX_THICKNESSES)
@@ -373,7 +297,7 @@ def bake(
     if not isinstance(method, str) or method not in BAKE_METHODS:
         raise ValueError(f"method must be one of {sorted(BAKE_METHODS)}, got {method!r}")
     gamma = _check_positive("angle_warp_gamma", angle_warp_gamma)
-    from .reference import check_illuminant
+    from .weights import check_illuminant
 
     colour_space = check_colour_space(colour_space)
     illuminant = check_illuminant(illuminant)

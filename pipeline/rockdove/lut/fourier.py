@@ -1,38 +1,31 @@
 """Exact Fourier integration of thin-film colour (method.md, "Exact Fourier integration").
 
 For a film with *real* interface amplitude coefficients ``a = r_ab`` and ``b = r_bc`` (non-absorbing, no total
-internal reflection) the Airy reflectance is a function of the phase ``phi = 2 pi OPD / lambda`` alone,
-``OPD = 2 n_b d cos(theta_b)`` (nm), and has a closed-form Fourier series (a Poisson kernel; Born & Wolf,
-*Principles of Optics*, 7th ed., sec. 7.6.1 for the Airy form; the series is the geometric sum of the
-multiple reflections):
+internal reflection) the Airy reflectance (Born & Wolf, *Principles of Optics*, 7th ed., sec. 7.6.1) is a
+function of the phase ``phi = 2 pi OPD / lambda`` alone, ``OPD = 2 n_b d cos(theta_b)`` (nm), with a closed-form
+Fourier series (a Poisson kernel: the geometric sum of the multiple reflections):
 
     R(phi) = (a^2 + b^2 + 2ab cos phi) / (1 + a^2 b^2 + 2ab cos phi)
            = c_0 + 2 sum_{m>=1} c_m cos(m phi),
     c_0 = (a^2 + b^2 - 2 a^2 b^2) / (1 - a^2 b^2),
     c_m = c_1 rho^(m-1),  c_1 = a b (1 - a^2)(1 - b^2) / (1 - a^2 b^2),  rho = -a b.
 
-A linear colour (XYZ or working RGB) is ``C = integral R(lambda) w(lambda) dlambda`` with ``w`` the per-nm
-colour weights (colour-matching functions times illuminant, normalised so a perfect reflector has Y = 1,
-then the XYZ -> RGB matrix). Hence
+A linear colour is ``C = integral R(lambda) w(lambda) dlambda`` with ``w`` the per-nm colour weights. Hence
 
     C = c_0 W_0 + 2 sum_m c_m G(m OPD),   G(x) = integral w(lambda) cos(2 pi x / lambda) dlambda,  W_0 = G(0),
 
-and ``G`` is one table per observer / illuminant / colour space. It is computed here by one real FFT in
-wavenumber ``sigma = 1 / lambda``: ``G(x) = integral w(1/sigma) sigma^-2 cos(2 pi x sigma) dsigma`` sampled on a
-uniform ``sigma`` grid (the per-nm weights are those of the 0.1 nm reference grid of :mod:`.reference`), and
-looked up by linear interpolation on a fine ``x`` grid (0.5 nm: relative interpolation error
-``h^2 / 8 * (2 pi / 360 nm)^2 < 1e-5``).
+one table ``G`` per observer / illuminant / colour space, by one real FFT in ``sigma = 1 / lambda`` (``G(x) =
+integral w(1/sigma) sigma^-2 cos(2 pi x sigma) dsigma`` on a uniform ``sigma`` grid, from the 0.1 nm reference
+weights), looked up linearly on a 0.5 nm ``x`` grid (relative error ``h^2 / 8 * (2 pi / 360 nm)^2 < 1e-5``).
 
 Truncation (:func:`n_terms_needed`). The series stops at the smaller of two counts: the strict geometric
 remainder ``2 |c_1| |rho|^M max|G| / (1 - |rho|) < tol`` (what matters for thin films, whose OPD is too small
 for G to decay over the terms), and the first term whose bound ``2 |c_1| max_{x >= (M+1) OPD} |G(x)|`` is
 below ``tol``. Beyond the latter the terms are small and ``G(m OPD)`` oscillates in sign with ``m``, so their
-sum is smaller still; ``rockdove bench lut`` and the tests measure the result against the 0.1 nm reference
-(texel error 8e-4 dE2000 at tol 1e-4 on the default grid). A strict remainder bound on the decay side would
-cost 3-7x more terms for no measurable gain, because ``|G(x)|`` decays slowly (5e-3 of the white at 20 um,
-1e-4 at 100 um: D65's fine structure). Near grazing incidence ``|rho| -> 1`` and the geometric factor no
-longer helps; then ``|G|`` dying out bounds the number of terms by about ``x_dead / OPD``. At
-``cos theta = 0`` exactly ``a^2 b^2 = 1`` and the formula is 0/0; the limit is ``R = 1`` (``c_0 = 1, c_m = 0``).
+sum is smaller still (measured against the 0.1 nm reference by ``rockdove bench lut`` and the tests: texel error
+8e-4 dE2000 at tol 1e-4 on the default grid; a strict bound would cost 3-7x more terms, as ``|G|`` decays slowly:
+5e-3 of the white at 20 um, 1e-4 at 100 um). Near grazing ``|rho| -> 1`` and only the decay of ``|G|`` bounds the
+count. At ``cos theta = 0`` ``a^2 b^2 = 1`` and the formula is 0/0: the limit is ``R = 1`` (``c_0 = 1, c_m = 0``).
 """
 
 from __future__ import annotations
@@ -50,40 +43,22 @@ G_TABLE_FFT_SIZE = 2**20
 
 @dataclass(frozen=True, eq=False)
 class GTable:
-    """Tabulated ``G(x)`` for one observer / illuminant / colour space.
+    """Tabulated ``G(x_k)``, ``x_k = k step_nm`` (nm), for one observer / illuminant / colour space.
 
-    Attributes
-    ----------
-    step_nm : float
-        Spacing ``h`` of the x grid, nm; ``x_k = k h``.
-    g : ndarray, shape (n_x, 3), float64
-        ``G(x_k)`` per colour channel (linear colour units; a perfect reflector integrates to ``W_0``).
-    g_tail : ndarray, shape (n_x,), float64
-        ``max_{k' >= k} max_channel |G(x_k')|``: non-increasing envelope used by the truncation rule.
+    ``g``: (n_x, 3) float64, linear colour units (a perfect reflector integrates to ``w0 = G(0)``); ``g_tail``:
+    (n_x,) ``max_{k' >= k} max_channel |G(x_k')|``, the non-increasing envelope of the truncation rule.
     """
 
     step_nm: float
     g: np.ndarray
     g_tail: np.ndarray
 
-    @property
-    def g_padded(self) -> np.ndarray:
-        """``g`` with two zero rows appended (shape (n_x + 2, 3)): lookups beyond the end read 0."""
-        p = self.__dict__.get("_g_padded")
-        if p is None:
-            p = np.vstack([self.g, np.zeros((2, 3))])
-            p.setflags(write=False)
-            object.__setattr__(self, "_g_padded", p)
-        return p
-
-    @property
+    @functools.cached_property
     def g_padded32(self) -> np.ndarray:
-        """:attr:`g_padded` in float32 (relative rounding 6e-8), for the bandwidth-bound term sums."""
-        p = self.__dict__.get("_g_padded32")
-        if p is None:
-            p = self.g_padded.astype(np.float32)
-            p.setflags(write=False)
-            object.__setattr__(self, "_g_padded32", p)
+        """``g`` in float32 (relative rounding 6e-8, for the bandwidth-bound term sums) with two zero rows
+        appended (shape (n_x + 2, 3)): lookups beyond the end read 0."""
+        p = np.vstack([self.g, np.zeros((2, 3))]).astype(np.float32)
+        p.setflags(write=False)
         return p
 
     @property
@@ -93,8 +68,7 @@ class GTable:
 
     def __call__(self, x_nm) -> np.ndarray:
         """``G(x)`` by linear interpolation, shape ``x.shape + (3,)``; 0 beyond the table's end."""
-        x = np.asarray(x_nm, dtype=np.float64)
-        f = x / self.step_nm
+        f = np.asarray(x_nm, dtype=np.float64) / self.step_nm
         k = np.floor(f).astype(np.intp)
         inside = k < self.g.shape[0] - 1
         k = np.where(inside, k, 0)
@@ -102,32 +76,26 @@ class GTable:
         out = self.g[k] * (1.0 - t) + self.g[k + 1] * t
         return np.where(inside[..., None], out, 0.0)
 
+    @functools.cached_property
+    def _neg_tail(self) -> np.ndarray:
+        return -self.g_tail  # increasing, for searchsorted
+
     def first_x_below(self, level) -> np.ndarray:
         """Smallest grid ``x`` (nm) from which ``|G| <= level`` for good, broadcast over ``level``."""
-        lev = np.asarray(level, dtype=np.float64)
-        neg_tail = self.__dict__.get("_neg_tail")
-        if neg_tail is None:  # increasing, for searchsorted; cached (the table is immutable)
-            neg_tail = -self.g_tail
-            object.__setattr__(self, "_neg_tail", neg_tail)
-        k = np.searchsorted(neg_tail, -lev, side="left")
+        k = np.searchsorted(self._neg_tail, -np.asarray(level, dtype=np.float64), side="left")
         return k * self.step_nm
 
 
-def g_table_from_density(wavelength_nm, density, *, step_nm=G_TABLE_STEP_NM, fft_size=G_TABLE_FFT_SIZE) -> GTable:
-    """Build the ``G`` table from per-nm colour weights by one real FFT in wavenumber.
+@functools.lru_cache(maxsize=8)
+def g_table(illuminant: str = "D65", colour_space: str | None = "lin_rec709", step_nm: float = G_TABLE_STEP_NM,
+            fft_size: int = G_TABLE_FFT_SIZE) -> GTable:
+    """The ``G`` table of one illuminant and colour space by one real FFT in wavenumber (module docstring), from
+    the 0.1 nm reference weights per nm, linearly interpolated and zero outside; ``Delta sigma = 1 / (fft_size
+    step_nm)``. Cached per process; arrays read-only."""
+    from .weights import REFERENCE_STEP_NM, colour_weights, reference_wavelengths
 
-    Parameters
-    ----------
-    wavelength_nm : ndarray, shape (N,)
-        Increasing wavelengths, nm, finely spaced (the 0.1 nm reference grid).
-    density : ndarray, shape (N, 3)
-        Colour weights per nm at those wavelengths (``weights / step``), linearly interpolated in between and
-        zero outside.
-    step_nm, fft_size : float, int
-        x spacing of the table and FFT length (``Delta sigma = 1 / (fft_size * step_nm)``).
-    """
-    wl = np.asarray(wavelength_nm, dtype=np.float64)
-    dens = np.asarray(density, dtype=np.float64)
+    wl = reference_wavelengths()
+    dens = colour_weights(wl, illuminant=illuminant, colour_space=colour_space) / REFERENCE_STEP_NM
     d_sigma = 1.0 / (fft_size * step_nm)
     k_lo = int(np.ceil(1.0 / wl[-1] / d_sigma))
     k_hi = int(np.floor(1.0 / wl[0] / d_sigma))
@@ -136,39 +104,17 @@ def g_table_from_density(wavelength_nm, density, *, step_nm=G_TABLE_STEP_NM, fft
     f = np.zeros((fft_size, 3))
     for c in range(3):
         f[k_lo : k_hi + 1, c] = np.interp(lam, wl, dens[:, c]) * sigma**-2 * d_sigma
-    g = np.fft.rfft(f, axis=0).real  # G(x_j) = sum_k f_k cos(2 pi j k / N), x_j = j h
-    g = np.ascontiguousarray(g)
-    mag = np.abs(g).max(axis=1)
-    tail = np.maximum.accumulate(mag[::-1])[::-1].copy()
+    g = np.ascontiguousarray(np.fft.rfft(f, axis=0).real)  # G(x_j) = sum_k f_k cos(2 pi j k / N), x_j = j h
+    tail = np.maximum.accumulate(np.abs(g).max(axis=1)[::-1])[::-1].copy()
     g.setflags(write=False)
     tail.setflags(write=False)
     return GTable(step_nm=float(step_nm), g=g, g_tail=tail)
 
 
-@functools.lru_cache(maxsize=8)
-def g_table(illuminant: str = "D65", colour_space: str | None = "lin_rec709") -> GTable:
-    """The ``G`` table of one illuminant and colour space (cached per process; arrays read-only)."""
-    from .reference import REFERENCE_STEP_NM, colour_weights, reference_wavelengths
-
-    wl = reference_wavelengths()
-    w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
-    return g_table_from_density(wl, w / REFERENCE_STEP_NM)
-
-
 def airy_fourier_coefficients(a, b):
-    """Fourier coefficients of the Airy reflectance for real interface coefficients.
-
-    Parameters
-    ----------
-    a, b : array_like, real, |a|, |b| <= 1
-        Amplitude reflection coefficients of the top (``r_ab``) and bottom (``r_bc``) interfaces.
-
-    Returns
-    -------
-    c0, c1, rho : ndarray
-        ``R(phi) = c0 + 2 sum_m c1 rho^(m-1) cos(m phi)``; at ``a^2 b^2 = 1`` (grazing) the limit
-        ``c0 = 1, c1 = 0``.
-    """
+    """``(c0, c1, rho)`` with ``R(phi) = c0 + 2 sum_m c1 rho^(m-1) cos(m phi)`` (module docstring) for the real
+    amplitude coefficients ``a = r_ab``, ``b = r_bc`` (|a|, |b| <= 1); at ``a^2 b^2 = 1`` (grazing) the limit
+    ``c0 = 1, c1 = 0``."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
     a2, b2 = a * a, b * b
@@ -181,32 +127,16 @@ def airy_fourier_coefficients(a, b):
 
 
 def n_terms_needed(c1, rho, opd_nm, table: GTable, tol: float) -> np.ndarray:
-    """Number of terms ``M``: the smaller of two counts, either of which makes the dropped terms small.
-
-    - geometric: the strict remainder bound ``2|c1||rho|^M max|G| / (1-|rho|) < tol``;
-    - decay of G: the first dropped term's bound ``2|c1| max_{x>=(M+1)OPD}|G| < tol`` (with ``|rho|^M <= 1``);
-      beyond it the terms are small and oscillate in sign, so their sum is smaller still (measured).
-
-    Parameters
-    ----------
-    c1, rho : ndarray, broadcastable with ``opd_nm`` (e.g. one per angle column, shape (A,))
-    opd_nm : ndarray, e.g. shape (T, A)
-    table : GTable
-    tol : float
-        Absolute tolerance in linear colour units (white = 1).
-
-    Returns
-    -------
-    ndarray of int64, the broadcast shape; a huge value where the series does not terminate (OPD -> 0 with |rho| -> 1).
-    """
+    """Number of terms ``M`` (int64, the broadcast shape of ``c1, rho`` with ``opd_nm``): the smaller of the
+    geometric and the G-decay counts of the module docstring, for ``tol`` in linear colour units (white = 1); a
+    huge value where the series does not terminate (OPD -> 0 with |rho| -> 1)."""
     c1 = np.abs(np.asarray(c1, dtype=np.float64))
     r = np.abs(np.asarray(rho, dtype=np.float64))
     opd = np.asarray(opd_nm, dtype=np.float64)
     g_max = float(table.g_tail[0])
     with np.errstate(divide="ignore", invalid="ignore"):
         scale = 2.0 * c1
-        # geometric factor alone, as a strict remainder bound (G bounded by its maximum): this is the count
-        # that applies when OPD is too small for G to decay over the terms (thin films)
+        # the geometric remainder bound (G bounded by its maximum): the count for thin films
         ratio = tol * (1.0 - r) / (scale * g_max)
         m_geom = np.where(
             ratio >= 1.0, 0.0, np.where(r > 0.0, np.ceil(np.log(ratio) / np.log(r)), 1.0)
@@ -220,26 +150,12 @@ def n_terms_needed(c1, rho, opd_nm, table: GTable, tol: float) -> np.ndarray:
 
 
 def fourier_colour_grid(c0, c1, rho, opd_nm, n_terms, table: GTable) -> np.ndarray:
-    """Linear colour ``c0 W0 + 2 sum_{m=1..M} c_m G(m OPD)`` of a (thickness x angle) grid, mean over polarisations.
+    """Linear colour ``c0 W0 + 2 sum_{m=1..M} c_m G(m OPD)``, (T, A, 3), mean over the P polarisations.
 
-    The coefficients depend on the angle only, so each angle column gets the largest term count of its texels
-    (extra terms only add accuracy), so the coefficient of term m is shared by a column
-    (``(2/P) sum_p c1_p rho_p^(m-1)``, tabulated once per column) and columns with similar counts are
-    processed as dense (thickness x columns x terms) blocks: no per-term index arithmetic.
-
-    Parameters
-    ----------
-    c0, c1, rho : ndarray, shape (A, P)
-        Per angle column and polarisation (P = 2 for unpolarised light).
-    opd_nm : ndarray, shape (T, A)
-        Optical path difference, nm.
-    n_terms : ndarray of int, shape (T, A)
-        Terms needed per texel (:func:`n_terms_needed`; 0 where the caller computes the texel otherwise).
-    table : GTable
-
-    Returns
-    -------
-    ndarray, shape (T, A, 3), float64
+    ``c0, c1, rho``: (A, P) per angle column; ``opd_nm``: (T, A) nm; ``n_terms``: (T, A) (:func:`n_terms_needed`;
+    0 where the caller computes the texel otherwise). Each column takes the largest count of its texels (extra
+    terms only add accuracy), so the coefficient of term m, ``(2/P) sum_p c1_p rho_p^(m-1)``, is tabulated once
+    per column, and columns with similar counts are summed as dense (thickness x columns x terms) blocks.
     """
     import scipy.sparse
 
@@ -273,7 +189,7 @@ def fourier_colour_grid(c0, c1, rho, opd_nm, n_terms, table: GTable) -> np.ndarr
         f = opd[:, cols, None] * ((m1[:mb] + 1.0) / table.step_nm)[None, None, :]  # (T, Ab, Mb)
         k = f.astype(np.int32)
         frac = f - k
-        np.minimum(k, n_x, out=k)  # beyond the table: the zero rows of g_padded
+        np.minimum(k, n_x, out=k)  # beyond the table: the zero rows of g_padded32
         cb = np.broadcast_to(coef[cols, :mb][None], f.shape)
         data = np.empty(f.shape + (2,), np.float32)  # float32 halves memory traffic; G is ~1, tol >= 1e-6
         data[..., 1] = cb * frac

@@ -1,140 +1,61 @@
 """The exact reference colour of a thin film, and the error of a LUT against it, as users see it.
 
-Reference (issue 2, "Accuracy"): the Airy spectrum (:func:`rockdove.optics.reflectance`, unpolarised; Born and
-Wolf, Principles of Optics, 7th ed., section 7.6.1, eq. 58) sampled on a uniform wavelength grid over
-:data:`rockdove.spectral.WAVELENGTH_RANGE_NM` (360-780 nm), integrated with the colour weights of
-:func:`rockdove.spectral.spectral_weights` (CIE 1931 2 deg observer and the illuminant from colour-science,
-linearly interpolated, trapezoid weights normalised so a perfect reflector has Y = 1, then the working colour
-space's XYZ -> RGB matrix). The LUT is compared in CIELAB with the illuminant's white at Y = 1, by CIEDE2000
-(Sharma, Wu & Dalal 2005, via colour-science). :func:`reference_colour` is the one definition of "the exact
-colour of a film at (cos theta, thickness)" in this project: the LUT error, ``rockdove bench lut``, the
-exact preview atlas and the verification's reference images (:mod:`rockdove.verify.reference_image`) all
-call it.
+Reference: the unpolarised Airy spectrum (:func:`rockdove.optics.reflectance`; Born and Wolf, Principles of
+Optics, 7th ed., sec. 7.6.1, eq. 58) on a uniform wavelength grid over 360-780 nm, integrated with the colour
+weights of :mod:`.weights`, compared in CIELAB by CIEDE2000 (Sharma, Wu & Dalal 2005). :func:`reference_colour`
+is the project's one definition of "the exact colour of a film at (cos theta, thickness)": the LUT error,
+``rockdove bench lut``, the preview atlas and the verification's images (:mod:`rockdove.verify.reference_image`).
 
-The wavelength step depends on cos theta (:data:`REFERENCE_STEPS_NM`): near grazing incidence both Fresnel
-coefficients tend to -1 and the film becomes a high-finesse resonator whose spectrum is a comb of lines a
-fraction of a nm wide. Measured (keratin film 200-900 nm, 60 random points per band, max dE2000 against a
-0.002-0.01 nm integration): 0.1 nm errs <= 3.3e-5 for cos theta >= 0.003, but 0.0061 at 0.001-0.003 and 0.014
-at 0.0005-0.001; 0.05 nm errs <= 1.8e-4 at 0.001-0.003; 0.01 nm <= 1e-7 at 0.0005-0.001. So the default steps
-are 0.1 nm (cos >= 0.003), 0.05 nm (0.001-0.003) and 0.01 nm below: every band within 2e-4 dE2000, under
-the LUT tests' tolerances (2e-3). Callers that need less (the verification's images, whose goals are dE ~ 1)
-pass coarser ``steps_nm`` for the smooth bands; the bakers' product integration uses the 0.1 nm grid
-(:func:`reference_wavelengths`, :data:`REFERENCE_STEP_NM`).
+Wavelength steps (:data:`REFERENCE_STEPS_NM`). Near grazing both Fresnel coefficients tend to -1 and the film is a
+high-finesse resonator whose spectrum is a comb of lines a fraction of a nm wide. Measured (keratin 200-900 nm, 60
+random points per band, max dE2000 against a 0.002-0.01 nm integration): 0.1 nm errs <= 3.3e-5 for cos theta >=
+0.003 but 0.0061 at 0.001-0.003 and 0.014 at 0.0005-0.001; 0.05 nm <= 1.8e-4 at 0.001-0.003; 0.01 nm <= 1e-7
+below. So the bands are 0.1 / 0.05 / 0.01 nm, each within 2e-4 dE2000, under the LUT tests' tolerance (2e-3).
 
-Steps coarser than the 0.1 nm definition grid
----------------------------------------------
-A point whose step is coarser than :data:`REFERENCE_STEP_NM` samples the spectrum on that coarser grid and
-integrates its piecewise-cubic interpolant (4-point Lagrange, :func:`product_weights`) against the 0.1 nm
-grid's colour weights: product integration (Davis and Rabinowitz, Methods of Numerical Integration, 2nd ed.,
-section 2.5). The tabulated observer and illuminant are never undersampled, only the spectrum, which is smooth
-away from grazing; and a spectrum the interpolant reproduces (any cubic, e.g. R = 1, the perfect reflector)
-integrates to exactly the 0.1 nm reference. Measured (keratin, 450-720 nm, 300 random points per band, max
-dE2000 against a 0.02 nm integration): a 4 nm cubic step errs 0.0010 at cos theta 0.12-0.2 and 0.0006 above,
-where the trapezoid rule's 2 nm step erred 0.0045; nearer grazing the fringes sharpen (4 nm: 0.011 at
-0.08-0.12, whatever the interpolant's order), so the bands there take finer steps.
+Coarser steps (``steps_nm``, as the verification images') integrate the spectrum's piecewise-cubic interpolant
+against the 0.1 nm weights (:func:`.weights.product_weights`). Measured (keratin 450-720 nm, 300 points per band,
+against 0.02 nm): 4 nm errs 0.0010 at cos theta 0.12-0.2 and 0.0006 above (the trapezoid rule's 2 nm: 0.0045), but
+0.011 at 0.08-0.12, where the fringes sharpen: those bands take finer steps. The spectrum of a thicker film
+is the same comb compressed in wavelength, so with ``calibrated_thickness_nm`` a thicker point's step is scaled
+by ``calibrated_thickness_nm / d`` and snapped down to :data:`STEP_LADDER_NM` (the images' steps, scaled from
+720 nm: <= 0.0017 dE2000 up to 5000 nm, where unscaled they erred 2.3).
 
-A band table is validated up to a film thickness: the film's round-trip phase ``4 pi n_b d cos(theta_b) /
-lambda`` advances in proportion to ``d``, so the spectrum of a thicker film is the same comb of fringes
-compressed in wavelength (for 720 nm of keratin one fringe spans 57 nm at 360 nm; for 5000 nm, 8 nm). Callers
-with coarse steps pass ``calibrated_thickness_nm``: a thicker point's step is then scaled by
-``calibrated_thickness_nm / d`` (the same phase step per sample) and snapped down to :data:`STEP_LADDER_NM`.
-Measured (keratin, 40 random points per cos theta band, max dE2000 against a 0.002-0.02 nm integration): the
-verification images' steps, unscaled, erred up to 0.20 dE2000 at 1500-2000 nm and 2.3 at 4000-5000 nm
-(thicknesses the configuration allows); scaled from 720 nm, <= 0.0017 at every thickness up to 5000 nm.
+Wavenumber interpolation (``interpolation=(cos_theta_lo, kappa, max_step_rad)``, real films only): points from
+``cos_theta_lo`` up sample the spectrum on a grid uniform in ``sigma = 1 / lambda``, where the fringes are
+uniform, and integrate its ``order``-point Lagrange interpolant (:func:`.weights.interpolant_weights`; centred
+stencils past both ends: one-sided ones erred 0.0047-0.24). The Airy reflectance is a Poisson kernel in ``phi``
+with poles at ``Im phi = +-delta``, ``delta = -ln max|r_ab r_bc|``, so one interval spans at most ``min(kappa *
+delta, max_step_rad)`` radians at the steepest (blue) end (:func:`interval_count`). Measured with the images'
+``(0.01, 0.35, 0.6)`` and 16 points (max dE2000 against 0.02-0.05 nm; keratin 450-720, 1500-2000, 4000-5000 nm
+and the paper film, 60-150 points per cos theta band): <= 0.0008 in every band (12 points: 0.0014; 24: 0.0004;
+a 0.8 rad cap: 0.0015). Below cos theta 0.01 (thousands of nodes) the points keep ``steps_nm``.
 
-Wavenumber interpolation (the verification images)
---------------------------------------------------
-For real films (:func:`real_film`) callers may pass ``interpolation=(cos_theta_lo, kappa, max_step_rad)``: points
-from ``cos_theta_lo`` up sample the spectrum on a grid uniform in wavenumber ``sigma = 1 / lambda`` (where the
-fringes are uniform: the phase ``phi = 4 pi d sigma n_b cos theta_b`` is nearly linear in ``sigma``) and integrate
-its piecewise ``order``-point Lagrange interpolant against the 0.1 nm weights (:func:`interpolant_weights`; the grid
-runs ``order / 2 - 1`` nodes past both ends of the spectrum so every stencil is centred: one-sided end stencils,
-where the weights are small but not nil, erred 0.0047 dE2000 with 16 points and 0.24 with 24 at a 0.8 rad cap).
-The grid's phase step follows the film: the Airy reflectance is a Poisson kernel in ``phi`` with poles at
-``Im phi = +-delta``, ``delta = -ln max|r_ab r_bc|`` (its harmonics decay like ``e^{-m delta}``), so one interval
-spans at most ``min(kappa * delta, max_step_rad)`` radians at the steepest (blue) end (:func:`interval_count`): few
-nodes at normal incidence, more towards grazing, and thicker films scale themselves. Measured (max dE2000 by
-:func:`delta_E`, unclipped, against a 0.02 nm integration (0.05 nm from cos theta 0.12); random points per cos theta
-band, 150 at 450-720 nm and 60 at 1500-2000 and 4000-5000 nm of keratin, 150 at 450-720 nm of the paper film):
-with ``(0.01, 0.35, 0.6)`` and 16 points (the images' setting,
-:data:`rockdove.verify.reference_image.IMAGE_INTERPOLATION`),
-
-    ============  ==========  ===========  ===========  ======  ==================================
-    cos theta     keratin     keratin      keratin      paper   previous 4-point wavelength steps
-                  450-720 nm  1500-2000    4000-5000    450-720 (all four columns, max)
-    ============  ==========  ===========  ===========  ======  ==================================
-    0.01-0.03     0.0000      0.0000       0.0008       0.0000  0.0008
-    0.03-0.05     0.0000      0.0000       0.0000       0.0000  0.0000
-    0.05-0.08     0.0000      0.0001       0.0001       0.0001  0.0009
-    0.08-0.12     0.0000      0.0001       0.0001       0.0001  0.0006
-    0.12-0.2      0.0001      0.0001       0.0001       0.0001  0.0007
-    0.2-1         0.0002      0.0002       0.0002       0.0008  0.0008
-    ============  ==========  ===========  ===========  ======  ==================================
-
-(the display-clipped colours of ``tests/test_reference.py``: <= 0.0011). Choosing (cos theta 0.2-1, 450-720 nm,
-both films, kappa 0.35): a 0.6 rad cap errs 0.0014 with 12 points, 0.0008 with 16, 0.0004 with 24 (each adds
-nodes past the ends); 16 points err 0.0015 at 0.8 rad and 0.0020 at 1.0 rad; 4 points need 0.3 rad for 0.018.
-The default views' 130,548 keys (cos theta 0.2-1, 514-682 nm) take 25-38 intervals (+15 end nodes), against 106
-samples of the 4 nm grid. Below cos theta 0.01 the grid would need thousands of nodes: those points keep
-``steps_nm``.
-
-The real-film kernel
---------------------
-With admittances ``x, y, z`` of the incident medium, the film and the substrate (s: ``n cos``, p: ``cos / n``;
-:mod:`rockdove.optics` eq. 4) the Airy reflectance of one polarisation is, exactly,
-``1 - R = 4 x z y^2 / (y^2 (x + z)^2 + (y^2 - x^2)(y^2 - z^2) sin^2(phi / 2))``: no square root but the phase's,
-and for a film at least as dense as both media a sum of non-negative terms, so float32 loses nothing to
-cancellation (a film less dense than its substrate runs in float64); between equal media (``x = z``) it is
-``4 x^2 y^2 / (4 x^2 y^2 + (y^2 - x^2)^2 sin^2(phi / 2))``. :func:`_real_colour` evaluates it in chunks that stay
-in cache (one float32 sine and about 20 passes per sample; numpy's float64 sine alone costs ~40 ns per sample on
-this machine, float32 ~4 ns). Float32 rounds the phase (up to 280 rad at 5000 nm) to ~3e-5 rad, which
-near-grazing resonances amplify: against the float64 kernel it errs <= 1.8e-4 dE2000 from cos theta 0.12
-(450-720 nm), <= 3.5e-4 at 0.05-0.12 (4000-5000 nm) but 2.1e-3 at 0.001-0.01 (4000-5000 nm), so points below
-:data:`FLOAT32_MIN_COS` run in float64 (equal to :func:`rockdove.optics.reflectance` to 1e-14). The points on the
-wavelength steps (``steps_nm``) of a real film run it in float64 as well: the same colours to 1e-14, 2.7x faster
-than :func:`rockdove.optics.reflectance`'s general form (200 LUT-error points of keratin, 4201 wavelengths each:
-67 ms -> 25 ms), so the build's LUT error check (:func:`lut_error`) reports the same digits sooner. Measured on the
-default build's 130,548 keys (keratin; the previous 4-point wavelength steps and this, called alternately in one
-process, median of 5): ``reference_colour`` 1.315 s -> 0.119 s (11.0x), the images' ``structural_rgb`` (with its
-de-duplication) 1.285 s -> 0.134 s (9.6x).
+The real-film kernel (:func:`_real_colour`). With admittances ``x, y, z`` of the incident medium, film and
+substrate (s: ``n cos``, p: ``cos / n``; :mod:`rockdove.optics` eq. 4) one polarisation's Airy reflectance is
+exactly ``1 - R = 4 x z y^2 / (y^2 (x + z)^2 + (y^2 - x^2)(y^2 - z^2) sin^2(phi / 2))`` (between equal media
+``4 x^2 y^2 / (4 x^2 y^2 + (y^2 - x^2)^2 sin^2(phi / 2))``): for a film at least as dense as both media a sum
+of non-negative terms, so float32 loses nothing to cancellation (otherwise float64). Float32 rounds the phase
+(up to 280 rad at 5000 nm) to ~3e-5 rad, which resonances amplify (2.1e-3 dE2000 at cos theta 0.001-0.01,
+4000-5000 nm; <= 3.5e-4 from 0.05), so points below :data:`FLOAT32_MIN_COS` and the points on wavelength steps
+run in float64 (equal to :func:`rockdove.optics.reflectance` to 1e-14, 2.7x faster than its general form).
 """
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 from ..spectral import WAVELENGTH_RANGE_NM
+from .weights import (INTERPOLANT_ORDER, REFERENCE_STEP_NM, check_illuminant, colour_weights, interpolant_weights,
+                      product_weights, reference_wavelengths, sigma_range, wavenumber_nodes)
 
-#: The exact reference's wavelength step away from grazing (cos theta >= 0.003), nm; the bakers' grid.
-REFERENCE_STEP_NM = 0.1
 #: Wavelength step per cos theta band: ``(cos_theta_lo, step_nm)``; a point uses the step of the last band whose
 #: lower bound it reaches (module docstring: each band within 2e-4 dE2000 of the converged integral).
 REFERENCE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, REFERENCE_STEP_NM))
-ILLUMINANTS = ("D65",)
 #: Points x wavelengths per chunk of the spectral evaluation (bounds memory near 1.7 M complex samples).
 _CHUNK_SAMPLES = 4096 * 421
 #: The wavelength steps (nm) a thickness-scaled step is snapped down to; each divides the 420 nm range, so every
 #: grid ends exactly on both ends of :data:`rockdove.spectral.WAVELENGTH_RANGE_NM`.
 STEP_LADDER_NM = (0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0)
-
-
-def check_illuminant(illuminant) -> str:
-    if illuminant not in ILLUMINANTS:
-        raise ValueError(f"illuminant must be one of {list(ILLUMINANTS)}, got {illuminant!r}")
-    return illuminant
-
-
-@functools.lru_cache(maxsize=16)
-def reference_wavelengths(step_nm: float = REFERENCE_STEP_NM) -> np.ndarray:
-    """The uniform grid over :data:`rockdove.spectral.WAVELENGTH_RANGE_NM` every ``step_nm`` nm (default 0.1 nm:
-    shape (4201,)), read-only."""
-    lo, hi = WAVELENGTH_RANGE_NM
-    n = int(round((hi - lo) / step_nm)) + 1
-    wl = np.linspace(lo, hi, n)
-    wl.setflags(write=False)
-    return wl
 
 
 def reference_step_nm(cos_theta, steps_nm=REFERENCE_STEPS_NM) -> np.ndarray:
@@ -153,112 +74,8 @@ def snap_step_nm(step_nm) -> np.ndarray:
     return ladder[np.clip(i, 0, ladder.size - 1)]
 
 
-def product_weights(step_nm: float, *, illuminant: str = "D65", colour_space: str | None = "lin_rec709") -> np.ndarray:
-    """Colour weights (N, 3) of the ``step_nm`` grid that integrate the spectrum's piecewise-cubic interpolant
-    against the 0.1 nm reference grid (module docstring, "Steps coarser than the 0.1 nm definition grid").
-
-    ``R_coarse @ W`` equals ``R_fine @ colour_weights(0.1 nm grid)`` where ``R_fine`` is ``R_coarse``
-    interpolated at the 0.1 nm wavelengths with the 4-point Lagrange stencil nearest each (one-sided at the
-    ends). Cached per step (read-only).
-    """
-    return _product_weights_cached(float(step_nm), illuminant, colour_space)
-
-
-@functools.lru_cache(maxsize=32)
-def _product_weights_cached(step_nm: float, illuminant: str, colour_space: str | None) -> np.ndarray:
-    fine = reference_wavelengths(REFERENCE_STEP_NM)
-    coarse = reference_wavelengths(step_nm)
-    if coarse.size < 4 or not np.isclose(coarse[1] - coarse[0], step_nm):
-        raise ValueError(f"step_nm must divide the wavelength range into at least 3 steps, got {step_nm!r}")
-    w_fine = colour_weights(fine, illuminant=illuminant, colour_space=colour_space)
-    t = (fine - coarse[0]) / (coarse[1] - coarse[0])
-    k0 = np.clip(np.floor(t).astype(np.int64) - 1, 0, coarse.size - 4)
-    out = np.zeros((coarse.size, w_fine.shape[1]))
-    for j in range(4):
-        lagrange = np.ones_like(t)
-        for m in range(4):
-            if m != j:
-                lagrange *= (t - (k0 + m)) / (j - m)
-        np.add.at(out, k0 + j, lagrange[:, None] * w_fine)
-    out.setflags(write=False)
-    return out
-
-
-@functools.lru_cache(maxsize=32)
-def _weights_cached(key: bytes, n: int, illuminant: str, colour_space: str | None) -> np.ndarray:
-    from .. import spectral
-
-    wl = np.frombuffer(key, dtype=np.float64, count=n)
-    w = np.ascontiguousarray(spectral.spectral_weights(wl, illuminant=illuminant, colour_space=colour_space),
-                             dtype=np.float64)
-    w.setflags(write=False)
-    return w
-
-
-def colour_weights(wavelength_nm, *, illuminant: str = "D65", colour_space: str | None = "lin_rec709") -> np.ndarray:
-    """Colour weights ``W`` (shape (N, 3)) with ``R @ W`` = linear colour; cached per grid (read-only)."""
-    wl = np.ascontiguousarray(wavelength_nm, dtype=np.float64)
-    return _weights_cached(wl.tobytes(), wl.shape[0], illuminant, colour_space)
-
-
-# --------------------------------------------------------------------------- wavenumber-grid interpolant
-#: Points of the Lagrange stencil of the wavenumber interpolant (:func:`interpolant_weights`), even.
-INTERPOLANT_ORDER = 16
 #: Interval counts of the wavenumber grids (about 9% apart), so that a process builds few sets of weights.
 NODE_LADDER = tuple(sorted({int(round(16 * 1.09**k)) for k in range(80)}))
-
-
-def sigma_range() -> tuple[float, float]:
-    """The wavenumbers ``(1 / 780, 1 / 380)`` nm^-1 of :data:`rockdove.spectral.WAVELENGTH_RANGE_NM`, increasing."""
-    lo, hi = WAVELENGTH_RANGE_NM
-    return 1.0 / hi, 1.0 / lo
-
-
-@functools.lru_cache(maxsize=64)
-def wavenumber_nodes(n_intervals: int, order: int = INTERPOLANT_ORDER) -> np.ndarray:
-    """Wavelengths (nm, increasing, read-only) whose wavenumbers ``1 / lambda`` split
-    :data:`rockdove.spectral.WAVELENGTH_RANGE_NM` into ``n_intervals`` equal intervals, plus ``order / 2 - 1`` nodes
-    beyond each end so that every ``order``-point stencil is centred (``n_intervals + order - 1`` nodes)."""
-    s_lo, s_hi = sigma_range()
-    n, ext = int(n_intervals), int(order) // 2 - 1
-    sigma = s_hi - (s_hi - s_lo) * (np.arange(-ext, n + ext + 1) / n)
-    wl = 1.0 / sigma
-    wl[ext], wl[ext + n] = WAVELENGTH_RANGE_NM
-    wl.setflags(write=False)
-    return wl
-
-
-def interpolant_weights(n_intervals: int, order: int = INTERPOLANT_ORDER, *, illuminant: str = "D65",
-                        colour_space: str | None = "lin_rec709") -> np.ndarray:
-    """Colour weights (n_intervals + order - 1, 3), one row per node of :func:`wavenumber_nodes`, that integrate
-    the spectrum's piecewise Lagrange interpolant in wavenumber (``order`` points, the centred stencil of each
-    wavelength's interval, reaching the nodes past the ends) against the 0.1 nm reference grid's colour weights
-    (module docstring). Cached (read-only)."""
-    return _interpolant_weights_cached(int(n_intervals), int(order), check_illuminant(illuminant), colour_space)
-
-
-@functools.lru_cache(maxsize=64)
-def _interpolant_weights_cached(n: int, order: int, illuminant: str, colour_space: str | None) -> np.ndarray:
-    if order < 2 or order % 2 or n < 1:
-        raise ValueError(f"order must be even and >= 2 and n_intervals >= 1, got order {order!r}, n_intervals {n!r}")
-    fine = reference_wavelengths(REFERENCE_STEP_NM)
-    w_fine = colour_weights(fine, illuminant=illuminant, colour_space=colour_space)
-    s_lo, s_hi = sigma_range()
-    ext = order // 2 - 1
-    t = (s_hi - 1.0 / fine) * (n / (s_hi - s_lo)) + ext  # node index of each fine wavelength (increasing lambda)
-    k0 = np.minimum(np.floor(t).astype(np.int64) - ext, n - 1)  # centred (the last interval's at 780 nm)
-    x = t - k0  # position in the stencil, in [ext, ext + 1] (up to ext + 2 at 780 nm)
-    lagrange = np.ones((order, t.size))
-    for j in range(order):
-        for m in range(order):
-            if m != j:
-                lagrange[j] *= (x - m) / (j - m)
-    index = (k0[None, :] + np.arange(order)[:, None]).ravel()
-    size = n + 2 * ext + 1
-    out = np.stack([np.bincount(index, weights=(lagrange * w_fine[:, ch]).ravel(), minlength=size)
-                    for ch in range(w_fine.shape[1])], axis=1)
-    out.setflags(write=False)
-    return out
 
 
 def interval_count(cos_theta, thickness_nm, film, kappa, max_step_rad) -> np.ndarray:
@@ -293,7 +110,6 @@ def interval_count(cos_theta, thickness_nm, film, kappa, max_step_rad) -> np.nda
     return np.where(i < ladder.size, ladder[np.minimum(i, ladder.size - 1)], 0)
 
 
-# --------------------------------------------------------------------------- the spectra of real films
 #: Elements (points x wavelengths) per chunk of the real kernel: its float32 temporaries stay in the L2 cache.
 _KERNEL_CHUNK = 1 << 15
 #: Points with cos theta below this are evaluated in float64 (module docstring, "The real-film kernel").
@@ -310,17 +126,9 @@ def real_film(film) -> bool:
     return bool(n_b.min() >= film.n_incident and film.n_substrate >= film.n_incident)
 
 
-def _film_densest(film) -> bool:
-    """The film's index is at least the substrate's (and, for a :func:`real_film`, the incident medium's) at every
-    wavelength: the kernel's denominator is then a sum of non-negative terms."""
-    n_b = np.real(film.n_film(np.asarray(WAVELENGTH_RANGE_NM, np.float64)))
-    return bool(n_b.min() >= np.real(film.n_substrate))
-
-
-def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, out, dtype=np.float32):
-    """``out = R @ weights`` with ``R`` the unpolarised Airy reflectance of a real film (:func:`real_film`) at every
-    point (rows) and wavelength (columns), in the transmission form of the module docstring ("The real-film
-    kernel"), computed in ``dtype``; ``cos_theta = 0`` gives R = 1."""
+def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, dtype=np.float32):
+    """``R @ weights`` (points, 3), ``R`` the unpolarised Airy reflectance of a real film (:func:`real_film`) at each
+    point and wavelength in the transmission form (module docstring) in ``dtype``; ``cos_theta = 0`` gives R = 1."""
     lam = np.asarray(wavelength_nm, np.float64)
     n_a, n_c = float(film.n_incident), float(film.n_substrate)
     n_b = np.real(film.n_film(lam)).astype(np.float64)
@@ -345,6 +153,7 @@ def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, out, dty
     u32, inv32, kk32 = (v.astype(dtype)[None, :] for v in (u, inv_nb4, kk))
     ca32, d32 = ca2.astype(dtype)[:, None], np.asarray(thickness_nm, np.float64).astype(dtype)[:, None]
     w32 = weights.astype(dtype)
+    out = np.empty((c.size, 3))
     rows_per = max(1, _KERNEL_CHUNK // lam.size)
     for i in range(0, c.size, rows_per):
         r = slice(i, i + rows_per)
@@ -379,41 +188,18 @@ def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, out, dty
         # 1 - R = T = (T_s + T_p) / 2
         out[r] = white - 0.5 * (t @ w32)
     out[grazing] = white
+    return out
 
 
 def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_space="lin_rec709",
                      steps_nm=REFERENCE_STEPS_NM, calibrated_thickness_nm: float | None = None,
                      interpolation=None, order: int = INTERPOLANT_ORDER) -> np.ndarray:
-    """The exact colour of a film at arbitrary points: the Airy spectrum integrated with the colour weights.
+    """The exact colour (linear, unclipped; CIE XYZ for ``colour_space=None``) of ``film`` at the broadcast points
+    ``(cos_theta, thickness_nm)``: shape broadcast + (3,), float64.
 
-    Parameters
-    ----------
-    cos_theta : array_like
-        Cosine of the angle of incidence in the incident medium, in [0, 1], broadcastable with ``thickness_nm``.
-    thickness_nm : array_like
-        Film thickness, nm.
-    film : str or FilmModel
-    illuminant, colour_space : str
-        ``colour_space=None`` returns CIE XYZ.
-    steps_nm : tuple of (cos_theta_lo, step_nm)
-        Wavelength step per cos theta band (:func:`reference_step_nm`); default :data:`REFERENCE_STEPS_NM`,
-        within 2e-4 dE2000 of the converged integral everywhere (module docstring). Steps coarser than
-        :data:`REFERENCE_STEP_NM` integrate the cubic interpolant (:func:`product_weights`).
-    calibrated_thickness_nm : float, optional
-        The thickness up to which ``steps_nm`` was validated: thicker points scale their step by
-        ``calibrated_thickness_nm / thickness_nm``, snapped down to :data:`STEP_LADDER_NM` (module docstring).
-    interpolation : tuple (cos_theta_lo, kappa, max_step_rad), optional
-        Points with ``cos_theta >= cos_theta_lo`` sample the spectrum on a wavenumber grid whose phase step is at
-        most ``min(kappa * delta, max_step_rad)`` (:func:`interval_count`) and integrate its ``order``-point
-        Lagrange interpolant against the 0.1 nm weights (:func:`interpolant_weights`), with the real-film kernel
-        (module docstring, "Wavenumber interpolation"). Only for real films (:func:`real_film`); other films, and
-        the points below ``cos_theta_lo``, take ``steps_nm``.
-    order : int
-        Points of the interpolant's stencil (even); default :data:`INTERPOLANT_ORDER`.
-
-    Returns
-    -------
-    ndarray, shape broadcast(cos_theta, thickness_nm) + (3,), float64, linear (unclipped)
+    ``steps_nm`` is the wavelength step per cos theta band (:func:`reference_step_nm`), ``calibrated_thickness_nm``
+    the thickness it was validated to, ``interpolation = (cos_theta_lo, kappa, max_step_rad)`` with ``order`` the
+    wavenumber interpolant of real films (module docstring: steps, coarser steps, wavenumber interpolation).
     """
     from ..films import as_film
 
@@ -430,17 +216,16 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
         counts = interval_count(c[interp], d[interp], film, kappa, max_step_rad)
         interp, counts = interp[counts > 0], counts[counts > 0]
         direct[interp] = False
-        # float32 where the kernel's terms cannot cancel (module docstring, "The real-film kernel")
-        cos32 = FLOAT32_MIN_COS if _film_densest(film) else np.inf
+        # float32 where the kernel's terms cannot cancel, a film at least as dense as the substrate (module docstring)
+        densest = np.real(film.n_film(np.asarray(WAVELENGTH_RANGE_NM, np.float64))).min() >= np.real(film.n_substrate)
+        cos32 = FLOAT32_MIN_COS if densest else np.inf
         for n in np.unique(counts):
             rows = interp[counts == n]
             wl = wavenumber_nodes(int(n), order)
             w = interpolant_weights(int(n), order, illuminant=illuminant, colour_space=colour_space)
             for dtype, sel in ((np.float32, c[rows] >= cos32), (np.float64, c[rows] < cos32)):
                 if sel.any():
-                    sub = np.empty((int(sel.sum()), 3))
-                    _real_colour(wl, w, c[rows[sel]], d[rows[sel]], film, sub, dtype)
-                    out[rows[sel]] = sub
+                    out[rows[sel]] = _real_colour(wl, w, c[rows[sel]], d[rows[sel]], film, dtype)
     rest = np.nonzero(direct)[0]
     steps = reference_step_nm(c[rest], steps_nm)
     if calibrated_thickness_nm is not None:
@@ -458,9 +243,7 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
             w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
         rows = rest[sel & kernel]
         if rows.size:
-            sub = np.empty((rows.size, 3))
-            _real_colour(wl, w, c[rows], d[rows], film, sub, np.float64)
-            out[rows] = sub
+            out[rows] = _real_colour(wl, w, c[rows], d[rows], film, np.float64)
         rows = rest[sel & ~kernel]
         if rows.size:
             out[rows] = _sampled_colour(wl, w, c[rows], d[rows], film)
@@ -500,12 +283,9 @@ def delta_E(rgb_a, rgb_b, colour_space="lin_rec709", illuminant="D65") -> np.nda
 
 
 def error_points(lut, n_points: int, seed: int, *, grazing_fraction: float = 0.1, grazing_cos: float = 0.05):
-    """Random points of a LUT's domain: ``(cos_theta, thickness_nm)``, each shape (n_points,).
-
-    ``cos_theta`` is uniform in [0, 1] except a ``grazing_fraction`` of the points drawn uniformly in
-    ``[0, grazing_cos)`` (where colour changes fastest), and the two ends 0 and 1 are always included; thickness
-    is uniform over the LUT's range.
-    """
+    """Random points ``(cos_theta, thickness_nm)`` of a LUT's domain, each (n_points,): cos theta uniform in [0, 1]
+    but a ``grazing_fraction`` in ``[0, grazing_cos)`` (where colour changes fastest), 0 and 1 always included;
+    thickness uniform over the LUT's range."""
     rng = np.random.default_rng(seed)
     n_graze = int(round(n_points * grazing_fraction))
     cos = np.concatenate([rng.uniform(0.0, grazing_cos, n_graze), rng.uniform(0.0, 1.0, n_points - n_graze)])
@@ -518,24 +298,9 @@ def error_points(lut, n_points: int, seed: int, *, grazing_fraction: float = 0.1
 
 def lut_error(lut, film, n_points: int = 2000, seed: int = 0, *, grazing_fraction: float = 0.1,
               grazing_cos: float = 0.05) -> dict:
-    """CIEDE2000 of ``lut.sample`` against :func:`reference_colour` at random points of the LUT's domain.
-
-    Parameters
-    ----------
-    lut : ThinFilmLUT
-    film : str or FilmModel
-        The film the LUT was baked for.
-    n_points : int >= 1
-    seed : int
-    grazing_fraction, grazing_cos : float
-        Share of the points drawn in ``cos theta < grazing_cos`` (see :func:`error_points`).
-
-    Returns
-    -------
-    dict
-        ``max``, ``p99``, ``median``, ``mean`` (dE2000), ``worst_cos_theta``, ``worst_thickness_nm``,
-        ``n_points``, ``seed``, ``grazing_fraction``, ``grazing_cos``.
-    """
+    """CIEDE2000 of ``lut.sample`` against :func:`reference_colour` of ``film`` (the film it was baked for) at
+    :func:`error_points`: a dict of ``max``, ``p99``, ``median``, ``mean``, ``worst_cos_theta``,
+    ``worst_thickness_nm`` and the sampling's ``n_points``, ``seed``, ``grazing_fraction``, ``grazing_cos``."""
     if isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer)) or n_points < 1:
         raise ValueError(f"n_points must be an integer >= 1, got {n_points!r}")
     if not 0.0 <= grazing_fraction <= 1.0:

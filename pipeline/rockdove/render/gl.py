@@ -1,27 +1,15 @@
 """Offscreen OpenGL renders of a :class:`~rockdove.render.scene.RenderScene` with rockdove's GLSL shaders.
 
-pyrender (EGL, Mesa llvmpipe, headless) draws the meshes; rockdove supplies
-
-- the shaders ``materials/glsl/thinfilm.vert`` / ``thinfilm.frag`` (the paper's method, docs/design.md
-  "Conventions"), through a :class:`pyrender.shader_program.ShaderProgramCache` subclass assigned to
-  ``renderer._renderer._program_cache``; every program pyrender asks for is this one;
-- per-vertex data in pyrender's buffers: position (location 0), normal, ``texcoord_0`` = USD ``st`` and
-  **``texcoord_1`` = (thickness_nm, neckS)** (zeros for parts without a film); pyrender numbers the
-  locations of the buffers present (position 0, normal 1, texcoord_0 2, texcoord_1 3 here, no tangents)
-  and substitutes them for the ``*_LOC`` names in the shader;
-- its own float textures: pyrender's ``Texture`` would quantise to 8 bits, so the LUT is uploaded as
-  ``GL_RGB32F`` and the base/mask images (decoded to linear on the CPU) as ``GL_RGBA32F``/``GL_R32F``, linear
-  filtering, clamp-to-edge, bound to texture units 0-2 before each draw (pyrender's
-  ``_bind_and_draw_primitive`` is wrapped on the renderer instance to set the per-part uniforms);
-- its own framebuffer: three ``GL_RGBA32F`` colour attachments (radiance + coverage; part id, view depth,
-  cos_theta, thickness; N.L, mask, st) and a 32-bit float depth buffer, read back with ``glReadPixels``
-  ``GL_FLOAT``. No multisampling: every pixel is the shading at its centre, which the verifier compares
-  with the CPU reference. pyrender's ``_configure_forward_pass_viewport`` is overridden on the instance to
-  bind this framebuffer.
-
-One :class:`pyrender.OffscreenRenderer` is created per :class:`GLRenderer` and reused for every view;
-:meth:`GLRenderer.delete` (or leaving the ``with`` block) frees it. Display images use the sRGB OETF of the
-clipped linear value (:mod:`rockdove.render.images`).
+pyrender (EGL, Mesa llvmpipe, headless) draws the meshes with ``materials/glsl/thinfilm.vert`` / ``.frag`` (the
+paper's method, docs/design.md "Conventions"): every program pyrender asks for is that one. Per vertex: position,
+normal, ``texcoord_0`` = USD ``st`` and ``texcoord_1`` = (thickness_nm, neckS) (zeros without a film); pyrender
+substitutes the buffers' locations for the shader's ``*_LOC`` names. Textures are rockdove's own float ones
+(pyrender's would quantise to 8 bits): the LUT ``GL_RGB32F``, base and mask decoded to linear on the CPU, linear
+filtering, clamp-to-edge, units 0-2, bound with the per-part uniforms before each draw. The framebuffer is rockdove's
+too: three ``GL_RGBA32F`` attachments (radiance + coverage; part id, view depth, cos_theta, thickness; N.L, mask,
+st) and a float depth buffer, read back as floats. No multisampling: every pixel is the shading at its centre, which
+the verifier compares with the CPU reference. Parts are drawn in scene order (pyrender's own order comes from a
+set, which made pixels where two parts tie in depth differ between processes).
 """
 
 from __future__ import annotations
@@ -36,8 +24,6 @@ from .scene import RenderScene, ScenePart
 from .texture import read_texture
 from .views import View
 
-VERTEX_SHADER = "thinfilm.vert"
-FRAGMENT_SHADER = "thinfilm.frag"
 #: Angle definitions the shader accepts (``u_angle_mode``): the paper's light/view half-angle, and the
 #: view-only ``|N . V|`` of the MaterialX baked network (docs/design.md "Conventions").
 ANGLE_MODES = {"physical": 0, "materialx_baked": 1}
@@ -47,105 +33,50 @@ UNIT_BASE, UNIT_MASK, UNIT_LUT = 0, 1, 2
 
 @dataclass(eq=False)
 class RenderResult:
-    """One rendered view; all images are (H, W[, C]) with row 0 at the top.
-
-    Attributes
-    ----------
-    view : View
-    radiance_rgb : ndarray, (H, W, 3) float32
-        Linear lin_rec709 radiance (unclipped); 0 on the background.
-    alpha : ndarray, (H, W) float32
-        Coverage: 1 where a surface was drawn (feather fragments with alpha < 0.5 are discarded), else 0.
-    part_id : ndarray, (H, W) int16
-        ``index + 1`` into ``part_names``; 0 = background.
-    depth_m : ndarray, (H, W) float32
-        Distance along the camera's viewing axis, metres; 0 on the background.
-    cos_theta : ndarray, (H, W) float32
-        The film's angle input of the LUT at the pixel (0 off the feathers).
-    thickness_nm : ndarray, (H, W) float32
-        Interpolated film thickness (0 off the feathers).
-    n_dot_l : ndarray, (H, W) float32
-        ``max(dot(N, L), 0)`` with the two-sided normal.
-    mask : ndarray, (H, W) float32
-        Structural-colour mask (0 off the feathers).
-    st : ndarray, (H, W, 2) float32
-        Interpolated texture coordinates.
-    part_names : tuple of str
-    seconds : float
-        Wall time of the render and read-back.
-    """
+    """One rendered view; images are (H, W[, C]) float32 with row 0 at the top, 0 on the background."""
 
     view: View
-    radiance_rgb: np.ndarray
-    alpha: np.ndarray
-    part_id: np.ndarray
-    depth_m: np.ndarray
-    cos_theta: np.ndarray
-    thickness_nm: np.ndarray
-    n_dot_l: np.ndarray
-    mask: np.ndarray
-    st: np.ndarray
+    radiance_rgb: np.ndarray  # linear lin_rec709, unclipped
+    alpha: np.ndarray  # coverage: 1 where a surface was drawn (feather fragments with alpha < 0.5 are discarded)
+    part_id: np.ndarray  # int16, index + 1 into part_names
+    depth_m: np.ndarray  # distance along the camera's viewing axis
+    cos_theta: np.ndarray  # the LUT's angle input (0 off the feathers)
+    thickness_nm: np.ndarray  # interpolated film thickness (0 off the feathers)
+    n_dot_l: np.ndarray  # max(dot(N, L), 0) with the two-sided normal
+    mask: np.ndarray  # structural-colour mask (0 off the feathers)
+    st: np.ndarray  # (H, W, 2) interpolated texture coordinates
     part_names: tuple = ()
-    seconds: float = 0.0
-    angle_mode: str = "physical"
+    seconds: float = 0.0  # wall time of the render and read-back
 
     def part_mask(self, name: str) -> np.ndarray:
         """Boolean (H, W): pixels of the part with this USD prim name (e.g. ``"NeckFeathers"``)."""
         if name not in self.part_names:
             raise ValueError(f"name={name!r} is not a part; parts are {list(self.part_names)}")
-        ids = [i + 1 for i, n in enumerate(self.part_names) if n == name]
-        return np.isin(self.part_id, ids)
-
-    def preview8(self) -> np.ndarray:
-        """Display image, (H, W, 4) uint8 RGBA: sRGB OETF of the clipped radiance; alpha = coverage."""
-        from ..spectral import linear_to_srgb8
-
-        rgb8 = linear_to_srgb8(self.radiance_rgb)
-        a = (np.clip(self.alpha, 0, 1) * 255 + 0.5).astype(np.uint8)
-        return np.dstack([rgb8, a])
+        return np.isin(self.part_id, [i + 1 for i, n in enumerate(self.part_names) if n == name])
 
 
-def _shader_program_cache_class():
-    """A ShaderProgramCache that answers every request with rockdove's thin-film program (built lazily so
-    pyrender/OpenGL are imported only when rendering)."""
+def _program_cache():
+    """A pyrender ShaderProgramCache whose every program is the thin-film one, with pyrender's defines."""
     from pyrender.shader_program import ShaderProgramCache
 
     class ThinFilmProgramCache(ShaderProgramCache):
-        """Every program pyrender asks for is ``thinfilm.vert`` + ``thinfilm.frag`` from ``materials/glsl``,
-        with pyrender's defines (attribute locations). rockdove renders only the forward pass."""
-
-        def __init__(self):
-            super().__init__(shader_dir=str(resources.path("materials/glsl")))
-
         def get_program(self, vertex_shader, fragment_shader, geometry_shader=None, defines=None):
-            defines = dict(defines or {})
-            missing = [d for d in ("NORMAL_LOC", "TEXCOORD_0_LOC", "TEXCOORD_1_LOC") if d not in defines]
-            if missing:
-                raise ValueError(f"primitive lacks the vertex buffers {missing} the thin-film shader needs")
-            return super().get_program(VERTEX_SHADER, FRAGMENT_SHADER, None, defines)
+            return super().get_program("thinfilm.vert", "thinfilm.frag", None, defines)
 
-    return ThinFilmProgramCache
+    return ThinFilmProgramCache(shader_dir=str(resources.path("materials/glsl")))
 
 
-def _upload_float_texture(image: np.ndarray, internal: str) -> int:
-    """Upload a float image, (H, W, C) with row 0 = t = 0 (bottom), as an OpenGL float texture.
-
-    ``internal``: ``"RGB32F"``, ``"RGBA32F"`` or ``"R32F"``. GL_LINEAR, CLAMP_TO_EDGE, no mipmaps.
-    """
+def _upload_float_texture(image: np.ndarray) -> int:
+    """Upload a float image, (H, W, 1|3|4) with row 0 = t = 0 (bottom), as a GL float texture (linear, clamped)."""
     from OpenGL import GL
 
-    fmt = {"RGB32F": (GL.GL_RGB32F, GL.GL_RGB, 3), "RGBA32F": (GL.GL_RGBA32F, GL.GL_RGBA, 4),
-           "R32F": (GL.GL_R32F, GL.GL_RED, 1)}[internal]
     data = np.ascontiguousarray(image, dtype=np.float32)
-    if data.ndim == 2:
-        data = data[:, :, None]
-    if data.shape[2] != fmt[2]:
-        raise ValueError(f"image has {data.shape[2]} channels, {internal} needs {fmt[2]}")
-    h, w = data.shape[:2]
+    internal, fmt = {1: (GL.GL_R32F, GL.GL_RED), 3: (GL.GL_RGB32F, GL.GL_RGB), 4: (GL.GL_RGBA32F, GL.GL_RGBA)}[
+        data.shape[2]]
     tex = GL.glGenTextures(1)
     GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
     GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 1)
-    GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, fmt[0], w, h, 0, fmt[1], GL.GL_FLOAT, data)
+    GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, internal, data.shape[1], data.shape[0], 0, fmt, GL.GL_FLOAT, data)
     GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 4)
     for p, v in ((GL.GL_TEXTURE_MIN_FILTER, GL.GL_LINEAR), (GL.GL_TEXTURE_MAG_FILTER, GL.GL_LINEAR),
                  (GL.GL_TEXTURE_WRAP_S, GL.GL_CLAMP_TO_EDGE), (GL.GL_TEXTURE_WRAP_T, GL.GL_CLAMP_TO_EDGE)):
@@ -163,21 +94,10 @@ class _PartGL:
 
 
 class GLRenderer:
-    """pyrender offscreen renderer of one scene, reused across views.
-
-    Parameters
-    ----------
-    scene : RenderScene
-        The asset read back from USD.
-    lut : ThinFilmLUT, optional
-        Default: read from ``scene.film.lut_file``.
-    angle_mode : str
-        ``"physical"`` (``cos_theta = dot(L, H)``, default) or ``"materialx_baked"`` (``|dot(N, V)|``).
-    width, height : int
-        Initial viewport; each view may set its own size.
-
-    Use as a context manager, or call :meth:`delete` when done (a pyrender scene must not be bound to two
-    live renderers).
+    """pyrender offscreen renderer of one scene, reused across views (``width`` x ``height``: the initial
+    viewport; each view sets its own size). ``lut`` overrides the scene's; ``angle_mode`` is a key of
+    :data:`ANGLE_MODES`: ``"physical"`` (``cos_theta = dot(L, H)``) or ``"materialx_baked"`` (``|dot(N, V)|``).
+    Use as a context manager or call :meth:`delete` (a pyrender scene must not be bound to two live renderers).
     """
 
     def __init__(self, scene: RenderScene, lut=None, angle_mode: str = "physical", width: int = 512, height: int = 512):
@@ -191,50 +111,43 @@ class GLRenderer:
         self.scene = scene
         self.angle_mode = angle_mode
         self.lut = lut if lut is not None else (scene.load_lut() if scene.film is not None else None)
-        self.n_renders = 0
-        self._fbo = None
-        self._fbo_size = None
-        self._view = None
+        self._fbo = self._fbo_size = self._view = None
         self._deleted = False
 
         self._pr_scene = pyrender.Scene(bg_color=np.zeros(4), ambient_light=np.zeros(3))
         self._parts: list[_PartGL] = []
         self._by_primitive: dict[int, _PartGL] = {}
+        nodes = []
         for i, part in enumerate(scene.parts):
-            n_v = len(part.positions_m)
-            film = np.zeros((n_v, 2), np.float32)
+            film = np.zeros((len(part.positions_m), 2), np.float32)
             if part.thickness_nm is not None:
                 film[:, 0] = part.thickness_nm
             if part.neck_s is not None:
                 film[:, 1] = part.neck_s
             material = pyrender.MetallicRoughnessMaterial(doubleSided=True, name=part.name)
-            prim = pyrender.Primitive(
-                positions=part.positions_m, normals=part.normals, texcoord_0=part.st, texcoord_1=film,
-                indices=part.triangles, material=material,
-            )
-            pg = _PartGL(i, part)
-            self._parts.append(pg)
-            self._by_primitive[id(prim)] = pg
-            self._pr_scene.add(pyrender.Mesh([prim], name=part.name))
+            prim = pyrender.Primitive(positions=part.positions_m, normals=part.normals, texcoord_0=part.st,
+                                      texcoord_1=film, indices=part.triangles, material=material)
+            self._parts.append(_PartGL(i, part))
+            self._by_primitive[id(prim)] = self._parts[-1]
+            nodes.append(self._pr_scene.add(pyrender.Mesh([prim], name=part.name)))
         self._camera = pyrender.PerspectiveCamera(yfov=0.6, znear=0.01, zfar=10.0)
         self._camera_node = self._pr_scene.add(self._camera, pose=np.eye(4))
 
         self._offscreen = pyrender.OffscreenRenderer(width, height)
         self._offscreen._platform.make_current()
         inner = self._offscreen._renderer
-        inner._program_cache = _shader_program_cache_class()()
-        # per-primitive uniforms and textures, then pyrender's own draw
+        inner._program_cache = _program_cache()
         original_draw = inner._bind_and_draw_primitive
 
-        def bind_and_draw(primitive, pose, program, flags):
+        def bind_and_draw(primitive, pose, program, flags):  # per-part uniforms and textures, then pyrender's draw
             self._bind_part(self._by_primitive[id(primitive)], program)
             return original_draw(primitive, pose, program, flags)
 
         inner._bind_and_draw_primitive = bind_and_draw
         inner._configure_forward_pass_viewport = self._configure_viewport
+        inner._sorted_mesh_nodes = lambda _scene: nodes
         self._upload_textures()
 
-    # -- resources ----------------------------------------------------------------------------------------
     def _upload_textures(self):
         cache: dict[tuple, int] = {}
         for pg in self._parts:
@@ -244,26 +157,20 @@ class GLRenderer:
                 if key not in cache:
                     img = read_texture(p.base_colour_texture, srgb=p.base_colour_srgb)
                     rgba = np.ones(img.shape[:2] + (4,), np.float32)
-                    c = img.shape[2]
-                    if c >= 3:
-                        rgba[..., :3] = img[..., :3]
-                    else:
-                        rgba[..., :3] = img[..., :1]
-                    if c in (2, 4):
+                    rgba[..., :3] = img[..., :3] if img.shape[2] >= 3 else img[..., :1]
+                    if img.shape[2] in (2, 4):
                         rgba[..., 3] = img[..., -1]
-                    cache[key] = _upload_float_texture(rgba[::-1], "RGBA32F")
+                    cache[key] = _upload_float_texture(rgba[::-1])
                 pg.base_tex = cache[key]
             if p.mask_texture:
                 key = (p.mask_texture, "mask")
                 if key not in cache:
-                    img = read_texture(p.mask_texture, srgb=False)
-                    cache[key] = _upload_float_texture(img[::-1, :, :1], "R32F")
+                    cache[key] = _upload_float_texture(read_texture(p.mask_texture, srgb=False)[::-1, :, :1])
                 pg.mask_tex = cache[key]
         self._textures = list(cache.values())
         self._lut_tex = None
-        if self.lut is not None:
-            # row 0 of the table (thinnest) is t = 0: uploaded as is
-            self._lut_tex = _upload_float_texture(self.lut.rgb, "RGB32F")
+        if self.lut is not None:  # row 0 of the table (thinnest) is t = 0: uploaded as is
+            self._lut_tex = _upload_float_texture(self.lut.rgb)
             self._textures.append(self._lut_tex)
 
     def _ensure_fbo(self, width, height):
@@ -314,9 +221,7 @@ class GLRenderer:
     def _bind_part(self, pg: _PartGL, program):
         from OpenGL import GL
 
-        view = self._view
-        p = pg.part
-        set_ = program.set_uniform
+        view, p, set_ = self._view, pg.part, program.set_uniform
         set_("u_kind", 1 if (p.is_feather and self._lut_tex is not None) else 0)
         set_("u_angle_mode", ANGLE_MODES[self.angle_mode])
         set_("u_part_id", float(pg.index + 1))
@@ -339,24 +244,20 @@ class GLRenderer:
         # pyrender binds its own (absent) material textures from unit 0 on; keep its counter past ours
         self._offscreen._renderer._texture_alloc_idx = UNIT_LUT + 1
 
-    # -- rendering ----------------------------------------------------------------------------------------
     def _clip_planes(self, view: View):
         b = self.scene.bounds_m
         centre, radius = b.mean(axis=0), 0.5 * float(np.linalg.norm(b[1] - b[0])) + 1e-6
-        forward = -view.camera_to_world[:3, 2]
-        d = float(np.dot(centre - view.eye_m, forward))
+        d = float(np.dot(centre - view.eye_m, -view.camera_to_world[:3, 2]))
         zfar = max(d + 1.5 * radius, 1e-3)
-        znear = max(d - 1.5 * radius, zfar * 1e-4)
-        return znear, zfar
+        return max(d - 1.5 * radius, zfar * 1e-4), zfar
 
     def render(self, view: View) -> RenderResult:
         """Render one view into float buffers and read them back."""
         from OpenGL import GL
+        from pyrender.constants import RenderFlags
 
         if self._deleted:
             raise ValueError("this GLRenderer was deleted; create a new one")
-        if not isinstance(view, View):
-            raise ValueError(f"view must be a View, got {type(view).__name__}")
         t0 = time.perf_counter()
         w, h = view.width, view.height
         self._offscreen._platform.make_current()
@@ -369,8 +270,6 @@ class GLRenderer:
         self._camera.znear, self._camera.zfar = self._clip_planes(view)
         self._pr_scene.set_pose(self._camera_node, view.camera_to_world)
         self._view = view
-        from pyrender.constants import RenderFlags
-
         inner.render(self._pr_scene, RenderFlags.NONE)
         GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self._fbo)
         bufs = []
@@ -381,23 +280,10 @@ class GLRenderer:
             bufs.append(a.reshape(h, w, 4)[::-1])
         GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, 0)
         GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, 0)
-        self.n_renders += 1
-        rad, aux, inputs = bufs
-        return RenderResult(
-            view=view,
-            radiance_rgb=np.ascontiguousarray(rad[..., :3]),
-            alpha=np.ascontiguousarray(rad[..., 3]),
-            part_id=np.rint(aux[..., 0]).astype(np.int16),
-            depth_m=np.ascontiguousarray(aux[..., 1]),
-            cos_theta=np.ascontiguousarray(aux[..., 2]),
-            thickness_nm=np.ascontiguousarray(aux[..., 3]),
-            n_dot_l=np.ascontiguousarray(inputs[..., 0]),
-            mask=np.ascontiguousarray(inputs[..., 1]),
-            st=np.ascontiguousarray(inputs[..., 2:4]),
-            part_names=tuple(p.name for p in self.scene.parts),
-            seconds=time.perf_counter() - t0,
-            angle_mode=self.angle_mode,
-        )
+        (rad, aux, inputs), c = bufs, np.ascontiguousarray
+        return RenderResult(view, c(rad[..., :3]), c(rad[..., 3]), np.rint(aux[..., 0]).astype(np.int16),
+                            c(aux[..., 1]), c(aux[..., 2]), c(aux[..., 3]), c(inputs[..., 0]), c(inputs[..., 1]),
+                            c(inputs[..., 2:4]), tuple(p.name for p in self.scene.parts), time.perf_counter() - t0)
 
     def delete(self):
         """Free the GL resources and the offscreen context."""
@@ -422,21 +308,7 @@ class GLRenderer:
 
 
 def render_views(scene: RenderScene, views, angle_mode: str = "physical", lut=None) -> list[RenderResult]:
-    """Render ``views`` of ``scene`` with one offscreen renderer (created here, deleted at the end).
-
-    Parameters
-    ----------
-    scene : RenderScene
-    views : sequence of View
-    angle_mode : str
-        ``"physical"`` or ``"materialx_baked"``; see :data:`ANGLE_MODES`.
-    lut : ThinFilmLUT, optional
-        Override the LUT read from the asset.
-
-    Returns
-    -------
-    list of RenderResult, in the order of ``views``.
-    """
+    """Render ``views`` of ``scene`` with one :class:`GLRenderer` (created here, deleted at the end), in order."""
     views = list(views)
     if not views:
         raise ValueError("views must contain at least one View, got none")

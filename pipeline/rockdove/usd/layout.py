@@ -21,24 +21,9 @@ USD_EXTENSIONS = (".usda", ".usdc", ".usd", ".usdz")
 
 
 def resolve_root_layer(asset) -> str:
-    """The root layer of an asset given its folder (one of :data:`ROOT_LAYER_NAMES` inside) or a layer's path.
-
-    Parameters
-    ----------
-    asset : str or os.PathLike
-        The asset folder or a root layer (``.usda``, ``.usdc``, ``.usd`` or ``.usdz``).
-
-    Returns
-    -------
-    str
-        Absolute path of the root layer.
-
-    Raises
-    ------
-    ValueError
-        The path does not exist, is a folder without a root layer, or is not a USD layer (one line, naming
-        the path and what is allowed).
-    """
+    """The absolute path of an asset's root layer, given its folder (one of :data:`ROOT_LAYER_NAMES` inside) or
+    a layer's path; a one-line ValueError naming the path when it is missing, a folder without a root layer or not
+    a USD layer."""
     path = os.path.abspath(os.fspath(asset))
     if os.path.isdir(path):
         for name in ROOT_LAYER_NAMES:

@@ -62,7 +62,7 @@ OPACITY_THRESHOLD = 0.5
 _SDF_TYPES = {
     "float": "Float", "integer": "Int", "boolean": "Bool", "string": "String", "filename": "Asset",
     "color3": "Color3f", "color4": "Color4f", "vector2": "Float2", "vector3": "Float3", "vector4": "Float4",
-    "surfaceshader": "Token", "material": "Token", "BSDF": "Token", "EDF": "Token",
+    "matrix33": "Matrix3d", "surfaceshader": "Token", "material": "Token", "BSDF": "Token", "EDF": "Token",
 }
 
 
@@ -113,6 +113,8 @@ def _usd_value(mx_input, type_name: str):
         return Gf.Vec4f(*value.asTuple())
     if type_name == "vector2":
         return Gf.Vec2f(*value.asTuple())
+    if type_name == "matrix33":
+        return Gf.Matrix3d(*(value[i, j] for i in range(3) for j in range(3)))
     return value
 
 
@@ -171,8 +173,8 @@ def copy_mtlx_network(doc, material, roots=None) -> dict:
             raise ValueError(f"MaterialX node {node.getName()!r} ({node.getCategory()}) has no nodedef")
         shader = UsdShade.Shader.Define(stage, base.AppendChild(node.getName()))
         shader.SetShaderId(nodedef.getName())
-        out_type = nodedef.getActiveOutputs()[0].getType()
-        shader.CreateOutput("out", getattr(Sdf.ValueTypeNames, _SDF_TYPES[out_type]))
+        for out in nodedef.getActiveOutputs():  # "out", or a multi-output node's own (UsdUVTexture: rgb, a...)
+            shader.CreateOutput(out.getName(), getattr(Sdf.ValueTypeNames, _SDF_TYPES[out.getType()]))
         shaders[node.getName()] = shader
     for node in copied:
         shader = shaders[node.getName()]
@@ -181,7 +183,7 @@ def copy_mtlx_network(doc, material, roots=None) -> dict:
             usd_in = shader.CreateInput(inp.getName(), getattr(Sdf.ValueTypeNames, _SDF_TYPES[t]))
             upstream = inp.getNodeName()
             if upstream:
-                usd_in.ConnectToSource(shaders[upstream].ConnectableAPI(), "out")
+                usd_in.ConnectToSource(shaders[upstream].ConnectableAPI(), inp.getOutputString() or "out")
             else:
                 usd_in.Set(_usd_value(inp, t))
             if inp.hasColorSpace():
@@ -208,6 +210,16 @@ def lut_info(lut) -> dict:
         "illuminant": str(md.get("illuminant", "D65")),
         "observer": str(md.get("observer", "CIE 1931 2 Degree Standard Observer")),
     }
+
+
+def lut_transform(lut: dict) -> tuple:
+    """``LutTransform`` of thinfilm.mtlx, row-major: (x, thickness_nm, 1) @ it = (u, v, 1), the LUT texel centres of
+    pipeline/rockdove/lut/table.py: u = (x (N - 1) + 0.5) / N, v = (y (M - 1) + 0.5) / M, y = (d - lo) / (hi - lo)
+    ((hi - lo) floored at 1e-6 nm: a one-row LUT reads v = 0.5)."""
+    n, m = lut["n_angle"], lut["n_thickness"]
+    lo, hi = lut["thickness_range_nm"]
+    v_per_nm = (m - 1) / (m * max(hi - lo, 1e-6))
+    return ((n - 1) / n, 0.0, 0.0, 0.0, v_per_nm, 0.0, 0.5 / n, 0.5 / m - lo * v_per_nm, 1.0)
 
 
 def _preview_texture(stage, path, file: str, st_output, *, colour_space: str, wrap: str = "clamp"):
@@ -275,7 +287,7 @@ def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, t
         ``outputs:surface`` -> ``PreviewSurface``; ``outputs:mtlx:surface`` -> ``MtlxBakedSurface`` when
         ``"baked"`` is in ``variants``, else ``MtlxPhysicalSurface``.
     """
-    from pxr import Sdf, UsdShade
+    from pxr import Gf, Sdf, UsdShade
 
     textures = {**texture_asset_paths(), **(textures or {})}
     variants = tuple(variants)
@@ -309,13 +321,8 @@ def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, t
     shaders = copy_mtlx_network(load_thinfilm_document(), material, roots=[MTLX_SURFACES[v] for v in variants])
     values = {"FilmIor": float(film_ior), "SubstrateIor": float(substrate_ior)}
     if lut is not None:
-        values.update({
-            "LutAngleCount": float(lut["n_angle"]),
-            "LutThicknessCount": float(lut["n_thickness"]),
-            "LutAngleWarpGamma": float(lut["angle_warp_gamma"]),
-            "LutThicknessLoNm": float(lo),
-            "LutThicknessHiNm": float(hi),
-        })
+        values.update({"LutTransform": Gf.Matrix3d(*lut_transform(lut)),
+                       "LutAngleWarpExponent": 1.0 / float(lut["angle_warp_gamma"]) - 1.0})
     for name, value in values.items():
         if name in shaders:  # e.g. FilmIor only feeds the physical surface
             shaders[name].GetInput("value").Set(value)
@@ -338,6 +345,8 @@ def _mx_value_string(value, mx_type: str) -> str:
         return str(int(value))
     if mx_type == "float":
         return repr(float(value))
+    if mx_type == "matrix33":
+        return ", ".join(repr(float(value[i][j])) for i in range(3) for j in range(3))
     if mx_type.startswith(("color", "vector")):
         return ", ".join(repr(float(x)) for x in value)
     return str(value)
@@ -395,6 +404,8 @@ def usd_to_mtlx_document(surface_shader, library=None):
             sources = inp.GetConnectedSources()[0]
             if sources:
                 target.setNodeName(add(UsdShade.Shader(sources[0].source.GetPrim())).getName())
+                if sources[0].sourceName != "out":
+                    target.setOutputString(sources[0].sourceName)
             elif inp.Get() is not None:
                 target.setValueString(_mx_value_string(inp.Get(), mx_in.getType()))
             if inp.GetAttr().HasColorSpace():

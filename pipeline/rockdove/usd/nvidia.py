@@ -99,16 +99,15 @@ def _findings(results, root_layer: str) -> tuple[list, int]:
 
 def _mesh_findings(nv, rules: list, root_layer: str) -> list:
     """The findings of ``rules`` (the MESH_RULES) on ``root_layer``, from the memo when its meshes were seen."""
-    from importlib.metadata import version
-
-    from ..resources import user_cache_dir, write_cached
+    from ..resources import write_cached
+    from ..sources import cache_dir
 
     digest = mesh_digest(root_layer)
     path = None
     if digest is not None:
         names = ",".join(sorted(r.__name__ for r in rules))
         key = hashlib.sha256(f"{names}\0{digest}".encode()).hexdigest()
-        path = user_cache_dir(f"usd-validation-nvidia-{version('usd-validation-nvidia')}", f"{key}.json")
+        path = cache_dir("usd-validation-nvidia", _mesh_findings) / f"{key}.json"
         try:
             return [tuple(f) for f in json.loads(path.read_text())]
         except (OSError, ValueError):

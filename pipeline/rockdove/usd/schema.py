@@ -1,29 +1,21 @@
 """The ``RockDoveThinFilmAPI`` codeless applied API schema (``schemas/``): registration, apply and read back.
 
-The schema records on the feather mesh the physical film a LUT was baked from (film index model and Cauchy
-coefficients, incident/substrate indices, thickness primvar and units) and the LUT's layout (file, colour
-space, angle warp, thickness range, illuminant, observer), so that renderers and validators can read the
-physics without the build's memory. An asset without a LUT (physical-only shading) records the film only: no
-``rockdove:lut:*`` attribute is authored, and :func:`read_thin_film` reports them empty (not the schema's
-fallbacks). Attribute names and meanings: docs/design.md, "USD asset".
+The schema records on the feather mesh the physical film a LUT was baked from and the LUT's layout, so that
+renderers and validators read the physics without the build's memory (names and meanings: docs/design.md, "USD
+asset"). An asset without a LUT (physical-only shading) authors no ``rockdove:lut:*`` attribute, and
+:func:`read_thin_film` reports them empty, not as the schema's fallbacks.
 
-USD discovers the schema through ``schemas/plugInfo.json``. :func:`register` calls
-``Plug.Registry().RegisterPlugins`` on that folder, which only takes effect if it runs before USD builds its
-schema registry (the first stage opened in the process); setting ``PXR_PLUGINPATH_NAME`` to include
-``schemas/`` before importing pxr has the same effect. Because another module of the same process may open a
-stage first, nothing here depends on the registry: :func:`apply_thin_film` adds the schema name to the
-prim's ``apiSchemas`` and authors every attribute with its declared type (:data:`ATTRIBUTE_TYPES`, checked
-against generatedSchema.usda by the tests), and :func:`has_thin_film` reads the ``apiSchemas`` list itself,
-so the written layers and what is read back are the same whether or not the registry knows the schema.
+:func:`register` registers ``schemas/plugInfo.json``, which takes effect only before USD builds its schema
+registry (the first stage opened in the process). Another module may open a stage first, so nothing here needs
+the registry: :func:`apply_thin_film` adds the name to ``apiSchemas`` and authors every attribute with its
+declared type (:data:`ATTRIBUTE_TYPES`, checked against generatedSchema.usda by the tests), and
+:func:`has_thin_film` reads ``apiSchemas`` itself.
 
-Surviving tools that drop schemas: :func:`apply_thin_film` also authors every value as a custom attribute
-``userProperties:rockdove:<name>`` (an asset path as its string). Measured with Blender 5.0.1 (``bpy``, default
-USD import and export options) on a mesh carrying the three candidates: the schema's own attributes
-(``custom = false``) and constant primvars (``primvars:rockdove...``, interpolation constant) are dropped on
-import, and so is ``customData``; ``userProperties:rockdove:film:cauchyA`` arrives as the mesh's custom
-property ``rockdove:film:cauchyA`` (namespace ``userProperties:`` stripped; token values as strings, float2 as
-an array) and Blender's export writes it back as the custom attribute ``rockdove:film:cauchyA`` on the mesh:
-the schema's attribute name, without the ``apiSchemas`` entry. So ``userProperties:`` is the copy kept.
+Surviving tools that drop schemas: every value is also authored as the custom attribute
+``userProperties:rockdove:<name>`` (an asset path as its string). Measured with Blender 5.0.1 (bpy, default USD
+import and export): the schema's attributes, constant primvars and ``customData`` are dropped on import, while
+``userProperties:rockdove:film:cauchyA`` arrives as the mesh's custom property ``rockdove:film:cauchyA`` and is
+exported back as the attribute ``rockdove:film:cauchyA``.
 """
 
 from __future__ import annotations
@@ -32,56 +24,33 @@ from .. import resources
 
 SCHEMA_NAME = "RockDoveThinFilmAPI"
 #: Namespace of the copy of the schema's values that survives tools which drop applied API schemas (module
-#: docstring, "Surviving tools that drop schemas").
+#: docstring).
 USER_PROPERTIES_PREFIX = "userProperties:rockdove:"
 
-# attribute name (after the "rockdove:" namespace) -> key in the dict read_thin_film returns
+#: Attribute (after the ``rockdove:`` namespace, in authoring order) -> (key of :func:`read_thin_film`'s dict and
+#: of :func:`apply_thin_film`'s arguments, Sdf value type name as declared in generatedSchema.usda).
 _ATTRS = {
-    "film:model": "model",
-    "film:cauchyA": "cauchy_a",
-    "film:cauchyB_nm2": "cauchy_b_nm2",
-    "film:k": "k",
-    "film:incidentIndex": "incident_index",
-    "film:substrateIndex": "substrate_index",
-    "film:thicknessPrimvar": "thickness_primvar",
-    "film:thicknessUnits": "thickness_units",
-    "lut:file": "lut_file",
-    "lut:colorSpace": "lut_colour_space",
-    "lut:angleWarpGamma": "angle_warp_gamma",
-    "lut:thicknessRangeNm": "thickness_range_nm",
-    "lut:illuminant": "illuminant",
-    "lut:observer": "observer",
+    "film:model": ("model", "token"),
+    "film:cauchyA": ("cauchy_a", "float"),
+    "film:cauchyB_nm2": ("cauchy_b_nm2", "float"),
+    "film:k": ("k", "float"),
+    "film:incidentIndex": ("incident_index", "float"),
+    "film:substrateIndex": ("substrate_index", "float"),
+    "film:thicknessPrimvar": ("thickness_primvar", "token"),
+    "film:thicknessUnits": ("thickness_units", "token"),
+    "lut:file": ("lut_file", "asset"),
+    "lut:colorSpace": ("lut_colour_space", "token"),
+    "lut:angleWarpGamma": ("angle_warp_gamma", "float"),
+    "lut:thicknessRangeNm": ("thickness_range_nm", "float2"),
+    "lut:illuminant": ("illuminant", "token"),
+    "lut:observer": ("observer", "string"),
 }
-
-
-#: Attribute (without the ``rockdove:`` namespace) -> Sdf value type name, as declared in generatedSchema.usda.
-ATTRIBUTE_TYPES = {
-    "film:model": "token",
-    "film:cauchyA": "float",
-    "film:cauchyB_nm2": "float",
-    "film:k": "float",
-    "film:incidentIndex": "float",
-    "film:substrateIndex": "float",
-    "film:thicknessPrimvar": "token",
-    "film:thicknessUnits": "token",
-    "lut:file": "asset",
-    "lut:colorSpace": "token",
-    "lut:angleWarpGamma": "float",
-    "lut:thicknessRangeNm": "float2",
-    "lut:illuminant": "token",
-    "lut:observer": "string",
-}
+ATTRIBUTE_TYPES = {name: type_name for name, (_, type_name) in _ATTRS.items()}
 
 
 def register() -> bool:
-    """Register ``schemas/`` with USD's plugin registry (idempotent, best effort).
-
-    Returns
-    -------
-    bool
-        True when USD's schema registry knows ``RockDoveThinFilmAPI`` (False when a stage was opened in this
-        process before the plugin was registered; the functions of this module work either way).
-    """
+    """Register ``schemas/`` with USD's plugin registry (idempotent); True when the schema registry knows
+    ``RockDoveThinFilmAPI`` (False when a stage was opened earlier in this process: this module works either way)."""
     from pxr import Plug, Usd
 
     Plug.Registry().RegisterPlugins(str(resources.folder("schemas")))
@@ -102,27 +71,10 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
                     thickness_primvar: str = "thickness") -> None:
     """Apply ``RockDoveThinFilmAPI`` to a Mesh prim and author every attribute (nothing left to fallbacks).
 
-    Parameters
-    ----------
-    prim : Usd.Prim
-        A ``Mesh``.
-    model : str
-        Film model name (``rockdove.films.FILMS`` key).
-    cauchy_a, cauchy_b_nm2 : float
-        Film index ``n(lambda) = cauchy_a + cauchy_b_nm2 / lambda_nm**2``.
-    incident_index, substrate_index : float
-        Indices of the media above and below the film.
-    k : float
-        Constant extinction coefficient of the film (index ``n + i k``, ``k >= 0`` absorbs).
-    lut_file : str or None
-        Asset path of the LUT EXR, relative to the layer (``./textures/thinfilm_lut.exr``). None for an asset
-        without a LUT (physical-only shading): then only the ``film:*`` attributes are authored, no ``lut:*``.
-    lut_colour_space : str
-        MaterialX colour-space name of the LUT (required with ``lut_file``).
-    angle_warp_gamma : float
-        LUT angle warp (``cos_theta = x ** gamma``; required with ``lut_file``).
-    thickness_range_nm : (float, float)
-        LUT thickness axis ``(lo, hi)`` in nm (required with ``lut_file``).
+    The film's index is ``n(lambda) = cauchy_a + cauchy_b_nm2 / lambda_nm**2 + i k`` between the media of
+    ``incident_index`` (above) and ``substrate_index``. ``lut_file``: the LUT EXR's asset path relative to the
+    layer, with its MaterialX colour space, angle warp (``cos_theta = x ** gamma``) and thickness axis (lo, hi) nm;
+    None for an asset without a LUT (then only ``film:*`` is authored).
     """
     from pxr import Gf, Sdf
 
@@ -135,57 +87,29 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
                          f"{lut_colour_space!r}, {angle_warp_gamma!r}, {thickness_range_nm!r}")
     if not prim.AddAppliedSchema(SCHEMA_NAME):
         raise RuntimeError(f"could not apply {SCHEMA_NAME} to {prim.GetPath()}")
-    values = {
-        "film:model": model,
-        "film:cauchyA": float(cauchy_a),
-        "film:cauchyB_nm2": float(cauchy_b_nm2),
-        "film:k": float(k),
-        "film:incidentIndex": float(incident_index),
-        "film:substrateIndex": float(substrate_index),
-        "film:thicknessPrimvar": thickness_primvar,
-        "film:thicknessUnits": "nm",
-    }
-    if lut_file is not None:
-        lo, hi = (float(v) for v in thickness_range_nm)
-        values.update({
-            "lut:file": Sdf.AssetPath(lut_file),
-            "lut:colorSpace": lut_colour_space,
-            "lut:angleWarpGamma": float(angle_warp_gamma),
-            "lut:thicknessRangeNm": Gf.Vec2f(lo, hi),
-            "lut:illuminant": illuminant,
-            "lut:observer": observer,
-        })
-    for name, value in values.items():
-        type_name = Sdf.ValueTypeNames.Find(ATTRIBUTE_TYPES[name])
-        prim.CreateAttribute(f"rockdove:{name}", type_name, custom=False).Set(value)
-        if ATTRIBUTE_TYPES[name] == "asset":  # tools keep strings, not asset paths
-            type_name, value = Sdf.ValueTypeNames.String, value.path
-        prim.CreateAttribute(USER_PROPERTIES_PREFIX + name, type_name, custom=True).Set(value)
+    given = locals() | {"thickness_units": "nm"}  # the arguments by _ATTRS key
+    convert = {"float": float, "asset": Sdf.AssetPath, "float2": lambda v: Gf.Vec2f(*(float(x) for x in v))}
+    for name, (key, type_name) in _ATTRS.items():
+        if name.startswith("lut:") and lut_file is None:
+            continue
+        value = convert.get(type_name, str)(given[key])
+        sdf_type = Sdf.ValueTypeNames.Find(type_name)
+        prim.CreateAttribute(f"rockdove:{name}", sdf_type, custom=False).Set(value)
+        if type_name == "asset":  # tools keep strings, not asset paths
+            sdf_type, value = Sdf.ValueTypeNames.String, value.path
+        prim.CreateAttribute(USER_PROPERTIES_PREFIX + name, sdf_type, custom=True).Set(value)
 
 
 def read_thin_film(prim) -> dict:
-    """Read ``RockDoveThinFilmAPI`` back from a prim.
-
-    Returns
-    -------
-    dict
-        ``model`` (str), ``cauchy_a``, ``cauchy_b_nm2``, ``k``, ``incident_index``, ``substrate_index`` (float),
-        ``thickness_primvar``, ``thickness_units`` (str), ``lut_file`` (str, the authored asset path),
-        ``lut_file_resolved`` (str, absolute path or "" when it does not resolve), ``lut_colour_space``,
-        ``angle_warp_gamma`` (float), ``thickness_range_nm`` ((lo, hi) float nm), ``illuminant``, ``observer``.
-        An asset without a LUT (physical-only) has ``lut_file == ""`` and None for the other ``lut:*`` values.
-
-    Raises
-    ------
-    ValueError
-        If the prim does not have the schema applied.
-    """
+    """``RockDoveThinFilmAPI``'s values on ``prim`` by :data:`_ATTRS` key (floats, strings, the thickness range as
+    a (lo, hi) float tuple), plus ``lut_file_resolved`` (absolute, or "" when it does not resolve); without a LUT
+    ``lut_file == ""`` and the other ``lut:*`` values None. ValueError if the schema is not applied."""
     if not has_thin_film(prim):
         op = prim.GetMetadata("apiSchemas")
         raise ValueError(f"prim {prim.GetPath()} does not apply {SCHEMA_NAME} "
                          f"(applied: {list(op.ApplyOperations([])) if op else []})")
     out = {}
-    for name, key in _ATTRS.items():
+    for name, (key, _) in _ATTRS.items():
         attr = prim.GetAttribute(f"rockdove:{name}")
         # lut:* only when authored: a LUT-less (physical-only) film must not read as the schema's fallbacks
         value = attr.Get() if attr and (attr.HasAuthoredValue() or not name.startswith("lut:")) else None

@@ -1,27 +1,26 @@
 """``DIR/pigeon.usdz``: the asset as one self-contained package (USDZ: an uncompressed, 64-byte aligned zip).
 
-Made with ``UsdUtils.CreateNewUsdzPackage``, which collects the root layer and every dependency it reaches
-(the payload layer, the textures, and the LUT named by ``rockdove:lut:file``, an asset-valued attribute) and
-rewrites their paths to package-relative ones.
+Made with ``UsdUtils.CreateNewUsdzPackage``, which collects the root layer and every dependency it reaches (the
+payload layers, the textures, and the LUT named by the asset-valued ``rockdove:lut:file``) and rewrites their
+paths to package-relative ones.
 
-Reproducibility: usd-core's zip writer stores each source file's modification time in the archive. The
-package is therefore made from a scratch copy of the asset whose files all carry one fixed time,
-``SOURCE_DATE_EPOCH`` when set (the reproducible-builds convention) else 1980-01-01 (the zip epoch), so the
-same asset gives a byte-identical package (tested) and the files in ``out_dir`` are left untouched.
+Reproducibility: usd-core's zip writer stores each file's modification time, so the package is made from files
+that all carry one fixed time, ``SOURCE_DATE_EPOCH`` when set (the reproducible-builds convention) else
+1980-01-01 (the zip epoch): the same asset gives a byte-identical package (tested).
 
 ``DIR/pigeon_ar.usdz`` (:func:`write_ar_usdz`): the same bird for AR Quick Look, as
-``UsdUtils.CreateNewARKitUsdzPackage`` makes one: a single flattened ``.usdc`` layer first in the package, then
-its textures, and only UsdPreviewSurface networks (the rules of OpenUSD's ARKit compliance checker, v23.11, which
-allow no MaterialX ``ND_*`` shader). Flattening bakes the ``shading`` variant's selection, so the package gives up
-what the layered asset has: the ``shading`` variant set (and the MaterialX networks it switches), the LUT
-(``rockdove:lut:file``, an EXR no AR viewer reads: the film's other records stay), and the payload split (the
-geometry is loaded, not deferred). The feathers show the preview atlas ``feather_preview.png`` through
-``previewST``, as every UsdPreviewSurface viewer of the full asset does.
+``UsdUtils.CreateNewARKitUsdzPackage`` makes one: one flattened ``.usdc`` layer first, then its textures, and only
+UsdPreviewSurface networks (OpenUSD's ARKit compliance checker, v23.11, allows no MaterialX ``ND_*`` shader).
+Flattening bakes the ``shading`` selection, so the package gives up the variant set (and the MaterialX networks it
+switches), the LUT (an EXR no AR viewer reads: the film's other records stay) and the payload split. The feathers
+show the preview atlas ``feather_preview.png`` through ``previewST``, as every UsdPreviewSurface viewer does.
 """
 
 from __future__ import annotations
 
 import os
+import shutil
+import tempfile
 
 USDZ_NAME = "pigeon.usdz"
 AR_USDZ_NAME = "pigeon_ar.usdz"
@@ -41,15 +40,35 @@ def _fixed_time() -> int:
         raise ValueError(f"SOURCE_DATE_EPOCH must be an integer (seconds), got {value!r}") from None
 
 
+def _root(out_dir: str, root_layer: str) -> tuple[str, str]:
+    """(absolute out_dir, its root layer); registers the schema first. FileNotFoundError without the layer."""
+    from .schema import register
+
+    register()
+    out_dir = os.path.abspath(out_dir)
+    root = os.path.join(out_dir, root_layer)
+    if not os.path.isfile(root):
+        raise FileNotFoundError(f"out_dir: no root layer {root!r} to package")
+    return out_dir, root
+
+
+def _stamp(folder: str) -> None:
+    """Give every file below ``folder`` but packages and scratch folders the fixed time."""
+    stamp = _fixed_time()
+    for parent, dirs, files in os.walk(folder):
+        dirs[:] = [d for d in dirs if not d.startswith(".usdz-")]
+        for name in files:
+            if not name.endswith(".usdz"):
+                os.utime(os.path.join(parent, name), (stamp, stamp))
+
+
 def ar_layer(root: str):
-    """The asset at ``root`` flattened into one anonymous layer holding UsdPreviewSurface networks only.
+    """The asset at ``root`` flattened into one anonymous layer without any shader whose ``info:id`` is not a
+    :data:`PREVIEW_SHADER_IDS` one, any material output but ``outputs:surface`` / ``outputs:displacement``, and
+    ``rockdove:lut:file``."""
+    from pxr import Usd
 
-    Every shader whose ``info:id`` is not a :data:`PREVIEW_SHADER_IDS` one, every material output other than
-    ``outputs:surface`` / ``outputs:displacement`` (``outputs:mtlx:surface``) and ``rockdove:lut:file`` go."""
-    from pxr import Sdf, Usd
-
-    stage = Usd.Stage.Open(root, Usd.Stage.LoadAll)
-    layer = stage.Flatten(addSourceFileComment=False)
+    layer = Usd.Stage.Open(root, Usd.Stage.LoadAll).Flatten(addSourceFileComment=False)
     dropped = []
 
     def walk(spec):
@@ -75,23 +94,10 @@ def ar_layer(root: str):
 
 def write_ar_usdz(out_dir: str, root_layer: str = "pigeon.usda") -> str:
     """``out_dir/pigeon_ar.usdz``: :func:`ar_layer` of ``out_dir/root_layer`` as ``pigeon_ar.usdc``, packaged by
-    ``UsdUtils.CreateNewARKitUsdzPackage`` with its textures (fixed file times, as :func:`write_usdz`).
-
-    Returns the package's absolute path; raises ``FileNotFoundError`` without the root layer, ``RuntimeError``
-    when USD could not write the package."""
-    import shutil
-    import tempfile
-
+    ``UsdUtils.CreateNewARKitUsdzPackage`` with its textures (fixed file times); returns its path."""
     from pxr import Sdf, UsdUtils
 
-    from .schema import register
-
-    register()
-    out_dir = os.path.abspath(out_dir)
-    root = os.path.join(out_dir, root_layer)
-    if not os.path.isfile(root):
-        raise FileNotFoundError(f"out_dir: no root layer {root!r} to package")
-    stamp = _fixed_time()
+    out_dir, root = _root(out_dir, root_layer)
     with tempfile.TemporaryDirectory(prefix=".usdz-", dir=out_dir) as scratch:
         layer = ar_layer(root)
         used = []
@@ -112,9 +118,7 @@ def write_ar_usdz(out_dir: str, root_layer: str = "pigeon.usda") -> str:
             shutil.copyfile(os.path.join(out_dir, rel), os.path.join(scratch, rel))
         flat = os.path.join(scratch, "pigeon_ar.usdc")
         layer.Export(flat)
-        for folder, _, files in os.walk(scratch):
-            for name in files:
-                os.utime(os.path.join(folder, name), (stamp, stamp))
+        _stamp(scratch)
         package = os.path.join(scratch, AR_USDZ_NAME)
         if not UsdUtils.CreateNewARKitUsdzPackage(Sdf.AssetPath(flat), package):
             raise RuntimeError(f"UsdUtils.CreateNewARKitUsdzPackage failed for {root!r}")
@@ -124,49 +128,23 @@ def write_ar_usdz(out_dir: str, root_layer: str = "pigeon.usda") -> str:
 
 
 def write_usdz(out_dir: str, root_layer: str = "pigeon.usda", *, in_place: bool = False) -> str:
-    """Package ``out_dir/root_layer`` and its dependencies into ``out_dir/pigeon.usdz``.
+    """Package ``out_dir/root_layer`` and its dependencies into ``out_dir/pigeon.usdz``; returns its path.
 
-    ``in_place=True`` packages ``out_dir``'s own files, setting their modification times to the fixed time,
-    instead of a scratch copy of them: for a caller whose ``out_dir`` is already its own scratch copy (the build's
-    usdz stage), the same bytes without copying the asset a second time.
-
-    Returns
-    -------
-    str
-        Absolute path of the package.
-
-    Raises
-    ------
-    FileNotFoundError
-        The root layer does not exist.
-    RuntimeError
-        USD could not write the package.
+    The files packaged are a scratch copy of ``out_dir`` with the fixed time, so ``out_dir`` is left untouched;
+    ``in_place=True`` stamps and packages ``out_dir``'s own files instead (the same bytes without a second copy,
+    for the build's usdz stage, whose ``out_dir`` is already a copy). RuntimeError when USD could not write it.
     """
-    import shutil
-    import tempfile
-
     from pxr import Sdf, UsdUtils
 
-    from .schema import register
-
-    register()
-    out_dir = os.path.abspath(out_dir)
-    root = os.path.join(out_dir, root_layer)
-    if not os.path.isfile(root):
-        raise FileNotFoundError(f"out_dir: no root layer {root!r} to package")
+    out_dir, root = _root(out_dir, root_layer)
     target = os.path.join(out_dir, USDZ_NAME)
-    stamp = _fixed_time()
     with tempfile.TemporaryDirectory(prefix=".usdz-", dir=out_dir) as scratch:
         src = out_dir
         if not in_place:
             src = os.path.join(scratch, "asset")
             shutil.copytree(out_dir, src, ignore=lambda d, names: [n for n in names if n.endswith(".usdz")
                                                                    or n.startswith(".usdz-")])
-        for folder, dirs, files in os.walk(src):
-            dirs[:] = [d for d in dirs if not d.startswith(".usdz-")]
-            for name in files:
-                if not name.endswith(".usdz"):
-                    os.utime(os.path.join(folder, name), (stamp, stamp))
+        _stamp(src)
         package = os.path.join(scratch, USDZ_NAME)
         if not UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(os.path.join(src, root_layer)), package):
             raise RuntimeError(f"UsdUtils.CreateNewUsdzPackage failed for {root!r}")

@@ -15,7 +15,7 @@ variant sets on the default prim (here ``shading`` = baked / physical), runs:
    faceVarying = face corners, uniform = faces, constant = 1), indices in range.
 5. Thin film: on prims with ``RockDoveThinFilmAPI``, the thickness primvar's range lies inside the LUT's
    domain ``rockdove:lut:thicknessRangeNm``, which must agree with the range in the LUT EXR header; the
-   bound material's LUT constants (``LutAngleCount``... of thinfilm.mtlx) must describe that EXR, and the
+   bound material's LUT constants (``LutTransform``... of thinfilm.mtlx) must describe that EXR, and the
    film attributes must match the provenance the baker wrote into the EXR header (film, illuminant...).
    An asset without a LUT (physical-only shading: no ``rockdove:lut:*`` attributes) is valid: its film
    attributes must be complete and finite, its thickness primvar present, finite and > 0 nm, and its bound

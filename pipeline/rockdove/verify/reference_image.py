@@ -1,62 +1,41 @@
 """The independent CPU reference images: the exact spectral thin-film model shaded per pixel, no LUT.
 
-For each :class:`rockdove.render.views.View` the reference takes the first opaque hit of every pixel's primary
-ray (:mod:`rockdove.verify.rays`: the GL renderer's pinhole camera, feather cards alpha-tested) and shades it
-with the model of docs/design.md, "Conventions":
+Each pixel's primary ray takes its first opaque hit (:mod:`rockdove.verify.rays`: the GL renderer's pinhole
+camera, feather cards alpha-tested), shaded with the model of docs/design.md, "Conventions": normals, ``st`` and
+thickness interpolated barycentrically; textures sampled as OpenGL does (:func:`rockdove.render.texture.
+sample_texture`); two-sided cards (``N`` flipped to face the viewer, as ``materials/glsl/thinfilm.frag``; without a
+mask texture, mask 1); ``cos_theta = dot(L, H) = sqrt((1 + dot(L, V)) / 2)``; ``colour = mix(base_rgb, structural,
+mask)``, ``radiance = colour * light_rgb * max(dot(N, L), 0)``; other parts ``base_rgb * light_rgb * max(dot(N, L),
+0)``; no ambient.
 
-- normals, ``st`` and the film thickness are interpolated with the hit's barycentric coordinates;
-  textures are sampled bilinearly, clamp-to-edge, texel centres at (k + 0.5) / N, t = 0 at the image's
-  bottom (:func:`rockdove.render.texture.sample_texture`, the convention OpenGL uses);
-- cards are two-sided: the interpolated ``N`` is flipped when ``dot(N, V) < 0``, so it faces the viewer
-  (as ``materials/glsl/thinfilm.frag`` does); a feather part without a mask texture has mask 1;
-- ``cos_theta = dot(L, H) = sqrt((1 + dot(L, V)) / 2)``, ``H = normalize(L + V)``;
-- ``structural = exact spectral colour of the film at (cos_theta, thickness_nm)``;
-  ``colour = mix(base_rgb, structural, mask)``; ``radiance = colour * light_rgb * max(dot(N, L), 0)``;
-  other parts ``base_rgb * light_rgb * max(dot(N, L), 0)``; no ambient term.
+The exact structural colour is :func:`rockdove.lut.reference.reference_colour` (the Airy spectrum of the film read
+from the USD integrated to lin_rec709 under D65) at each pixel's ``(cos_theta, thickness_nm)``. For real films from
+cos_theta 0.01 up it integrates a 16-point Lagrange interpolant on a wavenumber grid whose phase step follows the film
+(:data:`IMAGE_INTERPOLATION`: at most ``min(0.35 delta, 0.6 rad)``, ``delta`` the Airy function's strip of
+analyticity; within 0.0008 dE2000 of a 0.02-0.05 nm integration, 9.6x faster on the default views; :mod:`rockdove.lut.
+reference`, "Wavenumber interpolation"). Below 0.01 and for absorbing films it takes the wavelength steps
+:data:`IMAGE_STEPS_NM` (product integration of the spectrum's cubic interpolant against the 0.1 nm colour weights,
+:func:`rockdove.lut.reference.product_weights`), validated up to :data:`IMAGE_STEPS_CALIBRATED_NM` of film and scaled
+down in proportion for thicker pixels (the phase advances with thickness). Measured (keratin, 40 random samples per
+band, dE2000 of the displayed colour against a 0.002-0.02 nm integration, films of 450-720, 700-1000, 1500-2000 and
+4000-5000 nm): 4 nm errs <= 0.0010 for cos_theta >= 0.12 (0.011 at 0.08-0.12), 3 nm <= 0.0017 at 0.08-0.12, 2 nm <=
+0.0016 at 0.05-0.08, 1 nm <= 0.0001 at 0.03-0.05, 0.5 nm <= 0.0003 at 0.01-0.03, 0.1 nm <= 0.0001 at 0.003-0.01,
+0.05 nm <= 0.0001 at 0.001-0.003, 0.01 nm <= 0.0016 below: every band under 0.01 dE2000, two orders of magnitude under
+the verification goal (``tests/test_reference.py::test_spectral_step_is_exact_against_a_finer_grid``). Pixels are
+de-duplicated on keys quantised by :data:`COS_THETA_QUANTUM` and :data:`THICKNESS_QUANTUM_NM`: the film phase
+``4 pi n d cos(theta_b) / lambda`` changes by under 5e-5 rad within a key (measured < 0.005 dE2000), so this is still
+the exact model per pixel, not an interpolated table.
 
-The exact structural colour
----------------------------
-The film colour is :func:`rockdove.lut.reference.reference_colour` (the project's one definition of the exact
-colour: the Airy spectrum of the film read from the USD integrated to lin_rec709, D65) at each pixel's
-``(cos_theta, thickness_nm)``. For real films (every registered one) from cos_theta 0.01 up it samples the
-spectrum on a wavenumber grid whose phase step follows the film (:data:`IMAGE_INTERPOLATION`: at most
-``min(0.35 delta, 0.6 rad)``, ``delta`` the Airy function's strip of analyticity in phase) and integrates its
-centred 16-point Lagrange interpolant against the 0.1 nm colour weights, with a float32 kernel away from grazing
-(:mod:`rockdove.lut.reference`, "Wavenumber interpolation": every band within 0.0008 dE2000 of a 0.02-0.05 nm
-integration at 450-720, 1500-2000 and 4000-5000 nm, keratin and the paper film; the default views' keys 9.6x
-faster than with the wavelength steps below). Below cos_theta 0.01, and for films with complex indices, it takes the
-wavelength steps :data:`IMAGE_STEPS_NM`: the reference's own steps below cos_theta 0.01 (where the spectrum is a
-comb of sharp lines) and coarser ones in the smooth bands above, where the spectrum's cubic interpolant is
-integrated against the 0.1 nm colour weights (product integration, :func:`rockdove.lut.reference.product_weights`).
-Those steps were validated up to :data:`IMAGE_STEPS_CALIBRATED_NM` of film; thicker pixels scale their step down in
-proportion (the film's phase advances in proportion to its thickness). Measured (keratin film, 40 random samples
-per band, dE2000 of the displayed colour against a 0.002-0.02 nm integration, films of 450-720, 700-1000,
-1500-2000 and 4000-5000 nm): 4 nm errs <= 0.0010 for cos_theta >= 0.12 (but 0.011 at 0.08-0.12, where the
-fringes sharpen), 3 nm <= 0.0017 at 0.08-0.12, 2 nm <= 0.0016 at 0.05-0.08, 1 nm <= 0.0001 at 0.03-0.05, 0.5 nm
-<= 0.0003 at 0.01-0.03, 0.1 nm <= 0.0001 at 0.003-0.01, 0.05 nm <= 0.0001 at 0.001-0.003, 0.01 nm <= 0.0016 below
-0.001, at every thickness once scaled. So every band stays below 0.01 dE2000, two orders of magnitude under the
-verification goal (checked by ``tests/test_reference.py::test_spectral_step_is_exact_against_a_finer_grid``).
-Pixels are de-duplicated on quantised ``(cos_theta, thickness_nm)`` keys (steps :data:`COS_THETA_QUANTUM`,
-:data:`THICKNESS_QUANTUM_NM`): the film phase ``4 pi n d cos(theta_b) / lambda`` changes by less than 5e-5 rad
-within one key, far below anything visible (measured < 0.005 dE2000), so this is still the exact model per
-pixel, not an interpolated table.
-
-Lighting models (``lobe``, :data:`LOBES`; the hosts of :mod:`rockdove.hosts` name theirs):
-
-- ``"half_angle"`` (the default, above): the paper's model under the View's one directional light;
-- ``"view_angle"``: the smooth film's mirror lobe alone under a uniform white environment of unit radiance.
-  For a smooth film the mirror direction makes the angle of incidence the view angle, so the film lit by
-  the environment from the mirror direction reflects ``R(|N.V|)`` of unit radiance: a feather pixel is
-  ``mask * structural(cos_theta = |N.V|)``; no light, base colour black (diffuse off), other parts 0.
-  This is what the MaterialX baked network (``LUT(|N.V|)``) and the hosts' own thin-film BSDFs draw under
-  that environment with the base colour set to black. Both lobes of one call share the ray casts
-  (:func:`render_reference_lobes`).
-
-The PNGs use the GL path's tone mapping (:func:`rockdove.spectral.linear_to_srgb8`); the comparison uses the linear data.
+Lighting models (:data:`LOBES`, named by the hosts of :mod:`rockdove.hosts`): ``"half_angle"`` (the default, above)
+under the View's one directional light; ``"view_angle"``, the smooth film's mirror lobe alone under a uniform white
+environment of unit radiance, where the angle of incidence is the view angle: a feather pixel is ``mask *
+structural(cos_theta = |N.V|)``, base colour black, other parts 0 (what the MaterialX baked network, ``LUT(|N.V|)``,
+and the hosts' thin-film BSDFs draw there with a black base colour). Lobes of one call share the ray casts.
 """
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field
 
@@ -84,86 +63,37 @@ LOBES = ("half_angle", "view_angle")
 
 @dataclass
 class ReferenceResult:
-    """The reference render of one view.
-
-    Attributes
-    ----------
-    view : str
-    rgb : ndarray, (H, W, 3) float32
-        Linear lin_rec709 radiance (light_rgb = (1, 1, 1) is D65 white); 0 on the background.
-    coverage : ndarray, (H, W) bool
-        A surface was hit.
-    part_id : ndarray, (H, W) int32
-        ``index + 1`` of the part in ``scene.parts`` (0 = background), as the GL renderer numbers them.
-    depth_m : ndarray, (H, W) float32
-        Eye-space depth (distance along the camera's -Z), metres; +inf on the background.
-    n_dot_l : ndarray, (H, W) float32
-        ``max(dot(N, L), 0)`` of the shaded surface (0 on the background); with the ``view_angle`` lobe, 1 on
-        feather pixels (lit by the environment) and 0 elsewhere.
-    cos_theta : ndarray, (H, W) float32
-        ``dot(L, H)`` (``|dot(N, V)|`` with the ``view_angle`` lobe) on feather pixels, NaN elsewhere.
-    thickness_nm : ndarray, (H, W) float32
-        Interpolated film thickness on feather pixels, NaN elsewhere.
-    mask : ndarray, (H, W) float32
-        Structural-colour mask on feather pixels, 0 elsewhere.
-    timings_s : dict
-        Wall time of the stages (``rays``: the ray casts and the :class:`Surface` when not given; ``spectral``;
-        ``shade``), seconds.
-    stats : dict
-        Counts: rays, hits, alpha layers used, spectral evaluations, de-duplicated keys.
-    """
+    """The reference render of one view: (H, W) float32 images, linear lin_rec709 (light_rgb 1 = D65 white)."""
 
     view: str
-    rgb: np.ndarray
-    coverage: np.ndarray
-    part_id: np.ndarray
-    depth_m: np.ndarray
-    n_dot_l: np.ndarray
-    cos_theta: np.ndarray
-    thickness_nm: np.ndarray
-    mask: np.ndarray
-    timings_s: dict = field(default_factory=dict)
-    stats: dict = field(default_factory=dict)
-
-    @property
-    def display8(self) -> np.ndarray:
-        """(H, W, 3) uint8 sRGB image of :attr:`rgb` (:func:`rockdove.spectral.linear_to_srgb8`)."""
-        from ..spectral import linear_to_srgb8
-
-        return linear_to_srgb8(self.rgb)
+    rgb: np.ndarray  # (H, W, 3) radiance, 0 on the background
+    coverage: np.ndarray  # bool: a surface was hit
+    part_id: np.ndarray  # int32, index + 1 in scene.parts (0 = background), as the GL renderer numbers them
+    depth_m: np.ndarray  # eye-space depth along the camera's -Z; +inf on the background
+    n_dot_l: np.ndarray  # max(dot(N, L), 0) (view_angle lobe: 1 on feathers), 0 on the background
+    cos_theta: np.ndarray  # dot(L, H) (view_angle lobe: |dot(N, V)|) on feathers, NaN elsewhere
+    thickness_nm: np.ndarray  # film thickness on feathers, NaN elsewhere
+    mask: np.ndarray  # structural-colour mask on feathers, 0 elsewhere
+    timings_s: dict = field(default_factory=dict)  # rays (with the Surface when not given), spectral, shade, total
+    stats: dict = field(default_factory=dict)  # rays, hits, alpha layers, spectral pixels and keys
 
 
-# -- exact structural colour -------------------------------------------------------------------------------
 def structural_rgb(cos_theta, thickness_nm, film, stats: dict | None = None) -> np.ndarray:
-    """Exact structural colour per pixel (:func:`rockdove.lut.reference.reference_colour` with
-    :data:`IMAGE_STEPS_NM` scaled from :data:`IMAGE_STEPS_CALIBRATED_NM`), de-duplicated on fine keys.
-
-    Parameters
-    ----------
-    cos_theta : ndarray, (P,), in [0, 1]
-    thickness_nm : ndarray, (P,), nm, >= 0
-    film : rockdove.render.film.ThinFilmParams
-    stats : dict, optional
-        Receives ``spectral_pixels`` and ``spectral_keys``.
-
-    Returns
-    -------
-    ndarray, (P, 3) float64, linear lin_rec709.
-    """
+    """Exact structural colour, (P, 3) float64 lin_rec709, of (P,) ``cos_theta`` in [0, 1] and ``thickness_nm``
+    >= 0 for a :class:`rockdove.render.film.ThinFilmParams`, de-duplicated on fine keys (module docstring);
+    ``stats`` receives ``spectral_pixels`` and ``spectral_keys``."""
     c = np.clip(np.asarray(cos_theta, np.float64).reshape(-1), 0.0, 1.0)
     d = np.asarray(thickness_nm, np.float64).reshape(-1)
     if c.shape != d.shape:
         raise ValueError(f"cos_theta {c.shape} and thickness_nm {d.shape} must have the same length")
     if not (np.all(np.isfinite(d)) and np.all(d >= 0)):
         raise ValueError(f"thickness_nm must be finite and >= 0, got min {np.nanmin(d) if d.size else 'n/a'}")
-    out = np.zeros((c.size, 3))
     if c.size == 0:
-        return out
+        return np.zeros((0, 3))
     kc = np.round(c / COS_THETA_QUANTUM).astype(np.int64)  # 0 .. 5e5
     kd = np.round(d / THICKNESS_QUANTUM_NM).astype(np.int64)
     stride = int(kd.max()) + 1  # one int64 key per (cos, d) pair: 1-D unique is several times faster
     uniq, inverse = np.unique(kc * stride + kd, return_inverse=True)
-    inverse = inverse.reshape(-1)
     uc = np.clip((uniq // stride) * COS_THETA_QUANTUM, 0.0, 1.0)
     ud = (uniq % stride) * THICKNESS_QUANTUM_NM
     urgb = reference_colour(uc, ud, film.model, colour_space="lin_rec709", steps_nm=IMAGE_STEPS_NM,
@@ -172,51 +102,26 @@ def structural_rgb(cos_theta, thickness_nm, film, stats: dict | None = None) -> 
     if stats is not None:
         stats["spectral_pixels"] = stats.get("spectral_pixels", 0) + int(c.size)
         stats["spectral_keys"] = stats.get("spectral_keys", 0) + int(len(uniq))
-    return urgb[inverse]
+    return urgb[inverse.reshape(-1)]
 
 
 def render_reference(scene, views, structural_fn=None, hits=None, lobe: str = "half_angle",
                      surfaces=None) -> list[ReferenceResult]:
-    """Render ``views`` of ``scene`` on the CPU with the exact spectral thin-film model.
+    """Render ``views`` of a :class:`rockdove.render.scene.RenderScene` on the CPU with the exact model, one
+    :class:`ReferenceResult` per view in order.
 
-    Parameters
-    ----------
-    scene : rockdove.render.scene.RenderScene
-        The asset read back from USD.
-    views : sequence of rockdove.render.views.View
-    structural_fn : callable, optional
-        ``f(cos_theta (P,), thickness_nm (P,)) -> (P, 3)`` lin_rec709; default the exact model of
-        :func:`structural_rgb` for ``scene.film`` (tests may substitute a simpler one).
-    hits : mapping, optional
-        Ready-made :class:`rockdove.verify.rays.Hits` by :func:`~rockdove.verify.rays.camera_key` (e.g. cached by the build for this scene's
-        :func:`~rockdove.verify.rays.ray_digest`); cameras not in it are cast here. Either way the result is the same.
-    lobe : str
-        The lighting model, one of :data:`LOBES` (module docstring).
-    surfaces : mapping, optional
-        Ready-made :class:`Surface` by camera key (:func:`cast_surfaces`, e.g. cached by the build for this
-        scene's :func:`surface_digest`); with one for every camera the scene's geometry is not even loaded. Either
-        way the result is the same.
-
-    Returns
-    -------
-    list of ReferenceResult, one per view, in order.
-
-    Raises
-    ------
-    ValueError
-        ``views`` is empty, or the scene has feathers but no thin-film parameters.
+    ``structural_fn``: ``f(cos_theta (P,), thickness_nm (P,)) -> (P, 3)`` lin_rec709 in place of
+    :func:`structural_rgb` of ``scene.film`` (tests substitute a simpler one). ``hits`` / ``surfaces``: ready-made
+    :class:`rockdove.verify.rays.Hits` / :class:`Surface` by :func:`~rockdove.verify.rays.camera_key` (cached by
+    the build under :func:`~rockdove.verify.rays.ray_digest` / :func:`surface_digest`); other cameras are cast
+    here, and with a surface for every camera the geometry is not even loaded: the result is the same.
+    ``lobe``: one of :data:`LOBES`. ValueError for no views, or feathers without a film.
     """
     return render_reference_lobes(scene, views, (lobe,), structural_fn, hits=hits, surfaces=surfaces)[lobe]
 
 
 def render_reference_lobes(scene, views, lobes=LOBES, structural_fn=None, hits=None, surfaces=None) -> dict:
-    """:func:`render_reference` for several lighting models at once, sharing the scene's ray casts and surfaces.
-
-    Returns
-    -------
-    dict
-        lobe -> list of ReferenceResult (one per view, in order).
-    """
+    """:func:`render_reference` for several lighting models sharing the ray casts: ``{lobe: [ReferenceResult]}``."""
     lobes = tuple(dict.fromkeys(lobes))
     bad = [lb for lb in lobes if lb not in LOBES]
     if bad or not lobes:
@@ -224,76 +129,37 @@ def render_reference_lobes(scene, views, lobes=LOBES, structural_fn=None, hits=N
     views = list(views)
     if not views:
         raise ValueError("views must hold at least one View, got none")
-    has_feathers = any(p.is_feather for p in scene.parts)
-    if structural_fn is None:
-        if has_feathers and scene.film is None:
-            raise ValueError(f"scene {scene.root_layer!r} has feather parts but no RockDoveThinFilmAPI film")
-    geometry = _LazyGeometry(scene)
+    if structural_fn is None and scene.film is None and any(p.is_feather for p in scene.parts):
+        raise ValueError(f"scene {scene.root_layer!r} has feather parts but no RockDoveThinFilmAPI film")
+    geometry = functools.cache(lambda: SceneGeometry(scene))  # not built when every camera's surface is given
     hits_cache: dict = dict(hits or {})  # the light sweep keeps its camera still: cast its rays once
     surface_cache: dict = dict(surfaces or {})
     return {lb: [_render_view(geometry, scene, v, structural_fn, hits_cache, surface_cache, lb) for v in views]
             for lb in lobes}
 
 
-class _LazyGeometry:
-    """The scene's :class:`SceneGeometry`, built on first use (not at all when every camera's surface is given)."""
-
-    def __init__(self, scene):
-        self.scene, self._geom = scene, None
-
-    def get(self) -> SceneGeometry:
-        if self._geom is None:
-            self._geom = SceneGeometry(self.scene)
-        return self._geom
-
-
-#: The precision a :class:`Surface` keeps its values in (computed in float64, then rounded once, cached or not).
-#: Its rounding (relative 6e-8) is below the reference's de-duplication keys (cos theta to 2e-6, thickness to
-#: 0.002 nm); measured on the default asset's six views against float64 surfaces: radiance within 2.1e-6, dE2000
-#: within 0.0011 (dark pixels), inside the reference's 0.005 budget. It halves the cache (58 -> 30 MB for the
-#: default verification's 5 cameras).
+#: The precision a :class:`Surface` keeps (computed in float64, rounded once, cached or not): its rounding (relative
+#: 6e-8) is below the de-duplication keys; against float64 surfaces on the default asset's six views, radiance within
+#: 2.1e-6 and dE2000 within 0.0011 (dark pixels), inside the 0.005 budget, and half the cache (58 -> 30 MB).
 SURFACE_DTYPE = np.float32
 
 
 @dataclass(frozen=True)
 class Surface:
-    """What the reference shades at each hit pixel of one camera, before any light or film: the part of
-    :func:`render_reference` that depends on the geometry, the textures and the camera only, so a build caches
-    it across film and light changes (:func:`surface_digest`, :func:`~rockdove.verify.rays.camera_key`).
+    """What the reference shades at each hit pixel of one camera before any light or film: it depends on the
+    geometry, the textures and the camera only, so a build caches it across film and light changes
+    (:func:`surface_digest`, :func:`~rockdove.verify.rays.camera_key`). Arrays (P,) or (P, 3), P pixels hit."""
 
-    Attributes
-    ----------
-    n_pixels : int
-        ``width * height``.
-    hit : ndarray, (P,) int32
-        Flat indices (row-major from the top-left pixel) of the pixels whose ray hit a surface.
-    part : ndarray, (P,) int32
-        Index in ``scene.parts`` of the part hit.
-    normal, view_dir : ndarray, (P, 3) float32
-        Unit interpolated normal (flipped towards the viewer on two-sided feather cards) and unit direction to
-        the camera ``V``.
-    base : ndarray, (P, 3) float32
-        Base colour (texture sampled bilinearly or the part's constant), linear.
-    mask : ndarray, (P,) float32
-        Structural-colour mask (feathers; 0 elsewhere).
-    thickness_nm : ndarray, (P,) float32
-        Interpolated film thickness (0 on parts without a film).
-    depth_m : ndarray, (P,) float32
-        Eye-space depth along the camera's -Z, metres.
-    stats : dict
-        The ray casts' ``rays`` and ``alpha_layers``.
-    """
-
-    n_pixels: int
-    hit: np.ndarray
-    part: np.ndarray
-    normal: np.ndarray
-    view_dir: np.ndarray
-    base: np.ndarray
-    mask: np.ndarray
-    thickness_nm: np.ndarray
-    depth_m: np.ndarray
-    stats: dict
+    n_pixels: int  # width * height
+    hit: np.ndarray  # int32 flat indices (row-major from the top-left) of the pixels hit
+    part: np.ndarray  # int32 index in scene.parts of the part hit
+    normal: np.ndarray  # unit interpolated normal, flipped towards the viewer on two-sided feather cards
+    view_dir: np.ndarray  # unit direction to the camera, V
+    base: np.ndarray  # linear base colour (texture sampled bilinearly, or the part's constant)
+    mask: np.ndarray  # structural-colour mask (0 off the feathers)
+    thickness_nm: np.ndarray  # interpolated film thickness (0 on parts without a film)
+    depth_m: np.ndarray  # eye-space depth along the camera's -Z
+    stats: dict  # the ray casts' rays and alpha_layers
 
     ARRAYS = ("hit", "part", "normal", "view_dir", "base", "mask", "thickness_nm", "depth_m")
 
@@ -332,10 +198,9 @@ def surface_digest(scene) -> str:
 
 
 def cast_surfaces(scene, views, hits=None) -> dict:
-    """The :class:`Surface` of every distinct camera among ``views``: ``{camera_key(view): Surface}``.
-
-    ``hits``: ready-made ray casts by camera key (:func:`rockdove.verify.rays.cast_hits`); others are cast here."""
-    geometry = _LazyGeometry(scene)
+    """The :class:`Surface` of every distinct camera among ``views``, ``{camera_key(view): Surface}``, from the
+    ready-made ray casts ``hits`` by camera key (:func:`rockdove.verify.rays.cast_hits`) or cast here."""
+    geometry = functools.cache(lambda: SceneGeometry(scene))
     hits_cache = dict(hits or {})
     out: dict = {}
     for v in views:
@@ -345,10 +210,10 @@ def cast_surfaces(scene, views, hits=None) -> dict:
     return out
 
 
-def _surface(geometry: _LazyGeometry, view, hits_cache: dict) -> Surface:
+def _surface(geometry, view, hits_cache: dict) -> Surface:
     from ..render.texture import sample_texture
 
-    geom = geometry.get()
+    geom = geometry()
     key = camera_key(view)
     if key not in hits_cache:
         hits_cache[key] = cast_view(geom, view)
@@ -384,7 +249,7 @@ def _surface(geometry: _LazyGeometry, view, hits_cache: dict) -> Surface:
                    depth_m=((point[hit] - origin) @ fwd).astype(f32), stats=dict(hits_cache[key].stats))
 
 
-def _render_view(geometry: _LazyGeometry, scene, view, structural_fn, hits_cache: dict, surface_cache: dict,
+def _render_view(geometry, scene, view, structural_fn, hits_cache: dict, surface_cache: dict,
                  lobe: str = "half_angle") -> ReferenceResult:
     t0 = time.perf_counter()
     h, w = view.height, view.width
@@ -431,24 +296,15 @@ def _render_view(geometry: _LazyGeometry, scene, view, structural_fn, hits_cache
         n_dot_l = np.maximum(N @ L, 0.0)
         radiance = colour * light[None, :] * n_dot_l[:, None]
 
-    def image(fill, values, dtype):
-        out = np.full(h * w, fill, dtype) if np.ndim(values) == 1 else np.full((h * w, values.shape[1]), fill, dtype)
+    def image(fill, values, dtype=np.float32):
+        out = np.full((h * w,) + np.shape(values)[1:], fill, dtype)
         out[hit] = values
         return out.reshape((h, w) + out.shape[1:])
 
-    feather_cos = np.where(feather, cos_theta, np.nan)
-    feather_d = np.where(feather, thickness, np.nan)
-    res = ReferenceResult(
-        view=view.name,
-        rgb=image(0.0, radiance, np.float32),
-        coverage=image(False, np.ones(hit.size, bool), bool),
-        part_id=image(0, part + 1, np.int32),
-        depth_m=image(np.inf, srf.depth_m, np.float32),
-        n_dot_l=image(0.0, n_dot_l, np.float32),
-        cos_theta=image(np.nan, feather_cos, np.float32),
-        thickness_nm=image(np.nan, feather_d, np.float32),
-        mask=image(0.0, np.where(feather, mask, 0.0), np.float32),
-    )
+    res = ReferenceResult(view.name, image(0.0, radiance), image(False, True, bool), image(0, part + 1, np.int32),
+                          image(np.inf, srf.depth_m), image(0.0, n_dot_l),
+                          image(np.nan, np.where(feather, cos_theta, np.nan)),
+                          image(np.nan, np.where(feather, thickness, np.nan)), image(0.0, np.where(feather, mask, 0.0)))
     t4 = time.perf_counter()
     res.timings_s = {"rays": t1 - t0, "shade": (t2 - t1) + (t4 - t3), "spectral": t3 - t2, "total": t4 - t0}
     res.stats = stats
