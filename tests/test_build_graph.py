@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rockdove import sources
 from rockdove.graph import engine as G
 from rockdove.config import load_config
 from conftest import SMALL_BUILD
@@ -149,7 +150,7 @@ def _fake_package(tmp_path, monkeypatch, files: dict) -> Path:
         (root / rel).parent.mkdir(parents=True, exist_ok=True)
         (root / rel).write_text(text)
     monkeypatch.setattr(resources, "package_root", lambda: root)
-    monkeypatch.setattr(G, "_SOURCE_MEMO", {})
+    monkeypatch.setattr(sources, "_MEMO", {})
     return root
 
 
@@ -214,11 +215,11 @@ def test_modules_named_by_strings_are_followed_and_the_digest_is_remembered_unti
     root = _fake_package(tmp_path, monkeypatch, {**FAKE, "wiring.py": "def run(ctx):\n    from . import hosts\n"})
     (tmp_path / "materials" / "glsl").mkdir(parents=True)
     (tmp_path / "materials" / "glsl" / "x.frag").write_text("void main() {}\n")
-    monkeypatch.setattr(G.resources, "folder", lambda name: tmp_path / name)
+    monkeypatch.setattr(sources.resources, "folder", lambda name: tmp_path / name)
     stage = G.Stage("s", _function(root / "wiring.py", "run"), data=("materials/glsl",))
 
     def fresh():
-        monkeypatch.setattr(G, "_SOURCE_MEMO", {})
+        monkeypatch.setattr(sources, "_MEMO", {})
         return G.source_digest(stage)
 
     first = fresh()
@@ -236,11 +237,11 @@ def test_the_real_stages_are_keyed_by_the_code_they_reach_and_not_by_what_they_d
     """The stale keys issue 24 found: texture_images reaches spectral, geometry.sdf and geometry.neck; usd_geometry
     geometry.types; gltf geometry.types and usd.schema. None of the stages reaches the CLI, the commands, the API
     or the benchmarks, and the LUT reaches no geometry (a geometry edit reuses the bake)."""
-    from rockdove.graph import code, stages
+    from rockdove.graph import stages
 
     graph = {s.name: s for s in stages.make_stages(_cfg())}
-    root = G.resources.package_root().resolve()
-    files = {name: {str(p.relative_to(root)) for p in code.code_files(s, [graph[d] for d in s.deps])}
+    files = {name: {f.removeprefix("rockdove/")
+                    for f in G.source_digest(s, [graph[d] for d in s.deps], record=True)[1]["files"]}
              for name, s in graph.items()}
     assert {"spectral.py", "geometry/sdf.py", "geometry/neck.py", "textures.py"} <= files["texture_images"]
     assert "geometry/types.py" in files["usd_geometry"]
@@ -264,9 +265,9 @@ def test_folder_digest_streams_the_files_a_stage_wrote(tmp_path):
     expected = hashlib.sha256()
     for name in sorted(files, key=lambda n: str(tmp_path / n)):
         expected.update(name.encode() + b"\0" + files[name] + b"\0")
-    before = G.code._bytes.cache_info().currsize
+    before = sources._bytes.cache_info().currsize
     assert G.folder_digest(tmp_path) == expected.hexdigest()
-    assert G.code._bytes.cache_info().currsize == before
+    assert sources._bytes.cache_info().currsize == before
 
 
 def test_a_stage_whose_data_is_missing_or_empty_cannot_be_keyed(tmp_path, monkeypatch):

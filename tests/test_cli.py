@@ -392,4 +392,5 @@ def test_config_paths_lists_the_user_cache_in_use_and_the_suite_has_its_own(tmp_
     assert r.returncode == 0, r.stderr
     rows = json.loads(r.stdout)
     assert rows[0]["path"] == str(xdg / "rockdove")
-    assert any(row["path"] == str(xdg / "rockdove" / "code") and "imports" in row["what"] for row in rows)
+    assert any(row["path"] == str(xdg / "rockdove" / "code") and "imports" in row["what"]
+               and row["stale"].startswith("no key.json") for row in rows)

@@ -89,3 +89,38 @@ def test_describe_lists_every_leaf_with_its_unit():
     assert rows["thickness.base_nm"]["unit"] == "nm"
     assert rows["lut.angles"]["value"] == 256
     assert rows["verify.width"]["unit"] == "px"
+
+
+def test_user_cache_folders_are_keyed_by_what_derives_them_and_stale_ones_are_marked_and_pruned(
+        tmp_path, monkeypatch, capsys):
+    """A user-cache folder is named by the digest of the code that computes its values (sources.cache_dir); once
+    that code changes, ``rockdove config --paths`` marks it stale, as it does a folder an older rockdove left
+    without a key.json, and ``--prune`` removes those and keeps the current one."""
+    import importlib.util
+    import json
+
+    from rockdove import cli, sources
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    probe = tmp_path / "probe.py"
+
+    def compute(body: str):
+        probe.write_text(f"def compute():\n    return {body}\n")
+        spec = importlib.util.spec_from_file_location("probe", probe)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module.compute
+
+    old = sources.cache_dir("colour-science", compute("1"))
+    assert (old / sources.KEY_FILE).is_file() and sources.stale(old) is None
+    legacy = tmp_path / "xdg" / "rockdove" / "colour-science-0.4.7"
+    legacy.mkdir()
+    new = sources.cache_dir("colour-science", compute("22"))
+    assert new != old and sources.stale(new) is None and "probe.py changed" in sources.stale(old)
+    assert cli.main(["config", "--paths", "--json"]) == 0
+    rows = {r["path"]: r for r in json.loads(capsys.readouterr().out)}
+    assert rows[str(legacy)]["stale"].startswith("no key.json") and rows[str(new)]["stale"] is None
+    assert cli.main(["config", "--paths", "--prune"]) == 0
+    out = capsys.readouterr().out
+    assert f"{old}  STALE: " in out and "removed" in out
+    assert not old.exists() and not legacy.exists() and new.is_dir()

@@ -13,7 +13,6 @@ from ..config import config_hash, describe, load_config
 from .build import add_config_arguments
 
 
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_config_arguments(parser)
     parser.add_argument("--json", action="store_true",
@@ -21,42 +20,58 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--verbose", "-v", action="store_true", help="also print each key's description and range")
     parser.add_argument("--paths", action="store_true",
                         help="print the folders rockdove reads and writes outside an asset (the user cache and what "
-                             "each part of it holds, the package's data) instead of the configuration")
+                             "each part of it holds, marking the stale ones; the package's data)")
+    parser.add_argument("--prune", action="store_true",
+                        help="remove the user-cache folders --paths marks stale (what derived them has changed)")
 
 
 def _fmt(value) -> str:
     return "unset (model's value)" if value is None else json.dumps(value)
 
 
-def paths() -> list[tuple[str, str, str]]:
-    """(what, folder, keyed by) of every folder rockdove uses outside an asset and its stage cache."""
-    from .. import resources
-    from ..graph.code import SCANNER_VERSION
+#: User-cache folder name prefix -> what it holds.
+HOLDS = {"colour-science-": "colour-science's CIE tables and RGB matrices, the quadrature's weights "
+                            "(rockdove.spectral.colour_data)",
+         "usd-validation-nvidia-": "NVIDIA's mesh-rule findings (rockdove.usd.nvidia)",
+         "code": "the parsed imports of the package's files (rockdove.sources)"}
+
+
+def paths() -> list[dict]:
+    """Every folder rockdove uses outside an asset and its stage cache: ``what``, ``path``, ``keyed_by`` and, for
+    a user-cache folder, ``stale``: why what derived it changed since (None while current)."""
+    from .. import resources, sources
 
     user = resources.user_cache_dir()
-    rows = [("user cache ($XDG_CACHE_HOME/rockdove; safe to delete)", str(user), "")]
-    described = {"colour-science-": "colour-science's CIE tables and RGB matrices (rockdove.spectral)",
-                 "quadrature": "the product quadrature's integration weights (rockdove.lut.quadrature)",
-                 "usd-validation-nvidia-": "NVIDIA's mesh-rule findings (rockdove.usd.nvidia)",
-                 "code": "the build graph's parsed imports (rockdove.graph.code)"}
-    found = sorted(p.name for p in user.iterdir()) if user.is_dir() else []
-    for name in found:
-        what = next((w for prefix, w in described.items() if name.startswith(prefix)), "(not rockdove's)")
-        rows.append((f"  {what}", str(user / name), "library version and code" if name != "code" else
-                     f"file content (scanner v{SCANNER_VERSION})"))
-    rows.append(("package data (read only)", str(resources.package_root()), ""))
-    rows.append(("stage cache of a build", ".rockdove-cache beside --out, or --cache", "stage key"))
+    rows = [{"what": "user cache ($XDG_CACHE_HOME/rockdove; safe to delete)", "path": str(user),
+             "keyed_by": f"what derives each folder: code, installed distributions, Python ({sources.KEY_FILE})"}]
+    for folder in sorted(user.iterdir()) if user.is_dir() else []:
+        what = next((w for prefix, w in HOLDS.items() if folder.name.startswith(prefix)), None)
+        rows.append({"what": what or "(not rockdove's)", "path": str(folder), "keyed_by": sources.KEY_FILE,
+                     "stale": what and sources.stale(folder)})
+    rows.append({"what": "package data (read only)", "path": str(resources.package_root()), "keyed_by": ""})
+    rows.append({"what": "stage cache of a build", "path": ".rockdove-cache beside --out, or --cache",
+                 "keyed_by": "stage key"})
     return rows
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.paths:
+    if args.paths or args.prune:
+        import shutil
+
         rows = paths()
+        for row in rows:
+            if args.prune and row.get("stale"):
+                shutil.rmtree(row["path"], ignore_errors=True)
+                row["removed"] = True
         if args.json:
-            print(json.dumps([{"what": w.strip(), "path": p, "keyed_by": k} for w, p, k in rows], indent=1))
-        else:
-            for what, path, keyed in rows:
-                print(f"{what}: {path}" + (f"  (keyed by {keyed})" if keyed else ""))
+            print(json.dumps(rows, indent=1))
+            return 0
+        for row in rows:
+            if "stale" in row:  # a user-cache folder
+                stale = f"  STALE: {row['stale']}" + ("; removed" if row.get("removed") else "") if row["stale"] else ""
+                print(f"  {row['what']}: {row['path']}{stale}")
+            else:
+                print(f"{row['what']}: {row['path']}" + (f"  (keyed by {row['keyed_by']})" if row["keyed_by"] else ""))
         return 0
     config = load_config(preset=args.preset, config_file=args.config, overrides=args.overrides)
     rows = describe(config)

@@ -1,158 +1,53 @@
-"""The incremental build graph: stages keyed by a content hash of exactly what they read, and their cache.
+"""The incremental build graph: stages keyed by a content hash of exactly what they read, over a cache
+(:mod:`rockdove.graph.cache`).
 
-A :class:`Stage` is a named pure function of its part of the configuration and its upstream outputs. Its
-key is the sha256 of
+A :class:`Stage` is a named pure function of its part of the configuration and its upstream outputs. Its key is
+the sha256 of
 
 - the configuration keys it declares (``Stage.config``, dotted, e.g. ``"lut"`` or ``"geometry.seed"``),
-- the source of the code it can execute, derived from the source (:mod:`rockdove.graph.code`: what its
-  functions, its codecs and its inputs' loaders reach, and the import closure of those modules inside the
-  package), and any data files it declares (``Stage.data``), so editing the code invalidates it,
-- the versions of the libraries it declares (``Stage.libraries``) and of Python,
+- the code it can execute, derived from the source (:func:`rockdove.sources.digest`: what its functions, its
+  codecs and its inputs' loaders reach, with this engine), the data files it declares (``Stage.data``), the
+  installed distributions and Python,
 - the *content digests* of its upstream outputs (not their keys): a stage whose inputs changed but produced
   the same bytes does not rerun its dependants (early cut-off; e.g. a new seed that leaves the thickness
   range unchanged does not re-bake the LUT).
 
-A stage whose key has an entry in the :class:`Cache` is reused without running, and its value is loaded only
-if a stage that runs needs it. Entries are written into a temporary folder and renamed into place (atomic; a
-concurrent build that wrote the same entry first wins), their files are made read-only and loaded read-only.
-Builds in several processes sharing one cache (``rockdove sweep``'s workers) compute an entry once: the first
-to miss it takes an exclusive lock on that entry (``Cache.entry_lock``) and the others wait, then reuse it.
+A stage whose key has an entry in the cache is reused without running; its value is loaded only if a stage
+that runs needs it. Builds in several processes sharing one cache (``rockdove sweep``'s workers) compute an
+entry once: the first to miss it takes that entry's lock (``Cache.entry_lock``), the others wait, then reuse it.
 
 Fan-out stages (``Stage.items``) split their work into named items (e.g. one per verification view), each with
 its own key = stage key + the item's own configuration, so only the items whose inputs changed are redone.
-When what an item reads is only known once its inputs exist (e.g. a verification view reads the *rendered
-content* of the asset, not every byte of it), ``Stage.item_plan(ctx)`` names the items at run time and returns,
-per item, everything it reads; the item key is then that plan entry plus the stage's code and libraries, without
-the upstream digests, so an upstream change that leaves an item's plan entry unchanged does not redo it.
-``Stage.batch`` runs all the items to redo in one call (sharing set-up such as a GL context).
+When what an item reads is only known once its inputs exist (a verification view reads the *rendered content*
+of the asset, not every byte of it), ``Stage.item_plan(ctx)`` names the items at run time with everything each
+reads; the item key is that plan entry plus the stage's code, without the upstream digests. ``Stage.batch`` runs
+all the items to redo in one call (sharing set-up such as a GL context).
 """
 
 from __future__ import annotations
 
-import contextlib
-import fcntl
-import functools
 import hashlib
-import importlib.metadata
-import json
 import os
 import shutil
-import sys
-import tempfile
-import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping
 
-
-from .. import resources
-from ..digest import Digest
+from .. import sources
 from ..config import canonical_json, get
-from . import code
-from .code import files_of
+from .cache import CODEC_FILES, FILES, JSON, NPZ, Cache, Codec, folder_digest, load_entry, load_npz  # noqa: F401
 
-GRAPH_VERSION = 1  # bump when the key recipe or the entry layout changes
-
-
-# ----------------------------------------------------------------------------------------------- codecs
-@dataclass(frozen=True)
-class Codec:
-    """How a stage's value is stored in its cache folder: ``save(value, folder)``, ``load(folder) -> value``.
-
-    ``shared``: the loaded value is immutable (frozen dataclasses, tuples, read-only mappings and arrays), so a
-    process loads each cache entry once and hands every later build the same value (:func:`load_entry`).
-    """
-
-    name: str
-    save: Callable[[Any, Path], None]
-    load: Callable[[Path], Any]
-    shared: bool = False
+GRAPH_VERSION = 2  # bump when the key recipe or the entry layout changes
 
 
-#: Values of ``shared`` codecs loaded in this process, most recent last: (codec, folder, inode, mtime) -> value.
-_LOADED: dict = {}
-_LOADED_MAX = 8
-_LOADED_LOCK = threading.Lock()
-
-
-def load_entry(codec: Codec, folder: Path) -> Any:
-    """``codec.load(folder)``, once per process for a ``shared`` codec: an entry's files never change once
-    written (its folder is named by the content key of everything that made it, filled in a temporary folder,
-    renamed into place and made read-only), so a long-lived process (a sweep worker, `rockdove build --watch`) rebuilding
-    after a film change does not re-read the unchanged geometry. Keyed by the folder and its inode and mtime,
-    so an entry deleted and written again is read again."""
-    if not codec.shared:
-        return codec.load(folder)
-    st = folder.stat()
-    key = (codec.name, str(folder), st.st_ino, st.st_mtime_ns)
-    with _LOADED_LOCK:  # builds may run in threads of one process (a Dask worker's)
-        value = _LOADED.pop(key) if key in _LOADED else codec.load(folder)
-        _LOADED[key] = value  # most recent last
-        while len(_LOADED) > _LOADED_MAX:
-            del _LOADED[next(iter(_LOADED))]
-    return value
-
-
-def _json_save(value, folder: Path) -> None:
-    (folder / "value.json").write_text(canonical_json(value))
-
-
-def _json_load(folder: Path):
-    return json.loads((folder / "value.json").read_text())
-
-
-def _npz_save(value: Mapping[str, np.ndarray], folder: Path) -> None:
-    import numpy as np
-
-    np.savez(folder / "value.npz", **{k: np.ascontiguousarray(v) for k, v in value.items()})
-
-
-def load_npz(path: Path) -> dict:
-    """Every array of an ``.npz`` file (no pickles), read-only."""
-    import numpy as np
-
-    with np.load(path, allow_pickle=False) as z:
-        out = {k: z[k] for k in z.files}
-    for a in out.values():
-        a.setflags(write=False)
-    return out
-
-
-def _npz_load(folder: Path) -> dict:
-    return load_npz(folder / "value.npz")
-
-
-#: Files a codec writes at the top of a stage's cache folder; never published into the asset.
-CODEC_FILES = frozenset({"value.json", "value.npz"})
-
-JSON = Codec("json", _json_save, _json_load)
-NPZ = Codec("npz", _npz_save, _npz_load)
-# The stage writes files into ctx.workdir itself; its value is that (read-only) folder.
-FILES = Codec("files", lambda value, folder: None, lambda folder: folder)
-
-
-# ----------------------------------------------------------------------------------------------- stages
 @dataclass
 class Context:
-    """What a stage function receives.
-
-    Attributes
-    ----------
-    config : dict
-        The stage's declared configuration, nested as in the full configuration (only those keys).
-    inputs : Mapping[str, Any]
-        Upstream values by stage name, loaded from the cache on first access.
-    workdir : Path
-        An empty folder that becomes the stage's cache entry: FILES stages write their files here.
-    asset_dir : Path or None
-        The assembled (not yet published) asset folder, for stages with ``needs_asset``.
-    item : tuple(str, Any) or None
-        ``(name, item_config)`` for an item of a fan-out stage.
-    items : dict[str, Any] or None
-        For a ``batch`` fan-out stage: every item to redo, name -> item config; the function writes item
-        ``name``'s files into ``workdir / name`` and returns ``{name: value}``.
-    """
+    """What a stage function receives: its declared ``config`` (nested as in the full configuration), its
+    ``inputs`` by stage name (loaded on first access), an empty ``workdir`` that becomes its cache entry (FILES
+    stages write their files there), the assembled ``asset_dir`` for ``needs_asset`` stages, the ``item``
+    ``(name, item_config)`` of a fan-out stage, or for a ``batch`` stage every item to redo, ``items`` (name ->
+    item config: it writes item ``name``'s files into ``workdir / name`` and returns ``{name: value}``)."""
 
     config: dict
     inputs: Mapping[str, Any]
@@ -167,37 +62,14 @@ class Context:
 class Stage:
     """One node of the build graph.
 
-    Parameters
-    ----------
-    name : str
-        Unique name, e.g. ``"lut"``.
-    run : callable(Context) -> value
-        The pure function. For a fan-out stage it runs once per item (``ctx.item`` set).
-    config : tuple of str
-        Dotted configuration keys it reads.
-    deps : tuple of str
-        Names of upstream stages (earlier in the list).
-    data : tuple of str
-        Data files or folders (relative to the repository root) whose bytes enter the key.
-    libraries : tuple of str
-        Distribution names whose versions enter the key (e.g. ``"numpy"``).
-    codec : Codec
-        Storage of the value (:data:`JSON`, :data:`NPZ`, :data:`FILES` or a custom one).
-    publish : str or None
-        For FILES stages: sub-folder of the asset their files are copied to (``""`` = the asset root).
-    needs_asset : bool
-        Runs after the asset is assembled (verification), with ``ctx.asset_dir``.
-    items : callable(config) -> dict[str, Any] or None
-        Fan-out: item name -> the item's own configuration (enters the item's key).
-    combine : callable(Context, dict[str, Any]) -> value or None
-        Fan-out: joins the item values (``ctx`` as for the stage) into the stage value.
-    item_plan : callable(Context) -> dict[str, Any] or None
-        Fan-out decided at run time (instead of ``items``): item name -> everything that item reads (enters
-        its key *instead of* the upstream digests and the configuration, so it must be complete).
-    batch : bool
-        Fan-out: run the items to redo in one call (``ctx.items``) rather than one call per item.
-    item_codec : Codec
-        Storage of an item's value (its files, written into its folder, are kept with it).
+    ``run(ctx)`` is the pure function (once per item for a fan-out stage); ``config`` the dotted keys it reads;
+    ``deps`` the upstream stages (earlier in the list); ``data`` the data files or folders (``"materials/glsl"``)
+    whose bytes enter its key; ``codec`` how its value is stored; ``publish`` (FILES stages) the sub-folder of
+    the asset its files are copied to (``""``: the root); ``needs_asset`` runs it on the assembled asset
+    (verification). Fan-out: ``items(config)`` gives item name -> the item's own configuration (in its key), or
+    ``item_plan(ctx)`` at run time item name -> everything the item reads (its key *instead of* the upstream
+    digests and the configuration, so it must be complete); ``combine(ctx, values)`` joins the item values;
+    ``batch`` runs the items to redo in one call (``ctx.items``); ``item_codec`` stores an item's value.
     """
 
     name: str
@@ -205,7 +77,6 @@ class Stage:
     config: tuple[str, ...] = ()
     deps: tuple[str, ...] = ()
     data: tuple[str, ...] = ()
-    libraries: tuple[str, ...] = ("numpy",)
     codec: Codec = JSON
     publish: str | None = None
     needs_asset: bool = False
@@ -227,237 +98,31 @@ def _nested(config: dict, keys: Iterable[str]) -> dict:
     return out
 
 
-#: source_digest per stage (its callables, the callables of its inputs' codecs, its data, the package and data
-#: folders they resolve to) -> (paths, their (mtime, size) when read, digest): valid while none of the files it
-#: hashed and none of the folders it listed changed (an edited, added or removed file changes its folder's mtime).
-_SOURCE_MEMO: dict = {}
-
-
-def _state(paths) -> tuple | None:
-    try:
-        return tuple((st.st_mtime_ns, st.st_size) for st in map(os.stat, paths))
-    except OSError:
-        return None
-
-
-def source_digest(stage: Stage, inputs: Iterable[Stage] = ()) -> str:
-    """sha256 of the code a stage can execute (:func:`rockdove.graph.code.code_files`: derived from the source of
-    its callables and of its ``inputs``' loaders) and of its data files.
-
-    Computed once per process and per state of those files and of the folders listed for them (a warm no-op
-    build checks every stage's code with a stat of each file)."""
-    inputs = tuple(inputs)
-    tops = tuple(resources.path(d) for d in stage.data)
-    root = resources.package_root().resolve()
-    memo_key = (str(root), tuple(code.callables(stage, inputs)), stage.data, tuple(map(str, tops)))
-    hit = _SOURCE_MEMO.get(memo_key)
-    if hit is not None and _state(hit[0]) == hit[1]:
-        return hit[2]
-    seen: dict = {}
-    h = Digest()  # source and data files are read once per process (rockdove.graph.code.read)
-    for p in code.code_files(stage, inputs, seen):
-        h.add(str(p.relative_to(root.parent)) if p.is_relative_to(root.parent) else p.name, code.read(p, seen))
-    for d, top in zip(stage.data, tops):
-        data_files = files_of(top, seen=seen)
-        if not data_files:  # an empty data folder would key the stage on nothing
-            raise ValueError(f"stage {stage.name!r} reads data {d!r}, but {top} holds no files; "
-                             "the stage cannot be keyed (reinstall rockdove)")
-        for p in data_files:
-            h.add(f"{d}/{p.relative_to(top)}" if top.is_dir() else d, code.read(p, seen))
-    digest = h.hexdigest()
-    _SOURCE_MEMO[memo_key] = (tuple(seen), tuple(seen.values()), digest)
-    return digest
-
-
-@functools.lru_cache(maxsize=None)
-def _version(name: str) -> str:
-    try:
-        return importlib.metadata.version(name)
-    except importlib.metadata.PackageNotFoundError:
-        return "absent"
-
-
-def library_versions(names: Iterable[str]) -> dict[str, str]:
-    """``{"python": x.y.z, name: version or "absent"}`` for installed distributions ``names``."""
-    return {"python": "%d.%d.%d" % sys.version_info[:3], **{n: _version(n) for n in names}}
+def source_digest(stage: Stage, inputs: Iterable[Stage] = (), record: bool = False):
+    """The digest of the code a stage can execute (its callables, its codecs', the loaders of its ``inputs``),
+    of its data, the environment and Python (:func:`rockdove.sources.digest`); with ``record``, what it hashed."""
+    fns = [stage.run, stage.item_plan, stage.items, stage.combine, stage.codec.save, stage.codec.load,
+           stage.item_codec.save, stage.item_codec.load, *(s.codec.load for s in inputs)]
+    found = sources.digest([f for f in fns if f is not None], stage.data, ("rockdove.graph.engine",))
+    return found if record else found[0]
 
 
 def stage_key(stage: Stage, config: dict | None, input_digests: Mapping[str, str], source: str) -> str:
-    """The content key (sha256 hex) of ``stage``: exactly its config keys, code, library versions, inputs.
-
-    ``config=None`` leaves the configuration out: the base of a fan-out item's key, to which the item's own
-    configuration is added, so an item is redone only when its own inputs change.
-    """
-    payload = {
-        "graph": GRAPH_VERSION,
-        "stage": stage.name,
-        "config": None if config is None else _nested(config, stage.config),
-        "source": source,
-        "libraries": library_versions(stage.libraries),
-        "inputs": {d: input_digests[d] for d in stage.deps},
-    }
+    """The content key (sha256 hex) of ``stage``: exactly its config keys, code, inputs. ``config=None`` leaves
+    the configuration out: the base of a fan-out item's key, to which the item's own configuration is added."""
+    payload = {"graph": GRAPH_VERSION, "stage": stage.name, "source": source,
+               "config": None if config is None else _nested(config, stage.config),
+               "inputs": {d: input_digests[d] for d in stage.deps}}
     return hashlib.sha256(canonical_json(payload).encode()).hexdigest()
 
 
-def folder_digest(folder: Path) -> str:
-    """sha256 over the relative paths and bytes of every file under ``folder`` (streamed: a long-lived process
-    does not keep the assets it built in memory)."""
-    h = Digest()
-    for p in files_of(folder):
-        h.file(str(p.relative_to(folder)), p)
-    return h.hexdigest()
-
-
-# ----------------------------------------------------------------------------------------------- cache
-# this process's temporary folders and held entry locks, never opened by its own clean: on NFS, flock is a POSIX
-# lock, which does not conflict within a process and is dropped when any of its descriptors closes
-_LIVE: set[Path] = set()
-_ORPHAN_S = 3600  # a temporary folder with no .owner yet (its writer died in the instant before naming it)
-
-
-def _owner() -> str:
-    """Who writes a temporary folder, for people: host, boot id, PID namespace and pid (a pid alone names no
-    process on another machine or in another container)."""
-    boot = ns = None
-    with contextlib.suppress(OSError):
-        boot, ns = Path("/proc/sys/kernel/random/boot_id").read_text().strip(), os.readlink("/proc/self/ns/pid")
-    return json.dumps({"host": os.uname().nodename, "boot_id": boot, "pid_ns": ns, "pid": os.getpid()})
-
-
-def _take(path: Path) -> int | None:
-    """A descriptor of ``path`` with an exclusive flock taken without waiting, or None when someone holds it
-    (or it cannot be opened)."""
-    try:
-        fd = os.open(path, os.O_RDWR)
-    except OSError:
-        return None
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        return fd
-    except OSError:
-        os.close(fd)
-        return None
-
-
-class Cache:
-    """Stage values on disk: ``ROOT/<stage>/<key>/{meta.json, value/...}``, written atomically, read-only.
-
-    The folder may be shared by builds on several machines (a sweep's workers over NFS) or in several PID
-    namespaces: writers say who they are by holding locks (``fcntl.flock``, which NFSv4 serves across hosts and
-    releases when a client's lease lapses), never by a pid a reader would look up in its own process table."""
-
-    def __init__(self, root: str | os.PathLike):
-        self.root = Path(root)
-
-    def entry(self, stage: str, key: str) -> Path:
-        return self.root / stage / key
-
-    def lookup(self, stage: str, key: str) -> dict | None:
-        """The entry's metadata (``digest``, ``seconds``...) or None when absent or incomplete."""
-        meta = self.entry(stage, key) / "meta.json"
-        try:
-            return json.loads(meta.read_text())
-        except (OSError, ValueError):
-            return None
-
-    @contextlib.contextmanager
-    def temporary(self, parent: Path):
-        """A folder ``parent/.tmp-<host>-<pid>-XXXX`` of this writer's, removed at the end unless renamed away.
-        Its ``.owner`` file (:func:`_owner`) is locked before it gets that name and stays locked while the
-        writer lives: a cleaner anywhere that can take the lock knows the writer is gone."""
-        parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".tmp-{os.uname().nodename}-{os.getpid()}-", dir=parent))
-        _LIVE.add(tmp)
-        fd = os.open(tmp / ".owner.new", os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX)
-            os.write(fd, _owner().encode())
-            os.rename(tmp / ".owner.new", tmp / ".owner")
-            yield tmp
-        finally:
-            if tmp.exists():
-                shutil.rmtree(tmp, ignore_errors=True)
-            _LIVE.discard(tmp)
-            os.close(fd)
-
-    def store(self, stage: str, key: str, fill: Callable[[Path], Any], extra: dict | None = None) -> dict:
-        """Create entry ``(stage, key)`` by ``fill(folder)`` in a temporary folder renamed into place."""
-        with self.temporary(self.root / stage) as tmp:
-            value_dir = tmp / "value"
-            value_dir.mkdir()
-            t0 = time.perf_counter()
-            fill(value_dir)
-            meta = {"stage": stage, "key": key, "digest": folder_digest(value_dir),
-                    "seconds": time.perf_counter() - t0, **(extra or {})}
-            (tmp / "meta.json").write_text(json.dumps(meta, indent=1, sort_keys=True))
-            for p in files_of(tmp):
-                p.chmod(0o444)
-            try:
-                os.rename(tmp, self.entry(stage, key))
-            except OSError:  # another build stored the same entry first: same key, same content
-                if self.lookup(stage, key) is None:
-                    raise
-            else:
-                os.unlink(self.entry(stage, key) / ".owner")
-            return meta
-
-    @contextlib.contextmanager
-    def entry_lock(self, stage: str, key: str):
-        """Hold the exclusive right to compute entry ``(stage, key)`` among the processes (and threads) sharing
-        this cache: ``fcntl.flock`` on ``ROOT/<stage>/.lock-<key>``, waited for without a timeout (a holder that
-        dies releases it). The holder removes the file on leaving; a waiter that got the lock of a file removed
-        meanwhile (by the holder or by :meth:`clean_temporaries`) tries again on the file now at that path."""
-        parent = self.root / stage
-        parent.mkdir(parents=True, exist_ok=True)
-        path = parent / f".lock-{key}"
-        while True:
-            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
-            fcntl.flock(fd, fcntl.LOCK_EX)
-            with contextlib.suppress(OSError):
-                if os.path.samestat(os.fstat(fd), os.stat(path)):
-                    break
-            os.close(fd)
-        _LIVE.add(path)
-        try:
-            yield
-        finally:
-            with contextlib.suppress(OSError):
-                os.unlink(path)
-            _LIVE.discard(path)
-            os.close(fd)  # releases the lock
-
-    def clean_temporaries(self) -> None:
-        """Remove what killed builds left: temporary folders whose ``.owner`` lock nobody holds (a folder with
-        no ``.owner`` once it is an hour old) and ``.lock-*`` files nobody holds. Never a live writer's, on
-        whatever machine or PID namespace it runs."""
-        for tmp in self.root.glob("*/.tmp-*"):
-            if tmp in _LIVE or not tmp.is_dir():
-                continue
-            fd = _take(tmp / ".owner")
-            if fd is None:
-                with contextlib.suppress(OSError):
-                    if (tmp / ".owner").exists() or time.time() - tmp.stat().st_mtime < _ORPHAN_S:
-                        continue
-            shutil.rmtree(tmp, ignore_errors=True)
-            if fd is not None:
-                os.close(fd)
-        for lock in self.root.glob("*/.lock-*"):
-            fd = None if lock in _LIVE else _take(lock)
-            if fd is not None:
-                with contextlib.suppress(OSError):
-                    if os.path.samestat(os.fstat(fd), os.stat(lock)):
-                        os.unlink(lock)
-                os.close(fd)
-
-
-# ----------------------------------------------------------------------------------------------- running
 @dataclass
 class StageRecord:
-    """What happened to one stage in a build."""
+    """What happened to one stage in a build: ``status`` "ran" or "reused"."""
 
     name: str
     key: str
-    status: str  # "ran" | "reused"
+    status: str
     seconds: float
     digest: str
     items_ran: list[str] = field(default_factory=list)
@@ -488,17 +153,8 @@ class _LazyInputs(Mapping):
 
 
 class Graph:
-    """A list of stages (dependencies first) run against a configuration and a cache.
-
-    Parameters
-    ----------
-    stages : list of Stage
-    config : dict
-        The effective configuration.
-    cache : Cache
-    progress : callable(str) or None
-        Called with each stage name as it starts (the CLI drives a progress bar with it).
-    """
+    """A list of stages (dependencies first) run against a configuration and a :class:`Cache`; ``progress`` is
+    called with each stage name as it starts (the CLI drives a progress bar with it)."""
 
     def __init__(self, stages: list[Stage], config: dict, cache: Cache, progress: Callable[[str], None] | None = None):
         seen: set[str] = set()
@@ -517,9 +173,7 @@ class Graph:
     def value(self, name: str) -> Any:
         """The value of a finished stage (loaded read-only from the cache on first use)."""
         if name not in self._values:
-            rec = self.records[name]
-            stage = self.stages[name]
-            self._values[name] = load_entry(stage.codec, self.cache.entry(name, rec.key) / "value")
+            self._values[name] = load_entry(self.stages[name].codec, self.entry_dir(name))
         return self._values[name]
 
     def entry_dir(self, name: str) -> Path:
@@ -530,10 +184,9 @@ class Graph:
         """Run (or reuse) the stages with ``needs_asset == needs_asset``, in order."""
         done = []
         for stage in self.stages.values():
-            if stage.needs_asset != needs_asset or stage.name in self.records:
-                continue
-            self.progress(stage.name)
-            done.append(self._run_stage(stage, asset_dir))
+            if stage.needs_asset == needs_asset and stage.name not in self.records:
+                self.progress(stage.name)
+                done.append(self._run_stage(stage, asset_dir))
         return done
 
     def _context(self, stage: Stage, workdir: Path, asset_dir, item=None) -> Context:
@@ -561,40 +214,37 @@ class Graph:
         ran, reused = [], []
         extra = {"items": []}  # filled in by a fan-out stage's fill, before store() writes the metadata
         fan_out = stage.items is not None or stage.item_plan is not None
-        if not fan_out:
-            def fill(folder: Path):
-                value = stage.run(self._context(stage, folder, asset_dir))
-                stage.codec.save(value, folder)
+
+        def fill(folder: Path):
+            ctx = self._context(stage, folder, asset_dir)
+            if not fan_out:
+                stage.codec.save(stage.run(ctx), folder)
                 if stage.codec is not FILES:
                     self._values[stage.name] = stage.codec.load(folder)
-        else:
-            def fill(folder: Path):
-                ctx = self._context(stage, folder, asset_dir)
-                if stage.item_plan is not None:  # the plan holds what each item reads: no upstream digests
-                    planned = stage.item_plan(ctx)
-                    base = hashlib.sha256(canonical_json({
-                        "graph": GRAPH_VERSION, "stage": stage.name, "source": source, "planned": True,
-                        "libraries": library_versions(stage.libraries)}).encode()).hexdigest()
-                else:
-                    planned = stage.items(_nested(self.config, stage.config))
-                    base = stage_key(stage, None, digests, source)
-                iname = f"{stage.name}.items"
-                keys = {n: hashlib.sha256(canonical_json([base, n, c]).encode()).hexdigest() for n, c in planned.items()}
-                todo = {n: c for n, c in planned.items() if self.cache.lookup(iname, keys[n]) is None}
-                if stage.batch and todo:
-                    self._run_batch(stage, iname, keys, todo, asset_dir)
-                else:
-                    for item_name, item_cfg in todo.items():
-                        def ifill(ifolder: Path, item=(item_name, item_cfg)):
-                            v = stage.run(self._context(stage, ifolder, asset_dir, item))
-                            stage.item_codec.save(v, ifolder)
-                        self.cache.store(iname, keys[item_name], ifill, {"item": item_name})
-                ran.extend(n for n in planned if n in todo)
-                reused.extend(n for n in planned if n not in todo)
-                extra["items"] = list(planned)
-                item_values = {n: stage.item_codec.load(self.cache.entry(iname, keys[n]) / "value") for n in planned}
-                value = stage.combine(ctx, item_values)
-                stage.codec.save(value, folder)
+                return
+            if stage.item_plan is not None:  # the plan holds what each item reads: no upstream digests
+                planned = stage.item_plan(ctx)
+                base = hashlib.sha256(canonical_json({"graph": GRAPH_VERSION, "stage": stage.name,
+                                                      "source": source, "planned": True}).encode()).hexdigest()
+            else:
+                planned = stage.items(_nested(self.config, stage.config))
+                base = stage_key(stage, None, digests, source)
+            iname = f"{stage.name}.items"
+            keys = {n: hashlib.sha256(canonical_json([base, n, c]).encode()).hexdigest() for n, c in planned.items()}
+            todo = {n: c for n, c in planned.items() if self.cache.lookup(iname, keys[n]) is None}
+            if stage.batch and todo:
+                self._run_batch(stage, iname, keys, todo, asset_dir)
+            else:
+                for item_name, item_cfg in todo.items():
+                    def ifill(ifolder: Path, item=(item_name, item_cfg)):
+                        stage.item_codec.save(stage.run(self._context(stage, ifolder, asset_dir, item)), ifolder)
+                    self.cache.store(iname, keys[item_name], ifill, {"item": item_name})
+            ran.extend(n for n in planned if n in todo)
+            reused.extend(n for n in planned if n not in todo)
+            extra["items"] = list(planned)
+            item_values = {n: stage.item_codec.load(self.cache.entry(iname, keys[n]) / "value") for n in planned}
+            stage.codec.save(stage.combine(ctx, item_values), folder)
+
         meta = self.cache.store(stage.name, key, fill, extra if fan_out else None)
         rec = StageRecord(stage.name, key, "ran", time.perf_counter() - t0, meta["digest"], ran, reused)
         self.records[stage.name] = rec
@@ -625,10 +275,9 @@ class Graph:
             if stage.publish is None or name not in self.records or stage.needs_asset != needs_asset:
                 continue
             src = self.entry_dir(name)
-            dst = asset_dir / stage.publish
-            for p in files_of(src):
+            for p in sources.files_of(src):
                 if p.parent == src and p.name in CODEC_FILES:
                     continue  # the cache's own record of the stage's value, not part of the asset
-                target = dst / p.relative_to(src)
+                target = asset_dir / stage.publish / p.relative_to(src)
                 target.parent.mkdir(parents=True, exist_ok=True)
                 shutil.copyfile(p, target)

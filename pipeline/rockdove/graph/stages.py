@@ -37,11 +37,6 @@ from pathlib import Path
 from .. import __version__
 from .engine import FILES, JSON, Codec, Context, Stage, load_npz
 
-LIBS_GEOMETRY = ("numpy", "scipy", "trimesh", "xatlas")
-LIBS_COLOUR = ("numpy", "scipy", "colour-science")
-LIBS_USD = ("numpy", "usd-core", "MaterialX", "OpenEXR", "pillow")
-LIBS_RENDER = LIBS_USD + ("pyrender", "PyOpenGL", "trimesh", "embreex", "colour-science")
-
 
 # ----------------------------------------------------------------------------------------------- codecs
 def _parts_arrays(parts_in) -> tuple[dict, list]:
@@ -356,39 +351,36 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
     bird_keys = tuple(CONFIG_KEYS.values())
     schema = ("schemas/plugInfo.json", "schemas/generatedSchema.usda")
     stages = [
-        Stage("body", run_body, config=BODY_FIELDS, libraries=LIBS_GEOMETRY, codec=BODY),
-        Stage("bird", run_bird, config=bird_keys, deps=("body",), libraries=LIBS_GEOMETRY, codec=BIRD),
+        Stage("body", run_body, config=BODY_FIELDS, codec=BODY),
+        Stage("bird", run_bird, config=bird_keys, deps=("body",), codec=BIRD),
         Stage("thickness_range", run_thickness_range, deps=("bird",), codec=JSON),
     ]
     if baked:
-        stages.append(Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",), libraries=LIBS_COLOUR,
+        stages.append(Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",),
                             codec=LUT))
-    stages.append(Stage("texture_images", run_texture_images, config=bird_keys, deps=("bird",),
-                        libraries=LIBS_GEOMETRY + ("pillow",), codec=IMAGES))
-    stages.append(Stage("textures", run_textures, deps=("texture_images",), libraries=LIBS_USD, codec=FILES,
+    stages.append(Stage("texture_images", run_texture_images, config=bird_keys, deps=("bird",), codec=IMAGES))
+    stages.append(Stage("textures", run_textures, deps=("texture_images",), codec=FILES,
                         publish=""))
     if baked:
         stages.append(Stage("film_textures", run_film_textures, deps=("lut", "thickness_range", "texture_images"),
-                            libraries=LIBS_USD, codec=FILES, publish=""))
+                            codec=FILES, publish=""))
     else:  # the preview colours are computed from the film (rockdove.lut.reference) over the thickness range
         stages.append(Stage("film_textures", run_film_textures, config=("film",),
-                            deps=("thickness_range", "texture_images"),
-                            libraries=LIBS_USD + ("colour-science", "scipy"), codec=FILES, publish=""))
-    stages.append(Stage("usd_geometry", run_usd_geometry, deps=("bird",), data=schema, libraries=LIBS_USD,
+                            deps=("thickness_range", "texture_images"), codec=FILES, publish=""))
+    stages.append(Stage("usd_geometry", run_usd_geometry, deps=("bird",), data=schema,
                         codec=FILES, publish=""))
     stages.append(Stage("usd_layers", run_usd_layers, config=("film", "shading"),
                         deps=("bird", "lut", "usd_geometry") if baked else ("bird", "usd_geometry"),
-                        data=("materials", *schema), libraries=LIBS_USD, codec=FILES, publish=""))
+                        data=("materials", *schema), codec=FILES, publish=""))
     if config["usd"]["usdz"]:
         stages.append(Stage("usdz", run_usdz, deps=("usd_geometry", "usd_layers", "textures", "film_textures"),
-                            libraries=LIBS_USD, codec=FILES, publish=""))
+                            codec=FILES, publish=""))
     if config["gltf"]["glb"]:
         # reads the written asset (so it runs once it is assembled); keyed by the files it translates
         stages.append(Stage("gltf", run_gltf, deps=("usd_geometry", "usd_layers", "textures", "film_textures"),
-                            libraries=LIBS_USD + ("pygltflib", "pillow"), codec=FILES, needs_asset=True,
-                            publish=""))
+                            codec=FILES, needs_asset=True, publish=""))
     if verify:  # reruns when any published file changes; its renders are cached by what each reads
         stages.append(Stage(VERIFY, run_verify, config=("verify", "beauty"),
                             deps=tuple(s.name for s in stages if s.publish is not None), data=("materials", *schema),
-                            libraries=LIBS_RENDER, codec=JSON, needs_asset=True, publish="verify"))
+                            codec=JSON, needs_asset=True, publish="verify"))
     return stages

@@ -11,9 +11,9 @@ the stage cache (:class:`rockdove.graph.engine.Cache`, folders ``verify.<kind>``
   and the view (camera, light, size);
 - ``host``, per host: its metrics and images over the views; keyed by the scene content, the views and its lobe.
 
-Each key also holds the code the item can execute, derived by :mod:`rockdove.graph.code` from the functions that
-compute it (a host's ``render`` and :func:`rockdove.verify.host_check.check_host`), and the library versions. So a
-``rockdove verify`` after a build reuses the views the build checked, a build after a ``rockdove verify`` of the
+Each key also holds the code the item can execute, derived by :mod:`rockdove.sources` from the functions that
+compute it (a host's ``render`` and :func:`rockdove.verify.host_check.check_host`), and the installed
+distributions. So a ``rockdove verify`` after a build reuses the views the build checked, a build after a ``rockdove verify`` of the
 same size reuses them, and an edit to one host's code re-renders that host alone. A host that failed is not kept.
 Validation and the report are redone every time.
 """
@@ -27,19 +27,18 @@ import shutil
 import time
 
 from ..config import canonical_json
-from .engine import GRAPH_VERSION, Cache, Stage, library_versions, load_npz, source_digest
+from .. import sources
+from .engine import GRAPH_VERSION, Cache, load_npz
 
 #: The hosts the build verifies with: the GL renders alone (a cold build's verification takes seconds).
 BUILD_HOSTS = ("glsl",)
-LIBRARIES = ("numpy", "scipy", "usd-core", "MaterialX", "OpenEXR", "pillow", "pyrender", "PyOpenGL", "trimesh",
-             "embreex", "colour-science")
 
 
 def item_key(kind: str, fns: tuple, *reads) -> str:
-    """The key of an item that ``fns`` compute from ``reads``: their code, the libraries' versions, ``reads``."""
-    code = [source_digest(Stage(kind, fn)) for fn in fns]
-    return hashlib.sha256(canonical_json([GRAPH_VERSION, kind, code, library_versions(LIBRARIES), *reads])
-                          .encode()).hexdigest()
+    """The key of an item that ``fns`` compute from ``reads``: the code they can execute with the environment
+    (:func:`rockdove.sources.digest`), and ``reads``."""
+    code = sources.digest(list(fns))[0]
+    return hashlib.sha256(canonical_json([GRAPH_VERSION, kind, code, *reads]).encode()).hexdigest()
 
 
 class _Items:

@@ -6,11 +6,10 @@ from __future__ import annotations
 from .issues import Issue
 
 
-# -- 5. thin film / LUT domain ------------------------------------------------------------------------------
 def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
-    """Thickness primvar inside the LUT domain; schema range agrees with the EXR header."""
+    """Check 5: (issues, number of films checked)."""
     import numpy as np
-    from pxr import Usd, UsdGeom
+    from pxr import Usd
 
     from .schema import has_thin_film, read_thin_film
 
@@ -41,30 +40,37 @@ def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
                                     f"{film['angle_warp_gamma']} differs from the LUT file's {lut.angle_warp_gamma}"))
             issues += _check_lut_constants(prim, lut)
             issues += _check_film_provenance(prim, film, lut)
-        pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "")
-        values = pv.ComputeFlattened() if pv else None
-        if values is None or len(values) == 0:
-            issues.append(Issue("thinFilm", f"{prim.GetPath()}.primvars:{film['thickness_primvar']}",
-                                "thickness primvar missing or empty"))
-            continue
-        d = np.asarray(values, np.float64)
+        pv, d = _thickness(prim, film, issues)
         tol = 1e-3  # nm: float32 rounding of authored values
-        if d.min() < lo - tol or d.max() > hi + tol:
+        if d is not None and (d.min() < lo - tol or d.max() > hi + tol):
             issues.append(Issue("thinFilm", str(pv.GetAttr().GetPath()),
                                 f"thickness spans [{d.min():.6g}, {d.max():.6g}] nm, outside the LUT domain "
                                 f"[{lo:.6g}, {hi:.6g}] nm (rockdove:lut:thicknessRangeNm)"))
     return issues, n
 
 
+def _thickness(prim, film: dict, issues: list):
+    """The film's thickness primvar and its values in nm, or (pv, None) with an issue when missing or empty."""
+    import numpy as np
+    from pxr import UsdGeom
+
+    pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "")
+    values = pv.ComputeFlattened() if pv else None
+    if values is None or len(values) == 0:
+        issues.append(Issue("thinFilm", f"{prim.GetPath()}.primvars:{film['thickness_primvar']}",
+                            "thickness primvar missing or empty"))
+        return pv, None
+    return pv, np.asarray(values, np.float64)
+
+
 #: Names of the shaders of the baked LUT network (thinfilm.mtlx) that read the LUT.
-LUT_NETWORK_SHADERS = ("LutTexture", "LutAngleCount", "LutThicknessCount", "LutAngleWarpGamma", "LutThicknessLoNm",
-                       "LutThicknessHiNm")
+LUT_NETWORK_SHADERS = ("LutTexture", "LutTransform", "LutAngleWarpExponent")
 
 
 def _check_lutless_film(prim, film: dict) -> list:
     """A film recorded without a LUT (physical-only asset): complete film, sane thickness, no LUT network."""
     import numpy as np
-    from pxr import UsdGeom, UsdShade
+    from pxr import UsdShade
 
     issues = []
     for key, attr in (("cauchy_a", "film:cauchyA"), ("cauchy_b_nm2", "film:cauchyB_nm2"), ("k", "film:k"),
@@ -75,13 +81,8 @@ def _check_lutless_film(prim, film: dict) -> list:
     if film.get("thickness_units") != "nm":
         issues.append(Issue("thinFilm", f"{prim.GetPath()}.rockdove:film:thicknessUnits",
                             f"{film.get('thickness_units')!r}; expected 'nm'"))
-    pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "")
-    values = pv.ComputeFlattened() if pv else None
-    if values is None or len(values) == 0:
-        issues.append(Issue("thinFilm", f"{prim.GetPath()}.primvars:{film['thickness_primvar']}",
-                            "thickness primvar missing or empty"))
-    else:
-        d = np.asarray(values, np.float64)
+    pv, d = _thickness(prim, film, issues)
+    if d is not None:
         if not np.all(np.isfinite(d)) or d.min() <= 0:
             issues.append(Issue("thinFilm", str(pv.GetAttr().GetPath()),
                                 f"thickness spans [{np.nanmin(d):.6g}, {np.nanmax(d):.6g}] nm; expected finite "
@@ -137,21 +138,25 @@ def _check_film_provenance(prim, film: dict, lut) -> list:
 
 def _check_lut_constants(prim, lut) -> list:
     """The MaterialX network's LUT constants (texel counts, warp, range) must describe the LUT file it reads."""
+    import numpy as np
     from pxr import UsdShade
+
+    from .material import lut_info, lut_transform
 
     material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
     if not material:
         return [Issue("thinFilm", str(prim.GetPath()), "feather mesh has no bound material")]
     lo, hi = lut.thickness_range_nm
-    expected = {"LutAngleCount": lut.n_angle, "LutThicknessCount": lut.n_thickness,
-                "LutAngleWarpGamma": lut.angle_warp_gamma, "LutThicknessLoNm": lo, "LutThicknessHiNm": hi}
+    expected = {"LutTransform": lut_transform(lut_info(lut)),
+                "LutAngleWarpExponent": 1.0 / lut.angle_warp_gamma - 1.0}
     issues = []
     for name, want in expected.items():
         shader = UsdShade.Shader(material.GetPrim().GetChild(name))
         if not shader:
             continue  # a material without the LUT network (e.g. hand-made) has nothing to disagree with
         got = shader.GetInput("value").Get() if shader.GetInput("value") else None
-        if got is None or abs(float(got) - float(want)) > 1e-4 * max(1.0, abs(float(want))):
+        flat = None if got is None else np.ravel(np.asarray(got, np.float64))
+        if flat is None or flat.size != np.size(want) or not np.allclose(flat, want, rtol=1e-6, atol=1e-9):
             issues.append(Issue("thinFilm", f"{shader.GetPath()}.inputs:value",
                                 f"{got} does not describe the LUT file it reads: expected {want} "
                                 f"({lut.n_thickness} x {lut.n_angle} texels, gamma {lut.angle_warp_gamma}, "

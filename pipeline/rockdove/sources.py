@@ -1,0 +1,307 @@
+"""What code can execute, read from its source (nothing listed by hand): the digest that keys the build graph's
+stages and the user cache's folders.
+
+A callable is followed by name through the module that defines it: the top-level functions, classes and
+constants it names, and the modules those import (at module level or inside a function, absolute or relative,
+as :mod:`ast` reads them, the way ``tests/test_imports.py`` walks the package). From each module reached, its
+whole import closure inside the ``rockdove`` package, with the ``__init__`` of every package on the way. A string
+naming a module (``"rockdove.hosts.glsl"``) or an f-string naming a package's modules by prefix
+(``f"rockdove.geometry.{name}"``) is an import too. A lambda, or a callable outside the package (a test's
+stand-in), keys on its whole file and every import in it.
+
+Third-party code enters as the whole environment: the ``*.dist-info`` / ``*.egg-info`` names (distribution and
+version) in every folder of ``sys.path``, and Python's version. Why not the distributions a closure imports:
+third-party code runs third-party code rockdove never names (trimesh calls scipy, pyrender PyOpenGL,
+colour-science scipy; USD and Pillow load plugins), so only the environment is a closure that cannot miss one;
+and mapping import names to distributions (``importlib.metadata.packages_distributions()``) took 1.1 s per
+process here, against ~1 ms to list ``sys.path``. An install or upgrade costs one cold build.
+
+A digest is memoised per process until a file it read or a folder it listed changes (mtime and size), and
+parsing by the file's content on disk (:func:`scan_dir`).
+"""
+
+from __future__ import annotations
+
+import ast
+import fnmatch
+import functools
+import hashlib
+import inspect
+import json
+import os
+import sys
+from pathlib import Path
+
+from . import resources
+
+#: The file in each user-cache folder that records what keyed it (:func:`stale` reads it).
+KEY_FILE = "key.json"
+
+
+def files_of(path: Path, pattern: str = "*", seen: dict | None = None) -> list[Path]:
+    """The files under ``path`` (or ``path`` itself) whose names match ``pattern``, sorted; ``seen`` receives the
+    (mtime, size) of every folder listed, taken before it is listed. ``__pycache__`` and ``node_modules`` (npm
+    packages beside data files, keyed by their pinned versions in package-lock.json) are skipped, and links to
+    folders are not followed."""
+    if not path.is_dir():
+        return [path] if path.is_file() else []
+    found, todo = [], [str(path)]
+    while todo:
+        folder = todo.pop()
+        if seen is not None:
+            _stamp(folder, seen)
+        with os.scandir(folder) as entries:
+            for e in entries:
+                if e.is_dir():
+                    if not e.is_symlink() and e.name not in ("__pycache__", "node_modules"):
+                        todo.append(e.path)
+                elif fnmatch.fnmatchcase(e.name, pattern):
+                    found.append(Path(e.path))
+    return sorted(p for p in found if p.is_file())
+
+
+def _stamp(path, seen: dict) -> tuple:
+    st = os.stat(path)
+    seen[str(path)] = (st.st_mtime_ns, st.st_size)
+    return seen[str(path)]
+
+
+@functools.lru_cache(maxsize=4096)
+def _bytes(path: Path, mtime_ns: int, size: int) -> bytes:
+    """A source or data file's bytes, read once per process and version of the file."""
+    return path.read_bytes()
+
+
+def read(path: Path, seen: dict) -> bytes:
+    return _bytes(path, *_stamp(path, seen))
+
+
+def _python() -> str:
+    return "%d.%d.%d" % sys.version_info[:3]
+
+
+def environment(seen: dict) -> str:
+    """sha256 of the distributions installed on ``sys.path`` (the names of their metadata folders, in order)."""
+    names = []
+    for entry in sys.path:
+        if entry and os.path.isdir(entry):
+            _stamp(entry, seen)
+            names += sorted(n for n in os.listdir(entry) if n.endswith((".dist-info", ".egg-info")))
+    return hashlib.sha256("\n".join(names).encode()).hexdigest()
+
+
+def _modules(seen: dict) -> dict[str, Path]:
+    """Dotted name -> file of every module of the package (``rockdove.x`` for ``x/__init__.py``)."""
+    root = resources.package_root().resolve()
+    out = {}
+    for p in files_of(root, "*.py", seen):
+        parts = list(p.relative_to(root.parent).with_suffix("").parts)
+        out[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = p
+    return out
+
+
+def _unchanged(stamps: dict) -> bool:
+    try:
+        return all((st.st_mtime_ns, st.st_size) == s for st, s in zip(map(os.stat, stamps), stamps.values()))
+    except OSError:
+        return False
+
+
+# ----------------------------------------------------------------------------------------------- scanning
+def _imports(node) -> list:
+    """Every import under ``node``: ``[level, module, [names]]``; strings naming rockdove modules: ``[-1, s, []]``
+    (``s`` ending in ``.`` for an f-string's constant prefix)."""
+    out = []
+    for n in ast.walk(node):
+        if isinstance(n, ast.Import):
+            out += [[0, a.name, []] for a in n.names]
+        elif isinstance(n, ast.ImportFrom):
+            out.append([n.level, n.module or "", [a.name for a in n.names]])
+        elif isinstance(n, ast.Constant) and isinstance(n.value, str) and n.value.startswith("rockdove.") \
+                and not n.value.endswith("."):  # a whole name ("rockdove.x" or "rockdove.x:attr"), not a prefix
+            out.append([-1, n.value.split(":")[0], []])
+        elif isinstance(n, ast.JoinedStr) and n.values and isinstance(n.values[0], ast.Constant) \
+                and str(n.values[0].value).startswith("rockdove."):
+            out.append([-1, n.values[0].value, []])
+    return out
+
+
+def _scan(source: bytes) -> dict:
+    """``{"imports": every import of the file, "top": {name: {"refs", "imports"}}, "bound": {name: import}}``:
+    per top-level definition the names it uses and the imports inside it; per name a module-level import binds,
+    that import."""
+    tree = ast.parse(source)
+    top, bound = {}, {}
+    for stmt in tree.body:
+        if isinstance(stmt, ast.Import):
+            bound.update({a.asname or a.name.split(".")[0]: [0, a.name, []] for a in stmt.names})
+        elif isinstance(stmt, ast.ImportFrom):
+            bound.update({a.asname or a.name: [stmt.level, stmt.module or "", [a.name]] for a in stmt.names})
+        elif isinstance(stmt, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef, ast.Assign, ast.AnnAssign)):
+            targets = stmt.targets if isinstance(stmt, ast.Assign) else [getattr(stmt, "target", None)]
+            names = [n.id for t in targets if t for n in ast.walk(t) if isinstance(n, ast.Name)]
+            entry = {"refs": sorted({n.id for n in ast.walk(stmt) if isinstance(n, ast.Name)}),
+                     "imports": _imports(stmt)}
+            top.update({name: entry for name in names or [getattr(stmt, "name", "")]})
+    return {"imports": _imports(tree), "top": top, "bound": bound}
+
+
+@functools.lru_cache(maxsize=1)
+def scan_dir() -> Path:
+    """The user-cache folder of parsed files, keyed by this module's source and Python's version."""
+    files = {"rockdove/sources.py": hashlib.sha256(Path(__file__).read_bytes()).hexdigest()}
+    return _keyed_dir("code", {"python": _python(), "files": files})
+
+
+_SCANS: dict = {}
+
+
+def scan(path: Path, seen: dict) -> dict:
+    """:func:`_scan` of ``path``, memoised in this process by the file's path, mtime and size, and in the user cache
+    by its content's sha256."""
+    data = read(path, seen)
+    stamp = (str(path), *seen[str(path)])
+    if stamp not in _SCANS:
+        disk = scan_dir() / f"{hashlib.sha256(data).hexdigest()}.json"
+        try:
+            _SCANS[stamp] = json.loads(disk.read_text())
+        except (OSError, ValueError):
+            _SCANS[stamp] = _scan(data)
+            resources.write_cached(disk, json.dumps(_SCANS[stamp]).encode())
+    return _SCANS[stamp]
+
+
+def _targets(imp: list, package: str, mods: dict) -> set[str]:
+    """The package modules one import record names (``package``: the importing module's package)."""
+    level, module, names = imp
+    if level == -1:  # a string: a module, or a prefix naming every module under it
+        return {m for m in mods if m.startswith(module)} if module.endswith(".") else ({module} & mods.keys())
+    if level:
+        parts = package.split(".")
+        module = ".".join(parts[:len(parts) - level + 1] + ([module] if module else []))
+    if module != "rockdove" and not module.startswith("rockdove."):
+        return set()
+    return ({module} | {f"{module}.{n}" for n in names}) & mods.keys()
+
+
+def _package(module: str, path: Path) -> str:
+    return module if path.name == "__init__.py" else module.rpartition(".")[0]
+
+
+def closure(start: set[str], mods: dict, seen: dict) -> set[str]:
+    """``start`` and every package module it imports, transitively, with each one's parent packages."""
+    done, todo = set(), list(start)
+    while todo:
+        m = todo.pop()
+        if m in done or m not in mods:
+            continue
+        done.add(m)
+        todo += [".".join(m.split(".")[:i]) for i in range(1, m.count(".") + 1)]  # the parents' __init__
+        for imp in scan(mods[m], seen)["imports"]:
+            todo += _targets(imp, _package(m, mods[m]), mods)
+    return done
+
+
+def entry_modules(fn, mods: dict, seen: dict) -> tuple[Path, set[str]]:
+    """The file ``fn`` is written in and the package modules it reaches from it: by name through its module's
+    top-level definitions when it is one of them, else (a lambda, a callable outside the package) through every
+    import of its file."""
+    path = Path(inspect.getsourcefile(fn) or "").resolve()
+    if not path.is_file():
+        raise ValueError(f"{fn!r} has no source file; a stage's code must be keyed by its source")
+    module = next((m for m, p in mods.items() if p == path), None)
+    info = scan(path, seen)
+    package = _package(module, path) if module else ""
+    outer = getattr(fn, "__qualname__", "").split(".")[0]
+    if module is None or outer not in info["top"]:
+        return path, {t for imp in info["imports"] for t in _targets(imp, package, mods)} | {module} - {None}
+    reached, names, todo = {package} - {""}, set(), [outer]
+    while todo:
+        name = todo.pop()
+        if name in names:
+            continue
+        names.add(name)
+        if name in info["top"]:
+            todo += info["top"][name]["refs"]
+            reached |= {t for imp in info["top"][name]["imports"] for t in _targets(imp, package, mods)}
+        elif name in info["bound"]:
+            reached |= _targets(info["bound"][name], package, mods)
+    return path, reached
+
+
+def code_files(fns, seen: dict, modules=()) -> list[Path]:
+    """Every source file ``fns`` can execute (module docstring), with the closure of ``modules``, sorted."""
+    mods = _modules(seen)
+    files, reached = set(), set(modules)
+    for fn in fns:
+        f, r = entry_modules(fn, mods, seen)
+        files.add(f)
+        reached |= r
+    return sorted(files | {mods[m] for m in closure(reached, mods, seen)})
+
+
+# ----------------------------------------------------------------------------------------------- digests
+#: (callables, data, modules) -> ({path read or listed: its (mtime, size)}, (digest, record))
+_MEMO: dict = {}
+
+
+def digest(fns, data=(), modules=()) -> tuple[str, dict]:
+    """``(sha256, record)`` of what ``fns`` can execute: the source files (:func:`code_files`), the ``data`` files
+    or folders (``"materials/glsl"``), the environment and Python; ``record`` holds each file's sha256.
+    Remembered by this process while none of the files it read and none of the folders it listed changed."""
+    root = resources.package_root().resolve()
+    memo_key = (str(root), tuple((f.__code__.co_filename, f.__qualname__) if hasattr(f, "__code__") else f
+                                 for f in fns), tuple(data), tuple(modules))
+    hit = _MEMO.get(memo_key)
+    if hit is not None and _unchanged(hit[0]):
+        return hit[1]
+    seen: dict = {}
+    labelled = [(str(p.relative_to(root.parent)) if p.is_relative_to(root.parent) else str(p), p)
+                for p in code_files(fns, seen, modules)]
+    for d in data:
+        top = resources.path(d)
+        found = files_of(top, seen=seen)
+        if not found:  # an empty data folder would key the stage on nothing
+            raise ValueError(f"data {d!r}: {top} holds no files, so it cannot be keyed (reinstall rockdove)")
+        labelled += [(f"{d}/{p.relative_to(top)}" if top.is_dir() else d, p) for p in found]
+    record = {"python": _python(), "environment": environment(seen),
+              "files": {label: hashlib.sha256(read(p, seen)).hexdigest() for label, p in labelled}}
+    result = hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest(), record
+    _MEMO[memo_key] = (seen, result)
+    return result
+
+
+# ----------------------------------------------------------------------------------------------- user cache
+def _keyed_dir(name: str, record: dict) -> Path:
+    key = hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest()
+    folder = resources.user_cache_dir(f"{name}-{key[:16]}")
+    if not (folder / KEY_FILE).is_file():
+        resources.write_cached(folder / KEY_FILE, json.dumps(record, indent=1, sort_keys=True).encode())
+    return folder
+
+
+def cache_dir(name: str, fn) -> Path:
+    """The user-cache folder ``<name>-<key>`` for values that ``fn`` computes, keyed by everything that derives
+    them (:func:`digest` of ``fn``: its code, the environment, Python); its ``key.json`` records what keyed it."""
+    return _keyed_dir(name, digest([fn])[1])
+
+
+def stale(folder: Path) -> str | None:
+    """Why a user-cache folder can no longer be read (what derived it changed since), or None while it is current."""
+    try:
+        record = json.loads((folder / KEY_FILE).read_text())
+    except (OSError, ValueError):
+        return f"no {KEY_FILE}: written by an older rockdove"
+    if record.get("python") != _python():
+        return f"written by Python {record.get('python')}"
+    if record.get("environment") not in (None, environment({})):
+        return "the installed distributions changed"
+    root = resources.package_root().resolve().parent
+    for label, sha in record.get("files", {}).items():
+        try:
+            if hashlib.sha256((root / label).read_bytes()).hexdigest() == sha:  # (a label may be absolute)
+                continue
+        except OSError:
+            pass
+        return f"{label} changed"
+    return None
