@@ -29,9 +29,9 @@ ROOT = Path(rockdove.__file__).resolve().parent
 # The data flow, low to high (docs/design.md, /work/shared/ARCHITECTURE.md): a module may import modules of its
 # own layer or of lower layers only. Packages within one layer may import each other, but only one way.
 LAYERS = [
-    ({"rockdove", "errors", "_compat", "resources", "config", "sources"},
-     "foundations: the version, error types, optional-import shims, data-file lookup, the checked config and "
-     "the digest of the code a callable can execute"),
+    ({"rockdove", "errors", "_compat", "resources", "config", "sources", "png", "digest"},
+     "foundations: the version, error types, optional-import shims, data-file lookup, the checked config, "
+     "the digest of the code a callable can execute, the one PNG writer and the content digest helper"),
     ({"films", "optics", "spectral", "srgb"},
      "physics: film model -> Airy reflectance -> spectrum to colour; knows nothing of tables, meshes or USD"),
     ({"lut"},

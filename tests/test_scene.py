@@ -196,6 +196,6 @@ def test_display_pngs_decode_to_their_pixels_rgb_and_rgba_and_depend_on_the_pixe
             assert im.format == "PNG" and im.mode == ("RGBA" if img.shape[2] == 4 else "RGB")
             np.testing.assert_array_equal(np.asarray(im), img)
         assert open(path, "rb").read() == encode_png(img.copy())  # the same pixels, the same bytes
-    for bad in (np.zeros((4, 4), np.uint8), np.zeros((4, 4, 2), np.uint8), np.zeros((0, 4, 3), np.uint8)):
+    for bad in (np.zeros((4, 4, 2), np.uint8), np.zeros((0, 4, 3), np.uint8), np.zeros((4, 4, 3), np.float32)):
         with pytest.raises(ValueError, match="image must be"):
             encode_png(bad)

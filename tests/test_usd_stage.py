@@ -258,7 +258,7 @@ def test_preview_atlas_mixes_base_and_the_structural_colour_of_each_thickness_by
 
 
 def test_write_png_is_lossless_and_byte_deterministic(tmp_path):
-    """write_png (PNG_OPTIONS: a fixed zlib level and strategy) decodes to the same pixels for grey, RGB and
+    """write_png (rockdove.png at a fixed zlib level) decodes to the same pixels for grey, RGB and
     RGBA, writes the same bytes twice, and holds only the IHDR, IDAT and IEND chunks (no time or text)."""
     import struct
 

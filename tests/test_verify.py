@@ -173,7 +173,7 @@ def test_boundary_is_straight_for_uniform_thickness_and_bends_for_a_gradient(tmp
         cls = np.full(feather.shape, -1, np.int8)
         cls[feather] = cmp.hue_classes(ref.rgb[feather].astype(np.float64), sides=True)[2]
         assert (cls == 1).sum() > 50 and (cls == 2).sum() > 50, name  # both hues on the plane
-        results[name] = cmp.boundary_straightness(cls)
+        results[name] = boundary.boundary_straightness(cls)
         results[name]["curvature"] = boundary.boundary_curvature(cls)
     assert results["uniform"]["n_centreline"] >= 20 and results["graded"]["n_centreline"] >= 8
     # issue 12's curvature measure: the cubic fits the uniform film's boundary no better than a line

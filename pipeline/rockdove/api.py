@@ -153,25 +153,15 @@ def _result(graph, out: Path, cache_dir: Path, chash: str, t0: float, verified, 
 def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os.PathLike | None = None,
           verify: bool = True, lock_timeout: float | None = None, quiet: bool = False,
           progress: Callable[[str], None] | None = None) -> BuildResult:
-    """Build, verify and publish the asset of ``config`` (:func:`load_config`) into ``out``, incrementally.
+    """Build, verify and publish the asset of ``config`` (:func:`load_config`, validated again here) into ``out``
+    (new, empty, or one rockdove built: anything else is refused before any work), incrementally.
 
-    Parameters
-    ----------
-    config : dict
-        The configuration (:func:`load_config`); validated again here.
-    out : path
-        The asset folder: new, empty, or one rockdove built (anything else is refused before any work).
-    cache : path, optional
-        The stage cache (default ``.rockdove-cache`` beside ``out``); builds of any output may share one.
-    verify : bool
-        Run the verification stages (GL renders against the exact reference) on the staged asset before it is
-        published; a failure publishes nothing and raises :class:`BuildFailed`.
-    lock_timeout : float, optional
-        Seconds to wait for another build of the same output (default: until it finishes), then UsageError.
-    quiet : bool
-        Say nothing on stderr while waiting for that lock.
-    progress : callable, optional
-        ``progress(stage_name)`` as each stage starts.
+    ``cache``: the stage cache (default ``.rockdove-cache`` beside ``out``), which builds of any output and
+    :func:`verify` share. ``verify``: run the verification (:func:`rockdove.graph.verification.verify`, GL renders
+    against the exact reference) on the staged asset; a failure publishes nothing and raises
+    :class:`BuildFailed`. ``lock_timeout``: seconds to wait for another build of the same output (default:
+    until it finishes), then UsageError; ``quiet``: say nothing while waiting; ``progress(stage_name)`` as each
+    stage starts.
 
     Order of work: output checked -> lock taken -> leftovers of killed builds cleaned -> stages run or reused
     -> asset assembled in a staging folder beside ``out``, marker written -> verification on the staged asset
@@ -233,18 +223,11 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
            views: Iterable[str] | None = None, n_views: int | None = None, bench_dir: str | os.PathLike | None = None,
            allow_external: bool = False, progress: Callable[[str], None] | None = None,
            beauty: dict | None = None) -> Verification:
-    """Validate an asset, render it with the GLSL shaders and every host in ``hosts``, check each against the
-    exact spectral reference of its lighting model and write the report: the build's own verification
-    (:func:`rockdove.graph.verification.verify`), with its cache, so what a build verified is not rendered again.
-
-    ``asset``: the asset folder or its root layer. ``hosts``: names (:data:`rockdove.hosts.HOSTS`), default
-    :data:`rockdove.hosts.DEFAULT` where available, ``["all"]`` every host; ``glsl`` always runs. ``cache``: the
-    stage cache (default: the build's ``.rockdove-cache`` beside the asset folder when there is one, else the user
-    cache). ``out``: the report folder (default ``verify/`` beside the root layer). ``width``, ``height``,
-    ``n_views``: render size (pixels) and turntable + light-sweep views (default the schema's ``[verify]``).
-    ``views``: check only these (e.g. ``["sweep_090"]``). ``bench_dir``: benchmark plots to show in the report.
-    ``allow_external``: let the asset's layers name files outside its folder. ``beauty``: the ``[beauty]``
-    settings of the report's opening picture.
+    """Validate an asset (its folder or root layer), render it with the GLSL shaders and every host in ``hosts``,
+    check each against the exact spectral reference of its lighting model and write the report: the build's own
+    verification with its cache (:func:`rockdove.graph.verification.verify`, whose arguments these are), so what
+    a build or an earlier verification checked is not rendered again. ``out``: the report folder (default
+    ``verify/`` beside the root layer); ``allow_external``: let the asset's layers name files outside its folder.
 
     Returns :class:`Verification` (a failed check: ``passed`` False). Raises :class:`UsageError` for bad usage
     and :class:`VerificationFailed`, before rendering, when the asset's layers do not parse or name files outside

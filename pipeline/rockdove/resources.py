@@ -18,9 +18,11 @@ rockdove.errors.ResourceMissing: rockdove data file 'materials/nothing.txt' is m
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import importlib.resources
 import os
+import tempfile
 from pathlib import Path
 
 from .errors import ResourceMissing
@@ -69,15 +71,37 @@ def user_cache_dir(*parts: str) -> Path:
     return Path(root, "rockdove", *parts)
 
 
+@contextlib.contextmanager
+def atomic_path(path):
+    """The one atomic write: yields a temporary path beside ``path`` (same folder and suffix, so writers that go by
+    the extension work) to write; on success it replaces ``path`` in one ``os.replace`` (mode 0644: a reader
+    sees the old file or the whole new one, also with concurrent writers), on error it is removed."""
+    path = os.fspath(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{os.path.basename(path)}.", suffix=f".tmp{os.path.splitext(path)[1]}",
+                               dir=os.path.dirname(os.path.abspath(path)))
+    os.close(fd)
+    try:
+        yield tmp
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+
+
+def write_atomic(path, data: bytes | str) -> str:
+    """Write ``data`` (text as UTF-8) to ``path`` through :func:`atomic_path`; returns the path."""
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        f.write(data.encode() if isinstance(data, str) else data)
+    return os.fspath(path)
+
+
 def write_cached(path: Path, data: bytes) -> bool:
-    """Write ``data`` to ``path`` in :func:`user_cache_dir` atomically (a reader sees the old file or the whole new
-    one, also with concurrent writers). False, and nothing written, where the folder is not writable: a cache
-    that cannot be kept is recomputed next time."""
+    """Write ``data`` to ``path`` in :func:`user_cache_dir` atomically (:func:`write_atomic`). Returns False, and
+    writes nothing, where the folder is not writable: a cache that cannot be kept is recomputed next time."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        tmp.write_bytes(data)
-        os.replace(tmp, path)
+        write_atomic(path, data)
         return True
     except OSError:
         return False

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import tempfile
 import time
 
 DEFAULT_ERROR_POINTS = 1000
@@ -45,17 +44,10 @@ def _check_out(out: str) -> str:
 
 def _publish(write, path: str) -> None:
     """Write with ``write(tmp_path)`` beside ``path``, then atomically replace ``path``."""
-    folder = os.path.dirname(path)
-    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=folder)
-    os.close(fd)
-    try:
+    from ..resources import atomic_path
+
+    with atomic_path(path) as tmp:
         write(tmp)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def run(args: argparse.Namespace) -> int:

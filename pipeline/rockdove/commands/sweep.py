@@ -32,6 +32,7 @@ import time
 from pathlib import Path
 
 from .build import add_config_arguments
+from ..resources import write_atomic
 from .sweep_grid import grid_points, parse_grid
 
 POINTS = "points"
@@ -189,7 +190,7 @@ td,th{{border:1px solid #ccc;padding:4px;vertical-align:top;font-size:12px}} img
 {chr(10).join(rows)}
 </table></body></html>
 """
-    _write_atomic(root / "index.html", page)
+    write_atomic(root / "index.html", page)
 
 
 def _cell(p: dict | None, root: Path) -> str:
@@ -212,12 +213,6 @@ def _cell(p: dict | None, root: Path) -> str:
     if imgs.get("preview"):
         parts.append("<div>LUT preview (not verified: no renders)</div>")
     return "".join(parts)
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
 
 
 # ----------------------------------------------------------------------------------------------- running
@@ -313,7 +308,7 @@ def run(args: argparse.Namespace) -> int:
     def save():
         doc["done"] = sum(1 for r in records if r["status"] != "pending")
         doc["seconds"] = round(time.perf_counter() - t0, 3)
-        _write_atomic(root / "sweep.json", json.dumps(doc, indent=1, default=str) + "\n")
+        write_atomic(root / "sweep.json", json.dumps(doc, indent=1, default=str) + "\n")
         write_index(root, doc, keys, labels)
 
     todo = [(p, r) for p, r in zip(points, records) if r["status"] == "pending"]

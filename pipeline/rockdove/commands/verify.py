@@ -1,17 +1,8 @@
-"""``rockdove verify ASSET [--out DIR] [--json] [--width W --height H] [--views N] [--view NAME ...] [--hosts LIST]
-[--cache DIR]``:
-validate an asset, render it with the GLSL shaders, with every host asked for (:mod:`rockdove.hosts`; default
-hosts.DEFAULT where available; "all" every host) and with the exact CPU reference, check and report
-(:func:`rockdove.graph.verification.verify`, the build's verification with its cache: what a build or an
-earlier verification checked is not rendered again). An unavailable host is printed as SKIPPED with its reason; a
-host that fails is printed with its error and fails the verification.
-
-A physical-only asset (no LUT) is checked with a verification-only LUT baked in memory from the film it
-records; the report's notes (printed here) say so, as they say when a check could not run (e.g. ``--view``
-without a light-sweep view: no hue check).
-
-Exit status 0 when everything passes, 1 when a check fails (:class:`rockdove.errors.VerificationFailed`),
-2 on bad usage (a ``ValueError``, turned into one line by the CLI).
+"""``rockdove verify ASSET``: :func:`rockdove.api.verify` (the build's verification with its cache: what a build or
+an earlier verification checked is not rendered again) and its results as text or ``--json``: per view, the
+light sweep's hues, the boundary, each host (an unavailable one SKIPPED with its reason, a failed one with its
+error), the anatomy and the notes (e.g. a physical-only asset's verification-only LUT, a check that could not
+run). Exit status 0 when everything passes, 1 when a check fails, 2 on bad usage.
 """
 
 from __future__ import annotations
@@ -22,30 +13,16 @@ import sys
 
 
 
-def _size(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer number of pixels, got {text!r}") from None
-    from ..config import limits
+def _ranged(key: str, unit: str):
+    """An argparse type: an integer within the schema's range of config ``key`` (the memory budget)."""
+    def parse(text: str) -> int:
+        from ..config import limits
 
-    lo, hi = limits("verify.width")  # the config's range: past it a verification passes the memory budget
-    if v < lo or v > hi:
-        raise argparse.ArgumentTypeError(f"must be between {lo} and {hi} pixels, got {v}")
-    return v
-
-
-def _count(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be an integer number of views, got {text!r}") from None
-    from ..config import limits
-
-    lo, hi = limits("verify.views")  # the config's range (the memory budget)
-    if not lo <= v <= hi:
-        raise argparse.ArgumentTypeError(f"must be between {lo} and {hi} views, got {v}")
-    return v
+        lo, hi = limits(key)
+        if not text.strip().lstrip("-").isdigit() or not lo <= int(text) <= hi:
+            raise argparse.ArgumentTypeError(f"must be an integer from {lo} to {hi} {unit}, got {text!r}")
+        return int(text)
+    return parse
 
 
 def _samples(text: str) -> int:
@@ -66,9 +43,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="DIR", default=None,
                         help="report folder (default: verify/ beside the root layer)")
     parser.add_argument("--json", action="store_true", help="print the report summary as JSON on stdout")
-    parser.add_argument("--width", type=_size, metavar="W", help="render width, pixels (default [verify] width)")
-    parser.add_argument("--height", type=_size, metavar="H", help="render height, pixels (default [verify] height)")
-    parser.add_argument("--views", type=_count, metavar="N",
+    for side in ("width", "height"):
+        parser.add_argument(f"--{side}", type=_ranged(f"verify.{side}", "pixels"), metavar=side[0].upper(),
+                            help=f"render {side}, pixels (default [verify] {side})")
+    parser.add_argument("--views", type=_ranged("verify.views", "views"), metavar="N",
                         help="turntable + light-sweep views (default [verify] views), plus the sweep at the flip")
     parser.add_argument("--cache", metavar="DIR",
                         help="the cache of renders already checked (default: the build's .rockdove-cache beside the "

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
-import hashlib
 import json
 import os
 import shutil
@@ -23,6 +22,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..config import canonical_json
+from ..digest import Digest
 from ..sources import files_of
 
 
@@ -94,13 +94,9 @@ FILES = Codec("files", lambda value, folder: None, lambda folder: folder)
 def folder_digest(folder: Path) -> str:
     """sha256 over (relative path, NUL, bytes, NUL) of every file under ``folder``, streamed: a long-lived process
     does not keep every asset it built (~7.5 MB per film rebuild) in memory."""
-    h = hashlib.sha256()
+    h = Digest()
     for p in files_of(folder):
-        h.update(str(p.relative_to(folder)).encode() + b"\0")
-        with open(p, "rb") as f:
-            while chunk := f.read(1 << 20):
-                h.update(chunk)
-        h.update(b"\0")
+        h.file(str(p.relative_to(folder)), p)
     return h.hexdigest()
 
 

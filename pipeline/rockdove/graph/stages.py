@@ -1,64 +1,28 @@
 """The real build stages: each wires one module of the pipeline into the graph (:mod:`rockdove.graph.engine`).
 
-Stages (dependencies first) and what each reads:
+Stages (dependencies first), the configuration each reads and its inputs:
 
-======================  ===========================================  ==============================================
-stage                   configuration                                 inputs
-======================  ===========================================  ==============================================
-``body``                ``geometry.body_voxel_m``, body texture res.  -- (rockdove.geometry.build_body)
-``bird``                ``geometry``, ``thickness``, textures res.    body (rockdove.geometry.build_bird: cards,
-                                                                      beak, eyes, legs around that body)
-``thickness_range``     --                                            bird: (floor min, ceil max) of the feathers'
-                                                                      ``thickness`` primvar, nm
-``lut``                 ``film``, ``lut``                             thickness_range (baked over exactly that
-                                                                      range; one texel high when uniform); absent
-                                                                      for ``shading.variant = "physical"``
-``texture_images``      as ``bird`` (BirdParams)                      bird (rockdove.textures)
-``textures``            --                                            texture_images: the textures a film change
-                                                                      leaves alone (feather base and mask, body
-                                                                      colour; rockdove.usd.textures_io)
-``film_textures``       -- (physical-only: ``film``)                  lut, thickness_range, texture_images: the LUT
-                                                                      EXR and the preview atlas; physical-only: no
-                                                                      LUT EXR, exact preview colours
-``usd_geometry``        --                                            bird (rockdove.usd.stage.write_geometry:
-                                                                      ``pigeon_geom.usdc``, crate)
-``usd_layers``          ``film``, ``shading``                         bird, lut, usd_geometry
-                                                                      (rockdove.usd.stage.write_looks: pigeon.usda,
-                                                                      pigeon_payload.usda, pigeon_looks.usda);
-                                                                      physical-only: bird, usd_geometry
-``usdz``                -- (present when ``usd.usdz``)                usd_geometry, usd_layers, textures,
-                                                                      film_textures
-                                                                      (rockdove.usd.usdz: pigeon.usdz, pigeon_ar.usdz)
-``verify_rays``         as ``verify``                                 every published stage: the assembled asset.
-                                                                      One item per camera: the reference's ray
-                                                                      casts (rockdove.verify.rays.cast_hits),
-                                                                      keyed by the camera and ray_digest (geometry,
-                                                                      feather alpha; not film or LUT)
-``verify_surfaces``     as ``verify``                                 every published stage, verify_rays. One item
-                                                                      per camera: what the reference shades at the
-                                                                      hits before any light or film
-                                                                      (rockdove.verify.reference_image.cast_surfaces),
-                                                                      keyed by the camera and surface_digest
-                                                                      (+ normals, st, thickness, base colours,
-                                                                      masks; not film or LUT)
-``gltf``                -- (present when ``gltf.glb``)                usd_geometry, usd_layers, (film_)textures: reads the
-                                                                      assembled asset (rockdove.web.gltf.export_glb)
-``verify``              ``verify.width``, ``verify.height``,          every published stage: the assembled asset.
-                        ``verify.views``                              One item per view (rockdove.verify.run),
-                                                                      keyed by its plan entry: the view's camera,
-                                                                      light and size and the digest of the scene
-                                                                      content it renders, plus the verify code
-======================  ===========================================  ==============================================
+- ``body`` (``geometry.body_voxel_m``, body texture resolution): rockdove.geometry.build_body;
+- ``bird`` (``geometry``, ``thickness``, texture resolutions; body): cards, beak, eyes and legs around the body;
+- ``thickness_range`` (bird): (floor min, ceil max) of the feathers' ``thickness`` primvar, nm;
+- ``lut`` (``film``, ``lut``; thickness_range): baked over exactly that range (one texel high when uniform);
+  absent for ``shading.variant = "physical"``;
+- ``texture_images`` (as ``bird``; bird): rockdove.textures;
+- ``textures`` (texture_images): the textures a film change leaves alone (feather base and mask, body colour);
+- ``film_textures`` (lut, thickness_range, texture_images): the LUT EXR and the preview atlas; physical-only: no
+  LUT EXR, exact preview colours (then it reads ``film``);
+- ``usd_geometry`` (bird): ``pigeon_geom.usdc``; ``usd_layers`` (``film``, ``shading``; bird, lut, usd_geometry):
+  pigeon.usda, pigeon_payload.usda, pigeon_looks.usda;
+- ``usdz`` (when ``usd.usdz``) and ``gltf`` (when ``gltf.glb``): packages of the assembled asset;
+- ``verify`` (``verify``, ``beauty``; every published stage): :func:`rockdove.graph.verification.verify` of the
+  assembled asset, whose renders are cache entries of their own keyed by what each reads.
 
-Because keys use the *content* of upstream outputs, a new seed that leaves the thickness range unchanged
-re-bakes nothing, and a film change re-bakes the LUT and rewrites film_textures (the preview mixes in the LUT)
-and the small layers but reuses the bird, the film-independent textures and the geometry layer
-(``usd_geometry``), whose bytes stay as they were. Physical-only shading needs no bake: the graph has no ``lut``
-stage. Verification
-re-renders only the views whose plan entry changed: a change that leaves the rendered scene as it was (e.g.
-``usd.usdz``) revalidates and rewrites the report but renders nothing; a film change re-renders every view, but
-with the reference's ray casts of ``verify_rays``, which depend on the geometry and the cameras only, and the
-shading inputs at their hits of ``verify_surfaces`` (a thickness or texture change recomputes those, not the rays).
+Keys use the *content* of upstream outputs, so a new seed that leaves the thickness range unchanged re-bakes
+nothing, and a film change re-bakes the LUT and rewrites film_textures and the small layers but reuses the bird,
+the film-independent textures and the geometry layer, whose bytes stay as they were. The verification reruns
+whenever a published file changes, but renders only what the change reaches: a change that leaves the rendered
+scene as it was (e.g. ``usd.usdz``) renders nothing; a film change re-renders every view but reuses the
+reference's surfaces (geometry, normals, textures, thickness at the hits).
 """
 
 from __future__ import annotations

@@ -54,7 +54,8 @@ class _Items:
         """Store the files of folder ``src`` (moved) and ``item.json`` (``meta``); the entry's folder."""
         def fill(folder):
             for name in os.listdir(src):
-                os.rename(os.path.join(src, name), folder / name)
+                if name != ".owner":  # the scratch folder's own (rockdove.graph.engine.Cache.temporary)
+                    os.rename(os.path.join(src, name), folder / name)
             (folder / "item.json").write_text(json.dumps(meta, sort_keys=True, default=_plain))
         self.cache.store(self.name, key, fill)
         return self.get(key)
@@ -141,25 +142,30 @@ def _host_key(module, digest: str, views) -> str:
 
 
 def _host(cache, module, layer, scene, views, digest, refs, fresh, out, say) -> tuple[dict, dict, bool]:
-    """One host's report entry and image files (copied into ``out``), and whether they came from the cache."""
+    """One host's report entry and image files in ``out`` (where it renders, its work folders and logs beside
+    them), and whether they came from the cache, which keeps the images of a host that rendered."""
     from ..verify.host_check import check_host
 
     items = _Items(cache, "host")
     key = _host_key(module, digest, views)
-    found = cached = items.get(key)
-    if found is None:
+    found = items.get(key)
+    if found is not None:
+        value = _meta(found)
+        for name in _files(value["files"]):
+            shutil.copyfile(os.path.join(found, name), os.path.join(out, name))
+        return value["entry"], value["files"], True
+    rendered = fresh["gl"] if module.NAME == "glsl" else None
+    entry, files = check_host(module, layer, scene, views, refs(module.LOBE), out, rendered, say)
+    if entry.get("passed") is not None and "error" not in entry:  # one skipped or failed is asked again
         with items.scratch() as tmp:
-            rendered = fresh["gl"] if module.NAME == "glsl" else None
-            entry, files = check_host(module, layer, scene, views, refs(module.LOBE), str(tmp), rendered, say)
-            if entry.get("passed") is None or "error" in entry:  # skipped or failed: asked again next time
-                for f in os.listdir(tmp):
-                    shutil.copyfile(tmp / f, os.path.join(out, f))
-                return entry, files, False
-            found = items.put(key, tmp, {"entry": entry, "files": files})
-    value = _meta(found)
-    for name in {n for f in value["files"].values() for n in f.values()}:
-        shutil.copyfile(os.path.join(found, name), os.path.join(out, name))
-    return value["entry"], value["files"], cached is not None
+            for name in _files(files):
+                shutil.copyfile(os.path.join(out, name), tmp / name)
+            items.put(key, tmp, {"entry": entry, "files": files})
+    return entry, files, False
+
+
+def _files(files: dict) -> set:
+    return {name for per_view in files.values() for name in per_view.values()}
 
 
 def default_cache(asset) -> str:
@@ -173,40 +179,18 @@ def default_cache(asset) -> str:
 
 def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, height=None, n_views=None,
            views=None, bench_dir=None, progress=None, beauty=None, published_asset=None) -> dict:
-    """Validate, render and check an asset; write the report into ``out_dir``; return the report dict.
+    """Validate, render and check the asset of root layer ``asset``; write the report into ``out_dir`` (default
+    ``verify/`` beside it); return the content of report.json (``passed``, ``failures``, ``notes``, one entry per
+    host, and ``cache``: the items that ``ran`` and were ``reused``).
 
-    Parameters
-    ----------
-    asset : path
-        The root layer (the build's staged one, or a published asset's).
-    hosts : iterable of str or None
-        Hosts (:data:`rockdove.hosts.HOSTS`; None: :data:`rockdove.hosts.DEFAULT`; ``["all"]``: every one)
-        that render the views, each compared with the reference of its lobe; ``glsl`` always runs.
-        Unavailable hosts are reported as skipped with their reason; one that fails or misses its goals fails
-        the verification.
-    cache : path or Cache, optional
-        The stage cache that holds the items (default :func:`default_cache`).
-    out_dir : path, optional
-        Default ``verify/`` beside the root layer.
-    width, height, n_views : int, optional
-        Render size (pixels) and turntable + light-sweep views (:func:`rockdove.verify.inputs.verification_views`);
-        default the schema's ``[verify]`` defaults.
-    views : list of str, optional
-        Check only these views; a subset without a light-sweep view cannot run the hue check (``notes`` say so).
-    bench_dir : path, optional
-        Folder of benchmark plots (``*.png``) the report shows (default none).
-    progress : callable, optional
-        ``progress(message)`` for each step.
-    beauty : dict, optional
-        ``[beauty]`` settings of the picture the report opens with (:mod:`rockdove.render.beauty`; ``auto`` takes
-        Cycles only when ``hosts`` names blender and it is available); ``{"renderer": "off"}``: none.
-    published_asset : path, optional
-        The root layer's path once published (the build verifies a staging folder), which the report names.
-
-    Returns
-    -------
-    dict: the content of report.json; ``passed``, ``failures``, ``notes``, ``hosts`` (one entry per host) and
-    ``cache`` (the items ``ran`` and ``reused``).
+    ``hosts``: :data:`rockdove.hosts.HOSTS` names (None: :data:`rockdove.hosts.DEFAULT`; ``["all"]``), each
+    compared with the reference of its lobe; ``glsl`` always runs; an unavailable host is skipped with its reason,
+    one that fails or misses its goals fails the verification. ``cache``: the stage cache (a folder or a
+    :class:`Cache`; default :func:`default_cache`). ``width``, ``height``, ``n_views``: render size (pixels) and
+    turntable + light-sweep views (default the schema's ``[verify]``); ``views``: only these (a subset without a
+    light-sweep view cannot run the hue check: ``notes`` say so). ``bench_dir``: benchmark plots the report shows.
+    ``beauty``: ``[beauty]`` settings of the report's opening picture (``auto`` takes Cycles only when ``hosts``
+    names blender); ``published_asset``: the root layer's path once published, which the report names.
     """
     from ..hosts import select
     from ..render.beauty import settings

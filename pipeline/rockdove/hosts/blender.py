@@ -27,6 +27,7 @@ import zipfile
 import numpy as np
 
 from . import HostError
+from ..resources import atomic_path
 
 NAME = "blender"
 VARIANT = "physical"
@@ -136,14 +137,12 @@ def addon_zip(out_dir) -> str:
     os.makedirs(out_dir, exist_ok=True)
     files = sorted(p for p in source.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
     path = os.path.join(out_dir, ADDON_ZIP)
-    tmp = path + ".part"
-    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
+    with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
         for f in files:
             info = zipfile.ZipInfo(f"{ADDON_MODULE}/{f.relative_to(source).as_posix()}", (1980, 1, 1, 0, 0, 0))
             info.compress_type = zipfile.ZIP_DEFLATED
             info.external_attr = 0o644 << 16
             zf.writestr(info, f.read_bytes())
-    os.replace(tmp, path)
     return path
 
 

@@ -33,6 +33,9 @@ from __future__ import annotations
 import os
 from types import SimpleNamespace
 
+import numpy as np
+
+from ..png import save_png
 from . import HostError
 
 LOBE = "view_angle"
@@ -93,6 +96,7 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
     work = os.path.join(os.path.abspath(out_dir), name)
     os.makedirs(work, exist_ok=True)
     blender.clear_views(views, work)
+    save_png(np.full((2, 4, 3), 255, np.uint8), os.path.join(work, "white.png"))  # the dome light's texture
     job = {"asset": asset_path, "variant": variant, "overrides": {FEATHER_MATERIAL: overrides},
            "environment_radiance": ENVIRONMENT_RADIANCE, "out_dir": work, "views": [v.to_dict() for v in views]}
     try:  # the bpy Python, found and run as the Blender host runs its job (log: work/blender.log)

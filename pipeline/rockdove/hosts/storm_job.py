@@ -11,9 +11,7 @@ black (they only occlude, as in the exact reference) into ``<view>.exr``: linear
 import ctypes
 import json
 import os
-import struct
 import sys
-import zlib
 
 
 def bundled_usd_first() -> str:
@@ -69,19 +67,6 @@ def egl_context(width: int = 1024, height: int = 1024):
     return egl, dpy, ctx, surf
 
 
-def white_png(path: str) -> str:
-    """A 4 x 2 white RGB PNG (the dome light's texture: white in every colour space)."""
-    raw = b"".join(b"\x00" + b"\xff" * 12 for _ in range(2))
-
-    def chunk(tag, data):
-        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
-
-    with open(path, "wb") as fh:
-        fh.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 4, 2, 8, 2, 0, 0, 0))
-                 + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
-    return path
-
-
 def _black(surface) -> None:
     """A UsdPreviewSurface that reflects nothing: diffuse 0, ior 1 (Fresnel F0 = 0)."""
     from pxr import Gf, Sdf, UsdShade
@@ -119,7 +104,8 @@ def _session(stage, job):
                 attr.SetConnections([])
                 attr.Set(Gf.Vec3f(*value) if isinstance(value, list) else value)
     dome = UsdLux.DomeLight.Define(stage, "/RockdoveStorm/Environment")
-    dome.CreateTextureFileAttr(Sdf.AssetPath(white_png(os.path.join(job["out_dir"], "white.png"))))
+    # white in every colour space (rockdove.hosts.storm wrote it)
+    dome.CreateTextureFileAttr(Sdf.AssetPath(os.path.join(job["out_dir"], "white.png")))
     dome.CreateIntensityAttr(float(job["environment_radiance"]))
     dome.CreateExposureAttr(0.0)
     cams = []

@@ -6,8 +6,6 @@ Layout as the EXR (x: cos theta from 0 at the left; bottom row: the thinnest fil
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
 from .table import ThinFilmLUT
@@ -27,10 +25,8 @@ def preview_image(lut: ThinFilmLUT) -> np.ndarray:
 
 def write_preview_png(lut: ThinFilmLUT, path) -> str:
     """Write the sRGB preview PNG of ``lut`` to ``path`` (deterministic bytes: no time stamp); returns the path."""
-    from PIL import Image
+    from ..png import save_png
 
     if not isinstance(lut, ThinFilmLUT):
         raise ValueError(f"lut must be a ThinFilmLUT, got {type(lut).__name__}")
-    path = os.fspath(path)
-    Image.fromarray(preview_image(lut), mode="RGB").save(path, format="PNG", optimize=False)
-    return path
+    return save_png(preview_image(lut), path, level=6)

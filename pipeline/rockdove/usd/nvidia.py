@@ -13,9 +13,10 @@ every composed Mesh in every variant (:func:`mesh_digest`), so revalidating an a
 
 from __future__ import annotations
 
-import hashlib
 import json
 import re
+
+from ..digest import Digest
 
 #: NVIDIA's rule for shader ids and the message it gives an id its Sdr registry lacks.
 SDR_RULE = "UsdShadeShaderSdrCompliance"
@@ -41,16 +42,16 @@ def mesh_digest(root_layer: str) -> str | None:
 
     stage = Usd.Stage.Open(root_layer, Usd.Stage.LoadAll)
     read = set(UsdGeom.Mesh.GetSchemaAttributeNames(True)) | {"primvars:normals", "primvars:normals:indices"}
-    h = hashlib.sha256()
+    d = Digest()
     for combo in variant_combinations(stage):
         with Usd.EditContext(stage, stage.GetSessionLayer()):
             for name, value in combo.items():
                 stage.GetDefaultPrim().GetVariantSet(name).SetVariantSelection(value)
-        h.update(json.dumps(combo, sort_keys=True).encode())
+        d.add("variants", combo)
         for prim in stage.Traverse():
             if not prim.IsA(UsdGeom.Mesh):
                 continue
-            h.update(str(prim.GetPath()).encode() + b"\0")
+            d.add("prim", str(prim.GetPath()))
             for attr in prim.GetAttributes():
                 if attr.GetName() not in read:
                     continue
@@ -59,16 +60,14 @@ def mesh_digest(root_layer: str) -> str | None:
                 value = attr.Get()
                 meta = (attr.GetName(), str(attr.GetTypeName()), attr.GetMetadata("interpolation"),
                         attr.GetMetadata("elementSize"))
-                h.update(repr(meta).encode())
                 try:
                     arr = np.ascontiguousarray(value)
                 except (TypeError, ValueError):
                     arr = None
-                if arr is not None and arr.dtype.kind in "biuf":  # numbers: their bytes and shape
-                    h.update(repr(arr.shape).encode() + arr.tobytes())
-                else:  # tokens, strings, None: their text (an object array's bytes would be its pointers)
-                    h.update(repr(value).encode())
-    return h.hexdigest()
+                # numbers: their bytes and shape; tokens, strings, None: their text (an object array's bytes
+                # would be its pointers)
+                d.add(repr(meta), arr if arr is not None and arr.dtype.kind in "biuf" else repr(value))
+    return d.hexdigest()
 
 
 def _findings(results, root_layer: str) -> tuple[list, int]:
@@ -98,7 +97,7 @@ def _mesh_findings(nv, rules: list, root_layer: str) -> list:
     path = None
     if digest is not None:
         names = ",".join(sorted(r.__name__ for r in rules))
-        key = hashlib.sha256(f"{names}\0{digest}".encode()).hexdigest()
+        key = Digest().add("rules", names).add("meshes", digest).hexdigest()
         path = cache_dir("usd-validation-nvidia", _mesh_findings) / f"{key}.json"
         try:
             return [tuple(f) for f in json.loads(path.read_text())]

@@ -1,7 +1,7 @@
 """Write the asset's textures into ``DIR/textures/`` deterministically (docs/design.md, "Textures").
 
-- PNG via Pillow with fixed options (:data:`PNG_OPTIONS`: zlib level and strategy fixed, no ``optimize``, no
-  text/time chunks): the same pixels give the same bytes.
+- PNG via :func:`rockdove.png.save_png` at :data:`rockdove.png.TEXTURE_LEVEL` (no text/time chunks): the
+  same pixels give the same bytes.
 - The LUT via :func:`rockdove.lut.exr.write_exr` (float32 or half RGB, ZIP, sorted header, no timestamp).
 - ``feather_preview.png``: what UsdPreviewSurface viewers show (Blender's importer, usdview without MaterialX,
   Quick Look). Their network cannot look the LUT up per fragment (it is indexed by angle and thickness), so
@@ -24,17 +24,11 @@
 from __future__ import annotations
 
 import os
-import zlib
 
 import numpy as np
 
 from .material import TEXTURE_FILES
 
-#: Pillow PNG options: fixed so that encoding is reproducible. zlib level 4 with its default strategy (Pillow's own
-#: default is level 6, Z_FILTERED): measured on the default build's images (median of 7, one process), the preview
-#: atlas (rewritten on every film change) encodes in 0.62x the time at +0.2% bytes (148,862 -> 149,108),
-#: body_base.png in 0.64x at +5% (175,405 -> 184,789), feather_base.png 29.5 -> 39.7 kB, feather_mask.png unchanged.
-PNG_OPTIONS = {"compress_level": 4, "compress_type": zlib.Z_DEFAULT_STRATEGY, "optimize": False}
 #: cos theta of the structural colours of feather_preview.png: 0.86 (31 degrees), the median |N.V| over the
 #: feather-tip pixels of the default verification views (4 turntable + the light sweep, 128 px, measured on the
 #: default build: median 0.865, quartiles 0.65 and 0.96): the incidence a viewer most often sees the tips at.
@@ -149,15 +143,9 @@ def _check_uint8(name: str, a, channels: tuple[int, ...]) -> np.ndarray:
 
 def write_png(path: str, pixels: np.ndarray) -> str:
     """Write a uint8 (H, W), (H, W, 3) or (H, W, 4) image, row 0 at the top, with fixed encoder options."""
-    from PIL import Image
+    from ..png import TEXTURE_LEVEL, save_png
 
-    pixels = np.ascontiguousarray(pixels)
-    if pixels.ndim == 3 and pixels.shape[2] == 1:
-        pixels = np.ascontiguousarray(pixels[..., 0])
-    if pixels.dtype != np.uint8 or not (pixels.ndim == 2 or (pixels.ndim == 3 and pixels.shape[2] in (3, 4))):
-        raise ValueError(f"pixels must be uint8 (H, W), (H, W, 3) or (H, W, 4), got {pixels.dtype} {pixels.shape}")
-    Image.fromarray(pixels).save(path, format="PNG", **PNG_OPTIONS)  # mode L / RGB / RGBA from the shape
-    return path
+    return save_png(pixels, path, level=TEXTURE_LEVEL)
 
 
 def preview_colour(film, thickness_nm: float, cos_theta: float = PREVIEW_COS_THETA) -> np.ndarray:

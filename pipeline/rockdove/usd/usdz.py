@@ -22,6 +22,8 @@ import os
 import shutil
 import tempfile
 
+from ..resources import atomic_path
+
 USDZ_NAME = "pigeon.usdz"
 AR_USDZ_NAME = "pigeon_ar.usdz"
 #: Shader ids of UsdPreviewSurface networks (the ids ARKit's rules of v23.11 allow); every other shader is dropped.
@@ -119,11 +121,10 @@ def write_ar_usdz(out_dir: str, root_layer: str = "pigeon.usda") -> str:
         flat = os.path.join(scratch, "pigeon_ar.usdc")
         layer.Export(flat)
         _stamp(scratch)
-        package = os.path.join(scratch, AR_USDZ_NAME)
-        if not UsdUtils.CreateNewARKitUsdzPackage(Sdf.AssetPath(flat), package):
-            raise RuntimeError(f"UsdUtils.CreateNewARKitUsdzPackage failed for {root!r}")
         target = os.path.join(out_dir, AR_USDZ_NAME)
-        os.replace(package, target)
+        with atomic_path(target) as package:
+            if not UsdUtils.CreateNewARKitUsdzPackage(Sdf.AssetPath(flat), package):
+                raise RuntimeError(f"UsdUtils.CreateNewARKitUsdzPackage failed for {root!r}")
     return target
 
 
@@ -145,10 +146,9 @@ def write_usdz(out_dir: str, root_layer: str = "pigeon.usda", *, in_place: bool 
             shutil.copytree(out_dir, src, ignore=lambda d, names: [n for n in names if n.endswith(".usdz")
                                                                    or n.startswith(".usdz-")])
         _stamp(src)
-        package = os.path.join(scratch, USDZ_NAME)
-        if not UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(os.path.join(src, root_layer)), package):
-            raise RuntimeError(f"UsdUtils.CreateNewUsdzPackage failed for {root!r}")
-        os.replace(package, target)
+        with atomic_path(target) as package:
+            if not UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(os.path.join(src, root_layer)), package):
+                raise RuntimeError(f"UsdUtils.CreateNewUsdzPackage failed for {root!r}")
     return target
 
 

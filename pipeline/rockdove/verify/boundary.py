@@ -17,7 +17,7 @@ Coherence (:func:`class_coherence`)
     as coherent. A coherent pattern has shares near 1; speckle breaks the classes into many regions.
 
 Curvature (:func:`boundary_curvature`)
-    The green/purple contact zone (:func:`rockdove.verify.compare.boundary_points`, on the hue *sides*) is
+    The green/purple contact zone (:func:`boundary_points`, on the hue *sides*) is
     reduced to its centreline (mean point of ``bin_px`` bins along its principal axis), and two models of the
     centreline's perpendicular offset ``o`` as a function of the position ``t`` along that axis are fitted by
     least squares: a straight line ``o = a + b t`` and a smooth curve, the cubic ``o = a + b t + c t^2 + d t^3``
@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .compare import boundary_points, lab_hue_classes, rgb_to_lab
+from .compare import lab_hue_classes, rgb_to_lab
 
 #: A class is coherent when its largest connected region holds at least this share of its pixels. Issue 12
 #: asks >= 0.7 of the measured preset; the old per-card uniform draw, which keeps the base-to-top gradient (so
@@ -54,25 +54,84 @@ CURVED_RATIO = 2.0
 STRAIGHT_FRACTION = 0.02
 #: Degree of the smooth curve fitted to the boundary's centreline.
 CURVE_DEGREE = 3
+#: Reach of the green/purple contact zone, pixels (see :func:`boundary_points`).
+BOUNDARY_REACH_PX = 2
 #: Class labels of the strict hue bands (rockdove.verify.compare.hue_classes).
 CLASSES = {"green": 1, "purple": 2, "other": 3}
 
 
-def class_coherence(cls: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> dict:
-    """Share of each hue class held by its largest connected region.
+def boundary_points(cls: np.ndarray, reach_px: int = BOUNDARY_REACH_PX) -> np.ndarray:
+    """(P, 2) float (x = column, y = row) pixels of the green/purple contact zone of a class image (1 green,
+    2 purple; others ignored): within ``reach_px`` 8-connected steps of a green pixel AND of a purple one. Unlike
+    plain 4-adjacency this bridges the narrow band of low-chroma or blue pixels the film shows between green and
+    purple (at 650 nm and cos theta near 0.707 the chroma drops to ~12) and the grey feather bases between
+    coloured tips, so gaps up to ``2 * reach_px`` pixels still give a boundary. A straight boundary's zone is a
+    band about ``2 * reach_px`` wide, which adds ~``2 * reach_px / sqrt(12)`` px to the RMS of
+    :func:`boundary_straightness`."""
+    from scipy import ndimage
 
-    Parameters
-    ----------
-    cls : ndarray, shape (H, W), int
-        Strict hue classes (1 green, 2 purple, 3 other; 0 grey and -1 not a feather pixel are ignored).
-    reach_px : int, >= 0
-        Gaps of up to ``2 * reach_px`` pixels between pixels of a class still connect them.
+    cls = np.asarray(cls)
+    if cls.ndim != 2:
+        raise ValueError(f"cls must have shape (H, W), got {cls.shape}")
+    if int(reach_px) != reach_px or reach_px < 1:
+        raise ValueError(f"reach_px must be an integer >= 1, got {reach_px!r}")
+    st = np.ones((3, 3), bool)
+    near_green = ndimage.binary_dilation(cls == 1, structure=st, iterations=int(reach_px))
+    near_purple = ndimage.binary_dilation(cls == 2, structure=st, iterations=int(reach_px))
+    r, c = np.nonzero(near_green & near_purple)
+    return np.stack([c.astype(float), r.astype(float)], axis=1)
 
-    Returns
-    -------
-    dict: per class name (``green``, ``purple``, ``other``) ``{"pixels": int, "largest_share": float
-    (NaN without pixels), "regions": int}``, and ``reach_px``.
+
+def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0) -> dict:
+    """How far the green/purple boundary of a class image (hue sides: 1 green, 2 purple) departs from a line.
+
+    1. the contact-zone pixels of :func:`boundary_points`;
+    2. their centreline: binned in ``bin_px`` steps along their total-least-squares (TLS) line, each bin replaced
+       by its mean point, so the zone's own width does not count as curvature;
+    3. a TLS line through the centreline: the RMS perpendicular distance of its points, in pixels and as a
+       fraction of the boundary's length (independent of the image size); the fit is repeated once without
+       points farther than 3 x their median distance (when at least half remain), against a stray feather tip.
+
+    A straight boundary gives a fraction of the pixel quantisation (~0.3 px); a bent one its sagitta over ~3 (a
+    parabola of sagitta 40 px gives ~12 px). Fewer than ``min_points`` centreline points: ``rms_px`` NaN.
+    Returns ``n_points``, ``n_centreline``, ``rms_px``, ``length_px``, ``rms_fraction``, ``direction`` (unit
+    (x, y)) and ``centre`` ((x, y) px).
     """
+    pts = boundary_points(cls)
+    out = {"n_points": int(len(pts)), "n_centreline": 0, "rms_px": float("nan"), "length_px": float("nan"),
+           "rms_fraction": float("nan"), "direction": None, "centre": None}
+    if len(pts) < 2:
+        return out
+    line = _centreline(pts, bin_px)
+    out["n_centreline"] = int(len(line))
+    if len(line) < min_points:
+        return out
+    centre, direction, dist = _tls(line)
+    med = np.median(np.abs(dist))
+    keep = np.abs(dist) <= 3.0 * max(med, 0.5)
+    if keep.sum() >= max(min_points, len(line) // 2) and not keep.all():
+        line = line[keep]
+        centre, direction, dist = _tls(line)
+    along = (line - centre) @ direction
+    length = float(along.max() - along.min())
+    rms = float(np.sqrt(np.mean(dist**2)))
+    out.update(n_centreline=int(len(line)), rms_px=rms, length_px=length,
+               rms_fraction=rms / length if length > 0 else float("nan"),
+               direction=[float(v) for v in direction], centre=[float(v) for v in centre])
+    return out
+
+
+def _tls(p: np.ndarray):
+    """The total-least-squares line through (K, 2) points: centre, unit direction, signed distances (K,)."""
+    centre = p.mean(axis=0)
+    _, _, vt = np.linalg.svd(p - centre, full_matrices=False)
+    return centre, vt[0], (p - centre) @ vt[1]
+
+
+def class_coherence(cls: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> dict:
+    """Share of each strict hue class (1 green, 2 purple, 3 other; 0 grey and -1 no feather are ignored) held
+    by its largest connected region, gaps of up to ``2 * reach_px`` pixels bridged: per class name
+    ``{"pixels", "largest_share" (NaN without pixels), "regions"}``, and ``reach_px``."""
     from scipy import ndimage
 
     cls = np.asarray(cls)
@@ -126,25 +185,10 @@ def _fits(line: np.ndarray, degree: int):
 
 def boundary_curvature(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0,
                        degree: int = CURVE_DEGREE) -> dict:
-    """Residual of a straight-line fit of the green/purple boundary against that of a smooth-curve fit.
-
-    Parameters
-    ----------
-    cls : ndarray, shape (H, W), int
-        Hue sides (:func:`rockdove.verify.compare.hue_classes` with ``sides=True``: 1 green, 2 purple).
-    min_points : int
-        Fewer centreline points than this (or than ``degree + 3``) give no measure (NaN).
-    bin_px : float
-        Bin length along the boundary, pixels.
-    degree : int
-        Degree of the smooth curve (cubic by default).
-
-    Returns
-    -------
-    dict: ``n_points`` (contact-zone pixels), ``n_centreline``, ``length_px``, ``line_rms_px``,
-    ``curve_rms_px``, ``ratio`` (line / max(curve, :data:`NOISE_FLOOR_PX`); NaN when not measured),
-    ``curve_degree``.
-    """
+    """RMS residuals of a straight-line and a degree-``degree`` fit of the green/purple boundary of a hue-side
+    image (module docstring): ``n_points``, ``n_centreline``, ``length_px``, ``line_rms_px``, ``curve_rms_px``,
+    ``ratio`` (line / max(curve, :data:`NOISE_FLOOR_PX`); NaN with fewer than ``min_points`` or ``degree + 3``
+    centreline points) and ``curve_degree``."""
     pts = boundary_points(cls)
     out = {"n_points": int(len(pts)), "n_centreline": 0, "length_px": float("nan"), "line_rms_px": float("nan"),
            "curve_rms_px": float("nan"), "ratio": float("nan"), "curve_degree": int(degree)}
@@ -169,21 +213,10 @@ def boundary_curvature(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0
 
 
 def boundary_shape(rgb_linear: np.ndarray, region: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> dict:
-    """Coherence and curvature of one view's structural feather pixels.
-
-    Parameters
-    ----------
-    rgb_linear : ndarray, shape (H, W, 3), linear lin_rec709
-        The render.
-    region : ndarray, shape (H, W), bool
-        The pixels to classify (compared structural feather pixels).
-
-    Returns
-    -------
-    dict: ``coherence`` (:func:`class_coherence` of the strict classes), ``curvature``
-    (:func:`boundary_curvature` of the hue sides), ``coherent`` (bool: green and purple each have a largest
-    region holding >= :data:`COHERENT_SHARE`), ``curved`` (bool: ratio >= :data:`CURVED_RATIO`).
-    """
+    """Coherence and curvature of the pixels of ``region`` of an (H, W, 3) linear render (a view's compared
+    structural feather pixels): ``coherence`` (:func:`class_coherence` of the strict classes), ``curvature``
+    (:func:`boundary_curvature` of the hue sides), ``coherent`` (green and purple each have a largest region
+    holding >= :data:`COHERENT_SHARE`), ``curved`` (ratio >= :data:`CURVED_RATIO`)."""
     rgb = np.asarray(rgb_linear, np.float64)
     region = np.asarray(region, bool)
     if rgb.shape[:2] != region.shape or rgb.ndim != 3 or rgb.shape[2] != 3:

@@ -25,7 +25,7 @@ Checks
   histogrammed in ``HUE_BIN_DEG`` bins and classified into the two bands of the rock dove's neck:
   :data:`GREEN_BAND_DEG` and :data:`PURPLE_BAND_DEG` (measured on the Airy colours of a 480-700 nm keratin
   film under D65: greens have h_ab 115-205 deg, purples/magentas 310-355 deg).
-- boundary straightness: see :func:`boundary_straightness`.
+- the shape of the green/purple boundary: :mod:`rockdove.verify.boundary`.
 """
 
 from __future__ import annotations
@@ -59,8 +59,6 @@ PURPLE_BAND_DEG = (280.0, 15.0)
 #: The green side of the hue circle, [lo, hi): the purple side is the rest. The splits are the middles of the
 #: gaps between the bands (blue, 210-280 deg, and red-yellow, 15-100 deg).
 SIDE_SPLIT_DEG = (57.5, 245.0)
-#: Reach of the green/purple contact zone, pixels (see :func:`boundary_points`).
-BOUNDARY_REACH_PX = 2
 
 
 def _as_image(name: str, a, channels: int | None) -> np.ndarray:
@@ -73,10 +71,7 @@ def _as_image(name: str, a, channels: int | None) -> np.ndarray:
 
 
 def erode(mask: np.ndarray, pixels: int) -> np.ndarray:
-    """Binary erosion of a boolean image by ``pixels`` with the 3 x 3 (8-connected) structuring element.
-
-    Pixels outside the image count as background, so image borders are eroded too.
-    """
+    """Binary erosion of a boolean image by ``pixels`` (3 x 3, 8-connected); outside the image is background."""
     from scipy import ndimage
 
     mask = np.asarray(mask, dtype=bool)
@@ -102,21 +97,8 @@ def _bounding_box(mask: np.ndarray) -> tuple[slice, slice] | None:
 
 
 def comparison_mask(gl_part, ref_part, feather_part_ids, erode_px: int = 1) -> np.ndarray:
-    """Feather pixels away from silhouette edges that both renders agree on.
-
-    Parameters
-    ----------
-    gl_part, ref_part : ndarray, shape (H, W), int
-        Part id per pixel (-1 for background) of each render.
-    feather_part_ids : sequence of int
-        Ids of the feather parts.
-    erode_px : int
-        Erosion of each render's feather coverage, pixels.
-
-    Returns
-    -------
-    ndarray, shape (H, W), bool
-    """
+    """(H, W) bool: feather pixels away from silhouette edges that both renders agree on (module docstring);
+    ``gl_part``, ``ref_part``: (H, W) part ids (-1 background); ``erode_px``: erosion of each coverage."""
     gl_part = _as_image("gl_part", gl_part, None)
     ref_part = _as_image("ref_part", ref_part, None)
     if gl_part.shape != ref_part.shape:
@@ -134,33 +116,30 @@ def rgb_to_lab(rgb_linear: np.ndarray) -> np.ndarray:
     return np.asarray(spectral.RGB_to_Lab(np.asarray(rgb_linear, np.float64)), np.float64)
 
 
-def delta_e_map(gl_rgb, ref_rgb, mask=None) -> np.ndarray:
-    """CIEDE2000 between the colours of two linear renders.
-
-    Parameters
-    ----------
-    gl_rgb, ref_rgb : ndarray, shape (H, W, 3)
-        Linear lin_rec709 radiance.
-    mask : ndarray, shape (H, W), bool, optional
-        Pixels to compute; others are NaN.
-
-    Returns
-    -------
-    ndarray, shape (H, W), float64: dE2000, NaN outside ``mask``.
-    """
-    from .. import spectral
-
-    gl_rgb = _as_image("gl_rgb", gl_rgb, 3)
-    ref_rgb = _as_image("ref_rgb", ref_rgb, 3)
+def _pair(gl_rgb, ref_rgb) -> tuple[np.ndarray, np.ndarray]:
+    gl_rgb, ref_rgb = _as_image("gl_rgb", gl_rgb, 3), _as_image("ref_rgb", ref_rgb, 3)
     if gl_rgb.shape != ref_rgb.shape:
         raise ValueError(f"gl_rgb {gl_rgb.shape} and ref_rgb {ref_rgb.shape} must have the same shape")
-    if mask is None:
-        mask = np.ones(gl_rgb.shape[:2], bool)
+    return gl_rgb, ref_rgb
+
+
+def pixel_de(a_px: np.ndarray, b_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """CIEDE2000 of (N, 3) pairs of linear colours and the first's CIELAB: the colour difference of every
+    comparison (a GL view here, a host's renders in :mod:`rockdove.verify.host_check`)."""
+    from .. import spectral
+
+    lab = rgb_to_lab(a_px)
+    de = np.asarray(spectral.delta_E_2000(lab, rgb_to_lab(b_px)), np.float64) if len(a_px) else np.zeros(0)
+    return de, lab
+
+
+def delta_e_map(gl_rgb, ref_rgb, mask=None) -> np.ndarray:
+    """(H, W) CIEDE2000 between two (H, W, 3) linear renders at the pixels of ``mask`` (default all), NaN
+    elsewhere."""
+    gl_rgb, ref_rgb = _pair(gl_rgb, ref_rgb)
+    mask = np.ones(gl_rgb.shape[:2], bool) if mask is None else mask
     out = np.full(gl_rgb.shape[:2], np.nan)
-    if mask.any():
-        lab_gl = rgb_to_lab(gl_rgb[mask])
-        lab_ref = rgb_to_lab(ref_rgb[mask])
-        out[mask] = np.asarray(spectral.delta_E_2000(lab_gl, lab_ref), np.float64)
+    out[mask] = pixel_de(gl_rgb[mask], ref_rgb[mask])[0]
     return out
 
 
@@ -170,24 +149,11 @@ def _in_band(h_deg: np.ndarray, band: tuple[float, float]) -> np.ndarray:
 
 
 def hue_classes(rgb_linear: np.ndarray, sides: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Hue angle, chroma and class of displayed colours.
-
-    Parameters
-    ----------
-    rgb_linear : ndarray, (..., 3), linear lin_rec709
-    sides : bool
-        False: the strict bands (1 green, 2 purple, 3 any other hue). True: every chromatic colour goes to the
-        nearer side of the hue circle, split at :data:`SIDE_SPLIT_DEG` (the middles of the gaps between the two
-        bands), so 1 = green side, 2 = purple side; used for the boundary, because the film passes from
-        green to purple through blue or through red-yellow hues, depending on the thickness.
-
-    Returns
-    -------
-    h_deg : ndarray, shape (...), CIELAB hue angle h_ab in [0, 360)
-    chroma : ndarray, shape (...), C*ab
-    cls : ndarray, shape (...), int8: 0 grey (C*ab / L* < HUE_MIN_SATURATION or L* < HUE_MIN_LIGHTNESS),
-        1 green, 2 purple, 3 other hue
-    """
+    """``(h_ab in degrees [0, 360), C*ab, class)`` of (..., 3) linear colours; class (int8) 0 grey (C*ab / L* <
+    HUE_MIN_SATURATION or L* < HUE_MIN_LIGHTNESS), else with ``sides`` False the strict bands (1 green,
+    2 purple, 3 any other hue), with ``sides`` True the nearer side of the hue circle split at
+    :data:`SIDE_SPLIT_DEG` (1 green, 2 purple): the boundary's classes, since the film passes from green to
+    purple through blue or through red-yellow hues, depending on the thickness."""
     return lab_hue_classes(rgb_to_lab(rgb_linear), sides)
 
 
@@ -207,16 +173,8 @@ def lab_hue_classes(lab: np.ndarray, sides: bool = False) -> tuple[np.ndarray, n
 
 
 def hue_histogram(rgb_pixels: np.ndarray) -> dict:
-    """Histogram of CIELAB hue over chromatic pixels, and the green/purple/grey/other counts.
-
-    Parameters
-    ----------
-    rgb_pixels : ndarray, shape (N, 3), linear lin_rec709
-
-    Returns
-    -------
-    dict with ``bin_edges_deg`` (list), ``counts`` (list), ``green``, ``purple``, ``grey``, ``other`` (int)
-    """
+    """Histogram of CIELAB hue over the chromatic ones of (N, 3) linear pixels (``bin_edges_deg``, ``counts``),
+    and the ``green``, ``purple``, ``grey`` and ``other`` counts."""
     rgb_pixels = np.asarray(rgb_pixels, np.float64).reshape(-1, 3)
     return lab_hue_histogram(rgb_to_lab(rgb_pixels) if len(rgb_pixels) else np.zeros((0, 3)))
 
@@ -243,139 +201,15 @@ def lab_hue_histogram(lab_pixels: np.ndarray) -> dict:
     }
 
 
-def boundary_points(cls: np.ndarray, reach_px: int = BOUNDARY_REACH_PX) -> np.ndarray:
-    """Pixels on the green/purple boundary of a class image.
-
-    The boundary is the contact zone of the two classes: pixels within ``reach_px`` (8-connected steps) of a
-    green pixel AND within ``reach_px`` of a purple pixel. Unlike plain 4-adjacency this bridges the narrow
-    band of low-chroma or blue pixels that the film shows between green and purple (at 650 nm and cos theta
-    near 0.707 the chroma drops to ~12) and the grey feather bases between coloured tips, so gaps up to
-    ``2 * reach_px`` pixels still give a boundary. For a straight boundary the zone is a band about
-    ``2 * reach_px`` wide, which adds ~``2 * reach_px / sqrt(12)`` px to the RMS of
-    :func:`boundary_straightness`.
-
-    Parameters
-    ----------
-    cls : ndarray, shape (H, W), int: the classes of :func:`hue_classes` (1 green, 2 purple; others ignored),
-        normally with ``sides=True``
-    reach_px : int, >= 1
-
-    Returns
-    -------
-    ndarray, shape (P, 2), float64: (x, y) in pixels (x = column, y = row, pixel centres at integers)
-    """
-    from scipy import ndimage
-
-    cls = _as_image("cls", cls, None)
-    if int(reach_px) != reach_px or reach_px < 1:
-        raise ValueError(f"reach_px must be an integer >= 1, got {reach_px!r}")
-    st = np.ones((3, 3), bool)
-    near_green = ndimage.binary_dilation(cls == 1, structure=st, iterations=int(reach_px))
-    near_purple = ndimage.binary_dilation(cls == 2, structure=st, iterations=int(reach_px))
-    r, c = np.nonzero(near_green & near_purple)
-    return np.stack([c.astype(float), r.astype(float)], axis=1)
-
-
-def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0) -> dict:
-    """How far the green/purple boundary of a class image departs from a straight line.
-
-    Method:
-
-    1. the contact-zone pixels of :func:`boundary_points`;
-    2. a first line through them by total least squares (TLS: the principal axis of the points, the line
-       minimising the sum of squared perpendicular distances);
-    3. the zone's centreline: the points are binned along that line in ``bin_px`` steps and each bin is
-       replaced by its mean point, so the zone's own width does not count as curvature;
-    4. a TLS line through the centreline; the measure is the RMS perpendicular distance of the centreline
-       points from it, in pixels, and as a fraction of the boundary's length (the centreline's extent along the
-       line), which does not depend on the image size. To be robust to a stray feather tip of the other colour,
-       the fit is repeated once without centreline points farther than 3 x their median distance (when at least
-       half remain).
-
-    A straight boundary gives a fraction of the pixel quantisation (~0.3 px); a bent one its sagitta over
-    ~3 (a parabola of sagitta 40 px gives ~12 px).
-
-    Parameters
-    ----------
-    cls : ndarray, shape (H, W), int
-        Classes as from :func:`hue_classes`, normally ``sides=True`` (1 green side, 2 purple side).
-    min_points : int
-        Fewer centreline points than this give no measure (``rms_px`` NaN).
-    bin_px : float
-        Bin length along the boundary, pixels.
-
-    Returns
-    -------
-    dict: ``n_points`` (contact-zone pixels), ``n_centreline``, ``rms_px``, ``length_px``, ``rms_fraction``
-    (rms_px / length_px), ``direction`` (unit (x, y)), ``centre`` ((x, y) px).
-    """
-    pts = boundary_points(cls)
-    out = {"n_points": int(len(pts)), "n_centreline": 0, "rms_px": float("nan"), "length_px": float("nan"),
-           "rms_fraction": float("nan"), "direction": None, "centre": None}
-    if len(pts) < 2:
-        return out
-
-    def fit(p):
-        centre = p.mean(axis=0)
-        _, _, vt = np.linalg.svd(p - centre, full_matrices=False)
-        return centre, vt[0], (p - centre) @ vt[1]
-
-    centre, direction, _ = fit(pts)
-    along = (pts - centre) @ direction
-    bins = np.floor((along - along.min()) / bin_px).astype(np.int64)
-    counts = np.bincount(bins)
-    used = counts > 0
-    line = np.stack([np.bincount(bins, weights=pts[:, k])[used] / counts[used] for k in (0, 1)], axis=1)
-    out["n_centreline"] = int(len(line))
-    if len(line) < min_points:
-        return out
-    centre, direction, dist = fit(line)
-    med = np.median(np.abs(dist))
-    keep = np.abs(dist) <= 3.0 * max(med, 0.5)
-    if keep.sum() >= max(min_points, len(line) // 2) and not keep.all():
-        line = line[keep]
-        centre, direction, dist = fit(line)
-    along = (line - centre) @ direction
-    length = float(along.max() - along.min())
-    rms = float(np.sqrt(np.mean(dist**2)))
-    out.update(n_centreline=int(len(line)), rms_px=rms, length_px=length,
-               rms_fraction=rms / length if length > 0 else float("nan"),
-               direction=[float(v) for v in direction], centre=[float(v) for v in centre])
-    return out
-
-
 @dataclass
 class ViewMetrics:
-    """Metrics of one view: the GL render against the reference.
-
-    Attributes
-    ----------
-    view : str
-    n_pixels : int
-        Compared feather pixels (see :func:`comparison_mask`).
-    de_median, de_p95, de_max, de_mean : float
-        dE2000 statistics over those pixels (NaN when there are none).
-    de_fraction_over_p95_goal : float
-        Fraction of those pixels above :data:`P95_DE_GOAL` (isolated alpha-edge disagreements show here).
-    finite : bool
-        No NaN/Inf in either render.
-    n_lit, n_black : int
-        Lit feather pixels and, among them, black holes in the GL render.
-    black_fraction : float
-    hue : dict
-        :func:`hue_histogram` of the GL render's compared structural feather pixels.
-    passed : bool
-        dE goals met (vacuously when ``n_pixels`` is 0), finite, black fraction within its goal.
-    failures : list of str
-        Why not, one line each.
-    de_map : ndarray, shape (H, W)
-        dE2000, NaN where not compared (not serialised by :meth:`summary`).
-    cls : ndarray, shape (H, W), int8
-        Hue side (:func:`hue_classes` with ``sides=True``) of the GL render's compared structural pixels, -1 elsewhere
-        (not serialised); the input of :func:`boundary_straightness`.
-    strict : ndarray, shape (H, W), int8
-        The strict hue bands (:func:`hue_classes`, ``sides=False``) of the same pixels, -1 elsewhere (not
-        serialised); with ``cls`` the input of :func:`rockdove.verify.boundary.class_shape`.
+    """Metrics of one view, the GL render against the reference: the compared feather pixels
+    (:func:`comparison_mask`) and their dE2000 statistics (NaN without pixels), the share above
+    :data:`P95_DE_GOAL` (isolated alpha-edge disagreements show here), ``finite`` (no NaN/Inf in either render),
+    the lit feather pixels and the black holes among them, the :func:`hue_histogram` of the compared
+    structural pixels, ``passed`` (dE goals met, vacuously without pixels; finite; black fraction within its
+    goal) and ``failures``. Not in :meth:`summary`: ``de_map`` (NaN where not compared), ``cls`` (hue sides of
+    the compared structural pixels, -1 elsewhere: the boundary's input) and ``strict`` (their strict bands).
     """
 
     view: str
@@ -397,62 +231,26 @@ class ViewMetrics:
     strict: np.ndarray | None = field(default=None, repr=False)
 
     def summary(self) -> dict:
-        """JSON-ready dict of every metric (no images)."""
-        return {f.name: _copy(getattr(self, f.name)) for f in fields(self) if f.name not in _IMAGES}
+        """JSON-ready dict of every metric (no images; containers copied, sharing nothing with the metrics)."""
+        images = ("de_map", "cls", "strict")
+        return {f.name: deepcopy(getattr(self, f.name)) for f in fields(self) if f.name not in images}
 
 
-#: The fields of :class:`ViewMetrics` that are images (not in its summary).
-_IMAGES = ("de_map", "cls", "strict")
-
-
-def _copy(value):
-    """A field's value as :func:`dataclasses.asdict` gives it (containers copied deeply, so the summary shares no
-    list or dict with the metrics), without copying the images first."""
-    return deepcopy(value) if isinstance(value, (dict, list)) else value
-
-
-def compare_arrays(
-    view: str,
-    gl_rgb,
-    ref_rgb,
-    gl_part,
-    ref_part,
-    feather_part_ids,
-    ref_n_dot_l=None,
-    ref_mask=None,
-    erode_px: int = 1,
-) -> ViewMetrics:
-    """:func:`compare` on plain arrays.
-
-    Parameters
-    ----------
-    view : str
-    gl_rgb, ref_rgb : ndarray, shape (H, W, 3), linear lin_rec709
-    gl_part, ref_part : ndarray, shape (H, W), int, -1 background
-    feather_part_ids : sequence of int
-    ref_n_dot_l : ndarray, shape (H, W), optional
-        The reference's max(N.L, 0) per pixel; without it, no black-hole check (n_lit = 0).
-    ref_mask : ndarray, shape (H, W), optional
-        The reference's structural-colour mask; the hue statistics use compared pixels with mask >=
-        :data:`STRUCTURAL_MASK` (all compared pixels without it).
-    erode_px : int
-    """
-    from .. import spectral
-
+def compare_arrays(view: str, gl_rgb, ref_rgb, gl_part, ref_part, feather_part_ids, ref_n_dot_l=None,
+                   ref_mask=None, erode_px: int = 1) -> ViewMetrics:
+    """:func:`compare` on plain arrays: (H, W, 3) linear renders, (H, W) part ids (-1 background);
+    ``ref_n_dot_l``: the reference's max(N.L, 0) (without it no black-hole check); ``ref_mask``: its
+    structural-colour mask (the hue statistics take compared pixels with mask >= :data:`STRUCTURAL_MASK`)."""
     # Only the compared pixels are converted, classified and checked (a few per cent of the image); every number
     # is that of the whole-image formulation: the dE map is NaN elsewhere, and the black-hole and hue pixels are
     # subsets of the compared ones. Non-finite values count as 0 in the statistics (``finite`` reports them).
-    gl_rgb = _as_image("gl_rgb", gl_rgb, 3)
-    ref_rgb = _as_image("ref_rgb", ref_rgb, 3)
-    if gl_rgb.shape != ref_rgb.shape:
-        raise ValueError(f"gl_rgb {gl_rgb.shape} and ref_rgb {ref_rgb.shape} must have the same shape")
+    gl_rgb, ref_rgb = _pair(gl_rgb, ref_rgb)
     finite = bool(np.isfinite(gl_rgb).all() and np.isfinite(ref_rgb).all())
     mask = comparison_mask(gl_part, ref_part, feather_part_ids, erode_px)
-    gl_px, ref_px = (_finite_or_zero(a[mask]) for a in (gl_rgb, ref_rgb))
+    gl_px, ref_px = (np.where(np.isfinite(a[mask]), a[mask], 0.0).astype(np.float64) for a in (gl_rgb, ref_rgb))
     n = int(gl_px.shape[0])
-    lab_gl = rgb_to_lab(gl_px)
+    vals, lab_gl = pixel_de(gl_px, ref_px)
     de = np.full(mask.shape, np.nan)
-    vals = np.asarray(spectral.delta_E_2000(lab_gl, rgb_to_lab(ref_px)), np.float64) if n else np.zeros(0)
     de[mask] = vals
     stats = (np.median(vals), np.percentile(vals, 95), vals.max(), vals.mean()) if n else (np.nan,) * 4
     if ref_n_dot_l is not None:
@@ -490,35 +288,14 @@ def compare_arrays(
     )
 
 
-def _finite_or_zero(rgb_pixels: np.ndarray) -> np.ndarray:
-    """(N, 3) pixels as float64, NaN and Inf replaced by 0."""
-    a = np.asarray(rgb_pixels, np.float64)
-    return np.where(np.isfinite(a), a, 0.0)
-
-
 def gl_arrays(result) -> dict:
     """The arrays of a GL :class:`rockdove.render.gl.RenderResult` that the comparison needs."""
-
-    def get(*names):
-        for n in names:
-            v = getattr(result, n, None)
-            if v is not None:
-                return np.asarray(v)
-        raise ValueError(f"gl_result ({type(result).__name__}) has no attribute {names[0]!r}")
-
-    return {"rgb": get("radiance_rgb"), "part_id": get("part_id")}
+    return {"rgb": np.asarray(result.radiance_rgb), "part_id": np.asarray(result.part_id)}
 
 
 def compare(gl_result, ref_result, scene, erode_px: int = 1) -> ViewMetrics:
-    """Compare one view's GL render with its reference render (see :func:`compare_arrays`).
-
-    Parameters
-    ----------
-    gl_result : rockdove.render.gl.RenderResult
-    ref_result : rockdove.verify.reference_image.ReferenceResult
-    scene : rockdove.render.scene.RenderScene
-        Gives the feather part ids (``index + 1`` of feather parts).
-    """
+    """Compare one view's GL render (:class:`rockdove.render.gl.RenderResult`) with its reference render
+    (:class:`rockdove.verify.reference_image.ReferenceResult`); the scene gives the feather part ids."""
     g = gl_arrays(gl_result)
     feather_ids = [i + 1 for i, p in enumerate(scene.parts) if p.is_feather]
     return compare_arrays(ref_result.view, g["rgb"], ref_result.rgb, g["part_id"], ref_result.part_id,

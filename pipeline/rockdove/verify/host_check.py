@@ -7,7 +7,7 @@ comparison does, :func:`rockdove.verify.compare.comparison_mask`) whose structur
 silhouette is the reference's.
 
 - ``median_dE``, ``p95_dE``: CIEDE2000 of the unclipped linear radiance (:func:`rockdove.verify.compare.
-  delta_e_map`);
+  pixel_de`, the GL comparison's own);
 - ``green_px``, ``purple_px``: host pixels in the green / purple hue bands
   (:func:`rockdove.verify.compare.hue_classes`, strict bands);
 - ``hue_agreement``: fraction of the pixels whose class (green, purple, other: grey and other hues together)
@@ -35,33 +35,17 @@ EXACT_VARIANTS = ("glsl", "baked")
 PRESENCE_VARIANTS = ("preview",)
 
 
-def _classes(rgb: np.ndarray) -> np.ndarray:
-    cls = compare.hue_classes(np.asarray(rgb, np.float64), sides=False)[2]
+def _classes(lab: np.ndarray) -> np.ndarray:
+    cls = compare.lab_hue_classes(lab)[2]
     return np.where((cls == 1) | (cls == 2), cls, 3).astype(np.int8)
 
 
 def host_metrics(images: dict, refs: list, scene) -> dict:
-    """dE and hue statistics of one host's renders against the references of its lobe.
-
-    Parameters
-    ----------
-    images : dict
-        view name -> (H, W, 3) linear radiance (the host's ``render``).
-    refs : list of ReferenceResult
-        The reference of the host's lobe, one per view.
-    scene : RenderScene
-
-    Returns
-    -------
-    dict
-        ``n_pixels``, ``median_dE``, ``p95_dE``, ``green_px``, ``purple_px``, ``hue_agreement``, ``per_view``
-        (``{view: {"n_pixels", "median_dE", "p95_dE"}}``), and ``de_maps`` (``{view: (H, W)}``, not JSON).
-
-    Raises
-    ------
-    ValueError
-        A view is missing from ``images`` or has the wrong shape.
-    """
+    """dE and hue statistics (module docstring) of one host's renders (``images``: view name -> (H, W, 3) linear
+    radiance) against ``refs``, the references of its lobe, one per view: ``n_pixels``, ``median_dE``,
+    ``p95_dE``, ``green_px``, ``purple_px``, ``hue_agreement``, ``per_view`` (``{view: {"n_pixels",
+    "median_dE", "p95_dE"}}``) and ``de_maps`` (``{view: (H, W)}``, not JSON). ValueError when a view is
+    missing from ``images`` or has the wrong shape."""
     feather_ids = [i + 1 for i, p in enumerate(scene.parts) if p.is_feather]
     des, host_cls, ref_cls, per_view, maps = [], [], [], {}, {}
     for ref in refs:
@@ -72,12 +56,12 @@ def host_metrics(images: dict, refs: list, scene) -> dict:
             raise ValueError(f"view {ref.view!r}: host image {img.shape}, expected {ref.rgb.shape}")
         img = np.where(np.isfinite(img), img, 0.0)
         sel = compare.comparison_mask(ref.part_id, ref.part_id, feather_ids, 1) & (ref.mask >= compare.STRUCTURAL_MASK)
-        de = compare.delta_e_map(img, ref.rgb.astype(np.float64), sel)
-        maps[ref.view] = de
-        vals = de[sel]
+        vals, lab = compare.pixel_de(img[sel], ref.rgb[sel])
+        maps[ref.view] = np.full(sel.shape, np.nan)
+        maps[ref.view][sel] = vals
         des.append(vals)
-        host_cls.append(_classes(img[sel]))
-        ref_cls.append(_classes(ref.rgb[sel]))
+        host_cls.append(_classes(lab))
+        ref_cls.append(_classes(compare.rgb_to_lab(ref.rgb[sel])))
         per_view[ref.view] = {"n_pixels": int(vals.size),
                               "median_dE": float(np.median(vals)) if vals.size else float("nan"),
                               "p95_dE": float(np.percentile(vals, 95)) if vals.size else float("nan")}

@@ -4,10 +4,9 @@
 
 from __future__ import annotations
 
-import hashlib
-import json
-
 import numpy as np
+
+from ..digest import Digest
 
 #: The light-view angle (deg) of the extra sweep view: 90 deg is the paper's green/purple flip.
 BOUNDARY_SWEEP_ANGLE_DEG = 90.0
@@ -91,31 +90,16 @@ def scene_digest(scene) -> str:
     """sha256 of what a verification view reads from a scene: every part's arrays, material values and texture
     bytes, the film and the LUT's bytes, the variant selections; not file paths (an asset moved or rebuilt
     with the same content has the same digest)."""
-    h = hashlib.sha256()
-
-    def add(label, data: bytes):
-        h.update(label.encode() + b"\0" + data + b"\0")
-
-    def add_file(label, path):
-        if path:
-            with open(path, "rb") as f:
-                add(label, f.read())
-
+    d = Digest()
     for p in scene.parts:
-        meta = {"name": p.name, "kind": p.material_kind, "srgb": bool(p.base_colour_srgb),
-                "base_colour": np.asarray(p.base_colour, np.float64).tolist(),
-                "opacity_threshold": float(p.opacity_threshold)}
-        add("part", json.dumps(meta, sort_keys=True).encode())
+        d.add("part", {"name": p.name, "kind": p.material_kind, "srgb": bool(p.base_colour_srgb),
+                       "base_colour": np.asarray(p.base_colour, np.float64).tolist(),
+                       "opacity_threshold": float(p.opacity_threshold)})
         for f in ("positions_m", "normals", "triangles", "st", "thickness_nm", "neck_s"):
-            a = getattr(p, f)
-            if a is not None:
-                a = np.ascontiguousarray(a)
-                add(f"{p.name}.{f}:{a.dtype.str}:{a.shape}", a.tobytes())
-        add_file(f"{p.name}.base", p.base_colour_texture)
-        add_file(f"{p.name}.mask", p.mask_texture)
+            if getattr(p, f) is not None:
+                d.add(f"{p.name}.{f}", getattr(p, f))
+        d.file(f"{p.name}.base", p.base_colour_texture).file(f"{p.name}.mask", p.mask_texture)
     if scene.film is not None:
-        film = {k: v for k, v in scene.film.to_dict().items() if k != "lut_file"}
-        add("film", json.dumps(film, sort_keys=True, default=str).encode())
-        add_file("lut", scene.film.lut_file)
-    add("variants", json.dumps(dict(scene.variants), sort_keys=True).encode())
-    return h.hexdigest()
+        d.add("film", {k: v for k, v in scene.film.to_dict().items() if k != "lut_file"})
+        d.file("lut", scene.film.lut_file)
+    return d.add("variants", dict(scene.variants)).hexdigest()

@@ -15,6 +15,8 @@ import math
 import os
 import xml.etree.ElementTree as ET
 
+from ..resources import write_atomic
+
 #: Test case per validator: the Issue ``check`` (or its prefix before ``:``) -> the name shown.
 VALIDATORS = {"layer": "dependencies", "assetPath": "dependencies", "open": "dependencies",
               "usdValidation": "usdValidation", "mtlx": "mtlx", "texture": "texture", "primvar": "primvar",
@@ -139,9 +141,4 @@ def junit_xml(report: dict) -> bytes:
 
 def write_junit(report: dict, path) -> str:
     """Write :func:`junit_xml` of ``report`` to ``path`` (replaced atomically); return the path."""
-    path = os.fspath(path)
-    tmp = f"{path}.tmp-{os.getpid()}"
-    with open(tmp, "wb") as f:
-        f.write(junit_xml(report))
-    os.replace(tmp, path)
-    return path
+    return write_atomic(path, junit_xml(report))

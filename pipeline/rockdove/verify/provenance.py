@@ -3,7 +3,6 @@ versions, and the asset validator's verdict (:func:`rockdove.usd.validate.valida
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import platform
@@ -16,11 +15,8 @@ LIBRARIES = ("numpy", "scipy", "colour", "trimesh", "embreex", "pxr", "pyrender"
 
 
 def library_versions() -> dict:
-    """Versions of Python, rockdove and the libraries the verification uses (None when not installed).
-
-    Read once per process (:func:`_library_versions`: the installed distributions' metadata, ~12 directory scans
-    of ``sys.path``; a process keeps the modules it imported, so later reads could only tell about files it does
-    not run); each call returns a dict of its own."""
+    """Versions of Python, rockdove and the libraries the verification uses (None when not installed), read once
+    per process (~12 directory scans of ``sys.path``; a process keeps the modules it imported); a new dict."""
     return dict(_library_versions())
 
 
@@ -70,18 +66,6 @@ def asset_configuration(layer_path: str) -> dict:
     return json.loads(json.dumps(found, default=str))
 
 
-def config_hash(config: dict):
-    """The configuration hash the asset records (the build marker's ``config_hash``), else None."""
-    marker = config.get("marker")
-    if isinstance(marker, dict) and marker.get("config_hash"):
-        return marker["config_hash"]
-    for k, v in config.items():
-        if "hash" in k.lower():
-            return v
-    return None
-
-
-
 def run_validation(layer_path: str) -> dict:
     """Run the asset validator; returns ``{"passed": bool, "details": ..., "error": str | None}``."""
     from ..usd.validate import validate_asset
@@ -91,12 +75,3 @@ def run_validation(layer_path: str) -> dict:
     except ValueError as exc:
         return {"passed": False, "details": None, "error": f"validation raised: {exc}"}
     return {"passed": result.clean, "details": json.loads(json.dumps(result.to_dict(), default=str)), "error": None}
-
-
-def file_sha256(path) -> str:
-    """sha256 of a file (used to record what was verified)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()

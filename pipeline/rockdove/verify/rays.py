@@ -10,10 +10,11 @@ geometry and the camera only (:func:`ray_digest`, :func:`camera_key`), so the bu
 
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass
 
 import numpy as np
+
+from ..digest import Digest
 
 #: Feather layers a ray may pass through (alpha-cut-out parts) before the reference gives up and keeps the
 #: last hit. Overlapping neck feathers are rarely more than a few layers deep where their alpha is < 0.5.
@@ -164,9 +165,8 @@ class Hits:
 def camera_key(view) -> str:
     """sha256 of what a view's primary rays depend on: its camera pose, vertical field of view and size (not
     its light). Views that share a camera (the light sweep) share their :class:`Hits`."""
-    m = np.ascontiguousarray(view.camera_to_world, np.float64)
-    head = f"{float(view.yfov_rad)!r}:{int(view.width)}x{int(view.height)}:".encode()
-    return hashlib.sha256(head + m.tobytes()).hexdigest()
+    return Digest().add("camera", [float(view.yfov_rad), int(view.width), int(view.height)]) \
+        .add("pose", np.asarray(view.camera_to_world, np.float64)).hexdigest()
 
 
 def ray_digest(scene) -> str:
@@ -174,18 +174,13 @@ def ray_digest(scene) -> str:
     alpha-tested feathers, their ``st``, opacity thresholds and base-colour texture bytes (the alpha). Not the
     film, the LUT, normals, masks or colours: a film change leaves it, and so the cached :class:`Hits`, as
     they were."""
-    h = hashlib.sha256()
+    d = Digest()
     for p in scene.parts:
-        h.update(f"{p.name}:{bool(p.is_feather)}:{float(p.opacity_threshold)!r}\0".encode())
-        arrays = [np.asarray(p.positions_m, np.float64), np.asarray(p.triangles, np.int64)]
+        d.add(p.name, [bool(p.is_feather), float(p.opacity_threshold)])
+        d.add("points", np.asarray(p.positions_m, np.float64)).add("triangles", np.asarray(p.triangles, np.int64))
         if p.is_feather:
-            arrays.append(np.asarray(p.st, np.float64))
-        for a in arrays:
-            h.update(f"{a.shape}".encode() + np.ascontiguousarray(a).tobytes())
-        if p.is_feather and p.base_colour_texture:
-            with open(p.base_colour_texture, "rb") as f:
-                h.update(f.read())
-    return h.hexdigest()
+            d.add("st", np.asarray(p.st, np.float64)).file("alpha", p.base_colour_texture)
+    return d.hexdigest()
 
 
 def cast_hits(scene, views) -> dict:

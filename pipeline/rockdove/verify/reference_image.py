@@ -175,24 +175,17 @@ def surface_digest(scene) -> str:
     (:func:`~rockdove.verify.rays.ray_digest`, included): every part's normals, ``st``, thickness, base colour
     (constant, texture bytes and encoding) and mask texture bytes. Not the film or the LUT: a film change
     leaves it, and so the cached surfaces, as they were."""
-    import hashlib
-
+    from ..digest import Digest
     from .rays import ray_digest
 
-    h = hashlib.sha256(ray_digest(scene).encode())
+    d = Digest().add("rays", ray_digest(scene))
     for p in scene.parts:
-        meta = f"{p.name}:{bool(p.base_colour_srgb)}:{np.asarray(p.base_colour, np.float64).tolist()!r}\0"
-        h.update(meta.encode())
-        for a in (p.normals, p.st, p.thickness_nm):
-            if a is not None:
-                a = np.ascontiguousarray(a)
-                h.update(f"{a.dtype.str}{a.shape}".encode() + a.tobytes())
-        for path in (p.base_colour_texture, p.mask_texture):
-            h.update(b"\0tex\0")
-            if path:
-                with open(path, "rb") as f:
-                    h.update(f.read())
-    return h.hexdigest()
+        d.add(p.name, [bool(p.base_colour_srgb), np.asarray(p.base_colour, np.float64).tolist()])
+        for f in ("normals", "st", "thickness_nm"):
+            if getattr(p, f) is not None:
+                d.add(f, getattr(p, f))
+        d.file("base", p.base_colour_texture).file("mask", p.mask_texture)
+    return d.hexdigest()
 
 
 def cast_surfaces(scene, views, hits=None) -> dict:

@@ -17,7 +17,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from . import compare, report
-from .boundary import boundary_shape, class_shape
+from .boundary import boundary_shape, boundary_straightness, class_shape
 from .gl_renders import GLRenderError, GLRenders
 
 
@@ -70,12 +70,12 @@ def render_and_check(scene, lut, views, out: str, *, say, surfaces=None) -> tupl
                 # (that of the GL colours themselves when they are finite, which the comparison reads as 0)
                 hue = m.hue if m.finite else compare.hue_histogram(
                     np.asarray(compare.gl_arrays(gl_result)["rgb"], np.float64)[m.cls >= 0])
-                boundary = {**compare.boundary_straightness(m.cls), **class_shape(m.strict, m.cls)}
+                boundary = {**boundary_straightness(m.cls), **class_shape(m.strict, m.cls)}
             elif sweep:
                 cls = compare.reference_classes(ref_results[i], scene)
                 rgb = np.asarray(ref_results[i].rgb, np.float64)
                 hue = compare.hue_histogram(rgb[cls >= 0])
-                boundary = {**compare.boundary_straightness(cls), **boundary_shape(rgb, cls >= 0)}
+                boundary = {**boundary_straightness(cls), **boundary_shape(rgb, cls >= 0)}
             files, rows = {}, []
             ref_png = linear_to_srgb8(ref_results[i].rgb)
             path = os.path.join(folder, f"{v.name}_reference.png")

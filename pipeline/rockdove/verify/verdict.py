@@ -12,6 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from ..digest import file_sha256
 from . import compare, provenance, report
 from .anatomy import measure_scene
 from .boundary import boundary_note
@@ -26,15 +27,13 @@ def default_out_dir(layer_path: str) -> str:
     return os.path.join(os.path.dirname(os.path.abspath(layer_path)), "verify")
 
 
-def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, bench_dir, say, *, reused=(),
-             t_start, hosts, items, published_asset=None, beauty=None) -> dict:
-    """Validate the asset and join per-view results into the verdict and the report (``report.json``,
-    ``report.html`` and their images in ``out_dir``, default ``verify/`` beside the root layer); returns the
-    report dict. ``bench_dir``: a folder whose benchmark plots (``*.png``) the report shows; None: none (the
-    report reads no folder it is not given). ``beauty``: the ``[beauty]`` settings and ``cycles_ok`` of the
-    picture the report opens with (:func:`rockdove.hosts.beauty.for_report`); None: no picture."""
-    out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)
-    os.makedirs(out, exist_ok=True)
+def combine(layer, scene, lut, notes, results: dict, out: str, width, height, bench_dir, say, *, reused,
+            t_start, hosts, items, published_asset, beauty) -> dict:
+    """Validate the asset and join the per-view results and the hosts' entries into the verdict and the report
+    (``report.json``, ``report.html`` and their images in the folder ``out``); returns the report dict.
+    ``bench_dir``: a folder whose benchmark plots the report shows (None: none; the report reads no folder it is
+    not given). ``beauty``: the ``[beauty]`` settings and ``cycles_ok`` of the picture the report opens with
+    (:func:`rockdove.hosts.beauty.for_report`)."""
     timings, failures, notes = {}, [], list(notes)
     say("validating")
     # in a thread, while this one draws the report (pxr's validators and the charts' PNG encoding leave the GIL
@@ -128,7 +127,7 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
         images["viewer"] = "viewer.html"
     result = {
         "asset": published_asset or layer,
-        "asset_sha256": provenance.file_sha256(layer),
+        "asset_sha256": file_sha256(layer),
         "out_dir": out,
         "passed": not failures,
         "failures": failures,
@@ -152,7 +151,8 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
         "lut": lut_info,
         "variants": dict(scene.variants),
         "configuration": config,
-        "configuration_hash": provenance.config_hash(config),
+        # the build marker's rockdove.config.config_hash of the configuration the asset was built from
+        "configuration_hash": (config.get("marker") or {}).get("config_hash"),
         "render": {"width": int(width), "height": int(height), "erode_px": 1},
         "timings_s": timings,
         "versions": provenance.library_versions(),

@@ -27,13 +27,13 @@ set for one texture).
 
 from __future__ import annotations
 
-import io
 import os
 from pathlib import Path
 
 import numpy as np
 
 from ..geometry.types import point_bounds
+from ..resources import write_atomic
 
 #: The file the build writes beside ``pigeon.usda``.
 GLB_NAME = "pigeon.glb"
@@ -62,12 +62,10 @@ def thickness_texcoords(thickness_nm, lo_nm: float, hi_nm: float, texels: int = 
 
 def thickness_ramp_png(texels: int = THICKNESS_RAMP_TEXELS) -> bytes:
     """The ramp image (``texels`` x 1, grey, ``G_i = i / (N - 1)`` in 8 bits), PNG bytes."""
-    from PIL import Image
+    from ..png import encode_png
 
     ramp = np.round(np.linspace(0.0, 255.0, texels)).astype(np.uint8)[None, :]
-    buf = io.BytesIO()
-    Image.fromarray(np.repeat(ramp[..., None], 3, axis=2), "RGB").save(buf, format="PNG")
-    return buf.getvalue()
+    return encode_png(np.repeat(ramp[..., None], 3, axis=2), level=6)
 
 
 def film_ior(film) -> float:
@@ -247,10 +245,7 @@ def export_glb(asset, out_path, *, version: str = "") -> dict:
     scene = load_scene(asset)  # the verifier's reader; a physical-only asset (no LUT) reads too
     data = scene_to_glb(scene, version=version)
     out_path = os.fspath(out_path)
-    tmp = f"{out_path}.tmp-{os.getpid()}"
-    with open(tmp, "wb") as f:
-        f.write(data)
-    os.replace(tmp, out_path)
+    write_atomic(out_path, data)
     return {"path": out_path, "bytes": len(data), "iridescence_ior": film_ior(scene.film),
             "ior_wavelength_nm": IOR_WAVELENGTH_NM, "thickness_range_nm": list(scene.thickness_range_nm),
             "substrate_ior": scene.film.model.n_substrate}
