@@ -192,7 +192,7 @@ def test_without_the_addon_blender_still_shows_green_and_purple_feathers(asset, 
     from rockdove.verify.reference_image import render_reference
 
     scene, views, _, _ = blender_renders
-    images = host.run_blender(asset["usdz"], views, str(tmp_path), addon=False, lobe="as_imported", samples=4)
+    images = host.render(asset["usdz"], views, str(tmp_path), addon=False, lobe="as_imported", samples=4)
     classes = []
     for ref in render_reference(scene, views):
         feather_ids = [i + 1 for i, p in enumerate(scene.parts) if p.is_feather]

@@ -10,6 +10,7 @@ from rockdove.usd.material import (
     author_feather_material,
     load_thinfilm_document,
     lut_info,
+    lut_transform,
     mtlx_nodes,
 )
 
@@ -44,7 +45,7 @@ def test_glsl_generation_of_the_baked_network_reads_thickness_and_three_textures
     assert "i_geomprop_thickness" in vertex
     for sampler in ("LutTexture_file", "BaseColorTexture_file", "MaskTexture_file"):
         assert f"uniform sampler2D {sampler};" in pixel
-    assert "mx_image_color3" in pixel and "void main()" in pixel
+    assert "IMP_UsdUVTexture_23(LutTexture_file" in pixel and "void main()" in pixel
 
 
 def _call_arguments(source: str, function: str) -> dict:
@@ -63,7 +64,7 @@ def test_glsl_generation_of_the_physical_network_drives_the_thin_film(doc):
     _, pixel = _glsl(doc, MTLX_MATERIALS["physical"])
     assert "LutTexture_file" not in pixel and "void main()" in pixel  # no LUT: OpenPBR's own thin film
     args = _call_arguments(pixel, "NG_open_pbr_surface_surfaceshader")
-    assert args["thin_film_weight"] == "MaskTexture_out"
+    assert args["thin_film_weight"] == "MaskTexture_r"
     assert args["thin_film_ior"] == "MtlxPhysicalSurface_thin_film_ior"
     assert args["specular_ior"] == "MtlxPhysicalSurface_specular_ior"
     assert args["thin_film_thickness"] == "ThicknessUm_out"
@@ -84,8 +85,7 @@ def test_usd_network_is_the_document_node_for_node(doc):
 
     lut = ThinFilmLUT(np.zeros((4, 8, 3), np.float32), (500.0, 700.0), angle_warp_gamma=2.0)
     stage, mat = _stage_with_material(lut)
-    set_by_build = {"LutAngleCount", "LutThicknessCount", "LutAngleWarpGamma", "LutThicknessLoNm",
-                    "LutThicknessHiNm", "FilmIor"}
+    set_by_build = {"LutTransform", "LutAngleWarpExponent", "FilmIor"}
     for node in mtlx_nodes(doc):
         shader = UsdShade.Shader(stage.GetPrimAtPath(f"/Looks/FeatherMaterial/{node.getName()}"))
         assert shader, node.getName()
@@ -94,16 +94,17 @@ def test_usd_network_is_the_document_node_for_node(doc):
         for inp in node.getInputs():
             usd_in = shader.GetInput(inp.getName())
             if inp.getNodeName():
-                src = usd_in.GetConnectedSources()[0][0].source.GetPath().name
-                assert src == inp.getNodeName(), (node.getName(), inp.getName())
+                src = usd_in.GetConnectedSources()[0][0]
+                assert src.source.GetPath().name == inp.getNodeName(), (node.getName(), inp.getName())
+                assert src.sourceName == (inp.getOutputString() or "out"), (node.getName(), inp.getName())
             elif inp.getType() == "filename":
                 assert usd_in.Get().path.endswith(inp.getValueString())
             elif node.getName() not in set_by_build and inp.getType() in ("float", "integer", "string", "boolean"):
                 assert usd_in.Get() == pytest.approx(inp.getValue()), (node.getName(), inp.getName())
     values = {n: UsdShade.Shader(stage.GetPrimAtPath(f"/Looks/FeatherMaterial/{n}")).GetInput("value").Get()
               for n in set_by_build}
-    assert values == pytest.approx({"LutAngleCount": 8, "LutThicknessCount": 4, "LutAngleWarpGamma": 2.0,
-                                    "LutThicknessLoNm": 500.0, "LutThicknessHiNm": 700.0, "FilmIor": 1.55})
+    assert np.ravel(values.pop("LutTransform")) == pytest.approx([7 / 8, 0, 0, 0, 3 / 800, 0, 1 / 16, -1.75, 1])
+    assert values == pytest.approx({"LutAngleWarpExponent": -0.5, "FilmIor": 1.55})
 
 
 # A numpy evaluator of the arithmetic nodes the LUT lookup uses, reading the USD shaders as authored.
@@ -118,6 +119,8 @@ _OPS = {
     "ND_power_float": lambda i: np.power(i["in1"], i["in2"]),
     "ND_absval_float": lambda i: np.abs(i["in"]),
     "ND_combine2_vector2": lambda i: np.stack(np.broadcast_arrays(i["in1"], i["in2"]), -1),
+    "ND_constant_matrix33": lambda i: i["value"],
+    "ND_transformmatrix_vector2M3": lambda i: (np.c_[i["in"], np.ones(len(i["in"]))] @ i["mat"])[:, :2],
 }
 
 
@@ -133,7 +136,7 @@ def _evaluate(shader, leaves):
         if sources:
             inputs[inp.GetBaseName()] = _evaluate(UsdShade.Shader(sources[0].source.GetPrim()), leaves)
         else:
-            inputs[inp.GetBaseName()] = np.float64(inp.Get())
+            inputs[inp.GetBaseName()] = np.asarray(inp.Get(), np.float64)
     return _OPS[shader.GetShaderId()](inputs)
 
 
@@ -144,15 +147,17 @@ def test_lut_texcoords_match_the_table_contract_exactly(shape, rng_nm, gamma):
 
     lut = ThinFilmLUT(np.zeros(shape + (3,), np.float32), rng_nm, angle_warp_gamma=gamma)
     stage, _ = _stage_with_material(lut)
-    texcoord = UsdShade.Shader(stage.GetPrimAtPath("/Looks/FeatherMaterial/LutTexture")).GetInput("texcoord")
+    texcoord = UsdShade.Shader(stage.GetPrimAtPath("/Looks/FeatherMaterial/LutTexture")).GetInput("st")
     graph = UsdShade.Shader(texcoord.GetConnectedSources()[0][0].source.GetPrim())
     rng = np.random.default_rng(1)
     n_dot_v = rng.uniform(-1, 1, 200)  # cards are seen from both sides: |N.V|
     n_dot_v[:3] = (0.0, 1.0, -1.0)
     d = rng.uniform(rng_nm[0] - 50, rng_nm[1] + 50, 200)  # outside the domain too: clamped
     uv = _evaluate(graph, {"NDotV": n_dot_v, "ThicknessPrimvar": d})
+    n, m = shape[1], shape[0]  # the texture's clamp-to-edge reads the edge texel past the first or last centre
+    uv = np.clip(uv, [0.5 / n, 0.5 / m], [1 - 0.5 / n, 1 - 0.5 / m])
     u, v = lut.texcoords(np.abs(n_dot_v), d)
-    assert np.allclose(uv[:, 0], u, rtol=0, atol=1e-12)
+    assert np.allclose(uv[:, 0], u, rtol=0, atol=1e-7)  # the warp exponent 1 / gamma - 1 is a float (32-bit) input
     assert np.allclose(uv[:, 1], v, rtol=0, atol=1e-12)
 
 
@@ -186,7 +191,7 @@ def test_authored_usd_network_rebuilt_as_hydra_does_validates_and_generates_glsl
     ok, message = rebuilt.validate()
     assert ok, message
     if variant == "baked":
-        assert rebuilt.getNode("LutAngleCount").getInput("value").getValue() == 8.0
+        assert rebuilt.getNode("LutTransform").getInput("value").getValueString().startswith("0.875, 0.0, 0.0")
         lut_file = rebuilt.getNode("LutTexture").getInput("file")
         assert lut_file.getValueString() == "./textures/thinfilm_lut.exr" and lut_file.getColorSpace() == "lin_rec709"
     else:
@@ -216,8 +221,11 @@ def test_standalone_document_carries_the_default_builds_constants(doc):
     lo, hi = float(math.floor(d.min())), float(math.ceil(d.max()))
     film = film_from_config(cfg["film"])
     n_inc = float(np.real(film.n_incident))
-    expected = {"LutAngleCount": cfg["lut"]["angles"], "LutThicknessCount": cfg["lut"]["thicknesses"],
-                "LutAngleWarpGamma": cfg["lut"]["angle_warp_gamma"], "LutThicknessLoNm": lo, "LutThicknessHiNm": hi,
+    transform = lut_transform({"n_angle": cfg["lut"]["angles"], "n_thickness": cfg["lut"]["thicknesses"],
+                               "thickness_range_nm": (lo, hi)})
+    matrix = doc.getNode("LutTransform").getInput("value").getValue()
+    assert [matrix[i, j] for i in range(3) for j in range(3)] == pytest.approx(transform, rel=1e-6)  # float32
+    expected = {"LutAngleWarpExponent": 1 / cfg["lut"]["angle_warp_gamma"] - 1,
                 "FilmIor": float(np.real(film.n_film(FILM_IOR_WAVELENGTH_NM))) / n_inc,
                 "SubstrateIor": float(np.real(film.n_substrate)) / n_inc}
     got = {name: doc.getNode(name).getInput("value").getValue() for name in expected}

@@ -55,7 +55,8 @@ def test_load_scene_reads_every_part_as_the_build_generated_it_in_both_variants(
         assert body.base_colour_texture == str(tex / "body_base.png")
         assert body.mask_texture is None and body.thickness_nm is None
         # triangles wind counter-clockwise about the outward normals of the (convex-ish) body
-        tri_n = body.triangle_normals
+        p, t = body.positions_m.astype(np.float64), body.triangles
+        tri_n = np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]])
         vert_n = body.normals[body.triangles].mean(axis=1)
         assert np.mean(np.sum(tri_n * vert_n, axis=1) > 0) > 0.99
         f = s.film

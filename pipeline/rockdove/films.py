@@ -1,22 +1,15 @@
 """Film models: the refractive index of the iridescent keratin layer and of the media around it.
 
-A :class:`FilmModel` describes one film b between an incident medium a and a substrate c, the inputs of
-:func:`rockdove.optics.reflectance`. The film index follows a two-term Cauchy law
+A :class:`FilmModel` is one film b between an incident medium a and a substrate c (the inputs of
+:func:`rockdove.optics.reflectance`), its index a two-term Cauchy law ``n_b(lambda) = A + B / lambda**2 (+ i k)``
+(lambda in nm, B in nm**2, an optional constant extinction k). Complex indices are ``n + i k`` with ``k >= 0``
+absorbing (fields ~ ``exp(i (k_z z - omega t))``), the convention of ``tmm`` (Byrnes 2016) and of
+``colour.phenomena``, so their results compare directly.
 
-    n_b(lambda) = A + B / lambda**2  (+ i k),   lambda in nm, B in nm**2,
-
-with an optional constant extinction coefficient k.
-
-Sign convention of complex indices: ``n + i k`` with ``k >= 0`` for an absorbing medium, i.e. fields vary
-as ``exp(i (k_z z - omega t))``. This is the convention of the ``tmm`` package (Byrnes 2016) and of
-``colour.phenomena`` (which follows Byrnes), so their results can be compared directly.
-
-References
-----------
-- Leertouwer, H. L., Wilts, B. D. and Stavenga, D. G. (2011). Refractive index and dispersion of butterfly
-  chitin and bird keratin measured by polarizing interference microscopy. Opt. Express 19(24), 24061.
-  Bird feather keratin: n = 1.532 + 5.89e3 / lambda**2 (lambda in nm).
-- The seed paper (real-time structural colour of the rock dove): constant n = 1.5, air on both sides.
+References: Leertouwer, H. L., Wilts, B. D. and Stavenga, D. G. (2011), Refractive index and dispersion of
+butterfly chitin and bird keratin measured by polarizing interference microscopy, Opt. Express 19(24), 24061:
+bird feather keratin n = 1.532 + 5.89e3 / lambda**2 (lambda in nm). The seed paper (real-time structural colour
+of the rock dove): constant n = 1.5, air on both sides.
 """
 
 from __future__ import annotations
@@ -26,18 +19,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# Leertouwer, Wilts & Stavenga 2011, bird feather keratin, Cauchy fit (lambda in nm).
-KERATIN_CAUCHY_A = 1.532
+KERATIN_CAUCHY_A = 1.532  # Leertouwer, Wilts & Stavenga 2011, bird feather keratin (lambda in nm)
 KERATIN_CAUCHY_B_NM2 = 5.89e3
-# The seed paper's constant film index (keratin, no dispersion) and its surrounding medium (air).
-PAPER_FILM_INDEX = 1.5
+PAPER_FILM_INDEX = 1.5  # the seed paper's constant keratin index, in air
 AIR_INDEX = 1.0
 
 DEFAULT_FILM = "paper"
 
 
 def _check_index(name: str, value) -> complex:
-    """Validate one constant refractive index: finite, real part > 0, imaginary part >= 0."""
+    """One constant refractive index, checked: finite, real part > 0, imaginary part >= 0."""
     try:
         z = complex(value)
     except (TypeError, ValueError):
@@ -47,31 +38,18 @@ def _check_index(name: str, value) -> complex:
     if z.real <= 0:
         raise ValueError(f"{name} must have a positive real part, got {value!r}")
     if z.imag < 0:
-        raise ValueError(
-            f"{name} must have a non-negative imaginary part (convention n + ik, k >= 0 absorbs), "
-            f"got {value!r}"
-        )
+        raise ValueError(f"{name} must have a non-negative imaginary part (convention n + ik, k >= 0 absorbs), "
+                         f"got {value!r}")
     return z
 
 
 @dataclass(frozen=True)
 class FilmModel:
-    """One thin film b between an incident medium a and a substrate c.
+    """One thin film b between an incident medium a and a substrate c (module docstring).
 
-    Parameters
-    ----------
-    name : str
-        Registry name, e.g. ``"paper"`` or ``"keratin"``; non-empty.
-    cauchy_a : float
-        Cauchy A (dimensionless), > 0.
-    cauchy_b_nm2 : float
-        Cauchy B in nm**2 (``n = A + B / lambda**2``, lambda in nm), >= 0. 0 means no dispersion.
-    k : float
-        Constant extinction coefficient of the film, >= 0. The film index is ``n + i k`` (``tmm`` and
-        ``colour.phenomena`` convention: positive k absorbs).
-    n_incident, n_substrate : complex
-        Indices of the incident medium (must be real: reflectance is defined in a transparent medium)
-        and of the substrate (real part > 0, imaginary part >= 0).
+    ``name``: non-empty (registry name); ``cauchy_a`` > 0; ``cauchy_b_nm2`` >= 0 in nm**2 (0: no dispersion);
+    ``k`` >= 0, the film's constant extinction; ``n_incident`` real (reflectance is measured in a transparent
+    medium) and ``n_substrate`` (real part > 0, imaginary part >= 0).
     """
 
     name: str
@@ -107,16 +85,7 @@ class FilmModel:
         return self.cauchy_b_nm2 != 0.0
 
     def n_film(self, wavelength_nm) -> np.ndarray:
-        """Film index at the given wavelengths.
-
-        Parameters
-        ----------
-        wavelength_nm : array_like, any shape, nm, > 0
-
-        Returns
-        -------
-        ndarray, same shape as ``wavelength_nm``: float64 if ``k == 0``, else complex128 ``n + i k``.
-        """
+        """Film index at ``wavelength_nm`` (> 0), the same shape: float64 if ``k == 0``, else complex128."""
         lam = np.asarray(wavelength_nm, dtype=np.float64)
         if lam.size and not (np.min(lam) > 0 and np.isfinite(np.max(lam))):
             raise ValueError(f"wavelength_nm must be finite and > 0, got values in [{np.min(lam)}, {np.max(lam)}]")
@@ -127,9 +96,7 @@ class FilmModel:
 
     def describe(self) -> dict[str, str]:
         """Human-readable description for EXR / USD metadata (all values are strings)."""
-        formula = "n(lambda) = A + B / lambda^2 (lambda in nm)"
-        if self.k:
-            formula += " + i k"
+        formula = "n(lambda) = A + B / lambda^2 (lambda in nm)" + (" + i k" if self.k else "")
         return {
             "name": self.name,
             "formula": formula,

@@ -1,57 +1,45 @@
 """Airy reflectance and transmittance of one thin film (s, p and unpolarised light).
 
-Geometry: light arrives from a transparent incident medium a (index ``n_incident``, real), at an angle of
-incidence theta_a with ``cos_theta = cos(theta_a)``, onto a film b (``n_film``, thickness d) on a
-semi-infinite substrate c (``n_substrate``). Complex indices follow ``n + i k`` with ``k >= 0`` absorbing
-(fields ~ exp(i (k_z z - omega t))), the convention of ``tmm`` and ``colour.phenomena``.
+Light arrives from a transparent incident medium a (``n_incident``, real) at ``cos_theta = cos(theta_a)`` onto a
+film b (``n_film``, thickness d) on a semi-infinite substrate c (``n_substrate``); complex indices are ``n + i k``,
+``k >= 0`` absorbing (the convention of ``tmm`` and ``colour.phenomena``, :mod:`rockdove.films`).
 
-Formulas
---------
-Normal wave-vector components (in units of the vacuum wave number k0 = 2 pi / lambda), from Snell's law
-n_j sin(theta_j) = n_a sin(theta_a):
+Normal wave-vector components (in units of k0 = 2 pi / lambda), by Snell's law n_j sin(theta_j) = n_a sin(theta_a):
 
     q_j = n_j cos(theta_j) = sqrt(n_j**2 - n_a**2 sin(theta_a)**2)
         = sqrt((n_j - n_a)(n_j + n_a) + (n_a cos_theta)**2)                                   (1)
 
-evaluated in the second form so that n_j == n_a gives q_j = n_a cos_theta exactly. The branch has
-Im(q_j) >= 0 (and Re(q_j) >= 0 for transparent media): beyond the critical angle (total internal reflection)
-q_j = +i |q_j|, an evanescent wave that decays away from the interface; in an absorbing medium the wave
-decays along its direction of travel.
+evaluated in the second form so that n_j == n_a gives q_j = n_a cos_theta exactly, on the branch Im(q_j) >= 0:
+beyond the critical angle q_j = +i |q_j|, an evanescent wave decaying away from the interface.
 
-Fresnel amplitude coefficients (Born & Wolf, Principles of Optics, 7th ed., sec. 1.5.2, the Fresnel
-formulae; the convention of the ``tmm`` package; at normal incidence r_p = -r_s):
+Fresnel amplitude coefficients (Born & Wolf, Principles of Optics, 7th ed., sec. 1.5.2; ``tmm``'s convention):
 
     r_s = (n1 cos1 - n2 cos2) / (n1 cos1 + n2 cos2),    r_p = (n2 cos1 - n1 cos2) / (n2 cos1 + n1 cos2)  (2)
 
 i.e. r = (eta_1 - eta_2) / (eta_1 + eta_2) with the (tilted) admittances eta_s = q, eta_p = q / n**2.
 
-Airy summation of the multiply reflected waves in the film (Born & Wolf sec. 1.6.4, a homogeneous
-dielectric film, and sec. 7.6.1; Heavens, Optical Properties of Thin Solid Films, 1955):
+Airy summation of the waves reflected in the film (Born & Wolf sec. 1.6.4 and 7.6.1; Heavens, Optical Properties
+of Thin Solid Films, 1955):
 
     r = (r_ab + r_bc e^{i phi}) / (1 + r_ab r_bc e^{i phi}),    phi = 4 pi n_b d cos(theta_b) / lambda  (3)
 
-``phi`` is :func:`film_phase`. Eq. (3) is 0/0 where q_b -> 0 (a film at its own critical angle, or
-grazing incidence on a film of the incident medium's index) and overflows for thick evanescent films, so
-it is evaluated in the algebraically identical characteristic-matrix form (Born & Wolf sec. 1.6.2, the
-characteristic matrix of a stratified medium; Macleod, Thin-Film Optical Filters, ch. 2, written here for
-n + ik), with delta = phi / 2 = k0 q_b d:
+``phi`` is :func:`film_phase`. Eq. (3) is 0/0 where q_b -> 0 (a film at its own critical angle) and overflows for
+thick evanescent films, so it is evaluated in the identical characteristic-matrix form (Born & Wolf sec. 1.6.2;
+Macleod, Thin-Film Optical Filters, ch. 2, for n + ik), with delta = phi / 2 = k0 q_b d:
 
     B = cos(delta) - i eta_c sin(delta) / eta_b,    C = eta_c cos(delta) - i eta_b sin(delta)
     r = (eta_a B - C) / (eta_a B + C),               t-power  T = 4 eta_a Re(eta_c) / |eta_a B + C|**2    (4)
 
 where sin(delta) / eta_b = k0 d (q_b / eta_b) sinc(delta) has no 0/0. The complex path multiplies B and C
-by e^{i delta} (|e^{i delta}| <= 1) and uses expm1, so it neither overflows (films of millimetres, deep
-TIR) nor loses precision for films far below 1 nm. T is the ratio of the normal power fluxes,
-Re(n_c cos_c) / Re(n_a cos_a) |t_s|**2 for s and Re(n_c conj(cos_c)) / Re(n_a conj(cos_a)) |t_p|**2 for p,
-which eq. (4) gives directly. For real indices without TIR, eq. (4) reduces to sums of squares in real
-arithmetic (the fast path, an order of magnitude cheaper than complex arithmetic):
+by e^{i delta} (|e^{i delta}| <= 1) and uses expm1: no overflow (films of millimetres, deep TIR), no loss of
+precision far below 1 nm. T is the ratio of the normal power fluxes. For real indices without TIR, eq. (4) is a
+sum of squares in real arithmetic (the fast path, an order of magnitude cheaper):
 
     R = [(eta_a - eta_c)**2 cos**2 + (eta_a eta_c S - eta_b sin)**2] / Den,   T = 4 eta_a eta_c / Den,
     Den = (eta_a + eta_c)**2 cos**2 + (eta_a eta_c S + eta_b sin)**2,   S = sin(delta) / eta_b.
 
-Limits: at grazing incidence (cos_theta = 0, eta_a = 0) R = 1 and T = 0 for any stack; at d = 0 the film
-disappears and R is the bare a|c Fresnel value. Where every interface vanishes at once (equal indices at
-grazing incidence, the only 0/0 left in eq. 4) the result is R = 0, T = 1: no interface, no reflection.
+Limits: at grazing incidence (eta_a = 0) R = 1 and T = 0 for any stack; at d = 0, the bare a|c Fresnel value;
+where every interface vanishes (equal indices at grazing, the only 0/0 left in eq. 4) R = 0, T = 1.
 """
 
 from __future__ import annotations
@@ -70,26 +58,14 @@ def _as_real(name: str, value, *, lo: float, lo_open: bool = False, hi: float | 
         a = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be real numbers, got {value!r}") from None
-    if a.size == 0:
-        return a
-    amin, amax = a.min(), a.max()
-    ok = np.isfinite(amin) and np.isfinite(amax) and (amin > lo if lo_open else amin >= lo)
+    bad = ~np.isfinite(a) | ((a <= lo) if lo_open else (a < lo))
     if hi is not None:
-        ok = ok and amax <= hi
-    if not ok:
-        bad = ~np.isfinite(a) | ((a <= lo) if lo_open else (a < lo))
-        if hi is not None:
-            bad |= a > hi
+        bad |= a > hi
+    if bad.any():
         first = a[bad].flat[0].item()
         allowed = f"{'(' if lo_open else '['}{lo:g}, {'inf)' if hi is None else f'{hi:g}]'}"
         raise ValueError(f"{name} must be finite and in {allowed}, got {first!r}")
     return a
-
-
-def _check_polarization(polarization) -> str:
-    if polarization not in POLARIZATIONS:
-        raise ValueError(f"polarization must be one of {POLARIZATIONS}, got {polarization!r}")
-    return polarization
 
 
 def _as_index(name: str, value, wavelength_nm: np.ndarray | None = None, *, real_only: bool = False):
@@ -148,9 +124,11 @@ def _branch_sqrt(z):
     return np.where(q.imag < 0, -q, q)
 
 
-def _q(q2, n_j, n_a, cos_a, real: bool):
-    """q_j = n_j cos(theta_j) from q_j**2 (eq. 1): real root if ``real`` (caller checked q2 >= 0), else the
-    decaying branch. Where n_j == n_a, q_j = n_a cos_a exactly (no underflow of cos_a**2 at grazing)."""
+def _q(q2, n_j, n_a, cos_a, real: bool | None = None):
+    """q_j = n_j cos(theta_j) from q_j**2 (eq. 1): the real root if ``real`` (q2 >= 0; None: wherever possible),
+    else the decaying branch. Where n_j == n_a, q_j = n_a cos_a exactly (no underflow of cos_a**2 at grazing)."""
+    if real is None:
+        real = q2.dtype.kind != "c" and (q2.size == 0 or q2.min() >= 0)
     q = np.sqrt(q2) if real else _branch_sqrt(q2)
     same = np.asarray(n_j == n_a)
     if same.any():
@@ -165,9 +143,7 @@ def snell_cos(n1, n2, cos1):
     n1 = _as_index("n1", n1, real_only=True)
     n2 = _as_index("n2", n2)
     cos1 = _as_real("cos1", cos1, lo=0.0, hi=1.0)
-    q2sq = _q_squared(n2, n1, cos1)
-    real = q2sq.dtype.kind != "c" and (q2sq.size == 0 or q2sq.min() >= 0)
-    return _q(q2sq, n2, n1, cos1, real) / n2
+    return _q(_q_squared(n2, n1, cos1), n2, n1, cos1) / n2
 
 
 def fresnel_r(n1, n2, cos1, cos2, polarization):
@@ -199,22 +175,17 @@ def film_phase(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident=1.0):
     d = _as_real("thickness_nm", thickness_nm, lo=0.0)
     n_b = _as_index("n_film", n_film, lam)
     n_a = _as_index("n_incident", n_incident, lam, real_only=True)
-    qb2 = _q_squared(n_b, n_a, cos_theta)
-    qb = _q(qb2, n_b, n_a, cos_theta, qb2.dtype.kind != "c" and (qb2.size == 0 or qb2.min() >= 0))
-    return (2.0 * _TWO_PI) * d * qb / lam
+    return (2.0 * _TWO_PI) * d * _q(_q_squared(n_b, n_a, cos_theta), n_b, n_a, cos_theta) / lam
 
 
 # --------------------------------------------------------------------------- the solver
 def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t):
-    """Eq. (4) in real arithmetic: real indices, q_b > 0, q_c >= 0.
+    """Eq. (4) in real arithmetic (real indices, q_b > 0, q_c >= 0): ``({pol: (R, T or None)}, degenerate)``;
+    if ``degenerate``, NaN elements (0/0) are for the complex path.
 
-    Returns ({pol: (R, T or None)}, degenerate); when ``degenerate`` some elements may be NaN (0/0) and
-    must be recomputed by the complex path.
-
-    With u = sin(delta)**2 and cos(delta)**2 = 1 - u, the real form of eq. (4) is a ratio of two linear
-    functions of u, R = (a0 + a1 u) / (b0 + b1 u), whose coefficients depend on (wavelength, angle) only:
+    With u = sin(delta)**2, R = (a0 + a1 u) / (b0 + b1 u) with coefficients of (wavelength, angle) only:
     a0 = (eta_a - eta_c)**2, a1 = (eta_a eta_c / eta_b - eta_b)**2 - a0, b0 = (eta_a + eta_c)**2,
-    b1 = (eta_a eta_c / eta_b + eta_b)**2 - b0. Per sample this costs one sine and a division.
+    b1 = (eta_a eta_c / eta_b + eta_b)**2 - b0: one sine and a division per sample.
     """
     u = np.square(np.sin(np.asarray(k0d * qb, dtype=np.float64)))  # sin(delta)**2
     out = {}
@@ -229,13 +200,16 @@ def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t):
         b0 = (ea + ec) ** 2
         a1 = (eaec / eb - eb) ** 2 - a0
         b1 = (eaec / eb + eb) ** 2 - b0
-        den = b1 * u + b0
-        num = a1 * u + a0
+        den = b1 * u  # in place from here: the arrays have the output's size
+        den += b0
+        num = a1 * u
+        num += a0
         # den == 0 only where eta_a = eta_c = 0 (grazing, substrate of the incident index) and u = 0:
         # the result is NaN there and _solve hands those elements to the complex path (as it would any
         # overflow of a1, b1, which the range of q_b**2 > 0 rules out in practice).
         with np.errstate(invalid="ignore", divide="ignore"):
-            out[pol] = (num / den, np.divide(4.0 * eaec, den) if want_t else None)
+            num /= den
+            out[pol] = (num, np.divide(4.0 * eaec, den) if want_t else None)
         degenerate = degenerate or bool(np.any(b0 == 0)) or not (np.all(np.isfinite(a1)) and np.all(np.isfinite(b1)))
     return out, degenerate
 
@@ -283,7 +257,8 @@ def _general_complex(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t=True):
 def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, want_t):
     """Validate, choose the fast or complex path per element, return (R, T) float64 arrays (T None
     unless ``want_t``)."""
-    polarization = _check_polarization(polarization)
+    if polarization not in POLARIZATIONS:
+        raise ValueError(f"polarization must be one of {POLARIZATIONS}, got {polarization!r}")
     lam = _as_real("wavelength_nm", wavelength_nm, lo=0.0, lo_open=True)
     cos_a = _as_real("cos_theta", cos_theta, lo=0.0, hi=1.0)
     d = _as_real("thickness_nm", thickness_nm, lo=0.0)
@@ -303,11 +278,8 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
     qb2 = _q_squared(n_b, n_a, cos_a)
     qc2 = _q_squared(n_c, n_a, cos_a)
     real = qb2.dtype.kind != "c" and qc2.dtype.kind != "c"
-    if real:
-        fast = (qb2 > 0) & (qc2 >= 0)
-        all_fast = bool(np.all(fast))
-    else:
-        all_fast = False
+    fast = (qb2 > 0) & (qc2 >= 0) if real else None
+    all_fast = real and bool(np.all(fast))
 
     if real and (all_fast or np.any(fast)):
         # Real arithmetic wherever it is valid; the complex path on the rest (TIR, q_b = 0, and the 0/0
@@ -315,13 +287,10 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
         with np.errstate(invalid="ignore", divide="ignore"):
             res, degenerate = _fast_real(k0d, cos_a, n_a, n_b, n_c, _q(np.maximum(qb2, 0), n_b, n_a, cos_a, True),
                                          _q(np.maximum(qc2, 0), n_c, n_a, cos_a, True), pols, want_t)
-        slow = None if all_fast else ~np.broadcast_to(fast, shape)
-        if degenerate:
-            nan = np.zeros(shape, dtype=bool)
-            for pol in pols:
-                nan |= np.isnan(res[pol][0])
-            slow = nan if slow is None else slow | nan
-        if slow is not None and slow.any():
+        slow = ~np.broadcast_to(fast, shape)
+        for pol in pols if degenerate else ():
+            slow = slow | np.isnan(res[pol][0])
+        if slow.any():
             sub = [np.broadcast_to(x, shape)[slow] for x in (k0d, cos_a, n_a, n_b, n_c, qb2, qc2)]
             k0d_s, cos_s, na_s, nb_s, nc_s, qb2_s, qc2_s = sub
             res_slow = _general_complex(k0d_s, cos_s, na_s, nb_s, nc_s, _q(qb2_s + 0j, nb_s, na_s, cos_s, False),
@@ -354,16 +323,12 @@ def reflectance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.
     """Reflectance R = |r|**2 of one film (Airy summation, eqs. 3-4 of the module docstring), float64 in [0, 1],
     the broadcast shape of all array arguments.
 
-    ``wavelength_nm`` (vacuum, > 0) and ``thickness_nm`` (>= 0; 0 gives the bare incident|substrate interface) in
-    nm; ``cos_theta`` in [0, 1] is the angle of incidence in the incident medium (1 = normal). ``n_film`` and
-    ``n_substrate``: a number, an array broadcast against all other arguments (give it the wavelengths' shape,
-    e.g. (W, 1, 1)) or a callable n(wavelength_nm); n + ik with k >= 0 absorbing; ``n_incident`` real.
-    "unpolarized" is the mean of the s and p reflectances. ValueError names the argument and the value for
-    NaN/inf, out-of-range values, a complex ``n_incident`` or an unknown polarization.
-
-    Real indices without total internal reflection take the real fast path (one sine per sample); absorption,
-    TIR and a film at its critical angle the complex path, several times slower: both exact to rounding. Peak
-    memory is a few float64 arrays of the output shape: chunk calls above ~1e7 samples.
+    ``wavelength_nm`` (vacuum, > 0) and ``thickness_nm`` (>= 0; 0: the bare incident|substrate interface) in nm;
+    ``cos_theta`` in [0, 1] in the incident medium. ``n_film`` and ``n_substrate``: a number, an array broadcast
+    against the other arguments (give it the wavelengths' shape) or a callable n(wavelength_nm), n + ik with k >= 0;
+    ``n_incident`` real. "unpolarized" is the mean of s and p. A ValueError names the offending argument and value.
+    Real indices without TIR take the real fast path (one sine per sample), the rest the complex path, both exact
+    to rounding; memory is a few float64 arrays of the output shape (chunk calls above ~1e7 samples).
     """
     return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, False)[0]
 

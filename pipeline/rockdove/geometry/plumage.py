@@ -107,7 +107,8 @@ def inside_polygon(yz, poly) -> np.ndarray:
     y, z = yz[:, 0:1], yz[:, 1:2]
     a, b = poly[None, :, :], np.roll(poly, -1, 0)[None, :, :]
     crosses = (a[..., 0] > y) != (b[..., 0] > y)
-    zc = a[..., 1] + (y - a[..., 0]) * (b[..., 1] - a[..., 1]) / np.where(b[..., 0] == a[..., 0], 1e-12, b[..., 0] - a[..., 0])
+    dy = np.where(b[..., 0] == a[..., 0], 1e-12, b[..., 0] - a[..., 0])
+    zc = a[..., 1] + (y - a[..., 0]) * (b[..., 1] - a[..., 1]) / dy
     return (crosses & (z < zc)).sum(1) % 2 == 1
 
 
@@ -216,7 +217,8 @@ def build_tail() -> MeshPart:
     pitch, yaw = np.deg2rad(TAIL_PITCH_DEG), np.deg2rad(TAIL_FAN_DEG) * k / np.abs(k).max()
     d = np.stack([np.sin(yaw) * np.cos(pitch), np.full_like(yaw, -np.sin(pitch)), -np.cos(yaw) * np.cos(pitch)], 1)
     length = TAIL_LENGTH_M[0] + (TAIL_LENGTH_M[1] - TAIL_LENGTH_M[0]) * f
-    root = np.stack([TAIL_SPREAD_M * k / np.abs(k).max(), TAIL_ROOT_M[0] + 0.002 * (1 - f), np.full_like(k, TAIL_ROOT_M[1])], 1)
+    root = np.stack([TAIL_SPREAD_M * k / np.abs(k).max(), TAIL_ROOT_M[0] + 0.002 * (1 - f),
+                     np.full_like(k, TAIL_ROOT_M[1])], 1)
     v = SHAPE_V[None, :, None]
     droop = (-0.004 * f[:, None] * SHAPE_V[None, :] ** 2)[..., None] * np.array([0.0, 1.0, 0.0])
     centre = root[:, None] + length[:, None, None] * v * d[:, None] + droop

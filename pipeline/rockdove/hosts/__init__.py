@@ -1,21 +1,13 @@
-"""Hosts: adapters at the edge that read the WRITTEN asset and render it with their own code.
+"""Hosts: adapters at the edge that read the WRITTEN asset and render it with their own code (docs/design.md "Hosts").
 
-A host module (registered in :data:`HOSTS`, imported lazily) defines
-
-- ``NAME`` (str): its registry name;
-- ``VARIANT`` (str): the network it draws: ``"glsl"`` (our paper shaders), ``"baked"`` (the MaterialX LUT
-  network), ``"physical"`` (the host's own thin-film BSDF);
-- ``LOBE`` (str): the lighting model of the exact reference it is compared with, one of :data:`LOBES`
-  (:func:`rockdove.verify.reference_image.render_reference`'s ``lobe``);
-- ``unavailable() -> str | None``: None when it can run on this machine, else the reason;
-- optionally ``cannot_draw(asset_path) -> str | None``: why it cannot draw this asset (e.g. the asset has no
-  shading variant of its network): the verifier then skips it with that reason;
-- ``render(asset_path, views, out_dir) -> {view.name: (H, W, 3) float32 linear Rec.709 radiance}``, drawn
-  with each :class:`rockdove.render.views.View`'s camera exactly, background 0; raises :class:`HostError`
-  when the host fails.
-
-:func:`select` turns a list of names into the hosts that can run and the reasons the others cannot;
-``rockdove verify --hosts`` reports both (a missing host is a skip with its reason, never a silent pass).
+A host module (registered in :data:`HOSTS`, imported lazily) defines ``NAME``; ``VARIANT``, the network it draws
+(``"glsl"``: our paper shaders, ``"baked"``: the MaterialX LUT network, ``"physical"``: the host's own thin-film
+BSDF); ``LOBE``, the lighting model of the exact reference it is compared with (one of :data:`LOBES`);
+``unavailable() -> str | None`` (None when it can run here, else why not); optionally ``cannot_draw(asset_path)
+-> str | None`` (why it cannot draw this asset: the verifier skips it with that reason); and ``render(asset_path,
+views, out_dir) -> {view.name: (H, W, 3) float32 linear Rec.709}``, each View's camera exactly, background 0,
+raising :class:`HostError` when the host fails. ``rockdove verify --hosts`` reports the hosts :func:`select`
+finds unavailable as skips with their reasons, never a silent pass.
 """
 
 from __future__ import annotations
@@ -29,7 +21,7 @@ from types import ModuleType
 HOSTS = {
     "glsl": "rockdove.hosts.glsl",
     "materialx": "rockdove.hosts.materialx",
-    "materialx_physical": "rockdove.hosts.materialx_physical",
+    "materialx_physical": "rockdove.hosts.materialx:PHYSICAL",
     "blender": "rockdove.hosts.blender",
     "web": "rockdove.hosts.web",
     "storm": "rockdove.hosts.storm:BAKED",
@@ -38,9 +30,8 @@ HOSTS = {
     "osl": "rockdove.hosts.osl:BAKED",
     "osl_physical": "rockdove.hosts.osl:PHYSICAL",
 }
-#: The hosts a verification runs when none are named (``hosts=None``): those whose frames cost seconds. Storm's
-#: (a 512 px frame is 5-45 s, mostly shader compilation) and the OSL renderer's are named explicitly
-#: (``--hosts storm,storm_physical,...``) or with ``all``.
+#: The hosts a verification runs when none are named: those whose frames cost seconds. Storm's (5-45 s a 512 px
+#: frame, mostly shader compilation) and the OSL renderer's are named explicitly or with ``all``.
 DEFAULT = ("glsl", "materialx", "materialx_physical", "blender", "web")
 #: The lighting models a host can be compared under (docs/design.md "Hosts"):
 #: ``half_angle``: the paper's Lambert x colour(cos = L.H) under the View's one directional light;
@@ -52,15 +43,7 @@ ALWAYS = "glsl"
 
 
 class HostError(RuntimeError):
-    """A host failed to render (no display, import error, shader compile error...).
-
-    Parameters
-    ----------
-    name : str
-        The host's registry name.
-    message : str
-        What went wrong, one line.
-    """
+    """Host ``name`` failed to render (no display, import error, shader compile error...): ``message``, one line."""
 
     def __init__(self, name: str, message: str):
         super().__init__(f"host {name!r}: {message}")
@@ -69,15 +52,8 @@ class HostError(RuntimeError):
 
 
 def load(name: str) -> ModuleType:
-    """The module of host ``name``.
-
-    Raises
-    ------
-    ValueError
-        ``name`` is not in :data:`HOSTS`.
-    ImportError
-        The module is absent or fails to import (:func:`select` turns that into a reason).
-    """
+    """The module of host ``name``; ValueError for an unknown name, ImportError (:func:`select` turns it into a
+    reason) for a module that is absent or fails to import."""
     if name not in HOSTS:
         raise ValueError(f"host {name!r} is unknown; allowed: {', '.join(HOSTS)}")
     module, _, attr = HOSTS[name].partition(":")
@@ -97,12 +73,10 @@ class Selection:
 def _reason(name: str) -> tuple[ModuleType | None, str | None]:
     try:
         module = load(name)
-    except ModuleNotFoundError as exc:
-        if exc.name and HOSTS[name].partition(":")[0].startswith(exc.name):
-            return None, f"its module {HOSTS[name]} is not part of this installation"
-        return None, f"its module {HOSTS[name]} cannot be imported: {exc}"
     except ImportError as exc:
-        return None, f"its module {HOSTS[name]} cannot be imported: {exc}"
+        gone = isinstance(exc, ModuleNotFoundError) and exc.name and HOSTS[name].startswith(exc.name)
+        return None, f"its module {HOSTS[name]} " + ("is not part of this installation" if gone else
+                                                     f"cannot be imported: {exc}")
     try:
         reason = module.unavailable()
     except Exception as exc:  # a probe that crashes is a reason, not a crash of verify
@@ -111,35 +85,14 @@ def _reason(name: str) -> tuple[ModuleType | None, str | None]:
 
 
 def select(names=None) -> Selection:
-    """The hosts among ``names`` that can run here, and why the others cannot.
-
-    Parameters
-    ----------
-    names : iterable of str, optional
-        Host names (:data:`HOSTS`), or ``["all"]`` for every registered host; default :data:`DEFAULT`.
-        :data:`ALWAYS` (``glsl``) is always included, first.
-
-    Returns
-    -------
-    Selection
-
-    Raises
-    ------
-    ValueError
-        A name is not a registered host (one line naming it and the allowed names).
-    """
+    """The hosts among ``names`` (:data:`HOSTS`, ``["all"]`` for every one; default :data:`DEFAULT`) that can run
+    here, :data:`ALWAYS` first, and why the others cannot. ValueError (one line) names an unknown host."""
     names = list(DEFAULT) if names is None else [str(n).strip() for n in names]
     if names == ["all"]:
         names = list(HOSTS)
     unknown = [n for n in names if n not in HOSTS]
     if unknown:
         raise ValueError(f"hosts: {', '.join(map(repr, unknown))} unknown; allowed: {', '.join(HOSTS)}")
-    ordered = list(dict.fromkeys([ALWAYS, *names]))
-    available, missing = [], {}
-    for name in ordered:
-        module, reason = _reason(name)
-        if module is None:
-            missing[name] = reason
-        else:
-            available.append(module)
-    return Selection(tuple(available), missing)
+    found = {name: _reason(name) for name in dict.fromkeys([ALWAYS, *names])}
+    return Selection(tuple(m for m, _ in found.values() if m is not None),
+                     {name: why for name, (m, why) in found.items() if m is None})

@@ -12,70 +12,37 @@ import numpy as np
 from ..render.beauty import (EXPOSURE, GROUND_ALBEDO, LOOK, RENDERERS, SKY_HORIZON_RGB, SKY_STRENGTH,
                              SKY_ZENITH_RGB, SUN_ANGLE_DEG, SUN_ELEVATION_DEG, SUN_RGB, SUN_STRENGTH, TIMEOUT_S,
                              beauty_views, cyclorama, ground_y_m)
-from . import HostError
-from . import blender as bl
+from . import HostError, blender as bl
 
 
 def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
     """Render ``views`` with Cycles through the add-on (:mod:`rockdove.hosts.blender_beauty_job`); returns
     ``{view name: (H, W, 3) uint8}`` (display-referred, AgX). Raises HostError when Blender cannot."""
-    from PIL import Image
-
-
     work = os.path.join(os.path.abspath(out_dir), "beauty_cycles")
     os.makedirs(work, exist_ok=True)
-    for v in views:
-        if os.path.exists(os.path.join(work, f"{v.name}.png")):
-            os.remove(os.path.join(work, f"{v.name}.png"))
+    bl.clear_views(views, work, "png")
     verts, quads = cyclorama(scene, views)
     job = {
-        "asset": os.path.abspath(layer), "root_object": bl.root_object(layer), "addon_zip": bl.addon_zip(work),
-        "addon_module": bl.ADDON_MODULE, "out_dir": work, "samples": int(samples), "threads": bl.THREADS,
-        "transparent_bounces": bl.TRANSPARENT_BOUNCES, "ground_vertices_m": np.round(verts, 6).tolist(),
+        **bl.base_job(os.path.abspath(layer), views, work, samples), "ground_vertices_m": np.round(verts, 6).tolist(),
         "ground_quads": quads.tolist(), "ground_albedo": GROUND_ALBEDO, "sky_horizon_rgb": SKY_HORIZON_RGB,
         "sky_zenith_rgb": SKY_ZENITH_RGB, "sky_strength": SKY_STRENGTH, "sun_strength": SUN_STRENGTH,
         "sun_rgb": SUN_RGB, "sun_angle_deg": SUN_ANGLE_DEG, "look": LOOK, "exposure": EXPOSURE,
         "views": [{**v.to_dict(), "sun_direction": v.light_direction.tolist()} for v in views],
     }
     bl.run_job(job, work, "rockdove.hosts.blender_beauty_job", timeout_s=TIMEOUT_S)
-    out = {}
-    for v in views:
-        path = os.path.join(work, f"{v.name}.png")
-        if not os.path.isfile(path):
-            raise HostError(bl.NAME, f"Blender wrote no beauty image for {v.name!r} ({path})")
-        out[v.name] = np.asarray(Image.open(path).convert("RGB"))
-        if out[v.name].shape != (v.height, v.width, 3):
-            raise HostError(bl.NAME, f"{v.name}: Blender image is {out[v.name].shape[:2]}, expected "
-                                     f"{(v.height, v.width)}")
-    return out
+    return bl.read_views(bl.NAME, "Blender", views, work, "png")
 
 
 def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", width: int = 768,
                   height: int = 512, samples: int = 32, cycles_ok: bool = True, lut=None) -> dict | None:
-    """Render the beauty views into ``out_dir`` (``beauty_34.png``, ``beauty_side.png``) and describe them.
+    """Render the beauty views (``beauty_34.png``, ``beauty_side.png``, ``width`` x ``height`` px) into ``out_dir``
+    and describe them: ``{"renderer": "cycles"|"gl", "files": {view: file name}, "caption", "seconds", "size":
+    [w, h], "samples": int or None, "fallback": reason or None}``; None for ``renderer="off"``.
 
-    Parameters
-    ----------
-    layer : str
-        The asset's root layer (Cycles imports it).
-    scene : RenderScene
-        The same asset read back (framing, the GL path).
-    renderer : str
-        One of :data:`RENDERERS`.
-    width, height : int
-        Pixels of each view.
-    samples : int
-        Cycles samples per pixel (adaptive: the most a pixel takes).
-    cycles_ok : bool
-        Whether ``auto`` may take Cycles (False where the verification was not asked to run Blender).
-    lut : ThinFilmLUT, optional
-        The film's LUT for the GL path (default the asset's).
-
-    Returns
-    -------
-    dict or None
-        ``{"renderer": "cycles"|"gl", "files": {view: file name}, "caption": str, "seconds": float,
-        "size": [w, h], "samples": int or None, "fallback": reason or None}``; None for ``renderer="off"``.
+    ``layer`` is the asset's root layer (Cycles imports it), ``scene`` the same asset read back (framing, the GL
+    path), ``renderer`` one of :data:`RENDERERS`, ``samples`` the most a pixel takes in Cycles (adaptive);
+    ``cycles_ok``: whether ``auto`` may take Cycles (False where the verification was not asked to run Blender);
+    ``lut``: the GL path's film LUT (default the asset's).
     """
     from ..render.images import save_png
 
@@ -100,9 +67,8 @@ def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", wi
 
         images = render_gl(scene, views, ground_y_m(scene), lut=lut)
     seconds = time.perf_counter() - t
-    files = {}
-    for name, img in images.items():
-        files[name] = os.path.basename(save_png(img, os.path.join(out_dir, f"{name}.png")))
+    files = {name: os.path.basename(save_png(img, os.path.join(out_dir, f"{name}.png")))
+             for name, img in images.items()}
     if used == "cycles":
         caption = (f"Cycles (Blender, through the rockdove add-on), {samples} samples per pixel, adaptive, "
                    f"OpenImageDenoise, AgX; sky light and a {SUN_ANGLE_DEG:g} degree warm sun at "

@@ -1,20 +1,16 @@
 """The Blender host: the written asset imported by Blender (``bpy``) with the rockdove add-on, drawn by Cycles.
 
-What it checks is Blender's own code on the asset as a Blender user gets it: the add-on zip
-(:func:`addon_zip`, ``rockdove blender-addon``) installed and enabled with Blender's operators, a plain
-``bpy.ops.wm.usd_import`` (the add-on's ``USDHook`` builds the Principled thin-film material from the
-asset's ``rockdove:film:*`` records), and Cycles' own thin-film BSDF (``VARIANT = "physical"``).
+It checks Blender's own code on the asset as a Blender user gets it: the add-on zip (:func:`addon_zip`, ``rockdove
+blender-addon``) installed and enabled with Blender's operators, a plain ``bpy.ops.wm.usd_import`` (the add-on's
+``USDHook`` builds the Principled thin-film material from the asset's ``rockdove:film:*`` records), and Cycles'
+own thin-film BSDF (``VARIANT = "physical"``). Lighting (``LOBE = "view_angle"``): the film's mirror lobe alone
+under a uniform white world of unit radiance, everything else black, so a feather-tip pixel is the film's
+reflectance at ``cos theta = |N.V|``. The Blender side, :mod:`rockdove.hosts.blender_job`, runs in a subprocess:
+bpy's bundled USD and usd-core's ``pxr`` cannot share one process.
 
-Lighting model (``LOBE = "view_angle"``, BRIEF "hosts interface"): the film's mirror lobe alone under a
-uniform white world of unit radiance, base colour black, other parts black; a feather-tip pixel is then the
-film's reflectance at ``cos theta = |N.V|`` (for a smooth film the mirror direction makes the incidence angle
-the view angle). The Blender side is :mod:`rockdove.hosts.blender_job`, run in a subprocess because bpy's
-bundled USD and usd-core's ``pxr`` cannot share one process (see there).
-
-Cycles runs on the CPU with :data:`SAMPLES` samples per pixel and a 0.01 px pixel filter (the reference
-samples pixel centres); with a smooth film, a uniform world and binary cut-outs the only noise left is where
-the tip mask is fractional. Output: float32 EXR written by Blender, read with OpenEXR, linear Rec.709
-(Blender's scene-linear space), background 0 (transparent film, premultiplied).
+Cycles on the CPU, :data:`SAMPLES` samples per pixel, a 0.01 px pixel filter (the reference samples pixel
+centres): with a smooth film, a uniform world and binary cut-outs the only noise is where the tip mask is
+fractional. Output: float32 EXR (linear Rec.709, Blender's scene-linear space), background 0.
 """
 
 from __future__ import annotations
@@ -50,7 +46,6 @@ THREADS = 2
 #: Seconds before a Blender run is given up (import ~2 s, 64x64 renders take a second each).
 TIMEOUT_S = 900
 
-
 #: Names a Python interpreter that has bpy, for when the one running rockdove has not: bpy 5.0 pins numpy < 2,
 #: which rockdove's other dependencies (colour-science 0.4.7) have outgrown, so the two usually live in separate
 #: environments. A setting of where a tool is, like ``PXR_PLUGINPATH_NAME``.
@@ -60,8 +55,6 @@ BPY_VENV = ".venv-bpy"
 #: How to give rockdove a bpy, the end of every "not found" reason (the SKIPPED line of ``rockdove verify``).
 BPY_HOW = (f"set {BPY_PYTHON_ENV}=/path/to/bin/python of a Python 3.11 with pip install 'bpy==5.0.1', "
            f"or run make test (it makes {BPY_VENV} beside .venv)")
-
-
 #: The oldest bpy module whose bundled ``pxr`` lets the add-on's USD hook run (the 4.2 wheels ship none).
 BPY_MIN = (4, 4)
 _PROBE = ("import importlib.metadata as m, importlib.util, sys\n"
@@ -103,14 +96,13 @@ def _find() -> tuple:
     """(the Python with bpy, None) or (None, why there is none)."""
     if importlib.util.find_spec("bpy") is not None:
         return sys.executable, None
-    places, tried = bpy_places(), []
+    places, tried, setting = bpy_places(), [], os.environ.get(BPY_PYTHON_ENV, "").strip()
     for exe in places:
-        if exe == os.environ.get(BPY_PYTHON_ENV, "").strip() or os.path.exists(exe):
+        if exe == setting or os.path.exists(exe):
             why = _probe(exe)
             if why is None:
                 return exe, None
-            env = os.environ.get(BPY_PYTHON_ENV, "").strip() == exe
-            tried.append(f"{'$' + BPY_PYTHON_ENV + '=' if env else ''}{exe} {why}")
+            tried.append(f"{'$' + BPY_PYTHON_ENV + '=' if exe == setting else ''}{exe} {why}")
     if not tried:
         tried = [f"no {BPY_VENV} at {', '.join(os.path.dirname(os.path.dirname(e)) for e in places)}"]
     return None, f"bpy is not in this Python and {'; '.join(tried)}; {BPY_HOW}"
@@ -132,16 +124,9 @@ def unavailable() -> str | None:
 
 
 def addon_zip(out_dir) -> str:
-    """Write ``out_dir/rockdove_blender.zip``, the Blender add-on, from its sources among the data files.
-
-    The zip holds the folder ``rockdove_blender/`` (so Blender installs the module ``rockdove_blender``),
-    its files in sorted order with a fixed timestamp: the same sources give the same bytes.
-
-    Returns
-    -------
-    str
-        Absolute path of the zip.
-    """
+    """Write ``out_dir/rockdove_blender.zip``, the Blender add-on, from its sources among the data files; return its
+    absolute path. It holds the folder ``rockdove_blender/`` (the module Blender installs), its files sorted, with
+    a fixed timestamp: the same sources give the same bytes."""
     from .. import resources
 
     source = resources.path(ADDON_SOURCE)
@@ -177,20 +162,12 @@ def read_exr_rgb(path: str) -> np.ndarray:
 
     with OpenEXR.File(path) as f:
         channels = {name: np.array(ch.pixels) for name, ch in f.channels().items()}
-    if "RGBA" in channels:
-        rgb = channels["RGBA"][..., :3]
-    elif "RGB" in channels:
-        rgb = channels["RGB"]
-    elif all(c in channels for c in "RGB"):
+    rgb = channels.get("RGBA", channels.get("RGB"))
+    if rgb is None and all(c in channels for c in "RGB"):
         rgb = np.stack([channels[c] for c in "RGB"], axis=-1)
-    else:
+    if rgb is None:
         raise HostError(NAME, f"{path}: no RGB channels (has {sorted(channels)})")
-    return np.ascontiguousarray(rgb, dtype=np.float32)
-
-
-def render(asset_path: str, views, out_dir: str) -> dict:
-    """The host interface: :func:`run_blender` with the add-on, the ``view_angle`` lobe, :data:`SAMPLES`."""
-    return run_blender(asset_path, views, out_dir)
+    return np.ascontiguousarray(rgb[..., :3], dtype=np.float32)
 
 
 def run_job(job: dict, work: str, module: str = "rockdove.hosts.blender_job", timeout_s: float = TIMEOUT_S) -> None:
@@ -220,46 +197,22 @@ def run_job(job: dict, work: str, module: str = "rockdove.hosts.blender_job", ti
                               f"{lines[-1] if lines else 'no message'} (log: {work}/blender.log)")
 
 
-#: What :func:`run_blender` can draw: the film lobe alone (the verification render), or the asset as Blender
+#: What :func:`render` can draw: the film lobe alone (the verification render), or the asset as Blender
 #: imported it (every material untouched) under the same white world: what a user sees.
 LOBES = (LOBE, "as_imported")
 
 
-def run_blender(asset_path: str, views, out_dir: str, *, addon: bool = True, lobe: str = LOBE,
-                samples: int = SAMPLES) -> dict:
-    """Render ``views`` of the written asset in Blender (Cycles, CPU), with or without the rockdove add-on.
-
-    Parameters
-    ----------
-    asset_path : str
-        ``pigeon.usda`` or ``pigeon.usdz``.
-    views : list of rockdove.render.views.View
-    out_dir : str
-        Receives ``blender/``: the add-on zip, Blender's user folders, the job, one EXR and one PNG per view.
-    addon : bool
-        Install and enable the add-on first (False: Blender's importer alone, the UsdPreviewSurface look).
-    lobe : str
-        One of :data:`LOBES`.
-    samples : int
-        Cycles samples per pixel.
-
-    Returns
-    -------
-    dict
-        view name -> (H, W, 3) float32 linear Rec.709 radiance, background 0.
-
-    Raises
-    ------
-    HostError
-        bpy is missing, Blender fails to import or render, or the add-on builds no thin-film material.
-    """
-
+def render(asset_path: str, views, out_dir: str, *, addon: bool = True, lobe: str = LOBE,
+           samples: int = SAMPLES) -> dict:
+    """Render ``views`` of ``pigeon.usda`` or ``pigeon.usdz`` in Blender (Cycles, CPU) into ``out_dir/blender/``
+    (the add-on zip, Blender's user folders, the job, a EXR and a PNG per view): view name -> (H, W, 3) float32
+    linear Rec.709 radiance, background 0. The host interface takes the defaults; ``addon=False`` is Blender's
+    importer alone (the UsdPreviewSurface look), ``lobe`` one of :data:`LOBES`, ``samples`` per pixel.
+    Raises :class:`HostError` when bpy is missing, Blender fails, or the add-on builds no thin-film material."""
     bpy_python()  # bpy missing: HostError before any work
     views = list(views)
     if not views:
         raise ValueError("views must hold at least one View, got none")
-    if int(samples) < 1:
-        raise ValueError(f"samples must be >= 1, got {samples!r}")
     if lobe not in LOBES or (lobe == LOBE and not addon):
         raise ValueError(f"lobe={lobe!r} with addon={addon}; allowed: {LOBES[0]!r} (needs the add-on) or {LOBES[1]!r}")
     asset_path = os.path.abspath(os.fspath(asset_path))
@@ -267,50 +220,46 @@ def run_blender(asset_path: str, views, out_dir: str, *, addon: bool = True, lob
         raise HostError(NAME, f"no asset at {asset_path!r}")
     work = os.path.join(os.path.abspath(out_dir), NAME)
     os.makedirs(work, exist_ok=True)
-    for v in views:
-        stale = os.path.join(work, f"{v.name}.exr")
-        if os.path.exists(stale):
-            os.remove(stale)
-    job = {
-        "asset": asset_path,
-        "root_object": root_object(asset_path),
-        "addon_zip": addon_zip(work) if addon else None,
-        "addon_module": ADDON_MODULE,
-        "lobe": lobe,
-        "environment_radiance": ENVIRONMENT_RADIANCE,
-        "samples": int(samples),
-        "transparent_bounces": TRANSPARENT_BOUNCES,
-        "threads": THREADS,
-        "out_dir": work,
-        "views": [v.to_dict() for v in views],
-    }
-    run_job(job, work)
+    clear_views(views, work)
+    run_job({**base_job(asset_path, views, work, samples, addon=addon), "lobe": lobe,
+             "environment_radiance": ENVIRONMENT_RADIANCE}, work)
     return read_views(NAME, "Blender", views, work)
 
 
-def clear_views(views, work: str) -> None:
+def base_job(asset: str, views, work: str, samples: int, *, addon: bool = True) -> dict:
+    """What every job through the add-on reads: the asset to import (:func:`rockdove.hosts.blender_job.import_asset`),
+    the Cycles settings, where the images go and the views."""
+    return {"asset": asset, "root_object": root_object(asset), "addon_zip": addon_zip(work) if addon else None,
+            "addon_module": ADDON_MODULE, "samples": int(samples), "transparent_bounces": TRANSPARENT_BOUNCES,
+            "threads": THREADS, "out_dir": work, "views": [v.to_dict() for v in views]}
+
+
+def clear_views(views, work: str, ext: str = "exr") -> None:
     """Remove the views' images a job wrote into ``work`` before, so a job that writes none is caught."""
     for v in views:
         with contextlib.suppress(FileNotFoundError):
-            os.remove(os.path.join(work, f"{v.name}.exr"))
+            os.remove(os.path.join(work, f"{v.name}.{ext}"))
 
 
-def read_views(host: str, renderer: str, views, work: str) -> dict:
+def read_views(host: str, renderer: str, views, work: str, ext: str = "exr") -> dict:
     """The ``<view>.exr`` a job of host ``host`` (drawn by ``renderer``, for messages) wrote into ``work``: view name
-    -> (H, W, 3) float32 linear radiance, each also written as ``<view>.png``. Raises :class:`HostError` for a
-    missing image or one of the wrong size (naming the job's log)."""
+    -> (H, W, 3) float32 linear radiance, each also written as ``<view>.png`` (``ext="png"``: the PNGs, uint8).
+    Raises :class:`HostError` for a missing image or one of the wrong size (naming the job's log)."""
+    from PIL import Image
+
     from ..render.images import save_png
     from ..spectral import linear_to_srgb8
 
     out = {}
     for v in views:
-        exr = os.path.join(work, f"{v.name}.exr")
-        if not os.path.isfile(exr):
-            raise HostError(host, f"{renderer} wrote no image for view {v.name!r} ({exr}; log: {work}/blender.log)")
-        rgb = read_exr_rgb(exr)
-        if rgb.shape != (v.height, v.width, 3):
-            raise HostError(host, f"view {v.name!r}: {renderer} image is {rgb.shape[:2]}, expected "
+        path = os.path.join(work, f"{v.name}.{ext}")
+        if not os.path.isfile(path):
+            raise HostError(host, f"{renderer} wrote no image for view {v.name!r} ({path}; log: {work}/blender.log)")
+        img = read_exr_rgb(path) if ext == "exr" else np.asarray(Image.open(path).convert("RGB"))
+        if img.shape != (v.height, v.width, 3):
+            raise HostError(host, f"view {v.name!r}: {renderer} image is {img.shape[:2]}, expected "
                                   f"{(v.height, v.width)}")
-        save_png(linear_to_srgb8(rgb), os.path.join(work, f"{v.name}.png"))
-        out[v.name] = rgb
+        if ext == "exr":
+            save_png(linear_to_srgb8(img), os.path.join(work, f"{v.name}.png"))
+        out[v.name] = img
     return out

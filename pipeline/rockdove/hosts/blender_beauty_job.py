@@ -1,21 +1,12 @@
 """The Blender side of the beauty render (:mod:`rockdove.render.beauty`): run as ``PYTHON blender_beauty_job.py
-JOB.json`` by a Python that has bpy; like :mod:`rockdove.hosts.blender_job` (whose import steps it calls) it
-imports nothing but the standard library, bpy and that job module.
+JOB.json`` (written by :func:`rockdove.hosts.beauty.render_cycles`, every value) by a Python that has bpy; it
+imports nothing but the standard library, bpy and :mod:`rockdove.hosts.blender_job`, whose steps it takes.
 
-The asset is imported exactly as a Blender user imports it (the add-on enabled, ``wm.usd_import``, every material
-as the add-on built it), then staged as a look-dev artist stages a hero shot:
-
-- the job's neutral grey ground (Principled, roughness 0.7) at the bird's lowest point, catching its shadow,
-  curving up far behind the bird into a wall (a photo studio's cyclorama: no horizon line);
-- a world of a sky gradient (warm grey horizon to pale blue zenith) at moderate strength: the fill and the
-  background above the horizon;
-- a warm sun (angular diameter ``sun_angle_deg``: soft shadows), its strength from the job, its direction each
-  view's own (a key light placed for that camera);
-- Cycles on the CPU, ``samples`` with adaptive sampling and OpenImageDenoise, the AgX view transform;
-- one camera per view (the job's OpenGL ``camera_to_world`` through the importer's up-axis conversion, as the
-  verification host does), written as an 8-bit PNG through the view transform.
-
-Every value comes from the job file (:func:`rockdove.hosts.beauty.render_cycles` writes it).
+The asset is imported as a Blender user imports it (the add-on enabled, every material as the add-on built it),
+then staged as a hero shot: a neutral grey ground (roughness 0.7) at the bird's lowest point curving up far behind
+it into a wall (a studio cyclorama: no horizon line); a sky-gradient world (warm grey horizon to pale blue zenith)
+as fill and background; a warm sun (angular diameter ``sun_angle_deg``: soft shadows) from each view's own
+direction; Cycles on the CPU with adaptive sampling and OpenImageDenoise; an 8-bit PNG per view through AgX.
 """
 
 from __future__ import annotations
@@ -23,7 +14,6 @@ from __future__ import annotations
 import json
 import os
 import sys
-import time
 
 import blender_job as bj  # the sibling job module (this file is run by path: its folder is sys.path[0])
 
@@ -67,7 +57,7 @@ def _sky(bpy, job):
     bpy.context.scene.world = world
 
 
-def _sun(bpy, mathutils, to_blender, job):
+def _sun(bpy, job):
     data = bpy.data.lights.new("rockdove_sun", "SUN")
     data.energy = float(job["sun_strength"])  # W/m^2
     data.color = tuple(job["sun_rgb"])
@@ -77,29 +67,16 @@ def _sun(bpy, mathutils, to_blender, job):
     return ob
 
 
-def _aim(ob, mathutils, to_blender, towards_usd) -> None:
-    """Turn the sun so it shines from ``towards_usd`` (USD world, from the bird toward the sun)."""
-    towards = (to_blender.to_3x3() @ mathutils.Vector(towards_usd)).normalized()
-    ob.rotation_euler = towards.to_track_quat("Z", "Y").to_euler()  # a sun shines down its local -Z
-
-
 def _settings(scene, job):
-    scene.render.engine = "CYCLES"
+    bj.cycles(scene, job)
     c = scene.cycles
-    c.device = "CPU"
-    c.samples = int(job["samples"])
     c.use_adaptive_sampling = True
     c.adaptive_threshold = 0.02
     c.use_denoising = True
     c.denoiser = "OPENIMAGEDENOISE"
     c.max_bounces, c.diffuse_bounces, c.glossy_bounces, c.transmission_bounces = 6, 2, 2, 2
-    c.transparent_max_bounces = int(job["transparent_bounces"])
-    c.seed = 0
     scene.render.film_transparent = False
     scene.render.use_persistent_data = True  # the second view reuses the first's BVH and shaders
-    scene.render.resolution_percentage = 100
-    scene.render.threads_mode = "FIXED"
-    scene.render.threads = int(job["threads"])
     settings = scene.render.image_settings
     settings.file_format, settings.color_mode, settings.color_depth = "PNG", "RGB", "8"
     scene.view_settings.view_transform = "AgX"
@@ -114,18 +91,14 @@ def run(job: dict) -> None:
     _, films, to_blender = bj.import_asset(bpy, job)
     _ground(bpy, to_blender, job)
     _sky(bpy, job)
-    sun = _sun(bpy, mathutils, to_blender, job)
-    scene = bpy.context.scene
-    _settings(scene, job)
-    seconds = {}
-    for view in job["views"]:
-        scene.render.resolution_x, scene.render.resolution_y = int(view["width"]), int(view["height"])
-        scene.camera = bj._camera(bpy, mathutils, to_blender, view)
-        _aim(sun, mathutils, to_blender, view["sun_direction"])
-        scene.render.filepath = os.path.join(job["out_dir"], f"{view['name']}.png")
-        t = time.perf_counter()
-        bpy.ops.render.render(write_still=True)
-        seconds[view["name"]] = time.perf_counter() - t
+    sun = _sun(bpy, job)
+    _settings(bpy.context.scene, job)
+
+    def aim(view):  # the sun shines down its local -Z, from view["sun_direction"] (USD world, bird to sun)
+        towards = (to_blender.to_3x3() @ mathutils.Vector(view["sun_direction"])).normalized()
+        sun.rotation_euler = towards.to_track_quat("Z", "Y").to_euler()
+
+    seconds = bj.shoot(bpy, mathutils, to_blender, job, "png", aim=aim)
     with open(os.path.join(job["out_dir"], "done.json"), "w", encoding="utf-8") as fh:
         json.dump({"films": films, "blender": bpy.app.version_string, "render_s": seconds}, fh)
 

@@ -1,28 +1,19 @@
 """The Blender side of :mod:`rockdove.hosts.blender`: run as ``PYTHON path/to/blender_job.py JOB.json`` by a Python
-that has bpy (:func:`rockdove.hosts.blender.bpy_python`); it imports nothing but the standard library and bpy.
-
-It runs in its own process because ``bpy`` bundles its own USD (0.25.08) while rockdove uses usd-core: the
-add-on's ``USDHook`` gets the import's stage as a bundled-USD object, which only bpy's own ``pxr`` Python
-package can read, and ``import pxr`` in a process that also uses usd-core finds usd-core's (measured: "No
-to_python converter found for C++ type ... UsdStage"). The add-on itself puts bpy's bundled ``pxr`` on
-``sys.path`` when it is enabled, as it does for any user; this module imports nothing of rockdove that uses USD.
+that has bpy; it imports nothing but the standard library and bpy. Its own process, because bpy bundles its own USD:
+the add-on's ``USDHook`` gets the import's stage as an object of it, which only bpy's ``pxr`` can read, and ``import
+pxr`` beside usd-core finds usd-core's (measured: "No to_python converter found for C++ type ... UsdStage").
 
 Steps (the job file, written by :func:`rockdove.hosts.blender.render`, gives every value):
 
-1. install the add-on zip and enable ``rockdove_blender`` exactly as a user does
-   (``bpy.ops.preferences.addon_install`` / ``addon_enable``; the parent points Blender's user folders
-   into the job folder, so nothing is installed outside it);
+1. install the add-on zip and enable it as a user does (Blender's user folders point into the job folder);
 2. ``bpy.ops.wm.usd_import`` of the asset: the add-on builds the thin-film material;
-3. ``lobe = "as_imported"`` leaves every material as imported (what a user sees, with or without the add-on);
-   ``lobe = "view_angle"`` (BRIEF "hosts interface"): the film lobe alone under a uniform white world of unit
-   radiance. The add-on's film is made smooth (roughness 0: the mirror lobe), its base BSDF is turned black
-   (its base-colour link removed), every other material
-   becomes black diffuse (still occluding), and no object is seen by glossy rays, so each film pixel
-   reflects the environment itself (no inter-reflection, as the reference assumes);
-4. per view: a camera with the View's OpenGL ``camera_to_world`` mapped through the importer's up-axis
-   conversion (the imported root prim's world matrix: ``/Pigeon`` has no transform of its own), vertical
-   field of view, size; Cycles on the CPU, ``samples`` per pixel, a 0.01 px pixel filter (pixel centres, like
-   the reference), transparent film (background 0), written as float32 EXR.
+3. ``lobe = "as_imported"`` leaves every material as imported (what a user sees); ``lobe = "view_angle"``: the
+   film smooth (roughness 0: the mirror lobe), its base BSDF black, every other material black diffuse (still
+   occluding), no object seen by glossy rays, under a uniform white world: each film pixel reflects the
+   environment itself (no inter-reflection, as the reference assumes);
+4. per view: a camera with the View's OpenGL ``camera_to_world`` through the importer's up-axis conversion (the
+   imported root prim's world matrix), its vertical field of view and size; Cycles on the CPU, a 0.01 px pixel
+   filter (pixel centres, like the reference), transparent film (background 0), float32 EXR.
 """
 
 from __future__ import annotations
@@ -30,21 +21,24 @@ from __future__ import annotations
 import json
 import os
 import sys
+import time
+
+
+def _black(bsdf) -> None:
+    bsdf.inputs["Base Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    bsdf.inputs["Specular IOR Level"].default_value = 0.0
 
 
 def _black_material(bpy):
     mat = bpy.data.materials.new("rockdove_black")
     mat.use_nodes = True
-    bsdf = mat.node_tree.nodes.get("Principled BSDF")
-    bsdf.inputs["Base Color"].default_value = (0.0, 0.0, 0.0, 1.0)
-    bsdf.inputs["Specular IOR Level"].default_value = 0.0
+    _black(mat.node_tree.nodes.get("Principled BSDF"))
     return mat
 
 
-def film_lobe_only(bpy, addon) -> int:
-    """Set up the ``view_angle`` lobe (module docstring, step 3); returns the number of thin-film materials."""
+def film_lobe_only(bpy, addon) -> None:
+    """Set up the ``view_angle`` lobe (module docstring, step 3)."""
     black = _black_material(bpy)
-    films = 0
     for ob in bpy.data.objects:
         ob.visible_glossy = False
         if ob.type != "MESH":
@@ -56,12 +50,9 @@ def film_lobe_only(bpy, addon) -> int:
                 base = mat.node_tree.nodes[addon.NODE_BASE]
                 for link in list(base.inputs["Base Color"].links):
                     mat.node_tree.links.remove(link)
-                base.inputs["Base Color"].default_value = (0.0, 0.0, 0.0, 1.0)
-                base.inputs["Specular IOR Level"].default_value = 0.0
-                films += 1
+                _black(base)
             else:
                 slot.material = black
-    return films
 
 
 def _world(bpy, radiance: float) -> None:
@@ -105,23 +96,44 @@ def import_asset(bpy, job: dict):
     return addon, films, root.matrix_world.copy()  # the importer's up-axis conversion
 
 
-def render_views(bpy, mathutils, to_blender, job: dict) -> None:
-    """Step 4 (module docstring): Cycles on the CPU as the job says, one EXR per View with its camera exactly
-    (also the OSL host's, :mod:`rockdove.hosts.osl_job`)."""
-    scene = bpy.context.scene
+def cycles(scene, job: dict) -> None:
+    """The Cycles settings of every job: the CPU, the job's samples, transparent bounces and threads, seed 0."""
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
     scene.cycles.samples = int(job["samples"])
-    scene.cycles.use_denoising = False
-    scene.cycles.use_adaptive_sampling = False
     scene.cycles.transparent_max_bounces = int(job["transparent_bounces"])
-    scene.cycles.filter_width = 0.01
     scene.cycles.seed = 0
-    scene.render.film_transparent = True
     scene.render.resolution_percentage = 100
-    scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
     scene.render.threads_mode = "FIXED"
     scene.render.threads = int(job["threads"])
+
+
+def shoot(bpy, mathutils, to_blender, job: dict, ext: str, aim=None) -> dict:
+    """Render each of the job's views with its camera exactly (``aim(view)`` first, if given) as
+    ``out_dir/<view>.<ext>``; returns seconds per view."""
+    scene = bpy.context.scene
+    seconds = {}
+    for view in job["views"]:
+        scene.render.resolution_x, scene.render.resolution_y = int(view["width"]), int(view["height"])
+        scene.camera = _camera(bpy, mathutils, to_blender, view)
+        if aim is not None:
+            aim(view)
+        scene.render.filepath = os.path.join(job["out_dir"], f"{view['name']}.{ext}")
+        t = time.perf_counter()
+        bpy.ops.render.render(write_still=True)
+        seconds[view["name"]] = time.perf_counter() - t
+    return seconds
+
+
+def render_views(bpy, mathutils, to_blender, job: dict) -> None:
+    """Step 4 (module docstring): one EXR per View (also the OSL host's, :mod:`rockdove.hosts.osl_job`)."""
+    scene = bpy.context.scene
+    cycles(scene, job)
+    scene.cycles.use_denoising = False
+    scene.cycles.use_adaptive_sampling = False
+    scene.cycles.filter_width = 0.01
+    scene.render.film_transparent = True
+    scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
     settings = scene.render.image_settings
     settings.file_format = "OPEN_EXR"
     settings.color_depth = "32"
@@ -130,11 +142,7 @@ def render_views(bpy, mathutils, to_blender, job: dict) -> None:
         settings.color_management = "OVERRIDE"
         settings.linear_colorspace_settings.name = job["exr_colorspace"]
     scene.view_settings.view_transform = "Standard"
-    for view in job["views"]:
-        scene.render.resolution_x, scene.render.resolution_y = int(view["width"]), int(view["height"])
-        scene.camera = _camera(bpy, mathutils, to_blender, view)
-        scene.render.filepath = os.path.join(job["out_dir"], f"{view['name']}.exr")
-        bpy.ops.render.render(write_still=True)
+    shoot(bpy, mathutils, to_blender, job, "exr")
 
 
 def run(job: dict) -> None:
@@ -152,16 +160,6 @@ def run(job: dict) -> None:
         json.dump({"films": films, "blender": bpy.app.version_string}, fh)
 
 
-def main(argv=None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
-    if len(argv) != 1:
-        print("usage: python -m rockdove.hosts.blender_job JOB.json", file=sys.stderr)
-        return 2
-    with open(argv[0], encoding="utf-8") as fh:
-        job = json.load(fh)
-    run(job)
-    return 0
-
-
 if __name__ == "__main__":
-    sys.exit(main())
+    with open(sys.argv[1], encoding="utf-8") as fh:
+        run(json.load(fh))

@@ -1,13 +1,10 @@
-"""The web host: three.js's own ``KHR_materials_iridescence`` shading of the asset's ``pigeon.glb``, drawn by
-headless Chromium (Debian's ``chromium``, WebGL2 on SwiftShader).
-
-It reads the written asset: its ``pigeon.glb`` (exported from the USD when the asset has none, e.g. built with
-``gltf.glb = false``), opens the offline viewer page (:mod:`rockdove.web.viewer`) and asks the page to draw each
-View into a float render target (``window.rockdoveRender``): no light, base colour black, a uniform white
-environment of unit radiance (``LOBE = "view_angle"``: the smooth film's mirror lobe, so a feather-tip pixel is
-the film's reflectance colour at ``cos = |N.V|`` as three.js evaluates it, Belcour & Barla 2017, and its
-split-sum image-based lighting). Every browser step has a time limit; a browser that cannot start or a page that
-fails raises :class:`rockdove.hosts.HostError` naming this host.
+"""The web host: three.js's own ``KHR_materials_iridescence`` shading of the asset's ``pigeon.glb`` (exported from
+the USD when the asset has none, e.g. built with ``gltf.glb = false``), drawn by headless Chromium (WebGL2 on
+SwiftShader) in the offline viewer page (:mod:`rockdove.web.viewer`). The page draws each View into a float render
+target (``window.rockdoveRender``): no light, base colour black, a uniform white environment of unit radiance
+(``LOBE = "view_angle"``: a feather-tip pixel is the film's colour at ``cos = |N.V|`` as three.js evaluates it,
+Belcour & Barla 2017, with its split-sum image-based lighting). Every browser step has a time limit; a browser
+that cannot start or a page that fails raises :class:`rockdove.hosts.HostError` naming this host.
 """
 
 from __future__ import annotations
@@ -56,23 +53,10 @@ def _glb_of(asset_path: str, out_dir: Path) -> Path:
 
 
 def render(asset_path: str, views: list, out_dir: str, *, browser_factory=None) -> dict:
-    """Render ``views`` of the asset with three.js in headless Chromium.
-
-    Parameters
-    ----------
-    asset_path : str
-        The asset folder or its root layer.
-    views : list of rockdove.render.views.View
-    out_dir : str
-        Where the page (``web/viewer.html`` and its files) and the PNGs (``web_<view>.png``) go.
-    browser_factory : callable, optional
-        Returns a started :class:`rockdove.web.browser.Browser` (tests pass one that fails to start).
-
-    Returns
-    -------
-    dict
-        ``{view.name: (H, W, 3) float32}`` linear Rec.709 radiance, unclipped, background 0.
-    """
+    """Render ``views`` of the asset (folder or root layer) with three.js in headless Chromium: ``{view.name: (H, W,
+    3) float32}`` linear Rec.709 radiance, unclipped, background 0. The page (``web/viewer.html`` and its files) and
+    the PNGs (``web_<view>.png``) go into ``out_dir``; ``browser_factory`` returns a started
+    :class:`rockdove.web.browser.Browser` (tests pass one that fails to start)."""
     from ..spectral import linear_to_srgb8
     from ..render.images import save_png
     from ..web.browser import Browser, BrowserError

@@ -1,19 +1,14 @@
 """Bakers of the thin-film colour LUT over (cos theta, film thickness) (registry :data:`BAKE_METHODS`).
 
-``"spectral"``: :func:`rockdove.optics.reflectance` on a uniform wavelength grid (``spectral_step_nm``) for every
-texel, then ``R @ W`` with the colour weights: the baseline, for any film (absorbing, total internal reflection).
-``"spectral_fast"``: the same sampling for real interface coefficients, with the Fresnel coefficients computed
-once per (angle, wavelength) and only the phase per texel (the real Airy form, Born & Wolf 7.6.1), and finer
-steps in the resonant band ``cos theta < grazing_cos``. ``"fourier"``: the exact Fourier route of method.md
-(:mod:`.fourier`) for non-dispersive real films; texels whose series would need more than ``max_terms`` terms
-and the bare interface (d = 0) are integrated like the reference. ``"quadrature"``: product integration in
-wavenumber (:mod:`.quadrature`), exact for any film with real interface coefficients, dispersive or not.
-``"auto"``: ``"fourier"`` where it applies, else ``"quadrature"`` (dispersive films such as keratin: faster than
-``"spectral_fast"`` and exact, ``rockdove bench lut``), else ``"spectral"``.
-
-Unpolarised light is the mean of the s and p reflectances; ``OPD = 2 n_b d cos(theta_b)`` (nm), ``phi = 2 pi
-OPD / lambda``. References: Born, M. & Wolf, E., *Principles of Optics*, 7th ed., sec. 7.6.1 (Airy formula);
-method.md (the Fourier form); the table layout is :mod:`.table`'s.
+``"spectral"``: :func:`rockdove.optics.reflectance` on a uniform wavelength grid (``spectral_step_nm``), then
+``R @ W``: the baseline, for any film (absorbing, total internal reflection). ``"spectral_fast"``: the same for
+real interface coefficients, the Fresnel coefficients once per (angle, wavelength) and the phase per texel (the
+real Airy form, Born & Wolf, *Principles of Optics*, 7th ed., sec. 7.6.1), finer steps below ``grazing_cos``.
+``"fourier"``: method.md's exact Fourier route (:mod:`.fourier`) for non-dispersive real films (texels needing
+more than ``max_terms`` terms, and d = 0, are integrated like the reference). ``"quadrature"``: product
+integration in wavenumber (:mod:`.quadrature`), exact for any real-coefficient film. ``"auto"``: ``"fourier"``
+where it applies, else ``"quadrature"`` (faster than ``"spectral_fast"`` and exact, ``rockdove bench lut``), else
+``"spectral"``. Unpolarised light is the mean of s and p; the table layout is :mod:`.table`'s.
 """
 
 from __future__ import annotations
@@ -49,12 +44,11 @@ OBSERVER = DEFAULT_OBSERVER
 
 # Memory bound for the sampled methods: (texels x wavelengths) evaluated per chunk.
 _CHUNK_ELEMENTS = 2_000_000
-# The largest LUT (the schema's lut.angles / lut.thicknesses ranges): a 4096 x 4096 bake, its error check, EXR
-# and preview stay within the 4 GiB memory budget (``rockdove bench memory``) and every GPU's texture limit.
+# The largest LUT (the schema's ranges): a 4096 x 4096 bake, its error check, EXR and preview stay within the 4 GiB
+# budget (``rockdove bench memory``) and every GPU's texture limit.
 MAX_ANGLES = MAX_THICKNESSES = 4096
 
 
-# -- helpers ------------------------------------------------------------------------------------------
 def _check_count(name, value, minimum, maximum=None):
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not (
             minimum <= value <= (maximum if maximum is not None else value)):
@@ -90,27 +84,19 @@ def wavelength_grid(step_nm: float) -> np.ndarray:
     return lo + step_nm * np.arange(n)
 
 
-def _texel_chunks(n_angle, n_wavelength):
-    return max(1, _CHUNK_ELEMENTS // max(1, n_angle * n_wavelength))
-
-
-# -- methods ------------------------------------------------------------------------------------------
 def _bake_spectral(cos_theta, thickness_nm, film, *, illuminant, colour_space, spectral_step_nm, **_):
-    """Straightforward per-wavelength bake with :func:`rockdove.optics.reflectance`; shape (M, N, 3)."""
+    """Straightforward per-wavelength bake with :func:`rockdove.optics.reflectance`; shape (T, A, 3). Rows of
+    texels at a time, so the Fresnel terms are computed per (angle, wavelength), not per texel."""
     from .. import optics
     from .weights import colour_weights
 
     wl = wavelength_grid(spectral_step_nm)
     w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
-    n_film = film.n_film(wl)
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
-    rows = _texel_chunks(cos_theta.shape[0], wl.shape[0])
+    rows = max(1, _CHUNK_ELEMENTS // max(1, cos_theta.shape[0] * wl.shape[0]))
     for i in range(0, thickness_nm.shape[0], rows):
-        d = thickness_nm[i : i + rows, None, None]
-        r = optics.reflectance(
-            wl[None, None, :], cos_theta[None, :, None], d, n_film=n_film,
-            n_incident=film.n_incident, n_substrate=film.n_substrate,
-        )
+        r = optics.reflectance(wl[None, None, :], cos_theta[None, :, None], thickness_nm[i : i + rows, None, None],
+                               n_film=film.n_film(wl), n_incident=film.n_incident, n_substrate=film.n_substrate)
         out[i : i + rows] = r @ w
     return out, {"spectralStepNm": repr(float(spectral_step_nm))}
 
@@ -121,11 +107,9 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
     coef = interface_coefficients(film, cos_theta, wavelength_nm)
     if coef is None:
         raise ValueError(f"film {film.name!r} has complex interface coefficients; use method='spectral'")
-    # Airy form in half-angle variables, stable near grazing where a b -> -1 (p = a b, s2 = sin^2(phi / 2)):
-    #   R = ((a + b)^2 - 4 p s2) / ((1 + p)^2 - 4 p s2)
-    # For p <= 0 (e.g. a film in air, b = -a) both terms of the denominator are >= 0, so float32 is safe and
-    # halves memory traffic (phase rounding ~2e-6 rad at 700 nm, R ~1e-7: far below 1e-3 dE2000); otherwise
-    # float64. phi / 2 = 2 pi n_b cos_b d / lambda.
+    # Airy form in half-angle variables, stable near grazing (p = a b, s2 = sin^2(phi / 2), phi / 2 = 2 pi n_b
+    # cos_b d / lambda): R = ((a + b)^2 - 4 p s2) / ((1 + p)^2 - 4 p s2). For p <= 0 (a film in air) the
+    # denominator has no cancellation, so float32 (phase rounding ~2e-6 rad, R ~1e-7) halves memory traffic.
     products = [coef[f"a_{pol}"] * coef[f"b_{pol}"] for pol in ("s", "p")]
     dtype = np.float32 if max(float(p.max()) for p in products) <= 0.0 else np.float64
     half_k = (2.0 * np.pi * coef["n_b"] * coef["cos_b"] / wavelength_nm[None, :]).astype(dtype)
@@ -135,10 +119,10 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
         a, b = coef[f"a_{pol}"], coef[f"b_{pol}"]
         terms.append(tuple(v.astype(dtype) for v in ((a + b) ** 2, -4.0 * p, (1.0 + p) ** 2)))
         degenerate |= (1.0 + p) ** 2 == 0.0  # a b = -1 (cos theta = 0): R = 1 for any film with d > 0
-    fix_cols = np.nonzero(degenerate.any(axis=1))[0]
+    any_degenerate = bool(degenerate.any())
     w = np.asarray(weights, dtype=dtype)
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
-    rows = _texel_chunks(cos_theta.shape[0], wavelength_nm.shape[0])
+    rows = max(1, _CHUNK_ELEMENTS // max(1, cos_theta.shape[0] * wavelength_nm.shape[0]))
     for i in range(0, thickness_nm.shape[0], rows):
         s2 = np.sin(thickness_nm[i : i + rows, None, None].astype(dtype) * half_k[None])
         s2 *= s2
@@ -150,10 +134,8 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
                 x += den0
                 x_num /= x
                 r += x_num
-        if fix_cols.size:
-            sub = r[:, fix_cols]
-            sub[np.broadcast_to(degenerate[fix_cols][None], sub.shape)] = 2.0
-            r[:, fix_cols] = sub
+        if any_degenerate:
+            r[:, degenerate] = 2.0  # R = 1 for both polarisations
         out[i : i + rows] = (r @ w) * 0.5
     bare = thickness_nm == 0.0
     if np.any(bare):
@@ -323,28 +305,22 @@ def bake(
         lo = hi = 0.5 * (lo + hi)
         thicknesses = 1
     rng = (lo, hi)
-    x = np.linspace(0.0, 1.0, angles)
-    cos_theta = x**gamma
+    cos_theta = np.linspace(0.0, 1.0, angles) ** gamma
     thickness_nm = np.linspace(lo, hi, thicknesses)
 
-    impl = BAKE_METHODS[method]
-    if method == "auto":
-        used, (rgb, meta) = impl(cos_theta, thickness_nm, film_model, **kw)
-    else:
-        used, (rgb, meta) = method, impl(cos_theta, thickness_nm, film_model, **kw)
+    result = BAKE_METHODS[method](cos_theta, thickness_nm, film_model, **kw)
+    used, (rgb, meta) = result if method == "auto" else (method, result)  # "auto" says which method it used
     metadata = {f"film:{k}": v for k, v in film_model.describe().items()}
-    metadata.update(
-        {
-            "film": film_model.name,
-            "illuminant": illuminant,
-            "observer": OBSERVER,
-            "wavelengthRangeNm": f"{WAVELENGTH_RANGE_NM[0]!r} {WAVELENGTH_RANGE_NM[1]!r}",
-            "polarization": "unpolarized (mean of s and p)",
-            "method": used,
-            "methodRequested": method,
-            "estimatedError": "not measured at bake time (bake(error_points=0))",
-        }
-    )
+    metadata.update({
+        "film": film_model.name,
+        "illuminant": illuminant,
+        "observer": OBSERVER,
+        "wavelengthRangeNm": f"{WAVELENGTH_RANGE_NM[0]!r} {WAVELENGTH_RANGE_NM[1]!r}",
+        "polarization": "unpolarized (mean of s and p)",
+        "method": used,
+        "methodRequested": method,
+        "estimatedError": "not measured at bake time (bake(error_points=0))",
+    })
     metadata.update({f"method:{k}": v for k, v in meta.items()})
     lut = ThinFilmLUT(rgb.astype(np.float32), rng, angle_warp_gamma=gamma, colour_space=colour_space,
                       metadata=metadata)

@@ -1,27 +1,22 @@
 """Exact Fourier integration of thin-film colour (method.md, "Exact Fourier integration").
 
 For a film with *real* interface amplitude coefficients ``a = r_ab`` and ``b = r_bc`` (non-absorbing, no total
-internal reflection) the Airy reflectance is a function of the phase ``phi = 2 pi OPD / lambda`` alone,
-``OPD = 2 n_b d cos(theta_b)`` (nm), and has a closed-form Fourier series (a Poisson kernel; Born & Wolf,
-*Principles of Optics*, 7th ed., sec. 7.6.1 for the Airy form; the series is the geometric sum of the
-multiple reflections):
+internal reflection) the Airy reflectance (Born & Wolf, *Principles of Optics*, 7th ed., sec. 7.6.1) is a
+function of the phase ``phi = 2 pi OPD / lambda`` alone, ``OPD = 2 n_b d cos(theta_b)`` (nm), with a closed-form
+Fourier series (a Poisson kernel: the geometric sum of the multiple reflections):
 
     R(phi) = (a^2 + b^2 + 2ab cos phi) / (1 + a^2 b^2 + 2ab cos phi)
            = c_0 + 2 sum_{m>=1} c_m cos(m phi),
     c_0 = (a^2 + b^2 - 2 a^2 b^2) / (1 - a^2 b^2),
     c_m = c_1 rho^(m-1),  c_1 = a b (1 - a^2)(1 - b^2) / (1 - a^2 b^2),  rho = -a b.
 
-A linear colour (XYZ or working RGB) is ``C = integral R(lambda) w(lambda) dlambda`` with ``w`` the per-nm
-colour weights (colour-matching functions times illuminant, normalised so a perfect reflector has Y = 1,
-then the XYZ -> RGB matrix). Hence
+A linear colour is ``C = integral R(lambda) w(lambda) dlambda`` with ``w`` the per-nm colour weights. Hence
 
     C = c_0 W_0 + 2 sum_m c_m G(m OPD),   G(x) = integral w(lambda) cos(2 pi x / lambda) dlambda,  W_0 = G(0),
 
-and ``G`` is one table per observer / illuminant / colour space. It is computed here by one real FFT in
-wavenumber ``sigma = 1 / lambda``: ``G(x) = integral w(1/sigma) sigma^-2 cos(2 pi x sigma) dsigma`` sampled on a
-uniform ``sigma`` grid (the per-nm weights are those of the 0.1 nm reference grid of :mod:`.reference`), and
-looked up by linear interpolation on a fine ``x`` grid (0.5 nm: relative interpolation error
-``h^2 / 8 * (2 pi / 360 nm)^2 < 1e-5``).
+one table ``G`` per observer / illuminant / colour space, by one real FFT in ``sigma = 1 / lambda`` (``G(x) =
+integral w(1/sigma) sigma^-2 cos(2 pi x sigma) dsigma`` on a uniform ``sigma`` grid, from the 0.1 nm reference
+weights), looked up linearly on a 0.5 nm ``x`` grid (relative error ``h^2 / 8 * (2 pi / 360 nm)^2 < 1e-5``).
 
 Truncation (:func:`n_terms_needed`). The series stops at the smaller of two counts: the strict geometric
 remainder ``2 |c_1| |rho|^M max|G| / (1 - |rho|) < tol`` (what matters for thin films, whose OPD is too small
@@ -48,27 +43,18 @@ G_TABLE_FFT_SIZE = 2**20
 
 @dataclass(frozen=True, eq=False)
 class GTable:
-    """Tabulated ``G(x_k)``, ``x_k = k step_nm`` (nm), for one observer / illuminant / colour space.
-
-    ``g``: (n_x, 3) float64, linear colour units (a perfect reflector integrates to ``w0 = G(0)``); ``g_tail``:
-    (n_x,) ``max_{k' >= k} max_channel |G(x_k')|``, the non-increasing envelope of the truncation rule.
-    """
+    """Tabulated ``G(x_k)``, ``x_k = k step_nm`` (nm): ``g`` (n_x, 3) in linear colour units (a perfect reflector
+    is ``w0 = G(0)``) and ``g_tail`` (n_x,), ``max_{k' >= k} max_channel |G(x_k')|``, the truncation's envelope."""
 
     step_nm: float
     g: np.ndarray
     g_tail: np.ndarray
 
     @functools.cached_property
-    def g_padded(self) -> np.ndarray:
-        """``g`` with two zero rows appended (shape (n_x + 2, 3)): lookups beyond the end read 0."""
-        p = np.vstack([self.g, np.zeros((2, 3))])
-        p.setflags(write=False)
-        return p
-
-    @functools.cached_property
     def g_padded32(self) -> np.ndarray:
-        """:attr:`g_padded` in float32 (relative rounding 6e-8), for the bandwidth-bound term sums."""
-        p = self.g_padded.astype(np.float32)
+        """``g`` in float32 (relative rounding 6e-8, for the bandwidth-bound term sums) with two zero rows
+        appended (shape (n_x + 2, 3)): lookups beyond the end read 0."""
+        p = np.vstack([self.g, np.zeros((2, 3))]).astype(np.float32)
         p.setflags(write=False)
         return p
 
@@ -147,8 +133,7 @@ def n_terms_needed(c1, rho, opd_nm, table: GTable, tol: float) -> np.ndarray:
     g_max = float(table.g_tail[0])
     with np.errstate(divide="ignore", invalid="ignore"):
         scale = 2.0 * c1
-        # geometric factor alone, as a strict remainder bound (G bounded by its maximum): this is the count
-        # that applies when OPD is too small for G to decay over the terms (thin films)
+        # the geometric remainder bound (G bounded by its maximum): the count for thin films
         ratio = tol * (1.0 - r) / (scale * g_max)
         m_geom = np.where(
             ratio >= 1.0, 0.0, np.where(r > 0.0, np.ceil(np.log(ratio) / np.log(r)), 1.0)
@@ -201,7 +186,7 @@ def fourier_colour_grid(c0, c1, rho, opd_nm, n_terms, table: GTable) -> np.ndarr
         f = opd[:, cols, None] * ((m1[:mb] + 1.0) / table.step_nm)[None, None, :]  # (T, Ab, Mb)
         k = f.astype(np.int32)
         frac = f - k
-        np.minimum(k, n_x, out=k)  # beyond the table: the zero rows of g_padded
+        np.minimum(k, n_x, out=k)  # beyond the table: the zero rows of g_padded32
         cb = np.broadcast_to(coef[cols, :mb][None], f.shape)
         data = np.empty(f.shape + (2,), np.float32)  # float32 halves memory traffic; G is ~1, tol >= 1e-6
         data[..., 1] = cb * frac

@@ -1,8 +1,6 @@
-"""The real amplitude coefficients of a film's two interfaces, the input of the real-arithmetic Airy form shared
-by the ``spectral_fast`` and ``fourier`` bakers (:mod:`.bake`) and by ``quadrature`` (:mod:`.quadrature`).
-
-Its own module so that both bakers depend on it and not on each other. Reference: Born, M. & Wolf, E.,
-*Principles of Optics*, 7th ed., sec. 7.6.1 (Airy formula with Fresnel coefficients r_ab, r_bc).
+"""The real amplitude coefficients of a film's two interfaces, the input of the real Airy form of the
+``spectral_fast``, ``fourier`` (:mod:`.bake`) and ``quadrature`` (:mod:`.quadrature`) bakers, so that they depend
+on it and not on each other. Reference: Born, M. & Wolf, E., *Principles of Optics*, 7th ed., sec. 7.6.1.
 """
 
 from __future__ import annotations
@@ -13,22 +11,9 @@ from .. import optics
 
 
 def interface_coefficients(film, cos_theta, wavelength_nm, *, outer=True):
-    """Real amplitude coefficients of both interfaces, s and p, and the film's cos theta_b and index.
-
-    Parameters
-    ----------
-    film : FilmModel
-    cos_theta : ndarray, shape (A,)
-        Incidence in the incident medium.
-    wavelength_nm : ndarray, shape (L,)
-    outer : bool
-        True: every angle with every wavelength, shape (A, L). False: pairwise (``A == L``), shape (A,).
-
-    Returns
-    -------
-    dict with ``a_s, b_s, a_p, b_p, cos_b, n_b``, each shape (A, L) (or (A,)) float64, or None when a coefficient
-    is complex (absorbing film or substrate, total internal reflection): then only the general path applies.
-    """
+    """``a_s, b_s, a_p, b_p`` (r_ab and r_bc per polarisation), ``cos_b`` and ``n_b`` of ``film`` at every
+    ``cos_theta`` (A,) (in the incident medium) with every ``wavelength_nm`` (L,): float64 (A, L), or pairwise
+    (A,) if not ``outer``; None when a coefficient is complex (absorption, total internal reflection)."""
     n_a = film.n_incident
     n_b = np.asarray(film.n_film(wavelength_nm))
     n_c = film.n_substrate

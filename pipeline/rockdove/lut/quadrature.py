@@ -1,39 +1,31 @@
 """Exact colour of dispersive films by product integration in wavenumber (method ``"quadrature"`` of the baker).
 
-A texel's colour is ``C = integral R(sigma) w(sigma) dsigma`` over ``sigma = 1 / lambda``, with ``w`` the colour
-weights (CMFs times illuminant, a perfect reflector at Y = 1, then the working space's matrix) and ``R`` the
-unpolarised Airy reflectance (Born & Wolf, *Principles of Optics*, 7th ed., sec. 7.6.1). The weights carry all
-the fine structure (tabulated CMFs and D65 kink every 1 and 5 nm); ``R`` is analytic in ``sigma`` for a real
-film, even a dispersive one:
+A texel's colour is ``C = integral R(sigma) w(sigma) dsigma`` over ``sigma = 1 / lambda``, ``w`` the colour
+weights and ``R`` the unpolarised Airy reflectance (Born & Wolf, *Principles of Optics*, 7th ed., sec. 7.6.1).
+The weights carry all the fine structure (the tables kink every 1 and 5 nm); ``R`` is analytic in ``sigma`` for a
+real film, even a dispersive one:
 
     R(sigma) = (a^2 + b^2 + 2ab cos phi) / (1 + a^2 b^2 + 2ab cos phi),
     phi(sigma) = 4 pi d sigma sqrt(n(sigma)^2 - n_a^2 sin^2 theta),   n(sigma) = A + B sigma^2 (Cauchy),
 
-with slowly varying Fresnel coefficients ``a(sigma), b(sigma)``. So, as Filon and Clenshaw-Curtis product rules
-split an oscillatory integral (Filon 1928; Sloan & Smith, Numer. Math. 34, 1980), ``R`` is replaced by its
-interpolant on ``N`` Chebyshev points under the Kosloff-Tal-Ezer map (Kosloff & Tal-Ezer, J. Comput. Phys. 104,
-1993; Hale & Trefethen, SIAM J. Numer. Anal. 46, 2008), and the weights are integrated against the Lagrange
-basis exactly, once per node count (:func:`.weights.chebyshev_weights`): ``C ~= sum_k Omega_k R(sigma_k)``,
-``Omega_k = integral w l_k dsigma`` on the 0.1 nm reference grid. The only error is the interpolation
-error of the analytic ``R``; dispersion costs nothing.
+with slowly varying Fresnel coefficients ``a, b``. So, as Filon and Clenshaw-Curtis product rules split an
+oscillatory integral (Filon 1928; Sloan & Smith, Numer. Math. 34, 1980), ``R`` is replaced by its interpolant on
+``N`` Chebyshev points under the Kosloff-Tal-Ezer map (J. Comput. Phys. 104, 1993; Hale & Trefethen, SIAM J.
+Numer. Anal. 46, 2008), integrated exactly against the weights (:func:`.weights.chebyshev_weights`): the only
+error is the interpolation error of the analytic ``R``, and dispersion costs nothing.
 
 Node count. ``R`` is a Poisson kernel in ``phi`` with poles at ``Im phi = +-delta``, ``delta = -ln |ab|``; with
 ``phi`` spanning ``2 Phi`` over the spectrum the error decays like ``exp(-c N delta / Phi)`` (Bernstein
 ellipse), so ``N = K_FULL * Phi / delta + N_MIN`` (``K_FULL`` measured). Near grazing ``|ab| -> 1`` and ``N``
 would grow like ``1 / cos theta``; there the truncated Poisson series of :mod:`.fourier` (``rho = -ab``) is
-interpolated instead, a trigonometric polynomial of degree ``M`` (``N = K_SERIES * M * Phi + N_MIN``):
+interpolated instead, ``R(phi) = c_0 + 2 c_1 sum_{m=1..M} rho^(m-1) cos(m phi)``, a trigonometric polynomial
+of degree ``M`` (``N = K_SERIES * M * Phi + N_MIN``, summed in closed form by :func:`_series_form`), ``M`` from
+:func:`rockdove.lut.fourier.n_terms_needed` at the film's smallest optical path difference (with dispersion the
+local frequency of ``cos(m phi)`` is the group path, larger than the phase path: ``G``'s tail there bounds it).
 
-    R(phi) = c_0 + 2 c_1 sum_{m=1..M} rho^(m-1) cos(m phi)
-           = c_0 + 2 c_1 [cos phi - rho - rho^M cos((M+1) phi) + rho^(M+1) cos(M phi)] / (1 - 2 rho cos phi + rho^2)
-
-``M`` is :func:`rockdove.lut.fourier.n_terms_needed` at the film's smallest optical path difference (with
-dispersion the local frequency of ``cos(m phi)`` is the group path, larger than the phase path, so ``G``'s tail
-at the phase path bounds it), evaluated in half-angle form without cancellation (:func:`_series_form`).
-
-Angle axis. Away from grazing the colour is analytic and slowly varying in ``cos theta`` too: the columns with
-``cos theta >= ANGLE_PANEL_COS`` are interpolated (barycentric, Chebyshev points) from the exact colours at
-``K_ANGLE * Psi + N_ANGLE_MIN`` angles, ``Psi`` the phase change over the panel at the largest thickness
-(:func:`angle_panel_nodes`; 30 angles instead of 250 columns for the default LUT).
+Angle axis. Away from grazing the colour is analytic in ``cos theta`` too: the columns with ``cos theta >=
+ANGLE_PANEL_COS`` are interpolated from the exact colours at a few Chebyshev angles (:func:`angle_panel_nodes`;
+30 instead of 250 columns for the default LUT).
 
 Limits: ``cos theta = 0`` takes ``R = 1``; ``d = 0`` is the bare interface. Absorbing films and total internal
 reflection make ``a, b`` complex: refused (use ``"spectral"``).
@@ -45,16 +37,14 @@ import numpy as np
 
 from .weights import chebyshev, chebyshev_weights, sigma_range
 
-# Node counts, rounded up to NODE_LADDER (few sets of product weights per process). Measured on the default
-# keratin LUT (benchmarks/README.md): every texel within 4e-4 dE2000 of the 0.1 nm reference (K_FULL = 2.5 with
-# N_MIN = 16 errs 4e-3, K_FULL = 2 errs 0.02).
+# Node counts, rounded up to NODE_LADDER. On the default keratin LUT every texel is within 4e-4 dE2000 of the
+# 0.1 nm reference (K_FULL = 2.5 with N_MIN = 16 errs 4e-3, K_FULL = 2 errs 0.02; benchmarks/README.md).
 K_FULL = 3.0
 K_SERIES = 0.6
 N_MIN = 20
 NODE_LADDER = (8, 24, 28, 32, 40, 48, 56, 64, 80, 96, 112, 128, 160, 192, 224, 256, 320, 384, 448, 512, 640, 768,
                1024, 1280, 1536, 2048, 2560, 3072, 4096)
-# Relative cost per node of the series form when choosing the form (1.6 and 4 bake the default keratin LUT in the
-# same time: only the two most grazing columns differ).
+# Relative cost per node of the series form (1.6 and 4 bake the default keratin LUT in the same time).
 SERIES_COST = 1.6
 # The angle panel (angle_panel_nodes). Measured on keratin at 256 x 64 texels, 480-700 nm: panels from cos theta
 # 0.1 down to 0.015 all keep every texel within 4e-4 dE2000 of the reference (150-1000 nm, 35 angles: 3.6e-4);
@@ -70,12 +60,9 @@ DEFAULT_SERIES_TOL = 1e-5
 
 def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL, illuminant="D65",
                 colour_space="lin_rec709"):
-    """Form and node count per angle column of a film with real interface coefficients: ``(n_nodes, n_terms)``,
-    each (A,) int, the node count on :data:`NODE_LADDER` and 0 for the full Airy form, else the series' ``M``.
-
-    The series' term counts take a coarse ``G`` table (2 nm steps, a 2^17-point FFT): its envelope matches the
-    fine table's to 0.1% down to 3e-4 of the white (conservative below) and builds in ~20 ms, not 0.1-0.7 s.
-    """
+    """``(n_nodes, n_terms)`` per angle column, each (A,) int: the node count on :data:`NODE_LADDER`, and 0 for
+    the full Airy form, else the series' ``M``, counted on a coarse ``G`` table (2 nm, a 2^17-point FFT: its
+    envelope is the fine one's to 0.1% down to 3e-4 of the white, conservative below, in ~20 ms, not 0.1-0.7 s)."""
     from . import fourier
     from .interfaces import interface_coefficients
 
@@ -97,8 +84,7 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
     n_terms = np.zeros(cos_theta.shape[0], np.int64)
     n_series = np.full(cos_theta.shape[0], np.inf)
     if d_min > 0.0:
-        # columns where the full form needs many nodes: try the truncated series
-        # (rho = -ab >= 0, as for a film in air: the float32 closed form below has no cancellation there)
+        # columns where the full form needs many nodes and rho = -ab >= 0 (no cancellation in float32): the series
         rho_min = np.minimum((-coef["a_s"] * coef["b_s"]).min(axis=1), (-coef["a_p"] * coef["b_p"]).min(axis=1))
         cand = np.nonzero((n_full > 2.0 * N_MIN) & (cos_theta > 0.0) & (rho_min >= 0.0))[0]
         if cand.size:
@@ -106,10 +92,9 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
             opd_min = 2.0 * d_min * q[cand].min(axis=1)
             m = np.zeros(cand.size, np.int64)
             for pol in ("s", "p"):
-                c0, c1, rho_p = fourier.airy_fourier_coefficients(coef[f"a_{pol}"][cand], coef[f"b_{pol}"][cand])
-                c1m = np.abs(c1).max(axis=1)
-                rm = np.abs(rho_p).max(axis=1)
-                m = np.maximum(m, fourier.n_terms_needed(c1m, rm, opd_min, table, series_tol))
+                _, c1, rho_p = fourier.airy_fourier_coefficients(coef[f"a_{pol}"][cand], coef[f"b_{pol}"][cand])
+                m = np.maximum(m, fourier.n_terms_needed(np.abs(c1).max(axis=1), np.abs(rho_p).max(axis=1), opd_min,
+                                                         table, series_tol))
             n_terms[cand] = np.maximum(m, 1)  # (c_1 = 0 at cos theta -> 0: one term, the series is then c_0)
             n_series[cand] = K_SERIES * m * dphi[cand] + N_MIN
     use_series = SERIES_COST * n_series < n_full
@@ -141,7 +126,7 @@ class _Layout:
         self.size = start
 
     def white(self):
-        """Per layout column, the weights' sum (shape (n_cols, 3)): the colour of R = 1."""
+        """Per layout column, the weights' sum (n_cols, 3): the colour of R = 1."""
         w = np.empty((self.cols.size, 3))
         for (i0, i1, n, s0), om in zip(self.groups, self.omegas):
             w[i0:i1] = om.sum(axis=0)
@@ -157,13 +142,10 @@ class _Layout:
 
 
 def _full_form(coef, layout, thickness_nm, out, chunk):
-    """Unpolarised Airy reflectance at the layout's nodes (``coef``: their interface coefficients), full form.
-
-    Per polarisation, with ``p = ab`` and ``s2 = sin^2(phi / 2)`` (Born & Wolf 7.6.1 in half-angle form, as
-    :func:`.bake.sample_colour`), ``R = ((a + b)^2 - 4 p s2) / ((1 + p)^2 - 4 p s2) = 1 - (1 - a^2)(1 - b^2) /
-    ((1 + p)^2 - 4 p s2)``: the 1 integrates to the white, so a node costs one sine and three operations per
-    polarisation. For ``p <= 0`` (a film in air) the denominator has no cancellation: float32 is safe.
-    """
+    """The full Airy form at the layout's nodes (``coef``: their interface coefficients): with ``p = ab``, ``s2 =
+    sin^2(phi / 2)`` (Born & Wolf 7.6.1, half-angle form as :func:`.bake.sample_colour`), ``R = 1 - (1 - a^2)(1 -
+    b^2) / ((1 + p)^2 - 4 p s2)``, the 1 integrating to the white: one sine and three operations per polarisation,
+    in float32 for ``p <= 0`` (a film in air), where the denominator has no cancellation."""
     products = [coef[f"a_{pol}"] * coef[f"b_{pol}"] for pol in ("s", "p")]
     dtype = np.float32 if max(float(p.max(initial=-1.0)) for p in products) <= 0.0 else np.float64
     half_k = (2.0 * np.pi * coef["n_b"] * coef["cos_b"] / layout.lam).astype(dtype)
@@ -199,16 +181,14 @@ def _full_form(coef, layout, thickness_nm, out, chunk):
 
 
 def _series_form(coef, layout, thickness_nm, n_terms, out, chunk):
-    """The truncated Poisson series (``n_terms`` per layout column) at the layout's nodes.
-
-    With ``s2 = sin^2(phi / 2)`` the closed form is rewritten without cancellation near the resonances
-    (``cos phi - rho = (1 - rho) - 2 s2``, ``1 - 2 rho cos phi + rho^2 = (1 - rho)^2 + 4 rho s2``):
+    """The truncated Poisson series (``n_terms`` per layout column) at the layout's nodes, its geometric sum in
+    half-angle form (``s2 = sin^2(phi / 2)``), without cancellation near the resonances:
 
         sum_{m=1..M} rho^(m-1) cos(m phi)
             = [((1 - rho) - 2 s2)(1 - rho^M cos(M phi)) + rho^M sin(M phi) sin(phi)] / ((1 - rho)^2 + 4 rho s2),
 
-    so float32 trigonometry suffices; the phases ``phi / 2`` and ``M phi`` are reduced modulo one period in
-    float64 first (``M phi`` reaches thousands of radians).
+    so float32 trigonometry suffices once ``phi / 2`` and ``M phi`` (thousands of radians) are reduced modulo one
+    period in float64.
     """
     from . import fourier
 
@@ -260,7 +240,9 @@ def quadrature_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour
     cos_theta = np.asarray(cos_theta, dtype=np.float64)
     thickness_nm = np.asarray(thickness_nm, dtype=np.float64)
     if not real_coefficients(film, cos_theta):
-        raise _refused(film)
+        raise ValueError(f"method 'quadrature' needs a non-absorbing film without total internal reflection (real "
+                         f"interface coefficients); film {film.name!r} is not (k = {film.k!r}, substrate "
+                         f"{film.n_substrate!r}; use 'spectral')")
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
     panel_nodes = angle_panel_nodes(film, cos_theta, thickness_nm)
     if panel_nodes is None:
@@ -299,13 +281,6 @@ def real_coefficients(film, cos_theta) -> bool:
     n_b = float(np.min(film.n_film(np.array([1.0 / s_hi, 1.0 / s_lo]))))
     cos_min = float(np.min(cos_theta)) if np.size(cos_theta) else 1.0
     return film.n_incident**2 * (1.0 - cos_min**2) <= min(n_b, float(film.n_substrate)) ** 2
-
-
-def _refused(film):  # an error to raise
-    return ValueError(
-        f"method 'quadrature' needs a non-absorbing film without total internal reflection (real interface "
-        f"coefficients); film {film.name!r} is not (k = {film.k!r}, substrate {film.n_substrate!r}; use 'spectral')"
-    )
 
 
 def _direct_columns(cos_theta, thickness_nm, film, out, illuminant, colour_space, series_tol):

@@ -2,11 +2,9 @@
 
 Reference: the unpolarised Airy spectrum (:func:`rockdove.optics.reflectance`; Born and Wolf, Principles of
 Optics, 7th ed., sec. 7.6.1, eq. 58) on a uniform wavelength grid over 360-780 nm, integrated with the colour
-weights of :mod:`.weights` (CIE 1931 2 deg and the illuminant from colour-science, trapezoid weights, a perfect
-reflector at Y = 1, then the working space's matrix), compared in CIELAB by CIEDE2000 (Sharma, Wu & Dalal 2005).
-:func:`reference_colour` is the project's one definition of "the exact colour of a film at (cos theta,
-thickness)": the LUT error, ``rockdove bench lut``, the preview atlas and the verification's reference images
-(:mod:`rockdove.verify.reference_image`) all call it.
+weights of :mod:`.weights`, compared in CIELAB by CIEDE2000 (Sharma, Wu & Dalal 2005). :func:`reference_colour`
+is the project's one definition of "the exact colour of a film at (cos theta, thickness)": the LUT error,
+``rockdove bench lut``, the preview atlas and the verification's images (:mod:`rockdove.verify.reference_image`).
 
 Wavelength steps (:data:`REFERENCE_STEPS_NM`). Near grazing both Fresnel coefficients tend to -1 and the film is a
 high-finesse resonator whose spectrum is a comb of lines a fraction of a nm wide. Measured (keratin 200-900 nm, 60
@@ -14,11 +12,10 @@ random points per band, max dE2000 against a 0.002-0.01 nm integration): 0.1 nm 
 0.003 but 0.0061 at 0.001-0.003 and 0.014 at 0.0005-0.001; 0.05 nm <= 1.8e-4 at 0.001-0.003; 0.01 nm <= 1e-7
 below. So the bands are 0.1 / 0.05 / 0.01 nm, each within 2e-4 dE2000, under the LUT tests' tolerance (2e-3).
 
-Coarser steps (``steps_nm``, for callers that need less, as the verification images) sample the spectrum on the
-coarse grid and integrate its piecewise-cubic interpolant against the 0.1 nm weights
-(:func:`.weights.product_weights`). Measured (keratin 450-720 nm, 300 points per band, against 0.02 nm): a 4 nm
-step errs 0.0010 at cos theta 0.12-0.2 and 0.0006 above (the trapezoid rule's 2 nm: 0.0045); nearer grazing
-the fringes sharpen (4 nm: 0.011 at 0.08-0.12), so those bands take finer steps. The spectrum of a thicker film
+Coarser steps (``steps_nm``, as the verification images') integrate the spectrum's piecewise-cubic interpolant
+against the 0.1 nm weights (:func:`.weights.product_weights`). Measured (keratin 450-720 nm, 300 points per band,
+against 0.02 nm): 4 nm errs 0.0010 at cos theta 0.12-0.2 and 0.0006 above (the trapezoid rule's 2 nm: 0.0045), but
+0.011 at 0.08-0.12, where the fringes sharpen: those bands take finer steps. The spectrum of a thicker film
 is the same comb compressed in wavelength, so with ``calibrated_thickness_nm`` a thicker point's step is scaled
 by ``calibrated_thickness_nm / d`` and snapped down to :data:`STEP_LADDER_NM` (the images' steps, scaled from
 720 nm: <= 0.0017 dE2000 up to 5000 nm, where unscaled they erred 2.3).
@@ -31,17 +28,15 @@ with poles at ``Im phi = +-delta``, ``delta = -ln max|r_ab r_bc|``, so one inter
 delta, max_step_rad)`` radians at the steepest (blue) end (:func:`interval_count`). Measured with the images'
 ``(0.01, 0.35, 0.6)`` and 16 points (max dE2000 against 0.02-0.05 nm; keratin 450-720, 1500-2000, 4000-5000 nm
 and the paper film, 60-150 points per cos theta band): <= 0.0008 in every band (12 points: 0.0014; 24: 0.0004;
-a 0.8 rad cap: 0.0015). Below cos theta 0.01 the grid would need thousands of nodes: those points keep
-``steps_nm``.
+a 0.8 rad cap: 0.0015). Below cos theta 0.01 (thousands of nodes) the points keep ``steps_nm``.
 
 The real-film kernel (:func:`_real_colour`). With admittances ``x, y, z`` of the incident medium, film and
 substrate (s: ``n cos``, p: ``cos / n``; :mod:`rockdove.optics` eq. 4) one polarisation's Airy reflectance is
-exactly ``1 - R = 4 x z y^2 / (y^2 (x + z)^2 + (y^2 - x^2)(y^2 - z^2) sin^2(phi / 2))`` (between equal media
-``4 x^2 y^2 / (4 x^2 y^2 + (y^2 - x^2)^2 sin^2(phi / 2))``): for a film at least as dense as both media a sum
-of non-negative terms, so float32 loses nothing to cancellation (otherwise float64). Float32 rounds the phase
-(up to 280 rad at 5000 nm) to ~3e-5 rad, which resonances amplify (2.1e-3 dE2000 at cos theta 0.001-0.01,
-4000-5000 nm; <= 3.5e-4 from 0.05), so points below :data:`FLOAT32_MIN_COS` and the points on wavelength steps
-run in float64 (equal to :func:`rockdove.optics.reflectance` to 1e-14, 2.7x faster than its general form).
+exactly ``1 - R = 4 x z y^2 / (y^2 (x + z)^2 + (y^2 - x^2)(y^2 - z^2) sin^2(phi / 2))``: for a film at least as
+dense as both media a sum of non-negative terms, so float32 loses nothing to cancellation. Float32 rounds the
+phase (280 rad at 5000 nm) to ~3e-5 rad, which resonances amplify (2.1e-3 dE2000 at cos theta 0.001-0.01; <=
+3.5e-4 from 0.05), so points below :data:`FLOAT32_MIN_COS` and on wavelength steps run in float64 (equal to
+:func:`rockdove.optics.reflectance` to 1e-14, 2.7x faster).
 """
 
 from __future__ import annotations
@@ -52,8 +47,7 @@ from ..spectral import WAVELENGTH_RANGE_NM
 from .weights import (INTERPOLANT_ORDER, REFERENCE_STEP_NM, check_illuminant, colour_weights, interpolant_weights,
                       product_weights, reference_wavelengths, sigma_range, wavenumber_nodes)
 
-#: Wavelength step per cos theta band: ``(cos_theta_lo, step_nm)``; a point uses the step of the last band whose
-#: lower bound it reaches (module docstring: each band within 2e-4 dE2000 of the converged integral).
+#: Wavelength step per cos theta band ``(cos_theta_lo, step_nm)``: each within 2e-4 dE2000 (module docstring).
 REFERENCE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, REFERENCE_STEP_NM))
 #: Points x wavelengths per chunk of the spectral evaluation (bounds memory near 1.7 M complex samples).
 _CHUNK_SAMPLES = 4096 * 421
@@ -78,17 +72,14 @@ def snap_step_nm(step_nm) -> np.ndarray:
     return ladder[np.clip(i, 0, ladder.size - 1)]
 
 
-# --------------------------------------------------------------------------- wavenumber-grid interpolant
 #: Interval counts of the wavenumber grids (about 9% apart), so that a process builds few sets of weights.
 NODE_LADDER = tuple(sorted({int(round(16 * 1.09**k)) for k in range(80)}))
 
 
 def interval_count(cos_theta, thickness_nm, film, kappa, max_step_rad) -> np.ndarray:
-    """Intervals of the wavenumber grid per point (module docstring): the largest phase step of one interval (at
-    the short end of the spectrum, where normal dispersion makes the phase steepest) at most
-    ``min(kappa * delta, max_step_rad)``, ``delta = -ln max|r_ab r_bc|`` the half-width of the strip of analyticity
-    of the Airy reflectance in the phase (the s coefficients, the larger in modulus, at both ends of the spectrum),
-    rounded up to :data:`NODE_LADDER`. Real films only (:func:`real_film`)."""
+    """Intervals of the wavenumber grid per point (real films; module docstring): one interval's phase step at the
+    steep (blue) end at most ``min(kappa * delta, max_step_rad)``, ``delta = -ln max|r_ab r_bc|`` (the larger, s,
+    coefficients at both ends of the spectrum), rounded up to :data:`NODE_LADDER`."""
     c = np.asarray(cos_theta, np.float64)
     d = np.asarray(thickness_nm, np.float64)
     s_lo, s_hi = sigma_range()
@@ -115,7 +106,6 @@ def interval_count(cos_theta, thickness_nm, film, kappa, max_step_rad) -> np.nda
     return np.where(i < ladder.size, ladder[np.minimum(i, ladder.size - 1)], 0)
 
 
-# --------------------------------------------------------------------------- the spectra of real films
 #: Elements (points x wavelengths) per chunk of the real kernel: its float32 temporaries stay in the L2 cache.
 _KERNEL_CHUNK = 1 << 15
 #: Points with cos theta below this are evaluated in float64 (module docstring, "The real-film kernel").
@@ -132,10 +122,9 @@ def real_film(film) -> bool:
     return bool(n_b.min() >= film.n_incident and film.n_substrate >= film.n_incident)
 
 
-def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, out, dtype=np.float32):
-    """``out = R @ weights`` with ``R`` the unpolarised Airy reflectance of a real film (:func:`real_film`) at every
-    point (rows) and wavelength (columns), in the transmission form of the module docstring ("The real-film
-    kernel"), computed in ``dtype``; ``cos_theta = 0`` gives R = 1."""
+def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, dtype=np.float32):
+    """``R @ weights`` (points, 3), ``R`` the unpolarised Airy reflectance of a real film (:func:`real_film`) at each
+    point and wavelength in the transmission form (module docstring) in ``dtype``; ``cos_theta = 0`` gives R = 1."""
     lam = np.asarray(wavelength_nm, np.float64)
     n_a, n_c = float(film.n_incident), float(film.n_substrate)
     n_b = np.real(film.n_film(lam)).astype(np.float64)
@@ -160,6 +149,7 @@ def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, out, dty
     u32, inv32, kk32 = (v.astype(dtype)[None, :] for v in (u, inv_nb4, kk))
     ca32, d32 = ca2.astype(dtype)[:, None], np.asarray(thickness_nm, np.float64).astype(dtype)[:, None]
     w32 = weights.astype(dtype)
+    out = np.empty((c.size, 3))
     rows_per = max(1, _KERNEL_CHUNK // lam.size)
     for i in range(0, c.size, rows_per):
         r = slice(i, i + rows_per)
@@ -194,6 +184,7 @@ def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, out, dty
         # 1 - R = T = (T_s + T_p) / 2
         out[r] = white - 0.5 * (t @ w32)
     out[grazing] = white
+    return out
 
 
 def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_space="lin_rec709",
@@ -230,9 +221,7 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
             w = interpolant_weights(int(n), order, illuminant=illuminant, colour_space=colour_space)
             for dtype, sel in ((np.float32, c[rows] >= cos32), (np.float64, c[rows] < cos32)):
                 if sel.any():
-                    sub = np.empty((int(sel.sum()), 3))
-                    _real_colour(wl, w, c[rows[sel]], d[rows[sel]], film, sub, dtype)
-                    out[rows[sel]] = sub
+                    out[rows[sel]] = _real_colour(wl, w, c[rows[sel]], d[rows[sel]], film, dtype)
     rest = np.nonzero(direct)[0]
     steps = reference_step_nm(c[rest], steps_nm)
     if calibrated_thickness_nm is not None:
@@ -250,16 +239,14 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
             w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
         rows = rest[sel & kernel]
         if rows.size:
-            sub = np.empty((rows.size, 3))
-            _real_colour(wl, w, c[rows], d[rows], film, sub, np.float64)
-            out[rows] = sub
+            out[rows] = _real_colour(wl, w, c[rows], d[rows], film, np.float64)
         rows = rest[sel & ~kernel]
         if rows.size:
-            out[rows] = _sampled_colour(wl, w, c[rows], d[rows], film)
+            out[rows] = sampled_colour(wl, w, c[rows], d[rows], film)
     return out.reshape(shape + (3,))
 
 
-def _sampled_colour(wl, w, c, d, film) -> np.ndarray:
+def sampled_colour(wl, w, c, d, film) -> np.ndarray:
     """``R @ w`` with ``R`` from :func:`rockdove.optics.reflectance` at the wavelengths ``wl`` (any film), chunked."""
     from .. import optics
 

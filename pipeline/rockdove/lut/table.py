@@ -1,32 +1,22 @@
 """The thin-film colour table: structural colour over (cos theta, film thickness), and its lookup.
 
-Layout (the contract between the baker, the EXR file, the GLSL/MaterialX shaders and the verifier)
----------------------------------------------------------------------------------------------------
-``rgb[i, j]`` is the colour at thickness node ``i`` and angle node ``j``; shape ``(n_thickness, n_angle, 3)``,
-float32, linear, in the working colour space ``colour_space`` (default ``lin_rec709``), unclipped: thin-film
-colours can lie outside the gamut, so components may be negative.
+Layout (the contract between the baker, the EXR file, the GLSL/MaterialX shaders and the verifier):
+``rgb[i, j]`` is the colour at thickness node ``i`` and angle node ``j``, shape ``(n_thickness, n_angle, 3)``,
+float32, linear, in ``colour_space`` (default ``lin_rec709``), unclipped (thin-film colours lie outside the gamut).
 
-Angle axis. Nodes are uniform in a warped coordinate ``x = cos_theta ** (1 / angle_warp_gamma)``:
-``x_j = j / (n_angle - 1)``, so ``cos_theta_j = x_j ** angle_warp_gamma``. ``gamma = 1`` is uniform in
-cos theta; ``gamma > 1`` puts more nodes near grazing incidence (cos theta -> 0), where colour changes fastest.
-cos theta is the cosine of the angle of incidence on the film, in the incident medium.
+Angle nodes are uniform in ``x = cos_theta ** (1 / angle_warp_gamma)``: ``cos_theta_j = (j / (n_angle - 1)) **
+gamma`` (``gamma > 1`` puts nodes near grazing, where colour changes fastest), cos theta of the angle of
+incidence on the film in the incident medium. Thickness nodes are uniform in nm over ``thickness_range_nm = (lo,
+hi)``; a one-texel-high table (``lo == hi``) is the paper's 1-D texture.
 
-Thickness axis. Nodes are uniform in nm over ``thickness_range_nm = (lo, hi)``:
-``d_i = lo + (hi - lo) * i / (n_thickness - 1)``; a one-texel-high table (``lo == hi``) is the paper's 1-D texture.
-
-Texture coordinates. Texel centres of an N-texel axis sit at ``(k + 0.5) / N``; a node coordinate
-``x in [0, 1]`` maps to ``u = (x * (N - 1) + 0.5) / N``. With linear filtering and clamp-to-edge wrapping this
-makes a GPU lookup exactly the piecewise-linear interpolation between nodes that :meth:`ThinFilmLUT.sample`
-computes, **as long as the texture is not minified**: hosts that mipmap image nodes (MaterialX renderers,
-Storm) pick a mip level from the screen derivative of the angle coordinate and average ``2**level`` texels
-along *both* axes, so the thickness rows mix as well. Measured with MaterialX's generated GLSL (LUT
-mipmapped, trilinear): on the default bird at 512 x 512 the cost is median dE2000 0.017, p95 0.05; on a
-sphere of constant thickness at 256 x 256 (the worst case: the angle changes fast over the whole disc) the
-default 256 x 64 layout errs median 0.8-1.0, p95 10-13, and a tall 64 x 256 layout (same texel count and bake
-time; `lut.angles = 64`, `lut.thicknesses = 256`; its own error vs the exact film max 0.27 instead of 0.05)
-errs median 0.01-0.02, p95 0.35-0.54, max 1.9 (``pipeline/rockdove/hosts/materialx.py``, ``docs/design.md``).
-In the EXR file and in USD the bottom image row is ``i = 0`` (USD's ``st`` has t = 0 at the bottom);
-uploaded to OpenGL, row 0 of ``rgb`` is t = 0.
+Texture coordinates: texel centres of an N-texel axis sit at ``(k + 0.5) / N``, so a node coordinate ``x in [0,
+1]`` maps to ``u = (x * (N - 1) + 0.5) / N``, and a GPU's linear filtering with clamp-to-edge is the
+piecewise-linear interpolation of :meth:`ThinFilmLUT.sample`, **as long as the texture is not minified**: hosts
+that mipmap image nodes (MaterialX renderers, Storm) average ``2**level`` texels along both axes, mixing the
+thickness rows too (measured: median dE2000 0.017 on the default bird at 512 px; on a sphere of constant
+thickness the default 256 x 64 errs median 0.8-1.0 where a tall 64 x 256 errs 0.01-0.02; ``docs/design.md``).
+In the EXR file and in USD the bottom image row is ``i = 0`` (USD's ``st`` has t = 0 at the bottom); uploaded to
+OpenGL, row 0 of ``rgb`` is t = 0.
 """
 
 from __future__ import annotations
@@ -36,29 +26,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 
-def _readonly(a: np.ndarray) -> np.ndarray:
-    a = np.ascontiguousarray(a)
-    a.setflags(write=False)
-    return a
-
-
 @dataclass(frozen=True, eq=False)
 class ThinFilmLUT:
-    """Baked structural colour over (cos theta, thickness).
-
-    Attributes
-    ----------
-    rgb : ndarray, shape (n_thickness, n_angle, 3), float32
-        Linear colour in ``colour_space``; read-only.
-    thickness_range_nm : (float, float)
-        ``(lo, hi)`` of the thickness axis, nm; ``lo == hi`` for a one-texel-high table.
-    angle_warp_gamma : float
-        ``cos_theta = x ** angle_warp_gamma`` with ``x`` uniform in [0, 1] over the angle nodes.
-    colour_space : str
-        MaterialX colour-space name of ``rgb`` (``lin_rec709`` or ``acescg``).
-    metadata : dict[str, str]
-        Provenance written into the EXR header: film model, illuminant, observer, method, error estimate...
-    """
+    """Baked structural colour over (cos theta, thickness) (module docstring): ``rgb`` read-only float32, the
+    axes' ``thickness_range_nm`` and ``angle_warp_gamma``, the MaterialX ``colour_space`` name, and the
+    provenance ``metadata`` (str -> str) written into the EXR header."""
 
     rgb: np.ndarray
     thickness_range_nm: tuple[float, float]
@@ -81,12 +53,13 @@ class ThinFilmLUT:
             )
         if not (np.isfinite(self.angle_warp_gamma) and self.angle_warp_gamma > 0):
             raise ValueError(f"angle_warp_gamma must be > 0, got {self.angle_warp_gamma}")
-        object.__setattr__(self, "rgb", _readonly(rgb))
+        rgb = np.ascontiguousarray(rgb)
+        rgb.setflags(write=False)
+        object.__setattr__(self, "rgb", rgb)
         object.__setattr__(self, "thickness_range_nm", (lo, hi))
         object.__setattr__(self, "angle_warp_gamma", float(self.angle_warp_gamma))
         object.__setattr__(self, "metadata", dict(self.metadata))
 
-    # -- axes -------------------------------------------------------------------------------------
     @property
     def n_angle(self) -> int:
         return self.rgb.shape[1]
@@ -107,13 +80,9 @@ class ThinFilmLUT:
         lo, hi = self.thickness_range_nm
         return np.linspace(lo, hi, self.n_thickness) if self.n_thickness > 1 else np.array([lo])
 
-    # -- lookup -----------------------------------------------------------------------------------
     def node_coords(self, cos_theta, thickness_nm):
-        """Fractional node coordinates in [0, 1] along each axis (clamped), before the texel-centre offset.
-
-        Returns ``(x, y)``: ``x = clamp(cos_theta, 0, 1) ** (1 / gamma)``, ``y = clamp((d - lo) / (hi - lo))``
-        (0 for a one-texel-high table).
-        """
+        """Node coordinates ``(x, y)`` in [0, 1] before the texel-centre offset: ``x = clamp(cos_theta, 0, 1) ** (1 /
+        gamma)``, ``y = clamp((d - lo) / (hi - lo))`` (0 for a one-texel-high table)."""
         c = np.clip(np.asarray(cos_theta, dtype=np.float64), 0.0, 1.0)
         x = c ** (1.0 / self.angle_warp_gamma)
         d = np.asarray(thickness_nm, dtype=np.float64)
@@ -128,19 +97,7 @@ class ThinFilmLUT:
         return (x * (n - 1) + 0.5) / n, (y * (m - 1) + 0.5) / m
 
     def sample(self, cos_theta, thickness_nm) -> np.ndarray:
-        """Bilinear lookup, clamped at the edges: the same result as a GPU's linear filtering.
-
-        Parameters
-        ----------
-        cos_theta : array_like
-            Cosine of the angle of incidence, broadcastable with ``thickness_nm``; clamped to [0, 1].
-        thickness_nm : array_like
-            Film thickness in nm; clamped to ``thickness_range_nm``.
-
-        Returns
-        -------
-        ndarray, shape broadcast(cos_theta, thickness_nm) + (3,), float64
-        """
+        """Bilinear lookup (float64, broadcast shape + (3,)), clamped to the axes: a GPU's linear filtering."""
         x, y = self.node_coords(cos_theta, thickness_nm)
         fx = x * (self.n_angle - 1)
         fy = y * (self.n_thickness - 1)

@@ -1,18 +1,12 @@
 """Colour weights of the 0.1 nm reference grid, and product-integration weights built on them.
 
-``colour_weights(wl)`` are :func:`rockdove.spectral.spectral_weights` (CIE 1931 2 deg, the illuminant, trapezoid
-weights, a perfect reflector at Y = 1, then the working space's matrix): ``R @ W`` is the linear colour of a
-spectrum ``R`` sampled on ``wl``. The other rules here sample the spectrum more coarsely and integrate its
-interpolant against the 0.1 nm grid's weights: product integration (Davis and Rabinowitz, Methods of Numerical
-Integration, 2nd ed., sec. 2.5), so the tabulated observer and illuminant are never undersampled, only the
-spectrum, and a spectrum the interpolant reproduces integrates to exactly the 0.1 nm reference:
-
-- :func:`product_weights`: piecewise cubic (4-point Lagrange) on a coarser uniform wavelength grid
-  (:func:`rockdove.lut.reference.reference_colour`'s coarse steps);
-- :func:`interpolant_weights`: piecewise ``order``-point Lagrange on a uniform wavenumber grid whose stencils
-  run past both ends of the spectrum (its ``interpolation``);
-- :func:`chebyshev_weights`: the global interpolant on mapped Chebyshev points in wavenumber (the
-  ``"quadrature"`` baker, :mod:`.quadrature`).
+``colour_weights(wl)`` are :func:`rockdove.spectral.spectral_weights`: ``R @ W`` is the linear colour of a spectrum
+``R`` sampled on ``wl``. The other rules sample the spectrum more coarsely and integrate its interpolant against
+the 0.1 nm grid's weights (product integration: Davis and Rabinowitz, Methods of Numerical Integration, 2nd ed.,
+sec. 2.5), so the tabulated observer and illuminant are never undersampled and a spectrum the interpolant
+reproduces integrates to exactly the 0.1 nm reference: :func:`product_weights` (4-point Lagrange on a coarser
+wavelength grid), :func:`interpolant_weights` (``order``-point Lagrange on a wavenumber grid, the stencils running
+past both ends) and :func:`chebyshev_weights` (mapped Chebyshev points in wavenumber, :mod:`.quadrature`).
 """
 
 from __future__ import annotations
@@ -90,15 +84,12 @@ def _stencil_weights(t, k0, order, w_fine, size):
     return out
 
 
+@functools.lru_cache(maxsize=32)
 def product_weights(step_nm: float, *, illuminant: str = "D65", colour_space: str | None = "lin_rec709") -> np.ndarray:
     """Colour weights (N, 3) of the ``step_nm`` grid with ``R_coarse @ W == R_fine @ colour_weights(0.1 nm grid)``,
     ``R_fine`` interpolated from ``R_coarse`` with the 4-point stencil nearest each wavelength (one-sided at the
     ends). Cached per step (read-only)."""
-    return _product_weights_cached(float(step_nm), illuminant, colour_space)
-
-
-@functools.lru_cache(maxsize=32)
-def _product_weights_cached(step_nm: float, illuminant: str, colour_space: str | None) -> np.ndarray:
+    step_nm = float(step_nm)
     fine = reference_wavelengths(REFERENCE_STEP_NM)
     coarse = reference_wavelengths(step_nm)
     if coarse.size < 4 or not np.isclose(coarse[1] - coarse[0], step_nm):
@@ -123,16 +114,14 @@ def wavenumber_nodes(n_intervals: int, order: int = INTERPOLANT_ORDER) -> np.nda
     return wl
 
 
+@functools.lru_cache(maxsize=64)
 def interpolant_weights(n_intervals: int, order: int = INTERPOLANT_ORDER, *, illuminant: str = "D65",
                         colour_space: str | None = "lin_rec709") -> np.ndarray:
     """Colour weights (n_intervals + order - 1, 3), one row per node of :func:`wavenumber_nodes`, integrating the
     spectrum's piecewise ``order``-point Lagrange interpolant in wavenumber (each wavelength's interval's centred
     stencil) against the 0.1 nm grid's weights. Cached (read-only)."""
-    return _interpolant_weights_cached(int(n_intervals), int(order), check_illuminant(illuminant), colour_space)
-
-
-@functools.lru_cache(maxsize=64)
-def _interpolant_weights_cached(n: int, order: int, illuminant: str, colour_space: str | None) -> np.ndarray:
+    n, order = int(n_intervals), int(order)
+    check_illuminant(illuminant)
     if order < 2 or order % 2 or n < 1:
         raise ValueError(f"order must be even and >= 2 and n_intervals >= 1, got order {order!r}, n_intervals {n!r}")
     fine = reference_wavelengths(REFERENCE_STEP_NM)

@@ -32,37 +32,17 @@ _LUT_REQUIRED = ("lut_colour_space", "angle_warp_gamma", "thickness_range_nm")
 
 @dataclass(frozen=True)
 class ThinFilmParams:
-    """The thin film authored on the feathers with ``RockDoveThinFilmAPI``, as read back.
+    """The thin film authored on the feathers with ``RockDoveThinFilmAPI``, as read back; the ``lut_*`` fields,
+    ``angle_warp_gamma`` and ``thickness_range_nm`` are None for an asset without a LUT (physical-only shading)."""
 
-    Attributes
-    ----------
-    model : rockdove.films.FilmModel
-        The film's physics: name, Cauchy index ``n(lambda) = A + B / lambda_nm**2`` (+ i k), incident and
-        substrate indices.
-    thickness_primvar : str
-        Name of the primvar holding the film thickness (without ``primvars:``).
-    thickness_units : str
-        ``"nm"``.
-    lut_file : str or None
-        Absolute path of the LUT EXR; None for an asset without a LUT (physical-only shading).
-    lut_colour_space : str or None
-        Colour space of the LUT (``lin_rec709`` or ``acescg``); None without a LUT.
-    angle_warp_gamma : float or None
-        LUT angle-axis warp, ``cos_theta = x ** gamma``; None without a LUT.
-    thickness_range_nm : (float, float) or None
-        LUT thickness axis ``(lo, hi)``, nm; None without a LUT.
-    illuminant, observer : str
-        Colorimetry the LUT was baked with.
-    """
-
-    model: FilmModel
-    thickness_primvar: str = "thickness"
+    model: FilmModel  # the physics: Cauchy index n(lambda) = A + B / lambda_nm**2 (+ i k), incident/substrate indices
+    thickness_primvar: str = "thickness"  # the primvar holding the thickness (without "primvars:")
     thickness_units: str = "nm"
-    lut_file: str | None = None
-    lut_colour_space: str | None = None
-    angle_warp_gamma: float | None = None
-    thickness_range_nm: tuple | None = None
-    illuminant: str = "D65"
+    lut_file: str | None = None  # absolute path of the LUT EXR
+    lut_colour_space: str | None = None  # lin_rec709 or acescg
+    angle_warp_gamma: float | None = None  # the LUT's angle axis: cos_theta = x ** gamma
+    thickness_range_nm: tuple | None = None  # the LUT's thickness axis (lo, hi)
+    illuminant: str = "D65"  # colorimetry the LUT was baked with
     observer: str = "CIE 1931 2 Degree Standard Observer"
 
     def to_dict(self) -> dict:
@@ -78,14 +58,8 @@ class ThinFilmParams:
 
 
 def read_film(prim) -> ThinFilmParams | None:
-    """The film a mesh prim records with ``RockDoveThinFilmAPI`` (:func:`rockdove.usd.schema.read_thin_film`),
-    else None.
-
-    Raises
-    ------
-    ValueError
-        A film attribute is missing or invalid, or ``rockdove:lut:file`` is authored but names no file.
-    """
+    """The film a mesh prim records with ``RockDoveThinFilmAPI`` (:func:`rockdove.usd.schema.read_thin_film`), else
+    None; ValueError when a film attribute is missing or invalid, or ``rockdove:lut:file`` names no file."""
     from ..films import FilmModel
     from ..usd.schema import has_thin_film, read_thin_film
 
@@ -95,6 +69,9 @@ def read_film(prim) -> ThinFilmParams | None:
     missing = [k for k in _REQUIRED if rec[k] is None]
     if missing:
         raise ValueError(f"{prim.GetPath()}: RockDoveThinFilmAPI attributes {missing} are missing")
+    if rec["thickness_units"] != "nm":
+        raise ValueError(f"{prim.GetPath()}: rockdove:film:thicknessUnits={rec['thickness_units']!r}; only 'nm' is "
+                         "allowed")
     lut_file = None
     if rec["lut_file"]:
         lut_file = rec["lut_file_resolved"] and os.path.abspath(rec["lut_file_resolved"])
@@ -129,20 +106,9 @@ def thickness_range_nm(film: ThinFilmParams, thickness_nm) -> tuple:
 
 
 def lut_to_draw(film: ThinFilmParams, thickness_range: tuple):
-    """The LUT to draw ``film`` with: its LUT EXR, or for a LUT-less film one baked in memory.
-
-    Parameters
-    ----------
-    film : ThinFilmParams
-    thickness_range : (float, float)
-        :func:`thickness_range_nm` of the scene (used only for a LUT-less film).
-
-    Returns
-    -------
-    ThinFilmLUT
-        A baked LUT (default method, :data:`IN_MEMORY_LUT_ANGLES` x :data:`IN_MEMORY_LUT_THICKNESSES`) carries
-        ``metadata["purpose"] = IN_MEMORY_LUT_PURPOSE``.
-    """
+    """The :class:`rockdove.lut.ThinFilmLUT` to draw ``film`` with: its LUT EXR, or for a LUT-less film one baked in
+    memory over ``thickness_range`` (nm, the scene's :func:`thickness_range_nm`; :data:`IN_MEMORY_LUT_ANGLES` x
+    :data:`IN_MEMORY_LUT_THICKNESSES`, ``metadata["purpose"] = IN_MEMORY_LUT_PURPOSE``)."""
     from ..lut.bake import bake
     from ..lut.exr import read_exr
     from ..lut.table import ThinFilmLUT

@@ -12,33 +12,22 @@ import numpy as np
 
 
 def read_texture(path, srgb: bool) -> np.ndarray:
-    """Read a PNG (any Pillow format) as linear float32, (H, W, C), row 0 = top of the image.
-
-    ``srgb``: decode the colour channels with the sRGB EOTF (alpha, a 4th channel, stays linear). Values in
-    [0, 1]. Grey images give C = 1, grey+alpha C = 2.
-    """
+    """A PNG (any Pillow format) as linear float32 (H, W, C) in [0, 1], row 0 = top; grey gives C = 1, grey+alpha
+    C = 2. ``srgb``: decode the colour channels with the sRGB EOTF (alpha stays linear)."""
     from PIL import Image
 
     with Image.open(path) as im:
-        mode = im.mode
-        if mode in ("P", "CMYK", "YCbCr", "LAB", "HSV", "1"):
+        if im.mode in ("P", "CMYK", "YCbCr", "LAB", "HSV", "1"):
             im = im.convert("RGBA" if "transparency" in im.info else "RGB")
         arr = np.asarray(im)
-    if arr.dtype == np.uint16 or arr.dtype == np.int32:
-        a = arr.astype(np.float32) / 65535.0
-    elif arr.dtype == np.uint8:
-        a = arr.astype(np.float32) / 255.0
-    elif arr.dtype == np.bool_:
-        a = arr.astype(np.float32)
-    else:
-        a = arr.astype(np.float32)
+    a = arr.astype(np.float32) / {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0,
+                                  np.dtype(np.int32): 65535.0}.get(arr.dtype, 1.0)
     if a.ndim == 2:
         a = a[:, :, None]
     if srgb:
         from ..spectral import srgb_decode
 
         nc = 3 if a.shape[2] >= 3 else 1
-        a = a.copy()
         if arr.dtype == np.uint8:  # 256 possible codes: decode each once (same values, element by element)
             table = srgb_decode(np.arange(256).astype(np.float32) / 255.0).astype(np.float32)
             codes = arr if arr.ndim == 3 else arr[:, :, None]
@@ -49,18 +38,8 @@ def read_texture(path, srgb: bool) -> np.ndarray:
 
 
 def sample_texture(image, st) -> np.ndarray:
-    """Bilinear, clamp-to-edge lookup of ``image`` at USD ``st``, as OpenGL does (texel centres at (k+.5)/N).
-
-    Parameters
-    ----------
-    image : ndarray, (H, W, C)
-        Row 0 = top of the image (as :func:`read_texture` returns it); ``t = 0`` is the bottom row.
-    st : ndarray, (..., 2)
-
-    Returns
-    -------
-    ndarray, (..., C) float64
-    """
+    """Bilinear, clamp-to-edge lookup, (..., C) float64, of ``image`` (H, W, C; row 0 at the top, as
+    :func:`read_texture` returns it) at USD ``st`` (..., 2; t = 0 at the bottom), as OpenGL does."""
     img = np.asarray(image, dtype=np.float64)
     h, w = img.shape[:2]
     st = np.asarray(st, dtype=np.float64)

@@ -6,22 +6,9 @@ import numpy as np
 
 
 def fan_triangulate(face_vertex_counts, face_vertex_indices, left_handed: bool = False) -> np.ndarray:
-    """Fan-triangulate polygons: face ``(v0, v1, ..., vk)`` -> ``(v0, vi, vi+1)``, i = 1..k-1.
-
-    Parameters
-    ----------
-    face_vertex_counts : array_like, (F,) int
-        Vertices per face, each >= 3.
-    face_vertex_indices : array_like, (sum(counts),) int
-        Concatenated face vertex indices.
-    left_handed : bool
-        USD ``orientation = leftHanded``: the winding is reversed so output triangles are counter-clockwise.
-
-    Returns
-    -------
-    ndarray, (sum(counts - 2), 3) int64
-        Triangles. Indices are into ``face_vertex_indices``'s vertex numbering.
-    """
+    """Fan-triangulate USD faces (counts >= 3, concatenated vertex indices): face ``(v0, v1, ..., vk)`` ->
+    ``(v0, vi, vi+1)``, i = 1..k-1, (sum(counts - 2), 3) int64 vertex indices; ``left_handed`` (USD
+    ``orientation = leftHanded``) reverses the winding so the triangles are counter-clockwise."""
     counts = np.asarray(face_vertex_counts, dtype=np.int64)
     fvi = np.asarray(face_vertex_indices, dtype=np.int64)
     if counts.size and counts.min() < 3:

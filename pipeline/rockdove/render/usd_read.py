@@ -1,6 +1,5 @@
 """USD reading helpers of :mod:`rockdove.render.scene`: flattened primvars, the bound material's textures and
-constant colour, asset paths made absolute. pxr is imported inside the functions.
-"""
+constant colour, asset paths made absolute."""
 
 from __future__ import annotations
 
@@ -15,9 +14,6 @@ BASE_COLOR_SHADER = "BaseColorTexture"
 MASK_SHADER = "MaskTexture"
 #: Shader inputs that may hold a constant base colour for untextured parts (UsdPreviewSurface, MaterialX).
 CONSTANT_COLOUR_INPUTS = ("diffuseColor", "base_color", "baseColor")
-#: The feathers' alpha cut-off when none is authored: the one the asset authors (UsdPreviewSurface
-#: ``opacityThreshold``, :data:`rockdove.usd.material.OPACITY_THRESHOLD`; docs/design.md "Conventions").
-DEFAULT_OPACITY_THRESHOLD = OPACITY_THRESHOLD
 
 
 def asset_abs_path(attr, value) -> str | None:
@@ -36,13 +32,9 @@ def asset_abs_path(attr, value) -> str | None:
     return os.path.abspath(raw)
 
 
-def primvar_array(pv, n_points: int, face_vertex_counts, name: str, prim_path: str):
-    """Flattened primvar values and interpolation ('vertex' or 'faceVarying'; constant/uniform expanded)."""
-    vals = pv.ComputeFlattened()
-    if vals is None:
-        return None, None
-    a = np.asarray(vals)
-    interp = pv.GetInterpolation()
+def primvar_array(values, interp: str, n_points: int, face_vertex_counts, name: str, prim_path: str):
+    """Flattened primvar ``values`` and their interpolation: 'vertex' or 'faceVarying' (constant, uniform expanded)."""
+    a = np.asarray(values)
     n_faces = len(face_vertex_counts)
     if interp == "constant":
         return np.repeat(a.reshape(1, *a.shape[1:]) if a.ndim else a[None], n_points, axis=0), "vertex"
@@ -67,12 +59,12 @@ def material_info(prim, stage):
 
     mat, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
     if not mat:
-        return None, None, True, None, None, DEFAULT_OPACITY_THRESHOLD
+        return None, None, True, None, None, OPACITY_THRESHOLD
     name = mat.GetPrim().GetName()
     kind = name[: -len("Material")].lower() if name.endswith("Material") and len(name) > 8 else name.lower()
     base = mask = colour_const = None
     srgb = True
-    threshold = DEFAULT_OPACITY_THRESHOLD
+    threshold = OPACITY_THRESHOLD
     for p in Usd.PrimRange(mat.GetPrim()):
         if not p.IsA(UsdShade.Shader):
             continue

@@ -1,20 +1,17 @@
 """Cameras and lights of the verification renders: a turntable of the bird and the paper's light sweep.
 
-A :class:`View` (docs/design.md, "Render views") is one camera (OpenGL convention: the camera looks down its
-local -Z with +Y up; ``camera_to_world`` is a 4x4 matrix acting on column vectors) plus one directional light.
+A :class:`View` (docs/design.md, "Render views") is one camera (OpenGL convention: it looks down its local -Z with
++Y up; ``camera_to_world`` acts on column vectors) plus one directional light.
 
-- :func:`turntable_views`: the camera orbits the bird about the world Y axis through the centre of the scene
-  bounds; the light is **fixed relative to the camera** (a key light above and to the left of the camera,
-  :data:`TURNTABLE_LIGHT_CAMERA`), so every frame is lit from the front as seen.
-  The camera is at eye level (:data:`TURNTABLE_ELEVATION_DEG`): a few degrees above the centre, about the
-  height of the bird's own eye at the framing distance, as a look-dev artist shoots a turntable; never below.
+- :func:`turntable_views`: the camera orbits the bird about world Y through the bounds' centre, at eye level
+  (:data:`TURNTABLE_ELEVATION_DEG`, as a look-dev artist shoots a turntable; never from below); the key light is
+  fixed relative to the camera (:data:`TURNTABLE_LIGHT_CAMERA`), so every frame is lit from the front as seen.
 - :func:`hero_view`: the 3/4 front view a look-dev artist shows first, at :data:`HERO_SCALE` times the
-  verification size (1024 x 1024 by default), camera at eye level in front of the bird's left shoulder.
-- :func:`light_sweep_views`: the paper's experiment. The camera stays still, framing the neck; a D65-white
-  directional light (``light_rgb = (1, 1, 1)`` in lin_rec709) rotates about the camera's up axis through the
-  neck, so the angle ``alpha`` between the light direction ``L`` and the view direction ``V`` (both from the
-  neck centre) sweeps through 90 degrees, where the film's incidence is ``cos_theta = dot(L, H) =
-  cos(alpha / 2)``, ``theta = 45`` degrees: the green/purple flip (method.md, docs/design.md "Conventions").
+  verification size, the camera in front of the bird's left shoulder.
+- :func:`light_sweep_views`: the paper's experiment. The camera stays still on the neck; a D65-white light
+  (``light_rgb = (1, 1, 1)`` in lin_rec709) rotates about the camera's up axis, so the angle ``alpha`` between
+  ``L`` and ``V`` sweeps through 90 degrees, where ``cos_theta = dot(L, H) = cos(alpha / 2)``, ``theta = 45``
+  degrees: the green/purple flip (method.md, docs/design.md "Conventions").
 """
 
 from __future__ import annotations
@@ -28,17 +25,16 @@ import numpy as np
 D65_WHITE_RGB = (1.0, 1.0, 1.0)
 #: Turntable key light in camera coordinates (from the surface toward the light): up-left-front.
 TURNTABLE_LIGHT_CAMERA = (-0.4, 0.5, 0.77)
-#: Turntable camera elevation above the horizontal through the scene's centre, degrees: at the framing distance
-#: of the default bird (~0.6 m) 8 degrees puts the camera ~0.08 m above the centre, at about the bird's eye height.
+#: Turntable (and hero) camera elevation above the horizontal through the scene's centre, degrees: at the framing
+#: distance of the default bird (~0.6 m) 8 degrees puts the camera ~0.08 m above the centre, about its eye height.
 TURNTABLE_ELEVATION_DEG = 8.0
-#: The hero view: azimuth (0 = in front of the beak, positive toward the bird's left, +X), elevation (degrees),
-#: and its size as a multiple of the verification views' size (512 -> 1024).
+#: The hero view: azimuth (0 = in front of the beak, positive toward the bird's left, +X), degrees; its size as a
+#: multiple of the verification views' (512 -> 1024); its distance as a fraction of the turntable's (the bird fills
+#: ~80 % of the picture's height).
 HERO_AZIMUTH_DEG = 40.0
-HERO_ELEVATION_DEG = 8.0
 HERO_SCALE = 2
-#: Hero camera distance as a fraction of the turntable's (the bird fills ~80 % of the picture's height).
 HERO_ZOOM = 0.72
-#: Default vertical fields of view, degrees.
+#: Vertical fields of view, degrees.
 TURNTABLE_YFOV_DEG = 35.0
 SWEEP_YFOV_DEG = 30.0
 #: Light-view angles (degrees) of the default sweep: either side of the 90 degree flip.
@@ -50,31 +46,15 @@ SWEEP_CAMERA_DIRECTION = (0.8, 0.25, 0.55)
 
 @dataclass(frozen=True, eq=False)
 class View:
-    """One camera and one directional light.
+    """One camera and one directional light; arrays are stored as read-only float64 copies."""
 
-    Attributes
-    ----------
-    name : str
-        ``"turntable_000"``, ``"sweep_060"``, ...
-    camera_to_world : ndarray, (4, 4) float64
-        OpenGL convention: the camera looks down its -Z, +Y up; translation in metres.
-    yfov_rad : float
-        Vertical field of view, radians.
-    width, height : int
-        Image size in pixels.
-    light_direction : ndarray, (3,) float64
-        Unit, world, from the surface toward the light.
-    light_rgb : ndarray, (3,) float64
-        Light colour, linear lin_rec709; D65 white = (1, 1, 1).
-    """
-
-    name: str
-    camera_to_world: np.ndarray
-    yfov_rad: float
-    width: int
+    name: str  # "turntable_030", "sweep_060", ...
+    camera_to_world: np.ndarray  # (4, 4), OpenGL convention; translation in metres
+    yfov_rad: float  # vertical field of view
+    width: int  # pixels
     height: int
-    light_direction: np.ndarray
-    light_rgb: np.ndarray
+    light_direction: np.ndarray  # (3,) unit, world, from the surface toward the light
+    light_rgb: np.ndarray  # (3,) linear lin_rec709; D65 white = (1, 1, 1)
 
     def __post_init__(self):
         m = np.asarray(self.camera_to_world, dtype=np.float64)
@@ -83,9 +63,8 @@ class View:
         if not (0 < float(self.yfov_rad) < math.pi):
             raise ValueError(f"yfov_rad must be in (0, pi), got {self.yfov_rad}")
         for key in ("width", "height"):
-            v = getattr(self, key)
-            if int(v) != v or int(v) < 1:
-                raise ValueError(f"{key} must be a positive integer, got {v!r}")
+            _check_n(getattr(self, key), key)
+            object.__setattr__(self, key, int(getattr(self, key)))
         ld = np.asarray(self.light_direction, dtype=np.float64).reshape(-1)
         if ld.shape != (3,) or not np.all(np.isfinite(ld)) or np.linalg.norm(ld) == 0:
             raise ValueError(f"light_direction must be a finite non-zero 3-vector, got {self.light_direction!r}")
@@ -100,8 +79,6 @@ class View:
             val.setflags(write=False)
             object.__setattr__(self, key, val)
         object.__setattr__(self, "yfov_rad", float(self.yfov_rad))
-        object.__setattr__(self, "width", int(self.width))
-        object.__setattr__(self, "height", int(self.height))
 
     @property
     def eye_m(self) -> np.ndarray:
@@ -113,29 +90,12 @@ class View:
         return self.width / self.height
 
     def to_dict(self) -> dict:
-        """JSON-serialisable form (plain lists and numbers)."""
-        return {
-            "name": self.name,
-            "camera_to_world": self.camera_to_world.tolist(),
-            "yfov_rad": self.yfov_rad,
-            "width": self.width,
-            "height": self.height,
-            "light_direction": self.light_direction.tolist(),
-            "light_rgb": self.light_rgb.tolist(),
-        }
+        """JSON-serialisable form (plain lists and numbers); :meth:`from_dict` is its inverse."""
+        return {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in vars(self).items()}
 
     @classmethod
     def from_dict(cls, d: dict) -> "View":
-        """Inverse of :meth:`to_dict`."""
-        return cls(
-            name=str(d["name"]),
-            camera_to_world=np.asarray(d["camera_to_world"], dtype=np.float64),
-            yfov_rad=float(d["yfov_rad"]),
-            width=int(d["width"]),
-            height=int(d["height"]),
-            light_direction=np.asarray(d["light_direction"], dtype=np.float64),
-            light_rgb=np.asarray(d["light_rgb"], dtype=np.float64),
-        )
+        return cls(**d)
 
     def __eq__(self, other):
         if not isinstance(other, View):
@@ -163,6 +123,13 @@ def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
     return m
 
 
+def direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
+    """Unit world direction at ``azimuth_deg`` (0 = +Z, in front of the beak; positive toward +X) and
+    ``elevation_deg`` above the horizontal."""
+    a, e = math.radians(azimuth_deg), math.radians(elevation_deg)
+    return np.array([math.sin(a) * math.cos(e), math.sin(e), math.cos(a) * math.cos(e)])
+
+
 def _rotate(v, axis, angle_rad):
     """Rodrigues rotation of ``v`` about unit ``axis`` by ``angle_rad``."""
     v = np.asarray(v, dtype=np.float64)
@@ -184,122 +151,45 @@ def _check_n(n, name="n"):
     return int(n)
 
 
-def turntable_views(
-    scene_bounds,
-    n: int,
-    width: int,
-    height: int,
-    elevation_deg: float = TURNTABLE_ELEVATION_DEG,
-    start_azimuth_deg: float = 30.0,
-    yfov_deg: float = TURNTABLE_YFOV_DEG,
-    light_rgb=D65_WHITE_RGB,
-) -> list[View]:
-    """``n`` cameras orbiting the bird, evenly spaced in azimuth about world +Y.
-
-    Parameters
-    ----------
-    scene_bounds : array_like, (2, 3)
-        World ``[min, max]`` of the scene, metres (e.g. ``RenderScene.bounds_m``).
-    n : int
-        Number of views; view k is at azimuth ``start_azimuth_deg + 360 k / n`` (0 = camera on +Z, in
-        front of the beak; positive toward +X).
-    width, height : int
-        Image size, pixels.
-    elevation_deg : float
-        Camera elevation above the horizontal through the bounds' centre, degrees, in (-90, 90).
-    yfov_deg : float
-        Vertical field of view, degrees; the bounding sphere is framed with a 10 % margin.
-    light_rgb : (3,) linear lin_rec709
-        The light is fixed relative to the camera at :data:`TURNTABLE_LIGHT_CAMERA`.
-
-    Returns
-    -------
-    list of View, named ``turntable_<azimuth in degrees, 3 digits>``.
-    """
+def turntable_views(scene_bounds, n: int, width: int, height: int, start_azimuth_deg: float = 30.0) -> list[View]:
+    """``n`` views of ``width`` x ``height`` px orbiting the world ``[min, max]`` bounds ``scene_bounds`` (metres),
+    evenly in azimuth from ``start_azimuth_deg`` (0 = camera on +Z, in front of the beak; positive toward +X), the
+    bounding sphere framed with a 10 % margin; named ``turntable_<azimuth in degrees, 3 digits>``."""
     n = _check_n(n)
     b = np.asarray(scene_bounds, dtype=np.float64)
     if b.shape != (2, 3) or not np.all(np.isfinite(b)) or np.any(b[1] < b[0]):
         raise ValueError(f"scene_bounds must be a finite (2, 3) [min, max] array, got {scene_bounds!r}")
-    if not -90 < elevation_deg < 90:
-        raise ValueError(f"elevation_deg must be in (-90, 90), got {elevation_deg}")
     centre = b.mean(axis=0)
     radius = max(0.5 * float(np.linalg.norm(b[1] - b[0])), 1e-6)
-    yfov = math.radians(yfov_deg)
+    yfov = math.radians(TURNTABLE_YFOV_DEG)
     dist = _fit_distance(radius, yfov, width / height)
-    el = math.radians(elevation_deg)
     views = []
     for k in range(n):
         az_deg = (start_azimuth_deg + 360.0 * k / n) % 360.0
-        az = math.radians(az_deg)
-        eye = centre + dist * np.array([math.sin(az) * math.cos(el), math.sin(el), math.cos(az) * math.cos(el)])
-        c2w = look_at(eye, centre)
+        c2w = look_at(centre + dist * direction(az_deg, TURNTABLE_ELEVATION_DEG), centre)
         light = c2w[:3, :3] @ np.asarray(TURNTABLE_LIGHT_CAMERA, dtype=np.float64)
-        views.append(
-            View(f"turntable_{int(round(az_deg)) % 360:03d}", c2w, yfov, width, height, light, light_rgb)
-        )
+        views.append(View(f"turntable_{int(round(az_deg)) % 360:03d}", c2w, yfov, width, height, light, D65_WHITE_RGB))
     return views
 
 
-def hero_view(scene_bounds, width: int, height: int, azimuth_deg: float = HERO_AZIMUTH_DEG,
-              elevation_deg: float = HERO_ELEVATION_DEG, yfov_deg: float = TURNTABLE_YFOV_DEG,
-              light_rgb=D65_WHITE_RGB) -> View:
-    """The hero 3/4 view, named ``hero``: one turntable frame at ``azimuth_deg``, the camera :data:`HERO_ZOOM` of
-    the turntable's distance from the centre (the turntable frames the bounding sphere, which leaves the bird
-    at about half the picture's height).
-
-    Parameters are as for :func:`turntable_views` (``width`` x ``height`` in pixels, angles in degrees); the key
-    light is the turntable's, fixed relative to the camera (up, left and in front of it).
-    """
-    v = turntable_views(scene_bounds, 1, width, height, elevation_deg=elevation_deg, start_azimuth_deg=azimuth_deg,
-                        yfov_deg=yfov_deg, light_rgb=light_rgb)[0]
+def hero_view(scene_bounds, width: int, height: int) -> View:
+    """The hero 3/4 view, named ``hero``: the turntable frame at :data:`HERO_AZIMUTH_DEG` with its key light, the
+    camera at :data:`HERO_ZOOM` of its distance (the turntable frames the bounding sphere, which leaves the bird at
+    about half the picture's height)."""
+    v = turntable_views(scene_bounds, 1, width, height, start_azimuth_deg=HERO_AZIMUTH_DEG)[0]
     c2w = v.camera_to_world.copy()
-    b = np.asarray(scene_bounds, dtype=np.float64)
-    centre = b.mean(axis=0)
+    centre = np.asarray(scene_bounds, dtype=np.float64).mean(axis=0)
     c2w[:3, 3] = centre + HERO_ZOOM * (c2w[:3, 3] - centre)
     return View("hero", c2w, v.yfov_rad, width, height, v.light_direction, v.light_rgb)
 
 
-def light_sweep_views(
-    neck_centre,
-    n: int,
-    width: int,
-    height: int,
-    angles_deg=None,
-    distance_m: float = 0.25,
-    yfov_deg: float = SWEEP_YFOV_DEG,
-    camera_direction=SWEEP_CAMERA_DIRECTION,
-    light_rgb=D65_WHITE_RGB,
-) -> list[View]:
-    """The paper's experiment: a still camera on the neck, a directional light rotating around it.
-
-    The light direction is the view direction ``V`` (from the neck centre toward the camera) rotated about
-    the camera's up axis by ``alpha``, so the angle between light and view is exactly ``alpha`` and the film
-    sees ``cos_theta = cos(alpha / 2)``.
-
-    Parameters
-    ----------
-    neck_centre : array_like, (3,)
-        World point the camera looks at, metres (``RenderScene.neck_centre_m``).
-    n : int
-        Number of views (ignored when ``angles_deg`` is given).
-    width, height : int
-        Image size, pixels.
-    angles_deg : sequence of float, optional
-        Light-view angles ``alpha`` in [0, 180); default ``n`` values evenly spaced over [30, 150]
-        (i.e. through the flip at 90), or :data:`DEFAULT_SWEEP_ANGLES_DEG` for ``n = 2``.
-    distance_m : float
-        Camera distance from the neck centre, metres.
-    yfov_deg : float
-        Vertical field of view, degrees.
-    camera_direction : (3,)
-        World direction from the neck to the camera.
-    light_rgb : (3,)
-        Linear lin_rec709 light colour, D65 white = (1, 1, 1).
-
-    Returns
-    -------
-    list of View, named ``sweep_<alpha in degrees, 3 digits>``.
-    """
+def light_sweep_views(neck_centre, n: int, width: int, height: int, angles_deg=None, distance_m: float = 0.25,
+                      yfov_deg: float = SWEEP_YFOV_DEG, camera_direction=SWEEP_CAMERA_DIRECTION) -> list[View]:
+    """The paper's experiment: a still camera ``distance_m`` from ``neck_centre`` (world metres) along
+    ``camera_direction``, a D65-white directional light at each light-view angle ``alpha`` of ``angles_deg`` in
+    [0, 180) (default ``n`` angles evenly over [30, 150], through the flip; 90 for ``n = 1``;
+    :data:`DEFAULT_SWEEP_ANGLES_DEG` for ``n = 2``): ``V`` rotated about the camera's up axis by ``alpha``, so the
+    film sees ``cos_theta = cos(alpha / 2)``. Named ``sweep_<alpha in degrees, 3 digits>``."""
     c = np.asarray(neck_centre, dtype=np.float64).reshape(-1)
     if c.shape != (3,) or not np.all(np.isfinite(c)):
         raise ValueError(f"neck_centre must be a finite 3-vector, got {neck_centre!r}")
@@ -317,24 +207,17 @@ def light_sweep_views(
     v = np.asarray(camera_direction, dtype=np.float64)
     v = v / np.linalg.norm(v)
     c2w = look_at(c + distance_m * v, c)
-    up_cam = c2w[:3, 1]
     yfov = math.radians(yfov_deg)
-    views = []
-    for a in angles:
-        # rotate toward the camera's right (- about up): with the default camera on the bird's left side,
-        # the light moves toward the bird's front (the throat), and stays on one side of the picture
-        light = _rotate(v, up_cam, -math.radians(a))
-        views.append(View(f"sweep_{int(round(a)):03d}", c2w, yfov, width, height, light, light_rgb))
-    return views
+    # the light turns toward the camera's right (- about up): with the default camera on the bird's left side,
+    # it moves toward the bird's front (the throat), and stays on one side of the picture
+    return [View(f"sweep_{int(round(a)):03d}", c2w, yfov, width, height, _rotate(v, c2w[:3, 1], -math.radians(a)),
+                 D65_WHITE_RGB) for a in angles]
 
 
 def default_views(scene, width: int = 512, height: int = 512, n: int = 4) -> list[View]:
-    """The verification views: ``ceil(n / 2)`` turntable frames, then ``floor(n / 2)`` light-sweep frames.
-
-    ``n = 4`` (the benchmark's unit) gives 2 turntable frames (azimuth 30 and 210 degrees) and 2 sweep frames
-    at light-view angles 60 and 120 degrees, either side of the green/purple flip. The sweep camera distance
-    frames the feathers' bounds (at least 6 cm).
-    """
+    """The verification views: ``ceil(n / 2)`` turntable frames, then ``floor(n / 2)`` light-sweep frames (``n =
+    4``: azimuths 30 and 210, light-view angles 60 and 120 degrees), the sweep camera framing the feathers' bounds
+    (at least 6 cm away)."""
     n = _check_n(n)
     views = turntable_views(scene.bounds_m, (n + 1) // 2, width, height)
     n_sweep = n // 2

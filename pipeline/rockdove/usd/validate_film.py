@@ -64,8 +64,7 @@ def _thickness(prim, film: dict, issues: list):
 
 
 #: Names of the shaders of the baked LUT network (thinfilm.mtlx) that read the LUT.
-LUT_NETWORK_SHADERS = ("LutTexture", "LutAngleCount", "LutThicknessCount", "LutAngleWarpGamma", "LutThicknessLoNm",
-                       "LutThicknessHiNm")
+LUT_NETWORK_SHADERS = ("LutTexture", "LutTransform", "LutAngleWarpExponent")
 
 
 def _check_lutless_film(prim, film: dict) -> list:
@@ -139,21 +138,25 @@ def _check_film_provenance(prim, film: dict, lut) -> list:
 
 def _check_lut_constants(prim, lut) -> list:
     """The MaterialX network's LUT constants (texel counts, warp, range) must describe the LUT file it reads."""
+    import numpy as np
     from pxr import UsdShade
+
+    from .material import lut_info, lut_transform
 
     material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
     if not material:
         return [Issue("thinFilm", str(prim.GetPath()), "feather mesh has no bound material")]
     lo, hi = lut.thickness_range_nm
-    expected = {"LutAngleCount": lut.n_angle, "LutThicknessCount": lut.n_thickness,
-                "LutAngleWarpGamma": lut.angle_warp_gamma, "LutThicknessLoNm": lo, "LutThicknessHiNm": hi}
+    expected = {"LutTransform": lut_transform(lut_info(lut)),
+                "LutAngleWarpExponent": 1.0 / lut.angle_warp_gamma - 1.0}
     issues = []
     for name, want in expected.items():
         shader = UsdShade.Shader(material.GetPrim().GetChild(name))
         if not shader:
             continue  # a material without the LUT network (e.g. hand-made) has nothing to disagree with
         got = shader.GetInput("value").Get() if shader.GetInput("value") else None
-        if got is None or abs(float(got) - float(want)) > 1e-4 * max(1.0, abs(float(want))):
+        flat = None if got is None else np.ravel(np.asarray(got, np.float64))
+        if flat is None or flat.size != np.size(want) or not np.allclose(flat, want, rtol=1e-6, atol=1e-9):
             issues.append(Issue("thinFilm", f"{shader.GetPath()}.inputs:value",
                                 f"{got} does not describe the LUT file it reads: expected {want} "
                                 f"({lut.n_thickness} x {lut.n_angle} texels, gamma {lut.angle_warp_gamma}, "

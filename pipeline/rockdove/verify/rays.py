@@ -1,14 +1,11 @@
 """Primary rays of the CPU reference: one ray per pixel centre, first opaque hit through alpha-cut-out feathers.
 
-For each :class:`rockdove.render.views.View` the reference casts one primary ray through every pixel centre
-of the same pinhole camera as the GL renderer (OpenGL convention: the camera looks down its -Z, +Y up,
-vertical field of view ``yfov_rad``, square pixels) and finds the first surface with trimesh's ray queries
-(Embree through embreex when installed: ``trimesh.ray.has_embree``). Feather cards are alpha-tested: a hit
-where the feather base texture's alpha is below the part's ``opacity_threshold`` (0.5) is skipped and the ray
-continues from just behind it (up to :data:`MAX_ALPHA_LAYERS` layers, vectorised over all rays still
-travelling). The hits (:class:`Hits`) depend on the geometry and the camera only (:func:`ray_digest`,
-:func:`camera_key`), so the build caches them across film changes; :mod:`rockdove.verify.reference_image`
-shades them.
+The rays are the GL renderer's pinhole camera's (OpenGL convention, vertical field of view ``yfov_rad``, square
+pixels), cast with trimesh's ray queries (Embree through embreex when installed). A feather hit where the base
+texture's alpha is below the part's ``opacity_threshold`` is skipped and the ray continues from just behind it (up
+to :data:`MAX_ALPHA_LAYERS` layers, vectorised over the rays still travelling). The :class:`Hits` depend on the
+geometry and the camera only (:func:`ray_digest`, :func:`camera_key`), so the build caches them across film changes;
+:mod:`rockdove.verify.reference_image` shades them.
 """
 
 from __future__ import annotations
@@ -24,21 +21,9 @@ MAX_ALPHA_LAYERS = 24
 
 
 def camera_rays(view, pixels=None):
-    """Primary rays through the pixel centres of ``view``'s pinhole camera.
-
-    Parameters
-    ----------
-    view : rockdove.render.views.View
-    pixels : array_like of int, optional
-        Flat pixel indices (row-major from the top-left pixel) whose rays to return; default every pixel. The
-        shading needs only the rays that hit something, a fraction of the image.
-
-    Returns
-    -------
-    origin : ndarray, (3,) world metres
-    directions : ndarray, (H * W, 3) (or (len(pixels), 3)) unit world directions
-    forward : ndarray, (3,) the camera's viewing axis (its -Z) in world space
-    """
+    """Primary rays through the pixel centres of ``view``'s pinhole camera (or of the flat, row-major ``pixels``
+    only: the shading needs just the rays that hit): ``(origin (3,), unit directions (P, 3), forward (3,))``, all
+    world, forward being the camera's viewing axis (its -Z)."""
     h, w = view.height, view.width
     tan_half = np.tan(0.5 * view.yfov_rad)
     aspect = w / h
@@ -108,12 +93,7 @@ class SceneGeometry:
 
 
 def _first_opaque_hits(geom: SceneGeometry, origin, dirs, stats: dict):
-    """First hit along each ray that is not an alpha-cut-out feather fragment.
-
-    Returns
-    -------
-    face : (R,) int64, -1 for a miss; point : (R, 3); bary : (R, 3)
-    """
+    """First hit along each ray that is not an alpha-cut-out feather fragment: ``face`` (-1: a miss), point, bary."""
     n = len(dirs)
     face = np.full(n, -1, np.int64)
     point = np.zeros((n, 3))
@@ -158,26 +138,13 @@ def _first_opaque_hits(geom: SceneGeometry, origin, dirs, stats: dict):
 
 @dataclass(frozen=True)
 class Hits:
-    """The first opaque hit of every primary ray of one camera (:func:`cast_hits`): what the geometry and the
-    camera decide, before any shading, so it can be cached across film changes.
+    """The first opaque hit of every primary ray of one camera (:func:`cast_hits`), R = width * height rays
+    row-major from the top-left pixel: what the geometry and the camera decide, cached across film changes."""
 
-    Attributes
-    ----------
-    face : ndarray, (R,) int64
-        Index into the scene's concatenated triangles (parts in ``scene.parts`` order), -1 for a miss;
-        R = width * height, row-major from the top-left pixel.
-    point : ndarray, (R, 3) float64
-        World position of the hit, metres (0 for a miss).
-    bary : ndarray, (R, 3) float64
-        Barycentric coordinates of the hit in its triangle (0 for a miss).
-    stats : dict
-        ``rays`` and ``alpha_layers`` (feather layers the rays passed through).
-    """
-
-    face: np.ndarray
-    point: np.ndarray
-    bary: np.ndarray
-    stats: dict
+    face: np.ndarray  # (R,) int64 index into the parts' concatenated triangles (scene.parts order), -1: a miss
+    point: np.ndarray  # (R, 3) world position of the hit, metres (0 for a miss)
+    bary: np.ndarray  # (R, 3) barycentric coordinates of the hit in its triangle (0 for a miss)
+    stats: dict  # rays, alpha_layers (feather layers the rays passed through)
 
     def to_arrays(self) -> dict:
         """Compact arrays for storage (the hit rays only; exact round trip through :meth:`from_arrays`)."""
@@ -232,7 +199,7 @@ def cast_hits(scene, views) -> dict:
     return out
 
 
-def cast_view(geom: "SceneGeometry", view) -> Hits:
+def cast_view(geom: SceneGeometry, view) -> Hits:
     origin, dirs, _ = camera_rays(view)
     stats = {"rays": int(len(dirs))}
     face, point, bary = _first_opaque_hits(geom, origin, dirs, stats)

@@ -1,20 +1,11 @@
-"""The verification report: per-view PNGs, a contact sheet, matplotlib figures, report.json and report.html.
+"""The verification report, in one folder with relative file names (``report.html`` opens from disk, no server):
+``<view>_gl.png`` and ``<view>_reference.png`` (through :func:`rockdove.spectral.linear_to_srgb8`), ``<view>_dE.png``
+(the dE2000 map pixel for pixel, with a colour bar; grey where not compared), ``contact_sheet.png`` (a row per view:
+GL | reference | dE), ``lut.png``, ``spectra.png`` (film reflectance), ``hue.png`` (hue histogram across the light
+sweep), ``bench_*.png`` (from ``rockdove verify --bench-dir DIR``), ``report.json`` and ``report.html``.
 
-Everything is written into one folder and referenced by relative file names, so ``report.html`` opens in a
-browser from disk with no server. The dE2000 maps are drawn with Pillow, their pixels the measured values
-one to one; the charts with matplotlib's object API (``Figure`` + ``FigureCanvasAgg``), which needs no
-display and leaves pyplot's global state alone.
-
-Files (``DIR`` is the output folder):
-
-- ``<view>_gl.png``, ``<view>_reference.png``: the two renders through the display transform
-  (:func:`rockdove.spectral.linear_to_srgb8`);
-- ``<view>_dE.png``: the dE2000 map, pixel for pixel, with a colour bar (grey where not compared);
-- ``contact_sheet.png``: one row per view, GL | reference | dE;
-- ``lut.png`` (the LUT the asset names), ``spectra.png`` (film reflectance spectra), ``hue.png`` (hue
-  histogram across the light sweep), ``bench_*.png`` copied from the benchmark folder the caller names
-  (``rockdove verify --bench-dir DIR``; none by default);
-- ``report.json`` and ``report.html``.
+The dE maps are drawn with Pillow; the charts with matplotlib's object API (``Figure`` + ``FigureCanvasAgg``),
+which needs no display and leaves pyplot's global state alone.
 """
 
 from __future__ import annotations
@@ -34,9 +25,8 @@ DE_COLORMAP = "magma"
 
 
 def _figure(w_in, h_in, margins_in, rows: int = 1, gap_in: float = 0.0):
-    """A Figure on an Agg canvas, its subplots placed by fixed margins ``(left, right, bottom, top)`` and a
-    ``gap_in`` between ``rows`` stacked ones, all in inches (at 100 dpi). Fixed in place of ``tight_layout``,
-    which draws the whole figure once more to measure its labels; the margins fit this module's labels."""
+    """A Figure on an Agg canvas, its subplots placed by fixed margins ``(left, right, bottom, top)`` and a ``gap_in``
+    between ``rows``, in inches at 100 dpi (``tight_layout`` would draw the figure once more to measure labels)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -58,10 +48,8 @@ def _save_figure(fig, path) -> str:
 
 
 def de_colour(de_map, vmax: float = DE_MAP_MAX) -> np.ndarray:
-    """(H, W) dE map -> (H, W, 3) uint8 with the :data:`DE_COLORMAP`; NaN (not compared) is mid grey.
-
-    The colormap's own lookup (matplotlib's ``Colormap.__call__`` on floats: entry ``floor(x N)``, x = 1 the
-    last entry) on a uint8 copy of its table, grey appended, so a megapixel map costs one index and one take."""
+    """(H, W) dE map -> (H, W, 3) uint8 with the :data:`DE_COLORMAP`, NaN (not compared) mid grey: the colormap's own
+    lookup (``Colormap.__call__`` on floats: entry ``floor(x N)``, x = 1 the last) on a uint8 copy of its table."""
     from matplotlib import colormaps
 
     cmap = colormaps[DE_COLORMAP]
@@ -77,14 +65,10 @@ DE_BAR_LABEL = "dE2000 (grey: not compared)"
 
 
 def de_map_png(path, de_map, title: str) -> str:
-    """The dE2000 map under its title, beside a colour bar from 0 to :data:`DE_MAP_MAX` (a tick every whole dE;
-    only the two ends on a map too short for six labels), as PNG.
-
-    The map's pixels are :func:`de_colour` of ``de_map`` one to one (no resampling: every compared pixel is
-    shown as it was measured), at ``(pad, header)`` of the image; the bar is :func:`de_colour` of a ramp from
-    ``DE_MAP_MAX`` (top) to 0 (bottom), as tall as the map. Drawn with Pillow, text in
-    :func:`rockdove.render.images.label_font` sized to the map (legible when the report shows it scaled down).
-    """
+    """The dE2000 map under its title, beside a colour bar from 0 to :data:`DE_MAP_MAX` (a tick every whole dE; only
+    the ends on a map too short for six labels), as PNG. The map's pixels are :func:`de_colour` of ``de_map`` one to
+    one (no resampling: every compared pixel as measured); text in :func:`rockdove.render.images.label_font` sized
+    to the map (legible when the report shows it scaled down)."""
     from PIL import Image, ImageDraw
 
     from ..render.images import label_font, save_png
@@ -130,15 +114,14 @@ def de_map_png(path, de_map, title: str) -> str:
 SHEET_COLUMNS = ("GLSL", "reference", f"dE2000 0-{DE_MAP_MAX:g}")
 
 
-def contact_sheet(path, rows, columns=SHEET_COLUMNS) -> str:
-    """The verification contact sheet: one row per view, ``(label, [GL, reference, dE map])``, each tile titled
-    by what its column shows (``columns``), the first also by the view's label
-    (:func:`rockdove.render.images.contact_sheet`)."""
+def contact_sheet(path, rows) -> str:
+    """The verification contact sheet (:func:`rockdove.render.images.contact_sheet`): one row per view, ``(label,
+    [GL, reference, dE map])``, each tile titled by its column (:data:`SHEET_COLUMNS`), the first also by the label."""
     from ..render.images import contact_sheet as tile_sheet
 
     titled = []
     for label, imgs in rows:
-        titles = [columns[c] if c < len(columns) else "" for c in range(len(imgs))]
+        titles = [SHEET_COLUMNS[c] if c < len(SHEET_COLUMNS) else "" for c in range(len(imgs))]
         titles[0] = f"{label}  {titles[0]}".strip()
         titled.append([(t, np.asarray(img)[..., :3]) for t, img in zip(titles, imgs)])
     return tile_sheet(path, titled)
@@ -169,18 +152,15 @@ def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 
     from .. import optics
     from ..lut.reference import reference_wavelengths
 
-    wl = reference_wavelengths()
+    wl, m = reference_wavelengths(), film.model
     fig = _figure(7.0, 2.6 * len(thickness_nm), (0.7, 0.3, 0.6, 0.35), rows=len(thickness_nm), gap_in=0.58)
     for i, d in enumerate(thickness_nm):
         ax = fig.add_subplot(len(thickness_nm), 1, i + 1)
         for c in cos_theta:
-            r = optics.reflectance(wl, c, d, n_film=film.model.n_film(wl), n_incident=film.model.n_incident,
-                                   n_substrate=film.model.n_substrate)
+            r = optics.reflectance(wl, c, d, n_film=m.n_film(wl), n_incident=m.n_incident, n_substrate=m.n_substrate)
             ax.plot(wl, r, lw=0.8, label=f"cos theta = {c:g}")
         ax.set_ylabel("R")
-        m = film.model
-        ax.set_title(f"d = {d:g} nm, {m.name}: n = {m.cauchy_a:g} + {m.cauchy_b_nm2:g} / lambda^2",
-                     fontsize=9)
+        ax.set_title(f"d = {d:g} nm, {m.name}: n = {m.cauchy_a:g} + {m.cauchy_b_nm2:g} / lambda^2", fontsize=9)
         ax.set_ylim(0, 1)
         if i == 0:
             ax.legend(fontsize=7, loc="upper right")
@@ -212,39 +192,17 @@ def hue_png(path, hue: dict, title: str) -> str:
 
 def copy_bench_plots(out_dir, bench_dir) -> list[str]:
     """Copy ``bench_dir/*.png`` into ``out_dir`` as ``bench_<name>.png``; returns the new file names."""
-    if not bench_dir or not os.path.isdir(bench_dir):
-        return []
-    names = []
-    for name in sorted(os.listdir(bench_dir)):
-        if name.lower().endswith(".png"):
-            new = f"bench_{name}"
-            shutil.copyfile(os.path.join(bench_dir, name), os.path.join(out_dir, new))
-            names.append(new)
-    return names
-
-
-def _json_default(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    return str(o)
-
-
-def _finite(o):
-    """Replace NaN/Inf floats by None so report.json is strict JSON."""
-    if isinstance(o, float) and not math.isfinite(o):
-        return None
-    if isinstance(o, dict):
-        return {k: _finite(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_finite(v) for v in o]
-    return o
+    found = sorted(os.listdir(bench_dir)) if bench_dir and os.path.isdir(bench_dir) else []
+    names = [name for name in found if name.lower().endswith(".png")]
+    for name in names:
+        shutil.copyfile(os.path.join(bench_dir, name), os.path.join(out_dir, f"bench_{name}"))
+    return [f"bench_{name}" for name in names]
 
 
 def strict_json(obj):
     """``obj`` as plain JSON data: numpy values to Python, anything else unknown to str, NaN/Inf to None."""
-    return _finite(json.loads(json.dumps(obj, default=_json_default)))
+    plain = json.dumps(obj, default=lambda o: o.tolist() if isinstance(o, (np.generic, np.ndarray)) else str(o))
+    return json.loads(plain, parse_constant=lambda name: None)
 
 
 def portable(obj, roots):
@@ -282,6 +240,26 @@ def _fmt(v, digits=3):
     return html.escape(str(v))
 
 
+def _list(title: str, items) -> str:
+    return (f"<h2>{title}</h2><ul>" + "".join(f"<li>{html.escape(str(i))}</li>" for i in items) + "</ul>"
+            if items else "")
+
+
+def _head(*names) -> str:
+    return "<table><tr>" + "".join(f"<th>{n}</th>" for n in names) + "</tr>"
+
+
+def _row(name: str, *cells) -> str:
+    cells = "".join(f"<td>{c}</td>" for c in cells)
+    return f"<tr><td style='text-align:left'>{html.escape(name)}</td>{cells}</tr>"
+
+
+def _pairs(title: str, values: dict, fmt) -> str:
+    e = html.escape
+    return (f"<h2>{title}</h2><table>" + "".join(f"<tr><th style='text-align:left'>{e(k)}</th><td>{fmt(v)}</td></tr>"
+                                                  for k, v in values.items()) + "</table>" if values else "")
+
+
 def _figure_row(title: str, files: dict, captions: dict) -> str:
     """One report row: a heading and, for each key of ``captions`` that ``files`` names, the image captioned."""
     e = html.escape
@@ -302,23 +280,17 @@ def _beauty(images: dict) -> str:
 
 
 def write_html(path, report: dict, images: dict) -> str:
-    """A self-contained page (relative image links) summarising ``report``.
+    """A self-contained page (relative image links) summarising ``report`` (report.json's data).
 
-    Parameters
-    ----------
-    report : dict
-        As written to report.json (see :func:`rockdove.verify.run.verify_asset`).
-    images : dict
-        ``"views"``: ``{view: {"gl": file, "reference": file, "dE": file}}``; optional ``"hosts"``
-        (``{host: {view: {"host", "reference", "dE": file}}}``), ``"contact_sheet"``,
-        ``"lut"``, ``"spectra"``, ``"hue"``, ``"bench"`` (list) file names, relative to the page; ``"beauty"``
-        (:func:`rockdove.hosts.beauty.render_beauty`'s entry), the picture the page opens with.
+    ``images``: ``"views"``: ``{view: {"gl": file, "reference": file, "dE": file}}``; optional ``"hosts"``
+    (``{host: {view: {"host", "reference", "dE": file}}}``), ``"contact_sheet"``, ``"lut"``, ``"spectra"``,
+    ``"hue"``, ``"bench"`` (list) file names, relative to the page; ``"beauty"``
+    (:func:`rockdove.hosts.beauty.render_beauty`'s entry), the picture the page opens with.
     """
     e = html.escape
     status = "PASSED" if report.get("passed") else "FAILED"
     colour = "#1a7f37" if report.get("passed") else "#b42318"
-    notes = report.get("notes") or []
-    notes_html = ("<h2>Notes</h2><ul>" + "".join(f"<li>{e(str(n))}</li>" for n in notes) + "</ul>") if notes else ""
+    goals = report.get("goals", {})
     parts = [
         "<!DOCTYPE html><html><head><meta charset='utf-8'><title>rockdove verification</title>",
         "<style>body{font-family:sans-serif;margin:1.5em;max-width:1200px}table{border-collapse:collapse}"
@@ -326,87 +298,66 @@ def write_html(path, report: dict, images: dict) -> str:
         "img{max-width:100%;image-rendering:pixelated}.row{display:flex;gap:8px}.row figure{margin:0;flex:1}"
         "figcaption{font-size:100%;color:#222}h1{font-size:1.6em}"
         ".viewer{width:100%;height:600px;border:1px solid #ccc}</style></head><body>",
-        f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>" + _beauty(images) + notes_html,
+        f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>" + _beauty(images)
+        + _list("Notes", report.get("notes")),
         f"<p>Asset: <code>{e(str(report.get('asset', '')))}</code><br>",
         f"Configuration hash: <code>{e(str(report.get('configuration_hash') or 'not recorded'))}</code><br>",
-        f"Goals: median dE2000 &le; {report.get('goals', {}).get('median_dE', '')}, "
-        f"p95 &le; {report.get('goals', {}).get('p95_dE', '')} over feather pixels away from silhouette edges.</p>",
+        f"Goals: median dE2000 &le; {goals.get('median_dE', '')}, "
+        f"p95 &le; {goals.get('p95_dE', '')} over feather pixels away from silhouette edges.</p>",
     ]
     if images.get("viewer"):  # the interactive view first, the tables after it
         parts.append(f"<h2>Interactive view</h2><p>Drag to orbit, wheel to zoom, slide to turn the light; switch "
                      f"between the paper's baked LUT (our GLSL in WebGL2) and three.js's KHR_materials_iridescence "
                      f"shading of pigeon.glb. <a href='{e(images['viewer'])}'>Open it full size</a>.</p>"
                      f"<iframe class='viewer' src='{e(images['viewer'])}' title='interactive view'></iframe>")
-    hero = images.get("views", {}).get("hero", {}).get("gl") or images.get("views", {}).get("hero", {}).get("reference")
-    if hero:
-        parts.append(f"<h2>Hero view</h2><img src='{e(hero)}' alt='hero view' style='image-rendering:auto'>")
-    failures = report.get("failures") or []
-    if failures:
-        parts.append("<h2>Failures</h2><ul>" + "".join(f"<li>{e(str(f))}</li>" for f in failures) + "</ul>")
-    parts.append("<h2>Per view</h2><table><tr><th>view</th><th>pixels</th><th>median dE</th><th>p95 dE</th>"
-                 "<th>max dE</th><th>&gt; 2</th><th>black</th><th>green</th><th>purple</th><th>passed</th></tr>")
-    for m in report.get("views", []):
-        parts.append(
-            f"<tr><td style='text-align:left'>{e(m['view'])}</td><td>{m['n_pixels']}</td>"
-            f"<td>{_fmt(m['de_median'])}</td><td>{_fmt(m['de_p95'])}</td><td>{_fmt(m['de_max'])}</td>"
-            f"<td>{_fmt(m['de_fraction_over_p95_goal'], 4)}</td>"
-            f"<td>{m['n_black']}/{m['n_lit']}</td><td>{m['hue']['green']}</td><td>{m['hue']['purple']}</td>"
-            f"<td>{'yes' if m['passed'] else 'no'}</td></tr>"
-        )
+    hero = images.get("views", {}).get("hero", {})
+    if hero.get("gl") or hero.get("reference"):
+        parts.append(f"<h2>Hero view</h2><img src='{e(hero.get('gl') or hero.get('reference'))}' alt='hero view' "
+                     "style='image-rendering:auto'>")
+    parts.append(_list("Failures", report.get("failures")))
+    parts.append("<h2>Per view</h2>" + _head("view", "pixels", "median dE", "p95 dE", "max dE", "&gt; 2", "black",
+                                            "green", "purple", "passed"))
+    parts += [_row(m["view"], m["n_pixels"], _fmt(m["de_median"]), _fmt(m["de_p95"]), _fmt(m["de_max"]),
+                   _fmt(m["de_fraction_over_p95_goal"], 4), f"{m['n_black']}/{m['n_lit']}", m["hue"]["green"],
+                   m["hue"]["purple"], "yes" if m["passed"] else "no") for m in report.get("views", [])]
     parts.append("</table>")
-    b = report.get("boundary", {})
-    if b:
+    if report.get("boundary"):
         parts.append("<h2>Green/purple boundary straightness</h2><p>RMS perpendicular distance of the boundary "
                      "pixels from their total-least-squares line (paper preset: straight; measured preset: bent).</p>"
-                     "<table><tr><th>view</th><th>points</th><th>RMS (px)</th><th>length (px)</th>"
-                     "<th>RMS / length</th></tr>")
-        for name, s in b.get("per_view", {}).items():
-            parts.append(f"<tr><td style='text-align:left'>{e(name)}</td><td>{s['n_points']}</td>"
-                         f"<td>{_fmt(s['rms_px'])}</td><td>{_fmt(s['length_px'], 1)}</td>"
-                         f"<td>{_fmt(s['rms_fraction'], 4)}</td></tr>")
+                     + _head("view", "points", "RMS (px)", "length (px)", "RMS / length"))
+        parts += [_row(name, s["n_points"], _fmt(s["rms_px"]), _fmt(s["length_px"], 1), _fmt(s["rms_fraction"], 4))
+                  for name, s in report["boundary"].get("per_view", {}).items()]
         parts.append("</table>")
     for key, title in (("hue", "Hue histogram across the light sweep"), ("contact_sheet", "Contact sheet"),
                        ("lut", "The LUT"), ("spectra", "Film reflectance spectra")):
         if images.get(key):
             parts.append(f"<h2>{e(title)}</h2><img src='{e(images[key])}' alt='{e(key)}'>")
-    host_rows = report.get("hosts") or []
-    if host_rows:
+    if report.get("hosts"):
         parts.append("<h2>Hosts</h2><p>Each host renders the written asset with its own code and is compared with "
                      "the exact reference of the lighting model it evaluates (half_angle: the paper's light; "
                      "view_angle: uniform white environment, film colour at |N.V|), over feather-tip pixels.</p>"
-                     "<table><tr><th>host</th><th>variant</th><th>lobe</th><th>pixels</th><th>median dE</th>"
-                     "<th>p95 dE</th><th>green</th><th>purple</th><th>hue agreement</th><th>passed</th></tr>")
-        for h in host_rows:
+                     + _head("host", "variant", "lobe", "pixels", "median dE", "p95 dE", "green", "purple",
+                             "hue agreement", "passed"))
+        for h in report["hosts"]:
             if h.get("skipped") or h.get("error"):
                 why = f"skipped: {h['reason']}" if h.get("skipped") else f"error: {h['error']}"
                 parts.append(f"<tr><td style='text-align:left'>{e(h['name'])}</td>"
                              f"<td colspan='9' style='text-align:left'>{e(why)}</td></tr>")
-                continue
-            parts.append(
-                f"<tr><td style='text-align:left'>{e(h['name'])}</td><td>{e(h['variant'])}</td><td>{e(h['lobe'])}</td>"
-                f"<td>{h['n_pixels']}</td><td>{_fmt(h['median_dE'])}</td><td>{_fmt(h['p95_dE'])}</td>"
-                f"<td>{h['green_px']}</td><td>{h['purple_px']}</td><td>{_fmt(h['hue_agreement'])}</td>"
-                f"<td>{'yes' if h['passed'] else 'no'}</td></tr>")
+            else:
+                parts.append(_row(h["name"], e(h["variant"]), e(h["lobe"]), h["n_pixels"], _fmt(h["median_dE"]),
+                                  _fmt(h["p95_dE"]), h["green_px"], h["purple_px"], _fmt(h["hue_agreement"]),
+                                  "yes" if h["passed"] else "no"))
         parts.append("</table>")
-        for host, per_view in (images.get("hosts") or {}).items():
-            for name, files in per_view.items():
-                parts.append(_figure_row(f"{host}: {name}", files, {"host": host, "reference": "reference",
-                                                                     "dE": "dE"}))
+        parts += [_figure_row(f"{host}: {name}", files, {"host": host, "reference": "reference", "dE": "dE"})
+                  for host, per_view in (images.get("hosts") or {}).items() for name, files in per_view.items()]
     parts.append("<h2>Renders and dE2000 maps</h2>")
-    for name, files in images.get("views", {}).items():
-        parts.append(_figure_row(name, files, {"gl": "gl", "reference": "reference", "dE": "dE"}))
+    parts += [_figure_row(name, files, {"gl": "gl", "reference": "reference", "dE": "dE"})
+              for name, files in images.get("views", {}).items()]
     if images.get("bench"):
         parts.append("<h2>Benchmarks</h2>" + "".join(f"<img src='{e(f)}' alt='{e(f)}'>" for f in images["bench"]))
-    t = report.get("timings_s", {})
-    if t:
-        parts.append("<h2>Timings (s)</h2><table>" + "".join(
-            f"<tr><th style='text-align:left'>{e(k)}</th><td>{_fmt(v)}</td></tr>" for k, v in t.items()) + "</table>")
-    lib = report.get("versions", {})
-    if lib:
-        parts.append("<h2>Library versions</h2><table>" + "".join(
-            f"<tr><th style='text-align:left'>{e(k)}</th><td>{e(str(v))}</td></tr>" for k, v in lib.items())
-            + "</table>")
+    parts.append(_pairs("Timings (s)", report.get("timings_s", {}), _fmt))
+    parts.append(_pairs("Library versions", report.get("versions", {}), lambda v: e(str(v))))
     parts.append("<p>Full data: <a href='report.json'>report.json</a></p></body></html>")
     with open(path, "w", encoding="utf-8") as f:
-        f.write("\n".join(parts))
+        f.write("\n".join(p for p in parts if p))
     return os.fspath(path)

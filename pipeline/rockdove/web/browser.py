@@ -1,14 +1,11 @@
 """Drive headless Chromium (Debian's ``chromium``) over the DevTools protocol on a pipe, with a time limit on
 every step.
 
-The browser is started with ``--remote-debugging-pipe`` (the protocol's JSON messages, NUL-terminated, on file
-descriptors 3 and 4 of the browser), so nothing listens on a port and no WebSocket library is needed. WebGL2
-renders on the CPU through SwiftShader (``--enable-unsafe-swiftshader --use-angle=swiftshader``); the network is
-closed, so everything that phones home is off and the profile is a fresh temporary folder.
-
-Every call waits at most its ``timeout_s``: a browser that cannot start, a page that never becomes ready, or a
-protocol reply that never comes raises :class:`BrowserError` naming the step, never hangs. The page's console
-errors, uncaught exceptions and failed loads are collected in :attr:`Page.errors`.
+``--remote-debugging-pipe`` carries the protocol's NUL-terminated JSON messages on the browser's file descriptors
+3 and 4: nothing listens on a port, no WebSocket library is needed. WebGL2 renders on the CPU through SwiftShader;
+everything that phones home is off and the profile is a fresh temporary folder. A browser that cannot start, a
+page that never becomes ready or a reply that never comes raises :class:`BrowserError` naming the step within
+its ``timeout_s``, never hangs; the page's console errors, exceptions and failed loads are :attr:`Page.errors`.
 
 Protocol reference: Chrome DevTools Protocol (Target, Page, Runtime, Log, Emulation domains).
 """
@@ -16,9 +13,11 @@ Protocol reference: Chrome DevTools Protocol (Target, Page, Runtime, Log, Emulat
 from __future__ import annotations
 
 import base64
+import contextlib
 import json
 import os
 import select
+import shlex
 import shutil
 import subprocess
 import tempfile
@@ -50,24 +49,17 @@ def find_chromium(executable: str | None = None) -> str:
 
 
 class Browser:
-    """One headless Chromium process; use as a context manager.
-
-    Parameters
-    ----------
-    executable : str, optional
-        Browser executable (default: :func:`find_chromium`).
-    start_timeout_s : float
-        Seconds to start and answer the first command.
-    """
+    """One headless Chromium process (``executable``, default :func:`find_chromium`), started and answering within
+    ``start_timeout_s``; use as a context manager."""
 
     def __init__(self, executable: str | None = None, start_timeout_s: float = START_TIMEOUT_S):
         self.executable = find_chromium(executable)
         self.profile = tempfile.mkdtemp(prefix="rockdove-chromium-")
         to_child_r, self._to_child = os.pipe()
         self._from_child, from_child_w = os.pipe()
-        cmd = " ".join([f"exec 3<&{to_child_r} 4>&{from_child_w};", "exec", *map(_quote, [
+        cmd = f"exec 3<&{to_child_r} 4>&{from_child_w}; exec " + shlex.join([
             self.executable, *CHROMIUM_FLAGS, f"--user-data-dir={self.profile}", "--remote-debugging-pipe",
-            "about:blank"])])
+            "about:blank"])
         self._stderr = tempfile.TemporaryFile()
         try:
             self.process = subprocess.Popen(["bash", "-c", cmd], pass_fds=(to_child_r, from_child_w),
@@ -110,8 +102,7 @@ class Browser:
             ready, _, _ = select.select([self._from_child], [], [], min(left, 1.0))
             if not ready:
                 if self.process.poll() is not None:
-                    raise BrowserError(f"chromium exited with status {self.process.returncode} ({step}): "
-                                       f"{self._stderr_tail()}")
+                    raise self._gone(step)
                 continue
             chunk = os.read(self._from_child, 1 << 20)
             if not chunk:
@@ -166,11 +157,9 @@ class Browser:
 
     # -- life -------------------------------------------------------------------------------------------------
     def close(self) -> None:
-        if getattr(self, "process", None) is not None and self.process.poll() is None:
-            try:
+        if self.process.poll() is None:
+            with contextlib.suppress(BrowserError):
                 self.call("Browser.close", timeout_s=5.0, step="close")
-            except BrowserError:
-                pass
             try:
                 self.process.wait(timeout=10)
             except subprocess.TimeoutExpired:
@@ -180,14 +169,11 @@ class Browser:
 
     def _cleanup(self) -> None:
         for fd in ("_to_child", "_from_child"):
-            if getattr(self, fd, None) is not None:
-                try:
+            if getattr(self, fd) is not None:
+                with contextlib.suppress(OSError):
                     os.close(getattr(self, fd))
-                except OSError:
-                    pass
                 setattr(self, fd, None)
-        if hasattr(self, "_stderr"):
-            self._stderr.close()
+        self._stderr.close()
         shutil.rmtree(self.profile, ignore_errors=True)
 
     def __enter__(self) -> "Browser":
@@ -203,39 +189,32 @@ class Page:
     def __init__(self, browser: Browser, session: str):
         self.browser, self.session = browser, session
 
-    @property
-    def errors(self) -> list[str]:
-        """Console errors, uncaught exceptions and failed loads reported so far (one line each)."""
-        out = []
-        for ev in self.browser._events:
-            if ev.get("sessionId") != self.session:
-                continue
-            p = ev.get("params", {})
-            if ev["method"] == "Runtime.consoleAPICalled" and p.get("type") in ("error", "assert"):
-                out.append("console.error: " + " ".join(str(a.get("value", a.get("description", "")))
-                                                        for a in p.get("args", [])))
-            elif ev["method"] == "Runtime.exceptionThrown":
-                d = p.get("exceptionDetails", {})
-                out.append("exception: " + str(d.get("exception", {}).get("description") or d.get("text")))
-            elif ev["method"] == "Log.entryAdded" and p.get("entry", {}).get("level") == "error":
-                out.append("log: " + str(p["entry"].get("text")))
-        return out
-
-    @property
-    def console(self) -> list[str]:
-        """Every console message (any level: log, info, warning, error) and browser log entry so far, one line
-        each as ``level: text`` (a deprecation warning of three.js shows here, not in :attr:`errors`)."""
-        out = []
+    def _messages(self):
+        """``(kind, level, text)`` of each console message, uncaught exception and browser log entry so far."""
         for ev in self.browser._events:
             p = ev.get("params", {})
             if ev.get("sessionId") != self.session:
                 continue
             if ev["method"] == "Runtime.consoleAPICalled":
-                out.append(f"{p.get('type')}: " + " ".join(str(a.get("value", a.get("description", "")))
-                                                           for a in p.get("args", [])))
+                yield "console", p.get("type"), " ".join(str(a.get("value", a.get("description", "")))
+                                                         for a in p.get("args", []))
+            elif ev["method"] == "Runtime.exceptionThrown":
+                d = p.get("exceptionDetails", {})
+                yield "exception", "error", str(d.get("exception", {}).get("description") or d.get("text"))
             elif ev["method"] == "Log.entryAdded":
-                out.append(f"{p['entry'].get('level')}: {p['entry'].get('text')}")
-        return out
+                yield "log", p["entry"].get("level"), str(p["entry"].get("text"))
+
+    @property
+    def errors(self) -> list[str]:
+        """Console errors, uncaught exceptions and failed loads reported so far (one line each)."""
+        return [f"{'console.error' if kind == 'console' else kind}: {text}" for kind, level, text in self._messages()
+                if level == "error" or (kind, level) == ("console", "assert")]
+
+    @property
+    def console(self) -> list[str]:
+        """Every console message (any level) and browser log entry so far, one line each as ``level: text`` (a
+        deprecation warning of three.js shows here, not in :attr:`errors`)."""
+        return [f"{level}: {text}" for kind, level, text in self._messages() if kind != "exception"]
 
     def evaluate(self, expression: str, timeout_s: float = 60.0, step: str | None = None):
         """The value of ``expression`` (awaited if it is a promise), as JSON-compatible Python data."""
@@ -253,7 +232,3 @@ class Page:
         data = self.browser.call("Page.captureScreenshot", {"format": "png"}, session=self.session,
                                  timeout_s=timeout_s, step="screenshot")["data"]
         return base64.b64decode(data)
-
-
-def _quote(s: str) -> str:
-    return "'" + str(s).replace("'", "'\\''") + "'"

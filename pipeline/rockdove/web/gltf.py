@@ -1,46 +1,28 @@
 """Export a written rockdove USD asset to one glTF 2.0 binary file (``pigeon.glb``) with ``KHR_materials_iridescence``.
 
-One source of truth: the exporter reads the asset *as written* (the USD layers on disk, through the verifier's own
-reader :func:`rockdove.render.scene.load_scene`), not the build's memory, so ``pigeon.glb`` is a translation of
-``pigeon.usda`` exactly as ``pigeon.usdz`` is, and the same function exports any rockdove asset after the fact.
+The exporter reads the asset *as written* (:func:`rockdove.render.scene.load_scene`, the verifier's reader), not the
+build's memory, so ``pigeon.glb`` translates ``pigeon.usda`` as ``pigeon.usdz`` does, and exports any rockdove asset
+after the fact. One node per visible USD mesh, world space, metres, Y up (the asset's conventions are glTF's);
+``TEXCOORD_0`` = ``st`` with ``v = 1 - t`` (glTF's image origin is top-left). Feathers (docs/design.md "glTF"):
 
-What is written (glTF 2.0, Khronos 2021; extensions from the Khronos registry):
+- ``feather_base.png`` (A = silhouette, ``alphaMode: MASK`` at the asset's ``opacityThreshold``), double-sided,
+  roughness 0; ``KHR_materials_iridescence``: factor 1 times the tip mask ``feather_mask.png``, ``iridescenceIor``
+  = the film's Cauchy index at :data:`IOR_WAVELENGTH_NM` (glTF takes one non-dispersive index), the LUT's
+  thickness range (nm, glTF's unit), and an ``iridescenceThicknessTexture`` whose G is an 8-bit linear ramp
+  (``G_i = i / (N - 1)``) read through ``TEXCOORD_1``, ``u = (0.5 + g (N - 1)) / N``, ``g = (d - min) / (max -
+  min)``: linear filtering of a linear ramp returns ``g`` itself, so ``mix(min, max, G)`` is the primvar
+  interpolated across the card, not quantised to 8 bits; ``KHR_materials_ior`` = the asset's substrate index (1.0
+  for a film in air: three.js then evaluates the Airy reflectance over a substrate of index 1, so the only
+  specular reflection is the film's);
+- the default material (``NeckFeathersPreview``), for consumers without the extension (Blender 5.0's importer
+  ignores it silently; many engines do): the USD preview's atlas ``feather_preview.png`` through ``TEXCOORD_2`` =
+  ``previewST``. The film is the ``KHR_materials_variants`` variant ``thin_film``, which our viewer and web host
+  select (measured: a base colour under the film would be counted twice by three.js, whose diffuse is only scaled
+  by ``1 - F``).
 
-- one node per visible USD mesh (``Body``, ``NeckFeathers``, ``Beak``, ...), in world space, metres, Y up (the
-  asset's own conventions are glTF's: the bird faces +Z); positions, unit normals, ``TEXCOORD_0`` = USD
-  ``st`` with ``v = 1 - t`` (glTF's image origin is the top-left);
-- feathers: ``baseColorTexture`` = ``feather_base.png`` (sRGB; A = silhouette) with ``alphaMode: MASK`` at the
-  asset's ``opacityThreshold`` and ``doubleSided`` (cards);
-  ``KHR_materials_iridescence``: ``iridescenceFactor`` 1 scaled by ``iridescenceTexture`` = ``feather_mask.png``
-  (R: 1 on the tip that shows structural colour), ``iridescenceIor`` = the film's Cauchy index ``A + B / lambda^2``
-  at :data:`IOR_WAVELENGTH_NM` (glTF takes one non-dispersive index; 550 nm, the same wavelength the USD
-  physical variant uses), ``iridescenceThicknessMinimum/Maximum`` = the LUT's thickness range (nm, the unit glTF
-  uses) and ``iridescenceThicknessTexture`` carrying each vertex's thickness: its G channel is an 8-bit linear ramp
-  (:data:`THICKNESS_RAMP_TEXELS` texels, ``G_i = i / (N - 1)``) sampled through a second UV set ``TEXCOORD_1``
-  with ``u = (0.5 + g (N - 1)) / N``, ``g = (d - min) / (max - min)``: linear filtering of a linear ramp returns
-  ``g`` itself, so the thickness a renderer reads, ``mix(min, max, G)``, is the primvar's value interpolated
-  across the card, not quantised to 8 bits (only the GPU's filtering weights round);
-  ``KHR_materials_ior``: ``ior`` = the substrate index the asset records (``rockdove:film:substrateIndex``; 1.0
-  for the default film in air). The extension allows ``ior = 1.0`` (its schema: ``>= 1``, or the special 0);
-  three.js turns it into a base F0 of 0, so the film's Airy reflectance is evaluated over a substrate of index 1
-  (``Fresnel0ToIor(0) = 1``) and the only specular reflection is the film's;
-  metallic 0, roughness 0: the smooth film's mirror lobe;
-- the feathers' default material (``NeckFeathersPreview``): what a consumer without ``KHR_materials_iridescence``
-  shows (Blender 5.0's importer ignores the extension silently; many engines do), the USD preview's own network:
-  base colour = the atlas ``feather_preview.png`` through ``TEXCOORD_2`` = the mesh's ``previewST`` (each card the
-  colour of its own thickness), its roughness, the same mask and sides. The film material above is the
-  ``KHR_materials_variants`` variant ``thin_film`` (``preview`` names the default): three.js's GLTFLoader keeps
-  the extension in ``userData`` and our viewer and web host select the variant. Measured: a base colour under
-  the film instead would be counted twice by three.js (its diffuse is only scaled by ``1 - F`` of the film);
-  with the variant the web host's numbers are those of the film alone, unchanged;
-- other parts: their base colour (texture or constant, linear), metallic 0, roughness 1.
-
-The film record itself goes into the feathers' material ``extras.rockdove`` (model, Cauchy A and B, indices,
-thickness range, the wavelength of ``iridescenceIor``), so nothing of the physics is lost.
-
-Library: pygltflib (the glTF 2.0 schema as dataclasses, with GLB read/write) builds the document; extensions it
-has no classes for are plain dicts. trimesh's exporter was not used: it writes its own material model and
-cannot author ``KHR_materials_iridescence`` or a second UV set for one texture.
+Other parts: their base colour, metallic 0, roughness 1. The film record goes into the feathers' material
+``extras.rockdove``. pygltflib builds the document (trimesh's exporter cannot author the extension or a second UV
+set for one texture).
 """
 
 from __future__ import annotations
@@ -70,22 +52,9 @@ _LINEAR, _LINEAR_MIPMAP_LINEAR, _CLAMP_TO_EDGE = 9729, 9987, 33071
 
 
 def thickness_texcoords(thickness_nm, lo_nm: float, hi_nm: float, texels: int = THICKNESS_RAMP_TEXELS) -> np.ndarray:
-    """``TEXCOORD_1`` of the thickness ramp for each vertex.
-
-    Parameters
-    ----------
-    thickness_nm : array_like, (V,)
-        Film thickness per vertex, nm.
-    lo_nm, hi_nm : float
-        ``iridescenceThicknessMinimum`` / ``Maximum``, nm (``lo_nm == hi_nm``: every vertex reads texel 0).
-    texels : int
-        Width of the ramp.
-
-    Returns
-    -------
-    ndarray, (V, 2) float32
-        ``u = (0.5 + g (N - 1)) / N`` with ``g = clip((d - lo) / (hi - lo), 0, 1)``, ``v = 0.5``.
-    """
+    """(V, 2) float32 ``TEXCOORD_1`` of the thickness ramp for each vertex's thickness (nm) between
+    ``iridescenceThicknessMinimum`` and ``Maximum`` (nm; equal: texel 0): ``u = (0.5 + g (N - 1)) / N`` with
+    ``g = clip((d - lo) / (hi - lo), 0, 1)``, ``v = 0.5``."""
     d = np.asarray(thickness_nm, dtype=np.float64)
     g = np.clip((d - lo_nm) / (hi_nm - lo_nm), 0.0, 1.0) if hi_nm > lo_nm else np.zeros_like(d)
     return np.stack([(0.5 + g * (texels - 1)) / texels, np.full_like(g, 0.5)], axis=1).astype(np.float32)
@@ -101,17 +70,17 @@ def thickness_ramp_png(texels: int = THICKNESS_RAMP_TEXELS) -> bytes:
     return buf.getvalue()
 
 
-def film_ior(film, wavelength_nm: float = IOR_WAVELENGTH_NM) -> float:
-    """The film's Cauchy index at ``wavelength_nm`` (``film``: :class:`rockdove.render.film.ThinFilmParams`): its
-    real part: ``KHR_materials_iridescence`` has no extinction, so an absorbing film (k > 0) is exported without it."""
-    return float(np.real(film.model.n_film(wavelength_nm)))
+def film_ior(film) -> float:
+    """The real part of the film's Cauchy index at :data:`IOR_WAVELENGTH_NM` (``film``:
+    :class:`rockdove.render.film.ThinFilmParams`): ``KHR_materials_iridescence`` has no extinction."""
+    return float(np.real(film.model.n_film(IOR_WAVELENGTH_NM)))
 
 
 class _Blob:
-    """The GLB's binary chunk: buffer views appended with 4-byte alignment."""
+    """The GLB's binary chunk (buffer views appended with 4-byte alignment), its textures and materials."""
 
     def __init__(self, gltf):
-        self.gltf, self.data = gltf, bytearray()
+        self.gltf, self.data, self.textures = gltf, bytearray(), {}
 
     def view(self, payload: bytes, target: int | None = None) -> int:
         from pygltflib import BufferView
@@ -122,7 +91,7 @@ class _Blob:
         self.data.extend(payload)
         return len(self.gltf.bufferViews) - 1
 
-    def accessor(self, array: np.ndarray, kind: str, target: int, with_bounds: bool = False) -> int:
+    def accessor(self, array: np.ndarray, kind: str, target: int = _ARRAY_BUFFER, with_bounds: bool = False) -> int:
         from pygltflib import Accessor
 
         array = np.ascontiguousarray(array)
@@ -136,11 +105,21 @@ class _Blob:
         self.gltf.accessors.append(acc)
         return len(self.gltf.accessors) - 1
 
-    def image(self, png: bytes, name: str) -> int:
-        from pygltflib import Image
+    def texture(self, source, name: str | None = None, sampler: int = 0) -> int:
+        """The texture of a PNG file (named by its file name) or of PNG bytes, added on first use."""
+        from pygltflib import Image, Texture
 
-        self.gltf.images.append(Image(name=name, bufferView=self.view(png), mimeType="image/png"))
-        return len(self.gltf.images) - 1
+        name = name or os.path.basename(source)
+        if name not in self.textures:
+            png = source if isinstance(source, bytes) else Path(source).read_bytes()
+            self.gltf.images.append(Image(name=name, bufferView=self.view(png), mimeType="image/png"))
+            self.gltf.textures.append(Texture(source=len(self.gltf.images) - 1, sampler=sampler, name=name))
+            self.textures[name] = len(self.gltf.textures) - 1
+        return self.textures[name]
+
+    def material(self, material) -> int:
+        self.gltf.materials.append(material)
+        return len(self.gltf.materials) - 1
 
 
 def _unit(normals: np.ndarray) -> np.ndarray:
@@ -148,6 +127,11 @@ def _unit(normals: np.ndarray) -> np.ndarray:
     length = np.linalg.norm(n, axis=1, keepdims=True)
     n = np.where(length > 1e-12, n / np.maximum(length, 1e-30), np.array([0.0, 1.0, 0.0]))
     return n.astype(np.float32)
+
+
+def _uv(st) -> np.ndarray:
+    """USD ``st`` as glTF texture coordinates (image origin top-left)."""
+    return np.stack([st[:, 0], 1.0 - st[:, 1]], axis=1).astype(np.float32)
 
 
 def preview_material_texture(stage, prim_path: str) -> tuple[str | None, float]:
@@ -171,15 +155,11 @@ def preview_material_texture(stage, prim_path: str) -> tuple[str | None, float]:
 
 
 def scene_to_glb(scene, version: str = "") -> bytes:
-    """The GLB bytes of a :class:`rockdove.render.scene.RenderScene` that has thin-film feathers.
-
-    Raises
-    ------
-    ValueError
-        The scene records no film (not a rockdove asset) or a feather part has no thickness.
-    """
+    """The GLB bytes of a :class:`rockdove.render.scene.RenderScene` that has thin-film feathers; ValueError when
+    it records no film (not a rockdove asset) or a feather part has no thickness."""
+    from pxr import Usd
     from pygltflib import (GLTF2, Asset, Attributes, Buffer, Material, Mesh, Node, PbrMetallicRoughness,
-                           Primitive, Sampler, Scene, Texture, TextureInfo)
+                           Primitive, Sampler, Scene, TextureInfo)
 
     film = scene.film
     if film is None:
@@ -193,53 +173,33 @@ def scene_to_glb(scene, version: str = "") -> bytes:
                      # the ramp must not be mipmapped: averaging neighbouring texels of a ramp along u is fine,
                      # but mip levels of a 1-texel-high ramp would blur it along u at a distance
                      Sampler(magFilter=_LINEAR, minFilter=_LINEAR, wrapS=_CLAMP_TO_EDGE, wrapT=_CLAMP_TO_EDGE)]
-    textures: dict[str, int] = {}
-
-    def texture(path_or_png, name: str, sampler: int = 0) -> int:
-        if name not in textures:
-            png = path_or_png if isinstance(path_or_png, bytes) else Path(path_or_png).read_bytes()
-            gltf.textures.append(Texture(source=blob.image(png, name), sampler=sampler, name=name))
-            textures[name] = len(gltf.textures) - 1
-        return textures[name]
-
     lo, hi = scene.thickness_range_nm  # a LUT-less film: the feathers' thicknesses, whole nm
-    stage = None
-    root_children = []
-
-    def add_material(material) -> int:
-        gltf.materials.append(material)
-        return len(gltf.materials) - 1
-
+    stage = Usd.Stage.Open(scene.root_layer)
     for part in scene.parts:
-        attributes = Attributes(
-            POSITION=blob.accessor(part.positions_m.astype(np.float32), "VEC3", _ARRAY_BUFFER, with_bounds=True),
-            NORMAL=blob.accessor(_unit(part.normals), "VEC3", _ARRAY_BUFFER))
+        attributes = Attributes(POSITION=blob.accessor(part.positions_m.astype(np.float32), "VEC3", with_bounds=True),
+                                NORMAL=blob.accessor(_unit(part.normals), "VEC3"))
         if part.base_colour_texture or part.mask_texture:  # untextured parts carry no UVs (nothing reads them)
-            attributes.TEXCOORD_0 = blob.accessor(np.stack([part.st[:, 0], 1.0 - part.st[:, 1]], axis=1)
-                                                  .astype(np.float32), "VEC2", _ARRAY_BUFFER)
+            attributes.TEXCOORD_0 = blob.accessor(_uv(part.st), "VEC2")
         pbr = PbrMetallicRoughness(metallicFactor=0.0, roughnessFactor=1.0)
         if part.base_colour_texture:
-            pbr.baseColorTexture = TextureInfo(index=texture(part.base_colour_texture,
-                                                             os.path.basename(part.base_colour_texture)))
+            pbr.baseColorTexture = TextureInfo(index=blob.texture(part.base_colour_texture))
         else:
             pbr.baseColorFactor = [float(c) for c in part.base_colour] + [1.0]
         material = Material(name=f"{part.name}Material", pbrMetallicRoughness=pbr)
-        primitive_extensions = None
+        variants = {}
         if part.is_feather:
             if part.thickness_nm is None:
                 raise ValueError(f"asset {scene.root_layer!r}: {part.path} records a film but no thickness primvar")
-            attributes.TEXCOORD_1 = blob.accessor(thickness_texcoords(part.thickness_nm, lo, hi), "VEC2",
-                                                  _ARRAY_BUFFER)
+            attributes.TEXCOORD_1 = blob.accessor(thickness_texcoords(part.thickness_nm, lo, hi), "VEC2")
             pbr.roughnessFactor = 0.0
             material.alphaMode, material.alphaCutoff, material.doubleSided = "MASK", float(part.opacity_threshold), True
             iridescence = {"iridescenceFactor": 1.0, "iridescenceIor": film_ior(film),
                            "iridescenceThicknessMinimum": lo, "iridescenceThicknessMaximum": hi,
-                           "iridescenceThicknessTexture": {"index": texture(thickness_ramp_png(),
-                                                                            "thickness_ramp.png", sampler=1),
+                           "iridescenceThicknessTexture": {"index": blob.texture(thickness_ramp_png(),
+                                                                                 "thickness_ramp.png", sampler=1),
                                                            "texCoord": 1}}
             if part.mask_texture:
-                iridescence["iridescenceTexture"] = {"index": texture(part.mask_texture,
-                                                                      os.path.basename(part.mask_texture))}
+                iridescence["iridescenceTexture"] = {"index": blob.texture(part.mask_texture)}
             material.extensions = {"KHR_materials_iridescence": iridescence,
                                    "KHR_materials_ior": {"ior": float(film.model.n_substrate)}}
             material.extras = {"rockdove": {
@@ -247,39 +207,29 @@ def scene_to_glb(scene, version: str = "") -> bytes:
                 "incidentIndex": film.model.n_incident, "substrateIndex": film.model.n_substrate,
                 "iridescenceIorWavelengthNm": IOR_WAVELENGTH_NM, "thicknessRangeNm": [lo, hi],
                 "thicknessRampTexels": THICKNESS_RAMP_TEXELS}}
-            film_index = add_material(material)
-            if stage is None:
-                from pxr import Usd
-
-                stage = Usd.Stage.Open(scene.root_layer)
             preview, roughness = preview_material_texture(stage, part.path)
             if preview is not None and part.preview_st is not None:
                 # the default material, what a consumer without KHR_materials_iridescence (or that ignores the
                 # variants) shows: the USD preview's atlas, each card the colour of its own thickness
-                attributes.TEXCOORD_2 = blob.accessor(np.stack([part.preview_st[:, 0], 1.0 - part.preview_st[:, 1]],
-                                                               axis=1).astype(np.float32), "VEC2", _ARRAY_BUFFER)
-                atlas = TextureInfo(index=texture(preview, os.path.basename(preview)), texCoord=2)
+                film_index = blob.material(material)
+                attributes.TEXCOORD_2 = blob.accessor(_uv(part.preview_st), "VEC2")
+                atlas = TextureInfo(index=blob.texture(preview), texCoord=2)
                 material = Material(name=f"{part.name}Preview", alphaMode="MASK", doubleSided=True,
                                     alphaCutoff=float(part.opacity_threshold),
                                     pbrMetallicRoughness=PbrMetallicRoughness(metallicFactor=0.0, baseColorTexture=atlas,
                                                                               roughnessFactor=roughness))
-                primitive_extensions = {"KHR_materials_variants": {"mappings": [
-                    {"material": film_index, "variants": [0]},
-                    {"material": len(gltf.materials), "variants": [1]}]}}
+                variants = {"KHR_materials_variants": {"mappings": [{"material": film_index, "variants": [0]},
+                                                                    {"material": film_index + 1, "variants": [1]}]}}
                 gltf.extensions = {"KHR_materials_variants": {"variants": [{"name": FILM_VARIANT},
                                                                            {"name": PREVIEW_VARIANT}]}}
-            else:
-                material = None
-        index = add_material(material) if material is not None else len(gltf.materials) - 1
         tris = np.asarray(part.triangles).reshape(-1)
         index_dtype = np.uint16 if len(part.positions_m) <= 65535 else np.uint32
-        primitive = Primitive(attributes=attributes, material=index, extensions=primitive_extensions or {},
+        primitive = Primitive(attributes=attributes, material=blob.material(material), extensions=variants,
                               indices=blob.accessor(tris.astype(index_dtype), "SCALAR", _ELEMENT_ARRAY_BUFFER))
         gltf.meshes.append(Mesh(name=part.name, primitives=[primitive]))
         gltf.nodes.append(Node(name=part.name, mesh=len(gltf.meshes) - 1))
-        root_children.append(len(gltf.nodes) - 1)
     gltf.extensionsUsed = [e for e in EXTENSIONS if e != "KHR_materials_variants" or gltf.extensions]
-    gltf.nodes.append(Node(name="Pigeon", children=root_children))
+    gltf.nodes.append(Node(name="Pigeon", children=list(range(len(gltf.nodes)))))
     gltf.scenes = [Scene(name="Pigeon", nodes=[len(gltf.nodes) - 1])]
     gltf.scene = 0
     blob.data.extend(b"\0" * (-len(blob.data) % 4))
@@ -289,25 +239,9 @@ def scene_to_glb(scene, version: str = "") -> bytes:
 
 
 def export_glb(asset, out_path, *, version: str = "") -> dict:
-    """Read a written rockdove asset and write it as one GLB file.
-
-    Parameters
-    ----------
-    asset : str or os.PathLike
-        The asset folder (containing ``pigeon.usda``) or its root layer.
-    out_path : str or os.PathLike
-        The ``.glb`` to write (replaced atomically).
-
-    Returns
-    -------
-    dict
-        ``{"path", "bytes", "iridescence_ior", "ior_wavelength_nm", "thickness_range_nm", "substrate_ior"}``.
-
-    Raises
-    ------
-    ValueError
-        ``asset`` is not a USD asset, or has no rockdove thin-film data (one line, naming the asset).
-    """
+    """Read a written rockdove asset (its folder or root layer) and write it as one GLB file ``out_path`` (replaced
+    atomically): ``{"path", "bytes", "iridescence_ior", "ior_wavelength_nm", "thickness_range_nm",
+    "substrate_ior"}``. ValueError (one line, naming the asset): not a USD asset, or no rockdove thin-film data."""
     from ..render.scene import load_scene
 
     scene = load_scene(asset)  # the verifier's reader; a physical-only asset (no LUT) reads too
@@ -327,19 +261,9 @@ VALIDATOR_TIMEOUT_S = 120
 
 
 def validate_glb(path) -> dict:
-    """Validate ``path`` with the Khronos glTF-Validator (npm ``gltf-validator``, run by Node.js).
-
-    Returns
-    -------
-    dict
-        The validator's report: ``report["issues"]`` has ``numErrors``, ``numWarnings``, ``numInfos``,
-        ``numHints`` and ``messages`` (code, message, severity, pointer).
-
-    Raises
-    ------
-    RuntimeError
-        Node.js or the npm package is missing (the message says how to install them), or the validator failed.
-    """
+    """The Khronos glTF-Validator's report on ``path`` (npm ``gltf-validator``, run by Node.js): ``["issues"]`` has
+    ``numErrors``, ``numWarnings``, ``numInfos``, ``numHints`` and ``messages``. RuntimeError: Node.js or the npm
+    package is missing (the message says how to install them), or the validator failed."""
     import json
     import shutil
     import subprocess
