@@ -5,15 +5,13 @@
 (function () {
   "use strict";
   const MODULES = window.ROCKDOVE_MODULES || {};
-  const SPECIFIERS = {  // specifier as written in the sources -> module name
-    "three": "three.module.js", "./three.core.js": "three.core.js",
+  const SPECIFIERS = {  // specifier as written in the sources -> module name, dependencies first
+    "./three.core.js": "three.core.js", "three": "three.module.js",
     "../utils/BufferGeometryUtils.js": "BufferGeometryUtils.js", "../utils/SkeletonUtils.js": "SkeletonUtils.js",
     "three/addons/loaders/GLTFLoader.js": "GLTFLoader.js", "three/addons/controls/OrbitControls.js": "OrbitControls.js",
   };
-  const ORDER = ["three.core.js", "three.module.js", "BufferGeometryUtils.js", "SkeletonUtils.js", "GLTFLoader.js",
-                 "OrbitControls.js", "viewer_app.js"];
   const urls = {};
-  for (const name of ORDER) {
+  for (const name of Object.values(SPECIFIERS).concat("viewer_app.js")) {
     if (!(name in MODULES)) { throw new Error(`rockdove viewer: module ${name} is missing beside viewer.html`); }
     const source = MODULES[name].replace(/(\bfrom\s*|\bimport\s*)(['"])([^'"]+)\2/g, (all, head, q, spec) => {
       const dep = SPECIFIERS[spec];

@@ -86,12 +86,16 @@ def film_ior(record: dict) -> float:
     return float(record["cauchyA"]) + float(record.get("cauchyB_nm2", 0.0)) / FILM_IOR_WAVELENGTH_NM ** 2
 
 
+def _resolved(asset_path) -> str:
+    """The resolved path of an Sdf.AssetPath ("" for none)."""
+    return asset_path.resolvedPath if asset_path is not None else ""
+
+
 def _texture_bytes(asset_path):
     """(file path or None, bytes or None) of a resolved Sdf.AssetPath (a file, or a file inside a usdz)."""
     from pxr import Ar
 
-
-    resolved = asset_path.resolvedPath if asset_path is not None else ""
+    resolved = _resolved(asset_path)
     if not resolved:
         return None, None
     if os.path.isfile(resolved):
@@ -105,8 +109,7 @@ def _outside(asset_path, stage) -> str | None:
     None: a texture of the asset, or none."""
     from pxr import Ar
 
-
-    resolved = asset_path.resolvedPath if asset_path is not None else ""
+    resolved = _resolved(asset_path)
     if not resolved:
         return None
     outer = Ar.SplitPackageRelativePathOuter(resolved)[0] if Ar.IsPackageRelativePath(resolved) else resolved
@@ -306,7 +309,7 @@ def check_record(record: dict) -> str | None:
     units = record.get("thicknessUnits", "nm")
     name = record.get("thicknessPrimvar", "thickness")
     return (number("cauchyA", 1.0) or number("substrateIndex", 1.0) or number("cauchyB_nm2", 0.0)
-            or (None if film_ior(record) >= 1.0 else f"the film index at 550 nm, {film_ior(record)}, is below 1")
+            or (None if film_ior(record) >= 1.0 else f"the film index at {FILM_IOR_WAVELENGTH_NM:g} nm, {film_ior(record)}, is below 1")
             or (None if units == "nm" else f"{FILM_PREFIX}thicknessUnits = {units!r}, not 'nm'")
             or (None if isinstance(name, str) and name.strip() else f"{FILM_PREFIX}thicknessPrimvar = {name!r}"))
 

@@ -1,21 +1,13 @@
-"""Hosts: adapters at the edge that read the WRITTEN asset and render it with their own code.
+"""Hosts: adapters at the edge that read the WRITTEN asset and render it with their own code (docs/design.md "Hosts").
 
-A host module (registered in :data:`HOSTS`, imported lazily) defines
-
-- ``NAME`` (str): its registry name;
-- ``VARIANT`` (str): the network it draws: ``"glsl"`` (our paper shaders), ``"baked"`` (the MaterialX LUT
-  network), ``"physical"`` (the host's own thin-film BSDF);
-- ``LOBE`` (str): the lighting model of the exact reference it is compared with, one of :data:`LOBES`
-  (:func:`rockdove.verify.reference_image.render_reference`'s ``lobe``);
-- ``unavailable() -> str | None``: None when it can run on this machine, else the reason;
-- optionally ``cannot_draw(asset_path) -> str | None``: why it cannot draw this asset (e.g. the asset has no
-  shading variant of its network): the verifier then skips it with that reason;
-- ``render(asset_path, views, out_dir) -> {view.name: (H, W, 3) float32 linear Rec.709 radiance}``, drawn
-  with each :class:`rockdove.render.views.View`'s camera exactly, background 0; raises :class:`HostError`
-  when the host fails.
-
-:func:`select` turns a list of names into the hosts that can run and the reasons the others cannot;
-``rockdove verify --hosts`` reports both (a missing host is a skip with its reason, never a silent pass).
+A host module (registered in :data:`HOSTS`, imported lazily) defines ``NAME``; ``VARIANT``, the network it draws
+(``"glsl"``: our paper shaders, ``"baked"``: the MaterialX LUT network, ``"physical"``: the host's own thin-film
+BSDF); ``LOBE``, the lighting model of the exact reference it is compared with (one of :data:`LOBES`);
+``unavailable() -> str | None`` (None when it can run here, else why not); optionally ``cannot_draw(asset_path)
+-> str | None`` (why it cannot draw this asset: the verifier skips it with that reason); and ``render(asset_path,
+views, out_dir) -> {view.name: (H, W, 3) float32 linear Rec.709}``, each View's camera exactly, background 0,
+raising :class:`HostError` when the host fails. ``rockdove verify --hosts`` reports the hosts :func:`select`
+finds unavailable as skips with their reasons, never a silent pass.
 """
 
 from __future__ import annotations
@@ -29,7 +21,7 @@ from types import ModuleType
 HOSTS = {
     "glsl": "rockdove.hosts.glsl",
     "materialx": "rockdove.hosts.materialx",
-    "materialx_physical": "rockdove.hosts.materialx_physical",
+    "materialx_physical": "rockdove.hosts.materialx:PHYSICAL",
     "blender": "rockdove.hosts.blender",
     "web": "rockdove.hosts.web",
     "storm": "rockdove.hosts.storm:BAKED",
@@ -38,9 +30,8 @@ HOSTS = {
     "osl": "rockdove.hosts.osl:BAKED",
     "osl_physical": "rockdove.hosts.osl:PHYSICAL",
 }
-#: The hosts a verification runs when none are named (``hosts=None``): those whose frames cost seconds. Storm's
-#: (a 512 px frame is 5-45 s, mostly shader compilation) and the OSL renderer's are named explicitly
-#: (``--hosts storm,storm_physical,...``) or with ``all``.
+#: The hosts a verification runs when none are named: those whose frames cost seconds. Storm's (5-45 s a 512 px
+#: frame, mostly shader compilation) and the OSL renderer's are named explicitly or with ``all``.
 DEFAULT = ("glsl", "materialx", "materialx_physical", "blender", "web")
 #: The lighting models a host can be compared under (docs/design.md "Hosts"):
 #: ``half_angle``: the paper's Lambert x colour(cos = L.H) under the View's one directional light;

@@ -12,15 +12,12 @@ import numpy as np
 from ..render.beauty import (EXPOSURE, GROUND_ALBEDO, LOOK, RENDERERS, SKY_HORIZON_RGB, SKY_STRENGTH,
                              SKY_ZENITH_RGB, SUN_ANGLE_DEG, SUN_ELEVATION_DEG, SUN_RGB, SUN_STRENGTH, TIMEOUT_S,
                              beauty_views, cyclorama, ground_y_m)
-from . import HostError
-from . import blender as bl
+from . import HostError, blender as bl
 
 
 def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
     """Render ``views`` with Cycles through the add-on (:mod:`rockdove.hosts.blender_beauty_job`); returns
     ``{view name: (H, W, 3) uint8}`` (display-referred, AgX). Raises HostError when Blender cannot."""
-    from PIL import Image
-
     work = os.path.join(os.path.abspath(out_dir), "beauty_cycles")
     os.makedirs(work, exist_ok=True)
     bl.clear_views(views, work, "png")
@@ -33,16 +30,7 @@ def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
         "views": [{**v.to_dict(), "sun_direction": v.light_direction.tolist()} for v in views],
     }
     bl.run_job(job, work, "rockdove.hosts.blender_beauty_job", timeout_s=TIMEOUT_S)
-    out = {}
-    for v in views:
-        path = os.path.join(work, f"{v.name}.png")
-        if not os.path.isfile(path):
-            raise HostError(bl.NAME, f"Blender wrote no beauty image for {v.name!r} ({path})")
-        out[v.name] = np.asarray(Image.open(path).convert("RGB"))
-        if out[v.name].shape != (v.height, v.width, 3):
-            raise HostError(bl.NAME, f"{v.name}: Blender image is {out[v.name].shape[:2]}, expected "
-                                     f"{(v.height, v.width)}")
-    return out
+    return bl.read_views(bl.NAME, "Blender", views, work, "png")
 
 
 def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", width: int = 768,
@@ -79,9 +67,8 @@ def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", wi
 
         images = render_gl(scene, views, ground_y_m(scene), lut=lut)
     seconds = time.perf_counter() - t
-    files = {}
-    for name, img in images.items():
-        files[name] = os.path.basename(save_png(img, os.path.join(out_dir, f"{name}.png")))
+    files = {name: os.path.basename(save_png(img, os.path.join(out_dir, f"{name}.png")))
+             for name, img in images.items()}
     if used == "cycles":
         caption = (f"Cycles (Blender, through the rockdove add-on), {samples} samples per pixel, adaptive, "
                    f"OpenImageDenoise, AgX; sky light and a {SUN_ANGLE_DEG:g} degree warm sun at "

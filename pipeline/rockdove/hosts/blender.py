@@ -162,15 +162,12 @@ def read_exr_rgb(path: str) -> np.ndarray:
 
     with OpenEXR.File(path) as f:
         channels = {name: np.array(ch.pixels) for name, ch in f.channels().items()}
-    if "RGBA" in channels:
-        rgb = channels["RGBA"][..., :3]
-    elif "RGB" in channels:
-        rgb = channels["RGB"]
-    elif all(c in channels for c in "RGB"):
+    rgb = channels.get("RGBA", channels.get("RGB"))
+    if rgb is None and all(c in channels for c in "RGB"):
         rgb = np.stack([channels[c] for c in "RGB"], axis=-1)
-    else:
+    if rgb is None:
         raise HostError(NAME, f"{path}: no RGB channels (has {sorted(channels)})")
-    return np.ascontiguousarray(rgb, dtype=np.float32)
+    return np.ascontiguousarray(rgb[..., :3], dtype=np.float32)
 
 
 def run_job(job: dict, work: str, module: str = "rockdove.hosts.blender_job", timeout_s: float = TIMEOUT_S) -> None:
@@ -216,8 +213,6 @@ def render(asset_path: str, views, out_dir: str, *, addon: bool = True, lobe: st
     views = list(views)
     if not views:
         raise ValueError("views must hold at least one View, got none")
-    if int(samples) < 1:
-        raise ValueError(f"samples must be >= 1, got {samples!r}")
     if lobe not in LOBES or (lobe == LOBE and not addon):
         raise ValueError(f"lobe={lobe!r} with addon={addon}; allowed: {LOBES[0]!r} (needs the add-on) or {LOBES[1]!r}")
     asset_path = os.path.abspath(os.fspath(asset_path))
@@ -246,22 +241,25 @@ def clear_views(views, work: str, ext: str = "exr") -> None:
             os.remove(os.path.join(work, f"{v.name}.{ext}"))
 
 
-def read_views(host: str, renderer: str, views, work: str) -> dict:
+def read_views(host: str, renderer: str, views, work: str, ext: str = "exr") -> dict:
     """The ``<view>.exr`` a job of host ``host`` (drawn by ``renderer``, for messages) wrote into ``work``: view name
-    -> (H, W, 3) float32 linear radiance, each also written as ``<view>.png``. Raises :class:`HostError` for a
-    missing image or one of the wrong size (naming the job's log)."""
+    -> (H, W, 3) float32 linear radiance, each also written as ``<view>.png`` (``ext="png"``: the PNGs, uint8).
+    Raises :class:`HostError` for a missing image or one of the wrong size (naming the job's log)."""
+    from PIL import Image
+
     from ..render.images import save_png
     from ..spectral import linear_to_srgb8
 
     out = {}
     for v in views:
-        exr = os.path.join(work, f"{v.name}.exr")
-        if not os.path.isfile(exr):
-            raise HostError(host, f"{renderer} wrote no image for view {v.name!r} ({exr}; log: {work}/blender.log)")
-        rgb = read_exr_rgb(exr)
-        if rgb.shape != (v.height, v.width, 3):
-            raise HostError(host, f"view {v.name!r}: {renderer} image is {rgb.shape[:2]}, expected "
+        path = os.path.join(work, f"{v.name}.{ext}")
+        if not os.path.isfile(path):
+            raise HostError(host, f"{renderer} wrote no image for view {v.name!r} ({path}; log: {work}/blender.log)")
+        img = read_exr_rgb(path) if ext == "exr" else np.asarray(Image.open(path).convert("RGB"))
+        if img.shape != (v.height, v.width, 3):
+            raise HostError(host, f"view {v.name!r}: {renderer} image is {img.shape[:2]}, expected "
                                   f"{(v.height, v.width)}")
-        save_png(linear_to_srgb8(rgb), os.path.join(work, f"{v.name}.png"))
-        out[v.name] = rgb
+        if ext == "exr":
+            save_png(linear_to_srgb8(img), os.path.join(work, f"{v.name}.png"))
+        out[v.name] = img
     return out

@@ -1,20 +1,12 @@
 """The Blender side of the beauty render (:mod:`rockdove.render.beauty`): run as ``PYTHON blender_beauty_job.py
-JOB.json`` by a Python that has bpy; it imports nothing but the standard library, bpy and
-:mod:`rockdove.hosts.blender_job`, whose import, Cycles and camera steps it takes.
+JOB.json`` (written by :func:`rockdove.hosts.beauty.render_cycles`, every value) by a Python that has bpy; it
+imports nothing but the standard library, bpy and :mod:`rockdove.hosts.blender_job`, whose steps it takes.
 
-The asset is imported exactly as a Blender user imports it (the add-on enabled, ``wm.usd_import``, every material
-as the add-on built it), then staged as a look-dev artist stages a hero shot:
-
-- the job's neutral grey ground (Principled, roughness 0.7) at the bird's lowest point, catching its shadow,
-  curving up far behind the bird into a wall (a photo studio's cyclorama: no horizon line);
-- a world of a sky gradient (warm grey horizon to pale blue zenith) at moderate strength: the fill and the
-  background above the horizon;
-- a warm sun (angular diameter ``sun_angle_deg``: soft shadows), its strength from the job, its direction each
-  view's own (a key light placed for that camera);
-- Cycles on the CPU, ``samples`` with adaptive sampling and OpenImageDenoise, the AgX view transform;
-- one camera per view (as the verification host's), written as an 8-bit PNG through the view transform.
-
-Every value comes from the job file (:func:`rockdove.hosts.beauty.render_cycles` writes it).
+The asset is imported as a Blender user imports it (the add-on enabled, every material as the add-on built it),
+then staged as a hero shot: a neutral grey ground (roughness 0.7) at the bird's lowest point curving up far behind
+it into a wall (a studio cyclorama: no horizon line); a sky-gradient world (warm grey horizon to pale blue zenith)
+as fill and background; a warm sun (angular diameter ``sun_angle_deg``: soft shadows) from each view's own
+direction; Cycles on the CPU with adaptive sampling and OpenImageDenoise; an 8-bit PNG per view through AgX.
 """
 
 from __future__ import annotations
@@ -75,12 +67,6 @@ def _sun(bpy, job):
     return ob
 
 
-def _aim(ob, mathutils, to_blender, towards_usd) -> None:
-    """Turn the sun so it shines from ``towards_usd`` (USD world, from the bird toward the sun)."""
-    towards = (to_blender.to_3x3() @ mathutils.Vector(towards_usd)).normalized()
-    ob.rotation_euler = towards.to_track_quat("Z", "Y").to_euler()  # a sun shines down its local -Z
-
-
 def _settings(scene, job):
     bj.cycles(scene, job)
     c = scene.cycles
@@ -107,8 +93,12 @@ def run(job: dict) -> None:
     _sky(bpy, job)
     sun = _sun(bpy, job)
     _settings(bpy.context.scene, job)
-    seconds = bj.shoot(bpy, mathutils, to_blender, job, "png",
-                       aim=lambda view: _aim(sun, mathutils, to_blender, view["sun_direction"]))
+
+    def aim(view):  # the sun shines down its local -Z, from view["sun_direction"] (USD world, bird to sun)
+        towards = (to_blender.to_3x3() @ mathutils.Vector(view["sun_direction"])).normalized()
+        sun.rotation_euler = towards.to_track_quat("Z", "Y").to_euler()
+
+    seconds = bj.shoot(bpy, mathutils, to_blender, job, "png", aim=aim)
     with open(os.path.join(job["out_dir"], "done.json"), "w", encoding="utf-8") as fh:
         json.dump({"films": films, "blender": bpy.app.version_string, "render_s": seconds}, fh)
 

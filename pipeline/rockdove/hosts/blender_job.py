@@ -1,21 +1,18 @@
 """The Blender side of :mod:`rockdove.hosts.blender`: run as ``PYTHON path/to/blender_job.py JOB.json`` by a Python
-that has bpy (:func:`rockdove.hosts.blender.bpy_python`); it imports nothing but the standard library and bpy.
-
-Its own process, because bpy bundles its own USD (25.08): the add-on's ``USDHook`` gets the import's stage as an
-object of it, which only bpy's own ``pxr`` can read, and ``import pxr`` in a process that also uses usd-core finds
-usd-core's (measured: "No to_python converter found for C++ type ... UsdStage").
+that has bpy; it imports nothing but the standard library and bpy. Its own process, because bpy bundles its own USD:
+the add-on's ``USDHook`` gets the import's stage as an object of it, which only bpy's ``pxr`` can read, and ``import
+pxr`` beside usd-core finds usd-core's (measured: "No to_python converter found for C++ type ... UsdStage").
 
 Steps (the job file, written by :func:`rockdove.hosts.blender.render`, gives every value):
 
-1. install the add-on zip and enable ``rockdove_blender`` as a user does (``preferences.addon_install`` /
-   ``addon_enable``; Blender's user folders point into the job folder, so nothing is installed outside it);
+1. install the add-on zip and enable it as a user does (Blender's user folders point into the job folder);
 2. ``bpy.ops.wm.usd_import`` of the asset: the add-on builds the thin-film material;
 3. ``lobe = "as_imported"`` leaves every material as imported (what a user sees); ``lobe = "view_angle"``: the
-   film lobe alone under a uniform white world of unit radiance: the film smooth (roughness 0: the mirror lobe),
-   its base BSDF black, every other material black diffuse (still occluding), no object seen by glossy rays, so
-   each film pixel reflects the environment itself (no inter-reflection, as the reference assumes);
+   film smooth (roughness 0: the mirror lobe), its base BSDF black, every other material black diffuse (still
+   occluding), no object seen by glossy rays, under a uniform white world: each film pixel reflects the
+   environment itself (no inter-reflection, as the reference assumes);
 4. per view: a camera with the View's OpenGL ``camera_to_world`` through the importer's up-axis conversion (the
-   imported root prim's world matrix), vertical field of view and size; Cycles on the CPU, a 0.01 px pixel
+   imported root prim's world matrix), its vertical field of view and size; Cycles on the CPU, a 0.01 px pixel
    filter (pixel centres, like the reference), transparent film (background 0), float32 EXR.
 """
 

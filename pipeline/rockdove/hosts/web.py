@@ -1,13 +1,10 @@
-"""The web host: three.js's own ``KHR_materials_iridescence`` shading of the asset's ``pigeon.glb``, drawn by
-headless Chromium (Debian's ``chromium``, WebGL2 on SwiftShader).
-
-It reads the written asset: its ``pigeon.glb`` (exported from the USD when the asset has none, e.g. built with
-``gltf.glb = false``), opens the offline viewer page (:mod:`rockdove.web.viewer`) and asks the page to draw each
-View into a float render target (``window.rockdoveRender``): no light, base colour black, a uniform white
-environment of unit radiance (``LOBE = "view_angle"``: the smooth film's mirror lobe, so a feather-tip pixel is
-the film's reflectance colour at ``cos = |N.V|`` as three.js evaluates it, Belcour & Barla 2017, and its
-split-sum image-based lighting). Every browser step has a time limit; a browser that cannot start or a page that
-fails raises :class:`rockdove.hosts.HostError` naming this host.
+"""The web host: three.js's own ``KHR_materials_iridescence`` shading of the asset's ``pigeon.glb`` (exported from
+the USD when the asset has none, e.g. built with ``gltf.glb = false``), drawn by headless Chromium (WebGL2 on
+SwiftShader) in the offline viewer page (:mod:`rockdove.web.viewer`). The page draws each View into a float render
+target (``window.rockdoveRender``): no light, base colour black, a uniform white environment of unit radiance
+(``LOBE = "view_angle"``: a feather-tip pixel is the film's colour at ``cos = |N.V|`` as three.js evaluates it,
+Belcour & Barla 2017, with its split-sum image-based lighting). Every browser step has a time limit; a browser
+that cannot start or a page that fails raises :class:`rockdove.hosts.HostError` naming this host.
 """
 
 from __future__ import annotations

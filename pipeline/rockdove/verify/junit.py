@@ -1,18 +1,12 @@
 """The verification as JUnit XML (``rockdove verify --junit FILE``), so Jenkins, GitLab and GitHub show it as tests.
 
-The format is the one those tools read: the Jenkins xunit plugin's ``junit-10.xsd`` (Apache Ant's JUnit report,
-as Maven Surefire writes it; the file the tests validate against is taken from pytest's sdist, which validates its
-own ``--junitxml`` output with it). One ``<testsuites>``, one ``<testsuite>`` per kind of check:
-
-- ``rockdove.validation``: a test case per validator (``usdValidation``, ``mtlx``, ``texture``, ...); its errors
-  are the ``<failure>``, its warnings go to ``<system-out>``;
-- ``rockdove.glsl``: a test case per view (our GLSL against the exact reference), the light sweep's hues;
-- ``rockdove.host.NAME``: per host a test case per view and one for the host's own verdict over all its views
-  (``all views``; a failed exact host also fails each view whose numbers miss the dE goals); a host not
-  available here is ``<skipped>`` with its reason, a host that raised is an ``<error>``.
-
-Every failure message carries its numbers (``median dE2000 4.210 > 3.2``) and every test case its metrics in
-``<system-out>``. Times are seconds with three decimals (the schema's ``SUREFIRE_TIME``).
+The format is the Jenkins xunit plugin's ``junit-10.xsd`` (Ant's JUnit report, as Maven Surefire writes it; the
+tests validate against the copy in pytest's sdist). One ``<testsuite>`` per kind of check: ``rockdove.validation``,
+a case per validator (errors are the ``<failure>``, warnings go to ``<system-out>``); ``rockdove.glsl``, a case per
+view and one for the light sweep's hues; ``rockdove.host.NAME``, a case per view and ``all views``, the host's own
+verdict (a failed exact host also fails each view whose numbers miss the goals; an unavailable host is
+``<skipped>`` with its reason, one that raised an ``<error>``). Failure messages carry their numbers (``median
+dE2000 4.210 > 3.2``), every case its metrics in ``<system-out>``; times are seconds, three decimals.
 """
 
 from __future__ import annotations
@@ -40,51 +34,51 @@ def _time(seconds) -> str:
 
 
 class _Suite:
-    def __init__(self, root: ET.Element, name: str, seconds=0.0):
-        self.el = ET.SubElement(root, "testsuite", name=name, time=_time(seconds))
-        self.counts = {"tests": 0, "failures": 0, "errors": 0, "skipped": 0}
+    """A ``<testsuite>`` whose cases are of the class named as the suite."""
 
-    def case(self, name: str, classname: str, *, failures=(), message=None, error=None, skipped=None, out=""):
-        tc = ET.SubElement(self.el, "testcase", name=name, classname=classname, time=_time(0.0))
-        self.counts["tests"] += 1
+    def __init__(self, root: ET.Element, name: str, seconds=0.0):
+        self.name = name
+        self.el = ET.SubElement(root, "testsuite", name=name, time=_time(seconds))
+
+    def case(self, name: str, *, failures=(), message=None, error=None, skipped=None, out=""):
+        tc = ET.SubElement(self.el, "testcase", name=name, classname=self.name, time=_time(0.0))
         if skipped is not None:
             ET.SubElement(tc, "skipped", message=skipped)
-            self.counts["skipped"] += 1
         elif error is not None:
             ET.SubElement(tc, "error", message=error, type="error").text = error
-            self.counts["errors"] += 1
         elif failures:
             more = f" (and {len(failures) - 1} more)" if len(failures) > 1 else ""
-            message = message or failures[0] + more
-            ET.SubElement(tc, "failure", message=message, type="VerificationFailed").text = "\n".join(failures)
-            self.counts["failures"] += 1
+            ET.SubElement(tc, "failure", message=message or failures[0] + more,
+                          type="VerificationFailed").text = "\n".join(failures)
         if out:
             ET.SubElement(tc, "system-out").text = out
 
-    def close(self):
-        for k, v in self.counts.items():
+    def close(self) -> dict:
+        cases = self.el.findall("testcase")
+        counts = {"tests": len(cases), **{key: sum(c.find(tag) is not None for c in cases) for key, tag in
+                                          (("failures", "failure"), ("errors", "error"), ("skipped", "skipped"))}}
+        for k, v in counts.items():
             self.el.set(k, str(v))
-        return self.counts
+        return counts
 
 
 def _validation(root, report) -> dict:
     v = report["validation"]
     suite = _Suite(root, "rockdove.validation", report["timings_s"].get("validation", 0.0))
-    cls = "rockdove.validation"
     details = v.get("details") or {}
     by = {}
     for issue in details.get("issues", []):
         name = VALIDATORS.get(issue["check"].split(":")[0], issue["check"].split(":")[0])
         by.setdefault(name, []).append(issue)
     if v.get("error"):
-        suite.case("validator", cls, error=v["error"])
+        suite.case("validator", error=v["error"])
     counts = details.get("counts", {})
     for name in dict.fromkeys([*VALIDATORS.values(), *by]):
         issues = by.get(name, [])
         line = [f"{i['severity'].upper()} {i['check']}: {i['path']}: {i['message']}" for i in issues]
         errors = [ln for ln, i in zip(line, issues) if i["severity"] == "error"]
         checked = ", ".join(f"{k} {counts[k]}" for k in COUNTED.get(name, ()) if k in counts)
-        suite.case(name, cls, failures=errors, message=f"{len(errors)} error(s)",
+        suite.case(name, failures=errors, message=f"{len(errors)} error(s)",
                    out="\n".join([f"checked: {checked}" if checked else "", *line]).strip())
     return suite.close()
 
@@ -93,14 +87,14 @@ def _views(root, report) -> dict:
     g = report["goals"]
     suite = _Suite(root, "rockdove.glsl", report["timings_s"].get("compare", 0.0))
     for m in report["views"]:
-        suite.case(m["view"], "rockdove.glsl", failures=list(m.get("failures", [])) if not m["passed"] else [],
+        suite.case(m["view"], failures=list(m.get("failures", [])) if not m["passed"] else [],
                    out=f"{m['n_pixels']} px, dE2000 median {_num(m['de_median'])} (goal {g['median_dE']}), "
                        f"p95 {_num(m['de_p95'])} (goal {g['p95_dE']}), max {_num(m['de_max'])}, "
                        f"black {m['n_black']} of {m['n_lit']} lit")
     h = report["hue_sweep"]
     chromatic = h["green"] + h["purple"] + h["other"]
     hue_fail = [f for f in report["failures"] if f.startswith("hue:")]
-    suite.case("light sweep hues", "rockdove.glsl", failures=hue_fail,
+    suite.case("light sweep hues", failures=hue_fail,
                out=f"green {h['green']}, purple {h['purple']}, grey {h['grey']}, other {h['other']} "
                    f"(need >= {g['min_hue_fraction']:.0%} of {chromatic} chromatic px each)")
     return suite.close()
@@ -110,10 +104,9 @@ def _host(root, h, goals) -> dict:
     from .host_check import EXACT_VARIANTS
 
     name = h["name"]
-    cls = f"rockdove.host.{name}"
-    suite = _Suite(root, cls)
+    suite = _Suite(root, f"rockdove.host.{name}")
     if h.get("skipped") or h.get("error"):
-        suite.case("all views", cls, skipped=f"host {name} not available: {h['reason']}" if h.get("skipped") else None,
+        suite.case("all views", skipped=f"host {name} not available: {h['reason']}" if h.get("skipped") else None,
                    error=None if h.get("skipped") else f"host {name} failed: {h['error']}")
         return suite.close()
     # the host is judged over all its views (rockdove.verify.host_check): a view fails only within a failed
@@ -122,9 +115,9 @@ def _host(root, h, goals) -> dict:
     for view, m in (h.get("per_view") or {}).items():
         fail = [f"{view}: {k[:-3]} dE2000 {_num(m[k])} > {goals[k]}" for k in ("median_dE", "p95_dE")
                 if blame and m["n_pixels"] and not m[k] <= goals[k]]
-        suite.case(view, cls, failures=fail, out=f"{m['n_pixels']} px, dE2000 median {_num(m['median_dE'])}, "
-                                                 f"p95 {_num(m['p95_dE'])} ({h['variant']}, {h['lobe']} lobe)")
-    suite.case("all views", cls, failures=[f"host {name}: {f}" for f in h.get("failures", [])] if not h["passed"]
+        suite.case(view, failures=fail, out=f"{m['n_pixels']} px, dE2000 median {_num(m['median_dE'])}, "
+                                            f"p95 {_num(m['p95_dE'])} ({h['variant']}, {h['lobe']} lobe)")
+    suite.case("all views", failures=[f"host {name}: {f}" for f in h.get("failures", [])] if not h["passed"]
                else [], out=f"{h['n_pixels']} px, dE2000 median {_num(h['median_dE'])}, p95 {_num(h['p95_dE'])}, "
                             f"green {h['green_px']}, purple {h['purple_px']}, hue agreement "
                             f"{_num(h['hue_agreement'])} ({h['variant']}, {h['lobe']} lobe)")

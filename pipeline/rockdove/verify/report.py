@@ -25,9 +25,8 @@ DE_COLORMAP = "magma"
 
 
 def _figure(w_in, h_in, margins_in, rows: int = 1, gap_in: float = 0.0):
-    """A Figure on an Agg canvas, its subplots placed by fixed margins ``(left, right, bottom, top)`` and a
-    ``gap_in`` between ``rows`` stacked ones, all in inches (at 100 dpi). Fixed in place of ``tight_layout``,
-    which draws the whole figure once more to measure its labels; the margins fit this module's labels."""
+    """A Figure on an Agg canvas, its subplots placed by fixed margins ``(left, right, bottom, top)`` and a ``gap_in``
+    between ``rows``, in inches at 100 dpi (``tight_layout`` would draw the figure once more to measure labels)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -49,10 +48,8 @@ def _save_figure(fig, path) -> str:
 
 
 def de_colour(de_map, vmax: float = DE_MAP_MAX) -> np.ndarray:
-    """(H, W) dE map -> (H, W, 3) uint8 with the :data:`DE_COLORMAP`; NaN (not compared) is mid grey.
-
-    The colormap's own lookup (matplotlib's ``Colormap.__call__`` on floats: entry ``floor(x N)``, x = 1 the
-    last entry) on a uint8 copy of its table, grey appended, so a megapixel map costs one index and one take."""
+    """(H, W) dE map -> (H, W, 3) uint8 with the :data:`DE_COLORMAP`, NaN (not compared) mid grey: the colormap's own
+    lookup (``Colormap.__call__`` on floats: entry ``floor(x N)``, x = 1 the last) on a uint8 copy of its table."""
     from matplotlib import colormaps
 
     cmap = colormaps[DE_COLORMAP]
@@ -117,15 +114,14 @@ def de_map_png(path, de_map, title: str) -> str:
 SHEET_COLUMNS = ("GLSL", "reference", f"dE2000 0-{DE_MAP_MAX:g}")
 
 
-def contact_sheet(path, rows, columns=SHEET_COLUMNS) -> str:
-    """The verification contact sheet: one row per view, ``(label, [GL, reference, dE map])``, each tile titled
-    by what its column shows (``columns``), the first also by the view's label
-    (:func:`rockdove.render.images.contact_sheet`)."""
+def contact_sheet(path, rows) -> str:
+    """The verification contact sheet (:func:`rockdove.render.images.contact_sheet`): one row per view, ``(label,
+    [GL, reference, dE map])``, each tile titled by its column (:data:`SHEET_COLUMNS`), the first also by the label."""
     from ..render.images import contact_sheet as tile_sheet
 
     titled = []
     for label, imgs in rows:
-        titles = [columns[c] if c < len(columns) else "" for c in range(len(imgs))]
+        titles = [SHEET_COLUMNS[c] if c < len(SHEET_COLUMNS) else "" for c in range(len(imgs))]
         titles[0] = f"{label}  {titles[0]}".strip()
         titled.append([(t, np.asarray(img)[..., :3]) for t, img in zip(titles, imgs)])
     return tile_sheet(path, titled)
@@ -254,7 +250,8 @@ def _head(*names) -> str:
 
 
 def _row(name: str, *cells) -> str:
-    return f"<tr><td style='text-align:left'>{html.escape(name)}</td>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>"
+    cells = "".join(f"<td>{c}</td>" for c in cells)
+    return f"<tr><td style='text-align:left'>{html.escape(name)}</td>{cells}</tr>"
 
 
 def _pairs(title: str, values: dict, fmt) -> str:

@@ -17,6 +17,7 @@ import contextlib
 import json
 import os
 import select
+import shlex
 import shutil
 import subprocess
 import tempfile
@@ -56,9 +57,9 @@ class Browser:
         self.profile = tempfile.mkdtemp(prefix="rockdove-chromium-")
         to_child_r, self._to_child = os.pipe()
         self._from_child, from_child_w = os.pipe()
-        cmd = " ".join([f"exec 3<&{to_child_r} 4>&{from_child_w};", "exec", *map(_quote, [
+        cmd = f"exec 3<&{to_child_r} 4>&{from_child_w}; exec " + shlex.join([
             self.executable, *CHROMIUM_FLAGS, f"--user-data-dir={self.profile}", "--remote-debugging-pipe",
-            "about:blank"])])
+            "about:blank"])
         self._stderr = tempfile.TemporaryFile()
         try:
             self.process = subprocess.Popen(["bash", "-c", cmd], pass_fds=(to_child_r, from_child_w),
@@ -231,7 +232,3 @@ class Page:
         data = self.browser.call("Page.captureScreenshot", {"format": "png"}, session=self.session,
                                  timeout_s=timeout_s, step="screenshot")["data"]
         return base64.b64decode(data)
-
-
-def _quote(s: str) -> str:
-    return "'" + str(s).replace("'", "'\\''") + "'"

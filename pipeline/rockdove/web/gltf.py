@@ -1,34 +1,28 @@
 """Export a written rockdove USD asset to one glTF 2.0 binary file (``pigeon.glb``) with ``KHR_materials_iridescence``.
 
-The exporter reads the asset *as written* (the USD layers on disk, through the verifier's reader
-:func:`rockdove.render.scene.load_scene`), not the build's memory: ``pigeon.glb`` translates ``pigeon.usda`` as
-``pigeon.usdz`` does, and the same function exports any rockdove asset after the fact. What is written (glTF 2.0;
-extensions from the Khronos registry):
+The exporter reads the asset *as written* (:func:`rockdove.render.scene.load_scene`, the verifier's reader), not the
+build's memory, so ``pigeon.glb`` translates ``pigeon.usda`` as ``pigeon.usdz`` does, and exports any rockdove asset
+after the fact. One node per visible USD mesh, world space, metres, Y up (the asset's conventions are glTF's);
+``TEXCOORD_0`` = ``st`` with ``v = 1 - t`` (glTF's image origin is top-left). Feathers (docs/design.md "glTF"):
 
-- one node per visible USD mesh, in world space, metres, Y up (the asset's conventions are glTF's: the bird faces
-  +Z); positions, unit normals, ``TEXCOORD_0`` = USD ``st`` with ``v = 1 - t`` (glTF's image origin is top-left);
-- feathers: ``baseColorTexture`` = ``feather_base.png`` (sRGB; A = silhouette), ``alphaMode: MASK`` at the asset's
-  ``opacityThreshold``, ``doubleSided``; ``KHR_materials_iridescence``: factor 1 scaled by ``iridescenceTexture`` =
-  ``feather_mask.png`` (R: 1 on the tip), ``iridescenceIor`` = the film's Cauchy index at
-  :data:`IOR_WAVELENGTH_NM` (glTF takes one non-dispersive index), thickness minimum/maximum = the LUT's range (nm,
-  glTF's unit) and ``iridescenceThicknessTexture`` carrying each vertex's thickness: its G channel is an 8-bit
-  linear ramp (:data:`THICKNESS_RAMP_TEXELS` texels, ``G_i = i / (N - 1)``) read through a second UV set
-  ``TEXCOORD_1``, ``u = (0.5 + g (N - 1)) / N`` with ``g = (d - min) / (max - min)``: linear filtering of a linear
-  ramp returns ``g`` itself, so ``mix(min, max, G)`` is the primvar's value interpolated across the card, not
-  quantised to 8 bits; ``KHR_materials_ior``: ``ior`` = the asset's substrate index (1.0 for a film in air; the
-  schema allows it, and three.js then evaluates the film's Airy reflectance over a substrate of index 1, the only
-  specular reflection being the film's); metallic 0, roughness 0: the smooth film's mirror lobe;
-- the feathers' default material (``NeckFeathersPreview``), what a consumer without ``KHR_materials_iridescence``
-  shows (Blender 5.0's importer ignores it silently; many engines do): the USD preview's network, base colour =
-  the atlas ``feather_preview.png`` through ``TEXCOORD_2`` = ``previewST`` (each card the colour of its
-  thickness). The film material is the ``KHR_materials_variants`` variant ``thin_film`` (``preview`` names the
-  default), which our viewer and web host select. Measured: a base colour under the film would be counted twice by
-  three.js (its diffuse is only scaled by ``1 - F``); with the variant the web host's numbers are the film's alone;
-- other parts: their base colour (texture or constant, linear), metallic 0, roughness 1.
+- ``feather_base.png`` (A = silhouette, ``alphaMode: MASK`` at the asset's ``opacityThreshold``), double-sided,
+  roughness 0; ``KHR_materials_iridescence``: factor 1 times the tip mask ``feather_mask.png``, ``iridescenceIor``
+  = the film's Cauchy index at :data:`IOR_WAVELENGTH_NM` (glTF takes one non-dispersive index), the LUT's
+  thickness range (nm, glTF's unit), and an ``iridescenceThicknessTexture`` whose G is an 8-bit linear ramp
+  (``G_i = i / (N - 1)``) read through ``TEXCOORD_1``, ``u = (0.5 + g (N - 1)) / N``, ``g = (d - min) / (max -
+  min)``: linear filtering of a linear ramp returns ``g`` itself, so ``mix(min, max, G)`` is the primvar
+  interpolated across the card, not quantised to 8 bits; ``KHR_materials_ior`` = the asset's substrate index (1.0
+  for a film in air: three.js then evaluates the Airy reflectance over a substrate of index 1, so the only
+  specular reflection is the film's);
+- the default material (``NeckFeathersPreview``), for consumers without the extension (Blender 5.0's importer
+  ignores it silently; many engines do): the USD preview's atlas ``feather_preview.png`` through ``TEXCOORD_2`` =
+  ``previewST``. The film is the ``KHR_materials_variants`` variant ``thin_film``, which our viewer and web host
+  select (measured: a base colour under the film would be counted twice by three.js, whose diffuse is only scaled
+  by ``1 - F``).
 
-The film record goes into the feathers' material ``extras.rockdove``, so nothing of the physics is lost.
-pygltflib (the glTF schema as dataclasses, GLB read/write) builds the document; trimesh's exporter cannot author
-``KHR_materials_iridescence`` or a second UV set for one texture.
+Other parts: their base colour, metallic 0, roughness 1. The film record goes into the feathers' material
+``extras.rockdove``. pygltflib builds the document (trimesh's exporter cannot author the extension or a second UV
+set for one texture).
 """
 
 from __future__ import annotations
@@ -76,10 +70,10 @@ def thickness_ramp_png(texels: int = THICKNESS_RAMP_TEXELS) -> bytes:
     return buf.getvalue()
 
 
-def film_ior(film, wavelength_nm: float = IOR_WAVELENGTH_NM) -> float:
-    """The film's Cauchy index at ``wavelength_nm`` (``film``: :class:`rockdove.render.film.ThinFilmParams`): its
-    real part: ``KHR_materials_iridescence`` has no extinction, so an absorbing film (k > 0) is exported without it."""
-    return float(np.real(film.model.n_film(wavelength_nm)))
+def film_ior(film) -> float:
+    """The real part of the film's Cauchy index at :data:`IOR_WAVELENGTH_NM` (``film``:
+    :class:`rockdove.render.film.ThinFilmParams`): ``KHR_materials_iridescence`` has no extinction."""
+    return float(np.real(film.model.n_film(IOR_WAVELENGTH_NM)))
 
 
 class _Blob:

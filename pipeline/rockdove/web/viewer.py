@@ -1,17 +1,12 @@
 """Write the offline interactive viewer ``verify/viewer.html``: pigeon.glb in three.js, beside its data.
 
-The page opens from the file system: a ``file://`` page in Chromium may neither ``fetch`` files nor load module
-scripts from disk (origin ``null``), so everything arrives through classic ``<script src>`` tags beside the page:
-
-- ``viewer_data.js``: the GLB (base64), the asset's float LUT (base64 float32), the WebGL2 shaders
-  (``materials/web/thinfilm_webgl.*``, our GLSL ported), the start camera and light;
-- ``three/*.js``: the ES modules of the npm package ``three`` (pinned in ``materials/web/package.json``) and
-  ``viewer_app.js``, each copied verbatim into a JavaScript string;
-- ``viewer_loader.js``: makes each module a ``blob:`` URL (same origin as the page) with its imports pointed at
-  its dependencies' blob URLs, then imports the app.
-
-Sources live in ``materials/web/`` and are found with :func:`rockdove.resources.path`; three.js is read from
-``materials/web/node_modules`` (``make`` runs ``npm ci`` there).
+A ``file://`` page in Chromium may neither ``fetch`` files nor load module scripts from disk (origin ``null``), so
+everything arrives through classic ``<script src>`` tags beside the page: ``viewer_data.js`` (the GLB and the
+asset's float LUT in base64, the WebGL2 shaders ``materials/web/thinfilm_webgl.*``, the start camera and light);
+``three/*.js``, the ES modules of the npm package ``three`` (``materials/web/node_modules``, pinned in
+``package.json``) and ``viewer_app.js``, each copied verbatim into a JavaScript string; ``viewer_loader.js``,
+which makes each module a same-origin ``blob:`` URL with its imports pointed at its dependencies', then imports
+the app.
 """
 
 from __future__ import annotations
@@ -19,13 +14,11 @@ from __future__ import annotations
 import base64
 import json
 import os
+import shutil
 from pathlib import Path
 
 import numpy as np
 
-VIEWER_NAME = "viewer.html"
-#: Page sources copied as they are.
-PAGE_FILES = ("viewer.html", "viewer_loader.js")
 #: ES modules of the npm package three, by the name viewer_loader.js knows them.
 THREE_MODULES = {
     "three.core.js": "three/build/three.core.js",
@@ -111,16 +104,13 @@ def write_viewer(asset, glb_path, out_dir, asset_name: str | None = None) -> str
         name = os.path.basename(os.path.dirname(name) if name.endswith((".usda", ".usd", ".usdc", ".usdz")) else name)
     data = viewer_data(scene, scene.load_lut(), Path(glb_path).read_bytes(), name)
     (out / "viewer_data.js").write_text("window.ROCKDOVE_DATA = " + json.dumps(data) + ";\n")
-    tags = []
     modules = {**{n: nm / p for n, p in THREE_MODULES.items()}, "viewer_app.js": web / "viewer_app.js"}
     for name, src in modules.items():
         source = json.dumps(src.read_text(encoding="utf-8"))
         (out / "three" / name).write_text(f"(window.ROCKDOVE_MODULES = window.ROCKDOVE_MODULES || {{}})"
                                           f"[{json.dumps(name)}] = {source};\n")
-        tags.append(f'<script src="three/{name}"></script>')
-    for name in PAGE_FILES:
-        text = (web / name).read_text(encoding="utf-8")
-        if name == VIEWER_NAME:
-            text = text.replace("<!--MODULE_SCRIPTS-->", "\n".join(tags))
-        (out / name).write_text(text)
-    return str(out / VIEWER_NAME)
+    tags = "\n".join(f'<script src="three/{name}"></script>' for name in modules)
+    shutil.copyfile(web / "viewer_loader.js", out / "viewer_loader.js")
+    page = (web / "viewer.html").read_text(encoding="utf-8")
+    (out / "viewer.html").write_text(page.replace("<!--MODULE_SCRIPTS-->", tags))
+    return str(out / "viewer.html")
