@@ -200,7 +200,7 @@ def test_cache_option_and_no_verify(tmp_path, small_asset, build_root):
                  cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     s = json.loads(r.stdout)
-    assert s["verified"] is None and not {"verify", "verify_rays", "verify_surfaces"} & set(s["ran"] + s["reused"])
+    assert s["verified"] is None and "verify" not in s["ran"] + s["reused"]
     assert {p.name for p in (tmp_path / "c").iterdir()} == set(s["ran"] + s["reused"])
     assert not (tmp_path / "o" / ".rockdove-cache").exists() and not (tmp_path / "o/p/verify").exists()
 
@@ -230,7 +230,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     r = rockdove("build", "--out", "b/p", *TINY, cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     second = json.loads(r.stdout)
-    assert second["ran"] == ["verify_rays", "verify_surfaces", "verify"] and second["verified"] is True
+    assert second["ran"] == ["verify"] and second["verified"] is True
     assert "gltf" in second["reused"]  # nothing the glb reads changed
     # the report names the published asset, not the staging folder, and shows the interactive view first
     report_html = (asset / "verify/report.html").read_text()
@@ -239,8 +239,9 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert report_html.index("viewer.html") < report_html.index("<table>")
     assert (asset / "verify/viewer.html").is_file() and (asset / "verify/viewer_data.js").is_file()
     views = ["turntable_030", "turntable_210", "sweep_060", "sweep_120", "sweep_090", "hero"]
-    assert _verify_record(second)["items_ran"] == views
+    assert _items(asset)["ran"]["views"] == views and _items(asset)["ran"]["hosts"] == ["glsl"]
     assert json.loads((asset / "verify/report.json").read_text())["passed"] is True
+    report_views = json.loads((asset / "verify/report.json").read_text())["views"]
     assert not (asset / "verify/value.json").exists(), "the cache's value record leaked into the asset"
     verdict = json.loads((tmp_path / "b/.rockdove-cache/verify" / _verify_record(second)["key"] / "value/value.json")
                          .read_text())
@@ -250,26 +251,29 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
                  cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     meta = json.loads(r.stdout)
-    assert meta["ran"] == ["usdz", "verify_rays", "verify_surfaces", "verify"] and meta["verified"] is True
-    assert _verify_record(meta)["items_ran"] == [] and _verify_record(meta)["items_reused"] == views
+    assert meta["ran"] == ["usdz", "verify"] and meta["verified"] is True
+    assert _items(asset)["ran"]["views"] == [] and _items(asset)["reused"]["views"] == views
     assert (asset / "pigeon.usdz").is_file() and (asset / "verify/sweep_090_gl.png").is_file()
+    # rockdove verify is the build's verification with the build's cache: what the build checked is not redone
+    r = rockdove("verify", "b/p", "--hosts", "glsl", "--width", "192", "--height", "192", "--beauty", "off",
+                 "--out", "v", "--quiet", cwd=tmp_path, standin=False, timeout=300)
+    assert r.returncode == 0, r.stderr
+    cli = json.loads((tmp_path / "v/report.json").read_text())
+    assert cli["cache"]["ran"] == {"surfaces": [], "views": [], "hosts": []}
+    assert cli["cache"]["reused"]["views"] == views and cli["views"] == report_views
     # film index change: LUT, textures (the preview mixes the LUT in), layers and every view; geometry reused;
     # gltf.glb = false: no glb, and no viewer in the report (it shows the glb)
     r = rockdove("build", "--out", "b/p", "--set", "film.cauchy_a=1.56", "--set", "gltf.glb=false", *TINY,
                  cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     third = json.loads(r.stdout)
-    assert third["ran"] == ["lut", "film_textures", "usd_layers", "verify_rays", "verify_surfaces", "verify"]
+    assert third["ran"] == ["lut", "film_textures", "usd_layers", "verify"]
     assert not (asset / "pigeon.glb").exists() and not (asset / "verify/viewer.html").exists()
     assert {"body", "bird", "thickness_range", "texture_images", "textures", "usd_geometry"} == set(third["reused"])
-    assert _verify_record(third)["items_ran"] == views
-    # ... but not the reference's ray casts: one cached item per camera, keyed by the geometry they hit
-    rays = _verify_record(third, "verify_rays")
-    assert rays["items_ran"] == [] and 3 <= len(rays["items_reused"]) < len(views)  # the sweep shares a camera
-    assert rays["items_reused"] == _verify_record(second, "verify_rays")["items_ran"]
-    # ... nor what the reference shades at those hits before the film (normals, textures, thickness)
-    surfaces = _verify_record(third, "verify_surfaces")
-    assert surfaces["items_ran"] == [] and surfaces["items_reused"] == rays["items_reused"]
+    assert _items(asset)["ran"]["views"] == views
+    # ... but not what the reference shades at its hits before the film: one item per camera (the sweep shares one)
+    surfaces = _items(asset)
+    assert surfaces["ran"]["surfaces"] == [] and 3 <= len(surfaces["reused"]["surfaces"]) < len(views)
     # physical-only shading: no bake at all (the lut stage is not in the graph), verified with a note
     r = rockdove("build", "--out", "b/p", "--set", "shading.variant=physical", *TINY, cwd=tmp_path, standin=False,
                  timeout=300)
@@ -289,6 +293,11 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
 
 def _verify_record(summary: dict, name: str = "verify") -> dict:
     return next(s for s in summary["stages"] if s["name"] == name)
+
+
+def _items(asset) -> dict:
+    """The verification's items that ran and were reused (rockdove.graph.verification), from its report."""
+    return json.loads((asset / "verify/report.json").read_text())["cache"]
 
 
 def test_every_listed_command_has_a_module_with_the_command_interface():

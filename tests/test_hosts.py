@@ -15,7 +15,7 @@ from rockdove.usd.stage import LOOKS_LAYER
 
 def test_registry_maps_every_host_to_its_module_and_glsl_always_runs_first():
     assert set(hosts.HOSTS) >= {"glsl", "materialx", "blender", "web"}
-    assert all(m.partition(":")[0] in (f"rockdove.hosts.{n}", "rockdove.hosts.storm") for n, m in hosts.HOSTS.items())
+    assert all(n.startswith(m.partition(":")[0].rsplit(".", 1)[1]) for n, m in hosts.HOSTS.items())  # osl:PHYSICAL
     sel = hosts.select(["materialx"])
     assert [m.NAME for m in sel.available][0] == "glsl"
     for module in sel.available:
@@ -64,12 +64,12 @@ def test_verify_hosts_reports_each_host_and_a_failing_one_does_not_stop_the_othe
     """MaterialX's own GLSL of the asset's baked network matches the exact view_angle reference (dE goals); the
     physical network (OpenPBR's thin film) shows green and purple; a host that raises HostError is reported by
     name and fails the verification while the others still run; a missing host is skipped with its reason."""
-    from rockdove.verify.run import verify_asset
+    from rockdove.graph.verification import verify
 
     _broken_host(monkeypatch)
     monkeypatch.setitem(hosts.HOSTS, "ghost", "rockdove.hosts.no_such_module")
-    report = verify_asset(asset_layer, out_dir=tmp_path / "report", width=96, height=96, views=["sweep_060"],
-                          hosts=["materialx", "broken", "materialx_physical", "ghost"])
+    report = verify(asset_layer, ["materialx", "broken", "materialx_physical", "ghost"], cache=tmp_path / "cache",
+                    out_dir=tmp_path / "report", width=96, height=96, views=["sweep_060"])
     by_name = {h["name"]: h for h in report["hosts"]}
     assert [h["name"] for h in report["hosts"]] == ["glsl", "materialx", "broken", "materialx_physical", "ghost"]
     for name in ("glsl", "materialx", "materialx_physical"):
@@ -111,7 +111,7 @@ def test_materialx_host_draws_the_written_network_not_a_copy_of_it(asset_layer, 
     attr.default = attr.default * 0.25
     payload.Save()
     scene = load_scene(str(folder))
-    views = [v for v in verification_views(scene, 96, 96) if v.name == "sweep_060"]
+    views = [v for v in verification_views(scene, 96, 96, 4) if v.name == "sweep_060"]
     images = materialx.render(str(folder / "pigeon.usda"), views, None)
     m = host_metrics(images, render_reference(scene, views, lobe="view_angle"), scene)
     assert m["median_dE"] > 2.0, m
@@ -125,7 +125,7 @@ def test_glsl_host_renders_the_written_asset_as_the_verifier_does(asset_layer):
     from rockdove.verify.inputs import verification_views
 
     scene = load_scene(asset_layer)
-    views = [v for v in verification_views(scene, 32, 32) if v.name == "sweep_090"]
+    views = [v for v in verification_views(scene, 32, 32, 4) if v.name == "sweep_090"]
     assert glsl.cannot_draw(asset_layer) is None
     images = glsl.render(asset_layer, views, None)
     np.testing.assert_array_equal(images["sweep_090"], render_views(scene, views)[0].radiance_rgb)
@@ -172,11 +172,33 @@ def test_storm_draws_the_physical_network_green_and_purple_as_the_reference(asse
     if storm.unavailable():
         pytest.skip(storm.unavailable())
     scene = load_scene(os.path.dirname(asset_layer))
-    views = [v for v in verification_views(scene, 128, 128) if v.name == "sweep_060"]
+    views = [v for v in verification_views(scene, 128, 128, 4) if v.name == "sweep_060"]
     images = storm.PHYSICAL.render(asset_layer, views, str(tmp_path))
     assert (tmp_path / "storm_physical" / "sweep_060.png").is_file()
     m = host_metrics(images, render_reference(scene, views, lobe="view_angle"), scene)
     assert host_passed("physical", m) == (True, []), m
+
+
+@pytest.mark.gl
+def test_storm_draws_the_baked_network_without_speckle(asset_layer, tmp_path):
+    """Real Storm on the written asset's baked (LUT) network, against the exact view-angle reference. On Mesa
+    llvmpipe a LUT coordinate that reads a Storm material parameter gets a garbage level of detail along
+    triangle edges (white-grey speckle): this small asset at 128 px gave median dE2000 24, p95 48 then, 1.2 / 3.3
+    with the network of thinfilm.mtlx (the small asset's 32-texel feather atlas makes its cut-out edges coarse;
+    the default asset at 512 px: 0.26 / 0.45)."""
+    from rockdove.hosts import storm
+    from rockdove.render.scene import load_scene
+    from rockdove.verify.host_check import host_metrics
+    from rockdove.verify.inputs import verification_views
+    from rockdove.verify.reference_image import render_reference
+
+    if storm.unavailable():
+        pytest.skip(storm.unavailable())
+    scene = load_scene(os.path.dirname(asset_layer))
+    views = [v for v in verification_views(scene, 128, 128) if v.name == "sweep_060"]
+    m = host_metrics(storm.BAKED.render(asset_layer, views, str(tmp_path)),
+                     render_reference(scene, views, lobe="view_angle"), scene)
+    assert m["median_dE"] < 2.0 and m["p95_dE"] < 5.0 and m["hue_agreement"] > 0.95, m
 
 
 def test_the_default_hosts_leave_out_the_slow_ones_and_all_names_every_host(monkeypatch):

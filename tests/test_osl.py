@@ -20,7 +20,7 @@ def _sweep_view(asset_layer, size=96):
     from rockdove.verify.inputs import verification_views
 
     scene = load_scene(os.path.dirname(asset_layer))
-    return scene, [v for v in verification_views(scene, size, size) if v.name == "sweep_060"]
+    return scene, [v for v in verification_views(scene, size, size, 4) if v.name == "sweep_060"]
 
 
 def test_generated_osl_reads_the_primvars_cycles_is_asked_to_export(asset_layer):

@@ -154,7 +154,7 @@ def test_recover_restores_an_asset_moved_aside_by_a_killed_fallback_publish(tmp_
     os.rename(out, aside)
     staging = P.make_staging(out)
     P.recover(out)  # ... the next build puts the old asset back and removes the staging folder
-    assert P.read_marker(out)["config_hash"] == "old"
+    assert json.loads((out / P.MARKER).read_text())["config_hash"] == "old"
     assert not aside.exists() and not staging.exists()
 
 

@@ -184,51 +184,67 @@ def test_boundary_is_straight_for_uniform_thickness_and_bends_for_a_gradient(tmp
     assert results["graded"]["rms_fraction"] > 0.02 > 5 * results["uniform"]["rms_fraction"]
 
 
-@pytest.mark.gl
-def test_views_checked_one_at_a_time_combine_into_the_same_report(assets, tmp_path):
-    """Per-view results (as the build caches them) give the same metrics as one call over the same views; a
-    subset without a light-sweep view says the hue check did not run rather than passing it silently."""
-    from rockdove.verify import run as verify
-    from rockdove.verify.inputs import plan_views
+FAKE_HOST = """
+import numpy as np
+NAME, VARIANT, LOBE = "fake", "physical", "view_angle"
+GREY = 0.25
+CALLS = []
+def unavailable():
+    return None
+def render(asset_path, views, out_dir):
+    CALLS.append([v.name for v in views])
+    return {v.name: np.full((v.height, v.width, 3), GREY, np.float32) for v in views}
+"""
 
-    layer = assets["good"]
-    plan = plan_views(layer, 48, 48)
-    assert list(plan) == ["turntable_030", "turntable_210", "sweep_060", "sweep_120", "sweep_090", "hero"]
-    assert (plan["hero"]["view"]["width"], plan["hero"]["view"]["height"]) == (96, 96)  # twice the size
-    assert len({p["scene"] for p in plan.values()}) == 1 and plan == plan_views(layer, 48, 48)
-    assert plan_views(layer, 64, 48)["sweep_090"] != plan["sweep_090"]  # the size is part of a view
-    names = ["turntable_030", "sweep_090"]  # at 64 x 64: at 48 the 200-card neck shows ~20 chromatic pixels
-    whole = verify.verify_asset(layer, out_dir=tmp_path / "whole", width=64, height=64, views=names,
-                                bench_dir=tmp_path / "none")
-    parts = {}
-    for n in names:  # separately, each in its own folder, as cached build items
-        parts.update(verify.verify_views(layer, [n], out_dir=tmp_path / "items", width=64, height=64,
-                                         subfolders=True))
-    assert os.path.isfile(tmp_path / "items" / "sweep_090" / "sweep_090_gl.png")
-    combined = verify.report_from_views(layer, parts, out_dir=tmp_path / "combined", width=64, height=64,
-                                        bench_dir=tmp_path / "none", reused=["turntable_030"])
-    assert whole["passed"] and combined["passed"], (whole["failures"], combined["failures"])
-    assert [m["view"] for m in combined["views"]] == names and combined["views_reused"] == ["turntable_030"]
-    for a, b in zip(whole["views"], combined["views"]):
-        assert a["n_pixels"] == b["n_pixels"] and a["de_median"] == pytest.approx(b["de_median"])
-    assert whole["hue_sweep"]["green"] == combined["hue_sweep"]["green"] > 0
-    assert (tmp_path / "combined" / "sweep_090_dE.png").is_file()
-    assert [n[:22] for n in whole["notes"]] == ["boundary at sweep_090:"]  # the closing note, nothing else
-    assert combined["notes"] == whole["notes"]
-    only_turntable = verify.verify_asset(layer, out_dir=tmp_path / "tt", width=48, height=48,
-                                         views=["turntable_030"], bench_dir=tmp_path / "none")
+
+@pytest.mark.gl
+def test_one_verification_reuses_what_it_checked_and_reruns_a_host_whose_code_changed(assets, tmp_path,
+                                                                                      monkeypatch):
+    """The build's verification and ``rockdove verify`` are one function with one cache: a second run renders
+    nothing and gives the same numbers; an edit to the code a host runs re-renders that host alone; a subset of
+    views without a light-sweep view says the hue check did not run rather than passing it silently."""
+    import importlib
+
+    from rockdove import hosts
+    from rockdove.graph.verification import verify
+
+    (tmp_path / "fake_host.py").write_text(FAKE_HOST)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setitem(hosts.HOSTS, "fake", "fake_host")
+    fake = importlib.import_module("fake_host")
+    layer, cache, names = assets["good"], tmp_path / "cache", ["turntable_030", "sweep_090"]
+
+    def run(out, views=names):
+        return verify(layer, ["glsl", "fake"], cache=cache, out_dir=tmp_path / out, width=64, height=64,
+                      views=views, beauty={"renderer": "off"})
+
+    first = run("first")
+    assert first["cache"]["ran"]["views"] == names and first["cache"]["ran"]["hosts"] == ["glsl", "fake"]
+    assert len(fake.CALLS) == 1 and first["passed"] is False  # a grey bird has no green nor purple
+    second = run("second")
+    assert second["cache"]["ran"] == {"surfaces": [], "views": [], "hosts": []} and len(fake.CALLS) == 1
+    assert second["views"] == first["views"] and second["hosts"] == first["hosts"]
+    assert second["hue_sweep"] == first["hue_sweep"] and second["boundary"] == first["boundary"]
+    assert second["views_reused"] == names and second["failures"] == first["failures"]
+    for f in ("sweep_090_gl.png", "sweep_090_dE.png", "sweep_090_fake.png", "sweep_090_view_angle_reference.png"):
+        assert (tmp_path / "second" / f).is_file(), f
+    assert [n[:22] for n in second["notes"]] == ["boundary at sweep_090:"]  # the closing note, nothing else
+    (tmp_path / "fake_host.py").write_text(FAKE_HOST.replace("GREY = 0.25", "GREY = 0.5"))  # what fake runs
+    third = run("third")
+    assert third["cache"]["ran"] == {"surfaces": [], "views": [], "hosts": ["fake"]} and len(fake.CALLS) == 2
+    only_turntable = run("tt", ["turntable_030"])
     assert any(n.startswith("hue check not run") for n in only_turntable["notes"])
     assert "Notes" in (tmp_path / "tt" / "report.html").read_text()
     with pytest.raises(ValueError, match="views=.*sweep_999.*allowed names"):
-        verify.verify_views(layer, ["sweep_999"], out_dir=tmp_path / "x", width=48, height=48)
+        run("x", ["sweep_999"])
 
 
 @pytest.mark.gl
 def test_an_image_that_cannot_be_written_fails_the_views_it_belongs_to(assets, tmp_path, monkeypatch):
-    """The per-view images are written in a background thread; a write that fails is raised from verify_views,
-    not lost with the thread."""
+    """The per-view images are written in a background thread; a write that fails is raised from the
+    verification, not lost with the thread."""
+    from rockdove.graph.verification import verify
     from rockdove.render import images
-    from rockdove.verify import run as verify
 
     real = images.save_png
 
@@ -239,7 +255,8 @@ def test_an_image_that_cannot_be_written_fails_the_views_it_belongs_to(assets, t
 
     monkeypatch.setattr(images, "save_png", full_disk)
     with pytest.raises(OSError, match="No space left"):
-        verify.verify_views(assets["good"], ["turntable_030"], out_dir=tmp_path / "x", width=48, height=48)
+        verify(assets["good"], cache=tmp_path / "cache", views=["turntable_030"], out_dir=tmp_path / "x", width=48,
+               height=48)
 
 
 @pytest.mark.gl

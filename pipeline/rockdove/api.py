@@ -228,48 +228,37 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
 
 
 # ----------------------------------------------------------------------------------------------- verify
-def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, out: str | os.PathLike | None = None,
-           width: int | None = None, height: int | None = None, views: Iterable[str] | None = None,
-           n_views: int | None = None, bench_dir: str | os.PathLike | None = None, allow_external: bool = False,
-           progress: Callable[[str], None] | None = None, beauty: dict | None = None) -> Verification:
-    """Validate an asset, render it with the GLSL shaders and every host in ``hosts`` and check each against the
-    exact spectral reference of its lighting model; write the report.
+def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cache: str | os.PathLike | None = None,
+           out: str | os.PathLike | None = None, width: int | None = None, height: int | None = None,
+           views: Iterable[str] | None = None, n_views: int | None = None, bench_dir: str | os.PathLike | None = None,
+           allow_external: bool = False, progress: Callable[[str], None] | None = None,
+           beauty: dict | None = None) -> Verification:
+    """Validate an asset, render it with the GLSL shaders and every host in ``hosts``, check each against the
+    exact spectral reference of its lighting model and write the report: the build's own verification
+    (:func:`rockdove.graph.verification.verify`), with its cache, so what a build verified is not rendered again.
 
-    Parameters
-    ----------
-    asset : path
-        The asset folder or its root layer (``pigeon.usda``).
-    hosts : iterable of str, optional
-        Host names (:data:`rockdove.hosts.HOSTS`); default :data:`rockdove.hosts.DEFAULT` where available, ``["all"]`` every host (``glsl`` always runs).
-        Unavailable hosts are skipped with their reason; a host that fails or misses its goals fails.
-    out : path, optional
-        Report folder (default ``verify/`` beside the root layer).
-    width, height, n_views : int, optional
-        Render size (pixels) and turntable + light-sweep views (defaults: :mod:`rockdove.verify.inputs`).
-    views : iterable of str, optional
-        Check only these views (e.g. ``["sweep_090"]``).
-    bench_dir : path, optional
-        A folder of benchmark plots (``*.png``) to show in the report.
-    allow_external : bool
-        Allow the asset's layers to name files outside its folder (refused by default).
-    beauty : dict, optional
-        ``[beauty]`` settings (renderer, width, height, samples; None values: the defaults) of the picture the
-        report opens with (:mod:`rockdove.render.beauty`).
+    ``asset``: the asset folder or its root layer. ``hosts``: names (:data:`rockdove.hosts.HOSTS`), default
+    :data:`rockdove.hosts.DEFAULT` where available, ``["all"]`` every host; ``glsl`` always runs. ``cache``: the
+    stage cache (default: the build's ``.rockdove-cache`` beside the asset folder when there is one, else the user
+    cache). ``out``: the report folder (default ``verify/`` beside the root layer). ``width``, ``height``,
+    ``n_views``: render size (pixels) and turntable + light-sweep views (default the schema's ``[verify]``).
+    ``views``: check only these (e.g. ``["sweep_090"]``). ``bench_dir``: benchmark plots to show in the report.
+    ``allow_external``: let the asset's layers name files outside its folder. ``beauty``: the ``[beauty]``
+    settings of the report's opening picture.
 
     Returns :class:`Verification` (a failed check: ``passed`` False). Raises :class:`UsageError` for bad usage
     and :class:`VerificationFailed`, before rendering, when the asset's layers do not parse or name files outside
     it.
     """
-    from .verify.inputs import DEFAULT_SIZE, DEFAULT_VIEWS
+    from .graph import verification
     from .graph.publish import claim_output
     from .usd.dependencies import require_inside
-    from .verify.run import verify_asset
     from .verify.verdict import default_out_dir
 
     root = require_inside(asset, allow_external)  # nothing from elsewhere is read, nothing of the user's overwritten
     out = claim_output(out or default_out_dir(root), "verification report")
-    report = verify_asset(os.fspath(asset), out_dir=out, width=width or DEFAULT_SIZE, height=height or DEFAULT_SIZE,
-                          progress=progress, views=None if views is None else list(views),
-                          n_views=n_views or DEFAULT_VIEWS, hosts=None if hosts is None else list(hosts),
-                          bench_dir=bench_dir, beauty=beauty)
+    report = verification.verify(os.fspath(root), None if hosts is None else list(hosts), cache=cache, out_dir=out,
+                                 width=width, height=height, n_views=n_views,
+                                 views=None if views is None else list(views), bench_dir=bench_dir,
+                                 progress=progress, beauty=beauty)
     return Verification.from_report(report)

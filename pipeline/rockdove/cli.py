@@ -1,16 +1,10 @@
-"""The ``rockdove`` command line.
+"""The ``rockdove`` command line: parses arguments and dispatches.
 
-This module only parses arguments and dispatches. :data:`COMMANDS` names every sub-command with its one-line
-help (the only copy of it); each lives in ``pipeline/rockdove/commands/<name>.py`` (hyphens become underscores) and
-exposes::
-
-    def add_arguments(parser: argparse.ArgumentParser) -> None
-    def run(args: argparse.Namespace) -> int    # exit status: 0 ok, 1 failed check, 2 bad usage
-
-Sub-command modules are imported only when their command runs, so ``rockdove --help`` stays fast and
-needs no display. The commands call :mod:`rockdove.api`; a warm process is ``rockdove build --watch`` or the
-API itself. Errors become one line on stderr: ``ValueError`` (and
-:class:`UsageError`) and ``OSError`` (a full disk) exit 2, :class:`VerificationFailed` exits 1; tracebacks only with ``ROCKDOVE_DEBUG=1``.
+:data:`COMMANDS` names every sub-command with its one-line help; each lives in ``rockdove/commands/<name>.py``
+(hyphens become underscores), imported only when it runs (``rockdove --help`` stays fast and needs no display),
+with ``add_arguments(parser)`` and ``run(args) -> exit status`` (0 ok, 1 failed check, 2 bad usage). Errors are
+one line on stderr: ``ValueError`` (:class:`UsageError`) and ``OSError`` exit 2, :class:`VerificationFailed` 1;
+tracebacks only with ``ROCKDOVE_DEBUG=1``.
 """
 
 from __future__ import annotations
@@ -45,13 +39,8 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"rockdove: error: {message}\n")
 
 
-def _module_name(name: str) -> str:
-    """Command name -> module name under rockdove.commands (``schema-path`` -> ``schema_path``)."""
-    return name.replace("-", "_")
-
-
 def _module(name: str):
-    return importlib.import_module(f"rockdove.commands.{_module_name(name)}")
+    return importlib.import_module(f"rockdove.commands.{name.replace('-', '_')}")
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
@@ -69,16 +58,11 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
-def _command(argv: list[str]) -> str | None:
-    return next((a for a in argv if not a.startswith("-")), None)
-
-
 def main(argv: list[str] | None = None) -> int:
-    """The ``rockdove`` console script: parse ``argv`` (default ``sys.argv[1:]``) and run its command; the exit
-    status."""
+    """The ``rockdove`` console script: run the command of ``argv`` (default ``sys.argv[1:]``); its exit status."""
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")  # offscreen GL, chosen before anything imports OpenGL
     argv = list(sys.argv[1:] if argv is None else argv)
-    command = _command(argv)
+    command = next((a for a in argv if not a.startswith("-")), None)
     parser = build_parser(command if command in COMMANDS else None)
     args = parser.parse_args(argv)
     if args.command is None:

@@ -1,15 +1,10 @@
 """The build configuration: TOML layers checked against ``schemas/config.schema.json``.
 
 The JSON Schema (draft 2020-12) is the single source of every parameter's documentation, unit, range and
-default; this module only reads it. The effective configuration is built from layers, later wins:
-
-1. the schema's defaults,
-2. a preset, ``assets/pigeon/<preset>.toml`` (default ``measured``),
-3. ``--config FILE.toml``,
-4. ``--set KEY=VALUE`` overrides (dotted keys; values are TOML literals, a bare word is a string).
-
-Every problem is a :class:`rockdove.errors.UsageError` whose one-line message names the key, the value and what
-the schema allows, so the CLI prints it and exits 2 before anything is written.
+default. Layers, later wins: the schema's defaults, a preset ``assets/pigeon/<preset>.toml`` (default
+``measured``), ``--config FILE.toml``, ``--set KEY=VALUE`` (dotted keys; TOML literals, a bare word a string).
+Every problem is a one-line :class:`rockdove.errors.UsageError` naming the key, the value and what the schema
+allows, so the CLI exits 2 before anything is written.
 """
 
 from __future__ import annotations
@@ -93,10 +88,7 @@ def read_toml(path: str | os.PathLike, what: str = "config file") -> dict:
 
 
 def parse_set(item: str) -> tuple[str, Any]:
-    """Parse one ``--set KEY=VALUE``: a dotted key and a TOML literal (a bare word is taken as a string).
-
-    Examples: ``lut.angles=128``, ``thickness.base_nm=[500, 560]``, ``film.model=keratin``.
-    """
+    """Parse one ``--set KEY=VALUE`` (``lut.angles=128``, ``thickness.base_nm=[500, 560]``, ``film.model=keratin``)."""
     if "=" not in item:
         raise UsageError(f"--set {item!r} is not KEY=VALUE; e.g. --set lut.angles=128")
     key, text = (s.strip() for s in item.split("=", 1))
@@ -122,7 +114,7 @@ def _nest(key: str, value: Any) -> dict:
     return out
 
 
-def _schema_at(schema: dict, path: Iterable) -> dict:
+def schema_at(schema: dict, path: Iterable) -> dict:
     node = schema
     for part in path:
         if isinstance(part, int):
@@ -134,15 +126,13 @@ def _schema_at(schema: dict, path: Iterable) -> dict:
 
 @functools.cache
 def limits(key: str) -> tuple:
-    """The schema's inclusive ``(minimum, maximum)`` of dotted config ``key``; of its items for a ``[lo, hi]`` pair.
-
-    The one source of the parameters' ranges: code that checks a value the config also carries (e.g.
-    :class:`rockdove.geometry.BirdParams`) reads its range here, so that what the schema accepts it accepts.
+    """The schema's inclusive ``(minimum, maximum)`` of dotted config ``key`` (of its items for a ``[lo, hi]``
+    pair): code that checks a value the config also carries reads its range here.
 
     >>> limits("geometry.card_count")
     (1, 1000000)
     """
-    node = _schema_at(load_schema(), key.split("."))
+    node = schema_at(load_schema(), key.split("."))
     if node.get("type") == "array":
         node = node.get("items", {})
     if "minimum" not in node or "maximum" not in node:
@@ -212,7 +202,7 @@ def _check_finite(config: dict, schema: dict, path=()) -> None:
     items = config.items() if isinstance(config, dict) else enumerate(config) if isinstance(config, list) else ()
     for k, v in items:
         if isinstance(v, float) and not math.isfinite(v):
-            node = _schema_at(schema, [*path, k])
+            node = schema_at(schema, [*path, k])
             raise UsageError(f"config key {_dotted([*path, k])!r}: value {_show(v)} is not a finite number; "
                              f"allowed: {allowed(node) if node else 'a finite number'}")
         _check_finite(v, schema, (*path, k))
@@ -221,14 +211,14 @@ def _check_finite(config: dict, schema: dict, path=()) -> None:
 def _error_message(err, schema: dict) -> str:
     path = list(err.absolute_path)
     if err.validator == "additionalProperties":
-        node = _schema_at(schema, path)
+        node = schema_at(schema, path)
         known = set(node.get("properties", {}))
         extra = sorted(set(err.instance) - known) if isinstance(err.instance, dict) else []
         key = _dotted(path + extra[:1])
         where = f"[{_dotted(path)}]" if path else "the top level"
         return (f"config key {key!r} is unknown; allowed keys in {where}: {', '.join(sorted(known))}")
     key = _dotted(path)
-    node = _schema_at(schema, path)
+    node = schema_at(schema, path)
     if err.validator == "type" and node.get("type") == "object":
         return (f"config key {key!r}: value {_show(err.instance)} is not a table; allowed: a table with "
                 f"keys {', '.join(sorted(node.get('properties', {})))}")
@@ -240,11 +230,8 @@ def _error_message(err, schema: dict) -> str:
 
 
 def validate(config: dict) -> dict:
-    """Check ``config`` against the schema and the rules the schema cannot say (ranges with lo <= hi).
-
-    Returns the configuration with integer-typed values as ``int``; raises :class:`UsageError` (one line
-    naming the first problem's key, value and what is allowed).
-    """
+    """``config`` checked against the schema and what it cannot say (ranges with lo <= hi), integer-typed
+    values as ``int``; :class:`UsageError` naming the first problem's key, value and what is allowed."""
     import jsonschema
 
     schema = load_schema()
@@ -268,17 +255,8 @@ def validate(config: dict) -> dict:
 
 def load_config(*, preset: str | None = DEFAULT_PRESET, config_file: str | os.PathLike | None = None,
                 overrides: Mapping[str, Any] | Iterable[str] = ()) -> dict:
-    """The effective, validated configuration.
-
-    Parameters
-    ----------
-    preset : str or None
-        Name of a preset in ``assets/pigeon/`` (``measured`` or ``paper``); None = the schema's defaults only.
-    config_file : path or None
-        A TOML file layered on top of the preset.
-    overrides : mapping or iterable of str
-        ``{dotted key: value}`` or ``KEY=VALUE`` items (``--set``: TOML literals), applied last, in order.
-    """
+    """The effective, validated configuration: the ``preset`` (None: the schema's defaults only), the
+    ``config_file`` over it, then ``overrides`` in order (``{dotted key: value}`` or ``KEY=VALUE`` strings)."""
     layers = []
     if preset is not None:
         layers.append(read_toml(preset_path(preset), what=f"preset {preset!r}"))
@@ -291,7 +269,8 @@ def load_config(*, preset: str | None = DEFAULT_PRESET, config_file: str | os.Pa
             layers.append(_nest(key, value))
     else:
         if isinstance(overrides, str):
-            raise UsageError(f"overrides must be a mapping or a list of KEY=VALUE strings, got the string {overrides!r}")
+            raise UsageError(f"overrides must be a mapping or a list of KEY=VALUE strings, got the string "
+                             f"{overrides!r}")
         for item in overrides:
             layers.append(_nest(*parse_set(item)))
     config = defaults()

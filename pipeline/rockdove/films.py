@@ -96,9 +96,7 @@ class FilmModel:
 
     def describe(self) -> dict[str, str]:
         """Human-readable description for EXR / USD metadata (all values are strings)."""
-        formula = "n(lambda) = A + B / lambda^2 (lambda in nm)"
-        if self.k:
-            formula += " + i k"
+        formula = "n(lambda) = A + B / lambda^2 (lambda in nm)" + (" + i k" if self.k else "")
         return {
             "name": self.name,
             "formula": formula,

@@ -4,8 +4,7 @@ Light arrives from a transparent incident medium a (``n_incident``, real) at ``c
 film b (``n_film``, thickness d) on a semi-infinite substrate c (``n_substrate``); complex indices are ``n + i k``,
 ``k >= 0`` absorbing (the convention of ``tmm`` and ``colour.phenomena``, :mod:`rockdove.films`).
 
-Normal wave-vector components (in units of the vacuum wave number k0 = 2 pi / lambda), from Snell's law
-n_j sin(theta_j) = n_a sin(theta_a):
+Normal wave-vector components (in units of k0 = 2 pi / lambda), by Snell's law n_j sin(theta_j) = n_a sin(theta_a):
 
     q_j = n_j cos(theta_j) = sqrt(n_j**2 - n_a**2 sin(theta_a)**2)
         = sqrt((n_j - n_a)(n_j + n_a) + (n_a cos_theta)**2)                                   (1)
@@ -13,8 +12,7 @@ n_j sin(theta_j) = n_a sin(theta_a):
 evaluated in the second form so that n_j == n_a gives q_j = n_a cos_theta exactly, on the branch Im(q_j) >= 0:
 beyond the critical angle q_j = +i |q_j|, an evanescent wave decaying away from the interface.
 
-Fresnel amplitude coefficients (Born & Wolf, Principles of Optics, 7th ed., sec. 1.5.2, the Fresnel
-formulae; the convention of the ``tmm`` package; at normal incidence r_p = -r_s):
+Fresnel amplitude coefficients (Born & Wolf, Principles of Optics, 7th ed., sec. 1.5.2; ``tmm``'s convention):
 
     r_s = (n1 cos1 - n2 cos2) / (n1 cos1 + n2 cos2),    r_p = (n2 cos1 - n1 cos2) / (n2 cos1 + n1 cos2)  (2)
 
@@ -40,9 +38,8 @@ sum of squares in real arithmetic (the fast path, an order of magnitude cheaper)
     R = [(eta_a - eta_c)**2 cos**2 + (eta_a eta_c S - eta_b sin)**2] / Den,   T = 4 eta_a eta_c / Den,
     Den = (eta_a + eta_c)**2 cos**2 + (eta_a eta_c S + eta_b sin)**2,   S = sin(delta) / eta_b.
 
-Limits: at grazing incidence (cos_theta = 0, eta_a = 0) R = 1 and T = 0 for any stack; at d = 0 the film
-disappears and R is the bare a|c Fresnel value. Where every interface vanishes at once (equal indices at
-grazing incidence, the only 0/0 left in eq. 4) the result is R = 0, T = 1: no interface, no reflection.
+Limits: at grazing incidence (eta_a = 0) R = 1 and T = 0 for any stack; at d = 0, the bare a|c Fresnel value;
+where every interface vanishes (equal indices at grazing, the only 0/0 left in eq. 4) R = 0, T = 1.
 """
 
 from __future__ import annotations
@@ -203,13 +200,16 @@ def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t):
         b0 = (ea + ec) ** 2
         a1 = (eaec / eb - eb) ** 2 - a0
         b1 = (eaec / eb + eb) ** 2 - b0
-        den = b1 * u + b0
-        num = a1 * u + a0
+        den = b1 * u  # in place from here: the arrays have the output's size
+        den += b0
+        num = a1 * u
+        num += a0
         # den == 0 only where eta_a = eta_c = 0 (grazing, substrate of the incident index) and u = 0:
         # the result is NaN there and _solve hands those elements to the complex path (as it would any
         # overflow of a1, b1, which the range of q_b**2 > 0 rules out in practice).
         with np.errstate(invalid="ignore", divide="ignore"):
-            out[pol] = (num / den, np.divide(4.0 * eaec, den) if want_t else None)
+            num /= den
+            out[pol] = (num, np.divide(4.0 * eaec, den) if want_t else None)
         degenerate = degenerate or bool(np.any(b0 == 0)) or not (np.all(np.isfinite(a1)) and np.all(np.isfinite(b1)))
     return out, degenerate
 
@@ -287,13 +287,10 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
         with np.errstate(invalid="ignore", divide="ignore"):
             res, degenerate = _fast_real(k0d, cos_a, n_a, n_b, n_c, _q(np.maximum(qb2, 0), n_b, n_a, cos_a, True),
                                          _q(np.maximum(qc2, 0), n_c, n_a, cos_a, True), pols, want_t)
-        slow = None if all_fast else ~np.broadcast_to(fast, shape)
-        if degenerate:
-            nan = np.zeros(shape, dtype=bool)
-            for pol in pols:
-                nan |= np.isnan(res[pol][0])
-            slow = nan if slow is None else slow | nan
-        if slow is not None and slow.any():
+        slow = ~np.broadcast_to(fast, shape)
+        for pol in pols if degenerate else ():
+            slow = slow | np.isnan(res[pol][0])
+        if slow.any():
             sub = [np.broadcast_to(x, shape)[slow] for x in (k0d, cos_a, n_a, n_b, n_c, qb2, qc2)]
             k0d_s, cos_s, na_s, nb_s, nc_s, qb2_s, qc2_s = sub
             res_slow = _general_complex(k0d_s, cos_s, na_s, nb_s, nc_s, _q(qb2_s + 0j, nb_s, na_s, cos_s, False),
@@ -326,16 +323,12 @@ def reflectance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.
     """Reflectance R = |r|**2 of one film (Airy summation, eqs. 3-4 of the module docstring), float64 in [0, 1],
     the broadcast shape of all array arguments.
 
-    ``wavelength_nm`` (vacuum, > 0) and ``thickness_nm`` (>= 0; 0 gives the bare incident|substrate interface) in
-    nm; ``cos_theta`` in [0, 1] is the angle of incidence in the incident medium (1 = normal). ``n_film`` and
-    ``n_substrate``: a number, an array broadcast against all other arguments (give it the wavelengths' shape,
-    e.g. (W, 1, 1)) or a callable n(wavelength_nm); n + ik with k >= 0 absorbing; ``n_incident`` real.
-    "unpolarized" is the mean of the s and p reflectances. ValueError names the argument and the value for
-    NaN/inf, out-of-range values, a complex ``n_incident`` or an unknown polarization.
-
-    Real indices without total internal reflection take the real fast path (one sine per sample); absorption,
-    TIR and a film at its critical angle the complex path, several times slower: both exact to rounding. Peak
-    memory is a few float64 arrays of the output shape: chunk calls above ~1e7 samples.
+    ``wavelength_nm`` (vacuum, > 0) and ``thickness_nm`` (>= 0; 0: the bare incident|substrate interface) in nm;
+    ``cos_theta`` in [0, 1] in the incident medium. ``n_film`` and ``n_substrate``: a number, an array broadcast
+    against the other arguments (give it the wavelengths' shape) or a callable n(wavelength_nm), n + ik with k >= 0;
+    ``n_incident`` real. "unpolarized" is the mean of s and p. A ValueError names the offending argument and value.
+    Real indices without TIR take the real fast path (one sine per sample), the rest the complex path, both exact
+    to rounding; memory is a few float64 arrays of the output shape (chunk calls above ~1e7 samples).
     """
     return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, False)[0]
 

@@ -1,13 +1,9 @@
 """The data files rockdove reads at run time, found through :mod:`importlib.resources`.
 
 Shaders and MaterialX documents (``materials/``), the USD schema and the configuration's JSON Schema
-(``schemas/``) and the preset recipes (``assets/``) live at the top of the repository. ``pyproject.toml``
-maps each folder into the package as a data sub-package (``rockdove.materials``, ``rockdove.schemas``,
-``rockdove.assets``), so a wheel carries them and an editable install reads them from the checkout; this
-module is the only place that knows that. The model is trimesh's ``resources`` module.
-
-Names are relative paths whose first part is the folder: ``"materials/thinfilm.mtlx"``,
-``"schemas/plugInfo.json"``, ``"assets/pigeon"``.
+(``schemas/``) and the presets (``assets/``) live at the top of the repository; ``pyproject.toml`` maps each
+folder into the package as a data sub-package (``rockdove.materials``...), so a wheel carries them and an
+editable install reads them from the checkout. Names are relative paths whose first part is the folder.
 
 Examples
 --------
@@ -24,6 +20,7 @@ from __future__ import annotations
 
 import functools
 import importlib.resources
+import os
 from pathlib import Path
 
 from .errors import ResourceMissing
@@ -34,13 +31,8 @@ FOLDERS = {"materials": "rockdove.materials", "schemas": "rockdove.schemas", "as
 
 @functools.lru_cache(maxsize=None)
 def folder(name: str) -> Path:
-    """The directory of data folder ``name`` (one of :data:`FOLDERS`), as a real path on disk.
-
-    Raises
-    ------
-    ResourceMissing
-        When the package was installed without that folder.
-    """
+    """The directory of data folder ``name`` (one of :data:`FOLDERS`) on disk; :class:`ResourceMissing` when the
+    package was installed without it."""
     if name not in FOLDERS:
         raise ValueError(f"data folder must be one of {', '.join(FOLDERS)}, got {name!r}")
     try:
@@ -56,13 +48,8 @@ def folder(name: str) -> Path:
 
 
 def path(name: str) -> Path:
-    """The file or folder ``name`` (``"<folder>/<relative path>"``) on disk.
-
-    Raises
-    ------
-    ResourceMissing
-        Naming ``name`` when it is not in the installed package.
-    """
+    """The file or folder ``name`` (``"<folder>/<relative path>"``) on disk; :class:`ResourceMissing` naming it
+    when it is not in the installed package."""
     top, _, rest = name.partition("/")
     p = folder(top) / rest if rest else folder(top)
     if not p.exists():
@@ -76,21 +63,16 @@ def package_root() -> Path:
 
 
 def user_cache_dir(*parts: str) -> Path:
-    """Where rockdove keeps values derived from installed libraries, keyed by their content or version:
-    ``$XDG_CACHE_HOME/rockdove/<parts...>`` (``~/.cache`` when unset). Everything in it can be deleted at any
-    time; it is recomputed on demand. Not created here (see :func:`write_cached`)."""
-    import os
-
+    """``$XDG_CACHE_HOME/rockdove/<parts...>`` (``~/.cache`` when unset): values rockdove derives and keeps,
+    keyed by what derives them (:func:`rockdove.sources.cache_dir`); all of it can be deleted at any time."""
     root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     return Path(root, "rockdove", *parts)
 
 
 def write_cached(path: Path, data: bytes) -> bool:
     """Write ``data`` to ``path`` in :func:`user_cache_dir` atomically (a reader sees the old file or the whole new
-    one, also with concurrent writers). Returns False, and writes nothing, where the folder is not writable:
-    a cache that cannot be kept is recomputed next time."""
-    import os
-
+    one, also with concurrent writers). False, and nothing written, where the folder is not writable: a cache
+    that cannot be kept is recomputed next time."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")

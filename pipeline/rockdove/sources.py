@@ -16,8 +16,8 @@ colour-science scipy; USD and Pillow load plugins), so only the environment is a
 and mapping import names to distributions (``importlib.metadata.packages_distributions()``) took 1.1 s per
 process here, against ~1 ms to list ``sys.path``. An install or upgrade costs one cold build.
 
-Cost: parsing is memoised by the file's content in this process and on disk (:func:`scan_dir`); a digest is
-memoised per process until a file it read or a folder it listed changes (mtime and size).
+A digest is memoised per process until a file it read or a folder it listed changes (mtime and size), and
+parsing by the file's content on disk (:func:`scan_dir`).
 """
 
 from __future__ import annotations
@@ -90,26 +90,13 @@ def environment(seen: dict) -> str:
     return hashlib.sha256("\n".join(names).encode()).hexdigest()
 
 
-_MODULES: dict = {}  # package root -> (its folders' (mtime, size), the modules found)
-
-
 def _modules(seen: dict) -> dict[str, Path]:
-    """Dotted name -> file of every module of the package (``rockdove.x`` for ``x/__init__.py``); listed again
-    only when one of the package's folders changed."""
+    """Dotted name -> file of every module of the package (``rockdove.x`` for ``x/__init__.py``)."""
     root = resources.package_root().resolve()
-    hit = _MODULES.get(root)
-    if hit is not None and _unchanged(hit[0]):
-        seen.update(hit[0])
-        return hit[1]
-    folders: dict = {}
     out = {}
-    for p in files_of(root, "*.py", folders):
+    for p in files_of(root, "*.py", seen):
         parts = list(p.relative_to(root.parent).with_suffix("").parts)
-        if parts[-1] == "__init__":
-            parts.pop()
-        out[".".join(parts)] = p
-    _MODULES[root] = (folders, out)
-    seen.update(folders)
+        out[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = p
     return out
 
 

@@ -105,13 +105,12 @@ def _tables(illuminant: str, observer: str):
         for what, table in (("observer", cmfs), ("illuminant", sd)):
             if table.wavelengths[0] > lo or table.wavelengths[-1] < hi:
                 raise ValueError(f"{what} {table.name!r} does not cover {lo:g}-{hi:g} nm")
-        return {"cmfs_wavelength_nm": cmfs.wavelengths, "cmfs": cmfs.values,
-                "illuminant_wavelength_nm": sd.wavelengths, "illuminant": sd.values}
+        return dict(zip(keys, (cmfs.wavelengths, cmfs.values, sd.wavelengths, sd.values)))
 
+    keys = ("cmfs_wavelength_nm", "cmfs", "illuminant_wavelength_nm", "illuminant")
     slug = "".join(c if c.isalnum() or c in "-." else "_" for c in f"{illuminant}-{observer}")
-    t = colour_data(f"tables-{slug}", compute,
-                    ("cmfs_wavelength_nm", "cmfs", "illuminant_wavelength_nm", "illuminant"))
-    return t["cmfs_wavelength_nm"], t["cmfs"], t["illuminant_wavelength_nm"], t["illuminant"]
+    t = colour_data(f"tables-{slug}", compute, keys)
+    return tuple(t[k] for k in keys)
 
 
 def cmfs_illuminant(wavelength_nm, illuminant=DEFAULT_ILLUMINANT, observer=DEFAULT_OBSERVER):
@@ -231,11 +230,9 @@ def _lab_white() -> np.ndarray:
 
 
 def XYZ_to_Lab(XYZ) -> np.ndarray:
-    """CIELAB (L in [0, 100]) of XYZ with the reference D65 white at Y = 1. (..., 3) -> (..., 3).
-
-    CIE 15:2004 eq. 8.1-8.3: ``f(t) = t^(1/3)`` above epsilon, ``(kappa t + 16) / 116`` below;
-    ``L = 116 f(Y/Yn) - 16``, ``a = 500 (f(X/Xn) - f(Y/Yn))``, ``b = 200 (f(Y/Yn) - f(Z/Zn))``.
-    """
+    """CIELAB (..., 3) of XYZ (..., 3), the reference white at Y = 1 (CIE 15:2004 eq. 8.1-8.3): ``f(t) = t^(1/3)``
+    above epsilon, ``(kappa t + 16) / 116`` below; ``L = 116 f(Y/Yn) - 16``, ``a = 500 (f(X/Xn) - f(Y/Yn))``,
+    ``b = 200 (f(Y/Yn) - f(Z/Zn))``."""
     t = np.asarray(XYZ, dtype=np.float64) / _lab_white()
     f = np.where(t > _LAB_EPSILON, np.cbrt(t), (_LAB_KAPPA * t + 16.0) / 116.0)
     return np.stack([116.0 * f[..., 1] - 16.0, 500.0 * (f[..., 0] - f[..., 1]), 200.0 * (f[..., 1] - f[..., 2])],
@@ -252,11 +249,9 @@ def Lab_to_XYZ(Lab) -> np.ndarray:
 
 
 def delta_E_2000(Lab_a, Lab_b) -> np.ndarray:
-    """CIEDE2000 colour difference, k_L = k_C = k_H = 1; (..., 3), (..., 3) -> (...).
-
-    Sharma, Wu and Dalal (2005), "The CIEDE2000 color-difference formula: implementation notes,
-    supplementary test data, and mathematical observations", Color Res. Appl. 30(1), eq. 1-24 (hue angles
-    in degrees; h' = 0 where a' = b' = 0; the mean hue and the hue difference follow their eq. 10 and 14).
+    """CIEDE2000 colour difference (...) of two CIELAB arrays (..., 3), k_L = k_C = k_H = 1: Sharma, Wu and Dalal
+    (2005), "The CIEDE2000 color-difference formula: implementation notes, supplementary test data, and
+    mathematical observations", Color Res. Appl. 30(1), eq. 1-24 (hue angles in degrees; h' = 0 where a' = b' = 0).
     """
     L1, a1, b1 = np.moveaxis(np.asarray(Lab_a, dtype=np.float64), -1, 0)
     L2, a2, b2 = np.moveaxis(np.asarray(Lab_b, dtype=np.float64), -1, 0)

@@ -1,8 +1,5 @@
-"""The sRGB transfer functions (IEC 61966-2-1:1999) and the exact 8-bit display encoding of linear Rec.709.
-
-Tested against colour-science's ``cctf_encoding/decoding(..., "sRGB")`` (tests/test_spectral.py). Re-exported by
-:mod:`rockdove.spectral`.
-"""
+"""The sRGB transfer functions (IEC 61966-2-1:1999) and the exact 8-bit display encoding of linear Rec.709
+(tested against colour-science's ``cctf_encoding/decoding``, tests/test_spectral.py; re-exported by spectral)."""
 
 from __future__ import annotations
 
@@ -30,15 +27,11 @@ def srgb_decode(encoded) -> np.ndarray:
 def linear_to_srgb8(rgb) -> np.ndarray:
     """(..., 3) linear lin_rec709 -> (..., 3) uint8: sRGB OETF (IEC 61966-2-1) of the value clipped to [0, 1].
 
-    docs/design.md's display transform, for GL renders, reference renders and textures alike, so their PNGs
-    compare (:func:`RGB_to_preview8` desaturates instead). NaN shows as black, +inf as 1.
-
-    The code ``round(255 * srgb_encode(clip(v, 0, 1)))`` is a step function of ``v`` with 255 steps
-    (:func:`_srgb8_steps`, by bisection on that formula) at least 3e-4 apart, so [0, 1] is cut into
-    :data:`_SRGB8_CELLS` cells holding at most one step each (:func:`_srgb8_cells`): a value's code is its cell's
-    code plus one at or above the cell's step. A multiply, a cast and two look-ups per value give the formula's
-    codes for every float64 and float32 (read as they are), in blocks that stay in the cache (8.7-9x faster
-    than a binary search among the steps on a 1024 x 1024 x 3 image).
+    docs/design.md's display transform for GL renders, reference renders and textures alike (NaN shows as black).
+    The code ``round(255 * srgb_encode(clip(v, 0, 1)))`` is a step function of ``v`` with 255 steps at least 3e-4
+    apart (:func:`_srgb8_steps`), so [0, 1] is cut into :data:`_SRGB8_CELLS` cells with at most one step each
+    (:func:`_srgb8_cells`): a value's code is its cell's, plus one at or above the cell's step. That gives the
+    formula's codes for every float64 and float32, 8.7-9x faster than a binary search among the steps.
     """
     rgb = np.asarray(rgb)
     if rgb.dtype != np.float32:

@@ -14,18 +14,14 @@ from __future__ import annotations
 import argparse
 import os
 
-HELP = "write the Blender add-on (rockdove_blender.zip) that builds the thin-film material on USD import"
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, metavar="DIR", help="folder to write rockdove_blender.zip into")
 
 
 def run(args: argparse.Namespace) -> int:
-    from rockdove.hosts.blender import ADDON_MODULE, addon_zip
-
     from rockdove.graph.publish import check_output_file, starts_like
-    from rockdove.hosts.blender import ADDON_ZIP
+    from rockdove.hosts.blender import ADDON_MODULE, ADDON_ZIP, addon_zip
 
     check_output_file(os.path.join(args.out, ADDON_ZIP), starts_like(b"PK", b"rockdove_blender/"))
     path = addon_zip(args.out)

@@ -1,12 +1,9 @@
-"""``rockdove build``: build the pigeon asset incrementally and publish it atomically
-(:func:`rockdove.api.build`; this module turns options into its arguments and its result into text).
+"""``rockdove build``: options into :func:`rockdove.api.build`'s arguments, its result into text, and ``--watch``.
 
-Order of work: configuration checked (exit 2 on any problem, nothing written) -> output checked (a folder
-rockdove created, or a new/empty one) -> lock taken (a second build of the same output waits) -> leftovers of
-killed builds cleaned -> stages run or reused from the cache -> asset assembled in a staging folder beside
-the output, marker written -> verification on the staged asset (unless ``--no-verify``) -> atomic swap into
-place. Ctrl-C and SIGTERM remove the staging folder and the cache's temporaries; a failed verification
-publishes nothing and exits 1.
+Order of work: configuration checked (exit 2, nothing written) -> output checked -> lock taken -> leftovers of
+killed builds cleaned -> stages run or reused -> asset assembled in a staging folder, marker written ->
+verification on it (unless ``--no-verify``) -> atomic swap into place. Ctrl-C and SIGTERM remove the staging
+folder and the cache's temporaries; a failed verification publishes nothing and exits 1.
 """
 
 from __future__ import annotations
@@ -22,7 +19,7 @@ from ..config import DEFAULT_PRESET
 
 
 def add_config_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options that choose the configuration (shared with ``rockdove config``)."""
+    """The options that choose the configuration (shared with ``config`` and ``sweep``)."""
     parser.add_argument("--preset", default=DEFAULT_PRESET, metavar="NAME",
                         help=f"asset recipe assets/pigeon/NAME.toml: measured or paper (default {DEFAULT_PRESET})")
     parser.add_argument("--config", metavar="FILE.toml", help="a TOML file layered over the preset")
@@ -86,7 +83,7 @@ def _print(result, args) -> None:
 
 
 def build_once(args: argparse.Namespace):
-    """One ``rockdove build`` of ``args`` through :func:`rockdove.api.build`: its result, printed."""
+    """One build of ``args``: its result, printed."""
     from .. import api
 
     config = api.load_config(preset=args.preset, config_file=args.config, overrides=args.overrides)
@@ -117,8 +114,7 @@ POLL_S = 0.1
 
 
 def watched_files(args: argparse.Namespace) -> list[Path]:
-    """The files whose content makes the configuration: the preset's TOML and the --config file (``--set``
-    values are literals: they read no file)."""
+    """The files the configuration is read from: the preset's and the --config file."""
     from ..config import preset_path
 
     files = [preset_path(args.preset)] if args.preset is not None else []
@@ -136,11 +132,9 @@ def _stamp(files: list[Path]) -> tuple:
 
 
 def watch(args: argparse.Namespace, *, poll_s: float = POLL_S) -> int:
-    """``rockdove build --watch``: build now, then again each time a :func:`watched_files` file changes (its
-    modification time, size or inode, polled every ``poll_s`` seconds; no sockets, no daemon), in this process,
-    so imports and unchanged stage values stay warm. A build that fails (bad configuration, failed verification)
-    prints its one-line error (with --json, a ``{"error": ...}`` line) and the watch goes on; Ctrl-C ends it
-    (a build in progress removes its staging folder first)."""
+    """``rockdove build --watch``: build now, then again in this warm process each time a :func:`watched_files`
+    file changes (mtime, size or inode, polled every ``poll_s`` s). A failed build prints its one-line error
+    (with --json, a ``{"error": ...}`` line) and the watch goes on; Ctrl-C ends it."""
     from ..errors import VerificationFailed
 
     files = watched_files(args)

@@ -1,10 +1,6 @@
 """``rockdove gltf ASSET [--out F.glb] [--validate] [--json]``: export a written asset to glTF 2.0
-(:func:`rockdove.web.gltf.export_glb`), optionally checked by the Khronos glTF-Validator.
-
-The build already writes ``pigeon.glb`` (unless ``gltf.glb = false``); this exports any rockdove asset after the
-fact, e.g. one built with it off. An asset without rockdove thin-film data is refused in one line.
-
-Exit status 0 on success, 1 when the validator reports errors, 2 on bad usage (not a rockdove asset).
+(:func:`rockdove.web.gltf.export_glb`; the build writes ``pigeon.glb`` unless ``gltf.glb = false``), optionally
+checked by the Khronos glTF-Validator. Exit status 0, 1 when the validator reports errors, 2 on bad usage.
 """
 
 from __future__ import annotations
@@ -13,8 +9,6 @@ import argparse
 import json
 import os
 import sys
-
-HELP = "export an asset to glTF 2.0 (pigeon.glb, KHR_materials_iridescence) and validate it"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -1,7 +1,5 @@
-"""``rockdove lut``: bake a thin-film colour LUT into OpenEXR, with an sRGB PNG preview beside it.
-
-The EXR is published atomically (written to a temporary file in the same folder, then ``os.replace``); the
-preview goes to the same path with the suffix ``.png``. Every argument is checked before anything is written.
+"""``rockdove lut``: bake a thin-film colour LUT into OpenEXR, with an sRGB PNG preview beside it, both
+published atomically once every argument is checked.
 """
 
 from __future__ import annotations
@@ -13,25 +11,14 @@ import time
 
 DEFAULT_ERROR_POINTS = 1000
 # bake() argument -> command-line option, for error messages
-_OPTIONS = {
-    "angles": "--angles",
-    "thicknesses": "--thicknesses",
-    "thickness_range": "--thickness-range",
-    "film": "--film",
-    "method": "--method",
-    "angle_warp_gamma": "--angle-gamma",
-    "colour_space": "--colour-space",
-}
+_OPTIONS = {"angles": "--angles", "thicknesses": "--thicknesses", "thickness_range": "--thickness-range",
+            "film": "--film", "method": "--method", "angle_warp_gamma": "--angle-gamma",
+            "colour_space": "--colour-space"}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..lut.bake import (
-        BAKE_METHODS,
-        DEFAULT_ANGLE_WARP_GAMMA,
-        DEFAULT_ANGLES,
-        DEFAULT_THICKNESS_RANGE_NM,
-        DEFAULT_THICKNESSES,
-    )
+    from ..lut.bake import (BAKE_METHODS, DEFAULT_ANGLE_WARP_GAMMA, DEFAULT_ANGLES, DEFAULT_THICKNESS_RANGE_NM,
+                            DEFAULT_THICKNESSES)
 
     parser.add_argument("--out", required=True, metavar="PATH.exr", help="output EXR file (preview: PATH.png)")
     parser.add_argument("--angles", type=int, default=DEFAULT_ANGLES, metavar="N", help="angle texels (2 .. 4096)")
@@ -84,15 +71,9 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--error-points must be >= 0, got {args.error_points}")
     t0 = time.perf_counter()
     try:
-        lut = bake(
-            angles=args.angles,
-            thicknesses=args.thicknesses,
-            thickness_range=tuple(args.thickness_range),
-            film=args.film,
-            method=args.method,
-            angle_warp_gamma=args.angle_gamma,
-            colour_space=args.colour_space,
-        )
+        lut = bake(angles=args.angles, thicknesses=args.thicknesses, thickness_range=tuple(args.thickness_range),
+                   film=args.film, method=args.method, angle_warp_gamma=args.angle_gamma,
+                   colour_space=args.colour_space)
     except ValueError as exc:  # name the command-line option, not only the library argument
         name = str(exc).split(" ", 1)[0]
         if name in _OPTIONS:

@@ -1,10 +1,6 @@
-"""``rockdove render ASSET --out DIR``: offscreen renders of a written asset with the GLSL shaders.
-
-Reads the asset back from disk (:func:`rockdove.render.scene.load_scene`), renders
-:func:`rockdove.render.views.default_views` (turntable frames, then light-sweep frames) with one pyrender
-offscreen renderer (:mod:`rockdove.render.gl`), and writes one sRGB PNG per view plus ``contact_sheet.png``. PNGs are anti-aliased by rendering ``--supersample``
-K x K pixel-centre samples per pixel and averaging the linear radiance before the sRGB OETF.
-Prints the paths and the timings (load, render per view, write).
+"""``rockdove render ASSET --out DIR``: offscreen renders of a written asset with the GLSL shaders
+(:mod:`rockdove.render.gl`) of :func:`rockdove.render.views.default_views`, one sRGB PNG per view and
+``contact_sheet.png``, anti-aliased by averaging ``--supersample`` K x K samples per pixel in linear radiance.
 """
 
 from __future__ import annotations
@@ -88,10 +84,10 @@ def run(args: argparse.Namespace) -> int:
             t_write += time.perf_counter() - t2
     t_render = time.perf_counter() - t1 - t_write
     t2 = time.perf_counter()
-    sheet = contact_sheet(os.path.join(args.out, "contact_sheet.png"), [tiles[i:i + 4] for i in range(0, len(tiles), 4)])
+    sheet = contact_sheet(os.path.join(args.out, "contact_sheet.png"),
+                          [tiles[i:i + 4] for i in range(0, len(tiles), 4)])
     t_write += time.perf_counter() - t2
     print(sheet)
     print(f"load {t_load:.2f} s, render {len(big)} views at {args.width}x{args.height} ({k}x{k} samples per "
-          f"pixel) {t_render:.2f} s "
-          f"(incl. context and upload), write {t_write:.2f} s")
+          f"pixel) {t_render:.2f} s (incl. context and upload), write {t_write:.2f} s")
     return 0

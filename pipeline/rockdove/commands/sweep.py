@@ -1,31 +1,21 @@
 """``rockdove sweep``: build (and verify) every point of a parameter grid on a Dask cluster.
 
-``--grid 'KEY=[V1, V2, ...]'`` gives one axis (values are TOML literals exactly as ``--set`` takes them, bare
-words included); several ``--grid`` make their product. ``--preset``, ``--config`` and ``--set`` are the base
-of every point; a point's grid values are applied last. Each point is one call of ``rockdove build``'s
-:func:`rockdove.api.build` on a Dask worker, into ``DIR/points/<name>`` (``<name>``: the point's
-``KEY=VALUE`` pairs joined by ``__``, stable across runs), all sharing one stage cache (``DIR/.rockdove-cache``
-unless ``--cache``): the body and bird are built once per geometry, whichever worker gets there first
-(:meth:`rockdove.graph.engine.Cache.entry_lock`), and every point is byte-identical to a serial ``rockdove
-build`` with the same overrides.
+``--grid 'KEY=[V1, V2, ...]'`` gives one axis (TOML literals as ``--set`` takes them, bare words included);
+several make their product, applied over ``--preset``, ``--config`` and ``--set``. Each point is one
+:func:`rockdove.api.build` on a Dask worker into ``DIR/points/<KEY=VALUE__...>`` (a stable name), all sharing one
+stage cache (``DIR/.rockdove-cache`` unless ``--cache``), so the body is built once per geometry
+(:meth:`rockdove.graph.cache.Cache.entry_lock`) and every point is byte-identical to a serial ``rockdove build``.
 
-Dask runs it: a ``distributed.LocalCluster`` of ``--workers`` processes (one thread each) by default, or the
-cluster of ``--scheduler tcp://HOST:PORT`` (its workers must have rockdove installed and see ``DIR``). The
-local cluster is private: TLS with a certificate made for this sweep and held in memory
-(``Security.temporary()``), so another local user who finds its port cannot submit code to run as you. An
-external cluster that uses TLS takes ``--security FILE`` (Dask configuration YAML, its
-``distributed.comm.tls`` section) or Dask's own configuration. A worker
-that dies mid-point has the point rescheduled on another worker by Dask's scheduler (up to its
-``distributed.scheduler.allowed-failures``); the killed build leaves no half-written asset and its cache
-temporaries are cleaned by the next build.
+The cluster is a private ``distributed.LocalCluster`` of ``--workers`` processes (TLS with a certificate held in
+memory, ``Security.temporary()``, so another local user who finds its port cannot run code as you), or
+``--scheduler ADDRESS`` (its workers see ``DIR``; TLS from ``--security FILE`` or Dask's configuration). A worker
+that dies mid-point has the point rescheduled by Dask (``distributed.scheduler.allowed-failures``); the killed
+build leaves no half-written asset.
 
-Outputs, rewritten as each point finishes: ``DIR/sweep.json`` (per point: overrides, values, configuration
-hash, asset path, build and verify summary, seconds, worker) and ``DIR/index.html`` (the points' light-sweep
-renders and hue histograms laid out by the swept keys, a progress bar and a 2 s refresh while running).
-
-Exit status: 2 for bad usage (grid syntax, unknown key, duplicate value, a base configuration that is invalid,
-an unreachable scheduler) before anything runs; 1 when any point failed (an invalid configuration, a failed
-verification, an error), after all the others finished; 0 otherwise.
+``DIR/sweep.json`` (per point: overrides, values, configuration hash, asset, build and verify summary, seconds,
+worker) and ``DIR/index.html`` (light-sweep renders and hue histograms by the swept keys, refreshed while it
+runs) are rewritten as each point finishes. Exit status 2 for bad usage before anything runs, 1 when any point
+failed (after all the others finished), else 0.
 """
 
 from __future__ import annotations
@@ -39,12 +29,11 @@ import re
 import sys
 import threading
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 from .build import add_config_arguments
+from .sweep_grid import grid_points, parse_grid
 
-HELP = "build (and verify) every point of a parameter grid on Dask (a local cluster or --scheduler)"
 POINTS = "points"
 REFRESH_S = 2
 
@@ -68,147 +57,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print sweep.json on stdout at the end")
 
 
-# ----------------------------------------------------------------------------------------------- the grid
-@dataclass(frozen=True)
-class Point:
-    """One grid point: ``overrides`` (``KEY=LITERAL`` as --set takes them), ``values`` (parsed), ``index``
-    (the value index along each axis), and its folder ``name``."""
-
-    name: str
-    overrides: tuple[str, ...]
-    values: dict
-    index: tuple[int, ...]
-
-
-def split_array(text: str) -> list[str]:
-    """The top-level elements of a TOML array literal ``[a, "b, c", [1, 2]]``, as written (quotes and nested
-    brackets respected, a trailing comma allowed). Raises ValueError naming what is wrong."""
-    text = text.strip()
-    if not (text.startswith("[") and text.endswith("]")):
-        raise ValueError(f"{text!r} is not a [list] of values")
-    items, cur, depth, quote, escaped = [], [], 0, None, False
-    for c in text[1:-1]:
-        if quote:
-            if escaped:
-                escaped = False
-            elif c == "\\" and quote == '"':
-                escaped = True
-            elif c == quote:
-                quote = None
-        elif c in "\"'":
-            quote = c
-        elif c in "[{":
-            depth += 1
-        elif c in "]}":
-            depth -= 1
-            if depth < 0:
-                raise ValueError(f"{text!r} has an unmatched {c!r}")
-        elif c == "," and depth == 0:
-            items.append("".join(cur).strip())
-            cur = []
-            continue
-        cur.append(c)
-    if quote or depth:
-        raise ValueError(f"{text!r} has an unclosed {quote or 'bracket'}")
-    items.append("".join(cur).strip())
-    if items and items[-1] == "":
-        items.pop()  # trailing comma
-    if not items or any(it == "" for it in items):
-        raise ValueError(f"{text!r} has an empty value" if items else f"{text!r} is empty; give at least one value")
-    return items
-
-
-def parse_grid(grid: list[str]) -> list[tuple[str, list[tuple[str, object]]]]:
-    """``--grid`` items -> ``[(key, [(literal, value), ...]), ...]``. Raises UsageError (exit 2) for bad
-    syntax, an unknown key, a key given twice or a value given twice."""
-    from ..config import parse_set
-    from ..errors import UsageError
-
-    if not grid:
-        raise UsageError("no --grid given; e.g. --grid 'film.cauchy_a=[1.5, 1.55]'")
-    axes = []
-    for item in grid:
-        if "=" not in item:
-            raise UsageError(f"--grid {item!r} is not KEY=[V1, V2, ...]; e.g. --grid 'film.cauchy_a=[1.5, 1.55]'")
-        key, text = (s.strip() for s in item.split("=", 1))
-        try:
-            literals = split_array(text)
-        except ValueError as exc:
-            raise UsageError(f"--grid {item!r}: {exc}; e.g. --grid '{key}=[V1, V2]'") from None
-        values = [parse_set(f"{key}={lit}")[1] for lit in literals]  # the key's syntax and each literal's
-        node = _schema_node(key)
-        if node is None:
-            raise UsageError(f"--grid {item!r}: unknown key {key!r}; `rockdove config` lists the keys")
-        if "properties" in node:
-            raise UsageError(f"--grid {item!r}: {key!r} is a section; sweep one of its keys, e.g. {key}.<name>")
-        if key in (k for k, _ in axes):
-            raise UsageError(f"--grid {key!r} is given twice; put all its values in one list")
-        seen = {}
-        for lit, v in zip(literals, values):
-            canon = json.dumps(v, sort_keys=True, default=str)
-            if canon in seen:
-                raise UsageError(f"--grid {item!r}: value {lit} is given twice (as {seen[canon]})")
-            seen[canon] = lit
-        axes.append((key, list(zip(literals, values))))
-    return axes
-
-
-def _schema_node(key: str) -> dict | None:
-    """The configuration schema's node for dotted ``key``, or None when the schema has no such key."""
-    from ..config import load_schema
-
-    node = load_schema()
-    for part in key.split("."):
-        node = node.get("properties", {}).get(part)
-        if node is None:
-            return None
-    return node
-
-
-_UNSAFE = re.compile(r"[^A-Za-z0-9._+=-]+")
-
-
-def _slug(key: str, literal: str) -> str:
-    value = _UNSAFE.sub("_", literal.replace('"', "").replace("'", "")).strip("_")
-    return f"{key}={value}"
-
-
-def grid_points(axes) -> list[Point]:
-    """The product of the axes in order (the last key varies fastest), each with a stable, readable folder
-    name made of its ``KEY=VALUE`` pairs (a short hash added where two would read the same, or one is long)."""
-    import hashlib
-
-    points = []
-    for combo in itertools.product(*[list(enumerate(vals)) for _, vals in axes]):
-        overrides = tuple(f"{key}={lit}" for (key, _), (_, (lit, _v)) in zip(axes, combo))
-        values = {key: v for (key, _), (_, (_lit, v)) in zip(axes, combo)}
-        name = "__".join(_slug(key, lit) for (key, _), (_, (lit, _v)) in zip(axes, combo))
-        points.append(Point(name, overrides, values, tuple(i for i, _ in combo)))
-    counts: dict[str, int] = {}
-    for p in points:
-        counts[p.name] = counts.get(p.name, 0) + 1
-    out = []
-    for p in points:
-        if counts[p.name] > 1 or len(p.name) > 150:
-            h = hashlib.sha256("\n".join(p.overrides).encode()).hexdigest()[:8]
-            p = Point(f"{p.name[:150]}-{h}", p.overrides, p.values, p.index)
-        out.append(p)
-    return out
-
-
 # ----------------------------------------------------------------------------------------------- a point
 # glibc mallopt parameters (malloc.h)
 _M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
 
 
 def _restore_malloc_thresholds() -> None:
-    """Undo, for this worker process, what Dask's nanny's ``MALLOC_TRIM_THRESHOLD_=65536`` does to numpy code.
-
-    Setting any malloc threshold freezes glibc's adaptive mmap threshold at 128 KiB, so every numpy temporary
-    above that becomes a fresh mmap and its pages fault in again: measured on this machine, the body stage took
-    4x the CPU time in a Dask worker (6.0 s against 1.35 s in a plain process). With the mmap threshold at
-    glibc's adaptive maximum (32 MiB) and the trim threshold at 64 MiB it took 1.56 s. No-op off glibc.
-    """
+    """Undo what Dask's nanny's ``MALLOC_TRIM_THRESHOLD_=65536`` does to numpy code: setting any malloc threshold
+    freezes glibc's mmap threshold at 128 KiB, so every larger numpy temporary is a fresh mmap faulting its pages
+    in again (measured: the body stage 6.0 s of CPU in a Dask worker against 1.35 s; with these, 1.56 s)."""
     import ctypes
 
     try:
@@ -223,11 +80,8 @@ _ONE_POINT_AT_A_TIME = threading.Lock()  # a worker with several threads builds 
 
 
 def build_point(name: str, base: dict, overrides: list[str], out: str, verify: bool) -> dict:
-    """Build one point on a Dask worker with :func:`rockdove.api.build`: the configuration of ``base``
-    (``preset``, ``config_file``, ``overrides``) and the point's ``overrides`` (``KEY=VALUE``), into ``out``
-    with ``base["cache"]``. Returns the point's record; a bad configuration, a failed verification or any other
-    error is recorded, not raised, so the point fails alone (only a worker's death makes Dask retry it
-    elsewhere)."""
+    """Build one point on a Dask worker (``base``: preset, config file, overrides and cache of every point) into
+    ``out``; its record. Any error is recorded, not raised: the point fails alone."""
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")  # before anything imports OpenGL
     _restore_malloc_thresholds()
     from .. import api
@@ -265,12 +119,12 @@ def _worker_address() -> str | None:
         from distributed import get_worker
 
         return get_worker().address
-    except (ImportError, ValueError):
+    except (ImportError, ValueError):  # not on a Dask worker
         return None
 
 
 def _verify_summary(summary: dict) -> dict | None:
-    """From the build summary and its report.json: verdict, failures, dE2000 over the views, hue counts."""
+    """Verdict, failures, worst dE2000 over the views and hue counts, from the build summary and its report."""
     if summary.get("verified") is None:
         return None
     out = {"passed": bool(summary["verified"]), "notes": summary.get("notes", [])}
@@ -289,8 +143,7 @@ def _verify_summary(summary: dict) -> dict | None:
 
 
 def _images(out: Path, summary: dict) -> dict:
-    """Absolute paths of the light-sweep renders and the hue histogram (the published verify/ folder, or the
-    failed verification's report folder), or the LUT preview when not verified."""
+    """The light-sweep renders and hue histogram of the report folder, or the LUT preview when not verified."""
     report = Path(summary["report"]) if summary.get("report") else None
     if report is not None and report.is_dir():
         return {"sweep": [str(p) for p in sorted(report.glob("sweep_*_gl.png"))],
@@ -300,13 +153,9 @@ def _images(out: Path, summary: dict) -> dict:
 
 
 # ----------------------------------------------------------------------------------------------- the page
-def _rel(path: str | None, root: Path) -> str | None:
-    return None if not path else os.path.relpath(path, root)
-
-
 def write_index(root: Path, doc: dict, axes_keys: list[str], axes_values: list[list[str]]) -> None:
-    """``DIR/index.html``: one cell per point, rows = the product of all swept keys but the last, columns =
-    the last key's values; a progress bar (and a refresh) while the sweep runs."""
+    """``DIR/index.html``: one cell per point, a row per value of the keys but the last, a column per value of the
+    last; a progress bar (and a refresh) while the sweep runs."""
     points = doc["points"]
     by_index = {tuple(p["index"]): p for p in points}
     col_key, col_vals = axes_keys[-1], axes_values[-1]
@@ -348,8 +197,7 @@ def _cell(p: dict | None, root: Path) -> str:
     if p is None:
         return ""
     status = p.get("status", "pending")
-    cls = {"ok": "ok", "pending": "pending"}.get(status, "bad")
-    parts = [f'<div class="{cls}"><b>{e(status)}</b> {e(p["name"])}'
+    parts = [f'<div class="{status if status in ("ok", "pending") else "bad"}"><b>{e(status)}</b> {e(p["name"])}'
              + (f" &middot; {p['seconds']:.1f} s" if "seconds" in p else "") + "</div>"]
     if p.get("error"):
         parts.append(f'<div class="bad">{e(p["error"])}</div>')
@@ -357,13 +205,12 @@ def _cell(p: dict | None, root: Path) -> str:
     if v.get("median_dE") is not None:
         parts.append(f"<div>median dE2000 {v['median_dE']:.2f}, p95 {v['p95_dE']:.2f}</div>")
     imgs = p.get("images") or {}
-    for src in imgs.get("sweep", []):
-        parts.append(f'<img src="{e(_rel(src, root))}" alt="light sweep">')
-    if imgs.get("hue"):
-        parts.append(f'<img src="{e(_rel(imgs["hue"], root))}" alt="hue histogram">')
+    for src, alt in [(s, "light sweep") for s in imgs.get("sweep", [])] + [(imgs.get("hue"), "hue histogram"),
+                                                                           (imgs.get("preview"), "LUT preview")]:
+        if src:
+            parts.append(f'<img src="{e(os.path.relpath(src, root))}" alt="{alt}">')
     if imgs.get("preview"):
-        parts.append(f'<img src="{e(_rel(imgs["preview"], root))}" alt="LUT preview"><div>LUT preview '
-                     "(not verified: no renders)</div>")
+        parts.append("<div>LUT preview (not verified: no renders)</div>")
     return "".join(parts)
 
 
@@ -376,7 +223,7 @@ def _write_atomic(path: Path, text: str) -> None:
 # ----------------------------------------------------------------------------------------------- running
 def _security(path: str | None):
     """``--security FILE``: a Dask ``Security`` from the file's ``distributed.comm.tls`` keys over Dask's own
-    configuration (None: Dask's configuration alone). Raises UsageError naming what is wrong."""
+    configuration (None: Dask's alone)."""
     import copy
 
     import dask
@@ -476,8 +323,6 @@ def run(args: argparse.Namespace) -> int:
     try:
         from distributed import as_completed
 
-        save()
-
         doc["scheduler"] = client.scheduler.address
         doc["workers"] = len(client.scheduler_info(n_workers=-1)["workers"]) if args.scheduler else len(cluster.workers)
         save()
@@ -485,8 +330,8 @@ def run(args: argparse.Namespace) -> int:
               f"progress in {root / 'index.html'}", file=sys.stderr)
         futures = {}
         for p, r in todo:
-            f = client.submit(build_point, p.name, base, list(p.overrides), str(root / POINTS / p.name), not args.no_verify, pure=False,
-                              key=f"rockdove-point-{p.name}-{os.urandom(4).hex()}")
+            f = client.submit(build_point, p.name, base, list(p.overrides), str(root / POINTS / p.name),
+                              not args.no_verify, pure=False, key=f"rockdove-point-{p.name}-{os.urandom(4).hex()}")
             futures[f] = r
         for f in as_completed(list(futures)):
             r = futures[f]

@@ -1,10 +1,6 @@
-"""``rockdove validate PATH [--json]``: validate a USD asset (see :mod:`rockdove.usd.validate`).
-
-PATH is an asset folder, a root layer or a ``.usdz``. For a folder, both forms of the asset are validated:
-``pigeon.usda`` (with its payload and textures) and, when present, the self-contained ``pigeon.usdz``.
-
-Exit status: 0 clean, 1 not clean (:class:`rockdove.errors.VerificationFailed`), 2 bad usage (missing path,
-not a USD layer).
+"""``rockdove validate PATH [--json]``: validate a USD asset (:mod:`rockdove.usd.validate`): a folder's
+``pigeon.usda`` and, when present, its self-contained ``pigeon.usdz``, or a root layer or ``.usdz``.
+Exit status 0 clean, 1 not clean, 2 bad usage.
 """
 
 from __future__ import annotations
@@ -13,7 +9,6 @@ import argparse
 import json
 import os
 import sys
-
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -1,7 +1,9 @@
-"""``rockdove verify ASSET [--out DIR] [--json] [--width W --height H] [--views N] [--view NAME ...] [--hosts LIST]``:
+"""``rockdove verify ASSET [--out DIR] [--json] [--width W --height H] [--views N] [--view NAME ...] [--hosts LIST]
+[--cache DIR]``:
 validate an asset, render it with the GLSL shaders, with every host asked for (:mod:`rockdove.hosts`; default
 hosts.DEFAULT where available; "all" every host) and with the exact CPU reference, check and report
-(:func:`rockdove.verify.run.verify_asset`). An unavailable host is printed as SKIPPED with its reason; a
+(:func:`rockdove.graph.verification.verify`, the build's verification with its cache: what a build or an
+earlier verification checked is not rendered again). An unavailable host is printed as SKIPPED with its reason; a
 host that fails is printed with its error and fails the verification.
 
 A physical-only asset (no LUT) is checked with a verification-only LUT baked in memory from the film it
@@ -64,10 +66,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="DIR", default=None,
                         help="report folder (default: verify/ beside the root layer)")
     parser.add_argument("--json", action="store_true", help="print the report summary as JSON on stdout")
-    parser.add_argument("--width", type=_size, default=512, metavar="W", help="render width, pixels (default 512)")
-    parser.add_argument("--height", type=_size, default=512, metavar="H", help="render height, pixels (default 512)")
-    parser.add_argument("--views", type=_count, default=4, metavar="N",
-                        help="turntable + light-sweep views (default 4), plus the sweep at the flip")
+    parser.add_argument("--width", type=_size, metavar="W", help="render width, pixels (default [verify] width)")
+    parser.add_argument("--height", type=_size, metavar="H", help="render height, pixels (default [verify] height)")
+    parser.add_argument("--views", type=_count, metavar="N",
+                        help="turntable + light-sweep views (default [verify] views), plus the sweep at the flip")
+    parser.add_argument("--cache", metavar="DIR",
+                        help="the cache of renders already checked (default: the build's .rockdove-cache beside the "
+                             "asset folder, else the user cache)")
     parser.add_argument("--view", dest="names", action="append", default=None, metavar="NAME",
                         help="check only this view (repeatable), e.g. --view sweep_090; default all")
     parser.add_argument("--hosts", default=None, metavar="LIST",
@@ -103,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"rockdove verify: {msg}", file=sys.stderr)
 
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
-    result = api.verify(args.asset, hosts, out=args.out, width=args.width, height=args.height, views=args.names,
+    result = api.verify(args.asset, hosts, cache=args.cache, out=args.out, width=args.width, height=args.height, views=args.names,
                         n_views=args.views, bench_dir=args.bench_dir, allow_external=args.allow_external_assets,
                         progress=progress, beauty={"renderer": args.beauty, "width": args.beauty_size[0],
                                                    "height": args.beauty_size[1], "samples": args.beauty_samples})

@@ -55,6 +55,7 @@ class Context:
     asset_dir: Path | None = None
     item: tuple | None = None
     items: dict | None = None
+    cache: "Cache | None" = None  # the build's cache, for a stage that keeps items of its own (verification)
 
 
 @dataclass(frozen=True)
@@ -190,7 +191,7 @@ class Graph:
 
     def _context(self, stage: Stage, workdir: Path, asset_dir, item=None) -> Context:
         return Context(config=_nested(self.config, stage.config), inputs=_LazyInputs(self, stage.deps),
-                       workdir=workdir, asset_dir=asset_dir, item=item)
+                       workdir=workdir, asset_dir=asset_dir, item=item, cache=self.cache)
 
     def _run_stage(self, stage: Stage, asset_dir) -> StageRecord:
         digests = {d: self.records[d].digest for d in stage.deps}

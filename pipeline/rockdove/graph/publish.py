@@ -1,17 +1,15 @@
 """Publishing an asset folder safely: checks, a lock, a staging folder, an atomic swap and a marker.
 
 - **Marker.** Every published asset folder holds ``.rockdove-asset.json`` (tool, version, configuration hash,
-  stage keys). The tool refuses to replace an existing, non-empty folder without it: it did not create it.
-- **Lock.** ``fcntl.flock`` on ``.<name>.rockdove.lock`` beside the output. A second build of the same output
-  *waits* for the first (it says so once on stderr, naming the holder's pid), then runs and finds the first
-  build's stages in the cache. ``timeout_s`` bounds the wait (then a :class:`UsageError`, exit 2). The lock
-  file is never deleted (deleting it would let two builds hold locks on different files).
+  stage keys); an existing, non-empty folder without it is never replaced: rockdove did not create it.
+- **Lock.** ``fcntl.flock`` on ``.<name>.rockdove.lock`` beside the output: a second build of the same output
+  *waits* (saying so once on stderr, with the holder's pid; ``timeout_s`` bounds the wait), then finds the first
+  build's stages in the cache. The lock file is never deleted (two builds could then lock different files).
 - **Staging and swap.** The new asset is assembled in ``.<name>.rockdove-tmp-XXXX`` beside the output (same file
-  system), then exchanged with the old folder in one ``renameat2(RENAME_EXCHANGE)`` call where Linux offers it
-  (else: old renamed to ``.<name>.rockdove-old-XXXX``, new renamed into place), and only then is the old one
-  removed. A build that fails or is killed at any point leaves the previous asset in place, or (killed
-  between the two fallback renames) in the ``-old`` folder, which the next build restores before anything
-  else (:func:`recover`). Temporary folders of killed builds are removed by the next build under the lock.
+  system), exchanged with the old folder by one ``renameat2(RENAME_EXCHANGE)`` where Linux offers it (else the
+  old one is renamed to ``.<name>.rockdove-old-XXXX`` and the new one into place), and only then is the old one
+  removed. A build killed at any point leaves the previous asset in place or in the ``-old`` folder, which the
+  next build restores first (:func:`recover`).
 """
 
 from __future__ import annotations
@@ -40,17 +38,11 @@ OUTPUT_MARKER = ".rockdove-output.json"
 
 
 def real_output(out) -> Path:
-    """``out`` with symlinks resolved: a symlinked ``--out`` is followed and the asset published inside its
-    target (the link stays as it is). A symlink loop is a :class:`UsageError`."""
+    """``out`` with symlinks resolved (an asset is published inside a symlinked ``--out``'s target)."""
     try:
         return Path(out).resolve()
     except (RuntimeError, OSError) as exc:  # RuntimeError: a symlink loop (Python 3.11)
         raise UsageError(f"--out {str(out)!r} cannot be resolved: {exc}") from None
-
-
-def lock_path(out: Path) -> Path:
-    out = real_output(out)
-    return out.parent / f".{out.name}.rockdove.lock"
 
 
 def _check_writable(out: Path, real: Path, deep: bool = True) -> None:
@@ -82,12 +74,9 @@ def check_output(out: Path) -> None:
 
 
 def claim_output(out, what: str, create: bool = True) -> Path:
-    """The folder ``--out`` of a command that writes files (``render``, ``verify``, ``sweep``), resolved.
-
-    Refused (:class:`UsageError`, nothing written) when it is a file, a non-empty folder rockdove did not create
-    (no :data:`OUTPUT_MARKER` or :data:`MARKER`, and not inside an asset folder rockdove built), or not
-    writable. ``create`` makes it and writes :data:`OUTPUT_MARKER`; without it, only the checks run.
-    """
+    """The folder ``--out`` of a command that writes files (``render``, ``verify``, ``sweep``), resolved; refused
+    (:class:`UsageError`, nothing written) when it is a file, not writable, or a non-empty folder rockdove did not
+    create (no marker, not inside an asset). ``create`` makes it and writes :data:`OUTPUT_MARKER`."""
     if not str(out).strip():
         raise UsageError(f"--out is empty; give the folder {what} writes into")
     real = real_output(out)
@@ -149,7 +138,9 @@ class OutputLock:
     def __init__(self, out: Path, timeout_s: float | None = None, quiet: bool = False):
         if timeout_s is not None and not (isinstance(timeout_s, (int, float)) and 0 <= timeout_s < float("inf")):
             raise UsageError(f"--lock-timeout must be a finite number of seconds >= 0, got {timeout_s!r}")
-        self.out, self.path, self.timeout_s, self.quiet = out, lock_path(out), timeout_s, quiet
+        real = real_output(out)
+        self.out, self.timeout_s, self.quiet = out, timeout_s, quiet
+        self.path = real.parent / f".{real.name}.rockdove.lock"
         self._fd: int | None = None
 
     def __enter__(self) -> "OutputLock":
@@ -190,11 +181,8 @@ class OutputLock:
 
 
 def recover(out: Path) -> None:
-    """Undo what a killed build left beside ``out`` (call while holding its lock).
-
-    Restores ``out`` from a ``-old`` folder if ``out`` is missing; removes staging and ``-old`` folders, also
-    read-only ones and the links an earlier rockdove left beside a symlinked ``out``.
-    """
+    """Undo what a killed build left beside ``out`` (holding its lock): ``out`` restored from a ``-old`` folder
+    if it is missing; staging and ``-old`` folders removed, also read-only ones and links."""
     real = real_output(out)
     olds = sorted(real.parent.glob(f".{real.name}{_OLD}*"), key=lambda p: p.stat().st_mtime)
     if not real.exists() and olds:
@@ -232,13 +220,6 @@ def write_marker(folder: Path, info: dict) -> None:
     (folder / MARKER).write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
 
 
-def read_marker(folder: Path) -> dict | None:
-    try:
-        return json.loads((Path(folder) / MARKER).read_text())
-    except (OSError, ValueError):
-        return None
-
-
 _RENAME_EXCHANGE = 2
 _AT_FDCWD = -100
 
@@ -260,10 +241,8 @@ def _exchange(a: Path, b: Path) -> bool:
 
 
 def publish(staging: Path, out: Path) -> None:
-    """Put the assembled ``staging`` folder in place of ``out`` atomically; remove the old asset after.
-
-    ``staging`` must hold the marker. ``out`` is re-checked (it may have changed since :func:`check_output`).
-    """
+    """Put the assembled ``staging`` folder (holding the marker) in place of ``out`` atomically, re-checking
+    ``out`` first; remove the old asset after."""
     if not (staging / MARKER).is_file():
         raise ValueError(f"staging folder {str(staging)!r} has no {MARKER}")
     check_output(out)

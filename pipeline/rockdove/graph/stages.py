@@ -330,152 +330,15 @@ def run_gltf(ctx: Context) -> None:
     export_glb(str(ctx.asset_dir), ctx.workdir / GLB_NAME, version=__version__)
 
 
-def _verify_size(ctx: Context) -> dict:
-    v = ctx.config["verify"]
-    return {"width": v["width"], "height": v["height"], "n_views": v["views"]}
-
-
-def plan_verify(ctx: Context) -> dict:
-    """The verification views and what each reads (rockdove.verify.inputs.plan_views): its camera, light and
-    size, and the digest of the scene content it renders (meshes, textures, film, LUT; not file bytes that do
-    not change a render, e.g. the usdz or assetInfo). A view whose entry is unchanged is not re-rendered."""
-    from ..verify.inputs import plan_views
-
-    return plan_views(str(ctx.asset_dir), **_verify_size(ctx))
-
-
-def _camera_plan(ctx: Context, label: str, digest_fn) -> dict:
-    """One item per distinct camera of the verification views: ``{"camera": camera_key, label: digest_fn(scene)}``."""
-    from ..verify.inputs import verification_scene, verification_views
-    from ..verify.rays import camera_key
-
-    size = _verify_size(ctx)
-    _, scene, _, _ = verification_scene(str(ctx.asset_dir))
-    digest = digest_fn(scene)
-    views = verification_views(scene, size["width"], size["height"], size["n_views"])
-    return {f"camera-{camera_key(v)[:16]}": {"camera": camera_key(v), label: digest} for v in views}
-
-
-def _run_cameras(ctx: Context, cast) -> dict:
-    """``cast(scene, views)`` (-> ``{camera_key: value}``) for the cameras to redo (``ctx.items``), in one call;
-    ``{item name: (camera_key, value)}``."""
-    from ..verify.inputs import verification_scene, verification_views
-    from ..verify.rays import camera_key
-
-    size = _verify_size(ctx)
-    wanted = {cfg["camera"]: name for name, cfg in ctx.items.items()}
-    _, scene, _, _ = verification_scene(str(ctx.asset_dir))
-    views = verification_views(scene, size["width"], size["height"], size["n_views"])
-    values = cast(scene, [v for v in views if camera_key(v) in wanted])
-    return {wanted[key]: (key, value) for key, value in values.items()}
-
-
-def plan_rays(ctx: Context) -> dict:
-    """One item per distinct camera of the verification views: the camera (rockdove.verify.rays.camera_key)
-    and the digest of the geometry the rays hit (``ray_digest``: meshes, feather st and alpha), not the film or
-    the LUT, so the reference's ray casts survive a film change."""
-    from ..verify.rays import ray_digest
-
-    return _camera_plan(ctx, "geometry", ray_digest)
-
-
-def run_rays(ctx: Context) -> dict:
-    """Cast the reference's primary rays of the cameras to redo (``ctx.items``), in one call (one BVH)."""
-    from ..verify.rays import cast_hits
-
-    return _run_cameras(ctx, cast_hits)
-
-
-def _camera_item_codec(name: str, stem: str) -> Codec:
-    """A per-camera item ``(camera key, value)`` whose value has ``to_arrays()`` and ``stats``
-    (:class:`rockdove.verify.rays.Hits`, :class:`rockdove.verify.reference_image.Surface`): ``<stem>.npz`` and
-    ``<stem>.json``. Loading gives only ``{"dir", "camera"}``: the arrays are read by the stage that uses them."""
-    def save(value, folder: Path) -> None:
-        import numpy as np
-
-        camera, item = value
-        np.savez(folder / f"{stem}.npz", **item.to_arrays())
-        (folder / f"{stem}.json").write_text(json.dumps({"camera": camera, "stats": item.stats}, sort_keys=True))
-
-    def load(folder: Path) -> dict:
-        return {"dir": str(folder), "camera": json.loads((folder / f"{stem}.json").read_text())["camera"]}
-
-    return Codec(name, save, load)
-
-
-def _load_camera_items(value: dict, key: str, stem: str, cls) -> dict:
-    """``{camera key: cls.from_arrays(...)}`` of a per-camera stage's value (``value[key]``: camera -> folder)."""
-    out = {}
-    for camera, d in value[key].items():
-        stats = json.loads((Path(d) / f"{stem}.json").read_text())["stats"]
-        out[camera] = cls.from_arrays(load_npz(Path(d) / f"{stem}.npz"), stats)
-    return out
-
-
-HITS = _camera_item_codec("hits", "hits")
-SURFACES = _camera_item_codec("surface", "surface")
-
-
-def combine_rays(ctx: Context, items: dict) -> dict:
-    """``{"hits": {camera_key: the cached item's folder}}`` (content-keyed, read-only cache entries)."""
-    return {"hits": {value["camera"]: value["dir"] for value in items.values()}}
-
-
-def load_hits(value: dict) -> dict:
-    """The :class:`rockdove.verify.rays.Hits` of a ``verify_rays`` value, by camera key."""
-    from ..verify.rays import Hits
-
-    return _load_camera_items(value, "hits", "hits", Hits)
-
-
-def plan_surfaces(ctx: Context) -> dict:
-    """One item per distinct camera: the camera and the digest of what the reference shades at its hits before
-    any light or film (rockdove.verify.reference_image.surface_digest: the ray casts' geometry, normals, st,
-    thickness, base colours and masks), so a film or light change reuses them."""
-    from ..verify.reference_image import surface_digest
-
-    return _camera_plan(ctx, "surface", surface_digest)
-
-
-def run_surfaces(ctx: Context) -> dict:
-    """The reference's surfaces of the cameras to redo (``ctx.items``), from the ray casts of ``verify_rays``."""
-    from ..verify.reference_image import cast_surfaces
-
-    hits = load_hits(ctx.inputs["verify_rays"])
-    return _run_cameras(ctx, lambda scene, views: cast_surfaces(scene, views, hits=hits))
-
-
-def combine_surfaces(ctx: Context, items: dict) -> dict:
-    """``{"surfaces": {camera_key: the cached item's folder}}``."""
-    return {"surfaces": {value["camera"]: value["dir"] for value in items.values()}}
-
-
-def load_surfaces(value: dict) -> dict:
-    """The :class:`rockdove.verify.reference_image.Surface` of a ``verify_surfaces`` value, by camera key."""
-    from ..verify.reference_image import Surface
-
-    return _load_camera_items(value, "surfaces", "surface", Surface)
-
-
 def run_verify(ctx: Context) -> dict:
-    """Render and check the views to redo (``ctx.items``), in one call (one GL context); the reference reuses
-    the surfaces of ``verify_surfaces`` (shading inputs at the ray casts' hits). Each view's images go into ``ctx.workdir / <view>``
-    (rockdove.verify.run.verify_views)."""
-    from ..verify.run import verify_views
-
-    return verify_views(str(ctx.asset_dir), views=list(ctx.items), out_dir=str(ctx.workdir), subfolders=True,
-                        surfaces=load_surfaces(ctx.inputs["verify_surfaces"]), **_verify_size(ctx))
-
-
-def combine_verify(ctx: Context, views: dict) -> dict:
-    """Validate the assembled asset and join the per-view results (fresh or cached) into the report in the
-    stage's folder (published as ``verify/``); the value is the verdict."""
+    """The verification of the assembled asset (rockdove.graph.verification.verify, with the build's hosts and
+    the stage cache, so ``rockdove verify`` reuses its renders), its report in the stage's folder (published as
+    ``verify/``), and the interactive viewer beside it; the value is the verdict."""
     from ..usd.layout import resolve_root_layer
-    from ..verify.run import report_from_views
     from .publish import published_path
+    from .verification import BUILD_HOSTS, verify
 
-    size = _verify_size(ctx)
-    published = published_path(resolve_root_layer(ctx.asset_dir))
+    layer = resolve_root_layer(ctx.asset_dir)
     skipped = []
     if "gltf" in ctx.inputs:  # the interactive view of the report (verify/viewer.html)
         from ..errors import ResourceMissing
@@ -483,13 +346,16 @@ def combine_verify(ctx: Context, views: dict) -> dict:
         from ..web.viewer import write_viewer
 
         try:
-            write_viewer(str(ctx.asset_dir), ctx.inputs["gltf"] / GLB_NAME, ctx.workdir, asset_name=str(published))
+            write_viewer(str(ctx.asset_dir), ctx.inputs["gltf"] / GLB_NAME, ctx.workdir,
+                         asset_name=str(published_path(layer)))
         except ResourceMissing as exc:  # e.g. a wheel install without npm's three.js: the report, without it
             skipped.append(f"no interactive viewer in the report: {exc}")
-    report = report_from_views(str(ctx.asset_dir), views, out_dir=str(ctx.workdir), width=size["width"],
-                               height=size["height"], published_asset=str(published), beauty=ctx.config["beauty"])
+    v = ctx.config["verify"]
+    report = verify(layer, BUILD_HOSTS, cache=ctx.cache, out_dir=ctx.workdir, width=v["width"], height=v["height"],
+                    n_views=v["views"], published_asset=str(published_path(layer)), beauty=ctx.config["beauty"])
     return dataclasses.asdict(Verdict(bool(report["passed"]), "; ".join(map(str, report["failures"])),
-                                      [v["view"] for v in report["views"]], list(report["notes"]) + skipped))
+                                      [v["view"] for v in report["views"]], list(report["notes"]) + skipped,
+                                      report["cache"]))
 
 
 #: The verification stage: its value is a :class:`Verdict`.
@@ -498,39 +364,19 @@ VERIFY = "verify"
 
 @dataclasses.dataclass(frozen=True)
 class Verdict:
-    """The build's verification: ``passed``, ``reason`` (its failures, joined), the views checked, notes."""
+    """The build's verification: ``passed``, ``reason`` (its failures, joined), the views checked, notes, and
+    the verification's items that ran and were reused (``{"ran": {kind: names}, "reused": ...}``)."""
 
     passed: bool
     reason: str = ""
     views: list | tuple = ()
     notes: list | tuple = ()
+    items: dict = dataclasses.field(default_factory=dict)
 
 
 def verdict(graph) -> Verdict | None:
     """The verdict of a graph's verification stage, None when it has none (built without verification)."""
     return Verdict(**graph.value(VERIFY)) if VERIFY in graph.records else None
-
-
-def _view_save(value: dict, folder: Path) -> None:
-    import numpy as np
-
-    np.savez(folder / "sheet_row.npz", *[np.ascontiguousarray(a) for a in value["sheet_row"]])
-    data = {k: v for k, v in value.items() if k not in ("sheet_row", "dir")}
-    (folder / "view.json").write_text(json.dumps(data, sort_keys=True, default=lambda o: o.tolist()
-                                                 if hasattr(o, "tolist") else str(o)))
-
-
-def _view_load(folder: Path) -> dict:
-    import numpy as np
-
-    value = json.loads((folder / "view.json").read_text())
-    with np.load(folder / "sheet_row.npz", allow_pickle=False) as z:
-        value["sheet_row"] = [z[f"arr_{i}"] for i in range(len(z.files))]
-    value["dir"] = str(folder)  # the view's images sit beside its result
-    return value
-
-
-VIEW_RESULT = Codec("view_result", _view_save, _view_load)
 
 
 def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
@@ -569,23 +415,8 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
         # reads the written asset (so it runs once it is assembled); keyed by the files it translates
         stages.append(Stage("gltf", run_gltf, deps=("usd_geometry", "usd_layers", "textures", "film_textures"),
                             codec=FILES, needs_asset=True, publish=""))
-    if verify:
-        # Per-view items planned from the assembled asset: a view re-renders only when its own plan entry (its
-        # parameters, the digest of the scene content it renders) or the verify code changes. The stage itself
-        # (validation and the report) reruns whenever any published file changes.
-        published = tuple(s.name for s in stages if s.publish is not None)
-        # The reference's ray casts, one item per camera keyed by the geometry they hit: a film change reuses them.
-        stages.append(Stage("verify_rays", run_rays, config=("verify.width", "verify.height", "verify.views"),
-                            deps=published,
-                            codec=JSON, needs_asset=True, item_plan=plan_rays, batch=True, combine=combine_rays,
-                            item_codec=HITS))
-        # What the reference shades at those hits before any light or film (normals, textures, thickness).
-        stages.append(Stage("verify_surfaces", run_surfaces, config=("verify.width", "verify.height", "verify.views"),
-                            deps=published + ("verify_rays",), codec=JSON, needs_asset=True, item_plan=plan_surfaces,
-                            batch=True, combine=combine_surfaces, item_codec=SURFACES))
-        stages.append(Stage(VERIFY, run_verify, config=("verify.width", "verify.height", "verify.views", "beauty"),
-                            deps=published + ("verify_surfaces",),
-                            data=("materials", *schema), codec=JSON, needs_asset=True,
-                            publish="verify",
-                            item_plan=plan_verify, batch=True, combine=combine_verify, item_codec=VIEW_RESULT))
+    if verify:  # reruns when any published file changes; its renders are cached by what each reads
+        stages.append(Stage(VERIFY, run_verify, config=("verify", "beauty"),
+                            deps=tuple(s.name for s in stages if s.publish is not None), data=("materials", *schema),
+                            codec=JSON, needs_asset=True, publish="verify"))
     return stages

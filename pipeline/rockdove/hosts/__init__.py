@@ -21,7 +21,7 @@ from types import ModuleType
 HOSTS = {
     "glsl": "rockdove.hosts.glsl",
     "materialx": "rockdove.hosts.materialx",
-    "materialx_physical": "rockdove.hosts.materialx_physical",
+    "materialx_physical": "rockdove.hosts.materialx:PHYSICAL",
     "blender": "rockdove.hosts.blender",
     "web": "rockdove.hosts.web",
     "storm": "rockdove.hosts.storm:BAKED",

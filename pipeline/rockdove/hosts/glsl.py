@@ -25,15 +25,6 @@ def unavailable() -> str | None:
     return None
 
 
-def render_scene(scene, views, lut=None) -> list:
-    """:func:`rockdove.render.gl.render_views` of an already-read scene: the full
-    :class:`~rockdove.render.gl.RenderResult` per view (with part ids, cos_theta, ...), which the verifier
-    also uses for its per-view checks."""
-    from ..render.gl import render_views
-
-    return render_views(scene, views, lut=lut)
-
-
 def cannot_draw(asset_path: str) -> str | None:
     """Why the GLSL shaders cannot draw this asset (it has no LUT), else None."""
     from ..render.scene import load_scene
@@ -49,12 +40,13 @@ def cannot_draw(asset_path: str) -> str | None:
 
 def render(asset_path: str, views, out_dir: str) -> dict:
     """Render ``views`` of the written asset with the GLSL shaders; see :mod:`rockdove.hosts`."""
+    from ..render.gl import render_views
     from ..render.scene import load_scene
     from . import HostError
 
     views = list(views)
     try:
-        results = render_scene(load_scene(asset_path), views)
+        results = render_views(load_scene(asset_path), views)
     except (ValueError, RuntimeError, OSError) as exc:
         raise HostError(NAME, str(exc)) from None
     images = {r.view.name: r.radiance_rgb for r in results}

@@ -1,34 +1,28 @@
-"""The ``materialx`` host: the asset's MaterialX network as shader code written by MaterialX's own GLSL
-generator, drawn offscreen through the project's EGL context.
+"""The ``materialx`` and ``materialx_physical`` hosts: the asset's ``baked`` and ``physical`` (OpenPBR's own thin
+film) MaterialX networks as shader code by MaterialX's own GLSL generator, drawn offscreen in the project's EGL.
 
-What MaterialX does (code the project did not write): the network upstream of the feather material's
-``outputs:mtlx:surface`` (read from the written USD with :func:`rockdove.usd.material.usd_to_mtlx_document`,
-as Hydra's HdMtlx does for Storm) becomes a vertex and a pixel shader by ``GlslShaderGenerator`` 1.39
-(``fileTextureVerticalFlip`` on, as MaterialX's viewer and Storm set it; ``hwTransparency`` on, so that
-``geometry_opacity`` cuts the cards out); every colour, texture lookup, BSDF and the environment lighting
-is that generated code.
+MaterialX's part: the network upstream of the feather material's ``outputs:mtlx:surface``, read from the written
+USD as Hydra's HdMtlx does (:func:`feather_networks`), becomes a vertex and a pixel shader by
+``GlslShaderGenerator`` (``fileTextureVerticalFlip`` on, as its viewer and Storm set it; ``hwTransparency`` on, so
+``geometry_opacity`` cuts the cards out); every colour, lookup, BSDF and the environment lighting is that code.
 
-What this module does (the host's part, what a viewer does around a MaterialX shader): it opens an EGL
-context (pyrender's, :mod:`rockdove.render.gl`'s platform), uploads the asset's meshes as the generated
-shader's vertex streams (``i_position``, ``i_normal``, ``i_tangent``, ``i_geomprop_<primvar>``), uploads
-the LUT ``image`` node's file as a texture **with a mip chain and trilinear filtering, as hosts do**
-(MaterialX's ``GLTextureHandler``, Storm; the card atlas is point-sampled as the reference does, see
-:data:`MIPMAPPED_IMAGES`); the pip MaterialX has no EXR reader, so the LUT EXR is read with
-:func:`rockdove.lut.exr.read_exr` and uploaded as 32-bit float, rows in file order (the generator flips
-``v``). Lighting is the ``view_angle`` lobe of :mod:`rockdove.hosts` (:data:`LOBE`): no light sources and a
-uniform white environment of unit radiance (``u_envRadiance`` and ``u_envIrradiance`` constant 1). Base
-colour black (the verification render): the base colour texture is uploaded with its RGB set to 0 and its
-alpha (the cut-out) kept. Cards are two-sided: the interpolated normal is flipped towards the viewer before
-the generated code reads it (as Storm does for ``doubleSided`` meshes; the same rule as the reference).
-Parts without a MaterialX material are drawn black (they only occlude). One sample per pixel, the shading
-at the pixel centre, read back as 32-bit float linear Rec.709.
+This module's part, what a viewer does around a MaterialX shader: the meshes as the shader's vertex streams
+(``i_position``, ``i_normal``, ``i_tangent``, ``i_geomprop_<primvar>``); the image nodes' files as textures, the
+LUT EXR read with OpenEXR (the pip MaterialX reads no EXR) as 32-bit float, rows in file order (the generator
+flips ``v``); the ``view_angle`` lobe of :mod:`rockdove.hosts`: no lights, a uniform white environment of unit
+radiance, the base colour's RGB 0 (its alpha, the cut-out, kept); normals flipped towards the viewer (two-sided
+cards, as Storm draws ``doubleSided`` meshes); parts without a MaterialX material black. One sample per pixel,
+shaded at its centre, read back as float linear Rec.709.
+
+OpenPBR's GLSL thin film is an approximation (Gaussian fits of the colour-matching functions, a few Airy terms, a
+known white-point bug): ``materialx_physical`` is judged on green, purple and hue-class agreement with the exact
+reference (:func:`rockdove.verify.host_check.host_passed`), its dE reported.
 """
 
 from __future__ import annotations
 
 import os
-
-import numpy as np
+from types import SimpleNamespace
 
 from . import HostError
 
@@ -36,27 +30,17 @@ NAME = "materialx"
 #: The network drawn: the asset's default shading variant for MaterialX hosts.
 VARIANT = "baked"
 LOBE = "view_angle"
-#: Radiance of the uniform white environment (linear Rec.709, D65 white = 1).
-ENVIRONMENT_RADIANCE = 1.0
-#: Image nodes whose texture gets a mip chain (trilinear filtering), as every host does: the LUT, whose angle
-#: axis is minified where cos theta changes fast across the screen (what the verification must see). The card
-#: atlas (base colour + cut-out alpha, mask) is sampled at the pixel centre as the reference samples it: a
-#: host's mip filtering of the atlas moves the cut-out edges and blends mask and card across a pixel (an
-#: antialiased image, not a wrong colour), which a per-pixel comparison with a point-sampled reference would
-#: count as colour error (measured, default asset, 512 x 512, 3 views: median dE2000 0.15, p95 8.3 with the
-#: atlas mipmapped against 0.018 / 0.075 without).
-MIPMAPPED_IMAGES = ("LutTexture",)
 
 
 def unavailable() -> str | None:
-    """None when MaterialX's GLSL generator and an offscreen GL context can be used here, else why not."""
-    for module, package in (("MaterialX.PyMaterialXGenGlsl", "MaterialX"), ("pyrender", "pyrender"),
-                            ("OpenGL.GL", "PyOpenGL")):
-        try:
-            __import__(module)
-        except ImportError as exc:
-            return f"{package} is not installed ({exc})"
-    return None
+    """None when MaterialX's GLSL generator and an offscreen GL context (:func:`glsl.unavailable`) can be used."""
+    from . import glsl
+
+    try:
+        import MaterialX.PyMaterialXGenGlsl  # noqa: F401
+    except ImportError as exc:
+        return f"MaterialX is not installed ({exc})"
+    return glsl.unavailable()
 
 
 def cannot_draw(asset_path: str, variant: str = VARIANT) -> str | None:
@@ -77,16 +61,16 @@ def render(asset_path: str, views, out_dir: str) -> dict:
     return render_variant(asset_path, views, out_dir, variant=VARIANT, name=NAME)
 
 
+#: The ``materialx_physical`` host (rockdove.hosts.HOSTS: ``rockdove.hosts.materialx:PHYSICAL``).
+PHYSICAL = SimpleNamespace(NAME="materialx_physical", VARIANT="physical", LOBE=LOBE, unavailable=unavailable,
+                           cannot_draw=lambda asset_path: cannot_draw(asset_path, "physical"),
+                           render=lambda asset_path, views, out_dir: render_variant(
+                               asset_path, views, out_dir, variant="physical", name="materialx_physical"))
+
+
 # -- the asset's MaterialX network -> GLSL ----------------------------------------------------------------------
 def generate_glsl(doc, material_name: str) -> tuple[str, str]:
-    """Vertex and pixel shader source of ``material_name`` (a ``surfacematerial`` node of ``doc``), written by
-    MaterialX's ``GlslShaderGenerator``.
-
-    Raises
-    ------
-    ValueError
-        ``material_name`` is not a node of ``doc``.
-    """
+    """Vertex and pixel shader of ``material_name`` (a ``surfacematerial`` of ``doc``) by ``GlslShaderGenerator``."""
     import MaterialX.PyMaterialXGenGlsl as mx_glsl
     import MaterialX.PyMaterialXGenShader as mx_gen
 
@@ -132,32 +116,20 @@ def two_sided(pixel_source: str) -> str:
 
 
 def feather_networks(layer: str, variant: str) -> dict:
-    """The MaterialX networks of the asset's meshes under shading variant ``variant``.
-
-    Returns
-    -------
-    dict
-        Mesh prim path -> ``{"doc": MaterialX.Document, "material": surfacematerial node name,
-        "files": {image node name: resolved file path}}`` for every mesh bound to a material with an
-        ``outputs:mtlx:surface``.
-
-    Raises
-    ------
-    ValueError
-        The asset has no ``shading`` variant ``variant``, or no mesh has a MaterialX material.
-    """
+    """Mesh prim path -> ``{"doc": MaterialX.Document, "material": surfacematerial name, "files": {image node:
+    resolved file}}`` of every mesh bound to a material with an ``outputs:mtlx:surface``, under shading variant
+    ``variant``. ValueError when the asset has no such variant or no mesh has a MaterialX material."""
     from pxr import Usd, UsdGeom, UsdShade
 
     from ..usd.material import load_mtlx_libraries, usd_to_mtlx_document
 
+    reason = cannot_draw(layer, variant)
+    if reason:
+        raise ValueError(f"asset {layer!r}: {reason}")
     stage = Usd.Stage.Open(layer, Usd.Stage.LoadAll)
     root = stage.GetDefaultPrim()
-    vsets = root.GetVariantSets()
-    if not vsets.HasVariantSet("shading") or variant not in vsets.GetVariantSet("shading").GetVariantNames():
-        have = vsets.GetVariantSet("shading").GetVariantNames() if vsets.HasVariantSet("shading") else []
-        raise ValueError(f"asset {layer!r} has no shading variant {variant!r} (it has {list(have)})")
     stage.SetEditTarget(stage.GetSessionLayer())
-    vsets.GetVariantSet("shading").SetVariantSelection(variant)
+    root.GetVariantSets().GetVariantSet("shading").SetVariantSelection(variant)
     library = load_mtlx_libraries()
     out = {}
     for prim in Usd.PrimRange(root):
@@ -184,37 +156,15 @@ def feather_networks(layer: str, variant: str) -> dict:
     return out
 
 
-# -- drawing ------------------------------------------------------------------------------------------------------
 def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str, name: str,
                    base_black: bool = True) -> dict:
-    """Draw ``views`` of the asset's MaterialX network for shading variant ``variant``.
-
-    Parameters
-    ----------
-    asset_path : str
-        The asset folder or its root layer.
-    views : list of rockdove.render.views.View
-    out_dir : str or None
-        When given, ``<view>_<name>.png`` (display sRGB) is written there.
-    variant : str
-        The ``shading`` variant whose network is drawn (``"baked"`` or ``"physical"``).
-    name : str
-        The host name used in errors and file names.
-    base_black : bool
-        Feed the base colour texture with RGB = 0 (the verification render's "base colour black").
-
-    Returns
-    -------
-    dict
-        view name -> (H, W, 3) float32 linear Rec.709 radiance, background 0.
-
-    Raises
-    ------
-    HostError
-        The asset cannot be read, the shader does not compile or link, or GL fails.
-    """
+    """Draw ``views`` of the asset's (folder or root layer) network for shading variant ``variant``: view name ->
+    (H, W, 3) float32 linear Rec.709 radiance, background 0; ``<view>_<name>.png`` (sRGB) into ``out_dir`` when
+    given. ``base_black``: the base colour texture's RGB 0. HostError (``name``) when the asset cannot be read,
+    the shader does not compile or link, or GL fails."""
     from ..render.scene import load_scene
     from ..usd.layout import resolve_root_layer
+    from .materialx_gl import draw
 
     views = list(views)
     try:
@@ -230,7 +180,7 @@ def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str,
     except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
         raise HostError(name, f"MaterialX shader generation failed: {type(exc).__name__}: {exc}") from None
     try:
-        images = _draw(scene, networks, sources, views, base_black=base_black, name=name)
+        images = draw(scene, networks, sources, views, base_black=base_black, name=name)
     except HostError:
         raise
     except Exception as exc:
@@ -243,245 +193,3 @@ def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str,
         for view_name, rgb in images.items():
             save_png(linear_to_srgb8(rgb), os.path.join(out_dir, f"{view_name}_{name}.png"))
     return images
-
-
-def _compile(vert: str, frag: str, name: str) -> int:
-    from OpenGL import GL
-
-    def check(ok, log: bytes, what: str):
-        if not ok:
-            lines = log.decode(errors="replace").strip().splitlines()
-            raise HostError(name, f"generated shader does not {what}: {lines[0] if lines else '?'}")
-
-    def stage(kind, src):
-        sh = GL.glCreateShader(kind)
-        GL.glShaderSource(sh, src)
-        GL.glCompileShader(sh)
-        check(GL.glGetShaderiv(sh, GL.GL_COMPILE_STATUS), GL.glGetShaderInfoLog(sh), "compile")
-        return sh
-
-    prog = GL.glCreateProgram()
-    for s in (stage(GL.GL_VERTEX_SHADER, vert), stage(GL.GL_FRAGMENT_SHADER, frag)):
-        GL.glAttachShader(prog, s)
-    GL.glLinkProgram(prog)
-    check(GL.glGetProgramiv(prog, GL.GL_LINK_STATUS), GL.glGetProgramInfoLog(prog), "link")
-    return prog
-
-
-_OCCLUDER_VERT = """#version 400
-uniform mat4 u_viewProjectionMatrix;
-in vec3 i_position;
-void main() { gl_Position = u_viewProjectionMatrix * vec4(i_position, 1.0); }
-"""
-_OCCLUDER_FRAG = """#version 400
-out vec4 out1;
-void main() { out1 = vec4(0.0, 0.0, 0.0, 1.0); }
-"""
-
-
-def _texture(image: np.ndarray, *, mipmaps: bool = True) -> int:
-    """Upload (H, W, C) uint8 or float32 pixels, row 0 first (as a host uploads a file's rows), mipmapped."""
-    from OpenGL import GL
-
-    data = np.ascontiguousarray(image)
-    if data.ndim == 2:
-        data = data[:, :, None]
-    c = data.shape[2]
-    fmt = {1: GL.GL_RED, 2: GL.GL_RG, 3: GL.GL_RGB, 4: GL.GL_RGBA}[c]
-    if data.dtype == np.uint8:
-        internal = {1: GL.GL_R8, 2: GL.GL_RG8, 3: GL.GL_RGB8, 4: GL.GL_RGBA8}[c]
-        kind = GL.GL_UNSIGNED_BYTE
-    else:
-        data = data.astype(np.float32)
-        internal = {1: GL.GL_R32F, 2: GL.GL_RG32F, 3: GL.GL_RGB32F, 4: GL.GL_RGBA32F}[c]
-        kind = GL.GL_FLOAT
-    tex = GL.glGenTextures(1)
-    GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
-    GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 1)
-    GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, internal, data.shape[1], data.shape[0], 0, fmt, kind, data)
-    GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 4)
-    if mipmaps:
-        GL.glGenerateMipmap(GL.GL_TEXTURE_2D)
-    GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MIN_FILTER,
-                       GL.GL_LINEAR_MIPMAP_LINEAR if mipmaps else GL.GL_LINEAR)
-    GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MAG_FILTER, GL.GL_LINEAR)
-    for p in (GL.GL_TEXTURE_WRAP_S, GL.GL_TEXTURE_WRAP_T):
-        GL.glTexParameteri(GL.GL_TEXTURE_2D, p, GL.GL_CLAMP_TO_EDGE)
-    return int(tex)
-
-
-def read_image_file(path: str) -> np.ndarray:
-    """Pixels of an image file as a host loads them: rows in file order (top first); 8-bit images as uint8,
-    EXR as float32 (read with OpenEXR: the pip MaterialX has no EXR loader)."""
-    if path.lower().endswith(".exr"):
-        from ..lut.exr import read_exr
-
-        return np.ascontiguousarray(read_exr(path).rgb[::-1])  # ThinFilmLUT row 0 is the bottom row
-    from PIL import Image
-
-    with Image.open(path) as im:
-        if im.mode not in ("L", "LA", "RGB", "RGBA"):
-            im = im.convert("RGBA")
-        return np.asarray(im, dtype=np.uint8)
-
-
-def _projection(view, near: float, far: float) -> np.ndarray:
-    f = 1.0 / np.tan(0.5 * view.yfov_rad)
-    aspect = view.width / view.height
-    return np.array([[f / aspect, 0, 0, 0], [0, f, 0, 0],
-                     [0, 0, (far + near) / (near - far), 2 * far * near / (near - far)], [0, 0, -1, 0]])
-
-
-def _draw(scene, networks: dict, sources: dict, views, *, base_black: bool, name: str) -> dict:
-    import pyrender
-    from OpenGL import GL
-
-    sizes: dict = {}  # one offscreen context per image size (the hero view is larger than the others)
-    for v in views:
-        sizes.setdefault((v.width, v.height), []).append(v)
-    out = {}
-    for (w, h), group in sizes.items():
-        offscreen = pyrender.OffscreenRenderer(w, h)
-        try:
-            offscreen._platform.make_current()
-            out.update(_draw_in_context(GL, scene, networks, sources, group, base_black, name, w, h))
-        finally:
-            offscreen.delete()
-    return {v.name: out[v.name] for v in views}
-
-
-def _draw_in_context(GL, scene, networks, sources, views, base_black, name, w, h) -> dict:
-    ones = np.full((2, 2, 3), ENVIRONMENT_RADIANCE, np.float32)
-    env = _texture(ones, mipmaps=False)
-    black = _texture(np.zeros((1, 1, 4), np.float32), mipmaps=False)
-    fbo = GL.glGenFramebuffers(1)
-    GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fbo)
-    colour = GL.glGenRenderbuffers(1)
-    GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, colour)
-    GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, GL.GL_RGBA32F, w, h)
-    GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, GL.GL_COLOR_ATTACHMENT0, GL.GL_RENDERBUFFER, colour)
-    depth = GL.glGenRenderbuffers(1)
-    GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, depth)
-    GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, GL.GL_DEPTH_COMPONENT32F, w, h)
-    GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, GL.GL_DEPTH_ATTACHMENT, GL.GL_RENDERBUFFER, depth)
-    if GL.glCheckFramebufferStatus(GL.GL_FRAMEBUFFER) != GL.GL_FRAMEBUFFER_COMPLETE:
-        raise HostError(name, "float framebuffer incomplete")
-
-    occluder = _compile(_OCCLUDER_VERT, _OCCLUDER_FRAG, name)
-    draws = []  # (program, vao, n_indices, textures {unit: tex}, is_material)
-    for part in scene.parts:
-        net = networks.get(part.path)
-        if net is None:
-            prog, textures = occluder, {}
-        else:
-            prog = _compile(*sources[part.path], name)
-            textures = _bind_samplers(GL, prog, net, env, black, base_black)
-        draws.append((prog, _vertex_array(GL, prog, part), int(np.asarray(part.triangles).size), textures))
-
-    lo, hi = scene.bounds_m
-    centre, radius = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
-    out = {}
-    for view in views:
-        c2w = np.asarray(view.camera_to_world, np.float64)
-        eye = c2w[:3, 3]
-        dist = float(np.linalg.norm(eye - centre))
-        near, far = max(1e-4, (dist - radius) * 0.5), dist + 2.0 * radius
-        vp = (_projection(view, near, far) @ np.linalg.inv(c2w)).astype(np.float32)
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fbo)
-        GL.glViewport(0, 0, w, h)
-        GL.glClearColor(0.0, 0.0, 0.0, 0.0)
-        GL.glClear(GL.GL_COLOR_BUFFER_BIT | GL.GL_DEPTH_BUFFER_BIT)
-        GL.glEnable(GL.GL_DEPTH_TEST)
-        GL.glDisable(GL.GL_CULL_FACE)
-        GL.glDisable(GL.GL_BLEND)
-        for prog, vao, n, textures in draws:
-            GL.glUseProgram(prog)
-            _set_matrix(GL, prog, "u_viewProjectionMatrix", vp)
-            _set_matrix(GL, prog, "u_worldMatrix", np.eye(4, dtype=np.float32))
-            _set_matrix(GL, prog, "u_worldInverseTransposeMatrix", np.eye(4, dtype=np.float32))
-            loc = GL.glGetUniformLocation(prog, "u_viewPosition")
-            if loc >= 0:
-                GL.glUniform3f(loc, *eye.astype(np.float32))
-            for unit, tex in textures.items():
-                GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
-                GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
-            GL.glBindVertexArray(vao)
-            GL.glDrawElements(GL.GL_TRIANGLES, n, GL.GL_UNSIGNED_INT, None)
-        GL.glFinish()
-        pixels = GL.glReadPixels(0, 0, w, h, GL.GL_RGBA, GL.GL_FLOAT)
-        rgba = np.frombuffer(pixels, np.float32).reshape(h, w, 4)[::-1]
-        out[view.name] = np.ascontiguousarray(rgba[:, :, :3])
-    err = GL.glGetError()
-    if err != GL.GL_NO_ERROR:
-        raise HostError(name, f"OpenGL error {int(err):#x}")
-    return out
-
-
-def _set_matrix(GL, prog, uniform: str, m: np.ndarray) -> None:
-    loc = GL.glGetUniformLocation(prog, uniform)
-    if loc >= 0:
-        GL.glUniformMatrix4fv(loc, 1, GL.GL_TRUE, np.ascontiguousarray(m, np.float32))
-
-
-def _bind_samplers(GL, prog, net: dict, env: int, black: int, base_black: bool) -> dict:
-    """Texture unit -> texture for every sampler of the program; image nodes get their files."""
-    GL.glUseProgram(prog)
-    textures, unit = {}, 0
-    for i in range(GL.glGetProgramiv(prog, GL.GL_ACTIVE_UNIFORMS)):
-        uname, _, utype = GL.glGetActiveUniform(prog, i)
-        uname = uname.decode() if isinstance(uname, bytes) else str(uname)
-        if utype != GL.GL_SAMPLER_2D:
-            continue
-        if uname in ("u_envRadiance", "u_envIrradiance"):
-            tex = env
-        elif uname.endswith("_file") and uname[: -len("_file")] in net["files"]:
-            node = uname[: -len("_file")]
-            pixels = read_image_file(net["files"][node])
-            if base_black and node == "BaseColorTexture" and pixels.ndim == 3 and pixels.shape[2] == 4:
-                pixels = pixels.copy()
-                pixels[:, :, :3] = 0
-            tex = _texture(pixels, mipmaps=node in MIPMAPPED_IMAGES)
-        else:
-            tex = black
-        textures[unit] = tex
-        GL.glUniform1i(GL.glGetUniformLocation(prog, uname), unit)
-        unit += 1
-    for uniform, value in (("u_envRadianceMips", 1), ("u_numActiveLightSources", 0)):
-        loc = GL.glGetUniformLocation(prog, uniform)
-        if loc >= 0:
-            GL.glUniform1i(loc, value)
-    loc = GL.glGetUniformLocation(prog, "u_envLightIntensity")
-    if loc >= 0:
-        GL.glUniform1f(loc, 1.0)
-    return textures
-
-
-def _vertex_array(GL, prog, part) -> int:
-    """A VAO of the part's streams under the generated shader's attribute names."""
-    pos = np.asarray(part.positions_m, np.float32)
-    nrm = np.asarray(part.normals, np.float32)
-    helper = np.where(np.abs(nrm[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    tangent = np.cross(nrm, helper)
-    tangent /= np.maximum(np.linalg.norm(tangent, axis=1, keepdims=True), 1e-12)
-    streams = {"i_position": pos, "i_normal": nrm, "i_tangent": tangent.astype(np.float32),
-               "i_geomprop_st": np.asarray(part.st, np.float32), "i_texcoord_0": np.asarray(part.st, np.float32)}
-    if part.thickness_nm is not None:
-        streams["i_geomprop_thickness"] = np.asarray(part.thickness_nm, np.float32)[:, None]
-    vao = GL.glGenVertexArrays(1)
-    GL.glBindVertexArray(vao)
-    for attr, data in streams.items():
-        loc = GL.glGetAttribLocation(prog, attr)
-        if loc < 0:
-            continue
-        data = np.ascontiguousarray(data, np.float32)
-        vbo = GL.glGenBuffers(1)
-        GL.glBindBuffer(GL.GL_ARRAY_BUFFER, vbo)
-        GL.glBufferData(GL.GL_ARRAY_BUFFER, data.nbytes, data, GL.GL_STATIC_DRAW)
-        GL.glEnableVertexAttribArray(loc)
-        GL.glVertexAttribPointer(loc, data.shape[1] if data.ndim == 2 else 1, GL.GL_FLOAT, GL.GL_FALSE, 0, None)
-    ibo = GL.glGenBuffers(1)
-    idx = np.ascontiguousarray(np.asarray(part.triangles, np.uint32).reshape(-1))
-    GL.glBindBuffer(GL.GL_ELEMENT_ARRAY_BUFFER, ibo)
-    GL.glBufferData(GL.GL_ELEMENT_ARRAY_BUFFER, idx.nbytes, idx, GL.GL_STATIC_DRAW)
-    GL.glBindVertexArray(0)
-    return int(vao)

@@ -34,13 +34,11 @@ ENVIRONMENT_RADIANCE = 1.0
 SAMPLES = 8
 #: Seconds before a Cycles OSL run is given up.
 TIMEOUT_S = 900
-#: Cycles' working space (Blender's per-file setting) and the space of the EXR it writes. Cycles clamps a BSDF's
-#: negative weights to 0 (``kernel/closure/alloc.h``, ``bsdf_alloc``), so in Blender's default Linear Rec.709
-#: the LUT's colours outside the Rec.709 gamut (a negative channel on 11 % of its texels) lose that channel
-#: (measured, one pixel: albedo (-0.042, 0.452, 0.327) renders (0, 0.452, 0.327), an emission keeps -0.042).
-#: Every LUT colour lies inside ACEScg (its smallest channel there is 0.026), the working space of ACES
-#: studios: there the albedo is positive, and Blender converts the render back to linear Rec.709 on write,
-#: negative channels kept (the same pixel renders (-0.042, 0.452, 0.327)).
+#: Cycles' working space (Blender's per-file setting) and the EXR's. Cycles clamps a BSDF's negative weights to 0
+#: (``kernel/closure/alloc.h``, ``bsdf_alloc``): in Linear Rec.709 the LUT's colours outside that gamut (a negative
+#: channel on 11 % of its texels) lose it (one pixel: albedo (-0.042, 0.452, 0.327) renders (0, 0.452, 0.327), an
+#: emission keeps it). Every LUT colour lies inside ACEScg (smallest channel 0.026), the ACES studios' working
+#: space; Blender writes the render back in linear Rec.709, negatives kept (that pixel: (-0.042, 0.452, 0.327)).
 WORKING_SPACE, EXR_SPACE = "ACEScg", "Linear Rec.709"
 
 
@@ -67,23 +65,18 @@ def generate_osl(doc, material_name: str) -> str:
     return generate(doc, material_name, mx_osl.OslShaderGenerator.create()).getSourceCode(mx_gen.PIXEL_STAGE)
 
 
-#: Put at the top of the generated source (after its ``#include "mx_funcs.h"``), for Cycles: its ``getattribute``
-#: fills a ``float``, ``float[4]`` or a point/vector/normal/colour but no ``float[2]``, the type MaterialX's
-#: ``mx_geompropvalue_vector2`` reads a ``vector2`` primvar into (``st``), so that read always failed and returned
-#: its default (measured, bpy 5.0.1: ``getattribute("st", float[2])`` 0 where ``getattribute("st", vector)`` gives
-#: the UV map). The mapping renames ``getattribute`` to overloads that pass every other type through unchanged and
-#: read a ``float[2]`` through a ``vector``; the generated functions themselves are left as MaterialX wrote them.
-#: Second, every ``texture()`` call gets ``"width", 0``: the image at the pixel centre, no footprint filtering.
-#: OpenImageIO otherwise picks a coarse mip level of the card atlas (base colour, cut-out, mask) on small cards and
-#: dims whole cards by the mask's average, an antialiased picture, not a wrong colour, that a per-pixel comparison
-#: with the point-sampled reference counts as error (measured, default asset, sweep_060, 512 px: p95 dE2000 4.3
-#: without, 0.4 with); it is the choice :data:`rockdove.hosts.materialx.MIPMAPPED_IMAGES` makes for the atlas.
-#: On the LUT it changes nothing measurable (same median and p95 with and without it).
-#: Third, Cycles (bpy 5.0.1) drops the thin film of a ``dielectric_bsdf`` (its ``thinfilm_*`` keywords) but keeps
-#: it on a ``generalized_schlick_bsdf`` (measured, one pixel, a film of n 2.0, 600 nm on glass 1.5 at normal
-#: incidence: 0.04 grey against the Principled BSDF's coloured (0.056, 0.149, 0.136); OpenPBR's film in air,
-#: specular_ior 1, renders black). A reflection-only dielectric with a film becomes the generalized Schlick lobe
-#: with exponent -ior, which Cycles reads as the real dielectric Fresnel of that ior (as its Principled BSDF does).
+#: Put after the generated source's ``#include "mx_funcs.h"``, for Cycles (the generated functions are left as
+#: MaterialX wrote them). First, Cycles' ``getattribute`` fills no ``float[2]``, the type MaterialX's
+#: ``mx_geompropvalue_vector2`` reads ``st`` into (measured, bpy 5.0.1: 0, where a ``vector`` gets the UV map):
+#: overloads pass every other type through and read a ``float[2]`` through a ``vector``. Second, ``texture()``
+#: gets ``"width", 0``, the image at the pixel centre: OpenImageIO's footprint filtering of the card atlas dimmed
+#: small cards by the mask's average, an antialiased picture that a per-pixel comparison with the point-sampled
+#: reference counts as error (default asset, sweep_060, 512 px: p95 dE2000 4.3 without, 0.4 with; nothing
+#: measurable on the LUT), the choice :data:`rockdove.hosts.materialx_gl.MIPMAPPED_IMAGES` makes. Third, Cycles
+#: drops a ``dielectric_bsdf``'s thin film but keeps a ``generalized_schlick_bsdf``'s (one pixel: a 600 nm film of
+#: n 2.0 on glass 1.5 at normal incidence, 0.04 grey against the Principled BSDF's (0.056, 0.149, 0.136); OpenPBR's
+#: film in air rendered black): a reflection with a film becomes that lobe with exponent -ior, which Cycles reads
+#: as the real dielectric Fresnel of that ior (as its Principled BSDF does).
 CYCLES_GETATTRIBUTE = """
 // rockdove (hosts/osl.py CYCLES_GETATTRIBUTE): Cycles' getattribute fills no float[2]; read it through a vector.
 int rd_getattribute(string name, output float value) { return getattribute(name, value); }
@@ -106,11 +99,13 @@ closure color rd_dielectric_bsdf(normal N, vector U, color rt, color tt, float r
                                  float thickness, float film_ior)
 {
     if (thickness <= 0.0 || tt != color(0))
-        return dielectric_bsdf(N, U, rt, tt, rx, ry, ior, dist, "thinfilm_thickness", thickness, "thinfilm_ior", film_ior);
+        return dielectric_bsdf(N, U, rt, tt, rx, ry, ior, dist,
+                               "thinfilm_thickness", thickness, "thinfilm_ior", film_ior);
     return generalized_schlick_bsdf(N, U, rt, color(0), rx, ry, color(pow((ior - 1) / (ior + 1), 2)), color(1), -ior,
                                     dist, "thinfilm_thickness", thickness, "thinfilm_ior", film_ior);
 }
-#define dielectric_bsdf(N, U, rt, tt, rx, ry, ior, dist, k1, d, k2, n) rd_dielectric_bsdf(N, U, rt, tt, rx, ry, ior, dist, d, n)
+#define dielectric_bsdf(N, U, rt, tt, rx, ry, ior, dist, k1, d, k2, n) \\
+    rd_dielectric_bsdf(N, U, rt, tt, rx, ry, ior, dist, d, n)
 """
 _INCLUDE = '#include "mx_funcs.h"\n'
 
@@ -150,6 +145,7 @@ def lobe_document(net: dict, base: str = VARIANTS["osl"][1]):
     if bg is None:
         raise ValueError(f"the network has no {base} (base colour) to turn black")
     bg.removeAttribute("nodename")
+    bg.removeAttribute("output")
     bg.setValueString("0, 0, 0")
     for node_name, path in net["files"].items():
         doc.getNode(node_name).getInput("file").setValueString(os.path.abspath(path))
@@ -176,6 +172,7 @@ def to_working_space(doc, material_name: str) -> None:
                 stem = f"{node.getName()}_{inp.getName()}_acescg"
                 vec = doc.addNode("convert", f"{stem}_vector", "vector3")
                 vec.addInput("in", "color3").setConnectedNode(upstream)
+                vec.getInput("in").setOutputString(inp.getOutputString())
                 xform = doc.addNode("transformmatrix", stem, "vector3")
                 xform.addInput("in", "vector3").setConnectedNode(vec)
                 xform.addInput("mat", "matrix33").setValue(matrix)
@@ -200,19 +197,9 @@ def _compiler_error(work: str) -> str | None:
 
 
 def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
-    """Render ``views`` of host ``name``'s network (:data:`VARIANTS`) as generated OSL in Cycles (module docstring).
-
-    Returns
-    -------
-    dict
-        view name -> (H, W, 3) float32 linear Rec.709 radiance, background 0.
-
-    Raises
-    ------
-    HostError
-        bpy is missing, MaterialX cannot generate the OSL, the OSL compiler rejects it (its error line), or
-        Cycles writes no image.
-    """
+    """Render ``views`` of host ``name``'s network (:data:`VARIANTS`) as generated OSL in Cycles (module docstring):
+    view name -> (H, W, 3) float32 linear Rec.709 radiance, background 0. HostError when bpy is missing, MaterialX
+    cannot generate the OSL, the OSL compiler rejects it (its error line) or Cycles writes no image."""
     from . import blender
     from .blender import root_object
     from .materialx import feather_networks
@@ -252,7 +239,8 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
     try:
         blender.run_job(job, work, module="rockdove.hosts.osl_job", timeout_s=TIMEOUT_S)
     except HostError as exc:
-        raise HostError(name, _compiler_error(work) or exc.message.replace("Blender exited", "Cycles (OSL) exited")) from None
+        message = _compiler_error(work) or exc.message.replace("Blender exited", "Cycles (OSL) exited")
+        raise HostError(name, message) from None
     return blender.read_views(name, "Cycles (OSL)", views, work)
 
 

@@ -40,12 +40,10 @@ def compile_shaders(shaders: dict) -> dict:
 
 
 def request_attributes(material, output, names) -> None:
-    """Make Cycles export the mesh attributes ``names`` to this material's shaders.
-
-    Cycles exports a mesh attribute (or UV map) only where one of its own nodes asks for it by name; a Script
-    node's ``getattribute`` calls are invisible to it (they return 0: the neck read its defaults). Each name
-    gets an Attribute node, summed into a Displacement of scale 0 on the Material Output (bump mode): nodes
-    Cycles keeps (an unlinked node or an AOV output is dropped, measured) and that move nothing."""
+    """Make Cycles export the mesh attributes ``names`` to this material's shaders: it exports one (or a UV map)
+    only where its own nodes ask for it by name, not for a Script node's ``getattribute`` (0: the neck read its
+    defaults). Each gets an Attribute node summed into a Displacement of scale 0 (bump mode): nodes Cycles keeps
+    (an unlinked node or an AOV output is dropped, measured) and that move nothing."""
     if not names:
         return
     nodes, links = material.node_tree.nodes, material.node_tree.links
@@ -115,7 +113,8 @@ def run(job: dict) -> None:
         ob.data.materials.append(material)
     missing = sorted(set(by_name) - set(drawn))
     if missing:
-        raise RuntimeError(f"no imported mesh named {', '.join(missing)} (objects: {[o.name for o in bpy.data.objects]})")
+        objects = [o.name for o in bpy.data.objects]
+        raise RuntimeError(f"no imported mesh named {', '.join(missing)} (objects: {objects})")
     blender_job._world(bpy, job["environment_radiance"])
     bpy.context.scene.cycles.shading_system = True  # OSL (CPU only)
     blender_job.render_views(bpy, mathutils, to_blender, job)

@@ -19,26 +19,13 @@ Three hosts, one per network a Storm user sees (:data:`VARIANTS`):
 
 Output: FrameRecorder's colour AOV with colour correction off, written as EXR (linear Rec.709, background 0).
 
-Why ``storm`` (baked) speckles, measured with session-layer probes on the default asset (256 and 512 px,
-sweep_060; the LUT replaced by one whose mip levels are flat colours shows the level each pixel reads): the
-speckle is the LUT read at mip levels 3 and up in the 2x2 quads that straddle triangle edges (the cards'
-diagonals and outlines), and it stays when *both* LUT coordinates are constants of the material (``CosTheta.in``
-and ``ThicknessY.in`` set to 0.5: true derivatives 0). So it is not the network's maths (no branch before the
-lookup in Storm's GLSL, no ``abs``/``pow`` kink): every value Storm reads from its material-parameter buffer
-(``shaderData[...]``: each authored input, and the ``uv_scale`` / ``uv_offset`` that MaterialX's hardware image
-node multiplies into every ``texcoord``) is wrong in the helper pixels of those quads on Mesa llvmpipe, so any
-lookup whose coordinate passes through one gets a wrong level of detail. Storm's UsdPreviewSurface path is spared
-because its ``UsdUVTexture`` samples the ``st`` interpolant directly. What fixes it (same probe, session layer
-only): every LUT and feather-image coordinate computed from interpolants only, i.e. vertex primvars on the
-feather mesh ``lutScale = ((N - 1) / N, 0)``, ``lutOffset = (0.5 / N, v(thickness))``, ``unitScale = (1, 1)``,
-texcoord ``(|N.V|, |N.V|)`` (no ``clamp`` node: its bounds are parameters too) and the three image nodes'
-``uv_scale`` / ``uv_offset`` connected to them (LUT: lutScale / lutOffset; base and mask: unitScale /
-unitScale - unitScale): median dE2000 6.3 -> 2.7, hue agreement 66 % -> 84 % at 512 px, coherent green and purple
-as in the exact reference. Without the ``uv_scale`` / ``uv_offset`` connections the primvar coordinates alone do
-not help (median 6.4 at 256 px). Not adopted yet: MaterialX 1.39's ``ND_image`` nodedefs declare no ``uv_scale`` /
-``uv_offset`` (``Document.validate`` rejects them; they are inputs of MaterialX's hardware image node
-implementation: HdMtlx and MaterialX 1.39.5's GLSL generator both honour a connection to them), so the asset
-would carry inputs outside the nodedef.
+On Mesa llvmpipe (22.3) an SSBO load in a helper invocation returns 0, and Storm keeps every MaterialX input
+in such a buffer (``shaderData``): a texture coordinate that passed through one (``ND_image``'s ``uv_scale``,
+a constant, a ``clamp`` bound) got a garbage level of detail in the 2x2 quads straddling triangle edges, the
+white-grey speckle of the old network (median dE2000 0.41, p95 31.6 at 512 px). thinfilm.mtlx therefore builds
+the LUT coordinate from interpolants and a matrix constant, which Storm writes into the shader (see there).
+Storm still warns ``thinfilm_lut.exr mip level 1 does not exist``: HdStTextureUtils::GetAllMipImages opens levels
+until one fails (OpenUSD 24.11 source: any EXR warns at its level count), then generates the chain; harmless.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Thin-film colour LUTs over (cos theta, thickness): the table and its lookup (:mod:`.table`), the bakers
-(:mod:`.bake`, :mod:`.fourier`), the exact reference (:mod:`.reference`), OpenEXR I/O (:mod:`.exr`) and the
-PNG preview (:mod:`.preview`).
+(:mod:`.bake`, :mod:`.fourier`, :mod:`.quadrature`), the exact reference (:mod:`.reference`) and the weights they
+integrate with (:mod:`.weights`), OpenEXR I/O (:mod:`.exr`) and the PNG preview (:mod:`.preview`).
 
 These modules import only numpy at load time (OpenEXR, scipy, Pillow and colour-science are imported inside
 the functions that use them), so ``import rockdove.lut`` stays light. Note that ``rockdove.lut.bake`` is the

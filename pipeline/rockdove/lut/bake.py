@@ -1,19 +1,14 @@
 """Bakers of the thin-film colour LUT over (cos theta, film thickness) (registry :data:`BAKE_METHODS`).
 
-``"spectral"``: :func:`rockdove.optics.reflectance` on a uniform wavelength grid (``spectral_step_nm``) for every
-texel, then ``R @ W`` with the colour weights: the baseline, for any film (absorbing, total internal reflection).
-``"spectral_fast"``: the same sampling for real interface coefficients, with the Fresnel coefficients computed
-once per (angle, wavelength) and only the phase per texel (the real Airy form, Born & Wolf 7.6.1), and finer
-steps in the resonant band ``cos theta < grazing_cos``. ``"fourier"``: the exact Fourier route of method.md
-(:mod:`.fourier`) for non-dispersive real films; texels whose series would need more than ``max_terms`` terms
-and the bare interface (d = 0) are integrated like the reference. ``"quadrature"``: product integration in
-wavenumber (:mod:`.quadrature`), exact for any film with real interface coefficients, dispersive or not.
-``"auto"``: ``"fourier"`` where it applies, else ``"quadrature"`` (dispersive films such as keratin: faster than
-``"spectral_fast"`` and exact, ``rockdove bench lut``), else ``"spectral"``.
-
-Unpolarised light is the mean of the s and p reflectances; ``OPD = 2 n_b d cos(theta_b)`` (nm), ``phi = 2 pi
-OPD / lambda``. References: Born, M. & Wolf, E., *Principles of Optics*, 7th ed., sec. 7.6.1 (Airy formula);
-method.md (the Fourier form); the table layout is :mod:`.table`'s.
+``"spectral"``: :func:`rockdove.optics.reflectance` on a uniform wavelength grid (``spectral_step_nm``), then
+``R @ W``: the baseline, for any film (absorbing, total internal reflection). ``"spectral_fast"``: the same for
+real interface coefficients, the Fresnel coefficients once per (angle, wavelength) and the phase per texel (the
+real Airy form, Born & Wolf, *Principles of Optics*, 7th ed., sec. 7.6.1), finer steps below ``grazing_cos``.
+``"fourier"``: method.md's exact Fourier route (:mod:`.fourier`) for non-dispersive real films (texels needing
+more than ``max_terms`` terms, and d = 0, are integrated like the reference). ``"quadrature"``: product
+integration in wavenumber (:mod:`.quadrature`), exact for any real-coefficient film. ``"auto"``: ``"fourier"``
+where it applies, else ``"quadrature"`` (faster than ``"spectral_fast"`` and exact, ``rockdove bench lut``), else
+``"spectral"``. Unpolarised light is the mean of s and p; the table layout is :mod:`.table`'s.
 """
 
 from __future__ import annotations
@@ -89,26 +84,19 @@ def wavelength_grid(step_nm: float) -> np.ndarray:
     return lo + step_nm * np.arange(n)
 
 
-def _texel_chunks(n_angle, n_wavelength):
-    return max(1, _CHUNK_ELEMENTS // max(1, n_angle * n_wavelength))
-
-
 def _bake_spectral(cos_theta, thickness_nm, film, *, illuminant, colour_space, spectral_step_nm, **_):
-    """Straightforward per-wavelength bake with :func:`rockdove.optics.reflectance`; shape (M, N, 3)."""
+    """Straightforward per-wavelength bake with :func:`rockdove.optics.reflectance`; shape (T, A, 3). Rows of
+    texels at a time, so the Fresnel terms are computed per (angle, wavelength), not per texel."""
     from .. import optics
     from .weights import colour_weights
 
     wl = wavelength_grid(spectral_step_nm)
     w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
-    n_film = film.n_film(wl)
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
-    rows = _texel_chunks(cos_theta.shape[0], wl.shape[0])
+    rows = max(1, _CHUNK_ELEMENTS // max(1, cos_theta.shape[0] * wl.shape[0]))
     for i in range(0, thickness_nm.shape[0], rows):
-        d = thickness_nm[i : i + rows, None, None]
-        r = optics.reflectance(
-            wl[None, None, :], cos_theta[None, :, None], d, n_film=n_film,
-            n_incident=film.n_incident, n_substrate=film.n_substrate,
-        )
+        r = optics.reflectance(wl[None, None, :], cos_theta[None, :, None], thickness_nm[i : i + rows, None, None],
+                               n_film=film.n_film(wl), n_incident=film.n_incident, n_substrate=film.n_substrate)
         out[i : i + rows] = r @ w
     return out, {"spectralStepNm": repr(float(spectral_step_nm))}
 
@@ -134,7 +122,7 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
     any_degenerate = bool(degenerate.any())
     w = np.asarray(weights, dtype=dtype)
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
-    rows = _texel_chunks(cos_theta.shape[0], wavelength_nm.shape[0])
+    rows = max(1, _CHUNK_ELEMENTS // max(1, cos_theta.shape[0] * wavelength_nm.shape[0]))
     for i in range(0, thickness_nm.shape[0], rows):
         s2 = np.sin(thickness_nm[i : i + rows, None, None].astype(dtype) * half_k[None])
         s2 *= s2
@@ -317,28 +305,22 @@ def bake(
         lo = hi = 0.5 * (lo + hi)
         thicknesses = 1
     rng = (lo, hi)
-    x = np.linspace(0.0, 1.0, angles)
-    cos_theta = x**gamma
+    cos_theta = np.linspace(0.0, 1.0, angles) ** gamma
     thickness_nm = np.linspace(lo, hi, thicknesses)
 
-    impl = BAKE_METHODS[method]
-    if method == "auto":
-        used, (rgb, meta) = impl(cos_theta, thickness_nm, film_model, **kw)
-    else:
-        used, (rgb, meta) = method, impl(cos_theta, thickness_nm, film_model, **kw)
+    result = BAKE_METHODS[method](cos_theta, thickness_nm, film_model, **kw)
+    used, (rgb, meta) = result if method == "auto" else (method, result)  # "auto" says which method it used
     metadata = {f"film:{k}": v for k, v in film_model.describe().items()}
-    metadata.update(
-        {
-            "film": film_model.name,
-            "illuminant": illuminant,
-            "observer": OBSERVER,
-            "wavelengthRangeNm": f"{WAVELENGTH_RANGE_NM[0]!r} {WAVELENGTH_RANGE_NM[1]!r}",
-            "polarization": "unpolarized (mean of s and p)",
-            "method": used,
-            "methodRequested": method,
-            "estimatedError": "not measured at bake time (bake(error_points=0))",
-        }
-    )
+    metadata.update({
+        "film": film_model.name,
+        "illuminant": illuminant,
+        "observer": OBSERVER,
+        "wavelengthRangeNm": f"{WAVELENGTH_RANGE_NM[0]!r} {WAVELENGTH_RANGE_NM[1]!r}",
+        "polarization": "unpolarized (mean of s and p)",
+        "method": used,
+        "methodRequested": method,
+        "estimatedError": "not measured at bake time (bake(error_points=0))",
+    })
     metadata.update({f"method:{k}": v for k, v in meta.items()})
     lut = ThinFilmLUT(rgb.astype(np.float32), rng, angle_warp_gamma=gamma, colour_space=colour_space,
                       metadata=metadata)

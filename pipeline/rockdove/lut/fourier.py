@@ -43,11 +43,8 @@ G_TABLE_FFT_SIZE = 2**20
 
 @dataclass(frozen=True, eq=False)
 class GTable:
-    """Tabulated ``G(x_k)``, ``x_k = k step_nm`` (nm), for one observer / illuminant / colour space.
-
-    ``g``: (n_x, 3) float64, linear colour units (a perfect reflector integrates to ``w0 = G(0)``); ``g_tail``:
-    (n_x,) ``max_{k' >= k} max_channel |G(x_k')|``, the non-increasing envelope of the truncation rule.
-    """
+    """Tabulated ``G(x_k)``, ``x_k = k step_nm`` (nm): ``g`` (n_x, 3) in linear colour units (a perfect reflector
+    is ``w0 = G(0)``) and ``g_tail`` (n_x,), ``max_{k' >= k} max_channel |G(x_k')|``, the truncation's envelope."""
 
     step_nm: float
     g: np.ndarray

@@ -1,9 +1,7 @@
 """sRGB PNG preview of a thin-film LUT, for people (the data is the EXR).
 
-Layout as the EXR: x = angle node (left: grazing incidence cos theta = 0, right: normal incidence), bottom row =
-thinnest film. Colours map to 8 bits with :func:`rockdove.spectral.RGB_to_preview8` (out-of-gamut colours
-desaturated toward their own luminance, then clipped and sRGB-encoded). Tables lower than
-:data:`MIN_PREVIEW_HEIGHT` rows (a one-texel-high LUT) have each row repeated so the strip is visible.
+Layout as the EXR (x: cos theta from 0 at the left; bottom row: the thinnest film), 8 bits by
+:func:`rockdove.spectral.RGB_to_preview8`; tables lower than :data:`MIN_PREVIEW_HEIGHT` rows repeat each row.
 """
 
 from __future__ import annotations

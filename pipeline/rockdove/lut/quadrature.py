@@ -8,13 +8,11 @@ real film, even a dispersive one:
     R(sigma) = (a^2 + b^2 + 2ab cos phi) / (1 + a^2 b^2 + 2ab cos phi),
     phi(sigma) = 4 pi d sigma sqrt(n(sigma)^2 - n_a^2 sin^2 theta),   n(sigma) = A + B sigma^2 (Cauchy),
 
-with slowly varying Fresnel coefficients ``a(sigma), b(sigma)``. So, as Filon and Clenshaw-Curtis product rules
-split an oscillatory integral (Filon 1928; Sloan & Smith, Numer. Math. 34, 1980), ``R`` is replaced by its
-interpolant on ``N`` Chebyshev points under the Kosloff-Tal-Ezer map (Kosloff & Tal-Ezer, J. Comput. Phys. 104,
-1993; Hale & Trefethen, SIAM J. Numer. Anal. 46, 2008), and the weights are integrated against the Lagrange
-basis exactly, once per node count (:func:`.weights.chebyshev_weights`): ``C ~= sum_k Omega_k R(sigma_k)``,
-``Omega_k = integral w l_k dsigma`` on the 0.1 nm reference grid. The only error is the interpolation
-error of the analytic ``R``; dispersion costs nothing.
+with slowly varying Fresnel coefficients ``a, b``. So, as Filon and Clenshaw-Curtis product rules split an
+oscillatory integral (Filon 1928; Sloan & Smith, Numer. Math. 34, 1980), ``R`` is replaced by its interpolant on
+``N`` Chebyshev points under the Kosloff-Tal-Ezer map (J. Comput. Phys. 104, 1993; Hale & Trefethen, SIAM J.
+Numer. Anal. 46, 2008), integrated exactly against the weights (:func:`.weights.chebyshev_weights`): the only
+error is the interpolation error of the analytic ``R``, and dispersion costs nothing.
 
 Node count. ``R`` is a Poisson kernel in ``phi`` with poles at ``Im phi = +-delta``, ``delta = -ln |ab|``; with
 ``phi`` spanning ``2 Phi`` over the spectrum the error decays like ``exp(-c N delta / Phi)`` (Bernstein
@@ -25,10 +23,9 @@ of degree ``M`` (``N = K_SERIES * M * Phi + N_MIN``, summed in closed form by :f
 :func:`rockdove.lut.fourier.n_terms_needed` at the film's smallest optical path difference (with dispersion the
 local frequency of ``cos(m phi)`` is the group path, larger than the phase path: ``G``'s tail there bounds it).
 
-Angle axis. Away from grazing the colour is analytic and slowly varying in ``cos theta`` too: the columns with
-``cos theta >= ANGLE_PANEL_COS`` are interpolated (barycentric, Chebyshev points) from the exact colours at
-``K_ANGLE * Psi + N_ANGLE_MIN`` angles, ``Psi`` the phase change over the panel at the largest thickness
-(:func:`angle_panel_nodes`; 30 angles instead of 250 columns for the default LUT).
+Angle axis. Away from grazing the colour is analytic in ``cos theta`` too: the columns with ``cos theta >=
+ANGLE_PANEL_COS`` are interpolated from the exact colours at a few Chebyshev angles (:func:`angle_panel_nodes`;
+30 instead of 250 columns for the default LUT).
 
 Limits: ``cos theta = 0`` takes ``R = 1``; ``d = 0`` is the bare interface. Absorbing films and total internal
 reflection make ``a, b`` complex: refused (use ``"spectral"``).
@@ -63,12 +60,9 @@ DEFAULT_SERIES_TOL = 1e-5
 
 def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL, illuminant="D65",
                 colour_space="lin_rec709"):
-    """Form and node count per angle column of a film with real interface coefficients: ``(n_nodes, n_terms)``,
-    each (A,) int, the node count on :data:`NODE_LADDER` and 0 for the full Airy form, else the series' ``M``.
-
-    The series' term counts take a coarse ``G`` table (2 nm steps, a 2^17-point FFT): its envelope matches the
-    fine table's to 0.1% down to 3e-4 of the white (conservative below) and builds in ~20 ms, not 0.1-0.7 s.
-    """
+    """``(n_nodes, n_terms)`` per angle column, each (A,) int: the node count on :data:`NODE_LADDER`, and 0 for
+    the full Airy form, else the series' ``M``, counted on a coarse ``G`` table (2 nm, a 2^17-point FFT: its
+    envelope is the fine one's to 0.1% down to 3e-4 of the white, conservative below, in ~20 ms, not 0.1-0.7 s)."""
     from . import fourier
     from .interfaces import interface_coefficients
 
@@ -98,10 +92,9 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
             opd_min = 2.0 * d_min * q[cand].min(axis=1)
             m = np.zeros(cand.size, np.int64)
             for pol in ("s", "p"):
-                c0, c1, rho_p = fourier.airy_fourier_coefficients(coef[f"a_{pol}"][cand], coef[f"b_{pol}"][cand])
-                c1m = np.abs(c1).max(axis=1)
-                rm = np.abs(rho_p).max(axis=1)
-                m = np.maximum(m, fourier.n_terms_needed(c1m, rm, opd_min, table, series_tol))
+                _, c1, rho_p = fourier.airy_fourier_coefficients(coef[f"a_{pol}"][cand], coef[f"b_{pol}"][cand])
+                m = np.maximum(m, fourier.n_terms_needed(np.abs(c1).max(axis=1), np.abs(rho_p).max(axis=1), opd_min,
+                                                         table, series_tol))
             n_terms[cand] = np.maximum(m, 1)  # (c_1 = 0 at cos theta -> 0: one term, the series is then c_0)
             n_series[cand] = K_SERIES * m * dphi[cand] + N_MIN
     use_series = SERIES_COST * n_series < n_full
@@ -149,13 +142,10 @@ class _Layout:
 
 
 def _full_form(coef, layout, thickness_nm, out, chunk):
-    """Unpolarised Airy reflectance at the layout's nodes (``coef``: their interface coefficients), full form.
-
-    Per polarisation, with ``p = ab`` and ``s2 = sin^2(phi / 2)`` (Born & Wolf 7.6.1 in half-angle form, as
-    :func:`.bake.sample_colour`), ``R = ((a + b)^2 - 4 p s2) / ((1 + p)^2 - 4 p s2) = 1 - (1 - a^2)(1 - b^2) /
-    ((1 + p)^2 - 4 p s2)``: the 1 integrates to the white, so a node costs one sine and three operations per
-    polarisation. For ``p <= 0`` (a film in air) the denominator has no cancellation: float32 is safe.
-    """
+    """The full Airy form at the layout's nodes (``coef``: their interface coefficients): with ``p = ab``, ``s2 =
+    sin^2(phi / 2)`` (Born & Wolf 7.6.1, half-angle form as :func:`.bake.sample_colour`), ``R = 1 - (1 - a^2)(1 -
+    b^2) / ((1 + p)^2 - 4 p s2)``, the 1 integrating to the white: one sine and three operations per polarisation,
+    in float32 for ``p <= 0`` (a film in air), where the denominator has no cancellation."""
     products = [coef[f"a_{pol}"] * coef[f"b_{pol}"] for pol in ("s", "p")]
     dtype = np.float32 if max(float(p.max(initial=-1.0)) for p in products) <= 0.0 else np.float64
     half_k = (2.0 * np.pi * coef["n_b"] * coef["cos_b"] / layout.lam).astype(dtype)
@@ -250,7 +240,9 @@ def quadrature_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour
     cos_theta = np.asarray(cos_theta, dtype=np.float64)
     thickness_nm = np.asarray(thickness_nm, dtype=np.float64)
     if not real_coefficients(film, cos_theta):
-        raise _refused(film)
+        raise ValueError(f"method 'quadrature' needs a non-absorbing film without total internal reflection (real "
+                         f"interface coefficients); film {film.name!r} is not (k = {film.k!r}, substrate "
+                         f"{film.n_substrate!r}; use 'spectral')")
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
     panel_nodes = angle_panel_nodes(film, cos_theta, thickness_nm)
     if panel_nodes is None:
@@ -289,13 +281,6 @@ def real_coefficients(film, cos_theta) -> bool:
     n_b = float(np.min(film.n_film(np.array([1.0 / s_hi, 1.0 / s_lo]))))
     cos_min = float(np.min(cos_theta)) if np.size(cos_theta) else 1.0
     return film.n_incident**2 * (1.0 - cos_min**2) <= min(n_b, float(film.n_substrate)) ** 2
-
-
-def _refused(film):  # an error to raise
-    return ValueError(
-        f"method 'quadrature' needs a non-absorbing film without total internal reflection (real interface "
-        f"coefficients); film {film.name!r} is not (k = {film.k!r}, substrate {film.n_substrate!r}; use 'spectral')"
-    )
 
 
 def _direct_columns(cos_theta, thickness_nm, film, out, illuminant, colour_space, series_tol):

@@ -32,12 +32,11 @@ a 0.8 rad cap: 0.0015). Below cos theta 0.01 (thousands of nodes) the points kee
 
 The real-film kernel (:func:`_real_colour`). With admittances ``x, y, z`` of the incident medium, film and
 substrate (s: ``n cos``, p: ``cos / n``; :mod:`rockdove.optics` eq. 4) one polarisation's Airy reflectance is
-exactly ``1 - R = 4 x z y^2 / (y^2 (x + z)^2 + (y^2 - x^2)(y^2 - z^2) sin^2(phi / 2))`` (between equal media
-``4 x^2 y^2 / (4 x^2 y^2 + (y^2 - x^2)^2 sin^2(phi / 2))``): for a film at least as dense as both media a sum
-of non-negative terms, so float32 loses nothing to cancellation (otherwise float64). Float32 rounds the phase
-(up to 280 rad at 5000 nm) to ~3e-5 rad, which resonances amplify (2.1e-3 dE2000 at cos theta 0.001-0.01,
-4000-5000 nm; <= 3.5e-4 from 0.05), so points below :data:`FLOAT32_MIN_COS` and the points on wavelength steps
-run in float64 (equal to :func:`rockdove.optics.reflectance` to 1e-14, 2.7x faster than its general form).
+exactly ``1 - R = 4 x z y^2 / (y^2 (x + z)^2 + (y^2 - x^2)(y^2 - z^2) sin^2(phi / 2))``: for a film at least as
+dense as both media a sum of non-negative terms, so float32 loses nothing to cancellation. Float32 rounds the
+phase (280 rad at 5000 nm) to ~3e-5 rad, which resonances amplify (2.1e-3 dE2000 at cos theta 0.001-0.01; <=
+3.5e-4 from 0.05), so points below :data:`FLOAT32_MIN_COS` and on wavelength steps run in float64 (equal to
+:func:`rockdove.optics.reflectance` to 1e-14, 2.7x faster).
 """
 
 from __future__ import annotations
@@ -48,8 +47,7 @@ from ..spectral import WAVELENGTH_RANGE_NM
 from .weights import (INTERPOLANT_ORDER, REFERENCE_STEP_NM, check_illuminant, colour_weights, interpolant_weights,
                       product_weights, reference_wavelengths, sigma_range, wavenumber_nodes)
 
-#: Wavelength step per cos theta band: ``(cos_theta_lo, step_nm)``; a point uses the step of the last band whose
-#: lower bound it reaches (module docstring: each band within 2e-4 dE2000 of the converged integral).
+#: Wavelength step per cos theta band ``(cos_theta_lo, step_nm)``: each within 2e-4 dE2000 (module docstring).
 REFERENCE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, REFERENCE_STEP_NM))
 #: Points x wavelengths per chunk of the spectral evaluation (bounds memory near 1.7 M complex samples).
 _CHUNK_SAMPLES = 4096 * 421
@@ -79,11 +77,9 @@ NODE_LADDER = tuple(sorted({int(round(16 * 1.09**k)) for k in range(80)}))
 
 
 def interval_count(cos_theta, thickness_nm, film, kappa, max_step_rad) -> np.ndarray:
-    """Intervals of the wavenumber grid per point (module docstring): the largest phase step of one interval (at
-    the short end of the spectrum, where normal dispersion makes the phase steepest) at most
-    ``min(kappa * delta, max_step_rad)``, ``delta = -ln max|r_ab r_bc|`` the half-width of the strip of analyticity
-    of the Airy reflectance in the phase (the s coefficients, the larger in modulus, at both ends of the spectrum),
-    rounded up to :data:`NODE_LADDER`. Real films only (:func:`real_film`)."""
+    """Intervals of the wavenumber grid per point (real films; module docstring): one interval's phase step at the
+    steep (blue) end at most ``min(kappa * delta, max_step_rad)``, ``delta = -ln max|r_ab r_bc|`` (the larger, s,
+    coefficients at both ends of the spectrum), rounded up to :data:`NODE_LADDER`."""
     c = np.asarray(cos_theta, np.float64)
     d = np.asarray(thickness_nm, np.float64)
     s_lo, s_hi = sigma_range()
@@ -246,11 +242,11 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
             out[rows] = _real_colour(wl, w, c[rows], d[rows], film, np.float64)
         rows = rest[sel & ~kernel]
         if rows.size:
-            out[rows] = _sampled_colour(wl, w, c[rows], d[rows], film)
+            out[rows] = sampled_colour(wl, w, c[rows], d[rows], film)
     return out.reshape(shape + (3,))
 
 
-def _sampled_colour(wl, w, c, d, film) -> np.ndarray:
+def sampled_colour(wl, w, c, d, film) -> np.ndarray:
     """``R @ w`` with ``R`` from :func:`rockdove.optics.reflectance` at the wavelengths ``wl`` (any film), chunked."""
     from .. import optics
 

@@ -60,7 +60,6 @@ class ThinFilmLUT:
         object.__setattr__(self, "angle_warp_gamma", float(self.angle_warp_gamma))
         object.__setattr__(self, "metadata", dict(self.metadata))
 
-    # -- axes -------------------------------------------------------------------------------------
     @property
     def n_angle(self) -> int:
         return self.rgb.shape[1]
@@ -81,13 +80,9 @@ class ThinFilmLUT:
         lo, hi = self.thickness_range_nm
         return np.linspace(lo, hi, self.n_thickness) if self.n_thickness > 1 else np.array([lo])
 
-    # -- lookup -----------------------------------------------------------------------------------
     def node_coords(self, cos_theta, thickness_nm):
-        """Fractional node coordinates in [0, 1] along each axis (clamped), before the texel-centre offset.
-
-        Returns ``(x, y)``: ``x = clamp(cos_theta, 0, 1) ** (1 / gamma)``, ``y = clamp((d - lo) / (hi - lo))``
-        (0 for a one-texel-high table).
-        """
+        """Node coordinates ``(x, y)`` in [0, 1] before the texel-centre offset: ``x = clamp(cos_theta, 0, 1) ** (1 /
+        gamma)``, ``y = clamp((d - lo) / (hi - lo))`` (0 for a one-texel-high table)."""
         c = np.clip(np.asarray(cos_theta, dtype=np.float64), 0.0, 1.0)
         x = c ** (1.0 / self.angle_warp_gamma)
         d = np.asarray(thickness_nm, dtype=np.float64)

@@ -1,18 +1,12 @@
 """Colour weights of the 0.1 nm reference grid, and product-integration weights built on them.
 
-``colour_weights(wl)`` are :func:`rockdove.spectral.spectral_weights` (CIE 1931 2 deg, the illuminant, trapezoid
-weights, a perfect reflector at Y = 1, then the working space's matrix): ``R @ W`` is the linear colour of a
-spectrum ``R`` sampled on ``wl``. The other rules here sample the spectrum more coarsely and integrate its
-interpolant against the 0.1 nm grid's weights: product integration (Davis and Rabinowitz, Methods of Numerical
-Integration, 2nd ed., sec. 2.5), so the tabulated observer and illuminant are never undersampled, only the
-spectrum, and a spectrum the interpolant reproduces integrates to exactly the 0.1 nm reference:
-
-- :func:`product_weights`: piecewise cubic (4-point Lagrange) on a coarser uniform wavelength grid
-  (:func:`rockdove.lut.reference.reference_colour`'s coarse steps);
-- :func:`interpolant_weights`: piecewise ``order``-point Lagrange on a uniform wavenumber grid whose stencils
-  run past both ends of the spectrum (its ``interpolation``);
-- :func:`chebyshev_weights`: the global interpolant on mapped Chebyshev points in wavenumber (the
-  ``"quadrature"`` baker, :mod:`.quadrature`).
+``colour_weights(wl)`` are :func:`rockdove.spectral.spectral_weights`: ``R @ W`` is the linear colour of a spectrum
+``R`` sampled on ``wl``. The other rules sample the spectrum more coarsely and integrate its interpolant against
+the 0.1 nm grid's weights (product integration: Davis and Rabinowitz, Methods of Numerical Integration, 2nd ed.,
+sec. 2.5), so the tabulated observer and illuminant are never undersampled and a spectrum the interpolant
+reproduces integrates to exactly the 0.1 nm reference: :func:`product_weights` (4-point Lagrange on a coarser
+wavelength grid), :func:`interpolant_weights` (``order``-point Lagrange on a wavenumber grid, the stencils running
+past both ends) and :func:`chebyshev_weights` (mapped Chebyshev points in wavenumber, :mod:`.quadrature`).
 """
 
 from __future__ import annotations

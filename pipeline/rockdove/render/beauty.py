@@ -1,31 +1,23 @@
 """The beauty render: the picture the verification report opens with, the bird as a look-dev artist shows it.
 
-Not a measurement (the verification views are, :mod:`rockdove.render.views`): the written asset standing on a
-neutral grey ground under a sky of moderate strength and a warm key sun at :data:`SUN_ELEVATION_DEG` with soft
-shadows, from a 3/4 view and a side view (:func:`beauty_views`), framed on every mesh under the default prim
-(new parts included) with headroom.
-
-Two renderers (:data:`RENDERERS`):
-
-- ``cycles``: Blender's Cycles through the rockdove add-on, as a Blender user imports the asset
-  (:mod:`rockdove.hosts.blender_beauty_job`): soft sun shadows, sky light and bounce, OpenImageDenoise, AgX;
-- ``gl``: the GLSL path (:mod:`rockdove.render.beauty_gl`): the verification shaders under the sun and a few
-  sky lights, the sun's shadow from a shadow map, a filmic curve;
-
-``auto`` takes Cycles when the Blender host is available and named (``--hosts blender``), else GL, and says which and why in
-the caption (:func:`render_beauty`). ``off`` renders nothing. Sizes and samples are ``[beauty]`` config keys
-(schemas/config.schema.json).
+Not a measurement (the verification views are, :mod:`rockdove.render.views`): the written asset on a neutral grey
+ground under a moderate sky and a warm key sun at :data:`SUN_ELEVATION_DEG` with soft shadows, from a 3/4 and a
+side view (:func:`beauty_views`) framed with headroom on every mesh under the default prim. Renderers
+(:data:`RENDERERS`; :func:`rockdove.hosts.beauty.render_beauty` runs them): ``cycles``, Blender's Cycles through the
+rockdove add-on as a Blender user imports the asset (:mod:`rockdove.hosts.blender_beauty_job`: sun shadows, sky
+light and bounce, OpenImageDenoise, AgX); ``gl``, the verification shaders under the sun and a few sky lights with a
+shadow map and a filmic curve (:mod:`rockdove.render.beauty_gl`); ``auto``, Cycles when the Blender host is available
+and named (``--hosts blender``), else GL, the caption saying which and why; ``off``. Sizes and samples are
+``[beauty]`` config keys (schemas/config.schema.json).
 """
 
 from __future__ import annotations
 
 import math
-import os
-import time
 
 import numpy as np
 
-from .views import View, look_at
+from .views import View, direction, look_at
 
 RENDERERS = ("auto", "cycles", "gl", "off")
 #: (name, azimuth, elevation) of the two cameras, degrees; azimuth 0 is in front of the beak, positive toward the
@@ -61,25 +53,19 @@ LOOK = "AgX - Medium High Contrast"
 EXPOSURE = 0.0
 
 
-def _direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
-    a, e = math.radians(azimuth_deg), math.radians(elevation_deg)
-    return np.array([math.sin(a) * math.cos(e), math.sin(e), math.cos(a) * math.cos(e)])
-
-
 def _points(scene, limit: int = 40000) -> np.ndarray:
     """World positions of every part (a strided subset of at most ``limit``), metres."""
     pts = np.concatenate([p.positions_m for p in scene.parts]).astype(np.float64)
     return pts[:: max(1, len(pts) // limit)]
 
 
-def frame(points, azimuth_deg: float, elevation_deg: float, width: int, height: int,
-          yfov_deg: float = YFOV_DEG, fill: float = FILL, lower: float = LOWER) -> np.ndarray:
+def frame(points, azimuth_deg: float, elevation_deg: float, width: int, height: int) -> np.ndarray:
     """Camera-to-world (OpenGL) of a camera at ``azimuth_deg``/``elevation_deg`` that frames every point: its
-    projection spans at most ``fill`` of the frame's height and width, centred across and ``lower`` of the
-    height below the middle."""
+    projection spans at most :data:`FILL` of the frame's height and width, centred across and :data:`LOWER` of
+    the height below the middle."""
     pts = np.asarray(points, np.float64)
-    d = _direction(azimuth_deg, elevation_deg)
-    ty = math.tan(math.radians(yfov_deg) / 2)
+    d = direction(azimuth_deg, elevation_deg)
+    ty = math.tan(math.radians(YFOV_DEG) / 2)
     tx = ty * width / height
     target = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
     for _ in range(3):  # distance to fit, then re-centre the projection; converges in two or three rounds
@@ -87,10 +73,10 @@ def frame(points, azimuth_deg: float, elevation_deg: float, width: int, height: 
         right, up = c2w[:3, 0], c2w[:3, 1]
         q = pts - target
         x, y, z = q @ right, q @ up, q @ d
-        dist = float(np.max(z + np.maximum(np.abs(x) / (fill * tx), np.abs(y) / (fill * ty))))
+        dist = float(np.max(z + np.maximum(np.abs(x) / (FILL * tx), np.abs(y) / (FILL * ty))))
         depth = dist - z
         sx, sy = x / depth, y / depth
-        cx, cy = 0.5 * (sx.max() + sx.min()), 0.5 * (sy.max() + sy.min()) + 2 * lower * ty
+        cx, cy = 0.5 * (sx.max() + sx.min()), 0.5 * (sy.max() + sy.min()) + 2 * LOWER * ty
         target = target + dist * (cx * right + cy * up)
     return look_at(target + dist * d, target)
 
@@ -100,7 +86,7 @@ def beauty_views(scene, width: int, height: int) -> list[View]:
     (``light_direction``, toward the sun; ``light_rgb`` = :data:`SUN_RGB` x :data:`SUN_STRENGTH`)."""
     pts = _points(scene)
     return [View(name, frame(pts, az, el, width, height), math.radians(YFOV_DEG), width, height,
-                 _direction(az + SUN_AZIMUTH_FROM_CAMERA_DEG, SUN_ELEVATION_DEG),
+                 direction(az + SUN_AZIMUTH_FROM_CAMERA_DEG, SUN_ELEVATION_DEG),
                  np.asarray(SUN_RGB) * SUN_STRENGTH) for name, az, el in VIEWS]
 
 

@@ -1,19 +1,16 @@
-"""The beauty render's GL path (:mod:`rockdove.render.beauty`): the best the verification's own GLSL renderer
-(:class:`rockdove.render.gl.GLRenderer`, pyrender on EGL) can do where Blender is not installed.
-
-The shaders are the verification's (Lambert parts, the film from the LUT at the light's half-angle, alpha
-cut-out cards); the look is built around them, in linear light, since their radiance is linear in each light:
+"""The beauty render's GL path (:mod:`rockdove.render.beauty`) where Blender is not installed: the verification's
+shaders (:class:`rockdove.render.gl.GLRenderer`), whose radiance is linear in each light, with the look built around
+them in linear light:
 
 - the ground (:func:`rockdove.render.beauty.cyclorama`) is one more Lambert part of neutral grey;
 - the key: one render under the sun (``light_rgb`` = its irradiance / pi, as Cycles' sun of that strength lights a
-  Lambert surface), times its visibility from a shadow map: the scene drawn from the sun (a far camera with a
-  narrow field, nearly orthographic), each picture pixel's world position projected into it and compared, and
-  averaged over a disc of taps whose radius grows with the distance to the occluder by the sun's angular
+  Lambert surface), times its visibility from a shadow map (the scene drawn from a far, nearly orthographic sun
+  camera), averaged over a disc of taps whose radius grows with the distance to the occluder by the sun's angular
   radius (percentage-closer soft shadows, R. Fernando, "Percentage-Closer Soft Shadows", SIGGRAPH 2005 sketch);
-- the sky: :data:`SKY_LIGHTS` directional lights spread over the upper hemisphere and the zenith, without
-  shadows, weighted so a horizontal surface receives the sky's irradiance pi x strength x colour;
-- the key is rendered at :data:`SUPERSAMPLE` x the size and box-filtered in linear light (the sky's smooth light
-  and the sun's visibility at the picture's size), exposed and put through a filmic curve (K. Narkowicz, "ACES Filmic Tone Mapping Curve", 2016) and the sRGB OETF.
+- the sky: :data:`SKY_LIGHTS` directional lights over the upper hemisphere and the zenith, without shadows,
+  weighted so a horizontal surface receives the sky's irradiance pi x strength x colour;
+- the key rendered at :data:`SUPERSAMPLE` x the size and box-filtered, exposed, put through a filmic curve
+  (K. Narkowicz, "ACES Filmic Tone Mapping Curve", 2016) and the sRGB OETF.
 """
 
 from __future__ import annotations
@@ -24,7 +21,7 @@ import math
 import numpy as np
 
 from . import beauty as B
-from .views import View, look_at
+from .views import View, direction, look_at
 
 #: Samples of each picture pixel per axis (anti-aliasing of the edges: the shaders sample pixel centres).
 SUPERSAMPLE = 2
@@ -53,7 +50,7 @@ def _ground_part(scene, views):
 def _sky_lights() -> list[tuple[np.ndarray, np.ndarray]]:
     """(direction, weight x colour) of the sky's lights: a Lambert surface lit by them shows albedo x the sky's
     radiance (strength x colour) when horizontal (sum of weight x sin(elevation) = 1), as under Cycles' world."""
-    dirs = [B._direction(60.0 + 360.0 * k / SKY_LIGHTS, 35.0) for k in range(SKY_LIGHTS)] + [np.array([0.0, 1.0, 0.0])]
+    dirs = [direction(60.0 + 360.0 * k / SKY_LIGHTS, 35.0) for k in range(SKY_LIGHTS)] + [np.array([0.0, 1.0, 0.0])]
     horizon, zenith = np.asarray(B.SKY_HORIZON_RGB), np.asarray(B.SKY_ZENITH_RGB)
     rgb = [0.5 * (horizon + zenith)] * SKY_LIGHTS + [zenith]
     total = sum(d[1] for d in dirs)
@@ -150,7 +147,8 @@ def render_gl(scene, views, ground_y_m: float, lut=None) -> dict:
             sun = _sun_camera(scene, v.light_direction)
             shot = r.render(sun)
             depth_map = np.where(shot.part_id == len(staged.parts), 0.0, shot.depth_m)  # the bird's, not the ground's
-            texel = 2 * math.tan(sun.yfov_rad / 2) * float(np.linalg.norm(sun.eye_m - scene.bounds_m.mean(0))) / SHADOW_PX
+            texel = 2 * math.tan(sun.yfov_rad / 2) * float(np.linalg.norm(sun.eye_m - scene.bounds_m.mean(0)))
+            texel /= SHADOW_PX
             # the sun's visibility at one sample of each picture pixel (its penumbrae are wider than a pixel)
             depth = key.depth_m[s // 2::s, s // 2::s]
             drawn = depth > 0

@@ -223,20 +223,14 @@ def load_scene(path, variants: dict | None = None) -> RenderScene:
     xcache = UsdGeom.XformCache(Usd.TimeCode.Default())
     parts, film = [], None
     for prim in Usd.PrimRange(root, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)):
-        if not prim.IsA(UsdGeom.Mesh):
-            continue
         img = UsdGeom.Imageable(prim)
-        if img.ComputeVisibility() == UsdGeom.Tokens.invisible:
-            continue
-        if img.ComputePurpose() not in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render):
+        if (not prim.IsA(UsdGeom.Mesh) or img.ComputeVisibility() == UsdGeom.Tokens.invisible
+                or img.ComputePurpose() not in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)):
             continue
         res = _read_mesh(prim, xcache, mpu, stage)
-        if res is None:
-            continue
-        part, pf = res
-        parts.append(part)
-        if pf is not None and film is None:
-            film = pf
+        if res is not None:
+            parts.append(res[0])
+            film = res[1] if film is None else film  # the first feather mesh's
     if not parts:
         raise ValueError(f"path={os.fspath(path)!r}: no visible mesh under {root.GetPath()}")
     return RenderScene(root_layer=layer_path, parts=tuple(parts), film=film, variants=active)

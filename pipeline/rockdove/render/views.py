@@ -123,6 +123,13 @@ def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
     return m
 
 
+def direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
+    """Unit world direction at ``azimuth_deg`` (0 = +Z, in front of the beak; positive toward +X) and
+    ``elevation_deg`` above the horizontal."""
+    a, e = math.radians(azimuth_deg), math.radians(elevation_deg)
+    return np.array([math.sin(a) * math.cos(e), math.sin(e), math.cos(a) * math.cos(e)])
+
+
 def _rotate(v, axis, angle_rad):
     """Rodrigues rotation of ``v`` about unit ``axis`` by ``angle_rad``."""
     v = np.asarray(v, dtype=np.float64)
@@ -156,13 +163,10 @@ def turntable_views(scene_bounds, n: int, width: int, height: int, start_azimuth
     radius = max(0.5 * float(np.linalg.norm(b[1] - b[0])), 1e-6)
     yfov = math.radians(TURNTABLE_YFOV_DEG)
     dist = _fit_distance(radius, yfov, width / height)
-    el = math.radians(TURNTABLE_ELEVATION_DEG)
     views = []
     for k in range(n):
         az_deg = (start_azimuth_deg + 360.0 * k / n) % 360.0
-        az = math.radians(az_deg)
-        eye = centre + dist * np.array([math.sin(az) * math.cos(el), math.sin(el), math.cos(az) * math.cos(el)])
-        c2w = look_at(eye, centre)
+        c2w = look_at(centre + dist * direction(az_deg, TURNTABLE_ELEVATION_DEG), centre)
         light = c2w[:3, :3] @ np.asarray(TURNTABLE_LIGHT_CAMERA, dtype=np.float64)
         views.append(View(f"turntable_{int(round(az_deg)) % 360:03d}", c2w, yfov, width, height, light, D65_WHITE_RGB))
     return views

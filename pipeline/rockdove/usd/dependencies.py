@@ -1,24 +1,17 @@
 """The files an asset refers to, found without composing it: layers that do not parse, and asset paths that
 point outside the asset.
 
-``rockdove validate`` and ``rockdove verify`` run on assets other people edited, in CI. An asset must be
-relocatable, so every asset path it authors (sublayers, references, payloads, asset-valued attributes such as
-texture files) must be relative and stay inside the asset: inside the root layer's folder, or inside the
-package for a ``.usdz``. :func:`scan_dependencies` walks the layer graph statically with ``Sdf`` (no stage is
-composed, no texture is read) and reports
-
-- ``assetPath`` issues: absolute paths (``/etc/passwd``, ``C:/x``, ``https://...``), paths that leave the
-  asset's folder (``../../x.png``) and paths inside it that are symlinks to files elsewhere (resolved with
-  ``realpath``, which opens nothing), of sublayers, references, payloads, value clips (``clips`` metadata:
-  ``assetPaths``, ``manifestAssetPath``, ``templateAssetPath``) and asset-valued attributes; asset-path
-  expressions (`` @`"..."`@ ``) are evaluated with the root layer's ``expressionVariables`` and judged by
-  their value. The files such a path names are not opened, and :attr:`Dependencies.external` lists the
-  authored paths so callers never read them, unless ``allow_external`` (then they are warnings);
-- ``layer`` issues: a layer (or clip layer) that does not parse, with its file, line and USD's message, a
-  composed layer that does not exist, or a usdz of more than :data:`MAX_PACKAGE_FILES` files;
-- ``clip`` issues: a ``clips`` value that is not what USD's value clips take.
-
-:func:`require_inside` is the one gate of the commands that read an asset (``validate`` applies it per check).
+An asset must be relocatable: every asset path it authors (sublayers, references, payloads, value clips'
+``assetPaths``, ``manifestAssetPath`` and ``templateAssetPath``, asset-valued attributes) must be relative and
+stay inside the root layer's folder, or inside the package for a ``.usdz``. :func:`scan_dependencies` walks the
+layer graph with ``Sdf`` (no stage composed, no texture read) and reports ``assetPath`` issues (absolute paths,
+paths that leave the asset, symlinks inside it to files elsewhere, resolved with ``realpath``, which opens
+nothing; an asset-path expression judged by its value under the root layer's ``expressionVariables``), ``layer``
+issues (a layer that does not parse, with its file and line; one that does not exist; a usdz of more than
+:data:`MAX_PACKAGE_FILES` files) and ``clip`` issues (a ``clips`` value USD's value clips do not take). The
+paths outside are listed in :attr:`Dependencies.external` so that callers never read them, unless
+``allow_external`` (then they are warnings). :func:`require_inside` is the one gate of the commands that read an
+asset.
 """
 
 from __future__ import annotations
@@ -38,16 +31,8 @@ _SCHEME = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]*:")
 
 @dataclass
 class Dependencies:
-    """What :func:`scan_dependencies` found.
-
-    Attributes
-    ----------
-    issues : list of rockdove.usd.issues.Issue
-    layers : list of str
-        Identifiers of the layers that were opened (the root first).
-    external : set of str
-        Authored asset paths that are absolute or leave the asset (never read unless allowed).
-    """
+    """What :func:`scan_dependencies` found: ``issues``, the ``layers`` opened (root first), the ``external``
+    authored paths (absolute or leaving the asset: never read unless allowed)."""
 
     issues: list = field(default_factory=list)
     layers: list = field(default_factory=list)
@@ -59,10 +44,7 @@ class Dependencies:
 
 
 def _outside(anchored: str, root_dir: str, root_package: str | None) -> str | None:
-    """Why an anchored asset path is outside the asset (folder, or package for a usdz root), else None.
-
-    Symlinks are resolved (``realpath``, which opens nothing): a link inside the folder to a file elsewhere is
-    outside."""
+    """Why an anchored asset path is outside the asset (folder, or package for a usdz root), else None."""
     from pxr import Ar
 
     where = "package" if root_package else "folder"
@@ -187,19 +169,8 @@ def _open_layer(identifier: str, issues: list):
 
 
 def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependencies:
-    """Walk ``root_layer`` and the layers it composes (sublayers, references, payloads) without composing.
-
-    Parameters
-    ----------
-    root_layer : str
-        Path of the asset's root layer (``.usda``/``.usdc``/``.usd``) or its ``.usdz``.
-    allow_external : bool
-        Also open layers outside the asset and report such paths as warnings instead of errors.
-
-    Returns
-    -------
-    Dependencies
-    """
+    """Walk ``root_layer`` (a layer or ``.usdz``) and the layers it composes without composing them;
+    ``allow_external`` also opens layers outside the asset and makes such paths warnings."""
     from pxr import Ar, Sdf
 
     root = os.path.abspath(os.fspath(root_layer))
@@ -271,16 +242,9 @@ def blocking(deps: Dependencies) -> list:
 
 
 def require_inside(asset, allow_external: bool = False) -> str:
-    """The root layer of ``asset`` (folder or layer) once :func:`scan_dependencies` found nothing wrong: for the
-    commands that read an asset (``verify``, ``render``, ``gltf``) before they open anything.
-
-    Raises
-    ------
-    UsageError
-        ``asset`` is not an asset (exit 2).
-    VerificationFailed
-        Naming the first broken layers or paths outside the asset, and how many (exit 1).
-    """
+    """The root layer of ``asset`` (folder or layer) once :func:`scan_dependencies` found nothing wrong, for the
+    commands that read an asset before they open anything: :class:`UsageError` when it is not an asset,
+    :class:`VerificationFailed` naming the first broken layers or paths outside it."""
     from ..errors import UsageError, VerificationFailed
     from .layout import resolve_root_layer
 
@@ -296,7 +260,3 @@ def require_inside(asset, allow_external: bool = False) -> str:
         raise VerificationFailed("; ".join(f"{i.path}: {i.message}" for i in errors[:5]) + more + hint)
     return root
 
-
-def external_paths(root_layer: str, allow_external: bool = False) -> set:
-    """The authored asset paths of ``root_layer``'s asset that must not be read (empty when allowed)."""
-    return set() if allow_external else scan_dependencies(root_layer).external

@@ -1,8 +1,6 @@
-"""One problem found in an asset (:class:`Issue`), the unit every check of :mod:`.validate`,
-:mod:`.dependencies` and :mod:`.nvidia` reports in. Its own module so that those checkers depend on it and
-not on the validator that calls them (``rockdove.usd.validate`` re-exports it), and :class:`Report`, what
-:func:`rockdove.usd.validate.validate_asset` returns.
-"""
+"""One problem found in an asset (:class:`Issue`), the unit every checker reports in, and :class:`Report`,
+what :func:`rockdove.usd.validate.validate_asset` returns: their own module so that the checkers depend on it,
+not on the validator that calls them."""
 
 from __future__ import annotations
 
@@ -11,22 +9,10 @@ from dataclasses import dataclass, field
 
 @dataclass(frozen=True)
 class Issue:
-    """One problem found in an asset.
-
-    Attributes
-    ----------
-    check : str
-        ``usdValidation:<validator>:<error name>``, ``mtlx``, ``texture``, ``primvar``, ``thinFilm``,
-        ``material`` or ``open``.
-    path : str
-        Prim or property path (or file) the problem is about.
-    message : str
-        What is wrong: the value found and what was expected.
-    severity : str
-        ``error`` or ``warning``; only errors make a report unclean.
-    variants : tuple of str
-        Variant selections (``shading=baked``...) in which it was found; empty when not variant-specific.
-    """
+    """One problem found in an asset: the ``check`` (``usdValidation:<validator>:<error>``, ``mtlx``,
+    ``texture``, ``primvar``, ``thinFilm``, ``material``, ``open``, ``assetPath``, ``layer``, ``nvidia:<rule>``...),
+    the prim or property ``path`` (or file), the ``message`` (the value found and what was expected), the
+    ``severity`` (only errors make a report unclean) and the ``variants`` it was found in (empty: all)."""
 
     check: str
     path: str

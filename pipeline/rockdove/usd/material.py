@@ -1,29 +1,20 @@
 """Material networks of the asset: the universal UsdPreviewSurface networks and the MaterialX thin-film network.
 
-Every feather material carries two surface outputs (docs/design.md, "USD asset"; issue 4):
+A feather material carries two surface outputs (docs/design.md, "USD asset"):
 
-- ``outputs:surface``: UsdPreviewSurface, works in every Hydra delegate. ``diffuseColor`` and ``opacity`` come
-  from ``feather_preview.png``, an atlas of the feather with the structural colour of each thickness at one
-  representative angle, read through the mesh's ``previewST`` primvar (each card the tile of its own
-  thickness, see :mod:`rockdove.usd.textures_io`), ``opacityThreshold = 0.5``.
-- ``outputs:mtlx:surface``: the MaterialX network of ``materials/thinfilm.mtlx``, copied node for node into
-  UsdShade shaders whose ``info:id`` is the MaterialX nodedef name (``ND_*``). The document is data: this
-  module reads it, never spells nodes in Python; only the build parameters (LUT size, warp, thickness range,
-  film index, texture paths) are set on the copied shaders. The ``shading`` variant set of the interface layer
-  (:mod:`rockdove.usd.stage`) reconnects ``outputs:mtlx:surface`` between ``MtlxBakedSurface`` (the LUT
-  method, the default) and ``MtlxPhysicalSurface`` (OpenPBR's own thin film). An asset built with only one
-  of them (configuration ``shading.variant = "baked"`` or ``"physical"``) carries only the nodes upstream of
-  that surface: a physical-only asset (no LUT) has no LUT constants, no ``LutTexture`` and no baked surface.
+- ``outputs:surface``: UsdPreviewSurface, for every Hydra delegate: the ``feather_preview.png`` atlas (each
+  card the tile of its own thickness at one angle, :mod:`rockdove.usd.textures_io`) through ``previewST``,
+  ``opacityThreshold = 0.5``.
+- ``outputs:mtlx:surface``: ``materials/thinfilm.mtlx`` copied node for node into UsdShade shaders (``info:id``
+  = the nodedef, ``ND_*``). The document is data, never spelt here; the build sets only its parameters (the
+  LUT transform and warp, film indices, texture paths). The ``shading`` variant (:mod:`rockdove.usd.stage`)
+  connects ``MtlxBakedSurface`` (the LUT method) or ``MtlxPhysicalSurface`` (OpenPBR's thin film); an asset
+  built with one variant carries only the nodes upstream of its surface.
 
-Units of the physical variant (method.md, "Conventions of neighbouring standards"): OpenPBR's
-``thin_film_thickness`` is in micrometres, so the network feeds ``thickness_nm * 0.001`` (node
-``ThicknessUm``); Autodesk standard_surface's ``thin_film_thickness`` is in nanometres and would take the
-primvar unchanged. ``thin_film_ior`` is the film's Cauchy index at :data:`rockdove.usd.stage.FILM_IOR_WAVELENGTH_NM`
-(550 nm): OpenPBR's film has one real index, so dispersion is dropped in that variant. The film lies on the
-base's ``specular_ior``, set to the recorded substrate index (``SubstrateIor``; 1.0 for the asset's film in air).
-
-Body and the other parts get plain UsdPreviewSurface materials: the body from ``body_base.png``, the others a
-constant colour (their ``display_color``).
+Physical variant (method.md, "Conventions of neighbouring standards"): OpenPBR's ``thin_film_thickness`` is in
+micrometres (node ``ThicknessUm`` = nm * 0.001); ``thin_film_ior`` is the film's index at
+:data:`rockdove.usd.stage.FILM_IOR_WAVELENGTH_NM` (one real index: no dispersion); the film lies on
+``specular_ior`` = the recorded substrate index (``SubstrateIor``, 1.0 in air).
 """
 
 from __future__ import annotations
@@ -84,12 +75,7 @@ def load_mtlx_libraries():
 
 
 def load_thinfilm_document(path: str | os.PathLike | None = None):
-    """Read ``materials/thinfilm.mtlx`` with the standard libraries attached as its data library.
-
-    Returns
-    -------
-    MaterialX.Document
-    """
+    """``materials/thinfilm.mtlx`` (or ``path``) as a MaterialX document, the standard libraries its data library."""
     import MaterialX as mx
 
     path = os.fspath(resources.path("materials/thinfilm.mtlx") if path is None else path)
@@ -106,7 +92,8 @@ def _usd_value(mx_input, type_name: str):
 
     value = mx_input.getValue()
     if type_name == "filename":
-        return Sdf.AssetPath(_asset(str(value)))
+        path = str(value)
+        return Sdf.AssetPath(path if path.startswith(("./", "../", "/")) else f"./{path}")
     if type_name in ("color3", "vector3"):
         return Gf.Vec3f(*value.asTuple())
     if type_name in ("color4", "vector4"):
@@ -116,10 +103,6 @@ def _usd_value(mx_input, type_name: str):
     if type_name == "matrix33":
         return Gf.Matrix3d(*(value[i, j] for i in range(3) for j in range(3)))
     return value
-
-
-def _asset(path: str) -> str:
-    return path if path.startswith(("./", "../", "/")) else f"./{path}"
 
 
 def mtlx_nodes(doc) -> list:
@@ -144,22 +127,8 @@ def upstream_nodes(doc, roots) -> set:
 
 
 def copy_mtlx_network(doc, material, roots=None) -> dict:
-    """Copy the nodes of a MaterialX document into ``material`` as UsdShade shaders (``info:id = ND_*``).
-
-    Parameters
-    ----------
-    doc : MaterialX.Document
-        With its data library set (:func:`load_thinfilm_document`).
-    material : UsdShade.Material
-        Shaders are defined as its children, named as the MaterialX nodes.
-    roots : iterable of str, optional
-        Copy only these nodes and what they depend on (:func:`upstream_nodes`); default every node.
-
-    Returns
-    -------
-    dict[str, UsdShade.Shader]
-        Node name -> shader.
-    """
+    """Copy the nodes of ``doc`` (its data library set) into ``material`` as UsdShade shaders named as the nodes
+    (``info:id = ND_*``): all, or only ``roots`` and what they depend on. Returns node name -> shader."""
     from pxr import Sdf, UsdShade
 
     stage = material.GetPrim().GetStage()
@@ -192,14 +161,9 @@ def copy_mtlx_network(doc, material, roots=None) -> dict:
 
 
 def lut_info(lut) -> dict:
-    """The values of a ThinFilmLUT that the material and the schema need (plain data, cacheable).
-
-    Returns
-    -------
-    dict
-        ``n_angle``, ``n_thickness`` (int), ``angle_warp_gamma`` (float), ``thickness_range_nm`` ((lo, hi)
-        nm), ``colour_space`` (str), ``illuminant``, ``observer`` (str, from the LUT metadata when present).
-    """
+    """The values of a ThinFilmLUT the material and the schema need, as plain (cacheable) data: ``n_angle``,
+    ``n_thickness``, ``angle_warp_gamma``, ``thickness_range_nm`` (lo, hi), ``colour_space``, ``illuminant``,
+    ``observer`` (the last two from the LUT metadata when present)."""
     md = dict(lut.metadata)
     return {
         "n_angle": int(lut.n_angle),
@@ -259,33 +223,15 @@ def _st_reader(stage, path, varname: str = "st"):
 
 def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, textures: dict | None = None,
                             variants=("baked", "physical"), substrate_ior: float = 1.0):
-    """Define the feather material: universal preview network plus the MaterialX thin-film network.
+    """Define the feather material at ``path``: the universal preview network (``outputs:surface``) and the
+    MaterialX thin-film network (``outputs:mtlx:surface`` -> ``MtlxBakedSurface`` when ``"baked"`` is in
+    ``variants``, else ``MtlxPhysicalSurface``); returns the UsdShade.Material.
 
-    Parameters
-    ----------
-    stage : Usd.Stage
-    path : str or Sdf.Path
-        Material prim path, e.g. ``/Pigeon/Looks/FeatherMaterial``.
-    lut : dict or None
-        :func:`lut_info` of the baked LUT; None for a physical-only material (no LUT network).
-    film_ior : float
-        Film index handed to the physical variant's ``thin_film_ior`` (the build uses n at 550 nm, relative
-        to the incident medium).
-    substrate_ior : float
-        Index of the medium under the film (relative to the incident medium), the physical variant's
-        ``specular_ior``: OpenPBR puts the film on the base's dielectric interface. 1.0 for the asset's film
-        in air.
-    textures : dict, optional
-        Texture role -> asset path; default :func:`texture_asset_paths`.
-    variants : sequence of {"baked", "physical"}
-        The shading variants the asset carries: only the MaterialX nodes upstream of their surfaces are
-        copied. ``"baked"`` needs ``lut``.
-
-    Returns
-    -------
-    UsdShade.Material
-        ``outputs:surface`` -> ``PreviewSurface``; ``outputs:mtlx:surface`` -> ``MtlxBakedSurface`` when
-        ``"baked"`` is in ``variants``, else ``MtlxPhysicalSurface``.
+    ``lut`` is :func:`lut_info` of the baked LUT (None: physical only, no LUT network); ``film_ior`` and
+    ``substrate_ior`` (relative to the incident medium; 1.0 for the film in air) are the physical variant's
+    ``thin_film_ior`` and ``specular_ior`` (OpenPBR puts the film on the base's dielectric interface);
+    ``textures`` maps texture roles to asset paths (default :func:`texture_asset_paths`); only the MaterialX
+    nodes upstream of the ``variants``' surfaces are copied.
     """
     from pxr import Gf, Sdf, UsdShade
 
@@ -330,7 +276,9 @@ def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, t
         if name in shaders:
             shaders[name].GetInput("file").Set(Sdf.AssetPath(textures[role]))
     if "LutTexture" in shaders:
-        shaders["LutTexture"].GetInput("file").GetAttr().SetColorSpace(lut_texture_colour_space(lut["colour_space"]))
+        # the space the LUT was baked in (a MaterialX name: lin_rec709, acescg), never "raw", which MaterialX and
+        # Storm do not know ("Unsupported color space transform from raw to lin_rec709")
+        shaders["LutTexture"].GetInput("file").GetAttr().SetColorSpace(str(lut["colour_space"]))
     default = "baked" if "baked" in variants else variants[0]
     material.CreateSurfaceOutput("mtlx").ConnectToSource(shaders[MTLX_SURFACES[default]].GetOutput("out"))
     return material
@@ -353,28 +301,11 @@ def _mx_value_string(value, mx_type: str) -> str:
 
 
 def usd_to_mtlx_document(surface_shader, library=None):
-    """Rebuild a MaterialX document from a UsdShade network of ``ND_*`` shaders, as Hydra does for Storm.
-
-    Hydra's MaterialX path (HdMtlx) turns the network upstream of ``outputs:mtlx:surface`` into a MaterialX
-    document before generating shader code; usd-core ships no MaterialX plugin, so this reproduces that step
-    to check the *authored* network (with the build's values) rather than only ``thinfilm.mtlx``.
-
-    Parameters
-    ----------
-    surface_shader : UsdShade.Shader
-        The ``ND_*`` surface shader (``ComputeSurfaceSource("mtlx")``).
-    library : MaterialX.Document, optional
-        Standard libraries (:func:`load_mtlx_libraries`).
-
-    Returns
-    -------
-    MaterialX.Document
-        Nodes named as the USD shaders, plus a ``surfacematerial`` node named after the USD material.
-
-    Raises
-    ------
-    ValueError
-        A shader's id is not a MaterialX nodedef, or an input is not declared by it.
+    """Rebuild a MaterialX document from the UsdShade network of ``ND_*`` shaders upstream of ``surface_shader``,
+    as Hydra's HdMtlx does before generating Storm's shader (usd-core has no MaterialX plugin), so the *authored*
+    network, with the build's values, is what gets checked. Nodes are named as the shaders, plus a
+    ``surfacematerial`` named after the USD material. ValueError when a shader's id is not a nodedef of
+    ``library`` (default :func:`load_mtlx_libraries`) or an input is not one of its nodedef's.
     """
     import MaterialX as mx
     from pxr import UsdShade
@@ -416,14 +347,6 @@ def usd_to_mtlx_document(surface_shader, library=None):
     material = doc.addNode("surfacematerial", f"{surface_shader.GetPrim().GetParent().GetName()}_mtlx", "material")
     material.addInput("surfaceshader", "surfaceshader").setNodeName(surface.getName())
     return doc
-
-
-def lut_texture_colour_space(colour_space: str) -> str:
-    """Colour-space tag of the LUT texture in the MaterialX network: the space the LUT was baked in (MaterialX
-    names: ``lin_rec709``, ``acescg``), so a colour-managed renderer reads a LUT in the working space unchanged
-    and converts one baked in another space. Never ``"raw"``: MaterialX's default colour management and Storm
-    know no such space (Storm warns "Unsupported color space transform from raw to lin_rec709")."""
-    return str(colour_space)
 
 
 def mtlx_surface_path(material_path, variant: str):

@@ -1,20 +1,14 @@
 """NVIDIA's asset validator (PyPI ``usd-validation-nvidia``) over a written asset, as :class:`Issue` s.
 
-The validator runs USD's ComplianceChecker rules plus NVIDIA's own (unused mesh topology, ASCII layers
-holding large arrays, manifold meshes, indexed primvars...) over every variant of the asset. Its severities
-map to ours: ``ERROR`` (the rule itself broke) and ``FAILURE`` (the asset breaks the rule) are errors,
-``WARNING`` is a warning, ``INFO`` is dropped.
+It runs USD's ComplianceChecker rules plus NVIDIA's own over every variant. ``ERROR`` (the rule broke) and
+``FAILURE`` (the asset breaks it) are errors, ``WARNING`` a warning, ``INFO`` dropped. usd-core ships no MaterialX
+Sdr plugin, so ``UsdShadeShaderSdrCompliance`` fails every ``ND_*`` id ("not found in sdrRegistry"): those
+findings alone are dropped, :func:`rockdove.usd.validate.check_mtlx_shaders` checks the ids against MaterialX.
 
-usd-core ships no MaterialX Sdr plugin, so ``UsdShadeShaderSdrCompliance`` fails every ``ND_*`` shader id
-("not found in sdrRegistry"). Those findings, and only those, are dropped: :func:`rockdove.usd.validate.
-check_mtlx_shaders` checks the same ids, inputs and outputs against MaterialX's own node definitions.
-
-Its mesh-topology rules (:data:`MESH_RULES`) take ~90% of its time (on the default asset ManifoldChecker alone
-takes 4.3 of 5.8 s) and read nothing but the meshes' geometry. Their findings are kept, per validator version,
-under :func:`rockdove.resources.user_cache_dir`, keyed by a digest of the geometry of every composed Mesh prim in
-every variant (:func:`mesh_digest`): revalidating an asset whose meshes did not change (a film change, a
-repeated ``rockdove validate``) reuses them and runs only the other rules. Meshes with time samples are
-never memoised.
+Its mesh-topology rules (:data:`MESH_RULES`) take ~90% of its time (ManifoldChecker alone 4.3 of 5.8 s on the
+default asset) and read only the meshes' geometry: their findings are kept in the user cache by a digest of
+every composed Mesh in every variant (:func:`mesh_digest`), so revalidating an asset whose meshes did not change
+(a film change) runs only the other rules. Meshes with time samples are never memoised.
 """
 
 from __future__ import annotations
@@ -28,8 +22,6 @@ SDR_RULE = "UsdShadeShaderSdrCompliance"
 _MISSING_ND = re.compile(r"shaderId '(ND_[A-Za-z0-9_]+)' .*not found in sdrRegistry")
 
 _SEVERITY = {"ERROR": "error", "FAILURE": "error", "WARNING": "warning"}
-
-
 
 #: NVIDIA's rules that read only the meshes' own attributes (points, topology, normals): memoised by mesh_digest.
 MESH_RULES = ("ManifoldChecker", "ZeroAreaFaceChecker", "WeldChecker", "NormalsWindingsChecker",
@@ -122,15 +114,8 @@ def _mesh_findings(nv, rules: list, root_layer: str) -> list:
 
 
 def run_nvidia_validator(root_layer: str) -> tuple[list, int]:
-    """Validate ``root_layer`` (a file path: layer or usdz) with every default rule, over all variants.
-
-    Returns
-    -------
-    (issues, number of findings dropped as ND_* ids usd-core's Sdr registry cannot know)
-        ``issues``: :class:`rockdove.usd.issues.Issue` with check ``nvidia:<Rule>``; a finding repeated in
-        several variants is listed once. The :data:`MESH_RULES` findings come from the memo when the asset's
-        meshes were validated before (module docstring).
-    """
+    """Every default rule over ``root_layer`` (layer or usdz) in all variants: (issues ``nvidia:<Rule>``, each
+    finding once, and the number of ND_* findings dropped)."""
     import usd_validation_nvidia as nv
 
     from .issues import Issue
@@ -141,11 +126,5 @@ def run_nvidia_validator(root_layer: str) -> tuple[list, int]:
         engine.disable_rule(rule)
     findings, dropped = _findings(engine.validate(root_layer), root_layer)
     findings += _mesh_findings(nv, mesh_rules, root_layer)
-    issues, seen = [], set()
-    for rule, where, message, severity in findings:
-        key = (rule, where, message, severity)
-        if key in seen:
-            continue
-        seen.add(key)
-        issues.append(Issue(f"nvidia:{rule}", where, message, severity))
-    return issues, dropped
+    unique = dict.fromkeys(tuple(f) for f in findings)  # in order, once
+    return [Issue(f"nvidia:{rule}", where, message, severity) for rule, where, message, severity in unique], dropped

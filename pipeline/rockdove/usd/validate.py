@@ -1,36 +1,23 @@
 """Validate a written asset: USD's validation framework plus rockdove's own checks.
 
-:func:`validate_asset` opens the root layer from disk (payloads loaded) and, for every combination of the
-variant sets on the default prim (here ``shading`` = baked / physical), runs:
+:func:`validate_asset` first scans the layers without composing them (:mod:`rockdove.usd.dependencies`), then
+opens the root layer (payloads loaded) and, in every combination of the default prim's variant sets, runs:
 
-1. ``pxr.UsdValidation``: every registered validator over the stage. usd-core ships no MaterialX Sdr plugin,
-   so ``usdShadeValidators:ShaderSdrCompliance`` reports ``MissingShaderIdInRegistry`` for every ``ND_*``
-   shader; that one error, for ``ND_*`` ids only, is replaced by check 2.
-2. MaterialX node definitions: each ``ND_*`` ``info:id`` exists in MaterialX's standard data libraries
-   (stdlib, pbrlib, bxdf, ...), and each authored input and output has a name the nodedef declares and the
-   matching type.
-3. Textures: every asset-valued attribute (shader ``inputs:file``, ``rockdove:lut:file``) resolves and reads
-   (PNG via Pillow, EXR via :func:`rockdove.lut.exr.read_exr`); works inside a usdz too (read through Ar).
-4. Topology: every primvar's (and normals') element count matches its interpolation (vertex = points,
-   faceVarying = face corners, uniform = faces, constant = 1), indices in range.
-5. Thin film: on prims with ``RockDoveThinFilmAPI``, the thickness primvar's range lies inside the LUT's
-   domain ``rockdove:lut:thicknessRangeNm``, which must agree with the range in the LUT EXR header; the
-   bound material's LUT constants (``LutTransform``... of thinfilm.mtlx) must describe that EXR, and the
-   film attributes must match the provenance the baker wrote into the EXR header (film, illuminant...).
-   An asset without a LUT (physical-only shading: no ``rockdove:lut:*`` attributes) is valid: its film
-   attributes must be complete and finite, its thickness primvar present, finite and > 0 nm, and its bound
-   material must not hold the baked LUT network (which would read a LUT the asset does not have).
-6. Materials: ``ComputeSurfaceSource()`` (universal) resolves for every material, and
-   ``ComputeSurfaceSource("mtlx")`` for every material with an ``outputs:mtlx:surface``; that network, turned
-   back into a MaterialX document as Hydra's HdMtlx does, passes MaterialX's ``validate()``.
-7. NVIDIA's asset validator (:mod:`rockdove.usd.nvidia`), once over all variants; its ``ND_*``
-   not-in-sdrRegistry findings are left to check 2.
+1. every registered ``pxr.UsdValidation`` validator; usd-core ships no MaterialX Sdr plugin, so its
+   ``MissingShaderIdInRegistry`` error for ``ND_*`` ids only is left to check 2;
+2. MaterialX node definitions: each ``ND_*`` ``info:id`` exists in MaterialX's standard libraries, with the
+   authored inputs and outputs it declares, of its types;
+3. textures: every asset-valued attribute resolves and reads (PNG via Pillow, EXR via
+   :func:`rockdove.lut.exr.read_exr`), inside a usdz too (through Ar);
+4. topology: each primvar's (and normals') element count matches its interpolation, indices in range;
+5. thin film (:mod:`rockdove.usd.validate_film`): thickness inside the LUT's domain, which agrees with the EXR
+   header, the network's LUT constants and the film's provenance; a LUT-less (physical-only) film complete;
+6. materials: ``ComputeSurfaceSource()`` resolves (and ``("mtlx")`` where authored), and the mtlx network, as
+   Hydra's HdMtlx rebuilds it, passes MaterialX's ``validate()``;
+7. NVIDIA's asset validator (:mod:`rockdove.usd.nvidia`), once over all variants.
 
-Before all of these, :mod:`rockdove.usd.dependencies` scans the layers without composing them (layers that do
-not parse, asset paths outside the asset).
-
-Each problem is an :class:`Issue` naming the check, the prim/attribute path, the value and what was
-expected. Issues found in several variants are reported once, with the variants listed.
+Each problem is an :class:`Issue` naming the check, the path, the value and what was expected; one found in
+several variants is reported once, with the variants.
 """
 
 from __future__ import annotations
@@ -62,7 +49,7 @@ def _validators():
 
 
 def run_usd_validation(stage, validators=None) -> list:
-    """Every registered ``pxr.UsdValidation`` validator over ``stage``, minus ND_* MissingShaderIdInRegistry."""
+    """Check 1 over ``stage``."""
     from pxr import UsdShade, UsdValidation
 
     context = UsdValidation.ValidationContext(validators or _validators())
@@ -86,12 +73,7 @@ def run_usd_validation(stage, validators=None) -> list:
 
 # -- 2. MaterialX node definitions --------------------------------------------------------------------------
 def check_mtlx_shaders(stage, library=None) -> tuple[list, int]:
-    """Check every ``ND_*`` shader's id, input names/types and output types against MaterialX's nodedefs.
-
-    Returns
-    -------
-    (issues, number of ND_ shaders checked)
-    """
+    """Check 2: (issues, number of ND_ shaders checked)."""
     from pxr import Usd, UsdShade
 
     from .material import load_mtlx_libraries
@@ -167,18 +149,9 @@ def read_texture_asset(resolved: str):
 
 
 def check_textures(stage, decoded: dict | None = None, skip=frozenset()) -> tuple[list, int, dict]:
-    """Every asset-valued attribute resolves to a file that reads.
-
-    ``skip`` holds authored paths that must not be read (outside the asset: reported by
-    :func:`rockdove.usd.dependencies.scan_dependencies`).
-
-    ``decoded`` ({resolved path: decoded object}, filled in place) skips files already read, e.g. by the same
-    check in another variant of the stage; a file that failed to read is not in it and is tried again.
-
-    Returns
-    -------
-    (issues, number of asset attributes checked, {resolved path: decoded object})
-    """
+    """Check 3: (issues, number of asset attributes checked, ``decoded``). ``skip``: authored paths outside the
+    asset, never read; ``decoded`` ({resolved path: decoded object}, filled in place) skips files already read
+    in another variant (one that failed is tried again)."""
     from pxr import Sdf, Usd
 
     issues, n = [], 0
@@ -210,7 +183,7 @@ def check_textures(stage, decoded: dict | None = None, skip=frozenset()) -> tupl
 
 # -- 4. primvar sizes ---------------------------------------------------------------------------------------
 def check_primvars(stage) -> tuple[list, int]:
-    """Primvar (and normals) element counts against topology, and index ranges."""
+    """Check 4: (issues, number of primvars checked)."""
     import numpy as np
     from pxr import Usd, UsdGeom
 
@@ -264,8 +237,7 @@ from .validate_film import LUT_NETWORK_SHADERS, check_thin_film  # noqa: E402,F4
 
 # -- 6. surface sources -------------------------------------------------------------------------------------
 def check_materials(stage, library=None) -> tuple[list, int]:
-    """Universal and (where authored) mtlx surface sources resolve to shaders; the mtlx network, rebuilt as a
-    MaterialX document the way Hydra does (:func:`rockdove.usd.material.usd_to_mtlx_document`), validates."""
+    """Check 6 (the network rebuilt by :func:`rockdove.usd.material.usd_to_mtlx_document`)."""
     from pxr import Usd, UsdShade
 
     from .material import load_mtlx_libraries, usd_to_mtlx_document
@@ -306,16 +278,9 @@ def check_materials(stage, library=None) -> tuple[list, int]:
 def validate_asset(path, allow_external: bool = False) -> Report:
     """Validate the asset at ``path`` (folder, root layer or usdz) over every variant combination.
 
-    First the layer graph is scanned without composing it (:func:`rockdove.usd.dependencies.scan_dependencies`):
-    a layer that does not parse, or a layer outside the asset (absolute path or one that leaves its folder),
-    ends the validation there, before USD composes (reads) anything. Asset-valued attributes outside the asset
-    are reported and not read, and NVIDIA's validator (which would read them) is not run; ``allow_external``
-    turns those reports into warnings and reads the files.
-
-    Returns
-    -------
-    Report
-    """
+    A layer that does not parse, or one outside the asset, ends it before USD composes (reads) anything.
+    Asset-valued attributes outside the asset are reported and not read, and NVIDIA's validator (which would
+    read them) is not run; ``allow_external`` makes those warnings and reads the files."""
     from pxr import Usd
 
     from .dependencies import blocking, scan_dependencies

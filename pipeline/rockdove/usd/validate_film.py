@@ -6,11 +6,10 @@ from __future__ import annotations
 from .issues import Issue
 
 
-# -- 5. thin film / LUT domain ------------------------------------------------------------------------------
 def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
-    """Thickness primvar inside the LUT domain; schema range agrees with the EXR header."""
+    """Check 5: (issues, number of films checked)."""
     import numpy as np
-    from pxr import Usd, UsdGeom
+    from pxr import Usd
 
     from .schema import has_thin_film, read_thin_film
 
@@ -41,19 +40,27 @@ def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
                                     f"{film['angle_warp_gamma']} differs from the LUT file's {lut.angle_warp_gamma}"))
             issues += _check_lut_constants(prim, lut)
             issues += _check_film_provenance(prim, film, lut)
-        pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "")
-        values = pv.ComputeFlattened() if pv else None
-        if values is None or len(values) == 0:
-            issues.append(Issue("thinFilm", f"{prim.GetPath()}.primvars:{film['thickness_primvar']}",
-                                "thickness primvar missing or empty"))
-            continue
-        d = np.asarray(values, np.float64)
+        pv, d = _thickness(prim, film, issues)
         tol = 1e-3  # nm: float32 rounding of authored values
-        if d.min() < lo - tol or d.max() > hi + tol:
+        if d is not None and (d.min() < lo - tol or d.max() > hi + tol):
             issues.append(Issue("thinFilm", str(pv.GetAttr().GetPath()),
                                 f"thickness spans [{d.min():.6g}, {d.max():.6g}] nm, outside the LUT domain "
                                 f"[{lo:.6g}, {hi:.6g}] nm (rockdove:lut:thicknessRangeNm)"))
     return issues, n
+
+
+def _thickness(prim, film: dict, issues: list):
+    """The film's thickness primvar and its values in nm, or (pv, None) with an issue when missing or empty."""
+    import numpy as np
+    from pxr import UsdGeom
+
+    pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "")
+    values = pv.ComputeFlattened() if pv else None
+    if values is None or len(values) == 0:
+        issues.append(Issue("thinFilm", f"{prim.GetPath()}.primvars:{film['thickness_primvar']}",
+                            "thickness primvar missing or empty"))
+        return pv, None
+    return pv, np.asarray(values, np.float64)
 
 
 #: Names of the shaders of the baked LUT network (thinfilm.mtlx) that read the LUT.
@@ -63,7 +70,7 @@ LUT_NETWORK_SHADERS = ("LutTexture", "LutTransform", "LutAngleWarpExponent")
 def _check_lutless_film(prim, film: dict) -> list:
     """A film recorded without a LUT (physical-only asset): complete film, sane thickness, no LUT network."""
     import numpy as np
-    from pxr import UsdGeom, UsdShade
+    from pxr import UsdShade
 
     issues = []
     for key, attr in (("cauchy_a", "film:cauchyA"), ("cauchy_b_nm2", "film:cauchyB_nm2"), ("k", "film:k"),
@@ -74,13 +81,8 @@ def _check_lutless_film(prim, film: dict) -> list:
     if film.get("thickness_units") != "nm":
         issues.append(Issue("thinFilm", f"{prim.GetPath()}.rockdove:film:thicknessUnits",
                             f"{film.get('thickness_units')!r}; expected 'nm'"))
-    pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "")
-    values = pv.ComputeFlattened() if pv else None
-    if values is None or len(values) == 0:
-        issues.append(Issue("thinFilm", f"{prim.GetPath()}.primvars:{film['thickness_primvar']}",
-                            "thickness primvar missing or empty"))
-    else:
-        d = np.asarray(values, np.float64)
+    pv, d = _thickness(prim, film, issues)
+    if d is not None:
         if not np.all(np.isfinite(d)) or d.min() <= 0:
             issues.append(Issue("thinFilm", str(pv.GetAttr().GetPath()),
                                 f"thickness spans [{np.nanmin(d):.6g}, {np.nanmax(d):.6g}] nm; expected finite "

@@ -138,7 +138,8 @@ def measures(scene) -> dict:
     m["head_above_back"] = 100 * (eye_mid[1] - trunk[:, 1].max())
     ankles = [legs[(s * legs[:, 0] > 0) & (legs[:, 1] < legs[:, 1].min() + 0.004)].mean(0) for s in (1, -1)]
     m["breast_ahead_of_feet"] = 100 * (trunk[:, 2].max() - np.mean([k[2] for k in ankles]))
-    cover = _mesh(scene, *[n for n in ("Body", "CoatFeathers", "Wings", "Tail") if any(p.name == n for p in scene.parts)])
+    names = {p.name for p in scene.parts}
+    cover = _mesh(scene, *[n for n in ("Body", "CoatFeathers", "Wings", "Tail") if n in names])
     closed = trimesh.Trimesh(bp, body.triangles, process=False)
     vis, depth = [], []
     for s, ankle in zip((1, -1), ankles):

@@ -117,75 +117,43 @@ def host_passed(variant: str, metrics: dict) -> tuple[bool, list]:
     return not why, why
 
 
-def check_hosts(asset_layer: str, scene, views, selection, refs_by_lobe: dict, out_dir: str, *, rendered=None,
-                say=None) -> tuple[list, dict]:
-    """Render the views in every selected host and compare each with its lobe's reference.
+def check_host(module, asset_layer: str, scene, views, refs: list, out_dir: str, rendered, say) -> tuple[dict, dict]:
+    """Render the views in one host (:mod:`rockdove.hosts`; ``rendered``: its images when already drawn, the
+    GL renders for ``glsl``) and compare them with ``refs``, the references of its lobe (one per view).
 
-    Parameters
-    ----------
-    asset_layer : str
-        The asset's root layer (hosts read the written asset).
-    scene : RenderScene
-    views : list of View
-    selection : rockdove.hosts.Selection
-    refs_by_lobe : dict
-        lobe -> list of ReferenceResult (one per view), for every lobe of the selected hosts.
-    out_dir : str
-        Where ``<view>_<host>.png`` and ``<view>_<host>_reference.png`` go.
-    rendered : dict, optional
-        host name -> images already rendered (the verifier's own GL renders for ``glsl``).
-    say : callable, optional
-
-    Returns
-    -------
-    entries : list of dict
-        Per host (in the selection's order, skipped ones last): ``name``, ``variant``, ``lobe``, ``median_dE``,
-        ``p95_dE``, ``green_px``, ``purple_px``, ``hue_agreement``, ``passed``, ``failures``, ``per_view``;
-        a host that raised :class:`rockdove.hosts.HostError` has ``error`` and ``passed`` False; an
-        unavailable one, or one whose optional ``cannot_draw(asset_layer) -> str | None`` gives a reason (the
-        asset lacks the network it draws), ``skipped`` True and ``reason``.
-    images : dict
-        host name -> {view: {"host": file, "reference": file}} for the report page.
+    Returns the report's entry (``name``, ``variant``, ``lobe``, the :func:`host_metrics` but ``de_maps``,
+    ``passed``, ``failures``; ``error`` when it raised :class:`rockdove.hosts.HostError`; ``skipped`` and
+    ``reason`` when its optional ``cannot_draw(asset_layer)`` names why it cannot draw this asset) and its
+    images in ``out_dir``: ``{view: {"host", "reference", "dE": file name}}``.
     """
-    from . import report as rep
-    from ..spectral import linear_to_srgb8
-    from ..render.images import save_png
     from ..hosts import HostError
+    from ..render.images import save_png
+    from ..spectral import linear_to_srgb8
+    from . import report as rep
 
-    say = say or (lambda msg: None)
-    rendered = rendered or {}
-    entries, files = [], {}
-    for module in selection.available:
-        name, variant, lobe = module.NAME, module.VARIANT, module.LOBE
-        entry = {"name": name, "variant": variant, "lobe": lobe}
-        cannot = getattr(module, "cannot_draw", None)
-        reason = cannot(asset_layer) if cannot is not None and name not in rendered else None
-        if reason:
-            entries.append({**entry, "skipped": True, "reason": reason, "passed": None})
-            continue
-        try:
-            if name in rendered:
-                images = rendered[name]
-            else:
-                say(f"host {name} ({variant}, {lobe}): rendering {len(views)} views")
-                images = module.render(asset_layer, list(views), out_dir)
-            m = host_metrics(images, refs_by_lobe[lobe], scene)
-        except (HostError, ValueError) as exc:
-            entries.append({**entry, "passed": False, "error": str(exc)})
-            continue
-        passed, why = host_passed(variant, m)
-        maps = m.pop("de_maps")
-        entries.append({**entry, **m, "passed": passed, "failures": why})
-        files[name] = {}
-        for ref in refs_by_lobe[lobe]:
-            host_png = save_png(linear_to_srgb8(images[ref.view]), os.path.join(out_dir, f"{ref.view}_{name}.png"))
-            ref_png = os.path.join(out_dir, f"{ref.view}_{lobe}_reference.png")
-            if not os.path.exists(ref_png):
-                save_png(linear_to_srgb8(ref.rgb), ref_png)
-            de_png = rep.de_map_png(os.path.join(out_dir, f"{ref.view}_{name}_dE.png"), maps[ref.view],
-                                    f"{name} {ref.view}: dE2000 median {m['per_view'][ref.view]['median_dE']:.2f}")
-            files[name][ref.view] = {"host": os.path.basename(host_png), "reference": os.path.basename(ref_png),
-                                     "dE": os.path.basename(de_png)}
-    for name, reason in selection.unavailable.items():
-        entries.append({"name": name, "skipped": True, "reason": reason, "passed": None})
-    return entries, files
+    name, variant, lobe = module.NAME, module.VARIANT, module.LOBE
+    entry = {"name": name, "variant": variant, "lobe": lobe}
+    cannot = getattr(module, "cannot_draw", None)
+    reason = cannot(asset_layer) if cannot is not None and rendered is None else None
+    if reason:
+        return {**entry, "skipped": True, "reason": reason, "passed": None}, {}
+    try:
+        if rendered is None:
+            say(f"host {name} ({variant}, {lobe}): rendering {len(views)} views")
+            rendered = module.render(asset_layer, list(views), out_dir)
+        m = host_metrics(rendered, refs, scene)
+    except (HostError, ValueError) as exc:
+        return {**entry, "passed": False, "error": str(exc)}, {}
+    passed, why = host_passed(variant, m)
+    maps = m.pop("de_maps")
+    files = {}
+    for ref in refs:
+        paths = {"host": os.path.join(out_dir, f"{ref.view}_{name}.png"),
+                 "reference": os.path.join(out_dir, f"{ref.view}_{lobe}_reference.png"),
+                 "dE": os.path.join(out_dir, f"{ref.view}_{name}_dE.png")}
+        save_png(linear_to_srgb8(rendered[ref.view]), paths["host"])
+        save_png(linear_to_srgb8(ref.rgb), paths["reference"])
+        rep.de_map_png(paths["dE"], maps[ref.view],
+                       f"{name} {ref.view}: dE2000 median {m['per_view'][ref.view]['median_dE']:.2f}")
+        files[ref.view] = {k: os.path.basename(p) for k, p in paths.items()}
+    return {**entry, **m, "passed": passed, "failures": why}, files

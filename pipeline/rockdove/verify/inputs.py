@@ -1,6 +1,6 @@
 """What a verification reads: the asset as a scene (:func:`verification_scene`), the views it renders
-(:func:`verification_views`), and their digests (:func:`scene_digest`, :func:`plan_views`) that let a build
-re-render only the views whose inputs changed."""
+(:func:`verification_views`, sized by :func:`sizes`), and the digest of the scene content they render
+(:func:`scene_digest`), which keys each view's cache entry (:mod:`rockdove.graph.verification`)."""
 
 from __future__ import annotations
 
@@ -11,9 +11,6 @@ import numpy as np
 
 #: The light-view angle (deg) of the extra sweep view: 90 deg is the paper's green/purple flip.
 BOUNDARY_SWEEP_ANGLE_DEG = 90.0
-DEFAULT_SIZE = 512
-#: Turntable + light-sweep views of rockdove.render.views.default_views (the boundary sweep view is added).
-DEFAULT_VIEWS = 4
 #: The report's note for an asset without a LUT (physical-only shading).
 PHYSICAL_ONLY_NOTE = (
     "physical-only asset (no LUT): its MaterialX shading hands the film to a renderer's own thin-film BSDF, which "
@@ -41,7 +38,7 @@ def verification_scene(asset):
     return scene.root_layer, scene, lut, [note]
 
 
-def verification_views(scene, width: int, height: int, n_views: int = DEFAULT_VIEWS) -> list:
+def verification_views(scene, width: int, height: int, n_views: int) -> list:
     """The default views (``n_views`` of them), the light sweep at :data:`BOUNDARY_SWEEP_ANGLE_DEG` (same still
     camera), and the hero 3/4 view at ``HERO_SCALE`` times the size (:func:`rockdove.render.views.hero_view`)."""
     from ..render.views import HERO_SCALE, default_views, hero_view, light_sweep_views
@@ -61,10 +58,22 @@ def verification_views(scene, width: int, height: int, n_views: int = DEFAULT_VI
     return views
 
 
+def sizes(width=None, height=None, n_views=None) -> tuple[int, int, int]:
+    """The render size (pixels) and turntable + light-sweep views of a verification, the schema's ``[verify]``
+    defaults (the one place they are set) where None."""
+    from ..config import defaults
+
+    d = defaults()["verify"]
+    return tuple(d[k] if v is None else v for k, v in (("width", width), ("height", height), ("views", n_views)))
+
+
 def check_size(width, height) -> None:
+    from ..config import limits
+
     for key, v in (("width", width), ("height", height)):
-        if isinstance(v, bool) or int(v) != v or int(v) < 16:
-            raise ValueError(f"{key} must be an integer >= 16, got {v!r}")
+        lo, hi = limits(f"verify.{key}")
+        if isinstance(v, bool) or int(v) != v or not lo <= int(v) <= hi:
+            raise ValueError(f"{key} must be an integer from {lo} to {hi} pixels, got {v!r}")
 
 
 def select_views(all_views: list, names) -> list:
@@ -110,16 +119,3 @@ def scene_digest(scene) -> str:
         add_file("lut", scene.film.lut_file)
     add("variants", json.dumps(dict(scene.variants), sort_keys=True).encode())
     return h.hexdigest()
-
-
-def plan_views(asset, width: int = DEFAULT_SIZE, height: int = DEFAULT_SIZE, n_views: int = DEFAULT_VIEWS) -> dict:
-    """What each verification view reads: ``{view name: {"view": View.to_dict(), "scene": scene_digest}}``.
-
-    Two plans are equal exactly when the renders and checks of those views would be the same, so a build can
-    key each view by its entry (rockdove.graph.stages) and re-render only views whose entry changed.
-    """
-    check_size(width, height)
-    _, scene, _, _ = verification_scene(asset)
-    digest = scene_digest(scene)
-    return {v.name: {"view": v.to_dict(), "scene": digest}
-            for v in verification_views(scene, int(width), int(height), n_views)}

@@ -1,14 +1,11 @@
 """Primary rays of the CPU reference: one ray per pixel centre, first opaque hit through alpha-cut-out feathers.
 
-For each :class:`rockdove.render.views.View` the reference casts one primary ray through every pixel centre
-of the same pinhole camera as the GL renderer (OpenGL convention: the camera looks down its -Z, +Y up,
-vertical field of view ``yfov_rad``, square pixels) and finds the first surface with trimesh's ray queries
-(Embree through embreex when installed: ``trimesh.ray.has_embree``). Feather cards are alpha-tested: a hit
-where the feather base texture's alpha is below the part's ``opacity_threshold`` (0.5) is skipped and the ray
-continues from just behind it (up to :data:`MAX_ALPHA_LAYERS` layers, vectorised over all rays still
-travelling). The hits (:class:`Hits`) depend on the geometry and the camera only (:func:`ray_digest`,
-:func:`camera_key`), so the build caches them across film changes; :mod:`rockdove.verify.reference_image`
-shades them.
+The rays are the GL renderer's pinhole camera's (OpenGL convention, vertical field of view ``yfov_rad``, square
+pixels), cast with trimesh's ray queries (Embree through embreex when installed). A feather hit where the base
+texture's alpha is below the part's ``opacity_threshold`` is skipped and the ray continues from just behind it (up
+to :data:`MAX_ALPHA_LAYERS` layers, vectorised over the rays still travelling). The :class:`Hits` depend on the
+geometry and the camera only (:func:`ray_digest`, :func:`camera_key`), so the build caches them across film changes;
+:mod:`rockdove.verify.reference_image` shades them.
 """
 
 from __future__ import annotations

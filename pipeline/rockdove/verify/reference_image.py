@@ -9,12 +9,10 @@ mask)``, ``radiance = colour * light_rgb * max(dot(N, L), 0)``; other parts ``ba
 0)``; no ambient.
 
 The exact structural colour is :func:`rockdove.lut.reference.reference_colour` (the Airy spectrum of the film read
-from the USD integrated to lin_rec709 under D65) at each pixel's ``(cos_theta, thickness_nm)``. For real films from
-cos_theta 0.01 up it integrates a 16-point Lagrange interpolant on a wavenumber grid whose phase step follows the film
-(:data:`IMAGE_INTERPOLATION`: at most ``min(0.35 delta, 0.6 rad)``, ``delta`` the Airy function's strip of
-analyticity; within 0.0008 dE2000 of a 0.02-0.05 nm integration, 9.6x faster on the default views; :mod:`rockdove.lut.
-reference`, "Wavenumber interpolation"). Below 0.01 and for absorbing films it takes the wavelength steps
-:data:`IMAGE_STEPS_NM` (product integration of the spectrum's cubic interpolant against the 0.1 nm colour weights,
+from the USD integrated to lin_rec709 under D65) at each pixel's ``(cos_theta, thickness_nm)``: for real films from
+cos_theta 0.01 up, the wavenumber interpolant :data:`IMAGE_INTERPOLATION` (:mod:`rockdove.lut.reference`, "Wavenumber
+interpolation": within 0.0008 dE2000 of a 0.02-0.05 nm integration, 9.6x faster on the default views); below, and for
+absorbing films, the wavelength steps :data:`IMAGE_STEPS_NM` (product integration against the 0.1 nm colour weights,
 :func:`rockdove.lut.reference.product_weights`), validated up to :data:`IMAGE_STEPS_CALIBRATED_NM` of film and scaled
 down in proportion for thicker pixels (the phase advances with thickness). Measured (keratin, 40 random samples per
 band, dE2000 of the displayed colour against a 0.002-0.02 nm integration, films of 450-720, 700-1000, 1500-2000 and

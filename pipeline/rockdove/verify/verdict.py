@@ -27,7 +27,7 @@ def default_out_dir(layer_path: str) -> str:
 
 
 def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, bench_dir, say, *, reused=(),
-             t_start, hosts=None, published_asset=None, beauty=None) -> dict:
+             t_start, hosts, items, published_asset=None, beauty=None) -> dict:
     """Validate the asset and join per-view results into the verdict and the report (``report.json``,
     ``report.html`` and their images in ``out_dir``, default ``verify/`` beside the root layer); returns the
     report dict. ``bench_dir``: a folder whose benchmark plots (``*.png``) the report shows; None: none (the
@@ -97,16 +97,14 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
         images["spectra"] = os.path.basename(report.spectra_png(os.path.join(out, "spectra.png"), scene.film,
                                                              thickness_nm=thicknesses))
     images["hue"] = os.path.basename(report.hue_png(os.path.join(out, "hue.png"), hue, "light sweep"))
-    host_entries = []
-    if hosts is not None:
-        host_entries, images["hosts"], timings["hosts"] = hosts
-        for h in host_entries:
-            if h.get("skipped"):  # reported with its reason (report["hosts"], the CLI's SKIPPED line)
-                continue
-            if h.get("error"):
-                failures.append(f"host {h['name']} failed: {h['error']}")
-            elif not h["passed"]:
-                failures.append(f"host {h['name']} ({h['variant']}, {h['lobe']} lobe): {'; '.join(h['failures'])}")
+    host_entries, images["hosts"], timings["hosts"] = hosts
+    for h in host_entries:
+        if h.get("skipped"):  # reported with its reason (report["hosts"], the CLI's SKIPPED line)
+            continue
+        if h.get("error"):
+            failures.append(f"host {h['name']} failed: {h['error']}")
+        elif not h["passed"]:
+            failures.append(f"host {h['name']} ({h['variant']}, {h['lobe']} lobe): {'; '.join(h['failures'])}")
     images["bench"] = report.copy_bench_plots(out, bench_dir) if bench_dir is not None else []
     if beauty is not None:
         from ..hosts.beauty import for_report
@@ -140,6 +138,7 @@ def combine(layer, scene, lut, notes, results: dict, out_dir, width, height, ben
         "validation": validation,
         "views": metrics,
         "views_reused": [n for n in (r["view"] for r in results) if n in set(reused)],
+        "cache": items,
         "view_setup": [r["setup"] for r in results],
         "reference": [r["reference"] for r in results],
         "hue_sweep": hue,

@@ -1,0 +1,123 @@
+"""The grid of ``rockdove sweep``: ``--grid 'KEY=[V1, V2, ...]'`` axes (TOML literals as ``--set`` takes them)
+and their product, each point with a stable folder name."""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import re
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Point:
+    """One grid point: its folder ``name``, ``overrides`` (``KEY=LITERAL``), parsed ``values``, the value ``index``
+    along each axis."""
+
+    name: str
+    overrides: tuple[str, ...]
+    values: dict
+    index: tuple[int, ...]
+
+
+def split_array(text: str) -> list[str]:
+    """The top-level elements of a TOML array literal ``[a, "b, c", [1, 2]]``, as written (quotes and nested
+    brackets respected, a trailing comma allowed). Raises ValueError naming what is wrong."""
+    text = text.strip()
+    if not (text.startswith("[") and text.endswith("]")):
+        raise ValueError(f"{text!r} is not a [list] of values")
+    items, cur, depth, quote, escaped = [], [], 0, None, False
+    for c in text[1:-1]:
+        if quote:
+            if escaped:
+                escaped = False
+            elif c == "\\" and quote == '"':
+                escaped = True
+            elif c == quote:
+                quote = None
+        elif c in "\"'":
+            quote = c
+        elif c in "[{":
+            depth += 1
+        elif c in "]}":
+            depth -= 1
+            if depth < 0:
+                raise ValueError(f"{text!r} has an unmatched {c!r}")
+        elif c == "," and depth == 0:
+            items.append("".join(cur).strip())
+            cur = []
+            continue
+        cur.append(c)
+    if quote or depth:
+        raise ValueError(f"{text!r} has an unclosed {quote or 'bracket'}")
+    items.append("".join(cur).strip())
+    if items and items[-1] == "":
+        items.pop()  # trailing comma
+    if not items or any(it == "" for it in items):
+        raise ValueError(f"{text!r} has an empty value" if items else f"{text!r} is empty; give at least one value")
+    return items
+
+
+def parse_grid(grid: list[str]) -> list[tuple[str, list[tuple[str, object]]]]:
+    """``--grid`` items -> ``[(key, [(literal, value), ...]), ...]``. Raises UsageError (exit 2) for bad
+    syntax, an unknown key, a key given twice or a value given twice."""
+    from ..config import load_schema, parse_set, schema_at
+    from ..errors import UsageError
+
+    if not grid:
+        raise UsageError("no --grid given; e.g. --grid 'film.cauchy_a=[1.5, 1.55]'")
+    axes = []
+    for item in grid:
+        if "=" not in item:
+            raise UsageError(f"--grid {item!r} is not KEY=[V1, V2, ...]; e.g. --grid 'film.cauchy_a=[1.5, 1.55]'")
+        key, text = (s.strip() for s in item.split("=", 1))
+        try:
+            literals = split_array(text)
+        except ValueError as exc:
+            raise UsageError(f"--grid {item!r}: {exc}; e.g. --grid '{key}=[V1, V2]'") from None
+        values = [parse_set(f"{key}={lit}")[1] for lit in literals]  # the key's syntax and each literal's
+        node = schema_at(load_schema(), key.split("."))
+        if not node:
+            raise UsageError(f"--grid {item!r}: unknown key {key!r}; `rockdove config` lists the keys")
+        if "properties" in node:
+            raise UsageError(f"--grid {item!r}: {key!r} is a section; sweep one of its keys, e.g. {key}.<name>")
+        if key in (k for k, _ in axes):
+            raise UsageError(f"--grid {key!r} is given twice; put all its values in one list")
+        seen = {}
+        for lit, v in zip(literals, values):
+            canon = json.dumps(v, sort_keys=True, default=str)
+            if canon in seen:
+                raise UsageError(f"--grid {item!r}: value {lit} is given twice (as {seen[canon]})")
+            seen[canon] = lit
+        axes.append((key, list(zip(literals, values))))
+    return axes
+
+
+_UNSAFE = re.compile(r"[^A-Za-z0-9._+=-]+")
+
+
+def _slug(key: str, literal: str) -> str:
+    value = _UNSAFE.sub("_", literal.replace('"', "").replace("'", "")).strip("_")
+    return f"{key}={value}"
+
+
+def grid_points(axes) -> list[Point]:
+    """The product of the axes in order (the last key varies fastest), each with a stable, readable folder
+    name made of its ``KEY=VALUE`` pairs (a short hash added where two would read the same, or one is long)."""
+    points = []
+    for combo in itertools.product(*[list(enumerate(vals)) for _, vals in axes]):
+        overrides = tuple(f"{key}={lit}" for (key, _), (_, (lit, _v)) in zip(axes, combo))
+        values = {key: v for (key, _), (_, (_lit, v)) in zip(axes, combo)}
+        name = "__".join(_slug(key, lit) for (key, _), (_, (lit, _v)) in zip(axes, combo))
+        points.append(Point(name, overrides, values, tuple(i for i, _ in combo)))
+    counts: dict[str, int] = {}
+    for p in points:
+        counts[p.name] = counts.get(p.name, 0) + 1
+    out = []
+    for p in points:
+        if counts[p.name] > 1 or len(p.name) > 150:
+            h = hashlib.sha256("\n".join(p.overrides).encode()).hexdigest()[:8]
+            p = Point(f"{p.name[:150]}-{h}", p.overrides, p.values, p.index)
+        out.append(p)
+    return out

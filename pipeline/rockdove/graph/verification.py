@@ -1,0 +1,255 @@
+"""The one verification, run by the build's ``verify`` stage and by ``rockdove verify`` alike, and its cache.
+
+Validation, the GL renders and the hosts asked for (:mod:`rockdove.hosts`), each against the exact reference of its
+lighting model, then the verdict and the report (:mod:`rockdove.verify`). The renders are items, each an entry of
+the stage cache (:class:`rockdove.graph.engine.Cache`, folders ``verify.<kind>``) keyed by what it reads:
+
+- ``surface``, per camera: what the reference shades at its primary hits before any light or film
+  (:func:`rockdove.verify.reference_image.surface_digest`), so a film change reuses it;
+- ``view``, per view: the GL render against the reference, its images and checks; keyed by the scene content it
+  renders (:func:`rockdove.verify.inputs.scene_digest`: meshes, textures, film, LUT; not the usdz or file paths)
+  and the view (camera, light, size);
+- ``host``, per host: its metrics and images over the views; keyed by the scene content, the views and its lobe.
+
+Each key also holds the code the item can execute, derived by :mod:`rockdove.sources` from the functions that
+compute it (a host's ``render`` and :func:`rockdove.verify.host_check.check_host`), and the installed
+distributions. So a ``rockdove verify`` after a build reuses the views the build checked, a build after a ``rockdove verify`` of the
+same size reuses them, and an edit to one host's code re-renders that host alone. A host that failed is not kept.
+Validation and the report are redone every time.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import time
+
+from ..config import canonical_json
+from .. import sources
+from .engine import GRAPH_VERSION, Cache, load_npz
+
+#: The hosts the build verifies with: the GL renders alone (a cold build's verification takes seconds).
+BUILD_HOSTS = ("glsl",)
+
+
+def item_key(kind: str, fns: tuple, *reads) -> str:
+    """The key of an item that ``fns`` compute from ``reads``: the code they can execute with the environment
+    (:func:`rockdove.sources.digest`), and ``reads``."""
+    code = sources.digest(list(fns))[0]
+    return hashlib.sha256(canonical_json([GRAPH_VERSION, kind, code, *reads]).encode()).hexdigest()
+
+
+class _Items:
+    """The cache entries of one kind of item: ``<cache>/verify.<kind>/<key>/value/``."""
+
+    def __init__(self, cache: Cache, kind: str):
+        self.cache, self.name = cache, f"verify.{kind}"
+
+    def get(self, key: str) -> str | None:
+        return str(self.cache.entry(self.name, key) / "value") if self.cache.lookup(self.name, key) else None
+
+    def put(self, key: str, src, meta: dict) -> str:
+        """Store the files of folder ``src`` (moved) and ``item.json`` (``meta``); the entry's folder."""
+        def fill(folder):
+            for name in os.listdir(src):
+                os.rename(os.path.join(src, name), folder / name)
+            (folder / "item.json").write_text(json.dumps(meta, sort_keys=True, default=_plain))
+        self.cache.store(self.name, key, fill)
+        return self.get(key)
+
+    def scratch(self):
+        return self.cache.temporary(self.cache.root / self.name)
+
+
+def _plain(o):
+    return o.tolist() if hasattr(o, "tolist") else str(o)
+
+
+def _meta(folder: str) -> dict:
+    with open(os.path.join(folder, "item.json")) as f:
+        return json.load(f)
+
+
+def _surfaces(cache: Cache, scene, views, ran: dict, reused: dict) -> dict:
+    """The reference's :class:`~rockdove.verify.reference_image.Surface` of every camera of ``views``."""
+    import numpy as np
+
+    from ..verify.rays import camera_key
+    from ..verify.reference_image import Surface, cast_surfaces, surface_digest
+
+    items, digest, cameras = _Items(cache, "surface"), surface_digest(scene), {}
+    for v in views:
+        cameras.setdefault(camera_key(v), v)
+    keys = {cam: item_key("surface", (cast_surfaces,), digest, cam) for cam in cameras}
+    found = {cam: items.get(k) for cam, k in keys.items()}
+    fresh = cast_surfaces(scene, [v for cam, v in cameras.items() if found[cam] is None])
+    for cam, s in fresh.items():
+        with items.scratch() as tmp:
+            np.savez(tmp / "surface.npz", **s.to_arrays())
+            items.put(keys[cam], tmp, {"camera": cam, "stats": s.stats})
+    out = {cam: Surface.from_arrays(load_npz(os.path.join(d, "surface.npz")), _meta(d)["stats"])
+           for cam, d in found.items() if d is not None}
+    ran["surfaces"], reused["surfaces"] = [c[:16] for c in fresh], [c[:16] for c in out]
+    return {**out, **fresh}
+
+
+def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, out: str, say, ran, reused):
+    """``({view: result}, fresh)``: each view's GL render against the reference (rockdove.verify.run), cached
+    per view; ``fresh`` holds the GL radiance and references of the views rendered (all of them when
+    ``redo_all``). A view whose GL render failed is not kept: its files go to ``out``."""
+    import numpy as np
+
+    from ..verify.run import render_and_check
+
+    items = _Items(cache, "view")
+    keys = {v.name: item_key("view", (render_and_check,), digest, v.to_dict()) for v in views}
+    found = {n: items.get(k) for n, k in keys.items()}
+    todo = [v for v in views if redo_all or found[v.name] is None]
+    fresh, results = {}, {}
+    if todo:
+        with items.scratch() as tmp:
+            results, fresh["refs"], fresh["gl"] = render_and_check(scene, lut, todo, str(tmp), say=say,
+                                                                   surfaces=surfaces)
+            for v in todo:
+                r = results[v.name]
+                if r["metrics"] is None:  # the GL render failed: asked again next time
+                    for f in r["files"].values():
+                        shutil.copyfile(os.path.join(r["dir"], f), os.path.join(out, f))
+                    found[v.name] = r["dir"] = out
+                    continue
+                np.savez(os.path.join(r["dir"], "sheet_row.npz"), *r["sheet_row"])
+                found[v.name] = items.put(keys[v.name], r["dir"],
+                                          {k: x for k, x in r.items() if k not in ("sheet_row", "dir")})
+    done = {v.name: results[v.name] for v in todo if found[v.name] == out}
+    for v in views:
+        if v.name in done:
+            continue
+        r = done[v.name] = _meta(found[v.name])
+        rows = load_npz(os.path.join(found[v.name], "sheet_row.npz"))
+        r["sheet_row"], r["dir"] = [rows[f"arr_{i}"] for i in range(len(rows))], found[v.name]
+    ran["views"], reused["views"] = [v.name for v in todo], [v.name for v in views if v not in todo]
+    return {v.name: done[v.name] for v in views}, fresh
+
+
+def _host_key(module, digest: str, views) -> str:
+    from ..verify.host_check import check_host
+
+    return item_key("host", (module.render, check_host), digest, [v.to_dict() for v in views], module.NAME,
+                    module.LOBE, module.VARIANT)
+
+
+def _host(cache, module, layer, scene, views, digest, refs, fresh, out, say) -> tuple[dict, dict, bool]:
+    """One host's report entry and image files (copied into ``out``), and whether they came from the cache."""
+    from ..verify.host_check import check_host
+
+    items = _Items(cache, "host")
+    key = _host_key(module, digest, views)
+    found = cached = items.get(key)
+    if found is None:
+        with items.scratch() as tmp:
+            rendered = fresh["gl"] if module.NAME == "glsl" else None
+            entry, files = check_host(module, layer, scene, views, refs(module.LOBE), str(tmp), rendered, say)
+            if entry.get("passed") is None or "error" in entry:  # skipped or failed: asked again next time
+                for f in os.listdir(tmp):
+                    shutil.copyfile(tmp / f, os.path.join(out, f))
+                return entry, files, False
+            found = items.put(key, tmp, {"entry": entry, "files": files})
+    value = _meta(found)
+    for name in {n for f in value["files"].values() for n in f.values()}:
+        shutil.copyfile(os.path.join(found, name), os.path.join(out, name))
+    return value["entry"], value["files"], cached is not None
+
+
+def default_cache(asset) -> str:
+    """A verification's cache when none is given: the build's (``.rockdove-cache`` beside the asset folder) when
+    there is one, else the user cache's ``verify/`` (:func:`rockdove.resources.user_cache_dir`)."""
+    from ..resources import user_cache_dir
+
+    beside = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(asset))), ".rockdove-cache")
+    return beside if os.path.isdir(beside) else str(user_cache_dir("verify"))
+
+
+def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, height=None, n_views=None,
+           views=None, bench_dir=None, progress=None, beauty=None, published_asset=None) -> dict:
+    """Validate, render and check an asset; write the report into ``out_dir``; return the report dict.
+
+    Parameters
+    ----------
+    asset : path
+        The root layer (the build's staged one, or a published asset's).
+    hosts : iterable of str or None
+        Hosts (:data:`rockdove.hosts.HOSTS`; None: :data:`rockdove.hosts.DEFAULT`; ``["all"]``: every one)
+        that render the views, each compared with the reference of its lobe; ``glsl`` always runs.
+        Unavailable hosts are reported as skipped with their reason; one that fails or misses its goals fails
+        the verification.
+    cache : path or Cache, optional
+        The stage cache that holds the items (default :func:`default_cache`).
+    out_dir : path, optional
+        Default ``verify/`` beside the root layer.
+    width, height, n_views : int, optional
+        Render size (pixels) and turntable + light-sweep views (:func:`rockdove.verify.inputs.verification_views`);
+        default the schema's ``[verify]`` defaults.
+    views : list of str, optional
+        Check only these views; a subset without a light-sweep view cannot run the hue check (``notes`` say so).
+    bench_dir : path, optional
+        Folder of benchmark plots (``*.png``) the report shows (default none).
+    progress : callable, optional
+        ``progress(message)`` for each step.
+    beauty : dict, optional
+        ``[beauty]`` settings of the picture the report opens with (:mod:`rockdove.render.beauty`; ``auto`` takes
+        Cycles only when ``hosts`` names blender and it is available); ``{"renderer": "off"}``: none.
+    published_asset : path, optional
+        The root layer's path once published (the build verifies a staging folder), which the report names.
+
+    Returns
+    -------
+    dict: the content of report.json; ``passed``, ``failures``, ``notes``, ``hosts`` (one entry per host) and
+    ``cache`` (the items ``ran`` and ``reused``).
+    """
+    from ..hosts import select
+    from ..render.beauty import settings
+    from ..verify.inputs import check_size, scene_digest, select_views, sizes, verification_scene, \
+        verification_views
+    from ..verify.reference_image import render_reference
+    from ..verify.verdict import combine, default_out_dir
+
+    width, height, n_views = sizes(width, height, n_views)
+    check_size(width, height)
+    say = progress or (lambda msg: None)
+    t_start = time.perf_counter()
+    selection = select(hosts)  # unknown names: ValueError before any work
+    layer, scene, lut, notes = verification_scene(asset)
+    out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)
+    os.makedirs(out, exist_ok=True)
+    cache = cache if isinstance(cache, Cache) else Cache(cache or default_cache(layer))
+    chosen = select_views(verification_views(scene, width, height, n_views), views)
+    digest, ran, reused = scene_digest(scene), {}, {}
+    say(f"GL renders and CPU reference ({len(chosen)} views)")
+    surfaces = _surfaces(cache, scene, chosen, ran, reused)
+    glsl = next(m for m in selection.available if m.NAME == "glsl")
+    redo = _Items(cache, "host").get(_host_key(glsl, digest, chosen)) is None  # its images are the GL renders
+    results, fresh = _views(cache, scene, lut, chosen, digest, surfaces, redo, out, say, ran, reused)
+    lobes = {"half_angle": fresh["refs"]} if redo else {}
+
+    def refs(lobe):
+        if lobe not in lobes:
+            say(f"CPU reference ({lobe})")
+            lobes[lobe] = render_reference(scene, chosen, lobe=lobe, surfaces=surfaces)
+        return lobes[lobe]
+
+    t = time.perf_counter()
+    entries, images, ran["hosts"], reused["hosts"] = [], {}, [], []
+    for module in selection.available:
+        entry, files, cached = _host(cache, module, layer, scene, chosen, digest, refs, fresh, out, say)
+        entries.append(entry)
+        images.update({module.NAME: files} if files else {})
+        (reused if cached else ran)["hosts"].append(module.NAME)
+    entries += [{"name": n, "skipped": True, "reason": r, "passed": None} for n, r in selection.unavailable.items()]
+    named = hosts is not None and "blender" in hosts  # auto: Cycles only when asked for (2-4 min of CPU)
+    beauty = {**settings(beauty), "cycles_ok": named and any(m.NAME == "blender" for m in selection.available)}
+    return combine(layer, scene, lut, notes, results, out, width, height, bench_dir, say, t_start=t_start,
+                   reused=reused["views"], hosts=(entries, images, time.perf_counter() - t), beauty=beauty,
+                   published_asset=published_asset, items={"ran": ran, "reused": reused})
+
