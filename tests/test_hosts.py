@@ -195,7 +195,7 @@ def test_storm_draws_the_baked_network_without_speckle(asset_layer, tmp_path):
     if storm.unavailable():
         pytest.skip(storm.unavailable())
     scene = load_scene(os.path.dirname(asset_layer))
-    views = [v for v in verification_views(scene, 128, 128) if v.name == "sweep_060"]
+    views = [v for v in verification_views(scene, 128, 128, 4) if v.name == "sweep_060"]
     m = host_metrics(storm.BAKED.render(asset_layer, views, str(tmp_path)),
                      render_reference(scene, views, lobe="view_angle"), scene)
     assert m["median_dE"] < 2.0 and m["p95_dE"] < 5.0 and m["hue_agreement"] > 0.95, m

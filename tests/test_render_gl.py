@@ -392,3 +392,21 @@ def test_part_mask_selects_pixels_by_prim_name(coarse):
     assert res.part_mask("Body").sum() > 0
     with pytest.raises(ValueError, match="Wing"):
         res.part_mask("Wing")
+
+
+def test_parts_that_tie_in_depth_show_the_first_part_in_scene_order():
+    """Two parts with the same quad: depth ties everywhere, and the part drawn first wins (GL_LESS). The renderer
+    draws in scene order, so the first part shows, whichever it is (pyrender's own order comes from a set)."""
+    from rockdove.render.gl import GLRenderer
+
+    quad = np.array([[-0.05, -0.05, 0.0], [0.05, -0.05, 0.0], [0.05, 0.05, 0.0], [-0.05, 0.05, 0.0]], np.float32)
+
+    def part(name):
+        return sc.ScenePart(name, f"/{name}", "body", quad, np.tile([0.0, 0.0, 1.0], (4, 1)).astype(np.float32),
+                            np.array([[0, 1, 2], [0, 2, 3]], np.int32), np.zeros((4, 2), np.float32))
+
+    view = View("v", look_at([0.0, 0.0, 0.3], [0.0, 0.0, 0.0]), 0.6, 32, 32, [0, 0, 1], [1, 1, 1])
+    for names in (("A", "B"), ("B", "A"), ("C", "D", "E")):
+        with GLRenderer(sc.RenderScene("x.usda", tuple(map(part, names)), None, {})) as r:
+            ids = r.render(view).part_id
+        assert (ids > 0).sum() > 100 and set(np.unique(ids[ids > 0])) == {1}, names

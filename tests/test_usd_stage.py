@@ -175,9 +175,9 @@ def test_feather_texture_shaders_named_for_the_renderer(stage):
     assert mask.GetInput("file").GetAttr().GetColorSpace() == "lin_rec709"
     assert lut.GetInput("file").Get().path == "./textures/thinfilm_lut.exr"
     assert lut.GetInput("file").GetAttr().GetColorSpace() == "lin_rec709"  # linear, in the working space
-    for name in ("uaddressmode", "vaddressmode"):
+    for name in ("wrapS", "wrapT"):  # UsdUVTexture (thinfilm.mtlx): linear filtering, clamped
         assert lut.GetInput(name).Get() == "clamp"
-    assert lut.GetInput("filtertype").Get() == "linear"
+    assert lut.GetShaderId() == "ND_UsdUVTexture_23"
 
 
 def test_shading_variants_switch_the_mtlx_network(asset):

@@ -29,6 +29,7 @@ import hashlib
 import inspect
 import json
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -81,12 +82,15 @@ def _python() -> str:
 
 
 def environment(seen: dict) -> str:
-    """sha256 of the distributions installed on ``sys.path`` (the names of their metadata folders, in order)."""
+    """sha256 of the distributions installed on ``sys.path`` (the names of their metadata folders, in order), but
+    rockdove's own: its code is keyed by its source, and a checkout's ``rockdove.egg-info`` is on ``sys.path``
+    under pytest and not in the installed command."""
     names = []
     for entry in sys.path:
         if entry and os.path.isdir(entry):
             _stamp(entry, seen)
-            names += sorted(n for n in os.listdir(entry) if n.endswith((".dist-info", ".egg-info")))
+            names += sorted(n for n in os.listdir(entry) if n.endswith((".dist-info", ".egg-info"))
+                            and not re.match(r"rockdove[-.]", n, re.I))
     return hashlib.sha256("\n".join(names).encode()).hexdigest()
 
 

@@ -48,10 +48,8 @@ _LOADED_LOCK = threading.Lock()
 
 
 def load_entry(codec: Codec, folder: Path) -> Any:
-    """``codec.load(folder)``, once per process for a ``shared`` codec: an entry never changes once written, so
-    a long-lived process (a sweep worker, ``rockdove build --watch``) rebuilding after a film change does not
-    re-read the unchanged geometry. Keyed by the folder's inode and mtime too: an entry deleted and written again
-    is read again."""
+    """``codec.load(folder)``, once per process for a ``shared`` codec (an entry never changes once written: a
+    warm process rebuilding after a film change does not re-read the geometry); by inode and mtime too."""
     if not codec.shared:
         return codec.load(folder)
     st = folder.stat()

@@ -2,26 +2,17 @@
 (:mod:`rockdove.graph.cache`).
 
 A :class:`Stage` is a named pure function of its part of the configuration and its upstream outputs. Its key is
-the sha256 of
+the sha256 of the configuration keys it declares (dotted: ``"lut"``, ``"geometry.seed"``); the code it can
+execute, derived from the source with its data files, the installed distributions and Python
+(:func:`rockdove.sources.digest`); and the *content digests* of its upstream outputs, not their keys (early
+cut-off: a new seed that leaves the thickness range unchanged does not re-bake the LUT). A stage whose key has
+an entry is reused without running, and its value loaded only if a stage that runs needs it. Builds sharing one
+cache (a sweep's workers) compute an entry once: the first to miss it holds ``Cache.entry_lock``.
 
-- the configuration keys it declares (``Stage.config``, dotted, e.g. ``"lut"`` or ``"geometry.seed"``),
-- the code it can execute, derived from the source (:func:`rockdove.sources.digest`: what its functions, its
-  codecs and its inputs' loaders reach, with this engine), the data files it declares (``Stage.data``), the
-  installed distributions and Python,
-- the *content digests* of its upstream outputs (not their keys): a stage whose inputs changed but produced
-  the same bytes does not rerun its dependants (early cut-off; e.g. a new seed that leaves the thickness
-  range unchanged does not re-bake the LUT).
-
-A stage whose key has an entry in the cache is reused without running; its value is loaded only if a stage
-that runs needs it. Builds in several processes sharing one cache (``rockdove sweep``'s workers) compute an
-entry once: the first to miss it takes that entry's lock (``Cache.entry_lock``), the others wait, then reuse it.
-
-Fan-out stages (``Stage.items``) split their work into named items (e.g. one per verification view), each with
-its own key = stage key + the item's own configuration, so only the items whose inputs changed are redone.
-When what an item reads is only known once its inputs exist (a verification view reads the *rendered content*
-of the asset, not every byte of it), ``Stage.item_plan(ctx)`` names the items at run time with everything each
-reads; the item key is that plan entry plus the stage's code, without the upstream digests. ``Stage.batch`` runs
-all the items to redo in one call (sharing set-up such as a GL context).
+Fan-out stages split their work into named items (one per verification view), each keyed by the stage key and
+the item's own configuration (``Stage.items``), or, when what an item reads is only known once its inputs exist
+(a view reads the *rendered content* of the asset), by what ``Stage.item_plan(ctx)`` says it reads, plus the
+stage's code; only the items whose key changed are redone, with ``Stage.batch`` in one call.
 """
 
 from __future__ import annotations

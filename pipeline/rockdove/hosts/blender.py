@@ -1,14 +1,10 @@
 """The Blender host: the written asset imported by Blender (``bpy``) with the rockdove add-on, drawn by Cycles.
 
-It checks Blender's own code on the asset as a Blender user gets it: the add-on zip (:func:`addon_zip`, ``rockdove
-blender-addon``) installed and enabled with Blender's operators, a plain ``bpy.ops.wm.usd_import`` (the add-on's
-``USDHook`` builds the Principled thin-film material from the asset's ``rockdove:film:*`` records), and Cycles'
-own thin-film BSDF (``VARIANT = "physical"``). Lighting (``LOBE = "view_angle"``): the film's mirror lobe alone
-under a uniform white world of unit radiance, everything else black, so a feather-tip pixel is the film's
-reflectance at ``cos theta = |N.V|``. The Blender side, :mod:`rockdove.hosts.blender_job`, runs in a subprocess:
-bpy's bundled USD and usd-core's ``pxr`` cannot share one process.
-
-Cycles on the CPU, :data:`SAMPLES` samples per pixel, a 0.01 px pixel filter (the reference samples pixel
+Blender's own code on the asset as a user gets it: the add-on zip (:func:`addon_zip`) installed and enabled with
+Blender's operators, a plain ``wm.usd_import`` (the add-on's ``USDHook`` builds the Principled thin-film material
+from ``rockdove:film:*``), Cycles' thin-film BSDF (``VARIANT = "physical"``) lit as ``LOBE = "view_angle"``. The
+Blender side, :mod:`rockdove.hosts.blender_job`, runs in a subprocess: bpy's bundled USD and usd-core's ``pxr``
+cannot share one process. :data:`SAMPLES` per pixel and a 0.01 px pixel filter (the reference samples pixel
 centres): with a smooth film, a uniform world and binary cut-outs the only noise is where the tip mask is
 fractional. Output: float32 EXR (linear Rec.709, Blender's scene-linear space), background 0.
 """

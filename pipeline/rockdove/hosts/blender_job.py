@@ -150,10 +150,8 @@ def run(job: dict) -> None:
     import mathutils
 
     addon, films, to_blender = import_asset(bpy, job)
-    if job["lobe"] == "view_angle":
+    if job["lobe"] == "view_angle":  # else "as_imported" (rockdove.hosts.blender.render checks)
         film_lobe_only(bpy, addon)
-    elif job["lobe"] != "as_imported":
-        raise RuntimeError(f"lobe {job['lobe']!r} is not rendered by this host")
     _world(bpy, job["environment_radiance"])
     render_views(bpy, mathutils, to_blender, job)
     with open(os.path.join(job["out_dir"], "done.json"), "w", encoding="utf-8") as fh:

@@ -72,7 +72,7 @@ def render(asset_path: str, views: list, out_dir: str, *, browser_factory=None) 
     images = {}
     try:
         with (browser_factory or Browser)() as browser:
-            page = browser.open(Path(page_path).as_uri(), 320, 240, timeout_s=PAGE_TIMEOUT_S)
+            page = browser.open(Path(page_path).absolute().as_uri(), 320, 240, timeout_s=PAGE_TIMEOUT_S)
             page.evaluate("window.rockdoveReady", timeout_s=PAGE_TIMEOUT_S, step="load pigeon.glb in three.js")
             for view in views:
                 spec = {"camera_to_world": view.camera_to_world.reshape(-1).tolist(), "yfov_rad": view.yfov_rad,

@@ -57,8 +57,9 @@ def _sky_lights() -> list[tuple[np.ndarray, np.ndarray]]:
     return [(d, c * B.SKY_STRENGTH / total) for d, c in zip(dirs, rgb)]
 
 
-def _pixel_rays(view: View, w: int, h: int) -> np.ndarray:
-    """World directions through the pixel centres, scaled to unit length along the camera's axis, (h, w, 3)."""
+def _pixel_rays(view: View) -> np.ndarray:
+    """World directions through the pixel centres, scaled to unit length along the camera's axis, (H, W, 3)."""
+    w, h = view.width, view.height
     ty = math.tan(view.yfov_rad / 2)
     tx = ty * w / h
     x = (2 * (np.arange(w) + 0.5) / w - 1) * tx
@@ -140,9 +141,9 @@ def render_gl(scene, views, ground_y_m: float, lut=None) -> dict:
     with GLRenderer(staged, lut=lut) as r:
         for v in views:
             s = SUPERSAMPLE
-            key = r.render(View(v.name, v.camera_to_world, v.yfov_rad, v.width * s, v.height * s, v.light_direction,
-                                np.asarray(B.SUN_RGB) * B.SUN_STRENGTH / math.pi))
-            fill = sum(r.render(View(v.name, v.camera_to_world, v.yfov_rad, v.width, v.height, d, c)).radiance_rgb
+            key = r.render(dataclasses.replace(v, width=v.width * s, height=v.height * s,
+                                               light_rgb=np.asarray(B.SUN_RGB) * B.SUN_STRENGTH / math.pi))
+            fill = sum(r.render(dataclasses.replace(v, light_direction=d, light_rgb=c)).radiance_rgb
                        for d, c in _sky_lights())  # smooth light: at the picture's size
             sun = _sun_camera(scene, v.light_direction)
             shot = r.render(sun)
@@ -153,7 +154,7 @@ def render_gl(scene, views, ground_y_m: float, lut=None) -> dict:
             depth = key.depth_m[s // 2::s, s // 2::s]
             drawn = depth > 0
             vis = np.ones(depth.shape)
-            rays = _pixel_rays(v, v.width, v.height)
+            rays = _pixel_rays(v)
             vis[drawn] = _visibility(v.eye_m + rays[drawn] * depth[drawn][:, None], sun, depth_map, texel, reach)
             rgb = (box_downsample(key.radiance_rgb, s) * vis[..., None] + fill) * 2.0 ** EXPOSURE
             out[v.name] = np.clip(np.rint(srgb_encode(filmic(rgb)) * 255), 0, 255).astype(np.uint8)

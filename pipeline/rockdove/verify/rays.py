@@ -49,31 +49,22 @@ class SceneGeometry:
 
         from ..render.texture import read_texture
 
-        verts, faces, part_of_face, offset = [], [], [], 0
-        for i, p in enumerate(scene.parts):
-            verts.append(np.asarray(p.positions_m, np.float64))
-            faces.append(np.asarray(p.triangles, np.int64) + offset)
-            part_of_face.append(np.full(len(p.triangles), i, np.int32))
-            offset += len(p.positions_m)
-        self.vertices = np.concatenate(verts)
-        self.faces = np.concatenate(faces)
-        self.part_of_face = np.concatenate(part_of_face)
-        self.face_offset = np.concatenate([[0], np.cumsum([len(p.triangles) for p in scene.parts])])
+        parts = scene.parts
+        offsets = np.cumsum([0] + [len(p.positions_m) for p in parts])
+        self.vertices = np.concatenate([np.asarray(p.positions_m, np.float64) for p in parts])
+        self.faces = np.concatenate([np.asarray(p.triangles, np.int64) + o for p, o in zip(parts, offsets)])
+        self.part_of_face = np.concatenate([np.full(len(p.triangles), i, np.int32) for i, p in enumerate(parts)])
         self.mesh = trimesh.Trimesh(self.vertices, self.faces, process=False)
-        self.normals = np.concatenate([np.asarray(p.normals, np.float64) for p in scene.parts])
-        self.st = np.concatenate([np.asarray(p.st, np.float64) for p in scene.parts])
-        self.thickness = np.concatenate(
-            [np.asarray(p.thickness_nm, np.float64) if p.thickness_nm is not None else np.zeros(len(p.positions_m))
-             for p in scene.parts]
-        )
-        self.is_feather = np.array([p.is_feather for p in scene.parts])
-        self.threshold = np.array([p.opacity_threshold for p in scene.parts])
-        self.base_tex, self.mask_tex = [], []
-        for p in scene.parts:
-            base = p.base_colour_texture
-            self.base_tex.append(read_texture(base, p.base_colour_srgb) if base else None)
-            self.mask_tex.append(read_texture(p.mask_texture, False) if p.mask_texture else None)
-        self.base_const = [np.asarray(p.base_colour, np.float64) for p in scene.parts]
+        self.normals = np.concatenate([np.asarray(p.normals, np.float64) for p in parts])
+        self.st = np.concatenate([np.asarray(p.st, np.float64) for p in parts])
+        self.thickness = np.concatenate([np.zeros(len(p.positions_m)) if p.thickness_nm is None
+                                         else np.asarray(p.thickness_nm, np.float64) for p in parts])
+        self.is_feather = np.array([p.is_feather for p in parts])
+        self.threshold = np.array([p.opacity_threshold for p in parts])
+        self.base_tex = [read_texture(p.base_colour_texture, p.base_colour_srgb) if p.base_colour_texture else None
+                         for p in parts]
+        self.mask_tex = [read_texture(p.mask_texture, False) if p.mask_texture else None for p in parts]
+        self.base_const = [np.asarray(p.base_colour, np.float64) for p in parts]
         self.scale = float(np.linalg.norm(self.vertices.max(axis=0) - self.vertices.min(axis=0)))
 
     def barycentric(self, face, points):

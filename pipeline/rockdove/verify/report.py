@@ -78,9 +78,8 @@ def de_map_png(path, de_map, title: str) -> str:
     f = max(12, round(max(h, w) / 36))  # text height, px
     pad, header, gap, bar_w, tick = max(2, f // 2), round(1.8 * f), f, max(8, round(0.9 * f)), max(3, f // 3)
     font = label_font(f)
-    ticks = np.arange(0.0, math.floor(DE_MAP_MAX) + 1.0)  # every whole dE; only the ends where labels would touch
-    if (h - 1) / DE_MAP_MAX < 1.5 * f:
-        ticks = np.array([0.0, DE_MAP_MAX])
+    whole = (h - 1) / DE_MAP_MAX >= 1.5 * f  # a tick every whole dE, or only the ends where labels would touch
+    ticks = np.arange(0.0, math.floor(DE_MAP_MAX) + 1.0) if whole else np.array([0.0, DE_MAP_MAX])
     labels = [f"{t:g}" for t in ticks]
     bar_x = pad + w + gap
     text_x = bar_x + bar_w + tick + max(2, f // 4)

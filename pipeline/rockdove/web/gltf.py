@@ -1,28 +1,19 @@
 """Export a written rockdove USD asset to one glTF 2.0 binary file (``pigeon.glb``) with ``KHR_materials_iridescence``.
 
-The exporter reads the asset *as written* (:func:`rockdove.render.scene.load_scene`, the verifier's reader), not the
-build's memory, so ``pigeon.glb`` translates ``pigeon.usda`` as ``pigeon.usdz`` does, and exports any rockdove asset
-after the fact. One node per visible USD mesh, world space, metres, Y up (the asset's conventions are glTF's);
-``TEXCOORD_0`` = ``st`` with ``v = 1 - t`` (glTF's image origin is top-left). Feathers (docs/design.md "glTF"):
-
-- ``feather_base.png`` (A = silhouette, ``alphaMode: MASK`` at the asset's ``opacityThreshold``), double-sided,
-  roughness 0; ``KHR_materials_iridescence``: factor 1 times the tip mask ``feather_mask.png``, ``iridescenceIor``
-  = the film's Cauchy index at :data:`IOR_WAVELENGTH_NM` (glTF takes one non-dispersive index), the LUT's
-  thickness range (nm, glTF's unit), and an ``iridescenceThicknessTexture`` whose G is an 8-bit linear ramp
-  (``G_i = i / (N - 1)``) read through ``TEXCOORD_1``, ``u = (0.5 + g (N - 1)) / N``, ``g = (d - min) / (max -
-  min)``: linear filtering of a linear ramp returns ``g`` itself, so ``mix(min, max, G)`` is the primvar
-  interpolated across the card, not quantised to 8 bits; ``KHR_materials_ior`` = the asset's substrate index (1.0
-  for a film in air: three.js then evaluates the Airy reflectance over a substrate of index 1, so the only
-  specular reflection is the film's);
-- the default material (``NeckFeathersPreview``), for consumers without the extension (Blender 5.0's importer
-  ignores it silently; many engines do): the USD preview's atlas ``feather_preview.png`` through ``TEXCOORD_2`` =
-  ``previewST``. The film is the ``KHR_materials_variants`` variant ``thin_film``, which our viewer and web host
-  select (measured: a base colour under the film would be counted twice by three.js, whose diffuse is only scaled
-  by ``1 - F``).
-
-Other parts: their base colour, metallic 0, roughness 1. The film record goes into the feathers' material
-``extras.rockdove``. pygltflib builds the document (trimesh's exporter cannot author the extension or a second UV
-set for one texture).
+It reads the asset *as written* (:func:`rockdove.render.scene.load_scene`, the verifier's reader), not the build's
+memory, so ``pigeon.glb`` translates ``pigeon.usda`` as ``pigeon.usdz`` does. What is written: docs/design.md "glTF
+and the web"; the reasons here. One node per visible mesh, world space, metres, Y up (the asset's conventions are
+glTF's), ``v = 1 - t`` (glTF's image origin is top-left). The feathers' thickness reaches
+``iridescenceThicknessTexture`` as an 8-bit linear ramp (``G_i = i / (N - 1)``) read through ``TEXCOORD_1`` at
+``u = (0.5 + g (N - 1)) / N``, ``g = (d - min) / (max - min)``: linear filtering of a linear ramp returns ``g``
+itself, so ``mix(min, max, G)`` is the primvar interpolated across the card, not quantised to 8 bits.
+``KHR_materials_ior`` is the substrate index, 1.0 for a film in air: three.js then evaluates the Airy reflectance
+over a substrate of index 1, so the only specular reflection is the film's. The default material
+(``NeckFeathersPreview``, the USD preview's atlas through ``TEXCOORD_2`` = ``previewST``) is what consumers without
+the extension show (Blender 5.0's importer ignores it silently; many engines do); the film is the
+``KHR_materials_variants`` variant ``thin_film``, which our viewer and web host select (measured: a base colour
+under the film would be counted twice by three.js, whose diffuse is only scaled by ``1 - F``). pygltflib builds the
+document (trimesh's exporter cannot author the extension or a second UV set for one texture).
 """
 
 from __future__ import annotations

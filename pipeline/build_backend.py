@@ -1,0 +1,16 @@
+"""The build backend (pyproject.toml ``backend-path``): setuptools' own, without one notice.
+
+The data folders ship as sub-packages mapped from the repository's top (``materials/`` as ``rockdove.materials``),
+so an editable install cannot be a plain ``.pth`` and setuptools installs a meta path finder, after which it
+always emits an ``InformationOnly`` warning (pip shows it boxed on every ``pip install -e .``): folders named like
+the package in the working directory may take precedence. It is a notice, not a fault of this project (no
+``rockdove/`` folder sits at the top of the checkout), and setuptools has no setting for it, so it is filtered
+here; every other warning is shown.
+"""
+
+import warnings
+
+from setuptools.build_meta import *  # noqa: F401,F403 (the PEP 517 hooks)
+from setuptools.warnings import InformationOnly
+
+warnings.filterwarnings("ignore", category=InformationOnly)
