@@ -88,8 +88,8 @@ def run(args: argparse.Namespace) -> int:
 
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
     result = api.verify(args.asset, hosts, cache=args.cache, out=args.out, width=args.width, height=args.height,
-                        views=args.names,
-                        n_views=args.views, bench_dir=args.bench_dir, allow_external=args.allow_external_assets,
+                        views=args.names, n_views=args.views, bench_dir=args.bench_dir,
+                        allow_external=args.allow_external_assets,
                         progress=progress, beauty={"renderer": args.beauty, "width": args.beauty_size[0],
                                                    "height": args.beauty_size[1], "samples": args.beauty_samples})
     report = result.report
