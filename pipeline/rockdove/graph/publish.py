@@ -60,36 +60,38 @@ def _check_writable(out: Path, real: Path, deep: bool = True) -> None:
                              "replace what is there; make it writable or choose another --out")
 
 
-def check_output(out: Path) -> None:
-    """Refuse, before anything is written, an output we may not or cannot replace (:class:`UsageError`)."""
-    if str(out) in ("", ".", "/") or out.name in ("", ".", ".."):
+def check_output(out, what: str | None = None) -> Path:
+    """``--out`` resolved, or refused (:class:`UsageError`, before anything is written) when it is a file, not
+    writable, or a non-empty folder rockdove did not create: without :data:`MARKER` for an asset, or for the
+    folder of a command's ``what`` (``renders``, ``sweep``) without :data:`OUTPUT_MARKER` and not inside an asset."""
+    if what is None and (str(out) in ("", ".", "/") or Path(out).name in ("", ".", "..")):
         raise UsageError(f"--out {str(out)!r} is not a folder name rockdove can publish to; give e.g. build/pigeon")
-    real = real_output(out)
-    if real.exists() and not real.is_dir():
-        raise UsageError(f"--out {str(out)!r} exists and is not a folder; allowed: a new folder or one rockdove built")
-    if real.is_dir() and not (real / MARKER).is_file() and any(real.iterdir()):
-        raise UsageError(f"--out {str(out)!r} is a non-empty folder that rockdove did not create (no {MARKER}); "
-                         "refusing to replace it: choose another --out or remove it yourself")
-    _check_writable(out, real)
-
-
-def claim_output(out, what: str, create: bool = True) -> Path:
-    """The folder ``--out`` of a command that writes files (``render``, ``verify``, ``sweep``), resolved; refused
-    (:class:`UsageError`, nothing written) when it is a file, not writable, or a non-empty folder rockdove did not
-    create (no marker, not inside an asset). ``create`` makes it and writes :data:`OUTPUT_MARKER`."""
-    if not str(out).strip():
+    if what is not None and not str(out).strip():
         raise UsageError(f"--out is empty; give the folder {what} writes into")
     real = real_output(out)
     if real.exists() and not real.is_dir():
-        raise UsageError(f"--out {str(out)!r} exists and is not a folder")
-    ours = any((real / m).is_file() for m in (OUTPUT_MARKER, MARKER)) or (real.parent / MARKER).is_file()
-    if real.is_dir() and not ours and any(real.iterdir()):
-        raise UsageError(f"--out {str(out)!r} is a non-empty folder that rockdove did not create (no {OUTPUT_MARKER})"
-                         f"; refusing to write the {what} into it: choose another --out or remove it yourself")
+        raise UsageError(f"--out {str(out)!r} exists and is not a folder; allowed: a new folder or one rockdove built")
+    if real.is_dir() and not _ours(real, what) and any(real.iterdir()):
+        raise UsageError(f"--out {str(out)!r} is a non-empty folder that rockdove did not create (no "
+                         f"{MARKER if what is None else OUTPUT_MARKER}); refusing to "
+                         f"{'replace it' if what is None else f'write the {what} into it'}: choose another --out "
+                         "or remove it yourself")
     _check_writable(out, real)
+    return real
+
+
+def _ours(real: Path, what: str | None) -> bool:
+    if what is None:
+        return (real / MARKER).is_file()
+    return any((real / m).is_file() for m in (OUTPUT_MARKER, MARKER)) or (real.parent / MARKER).is_file()
+
+
+def claim_output(out, what: str, create: bool = True) -> Path:
+    """:func:`check_output` of a command's folder; ``create`` makes it and writes :data:`OUTPUT_MARKER`."""
+    real = check_output(out, what)
     if create:
         real.mkdir(parents=True, exist_ok=True)
-        if not ours:
+        if not _ours(real, what):
             (real / OUTPUT_MARKER).write_text(json.dumps({"tool": "rockdove", "version": __version__,
                                                           "output": what}) + "\n")
     return real
@@ -135,11 +137,11 @@ def _remove(path: Path) -> None:
 class OutputLock:
     """Exclusive lock of one output folder for the whole build (context manager)."""
 
-    def __init__(self, out: Path, timeout_s: float | None = None, quiet: bool = False):
+    def __init__(self, out: Path, timeout_s: float | None = None):
         if timeout_s is not None and not (isinstance(timeout_s, (int, float)) and 0 <= timeout_s < float("inf")):
             raise UsageError(f"--lock-timeout must be a finite number of seconds >= 0, got {timeout_s!r}")
         real = real_output(out)
-        self.out, self.timeout_s, self.quiet = out, timeout_s, quiet
+        self.out, self.timeout_s = out, timeout_s
         self.path = real.parent / f".{real.name}.rockdove.lock"
         self._fd: int | None = None
 
