@@ -41,7 +41,7 @@ def load_schema() -> dict:
 
 
 def presets() -> list[str]:
-    """Names of the presets in ``assets/pigeon/`` (file stems), sorted."""
+    """Names of the presets in ``assets/pigeon/``, sorted."""
     return sorted(p.stem for p in resources.path("assets/pigeon").glob("*.toml"))
 
 
@@ -127,11 +127,7 @@ def schema_at(schema: dict, path: Iterable) -> dict:
 @functools.cache
 def limits(key: str) -> tuple:
     """The schema's inclusive ``(minimum, maximum)`` of dotted config ``key`` (of its items for a ``[lo, hi]``
-    pair): code that checks a value the config also carries reads its range here.
-
-    >>> limits("geometry.card_count")
-    (1, 1000000)
-    """
+    pair): code that checks a value the config also carries reads its range here."""
     node = schema_at(load_schema(), key.split("."))
     if node.get("type") == "array":
         node = node.get("items", {})

@@ -1,9 +1,5 @@
 """``rockdove build``: options into :func:`rockdove.api.build`'s arguments, its result into text, and ``--watch``.
-
-Order of work: configuration checked (exit 2, nothing written) -> output checked -> lock taken -> leftovers of
-killed builds cleaned -> stages run or reused -> asset assembled in a staging folder, marker written ->
-verification on it (unless ``--no-verify``) -> atomic swap into place. Ctrl-C and SIGTERM remove the staging
-folder and the cache's temporaries; a failed verification publishes nothing and exits 1.
+A failed verification publishes nothing and exits 1; Ctrl-C and SIGTERM leave the previous asset in place.
 """
 
 from __future__ import annotations

@@ -29,11 +29,8 @@ from ..sources import files_of
 # ----------------------------------------------------------------------------------------------- codecs
 @dataclass(frozen=True)
 class Codec:
-    """How a stage's value is stored in its cache folder: ``save(value, folder)``, ``load(folder) -> value``.
-
-    ``shared``: the loaded value is immutable (frozen dataclasses, tuples, read-only mappings and arrays), so a
-    process loads each cache entry once and hands every later build the same value (:func:`load_entry`).
-    """
+    """How a stage's value is stored in its cache folder. ``shared``: the loaded value is immutable, so a process
+    loads each entry once and hands every later build the same value (:func:`load_entry`)."""
 
     name: str
     save: Callable[[Any, Path], None]

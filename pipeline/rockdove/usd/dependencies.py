@@ -1,17 +1,10 @@
-"""The files an asset refers to, found without composing it: layers that do not parse, and asset paths that
-point outside the asset.
+"""The files an asset refers to, found without composing it (``Sdf`` only: no stage, no texture read).
 
-An asset must be relocatable: every asset path it authors (sublayers, references, payloads, value clips'
-``assetPaths``, ``manifestAssetPath`` and ``templateAssetPath``, asset-valued attributes) must be relative and
-stay inside the root layer's folder, or inside the package for a ``.usdz``. :func:`scan_dependencies` walks the
-layer graph with ``Sdf`` (no stage composed, no texture read) and reports ``assetPath`` issues (absolute paths,
-paths that leave the asset, symlinks inside it to files elsewhere, resolved with ``realpath``, which opens
-nothing; an asset-path expression judged by its value under the root layer's ``expressionVariables``), ``layer``
-issues (a layer that does not parse, with its file and line; one that does not exist; a usdz of more than
-:data:`MAX_PACKAGE_FILES` files) and ``clip`` issues (a ``clips`` value USD's value clips do not take). The
-paths outside are listed in :attr:`Dependencies.external` so that callers never read them, unless
-``allow_external`` (then they are warnings). :func:`require_inside` is the one gate of the commands that read an
-asset.
+An asset must be relocatable: every asset path it authors (sublayers, references, payloads, value clips,
+asset-valued attributes; an expression by its value) must be relative and stay inside the root layer's folder,
+or the package of a ``.usdz``, symlinks resolved. Paths outside are :attr:`Dependencies.external`, never read
+unless ``allow_external`` (then they are warnings). :func:`require_inside` is the one gate of the commands that
+read an asset.
 """
 
 from __future__ import annotations
@@ -31,8 +24,7 @@ _SCHEME = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]*:")
 
 @dataclass
 class Dependencies:
-    """What :func:`scan_dependencies` found: ``issues``, the ``layers`` opened (root first), the ``external``
-    authored paths (absolute or leaving the asset: never read unless allowed)."""
+    """What :func:`scan_dependencies` found: ``issues``, the ``layers`` opened (root first), ``external`` paths."""
 
     issues: list = field(default_factory=list)
     layers: list = field(default_factory=list)
@@ -67,9 +59,8 @@ def _outside(anchored: str, root_dir: str, root_package: str | None) -> str | No
 
 
 def _clip_paths(layer, issues: list) -> list[tuple[str, str, bool]]:
-    """(where, authored path, names a layer) of every value clip (``clips`` metadata) in ``layer``: asset paths,
-    manifests and templates (a template's ``#`` frame digits as ``0``). A malformed ``clips`` value is an
-    issue."""
+    """(where, authored path, names a layer) of every value clip path in ``layer`` (a template's ``#`` frame digits
+    as ``0``); a malformed ``clips`` value is an issue."""
     from pxr import Sdf
 
     found = []
@@ -169,8 +160,7 @@ def _open_layer(identifier: str, issues: list):
 
 
 def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependencies:
-    """Walk ``root_layer`` (a layer or ``.usdz``) and the layers it composes without composing them;
-    ``allow_external`` also opens layers outside the asset and makes such paths warnings."""
+    """Walk ``root_layer`` (a layer or ``.usdz``) and the layers it composes without composing them."""
     from pxr import Ar, Sdf
 
     root = os.path.abspath(os.fspath(root_layer))
@@ -242,9 +232,8 @@ def blocking(deps: Dependencies) -> list:
 
 
 def require_inside(asset, allow_external: bool = False) -> str:
-    """The root layer of ``asset`` (folder or layer) once :func:`scan_dependencies` found nothing wrong, for the
-    commands that read an asset before they open anything: :class:`UsageError` when it is not an asset,
-    :class:`VerificationFailed` naming the first broken layers or paths outside it."""
+    """The root layer of ``asset`` once :func:`scan_dependencies` found nothing wrong: :class:`UsageError` when it
+    is not an asset, :class:`VerificationFailed` naming the first broken layers or paths outside it."""
     from ..errors import UsageError, VerificationFailed
     from .layout import resolve_root_layer
 
