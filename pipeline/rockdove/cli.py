@@ -70,11 +70,6 @@ def main(argv: list[str] | None = None) -> int:
     except VerificationFailed as exc:
         print(f"rockdove {args.command}: failed: {exc}", file=sys.stderr)
         return 1
-    except (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError) as exc:
-        if os.environ.get("ROCKDOVE_DEBUG"):
-            raise
-        print(f"rockdove {args.command}: error: {exc}", file=sys.stderr)
-        return 2
     except KeyboardInterrupt:
         print(f"rockdove {args.command}: interrupted", file=sys.stderr)
         return 130
@@ -83,11 +78,12 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(devnull, sys.stdout.fileno())  # so the final flush is quiet too
         os.close(devnull)
         return 141
-    except OSError as exc:  # the machine said no (a full disk, a read-only file system): one line, exit 2
+    except (ValueError, OSError) as exc:  # bad usage, or the machine said no (a full disk): one line, exit 2
         if os.environ.get("ROCKDOVE_DEBUG"):
             raise
-        print(f"rockdove {args.command}: error: {exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else ""),
-              file=sys.stderr)
+        if not isinstance(exc, (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError)):
+            exc = f"{exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else "")
+        print(f"rockdove {args.command}: error: {exc}", file=sys.stderr)
         return 2
 
 

@@ -43,24 +43,20 @@ class _Progress:
     """A tqdm bar over the stages on stderr; silent with --quiet or when stderr is not a terminal."""
 
     def __init__(self, total: int, quiet: bool):
-        self.bar = None
-        if not quiet and sys.stderr.isatty():
-            from tqdm import tqdm
+        from tqdm import tqdm
 
-            self.bar = tqdm(total=total, file=sys.stderr, unit="stage", leave=False)
+        self.bar = tqdm(total=total, file=sys.stderr, unit="stage", leave=False,
+                        disable=quiet or not sys.stderr.isatty())
         self.started = False
 
     def __call__(self, name: str) -> None:
-        if self.bar is not None:
-            if self.started:
-                self.bar.update(1)
-            self.started = True
-            self.bar.set_description(name)
+        self.bar.update(int(self.started))
+        self.started = True
+        self.bar.set_description(name)
 
     def close(self) -> None:
-        if self.bar is not None:
-            self.bar.update(1 if self.started else 0)
-            self.bar.close()
+        self.bar.update(int(self.started))
+        self.bar.close()
 
 
 def _print(result, args) -> None:

@@ -79,7 +79,9 @@ def build_point(name: str, base: dict, overrides: list[str], out: str, verify: b
     _restore_malloc_thresholds()
     from .. import api
 
-    record: dict = {"name": name, "pid": os.getpid(), "worker": _worker_address()}
+    from distributed import get_worker
+
+    record: dict = {"name": name, "pid": os.getpid(), "worker": get_worker().address}
     t0 = time.perf_counter()
     result = None
     with _ONE_POINT_AT_A_TIME:
@@ -105,15 +107,6 @@ def build_point(name: str, base: dict, overrides: list[str], out: str, verify: b
         record["verify"] = _verify_summary(summary)
         record["images"] = _images(Path(out), summary)
     return record
-
-
-def _worker_address() -> str | None:
-    try:
-        from distributed import get_worker
-
-        return get_worker().address
-    except (ImportError, ValueError):  # not on a Dask worker
-        return None
 
 
 def _verify_summary(summary: dict) -> dict | None:

@@ -3,6 +3,7 @@ and their product, each point with a stable folder name."""
 
 from __future__ import annotations
 
+import collections
 import hashlib
 import itertools
 import json
@@ -111,9 +112,7 @@ def grid_points(axes) -> list[Point]:
         values = {key: v for (key, _), (_, (_lit, v)) in zip(axes, combo)}
         name = "__".join(_slug(key, lit) for (key, _), (_, (lit, _v)) in zip(axes, combo))
         points.append(Point(name, overrides, values, tuple(i for i, _ in combo)))
-    counts: dict[str, int] = {}
-    for p in points:
-        counts[p.name] = counts.get(p.name, 0) + 1
+    counts = collections.Counter(p.name for p in points)
     out = []
     for p in points:
         if counts[p.name] > 1 or len(p.name) > 150:

@@ -58,14 +58,25 @@ def _outside(anchored: str, root_dir: str, root_package: str | None) -> str | No
     return None
 
 
-def _clip_paths(layer, issues: list) -> list[tuple[str, str, bool]]:
-    """(where, authored path, names a layer) of every value clip path in ``layer`` (a template's ``#`` frame digits
-    as ``0``); a malformed ``clips`` value is an issue."""
+def _authored_paths(layer, issues: list) -> list[tuple[str, str, str]]:
+    """(where, authored path, kind) of every value clip path (a template's ``#`` frame digits as ``0``) and
+    asset-valued attribute default and time sample in ``layer``; a malformed ``clips`` value is an issue."""
     from pxr import Sdf
 
     found = []
 
     def visit(path):
+        if path.IsPropertyPath():
+            spec = layer.GetPropertyAtPath(path)
+            if isinstance(spec, Sdf.AttributeSpec) and spec.typeName in (Sdf.ValueTypeNames.Asset,
+                                                                         Sdf.ValueTypeNames.AssetArray):
+                values = [spec.default] if spec.HasDefaultValue() else []
+                values += [layer.QueryTimeSample(path, t) for t in layer.ListTimeSamplesForPath(path)]
+                for v in values:
+                    for a in (v if isinstance(v, (list, tuple)) or hasattr(v, "__len__") and not isinstance(v, str)
+                              else [v]):
+                        if getattr(a, "path", None):
+                            found.append((str(path), a.path, "asset"))
         if not path.IsPrimPath():
             return
         spec = layer.GetPrimAtPath(path)
@@ -85,17 +96,17 @@ def _clip_paths(layer, issues: list) -> list[tuple[str, str, bool]]:
                     paths if hasattr(paths, "__iter__") else [paths])):
                 issues.append(Issue("clip", f"{where}[{name}].assetPaths", f"{paths!r} is not an asset[] list"))
                 paths = []
-            found.extend((f"{where}[{name}].assetPaths", a.path, True) for a in paths if a.path)
+            found.extend((f"{where}[{name}].assetPaths", a.path, "clip") for a in paths if a.path)
             manifest = clip.get("manifestAssetPath")
             if manifest is not None and not isinstance(manifest, Sdf.AssetPath):
                 issues.append(Issue("clip", f"{where}[{name}].manifestAssetPath", f"{manifest!r} is not an asset"))
             elif manifest is not None and manifest.path:
-                found.append((f"{where}[{name}].manifestAssetPath", manifest.path, True))
+                found.append((f"{where}[{name}].manifestAssetPath", manifest.path, "clip"))
             template = clip.get("templateAssetPath")
             if template is not None and not isinstance(template, str):
                 issues.append(Issue("clip", f"{where}[{name}].templateAssetPath", f"{template!r} is not a string"))
             elif template:
-                found.append((f"{where}[{name}].templateAssetPath", template.replace("#", "0"), False))
+                found.append((f"{where}[{name}].templateAssetPath", template.replace("#", "0"), "clip template"))
 
     layer.Traverse(Sdf.Path.absoluteRootPath, visit)
     return found
@@ -110,32 +121,6 @@ def _evaluate(authored: str, variables: dict) -> tuple[str | None, str]:
     result = Sdf.VariableExpression(authored).Evaluate(variables)
     value = result.value if isinstance(result.value, str) and not result.errors else None
     return value, f"path expression {authored!r}" + (f" (= {value!r})" if value is not None else "")
-
-
-def _asset_values(layer) -> list[tuple[str, str]]:
-    """(spec path, authored asset path) of every asset-valued attribute default and time sample in ``layer``."""
-    from pxr import Sdf
-
-    found = []
-
-    def visit(path):
-        if not path.IsPropertyPath():
-            return
-        spec = layer.GetPropertyAtPath(path)
-        if not isinstance(spec, Sdf.AttributeSpec) or spec.typeName not in (Sdf.ValueTypeNames.Asset,
-                                                                            Sdf.ValueTypeNames.AssetArray):
-            return
-        values = [spec.default] if spec.HasDefaultValue() else []
-        values += [layer.QueryTimeSample(path, t) for t in layer.ListTimeSamplesForPath(path)]
-        for v in values:
-            for a in (v if isinstance(v, (list, tuple)) or hasattr(v, "__len__") and not isinstance(v, str)
-                      else [v]):
-                p = getattr(a, "path", None)
-                if p:
-                    found.append((str(path), p))
-
-    layer.Traverse(Sdf.Path.absoluteRootPath, visit)
-    return found
 
 
 def _open_layer(identifier: str, issues: list):
@@ -181,8 +166,7 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
         variables = dict(layer.expressionVariables) if variables is None else variables  # the root layer's
         where = layer.identifier if layer.identifier != root else os.fspath(root_layer)
         found = [(where, p, "layer") for p in layer.GetCompositionAssetDependencies()]
-        found += [(w, p, "clip" if is_layer else "clip template") for w, p, is_layer in _clip_paths(layer, out.issues)]
-        found += [(w, p, "asset") for w, p in _asset_values(layer)]
+        found += _authored_paths(layer, out.issues)
         for spec_path, authored, kind in found:
             value, what = _evaluate(authored, variables)
             if value is None:

@@ -21,9 +21,6 @@ from .issues import Issue, Report, only_errors  # noqa: F401 (re-exported)
 from .layout import resolve_root_layer
 from .material import _SDF_TYPES
 
-#: The UsdValidation error replaced by :func:`check_mtlx_shaders` for MaterialX (ND_*) shader ids.
-MISSING_SHADER_ID = "MissingShaderIdInRegistry"
-
 # Sdf value type name -> MaterialX type: the inverse of the authoring table (material._SDF_TYPES); token (outputs
 # of surface shaders / materials) has no single MaterialX type
 _MX_TYPES = {sdf.lower(): mx for mx, sdf in _SDF_TYPES.items() if sdf != "Token"} | {"token": None}
@@ -49,7 +46,7 @@ def run_usd_validation(stage, validators=None) -> list:
             continue
         sites = [s.GetProperty().GetPath() if s.IsProperty() else s.GetPrim().GetPath() if s.IsPrim() else
                  s.GetLayer().identifier if s.GetLayer() else "" for s in err.GetSites()]
-        if err.GetName() == MISSING_SHADER_ID:
+        if err.GetName() == "MissingShaderIdInRegistry":  # usd-core has no MaterialX Sdr plugin
             prims = [stage.GetPrimAtPath(str(p).split(".")[0]) for p in sites]
             ids = [UsdShade.Shader(p).GetShaderId() if p and p.IsA(UsdShade.Shader) else None for p in prims]
             if ids and all(i and i.startswith("ND_") for i in ids):
@@ -273,9 +270,6 @@ def validate_asset(path, allow_external: bool = False) -> Report:
     except Exception as exc:  # pxr raises Tf.ErrorException for unparsable layers and damaged packages
         why = " ".join(str(exc).split())
         report.issues.append(Issue("open", root, f"USD could not open the layer: {why}"))
-        return report
-    if stage is None:
-        report.issues.append(Issue("open", root, "USD could not open the layer"))
         return report
     library = load_mtlx_libraries()
     validators = _validators()
