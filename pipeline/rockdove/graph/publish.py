@@ -1,15 +1,10 @@
-"""Publishing an asset folder safely: checks, a lock, a staging folder, an atomic swap and a marker.
+"""Publishing an asset folder safely: a marker, a lock, a staging folder and an atomic swap.
 
-- **Marker.** Every published asset folder holds ``.rockdove-asset.json`` (tool, version, configuration hash,
-  stage keys); an existing, non-empty folder without it is never replaced: rockdove did not create it.
-- **Lock.** ``fcntl.flock`` on ``.<name>.rockdove.lock`` beside the output: a second build of the same output
-  *waits* (saying so once on stderr, with the holder's pid; ``timeout_s`` bounds the wait), then finds the first
-  build's stages in the cache. The lock file is never deleted (two builds could then lock different files).
-- **Staging and swap.** The new asset is assembled in ``.<name>.rockdove-tmp-XXXX`` beside the output (same file
-  system), exchanged with the old folder by one ``renameat2(RENAME_EXCHANGE)`` where Linux offers it (else the
-  old one is renamed to ``.<name>.rockdove-old-XXXX`` and the new one into place), and only then is the old one
-  removed. A build killed at any point leaves the previous asset in place or in the ``-old`` folder, which the
-  next build restores first (:func:`recover`).
+An existing non-empty folder without the marker ``.rockdove-asset.json`` is never replaced. A second build of
+the same output waits on ``fcntl.flock`` of ``.<name>.rockdove.lock`` (never deleted: two builds could then lock
+different files), then finds the first one's stages in the cache. The asset is assembled in
+``.<name>.rockdove-tmp-XXXX`` beside the output and swapped in by one ``renameat2(RENAME_EXCHANGE)`` (else by two
+renames through ``.<name>.rockdove-old-XXXX``, which :func:`recover` restores after a kill).
 """
 
 from __future__ import annotations
@@ -118,8 +113,7 @@ def starts_like(magic: bytes, tag: bytes = b""):
 
 
 def _remove(path: Path) -> None:
-    """Remove a leftover of a killed or failed build: a link is unlinked (never followed), a folder removed even
-    where a read-only mode inside it stops ``rmtree`` (it is ours: make it writable first)."""
+    """Remove a leftover of ours: a link unlinked (never followed), a folder even where a mode inside is read-only."""
     if path.is_symlink():
         path.unlink()
         return
@@ -196,8 +190,7 @@ def recover(out: Path) -> None:
 
 
 def published_path(path) -> Path:
-    """Where ``path`` (inside a staging folder ``.<name>.rockdove-tmp-XXXX``) will be once published; other
-    paths unchanged. Reports name the asset by this path, not by the temporary folder."""
+    """Where ``path`` inside a staging folder will be once published (reports name the asset by it)."""
     path = Path(path)
     for i, part in enumerate(path.parts):
         if part.startswith(".") and _TMP in part:
@@ -217,7 +210,7 @@ def make_staging(out: Path) -> Path:
 
 
 def write_marker(folder: Path, info: dict) -> None:
-    """Write the marker that says rockdove created ``folder`` (``info``: config hash, stage keys...)."""
+    """Write the marker that says rockdove created ``folder``."""
     data = {"tool": "rockdove", "version": __version__, **info}
     (folder / MARKER).write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
 
