@@ -24,6 +24,7 @@ import time
 from pathlib import Path
 
 from .build import add_config_arguments
+from ..errors import UsageError
 from ..resources import write_atomic
 from .sweep_grid import grid_points, parse_grid
 
@@ -196,8 +197,6 @@ def _security(path: str | None):
     import yaml
     from distributed.security import Security
 
-    from ..errors import UsageError
-
     if path is None:
         return Security()
     try:
@@ -216,8 +215,6 @@ def _client(args):
 
     from distributed import Client, LocalCluster
     from distributed.security import Security
-
-    from ..errors import UsageError
 
     if args.scheduler:
         security = _security(args.security)
@@ -238,7 +235,6 @@ def _client(args):
 
 def run(args: argparse.Namespace) -> int:
     from ..config import config_hash, load_config
-    from ..errors import UsageError
 
     t0 = time.perf_counter()
     axes = parse_grid(args.grid)
@@ -265,6 +261,7 @@ def run(args: argparse.Namespace) -> int:
                                                          overrides=[*args.overrides, *p.overrides]))
         except ValueError as exc:  # this point alone is invalid: it fails, the others run
             rec.update(status="invalid", error=str(exc), seconds=0.0)
+            print(f"rockdove sweep: {rec['name']}: invalid: {rec['error']}", file=sys.stderr)
         records.append(rec)
 
     client, cluster = _client(args)  # an unreachable scheduler is bad usage: nothing written yet
@@ -283,9 +280,6 @@ def run(args: argparse.Namespace) -> int:
         write_index(root, doc, keys, labels)
 
     todo = [(p, r) for p, r in zip(points, records) if r["status"] == "pending"]
-    for r in records:
-        if r["status"] != "pending":
-            print(f"rockdove sweep: {r['name']}: invalid: {r['error']}", file=sys.stderr)
     try:
         from distributed import as_completed
 
@@ -294,18 +288,15 @@ def run(args: argparse.Namespace) -> int:
         save()
         print(f"rockdove sweep: {len(todo)} points on {doc['workers']} Dask workers ({doc['scheduler']}); "
               f"progress in {root / 'index.html'}", file=sys.stderr)
-        futures = {}
-        for p, r in todo:
-            f = client.submit(build_point, p.name, base, list(p.overrides), str(root / POINTS / p.name),
-                              not args.no_verify, pure=False, key=f"rockdove-point-{p.name}-{os.urandom(4).hex()}")
-            futures[f] = r
+        futures = {client.submit(build_point, p.name, base, list(p.overrides), str(root / POINTS / p.name),
+                                 not args.no_verify, pure=False,
+                                 key=f"rockdove-point-{p.name}-{os.urandom(4).hex()}"): r for p, r in todo}
         for f in as_completed(list(futures)):
             r = futures[f]
             try:
                 r.update(f.result())
             except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker after too many worker deaths
                 r.update(status="error", error=f"{type(exc).__name__}: {exc}")
-            r["asset"] = str(Path(POINTS) / r["name"])
             save()
             print(f"rockdove sweep: [{doc['done']}/{doc['total']}] {r['name']}: {r['status']}"
                   + (f" in {r['seconds']:.1f} s" if "seconds" in r else "")
