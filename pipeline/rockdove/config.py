@@ -154,10 +154,7 @@ def allowed(node: dict) -> str:
         n = node.get("minItems"), node.get("maxItems")
         size = f"{n[0]}" if n[0] == n[1] else f"{n[0]}..{n[1]}"
         inner = allowed({**items, "unit": items.get("unit") or unit}) if items else "values"
-        desc = f"a list of {size} ({inner})"
-        if node.get("range"):
-            desc += f", {node['range']}"
-        return desc
+        return f"a list of {size} ({inner})" + (f", {node['range']}" if node.get("range") else "")
     words = " or ".join(types) if types else "a value"
     lo = node.get("minimum", node.get("exclusiveMinimum"))
     hi = node.get("maximum", node.get("exclusiveMaximum"))

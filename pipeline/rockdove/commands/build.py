@@ -105,14 +105,6 @@ def run(args: argparse.Namespace) -> int:
 POLL_S = 0.1
 
 
-def watched_files(args: argparse.Namespace) -> list[Path]:
-    """The files the configuration is read from: the preset's and the --config file."""
-    from ..config import preset_path
-
-    files = [preset_path(args.preset)] if args.preset is not None else []
-    return files + ([Path(args.config)] if args.config else [])
-
-
 def _stamp(files: list[Path]) -> tuple:
     def one(p: Path):
         try:
@@ -123,13 +115,14 @@ def _stamp(files: list[Path]) -> tuple:
     return tuple(one(p) for p in files)
 
 
-def watch(args: argparse.Namespace, *, poll_s: float = POLL_S) -> int:
-    """``rockdove build --watch``: build now, then again in this warm process each time a :func:`watched_files`
-    file changes (mtime, size or inode, polled every ``poll_s`` s). A failed build prints its one-line error
-    (with --json, a ``{"error": ...}`` line) and the watch goes on; Ctrl-C ends it."""
+def watch(args: argparse.Namespace) -> int:
+    """``rockdove build --watch``: build now, then again in this warm process each time the preset's or the
+    --config file changes (mtime, size or inode). A failed build prints its one-line error (with --json, a
+    ``{"error": ...}`` line) and the watch goes on; Ctrl-C ends it."""
+    from ..config import preset_path
     from ..errors import VerificationFailed
 
-    files = watched_files(args)
+    files = [preset_path(args.preset)] + ([Path(args.config)] if args.config else [])
     try:
         while True:
             stamp = _stamp(files)  # before the build: an edit during it starts the next one
@@ -144,7 +137,7 @@ def watch(args: argparse.Namespace, *, poll_s: float = POLL_S) -> int:
                 print(f"rockdove build: watching {', '.join(map(str, files))} (Ctrl-C ends)", file=sys.stderr,
                       flush=True)
             while _stamp(files) == stamp:
-                time.sleep(poll_s)
+                time.sleep(POLL_S)
     except KeyboardInterrupt:
         print("rockdove build: stopped watching", file=sys.stderr)
     return 0

@@ -1,6 +1,4 @@
-"""``rockdove lut``: bake a thin-film colour LUT into OpenEXR, with an sRGB PNG preview beside it, both
-published atomically once every argument is checked.
-"""
+"""``rockdove lut``: bake a thin-film colour LUT into OpenEXR with an sRGB PNG preview, both written atomically."""
 
 from __future__ import annotations
 

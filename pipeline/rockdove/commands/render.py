@@ -1,7 +1,5 @@
-"""``rockdove render ASSET --out DIR``: offscreen renders of a written asset with the GLSL shaders
-(:mod:`rockdove.render.gl`) of :func:`rockdove.render.views.default_views`, one sRGB PNG per view and
-``contact_sheet.png``, anti-aliased by averaging ``--supersample`` K x K samples per pixel in linear radiance.
-"""
+"""``rockdove render ASSET --out DIR``: offscreen GLSL renders (:mod:`rockdove.render.gl`) of the default views,
+one sRGB PNG each and ``contact_sheet.png``, averaging K x K samples per pixel in linear radiance."""
 
 from __future__ import annotations
 
