@@ -46,17 +46,14 @@ class Context:
 
 @dataclass(frozen=True)
 class Stage:
-    """One node of the build graph.
-
-    ``run(ctx)`` is the pure function (once per item for a fan-out stage); ``config`` the dotted keys it reads;
-    ``deps`` the upstream stages (earlier in the list); ``data`` the data files or folders (``"materials/glsl"``)
-    whose bytes enter its key; ``codec`` how its value is stored; ``publish`` (FILES stages) the sub-folder of
-    the asset its files are copied to (``""``: the root); ``needs_asset`` runs it on the assembled asset
-    (verification). Fan-out: ``items(config)`` gives item name -> the item's own configuration (in its key), or
-    ``item_plan(ctx)`` at run time item name -> everything the item reads (its key *instead of* the upstream
-    digests and the configuration, so it must be complete); ``combine(ctx, values)`` joins the item values;
-    ``batch`` runs the items to redo in one call (``ctx.items``); ``item_codec`` stores an item's value.
-    """
+    """One node of the build graph: ``run(ctx)`` is the pure function (once per item for a fan-out stage);
+    ``config`` the dotted keys it reads; ``deps`` the upstream stages (earlier in the list); ``data`` the data
+    files or folders whose bytes enter its key; ``codec`` how its value is stored; ``publish`` (FILES stages) the
+    sub-folder of the asset its files are copied to (``""``: the root); ``needs_asset`` runs it on the assembled
+    asset. Fan-out: ``items(config)`` gives item name -> the item's own configuration (in its key), or
+    ``item_plan(ctx)`` at run time item name -> everything the item reads (its whole key, so it must be
+    complete); ``combine(ctx, values)`` joins the item values; ``batch`` runs the items to redo in one call
+    (``ctx.items``); ``item_codec`` stores an item's value."""
 
     name: str
     run: Callable[[Context], Any]

@@ -24,15 +24,10 @@ _SCHEME = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]*:")
 
 @dataclass
 class Dependencies:
-    """What :func:`scan_dependencies` found: ``issues``, the ``layers`` opened (root first), ``external`` paths."""
+    """What :func:`scan_dependencies` found: ``issues`` and the ``external`` paths."""
 
     issues: list = field(default_factory=list)
-    layers: list = field(default_factory=list)
     external: set = field(default_factory=set)
-
-    @property
-    def errors(self) -> list:
-        return only_errors(self.issues)
 
 
 def _outside(anchored: str, root_dir: str, root_package: str | None) -> str | None:
@@ -162,7 +157,6 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
         layer = _open_layer(identifier, out.issues)
         if layer is None:
             continue
-        out.layers.append(layer.identifier)
         variables = dict(layer.expressionVariables) if variables is None else variables  # the root layer's
         where = layer.identifier if layer.identifier != root else os.fspath(root_layer)
         found = [(where, p, "layer") for p in layer.GetCompositionAssetDependencies()]
@@ -212,7 +206,7 @@ def _package_too_big(path: str, issues: list) -> bool:
 
 def blocking(deps: Dependencies) -> list:
     """The errors that must stop a reader before USD composes: broken layers and layers or clips from elsewhere."""
-    return [i for i in deps.errors if i.check in ("layer", "clip") or not i.message.startswith("asset ")]
+    return [i for i in only_errors(deps.issues) if i.check in ("layer", "clip") or not i.message.startswith("asset ")]
 
 
 def require_inside(asset, allow_external: bool = False) -> str:
@@ -225,7 +219,7 @@ def require_inside(asset, allow_external: bool = False) -> str:
         root = resolve_root_layer(asset)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    errors = scan_dependencies(root, allow_external).errors
+    errors = only_errors(scan_dependencies(root, allow_external).issues)
     if errors:
         more = f"; and {len(errors) - 5} more" if len(errors) > 5 else ""
         hint = " (--allow-external-assets reads files from elsewhere)" if any(

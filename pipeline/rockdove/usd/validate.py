@@ -121,9 +121,8 @@ def read_texture_asset(resolved: str):
 
 
 def check_textures(stage, decoded: dict | None = None, skip=frozenset()) -> tuple[list, int, dict]:
-    """Check 3: (issues, number of asset attributes checked, ``decoded``). ``skip``: authored paths outside the
-    asset, never read; ``decoded`` ({resolved path: decoded object}, filled in place) skips files already read
-    in another variant (one that failed is tried again)."""
+    """Check 3: (issues, number of asset attributes checked, ``decoded``: {resolved path: object}, filled in place,
+    so another variant reads each file once). ``skip``: authored paths outside the asset, never read."""
     from pxr import Sdf, Usd
 
     issues, n = [], 0
