@@ -7,12 +7,8 @@ import os
 
 
 def import_pyrender():
-    """Import pyrender for offscreen rendering and return the module.
-
-    - Selects EGL (Mesa llvmpipe works headless; pyrender 0.1.45 pins PyOpenGL 3.1.0, which fails with
-      osmesa) unless ``PYOPENGL_PLATFORM`` is already set. This must happen before OpenGL is imported.
-    - pyrender 0.1.45 uses ``np.infty``, removed in numpy 2.
-    """
+    """pyrender, on EGL unless ``PYOPENGL_PLATFORM`` is set (before OpenGL is imported: its pinned PyOpenGL 3.1.0
+    fails with osmesa), with ``np.infty`` (removed in numpy 2) that 0.1.45 uses."""
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
     import numpy as np
 
@@ -24,14 +20,9 @@ def import_pyrender():
 
 
 def import_colour():
-    """Import colour-science without its plotting sub-package and return the module.
-
-    colour-science 0.4.7's ``colour/__init__.py`` runs ``from colour import plotting`` unconditionally, which
-    imports matplotlib and pyplot (~0.35 s of its ~1 s import, measured with ``python -X importtime``) although
-    nothing on the build's path plots with it. While ``colour`` is first imported, ``colour.plotting`` is a
-    placeholder module; afterwards the placeholder is removed again, so ``import colour.plotting`` (or
-    ``from colour import plotting``) still imports the real one when something asks for it.
-    """
+    """colour-science without its plotting sub-package: 0.4.7 imports it unconditionally, and with it matplotlib
+    (~0.35 s of its ~1 s import, ``python -X importtime``). A placeholder stands in while ``colour`` is first
+    imported and is removed after, so ``import colour.plotting`` still gets the real one."""
     import sys
     import types
 

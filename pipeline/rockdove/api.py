@@ -187,7 +187,7 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
     old_term = signal.signal(signal.SIGTERM, _raise_interrupt) if main_thread else None
     staging = None
     try:
-        with OutputLock(out, timeout_s=lock_timeout, quiet=quiet):
+        with OutputLock(out, timeout_s=lock_timeout):
             recover(out)
             store = Cache(cache_dir)
             store.clean_temporaries()

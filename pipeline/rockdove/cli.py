@@ -1,10 +1,6 @@
-"""The ``rockdove`` command line: parses arguments and dispatches.
-
-:data:`COMMANDS` names every sub-command with its one-line help; each lives in ``rockdove/commands/<name>.py``
-(hyphens become underscores), imported only when it runs (``rockdove --help`` stays fast and needs no display),
-with ``add_arguments(parser)`` and ``run(args) -> exit status`` (0 ok, 1 failed check, 2 bad usage). Errors are
-one line on stderr: ``ValueError`` (:class:`UsageError`) and ``OSError`` exit 2, :class:`VerificationFailed` 1;
-tracebacks only with ``ROCKDOVE_DEBUG=1``.
+"""The ``rockdove`` command line. Each of :data:`COMMANDS` is ``rockdove/commands/<name>.py`` (imported only when
+it runs) with ``add_arguments(parser)`` and ``run(args) -> exit status``. Errors are one line on stderr:
+``ValueError`` and ``OSError`` exit 2, :class:`VerificationFailed` 1; tracebacks only with ``ROCKDOVE_DEBUG=1``.
 """
 
 from __future__ import annotations
@@ -16,7 +12,6 @@ import sys
 
 from . import __version__
 
-# name -> one-line help. The module rockdove.commands.<name> implements it.
 COMMANDS: dict[str, str] = {
     "build": "build the pigeon USD asset (incremental; verifies unless --no-verify)",
     "lut": "bake a thin-film colour LUT over angle and thickness into OpenEXR",
@@ -33,7 +28,7 @@ COMMANDS: dict[str, str] = {
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse parser whose errors are one line and exit status 2 (argparse's own convention)."""
+    """Errors in one line, exit status 2."""
 
     def error(self, message: str):  # noqa: D401 - argparse API
         self.exit(2, f"rockdove: error: {message}\n")
@@ -59,7 +54,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """The ``rockdove`` console script: run the command of ``argv`` (default ``sys.argv[1:]``); its exit status."""
+    """The ``rockdove`` console script: the exit status of the command of ``argv``."""
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")  # offscreen GL, chosen before anything imports OpenGL
     argv = list(sys.argv[1:] if argv is None else argv)
     command = next((a for a in argv if not a.startswith("-")), None)
@@ -75,11 +70,6 @@ def main(argv: list[str] | None = None) -> int:
     except VerificationFailed as exc:
         print(f"rockdove {args.command}: failed: {exc}", file=sys.stderr)
         return 1
-    except (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError) as exc:
-        if os.environ.get("ROCKDOVE_DEBUG"):
-            raise
-        print(f"rockdove {args.command}: error: {exc}", file=sys.stderr)
-        return 2
     except KeyboardInterrupt:
         print(f"rockdove {args.command}: interrupted", file=sys.stderr)
         return 130
@@ -88,11 +78,12 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(devnull, sys.stdout.fileno())  # so the final flush is quiet too
         os.close(devnull)
         return 141
-    except OSError as exc:  # the machine said no (a full disk, a read-only file system): one line, exit 2
+    except (ValueError, OSError) as exc:  # bad usage, or the machine said no (a full disk): one line, exit 2
         if os.environ.get("ROCKDOVE_DEBUG"):
             raise
-        print(f"rockdove {args.command}: error: {exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else ""),
-              file=sys.stderr)
+        if not isinstance(exc, (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError)):
+            exc = f"{exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else "")
+        print(f"rockdove {args.command}: error: {exc}", file=sys.stderr)
         return 2
 
 

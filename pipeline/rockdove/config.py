@@ -41,7 +41,7 @@ def load_schema() -> dict:
 
 
 def presets() -> list[str]:
-    """Names of the presets in ``assets/pigeon/`` (file stems), sorted."""
+    """Names of the presets in ``assets/pigeon/``, sorted."""
     return sorted(p.stem for p in resources.path("assets/pigeon").glob("*.toml"))
 
 
@@ -127,11 +127,7 @@ def schema_at(schema: dict, path: Iterable) -> dict:
 @functools.cache
 def limits(key: str) -> tuple:
     """The schema's inclusive ``(minimum, maximum)`` of dotted config ``key`` (of its items for a ``[lo, hi]``
-    pair): code that checks a value the config also carries reads its range here.
-
-    >>> limits("geometry.card_count")
-    (1, 1000000)
-    """
+    pair): code that checks a value the config also carries reads its range here."""
     node = schema_at(load_schema(), key.split("."))
     if node.get("type") == "array":
         node = node.get("items", {})
@@ -158,10 +154,7 @@ def allowed(node: dict) -> str:
         n = node.get("minItems"), node.get("maxItems")
         size = f"{n[0]}" if n[0] == n[1] else f"{n[0]}..{n[1]}"
         inner = allowed({**items, "unit": items.get("unit") or unit}) if items else "values"
-        desc = f"a list of {size} ({inner})"
-        if node.get("range"):
-            desc += f", {node['range']}"
-        return desc
+        return f"a list of {size} ({inner})" + (f", {node['range']}" if node.get("range") else "")
     words = " or ".join(types) if types else "a value"
     lo = node.get("minimum", node.get("exclusiveMinimum"))
     hi = node.get("maximum", node.get("exclusiveMaximum"))

@@ -1,11 +1,4 @@
-"""Exceptions that the CLI turns into exit statuses.
-
-- :class:`UsageError` (a ``ValueError``): bad arguments, configuration or input. Exit status 2, one line.
-- :class:`VerificationFailed`: an asset was checked and failed validation or verification. Exit status 1.
-
-Library functions raise plain ``ValueError`` for bad arguments (naming the argument, its value and what
-is allowed); the CLI treats every ``ValueError`` like a :class:`UsageError`.
-"""
+"""Exceptions that the CLI turns into exit statuses (any ``ValueError``, as bad usage, exits 2)."""
 
 
 class RockdoveError(Exception):

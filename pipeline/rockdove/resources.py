@@ -1,19 +1,9 @@
 """The data files rockdove reads at run time, found through :mod:`importlib.resources`.
 
-Shaders and MaterialX documents (``materials/``), the USD schema and the configuration's JSON Schema
-(``schemas/``) and the presets (``assets/``) live at the top of the repository; ``pyproject.toml`` maps each
-folder into the package as a data sub-package (``rockdove.materials``...), so a wheel carries them and an
-editable install reads them from the checkout. Names are relative paths whose first part is the folder.
-
-Examples
---------
->>> from rockdove import resources
->>> resources.path("materials/glsl/thinfilm.frag").name
-'thinfilm.frag'
->>> resources.path("materials/nothing.txt")
-Traceback (most recent call last):
-...
-rockdove.errors.ResourceMissing: rockdove data file 'materials/nothing.txt' is missing from the installed package (...)
+``materials/``, ``schemas/`` and ``assets/`` live at the top of the repository; ``pyproject.toml`` maps each
+into the package as a data sub-package (``rockdove.materials``...), so a wheel carries them and an editable
+install reads them from the checkout. Names are relative paths whose first part is the folder, e.g.
+``resources.path("materials/glsl/thinfilm.frag")``.
 """
 
 from __future__ import annotations

@@ -1,23 +1,13 @@
 """What code can execute, read from its source (nothing listed by hand): the digest that keys the build graph's
 stages and the user cache's folders.
 
-A callable is followed by name through the module that defines it: the top-level functions, classes and
-constants it names, and the modules those import (at module level or inside a function, absolute or relative,
-as :mod:`ast` reads them, the way ``tests/test_imports.py`` walks the package). From each module reached, its
-whole import closure inside the ``rockdove`` package, with the ``__init__`` of every package on the way. A string
-naming a module (``"rockdove.hosts.glsl"``) or an f-string naming a package's modules by prefix
-(``f"rockdove.geometry.{name}"``) is an import too. A lambda, or a callable outside the package (a test's
-stand-in), keys on its whole file and every import in it.
-
-Third-party code enters as the whole environment: the ``*.dist-info`` / ``*.egg-info`` names (distribution and
-version) in every folder of ``sys.path``, and Python's version. Why not the distributions a closure imports:
-third-party code runs third-party code rockdove never names (trimesh calls scipy, pyrender PyOpenGL,
-colour-science scipy; USD and Pillow load plugins), so only the environment is a closure that cannot miss one;
-and mapping import names to distributions (``importlib.metadata.packages_distributions()``) took 1.1 s per
-process here, against ~1 ms to list ``sys.path``. An install or upgrade costs one cold build.
-
-A digest is memoised per process until a file it read or a folder it listed changes (mtime and size), and
-parsing by the file's content on disk (:func:`scan_dir`).
+A callable is followed by name through its module's top-level definitions and the modules those import (as
+:mod:`ast` reads them; a string or f-string prefix naming ``rockdove.`` modules is an import too), then through
+each reached module's whole import closure inside the package. A lambda, or a callable outside the package, keys
+on its whole file and every import in it. Third-party code enters as the whole environment (the ``*.dist-info``
+names on ``sys.path``, and Python's version): it runs code rockdove never names (trimesh calls scipy, USD loads
+plugins), and mapping imports to distributions took 1.1 s per process against ~1 ms to list ``sys.path``.
+A digest is memoised per process until a file it read or a folder it listed changes (mtime and size).
 """
 
 from __future__ import annotations
@@ -40,10 +30,8 @@ KEY_FILE = "key.json"
 
 
 def files_of(path: Path, pattern: str = "*", seen: dict | None = None) -> list[Path]:
-    """The files under ``path`` (or ``path`` itself) whose names match ``pattern``, sorted; ``seen`` receives the
-    (mtime, size) of every folder listed, taken before it is listed. ``__pycache__`` and ``node_modules`` (npm
-    packages beside data files, keyed by their pinned versions in package-lock.json) are skipped, and links to
-    folders are not followed."""
+    """The files under ``path`` (or ``path`` itself) matching ``pattern``, sorted, links to folders not followed,
+    ``__pycache__`` and ``node_modules`` (keyed by package-lock.json) skipped; ``seen`` gets each folder's stamp."""
     if not path.is_dir():
         return [path] if path.is_file() else []
     found, todo = [], [str(path)]
@@ -69,7 +57,6 @@ def _stamp(path, seen: dict) -> tuple:
 
 @functools.lru_cache(maxsize=4096)
 def _bytes(path: Path, mtime_ns: int, size: int) -> bytes:
-    """A source or data file's bytes, read once per process and version of the file."""
     return path.read_bytes()
 
 
@@ -82,9 +69,8 @@ def _python() -> str:
 
 
 def environment(seen: dict) -> str:
-    """sha256 of the distributions installed on ``sys.path`` (the names of their metadata folders, in order), but
-    rockdove's own: its code is keyed by its source, and a checkout's ``rockdove.egg-info`` is on ``sys.path``
-    under pytest and not in the installed command."""
+    """sha256 of the metadata folder names on ``sys.path``, but rockdove's own (its code is keyed by its source; a
+    checkout's ``rockdove.egg-info`` is on ``sys.path`` under pytest, not in the installed command)."""
     names = []
     for entry in sys.path:
         if entry and os.path.isdir(entry):
@@ -131,9 +117,8 @@ def _imports(node) -> list:
 
 
 def _scan(source: bytes) -> dict:
-    """``{"imports": every import of the file, "top": {name: {"refs", "imports"}}, "bound": {name: import}}``:
-    per top-level definition the names it uses and the imports inside it; per name a module-level import binds,
-    that import."""
+    """``{"imports": every import, "top": {definition: {"refs": names it uses, "imports"}}, "bound": {name: the
+    module-level import binding it}}``."""
     tree = ast.parse(source)
     top, bound = {}, {}
     for stmt in tree.body:
@@ -207,9 +192,7 @@ def closure(start: set[str], mods: dict, seen: dict) -> set[str]:
 
 
 def entry_modules(fn, mods: dict, seen: dict) -> tuple[Path, set[str]]:
-    """The file ``fn`` is written in and the package modules it reaches from it: by name through its module's
-    top-level definitions when it is one of them, else (a lambda, a callable outside the package) through every
-    import of its file."""
+    """The file ``fn`` is written in and the package modules it reaches from it (module docstring)."""
     path = Path(inspect.getsourcefile(fn) or "").resolve()
     if not path.is_file():
         raise ValueError(f"{fn!r} has no source file; a stage's code must be keyed by its source")
@@ -250,9 +233,8 @@ _MEMO: dict = {}
 
 
 def digest(fns, data=(), modules=()) -> tuple[str, dict]:
-    """``(sha256, record)`` of what ``fns`` can execute: the source files (:func:`code_files`), the ``data`` files
-    or folders (``"materials/glsl"``), the environment and Python; ``record`` holds each file's sha256.
-    Remembered by this process while none of the files it read and none of the folders it listed changed."""
+    """``(sha256, record)`` of what ``fns`` can execute (:func:`code_files`), the ``data`` files or folders, the
+    environment and Python; ``record`` holds each file's sha256."""
     root = resources.package_root().resolve()
     memo_key = (str(root), tuple((f.__code__.co_filename, f.__qualname__) if hasattr(f, "__code__") else f
                                  for f in fns), tuple(data), tuple(modules))

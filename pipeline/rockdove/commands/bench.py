@@ -17,16 +17,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    topics = [args.topic] if getattr(args, "topic", None) else TOPICS
     status = 0
-    for topic in topics:
+    for topic in [args.topic] if args.topic else TOPICS:
         mod = importlib.import_module(f"rockdove.bench.{topic}")
-        if not getattr(args, "topic", None):
-            # running every topic: each with its own defaults
+        topic_args = args
+        if not args.topic:  # every topic, each with its own defaults
             p = argparse.ArgumentParser()
             mod.add_arguments(p)
             topic_args = p.parse_args([])
-        else:
-            topic_args = args
         status = max(status, int(mod.run(topic_args) or 0))
     return status

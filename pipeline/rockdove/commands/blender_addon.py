@@ -1,12 +1,6 @@
-"""``rockdove blender-addon --out DIR``: write the Blender add-on ``DIR/rockdove_blender.zip``.
-
-Install it in Blender 4.2 or later with Edit > Preferences > Add-ons > Install from Disk, or from Python::
-
-    bpy.ops.preferences.addon_install(filepath="DIR/rockdove_blender.zip")
-    bpy.ops.preferences.addon_enable(module="rockdove_blender")
-
-Then File > Import > Universal Scene Description of ``pigeon.usda`` or ``pigeon.usdz`` gives the neck
-feathers Cycles' physical thin film (see ``materials/blender/rockdove_blender/__init__.py``).
+"""``rockdove blender-addon --out DIR``: write the Blender add-on ``DIR/rockdove_blender.zip`` (Blender 4.2 or
+later: Edit > Preferences > Add-ons > Install from Disk, or the two ``bpy.ops`` calls it prints), with which a USD
+import of the asset gives the neck feathers Cycles' physical thin film (``materials/blender/rockdove_blender``).
 """
 
 from __future__ import annotations

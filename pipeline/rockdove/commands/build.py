@@ -1,9 +1,5 @@
 """``rockdove build``: options into :func:`rockdove.api.build`'s arguments, its result into text, and ``--watch``.
-
-Order of work: configuration checked (exit 2, nothing written) -> output checked -> lock taken -> leftovers of
-killed builds cleaned -> stages run or reused -> asset assembled in a staging folder, marker written ->
-verification on it (unless ``--no-verify``) -> atomic swap into place. Ctrl-C and SIGTERM remove the staging
-folder and the cache's temporaries; a failed verification publishes nothing and exits 1.
+A failed verification publishes nothing and exits 1; Ctrl-C and SIGTERM leave the previous asset in place.
 """
 
 from __future__ import annotations
@@ -47,24 +43,20 @@ class _Progress:
     """A tqdm bar over the stages on stderr; silent with --quiet or when stderr is not a terminal."""
 
     def __init__(self, total: int, quiet: bool):
-        self.bar = None
-        if not quiet and sys.stderr.isatty():
-            from tqdm import tqdm
+        from tqdm import tqdm
 
-            self.bar = tqdm(total=total, file=sys.stderr, unit="stage", leave=False)
+        self.bar = tqdm(total=total, file=sys.stderr, unit="stage", leave=False,
+                        disable=quiet or not sys.stderr.isatty())
         self.started = False
 
     def __call__(self, name: str) -> None:
-        if self.bar is not None:
-            if self.started:
-                self.bar.update(1)
-            self.started = True
-            self.bar.set_description(name)
+        self.bar.update(int(self.started))
+        self.started = True
+        self.bar.set_description(name)
 
     def close(self) -> None:
-        if self.bar is not None:
-            self.bar.update(1 if self.started else 0)
-            self.bar.close()
+        self.bar.update(int(self.started))
+        self.bar.close()
 
 
 def _print(result, args) -> None:
@@ -113,14 +105,6 @@ def run(args: argparse.Namespace) -> int:
 POLL_S = 0.1
 
 
-def watched_files(args: argparse.Namespace) -> list[Path]:
-    """The files the configuration is read from: the preset's and the --config file."""
-    from ..config import preset_path
-
-    files = [preset_path(args.preset)] if args.preset is not None else []
-    return files + ([Path(args.config)] if args.config else [])
-
-
 def _stamp(files: list[Path]) -> tuple:
     def one(p: Path):
         try:
@@ -131,13 +115,14 @@ def _stamp(files: list[Path]) -> tuple:
     return tuple(one(p) for p in files)
 
 
-def watch(args: argparse.Namespace, *, poll_s: float = POLL_S) -> int:
-    """``rockdove build --watch``: build now, then again in this warm process each time a :func:`watched_files`
-    file changes (mtime, size or inode, polled every ``poll_s`` s). A failed build prints its one-line error
-    (with --json, a ``{"error": ...}`` line) and the watch goes on; Ctrl-C ends it."""
+def watch(args: argparse.Namespace) -> int:
+    """``rockdove build --watch``: build now, then again in this warm process each time the preset's or the
+    --config file changes (mtime, size or inode). A failed build prints its one-line error (with --json, a
+    ``{"error": ...}`` line) and the watch goes on; Ctrl-C ends it."""
+    from ..config import preset_path
     from ..errors import VerificationFailed
 
-    files = watched_files(args)
+    files = [preset_path(args.preset)] + ([Path(args.config)] if args.config else [])
     try:
         while True:
             stamp = _stamp(files)  # before the build: an edit during it starts the next one
@@ -152,7 +137,7 @@ def watch(args: argparse.Namespace, *, poll_s: float = POLL_S) -> int:
                 print(f"rockdove build: watching {', '.join(map(str, files))} (Ctrl-C ends)", file=sys.stderr,
                       flush=True)
             while _stamp(files) == stamp:
-                time.sleep(poll_s)
+                time.sleep(POLL_S)
     except KeyboardInterrupt:
         print("rockdove build: stopped watching", file=sys.stderr)
     return 0

@@ -1,8 +1,5 @@
-"""``rockdove config``: print the effective build configuration with units (or as JSON).
-
-Takes the same ``--preset``, ``--config`` and ``--set`` options as ``rockdove build``, so a user sees exactly
-what a build would use; the units, ranges and descriptions come from ``schemas/config.schema.json``.
-"""
+"""``rockdove config``: the configuration a build with the same options would use, with the schema's units and
+ranges (or as JSON); ``--paths`` the folders rockdove uses outside an asset."""
 
 from __future__ import annotations
 

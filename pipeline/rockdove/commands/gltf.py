@@ -1,7 +1,5 @@
-"""``rockdove gltf ASSET [--out F.glb] [--validate] [--json]``: export a written asset to glTF 2.0
-(:func:`rockdove.web.gltf.export_glb`; the build writes ``pigeon.glb`` unless ``gltf.glb = false``), optionally
-checked by the Khronos glTF-Validator. Exit status 0, 1 when the validator reports errors, 2 on bad usage.
-"""
+"""``rockdove gltf ASSET``: export a written asset to glTF 2.0 (:func:`rockdove.web.gltf.export_glb`), optionally
+checked by the Khronos glTF-Validator (exit status 1 when it reports errors)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,4 @@
-"""``rockdove lut``: bake a thin-film colour LUT into OpenEXR, with an sRGB PNG preview beside it, both
-published atomically once every argument is checked.
-"""
+"""``rockdove lut``: bake a thin-film colour LUT into OpenEXR with an sRGB PNG preview, both written atomically."""
 
 from __future__ import annotations
 
@@ -9,10 +7,6 @@ import os
 import time
 
 DEFAULT_ERROR_POINTS = 1000
-# bake() argument -> command-line option, for error messages
-_OPTIONS = {"angles": "--angles", "thicknesses": "--thicknesses", "thickness_range": "--thickness-range",
-            "film": "--film", "method": "--method", "angle_warp_gamma": "--angle-gamma",
-            "colour_space": "--colour-space"}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -34,14 +28,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="random points at which the LUT is checked against the exact reference (0: skip)")
 
 
-def _check_out(out: str) -> str:
-    if not out.lower().endswith(".exr"):
-        raise ValueError(f"--out must name a .exr file, got {out!r}")
-    if os.path.isdir(out):
-        raise ValueError(f"--out is a directory, expected a .exr file path: {out!r}")
-    return os.path.abspath(out)
-
-
 def _publish(write, path: str) -> None:
     """Write with ``write(tmp_path)`` beside ``path``, then atomically replace ``path``."""
     from ..resources import atomic_path
@@ -51,10 +37,14 @@ def _publish(write, path: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..graph.publish import check_output_file, starts_like
     from ..lut import bake, write_exr, write_preview_png
 
-    out = _check_out(args.out)
-    from ..graph.publish import check_output_file, starts_like
+    if not args.out.lower().endswith(".exr"):
+        raise ValueError(f"--out must name a .exr file, got {args.out!r}")
+    if os.path.isdir(args.out):
+        raise ValueError(f"--out is a directory, expected a .exr file path: {args.out!r}")
+    out = os.path.abspath(args.out)
 
     ours = starts_like(b"\x76\x2f\x31\x01", b"rockdove:format")  # an EXR rockdove wrote: never the user's files
     check_output_file(out, ours)
@@ -68,8 +58,9 @@ def run(args: argparse.Namespace) -> int:
                    colour_space=args.colour_space)
     except ValueError as exc:  # name the command-line option, not only the library argument
         name = str(exc).split(" ", 1)[0]
-        if name in _OPTIONS:
-            raise ValueError(f"{_OPTIONS[name]}: {exc}") from None
+        if name in ("angles", "thicknesses", "thickness_range", "film", "method", "angle_warp_gamma", "colour_space"):
+            option = "angle-gamma" if name == "angle_warp_gamma" else name.replace("_", "-")
+            raise ValueError(f"--{option}: {exc}") from None
         raise
     bake_s = time.perf_counter() - t0
     if args.error_points:

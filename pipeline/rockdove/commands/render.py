@@ -1,7 +1,5 @@
-"""``rockdove render ASSET --out DIR``: offscreen renders of a written asset with the GLSL shaders
-(:mod:`rockdove.render.gl`) of :func:`rockdove.render.views.default_views`, one sRGB PNG per view and
-``contact_sheet.png``, anti-aliased by averaging ``--supersample`` K x K samples per pixel in linear radiance.
-"""
+"""``rockdove render ASSET --out DIR``: offscreen GLSL renders (:mod:`rockdove.render.gl`) of the default views,
+one sRGB PNG each and ``contact_sheet.png``, averaging K x K samples per pixel in linear radiance."""
 
 from __future__ import annotations
 
@@ -33,7 +31,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_external_argument(parser)
 
 
-def _check(args) -> None:
+def run(args: argparse.Namespace) -> int:
+    from ..graph.publish import claim_output
+    from ..usd.dependencies import require_inside
+
     if not 1 <= args.supersample <= 4:
         raise ValueError(f"--supersample must be in [1, 4], got {args.supersample}")
     for key in ("width", "height"):
@@ -44,17 +45,8 @@ def _check(args) -> None:
     if args.views < 1 or args.views * args.width * args.height > MAX_SHEET_PX:
         raise ValueError(f"--views must be >= 1 and --views x --width x --height <= {MAX_SHEET_PX} pixels (the "
                          f"memory budget), got {args.views} x {args.width} x {args.height}")
-    from ..graph.publish import claim_output
-
     claim_output(args.out, "renders", create=False)  # a folder rockdove did not write is refused, before rendering
-
-
-def run(args: argparse.Namespace) -> int:
-    _check(args)
-    from ..usd.dependencies import require_inside
-
     require_inside(args.asset, args.allow_external_assets)
-    from ..graph.publish import claim_output
     from ..render.gl import GLRenderer
     from ..render.images import box_downsample, contact_sheet, save_png
     from ..render.scene import load_scene

@@ -1,8 +1,5 @@
-"""``rockdove schema-path``: print the folder of the ``RockDoveThinFilmAPI`` USD plugin (its ``plugInfo.json``),
-inside the installed package, for USD tools that find codeless schemas through ``PXR_PLUGINPATH_NAME``::
-
-    export PXR_PLUGINPATH_NAME=$(rockdove schema-path)${PXR_PLUGINPATH_NAME:+:$PXR_PLUGINPATH_NAME}
-"""
+"""``rockdove schema-path``: the folder of the ``RockDoveThinFilmAPI`` USD plugin (``plugInfo.json``), for USD
+tools that find codeless schemas through ``PXR_PLUGINPATH_NAME``."""
 
 from __future__ import annotations
 

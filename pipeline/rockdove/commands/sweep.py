@@ -1,21 +1,13 @@
 """``rockdove sweep``: build (and verify) every point of a parameter grid on a Dask cluster.
 
-``--grid 'KEY=[V1, V2, ...]'`` gives one axis (TOML literals as ``--set`` takes them, bare words included);
-several make their product, applied over ``--preset``, ``--config`` and ``--set``. Each point is one
-:func:`rockdove.api.build` on a Dask worker into ``DIR/points/<KEY=VALUE__...>`` (a stable name), all sharing one
-stage cache (``DIR/.rockdove-cache`` unless ``--cache``), so the body is built once per geometry
-(:meth:`rockdove.graph.cache.Cache.entry_lock`) and every point is byte-identical to a serial ``rockdove build``.
-
-The cluster is a private ``distributed.LocalCluster`` of ``--workers`` processes (TLS with a certificate held in
-memory, ``Security.temporary()``, so another local user who finds its port cannot run code as you), or
-``--scheduler ADDRESS`` (its workers see ``DIR``; TLS from ``--security FILE`` or Dask's configuration). A worker
-that dies mid-point has the point rescheduled by Dask (``distributed.scheduler.allowed-failures``); the killed
-build leaves no half-written asset.
-
-``DIR/sweep.json`` (per point: overrides, values, configuration hash, asset, build and verify summary, seconds,
-worker) and ``DIR/index.html`` (light-sweep renders and hue histograms by the swept keys, refreshed while it
-runs) are rewritten as each point finishes. Exit status 2 for bad usage before anything runs, 1 when any point
-failed (after all the others finished), else 0.
+Each point of the ``--grid`` product (over ``--preset``, ``--config``, ``--set``) is one :func:`rockdove.api.build`
+on a Dask worker into ``DIR/points/<KEY=VALUE__...>``, all sharing one stage cache, so the body is built once per
+geometry (:meth:`rockdove.graph.cache.Cache.entry_lock`) and each point is byte-identical to a serial build. The
+cluster is a private ``LocalCluster`` with TLS from ``Security.temporary()`` (another local user who finds its
+port cannot run code as you), or ``--scheduler`` with ``--security``; a point whose worker dies is rescheduled by
+Dask and leaves no half-written asset. ``DIR/sweep.json`` and ``DIR/index.html`` (renders and hue histograms by
+the swept keys) are rewritten as each point finishes. Exit status 2 for bad usage before anything runs, 1 when any
+point failed (after all the others finished), else 0.
 """
 
 from __future__ import annotations
@@ -32,6 +24,7 @@ import time
 from pathlib import Path
 
 from .build import add_config_arguments
+from ..errors import UsageError
 from ..resources import write_atomic
 from .sweep_grid import grid_points, parse_grid
 
@@ -87,7 +80,9 @@ def build_point(name: str, base: dict, overrides: list[str], out: str, verify: b
     _restore_malloc_thresholds()
     from .. import api
 
-    record: dict = {"name": name, "pid": os.getpid(), "worker": _worker_address()}
+    from distributed import get_worker
+
+    record: dict = {"name": name, "pid": os.getpid(), "worker": get_worker().address}
     t0 = time.perf_counter()
     result = None
     with _ONE_POINT_AT_A_TIME:
@@ -113,15 +108,6 @@ def build_point(name: str, base: dict, overrides: list[str], out: str, verify: b
         record["verify"] = _verify_summary(summary)
         record["images"] = _images(Path(out), summary)
     return record
-
-
-def _worker_address() -> str | None:
-    try:
-        from distributed import get_worker
-
-        return get_worker().address
-    except (ImportError, ValueError):  # not on a Dask worker
-        return None
 
 
 def _verify_summary(summary: dict) -> dict | None:
@@ -155,57 +141,43 @@ def _images(out: Path, summary: dict) -> dict:
 
 # ----------------------------------------------------------------------------------------------- the page
 def write_index(root: Path, doc: dict, axes_keys: list[str], axes_values: list[list[str]]) -> None:
-    """``DIR/index.html``: one cell per point, a row per value of the keys but the last, a column per value of the
-    last; a progress bar (and a refresh) while the sweep runs."""
-    points = doc["points"]
+    """``DIR/index.html``: a row per value of the keys but the last, a column per value of the last; a progress
+    bar (and a refresh) while the sweep runs."""
+    e, points, running = html.escape, doc["points"], doc["state"] == "running"
     by_index = {tuple(p["index"]): p for p in points}
-    col_key, col_vals = axes_keys[-1], axes_values[-1]
-    row_keys, row_lists = axes_keys[:-1], axes_values[:-1]
-    e = html.escape
-    running = doc["state"] == "running"
-    rows = []
-    head = "".join(f"<th>{e(col_key)} = {e(v)}</th>" for v in col_vals)
-    for ridx in itertools.product(*[range(len(v)) for v in row_lists]):
-        label = "<br>".join(f"{e(k)} = {e(row_lists[i][j])}" for i, (k, j) in enumerate(zip(row_keys, ridx)))
-        cells = [f"<th>{label or '&nbsp;'}</th>"]
-        for c in range(len(col_vals)):
-            cells.append(f"<td>{_cell(by_index.get(ridx + (c,)), root)}</td>")
-        rows.append("<tr>" + "".join(cells) + "</tr>")
+    rows = [f"<tr><th></th>{''.join(f'<th>{e(axes_keys[-1])} = {e(v)}</th>' for v in axes_values[-1])}</tr>"]
+    for ridx in itertools.product(*[range(len(v)) for v in axes_values[:-1]]):
+        label = "<br>".join(f"{e(k)} = {e(axes_values[i][j])}" for i, (k, j) in enumerate(zip(axes_keys, ridx)))
+        rows.append(f"<tr><th>{label or '&nbsp;'}</th>" + "".join(
+            f"<td>{_cell(by_index.get(ridx + (c,)), root)}</td>" for c in range(len(axes_values[-1]))) + "</tr>")
     done, total = doc["done"], doc["total"]
-    refresh = f'<meta http-equiv="refresh" content="{REFRESH_S}">' if running else ""
     failed = sum(1 for p in points if p.get("status") not in (None, "pending", "ok"))
     state = (f"running: {done} of {total} points done" if running else
              f"interrupted: {done} of {total} points done" if doc["state"] == "interrupted" else
              f"finished: {total - failed} of {total} points ok" + (f", {failed} failed" if failed else "")
              + f" in {doc['seconds']:.1f} s")
-    page = f"""<!doctype html>
-<html><head><meta charset="utf-8">{refresh}<title>rockdove sweep</title>
-<style>body{{font-family:sans-serif;margin:1em}} table{{border-collapse:collapse}}
+    write_atomic(root / "index.html", f"""<!doctype html>
+<html><head><meta charset="utf-8">{f'<meta http-equiv="refresh" content="{REFRESH_S}">' if running else ""}
+<title>rockdove sweep</title><style>body{{font-family:sans-serif;margin:1em}} table{{border-collapse:collapse}}
 td,th{{border:1px solid #ccc;padding:4px;vertical-align:top;font-size:12px}} img{{display:block;max-width:220px}}
 .ok{{color:#070}} .bad{{color:#a00}} .pending{{color:#888}} progress{{width:30em}}</style></head>
 <body><h1>rockdove sweep</h1>
 <p><progress value="{done}" max="{total}"></progress> {e(state)}; scheduler {e(str(doc['scheduler']))},
 {doc['workers']} workers; <a href="sweep.json">sweep.json</a></p>
-<table><tr><th></th>{head}</tr>
-{chr(10).join(rows)}
-</table></body></html>
-"""
-    write_atomic(root / "index.html", page)
+<table>{chr(10).join(rows)}</table></body></html>
+""")
 
 
 def _cell(p: dict | None, root: Path) -> str:
-    e = html.escape
     if p is None:
         return ""
-    status = p.get("status", "pending")
+    e, status, v, imgs = html.escape, p.get("status", "pending"), p.get("verify") or {}, p.get("images") or {}
     parts = [f'<div class="{status if status in ("ok", "pending") else "bad"}"><b>{e(status)}</b> {e(p["name"])}'
              + (f" &middot; {p['seconds']:.1f} s" if "seconds" in p else "") + "</div>"]
     if p.get("error"):
         parts.append(f'<div class="bad">{e(p["error"])}</div>')
-    v = p.get("verify") or {}
     if v.get("median_dE") is not None:
         parts.append(f"<div>median dE2000 {v['median_dE']:.2f}, p95 {v['p95_dE']:.2f}</div>")
-    imgs = p.get("images") or {}
     for src, alt in [(s, "light sweep") for s in imgs.get("sweep", [])] + [(imgs.get("hue"), "hue histogram"),
                                                                            (imgs.get("preview"), "LUT preview")]:
         if src:
@@ -224,8 +196,6 @@ def _security(path: str | None):
     import dask
     import yaml
     from distributed.security import Security
-
-    from ..errors import UsageError
 
     if path is None:
         return Security()
@@ -246,8 +216,6 @@ def _client(args):
     from distributed import Client, LocalCluster
     from distributed.security import Security
 
-    from ..errors import UsageError
-
     if args.scheduler:
         security = _security(args.security)
         if args.scheduler.startswith("tls://") and not security.require_encryption and not security.tls_ca_file:
@@ -267,7 +235,6 @@ def _client(args):
 
 def run(args: argparse.Namespace) -> int:
     from ..config import config_hash, load_config
-    from ..errors import UsageError
 
     t0 = time.perf_counter()
     axes = parse_grid(args.grid)
@@ -294,6 +261,7 @@ def run(args: argparse.Namespace) -> int:
                                                          overrides=[*args.overrides, *p.overrides]))
         except ValueError as exc:  # this point alone is invalid: it fails, the others run
             rec.update(status="invalid", error=str(exc), seconds=0.0)
+            print(f"rockdove sweep: {rec['name']}: invalid: {rec['error']}", file=sys.stderr)
         records.append(rec)
 
     client, cluster = _client(args)  # an unreachable scheduler is bad usage: nothing written yet
@@ -312,9 +280,6 @@ def run(args: argparse.Namespace) -> int:
         write_index(root, doc, keys, labels)
 
     todo = [(p, r) for p, r in zip(points, records) if r["status"] == "pending"]
-    for r in records:
-        if r["status"] != "pending":
-            print(f"rockdove sweep: {r['name']}: invalid: {r['error']}", file=sys.stderr)
     try:
         from distributed import as_completed
 
@@ -323,18 +288,15 @@ def run(args: argparse.Namespace) -> int:
         save()
         print(f"rockdove sweep: {len(todo)} points on {doc['workers']} Dask workers ({doc['scheduler']}); "
               f"progress in {root / 'index.html'}", file=sys.stderr)
-        futures = {}
-        for p, r in todo:
-            f = client.submit(build_point, p.name, base, list(p.overrides), str(root / POINTS / p.name),
-                              not args.no_verify, pure=False, key=f"rockdove-point-{p.name}-{os.urandom(4).hex()}")
-            futures[f] = r
+        futures = {client.submit(build_point, p.name, base, list(p.overrides), str(root / POINTS / p.name),
+                                 not args.no_verify, pure=False,
+                                 key=f"rockdove-point-{p.name}-{os.urandom(4).hex()}"): r for p, r in todo}
         for f in as_completed(list(futures)):
             r = futures[f]
             try:
                 r.update(f.result())
             except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker after too many worker deaths
                 r.update(status="error", error=f"{type(exc).__name__}: {exc}")
-            r["asset"] = str(Path(POINTS) / r["name"])
             save()
             print(f"rockdove sweep: [{doc['done']}/{doc['total']}] {r['name']}: {r['status']}"
                   + (f" in {r['seconds']:.1f} s" if "seconds" in r else "")

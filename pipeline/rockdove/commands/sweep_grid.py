@@ -3,11 +3,14 @@ and their product, each point with a stable folder name."""
 
 from __future__ import annotations
 
+import collections
 import hashlib
 import itertools
 import json
 import re
 from dataclasses import dataclass
+
+from ..errors import UsageError
 
 
 @dataclass(frozen=True)
@@ -63,7 +66,6 @@ def parse_grid(grid: list[str]) -> list[tuple[str, list[tuple[str, object]]]]:
     """``--grid`` items -> ``[(key, [(literal, value), ...]), ...]``. Raises UsageError (exit 2) for bad
     syntax, an unknown key, a key given twice or a value given twice."""
     from ..config import load_schema, parse_set, schema_at
-    from ..errors import UsageError
 
     if not grid:
         raise UsageError("no --grid given; e.g. --grid 'film.cauchy_a=[1.5, 1.55]'")
@@ -111,9 +113,7 @@ def grid_points(axes) -> list[Point]:
         values = {key: v for (key, _), (_, (_lit, v)) in zip(axes, combo)}
         name = "__".join(_slug(key, lit) for (key, _), (_, (lit, _v)) in zip(axes, combo))
         points.append(Point(name, overrides, values, tuple(i for i, _ in combo)))
-    counts: dict[str, int] = {}
-    for p in points:
-        counts[p.name] = counts.get(p.name, 0) + 1
+    counts = collections.Counter(p.name for p in points)
     out = []
     for p in points:
         if counts[p.name] > 1 or len(p.name) > 150:

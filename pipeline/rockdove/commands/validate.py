@@ -1,7 +1,5 @@
-"""``rockdove validate PATH [--json]``: validate a USD asset (:mod:`rockdove.usd.validate`): a folder's
-``pigeon.usda`` and, when present, its self-contained ``pigeon.usdz``, or a root layer or ``.usdz``.
-Exit status 0 clean, 1 not clean, 2 bad usage.
-"""
+"""``rockdove validate PATH``: validate a USD asset (:mod:`rockdove.usd.validate`), a folder's ``pigeon.usda`` and
+``pigeon.usdz``, or one layer or ``.usdz``; exit status 1 when not clean."""
 
 from __future__ import annotations
 

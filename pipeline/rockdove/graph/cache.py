@@ -29,11 +29,8 @@ from ..sources import files_of
 # ----------------------------------------------------------------------------------------------- codecs
 @dataclass(frozen=True)
 class Codec:
-    """How a stage's value is stored in its cache folder: ``save(value, folder)``, ``load(folder) -> value``.
-
-    ``shared``: the loaded value is immutable (frozen dataclasses, tuples, read-only mappings and arrays), so a
-    process loads each cache entry once and hands every later build the same value (:func:`load_entry`).
-    """
+    """How a stage's value is stored in its cache folder. ``shared``: the loaded value is immutable, so a process
+    loads each entry once and hands every later build the same value (:func:`load_entry`)."""
 
     name: str
     save: Callable[[Any, Path], None]
@@ -48,8 +45,8 @@ _LOADED_LOCK = threading.Lock()
 
 
 def load_entry(codec: Codec, folder: Path) -> Any:
-    """``codec.load(folder)``, once per process for a ``shared`` codec (an entry never changes once written: a
-    warm process rebuilding after a film change does not re-read the geometry); by inode and mtime too."""
+    """``codec.load(folder)``, once per process (by inode and mtime too) for a ``shared`` codec: a warm process
+    rebuilding after a film change does not re-read the geometry."""
     if not codec.shared:
         return codec.load(folder)
     st = folder.stat()
@@ -63,7 +60,7 @@ def load_entry(codec: Codec, folder: Path) -> Any:
 
 
 def load_npz(path: Path) -> dict:
-    """Every array of an ``.npz`` file (no pickles), read-only."""
+    """An ``.npz`` file's arrays (no pickles), read-only."""
     import numpy as np
 
     with np.load(path, allow_pickle=False) as z:
@@ -90,8 +87,7 @@ FILES = Codec("files", lambda value, folder: None, lambda folder: folder)
 
 
 def folder_digest(folder: Path) -> str:
-    """sha256 over (relative path, NUL, bytes, NUL) of every file under ``folder``, streamed: a long-lived process
-    does not keep every asset it built (~7.5 MB per film rebuild) in memory."""
+    """sha256 over the relative paths and bytes of the files under ``folder``, streamed (not held in memory)."""
     h = Digest()
     for p in files_of(folder):
         h.file(str(p.relative_to(folder)), p)
@@ -106,8 +102,7 @@ _ORPHAN_S = 3600  # a temporary folder with no .owner yet (its writer died in th
 
 
 def _owner() -> str:
-    """Who writes a temporary folder, for people: host, boot id, PID namespace and pid (a pid alone names no
-    process on another machine or in another container)."""
+    """Who writes a temporary folder, for people: host, boot id, PID namespace and pid."""
     boot = ns = None
     with contextlib.suppress(OSError):
         boot, ns = Path("/proc/sys/kernel/random/boot_id").read_text().strip(), os.readlink("/proc/self/ns/pid")
@@ -115,8 +110,7 @@ def _owner() -> str:
 
 
 def _take(path: Path) -> int | None:
-    """A descriptor of ``path`` with an exclusive flock taken without waiting, or None when someone holds it
-    (or it cannot be opened)."""
+    """A descriptor of ``path`` holding its exclusive flock, or None when another holds it (or no such file)."""
     try:
         fd = os.open(path, os.O_RDWR)
     except OSError:
@@ -131,7 +125,6 @@ def _take(path: Path) -> int | None:
 
 class Cache:
     """Stage values on disk (module docstring)."""
-
     def __init__(self, root: str | os.PathLike):
         self.root = Path(root)
 
@@ -147,9 +140,8 @@ class Cache:
 
     @contextlib.contextmanager
     def temporary(self, parent: Path):
-        """A folder ``parent/.tmp-<host>-<pid>-XXXX`` of this writer's, removed at the end unless renamed away.
-        Its ``.owner`` file (:func:`_owner`) is locked before it gets that name and stays locked while the
-        writer lives: a cleaner anywhere that can take the lock knows the writer is gone."""
+        """A folder ``parent/.tmp-<host>-<pid>-XXXX``, removed at the end unless renamed away; its ``.owner`` is
+        locked before it gets that name, while the writer lives: a cleaner that can take it knows it is gone."""
         parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=f".tmp-{os.uname().nodename}-{os.getpid()}-", dir=parent))
         _LIVE.add(tmp)
@@ -187,10 +179,9 @@ class Cache:
 
     @contextlib.contextmanager
     def entry_lock(self, stage: str, key: str):
-        """Hold the exclusive right to compute entry ``(stage, key)`` among the processes (and threads) sharing
-        this cache: ``fcntl.flock`` on ``ROOT/<stage>/.lock-<key>``, waited for without a timeout (a holder that
-        dies releases it). The holder removes the file on leaving; a waiter that got the lock of a file removed
-        meanwhile (by the holder or by :meth:`clean_temporaries`) tries again on the file now at that path."""
+        """The exclusive right to compute entry ``(stage, key)``: ``fcntl.flock`` on ``ROOT/<stage>/.lock-<key>``,
+        waited for (a holder that dies releases it). The holder removes the file on leaving; a waiter that got the
+        lock of a file removed meanwhile tries again on the file now at that path."""
         (self.root / stage).mkdir(parents=True, exist_ok=True)
         path = self.root / stage / f".lock-{key}"
         while True:
@@ -210,9 +201,8 @@ class Cache:
             os.close(fd)  # releases the lock
 
     def clean_temporaries(self) -> None:
-        """Remove what killed builds left: temporary folders whose ``.owner`` lock nobody holds (a folder with
-        no ``.owner`` once it is an hour old) and ``.lock-*`` files nobody holds. Never a live writer's, on
-        whatever machine or PID namespace it runs."""
+        """Remove what killed builds left: temporary folders whose ``.owner`` lock nobody holds (with no
+        ``.owner``, once an hour old) and ``.lock-*`` files nobody holds; never a live writer's, wherever it runs."""
         for tmp in self.root.glob("*/.tmp-*"):
             if tmp in _LIVE or not tmp.is_dir():
                 continue

@@ -1,18 +1,13 @@
 """The incremental build graph: stages keyed by a content hash of exactly what they read, over a cache
 (:mod:`rockdove.graph.cache`).
 
-A :class:`Stage` is a named pure function of its part of the configuration and its upstream outputs. Its key is
-the sha256 of the configuration keys it declares (dotted: ``"lut"``, ``"geometry.seed"``); the code it can
-execute, derived from the source with its data files, the installed distributions and Python
-(:func:`rockdove.sources.digest`); and the *content digests* of its upstream outputs, not their keys (early
-cut-off: a new seed that leaves the thickness range unchanged does not re-bake the LUT). A stage whose key has
-an entry is reused without running, and its value loaded only if a stage that runs needs it. Builds sharing one
-cache (a sweep's workers) compute an entry once: the first to miss it holds ``Cache.entry_lock``.
-
-Fan-out stages split their work into named items (one per verification view), each keyed by the stage key and
-the item's own configuration (``Stage.items``), or, when what an item reads is only known once its inputs exist
-(a view reads the *rendered content* of the asset), by what ``Stage.item_plan(ctx)`` says it reads, plus the
-stage's code; only the items whose key changed are redone, with ``Stage.batch`` in one call.
+A :class:`Stage` is a named pure function of its part of the configuration and its upstream outputs, keyed by
+the configuration keys it declares, the code it can execute (:func:`rockdove.sources.digest`) and the *content
+digests* of its upstream outputs (early cut-off: a new seed that leaves the thickness range unchanged does not
+re-bake the LUT). A stage whose key has an entry is reused, its value loaded only if a stage that runs needs it;
+builds sharing a cache compute an entry once (``Cache.entry_lock``). Fan-out stages key each named item by its
+own configuration (``Stage.items``) or by what ``Stage.item_plan(ctx)`` says it reads, and redo only the items
+whose key changed.
 """
 
 from __future__ import annotations
@@ -51,17 +46,14 @@ class Context:
 
 @dataclass(frozen=True)
 class Stage:
-    """One node of the build graph.
-
-    ``run(ctx)`` is the pure function (once per item for a fan-out stage); ``config`` the dotted keys it reads;
-    ``deps`` the upstream stages (earlier in the list); ``data`` the data files or folders (``"materials/glsl"``)
-    whose bytes enter its key; ``codec`` how its value is stored; ``publish`` (FILES stages) the sub-folder of
-    the asset its files are copied to (``""``: the root); ``needs_asset`` runs it on the assembled asset
-    (verification). Fan-out: ``items(config)`` gives item name -> the item's own configuration (in its key), or
-    ``item_plan(ctx)`` at run time item name -> everything the item reads (its key *instead of* the upstream
-    digests and the configuration, so it must be complete); ``combine(ctx, values)`` joins the item values;
-    ``batch`` runs the items to redo in one call (``ctx.items``); ``item_codec`` stores an item's value.
-    """
+    """One node of the build graph: ``run(ctx)`` is the pure function (once per item for a fan-out stage);
+    ``config`` the dotted keys it reads; ``deps`` the upstream stages (earlier in the list); ``data`` the data
+    files or folders whose bytes enter its key; ``codec`` how its value is stored; ``publish`` (FILES stages) the
+    sub-folder of the asset its files are copied to (``""``: the root); ``needs_asset`` runs it on the assembled
+    asset. Fan-out: ``items(config)`` gives item name -> the item's own configuration (in its key), or
+    ``item_plan(ctx)`` at run time item name -> everything the item reads (its whole key, so it must be
+    complete); ``combine(ctx, values)`` joins the item values; ``batch`` runs the items to redo in one call
+    (``ctx.items``); ``item_codec`` stores an item's value."""
 
     name: str
     run: Callable[[Context], Any]
@@ -109,7 +101,7 @@ def stage_key(stage: Stage, config: dict | None, input_digests: Mapping[str, str
 
 @dataclass
 class StageRecord:
-    """What happened to one stage in a build: ``status`` "ran" or "reused"."""
+    """One stage in a build: ``status`` "ran" or "reused"."""
 
     name: str
     key: str
@@ -162,14 +154,13 @@ class Graph:
         self._values: dict[str, Any] = {}
 
     def value(self, name: str) -> Any:
-        """The value of a finished stage (loaded read-only from the cache on first use)."""
+        """A finished stage's value (loaded read-only on first use)."""
         if name not in self._values:
             self._values[name] = load_entry(self.stages[name].codec, self.entry_dir(name))
         return self._values[name]
 
     def entry_dir(self, name: str) -> Path:
-        """The cache folder holding a finished stage's value files."""
-        return self.cache.entry(name, self.records[name].key) / "value"
+            return self.cache.entry(name, self.records[name].key) / "value"
 
     def run(self, *, asset_dir: Path | None = None, needs_asset: bool = False) -> list[StageRecord]:
         """Run (or reuse) the stages with ``needs_asset == needs_asset``, in order."""

@@ -1,15 +1,10 @@
-"""Publishing an asset folder safely: checks, a lock, a staging folder, an atomic swap and a marker.
+"""Publishing an asset folder safely: a marker, a lock, a staging folder and an atomic swap.
 
-- **Marker.** Every published asset folder holds ``.rockdove-asset.json`` (tool, version, configuration hash,
-  stage keys); an existing, non-empty folder without it is never replaced: rockdove did not create it.
-- **Lock.** ``fcntl.flock`` on ``.<name>.rockdove.lock`` beside the output: a second build of the same output
-  *waits* (saying so once on stderr, with the holder's pid; ``timeout_s`` bounds the wait), then finds the first
-  build's stages in the cache. The lock file is never deleted (two builds could then lock different files).
-- **Staging and swap.** The new asset is assembled in ``.<name>.rockdove-tmp-XXXX`` beside the output (same file
-  system), exchanged with the old folder by one ``renameat2(RENAME_EXCHANGE)`` where Linux offers it (else the
-  old one is renamed to ``.<name>.rockdove-old-XXXX`` and the new one into place), and only then is the old one
-  removed. A build killed at any point leaves the previous asset in place or in the ``-old`` folder, which the
-  next build restores first (:func:`recover`).
+An existing non-empty folder without the marker ``.rockdove-asset.json`` is never replaced. A second build of
+the same output waits on ``fcntl.flock`` of ``.<name>.rockdove.lock`` (never deleted: two builds could then lock
+different files), then finds the first one's stages in the cache. The asset is assembled in
+``.<name>.rockdove-tmp-XXXX`` beside the output and swapped in by one ``renameat2(RENAME_EXCHANGE)`` (else by two
+renames through ``.<name>.rockdove-old-XXXX``, which :func:`recover` restores after a kill).
 """
 
 from __future__ import annotations
@@ -60,36 +55,38 @@ def _check_writable(out: Path, real: Path, deep: bool = True) -> None:
                              "replace what is there; make it writable or choose another --out")
 
 
-def check_output(out: Path) -> None:
-    """Refuse, before anything is written, an output we may not or cannot replace (:class:`UsageError`)."""
-    if str(out) in ("", ".", "/") or out.name in ("", ".", ".."):
+def check_output(out, what: str | None = None) -> Path:
+    """``--out`` resolved, or refused (:class:`UsageError`, before anything is written) when it is a file, not
+    writable, or a non-empty folder rockdove did not create: without :data:`MARKER` for an asset, or for the
+    folder of a command's ``what`` (``renders``, ``sweep``) without :data:`OUTPUT_MARKER` and not inside an asset."""
+    if what is None and (str(out) in ("", ".", "/") or Path(out).name in ("", ".", "..")):
         raise UsageError(f"--out {str(out)!r} is not a folder name rockdove can publish to; give e.g. build/pigeon")
-    real = real_output(out)
-    if real.exists() and not real.is_dir():
-        raise UsageError(f"--out {str(out)!r} exists and is not a folder; allowed: a new folder or one rockdove built")
-    if real.is_dir() and not (real / MARKER).is_file() and any(real.iterdir()):
-        raise UsageError(f"--out {str(out)!r} is a non-empty folder that rockdove did not create (no {MARKER}); "
-                         "refusing to replace it: choose another --out or remove it yourself")
-    _check_writable(out, real)
-
-
-def claim_output(out, what: str, create: bool = True) -> Path:
-    """The folder ``--out`` of a command that writes files (``render``, ``verify``, ``sweep``), resolved; refused
-    (:class:`UsageError`, nothing written) when it is a file, not writable, or a non-empty folder rockdove did not
-    create (no marker, not inside an asset). ``create`` makes it and writes :data:`OUTPUT_MARKER`."""
-    if not str(out).strip():
+    if what is not None and not str(out).strip():
         raise UsageError(f"--out is empty; give the folder {what} writes into")
     real = real_output(out)
     if real.exists() and not real.is_dir():
-        raise UsageError(f"--out {str(out)!r} exists and is not a folder")
-    ours = any((real / m).is_file() for m in (OUTPUT_MARKER, MARKER)) or (real.parent / MARKER).is_file()
-    if real.is_dir() and not ours and any(real.iterdir()):
-        raise UsageError(f"--out {str(out)!r} is a non-empty folder that rockdove did not create (no {OUTPUT_MARKER})"
-                         f"; refusing to write the {what} into it: choose another --out or remove it yourself")
+        raise UsageError(f"--out {str(out)!r} exists and is not a folder; allowed: a new folder or one rockdove built")
+    if real.is_dir() and not _ours(real, what) and any(real.iterdir()):
+        raise UsageError(f"--out {str(out)!r} is a non-empty folder that rockdove did not create (no "
+                         f"{MARKER if what is None else OUTPUT_MARKER}); refusing to "
+                         f"{'replace it' if what is None else f'write the {what} into it'}: choose another --out "
+                         "or remove it yourself")
     _check_writable(out, real)
+    return real
+
+
+def _ours(real: Path, what: str | None) -> bool:
+    if what is None:
+        return (real / MARKER).is_file()
+    return any((real / m).is_file() for m in (OUTPUT_MARKER, MARKER)) or (real.parent / MARKER).is_file()
+
+
+def claim_output(out, what: str, create: bool = True) -> Path:
+    """:func:`check_output` of a command's folder; ``create`` makes it and writes :data:`OUTPUT_MARKER`."""
+    real = check_output(out, what)
     if create:
         real.mkdir(parents=True, exist_ok=True)
-        if not ours:
+        if not _ours(real, what):
             (real / OUTPUT_MARKER).write_text(json.dumps({"tool": "rockdove", "version": __version__,
                                                           "output": what}) + "\n")
     return real
@@ -116,8 +113,7 @@ def starts_like(magic: bytes, tag: bytes = b""):
 
 
 def _remove(path: Path) -> None:
-    """Remove a leftover of a killed or failed build: a link is unlinked (never followed), a folder removed even
-    where a read-only mode inside it stops ``rmtree`` (it is ours: make it writable first)."""
+    """Remove a leftover of ours: a link unlinked (never followed), a folder even where a mode inside is read-only."""
     if path.is_symlink():
         path.unlink()
         return
@@ -135,11 +131,11 @@ def _remove(path: Path) -> None:
 class OutputLock:
     """Exclusive lock of one output folder for the whole build (context manager)."""
 
-    def __init__(self, out: Path, timeout_s: float | None = None, quiet: bool = False):
+    def __init__(self, out: Path, timeout_s: float | None = None):
         if timeout_s is not None and not (isinstance(timeout_s, (int, float)) and 0 <= timeout_s < float("inf")):
             raise UsageError(f"--lock-timeout must be a finite number of seconds >= 0, got {timeout_s!r}")
         real = real_output(out)
-        self.out, self.timeout_s, self.quiet = out, timeout_s, quiet
+        self.out, self.timeout_s = out, timeout_s
         self.path = real.parent / f".{real.name}.rockdove.lock"
         self._fd: int | None = None
 
@@ -194,8 +190,7 @@ def recover(out: Path) -> None:
 
 
 def published_path(path) -> Path:
-    """Where ``path`` (inside a staging folder ``.<name>.rockdove-tmp-XXXX``) will be once published; other
-    paths unchanged. Reports name the asset by this path, not by the temporary folder."""
+    """Where ``path`` inside a staging folder will be once published (reports name the asset by it)."""
     path = Path(path)
     for i, part in enumerate(path.parts):
         if part.startswith(".") and _TMP in part:
@@ -215,7 +210,7 @@ def make_staging(out: Path) -> Path:
 
 
 def write_marker(folder: Path, info: dict) -> None:
-    """Write the marker that says rockdove created ``folder`` (``info``: config hash, stage keys...)."""
+    """Write the marker that says rockdove created ``folder``."""
     data = {"tool": "rockdove", "version": __version__, **info}
     (folder / MARKER).write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
 

@@ -1,17 +1,10 @@
-"""The files an asset refers to, found without composing it: layers that do not parse, and asset paths that
-point outside the asset.
+"""The files an asset refers to, found without composing it (``Sdf`` only: no stage, no texture read).
 
-An asset must be relocatable: every asset path it authors (sublayers, references, payloads, value clips'
-``assetPaths``, ``manifestAssetPath`` and ``templateAssetPath``, asset-valued attributes) must be relative and
-stay inside the root layer's folder, or inside the package for a ``.usdz``. :func:`scan_dependencies` walks the
-layer graph with ``Sdf`` (no stage composed, no texture read) and reports ``assetPath`` issues (absolute paths,
-paths that leave the asset, symlinks inside it to files elsewhere, resolved with ``realpath``, which opens
-nothing; an asset-path expression judged by its value under the root layer's ``expressionVariables``), ``layer``
-issues (a layer that does not parse, with its file and line; one that does not exist; a usdz of more than
-:data:`MAX_PACKAGE_FILES` files) and ``clip`` issues (a ``clips`` value USD's value clips do not take). The
-paths outside are listed in :attr:`Dependencies.external` so that callers never read them, unless
-``allow_external`` (then they are warnings). :func:`require_inside` is the one gate of the commands that read an
-asset.
+An asset must be relocatable: every asset path it authors (sublayers, references, payloads, value clips,
+asset-valued attributes; an expression by its value) must be relative and stay inside the root layer's folder,
+or the package of a ``.usdz``, symlinks resolved. Paths outside are :attr:`Dependencies.external`, never read
+unless ``allow_external`` (then they are warnings). :func:`require_inside` is the one gate of the commands that
+read an asset.
 """
 
 from __future__ import annotations
@@ -31,16 +24,10 @@ _SCHEME = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]*:")
 
 @dataclass
 class Dependencies:
-    """What :func:`scan_dependencies` found: ``issues``, the ``layers`` opened (root first), the ``external``
-    authored paths (absolute or leaving the asset: never read unless allowed)."""
+    """What :func:`scan_dependencies` found: ``issues`` and the ``external`` paths."""
 
     issues: list = field(default_factory=list)
-    layers: list = field(default_factory=list)
     external: set = field(default_factory=set)
-
-    @property
-    def errors(self) -> list:
-        return only_errors(self.issues)
 
 
 def _outside(anchored: str, root_dir: str, root_package: str | None) -> str | None:
@@ -66,15 +53,25 @@ def _outside(anchored: str, root_dir: str, root_package: str | None) -> str | No
     return None
 
 
-def _clip_paths(layer, issues: list) -> list[tuple[str, str, bool]]:
-    """(where, authored path, names a layer) of every value clip (``clips`` metadata) in ``layer``: asset paths,
-    manifests and templates (a template's ``#`` frame digits as ``0``). A malformed ``clips`` value is an
-    issue."""
+def _authored_paths(layer, issues: list) -> list[tuple[str, str, str]]:
+    """(where, authored path, kind) of every value clip path (a template's ``#`` frame digits as ``0``) and
+    asset-valued attribute default and time sample in ``layer``; a malformed ``clips`` value is an issue."""
     from pxr import Sdf
 
     found = []
 
     def visit(path):
+        if path.IsPropertyPath():
+            spec = layer.GetPropertyAtPath(path)
+            if isinstance(spec, Sdf.AttributeSpec) and spec.typeName in (Sdf.ValueTypeNames.Asset,
+                                                                         Sdf.ValueTypeNames.AssetArray):
+                values = [spec.default] if spec.HasDefaultValue() else []
+                values += [layer.QueryTimeSample(path, t) for t in layer.ListTimeSamplesForPath(path)]
+                for v in values:
+                    for a in (v if isinstance(v, (list, tuple)) or hasattr(v, "__len__") and not isinstance(v, str)
+                              else [v]):
+                        if getattr(a, "path", None):
+                            found.append((str(path), a.path, "asset"))
         if not path.IsPrimPath():
             return
         spec = layer.GetPrimAtPath(path)
@@ -94,17 +91,17 @@ def _clip_paths(layer, issues: list) -> list[tuple[str, str, bool]]:
                     paths if hasattr(paths, "__iter__") else [paths])):
                 issues.append(Issue("clip", f"{where}[{name}].assetPaths", f"{paths!r} is not an asset[] list"))
                 paths = []
-            found.extend((f"{where}[{name}].assetPaths", a.path, True) for a in paths if a.path)
+            found.extend((f"{where}[{name}].assetPaths", a.path, "clip") for a in paths if a.path)
             manifest = clip.get("manifestAssetPath")
             if manifest is not None and not isinstance(manifest, Sdf.AssetPath):
                 issues.append(Issue("clip", f"{where}[{name}].manifestAssetPath", f"{manifest!r} is not an asset"))
             elif manifest is not None and manifest.path:
-                found.append((f"{where}[{name}].manifestAssetPath", manifest.path, True))
+                found.append((f"{where}[{name}].manifestAssetPath", manifest.path, "clip"))
             template = clip.get("templateAssetPath")
             if template is not None and not isinstance(template, str):
                 issues.append(Issue("clip", f"{where}[{name}].templateAssetPath", f"{template!r} is not a string"))
             elif template:
-                found.append((f"{where}[{name}].templateAssetPath", template.replace("#", "0"), False))
+                found.append((f"{where}[{name}].templateAssetPath", template.replace("#", "0"), "clip template"))
 
     layer.Traverse(Sdf.Path.absoluteRootPath, visit)
     return found
@@ -119,32 +116,6 @@ def _evaluate(authored: str, variables: dict) -> tuple[str | None, str]:
     result = Sdf.VariableExpression(authored).Evaluate(variables)
     value = result.value if isinstance(result.value, str) and not result.errors else None
     return value, f"path expression {authored!r}" + (f" (= {value!r})" if value is not None else "")
-
-
-def _asset_values(layer) -> list[tuple[str, str]]:
-    """(spec path, authored asset path) of every asset-valued attribute default and time sample in ``layer``."""
-    from pxr import Sdf
-
-    found = []
-
-    def visit(path):
-        if not path.IsPropertyPath():
-            return
-        spec = layer.GetPropertyAtPath(path)
-        if not isinstance(spec, Sdf.AttributeSpec) or spec.typeName not in (Sdf.ValueTypeNames.Asset,
-                                                                            Sdf.ValueTypeNames.AssetArray):
-            return
-        values = [spec.default] if spec.HasDefaultValue() else []
-        values += [layer.QueryTimeSample(path, t) for t in layer.ListTimeSamplesForPath(path)]
-        for v in values:
-            for a in (v if isinstance(v, (list, tuple)) or hasattr(v, "__len__") and not isinstance(v, str)
-                      else [v]):
-                p = getattr(a, "path", None)
-                if p:
-                    found.append((str(path), p))
-
-    layer.Traverse(Sdf.Path.absoluteRootPath, visit)
-    return found
 
 
 def _open_layer(identifier: str, issues: list):
@@ -169,8 +140,7 @@ def _open_layer(identifier: str, issues: list):
 
 
 def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependencies:
-    """Walk ``root_layer`` (a layer or ``.usdz``) and the layers it composes without composing them;
-    ``allow_external`` also opens layers outside the asset and makes such paths warnings."""
+    """Walk ``root_layer`` (a layer or ``.usdz``) and the layers it composes without composing them."""
     from pxr import Ar, Sdf
 
     root = os.path.abspath(os.fspath(root_layer))
@@ -187,12 +157,10 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
         layer = _open_layer(identifier, out.issues)
         if layer is None:
             continue
-        out.layers.append(layer.identifier)
         variables = dict(layer.expressionVariables) if variables is None else variables  # the root layer's
         where = layer.identifier if layer.identifier != root else os.fspath(root_layer)
         found = [(where, p, "layer") for p in layer.GetCompositionAssetDependencies()]
-        found += [(w, p, "clip" if is_layer else "clip template") for w, p, is_layer in _clip_paths(layer, out.issues)]
-        found += [(w, p, "asset") for w, p in _asset_values(layer)]
+        found += _authored_paths(layer, out.issues)
         for spec_path, authored, kind in found:
             value, what = _evaluate(authored, variables)
             if value is None:
@@ -238,13 +206,12 @@ def _package_too_big(path: str, issues: list) -> bool:
 
 def blocking(deps: Dependencies) -> list:
     """The errors that must stop a reader before USD composes: broken layers and layers or clips from elsewhere."""
-    return [i for i in deps.errors if i.check in ("layer", "clip") or not i.message.startswith("asset ")]
+    return [i for i in only_errors(deps.issues) if i.check in ("layer", "clip") or not i.message.startswith("asset ")]
 
 
 def require_inside(asset, allow_external: bool = False) -> str:
-    """The root layer of ``asset`` (folder or layer) once :func:`scan_dependencies` found nothing wrong, for the
-    commands that read an asset before they open anything: :class:`UsageError` when it is not an asset,
-    :class:`VerificationFailed` naming the first broken layers or paths outside it."""
+    """The root layer of ``asset`` once :func:`scan_dependencies` found nothing wrong: :class:`UsageError` when it
+    is not an asset, :class:`VerificationFailed` naming the first broken layers or paths outside it."""
     from ..errors import UsageError, VerificationFailed
     from .layout import resolve_root_layer
 
@@ -252,7 +219,7 @@ def require_inside(asset, allow_external: bool = False) -> str:
         root = resolve_root_layer(asset)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    errors = scan_dependencies(root, allow_external).errors
+    errors = only_errors(scan_dependencies(root, allow_external).issues)
     if errors:
         more = f"; and {len(errors) - 5} more" if len(errors) > 5 else ""
         hint = " (--allow-external-assets reads files from elsewhere)" if any(

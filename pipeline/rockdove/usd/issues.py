@@ -1,6 +1,5 @@
-"""One problem found in an asset (:class:`Issue`), the unit every checker reports in, and :class:`Report`,
-what :func:`rockdove.usd.validate.validate_asset` returns: their own module so that the checkers depend on it,
-not on the validator that calls them."""
+""":class:`Issue`, what every checker reports, and :class:`Report`, what validation returns (their own module, so
+that the checkers do not depend on the validator that calls them)."""
 
 from __future__ import annotations
 
@@ -9,10 +8,9 @@ from dataclasses import dataclass, field
 
 @dataclass(frozen=True)
 class Issue:
-    """One problem found in an asset: the ``check`` (``usdValidation:<validator>:<error>``, ``mtlx``,
-    ``texture``, ``primvar``, ``thinFilm``, ``material``, ``open``, ``assetPath``, ``layer``, ``nvidia:<rule>``...),
-    the prim or property ``path`` (or file), the ``message`` (the value found and what was expected), the
-    ``severity`` (only errors make a report unclean) and the ``variants`` it was found in (empty: all)."""
+    """One problem found in an asset: the ``check`` (``mtlx``, ``texture``, ``nvidia:<rule>``...), the prim,
+    property or file ``path``, the ``message`` (the value found and what was expected), the ``severity`` (only
+    errors make a report unclean) and the ``variants`` it was found in (empty: all)."""
 
     check: str
     path: str
@@ -32,7 +30,7 @@ def only_errors(issues) -> list:
 
 @dataclass
 class Report:
-    """Result of :func:`validate_asset`: ``clean`` when no issue has severity ``error``."""
+    """Result of :func:`validate_asset`: ``clean`` when no issue is an error."""
 
     path: str
     issues: list = field(default_factory=list)
@@ -69,7 +67,7 @@ class Report:
                 "n_errors": len(self.errors), "n_warnings": len(self.issues) - len(self.errors), "omitted": left}
 
     def format(self, per_check: int = 20) -> str:
-        """A readable multi-line report: the first ``per_check`` issues of each check and severity, then a count."""
+        """A readable report: the first ``per_check`` issues of each check and severity, then a count."""
         shown, left = self._shown(per_check)
         lines = [f"{self.path}: {'clean' if self.clean else 'NOT CLEAN'} "
                  f"({len(self.errors)} error(s), {len(self.issues) - len(self.errors)} warning(s))",

@@ -1,14 +1,9 @@
-"""NVIDIA's asset validator (PyPI ``usd-validation-nvidia``) over a written asset, as :class:`Issue` s.
-
-It runs USD's ComplianceChecker rules plus NVIDIA's own over every variant. ``ERROR`` (the rule broke) and
-``FAILURE`` (the asset breaks it) are errors, ``WARNING`` a warning, ``INFO`` dropped. usd-core ships no MaterialX
-Sdr plugin, so ``UsdShadeShaderSdrCompliance`` fails every ``ND_*`` id ("not found in sdrRegistry"): those
-findings alone are dropped, :func:`rockdove.usd.validate.check_mtlx_shaders` checks the ids against MaterialX.
-
-Its mesh-topology rules (:data:`MESH_RULES`) take ~90% of its time (ManifoldChecker alone 4.3 of 5.8 s on the
-default asset) and read only the meshes' geometry: their findings are kept in the user cache by a digest of
-every composed Mesh in every variant (:func:`mesh_digest`), so revalidating an asset whose meshes did not change
-(a film change) runs only the other rules. Meshes with time samples are never memoised.
+"""NVIDIA's asset validator (PyPI ``usd-validation-nvidia``: USD's ComplianceChecker rules and its own) over
+every variant, as :class:`Issue` s: ``ERROR`` and ``FAILURE`` are errors, ``WARNING`` a warning, ``INFO`` dropped,
+and so is ``UsdShadeShaderSdrCompliance`` on an ``ND_*`` id (usd-core has no MaterialX Sdr plugin:
+:func:`rockdove.usd.validate.check_mtlx_shaders` checks those). Its mesh rules (:data:`MESH_RULES`: ~90% of its
+time, ManifoldChecker alone 4.3 of 5.8 s) read only geometry: their findings are kept in the user cache by
+:func:`mesh_digest`, so revalidating after a film change runs only the other rules.
 """
 
 from __future__ import annotations
@@ -30,11 +25,9 @@ MESH_RULES = ("ManifoldChecker", "ZeroAreaFaceChecker", "WeldChecker", "NormalsW
 
 
 def mesh_digest(root_layer: str) -> str | None:
-    """sha256 of what the :data:`MESH_RULES` read of every Mesh prim of the composed asset, in each variant
-    combination: the UsdGeom.Mesh schema's attributes (points, topology, normals, orientation, ...) and the
-    ``primvars:normals`` primvar (name, type, value, interpolation, elementSize), not other primvars or applied
-    schemas (the film record lives on the feather mesh and changes with the film). None when one of them has
-    time samples."""
+    """sha256 of what the :data:`MESH_RULES` read of every Mesh in each variant combination: the UsdGeom.Mesh
+    schema's attributes and ``primvars:normals``, not other primvars (the film record lives on the feather mesh);
+    None when one of them has time samples (never memoised)."""
     import numpy as np
     from pxr import Usd, UsdGeom
 

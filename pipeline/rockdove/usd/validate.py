@@ -1,23 +1,13 @@
 """Validate a written asset: USD's validation framework plus rockdove's own checks.
 
-:func:`validate_asset` first scans the layers without composing them (:mod:`rockdove.usd.dependencies`), then
-opens the root layer (payloads loaded) and, in every combination of the default prim's variant sets, runs:
-
-1. every registered ``pxr.UsdValidation`` validator; usd-core ships no MaterialX Sdr plugin, so its
-   ``MissingShaderIdInRegistry`` error for ``ND_*`` ids only is left to check 2;
-2. MaterialX node definitions: each ``ND_*`` ``info:id`` exists in MaterialX's standard libraries, with the
-   authored inputs and outputs it declares, of its types;
-3. textures: every asset-valued attribute resolves and reads (PNG via Pillow, EXR via
-   :func:`rockdove.lut.exr.read_exr`), inside a usdz too (through Ar);
-4. topology: each primvar's (and normals') element count matches its interpolation, indices in range;
-5. thin film (:mod:`rockdove.usd.validate_film`): thickness inside the LUT's domain, which agrees with the EXR
-   header, the network's LUT constants and the film's provenance; a LUT-less (physical-only) film complete;
-6. materials: ``ComputeSurfaceSource()`` resolves (and ``("mtlx")`` where authored), and the mtlx network, as
-   Hydra's HdMtlx rebuilds it, passes MaterialX's ``validate()``;
-7. NVIDIA's asset validator (:mod:`rockdove.usd.nvidia`), once over all variants.
-
-Each problem is an :class:`Issue` naming the check, the path, the value and what was expected; one found in
-several variants is reported once, with the variants.
+:func:`validate_asset` scans the layers without composing them (:mod:`rockdove.usd.dependencies`), then runs
+in every combination of the default prim's variant sets: 1. every registered ``pxr.UsdValidation`` validator
+(but its ``MissingShaderIdInRegistry`` for ``ND_*`` ids: usd-core has no MaterialX Sdr plugin); 2. each ``ND_*``
+id, input and output against MaterialX's own node definitions; 3. every asset-valued attribute resolves and
+reads (PNG, EXR, inside a usdz too); 4. primvar and normal counts match their interpolation, indices in range;
+5. the thin film against its LUT (:mod:`rockdove.usd.validate_film`); 6. ``ComputeSurfaceSource()`` resolves and
+the mtlx network, as Hydra's HdMtlx rebuilds it, passes MaterialX's ``validate()``; then 7. NVIDIA's validator
+(:mod:`rockdove.usd.nvidia`) once over all variants. An :class:`Issue` found in several variants is reported once.
 """
 
 from __future__ import annotations
@@ -30,9 +20,6 @@ import tempfile
 from .issues import Issue, Report, only_errors  # noqa: F401 (re-exported)
 from .layout import resolve_root_layer
 from .material import _SDF_TYPES
-
-#: The UsdValidation error replaced by :func:`check_mtlx_shaders` for MaterialX (ND_*) shader ids.
-MISSING_SHADER_ID = "MissingShaderIdInRegistry"
 
 # Sdf value type name -> MaterialX type: the inverse of the authoring table (material._SDF_TYPES); token (outputs
 # of surface shaders / materials) has no single MaterialX type
@@ -59,7 +46,7 @@ def run_usd_validation(stage, validators=None) -> list:
             continue
         sites = [s.GetProperty().GetPath() if s.IsProperty() else s.GetPrim().GetPath() if s.IsPrim() else
                  s.GetLayer().identifier if s.GetLayer() else "" for s in err.GetSites()]
-        if err.GetName() == MISSING_SHADER_ID:
+        if err.GetName() == "MissingShaderIdInRegistry":  # usd-core has no MaterialX Sdr plugin
             prims = [stage.GetPrimAtPath(str(p).split(".")[0]) for p in sites]
             ids = [UsdShade.Shader(p).GetShaderId() if p and p.IsA(UsdShade.Shader) else None for p in prims]
             if ids and all(i and i.startswith("ND_") for i in ids):
@@ -93,49 +80,34 @@ def check_mtlx_shaders(stage, library=None) -> tuple[list, int]:
             issues.append(Issue("mtlx", f"{prim.GetPath()}.info:id",
                                 f"info:id {sid!r} is not a MaterialX node definition (stdlib/pbrlib/bxdf)"))
             continue
-        for inp in shader.GetInputs():
-            name = inp.GetBaseName()
-            mx_in = nodedef.getActiveInput(name)
-            got = _MX_TYPES.get(str(inp.GetTypeName()), str(inp.GetTypeName()))
-            if mx_in is None:
-                issues.append(Issue("mtlx", str(inp.GetAttr().GetPath()),
-                                    f"input {name!r} is not declared by {sid} (inputs: "
-                                    f"{sorted(i.getName() for i in nodedef.getActiveInputs())})"))
-            elif got != mx_in.getType() and not (got is None and _SDF_TYPES.get(mx_in.getType()) == "Token"):
+        for port, kind in [(i, "input") for i in shader.GetInputs()] + [(o, "output") for o in shader.GetOutputs()]:
+            name, typ = port.GetBaseName(), port.GetTypeName()
+            mx = nodedef.getActiveInput(name) if kind == "input" else nodedef.getActiveOutput(name)
+            got = _MX_TYPES.get(str(typ), str(typ))
+            where, want = str(port.GetAttr().GetPath()), mx.getType() if mx is not None else None
+            if mx is None:
+                known = f" (inputs: {sorted(i.getName() for i in nodedef.getActiveInputs())})" * (kind == "input")
+                issues.append(Issue("mtlx", where, f"{kind} {name!r} is not declared by {sid}{known}"))
+            elif kind == "input" and got != want and not (got is None and _SDF_TYPES.get(want) == "Token"):
                 # a token input carries a closure (BSDF, EDF, surfaceshader): any of the token-typed MaterialX types
-                issues.append(Issue("mtlx", str(inp.GetAttr().GetPath()),
-                                    f"input {name!r} has type {inp.GetTypeName()} ({got}), {sid} expects "
-                                    f"{mx_in.getType()}"))
-        for out in shader.GetOutputs():
-            name = out.GetBaseName()
-            mx_out = nodedef.getActiveOutput(name)
-            got = _MX_TYPES.get(str(out.GetTypeName()), str(out.GetTypeName()))
-            if mx_out is None:
-                issues.append(Issue("mtlx", str(out.GetAttr().GetPath()),
-                                    f"output {name!r} is not declared by {sid}"))
-            elif got is not None and got != mx_out.getType():
-                issues.append(Issue("mtlx", str(out.GetAttr().GetPath()),
-                                    f"output {name!r} has type {out.GetTypeName()}, {sid} gives {mx_out.getType()}"))
+                issues.append(Issue("mtlx", where, f"input {name!r} has type {typ} ({got}), {sid} expects {want}"))
+            elif kind == "output" and got is not None and got != want:
+                issues.append(Issue("mtlx", where, f"output {name!r} has type {typ}, {sid} gives {want}"))
     return issues, n
 
 
 # -- 3. textures --------------------------------------------------------------------------------------------
-def _read_asset_bytes(resolved: str) -> bytes:
+def read_texture_asset(resolved: str):
+    """Decode a resolved texture (a file or a usdz member): a PIL image for PNG, a ThinFilmLUT for EXR."""
+    from PIL import Image
     from pxr import Ar
+
+    from rockdove.lut.exr import read_exr
 
     asset = Ar.GetResolver().OpenAsset(Ar.ResolvedPath(resolved))
     if asset is None:
         raise OSError(f"cannot open {resolved!r}")
-    return bytes(asset.GetBuffer())
-
-
-def read_texture_asset(resolved: str):
-    """Decode a resolved texture (a file or a usdz member): a PIL image for PNG, a ThinFilmLUT for EXR."""
-    from PIL import Image
-
-    from rockdove.lut.exr import read_exr
-
-    data = _read_asset_bytes(resolved)
+    data = bytes(asset.GetBuffer())
     name = resolved.rstrip("]").lower()
     if name.endswith(".exr"):
         with tempfile.TemporaryDirectory() as tmp:
@@ -149,9 +121,8 @@ def read_texture_asset(resolved: str):
 
 
 def check_textures(stage, decoded: dict | None = None, skip=frozenset()) -> tuple[list, int, dict]:
-    """Check 3: (issues, number of asset attributes checked, ``decoded``). ``skip``: authored paths outside the
-    asset, never read; ``decoded`` ({resolved path: decoded object}, filled in place) skips files already read
-    in another variant (one that failed is tried again)."""
+    """Check 3: (issues, number of asset attributes checked, ``decoded``: {resolved path: object}, filled in place,
+    so another variant reads each file once). ``skip``: authored paths outside the asset, never read."""
     from pxr import Sdf, Usd
 
     issues, n = [], 0
@@ -243,7 +214,6 @@ def check_materials(stage, library=None) -> tuple[list, int]:
     from .material import load_mtlx_libraries, usd_to_mtlx_document
 
     library = library or load_mtlx_libraries()
-
     issues, n = [], 0
     for prim in Usd.PrimRange(stage.GetPseudoRoot()):
         if not prim.IsA(UsdShade.Material):
@@ -276,11 +246,9 @@ def check_materials(stage, library=None) -> tuple[list, int]:
 
 # -- driver -------------------------------------------------------------------------------------------------
 def validate_asset(path, allow_external: bool = False) -> Report:
-    """Validate the asset at ``path`` (folder, root layer or usdz) over every variant combination.
-
-    A layer that does not parse, or one outside the asset, ends it before USD composes (reads) anything.
-    Asset-valued attributes outside the asset are reported and not read, and NVIDIA's validator (which would
-    read them) is not run; ``allow_external`` makes those warnings and reads the files."""
+    """The :class:`Report` of the asset at ``path`` (folder, root layer or usdz). A layer that does not parse, or
+    one outside the asset, ends it before USD composes anything; asset paths outside it are reported, never read,
+    and NVIDIA's validator (which would read them) is not run, unless ``allow_external``."""
     from pxr import Usd
 
     from .dependencies import blocking, scan_dependencies
@@ -302,9 +270,6 @@ def validate_asset(path, allow_external: bool = False) -> Report:
         why = " ".join(str(exc).split())
         report.issues.append(Issue("open", root, f"USD could not open the layer: {why}"))
         return report
-    if stage is None:
-        report.issues.append(Issue("open", root, "USD could not open the layer"))
-        return report
     library = load_mtlx_libraries()
     validators = _validators()
     found: dict[tuple, list] = {}
@@ -315,8 +280,7 @@ def validate_asset(path, allow_external: bool = False) -> Report:
         label = ", ".join(f"{k}={v}" for k, v in combo.items())
         if label:
             report.variants.append(label)
-        session = stage.GetSessionLayer()
-        with Usd.EditContext(stage, session):
+        with Usd.EditContext(stage, stage.GetSessionLayer()):
             for name, value in combo.items():
                 stage.GetDefaultPrim().GetVariantSet(name).SetVariantSelection(value)
         issues = run_usd_validation(stage, validators)
