@@ -71,10 +71,6 @@ def boundary_points(cls: np.ndarray, reach_px: int = BOUNDARY_REACH_PX) -> np.nd
     from scipy import ndimage
 
     cls = np.asarray(cls)
-    if cls.ndim != 2:
-        raise ValueError(f"cls must have shape (H, W), got {cls.shape}")
-    if int(reach_px) != reach_px or reach_px < 1:
-        raise ValueError(f"reach_px must be an integer >= 1, got {reach_px!r}")
     st = np.ones((3, 3), bool)
     near_green = ndimage.binary_dilation(cls == 1, structure=st, iterations=int(reach_px))
     near_purple = ndimage.binary_dilation(cls == 2, structure=st, iterations=int(reach_px))
@@ -97,14 +93,10 @@ def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 
     Returns ``n_points``, ``n_centreline``, ``rms_px``, ``length_px``, ``rms_fraction``, ``direction`` (unit
     (x, y)) and ``centre`` ((x, y) px).
     """
-    pts = boundary_points(cls)
-    out = {"n_points": int(len(pts)), "n_centreline": 0, "rms_px": float("nan"), "length_px": float("nan"),
-           "rms_fraction": float("nan"), "direction": None, "centre": None}
-    if len(pts) < 2:
-        return out
-    line = _centreline(pts, bin_px)
-    out["n_centreline"] = int(len(line))
-    if len(line) < min_points:
+    counts, line = _boundary_centreline(cls, bin_px)
+    out = {**counts, "rms_px": float("nan"), "length_px": float("nan"), "rms_fraction": float("nan"),
+           "direction": None, "centre": None}
+    if line is None or len(line) < min_points:
         return out
     centre, direction, dist = _tls(line)
     med = np.median(np.abs(dist))
@@ -121,6 +113,14 @@ def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 
     return out
 
 
+def _boundary_centreline(cls: np.ndarray, bin_px: float) -> tuple[dict, np.ndarray | None]:
+    """``({"n_points", "n_centreline"}, the :func:`_centreline` of the :func:`boundary_points` of ``cls``; None
+    with fewer than 2 points)``."""
+    pts = boundary_points(cls)
+    line = _centreline(pts, bin_px) if len(pts) >= 2 else None
+    return {"n_points": int(len(pts)), "n_centreline": 0 if line is None else int(len(line))}, line
+
+
 def _tls(p: np.ndarray):
     """The total-least-squares line through (K, 2) points: centre, unit direction, signed distances (K,)."""
     centre = p.mean(axis=0)
@@ -135,10 +135,6 @@ def class_coherence(cls: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> dict
     from scipy import ndimage
 
     cls = np.asarray(cls)
-    if cls.ndim != 2:
-        raise ValueError(f"cls must be an (H, W) class image, got shape {cls.shape}")
-    if int(reach_px) != reach_px or reach_px < 0:
-        raise ValueError(f"reach_px must be an integer >= 0, got {reach_px!r}")
     st = ndimage.generate_binary_structure(2, 1)  # 4-connected
     out = {"reach_px": int(reach_px)}
     for name, label in CLASSES.items():
@@ -158,9 +154,8 @@ def class_coherence(cls: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> dict
 
 def _centreline(pts: np.ndarray, bin_px: float) -> np.ndarray:
     """(K, 2) mean points of ``bin_px`` bins of (P, 2) points along their principal axis."""
-    centre = pts.mean(axis=0)
-    _, _, vt = np.linalg.svd(pts - centre, full_matrices=False)
-    along = (pts - centre) @ vt[0]
+    centre, axis, _ = _tls(pts)
+    along = (pts - centre) @ axis
     bins = np.floor((along - along.min()) / bin_px).astype(np.int64)
     counts = np.bincount(bins)
     used = counts > 0
@@ -169,10 +164,8 @@ def _centreline(pts: np.ndarray, bin_px: float) -> np.ndarray:
 
 def _fits(line: np.ndarray, degree: int):
     """Residuals (K,) of a degree-1 and a degree-``degree`` polynomial offset(t) in the centreline's frame."""
-    centre = line.mean(axis=0)
-    _, _, vt = np.linalg.svd(line - centre, full_matrices=False)
-    t = (line - centre) @ vt[0]
-    o = (line - centre) @ vt[1]
+    centre, axis, o = _tls(line)
+    t = (line - centre) @ axis
     half = max(float(np.abs(t).max()), 1e-9)
     x = t / half
     res = []
@@ -189,15 +182,11 @@ def boundary_curvature(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0
     image (module docstring): ``n_points``, ``n_centreline``, ``length_px``, ``line_rms_px``, ``curve_rms_px``,
     ``ratio`` (line / max(curve, :data:`NOISE_FLOOR_PX`); NaN with fewer than ``min_points`` or ``degree + 3``
     centreline points) and ``curve_degree``."""
-    pts = boundary_points(cls)
-    out = {"n_points": int(len(pts)), "n_centreline": 0, "length_px": float("nan"), "line_rms_px": float("nan"),
-           "curve_rms_px": float("nan"), "ratio": float("nan"), "curve_degree": int(degree)}
-    if len(pts) < 2:
-        return out
-    line = _centreline(pts, bin_px)
+    counts, line = _boundary_centreline(cls, bin_px)
+    out = {**counts, "length_px": float("nan"), "line_rms_px": float("nan"), "curve_rms_px": float("nan"),
+           "ratio": float("nan"), "curve_degree": int(degree)}
     need = max(int(min_points), int(degree) + 3)
-    out["n_centreline"] = int(len(line))
-    if len(line) < need:
+    if line is None or len(line) < need:
         return out
     _, r_curve, _ = _fits(line, degree)
     med = np.median(np.abs(r_curve))

@@ -58,8 +58,9 @@ def render_and_check(scene, lut, views, out: str, *, say, surfaces=None) -> tupl
                 failure = f"GL renders (rockdove.render.gl) failed: {exc}"
                 if failure not in failures_all:
                     failures_all.append(failure)
-            if gl_result is not None:
-                gl_images[v.name] = compare.gl_arrays(gl_result)["rgb"]
+            gl_rgb = None if gl_result is None else np.asarray(gl_result.radiance_rgb)
+            if gl_rgb is not None:
+                gl_images[v.name] = gl_rgb
             t = time.perf_counter()
             folder = os.path.join(out, v.name)
             os.makedirs(folder, exist_ok=True)
@@ -68,8 +69,7 @@ def render_and_check(scene, lut, views, out: str, *, say, surfaces=None) -> tupl
             hue = boundary = None
             if sweep and m is not None:  # the comparison classified the pixels: its classes and histogram
                 # (that of the GL colours themselves when they are finite, which the comparison reads as 0)
-                hue = m.hue if m.finite else compare.hue_histogram(
-                    np.asarray(compare.gl_arrays(gl_result)["rgb"], np.float64)[m.cls >= 0])
+                hue = m.hue if m.finite else compare.hue_histogram(gl_rgb.astype(np.float64)[m.cls >= 0])
                 boundary = {**boundary_straightness(m.cls), **class_shape(m.strict, m.cls)}
             elif sweep:
                 cls = compare.reference_classes(ref_results[i], scene)
@@ -80,8 +80,8 @@ def render_and_check(scene, lut, views, out: str, *, say, surfaces=None) -> tupl
             ref_png = linear_to_srgb8(ref_results[i].rgb)
             path = os.path.join(folder, f"{v.name}_reference.png")
             write(files, "reference", path, save_png, ref_png, path)
-            if gl_result is not None:
-                gl_png = linear_to_srgb8(compare.gl_arrays(gl_result)["rgb"])
+            if gl_rgb is not None:
+                gl_png = linear_to_srgb8(gl_rgb)
                 path = os.path.join(folder, f"{v.name}_gl.png")
                 write(files, "gl", path, save_png, gl_png, path)
                 rows.append(gl_png)
