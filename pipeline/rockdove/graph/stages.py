@@ -1,21 +1,10 @@
 """The real build stages: each wires one module of the pipeline into the graph (:mod:`rockdove.graph.engine`).
 
-Stages (dependencies first), the configuration each reads and its inputs:
-
-- ``body`` (``geometry.body_voxel_m``, body texture resolution): rockdove.geometry.build_body;
-- ``bird`` (``geometry``, ``thickness``, texture resolutions; body): cards, beak, eyes and legs around the body;
-- ``thickness_range`` (bird): (floor min, ceil max) of the feathers' ``thickness`` primvar, nm;
-- ``lut`` (``film``, ``lut``; thickness_range): baked over exactly that range (one texel high when uniform);
-  absent for ``shading.variant = "physical"``;
-- ``texture_images`` (as ``bird``; bird): rockdove.textures;
-- ``textures`` (texture_images): the textures a film change leaves alone (feather base and mask, body colour);
-- ``film_textures`` (lut, thickness_range, texture_images): the LUT EXR and the preview atlas; physical-only: no
-  LUT EXR, exact preview colours (then it reads ``film``);
-- ``usd_geometry`` (bird): ``pigeon_geom.usdc``; ``usd_layers`` (``film``, ``shading``; bird, lut, usd_geometry):
-  pigeon.usda, pigeon_payload.usda, pigeon_looks.usda;
-- ``usdz`` (when ``usd.usdz``) and ``gltf`` (when ``gltf.glb``): packages of the assembled asset;
-- ``verify`` (``verify``, ``beauty``; every published stage): :func:`rockdove.graph.verification.verify` of the
-  assembled asset, whose renders are cache entries of their own keyed by what each reads.
+Stages (dependencies first; the configuration and inputs of each: :func:`make_stages`): ``body``, ``bird``,
+``thickness_range`` (nm), ``lut`` (baked over exactly that range; absent for ``shading.variant = "physical"``),
+``texture_images``, ``textures`` (what a film change leaves alone), ``film_textures`` (the LUT EXR and the
+preview atlas), ``usd_geometry``, ``usd_layers``, ``usdz`` and ``gltf`` (packages of the assembled asset) and
+``verify`` (:func:`rockdove.graph.verification.verify` of the assembled asset).
 
 Keys use the *content* of upstream outputs, so a new seed that leaves the thickness range unchanged re-bakes
 nothing, and a film change re-bakes the LUT and rewrites film_textures and the small layers but reuses the bird,
@@ -168,13 +157,9 @@ def bird_params(config: dict):
 
 
 #: Random points at which the build measures its LUT, as shipped (after any half rounding), against the exact
-#: reference (rockdove.lut.reference.lut_error, as bake's error_points),
-#: recorded in the EXR header (rockdove:estimatedMaxDeltaE2000, ...P99...). 200 points add ~0.05 s to the
-#: default 256 x 64 keratin bake (rockdove.lut.reference.lut_error right after the bake in a fresh process:
-#: 0.051-0.054 s over 3 runs; 50 points 0.012-0.018 s).
+#: reference (rockdove.lut.reference.lut_error), recorded in the EXR header (rockdove:estimatedMaxDeltaE2000,
+#: ...P99...). 200 points add ~0.05 s to the default 256 x 64 keratin bake (50 points: 0.012-0.018 s).
 LUT_ERROR_POINTS = 200
-
-BODY_FIELDS = ("geometry.body_voxel_m", "textures.body_resolution")  # BirdParams.body_key()
 
 
 def run_body(ctx: Context):
@@ -351,24 +336,21 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
     bird_keys = tuple(CONFIG_KEYS.values())
     schema = ("schemas/plugInfo.json", "schemas/generatedSchema.usda")
     stages = [
-        Stage("body", run_body, config=BODY_FIELDS, codec=BODY),
+        Stage("body", run_body, config=("geometry.body_voxel_m", "textures.body_resolution"), codec=BODY),
         Stage("bird", run_bird, config=bird_keys, deps=("body",), codec=BIRD),
         Stage("thickness_range", run_thickness_range, deps=("bird",), codec=JSON),
     ]
     if baked:
-        stages.append(Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",),
-                            codec=LUT))
+        stages.append(Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",), codec=LUT))
     stages.append(Stage("texture_images", run_texture_images, config=bird_keys, deps=("bird",), codec=IMAGES))
-    stages.append(Stage("textures", run_textures, deps=("texture_images",), codec=FILES,
-                        publish=""))
+    stages.append(Stage("textures", run_textures, deps=("texture_images",), codec=FILES, publish=""))
     if baked:
         stages.append(Stage("film_textures", run_film_textures, deps=("lut", "thickness_range", "texture_images"),
                             codec=FILES, publish=""))
     else:  # the preview colours are computed from the film (rockdove.lut.reference) over the thickness range
         stages.append(Stage("film_textures", run_film_textures, config=("film",),
                             deps=("thickness_range", "texture_images"), codec=FILES, publish=""))
-    stages.append(Stage("usd_geometry", run_usd_geometry, deps=("bird",), data=schema,
-                        codec=FILES, publish=""))
+    stages.append(Stage("usd_geometry", run_usd_geometry, deps=("bird",), data=schema, codec=FILES, publish=""))
     stages.append(Stage("usd_layers", run_usd_layers, config=("film", "shading"),
                         deps=("bird", "lut", "usd_geometry") if baked else ("bird", "usd_geometry"),
                         data=("materials", *schema), codec=FILES, publish=""))

@@ -11,12 +11,9 @@ the stage cache (:class:`rockdove.graph.cache.Cache`, folders ``verify.<kind>``)
   and the view (camera, light, size);
 - ``host``, per host: its metrics and images over the views; keyed by the scene content, the views and its lobe.
 
-Each key also holds the code the item can execute, derived by :mod:`rockdove.sources` from the functions that
-compute it (a host's ``render`` and :func:`rockdove.verify.host_check.check_host`), and the installed
-distributions. So a ``rockdove verify`` after a build reuses the views the build checked, a build after a
-``rockdove verify`` of the same size reuses them, and an edit to one host's code re-renders that host alone. A host
-that failed is not kept.
-Validation and the report are redone every time.
+Each key also holds the code the item can execute (:mod:`rockdove.sources`) and the installed distributions. So
+``rockdove verify`` and a build reuse each other's views, and an edit to one host's code re-renders that host alone.
+A host that failed is not kept. Validation and the report are redone every time.
 """
 
 from __future__ import annotations
@@ -36,8 +33,7 @@ BUILD_HOSTS = ("glsl",)
 
 
 def item_key(kind: str, fns: tuple, *reads) -> str:
-    """The key of an item that ``fns`` compute from ``reads``: the code they can execute with the environment
-    (:func:`rockdove.sources.digest`), and ``reads``."""
+    """The key of an item that ``fns`` compute from ``reads`` (the code they can execute: rockdove.sources)."""
     code = sources.digest(list(fns))[0]
     return hashlib.sha256(canonical_json([GRAPH_VERSION, kind, code, *reads]).encode()).hexdigest()
 
@@ -181,8 +177,7 @@ def default_cache(asset) -> str:
 def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, height=None, n_views=None,
            views=None, bench_dir=None, progress=None, beauty=None, published_asset=None) -> dict:
     """Validate, render and check the asset of root layer ``asset``; write the report into ``out_dir`` (default
-    ``verify/`` beside it); return the content of report.json (``passed``, ``failures``, ``notes``, one entry per
-    host, and ``cache``: the items that ``ran`` and were ``reused``).
+    ``verify/`` beside it); return the content of report.json (``cache``: the items that ran and were reused).
 
     ``hosts``: :data:`rockdove.hosts.HOSTS` names (None: :data:`rockdove.hosts.DEFAULT`; ``["all"]``), each
     compared with the reference of its lobe; ``glsl`` always runs; an unavailable host is skipped with its reason,

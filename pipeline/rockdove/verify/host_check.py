@@ -1,15 +1,9 @@
 """Verification of the hosts (:mod:`rockdove.hosts`): each host's renders against the exact reference of the
-lighting model it evaluates, over the feather-tip pixels.
+lighting model it evaluates, over the reference's structural feather pixels (eroded by one pixel as the GL
+comparison does; a host returns radiance only, no part ids, so its silhouette is the reference's).
 
-Per host, over every view: the feather pixels of the reference (its part ids, eroded by one pixel as the GL
-comparison does, :func:`rockdove.verify.compare.comparison_mask`) whose structural mask is >=
-:data:`rockdove.verify.compare.STRUCTURAL_MASK` (0.5). A host returns radiance only (no part ids), so its
-silhouette is the reference's.
-
-- ``median_dE``, ``p95_dE``: CIEDE2000 of the unclipped linear radiance (:func:`rockdove.verify.compare.
-  pixel_de`, the GL comparison's own);
-- ``green_px``, ``purple_px``: host pixels in the green / purple hue bands
-  (:func:`rockdove.verify.compare.hue_classes`, strict bands);
+- ``median_dE``, ``p95_dE``: CIEDE2000 of the unclipped linear radiance (the GL comparison's own);
+- ``green_px``, ``purple_px``: host pixels in the strict green / purple hue bands;
 - ``hue_agreement``: fraction of the pixels whose class (green, purple, other: grey and other hues together)
   is the reference's.
 
@@ -42,11 +36,9 @@ def _classes(lab: np.ndarray) -> np.ndarray:
 
 def host_metrics(images: dict, refs: list, scene) -> dict:
     """dE and hue statistics (module docstring) of one host's renders (``images``: view name -> (H, W, 3) linear
-    radiance) against ``refs``, the references of its lobe, one per view: ``n_pixels``, ``median_dE``,
-    ``p95_dE``, ``green_px``, ``purple_px``, ``hue_agreement``, ``per_view`` (``{view: {"n_pixels",
-    "median_dE", "p95_dE"}}``) and ``de_maps`` (``{view: (H, W)}``, not JSON). ValueError when a view is
-    missing from ``images`` or has the wrong shape."""
-    feather_ids = [i + 1 for i, p in enumerate(scene.parts) if p.is_feather]
+    radiance) against ``refs``, the references of its lobe, one per view, also ``per_view`` and ``de_maps``
+    (``{view: (H, W)}``, not JSON). ValueError when a view is missing from ``images`` or has the wrong shape."""
+    feather_ids = compare.feather_ids(scene)
     des, host_cls, ref_cls, per_view, maps = [], [], [], {}, {}
     for ref in refs:
         if ref.view not in images:
