@@ -74,9 +74,6 @@ class BuildResult:
     def keys(self) -> dict[str, str]:
         return {s.name: s.key for s in self.stages}
 
-    def stage(self, name: str) -> StageRecord:
-        return next(s for s in self.stages if s.name == name)
-
     def as_dict(self) -> dict:
         """The ``rockdove build --json`` summary."""
         return {"out": str(self.out), "cache": str(self.cache), "config_hash": self.config_hash,

@@ -192,7 +192,6 @@ def run_lut(ctx: Context):
 
     from ..lut.bake import bake, error_metadata
     from ..lut.reference import lut_error
-    from ..lut.table import ThinFilmLUT
 
     lo, hi = ctx.inputs["thickness_range"]
     cfg = ctx.config["lut"]
@@ -205,11 +204,9 @@ def run_lut(ctx: Context):
         # the values the HALF EXR holds (rockdove.lut.exr writes HALF channels for metadata precision "half")
         rgb = lut.rgb.astype(np.float16).astype(np.float32)
         metadata["precision"] = "half"
-    lut = ThinFilmLUT(rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
-                      colour_space=lut.colour_space, metadata=metadata)
-    metadata.update(error_metadata(lut_error(lut, film, n_points=LUT_ERROR_POINTS)))
-    return ThinFilmLUT(rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
-                       colour_space=lut.colour_space, metadata=metadata)
+    lut = dataclasses.replace(lut, rgb=rgb, metadata=metadata)
+    errors = error_metadata(lut_error(lut, film, n_points=LUT_ERROR_POINTS))
+    return dataclasses.replace(lut, metadata={**metadata, **errors})
 
 
 def run_texture_images(ctx: Context):

@@ -5,27 +5,22 @@ moves with the light; one fixed film thickness makes it a straight line; an unco
 thickness makes a salt-and-pepper of both colours. Two measures per view tell the three apart (issue 12):
 
 Coherence (:func:`class_coherence`)
-    Feather pixels are classified by CIELAB hue (:func:`rockdove.verify.compare.hue_classes`, the strict
-    bands: green, purple, other chromatic hue; grey pixels are left out). For each class, the share of its
-    pixels held by its largest connected region. "Connected" is 4-connected, optionally after bridging gaps
-    of up to ``2 * reach_px`` grey or non-feather pixels (a 4-connected dilation of the class by ``reach_px``
-    that may only enter such pixels, never a pixel of another hue class; the counts are of the class's own
-    pixels). By default nothing is bridged (:data:`COHERENCE_REACH_PX`): on the bird the tips of one colour
-    overlap or touch. 4- rather than 8-connectivity, and no bridging through the other colours: on a mosaic of
-    independently coloured feathers at 50 % each, regions connected through diagonal contacts percolate for
-    *both* colours (site percolation threshold 0.407 with 8 neighbours, 0.593 with 4), so speckle would pass
-    as coherent. A coherent pattern has shares near 1; speckle breaks the classes into many regions.
+    For each strict hue class (green, purple, other chromatic hue; grey left out), the share of its pixels held
+    by its largest 4-connected region, optionally after bridging gaps of up to ``2 * reach_px`` grey or
+    non-feather pixels (never a pixel of another hue class). 4- rather than 8-connectivity, and no bridging
+    through the other colours: on a mosaic of independently coloured feathers at 50 % each, regions connected
+    through diagonal contacts percolate for *both* colours (site percolation threshold 0.407 with 8 neighbours,
+    0.593 with 4), so speckle would pass as coherent. A coherent pattern has shares near 1.
 
 Curvature (:func:`boundary_curvature`)
-    The green/purple contact zone (:func:`boundary_points`, on the hue *sides*) is
-    reduced to its centreline (mean point of ``bin_px`` bins along its principal axis), and two models of the
-    centreline's perpendicular offset ``o`` as a function of the position ``t`` along that axis are fitted by
-    least squares: a straight line ``o = a + b t`` and a smooth curve, the cubic ``o = a + b t + c t^2 + d t^3``
-    (t scaled to [-1, 1]). The RMS residuals of both are reported, and their ratio ``line / curve`` (the curve's
-    residual taken as at least :data:`NOISE_FLOOR_PX`, pixel quantisation): about 1 or less for a straight
-    boundary (the cubic fits no better than the line), >= :data:`CURVED_RATIO` for a curved
-    one. One robust pass drops centreline points farther than 3x the median residual of the cubic (when at
-    least half remain), so a stray feather tip of the other colour does not bend the fit.
+    The green/purple contact zone (:func:`boundary_points`, on the hue *sides*) is reduced to its centreline
+    (mean point of ``bin_px`` bins along its principal axis), and its perpendicular offset ``o`` as a function of
+    the position ``t`` along that axis is fitted by least squares with a line ``o = a + b t`` and the cubic
+    ``o = a + b t + c t^2 + d t^3`` (t scaled to [-1, 1]). Their RMS ratio ``line / curve`` (the curve's residual
+    taken as at least :data:`NOISE_FLOOR_PX`, pixel quantisation) is about 1 or less for a straight boundary,
+    >= :data:`CURVED_RATIO` for a curved one. One robust pass drops centreline points farther than 3x the median
+    residual of the cubic (when at least half remain), so a stray feather tip of the other colour does not bend
+    the fit.
 """
 
 from __future__ import annotations
@@ -62,12 +57,9 @@ CLASSES = {"green": 1, "purple": 2, "other": 3}
 
 def boundary_points(cls: np.ndarray, reach_px: int = BOUNDARY_REACH_PX) -> np.ndarray:
     """(P, 2) float (x = column, y = row) pixels of the green/purple contact zone of a class image (1 green,
-    2 purple; others ignored): within ``reach_px`` 8-connected steps of a green pixel AND of a purple one. Unlike
-    plain 4-adjacency this bridges the narrow band of low-chroma or blue pixels the film shows between green and
-    purple (at 650 nm and cos theta near 0.707 the chroma drops to ~12) and the grey feather bases between
-    coloured tips, so gaps up to ``2 * reach_px`` pixels still give a boundary. A straight boundary's zone is a
-    band about ``2 * reach_px`` wide, which adds ~``2 * reach_px / sqrt(12)`` px to the RMS of
-    :func:`boundary_straightness`."""
+    2 purple; others ignored): within ``reach_px`` 8-connected steps of a green pixel AND of a purple one. This
+    bridges the narrow band of low-chroma or blue pixels the film shows between green and purple (at 650 nm and
+    cos theta near 0.707 the chroma drops to ~12) and the grey feather bases between coloured tips."""
     from scipy import ndimage
 
     cls = np.asarray(cls)
@@ -79,19 +71,13 @@ def boundary_points(cls: np.ndarray, reach_px: int = BOUNDARY_REACH_PX) -> np.nd
 
 
 def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0) -> dict:
-    """How far the green/purple boundary of a class image (hue sides: 1 green, 2 purple) departs from a line.
-
-    1. the contact-zone pixels of :func:`boundary_points`;
-    2. their centreline: binned in ``bin_px`` steps along their total-least-squares (TLS) line, each bin replaced
-       by its mean point, so the zone's own width does not count as curvature;
-    3. a TLS line through the centreline: the RMS perpendicular distance of its points, in pixels and as a
-       fraction of the boundary's length (independent of the image size); the fit is repeated once without
-       points farther than 3 x their median distance (when at least half remain), against a stray feather tip.
+    """How far the green/purple boundary of a class image (hue sides: 1 green, 2 purple) departs from a line:
+    the RMS perpendicular distance of its centreline (module docstring) from their total-least-squares line, in
+    pixels and as a fraction of the boundary's length (independent of the image size), with the same robust pass.
 
     A straight boundary gives a fraction of the pixel quantisation (~0.3 px); a bent one its sagitta over ~3 (a
     parabola of sagitta 40 px gives ~12 px). Fewer than ``min_points`` centreline points: ``rms_px`` NaN.
-    Returns ``n_points``, ``n_centreline``, ``rms_px``, ``length_px``, ``rms_fraction``, ``direction`` (unit
-    (x, y)) and ``centre`` ((x, y) px).
+    ``direction``: unit (x, y); ``centre``: (x, y) px.
     """
     counts, line = _boundary_centreline(cls, bin_px)
     out = {**counts, "rms_px": float("nan"), "length_px": float("nan"), "rms_fraction": float("nan"),
@@ -130,8 +116,8 @@ def _tls(p: np.ndarray):
 
 def class_coherence(cls: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> dict:
     """Share of each strict hue class (1 green, 2 purple, 3 other; 0 grey and -1 no feather are ignored) held
-    by its largest connected region, gaps of up to ``2 * reach_px`` pixels bridged: per class name
-    ``{"pixels", "largest_share" (NaN without pixels), "regions"}``, and ``reach_px``."""
+    by its largest connected region (module docstring): per class name ``{"pixels", "largest_share" (NaN without
+    pixels), "regions"}``, and ``reach_px``."""
     from scipy import ndimage
 
     cls = np.asarray(cls)
@@ -179,9 +165,8 @@ def _fits(line: np.ndarray, degree: int):
 def boundary_curvature(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0,
                        degree: int = CURVE_DEGREE) -> dict:
     """RMS residuals of a straight-line and a degree-``degree`` fit of the green/purple boundary of a hue-side
-    image (module docstring): ``n_points``, ``n_centreline``, ``length_px``, ``line_rms_px``, ``curve_rms_px``,
-    ``ratio`` (line / max(curve, :data:`NOISE_FLOOR_PX`); NaN with fewer than ``min_points`` or ``degree + 3``
-    centreline points) and ``curve_degree``."""
+    image and their ``ratio`` (module docstring; NaN with fewer than ``min_points`` or ``degree + 3`` centreline
+    points)."""
     counts, line = _boundary_centreline(cls, bin_px)
     out = {**counts, "length_px": float("nan"), "line_rms_px": float("nan"), "curve_rms_px": float("nan"),
            "ratio": float("nan"), "curve_degree": int(degree)}
