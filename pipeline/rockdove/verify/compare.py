@@ -14,18 +14,11 @@ with the same part id, after eroding each render's feather coverage by ``erode_p
 Edge pixels are excluded because a rasteriser and a ray caster legitimately disagree there (coverage rules,
 texture filtering of the alpha cut-out).
 
-Checks
-------
-- finite: no NaN or Inf anywhere in either render.
-- black holes: lit feather pixels (reference ``N.L >= LIT_N_DOT_L``) whose GL radiance is ~zero
-  (max channel below ``BLACK_RADIANCE``); a correct render has none, because every film colour has a
-  luminance of at least a few per cent.
-- hue: CIELAB hue angle ``h_ab = atan2(b*, a*)`` of the structural feather pixels (reference mask >= 0.5)
-  that are chromatic (``C*ab / L* >= HUE_MIN_SATURATION``: a ratio, so that dimly lit pixels keep their hue),
-  histogrammed in ``HUE_BIN_DEG`` bins and classified into the two bands of the rock dove's neck:
-  :data:`GREEN_BAND_DEG` and :data:`PURPLE_BAND_DEG` (measured on the Airy colours of a 480-700 nm keratin
-  film under D65: greens have h_ab 115-205 deg, purples/magentas 310-355 deg).
-- the shape of the green/purple boundary: :mod:`rockdove.verify.boundary`.
+Checks: no NaN or Inf in either render; no black holes (lit feather pixels whose GL radiance is ~zero: every
+film colour has a luminance of at least a few per cent); the CIELAB hue ``h_ab = atan2(b*, a*)`` of the chromatic
+structural pixels (``C*ab / L*``: a ratio, so that dimly lit pixels keep their hue), histogrammed and classified
+into the two bands of the rock dove's neck (measured on the Airy colours of a 480-700 nm keratin film under D65:
+greens have h_ab 115-205 deg, purples/magentas 310-355 deg); the boundary's shape: :mod:`rockdove.verify.boundary`.
 """
 
 from __future__ import annotations
