@@ -1,13 +1,9 @@
-"""The verification's GL renders in a thread of this process, one result per view, beside the CPU reference.
-
-:func:`rockdove.verify.run.render_and_check` asks for every view at once (:class:`GLRenders`) and compares each
-as soon as it is drawn, while the thread draws the next one and this thread integrates the reference: llvmpipe
-draws and reads back outside the GIL (its own threads), numpy's reference mostly too. A thread, not a process:
-measured (docs/design.md, "The GL renders"), a worker process saved nothing once the imports are warm and cost
-a second interpreter, a socket protocol and pickled images; Dask's daemonic workers need nothing special either.
-pyrender is imported by the first render of a process (importing it ahead in a thread while the build imported
-pxr deadlocked a CLI build). All GL calls of one :class:`GLRenders` run on its own single thread (an EGL context is
-current on one thread).
+"""The verification's GL renders in a thread of this process, one result per view, drawn while this thread
+integrates the CPU reference and compares the views already drawn: llvmpipe draws and reads back outside the GIL,
+numpy's reference mostly too. A thread, not a process: measured (docs/design.md, "The GL renders"), a worker
+process saved nothing once the imports are warm. pyrender is imported by the first render (importing it ahead in
+a thread while the build imported pxr deadlocked a CLI build). All GL calls of one :class:`GLRenders` run on its
+own single thread (an EGL context is current on one thread).
 """
 
 from __future__ import annotations
@@ -21,9 +17,8 @@ class GLRenderError(RuntimeError):
 
 
 class GLRenders:
-    """The GL renders of ``views`` (:class:`rockdove.render.gl.GLRenderer` opened at the first view's size and
-    closed after the last, as :func:`rockdove.render.gl.render_views` does, so the images are the same), drawn
-    in order on a thread of their own; :meth:`result` waits for one."""
+    """The GL renders of ``views`` (one :class:`rockdove.render.gl.GLRenderer` opened at the first view's size,
+    as :func:`rockdove.render.gl.render_views` does, so the images are the same); :meth:`result` waits for one."""
 
     def __init__(self, scene, views, lut=None):
         views = list(views)

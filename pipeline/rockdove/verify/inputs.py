@@ -20,12 +20,8 @@ PHYSICAL_ONLY_NOTE = (
 
 
 def verification_scene(asset):
-    """Read an asset back for verification: ``(root layer, RenderScene, LUT baked in memory or None, notes)``.
-
-    An asset with a LUT is read as it is. For a LUT-less (physical-only) asset the renderers draw a LUT baked in
-    memory from the film it records (:meth:`rockdove.render.scene.RenderScene.load_lut`), returned here with
-    a note saying so (:data:`PHYSICAL_ONLY_NOTE`). Nothing is written.
-    """
+    """Read an asset back for verification: ``(root layer, RenderScene, LUT or None, notes)``; for a LUT-less
+    (physical-only) asset a LUT baked in memory from the film it records, and :data:`PHYSICAL_ONLY_NOTE`."""
     from ..render.scene import load_scene
 
     scene = load_scene(asset)

@@ -1,11 +1,7 @@
-"""One verification view, checked: its GL render (:mod:`rockdove.verify.gl_renders`) against the exact CPU
-reference (:func:`rockdove.verify.reference_image.render_reference`), compared (:func:`rockdove.verify.compare.
-compare`: dE2000 goals, NaN/Inf, black holes), the hue histogram and boundary shape of a light-sweep view, and
-its images. :func:`rockdove.graph.verification.verify` caches the result per view and joins the views, the hosts
-and the validation into the verdict (:mod:`rockdove.verify.verdict`).
-
-Assets without a LUT (``shading.variant = "physical"``) are drawn with a verification-only LUT baked in memory
-from the film they record (:func:`rockdove.verify.inputs.verification_scene`); the report's notes say so.
+"""One verification view, checked: its GL render against the exact CPU reference, compared
+(:mod:`rockdove.verify.compare`), the hue histogram and boundary shape of a light-sweep view, and its images.
+:func:`rockdove.graph.verification.verify` caches the result per view and joins the views, the hosts and the
+validation into the verdict (:mod:`rockdove.verify.verdict`).
 """
 
 from __future__ import annotations
@@ -30,9 +26,7 @@ def render_and_check(scene, lut, views, out: str, *, say, surfaces=None) -> tupl
     from .reference_image import render_reference
 
     failures_all = []
-    # The GL renders run in a thread of their own (rockdove.verify.gl_renders), one result per view: this thread
-    # computes the reference, then compares each view as soon as it is rendered, while the next one is drawn.
-    # the largest views first (the hero): rendered while the reference integrates, so no view waits for long
+    # the largest views first (the hero): GL-rendered while the reference integrates, so no view waits for long
     order = sorted(range(len(views)), key=lambda i: -views[i].width * views[i].height)
     gl = GLRenders(scene, [views[i] for i in order], lut)
     t = time.perf_counter()

@@ -31,9 +31,7 @@ def combine(layer, scene, lut, notes, results: dict, out: str, width, height, be
             t_start, hosts, items, published_asset, beauty) -> dict:
     """Validate the asset and join the per-view results and the hosts' entries into the verdict and the report
     (``report.json``, ``report.html`` and their images in the folder ``out``); returns the report dict.
-    ``bench_dir``: a folder whose benchmark plots the report shows (None: none; the report reads no folder it is
-    not given). ``beauty``: the ``[beauty]`` settings and ``cycles_ok`` of the picture the report opens with
-    (:func:`rockdove.hosts.beauty.for_report`)."""
+    ``bench_dir``: benchmark plots the report shows (None: none; the report reads no folder it is not given)."""
     timings, failures, notes = {}, [], list(notes)
     say("validating")
     # in a thread, while this one draws the report (pxr's validators and the charts' PNG encoding leave the GIL
