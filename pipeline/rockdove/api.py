@@ -114,8 +114,7 @@ class HostResult:
 @dataclass(frozen=True)
 class Verification:
     """A finished verification: ``passed`` (validation clean, every view and every host that ran within its
-    goals), ``failures`` (why not), ``notes`` (what was checked differently), per-host results, and the report
-    (``report_dir/report.html``; ``report`` is the content of ``report.json``)."""
+    goals), ``failures``, ``notes`` (what was checked differently), and ``report`` (``report.json``)."""
 
     passed: bool
     failures: tuple[str, ...]

@@ -277,9 +277,8 @@ def run_gltf(ctx: Context) -> None:
 
 
 def run_verify(ctx: Context) -> dict:
-    """The verification of the assembled asset (rockdove.graph.verification.verify, with the build's hosts and
-    the stage cache, so ``rockdove verify`` reuses its renders), its report in the stage's folder (published as
-    ``verify/``), and the interactive viewer beside it; the value is the verdict."""
+    """The verification of the assembled asset with the build's hosts and the stage cache (so ``rockdove verify``
+    reuses its renders), its report and viewer in the stage's folder (published as ``verify/``); a verdict."""
     from ..usd.layout import resolve_root_layer
     from .publish import published_path
     from .verification import BUILD_HOSTS, verify
@@ -310,8 +309,8 @@ VERIFY = "verify"
 
 @dataclasses.dataclass(frozen=True)
 class Verdict:
-    """The build's verification: ``passed``, ``reason`` (its failures, joined), the views checked, notes, and
-    the verification's items that ran and were reused (``{"ran": {kind: names}, "reused": ...}``)."""
+    """The build's verification: ``reason`` (its failures, joined) and the verification's items that ran and
+    were reused (``{"ran": {kind: names}, "reused": ...}``)."""
 
     passed: bool
     reason: str = ""

@@ -179,24 +179,20 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     """Validate, render and check the asset of root layer ``asset``; write the report into ``out_dir`` (default
     ``verify/`` beside it); return the content of report.json (``cache``: the items that ran and were reused).
 
-    ``hosts``: :data:`rockdove.hosts.HOSTS` names (None: :data:`rockdove.hosts.DEFAULT`; ``["all"]``), each
-    compared with the reference of its lobe; ``glsl`` always runs; an unavailable host is skipped with its reason,
-    one that fails or misses its goals fails the verification. ``cache``: the stage cache (a folder or a
-    :class:`Cache`; default :func:`default_cache`). ``width``, ``height``, ``n_views``: render size (pixels) and
-    turntable + light-sweep views (default the schema's ``[verify]``); ``views``: only these (a subset without a
-    light-sweep view cannot run the hue check: ``notes`` say so). ``bench_dir``: benchmark plots the report shows.
-    ``beauty``: ``[beauty]`` settings of the report's opening picture (``auto`` takes Cycles only when ``hosts``
-    names blender); ``published_asset``: the root layer's path once published, which the report names.
+    ``hosts``: :data:`rockdove.hosts.HOSTS` names (None: :data:`rockdove.hosts.DEFAULT`; ``["all"]``); ``glsl``
+    always runs; an unavailable host is skipped with its reason. ``cache``: a folder or a :class:`Cache` (default
+    :func:`default_cache`). ``width``, ``height``, ``n_views``: default the schema's ``[verify]``; ``views``: only
+    these (a subset without a light-sweep view cannot run the hue check). ``beauty``: ``[beauty]`` settings of the
+    report's opening picture (``auto`` takes Cycles only when ``hosts`` names blender); ``published_asset``: the
+    root layer's path once published, which the report names.
     """
     from ..hosts import select
     from ..render.beauty import settings
-    from ..verify.inputs import check_size, scene_digest, select_views, sizes, verification_scene, \
-        verification_views
+    from ..verify.inputs import scene_digest, select_views, sizes, verification_scene, verification_views
     from ..verify.reference_image import render_reference
     from ..verify.verdict import combine, default_out_dir
 
     width, height, n_views = sizes(width, height, n_views)
-    check_size(width, height)
     say = progress or (lambda msg: None)
     t_start = time.perf_counter()
     selection = select(hosts)  # unknown names: ValueError before any work

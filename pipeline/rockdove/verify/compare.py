@@ -135,11 +135,10 @@ def _in_band(h_deg: np.ndarray, band: tuple[float, float]) -> np.ndarray:
 
 
 def hue_classes(rgb_linear: np.ndarray, sides: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(h_ab in degrees [0, 360), C*ab, class)`` of (..., 3) linear colours; class (int8) 0 grey (C*ab / L* <
-    HUE_MIN_SATURATION or L* < HUE_MIN_LIGHTNESS), else with ``sides`` False the strict bands (1 green,
-    2 purple, 3 any other hue), with ``sides`` True the nearer side of the hue circle split at
-    :data:`SIDE_SPLIT_DEG` (1 green, 2 purple): the boundary's classes, since the film passes from green to
-    purple through blue or through red-yellow hues, depending on the thickness."""
+    """``(h_ab in degrees [0, 360), C*ab, class)`` of (..., 3) linear colours; class (int8) 0 grey, else with
+    ``sides`` False the strict bands (1 green, 2 purple, 3 any other hue), with ``sides`` True the side of the hue
+    circle (1 green, 2 purple): the boundary's classes, since the film passes from green to purple through blue or
+    through red-yellow hues, depending on the thickness."""
     return lab_hue_classes(rgb_to_lab(rgb_linear), sides)
 
 
@@ -220,9 +219,8 @@ def compare_arrays(view: str, gl_rgb, ref_rgb, gl_part, ref_part, feather_part_i
     """:func:`compare` on plain arrays: (H, W, 3) linear renders, (H, W) part ids (-1 background);
     ``ref_n_dot_l``: the reference's max(N.L, 0) (without it no black-hole check); ``ref_mask``: its
     structural-colour mask (the hue statistics take compared pixels with mask >= :data:`STRUCTURAL_MASK`)."""
-    # Only the compared pixels are converted, classified and checked (a few per cent of the image); every number
-    # is that of the whole-image formulation: the dE map is NaN elsewhere, and the black-hole and hue pixels are
-    # subsets of the compared ones. Non-finite values count as 0 in the statistics (``finite`` reports them).
+    # Only the compared pixels (a few per cent of the image) are converted, classified and checked: the black-hole
+    # and hue pixels are subsets of them. Non-finite values count as 0 in the statistics (``finite`` reports them).
     gl_rgb, ref_rgb = _same_shape("gl_rgb", gl_rgb, "ref_rgb", ref_rgb, 3)
     finite = bool(np.isfinite(gl_rgb).all() and np.isfinite(ref_rgb).all())
     mask = comparison_mask(gl_part, ref_part, feather_part_ids, erode_px)

@@ -94,14 +94,11 @@ def host_passed(variant: str, metrics: dict) -> tuple[bool, list]:
 
 
 def check_host(module, asset_layer: str, scene, views, refs: list, out_dir: str, rendered, say) -> tuple[dict, dict]:
-    """Render the views in one host (:mod:`rockdove.hosts`; ``rendered``: its images when already drawn, the
-    GL renders for ``glsl``) and compare them with ``refs``, the references of its lobe (one per view).
-
-    Returns the report's entry (``name``, ``variant``, ``lobe``, the :func:`host_metrics` but ``de_maps``,
-    ``passed``, ``failures``; ``error`` when it raised :class:`rockdove.hosts.HostError`; ``skipped`` and
-    ``reason`` when its optional ``cannot_draw(asset_layer)`` names why it cannot draw this asset) and its
-    images in ``out_dir``: ``{view: {"host", "reference", "dE": file name}}``.
-    """
+    """Render the views in one host (``rendered``: its images when already drawn, the GL renders for ``glsl``)
+    and compare them with ``refs``, the references of its lobe. Returns the report's entry (the
+    :func:`host_metrics` but ``de_maps``; ``error`` when it raised :class:`rockdove.hosts.HostError`; ``skipped``
+    and ``reason`` when its optional ``cannot_draw(asset_layer)`` says why) and ``{view: {"host", "reference",
+    "dE": file name}}`` of its images in ``out_dir``."""
     from ..hosts import HostError
     from ..render.images import save_png
     from ..spectral import linear_to_srgb8
