@@ -76,20 +76,13 @@ def erode(mask: np.ndarray, pixels: int) -> np.ndarray:
     if pixels == 0:
         return mask.copy()
     out = np.zeros_like(mask)
-    box = _bounding_box(mask)
-    if box is not None:  # outside the mask's bounding box every pixel is background, as the border is: eroding
-        # the box alone (its border taken as background) is the whole image's erosion, for a fraction of the work
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if rows.size:  # outside the mask's bounding box every pixel is background, as the border is: eroding the
+        # box alone (its border taken as background) is the whole image's erosion, for a fraction of the work
+        box = slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)
         out[box] = ndimage.binary_erosion(mask[box], structure=np.ones((3, 3), bool), iterations=pixels,
                                           border_value=0)
     return out
-
-
-def _bounding_box(mask: np.ndarray) -> tuple[slice, slice] | None:
-    """The smallest ``(rows, columns)`` slices holding every True pixel of an (H, W) mask; None if it has none."""
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    if rows.size == 0:
-        return None
-    return slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)
 
 
 def comparison_mask(gl_part, ref_part, feather_part_ids, erode_px: int = 1) -> np.ndarray:

@@ -37,7 +37,7 @@ def combine(layer, scene, lut, notes, results: dict, out: str, width, height, be
     # in a thread, while this one draws the report (pxr's validators and the charts' PNG encoding leave the GIL
     # in parts)
     validating = ThreadPoolExecutor(1, thread_name_prefix="rockdove-validate")
-    validation_pending = validating.submit(_validate_timed, layer)
+    validation_pending = validating.submit(provenance.run_validation, layer)
     validating.shutdown(wait=False)
     results = list(results.values())
     for key in ("gl", "reference", "compare"):
@@ -160,15 +160,6 @@ def combine(layer, scene, lut, notes, results: dict, out: str, width, height, be
     report.write_json(os.path.join(out, "report.json"), shipped)  # no build machine's path in what ships
     report.write_html(os.path.join(out, "report.html"), shipped, images)
     return result
-
-
-def _validate_timed(layer) -> tuple[dict, float]:
-    t = time.perf_counter()
-    try:
-        validation = provenance.run_validation(layer)
-    except Exception as exc:  # noqa: BLE001 - a validator that raises is a failure, never a pass
-        validation = {"passed": False, "details": None, "error": f"validation raised: {type(exc).__name__}: {exc}"}
-    return validation, time.perf_counter() - t
 
 
 def summary(report: dict) -> dict:
