@@ -340,12 +340,9 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
         stages.append(Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",), codec=LUT))
     stages.append(Stage("texture_images", run_texture_images, config=bird_keys, deps=("bird",), codec=IMAGES))
     stages.append(Stage("textures", run_textures, deps=("texture_images",), codec=FILES, publish=""))
-    if baked:
-        stages.append(Stage("film_textures", run_film_textures, deps=("lut", "thickness_range", "texture_images"),
-                            codec=FILES, publish=""))
-    else:  # the preview colours are computed from the film (rockdove.lut.reference) over the thickness range
-        stages.append(Stage("film_textures", run_film_textures, config=("film",),
-                            deps=("thickness_range", "texture_images"), codec=FILES, publish=""))
+    # physical-only: the preview colours are computed from the film (rockdove.lut.reference) over the thickness range
+    stages.append(Stage("film_textures", run_film_textures, config=() if baked else ("film",),
+                        deps=("lut",) * baked + ("thickness_range", "texture_images"), codec=FILES, publish=""))
     stages.append(Stage("usd_geometry", run_usd_geometry, deps=("bird",), data=schema, codec=FILES, publish=""))
     stages.append(Stage("usd_layers", run_usd_layers, config=("film", "shading"),
                         deps=("bird", "lut", "usd_geometry") if baked else ("bird", "usd_geometry"),

@@ -34,6 +34,13 @@ def _classes(lab: np.ndarray) -> np.ndarray:
     return np.where((cls == 1) | (cls == 2), cls, 3).astype(np.int8)
 
 
+def _de_stats(de: np.ndarray) -> dict:
+    n = int(de.size)
+    nan = float("nan")
+    return {"n_pixels": n, "median_dE": float(np.median(de)) if n else nan,
+            "p95_dE": float(np.percentile(de, 95)) if n else nan}
+
+
 def host_metrics(images: dict, refs: list, scene) -> dict:
     """dE and hue statistics (module docstring) of one host's renders (``images``: view name -> (H, W, 3) linear
     radiance) against ``refs``, the references of its lobe, one per view, also ``per_view`` and ``de_maps``
@@ -54,17 +61,11 @@ def host_metrics(images: dict, refs: list, scene) -> dict:
         des.append(vals)
         host_cls.append(_classes(lab))
         ref_cls.append(_classes(compare.rgb_to_lab(ref.rgb[sel])))
-        per_view[ref.view] = {"n_pixels": int(vals.size),
-                              "median_dE": float(np.median(vals)) if vals.size else float("nan"),
-                              "p95_dE": float(np.percentile(vals, 95)) if vals.size else float("nan")}
-    de = np.concatenate(des) if des else np.zeros(0)
-    hc = np.concatenate(host_cls) if host_cls else np.zeros(0, np.int8)
-    rc = np.concatenate(ref_cls) if ref_cls else np.zeros(0, np.int8)
+        per_view[ref.view] = _de_stats(vals)
+    de, hc, rc = np.concatenate(des), np.concatenate(host_cls), np.concatenate(ref_cls)  # refs: one per view, >= 1
     n = int(de.size)
     return {
-        "n_pixels": n,
-        "median_dE": float(np.median(de)) if n else float("nan"),
-        "p95_dE": float(np.percentile(de, 95)) if n else float("nan"),
+        **_de_stats(de),
         "green_px": int(np.sum(hc == 1)),
         "purple_px": int(np.sum(hc == 2)),
         "hue_agreement": float(np.mean(hc == rc)) if n else float("nan"),
