@@ -10,8 +10,7 @@ The three-line notebook use::
 these functions; the command line only turns options into their arguments and results into text.
 
 Errors: :class:`rockdove.errors.UsageError` (a ``ValueError``) for bad configuration, output or asset, naming
-what was wrong, before anything is written; :class:`BuildFailed` when the build's verification fails (nothing
-published; ``exc.result`` says what ran and where the report is).
+what was wrong, before anything is written; :class:`BuildFailed` when the build's verification fails.
 """
 
 from __future__ import annotations

@@ -8,10 +8,8 @@ preview atlas), ``usd_geometry``, ``usd_layers``, ``usdz`` and ``gltf`` (package
 
 Keys use the *content* of upstream outputs, so a new seed that leaves the thickness range unchanged re-bakes
 nothing, and a film change re-bakes the LUT and rewrites film_textures and the small layers but reuses the bird,
-the film-independent textures and the geometry layer, whose bytes stay as they were. The verification reruns
-whenever a published file changes, but renders only what the change reaches: a change that leaves the rendered
-scene as it was (e.g. ``usd.usdz``) renders nothing; a film change re-renders every view but reuses the
-reference's surfaces (geometry, normals, textures, thickness at the hits).
+the film-independent textures and the geometry layer. The verification reruns whenever a published file changes,
+but renders only what the change reaches (:mod:`rockdove.graph.verification`).
 """
 
 from __future__ import annotations

@@ -94,9 +94,8 @@ def _surfaces(cache: Cache, scene, views, ran: dict, reused: dict) -> dict:
 
 
 def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, out: str, say, ran, reused):
-    """``({view: result}, fresh)``: each view's GL render against the reference (rockdove.verify.run), cached
-    per view; ``fresh`` holds the GL radiance and references of the views rendered (all of them when
-    ``redo_all``). A view whose GL render failed is not kept: its files go to ``out``."""
+    """``({view: result}, fresh)``: each view's :func:`render_and_check`, cached per view; ``fresh``: the GL
+    radiance and references of the views rendered (all when ``redo_all``). A failed GL render is not kept."""
     import numpy as np
 
     from ..verify.run import render_and_check
@@ -139,8 +138,7 @@ def _host_key(module, digest: str, views) -> str:
 
 
 def _host(cache, module, layer, scene, views, digest, refs, fresh, out, say) -> tuple[dict, dict, bool]:
-    """One host's report entry and image files in ``out`` (where it renders, its work folders and logs beside
-    them), and whether they came from the cache, which keeps the images of a host that rendered."""
+    """One host's report entry, image files in ``out`` (where it renders) and whether they came from the cache."""
     from ..verify.host_check import check_host
 
     items = _Items(cache, "host")

@@ -30,13 +30,11 @@ import numpy as np
 from .compare import lab_hue_classes, rgb_to_lab
 
 #: A class is coherent when its largest connected region holds at least this share of its pixels. Issue 12
-#: asks >= 0.7 of the measured preset; the old per-card uniform draw, which keeps the base-to-top gradient (so
-#: the top of the neck is mostly green, the bottom mostly purple), reaches 0.70 / 0.69 on the default bird's
-#: 90 degree sweep view at 512 x 512 and the coherent field 0.91 / 1.00, so the line is drawn at 0.8.
+#: asks >= 0.7; a per-card uniform draw reaches 0.70 / 0.69 (green / purple) on the default bird's 90 degree
+#: sweep view at 512 x 512 and the coherent field 0.91 / 1.00, so the line is drawn at 0.8.
 COHERENT_SHARE = 0.8
-#: Gaps bridged by the coherence measure, pixels (see :func:`class_coherence`): none by default, since on the
-#: bird the feather tips of one colour overlap or touch; with a reach of 1-2 px the old speckle's same-coloured
-#: tips join across the hairline gaps between them (0.81 / 0.79).
+#: Gaps bridged by the coherence measure, pixels: none, since on the bird the feather tips of one colour overlap
+#: or touch (with 1-2 px, a speckle's same-coloured tips join across the hairline gaps: 0.81 / 0.79).
 COHERENCE_REACH_PX = 0
 #: Residuals below this are pixel quantisation (the contact zone is a few pixels wide and its centreline is
 #: binned): the curvature ratio divides by max(curve residual, this). Without it the paper preset's straight
@@ -51,7 +49,6 @@ STRAIGHT_FRACTION = 0.02
 CURVE_DEGREE = 3
 #: Reach of the green/purple contact zone, pixels (see :func:`boundary_points`).
 BOUNDARY_REACH_PX = 2
-#: Class labels of the strict hue bands (rockdove.verify.compare.hue_classes).
 CLASSES = {"green": 1, "purple": 2, "other": 3}
 
 
