@@ -81,12 +81,8 @@ def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 
            "direction": None, "centre": None}
     if line is None or len(line) < min_points:
         return out
+    line = _without_outliers(line, _tls(line)[2], min_points)
     centre, direction, dist = _tls(line)
-    med = np.median(np.abs(dist))
-    keep = np.abs(dist) <= 3.0 * max(med, 0.5)
-    if keep.sum() >= max(min_points, len(line) // 2) and not keep.all():
-        line = line[keep]
-        centre, direction, dist = _tls(line)
     along = (line - centre) @ direction
     length = float(along.max() - along.min())
     rms = float(np.sqrt(np.mean(dist**2)))
@@ -102,6 +98,13 @@ def _boundary_centreline(cls: np.ndarray, bin_px: float) -> tuple[dict, np.ndarr
     pts = boundary_points(cls)
     line = _centreline(pts, bin_px) if len(pts) >= 2 else None
     return {"n_points": int(len(pts)), "n_centreline": 0 if line is None else int(len(line))}, line
+
+
+def _without_outliers(line: np.ndarray, residual: np.ndarray, need: int) -> np.ndarray:
+    """``line`` without the points farther than 3x the median ``residual`` (at least 0.5 px), when at least
+    ``need`` and half of them remain (module docstring)."""
+    keep = np.abs(residual) <= 3.0 * max(np.median(np.abs(residual)), 0.5)
+    return line[keep] if keep.sum() >= max(need, len(line) // 2) else line
 
 
 def _tls(p: np.ndarray):
@@ -170,11 +173,7 @@ def boundary_curvature(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0
     need = max(int(min_points), int(degree) + 3)
     if line is None or len(line) < need:
         return out
-    _, r_curve, _ = _fits(line, degree)
-    med = np.median(np.abs(r_curve))
-    keep = np.abs(r_curve) <= 3.0 * max(med, 0.5)
-    if keep.sum() >= max(need, len(line) // 2) and not keep.all():
-        line = line[keep]
+    line = _without_outliers(line, _fits(line, degree)[1], need)
     r_line, r_curve, length = _fits(line, degree)
     rms_line = float(np.sqrt(np.mean(r_line**2)))
     rms_curve = float(np.sqrt(np.mean(r_curve**2)))
