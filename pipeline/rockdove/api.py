@@ -37,11 +37,9 @@ DEFAULT_OUT = "build/pigeon"
 
 def load_config(preset: str | None = DEFAULT_PRESET, config_file: str | os.PathLike | None = None,
                 overrides: Mapping[str, Any] | Iterable[str] = ()) -> dict:
-    """The effective, validated build configuration (a plain dict, as ``rockdove config --json`` prints it).
-
-    ``preset``: ``assets/pigeon/<preset>.toml`` (None: the schema's defaults); ``config_file``: a TOML file over
-    it; ``overrides``: ``{dotted key: value}`` (e.g. ``{"film.cauchy_a": 1.55}``) or ``KEY=VALUE`` strings as
-    ``--set`` takes them, applied last. :class:`UsageError` naming the key, value and allowed range."""
+    """The effective, validated build configuration (a plain dict, as ``rockdove config --json`` prints it):
+    ``preset`` (None: the schema's defaults), a TOML ``config_file`` over it, then ``overrides`` (``{dotted key:
+    value}`` or ``KEY=VALUE`` strings as ``--set`` takes them). :class:`UsageError` naming the key and range."""
     return _load_config(preset=preset, config_file=config_file, overrides=overrides)
 
 

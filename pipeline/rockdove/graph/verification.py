@@ -1,14 +1,11 @@
 """The one verification, run by the build's ``verify`` stage and by ``rockdove verify`` alike, and its cache.
 
-Validation, the GL renders and the hosts asked for (:mod:`rockdove.hosts`), each against the exact reference of its
-lighting model, then the verdict and the report (:mod:`rockdove.verify`). The renders are items, each an entry of
-the stage cache (:class:`rockdove.graph.cache.Cache`, folders ``verify.<kind>``) keyed by what it reads:
+The renders are items, each an entry of the stage cache (folders ``verify.<kind>``) keyed by what it reads:
 
-- ``surface``, per camera: what the reference shades at its primary hits before any light or film
-  (:func:`rockdove.verify.reference_image.surface_digest`), so a film change reuses it;
+- ``surface``, per camera: what the reference shades at its primary hits before any light or film, so a film
+  change reuses it;
 - ``view``, per view: the GL render against the reference, its images and checks; keyed by the scene content it
-  renders (:func:`rockdove.verify.inputs.scene_digest`: meshes, textures, film, LUT; not the usdz or file paths)
-  and the view (camera, light, size);
+  renders (:func:`rockdove.verify.inputs.scene_digest`: not the usdz or file paths) and the view;
 - ``host``, per host: its metrics and images over the views; keyed by the scene content, the views and its lobe.
 
 Each key also holds the code the item can execute (:mod:`rockdove.sources`) and the installed distributions. So

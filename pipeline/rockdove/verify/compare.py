@@ -1,18 +1,13 @@
 """Compare a GL render with the CPU reference: dE2000 maps, statistics and the image checks of issue 5.
 
-What is compared
-----------------
 Both renders hold linear ``lin_rec709`` radiance, unclipped (thin-film colours are often outside the Rec.709
-gamut, so a component may be negative). The dE2000 map is computed on that linear data, not on the 8-bit
-display images: the display transform (clip to [0, 1], sRGB OETF, 8 bits) is for people and would hide
-out-of-gamut and quantisation differences. Colours go to CIELAB with the D65 white at Y = 1 through
-:func:`rockdove.spectral.RGB_to_Lab` and are compared with CIEDE2000 (Sharma, Wu and Dalal 2005, as
-implemented by colour-science) through :func:`rockdove.spectral.delta_E_2000`.
+gamut). The dE2000 map is computed on that linear data, not on the 8-bit display images, which would hide
+out-of-gamut and quantisation differences: CIELAB with the D65 white at Y = 1, CIEDE2000 (Sharma, Wu and Dalal
+2005, as implemented by colour-science) through :mod:`rockdove.spectral`.
 
-Pixels compared: feather pixels away from silhouette edges, i.e. covered by a feather part in BOTH renders,
-with the same part id, after eroding each render's feather coverage by ``erode_px`` pixels (8-connected).
-Edge pixels are excluded because a rasteriser and a ray caster legitimately disagree there (coverage rules,
-texture filtering of the alpha cut-out).
+Pixels compared: covered by a feather part in BOTH renders, with the same part id, after eroding each render's
+feather coverage by ``erode_px`` pixels (8-connected): a rasteriser and a ray caster legitimately disagree at
+silhouette edges (coverage rules, texture filtering of the alpha cut-out).
 
 Checks: no NaN or Inf in either render; no black holes (lit feather pixels whose GL radiance is ~zero: every
 film colour has a luminance of at least a few per cent); the CIELAB hue ``h_ab = atan2(b*, a*)`` of the chromatic
