@@ -39,7 +39,7 @@ def load_config(preset: str | None = DEFAULT_PRESET, config_file: str | os.PathL
                 overrides: Mapping[str, Any] | Iterable[str] = ()) -> dict:
     """The effective, validated build configuration (a plain dict, as ``rockdove config --json`` prints it):
     ``preset`` (None: the schema's defaults), a TOML ``config_file`` over it, then ``overrides`` (``{dotted key:
-    value}`` or ``KEY=VALUE`` strings as ``--set`` takes them). :class:`UsageError` naming the key and range."""
+    value}`` or ``KEY=VALUE`` strings as ``--set`` takes them). :class:`UsageError` naming key, value and range."""
     return _load_config(preset=preset, config_file=config_file, overrides=overrides)
 
 
