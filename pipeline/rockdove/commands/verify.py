@@ -56,7 +56,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--hosts", default=None, metavar="LIST",
                         help="comma-separated hosts that also render the views, each checked against the exact "
                              "reference of its lighting model: glsl, materialx, materialx_physical, blender, web "
-                             "(default: glsl, materialx, materialx_physical, blender, web where available; 'all' adds Storm's; glsl always runs)")
+                             "(default: glsl, materialx, materialx_physical, blender, web where available; 'all' "
+                             "adds Storm's; glsl always runs)")
     parser.add_argument("--bench-dir", default=None, metavar="DIR",
                         help="show the benchmark plots (*.png) of DIR in the report, e.g. build/bench "
                              "(default: none)")
@@ -86,8 +87,9 @@ def run(args: argparse.Namespace) -> int:
             print(f"rockdove verify: {msg}", file=sys.stderr)
 
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
-    result = api.verify(args.asset, hosts, cache=args.cache, out=args.out, width=args.width, height=args.height, views=args.names,
-                        n_views=args.views, bench_dir=args.bench_dir, allow_external=args.allow_external_assets,
+    result = api.verify(args.asset, hosts, cache=args.cache, out=args.out, width=args.width, height=args.height,
+                        views=args.names, n_views=args.views, bench_dir=args.bench_dir,
+                        allow_external=args.allow_external_assets,
                         progress=progress, beauty={"renderer": args.beauty, "width": args.beauty_size[0],
                                                    "height": args.beauty_size[1], "samples": args.beauty_samples})
     report = result.report

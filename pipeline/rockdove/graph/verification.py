@@ -2,7 +2,7 @@
 
 Validation, the GL renders and the hosts asked for (:mod:`rockdove.hosts`), each against the exact reference of its
 lighting model, then the verdict and the report (:mod:`rockdove.verify`). The renders are items, each an entry of
-the stage cache (:class:`rockdove.graph.engine.Cache`, folders ``verify.<kind>``) keyed by what it reads:
+the stage cache (:class:`rockdove.graph.cache.Cache`, folders ``verify.<kind>``) keyed by what it reads:
 
 - ``surface``, per camera: what the reference shades at its primary hits before any light or film
   (:func:`rockdove.verify.reference_image.surface_digest`), so a film change reuses it;
@@ -13,8 +13,9 @@ the stage cache (:class:`rockdove.graph.engine.Cache`, folders ``verify.<kind>``
 
 Each key also holds the code the item can execute, derived by :mod:`rockdove.sources` from the functions that
 compute it (a host's ``render`` and :func:`rockdove.verify.host_check.check_host`), and the installed
-distributions. So a ``rockdove verify`` after a build reuses the views the build checked, a build after a ``rockdove verify`` of the
-same size reuses them, and an edit to one host's code re-renders that host alone. A host that failed is not kept.
+distributions. So a ``rockdove verify`` after a build reuses the views the build checked, a build after a
+``rockdove verify`` of the same size reuses them, and an edit to one host's code re-renders that host alone. A host
+that failed is not kept.
 Validation and the report are redone every time.
 """
 
