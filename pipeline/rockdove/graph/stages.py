@@ -183,9 +183,8 @@ def run_thickness_range(ctx: Context):
 
 
 def run_lut(ctx: Context):
-    """Bake over the thickness range on the mesh, round to half floats when ``lut.precision = "half"``, then
-    measure the table as shipped against the exact reference at :data:`LUT_ERROR_POINTS` points (recorded in
-    its metadata, hence in the EXR header)."""
+    """Bake over the mesh's thickness range, round to half floats when ``lut.precision = "half"``, then measure
+    the table as shipped against the exact reference (:data:`LUT_ERROR_POINTS`)."""
     import numpy as np
 
     from ..lut.bake import bake, error_metadata
@@ -223,8 +222,7 @@ def run_textures(ctx: Context):
 
 
 def run_film_textures(ctx: Context):
-    """The LUT EXR and the preview atlas; without a ``lut`` input (physical-only shading) no LUT EXR, and the
-    preview's structural colours are the film's exact colours (so this stage then reads ``film``)."""
+    """The LUT EXR and the preview atlas; physical-only: no LUT EXR, the film's exact preview colours."""
     from ..usd.textures_io import write_film_textures
 
     feathers, _ = ctx.inputs["texture_images"]

@@ -33,10 +33,9 @@ LIT_N_DOT_L = 0.1
 BLACK_RADIANCE = 1e-4
 #: A verification fails when more than this fraction of the lit feather pixels are black holes.
 BLACK_FRACTION_GOAL = 0.002
-#: Pixels with less chroma per lightness (C*ab / L*) than this are grey, not green or purple. The film colours
+#: Pixels with less chroma per lightness (C*ab / L*) than this, or darker than L* 1, are grey. The film colours
 #: of the presets have C*/L* of 0.4-1.3 (0.35 at the 650 nm film's blue transition near cos theta = 0.707).
 HUE_MIN_SATURATION = 0.15
-#: Pixels darker than this (L*) have no hue.
 HUE_MIN_LIGHTNESS = 1.0
 #: Reference mask from which a feather pixel counts as structural colour in the hue statistics.
 STRUCTURAL_MASK = 0.5
