@@ -338,7 +338,8 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
     stages.append(Stage("textures", run_textures, deps=("texture_images",), codec=FILES, publish=""))
     # physical-only: the preview colours are computed from the film (rockdove.lut.reference) over the thickness range
     stages.append(Stage("film_textures", run_film_textures, config=() if baked else ("film",),
-                        deps=("lut",) * baked + ("thickness_range", "texture_images"), codec=FILES, publish=""))
+                        deps=(("lut",) if baked else ()) + ("thickness_range", "texture_images"), codec=FILES,
+                        publish=""))
     stages.append(Stage("usd_geometry", run_usd_geometry, deps=("bird",), data=schema, codec=FILES, publish=""))
     stages.append(Stage("usd_layers", run_usd_layers, config=("film", "shading"),
                         deps=("bird", "lut", "usd_geometry") if baked else ("bird", "usd_geometry"),
