@@ -69,18 +69,10 @@ def _usdz(ctx):
                     z.writestr(p.name, p.read_bytes())
 
 
-def _verify_items(cfg):
-    v = cfg["verify"]
-    return {f"view_{i:03d}": {"index": i, "width": v["width"], "height": v["height"]} for i in range(v["views"])}
-
-
-def _verify_view(ctx):
-    name, item = ctx.item
+def _verify(ctx):
+    v = ctx.config["verify"]
     text = (ctx.asset_dir / "pigeon.usda").read_text()
-    return {"view": name, "chars": len(text), "pixels": item["width"] * item["height"]}
-
-
-def _verify_combine(ctx, views):
+    views = {f"view_{i:03d}": {"chars": len(text), "pixels": v["width"] * v["height"]} for i in range(v["views"])}
     # stand-in rule for the failed-verification test: a width of 17 px "fails"
     passed = ctx.config["verify"]["width"] != 17
     (ctx.workdir / "report.json").write_text(json.dumps({"views": views, "passed": passed}))
@@ -112,6 +104,6 @@ def standin_stages(config, *, verify=True):
     if config["usd"]["usdz"]:
         stages.append(G.Stage("usdz", _usdz, deps=("usd_layers",) + layer_deps[1:], codec=G.FILES, publish=""))
     if verify:
-        stages.append(G.Stage("verify", _verify_view, config=("verify",), deps=layer_deps + ("usd_layers",),
-                              codec=VERDICT, needs_asset=True, items=_verify_items, combine=_verify_combine))
+        stages.append(G.Stage("verify", _verify, config=("verify",), deps=layer_deps + ("usd_layers",),
+                              codec=VERDICT, needs_asset=True))
     return stages

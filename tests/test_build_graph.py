@@ -1,4 +1,4 @@
-"""The build graph: content keys, the cache, early cut-off, fan-out items, and the incremental rules.
+"""The build graph: content keys, the cache, early cut-off and the incremental rules.
 
 Most tests use the stand-in pipeline of ``tests/standins.py`` (same shape and rules as the real one); the
 tests at the end run the real stages (:func:`rockdove.graph.stages.make_stages`) on small configurations.
@@ -128,17 +128,6 @@ def test_physical_only_shading_has_no_bake(tmp_path):
     g = _build(tmp_path, _cfg("shading.variant=physical"))
     assert "lut" not in g.records
     assert not (tmp_path / "asset" / "textures" / "thinfilm_lut.npy").exists()
-
-
-def test_verification_rerenders_only_views_whose_inputs_changed(tmp_path):
-    g = _build(tmp_path, _cfg("verify.views=2"))
-    assert g.records["verify"].items_ran == ["view_000", "view_001"]
-    g = _build(tmp_path, _cfg("verify.views=3"))
-    assert g.records["verify"].status == "ran"
-    assert g.records["verify"].items_ran == ["view_002"]
-    assert g.records["verify"].items_reused == ["view_000", "view_001"]
-    g = _build(tmp_path, _cfg("verify.views=3", "verify.width=64"))
-    assert g.records["verify"].items_ran == ["view_000", "view_001", "view_002"]
 
 
 def _fake_package(tmp_path, monkeypatch, files: dict) -> Path:
@@ -437,57 +426,6 @@ def test_schema_lut_defaults_are_the_bakers():
     assert lut["angle_warp_gamma"] == B.DEFAULT_ANGLE_WARP_GAMMA == 1.0
     assert lut["angles"] >= 256 and lut["thicknesses"] >= 64  # issue 2's default size
     assert (lut["angles"], lut["thicknesses"]) == (B.DEFAULT_ANGLES, B.DEFAULT_THICKNESSES)
-
-
-def test_planned_batch_items_are_keyed_by_their_plan_not_by_upstream_bytes(tmp_path):
-    """item_plan + batch (the real verify stage's shape): items are named and keyed at run time by what they
-    read; an upstream change that leaves an item's plan entry alone redoes nothing; the items to redo run in
-    one call, and each keeps its own files."""
-    calls = []
-
-    def source(ctx):
-        return {"content": ctx.config["x"]["content"], "metadata": ctx.config["x"]["metadata"]}
-
-    def plan(ctx):
-        content = ctx.inputs["source"]["content"]
-        return {f"view_{i}": {"reads": content[i]} for i in range(len(content))}
-
-    def run(ctx):
-        calls.append(sorted(ctx.items))
-        for name, item in ctx.items.items():
-            (ctx.workdir / name / "image.txt").write_text(f"{name}: {item['reads']}\n")
-        return {name: {"pixels": item["reads"]} for name, item in ctx.items.items()}
-
-    def combine(ctx, views):
-        return {"views": sorted(views), "pixels": [v["pixels"] for v in views.values()]}
-
-    def stages():
-        return [G.Stage("source", source, config=("x",)),
-                G.Stage("verify", run, deps=("source",), item_plan=plan, batch=True, combine=combine)]
-
-    def build(content, metadata="a"):
-        cfg = {"x": {"content": content, "metadata": metadata}}
-        graph = G.Graph(stages(), cfg, G.Cache(tmp_path / "cache"))
-        graph.run()
-        return graph, graph.records["verify"]
-
-    g, rec = build([1, 2, 3])
-    assert rec.items_ran == ["view_0", "view_1", "view_2"] and calls == [["view_0", "view_1", "view_2"]]
-    assert g.value("verify") == {"views": ["view_0", "view_1", "view_2"], "pixels": [1, 2, 3]}
-    item_dirs = sorted((tmp_path / "cache" / "verify.items").glob("*/value/image.txt"))
-    assert sorted(p.read_text() for p in item_dirs) == ["view_0: 1\n", "view_1: 2\n", "view_2: 3\n"]
-    # the source's bytes change (metadata), no plan entry does: the stage reruns, no item does
-    g, rec = build([1, 2, 3], metadata="b")
-    assert g.records["source"].status == "ran" and rec.status == "ran"
-    assert rec.items_ran == [] and rec.items_reused == ["view_0", "view_1", "view_2"] and len(calls) == 1
-    # one item's input changes: only it runs, alone in the batch
-    g, rec = build([1, 5, 3], metadata="b")
-    assert rec.items_ran == ["view_1"] and calls[-1] == ["view_1"]
-    assert g.value("verify")["pixels"] == [1, 5, 3]
-    # a whole-stage reuse still says which items it holds
-    g, rec = build([1, 5, 3], metadata="b")
-    assert rec.status == "reused" and rec.items_reused == ["view_0", "view_1", "view_2"]
-    assert not list((tmp_path / "cache" / "verify.items").glob(".tmp-*"))  # the batch scratch is gone
 
 
 # ------------------------------------------------------------------------------ concurrent processes, one cache
