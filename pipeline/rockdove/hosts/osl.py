@@ -201,22 +201,18 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
     view name -> (H, W, 3) float32 linear Rec.709 radiance, background 0. HostError when bpy is missing, MaterialX
     cannot generate the OSL, the OSL compiler rejects it (its error line) or Cycles writes no image."""
     from . import blender
-    from .blender import root_object
     from .materialx import feather_networks
     from ..usd.layout import resolve_root_layer
 
     variant, base = VARIANTS[name]
     views = list(views)
-    if not views:
-        raise ValueError("views must hold at least one View, got none")
     blender.bpy_python()
     try:
         layer = resolve_root_layer(asset_path)
         networks = feather_networks(layer, variant)
     except (ValueError, RuntimeError, OSError) as exc:
         raise HostError(name, f"cannot read the asset's MaterialX network: {exc}") from None
-    work = os.path.join(os.path.abspath(out_dir), name)
-    os.makedirs(work, exist_ok=True)
+    work = blender.work_folder(name, views, out_dir)
     for header in osl_headers():
         shutil.copyfile(header, os.path.join(work, os.path.basename(header)))
     shaders = {}
@@ -230,17 +226,12 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
         raise HostError(name, f"cannot turn the asset's MaterialX network into OSL: {exc}") from None
     except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
         raise HostError(name, f"MaterialX OSL generation failed: {type(exc).__name__}: {exc}") from None
-    blender.clear_views(views, work)
-    job = {"asset": os.path.abspath(layer), "root_object": root_object(layer), "addon_zip": None,
-           "shaders": shaders, "environment_radiance": ENVIRONMENT_RADIANCE, "samples": SAMPLES,
-           "working_space": WORKING_SPACE, "exr_colorspace": EXR_SPACE,
-           "transparent_bounces": blender.TRANSPARENT_BOUNCES, "threads": blender.THREADS, "out_dir": work,
-           "views": [v.to_dict() for v in views]}
+    job = {**blender.base_job(os.path.abspath(layer), views, work, SAMPLES, addon=False), "shaders": shaders,
+           "environment_radiance": ENVIRONMENT_RADIANCE, "working_space": WORKING_SPACE, "exr_colorspace": EXR_SPACE}
     try:
-        blender.run_job(job, work, module="rockdove.hosts.osl_job", timeout_s=TIMEOUT_S)
+        blender.run_job(job, work, "rockdove.hosts.osl_job", TIMEOUT_S, host=name, renderer="Cycles (OSL)")
     except HostError as exc:
-        message = _compiler_error(work) or exc.message.replace("Blender exited", "Cycles (OSL) exited")
-        raise HostError(name, message) from None
+        raise HostError(name, _compiler_error(work) or exc.message) from None
     return blender.read_views(name, "Cycles (OSL)", views, work)
 
 

@@ -37,6 +37,7 @@ import numpy as np
 
 from ..png import save_png
 from . import HostError
+from .materialx import cannot_draw
 
 LOBE = "view_angle"
 ENVIRONMENT_RADIANCE = 1.0
@@ -50,9 +51,6 @@ VARIANTS = {
 }
 #: The feather material's prim name (rockdove.usd.stage).
 FEATHER_MATERIAL = "FeatherMaterial"
-#: How to install what this host needs.
-INSTALL = "pip install 'bpy==5.0.1' in a Python 3.11 environment of its own and set $ROCKDOVE_BPY_PYTHON (make test does)"
-
 
 def unavailable() -> str | None:
     """None when a Python with bpy (whose USD has imaging) can run here, else why not."""
@@ -61,56 +59,31 @@ def unavailable() -> str | None:
     return blender.unavailable()
 
 
-def _cannot_draw(variant: str):
-    def cannot_draw(asset_path: str) -> str | None:
-        if variant == "preview":
-            return None
-        from .materialx import cannot_draw as mx_cannot
-
-        return mx_cannot(asset_path, variant)
-    return cannot_draw
-
-
 def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
-    """Render ``views`` of the written asset in Storm with host ``name``'s network (:data:`VARIANTS`).
-
-    Returns
-    -------
-    dict
-        view name -> (H, W, 3) float32 linear Rec.709 radiance, background 0.
-
-    Raises
-    ------
-    HostError
-        bpy is missing, Storm cannot start (no EGL, a shader that fails to compile) or writes no image.
-    """
+    """Render ``views`` of the written asset in Storm with host ``name``'s network (:data:`VARIANTS`): view name ->
+    (H, W, 3) float32 linear Rec.709 radiance, background 0. HostError when bpy is missing, Storm cannot start
+    (no EGL, a shader that fails to compile) or writes no image."""
     from . import blender
 
     variant, overrides = VARIANTS[name]
     views = list(views)
-    if not views:
-        raise ValueError("views must hold at least one View, got none")
     asset_path = os.path.abspath(os.fspath(asset_path))
     if not os.path.isfile(asset_path):
         raise HostError(name, f"no asset at {asset_path!r}")
-    work = os.path.join(os.path.abspath(out_dir), name)
-    os.makedirs(work, exist_ok=True)
-    blender.clear_views(views, work)
+    work = blender.work_folder(name, views, out_dir)
     save_png(np.full((2, 4, 3), 255, np.uint8), os.path.join(work, "white.png"))  # the dome light's texture
     job = {"asset": asset_path, "variant": variant, "overrides": {FEATHER_MATERIAL: overrides},
            "environment_radiance": ENVIRONMENT_RADIANCE, "out_dir": work, "views": [v.to_dict() for v in views]}
-    try:  # the bpy Python, found and run as the Blender host runs its job (log: work/blender.log)
-        blender.run_job(job, work, module="rockdove.hosts.storm_job", timeout_s=TIMEOUT_S)
-    except HostError as exc:
-        raise HostError(name, exc.message.replace("Blender exited", "Storm exited")
-                        .replace("Blender did not", "Storm did not")) from None
+    # the bpy Python, found and run as the Blender host runs its job (log: work/blender.log)
+    blender.run_job(job, work, "rockdove.hosts.storm_job", TIMEOUT_S, host=name, renderer="Storm")
     return blender.read_views(name, "Storm", views, work)
 
 
 def _host(name: str) -> SimpleNamespace:
     variant = VARIANTS[name][0]
     return SimpleNamespace(NAME=name, VARIANT=variant, LOBE=LOBE, unavailable=unavailable,
-                           cannot_draw=_cannot_draw(variant),
+                           cannot_draw=(lambda asset_path: None) if variant == "preview" else
+                           (lambda asset_path: cannot_draw(asset_path, variant)),
                            render=lambda asset_path, views, out_dir: render_variant(asset_path, views, out_dir,
                                                                                     name=name))
 
