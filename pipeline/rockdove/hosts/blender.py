@@ -155,14 +155,12 @@ def read_exr_rgb(path: str) -> np.ndarray:
     """(H, W, 3) float32 RGB of an EXR Blender wrote (RGBA, premultiplied: background 0)."""
     import OpenEXR
 
-    with OpenEXR.File(path) as f:
-        channels = {name: np.array(ch.pixels) for name, ch in f.channels().items()}
-    rgb = channels.get("RGBA", channels.get("RGB"))
-    if rgb is None and all(c in channels for c in "RGB"):
-        rgb = np.stack([channels[c] for c in "RGB"], axis=-1)
-    if rgb is None:
-        raise HostError(NAME, f"{path}: no RGB channels (has {sorted(channels)})")
-    return np.ascontiguousarray(rgb[..., :3], dtype=np.float32)
+    with OpenEXR.File(path) as f:  # R, G, B(, A) come as one channel "RGBA" (or "RGB")
+        channels = f.channels()
+        rgb = channels.get("RGBA", channels.get("RGB"))
+        if rgb is None:
+            raise HostError(NAME, f"{path}: no RGB channels (has {sorted(channels)})")
+        return np.ascontiguousarray(np.array(rgb.pixels)[..., :3], dtype=np.float32)
 
 
 def run_job(job: dict, work: str, module: str = "rockdove.hosts.blender_job", timeout_s: float = TIMEOUT_S, *,

@@ -156,11 +156,10 @@ def feather_networks(layer: str, variant: str) -> dict:
     return out
 
 
-def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str, name: str,
-                   base_black: bool = True) -> dict:
+def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str, name: str) -> dict:
     """Draw ``views`` of the asset's (folder or root layer) network for shading variant ``variant``: view name ->
     (H, W, 3) float32 linear Rec.709 radiance, background 0; ``<view>_<name>.png`` (sRGB) into ``out_dir`` when
-    given. ``base_black``: the base colour texture's RGB 0. HostError (``name``) when the asset cannot be read,
+    given; the base colour texture's RGB 0 (the film lobe alone). HostError (``name``) when the asset cannot be read,
     the shader does not compile or link, or GL fails."""
     from ..render.scene import load_scene
     from ..usd.layout import resolve_root_layer
@@ -180,7 +179,7 @@ def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str,
     except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
         raise HostError(name, f"MaterialX shader generation failed: {type(exc).__name__}: {exc}") from None
     try:
-        images = draw(scene, networks, sources, views, base_black=base_black, name=name)
+        images = draw(scene, networks, sources, views, name=name)
     except HostError:
         raise
     except Exception as exc:

@@ -5,10 +5,8 @@ MaterialX path of Arnold, RenderMan, Karma CPU and Cycles' OSL mode).
 What MaterialX does: the network upstream of the feather material's ``outputs:mtlx:surface``, rebuilt from the
 written USD (:func:`rockdove.hosts.materialx.feather_networks`, as Hydra's HdMtlx does) becomes one OSL shader
 by ``OslShaderGenerator`` 1.39 (the pip MaterialX); every colour, texture lookup, ``geompropvalue`` (OSL
-``getattribute``) and closure is that generated code. What this host changes in the MaterialX document before
-generating (:func:`lobe_document`), as the Storm host does in its session layer: the base colour black (the
-film lobe alone), each ``image`` node's ``file`` made absolute (the shader is compiled outside the asset
-folder), and the colours handed to the closures converted into the renderer's working space (:data:`WORKING_SPACE`).
+``getattribute``) and closure is that generated code, after :func:`lobe_document`'s changes (as the Storm host
+makes in its session layer; the image files made absolute: the shader is compiled outside the asset folder).
 
 What Cycles does (:mod:`rockdove.hosts.osl_job`, in the bpy Python): ``_cycles.osl_compile`` (OSL 1.14) compiles
 the source with MaterialX's OSL headers (``mx_funcs.h`` and the stdlib ``genosl`` includes) beside it; the

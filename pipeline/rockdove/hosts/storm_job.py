@@ -1,11 +1,8 @@
 """Storm's side of :mod:`rockdove.hosts.storm`, run as a script by the Python that has bpy (its bundled USD 25.08
 has imaging: UsdImagingGL, hdSt, HdMtlx; usd-core has none). It imports nothing of rockdove.
 
-``python storm_job.py job.json``: open the written asset, add in the stage's SESSION layer only (the asset's
-files are never edited) a camera per view, a dome light with a white texture (uniform environment of unit
-radiance), the shading variant selection and the lobe's overrides (:func:`_session`), and record each view with
-``UsdAppUtils.FrameRecorder`` (Storm, no colour correction); parts without a MaterialX material are
-black (they only occlude, as in the exact reference) into ``<view>.exr``: linear Rec.709, background 0.
+``python storm_job.py job.json``: the session layer of :mod:`rockdove.hosts.storm`'s docstring (:func:`_session`),
+then each view recorded with ``UsdAppUtils.FrameRecorder`` (Storm, no colour correction) into ``<view>.exr``.
 """
 
 import ctypes
@@ -71,8 +68,6 @@ def _black(surface) -> None:
     """A UsdPreviewSurface that reflects nothing: diffuse 0, ior 1 (Fresnel F0 = 0)."""
     from pxr import Gf, Sdf, UsdShade
 
-    if not surface.IsValid():
-        return
     shader = UsdShade.Shader(surface)
     diffuse = shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f)
     diffuse.GetAttr().SetConnections([])

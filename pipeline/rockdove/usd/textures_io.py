@@ -69,8 +69,6 @@ def preview_st(st, thickness_nm, thickness_range_nm) -> np.ndarray:
     ``thickness_nm`` (V,) within the film's ``thickness_range_nm`` (:func:`preview_range_nm` rounds it)."""
     st = np.asarray(st, np.float64)
     d = np.asarray(thickness_nm, np.float64).reshape(-1)
-    if st.ndim != 2 or st.shape[1] != 2 or st.shape[0] != d.size:
-        raise ValueError(f"st must be (V, 2) and thickness_nm (V,), got {st.shape} and {d.shape}")
     tiles = preview_tile_thickness_nm(thickness_range_nm)
     k = np.zeros(d.size, np.int64) if tiles.size == 1 else np.clip(
         np.rint((d - tiles[0]) / (tiles[-1] - tiles[0]) * (tiles.size - 1)), 0, tiles.size - 1).astype(np.int64)
@@ -129,10 +127,6 @@ def preview_colour(film, thickness_nm: float, cos_theta: float = PREVIEW_COS_THE
     :func:`rockdove.lut.reference.reference_colour`)."""
     from rockdove.lut.reference import reference_colour
 
-    if not 0.0 <= cos_theta <= 1.0:
-        raise ValueError(f"cos_theta must be in [0, 1], got {cos_theta}")
-    if not (np.isfinite(thickness_nm) and thickness_nm >= 0):
-        raise ValueError(f"thickness_nm must be a finite thickness >= 0 nm, got {thickness_nm!r}")
     return np.asarray(reference_colour(cos_theta, float(thickness_nm), film, colour_space="lin_rec709"), np.float64)
 
 
@@ -175,9 +169,6 @@ def _texture_paths(out_dir: str) -> dict[str, str]:
 
 
 def _feather_images(feather_textures: dict) -> tuple[np.ndarray, np.ndarray]:
-    missing = {"base", "mask"} - set(feather_textures)
-    if missing:
-        raise ValueError(f"feather_textures lacks {sorted(missing)}; it needs 'base' (RGBA) and 'mask' (grey)")
     return (_check_uint8("feather_textures['base']", feather_textures["base"], (4,)),
             _check_uint8("feather_textures['mask']", feather_textures["mask"], (1,)))
 
