@@ -22,7 +22,7 @@ import zipfile
 
 import numpy as np
 
-from . import HostError
+from . import ENVIRONMENT_RADIANCE, HostError
 from ..resources import atomic_path
 
 NAME = "blender"
@@ -36,8 +36,6 @@ ADDON_ZIP = f"{ADDON_MODULE}.zip"
 SAMPLES = 16
 #: Transparent bounces: feather layers a camera ray may cross (as the reference's MAX_ALPHA_LAYERS).
 TRANSPARENT_BOUNCES = 24
-#: Radiance of the uniform white world (the view_angle lobe's environment).
-ENVIRONMENT_RADIANCE = 1.0
 #: Render threads (the machine's 2 cores; Cycles' default would take every core).
 THREADS = 2
 #: Seconds before a Blender run is given up (import ~2 s, 64x64 renders take a second each).

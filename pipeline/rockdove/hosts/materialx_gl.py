@@ -5,10 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import HostError
+from . import ENVIRONMENT_RADIANCE, HostError
 
-#: Radiance of the uniform white environment (linear Rec.709, D65 white = 1).
-ENVIRONMENT_RADIANCE = 1.0
 #: Image nodes whose texture gets a mip chain and trilinear filtering, as every host does: the LUT (its angle axis
 #: is minified where cos theta changes fast on screen, which the verification must see). The card atlas (base
 #: colour + cut-out, mask) is sampled at the pixel centre as the reference samples it: mipmapped, its blended
@@ -213,13 +211,12 @@ def _bind_samplers(GL, prog, net: dict, env: int, black: int) -> dict:
         textures[unit] = tex
         GL.glUniform1i(GL.glGetUniformLocation(prog, uname), unit)
         unit += 1
-    for uniform, value in (("u_envRadianceMips", 1), ("u_numActiveLightSources", 0)):
+    uniforms = (("u_envRadianceMips", GL.glUniform1i, 1), ("u_numActiveLightSources", GL.glUniform1i, 0),
+                ("u_envLightIntensity", GL.glUniform1f, 1.0))
+    for uniform, setter, value in uniforms:
         loc = GL.glGetUniformLocation(prog, uniform)
         if loc >= 0:
-            GL.glUniform1i(loc, value)
-    loc = GL.glGetUniformLocation(prog, "u_envLightIntensity")
-    if loc >= 0:
-        GL.glUniform1f(loc, 1.0)
+            setter(loc, value)
     return textures
 
 

@@ -20,14 +20,13 @@ from __future__ import annotations
 
 import os
 import shutil
-from types import SimpleNamespace
 
-from . import HostError
+from . import ENVIRONMENT_RADIANCE, HostError, variant_host
+from .materialx import cannot_draw
 
 #: host name -> (the ``shading`` variant drawn, its base-colour input ``node.input``, set to black)
 VARIANTS = {"osl": ("baked", "StructuralMix.bg"), "osl_physical": ("physical", "MtlxPhysicalSurface.base_color")}
 LOBE = "view_angle"
-ENVIRONMENT_RADIANCE = 1.0
 #: Cycles samples per pixel (the shading is deterministic; samples only resolve cut-out edges).
 SAMPLES = 8
 #: Seconds before a Cycles OSL run is given up.
@@ -233,15 +232,5 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
     return blender.read_views(name, "Cycles (OSL)", views, work)
 
 
-def _host(name: str) -> SimpleNamespace:
-    from .materialx import cannot_draw
-
-    variant = VARIANTS[name][0]
-    return SimpleNamespace(NAME=name, VARIANT=variant, LOBE=LOBE, unavailable=unavailable,
-                           cannot_draw=lambda asset_path: cannot_draw(asset_path, variant),
-                           render=lambda asset_path, views, out_dir: render_variant(asset_path, views, out_dir,
-                                                                                    name=name))
-
-
 #: The registry's host objects (rockdove.hosts.HOSTS: ``rockdove.hosts.osl:BAKED``, ``...:PHYSICAL``).
-BAKED, PHYSICAL = (_host(n) for n in VARIANTS)
+BAKED, PHYSICAL = (variant_host(n, VARIANTS[n][0], LOBE, unavailable, render_variant, cannot_draw) for n in VARIANTS)

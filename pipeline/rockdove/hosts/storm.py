@@ -4,7 +4,7 @@ Storm is the one in the bpy wheel (USD 25.08 with imaging, hdSt, HdMtlx, Materia
 :mod:`rockdove.hosts.storm_job` in the Python that has bpy (:func:`rockdove.hosts.blender.bpy_python`), headless
 in an EGL pbuffer with an OpenGL 4.5 compatibility context. Everything the host adds is in the stage's session
 layer (the asset's files are never written): a camera per View (clipping range 1 mm - 1 km), a dome light with a
-white texture of unit radiance (:data:`ENVIRONMENT_RADIANCE`: the ``view_angle`` lobe's uniform environment), the
+white texture (the ``view_angle`` lobe's uniform environment, :data:`rockdove.hosts.ENVIRONMENT_RADIANCE`), the
 ``shading`` variant selection, and the lobe's changes: base colour black (the feather's ``StructuralMix.bg`` /
 OpenPBR ``base_color`` set to 0, as the other hosts draw the film lobe alone) and the parts without a MaterialX
 material black (UsdPreviewSurface diffuse 0, ior 1), as the exact reference draws them.
@@ -31,16 +31,14 @@ until one fails (OpenUSD 24.11 source: any EXR warns at its level count), then g
 from __future__ import annotations
 
 import os
-from types import SimpleNamespace
 
 import numpy as np
 
 from ..png import save_png
-from . import HostError
+from . import ENVIRONMENT_RADIANCE, HostError, variant_host
 from .materialx import cannot_draw
 
 LOBE = "view_angle"
-ENVIRONMENT_RADIANCE = 1.0
 #: Seconds before a Storm run is given up (a 512 px frame: 5-45 s, mostly shader compilation).
 TIMEOUT_S = 900
 #: host name -> (network drawn, session-layer overrides of the feather material: shader.input -> value)
@@ -79,14 +77,6 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
     return blender.read_views(name, "Storm", views, work)
 
 
-def _host(name: str) -> SimpleNamespace:
-    variant = VARIANTS[name][0]
-    return SimpleNamespace(NAME=name, VARIANT=variant, LOBE=LOBE, unavailable=unavailable,
-                           cannot_draw=(lambda asset_path: None) if variant == "preview" else
-                           (lambda asset_path: cannot_draw(asset_path, variant)),
-                           render=lambda asset_path, views, out_dir: render_variant(asset_path, views, out_dir,
-                                                                                    name=name))
-
-
 #: The registry's host objects (rockdove.hosts.HOSTS: ``rockdove.hosts.storm:BAKED`` ...).
-BAKED, PHYSICAL, PREVIEW = (_host(n) for n in VARIANTS)
+BAKED, PHYSICAL, PREVIEW = (variant_host(n, VARIANTS[n][0], LOBE, unavailable, render_variant,
+                                         None if VARIANTS[n][0] == "preview" else cannot_draw) for n in VARIANTS)

@@ -119,7 +119,8 @@ def _session(stage, job):
 
 def run(job: dict) -> None:
     bundled_usd_first()
-    keep = egl_context(max(v["width"] for v in job["views"]), max(v["height"] for v in job["views"]))  # noqa: F841 (the context must live while Storm draws)
+    size = (max(v["width"] for v in job["views"]), max(v["height"] for v in job["views"]))
+    keep = egl_context(*size)  # noqa: F841 (the context must live while Storm draws)
     from pxr import Usd, UsdAppUtils
 
     stage = Usd.Stage.Open(job["asset"])
@@ -139,9 +140,8 @@ def run(job: dict) -> None:
         print(f"storm: {view['name']} -> {path}", flush=True)
 
 
-def main(argv=None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
-    with open(argv[0], encoding="utf-8") as fh:
+def main() -> int:
+    with open(sys.argv[1], encoding="utf-8") as fh:
         job = json.load(fh)
     try:
         run(job)

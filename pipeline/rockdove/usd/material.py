@@ -221,8 +221,7 @@ def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, t
     ``lut`` is :func:`lut_info` of the baked LUT (None: physical only, no LUT network); ``film_ior`` and
     ``substrate_ior`` (relative to the incident medium; 1.0 for the film in air) are the physical variant's
     ``thin_film_ior`` and ``specular_ior`` (OpenPBR puts the film on the base's dielectric interface);
-    ``textures`` maps texture roles to asset paths (default :func:`texture_asset_paths`); only the MaterialX
-    nodes upstream of the ``variants``' surfaces are copied.
+    ``textures`` overrides :func:`texture_asset_paths`; only the nodes upstream of the ``variants``' surfaces.
     """
     from pxr import Gf, Sdf, UsdShade
 

@@ -276,8 +276,7 @@ def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geo
 
 
 def write_layers(out_dir: str, bird, film, lut: dict | None, *, version: str, shading: str | None = None) -> dict:
-    """:func:`write_geometry` then :func:`write_looks`: the four layers' paths (keys as write_looks's and
-    ``geometry``)."""
+    """:func:`write_geometry` then :func:`write_looks`: the four layers' paths (write_looks's and ``geometry``)."""
     geometry = write_geometry(out_dir, bird)
     paths = write_looks(out_dir, bird, film, lut, version=version, geometry=geometry, shading=shading)
     return {**paths, "geometry": geometry}
