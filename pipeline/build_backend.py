@@ -5,7 +5,7 @@ so an editable install cannot be a plain ``.pth`` and setuptools installs a meta
 always emits an ``InformationOnly`` warning (pip shows it boxed on every ``pip install -e .``): folders named like
 the package in the working directory may take precedence. It is a notice, not a fault of this project (no
 ``rockdove/`` folder sits at the top of the checkout), and setuptools has no setting for it, so it is filtered
-here; every other warning is shown.
+here by its text; every other warning, and every other notice, is shown.
 """
 
 import warnings
@@ -13,4 +13,6 @@ import warnings
 from setuptools.build_meta import *  # noqa: F401,F403 (the PEP 517 hooks)
 from setuptools.warnings import InformationOnly
 
-warnings.filterwarnings("ignore", category=InformationOnly)
+# matched anywhere in the text: newer setuptools wraps it in a banner
+warnings.filterwarnings("ignore", message=r"(?s).*Please be careful with folders in your working directory",
+                        category=InformationOnly)
