@@ -388,7 +388,7 @@ def test_clean_temporaries_spares_live_writers_and_removes_dead_ones(tmp_path):
     (["lut", "--out", "l.exr", "--thicknesses", "4097"], ["--thicknesses", "[1, 4096]"]),
     # a 4096 px verification passed 8.3 GB, a 2048 px one 5.3 GB
     (["build", "--out", "b", "--set", "verify.width=4096"], ["verify.width", "<= 1024"]),
-    (["verify", "b", "--height", "4096"], ["--height", "between 16 and 1024"]),
+    (["verify", "b", "--height", "4096"], ["--height", "from 16 to 1024"]),
     # 64 views at 1024 px passed 5.2 GB (a verification's memory grows with its views)
     (["build", "--out", "b", "--set", "verify.views=64"], ["verify.views", "<= 16"]),
     # an 8192 px render passed 8.6 GB; every view's buffers were kept until all were rendered

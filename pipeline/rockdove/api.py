@@ -6,14 +6,11 @@ The three-line notebook use::
     result = api.build(api.load_config(preset="paper", overrides={"lut.angles": 128}), "build/pigeon")
     print(result.ran, result.reused, result.verified, result.report_dir)
 
-A warm process rebuilds fast: the second :func:`build` after a film change re-bakes the LUT and rewrites the
-small layers only, with every import and the unchanged geometry already in memory. ``rockdove build``,
-``rockdove verify``, ``rockdove sweep``'s Dask workers, the benchmarks and the tests all call these functions;
-the command line only turns options into their arguments and results into text.
+``rockdove build``, ``rockdove verify``, ``rockdove sweep``'s Dask workers, the benchmarks and the tests all call
+these functions; the command line only turns options into their arguments and results into text.
 
 Errors: :class:`rockdove.errors.UsageError` (a ``ValueError``) for bad configuration, output or asset, naming
-what was wrong, before anything is written; :class:`BuildFailed` when the build's verification fails (nothing
-published; ``exc.result`` says what ran and where the report is).
+what was wrong, before anything is written; :class:`BuildFailed` when the build's verification fails.
 """
 
 from __future__ import annotations
@@ -40,21 +37,17 @@ DEFAULT_OUT = "build/pigeon"
 
 def load_config(preset: str | None = DEFAULT_PRESET, config_file: str | os.PathLike | None = None,
                 overrides: Mapping[str, Any] | Iterable[str] = ()) -> dict:
-    """The effective, validated build configuration (a plain dict, as ``rockdove config --json`` prints it).
-
-    ``preset``: ``assets/pigeon/<preset>.toml`` (None: the schema's defaults); ``config_file``: a TOML file over
-    it; ``overrides``: ``{dotted key: value}`` (e.g. ``{"film.cauchy_a": 1.55}``) or ``KEY=VALUE`` strings as
-    ``--set`` takes them, applied last. :class:`UsageError` naming the key, value and allowed range."""
+    """The effective, validated build configuration (a plain dict, as ``rockdove config --json`` prints it):
+    ``preset`` (None: the schema's defaults), a TOML ``config_file`` over it, then ``overrides`` (``{dotted key:
+    value}`` or ``KEY=VALUE`` strings as ``--set`` takes them). :class:`UsageError` naming key, value and range."""
     return _load_config(preset=preset, config_file=config_file, overrides=overrides)
 
 
 # ----------------------------------------------------------------------------------------------- results
 @dataclass(frozen=True)
 class BuildResult:
-    """A finished build. ``verified``: True (the verification passed), None (built with ``verify=False``);
-    a failed verification raises :class:`BuildFailed` carrying a result with ``verified=False``.
-    ``report_dir``: the folder holding ``report.html`` and ``report.json`` (the published ``verify/``, or the
-    failed verification's folder in the cache)."""
+    """A finished build. ``verified``: True (passed), None (built with ``verify=False``), False (in
+    :class:`BuildFailed`). ``report_dir``: the published ``verify/``, or the failed verification's folder."""
 
     out: Path
     cache: Path
@@ -77,9 +70,6 @@ class BuildResult:
     @property
     def keys(self) -> dict[str, str]:
         return {s.name: s.key for s in self.stages}
-
-    def stage(self, name: str) -> StageRecord:
-        return next(s for s in self.stages if s.name == name)
 
     def as_dict(self) -> dict:
         """The ``rockdove build --json`` summary."""
@@ -121,8 +111,7 @@ class HostResult:
 @dataclass(frozen=True)
 class Verification:
     """A finished verification: ``passed`` (validation clean, every view and every host that ran within its
-    goals), ``failures`` (why not), ``notes`` (what was checked differently), per-host results, and the report
-    (``report_dir/report.html``; ``report`` is the content of ``report.json``)."""
+    goals), ``failures``, ``notes`` (what was checked differently), and ``report`` (``report.json``)."""
 
     passed: bool
     failures: tuple[str, ...]
@@ -156,12 +145,10 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
     """Build, verify and publish the asset of ``config`` (:func:`load_config`, validated again here) into ``out``
     (new, empty, or one rockdove built: anything else is refused before any work), incrementally.
 
-    ``cache``: the stage cache (default ``.rockdove-cache`` beside ``out``), which builds of any output and
-    :func:`verify` share. ``verify``: run the verification (:func:`rockdove.graph.verification.verify`, GL renders
-    against the exact reference) on the staged asset; a failure publishes nothing and raises
-    :class:`BuildFailed`. ``lock_timeout``: seconds to wait for another build of the same output (default:
-    until it finishes), then UsageError; ``quiet``: say nothing while waiting; ``progress(stage_name)`` as each
-    stage starts.
+    ``cache``: the stage cache (default ``.rockdove-cache`` beside ``out``), shared with :func:`verify`.
+    ``verify``: run the verification on the staged asset; a failure publishes nothing and raises
+    :class:`BuildFailed`. ``lock_timeout``: seconds to wait for another build of the same output (default: until
+    it finishes), then UsageError; ``quiet``: say nothing while waiting; ``progress(stage_name)`` as each starts.
 
     Order of work: output checked -> lock taken -> leftovers of killed builds cleaned -> stages run or reused
     -> asset assembled in a staging folder beside ``out``, marker written -> verification on the staged asset
@@ -223,15 +210,12 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
            views: Iterable[str] | None = None, n_views: int | None = None, bench_dir: str | os.PathLike | None = None,
            allow_external: bool = False, progress: Callable[[str], None] | None = None,
            beauty: dict | None = None) -> Verification:
-    """Validate an asset (its folder or root layer), render it with the GLSL shaders and every host in ``hosts``,
-    check each against the exact spectral reference of its lighting model and write the report: the build's own
-    verification with its cache (:func:`rockdove.graph.verification.verify`, whose arguments these are), so what
-    a build or an earlier verification checked is not rendered again. ``out``: the report folder (default
-    ``verify/`` beside the root layer); ``allow_external``: let the asset's layers name files outside its folder.
+    """Validate an asset (its folder or root layer) and check it in the GLSL shaders and every host in ``hosts``:
+    the build's own verification with its cache (:func:`rockdove.graph.verification.verify`, whose arguments these
+    are). ``out``: the report folder; ``allow_external``: let the asset's layers name files outside its folder.
 
     Returns :class:`Verification` (a failed check: ``passed`` False). Raises :class:`UsageError` for bad usage
-    and :class:`VerificationFailed`, before rendering, when the asset's layers do not parse or name files outside
-    it.
+    and :class:`VerificationFailed`, before rendering, when the asset's layers do not parse or name files outside it.
     """
     from .graph import verification
     from .graph.publish import claim_output

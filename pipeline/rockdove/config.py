@@ -1,10 +1,7 @@
-"""The build configuration: TOML layers checked against ``schemas/config.schema.json``.
-
-The JSON Schema (draft 2020-12) is the single source of every parameter's documentation, unit, range and
-default. Layers, later wins: the schema's defaults, a preset ``assets/pigeon/<preset>.toml`` (default
-``measured``), ``--config FILE.toml``, ``--set KEY=VALUE`` (dotted keys; TOML literals, a bare word a string).
-Every problem is a one-line :class:`rockdove.errors.UsageError` naming the key, the value and what the schema
-allows, so the CLI exits 2 before anything is written.
+"""The build configuration: TOML layers checked against ``schemas/config.schema.json`` (draft 2020-12), the one
+source of every parameter's documentation, unit, range and default. Layers, later wins: the schema's defaults, a
+preset ``assets/pigeon/<preset>.toml``, ``--config FILE.toml``, ``--set KEY=VALUE``. Every problem is a one-line
+:class:`UsageError` naming the key, the value and what the schema allows (exit 2 before anything is written).
 """
 
 from __future__ import annotations

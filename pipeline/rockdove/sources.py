@@ -99,8 +99,8 @@ def _unchanged(stamps: dict) -> bool:
 
 # ----------------------------------------------------------------------------------------------- scanning
 def _imports(node) -> list:
-    """Every import under ``node``: ``[level, module, [names]]``; strings naming rockdove modules: ``[-1, s, []]``
-    (``s`` ending in ``.`` for an f-string's constant prefix)."""
+    """Every import under ``node``: ``[level, module, [names]]``, a string naming rockdove modules ``[-1, s, []]``
+    (``s`` ending in ``.``: an f-string's prefix)."""
     out = []
     for n in ast.walk(node):
         if isinstance(n, ast.Import):
@@ -146,8 +146,7 @@ _SCANS: dict = {}
 
 
 def scan(path: Path, seen: dict) -> dict:
-    """:func:`_scan` of ``path``, memoised in this process by the file's path, mtime and size, and in the user cache
-    by its content's sha256."""
+    """:func:`_scan` of ``path``, memoised by its stamp in this process and by its sha256 in the user cache."""
     data = read(path, seen)
     stamp = (str(path), *seen[str(path)])
     if stamp not in _SCANS:
@@ -267,8 +266,7 @@ def _keyed_dir(name: str, record: dict) -> Path:
 
 
 def cache_dir(name: str, fn) -> Path:
-    """The user-cache folder ``<name>-<key>`` for values that ``fn`` computes, keyed by everything that derives
-    them (:func:`digest` of ``fn``: its code, the environment, Python); its ``key.json`` records what keyed it."""
+    """The user-cache folder ``<name>-<key>`` for values that ``fn`` computes, keyed by :func:`digest` of ``fn``."""
     return _keyed_dir(name, digest([fn])[1])
 
 

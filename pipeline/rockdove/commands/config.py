@@ -34,8 +34,8 @@ HOLDS = {"colour-science-": "colour-science's CIE tables and RGB matrices, the q
 
 
 def paths() -> list[dict]:
-    """Every folder rockdove uses outside an asset and its stage cache: ``what``, ``path``, ``keyed_by`` and, for
-    a user-cache folder, ``stale``: why what derived it changed since (None while current)."""
+    """Every folder rockdove uses outside an asset: ``what``, ``path``, ``keyed_by``, and for a user-cache folder
+    ``stale`` (:func:`rockdove.sources.stale`)."""
     from .. import resources, sources
 
     user = resources.user_cache_dir()

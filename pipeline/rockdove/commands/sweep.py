@@ -91,10 +91,8 @@ def build_point(name: str, base: dict, overrides: list[str], out: str, verify: b
                                      overrides=[*base["overrides"], *overrides])
             result = api.build(config, out, cache=base["cache"], verify=verify, quiet=True)
             record["status"] = "ok"
-        except api.BuildFailed as exc:
-            result = exc.result
-            record.update(status="failed", error=str(exc))
-        except api.VerificationFailed as exc:
+        except api.VerificationFailed as exc:  # a BuildFailed carries what ran
+            result = getattr(exc, "result", None)
             record.update(status="failed", error=str(exc))
         except (ValueError, OSError) as exc:
             record.update(status="invalid" if isinstance(exc, ValueError) else "error", error=str(exc))
@@ -189,8 +187,7 @@ def _cell(p: dict | None, root: Path) -> str:
 
 # ----------------------------------------------------------------------------------------------- running
 def _security(path: str | None):
-    """``--security FILE``: a Dask ``Security`` from the file's ``distributed.comm.tls`` keys over Dask's own
-    configuration (None: Dask's alone)."""
+    """A Dask ``Security`` from ``--security FILE``'s ``distributed.comm.tls`` over Dask's own configuration."""
     import copy
 
     import dask

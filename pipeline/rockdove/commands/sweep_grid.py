@@ -99,11 +99,6 @@ def parse_grid(grid: list[str]) -> list[tuple[str, list[tuple[str, object]]]]:
 _UNSAFE = re.compile(r"[^A-Za-z0-9._+=-]+")
 
 
-def _slug(key: str, literal: str) -> str:
-    value = _UNSAFE.sub("_", literal.replace('"', "").replace("'", "")).strip("_")
-    return f"{key}={value}"
-
-
 def grid_points(axes) -> list[Point]:
     """The product of the axes in order (the last key varies fastest), each with a stable, readable folder
     name made of its ``KEY=VALUE`` pairs (a short hash added where two would read the same, or one is long)."""
@@ -111,7 +106,8 @@ def grid_points(axes) -> list[Point]:
     for combo in itertools.product(*[list(enumerate(vals)) for _, vals in axes]):
         overrides = tuple(f"{key}={lit}" for (key, _), (_, (lit, _v)) in zip(axes, combo))
         values = {key: v for (key, _), (_, (_lit, v)) in zip(axes, combo)}
-        name = "__".join(_slug(key, lit) for (key, _), (_, (lit, _v)) in zip(axes, combo))
+        name = "__".join(f"{key}=" + _UNSAFE.sub("_", lit.replace('"', "").replace("'", "")).strip("_")
+                         for (key, _), (_, (lit, _v)) in zip(axes, combo))
         points.append(Point(name, overrides, values, tuple(i for i, _ in combo)))
     counts = collections.Counter(p.name for p in points)
     out = []

@@ -1,28 +1,15 @@
 """The real build stages: each wires one module of the pipeline into the graph (:mod:`rockdove.graph.engine`).
 
-Stages (dependencies first), the configuration each reads and its inputs:
-
-- ``body`` (``geometry.body_voxel_m``, body texture resolution): rockdove.geometry.build_body;
-- ``bird`` (``geometry``, ``thickness``, texture resolutions; body): cards, beak, eyes and legs around the body;
-- ``thickness_range`` (bird): (floor min, ceil max) of the feathers' ``thickness`` primvar, nm;
-- ``lut`` (``film``, ``lut``; thickness_range): baked over exactly that range (one texel high when uniform);
-  absent for ``shading.variant = "physical"``;
-- ``texture_images`` (as ``bird``; bird): rockdove.textures;
-- ``textures`` (texture_images): the textures a film change leaves alone (feather base and mask, body colour);
-- ``film_textures`` (lut, thickness_range, texture_images): the LUT EXR and the preview atlas; physical-only: no
-  LUT EXR, exact preview colours (then it reads ``film``);
-- ``usd_geometry`` (bird): ``pigeon_geom.usdc``; ``usd_layers`` (``film``, ``shading``; bird, lut, usd_geometry):
-  pigeon.usda, pigeon_payload.usda, pigeon_looks.usda;
-- ``usdz`` (when ``usd.usdz``) and ``gltf`` (when ``gltf.glb``): packages of the assembled asset;
-- ``verify`` (``verify``, ``beauty``; every published stage): :func:`rockdove.graph.verification.verify` of the
-  assembled asset, whose renders are cache entries of their own keyed by what each reads.
+Stages (dependencies first; the configuration and inputs of each: :func:`make_stages`): ``body``, ``bird``,
+``thickness_range`` (nm), ``lut`` (baked over exactly that range; absent for ``shading.variant = "physical"``),
+``texture_images``, ``textures`` (what a film change leaves alone), ``film_textures`` (the LUT EXR and the
+preview atlas), ``usd_geometry``, ``usd_layers``, ``usdz`` and ``gltf`` (packages of the assembled asset) and
+``verify`` (:func:`rockdove.graph.verification.verify` of the assembled asset).
 
 Keys use the *content* of upstream outputs, so a new seed that leaves the thickness range unchanged re-bakes
 nothing, and a film change re-bakes the LUT and rewrites film_textures and the small layers but reuses the bird,
-the film-independent textures and the geometry layer, whose bytes stay as they were. The verification reruns
-whenever a published file changes, but renders only what the change reaches: a change that leaves the rendered
-scene as it was (e.g. ``usd.usdz``) renders nothing; a film change re-renders every view but reuses the
-reference's surfaces (geometry, normals, textures, thickness at the hits).
+the film-independent textures and the geometry layer. The verification reruns whenever a published file changes,
+but renders only what the change reaches (:mod:`rockdove.graph.verification`).
 """
 
 from __future__ import annotations
@@ -168,13 +155,9 @@ def bird_params(config: dict):
 
 
 #: Random points at which the build measures its LUT, as shipped (after any half rounding), against the exact
-#: reference (rockdove.lut.reference.lut_error, as bake's error_points),
-#: recorded in the EXR header (rockdove:estimatedMaxDeltaE2000, ...P99...). 200 points add ~0.05 s to the
-#: default 256 x 64 keratin bake (rockdove.lut.reference.lut_error right after the bake in a fresh process:
-#: 0.051-0.054 s over 3 runs; 50 points 0.012-0.018 s).
+#: reference (rockdove.lut.reference.lut_error), recorded in the EXR header (rockdove:estimatedMaxDeltaE2000,
+#: ...P99...). 200 points add ~0.05 s to the default 256 x 64 keratin bake (50 points: 0.012-0.018 s).
 LUT_ERROR_POINTS = 200
-
-BODY_FIELDS = ("geometry.body_voxel_m", "textures.body_resolution")  # BirdParams.body_key()
 
 
 def run_body(ctx: Context):
@@ -200,14 +183,12 @@ def run_thickness_range(ctx: Context):
 
 
 def run_lut(ctx: Context):
-    """Bake over the thickness range on the mesh, round to half floats when ``lut.precision = "half"``, then
-    measure the table as shipped against the exact reference at :data:`LUT_ERROR_POINTS` points (recorded in
-    its metadata, hence in the EXR header)."""
+    """Bake over the mesh's thickness range, round to half floats when ``lut.precision = "half"``, then measure
+    the table as shipped against the exact reference (:data:`LUT_ERROR_POINTS`)."""
     import numpy as np
 
     from ..lut.bake import bake, error_metadata
     from ..lut.reference import lut_error
-    from ..lut.table import ThinFilmLUT
 
     lo, hi = ctx.inputs["thickness_range"]
     cfg = ctx.config["lut"]
@@ -220,11 +201,9 @@ def run_lut(ctx: Context):
         # the values the HALF EXR holds (rockdove.lut.exr writes HALF channels for metadata precision "half")
         rgb = lut.rgb.astype(np.float16).astype(np.float32)
         metadata["precision"] = "half"
-    lut = ThinFilmLUT(rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
-                      colour_space=lut.colour_space, metadata=metadata)
-    metadata.update(error_metadata(lut_error(lut, film, n_points=LUT_ERROR_POINTS)))
-    return ThinFilmLUT(rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
-                       colour_space=lut.colour_space, metadata=metadata)
+    lut = dataclasses.replace(lut, rgb=rgb, metadata=metadata)
+    errors = error_metadata(lut_error(lut, film, n_points=LUT_ERROR_POINTS))
+    return dataclasses.replace(lut, metadata={**metadata, **errors})
 
 
 def run_texture_images(ctx: Context):
@@ -243,8 +222,7 @@ def run_textures(ctx: Context):
 
 
 def run_film_textures(ctx: Context):
-    """The LUT EXR and the preview atlas; without a ``lut`` input (physical-only shading) no LUT EXR, and the
-    preview's structural colours are the film's exact colours (so this stage then reads ``film``)."""
+    """The LUT EXR and the preview atlas; physical-only: no LUT EXR, the film's exact preview colours."""
     from ..usd.textures_io import write_film_textures
 
     feathers, _ = ctx.inputs["texture_images"]
@@ -295,9 +273,8 @@ def run_gltf(ctx: Context) -> None:
 
 
 def run_verify(ctx: Context) -> dict:
-    """The verification of the assembled asset (rockdove.graph.verification.verify, with the build's hosts and
-    the stage cache, so ``rockdove verify`` reuses its renders), its report in the stage's folder (published as
-    ``verify/``), and the interactive viewer beside it; the value is the verdict."""
+    """The verification of the assembled asset with the build's hosts and the stage cache (so ``rockdove verify``
+    reuses its renders), its report and viewer in the stage's folder (published as ``verify/``); a verdict."""
     from ..usd.layout import resolve_root_layer
     from .publish import published_path
     from .verification import BUILD_HOSTS, verify
@@ -328,8 +305,8 @@ VERIFY = "verify"
 
 @dataclasses.dataclass(frozen=True)
 class Verdict:
-    """The build's verification: ``passed``, ``reason`` (its failures, joined), the views checked, notes, and
-    the verification's items that ran and were reused (``{"ran": {kind: names}, "reused": ...}``)."""
+    """The build's verification: ``reason`` (its failures, joined) and the verification's items that ran and
+    were reused (``{"ran": {kind: names}, "reused": ...}``)."""
 
     passed: bool
     reason: str = ""
@@ -351,24 +328,19 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
     bird_keys = tuple(CONFIG_KEYS.values())
     schema = ("schemas/plugInfo.json", "schemas/generatedSchema.usda")
     stages = [
-        Stage("body", run_body, config=BODY_FIELDS, codec=BODY),
+        Stage("body", run_body, config=("geometry.body_voxel_m", "textures.body_resolution"), codec=BODY),
         Stage("bird", run_bird, config=bird_keys, deps=("body",), codec=BIRD),
         Stage("thickness_range", run_thickness_range, deps=("bird",), codec=JSON),
     ]
     if baked:
-        stages.append(Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",),
-                            codec=LUT))
+        stages.append(Stage("lut", run_lut, config=("film", "lut"), deps=("thickness_range",), codec=LUT))
     stages.append(Stage("texture_images", run_texture_images, config=bird_keys, deps=("bird",), codec=IMAGES))
-    stages.append(Stage("textures", run_textures, deps=("texture_images",), codec=FILES,
+    stages.append(Stage("textures", run_textures, deps=("texture_images",), codec=FILES, publish=""))
+    # physical-only: the preview colours are computed from the film (rockdove.lut.reference) over the thickness range
+    stages.append(Stage("film_textures", run_film_textures, config=() if baked else ("film",),
+                        deps=(("lut",) if baked else ()) + ("thickness_range", "texture_images"), codec=FILES,
                         publish=""))
-    if baked:
-        stages.append(Stage("film_textures", run_film_textures, deps=("lut", "thickness_range", "texture_images"),
-                            codec=FILES, publish=""))
-    else:  # the preview colours are computed from the film (rockdove.lut.reference) over the thickness range
-        stages.append(Stage("film_textures", run_film_textures, config=("film",),
-                            deps=("thickness_range", "texture_images"), codec=FILES, publish=""))
-    stages.append(Stage("usd_geometry", run_usd_geometry, deps=("bird",), data=schema,
-                        codec=FILES, publish=""))
+    stages.append(Stage("usd_geometry", run_usd_geometry, deps=("bird",), data=schema, codec=FILES, publish=""))
     stages.append(Stage("usd_layers", run_usd_layers, config=("film", "shading"),
                         deps=("bird", "lut", "usd_geometry") if baked else ("bird", "usd_geometry"),
                         data=("materials", *schema), codec=FILES, publish=""))

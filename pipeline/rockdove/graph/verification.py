@@ -1,22 +1,16 @@
 """The one verification, run by the build's ``verify`` stage and by ``rockdove verify`` alike, and its cache.
 
-Validation, the GL renders and the hosts asked for (:mod:`rockdove.hosts`), each against the exact reference of its
-lighting model, then the verdict and the report (:mod:`rockdove.verify`). The renders are items, each an entry of
-the stage cache (:class:`rockdove.graph.cache.Cache`, folders ``verify.<kind>``) keyed by what it reads:
+The renders are items, each an entry of the stage cache (folders ``verify.<kind>``) keyed by what it reads:
 
-- ``surface``, per camera: what the reference shades at its primary hits before any light or film
-  (:func:`rockdove.verify.reference_image.surface_digest`), so a film change reuses it;
+- ``surface``, per camera: what the reference shades at its primary hits before any light or film, so a film
+  change reuses it;
 - ``view``, per view: the GL render against the reference, its images and checks; keyed by the scene content it
-  renders (:func:`rockdove.verify.inputs.scene_digest`: meshes, textures, film, LUT; not the usdz or file paths)
-  and the view (camera, light, size);
+  renders (:func:`rockdove.verify.inputs.scene_digest`: not the usdz or file paths) and the view;
 - ``host``, per host: its metrics and images over the views; keyed by the scene content, the views and its lobe.
 
-Each key also holds the code the item can execute, derived by :mod:`rockdove.sources` from the functions that
-compute it (a host's ``render`` and :func:`rockdove.verify.host_check.check_host`), and the installed
-distributions. So a ``rockdove verify`` after a build reuses the views the build checked, a build after a
-``rockdove verify`` of the same size reuses them, and an edit to one host's code re-renders that host alone. A host
-that failed is not kept.
-Validation and the report are redone every time.
+Each key also holds the code the item can execute (:mod:`rockdove.sources`) and the installed distributions. So
+``rockdove verify`` and a build reuse each other's views, and an edit to one host's code re-renders that host alone.
+A host that failed is not kept. Validation and the report are redone every time.
 """
 
 from __future__ import annotations
@@ -36,8 +30,7 @@ BUILD_HOSTS = ("glsl",)
 
 
 def item_key(kind: str, fns: tuple, *reads) -> str:
-    """The key of an item that ``fns`` compute from ``reads``: the code they can execute with the environment
-    (:func:`rockdove.sources.digest`), and ``reads``."""
+    """The key of an item that ``fns`` compute from ``reads`` (the code they can execute: rockdove.sources)."""
     code = sources.digest(list(fns))[0]
     return hashlib.sha256(canonical_json([GRAPH_VERSION, kind, code, *reads]).encode()).hexdigest()
 
@@ -98,9 +91,8 @@ def _surfaces(cache: Cache, scene, views, ran: dict, reused: dict) -> dict:
 
 
 def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, out: str, say, ran, reused):
-    """``({view: result}, fresh)``: each view's GL render against the reference (rockdove.verify.run), cached
-    per view; ``fresh`` holds the GL radiance and references of the views rendered (all of them when
-    ``redo_all``). A view whose GL render failed is not kept: its files go to ``out``."""
+    """``({view: result}, fresh)``: each view's :func:`render_and_check`, cached per view; ``fresh``: the GL
+    radiance and references of the views rendered (all when ``redo_all``). A failed GL render is not kept."""
     import numpy as np
 
     from ..verify.run import render_and_check
@@ -143,8 +135,7 @@ def _host_key(module, digest: str, views) -> str:
 
 
 def _host(cache, module, layer, scene, views, digest, refs, fresh, out, say) -> tuple[dict, dict, bool]:
-    """One host's report entry and image files in ``out`` (where it renders, its work folders and logs beside
-    them), and whether they came from the cache, which keeps the images of a host that rendered."""
+    """One host's report entry, image files in ``out`` (where it renders) and whether they came from the cache."""
     from ..verify.host_check import check_host
 
     items = _Items(cache, "host")
@@ -181,27 +172,22 @@ def default_cache(asset) -> str:
 def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, height=None, n_views=None,
            views=None, bench_dir=None, progress=None, beauty=None, published_asset=None) -> dict:
     """Validate, render and check the asset of root layer ``asset``; write the report into ``out_dir`` (default
-    ``verify/`` beside it); return the content of report.json (``passed``, ``failures``, ``notes``, one entry per
-    host, and ``cache``: the items that ``ran`` and were ``reused``).
+    ``verify/`` beside it); return the content of report.json (``cache``: the items that ran and were reused).
 
-    ``hosts``: :data:`rockdove.hosts.HOSTS` names (None: :data:`rockdove.hosts.DEFAULT`; ``["all"]``), each
-    compared with the reference of its lobe; ``glsl`` always runs; an unavailable host is skipped with its reason,
-    one that fails or misses its goals fails the verification. ``cache``: the stage cache (a folder or a
-    :class:`Cache`; default :func:`default_cache`). ``width``, ``height``, ``n_views``: render size (pixels) and
-    turntable + light-sweep views (default the schema's ``[verify]``); ``views``: only these (a subset without a
-    light-sweep view cannot run the hue check: ``notes`` say so). ``bench_dir``: benchmark plots the report shows.
-    ``beauty``: ``[beauty]`` settings of the report's opening picture (``auto`` takes Cycles only when ``hosts``
-    names blender); ``published_asset``: the root layer's path once published, which the report names.
+    ``hosts``: :data:`rockdove.hosts.HOSTS` names (None: :data:`rockdove.hosts.DEFAULT`; ``["all"]``); ``glsl``
+    always runs; an unavailable host is skipped with its reason. ``cache``: a folder or a :class:`Cache` (default
+    :func:`default_cache`). ``width``, ``height``, ``n_views``: default the schema's ``[verify]``; ``views``: only
+    these (a subset without a light-sweep view cannot run the hue check). ``beauty``: ``[beauty]`` settings of the
+    report's opening picture (``auto`` takes Cycles only when ``hosts`` names blender); ``published_asset``: the
+    root layer's path once published, which the report names.
     """
     from ..hosts import select
     from ..render.beauty import settings
-    from ..verify.inputs import check_size, scene_digest, select_views, sizes, verification_scene, \
-        verification_views
+    from ..verify.inputs import scene_digest, select_views, sizes, verification_scene, verification_views
     from ..verify.reference_image import render_reference
     from ..verify.verdict import combine, default_out_dir
 
     width, height, n_views = sizes(width, height, n_views)
-    check_size(width, height)
     say = progress or (lambda msg: None)
     t_start = time.perf_counter()
     selection = select(hosts)  # unknown names: ValueError before any work

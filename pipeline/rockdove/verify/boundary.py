@@ -5,27 +5,22 @@ moves with the light; one fixed film thickness makes it a straight line; an unco
 thickness makes a salt-and-pepper of both colours. Two measures per view tell the three apart (issue 12):
 
 Coherence (:func:`class_coherence`)
-    Feather pixels are classified by CIELAB hue (:func:`rockdove.verify.compare.hue_classes`, the strict
-    bands: green, purple, other chromatic hue; grey pixels are left out). For each class, the share of its
-    pixels held by its largest connected region. "Connected" is 4-connected, optionally after bridging gaps
-    of up to ``2 * reach_px`` grey or non-feather pixels (a 4-connected dilation of the class by ``reach_px``
-    that may only enter such pixels, never a pixel of another hue class; the counts are of the class's own
-    pixels). By default nothing is bridged (:data:`COHERENCE_REACH_PX`): on the bird the tips of one colour
-    overlap or touch. 4- rather than 8-connectivity, and no bridging through the other colours: on a mosaic of
-    independently coloured feathers at 50 % each, regions connected through diagonal contacts percolate for
-    *both* colours (site percolation threshold 0.407 with 8 neighbours, 0.593 with 4), so speckle would pass
-    as coherent. A coherent pattern has shares near 1; speckle breaks the classes into many regions.
+    For each strict hue class (green, purple, other chromatic hue; grey left out), the share of its pixels held
+    by its largest 4-connected region, optionally after bridging gaps of up to ``2 * reach_px`` grey or
+    non-feather pixels (never a pixel of another hue class). 4- rather than 8-connectivity, and no bridging
+    through the other colours: on a mosaic of independently coloured feathers at 50 % each, regions connected
+    through diagonal contacts percolate for *both* colours (site percolation threshold 0.407 with 8 neighbours,
+    0.593 with 4), so speckle would pass as coherent. A coherent pattern has shares near 1.
 
 Curvature (:func:`boundary_curvature`)
-    The green/purple contact zone (:func:`boundary_points`, on the hue *sides*) is
-    reduced to its centreline (mean point of ``bin_px`` bins along its principal axis), and two models of the
-    centreline's perpendicular offset ``o`` as a function of the position ``t`` along that axis are fitted by
-    least squares: a straight line ``o = a + b t`` and a smooth curve, the cubic ``o = a + b t + c t^2 + d t^3``
-    (t scaled to [-1, 1]). The RMS residuals of both are reported, and their ratio ``line / curve`` (the curve's
-    residual taken as at least :data:`NOISE_FLOOR_PX`, pixel quantisation): about 1 or less for a straight
-    boundary (the cubic fits no better than the line), >= :data:`CURVED_RATIO` for a curved
-    one. One robust pass drops centreline points farther than 3x the median residual of the cubic (when at
-    least half remain), so a stray feather tip of the other colour does not bend the fit.
+    The green/purple contact zone (:func:`boundary_points`, on the hue *sides*) is reduced to its centreline
+    (mean point of ``bin_px`` bins along its principal axis), and its perpendicular offset ``o`` as a function of
+    the position ``t`` along that axis is fitted by least squares with a line ``o = a + b t`` and the cubic
+    ``o = a + b t + c t^2 + d t^3`` (t scaled to [-1, 1]). Their RMS ratio ``line / curve`` (the curve's residual
+    taken as at least :data:`NOISE_FLOOR_PX`, pixel quantisation) is about 1 or less for a straight boundary,
+    >= :data:`CURVED_RATIO` for a curved one. One robust pass drops centreline points farther than 3x the median
+    residual of the cubic (when at least half remain), so a stray feather tip of the other colour does not bend
+    the fit.
 """
 
 from __future__ import annotations
@@ -35,13 +30,11 @@ import numpy as np
 from .compare import lab_hue_classes, rgb_to_lab
 
 #: A class is coherent when its largest connected region holds at least this share of its pixels. Issue 12
-#: asks >= 0.7 of the measured preset; the old per-card uniform draw, which keeps the base-to-top gradient (so
-#: the top of the neck is mostly green, the bottom mostly purple), reaches 0.70 / 0.69 on the default bird's
-#: 90 degree sweep view at 512 x 512 and the coherent field 0.91 / 1.00, so the line is drawn at 0.8.
+#: asks >= 0.7; a per-card uniform draw reaches 0.70 / 0.69 (green / purple) on the default bird's 90 degree
+#: sweep view at 512 x 512 and the coherent field 0.91 / 1.00, so the line is drawn at 0.8.
 COHERENT_SHARE = 0.8
-#: Gaps bridged by the coherence measure, pixels (see :func:`class_coherence`): none by default, since on the
-#: bird the feather tips of one colour overlap or touch; with a reach of 1-2 px the old speckle's same-coloured
-#: tips join across the hairline gaps between them (0.81 / 0.79).
+#: Gaps bridged by the coherence measure, pixels: none, since on the bird the feather tips of one colour overlap
+#: or touch (with 1-2 px, a speckle's same-coloured tips join across the hairline gaps: 0.81 / 0.79).
 COHERENCE_REACH_PX = 0
 #: Residuals below this are pixel quantisation (the contact zone is a few pixels wide and its centreline is
 #: binned): the curvature ratio divides by max(curve residual, this). Without it the paper preset's straight
@@ -56,25 +49,17 @@ STRAIGHT_FRACTION = 0.02
 CURVE_DEGREE = 3
 #: Reach of the green/purple contact zone, pixels (see :func:`boundary_points`).
 BOUNDARY_REACH_PX = 2
-#: Class labels of the strict hue bands (rockdove.verify.compare.hue_classes).
 CLASSES = {"green": 1, "purple": 2, "other": 3}
 
 
 def boundary_points(cls: np.ndarray, reach_px: int = BOUNDARY_REACH_PX) -> np.ndarray:
     """(P, 2) float (x = column, y = row) pixels of the green/purple contact zone of a class image (1 green,
-    2 purple; others ignored): within ``reach_px`` 8-connected steps of a green pixel AND of a purple one. Unlike
-    plain 4-adjacency this bridges the narrow band of low-chroma or blue pixels the film shows between green and
-    purple (at 650 nm and cos theta near 0.707 the chroma drops to ~12) and the grey feather bases between
-    coloured tips, so gaps up to ``2 * reach_px`` pixels still give a boundary. A straight boundary's zone is a
-    band about ``2 * reach_px`` wide, which adds ~``2 * reach_px / sqrt(12)`` px to the RMS of
-    :func:`boundary_straightness`."""
+    2 purple; others ignored): within ``reach_px`` 8-connected steps of a green pixel AND of a purple one. This
+    bridges the narrow band of low-chroma or blue pixels the film shows between green and purple (at 650 nm and
+    cos theta near 0.707 the chroma drops to ~12) and the grey feather bases between coloured tips."""
     from scipy import ndimage
 
     cls = np.asarray(cls)
-    if cls.ndim != 2:
-        raise ValueError(f"cls must have shape (H, W), got {cls.shape}")
-    if int(reach_px) != reach_px or reach_px < 1:
-        raise ValueError(f"reach_px must be an integer >= 1, got {reach_px!r}")
     st = np.ones((3, 3), bool)
     near_green = ndimage.binary_dilation(cls == 1, structure=st, iterations=int(reach_px))
     near_purple = ndimage.binary_dilation(cls == 2, structure=st, iterations=int(reach_px))
@@ -83,35 +68,21 @@ def boundary_points(cls: np.ndarray, reach_px: int = BOUNDARY_REACH_PX) -> np.nd
 
 
 def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0) -> dict:
-    """How far the green/purple boundary of a class image (hue sides: 1 green, 2 purple) departs from a line.
-
-    1. the contact-zone pixels of :func:`boundary_points`;
-    2. their centreline: binned in ``bin_px`` steps along their total-least-squares (TLS) line, each bin replaced
-       by its mean point, so the zone's own width does not count as curvature;
-    3. a TLS line through the centreline: the RMS perpendicular distance of its points, in pixels and as a
-       fraction of the boundary's length (independent of the image size); the fit is repeated once without
-       points farther than 3 x their median distance (when at least half remain), against a stray feather tip.
+    """How far the green/purple boundary of a class image (hue sides: 1 green, 2 purple) departs from a line:
+    the RMS perpendicular distance of its centreline (module docstring) from their total-least-squares line, in
+    pixels and as a fraction of the boundary's length (independent of the image size), with the same robust pass.
 
     A straight boundary gives a fraction of the pixel quantisation (~0.3 px); a bent one its sagitta over ~3 (a
     parabola of sagitta 40 px gives ~12 px). Fewer than ``min_points`` centreline points: ``rms_px`` NaN.
-    Returns ``n_points``, ``n_centreline``, ``rms_px``, ``length_px``, ``rms_fraction``, ``direction`` (unit
-    (x, y)) and ``centre`` ((x, y) px).
+    ``direction``: unit (x, y); ``centre``: (x, y) px.
     """
-    pts = boundary_points(cls)
-    out = {"n_points": int(len(pts)), "n_centreline": 0, "rms_px": float("nan"), "length_px": float("nan"),
-           "rms_fraction": float("nan"), "direction": None, "centre": None}
-    if len(pts) < 2:
+    counts, line = _boundary_centreline(cls, bin_px)
+    out = {**counts, "rms_px": float("nan"), "length_px": float("nan"), "rms_fraction": float("nan"),
+           "direction": None, "centre": None}
+    if line is None or len(line) < min_points:
         return out
-    line = _centreline(pts, bin_px)
-    out["n_centreline"] = int(len(line))
-    if len(line) < min_points:
-        return out
+    line = _without_outliers(line, _tls(line)[2], min_points)
     centre, direction, dist = _tls(line)
-    med = np.median(np.abs(dist))
-    keep = np.abs(dist) <= 3.0 * max(med, 0.5)
-    if keep.sum() >= max(min_points, len(line) // 2) and not keep.all():
-        line = line[keep]
-        centre, direction, dist = _tls(line)
     along = (line - centre) @ direction
     length = float(along.max() - along.min())
     rms = float(np.sqrt(np.mean(dist**2)))
@@ -119,6 +90,21 @@ def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 
                rms_fraction=rms / length if length > 0 else float("nan"),
                direction=[float(v) for v in direction], centre=[float(v) for v in centre])
     return out
+
+
+def _boundary_centreline(cls: np.ndarray, bin_px: float) -> tuple[dict, np.ndarray | None]:
+    """``({"n_points", "n_centreline"}, the :func:`_centreline` of the :func:`boundary_points` of ``cls``; None
+    with fewer than 2 points)``."""
+    pts = boundary_points(cls)
+    line = _centreline(pts, bin_px) if len(pts) >= 2 else None
+    return {"n_points": int(len(pts)), "n_centreline": 0 if line is None else int(len(line))}, line
+
+
+def _without_outliers(line: np.ndarray, residual: np.ndarray, need: int) -> np.ndarray:
+    """``line`` without the points farther than 3x the median ``residual`` (at least 0.5 px), when at least
+    ``need`` and half of them remain (module docstring)."""
+    keep = np.abs(residual) <= 3.0 * max(np.median(np.abs(residual)), 0.5)
+    return line[keep] if keep.sum() >= max(need, len(line) // 2) else line
 
 
 def _tls(p: np.ndarray):
@@ -130,15 +116,11 @@ def _tls(p: np.ndarray):
 
 def class_coherence(cls: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> dict:
     """Share of each strict hue class (1 green, 2 purple, 3 other; 0 grey and -1 no feather are ignored) held
-    by its largest connected region, gaps of up to ``2 * reach_px`` pixels bridged: per class name
-    ``{"pixels", "largest_share" (NaN without pixels), "regions"}``, and ``reach_px``."""
+    by its largest connected region (module docstring): per class name ``{"pixels", "largest_share" (NaN without
+    pixels), "regions"}``, and ``reach_px``."""
     from scipy import ndimage
 
     cls = np.asarray(cls)
-    if cls.ndim != 2:
-        raise ValueError(f"cls must be an (H, W) class image, got shape {cls.shape}")
-    if int(reach_px) != reach_px or reach_px < 0:
-        raise ValueError(f"reach_px must be an integer >= 0, got {reach_px!r}")
     st = ndimage.generate_binary_structure(2, 1)  # 4-connected
     out = {"reach_px": int(reach_px)}
     for name, label in CLASSES.items():
@@ -158,9 +140,8 @@ def class_coherence(cls: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> dict
 
 def _centreline(pts: np.ndarray, bin_px: float) -> np.ndarray:
     """(K, 2) mean points of ``bin_px`` bins of (P, 2) points along their principal axis."""
-    centre = pts.mean(axis=0)
-    _, _, vt = np.linalg.svd(pts - centre, full_matrices=False)
-    along = (pts - centre) @ vt[0]
+    centre, axis, _ = _tls(pts)
+    along = (pts - centre) @ axis
     bins = np.floor((along - along.min()) / bin_px).astype(np.int64)
     counts = np.bincount(bins)
     used = counts > 0
@@ -169,10 +150,8 @@ def _centreline(pts: np.ndarray, bin_px: float) -> np.ndarray:
 
 def _fits(line: np.ndarray, degree: int):
     """Residuals (K,) of a degree-1 and a degree-``degree`` polynomial offset(t) in the centreline's frame."""
-    centre = line.mean(axis=0)
-    _, _, vt = np.linalg.svd(line - centre, full_matrices=False)
-    t = (line - centre) @ vt[0]
-    o = (line - centre) @ vt[1]
+    centre, axis, o = _tls(line)
+    t = (line - centre) @ axis
     half = max(float(np.abs(t).max()), 1e-9)
     x = t / half
     res = []
@@ -186,24 +165,15 @@ def _fits(line: np.ndarray, degree: int):
 def boundary_curvature(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0,
                        degree: int = CURVE_DEGREE) -> dict:
     """RMS residuals of a straight-line and a degree-``degree`` fit of the green/purple boundary of a hue-side
-    image (module docstring): ``n_points``, ``n_centreline``, ``length_px``, ``line_rms_px``, ``curve_rms_px``,
-    ``ratio`` (line / max(curve, :data:`NOISE_FLOOR_PX`); NaN with fewer than ``min_points`` or ``degree + 3``
-    centreline points) and ``curve_degree``."""
-    pts = boundary_points(cls)
-    out = {"n_points": int(len(pts)), "n_centreline": 0, "length_px": float("nan"), "line_rms_px": float("nan"),
-           "curve_rms_px": float("nan"), "ratio": float("nan"), "curve_degree": int(degree)}
-    if len(pts) < 2:
-        return out
-    line = _centreline(pts, bin_px)
+    image and their ``ratio`` (module docstring; NaN with fewer than ``min_points`` or ``degree + 3`` centreline
+    points)."""
+    counts, line = _boundary_centreline(cls, bin_px)
+    out = {**counts, "length_px": float("nan"), "line_rms_px": float("nan"), "curve_rms_px": float("nan"),
+           "ratio": float("nan"), "curve_degree": int(degree)}
     need = max(int(min_points), int(degree) + 3)
-    out["n_centreline"] = int(len(line))
-    if len(line) < need:
+    if line is None or len(line) < need:
         return out
-    _, r_curve, _ = _fits(line, degree)
-    med = np.median(np.abs(r_curve))
-    keep = np.abs(r_curve) <= 3.0 * max(med, 0.5)
-    if keep.sum() >= max(need, len(line) // 2) and not keep.all():
-        line = line[keep]
+    line = _without_outliers(line, _fits(line, degree)[1], need)
     r_line, r_curve, length = _fits(line, degree)
     rms_line = float(np.sqrt(np.mean(r_line**2)))
     rms_curve = float(np.sqrt(np.mean(r_curve**2)))

@@ -1,31 +1,19 @@
 """Compare a GL render with the CPU reference: dE2000 maps, statistics and the image checks of issue 5.
 
-What is compared
-----------------
 Both renders hold linear ``lin_rec709`` radiance, unclipped (thin-film colours are often outside the Rec.709
-gamut, so a component may be negative). The dE2000 map is computed on that linear data, not on the 8-bit
-display images: the display transform (clip to [0, 1], sRGB OETF, 8 bits) is for people and would hide
-out-of-gamut and quantisation differences. Colours go to CIELAB with the D65 white at Y = 1 through
-:func:`rockdove.spectral.RGB_to_Lab` and are compared with CIEDE2000 (Sharma, Wu and Dalal 2005, as
-implemented by colour-science) through :func:`rockdove.spectral.delta_E_2000`.
+gamut). The dE2000 map is computed on that linear data, not on the 8-bit display images, which would hide
+out-of-gamut and quantisation differences: CIELAB with the D65 white at Y = 1, CIEDE2000 (Sharma, Wu and Dalal
+2005, as implemented by colour-science) through :mod:`rockdove.spectral`.
 
-Pixels compared: feather pixels away from silhouette edges, i.e. covered by a feather part in BOTH renders,
-with the same part id, after eroding each render's feather coverage by ``erode_px`` pixels (8-connected).
-Edge pixels are excluded because a rasteriser and a ray caster legitimately disagree there (coverage rules,
-texture filtering of the alpha cut-out).
+Pixels compared: covered by a feather part in BOTH renders, with the same part id, after eroding each render's
+feather coverage by ``erode_px`` pixels (8-connected): a rasteriser and a ray caster legitimately disagree at
+silhouette edges (coverage rules, texture filtering of the alpha cut-out).
 
-Checks
-------
-- finite: no NaN or Inf anywhere in either render.
-- black holes: lit feather pixels (reference ``N.L >= LIT_N_DOT_L``) whose GL radiance is ~zero
-  (max channel below ``BLACK_RADIANCE``); a correct render has none, because every film colour has a
-  luminance of at least a few per cent.
-- hue: CIELAB hue angle ``h_ab = atan2(b*, a*)`` of the structural feather pixels (reference mask >= 0.5)
-  that are chromatic (``C*ab / L* >= HUE_MIN_SATURATION``: a ratio, so that dimly lit pixels keep their hue),
-  histogrammed in ``HUE_BIN_DEG`` bins and classified into the two bands of the rock dove's neck:
-  :data:`GREEN_BAND_DEG` and :data:`PURPLE_BAND_DEG` (measured on the Airy colours of a 480-700 nm keratin
-  film under D65: greens have h_ab 115-205 deg, purples/magentas 310-355 deg).
-- the shape of the green/purple boundary: :mod:`rockdove.verify.boundary`.
+Checks: no NaN or Inf in either render; no black holes (lit feather pixels whose GL radiance is ~zero: every
+film colour has a luminance of at least a few per cent); the CIELAB hue ``h_ab = atan2(b*, a*)`` of the chromatic
+structural pixels (``C*ab / L*``: a ratio, so that dimly lit pixels keep their hue), histogrammed and classified
+into the two bands of the rock dove's neck (measured on the Airy colours of a 480-700 nm keratin film under D65:
+greens have h_ab 115-205 deg, purples/magentas 310-355 deg); the boundary's shape: :mod:`rockdove.verify.boundary`.
 """
 
 from __future__ import annotations
@@ -45,10 +33,9 @@ LIT_N_DOT_L = 0.1
 BLACK_RADIANCE = 1e-4
 #: A verification fails when more than this fraction of the lit feather pixels are black holes.
 BLACK_FRACTION_GOAL = 0.002
-#: Pixels with less chroma per lightness (C*ab / L*) than this are grey, not green or purple. The film colours
+#: Pixels with less chroma per lightness (C*ab / L*) than this, or darker than L* 1, are grey. The film colours
 #: of the presets have C*/L* of 0.4-1.3 (0.35 at the 650 nm film's blue transition near cos theta = 0.707).
 HUE_MIN_SATURATION = 0.15
-#: Pixels darker than this (L*) have no hue.
 HUE_MIN_LIGHTNESS = 1.0
 #: Reference mask from which a feather pixel counts as structural colour in the hue statistics.
 STRUCTURAL_MASK = 0.5
@@ -61,13 +48,16 @@ PURPLE_BAND_DEG = (280.0, 15.0)
 SIDE_SPLIT_DEG = (57.5, 245.0)
 
 
-def _as_image(name: str, a, channels: int | None) -> np.ndarray:
-    a = np.asarray(a)
-    ok = a.ndim == 3 and a.shape[2] == channels if channels else a.ndim == 2
-    if not ok:
-        want = f"(H, W, {channels})" if channels else "(H, W)"
-        raise ValueError(f"{name} must have shape {want}, got {a.shape}")
-    return a
+def _same_shape(name_a: str, a, name_b: str, b, channels: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """``a`` and ``b`` as arrays of one (H, W) or (H, W, channels) shape; ValueError naming the one that is not."""
+    a, b = np.asarray(a), np.asarray(b)
+    for name, x in ((name_a, a), (name_b, b)):
+        if not (x.ndim == 3 and x.shape[2] == channels if channels else x.ndim == 2):
+            want = f"(H, W, {channels})" if channels else "(H, W)"
+            raise ValueError(f"{name} must have shape {want}, got {x.shape}")
+    if a.shape != b.shape:
+        raise ValueError(f"{name_a} {a.shape} and {name_b} {b.shape} must have the same shape")
+    return a, b
 
 
 def erode(mask: np.ndarray, pixels: int) -> np.ndarray:
@@ -80,29 +70,19 @@ def erode(mask: np.ndarray, pixels: int) -> np.ndarray:
     if pixels == 0:
         return mask.copy()
     out = np.zeros_like(mask)
-    box = _bounding_box(mask)
-    if box is not None:  # outside the mask's bounding box every pixel is background, as the border is: eroding
-        # the box alone (its border taken as background) is the whole image's erosion, for a fraction of the work
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if rows.size:  # outside the mask's bounding box every pixel is background, as the border is: eroding the
+        # box alone (its border taken as background) is the whole image's erosion, for a fraction of the work
+        box = slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)
         out[box] = ndimage.binary_erosion(mask[box], structure=np.ones((3, 3), bool), iterations=pixels,
                                           border_value=0)
     return out
 
 
-def _bounding_box(mask: np.ndarray) -> tuple[slice, slice] | None:
-    """The smallest ``(rows, columns)`` slices holding every True pixel of an (H, W) mask; None if it has none."""
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    if rows.size == 0:
-        return None
-    return slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)
-
-
 def comparison_mask(gl_part, ref_part, feather_part_ids, erode_px: int = 1) -> np.ndarray:
     """(H, W) bool: feather pixels away from silhouette edges that both renders agree on (module docstring);
     ``gl_part``, ``ref_part``: (H, W) part ids (-1 background); ``erode_px``: erosion of each coverage."""
-    gl_part = _as_image("gl_part", gl_part, None)
-    ref_part = _as_image("ref_part", ref_part, None)
-    if gl_part.shape != ref_part.shape:
-        raise ValueError(f"gl_part {gl_part.shape} and ref_part {ref_part.shape} must have the same shape")
+    gl_part, ref_part = _same_shape("gl_part", gl_part, "ref_part", ref_part, None)
     ids = np.asarray(list(feather_part_ids), dtype=np.int64)
     gl_f = erode(np.isin(gl_part, ids), erode_px)
     ref_f = erode(np.isin(ref_part, ids), erode_px)
@@ -114,13 +94,6 @@ def rgb_to_lab(rgb_linear: np.ndarray) -> np.ndarray:
     from .. import spectral
 
     return np.asarray(spectral.RGB_to_Lab(np.asarray(rgb_linear, np.float64)), np.float64)
-
-
-def _pair(gl_rgb, ref_rgb) -> tuple[np.ndarray, np.ndarray]:
-    gl_rgb, ref_rgb = _as_image("gl_rgb", gl_rgb, 3), _as_image("ref_rgb", ref_rgb, 3)
-    if gl_rgb.shape != ref_rgb.shape:
-        raise ValueError(f"gl_rgb {gl_rgb.shape} and ref_rgb {ref_rgb.shape} must have the same shape")
-    return gl_rgb, ref_rgb
 
 
 def pixel_de(a_px: np.ndarray, b_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -136,7 +109,7 @@ def pixel_de(a_px: np.ndarray, b_px: np.ndarray) -> tuple[np.ndarray, np.ndarray
 def delta_e_map(gl_rgb, ref_rgb, mask=None) -> np.ndarray:
     """(H, W) CIEDE2000 between two (H, W, 3) linear renders at the pixels of ``mask`` (default all), NaN
     elsewhere."""
-    gl_rgb, ref_rgb = _pair(gl_rgb, ref_rgb)
+    gl_rgb, ref_rgb = _same_shape("gl_rgb", gl_rgb, "ref_rgb", ref_rgb, 3)
     mask = np.ones(gl_rgb.shape[:2], bool) if mask is None else mask
     out = np.full(gl_rgb.shape[:2], np.nan)
     out[mask] = pixel_de(gl_rgb[mask], ref_rgb[mask])[0]
@@ -149,11 +122,10 @@ def _in_band(h_deg: np.ndarray, band: tuple[float, float]) -> np.ndarray:
 
 
 def hue_classes(rgb_linear: np.ndarray, sides: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(h_ab in degrees [0, 360), C*ab, class)`` of (..., 3) linear colours; class (int8) 0 grey (C*ab / L* <
-    HUE_MIN_SATURATION or L* < HUE_MIN_LIGHTNESS), else with ``sides`` False the strict bands (1 green,
-    2 purple, 3 any other hue), with ``sides`` True the nearer side of the hue circle split at
-    :data:`SIDE_SPLIT_DEG` (1 green, 2 purple): the boundary's classes, since the film passes from green to
-    purple through blue or through red-yellow hues, depending on the thickness."""
+    """``(h_ab in degrees [0, 360), C*ab, class)`` of (..., 3) linear colours; class (int8) 0 grey, else with
+    ``sides`` False the strict bands (1 green, 2 purple, 3 any other hue), with ``sides`` True the side of the hue
+    circle (1 green, 2 purple): the boundary's classes, since the film passes from green to purple through blue or
+    through red-yellow hues, depending on the thickness."""
     return lab_hue_classes(rgb_to_lab(rgb_linear), sides)
 
 
@@ -172,15 +144,12 @@ def lab_hue_classes(lab: np.ndarray, sides: bool = False) -> tuple[np.ndarray, n
     return h, c, cls
 
 
-def hue_histogram(rgb_pixels: np.ndarray) -> dict:
-    """Histogram of CIELAB hue over the chromatic ones of (N, 3) linear pixels (``bin_edges_deg``, ``counts``),
-    and the ``green``, ``purple``, ``grey`` and ``other`` counts."""
-    rgb_pixels = np.asarray(rgb_pixels, np.float64).reshape(-1, 3)
-    return lab_hue_histogram(rgb_to_lab(rgb_pixels) if len(rgb_pixels) else np.zeros((0, 3)))
-
-
-def lab_hue_histogram(lab_pixels: np.ndarray) -> dict:
-    """:func:`hue_histogram` of pixels already in CIELAB (:func:`rgb_to_lab`), shape (N, 3)."""
+def hue_histogram(rgb_pixels: np.ndarray | None, lab_pixels: np.ndarray | None = None) -> dict:
+    """Histogram of CIELAB hue over the chromatic ones of (N, 3) linear pixels, or of ``lab_pixels`` already in
+    CIELAB (``bin_edges_deg``, ``counts``), and the ``green``, ``purple``, ``grey`` and ``other`` counts."""
+    if lab_pixels is None:
+        rgb_pixels = np.asarray(rgb_pixels, np.float64).reshape(-1, 3)
+        lab_pixels = rgb_to_lab(rgb_pixels) if len(rgb_pixels) else np.zeros((0, 3))
     lab_pixels = np.asarray(lab_pixels, np.float64).reshape(-1, 3)
     edges = np.arange(0.0, 360.0 + HUE_BIN_DEG, HUE_BIN_DEG)
     if len(lab_pixels) == 0:
@@ -203,14 +172,10 @@ def lab_hue_histogram(lab_pixels: np.ndarray) -> dict:
 
 @dataclass
 class ViewMetrics:
-    """Metrics of one view, the GL render against the reference: the compared feather pixels
-    (:func:`comparison_mask`) and their dE2000 statistics (NaN without pixels), the share above
-    :data:`P95_DE_GOAL` (isolated alpha-edge disagreements show here), ``finite`` (no NaN/Inf in either render),
-    the lit feather pixels and the black holes among them, the :func:`hue_histogram` of the compared
-    structural pixels, ``passed`` (dE goals met, vacuously without pixels; finite; black fraction within its
-    goal) and ``failures``. Not in :meth:`summary`: ``de_map`` (NaN where not compared), ``cls`` (hue sides of
-    the compared structural pixels, -1 elsewhere: the boundary's input) and ``strict`` (their strict bands).
-    """
+    """Metrics of one view, the GL render against the reference (module docstring); dE statistics are NaN
+    without pixels, ``de_fraction_over_p95_goal`` shows isolated alpha-edge disagreements. Not in
+    :meth:`summary`: ``de_map`` (NaN where not compared), ``cls`` (hue sides of the compared structural pixels,
+    -1 elsewhere: the boundary's input) and ``strict`` (their strict bands)."""
 
     view: str
     n_pixels: int
@@ -241,10 +206,9 @@ def compare_arrays(view: str, gl_rgb, ref_rgb, gl_part, ref_part, feather_part_i
     """:func:`compare` on plain arrays: (H, W, 3) linear renders, (H, W) part ids (-1 background);
     ``ref_n_dot_l``: the reference's max(N.L, 0) (without it no black-hole check); ``ref_mask``: its
     structural-colour mask (the hue statistics take compared pixels with mask >= :data:`STRUCTURAL_MASK`)."""
-    # Only the compared pixels are converted, classified and checked (a few per cent of the image); every number
-    # is that of the whole-image formulation: the dE map is NaN elsewhere, and the black-hole and hue pixels are
-    # subsets of the compared ones. Non-finite values count as 0 in the statistics (``finite`` reports them).
-    gl_rgb, ref_rgb = _pair(gl_rgb, ref_rgb)
+    # Only the compared pixels (a few per cent of the image) are converted, classified and checked: the black-hole
+    # and hue pixels are subsets of them. Non-finite values count as 0 in the statistics (``finite`` reports them).
+    gl_rgb, ref_rgb = _same_shape("gl_rgb", gl_rgb, "ref_rgb", ref_rgb, 3)
     finite = bool(np.isfinite(gl_rgb).all() and np.isfinite(ref_rgb).all())
     mask = comparison_mask(gl_part, ref_part, feather_part_ids, erode_px)
     gl_px, ref_px = (np.where(np.isfinite(a[mask]), a[mask], 0.0).astype(np.float64) for a in (gl_rgb, ref_rgb))
@@ -283,29 +247,27 @@ def compare_arrays(view: str, gl_rgb, ref_rgb, gl_part, ref_part, feather_part_i
         view=view, n_pixels=n, de_median=float(stats[0]), de_p95=float(stats[1]), de_max=float(stats[2]),
         de_mean=float(stats[3]), de_fraction_over_p95_goal=float(np.mean(vals > P95_DE_GOAL)) if n else float("nan"),
         finite=finite, n_lit=n_lit, n_black=n_black, black_fraction=black_fraction,
-        hue=lab_hue_histogram(lab_hue), passed=not failures, failures=failures, de_map=de, cls=cls_img,
+        hue=hue_histogram(None, lab_hue), passed=not failures, failures=failures, de_map=de, cls=cls_img,
         strict=strict_img,
     )
 
 
-def gl_arrays(result) -> dict:
-    """The arrays of a GL :class:`rockdove.render.gl.RenderResult` that the comparison needs."""
-    return {"rgb": np.asarray(result.radiance_rgb), "part_id": np.asarray(result.part_id)}
+def feather_ids(scene) -> list:
+    """The part ids (1-based, as the renders' ``part_id``) of the scene's feather parts."""
+    return [i + 1 for i, p in enumerate(scene.parts) if p.is_feather]
 
 
 def compare(gl_result, ref_result, scene, erode_px: int = 1) -> ViewMetrics:
     """Compare one view's GL render (:class:`rockdove.render.gl.RenderResult`) with its reference render
     (:class:`rockdove.verify.reference_image.ReferenceResult`); the scene gives the feather part ids."""
-    g = gl_arrays(gl_result)
-    feather_ids = [i + 1 for i, p in enumerate(scene.parts) if p.is_feather]
-    return compare_arrays(ref_result.view, g["rgb"], ref_result.rgb, g["part_id"], ref_result.part_id,
-                          feather_ids, ref_n_dot_l=ref_result.n_dot_l, ref_mask=ref_result.mask,
+    return compare_arrays(ref_result.view, gl_result.radiance_rgb, ref_result.rgb, gl_result.part_id,
+                          ref_result.part_id, feather_ids(scene), ref_n_dot_l=ref_result.n_dot_l, ref_mask=ref_result.mask,
                           erode_px=erode_px)
 
 
 def reference_classes(ref_result, scene) -> np.ndarray:
     """Hue classes of the reference's feather pixels (used when there is no GL render)."""
-    feather = np.isin(ref_result.part_id, [i + 1 for i, p in enumerate(scene.parts) if p.is_feather])
+    feather = np.isin(ref_result.part_id, feather_ids(scene))
     feather &= ref_result.mask >= STRUCTURAL_MASK
     cls = np.full(feather.shape, -1, np.int8)
     if feather.any():

@@ -1,14 +1,9 @@
-"""The verification's GL renders in a thread of this process, one result per view, beside the CPU reference.
-
-:func:`rockdove.verify.run.render_and_check` asks for every view at once (:class:`GLRenders`) and compares each
-as soon as it is drawn, while the thread draws the next one and this thread integrates the reference: llvmpipe
-draws and reads back outside the GIL (its own threads), numpy's reference mostly too. A thread, not a process:
-measured (docs/design.md, "The GL renders"), a worker process saved nothing once the imports are warm and cost
-a second interpreter, a socket protocol and pickled images; Dask's daemonic workers need nothing special either.
-pyrender is imported by the first render of a process (~2 s; importing it ahead in a thread while the build
-imported pxr deadlocked a CLI build, so it is not).
-
-All GL calls of one :class:`GLRenders` run on its own single thread (an EGL context is current on one thread).
+"""The verification's GL renders in a thread of this process, one result per view, drawn while this thread
+integrates the CPU reference and compares the views already drawn: llvmpipe draws and reads back outside the GIL,
+numpy's reference mostly too. A thread, not a process: measured (docs/design.md, "The GL renders"), a worker
+process saved nothing once the imports are warm. pyrender is imported by the first render (importing it ahead in
+a thread while the build imported pxr deadlocked a CLI build). All GL calls of one :class:`GLRenders` run on its
+own single thread (an EGL context is current on one thread).
 """
 
 from __future__ import annotations
@@ -22,14 +17,11 @@ class GLRenderError(RuntimeError):
 
 
 class GLRenders:
-    """The GL renders of ``views`` (:class:`rockdove.render.gl.GLRenderer` opened at the first view's size and
-    closed after the last, as :func:`rockdove.render.gl.render_views` does, so the images are the same), drawn
-    in order on a thread of their own; :meth:`result` waits for one."""
+    """The GL renders of ``views`` (one :class:`rockdove.render.gl.GLRenderer` opened at the first view's size,
+    as :func:`rockdove.render.gl.render_views` does, so the images are the same); :meth:`result` waits for one."""
 
     def __init__(self, scene, views, lut=None):
         views = list(views)
-        if not views:
-            raise ValueError("views must contain at least one View, got none")
         pool = ThreadPoolExecutor(1, thread_name_prefix="rockdove-gl")
         state: dict = {}
 
@@ -40,9 +32,7 @@ class GLRenders:
             state["renderer"] = GLRenderer(scene, lut=lut, width=views[0].width, height=views[0].height)
             return time.perf_counter() - t
 
-        def render(view):
-            if "renderer" not in state:
-                raise GLRenderError("no GL renderer is open")
+        def render(view):  # after a failed open: result() raises the open's error first
             t = time.perf_counter()
             return state["renderer"].render(view), time.perf_counter() - t
 
@@ -64,8 +54,6 @@ class GLRenders:
             raise GLRenderError(f"the GL renderer could not open: {type(exc).__name__}: {exc}") from exc
         try:
             image, seconds = self._views[i].result()
-        except GLRenderError:
-            raise
         except Exception as exc:  # noqa: BLE001
             raise GLRenderError(f"{type(exc).__name__}: {exc}") from exc
         return image, seconds + open_s / len(self._views)

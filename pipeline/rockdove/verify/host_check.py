@@ -1,15 +1,9 @@
 """Verification of the hosts (:mod:`rockdove.hosts`): each host's renders against the exact reference of the
-lighting model it evaluates, over the feather-tip pixels.
+lighting model it evaluates, over the reference's structural feather pixels (eroded by one pixel as the GL
+comparison does; a host returns radiance only, no part ids, so its silhouette is the reference's).
 
-Per host, over every view: the feather pixels of the reference (its part ids, eroded by one pixel as the GL
-comparison does, :func:`rockdove.verify.compare.comparison_mask`) whose structural mask is >=
-:data:`rockdove.verify.compare.STRUCTURAL_MASK` (0.5). A host returns radiance only (no part ids), so its
-silhouette is the reference's.
-
-- ``median_dE``, ``p95_dE``: CIEDE2000 of the unclipped linear radiance (:func:`rockdove.verify.compare.
-  pixel_de`, the GL comparison's own);
-- ``green_px``, ``purple_px``: host pixels in the green / purple hue bands
-  (:func:`rockdove.verify.compare.hue_classes`, strict bands);
+- ``median_dE``, ``p95_dE``: CIEDE2000 of the unclipped linear radiance (the GL comparison's own);
+- ``green_px``, ``purple_px``: host pixels in the strict green / purple hue bands;
 - ``hue_agreement``: fraction of the pixels whose class (green, purple, other: grey and other hues together)
   is the reference's.
 
@@ -40,13 +34,18 @@ def _classes(lab: np.ndarray) -> np.ndarray:
     return np.where((cls == 1) | (cls == 2), cls, 3).astype(np.int8)
 
 
+def _de_stats(de: np.ndarray) -> dict:
+    n = int(de.size)
+    nan = float("nan")
+    return {"n_pixels": n, "median_dE": float(np.median(de)) if n else nan,
+            "p95_dE": float(np.percentile(de, 95)) if n else nan}
+
+
 def host_metrics(images: dict, refs: list, scene) -> dict:
     """dE and hue statistics (module docstring) of one host's renders (``images``: view name -> (H, W, 3) linear
-    radiance) against ``refs``, the references of its lobe, one per view: ``n_pixels``, ``median_dE``,
-    ``p95_dE``, ``green_px``, ``purple_px``, ``hue_agreement``, ``per_view`` (``{view: {"n_pixels",
-    "median_dE", "p95_dE"}}``) and ``de_maps`` (``{view: (H, W)}``, not JSON). ValueError when a view is
-    missing from ``images`` or has the wrong shape."""
-    feather_ids = [i + 1 for i, p in enumerate(scene.parts) if p.is_feather]
+    radiance) against ``refs``, the references of its lobe, one per view, also ``per_view`` and ``de_maps``
+    (``{view: (H, W)}``, not JSON). ValueError when a view is missing from ``images`` or has the wrong shape."""
+    feather_ids = compare.feather_ids(scene)
     des, host_cls, ref_cls, per_view, maps = [], [], [], {}, {}
     for ref in refs:
         if ref.view not in images:
@@ -62,17 +61,11 @@ def host_metrics(images: dict, refs: list, scene) -> dict:
         des.append(vals)
         host_cls.append(_classes(lab))
         ref_cls.append(_classes(compare.rgb_to_lab(ref.rgb[sel])))
-        per_view[ref.view] = {"n_pixels": int(vals.size),
-                              "median_dE": float(np.median(vals)) if vals.size else float("nan"),
-                              "p95_dE": float(np.percentile(vals, 95)) if vals.size else float("nan")}
-    de = np.concatenate(des) if des else np.zeros(0)
-    hc = np.concatenate(host_cls) if host_cls else np.zeros(0, np.int8)
-    rc = np.concatenate(ref_cls) if ref_cls else np.zeros(0, np.int8)
+        per_view[ref.view] = _de_stats(vals)
+    de, hc, rc = np.concatenate(des), np.concatenate(host_cls), np.concatenate(ref_cls)  # refs: one per view, >= 1
     n = int(de.size)
     return {
-        "n_pixels": n,
-        "median_dE": float(np.median(de)) if n else float("nan"),
-        "p95_dE": float(np.percentile(de, 95)) if n else float("nan"),
+        **_de_stats(de),
         "green_px": int(np.sum(hc == 1)),
         "purple_px": int(np.sum(hc == 2)),
         "hue_agreement": float(np.mean(hc == rc)) if n else float("nan"),
@@ -102,14 +95,11 @@ def host_passed(variant: str, metrics: dict) -> tuple[bool, list]:
 
 
 def check_host(module, asset_layer: str, scene, views, refs: list, out_dir: str, rendered, say) -> tuple[dict, dict]:
-    """Render the views in one host (:mod:`rockdove.hosts`; ``rendered``: its images when already drawn, the
-    GL renders for ``glsl``) and compare them with ``refs``, the references of its lobe (one per view).
-
-    Returns the report's entry (``name``, ``variant``, ``lobe``, the :func:`host_metrics` but ``de_maps``,
-    ``passed``, ``failures``; ``error`` when it raised :class:`rockdove.hosts.HostError`; ``skipped`` and
-    ``reason`` when its optional ``cannot_draw(asset_layer)`` names why it cannot draw this asset) and its
-    images in ``out_dir``: ``{view: {"host", "reference", "dE": file name}}``.
-    """
+    """Render the views in one host (``rendered``: its images when already drawn, the GL renders for ``glsl``)
+    and compare them with ``refs``, the references of its lobe. Returns the report's entry (the
+    :func:`host_metrics` but ``de_maps``; ``error`` when it raised :class:`rockdove.hosts.HostError`; ``skipped``
+    and ``reason`` when its optional ``cannot_draw(asset_layer)`` says why) and ``{view: {"host", "reference",
+    "dE": file name}}`` of its images in ``out_dir``."""
     from ..hosts import HostError
     from ..render.images import save_png
     from ..spectral import linear_to_srgb8

@@ -20,12 +20,8 @@ PHYSICAL_ONLY_NOTE = (
 
 
 def verification_scene(asset):
-    """Read an asset back for verification: ``(root layer, RenderScene, LUT baked in memory or None, notes)``.
-
-    An asset with a LUT is read as it is. For a LUT-less (physical-only) asset the renderers draw a LUT baked in
-    memory from the film it records (:meth:`rockdove.render.scene.RenderScene.load_lut`), returned here with
-    a note saying so (:data:`PHYSICAL_ONLY_NOTE`). Nothing is written.
-    """
+    """Read an asset back for verification: ``(root layer, RenderScene, LUT or None, notes)``; for a LUT-less
+    (physical-only) asset a LUT baked in memory from the film it records, and :data:`PHYSICAL_ONLY_NOTE`."""
     from ..render.scene import load_scene
 
     scene = load_scene(asset)
@@ -58,21 +54,17 @@ def verification_views(scene, width: int, height: int, n_views: int) -> list:
 
 
 def sizes(width=None, height=None, n_views=None) -> tuple[int, int, int]:
-    """The render size (pixels) and turntable + light-sweep views of a verification, the schema's ``[verify]``
-    defaults (the one place they are set) where None."""
-    from ..config import defaults
+    """The render size (pixels, checked against the schema's limits) and turntable + light-sweep views of a
+    verification, the schema's ``[verify]`` defaults (the one place they are set) where None."""
+    from ..config import defaults, limits
 
     d = defaults()["verify"]
-    return tuple(d[k] if v is None else v for k, v in (("width", width), ("height", height), ("views", n_views)))
-
-
-def check_size(width, height) -> None:
-    from ..config import limits
-
-    for key, v in (("width", width), ("height", height)):
+    out = tuple(d[k] if v is None else v for k, v in (("width", width), ("height", height), ("views", n_views)))
+    for key, v in zip(("width", "height"), out):
         lo, hi = limits(f"verify.{key}")
         if isinstance(v, bool) or int(v) != v or not lo <= int(v) <= hi:
             raise ValueError(f"{key} must be an integer from {lo} to {hi} pixels, got {v!r}")
+    return out
 
 
 def select_views(all_views: list, names) -> list:

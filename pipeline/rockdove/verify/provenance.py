@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import platform
+import time
 from functools import lru_cache
 
 from ..usd.layout import MARKER
@@ -66,12 +67,15 @@ def asset_configuration(layer_path: str) -> dict:
     return json.loads(json.dumps(found, default=str))
 
 
-def run_validation(layer_path: str) -> dict:
-    """Run the asset validator; returns ``{"passed": bool, "details": ..., "error": str | None}``."""
+def run_validation(layer_path: str) -> tuple[dict, float]:
+    """Run the asset validator: ``({"passed": bool, "details": ..., "error": str | None}, seconds)``."""
     from ..usd.validate import validate_asset
 
+    t = time.perf_counter()
     try:
         result = validate_asset(layer_path)
-    except ValueError as exc:
-        return {"passed": False, "details": None, "error": f"validation raised: {exc}"}
-    return {"passed": result.clean, "details": json.loads(json.dumps(result.to_dict(), default=str)), "error": None}
+    except Exception as exc:  # noqa: BLE001 - a validator that raises is a failure, never a pass
+        error = f"validation raised: {type(exc).__name__}: {exc}"
+        return {"passed": False, "details": None, "error": error}, time.perf_counter() - t
+    details = json.loads(json.dumps(result.to_dict(), default=str))
+    return {"passed": result.clean, "details": details, "error": None}, time.perf_counter() - t

@@ -1,11 +1,7 @@
-"""One verification view, checked: its GL render (:mod:`rockdove.verify.gl_renders`) against the exact CPU
-reference (:func:`rockdove.verify.reference_image.render_reference`), compared (:func:`rockdove.verify.compare.
-compare`: dE2000 goals, NaN/Inf, black holes), the hue histogram and boundary shape of a light-sweep view, and
-its images. :func:`rockdove.graph.verification.verify` caches the result per view and joins the views, the hosts
-and the validation into the verdict (:mod:`rockdove.verify.verdict`).
-
-Assets without a LUT (``shading.variant = "physical"``) are drawn with a verification-only LUT baked in memory
-from the film they record (:func:`rockdove.verify.inputs.verification_scene`); the report's notes say so.
+"""One verification view, checked: its GL render against the exact CPU reference, compared
+(:mod:`rockdove.verify.compare`), the hue histogram and boundary shape of a light-sweep view, and its images.
+:func:`rockdove.graph.verification.verify` caches the result per view and joins the views, the hosts and the
+validation into the verdict (:mod:`rockdove.verify.verdict`).
 """
 
 from __future__ import annotations
@@ -30,9 +26,7 @@ def render_and_check(scene, lut, views, out: str, *, say, surfaces=None) -> tupl
     from .reference_image import render_reference
 
     failures_all = []
-    # The GL renders run in a thread of their own (rockdove.verify.gl_renders), one result per view: this thread
-    # computes the reference, then compares each view as soon as it is rendered, while the next one is drawn.
-    # the largest views first (the hero): rendered while the reference integrates, so no view waits for long
+    # the largest views first (the hero): GL-rendered while the reference integrates, so no view waits for long
     order = sorted(range(len(views)), key=lambda i: -views[i].width * views[i].height)
     gl = GLRenders(scene, [views[i] for i in order], lut)
     t = time.perf_counter()
@@ -58,8 +52,9 @@ def render_and_check(scene, lut, views, out: str, *, say, surfaces=None) -> tupl
                 failure = f"GL renders (rockdove.render.gl) failed: {exc}"
                 if failure not in failures_all:
                     failures_all.append(failure)
-            if gl_result is not None:
-                gl_images[v.name] = compare.gl_arrays(gl_result)["rgb"]
+            gl_rgb = None if gl_result is None else np.asarray(gl_result.radiance_rgb)
+            if gl_rgb is not None:
+                gl_images[v.name] = gl_rgb
             t = time.perf_counter()
             folder = os.path.join(out, v.name)
             os.makedirs(folder, exist_ok=True)
@@ -68,8 +63,7 @@ def render_and_check(scene, lut, views, out: str, *, say, surfaces=None) -> tupl
             hue = boundary = None
             if sweep and m is not None:  # the comparison classified the pixels: its classes and histogram
                 # (that of the GL colours themselves when they are finite, which the comparison reads as 0)
-                hue = m.hue if m.finite else compare.hue_histogram(
-                    np.asarray(compare.gl_arrays(gl_result)["rgb"], np.float64)[m.cls >= 0])
+                hue = m.hue if m.finite else compare.hue_histogram(gl_rgb.astype(np.float64)[m.cls >= 0])
                 boundary = {**boundary_straightness(m.cls), **class_shape(m.strict, m.cls)}
             elif sweep:
                 cls = compare.reference_classes(ref_results[i], scene)
@@ -80,8 +74,8 @@ def render_and_check(scene, lut, views, out: str, *, say, surfaces=None) -> tupl
             ref_png = linear_to_srgb8(ref_results[i].rgb)
             path = os.path.join(folder, f"{v.name}_reference.png")
             write(files, "reference", path, save_png, ref_png, path)
-            if gl_result is not None:
-                gl_png = linear_to_srgb8(compare.gl_arrays(gl_result)["rgb"])
+            if gl_rgb is not None:
+                gl_png = linear_to_srgb8(gl_rgb)
                 path = os.path.join(folder, f"{v.name}_gl.png")
                 write(files, "gl", path, save_png, gl_png, path)
                 rows.append(gl_png)

@@ -31,15 +31,13 @@ def combine(layer, scene, lut, notes, results: dict, out: str, width, height, be
             t_start, hosts, items, published_asset, beauty) -> dict:
     """Validate the asset and join the per-view results and the hosts' entries into the verdict and the report
     (``report.json``, ``report.html`` and their images in the folder ``out``); returns the report dict.
-    ``bench_dir``: a folder whose benchmark plots the report shows (None: none; the report reads no folder it is
-    not given). ``beauty``: the ``[beauty]`` settings and ``cycles_ok`` of the picture the report opens with
-    (:func:`rockdove.hosts.beauty.for_report`)."""
+    ``bench_dir``: benchmark plots the report shows (None: none; the report reads no folder it is not given)."""
     timings, failures, notes = {}, [], list(notes)
     say("validating")
     # in a thread, while this one draws the report (pxr's validators and the charts' PNG encoding leave the GIL
     # in parts)
     validating = ThreadPoolExecutor(1, thread_name_prefix="rockdove-validate")
-    validation_pending = validating.submit(_validate_timed, layer)
+    validation_pending = validating.submit(provenance.run_validation, layer)
     validating.shutdown(wait=False)
     results = list(results.values())
     for key in ("gl", "reference", "compare"):
@@ -162,15 +160,6 @@ def combine(layer, scene, lut, notes, results: dict, out: str, width, height, be
     report.write_json(os.path.join(out, "report.json"), shipped)  # no build machine's path in what ships
     report.write_html(os.path.join(out, "report.html"), shipped, images)
     return result
-
-
-def _validate_timed(layer) -> tuple[dict, float]:
-    t = time.perf_counter()
-    try:
-        validation = provenance.run_validation(layer)
-    except Exception as exc:  # noqa: BLE001 - a validator that raises is a failure, never a pass
-        validation = {"passed": False, "details": None, "error": f"validation raised: {type(exc).__name__}: {exc}"}
-    return validation, time.perf_counter() - t
 
 
 def summary(report: dict) -> dict:
