@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass
-from types import ModuleType
+from types import ModuleType, SimpleNamespace
 
 #: host name -> module, or ``module:attribute`` for one of several hosts a module defines (e.g. Storm's three
 #: networks); imported only when the host is asked for.
@@ -38,6 +38,8 @@ DEFAULT = ("glsl", "materialx", "materialx_physical", "blender", "web")
 #: ``view_angle``: the smooth film's mirror lobe alone under a uniform white environment of unit radiance,
 #: so a feather-tip pixel is the exact film colour at cos = |N.V| (times the mask), base colour black.
 LOBES = ("half_angle", "view_angle")
+#: Radiance of the ``view_angle`` lobe's uniform white environment (linear Rec.709, D65 white = 1).
+ENVIRONMENT_RADIANCE = 1.0
 #: The host every verification runs (our own GLSL shaders).
 ALWAYS = "glsl"
 
@@ -49,6 +51,15 @@ class HostError(RuntimeError):
         super().__init__(f"host {name!r}: {message}")
         self.name = name
         self.message = message
+
+
+def variant_host(name: str, variant: str, lobe: str, unavailable, render, cannot_draw=None) -> SimpleNamespace:
+    """Host ``name`` of a module that draws several networks (``module:attribute`` in :data:`HOSTS`): network
+    ``variant`` (``cannot_draw(asset_path, variant)`` says why an asset lacks it), rendered by
+    ``render(asset_path, views, out_dir, name=name)``."""
+    return SimpleNamespace(NAME=name, VARIANT=variant, LOBE=lobe, unavailable=unavailable,
+                           cannot_draw=lambda asset_path: cannot_draw and cannot_draw(asset_path, variant),
+                           render=lambda asset_path, views, out_dir: render(asset_path, views, out_dir, name=name))
 
 
 def load(name: str) -> ModuleType:

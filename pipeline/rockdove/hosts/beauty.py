@@ -18,9 +18,7 @@ from . import HostError, blender as bl
 def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
     """Render ``views`` with Cycles through the add-on (:mod:`rockdove.hosts.blender_beauty_job`); returns
     ``{view name: (H, W, 3) uint8}`` (display-referred, AgX). Raises HostError when Blender cannot."""
-    work = os.path.join(os.path.abspath(out_dir), "beauty_cycles")
-    os.makedirs(work, exist_ok=True)
-    bl.clear_views(views, work, "png")
+    work = bl.work_folder("beauty_cycles", views, out_dir, "png")
     verts, quads = cyclorama(scene, views)
     job = {
         **bl.base_job(os.path.abspath(layer), views, work, samples), "ground_vertices_m": np.round(verts, 6).tolist(),

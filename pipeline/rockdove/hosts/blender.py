@@ -22,7 +22,7 @@ import zipfile
 
 import numpy as np
 
-from . import HostError
+from . import ENVIRONMENT_RADIANCE, HostError
 from ..resources import atomic_path
 
 NAME = "blender"
@@ -36,8 +36,6 @@ ADDON_ZIP = f"{ADDON_MODULE}.zip"
 SAMPLES = 16
 #: Transparent bounces: feather layers a camera ray may cross (as the reference's MAX_ALPHA_LAYERS).
 TRANSPARENT_BOUNCES = 24
-#: Radiance of the uniform white world (the view_angle lobe's environment).
-ENVIRONMENT_RADIANCE = 1.0
 #: Render threads (the machine's 2 cores; Cycles' default would take every core).
 THREADS = 2
 #: Seconds before a Blender run is given up (import ~2 s, 64x64 renders take a second each).
@@ -155,20 +153,19 @@ def read_exr_rgb(path: str) -> np.ndarray:
     """(H, W, 3) float32 RGB of an EXR Blender wrote (RGBA, premultiplied: background 0)."""
     import OpenEXR
 
-    with OpenEXR.File(path) as f:
-        channels = {name: np.array(ch.pixels) for name, ch in f.channels().items()}
-    rgb = channels.get("RGBA", channels.get("RGB"))
-    if rgb is None and all(c in channels for c in "RGB"):
-        rgb = np.stack([channels[c] for c in "RGB"], axis=-1)
-    if rgb is None:
-        raise HostError(NAME, f"{path}: no RGB channels (has {sorted(channels)})")
-    return np.ascontiguousarray(rgb[..., :3], dtype=np.float32)
+    with OpenEXR.File(path) as f:  # R, G, B(, A) come as one channel "RGBA" (or "RGB")
+        channels = f.channels()
+        rgb = channels.get("RGBA", channels.get("RGB"))
+        if rgb is None:
+            raise HostError(NAME, f"{path}: no RGB channels (has {sorted(channels)})")
+        return np.ascontiguousarray(np.array(rgb.pixels)[..., :3], dtype=np.float32)
 
 
-def run_job(job: dict, work: str, module: str = "rockdove.hosts.blender_job", timeout_s: float = TIMEOUT_S) -> None:
+def run_job(job: dict, work: str, module: str = "rockdove.hosts.blender_job", timeout_s: float = TIMEOUT_S, *,
+            host: str = NAME, renderer: str = "Blender") -> None:
     """Write ``job`` as ``work/job.json`` and run the job script ``module`` on it with :func:`bpy_python`,
     Blender's user folders inside ``work``; its output goes to ``work/blender.log``. Raises :class:`HostError`
-    when Blender fails or does not finish within ``timeout_s`` seconds."""
+    (``host``, naming ``renderer``) when the job fails or does not finish within ``timeout_s`` seconds."""
     python = bpy_python()
     job_path = os.path.join(work, "job.json")
     with open(job_path, "w", encoding="utf-8") as fh:
@@ -183,12 +180,12 @@ def run_job(job: dict, work: str, module: str = "rockdove.hosts.blender_job", ti
         proc = subprocess.run([python, job_file, job_path], env=env,
                               capture_output=True, text=True, timeout=timeout_s, cwd=work)
     except subprocess.TimeoutExpired:
-        raise HostError(NAME, f"Blender did not finish within {timeout_s:g} s") from None
+        raise HostError(host, f"{renderer} did not finish within {timeout_s:g} s") from None
     with open(os.path.join(work, "blender.log"), "w", encoding="utf-8") as fh:
         fh.write(proc.stdout + "\n--- stderr ---\n" + proc.stderr)
     if proc.returncode != 0:
         lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
-        raise HostError(NAME, f"Blender exited with status {proc.returncode}: "
+        raise HostError(host, f"{renderer} exited with status {proc.returncode}: "
                               f"{lines[-1] if lines else 'no message'} (log: {work}/blender.log)")
 
 
@@ -206,16 +203,12 @@ def render(asset_path: str, views, out_dir: str, *, addon: bool = True, lobe: st
     Raises :class:`HostError` when bpy is missing, Blender fails, or the add-on builds no thin-film material."""
     bpy_python()  # bpy missing: HostError before any work
     views = list(views)
-    if not views:
-        raise ValueError("views must hold at least one View, got none")
     if lobe not in LOBES or (lobe == LOBE and not addon):
         raise ValueError(f"lobe={lobe!r} with addon={addon}; allowed: {LOBES[0]!r} (needs the add-on) or {LOBES[1]!r}")
     asset_path = os.path.abspath(os.fspath(asset_path))
     if not os.path.isfile(asset_path):
         raise HostError(NAME, f"no asset at {asset_path!r}")
-    work = os.path.join(os.path.abspath(out_dir), NAME)
-    os.makedirs(work, exist_ok=True)
-    clear_views(views, work)
+    work = work_folder(NAME, views, out_dir)
     run_job({**base_job(asset_path, views, work, samples, addon=addon), "lobe": lobe,
              "environment_radiance": ENVIRONMENT_RADIANCE}, work)
     return read_views(NAME, "Blender", views, work)
@@ -229,11 +222,17 @@ def base_job(asset: str, views, work: str, samples: int, *, addon: bool = True) 
             "threads": THREADS, "out_dir": work, "views": [v.to_dict() for v in views]}
 
 
-def clear_views(views, work: str, ext: str = "exr") -> None:
-    """Remove the views' images a job wrote into ``work`` before, so a job that writes none is caught."""
+def work_folder(folder: str, views: list, out_dir: str, ext: str = "exr") -> str:
+    """``out_dir/<folder>``, made, without the ``views``' images a job wrote there before (so a job that writes
+    none is caught). ValueError for no views."""
+    if not views:
+        raise ValueError("views must hold at least one View, got none")
+    work = os.path.join(os.path.abspath(out_dir), folder)
+    os.makedirs(work, exist_ok=True)
     for v in views:
         with contextlib.suppress(FileNotFoundError):
             os.remove(os.path.join(work, f"{v.name}.{ext}"))
+    return work
 
 
 def read_views(host: str, renderer: str, views, work: str, ext: str = "exr") -> dict:

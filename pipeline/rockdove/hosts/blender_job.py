@@ -97,7 +97,6 @@ def import_asset(bpy, job: dict):
 
 
 def cycles(scene, job: dict) -> None:
-    """The Cycles settings of every job: the CPU, the job's samples, transparent bounces and threads, seed 0."""
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
     scene.cycles.samples = int(job["samples"])

@@ -21,10 +21,10 @@ reference (:func:`rockdove.verify.host_check.host_passed`), its dE reported.
 
 from __future__ import annotations
 
+import functools
 import os
-from types import SimpleNamespace
 
-from . import HostError
+from . import HostError, variant_host
 
 NAME = "materialx"
 #: The network drawn: the asset's default shading variant for MaterialX hosts.
@@ -61,13 +61,6 @@ def render(asset_path: str, views, out_dir: str) -> dict:
     return render_variant(asset_path, views, out_dir, variant=VARIANT, name=NAME)
 
 
-#: The ``materialx_physical`` host (rockdove.hosts.HOSTS: ``rockdove.hosts.materialx:PHYSICAL``).
-PHYSICAL = SimpleNamespace(NAME="materialx_physical", VARIANT="physical", LOBE=LOBE, unavailable=unavailable,
-                           cannot_draw=lambda asset_path: cannot_draw(asset_path, "physical"),
-                           render=lambda asset_path, views, out_dir: render_variant(
-                               asset_path, views, out_dir, variant="physical", name="materialx_physical"))
-
-
 # -- the asset's MaterialX network -> GLSL ----------------------------------------------------------------------
 def generate_glsl(doc, material_name: str) -> tuple[str, str]:
     """Vertex and pixel shader of ``material_name`` (a ``surfacematerial`` of ``doc``) by ``GlslShaderGenerator``."""
@@ -79,10 +72,8 @@ def generate_glsl(doc, material_name: str) -> tuple[str, str]:
 
 
 def generate(doc, material_name: str, generator, **options):
-    """MaterialX's ``generator`` run on ``material_name`` (a ``surfacematerial`` of ``doc``): the shader, with the
-    document's colour management, the working space ``lin_rec709``, images flipped to the renderers' first-row
-    convention (``fileTextureVerticalFlip``) and any other generator ``options``. ValueError when the node is
-    not in ``doc``."""
+    """MaterialX's ``generator`` run on ``material_name`` (a ``surfacematerial`` of ``doc``) with the document's
+    colour management, images flipped to the renderers' first-row convention and the generator ``options``."""
     import MaterialX as mx
     import MaterialX.PyMaterialXGenShader as mx_gen
 
@@ -156,11 +147,10 @@ def feather_networks(layer: str, variant: str) -> dict:
     return out
 
 
-def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str, name: str,
-                   base_black: bool = True) -> dict:
+def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str, name: str) -> dict:
     """Draw ``views`` of the asset's (folder or root layer) network for shading variant ``variant``: view name ->
     (H, W, 3) float32 linear Rec.709 radiance, background 0; ``<view>_<name>.png`` (sRGB) into ``out_dir`` when
-    given. ``base_black``: the base colour texture's RGB 0. HostError (``name``) when the asset cannot be read,
+    given; the base colour texture's RGB 0 (the film lobe alone). HostError (``name``) when the asset cannot be read,
     the shader does not compile or link, or GL fails."""
     from ..render.scene import load_scene
     from ..usd.layout import resolve_root_layer
@@ -180,7 +170,7 @@ def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str,
     except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
         raise HostError(name, f"MaterialX shader generation failed: {type(exc).__name__}: {exc}") from None
     try:
-        images = draw(scene, networks, sources, views, base_black=base_black, name=name)
+        images = draw(scene, networks, sources, views, name=name)
     except HostError:
         raise
     except Exception as exc:
@@ -193,3 +183,8 @@ def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str,
         for view_name, rgb in images.items():
             save_png(linear_to_srgb8(rgb), os.path.join(out_dir, f"{view_name}_{name}.png"))
     return images
+
+
+#: The ``materialx_physical`` host (rockdove.hosts.HOSTS: ``rockdove.hosts.materialx:PHYSICAL``).
+PHYSICAL = variant_host("materialx_physical", "physical", LOBE, unavailable,
+                        functools.partial(render_variant, variant="physical"), cannot_draw)

@@ -1,15 +1,12 @@
-"""Drawing of MaterialX's generated GLSL for :mod:`rockdove.hosts.materialx`, what a viewer does around it: an EGL
-context (pyrender's), the meshes as the shader's vertex streams, the image nodes' files as textures, the
-``view_angle`` lobe's uniform environment, a float framebuffer read back as linear Rec.709."""
+"""Drawing of MaterialX's generated GLSL for :mod:`rockdove.hosts.materialx` (its docstring: "This module's part"),
+in pyrender's EGL context, into a float framebuffer read back as linear Rec.709."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from . import HostError
+from . import ENVIRONMENT_RADIANCE, HostError
 
-#: Radiance of the uniform white environment (linear Rec.709, D65 white = 1).
-ENVIRONMENT_RADIANCE = 1.0
 #: Image nodes whose texture gets a mip chain and trilinear filtering, as every host does: the LUT (its angle axis
 #: is minified where cos theta changes fast on screen, which the verification must see). The card atlas (base
 #: colour + cut-out, mask) is sampled at the pixel centre as the reference samples it: mipmapped, its blended
@@ -97,7 +94,7 @@ def _projection(view, near: float, far: float) -> np.ndarray:
                      [0, 0, (far + near) / (near - far), 2 * far * near / (near - far)], [0, 0, -1, 0]])
 
 
-def draw(scene, networks: dict, sources: dict, views, *, base_black: bool, name: str) -> dict:
+def draw(scene, networks: dict, sources: dict, views, *, name: str) -> dict:
     """View name -> float linear radiance of ``views`` of ``scene``, each part with a network in ``networks`` drawn
     by its generated ``sources`` (vertex, pixel), the others black (:mod:`rockdove.hosts.materialx`)."""
     import pyrender
@@ -111,26 +108,24 @@ def draw(scene, networks: dict, sources: dict, views, *, base_black: bool, name:
         offscreen = pyrender.OffscreenRenderer(w, h)
         try:
             offscreen._platform.make_current()
-            out.update(_draw_in_context(GL, scene, networks, sources, group, base_black, name, w, h))
+            out.update(_draw_in_context(GL, scene, networks, sources, group, name, w, h))
         finally:
             offscreen.delete()
     return {v.name: out[v.name] for v in views}
 
 
-def _draw_in_context(GL, scene, networks, sources, views, base_black, name, w, h) -> dict:
+def _draw_in_context(GL, scene, networks, sources, views, name, w, h) -> dict:
     ones = np.full((2, 2, 3), ENVIRONMENT_RADIANCE, np.float32)
     env = _texture(ones, mipmaps=False)
     black = _texture(np.zeros((1, 1, 4), np.float32), mipmaps=False)
     fbo = GL.glGenFramebuffers(1)
     GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fbo)
-    colour = GL.glGenRenderbuffers(1)
-    GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, colour)
-    GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, GL.GL_RGBA32F, w, h)
-    GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, GL.GL_COLOR_ATTACHMENT0, GL.GL_RENDERBUFFER, colour)
-    depth = GL.glGenRenderbuffers(1)
-    GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, depth)
-    GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, GL.GL_DEPTH_COMPONENT32F, w, h)
-    GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, GL.GL_DEPTH_ATTACHMENT, GL.GL_RENDERBUFFER, depth)
+    for storage, attachment in ((GL.GL_RGBA32F, GL.GL_COLOR_ATTACHMENT0),
+                                (GL.GL_DEPTH_COMPONENT32F, GL.GL_DEPTH_ATTACHMENT)):
+        buffer = GL.glGenRenderbuffers(1)
+        GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, buffer)
+        GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, storage, w, h)
+        GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, attachment, GL.GL_RENDERBUFFER, buffer)
     if GL.glCheckFramebufferStatus(GL.GL_FRAMEBUFFER) != GL.GL_FRAMEBUFFER_COMPLETE:
         raise HostError(name, "float framebuffer incomplete")
 
@@ -142,7 +137,7 @@ def _draw_in_context(GL, scene, networks, sources, views, base_black, name, w, h
             prog, textures = occluder, {}
         else:
             prog = _compile(*sources[part.path], name)
-            textures = _bind_samplers(GL, prog, net, env, black, base_black)
+            textures = _bind_samplers(GL, prog, net, env, black)
         draws.append((prog, _vertex_array(GL, prog, part), int(np.asarray(part.triangles).size), textures))
 
     lo, hi = scene.bounds_m
@@ -163,9 +158,9 @@ def _draw_in_context(GL, scene, networks, sources, views, base_black, name, w, h
         GL.glDisable(GL.GL_BLEND)
         for prog, vao, n, textures in draws:
             GL.glUseProgram(prog)
-            _set_matrix(GL, prog, "u_viewProjectionMatrix", vp)
-            _set_matrix(GL, prog, "u_worldMatrix", np.eye(4, dtype=np.float32))
-            _set_matrix(GL, prog, "u_worldInverseTransposeMatrix", np.eye(4, dtype=np.float32))
+            for uniform, m in (("u_viewProjectionMatrix", vp), ("u_worldMatrix", np.eye(4)),
+                               ("u_worldInverseTransposeMatrix", np.eye(4))):
+                _set_matrix(GL, prog, uniform, m)
             loc = GL.glGetUniformLocation(prog, "u_viewPosition")
             if loc >= 0:
                 GL.glUniform3f(loc, *eye.astype(np.float32))
@@ -190,8 +185,9 @@ def _set_matrix(GL, prog, uniform: str, m: np.ndarray) -> None:
         GL.glUniformMatrix4fv(loc, 1, GL.GL_TRUE, np.ascontiguousarray(m, np.float32))
 
 
-def _bind_samplers(GL, prog, net: dict, env: int, black: int, base_black: bool) -> dict:
-    """Texture unit -> texture for every sampler of the program; image nodes get their files."""
+def _bind_samplers(GL, prog, net: dict, env: int, black: int) -> dict:
+    """Texture unit -> texture for every sampler of the program; image nodes get their files (the base colour's
+    RGB 0: the film lobe alone)."""
     GL.glUseProgram(prog)
     textures, unit = {}, 0
     for i in range(GL.glGetProgramiv(prog, GL.GL_ACTIVE_UNIFORMS)):
@@ -206,7 +202,7 @@ def _bind_samplers(GL, prog, net: dict, env: int, black: int, base_black: bool) 
         elif uname.endswith("_file") and uname[: -len("_file")] in net["files"]:
             node = uname[: -len("_file")]
             pixels = read_image_file(net["files"][node])
-            if base_black and node == "BaseColorTexture" and pixels.ndim == 3 and pixels.shape[2] == 4:
+            if node == "BaseColorTexture" and pixels.ndim == 3 and pixels.shape[2] == 4:
                 pixels = pixels.copy()
                 pixels[:, :, :3] = 0
             tex = _texture(pixels, mipmaps=node in MIPMAPPED_IMAGES)
@@ -215,13 +211,12 @@ def _bind_samplers(GL, prog, net: dict, env: int, black: int, base_black: bool) 
         textures[unit] = tex
         GL.glUniform1i(GL.glGetUniformLocation(prog, uname), unit)
         unit += 1
-    for uniform, value in (("u_envRadianceMips", 1), ("u_numActiveLightSources", 0)):
+    uniforms = (("u_envRadianceMips", GL.glUniform1i, 1), ("u_numActiveLightSources", GL.glUniform1i, 0),
+                ("u_envLightIntensity", GL.glUniform1f, 1.0))
+    for uniform, setter, value in uniforms:
         loc = GL.glGetUniformLocation(prog, uniform)
         if loc >= 0:
-            GL.glUniform1i(loc, value)
-    loc = GL.glGetUniformLocation(prog, "u_envLightIntensity")
-    if loc >= 0:
-        GL.glUniform1f(loc, 1.0)
+            setter(loc, value)
     return textures
 
 

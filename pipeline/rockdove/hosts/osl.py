@@ -5,10 +5,8 @@ MaterialX path of Arnold, RenderMan, Karma CPU and Cycles' OSL mode).
 What MaterialX does: the network upstream of the feather material's ``outputs:mtlx:surface``, rebuilt from the
 written USD (:func:`rockdove.hosts.materialx.feather_networks`, as Hydra's HdMtlx does) becomes one OSL shader
 by ``OslShaderGenerator`` 1.39 (the pip MaterialX); every colour, texture lookup, ``geompropvalue`` (OSL
-``getattribute``) and closure is that generated code. What this host changes in the MaterialX document before
-generating (:func:`lobe_document`), as the Storm host does in its session layer: the base colour black (the
-film lobe alone), each ``image`` node's ``file`` made absolute (the shader is compiled outside the asset
-folder), and the colours handed to the closures converted into the renderer's working space (:data:`WORKING_SPACE`).
+``getattribute``) and closure is that generated code, after :func:`lobe_document`'s changes (as the Storm host
+makes in its session layer; the image files made absolute: the shader is compiled outside the asset folder).
 
 What Cycles does (:mod:`rockdove.hosts.osl_job`, in the bpy Python): ``_cycles.osl_compile`` (OSL 1.14) compiles
 the source with MaterialX's OSL headers (``mx_funcs.h`` and the stdlib ``genosl`` includes) beside it; the
@@ -22,14 +20,13 @@ from __future__ import annotations
 
 import os
 import shutil
-from types import SimpleNamespace
 
-from . import HostError
+from . import ENVIRONMENT_RADIANCE, HostError, variant_host
+from .materialx import cannot_draw
 
 #: host name -> (the ``shading`` variant drawn, its base-colour input ``node.input``, set to black)
 VARIANTS = {"osl": ("baked", "StructuralMix.bg"), "osl_physical": ("physical", "MtlxPhysicalSurface.base_color")}
 LOBE = "view_angle"
-ENVIRONMENT_RADIANCE = 1.0
 #: Cycles samples per pixel (the shading is deterministic; samples only resolve cut-out edges).
 SAMPLES = 8
 #: Seconds before a Cycles OSL run is given up.
@@ -201,22 +198,18 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
     view name -> (H, W, 3) float32 linear Rec.709 radiance, background 0. HostError when bpy is missing, MaterialX
     cannot generate the OSL, the OSL compiler rejects it (its error line) or Cycles writes no image."""
     from . import blender
-    from .blender import root_object
     from .materialx import feather_networks
     from ..usd.layout import resolve_root_layer
 
     variant, base = VARIANTS[name]
     views = list(views)
-    if not views:
-        raise ValueError("views must hold at least one View, got none")
     blender.bpy_python()
     try:
         layer = resolve_root_layer(asset_path)
         networks = feather_networks(layer, variant)
     except (ValueError, RuntimeError, OSError) as exc:
         raise HostError(name, f"cannot read the asset's MaterialX network: {exc}") from None
-    work = os.path.join(os.path.abspath(out_dir), name)
-    os.makedirs(work, exist_ok=True)
+    work = blender.work_folder(name, views, out_dir)
     for header in osl_headers():
         shutil.copyfile(header, os.path.join(work, os.path.basename(header)))
     shaders = {}
@@ -230,29 +223,14 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
         raise HostError(name, f"cannot turn the asset's MaterialX network into OSL: {exc}") from None
     except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
         raise HostError(name, f"MaterialX OSL generation failed: {type(exc).__name__}: {exc}") from None
-    blender.clear_views(views, work)
-    job = {"asset": os.path.abspath(layer), "root_object": root_object(layer), "addon_zip": None,
-           "shaders": shaders, "environment_radiance": ENVIRONMENT_RADIANCE, "samples": SAMPLES,
-           "working_space": WORKING_SPACE, "exr_colorspace": EXR_SPACE,
-           "transparent_bounces": blender.TRANSPARENT_BOUNCES, "threads": blender.THREADS, "out_dir": work,
-           "views": [v.to_dict() for v in views]}
+    job = {**blender.base_job(os.path.abspath(layer), views, work, SAMPLES, addon=False), "shaders": shaders,
+           "environment_radiance": ENVIRONMENT_RADIANCE, "working_space": WORKING_SPACE, "exr_colorspace": EXR_SPACE}
     try:
-        blender.run_job(job, work, module="rockdove.hosts.osl_job", timeout_s=TIMEOUT_S)
+        blender.run_job(job, work, "rockdove.hosts.osl_job", TIMEOUT_S, host=name, renderer="Cycles (OSL)")
     except HostError as exc:
-        message = _compiler_error(work) or exc.message.replace("Blender exited", "Cycles (OSL) exited")
-        raise HostError(name, message) from None
+        raise HostError(name, _compiler_error(work) or exc.message) from None
     return blender.read_views(name, "Cycles (OSL)", views, work)
 
 
-def _host(name: str) -> SimpleNamespace:
-    from .materialx import cannot_draw
-
-    variant = VARIANTS[name][0]
-    return SimpleNamespace(NAME=name, VARIANT=variant, LOBE=LOBE, unavailable=unavailable,
-                           cannot_draw=lambda asset_path: cannot_draw(asset_path, variant),
-                           render=lambda asset_path, views, out_dir: render_variant(asset_path, views, out_dir,
-                                                                                    name=name))
-
-
 #: The registry's host objects (rockdove.hosts.HOSTS: ``rockdove.hosts.osl:BAKED``, ``...:PHYSICAL``).
-BAKED, PHYSICAL = (_host(n) for n in VARIANTS)
+BAKED, PHYSICAL = (variant_host(n, VARIANTS[n][0], LOBE, unavailable, render_variant, cannot_draw) for n in VARIANTS)

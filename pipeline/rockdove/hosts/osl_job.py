@@ -2,16 +2,9 @@
 bpy (:func:`rockdove.hosts.blender.bpy_python`); it imports nothing but the standard library, bpy and its sibling
 :mod:`rockdove.hosts.blender_job` (by file, also stdlib + bpy only).
 
-Steps (the job file, written by :func:`rockdove.hosts.osl.render`, gives every value):
-
-1. compile each generated ``.osl`` with Blender's bundled OSL compiler (``_cycles.osl_compile``), MaterialX's
-   headers beside it; a shader that fails prints the compiler's error lines and the job exits 1 naming it;
-2. import the asset with Blender's USD importer, no add-on (:func:`blender_job.import_asset`);
-3. on each mesh the job names, the material becomes a Script node of the compiled shader into the Material
-   Output's surface; every other material black diffuse (occluding); no object seen by glossy rays;
-4. the working space the job names (ACEScg, :data:`rockdove.hosts.osl.WORKING_SPACE`), a uniform white world of
-   unit radiance, Cycles on the CPU with OSL on, each View's camera exactly (:func:`blender_job.render_views`),
-   written in the job's ``exr_colorspace``.
+The steps are those of :mod:`rockdove.hosts.osl`'s docstring ("What Cycles does"); the job file, written by
+:func:`rockdove.hosts.osl.render_variant`, gives every value. A shader the compiler rejects prints its error lines
+and the job exits 1 naming it; every material but the feathers' is black diffuse (occluding).
 """
 
 from __future__ import annotations
@@ -122,15 +115,6 @@ def run(job: dict) -> None:
         json.dump({"drawn": drawn, "blender": bpy.app.version_string}, fh)
 
 
-def main(argv=None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
-    if len(argv) != 1:
-        print("usage: python osl_job.py JOB.json", file=sys.stderr)
-        return 2
-    with open(argv[0], encoding="utf-8") as fh:
-        run(json.load(fh))
-    return 0
-
-
 if __name__ == "__main__":
-    sys.exit(main())
+    with open(sys.argv[1], encoding="utf-8") as fh:
+        run(json.load(fh))

@@ -4,7 +4,7 @@ Storm is the one in the bpy wheel (USD 25.08 with imaging, hdSt, HdMtlx, Materia
 :mod:`rockdove.hosts.storm_job` in the Python that has bpy (:func:`rockdove.hosts.blender.bpy_python`), headless
 in an EGL pbuffer with an OpenGL 4.5 compatibility context. Everything the host adds is in the stage's session
 layer (the asset's files are never written): a camera per View (clipping range 1 mm - 1 km), a dome light with a
-white texture of unit radiance (:data:`ENVIRONMENT_RADIANCE`: the ``view_angle`` lobe's uniform environment), the
+white texture (the ``view_angle`` lobe's uniform environment, :data:`rockdove.hosts.ENVIRONMENT_RADIANCE`), the
 ``shading`` variant selection, and the lobe's changes: base colour black (the feather's ``StructuralMix.bg`` /
 OpenPBR ``base_color`` set to 0, as the other hosts draw the film lobe alone) and the parts without a MaterialX
 material black (UsdPreviewSurface diffuse 0, ior 1), as the exact reference draws them.
@@ -31,15 +31,14 @@ until one fails (OpenUSD 24.11 source: any EXR warns at its level count), then g
 from __future__ import annotations
 
 import os
-from types import SimpleNamespace
 
 import numpy as np
 
 from ..png import save_png
-from . import HostError
+from . import ENVIRONMENT_RADIANCE, HostError, variant_host
+from .materialx import cannot_draw
 
 LOBE = "view_angle"
-ENVIRONMENT_RADIANCE = 1.0
 #: Seconds before a Storm run is given up (a 512 px frame: 5-45 s, mostly shader compilation).
 TIMEOUT_S = 900
 #: host name -> (network drawn, session-layer overrides of the feather material: shader.input -> value)
@@ -50,9 +49,6 @@ VARIANTS = {
 }
 #: The feather material's prim name (rockdove.usd.stage).
 FEATHER_MATERIAL = "FeatherMaterial"
-#: How to install what this host needs.
-INSTALL = "pip install 'bpy==5.0.1' in a Python 3.11 environment of its own and set $ROCKDOVE_BPY_PYTHON (make test does)"
-
 
 def unavailable() -> str | None:
     """None when a Python with bpy (whose USD has imaging) can run here, else why not."""
@@ -61,59 +57,26 @@ def unavailable() -> str | None:
     return blender.unavailable()
 
 
-def _cannot_draw(variant: str):
-    def cannot_draw(asset_path: str) -> str | None:
-        if variant == "preview":
-            return None
-        from .materialx import cannot_draw as mx_cannot
-
-        return mx_cannot(asset_path, variant)
-    return cannot_draw
-
-
 def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
-    """Render ``views`` of the written asset in Storm with host ``name``'s network (:data:`VARIANTS`).
-
-    Returns
-    -------
-    dict
-        view name -> (H, W, 3) float32 linear Rec.709 radiance, background 0.
-
-    Raises
-    ------
-    HostError
-        bpy is missing, Storm cannot start (no EGL, a shader that fails to compile) or writes no image.
-    """
+    """Render ``views`` of the written asset in Storm with host ``name``'s network (:data:`VARIANTS`): view name ->
+    (H, W, 3) float32 linear Rec.709 radiance, background 0. HostError when bpy is missing, Storm cannot start
+    (no EGL, a shader that fails to compile) or writes no image."""
     from . import blender
 
     variant, overrides = VARIANTS[name]
     views = list(views)
-    if not views:
-        raise ValueError("views must hold at least one View, got none")
     asset_path = os.path.abspath(os.fspath(asset_path))
     if not os.path.isfile(asset_path):
         raise HostError(name, f"no asset at {asset_path!r}")
-    work = os.path.join(os.path.abspath(out_dir), name)
-    os.makedirs(work, exist_ok=True)
-    blender.clear_views(views, work)
+    work = blender.work_folder(name, views, out_dir)
     save_png(np.full((2, 4, 3), 255, np.uint8), os.path.join(work, "white.png"))  # the dome light's texture
     job = {"asset": asset_path, "variant": variant, "overrides": {FEATHER_MATERIAL: overrides},
            "environment_radiance": ENVIRONMENT_RADIANCE, "out_dir": work, "views": [v.to_dict() for v in views]}
-    try:  # the bpy Python, found and run as the Blender host runs its job (log: work/blender.log)
-        blender.run_job(job, work, module="rockdove.hosts.storm_job", timeout_s=TIMEOUT_S)
-    except HostError as exc:
-        raise HostError(name, exc.message.replace("Blender exited", "Storm exited")
-                        .replace("Blender did not", "Storm did not")) from None
+    # the bpy Python, found and run as the Blender host runs its job (log: work/blender.log)
+    blender.run_job(job, work, "rockdove.hosts.storm_job", TIMEOUT_S, host=name, renderer="Storm")
     return blender.read_views(name, "Storm", views, work)
 
 
-def _host(name: str) -> SimpleNamespace:
-    variant = VARIANTS[name][0]
-    return SimpleNamespace(NAME=name, VARIANT=variant, LOBE=LOBE, unavailable=unavailable,
-                           cannot_draw=_cannot_draw(variant),
-                           render=lambda asset_path, views, out_dir: render_variant(asset_path, views, out_dir,
-                                                                                    name=name))
-
-
 #: The registry's host objects (rockdove.hosts.HOSTS: ``rockdove.hosts.storm:BAKED`` ...).
-BAKED, PHYSICAL, PREVIEW = (_host(n) for n in VARIANTS)
+BAKED, PHYSICAL, PREVIEW = (variant_host(n, VARIANTS[n][0], LOBE, unavailable, render_variant,
+                                         None if VARIANTS[n][0] == "preview" else cannot_draw) for n in VARIANTS)

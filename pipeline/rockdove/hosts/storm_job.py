@@ -1,11 +1,8 @@
 """Storm's side of :mod:`rockdove.hosts.storm`, run as a script by the Python that has bpy (its bundled USD 25.08
 has imaging: UsdImagingGL, hdSt, HdMtlx; usd-core has none). It imports nothing of rockdove.
 
-``python storm_job.py job.json``: open the written asset, add in the stage's SESSION layer only (the asset's
-files are never edited) a camera per view, a dome light with a white texture (uniform environment of unit
-radiance), the shading variant selection and the lobe's overrides (:func:`_session`), and record each view with
-``UsdAppUtils.FrameRecorder`` (Storm, no colour correction); parts without a MaterialX material are
-black (they only occlude, as in the exact reference) into ``<view>.exr``: linear Rec.709, background 0.
+``python storm_job.py job.json``: the session layer of :mod:`rockdove.hosts.storm`'s docstring (:func:`_session`),
+then each view recorded with ``UsdAppUtils.FrameRecorder`` (Storm, no colour correction) into ``<view>.exr``.
 """
 
 import ctypes
@@ -71,8 +68,6 @@ def _black(surface) -> None:
     """A UsdPreviewSurface that reflects nothing: diffuse 0, ior 1 (Fresnel F0 = 0)."""
     from pxr import Gf, Sdf, UsdShade
 
-    if not surface.IsValid():
-        return
     shader = UsdShade.Shader(surface)
     diffuse = shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f)
     diffuse.GetAttr().SetConnections([])
@@ -124,7 +119,8 @@ def _session(stage, job):
 
 def run(job: dict) -> None:
     bundled_usd_first()
-    keep = egl_context(max(v["width"] for v in job["views"]), max(v["height"] for v in job["views"]))  # noqa: F841 (the context must live while Storm draws)
+    size = (max(v["width"] for v in job["views"]), max(v["height"] for v in job["views"]))
+    keep = egl_context(*size)  # noqa: F841 (the context must live while Storm draws)
     from pxr import Usd, UsdAppUtils
 
     stage = Usd.Stage.Open(job["asset"])
@@ -144,9 +140,8 @@ def run(job: dict) -> None:
         print(f"storm: {view['name']} -> {path}", flush=True)
 
 
-def main(argv=None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
-    with open(argv[0], encoding="utf-8") as fh:
+def main() -> int:
+    with open(sys.argv[1], encoding="utf-8") as fh:
         job = json.load(fh)
     try:
         run(job)

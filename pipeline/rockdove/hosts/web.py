@@ -40,18 +40,6 @@ def unavailable() -> str | None:
     return None
 
 
-def _glb_of(asset_path: str, out_dir: Path) -> Path:
-    from ..usd.layout import resolve_root_layer
-    from ..web.gltf import GLB_NAME, export_glb
-
-    layer = resolve_root_layer(asset_path)
-    written = Path(layer).parent / GLB_NAME
-    if written.is_file():
-        return written
-    export_glb(layer, out_dir / GLB_NAME)
-    return out_dir / GLB_NAME
-
-
 def render(asset_path: str, views: list, out_dir: str, *, browser_factory=None) -> dict:
     """Render ``views`` of the asset (folder or root layer) with three.js in headless Chromium: ``{view.name: (H, W,
     3) float32}`` linear Rec.709 radiance, unclipped, background 0. The page (``web/viewer.html`` and its files) and
@@ -59,14 +47,21 @@ def render(asset_path: str, views: list, out_dir: str, *, browser_factory=None) 
     :class:`rockdove.web.browser.Browser` (tests pass one that fails to start)."""
     from ..spectral import linear_to_srgb8
     from ..render.images import save_png
+    from ..usd.layout import resolve_root_layer
     from ..web.browser import Browser, BrowserError
+    from ..web.gltf import GLB_NAME, export_glb
     from ..web.viewer import write_viewer
 
     out = Path(out_dir)
     page_dir = out / "web"
     page_dir.mkdir(parents=True, exist_ok=True)
+    layer = resolve_root_layer(asset_path)
+    glb = Path(layer).parent / GLB_NAME  # the asset's own, else exported beside the page
+    if not glb.is_file():
+        export_glb(layer, page_dir / GLB_NAME)
+        glb = page_dir / GLB_NAME
     try:
-        page_path = write_viewer(asset_path, _glb_of(asset_path, page_dir), page_dir)
+        page_path = write_viewer(asset_path, glb, page_dir)
     except (ValueError, RuntimeError, OSError) as exc:
         raise HostError(NAME, f"could not write the viewer page: {exc}") from None
     images = {}

@@ -82,9 +82,6 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
     if prim.GetTypeName() != "Mesh":
         raise ValueError(f"prim must be a Mesh to carry {SCHEMA_NAME}, got {prim.GetPath()} of type "
                          f"{prim.GetTypeName()!r}")
-    if lut_file is not None and None in (lut_colour_space, angle_warp_gamma, thickness_range_nm):
-        raise ValueError(f"lut_file={lut_file!r} needs lut_colour_space, angle_warp_gamma and thickness_range_nm, got "
-                         f"{lut_colour_space!r}, {angle_warp_gamma!r}, {thickness_range_nm!r}")
     if not prim.AddAppliedSchema(SCHEMA_NAME):
         raise RuntimeError(f"could not apply {SCHEMA_NAME} to {prim.GetPath()}")
     given = locals() | {"thickness_units": "nm"}  # the arguments by _ATTRS key

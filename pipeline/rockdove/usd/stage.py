@@ -56,13 +56,6 @@ THICKNESS_DOC = ("Film (keratin cortex) thickness of the feather barbules at thi
                  "thin-film LUT is indexed by it (RockDoveThinFilmAPI rockdove:film:thicknessPrimvar).")
 
 
-def shading_variants(shading: str) -> tuple:
-    """The variants an asset carries for a ``shading.variant`` choice (``"both"``, ``"baked"``, ``"physical"``)."""
-    if shading not in SHADING_CHOICES:
-        raise ValueError(f"shading={shading!r}; allowed: {sorted(SHADING_CHOICES)}")
-    return SHADING_CHOICES[shading]
-
-
 def new_stage(*, load_payloads: bool = True):
     """An in-memory stage with the asset's metadata (upAxis Y, metersPerUnit 1, defaultPrim); ``load_payloads``
     False for the interface layer, whose payload is not written yet."""
@@ -184,8 +177,6 @@ def author_looks(stage, bird, film, lut: dict | None, variants=SHADING_VARIANTS)
         else:
             author_constant_material(stage, path, next(p for p in bird.parts if p.material == kind).display_color)
     mesh = stage.GetPrimAtPath(f"{ROOT}/Geom/{feather.name}")
-    if not mesh:
-        raise ValueError(f"stage has no {ROOT}/Geom/{feather.name}: compose the geometry layer before the looks")
     lut_kw = {} if lut is None else dict(
         lut_file=textures["lut"], lut_colour_space=lut["colour_space"],
         angle_warp_gamma=lut["angle_warp_gamma"], thickness_range_nm=lut["thickness_range_nm"],
@@ -256,12 +247,12 @@ def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geo
     from pxr import Sdf, Usd
 
     shading = shading or ("both" if lut is not None else "physical")
-    variants = shading_variants(shading)
+    if shading not in SHADING_CHOICES:
+        raise ValueError(f"shading={shading!r}; allowed: {sorted(SHADING_CHOICES)}")
+    variants = SHADING_CHOICES[shading]
     if lut is None and "baked" in variants:
         raise ValueError(f"shading={shading!r} needs a LUT (lut=None); without one only 'physical' is possible")
     geometry_layer = Sdf.Layer.OpenAsAnonymous(os.path.abspath(geometry))
-    if geometry_layer is None:
-        raise ValueError(f"geometry={geometry!r} is not a readable USD layer")
     looks = new_stage()
     composed = Usd.Stage.CreateInMemory()
     composed.GetRootLayer().subLayerPaths = [looks.GetRootLayer().identifier, geometry_layer.identifier]
@@ -285,8 +276,7 @@ def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geo
 
 
 def write_layers(out_dir: str, bird, film, lut: dict | None, *, version: str, shading: str | None = None) -> dict:
-    """:func:`write_geometry` then :func:`write_looks`: the four layers' paths (keys as write_looks's and
-    ``geometry``)."""
+    """:func:`write_geometry` then :func:`write_looks`: the four layers' paths (write_looks's and ``geometry``)."""
     geometry = write_geometry(out_dir, bird)
     paths = write_looks(out_dir, bird, film, lut, version=version, geometry=geometry, shading=shading)
     return {**paths, "geometry": geometry}

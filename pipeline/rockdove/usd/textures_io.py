@@ -12,9 +12,9 @@
   and purple feathers, with one UsdUVTexture and a binary ``opacityThreshold`` cut-out. Tiles sit on
   :data:`PREVIEW_COLUMNS` columns, bottom row first (texture t = 0 at the image's bottom), tile k at
   thickness ``lo + k (hi - lo) / (K - 1)`` over the film's thickness range rounded outward to whole nm
-  (:func:`preview_range_nm`; one tile when the range is one value). The angle is
-  :data:`PREVIEW_COS_THETA` (module constant, with how it was chosen). The mix is done in linear light (sRGB
-  decoded and re-encoded, IEC 61966-2-1: :func:`rockdove.spectral.srgb_encode`); out-of-gamut colours are clipped to [0, 1].
+  (:func:`preview_range_nm`; one tile when the range is one value). The angle is :data:`PREVIEW_COS_THETA`. The
+  mix is done in linear light (sRGB decoded and re-encoded, IEC 61966-2-1: :func:`rockdove.spectral.srgb_encode`);
+  out-of-gamut colours are clipped to [0, 1].
 - An asset without a LUT (physical-only shading, ``lut=None``) has no ``thinfilm_lut.exr``; its preview colours
   are the *exact* spectral colours at the same points: :func:`rockdove.lut.reference.reference_colour`, one
   Airy spectrum at 0.1 nm integrated under D65 with the CIE 1931 2 degree observer, in lin_rec709
@@ -46,7 +46,8 @@ def preview_range_nm(thickness_range_nm) -> tuple[float, float]:
     mesh's exact range and callers holding the build's rounded one (the LUT axis) pick the same tiles."""
     lo, hi = (float(v) for v in thickness_range_nm)
     if not (np.isfinite(lo) and np.isfinite(hi) and 0 <= lo <= hi):
-        raise ValueError(f"thickness_range_nm must be finite (lo, hi) with 0 <= lo <= hi nm, got {thickness_range_nm!r}")
+        raise ValueError(f"thickness_range_nm must be finite (lo, hi) with 0 <= lo <= hi nm, "
+                         f"got {thickness_range_nm!r}")
     return float(np.floor(lo)), float(np.ceil(hi))
 
 
@@ -63,26 +64,11 @@ def preview_atlas_shape(n_tiles: int) -> tuple[int, int]:
 
 
 def preview_st(st, thickness_nm, thickness_range_nm) -> np.ndarray:
-    """Texture coordinates of the preview atlas: each vertex's feather ``st`` inside the tile of its thickness.
-
-    Parameters
-    ----------
-    st : ndarray, (V, 2)
-        Feather texture coordinates in [0, 1] (t = 0 at the image's bottom).
-    thickness_nm : ndarray, (V,)
-        Film thickness per vertex, nm.
-    thickness_range_nm : (float, float)
-        The film's thickness range (:func:`preview_range_nm` rounds it).
-
-    Returns
-    -------
-    ndarray, (V, 2) float32
-        ``st`` mapped onto the texel centres of the tile (no bilinear bleeding between tiles at the edges).
-    """
+    """(V, 2) float32 texture coordinates of the preview atlas: each vertex's feather ``st`` ((V, 2) in [0, 1], t = 0
+    at the image's bottom) mapped onto the texel centres (no bilinear bleeding between tiles) of the tile of its
+    ``thickness_nm`` (V,) within the film's ``thickness_range_nm`` (:func:`preview_range_nm` rounds it)."""
     st = np.asarray(st, np.float64)
     d = np.asarray(thickness_nm, np.float64).reshape(-1)
-    if st.ndim != 2 or st.shape[1] != 2 or st.shape[0] != d.size:
-        raise ValueError(f"st must be (V, 2) and thickness_nm (V,), got {st.shape} and {d.shape}")
     tiles = preview_tile_thickness_nm(thickness_range_nm)
     k = np.zeros(d.size, np.int64) if tiles.size == 1 else np.clip(
         np.rint((d - tiles[0]) / (tiles[-1] - tiles[0]) * (tiles.size - 1)), 0, tiles.size - 1).astype(np.int64)
@@ -95,24 +81,11 @@ def preview_st(st, thickness_nm, thickness_range_nm) -> np.ndarray:
 
 
 def feather_preview_atlas(base_rgba: np.ndarray, mask: np.ndarray, structural_rgb) -> np.ndarray:
-    """The preview atlas: per structural colour one tile, the feather base mixed by the mask with that colour
-    (clipped to [0, 1]) in linear light, resized to :data:`PREVIEW_TILE_TEXELS`, on :data:`PREVIEW_COLUMNS`
-    columns from the bottom row up.
-
-    Parameters
-    ----------
-    base_rgba : ndarray, (H, W, 4) uint8
-        sRGB-encoded base colour, linear alpha (feather_base.png).
-    mask : ndarray, (H, W) or (H, W, 1) uint8
-        1 (255) where structural colour is drawn (feather_mask.png), raw.
-    structural_rgb : array_like, (K, 3)
-        Linear structural colour of each tile (:meth:`ThinFilmLUT.sample` or :func:`preview_colour`).
-
-    Returns
-    -------
-    ndarray, (rows * T, columns * T, 4) uint8
-        sRGB RGB, linear alpha.
-    """
+    """The preview atlas, (rows * T, columns * T, 4) uint8 (sRGB RGB, linear alpha): per linear structural colour
+    of ``structural_rgb`` (K, 3) one tile, ``base_rgba`` ((H, W, 4) uint8 sRGB, linear alpha: feather_base.png)
+    mixed by ``mask`` ((H, W[, 1]) uint8, 255 where structural colour is drawn: feather_mask.png) with that
+    colour (clipped to [0, 1]) in linear light, resized to :data:`PREVIEW_TILE_TEXELS` (T), on
+    :data:`PREVIEW_COLUMNS` columns from the bottom row up."""
     from PIL import Image
 
     colours = np.asarray(structural_rgb, np.float64).reshape(-1, 3)
@@ -149,27 +122,11 @@ def write_png(path: str, pixels: np.ndarray) -> str:
 
 
 def preview_colour(film, thickness_nm: float, cos_theta: float = PREVIEW_COS_THETA) -> np.ndarray:
-    """The exact structural colour of ``film`` at one point, linear lin_rec709 (D65, CIE 1931 2 degree).
-
-    Parameters
-    ----------
-    film : rockdove.films.FilmModel or str
-    thickness_nm : float
-        Film thickness, nm.
-    cos_theta : float
-        Cosine of the angle of incidence, in [0, 1].
-
-    Returns
-    -------
-    ndarray, (3,) float64
-        Unclipped linear RGB (:func:`rockdove.lut.reference.reference_colour`).
-    """
+    """The exact structural colour of ``film`` (a FilmModel or its name) at ``thickness_nm`` and the cosine of
+    incidence ``cos_theta``: (3,) float64 unclipped lin_rec709 (D65, CIE 1931 2 degree;
+    :func:`rockdove.lut.reference.reference_colour`)."""
     from rockdove.lut.reference import reference_colour
 
-    if not 0.0 <= cos_theta <= 1.0:
-        raise ValueError(f"cos_theta must be in [0, 1], got {cos_theta}")
-    if not (np.isfinite(thickness_nm) and thickness_nm >= 0):
-        raise ValueError(f"thickness_nm must be a finite thickness >= 0 nm, got {thickness_nm!r}")
     return np.asarray(reference_colour(cos_theta, float(thickness_nm), film, colour_space="lin_rec709"), np.float64)
 
 
@@ -212,31 +169,15 @@ def _texture_paths(out_dir: str) -> dict[str, str]:
 
 
 def _feather_images(feather_textures: dict) -> tuple[np.ndarray, np.ndarray]:
-    missing = {"base", "mask"} - set(feather_textures)
-    if missing:
-        raise ValueError(f"feather_textures lacks {sorted(missing)}; it needs 'base' (RGBA) and 'mask' (grey)")
     return (_check_uint8("feather_textures['base']", feather_textures["base"], (4,)),
             _check_uint8("feather_textures['mask']", feather_textures["mask"], (1,)))
 
 
 def write_base_textures(out_dir: str, feather_textures: dict, body_texture: np.ndarray) -> dict[str, str]:
-    """Write the textures that do not depend on the film into ``out_dir/textures/``: ``feather_base.png``,
-    ``feather_mask.png`` and ``body_base.png`` (a film change leaves them, and their bytes, as they were).
-
-    Parameters
-    ----------
-    out_dir : str
-        Asset folder; ``textures/`` is created inside.
-    feather_textures : dict
-        ``"base"``: (H, W, 4) uint8 sRGB RGBA (A = silhouette); ``"mask"``: (H, W) uint8 raw.
-    body_texture : ndarray, (H, W, 3) uint8
-        sRGB body colour in the body's UVs.
-
-    Returns
-    -------
-    dict[str, str]
-        Texture role -> absolute path written; keys sorted.
-    """
+    """Write the textures that do not depend on the film into ``out_dir/textures/``: ``feather_base.png`` and
+    ``feather_mask.png`` (``feather_textures`` ``"base"``: (H, W, 4) uint8 sRGB RGBA, A = silhouette; ``"mask"``:
+    (H, W) uint8 raw) and ``body_base.png`` (``body_texture``, (H, W, 3) uint8 sRGB in the body's UVs); a film
+    change leaves them, and their bytes, as they were. Returns texture role -> absolute path, keys sorted."""
     base, mask = _feather_images(feather_textures)
     body = _check_uint8("body_texture", body_texture, (3,))
     paths = _texture_paths(out_dir)
@@ -247,33 +188,13 @@ def write_base_textures(out_dir: str, feather_textures: dict, body_texture: np.n
 
 def write_film_textures(out_dir: str, lut, feather_textures: dict, *, thickness_range_nm: tuple[float, float],
                         preview_cos_theta: float = PREVIEW_COS_THETA, film=None) -> dict[str, str]:
-    """Write the textures that depend on the film into ``out_dir/textures/``: the LUT (``thinfilm_lut.exr``)
-    and the UsdPreviewSurface atlas ``feather_preview.png``.
-
-    Parameters
-    ----------
-    out_dir : str
-        Asset folder; ``textures/`` is created inside.
-    lut : ThinFilmLUT or None
-        Written as ``thinfilm_lut.exr`` (:func:`rockdove.lut.exr.write_exr`, its precision from the LUT's
-        metadata). None for an asset without a LUT (physical-only shading): no EXR, and the preview's
-        structural colour is :func:`preview_colour` of ``film``.
-    feather_textures : dict
-        As :func:`write_base_textures` (the preview mixes the feather's base and mask).
-    thickness_range_nm : (float, float)
-        The thickness range on the mesh, nm: the atlas's tiles span it (:func:`preview_tile_thickness_nm`), as
-        the mesh's ``previewST`` does (:func:`rockdove.usd.stage.author_geometry`), so the two always agree,
-        whatever the LUT's own range.
-    preview_cos_theta : float
-        Angle of the preview atlas's colours (:data:`PREVIEW_COS_THETA`).
-    film : rockdove.films.FilmModel, optional
-        Required when ``lut`` is None: the film of the preview colours.
-
-    Returns
-    -------
-    dict[str, str]
-        Texture role (``lut`` when written, ``feather_preview``) -> absolute path written; keys sorted.
-    """
+    """Write the textures that depend on the film into ``out_dir/textures/``: ``lut`` as ``thinfilm_lut.exr``
+    (:func:`rockdove.lut.exr.write_exr`, its precision from the LUT's metadata) and the UsdPreviewSurface atlas
+    ``feather_preview.png`` of ``feather_textures`` (as :func:`write_base_textures`) at ``preview_cos_theta``.
+    ``lut=None`` (physical-only shading): no EXR, the preview's colours are :func:`preview_colour` of ``film``.
+    The atlas's tiles span ``thickness_range_nm``, the range on the mesh, as its ``previewST`` does
+    (:func:`rockdove.usd.stage.author_geometry`), so the two agree whatever the LUT's own range. Returns texture
+    role (``lut`` when written, ``feather_preview``) -> absolute path, keys sorted."""
     base, mask = _feather_images(feather_textures)
     tiles = preview_tile_thickness_nm(thickness_range_nm)
     if lut is not None:
