@@ -7,8 +7,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-
-import numpy as np
+import sys
 
 
 class Digest:
@@ -20,7 +19,8 @@ class Digest:
     def add(self, label: str, value=b"") -> "Digest":
         """Add ``value``: bytes as they are, text as UTF-8, a numpy array by dtype, shape and bytes, anything
         else as sorted-key JSON (``str`` for what JSON cannot hold)."""
-        if isinstance(value, np.ndarray):
+        np = sys.modules.get("numpy")  # no array exists before numpy is imported: a no-op rebuild never imports it
+        if np is not None and isinstance(value, np.ndarray):
             a = np.ascontiguousarray(value)
             label, value = f"{label}:{a.dtype.str}:{a.shape}", a.tobytes()
         elif isinstance(value, str):
