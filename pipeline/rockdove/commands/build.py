@@ -138,6 +138,10 @@ def watch(args: argparse.Namespace) -> int:
                       flush=True)
             while _stamp(files) == stamp:
                 time.sleep(POLL_S)
+            settled = None  # a write in two steps (truncate, then write) must not build the empty file: wait
+            while (now := _stamp(files)) != settled:  # until the stamp holds still for one poll
+                settled = now
+                time.sleep(POLL_S)
     except KeyboardInterrupt:
         print("rockdove build: stopped watching", file=sys.stderr)
     return 0
