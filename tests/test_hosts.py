@@ -132,7 +132,7 @@ def test_glsl_host_renders_the_written_asset_as_the_verifier_does(asset_layer):
     assert images["sweep_090"].shape == (32, 32, 3) and images["sweep_090"].max() > 0
 
 
-def test_storm_hosts_are_skipped_with_how_to_install_when_no_python_has_bpy(monkeypatch, tmp_path):
+def test_bpy_hosts_are_skipped_with_how_to_install_when_no_python_has_bpy(monkeypatch, tmp_path):
     import importlib.util
 
     from rockdove.hosts import blender
@@ -141,9 +141,10 @@ def test_storm_hosts_are_skipped_with_how_to_install_when_no_python_has_bpy(monk
     monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "bpy" else real(name, *a))
     monkeypatch.delenv(blender.BPY_PYTHON_ENV, raising=False)
     monkeypatch.setattr(blender, "bpy_places", lambda: [str(tmp_path / "no-venv-bpy" / "bin" / "python")])
-    sel = hosts.select(["storm", "storm_physical"])
+    sel = hosts.select(["storm", "storm_physical", "osl", "osl_physical"])
     assert [m.NAME for m in sel.available] == ["glsl"]
     assert "pip install 'bpy==5.0.1'" in sel.unavailable["storm"] and "storm_physical" in sel.unavailable
+    assert all("pip install 'bpy==5.0.1'" in sel.unavailable[name] for name in ("osl", "osl_physical"))
 
 
 def test_storm_host_that_cannot_start_names_itself_and_its_error(tmp_path):

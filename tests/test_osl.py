@@ -88,15 +88,3 @@ def test_a_shader_the_compiler_rejects_is_named_with_its_error_line(asset_layer,
         osl.BAKED.render(asset_layer, views, str(tmp_path))
 
 
-def test_osl_is_skipped_with_how_to_install_when_no_python_has_bpy(monkeypatch, tmp_path):
-    import importlib.util
-
-    from rockdove.hosts import blender
-
-    real = importlib.util.find_spec
-    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "bpy" else real(name, *a))
-    monkeypatch.delenv(blender.BPY_PYTHON_ENV, raising=False)
-    monkeypatch.setattr(blender, "bpy_places", lambda: [str(tmp_path / "no-venv-bpy" / "bin" / "python")])
-    sel = hosts.select(["osl", "osl_physical"])
-    assert [m.NAME for m in sel.available] == ["glsl"]
-    assert all("pip install 'bpy==5.0.1'" in sel.unavailable[name] for name in ("osl", "osl_physical"))
