@@ -115,12 +115,15 @@ def test_user_cache_folders_are_keyed_by_what_derives_them_and_stale_ones_are_ma
     assert (old / sources.KEY_FILE).is_file() and sources.stale(old) is None
     legacy = tmp_path / "xdg" / "rockdove" / "colour-science-0.4.7"
     legacy.mkdir()
+    renders = tmp_path / "xdg" / "rockdove" / "verify"  # the verification's items: each keyed by what it reads
+    renders.mkdir()
     new = sources.cache_dir("colour-science", compute("22"))
     assert new != old and sources.stale(new) is None and "probe.py changed" in sources.stale(old)
     assert cli.main(["config", "--paths", "--json"]) == 0
     rows = {r["path"]: r for r in json.loads(capsys.readouterr().out)}
     assert rows[str(legacy)]["stale"].startswith("no key.json") and rows[str(new)]["stale"] is None
+    assert rows[str(renders)]["what"].startswith("renders of assets") and not rows[str(renders)]["stale"]
     assert cli.main(["config", "--paths", "--prune"]) == 0
     out = capsys.readouterr().out
     assert f"{old}  STALE: " in out and "removed" in out
-    assert not old.exists() and not legacy.exists() and new.is_dir()
+    assert not old.exists() and not legacy.exists() and new.is_dir() and renders.is_dir()

@@ -30,7 +30,10 @@ def _fmt(value) -> str:
 HOLDS = {"colour-science-": "colour-science's CIE tables and RGB matrices, the quadrature's weights "
                             "(rockdove.spectral.colour_data)",
          "usd-validation-nvidia-": "NVIDIA's mesh-rule findings (rockdove.usd.nvidia)",
-         "code": "the parsed imports of the package's files (rockdove.sources)"}
+         "code": "the parsed imports of the package's files (rockdove.sources)",
+         "verify": "renders of assets verified without a build cache beside them (rockdove.graph.verification)"}
+#: folders whose entries are each keyed by what they read (stage-cache items), never stale as a whole
+KEYED_INSIDE = ("verify",)
 
 
 def paths() -> list[dict]:
@@ -44,7 +47,7 @@ def paths() -> list[dict]:
     for folder in sorted(user.iterdir()) if user.is_dir() else []:
         what = next((w for prefix, w in HOLDS.items() if folder.name.startswith(prefix)), None)
         rows.append({"what": what or "(not rockdove's)", "path": str(folder), "keyed_by": sources.KEY_FILE,
-                     "stale": what and sources.stale(folder)})
+                     "stale": what and folder.name not in KEYED_INSIDE and sources.stale(folder)})
     rows.append({"what": "package data (read only)", "path": str(resources.package_root()), "keyed_by": ""})
     rows.append({"what": "stage cache of a build", "path": ".rockdove-cache beside --out, or --cache",
                  "keyed_by": "stage key"})
