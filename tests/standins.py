@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from rockdove.graph import engine as G
+from rockdove.verify.results import Verdict
 
 
 def standin_body(ctx):
@@ -76,7 +77,7 @@ def _verify(ctx):
     # stand-in rule for the failed-verification test: a width of 17 px "fails"
     passed = ctx.config["verify"]["width"] != 17
     (ctx.workdir / "report.json").write_text(json.dumps({"views": views, "passed": passed}))
-    return {"passed": passed, "reason": "stand-in width 17"}
+    return Verdict(passed, "stand-in width 17").to_json()
 
 
 

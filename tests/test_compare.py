@@ -77,7 +77,7 @@ def test_a_view_without_feather_pixels_has_nan_statistics_and_nothing_to_fail():
     body_only = np.where(part == FEATHER, 1, part)
     m = compare.compare_arrays("turntable_210", rgb, rgb, body_only, body_only, [FEATHER])
     assert m.n_pixels == 0 and np.isnan(m.de_median) and np.isnan(m.de_fraction_over_p95_goal)
-    assert m.passed and m.hue["green"] == m.hue["purple"] == 0
+    assert m.passed and m.hue.green == m.hue.purple == 0
 
 
 def test_nan_and_black_holes_are_reported():
@@ -104,8 +104,8 @@ def test_hue_classes_green_purple_grey():
     h, c, cls = compare.hue_classes(np.stack([green, purple, grey]))
     assert cls.tolist() == [1, 2, 0]
     hist = compare.hue_histogram(np.stack([green] * 3 + [purple] * 2 + [grey]))
-    assert (hist["green"], hist["purple"], hist["grey"]) == (3, 2, 1)
-    assert sum(hist["counts"]) == 5
+    assert (hist.green, hist.purple, hist.grey) == (3, 2, 1)
+    assert sum(hist.counts) == 5 == (hist + hist).chromatic / 2
 
 
 def _class_image(boundary_row, h=80, w=120):
@@ -207,5 +207,5 @@ def test_compare_arrays_gives_the_numbers_of_the_whole_image_formulation():
         expected = np.full((h, w), -1, np.int8)
         expected[hue_mask] = compare.hue_classes(safe_gl[hue_mask], sides=sides)[2]
         np.testing.assert_array_equal(img, expected)
-    assert not m.finite and "de_map" not in m.summary() and "strict" not in m.summary()
-    assert m.summary()["hue"] == m.hue and m.summary()["hue"] is not m.hue
+    assert not m.finite and "de_map" not in m.to_json() and "strict" not in m.to_json()
+    assert compare.ViewMetrics.from_json(m.to_json()).hue == m.hue and m.to_json()["failures"] is not m.failures

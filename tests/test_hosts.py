@@ -1,6 +1,7 @@
 """The hosts (rockdove.hosts): registry, selection with reasons, and ``verify --hosts`` on a small asset with
 MaterialX's generated GLSL (baked and physical networks) against the exact reference of the view_angle lobe."""
 
+import json
 import os
 import sys
 import types
@@ -78,21 +79,22 @@ def test_verify_hosts_reports_each_host_and_a_failing_one_does_not_stop_the_othe
     monkeypatch.setitem(hosts.HOSTS, "ghost", _Fake("ghost", "baked", "view_angle"))
     report = verify(asset_layer, ["materialx", "broken", "materialx_physical", "ghost"], cache=tmp_path / "cache",
                     out_dir=tmp_path / "report", width=96, height=96, views=["sweep_060"])
-    by_name = {h["name"]: h for h in report["hosts"]}
-    assert [h["name"] for h in report["hosts"]] == ["glsl", "materialx", "broken", "materialx_physical", "ghost"]
+    by_name = {h.name: h for h in report.hosts}
+    assert [h.name for h in report.hosts] == ["glsl", "materialx", "broken", "materialx_physical", "ghost"]
     for name in ("glsl", "materialx", "materialx_physical"):
-        h = by_name[name]
-        assert {"variant", "median_dE", "p95_dE", "green_px", "purple_px", "hue_agreement", "passed"} <= set(h)
-        assert h["n_pixels"] > 50, name
+        assert by_name[name].metrics.n_pixels > 50, name
     baked = by_name["materialx"]
-    assert baked["variant"] == "baked" and baked["lobe"] == "view_angle"
-    assert baked["passed"] and baked["median_dE"] <= 1.0 and baked["p95_dE"] <= 2.0, baked
+    assert baked.variant == "baked" and baked.lobe == "view_angle"
+    assert baked.passed and baked.metrics.median_dE <= 1.0 and baked.metrics.p95_dE <= 2.0, baked
     physical = by_name["materialx_physical"]
-    assert physical["variant"] == "physical" and np.isfinite(physical["median_dE"])
-    assert physical["green_px"] > 0 and physical["purple_px"] > 0, physical
-    assert by_name["broken"]["passed"] is False and "syntax error" in by_name["broken"]["error"]
-    assert by_name["ghost"]["skipped"] and "bpy is not installed" in by_name["ghost"]["reason"]
-    assert not report["passed"] and any("host broken failed" in f for f in report["failures"])
+    assert physical.variant == "physical" and np.isfinite(physical.metrics.median_dE)
+    assert physical.metrics.green_px > 0 and physical.metrics.purple_px > 0, physical
+    assert by_name["broken"].status == "error" and "syntax error" in by_name["broken"].reason
+    assert by_name["ghost"].status == "skipped" and "bpy is not installed" in by_name["ghost"].reason
+    assert not report.passed and any("host broken failed" in f for f in report.failures)
+    entries = json.loads((tmp_path / "report" / "report.json").read_text())["hosts"]
+    assert {"variant", "median_dE", "p95_dE", "green_px", "purple_px", "hue_agreement", "passed"} <= set(entries[1])
+    assert entries[2]["passed"] is False and entries[4]["skipped"] and entries[4]["passed"] is None
     html = (tmp_path / "report" / "report.html").read_text()
     assert "sweep_060_materialx.png" in html and "sweep_060_view_angle_reference.png" in html
     assert (tmp_path / "report" / "sweep_060_materialx.png").exists()
@@ -121,8 +123,8 @@ def test_materialx_host_draws_the_written_network_not_a_copy_of_it(asset_layer, 
     scene = load_scene(str(folder))
     views = [v for v in verification_views(scene, 96, 96, 4) if v.name == "sweep_060"]
     images = materialx.BAKED.render(str(folder / "pigeon.usda"), views, None)
-    m = host_metrics(images, render_reference(scene, views, lobe="view_angle"), scene)
-    assert m["median_dE"] > 2.0, m
+    m, _ = host_metrics(images, render_reference(scene, views, lobe="view_angle"), scene)
+    assert m.median_dE > 2.0, m
 
 
 @pytest.mark.gl
@@ -184,7 +186,7 @@ def test_storm_draws_the_physical_network_green_and_purple_as_the_reference(asse
     views = [v for v in verification_views(scene, 128, 128, 4) if v.name == "sweep_060"]
     images = storm.PHYSICAL.render(asset_layer, views, str(tmp_path))
     assert (tmp_path / "storm_physical" / "sweep_060.png").is_file()
-    m = host_metrics(images, render_reference(scene, views, lobe="view_angle"), scene)
+    m, _ = host_metrics(images, render_reference(scene, views, lobe="view_angle"), scene)
     assert host_passed("physical", m) == (True, []), m
 
 
@@ -205,9 +207,9 @@ def test_storm_draws_the_baked_network_without_speckle(asset_layer, tmp_path):
         pytest.skip(storm.BAKED.unavailable())
     scene = load_scene(os.path.dirname(asset_layer))
     views = [v for v in verification_views(scene, 128, 128, 4) if v.name == "sweep_060"]
-    m = host_metrics(storm.BAKED.render(asset_layer, views, str(tmp_path)),
-                     render_reference(scene, views, lobe="view_angle"), scene)
-    assert m["median_dE"] < 2.0 and m["p95_dE"] < 5.0 and m["hue_agreement"] > 0.95, m
+    m, _ = host_metrics(storm.BAKED.render(asset_layer, views, str(tmp_path)),
+                        render_reference(scene, views, lobe="view_angle"), scene)
+    assert m.median_dE < 2.0 and m.p95_dE < 5.0 and m.hue_agreement > 0.95, m
 
 
 def test_the_default_hosts_leave_out_the_slow_ones_and_all_names_every_host(monkeypatch):

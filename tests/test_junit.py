@@ -94,6 +94,7 @@ def test_skipped_and_failed_hosts_and_validator_errors(runs, schema, tmp_path):
     """A host that is not available is <skipped> with its reason, one that raised is an <error>, a validator's
     errors are its <failure> (warnings stay in system-out); the schema still holds."""
     from rockdove.verify.junit import write_junit
+    from rockdove.verify.results import Report
 
     _, report = runs["good"]
     report = dict(report, hosts=[*report["hosts"], {"name": "blender", "skipped": True, "reason": "no bpy"},
@@ -103,7 +104,7 @@ def test_skipped_and_failed_hosts_and_validator_errors(runs, schema, tmp_path):
              "severity": "error", "variants": []}
     details = dict(report["validation"]["details"], issues=[issue])
     report["validation"] = dict(report["validation"], passed=False, details=details)
-    path = write_junit(report, tmp_path / "j.xml")
+    path = write_junit(Report.from_json(report), tmp_path / "j.xml")
     schema.validate(path)
     root, cases = _cases(path)
     assert cases[("rockdove.host.blender", "all views")].find("skipped").get("message").endswith("no bpy")

@@ -207,6 +207,7 @@ def test_one_verification_reuses_what_it_checked_and_reruns_a_host_whose_code_ch
 
     from rockdove import hosts
     from rockdove.graph.verification import verify
+    from rockdove.verify.results import ItemNames
 
     (tmp_path / "fake_host.py").write_text(FAKE_HOST)
     monkeypatch.syspath_prepend(str(tmp_path))
@@ -219,21 +220,22 @@ def test_one_verification_reuses_what_it_checked_and_reruns_a_host_whose_code_ch
                       views=views, beauty={"renderer": "off"})
 
     first = run("first")
-    assert first["cache"]["ran"]["views"] == names and first["cache"]["ran"]["hosts"] == ["glsl", "fake"]
-    assert len(fake.CALLS) == 1 and first["passed"] is False  # a grey bird has no green nor purple
+    assert first.cache.ran.views == tuple(names) and first.cache.ran.hosts == ("glsl", "fake")
+    assert len(fake.CALLS) == 1 and first.passed is False  # a grey bird has no green nor purple
     second = run("second")
-    assert second["cache"]["ran"] == {"surfaces": [], "views": [], "hosts": []} and len(fake.CALLS) == 1
-    assert second["views"] == first["views"] and second["hosts"] == first["hosts"]
-    assert second["hue_sweep"] == first["hue_sweep"] and second["boundary"] == first["boundary"]
-    assert second["views_reused"] == names and second["failures"] == first["failures"]
+    assert second.cache.ran == ItemNames() and len(fake.CALLS) == 1
+    assert second.views == first.views and second.hosts == first.hosts
+    assert second.hue_sweep == first.hue_sweep and second.boundary == first.boundary
+    assert second.views_reused == tuple(names) and second.failures == first.failures
+    assert second.to_json()["hosts"] == first.to_json()["hosts"]  # as report.json records them
     for f in ("sweep_090_gl.png", "sweep_090_dE.png", "sweep_090_fake.png", "sweep_090_view_angle_reference.png"):
         assert (tmp_path / "second" / f).is_file(), f
-    assert [n[:22] for n in second["notes"]] == ["boundary at sweep_090:"]  # the closing note, nothing else
+    assert [n[:22] for n in second.notes] == ["boundary at sweep_090:"]  # the closing note, nothing else
     (tmp_path / "fake_host.py").write_text(FAKE_HOST.replace("GREY = 0.25", "GREY = 0.5"))  # what fake runs
     third = run("third")
-    assert third["cache"]["ran"] == {"surfaces": [], "views": [], "hosts": ["fake"]} and len(fake.CALLS) == 2
+    assert third.cache.ran == ItemNames(hosts=("fake",)) and len(fake.CALLS) == 2
     only_turntable = run("tt", ["turntable_030"])
-    assert any(n.startswith("hue check not run") for n in only_turntable["notes"])
+    assert any(n.startswith("hue check not run") for n in only_turntable.notes)
     assert "Notes" in (tmp_path / "tt" / "report.html").read_text()
     with pytest.raises(ValueError, match="views=.*sweep_999.*allowed names"):
         run("x", ["sweep_999"])

@@ -9,6 +9,7 @@ from PIL import Image
 from rockdove.films import get_film
 from rockdove.render.film import ThinFilmParams
 from rockdove.verify import report
+from rockdove.verify.compare import HueHistogram
 
 
 def _cmap8(x):
@@ -96,8 +97,8 @@ def test_charts_fit_their_labels_in_their_fixed_margins(tmp_path):
     tab10 = [np.round(np.asarray(colormaps["tab10"](i)[:3]) * 255) for i in range(4)]
     assert all((np.abs(a.astype(int) - c).sum(-1) < 20).sum() > 100 for c in tab10)  # the four angles' lines
     edges = np.linspace(0.0, 360.0, 13)
-    hue = {"bin_edges_deg": edges, "counts": [999999 // (i + 1) for i in range(12)], "green_band_deg": [100.0, 210.0],
-           "purple_band_deg": [280.0, 15.0], "green": 1, "purple": 2, "grey": 3, "other": 4}
+    hue = HueHistogram(list(edges), [999999 // (i + 1) for i in range(12)], grey=3, green=1, purple=2, other=4,
+                       min_saturation=0.15, green_band_deg=[100.0, 210.0], purple_band_deg=[280.0, 15.0])
     a, white = _white_border(report.hue_png(tmp_path / "h.png", hue, "light sweep"))  # 6-digit tick labels
     assert a.shape == (300, 600, 3) and white
 

@@ -28,6 +28,7 @@ from .config import DEFAULT_PRESET, config_hash
 from .config import load_config as _load_config
 from .errors import UsageError, VerificationFailed
 from .graph.engine import StageRecord
+from .verify.results import HostResult, Report
 
 __all__ = ["load_config", "build", "verify", "BuildResult", "BuildFailed", "Verification", "HostResult",
            "StageRecord", "UsageError", "VerificationFailed", "DEFAULT_OUT"]
@@ -89,43 +90,21 @@ class BuildFailed(VerificationFailed):
 
 
 @dataclass(frozen=True)
-class HostResult:
-    """One host's check in a verification: ``status`` is ``"passed"``, ``"failed"``, ``"skipped"`` (not
-    available here: ``reason`` says why) or ``"error"`` (it did not render: ``reason`` is its error)."""
-
-    name: str
-    status: str
-    reason: str | None
-    entry: dict = field(repr=False)  # the report's entry (lobe, variant, dE, hue agreement, per view)
-
-    @classmethod
-    def from_entry(cls, entry: dict) -> "HostResult":
-        if entry.get("skipped"):
-            return cls(entry["name"], "skipped", entry.get("reason"), entry)
-        if entry.get("error"):
-            return cls(entry["name"], "error", str(entry["error"]), entry)
-        return cls(entry["name"], "passed" if entry.get("passed") else "failed",
-                   "; ".join(entry.get("failures", [])) or None, entry)
-
-
-@dataclass(frozen=True)
 class Verification:
     """A finished verification: ``passed`` (validation clean, every view and every host that ran within its
-    goals), ``failures``, ``notes`` (what was checked differently), and ``report`` (``report.json``)."""
+    goals), ``failures``, ``notes`` (what was checked differently), each host's :class:`HostResult`, and the
+    whole typed ``report`` (``report.json``'s content)."""
 
     passed: bool
     failures: tuple[str, ...]
     notes: tuple[str, ...]
     hosts: tuple[HostResult, ...]
     report_dir: Path
-    report: dict = field(repr=False)
+    report: Report = field(repr=False)
 
     @classmethod
-    def from_report(cls, report: dict) -> "Verification":
-        return cls(passed=bool(report["passed"]), failures=tuple(map(str, report["failures"])),
-                   notes=tuple(map(str, report.get("notes", []))),
-                   hosts=tuple(HostResult.from_entry(h) for h in report.get("hosts", [])),
-                   report_dir=Path(report["out_dir"]), report=report)
+    def from_report(cls, report: Report) -> Verification:
+        return cls(report.passed, report.failures, report.notes, report.hosts, Path(report.out_dir), report)
 
 
 # ----------------------------------------------------------------------------------------------- build
@@ -208,11 +187,11 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
 def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cache: str | os.PathLike | None = None,
            out: str | os.PathLike | None = None, width: int | None = None, height: int | None = None,
            views: Iterable[str] | None = None, n_views: int | None = None, bench_dir: str | os.PathLike | None = None,
-           allow_external: bool = False, progress: Callable[[str], None] | None = None,
-           beauty: dict | None = None) -> Verification:
+           allow_external: bool = False, beauty: dict | None = None) -> Verification:
     """Validate an asset (its folder or root layer) and check it in the GLSL shaders and every host in ``hosts``:
     the build's own verification with its cache (:func:`rockdove.graph.verification.verify`, whose arguments these
-    are). ``out``: the report folder; ``allow_external``: let the asset's layers name files outside its folder.
+    are; its progress goes to the ``rockdove`` logger). ``out``: the report folder; ``allow_external``: let the
+    asset's layers name files outside its folder.
 
     Returns :class:`Verification` (a failed check: ``passed`` False). Raises :class:`UsageError` for bad usage
     and :class:`VerificationFailed`, before rendering, when the asset's layers do not parse or name files outside it.
@@ -227,5 +206,5 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
     report = verification.verify(os.fspath(root), None if hosts is None else list(hosts), cache=cache, out_dir=out,
                                  width=width, height=height, n_views=n_views,
                                  views=None if views is None else list(views), bench_dir=bench_dir,
-                                 progress=progress, beauty=beauty)
+                                 beauty=beauty)
     return Verification.from_report(report)

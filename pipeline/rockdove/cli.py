@@ -66,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     from .errors import RockdoveError, VerificationFailed
 
-    _log_to_stderr(quiet=bool(getattr(args, "quiet", False) or getattr(args, "json", False)))
+    _log_to_stderr(args.command, quiet=bool(getattr(args, "quiet", False) or getattr(args, "json", False)))
     try:
         return int(_module(args.command).run(args) or 0)
     except VerificationFailed as exc:
@@ -90,14 +90,15 @@ def main(argv: list[str] | None = None) -> int:
         return 2
 
 
-def _log_to_stderr(quiet: bool) -> None:
+def _log_to_stderr(command: str, quiet: bool) -> None:
     """The library reports through the ``rockdove`` logger; the command line shows its messages on stderr as
-    they are (``--quiet`` and ``--json``: warnings and errors only)."""
+    ``rockdove COMMAND: message`` (``--quiet`` and ``--json``: warnings and errors only)."""
     logger = logging.getLogger("rockdove")
-    if not logger.handlers:
-        handler = logging.StreamHandler()
-        handler.setFormatter(logging.Formatter("%(message)s"))
-        logger.addHandler(handler)
+    for old in list(logger.handlers):
+        logger.removeHandler(old)
+    handler = logging.StreamHandler()
+    handler.setFormatter(logging.Formatter(f"rockdove {command}: %(message)s"))
+    logger.addHandler(handler)
     logger.setLevel(logging.WARNING if quiet else logging.INFO)
 
 if __name__ == "__main__":

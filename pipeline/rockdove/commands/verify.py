@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
-
 
 
 def _ranged(key: str, unit: str):
@@ -82,18 +82,13 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import VerificationFailed
     from ..verify.verdict import summary
 
-    def progress(msg: str) -> None:
-        if not args.quiet and not args.json:
-            print(f"rockdove verify: {msg}", file=sys.stderr)
-
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
     result = api.verify(args.asset, hosts, cache=args.cache, out=args.out, width=args.width, height=args.height,
                         views=args.names, n_views=args.views, bench_dir=args.bench_dir,
                         allow_external=args.allow_external_assets,
-                        progress=progress, beauty={"renderer": args.beauty, "width": args.beauty_size[0],
-                                                   "height": args.beauty_size[1], "samples": args.beauty_samples})
+                        beauty={"renderer": args.beauty, "width": args.beauty_size[0],
+                                "height": args.beauty_size[1], "samples": args.beauty_samples})
     report = result.report
-    short = summary(report)
     if args.junit:
         from ..verify.junit import write_junit
 
@@ -101,35 +96,39 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         from ..verify.report import strict_json
 
-        json.dump(strict_json(short), sys.stdout, indent=2, allow_nan=False)
+        json.dump(strict_json(summary(report)), sys.stdout, indent=2, allow_nan=False)
         sys.stdout.write("\n")
     else:
-        for m in report["views"]:
-            print(f"{m['view']:>16}: {m['n_pixels']:7d} px  dE2000 median {m['de_median']:.3f}  "
-                  f"p95 {m['de_p95']:.3f}  max {m['de_max']:.3f}  {'ok' if m['passed'] else 'FAIL'}")
-        h = report["hue_sweep"]
-        print(f"light sweep hues: green {h['green']}, purple {h['purple']}, grey {h['grey']}, other {h['other']}")
-        for name, b in report["boundary"]["per_view"].items():
-            print(f"boundary {name}: {b['n_points']} points, RMS {b['rms_px']:.2f} px "
-                  f"({b['rms_fraction']:.4f} of its length)")
-        for host in result.hosts:
-            h = host.entry
-            if host.status == "skipped":
-                print(f"host {host.name}: SKIPPED ({host.reason})")
-            elif host.status == "error":
-                print(f"host {host.name}: ERROR {host.reason}")
-            else:
-                print(f"host {h['name']} ({h['variant']}, {h['lobe']}): {h['n_pixels']} px  dE2000 median "
-                      f"{h['median_dE']:.3f}  p95 {h['p95_dE']:.3f}  green {h['green_px']}  purple {h['purple_px']}  "
-                      f"hue agreement {h['hue_agreement']:.1%}  {'ok' if h['passed'] else 'FAIL'}")
-        from ..verify.anatomy import format_rows
-
-        print("anatomy (rockdove.verify.anatomy):", *format_rows(report["anatomy"]), sep="\n")
-        if report.get("beauty"):
-            print(f"beauty render ({report['beauty']['renderer']}): {report['beauty']['seconds']:.1f} s")
-        for note in result.notes:
-            print(f"note: {note}")
-        print(f"report: {result.report_dir / 'report.html'}")
+        _print(report)
     if not result.passed:
         raise VerificationFailed("; ".join(result.failures))
     return 0
+
+
+def _print(report) -> None:
+    from ..verify.anatomy import format_rows
+
+    for m in report.views:
+        print(f"{m.view:>16}: {m.n_pixels:7d} px  dE2000 median {m.de_median:.3f}  p95 {m.de_p95:.3f}  "
+              f"max {m.de_max:.3f}  {'ok' if m.passed else 'FAIL'}")
+    h = report.hue_sweep
+    print(f"light sweep hues: green {h.green}, purple {h.purple}, grey {h.grey}, other {h.other}")
+    for name, b in report.boundary["per_view"].items():
+        print(f"boundary {name}: {b['n_points']} points, RMS {b['rms_px']:.2f} px "
+              f"({b['rms_fraction']:.4f} of its length)")
+    for host in report.hosts:
+        m = host.metrics
+        if host.status == "skipped":
+            print(f"host {host.name}: SKIPPED ({host.reason})")
+        elif m is None:
+            print(f"host {host.name}: ERROR {host.reason}")
+        else:
+            print(f"host {host.name} ({host.variant}, {host.lobe}): {m.n_pixels} px  dE2000 median "
+                  f"{m.median_dE:.3f}  p95 {m.p95_dE:.3f}  green {m.green_px}  purple {m.purple_px}  "
+                  f"hue agreement {m.hue_agreement:.1%}  {'ok' if host.passed else 'FAIL'}")
+    print("anatomy (rockdove.verify.anatomy):", *format_rows(report.anatomy), sep="\n")
+    if report.beauty:
+        print(f"beauty render ({report.beauty['renderer']}): {report.beauty['seconds']:.1f} s")
+    for note in report.notes:
+        print(f"note: {note}")
+    print(f"report: {os.path.join(report.out_dir, 'report.html')}")

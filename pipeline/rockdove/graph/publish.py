@@ -156,8 +156,7 @@ class OutputLock:
             except BlockingIOError:
                 if not told:
                     holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "?"
-                    _log.warning("rockdove build: waiting for another build of %s (pid %s) to finish", self.out,
-                                 holder)
+                    _log.warning("waiting for another build of %s (pid %s) to finish", self.out, holder)
                     told = True
                 if self.timeout_s is not None and time.monotonic() - t0 > self.timeout_s:
                     os.close(fd)

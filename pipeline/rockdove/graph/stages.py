@@ -22,6 +22,7 @@ import types
 from pathlib import Path
 
 from .. import __version__
+from ..verify.results import Verdict
 from .engine import FILES, JSON, Codec, Context, Stage, load_npz
 
 
@@ -294,30 +295,16 @@ def run_verify(ctx: Context) -> dict:
     v = ctx.config["verify"]
     report = verify(layer, BUILD_HOSTS, cache=ctx.cache, out_dir=ctx.workdir, width=v["width"], height=v["height"],
                     n_views=v["views"], published_asset=str(published_path(layer)), beauty=ctx.config["beauty"])
-    return dataclasses.asdict(Verdict(bool(report["passed"]), "; ".join(map(str, report["failures"])),
-                                      [v["view"] for v in report["views"]], list(report["notes"]) + skipped,
-                                      report["cache"]))
+    return Verdict.of(report, skipped).to_json()
 
 
-#: The verification stage: its value is a :class:`Verdict`.
+#: The verification stage: its value is a :class:`rockdove.verify.results.Verdict`.
 VERIFY = "verify"
-
-
-@dataclasses.dataclass(frozen=True)
-class Verdict:
-    """The build's verification: ``reason`` (its failures, joined) and the verification's items that ran and
-    were reused (``{"ran": {kind: names}, "reused": ...}``)."""
-
-    passed: bool
-    reason: str = ""
-    views: list | tuple = ()
-    notes: list | tuple = ()
-    items: dict = dataclasses.field(default_factory=dict)
 
 
 def verdict(graph) -> Verdict | None:
     """The verdict of a graph's verification stage, None when it has none (built without verification)."""
-    return Verdict(**graph.value(VERIFY)) if VERIFY in graph.records else None
+    return Verdict.from_json(graph.value(VERIFY)) if VERIFY in graph.records else None
 
 
 def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:

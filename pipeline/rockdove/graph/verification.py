@@ -15,8 +15,10 @@ A host that failed is not kept. Validation and the report are redone every time.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
+import logging
 import os
 import shutil
 import time
@@ -25,6 +27,7 @@ from ..config import canonical_json
 from .. import sources
 from .engine import GRAPH_VERSION, Cache, load_npz
 
+_log = logging.getLogger(__name__)
 #: The hosts the build verifies with: the GL renders alone (a cold build's verification takes seconds).
 BUILD_HOSTS = ("glsl",)
 
@@ -67,8 +70,9 @@ def _meta(folder: str) -> dict:
         return json.load(f)
 
 
-def _surfaces(cache: Cache, scene, views, ran: dict, reused: dict) -> dict:
-    """The reference's :class:`~rockdove.verify.reference_image.Surface` of every camera of ``views``."""
+def _surfaces(cache: Cache, scene, views) -> tuple[dict, list, list]:
+    """The reference's :class:`~rockdove.verify.reference_image.Surface` of every camera of ``views``, and the
+    cameras (key prefixes) cast now and reused."""
     import numpy as np
 
     from ..verify.rays import camera_key
@@ -86,45 +90,41 @@ def _surfaces(cache: Cache, scene, views, ran: dict, reused: dict) -> dict:
             items.put(keys[cam], tmp, {"camera": cam, "stats": s.stats})
     out = {cam: Surface.from_arrays(load_npz(os.path.join(d, "surface.npz")), _meta(d)["stats"])
            for cam, d in found.items() if d is not None}
-    ran["surfaces"], reused["surfaces"] = [c[:16] for c in fresh], [c[:16] for c in out]
-    return {**out, **fresh}
+    return {**out, **fresh}, [c[:16] for c in fresh], [c[:16] for c in out]
 
 
-def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, out: str, say, ran, reused):
-    """``({view: result}, fresh)``: each view's :func:`render_and_check`, cached per view; ``fresh``: the GL
-    radiance and references of the views rendered (all when ``redo_all``). A failed GL render is not kept."""
+def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, out: str):
+    """``({view: ViewResult}, fresh, names rendered)``: each view's :func:`render_and_check`, cached per view;
+    ``fresh``: the GL radiance and references of the views rendered (all when ``redo_all``). A failed GL render is
+    not kept."""
     import numpy as np
 
+    from ..verify.results import ViewResult
     from ..verify.run import render_and_check
 
     items = _Items(cache, "view")
     keys = {v.name: item_key("view", (render_and_check,), digest, v.to_dict()) for v in views}
     found = {n: items.get(k) for n, k in keys.items()}
     todo = [v for v in views if redo_all or found[v.name] is None]
-    fresh, results = {}, {}
+    fresh, done = {}, {}
     if todo:
         with items.scratch() as tmp:
-            results, fresh["refs"], fresh["gl"] = render_and_check(scene, lut, todo, str(tmp), say=say,
-                                                                   surfaces=surfaces)
+            results, fresh["refs"], fresh["gl"] = render_and_check(scene, lut, todo, str(tmp), surfaces=surfaces)
             for v in todo:
                 r = results[v.name]
-                if r["metrics"] is None:  # the GL render failed: asked again next time
-                    for f in r["files"].values():
-                        shutil.copyfile(os.path.join(r["dir"], f), os.path.join(out, f))
-                    found[v.name] = r["dir"] = out
+                if r.metrics is None:  # the GL render failed: asked again next time
+                    for f in r.files.values():
+                        shutil.copyfile(os.path.join(r.folder, f), os.path.join(out, f))
+                    done[v.name] = dataclasses.replace(r, folder=out)
                     continue
-                np.savez(os.path.join(r["dir"], "sheet_row.npz"), *r["sheet_row"])
-                found[v.name] = items.put(keys[v.name], r["dir"],
-                                          {k: x for k, x in r.items() if k not in ("sheet_row", "dir")})
-    done = {v.name: results[v.name] for v in todo if found[v.name] == out}
+                np.savez(os.path.join(r.folder, "sheet_row.npz"), *r.sheet_row)
+                found[v.name] = items.put(keys[v.name], r.folder, r.to_json())
     for v in views:
-        if v.name in done:
-            continue
-        r = done[v.name] = _meta(found[v.name])
-        rows = load_npz(os.path.join(found[v.name], "sheet_row.npz"))
-        r["sheet_row"], r["dir"] = [rows[f"arr_{i}"] for i in range(len(rows))], found[v.name]
-    ran["views"], reused["views"] = [v.name for v in todo], [v.name for v in views if v not in todo]
-    return {v.name: done[v.name] for v in views}, fresh
+        if v.name not in done:
+            rows = load_npz(os.path.join(found[v.name], "sheet_row.npz"))
+            done[v.name] = ViewResult.from_json(_meta(found[v.name]), found[v.name],
+                                                tuple(rows[f"arr_{i}"] for i in range(len(rows))))
+    return {v.name: done[v.name] for v in views}, fresh, [v.name for v in todo]
 
 
 def _host_key(host, digest: str, views) -> str:
@@ -134,9 +134,11 @@ def _host_key(host, digest: str, views) -> str:
                     host.variant)
 
 
-def _host(cache, host, layer, scene, views, digest, refs, fresh, out, say) -> tuple[dict, dict, bool]:
-    """One host's report entry, image files in ``out`` (where it renders) and whether they came from the cache."""
+def _host(cache, host, layer, scene, views, digest, refs, fresh, out):
+    """One host's :class:`~rockdove.verify.results.HostResult` (its image files in ``out``, where it renders) and
+    whether it came from the cache."""
     from ..verify.host_check import check_host
+    from ..verify.results import HostResult
 
     items = _Items(cache, "host")
     key = _host_key(host, digest, views)
@@ -145,15 +147,15 @@ def _host(cache, host, layer, scene, views, digest, refs, fresh, out, say) -> tu
         value = _meta(found)
         for name in _files(value["files"]):
             shutil.copyfile(os.path.join(found, name), os.path.join(out, name))
-        return value["entry"], value["files"], True
+        return HostResult.from_json(value["entry"], value["files"]), True
     rendered = fresh["gl"] if host.name == "glsl" else None
-    entry, files = check_host(host, layer, scene, views, refs(host.lobe), out, rendered, say)
-    if entry.get("passed") is not None and "error" not in entry:  # one skipped or failed is asked again
+    result = check_host(host, layer, scene, views, refs(host.lobe), out, rendered)
+    if result.status in ("passed", "failed"):  # one skipped or failed is asked again
         with items.scratch() as tmp:
-            for name in _files(files):
+            for name in _files(result.files):
                 shutil.copyfile(os.path.join(out, name), tmp / name)
-            items.put(key, tmp, {"entry": entry, "files": files})
-    return entry, files, False
+            items.put(key, tmp, {"entry": result.to_json(), "files": result.files})
+    return result, False
 
 
 def _files(files: dict) -> set:
@@ -170,9 +172,10 @@ def default_cache(asset) -> str:
 
 
 def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, height=None, n_views=None,
-           views=None, bench_dir=None, progress=None, beauty=None, published_asset=None) -> dict:
+           views=None, bench_dir=None, beauty=None, published_asset=None):
     """Validate, render and check the asset of root layer ``asset``; write the report into ``out_dir`` (default
-    ``verify/`` beside it); return the content of report.json (``cache``: the items that ran and were reused).
+    ``verify/`` beside it); return it (:class:`rockdove.verify.results.Report`: ``cache`` says which items ran and
+    which were reused). Progress goes to this module's logger.
 
     ``hosts``: :data:`rockdove.hosts.HOSTS` names (None: :data:`rockdove.hosts.DEFAULT`; ``["all"]``); ``glsl``
     always runs; an unavailable host is skipped with its reason. ``cache``: a folder or a :class:`Cache` (default
@@ -185,42 +188,42 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     from ..render.beauty import settings
     from ..verify.inputs import scene_digest, select_views, sizes, verification_scene, verification_views
     from ..verify.reference_image import render_reference
-    from ..verify.verdict import combine, default_out_dir
+    from ..verify.results import HostResult, ItemNames, ItemsUsed
+    from ..verify.verdict import Checked, combine, default_out_dir
 
     width, height, n_views = sizes(width, height, n_views)
-    say = progress or (lambda msg: None)
     t_start = time.perf_counter()
-    selection = select(hosts)  # unknown names: ValueError before any work
+    selection = select(hosts)  # unknown names: UsageError before any work
     layer, scene, lut, notes = verification_scene(asset)
     out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)
     os.makedirs(out, exist_ok=True)
     cache = cache if isinstance(cache, Cache) else Cache(cache or default_cache(layer))
     chosen = select_views(verification_views(scene, width, height, n_views), views)
-    digest, ran, reused = scene_digest(scene), {}, {}
-    say(f"GL renders and CPU reference ({len(chosen)} views)")
-    surfaces = _surfaces(cache, scene, chosen, ran, reused)
+    digest = scene_digest(scene)
+    _log.info(f"GL renders and CPU reference ({len(chosen)} views)")
+    surfaces, cast, kept = _surfaces(cache, scene, chosen)
     glsl = next(h for h in selection.available if h.name == "glsl")
     redo = _Items(cache, "host").get(_host_key(glsl, digest, chosen)) is None  # its images are the GL renders
-    results, fresh = _views(cache, scene, lut, chosen, digest, surfaces, redo, out, say, ran, reused)
+    results, fresh, rendered = _views(cache, scene, lut, chosen, digest, surfaces, redo, out)
     lobes = {"half_angle": fresh["refs"]} if redo else {}
 
     def refs(lobe):
         if lobe not in lobes:
-            say(f"CPU reference ({lobe})")
+            _log.info(f"CPU reference ({lobe})")
             lobes[lobe] = render_reference(scene, chosen, lobe=lobe, surfaces=surfaces)
         return lobes[lobe]
 
     t = time.perf_counter()
-    entries, images, ran["hosts"], reused["hosts"] = [], {}, [], []
-    for host in selection.available:
-        entry, files, cached = _host(cache, host, layer, scene, chosen, digest, refs, fresh, out, say)
-        entries.append(entry)
-        images.update({host.name: files} if files else {})
-        (reused if cached else ran)["hosts"].append(host.name)
-    entries += [{"name": n, "skipped": True, "reason": r, "passed": None} for n, r in selection.unavailable.items()]
+    checked = [_host(cache, h, layer, scene, chosen, digest, refs, fresh, out) for h in selection.available]
+    host_results = (*(r for r, _ in checked),
+                    *(HostResult(n, "skipped", reason=why) for n, why in selection.unavailable.items()))
     named = hosts is not None and "blender" in hosts  # auto: Cycles only when asked for (2-4 min of CPU)
-    beauty = {**settings(beauty), "cycles_ok": named and any(h.name == "blender" for h in selection.available)}
-    return combine(layer, scene, lut, notes, results, out, width, height, bench_dir, say, t_start=t_start,
-                   reused=reused["views"], hosts=(entries, images, time.perf_counter() - t), beauty=beauty,
-                   published_asset=published_asset, items={"ran": ran, "reused": reused})
-
+    ran_hosts = tuple(r.name for r, cached in checked if not cached)
+    items = ItemsUsed(ItemNames(tuple(cast), tuple(rendered), ran_hosts),
+                      ItemNames(tuple(kept), tuple(v.name for v in chosen if v.name not in rendered),
+                                tuple(r.name for r, cached in checked if cached)))
+    return combine(Checked(layer, scene, lut, tuple(notes), tuple(results.values()), host_results, items,
+                           (width, height), time.perf_counter() - t, t_start), out, bench_dir=bench_dir,
+                   beauty={**settings(beauty), "cycles_ok": named and any(h.name == "blender" for h in
+                                                                           selection.available)},
+                   published_asset=published_asset)

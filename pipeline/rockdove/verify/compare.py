@@ -18,6 +18,7 @@ greens have h_ab 115-205 deg, purples/magentas 310-355 deg); the boundary's shap
 
 from __future__ import annotations
 
+import dataclasses
 from copy import deepcopy
 from dataclasses import dataclass, field, fields
 
@@ -146,9 +147,35 @@ def lab_hue_classes(lab: np.ndarray, sides: bool = False) -> tuple[np.ndarray, n
     return h, c, cls
 
 
-def hue_histogram(rgb_pixels: np.ndarray | None, lab_pixels: np.ndarray | None = None) -> dict:
-    """Histogram of CIELAB hue over the chromatic ones of (N, 3) linear pixels, or of ``lab_pixels`` already in
-    CIELAB (``bin_edges_deg``, ``counts``), and the ``green``, ``purple``, ``grey`` and ``other`` counts."""
+@dataclass(frozen=True)
+class HueHistogram:
+    """Pixels by CIELAB hue: ``counts`` of the chromatic ones per bin of ``bin_edges_deg``, and how many are
+    ``grey``, ``green``, ``purple`` (in the bands) or ``other``; the bands and the saturation threshold used.
+    Histograms of several views add up (``+``)."""
+
+    bin_edges_deg: list[float]
+    counts: list[int]
+    grey: int
+    green: int
+    purple: int
+    other: int
+    min_saturation: float
+    green_band_deg: list[float]
+    purple_band_deg: list[float]
+
+    def __add__(self, more: HueHistogram) -> HueHistogram:
+        return dataclasses.replace(self, counts=[a + b for a, b in zip(self.counts, more.counts)],
+                                   **{k: getattr(self, k) + getattr(more, k) for k in ("grey", "green", "purple",
+                                                                                     "other")})
+
+    @property
+    def chromatic(self) -> int:
+        return self.green + self.purple + self.other
+
+
+def hue_histogram(rgb_pixels: np.ndarray | None, lab_pixels: np.ndarray | None = None) -> HueHistogram:
+    """:class:`HueHistogram` of CIELAB hue over the chromatic ones of (N, 3) linear pixels, or of ``lab_pixels``
+    already in CIELAB."""
     if lab_pixels is None:
         rgb_pixels = np.asarray(rgb_pixels, np.float64).reshape(-1, 3)
         lab_pixels = rgb_to_lab(rgb_pixels) if len(rgb_pixels) else np.zeros((0, 3))
@@ -159,17 +186,8 @@ def hue_histogram(rgb_pixels: np.ndarray | None, lab_pixels: np.ndarray | None =
     else:
         h, _, cls = lab_hue_classes(lab_pixels)
         counts, _ = np.histogram(h[cls > 0], bins=edges)
-    return {
-        "bin_edges_deg": edges.tolist(),
-        "counts": [int(c) for c in counts],
-        "grey": int(np.sum(cls == 0)),
-        "green": int(np.sum(cls == 1)),
-        "purple": int(np.sum(cls == 2)),
-        "other": int(np.sum(cls == 3)),
-        "min_saturation": HUE_MIN_SATURATION,
-        "green_band_deg": list(GREEN_BAND_DEG),
-        "purple_band_deg": list(PURPLE_BAND_DEG),
-    }
+    return HueHistogram(edges.tolist(), [int(c) for c in counts], *(int(np.sum(cls == k)) for k in range(4)),
+                        HUE_MIN_SATURATION, list(GREEN_BAND_DEG), list(PURPLE_BAND_DEG))
 
 
 @dataclass
@@ -190,17 +208,22 @@ class ViewMetrics:
     n_lit: int
     n_black: int
     black_fraction: float
-    hue: dict
+    hue: HueHistogram
     passed: bool
     failures: list = field(default_factory=list)
     de_map: np.ndarray | None = field(default=None, repr=False)
     cls: np.ndarray | None = field(default=None, repr=False)
     strict: np.ndarray | None = field(default=None, repr=False)
 
-    def summary(self) -> dict:
+    def to_json(self) -> dict:
         """JSON-ready dict of every metric (no images; containers copied, sharing nothing with the metrics)."""
         images = ("de_map", "cls", "strict")
-        return {f.name: deepcopy(getattr(self, f.name)) for f in fields(self) if f.name not in images}
+        return {f.name: dataclasses.asdict(v) if f.name == "hue" else deepcopy(v)
+                for f in fields(self) if f.name not in images for v in [getattr(self, f.name)]}
+
+    @classmethod
+    def from_json(cls, data: dict) -> ViewMetrics:
+        return cls(**{**data, "hue": HueHistogram(**data["hue"])})
 
 
 def compare_arrays(view: str, gl_rgb, ref_rgb, gl_part, ref_part, feather_part_ids, ref_n_dot_l=None,

@@ -15,11 +15,15 @@ class of >= :data:`MIN_HUE_AGREEMENT` of the pixels (its dE is reported, not hel
 
 from __future__ import annotations
 
+import logging
 import os
 
 import numpy as np
 
 from . import compare
+from .results import HostMetrics, HostResult
+
+_log = logging.getLogger(__name__)
 from ..errors import UsageError
 
 #: Share of feather-tip pixels whose green/purple/other class must match the reference (physical variants).
@@ -42,10 +46,10 @@ def _de_stats(de: np.ndarray) -> dict:
             "p95_dE": float(np.percentile(de, 95)) if n else nan}
 
 
-def host_metrics(images: dict, refs: list, scene) -> dict:
+def host_metrics(images: dict, refs: list, scene) -> tuple[HostMetrics, dict]:
     """dE and hue statistics (module docstring) of one host's renders (``images``: view name -> (H, W, 3) linear
-    radiance) against ``refs``, the references of its lobe, one per view, also ``per_view`` and ``de_maps``
-    (``{view: (H, W)}``, not JSON). ValueError when a view is missing from ``images`` or has the wrong shape."""
+    radiance) against ``refs``, the references of its lobe, one per view, and their dE maps (``{view: (H, W)}``).
+    ValueError when a view is missing from ``images`` or has the wrong shape."""
     feather_ids = compare.feather_ids(scene)
     des, host_cls, ref_cls, per_view, maps = [], [], [], {}, {}
     for ref in refs:
@@ -65,61 +69,51 @@ def host_metrics(images: dict, refs: list, scene) -> dict:
         per_view[ref.view] = _de_stats(vals)
     de, hc, rc = np.concatenate(des), np.concatenate(host_cls), np.concatenate(ref_cls)  # refs: one per view, >= 1
     n = int(de.size)
-    return {
-        **_de_stats(de),
-        "green_px": int(np.sum(hc == 1)),
-        "purple_px": int(np.sum(hc == 2)),
-        "hue_agreement": float(np.mean(hc == rc)) if n else float("nan"),
-        "per_view": per_view,
-        "de_maps": maps,
-    }
+    stats = _de_stats(de)
+    return HostMetrics(stats["n_pixels"], stats["median_dE"], stats["p95_dE"], int(np.sum(hc == 1)),
+                       int(np.sum(hc == 2)), float(np.mean(hc == rc)) if n else float("nan"), per_view), maps
 
 
-def host_passed(variant: str, metrics: dict) -> tuple[bool, list]:
+def host_passed(variant: str, m: HostMetrics) -> tuple[bool, list]:
     """Whether a host's metrics meet its goals (module docstring); ``(passed, reasons it failed)``."""
     why = []
-    if metrics["n_pixels"] == 0:
+    if m.n_pixels == 0:
         return False, ["no feather-tip pixels to compare"]
     if variant in EXACT_VARIANTS:
-        if not metrics["median_dE"] <= compare.MEDIAN_DE_GOAL:
-            why.append(f"median dE2000 {metrics['median_dE']:.3f} > {compare.MEDIAN_DE_GOAL}")
-        if not metrics["p95_dE"] <= compare.P95_DE_GOAL:
-            why.append(f"p95 dE2000 {metrics['p95_dE']:.3f} > {compare.P95_DE_GOAL}")
+        if not m.median_dE <= compare.MEDIAN_DE_GOAL:
+            why.append(f"median dE2000 {m.median_dE:.3f} > {compare.MEDIAN_DE_GOAL}")
+        if not m.p95_dE <= compare.P95_DE_GOAL:
+            why.append(f"p95 dE2000 {m.p95_dE:.3f} > {compare.P95_DE_GOAL}")
     else:
-        for hue in ("green_px", "purple_px"):
-            if metrics[hue] == 0:
-                why.append(f"no {hue.split('_')[0]} feather pixels")
-        if variant not in PRESENCE_VARIANTS and not metrics["hue_agreement"] >= MIN_HUE_AGREEMENT:
-            why.append(f"hue class agrees with the reference on {metrics['hue_agreement']:.1%} of the feather-tip "
+        why += [f"no {hue} feather pixels" for hue, px in (("green", m.green_px), ("purple", m.purple_px)) if not px]
+        if variant not in PRESENCE_VARIANTS and not m.hue_agreement >= MIN_HUE_AGREEMENT:
+            why.append(f"hue class agrees with the reference on {m.hue_agreement:.1%} of the feather-tip "
                        f"pixels < {MIN_HUE_AGREEMENT:.0%}")
     return not why, why
 
 
-def check_host(host, asset_layer: str, scene, views, refs: list, out_dir: str, rendered, say) -> tuple[dict, dict]:
+def check_host(host, asset_layer: str, scene, views, refs: list, out_dir: str, rendered) -> HostResult:
     """Render the views in one host (``rendered``: its images when already drawn, the GL renders for ``glsl``)
-    and compare them with ``refs``, the references of its lobe. Returns the report's entry (the
-    :func:`host_metrics` but ``de_maps``; ``error`` when it raised :class:`rockdove.hosts.HostError`; ``skipped``
-    and ``reason`` when its ``cannot_draw(asset_layer)`` says why) and ``{view: {"host", "reference",
-    "dE": file name}}`` of its images in ``out_dir``."""
+    and compare them with ``refs``, the references of its lobe: a :class:`HostResult` (``error`` when it raised
+    :class:`rockdove.hosts.HostError`; ``skipped`` when its ``cannot_draw(asset_layer)`` says why), its images
+    written into ``out_dir``."""
     from ..hosts.base import HostError
     from ..png import save_png
     from ..srgb import linear_to_srgb8
     from . import report as rep
 
     name, variant, lobe = host.name, host.variant, host.lobe
-    entry = {"name": name, "variant": variant, "lobe": lobe}
     reason = host.cannot_draw(asset_layer) if rendered is None else None
     if reason:
-        return {**entry, "skipped": True, "reason": reason, "passed": None}, {}
+        return HostResult(name, "skipped", variant, lobe, reason)
     try:
         if rendered is None:
-            say(f"host {name} ({variant}, {lobe}): rendering {len(views)} views")
+            _log.info(f"host {name} ({variant}, {lobe}): rendering {len(views)} views")
             rendered = host.render(asset_layer, list(views), out_dir)
-        m = host_metrics(rendered, refs, scene)
+        m, maps = host_metrics(rendered, refs, scene)
     except (HostError, ValueError) as exc:
-        return {**entry, "passed": False, "error": str(exc)}, {}
+        return HostResult(name, "error", variant, lobe, str(exc))
     passed, why = host_passed(variant, m)
-    maps = m.pop("de_maps")
     files = {}
     for ref in refs:
         paths = {"host": os.path.join(out_dir, f"{ref.view}_{name}.png"),
@@ -128,6 +122,7 @@ def check_host(host, asset_layer: str, scene, views, refs: list, out_dir: str, r
         save_png(linear_to_srgb8(rendered[ref.view]), paths["host"])
         save_png(linear_to_srgb8(ref.rgb), paths["reference"])
         rep.de_map_png(paths["dE"], maps[ref.view],
-                       f"{name} {ref.view}: dE2000 median {m['per_view'][ref.view]['median_dE']:.2f}")
+                       f"{name} {ref.view}: dE2000 median {m.per_view[ref.view]['median_dE']:.2f}")
         files[ref.view] = {k: os.path.basename(p) for k, p in paths.items()}
-    return {**entry, **m, "passed": passed, "failures": why}, files
+    return HostResult(name, "passed" if passed else "failed", variant, lobe, "; ".join(why) or None, m, tuple(why),
+                      files)

@@ -16,6 +16,7 @@ import os
 import xml.etree.ElementTree as ET
 
 from ..resources import write_atomic
+from .results import HostResult, Report
 
 #: Test case per validator: the Issue ``check`` (or its prefix before ``:``) -> the name shown.
 VALIDATORS = {"layer": "dependencies", "assetPath": "dependencies", "open": "dependencies",
@@ -64,16 +65,16 @@ class _Suite:
         return counts
 
 
-def _validation(root, report) -> dict:
-    v = report["validation"]
-    suite = _Suite(root, "rockdove.validation", report["timings_s"].get("validation", 0.0))
-    details = v.get("details") or {}
-    by = {}
+def _validation(root, report: Report) -> dict:
+    v = report.validation
+    suite = _Suite(root, "rockdove.validation", report.timings_s.get("validation", 0.0))
+    details = v.details or {}
+    by: dict[str, list] = {}
     for issue in details.get("issues", []):
         name = VALIDATORS.get(issue["check"].split(":")[0], issue["check"].split(":")[0])
         by.setdefault(name, []).append(issue)
-    if v.get("error"):
-        suite.case("validator", error=v["error"])
+    if v.error:
+        suite.case("validator", error=v.error)
     counts = details.get("counts", {})
     for name in dict.fromkeys([*VALIDATORS.values(), *by]):
         issues = by.get(name, [])
@@ -85,60 +86,57 @@ def _validation(root, report) -> dict:
     return suite.close()
 
 
-def _views(root, report) -> dict:
-    g = report["goals"]
-    suite = _Suite(root, "rockdove.glsl", report["timings_s"].get("compare", 0.0))
-    for m in report["views"]:
-        suite.case(m["view"], failures=list(m.get("failures", [])) if not m["passed"] else [],
-                   out=f"{m['n_pixels']} px, dE2000 median {_num(m['de_median'])} (goal {g['median_dE']}), "
-                       f"p95 {_num(m['de_p95'])} (goal {g['p95_dE']}), max {_num(m['de_max'])}, "
-                       f"black {m['n_black']} of {m['n_lit']} lit")
-    h = report["hue_sweep"]
-    chromatic = h["green"] + h["purple"] + h["other"]
-    hue_fail = [f for f in report["failures"] if f.startswith("hue:")]
-    suite.case("light sweep hues", failures=hue_fail,
-               out=f"green {h['green']}, purple {h['purple']}, grey {h['grey']}, other {h['other']} "
-                   f"(need >= {g['min_hue_fraction']:.0%} of {chromatic} chromatic px each)")
+def _views(root, report: Report) -> dict:
+    g = report.goals
+    suite = _Suite(root, "rockdove.glsl", report.timings_s.get("compare", 0.0))
+    for m in report.views:
+        suite.case(m.view, failures=list(m.failures) if not m.passed else [],
+                   out=f"{m.n_pixels} px, dE2000 median {_num(m.de_median)} (goal {g['median_dE']}), "
+                       f"p95 {_num(m.de_p95)} (goal {g['p95_dE']}), max {_num(m.de_max)}, "
+                       f"black {m.n_black} of {m.n_lit} lit")
+    h = report.hue_sweep
+    suite.case("light sweep hues", failures=[f for f in report.failures if f.startswith("hue:")],
+               out=f"green {h.green}, purple {h.purple}, grey {h.grey}, other {h.other} "
+                   f"(need >= {g['min_hue_fraction']:.0%} of {h.chromatic} chromatic px each)")
     return suite.close()
 
 
-def _host(root, h, goals) -> dict:
+def _host(root, h: HostResult, goals: dict) -> dict:
     from .host_check import EXACT_VARIANTS
 
-    name = h["name"]
-    suite = _Suite(root, f"rockdove.host.{name}")
-    if h.get("skipped") or h.get("error"):
-        suite.case("all views", skipped=f"host {name} not available: {h['reason']}" if h.get("skipped") else None,
-                   error=None if h.get("skipped") else f"host {name} failed: {h['error']}")
+    suite = _Suite(root, f"rockdove.host.{h.name}")
+    if h.metrics is None:
+        suite.case("all views", skipped=f"host {h.name} not available: {h.reason}" if h.status == "skipped" else None,
+                   error=None if h.status == "skipped" else f"host {h.name} failed: {h.reason}")
         return suite.close()
     # the host is judged over all its views (rockdove.verify.host_check): a view fails only within a failed
     # exact host, where its own numbers miss the goals (a view with no feather pixels never does)
-    blame = h.get("variant") in EXACT_VARIANTS and not h["passed"]
-    for view, m in (h.get("per_view") or {}).items():
-        fail = [f"{view}: {k[:-3]} dE2000 {_num(m[k])} > {goals[k]}" for k in ("median_dE", "p95_dE")
-                if blame and m["n_pixels"] and not m[k] <= goals[k]]
-        suite.case(view, failures=fail, out=f"{m['n_pixels']} px, dE2000 median {_num(m['median_dE'])}, "
-                                            f"p95 {_num(m['p95_dE'])} ({h['variant']}, {h['lobe']} lobe)")
-    suite.case("all views", failures=[f"host {name}: {f}" for f in h.get("failures", [])] if not h["passed"]
-               else [], out=f"{h['n_pixels']} px, dE2000 median {_num(h['median_dE'])}, p95 {_num(h['p95_dE'])}, "
-                            f"green {h['green_px']}, purple {h['purple_px']}, hue agreement "
-                            f"{_num(h['hue_agreement'])} ({h['variant']}, {h['lobe']} lobe)")
+    m, lobe = h.metrics, f"({h.variant}, {h.lobe} lobe)"
+    blame = h.variant in EXACT_VARIANTS and not h.passed
+    for view, v in m.per_view.items():
+        fail = [f"{view}: {k[:-3]} dE2000 {_num(v[k])} > {goals[k]}" for k in ("median_dE", "p95_dE")
+                if blame and v["n_pixels"] and not v[k] <= goals[k]]
+        suite.case(view, failures=fail, out=f"{v['n_pixels']} px, dE2000 median {_num(v['median_dE'])}, "
+                                            f"p95 {_num(v['p95_dE'])} {lobe}")
+    suite.case("all views", failures=[f"host {h.name}: {f}" for f in h.failures] if not h.passed else [],
+               out=f"{m.n_pixels} px, dE2000 median {_num(m.median_dE)}, p95 {_num(m.p95_dE)}, green {m.green_px}, "
+                   f"purple {m.purple_px}, hue agreement {_num(m.hue_agreement)} {lobe}")
     return suite.close()
 
 
-def junit_xml(report: dict) -> bytes:
-    """The JUnit XML document (UTF-8 bytes) of a verification report (:func:`rockdove.verify.run.verify_asset`)."""
-    asset = os.path.abspath(report["asset"])
+def junit_xml(report: Report) -> bytes:
+    """The JUnit XML document (UTF-8 bytes) of a verification report."""
+    asset = os.path.abspath(report.asset)
     root = ET.Element("testsuites", name=f"rockdove verify {os.path.basename(os.path.dirname(asset))}",
-                      time=_time(report["timings_s"].get("total", 0.0)))
+                      time=_time(report.timings_s.get("total", 0.0)))
     totals = [_validation(root, report), _views(root, report)]
-    totals += [_host(root, h, report["goals"]) for h in report.get("hosts", [])]
+    totals += [_host(root, h, report.goals) for h in report.hosts]
     for k in ("tests", "failures", "errors"):
         root.set(k, str(sum(t[k] for t in totals)))
     ET.indent(root)
     return ET.tostring(root, encoding="utf-8", xml_declaration=True) + b"\n"
 
 
-def write_junit(report: dict, path) -> str:
+def write_junit(report: Report, path) -> str:
     """Write :func:`junit_xml` of ``report`` to ``path`` (replaced atomically); return the path."""
     return write_atomic(path, junit_xml(report))

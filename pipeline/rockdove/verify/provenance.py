@@ -10,6 +10,7 @@ import time
 from functools import lru_cache
 
 from ..usd.layout import MARKER
+from .results import Validation
 
 LIBRARIES = ("numpy", "scipy", "colour", "trimesh", "embreex", "pxr", "pyrender", "OpenGL", "PIL",
              "matplotlib", "OpenEXR", "MaterialX")
@@ -67,15 +68,14 @@ def asset_configuration(layer_path: str) -> dict:
     return json.loads(json.dumps(found, default=str))
 
 
-def run_validation(layer_path: str) -> tuple[dict, float]:
-    """Run the asset validator: ``({"passed": bool, "details": ..., "error": str | None}, seconds)``."""
+def run_validation(layer_path: str) -> tuple[Validation, float]:
+    """Run the asset validator: ``(Validation, seconds)``."""
     from ..usd.validate import validate_asset
 
     t = time.perf_counter()
     try:
         result = validate_asset(layer_path)
     except Exception as exc:  # noqa: BLE001 - a validator that raises is a failure, never a pass
-        error = f"validation raised: {type(exc).__name__}: {exc}"
-        return {"passed": False, "details": None, "error": error}, time.perf_counter() - t
+        return Validation(False, None, f"validation raised: {type(exc).__name__}: {exc}"), time.perf_counter() - t
     details = json.loads(json.dumps(result.to_dict(), default=str))
-    return {"passed": result.clean, "details": details, "error": None}, time.perf_counter() - t
+    return Validation(result.clean, details, None), time.perf_counter() - t

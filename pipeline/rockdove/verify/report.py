@@ -16,8 +16,13 @@ import math
 import os
 import re
 import shutil
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from .compare import HueHistogram
+    from .results import Report
 
 #: Colour-bar range of the dE2000 maps (the p95 goal is 2; everything above 5 saturates).
 DE_MAP_MAX = 5.0
@@ -169,25 +174,25 @@ def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 
     return _save_figure(fig, path)
 
 
-def hue_png(path, hue: dict, title: str) -> str:
+def hue_png(path, hue: HueHistogram, title: str) -> str:
     """Bar chart of a :func:`rockdove.verify.compare.hue_histogram`, bars coloured by their hue."""
     from ..spectral import Lab_to_XYZ, XYZ_to_RGB
     from ..srgb import srgb_encode
 
-    edges = np.asarray(hue["bin_edges_deg"])
+    edges = np.asarray(hue.bin_edges_deg)
     centres = 0.5 * (edges[:-1] + edges[1:])
     lab = np.stack([np.full_like(centres, 60.0), 40 * np.cos(np.radians(centres)), 40 * np.sin(np.radians(centres))], 1)
     rgb = srgb_encode(np.clip(XYZ_to_RGB(Lab_to_XYZ(lab), "lin_rec709"), 0.0, 1.0))  # the bins' own hues, displayed
     fig = _figure(6.0, 3.0, (1.0, 0.2, 0.6, 0.35))  # left: room for 6-digit counts (matplotlib goes to 1e6 above)
     ax = fig.add_subplot(1, 1, 1)
-    ax.bar(centres, hue["counts"], width=np.diff(edges) * 0.9, color=np.clip(rgb, 0, 1), edgecolor="k", lw=0.3)
-    for band, name in ((hue["green_band_deg"], "green"), (hue["purple_band_deg"], "purple")):
+    ax.bar(centres, hue.counts, width=np.diff(edges) * 0.9, color=np.clip(rgb, 0, 1), edgecolor="k", lw=0.3)
+    for band, name in ((hue.green_band_deg, "green"), (hue.purple_band_deg, "purple")):
         ax.axvline(band[0], color="k", ls=":", lw=0.8)
         ax.text(band[0] + 2, ax.get_ylim()[1] * 0.9, name, fontsize=7)
     ax.set_xlim(0, 360)
     ax.set_xlabel("CIELAB hue angle h_ab (deg)")
     ax.set_ylabel("pixels")
-    ax.set_title(f"{title}: green {hue['green']}, purple {hue['purple']}, grey {hue['grey']}, other {hue['other']}",
+    ax.set_title(f"{title}: green {hue.green}, purple {hue.purple}, grey {hue.grey}, other {hue.other}",
                  fontsize=8)
     return _save_figure(fig, path)
 
@@ -281,8 +286,8 @@ def _beauty(images: dict) -> str:
     return f"<div class='row'>{figs}</div><p><small>Beauty render: {e(b['caption'])}</small></p>"
 
 
-def write_html(path, report: dict, images: dict) -> str:
-    """A self-contained page (relative image links) summarising ``report`` (report.json's data).
+def write_html(path, report: Report, images: dict) -> str:
+    """A self-contained page (relative image links) summarising ``report``.
 
     ``images``: ``"views"``: ``{view: {"gl": file, "reference": file, "dE": file}}``; optional ``"hosts"``
     (``{host: {view: {"host", "reference", "dE": file}}}``), ``"contact_sheet"``, ``"lut"``, ``"spectra"``,
@@ -290,9 +295,8 @@ def write_html(path, report: dict, images: dict) -> str:
     (:func:`rockdove.hosts.beauty.render_beauty`'s entry), the picture the page opens with.
     """
     e = html.escape
-    status = "PASSED" if report.get("passed") else "FAILED"
-    colour = "#1a7f37" if report.get("passed") else "#b42318"
-    goals = report.get("goals", {})
+    status, colour = ("PASSED", "#1a7f37") if report.passed else ("FAILED", "#b42318")
+    goals = report.goals
     parts = [
         "<!DOCTYPE html><html><head><meta charset='utf-8'><title>rockdove verification</title>",
         "<style>body{font-family:sans-serif;margin:1.5em;max-width:1200px}table{border-collapse:collapse}"
@@ -301,11 +305,11 @@ def write_html(path, report: dict, images: dict) -> str:
         "figcaption{font-size:100%;color:#222}h1{font-size:1.6em}"
         ".viewer{width:100%;height:600px;border:1px solid #ccc}</style></head><body>",
         f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>" + _beauty(images)
-        + _list("Notes", report.get("notes")),
-        f"<p>Asset: <code>{e(str(report.get('asset', '')))}</code><br>",
-        f"Configuration hash: <code>{e(str(report.get('configuration_hash') or 'not recorded'))}</code><br>",
-        f"Goals: median dE2000 &le; {goals.get('median_dE', '')}, "
-        f"p95 &le; {goals.get('p95_dE', '')} over feather pixels away from silhouette edges.</p>",
+        + _list("Notes", report.notes),
+        f"<p>Asset: <code>{e(report.asset)}</code><br>",
+        f"Configuration hash: <code>{e(str(report.configuration_hash or 'not recorded'))}</code><br>",
+        f"Goals: median dE2000 &le; {goals['median_dE']}, "
+        f"p95 &le; {goals['p95_dE']} over feather pixels away from silhouette edges.</p>",
     ]
     if images.get("viewer"):  # the interactive view first, the tables after it
         parts.append(f"<h2>Interactive view</h2><p>Drag to orbit, wheel to zoom, slide to turn the light; switch "
@@ -316,39 +320,40 @@ def write_html(path, report: dict, images: dict) -> str:
     if hero.get("gl") or hero.get("reference"):
         parts.append(f"<h2>Hero view</h2><img src='{e(hero.get('gl') or hero.get('reference'))}' alt='hero view' "
                      "style='image-rendering:auto'>")
-    parts.append(_list("Failures", report.get("failures")))
+    parts.append(_list("Failures", report.failures))
     parts.append("<h2>Per view</h2>" + _head("view", "pixels", "median dE", "p95 dE", "max dE", "&gt; 2", "black",
                                             "green", "purple", "passed"))
-    parts += [_row(m["view"], m["n_pixels"], _fmt(m["de_median"]), _fmt(m["de_p95"]), _fmt(m["de_max"]),
-                   _fmt(m["de_fraction_over_p95_goal"], 4), f"{m['n_black']}/{m['n_lit']}", m["hue"]["green"],
-                   m["hue"]["purple"], "yes" if m["passed"] else "no") for m in report.get("views", [])]
+    parts += [_row(m.view, m.n_pixels, _fmt(m.de_median), _fmt(m.de_p95), _fmt(m.de_max),
+                   _fmt(m.de_fraction_over_p95_goal, 4), f"{m.n_black}/{m.n_lit}", m.hue.green, m.hue.purple,
+                   "yes" if m.passed else "no") for m in report.views]
     parts.append("</table>")
-    if report.get("boundary"):
+    if report.boundary:
         parts.append("<h2>Green/purple boundary straightness</h2><p>RMS perpendicular distance of the boundary "
                      "pixels from their total-least-squares line (paper preset: straight; measured preset: bent).</p>"
                      + _head("view", "points", "RMS (px)", "length (px)", "RMS / length"))
         parts += [_row(name, s["n_points"], _fmt(s["rms_px"]), _fmt(s["length_px"], 1), _fmt(s["rms_fraction"], 4))
-                  for name, s in report["boundary"].get("per_view", {}).items()]
+                  for name, s in report.boundary.get("per_view", {}).items()]
         parts.append("</table>")
     for key, title in (("hue", "Hue histogram across the light sweep"), ("contact_sheet", "Contact sheet"),
                        ("lut", "The LUT"), ("spectra", "Film reflectance spectra")):
         if images.get(key):
             parts.append(f"<h2>{e(title)}</h2><img src='{e(images[key])}' alt='{e(key)}'>")
-    if report.get("hosts"):
+    if report.hosts:
         parts.append("<h2>Hosts</h2><p>Each host renders the written asset with its own code and is compared with "
                      "the exact reference of the lighting model it evaluates (half_angle: the paper's light; "
                      "view_angle: uniform white environment, film colour at |N.V|), over feather-tip pixels.</p>"
                      + _head("host", "variant", "lobe", "pixels", "median dE", "p95 dE", "green", "purple",
                              "hue agreement", "passed"))
-        for h in report["hosts"]:
-            if h.get("skipped") or h.get("error"):
-                why = f"skipped: {h['reason']}" if h.get("skipped") else f"error: {h['error']}"
-                parts.append(f"<tr><td style='text-align:left'>{e(h['name'])}</td>"
+        for h in report.hosts:
+            if h.metrics is None:
+                why = f"{'skipped' if h.status == 'skipped' else 'error'}: {h.reason}"
+                parts.append(f"<tr><td style='text-align:left'>{e(h.name)}</td>"
                              f"<td colspan='9' style='text-align:left'>{e(why)}</td></tr>")
             else:
-                parts.append(_row(h["name"], e(h["variant"]), e(h["lobe"]), h["n_pixels"], _fmt(h["median_dE"]),
-                                  _fmt(h["p95_dE"]), h["green_px"], h["purple_px"], _fmt(h["hue_agreement"]),
-                                  "yes" if h["passed"] else "no"))
+                m = h.metrics
+                parts.append(_row(h.name, e(str(h.variant)), e(str(h.lobe)), m.n_pixels, _fmt(m.median_dE),
+                                  _fmt(m.p95_dE), m.green_px, m.purple_px, _fmt(m.hue_agreement),
+                                  "yes" if h.passed else "no"))
         parts.append("</table>")
         parts += [_figure_row(f"{host}: {name}", files, {"host": host, "reference": "reference", "dE": "dE"})
                   for host, per_view in (images.get("hosts") or {}).items() for name, files in per_view.items()]
@@ -357,8 +362,8 @@ def write_html(path, report: dict, images: dict) -> str:
               for name, files in images.get("views", {}).items()]
     if images.get("bench"):
         parts.append("<h2>Benchmarks</h2>" + "".join(f"<img src='{e(f)}' alt='{e(f)}'>" for f in images["bench"]))
-    parts.append(_pairs("Timings (s)", report.get("timings_s", {}), _fmt))
-    parts.append(_pairs("Library versions", report.get("versions", {}), lambda v: e(str(v))))
+    parts.append(_pairs("Timings (s)", report.timings_s, _fmt))
+    parts.append(_pairs("Library versions", report.versions, lambda v: e(str(v))))
     parts.append("<p>Full data: <a href='report.json'>report.json</a></p></body></html>")
     with open(path, "w", encoding="utf-8") as f:
         f.write("\n".join(p for p in parts if p))

@@ -6,6 +6,8 @@ validation into the verdict (:mod:`rockdove.verify.verdict`).
 
 from __future__ import annotations
 
+import dataclasses
+import logging
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -15,11 +17,14 @@ import numpy as np
 from . import compare, report
 from .boundary import boundary_shape, boundary_straightness, class_shape
 from .gl_renders import GLRenderError, GLRenders
+from .results import ViewResult
+
+_log = logging.getLogger(__name__)
 
 
-def render_and_check(scene, lut, views, out: str, *, say, surfaces=None) -> tuple[dict, list, dict]:
+def render_and_check(scene, lut, views, out: str, *, surfaces=None) -> tuple[dict[str, ViewResult], list, dict]:
     """Render ``views`` (GL and reference), compare, write each view's images into ``out/<view>/``;
-    ``({name: view result}, the references, {name: GL radiance})``. ``surfaces``: ready-made shading inputs at
+    ``({name: ViewResult}, the references, {name: GL radiance})``. ``surfaces``: ready-made shading inputs at
     the primary hits, by camera (:func:`rockdove.verify.reference_image.cast_surfaces`)."""
     from ..png import save_png
     from ..srgb import linear_to_srgb8
@@ -32,7 +37,7 @@ def render_and_check(scene, lut, views, out: str, *, say, surfaces=None) -> tupl
     t = time.perf_counter()
     ref_results = render_reference(scene, views, surfaces=surfaces)
     t_ref = (time.perf_counter() - t) / len(views)
-    say("comparing")
+    _log.info("comparing")
     results, gl_images = {}, {}
     # The images are encoded in a writer thread (zlib runs outside the GIL) while this one compares the next
     # view; every write is waited for, and its error raised, before the results are returned.
@@ -85,16 +90,15 @@ def render_and_check(scene, lut, views, out: str, *, say, surfaces=None) -> tupl
                 write(files, "dE", path, report.de_map_png, path, m.de_map,
                       f"{v.name}: dE2000 median {m.de_median:.2f}, p95 {m.de_p95:.2f}, max {m.de_max:.2f}")
                 rows.append(report.de_colour(m.de_map))
-            results[v.name] = {
-                "view": v.name, "setup": v.to_dict(), "sweep": sweep,
-                "metrics": m.summary() if m is not None else None,
-                "failures": list(failures_all) + (list(m.failures) if m is not None else []),
-                "reference": {"view": ref_results[i].view, "timings_s": ref_results[i].timings_s,
-                              "stats": ref_results[i].stats},
-                "hue": hue, "boundary": boundary, "files": files, "dir": os.path.abspath(folder),
-                "timings_s": {"gl": t_gl, "reference": t_ref, "compare": time.perf_counter() - t},
-                "sheet_row": rows,
-            }
+            results[v.name] = ViewResult(
+                view=v.name, setup=v.to_dict(), sweep=sweep,  # the metrics without their images
+                metrics=None if m is None else dataclasses.replace(m, de_map=None, cls=None, strict=None),
+                failures=(*failures_all, *(m.failures if m is not None else ())),
+                reference={"view": ref_results[i].view, "timings_s": ref_results[i].timings_s,
+                           "stats": ref_results[i].stats},
+                hue=hue, boundary=boundary, files=files,
+                timings_s={"gl": t_gl, "reference": t_ref, "compare": time.perf_counter() - t},
+                folder=os.path.abspath(folder), sheet_row=tuple(rows))
         for w in writes:
             w.result()
     return {v.name: results[v.name] for v in views}, ref_results, gl_images  # in the views' order

@@ -1,0 +1,228 @@
+"""The verification's results as typed values: what its checks hand on (:mod:`rockdove.verify.run`,
+:mod:`rockdove.verify.host_check`), what its cache keeps (:mod:`rockdove.graph.verification`) and the report
+(:class:`Report`) the verdict, the page, JUnit, the command line and the API read. Each ``to_json()`` is its
+part of ``report.json``; ``from_json`` reads it back.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Literal
+
+if TYPE_CHECKING:  # compare imports numpy; the build's verdict and the API's types need none of it
+    from .compare import HueHistogram, ViewMetrics
+
+#: A host's outcome: within its goals, not, not run here (``reason`` why), or it raised (``reason`` its error).
+Status = Literal["passed", "failed", "skipped", "error"]
+
+
+def _plain(value: Any) -> Any:
+    """``value`` as JSON data: typed results by their ``to_json``, other dataclasses as dicts, tuples as lists."""
+    if hasattr(value, "to_json"):
+        return value.to_json()
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    return value
+
+
+class _Record:
+    """``to_json``: every field but those in ``_PRIVATE``, as JSON data."""
+
+    _PRIVATE: tuple[str, ...] = ()
+
+    def to_json(self) -> dict:
+        return {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)  # type: ignore[arg-type]
+                if f.name not in self._PRIVATE}
+
+
+@dataclass(frozen=True)
+class ViewResult(_Record):
+    """One verification view: its GL render against the exact reference (``metrics`` None when the render
+    failed), the light sweep's hues and boundary, its image files in ``folder`` and its contact-sheet row."""
+
+    view: str
+    setup: dict
+    sweep: bool
+    metrics: ViewMetrics | None
+    failures: tuple[str, ...]
+    reference: dict
+    hue: HueHistogram | None
+    boundary: dict | None
+    files: dict[str, str]
+    timings_s: dict[str, float]
+    folder: str = field(default="", compare=False)
+    sheet_row: tuple = field(default=(), compare=False, repr=False)
+    _PRIVATE = ("folder", "sheet_row")
+
+    @classmethod
+    def from_json(cls, data: dict, folder: str = "", sheet_row: tuple = ()) -> ViewResult:
+        from .compare import HueHistogram, ViewMetrics
+
+        m, hue = data["metrics"], data["hue"]
+        return cls(**{**data, "metrics": None if m is None else ViewMetrics.from_json(m),
+                      "hue": None if hue is None else HueHistogram(**hue), "failures": tuple(data["failures"])},
+                   folder=folder, sheet_row=tuple(sheet_row))
+
+
+@dataclass(frozen=True)
+class HostMetrics:
+    """One host's renders against the reference of its lobe over the feather-tip pixels (rockdove.verify.host_check):
+    CIEDE2000 median and p95, pixels in the strict green and purple bands, the share whose hue class agrees;
+    ``per_view``: ``{view: {"n_pixels", "median_dE", "p95_dE"}}``."""
+
+    n_pixels: int
+    median_dE: float
+    p95_dE: float
+    green_px: int
+    purple_px: int
+    hue_agreement: float
+    per_view: dict[str, dict[str, float]]
+
+
+@dataclass(frozen=True)
+class HostResult:
+    """One host's check: ``status`` (:data:`Status`); ``reason``: why it was skipped, or its error; the
+    ``variant`` and ``lobe`` it ran with (None for a host not available here), its ``metrics`` and the
+    ``failures`` against its goals, and ``files``: ``{view: {"host", "reference", "dE": file name}}``."""
+
+    name: str
+    status: Status
+    variant: str | None = None
+    lobe: str | None = None
+    reason: str | None = None
+    metrics: HostMetrics | None = None
+    failures: tuple[str, ...] = ()
+    files: dict = field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def passed(self) -> bool | None:
+        """True or False for a host that ran, None for one skipped."""
+        return None if self.status == "skipped" else self.status == "passed"
+
+    def to_json(self) -> dict:
+        """The report's host entry: name, variant, lobe, then the metrics, ``passed`` and ``failures``; a skip
+        has ``skipped`` and ``reason``, an error ``error``."""
+        out: dict = {"name": self.name}
+        out.update({} if self.variant is None else {"variant": self.variant, "lobe": self.lobe})
+        if self.status == "skipped":
+            return {**out, "skipped": True, "reason": self.reason, "passed": None}
+        if self.status == "error":
+            return {**out, "passed": False, "error": self.reason}
+        return {**out, **_plain(self.metrics), "passed": self.passed, "failures": list(self.failures)}
+
+    @classmethod
+    def from_json(cls, data: dict, files: dict | None = None) -> HostResult:
+        data = dict(data)
+        common = {"name": data.pop("name"), "variant": data.pop("variant", None), "lobe": data.pop("lobe", None),
+                  "files": files or {}}
+        if data.get("skipped"):
+            return cls(status="skipped", reason=data["reason"], **common)
+        if "error" in data:
+            return cls(status="error", reason=data["error"], **common)
+        passed, failures = data.pop("passed"), tuple(data.pop("failures", ()))
+        return cls(status="passed" if passed else "failed", metrics=HostMetrics(**data), failures=failures,
+                   reason="; ".join(failures) or None, **common)
+
+
+@dataclass(frozen=True)
+class ItemNames:
+    """The verification's cache items of one run by kind: surfaces (camera keys), views and hosts (names)."""
+
+    surfaces: tuple[str, ...] = ()
+    views: tuple[str, ...] = ()
+    hosts: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class ItemsUsed:
+    """Which of the verification's items were rendered (``ran``) and which came from its cache (``reused``)."""
+
+    ran: ItemNames = ItemNames()
+    reused: ItemNames = ItemNames()
+
+    @classmethod
+    def from_json(cls, data: dict) -> ItemsUsed:
+        return cls(**{k: ItemNames(**{n: tuple(v) for n, v in data[k].items()}) for k in ("ran", "reused")})
+
+
+@dataclass(frozen=True)
+class Validation:
+    """The asset validator's verdict: ``details`` its report (issues, counts), ``error`` when it could not run."""
+
+    passed: bool
+    details: dict | None
+    error: str | None
+
+
+@dataclass(frozen=True)
+class Report(_Record):
+    """A verification: report.json's content (``to_json``), typed where it is read. ``views``: the GL renders'
+    metrics; ``hue_sweep``: the light sweep's hues; ``boundary``: ``{"per_view": {view: shape}, "method"}``;
+    ``cache``: the items that ran and were reused; the rest records what was verified and with what."""
+
+    asset: str
+    asset_sha256: str
+    out_dir: str
+    passed: bool
+    failures: tuple[str, ...]
+    notes: tuple[str, ...]
+    goals: dict[str, float]
+    validation: Validation
+    views: tuple[ViewMetrics, ...]
+    views_reused: tuple[str, ...]
+    cache: ItemsUsed
+    view_setup: tuple[dict, ...]
+    reference: tuple[dict, ...]
+    hue_sweep: HueHistogram
+    hosts: tuple[HostResult, ...]
+    anatomy: dict
+    beauty: dict | None
+    boundary: dict
+    film: dict | None
+    lut: dict | None
+    variants: dict[str, str]
+    configuration: dict
+    configuration_hash: str | None
+    render: dict
+    timings_s: dict[str, float]
+    versions: dict
+    argv: tuple[str, ...]
+
+    @classmethod
+    def from_json(cls, data: dict) -> Report:
+        """A report.json read back (its paths as written there)."""
+        from .compare import HueHistogram, ViewMetrics
+
+        typed = {"validation": Validation(**data["validation"]), "cache": ItemsUsed.from_json(data["cache"]),
+                 "views": tuple(ViewMetrics.from_json(m) for m in data["views"]),
+                 "hue_sweep": HueHistogram(**data["hue_sweep"]),
+                 "hosts": tuple(HostResult.from_json(h) for h in data["hosts"])}
+        plain = {f.name: data[f.name] for f in dataclasses.fields(cls) if f.name not in typed}
+        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in plain.items()}, **typed)
+
+
+@dataclass(frozen=True)
+class Verdict(_Record):
+    """The build's verification, its stage's value: ``reason`` (the failures, joined), the views checked, the
+    notes, and the items that ran and were reused."""
+
+    passed: bool
+    reason: str = ""
+    views: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
+    items: ItemsUsed = ItemsUsed()
+
+    @classmethod
+    def of(cls, report: Report, notes: list[str] = ()) -> Verdict:
+        return cls(report.passed, "; ".join(report.failures), tuple(m.view for m in report.views),
+                   (*report.notes, *notes), report.cache)
+
+    @classmethod
+    def from_json(cls, data: dict) -> Verdict:
+        return cls(data["passed"], data["reason"], tuple(data["views"]), tuple(data["notes"]),
+                   ItemsUsed.from_json(data["items"]))
