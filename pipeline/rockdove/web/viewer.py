@@ -30,6 +30,10 @@ THREE_MODULES = {
 }
 #: The light-view angle (degrees) of the viewer's start light: the green side of the paper's flip.
 START_LIGHT_VIEW_DEG = 60.0
+#: The page's Fourier table: rockdove.lut.fourier's G every G_STEP_NM nm (4-point Lagrange there: relative error
+#: (2 pi h / 360 nm)^4 3 / 128 < 1e-6) up to G_END_NM (where |G| < 6e-5 of the white), and its Chebyshev rules up to
+#: LADDER_END nodes (a column needing more is integrated on the reference's 0.1 nm grid, as costly).
+G_STEP_NM, G_END_NM, LADDER_END = 4.0, 131072.0, 1536
 
 
 def web_folder() -> Path:
@@ -62,6 +66,35 @@ def start_view(scene):
     dist = float(np.linalg.norm(eye - neck))
     return light_sweep_views(neck, 1, 512, 512, angles_deg=[START_LIGHT_VIEW_DEG], distance_m=dist,
                              yfov_deg=float(np.degrees(sweep.yfov_rad)), camera_direction=(eye - neck) / dist)[0]
+
+
+def _b64(array, dtype: str) -> str:
+    return base64.b64encode(np.ascontiguousarray(array, dtype=dtype).tobytes()).decode("ascii")
+
+
+def film_tables() -> dict:
+    """The tables film_bake.js integrates with, rockdove.lut's own (D65, CIE 1931 2 deg, lin_rec709): the 0.1 nm
+    reference weights, G (:data:`G_STEP_NM`), the Chebyshev weights of the quadrature's node ladder, and the
+    bakers' constants."""
+    from ..lut import fourier as F, quadrature as Q
+    from ..lut.bake import DEFAULT_FOURIER_TOL, DEFAULT_MAX_TERMS
+    from ..lut.weights import chebyshev_weights, colour_weights, reference_wavelengths
+    from ..spectral import WAVELENGTH_RANGE_NM
+
+    g = F.g_table()
+    ladder = [n for n in Q.NODE_LADDER if n <= LADDER_END]
+    rules = [chebyshev_weights(n) for n in ladder]
+    return {"wavelength_range_nm": list(WAVELENGTH_RANGE_NM),
+            "reference_weights": _b64(colour_weights(reference_wavelengths()), "<f8"),
+            "g_step_nm": G_STEP_NM, "g": _b64(g.g[: int(G_END_NM / g.step_nm) + 1 : int(G_STEP_NM / g.step_nm)], "<f4"),
+            "ladder": ladder, "ladder_wavelength_nm": _b64(np.concatenate([r[0] for r in rules]), "<f8"),
+            "ladder_weights": _b64(np.concatenate([r[1] for r in rules]), "<f4"),
+            # a tenth of rockdove.lut.bake's Fourier tolerance: it sums each block of columns to its largest term
+            # count, the page each column to its own
+            "constants": {"FOURIER_TOL": DEFAULT_FOURIER_TOL / 10, "MAX_TERMS": DEFAULT_MAX_TERMS, "K_FULL": Q.K_FULL,
+                          "K_SERIES": Q.K_SERIES, "N_MIN": Q.N_MIN, "SERIES_COST": Q.SERIES_COST,
+                          "MAX_NODES": Q.MAX_NODES, "SERIES_TOL": Q.DEFAULT_SERIES_TOL,
+                          "ANGLE_PANEL_COS": Q.ANGLE_PANEL_COS, "K_ANGLE": Q.K_ANGLE, "N_ANGLE_MIN": Q.N_ANGLE_MIN}}
 
 
 def viewer_data(scene, lut, glb_bytes: bytes, asset_name: str) -> dict:
