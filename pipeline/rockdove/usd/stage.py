@@ -19,6 +19,7 @@ through ``Sdf.Layer.Export``: no timestamps, so the same inputs give byte-identi
 
 from __future__ import annotations
 
+import json
 import os
 
 import numpy as np
@@ -39,6 +40,8 @@ INTERFACE_LAYER = "pigeon.usda"
 PAYLOAD_LAYER = "pigeon_payload.usda"
 LOOKS_LAYER = "pigeon_looks.usda"
 GEOMETRY_LAYER = "pigeon_geom.usdc"
+#: The interface layer's customLayerData key of the build configuration (JSON; :func:`write_looks`).
+BUILD_CONFIG_KEY = "rockdove:buildConfig"
 SHADING_VARIANT_SET = "shading"
 SHADING_VARIANTS = ("baked", "physical")
 DEFAULT_SHADING = "baked"
@@ -237,9 +240,11 @@ def write_geometry(out_dir: str, bird) -> str:
 
 
 def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geometry: str,
-                shading: str | None = None) -> dict:
+                shading: str | None = None, config: dict | None = None) -> dict:
     """Every layer but the geometry into ``out_dir``: interface, payload and looks (:func:`author_looks` over the
     ``geometry`` layer of :func:`write_geometry`, read, not changed); ``{"interface", "payload", "looks"}`` paths.
+    ``config``: the build configuration's sections that shape the asset, recorded as JSON in the interface layer's
+    ``customLayerData`` (:data:`BUILD_CONFIG_KEY`), for the viewer's build command.
 
     ``shading``: ``"both"``, ``"baked"`` (both need ``lut``) or ``"physical"``; default ``"both"`` with a LUT,
     ``"physical"`` without.
@@ -266,6 +271,9 @@ def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geo
     interface = new_stage(load_payloads=False)
     extent = point_bounds(np.concatenate([np.asarray(p.points_m, np.float32) for p in bird.parts]))
     author_interface(interface, extent=extent.astype(np.float32), version=version, variants=variants)
+    if config is not None:
+        layer = interface.GetRootLayer()
+        layer.customLayerData = {**layer.customLayerData, BUILD_CONFIG_KEY: json.dumps(config, sort_keys=True)}
     out_dir = os.path.abspath(out_dir)
     os.makedirs(out_dir, exist_ok=True)
     paths = {"interface": os.path.join(out_dir, INTERFACE_LAYER), "payload": os.path.join(out_dir, PAYLOAD_LAYER),

@@ -97,6 +97,69 @@ def film_tables() -> dict:
                           "ANGLE_PANEL_COS": Q.ANGLE_PANEL_COS, "K_ANGLE": Q.K_ANGLE, "N_ANGLE_MIN": Q.N_ANGLE_MIN}}
 
 
+#: The film keys of the panel and of ``window.rockdove.film()`` (config section ``film``), then the thickness ranges.
+FILM_KEYS = ("cauchy_a", "cauchy_b_nm2", "k", "n_incident", "n_substrate")
+RANGE_KEYS = ("base_nm", "top_nm")
+
+
+def _toml(value) -> str:
+    """``value`` as the TOML literal of a ``--set KEY=VALUE``."""
+    if isinstance(value, list):
+        return "[" + ", ".join(map(_toml, value)) + "]"
+    return ("true" if value else "false") if isinstance(value, bool) else json.dumps(value)
+
+
+def _film_of(config: dict) -> dict:
+    from ..graph.stages import film_from_config
+
+    film = film_from_config(config["film"])
+    return {**{k: float(getattr(film, k)) for k in FILM_KEYS}, **{k: config["thickness"][k] for k in RANGE_KEYS}}
+
+
+def film_panel_data(scene, lut) -> dict:
+    """What the film panel (film_panel.js) starts from: the asset's film and thickness ranges (the build
+    configuration its root layer records, if any), the presets, each key's schema range and unit, the LUT's grid,
+    each feather vertex's thickness field (the glb's vertex order) and the ``--set`` pairs beyond the film that
+    rebuild the asset as built."""
+    from pxr import Sdf
+
+    from ..config import get, limits, load_config, load_schema, presets
+    from ..errors import UsageError
+    from ..usd.stage import BUILD_CONFIG_KEY
+
+    recorded = None
+    try:
+        flat = json.loads(Sdf.Layer.FindOrOpen(scene.root_layer).customLayerData.get(BUILD_CONFIG_KEY, "null"))
+        if isinstance(flat, dict):
+            flat = {f"{s}.{k}": v for s, section in flat.items() for k, v in dict(section).items()}
+            recorded = (load_config(overrides=flat), flat)
+    except (ValueError, TypeError, UsageError):  # not JSON, not sections, or not a valid configuration: unknown
+        recorded = None
+    default = load_config()
+    feather = [p for p in scene.parts if p.is_feather]
+    field = feather[0].thickness_field if len(feather) == 1 else None
+    sets = []
+    if recorded is not None and field is not None:
+        asset = _film_of(recorded[0])
+        sets = [[k, _toml(v)] for k, v in sorted(recorded[1].items()) if not k.startswith("film.")
+                and k not in ("thickness.base_nm", "thickness.top_nm") and v is not None and v != get(default, k)]
+    else:  # the film the USD records (float attributes: their shortest decimals); the ranges unknown
+        model = scene.film.model
+        asset = {**{k: float(str(np.float32(np.real(getattr(model, k))))) for k in FILM_KEYS}, "base_nm": None,
+                 "top_nm": None}
+    keys = [f"film.{k}" for k in FILM_KEYS] + [f"thickness.{k}" for k in RANGE_KEYS]
+    schema = load_schema()["properties"]
+    # a uniform film's LUT is one row: a range then takes the configured (else default) count of rows
+    thicknesses = (recorded or (default,))[0]["lut"]["thicknesses"] if lut.n_thickness == 1 else lut.n_thickness
+    return {"tables": film_tables(), "asset": asset,
+            "presets": {name: _film_of(load_config(preset=name)) for name in presets()},
+            "limits": {k.split(".")[1]: list(limits(k)) for k in keys},
+            "units": {k.split(".")[1]: schema[k.split(".")[0]]["properties"][k.split(".")[1]]["unit"] for k in keys},
+            "lut": {"angles": lut.n_angle, "thicknesses": thicknesses, "angle_warp_gamma": lut.angle_warp_gamma,
+                    "colour_space": lut.colour_space},
+            "field": None if asset["base_nm"] is None else _b64(field, "<f4"), "sets": sets}
+
+
 def viewer_data(scene, lut, glb_bytes: bytes, asset_name: str) -> dict:
     """What ``viewer_data.js`` holds (JSON-serialisable)."""
     from .gltf import THICKNESS_RAMP_TEXELS
@@ -117,6 +180,7 @@ def viewer_data(scene, lut, glb_bytes: bytes, asset_name: str) -> dict:
         "camera": {"eye_m": view.camera_to_world[:3, 3].tolist(), "target_m": [float(v) for v in scene.neck_centre_m],
                    "yfov_deg": float(np.degrees(view.yfov_rad))},
         "light": {"direction": view.light_direction.tolist()},
+        "film": film_panel_data(scene, lut),
     }
 
 
@@ -143,7 +207,8 @@ def write_viewer(asset, glb_path, out_dir, asset_name: str | None = None) -> str
         (out / "three" / name).write_text(f"(window.ROCKDOVE_MODULES = window.ROCKDOVE_MODULES || {{}})"
                                           f"[{json.dumps(name)}] = {source};\n")
     tags = "\n".join(f'<script src="three/{name}"></script>' for name in modules)
-    shutil.copyfile(web / "viewer_loader.js", out / "viewer_loader.js")
+    for name in ("viewer_loader.js", "film_bake.js", "film_panel.js"):
+        shutil.copyfile(web / name, out / name)
     page = (web / "viewer.html").read_text(encoding="utf-8")
     (out / "viewer.html").write_text(page.replace("<!--MODULE_SCRIPTS-->", tags))
     return str(out / "viewer.html")
