@@ -131,11 +131,11 @@ def test_the_asset_records_its_field_and_it_places_its_thickness(small_asset):
 
     from rockdove.geometry.thickness import place_thickness_nm
     from rockdove.render.scene import load_scene
-    from rockdove.usd.stage import BUILD_CONFIG_KEY
+    from rockdove.usd.stage import BUILD_CONFIG_KEY, LOOKS_LAYER
 
     scene = load_scene(small_asset)
     part = [q for q in scene.parts if q.is_feather][0]
-    config = json.loads(Sdf.Layer.FindOrOpen(scene.root_layer).customLayerData[BUILD_CONFIG_KEY])
+    config = json.loads(Sdf.Layer.FindOrOpen(str(small_asset / LOOKS_LAYER)).customLayerData[BUILD_CONFIG_KEY])
     d = place_thickness_nm(part.thickness_field.astype(np.float64), config["thickness"]["base_nm"],
                            config["thickness"]["top_nm"])
     assert np.abs(d - part.thickness_nm).max() < 1e-3 and np.ptp(part.thickness_nm) > 50

@@ -138,13 +138,10 @@ IMAGES = Codec("images", _images_save, _images_load, shared=True)  # a read-only
 
 # ----------------------------------------------------------------------------------------------- stages
 def film_from_config(film_cfg: dict):
-    """The :class:`rockdove.films.FilmModel` of a ``[film]`` section (unset coefficients: the model's)."""
-    from ..films import get_film
+    """:func:`rockdove.films.film_from_config` (imported when called: rockdove.films imports numpy)."""
+    from ..films import film_from_config as film
 
-    base = get_film(film_cfg["model"])
-    changes = {k: film_cfg[k] for k in ("cauchy_a", "cauchy_b_nm2", "k", "n_incident", "n_substrate")
-               if film_cfg.get(k) is not None}
-    return dataclasses.replace(base, **changes)
+    return film(film_cfg)
 
 
 def bird_params(config: dict):
@@ -241,7 +238,7 @@ def run_usd_geometry(ctx: Context):
     write_geometry(str(ctx.workdir), ctx.inputs["bird"])
 
 
-#: The configuration sections the root layer records (:data:`rockdove.usd.stage.BUILD_CONFIG_KEY`): what shapes the
+#: The configuration sections the looks layer records (:data:`rockdove.usd.stage.BUILD_CONFIG_KEY`): what shapes the
 #: neck's thickness and the LUT, so the viewer prints a build command of the film it shows with the rest as built.
 BUILD_CONFIG_SECTIONS = ("film", "thickness", "geometry", "lut")
 

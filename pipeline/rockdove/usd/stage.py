@@ -40,7 +40,7 @@ INTERFACE_LAYER = "pigeon.usda"
 PAYLOAD_LAYER = "pigeon_payload.usda"
 LOOKS_LAYER = "pigeon_looks.usda"
 GEOMETRY_LAYER = "pigeon_geom.usdc"
-#: The interface layer's customLayerData key of the build configuration (JSON; :func:`write_looks`).
+#: The looks layer's customLayerData key of the build configuration (JSON; :func:`write_looks`).
 BUILD_CONFIG_KEY = "rockdove:buildConfig"
 SHADING_VARIANT_SET = "shading"
 SHADING_VARIANTS = ("baked", "physical")
@@ -243,8 +243,8 @@ def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geo
                 shading: str | None = None, config: dict | None = None) -> dict:
     """Every layer but the geometry into ``out_dir``: interface, payload and looks (:func:`author_looks` over the
     ``geometry`` layer of :func:`write_geometry`, read, not changed); ``{"interface", "payload", "looks"}`` paths.
-    ``config``: the build configuration's sections that shape the asset, recorded as JSON in the interface layer's
-    ``customLayerData`` (:data:`BUILD_CONFIG_KEY`), for the viewer's build command.
+    ``config``: the build configuration's sections that shape the asset, recorded as JSON in the looks layer's
+    ``customLayerData`` (:data:`BUILD_CONFIG_KEY`; the layer a film change rewrites), for the viewer.
 
     ``shading``: ``"both"``, ``"baked"`` (both need ``lut``) or ``"physical"``; default ``"both"`` with a LUT,
     ``"physical"`` without.
@@ -263,6 +263,8 @@ def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geo
     composed.GetRootLayer().subLayerPaths = [looks.GetRootLayer().identifier, geometry_layer.identifier]
     composed.SetEditTarget(Usd.EditTarget(looks.GetRootLayer()))
     author_looks(composed, bird, film, lut, variants=variants)
+    if config is not None:
+        looks.GetRootLayer().customLayerData = {BUILD_CONFIG_KEY: json.dumps(config, sort_keys=True)}
     payload = Sdf.Layer.CreateAnonymous(".usda")  # a bare layer: no stage to recompose its relative sublayers
     payload.defaultPrim = ROOT.lstrip("/")
     for key, value in (("upAxis", "Y"), ("metersPerUnit", 1.0)):  # as new_stage, for tools opening it alone
@@ -271,9 +273,6 @@ def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geo
     interface = new_stage(load_payloads=False)
     extent = point_bounds(np.concatenate([np.asarray(p.points_m, np.float32) for p in bird.parts]))
     author_interface(interface, extent=extent.astype(np.float32), version=version, variants=variants)
-    if config is not None:
-        layer = interface.GetRootLayer()
-        layer.customLayerData = {**layer.customLayerData, BUILD_CONFIG_KEY: json.dumps(config, sort_keys=True)}
     out_dir = os.path.abspath(out_dir)
     os.makedirs(out_dir, exist_ok=True)
     paths = {"interface": os.path.join(out_dir, INTERFACE_LAYER), "payload": os.path.join(out_dir, PAYLOAD_LAYER),

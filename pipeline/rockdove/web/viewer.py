@@ -110,7 +110,7 @@ def _toml(value) -> str:
 
 
 def _film_of(config: dict) -> dict:
-    from ..graph.stages import film_from_config
+    from ..films import film_from_config
 
     film = film_from_config(config["film"])
     return {**{k: float(getattr(film, k)) for k in FILM_KEYS}, **{k: config["thickness"][k] for k in RANGE_KEYS}}
@@ -118,18 +118,18 @@ def _film_of(config: dict) -> dict:
 
 def film_panel_data(scene, lut) -> dict:
     """What the film panel (film_panel.js) starts from: the asset's film and thickness ranges (the build
-    configuration its root layer records, if any), the presets, each key's schema range and unit, the LUT's grid,
+    configuration its looks layer records, if any), the presets, each key's schema range and unit, the LUT's grid,
     each feather vertex's thickness field (the glb's vertex order) and the ``--set`` pairs beyond the film that
     rebuild the asset as built."""
     from pxr import Sdf
 
     from ..config import get, limits, load_config, load_schema, presets
     from ..errors import UsageError
-    from ..usd.stage import BUILD_CONFIG_KEY
+    from ..usd.stage import BUILD_CONFIG_KEY, LOOKS_LAYER
 
-    recorded = None
+    recorded, looks = None, Sdf.Layer.FindOrOpen(os.path.join(os.path.dirname(scene.root_layer), LOOKS_LAYER))
     try:
-        flat = json.loads(Sdf.Layer.FindOrOpen(scene.root_layer).customLayerData.get(BUILD_CONFIG_KEY, "null"))
+        flat = json.loads(looks.customLayerData.get(BUILD_CONFIG_KEY, "null") if looks else "null")
         if isinstance(flat, dict):
             flat = {f"{s}.{k}": v for s, section in flat.items() for k, v in dict(section).items()}
             recorded = (load_config(overrides=flat), flat)
