@@ -206,19 +206,17 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
 
 # ----------------------------------------------------------------------------------------------- verify
 def _write_viewer(root: str, out, progress) -> None:
-    """The interactive view (``viewer.html``) beside the report whenever the asset has its glb, as a build writes it
-    (the report then shows it); said and skipped without three.js."""
+    """``viewer.html`` beside the report when the asset has its glb, as a build's (skipped, said, without three.js)."""
     from .errors import ResourceMissing
     from .web.gltf import GLB_NAME
     from .web.viewer import write_viewer
 
-    glb = Path(root).parent / GLB_NAME
-    if glb.is_file():
-        try:
-            write_viewer(root, glb, out)
-        except ResourceMissing as exc:
-            if progress is not None:
-                progress(f"no interactive viewer in the report: {exc}")
+    try:
+        if (Path(root).parent / GLB_NAME).is_file():
+            write_viewer(root, Path(root).parent / GLB_NAME, out)
+    except ResourceMissing as exc:
+        if progress is not None:
+            progress(f"no interactive viewer in the report: {exc}")
 
 
 def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cache: str | os.PathLike | None = None,

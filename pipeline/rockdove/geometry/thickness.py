@@ -88,10 +88,3 @@ def place_thickness_nm(field: np.ndarray, base_nm, top_nm) -> np.ndarray:
     lo, hi = thickness_bounds_nm(field[:, 0], base_nm, top_nm)
     return np.clip(0.5 * (lo + hi) + 0.5 * (hi - lo) * field[:, 1] + field[:, 2], lo, hi)
 
-
-def card_thickness_nm(roots_m: np.ndarray, params, rng: np.random.Generator) -> np.ndarray:
-    """(N,) float32 film thickness, nm, of the cards rooted at ``roots_m`` (N, 3) on the skin: the gradient with
-    height, the smooth field and the jitter of the :class:`BirdParams` ``params``, within range (module
-    docstring)."""
-    field = thickness_field(roots_m, params, rng)
-    return place_thickness_nm(field, params.thickness_base_nm, params.thickness_top_nm).astype(np.float32)

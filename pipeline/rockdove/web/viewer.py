@@ -97,9 +97,9 @@ def film_tables() -> dict:
                           "ANGLE_PANEL_COS": Q.ANGLE_PANEL_COS, "K_ANGLE": Q.K_ANGLE, "N_ANGLE_MIN": Q.N_ANGLE_MIN}}
 
 
-#: The film keys of the panel and of ``window.rockdove.film()`` (config section ``film``), then the thickness ranges.
-FILM_KEYS = ("cauchy_a", "cauchy_b_nm2", "k", "n_incident", "n_substrate")
-RANGE_KEYS = ("base_nm", "top_nm")
+#: The keys of the film panel and of ``window.rockdove.film()``: configuration key -> its section.
+FILM_KEYS = {**dict.fromkeys(("cauchy_a", "cauchy_b_nm2", "k", "n_incident", "n_substrate"), "film"),
+             "base_nm": "thickness", "top_nm": "thickness"}
 
 
 def _toml(value) -> str:
@@ -113,7 +113,7 @@ def _film_of(config: dict) -> dict:
     from ..films import film_from_config
 
     film = film_from_config(config["film"])
-    return {**{k: float(getattr(film, k)) for k in FILM_KEYS}, **{k: config["thickness"][k] for k in RANGE_KEYS}}
+    return {k: float(getattr(film, k)) if s == "film" else config[s][k] for k, s in FILM_KEYS.items()}
 
 
 def film_panel_data(scene, lut) -> dict:
@@ -145,16 +145,15 @@ def film_panel_data(scene, lut) -> dict:
                 and k not in ("thickness.base_nm", "thickness.top_nm") and v is not None and v != get(default, k)]
     else:  # the film the USD records (float attributes: their shortest decimals); the ranges unknown
         model = scene.film.model
-        asset = {**{k: float(str(np.float32(np.real(getattr(model, k))))) for k in FILM_KEYS}, "base_nm": None,
-                 "top_nm": None}
-    keys = [f"film.{k}" for k in FILM_KEYS] + [f"thickness.{k}" for k in RANGE_KEYS]
+        asset = {k: float(str(np.float32(np.real(getattr(model, k))))) if s == "film" else None
+                 for k, s in FILM_KEYS.items()}
     schema = load_schema()["properties"]
     # a uniform film's LUT is one row: a range then takes the configured (else default) count of rows
     thicknesses = (recorded or (default,))[0]["lut"]["thicknesses"] if lut.n_thickness == 1 else lut.n_thickness
     return {"tables": film_tables(), "asset": asset,
             "presets": {name: _film_of(load_config(preset=name)) for name in presets()},
-            "limits": {k.split(".")[1]: list(limits(k)) for k in keys},
-            "units": {k.split(".")[1]: schema[k.split(".")[0]]["properties"][k.split(".")[1]]["unit"] for k in keys},
+            "limits": {k: list(limits(f"{s}.{k}")) for k, s in FILM_KEYS.items()},
+            "units": {k: schema[s]["properties"][k]["unit"] for k, s in FILM_KEYS.items()},
             "lut": {"angles": lut.n_angle, "thicknesses": thicknesses, "angle_warp_gamma": lut.angle_warp_gamma,
                     "colour_space": lut.colour_space},
             "field": None if asset["base_nm"] is None else _b64(field, "<f4"), "sets": sets}
