@@ -15,6 +15,7 @@ what was wrong, before anything is written; :class:`BuildFailed` when the build'
 
 from __future__ import annotations
 
+import logging
 import os
 import shutil
 import signal
@@ -184,7 +185,7 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
 
 
 # ----------------------------------------------------------------------------------------------- verify
-def _write_viewer(root: str, out, progress) -> None:
+def _write_viewer(root: str, out) -> None:
     """``viewer.html`` beside the report when the asset has its glb, as a build's (skipped, said, without three.js)."""
     from .errors import ResourceMissing
     from .web.gltf import GLB_NAME
@@ -194,8 +195,7 @@ def _write_viewer(root: str, out, progress) -> None:
         if (Path(root).parent / GLB_NAME).is_file():
             write_viewer(root, Path(root).parent / GLB_NAME, out)
     except ResourceMissing as exc:
-        if progress is not None:
-            progress(f"no interactive viewer in the report: {exc}")
+        logging.getLogger(__name__).info(f"no interactive viewer in the report: {exc}")
 
 
 def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cache: str | os.PathLike | None = None,
@@ -217,7 +217,7 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
 
     root = require_inside(asset, allow_external)  # nothing from elsewhere is read, nothing of the user's overwritten
     out = claim_output(out or default_out_dir(root), "verification report")
-    _write_viewer(root, out, progress)
+    _write_viewer(root, out)
     report = verification.verify(os.fspath(root), None if hosts is None else list(hosts), cache=cache, out_dir=out,
                                  width=width, height=height, n_views=n_views,
                                  views=None if views is None else list(views), bench_dir=bench_dir,
