@@ -13,12 +13,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from rockdove import sources
-from rockdove.graph import engine as G
-from rockdove.config import load_config
 from conftest import SMALL_BUILD
 from standins import standin_body, standin_stages  # tests/ is on sys.path under pytest
+
+from rockdove import sources
+from rockdove.config import load_config
+from rockdove.graph import engine as G
 
 
 # ------------------------------------------------------------------------------------- helpers
@@ -415,7 +415,8 @@ def test_half_precision_lut_is_a_half_exr_that_validates(tmp_path):
     report = validate_asset(asset)
     assert report.clean, report.format()
     # the recorded error is that of the table as shipped (half values), not of the float32 bake
-    from rockdove.graph.stages import LUT_ERROR_POINTS, film_from_config
+    from rockdove.films import from_config as film_from_config
+    from rockdove.graph.stages import LUT_ERROR_POINTS
     from rockdove.lut.reference import lut_error
 
     film = film_from_config(cfg["film"])

@@ -14,6 +14,7 @@ of the rock dove): constant n = 1.5, air on both sides.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -121,6 +122,14 @@ FILMS: dict[str, FilmModel] = {
     "paper": FilmModel("paper", cauchy_a=PAPER_FILM_INDEX),
     "keratin": FilmModel("keratin", cauchy_a=KERATIN_CAUCHY_A, cauchy_b_nm2=KERATIN_CAUCHY_B_NM2),
 }
+
+
+def from_config(film) -> FilmModel:
+    """The film of a configuration's ``[film]`` section (a mapping): the registered ``model`` with the
+    coefficients the section sets (None: the model's own)."""
+    changes = {k: film[k] for k in ("cauchy_a", "cauchy_b_nm2", "k", "n_incident", "n_substrate")
+               if film.get(k) is not None}
+    return dataclasses.replace(get_film(film["model"]), **changes)
 
 
 def as_film(film) -> FilmModel:

@@ -13,15 +13,18 @@ where it applies, else ``"quadrature"`` (faster than ``"spectral_fast"`` and exa
 
 from __future__ import annotations
 
+import dataclasses
 import numbers
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
+from ..errors import UsageError
 from ..films import as_film
 from ..spectral import DEFAULT_OBSERVER, WAVELENGTH_RANGE_NM, check_colour_space
 from .interfaces import interface_coefficients
 from .table import ThinFilmLUT
-from ..errors import UsageError
 
 DEFAULT_ANGLES = 256
 DEFAULT_THICKNESSES = 64
@@ -236,7 +239,7 @@ def _bake_auto(cos_theta, thickness_nm, film, **kw):
     return "spectral", _bake_spectral(cos_theta, thickness_nm, film, **kw)
 
 
-BAKE_METHODS = {
+BAKE_METHODS: dict[str, Callable[..., Any]] = {
     "auto": _bake_auto,
     "fourier": _bake_fourier,
     "spectral_fast": _bake_spectral_fast,
@@ -332,6 +335,20 @@ def bake(
         metadata.update(error_metadata(err))
         lut = ThinFilmLUT(lut.rgb, rng, angle_warp_gamma=gamma, colour_space=colour_space, metadata=metadata)
     return lut
+
+
+def as_shipped(lut: ThinFilmLUT, film, precision: str, error_points: int) -> ThinFilmLUT:
+    """``lut`` as its EXR holds it (``precision`` ``"half"``: rounded to half floats, as :mod:`rockdove.lut.exr`
+    writes HALF channels for metadata precision "half"), its header carrying its error against the exact
+    reference at ``error_points`` random points (:func:`rockdove.lut.reference.lut_error`)."""
+    from .reference import lut_error
+
+    rgb, metadata = lut.rgb, dict(lut.metadata)
+    if precision == "half":
+        rgb = lut.rgb.astype(np.float16).astype(np.float32)
+        metadata["precision"] = "half"
+    lut = dataclasses.replace(lut, rgb=rgb, metadata=metadata)
+    return dataclasses.replace(lut, metadata={**metadata, **error_metadata(lut_error(lut, film, n_points=error_points))})
 
 
 def error_metadata(err: dict) -> dict[str, str]:

@@ -41,12 +41,23 @@ phase (280 rad at 5000 nm) to ~3e-5 rad, which resonances amplify (2.1e-3 dE2000
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-from ..spectral import WAVELENGTH_RANGE_NM
-from .weights import (INTERPOLANT_ORDER, REFERENCE_STEP_NM, check_illuminant, colour_weights, interpolant_weights,
-                      product_weights, reference_wavelengths, sigma_range, wavenumber_nodes)
 from ..errors import UsageError
+from ..spectral import WAVELENGTH_RANGE_NM
+from .weights import (
+    INTERPOLANT_ORDER,
+    REFERENCE_STEP_NM,
+    check_illuminant,
+    colour_weights,
+    interpolant_weights,
+    product_weights,
+    reference_wavelengths,
+    sigma_range,
+    wavenumber_nodes,
+)
 
 #: Wavelength step per cos theta band ``(cos_theta_lo, step_nm)``: each within 2e-4 dE2000 (module docstring).
 REFERENCE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, REFERENCE_STEP_NM))
@@ -138,11 +149,11 @@ def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, dtype=np
     q_c = n_a * c if n_c == n_a else np.sqrt((n_c - n_a) * (n_c + n_a) + ca2)
     # per polarisation and point: P = 4 x z, S = (x + z)^2, M = x^2 + z^2, Q = x^2 z^2 with x, z the admittances
     # of the incident medium and the substrate (s: n cos, p: cos / n)
-    consts = []
+    consts: list[list[Any]] = []
     symmetric = n_c == n_a  # then x = z and the terms reduce to P = S = 4 x^2 and x^2 (passed as Q)
     for x, z in ((n_a * c, q_c), (c / n_a, q_c / (n_c * n_c))):
         if symmetric:
-            terms = (4.0 * x * x, None, None, x * x)
+            terms: tuple[Any, ...] = (4.0 * x * x, None, None, x * x)
         else:
             terms = (4.0 * x * z, (x + z) ** 2, x * x + z * z, (x * z) ** 2)
         consts.append([None if v is None else v.astype(dtype)[:, None] for v in terms])
