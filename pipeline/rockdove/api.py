@@ -20,9 +20,10 @@ import shutil
 import signal
 import threading
 import time
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any
 
 from .config import DEFAULT_PRESET, config_hash
 from .config import load_config as _load_config
@@ -30,8 +31,19 @@ from .errors import UsageError, VerificationFailed
 from .graph.engine import StageRecord
 from .verify.results import HostResult, Report
 
-__all__ = ["load_config", "build", "verify", "BuildResult", "BuildFailed", "Verification", "HostResult",
-           "StageRecord", "UsageError", "VerificationFailed", "DEFAULT_OUT"]
+__all__ = [
+    "DEFAULT_OUT",
+    "BuildFailed",
+    "BuildResult",
+    "HostResult",
+    "StageRecord",
+    "UsageError",
+    "Verification",
+    "VerificationFailed",
+    "build",
+    "load_config",
+    "verify",
+]
 
 DEFAULT_OUT = "build/pigeon"
 

@@ -44,6 +44,8 @@ where every interface vanishes (equal indices at grazing, the only 0/0 left in e
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from .errors import UsageError
@@ -280,7 +282,7 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
     qb2 = _q_squared(n_b, n_a, cos_a)
     qc2 = _q_squared(n_c, n_a, cos_a)
     real = qb2.dtype.kind != "c" and qc2.dtype.kind != "c"
-    fast = (qb2 > 0) & (qc2 >= 0) if real else None
+    fast: Any = (qb2 > 0) & (qc2 >= 0) if real else None
     all_fast = real and bool(np.all(fast))
 
     if real and (all_fast or np.any(fast)):

@@ -104,7 +104,6 @@ def _plot(rows: list[dict], path: str) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
     from matplotlib.lines import Line2D
 
     fig, ax = plt.subplots(figsize=(8, 5.5), dpi=110)
@@ -133,8 +132,7 @@ def _plot(rows: list[dict], path: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..lut import bake
-    from ..lut import fourier
+    from ..lut import bake, fourier
     from ..lut.reference import colour_weights, delta_E, error_points, reference_colour, reference_wavelengths
 
     quick = bool(args.quick)

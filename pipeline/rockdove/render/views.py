@@ -96,7 +96,7 @@ class View:
         return {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in vars(self).items()}
 
     @classmethod
-    def from_dict(cls, d: dict) -> "View":
+    def from_dict(cls, d: dict) -> View:
         return cls(**d)
 
     def __eq__(self, other):

@@ -25,7 +25,6 @@ import os
 from .. import resources
 from ..errors import UsageError
 
-
 #: The colour space of thinfilm.mtlx (its ``colorspace`` attribute): linear Rec.709, the project's working space.
 MTLX_WORKING_SPACE = "lin_rec709"
 #: MaterialX surfacematerial names in thinfilm.mtlx, by shading variant.

@@ -27,8 +27,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .compare import lab_hue_classes, rgb_to_lab
 from ..errors import UsageError
+from .compare import lab_hue_classes, rgb_to_lab
 
 #: A class is coherent when its largest connected region holds at least this share of its pixels. Issue 12
 #: asks >= 0.7; a per-card uniform draw reaches 0.70 / 0.69 (green / purple) on the default bird's 90 degree
@@ -87,7 +87,7 @@ def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 
     along = (line - centre) @ direction
     length = float(along.max() - along.min())
     rms = float(np.sqrt(np.mean(dist**2)))
-    out.update(n_centreline=int(len(line)), rms_px=rms, length_px=length,
+    out.update(n_centreline=len(line), rms_px=rms, length_px=length,
                rms_fraction=rms / length if length > 0 else float("nan"),
                direction=[float(v) for v in direction], centre=[float(v) for v in centre])
     return out
@@ -98,7 +98,7 @@ def _boundary_centreline(cls: np.ndarray, bin_px: float) -> tuple[dict, np.ndarr
     with fewer than 2 points)``."""
     pts = boundary_points(cls)
     line = _centreline(pts, bin_px) if len(pts) >= 2 else None
-    return {"n_points": int(len(pts)), "n_centreline": 0 if line is None else int(len(line))}, line
+    return {"n_points": len(pts), "n_centreline": 0 if line is None else len(line)}, line
 
 
 def _without_outliers(line: np.ndarray, residual: np.ndarray, need: int) -> np.ndarray:
@@ -178,7 +178,7 @@ def boundary_curvature(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0
     r_line, r_curve, length = _fits(line, degree)
     rms_line = float(np.sqrt(np.mean(r_line**2)))
     rms_curve = float(np.sqrt(np.mean(r_curve**2)))
-    out.update(n_centreline=int(len(line)), length_px=length, line_rms_px=rms_line, curve_rms_px=rms_curve,
+    out.update(n_centreline=len(line), length_px=length, line_rms_px=rms_line, curve_rms_px=rms_curve,
                ratio=rms_line / max(rms_curve, NOISE_FLOOR_PX))
     return out
 
