@@ -19,6 +19,7 @@ from standins import standin_body, standin_stages  # tests/ is on sys.path under
 from rockdove import sources
 from rockdove.config import load_config
 from rockdove.graph import engine as G
+from rockdove.resources import load_npz
 
 
 # ------------------------------------------------------------------------------------- helpers
@@ -65,7 +66,7 @@ def test_a_shared_codec_loads_each_cache_entry_once_per_process(tmp_path):
 
     def load(folder):
         loads.append(folder)
-        return G.load_npz(folder / "value.npz")
+        return load_npz(folder / "value.npz")
 
     def stages(shared):
         codec = G.Codec("geometry_test", G.NPZ.save, load, shared=shared)
