@@ -139,8 +139,8 @@ def test_a_stage_reads_its_declared_config_as_attributes_and_nothing_else():
     declared = Config({"lut": {"angles": 64}})
     assert declared.lut.angles == 64 and dict(declared) == {"lut": {"angles": 64}}
     with pytest.raises(AttributeError, match="'lut.method' was not declared"):
-        declared.lut.method
+        _ = declared.lut.method
     with pytest.raises(AttributeError, match="'film' was not declared"):
-        declared.film
+        _ = declared.film
     with pytest.raises(AttributeError, match="'lut.angels' is not in the schema"):
-        full.lut.angels
+        _ = full.lut.angels

@@ -28,7 +28,7 @@ from ..errors import UsageError
 
 HELP = "geometry benchmarks: body, cards and whole bird at 1k/10k/100k cards (median time, peak memory)"
 
-#: Goals of issue 3 (seconds).
+#: The goals (seconds).
 GOAL_1K_S = 0.5
 GOAL_100K_S = 10.0
 

@@ -4,7 +4,7 @@
 ``R @ W``: the baseline, for any film (absorbing, total internal reflection). ``"spectral_fast"``: the same for
 real interface coefficients, the Fresnel coefficients once per (angle, wavelength) and the phase per texel (the
 real Airy form, Born & Wolf, *Principles of Optics*, 7th ed., sec. 7.6.1), finer steps below ``grazing_cos``.
-``"fourier"``: method.md's exact Fourier route (:mod:`.fourier`) for non-dispersive real films (texels needing
+``"fourier"``: the exact Fourier route (:mod:`.fourier`) for non-dispersive real films (texels needing
 more than ``max_terms`` terms, and d = 0, are integrated like the reference). ``"quadrature"``: product
 integration in wavenumber (:mod:`.quadrature`), exact for any real-coefficient film. ``"auto"``: ``"fourier"``
 where it applies, else ``"quadrature"`` (faster than ``"spectral_fast"`` and exact, ``rockdove bench lut``), else
