@@ -281,6 +281,10 @@ def bake(
     texel is integrated at 0.1 nm instead (``"fourier"``). ``error_points > 0`` measures the LUT against the exact
     reference at that many random points (seed ``error_seed``; :func:`rockdove.lut.reference.lut_error`) and
     records max / p99 / median dE2000 in the metadata.
+
+    >>> lut = bake(angles=8, thicknesses=4, thickness_range=(500.0, 700.0), film="paper")
+    >>> lut.rgb.shape, lut.thickness_range_nm
+    ((4, 8, 3), (500.0, 700.0))
     """
     angles = _check_count("angles", angles, 2, MAX_ANGLES)
     thicknesses = _check_count("thicknesses", thicknesses, 1, MAX_THICKNESSES)

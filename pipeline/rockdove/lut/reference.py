@@ -208,6 +208,9 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
     ``steps_nm`` is the wavelength step per cos theta band (:func:`reference_step_nm`), ``calibrated_thickness_nm``
     the thickness it was validated to, ``interpolation = (cos_theta_lo, kappa, max_step_rad)`` with ``order`` the
     wavenumber interpolant of real films (module docstring: steps, coarser steps, wavenumber interpolation).
+
+    >>> [round(float(c), 3) for c in reference_colour(1.0, 650.0, "paper")]  # the seed paper's film, head-on
+    [0.072, 0.107, 0.085]
     """
     from ..films import as_film
 
@@ -283,7 +286,11 @@ def colour_to_Lab(rgb, colour_space: str | None = "lin_rec709", illuminant: str 
 
 
 def delta_E(rgb_a, rgb_b, colour_space="lin_rec709", illuminant="D65") -> np.ndarray:
-    """CIEDE2000 between two linear colours (shape (..., 3)) of the same colour space."""
+    """CIEDE2000 between two linear colours (shape (..., 3)) of the same colour space.
+
+    >>> float(delta_E([0.2, 0.5, 0.3], [0.2, 0.5, 0.3]))
+    0.0
+    """
     from .. import spectral
 
     return spectral.delta_E_2000(colour_to_Lab(rgb_a, colour_space, illuminant),
