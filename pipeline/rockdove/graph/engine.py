@@ -29,11 +29,11 @@ GRAPH_VERSION = 2  # bump when the key recipe or the entry layout changes
 @dataclass
 class Context:
     """What a stage function receives: its declared ``config`` (``ctx.config.lut.angles``), its
-    ``inputs`` by stage name (loaded on first access), an empty ``workdir`` that becomes its cache entry (FILES
+    ``inputs`` by stage name (``ctx.inputs.bird``, loaded on first access), an empty ``workdir`` that becomes its cache entry (FILES
     stages write their files there), the assembled ``asset_dir`` for ``needs_asset`` stages."""
 
     config: Config
-    inputs: Mapping[str, Any]
+    inputs: Any  # the declared inputs by name, ctx.inputs["bird"] or ctx.inputs.bird
     workdir: Path
     asset_dir: Path | None = None
     cache: Cache | None = None  # the build's cache, for a stage that keeps items of its own (verification)
@@ -106,6 +106,14 @@ class _LazyInputs(Mapping):
         if name not in self._names:
             raise KeyError(f"stage input {name!r} was not declared; declared: {self._names}")
         return self._graph.value(name)
+
+    def __getattr__(self, name: str) -> Any:  # ctx.inputs.bird
+        if name.startswith("_"):
+            raise AttributeError(name)
+        try:
+            return self[name]
+        except KeyError as exc:
+            raise AttributeError(exc.args[0]) from None
 
     def __iter__(self):
         return iter(self._names)

@@ -98,14 +98,14 @@ def run_bird(ctx: Context):
     from ..geometry import build_bird
     from ..geometry.params import BirdParams
 
-    return build_bird(BirdParams.from_config(ctx.config), body=ctx.inputs["body"])
+    return build_bird(BirdParams.from_config(ctx.config), body=ctx.inputs.body)
 
 
 def run_thickness_range(ctx: Context):
     """(lo, hi) nm present on the feathers, rounded outward to whole nm (the LUT's thickness axis)."""
     import numpy as np
 
-    d = np.asarray(ctx.inputs["bird"].part("NeckFeathers").primvars["thickness"].values, dtype=np.float64)
+    d = np.asarray(ctx.inputs.bird.part("NeckFeathers").primvars["thickness"].values, dtype=np.float64)
     return [float(math.floor(d.min())), float(math.ceil(d.max()))]
 
 
@@ -115,7 +115,7 @@ def run_lut(ctx: Context):
     from ..films import from_config
     from ..lut.bake import as_shipped, bake
 
-    lo, hi = ctx.inputs["thickness_range"]
+    lo, hi = ctx.inputs.thickness_range
     cfg, film = ctx.config.lut, from_config(ctx.config.film)
     lut = bake(angles=cfg.angles, thicknesses=1 if lo == hi else cfg.thicknesses, thickness_range=(lo, hi),
                film=film, method=cfg.method, angle_warp_gamma=cfg.angle_warp_gamma, colour_space=cfg.colour_space)
@@ -127,14 +127,14 @@ def run_texture_images(ctx: Context):
     from ..geometry.params import BirdParams
 
     params = BirdParams.from_config(ctx.config)
-    return textures.feather_textures(params), textures.body_base_colour(params, ctx.inputs["bird"])
+    return textures.feather_textures(params), textures.body_base_colour(params, ctx.inputs.bird)
 
 
 def run_textures(ctx: Context):
     """The textures that do not depend on the film (feather base and mask, body colour)."""
     from ..usd.textures_io import write_base_textures
 
-    feathers, body = ctx.inputs["texture_images"]
+    feathers, body = ctx.inputs.texture_images
     write_base_textures(str(ctx.workdir), feathers, body)
 
 
@@ -142,10 +142,10 @@ def run_film_textures(ctx: Context):
     """The LUT EXR and the preview atlas; physical-only: no LUT EXR, the film's exact preview colours."""
     from ..usd.textures_io import write_film_textures
 
-    feathers, _ = ctx.inputs["texture_images"]
-    span = tuple(ctx.inputs["thickness_range"])  # the preview atlas spans the mesh's range, as previewST does
+    feathers, _ = ctx.inputs.texture_images
+    span = tuple(ctx.inputs.thickness_range)  # the preview atlas spans the mesh's range, as previewST does
     if "lut" in ctx.inputs:
-        write_film_textures(str(ctx.workdir), ctx.inputs["lut"], feathers, thickness_range_nm=span)
+        write_film_textures(str(ctx.workdir), ctx.inputs.lut, feathers, thickness_range_nm=span)
     else:
         from ..films import from_config
 
@@ -157,7 +157,7 @@ def run_usd_geometry(ctx: Context):
     """The geometry layer (crate), which depends on the bird alone: a film change leaves its bytes as they were."""
     from ..usd.stage import write_geometry
 
-    write_geometry(str(ctx.workdir), ctx.inputs["bird"])
+    write_geometry(str(ctx.workdir), ctx.inputs.bird)
 
 
 def run_usd_layers(ctx: Context):
@@ -166,9 +166,9 @@ def run_usd_layers(ctx: Context):
     from ..usd.material import lut_info
     from ..usd.stage import GEOMETRY_LAYER, write_looks
 
-    lut = lut_info(ctx.inputs["lut"]) if "lut" in ctx.inputs else None
-    write_looks(str(ctx.workdir), ctx.inputs["bird"], from_config(ctx.config.film), lut, version=__version__,
-                geometry=str(ctx.inputs["usd_geometry"] / GEOMETRY_LAYER), shading=ctx.config.shading.variant)
+    lut = lut_info(ctx.inputs.lut) if "lut" in ctx.inputs else None
+    write_looks(str(ctx.workdir), ctx.inputs.bird, from_config(ctx.config.film), lut, version=__version__,
+                geometry=str(ctx.inputs.usd_geometry / GEOMETRY_LAYER), shading=ctx.config.shading.variant)
 
 
 def run_usdz(ctx: Context):
@@ -206,7 +206,7 @@ def run_verify(ctx: Context) -> dict:
         from ..web.viewer import write_viewer
 
         try:
-            write_viewer(str(ctx.asset_dir), ctx.inputs["gltf"] / GLB_NAME, ctx.workdir,
+            write_viewer(str(ctx.asset_dir), ctx.inputs.gltf / GLB_NAME, ctx.workdir,
                          asset_name=str(published_path(layer)))
         except ResourceMissing as exc:  # e.g. a wheel install without npm's three.js: the report, without it
             skipped.append(f"no interactive viewer in the report: {exc}")
