@@ -76,7 +76,11 @@ FETCH_STAMP := $(VENV)/fetched/.installed
 $(FETCH_STAMP): $(STAMP) tests/fetched.py
 	$(BIN)/python tests/fetched.py $(FETCH_STAMP)
 
+# The linter and the type checker first (settings in pyproject.toml; .pre-commit-config.yaml runs the same), then
+# the suite.
 test: $(STAMP) $(NPM_STAMP) $(BROWSER_STAMP) $(BPY_STAMP) $(BPY_OLD) $(FETCH_STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/mypy
 	$(BIN)/python -m pytest -q
 
 # CI: build the sdist and the wheel, pip install the wheel into a fresh venv, build/validate/verify a small asset

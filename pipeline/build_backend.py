@@ -10,7 +10,7 @@ here by its text; every other warning, and every other notice, is shown.
 
 import warnings
 
-from setuptools.build_meta import *  # noqa: F401,F403 (the PEP 517 hooks)
+from setuptools.build_meta import *  # noqa: F403 (a PEP 517 backend: setuptools' hooks, re-exported)
 from setuptools.warnings import InformationOnly
 
 # matched anywhere in the text: newer setuptools wraps it in a banner

@@ -19,11 +19,11 @@ OUTSIDE = tempfile.gettempdir()
 
 
 # ------------------------------------------------------------------------------ small real builds (issue 11)
-import json  # noqa: E402
-import shutil  # noqa: E402
-from pathlib import Path  # noqa: E402
+import json
+import shutil
+from pathlib import Path
 
-import pytest  # noqa: E402
+import pytest
 
 #: The settings of the small real builds the tests share: a coarse body (8 mm: k = 0 subdivisions), 200 cards,
 #: small textures and LUT, a small beauty render. Everything else is the preset's, so these are the assets
@@ -48,9 +48,9 @@ def built_value(asset, stage: str, cache=None):
     stage cache (default: the session's, ``<build_root>/cache`` beside ``<build_root>/<name>/pigeon``) by the key
     recorded in the asset's marker: what the generator had in memory, to compare with what a reader gets back
     from the files."""
+    from rockdove.config import load_config
     from rockdove.graph import stages as S
     from rockdove.graph.engine import Cache
-    from rockdove.config import load_config
 
     asset = Path(asset)
     marker = json.loads((asset / ".rockdove-asset.json").read_text())

@@ -29,7 +29,8 @@ def _pause(point: str, release: str | None) -> None:
 
 
 def _patch(standin: bool, point: str | None, release: str | None) -> None:
-    from rockdove.graph import engine as graph, publish, stages
+    from rockdove.graph import engine as graph
+    from rockdove.graph import publish, stages
 
     if standin:
         from standins import standin_stages

@@ -7,14 +7,13 @@ import re
 
 import numpy as np
 import pytest
+from conftest import real_build
 from PIL import Image
 
-from rockdove.hosts import bpy_runner as blender
 from rockdove.hosts import beauty as HB
+from rockdove.hosts import bpy_runner as blender
 from rockdove.render import beauty as B
 from rockdove.render.scene import load_scene
-
-from conftest import real_build
 
 needs_bpy = pytest.mark.skipif(blender.unavailable() is not None, reason=str(blender.unavailable()))
 W, H = 192, 128

@@ -13,12 +13,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from rockdove import sources
-from rockdove.graph import engine as G
-from rockdove.config import load_config
 from conftest import SMALL_BUILD
 from standins import standin_body, standin_stages  # tests/ is on sys.path under pytest
+
+from rockdove import sources
+from rockdove.config import load_config
+from rockdove.graph import engine as G
+from rockdove.resources import load_npz
 
 
 # ------------------------------------------------------------------------------------- helpers
@@ -65,7 +66,7 @@ def test_a_shared_codec_loads_each_cache_entry_once_per_process(tmp_path):
 
     def load(folder):
         loads.append(folder)
-        return G.load_npz(folder / "value.npz")
+        return load_npz(folder / "value.npz")
 
     def stages(shared):
         codec = G.Codec("geometry_test", G.NPZ.save, load, shared=shared)
@@ -415,7 +416,8 @@ def test_half_precision_lut_is_a_half_exr_that_validates(tmp_path):
     report = validate_asset(asset)
     assert report.clean, report.format()
     # the recorded error is that of the table as shipped (half values), not of the float32 bake
-    from rockdove.graph.stages import LUT_ERROR_POINTS, film_from_config
+    from rockdove.films import film_from_config
+    from rockdove.graph.stages import LUT_ERROR_POINTS
     from rockdove.lut.reference import lut_error
 
     film = film_from_config(cfg["film"])

@@ -164,9 +164,9 @@ def test_film_change_through_cli_rebakes_lut_and_material_only(tmp_path):
 def _small_real(cache: Path, body_from: Path) -> list:
     """Options of a small real build (tests/conftest.py's SMALL_BUILD) into a cache seeded with the session's
     body (the one expensive stage, same configuration), so the real stages run in seconds."""
-    from conftest import SMALL_BUILD
-
     import shutil
+
+    from conftest import SMALL_BUILD
 
     shutil.copytree(body_from / "body", cache / "body")
     return ["--cache", str(cache)] + [a for s in SMALL_BUILD for a in ("--set", s)]

@@ -127,3 +127,20 @@ def test_user_cache_folders_are_keyed_by_what_derives_them_and_stale_ones_are_ma
     out = capsys.readouterr().out
     assert f"{old}  STALE: " in out and "removed" in out
     assert not old.exists() and not legacy.exists() and new.is_dir() and renders.is_dir()
+
+
+def test_a_stage_reads_its_declared_config_as_attributes_and_nothing_else():
+    """config.lut.angles; a list reads as a tuple; a key the stage did not declare, or one the schema lacks,
+    raises naming it (the stage's cache key covers only what it declared)."""
+    from rockdove.config import Config, load_config
+
+    full = Config(load_config(preset="measured"))
+    assert full.lut.angles == 256 and full.thickness.base_nm == (480.0, 580.0) and full["lut"]["angles"] == 256
+    declared = Config({"lut": {"angles": 64}})
+    assert declared.lut.angles == 64 and dict(declared) == {"lut": {"angles": 64}}
+    with pytest.raises(AttributeError, match="'lut.method' was not declared"):
+        _ = declared.lut.method
+    with pytest.raises(AttributeError, match="'film' was not declared"):
+        _ = declared.film
+    with pytest.raises(AttributeError, match="'lut.angels' is not in the schema"):
+        _ = full.lut.angels

@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import OUTSIDE, copy_asset
 
 #: The page's result with ``rgb`` as base64 (a Float32Array does not cross the DevTools protocol by value).

@@ -11,10 +11,9 @@ import numpy as np
 import pytest
 import trimesh
 
-from rockdove.geometry import Bird, BirdParams, MeshPart, build_bird, build_body, build_cards
+from rockdove.geometry import Bird, BirdParams, MeshPart, build_bird, build_body, build_cards, checks, neck, sdf, uv
 from rockdove.geometry import body as body_mod
 from rockdove.geometry import cards as cards_mod
-from rockdove.geometry import checks, neck, sdf, uv
 from rockdove.geometry import params as params_mod
 from rockdove.geometry import thickness as thickness_mod
 from rockdove.geometry.thickness import neck_height, thickness_bounds_nm
@@ -112,17 +111,14 @@ def test_the_seed_goes_up_to_the_largest_toml_integer():
     assert BirdParams.from_config(cfg).seed == 2**63 - 1
 
 
-def test_presets_measured_and_paper():
-    m, p = BirdParams.measured(), BirdParams.paper(card_count=1000)
-    assert m.thickness_base_nm == (480.0, 580.0) and m.thickness_top_nm == (600.0, 700.0)
-    assert p.thickness_base_nm == p.thickness_top_nm == (650.0, 650.0) and p.card_count == 1000
-    assert BirdParams().card_count >= 1000
-    # the body detail default is the configuration schema's (one default, not two)
-    import json
-    from rockdove import resources
+def test_bird_params_defaults_are_the_schemas_and_the_presets_are_toml_files():
+    """One source per default: BirdParams() is the schema's defaults; the presets live only in their TOML."""
+    from rockdove import config
 
-    schema = json.loads(resources.path("schemas/config.schema.json").read_text())
-    assert BirdParams().body_voxel_m == schema["properties"]["geometry"]["properties"]["body_voxel_m"]["default"]
+    m, p = (BirdParams.from_config(config.load_config(preset=n)) for n in ("measured", "paper"))
+    assert m.thickness_base_nm == (480.0, 580.0) and m.thickness_top_nm == (600.0, 700.0)
+    assert p.thickness_base_nm == p.thickness_top_nm == (650.0, 650.0)
+    assert BirdParams() == BirdParams.from_config(config.load_config(preset=None))
     with pytest.raises(ValueError, match="unknown"):
         BirdParams.from_dict({"card_cuont": 3})
     assert BirdParams.from_dict(m.to_dict()) == m
@@ -184,7 +180,7 @@ def test_subdivide_onto_a_sphere_keeps_seams_closed_and_st_linear():
     radius = 0.02
     ico = trimesh.creation.icosphere(subdivisions=1, radius=radius)
     at = uv.atlas(ico.vertices, ico.faces)  # split at seams: copies of a vertex have equal positions
-    field = lambda p: np.linalg.norm(p, axis=1) - radius  # noqa: E731
+    field = lambda p: np.linalg.norm(p, axis=1) - radius
     welded, to_welded, faces, st = body_mod.subdivide_onto_surface(
         field, ico.vertices[at.vmapping], at.faces, at.st, levels=2)
     assert len(faces) == 16 * len(ico.faces) and len(st) == len(to_welded)

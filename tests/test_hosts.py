@@ -3,7 +3,6 @@ MaterialX's generated GLSL (baked and physical networks) against the exact refer
 
 import json
 import os
-import sys
 import types
 
 import numpy as np
@@ -109,10 +108,10 @@ def test_materialx_host_draws_the_written_network_not_a_copy_of_it(asset_layer, 
     from pxr import Sdf
 
     from rockdove.hosts import materialx
-    from rockdove.verify.host_check import host_metrics
-    from rockdove.verify.reference_image import render_reference
     from rockdove.render.scene import load_scene
+    from rockdove.verify.host_check import host_metrics
     from rockdove.verify.inputs import verification_views
+    from rockdove.verify.reference_image import render_reference
 
     folder = tmp_path / "broken"
     shutil.copytree(os.path.dirname(asset_layer), folder)

@@ -255,3 +255,13 @@ def test_imports_follow_the_data_flow_between_packages():
 def test_no_private_name_is_imported_across_packages():
     bad = private_violations()
     assert not bad, "private names used across packages (make them public or move them):\n" + _lines(bad)
+
+
+def test_no_docstring_or_comment_cites_an_issue_or_a_file_outside_the_repository():
+    """A reader of the package has the repository, not the tracker or the team's shared folder."""
+    import re
+
+    cites = re.compile(r"\b[Ii]ssues? #?\d+|method\.md|\.\./shared/")
+    found = [f"{p.relative_to(ROOT)}:{n}" for p in sorted(ROOT.rglob("*.py"))
+             for n, line in enumerate(p.read_text().splitlines(), 1) if cites.search(line)]
+    assert found == []

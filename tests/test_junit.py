@@ -10,7 +10,6 @@ import sys
 import xml.etree.ElementTree as ET
 
 import pytest
-
 from conftest import OUTSIDE, copy_asset
 from fetched import fetch
 
@@ -34,10 +33,11 @@ def _verify(asset, out, junit, *extra):
 def runs(small_asset, tmp_path_factory):
     """A passing verification (hosts: glsl) and one whose LUT is not the
     film (the views fail): their JUnit files and reports."""
+    import dataclasses
+
     import numpy as np
 
     from rockdove.lut.exr import read_exr, write_exr
-    import dataclasses
 
     base = tmp_path_factory.mktemp("junit")
     wrong = copy_asset(small_asset, base / "wrong")

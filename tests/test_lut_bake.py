@@ -5,9 +5,8 @@ import numpy as np
 import pytest
 
 from rockdove import optics
-from rockdove.lut import ThinFilmLUT, bake, lut_error, reference_colour, write_preview_png
+from rockdove.lut import bake, fourier, lut_error, reference_colour, write_preview_png
 from rockdove.lut.bake import BAKE_METHODS, DEFAULT_ANGLES, DEFAULT_THICKNESSES, fourier_supported
-from rockdove.lut import fourier
 from rockdove.lut.reference import REFERENCE_STEP_NM, colour_weights, delta_E, reference_wavelengths
 
 GOAL_MAX, GOAL_P99 = 0.5, 0.1  # issue 2: dE2000 at the default LUT size, grazing included
@@ -201,7 +200,7 @@ def test_bad_bake_arguments_raise_value_error_naming_the_argument(kw, name):
 
 def test_bake_is_keyword_only_and_methods_are_registered():
     with pytest.raises(TypeError):
-        bake(256)  # noqa
+        bake(256)
     assert set(BAKE_METHODS) == {"auto", "fourier", "spectral", "spectral_fast", "quadrature"}
 
 

@@ -7,10 +7,9 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import OUTSIDE
 
 from rockdove.lut import read_exr
-
-from conftest import OUTSIDE
 
 
 def _rockdove(*args, cwd=None):

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from rockdove.films import FilmModel
-from rockdove.lut import bake, reference_colour
-from rockdove.lut import quadrature, weights
+from rockdove.lut import bake, quadrature, reference_colour, weights
 from rockdove.lut.reference import colour_weights, delta_E, reference_wavelengths
 
 

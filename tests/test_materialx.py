@@ -211,13 +211,14 @@ def test_standalone_document_carries_the_default_builds_constants(doc):
     (a host that falls back to it, as generated OSL does, shows a colour of the bird, not the thinnest)."""
     import math
 
-    from rockdove.graph.stages import bird_params, film_from_config
     from rockdove.config import load_config
+    from rockdove.films import film_from_config
     from rockdove.geometry import build_bird
+    from rockdove.geometry.params import BirdParams
     from rockdove.usd.stage import FILM_IOR_WAVELENGTH_NM
 
     cfg = load_config()
-    d = np.asarray(build_bird(bird_params(cfg)).part("NeckFeathers").primvars["thickness"].values, np.float64)
+    d = np.asarray(build_bird(BirdParams.from_config(cfg)).part("NeckFeathers").primvars["thickness"].values, np.float64)
     lo, hi = float(math.floor(d.min())), float(math.ceil(d.max()))
     film = film_from_config(cfg["film"])
     n_inc = float(np.real(film.n_incident))

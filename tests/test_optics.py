@@ -16,7 +16,8 @@ import warnings
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from rockdove import optics
 from rockdove.optics import film_phase, fresnel_r, reflectance, snell_cos, transmittance
@@ -242,7 +243,7 @@ def test_broadcasting_over_every_argument_and_callable_indices():
     lam = np.linspace(400, 700, 5)[:, None, None]
     c = np.linspace(0, 1, 4)[None, :, None]
     d = np.array([0.0, 300.0, 650.0])
-    n_of_lam = lambda w: 1.532 + 5.89e3 / w**2  # noqa: E731
+    n_of_lam = lambda w: 1.532 + 5.89e3 / w**2
     r = reflectance(lam, c, d, n_film=n_of_lam)
     assert r.shape == (5, 4, 3) and r.dtype == np.float64
     r_arr = reflectance(lam, c, d, n_film=n_of_lam(lam))

@@ -6,7 +6,6 @@ import os
 import numpy as np
 import pytest
 
-from rockdove import hosts
 from rockdove.hosts import HostError, osl
 
 

@@ -9,7 +9,6 @@ import os
 import subprocess
 
 import pytest
-
 from fetched import arkit_failures
 
 

@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from rockdove.verify import rays
-from rockdove.verify import reference_image as reference
 from rockdove.films import FilmModel
 from rockdove.lut.reference import reference_colour
 from rockdove.render.film import ThinFilmParams
 from rockdove.render.scene import RenderScene, ScenePart
 from rockdove.render.views import View, look_at
+from rockdove.verify import rays
+from rockdove.verify import reference_image as reference
 
 BODY_RGB = np.array([0.2, 0.4, 0.6])
 
@@ -224,7 +224,7 @@ def test_spectral_step_is_exact_against_a_finer_grid(thickness_nm):
         sel = (c >= lo) & (c < hi)
         exact[sel] = reference_colour(c[sel], d[sel], film.model, steps_nm=((0.0, step),))
     ours = reference.structural_rgb(c, d, film)
-    lab = lambda x: spectral.RGB_to_Lab(np.clip(x, 0, 1))  # noqa: E731 - the displayed colour
+    lab = lambda x: spectral.RGB_to_Lab(np.clip(x, 0, 1))
     assert np.max(spectral.delta_E_2000(lab(ours), lab(exact))) < 0.003  # measured <= 0.0008 (lut.reference docstring)
     # the wavenumber interpolant (cos_theta >= 0.01): phase steps about 3x coarser are visibly wrong
     sel = c >= reference.IMAGE_INTERPOLATION[0]
@@ -283,7 +283,7 @@ def test_deduplication_keys_are_far_below_visible():
     a = reference.structural_rgb(c, d, film)
     b = reference_colour(c + 0.5 * reference.COS_THETA_QUANTUM, d + 0.5 * reference.THICKNESS_QUANTUM_NM, film.model,
                          steps_nm=((0.0, 1.0),))
-    lab = lambda x: spectral.RGB_to_Lab(np.clip(x, 0, 1))  # noqa: E731
+    lab = lambda x: spectral.RGB_to_Lab(np.clip(x, 0, 1))
     assert np.max(spectral.delta_E_2000(lab(a), lab(b))) < 0.01
     stats = {}
     reference.structural_rgb(np.repeat(c[:10], 5), np.repeat(d[:10], 5), film, stats)
@@ -406,9 +406,9 @@ def test_wavenumber_interpolant_integrates_polynomials_in_wavenumber_exactly():
         assert wl.shape == (40 + order - 1,) and w.shape == (wl.size, 3)
         assert (wl[order // 2 - 1], wl[order // 2 - 1 + 40]) == (360.0, 780.0)
         assert np.sum(w[:, 1]) == pytest.approx(1.0, abs=1e-12)
-        poly = lambda lam: (1e3 / lam) ** (order - 1) - 0.5 * (1e3 / lam) ** 2  # noqa: E731
+        poly = lambda lam: (1e3 / lam) ** (order - 1) - 0.5 * (1e3 / lam) ** 2
         assert poly(wl) @ w == pytest.approx(poly(fine) @ w_fine, abs=1e-9)
-    fringe = lambda lam: 0.1 * np.cos(2.0e4 / lam)  # noqa: E731 - about 0.7 rad per interval of 40
+    fringe = lambda lam: 0.1 * np.cos(2.0e4 / lam)
     err = [np.abs(fringe(lut_reference.wavenumber_nodes(40, o)) @ lut_reference.interpolant_weights(40, o)
                   - fringe(fine) @ lut_reference.colour_weights(fine)).max() for o in (4, 16)]
     assert err[1] < 1e-6 < err[0]

@@ -9,7 +9,6 @@ with the CPU reference and the ``rockdove render`` command also run on the sessi
 """
 
 import math
-import os
 
 import numpy as np
 import pytest

@@ -4,12 +4,11 @@ import json
 
 import numpy as np
 import pytest
+from conftest import built_value, copy_asset
 
 from rockdove.render import scene as sc
 from rockdove.render import texture, triangulate
 from rockdove.render.views import View, default_views, hero_view, light_sweep_views, look_at, turntable_views
-
-from conftest import built_value, copy_asset
 
 
 @pytest.fixture(scope="module")

@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 from rockdove import textures
-from rockdove.geometry import BirdParams, build_body
-from rockdove.geometry import plumage, sdf
+from rockdove.geometry import BirdParams, build_body, plumage, sdf
 
 
 @pytest.fixture(scope="module")

@@ -7,8 +7,8 @@ import subprocess
 import sys
 
 import pytest
-
 from conftest import OUTSIDE
+
 from rockdove import resources
 from rockdove.usd.schema import ATTRIBUTE_TYPES, SCHEMA_NAME, apply_thin_film, read_thin_film, register
 

@@ -7,11 +7,10 @@ import os
 
 import numpy as np
 import pytest
+from conftest import SMALL_BUILD, built_value, real_build
 
 from rockdove.films import get_film
 from rockdove.geometry.types import drop_unreferenced_points
-
-from conftest import SMALL_BUILD, built_value, real_build
 
 #: ``geometry.card_count`` of the small builds
 CARDS = int(dict(s.split("=") for s in SMALL_BUILD)["geometry.card_count"])
@@ -97,7 +96,7 @@ def test_meshes_carry_normals_st_display_colour_extent_and_binding(stage, bird):
 def test_author_mesh_writes_only_points_that_a_face_uses(bird):
     import dataclasses
 
-    from pxr import Usd, UsdGeom
+    from pxr import Usd
 
     from rockdove.usd.stage import author_mesh
 
@@ -504,8 +503,8 @@ def test_physical_only_preview_atlas_holds_the_exact_colours(physical):
     import colour
     from PIL import Image
 
-    from rockdove.usd.stage import open_asset
     from rockdove.lut.reference import reference_colour
+    from rockdove.usd.stage import open_asset
     from rockdove.usd.textures_io import PREVIEW_COS_THETA, PREVIEW_TILE_TEXELS
 
     mask = _tile(np.asarray(Image.open(physical["feather_mask"])), PREVIEW_TILE_TEXELS)

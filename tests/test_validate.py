@@ -8,12 +8,11 @@ import subprocess
 import sys
 
 import pytest
+from conftest import OUTSIDE, built_value, copy_asset
 
 from rockdove.lut.exr import read_exr
 from rockdove.usd.stage import GEOMETRY_LAYER, LOOKS_LAYER
 from rockdove.usd.validate import validate_asset
-
-from conftest import OUTSIDE, built_value, copy_asset
 
 FEATHERS = "/Pigeon/Geom/NeckFeathers"
 

@@ -8,18 +8,17 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import OUTSIDE, copy_asset, real_build
 from PIL import Image
 
-from rockdove.verify import boundary
-from rockdove.verify import compare as cmp
-from rockdove.verify.reference_image import render_reference
 from rockdove.films import FilmModel
 from rockdove.render.film import ThinFilmParams
 from rockdove.render.scene import RenderScene, ScenePart
 from rockdove.render.views import light_sweep_views
 from rockdove.usd.stage import LOOKS_LAYER
-
-from conftest import OUTSIDE, copy_asset, real_build
+from rockdove.verify import boundary
+from rockdove.verify import compare as cmp
+from rockdove.verify.reference_image import render_reference
 
 PAPER_FILM = dict(model=FilmModel("paper", cauchy_a=1.5), thickness_primvar="thickness", thickness_units="nm",
                   lut_file="unused.exr", lut_colour_space="lin_rec709", angle_warp_gamma=1.0,
@@ -100,8 +99,8 @@ def absorbing(build_root):
 @pytest.mark.gl
 def test_an_absorbing_film_builds_records_k_and_verifies(absorbing, tmp_path):
     from rockdove.films import FilmModel
-    from rockdove.render.scene import load_scene
     from rockdove.lut.reference import reference_colour
+    from rockdove.render.scene import load_scene
 
     assert load_scene(absorbing).film.model.k == pytest.approx(ABSORBING_K)
     # k changes the colour: otherwise this test could not tell a film that carries k from one that drops it
@@ -245,8 +244,8 @@ def test_one_verification_reuses_what_it_checked_and_reruns_a_host_whose_code_ch
 def test_an_image_that_cannot_be_written_fails_the_views_it_belongs_to(assets, tmp_path, monkeypatch):
     """The per-view images are written in a background thread; a write that fails is raised from the
     verification, not lost with the thread."""
-    from rockdove.graph.verification import verify
     from rockdove import png
+    from rockdove.graph.verification import verify
 
     real = png.save_png
 

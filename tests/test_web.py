@@ -56,11 +56,11 @@ def test_web_host_agrees_with_the_exact_view_angle_reference(web_asset, tmp_path
     colour at cos = |N.V| times the mask (the same pixels' N.V, thickness and mask from our GL renderer in its
     |N.V| mode): linear float, background 0, green and purple, hue classes and dE2000 close."""
     from rockdove.hosts import web
-    from rockdove.verify import compare as cmp
     from rockdove.render.gl import GLRenderer
-    from rockdove.verify.reference_image import structural_rgb
     from rockdove.render.scene import load_scene
     from rockdove.render.views import default_views
+    from rockdove.verify import compare as cmp
+    from rockdove.verify.reference_image import structural_rgb
 
     asset, _ = web_asset
     scene = load_scene(asset)
@@ -135,6 +135,7 @@ def test_no_build_machine_path_in_the_verify_folder(small_asset, tmp_path):
     import sys
 
     from conftest import OUTSIDE, copy_asset
+
     from rockdove.web.viewer import write_viewer
 
     asset = copy_asset(small_asset, tmp_path / "copy" / "pigeon")

@@ -21,9 +21,10 @@ import shutil
 import signal
 import threading
 import time
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any
 
 from .config import DEFAULT_PRESET, config_hash
 from .config import load_config as _load_config
@@ -31,8 +32,19 @@ from .errors import UsageError, VerificationFailed
 from .graph.engine import StageRecord
 from .verify.results import HostResult, Report
 
-__all__ = ["load_config", "build", "verify", "BuildResult", "BuildFailed", "Verification", "HostResult",
-           "StageRecord", "UsageError", "VerificationFailed", "DEFAULT_OUT"]
+__all__ = [
+    "DEFAULT_OUT",
+    "BuildFailed",
+    "BuildResult",
+    "HostResult",
+    "StageRecord",
+    "UsageError",
+    "Verification",
+    "VerificationFailed",
+    "build",
+    "load_config",
+    "verify",
+]
 
 DEFAULT_OUT = "build/pigeon"
 
@@ -41,7 +53,15 @@ def load_config(preset: str | None = DEFAULT_PRESET, config_file: str | os.PathL
                 overrides: Mapping[str, Any] | Iterable[str] = ()) -> dict:
     """The effective, validated build configuration (a plain dict, as ``rockdove config --json`` prints it):
     ``preset`` (None: the schema's defaults), a TOML ``config_file`` over it, then ``overrides`` (``{dotted key:
-    value}`` or ``KEY=VALUE`` strings as ``--set`` takes them). :class:`UsageError` naming key, value and range."""
+    value}`` or ``KEY=VALUE`` strings as ``--set`` takes them). :class:`UsageError` naming key, value and range.
+
+    >>> config = load_config(preset="paper", overrides={"lut.angles": 128})
+    >>> config["lut"]["angles"], config["film"]["model"]
+    (128, 'paper')
+    >>> load_config(overrides=["lut.angles=1"])
+    Traceback (most recent call last):
+    rockdove.errors.UsageError: config key 'lut.angles': value 1 is out of range; allowed: integer >= 2 and <= 4096 texels
+    """
     return _load_config(preset=preset, config_file=config_file, overrides=overrides)
 
 

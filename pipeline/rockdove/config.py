@@ -15,8 +15,9 @@ import math
 import os
 import re
 import tomllib
+from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import Any
 
 from . import resources
 from .errors import UsageError
@@ -279,7 +280,50 @@ def config_hash(config: dict) -> str:
     return hashlib.sha256(canonical_json(config).encode()).hexdigest()
 
 
-def get(config: dict, key: str) -> Any:
+@functools.lru_cache(maxsize=1)
+def _known_keys() -> frozenset[str]:
+    def walk(node: dict, path: str) -> list[str]:
+        subs = node.get("properties", {}) if node.get("type") == "object" else {}
+        return [path] + [k for name, sub in subs.items() for k in walk(sub, f"{path}.{name}".lstrip("."))]
+    return frozenset(walk(load_schema(), ""))
+
+
+class Config(Mapping[str, Any]):
+    """A checked configuration, or the part of it a build stage declared, as a read-only value:
+    ``config.lut.angles`` (a section reads as a Config, a list as a tuple). The names are the schema's; a key the
+    schema has but this value lacks (a stage that did not declare it: its cache key would not cover it) raises
+    AttributeError naming it. A Mapping too, for code that walks it (:func:`get`, :func:`canonical_json`)."""
+
+    __slots__ = ("_data", "_path")
+
+    def __init__(self, data: Mapping[str, Any], path: str = ""):
+        self._data, self._path = data, path
+
+    def __getattr__(self, name: str) -> Any:
+        key = f"{self._path}.{name}".lstrip(".")
+        if name.startswith("_") or name not in self._data:
+            why = "was not declared (a stage's cache key covers only its declared keys)" if key in _known_keys() \
+                else "is not in the schema"
+            raise AttributeError(f"config key {key!r} {why}")
+        value = self._data[name]
+        if isinstance(value, Mapping):
+            return Config(value, key)
+        return tuple(value) if isinstance(value, list) else value
+
+    def __getitem__(self, name: str) -> Any:
+        return self._data[name]
+
+    def __iter__(self):
+        return iter(self._data)
+
+    def __len__(self) -> int:
+        return len(self._data)
+
+    def __repr__(self) -> str:
+        return f"Config({dict(self._data)!r})"
+
+
+def get(config: Mapping, key: str) -> Any:
     """The value at dotted ``key`` (``"lut"`` gives the section, ``"lut.angles"`` one value)."""
     node: Any = config
     for part in key.split("."):

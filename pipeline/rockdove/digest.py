@@ -16,7 +16,7 @@ class Digest:
     def __init__(self):
         self._h = hashlib.sha256()
 
-    def add(self, label: str, value=b"") -> "Digest":
+    def add(self, label: str, value=b"") -> Digest:
         """Add ``value``: bytes as they are, text as UTF-8, a numpy array by dtype, shape and bytes, anything
         else as sorted-key JSON (``str`` for what JSON cannot hold)."""
         np = sys.modules.get("numpy")  # no array exists before numpy is imported: a no-op rebuild never imports it
@@ -30,7 +30,7 @@ class Digest:
         self._h.update(label.encode() + b"\0" + value + b"\0")
         return self
 
-    def file(self, label: str, path) -> "Digest":
+    def file(self, label: str, path) -> Digest:
         """Add the bytes of the file at ``path``, streamed (nothing but the label when ``path`` is empty)."""
         self._h.update(label.encode() + b"\0")
         if path:

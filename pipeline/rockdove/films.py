@@ -123,7 +123,7 @@ FILMS: dict[str, FilmModel] = {
 }
 
 
-def film_from_config(film_cfg: dict) -> FilmModel:
+def film_from_config(film_cfg) -> FilmModel:
     """The :class:`FilmModel` of a build configuration's ``[film]`` section (unset coefficients: the model's)."""
     changes = {k: film_cfg[k] for k in ("cauchy_a", "cauchy_b_nm2", "k", "n_incident", "n_substrate")
                if film_cfg.get(k) is not None}

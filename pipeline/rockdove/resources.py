@@ -21,7 +21,7 @@ from .errors import ResourceMissing, UsageError
 FOLDERS = {"materials": "rockdove.materials", "schemas": "rockdove.schemas", "assets": "rockdove.assets"}
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def folder(name: str) -> Path:
     """The directory of data folder ``name`` (one of :data:`FOLDERS`) on disk; :class:`ResourceMissing` when the
     package was installed without it."""
@@ -95,3 +95,14 @@ def write_cached(path: Path, data: bytes) -> bool:
         return True
     except OSError:
         return False
+
+
+def load_npz(path: str | os.PathLike) -> dict:
+    """An ``.npz`` file's arrays (no pickles), read-only."""
+    import numpy as np
+
+    with np.load(path, allow_pickle=False) as z:
+        out = {k: z[k] for k in z.files}
+    for a in out.values():
+        a.setflags(write=False)
+    return out

@@ -75,7 +75,7 @@ def read(path: Path, seen: dict) -> bytes:
 
 
 def _python() -> str:
-    return "%d.%d.%d" % sys.version_info[:3]
+    return ".".join(map(str, sys.version_info[:3]))
 
 
 def environment(seen: dict) -> str:
@@ -86,7 +86,7 @@ def environment(seen: dict) -> str:
         if entry and os.path.isdir(entry):
             _stamp(entry, seen)
             names += sorted(n for n in os.listdir(entry) if n.endswith((".dist-info", ".egg-info"))
-                            and not re.match(r"rockdove[-.]", n, re.I))
+                            and not re.match(r"rockdove[-.]", n, re.IGNORECASE))
     return hashlib.sha256("\n".join(names).encode()).hexdigest()
 
 

@@ -32,8 +32,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from .srgb import srgb_encode
 from .errors import UsageError
+from .srgb import srgb_encode
 
 WAVELENGTH_RANGE_NM = (360.0, 780.0)
 DEFAULT_ILLUMINANT = "D65"

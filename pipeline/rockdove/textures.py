@@ -12,11 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import UsageError
 from .geometry import plumage as _pl
 from .geometry.colours import WING_BAR_SRGB, body_colour_at, coat_tiles, palette_colours  # noqa: F401
-from .geometry.colours import linear as _linear, mix as _mix
+from .geometry.colours import linear as _linear
+from .geometry.colours import mix as _mix
 from .geometry.sdf import smoothstep as _smoothstep
-from .errors import UsageError
 
 #: sRGB 8-bit colours of a neck feather: the vane, the rachis, the downy base.
 VANE_SRGB = (56, 61, 66)

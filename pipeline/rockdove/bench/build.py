@@ -258,7 +258,9 @@ def _api_table(tmp: Path, preset: list[str], repeats: int) -> dict:
     ``repeats`` processes: medians."""
     rows = [_api_rows(tmp, _spec(preset), [[], [], ["film.cauchy_a=1.57"], ["film.cauchy_a=1.58"]], f"api{i}")
             for i in range(repeats)]
-    med = lambda j: statistics.median(r[j]["wall_s"] for r in rows)  # noqa: E731
+    def med(j):
+        return statistics.median(r[j]["wall_s"] for r in rows)
+
     return {"cold_s": med(0), "noop_s": med(1), "film_s": statistics.median(
         [r[2]["wall_s"] for r in rows] + [r[3]["wall_s"] for r in rows]), "film_ran": rows[-1][3]["ran"]}
 

@@ -28,7 +28,7 @@ from ..errors import UsageError
 
 HELP = "geometry benchmarks: body, cards and whole bird at 1k/10k/100k cards (median time, peak memory)"
 
-#: Goals of issue 3 (seconds).
+#: The goals (seconds).
 GOAL_1K_S = 0.5
 GOAL_100K_S = 10.0
 
@@ -71,17 +71,16 @@ def _body_phase_rows(row, voxel_m: float, repeats: int) -> None:
     levels = _body.subdivision_levels(voxel_m)
     coarse = row(f"  surface nets {_body.UNWRAP_VOXEL_M * 1000:g} mm", None,
                  lambda: _body.build_body_mesh(_body.UNWRAP_VOXEL_M), repeats,
-                 lambda m: {"triangles": int(len(m.faces))})
+                 lambda m: {"triangles": len(m.faces)})
     at = row("  xatlas unwrap", None, lambda: _uv.atlas(coarse.vertices_m, coarse.faces), repeats)
     row(f"  subdivide x{levels} + relax", None,
         lambda: _body.subdivide_onto_surface(_sdf.body_sdf, coarse.vertices_m[at.vmapping], at.faces, at.st, levels),
-        repeats, lambda r: {"triangles": int(len(r[2]))})
+        repeats, lambda r: {"triangles": len(r[2])})
 
 
 def run(args: argparse.Namespace) -> int:
     from rockdove import textures
-    from rockdove.geometry import BirdParams, build_bird, build_body, build_cards
-    from rockdove.geometry import checks
+    from rockdove.geometry import BirdParams, build_bird, build_body, build_cards, checks
 
     if args.repeats < 1:
         raise UsageError(f"--repeats={args.repeats} must be >= 1")
@@ -108,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
         return result
 
     body = row(f"body (detail {base.body_voxel_m * 1000:g} mm)", None, lambda: build_body(base), repeats,
-               lambda b: {"triangles": int(len(b.mesh.faces)), "uv_vertices": int(len(b.part.points_m))})
+               lambda b: {"triangles": len(b.mesh.faces), "uv_vertices": len(b.part.points_m)})
     _body_phase_rows(row, base.body_voxel_m, repeats)
     alpha = textures.feather_textures(base.feather_texture_resolution)["base"][..., 3]
     for n in counts:

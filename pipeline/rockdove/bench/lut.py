@@ -23,8 +23,8 @@ import numpy as np
 from ..errors import UsageError
 
 HELP = "LUT bake time against dE2000 error, per method and setting (table, JSON, PNG plot)"
-SPEED_GOAL = 20.0  # issues 2 and 13: default bake >= 20x faster than the straightforward 1 nm bake
-# accuracy goals (max, p99 dE2000) of the default bake per film: issue 2 (paper), issue 13 (keratin)
+SPEED_GOAL = 20.0  # the default bake >= 20x faster than the straightforward 1 nm bake
+# accuracy goals (max, p99 dE2000) of the default bake per film (paper, keratin)
 ACCURACY_GOALS = {"paper": (0.5, 0.1), "keratin": (0.1, 0.05)}
 DEFAULT_OUT = os.path.join("build", "bench")
 MIN_ROW_TIME_S = 0.3  # fast rows repeat until their timed runs add up to this (quick mode: a third)...
@@ -104,7 +104,6 @@ def _plot(rows: list[dict], path: str) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
     from matplotlib.lines import Line2D
 
     fig, ax = plt.subplots(figsize=(8, 5.5), dpi=110)
@@ -133,8 +132,7 @@ def _plot(rows: list[dict], path: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..lut import bake
-    from ..lut import fourier
+    from ..lut import bake, fourier
     from ..lut.reference import colour_weights, delta_E, error_points, reference_colour, reference_wavelengths
 
     quick = bool(args.quick)

@@ -35,8 +35,8 @@ def _limit(key: str, end: str = "maximum"):
 
 def rows() -> list[tuple[str, list[str]]]:
     """(label, rockdove argv) per row; the values are read from the schema (and the LUT baker's limits)."""
-    from ..render.images import MAX_SIDE_PX
     from ..lut.bake import MAX_ANGLES, MAX_THICKNESSES
+    from ..render.images import MAX_SIDE_PX
 
     def build(*sets, verify=False):
         return ["build", "--out", "out", "--cache", "cache", "--quiet", *([] if verify else ["--no-verify"]),

@@ -1,4 +1,4 @@
-"""``rockdove bench render``: time the verification renders (issue 5's goal: 4 views at 512 x 512 with the GL
+"""``rockdove bench render``: time the verification renders (the goal: 4 views at 512 x 512 with the GL
 renderer plus the CPU reference in under 20 s on this machine).
 
 Rows (medians of ``--repeats`` runs, ``time.perf_counter``, all in one process):

@@ -153,7 +153,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"  LUT / plain = {ratio:.2f} (goal <= {GOAL_RATIO}): {'ok' if ratio <= GOAL_RATIO else 'OVER'}")
     ok = ratio <= GOAL_RATIO
     if film is not None:
-        goals = [("LUT bake, median of %d edits" % args.films, film["bake_median_ms"], GOAL_BAKE_MS, "ms"),
+        goals = [(f"LUT bake, median of {args.films} edits", film["bake_median_ms"], GOAL_BAKE_MS, "ms"),
                  ("frame dragging / at rest", film["drag_ratio"], GOAL_DRAG_RATIO, "x"),
                  ("max dE2000, every texel", film["max_de"], GOAL_MAX_DE, ""), ("p99 dE2000", film["p99_de"], GOAL_P99_DE, "")]
         print(f"film panel: {args.films} random films (bake max {max(film['bake_ms']):.1f} ms); frame "

@@ -9,8 +9,8 @@ import time
 
 import numpy as np
 
-from ..render.images import MAX_SHEET_PX, MAX_SIDE_PX
 from ..errors import UsageError
+from ..render.images import MAX_SHEET_PX, MAX_SIDE_PX
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -48,9 +48,9 @@ def run(args: argparse.Namespace) -> int:
                          f"memory budget), got {args.views} x {args.width} x {args.height}")
     claim_output(args.out, "renders", create=False)  # a folder rockdove did not write is refused, before rendering
     require_inside(args.asset, args.allow_external_assets)
+    from ..png import save_png
     from ..render.gl import GLRenderer
     from ..render.images import box_downsample, contact_sheet
-    from ..png import save_png
     from ..render.scene import load_scene
     from ..render.views import View, default_views
     from ..srgb import linear_to_srgb8

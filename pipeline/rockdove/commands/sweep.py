@@ -23,9 +23,9 @@ import threading
 import time
 from pathlib import Path
 
-from .build import add_config_arguments
 from ..errors import UsageError
 from ..resources import write_atomic
+from .build import add_config_arguments
 from .sweep_grid import grid_points, parse_grid
 
 POINTS = "points"
@@ -77,9 +77,9 @@ def build_point(name: str, base: dict, overrides: list[str], out: str, verify: b
     """Build one point on a Dask worker (``base``: preset, config file, overrides and cache of every point) into
     ``out``; its record. Any error is recorded, not raised: the point fails alone."""
     _restore_malloc_thresholds()
-    from .. import api
-
     from distributed import get_worker
+
+    from .. import api
 
     record: dict = {"name": name, "pid": os.getpid(), "worker": get_worker().address}
     t0 = time.perf_counter()

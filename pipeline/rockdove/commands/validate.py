@@ -24,8 +24,8 @@ def add_external_argument(parser: argparse.ArgumentParser) -> None:
 
 def targets(path: str) -> list[str]:
     """The layers to validate for ``path``: a folder gives its root layer and, if present, its usdz."""
-    from rockdove.usd.usdz import USDZ_NAME
     from rockdove.usd.layout import resolve_root_layer
+    from rockdove.usd.usdz import USDZ_NAME
 
     root = resolve_root_layer(path)
     out = [root]

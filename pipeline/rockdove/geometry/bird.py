@@ -1,7 +1,7 @@
 """Assemble the rock dove: the body (one closed surface with xatlas UVs), the neck feather cards, the parts.
 
 :func:`build_body` is separate so that a build graph can cache the body (it depends only on
-``BirdParams.body_key()``) and redo only the cards when the card parameters or the seed change.
+``body_voxel_m`` and ``body_texture_resolution``) and redo only the cards when the card parameters or the seed change.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ class Body:
 
 
 def build_body(params: BirdParams) -> Body:
-    """Mesh the body (torso, breast, rump, neck, head) and give it UVs. Depends on ``params.body_key()``.
+    """Mesh the body (torso, breast, rump, neck, head) and give it UVs. Depends on ``params.body_voxel_m`` and ``params.body_texture_resolution``.
 
     The coarse body (:data:`body.UNWRAP_VOXEL_M`) is unwrapped by xatlas into the texture above the feather
     cards' palette strip (:data:`plumage.ATLAS_START`), then subdivided onto the implicit surface

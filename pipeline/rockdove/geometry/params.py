@@ -1,6 +1,6 @@
-"""Parameters of the procedural rock dove (:class:`BirdParams`) and its two presets.
+"""Parameters of the procedural rock dove (:class:`BirdParams`); its defaults are the configuration schema's.
 
-The thickness presets follow ../shared/reference/method.md: the measured cortex thickness of rock-dove neck
+The presets (assets/pigeon/*.toml) follow the literature: the measured cortex thickness of rock-dove neck
 barbules is 480-580 nm at the base of the neck and 600-700 nm towards the top (Yoshioka, Nakamura and
 Kinoshita, J. Phys. Soc. Jpn. 76(1), 2007); the seed paper uses 650 nm everywhere. This module imports no numpy:
 the build graph reads the parameters on every run, even a no-op.
@@ -9,16 +9,13 @@ the build graph reads the parameters on every run, even a no-op.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields, replace
 
 from rockdove.config import get, limits
 
 from ..errors import UsageError
 
-#: Measured film thickness at the base of the neck, nm (Yoshioka et al. 2007).
-MEASURED_BASE_NM = (480.0, 580.0)
-#: Measured film thickness towards the top of the neck, nm (Yoshioka et al. 2007).
-MEASURED_TOP_NM = (600.0, 700.0)
 #: The seed paper's single film thickness, nm.
 PAPER_THICKNESS_NM = 650.0
 
@@ -93,8 +90,8 @@ class BirdParams:
     card_lift_deg: float = 6.0
     card_bend: float = 0.08
     card_root_depth_m: tuple = (0.0005, 0.0012)
-    thickness_base_nm: tuple = MEASURED_BASE_NM
-    thickness_top_nm: tuple = MEASURED_TOP_NM
+    thickness_base_nm: tuple = (PAPER_THICKNESS_NM, PAPER_THICKNESS_NM)
+    thickness_top_nm: tuple = (PAPER_THICKNESS_NM, PAPER_THICKNESS_NM)
     thickness_correlation_length_m: float = 0.008
     thickness_spread: float = 0.5
     thickness_jitter_nm: float = 3.0
@@ -108,18 +105,7 @@ class BirdParams:
             object.__setattr__(self, f.name, value)
 
     @classmethod
-    def measured(cls, **overrides) -> "BirdParams":
-        """The measured preset: 480-580 nm at the neck base to 600-700 nm at the top (Yoshioka et al. 2007)."""
-        return cls(**{"thickness_base_nm": MEASURED_BASE_NM, "thickness_top_nm": MEASURED_TOP_NM, **overrides})
-
-    @classmethod
-    def paper(cls, **overrides) -> "BirdParams":
-        """The seed paper's preset: 650 nm everywhere (both ranges (650, 650))."""
-        t = (PAPER_THICKNESS_NM, PAPER_THICKNESS_NM)
-        return cls(**{"thickness_base_nm": t, "thickness_top_nm": t, **overrides})
-
-    @classmethod
-    def from_dict(cls, values: dict) -> "BirdParams":
+    def from_dict(cls, values: dict) -> BirdParams:
         """From a mapping of field names (unknown names raise ValueError naming them)."""
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(values) - known)
@@ -128,7 +114,7 @@ class BirdParams:
         return cls(**values)
 
     @classmethod
-    def from_config(cls, config: dict) -> "BirdParams":
+    def from_config(cls, config: Mapping) -> BirdParams:
         """From a build configuration (:func:`rockdove.config.load_config`): the keys of :data:`CONFIG_KEYS`."""
         values = {name: get(config, key) for name, key in CONFIG_KEYS.items()}
         return cls(**{name: tuple(v) if isinstance(v, list) else v for name, v in values.items()})
@@ -137,10 +123,6 @@ class BirdParams:
         """Plain mapping of every field (tuples as lists), e.g. for hashing a build step's inputs."""
         return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
 
-    def with_(self, **changes) -> "BirdParams":
+    def with_(self, **changes) -> BirdParams:
         """A copy with some fields changed (validated)."""
         return replace(self, **changes)
-
-    def body_key(self) -> dict:
-        """The fields the body (and its UVs and texture) depend on: the build graph can cache by these."""
-        return {"body_voxel_m": self.body_voxel_m, "body_texture_resolution": self.body_texture_resolution}

@@ -75,7 +75,10 @@ def revolve(z_m: np.ndarray, radius_m: np.ndarray, around: int = AROUND):
     return verts.reshape(-1, 3), nrm.reshape(-1, 3), st.reshape(-1, 2).astype(np.float64), faces
 
 
-def _frame(direction: np.ndarray, up: np.ndarray = np.array([0.0, 1.0, 0.0])) -> np.ndarray:
+_Y_UP = np.array([0.0, 1.0, 0.0])
+
+
+def _frame(direction: np.ndarray, up: np.ndarray = _Y_UP) -> np.ndarray:
     """(3, 3) rotation whose third column is ``direction`` (unit) and whose second leans to ``up``."""
     zc = direction / np.linalg.norm(direction)
     xc = np.cross(up, zc)

@@ -25,8 +25,17 @@ import numpy as np
 from rockdove.geometry import cards as _cards
 from rockdove.geometry import neck as _neck
 from rockdove.geometry import sdf as _sdf
-from rockdove.geometry.colours import (BODY_DISPLAY_COLOR, RAMP, T_BAR, T_BAR2, T_PRIMARY, T_RECTRIX,  # noqa: F401
-                                       T_WHITE, TILES, coat_tiles)
+from rockdove.geometry.colours import (  # noqa: F401
+    BODY_DISPLAY_COLOR,
+    RAMP,
+    T_BAR,
+    T_BAR2,
+    T_PRIMARY,
+    T_RECTRIX,
+    T_WHITE,
+    TILES,
+    coat_tiles,
+)
 from rockdove.geometry.types import MeshPart, triangle_part, unit
 
 #: The parts made of feather cards (two-sided, bound to the body's material).
@@ -150,7 +159,9 @@ def drape_x(y, z, offset_m, x_max: float = 0.07, steps: int = 22):
     (bisection on body_sdf - offset; 0 where the line misses it)."""
     y, z = np.asarray(y, float).ravel(), np.asarray(z, float).ravel()
     off = np.broadcast_to(np.asarray(offset_m, float), y.shape)
-    f = lambda x: _sdf.body_sdf(np.stack([x, y, z], 1)) - off  # noqa: E731
+    def f(x):
+        return _sdf.body_sdf(np.stack([x, y, z], 1)) - off
+
     lo, hi = np.zeros_like(y), np.full_like(y, x_max)
     hit = f(lo) < 0
     for _ in range(steps):
@@ -183,7 +194,7 @@ def build_wings() -> MeshPart:
     pieces = []
     v = SHAPE_V[None, :]
     for side in (1.0, -1.0):
-        for layer, (_, roots, tips, count, width, offset, tip_x, tile) in enumerate(WING_ROWS):
+        for _, roots, tips, count, width, offset, tip_x, tile in WING_ROWS:
             a = np.linspace(0.0, 1.0, count)[:, None]
             r0 = (1 - a) * np.array(roots[0]) + a * np.array(roots[1])
             r1 = (1 - a) * np.array(tips[0]) + a * np.array(tips[1])

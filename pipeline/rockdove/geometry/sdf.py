@@ -88,7 +88,7 @@ def smooth_union(a: np.ndarray, b: np.ndarray, k_m: float) -> np.ndarray:
 # Measurements of Columba livia (cited in rockdove.verify.anatomy, which checks the written asset against them):
 # total length 29-37 cm, tail 9.5-12 cm, tarsus 2.6-3.5 cm (Gibbs, Barnes and Cox, "Pigeons and Doves", 2001;
 # Wikipedia, "Rock dove"). Standing, the trunk is held 30-45 degrees nose-up with the breast full and forward,
-# the small head held up over it and the back sloping on into the tail (issue 21, from side-view photographs).
+# the small head held up over it and the back sloping on into the tail (from side-view photographs).
 # The folded wings and the tail are feather cards (rockdove.geometry.plumage), not part of this field.
 _DEG = np.pi / 180.0
 
@@ -106,7 +106,7 @@ RUMP = Ellipsoid((0.0, 0.059, -0.067), (0.024, 0.016, 0.026), rotation_x(-28 * _
 NECK = TaperedCapsule((0.0, 0.150, 0.040), (0.0, 0.203, 0.072), 0.026, 0.0165)
 #: Head: small and rounded, only slightly longer front to back than it is high.
 HEAD = Ellipsoid((0.0, 0.214, 0.083), (0.0190, 0.0200, 0.0215), rotation_x(10 * _DEG))
-#: Around the neck band the body keeps the shoulders and breast the iridescent cards were tuned on (issue 12's
+#: Around the neck band the body keeps the shoulders and breast the iridescent cards were tuned on (the
 #: coherent green/purple field at the 90 degree sweep): torso and breast of the earlier bird, blended into the
 #: new trunk over NECK_BLEND_RADII_M from the neck axis, so the band, its cards and their thickness field stay
 #: as they were.

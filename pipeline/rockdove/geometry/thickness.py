@@ -1,7 +1,7 @@
 """The film-thickness field on the neck feather cards.
 
 Measured rock-dove barbule cortex: 480-580 nm at the base of the neck, 600-700 nm towards the top (Yoshioka,
-Nakamura and Kinoshita, J. Phys. Soc. Jpn. 76(1), 2007, via ../shared/reference/method.md). The field is the
+Nakamura and Kinoshita, J. Phys. Soc. Jpn. 76(1), 2007). The field is the
 base-to-top gradient along the neck height h, plus a smooth random field over the neck *surface*, plus a small
 per-card jitter, clipped to the configured range at that h:
 

@@ -17,12 +17,14 @@ import shutil
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from ..config import canonical_json
 from ..digest import Digest
+from ..resources import load_npz
 from ..sources import files_of
 
 
@@ -59,28 +61,21 @@ def load_entry(codec: Codec, folder: Path) -> Any:
     return value
 
 
-def load_npz(path: Path) -> dict:
-    """An ``.npz`` file's arrays (no pickles), read-only."""
-    import numpy as np
-
-    with np.load(path, allow_pickle=False) as z:
-        out = {k: z[k] for k in z.files}
-    for a in out.values():
-        a.setflags(write=False)
-    return out
-
-
 def _npz_save(value, folder: Path) -> None:
     import numpy as np
 
-    np.savez(folder / "value.npz", **{k: np.ascontiguousarray(v) for k, v in value.items()})
+    arrays: dict[str, Any] = {k: np.ascontiguousarray(v) for k, v in value.items()}
+    np.savez(folder / "value.npz", **arrays)
 
 
 #: Files a codec writes at the top of a stage's cache folder; never published into the asset.
 CODEC_FILES = frozenset({"value.json", "value.npz"})
 
-JSON = Codec("json", lambda value, folder: (folder / "value.json").write_text(canonical_json(value)),
-             lambda folder: json.loads((folder / "value.json").read_text()))
+def _json_save(value, folder: Path) -> None:
+    (folder / "value.json").write_text(canonical_json(value))
+
+
+JSON = Codec("json", _json_save, lambda folder: json.loads((folder / "value.json").read_text()))
 NPZ = Codec("npz", _npz_save, lambda folder: load_npz(folder / "value.npz"))
 # The stage writes files into ctx.workdir itself; its value is that (read-only) folder.
 FILES = Codec("files", lambda value, folder: None, lambda folder: folder)

@@ -14,28 +14,29 @@ from __future__ import annotations
 import hashlib
 import shutil
 import time
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any
 
 from .. import sources
-from ..config import canonical_json, get
-from .cache import CODEC_FILES, FILES, JSON, NPZ, Cache, Codec, folder_digest, load_entry, load_npz  # noqa: F401
+from ..config import Config, canonical_json, get
+from .cache import CODEC_FILES, FILES, JSON, NPZ, Cache, Codec, folder_digest, load_entry  # noqa: F401
 
 GRAPH_VERSION = 2  # bump when the key recipe or the entry layout changes
 
 
 @dataclass
 class Context:
-    """What a stage function receives: its declared ``config`` (nested as in the full configuration), its
-    ``inputs`` by stage name (loaded on first access), an empty ``workdir`` that becomes its cache entry (FILES
+    """What a stage function receives: its declared ``config`` (``ctx.config.lut.angles``), its
+    ``inputs`` by stage name (``ctx.inputs.bird``, loaded on first access), an empty ``workdir`` that becomes its cache entry (FILES
     stages write their files there), the assembled ``asset_dir`` for ``needs_asset`` stages."""
 
-    config: dict
-    inputs: Mapping[str, Any]
+    config: Config
+    inputs: Any  # the declared inputs by name, ctx.inputs["bird"] or ctx.inputs.bird
     workdir: Path
     asset_dir: Path | None = None
-    cache: "Cache | None" = None  # the build's cache, for a stage that keeps items of its own (verification)
+    cache: Cache | None = None  # the build's cache, for a stage that keeps items of its own (verification)
 
 
 @dataclass(frozen=True)
@@ -98,13 +99,21 @@ class StageRecord:
 
 
 class _LazyInputs(Mapping):
-    def __init__(self, graph: "Graph", names: Iterable[str]):
+    def __init__(self, graph: Graph, names: Iterable[str]):
         self._graph, self._names = graph, tuple(names)
 
     def __getitem__(self, name):
         if name not in self._names:
             raise KeyError(f"stage input {name!r} was not declared; declared: {self._names}")
         return self._graph.value(name)
+
+    def __getattr__(self, name: str) -> Any:  # ctx.inputs.bird
+        if name.startswith("_"):
+            raise AttributeError(name)
+        try:
+            return self[name]
+        except KeyError as exc:
+            raise AttributeError(exc.args[0]) from None
 
     def __iter__(self):
         return iter(self._names)
@@ -150,7 +159,7 @@ class Graph:
         return done
 
     def _context(self, stage: Stage, workdir: Path, asset_dir) -> Context:
-        return Context(config=_nested(self.config, stage.config), inputs=_LazyInputs(self, stage.deps),
+        return Context(config=Config(_nested(self.config, stage.config)), inputs=_LazyInputs(self, stage.deps),
                        workdir=workdir, asset_dir=asset_dir, cache=self.cache)
 
     def _run_stage(self, stage: Stage, asset_dir) -> StageRecord:

@@ -14,113 +14,18 @@ but renders only what the change reaches (:mod:`rockdove.graph.verification`).
 
 from __future__ import annotations
 
-import dataclasses
-import json
 import math
 import shutil
 import types
 from pathlib import Path
 
 from .. import __version__
+from ..resources import load_npz
 from ..verify.results import Verdict
-from .engine import FILES, JSON, Codec, Context, Stage, load_npz
+from .engine import FILES, JSON, Codec, Context, Stage
 
 
 # ----------------------------------------------------------------------------------------------- codecs
-def _parts_arrays(parts_in) -> tuple[dict, list]:
-    import numpy as np
-
-    arrays, parts = {}, []
-    for i, part in enumerate(parts_in):
-        for f in ("points_m", "face_vertex_counts", "face_vertex_indices", "normals", "st"):
-            arrays[f"{i}/{f}"] = np.ascontiguousarray(getattr(part, f))
-        pv = {}
-        for name, p in part.primvars.items():
-            arrays[f"{i}/primvar/{name}"] = np.ascontiguousarray(p.values)
-            pv[name] = {"interpolation": p.interpolation, "doc": p.doc}
-        parts.append({"name": part.name, "material": part.material,
-                      "display_color": [float(c) for c in part.display_color], "primvars": pv})
-    return arrays, parts
-
-
-def _parts_from(arrays: dict, meta_parts: list) -> tuple:
-    from ..geometry.types import MeshPart, Primvar
-
-    parts = []
-    for i, p in enumerate(meta_parts):
-        pv = {n: Primvar(arrays[f"{i}/primvar/{n}"], d["interpolation"], d["doc"]) for n, d in p["primvars"].items()}
-        parts.append(MeshPart(name=p["name"], points_m=arrays[f"{i}/points_m"],
-                              face_vertex_counts=arrays[f"{i}/face_vertex_counts"],
-                              face_vertex_indices=arrays[f"{i}/face_vertex_indices"], normals=arrays[f"{i}/normals"],
-                              st=arrays[f"{i}/st"], material=p["material"], display_color=tuple(p["display_color"]),
-                              primvars=pv))
-    return tuple(parts)
-
-
-def _bird_save(bird, folder: Path) -> None:
-    import numpy as np
-
-    arrays, parts = _parts_arrays(bird.parts)
-    np.savez(folder / "bird.npz", **arrays)
-    (folder / "bird.json").write_text(json.dumps({"parts": parts}, sort_keys=True))
-
-
-def _bird_load(folder: Path):
-    from ..geometry.types import Bird
-
-    meta = json.loads((folder / "bird.json").read_text())
-    return Bird(parts=_parts_from(load_npz(folder / "bird.npz"), meta["parts"]))
-
-
-def _body_save(body, folder: Path) -> None:
-    import numpy as np
-
-    arrays, parts = _parts_arrays([body.part] + ([body.wings] if body.wings is not None else []))
-    arrays.update({f"mesh/{f}": np.ascontiguousarray(getattr(body.mesh, f)) for f in ("vertices_m", "faces", "normals")})
-    np.savez(folder / "body.npz", **arrays)
-    (folder / "body.json").write_text(json.dumps({"parts": parts, "card_band_area_m2": body.card_band_area_m2},
-                                                 sort_keys=True))
-
-
-def _body_load(folder: Path):
-    from ..geometry.bird import Body
-    from ..geometry.body import BodyMesh
-
-    arrays = load_npz(folder / "body.npz")
-    meta = json.loads((folder / "body.json").read_text())
-    mesh = BodyMesh(**{f: arrays[f"mesh/{f}"] for f in ("vertices_m", "faces", "normals")})
-    parts = _parts_from(arrays, meta["parts"])
-    return Body(mesh=mesh, part=parts[0], wings=parts[1] if len(parts) > 1 else None,
-                card_band_area_m2=meta.get("card_band_area_m2"))
-
-
-BIRD = Codec("bird", _bird_save, _bird_load, shared=True)  # frozen dataclasses of read-only arrays (no stage edits them)
-BODY = Codec("body", _body_save, _body_load, shared=True)
-
-
-def _lut_save(lut, folder: Path) -> None:
-    import numpy as np
-
-    np.save(folder / "rgb.npy", np.ascontiguousarray(lut.rgb, dtype=np.float32))
-    (folder / "lut.json").write_text(json.dumps({
-        "thickness_range_nm": list(lut.thickness_range_nm), "angle_warp_gamma": lut.angle_warp_gamma,
-        "colour_space": lut.colour_space, "metadata": {k: str(v) for k, v in lut.metadata.items()}}, sort_keys=True))
-
-
-def _lut_load(folder: Path):
-    import numpy as np
-
-    from ..lut.table import ThinFilmLUT
-
-    meta = json.loads((folder / "lut.json").read_text())
-    return ThinFilmLUT(np.load(folder / "rgb.npy"), tuple(meta["thickness_range_nm"]),
-                       angle_warp_gamma=meta["angle_warp_gamma"], colour_space=meta["colour_space"],
-                       metadata=meta["metadata"])
-
-
-LUT = Codec("lut", _lut_save, _lut_load)
-
-
 def _images_save(value, folder: Path) -> None:
     import numpy as np
 
@@ -134,23 +39,45 @@ def _images_load(folder: Path):
     return types.MappingProxyType(feathers), arrays["body"]
 
 
-IMAGES = Codec("images", _images_save, _images_load, shared=True)  # a read-only mapping of read-only arrays
+def _lut_save(lut, folder: Path) -> None:
+    lut.save(folder)
 
 
-# ----------------------------------------------------------------------------------------------- stages
-def film_from_config(film_cfg: dict):
-    """:func:`rockdove.films.film_from_config` (imported when called: rockdove.films imports numpy)."""
-    from ..films import film_from_config as film
+def _lut_load(folder: Path):
+    from ..lut.table import ThinFilmLUT
 
-    return film(film_cfg)
+    return ThinFilmLUT.load(folder)
 
 
-def bird_params(config: dict):
-    """:class:`rockdove.geometry.BirdParams` from the configuration (the keys of ``params.CONFIG_KEYS``)."""
-    from ..geometry.params import BirdParams
+def _bird_save(bird, folder: Path) -> None:
+    from ..geometry.io import save_bird
 
-    return BirdParams.from_config(config)
+    save_bird(bird, folder)
 
+
+def _bird_load(folder: Path):
+    from ..geometry.io import load_bird
+
+    return load_bird(folder)
+
+
+def _body_save(body, folder: Path) -> None:
+    from ..geometry.io import save_body
+
+    save_body(body, folder)
+
+
+def _body_load(folder: Path):
+    from ..geometry.io import load_body
+
+    return load_body(folder)
+
+
+# frozen dataclasses of read-only arrays, a read-only mapping of read-only arrays: no stage edits them
+BIRD = Codec("bird", _bird_save, _bird_load, shared=True)
+BODY = Codec("body", _body_save, _body_load, shared=True)
+LUT = Codec("lut", _lut_save, _lut_load)
+IMAGES = Codec("images", _images_save, _images_load, shared=True)
 
 #: Random points at which the build measures its LUT, as shipped (after any half rounding), against the exact
 #: reference (rockdove.lut.reference.lut_error), recorded in the EXR header (rockdove:estimatedMaxDeltaE2000,
@@ -158,64 +85,56 @@ def bird_params(config: dict):
 LUT_ERROR_POINTS = 200
 
 
+# ----------------------------------------------------------------------------------------------- stages
 def run_body(ctx: Context):
     from ..geometry import build_body
     from ..geometry.params import BirdParams
 
-    return build_body(BirdParams(body_voxel_m=ctx.config["geometry"]["body_voxel_m"],
-                                 body_texture_resolution=ctx.config["textures"]["body_resolution"]))
+    return build_body(BirdParams(body_voxel_m=ctx.config.geometry.body_voxel_m,
+                                 body_texture_resolution=ctx.config.textures.body_resolution))
 
 
 def run_bird(ctx: Context):
     from ..geometry import build_bird
+    from ..geometry.params import BirdParams
 
-    return build_bird(bird_params(ctx.config), body=ctx.inputs["body"])
+    return build_bird(BirdParams.from_config(ctx.config), body=ctx.inputs.body)
 
 
 def run_thickness_range(ctx: Context):
     """(lo, hi) nm present on the feathers, rounded outward to whole nm (the LUT's thickness axis)."""
     import numpy as np
 
-    d = np.asarray(ctx.inputs["bird"].part("NeckFeathers").primvars["thickness"].values, dtype=np.float64)
+    d = np.asarray(ctx.inputs.bird.part("NeckFeathers").primvars["thickness"].values, dtype=np.float64)
     return [float(math.floor(d.min())), float(math.ceil(d.max()))]
 
 
 def run_lut(ctx: Context):
     """Bake over the mesh's thickness range, round to half floats when ``lut.precision = "half"``, then measure
     the table as shipped against the exact reference (:data:`LUT_ERROR_POINTS`)."""
-    import numpy as np
+    from ..films import film_from_config
+    from ..lut.bake import as_shipped, bake
 
-    from ..lut.bake import bake, error_metadata
-    from ..lut.reference import lut_error
-
-    lo, hi = ctx.inputs["thickness_range"]
-    cfg = ctx.config["lut"]
-    film = film_from_config(ctx.config["film"])
-    lut = bake(angles=cfg["angles"], thicknesses=1 if lo == hi else cfg["thicknesses"], thickness_range=(lo, hi),
-               film=film, method=cfg["method"], angle_warp_gamma=cfg["angle_warp_gamma"],
-               colour_space=cfg["colour_space"])
-    rgb, metadata = lut.rgb, dict(lut.metadata)
-    if cfg["precision"] == "half":
-        # the values the HALF EXR holds (rockdove.lut.exr writes HALF channels for metadata precision "half")
-        rgb = lut.rgb.astype(np.float16).astype(np.float32)
-        metadata["precision"] = "half"
-    lut = dataclasses.replace(lut, rgb=rgb, metadata=metadata)
-    errors = error_metadata(lut_error(lut, film, n_points=LUT_ERROR_POINTS))
-    return dataclasses.replace(lut, metadata={**metadata, **errors})
+    lo, hi = ctx.inputs.thickness_range
+    cfg, film = ctx.config.lut, film_from_config(ctx.config.film)
+    lut = bake(angles=cfg.angles, thicknesses=1 if lo == hi else cfg.thicknesses, thickness_range=(lo, hi),
+               film=film, method=cfg.method, angle_warp_gamma=cfg.angle_warp_gamma, colour_space=cfg.colour_space)
+    return as_shipped(lut, film, cfg.precision, LUT_ERROR_POINTS)
 
 
 def run_texture_images(ctx: Context):
     from .. import textures
+    from ..geometry.params import BirdParams
 
-    params = bird_params(ctx.config)
-    return textures.feather_textures(params), textures.body_base_colour(params, ctx.inputs["bird"])
+    params = BirdParams.from_config(ctx.config)
+    return textures.feather_textures(params), textures.body_base_colour(params, ctx.inputs.bird)
 
 
 def run_textures(ctx: Context):
     """The textures that do not depend on the film (feather base and mask, body colour)."""
     from ..usd.textures_io import write_base_textures
 
-    feathers, body = ctx.inputs["texture_images"]
+    feathers, body = ctx.inputs.texture_images
     write_base_textures(str(ctx.workdir), feathers, body)
 
 
@@ -223,12 +142,14 @@ def run_film_textures(ctx: Context):
     """The LUT EXR and the preview atlas; physical-only: no LUT EXR, the film's exact preview colours."""
     from ..usd.textures_io import write_film_textures
 
-    feathers, _ = ctx.inputs["texture_images"]
-    span = tuple(ctx.inputs["thickness_range"])  # the preview atlas spans the mesh's range, as previewST does
+    feathers, _ = ctx.inputs.texture_images
+    span = tuple(ctx.inputs.thickness_range)  # the preview atlas spans the mesh's range, as previewST does
     if "lut" in ctx.inputs:
-        write_film_textures(str(ctx.workdir), ctx.inputs["lut"], feathers, thickness_range_nm=span)
+        write_film_textures(str(ctx.workdir), ctx.inputs.lut, feathers, thickness_range_nm=span)
     else:
-        write_film_textures(str(ctx.workdir), None, feathers, film=film_from_config(ctx.config["film"]),
+        from ..films import film_from_config
+
+        write_film_textures(str(ctx.workdir), None, feathers, film=film_from_config(ctx.config.film),
                             thickness_range_nm=span)
 
 
@@ -236,7 +157,7 @@ def run_usd_geometry(ctx: Context):
     """The geometry layer (crate), which depends on the bird alone: a film change leaves its bytes as they were."""
     from ..usd.stage import write_geometry
 
-    write_geometry(str(ctx.workdir), ctx.inputs["bird"])
+    write_geometry(str(ctx.workdir), ctx.inputs.bird)
 
 
 #: The configuration sections the looks layer records (:data:`rockdove.usd.stage.BUILD_CONFIG_KEY`): what shapes the
@@ -246,13 +167,14 @@ BUILD_CONFIG_SECTIONS = ("film", "thickness", "geometry", "lut")
 
 def run_usd_layers(ctx: Context):
     """Every other layer (interface, payload, looks), authored over the cached geometry layer."""
+    from ..films import film_from_config
     from ..usd.material import lut_info
     from ..usd.stage import GEOMETRY_LAYER, write_looks
 
-    lut = lut_info(ctx.inputs["lut"]) if "lut" in ctx.inputs else None
-    write_looks(str(ctx.workdir), ctx.inputs["bird"], film_from_config(ctx.config["film"]), lut,
-                version=__version__, geometry=str(ctx.inputs["usd_geometry"] / GEOMETRY_LAYER),
-                shading=ctx.config["shading"]["variant"], config={k: ctx.config[k] for k in BUILD_CONFIG_SECTIONS})
+    lut = lut_info(ctx.inputs.lut) if "lut" in ctx.inputs else None
+    write_looks(str(ctx.workdir), ctx.inputs.bird, film_from_config(ctx.config.film), lut, version=__version__,
+                geometry=str(ctx.inputs.usd_geometry / GEOMETRY_LAYER), shading=ctx.config.shading.variant,
+                config={k: ctx.config[k] for k in BUILD_CONFIG_SECTIONS})
 
 
 def run_usdz(ctx: Context):
@@ -290,13 +212,13 @@ def run_verify(ctx: Context) -> dict:
         from ..web.viewer import write_viewer
 
         try:
-            write_viewer(str(ctx.asset_dir), ctx.inputs["gltf"] / GLB_NAME, ctx.workdir,
+            write_viewer(str(ctx.asset_dir), ctx.inputs.gltf / GLB_NAME, ctx.workdir,
                          asset_name=str(published_path(layer)))
         except ResourceMissing as exc:  # e.g. a wheel install without npm's three.js: the report, without it
             skipped.append(f"no interactive viewer in the report: {exc}")
-    v = ctx.config["verify"]
-    report = verify(layer, BUILD_HOSTS, cache=ctx.cache, out_dir=ctx.workdir, width=v["width"], height=v["height"],
-                    n_views=v["views"], published_asset=str(published_path(layer)), beauty=ctx.config["beauty"])
+    v = ctx.config.verify
+    report = verify(layer, BUILD_HOSTS, cache=ctx.cache, out_dir=ctx.workdir, width=v.width, height=v.height,
+                    n_views=v.views, published_asset=str(published_path(layer)), beauty=dict(ctx.config.beauty))
     return Verdict.of(report, skipped).to_json()
 
 

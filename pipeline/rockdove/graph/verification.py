@@ -22,10 +22,12 @@ import logging
 import os
 import shutil
 import time
+from typing import Any
 
-from ..config import canonical_json
 from .. import sources
-from .engine import GRAPH_VERSION, Cache, load_npz
+from ..config import canonical_json
+from ..resources import load_npz
+from .engine import GRAPH_VERSION, Cache
 
 _log = logging.getLogger(__name__)
 #: The hosts the build verifies with: the GL renders alone (a cold build's verification takes seconds).
@@ -55,7 +57,7 @@ class _Items:
                     os.rename(os.path.join(src, name), folder / name)
             (folder / "item.json").write_text(json.dumps(meta, sort_keys=True, default=_plain))
         self.cache.store(self.name, key, fill)
-        return self.get(key)
+        return str(self.cache.entry(self.name, key) / "value")
 
     def scratch(self):
         return self.cache.temporary(self.cache.root / self.name)
@@ -78,7 +80,8 @@ def _surfaces(cache: Cache, scene, views) -> tuple[dict, list, list]:
     from ..verify.rays import camera_key
     from ..verify.reference_image import Surface, cast_surfaces, surface_digest
 
-    items, digest, cameras = _Items(cache, "surface"), surface_digest(scene), {}
+    items, digest = _Items(cache, "surface"), surface_digest(scene)
+    cameras: dict[str, Any] = {}
     for v in views:
         cameras.setdefault(camera_key(v), v)
     keys = {cam: item_key("surface", (cast_surfaces,), digest, cam) for cam in cameras}
@@ -106,7 +109,8 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
     keys = {v.name: item_key("view", (render_and_check,), digest, v.to_dict()) for v in views}
     found = {n: items.get(k) for n, k in keys.items()}
     todo = [v for v in views if redo_all or found[v.name] is None]
-    fresh, done = {}, {}
+    fresh: dict[str, Any] = {}
+    done: dict[str, ViewResult] = {}
     if todo:
         with items.scratch() as tmp:
             results, fresh["refs"], fresh["gl"] = render_and_check(scene, lut, todo, str(tmp), surfaces=surfaces)
@@ -121,9 +125,9 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
                 found[v.name] = items.put(keys[v.name], r.folder, r.to_json())
     for v in views:
         if v.name not in done:
-            rows = load_npz(os.path.join(found[v.name], "sheet_row.npz"))
-            done[v.name] = ViewResult.from_json(_meta(found[v.name]), found[v.name],
-                                                tuple(rows[f"arr_{i}"] for i in range(len(rows))))
+            folder = str(found[v.name])  # cached, or stored above
+            rows = load_npz(os.path.join(folder, "sheet_row.npz"))
+            done[v.name] = ViewResult.from_json(_meta(folder), folder, tuple(rows[f"arr_{i}"] for i in range(len(rows))))
     return {v.name: done[v.name] for v in views}, fresh, [v.name for v in todo]
 
 

@@ -10,10 +10,24 @@ import time
 
 import numpy as np
 
-from ..render.beauty import (EXPOSURE, GROUND_ALBEDO, LOOK, RENDERERS, SKY_HORIZON_RGB, SKY_STRENGTH,
-                             SKY_ZENITH_RGB, SUN_ANGLE_DEG, SUN_ELEVATION_DEG, SUN_RGB, SUN_STRENGTH, TIMEOUT_S,
-                             beauty_views, cyclorama, ground_y_m)
 from ..errors import UsageError
+from ..render.beauty import (
+    EXPOSURE,
+    GROUND_ALBEDO,
+    LOOK,
+    RENDERERS,
+    SKY_HORIZON_RGB,
+    SKY_STRENGTH,
+    SKY_ZENITH_RGB,
+    SUN_ANGLE_DEG,
+    SUN_ELEVATION_DEG,
+    SUN_RGB,
+    SUN_STRENGTH,
+    TIMEOUT_S,
+    beauty_views,
+    cyclorama,
+    ground_y_m,
+)
 from . import bpy_runner as runner
 from .base import HostError
 from .blender import NAME, base_job

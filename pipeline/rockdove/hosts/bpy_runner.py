@@ -39,7 +39,7 @@ _PROBE = ("import importlib.metadata as m, importlib.util, sys\n"
           "try: print(m.version('bpy'))\nexcept m.PackageNotFoundError: print('')")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _probe(exe: str) -> str | None:
     """None when ``exe`` runs and has a bpy of :data:`BPY_MIN` or later, else why not (a few words)."""
     try:

@@ -14,7 +14,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import blender_job  # noqa: E402  (stdlib + bpy only, run by file beside this one)
+import blender_job
 
 
 def compile_shaders(shaders: dict) -> dict:

@@ -14,13 +14,13 @@ from .reference import lut_error, reference_colour
 from .table import ThinFilmLUT
 
 __all__ = [
+    "BAKE_METHODS",
     "ThinFilmLUT",
     "bake",
-    "BAKE_METHODS",
     "fourier_supported",
-    "reference_colour",
     "lut_error",
-    "write_exr",
     "read_exr",
+    "reference_colour",
+    "write_exr",
     "write_preview_png",
 ]

@@ -4,7 +4,7 @@
 ``R @ W``: the baseline, for any film (absorbing, total internal reflection). ``"spectral_fast"``: the same for
 real interface coefficients, the Fresnel coefficients once per (angle, wavelength) and the phase per texel (the
 real Airy form, Born & Wolf, *Principles of Optics*, 7th ed., sec. 7.6.1), finer steps below ``grazing_cos``.
-``"fourier"``: method.md's exact Fourier route (:mod:`.fourier`) for non-dispersive real films (texels needing
+``"fourier"``: the exact Fourier route (:mod:`.fourier`) for non-dispersive real films (texels needing
 more than ``max_terms`` terms, and d = 0, are integrated like the reference). ``"quadrature"``: product
 integration in wavenumber (:mod:`.quadrature`), exact for any real-coefficient film. ``"auto"``: ``"fourier"``
 where it applies, else ``"quadrature"`` (faster than ``"spectral_fast"`` and exact, ``rockdove bench lut``), else
@@ -13,15 +13,18 @@ where it applies, else ``"quadrature"`` (faster than ``"spectral_fast"`` and exa
 
 from __future__ import annotations
 
+import dataclasses
 import numbers
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
+from ..errors import UsageError
 from ..films import as_film
 from ..spectral import DEFAULT_OBSERVER, WAVELENGTH_RANGE_NM, check_colour_space
 from .interfaces import interface_coefficients
 from .table import ThinFilmLUT
-from ..errors import UsageError
 
 DEFAULT_ANGLES = 256
 DEFAULT_THICKNESSES = 64
@@ -236,7 +239,7 @@ def _bake_auto(cos_theta, thickness_nm, film, **kw):
     return "spectral", _bake_spectral(cos_theta, thickness_nm, film, **kw)
 
 
-BAKE_METHODS = {
+BAKE_METHODS: dict[str, Callable[..., Any]] = {
     "auto": _bake_auto,
     "fourier": _bake_fourier,
     "spectral_fast": _bake_spectral_fast,
@@ -278,6 +281,10 @@ def bake(
     texel is integrated at 0.1 nm instead (``"fourier"``). ``error_points > 0`` measures the LUT against the exact
     reference at that many random points (seed ``error_seed``; :func:`rockdove.lut.reference.lut_error`) and
     records max / p99 / median dE2000 in the metadata.
+
+    >>> lut = bake(angles=8, thicknesses=4, thickness_range=(500.0, 700.0), film="paper")
+    >>> lut.rgb.shape, lut.thickness_range_nm
+    ((4, 8, 3), (500.0, 700.0))
     """
     angles = _check_count("angles", angles, 2, MAX_ANGLES)
     thicknesses = _check_count("thicknesses", thicknesses, 1, MAX_THICKNESSES)
@@ -332,6 +339,20 @@ def bake(
         metadata.update(error_metadata(err))
         lut = ThinFilmLUT(lut.rgb, rng, angle_warp_gamma=gamma, colour_space=colour_space, metadata=metadata)
     return lut
+
+
+def as_shipped(lut: ThinFilmLUT, film, precision: str, error_points: int) -> ThinFilmLUT:
+    """``lut`` as its EXR holds it (``precision`` ``"half"``: rounded to half floats, as :mod:`rockdove.lut.exr`
+    writes HALF channels for metadata precision "half"), its header carrying its error against the exact
+    reference at ``error_points`` random points (:func:`rockdove.lut.reference.lut_error`)."""
+    from .reference import lut_error
+
+    rgb, metadata = lut.rgb, dict(lut.metadata)
+    if precision == "half":
+        rgb = lut.rgb.astype(np.float16).astype(np.float32)
+        metadata["precision"] = "half"
+    lut = dataclasses.replace(lut, rgb=rgb, metadata=metadata)
+    return dataclasses.replace(lut, metadata={**metadata, **error_metadata(lut_error(lut, film, n_points=error_points))})
 
 
 def error_metadata(err: dict) -> dict[str, str]:

@@ -29,8 +29,8 @@ import os
 
 import numpy as np
 
-from .table import ThinFilmLUT
 from ..errors import UsageError
+from .table import ThinFilmLUT
 
 PREFIX = "rockdove:"
 FORMAT_TAG = "ThinFilmLUT 1"

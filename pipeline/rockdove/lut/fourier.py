@@ -1,4 +1,4 @@
-"""Exact Fourier integration of thin-film colour (method.md, "Exact Fourier integration").
+"""Exact Fourier integration of thin-film colour.
 
 For a film with *real* interface amplitude coefficients ``a = r_ab`` and ``b = r_bc`` (non-absorbing, no total
 internal reflection) the Airy reflectance (Born & Wolf, *Principles of Optics*, 7th ed., sec. 7.6.1) is a

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .table import ThinFilmLUT
 from ..errors import UsageError
+from .table import ThinFilmLUT
 
 MIN_PREVIEW_HEIGHT = 32  # px
 

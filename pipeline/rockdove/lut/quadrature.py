@@ -33,10 +33,12 @@ reflection make ``a, b`` complex: refused (use ``"spectral"``).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-from .weights import chebyshev, chebyshev_weights, sigma_range
 from ..errors import UsageError
+from .weights import chebyshev, chebyshev_weights, sigma_range
 
 # Node counts, rounded up to NODE_LADDER. On the default keratin LUT every texel is within 4e-4 dE2000 of the
 # 0.1 nm reference (K_FULL = 2.5 with N_MIN = 16 errs 4e-3, K_FULL = 2 errs 0.02; benchmarks/README.md).
@@ -129,7 +131,7 @@ class _Layout:
     def white(self):
         """Per layout column, the weights' sum (n_cols, 3): the colour of R = 1."""
         w = np.empty((self.cols.size, 3))
-        for (i0, i1, n, s0), om in zip(self.groups, self.omegas):
+        for (i0, i1, _, _), om in zip(self.groups, self.omegas):
             w[i0:i1] = om.sum(axis=0)
         return w
 
@@ -165,7 +167,7 @@ def _full_form(coef, layout, thickness_nm, out, chunk):
         rows = slice(i, min(i + chunk, d.shape[0]))
         s2 = np.sin(d[rows, None] * half_k[None, :])
         s2 *= s2
-        r = None
+        r: Any = None
         with np.errstate(invalid="ignore", divide="ignore"):
             for num, slope, den0 in terms:
                 x = slope * s2

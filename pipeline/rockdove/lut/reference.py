@@ -41,12 +41,23 @@ phase (280 rad at 5000 nm) to ~3e-5 rad, which resonances amplify (2.1e-3 dE2000
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-from ..spectral import WAVELENGTH_RANGE_NM
-from .weights import (INTERPOLANT_ORDER, REFERENCE_STEP_NM, check_illuminant, colour_weights, interpolant_weights,
-                      product_weights, reference_wavelengths, sigma_range, wavenumber_nodes)
 from ..errors import UsageError
+from ..spectral import WAVELENGTH_RANGE_NM
+from .weights import (
+    INTERPOLANT_ORDER,
+    REFERENCE_STEP_NM,
+    check_illuminant,
+    colour_weights,
+    interpolant_weights,
+    product_weights,
+    reference_wavelengths,
+    sigma_range,
+    wavenumber_nodes,
+)
 
 #: Wavelength step per cos theta band ``(cos_theta_lo, step_nm)``: each within 2e-4 dE2000 (module docstring).
 REFERENCE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, REFERENCE_STEP_NM))
@@ -138,11 +149,11 @@ def _real_colour(wavelength_nm, weights, cos_theta, thickness_nm, film, dtype=np
     q_c = n_a * c if n_c == n_a else np.sqrt((n_c - n_a) * (n_c + n_a) + ca2)
     # per polarisation and point: P = 4 x z, S = (x + z)^2, M = x^2 + z^2, Q = x^2 z^2 with x, z the admittances
     # of the incident medium and the substrate (s: n cos, p: cos / n)
-    consts = []
+    consts: list[list[Any]] = []
     symmetric = n_c == n_a  # then x = z and the terms reduce to P = S = 4 x^2 and x^2 (passed as Q)
     for x, z in ((n_a * c, q_c), (c / n_a, q_c / (n_c * n_c))):
         if symmetric:
-            terms = (4.0 * x * x, None, None, x * x)
+            terms: tuple[Any, ...] = (4.0 * x * x, None, None, x * x)
         else:
             terms = (4.0 * x * z, (x + z) ** 2, x * x + z * z, (x * z) ** 2)
         consts.append([None if v is None else v.astype(dtype)[:, None] for v in terms])
@@ -197,6 +208,9 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
     ``steps_nm`` is the wavelength step per cos theta band (:func:`reference_step_nm`), ``calibrated_thickness_nm``
     the thickness it was validated to, ``interpolation = (cos_theta_lo, kappa, max_step_rad)`` with ``order`` the
     wavenumber interpolant of real films (module docstring: steps, coarser steps, wavenumber interpolation).
+
+    >>> [round(float(c), 3) for c in reference_colour(1.0, 650.0, "paper")]  # the seed paper's film, head-on
+    [0.072, 0.107, 0.085]
     """
     from ..films import as_film
 
@@ -272,7 +286,11 @@ def colour_to_Lab(rgb, colour_space: str | None = "lin_rec709", illuminant: str 
 
 
 def delta_E(rgb_a, rgb_b, colour_space="lin_rec709", illuminant="D65") -> np.ndarray:
-    """CIEDE2000 between two linear colours (shape (..., 3)) of the same colour space."""
+    """CIEDE2000 between two linear colours (shape (..., 3)) of the same colour space.
+
+    >>> float(delta_E([0.2, 0.5, 0.3], [0.2, 0.5, 0.3]))
+    0.0
+    """
     from .. import spectral
 
     return spectral.delta_E_2000(colour_to_Lab(rgb_a, colour_space, illuminant),

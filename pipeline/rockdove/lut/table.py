@@ -21,7 +21,9 @@ OpenGL, row 0 of ``rgb`` is t = 0.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -112,3 +114,19 @@ class ThinFilmLUT:
         c0 = t[i0, j0] * (1 - tx) + t[i0, j0 + 1] * tx
         c1 = t[i1, j0] * (1 - tx) + t[i1, j0 + 1] * tx
         return c0 * (1 - ty) + c1 * ty
+
+    def save(self, folder: Path) -> None:
+        """The table as ``rgb.npy`` and ``lut.json`` (axes, colour space, metadata) in ``folder`` (a cache entry)."""
+        np.save(folder / "rgb.npy", np.ascontiguousarray(self.rgb, dtype=np.float32))
+        (folder / "lut.json").write_text(json.dumps({
+            "thickness_range_nm": list(self.thickness_range_nm), "angle_warp_gamma": self.angle_warp_gamma,
+            "colour_space": self.colour_space, "metadata": {k: str(v) for k, v in self.metadata.items()}},
+            sort_keys=True))
+
+    @classmethod
+    def load(cls, folder: Path) -> ThinFilmLUT:
+        """The table :meth:`save` wrote into ``folder``."""
+        meta = json.loads((folder / "lut.json").read_text())
+        return cls(np.load(folder / "rgb.npy"), tuple(meta["thickness_range_nm"]),
+                   angle_warp_gamma=meta["angle_warp_gamma"], colour_space=meta["colour_space"],
+                   metadata=meta["metadata"])

@@ -15,8 +15,8 @@ import functools
 
 import numpy as np
 
-from ..spectral import WAVELENGTH_RANGE_NM
 from ..errors import UsageError
+from ..spectral import WAVELENGTH_RANGE_NM
 
 #: The exact reference's wavelength step away from grazing (cos theta >= 0.003), nm; the bakers' grid.
 REFERENCE_STEP_NM = 0.1

@@ -17,8 +17,8 @@ import math
 
 import numpy as np
 
-from .views import View, direction, look_at
 from ..errors import UsageError
+from .views import View, direction, look_at
 
 RENDERERS = ("auto", "cycles", "gl", "off")
 #: (name, azimuth, elevation) of the two cameras, degrees; azimuth 0 is in front of the beak, positive toward the

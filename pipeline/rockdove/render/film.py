@@ -21,7 +21,7 @@ from ..errors import UsageError
 if TYPE_CHECKING:
     from ..films import FilmModel
 
-#: Size of the LUT baked in memory for an asset that has none (issue 2's default size).
+#: Size of the LUT baked in memory for an asset that has none (the build's default size).
 IN_MEMORY_LUT_ANGLES = 256
 IN_MEMORY_LUT_THICKNESSES = 64
 #: ``metadata["purpose"]`` of that LUT (the report and the web viewer show it).

@@ -20,10 +20,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import resources
+from ..errors import UsageError
 from .scene import RenderScene, ScenePart
 from .texture import read_texture
 from .views import View
-from ..errors import UsageError
 
 #: Angle definitions the shader accepts (``u_angle_mode``): the paper's light/view half-angle, and the
 #: view-only ``|N . V|`` of the MaterialX baked network (docs/design.md "Conventions").

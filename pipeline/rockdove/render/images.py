@@ -6,12 +6,10 @@ to [0, 1] (colour-science's ``cctf_encoding``); the float data keeps out-of-gamu
 
 from __future__ import annotations
 
-
 import numpy as np
 
-from ..png import save_png
 from ..errors import UsageError
-
+from ..png import save_png
 
 #: `rockdove render`'s largest rendered side, pixels: --width (--height) x --supersample. One view's buffers (~46 bytes a pixel) and
 #: the GL context's at 4096 x 4096 stay within the 4 GiB memory budget; views are rendered one at a time, and

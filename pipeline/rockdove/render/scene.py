@@ -20,11 +20,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import UsageError
 from ..usd.material import OPACITY_THRESHOLD
 from .film import ThinFilmParams, lut_to_draw, read_film, thickness_range_nm
 from .triangulate import fan_triangulate, fan_triangulate_corners, vertex_normals
 from .usd_read import material_info, primvar_array
-from ..errors import UsageError
 
 
 @dataclass(frozen=True, eq=False)

@@ -7,8 +7,8 @@ import os
 
 import numpy as np
 
-from ..usd.material import OPACITY_THRESHOLD
 from ..errors import UsageError
+from ..usd.material import OPACITY_THRESHOLD
 
 #: Shader prim names of the materials (docs/design.md, "USD asset").
 BASE_COLOR_SHADER = "BaseColorTexture"

@@ -11,7 +11,7 @@ A :class:`View` (docs/design.md, "Render views") is one camera (OpenGL conventio
 - :func:`light_sweep_views`: the paper's experiment. The camera stays still on the neck; a D65-white light
   (``light_rgb = (1, 1, 1)`` in lin_rec709) rotates about the camera's up axis, so the angle ``alpha`` between
   ``L`` and ``V`` sweeps through 90 degrees, where ``cos_theta = dot(L, H) = cos(alpha / 2)``, ``theta = 45``
-  degrees: the green/purple flip (method.md, docs/design.md "Conventions").
+  degrees: the green/purple flip (docs/design.md, "Conventions").
 """
 
 from __future__ import annotations
@@ -96,7 +96,7 @@ class View:
         return {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in vars(self).items()}
 
     @classmethod
-    def from_dict(cls, d: dict) -> "View":
+    def from_dict(cls, d: dict) -> View:
         return cls(**d)
 
     def __eq__(self, other):

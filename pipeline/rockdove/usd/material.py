@@ -11,7 +11,7 @@ A feather material carries two surface outputs (docs/design.md, "USD asset"):
   connects ``MtlxBakedSurface`` (the LUT method) or ``MtlxPhysicalSurface`` (OpenPBR's thin film); an asset
   built with one variant carries only the nodes upstream of its surface.
 
-Physical variant (method.md, "Conventions of neighbouring standards"): OpenPBR's ``thin_film_thickness`` is in
+Physical variant: OpenPBR's ``thin_film_thickness`` is in
 micrometres (node ``ThicknessUm`` = nm * 0.001); ``thin_film_ior`` is the film's index at
 :data:`rockdove.usd.stage.FILM_IOR_WAVELENGTH_NM` (one real index: no dispersion); the film lies on
 ``specular_ior`` = the recorded substrate index (``SubstrateIor``, 1.0 in air).
@@ -24,7 +24,6 @@ import os
 
 from .. import resources
 from ..errors import UsageError
-
 
 #: The colour space of thinfilm.mtlx (its ``colorspace`` attribute): linear Rec.709, the project's working space.
 MTLX_WORKING_SPACE = "lin_rec709"

@@ -24,6 +24,7 @@ import os
 
 import numpy as np
 
+from ..errors import UsageError
 from ..geometry.plumage import CARD_PARTS
 from ..geometry.types import drop_unreferenced_points, point_bounds
 from .material import (
@@ -34,7 +35,6 @@ from .material import (
     mtlx_surface_path,
     texture_asset_paths,
 )
-from ..errors import UsageError
 
 ROOT = "/Pigeon"
 INTERFACE_LAYER = "pigeon.usda"

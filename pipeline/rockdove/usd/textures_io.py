@@ -27,8 +27,8 @@ import os
 
 import numpy as np
 
-from .material import TEXTURE_FILES
 from ..errors import UsageError
+from .material import TEXTURE_FILES
 
 #: cos theta of the structural colours of feather_preview.png: 0.86 (31 degrees), the median |N.V| over the
 #: feather-tip pixels of the default verification views (4 turntable + the light sweep, 128 px, measured on the

@@ -22,8 +22,8 @@ import os
 import shutil
 import tempfile
 
-from ..resources import atomic_path
 from ..errors import UsageError
+from ..resources import atomic_path
 
 USDZ_NAME = "pigeon.usdz"
 AR_USDZ_NAME = "pigeon_ar.usdz"

@@ -203,7 +203,7 @@ def check_primvars(stage) -> tuple[list, int]:
 
 
 # -- 5. thin film / LUT domain: rockdove.usd.validate_film
-from .validate_film import LUT_NETWORK_SHADERS, check_thin_film  # noqa: E402,F401 (part of this module's API)
+from .validate_film import LUT_NETWORK_SHADERS, check_thin_film  # noqa: E402, F401 (part of this module's API)
 
 
 # -- 6. surface sources -------------------------------------------------------------------------------------
@@ -303,7 +303,7 @@ def validate_asset(path, allow_external: bool = False) -> Report:
         found.setdefault((issue.check, issue.path, issue.message, issue.severity), []).extend(report.variants or [""])
     report.counts = counts
     for (check, where, message, severity), labels in found.items():
-        variants = () if len(labels) == len(combos) else tuple(l for l in labels if l)
+        variants = () if len(labels) == len(combos) else tuple(label for label in labels if label)
         report.issues.append(Issue(check, where, message, severity, variants))
     report.issues.sort(key=lambda i: (i.severity != "error", i.check, i.path))
     return report

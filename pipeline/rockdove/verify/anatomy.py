@@ -6,9 +6,9 @@ reported in cm and degrees), by prim name (``Body``, ``CoatFeathers``, ``Wings``
 ``Eyes``, ``EyeRings``, ``Legs``) and the textures the parts' materials name, never the generator's numbers.
 
 Sources of the ranges: [G] Gibbs, Barnes and Cox, "Pigeons and Doves" (Pica Press 2001), as quoted by Wikipedia,
-"Rock dove" (Description): length 29-37 cm, tail 9.5-11 cm (issue 21 allows to 12), bill about 1.8 cm, tarsus
+"Rock dove" (Description): length 29-37 cm, tail 9.5-11 cm (up to 12 allowed), bill about 1.8 cm, tarsus
 2.6-3.5 cm; iris orange, red or golden, bare skin round the eye bluish-grey; bill grey-black with a conspicuous
-off-white cere; white lower back, two black wing bars, a black band at the end of the tail. [I] issue 21,
+off-white cere; white lower back, two black wing bars, a black band at the end of the tail. [I]
 from side-view photographs of standing birds: body axis 30-45 degrees above the horizontal with the breast full
 and forward, head about half the body's width and held up, tail reaching 3-6 cm beyond the folded wing tips,
 wings flush with the body (never wider), tips meeting over the rump, toes on the ground, tibia in the contour.

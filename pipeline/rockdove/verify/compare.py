@@ -1,4 +1,4 @@
-"""Compare a GL render with the CPU reference: dE2000 maps, statistics and the image checks of issue 5.
+"""Compare a GL render with the CPU reference: dE2000 maps, statistics and the image checks.
 
 Both renders hold linear ``lin_rec709`` radiance, unclipped (thin-film colours are often outside the Rec.709
 gamut). The dE2000 map is computed on that linear data, not on the 8-bit display images, which would hide
@@ -26,7 +26,7 @@ import numpy as np
 
 from ..errors import UsageError
 
-#: Goals of issue 5: a verification fails above these (dE2000 over the compared feather pixels).
+#: The goals: a verification fails above these (dE2000 over the compared feather pixels).
 MEDIAN_DE_GOAL = 1.0
 P95_DE_GOAL = 2.0
 #: A feather pixel is "lit" when the reference's N.L is at least this.

@@ -20,11 +20,11 @@ import os
 
 import numpy as np
 
+from ..errors import UsageError
 from . import compare
 from .results import HostMetrics, HostResult
 
 _log = logging.getLogger(__name__)
-from ..errors import UsageError
 
 #: Share of feather-tip pixels whose green/purple/other class must match the reference (physical variants).
 MIN_HUE_AGREEMENT = 0.85

@@ -145,7 +145,7 @@ class Hits:
                 "point": self.point[hit], "bary": self.bary[hit]}
 
     @classmethod
-    def from_arrays(cls, arrays, stats: dict) -> "Hits":
+    def from_arrays(cls, arrays, stats: dict) -> Hits:
         n, hit = int(arrays["n_rays"]), np.asarray(arrays["hit"], np.int64)
         face = np.full(n, -1, np.int64)
         point, bary = np.zeros((n, 3)), np.zeros((n, 3))
@@ -187,6 +187,6 @@ def cast_hits(scene, views) -> dict:
 
 def cast_view(geom: SceneGeometry, view) -> Hits:
     origin, dirs, _ = camera_rays(view)
-    stats = {"rays": int(len(dirs))}
+    stats = {"rays": len(dirs)}
     face, point, bary = _first_opaque_hits(geom, origin, dirs, stats)
     return Hits(face, point, bary, stats)

@@ -39,9 +39,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import UsageError
 from ..lut.reference import reference_colour
 from .rays import SceneGeometry, camera_key, camera_rays, cast_view
-from ..errors import UsageError
 
 #: Wavelength step per cos_theta band of the reference images, ``(cos_theta_lo, step_nm)``
 #: (:func:`rockdove.lut.reference.reference_step_nm`); see the module docstring for how they were chosen.
@@ -100,7 +100,7 @@ def structural_rgb(cos_theta, thickness_nm, film, stats: dict | None = None) -> 
                             order=IMAGE_INTERPOLANT_ORDER)
     if stats is not None:
         stats["spectral_pixels"] = stats.get("spectral_pixels", 0) + int(c.size)
-        stats["spectral_keys"] = stats.get("spectral_keys", 0) + int(len(uniq))
+        stats["spectral_keys"] = stats.get("spectral_keys", 0) + len(uniq)
     return urgb[inverse.reshape(-1)]
 
 
@@ -167,7 +167,7 @@ class Surface:
         return {"n_pixels": np.int64(self.n_pixels), **{k: getattr(self, k) for k in self.ARRAYS}}
 
     @classmethod
-    def from_arrays(cls, arrays, stats: dict) -> "Surface":
+    def from_arrays(cls, arrays, stats: dict) -> Surface:
         return cls(int(arrays["n_pixels"]), **{k: np.asarray(arrays[k]) for k in cls.ARRAYS}, stats=dict(stats))
 
 

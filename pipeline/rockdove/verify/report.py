@@ -76,9 +76,8 @@ def de_map_png(path, de_map, title: str) -> str:
     to the map (legible when the report shows it scaled down)."""
     from PIL import Image, ImageDraw
 
-    from ..render.images import label_font
-
     from ..png import save_png
+    from ..render.images import label_font
 
     de = np.asarray(de_map, np.float64)
     h, w = de.shape

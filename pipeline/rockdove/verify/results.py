@@ -7,6 +7,7 @@ part of ``report.json``; ``from_json`` reads it back.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -198,12 +199,13 @@ class Report(_Record):
         """A report.json read back (its paths as written there)."""
         from .compare import HueHistogram, ViewMetrics
 
-        typed = {"validation": Validation(**data["validation"]), "cache": ItemsUsed.from_json(data["cache"]),
+        typed: dict[str, Any] = {"validation": Validation(**data["validation"]), "cache": ItemsUsed.from_json(data["cache"]),
                  "views": tuple(ViewMetrics.from_json(m) for m in data["views"]),
                  "hue_sweep": HueHistogram(**data["hue_sweep"]),
                  "hosts": tuple(HostResult.from_json(h) for h in data["hosts"])}
-        plain = {f.name: data[f.name] for f in dataclasses.fields(cls) if f.name not in typed}
-        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in plain.items()}, **typed)
+        plain: dict[str, Any] = {f.name: data[f.name] for f in dataclasses.fields(cls) if f.name not in typed}
+        fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in plain.items()}
+        return cls(**fields, **typed)
 
 
 @dataclass(frozen=True)
@@ -218,7 +220,7 @@ class Verdict(_Record):
     items: ItemsUsed = ItemsUsed()
 
     @classmethod
-    def of(cls, report: Report, notes: list[str] = ()) -> Verdict:
+    def of(cls, report: Report, notes: Iterable[str] = ()) -> Verdict:
         return cls(report.passed, "; ".join(report.failures), tuple(m.view for m in report.views),
                    (*report.notes, *notes), report.cache)
 

@@ -22,7 +22,7 @@ from . import compare, provenance, report
 from .anatomy import measure_scene
 from .boundary import boundary_note
 from .inputs import BOUNDARY_SWEEP_ANGLE_DEG
-from .results import HostResult, ItemsUsed, Report, Validation, ViewResult
+from .results import HostResult, ItemsUsed, Report, ViewResult
 
 _log = logging.getLogger(__name__)
 #: Each of green and purple must hold at least this fraction of the chromatic sweep pixels.

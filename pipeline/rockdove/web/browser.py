@@ -88,7 +88,7 @@ class Browser:
         lines = [ln for ln in self._stderr.read().decode(errors="replace").splitlines() if ln.strip()]
         return " | ".join(lines[-3:])
 
-    def _gone(self, step: str) -> "BrowserError":
+    def _gone(self, step: str) -> BrowserError:
         """The error for a browser whose pipe closed (it exited, or is about to): its exit status if it has one."""
         try:
             status = f"exited with status {self.process.wait(timeout=5)}"
@@ -142,7 +142,7 @@ class Browser:
                     return self._events.pop(i)
             self._events.append(self._read_message(deadline, step))
 
-    def open(self, url: str, width: int, height: int, timeout_s: float = 60.0) -> "Page":
+    def open(self, url: str, width: int, height: int, timeout_s: float = 60.0) -> Page:
         """Open ``url`` in a new tab whose viewport is ``width`` x ``height`` CSS pixels (scale 1)."""
         target = self.call("Target.createTarget", {"url": "about:blank"}, step="open tab")["targetId"]
         session = self.call("Target.attachToTarget", {"targetId": target, "flatten": True},
@@ -178,7 +178,7 @@ class Browser:
         self._stderr.close()
         shutil.rmtree(self.profile, ignore_errors=True)
 
-    def __enter__(self) -> "Browser":
+    def __enter__(self) -> Browser:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import UsageError
 from ..geometry.types import point_bounds
 from ..resources import write_atomic
-from ..errors import UsageError
 
 #: The file the build writes beside ``pigeon.usda``.
 GLB_NAME = "pigeon.glb"
@@ -148,8 +148,20 @@ def scene_to_glb(scene, version: str = "") -> bytes:
     """The GLB bytes of a :class:`rockdove.render.scene.RenderScene` that has thin-film feathers; ValueError when
     it records no film (not a rockdove asset) or a feather part has no thickness."""
     from pxr import Usd
-    from pygltflib import (GLTF2, Asset, Attributes, Buffer, Material, Mesh, Node, PbrMetallicRoughness,
-                           Primitive, Sampler, Scene, TextureInfo)
+    from pygltflib import (
+        GLTF2,
+        Asset,
+        Attributes,
+        Buffer,
+        Material,
+        Mesh,
+        Node,
+        PbrMetallicRoughness,
+        Primitive,
+        Sampler,
+        Scene,
+        TextureInfo,
+    )
 
     film = scene.film
     if film is None:

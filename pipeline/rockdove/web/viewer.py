@@ -76,7 +76,8 @@ def film_tables() -> dict:
     """The tables film_bake.js integrates with, rockdove.lut's own (D65, CIE 1931 2 deg, lin_rec709): the 0.1 nm
     reference weights, G (:data:`G_STEP_NM`), the Chebyshev weights of the quadrature's node ladder, and the
     bakers' constants."""
-    from ..lut import fourier as F, quadrature as Q
+    from ..lut import fourier as F
+    from ..lut import quadrature as Q
     from ..lut.bake import DEFAULT_FOURIER_TOL, DEFAULT_MAX_TERMS
     from ..lut.weights import chebyshev_weights, colour_weights, reference_wavelengths
     from ..spectral import WAVELENGTH_RANGE_NM
