@@ -19,6 +19,14 @@ from rockdove.geometry import thickness as thickness_mod
 from rockdove.geometry.thickness import neck_height, thickness_bounds_nm
 
 
+def preset(name: str = "measured", **changes) -> BirdParams:
+    """The parameters of a preset (assets/pigeon/NAME.toml), with ``changes``."""
+    from rockdove.config import load_config
+
+    return BirdParams.from_config(load_config(preset=name)).with_(**changes)
+
+
+
 @pytest.fixture(scope="module")
 def body():
     return build_body(BirdParams())
@@ -26,12 +34,12 @@ def body():
 
 @pytest.fixture(scope="module")
 def bird(body):
-    return build_bird(BirdParams(), body=body)
+    return build_bird(preset(), body=body)
 
 
 @pytest.fixture(scope="module")
 def small_cards(body):
-    return build_cards(body, BirdParams(card_count=300))
+    return build_cards(body, preset(card_count=300))
 
 
 # ---- parameters -------------------------------------------------------------------------------------
@@ -282,7 +290,7 @@ def test_iris_is_orange_red_and_feet_red(bird):
 def test_iridescent_patch_covers_the_neck_and_upper_breast_only(body):
     """The feather cards (the only iridescent part) grow between the upper breast and the head, around the
     neck: not on the back, the lower breast or the head."""
-    c = build_cards(body, BirdParams())
+    c = build_cards(body, preset())
     y, z = c.root_skin_m[:, 1], c.root_skin_m[:, 2]
     assert y.min() >= sdf.BREAST.centre_m[1]  # upper breast and above
     assert y.max() <= sdf.HEAD.centre_m[1]  # below the head's centre, under the eye line (eyes at 0.2185 m)
@@ -322,7 +330,7 @@ def test_neck_s_on_the_body_runs_from_base_to_head(body):
 # ---- cards ------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("count", [1, 7, 300])
 def test_exact_card_count(body, count):
-    c = build_cards(body, BirdParams(card_count=count))
+    c = build_cards(body, preset(card_count=count))
     assert c.count == count
     part = c.part()
     assert part.name == "NeckFeathers" and part.material == "feather"
@@ -332,7 +340,7 @@ def test_exact_card_count(body, count):
 
 
 def test_hundred_thousand_cards_work(body):
-    p = BirdParams(card_count=100_000)
+    p = preset(card_count=100_000)
     c = build_cards(body, p)
     assert c.count == 100_000 and np.isfinite(c.points_m).all() and np.isfinite(c.normals).all()
     assert c.thickness_nm.min() >= 480.0 and c.thickness_nm.max() <= 700.0
@@ -343,7 +351,7 @@ def test_card_roots_are_blue_noise_in_the_band(body):
     from scipy.spatial import cKDTree
 
     n = 1000
-    c = build_cards(body, BirdParams(card_count=n))
+    c = build_cards(body, preset(card_count=n))
     s, r = neck.neck_s(c.root_skin_m)
     # roots are sampled on the mesh, then snapped onto the implicit surface (a fraction of a millimetre)
     assert s.min() >= -0.01 and s.max() <= 1.01 + cards_mod.TOP_MARGIN_S
@@ -403,7 +411,7 @@ def test_card_uvs_u_across_v_root_to_tip(small_cards):
 def test_default_cards_hide_at_least_95_percent_of_the_band(body, bird):
     from rockdove.textures import feather_textures
 
-    c = build_cards(body, BirdParams())
+    c = build_cards(body, preset())
     v, f = body.mesh.vertices_m, body.mesh.faces
     assert checks.band_coverage(v, f, c, rays=1500, tilt_deg=0.0) >= 0.95
     assert checks.band_coverage(v, f, c, rays=1500, tilt_deg=40.0, seed=1) >= 0.95
@@ -412,13 +420,13 @@ def test_default_cards_hide_at_least_95_percent_of_the_band(body, bird):
 
 
 def test_too_few_cards_do_not_cover_the_band(body):
-    c = build_cards(body, BirdParams(card_count=40))
+    c = build_cards(body, preset(card_count=40))
     assert checks.band_coverage(body.mesh.vertices_m, body.mesh.faces, c, rays=500) < 0.95
 
 
 # ---- thickness --------------------------------------------------------------------------------------
 def test_measured_thickness_rises_with_height_within_the_ranges(body):
-    p = BirdParams.measured(card_count=2000)
+    p = preset(card_count=2000)
     c = build_cards(body, p)
     d, h = c.thickness_nm.astype(np.float64), neck_height(c.root_skin_m)
     lo, hi = thickness_bounds_nm(h, p.thickness_base_nm, p.thickness_top_nm)
@@ -445,7 +453,7 @@ def _neighbour_and_height_correlation(cards):
 
 def test_default_thickness_field_is_coherent_and_rises_with_height(body, bird):
     """Issue 12: on the default asset, r(card, mean of 8 nearest) >= 0.8 and r(card, height) >= 0.6."""
-    cards = build_cards(body, BirdParams())
+    cards = build_cards(body, preset())
     assert np.array_equal(cards.part().primvars["thickness"].values,
                           bird.part("NeckFeathers").primvars["thickness"].values)
     r_nb, r_h = _neighbour_and_height_correlation(cards)
@@ -454,7 +462,7 @@ def test_default_thickness_field_is_coherent_and_rises_with_height(body, bird):
 
 def test_speckle_fixture_fails_the_coherence_goal(body):
     """The old per-card uniform draw (kept here only as a fixture) is what the coherence goal rejects."""
-    p = BirdParams()
+    p = preset()
     cards = build_cards(body, p)
     speckle = speckle_thickness_nm(cards.neck_s, p.thickness_base_nm, p.thickness_top_nm,
                                    np.random.default_rng(0))
@@ -487,20 +495,20 @@ def test_smooth_field_has_unit_variance_and_the_gaussian_covariance():
 
 
 def test_field_parameters_are_honoured(body):
-    base = build_cards(body, BirdParams(card_count=400))
-    flat = build_cards(body, BirdParams(card_count=400, thickness_spread=0.0, thickness_jitter_nm=0.0))
+    base = build_cards(body, preset(card_count=400))
+    flat = build_cards(body, preset(card_count=400, thickness_spread=0.0, thickness_jitter_nm=0.0))
     h = neck_height(flat.root_skin_m)
-    lo, hi = thickness_bounds_nm(h, flat_p := BirdParams().thickness_base_nm, BirdParams().thickness_top_nm)
+    lo, hi = thickness_bounds_nm(h, flat_p := preset().thickness_base_nm, preset().thickness_top_nm)
     assert np.allclose(flat.thickness_nm, 0.5 * (lo + hi), atol=1e-3)  # the gradient alone
-    jitter = build_cards(body, BirdParams(card_count=400, thickness_spread=0.0, thickness_jitter_nm=5.0))
+    jitter = build_cards(body, preset(card_count=400, thickness_spread=0.0, thickness_jitter_nm=5.0))
     assert 3.0 < np.std(jitter.thickness_nm - flat.thickness_nm) < 7.0
-    longer = build_cards(body, BirdParams(card_count=400, thickness_correlation_length_m=0.02))
+    longer = build_cards(body, preset(card_count=400, thickness_correlation_length_m=0.02))
     assert not np.array_equal(longer.thickness_nm, base.thickness_nm)
     assert flat_p == (480.0, 580.0)
 
 
 def test_field_stays_within_the_ranges_when_spread_is_large(body):
-    p = BirdParams(card_count=500, thickness_spread=2.0, thickness_jitter_nm=50.0)
+    p = preset(card_count=500, thickness_spread=2.0, thickness_jitter_nm=50.0)
     c = build_cards(body, p)
     lo, hi = thickness_bounds_nm(neck_height(c.root_skin_m), p.thickness_base_nm, p.thickness_top_nm)
     assert np.all(c.thickness_nm >= lo - 1e-3) and np.all(c.thickness_nm <= hi + 1e-3)
@@ -508,7 +516,7 @@ def test_field_stays_within_the_ranges_when_spread_is_large(body):
 
 
 def test_paper_preset_is_uniform_650nm(body):
-    c = build_cards(body, BirdParams.paper(card_count=300))
+    c = build_cards(body, preset("paper", card_count=300))
     t = c.part().primvars["thickness"].values
     assert np.all(t == np.float32(650.0))
 
@@ -526,9 +534,9 @@ def _assert_parts_equal(a, b):
 
 
 def test_same_params_and_seed_give_identical_bird(body):
-    p = BirdParams(card_count=500, seed=7)
+    p = preset(card_count=500, seed=7)
     _assert_parts_equal(build_bird(p, body=body), build_bird(p, body=body))
-    other = build_cards(body, BirdParams(card_count=500, seed=8))
+    other = build_cards(body, preset(card_count=500, seed=8))
     assert not np.array_equal(other.points_m, build_cards(body, p).points_m)
 
 
@@ -536,7 +544,7 @@ def test_the_band_area_kept_with_the_body_gives_the_cards_an_estimate_would(body
     """build_body estimates the card band's area once; cards from a body without it (re-estimated per call,
     as before) are the same to the byte, and a wrong area changes them (so the kept value is really used)."""
     assert body.card_band_area_m2 == neck.band_area_m2(body.mesh.vertices_m, body.mesh.faces, cards_mod.BAND_S_MAX)
-    p = BirdParams(card_count=200)
+    p = preset(card_count=200)
     kept, estimated = build_cards(body, p), build_cards(dataclasses.replace(body, card_band_area_m2=None), p)
     for field in dataclasses.fields(kept):
         assert getattr(kept, field.name).tobytes() == getattr(estimated, field.name).tobytes(), field.name
