@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import jsonschema
@@ -85,7 +86,7 @@ def test_config_hash_changes_with_any_value_and_not_with_order():
 
 
 def test_describe_lists_every_leaf_with_its_unit():
-    rows = {r["key"]: r for r in C.describe(C.load_config())}
+    rows = {r.key: dataclasses.asdict(r) for r in C.describe(C.load_config())}
     assert rows["thickness.base_nm"]["unit"] == "nm"
     assert rows["lut.angles"]["value"] == 256
     assert rows["verify.width"]["unit"] == "px"

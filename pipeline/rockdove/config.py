@@ -16,6 +16,7 @@ import os
 import re
 import tomllib
 from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -331,8 +332,21 @@ def get(config: Mapping, key: str) -> Any:
     return node
 
 
-def describe(config: dict) -> list[dict]:
-    """One row per parameter: ``{"key", "value", "unit", "default", "allowed", "description"}``, schema order."""
+@dataclass(frozen=True)
+class Parameter:
+    """One configuration key as ``rockdove config`` shows it: its value, unit, default, what is allowed and what
+    it means (the schema's)."""
+
+    key: str
+    value: Any
+    unit: str
+    default: Any
+    allowed: str
+    description: str
+
+
+def describe(config: Mapping) -> list[Parameter]:
+    """One :class:`Parameter` per key of ``config``, in the schema's order."""
     schema = load_schema()
     rows = []
     for key, node in schema["properties"].items():
@@ -340,7 +354,6 @@ def describe(config: dict) -> list[dict]:
         items = subs.items() if subs else [(None, node)]
         for sub, leaf in items:
             dotted = f"{key}.{sub}" if sub else key
-            rows.append({"key": dotted, "value": get(config, dotted), "unit": leaf.get("unit", ""),
-                         "default": leaf.get("default"), "allowed": allowed(leaf),
-                         "description": leaf.get("description", "")})
+            rows.append(Parameter(dotted, get(config, dotted), leaf.get("unit", ""), leaf.get("default"),
+                                  allowed(leaf), leaf.get("description", "")))
     return rows

@@ -4,6 +4,7 @@ ranges (or as JSON); ``--paths`` the folders rockdove uses outside an asset."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 
 from ..config import config_hash, describe, load_config
@@ -77,22 +78,22 @@ def run(args: argparse.Namespace) -> int:
     rows = describe(config)
     if args.json:
         print(json.dumps({"preset": args.preset, "config_hash": config_hash(config), "config": config,
-                          "parameters": rows}, indent=1))
+                          "parameters": [dataclasses.asdict(r) for r in rows]}, indent=1))
         return 0
     print(f"# rockdove configuration: preset {args.preset}"
           + (f" + {args.config}" if args.config else "")
           + (f" + {len(args.overrides)} --set" if args.overrides else "")
           + f"; hash {config_hash(config)[:16]}")
-    width = max(len(r["key"]) for r in rows)
+    width = max(len(r.key) for r in rows)
     section = None
     for r in rows:
-        head = r["key"].split(".")[0]
-        if head != section and "." in r["key"]:
+        head = r.key.split(".")[0]
+        if head != section and "." in r.key:
             print(f"\n[{head}]")
         section = head
-        unit = f" {r['unit']}" if r["unit"] else ""
-        changed = "" if r["value"] == r["default"] else f"   (default {_fmt(r['default'])})"
-        print(f"{r['key']:<{width}} = {_fmt(r['value'])}{unit}{changed}")
+        unit = f" {r.unit}" if r.unit else ""
+        changed = "" if r.value == r.default else f"   (default {_fmt(r.default)})"
+        print(f"{r.key:<{width}} = {_fmt(r.value)}{unit}{changed}")
         if args.verbose:
-            print(f"{'':<{width}}   {r['description']} Allowed: {r['allowed']}.")
+            print(f"{'':<{width}}   {r.description} Allowed: {r.allowed}.")
     return 0

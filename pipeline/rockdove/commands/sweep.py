@@ -21,6 +21,7 @@ import re
 import sys
 import threading
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import UsageError
@@ -73,7 +74,18 @@ def _restore_malloc_thresholds() -> None:
 _ONE_POINT_AT_A_TIME = threading.Lock()  # a worker with several threads builds one point at a time (GL, memory)
 
 
-def build_point(name: str, base: dict, overrides: list[str], out: str, verify: bool) -> dict:
+@dataclass(frozen=True)
+class Base:
+    """What every point of a sweep shares: the preset, the --config file (absolute), the --set overrides, the
+    stage cache."""
+
+    preset: str
+    config_file: str | None
+    overrides: tuple[str, ...]
+    cache: str
+
+
+def build_point(name: str, base: Base, overrides: list[str], out: str, verify: bool) -> dict:
     """Build one point on a Dask worker (``base``: preset, config file, overrides and cache of every point) into
     ``out``; its record. Any error is recorded, not raised: the point fails alone."""
     _restore_malloc_thresholds()
@@ -86,9 +98,9 @@ def build_point(name: str, base: dict, overrides: list[str], out: str, verify: b
     result = None
     with _ONE_POINT_AT_A_TIME:
         try:
-            config = api.load_config(preset=base["preset"], config_file=base["config_file"],
-                                     overrides=[*base["overrides"], *overrides])
-            result = api.build(config, out, cache=base["cache"], verify=verify)
+            config = api.load_config(preset=base.preset, config_file=base.config_file,
+                                     overrides=[*base.overrides, *overrides])
+            result = api.build(config, out, cache=base.cache, verify=verify)
             record["status"] = "ok"
         except api.VerificationFailed as exc:  # a BuildFailed carries what ran
             result = getattr(exc, "result", None)
@@ -99,36 +111,34 @@ def build_point(name: str, base: dict, overrides: list[str], out: str, verify: b
             record.update(status="error", error=f"{type(exc).__name__}: {exc}")
     record["seconds"] = round(time.perf_counter() - t0, 3)
     if result is not None:
-        summary = result.as_dict()
-        record["config_hash"] = summary["config_hash"]
-        record["build"] = {k: summary[k] for k in ("ran", "reused", "seconds")}
-        record["verify"] = _verify_summary(summary)
-        record["images"] = _images(Path(out), summary)
+        record.update(config_hash=result.config_hash, verify=_verify_summary(result),
+                      build={"ran": result.ran, "reused": result.reused, "seconds": round(result.seconds, 4)},
+                      images=_images(Path(out), result.report_dir))
     return record
 
 
-def _verify_summary(summary: dict) -> dict | None:
-    """Verdict, failures, worst dE2000 over the views and hue counts, from the build summary and its report."""
-    if summary.get("verified") is None:
+def _verify_summary(result) -> dict | None:
+    """Verdict, failures, worst dE2000 over the views and hue counts, from a build's result and its report."""
+    from ..verify.results import Report
+
+    if result.verified is None:
         return None
-    out = {"passed": bool(summary["verified"]), "notes": summary.get("notes", [])}
+    out = {"passed": bool(result.verified), "notes": list(result.notes)}
     try:
-        report = json.loads((Path(summary["report"]) / "report.json").read_text())
-    except (OSError, ValueError, TypeError):
+        report = Report.from_json(json.loads((Path(result.report_dir) / "report.json").read_text()))
+    except (OSError, ValueError, TypeError, KeyError):
         return out
-    views = [v for v in report.get("views", []) if isinstance(v, dict)]
-    medians = [v["de_median"] for v in views if v.get("de_median") is not None]
-    p95s = [v["de_p95"] for v in views if v.get("de_p95") is not None]
-    hue = report.get("hue_sweep") or {}
-    out.update(failures=[str(f) for f in report.get("failures", [])],
-               median_dE=max(medians) if medians else None, p95_dE=max(p95s) if p95s else None,
-               hue={k: hue.get(k) for k in ("green", "purple", "grey", "other")} if hue else None)
+    medians = [m.de_median for m in report.views if m.de_median is not None]
+    p95s = [m.de_p95 for m in report.views if m.de_p95 is not None]
+    hue = report.hue_sweep
+    out.update(failures=list(report.failures), median_dE=max(medians) if medians else None,
+               p95_dE=max(p95s) if p95s else None,
+               hue={"green": hue.green, "purple": hue.purple, "grey": hue.grey, "other": hue.other})
     return out
 
 
-def _images(out: Path, summary: dict) -> dict:
+def _images(out: Path, report: Path | None) -> dict:
     """The light-sweep renders and hue histogram of the report folder, or the LUT preview when not verified."""
-    report = Path(summary["report"]) if summary.get("report") else None
     if report is not None and report.is_dir():
         return {"sweep": [str(p) for p in sorted(report.glob("sweep_*_gl.png"))],
                 "hue": str(report / "hue.png") if (report / "hue.png").is_file() else None}
@@ -245,8 +255,8 @@ def run(args: argparse.Namespace) -> int:
     root = claim_output(args.out, "sweep", create=False)  # checked now, made once the cluster is up
     cache = Path(args.cache).resolve() if args.cache else root / ".rockdove-cache"
     points = grid_points(axes)
-    base = {"preset": args.preset, "config_file": str(Path(args.config).resolve()) if args.config else None,
-            "overrides": list(args.overrides), "cache": str(cache)}
+    base = Base(args.preset, str(Path(args.config).resolve()) if args.config else None, tuple(args.overrides),
+                str(cache))
 
     records = []
     for p in points:

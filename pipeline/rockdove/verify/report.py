@@ -16,6 +16,7 @@ import math
 import os
 import re
 import shutil
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -274,9 +275,26 @@ def _figure_row(title: str, files: dict, captions: dict) -> str:
     return f"<h3>{e(title)}</h3><div class='row'>{figs}</div>"
 
 
-def _beauty(images: dict) -> str:
+@dataclass
+class Figures:
+    """The report's image files, relative to the page: ``views`` ``{view: {"gl", "reference", "dE": file}}``,
+    ``hosts`` ``{host: {view: {"host", "reference", "dE": file}}}``, the contact sheet, LUT, spectra and hue
+    charts, benchmark plots, the ``beauty`` entry (:func:`rockdove.hosts.beauty.render_beauty`), the viewer page."""
+
+    views: dict = field(default_factory=dict)
+    hosts: dict = field(default_factory=dict)
+    contact_sheet: str | None = None
+    lut: str | None = None
+    spectra: str | None = None
+    hue: str | None = None
+    bench: list = field(default_factory=list)
+    beauty: dict | None = None
+    viewer: str | None = None
+
+
+def _beauty(images: Figures) -> str:
     """The picture the page opens with (:func:`rockdove.hosts.beauty.for_report`): its views, its caption."""
-    b = images.get("beauty")
+    b = images.beauty
     if not b:
         return ""
     e = html.escape
@@ -285,14 +303,8 @@ def _beauty(images: dict) -> str:
     return f"<div class='row'>{figs}</div><p><small>Beauty render: {e(b['caption'])}</small></p>"
 
 
-def write_html(path, report: Report, images: dict) -> str:
-    """A self-contained page (relative image links) summarising ``report``.
-
-    ``images``: ``"views"``: ``{view: {"gl": file, "reference": file, "dE": file}}``; optional ``"hosts"``
-    (``{host: {view: {"host", "reference", "dE": file}}}``), ``"contact_sheet"``, ``"lut"``, ``"spectra"``,
-    ``"hue"``, ``"bench"`` (list) file names, relative to the page; ``"beauty"``
-    (:func:`rockdove.hosts.beauty.render_beauty`'s entry), the picture the page opens with.
-    """
+def write_html(path, report: Report, images: Figures) -> str:
+    """A self-contained page (relative image links) summarising ``report`` with its ``images``."""
     e = html.escape
     status, colour = ("PASSED", "#1a7f37") if report.passed else ("FAILED", "#b42318")
     goals = report.goals
@@ -310,12 +322,12 @@ def write_html(path, report: Report, images: dict) -> str:
         f"Goals: median dE2000 &le; {goals['median_dE']}, "
         f"p95 &le; {goals['p95_dE']} over feather pixels away from silhouette edges.</p>",
     ]
-    if images.get("viewer"):  # the interactive view first, the tables after it
+    if images.viewer:  # the interactive view first, the tables after it
         parts.append(f"<h2>Interactive view</h2><p>Drag to orbit, wheel to zoom, slide to turn the light; switch "
                      f"between the paper's baked LUT (our GLSL in WebGL2) and three.js's KHR_materials_iridescence "
-                     f"shading of pigeon.glb. <a href='{e(images['viewer'])}'>Open it full size</a>.</p>"
-                     f"<iframe class='viewer' src='{e(images['viewer'])}' title='interactive view'></iframe>")
-    hero = images.get("views", {}).get("hero", {})
+                     f"shading of pigeon.glb. <a href='{e(images.viewer)}'>Open it full size</a>.</p>"
+                     f"<iframe class='viewer' src='{e(images.viewer)}' title='interactive view'></iframe>")
+    hero = images.views.get("hero", {})
     if hero.get("gl") or hero.get("reference"):
         parts.append(f"<h2>Hero view</h2><img src='{e(hero.get('gl') or hero.get('reference'))}' alt='hero view' "
                      "style='image-rendering:auto'>")
@@ -335,8 +347,8 @@ def write_html(path, report: Report, images: dict) -> str:
         parts.append("</table>")
     for key, title in (("hue", "Hue histogram across the light sweep"), ("contact_sheet", "Contact sheet"),
                        ("lut", "The LUT"), ("spectra", "Film reflectance spectra")):
-        if images.get(key):
-            parts.append(f"<h2>{e(title)}</h2><img src='{e(images[key])}' alt='{e(key)}'>")
+        if getattr(images, key):
+            parts.append(f"<h2>{e(title)}</h2><img src='{e(getattr(images, key))}' alt='{e(key)}'>")
     if report.hosts:
         parts.append("<h2>Hosts</h2><p>Each host renders the written asset with its own code and is compared with "
                      "the exact reference of the lighting model it evaluates (half_angle: the paper's light; "
@@ -355,12 +367,12 @@ def write_html(path, report: Report, images: dict) -> str:
                                   "yes" if h.passed else "no"))
         parts.append("</table>")
         parts += [_figure_row(f"{host}: {name}", files, {"host": host, "reference": "reference", "dE": "dE"})
-                  for host, per_view in (images.get("hosts") or {}).items() for name, files in per_view.items()]
+                  for host, per_view in images.hosts.items() for name, files in per_view.items()]
     parts.append("<h2>Renders and dE2000 maps</h2>")
     parts += [_figure_row(name, files, {"gl": "gl", "reference": "reference", "dE": "dE"})
-              for name, files in images.get("views", {}).items()]
-    if images.get("bench"):
-        parts.append("<h2>Benchmarks</h2>" + "".join(f"<img src='{e(f)}' alt='{e(f)}'>" for f in images["bench"]))
+              for name, files in images.views.items()]
+    if images.bench:
+        parts.append("<h2>Benchmarks</h2>" + "".join(f"<img src='{e(f)}' alt='{e(f)}'>" for f in images.bench))
     parts.append(_pairs("Timings (s)", report.timings_s, _fmt))
     parts.append(_pairs("Library versions", report.versions, lambda v: e(str(v))))
     parts.append("<p>Full data: <a href='report.json'>report.json</a></p></body></html>")

@@ -72,23 +72,23 @@ def host_failures(hosts: tuple[HostResult, ...]) -> list[str]:
             if h.status in ("error", "failed")]
 
 
-def figures(checked: Checked, out: str, hue: compare.HueHistogram) -> tuple[dict, dict | None, list[str]]:
+def figures(checked: Checked, out: str, hue: compare.HueHistogram) -> tuple[report.Figures, dict | None, list[str]]:
     """The report's images in ``out`` (the views' files copied there, the contact sheet, the LUT, the film's
     spectra, the hue histogram): ``(images, the LUT's record or None, failures reading the LUT)``."""
     scene, lut, failures = checked.scene, checked.lut, []
-    images: dict = {"views": {}}
+    images = report.Figures()
     for r in checked.views:
         if os.path.abspath(r.folder) != out:
             for f in r.files.values():
                 shutil.copyfile(os.path.join(r.folder, f), os.path.join(out, f))
-        images["views"][r.view] = dict(r.files)
+        images.views[r.view] = dict(r.files)
     rows = [(r.view, list(r.sheet_row)) for r in checked.views]
-    images["contact_sheet"] = os.path.basename(report.contact_sheet(os.path.join(out, "contact_sheet.png"), rows))
+    images.contact_sheet = os.path.basename(report.contact_sheet(os.path.join(out, "contact_sheet.png"), rows))
     lut_info = None
     if scene.film is not None:
         try:
             used = lut if lut is not None else scene.load_lut()
-            images["lut"] = os.path.basename(report.lut_png(os.path.join(out, "lut.png"), used))
+            images.lut = os.path.basename(report.lut_png(os.path.join(out, "lut.png"), used))
             lut_info = {"file": None if lut is not None else scene.film.lut_file,
                         "shape": [used.n_thickness, used.n_angle], "thickness_range_nm": list(used.thickness_range_nm),
                         "angle_warp_gamma": used.angle_warp_gamma, "colour_space": used.colour_space,
@@ -96,10 +96,10 @@ def figures(checked: Checked, out: str, hue: compare.HueHistogram) -> tuple[dict
         except (ValueError, OSError) as exc:
             failures.append(f"LUT {scene.film.lut_file!r} could not be read: {exc}")
         lo, hi = scene.thickness_range_nm
-        images["spectra"] = os.path.basename(report.spectra_png(os.path.join(out, "spectra.png"), scene.film,
+        images.spectra = os.path.basename(report.spectra_png(os.path.join(out, "spectra.png"), scene.film,
                                                              thickness_nm=sorted({lo, 0.5 * (lo + hi), hi})))
-    images["hue"] = os.path.basename(report.hue_png(os.path.join(out, "hue.png"), hue, "light sweep"))
-    images["hosts"] = {h.name: h.files for h in checked.hosts if h.files}
+    images.hue = os.path.basename(report.hue_png(os.path.join(out, "hue.png"), hue, "light sweep"))
+    images.hosts = {h.name: h.files for h in checked.hosts if h.files}
     return images, lut_info, failures
 
 
@@ -129,15 +129,15 @@ def combine(checked: Checked, out: str, *, bench_dir, beauty, published_asset) -
     images, lut_info, lut_failures = figures(checked, out, hue)
     failures += lut_failures + host_failures(checked.hosts)
     timings["hosts"] = checked.hosts_seconds
-    images["bench"] = report.copy_bench_plots(out, bench_dir) if bench_dir is not None else []
+    images.bench = report.copy_bench_plots(out, bench_dir) if bench_dir is not None else []
     if beauty is not None:
         from ..hosts.beauty import for_report
 
         _log.info("beauty render")
-        images["beauty"], note = for_report(layer, scene, out, beauty, cycles_ok=beauty.get("cycles_ok", False),
-                                            lut=checked.lut)
+        images.beauty, note = for_report(layer, scene, out, beauty, cycles_ok=beauty.get("cycles_ok", False),
+                                         lut=checked.lut)
         notes.extend([note] if note else [])
-        timings["beauty"] = images["beauty"]["seconds"] if images["beauty"] else 0.0
+        timings["beauty"] = images.beauty["seconds"] if images.beauty else 0.0
     timings["report"] = time.perf_counter() - t
     validation, timings["validation"] = validation_pending.result()
     if not validation.passed:
@@ -147,7 +147,7 @@ def combine(checked: Checked, out: str, *, bench_dir, beauty, published_asset) -
     timings["total"] = time.perf_counter() - checked.t_start
     config = provenance.asset_configuration(layer)
     if os.path.isfile(os.path.join(out, "viewer.html")):  # written beside the report (rockdove.web.viewer)
-        images["viewer"] = "viewer.html"
+        images.viewer = "viewer.html"
     result = Report(
         asset=published_asset or layer, asset_sha256=file_sha256(layer), out_dir=out, passed=not failures,
         failures=tuple(failures), notes=tuple(notes),
@@ -155,7 +155,7 @@ def combine(checked: Checked, out: str, *, bench_dir, beauty, published_asset) -
                "black_fraction": compare.BLACK_FRACTION_GOAL, "min_hue_fraction": MIN_HUE_FRACTION},
         validation=validation, views=metrics, views_reused=checked.items.reused.views, cache=checked.items,
         view_setup=tuple(r.setup for r in views), reference=tuple(r.reference for r in views), hue_sweep=hue,
-        hosts=checked.hosts, anatomy=anatomy, beauty=images.get("beauty"),
+        hosts=checked.hosts, anatomy=anatomy, beauty=images.beauty,
         boundary={"per_view": {r.view: r.boundary for r in views if r.sweep},
                   "method": "TLS line through green/purple boundary points; RMS perpendicular distance (px) "
                             "and RMS / boundary length; coherence and curvature: rockdove.verify.boundary"},
