@@ -1,0 +1,212 @@
+"""Motions as values: each joint's world transform at every frame (:class:`Motion`), no USD.
+
+Both motions last :data:`DURATION_S` at :data:`FPS` frames per second and loop: frame ``F - 1`` repeats frame 0
+(the walk's pelvis moved on by whole strides; a host that loops it snaps back, as root motion does).
+
+``idle``: breathing (the chest rises and falls 0.8 mm, one breath per loop: 30 a minute, chosen) and saccadic head
+turns and tilts (quick 0.1 s moves between holds, up to 18 deg of yaw spread over neck_04, neck_05 and head, 8 deg
+of tilt and 5 deg of nod on the head), feet planted.
+
+``walk``, the head-bobbing gait:
+
+- one head cycle per step (Necker 2007, J. Comp. Physiol. A 193:1177: "one head cycle per one step or two head bobs
+  during a complete walking cycle"); a hold phase, the head locked in space (position, pitch, yaw, roll; Frost 1978,
+  J. Exp. Biol. 74:187; Troje & Frost 2000, J. Exp. Biol. 203:935), while the body moves on along +Z at constant
+  speed, then a thrust to the next hold;
+- :data:`STEP_S` 0.2 s per step (5 head bobs a second: "five to eight times a second as a pigeon is walking",
+  A. Blaisdell in Live Science, 2019); :data:`HOLD` 60 % of the step in hold (~63 % of walking time in hold in the
+  compilations of the pigeon literature); the head's thrust covers one step length (Kroker 2013, MSc thesis,
+  Queen's University: "the distance the head travels during [the thrust] is equal to the step length"), and the
+  head is thrust ~5 cm relative to the body (M. Land in Live Science, 2019), so :data:`STEP_M` 5 cm, 0.25 m/s;
+- the hold starts during single support, the body's centre over the supporting foot (Fujita 2002, J. Comp.
+  Physiol. A 188: egrets' hold phase, "similar to those of pigeons"), the thrust spans the foot-fall;
+- duty factor :data:`DUTY` 0.6 (stance 60 % of the stride: a walk, so one foot is always down); the swing foot
+  lifts :data:`LIFT_M` 12 mm; the femur stays with the pelvis (birds walk from the knee), the tibiotarsus and
+  tarsus solved as a two-bone chain to the planted foot, the heel bending back; the body bobs 1.5 mm (highest at
+  mid single support) and sways 2 mm over the stance foot.
+
+The neck absorbs the head's motion relative to the body by translation, each neck joint taking its neck
+coordinate's share: no neck joint rotates against its neighbours, so a card whose weights blend them moves
+rigidly under linear blend skinning too (three.js and glTF have no other), and the neck shortens in the hold and
+extends in the thrust as a pigeon's does under its feathers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Frames (USD time codes) per second and the length of each motion, seconds.
+FPS, DURATION_S = 60, 2.0
+#: Walk (module docstring): step period s, step length m, hold fraction, step phase where the hold starts, duty
+#: factor, swing lift m, body bob m, sway m, roll deg.
+STEP_S, STEP_M, HOLD, HOLD_START, DUTY = 0.2, 0.05, 0.6, 0.25, 0.6
+LIFT_M, BOB_M, SWAY_M, ROLL_DEG = 0.012, 0.0015, 0.002, 1.5
+
+
+@dataclass(frozen=True)
+class Motion:
+    """``world`` (F, J, 4, 4) float64: each joint's frame in the world at frame f (time f / ``fps`` s): its
+    rotation and its position, metres, column vectors; at rest the identity at the joint's rest position, so a
+    point x bound to joint j moves to ``world[f, j] @ inv(rest_j) @ x``."""
+
+    name: str
+    fps: float
+    world: np.ndarray
+
+    @property
+    def frames(self) -> int:
+        return int(self.world.shape[0])
+
+    def local(self, skel) -> np.ndarray:
+        """(F, J, 4, 4): each joint's transform relative to its parent's (the root's: its world transform)."""
+        parent = np.where(skel.parents < 0, 0, skel.parents)
+        out = np.linalg.inv(self.world[:, parent]) @ self.world
+        out[:, skel.parents < 0] = self.world[:, skel.parents < 0]
+        return out
+
+
+def _ease(x):
+    """Smootherstep (zero velocity and acceleration at both ends) of x clipped to [0, 1]."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * x * (x * (6.0 * x - 15.0) + 10.0)
+
+
+def _rot(axis: int, angle_rad) -> np.ndarray:
+    """(..., 3, 3) rotations about world axis 0 (x), 1 (y) or 2 (z)."""
+    a = np.asarray(angle_rad, float)
+    c, s = np.cos(a), np.sin(a)
+    m = np.zeros(a.shape + (3, 3))
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    m[..., axis, axis] = 1.0
+    m[..., i, i] = m[..., j, j] = c
+    m[..., i, j], m[..., j, i] = -s, s
+    return m
+
+
+def _between(u, v) -> np.ndarray:
+    """(F, 3, 3) the least rotation turning unit vectors u (3,) into v (F, 3) (Rodrigues)."""
+    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    k, c = np.cross(u, v), v @ u
+    kx = np.zeros(k.shape[:-1] + (3, 3))
+    kx[..., 0, 1], kx[..., 0, 2], kx[..., 1, 2] = -k[..., 2], k[..., 1], -k[..., 0]
+    kx -= np.swapaxes(kx, -1, -2)
+    return np.eye(3) + kx + kx @ kx / (1.0 + c)[..., None, None]
+
+
+def _frames(skel, n):
+    world = np.tile(np.eye(4), (n, len(skel.names), 1, 1))
+    world[..., :3, 3] = skel.rest_m
+    return world
+
+
+def _carry(world, skel, names, m):
+    """Joints ``names`` carried rigidly by the (F, 4, 4) transforms ``m`` from their rest frames."""
+    j = skel.indices(*names)
+    rest = np.tile(np.eye(4), (len(j), 1, 1))
+    rest[:, :3, 3] = skel.rest_m[j]
+    world[:, j] = m[:, None] @ rest[None]
+
+
+def _descendants(skel, name) -> list:
+    root = skel.index(name)
+    keep = [root]
+    for j, p in enumerate(skel.parents):
+        if p in keep:
+            keep.append(j)
+    return [skel.names[j] for j in keep]
+
+
+def idle(skel, fps: int = FPS) -> Motion:
+    """Breathing, saccadic head turns and tilts (module docstring)."""
+    t = np.arange(int(round(DURATION_S * fps)) + 1) / fps
+
+    def keys(*moves):  # (start s, value) steps of 0.1 s each, from 0 back to 0
+        out, last = np.zeros_like(t), 0.0
+        for start, value in moves:
+            out += (value - last) * _ease((t - start) / 0.1)
+            last = value
+        return np.deg2rad(out)
+
+    yaw = keys((0.25, 18.0), (0.9, -12.0), (1.55, 0.0))
+    tilt, nod = keys((0.35, 8.0), (0.95, -5.0), (1.6, 0.0)), keys((1.2, -5.0), (1.8, 0.0))
+    world = _frames(skel, len(t))
+    breath = 0.0008 * (0.5 - 0.5 * np.cos(2 * np.pi * t / DURATION_S))
+    m = np.tile(np.eye(4), (len(t), 1, 1))
+    m[:, :3, 3] = breath[:, None] * np.array([0.0, 0.8, 0.6])
+    _carry(world, skel, _descendants(skel, "chest"), m)
+    for name, share, extra in (("neck_04", 0.25, None), ("neck_05", 0.35, None), ("head", 0.4, (tilt, nod))):
+        r = _rot(1, share * yaw)
+        if extra is not None:
+            r = r @ _rot(2, extra[0]) @ _rot(0, extra[1])
+        pivot = world[:, skel.index(name), :3, 3].copy()
+        turn = np.tile(np.eye(4), (len(t), 1, 1))
+        turn[:, :3, :3], turn[:, :3, 3] = r, pivot - (r @ pivot[..., None])[..., 0]
+        for j in skel.indices(*_descendants(skel, name)):
+            world[:, j] = turn @ world[:, j]
+    return Motion("idle", fps, world)
+
+
+def _two_bone(knee, foot, a: float, b: float) -> np.ndarray:
+    """(F, 3) the ankle: ``a`` from the knee (F, 3), ``b`` from the foot (F, 3), bending back (-Z)."""
+    d = foot - knee
+    dist = np.minimum(np.linalg.norm(d, axis=-1), a + b - 1e-9)
+    dn = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    back = np.array([0.0, 0.0, -1.0]) - (dn @ np.array([0.0, 0.0, -1.0]))[:, None] * dn
+    back /= np.linalg.norm(back, axis=-1, keepdims=True)
+    cos = np.clip((a * a + dist * dist - b * b) / (2 * a * dist), -1.0, 1.0)
+    return knee + a * (cos[:, None] * dn + np.sqrt(1 - cos * cos)[:, None] * back)
+
+
+def walk(skel, fps: int = FPS) -> Motion:
+    """The head-bobbing walk along +Z (module docstring)."""
+    t = np.arange(int(round(DURATION_S * fps)) + 1) / fps
+    p, stride = t / STEP_S, t / (2 * STEP_S)  # step and stride phases (cumulative)
+    rest = skel.rest_m
+    sway = np.sin(2 * np.pi * (stride - 0.05))
+    body = np.tile(np.eye(4), (len(t), 1, 1))  # the trunk's rigid motion
+    pelvis = rest[skel.index("pelvis")]
+    body[:, :3, :3] = _rot(2, np.deg2rad(-ROLL_DEG) * sway)
+    body[:, :3, 3] = (pelvis - (body[:, :3, :3] @ pelvis) + np.stack(
+        [SWAY_M * sway, BOB_M * np.cos(2 * np.pi * (p - 0.6)), STEP_M * p], 1))
+    world = _frames(skel, len(t))
+    trunk = [n for n in skel.names if not n.startswith(("neck_", "head", "ankle", "foot", "toe"))]
+    _carry(world, skel, trunk, body)
+    # the head: locked in the hold, thrust one step on; the neck joints take their share of its offset
+    head = skel.index("head")
+    k, q = np.divmod(p - HOLD_START, 1.0)
+    thrust = np.where(q < HOLD, 0.0, _ease((q - HOLD) / (1.0 - HOLD)))
+    carried = (body @ np.append(rest[head], 1.0))[:, :3]
+    target = np.stack([carried[:, 0], np.full_like(t, rest[head, 1]),
+                       rest[head, 2] + STEP_M * (HOLD_START + k + thrust)], 1)
+    from .skeleton import NECK_S
+
+    for name, s in zip([f"neck_{i:02d}" for i in range(1, 6)] + ["head"], NECK_S):
+        j = skel.index(name)
+        world[:, j] = body @ world[:, j]
+        world[:, j, :3, 3] += s * (target - carried)
+    world[:, head, :3, :3] = np.eye(3)  # the head keeps its orientation in space
+    for side, offset in (("L", 0.0), ("R", 0.5)):
+        kk, phase = np.divmod(stride - offset, 1.0)
+        knee, ankle, foot = skel.indices(f"knee_{side}", f"ankle_{side}", f"foot_{side}")
+        swing = np.clip((phase - DUTY) / (1.0 - DUTY), 0.0, 1.0)
+        z = rest[foot, 2] + 2 * STEP_M * (offset + kk + 0.3 + _ease(swing))
+        lift = np.where(phase >= DUTY, LIFT_M * np.sin(np.pi * swing), 0.0)
+        pos = np.stack([np.full_like(t, rest[foot, 0]), rest[foot, 1] + lift, z], 1)
+        world[:, foot, :3, 3] = pos
+        toes = _descendants(skel, f"foot_{side}")[1:]
+        shift = np.tile(np.eye(4), (len(t), 1, 1))
+        shift[:, :3, 3] = pos - rest[foot]
+        _carry(world, skel, toes, shift)
+        kpos = world[:, knee, :3, 3]
+        a, b = (np.linalg.norm(rest[knee] - rest[ankle]), np.linalg.norm(rest[ankle] - rest[foot]))
+        apos = _two_bone(kpos, pos, a, b)
+        world[:, ankle, :3, 3] = apos
+        world[:, knee, :3, :3] = _between((rest[ankle] - rest[knee]) / a, apos - kpos)
+        world[:, ankle, :3, :3] = _between((rest[foot] - rest[ankle]) / b, pos - apos)
+    return Motion("walk", fps, world)
+
+
+#: Motion name -> the function that makes it from a :class:`rockdove.rig.skeleton.Skeleton`.
+MOTIONS = {"idle": idle, "walk": walk}
