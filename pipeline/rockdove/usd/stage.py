@@ -142,7 +142,9 @@ def author_geometry(stage, bird):
 
     _feather_part(bird)
     root = UsdGeom.Xform.Define(stage, ROOT)
-    UsdSkel.Root.Define(stage, f"{ROOT}/Geom")  # the rig layer's skeleton binds its meshes (rockdove.usd.skel)
+    # the rig layer's skeleton binds its meshes (rockdove.usd.skel); no authored extent: UsdSkel computes the
+    # SkelRoot's from the posed joints (padded), right in every pose, as NVIDIA's ExtentsChecker expects
+    UsdSkel.Root.Define(stage, f"{ROOT}/Geom")
     for part in bird.parts:
         preview_range = None
         if part.material == FEATHER_MATERIAL:  # the preview atlas spans the mesh's thickness range
