@@ -1,12 +1,14 @@
 """Meshes posed at a time code by USD's own UsdSkel: ``UsdSkel.Cache`` -> skeleton query -> skinning transforms ->
 ``SkinningQuery.ComputeSkinnedPoints``, and the normals by ``UsdSkel.SkinNormals`` with the inverse transposes of the
 same transforms (no second implementation of skinning here). Every bound mesh's influences are checked first: joint
-indices in range, weights >= 0 summing to 1; any fault is a ValueError naming the mesh, so no scene is ever made
+indices in range, weights >= 0 summing to 1; any fault is a UsageError naming the mesh, so no scene is ever made
 with a mesh left half-skinned."""
 
 from __future__ import annotations
 
 import numpy as np
+
+from ..errors import UsageError
 
 from ..usd.skel import check_influences
 
@@ -42,12 +44,12 @@ def pose(stage, time: float) -> dict:
                 n, per = len(points), target.GetNumInfluencesPerComponent()
                 indices, weights = target.ComputeJointInfluences(time)
                 if target.GetInterpolation() != UsdGeom.Tokens.vertex:
-                    raise ValueError(f"{path}: skel:jointIndices must be vertex-interpolated (one set per point)")
+                    raise UsageError(f"{path}: skel:jointIndices must be vertex-interpolated (one set per point)")
                 check_influences(path, indices, weights, n, per, n_joints)
                 joint_xf = xforms if target.GetJointMapper() is None else target.GetJointMapper().RemapTransforms(
                     xforms, Gf.Matrix4d(1))
                 if not target.ComputeSkinnedPoints(joint_xf, points, time):
-                    raise ValueError(f"{path}: UsdSkel could not skin the mesh at time {time}")
+                    raise UsageError(f"{path}: UsdSkel could not skin the mesh at time {time}")
                 normals = mesh.GetNormalsAttr().Get(time)
                 if normals is not None and len(normals) == n:
                     m3 = np.asarray(joint_xf, np.float64)[:, :3, :3]

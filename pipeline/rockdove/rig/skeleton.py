@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import UsageError
+
 #: Height of the intertarsal (ankle) joint on the tarsus, metres: where the tarsus leaves the belly's feathers.
 ANKLE_JOINT_Y_M = 0.030
 #: Knee (forward and up from the ankle, so the tibiotarsus is ~5 cm) and hip (behind and above it), metres, left.
@@ -51,7 +53,7 @@ class Skeleton:
         try:
             return self.names.index(name)
         except ValueError:
-            raise ValueError(f"joint={name!r} is not in the skeleton; joints are {list(self.names)}") from None
+            raise UsageError(f"joint={name!r} is not in the skeleton; joints are {list(self.names)}") from None
 
     def indices(self, *names) -> list:
         return [self.index(n) for n in names]

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import UsageError
+
 #: Influences per point (the glTF JOINTS_0/WEIGHTS_0 size); unused slots have weight 0 and joint 0.
 INFLUENCES = 4
 #: Parts skinned smoothly; the rest is rigid per connected component.
@@ -134,7 +136,7 @@ def part_weights(parts, skel) -> dict:
         if part.name in smooth:
             out[part.name] = smooth[part.name](part.points_m, skel)
     if not out:
-        raise ValueError(f"parts {[p.name for p in parts]}: no smooth part ({SMOOTH_PARTS}) to bind the rest to")
+        raise UsageError(f"parts {[p.name for p in parts]}: no smooth part ({SMOOTH_PARTS}) to bind the rest to")
     from ..geometry.sdf import body_sdf
 
     skin = np.concatenate([np.asarray(p.points_m, np.float64) for p in parts if p.name in out])

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import UsageError
+
 RIG_LAYER = "pigeon_rig.usdc"
 MOTION_VARIANT_SET = "motion"
 REST = "rest"
@@ -30,20 +32,20 @@ WEIGHT_SUM_TOLERANCE = 1e-3
 
 
 def check_influences(path: str, indices, weights, n_points: int, n_per_point: int, n_joints: int) -> None:
-    """ValueError (one line, naming the mesh) unless ``indices``/``weights`` ((n_points * n_per_point,)) are a valid
+    """UsageError (one line, naming the mesh) unless ``indices``/``weights`` ((n_points * n_per_point,)) are a valid
     skin: every index in [0, n_joints), every weight >= 0, each point's weights summing to 1."""
     idx, w = np.asarray(indices, np.int64), np.asarray(weights, np.float64)
     if len(idx) != n_points * n_per_point or len(w) != len(idx):
-        raise ValueError(f"{path}: {len(idx)} skel:jointIndices and {len(w)} skel:jointWeights for {n_points} "
+        raise UsageError(f"{path}: {len(idx)} skel:jointIndices and {len(w)} skel:jointWeights for {n_points} "
                          f"points x {n_per_point} influences")
     bad = np.flatnonzero((idx < 0) | (idx >= n_joints))
     if len(bad):
-        raise ValueError(f"{path}: {len(bad)} skel:jointIndices outside [0, {n_joints}) (the skeleton's joints), "
+        raise UsageError(f"{path}: {len(bad)} skel:jointIndices outside [0, {n_joints}) (the skeleton's joints), "
                          f"e.g. {idx[bad[0]]} at point {bad[0] // n_per_point}")
     sums = w.reshape(n_points, n_per_point).sum(axis=1)
     off = np.flatnonzero((np.abs(sums - 1.0) > WEIGHT_SUM_TOLERANCE) | (w.reshape(n_points, -1) < 0).any(axis=1))
     if len(off):
-        raise ValueError(f"{path}: skel:jointWeights of {len(off)} points are negative or do not sum to 1, e.g. "
+        raise UsageError(f"{path}: skel:jointWeights of {len(off)} points are negative or do not sum to 1, e.g. "
                          f"{sums[off[0]]:.4f} at point {off[0]}")
 
 
