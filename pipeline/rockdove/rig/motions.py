@@ -17,18 +17,20 @@ of tilt and 5 deg of nod on the head), feet planted.
   A. Blaisdell in Live Science, 2019); :data:`HOLD` 60 % of the step in hold (~63 % of walking time in hold in the
   compilations of the pigeon literature); the head's thrust covers one step length (Kroker 2013, MSc thesis,
   Queen's University: "the distance the head travels during [the thrust] is equal to the step length"), and the
-  head is thrust ~5 cm relative to the body (M. Land in Live Science, 2019), so :data:`STEP_M` 5 cm, 0.25 m/s;
-- the hold starts during single support, the body's centre over the supporting foot (Fujita 2002, J. Comp.
-  Physiol. A 188: egrets' hold phase, "similar to those of pigeons"), the thrust spans the foot-fall;
+  head is thrust about 5 cm relative to the body (M. Land in Live Science, 2019): :data:`STEP_M` 4.5 cm, 0.225 m/s;
+- the hold starts during single support, the body's centre over the supporting foot, and the body's speed peaks
+  with the neck's extension (Fujita 2002, J. Comp. Physiol. A 188: egrets, "similar to those of pigeons"): the thrust
+  spans the foot-fall and the trunk surges :data:`SURGE` 30 % faster than its mean speed mid-thrust;
 - duty factor :data:`DUTY` 0.6 (stance 60 % of the stride: a walk, so one foot is always down); the swing foot
   lifts :data:`LIFT_M` 12 mm; the femur stays with the pelvis (birds walk from the knee), the tibiotarsus and
   tarsus solved as a two-bone chain to the planted foot, the heel bending back; the body bobs 1.5 mm (highest at
   mid single support) and sways 2 mm over the stance foot.
 
-The neck absorbs the head's motion relative to the body by translation, each neck joint taking its neck
-coordinate's share: no neck joint rotates against its neighbours, so a card whose weights blend them moves
-rigidly under linear blend skinning too (three.js and glTF have no other), and the neck shortens in the hold and
-extends in the thrust as a pigeon's does under its feathers.
+The neck absorbs the head's motion relative to the body as an S-bend (neck_01 .. neck_03 pitch one way, neck_04 ..
+head back, :data:`NECK_BEND`, so the head keeps its orientation) and a change of length along its bones (translation
+only), solved for the head's position at every frame: neighbouring neck joints turn apart by the bend angle alone,
+~15 degrees at most, so a card whose weights blend two of them stays within 1 % of rigid under linear blend
+skinning too (three.js and glTF have no other), and the cards turn with the skin they lie on.
 """
 
 from __future__ import annotations
@@ -41,8 +43,11 @@ import numpy as np
 FPS, DURATION_S = 60, 2.0
 #: Walk (module docstring): step period s, step length m, hold fraction, step phase where the hold starts, duty
 #: factor, swing lift m, body bob m, sway m, roll deg.
-STEP_S, STEP_M, HOLD, HOLD_START, DUTY = 0.2, 0.05, 0.6, 0.25, 0.6
+STEP_S, STEP_M, HOLD, HOLD_START, DUTY = 0.2, 0.045, 0.6, 0.25, 0.6
 LIFT_M, BOB_M, SWAY_M, ROLL_DEG = 0.012, 0.0015, 0.002, 1.5
+#: The trunk's surge (its forward speed varies by this fraction of the mean, fastest mid-thrust) and how much
+#: lower it walks than it stands, metres (the knees bend more: the legs reach the footholds).
+SURGE, CROUCH_M = 0.3, 0.004
 
 
 @dataclass(frozen=True)
@@ -159,6 +164,28 @@ def _two_bone(knee, foot, a: float, b: float) -> np.ndarray:
     return knee + a * (cos[:, None] * dn + np.sqrt(1 - cos * cos)[:, None] * back)
 
 
+#: The neck's S-bend: each neck joint's pitch (neck_01 .. head) in units of the bend angle; neighbours differ by
+#: one unit, the head's is 0 (it keeps the trunk's orientation).
+NECK_BEND = np.array([1.0, 2.0, 3.0, 2.0, 1.0, 0.0])
+
+
+def _neck_shape(joints, offset):
+    """(F,) bend angles (rad) and (F,) length scales of the neck whose joints rest at ``joints`` (6, 3) that move the
+    head by ``offset`` (F, 3) in the trunk's frame (its y and z; Newton's method from the rest shape)."""
+    seg = joints[1:] - joints[:-1]
+
+    def head(x):  # (F, 2) the head's (y, z) from neck_01 for x = (angle, scale) (F, 2)
+        r = _rot(0, np.outer(x[:, 0], NECK_BEND[:-1]))
+        return x[:, 1:2] * np.einsum("fsij,sj->fi", r, seg)[:, 1:]
+
+    goal = (joints[-1] - joints[0])[1:] + offset[:, 1:]
+    x = np.tile([0.0, 1.0], (len(offset), 1))
+    for _ in range(8):
+        jac = np.stack([(head(x + h) - head(x - h)) / 2e-6 for h in np.eye(2) * 1e-6], axis=-1)
+        x -= np.linalg.solve(jac, (head(x) - goal)[..., None])[..., 0]
+    return x[:, 0], x[:, 1]
+
+
 def walk(skel, fps: int = FPS) -> Motion:
     """The head-bobbing walk along +Z (module docstring)."""
     t = np.arange(int(round(DURATION_S * fps)) + 1) / fps
@@ -168,8 +195,10 @@ def walk(skel, fps: int = FPS) -> Motion:
     body = np.tile(np.eye(4), (len(t), 1, 1))  # the trunk's rigid motion
     pelvis = rest[skel.index("pelvis")]
     body[:, :3, :3] = _rot(2, np.deg2rad(-ROLL_DEG) * sway)
+    thrust_mid = HOLD_START + 0.5 * (1.0 + HOLD)
+    ahead = STEP_M * (p + SURGE / (2 * np.pi) * np.sin(2 * np.pi * (p - thrust_mid)))
     body[:, :3, 3] = (pelvis - (body[:, :3, :3] @ pelvis) + np.stack(
-        [SWAY_M * sway, BOB_M * np.cos(2 * np.pi * (p - 0.6)), STEP_M * p], 1))
+        [SWAY_M * sway, BOB_M * np.cos(2 * np.pi * (p - 0.6)) - CROUCH_M, ahead], 1))
     world = _frames(skel, len(t))
     trunk = [n for n in skel.names if not n.startswith(("neck_", "head", "ankle", "foot", "toe"))]
     _carry(world, skel, trunk, body)
@@ -180,18 +209,22 @@ def walk(skel, fps: int = FPS) -> Motion:
     carried = (body @ np.append(rest[head], 1.0))[:, :3]
     target = np.stack([carried[:, 0], np.full_like(t, rest[head, 1]),
                        rest[head, 2] + STEP_M * (HOLD_START + k + thrust)], 1)
-    from .skeleton import NECK_S
-
-    for name, s in zip([f"neck_{i:02d}" for i in range(1, 6)] + ["head"], NECK_S):
-        j = skel.index(name)
-        world[:, j] = body @ world[:, j]
-        world[:, j, :3, 3] += s * (target - carried)
-    world[:, head, :3, :3] = np.eye(3)  # the head keeps its orientation in space
+    neck = skel.indices(*[f"neck_{i:02d}" for i in range(1, 6)], "head")
+    offset = np.einsum("fji,fj->fi", body[:, :3, :3], target - carried)  # in the trunk's frame
+    angle, scale = _neck_shape(rest[neck], offset)
+    turn = _rot(0, np.outer(angle, NECK_BEND))  # (F, 6, 3, 3): each neck joint's pitch in the trunk's frame
+    seg = rest[neck][1:] - rest[neck][:-1]
+    pos = rest[neck][0] + np.concatenate([np.zeros((len(t), 1, 3)), np.cumsum(
+        scale[:, None, None] * np.einsum("fsij,sj->fsi", turn[:, :-1], seg), axis=1)], axis=1)
+    frames = np.tile(np.eye(4), (len(t), len(neck), 1, 1))
+    frames[..., :3, :3], frames[..., :3, 3] = turn, pos
+    world[:, neck] = body[:, None] @ frames
+    world[:, head, :3, :3] = np.eye(3)  # the head keeps its orientation in space (the trunk's roll aside)
     for side, offset in (("L", 0.0), ("R", 0.5)):
         kk, phase = np.divmod(stride - offset, 1.0)
         knee, ankle, foot = skel.indices(f"knee_{side}", f"ankle_{side}", f"foot_{side}")
         swing = np.clip((phase - DUTY) / (1.0 - DUTY), 0.0, 1.0)
-        z = rest[foot, 2] + 2 * STEP_M * (offset + kk + 0.3 + _ease(swing))
+        z = rest[knee, 2] + 2 * STEP_M * (offset + kk + 0.3 + _ease(swing))  # mid-stance under the knee
         lift = np.where(phase >= DUTY, LIFT_M * np.sin(np.pi * swing), 0.0)
         pos = np.stack([np.full_like(t, rest[foot, 0]), rest[foot, 1] + lift, z], 1)
         world[:, foot, :3, 3] = pos
