@@ -17,7 +17,7 @@ of tilt and 5 deg of nod on the head), feet planted.
   A. Blaisdell in Live Science, 2019); :data:`HOLD` 60 % of the step in hold (~63 % of walking time in hold in the
   compilations of the pigeon literature); the head's thrust covers one step length (Kroker 2013, MSc thesis,
   Queen's University: "the distance the head travels during [the thrust] is equal to the step length"), and the
-  head is thrust about 5 cm relative to the body (M. Land in Live Science, 2019): :data:`STEP_M` 4.5 cm, 0.225 m/s;
+  head is thrust about 5 cm relative to the body (M. Land in Live Science, 2019): :data:`STEP_M` 4 cm, 0.2 m/s;
 - the hold starts during single support, the body's centre over the supporting foot, and the body's speed peaks
   with the neck's extension (Fujita 2002, J. Comp. Physiol. A 188: egrets, "similar to those of pigeons"): the thrust
   spans the foot-fall and the trunk surges :data:`SURGE` 30 % faster than its mean speed mid-thrust;
@@ -43,7 +43,7 @@ import numpy as np
 FPS, DURATION_S = 60, 2.0
 #: Walk (module docstring): step period s, step length m, hold fraction, step phase where the hold starts, duty
 #: factor, swing lift m, body bob m, sway m, roll deg.
-STEP_S, STEP_M, HOLD, HOLD_START, DUTY = 0.2, 0.045, 0.6, 0.25, 0.6
+STEP_S, STEP_M, HOLD, HOLD_START, DUTY = 0.2, 0.04, 0.6, 0.25, 0.6
 LIFT_M, BOB_M, SWAY_M, ROLL_DEG = 0.012, 0.0015, 0.002, 1.5
 #: The trunk's surge (its forward speed varies by this fraction of the mean, fastest mid-thrust) and how much
 #: lower it walks than it stands, metres (the knees bend more: the legs reach the footholds).
