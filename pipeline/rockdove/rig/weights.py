@@ -1,19 +1,14 @@
 """Skin weights as values: :data:`INFLUENCES` (joint index, weight) pairs per point of every part, no USD.
 
-- ``Body`` (smooth): a parameter u along the axial chain tail_fan .. pelvis .. chest, neck_01 .. neck_05, head
-  (:data:`AXIAL`) and linear weights between the two joints it falls between. On the trunk u is the closest point
-  of the polyline tail_fan -> chest; on the neck (neck coordinate s >= 0 within the neck band's radius, the
-  ``rockdove.geometry.neck`` coordinate) u follows s, so the head (s >= 1) is rigid on ``head``; the two are
-  blended over s in [-0.35, 0] and 12 mm of radius; the skin within :data:`HEAD_BLEND_M` of the head's ellipsoid
-  blends into the head, so the nape and throat by the head move with it.
-- ``Legs`` (smooth): inverse fourth power of the distance to each leg bone of the point's side (a joint to its
-  first child; a toe to its tip), the two nearest kept.
-- ``Wings``: each connected component (one feather) rigidly on the wing joint of its side nearest its root.
-- every other part: each connected component (a feather card, a rectrix, an eye, the beak) takes, for all its
-  points, one weight set: when it reaches within :data:`ROOTED_M` of the body's surface (cards, eyes, beak), the
-  Body's weights (the function above) at the foot on the skin of its root (the middle of its deepest points, a
-  card's quill end); else those
-  of the skin vertex nearest to it (a claw: its toe's). So a neck card's root moves with the skin it grows from.
+- ``Body``: linear weights between the two joints of the axial chain (:data:`AXIAL`) that a parameter u falls
+  between: on the trunk the closest point of the polyline tail_fan -> chest, on the neck (neck coordinate s of
+  ``rockdove.geometry.neck`` >= 0 within the band's radius) s itself, so the head (s >= 1) is rigid; blended over s
+  in [-0.35, 0] and 12 mm of radius, and into the head within :data:`HEAD_BLEND_M` of its ellipsoid.
+- ``Legs``: inverse fourth power of the distance to the bones of the point's side, the two nearest kept.
+- ``Wings``: each feather (connected component) on the wing joint of its side nearest its root.
+- every other part, per connected component (a card, a rectrix, an eye, the beak): one weight set, the Body's at
+  the foot on the skin of its root (the middle of its deepest points: a card's quill) when it reaches within
+  :data:`ROOTED_M` of the body's surface, else the nearest visible skin vertex's (a claw: its toe's).
 """
 
 from __future__ import annotations

@@ -1,18 +1,12 @@
-"""A motion measured on the written asset as USD's UsdSkel poses it (:func:`rockdove.render.skinning.pose`), at
-every time code, each measure with the limit that fails the verification (:data:`LIMITS`):
-
-- ``card_stretch``: the largest relative change of an edge of any rigid part (all but ``Body`` and ``Legs``; a
-  feather card, rectrix, eye...) against the rest pose;
-- ``card_root_off_skin_m``: how far a neck card's root (the middle of its deepest points at rest) moves from the skin
-  point under it (the closest point of the Body at rest, followed by its triangle and barycentric coordinates);
-- ``head_into_cards_m``: how deep a neck card's vertex goes behind the surface of the head (Body triangles skinned
-  to the ``head`` joint alone), beyond any depth it had at rest;
-- ``stance_slip_m`` / ``toe_below_ground_m`` / ``frames_without_support``: the feet (the Legs' soles, within 2 mm of
-  its lowest point at rest) slide while down, sink below the rest pose's ground, or leave no foot down;
-- walk only: the head (the Eyes' centre) against the trunk (the Wings' centre): ``head_hold_drift_m`` (how far the
-  head moves forward or up within a hold: forward speed under 5 % of the trunk's mean; it may follow the trunk's
-  sway sideways), ``hold_fraction``, ``head_cycles`` against
-  the steps (foot-falls), ``head_to_body_speed`` (mean forward speeds over the loop).
+"""A motion measured at every time code on the written asset as UsdSkel poses it, each measure with the limit
+that fails the verification (:data:`LIMITS`): ``card_stretch``, the largest relative change of an edge of a rigid
+part (all but Body and Legs); ``card_root_off_skin_m``, how far a neck card's root (the middle of its deepest points)
+moves off the Body point under it (its triangle and barycentric coordinates at rest); ``head_into_cards_m``, how
+deep a neck-card point in front of the head at rest goes behind it (the Body triangles on the ``head`` joint alone);
+``stance_slip_m``, ``toe_below_ground_m``, ``frames_without_support``, of the Legs' soles (within 2 mm of their
+lowest point at rest); and for the walk the head (the Eyes' centre) against the trunk (the Wings'):
+``head_hold_drift_m`` (forward and up, within a hold: head speed under 5 % of the trunk's mean), ``hold_fraction``,
+``head_cycles`` against the steps (foot-falls) and ``head_to_body_speed`` (mean forward speeds).
 """
 
 from __future__ import annotations
