@@ -221,11 +221,13 @@ def _write_viewer(root: str, out) -> None:
 def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cache: str | os.PathLike | None = None,
            out: str | os.PathLike | None = None, width: int | None = None, height: int | None = None,
            views: Iterable[str] | None = None, n_views: int | None = None, bench_dir: str | os.PathLike | None = None,
-           allow_external: bool = False, beauty: dict | None = None) -> Verification:
+           allow_external: bool = False, beauty: dict | None = None, motion: str | None = None,
+           times: Iterable[float] | None = None) -> Verification:
     """Validate an asset (its folder or root layer) and check it in the GLSL shaders and every host in ``hosts``:
     the build's own verification with its cache (:func:`rockdove.graph.verification.verify`, whose arguments these
     are; its progress goes to the ``rockdove`` logger). ``out``: the report folder; ``allow_external``: let the
-    asset's layers name files outside its folder.
+    asset's layers name files outside its folder; ``motion``, ``times``: also check that motion (its measures, and
+    the film at those time codes).
 
     Returns :class:`Verification` (a failed check: ``passed`` False). Raises :class:`UsageError` for bad usage
     and :class:`VerificationFailed`, before rendering, when the asset's layers do not parse or name files outside it.
@@ -241,5 +243,5 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
     report = verification.verify(os.fspath(root), None if hosts is None else list(hosts), cache=cache, out_dir=out,
                                  width=width, height=height, n_views=n_views,
                                  views=None if views is None else list(views), bench_dir=bench_dir,
-                                 beauty=beauty)
+                                 beauty=beauty, motion=motion, times=None if times is None else list(times))
     return Verification.from_report(report)

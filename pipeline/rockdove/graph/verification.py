@@ -166,6 +166,30 @@ def _files(files: dict) -> set:
     return {name for per_view in files.values() for name in per_view.values()}
 
 
+def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[dict, dict, list[list[str]]]:
+    """The motion's measures (the report's ``motion`` entry, with the times and views checked), its frames checked as
+    views (``{view: ViewResult}``) and their items: surfaces cast, kept, views rendered."""
+    from ..render.scene import load_scene
+    from ..verify.inputs import scene_digest
+    from ..verify.motion import frame_views, measure_motion
+
+    _log.info(f"motion {motion}: measured at every time code")
+    entry = {**measure_motion(layer, motion), "times": list(times), "views": []}
+    results: dict = {}
+    items: list[list[str]] = [[], [], []]
+    for t in times:
+        _log.info(f"motion {motion}: the film at time code {t:g}")
+        scene = load_scene(layer, {"motion": motion}, t)
+        views = frame_views(scene, width, height, f"{motion}{t:03.0f}")
+        surfaces, cast, kept = _surfaces(cache, scene, views)
+        frame, _, rendered = _views(cache, scene, lut, views, scene_digest(scene), surfaces, False, out)
+        results.update(frame)
+        entry["views"] += list(frame)
+        for into, names in zip(items, (cast, kept, rendered)):
+            into += names
+    return entry, results, items
+
+
 def default_cache(asset) -> str:
     """A verification's cache when none is given: the build's (``.rockdove-cache`` beside the asset folder) when
     there is one, else the user cache's ``verify/`` (:func:`rockdove.resources.user_cache_dir`)."""
@@ -176,7 +200,7 @@ def default_cache(asset) -> str:
 
 
 def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, height=None, n_views=None,
-           views=None, bench_dir=None, beauty=None, published_asset=None):
+           views=None, bench_dir=None, beauty=None, published_asset=None, motion=None, times=None):
     """Validate, render and check the asset of root layer ``asset``; write the report into ``out_dir`` (default
     ``verify/`` beside it); return it (:class:`rockdove.verify.results.Report`: ``cache`` says which items ran and
     which were reused). Progress goes to this module's logger.
@@ -186,7 +210,10 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     :func:`default_cache`). ``width``, ``height``, ``n_views``: default the schema's ``[verify]``; ``views``: only
     these (a subset without a light-sweep view cannot run the hue check). ``beauty``: ``[beauty]`` settings of the
     report's opening picture (``auto`` takes Cycles only when ``hosts`` names blender); ``published_asset``: the
-    root layer's path once published, which the report names.
+    root layer's path once published, which the report names. ``motion`` (e.g. ``"walk"``): also measure that
+    motion at every time code (:func:`rockdove.verify.motion.measure_motion`) and check the film at ``times``
+    (default :data:`rockdove.verify.motion.DEFAULT_TIMES`), each frame skinned by UsdSkel, in
+    :func:`rockdove.verify.motion.frame_views`.
     """
     from ..hosts import select
     from ..render.beauty import settings
@@ -199,6 +226,10 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     t_start = time.perf_counter()
     selection = select(hosts)  # unknown names: UsageError before any work
     layer, scene, lut, notes = verification_scene(asset)
+    if motion is not None:
+        from ..verify.motion import motion_times
+
+        times = motion_times(layer, motion, times)  # a bad motion or time: UsageError before any render
     out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)
     os.makedirs(out, exist_ok=True)
     cache = cache if isinstance(cache, Cache) else Cache(cache or default_cache(layer))
@@ -210,6 +241,8 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     redo = _Items(cache, "host").get(_host_key(glsl, digest, chosen)) is None  # its images are the GL renders
     results, fresh, rendered = _views(cache, scene, lut, chosen, digest, surfaces, redo, out)
     lobes = {"half_angle": fresh["refs"]} if redo else {}
+    motion_entry, frames, (m_cast, m_kept, m_rendered) = (None, {}, ([], [], [])) if motion is None else _motion(
+        cache, layer, lut, motion, times, width, height, out)
 
     def refs(lobe):
         if lobe not in lobes:
@@ -223,11 +256,12 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
                     *(HostResult(n, "skipped", reason=why) for n, why in selection.unavailable.items()))
     named = hosts is not None and "blender" in hosts  # auto: Cycles only when asked for (2-4 min of CPU)
     ran_hosts = tuple(r.name for r, cached in checked if not cached)
-    items = ItemsUsed(ItemNames(tuple(cast), tuple(rendered), ran_hosts),
-                      ItemNames(tuple(kept), tuple(v.name for v in chosen if v.name not in rendered),
+    rendered, views_checked = [*rendered, *m_rendered], [*results.values(), *frames.values()]
+    items = ItemsUsed(ItemNames(tuple(cast + m_cast), tuple(rendered), ran_hosts),
+                      ItemNames(tuple(kept + m_kept), tuple(r.view for r in views_checked if r.view not in rendered),
                                 tuple(r.name for r, cached in checked if cached)))
-    return combine(Checked(layer, scene, lut, tuple(notes), tuple(results.values()), host_results, items,
-                           (width, height), time.perf_counter() - t, t_start), out, bench_dir=bench_dir,
+    return combine(Checked(layer, scene, lut, tuple(notes), tuple(views_checked), host_results, items,
+                           (width, height), time.perf_counter() - t, t_start, motion_entry), out, bench_dir=bench_dir,
                    beauty={**settings(beauty), "cycles_ok": named and any(h.name == "blender" for h in
                                                                            selection.available)},
                    published_asset=published_asset)

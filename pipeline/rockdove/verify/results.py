@@ -193,6 +193,7 @@ class Report(_Record):
     timings_s: dict[str, float]
     versions: dict
     argv: tuple[str, ...]
+    motion: dict | None = None
 
     @classmethod
     def from_json(cls, data: dict) -> Report:
@@ -203,7 +204,7 @@ class Report(_Record):
                  "views": tuple(ViewMetrics.from_json(m) for m in data["views"]),
                  "hue_sweep": HueHistogram(**data["hue_sweep"]),
                  "hosts": tuple(HostResult.from_json(h) for h in data["hosts"])}
-        plain: dict[str, Any] = {f.name: data[f.name] for f in dataclasses.fields(cls) if f.name not in typed}
+        plain: dict[str, Any] = {f.name: data.get(f.name) for f in dataclasses.fields(cls) if f.name not in typed}
         fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in plain.items()}
         return cls(**fields, **typed)
 

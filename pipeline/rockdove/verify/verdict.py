@@ -50,6 +50,7 @@ class Checked:
     size: tuple[int, int]
     hosts_seconds: float
     t_start: float
+    motion: dict | None = None  # rockdove.verify.motion.measure_motion's entry, with the times and views checked
 
 
 def sweep_hues(views: tuple[ViewResult, ...]) -> tuple[compare.HueHistogram, list[str], list[str]]:
@@ -143,7 +144,7 @@ def combine(checked: Checked, out: str, *, bench_dir, beauty, published_asset) -
     if not validation.passed:
         failures.insert(0, "validation: " + (validation.error or "the validator reported problems"))
     anatomy = measure_scene(scene)  # the bird against its published measures (rockdove.verify.anatomy)
-    failures.extend(anatomy["failures"])
+    failures.extend(anatomy["failures"] + (checked.motion["failures"] if checked.motion else []))
     timings["total"] = time.perf_counter() - checked.t_start
     config = provenance.asset_configuration(layer)
     if os.path.isfile(os.path.join(out, "viewer.html")):  # written beside the report (rockdove.web.viewer)
@@ -163,7 +164,7 @@ def combine(checked: Checked, out: str, *, bench_dir, beauty, published_asset) -
         # the build marker's rockdove.config.config_hash of the configuration the asset was built from
         configuration=config, configuration_hash=(config.get("marker") or {}).get("config_hash"),
         render={"width": int(checked.size[0]), "height": int(checked.size[1]), "erode_px": 1}, timings_s=timings,
-        versions=provenance.library_versions(), argv=tuple(sys.argv))
+        versions=provenance.library_versions(), argv=tuple(sys.argv), motion=checked.motion)
     shipped = report.portable(result.to_json(), [os.path.dirname(layer), os.path.dirname(published_asset or layer)])
     report.write_json(os.path.join(out, "report.json"), shipped)  # no build machine's path in what ships
     report.write_html(os.path.join(out, "report.html"), Report.from_json(shipped), images)
@@ -190,5 +191,6 @@ def summary(report: Report) -> dict:
                            for k, v in per_view.items() if "coherence" in v},
         "hosts": [{k: v for k, v in h.to_json().items() if k not in ("per_view", "failures")} for h in report.hosts],
         "anatomy": {r["name"]: r["value"] for r in report.anatomy["measures"]},
+        "motion": report.motion and {k: report.motion[k] for k in ("motion", "times", "measures", "failures")},
         "timings_s": report.timings_s,
     }
