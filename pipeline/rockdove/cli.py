@@ -56,6 +56,9 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """The ``rockdove`` console script: the exit status of the command of ``argv``."""
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")  # offscreen GL, chosen before anything imports OpenGL
+    from .resources import spare_full_disk
+
+    spare_full_disk()
     argv = list(sys.argv[1:] if argv is None else argv)
     command = next((a for a in argv if not a.startswith("-")), None)
     parser = build_parser(command if command in COMMANDS else None)

@@ -1,0 +1,59 @@
+"""Hostile inputs, second round: an unwritable user cache, odd characters in paths, huge scenes, SIGTERM during
+a verification, Blender's path templates, asset strings that would become shader code."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import OUTSIDE, copy_asset
+
+EXE = os.path.join(os.path.dirname(sys.executable), "rockdove")
+SMALL = ["--hosts", "glsl", "--width", "64", "--height", "64", "--views", "2", "--beauty", "off", "--quiet"]
+
+
+def rockdove(*args, env=None, prefix=(), timeout=300):
+    env = {k: v for k, v in {**os.environ, **(env or {})}.items() if k != "ROCKDOVE_DEBUG"}
+    return subprocess.run([*prefix, EXE, *map(str, args)], capture_output=True, text=True, cwd=OUTSIDE, env=env,
+                          timeout=timeout)
+
+
+def one_line(r, code, *words):
+    assert r.returncode == code, (r.returncode, r.stderr)
+    assert "Traceback" not in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert all(w in r.stderr for w in words), r.stderr
+
+
+# ----------------------------------------------------------------------------------------------- user cache
+def _unprivileged(cmd):
+    return list(cmd) if os.geteuid() else ["setpriv", "--bounding-set=-dac_override,-dac_read_search,-fowner", "--",
+                                           *cmd]
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("how", ["file", "read-only", "full"])
+def test_an_unwritable_user_cache_only_costs_time(small_asset, tmp_path, how):
+    """An asset with no build cache beside it is verified with the user cache; where that cannot be written
+    (a regular file in its place, a read-only folder, a full disk) verify still passes, its report whole."""
+    asset = copy_asset(small_asset, tmp_path / "a" / "pigeon")
+    xdg, report = tmp_path / "xdg", tmp_path / "report"
+    cmd = [EXE, "verify", str(asset), "--out", str(report), *SMALL]
+    if how == "file":
+        xdg.write_text("not a folder\n")
+    elif how == "read-only":
+        xdg.mkdir(mode=0o555)
+        cmd = _unprivileged(cmd)
+    else:  # a 256 KiB tmpfs, filled, in a mount namespace of its own
+        xdg.mkdir()
+        script = f'mount -t tmpfs -o size=256k tmpfs "$1" && head -c 1m /dev/zero > "$1/fill" 2>/dev/null; shift; "$@"'
+        unshare = ["unshare", "--mount"] if os.geteuid() == 0 else ["unshare", "--user", "--map-root-user", "--mount"]
+        cmd = [*unshare, "sh", "-c", script, "sh", str(xdg), *cmd]
+    env = {k: v for k, v in os.environ.items() if k != "ROCKDOVE_DEBUG"}
+    r = subprocess.run(cmd, capture_output=True, text=True, env={**env, "XDG_CACHE_HOME": str(xdg)}, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert (report / "report.json").is_file() and (report / "report.html").is_file()
+    assert not [p for p in report.iterdir() if p.name.startswith(".scratch-")]
