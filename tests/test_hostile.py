@@ -57,3 +57,33 @@ def test_an_unwritable_user_cache_only_costs_time(small_asset, tmp_path, how):
     assert r.returncode == 0, r.stderr
     assert (report / "report.json").is_file() and (report / "report.html").is_file()
     assert not [p for p in report.iterdir() if p.name.startswith(".scratch-")]
+
+
+# ----------------------------------------------------------------------------------------------- path characters
+@pytest.mark.parametrize("command", ["verify", "gltf", "render"])
+def test_a_backslash_in_the_asset_folder_is_named_not_called_outside_the_asset(small_asset, tmp_path, command):
+    """USD reads ``\\`` as a separator, so it looks for the payload in another folder: one line says so (it said
+    the asset's own layers were "outside the asset")."""
+    asset = copy_asset(small_asset, tmp_path / "a\\b" / "pigeon")
+    r = rockdove(command, asset, *(["--out", tmp_path / "r"] if command == "render" else []))
+    one_line(r, 2, "backslash, which USD reads as a folder separator")
+    assert "outside" not in r.stderr and not (tmp_path / "r").exists()
+
+
+def test_nvidias_validator_reads_an_asset_under_a_folder_with_a_hash(small_asset, tmp_path):
+    """Its engine ``urlparse``\\ s the path: ``#`` began a fragment and the asset was "not a readable USD file"."""
+    from rockdove.usd.nvidia import run_nvidia_validator
+
+    asset = copy_asset(small_asset, tmp_path / "take#2?x;y" / "pigeon")
+    for layer in ("pigeon.usda", "pigeon.usdz"):
+        issues, _ = run_nvidia_validator(str(asset / layer))
+        assert not [i for i in issues if i.severity == "error"], issues
+
+
+@pytest.mark.parametrize("argv", [["build", "--out", "b\nx"], ["render", "{asset}", "--out", "r\x01"],
+                                  ["verify", "{asset}", "--out", "v\rw"], ["gltf", "{asset}", "--out", "g\t.glb"]])
+def test_a_control_character_in_out_is_one_line(small_asset, tmp_path, argv):
+    r = subprocess.run([EXE, *(a.format(asset=small_asset) for a in argv)], capture_output=True, text=True,
+                       cwd=tmp_path, timeout=120)
+    one_line(r, 2, "holds a control character")
+    assert list(tmp_path.iterdir()) == []

@@ -34,6 +34,11 @@ OUTPUT_MARKER = ".rockdove-output.json"
 
 def real_output(out) -> Path:
     """``out`` with symlinks resolved (an asset is published inside a symlinked ``--out``'s target)."""
+    from ..usd.layout import unusable_path
+
+    why = unusable_path(os.path.abspath(os.fspath(out)))
+    if why:
+        raise UsageError(f"--out {str(out)!r} {why}")
     try:
         return Path(out).resolve()
     except (RuntimeError, OSError) as exc:  # RuntimeError: a symlink loop (Python 3.11)
@@ -95,7 +100,7 @@ def claim_output(out, what: str, create: bool = True) -> Path:
 def check_output_file(out, ours) -> None:
     """Refuse (:class:`UsageError`) an ``--out`` file that exists and ``ours(path)`` does not recognise as
     written by rockdove, or whose folder is not writable."""
-    path = Path(out)
+    path = real_output(out)
     if path.is_dir() or (path.exists() and not ours(path)):
         raise UsageError(f"--out {str(out)!r} exists and rockdove did not write it; refusing to overwrite it: "
                          "choose another --out or remove it yourself")
