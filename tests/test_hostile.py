@@ -120,3 +120,40 @@ def test_blender_writes_each_view_where_asked_whatever_braces_the_folder_holds(t
                        capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-2000:]
     assert [p.relative_to(tmp_path) for p in tmp_path.rglob("*.png")] == [work.relative_to(tmp_path) / "v.png"]
+
+
+# ----------------------------------------------------------------------------------------------- budgets
+def _bomb(folder: Path, kind: str) -> Path:
+    """A copy of the small asset whose payload also sublayers ``bomb.usdc``: one over a budget of
+    :mod:`rockdove.usd.budget` (small on disk: crate compresses what it repeats)."""
+    from pxr import Sdf, Vt
+
+    from rockdove.usd import budget
+
+    layer = Sdf.Layer.CreateAnonymous(".usda")
+    if kind == "prims":
+        layer.ImportFromString("#usda 1.0\n" + "".join(f"def \"P{i}\" {{}}\n" for i in range(budget.MAX_SPECS + 1)))
+    else:
+        mesh = Sdf.CreatePrimInLayer(layer, "/Pigeon/Geom/Body")
+        n = budget.MAX_FACE + 1 if kind == "face" else budget.MAX_ARRAY + 1
+        name, typ, value = {"face": ("faceVertexCounts", Sdf.ValueTypeNames.IntArray, Vt.IntArray([n])),
+                            "array": ("primvars:junk", Sdf.ValueTypeNames.FloatArray, Vt.FloatArray(n))}[kind]
+        Sdf.AttributeSpec(mesh, name, typ).default = value
+    layer.Export(str(folder / "bomb.usdc"))
+    payload = folder / "pigeon_payload.usda"
+    payload.chmod(0o644)
+    payload.write_text(payload.read_text().replace("subLayers = [", "subLayers = [@./bomb.usdc@, ", 1))
+    return folder
+
+
+@pytest.mark.parametrize("kind, words", [("prims", ["100,002 specs (prims and properties)", "budget is 100,000"]),
+                                         ("array", ["16,777,217 elements", "budget is 16,777,216"]),
+                                         ("face", ["face of 1,025 vertices", "budget is 1,024"])])
+def test_a_scene_over_a_budget_is_refused_in_one_line_before_usd_composes_it(small_asset, tmp_path, kind, words):
+    """Issue 33: 2 million empty prims passed 8 GiB in validate, a 150 million element primvar 7.6 GiB, a
+    5 million vertex polygon 3.6 GiB and minutes. A scan of the layers' bytes refuses them first."""
+    asset = _bomb(copy_asset(small_asset, tmp_path / "a" / "pigeon"), kind)
+    assert (asset / "bomb.usdc").stat().st_size < 2 << 20
+    one_line(rockdove("gltf", asset, "--out", tmp_path / "x.glb", timeout=60), 1, *words)
+    r = rockdove("validate", asset, timeout=60)
+    assert r.returncode == 1 and all(w in r.stdout for w in words) and "Traceback" not in r.stderr, r.stdout

@@ -14,6 +14,7 @@ import posixpath
 import re
 from dataclasses import dataclass, field
 
+from .budget import face_over_budget, over_budget
 from .issues import Issue, only_errors
 
 #: ``file:line:column: message`` as USD's text parser reports a syntax error.
@@ -63,6 +64,11 @@ def _authored_paths(layer, issues: list) -> list[tuple[str, str, str]]:
     def visit(path):
         if path.IsPropertyPath():
             spec = layer.GetPropertyAtPath(path)
+            if path.name == "faceVertexCounts" and isinstance(spec, Sdf.AttributeSpec):
+                values = [spec.default] + [layer.QueryTimeSample(path, t) for t in layer.ListTimeSamplesForPath(path)]
+                why = next(filter(None, map(face_over_budget, values)), None)
+                if why:
+                    issues.append(Issue("budget", str(path), why))
             if isinstance(spec, Sdf.AttributeSpec) and spec.typeName in (Sdf.ValueTypeNames.Asset,
                                                                          Sdf.ValueTypeNames.AssetArray):
                 values = [spec.default] if spec.HasDefaultValue() else []
@@ -154,6 +160,10 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
     queue, seen, variables = [root], {root}, None
     while queue:
         identifier = queue.pop(0)
+        why = over_budget(identifier)
+        if why:
+            out.issues.append(Issue("budget", identifier, f"the layer {why}: not opened"))
+            continue
         layer = _open_layer(identifier, out.issues)
         if layer is None:
             continue

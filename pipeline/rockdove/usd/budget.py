@@ -1,0 +1,129 @@
+"""Size budgets a layer must meet before USD opens it, from a scan of its bytes (no parse, no composition): a
+crate file's table of contents and the element count that heads each array; a text layer's size and prim
+statements; then, while :mod:`rockdove.usd.dependencies` walks the opened layer, the largest face.
+
+Where each limit comes from (the default asset: ~380 specs in its layers, largest array 149,376 elements
+(``Body.faceVertexIndices``), faces of 3 and 4 vertices; composition costs ~4 KB per prim):
+
+- :data:`MAX_SPECS`: the asset's spec count does not grow with the configuration (every card kind is one mesh);
+  100,000 is 260 times the default's and composes in ~0.4 GB (2 million empty prims passed 8 GiB);
+- :data:`MAX_ARRAY`: 2**24 elements, above the schema's largest asset (``geometry.card_count`` 1,000,000 neck cards
+  x 12 face-vertex indices; ``body_voxel_m`` 0.0008 m gives the body ~0.93 million), 112 times the default's;
+- :data:`MAX_FACE`: 1,024 vertices a face (the asset's are 4): a face is fan-triangulated by every reader;
+- :data:`MAX_TEXT_BYTES`: 64 MiB of text (the default's largest text layer is 16 KB; its geometry is crate).
+"""
+
+from __future__ import annotations
+
+import mmap
+import os
+import re
+import struct
+
+MAX_SPECS = 100_000
+MAX_ARRAY = 1 << 24
+MAX_FACE = 1024
+MAX_TEXT_BYTES = 64 << 20
+_PRIM = re.compile(rb"(?m)^[ \t]*(?:def|over|class)\b")
+
+
+def _more(src: bytes, i: int, n: int) -> tuple[int, int]:
+    """An LZ4 length nibble of 15 continued by bytes while they are 255."""
+    if n == 15:
+        while True:
+            n, i = n + src[i], i + 1
+            if src[i - 1] != 255:
+                break
+    return n, i
+
+
+def _lz4(src: bytes, size: int) -> bytes:
+    """An LZ4 block decoded (crate sections use it through TfFastCompression), at most ``size`` bytes."""
+    out, i = bytearray(), 0
+    while i < len(src) and len(out) < size:
+        token = src[i]
+        lit, i = _more(src, i + 1, token >> 4)
+        out += src[i:i + lit]
+        i += lit
+        if i >= len(src):
+            break
+        off = src[i] | src[i + 1] << 8
+        length, i = _more(src, i + 2, token & 15)
+        chunk = out[-off:]
+        out += (chunk * ((length + 4) // off + 1))[:length + 4]
+    return bytes(out[:size])
+
+
+def _fast(data: bytes, size: int) -> bytes:
+    """TfFastCompression: a chunk count, then one LZ4 block (count 0) or that many ``int32`` size + block."""
+    if data[0] == 0:
+        return _lz4(data[1:], size)
+    out, i = b"", 1
+    for _ in range(data[0]):
+        (length,) = struct.unpack_from("<i", data, i)
+        out += _lz4(data[i + 4:i + 4 + length], size - len(out))
+        i += 4 + length
+    return out
+
+
+def _crate(m, base: int) -> str | None:
+    version = tuple(m[base + 8:base + 11])
+    (toc,) = struct.unpack_from("<q", m, base + 16)
+    (count,) = struct.unpack_from("<Q", m, base + toc)
+    sections = {}
+    for k in range(count):
+        name, start, _size = struct.unpack_from("<16sqq", m, base + toc + 8 + 32 * k)
+        sections[name.rstrip(b"\0")] = base + start
+    (specs,) = struct.unpack_from("<Q", m, sections[b"SPECS"])
+    if specs > MAX_SPECS:
+        return f"holds {specs:,} specs (prims and properties); the budget is {MAX_SPECS:,}"
+    if version < (0, 4, 0):
+        return None  # fields uncompressed: an older crate than any USD of the last years writes
+    at = sections[b"FIELDS"]
+    n_fields, skip = struct.unpack_from("<QQ", m, at)  # then the compressed token indices, then the value reps
+    (reps_size,) = struct.unpack_from("<Q", m, at + 16 + skip)
+    reps = _fast(m[at + 24 + skip:at + 24 + skip + reps_size], 8 * n_fields)
+    fmt = "<Q" if version >= (0, 7, 0) else "<I"
+    for (rep,) in struct.iter_unpack("<Q", reps[:len(reps) // 8 * 8]):
+        if rep >> 63 and not rep >> 62 & 1:  # an array stored out of line: its element count heads it
+            (n,) = struct.unpack_from(fmt, m, base + (rep & (1 << 48) - 1))
+            if n > MAX_ARRAY:
+                return f"holds an array of {n:,} elements; the budget is {MAX_ARRAY:,}"
+    return None
+
+
+def over_budget(identifier: str) -> str | None:
+    """Why the layer ``identifier`` (a file, a usdz, or a package-relative ``a.usdz[b.usdc]``) is over a budget,
+    from its bytes alone, or None."""
+    from pxr import Ar, Sdf
+
+    path, inner = (Ar.SplitPackageRelativePathOuter(identifier) if Ar.IsPackageRelativePath(identifier)
+                   else (identifier, None))
+    base, size = 0, None
+    try:
+        if inner is not None or path.lower().endswith(".usdz"):
+            zf = Sdf.ZipFile.Open(path)
+            names = list(zf.GetFileNames()) if zf else []
+            inner = inner if inner is not None else (names[0] if names else None)
+            if inner is None or inner not in names:
+                return None  # USD reports what it cannot open
+            info = zf.GetFileInfo(inner)
+            base, size = info.dataOffset, info.size
+        with open(path, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as m:
+            size = len(m) - base if size is None else size
+            if m[base:base + 8] == b"PXR-USDC":
+                return _crate(m, base)
+            if size > MAX_TEXT_BYTES:
+                return f"is {size / 2**20:,.0f} MiB of text; the budget is {MAX_TEXT_BYTES >> 20} MiB"
+            prims = len(_PRIM.findall(m, base, base + size))
+            return f"holds {prims:,} prims; the budget is {MAX_SPECS:,}" if prims > MAX_SPECS else None
+    except (OSError, ValueError, struct.error, IndexError, KeyError):
+        return None  # not a file we can scan (USD says what is wrong with it when it opens it)
+
+
+def face_over_budget(counts) -> str | None:
+    """Why a ``faceVertexCounts`` value is over :data:`MAX_FACE`, or None."""
+    import numpy as np
+
+    big = int(np.max(np.asarray(counts))) if counts is not None and len(counts) else 0
+    return f"has a face of {big:,} vertices; the budget is {MAX_FACE:,}" if big > MAX_FACE else None
