@@ -157,3 +157,60 @@ def test_a_scene_over_a_budget_is_refused_in_one_line_before_usd_composes_it(sma
     one_line(rockdove("gltf", asset, "--out", tmp_path / "x.glb", timeout=60), 1, *words)
     r = rockdove("validate", asset, timeout=60)
     assert r.returncode == 1 and all(w in r.stdout for w in words) and "Traceback" not in r.stderr, r.stdout
+
+
+# ----------------------------------------------------------------------------------------------- SIGTERM
+def _children(pid: int, text: str) -> list[int]:
+    """Processes whose command line holds ``text`` and whose parent is ``pid`` (or was: orphans have parent 1)."""
+    found = []
+    for p in Path("/proc").glob("[0-9]*"):
+        try:
+            cmd = (p / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+            ppid = int((p / "stat").read_text().rsplit(")", 1)[1].split()[1])
+        except (OSError, ValueError, IndexError):
+            continue
+        if text in cmd and ppid in (pid, 1) and int(p.name) != os.getpid():
+            found.append(int(p.name))
+    return found
+
+
+@pytest.mark.gl
+def test_sigterm_during_verify_ends_its_jobs_and_publishes_no_half_report(small_asset, tmp_path):
+    """A supervisor stopping ``rockdove verify`` while Blender renders: exit 130 as for Ctrl-C, the bpy job's
+    process group ended with it, no report folder (the report is published whole or not at all), no cache
+    temporaries."""
+    import signal
+    import time
+
+    from rockdove.hosts import blender
+
+    if blender.unavailable():
+        pytest.skip(blender.unavailable())
+    asset = copy_asset(small_asset, tmp_path / "a" / "pigeon")
+    report, cache = tmp_path / "report", tmp_path / "cache"
+    env = {k: v for k, v in os.environ.items() if k != "ROCKDOVE_DEBUG"}
+    proc = subprocess.Popen([EXE, "verify", str(asset), "--out", str(report), "--cache", str(cache),
+                             *SMALL[2:], "--hosts", "glsl,blender"], env=env, text=True,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, cwd=OUTSIDE)
+    jobs = []
+    try:
+        deadline = time.monotonic() + 120
+        while not jobs and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.2)
+            jobs = _children(proc.pid, "blender_job.py")
+        assert jobs, "the Blender job never started"
+        time.sleep(1.0)
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+        assert proc.returncode == 130 and "interrupted" in err and "Traceback" not in err, (proc.returncode, err)
+        time.sleep(0.5)
+        assert not [j for j in jobs if Path(f"/proc/{j}").exists() and "blender_job.py" in Path(
+            f"/proc/{j}/cmdline").read_bytes().decode(errors="replace")], "the bpy job outlived rockdove"
+        assert not report.exists() and not [p.name for p in tmp_path.iterdir() if "rockdove-tmp" in p.name]
+        assert not list(cache.glob("*/.tmp-*"))
+    finally:
+        for j in jobs:
+            with __import__("contextlib").suppress(OSError):
+                os.kill(j, signal.SIGKILL)
+        if proc.poll() is None:
+            proc.kill()

@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
 
 from . import __version__
@@ -68,6 +69,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     from .errors import VerificationFailed
 
+    old_term = signal.signal(signal.SIGTERM, _interrupt)  # a supervisor's stop is Ctrl-C: jobs ended, temporaries removed
     try:
         return int(_module(args.command).run(args) or 0)
     except VerificationFailed as exc:
@@ -88,6 +90,12 @@ def main(argv: list[str] | None = None) -> int:
             exc = f"{exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else "")
         print(f"rockdove {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    finally:
+        signal.signal(signal.SIGTERM, old_term)
+
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt(f"signal {signum}")
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ renames through ``.<name>.rockdove-old-XXXX``, which :func:`recover` restores af
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import errno
 import fcntl
@@ -246,10 +247,13 @@ def publish(staging: Path, out: Path) -> None:
     if not (staging / MARKER).is_file():
         raise ValueError(f"staging folder {str(staging)!r} has no {MARKER}")
     check_output(out)
-    out = real_output(out)
+    _swap(staging, real_output(out))
+
+
+def _swap(staging: Path, out: Path) -> None:
     if out.exists():
         if _exchange(staging, out):
-            _remove(staging)  # now holds the old asset
+            _remove(staging)  # now holds the old folder
             return
         old = out.parent / f".{out.name}{_OLD}{os.getpid()}-{os.urandom(4).hex()}"
         os.rename(out, old)
@@ -257,3 +261,28 @@ def publish(staging: Path, out: Path) -> None:
         _remove(old)
     else:
         os.rename(staging, out)
+
+
+@contextlib.contextmanager
+def staged_output(out, what: str):
+    """A command's output folder ``out`` (checked as :func:`check_output` does) written whole or not at all: the
+    block writes into a staging folder beside it, swapped in when the block ends without an error, removed
+    otherwise (an interrupted command leaves ``out`` as it was). Two commands writing one ``out`` take turns
+    (``flock`` of the parent folder); what a killed one left is removed first. Yields (staging, ``out``)."""
+    real = check_output(out, what)
+    real.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(real.parent, os.O_RDONLY)
+    staging = None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        recover(real)
+        staging = make_staging(real)
+        (staging / OUTPUT_MARKER).write_text(json.dumps({"tool": "rockdove", "version": __version__,
+                                                          "output": what}) + "\n")
+        yield staging, real
+        check_output(real, what)
+        _swap(staging, real)
+    finally:
+        if staging is not None and staging.exists():
+            _remove(staging)
+        os.close(fd)  # releases the lock
