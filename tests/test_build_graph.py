@@ -223,7 +223,7 @@ def test_modules_named_by_strings_are_followed_and_the_digest_is_remembered_unti
 
 
 def test_the_real_stages_are_keyed_by_the_code_they_reach_and_not_by_what_they_do_not():
-    """The stale keys issue 24 found: texture_images reaches spectral, geometry.sdf and geometry.neck; usd_geometry
+    """The stale keys issue 24 found: texture_images reaches srgb, geometry.sdf and geometry.neck; usd_geometry
     geometry.types; gltf geometry.types and usd.schema. None of the stages reaches the CLI, the commands, the API
     or the benchmarks, and the LUT reaches no geometry (a geometry edit reuses the bake)."""
     from rockdove.graph import stages
@@ -232,7 +232,7 @@ def test_the_real_stages_are_keyed_by_the_code_they_reach_and_not_by_what_they_d
     files = {name: {f.removeprefix("rockdove/")
                     for f in G.source_digest(s, [graph[d] for d in s.deps], record=True)[1]["files"]}
              for name, s in graph.items()}
-    assert {"spectral.py", "geometry/sdf.py", "geometry/neck.py", "textures.py"} <= files["texture_images"]
+    assert {"srgb.py", "geometry/sdf.py", "geometry/neck.py", "textures.py"} <= files["texture_images"]
     assert "geometry/types.py" in files["usd_geometry"]
     assert {"geometry/types.py", "usd/schema.py", "web/gltf.py"} <= files["gltf"]
     assert {"verify/run.py", "render/gl.py", "verify/gl_renders.py", "hosts/glsl.py"} <= files["verify"]

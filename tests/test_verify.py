@@ -244,16 +244,16 @@ def test_an_image_that_cannot_be_written_fails_the_views_it_belongs_to(assets, t
     """The per-view images are written in a background thread; a write that fails is raised from the
     verification, not lost with the thread."""
     from rockdove.graph.verification import verify
-    from rockdove.render import images
+    from rockdove import png
 
-    real = images.save_png
+    real = png.save_png
 
     def full_disk(image, path):
         if str(path).endswith("_gl.png"):
             raise OSError(28, "No space left on device", str(path))
         return real(image, path)
 
-    monkeypatch.setattr(images, "save_png", full_disk)
+    monkeypatch.setattr(png, "save_png", full_disk)
     with pytest.raises(OSError, match="No space left"):
         verify(assets["good"], cache=tmp_path / "cache", views=["turntable_030"], out_dir=tmp_path / "x", width=48,
                height=48)

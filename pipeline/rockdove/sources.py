@@ -24,6 +24,7 @@ import sys
 from pathlib import Path
 
 from . import resources
+from .errors import UsageError
 
 #: The file in each user-cache folder that records what keyed it (:func:`stale` reads it).
 KEY_FILE = "key.json"
@@ -194,7 +195,7 @@ def entry_modules(fn, mods: dict, seen: dict) -> tuple[Path, set[str]]:
     """The file ``fn`` is written in and the package modules it reaches from it (module docstring)."""
     path = Path(inspect.getsourcefile(fn) or "").resolve()
     if not path.is_file():
-        raise ValueError(f"{fn!r} has no source file; a stage's code must be keyed by its source")
+        raise UsageError(f"{fn!r} has no source file; a stage's code must be keyed by its source")
     module = next((m for m, p in mods.items() if p == path), None)
     info = scan(path, seen)
     package = _package(module, path) if module else ""
@@ -247,7 +248,7 @@ def digest(fns, data=(), modules=()) -> tuple[str, dict]:
         top = resources.path(d)
         found = files_of(top, seen=seen)
         if not found:  # an empty data folder would key the stage on nothing
-            raise ValueError(f"data {d!r}: {top} holds no files, so it cannot be keyed (reinstall rockdove)")
+            raise UsageError(f"data {d!r}: {top} holds no files, so it cannot be keyed (reinstall rockdove)")
         labelled += [(f"{d}/{p.relative_to(top)}" if top.is_dir() else d, p) for p in found]
     record = {"python": _python(), "environment": environment(seen),
               "files": {label: hashlib.sha256(read(p, seen)).hexdigest() for label, p in labelled}}

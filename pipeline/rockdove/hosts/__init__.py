@@ -16,6 +16,8 @@ import importlib
 from dataclasses import dataclass
 from types import ModuleType, SimpleNamespace
 
+from ..errors import RockdoveError, UsageError
+
 #: host name -> module, or ``module:attribute`` for one of several hosts a module defines (e.g. Storm's three
 #: networks); imported only when the host is asked for.
 HOSTS = {
@@ -44,7 +46,7 @@ ENVIRONMENT_RADIANCE = 1.0
 ALWAYS = "glsl"
 
 
-class HostError(RuntimeError):
+class HostError(RockdoveError, RuntimeError):
     """Host ``name`` failed to render (no display, import error, shader compile error...): ``message``, one line."""
 
     def __init__(self, name: str, message: str):
@@ -66,7 +68,7 @@ def load(name: str) -> ModuleType:
     """The module of host ``name``; ValueError for an unknown name, ImportError (:func:`select` turns it into a
     reason) for a module that is absent or fails to import."""
     if name not in HOSTS:
-        raise ValueError(f"host {name!r} is unknown; allowed: {', '.join(HOSTS)}")
+        raise UsageError(f"host {name!r} is unknown; allowed: {', '.join(HOSTS)}")
     module, _, attr = HOSTS[name].partition(":")
     loaded = importlib.import_module(module)
     return getattr(loaded, attr) if attr else loaded
@@ -103,7 +105,7 @@ def select(names=None) -> Selection:
         names = list(HOSTS)
     unknown = [n for n in names if n not in HOSTS]
     if unknown:
-        raise ValueError(f"hosts: {', '.join(map(repr, unknown))} unknown; allowed: {', '.join(HOSTS)}")
+        raise UsageError(f"hosts: {', '.join(map(repr, unknown))} unknown; allowed: {', '.join(HOSTS)}")
     found = {name: _reason(name) for name in dict.fromkeys([ALWAYS, *names])}
     return Selection(tuple(m for m, _ in found.values() if m is not None),
                      {name: why for name, (m, why) in found.items() if m is None})

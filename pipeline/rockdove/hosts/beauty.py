@@ -13,6 +13,7 @@ from ..render.beauty import (EXPOSURE, GROUND_ALBEDO, LOOK, RENDERERS, SKY_HORIZ
                              SKY_ZENITH_RGB, SUN_ANGLE_DEG, SUN_ELEVATION_DEG, SUN_RGB, SUN_STRENGTH, TIMEOUT_S,
                              beauty_views, cyclorama, ground_y_m)
 from . import HostError, blender as bl
+from ..errors import UsageError
 
 
 def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
@@ -42,10 +43,10 @@ def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", wi
     ``cycles_ok``: whether ``auto`` may take Cycles (False where the verification was not asked to run Blender);
     ``lut``: the GL path's film LUT (default the asset's).
     """
-    from ..render.images import save_png
+    from ..png import save_png
 
     if renderer not in RENDERERS:
-        raise ValueError(f"beauty renderer {renderer!r} is not one of {', '.join(RENDERERS)}")
+        raise UsageError(f"beauty renderer {renderer!r} is not one of {', '.join(RENDERERS)}")
     if renderer == "off":
         return None
     views = beauty_views(scene, int(width), int(height))

@@ -25,6 +25,7 @@ import numpy as np
 
 from . import ENVIRONMENT_RADIANCE, HostError
 from ..resources import atomic_path
+from ..errors import UsageError
 
 NAME = "blender"
 VARIANT = "physical"
@@ -210,7 +211,7 @@ def render(asset_path: str, views, out_dir: str, *, addon: bool = True, lobe: st
     bpy_python()  # bpy missing: HostError before any work
     views = list(views)
     if lobe not in LOBES or (lobe == LOBE and not addon):
-        raise ValueError(f"lobe={lobe!r} with addon={addon}; allowed: {LOBES[0]!r} (needs the add-on) or {LOBES[1]!r}")
+        raise UsageError(f"lobe={lobe!r} with addon={addon}; allowed: {LOBES[0]!r} (needs the add-on) or {LOBES[1]!r}")
     asset_path = os.path.abspath(os.fspath(asset_path))
     if not os.path.isfile(asset_path):
         raise HostError(NAME, f"no asset at {asset_path!r}")
@@ -232,7 +233,7 @@ def work_folder(folder: str, views: list, out_dir: str, ext: str = "exr") -> str
     """``out_dir/<folder>``, made, without the ``views``' images a job wrote there before (so a job that writes
     none is caught). ValueError for no views."""
     if not views:
-        raise ValueError("views must hold at least one View, got none")
+        raise UsageError("views must hold at least one View, got none")
     work = os.path.join(os.path.abspath(out_dir), folder)
     os.makedirs(work, exist_ok=True)
     for v in views:
@@ -247,8 +248,8 @@ def read_views(host: str, renderer: str, views, work: str, ext: str = "exr") -> 
     Raises :class:`HostError` for a missing image or one of the wrong size (naming the job's log)."""
     from PIL import Image
 
-    from ..render.images import save_png
-    from ..spectral import linear_to_srgb8
+    from ..png import save_png
+    from ..srgb import linear_to_srgb8
 
     out = {}
     for v in views:

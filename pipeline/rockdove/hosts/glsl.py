@@ -17,11 +17,13 @@ LOBE = "half_angle"
 
 def unavailable() -> str | None:
     """None when pyrender and PyOpenGL import, else why not."""
-    for module, package in (("pyrender", "pyrender"), ("OpenGL.GL", "PyOpenGL")):
-        try:
-            __import__(module)
-        except ImportError as exc:
-            return f"{package} is not installed ({exc})"
+    from .._compat import import_pyrender
+
+    try:
+        import_pyrender()
+        import OpenGL.GL  # noqa: F401
+    except ImportError as exc:
+        return f"{'PyOpenGL' if 'OpenGL' in str(exc) else 'pyrender'} is not installed ({exc})"
     return None
 
 
@@ -51,8 +53,8 @@ def render(asset_path: str, views, out_dir: str) -> dict:
         raise HostError(NAME, str(exc)) from None
     images = {r.view.name: r.radiance_rgb for r in results}
     if out_dir:
-        from ..spectral import linear_to_srgb8
-        from ..render.images import save_png
+        from ..srgb import linear_to_srgb8
+        from ..png import save_png
 
         os.makedirs(out_dir, exist_ok=True)
         for name, rgb in images.items():

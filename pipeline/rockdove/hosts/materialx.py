@@ -176,8 +176,8 @@ def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str,
     except Exception as exc:
         raise HostError(name, f"GL drawing failed: {type(exc).__name__}: {exc}") from None
     if out_dir:
-        from ..spectral import linear_to_srgb8
-        from ..render.images import save_png
+        from ..srgb import linear_to_srgb8
+        from ..png import save_png
 
         os.makedirs(out_dir, exist_ok=True)
         for view_name, rgb in images.items():

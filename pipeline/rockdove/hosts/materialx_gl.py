@@ -97,7 +97,9 @@ def _projection(view, near: float, far: float) -> np.ndarray:
 def draw(scene, networks: dict, sources: dict, views, *, name: str) -> dict:
     """View name -> float linear radiance of ``views`` of ``scene``, each part with a network in ``networks`` drawn
     by its generated ``sources`` (vertex, pixel), the others black (:mod:`rockdove.hosts.materialx`)."""
-    import pyrender
+    from .._compat import import_pyrender
+
+    pyrender = import_pyrender()
     from OpenGL import GL
 
     sizes: dict = {}  # one offscreen context per image size (the hero view is larger than the others)

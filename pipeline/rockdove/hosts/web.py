@@ -45,8 +45,8 @@ def render(asset_path: str, views: list, out_dir: str, *, browser_factory=None) 
     3) float32}`` linear Rec.709 radiance, unclipped, background 0. The page (``web/viewer.html`` and its files) and
     the PNGs (``web_<view>.png``) go into ``out_dir``; ``browser_factory`` returns a started
     :class:`rockdove.web.browser.Browser` (tests pass one that fails to start)."""
-    from ..spectral import linear_to_srgb8
-    from ..render.images import save_png
+    from ..srgb import linear_to_srgb8
+    from ..png import save_png
     from ..usd.layout import resolve_root_layer
     from ..web.browser import Browser, BrowserError
     from ..web.gltf import GLB_NAME, export_glb

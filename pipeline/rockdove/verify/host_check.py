@@ -20,6 +20,7 @@ import os
 import numpy as np
 
 from . import compare
+from ..errors import UsageError
 
 #: Share of feather-tip pixels whose green/purple/other class must match the reference (physical variants).
 MIN_HUE_AGREEMENT = 0.85
@@ -49,10 +50,10 @@ def host_metrics(images: dict, refs: list, scene) -> dict:
     des, host_cls, ref_cls, per_view, maps = [], [], [], {}, {}
     for ref in refs:
         if ref.view not in images:
-            raise ValueError(f"the host returned no image for view {ref.view!r}; it returned {sorted(images)}")
+            raise UsageError(f"the host returned no image for view {ref.view!r}; it returned {sorted(images)}")
         img = np.asarray(images[ref.view], np.float64)
         if img.shape != ref.rgb.shape:
-            raise ValueError(f"view {ref.view!r}: host image {img.shape}, expected {ref.rgb.shape}")
+            raise UsageError(f"view {ref.view!r}: host image {img.shape}, expected {ref.rgb.shape}")
         img = np.where(np.isfinite(img), img, 0.0)
         sel = compare.comparison_mask(ref.part_id, ref.part_id, feather_ids, 1) & (ref.mask >= compare.STRUCTURAL_MASK)
         vals, lab = compare.pixel_de(img[sel], ref.rgb[sel])
@@ -101,8 +102,8 @@ def check_host(module, asset_layer: str, scene, views, refs: list, out_dir: str,
     and ``reason`` when its optional ``cannot_draw(asset_layer)`` says why) and ``{view: {"host", "reference",
     "dE": file name}}`` of its images in ``out_dir``."""
     from ..hosts import HostError
-    from ..render.images import save_png
-    from ..spectral import linear_to_srgb8
+    from ..png import save_png
+    from ..srgb import linear_to_srgb8
     from . import report as rep
 
     name, variant, lobe = module.NAME, module.VARIANT, module.LOBE
