@@ -124,20 +124,17 @@ def test_blender_writes_each_view_where_asked_whatever_braces_the_folder_holds(t
 
 # ----------------------------------------------------------------------------------------------- budgets
 def _bomb(folder: Path, kind: str) -> Path:
-    """A copy of the small asset whose payload also sublayers ``bomb.usdc``: one over a budget of
+    """A copy of the small asset whose payload also sublayers ``bomb.usdc``: one just over a budget of
     :mod:`rockdove.usd.budget` (small on disk: crate compresses what it repeats)."""
     from pxr import Sdf, Vt
 
-    from rockdove.usd import budget
-
     layer = Sdf.Layer.CreateAnonymous(".usda")
     if kind == "prims":
-        layer.ImportFromString("#usda 1.0\n" + "".join(f"def \"P{i}\" {{}}\n" for i in range(budget.MAX_SPECS + 1)))
+        layer.ImportFromString("#usda 1.0\n" + "".join(f"def \"P{i}\" {{}}\n" for i in range(100_001)))
     else:
         mesh = Sdf.CreatePrimInLayer(layer, "/Pigeon/Geom/Body")
-        n = budget.MAX_FACE + 1 if kind == "face" else budget.MAX_ARRAY + 1
-        name, typ, value = {"face": ("faceVertexCounts", Sdf.ValueTypeNames.IntArray, Vt.IntArray([n])),
-                            "array": ("primvars:junk", Sdf.ValueTypeNames.FloatArray, Vt.FloatArray(n))}[kind]
+        name, typ, value = {"face": ("faceVertexCounts", Sdf.ValueTypeNames.IntArray, Vt.IntArray([1025])),
+                            "array": ("primvars:junk", Sdf.ValueTypeNames.FloatArray, Vt.FloatArray((1 << 24) + 1))}[kind]
         Sdf.AttributeSpec(mesh, name, typ).default = value
     layer.Export(str(folder / "bomb.usdc"))
     payload = folder / "pigeon_payload.usda"
@@ -156,6 +153,9 @@ def test_a_scene_over_a_budget_is_refused_in_one_line_before_usd_composes_it(sma
     assert (asset / "bomb.usdc").stat().st_size < 2 << 20
     one_line(rockdove("gltf", asset, "--out", tmp_path / "x.glb", timeout=60), 1, *words)
     r = rockdove("validate", asset, timeout=60)
+    from rockdove.usd import budget
+
+    assert (budget.MAX_SPECS, budget.MAX_ARRAY, budget.MAX_FACE) == (100_000, 1 << 24, 1024)
     assert r.returncode == 1 and all(w in r.stdout for w in words) and "Traceback" not in r.stderr, r.stdout
 
 
