@@ -107,7 +107,8 @@ def test_blender_writes_each_view_where_asked_whatever_braces_the_folder_holds(t
     as ``/``: the job saves each view by its path as given, into a folder named like a template."""
     import json
 
-    from rockdove.hosts import blender, blender_job
+    from rockdove.hosts import blender_job
+    from rockdove.hosts import bpy_runner as blender
 
     if blender.unavailable():
         pytest.skip(blender.unavailable())
@@ -182,7 +183,7 @@ def test_sigterm_during_verify_ends_its_jobs_and_publishes_no_half_report(small_
     import signal
     import time
 
-    from rockdove.hosts import blender
+    from rockdove.hosts import bpy_runner as blender
 
     if blender.unavailable():
         pytest.skip(blender.unavailable())

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import ENVIRONMENT_RADIANCE, HostError
+from .base import ENVIRONMENT_RADIANCE, HostError
 
 #: Image nodes whose texture gets a mip chain and trilinear filtering, as every host does: the LUT (its angle axis
 #: is minified where cos theta changes fast on screen, which the verification must see). The card atlas (base

@@ -16,28 +16,35 @@ from pathlib import Path
 
 import numpy as np
 
-from . import HostError
+from .base import Host, HostError
 
 NAME = "web"
-VARIANT = "physical"
-LOBE = "view_angle"
 #: Seconds for the page to load the GLB and draw its first frame (SwiftShader, 2 cores: about 10 s).
 PAGE_TIMEOUT_S = 120.0
 #: Seconds for one View to render and read back.
 VIEW_TIMEOUT_S = 120.0
 
 
-def unavailable() -> str | None:
-    """None when Chromium and the npm package three are installed, else why not."""
-    from ..web.browser import BrowserError, find_chromium
-    from ..web.viewer import three_folder
+class WebHost(Host):
+    """three.js in headless Chromium (module docstring)."""
 
-    try:
-        find_chromium()
-        three_folder()
-    except (BrowserError, OSError) as exc:  # no chromium; three not installed (ResourceMissing)
-        return str(exc)
-    return None
+    def unavailable(self) -> str | None:
+        """None when Chromium and the npm package three are installed, else why not."""
+        from ..web.browser import BrowserError, find_chromium
+        from ..web.viewer import three_folder
+
+        try:
+            find_chromium()
+            three_folder()
+        except (BrowserError, OSError) as exc:  # no chromium; three not installed (ResourceMissing)
+            return str(exc)
+        return None
+
+    def render(self, asset_path: str, views, out_dir: str) -> dict:
+        return render(asset_path, views, out_dir)
+
+
+HOST = WebHost(NAME, "physical", "view_angle")
 
 
 def render(asset_path: str, views: list, out_dir: str, *, browser_factory=None) -> dict:
