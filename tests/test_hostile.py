@@ -215,3 +215,70 @@ def test_sigterm_during_verify_ends_its_jobs_and_publishes_no_half_report(small_
                 os.kill(j, signal.SIGKILL)
         if proc.poll() is None:
             proc.kill()
+
+
+# ----------------------------------------------------------------------------------------------- shader code
+_EDITS = {  # pigeon_looks.usda's text -> a hand edit that a generator would paste into its code
+    "geomprop": ('inputs:geomprop = "thickness"', 'inputs:geomprop = "thickness\\";\\n#include \\"/etc/passwd"'),
+    "missing primvar": ('inputs:geomprop = "thickness"', 'inputs:geomprop = "thicknes"'),
+    "enum": ('string inputs:wrapS = "clamp"', 'string inputs:wrapS = "clamp\\", \\"periodic"'),
+    "colour space": ('colorSpace = "srgb_texture"', 'colorSpace = "srgb_texture\\" #"'),
+    "varname": ('string inputs:varname = "previewST"', 'string inputs:varname = "previewST;x"'),
+}
+
+
+def _edited(small_asset, tmp_path, what):
+    asset = copy_asset(small_asset, tmp_path / "a" / "pigeon")
+    looks = asset / "pigeon_looks.usda"
+    looks.chmod(0o644)
+    old, new = _EDITS[what]
+    assert old in looks.read_text()
+    looks.write_text(looks.read_text().replace(old, new, 1))
+    return asset
+
+
+@pytest.mark.parametrize("what", list(_EDITS))
+def test_validate_reports_each_value_a_generator_would_paste_into_code(small_asset, tmp_path, what):
+    """Issue 33: a hand-edited geomprop, enum, colour space or primvar reader name became shader code
+    (an #include of a file of the machine); validate called the asset clean."""
+    from rockdove.usd.validate import check_mtlx_shaders
+    from pxr import Usd
+
+    stage = Usd.Stage.Open(str(_edited(small_asset, tmp_path, what) / "pigeon.usda"))
+    issues, _ = check_mtlx_shaders(stage)
+    assert [i for i in issues if "would paste it into the code" in i.message], issues
+
+
+@pytest.mark.parametrize("what", ["geomprop", "missing primvar", "enum", "colour space"])
+def test_no_such_value_reaches_materialx_generators(small_asset, tmp_path, what):
+    from rockdove.errors import UsageError
+    from rockdove.hosts.materialx import feather_networks
+
+    with pytest.raises(UsageError):
+        feather_networks(str(_edited(small_asset, tmp_path, what) / "pigeon.usda"), "baked")
+
+
+def test_texture_paths_reach_the_osl_shader_as_parameters(small_asset, tmp_path):
+    """The OSL source names no texture file (a quote in the asset's folder broke it): the files are the values of
+    its parameters, which the Cycles job sets on the Script node."""
+    from rockdove.hosts.materialx import feather_networks
+    from rockdove.hosts.osl import VARIANTS, generate_osl, lobe_document
+
+    asset = copy_asset(small_asset, tmp_path / 'it"s' / "pigeon")
+    (net,) = feather_networks(str(asset / "pigeon.usda"), "baked").values()
+    doc, files = lobe_document(net, VARIANTS["osl"][1])
+    source = generate_osl(doc, net["material"])
+    assert str(tmp_path) not in source and "textures/" not in source
+    assert sorted(files.values()) == sorted(str(asset / "textures" / f) for f in
+                                            ("feather_base.png", "feather_mask.png", "thinfilm_lut.exr"))
+    assert all(f'string {param} = ""' in source for param in files)
+
+
+@pytest.mark.parametrize("what", ["varname", "geomprop"])
+def test_storm_refuses_a_network_whose_values_would_be_code(small_asset, tmp_path, what):
+    """Storm generates its own shaders (HdMtlx, the UsdPrimvarReader's varname as an identifier): the host does
+    not draw such an asset."""
+    from rockdove.hosts.storm import _code_values
+
+    assert "would paste it into the code" in (_code_values(str(_edited(small_asset, tmp_path, what) /
+                                                                "pigeon.usda")) or "")
