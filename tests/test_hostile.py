@@ -282,3 +282,29 @@ def test_storm_refuses_a_network_whose_values_would_be_code(small_asset, tmp_pat
 
     assert "would paste it into the code" in (_code_values(str(_edited(small_asset, tmp_path, what) /
                                                                 "pigeon.usda")) or "")
+
+
+# ----------------------------------------------------------------------------------------------- own round
+def test_a_texture_whose_header_declares_too_many_texels_is_not_decoded(small_asset, tmp_path):
+    """A 140 KB PNG declaring 12,000 x 12,000 texels (inside Pillow's own limit) took 55 s and 2.1 GB in verify;
+    its header is read first and it is refused in one line."""
+    import struct
+    import zlib
+
+    asset = copy_asset(small_asset, tmp_path / "a" / "pigeon")
+    w = h = 12_000
+    chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))  # noqa: E731
+    mask = asset / "textures" / "feather_mask.png"
+    mask.chmod(0o644)
+    mask.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 0, 0, 0, 0)) +
+                     chunk(b"IDAT", zlib.compress(b"\0" * ((w + 1) * h), 1)) + chunk(b"IEND", b""))
+    one_line(rockdove("render", asset, "--out", tmp_path / "r", timeout=60), 1,
+             "12,000 x 12,000 texels; the budget is 16,777,216")
+
+
+@pytest.mark.parametrize("argv", [["config", "--config", "deep.toml"],
+                                  ["config", "--set", "film.cauchy_a=" + "[" * 3000 + "1" + "]" * 3000]])
+def test_toml_nested_past_the_parsers_recursion_is_one_line(tmp_path, argv):
+    (tmp_path / "deep.toml").write_text("a = " + "[" * 5000 + "1" + "]" * 5000 + "\n")
+    r = subprocess.run([EXE, *argv], capture_output=True, text=True, cwd=tmp_path, timeout=60)
+    one_line(r, 2, "nests arrays or tables too deeply")

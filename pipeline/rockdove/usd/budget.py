@@ -1,6 +1,6 @@
 """Size budgets a layer must meet before USD opens it, from a scan of its bytes (no parse, no composition): a
 crate file's table of contents and the element count that heads each array; a text layer's size and prim
-statements; then, while :mod:`rockdove.usd.dependencies` walks the opened layer, the largest face.
+statements; a texture's header; then, while :mod:`rockdove.usd.dependencies` walks the opened layer, the largest face.
 
 Where each limit comes from (the default asset: ~380 specs in its layers, largest array 149,376 elements
 (``Body.faceVertexIndices``), faces of 3 and 4 vertices; composition costs ~4 KB per prim):
@@ -10,11 +10,15 @@ Where each limit comes from (the default asset: ~380 specs in its layers, larges
 - :data:`MAX_ARRAY`: 2**24 elements, above the schema's largest asset (``geometry.card_count`` 1,000,000 neck cards
   x 12 face-vertex indices; ``body_voxel_m`` 0.0008 m gives the body ~0.93 million), 112 times the default's;
 - :data:`MAX_FACE`: 1,024 vertices a face (the asset's are 4): a face is fan-triangulated by every reader;
-- :data:`MAX_TEXT_BYTES`: 64 MiB of text (the default's largest text layer is 16 KB; its geometry is crate).
+- :data:`MAX_TEXT_BYTES`: 64 MiB of text (the default's largest text layer is 16 KB; its geometry is crate);
+- :data:`MAX_TEXELS`: a texture of 4096 x 4096, the schema's largest (``textures.body_resolution``, the LUT's
+  ``lut.angles`` x ``lut.thicknesses``), checked from the PNG or EXR header (a 140 KB PNG declaring 12,000 x 12,000
+  took 55 s and 2.1 GB in verify).
 """
 
 from __future__ import annotations
 
+import contextlib
 import mmap
 import os
 import re
@@ -24,6 +28,7 @@ MAX_SPECS = 100_000
 MAX_ARRAY = 1 << 24
 MAX_FACE = 1024
 MAX_TEXT_BYTES = 64 << 20
+MAX_TEXELS = 4096 * 4096
 _PRIM = re.compile(rb"(?m)^[ \t]*(?:def|over|class)\b")
 
 
@@ -92,33 +97,75 @@ def _crate(m, base: int) -> str | None:
     return None
 
 
-def over_budget(identifier: str) -> str | None:
-    """Why the layer ``identifier`` (a file, a usdz, or a package-relative ``a.usdz[b.usdc]``) is over a budget,
-    from its bytes alone, or None."""
+@contextlib.contextmanager
+def _opened(identifier: str):
+    """``(bytes, offset, size)`` of a file, a usdz's first file or a package member ``a.usdz[b.usdc]``, mapped;
+    None where there is nothing to map."""
     from pxr import Ar, Sdf
 
     path, inner = (Ar.SplitPackageRelativePathOuter(identifier) if Ar.IsPackageRelativePath(identifier)
                    else (identifier, None))
     base, size = 0, None
+    if inner is not None or path.lower().endswith(".usdz"):
+        zf = Sdf.ZipFile.Open(path)
+        names = list(zf.GetFileNames()) if zf else []
+        inner = inner if inner is not None else (names[0] if names else None)
+        if inner is None or inner not in names:
+            yield None  # USD reports what it cannot open
+            return
+        info = zf.GetFileInfo(inner)
+        base, size = info.dataOffset, info.size
+    with open(path, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as m:
+        yield m, base, len(m) - base if size is None else size
+
+
+def _scan(identifier: str, fn) -> str | None:
     try:
-        if inner is not None or path.lower().endswith(".usdz"):
-            zf = Sdf.ZipFile.Open(path)
-            names = list(zf.GetFileNames()) if zf else []
-            inner = inner if inner is not None else (names[0] if names else None)
-            if inner is None or inner not in names:
-                return None  # USD reports what it cannot open
-            info = zf.GetFileInfo(inner)
-            base, size = info.dataOffset, info.size
-        with open(path, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as m:
-            size = len(m) - base if size is None else size
-            if m[base:base + 8] == b"PXR-USDC":
-                return _crate(m, base)
-            if size > MAX_TEXT_BYTES:
-                return f"is {size / 2**20:,.0f} MiB of text; the budget is {MAX_TEXT_BYTES >> 20} MiB"
-            prims = len(_PRIM.findall(m, base, base + size))
-            return f"holds {prims:,} prims; the budget is {MAX_SPECS:,}" if prims > MAX_SPECS else None
+        with _opened(identifier) as found:
+            return fn(*found) if found else None
     except (OSError, ValueError, struct.error, IndexError, KeyError):
-        return None  # not a file we can scan (USD says what is wrong with it when it opens it)
+        return None  # not a file we can scan (its reader says what is wrong with it)
+
+
+def _layer(m, base: int, size: int) -> str | None:
+    if m[base:base + 8] == b"PXR-USDC":
+        return _crate(m, base)
+    if size > MAX_TEXT_BYTES:
+        return f"is {size / 2**20:,.0f} MiB of text; the budget is {MAX_TEXT_BYTES >> 20} MiB"
+    prims = len(_PRIM.findall(m, base, base + size))
+    return f"holds {prims:,} prims; the budget is {MAX_SPECS:,}" if prims > MAX_SPECS else None
+
+
+def _image(m, base: int, size: int) -> str | None:
+    head = m[base:base + min(size, 1 << 16)]
+    if head.startswith(b"\x89PNG\r\n\x1a\n"):
+        w, h = struct.unpack_from(">II", head, 16)
+    elif head.startswith(b"\x76\x2f\x31\x01"):  # OpenEXR: attributes (name, type, size, value) up to an empty name
+        at, w, h = 8, 0, 0
+        while head[at] != 0:
+            name, kind, rest = head[at:].split(b"\0", 2)
+            (n,) = struct.unpack_from("<i", rest)
+            at += len(name) + len(kind) + 6
+            if name == b"dataWindow":
+                x0, y0, x1, y1 = struct.unpack_from("<iiii", head, at)
+                w, h = x1 - x0 + 1, y1 - y0 + 1
+            at += n
+    else:
+        return None
+    if w * h > MAX_TEXELS:
+        return f"is an image of {w:,} x {h:,} texels; the budget is {MAX_TEXELS:,} (4096 x 4096)"
+    return None
+
+
+def over_budget(identifier: str) -> str | None:
+    """Why the layer ``identifier`` (a file, a usdz, or a package-relative ``a.usdz[b.usdc]``) is over a budget,
+    from its bytes alone, or None."""
+    return _scan(identifier, _layer)
+
+
+def image_over_budget(identifier: str) -> str | None:
+    """Why the PNG or EXR ``identifier`` is over :data:`MAX_TEXELS`, from its header alone, or None."""
+    return _scan(identifier, _image)
 
 
 def face_over_budget(counts) -> str | None:

@@ -14,7 +14,7 @@ import posixpath
 import re
 from dataclasses import dataclass, field
 
-from .budget import face_over_budget, over_budget
+from .budget import face_over_budget, image_over_budget, over_budget
 from .issues import Issue, only_errors
 
 #: ``file:line:column: message`` as USD's text parser reports a syntax error.
@@ -191,6 +191,9 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
                 out.issues.append(Issue("assetPath", spec_path, f"{kind} {what} {why}{allowed}", severity))
                 if not allow_external:
                     continue
+            big = image_over_budget(anchored) if kind == "asset" and anchored else None
+            if big:
+                out.issues.append(Issue("budget", spec_path, f"{kind} {what} {big}: not read"))
             if kind in ("layer", "clip") and anchored and anchored not in seen:
                 seen.add(anchored)
                 queue.append(anchored)
