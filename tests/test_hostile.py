@@ -308,3 +308,34 @@ def test_toml_nested_past_the_parsers_recursion_is_one_line(tmp_path, argv):
     (tmp_path / "deep.toml").write_text("a = " + "[" * 5000 + "1" + "]" * 5000 + "\n")
     r = subprocess.run([EXE, *argv], capture_output=True, text=True, cwd=tmp_path, timeout=60)
     one_line(r, 2, "nests arrays or tables too deeply")
+
+
+# ----------------------------------------------------------------------------------------------- the host cache key
+@pytest.mark.gl
+def test_a_hosts_cached_result_follows_the_material_network_it_rendered(small_asset, tmp_path):
+    """The stale-key case of issue 33: the feather network edited (its thickness read from another primvar,
+    which the scene the GL renders read leaves alone) passed on a warm cache and failed on a fresh one, and an
+    untouched asset was reported failed from the edited one's cached result. The host's key holds every file the
+    asset composes, so each asset is judged by its own render, in either order."""
+    from rockdove import api
+    from rockdove.hosts.materialx import BAKED
+
+    if BAKED.unavailable():
+        pytest.skip(BAKED.unavailable())
+    untouched = copy_asset(small_asset, tmp_path / "u" / "pigeon")
+    edited = copy_asset(small_asset, tmp_path / "e" / "pigeon")
+    looks = edited / "pigeon_looks.usda"
+    looks.chmod(0o644)
+    looks.write_text(looks.read_text().replace('inputs:geomprop = "thickness"', 'inputs:geomprop = "neckS"', 1))
+
+    def check(asset, cache):
+        v = api.verify(asset, ["glsl", "materialx"], cache=tmp_path / cache, out=tmp_path / f"r-{cache}",
+                       width=64, height=64, n_views=2, views=["sweep_090"], beauty={"renderer": "off"})
+        (host,) = [h for h in v.hosts if h.name == "materialx"]
+        return host.status, "materialx" in v.report["cache"]["reused"]["hosts"]
+
+    assert check(untouched, "c1") == ("passed", False)
+    assert check(edited, "c1") == ("failed", False)  # was ("passed", True): the untouched asset's result
+    assert check(untouched, "c1") == ("passed", True)
+    assert check(edited, "c2") == ("failed", False)
+    assert check(untouched, "c2") == ("passed", False)  # was ("failed", True): the edited asset's result

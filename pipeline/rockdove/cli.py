@@ -71,7 +71,7 @@ def main(argv: list[str] | None = None) -> int:
     from .errors import RockdoveError, VerificationFailed
 
     _log_to_stderr(quiet=bool(getattr(args, "quiet", False) or getattr(args, "json", False)))
-    old_term = signal.signal(signal.SIGTERM, _interrupt)  # a supervisor's stop is Ctrl-C: jobs ended, temporaries removed
+    old_term = signal.signal(signal.SIGTERM, _interrupt)  # a supervisor stops us as Ctrl-C does: jobs end, temporaries go
     try:
         return int(_module(args.command).run(args) or 0)
     except VerificationFailed as exc:

@@ -145,19 +145,21 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
     return {v.name: done[v.name] for v in views}, fresh
 
 
-def _host_key(host, digest: str, views) -> str:
+def _host_key(host, digest: str, views, layers: str) -> str:
+    """A host renders the asset's files as they are (its networks, not only the scene :func:`scene_digest`
+    reads): ``layers`` is :func:`rockdove.usd.dependencies.asset_digest`."""
     from ..verify.host_check import check_host
 
-    return item_key("host", (host.render, check_host), digest, [v.to_dict() for v in views], host.name, host.lobe,
-                    host.variant)
+    return item_key("host", (host.render, check_host), digest, layers, [v.to_dict() for v in views], host.name,
+                    host.lobe, host.variant)
 
 
-def _host(cache, host, layer, scene, views, digest, refs, fresh, out, say) -> tuple[dict, dict, bool]:
+def _host(cache, host, layer, scene, views, digest, layers, refs, fresh, out, say) -> tuple[dict, dict, bool]:
     """One host's report entry, image files in ``out`` (where it renders) and whether they came from the cache."""
     from ..verify.host_check import check_host
 
     items = _Items(cache, "host", out)
-    key = _host_key(host, digest, views)
+    key = _host_key(host, digest, views, layers)
     found = items.get(key)
     if found is not None:
         value = _meta(found)
@@ -201,6 +203,7 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     """
     from ..hosts import select
     from ..render.beauty import settings
+    from ..usd.dependencies import asset_digest
     from ..verify.inputs import scene_digest, select_views, sizes, verification_scene, verification_views
     from ..verify.reference_image import render_reference
     from ..verify.verdict import combine, default_out_dir
@@ -214,11 +217,11 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     os.makedirs(out, exist_ok=True)
     cache = cache if isinstance(cache, Cache) else Cache(cache or default_cache(layer))
     chosen = select_views(verification_views(scene, width, height, n_views), views)
-    digest, ran, reused = scene_digest(scene), {}, {}
+    digest, layers, ran, reused = scene_digest(scene), asset_digest(layer), {}, {}
     say(f"GL renders and CPU reference ({len(chosen)} views)")
     surfaces = _surfaces(cache, scene, chosen, ran, reused, out)
     glsl = next(h for h in selection.available if h.name == "glsl")
-    redo = _Items(cache, "host", out).get(_host_key(glsl, digest, chosen)) is None  # its images are the GL renders
+    redo = _Items(cache, "host", out).get(_host_key(glsl, digest, chosen, layers)) is None  # its images: the GL renders
     results, fresh = _views(cache, scene, lut, chosen, digest, surfaces, redo, out, say, ran, reused)
     lobes = {"half_angle": fresh["refs"]} if redo else {}
 
@@ -231,7 +234,7 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     t = time.perf_counter()
     entries, images, ran["hosts"], reused["hosts"] = [], {}, [], []
     for host in selection.available:
-        entry, files, cached = _host(cache, host, layer, scene, chosen, digest, refs, fresh, out, say)
+        entry, files, cached = _host(cache, host, layer, scene, chosen, digest, layers, refs, fresh, out, say)
         entries.append(entry)
         images.update({host.name: files} if files else {})
         (reused if cached else ran)["hosts"].append(host.name)

@@ -29,6 +29,7 @@ class Dependencies:
 
     issues: list = field(default_factory=list)
     external: set = field(default_factory=set)
+    read: set = field(default_factory=set)  # the files inside the asset its composition reads (layers, textures)
 
 
 def _outside(anchored: str, root_dir: str, root_package: str | None) -> str | None:
@@ -167,6 +168,7 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
         layer = _open_layer(identifier, out.issues)
         if layer is None:
             continue
+        out.read.add(identifier)
         variables = dict(layer.expressionVariables) if variables is None else variables  # the root layer's
         where = layer.identifier if layer.identifier != root else os.fspath(root_layer)
         found = [(where, p, "layer") for p in layer.GetCompositionAssetDependencies()]
@@ -191,6 +193,8 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
                 out.issues.append(Issue("assetPath", spec_path, f"{kind} {what} {why}{allowed}", severity))
                 if not allow_external:
                     continue
+            if kind == "asset" and anchored and not why:
+                out.read.add(anchored)
             big = image_over_budget(anchored) if kind == "asset" and anchored else None
             if big:
                 out.issues.append(Issue("budget", spec_path, f"{kind} {what} {big}: not read"))
@@ -198,6 +202,24 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
                 seen.add(anchored)
                 queue.append(anchored)
     return out
+
+
+def asset_digest(root_layer) -> str:
+    """sha256 of the bytes of every file the asset's composition reads (:attr:`Dependencies.read`: its layers,
+    material networks included, and textures; a package member as its package), by path relative to the root
+    layer's folder: what a host that renders the asset reads, so an asset moved or rebuilt the same digests the
+    same."""
+    from pxr import Ar
+
+    from ..digest import Digest
+
+    root = os.path.abspath(os.fspath(root_layer))
+    files = {Ar.SplitPackageRelativePathOuter(p)[0] if Ar.IsPackageRelativePath(p) else p
+             for p in scan_dependencies(root).read}
+    d = Digest()
+    for f in sorted(f for f in files if os.path.isfile(f)):
+        d.file(os.path.relpath(f, os.path.dirname(root)), f)
+    return d.hexdigest()
 
 
 #: Most files a ``.usdz`` may hold: more is refused before any validator lists each one.
