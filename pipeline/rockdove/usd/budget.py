@@ -32,43 +32,29 @@ MAX_TEXELS = 4096 * 4096
 _PRIM = re.compile(rb"(?m)^[ \t]*(?:def|over|class)\b")
 
 
-def _more(src: bytes, i: int, n: int) -> tuple[int, int]:
-    """An LZ4 length nibble of 15 continued by bytes while they are 255."""
-    if n == 15:
-        while True:
-            n, i = n + src[i], i + 1
-            if src[i - 1] != 255:
-                break
-    return n, i
-
-
 def _lz4(src: bytes, size: int) -> bytes:
-    """An LZ4 block decoded (crate sections use it through TfFastCompression), at most ``size`` bytes."""
+    """At most ``size`` bytes of an LZ4 block (crate sections use it through TfFastCompression)."""
     out, i = bytearray(), 0
+
+    def more(n):  # a length nibble of 15 goes on in bytes while they are 255
+        nonlocal i
+        go = n == 15
+        while go:
+            n, i, go = n + src[i], i + 1, src[i] == 255
+        return n
     while i < len(src) and len(out) < size:
         token = src[i]
-        lit, i = _more(src, i + 1, token >> 4)
+        i += 1
+        lit = more(token >> 4)
         out += src[i:i + lit]
         i += lit
         if i >= len(src):
             break
-        off = src[i] | src[i + 1] << 8
-        length, i = _more(src, i + 2, token & 15)
-        chunk = out[-off:]
-        out += (chunk * ((length + 4) // off + 1))[:length + 4]
+        off, i = src[i] | src[i + 1] << 8, i + 2
+        length = min(more(token & 15) + 4, size - len(out))
+        chunk = out[-off:] if off else b""  # an offset of 0 is no LZ4: the scan ends (ZeroDivisionError)
+        out += (chunk * (length // len(chunk) + 1))[:length]
     return bytes(out[:size])
-
-
-def _fast(data: bytes, size: int) -> bytes:
-    """TfFastCompression: a chunk count, then one LZ4 block (count 0) or that many ``int32`` size + block."""
-    if data[0] == 0:
-        return _lz4(data[1:], size)
-    out, i = b"", 1
-    for _ in range(data[0]):
-        (length,) = struct.unpack_from("<i", data, i)
-        out += _lz4(data[i + 4:i + 4 + length], size - len(out))
-        i += 4 + length
-    return out
 
 
 def _crate(m, base: int) -> str | None:
@@ -76,18 +62,21 @@ def _crate(m, base: int) -> str | None:
     (toc,) = struct.unpack_from("<q", m, base + 16)
     (count,) = struct.unpack_from("<Q", m, base + toc)
     sections = {}
-    for k in range(count):
+    for k in range(min(count, 64)):
         name, start, _size = struct.unpack_from("<16sqq", m, base + toc + 8 + 32 * k)
         sections[name.rstrip(b"\0")] = base + start
     (specs,) = struct.unpack_from("<Q", m, sections[b"SPECS"])
     if specs > MAX_SPECS:
         return f"holds {specs:,} specs (prims and properties); the budget is {MAX_SPECS:,}"
-    if version < (0, 4, 0):
-        return None  # fields uncompressed: an older crate than any USD of the last years writes
     at = sections[b"FIELDS"]
     n_fields, skip = struct.unpack_from("<QQ", m, at)  # then the compressed token indices, then the value reps
-    (reps_size,) = struct.unpack_from("<Q", m, at + 16 + skip)
-    reps = _fast(m[at + 24 + skip:at + 24 + skip + reps_size], 8 * n_fields)
+    if version < (0, 4, 0) or n_fields > 16 * MAX_SPECS:  # (fields uncompressed before crate 0.4: USD 2018)
+        return None if version < (0, 4, 0) else f"holds {n_fields:,} fields; the budget is {16 * MAX_SPECS:,}"
+    (size,) = struct.unpack_from("<Q", m, at + 16 + skip)
+    data = m[at + 24 + skip:at + 24 + skip + size]
+    if data[0]:  # TfFastCompression: 0, one LZ4 block; else that many (int32 size, block)
+        raise ValueError("a chunked crate section (over 2 GB): not scanned")
+    reps = _lz4(data[1:], 8 * n_fields)
     fmt = "<Q" if version >= (0, 7, 0) else "<I"
     for (rep,) in struct.iter_unpack("<Q", reps[:len(reps) // 8 * 8]):
         if rep >> 63 and not rep >> 62 & 1:  # an array stored out of line: its element count heads it
@@ -123,7 +112,7 @@ def _scan(identifier: str, fn) -> str | None:
     try:
         with _opened(identifier) as found:
             return fn(*found) if found else None
-    except (OSError, ValueError, struct.error, IndexError, KeyError):
+    except (OSError, ValueError, struct.error, IndexError, KeyError, ZeroDivisionError):
         return None  # not a file we can scan (its reader says what is wrong with it)
 
 
