@@ -339,3 +339,12 @@ def test_a_hosts_cached_result_follows_the_material_network_it_rendered(small_as
     assert check(untouched, "c1") == ("passed", True)
     assert check(edited, "c2") == ("failed", False)
     assert check(untouched, "c2") == ("passed", False)  # was ("failed", True): the edited asset's result
+
+
+@pytest.mark.parametrize("inside", [".", "textures"])
+def test_a_report_never_replaces_an_asset_or_a_folder_of_other_files(small_asset, tmp_path, inside):
+    """The report is swapped in whole, so an --out that holds an asset or other files is refused, untouched."""
+    asset = copy_asset(small_asset, tmp_path / "a" / "pigeon")
+    before = sorted(p.relative_to(asset) for p in asset.rglob("*"))
+    one_line(rockdove("verify", asset, "--out", asset / inside, *SMALL, timeout=60), 2, "holds more than a")
+    assert sorted(p.relative_to(asset) for p in asset.rglob("*")) == before

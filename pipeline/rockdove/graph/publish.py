@@ -265,12 +265,19 @@ def _swap(staging: Path, out: Path) -> None:
 
 
 @contextlib.contextmanager
-def staged_output(out, what: str):
+def staged_output(out, what: str, holds: str):
     """A command's output folder ``out`` (checked as :func:`check_output` does) written whole or not at all: the
     block writes into a staging folder beside it, swapped in when the block ends without an error, removed
-    otherwise (an interrupted command leaves ``out`` as it was). Two commands writing one ``out`` take turns
-    (``flock`` of the parent folder); what a killed one left is removed first. Yields (staging, ``out``)."""
+    otherwise (an interrupted command leaves ``out`` as it was). An existing ``out`` is replaced only when it is
+    empty or an earlier output of the same kind (its :data:`OUTPUT_MARKER` names ``what``, or it holds the file
+    ``holds``, and it is no asset): never an asset or a folder of other things. Two commands writing one ``out``
+    take turns (``flock`` of the parent folder); what a killed one left is removed first. Yields (staging, out)."""
     real = check_output(out, what)
+    with contextlib.suppress(OSError, ValueError):
+        holds = holds if json.loads((real / OUTPUT_MARKER).read_text()).get("output") != what else OUTPUT_MARKER
+    if real.is_dir() and any(real.iterdir()) and ((real / MARKER).exists() or not (real / holds).is_file()):
+        raise UsageError(f"--out {str(out)!r} holds more than a {what} (an asset, or files of other kinds); "
+                         f"the new {what} replaces its folder whole: choose another --out")
     real.parent.mkdir(parents=True, exist_ok=True)
     fd = os.open(real.parent, os.O_RDONLY)
     staging = None
