@@ -223,7 +223,8 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
     from .verify.verdict import default_out_dir
 
     root = require_inside(asset, allow_external)  # nothing from elsewhere is read, nothing of the user's overwritten
-    with staged_output(out or default_out_dir(root), "verification report", "report.json") as (staging, out):  # whole or none
+    # the report is written whole or not at all: in a staging folder, swapped in at the end
+    with staged_output(out or default_out_dir(root), "verification report", "report.json") as (staging, out):
         report = verification.verify(os.fspath(root), None if hosts is None else list(hosts), cache=cache,
                                      out_dir=staging, width=width, height=height, n_views=n_views,
                                      views=None if views is None else list(views), bench_dir=bench_dir,

@@ -88,12 +88,15 @@ class StormHost(Host):
 def _code_values(asset_path: str) -> str | None:
     """The first value of the asset's shaders, in any variant, that Storm's generator (HdMtlx, HdSt's primvar
     readers) would paste into code (rockdove.usd.shader_values), or None."""
-    from pxr import Usd
+    from pxr import Tf, Usd
 
     from ..usd.stage import variant_combinations
     from ..usd.validate import check_mtlx_shaders
 
-    stage = Usd.Stage.Open(asset_path, Usd.Stage.LoadAll)
+    try:
+        stage = Usd.Stage.Open(asset_path, Usd.Stage.LoadAll)
+    except Tf.ErrorException:
+        return None  # not a stage: Storm's job says so itself
     for combo in variant_combinations(stage):
         with Usd.EditContext(stage, stage.GetSessionLayer()):
             for set_name, value in combo.items():
