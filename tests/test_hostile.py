@@ -3,6 +3,7 @@ a verification, Blender's path templates, asset strings that would become shader
 
 from __future__ import annotations
 
+import contextlib
 import os
 import subprocess
 import sys
@@ -135,7 +136,8 @@ def _bomb(folder: Path, kind: str) -> Path:
     else:
         mesh = Sdf.CreatePrimInLayer(layer, "/Pigeon/Geom/Body")
         name, typ, value = {"face": ("faceVertexCounts", Sdf.ValueTypeNames.IntArray, Vt.IntArray([1025])),
-                            "array": ("primvars:junk", Sdf.ValueTypeNames.FloatArray, Vt.FloatArray((1 << 24) + 1))}[kind]
+                            "array": ("primvars:junk", Sdf.ValueTypeNames.FloatArray,
+                                      Vt.FloatArray((1 << 24) + 1))}[kind]
         Sdf.AttributeSpec(mesh, name, typ).default = value
     layer.Export(str(folder / "bomb.usdc"))
     payload = folder / "pigeon_payload.usda"
@@ -211,7 +213,7 @@ def test_sigterm_during_verify_ends_its_jobs_and_publishes_no_half_report(small_
         assert not list(cache.glob("*/.tmp-*"))
     finally:
         for j in jobs:
-            with __import__("contextlib").suppress(OSError):
+            with contextlib.suppress(OSError):
                 os.kill(j, signal.SIGKILL)
         if proc.poll() is None:
             proc.kill()
