@@ -195,7 +195,7 @@ def _motion(cache, layer, lut, motion, times, width, height, out, say, results, 
         scene = load_scene(layer, {"motion": motion}, t)
         views = frame_views(scene, width, height, f"{motion}{t:03.0f}")
         did, kept = {}, {}
-        surfaces = _surfaces(cache, scene, views, did, kept)
+        surfaces = _surfaces(cache, scene, views, did, kept, out)
         frame, _ = _views(cache, scene, lut, views, scene_digest(scene), surfaces, False, out, say, did, kept)
         results.update(frame)
         entry["views"] += list(frame)
