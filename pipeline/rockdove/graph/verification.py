@@ -15,13 +15,16 @@ A host that failed is not kept. Validation and the report are redone every time.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
 import logging
 import os
 import shutil
+import tempfile
 import time
+from pathlib import Path
 from typing import Any
 
 from .. import sources
@@ -41,26 +44,41 @@ def item_key(kind: str, fns: tuple, *reads) -> str:
 
 
 class _Items:
-    """The cache entries of one kind of item: ``<cache>/verify.<kind>/<key>/value/``."""
+    """The cache entries of one kind of item: ``<cache>/verify.<kind>/<key>/value/``. A cache that cannot be
+    written (a full disk, a read-only folder, a file in its place) only costs time: nothing is kept, the scratch
+    folders go into ``spare`` (the report's folder) instead."""
 
-    def __init__(self, cache: Cache, kind: str):
-        self.cache, self.name = cache, f"verify.{kind}"
+    def __init__(self, cache: Cache, kind: str, spare: str):
+        self.cache, self.name, self.spare = cache, f"verify.{kind}", spare
 
     def get(self, key: str) -> str | None:
         return str(self.cache.entry(self.name, key) / "value") if self.cache.lookup(self.name, key) else None
 
-    def put(self, key: str, src, meta: dict) -> str:
-        """Store the files of folder ``src`` (moved) and ``item.json`` (``meta``); the entry's folder."""
+    def put(self, key: str, src, meta: dict) -> str | None:
+        """Store the files of folder ``src`` (linked: ``src`` keeps them) and ``item.json`` (``meta``); the
+        entry's folder, or None when the cache cannot keep it."""
         def fill(folder):
             for name in os.listdir(src):
                 if name != ".owner":  # the scratch folder's own (rockdove.graph.engine.Cache.temporary)
-                    os.rename(os.path.join(src, name), folder / name)
+                    try:
+                        os.link(os.path.join(src, name), folder / name)
+                    except OSError:  # another file system, or one without hard links
+                        shutil.copyfile(os.path.join(src, name), folder / name)
             (folder / "item.json").write_text(json.dumps(meta, sort_keys=True, default=_plain))
-        self.cache.store(self.name, key, fill)
-        return str(self.cache.entry(self.name, key) / "value")
+        try:
+            self.cache.store(self.name, key, fill)
+        except OSError:
+            return None
+        return self.get(key)
 
+    @contextlib.contextmanager
     def scratch(self):
-        return self.cache.temporary(self.cache.root / self.name)
+        with contextlib.ExitStack() as stack:
+            try:
+                tmp = stack.enter_context(self.cache.temporary(self.cache.root / self.name))
+            except OSError:
+                tmp = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix=".scratch-", dir=self.spare)))
+            yield tmp
 
 
 def _plain(o):
@@ -72,15 +90,15 @@ def _meta(folder: str) -> dict:
         return json.load(f)
 
 
-def _surfaces(cache: Cache, scene, views) -> tuple[dict, list, list]:
+def _surfaces(cache: Cache, scene, views, out: str) -> tuple[dict, list, list]:
     """The reference's :class:`~rockdove.verify.reference_image.Surface` of every camera of ``views``, and the
-    cameras (key prefixes) cast now and reused."""
+    cameras (key prefixes) cast now and reused; ``out``: the report's folder (scratch when the cache is not kept)."""
     import numpy as np
 
     from ..verify.rays import camera_key
     from ..verify.reference_image import Surface, cast_surfaces, surface_digest
 
-    items, digest = _Items(cache, "surface"), surface_digest(scene)
+    items, digest = _Items(cache, "surface", out), surface_digest(scene)
     cameras: dict[str, Any] = {}
     for v in views:
         cameras.setdefault(camera_key(v), v)
@@ -91,9 +109,9 @@ def _surfaces(cache: Cache, scene, views) -> tuple[dict, list, list]:
         with items.scratch() as tmp:
             np.savez(tmp / "surface.npz", **s.to_arrays())
             items.put(keys[cam], tmp, {"camera": cam, "stats": s.stats})
-    out = {cam: Surface.from_arrays(load_npz(os.path.join(d, "surface.npz")), _meta(d)["stats"])
-           for cam, d in found.items() if d is not None}
-    return {**out, **fresh}, [c[:16] for c in fresh], [c[:16] for c in out]
+    kept = {cam: Surface.from_arrays(load_npz(os.path.join(d, "surface.npz")), _meta(d)["stats"])
+            for cam, d in found.items() if d is not None}
+    return {**kept, **fresh}, [c[:16] for c in fresh], [c[:16] for c in kept]
 
 
 def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, out: str):
@@ -105,7 +123,7 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
     from ..verify.results import ViewResult
     from ..verify.run import render_and_check
 
-    items = _Items(cache, "view")
+    items = _Items(cache, "view", out)
     keys = {v.name: item_key("view", (render_and_check,), digest, v.to_dict()) for v in views}
     found = {n: items.get(k) for n, k in keys.items()}
     todo = [v for v in views if redo_all or found[v.name] is None]
@@ -116,13 +134,13 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
             results, fresh["refs"], fresh["gl"] = render_and_check(scene, lut, todo, str(tmp), surfaces=surfaces)
             for v in todo:
                 r = results[v.name]
-                if r.metrics is None:  # the GL render failed: asked again next time
+                if r.metrics is not None:  # a failed GL render is not kept: asked again next time
+                    np.savez(os.path.join(r.folder, "sheet_row.npz"), *r.sheet_row)
+                    found[v.name] = items.put(keys[v.name], r.folder, r.to_json())
+                if r.metrics is None or found[v.name] is None:  # not kept: its images go to the report now
                     for f in r.files.values():
                         shutil.copyfile(os.path.join(r.folder, f), os.path.join(out, f))
                     done[v.name] = dataclasses.replace(r, folder=out)
-                    continue
-                np.savez(os.path.join(r.folder, "sheet_row.npz"), *r.sheet_row)
-                found[v.name] = items.put(keys[v.name], r.folder, r.to_json())
     for v in views:
         if v.name not in done:
             folder = str(found[v.name])  # cached, or stored above
@@ -131,21 +149,23 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
     return {v.name: done[v.name] for v in views}, fresh, [v.name for v in todo]
 
 
-def _host_key(host, digest: str, views) -> str:
+def _host_key(host, digest: str, views, layers: str) -> str:
+    """A host renders the asset's files as they are (its networks, not only the scene :func:`scene_digest`
+    reads): ``layers`` is :func:`rockdove.usd.dependencies.asset_digest`."""
     from ..verify.host_check import check_host
 
-    return item_key("host", (host.render, check_host), digest, [v.to_dict() for v in views], host.name, host.lobe,
-                    host.variant)
+    return item_key("host", (host.render, check_host), digest, layers, [v.to_dict() for v in views], host.name,
+                    host.lobe, host.variant)
 
 
-def _host(cache, host, layer, scene, views, digest, refs, fresh, out):
+def _host(cache, host, layer, scene, views, digest, layers, refs, fresh, out):
     """One host's :class:`~rockdove.verify.results.HostResult` (its image files in ``out``, where it renders) and
     whether it came from the cache."""
     from ..verify.host_check import check_host
     from ..verify.results import HostResult
 
-    items = _Items(cache, "host")
-    key = _host_key(host, digest, views)
+    items = _Items(cache, "host", out)
+    key = _host_key(host, digest, views, layers)
     found = items.get(key)
     if found is not None:
         value = _meta(found)
@@ -181,7 +201,7 @@ def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[dict,
         _log.info(f"motion {motion}: the film at time code {t:g}")
         scene = load_scene(layer, {"motion": motion}, t)
         views = frame_views(scene, width, height, f"{motion}{t:03.0f}")
-        surfaces, cast, kept = _surfaces(cache, scene, views)
+        surfaces, cast, kept = _surfaces(cache, scene, views, out)
         frame, _, rendered = _views(cache, scene, lut, views, scene_digest(scene), surfaces, False, out)
         results.update(frame)
         entry["views"] += list(frame)
@@ -217,6 +237,7 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     """
     from ..hosts import select
     from ..render.beauty import settings
+    from ..usd.dependencies import asset_digest
     from ..verify.inputs import scene_digest, select_views, sizes, verification_scene, verification_views
     from ..verify.reference_image import render_reference
     from ..verify.results import HostResult, ItemNames, ItemsUsed
@@ -234,11 +255,11 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     os.makedirs(out, exist_ok=True)
     cache = cache if isinstance(cache, Cache) else Cache(cache or default_cache(layer))
     chosen = select_views(verification_views(scene, width, height, n_views), views)
-    digest = scene_digest(scene)
+    digest, layers = scene_digest(scene), asset_digest(layer)
     _log.info(f"GL renders and CPU reference ({len(chosen)} views)")
-    surfaces, cast, kept = _surfaces(cache, scene, chosen)
+    surfaces, cast, kept = _surfaces(cache, scene, chosen, out)
     glsl = next(h for h in selection.available if h.name == "glsl")
-    redo = _Items(cache, "host").get(_host_key(glsl, digest, chosen)) is None  # its images are the GL renders
+    redo = _Items(cache, "host", out).get(_host_key(glsl, digest, chosen, layers)) is None  # its images: the GL renders
     results, fresh, rendered = _views(cache, scene, lut, chosen, digest, surfaces, redo, out)
     lobes = {"half_angle": fresh["refs"]} if redo else {}
     motion_entry, frames, (m_cast, m_kept, m_rendered) = (None, {}, ([], [], [])) if motion is None else _motion(
@@ -251,7 +272,7 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
         return lobes[lobe]
 
     t = time.perf_counter()
-    checked = [_host(cache, h, layer, scene, chosen, digest, refs, fresh, out) for h in selection.available]
+    checked = [_host(cache, h, layer, scene, chosen, digest, layers, refs, fresh, out) for h in selection.available]
     host_results = (*(r for r, _ in checked),
                     *(HostResult(n, "skipped", reason=why) for n, why in selection.unavailable.items()))
     named = hosts is not None and "blender" in hosts  # auto: Cycles only when asked for (2-4 min of CPU)
