@@ -176,3 +176,6 @@ def test_verify_and_render_name_a_bad_motion_or_time(small_asset, tmp_path):
                           str(tmp_path / "r"), "--motion", "walk", "--time", "-3"], capture_output=True, text=True)
     assert out.returncode == 2 and "time=-3.0 lies outside the animation" in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1 and not (tmp_path / "r").exists()
+    out = subprocess.run([sys.executable, "-m", "rockdove.cli", "verify", str(small_asset), "--time", "3"],
+                         capture_output=True, text=True)
+    assert out.returncode == 2 and "--time 3 needs --motion" in out.stderr

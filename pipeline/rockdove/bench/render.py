@@ -3,7 +3,9 @@ renderer plus the CPU reference in under 20 s on this machine).
 
 Rows (medians of ``--repeats`` runs, ``time.perf_counter``, all in one process):
 
-- ``load_scene``: reading the asset back from USD (:func:`rockdove.render.scene.load_scene`);
+- ``load_scene``: reading the asset back from USD (:func:`rockdove.render.scene.load_scene`); the same posed at a
+  time code of the walk, and UsdSkel's skinning of every mesh, points and normals, per frame over the walk's 121
+  time codes (:func:`rockdove.render.skinning.pose`), when the asset has the walk;
 - ``gl cold``: :func:`rockdove.render.gl.render_views` of the 4 default views, i.e. EGL context, shader
   compilation, mesh and float-texture upload, 4 renders and float read-backs, renderer deleted;
 - ``gl setup`` and ``gl 4 views warm``: the same split in two, with one :class:`~rockdove.render.gl.GLRenderer`
@@ -83,6 +85,16 @@ def run(args: argparse.Namespace) -> int:
     try:
         t_load, scene = _median_time(lambda: load_scene(asset), args.repeats)
         rows["load_scene"] = t_load
+        from ..render.skinning import pose
+        from ..usd.stage import open_asset
+
+        stage = open_asset(scene.root_layer)
+        walk = stage.GetDefaultPrim().GetVariantSet("motion")
+        if "walk" in walk.GetVariantNames():
+            rows["load_scene walk t=21 (skinned)"] = _median_time(lambda: load_scene(asset, {"motion": "walk"}, 21),
+                                                                  args.repeats)[0]
+            walk.SetVariantSelection("walk")
+            rows["UsdSkel skinning per frame"] = _median_time(lambda: pose(stage, range(121)), args.repeats)[0] / 121
         views = default_views(scene, args.width, args.height)
         t_cold, _ = _median_time(lambda: render_views(scene, views), args.repeats)
         rows["gl cold (context + upload + 4 views)"] = t_cold

@@ -89,6 +89,10 @@ def run(args: argparse.Namespace) -> int:
     from ..errors import VerificationFailed
     from ..verify.verdict import summary
 
+    if args.times and not args.motion:
+        from ..errors import UsageError
+
+        raise UsageError(f"--time {args.times[0]:g} needs --motion: the time codes are a motion's")
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
     result = api.verify(args.asset, hosts, cache=args.cache, out=args.out, width=args.width, height=args.height,
                         views=args.names, n_views=args.views, bench_dir=args.bench_dir,

@@ -125,8 +125,8 @@ def measure_motion(asset, motion: str) -> dict:
     ground = legs[:, 1].min()
     sole = legs[:, 1] < ground + 0.002
     down, slip = [], 0.0
-    for side in (legs[:, 0] >= 0, legs[:, 0] < 0):
-        pts = np.array([f["Legs"][sole & side] for f in posed])
+    for half in (legs[:, 0] >= 0, legs[:, 0] < 0):  # the left foot, the right
+        pts = np.array([f["Legs"][sole & half] for f in posed])
         on = pts[:, :, 1].min(axis=1) < ground + CONTACT_M
         centre = pts.mean(axis=1)[:, [0, 2]]
         start = None
@@ -201,3 +201,39 @@ def frame_views(scene, width: int, height: int, prefix: str) -> list:
     keep = [v for v in views if v.name == f"sweep_{int(round(BOUNDARY_SWEEP_ANGLE_DEG)):03d}"]
     keep += [v for v in views if v.name.startswith("turntable_")][:1]
     return [dataclasses.replace(v, name=f"{prefix}_{v.name}") for v in keep]
+
+
+#: The report's animation of a motion: file name, time codes between frames, frames (one stride of the walk at
+#: 30 frames a second), size in pixels.
+ANIMATION_FILE, ANIMATION_STEP, ANIMATION_FRAMES, ANIMATION_SIZE = "{motion}.webp", 2, 12, 256
+
+
+def animation(layer: str, motion: str, out_dir: str, lut=None) -> dict:
+    """The motion seen from the bird's left at its neck, one white light fixed in the world, the camera gliding at
+    the trunk's mean speed: our GLSL of each frame as UsdSkel poses it, written as an animated WebP in ``out_dir``
+    (the neck's colour moves as the head bobs). The report's entry: ``{"file", "frames", "fps", "caption"}``."""
+    import os
+
+    from ..render.gl import GLRenderer
+    from ..render.images import write_webp
+    from ..render.scene import load_scene
+    from ..render.views import View, look_at
+    from ..srgb import linear_to_srgb8
+
+    times = [ANIMATION_STEP * k for k in range(ANIMATION_FRAMES)]
+    scenes = [load_scene(layer, {"motion": motion}, t) for t in times]
+    neck = np.array([s.neck_centre_m for s in scenes])
+    glide = np.polyfit(times, neck, 1)  # (2, 3): the neck's mean travel per time code and its start
+    light = np.array([0.5, 0.6, 0.62]) / np.linalg.norm([0.5, 0.6, 0.62])
+    images = []
+    for t, scene in zip(times, scenes):
+        target = glide[0] * t + glide[1] - np.array([0.0, 0.012, 0.0])
+        view = View(f"{motion}{t:03d}", look_at(target + np.array([0.45, 0.04, 0.05]), target), np.radians(24.0),
+                    ANIMATION_SIZE, ANIMATION_SIZE, light, np.ones(3))
+        with GLRenderer(scene, lut=lut, width=ANIMATION_SIZE, height=ANIMATION_SIZE) as renderer:
+            images.append(linear_to_srgb8(renderer.render(view).radiance_rgb))
+    fps = 60.0 / ANIMATION_STEP
+    path = write_webp(images, os.path.join(out_dir, ANIMATION_FILE.format(motion=motion)), fps)
+    return {"file": os.path.basename(path), "frames": len(images), "fps": fps,
+            "caption": f"{motion}: one stride, {len(images)} frames at {fps:g} a second, our GLSL of each frame "
+                       f"skinned by UsdSkel, a white light fixed in the world: the neck's colour moves as it bobs"}
