@@ -6,7 +6,8 @@ The renders are items, each an entry of the stage cache (folders ``verify.<kind>
   change reuses it;
 - ``view``, per view: the GL render against the reference, its images and checks; keyed by the scene content it
   renders (:func:`rockdove.verify.inputs.scene_digest`: not the usdz or file paths) and the view;
-- ``host``, per host: its metrics and images over the views; keyed by the scene content, the views and its lobe.
+- ``host``, per host: its metrics and images over the views; keyed by the scene content, the views and its lobe;
+- ``beauty`` and ``animation``: the report's pictures, keyed by the scene content and the ``[beauty]`` settings.
 
 Each key also holds the code the item can execute (:mod:`rockdove.sources`) and the installed distributions. So
 ``rockdove verify`` and a build reuse each other's views, and an edit to one host's code re-renders that host alone.
@@ -156,6 +157,37 @@ def _host(cache, module, layer, scene, views, digest, refs, fresh, out, say) -> 
     return entry, files, False
 
 
+def _pictures(cache, layer, scene, lut, digest: str, settings: dict, out: str, ran: dict, reused: dict) -> dict:
+    """The report's pictures, ``{kind: (entry or None, note or None)}``, their files copied into ``out``: the beauty
+    (:func:`rockdove.hosts.beauty.for_report`) and the light-turning animation
+    (:func:`rockdove.render.animation.for_report`), each an item keyed by the scene, the ``[beauty]`` settings and
+    its code; one drawn other than as asked (a note: a fallback, a failure) is not kept."""
+    from ..hosts.beauty import for_report as beauty
+    from ..render.animation import for_report as animation
+
+    pictures = {}
+    for kind, fn, args in (("beauty", beauty, (layer, scene)), ("animation", animation, (scene,))):
+        items, key = _Items(cache, kind), item_key(kind, (fn,), digest, settings)
+        found = items.get(key)
+        if found is not None:
+            entry, note, folder = _meta(found)["entry"], None, found
+        else:
+            with items.scratch() as tmp:
+                opts = {"cycles_ok": settings.get("cycles_ok", False)} if kind == "beauty" else {}
+                entry, note = fn(*args, str(tmp), settings, lut=lut, **opts)
+                for name in (entry or {}).get("files", {}).values():
+                    shutil.copyfile(tmp / name, os.path.join(out, name))
+                if entry is not None and note is None:
+                    items.put(key, tmp, {"entry": entry})
+            folder = None
+        for name in (entry or {}).get("files", {}).values() if folder else ():
+            shutil.copyfile(os.path.join(folder, name), os.path.join(out, name))
+        if entry is not None:
+            (reused if folder else ran).setdefault("pictures", []).append(kind)
+        pictures[kind] = entry, note
+    return pictures
+
+
 def _files(files: dict) -> set:
     return {name for per_view in files.values() for name in per_view.values()}
 
@@ -221,6 +253,7 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     named = hosts is not None and "blender" in hosts  # auto: Cycles only when asked for (2-4 min of CPU)
     beauty = {**settings(beauty), "cycles_ok": named and any(m.NAME == "blender" for m in selection.available)}
     return combine(layer, scene, lut, notes, results, out, width, height, bench_dir, say, t_start=t_start,
-                   reused=reused["views"], hosts=(entries, images, time.perf_counter() - t), beauty=beauty,
+                   reused=reused["views"], hosts=(entries, images, time.perf_counter() - t),
+                   pictures=lambda: _pictures(cache, layer, scene, lut, digest, beauty, out, ran, reused),
                    published_asset=published_asset, items={"ran": ran, "reused": reused})
 

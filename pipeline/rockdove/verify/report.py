@@ -2,7 +2,7 @@
 ``<view>_gl.png`` and ``<view>_reference.png`` (through :func:`rockdove.spectral.linear_to_srgb8`), ``<view>_dE.png``
 (the dE2000 map pixel for pixel, with a colour bar; grey where not compared), ``contact_sheet.png`` (a row per view:
 GL | reference | dE), ``lut.png``, ``spectra.png`` (film reflectance), ``hue.png`` (hue histogram across the light
-sweep), ``bench_*.png`` (from ``rockdove verify --bench-dir DIR``), ``report.json`` and ``report.html``.
+sweep), ``light_turn.webp`` (the light turning round the bird), ``bench_*.png`` (from ``rockdove verify --bench-dir DIR``), ``report.json`` and ``report.html``.
 
 The dE maps are drawn with Pillow; the charts with matplotlib's object API (``Figure`` + ``FigureCanvasAgg``),
 which needs no display and leaves pyplot's global state alone.
@@ -278,13 +278,22 @@ def _beauty(images: dict) -> str:
     return f"<div class='row'>{figs}</div><p><small>Beauty render: {e(b['caption'])}</small></p>"
 
 
+def _animation(images: dict) -> str:
+    """The light-turning animation (:func:`rockdove.render.animation.for_report`): the WebP plays inline."""
+    a, e = images.get("animation"), html.escape
+    return (f"<h2>The shimmer moving</h2><figure><img src='{e(a['files']['light_turn'])}' alt='the light turning "
+            f"round the bird' style='image-rendering:auto'><figcaption>{e(a['caption'])}</figcaption></figure>"
+            if a else "")
+
+
 def write_html(path, report: dict, images: dict) -> str:
     """A self-contained page (relative image links) summarising ``report`` (report.json's data).
 
     ``images``: ``"views"``: ``{view: {"gl": file, "reference": file, "dE": file}}``; optional ``"hosts"``
     (``{host: {view: {"host", "reference", "dE": file}}}``), ``"contact_sheet"``, ``"lut"``, ``"spectra"``,
     ``"hue"``, ``"bench"`` (list) file names, relative to the page; ``"beauty"``
-    (:func:`rockdove.hosts.beauty.render_beauty`'s entry), the picture the page opens with.
+    (:func:`rockdove.hosts.beauty.render_beauty`'s entry), the picture the page opens with; ``"animation"``
+    (:func:`rockdove.render.animation.render_light_turn`'s entry).
     """
     e = html.escape
     status = "PASSED" if report.get("passed") else "FAILED"
@@ -298,7 +307,7 @@ def write_html(path, report: dict, images: dict) -> str:
         "figcaption{font-size:100%;color:#222}h1{font-size:1.6em}"
         ".viewer{width:100%;height:600px;border:1px solid #ccc}</style></head><body>",
         f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>" + _beauty(images)
-        + _list("Notes", report.get("notes")),
+        + _animation(images) + _list("Notes", report.get("notes")),
         f"<p>Asset: <code>{e(str(report.get('asset', '')))}</code><br>",
         f"Configuration hash: <code>{e(str(report.get('configuration_hash') or 'not recorded'))}</code><br>",
         f"Goals: median dE2000 &le; {goals.get('median_dE', '')}, "

@@ -28,10 +28,12 @@ def default_out_dir(layer_path: str) -> str:
 
 
 def combine(layer, scene, lut, notes, results: dict, out: str, width, height, bench_dir, say, *, reused,
-            t_start, hosts, items, published_asset, beauty) -> dict:
+            t_start, hosts, items, published_asset, pictures) -> dict:
     """Validate the asset and join the per-view results and the hosts' entries into the verdict and the report
     (``report.json``, ``report.html`` and their images in the folder ``out``); returns the report dict.
-    ``bench_dir``: benchmark plots the report shows (None: none; the report reads no folder it is not given)."""
+    ``bench_dir``: benchmark plots the report shows (None: none; the report reads no folder it is not given);
+    ``pictures``: a callable returning ``{kind: (entry, note)}`` of the pictures the report shows (beauty,
+    animation), called while the validation runs."""
     timings, failures, notes = {}, [], list(notes)
     say("validating")
     # in a thread, while this one draws the report (pxr's validators and the charts' PNG encoding leave the GIL
@@ -103,14 +105,13 @@ def combine(layer, scene, lut, notes, results: dict, out: str, width, height, be
         elif not h["passed"]:
             failures.append(f"host {h['name']} ({h['variant']}, {h['lobe']} lobe): {'; '.join(h['failures'])}")
     images["bench"] = report.copy_bench_plots(out, bench_dir) if bench_dir is not None else []
-    if beauty is not None:
-        from ..hosts.beauty import for_report
-
-        say("beauty render")
-        images["beauty"], note = for_report(layer, scene, out, beauty, cycles_ok=beauty.get("cycles_ok", False),
-                                            lut=lut)
-        notes.extend([note] if note else [])
-        timings["beauty"] = images["beauty"]["seconds"] if images["beauty"] else 0.0
+    if pictures is not None:  # the beauty render and the animation (rockdove.graph.verification: cached items)
+        say("beauty render and animation")
+        t_pictures = time.perf_counter()
+        for kind, (images[kind], note) in pictures().items():
+            notes.extend([note] if note else [])
+            timings[kind] = images[kind]["seconds"] if images[kind] else 0.0
+        timings["pictures"] = time.perf_counter() - t_pictures
     timings["report"] = time.perf_counter() - t
     validation, timings["validation"] = validation_pending.result()
     if not validation["passed"]:
@@ -142,6 +143,7 @@ def combine(layer, scene, lut, notes, results: dict, out: str, width, height, be
         "hosts": host_entries,
         "anatomy": anatomy,
         "beauty": images.get("beauty"),
+        "animation": images.get("animation"),
         "boundary": {"per_view": {r["view"]: r["boundary"] for r in sweeps},
                      "method": "TLS line through green/purple boundary points; RMS perpendicular distance (px) "
                                "and RMS / boundary length; coherence and curvature: rockdove.verify.boundary"},
