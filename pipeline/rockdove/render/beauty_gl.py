@@ -182,7 +182,7 @@ def render_gl(scene, views, ground_y_m: float, lut=None) -> dict:
             big = dataclasses.replace(v, width=v.width * s, height=v.height * s,
                                       light_rgb=np.asarray(B.SUN_RGB) * B.SUN_STRENGTH / math.pi)
             key = r.render(big, SAMPLES)
-            fill = sum(r.render(dataclasses.replace(v, light_direction=d, light_rgb=c), SAMPLES).radiance_rgb
+            fill = sum(r.render_radiance(dataclasses.replace(v, light_direction=d, light_rgb=c), SAMPLES)[0]
                        for d, c in _sky_lights())  # smooth light: at the picture's size
             # the sun's visibility at each supersample (a feather's contact shadow is sharper than a pixel)
             vis = sun_visibility(r, scene, big, key)

@@ -145,6 +145,7 @@ class GLRenderer:
         self.angle_mode, self.mipmaps = angle_mode, mipmaps
         self.lut = lut if lut is not None else (scene.load_lut() if scene.film is not None else None)
         self._fbo = self._fbo_size = self._view = self._resolve = None
+        self._buffers = 3
         self._fbos: dict[tuple, tuple] = {}
         self._deleted = False
 
@@ -233,7 +234,7 @@ class GLRenderer:
         from OpenGL import GL
 
         GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, self._fbo)
-        GL.glDrawBuffers(3, [GL.GL_COLOR_ATTACHMENT0 + k for k in range(3)])
+        GL.glDrawBuffers(3, [GL.GL_COLOR_ATTACHMENT0 + k if k < self._buffers else GL.GL_NONE for k in range(3)])
         GL.glViewport(0, 0, *self._fbo_size[:2])
         GL.glEnable(GL.GL_DEPTH_TEST)
         GL.glDepthMask(GL.GL_TRUE)
@@ -280,12 +281,25 @@ class GLRenderer:
         """Render one view into float buffers and read them back. ``samples`` > 1 (at most ``GL_MAX_SAMPLES``, 4 on
         llvmpipe): multisampled, card cut-outs by alpha-to-coverage, every buffer the mean of the pixel's samples
         (pictures, not the verification: part ids and depths at edges are blends)."""
+        t0 = time.perf_counter()
+        (rad, aux, inputs), c = self._draw(view, samples, 3), np.ascontiguousarray
+        return RenderResult(view, c(rad[..., :3]), c(rad[..., 3]), np.rint(aux[..., 0]).astype(np.int16),
+                            c(aux[..., 1]), c(aux[..., 2]), c(aux[..., 3]), c(inputs[..., 0]), c(inputs[..., 1]),
+                            c(inputs[..., 2:4]), tuple(p.name for p in self.scene.parts), time.perf_counter() - t0)
+
+    def render_radiance(self, view: View, samples: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`render`'s radiance (H, W, 3) and coverage (H, W) alone (a picture's frame: the other buffers are
+        neither resolved nor read back)."""
+        rad = self._draw(view, samples, 1)[0]
+        return np.ascontiguousarray(rad[..., :3]), np.ascontiguousarray(rad[..., 3])
+
+    def _draw(self, view: View, samples: int, buffers: int) -> list:
+        """Draw ``view`` and read back the first ``buffers`` attachments, (H, W, 4) float32 each, row 0 at the top."""
         from OpenGL import GL
         from pyrender.constants import RenderFlags
 
         if self._deleted:
             raise ValueError("this GLRenderer was deleted; create a new one")
-        t0 = time.perf_counter()
         w, h = view.width, view.height
         self._offscreen._platform.make_current()
         inner = self._offscreen._renderer
@@ -296,10 +310,10 @@ class GLRenderer:
         self._camera.aspectRatio = w / h
         self._camera.znear, self._camera.zfar = self._clip_planes(view)
         self._pr_scene.set_pose(self._camera_node, view.camera_to_world)
-        self._view = view
+        self._view, self._buffers = view, buffers  # only those drawn (each costs memory traffic, per sample)
         inner.render(self._pr_scene, RenderFlags.NONE)
         read = self._resolve or self._fbo
-        for k in range(3) if self._resolve else ():
+        for k in range(buffers) if self._resolve else ():
             GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self._fbo)
             GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, read)
             GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0 + k)
@@ -307,17 +321,14 @@ class GLRenderer:
             GL.glBlitFramebuffer(0, 0, w, h, 0, 0, w, h, GL.GL_COLOR_BUFFER_BIT, GL.GL_NEAREST)
         GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, read)
         bufs = []
-        for k in range(3):
+        for k in range(buffers):
             GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0 + k)
             raw = GL.glReadPixels(0, 0, w, h, GL.GL_RGBA, GL.GL_FLOAT)
             a = np.frombuffer(raw, np.float32) if isinstance(raw, bytes) else np.asarray(raw, np.float32)
             bufs.append(a.reshape(h, w, 4)[::-1])
         GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, 0)
         GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, 0)
-        (rad, aux, inputs), c = bufs, np.ascontiguousarray
-        return RenderResult(view, c(rad[..., :3]), c(rad[..., 3]), np.rint(aux[..., 0]).astype(np.int16),
-                            c(aux[..., 1]), c(aux[..., 2]), c(aux[..., 3]), c(inputs[..., 0]), c(inputs[..., 1]),
-                            c(inputs[..., 2:4]), tuple(p.name for p in self.scene.parts), time.perf_counter() - t0)
+        return bufs
 
     def delete(self):
         """Free the GL resources and the offscreen context."""
