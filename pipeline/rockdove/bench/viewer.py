@@ -15,6 +15,8 @@ import statistics
 import tempfile
 from pathlib import Path
 
+from ..errors import UsageError
+
 HELP = "viewer benchmark: frame time of verify/viewer.html at 1280 x 720, LUT shading against a plain texture"
 GOAL_RATIO = 1.5
 MODES = ("plain", "lut", "physical", "preview")
@@ -37,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     from ..web.viewer import write_viewer
 
     if args.frames < 1 or args.rounds < 1 or not (64 <= args.width <= 8192 and 64 <= args.height <= 8192):
-        raise ValueError("--frames and --rounds must be >= 1 and --width/--height in [64, 8192]")
+        raise UsageError("--frames and --rounds must be >= 1 and --width/--height in [64, 8192]")
     layer = resolve_root_layer(args.asset)
     times = {m: [] for m in MODES}
     with tempfile.TemporaryDirectory(prefix="rockdove-bench-viewer-") as tmp:

@@ -34,7 +34,7 @@ T_WHITE, T_BAR, T_RECTRIX, T_PRIMARY, T_BAR2 = 20, 21, 22, 23, 24
 
 def linear(srgb8) -> np.ndarray:
     """Linear Rec.709 of 8-bit sRGB values (colour-science's CCTF, IEC 61966-2-1)."""
-    from ..spectral import srgb_decode
+    from ..srgb import srgb_decode
 
     return srgb_decode(np.asarray(srgb8, dtype=np.float64) / 255.0)
 

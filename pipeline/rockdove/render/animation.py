@@ -12,6 +12,7 @@ import time
 
 import numpy as np
 
+from ..errors import UsageError
 from .views import View, direction
 
 #: File name of the animation in the report folder.
@@ -35,7 +36,7 @@ def light_turn_views(scene, frames: int, size: int) -> list[View]:
     from .beauty import YFOV_DEG, frame
 
     if int(frames) != frames or frames < 2 or int(size) != size or size < 16:
-        raise ValueError(f"frames must be an integer >= 2 and size >= 16 px, got {frames!r} and {size!r}")
+        raise UsageError(f"frames must be an integer >= 2 and size >= 16 px, got {frames!r} and {size!r}")
     neck = [p.positions_m for p in scene.parts if p.is_feather or p.name in HEAD_PARTS]
     pts = np.concatenate(neck or [p.positions_m for p in scene.parts])
     low = pts[:, 1].min()  # and every other part's points as high as those (the head's shell)

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..png import encode_png, save_png  # noqa: F401 - the display images' writer, used by the modules above
+from ..png import save_png
+from ..errors import UsageError
 
 
 #: `rockdove render`'s largest rendered side, pixels: --width (--height) x --supersample. One view's buffers (~46 bytes a pixel) and
@@ -26,7 +27,7 @@ def box_downsample(image, factor: int) -> np.ndarray:
         return a
     h, w = a.shape[:2]
     if factor < 1 or h % factor or w % factor:
-        raise ValueError(f"factor must be a positive divisor of the image size {w}x{h}, got {factor}")
+        raise UsageError(f"factor must be a positive divisor of the image size {w}x{h}, got {factor}")
     return a.reshape(h // factor, factor, w // factor, factor, *a.shape[2:]).mean(axis=(1, 3))
 
 
@@ -45,7 +46,7 @@ def contact_sheet(path, rows, label_px: int = 28, background=(32, 32, 32)) -> st
 
     rows = [list(r) for r in rows]
     if not rows or not all(rows):
-        raise ValueError("rows must hold at least one row, each of at least one (title, image) tile")
+        raise UsageError("rows must hold at least one row, each of at least one (title, image) tile")
     h, w = rows[0][0][1].shape[:2]
     ncol = max(len(r) for r in rows)
     sheet = Image.new("RGB", (ncol * w, len(rows) * (h + label_px)), background)
@@ -75,10 +76,10 @@ def write_webp(frames, path, fps: float, *, quality: int = 90, lossless: bool = 
     frames = [np.asarray(f) for f in frames]
     if not frames or any(f.dtype != np.uint8 or f.ndim != 3 or f.shape[2] != 3 or f.shape != frames[0].shape
                          for f in frames):
-        raise ValueError("frames must be one or more uint8 (H, W, 3) images of one size, got "
+        raise UsageError("frames must be one or more uint8 (H, W, 3) images of one size, got "
                          f"{sorted({(str(f.dtype), f.shape) for f in frames})}")
     if not 0 < fps <= 100:
-        raise ValueError(f"fps must be in (0, 100], got {fps!r}")
+        raise UsageError(f"fps must be in (0, 100], got {fps!r}")
     first, *rest = (Image.fromarray(np.ascontiguousarray(f)) for f in frames)
     with atomic_path(path) as tmp:
         first.save(tmp, format="WEBP", save_all=True, append_images=rest, duration=round(1000 / fps), loop=0,

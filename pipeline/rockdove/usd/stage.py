@@ -33,6 +33,7 @@ from .material import (
     mtlx_surface_path,
     texture_asset_paths,
 )
+from ..errors import UsageError
 
 ROOT = "/Pigeon"
 INTERFACE_LAYER = "pigeon.usda"
@@ -127,7 +128,7 @@ def _feather_part(bird):
     """The one part with the feather material (all neck cards in one mesh), which carries ``thickness``."""
     feathers = [p for p in bird.parts if p.material == FEATHER_MATERIAL]
     if len(feathers) != 1 or "thickness" not in feathers[0].primvars:
-        raise ValueError(f"bird: exactly one part with material 'feather' and a 'thickness' primvar expected, "
+        raise UsageError(f"bird: exactly one part with material 'feather' and a 'thickness' primvar expected, "
                          f"got {[p.name for p in feathers]}")
     return feathers[0]
 
@@ -248,10 +249,10 @@ def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geo
 
     shading = shading or ("both" if lut is not None else "physical")
     if shading not in SHADING_CHOICES:
-        raise ValueError(f"shading={shading!r}; allowed: {sorted(SHADING_CHOICES)}")
+        raise UsageError(f"shading={shading!r}; allowed: {sorted(SHADING_CHOICES)}")
     variants = SHADING_CHOICES[shading]
     if lut is None and "baked" in variants:
-        raise ValueError(f"shading={shading!r} needs a LUT (lut=None); without one only 'physical' is possible")
+        raise UsageError(f"shading={shading!r} needs a LUT (lut=None); without one only 'physical' is possible")
     geometry_layer = Sdf.Layer.OpenAsAnonymous(os.path.abspath(geometry))
     looks = new_stage()
     composed = Usd.Stage.CreateInMemory()
@@ -306,10 +307,10 @@ def open_asset(path: str, shading: str | None = None):
     register()
     stage = Usd.Stage.Open(path, Usd.Stage.LoadAll)
     if stage is None:
-        raise ValueError(f"path={path!r} is not a USD stage")
+        raise UsageError(f"path={path!r} is not a USD stage")
     if shading is not None:
         if shading not in SHADING_VARIANTS:
-            raise ValueError(f"shading={shading!r}; use one of {SHADING_VARIANTS}")
+            raise UsageError(f"shading={shading!r}; use one of {SHADING_VARIANTS}")
         with Usd.EditContext(stage, stage.GetSessionLayer()):
             stage.GetPrimAtPath(ROOT).GetVariantSet(SHADING_VARIANT_SET).SetVariantSelection(shading)
     return stage

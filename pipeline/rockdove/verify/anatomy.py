@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import UsageError
+
 #: name -> (low, high, unit, source, what). None: unbounded on that side.
 RANGES = {
     "total_length": (29.0, 37.0, "cm", "G", "bill tip to tail tip, straight"),
@@ -52,7 +54,7 @@ def _part(scene, name):
     for p in scene.parts:
         if p.name == name:
             return p
-    raise ValueError(f"the asset has no mesh {name!r} (parts: {[p.name for p in scene.parts]})")
+    raise UsageError(f"the asset has no mesh {name!r} (parts: {[p.name for p in scene.parts]})")
 
 
 def _axis(points):
@@ -96,7 +98,7 @@ def _colours(part, n=4000, seed=0):
 
 
 def _hsv(linear):
-    from ..spectral import linear_to_srgb8
+    from ..srgb import linear_to_srgb8
 
     c = np.asarray(linear_to_srgb8(np.asarray(linear, float)[None]), float)[0] / 255.0
     mx, mn = c.max(), c.min()
