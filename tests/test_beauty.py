@@ -121,10 +121,10 @@ def test_the_build_report_opens_with_the_beauty_render_at_the_configured_size(bu
     first = re.search(r"<img src='([^']+)'", page).group(1)
     assert first == "beauty_34.png" and "Beauty render: GL" in page
     assert Image.open(asset / "verify" / first).size == (160, 112)
-    # the light-turning animation plays inline below it (rockdove.render.animation): 24 frames, 5/8 of its height
+    # the light-turning animation plays inline below it (rockdove.render.animation): 24 frames, half its height
     assert "<img src='light_turn.webp'" in page and page.index("light_turn.webp") < page.index("Per view")
     with Image.open(asset / "verify" / "light_turn.webp") as webp:
-        assert webp.is_animated and webp.n_frames == 24 and webp.size == (70, 70)
+        assert webp.is_animated and webp.n_frames == 24 and webp.size == (56, 56)
 
 
 @needs_bpy

@@ -47,7 +47,7 @@ def light_turn_views(scene, frames: int, size: int) -> list[View]:
             for k in range(int(frames))]
 
 
-def render_light_turn(scene, path, frames: int = 24, size: int = 320, lut=None) -> dict:
+def render_light_turn(scene, path, frames: int = 24, size: int = 256, lut=None) -> dict:
     """Render :func:`light_turn_views` and write them to ``path`` as an animated WebP; the report's entry: ``{"files":
     {"light_turn": name}, "frames", "fps", "size", "bytes", "seconds", "caption"}``. ``lut``: the film's LUT
     (default the asset's)."""
@@ -75,7 +75,7 @@ def render_light_turn(scene, path, frames: int = 24, size: int = 320, lut=None) 
 
 def for_report(scene, out_dir, settings: dict, *, lut=None) -> tuple:
     """The animation as the verification report takes it (``[beauty]`` ``settings``: ``animation_frames``, square
-    frames 5/8 of ``height``; none with ``renderer = "off"``): ``(entry or None, note or None)``. Not a
+    frames half of ``height``; none with ``renderer = "off"``): ``(entry or None, note or None)``. Not a
     measurement: a failure is a note."""
     import os
 
@@ -83,6 +83,6 @@ def for_report(scene, out_dir, settings: dict, *, lut=None) -> tuple:
         return None, None
     try:
         return render_light_turn(scene, os.path.join(out_dir, FILE), settings["animation_frames"],
-                                 max(16, round(0.625 * settings["height"])), lut=lut), None
+                                 max(16, settings["height"] // 2), lut=lut), None
     except Exception as exc:  # noqa: BLE001 - any renderer's error: the report goes on without it
         return None, f"no light-turning animation: {type(exc).__name__}: {exc}"
