@@ -114,12 +114,14 @@ def _visibility(points, slope, sun: View, depth_map, texel_m: float, reach_m: fl
     v = (1 - q[:, 1] / (depth * t)) * 0.5 * n - 0.5
     half = math.tan(math.radians(B.SUN_ANGLE_DEG) / 2)
     search = max(1.0, reach_m * half / texel_m)  # the widest penumbra, texels
-    nearest = minimum_filter(np.where(depth_map > 0, depth_map, np.inf), size=2 * int(search) + 3)
+    pad = int(search) + 2  # the map framed by nothing (inf), as wide as a tap reaches
+    m = np.pad(np.where(depth_map > 0, depth_map, np.inf), pad, constant_values=np.inf).ravel()
+    nearest = minimum_filter(m.reshape(n + 2 * pad, -1), size=2 * int(search) + 3).ravel()
+    u, v, w = u + pad, v + pad, n + 2 * pad
 
-    def texel(m, du, dv, sel):
-        iu, iv = np.rint(u[sel] + du).astype(np.intp), np.rint(v[sel] + dv).astype(np.intp)
-        inside = (iu >= 0) & (iu < n) & (iv >= 0) & (iv < n)  # outside the map: nothing of the bird
-        return np.where(inside, m[np.clip(iv, 0, n - 1), np.clip(iu, 0, n - 1)], np.inf)
+    def texel(img, du, dv, sel):  # the nearest texel; off the map: inf
+        iu, iv = (np.clip(np.rint(x[sel] + dx), 0, w - 1).astype(np.intp) for x, dx in ((u, du), (v, dv)))
+        return img[iv * w + iu]
 
     vis = np.ones(len(points))
     bias = SHADOW_BIAS_M + SHADOW_SLOPE_TEXELS * texel_m * np.minimum(slope, SHADOW_SLOPE_MAX)
@@ -131,8 +133,7 @@ def _visibility(points, slope, sun: View, depth_map, texel_m: float, reach_m: fl
     near, far = depth[sel] - bias[sel], depth[sel] - SHADOW_CONTACT_M  # occluders: d < near; far ones: d < far
 
     def taps(radius):  # the depth map over a disc of ``radius`` texels (Vogel's golden-angle disc), (taps, N)
-        d = np.stack([texel(depth_map, radius * x, radius * y, sel) for x, y in disc])
-        return np.where(d > 0, d, np.inf)
+        return np.stack([texel(m, radius * x, radius * y, sel) for x, y in disc])
 
     d = taps(1.0)
     contact = ((d < near) & (d >= far)).mean(axis=0)  # within SHADOW_CONTACT_M: a penumbra under a texel
