@@ -28,7 +28,7 @@ def default_out_dir(layer_path: str) -> str:
 
 
 def combine(layer, scene, lut, notes, results: dict, out: str, width, height, bench_dir, say, *, reused,
-            t_start, hosts, items, published_asset, pictures) -> dict:
+            t_start, hosts, items, published_asset, pictures, motion=None) -> dict:
     """Validate the asset and join the per-view results and the hosts' entries into the verdict and the report
     (``report.json``, ``report.html`` and their images in the folder ``out``); returns the report dict.
     ``bench_dir``: benchmark plots the report shows (None: none; the report reads no folder it is not given);
@@ -117,7 +117,7 @@ def combine(layer, scene, lut, notes, results: dict, out: str, width, height, be
     if not validation["passed"]:
         failures.insert(0, "validation: " + (validation["error"] or "the validator reported problems"))
     anatomy = measure_scene(scene)  # the bird against its published measures (rockdove.verify.anatomy)
-    failures.extend(anatomy["failures"])
+    failures.extend(anatomy["failures"] + (motion["failures"] if motion else []))
     timings["total"] = time.perf_counter() - t_start
 
     config = provenance.asset_configuration(layer)
@@ -142,6 +142,7 @@ def combine(layer, scene, lut, notes, results: dict, out: str, width, height, be
         "hue_sweep": hue,
         "hosts": host_entries,
         "anatomy": anatomy,
+        "motion": motion,
         "beauty": images.get("beauty"),
         "animation": images.get("animation"),
         "boundary": {"per_view": {r["view"]: r["boundary"] for r in sweeps},
@@ -183,5 +184,6 @@ def summary(report: dict) -> dict:
                            for k, v in report["boundary"]["per_view"].items() if "coherence" in v},
         "hosts": [{k: v for k, v in h.items() if k not in ("per_view", "failures")} for h in report.get("hosts", [])],
         "anatomy": {r["name"]: r["value"] for r in report["anatomy"]["measures"]},
+        "motion": report["motion"] and {k: report["motion"][k] for k in ("motion", "times", "measures", "failures")},
         "timings_s": report["timings_s"],
     }
