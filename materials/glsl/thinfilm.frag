@@ -22,11 +22,12 @@
 //   y = clamp((d - lo) / (hi - lo), 0, 1) (0 when lo == hi), u = (x (N - 1) + 0.5) / N,
 //   v = (y (M - 1) + 0.5) / M, linear filtering, clamp-to-edge: exactly ThinFilmLUT.sample.
 // Shading: colour = mix(base_rgb, structural, mask); radiance = colour * light_rgb * max(dot(N, L), 0);
-//   fragments with base alpha < u_alpha_threshold (USD opacityThreshold, 0.5) are discarded.
+//   fragments with base alpha < u_alpha_threshold (USD opacityThreshold, 0.5) are discarded (verification), or
+//   with u_alpha_to_coverage the alpha edge becomes the fragment's sample coverage (multisampled pictures).
 // Textures are uploaded as float data already decoded to linear (sRGB EOTF applied on the CPU).
 //
 // Outputs (float render targets, read back by pipeline/rockdove/render/gl.py):
-//   0  (radiance_r, radiance_g, radiance_b, coverage)            linear lin_rec709, coverage 1
+//   0  (radiance_r, radiance_g, radiance_b, coverage)            linear lin_rec709, coverage 1 (or alpha-to-coverage's)
 //   1  (part_id, view_depth_m, cos_theta, thickness_nm)          part id = index + 1; 0 = background
 //   2  (n_dot_l, mask, s, t)                                     shading inputs, for verification
 
@@ -53,6 +54,7 @@ uniform vec3 u_base_colour;       // linear, when there is no base texture
 uniform int u_has_mask_tex;
 uniform sampler2D u_mask_tex;     // R: structural-colour mask, raw
 uniform float u_alpha_threshold;
+uniform int u_alpha_to_coverage;  // 1 in multisampled pictures (never the verification): coverage from alpha
 
 uniform sampler2D u_lut;          // GL_RGB32F, width n_angle, height n_thickness, row 0 = thinnest
 uniform vec2 u_lut_size;          // (n_angle, n_thickness)
@@ -71,7 +73,14 @@ vec2 lut_texcoords(float cos_theta, float thickness_nm)
 void main()
 {
     vec4 base = u_has_base_tex == 1 ? texture(u_base_tex, frag_st) : vec4(u_base_colour, 1.0);
-    if (base.a < u_alpha_threshold) {
+    float coverage = 1.0;
+    if (u_alpha_to_coverage == 1) {
+        // anti-aliased alpha test: the cut-out's edge spread over one pixel (alpha-to-coverage turns it into the
+        // share of samples covered); a soft opacity (threshold 0) is its own coverage
+        coverage = u_alpha_threshold > 0.0
+            ? clamp((base.a - u_alpha_threshold) / max(fwidth(base.a), 1e-4) + 0.5, 0.0, 1.0) : base.a;
+    }
+    if (u_alpha_to_coverage == 1 ? coverage <= 0.0 : base.a < u_alpha_threshold) {
         discard;
     }
     vec3 N = normalize(frag_normal);
@@ -94,7 +103,7 @@ void main()
         colour = mix(base.rgb, structural, mask);
     }
     float n_dot_l = max(dot(N, L), 0.0);
-    out_radiance = vec4(colour * u_light_rgb * n_dot_l, 1.0);
+    out_radiance = vec4(colour * u_light_rgb * n_dot_l, coverage);
     out_aux = vec4(u_part_id, frag_view_depth_m, cos_theta, thickness_nm);
     out_inputs = vec4(n_dot_l, mask, frag_st);
 }

@@ -7,7 +7,9 @@
 //     done here with texelFetch on the float LUT, because WebGL2 filters float textures only with the optional
 //     OES_texture_float_linear;
 //   colour = mix(base_rgb, structural, mask); radiance = colour * (light_rgb * max(dot(N, L), 0) + ambient);
-//   two-sided cards (N flipped toward the viewer); base alpha < u_alpha_threshold is discarded.
+//   two-sided cards (N flipped toward the viewer); the alpha cut-out at u_alpha_threshold is sharpened to one
+//   pixel (as three.js's own materials with alphaToCoverage): on a multisampled canvas the output alpha is the
+//   share of samples covered, on a single-sampled target only alpha below the threshold is discarded.
 // Output: linear radiance, or its sRGB encoding (IEC 61966-2-1) when u_encode_srgb == 1 (the screen).
 precision highp float;
 precision highp sampler2D;
@@ -64,7 +66,9 @@ vec3 srgb_encode(vec3 c)
 void main()
 {
     vec4 base = u_has_base_tex == 1 ? texture(u_base_tex, frag_st) : vec4(u_base_colour, 1.0);
-    if (base.a < u_alpha_threshold) {
+    float coverage = u_alpha_threshold > 0.0
+        ? smoothstep(u_alpha_threshold, u_alpha_threshold + max(fwidth(base.a), 1e-4), base.a) : base.a;
+    if (coverage <= 0.0 && u_alpha_threshold > 0.0) {
         discard;
     }
     vec3 N = normalize(frag_normal);
@@ -83,5 +87,5 @@ void main()
         colour = mix(base.rgb, structural, mask);
     }
     vec3 radiance = colour * (u_light_rgb * max(dot(N, L), 0.0) + vec3(u_ambient));
-    out_colour = vec4(u_encode_srgb == 1 ? srgb_encode(radiance) : radiance, 1.0);
+    out_colour = vec4(u_encode_srgb == 1 ? srgb_encode(radiance) : radiance, coverage);
 }

@@ -19,7 +19,10 @@ function bytesOf(b64) {
   return out;
 }
 
-const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true, alpha: false });
+// Multisampled canvas (antialias); the cards' alpha cut-out by alpha-to-coverage (each material's alphaToCoverage).
+// The verification's float render targets (renderView) are single-sampled: coverage does not apply there, and the
+// cut-out is the discard at the threshold as before.
+const renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true, alpha: false });
 renderer.setPixelRatio(1);
 renderer.toneMapping = THREE.NoToneMapping;
 renderer.outputColorSpace = THREE.SRGBColorSpace;
@@ -78,6 +81,7 @@ function lutMaterial(physical, isFeather) {
     vertexShader: D.shaders.vert,
     fragmentShader: D.shaders.frag,
     side: isFeather ? THREE.DoubleSide : THREE.FrontSide,
+    alphaToCoverage: physical.alphaTest > 0,
     uniforms: {
       u_kind: { value: isFeather ? 1 : 0 },
       u_light_dir: { value: new THREE.Vector3(0, 1, 0) },
@@ -148,6 +152,7 @@ for (const o of meshes) {
   const isFeather = physical.iridescence > 0;
   const plain = new THREE.MeshBasicMaterial({ map: physical.map, color: physical.color, alphaTest: physical.alphaTest,
                                               side: physical.side });
+  for (const m of [physical, o.material, plain]) { m.alphaToCoverage = m.alphaTest > 0; }
   parts.push({ mesh: o, physical, preview: o.material, plain, lut: lutMaterial(physical, isFeather),
                feather: isFeather });
 }

@@ -6,7 +6,8 @@ The renders are items, each an entry of the stage cache (folders ``verify.<kind>
   change reuses it;
 - ``view``, per view: the GL render against the reference, its images and checks; keyed by the scene content it
   renders (:func:`rockdove.verify.inputs.scene_digest`: not the usdz or file paths) and the view;
-- ``host``, per host: its metrics and images over the views; keyed by the scene content, the views and its lobe.
+- ``host``, per host: its metrics and images over the views; keyed by the scene content, the views and its lobe;
+- ``beauty`` and ``animation``: the report's pictures, keyed by the scene content and the ``[beauty]`` settings.
 
 Each key also holds the code the item can execute (:mod:`rockdove.sources`) and the installed distributions. So
 ``rockdove verify`` and a build reuse each other's views, and an edit to one host's code re-renders that host alone.
@@ -182,6 +183,38 @@ def _host(cache, host, layer, scene, views, digest, layers, refs, fresh, out):
     return result, False
 
 
+def _pictures(cache, layer, scene, lut, digest: str, settings: dict, out: str) -> tuple[dict, tuple, tuple]:
+    """The report's pictures, ``{kind: (entry or None, note or None)}`` with the kinds drawn and the kinds reused,
+    their files copied into ``out``: the beauty
+    (:func:`rockdove.hosts.beauty.for_report`) and the light-turning animation
+    (:func:`rockdove.render.animation.for_report`), each an item keyed by the scene, the ``[beauty]`` settings and
+    its code; one drawn other than as asked (a note: a fallback, a failure) is not kept."""
+    from ..hosts.beauty import for_report as beauty
+    from ..render.animation import for_report as animation
+
+    pictures, ran, reused = {}, [], []
+    for kind, fn, args in (("beauty", beauty, (layer, scene)), ("animation", animation, (scene,))):
+        items, key = _Items(cache, kind, out), item_key(kind, (fn,), digest, settings)
+        found = items.get(key)
+        if found is not None:
+            entry, note, folder = _meta(found)["entry"], None, found
+        else:
+            with items.scratch() as tmp:
+                opts = {"cycles_ok": settings.get("cycles_ok", False)} if kind == "beauty" else {}
+                entry, note = fn(*args, str(tmp), settings, lut=lut, **opts)
+                for name in (entry or {}).get("files", {}).values():
+                    shutil.copyfile(tmp / name, os.path.join(out, name))
+                if entry is not None and note is None:
+                    items.put(key, tmp, {"entry": entry})
+            folder = None
+        for name in (entry or {}).get("files", {}).values() if folder else ():
+            shutil.copyfile(os.path.join(folder, name), os.path.join(out, name))
+        if entry is not None:
+            (reused if folder else ran).append(kind)
+        pictures[kind] = entry, note
+    return pictures, tuple(ran), tuple(reused)
+
+
 def _files(files: dict) -> set:
     return {name for per_view in files.values() for name in per_view.values()}
 
@@ -276,6 +309,7 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     host_results = (*(r for r, _ in checked),
                     *(HostResult(n, "skipped", reason=why) for n, why in selection.unavailable.items()))
     named = hosts is not None and "blender" in hosts  # auto: Cycles only when asked for (2-4 min of CPU)
+    beauty = {**settings(beauty), "cycles_ok": named and any(h.name == "blender" for h in selection.available)}
     ran_hosts = tuple(r.name for r, cached in checked if not cached)
     rendered, views_checked = [*rendered, *m_rendered], [*results.values(), *frames.values()]
     items = ItemsUsed(ItemNames(tuple(cast + m_cast), tuple(rendered), ran_hosts),
@@ -283,6 +317,5 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
                                 tuple(r.name for r, cached in checked if cached)))
     return combine(Checked(layer, scene, lut, tuple(notes), tuple(views_checked), host_results, items,
                            (width, height), time.perf_counter() - t, t_start, motion_entry), out, bench_dir=bench_dir,
-                   beauty={**settings(beauty), "cycles_ok": named and any(h.name == "blender" for h in
-                                                                           selection.available)},
+                   pictures=lambda: _pictures(cache, layer, scene, lut, digest, beauty, out),
                    published_asset=published_asset)

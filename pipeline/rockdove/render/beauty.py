@@ -119,12 +119,13 @@ def cyclorama(scene, views, segments: int = 96) -> tuple[np.ndarray, np.ndarray]
 def settings(overrides=None) -> dict:
     """The ``[beauty]`` settings: the schema's defaults (schemas/config.schema.json) under ``overrides``, checked
     against its ranges (ValueError naming the key)."""
-    from ..config import defaults
+    from ..config import defaults, limits
 
     out = {**defaults()["beauty"], **{k: v for k, v in (overrides or {}).items() if v is not None}}
     if out["renderer"] not in RENDERERS:
         raise UsageError(f"beauty.renderer: {out['renderer']!r} is not one of {', '.join(RENDERERS)}")
-    for key, lo in (("width", 64), ("height", 64), ("samples", 1)):
-        if not isinstance(out[key], int) or isinstance(out[key], bool) or not lo <= out[key] <= 4096:
-            raise UsageError(f"beauty.{key}: {out[key]!r} is not an integer from {lo} to 4096")
+    for key in ("width", "height", "samples", "animation_frames"):
+        lo, hi = limits(f"beauty.{key}")
+        if not isinstance(out[key], int) or isinstance(out[key], bool) or not lo <= out[key] <= hi:
+            raise UsageError(f"beauty.{key}: {out[key]!r} is not an integer from {lo} to {hi}")
     return out

@@ -7,8 +7,9 @@ substitutes the buffers' locations for the shader's ``*_LOC`` names. Textures ar
 (pyrender's would quantise to 8 bits): the LUT ``GL_RGB32F``, base and mask decoded to linear on the CPU, linear
 filtering, clamp-to-edge, units 0-2, bound with the per-part uniforms before each draw. The framebuffer is rockdove's
 too: three ``GL_RGBA32F`` attachments (radiance + coverage; part id, view depth, cos_theta, thickness; N.L, mask,
-st) and a float depth buffer, read back as floats. No multisampling: every pixel is the shading at its centre, which
-the verifier compares with the CPU reference. Parts are drawn in scene order (pyrender's own order comes from a
+st) and a float depth buffer, read back as floats. No multisampling by default: every pixel is the shading at its
+centre, which the verifier compares with the CPU reference; pictures (the beauty, the light-turning animation) ask
+for multisampling with alpha-to-coverage (:meth:`GLRenderer.render`). Parts are drawn in scene order (pyrender's own order comes from a
 set, which made pixels where two parts tie in depth differ between processes).
 """
 
@@ -67,8 +68,9 @@ def _program_cache():
     return ThinFilmProgramCache(shader_dir=str(resources.path("materials/glsl")))
 
 
-def _upload_float_texture(image: np.ndarray) -> int:
-    """Upload a float image, (H, W, 1|3|4) with row 0 = t = 0 (bottom), as a GL float texture (linear, clamped)."""
+def _upload_float_texture(image: np.ndarray, mipmaps: bool = False) -> int:
+    """Upload a float image, (H, W, 1|3|4) with row 0 = t = 0 (bottom), as a GL float texture (linear, clamped;
+    trilinear over a mip chain with ``mipmaps``)."""
     from OpenGL import GL
 
     data = np.ascontiguousarray(image, dtype=np.float32)
@@ -79,11 +81,41 @@ def _upload_float_texture(image: np.ndarray) -> int:
     GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 1)
     GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, internal, data.shape[1], data.shape[0], 0, fmt, GL.GL_FLOAT, data)
     GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 4)
-    for p, v in ((GL.GL_TEXTURE_MIN_FILTER, GL.GL_LINEAR), (GL.GL_TEXTURE_MAG_FILTER, GL.GL_LINEAR),
+    if mipmaps:
+        GL.glGenerateMipmap(GL.GL_TEXTURE_2D)
+    for p, v in ((GL.GL_TEXTURE_MIN_FILTER, GL.GL_LINEAR_MIPMAP_LINEAR if mipmaps else GL.GL_LINEAR),
+                 (GL.GL_TEXTURE_MAG_FILTER, GL.GL_LINEAR),
                  (GL.GL_TEXTURE_WRAP_S, GL.GL_CLAMP_TO_EDGE), (GL.GL_TEXTURE_WRAP_T, GL.GL_CLAMP_TO_EDGE)):
         GL.glTexParameteri(GL.GL_TEXTURE_2D, p, v)
     GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
     return int(tex)
+
+
+def _framebuffer(width, height, samples) -> tuple[int, list[int]]:
+    """A framebuffer of three ``GL_RGBA32F`` colour attachments and a float depth buffer, ``samples`` per pixel."""
+    from OpenGL import GL
+
+    def storage(fmt):
+        rb = GL.glGenRenderbuffers(1)
+        GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, rb)
+        if samples > 1:
+            GL.glRenderbufferStorageMultisample(GL.GL_RENDERBUFFER, samples, fmt, width, height)
+        else:
+            GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, fmt, width, height)
+        return int(rb)
+
+    fbo = GL.glGenFramebuffers(1)
+    GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fbo)
+    rbs = [storage(GL.GL_RGBA32F) for _ in range(3)] + [storage(GL.GL_DEPTH_COMPONENT32F)]
+    for k, rb in enumerate(rbs):
+        at = GL.GL_DEPTH_ATTACHMENT if k == 3 else GL.GL_COLOR_ATTACHMENT0 + k
+        GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, at, GL.GL_RENDERBUFFER, rb)
+    GL.glDrawBuffers(3, [GL.GL_COLOR_ATTACHMENT0 + k for k in range(3)])
+    status = GL.glCheckFramebufferStatus(GL.GL_FRAMEBUFFER)
+    GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
+    if status != GL.GL_FRAMEBUFFER_COMPLETE:
+        raise RuntimeError(f"float framebuffer ({samples} samples) incomplete (status {status:#x})")
+    return int(fbo), rbs
 
 
 @dataclass
@@ -101,7 +133,8 @@ class GLRenderer:
     Use as a context manager or call :meth:`delete` (a pyrender scene must not be bound to two live renderers).
     """
 
-    def __init__(self, scene: RenderScene, lut=None, angle_mode: str = "physical", width: int = 512, height: int = 512):
+    def __init__(self, scene: RenderScene, lut=None, angle_mode: str = "physical", width: int = 512, height: int = 512,
+                 mipmaps: bool = False):
         if angle_mode not in ANGLE_MODES:
             raise UsageError(f"angle_mode={angle_mode!r} is not allowed; use one of {sorted(ANGLE_MODES)}")
         if not isinstance(scene, RenderScene):
@@ -110,9 +143,11 @@ class GLRenderer:
 
         pyrender = import_pyrender()
         self.scene = scene
-        self.angle_mode = angle_mode
+        self.angle_mode, self.mipmaps = angle_mode, mipmaps
         self.lut = lut if lut is not None else (scene.load_lut() if scene.film is not None else None)
-        self._fbo = self._fbo_size = self._view = None
+        self._fbo = self._fbo_size = self._view = self._resolve = None
+        self._buffers = 3
+        self._fbos: dict[tuple, tuple] = {}
         self._deleted = False
 
         self._pr_scene = pyrender.Scene(bg_color=np.zeros(4), ambient_light=np.zeros(3))
@@ -161,12 +196,13 @@ class GLRenderer:
                     rgba[..., :3] = img[..., :3] if img.shape[2] >= 3 else img[..., :1]
                     if img.shape[2] in (2, 4):
                         rgba[..., 3] = img[..., -1]
-                    cache[key] = _upload_float_texture(rgba[::-1])
+                    cache[key] = _upload_float_texture(rgba[::-1], self.mipmaps)
                 pg.base_tex = cache[key]
             if p.mask_texture:
                 key = (p.mask_texture, "mask")
                 if key not in cache:
-                    cache[key] = _upload_float_texture(read_texture(p.mask_texture, srgb=False)[::-1, :, :1])
+                    cache[key] = _upload_float_texture(read_texture(p.mask_texture, srgb=False)[::-1, :, :1],
+                                                       self.mipmaps)
                 pg.mask_tex = cache[key]
         self._textures = list(cache.values())
         self._lut_tex = None
@@ -174,50 +210,39 @@ class GLRenderer:
             self._lut_tex = _upload_float_texture(self.lut.rgb)
             self._textures.append(self._lut_tex)
 
-    def _ensure_fbo(self, width, height):
-        from OpenGL import GL
-
-        if self._fbo is not None and self._fbo_size == (width, height):
-            return
-        self._delete_fbo()
-        fbo = GL.glGenFramebuffers(1)
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fbo)
-        colour = GL.glGenRenderbuffers(3)
-        for k, rb in enumerate(colour):
-            GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, rb)
-            GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, GL.GL_RGBA32F, width, height)
-            GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, GL.GL_COLOR_ATTACHMENT0 + k, GL.GL_RENDERBUFFER, rb)
-        depth = GL.glGenRenderbuffers(1)
-        GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, depth)
-        GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, GL.GL_DEPTH_COMPONENT32F, width, height)
-        GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, GL.GL_DEPTH_ATTACHMENT, GL.GL_RENDERBUFFER, depth)
-        GL.glDrawBuffers(3, [GL.GL_COLOR_ATTACHMENT0 + k for k in range(3)])
-        status = GL.glCheckFramebufferStatus(GL.GL_FRAMEBUFFER)
-        if status != GL.GL_FRAMEBUFFER_COMPLETE:
-            raise RuntimeError(f"float framebuffer incomplete (status {status:#x})")
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, 0)
-        self._fbo, self._rbs, self._fbo_size = int(fbo), [int(c) for c in colour] + [int(depth)], (width, height)
+    def _ensure_fbo(self, width, height, samples=1):
+        """Make the framebuffers of this size current (kept for the renderer's life: pictures alternate sizes)."""
+        self._fbo_size = key = (width, height, samples)
+        if key not in self._fbos:
+            fbo, rbs = _framebuffer(width, height, samples)
+            resolve = None
+            if samples > 1:  # drawn multisampled, resolved (each buffer's mean over the pixel's samples) to read
+                resolve, more = _framebuffer(width, height, 1)
+                rbs += more
+            self._fbos[key] = (fbo, resolve, rbs)
+        self._fbo, self._resolve, _ = self._fbos[key]
 
     def _delete_fbo(self):
         from OpenGL import GL
 
-        if self._fbo is not None:
-            GL.glDeleteFramebuffers(1, [self._fbo])
-            GL.glDeleteRenderbuffers(len(self._rbs), self._rbs)
-            self._fbo = None
+        for fbo, resolve, rbs in self._fbos.values():
+            GL.glDeleteFramebuffers(2 if resolve else 1, [fbo, resolve][:2 if resolve else 1])
+            GL.glDeleteRenderbuffers(len(rbs), rbs)
+        self._fbos.clear()
 
     def _configure_viewport(self, flags):
         """Replaces pyrender's forward-pass set-up: draw into the float framebuffer."""
         from OpenGL import GL
 
         GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, self._fbo)
-        GL.glDrawBuffers(3, [GL.GL_COLOR_ATTACHMENT0 + k for k in range(3)])
-        GL.glViewport(0, 0, *self._fbo_size)
+        GL.glDrawBuffers(3, [GL.GL_COLOR_ATTACHMENT0 + k if k < self._buffers else GL.GL_NONE for k in range(3)])
+        GL.glViewport(0, 0, *self._fbo_size[:2])
         GL.glEnable(GL.GL_DEPTH_TEST)
         GL.glDepthMask(GL.GL_TRUE)
         GL.glDepthFunc(GL.GL_LESS)
         GL.glDepthRange(0.0, 1.0)
-        GL.glDisable(GL.GL_MULTISAMPLE)
+        for cap in (GL.GL_MULTISAMPLE, GL.GL_SAMPLE_ALPHA_TO_COVERAGE, GL.GL_SAMPLE_ALPHA_TO_ONE):
+            (GL.glEnable if self._resolve else GL.glDisable)(cap)
 
     def _bind_part(self, pg: _PartGL, program):
         from OpenGL import GL
@@ -231,6 +256,7 @@ class GLRenderer:
         set_("u_light_rgb", view.light_rgb.astype(np.float32))
         set_("u_base_colour", np.asarray(p.base_colour, np.float32))
         set_("u_alpha_threshold", float(p.opacity_threshold))
+        set_("u_alpha_to_coverage", 1 if self._resolve else 0)
         set_("u_has_base_tex", 1 if pg.base_tex is not None else 0)
         set_("u_has_mask_tex", 1 if pg.mask_tex is not None else 0)
         for unit, tex, name in ((UNIT_BASE, pg.base_tex, "u_base_tex"), (UNIT_MASK, pg.mask_tex, "u_mask_tex"),
@@ -252,39 +278,58 @@ class GLRenderer:
         zfar = max(d + 1.5 * radius, 1e-3)
         return max(d - 1.5 * radius, zfar * 1e-4), zfar
 
-    def render(self, view: View) -> RenderResult:
-        """Render one view into float buffers and read them back."""
+    def render(self, view: View, samples: int = 1) -> RenderResult:
+        """Render one view into float buffers and read them back. ``samples`` > 1 (at most ``GL_MAX_SAMPLES``, 4 on
+        llvmpipe): multisampled, card cut-outs by alpha-to-coverage, every buffer the mean of the pixel's samples
+        (pictures, not the verification: part ids and depths at edges are blends)."""
+        t0 = time.perf_counter()
+        (rad, aux, inputs), c = self._draw(view, samples, 3), np.ascontiguousarray
+        return RenderResult(view, c(rad[..., :3]), c(rad[..., 3]), np.rint(aux[..., 0]).astype(np.int16),
+                            c(aux[..., 1]), c(aux[..., 2]), c(aux[..., 3]), c(inputs[..., 0]), c(inputs[..., 1]),
+                            c(inputs[..., 2:4]), tuple(p.name for p in self.scene.parts), time.perf_counter() - t0)
+
+    def render_radiance(self, view: View, samples: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`render`'s radiance (H, W, 3) and coverage (H, W) alone (a picture's frame: the other buffers are
+        neither resolved nor read back)."""
+        rad = self._draw(view, samples, 1)[0]
+        return np.ascontiguousarray(rad[..., :3]), np.ascontiguousarray(rad[..., 3])
+
+    def _draw(self, view: View, samples: int, buffers: int) -> list:
+        """Draw ``view`` and read back the first ``buffers`` attachments, (H, W, 4) float32 each, row 0 at the top."""
         from OpenGL import GL
         from pyrender.constants import RenderFlags
 
         if self._deleted:
             raise UsageError("this GLRenderer was deleted; create a new one")
-        t0 = time.perf_counter()
         w, h = view.width, view.height
         self._offscreen._platform.make_current()
         inner = self._offscreen._renderer
         self._offscreen.viewport_width = inner.viewport_width = w
         self._offscreen.viewport_height = inner.viewport_height = h
-        self._ensure_fbo(w, h)
+        self._ensure_fbo(w, h, int(samples))
         self._camera.yfov = view.yfov_rad
         self._camera.aspectRatio = w / h
         self._camera.znear, self._camera.zfar = self._clip_planes(view)
         self._pr_scene.set_pose(self._camera_node, view.camera_to_world)
-        self._view = view
+        self._view, self._buffers = view, buffers  # only those drawn (each costs memory traffic, per sample)
         inner.render(self._pr_scene, RenderFlags.NONE)
-        GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self._fbo)
+        read = self._resolve or self._fbo
+        for k in range(buffers) if self._resolve else ():
+            GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self._fbo)
+            GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, read)
+            GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0 + k)
+            GL.glDrawBuffer(GL.GL_COLOR_ATTACHMENT0 + k)
+            GL.glBlitFramebuffer(0, 0, w, h, 0, 0, w, h, GL.GL_COLOR_BUFFER_BIT, GL.GL_NEAREST)
+        GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, read)
         bufs = []
-        for k in range(3):
+        for k in range(buffers):
             GL.glReadBuffer(GL.GL_COLOR_ATTACHMENT0 + k)
             raw = GL.glReadPixels(0, 0, w, h, GL.GL_RGBA, GL.GL_FLOAT)
             a = np.frombuffer(raw, np.float32) if isinstance(raw, bytes) else np.asarray(raw, np.float32)
             bufs.append(a.reshape(h, w, 4)[::-1])
         GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, 0)
         GL.glBindFramebuffer(GL.GL_DRAW_FRAMEBUFFER, 0)
-        (rad, aux, inputs), c = bufs, np.ascontiguousarray
-        return RenderResult(view, c(rad[..., :3]), c(rad[..., 3]), np.rint(aux[..., 0]).astype(np.int16),
-                            c(aux[..., 1]), c(aux[..., 2]), c(aux[..., 3]), c(inputs[..., 0]), c(inputs[..., 1]),
-                            c(inputs[..., 2:4]), tuple(p.name for p in self.scene.parts), time.perf_counter() - t0)
+        return bufs
 
     def delete(self):
         """Free the GL resources and the offscreen context."""

@@ -60,3 +60,26 @@ def contact_sheet(path, rows, label_px: int = 28, background=(32, 32, 32)) -> st
             else:
                 sheet.paste(tile, (c * w, y + label_px))
     return save_png(np.asarray(sheet), path)
+
+
+def write_webp(frames, path, fps: float, *, quality: int = 90, lossless: bool = False) -> str:
+    """Write ``frames`` (a sequence of at least one uint8 (H, W, 3) image, all one size, row 0 at the top) to
+    ``path`` as an animated WebP that loops forever at ``fps`` frames a second (Pillow, ``save_all``), atomically
+    (:func:`rockdove.resources.atomic_path`); ``quality`` of the lossy encoding (0-100), or ``lossless``. Browsers
+    play it inline in an ``<img>``. Returns the path."""
+    from PIL import Image
+
+    from ..resources import atomic_path
+
+    frames = [np.asarray(f) for f in frames]
+    if not frames or any(f.dtype != np.uint8 or f.ndim != 3 or f.shape[2] != 3 or f.shape != frames[0].shape
+                         for f in frames):
+        raise UsageError("frames must be one or more uint8 (H, W, 3) images of one size, got "
+                         f"{sorted({(str(f.dtype), f.shape) for f in frames})}")
+    if not 0 < fps <= 100:
+        raise UsageError(f"fps must be in (0, 100], got {fps!r}")
+    first, *rest = (Image.fromarray(np.ascontiguousarray(f)) for f in frames)
+    with atomic_path(path) as tmp:
+        first.save(tmp, format="WEBP", save_all=True, append_images=rest, duration=round(1000 / fps), loop=0,
+                   quality=quality, lossless=lossless, method=4)
+    return str(path)

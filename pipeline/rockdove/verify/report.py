@@ -2,7 +2,7 @@
 ``<view>_gl.png`` and ``<view>_reference.png`` (through :func:`rockdove.srgb.linear_to_srgb8`), ``<view>_dE.png``
 (the dE2000 map pixel for pixel, with a colour bar; grey where not compared), ``contact_sheet.png`` (a row per view:
 GL | reference | dE), ``lut.png``, ``spectra.png`` (film reflectance), ``hue.png`` (hue histogram across the light
-sweep), ``bench_*.png`` (from ``rockdove verify --bench-dir DIR``), ``report.json`` and ``report.html``.
+sweep), ``light_turn.webp`` (the light turning round the bird), ``bench_*.png`` (from ``rockdove verify --bench-dir DIR``), ``report.json`` and ``report.html``.
 
 The dE maps are drawn with Pillow; the charts with matplotlib's object API (``Figure`` + ``FigureCanvasAgg``),
 which needs no display and leaves pyplot's global state alone.
@@ -279,7 +279,8 @@ def _figure_row(title: str, files: dict, captions: dict) -> str:
 class Figures:
     """The report's image files, relative to the page: ``views`` ``{view: {"gl", "reference", "dE": file}}``,
     ``hosts`` ``{host: {view: {"host", "reference", "dE": file}}}``, the contact sheet, LUT, spectra and hue
-    charts, benchmark plots, the ``beauty`` entry (:func:`rockdove.hosts.beauty.render_beauty`), the viewer page."""
+    charts, benchmark plots, the ``beauty`` entry (:func:`rockdove.hosts.beauty.render_beauty`), the ``animation``
+    entry (:func:`rockdove.render.animation.for_report`), the viewer page."""
 
     views: dict = field(default_factory=dict)
     hosts: dict = field(default_factory=dict)
@@ -289,6 +290,7 @@ class Figures:
     hue: str | None = None
     bench: list = field(default_factory=list)
     beauty: dict | None = None
+    animation: dict | None = None
     viewer: str | None = None
 
 
@@ -301,6 +303,14 @@ def _beauty(images: Figures) -> str:
     figs = "".join(f"<figure><img src='{e(f)}' alt='beauty render, {e(name)}' style='image-rendering:auto'></figure>"
                    for name, f in b["files"].items())
     return f"<div class='row'>{figs}</div><p><small>Beauty render: {e(b['caption'])}</small></p>"
+
+
+def _animation(images: Figures) -> str:
+    """The light-turning animation (:func:`rockdove.render.animation.for_report`): the WebP plays inline."""
+    a, e = images.animation, html.escape
+    return (f"<h2>The shimmer moving</h2><figure><img src='{e(a['files']['light_turn'])}' alt='the light turning "
+            f"round the bird' style='image-rendering:auto'><figcaption>{e(a['caption'])}</figcaption></figure>"
+            if a else "")
 
 
 def write_html(path, report: Report, images: Figures) -> str:
@@ -316,7 +326,7 @@ def write_html(path, report: Report, images: Figures) -> str:
         "figcaption{font-size:100%;color:#222}h1{font-size:1.6em}"
         ".viewer{width:100%;height:600px;border:1px solid #ccc}</style></head><body>",
         f"<h1>rockdove verification: <span style='color:{colour}'>{status}</span></h1>" + _beauty(images)
-        + _list("Notes", report.notes),
+        + _animation(images) + _list("Notes", report.notes),
         f"<p>Asset: <code>{e(report.asset)}</code><br>",
         f"Configuration hash: <code>{e(str(report.configuration_hash or 'not recorded'))}</code><br>",
         f"Goals: median dE2000 &le; {goals['median_dE']}, "

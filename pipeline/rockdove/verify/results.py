@@ -132,11 +132,13 @@ class HostResult:
 
 @dataclass(frozen=True)
 class ItemNames:
-    """The verification's cache items of one run by kind: surfaces (camera keys), views and hosts (names)."""
+    """The verification's cache items of one run by kind: surfaces (camera keys), views, hosts and the report's
+    pictures (names)."""
 
     surfaces: tuple[str, ...] = ()
     views: tuple[str, ...] = ()
     hosts: tuple[str, ...] = ()
+    pictures: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -194,6 +196,7 @@ class Report(_Record):
     versions: dict
     argv: tuple[str, ...]
     motion: dict | None = None
+    animation: dict | None = None  # the light turning round the bird (rockdove.render.animation.for_report)
 
     @classmethod
     def from_json(cls, data: dict) -> Report:

@@ -12,7 +12,7 @@ import shutil
 import sys
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -104,10 +104,12 @@ def figures(checked: Checked, out: str, hue: compare.HueHistogram) -> tuple[repo
     return images, lut_info, failures
 
 
-def combine(checked: Checked, out: str, *, bench_dir, beauty, published_asset) -> Report:
+def combine(checked: Checked, out: str, *, bench_dir, pictures, published_asset) -> Report:
     """Validate the asset and join what was checked into the verdict and the report (``report.json``,
     ``report.html`` and their images in the folder ``out``). ``bench_dir``: benchmark plots the report shows
-    (None: none; the report reads no folder it is not given); ``beauty``: the opening picture's settings."""
+    (None: none; the report reads no folder it is not given); ``pictures``: a callable returning the pictures the
+    report shows (beauty, animation: ``{kind: (entry, note)}``) with the kinds drawn and reused, called while the
+    validation runs."""
     layer, scene, views = checked.layer, checked.scene, checked.views
     _log.info("validating")
     # in a thread, while this one draws the report (pxr's validators and the charts' PNG encoding leave the GIL
@@ -131,14 +133,18 @@ def combine(checked: Checked, out: str, *, bench_dir, beauty, published_asset) -
     failures += lut_failures + host_failures(checked.hosts)
     timings["hosts"] = checked.hosts_seconds
     images.bench = report.copy_bench_plots(out, bench_dir) if bench_dir is not None else []
-    if beauty is not None:
-        from ..hosts.beauty import for_report
-
-        _log.info("beauty render")
-        images.beauty, note = for_report(layer, scene, out, beauty, cycles_ok=beauty.get("cycles_ok", False),
-                                         lut=checked.lut)
-        notes.extend([note] if note else [])
-        timings["beauty"] = images.beauty["seconds"] if images.beauty else 0.0
+    items = checked.items
+    if pictures is not None:  # the beauty render and the animation (rockdove.graph.verification: cached items)
+        _log.info("beauty render and animation")
+        t_pictures = time.perf_counter()
+        drawn, ran, reused = pictures()
+        for kind, (entry, note) in drawn.items():
+            setattr(images, kind, entry)
+            notes.extend([note] if note else [])
+            timings[kind] = entry["seconds"] if entry else 0.0
+        timings["pictures"] = time.perf_counter() - t_pictures
+        items = replace(items, ran=replace(items.ran, pictures=ran),
+                                    reused=replace(items.reused, pictures=reused))
     timings["report"] = time.perf_counter() - t
     validation, timings["validation"] = validation_pending.result()
     if not validation.passed:
@@ -154,9 +160,9 @@ def combine(checked: Checked, out: str, *, bench_dir, beauty, published_asset) -
         failures=tuple(failures), notes=tuple(notes),
         goals={"median_dE": compare.MEDIAN_DE_GOAL, "p95_dE": compare.P95_DE_GOAL,
                "black_fraction": compare.BLACK_FRACTION_GOAL, "min_hue_fraction": MIN_HUE_FRACTION},
-        validation=validation, views=metrics, views_reused=checked.items.reused.views, cache=checked.items,
+        validation=validation, views=metrics, views_reused=checked.items.reused.views, cache=items,
         view_setup=tuple(r.setup for r in views), reference=tuple(r.reference for r in views), hue_sweep=hue,
-        hosts=checked.hosts, anatomy=anatomy, beauty=images.beauty,
+        hosts=checked.hosts, anatomy=anatomy, beauty=images.beauty, animation=images.animation,
         boundary={"per_view": {r.view: r.boundary for r in views if r.sweep},
                   "method": "TLS line through green/purple boundary points; RMS perpendicular distance (px) "
                             "and RMS / boundary length; coherence and curvature: rockdove.verify.boundary"},
