@@ -51,8 +51,8 @@ def test_the_light_turns_and_the_neck_colour_moves(small_asset, tmp_path):
     shares, coloured = [], []
     for f in frames:
         h = hue_histogram(srgb_decode(f.reshape(-1, 3) / 255.0))
-        coloured.append(h["green"] + h["purple"])
-        shares.append(h["green"] / max(1, h["green"] + h["purple"]))
+        coloured.append(h.green + h.purple)
+        shares.append(h.green / max(1, h.green + h.purple))
     assert min(coloured[:6]) > 200, coloured  # the neck fills the frame while lit from the camera's side
     lit = [s for s, n in zip(shares, coloured) if n > 100]
     assert max(lit) > 0.4 and min(lit) < 0.2 and max(lit) - min(lit) > 0.3, np.round(shares, 2).tolist()

@@ -159,6 +159,9 @@ def test_verify_checks_the_walk_measures_and_its_frames(small_asset, tmp_path):
     views = {v.view: v for v in result.report.views}
     assert {"walk021_sweep_090", "walk021_turntable_030"} <= set(views) and views["walk021_sweep_090"].n_pixels
     assert all(views[n].passed for n in motion["views"])
+    a = motion["animation"]  # one stride of the walk as an animated WebP, shown in the report
+    assert a["frames"] == 12 and (tmp_path / "v" / a["file"]).is_file()
+    assert f"<img src='{a['file']}'" in (tmp_path / "v" / "report.html").read_text()
 
 
 def test_verify_and_render_name_a_bad_motion_or_time(small_asset, tmp_path):

@@ -224,7 +224,7 @@ def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[dict,
     views (``{view: ViewResult}``) and their items: surfaces cast, kept, views rendered."""
     from ..render.scene import load_scene
     from ..verify.inputs import scene_digest
-    from ..verify.motion import frame_views, measure_motion
+    from ..verify.motion import animation, frame_views, measure_motion
 
     _log.info(f"motion {motion}: measured at every time code")
     entry = {**measure_motion(layer, motion), "times": list(times), "views": []}
@@ -240,6 +240,11 @@ def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[dict,
         entry["views"] += list(frame)
         for into, names in zip(items, (cast, kept, rendered)):
             into += names
+    _log.info(f"motion {motion}: its animation")
+    try:  # a picture, not a measurement: the report goes on without it
+        entry["animation"] = animation(layer, motion, out, lut)
+    except Exception as exc:  # noqa: BLE001 - any renderer's error
+        entry["notes"] = [f"no {motion} animation: {type(exc).__name__}: {exc}"]
     return entry, results, items
 
 
