@@ -40,7 +40,7 @@ def real_build(out, cache, *sets, preset="measured", verify=False) -> Path:
     from rockdove import api
 
     config = api.load_config(preset=preset, overrides=[*SMALL_BUILD, *sets])
-    return api.build(config, out, cache=cache, verify=verify, quiet=True).out
+    return api.build(config, out, cache=cache, verify=verify).out
 
 
 def built_value(asset, stage: str, cache=None):

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from rockdove.hosts import blender
+from rockdove.hosts import bpy_runner as blender
 from rockdove.hosts import beauty as HB
 from rockdove.render import beauty as B
 from rockdove.render.scene import load_scene

@@ -13,10 +13,11 @@ import pytest
 from rockdove import resources
 from rockdove.hosts import HostError
 from rockdove.hosts import blender as host
+from rockdove.hosts import bpy_runner as runner
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-needs_bpy = pytest.mark.skipif(host.unavailable() is not None, reason=str(host.unavailable()))
-_BPY_PYTHON = None if host.unavailable() else host.bpy_python()
+needs_bpy = pytest.mark.skipif(runner.unavailable() is not None, reason=str(runner.unavailable()))
+_BPY_PYTHON = None if runner.unavailable() else runner.bpy_python()
 
 
 def _rockdove(*args):
@@ -51,7 +52,7 @@ def test_cli_writes_the_addon_and_rejects_a_file_as_out(tmp_path):
 
 
 def test_host_declares_the_interface():
-    assert (host.NAME, host.VARIANT, host.LOBE) == ("blender", "physical", "view_angle")
+    assert (host.HOST.name, host.HOST.variant, host.HOST.lobe) == ("blender", "physical", "view_angle")
     assert callable(host.render)
 
 
@@ -59,10 +60,10 @@ def test_host_declares_the_interface():
 @pytest.fixture
 def elsewhere(tmp_path, monkeypatch):
     """rockdove run from a venv ``tmp/.venv`` and a package outside any checkout, ROCKDOVE_BPY_PYTHON unset."""
-    monkeypatch.delenv(host.BPY_PYTHON_ENV, raising=False)
+    monkeypatch.delenv(runner.BPY_PYTHON_ENV, raising=False)
     monkeypatch.setattr(sys, "prefix", str(tmp_path / ".venv"))
     monkeypatch.setattr(resources, "folder", lambda name: tmp_path / "site" / "rockdove" / name)
-    monkeypatch.setattr(host.importlib.util, "find_spec", lambda name, *a: None if name == "bpy" else _find(name, *a))
+    monkeypatch.setattr(runner.importlib.util, "find_spec", lambda name, *a: None if name == "bpy" else _find(name, *a))
     return tmp_path
 
 
@@ -70,13 +71,13 @@ _find = importlib.util.find_spec
 
 
 def test_without_bpy_the_reason_names_where_it_looked_and_how_to_point_rockdove_at_one(elsewhere, monkeypatch):
-    why = host.unavailable()
+    why = runner.unavailable()
     assert f"no .venv-bpy at {elsewhere}/.venv-bpy, {elsewhere}/site/rockdove/.venv-bpy" in why
     assert "set ROCKDOVE_BPY_PYTHON=" in why and "make test" in why
     with pytest.raises(HostError, match="ROCKDOVE_BPY_PYTHON"):
-        host.bpy_python()
-    monkeypatch.setenv(host.BPY_PYTHON_ENV, sys.executable)  # a Python without bpy
-    assert f"$ROCKDOVE_BPY_PYTHON={sys.executable} has no bpy; set" in host.unavailable()
+        runner.bpy_python()
+    monkeypatch.setenv(runner.BPY_PYTHON_ENV, sys.executable)  # a Python without bpy
+    assert f"$ROCKDOVE_BPY_PYTHON={sys.executable} has no bpy; set" in runner.unavailable()
 
 
 @needs_bpy
@@ -86,15 +87,15 @@ def test_bpy_python_finds_the_venv_make_made_beside_this_venv(elsewhere, monkeyp
     made.parent.mkdir(parents=True)
     made.write_text(f'#!/bin/sh\nexec "{real}" "$@"\n')  # a venv's python, as far as running it goes
     made.chmod(0o755)
-    assert host.unavailable() is None and host.bpy_python() == str(made)
-    monkeypatch.setenv(host.BPY_PYTHON_ENV, real)  # a setting wins over the place
-    assert host.bpy_python() == real
+    assert runner.unavailable() is None and runner.bpy_python() == str(made)
+    monkeypatch.setenv(runner.BPY_PYTHON_ENV, real)  # a setting wins over the place
+    assert runner.bpy_python() == real
 
 
 def test_rockdove_in_the_checkouts_venv_finds_the_checkouts_bpy_venv_with_no_setting():
-    env = {k: v for k, v in os.environ.items() if k != host.BPY_PYTHON_ENV}
+    env = {k: v for k, v in os.environ.items() if k != runner.BPY_PYTHON_ENV}
     exe = os.path.join(os.path.dirname(sys.executable), "python")
-    p = subprocess.run([exe, "-c", "from rockdove.hosts import blender as b; print(b.unavailable())"],
+    p = subprocess.run([exe, "-c", "from rockdove.hosts import bpy_runner as b; print(b.unavailable())"],
                        capture_output=True, text=True, env=env, cwd="/", timeout=120)
     has = os.path.exists(os.path.join(ROOT, ".venv-bpy", "bin", "python"))
     assert p.stdout.strip() == "None" if has else f"no .venv-bpy at {ROOT}/.venv-bpy" in p.stdout, p
@@ -228,7 +229,7 @@ def test_film_record_survives_blender_import_and_export_through_user_properties(
     user = tmp_path / "user"
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), BLENDER_USER_SCRIPTS=str(user / "scripts"),
                BLENDER_USER_CONFIG=str(user / "config"), BLENDER_USER_EXTENSIONS=str(user / "extensions"))
-    p = subprocess.run([host.bpy_python(), "-c", ROUND_TRIP, asset["interface"], out, host.addon_zip(tmp_path)],
+    p = subprocess.run([runner.bpy_python(), "-c", ROUND_TRIP, asset["interface"], out, host.addon_zip(tmp_path)],
                        capture_output=True, text=True, env=env, timeout=300, cwd=tmp_path)
     assert p.returncode == 0, p.stderr[-2000:]
     imported = [ln for ln in p.stdout.splitlines() if ln.startswith("IMPORTED")][0].split()

@@ -20,6 +20,7 @@ import pytest
 
 from rockdove import resources
 from rockdove.hosts import blender as host
+from rockdove.hosts import bpy_runner as runner
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 ADDON = resources.path("materials/blender/rockdove_blender/__init__.py")
@@ -29,7 +30,7 @@ NECK = "/Pigeon/Geom/NeckFeathers"
 def _wheel(version):
     """The Python of ``make``'s bpy venv for ``version`` (None: the blender host's, 5.0.1)."""
     if version is None:
-        return None if host.unavailable() else host.bpy_python()
+        return None if runner.unavailable() else runner.bpy_python()
     exe = os.path.join(ROOT, f".venv-bpy-{version}", "bin", "python")
     return exe if os.path.exists(exe) else None
 

@@ -222,8 +222,36 @@ def test_modules_named_by_strings_are_followed_and_the_digest_is_remembered_unti
     assert G.source_digest(stage) not in (first, second)
 
 
+
+def test_a_module_named_at_run_time_is_warned_about_and_the_package_has_none(tmp_path, monkeypatch):
+    """A dynamic import the key cannot follow (``import_module(name)``) warns naming its file and line; one named
+    by a literal is followed without a warning; no stage and no registered host of rockdove reaches one."""
+    import warnings
+
+    from rockdove import hosts
+    from rockdove.graph import stages
+    from rockdove.verify.host_check import check_host
+
+    real = [G.source_digest(s) for s in stages.make_stages(_cfg())]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        monkeypatch.setattr(sources, "_MEMO", {})
+        assert [G.source_digest(s) for s in stages.make_stages(_cfg())] == real
+        for host in hosts.HOSTS.values():
+            sources.digest([host.render, check_host])
+    plugins = "import importlib\n\n\ndef load(name):\n    return importlib.import_module(name)\n"
+    root = _fake_package(tmp_path, monkeypatch, {**FAKE, "plugins.py": plugins,
+                                                 "wiring.py": "def run(ctx):\n    from . import plugins\n"})
+    stage = G.Stage("s", _function(root / "wiring.py", "run"))
+    with pytest.warns(sources.DynamicImportWarning, match=r"plugins.py line 5 imports a module named at run time"):
+        G.source_digest(stage)
+    (root / "plugins.py").write_text(plugins.replace("import_module(name)", "import_module('rockdove.sdf')"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert "rockdove/sdf.py" in G.source_digest(stage, record=True)[1]["files"]
+
 def test_the_real_stages_are_keyed_by_the_code_they_reach_and_not_by_what_they_do_not():
-    """The stale keys issue 24 found: texture_images reaches spectral, geometry.sdf and geometry.neck; usd_geometry
+    """The stale keys issue 24 found: texture_images reaches srgb, geometry.sdf and geometry.neck; usd_geometry
     geometry.types; gltf geometry.types and usd.schema. None of the stages reaches the CLI, the commands, the API
     or the benchmarks, and the LUT reaches no geometry (a geometry edit reuses the bake)."""
     from rockdove.graph import stages
@@ -232,7 +260,7 @@ def test_the_real_stages_are_keyed_by_the_code_they_reach_and_not_by_what_they_d
     files = {name: {f.removeprefix("rockdove/")
                     for f in G.source_digest(s, [graph[d] for d in s.deps], record=True)[1]["files"]}
              for name, s in graph.items()}
-    assert {"spectral.py", "geometry/sdf.py", "geometry/neck.py", "textures.py"} <= files["texture_images"]
+    assert {"srgb.py", "geometry/sdf.py", "geometry/neck.py", "textures.py"} <= files["texture_images"]
     assert "geometry/types.py" in files["usd_geometry"]
     assert {"geometry/types.py", "usd/schema.py", "web/gltf.py"} <= files["gltf"]
     assert {"verify/run.py", "render/gl.py", "verify/gl_renders.py", "hosts/glsl.py"} <= files["verify"]

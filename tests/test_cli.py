@@ -311,6 +311,39 @@ def test_every_listed_command_has_a_module_with_the_command_interface():
         build_parser(name)  # its arguments are added without error
 
 
+@pytest.mark.parametrize("error, status", [("UsageError", 2), ("HostError", 2), ("BrowserError", 2),
+                                           ("GLRenderError", 2), ("VerificationFailed", 1), ("ValueError", None),
+                                           ("KeyError", None)])
+def test_the_cli_turns_rockdoves_errors_into_one_line_and_lets_a_bug_show_its_traceback(monkeypatch, capsys, error,
+                                                                                        status):
+    """Every error rockdove raises on purpose derives from RockdoveError and is one line; a bare ValueError (a
+    library's, or a bug's) is not caught as bad usage."""
+    from rockdove import cli, errors
+    from rockdove.commands import schema_path
+    from rockdove.hosts import HostError
+    from rockdove.verify.gl_renders import GLRenderError
+    from rockdove.web.browser import BrowserError
+
+    kinds = {"HostError": lambda: HostError("x", "it broke"), "BrowserError": lambda: BrowserError("it broke"),
+             "GLRenderError": lambda: GLRenderError("it broke"), "ValueError": lambda: ValueError("it broke"),
+             "KeyError": lambda: KeyError("it broke")}
+    exc = kinds.get(error, lambda: getattr(errors, error)("it broke"))()
+    assert isinstance(exc, errors.RockdoveError) == (status is not None)
+
+    def run(args):
+        raise exc
+
+    monkeypatch.setattr(schema_path, "run", run)
+    monkeypatch.delenv("ROCKDOVE_DEBUG", raising=False)
+    if status is None:
+        with pytest.raises(type(exc)):
+            cli.main(["schema-path"])
+        return
+    assert cli.main(["schema-path"]) == status
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "it broke" in err and "Traceback" not in err
+
+
 def test_watch_rebuilds_on_an_edit_not_without_one_survives_a_bad_edit_and_ends_on_ctrl_c(tmp_path):
     """``rockdove build --watch``: one process; an edit of the --config file rebuilds (the film stages run, the
     geometry is reused), no edit builds nothing, a malformed edit prints its one-line error and keeps watching,

@@ -119,7 +119,7 @@ def test_blenders_gltf_importer_shows_green_and_purple_feathers(built_glb):
     import json
     import subprocess
 
-    from rockdove.hosts.blender import bpy_python, unavailable
+    from rockdove.hosts.bpy_runner import bpy_python, unavailable
     from rockdove.verify.compare import hue_classes
 
     if unavailable():

@@ -13,30 +13,42 @@ from rockdove.hosts import HostError
 from rockdove.usd.stage import LOOKS_LAYER
 
 
-def test_registry_maps_every_host_to_its_module_and_glsl_always_runs_first():
+def test_registry_holds_host_objects_and_glsl_always_runs_first():
     assert set(hosts.HOSTS) >= {"glsl", "materialx", "blender", "web"}
-    assert all(n.startswith(m.partition(":")[0].rsplit(".", 1)[1]) for n, m in hosts.HOSTS.items())  # osl:PHYSICAL
+    assert all(isinstance(h, hosts.Host) and h.name == n for n, h in hosts.HOSTS.items())
     sel = hosts.select(["materialx"])
-    assert [m.NAME for m in sel.available][0] == "glsl"
-    for module in sel.available:
-        assert module.LOBE in hosts.LOBES and module.VARIANT in ("glsl", "baked", "physical", "preview")
-        assert module.unavailable() is None
+    assert [h.name for h in sel.available][0] == "glsl"
+    for host in sel.available:
+        assert host.lobe in hosts.LOBES and host.variant in hosts.VARIANTS
+        assert host.unavailable() is None
+
+
+class _Fake(hosts.Host):
+    def unavailable(self):
+        return "bpy is not installed"
 
 
 def test_select_names_unknown_hosts_and_gives_reasons_for_missing_ones(monkeypatch):
     with pytest.raises(ValueError, match="'nope' unknown; allowed: glsl"):
         hosts.select(["glsl", "nope"])
-    monkeypatch.setitem(hosts.HOSTS, "ghost", "rockdove.hosts.no_such_module")
-    fake = types.ModuleType("fake_host")
-    fake.unavailable = lambda: "bpy is not installed"
-    monkeypatch.setitem(sys.modules, "fake_host", fake)
-    monkeypatch.setitem(hosts.HOSTS, "fake", "fake_host")
-    sel = hosts.select(["ghost", "fake"])
-    assert [m.NAME for m in sel.available] == ["glsl"]
-    assert "rockdove.hosts.no_such_module is not part of this installation" in sel.unavailable["ghost"]
+    monkeypatch.setitem(hosts.HOSTS, "fake", _Fake("fake", "physical", "view_angle"))
+    sel = hosts.select(["fake"])
+    assert [h.name for h in sel.available] == ["glsl"]
     assert sel.unavailable["fake"] == "bpy is not installed"
     err = HostError("blender", "no display")
     assert err.name == "blender" and "blender" in str(err) and "no display" in str(err)
+
+
+def test_register_takes_hosts_only_and_one_per_name(monkeypatch):
+    monkeypatch.setattr(hosts, "HOSTS", dict(hosts.HOSTS))
+    fake = hosts.register(_Fake("fake", "baked", "view_angle"))
+    assert hosts.HOSTS["fake"] is fake and hosts.register(fake) is fake
+    with pytest.raises(ValueError, match="host name 'fake' is taken"):
+        hosts.register(_Fake("fake", "baked", "view_angle"))
+    with pytest.raises(ValueError, match="must be a rockdove.hosts.Host"):
+        hosts.register(types.SimpleNamespace(name="x"))
+    with pytest.raises(ValueError, match="variant 'shiny'"):
+        _Fake("x", "shiny", "view_angle")
 
 
 @pytest.fixture(scope="module")
@@ -45,17 +57,13 @@ def asset_layer(small_asset):
     return str(small_asset / "pigeon.usda")
 
 
-def _broken_host(monkeypatch):
-    broken = types.ModuleType("broken_host")
-    broken.NAME, broken.VARIANT, broken.LOBE = "broken", "baked", "view_angle"
-    broken.unavailable = lambda: None
-
-    def render(asset_path, views, out_dir):
+class _Broken(hosts.Host):
+    def render(self, asset_path, views, out_dir):
         raise HostError("broken", "shader compile error: 0:1(1): syntax error")
 
-    broken.render = render
-    monkeypatch.setitem(sys.modules, "broken_host", broken)
-    monkeypatch.setitem(hosts.HOSTS, "broken", "broken_host")
+
+def _broken_host(monkeypatch):
+    monkeypatch.setitem(hosts.HOSTS, "broken", _Broken("broken", "baked", "view_angle"))
 
 
 @pytest.mark.gl
@@ -67,7 +75,7 @@ def test_verify_hosts_reports_each_host_and_a_failing_one_does_not_stop_the_othe
     from rockdove.graph.verification import verify
 
     _broken_host(monkeypatch)
-    monkeypatch.setitem(hosts.HOSTS, "ghost", "rockdove.hosts.no_such_module")
+    monkeypatch.setitem(hosts.HOSTS, "ghost", _Fake("ghost", "baked", "view_angle"))
     report = verify(asset_layer, ["materialx", "broken", "materialx_physical", "ghost"], cache=tmp_path / "cache",
                     out_dir=tmp_path / "report", width=96, height=96, views=["sweep_060"])
     by_name = {h["name"]: h for h in report["hosts"]}
@@ -83,7 +91,7 @@ def test_verify_hosts_reports_each_host_and_a_failing_one_does_not_stop_the_othe
     assert physical["variant"] == "physical" and np.isfinite(physical["median_dE"])
     assert physical["green_px"] > 0 and physical["purple_px"] > 0, physical
     assert by_name["broken"]["passed"] is False and "syntax error" in by_name["broken"]["error"]
-    assert by_name["ghost"]["skipped"] and "no_such_module" in by_name["ghost"]["reason"]
+    assert by_name["ghost"]["skipped"] and "bpy is not installed" in by_name["ghost"]["reason"]
     assert not report["passed"] and any("host broken failed" in f for f in report["failures"])
     html = (tmp_path / "report" / "report.html").read_text()
     assert "sweep_060_materialx.png" in html and "sweep_060_view_angle_reference.png" in html
@@ -112,7 +120,7 @@ def test_materialx_host_draws_the_written_network_not_a_copy_of_it(asset_layer, 
     payload.Save()
     scene = load_scene(str(folder))
     views = [v for v in verification_views(scene, 96, 96, 4) if v.name == "sweep_060"]
-    images = materialx.render(str(folder / "pigeon.usda"), views, None)
+    images = materialx.BAKED.render(str(folder / "pigeon.usda"), views, None)
     m = host_metrics(images, render_reference(scene, views, lobe="view_angle"), scene)
     assert m["median_dE"] > 2.0, m
 
@@ -126,8 +134,8 @@ def test_glsl_host_renders_the_written_asset_as_the_verifier_does(asset_layer):
 
     scene = load_scene(asset_layer)
     views = [v for v in verification_views(scene, 32, 32, 4) if v.name == "sweep_090"]
-    assert glsl.cannot_draw(asset_layer) is None
-    images = glsl.render(asset_layer, views, None)
+    assert glsl.HOST.cannot_draw(asset_layer) is None
+    images = glsl.HOST.render(asset_layer, views, None)
     np.testing.assert_array_equal(images["sweep_090"], render_views(scene, views)[0].radiance_rgb)
     assert images["sweep_090"].shape == (32, 32, 3) and images["sweep_090"].max() > 0
 
@@ -135,14 +143,14 @@ def test_glsl_host_renders_the_written_asset_as_the_verifier_does(asset_layer):
 def test_bpy_hosts_are_skipped_with_how_to_install_when_no_python_has_bpy(monkeypatch, tmp_path):
     import importlib.util
 
-    from rockdove.hosts import blender
+    from rockdove.hosts import bpy_runner as blender
 
     real = importlib.util.find_spec
     monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "bpy" else real(name, *a))
     monkeypatch.delenv(blender.BPY_PYTHON_ENV, raising=False)
     monkeypatch.setattr(blender, "bpy_places", lambda: [str(tmp_path / "no-venv-bpy" / "bin" / "python")])
     sel = hosts.select(["storm", "storm_physical", "osl", "osl_physical"])
-    assert [m.NAME for m in sel.available] == ["glsl"]
+    assert [h.name for h in sel.available] == ["glsl"]
     assert "pip install 'bpy==5.0.1'" in sel.unavailable["storm"] and "storm_physical" in sel.unavailable
     assert all("pip install 'bpy==5.0.1'" in sel.unavailable[name] for name in ("osl", "osl_physical"))
 
@@ -151,8 +159,8 @@ def test_storm_host_that_cannot_start_names_itself_and_its_error(tmp_path):
     from rockdove.hosts import storm
     from rockdove.render.views import View
 
-    if storm.unavailable():
-        pytest.skip(storm.unavailable())
+    if storm.BAKED.unavailable():
+        pytest.skip(storm.BAKED.unavailable())
     bad = tmp_path / "pigeon.usda"
     bad.write_text("not a USD layer\n")
     view = View("v", np.eye(4), 0.5, 8, 8, np.array([0.0, 0.0, 1.0]), np.ones(3))
@@ -170,8 +178,8 @@ def test_storm_draws_the_physical_network_green_and_purple_as_the_reference(asse
     from rockdove.verify.inputs import verification_views
     from rockdove.verify.reference_image import render_reference
 
-    if storm.unavailable():
-        pytest.skip(storm.unavailable())
+    if storm.BAKED.unavailable():
+        pytest.skip(storm.BAKED.unavailable())
     scene = load_scene(os.path.dirname(asset_layer))
     views = [v for v in verification_views(scene, 128, 128, 4) if v.name == "sweep_060"]
     images = storm.PHYSICAL.render(asset_layer, views, str(tmp_path))
@@ -193,8 +201,8 @@ def test_storm_draws_the_baked_network_without_speckle(asset_layer, tmp_path):
     from rockdove.verify.inputs import verification_views
     from rockdove.verify.reference_image import render_reference
 
-    if storm.unavailable():
-        pytest.skip(storm.unavailable())
+    if storm.BAKED.unavailable():
+        pytest.skip(storm.BAKED.unavailable())
     scene = load_scene(os.path.dirname(asset_layer))
     views = [v for v in verification_views(scene, 128, 128, 4) if v.name == "sweep_060"]
     m = host_metrics(storm.BAKED.render(asset_layer, views, str(tmp_path)),

@@ -47,8 +47,8 @@ def test_osl_host_draws_the_neck_as_the_exact_reference(asset_layer, tmp_path):
     from rockdove.verify.host_check import host_metrics
     from rockdove.verify.reference_image import render_reference
 
-    if osl.unavailable():
-        pytest.skip(osl.unavailable())
+    if osl.BAKED.unavailable():
+        pytest.skip(osl.BAKED.unavailable())
     scene, views = _sweep_view(asset_layer)
     images = osl.BAKED.render(asset_layer, views, str(tmp_path))
     rgb = images["sweep_060"]
@@ -69,17 +69,17 @@ def test_osl_physical_draws_openpbrs_film_green_and_purple(asset_layer, tmp_path
     from rockdove.verify.host_check import host_metrics, host_passed
     from rockdove.verify.reference_image import render_reference
 
-    if osl.unavailable():
-        pytest.skip(osl.unavailable())
+    if osl.BAKED.unavailable():
+        pytest.skip(osl.BAKED.unavailable())
     scene, views = _sweep_view(asset_layer, 64)
     images = osl.PHYSICAL.render(asset_layer, views, str(tmp_path))
     m = host_metrics(images, render_reference(scene, views, lobe="view_angle"), scene)
-    assert host_passed(osl.PHYSICAL.VARIANT, m) == (True, []), m
+    assert host_passed(osl.PHYSICAL.variant, m) == (True, []), m
 
 
 def test_a_shader_the_compiler_rejects_is_named_with_its_error_line(asset_layer, tmp_path, monkeypatch):
-    if osl.unavailable():
-        pytest.skip(osl.unavailable())
+    if osl.BAKED.unavailable():
+        pytest.skip(osl.BAKED.unavailable())
     real = osl.generate_osl
     monkeypatch.setattr(osl, "generate_osl", lambda doc, name: real(doc, name).replace("out = ", "out = ;", 1))
     _, views = _sweep_view(asset_layer, 16)

@@ -84,7 +84,7 @@ print(json.dumps(fetched.arkit_failures("24.08", sys.argv[2])))
 def test_layered_package_passes_v24_08_with_materialx_registered(packages):
     """usd-core 26.11 registers no MaterialX nodes, so v24.08's ShaderPropertyTypeConformanceChecker cannot type
     the ND_* shaders there; bpy's USD 25.08 registers them (tests/fetched.py's renames hold for it too)."""
-    from rockdove.hosts.blender import bpy_python, unavailable
+    from rockdove.hosts.bpy_runner import bpy_python, unavailable
 
     if unavailable():
         pytest.skip(f"bpy's USD is not available: {unavailable()}")

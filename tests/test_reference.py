@@ -300,7 +300,7 @@ def test_render_needs_views_and_film(tmp_path):
 
 
 def test_display_transform_is_the_clipped_srgb_oetf():
-    from rockdove.spectral import linear_to_srgb8
+    from rockdove.srgb import linear_to_srgb8
 
     # the sRGB OETF of the clipped value, rounded: checked against the formula, not against itself
     rgb = np.array([[0.0, 1.0, 2.0], [-0.05, 0.3, 0.1]])

@@ -156,7 +156,7 @@ def test_display_images_use_the_srgb_oetf_of_the_clipped_value_and_linear_averag
     from PIL import Image
 
     from rockdove.render.images import box_downsample, contact_sheet
-    from rockdove.spectral import linear_to_srgb8
+    from rockdove.srgb import linear_to_srgb8
 
     # sRGB OETF (IEC 61966-2-1): 0.5 linear -> 0.7354 -> 188; out-of-range values clip
     assert linear_to_srgb8(np.array([[0.0, 0.5, 1.0], [-0.2, 2.0, 0.0031308]])).tolist() == [[0, 188, 255],
@@ -183,7 +183,7 @@ def test_display_pngs_decode_to_their_pixels_rgb_and_rgba_and_depend_on_the_pixe
     pixel, for RGB and RGBA, sizes down to 1 x 1, and wrapping differences between rows (0 below 255)."""
     from PIL import Image
 
-    from rockdove.render.images import encode_png, save_png
+    from rockdove.png import encode_png, save_png
 
     rng = np.random.default_rng(11)
     ramp = np.zeros((4, 3, 3), np.uint8)

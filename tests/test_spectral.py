@@ -213,8 +213,8 @@ def test_lab_delta_e_2000_and_srgb_formulas_agree_with_colour_science():
                                colour.Lab_to_XYZ(lab_a, illuminant=spectral.reference_white_xy()), rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(spectral.Lab_to_XYZ(spectral.XYZ_to_Lab(xyz)), xyz, rtol=1e-10, atol=1e-12)
     v = np.concatenate([np.linspace(-0.1, 1.1, 2001), [0.0031308, 0.04045]])
-    np.testing.assert_allclose(spectral.srgb_encode(v), colour.cctf_encoding(v, function="sRGB"), rtol=0, atol=1e-14)
-    np.testing.assert_allclose(spectral.srgb_decode(v), colour.cctf_decoding(v, function="sRGB"), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(srgb.srgb_encode(v), colour.cctf_encoding(v, function="sRGB"), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(srgb.srgb_decode(v), colour.cctf_decoding(v, function="sRGB"), rtol=0, atol=1e-14)
 
 
 def test_colour_data_is_read_from_colour_science_once_and_a_warm_process_never_imports_it(tmp_path):
@@ -226,7 +226,7 @@ def test_colour_data_is_read_from_colour_science_once_and_a_warm_process_never_i
     import sys
 
     code = ("import sys, hashlib; from rockdove.lut.bake import bake; from rockdove.lut.reference import lut_error; "
-            "from rockdove.spectral import linear_to_srgb8; "
+            "from rockdove.srgb import linear_to_srgb8; "
             "lut = bake(angles=32, thicknesses=8, thickness_range=(500.0, 700.0), film='keratin'); "
             "err = lut_error(lut, 'keratin', n_points=50); "
             "h = hashlib.sha256(lut.rgb.tobytes() + linear_to_srgb8(lut.rgb).tobytes()).hexdigest(); "
@@ -267,17 +267,17 @@ def test_linear_to_srgb8_gives_the_rounded_srgb_curve_exactly_even_at_each_step(
     """linear_to_srgb8 looks values up among precomputed steps; it must give exactly round(255 encode(v)) for
     every value, including the floats on either side of each step (found here by inverting the curve)."""
     rng = np.random.default_rng(3)
-    near = spectral.srgb_decode((np.arange(1, 256) - 0.5) / 255.0)
+    near = srgb.srgb_decode((np.arange(1, 256) - 0.5) / 255.0)
     around = np.concatenate([near + d for d in np.linspace(-4e-12, 4e-12, 41)])
     for _ in range(3):  # walk a few ulps either side of each approximate step
         around = np.concatenate([around, np.nextafter(around, -1.0), np.nextafter(around, 2.0)])
     v = np.concatenate([around, rng.uniform(-0.1, 1.1, 300000), rng.uniform(0.0, 0.01, 100000),
                         [0.0, -0.0, 1.0, 0.0031308, 1e-300, -1e-300]])
-    expected = np.round(np.clip(spectral.srgb_encode(np.clip(v, 0.0, 1.0)), 0.0, 1.0) * 255.0).astype(np.uint8)
-    assert np.array_equal(spectral.linear_to_srgb8(v), expected)
+    expected = np.round(np.clip(srgb.srgb_encode(np.clip(v, 0.0, 1.0)), 0.0, 1.0) * 255.0).astype(np.uint8)
+    assert np.array_equal(srgb.linear_to_srgb8(v), expected)
     even = 2 * (v.size // 2)  # any array shape, not only 1-D
-    assert np.array_equal(spectral.linear_to_srgb8(v[:even].reshape(-1, 1, 2)), expected[:even].reshape(-1, 1, 2))
-    assert spectral.linear_to_srgb8([np.nan, np.inf, -np.inf, 2.0, -1.0]).tolist() == [0, 255, 0, 255, 0]
+    assert np.array_equal(srgb.linear_to_srgb8(v[:even].reshape(-1, 1, 2)), expected[:even].reshape(-1, 1, 2))
+    assert srgb.linear_to_srgb8([np.nan, np.inf, -np.inf, 2.0, -1.0]).tolist() == [0, 255, 0, 255, 0]
 
 
 def test_linear_to_srgb8_cell_tables_match_the_formula_on_every_step_neighbour_sweep_and_float32():
@@ -297,7 +297,7 @@ def test_linear_to_srgb8_cell_tables_match_the_formula_on_every_step_neighbour_s
     def code(v):
         return srgb._srgb8_code(np.asarray(v, np.float64)).astype(np.uint8)
 
-    got = spectral.linear_to_srgb8(v64)
+    got = srgb.linear_to_srgb8(v64)
     assert got.dtype == np.uint8 and got.shape == v64.shape
     wrong = np.flatnonzero(got != code(v64))
     assert wrong.size == 0, f"{wrong.size} float64 values differ, e.g. {v64[wrong[:3]].tolist()}"
@@ -308,13 +308,13 @@ def test_linear_to_srgb8_cell_tables_match_the_formula_on_every_step_neighbour_s
     v32 = np.concatenate([near32, rng.uniform(-0.1, 1.1, 1_000_001).astype(np.float32), sweep.astype(np.float32),
                           np.array([0.0, -0.0, 1.0, 1e-45, 3e38], np.float32)])
     assert v32.dtype == np.float32
-    got32 = spectral.linear_to_srgb8(v32)
+    got32 = srgb.linear_to_srgb8(v32)
     wrong = np.flatnonzero(got32 != code(v32))
     assert wrong.size == 0, f"{wrong.size} float32 values differ, e.g. {v32[wrong[:3]].tolist()}"
 
     odd = np.array([np.nan, -np.nan, np.inf, -np.inf, 0.5])
-    assert spectral.linear_to_srgb8(odd).tolist() == [0, 0, 255, 0, 188]
-    assert spectral.linear_to_srgb8(odd.astype(np.float32)).tolist() == [0, 0, 255, 0, 188]
+    assert srgb.linear_to_srgb8(odd).tolist() == [0, 0, 255, 0, 188]
+    assert srgb.linear_to_srgb8(odd.astype(np.float32)).tolist() == [0, 0, 255, 0, 188]
     image = v64[:3 * 700 * 500].reshape(700, 500, 3)[:, ::2]  # not contiguous, not a whole number of blocks
-    assert np.array_equal(spectral.linear_to_srgb8(image), code(image))
-    assert spectral.linear_to_srgb8(np.empty((0, 3))).shape == (0, 3)
+    assert np.array_equal(srgb.linear_to_srgb8(image), code(image))
+    assert srgb.linear_to_srgb8(np.empty((0, 3))).shape == (0, 3)

@@ -290,7 +290,7 @@ def test_preview_atlas_is_the_texel_by_texel_mix_of_each_tile_resized(side):
     random texels (every one distinct), colours out of [0, 1] included, up- and down-sized tiles."""
     from PIL import Image
 
-    from rockdove.spectral import srgb_decode, srgb_encode
+    from rockdove.srgb import srgb_decode, srgb_encode
     from rockdove.usd.textures_io import PREVIEW_TILE_TEXELS, feather_preview_atlas, preview_atlas_shape
 
     rng = np.random.default_rng(side)

@@ -186,14 +186,14 @@ def test_boundary_is_straight_for_uniform_thickness_and_bends_for_a_gradient(tmp
 
 FAKE_HOST = """
 import numpy as np
-NAME, VARIANT, LOBE = "fake", "physical", "view_angle"
+from rockdove.hosts import Host
 GREY = 0.25
 CALLS = []
-def unavailable():
-    return None
-def render(asset_path, views, out_dir):
-    CALLS.append([v.name for v in views])
-    return {v.name: np.full((v.height, v.width, 3), GREY, np.float32) for v in views}
+class Fake(Host):
+    def render(self, asset_path, views, out_dir):
+        CALLS.append([v.name for v in views])
+        return {v.name: np.full((v.height, v.width, 3), GREY, np.float32) for v in views}
+HOST = Fake("fake", "physical", "view_angle")
 """
 
 
@@ -210,8 +210,8 @@ def test_one_verification_reuses_what_it_checked_and_reruns_a_host_whose_code_ch
 
     (tmp_path / "fake_host.py").write_text(FAKE_HOST)
     monkeypatch.syspath_prepend(str(tmp_path))
-    monkeypatch.setitem(hosts.HOSTS, "fake", "fake_host")
     fake = importlib.import_module("fake_host")
+    monkeypatch.setitem(hosts.HOSTS, "fake", fake.HOST)
     layer, cache, names = assets["good"], tmp_path / "cache", ["turntable_030", "sweep_090"]
 
     def run(out, views=names):
@@ -244,16 +244,16 @@ def test_an_image_that_cannot_be_written_fails_the_views_it_belongs_to(assets, t
     """The per-view images are written in a background thread; a write that fails is raised from the
     verification, not lost with the thread."""
     from rockdove.graph.verification import verify
-    from rockdove.render import images
+    from rockdove import png
 
-    real = images.save_png
+    real = png.save_png
 
     def full_disk(image, path):
         if str(path).endswith("_gl.png"):
             raise OSError(28, "No space left on device", str(path))
         return real(image, path)
 
-    monkeypatch.setattr(images, "save_png", full_disk)
+    monkeypatch.setattr(png, "save_png", full_disk)
     with pytest.raises(OSError, match="No space left"):
         verify(assets["good"], cache=tmp_path / "cache", views=["turntable_030"], out_dir=tmp_path / "x", width=48,
                height=48)

@@ -140,7 +140,7 @@ def _result(graph, out: Path, cache_dir: Path, chash: str, t0: float, verified, 
 
 
 def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os.PathLike | None = None,
-          verify: bool = True, lock_timeout: float | None = None, quiet: bool = False,
+          verify: bool = True, lock_timeout: float | None = None,
           progress: Callable[[str], None] | None = None) -> BuildResult:
     """Build, verify and publish the asset of ``config`` (:func:`load_config`, validated again here) into ``out``
     (new, empty, or one rockdove built: anything else is refused before any work), incrementally.
@@ -148,7 +148,7 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
     ``cache``: the stage cache (default ``.rockdove-cache`` beside ``out``), shared with :func:`verify`.
     ``verify``: run the verification on the staged asset; a failure publishes nothing and raises
     :class:`BuildFailed`. ``lock_timeout``: seconds to wait for another build of the same output (default: until
-    it finishes), then UsageError; ``quiet``: say nothing while waiting; ``progress(stage_name)`` as each starts.
+    it finishes), then UsageError (the wait is logged on the ``rockdove`` logger); ``progress(stage_name)`` as each starts.
 
     Order of work: output checked -> lock taken -> leftovers of killed builds cleaned -> stages run or reused
     -> asset assembled in a staging folder beside ``out``, marker written -> verification on the staged asset
@@ -205,6 +205,20 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
 
 
 # ----------------------------------------------------------------------------------------------- verify
+def _write_viewer(root: str, out, progress) -> None:
+    """``viewer.html`` beside the report when the asset has its glb, as a build's (skipped, said, without three.js)."""
+    from .errors import ResourceMissing
+    from .web.gltf import GLB_NAME
+    from .web.viewer import write_viewer
+
+    try:
+        if (Path(root).parent / GLB_NAME).is_file():
+            write_viewer(root, Path(root).parent / GLB_NAME, out)
+    except ResourceMissing as exc:
+        if progress is not None:
+            progress(f"no interactive viewer in the report: {exc}")
+
+
 def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cache: str | os.PathLike | None = None,
            out: str | os.PathLike | None = None, width: int | None = None, height: int | None = None,
            views: Iterable[str] | None = None, n_views: int | None = None, bench_dir: str | os.PathLike | None = None,
@@ -224,6 +238,7 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
 
     root = require_inside(asset, allow_external)  # nothing from elsewhere is read, nothing of the user's overwritten
     out = claim_output(out or default_out_dir(root), "verification report")
+    _write_viewer(root, out, progress)
     report = verification.verify(os.fspath(root), None if hosts is None else list(hosts), cache=cache, out_dir=out,
                                  width=width, height=height, n_views=n_views,
                                  views=None if views is None else list(views), bench_dir=bench_dir,

@@ -1,12 +1,14 @@
 """The ``rockdove`` command line. Each of :data:`COMMANDS` is ``rockdove/commands/<name>.py`` (imported only when
-it runs) with ``add_arguments(parser)`` and ``run(args) -> exit status``. Errors are one line on stderr:
-``ValueError`` and ``OSError`` exit 2, :class:`VerificationFailed` 1; tracebacks only with ``ROCKDOVE_DEBUG=1``.
+it runs) with ``add_arguments(parser)`` and ``run(args) -> exit status``. Errors are one line on stderr
+(:mod:`rockdove.errors`): :class:`~rockdove.errors.RockdoveError` and ``OSError`` exit 2,
+:class:`~rockdove.errors.VerificationFailed` 1; any other exception is a bug and shows its traceback.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import logging
 import os
 import sys
 
@@ -55,7 +57,6 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """The ``rockdove`` console script: the exit status of the command of ``argv``."""
-    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")  # offscreen GL, chosen before anything imports OpenGL
     argv = list(sys.argv[1:] if argv is None else argv)
     command = next((a for a in argv if not a.startswith("-")), None)
     parser = build_parser(command if command in COMMANDS else None)
@@ -63,8 +64,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
-    from .errors import VerificationFailed
+    from .errors import RockdoveError, VerificationFailed
 
+    _log_to_stderr(quiet=bool(getattr(args, "quiet", False) or getattr(args, "json", False)))
     try:
         return int(_module(args.command).run(args) or 0)
     except VerificationFailed as exc:
@@ -78,14 +80,25 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(devnull, sys.stdout.fileno())  # so the final flush is quiet too
         os.close(devnull)
         return 141
-    except (ValueError, OSError) as exc:  # bad usage, or the machine said no (a full disk): one line, exit 2
+    except (RockdoveError, OSError) as exc:  # bad usage, or the machine said no (a full disk): one line, exit 2
         if os.environ.get("ROCKDOVE_DEBUG"):
             raise
-        if not isinstance(exc, (ValueError, FileNotFoundError, IsADirectoryError, NotADirectoryError, PermissionError)):
+        if not isinstance(exc, (RockdoveError, FileNotFoundError, IsADirectoryError, NotADirectoryError,
+                                PermissionError)):
             exc = f"{exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else "")
         print(f"rockdove {args.command}: error: {exc}", file=sys.stderr)
         return 2
 
+
+def _log_to_stderr(quiet: bool) -> None:
+    """The library reports through the ``rockdove`` logger; the command line shows its messages on stderr as
+    they are (``--quiet`` and ``--json``: warnings and errors only)."""
+    logger = logging.getLogger("rockdove")
+    if not logger.handlers:
+        handler = logging.StreamHandler()
+        handler.setFormatter(logging.Formatter("%(message)s"))
+        logger.addHandler(handler)
+    logger.setLevel(logging.WARNING if quiet else logging.INFO)
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -1,4 +1,9 @@
-"""Exceptions that the CLI turns into exit statuses (any ``ValueError``, as bad usage, exits 2)."""
+"""rockdove's exceptions: every one it raises on purpose derives from :class:`RockdoveError`.
+
+The CLI prints a :class:`RockdoveError` as one line (exit 1 for :class:`VerificationFailed`, else 2), and an
+``OSError`` too (the machine said no: a full disk, a read-only folder); anything else is a bug and keeps its
+traceback. ``ROCKDOVE_DEBUG=1`` shows the traceback of every error.
+"""
 
 
 class RockdoveError(Exception):
@@ -6,7 +11,7 @@ class RockdoveError(Exception):
 
 
 class UsageError(RockdoveError, ValueError):
-    """Bad arguments, configuration or input: the message names what was wrong. CLI exit status 2."""
+    """Bad arguments, configuration or input: the message names what was wrong, its value and what is allowed."""
 
 
 class VerificationFailed(RockdoveError):
@@ -14,4 +19,4 @@ class VerificationFailed(RockdoveError):
 
 
 class ResourceMissing(RockdoveError, FileNotFoundError):
-    """A data file the package needs (shader, schema, preset) is not installed. CLI exit status 2, one line."""
+    """A data file the package needs (shader, schema, preset) is not installed."""

@@ -15,9 +15,11 @@ of the rock dove): constant n = 1.5, air on both sides.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+
+from .errors import UsageError
 
 KERATIN_CAUCHY_A = 1.532  # Leertouwer, Wilts & Stavenga 2011, bird feather keratin (lambda in nm)
 KERATIN_CAUCHY_B_NM2 = 5.89e3
@@ -32,13 +34,13 @@ def _check_index(name: str, value) -> complex:
     try:
         z = complex(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
+        raise UsageError(f"{name} must be a number, got {value!r}") from None
     if not (math.isfinite(z.real) and math.isfinite(z.imag)):
-        raise ValueError(f"{name} must be finite, got {value!r}")
+        raise UsageError(f"{name} must be finite, got {value!r}")
     if z.real <= 0:
-        raise ValueError(f"{name} must have a positive real part, got {value!r}")
+        raise UsageError(f"{name} must have a positive real part, got {value!r}")
     if z.imag < 0:
-        raise ValueError(f"{name} must have a non-negative imaginary part (convention n + ik, k >= 0 absorbs), "
+        raise UsageError(f"{name} must have a non-negative imaginary part (convention n + ik, k >= 0 absorbs), "
                          f"got {value!r}")
     return z
 
@@ -61,20 +63,20 @@ class FilmModel:
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
-            raise ValueError(f"name must be a non-empty string, got {self.name!r}")
+            raise UsageError(f"name must be a non-empty string, got {self.name!r}")
         for field, lo_ok in (("cauchy_a", False), ("cauchy_b_nm2", True), ("k", True)):
             value = getattr(self, field)
             try:
                 v = float(value)
             except (TypeError, ValueError):
-                raise ValueError(f"{field} must be a real number, got {value!r}") from None
+                raise UsageError(f"{field} must be a real number, got {value!r}") from None
             if not math.isfinite(v) or v < 0 or (v == 0 and not lo_ok):
                 allowed = ">= 0" if lo_ok else "> 0"
-                raise ValueError(f"{field} must be finite and {allowed}, got {value!r}")
+                raise UsageError(f"{field} must be finite and {allowed}, got {value!r}")
             object.__setattr__(self, field, v)
         n_inc = _check_index("n_incident", self.n_incident)
         if n_inc.imag != 0:
-            raise ValueError(f"n_incident must be real (a transparent incident medium), got {self.n_incident!r}")
+            raise UsageError(f"n_incident must be real (a transparent incident medium), got {self.n_incident!r}")
         n_sub = _check_index("n_substrate", self.n_substrate)
         object.__setattr__(self, "n_incident", n_inc.real)
         object.__setattr__(self, "n_substrate", n_sub.real if n_sub.imag == 0 else n_sub)
@@ -88,7 +90,7 @@ class FilmModel:
         """Film index at ``wavelength_nm`` (> 0), the same shape: float64 if ``k == 0``, else complex128."""
         lam = np.asarray(wavelength_nm, dtype=np.float64)
         if lam.size and not (np.min(lam) > 0 and np.isfinite(np.max(lam))):
-            raise ValueError(f"wavelength_nm must be finite and > 0, got values in [{np.min(lam)}, {np.max(lam)}]")
+            raise UsageError(f"wavelength_nm must be finite and > 0, got values in [{np.min(lam)}, {np.max(lam)}]")
         n = self.cauchy_a + self.cauchy_b_nm2 / (lam * lam)
         if self.k != 0.0:
             return n + 1j * self.k
@@ -121,13 +123,20 @@ FILMS: dict[str, FilmModel] = {
 }
 
 
+def film_from_config(film_cfg: dict) -> FilmModel:
+    """The :class:`FilmModel` of a build configuration's ``[film]`` section (unset coefficients: the model's)."""
+    changes = {k: film_cfg[k] for k in ("cauchy_a", "cauchy_b_nm2", "k", "n_incident", "n_substrate")
+               if film_cfg.get(k) is not None}
+    return replace(get_film(film_cfg["model"]), **changes)
+
+
 def as_film(film) -> FilmModel:
     """``film`` itself when it is a :class:`FilmModel`, else the registered film of that name (:func:`get_film`)."""
     if isinstance(film, FilmModel):
         return film
     if isinstance(film, str):
         return get_film(film)
-    raise ValueError(f"film must be one of {sorted(FILMS)} or a FilmModel, got {film!r}")
+    raise UsageError(f"film must be one of {sorted(FILMS)} or a FilmModel, got {film!r}")
 
 
 def get_film(name: str = DEFAULT_FILM) -> FilmModel:
@@ -135,4 +144,4 @@ def get_film(name: str = DEFAULT_FILM) -> FilmModel:
     try:
         return FILMS[name]
     except (KeyError, TypeError):
-        raise ValueError(f"film must be one of {sorted(FILMS)}, got {name!r}") from None
+        raise UsageError(f"film must be one of {sorted(FILMS)}, got {name!r}") from None

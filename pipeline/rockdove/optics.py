@@ -46,6 +46,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import UsageError
+
 POLARIZATIONS = ("s", "p", "unpolarized")
 
 _TWO_PI = 2.0 * np.pi
@@ -57,14 +59,14 @@ def _as_real(name: str, value, *, lo: float, lo_open: bool = False, hi: float | 
     try:
         a = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be real numbers, got {value!r}") from None
+        raise UsageError(f"{name} must be real numbers, got {value!r}") from None
     bad = ~np.isfinite(a) | ((a <= lo) if lo_open else (a < lo))
     if hi is not None:
         bad |= a > hi
     if bad.any():
         first = a[bad].flat[0].item()
         allowed = f"{'(' if lo_open else '['}{lo:g}, {'inf)' if hi is None else f'{hi:g}]'}"
-        raise ValueError(f"{name} must be finite and in {allowed}, got {first!r}")
+        raise UsageError(f"{name} must be finite and in {allowed}, got {first!r}")
     return a
 
 
@@ -76,14 +78,14 @@ def _as_index(name: str, value, wavelength_nm: np.ndarray | None = None, *, real
     """
     if callable(value):
         if wavelength_nm is None:
-            raise ValueError(f"{name} is a callable but no wavelength_nm was given to evaluate it")
+            raise UsageError(f"{name} is a callable but no wavelength_nm was given to evaluate it")
         value = value(wavelength_nm)
     try:
         a = np.asarray(value)
         if a.dtype.kind not in "iufc":
             raise TypeError
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, an array or a callable n(wavelength_nm), got {value!r}") from None
+        raise UsageError(f"{name} must be a number, an array or a callable n(wavelength_nm), got {value!r}") from None
     orig = a
     if a.dtype.kind == "c":
         re, im = a.real, a.imag
@@ -107,7 +109,7 @@ def _as_index(name: str, value, wavelength_nm: np.ndarray | None = None, *, real
             allowed = "a finite real number > 0 (the incident medium must be transparent)"
         else:
             allowed = "finite with real part > 0 and imaginary part >= 0 (n + ik, k >= 0 absorbs)"
-        raise ValueError(f"{name} must be {allowed}, got {first!r}")
+        raise UsageError(f"{name} must be {allowed}, got {first!r}")
     return a
 
 
@@ -151,7 +153,7 @@ def fresnel_r(n1, n2, cos1, cos2, polarization):
     Born & Wolf and ``tmm`` convention, with which eq. 3 holds for both), ``cos2`` from :func:`snell_cos`; float64
     if every input is real. Where both media are the same at grazing incidence (0/0), r = 0 (no interface)."""
     if polarization not in ("s", "p"):
-        raise ValueError(f"polarization must be 's' or 'p', got {polarization!r}")
+        raise UsageError(f"polarization must be 's' or 'p', got {polarization!r}")
     n1, n2, cos1, cos2 = (np.asarray(x) for x in (n1, n2, cos1, cos2))
     if polarization == "s":
         num, den = n1 * cos1 - n2 * cos2, n1 * cos1 + n2 * cos2
@@ -258,7 +260,7 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
     """Validate, choose the fast or complex path per element, return (R, T) float64 arrays (T None
     unless ``want_t``)."""
     if polarization not in POLARIZATIONS:
-        raise ValueError(f"polarization must be one of {POLARIZATIONS}, got {polarization!r}")
+        raise UsageError(f"polarization must be one of {POLARIZATIONS}, got {polarization!r}")
     lam = _as_real("wavelength_nm", wavelength_nm, lo=0.0, lo_open=True)
     cos_a = _as_real("cos_theta", cos_theta, lo=0.0, hi=1.0)
     d = _as_real("thickness_nm", thickness_nm, lo=0.0)
@@ -268,7 +270,7 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
     try:
         shape = np.broadcast_shapes(lam.shape, cos_a.shape, d.shape, n_a.shape, n_b.shape, n_c.shape)
     except ValueError:
-        raise ValueError(
+        raise UsageError(
             "wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate must broadcast together, "
             f"got shapes {lam.shape}, {cos_a.shape}, {d.shape}, {n_b.shape}, {n_a.shape}, {n_c.shape}"
         ) from None

@@ -15,7 +15,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from .errors import ResourceMissing
+from .errors import ResourceMissing, UsageError
 
 #: The data folders and the sub-package each ships as.
 FOLDERS = {"materials": "rockdove.materials", "schemas": "rockdove.schemas", "assets": "rockdove.assets"}
@@ -26,7 +26,7 @@ def folder(name: str) -> Path:
     """The directory of data folder ``name`` (one of :data:`FOLDERS`) on disk; :class:`ResourceMissing` when the
     package was installed without it."""
     if name not in FOLDERS:
-        raise ValueError(f"data folder must be one of {', '.join(FOLDERS)}, got {name!r}")
+        raise UsageError(f"data folder must be one of {', '.join(FOLDERS)}, got {name!r}")
     try:
         root = importlib.resources.files(FOLDERS[name])
     except ModuleNotFoundError as exc:

@@ -3,7 +3,9 @@ stages and the user cache's folders.
 
 A callable is followed by name through its module's top-level definitions and the modules those import (as
 :mod:`ast` reads them; a string or f-string prefix naming ``rockdove.`` modules is an import too), then through
-each reached module's whole import closure inside the package. A lambda, or a callable outside the package, keys
+each reached module's whole import closure inside the package. A module named at run time (``import_module(x)``,
+``__import__``, ``find_spec``, ``run_module`` or ``run_path`` of anything but a literal) cannot be followed: the
+digest warns (:class:`DynamicImportWarning`) naming the file and line, so name such modules with a literal. A lambda, or a callable outside the package, keys
 on its whole file and every import in it. Third-party code enters as the whole environment (the ``*.dist-info``
 names on ``sys.path``, and Python's version): it runs code rockdove never names (trimesh calls scipy, USD loads
 plugins), and mapping imports to distributions took 1.1 s per process against ~1 ms to list ``sys.path``.
@@ -21,12 +23,20 @@ import json
 import os
 import re
 import sys
+import warnings
 from pathlib import Path
 
 from . import resources
+from .errors import UsageError
 
 #: The file in each user-cache folder that records what keyed it (:func:`stale` reads it).
 KEY_FILE = "key.json"
+#: Calls that import (or run) a module named by their first argument.
+DYNAMIC_IMPORTS = ("import_module", "__import__", "find_spec", "run_module", "run_path", "spec_from_file_location")
+
+
+class DynamicImportWarning(UserWarning):
+    """Code a digest reaches imports a module named at run time, which the digest cannot follow."""
 
 
 def files_of(path: Path, pattern: str = "*", seen: dict | None = None) -> list[Path]:
@@ -98,11 +108,19 @@ def _unchanged(stamps: dict) -> bool:
 
 
 # ----------------------------------------------------------------------------------------------- scanning
+def _literal(arg) -> bool:
+    return isinstance(arg, ast.Constant) and isinstance(arg.value, str) or isinstance(arg, ast.JoinedStr) and bool(
+        arg.values) and isinstance(arg.values[0], ast.Constant) and str(arg.values[0].value).startswith("rockdove.")
+
+
 def _imports(node) -> list:
     """Every import under ``node``: ``[level, module, [names]]``, a string naming rockdove modules ``[-1, s, []]``
-    (``s`` ending in ``.``: an f-string's prefix)."""
+    (``s`` ending in ``.``: an f-string's prefix), a module named at run time ``[-2, "line N", []]``."""
     out = []
     for n in ast.walk(node):
+        if isinstance(n, ast.Call) and getattr(n.func, "attr", getattr(n.func, "id", None)) in DYNAMIC_IMPORTS \
+                and not (n.args and _literal(n.args[0])):
+            out.append([-2, f"line {n.lineno}", []])
         if isinstance(n, ast.Import):
             out += [[0, a.name, []] for a in n.names]
         elif isinstance(n, ast.ImportFrom):
@@ -162,6 +180,8 @@ def scan(path: Path, seen: dict) -> dict:
 def _targets(imp: list, package: str, mods: dict) -> set[str]:
     """The package modules one import record names (``package``: the importing module's package)."""
     level, module, names = imp
+    if level == -2:  # a module named at run time: warned about by code_files
+        return set()
     if level == -1:  # a string: a module, or a prefix naming every module under it
         return {m for m in mods if m.startswith(module)} if module.endswith(".") else ({module} & mods.keys())
     if level:
@@ -194,7 +214,7 @@ def entry_modules(fn, mods: dict, seen: dict) -> tuple[Path, set[str]]:
     """The file ``fn`` is written in and the package modules it reaches from it (module docstring)."""
     path = Path(inspect.getsourcefile(fn) or "").resolve()
     if not path.is_file():
-        raise ValueError(f"{fn!r} has no source file; a stage's code must be keyed by its source")
+        raise UsageError(f"{fn!r} has no source file; a stage's code must be keyed by its source")
     module = next((m for m, p in mods.items() if p == path), None)
     info = scan(path, seen)
     package = _package(module, path) if module else ""
@@ -223,7 +243,12 @@ def code_files(fns, seen: dict, modules=()) -> list[Path]:
         f, r = entry_modules(fn, mods, seen)
         files.add(f)
         reached |= r
-    return sorted(files | {mods[m] for m in closure(reached, mods, seen)})
+    found = sorted(files | {mods[m] for m in closure(reached, mods, seen)})
+    for path in found:
+        for _, where, _ in (imp for imp in scan(path, seen)["imports"] if imp[0] == -2):
+            warnings.warn(f"{path} {where} imports a module named at run time, which the cache key cannot follow; "
+                          "name it with a literal ('rockdove.x')", DynamicImportWarning, stacklevel=3)
+    return found
 
 
 # ----------------------------------------------------------------------------------------------- digests
@@ -247,7 +272,7 @@ def digest(fns, data=(), modules=()) -> tuple[str, dict]:
         top = resources.path(d)
         found = files_of(top, seen=seen)
         if not found:  # an empty data folder would key the stage on nothing
-            raise ValueError(f"data {d!r}: {top} holds no files, so it cannot be keyed (reinstall rockdove)")
+            raise UsageError(f"data {d!r}: {top} holds no files, so it cannot be keyed (reinstall rockdove)")
         labelled += [(f"{d}/{p.relative_to(top)}" if top.is_dir() else d, p) for p in found]
     record = {"python": _python(), "environment": environment(seen),
               "files": {label: hashlib.sha256(read(p, seen)).hexdigest() for label, p in labelled}}

@@ -32,7 +32,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from .srgb import linear_to_srgb8, srgb_decode, srgb_encode  # noqa: F401 (the display encoding, re-exported)
+from .srgb import srgb_encode
+from .errors import UsageError
 
 WAVELENGTH_RANGE_NM = (360.0, 780.0)
 DEFAULT_ILLUMINANT = "D65"
@@ -54,11 +55,11 @@ def _check_wavelengths(wavelength_nm) -> np.ndarray:
     try:
         lam = np.asarray(wavelength_nm, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"wavelength_nm must be real numbers, got {wavelength_nm!r}") from None
+        raise UsageError(f"wavelength_nm must be real numbers, got {wavelength_nm!r}") from None
     lo, hi = WAVELENGTH_RANGE_NM
     if lam.size and not (lam.min() >= lo and lam.max() <= hi):
         bad = lam[~((lam >= lo) & (lam <= hi))].flat[0].item()
-        raise ValueError(f"wavelength_nm must be within [{lo:g}, {hi:g}] nm (colour's D65 table ends at 780), got {bad!r}")
+        raise UsageError(f"wavelength_nm must be within [{lo:g}, {hi:g}] nm (colour's D65 table ends at 780), got {bad!r}")
     return lam
 
 
@@ -96,15 +97,15 @@ def _tables(illuminant: str, observer: str):
     def compute() -> dict:
         colour = _colour()
         if observer not in colour.MSDS_CMFS:
-            raise ValueError(f"observer must be one of colour.MSDS_CMFS (e.g. {DEFAULT_OBSERVER!r}), got {observer!r}")
+            raise UsageError(f"observer must be one of colour.MSDS_CMFS (e.g. {DEFAULT_OBSERVER!r}), got {observer!r}")
         if illuminant not in colour.SDS_ILLUMINANTS:
-            raise ValueError(f"illuminant must be one of colour.SDS_ILLUMINANTS (e.g. 'D65'), got {illuminant!r}")
+            raise UsageError(f"illuminant must be one of colour.SDS_ILLUMINANTS (e.g. 'D65'), got {illuminant!r}")
         cmfs = colour.MSDS_CMFS[observer]
         sd = colour.SDS_ILLUMINANTS[illuminant]
         lo, hi = WAVELENGTH_RANGE_NM
         for what, table in (("observer", cmfs), ("illuminant", sd)):
             if table.wavelengths[0] > lo or table.wavelengths[-1] < hi:
-                raise ValueError(f"{what} {table.name!r} does not cover {lo:g}-{hi:g} nm")
+                raise UsageError(f"{what} {table.name!r} does not cover {lo:g}-{hi:g} nm")
         return dict(zip(keys, (cmfs.wavelengths, cmfs.values, sd.wavelengths, sd.values)))
 
     keys = ("cmfs_wavelength_nm", "cmfs", "illuminant_wavelength_nm", "illuminant")
@@ -137,9 +138,9 @@ def spectral_weights(wavelength_nm, illuminant=DEFAULT_ILLUMINANT, colour_space=
     trapezoid weights w, so R = 1 gives Y = 1 exactly on any grid."""
     lam = _check_wavelengths(wavelength_nm)
     if lam.ndim != 1 or lam.size < 2:
-        raise ValueError(f"wavelength_nm must be a 1-D grid of at least 2 wavelengths, got shape {lam.shape}")
+        raise UsageError(f"wavelength_nm must be a 1-D grid of at least 2 wavelengths, got shape {lam.shape}")
     if not np.all(np.diff(lam) > 0):
-        raise ValueError("wavelength_nm must be strictly increasing")
+        raise UsageError("wavelength_nm must be strictly increasing")
     cmfs, s = cmfs_illuminant(lam, illuminant)
     ws = _trapezoid_weights(lam) * s
     weights = cmfs * ws[:, None] / np.dot(ws, cmfs[:, 1])
@@ -154,7 +155,7 @@ def reflectance_to_XYZ(R, wavelength_nm, illuminant=DEFAULT_ILLUMINANT, axis=-1)
     R = np.moveaxis(np.asarray(R, dtype=np.float64), axis, -1)
     lam = np.asarray(wavelength_nm, dtype=np.float64)
     if R.shape[-1] != lam.size:
-        raise ValueError(f"R has {R.shape[-1]} samples along axis {axis} but wavelength_nm has {lam.size}")
+        raise UsageError(f"R has {R.shape[-1]} samples along axis {axis} but wavelength_nm has {lam.size}")
     return R @ spectral_weights(lam, illuminant)
 
 
@@ -175,7 +176,7 @@ def reference_white_xy(illuminant: str = DEFAULT_ILLUMINANT) -> np.ndarray:
 
 def check_colour_space(colour_space) -> str:
     if colour_space not in COLOUR_SPACES:
-        raise ValueError(f"colour_space must be one of {COLOUR_SPACES}, got {colour_space!r}")
+        raise UsageError(f"colour_space must be one of {COLOUR_SPACES}, got {colour_space!r}")
     return colour_space
 
 
@@ -304,9 +305,9 @@ def RGB_to_preview8(rgb, colour_space="lin_rec709") -> np.ndarray:
     """
     rgb = np.asarray(rgb, dtype=np.float64)
     if rgb.shape[-1:] != (3,):
-        raise ValueError(f"rgb must have a trailing axis of 3, got shape {rgb.shape}")
+        raise UsageError(f"rgb must have a trailing axis of 3, got shape {rgb.shape}")
     if not np.all(np.isfinite(rgb)):
-        raise ValueError("rgb must be finite (got NaN or inf)")
+        raise UsageError("rgb must be finite (got NaN or inf)")
     if check_colour_space(colour_space) != "lin_rec709":
         rgb = XYZ_to_RGB(RGB_to_XYZ(rgb, colour_space), "lin_rec709")
     lum = (rgb @ _rec709_luminance())[..., None]

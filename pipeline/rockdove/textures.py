@@ -5,7 +5,7 @@ base colour in its xatlas UVs.
 Image convention (docs/design.md, Textures): uint8 arrays, row 0 is the TOP of the image, so texel (row, col) of
 an (H, W) image sits at st = ((col + 0.5) / W, 1 - (row + 0.5) / H) (USD's st has t = 0 at the bottom). On a
 feather card u runs across the feather and v from the root (0) to the tip (1): the tip is at the top of the
-feather images. Colours are blended in linear Rec.709 and encoded sRGB (:func:`rockdove.spectral.linear_to_srgb8`);
+feather images. Colours are blended in linear Rec.709 and encoded sRGB (:func:`rockdove.srgb.linear_to_srgb8`);
 alpha and the mask are linear. The palette: :mod:`rockdove.geometry.colours`.
 """
 
@@ -16,6 +16,7 @@ import numpy as np
 from .geometry.colours import WING_BAR_SRGB, body_colour_at  # noqa: F401
 from .geometry.colours import linear as _linear, mix as _mix
 from .geometry.sdf import smoothstep as _smoothstep
+from .errors import UsageError
 
 #: sRGB 8-bit colour of a neck feather's vane (its rachis and down are painted paler by :func:`feather_tile`).
 VANE_SRGB = (56, 61, 66)
@@ -35,12 +36,12 @@ def _resolution(value, attr="feather_texture_resolution") -> int:
     """The resolution an int or a BirdParams (its ``attr``) gives; ValueError outside [16, 8192]."""
     res = getattr(value, attr, value)
     if isinstance(res, bool) or not isinstance(res, (int, np.integer)) or not 16 <= res <= 8192:
-        raise ValueError(f"resolution_or_params={value!r} must be BirdParams or an integer resolution in [16, 8192]")
+        raise UsageError(f"resolution_or_params={value!r} must be BirdParams or an integer resolution in [16, 8192]")
     return int(res)
 
 
 def _encode(linear: np.ndarray) -> np.ndarray:
-    from rockdove.spectral import linear_to_srgb8  # the project's one sRGB 8-bit encoding
+    from rockdove.srgb import linear_to_srgb8  # the project's one sRGB 8-bit encoding
 
     return linear_to_srgb8(linear)
 
@@ -195,7 +196,7 @@ def body_base_colour(resolution_or_params, bird) -> np.ndarray:
     res = _resolution(resolution_or_params, attr="body_texture_resolution")
     part = bird.part("Body") if isinstance(bird, Bird) else getattr(bird, "part", bird)  # Body.part
     if not isinstance(part, MeshPart):
-        raise ValueError(f"bird={type(bird).__name__} must be a Bird, a Body or the Body MeshPart")
+        raise UsageError(f"bird={type(bird).__name__} must be a Bird, a Body or the Body MeshPart")
     faces = part.face_vertex_indices.reshape(-1, 3).astype(np.int64)
     st = part.st.astype(np.float64)
     points = part.points_m.astype(np.float64)

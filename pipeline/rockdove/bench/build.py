@@ -221,7 +221,7 @@ out, cache, preset, steps, verify, verify_stages = json.loads(sys.argv[1])
 rows = []
 for sets in steps:
     t0 = time.perf_counter()
-    r = api.build(api.load_config(preset=preset, overrides=sets), out, cache=cache, verify=verify, quiet=True)
+    r = api.build(api.load_config(preset=preset, overrides=sets), out, cache=cache, verify=verify)
     rows.append({"wall_s": time.perf_counter() - t0, "ran": r.ran,
                  "verify_s": sum(s.seconds for s in r.stages if s.name in verify_stages)})
 print(json.dumps(rows))

@@ -24,6 +24,8 @@ import statistics
 import time
 import tracemalloc
 
+from ..errors import UsageError
+
 HELP = "geometry benchmarks: body, cards and whole bird at 1k/10k/100k cards (median time, peak memory)"
 
 #: Goals of issue 3 (seconds).
@@ -82,11 +84,11 @@ def run(args: argparse.Namespace) -> int:
     from rockdove.geometry import checks
 
     if args.repeats < 1:
-        raise ValueError(f"--repeats={args.repeats} must be >= 1")
+        raise UsageError(f"--repeats={args.repeats} must be >= 1")
     quick = args.quick
     counts = args.counts or ([200, 1000] if quick else [1000, 10000, 100000])
     if any(c < 1 for c in counts):
-        raise ValueError(f"--counts={counts} must all be >= 1")
+        raise UsageError(f"--counts={counts} must all be >= 1")
     repeats = 1 if quick else args.repeats
     base = BirdParams(body_voxel_m=0.008) if quick else BirdParams()
     coverage = not (quick or args.no_coverage)

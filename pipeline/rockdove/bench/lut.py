@@ -20,6 +20,8 @@ import time
 
 import numpy as np
 
+from ..errors import UsageError
+
 HELP = "LUT bake time against dE2000 error, per method and setting (table, JSON, PNG plot)"
 SPEED_GOAL = 20.0  # issues 2 and 13: default bake >= 20x faster than the straightforward 1 nm bake
 # accuracy goals (max, p99 dE2000) of the default bake per film: issue 2 (paper), issue 13 (keratin)
@@ -140,9 +142,9 @@ def run(args: argparse.Namespace) -> int:
     n_points = args.points if args.points is not None else (300 if quick else 3000)
     min_time = MIN_ROW_TIME_S / 3 if quick else MIN_ROW_TIME_S
     if repeats < 1:
-        raise ValueError(f"--repeats must be >= 1, got {repeats}")
+        raise UsageError(f"--repeats must be >= 1, got {repeats}")
     if n_points < 10:
-        raise ValueError(f"--points must be >= 10, got {n_points}")
+        raise UsageError(f"--points must be >= 10, got {n_points}")
     os.makedirs(args.out, exist_ok=True)
 
     colour_weights(reference_wavelengths())  # colour-science import and the 0.1 nm weights: not the G table

@@ -27,6 +27,8 @@ import sys
 import tempfile
 import time
 
+from ..errors import UsageError
+
 HELP = "render benchmarks: GL views and the CPU reference at 512 x 512 against the 20 s goal"
 
 GOAL_TOTAL_S = 20.0
@@ -56,9 +58,9 @@ def _median_time(fn, repeats: int):
 
 def run(args: argparse.Namespace) -> int:
     if args.repeats < 1 or args.reference_repeats < 1:
-        raise ValueError(f"--repeats and --reference-repeats must be >= 1, got {args.repeats}, {args.reference_repeats}")
+        raise UsageError(f"--repeats and --reference-repeats must be >= 1, got {args.repeats}, {args.reference_repeats}")
     if not (1 <= args.width <= 8192 and 1 <= args.height <= 8192):
-        raise ValueError(f"--width/--height must be in [1, 8192], got {args.width} x {args.height}")
+        raise UsageError(f"--width/--height must be in [1, 8192], got {args.width} x {args.height}")
     from ..render.gl import GLRenderer, render_views
     from ..render.scene import load_scene
     from ..render.views import default_views

@@ -84,7 +84,7 @@ def build_once(args: argparse.Namespace):
     progress = _Progress(len(make_stages(config, verify=not args.no_verify)), args.quiet)
     try:
         result = api.build(config, args.out, cache=args.cache, verify=not args.no_verify,
-                           lock_timeout=args.lock_timeout, quiet=args.quiet, progress=progress)
+                           lock_timeout=args.lock_timeout, progress=progress)
     except api.BuildFailed as exc:
         progress.close()
         _print(exc.result, args)
@@ -120,7 +120,7 @@ def watch(args: argparse.Namespace) -> int:
     --config file changes (mtime, size or inode). A failed build prints its one-line error (with --json, a
     ``{"error": ...}`` line) and the watch goes on; Ctrl-C ends it."""
     from ..config import preset_path
-    from ..errors import VerificationFailed
+    from ..errors import RockdoveError, VerificationFailed
 
     files = [preset_path(args.preset)] + ([Path(args.config)] if args.config else [])
     try:
@@ -128,7 +128,7 @@ def watch(args: argparse.Namespace) -> int:
             stamp = _stamp(files)  # before the build: an edit during it starts the next one
             try:
                 build_once(args)
-            except (ValueError, OSError, VerificationFailed) as exc:
+            except (RockdoveError, OSError) as exc:
                 kind = "failed" if isinstance(exc, VerificationFailed) else "error"
                 print(f"rockdove build: {kind}: {exc}", file=sys.stderr, flush=True)
                 if args.json:

@@ -8,6 +8,8 @@ import json
 import os
 import sys
 
+from ..errors import UsageError
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("asset", metavar="ASSET", help="the asset folder or its root layer (pigeon.usda)")
@@ -30,7 +32,7 @@ def run(args: argparse.Namespace) -> int:
     layer = require_inside(args.asset, args.allow_external_assets)
     out = args.out or os.path.join(os.path.dirname(layer), GLB_NAME)
     if not out.endswith(".glb"):
-        raise ValueError(f"--out must name a .glb file, got {out!r}")
+        raise UsageError(f"--out must name a .glb file, got {out!r}")
     from ..graph.publish import check_output_file
 
     check_output_file(out, _ours)
@@ -39,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
         try:
             report = validate_glb(out)
         except RuntimeError as exc:
-            raise ValueError(str(exc)) from None
+            raise UsageError(str(exc)) from None
         issues = report["issues"]
         summary["validation"] = {k: issues[k] for k in ("numErrors", "numWarnings", "numInfos", "numHints")}
         summary["validation"]["messages"] = issues["messages"][:20]

@@ -6,6 +6,8 @@ import argparse
 import os
 import time
 
+from ..errors import UsageError
+
 DEFAULT_ERROR_POINTS = 1000
 
 
@@ -41,16 +43,16 @@ def run(args: argparse.Namespace) -> int:
     from ..lut import bake, write_exr, write_preview_png
 
     if not args.out.lower().endswith(".exr"):
-        raise ValueError(f"--out must name a .exr file, got {args.out!r}")
+        raise UsageError(f"--out must name a .exr file, got {args.out!r}")
     if os.path.isdir(args.out):
-        raise ValueError(f"--out is a directory, expected a .exr file path: {args.out!r}")
+        raise UsageError(f"--out is a directory, expected a .exr file path: {args.out!r}")
     out = os.path.abspath(args.out)
 
     ours = starts_like(b"\x76\x2f\x31\x01", b"rockdove:format")  # an EXR rockdove wrote: never the user's files
     check_output_file(out, ours)
     check_output_file(os.path.splitext(out)[0] + ".png", lambda p: os.path.isfile(out) and ours(out))
     if args.error_points < 0:
-        raise ValueError(f"--error-points must be >= 0, got {args.error_points}")
+        raise UsageError(f"--error-points must be >= 0, got {args.error_points}")
     t0 = time.perf_counter()
     try:
         lut = bake(angles=args.angles, thicknesses=args.thicknesses, thickness_range=tuple(args.thickness_range),
@@ -60,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
         name = str(exc).split(" ", 1)[0]
         if name in ("angles", "thicknesses", "thickness_range", "film", "method", "angle_warp_gamma", "colour_space"):
             option = "angle-gamma" if name == "angle_warp_gamma" else name.replace("_", "-")
-            raise ValueError(f"--{option}: {exc}") from None
+            raise UsageError(f"--{option}: {exc}") from None
         raise
     bake_s = time.perf_counter() - t0
     if args.error_points:

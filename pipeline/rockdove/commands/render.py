@@ -10,6 +10,7 @@ import time
 import numpy as np
 
 from ..render.images import MAX_SHEET_PX, MAX_SIDE_PX
+from ..errors import UsageError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -36,22 +37,23 @@ def run(args: argparse.Namespace) -> int:
     from ..usd.dependencies import require_inside
 
     if not 1 <= args.supersample <= 4:
-        raise ValueError(f"--supersample must be in [1, 4], got {args.supersample}")
+        raise UsageError(f"--supersample must be in [1, 4], got {args.supersample}")
     for key in ("width", "height"):
         v = getattr(args, key)
         if not 1 <= v * args.supersample <= MAX_SIDE_PX:
-            raise ValueError(f"--{key} x --supersample must be in [1, {MAX_SIDE_PX}] pixels (the memory budget), "
+            raise UsageError(f"--{key} x --supersample must be in [1, {MAX_SIDE_PX}] pixels (the memory budget), "
                              f"got {v} x {args.supersample}")
     if args.views < 1 or args.views * args.width * args.height > MAX_SHEET_PX:
-        raise ValueError(f"--views must be >= 1 and --views x --width x --height <= {MAX_SHEET_PX} pixels (the "
+        raise UsageError(f"--views must be >= 1 and --views x --width x --height <= {MAX_SHEET_PX} pixels (the "
                          f"memory budget), got {args.views} x {args.width} x {args.height}")
     claim_output(args.out, "renders", create=False)  # a folder rockdove did not write is refused, before rendering
     require_inside(args.asset, args.allow_external_assets)
     from ..render.gl import GLRenderer
-    from ..render.images import box_downsample, contact_sheet, save_png
+    from ..render.images import box_downsample, contact_sheet
+    from ..png import save_png
     from ..render.scene import load_scene
     from ..render.views import View, default_views
-    from ..spectral import linear_to_srgb8
+    from ..srgb import linear_to_srgb8
 
     t0 = time.perf_counter()
     scene = load_scene(args.asset, variants={"shading": args.shading} if args.shading else None)

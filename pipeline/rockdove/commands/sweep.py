@@ -76,7 +76,6 @@ _ONE_POINT_AT_A_TIME = threading.Lock()  # a worker with several threads builds 
 def build_point(name: str, base: dict, overrides: list[str], out: str, verify: bool) -> dict:
     """Build one point on a Dask worker (``base``: preset, config file, overrides and cache of every point) into
     ``out``; its record. Any error is recorded, not raised: the point fails alone."""
-    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")  # before anything imports OpenGL
     _restore_malloc_thresholds()
     from .. import api
 
@@ -89,13 +88,13 @@ def build_point(name: str, base: dict, overrides: list[str], out: str, verify: b
         try:
             config = api.load_config(preset=base["preset"], config_file=base["config_file"],
                                      overrides=[*base["overrides"], *overrides])
-            result = api.build(config, out, cache=base["cache"], verify=verify, quiet=True)
+            result = api.build(config, out, cache=base["cache"], verify=verify)
             record["status"] = "ok"
         except api.VerificationFailed as exc:  # a BuildFailed carries what ran
             result = getattr(exc, "result", None)
             record.update(status="failed", error=str(exc))
-        except (ValueError, OSError) as exc:
-            record.update(status="invalid" if isinstance(exc, ValueError) else "error", error=str(exc))
+        except (UsageError, OSError) as exc:
+            record.update(status="invalid" if isinstance(exc, UsageError) else "error", error=str(exc))
         except Exception as exc:  # noqa: BLE001 - the point fails alone, with its message
             record.update(status="error", error=f"{type(exc).__name__}: {exc}")
     record["seconds"] = round(time.perf_counter() - t0, 3)

@@ -29,7 +29,7 @@ def split_array(text: str) -> list[str]:
     brackets respected, a trailing comma allowed). Raises ValueError naming what is wrong."""
     text = text.strip()
     if not (text.startswith("[") and text.endswith("]")):
-        raise ValueError(f"{text!r} is not a [list] of values")
+        raise UsageError(f"{text!r} is not a [list] of values")
     items, cur, depth, quote, escaped = [], [], 0, None, False
     for c in text[1:-1]:
         if quote:
@@ -46,19 +46,19 @@ def split_array(text: str) -> list[str]:
         elif c in "]}":
             depth -= 1
             if depth < 0:
-                raise ValueError(f"{text!r} has an unmatched {c!r}")
+                raise UsageError(f"{text!r} has an unmatched {c!r}")
         elif c == "," and depth == 0:
             items.append("".join(cur).strip())
             cur = []
             continue
         cur.append(c)
     if quote or depth:
-        raise ValueError(f"{text!r} has an unclosed {quote or 'bracket'}")
+        raise UsageError(f"{text!r} has an unclosed {quote or 'bracket'}")
     items.append("".join(cur).strip())
     if items and items[-1] == "":
         items.pop()  # trailing comma
     if not items or any(it == "" for it in items):
-        raise ValueError(f"{text!r} has an empty value" if items else f"{text!r} is empty; give at least one value")
+        raise UsageError(f"{text!r} has an empty value" if items else f"{text!r} is empty; give at least one value")
     return items
 
 

@@ -31,6 +31,8 @@ import numpy as np
 
 from rockdove.geometry import sdf as _sdf
 
+from ..errors import UsageError
+
 #: Newton projection steps onto the zero set.
 PROJECTION_STEPS = 4
 #: Newton steps for the midpoints of a subdivision level (they start closer, and relaxation adds one step per
@@ -148,9 +150,9 @@ def subdivision_levels(voxel_m: float) -> int:
     try:
         v = float(voxel_m)
     except (TypeError, ValueError):
-        raise ValueError(f"voxel_m={voxel_m!r} must be a number of metres in [{lo}, {hi}]") from None
+        raise UsageError(f"voxel_m={voxel_m!r} must be a number of metres in [{lo}, {hi}]") from None
     if not (lo <= v <= hi):
-        raise ValueError(f"voxel_m={voxel_m!r} must lie within [{lo}, {hi}] m")
+        raise UsageError(f"voxel_m={voxel_m!r} must lie within [{lo}, {hi}] m")
     return max(0, int(round(math.log2(UNWRAP_VOXEL_M / v))))
 
 
@@ -172,7 +174,7 @@ def relax_on_surface(field, points_m: np.ndarray, faces: np.ndarray, iterations:
     from trimesh import smoothing
 
     if isinstance(iterations, bool) or not isinstance(iterations, (int, np.integer)) or iterations < 0:
-        raise ValueError(f"iterations={iterations!r} must be an integer >= 0")
+        raise UsageError(f"iterations={iterations!r} must be an integer >= 0")
     p = np.array(points_m, dtype=np.float64)
     if iterations == 0:
         return p
@@ -201,7 +203,7 @@ def subdivide_onto_surface(field, points_m: np.ndarray, faces: np.ndarray, st: n
     from trimesh import remesh
 
     if isinstance(levels, bool) or not isinstance(levels, (int, np.integer)) or levels < 0:
-        raise ValueError(f"levels={levels!r} must be an integer >= 0")
+        raise UsageError(f"levels={levels!r} must be an integer >= 0")
     points = np.asarray(points_m, dtype=np.float64)
     faces = np.asarray(faces, dtype=np.int64)
     st = np.asarray(st, dtype=np.float64)

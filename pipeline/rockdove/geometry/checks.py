@@ -16,6 +16,8 @@ import numpy as np
 from rockdove.geometry import neck as _neck
 from rockdove.geometry import sdf as _sdf
 
+from ..errors import UsageError
+
 #: Rays start this far outside the skin, metres (beyond the highest card tip).
 RAY_START_M = 0.02
 #: A first body hit within this distance of the target counts as the target itself, metres.
@@ -75,7 +77,7 @@ def band_coverage(body_vertices_m, body_faces, cards, rays: int = 2000, tilt_deg
     visible_skin = (~hidden) & (np.abs(d - RAY_START_M) < TARGET_TOLERANCE_M)
     counted = hidden.sum() + visible_skin.sum()
     if counted == 0:
-        raise ValueError("no band point is visible from outside in this direction")
+        raise UsageError("no band point is visible from outside in this direction")
     return float(hidden.sum() / counted)
 
 

@@ -79,7 +79,7 @@ TILE_START = {(k, c): (int(i), n) for (k, c, n), i in zip(ATLAS, np.cumsum([0] +
 
 def linear(srgb8) -> np.ndarray:
     """Linear Rec.709 of 8-bit sRGB values (colour-science's CCTF, IEC 61966-2-1)."""
-    from ..spectral import srgb_decode
+    from ..srgb import srgb_decode
 
     return srgb_decode(np.asarray(srgb8, dtype=np.float64) / 255.0)
 

@@ -24,6 +24,8 @@ import numpy as np
 
 from rockdove.geometry import sdf as _sdf
 
+from ..errors import UsageError
+
 #: Candidates per output sample (Yuksel 2015 uses 5; 3 is enough on a smooth surface and faster).
 CANDIDATES_PER_SAMPLE = 3.0
 #: Weight exponent alpha of Yuksel 2015, eq. 1.
@@ -99,7 +101,7 @@ def eliminate(points_m: np.ndarray, count: int, area_m2: float, rng: np.random.G
     docstring) keeps; ``rng`` breaks ties between equal weights."""
     m = len(points_m)
     if count > m:
-        raise ValueError(f"count={count} must not exceed the number of candidates ({m})")
+        raise UsageError(f"count={count} must not exceed the number of candidates ({m})")
     if count == m:
         return np.arange(m)
     from scipy.spatial import cKDTree

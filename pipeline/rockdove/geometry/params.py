@@ -13,6 +13,8 @@ from dataclasses import asdict, dataclass, fields, replace
 
 from rockdove.config import get, limits
 
+from ..errors import UsageError
+
 #: Measured film thickness at the base of the neck, nm (Yoshioka et al. 2007).
 MEASURED_BASE_NM = (480.0, 580.0)
 #: Measured film thickness towards the top of the neck, nm (Yoshioka et al. 2007).
@@ -44,28 +46,28 @@ def _check(name, value, default, lo_allowed, hi_allowed):
         try:
             pair = tuple(float(v) for v in value)
         except TypeError:
-            raise ValueError(f"{name}={value!r} must be a (min, max) pair in {unit}") from None
+            raise UsageError(f"{name}={value!r} must be a (min, max) pair in {unit}") from None
         if len(pair) != 2:
-            raise ValueError(f"{name}={value!r} must be a (min, max) pair in {unit}, got {len(pair)} values")
+            raise UsageError(f"{name}={value!r} must be a (min, max) pair in {unit}, got {len(pair)} values")
         if not all(math.isfinite(v) for v in pair):
-            raise ValueError(f"{name}={value!r} must be finite")
+            raise UsageError(f"{name}={value!r} must be finite")
         if pair[0] > pair[1]:
-            raise ValueError(f"{name}={value!r}: min {pair[0]} is above max {pair[1]}")
+            raise UsageError(f"{name}={value!r}: min {pair[0]} is above max {pair[1]}")
         checked = pair
     elif isinstance(default, int):
         if isinstance(value, bool) or not isinstance(value, int):
-            raise ValueError(f"{name}={value!r} must be an integer")
+            raise UsageError(f"{name}={value!r} must be an integer")
         checked = value
     else:
         try:
             checked = float(value)
         except (TypeError, ValueError):
-            raise ValueError(f"{name}={value!r} must be a number in {unit}") from None
+            raise UsageError(f"{name}={value!r} must be a number in {unit}") from None
         if not math.isfinite(checked):
-            raise ValueError(f"{name}={value!r} must be finite")
+            raise UsageError(f"{name}={value!r} must be finite")
     ends = checked if isinstance(checked, tuple) else (checked, checked)
     if ends[0] < lo_allowed or ends[1] > hi_allowed:
-        raise ValueError(f"{name}={value!r} must lie within [{lo_allowed}, {hi_allowed}] {unit}")
+        raise UsageError(f"{name}={value!r} must lie within [{lo_allowed}, {hi_allowed}] {unit}")
     return checked
 
 
@@ -122,7 +124,7 @@ class BirdParams:
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(values) - known)
         if unknown:
-            raise ValueError(f"unknown BirdParams fields {unknown}; known: {sorted(known)}")
+            raise UsageError(f"unknown BirdParams fields {unknown}; known: {sorted(known)}")
         return cls(**values)
 
     @classmethod

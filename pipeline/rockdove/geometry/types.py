@@ -8,6 +8,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import UsageError
+
 #: Allowed primvar interpolations (the USD names, as plain strings).
 INTERPOLATIONS = ("constant", "uniform", "vertex", "faceVarying")
 
@@ -39,7 +41,7 @@ class Primvar:
 
     def __post_init__(self):
         if self.interpolation not in INTERPOLATIONS:
-            raise ValueError(
+            raise UsageError(
                 f"interpolation={self.interpolation!r} is not allowed; use one of {INTERPOLATIONS}"
             )
 
@@ -66,7 +68,7 @@ class MeshPart:
 
     def __post_init__(self):
         if self.material not in MATERIALS:
-            raise ValueError(f"material={self.material!r} is not allowed; use one of {MATERIALS}")
+            raise UsageError(f"material={self.material!r} is not allowed; use one of {MATERIALS}")
 
     @property
     def n_points(self) -> int:
@@ -117,7 +119,7 @@ class Bird:
         for p in self.parts:
             if p.name == name:
                 return p
-        raise ValueError(f"name={name!r} is not a part; parts are {[p.name for p in self.parts]}")
+        raise UsageError(f"name={name!r} is not a part; parts are {[p.name for p in self.parts]}")
 
     @property
     def names(self) -> tuple:

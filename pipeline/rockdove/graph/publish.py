@@ -13,9 +13,9 @@ import ctypes
 import errno
 import fcntl
 import json
+import logging
 import os
 import shutil
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -24,6 +24,7 @@ from .. import __version__
 from ..errors import UsageError
 from ..usd.layout import MARKER
 
+_log = logging.getLogger(__name__)
 _TMP = ".rockdove-tmp-"
 _OLD = ".rockdove-old-"
 
@@ -155,8 +156,8 @@ class OutputLock:
             except BlockingIOError:
                 if not told:
                     holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "?"
-                    print(f"rockdove build: waiting for another build of {self.out} "
-                          f"(pid {holder}) to finish", file=sys.stderr, flush=True)
+                    _log.warning("rockdove build: waiting for another build of %s (pid %s) to finish", self.out,
+                                 holder)
                     told = True
                 if self.timeout_s is not None and time.monotonic() - t0 > self.timeout_s:
                     os.close(fd)

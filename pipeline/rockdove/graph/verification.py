@@ -127,27 +127,27 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
     return {v.name: done[v.name] for v in views}, fresh
 
 
-def _host_key(module, digest: str, views) -> str:
+def _host_key(host, digest: str, views) -> str:
     from ..verify.host_check import check_host
 
-    return item_key("host", (module.render, check_host), digest, [v.to_dict() for v in views], module.NAME,
-                    module.LOBE, module.VARIANT)
+    return item_key("host", (host.render, check_host), digest, [v.to_dict() for v in views], host.name, host.lobe,
+                    host.variant)
 
 
-def _host(cache, module, layer, scene, views, digest, refs, fresh, out, say) -> tuple[dict, dict, bool]:
+def _host(cache, host, layer, scene, views, digest, refs, fresh, out, say) -> tuple[dict, dict, bool]:
     """One host's report entry, image files in ``out`` (where it renders) and whether they came from the cache."""
     from ..verify.host_check import check_host
 
     items = _Items(cache, "host")
-    key = _host_key(module, digest, views)
+    key = _host_key(host, digest, views)
     found = items.get(key)
     if found is not None:
         value = _meta(found)
         for name in _files(value["files"]):
             shutil.copyfile(os.path.join(found, name), os.path.join(out, name))
         return value["entry"], value["files"], True
-    rendered = fresh["gl"] if module.NAME == "glsl" else None
-    entry, files = check_host(module, layer, scene, views, refs(module.LOBE), out, rendered, say)
+    rendered = fresh["gl"] if host.name == "glsl" else None
+    entry, files = check_host(host, layer, scene, views, refs(host.lobe), out, rendered, say)
     if entry.get("passed") is not None and "error" not in entry:  # one skipped or failed is asked again
         with items.scratch() as tmp:
             for name in _files(files):
@@ -199,7 +199,7 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     digest, ran, reused = scene_digest(scene), {}, {}
     say(f"GL renders and CPU reference ({len(chosen)} views)")
     surfaces = _surfaces(cache, scene, chosen, ran, reused)
-    glsl = next(m for m in selection.available if m.NAME == "glsl")
+    glsl = next(h for h in selection.available if h.name == "glsl")
     redo = _Items(cache, "host").get(_host_key(glsl, digest, chosen)) is None  # its images are the GL renders
     results, fresh = _views(cache, scene, lut, chosen, digest, surfaces, redo, out, say, ran, reused)
     lobes = {"half_angle": fresh["refs"]} if redo else {}
@@ -212,14 +212,14 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
 
     t = time.perf_counter()
     entries, images, ran["hosts"], reused["hosts"] = [], {}, [], []
-    for module in selection.available:
-        entry, files, cached = _host(cache, module, layer, scene, chosen, digest, refs, fresh, out, say)
+    for host in selection.available:
+        entry, files, cached = _host(cache, host, layer, scene, chosen, digest, refs, fresh, out, say)
         entries.append(entry)
-        images.update({module.NAME: files} if files else {})
-        (reused if cached else ran)["hosts"].append(module.NAME)
+        images.update({host.name: files} if files else {})
+        (reused if cached else ran)["hosts"].append(host.name)
     entries += [{"name": n, "skipped": True, "reason": r, "passed": None} for n, r in selection.unavailable.items()]
     named = hosts is not None and "blender" in hosts  # auto: Cycles only when asked for (2-4 min of CPU)
-    beauty = {**settings(beauty), "cycles_ok": named and any(m.NAME == "blender" for m in selection.available)}
+    beauty = {**settings(beauty), "cycles_ok": named and any(h.name == "blender" for h in selection.available)}
     return combine(layer, scene, lut, notes, results, out, width, height, bench_dir, say, t_start=t_start,
                    reused=reused["views"], hosts=(entries, images, time.perf_counter() - t), beauty=beauty,
                    published_asset=published_asset, items={"ran": ran, "reused": reused})

@@ -4,6 +4,7 @@ runner) or the GL path (:mod:`rockdove.render.beauty_gl`), and the entry the ver
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import time
 
@@ -12,23 +13,26 @@ import numpy as np
 from ..render.beauty import (EXPOSURE, GROUND_ALBEDO, LOOK, RENDERERS, SKY_HORIZON_RGB, SKY_STRENGTH,
                              SKY_ZENITH_RGB, SUN_ANGLE_DEG, SUN_ELEVATION_DEG, SUN_RGB, SUN_STRENGTH, TIMEOUT_S,
                              beauty_views, cyclorama, ground_y_m)
-from . import HostError, blender as bl
+from ..errors import UsageError
+from . import bpy_runner as runner
+from .base import HostError
+from .blender import NAME, base_job
 
 
 def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
     """Render ``views`` with Cycles through the add-on (:mod:`rockdove.hosts.blender_beauty_job`); returns
     ``{view name: (H, W, 3) uint8}`` (display-referred, AgX). Raises HostError when Blender cannot."""
-    work = bl.work_folder("beauty_cycles", views, out_dir, "png")
+    work = runner.work_folder("beauty_cycles", views, out_dir, "png")
     verts, quads = cyclorama(scene, views)
     job = {
-        **bl.base_job(os.path.abspath(layer), views, work, samples), "ground_vertices_m": np.round(verts, 6).tolist(),
+        **base_job(os.path.abspath(layer), views, work, samples), "ground_vertices_m": np.round(verts, 6).tolist(),
         "ground_quads": quads.tolist(), "ground_albedo": GROUND_ALBEDO, "sky_horizon_rgb": SKY_HORIZON_RGB,
         "sky_zenith_rgb": SKY_ZENITH_RGB, "sky_strength": SKY_STRENGTH, "sun_strength": SUN_STRENGTH,
         "sun_rgb": SUN_RGB, "sun_angle_deg": SUN_ANGLE_DEG, "look": LOOK, "exposure": EXPOSURE,
         "views": [{**v.to_dict(), "sun_direction": v.light_direction.tolist()} for v in views],
     }
-    bl.run_job(job, work, "rockdove.hosts.blender_beauty_job", timeout_s=TIMEOUT_S)
-    return bl.read_views(bl.NAME, "Blender", views, work, "png")
+    runner.run_job(job, work, importlib.util.find_spec("rockdove.hosts.blender_beauty_job").origin, TIMEOUT_S)
+    return runner.read_views(NAME, "Blender", views, work, "png")
 
 
 def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", width: int = 768,
@@ -42,17 +46,17 @@ def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", wi
     ``cycles_ok``: whether ``auto`` may take Cycles (False where the verification was not asked to run Blender);
     ``lut``: the GL path's film LUT (default the asset's).
     """
-    from ..render.images import save_png
+    from ..png import save_png
 
     if renderer not in RENDERERS:
-        raise ValueError(f"beauty renderer {renderer!r} is not one of {', '.join(RENDERERS)}")
+        raise UsageError(f"beauty renderer {renderer!r} is not one of {', '.join(RENDERERS)}")
     if renderer == "off":
         return None
     views = beauty_views(scene, int(width), int(height))
     t = time.perf_counter()
     fallback, images, used = None, None, "gl"
     if renderer == "cycles" or (renderer == "auto" and cycles_ok):
-        fallback = bl.unavailable()
+        fallback = runner.unavailable()
         if fallback is None:
             try:
                 images, used = render_cycles(layer, scene, views, out_dir, samples), "cycles"

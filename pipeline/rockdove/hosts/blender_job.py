@@ -1,4 +1,4 @@
-"""The Blender side of :mod:`rockdove.hosts.blender`: run as ``PYTHON path/to/blender_job.py JOB.json`` by a Python
+"""The Blender side of :mod:`rockdove.hosts.blender`, run by :mod:`rockdove.hosts.bpy_runner` as ``PYTHON path/to/blender_job.py JOB.json`` by a Python
 that has bpy; it imports nothing but the standard library and bpy. Its own process, because bpy bundles its own USD:
 the add-on's ``USDHook`` gets the import's stage as an object of it, which only bpy's ``pxr`` can read, and ``import
 pxr`` beside usd-core finds usd-core's (measured: "No to_python converter found for C++ type ... UsdStage").
@@ -29,7 +29,7 @@ def _black(bsdf) -> None:
     bsdf.inputs["Specular IOR Level"].default_value = 0.0
 
 
-def _black_material(bpy):
+def black_material(bpy):
     mat = bpy.data.materials.new("rockdove_black")
     mat.use_nodes = True
     _black(mat.node_tree.nodes.get("Principled BSDF"))
@@ -52,7 +52,7 @@ def occluder(mat, black):
 
 def film_lobe_only(bpy, addon) -> None:
     """Set up the ``view_angle`` lobe (module docstring, step 3)."""
-    black = _black_material(bpy)
+    black = black_material(bpy)
     for ob in bpy.data.objects:
         ob.visible_glossy = False
         if ob.type != "MESH":
@@ -69,7 +69,7 @@ def film_lobe_only(bpy, addon) -> None:
                 slot.material = occluder(mat, black)
 
 
-def _world(bpy, radiance: float) -> None:
+def white_world(bpy, radiance: float) -> None:
     world = bpy.data.worlds.new("rockdove_white")
     world.use_nodes = True
     bg = world.node_tree.nodes["Background"]
@@ -165,7 +165,7 @@ def run(job: dict) -> None:
     addon, films, to_blender = import_asset(bpy, job)
     if job["lobe"] == "view_angle":  # else "as_imported" (rockdove.hosts.blender.render checks)
         film_lobe_only(bpy, addon)
-    _world(bpy, job["environment_radiance"])
+    white_world(bpy, job["environment_radiance"])
     render_views(bpy, mathutils, to_blender, job)
     with open(os.path.join(job["out_dir"], "done.json"), "w", encoding="utf-8") as fh:
         json.dump({"films": films, "blender": bpy.app.version_string}, fh)

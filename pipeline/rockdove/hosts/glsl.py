@@ -10,51 +10,55 @@ from __future__ import annotations
 
 import os
 
-NAME = "glsl"
-VARIANT = "glsl"
-LOBE = "half_angle"
+from .base import Host, HostError
 
 
-def unavailable() -> str | None:
-    """None when pyrender and PyOpenGL import, else why not."""
-    for module, package in (("pyrender", "pyrender"), ("OpenGL.GL", "PyOpenGL")):
+class GLSLHost(Host):
+    """Our paper shaders in pyrender (module docstring)."""
+
+    def unavailable(self) -> str | None:
+        """None when pyrender and PyOpenGL import, else why not."""
+        from .._compat import import_pyrender
+
         try:
-            __import__(module)
+            import_pyrender()
+            import OpenGL.GL  # noqa: F401
         except ImportError as exc:
-            return f"{package} is not installed ({exc})"
-    return None
+            return f"{'PyOpenGL' if 'OpenGL' in str(exc) else 'pyrender'} is not installed ({exc})"
+        return None
+
+    def cannot_draw(self, asset_path: str) -> str | None:
+        """Why the GLSL shaders cannot draw this asset (it has no LUT), else None."""
+        from ..render.scene import load_scene
+
+        try:
+            film = load_scene(asset_path).film
+        except ValueError as exc:
+            return f"the GLSL shaders cannot draw this asset: {exc}"
+        if film is not None and film.lut_file is None:
+            return "the GLSL shaders cannot draw this asset without a LUT: it records no rockdove:lut:file"
+        return None
+
+    def render(self, asset_path: str, views, out_dir: str | None) -> dict:
+        """Render ``views`` of the written asset with the GLSL shaders (:class:`~rockdove.hosts.base.Host`);
+        ``<view>_glsl.png`` (sRGB) into ``out_dir`` when given."""
+        from ..render.gl import render_views
+        from ..render.scene import load_scene
+
+        views = list(views)
+        try:
+            results = render_views(load_scene(asset_path), views)
+        except (ValueError, RuntimeError, OSError) as exc:
+            raise HostError(self.name, str(exc)) from None
+        images = {r.view.name: r.radiance_rgb for r in results}
+        if out_dir:
+            from ..png import save_png
+            from ..srgb import linear_to_srgb8
+
+            os.makedirs(out_dir, exist_ok=True)
+            for name, rgb in images.items():
+                save_png(linear_to_srgb8(rgb), os.path.join(out_dir, f"{name}_{self.name}.png"))
+        return images
 
 
-def cannot_draw(asset_path: str) -> str | None:
-    """Why the GLSL shaders cannot draw this asset (it has no LUT), else None."""
-    from ..render.scene import load_scene
-
-    try:
-        film = load_scene(asset_path).film
-    except ValueError as exc:
-        return f"the GLSL shaders cannot draw this asset: {exc}"
-    if film is not None and film.lut_file is None:
-        return "the GLSL shaders cannot draw this asset without a LUT: it records no rockdove:lut:file"
-    return None
-
-
-def render(asset_path: str, views, out_dir: str) -> dict:
-    """Render ``views`` of the written asset with the GLSL shaders; see :mod:`rockdove.hosts`."""
-    from ..render.gl import render_views
-    from ..render.scene import load_scene
-    from . import HostError
-
-    views = list(views)
-    try:
-        results = render_views(load_scene(asset_path), views)
-    except (ValueError, RuntimeError, OSError) as exc:
-        raise HostError(NAME, str(exc)) from None
-    images = {r.view.name: r.radiance_rgb for r in results}
-    if out_dir:
-        from ..spectral import linear_to_srgb8
-        from ..render.images import save_png
-
-        os.makedirs(out_dir, exist_ok=True)
-        for name, rgb in images.items():
-            save_png(linear_to_srgb8(rgb), os.path.join(out_dir, f"{name}_{NAME}.png"))
-    return images
+HOST = GLSLHost("glsl", "glsl", "half_angle")

@@ -21,30 +21,39 @@ reference (:func:`rockdove.verify.host_check.host_passed`), its dE reported.
 
 from __future__ import annotations
 
-import functools
 import os
 
-from . import HostError, variant_host
-
-NAME = "materialx"
-#: The network drawn: the asset's default shading variant for MaterialX hosts.
-VARIANT = "baked"
-LOBE = "view_angle"
+from .base import Host, HostError
 
 
-def unavailable() -> str | None:
-    """None when MaterialX's GLSL generator and an offscreen GL context (:func:`glsl.unavailable`) can be used."""
-    from . import glsl
+class MaterialXHost(Host):
+    """The asset's MaterialX network for shading variant ``variant`` as MaterialX's generated GLSL (module
+    docstring)."""
 
-    try:
-        import MaterialX.PyMaterialXGenGlsl  # noqa: F401
-    except ImportError as exc:
-        return f"MaterialX is not installed ({exc})"
-    return glsl.unavailable()
+    def unavailable(self) -> str | None:
+        """None when MaterialX's GLSL generator and an offscreen GL context (the glsl host's) can be used."""
+        from .glsl import HOST
+
+        try:
+            import MaterialX.PyMaterialXGenGlsl  # noqa: F401
+        except ImportError as exc:
+            return f"MaterialX is not installed ({exc})"
+        return HOST.unavailable()
+
+    def cannot_draw(self, asset_path: str) -> str | None:
+        return missing_variant(asset_path, self.variant)
+
+    def render(self, asset_path: str, views, out_dir: str | None) -> dict:
+        return render_variant(asset_path, views, out_dir, variant=self.variant, name=self.name)
 
 
-def cannot_draw(asset_path: str, variant: str = VARIANT) -> str | None:
-    """Why this host cannot draw this asset (it carries no ``shading`` variant ``variant``), else None."""
+#: The asset's default network for MaterialX hosts (``baked``) and OpenPBR's thin film (``physical``).
+BAKED = MaterialXHost("materialx", "baked", "view_angle")
+PHYSICAL = MaterialXHost("materialx_physical", "physical", "view_angle")
+
+
+def missing_variant(asset_path: str, variant: str) -> str | None:
+    """Why a host cannot draw this asset (it carries no ``shading`` variant ``variant``), else None."""
     from pxr import Usd
 
     from ..usd.layout import resolve_root_layer
@@ -54,11 +63,6 @@ def cannot_draw(asset_path: str, variant: str = VARIANT) -> str | None:
     vsets = root.GetVariantSets() if root else None
     have = list(vsets.GetVariantSet("shading").GetVariantNames()) if vsets and vsets.HasVariantSet("shading") else []
     return None if variant in have else f"the asset carries no {variant!r} shading variant (it has {have})"
-
-
-def render(asset_path: str, views, out_dir: str) -> dict:
-    """Render ``views`` of the asset's default MaterialX network (:data:`VARIANT`); see the module docstring."""
-    return render_variant(asset_path, views, out_dir, variant=VARIANT, name=NAME)
 
 
 # -- the asset's MaterialX network -> GLSL ----------------------------------------------------------------------
@@ -114,7 +118,7 @@ def feather_networks(layer: str, variant: str) -> dict:
 
     from ..usd.material import load_mtlx_libraries, usd_to_mtlx_document
 
-    reason = cannot_draw(layer, variant)
+    reason = missing_variant(layer, variant)
     if reason:
         raise ValueError(f"asset {layer!r}: {reason}")
     stage = Usd.Stage.Open(layer, Usd.Stage.LoadAll)
@@ -176,15 +180,10 @@ def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str,
     except Exception as exc:
         raise HostError(name, f"GL drawing failed: {type(exc).__name__}: {exc}") from None
     if out_dir:
-        from ..spectral import linear_to_srgb8
-        from ..render.images import save_png
+        from ..srgb import linear_to_srgb8
+        from ..png import save_png
 
         os.makedirs(out_dir, exist_ok=True)
         for view_name, rgb in images.items():
             save_png(linear_to_srgb8(rgb), os.path.join(out_dir, f"{view_name}_{name}.png"))
     return images
-
-
-#: The ``materialx_physical`` host (rockdove.hosts.HOSTS: ``rockdove.hosts.materialx:PHYSICAL``).
-PHYSICAL = variant_host("materialx_physical", "physical", LOBE, unavailable,
-                        functools.partial(render_variant, variant="physical"), cannot_draw)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import ENVIRONMENT_RADIANCE, HostError
+from .base import ENVIRONMENT_RADIANCE, HostError
 
 #: Image nodes whose texture gets a mip chain and trilinear filtering, as every host does: the LUT (its angle axis
 #: is minified where cos theta changes fast on screen, which the verification must see). The card atlas (base
@@ -104,7 +104,9 @@ def _projection(view, near: float, far: float) -> np.ndarray:
 def draw(scene, networks: dict, sources: dict, views, *, name: str) -> dict:
     """View name -> float linear radiance of ``views`` of ``scene``, each part with a network in ``networks`` drawn
     by its generated ``sources`` (vertex, pixel), the others black (:mod:`rockdove.hosts.materialx`)."""
-    import pyrender
+    from .._compat import import_pyrender
+
+    pyrender = import_pyrender()
     from OpenGL import GL
 
     sizes: dict = {}  # one offscreen context per image size (the hero view is larger than the others)

@@ -18,11 +18,14 @@ the Material Output; every other part black; a uniform white world of unit radia
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import shutil
 
-from . import ENVIRONMENT_RADIANCE, HostError, variant_host
-from .materialx import cannot_draw
+from . import bpy_runner
+from .base import ENVIRONMENT_RADIANCE, Host, HostError
+from .blender import base_job
+from .materialx import missing_variant
 
 #: host name -> (the ``shading`` variant drawn, its base-colour input ``node.input``, set to black)
 VARIANTS = {"osl": ("baked", "StructuralMix.bg"), "osl_physical": ("physical", "MtlxPhysicalSurface.base_color")}
@@ -39,15 +42,22 @@ TIMEOUT_S = 900
 WORKING_SPACE, EXR_SPACE = "ACEScg", "Linear Rec.709"
 
 
-def unavailable() -> str | None:
-    """None when MaterialX's OSL generator and a Python with bpy (Cycles, OSL) can run here, else why not."""
-    try:
-        import MaterialX.PyMaterialXGenOsl  # noqa: F401
-    except ImportError as exc:
-        return f"MaterialX is not installed ({exc}); pip install MaterialX"
-    from . import blender
+class OSLHost(Host):
+    """The asset's MaterialX network as MaterialX's generated OSL in Cycles (module docstring)."""
 
-    return blender.unavailable()
+    def unavailable(self) -> str | None:
+        """None when MaterialX's OSL generator and a Python with bpy (Cycles, OSL) can run here, else why not."""
+        try:
+            import MaterialX.PyMaterialXGenOsl  # noqa: F401
+        except ImportError as exc:
+            return f"MaterialX is not installed ({exc}); pip install MaterialX"
+        return bpy_runner.unavailable()
+
+    def cannot_draw(self, asset_path: str) -> str | None:
+        return missing_variant(asset_path, self.variant)
+
+    def render(self, asset_path: str, views, out_dir: str) -> dict:
+        return render_variant(asset_path, views, out_dir, name=self.name)
 
 
 def generate_osl(doc, material_name: str) -> str:
@@ -197,19 +207,18 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
     """Render ``views`` of host ``name``'s network (:data:`VARIANTS`) as generated OSL in Cycles (module docstring):
     view name -> (H, W, 3) float32 linear Rec.709 radiance, background 0. HostError when bpy is missing, MaterialX
     cannot generate the OSL, the OSL compiler rejects it (its error line) or Cycles writes no image."""
-    from . import blender
-    from .materialx import feather_networks
     from ..usd.layout import resolve_root_layer
+    from .materialx import feather_networks
 
     variant, base = VARIANTS[name]
     views = list(views)
-    blender.bpy_python()
+    bpy_runner.bpy_python(name)
     try:
         layer = resolve_root_layer(asset_path)
         networks = feather_networks(layer, variant)
     except (ValueError, RuntimeError, OSError) as exc:
         raise HostError(name, f"cannot read the asset's MaterialX network: {exc}") from None
-    work = blender.work_folder(name, views, out_dir)
+    work = bpy_runner.work_folder(name, views, out_dir)
     for header in osl_headers():
         shutil.copyfile(header, os.path.join(work, os.path.basename(header)))
     shaders = {}
@@ -223,14 +232,15 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
         raise HostError(name, f"cannot turn the asset's MaterialX network into OSL: {exc}") from None
     except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
         raise HostError(name, f"MaterialX OSL generation failed: {type(exc).__name__}: {exc}") from None
-    job = {**blender.base_job(os.path.abspath(layer), views, work, SAMPLES, addon=False), "shaders": shaders,
+    job = {**base_job(os.path.abspath(layer), views, work, SAMPLES, addon=False), "shaders": shaders,
            "environment_radiance": ENVIRONMENT_RADIANCE, "working_space": WORKING_SPACE, "exr_colorspace": EXR_SPACE}
     try:
-        blender.run_job(job, work, "rockdove.hosts.osl_job", TIMEOUT_S, host=name, renderer="Cycles (OSL)")
+        bpy_runner.run_job(job, work, importlib.util.find_spec("rockdove.hosts.osl_job").origin, TIMEOUT_S,
+                           host=name, renderer="Cycles (OSL)")
     except HostError as exc:
         raise HostError(name, _compiler_error(work) or exc.message) from None
-    return blender.read_views(name, "Cycles (OSL)", views, work)
+    return bpy_runner.read_views(name, "Cycles (OSL)", views, work)
 
 
-#: The registry's host objects (rockdove.hosts.HOSTS: ``rockdove.hosts.osl:BAKED``, ``...:PHYSICAL``).
-BAKED, PHYSICAL = (variant_host(n, VARIANTS[n][0], LOBE, unavailable, render_variant, cannot_draw) for n in VARIANTS)
+#: The registry's hosts, one per network (rockdove.hosts.HOSTS).
+BAKED, PHYSICAL = HOSTS = tuple(OSLHost(n, v, LOBE) for n, (v, _) in VARIANTS.items())

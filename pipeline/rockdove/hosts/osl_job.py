@@ -1,5 +1,5 @@
 """The Cycles side of :mod:`rockdove.hosts.osl`: run as ``PYTHON path/to/osl_job.py JOB.json`` by a Python that has
-bpy (:func:`rockdove.hosts.blender.bpy_python`); it imports nothing but the standard library, bpy and its sibling
+bpy (:func:`rockdove.hosts.bpy_runner.bpy_python`); it imports nothing but the standard library, bpy and its sibling
 :mod:`rockdove.hosts.blender_job` (by file, also stdlib + bpy only).
 
 The steps are those of :mod:`rockdove.hosts.osl`'s docstring ("What Cycles does"); the job file, written by
@@ -91,7 +91,7 @@ def run(job: dict) -> None:
     _, _, to_blender = blender_job.import_asset(bpy, job)
     # colours stay as the shader computes them (in ACEScg), the render is written in linear Rec.709 (osl.py)
     bpy.ops.wm.set_working_color_space(working_space=job["working_space"], convert_colors=False)
-    black = blender_job._black_material(bpy)
+    black = blender_job.black_material(bpy)
     by_name = {mesh.rsplit("/", 1)[-1]: shader for mesh, shader in compiled.items()}
     drawn = []
     for ob in bpy.data.objects:
@@ -109,7 +109,7 @@ def run(job: dict) -> None:
     if missing:
         objects = [o.name for o in bpy.data.objects]
         raise RuntimeError(f"no imported mesh named {', '.join(missing)} (objects: {objects})")
-    blender_job._world(bpy, job["environment_radiance"])
+    blender_job.white_world(bpy, job["environment_radiance"])
     bpy.context.scene.cycles.shading_system = True  # OSL (CPU only)
     blender_job.render_views(bpy, mathutils, to_blender, job)
     with open(os.path.join(job["out_dir"], "done.json"), "w", encoding="utf-8") as fh:

@@ -1,7 +1,7 @@
 """The ``storm`` hosts: the written asset, unchanged, drawn by Hydra Storm (usdview's renderer).
 
 Storm is the one in the bpy wheel (USD 25.08 with imaging, hdSt, HdMtlx, MaterialX 1.39.3), run by
-:mod:`rockdove.hosts.storm_job` in the Python that has bpy (:func:`rockdove.hosts.blender.bpy_python`), headless
+:mod:`rockdove.hosts.storm_job` in the Python that has bpy (:func:`rockdove.hosts.bpy_runner.bpy_python`), headless
 in an EGL pbuffer with an OpenGL 4.5 compatibility context. Everything the host adds is in the stage's session
 layer (the asset's files are never written): a camera per View (clipping range 1 mm - 1 km), a dome light with a
 white texture (the ``view_angle`` lobe's uniform environment, :data:`rockdove.hosts.ENVIRONMENT_RADIANCE`), the
@@ -30,13 +30,15 @@ until one fails (OpenUSD 24.11 source: any EXR warns at its level count), then g
 
 from __future__ import annotations
 
+import importlib.util
 import os
 
 import numpy as np
 
 from ..png import save_png
-from . import ENVIRONMENT_RADIANCE, HostError, variant_host
-from .materialx import cannot_draw
+from . import bpy_runner
+from .base import ENVIRONMENT_RADIANCE, Host, HostError
+from .materialx import missing_variant
 
 LOBE = "view_angle"
 #: Seconds before a Storm run is given up (a 512 px frame: 5-45 s, mostly shader compilation).
@@ -50,33 +52,35 @@ VARIANTS = {
 #: The feather material's prim name (rockdove.usd.stage).
 FEATHER_MATERIAL = "FeatherMaterial"
 
-def unavailable() -> str | None:
-    """None when a Python with bpy (whose USD has imaging) can run here, else why not."""
-    from . import blender
 
-    return blender.unavailable()
+class StormHost(Host):
+    """Hydra Storm of the bpy wheel drawing one of the asset's networks (:data:`VARIANTS`, module docstring)."""
+
+    def unavailable(self) -> str | None:
+        """None when a Python with bpy (whose USD has imaging) can run here, else why not."""
+        return bpy_runner.unavailable()
+
+    def cannot_draw(self, asset_path: str) -> str | None:
+        return None if self.variant == "preview" else missing_variant(asset_path, self.variant)
+
+    def render(self, asset_path: str, views, out_dir: str) -> dict:
+        """Render ``views`` of the written asset in Storm with this host's network: view name -> (H, W, 3) float32
+        linear Rec.709 radiance, background 0. HostError when bpy is missing, Storm cannot start (no EGL, a shader
+        that fails to compile) or writes no image."""
+        name = self.name
+        views = list(views)
+        asset_path = os.path.abspath(os.fspath(asset_path))
+        if not os.path.isfile(asset_path):
+            raise HostError(name, f"no asset at {asset_path!r}")
+        work = bpy_runner.work_folder(name, views, out_dir)
+        save_png(np.full((2, 4, 3), 255, np.uint8), os.path.join(work, "white.png"))  # the dome light's texture
+        job = {"asset": asset_path, "variant": self.variant, "overrides": {FEATHER_MATERIAL: VARIANTS[name][1]},
+               "environment_radiance": ENVIRONMENT_RADIANCE, "out_dir": work, "views": [v.to_dict() for v in views]}
+        # the bpy Python, found and run as the Blender host runs its job (log: work/blender.log)
+        bpy_runner.run_job(job, work, importlib.util.find_spec("rockdove.hosts.storm_job").origin, TIMEOUT_S,
+                           host=name, renderer="Storm")
+        return bpy_runner.read_views(name, "Storm", views, work)
 
 
-def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
-    """Render ``views`` of the written asset in Storm with host ``name``'s network (:data:`VARIANTS`): view name ->
-    (H, W, 3) float32 linear Rec.709 radiance, background 0. HostError when bpy is missing, Storm cannot start
-    (no EGL, a shader that fails to compile) or writes no image."""
-    from . import blender
-
-    variant, overrides = VARIANTS[name]
-    views = list(views)
-    asset_path = os.path.abspath(os.fspath(asset_path))
-    if not os.path.isfile(asset_path):
-        raise HostError(name, f"no asset at {asset_path!r}")
-    work = blender.work_folder(name, views, out_dir)
-    save_png(np.full((2, 4, 3), 255, np.uint8), os.path.join(work, "white.png"))  # the dome light's texture
-    job = {"asset": asset_path, "variant": variant, "overrides": {FEATHER_MATERIAL: overrides},
-           "environment_radiance": ENVIRONMENT_RADIANCE, "out_dir": work, "views": [v.to_dict() for v in views]}
-    # the bpy Python, found and run as the Blender host runs its job (log: work/blender.log)
-    blender.run_job(job, work, "rockdove.hosts.storm_job", TIMEOUT_S, host=name, renderer="Storm")
-    return blender.read_views(name, "Storm", views, work)
-
-
-#: The registry's host objects (rockdove.hosts.HOSTS: ``rockdove.hosts.storm:BAKED`` ...).
-BAKED, PHYSICAL, PREVIEW = (variant_host(n, VARIANTS[n][0], LOBE, unavailable, render_variant,
-                                         None if VARIANTS[n][0] == "preview" else cannot_draw) for n in VARIANTS)
+#: The registry's hosts, one per network (rockdove.hosts.HOSTS).
+BAKED, PHYSICAL, PREVIEW = HOSTS = tuple(StormHost(n, v, LOBE) for n, (v, _) in VARIANTS.items())

@@ -16,28 +16,35 @@ from pathlib import Path
 
 import numpy as np
 
-from . import HostError
+from .base import Host, HostError
 
 NAME = "web"
-VARIANT = "physical"
-LOBE = "view_angle"
 #: Seconds for the page to load the GLB and draw its first frame (SwiftShader, 2 cores: about 10 s).
 PAGE_TIMEOUT_S = 120.0
 #: Seconds for one View to render and read back.
 VIEW_TIMEOUT_S = 120.0
 
 
-def unavailable() -> str | None:
-    """None when Chromium and the npm package three are installed, else why not."""
-    from ..web.browser import BrowserError, find_chromium
-    from ..web.viewer import three_folder
+class WebHost(Host):
+    """three.js in headless Chromium (module docstring)."""
 
-    try:
-        find_chromium()
-        three_folder()
-    except (BrowserError, OSError) as exc:  # no chromium; three not installed (ResourceMissing)
-        return str(exc)
-    return None
+    def unavailable(self) -> str | None:
+        """None when Chromium and the npm package three are installed, else why not."""
+        from ..web.browser import BrowserError, find_chromium
+        from ..web.viewer import three_folder
+
+        try:
+            find_chromium()
+            three_folder()
+        except (BrowserError, OSError) as exc:  # no chromium; three not installed (ResourceMissing)
+            return str(exc)
+        return None
+
+    def render(self, asset_path: str, views, out_dir: str) -> dict:
+        return render(asset_path, views, out_dir)
+
+
+HOST = WebHost(NAME, "physical", "view_angle")
 
 
 def render(asset_path: str, views: list, out_dir: str, *, browser_factory=None) -> dict:
@@ -45,8 +52,8 @@ def render(asset_path: str, views: list, out_dir: str, *, browser_factory=None) 
     3) float32}`` linear Rec.709 radiance, unclipped, background 0. The page (``web/viewer.html`` and its files) and
     the PNGs (``web_<view>.png``) go into ``out_dir``; ``browser_factory`` returns a started
     :class:`rockdove.web.browser.Browser` (tests pass one that fails to start)."""
-    from ..spectral import linear_to_srgb8
-    from ..render.images import save_png
+    from ..srgb import linear_to_srgb8
+    from ..png import save_png
     from ..usd.layout import resolve_root_layer
     from ..web.browser import Browser, BrowserError
     from ..web.gltf import GLB_NAME, export_glb

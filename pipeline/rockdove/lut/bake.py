@@ -21,6 +21,7 @@ from ..films import as_film
 from ..spectral import DEFAULT_OBSERVER, WAVELENGTH_RANGE_NM, check_colour_space
 from .interfaces import interface_coefficients
 from .table import ThinFilmLUT
+from ..errors import UsageError
 
 DEFAULT_ANGLES = 256
 DEFAULT_THICKNESSES = 64
@@ -53,7 +54,7 @@ def _check_count(name, value, minimum, maximum=None):
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not (
             minimum <= value <= (maximum if maximum is not None else value)):
         within = f"in [{minimum}, {maximum}]" if maximum is not None else f">= {minimum}"
-        raise ValueError(f"{name} must be an integer {within}, got {value!r}")
+        raise UsageError(f"{name} must be an integer {within}, got {value!r}")
     return int(value)
 
 
@@ -61,9 +62,9 @@ def _check_positive(name, value):
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a positive number, got {value!r}") from None
+        raise UsageError(f"{name} must be a positive number, got {value!r}") from None
     if not (np.isfinite(v) and v > 0):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+        raise UsageError(f"{name} must be a finite number > 0, got {value!r}")
     return v
 
 
@@ -71,9 +72,9 @@ def _check_range(thickness_range):
     try:
         lo, hi = (float(v) for v in thickness_range)
     except (TypeError, ValueError):
-        raise ValueError(f"thickness_range must be a (lo, hi) pair of numbers in nm, got {thickness_range!r}") from None
+        raise UsageError(f"thickness_range must be a (lo, hi) pair of numbers in nm, got {thickness_range!r}") from None
     if not (np.isfinite(lo) and np.isfinite(hi)) or lo < 0 or hi < lo:
-        raise ValueError(f"thickness_range must satisfy 0 <= lo <= hi (nm, finite), got {thickness_range!r}")
+        raise UsageError(f"thickness_range must satisfy 0 <= lo <= hi (nm, finite), got {thickness_range!r}")
     return lo, hi
 
 
@@ -106,7 +107,7 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
     ``R @ weights`` with the spectrum sampled at ``wavelength_nm`` (L,) in the real Airy form."""
     coef = interface_coefficients(film, cos_theta, wavelength_nm)
     if coef is None:
-        raise ValueError(f"film {film.name!r} has complex interface coefficients; use method='spectral'")
+        raise UsageError(f"film {film.name!r} has complex interface coefficients; use method='spectral'")
     # Airy form in half-angle variables, stable near grazing (p = a b, s2 = sin^2(phi / 2), phi / 2 = 2 pi n_b
     # cos_b d / lambda): R = ((a + b)^2 - 4 p s2) / ((1 + p)^2 - 4 p s2). For p <= 0 (a film in air) the
     # denominator has no cancellation, so float32 (phase rounding ~2e-6 rad, R ~1e-7) halves memory traffic.
@@ -184,7 +185,7 @@ def _bake_fourier(cos_theta, thickness_nm, film, *, illuminant, colour_space, fo
     from .reference import REFERENCE_STEP_NM, reference_colour
 
     if not fourier_supported(film):
-        raise ValueError(
+        raise UsageError(
             f"method 'fourier' needs a non-dispersive, non-absorbing film without total internal reflection; "
             f"film {film.name!r} is not (use 'spectral_fast', 'spectral' or 'auto')"
         )
@@ -283,7 +284,7 @@ def bake(
     lo, hi = _check_range(thickness_range)
     film_model = as_film(film)
     if not isinstance(method, str) or method not in BAKE_METHODS:
-        raise ValueError(f"method must be one of {sorted(BAKE_METHODS)}, got {method!r}")
+        raise UsageError(f"method must be one of {sorted(BAKE_METHODS)}, got {method!r}")
     gamma = _check_positive("angle_warp_gamma", angle_warp_gamma)
     from .weights import check_illuminant
 

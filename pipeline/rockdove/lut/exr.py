@@ -30,6 +30,7 @@ import os
 import numpy as np
 
 from .table import ThinFilmLUT
+from ..errors import UsageError
 
 PREFIX = "rockdove:"
 FORMAT_TAG = "ThinFilmLUT 1"
@@ -79,11 +80,11 @@ def write_exr(lut: ThinFilmLUT, path, precision: str | None = None) -> str:
     import OpenEXR
 
     if not isinstance(lut, ThinFilmLUT):
-        raise ValueError(f"lut must be a ThinFilmLUT, got {type(lut).__name__}")
+        raise UsageError(f"lut must be a ThinFilmLUT, got {type(lut).__name__}")
     if precision is None:
         precision = str(lut.metadata.get("precision", "float32"))
     if precision not in PRECISIONS:
-        raise ValueError(f"precision={precision!r} is not an EXR channel type; allowed: {sorted(PRECISIONS)}")
+        raise UsageError(f"precision={precision!r} is not an EXR channel type; allowed: {sorted(PRECISIONS)}")
     path = os.fspath(path)
     pixels = np.ascontiguousarray(lut.rgb[::-1], dtype=PRECISIONS[precision])  # bottom row = thinnest
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
@@ -122,39 +123,39 @@ def read_exr(path) -> ThinFilmLUT:
     with open(path, "rb") as fh:
         magic = fh.read(4)
     if magic != b"\x76\x2f\x31\x01":
-        raise ValueError(f"path: {path!r} is not an OpenEXR file (bad magic number)")
+        raise UsageError(f"path: {path!r} is not an OpenEXR file (bad magic number)")
     try:
         with OpenEXR.File(path) as f:
             header = dict(f.header())
             channels = {name: np.array(ch.pixels) for name, ch in f.channels().items()}
     except Exception as exc:  # OpenEXR raises RuntimeError/OSError on damaged files
-        raise ValueError(f"path: {path!r} is not a readable OpenEXR file ({exc})") from exc
+        raise UsageError(f"path: {path!r} is not a readable OpenEXR file ({exc})") from exc
     if header.get(PREFIX + "format") != FORMAT_TAG:
-        raise ValueError(
+        raise UsageError(
             f"path: {path!r} is an OpenEXR file but not a rockdove LUT "
             f"(header attribute {PREFIX}format = {FORMAT_TAG!r} missing)"
         )
     missing = [k for k in ("angleWarpGamma", "thicknessRangeNm", "colourSpace") if PREFIX + k not in header]
     if missing:
-        raise ValueError(f"path: {path!r} lacks header attributes {[PREFIX + k for k in missing]}")
+        raise UsageError(f"path: {path!r} lacks header attributes {[PREFIX + k for k in missing]}")
     if "RGB" in channels:
         rgb = channels["RGB"]
     elif all(c in channels for c in "RGB"):
         rgb = np.stack([channels[c] for c in "RGB"], axis=-1)
     else:
-        raise ValueError(f"path: {path!r} has channels {sorted(channels)}, expected R, G, B")
+        raise UsageError(f"path: {path!r} has channels {sorted(channels)}, expected R, G, B")
     if rgb.dtype not in (np.float32, np.float16) or rgb.ndim != 3 or rgb.shape[2] != 3:
-        raise ValueError(f"path: {path!r} must hold float32 or half RGB, got {rgb.dtype} {rgb.shape}")
+        raise UsageError(f"path: {path!r} must hold float32 or half RGB, got {rgb.dtype} {rgb.shape}")
     channel_precision = "half" if rgb.dtype == np.float16 else "float32"
     recorded = header.get(PREFIX + "precision")
     if recorded is not None and recorded != channel_precision:
-        raise ValueError(f"path: {path!r} records {PREFIX}precision = {recorded!r} but holds {channel_precision} "
+        raise UsageError(f"path: {path!r} records {PREFIX}precision = {recorded!r} but holds {channel_precision} "
                          "channels")
     try:
         gamma = float(header[PREFIX + "angleWarpGamma"])
         lo, hi = (float(v) for v in str(header[PREFIX + "thicknessRangeNm"]).split())
     except ValueError as exc:
-        raise ValueError(f"path: {path!r} has malformed axis attributes ({exc})") from exc
+        raise UsageError(f"path: {path!r} has malformed axis attributes ({exc})") from exc
     metadata = {
         k[len(PREFIX):]: str(v)
         for k, v in header.items()

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .table import ThinFilmLUT
+from ..errors import UsageError
 
 MIN_PREVIEW_HEIGHT = 32  # px
 
@@ -28,5 +29,5 @@ def write_preview_png(lut: ThinFilmLUT, path) -> str:
     from ..png import save_png
 
     if not isinstance(lut, ThinFilmLUT):
-        raise ValueError(f"lut must be a ThinFilmLUT, got {type(lut).__name__}")
+        raise UsageError(f"lut must be a ThinFilmLUT, got {type(lut).__name__}")
     return save_png(preview_image(lut), path, level=6)

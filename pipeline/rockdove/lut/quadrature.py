@@ -36,6 +36,7 @@ from __future__ import annotations
 import numpy as np
 
 from .weights import chebyshev, chebyshev_weights, sigma_range
+from ..errors import UsageError
 
 # Node counts, rounded up to NODE_LADDER. On the default keratin LUT every texel is within 4e-4 dE2000 of the
 # 0.1 nm reference (K_FULL = 2.5 with N_MIN = 16 errs 4e-3, K_FULL = 2 errs 0.02; benchmarks/README.md).
@@ -240,7 +241,7 @@ def quadrature_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour
     cos_theta = np.asarray(cos_theta, dtype=np.float64)
     thickness_nm = np.asarray(thickness_nm, dtype=np.float64)
     if not real_coefficients(film, cos_theta):
-        raise ValueError(f"method 'quadrature' needs a non-absorbing film without total internal reflection (real "
+        raise UsageError(f"method 'quadrature' needs a non-absorbing film without total internal reflection (real "
                          f"interface coefficients); film {film.name!r} is not (k = {film.k!r}, substrate "
                          f"{film.n_substrate!r}; use 'spectral')")
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))

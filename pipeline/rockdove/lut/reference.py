@@ -46,6 +46,7 @@ import numpy as np
 from ..spectral import WAVELENGTH_RANGE_NM
 from .weights import (INTERPOLANT_ORDER, REFERENCE_STEP_NM, check_illuminant, colour_weights, interpolant_weights,
                       product_weights, reference_wavelengths, sigma_range, wavenumber_nodes)
+from ..errors import UsageError
 
 #: Wavelength step per cos theta band ``(cos_theta_lo, step_nm)``: each within 2e-4 dE2000 (module docstring).
 REFERENCE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, REFERENCE_STEP_NM))
@@ -298,9 +299,9 @@ def lut_error(lut, film, n_points: int = 2000, seed: int = 0, *, grazing_fractio
     :func:`error_points`: a dict of ``max``, ``p99``, ``median``, ``mean``, ``worst_cos_theta``,
     ``worst_thickness_nm`` and the sampling's ``n_points``, ``seed``, ``grazing_fraction``, ``grazing_cos``."""
     if isinstance(n_points, bool) or not isinstance(n_points, (int, np.integer)) or n_points < 1:
-        raise ValueError(f"n_points must be an integer >= 1, got {n_points!r}")
+        raise UsageError(f"n_points must be an integer >= 1, got {n_points!r}")
     if not 0.0 <= grazing_fraction <= 1.0:
-        raise ValueError(f"grazing_fraction must be in [0, 1], got {grazing_fraction!r}")
+        raise UsageError(f"grazing_fraction must be in [0, 1], got {grazing_fraction!r}")
     illuminant = lut.metadata.get("illuminant", "D65")
     cos, d = error_points(lut, int(n_points), seed, grazing_fraction=grazing_fraction, grazing_cos=grazing_cos)
     ref = reference_colour(cos, d, film, illuminant=illuminant, colour_space=lut.colour_space)

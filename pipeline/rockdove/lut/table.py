@@ -25,6 +25,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import UsageError
+
 
 @dataclass(frozen=True, eq=False)
 class ThinFilmLUT:
@@ -41,18 +43,18 @@ class ThinFilmLUT:
     def __post_init__(self):
         rgb = np.asarray(self.rgb, dtype=np.float32)
         if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.shape[1] < 2 or rgb.shape[0] < 1:
-            raise ValueError(f"rgb must have shape (n_thickness >= 1, n_angle >= 2, 3), got {rgb.shape}")
+            raise UsageError(f"rgb must have shape (n_thickness >= 1, n_angle >= 2, 3), got {rgb.shape}")
         if not np.all(np.isfinite(rgb)):
-            raise ValueError("rgb must be finite")
+            raise UsageError("rgb must be finite")
         lo, hi = (float(v) for v in self.thickness_range_nm)
         if not (np.isfinite(lo) and np.isfinite(hi)) or lo < 0 or hi < lo:
-            raise ValueError(f"thickness_range_nm must be (lo, hi) with 0 <= lo <= hi, got {(lo, hi)}")
+            raise UsageError(f"thickness_range_nm must be (lo, hi) with 0 <= lo <= hi, got {(lo, hi)}")
         if (rgb.shape[0] == 1) != (lo == hi):
-            raise ValueError(
+            raise UsageError(
                 f"a one-texel-high table needs lo == hi and vice versa; got {rgb.shape[0]} rows for {(lo, hi)}"
             )
         if not (np.isfinite(self.angle_warp_gamma) and self.angle_warp_gamma > 0):
-            raise ValueError(f"angle_warp_gamma must be > 0, got {self.angle_warp_gamma}")
+            raise UsageError(f"angle_warp_gamma must be > 0, got {self.angle_warp_gamma}")
         rgb = np.ascontiguousarray(rgb)
         rgb.setflags(write=False)
         object.__setattr__(self, "rgb", rgb)

@@ -16,6 +16,7 @@ import functools
 import numpy as np
 
 from ..spectral import WAVELENGTH_RANGE_NM
+from ..errors import UsageError
 
 #: The exact reference's wavelength step away from grazing (cos theta >= 0.003), nm; the bakers' grid.
 REFERENCE_STEP_NM = 0.1
@@ -30,7 +31,7 @@ _CHUNK_SAMPLES = 1 << 19
 
 def check_illuminant(illuminant) -> str:
     if illuminant not in ILLUMINANTS:
-        raise ValueError(f"illuminant must be one of {list(ILLUMINANTS)}, got {illuminant!r}")
+        raise UsageError(f"illuminant must be one of {list(ILLUMINANTS)}, got {illuminant!r}")
     return illuminant
 
 
@@ -93,7 +94,7 @@ def product_weights(step_nm: float, *, illuminant: str = "D65", colour_space: st
     fine = reference_wavelengths(REFERENCE_STEP_NM)
     coarse = reference_wavelengths(step_nm)
     if coarse.size < 4 or not np.isclose(coarse[1] - coarse[0], step_nm):
-        raise ValueError(f"step_nm must divide the wavelength range into at least 3 steps, got {step_nm!r}")
+        raise UsageError(f"step_nm must divide the wavelength range into at least 3 steps, got {step_nm!r}")
     t = (fine - coarse[0]) / (coarse[1] - coarse[0])
     k0 = np.clip(np.floor(t).astype(np.int64) - 1, 0, coarse.size - 4)
     return _stencil_weights(t, k0, 4, colour_weights(fine, illuminant=illuminant, colour_space=colour_space),
@@ -123,7 +124,7 @@ def interpolant_weights(n_intervals: int, order: int = INTERPOLANT_ORDER, *, ill
     n, order = int(n_intervals), int(order)
     check_illuminant(illuminant)
     if order < 2 or order % 2 or n < 1:
-        raise ValueError(f"order must be even and >= 2 and n_intervals >= 1, got order {order!r}, n_intervals {n!r}")
+        raise UsageError(f"order must be even and >= 2 and n_intervals >= 1, got order {order!r}, n_intervals {n!r}")
     fine = reference_wavelengths(REFERENCE_STEP_NM)
     s_lo, s_hi = sigma_range()
     ext = order // 2 - 1
@@ -169,7 +170,7 @@ def chebyshev_weights(n_nodes: int, illuminant: str = "D65", colour_space: str |
 
     n = int(n_nodes)
     if n < 2:
-        raise ValueError(f"n_nodes must be >= 2, got {n_nodes!r}")
+        raise UsageError(f"n_nodes must be >= 2, got {n_nodes!r}")
     keys = ("wavelength_nm", "weights")
     found = colour_data(f"product-weights-{n}-{illuminant}-{colour_space}",
                         lambda: dict(zip(keys, _chebyshev_weights(n, illuminant, colour_space))), keys)

@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from .views import View, direction, look_at
+from ..errors import UsageError
 
 RENDERERS = ("auto", "cycles", "gl", "off")
 #: (name, azimuth, elevation) of the two cameras, degrees; azimuth 0 is in front of the beak, positive toward the
@@ -122,8 +123,8 @@ def settings(overrides=None) -> dict:
 
     out = {**defaults()["beauty"], **{k: v for k, v in (overrides or {}).items() if v is not None}}
     if out["renderer"] not in RENDERERS:
-        raise ValueError(f"beauty.renderer: {out['renderer']!r} is not one of {', '.join(RENDERERS)}")
+        raise UsageError(f"beauty.renderer: {out['renderer']!r} is not one of {', '.join(RENDERERS)}")
     for key, lo in (("width", 64), ("height", 64), ("samples", 1)):
         if not isinstance(out[key], int) or isinstance(out[key], bool) or not lo <= out[key] <= 4096:
-            raise ValueError(f"beauty.{key}: {out[key]!r} is not an integer from {lo} to 4096")
+            raise UsageError(f"beauty.{key}: {out[key]!r} is not an integer from {lo} to 4096")
     return out

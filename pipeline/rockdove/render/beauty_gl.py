@@ -131,7 +131,7 @@ def filmic(x) -> np.ndarray:
 def render_gl(scene, views, ground_y_m: float, lut=None) -> dict:
     """Render the beauty ``views`` (:func:`rockdove.render.beauty.beauty_views`) of ``scene`` with the GL path;
     ``{view name: (H, W, 3) uint8}`` display-referred (sRGB)."""
-    from ..spectral import srgb_encode
+    from ..srgb import srgb_encode
     from .gl import GLRenderer
     from .images import box_downsample
 

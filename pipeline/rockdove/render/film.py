@@ -16,6 +16,8 @@ import os
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from ..errors import UsageError
+
 if TYPE_CHECKING:
     from ..films import FilmModel
 
@@ -68,23 +70,23 @@ def read_film(prim) -> ThinFilmParams | None:
     rec = read_thin_film(prim)
     missing = [k for k in _REQUIRED if rec[k] is None]
     if missing:
-        raise ValueError(f"{prim.GetPath()}: RockDoveThinFilmAPI attributes {missing} are missing")
+        raise UsageError(f"{prim.GetPath()}: RockDoveThinFilmAPI attributes {missing} are missing")
     if rec["thickness_units"] != "nm":
-        raise ValueError(f"{prim.GetPath()}: rockdove:film:thicknessUnits={rec['thickness_units']!r}; only 'nm' is "
+        raise UsageError(f"{prim.GetPath()}: rockdove:film:thicknessUnits={rec['thickness_units']!r}; only 'nm' is "
                          "allowed")
     lut_file = None
     if rec["lut_file"]:
         lut_file = rec["lut_file_resolved"] and os.path.abspath(rec["lut_file_resolved"])
         if not lut_file or not os.path.isfile(lut_file):
-            raise ValueError(f"{prim.GetPath()}: rockdove:lut:file {rec['lut_file']!r} does not resolve to a file")
+            raise UsageError(f"{prim.GetPath()}: rockdove:lut:file {rec['lut_file']!r} does not resolve to a file")
         missing = [k for k in _LUT_REQUIRED if rec[k] is None]
         if missing:
-            raise ValueError(f"{prim.GetPath()}: rockdove:lut:file is set but {missing} are missing")
+            raise UsageError(f"{prim.GetPath()}: rockdove:lut:file is set but {missing} are missing")
     try:
         model = FilmModel(rec["model"], rec["cauchy_a"], rec["cauchy_b_nm2"], k=rec["k"],
                           n_incident=rec["incident_index"], n_substrate=rec["substrate_index"])
     except ValueError as exc:
-        raise ValueError(f"{prim.GetPath()}: RockDoveThinFilmAPI film: {exc}") from None
+        raise UsageError(f"{prim.GetPath()}: RockDoveThinFilmAPI film: {exc}") from None
     return ThinFilmParams(
         model=model, thickness_primvar=rec["thickness_primvar"], thickness_units=rec["thickness_units"],
         lut_file=lut_file, lut_colour_space=rec["lut_colour_space"], angle_warp_gamma=rec["angle_warp_gamma"],
@@ -101,7 +103,7 @@ def thickness_range_nm(film: ThinFilmParams, thickness_nm) -> tuple:
 
     d = np.asarray(thickness_nm, np.float64)
     if d.size == 0 or not np.all(np.isfinite(d)):
-        raise ValueError("the film records no LUT and the feathers no finite thickness primvar")
+        raise UsageError("the film records no LUT and the feathers no finite thickness primvar")
     return float(math.floor(d.min())), float(math.ceil(d.max()))
 
 
@@ -115,7 +117,7 @@ def lut_to_draw(film: ThinFilmParams, thickness_range: tuple):
 
     if film.lut_file is not None:
         if not os.path.isfile(film.lut_file):
-            raise ValueError(f"LUT file {film.lut_file!r} (rockdove:lut:file) does not exist")
+            raise UsageError(f"LUT file {film.lut_file!r} (rockdove:lut:file) does not exist")
         return read_exr(film.lut_file)
     lo, hi = (float(v) for v in thickness_range)
     lut = bake(angles=IN_MEMORY_LUT_ANGLES, thicknesses=1 if lo == hi else IN_MEMORY_LUT_THICKNESSES,

@@ -23,6 +23,7 @@ from .. import resources
 from .scene import RenderScene, ScenePart
 from .texture import read_texture
 from .views import View
+from ..errors import UsageError
 
 #: Angle definitions the shader accepts (``u_angle_mode``): the paper's light/view half-angle, and the
 #: view-only ``|N . V|`` of the MaterialX baked network (docs/design.md "Conventions").
@@ -51,7 +52,7 @@ class RenderResult:
     def part_mask(self, name: str) -> np.ndarray:
         """Boolean (H, W): pixels of the part with this USD prim name (e.g. ``"NeckFeathers"``)."""
         if name not in self.part_names:
-            raise ValueError(f"name={name!r} is not a part; parts are {list(self.part_names)}")
+            raise UsageError(f"name={name!r} is not a part; parts are {list(self.part_names)}")
         return np.isin(self.part_id, [i + 1 for i, n in enumerate(self.part_names) if n == name])
 
 
@@ -102,9 +103,9 @@ class GLRenderer:
 
     def __init__(self, scene: RenderScene, lut=None, angle_mode: str = "physical", width: int = 512, height: int = 512):
         if angle_mode not in ANGLE_MODES:
-            raise ValueError(f"angle_mode={angle_mode!r} is not allowed; use one of {sorted(ANGLE_MODES)}")
+            raise UsageError(f"angle_mode={angle_mode!r} is not allowed; use one of {sorted(ANGLE_MODES)}")
         if not isinstance(scene, RenderScene):
-            raise ValueError(f"scene must be a RenderScene, got {type(scene).__name__}")
+            raise UsageError(f"scene must be a RenderScene, got {type(scene).__name__}")
         from rockdove._compat import import_pyrender
 
         pyrender = import_pyrender()
@@ -258,7 +259,7 @@ class GLRenderer:
         from pyrender.constants import RenderFlags
 
         if self._deleted:
-            raise ValueError("this GLRenderer was deleted; create a new one")
+            raise UsageError("this GLRenderer was deleted; create a new one")
         t0 = time.perf_counter()
         w, h = view.width, view.height
         self._offscreen._platform.make_current()
@@ -312,6 +313,6 @@ def render_views(scene: RenderScene, views, angle_mode: str = "physical", lut=No
     """Render ``views`` of ``scene`` with one :class:`GLRenderer` (created here, deleted at the end), in order."""
     views = list(views)
     if not views:
-        raise ValueError("views must contain at least one View, got none")
+        raise UsageError("views must contain at least one View, got none")
     with GLRenderer(scene, lut=lut, angle_mode=angle_mode, width=views[0].width, height=views[0].height) as r:
         return [r.render(v) for v in views]

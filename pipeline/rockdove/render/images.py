@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..png import encode_png, save_png  # noqa: F401 - the display images' writer, used by the modules above
+from ..png import save_png
+from ..errors import UsageError
 
 
 #: `rockdove render`'s largest rendered side, pixels: --width (--height) x --supersample. One view's buffers (~46 bytes a pixel) and
@@ -26,7 +27,7 @@ def box_downsample(image, factor: int) -> np.ndarray:
         return a
     h, w = a.shape[:2]
     if factor < 1 or h % factor or w % factor:
-        raise ValueError(f"factor must be a positive divisor of the image size {w}x{h}, got {factor}")
+        raise UsageError(f"factor must be a positive divisor of the image size {w}x{h}, got {factor}")
     return a.reshape(h // factor, factor, w // factor, factor, *a.shape[2:]).mean(axis=(1, 3))
 
 
@@ -45,7 +46,7 @@ def contact_sheet(path, rows, label_px: int = 28, background=(32, 32, 32)) -> st
 
     rows = [list(r) for r in rows]
     if not rows or not all(rows):
-        raise ValueError("rows must hold at least one row, each of at least one (title, image) tile")
+        raise UsageError("rows must hold at least one row, each of at least one (title, image) tile")
     h, w = rows[0][0][1].shape[:2]
     ncol = max(len(r) for r in rows)
     sheet = Image.new("RGB", (ncol * w, len(rows) * (h + label_px)), background)

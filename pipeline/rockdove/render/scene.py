@@ -24,6 +24,7 @@ from ..usd.material import OPACITY_THRESHOLD
 from .film import ThinFilmParams, lut_to_draw, read_film, thickness_range_nm
 from .triangulate import fan_triangulate, fan_triangulate_corners, vertex_normals
 from .usd_read import material_info, primvar_array
+from ..errors import UsageError
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,6 +40,7 @@ class ScenePart:
     st: np.ndarray  # (V, 2) texture coordinates (t = 0 at the image's bottom); zeros when not authored
     thickness_nm: np.ndarray | None = None  # (V,) film thickness, nm (feathers only)
     neck_s: np.ndarray | None = None  # (V,) primvars:neckS in [0, 1]
+    thickness_field: np.ndarray | None = None  # (V, 3) primvars:thicknessField (rockdove.geometry.cards)
     preview_st: np.ndarray | None = None  # (V, 2) primvars:previewST (into the UsdPreviewSurface atlas)
     base_colour_texture: str | None = None  # absolute path, RGB or RGBA (A: the feather silhouette)
     base_colour_srgb: bool = True  # sourceColorSpace not raw
@@ -82,7 +84,7 @@ class RenderScene:
         for p in self.parts:
             if p.name == name:
                 return p
-        raise ValueError(f"part={name!r} is not in the scene; parts are {[p.name for p in self.parts]}")
+        raise UsageError(f"part={name!r} is not in the scene; parts are {[p.name for p in self.parts]}")
 
     def part_id(self, name: str) -> int:
         """Id of a part in the renderers' part-id images."""
@@ -92,14 +94,14 @@ class RenderScene:
     def thickness_range_nm(self) -> tuple:
         """The film's thickness range, nm (:func:`rockdove.render.film.thickness_range_nm`)."""
         if self.film is None:
-            raise ValueError(f"the scene {self.root_layer!r} has no thin-film feathers")
+            raise UsageError(f"the scene {self.root_layer!r} has no thin-film feathers")
         feathers = [p.thickness_nm for p in self.parts if p.is_feather and p.thickness_nm is not None]
         return thickness_range_nm(self.film, np.concatenate(feathers) if feathers else [])
 
     def load_lut(self):
         """The :class:`rockdove.lut.ThinFilmLUT` to draw the film with (:func:`rockdove.render.film.lut_to_draw`)."""
         if self.film is None:
-            raise ValueError(f"the scene {self.root_layer!r} has no thin-film feathers, so no LUT")
+            raise UsageError(f"the scene {self.root_layer!r} has no thin-film feathers, so no LUT")
         return lut_to_draw(self.film, self.thickness_range_nm)
 
 
@@ -117,13 +119,14 @@ def _read_mesh(prim, xcache, meters_per_unit, stage):
     counts = np.asarray(counts, dtype=np.int64)
     fvi = np.asarray(fvi, dtype=np.int64)
     if fvi.size and (fvi.min() < 0 or fvi.max() >= len(pts)):
-        raise ValueError(f"{path}: faceVertexIndices out of range for {len(pts)} points")
+        raise UsageError(f"{path}: faceVertexIndices out of range for {len(pts)} points")
     left = mesh.GetOrientationAttr().Get() == "leftHanded"
 
     film = read_film(prim)
     pvapi = UsdGeom.PrimvarsAPI(prim)
     attrs = {}  # name -> (values, interpolation)
-    want = {"st": "st", "neck_s": "neckS", "preview_st": "previewST", "normals": "normals"}
+    want = {"st": "st", "neck_s": "neckS", "preview_st": "previewST", "normals": "normals",
+            "thickness_field": "thicknessField"}
     if film is not None:
         want["thickness"] = film.thickness_primvar
     for key, pv_name in want.items():
@@ -131,7 +134,7 @@ def _read_mesh(prim, xcache, meters_per_unit, stage):
         if pv and pv.HasValue():
             attrs[key] = primvar_array(pv.ComputeFlattened(), pv.GetInterpolation(), len(pts), counts, pv_name, path)
     if film is not None and "thickness" not in attrs:
-        raise ValueError(f"{path}: thickness primvar primvars:{film.thickness_primvar} is missing")
+        raise UsageError(f"{path}: thickness primvar primvars:{film.thickness_primvar} is missing")
     normals = mesh.GetNormalsAttr().Get()
     if "normals" not in attrs and normals is not None and len(normals):
         attrs["normals"] = primvar_array(normals, mesh.GetNormalsInterpolation(), len(pts), counts, "normals", path)
@@ -159,7 +162,8 @@ def _read_mesh(prim, xcache, meters_per_unit, stage):
         nrm = vertex_normals(world, tris)
     n_v = len(world)
     arr = {k: np.asarray(out[k], np.float32).reshape(n_v, *shape) if k in out else None
-           for k, shape in (("st", (2,)), ("thickness", ()), ("neck_s", ()), ("preview_st", (2,)))}
+           for k, shape in (("st", (2,)), ("thickness", ()), ("neck_s", ()), ("preview_st", (2,)),
+                            ("thickness_field", (3,)))}
 
     kind, base_tex, srgb, mask_tex, colour_const, threshold, normal_tex = material_info(prim, stage)
     if film is not None:
@@ -175,6 +179,7 @@ def _read_mesh(prim, xcache, meters_per_unit, stage):
         normals=np.ascontiguousarray(nrm), triangles=np.ascontiguousarray(tris, dtype=np.int32),
         st=np.ascontiguousarray(arr["st"]) if arr["st"] is not None else np.zeros((n_v, 2), np.float32),
         thickness_nm=arr["thickness"], neck_s=arr["neck_s"], preview_st=arr["preview_st"],
+        thickness_field=arr["thickness_field"],
         base_colour_texture=base_tex, base_colour_srgb=srgb, mask_texture=mask_tex,
         base_colour=np.asarray(colour_const, np.float32), opacity_threshold=threshold,
         double_sided=bool(mesh.GetDoubleSidedAttr().Get()), normal_texture=normal_tex)
@@ -198,12 +203,12 @@ def load_scene(path, variants: dict | None = None) -> RenderScene:
     try:
         stage = Usd.Stage.Open(layer_path, Usd.Stage.LoadAll)
     except Exception as exc:  # pxr raises Tf.ErrorException
-        raise ValueError(f"path={os.fspath(path)!r} could not be opened as USD: {exc}") from None
+        raise UsageError(f"path={os.fspath(path)!r} could not be opened as USD: {exc}") from None
     if stage is None:
-        raise ValueError(f"path={os.fspath(path)!r} could not be opened as USD")
+        raise UsageError(f"path={os.fspath(path)!r} could not be opened as USD")
     up = UsdGeom.GetStageUpAxis(stage)
     if up != UsdGeom.Tokens.y:
-        raise ValueError(f"{layer_path}: upAxis={up!r}; rockdove assets are Y-up (docs/design.md)")
+        raise UsageError(f"{layer_path}: upAxis={up!r}; rockdove assets are Y-up (docs/design.md)")
     mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
     root = stage.GetDefaultPrim() or stage.GetPseudoRoot()
     active = {}
@@ -212,11 +217,11 @@ def load_scene(path, variants: dict | None = None) -> RenderScene:
         vsets = root.GetVariantSets()
         for set_name, sel in variants.items():
             if not vsets.HasVariantSet(set_name):
-                raise ValueError(f"variants={variants!r}: {root.GetPath()} has no variant set {set_name!r}; "
+                raise UsageError(f"variants={variants!r}: {root.GetPath()} has no variant set {set_name!r}; "
                                  f"it has {list(vsets.GetNames())}")
             vs = vsets.GetVariantSet(set_name)
             if sel not in vs.GetVariantNames():
-                raise ValueError(f"variants={variants!r}: {set_name!r} must be one of {list(vs.GetVariantNames())}")
+                raise UsageError(f"variants={variants!r}: {set_name!r} must be one of {list(vs.GetVariantNames())}")
             vs.SetVariantSelection(sel)
         stage.Load(Sdf.Path.absoluteRootPath)
     if root and root.IsValid() and root != stage.GetPseudoRoot():
@@ -235,5 +240,5 @@ def load_scene(path, variants: dict | None = None) -> RenderScene:
             parts.append(res[0])
             film = res[1] if film is None else film  # the first feather mesh's
     if not parts:
-        raise ValueError(f"path={os.fspath(path)!r}: no visible mesh under {root.GetPath()}")
+        raise UsageError(f"path={os.fspath(path)!r}: no visible mesh under {root.GetPath()}")
     return RenderScene(root_layer=layer_path, parts=tuple(parts), film=film, variants=active)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import UsageError
+
 
 def fan_triangulate(face_vertex_counts, face_vertex_indices, left_handed: bool = False) -> np.ndarray:
     """Fan-triangulate USD faces (counts >= 3, concatenated vertex indices): face ``(v0, v1, ..., vk)`` ->
@@ -12,9 +14,9 @@ def fan_triangulate(face_vertex_counts, face_vertex_indices, left_handed: bool =
     counts = np.asarray(face_vertex_counts, dtype=np.int64)
     fvi = np.asarray(face_vertex_indices, dtype=np.int64)
     if counts.size and counts.min() < 3:
-        raise ValueError(f"face_vertex_counts must all be >= 3, got a face with {int(counts.min())}")
+        raise UsageError(f"face_vertex_counts must all be >= 3, got a face with {int(counts.min())}")
     if counts.sum() != fvi.size:
-        raise ValueError(f"face_vertex_indices has {fvi.size} entries, face_vertex_counts sum to {counts.sum()}")
+        raise UsageError(f"face_vertex_indices has {fvi.size} entries, face_vertex_counts sum to {counts.sum()}")
     tri_corners = fan_triangulate_corners(counts)
     tris = fvi[tri_corners]
     if left_handed:

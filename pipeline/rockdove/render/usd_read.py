@@ -8,6 +8,7 @@ import os
 import numpy as np
 
 from ..usd.material import OPACITY_THRESHOLD
+from ..errors import UsageError
 
 #: Shader prim names of the materials (docs/design.md, "USD asset").
 BASE_COLOR_SHADER = "BaseColorTexture"
@@ -41,17 +42,17 @@ def primvar_array(values, interp: str, n_points: int, face_vertex_counts, name: 
         return np.repeat(a.reshape(1, *a.shape[1:]) if a.ndim else a[None], n_points, axis=0), "vertex"
     if interp == "uniform":
         if len(a) != n_faces:
-            raise ValueError(f"{prim_path}: primvar {name} is uniform with {len(a)} values for {n_faces} faces")
+            raise UsageError(f"{prim_path}: primvar {name} is uniform with {len(a)} values for {n_faces} faces")
         return np.repeat(a, face_vertex_counts, axis=0), "faceVarying"
     if interp in ("vertex", "varying"):
         if len(a) != n_points:
-            raise ValueError(f"{prim_path}: primvar {name} has {len(a)} values for {n_points} points")
+            raise UsageError(f"{prim_path}: primvar {name} has {len(a)} values for {n_points} points")
         return a, "vertex"
     if interp == "faceVarying":
         if len(a) != int(np.sum(face_vertex_counts)):
-            raise ValueError(f"{prim_path}: faceVarying primvar {name} has {len(a)} values")
+            raise UsageError(f"{prim_path}: faceVarying primvar {name} has {len(a)} values")
         return a, "faceVarying"
-    raise ValueError(f"{prim_path}: primvar {name} has unsupported interpolation {interp!r}")
+    raise UsageError(f"{prim_path}: primvar {name} has unsupported interpolation {interp!r}")
 
 
 def material_info(prim, stage):
@@ -74,12 +75,12 @@ def material_info(prim, stage):
         if p.GetName() in (BASE_COLOR_SHADER, MASK_SHADER, NORMAL_SHADER):
             inp = sh.GetInput("file")
             if not inp:
-                raise ValueError(f"{p.GetPath()}: texture shader has no inputs:file")
+                raise UsageError(f"{p.GetPath()}: texture shader has no inputs:file")
             path = asset_abs_path(inp.GetAttr(), inp.Get())
             if path is None:
-                raise ValueError(f"{p.GetPath()}: inputs:file is empty")
+                raise UsageError(f"{p.GetPath()}: inputs:file is empty")
             if not os.path.isfile(path):
-                raise ValueError(f"{p.GetPath()}: texture {path!r} does not exist")
+                raise UsageError(f"{p.GetPath()}: texture {path!r} does not exist")
             if p.GetName() == BASE_COLOR_SHADER:
                 base = path
                 cs = sh.GetInput("sourceColorSpace")

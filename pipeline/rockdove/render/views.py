@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import UsageError
+
 #: D65 white in the working space lin_rec709 (docs/design.md, "Conventions").
 D65_WHITE_RGB = (1.0, 1.0, 1.0)
 #: Turntable key light in camera coordinates (from the surface toward the light): up-left-front.
@@ -59,18 +61,18 @@ class View:
     def __post_init__(self):
         m = np.asarray(self.camera_to_world, dtype=np.float64)
         if m.shape != (4, 4) or not np.all(np.isfinite(m)):
-            raise ValueError(f"camera_to_world must be a finite (4, 4) matrix, got shape {m.shape}")
+            raise UsageError(f"camera_to_world must be a finite (4, 4) matrix, got shape {m.shape}")
         if not (0 < float(self.yfov_rad) < math.pi):
-            raise ValueError(f"yfov_rad must be in (0, pi), got {self.yfov_rad}")
+            raise UsageError(f"yfov_rad must be in (0, pi), got {self.yfov_rad}")
         for key in ("width", "height"):
             _check_n(getattr(self, key), key)
             object.__setattr__(self, key, int(getattr(self, key)))
         ld = np.asarray(self.light_direction, dtype=np.float64).reshape(-1)
         if ld.shape != (3,) or not np.all(np.isfinite(ld)) or np.linalg.norm(ld) == 0:
-            raise ValueError(f"light_direction must be a finite non-zero 3-vector, got {self.light_direction!r}")
+            raise UsageError(f"light_direction must be a finite non-zero 3-vector, got {self.light_direction!r}")
         rgb = np.asarray(self.light_rgb, dtype=np.float64).reshape(-1)
         if rgb.shape != (3,) or not np.all(np.isfinite(rgb)) or np.any(rgb < 0):
-            raise ValueError(f"light_rgb must be 3 finite values >= 0, got {self.light_rgb!r}")
+            raise UsageError(f"light_rgb must be 3 finite values >= 0, got {self.light_rgb!r}")
         norm = np.linalg.norm(ld)
         if abs(norm - 1.0) > 1e-12:  # keep already-unit vectors bit-exact, so to_dict/from_dict round-trips
             ld = ld / norm
@@ -111,7 +113,7 @@ def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
     target = np.asarray(target, dtype=np.float64)
     z = eye - target
     if np.linalg.norm(z) == 0:
-        raise ValueError(f"eye and target must differ, both are {eye.tolist()}")
+        raise UsageError(f"eye and target must differ, both are {eye.tolist()}")
     z /= np.linalg.norm(z)
     x = np.cross(np.asarray(up, dtype=np.float64), z)
     if np.linalg.norm(x) < 1e-9:  # looking along up: pick another up
@@ -147,7 +149,7 @@ def _fit_distance(radius_m: float, yfov_rad: float, aspect: float, margin: float
 
 def _check_n(n, name="n"):
     if int(n) != n or int(n) < 1:
-        raise ValueError(f"{name} must be a positive integer, got {n!r}")
+        raise UsageError(f"{name} must be a positive integer, got {n!r}")
     return int(n)
 
 
@@ -158,7 +160,7 @@ def turntable_views(scene_bounds, n: int, width: int, height: int, start_azimuth
     n = _check_n(n)
     b = np.asarray(scene_bounds, dtype=np.float64)
     if b.shape != (2, 3) or not np.all(np.isfinite(b)) or np.any(b[1] < b[0]):
-        raise ValueError(f"scene_bounds must be a finite (2, 3) [min, max] array, got {scene_bounds!r}")
+        raise UsageError(f"scene_bounds must be a finite (2, 3) [min, max] array, got {scene_bounds!r}")
     centre = b.mean(axis=0)
     radius = max(0.5 * float(np.linalg.norm(b[1] - b[0])), 1e-6)
     yfov = math.radians(TURNTABLE_YFOV_DEG)
@@ -192,9 +194,9 @@ def light_sweep_views(neck_centre, n: int, width: int, height: int, angles_deg=N
     film sees ``cos_theta = cos(alpha / 2)``. Named ``sweep_<alpha in degrees, 3 digits>``."""
     c = np.asarray(neck_centre, dtype=np.float64).reshape(-1)
     if c.shape != (3,) or not np.all(np.isfinite(c)):
-        raise ValueError(f"neck_centre must be a finite 3-vector, got {neck_centre!r}")
+        raise UsageError(f"neck_centre must be a finite 3-vector, got {neck_centre!r}")
     if not distance_m > 0:
-        raise ValueError(f"distance_m must be > 0, got {distance_m}")
+        raise UsageError(f"distance_m must be > 0, got {distance_m}")
     if angles_deg is None:
         n = _check_n(n)
         if n == 2:
@@ -203,7 +205,7 @@ def light_sweep_views(neck_centre, n: int, width: int, height: int, angles_deg=N
             angles_deg = [90.0] if n == 1 else np.linspace(30.0, 150.0, n).tolist()
     angles = [float(a) for a in angles_deg]
     if any(not 0 <= a < 180 for a in angles):
-        raise ValueError(f"angles_deg must lie in [0, 180), got {angles}")
+        raise UsageError(f"angles_deg must lie in [0, 180), got {angles}")
     v = np.asarray(camera_direction, dtype=np.float64)
     v = v / np.linalg.norm(v)
     c2w = look_at(c + distance_m * v, c)

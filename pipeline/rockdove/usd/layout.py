@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import os
 
+from ..errors import UsageError
+
 #: The file a published build leaves in the asset folder (:mod:`rockdove.graph.publish` writes it): tool,
 #: version, configuration hash, preset, stage keys. A folder without it was not made by rockdove.
 MARKER = ".rockdove-asset.json"
@@ -30,9 +32,9 @@ def resolve_root_layer(asset) -> str:
             cand = os.path.join(path, name)
             if os.path.isfile(cand):
                 return cand
-        raise ValueError(f"asset={os.fspath(asset)!r} is a folder without {' or '.join(ROOT_LAYER_NAMES)}")
+        raise UsageError(f"asset={os.fspath(asset)!r} is a folder without {' or '.join(ROOT_LAYER_NAMES)}")
     if not os.path.isfile(path):
-        raise ValueError(f"asset={os.fspath(asset)!r} does not exist; give the asset folder or its root layer")
+        raise UsageError(f"asset={os.fspath(asset)!r} does not exist; give the asset folder or its root layer")
     if not path.endswith(USD_EXTENSIONS):
-        raise ValueError(f"asset={os.fspath(asset)!r} is not a USD layer ({', '.join(USD_EXTENSIONS)})")
+        raise UsageError(f"asset={os.fspath(asset)!r} is not a USD layer ({', '.join(USD_EXTENSIONS)})")
     return path

@@ -23,6 +23,7 @@ import functools
 import os
 
 from .. import resources
+from ..errors import UsageError
 
 
 #: The colour space of thinfilm.mtlx (its ``colorspace`` attribute): linear Rec.709, the project's working space.
@@ -132,7 +133,7 @@ def copy_mtlx_network(doc, material, roots=None) -> dict:
     for node in copied:
         nodedef = node.getNodeDef()
         if nodedef is None:
-            raise ValueError(f"MaterialX node {node.getName()!r} ({node.getCategory()}) has no nodedef")
+            raise UsageError(f"MaterialX node {node.getName()!r} ({node.getCategory()}) has no nodedef")
         shader = UsdShade.Shader.Define(stage, base.AppendChild(node.getName()))
         shader.SetShaderId(nodedef.getName())
         for out in nodedef.getActiveOutputs():  # "out", or a multi-output node's own (UsdUVTexture: rgb, a...)
@@ -230,9 +231,9 @@ def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, t
     textures = {**texture_asset_paths(), **(textures or {})}
     variants = tuple(variants)
     if not variants or any(v not in MTLX_SURFACES for v in variants) or len(set(variants)) != len(variants):
-        raise ValueError(f"variants={variants!r}; allowed: distinct names from {sorted(MTLX_SURFACES)}")
+        raise UsageError(f"variants={variants!r}; allowed: distinct names from {sorted(MTLX_SURFACES)}")
     if lut is None and "baked" in variants:
-        raise ValueError(f"lut=None with variants={variants!r}: the baked variant needs a LUT (use ('physical',))")
+        raise UsageError(f"lut=None with variants={variants!r}: the baked variant needs a LUT (use ('physical',))")
     material = UsdShade.Material.Define(stage, path)
     base = material.GetPath()
 
@@ -307,14 +308,14 @@ def usd_to_mtlx_document(surface_shader, library=None):
         sid = shader.GetShaderId() or ""
         nodedef = library.getNodeDef(sid)
         if nodedef is None:
-            raise ValueError(f"{shader.GetPath()}: info:id {sid!r} is not a MaterialX nodedef")
+            raise UsageError(f"{shader.GetPath()}: info:id {sid!r} is not a MaterialX nodedef")
         node = doc.addNode(nodedef.getNodeString(), name, nodedef.getType())
         node.setNodeDefString(sid)
         done[name] = node
         for inp in shader.GetInputs():
             mx_in = nodedef.getActiveInput(inp.GetBaseName())
             if mx_in is None:
-                raise ValueError(f"{inp.GetAttr().GetPath()}: {sid} declares no input {inp.GetBaseName()!r}")
+                raise UsageError(f"{inp.GetAttr().GetPath()}: {sid} declares no input {inp.GetBaseName()!r}")
             target = node.addInput(mx_in.getName(), mx_in.getType())
             sources = inp.GetConnectedSources()[0]
             if sources:

@@ -21,6 +21,7 @@ exported back as the attribute ``rockdove:film:cauchyA``.
 from __future__ import annotations
 
 from .. import resources
+from ..errors import UsageError
 
 SCHEMA_NAME = "RockDoveThinFilmAPI"
 #: Namespace of the copy of the schema's values that survives tools which drop applied API schemas (module
@@ -80,7 +81,7 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
 
     register()
     if prim.GetTypeName() != "Mesh":
-        raise ValueError(f"prim must be a Mesh to carry {SCHEMA_NAME}, got {prim.GetPath()} of type "
+        raise UsageError(f"prim must be a Mesh to carry {SCHEMA_NAME}, got {prim.GetPath()} of type "
                          f"{prim.GetTypeName()!r}")
     if not prim.AddAppliedSchema(SCHEMA_NAME):
         raise RuntimeError(f"could not apply {SCHEMA_NAME} to {prim.GetPath()}")
@@ -103,7 +104,7 @@ def read_thin_film(prim) -> dict:
     ``lut_file == ""`` and the other ``lut:*`` values None. ValueError if the schema is not applied."""
     if not has_thin_film(prim):
         op = prim.GetMetadata("apiSchemas")
-        raise ValueError(f"prim {prim.GetPath()} does not apply {SCHEMA_NAME} "
+        raise UsageError(f"prim {prim.GetPath()} does not apply {SCHEMA_NAME} "
                          f"(applied: {list(op.ApplyOperations([])) if op else []})")
     out = {}
     for name, (key, _) in _ATTRS.items():

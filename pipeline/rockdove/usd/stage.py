@@ -19,6 +19,7 @@ through ``Sdf.Layer.Export``: no timestamps, so the same inputs give byte-identi
 
 from __future__ import annotations
 
+import json
 import os
 
 import numpy as np
@@ -34,12 +35,15 @@ from .material import (
     mtlx_surface_path,
     texture_asset_paths,
 )
+from ..errors import UsageError
 
 ROOT = "/Pigeon"
 INTERFACE_LAYER = "pigeon.usda"
 PAYLOAD_LAYER = "pigeon_payload.usda"
 LOOKS_LAYER = "pigeon_looks.usda"
 GEOMETRY_LAYER = "pigeon_geom.usdc"
+#: The looks layer's customLayerData key of the build configuration (JSON; :func:`write_looks`).
+BUILD_CONFIG_KEY = "rockdove:buildConfig"
 SHADING_VARIANT_SET = "shading"
 SHADING_VARIANTS = ("baked", "physical")
 DEFAULT_SHADING = "baked"
@@ -128,7 +132,7 @@ def _feather_part(bird):
     """The one part with the feather material (all neck cards in one mesh), which carries ``thickness``."""
     feathers = [p for p in bird.parts if p.material == FEATHER_MATERIAL]
     if len(feathers) != 1 or "thickness" not in feathers[0].primvars:
-        raise ValueError(f"bird: exactly one part with material 'feather' and a 'thickness' primvar expected, "
+        raise UsageError(f"bird: exactly one part with material 'feather' and a 'thickness' primvar expected, "
                          f"got {[p.name for p in feathers]}")
     return feathers[0]
 
@@ -240,9 +244,11 @@ def write_geometry(out_dir: str, bird) -> str:
 
 
 def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geometry: str,
-                shading: str | None = None) -> dict:
+                shading: str | None = None, config: dict | None = None) -> dict:
     """Every layer but the geometry into ``out_dir``: interface, payload and looks (:func:`author_looks` over the
     ``geometry`` layer of :func:`write_geometry`, read, not changed); ``{"interface", "payload", "looks"}`` paths.
+    ``config``: the build configuration's sections that shape the asset, recorded as JSON in the looks layer's
+    ``customLayerData`` (:data:`BUILD_CONFIG_KEY`; the layer a film change rewrites), for the viewer.
 
     ``shading``: ``"both"``, ``"baked"`` (both need ``lut``) or ``"physical"``; default ``"both"`` with a LUT,
     ``"physical"`` without.
@@ -251,16 +257,18 @@ def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geo
 
     shading = shading or ("both" if lut is not None else "physical")
     if shading not in SHADING_CHOICES:
-        raise ValueError(f"shading={shading!r}; allowed: {sorted(SHADING_CHOICES)}")
+        raise UsageError(f"shading={shading!r}; allowed: {sorted(SHADING_CHOICES)}")
     variants = SHADING_CHOICES[shading]
     if lut is None and "baked" in variants:
-        raise ValueError(f"shading={shading!r} needs a LUT (lut=None); without one only 'physical' is possible")
+        raise UsageError(f"shading={shading!r} needs a LUT (lut=None); without one only 'physical' is possible")
     geometry_layer = Sdf.Layer.OpenAsAnonymous(os.path.abspath(geometry))
     looks = new_stage()
     composed = Usd.Stage.CreateInMemory()
     composed.GetRootLayer().subLayerPaths = [looks.GetRootLayer().identifier, geometry_layer.identifier]
     composed.SetEditTarget(Usd.EditTarget(looks.GetRootLayer()))
     author_looks(composed, bird, film, lut, variants=variants)
+    if config is not None:
+        looks.GetRootLayer().customLayerData = {BUILD_CONFIG_KEY: json.dumps(config, sort_keys=True)}
     payload = Sdf.Layer.CreateAnonymous(".usda")  # a bare layer: no stage to recompose its relative sublayers
     payload.defaultPrim = ROOT.lstrip("/")
     for key, value in (("upAxis", "Y"), ("metersPerUnit", 1.0)):  # as new_stage, for tools opening it alone
@@ -309,10 +317,10 @@ def open_asset(path: str, shading: str | None = None):
     register()
     stage = Usd.Stage.Open(path, Usd.Stage.LoadAll)
     if stage is None:
-        raise ValueError(f"path={path!r} is not a USD stage")
+        raise UsageError(f"path={path!r} is not a USD stage")
     if shading is not None:
         if shading not in SHADING_VARIANTS:
-            raise ValueError(f"shading={shading!r}; use one of {SHADING_VARIANTS}")
+            raise UsageError(f"shading={shading!r}; use one of {SHADING_VARIANTS}")
         with Usd.EditContext(stage, stage.GetSessionLayer()):
             stage.GetPrimAtPath(ROOT).GetVariantSet(SHADING_VARIANT_SET).SetVariantSelection(shading)
     return stage

@@ -13,7 +13,7 @@
   :data:`PREVIEW_COLUMNS` columns, bottom row first (texture t = 0 at the image's bottom), tile k at
   thickness ``lo + k (hi - lo) / (K - 1)`` over the film's thickness range rounded outward to whole nm
   (:func:`preview_range_nm`; one tile when the range is one value). The angle is :data:`PREVIEW_COS_THETA`. The
-  mix is done in linear light (sRGB decoded and re-encoded, IEC 61966-2-1: :func:`rockdove.spectral.srgb_encode`);
+  mix is done in linear light (sRGB decoded and re-encoded, IEC 61966-2-1: :func:`rockdove.srgb.srgb_encode`);
   out-of-gamut colours are clipped to [0, 1].
 - An asset without a LUT (physical-only shading, ``lut=None``) has no ``thinfilm_lut.exr``; its preview colours
   are the *exact* spectral colours at the same points: :func:`rockdove.lut.reference.reference_colour`, one
@@ -28,6 +28,7 @@ import os
 import numpy as np
 
 from .material import TEXTURE_FILES
+from ..errors import UsageError
 
 #: cos theta of the structural colours of feather_preview.png: 0.86 (31 degrees), the median |N.V| over the
 #: feather-tip pixels of the default verification views (4 turntable + the light sweep, 128 px, measured on the
@@ -46,7 +47,7 @@ def preview_range_nm(thickness_range_nm) -> tuple[float, float]:
     mesh's exact range and callers holding the build's rounded one (the LUT axis) pick the same tiles."""
     lo, hi = (float(v) for v in thickness_range_nm)
     if not (np.isfinite(lo) and np.isfinite(hi) and 0 <= lo <= hi):
-        raise ValueError(f"thickness_range_nm must be finite (lo, hi) with 0 <= lo <= hi nm, "
+        raise UsageError(f"thickness_range_nm must be finite (lo, hi) with 0 <= lo <= hi nm, "
                          f"got {thickness_range_nm!r}")
     return float(np.floor(lo)), float(np.ceil(hi))
 
@@ -95,7 +96,7 @@ def feather_preview_atlas(base_rgba: np.ndarray, mask: np.ndarray, structural_rg
     base_rgba = _check_uint8("base_rgba", base_rgba, (4,))
     mask = _check_uint8("mask", mask, (1,))
     if mask.shape[:2] != base_rgba.shape[:2] or not np.all(np.isfinite(colours)):
-        raise ValueError(f"mask {mask.shape[:2]} must match base_rgba {base_rgba.shape[:2]} and the colours be finite")
+        raise UsageError(f"mask {mask.shape[:2]} must match base_rgba {base_rgba.shape[:2]} and the colours be finite")
     for k, tile in enumerate(_mixed_tiles(base_rgba, mask, colours)):
         if tile.shape[:2] != (t, t):
             tile = np.asarray(Image.fromarray(tile, "RGBA").resize((t, t), Image.BOX))
@@ -107,10 +108,10 @@ def feather_preview_atlas(base_rgba: np.ndarray, mask: np.ndarray, structural_rg
 def _check_uint8(name: str, a, channels: tuple[int, ...]) -> np.ndarray:
     a = np.asarray(a)
     if a.dtype != np.uint8:
-        raise ValueError(f"{name} must be uint8, got dtype {a.dtype}")
+        raise UsageError(f"{name} must be uint8, got dtype {a.dtype}")
     c = 1 if a.ndim == 2 else (a.shape[2] if a.ndim == 3 else -1)
     if a.ndim not in (2, 3) or c not in channels or min(a.shape[:2]) < 1:
-        raise ValueError(f"{name} must have shape (H, W) or (H, W, C) with C in {channels}, got {a.shape}")
+        raise UsageError(f"{name} must have shape (H, W) or (H, W, C) with C in {channels}, got {a.shape}")
     return np.ascontiguousarray(a)
 
 
@@ -140,7 +141,7 @@ def _mixed_tiles(base_rgba: np.ndarray, mask: np.ndarray, colours: np.ndarray):
     floating-point operations per value, so the bytes are those of the texel-by-texel formula), the distinct
     texels are packed as 32-bit RGBA, and a tile is one gather of those.
     """
-    from rockdove.spectral import srgb_decode, srgb_encode
+    from rockdove.srgb import srgb_decode, srgb_encode
 
     h, w = mask.shape[:2]
     b = base_rgba.astype(np.int64)
@@ -205,7 +206,7 @@ def write_film_textures(out_dir: str, lut, feather_textures: dict, *, thickness_
         colours = lut.sample(np.full(tiles.size, preview_cos_theta), tiles)
     else:
         if film is None:
-            raise ValueError("lut=None needs the film for the preview colours, got film=None")
+            raise UsageError("lut=None needs the film for the preview colours, got film=None")
         colours = np.stack([preview_colour(film, d, preview_cos_theta) for d in tiles])
     paths = _texture_paths(out_dir)
     written = {"feather_preview": write_png(paths["feather_preview"], feather_preview_atlas(base, mask, colours))}

@@ -23,6 +23,7 @@ import shutil
 import tempfile
 
 from ..resources import atomic_path
+from ..errors import UsageError
 
 USDZ_NAME = "pigeon.usdz"
 AR_USDZ_NAME = "pigeon_ar.usdz"
@@ -39,7 +40,7 @@ def _fixed_time() -> int:
     try:
         return max(int(value), ZIP_EPOCH)
     except ValueError:
-        raise ValueError(f"SOURCE_DATE_EPOCH must be an integer (seconds), got {value!r}") from None
+        raise UsageError(f"SOURCE_DATE_EPOCH must be an integer (seconds), got {value!r}") from None
 
 
 def _root(out_dir: str, root_layer: str) -> tuple[str, str]:
@@ -158,5 +159,5 @@ def usdz_contents(path: str) -> list[str]:
 
     zf = Sdf.ZipFile.Open(path)
     if zf is None:
-        raise ValueError(f"path={path!r} is not a readable usdz package")
+        raise UsageError(f"path={path!r} is not a readable usdz package")
     return list(zf.GetFileNames())

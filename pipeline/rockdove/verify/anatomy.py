@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import UsageError
 from ..geometry.types import unit
 
 #: name -> (low, high, unit, source, what). None: unbounded on that side.
@@ -69,7 +70,7 @@ def _part(scene, name):
     for p in scene.parts:
         if p.name == name:
             return p
-    raise ValueError(f"the asset has no mesh {name!r} (parts: {[p.name for p in scene.parts]})")
+    raise UsageError(f"the asset has no mesh {name!r} (parts: {[p.name for p in scene.parts]})")
 
 
 def _axis(points):
@@ -115,7 +116,7 @@ def _colours(part, n=4000, seed=0):
 
 
 def _hsv(linear):
-    from ..spectral import linear_to_srgb8
+    from ..srgb import linear_to_srgb8
 
     c = np.asarray(linear_to_srgb8(np.asarray(linear, float)[None]), float)[0] / 255.0
     mx, mn = c.max(), c.min()

@@ -28,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from .compare import lab_hue_classes, rgb_to_lab
+from ..errors import UsageError
 
 #: A class is coherent when its largest connected region holds at least this share of its pixels. Issue 12
 #: asks >= 0.7; a per-card uniform draw reaches 0.70 / 0.69 (green / purple) on the default bird's 90 degree
@@ -190,7 +191,7 @@ def boundary_shape(rgb_linear: np.ndarray, region: np.ndarray, reach_px: int = C
     rgb = np.asarray(rgb_linear, np.float64)
     region = np.asarray(region, bool)
     if rgb.shape[:2] != region.shape or rgb.ndim != 3 or rgb.shape[2] != 3:
-        raise ValueError(f"rgb_linear (H, W, 3) and region (H, W) must match, got {rgb.shape} and {region.shape}")
+        raise UsageError(f"rgb_linear (H, W, 3) and region (H, W) must match, got {rgb.shape} and {region.shape}")
     strict = np.full(region.shape, -1, np.int8)
     sides = np.full(region.shape, -1, np.int8)
     if region.any():

@@ -23,6 +23,8 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from ..errors import UsageError
+
 #: Goals of issue 5: a verification fails above these (dE2000 over the compared feather pixels).
 MEDIAN_DE_GOAL = 1.0
 P95_DE_GOAL = 2.0
@@ -54,9 +56,9 @@ def _same_shape(name_a: str, a, name_b: str, b, channels: int | None) -> tuple[n
     for name, x in ((name_a, a), (name_b, b)):
         if not (x.ndim == 3 and x.shape[2] == channels if channels else x.ndim == 2):
             want = f"(H, W, {channels})" if channels else "(H, W)"
-            raise ValueError(f"{name} must have shape {want}, got {x.shape}")
+            raise UsageError(f"{name} must have shape {want}, got {x.shape}")
     if a.shape != b.shape:
-        raise ValueError(f"{name_a} {a.shape} and {name_b} {b.shape} must have the same shape")
+        raise UsageError(f"{name_a} {a.shape} and {name_b} {b.shape} must have the same shape")
     return a, b
 
 
@@ -66,7 +68,7 @@ def erode(mask: np.ndarray, pixels: int) -> np.ndarray:
 
     mask = np.asarray(mask, dtype=bool)
     if pixels < 0:
-        raise ValueError(f"pixels must be >= 0, got {pixels}")
+        raise UsageError(f"pixels must be >= 0, got {pixels}")
     if pixels == 0:
         return mask.copy()
     out = np.zeros_like(mask)

@@ -11,8 +11,10 @@ from __future__ import annotations
 import time
 from concurrent.futures import ThreadPoolExecutor
 
+from ..errors import RockdoveError
 
-class GLRenderError(RuntimeError):
+
+class GLRenderError(RockdoveError, RuntimeError):
     """The GL renderer could not open, or a view failed to render; the message says why."""
 
 

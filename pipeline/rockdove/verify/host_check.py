@@ -20,6 +20,7 @@ import os
 import numpy as np
 
 from . import compare
+from ..errors import UsageError
 
 #: Share of feather-tip pixels whose green/purple/other class must match the reference (physical variants).
 MIN_HUE_AGREEMENT = 0.85
@@ -49,10 +50,10 @@ def host_metrics(images: dict, refs: list, scene) -> dict:
     des, host_cls, ref_cls, per_view, maps = [], [], [], {}, {}
     for ref in refs:
         if ref.view not in images:
-            raise ValueError(f"the host returned no image for view {ref.view!r}; it returned {sorted(images)}")
+            raise UsageError(f"the host returned no image for view {ref.view!r}; it returned {sorted(images)}")
         img = np.asarray(images[ref.view], np.float64)
         if img.shape != ref.rgb.shape:
-            raise ValueError(f"view {ref.view!r}: host image {img.shape}, expected {ref.rgb.shape}")
+            raise UsageError(f"view {ref.view!r}: host image {img.shape}, expected {ref.rgb.shape}")
         img = np.where(np.isfinite(img), img, 0.0)
         sel = compare.comparison_mask(ref.part_id, ref.part_id, feather_ids, 1) & (ref.mask >= compare.STRUCTURAL_MASK)
         vals, lab = compare.pixel_de(img[sel], ref.rgb[sel])
@@ -94,27 +95,26 @@ def host_passed(variant: str, metrics: dict) -> tuple[bool, list]:
     return not why, why
 
 
-def check_host(module, asset_layer: str, scene, views, refs: list, out_dir: str, rendered, say) -> tuple[dict, dict]:
+def check_host(host, asset_layer: str, scene, views, refs: list, out_dir: str, rendered, say) -> tuple[dict, dict]:
     """Render the views in one host (``rendered``: its images when already drawn, the GL renders for ``glsl``)
     and compare them with ``refs``, the references of its lobe. Returns the report's entry (the
     :func:`host_metrics` but ``de_maps``; ``error`` when it raised :class:`rockdove.hosts.HostError`; ``skipped``
-    and ``reason`` when its optional ``cannot_draw(asset_layer)`` says why) and ``{view: {"host", "reference",
+    and ``reason`` when its ``cannot_draw(asset_layer)`` says why) and ``{view: {"host", "reference",
     "dE": file name}}`` of its images in ``out_dir``."""
-    from ..hosts import HostError
-    from ..render.images import save_png
-    from ..spectral import linear_to_srgb8
+    from ..hosts.base import HostError
+    from ..png import save_png
+    from ..srgb import linear_to_srgb8
     from . import report as rep
 
-    name, variant, lobe = module.NAME, module.VARIANT, module.LOBE
+    name, variant, lobe = host.name, host.variant, host.lobe
     entry = {"name": name, "variant": variant, "lobe": lobe}
-    cannot = getattr(module, "cannot_draw", None)
-    reason = cannot(asset_layer) if cannot is not None and rendered is None else None
+    reason = host.cannot_draw(asset_layer) if rendered is None else None
     if reason:
         return {**entry, "skipped": True, "reason": reason, "passed": None}, {}
     try:
         if rendered is None:
             say(f"host {name} ({variant}, {lobe}): rendering {len(views)} views")
-            rendered = module.render(asset_layer, list(views), out_dir)
+            rendered = host.render(asset_layer, list(views), out_dir)
         m = host_metrics(rendered, refs, scene)
     except (HostError, ValueError) as exc:
         return {**entry, "passed": False, "error": str(exc)}, {}

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..digest import Digest
+from ..errors import UsageError
 
 #: The light-view angle (deg) of the extra sweep view: 90 deg is the paper's green/purple flip.
 BOUNDARY_SWEEP_ANGLE_DEG = 90.0
@@ -63,7 +64,7 @@ def sizes(width=None, height=None, n_views=None) -> tuple[int, int, int]:
     for key, v in zip(("width", "height"), out):
         lo, hi = limits(f"verify.{key}")
         if isinstance(v, bool) or int(v) != v or not lo <= int(v) <= hi:
-            raise ValueError(f"{key} must be an integer from {lo} to {hi} pixels, got {v!r}")
+            raise UsageError(f"{key} must be an integer from {lo} to {hi} pixels, got {v!r}")
     return out
 
 
@@ -74,7 +75,7 @@ def select_views(all_views: list, names) -> list:
     names = list(names)
     unknown = [n for n in names if n not in known]
     if unknown or not names:
-        raise ValueError(f"views={names!r}: unknown or none; allowed names: {sorted(known)}")
+        raise UsageError(f"views={names!r}: unknown or none; allowed names: {sorted(known)}")
     return [known[n] for n in dict.fromkeys(names)]
 
 

@@ -41,6 +41,7 @@ import numpy as np
 
 from ..lut.reference import reference_colour
 from .rays import SceneGeometry, camera_key, camera_rays, cast_view
+from ..errors import UsageError
 
 #: Wavelength step per cos_theta band of the reference images, ``(cos_theta_lo, step_nm)``
 #: (:func:`rockdove.lut.reference.reference_step_nm`); see the module docstring for how they were chosen.
@@ -83,9 +84,9 @@ def structural_rgb(cos_theta, thickness_nm, film, stats: dict | None = None) -> 
     c = np.clip(np.asarray(cos_theta, np.float64).reshape(-1), 0.0, 1.0)
     d = np.asarray(thickness_nm, np.float64).reshape(-1)
     if c.shape != d.shape:
-        raise ValueError(f"cos_theta {c.shape} and thickness_nm {d.shape} must have the same length")
+        raise UsageError(f"cos_theta {c.shape} and thickness_nm {d.shape} must have the same length")
     if not (np.all(np.isfinite(d)) and np.all(d >= 0)):
-        raise ValueError(f"thickness_nm must be finite and >= 0, got min {np.nanmin(d) if d.size else 'n/a'}")
+        raise UsageError(f"thickness_nm must be finite and >= 0, got min {np.nanmin(d) if d.size else 'n/a'}")
     if c.size == 0:
         return np.zeros((0, 3))
     kc = np.round(c / COS_THETA_QUANTUM).astype(np.int64)  # 0 .. 5e5
@@ -123,12 +124,12 @@ def render_reference_lobes(scene, views, lobes=LOBES, structural_fn=None, hits=N
     lobes = tuple(dict.fromkeys(lobes))
     bad = [lb for lb in lobes if lb not in LOBES]
     if bad or not lobes:
-        raise ValueError(f"lobe: {bad or lobes!r} not allowed; use one of {list(LOBES)}")
+        raise UsageError(f"lobe: {bad or lobes!r} not allowed; use one of {list(LOBES)}")
     views = list(views)
     if not views:
-        raise ValueError("views must hold at least one View, got none")
+        raise UsageError("views must hold at least one View, got none")
     if structural_fn is None and scene.film is None and any(p.is_feather for p in scene.parts):
-        raise ValueError(f"scene {scene.root_layer!r} has feather parts but no RockDoveThinFilmAPI film")
+        raise UsageError(f"scene {scene.root_layer!r} has feather parts but no RockDoveThinFilmAPI film")
     geometry = functools.cache(lambda: SceneGeometry(scene))  # not built when every camera's surface is given
     hits_cache: dict = dict(hits or {})  # the light sweep keeps its camera still: cast its rays once
     surface_cache: dict = dict(surfaces or {})
@@ -248,7 +249,7 @@ def _render_view(geometry, scene, view, structural_fn, hits_cache: dict, surface
         surface_cache[key] = _surface(geometry, view, hits_cache)
     srf = surface_cache[key]
     if srf.n_pixels != h * w:
-        raise ValueError(f"the surface of camera {key[:12]} holds {srf.n_pixels} pixels, view {view.name!r} {h * w}")
+        raise UsageError(f"the surface of camera {key[:12]} holds {srf.n_pixels} pixels, view {view.name!r} {h * w}")
     stats = dict(srf.stats)
     t1 = time.perf_counter()
 

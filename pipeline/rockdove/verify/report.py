@@ -1,5 +1,5 @@
 """The verification report, in one folder with relative file names (``report.html`` opens from disk, no server):
-``<view>_gl.png`` and ``<view>_reference.png`` (through :func:`rockdove.spectral.linear_to_srgb8`), ``<view>_dE.png``
+``<view>_gl.png`` and ``<view>_reference.png`` (through :func:`rockdove.srgb.linear_to_srgb8`), ``<view>_dE.png``
 (the dE2000 map pixel for pixel, with a colour bar; grey where not compared), ``contact_sheet.png`` (a row per view:
 GL | reference | dE), ``lut.png``, ``spectra.png`` (film reflectance), ``hue.png`` (hue histogram across the light
 sweep), ``bench_*.png`` (from ``rockdove verify --bench-dir DIR``), ``report.json`` and ``report.html``.
@@ -40,8 +40,8 @@ def _figure(w_in, h_in, margins_in, rows: int = 1, gap_in: float = 0.0):
 
 
 def _save_figure(fig, path) -> str:
-    """Draw ``fig`` once and write it with :func:`rockdove.render.images.save_png`, the display PNGs' writer."""
-    from ..render.images import save_png
+    """Draw ``fig`` once and write it with :func:`rockdove.png.save_png`, the display PNGs' writer."""
+    from ..png import save_png
 
     fig.canvas.draw()
     return save_png(np.asarray(fig.canvas.buffer_rgba())[..., :3], path)
@@ -71,7 +71,9 @@ def de_map_png(path, de_map, title: str) -> str:
     to the map (legible when the report shows it scaled down)."""
     from PIL import Image, ImageDraw
 
-    from ..render.images import label_font, save_png
+    from ..render.images import label_font
+
+    from ..png import save_png
 
     de = np.asarray(de_map, np.float64)
     h, w = de.shape
@@ -128,7 +130,7 @@ def contact_sheet(path, rows) -> str:
 
 def lut_png(path, lut) -> str:
     """The LUT as the display shows it, over its real axes (cos theta on x, thickness on y)."""
-    from ..spectral import linear_to_srgb8
+    from ..srgb import linear_to_srgb8
 
     img = linear_to_srgb8(lut.rgb)  # row 0 = thinnest
     fig = _figure(6.0, 3.6, (0.85, 0.3, 0.6, 0.35))
@@ -169,7 +171,8 @@ def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 
 
 def hue_png(path, hue: dict, title: str) -> str:
     """Bar chart of a :func:`rockdove.verify.compare.hue_histogram`, bars coloured by their hue."""
-    from ..spectral import Lab_to_XYZ, XYZ_to_RGB, srgb_encode
+    from ..spectral import Lab_to_XYZ, XYZ_to_RGB
+    from ..srgb import srgb_encode
 
     edges = np.asarray(hue["bin_edges_deg"])
     centres = 0.5 * (edges[:-1] + edges[1:])

@@ -21,8 +21,8 @@ def render_and_check(scene, lut, views, out: str, *, say, surfaces=None) -> tupl
     """Render ``views`` (GL and reference), compare, write each view's images into ``out/<view>/``;
     ``({name: view result}, the references, {name: GL radiance})``. ``surfaces``: ready-made shading inputs at
     the primary hits, by camera (:func:`rockdove.verify.reference_image.cast_surfaces`)."""
-    from ..render.images import save_png
-    from ..spectral import linear_to_srgb8
+    from ..png import save_png
+    from ..srgb import linear_to_srgb8
     from .reference_image import render_reference
 
     failures_all = []

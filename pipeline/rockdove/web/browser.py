@@ -23,6 +23,8 @@ import subprocess
 import tempfile
 import time
 
+from ..errors import RockdoveError
+
 #: Flags for headless WebGL2 on a machine without a GPU or network (measured on Debian 12, Chromium 156).
 CHROMIUM_FLAGS = ("--headless=new", "--no-sandbox", "--enable-unsafe-swiftshader", "--use-angle=swiftshader",
                   "--disable-background-networking", "--disable-component-update", "--disable-sync",
@@ -34,7 +36,7 @@ EXECUTABLES = ("chromium", "chromium-browser", "google-chrome")
 START_TIMEOUT_S = 60.0
 
 
-class BrowserError(RuntimeError):
+class BrowserError(RockdoveError, RuntimeError):
     """The browser could not start, or a step did not finish in time / failed (the message names the step)."""
 
 

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..geometry.types import point_bounds
 from ..resources import write_atomic
+from ..errors import UsageError
 
 #: The file the build writes beside ``pigeon.usda``.
 GLB_NAME = "pigeon.glb"
@@ -178,7 +179,7 @@ def scene_to_glb(scene, version: str = "") -> bytes:
 
     film = scene.film
     if film is None:
-        raise ValueError(f"asset {scene.root_layer!r} has no rockdove thin-film data: no mesh applies "
+        raise UsageError(f"asset {scene.root_layer!r} has no rockdove thin-film data: no mesh applies "
                          "RockDoveThinFilmAPI (rockdove:film:*), so there is no film to export as "
                          "KHR_materials_iridescence; build it with `rockdove build`")
     gltf = GLTF2(asset=Asset(version="2.0", generator=f"rockdove {version}".strip()))
@@ -209,7 +210,7 @@ def scene_to_glb(scene, version: str = "") -> bytes:
         variants = {}
         if part.is_feather:
             if part.thickness_nm is None:
-                raise ValueError(f"asset {scene.root_layer!r}: {part.path} records a film but no thickness primvar")
+                raise UsageError(f"asset {scene.root_layer!r}: {part.path} records a film but no thickness primvar")
             attributes.TEXCOORD_1 = blob.accessor(thickness_texcoords(part.thickness_nm, lo, hi), "VEC2")
             pbr.roughnessFactor = 0.0
             material.alphaMode, material.alphaCutoff, material.doubleSided = "MASK", float(part.opacity_threshold), True

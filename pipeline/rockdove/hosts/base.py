@@ -1,0 +1,71 @@
+"""The host contract: what every renderer at the edge provides (in the way OpenUSD's ``BaseRuleChecker`` defines a
+rule), the lighting models it can be compared under, and the one error a host raises.
+
+A host reads the WRITTEN asset and renders it with its own code; the verifier compares each view with the exact
+reference of the lighting model (:data:`Lobe`) the host evaluates. Adding a host is a subclass of :class:`Host`,
+one instance per network it draws, and :func:`rockdove.hosts.register`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal, get_args
+
+from ..errors import RockdoveError
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from ..render.views import View
+
+#: The network a host draws: ``glsl`` our paper shaders, ``baked`` the MaterialX LUT network, ``physical`` the
+#: host's own thin-film BSDF, ``preview`` the UsdPreviewSurface atlas.
+Variant = Literal["glsl", "baked", "physical", "preview"]
+#: The lighting models a host can be compared under: ``half_angle``: the paper's Lambert x colour(cos = L.H)
+#: under the View's one directional light; ``view_angle``: the smooth film's mirror lobe alone under a uniform
+#: white environment of unit radiance, so a feather-tip pixel is the exact film colour at cos = |N.V| (times the
+#: mask), base colour black.
+Lobe = Literal["half_angle", "view_angle"]
+VARIANTS: tuple[Variant, ...] = get_args(Variant)
+LOBES: tuple[Lobe, ...] = get_args(Lobe)
+#: Radiance of the ``view_angle`` lobe's uniform white environment (linear Rec.709, D65 white = 1).
+ENVIRONMENT_RADIANCE = 1.0
+
+
+class HostError(RockdoveError, RuntimeError):
+    """Host ``name`` failed to render (no display, import error, shader compile error...): ``message``, one line."""
+
+    def __init__(self, name: str, message: str):
+        super().__init__(f"host {name!r}: {message}")
+        self.name = name
+        self.message = message
+
+
+@dataclass(frozen=True)
+class Host:
+    """A renderer the verification checks: ``name`` (unique in the registry), the ``variant`` it draws, the
+    ``lobe`` it is compared under. Subclasses implement :meth:`render` and, where it applies, :meth:`unavailable`
+    and :meth:`cannot_draw`; the verification's cache keys a host's renders on the code of its :meth:`render`."""
+
+    name: str
+    variant: Variant
+    lobe: Lobe
+
+    def __post_init__(self) -> None:
+        if self.variant not in VARIANTS or self.lobe not in LOBES:
+            raise ValueError(f"host {self.name!r}: variant {self.variant!r} / lobe {self.lobe!r}; allowed: "
+                             f"{', '.join(VARIANTS)} / {', '.join(LOBES)}")
+
+    def unavailable(self) -> str | None:
+        """None when the host can run here, else why not (a few words: the verifier reports it as a skip)."""
+        return None
+
+    def cannot_draw(self, asset_path: str) -> str | None:
+        """Why the host cannot draw this asset (e.g. it lacks the network), else None: the verifier skips it."""
+        return None
+
+    def render(self, asset_path: str, views: Sequence[View], out_dir: str) -> dict[str, np.ndarray]:
+        """``{view.name: (H, W, 3) float32 linear Rec.709 radiance}`` of each View's camera exactly, background 0;
+        any images for people into ``out_dir``. Raises :class:`HostError` when the host fails."""
+        raise NotImplementedError(f"{type(self).__name__}.render")
