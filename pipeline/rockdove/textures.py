@@ -29,7 +29,7 @@ SOFT_EDGE = 0.03
 #: in a tile twice as tall as wide).
 BARB_SLANT = 0.6
 #: Relief of the normal map: height of the rachis, the vane's camber and a barb, in tile widths, and the gain.
-RACHIS_H, CAMBER_H, BARB_H, NORMAL_GAIN = 0.012, 0.01, 0.004, 1.0
+RACHIS_H, CAMBER_H, BARB_H, NORMAL_GAIN = 0.012, 0.003, 0.004, 1.0
 
 
 def _resolution(value, attr="feather_texture_resolution") -> int:
@@ -86,7 +86,6 @@ def feather_tile(kind: str, srgb, seed: int, height: int, width: int) -> tuple:
     rachis_w = 0.018 - 0.012 * v
     on_rachis = _smoothstep(rachis_w, 0.4 * rachis_w, ax) * (v < 0.97)
     col = _mix(col, 0.02 + 1.3 * col, 0.6 * on_rachis)
-    col = col * (1.0 - 0.12 * _smoothstep(0.6, 1.0, ax / w) * _smoothstep(0.3, 0.6, v))[..., None]  # edge shade
     height_map = (RACHIS_H * on_rachis + CAMBER_H * np.clip(1.0 - (ax / w) ** 2, 0.0, 1.0)
                   + BARB_H * barb * _smoothstep(0.0, 0.3, ax / w)) * fluff
     roughness = rough + 0.25 * (1.0 - fluff) - 0.15 * on_rachis + 0.05 * barb

@@ -45,6 +45,8 @@ CAMBER = 0.06
 COAT_COUNT = 1700
 COAT_LENGTH_M, COAT_NECK_LENGTH_M, COAT_TAIL_LENGTH_M = 0.024, 0.014, 0.036
 COAT_LIFT, COAT_BEND, COAT_DEPTH_M, COAT_CLEARANCE_M = 0.015, 0.01, 0.0008, 0.0005
+#: Extra clearance of the coat cards rooted round the folded wing, which lie over its edge (m).
+COAT_OVER_WING_M = 0.0032
 #: Direction the coat lies in before projection onto the skin: tailward and down.
 COAT_FLOW = np.array([0.0, -0.55, -0.83])
 #: Coat roots are kept off the neck band (by this margin in the neck's radius, m: the neck cards lying down from
@@ -53,7 +55,7 @@ COAT_NECK_MARGIN_M, COAT_HEAD_MARGIN_M = 0.010, 0.004
 #: Head feathers: count, length range (m), their clearance over the skin on the crown and where they lie over the
 #: neck cards' roots (m), and the bare skin kept free round the bill's root and the eye's ring (m).
 HEAD_COUNT, HEAD_LENGTH_M = 1000, (0.007, 0.012)
-HEAD_CLEARANCE_M, HEAD_OVER_NECK_M = 0.0003, 0.0014
+HEAD_CLEARANCE_M, HEAD_OVER_NECK_M = 0.0003, 0.002
 BILL_CLEAR_M, EYE_CLEAR_M = 0.005, 0.0008
 STREAM_COAT, STREAM_HEAD, STREAM_WINGS = 4, 5, 6
 
@@ -110,7 +112,7 @@ def _part(name, pieces) -> MeshPart:
     return triangle_part(name, [(p, unit(n), st, f) for p, n, st, f in pieces], "plumage", BODY_DISPLAY_COLOR)
 
 
-def _shingles(roots, n, t, length, width, tiles, rng, lift, bend, depth, clearance, kind="contour"):
+def _shingles(roots, n, t, length, width, tiles, rng, lift, bend, depth, clearance, kind="contour", camber=CAMBER):
     """Cards rooted at ``roots`` lying along ``t`` over skin normals ``n``, groomed onto the skin: each row at
     length ``v L`` along ``t`` is moved onto the skin, then raised ``h(v) = -depth (1 - v)^4 + L (lift v + bend
     v^2)`` plus ``clearance`` (m, scalar or per card) along the skin's normal there, so a card follows the body's
@@ -124,7 +126,8 @@ def _shingles(roots, n, t, length, width, tiles, rng, lift, bend, depth, clearan
     up = up.reshape(len(roots), -1, 3)
     centre = on.reshape(up.shape) + h[..., None] * up
     across = unit(np.cross(np.gradient(centre, axis=1), up))
-    pts, _, st, faces = feather_cards(centre, across, width, tiles, up, rng.random(len(roots)) < 0.5, kind=kind)
+    pts, _, st, faces = feather_cards(centre, across, width, tiles, up, rng.random(len(roots)) < 0.5, kind=kind,
+                                      camber=camber)
     pts = pts.reshape(len(roots), -1, 3)
     rest, gaps = pts[:, 3:].reshape(-1, 3), np.repeat(gap[:, 0], pts.shape[1] - 3)
     for g in np.unique(gaps):  # the vane's edges clear the skin too (concave places)
@@ -206,10 +209,13 @@ def build_coat(vertices_m, faces, seed: int, count: int = COAT_COUNT) -> MeshPar
     by_neck = 1.0 - _sdf.smoothstep(0.045, 0.065, r)
     t = _yaw(_along(n, COAT_FLOW[None] * (1 - by_tail[:, None]) + axis[None] * by_tail[:, None]), n, rng, 12.0)
     length = (COAT_LENGTH_M + (COAT_NECK_LENGTH_M - COAT_LENGTH_M) * by_neck
-              + (COAT_TAIL_LENGTH_M - COAT_LENGTH_M) * by_tail) * rng.uniform(0.85, 1.15, len(roots))
+              + (COAT_TAIL_LENGTH_M - COAT_LENGTH_M) * by_tail) * rng.uniform(0.75, 1.25, len(roots))
     width = length * rng.uniform(0.6, 0.72, len(roots))
+    poly = wing_outline_yz()  # round the folded wing, the coat lies over its edge (scapulars, the breast's sides)
+    over = (np.abs(roots[:, 0]) > 0.012) & inside_polygon(roots[:, 1:], poly + 0.35 * (poly - poly.mean(0)))
     return _part("CoatFeathers", [_shingles(roots, n, t, length, width, coat_tiles(roots, rng), rng, COAT_LIFT,
-                                            COAT_BEND, COAT_DEPTH_M, COAT_CLEARANCE_M)])
+                                            COAT_BEND, COAT_DEPTH_M, COAT_CLEARANCE_M + COAT_OVER_WING_M * over,
+                                            camber=CAMBER / 3)])
 
 
 def build_head(vertices_m, faces, seed: int, count: int = HEAD_COUNT) -> MeshPart:
@@ -224,12 +230,13 @@ def build_head(vertices_m, faces, seed: int, count: int = HEAD_COUNT) -> MeshPar
     down = _sdf.smoothstep(1.25, 1.0, s)[:, None]
     axis = unit(_sdf.NECK_BASE_M - _sdf.NECK_TOP_M)
     t = _yaw(_along(n, unit(roots - bill) * (1 - down) + axis * down), n, rng, 15.0)
-    length = rng.uniform(*HEAD_LENGTH_M, len(roots)) * (1.0 - 0.25 * down[:, 0])
+    length = rng.uniform(*HEAD_LENGTH_M, len(roots)) * (1.0 - 0.15 * down[:, 0])
     ends = roots[:, None] + length[:, None, None] * SHAPE_V[None, :, None] * t[:, None]
     clear = np.ones(len(roots), bool)
-    for side in (1.0, -1.0):  # the bare orbital ring stays free: no card passes over it
+    for side in (1.0, -1.0):  # the bare orbital ring stays free: no card (its centre line, its half-width) over it
         centre, _ = _parts._eye_axis(side)
-        clear &= np.linalg.norm(ends - centre, axis=2).min(1) > _parts.EYE_RING_RADII_M[1] + EYE_CLEAR_M
+        gap = np.linalg.norm(ends - centre, axis=2).min(1) - 0.3 * length
+        clear &= gap > _parts.EYE_RING_RADII_M[1] + EYE_CLEAR_M
     keep = np.flatnonzero(clear)
     lift = HEAD_CLEARANCE_M + (HEAD_OVER_NECK_M - HEAD_CLEARANCE_M) * np.round(down[keep, 0], 1)
     tiles = tile("head", HEAD_SRGB, rng, len(keep))
