@@ -65,11 +65,11 @@ def feather_tile(kind: str, srgb, seed: int, height: int, width: int) -> tuple:
         return col, np.ones_like(u), np.zeros_like(u), np.full_like(u, rough)
     x = u - 0.5 - rng.uniform(-0.02, 0.02) * v * v  # across, from the (curved) rachis (clear of the border)
     ax = np.abs(x)
-    smooth = kind == "neck"  # the neck's iridescent feathers lie smooth and full: no splits, even widths
+    smooth = kind == "neck"  # the neck's iridescent feathers lie smooth and full: no splits or fraying, even widths
     w = half_width(kind, v) * (1.0 if smooth else rng.uniform(0.92, 1.0)) * np.where(x < 0, outer, 1.0) + 1e-6
     phase = barbs * (v - BARB_SLANT * ax) + rng.uniform(0, 1)
     barb = 0.5 + 0.5 * np.cos(2 * np.pi * phase)
-    edge = w * (1.0 - 0.06 * barb * _smoothstep(0.5, 1.0, ax / w))  # the barbs' ends fray the outline
+    edge = w * (1.0 - (0.0 if smooth else 0.06) * barb * _smoothstep(0.5, 1.0, ax / w))  # barbs' ends fray it
     splits = 0 if smooth else 2
     for p_split, side in zip(rng.uniform(0.4, 0.9, splits) * barbs, rng.choice([-1, 1], splits)):  # splits
         gap = np.exp(-(((phase - p_split) / 0.2) ** 2)) * _smoothstep(0.5, 0.9, ax / w) * (np.sign(x) == side)
