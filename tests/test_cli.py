@@ -217,7 +217,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     assert r.returncode == 0, r.stderr
     first = json.loads(r.stdout)
     assert first["ran"] == ["body", "bird", "thickness_range", "lut", "texture_images", "textures", "film_textures",
-                            "usd_geometry", "usd_layers", "gltf"]
+                            "usd_geometry", "usd_rig", "usd_layers", "gltf"]
     asset = tmp_path / "b/p"
     assert (asset / "pigeon.usda").is_file() and (asset / "textures/thinfilm_lut.exr").is_file()
     assert (asset / "pigeon.glb").is_file()
@@ -269,7 +269,8 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
     third = json.loads(r.stdout)
     assert third["ran"] == ["lut", "film_textures", "usd_layers", "verify"]
     assert not (asset / "pigeon.glb").exists() and not (asset / "verify/viewer.html").exists()
-    assert {"body", "bird", "thickness_range", "texture_images", "textures", "usd_geometry"} == set(third["reused"])
+    assert {"body", "bird", "thickness_range", "texture_images", "textures", "usd_geometry", "usd_rig"} == set(
+        third["reused"])
     assert _items(asset)["ran"]["views"] == views
     # ... but not what the reference shades at its hits before the film: one item per camera (the sweep shares one)
     surfaces = _items(asset)

@@ -38,6 +38,8 @@ LAYERS = [
      "the thin-film colour table baked from the physics, its exact reference and its files"),
     ({"geometry"},
      "the bird's meshes and film-thickness field as numpy values, ranges from the config; knows nothing of USD"),
+    ({"rig"},
+     "the skeleton, skin weights and motions as numpy values, placed from the geometry; knows nothing of USD"),
     ({"textures"},
      "images derived from the LUT and the geometry (feather base, mask, body colour)"),
     ({"usd"},

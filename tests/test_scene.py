@@ -38,7 +38,7 @@ def test_load_scene_reads_every_part_as_the_build_generated_it_in_both_variants(
     tex = small_asset / "textures"
     for variant in ("baked", "physical"):
         s = sc.load_scene(small_asset, variants={"shading": variant})
-        assert s.variants == {"shading": variant}
+        assert s.variants == {"shading": variant, "motion": "rest"}
         assert [p.name for p in s.parts] == [p.name for p in bird.parts]
         for src in map(drop_unreferenced_points, bird.parts):  # as written (validators reject unused points)
             got = s.part(src.name)
@@ -95,8 +95,8 @@ def test_load_scene_applies_world_transforms(small_asset, tmp_path):
 
 
 def test_load_scene_variants_and_bad_input(asset, tmp_path):
-    assert sc.load_scene(asset).variants == {"shading": "baked"}
-    assert sc.load_scene(asset, variants={"shading": "physical"}).variants == {"shading": "physical"}
+    assert sc.load_scene(asset).variants == {"shading": "baked", "motion": "rest"}
+    assert sc.load_scene(asset, variants={"shading": "physical"}).variants == {"shading": "physical", "motion": "rest"}
     with pytest.raises(ValueError, match="shading"):
         sc.load_scene(asset, variants={"shading": "nope"})
     with pytest.raises(ValueError, match="asset"):

@@ -273,6 +273,6 @@ def test_physical_only_asset_is_verified_with_a_verification_only_lut_and_says_s
     assert report["notes"][1].startswith("boundary at sweep_090:")  # the closing note on the pattern
     # measured film: the thickness varies, so the verification-only LUT has a thickness axis
     assert report["lut"]["verification_only"] and report["lut"]["shape"][0] > 1 and report["lut"]["shape"][1] == 256
-    assert report["variants"] == {"shading": "physical"} and report["film"]["lut_file"] is None
+    assert report["variants"] == {"shading": "physical", "motion": "rest"} and report["film"]["lut_file"] is None
     assert not os.path.exists(os.path.join(asset, "textures", "thinfilm_lut.exr"))  # nothing added
     assert "verification-only LUT" in (out / "report.html").read_text()

@@ -238,6 +238,13 @@ def run_usd_geometry(ctx: Context):
     write_geometry(str(ctx.workdir), ctx.inputs["bird"])
 
 
+def run_usd_rig(ctx: Context):
+    """The rig layer (skeleton, weights, motions): it depends on the bird and the rig alone."""
+    from ..usd.stage import write_rig
+
+    write_rig(str(ctx.workdir), ctx.inputs["bird"])
+
+
 #: The configuration sections the looks layer records (:data:`rockdove.usd.stage.BUILD_CONFIG_KEY`): what shapes the
 #: neck's thickness and the LUT, so the viewer prints a build command of the film it shows with the rest as built.
 BUILD_CONFIG_SECTIONS = ("film", "thickness", "geometry", "lut")
@@ -258,7 +265,7 @@ def run_usdz(ctx: Context):
     from ..usd.usdz import AR_USDZ_NAME, USDZ_NAME, write_ar_usdz, write_usdz
 
     scratch = ctx.workdir / "layout"
-    for dep in ("usd_geometry", "usd_layers", "textures", "film_textures"):
+    for dep in ASSET_FILES:
         shutil.copytree(ctx.inputs[dep], scratch, dirs_exist_ok=True)
     write_usdz(str(scratch), in_place=True)  # scratch holds copies: package them without a second copy
     write_ar_usdz(str(scratch))  # the flattened UsdPreviewSurface package for AR Quick Look
@@ -301,6 +308,8 @@ def run_verify(ctx: Context) -> dict:
                                       report["cache"]))
 
 
+#: The stages whose files make the assembled asset.
+ASSET_FILES = ("usd_geometry", "usd_rig", "usd_layers", "textures", "film_textures")
 #: The verification stage: its value is a :class:`Verdict`.
 VERIFY = "verify"
 
@@ -343,16 +352,15 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
                         deps=(("lut",) if baked else ()) + ("thickness_range", "texture_images"), codec=FILES,
                         publish=""))
     stages.append(Stage("usd_geometry", run_usd_geometry, deps=("bird",), data=schema, codec=FILES, publish=""))
+    stages.append(Stage("usd_rig", run_usd_rig, deps=("bird",), data=schema, codec=FILES, publish=""))
     stages.append(Stage("usd_layers", run_usd_layers, config=("shading", *BUILD_CONFIG_SECTIONS),
                         deps=("bird", "lut", "usd_geometry") if baked else ("bird", "usd_geometry"),
                         data=("materials", *schema), codec=FILES, publish=""))
     if config["usd"]["usdz"]:
-        stages.append(Stage("usdz", run_usdz, deps=("usd_geometry", "usd_layers", "textures", "film_textures"),
-                            codec=FILES, publish=""))
+        stages.append(Stage("usdz", run_usdz, deps=ASSET_FILES, codec=FILES, publish=""))
     if config["gltf"]["glb"]:
         # reads the written asset (so it runs once it is assembled); keyed by the files it translates
-        stages.append(Stage("gltf", run_gltf, deps=("usd_geometry", "usd_layers", "textures", "film_textures"),
-                            codec=FILES, needs_asset=True, publish=""))
+        stages.append(Stage("gltf", run_gltf, deps=ASSET_FILES, codec=FILES, needs_asset=True, publish=""))
     if verify:  # reruns when any published file changes; its renders are cached by what each reads
         stages.append(Stage(VERIFY, run_verify, config=("verify", "beauty"),
                             deps=tuple(s.name for s in stages if s.publish is not None), data=("materials", *schema),

@@ -83,6 +83,9 @@ def _session(stage, job):
     root = stage.GetDefaultPrim()
     if job["variant"] in ("baked", "physical"):
         root.GetVariantSet("shading").SetVariantSelection(job["variant"])
+    for prim in stage.Traverse():  # the rest pose as authored: Hydra replaces a skinned mesh's normals by its own
+        if prim.GetTypeName() == "Skeleton" and not job.get("motion"):
+            prim.SetActive(False)
     for prim in stage.Traverse():
         if not prim.IsA(UsdShade.Material):
             continue

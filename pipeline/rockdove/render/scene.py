@@ -22,6 +22,7 @@ import numpy as np
 
 from ..usd.material import OPACITY_THRESHOLD
 from .film import ThinFilmParams, lut_to_draw, read_film, thickness_range_nm
+from .skinning import animated, pose
 from .triangulate import fan_triangulate, fan_triangulate_corners, vertex_normals
 from .usd_read import material_info, primvar_array
 from ..errors import UsageError
@@ -63,7 +64,8 @@ class RenderScene:
     root_layer: str  # absolute path of the opened root layer
     parts: tuple  # of ScenePart: the visible meshes
     film: ThinFilmParams | None  # the feathers' thin film (None when no mesh carries the API)
-    variants: dict  # the active variant selections, e.g. {"shading": "baked"}
+    variants: dict  # the active variant selections, e.g. {"shading": "baked", "motion": "rest"}
+    time: float | None = None  # the time code the meshes were posed at (None: as authored, no animation)
 
     @property
     def bounds_m(self) -> np.ndarray:
@@ -105,12 +107,12 @@ class RenderScene:
         return lut_to_draw(self.film, self.thickness_range_nm)
 
 
-def _read_mesh(prim, xcache, meters_per_unit, stage):
+def _read_mesh(prim, xcache, meters_per_unit, stage, posed=None):
     from pxr import UsdGeom
 
     mesh = UsdGeom.Mesh(prim)
     path = str(prim.GetPath())
-    pts = mesh.GetPointsAttr().Get()
+    pts = mesh.GetPointsAttr().Get() if posed is None else posed[0]
     counts = mesh.GetFaceVertexCountsAttr().Get()
     fvi = mesh.GetFaceVertexIndicesAttr().Get()
     if pts is None or counts is None or fvi is None or len(pts) == 0 or len(counts) == 0:
@@ -138,6 +140,10 @@ def _read_mesh(prim, xcache, meters_per_unit, stage):
     normals = mesh.GetNormalsAttr().Get()
     if "normals" not in attrs and normals is not None and len(normals):
         attrs["normals"] = primvar_array(normals, mesh.GetNormalsInterpolation(), len(pts), counts, "normals", path)
+    if posed is not None:  # the skinned normals, else none: area-weighted ones of the posed mesh
+        attrs.pop("normals", None)
+        if posed[1] is not None:
+            attrs["normals"] = (posed[1], "vertex")
 
     if any(interp == "faceVarying" for _, interp in attrs.values()):  # split vertices per face corner
         tris = fan_triangulate_corners(counts)
@@ -150,7 +156,8 @@ def _read_mesh(prim, xcache, meters_per_unit, stage):
         tris = fan_triangulate(counts, fvi, left)
         out = {k: v for k, (v, _) in attrs.items()}
 
-    m = np.asarray(xcache.GetLocalToWorldTransform(prim), dtype=np.float64)  # row-vector convention
+    # row-vector convention; a skinned mesh's points are in its skeleton's space (UsdSkel)
+    m = np.asarray(xcache.GetLocalToWorldTransform(prim) if posed is None else posed[2], dtype=np.float64)
     # a contiguous copy of the 3x3 block: numpy multiplies by a strided view element by element (60x slower)
     world = (positions @ np.ascontiguousarray(m[:3, :3]) + m[3, :3]) * meters_per_unit
     if np.linalg.det(m[:3, :3]) < 0:
@@ -186,10 +193,12 @@ def _read_mesh(prim, xcache, meters_per_unit, stage):
     return part, film
 
 
-def load_scene(path, variants: dict | None = None) -> RenderScene:
+def load_scene(path, variants: dict | None = None, time: float | None = None) -> RenderScene:
     """Open a written asset (its folder or root layer) with pxr as a :class:`RenderScene`, with ``variants``
-    selected on the default prim (e.g. ``{"shading": "baked"}``; default as authored). ValueError when the path
-    is not a USD asset, a variant does not exist, no mesh is found, or its film data or textures are missing."""
+    selected on the default prim (e.g. ``{"shading": "baked", "motion": "walk"}``; default as authored) and, when a
+    motion is selected, the meshes skinned by UsdSkel at time code ``time`` (default the first;
+    :mod:`rockdove.render.skinning`). UsageError when the path is not a USD asset, a variant does not exist, the time
+    lies outside the animation, a skin is broken, no mesh is found, or its film data or textures are missing."""
     from pxr import Sdf, Usd, UsdGeom
 
     from ..usd.layout import resolve_root_layer
@@ -228,6 +237,14 @@ def load_scene(path, variants: dict | None = None) -> RenderScene:
         vsets = root.GetVariantSets()
         active = {n: vsets.GetVariantSet(n).GetVariantSelection() for n in vsets.GetNames()}
 
+    posed, at = {}, None
+    if time is not None or animated(stage):
+        start, end = stage.GetStartTimeCode(), stage.GetEndTimeCode()
+        at = start if time is None else float(time)
+        if not start <= at <= end:
+            raise UsageError(f"time={time!r} lies outside the animation: time codes {start:g} to {end:g} "
+                             f"({stage.GetTimeCodesPerSecond():g} per second)")
+        posed = pose(stage, [at])[0] if animated(stage) else {}
     xcache = UsdGeom.XformCache(Usd.TimeCode.Default())
     parts, film = [], None
     for prim in Usd.PrimRange(root, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)):
@@ -235,10 +252,10 @@ def load_scene(path, variants: dict | None = None) -> RenderScene:
         if (not prim.IsA(UsdGeom.Mesh) or img.ComputeVisibility() == UsdGeom.Tokens.invisible
                 or img.ComputePurpose() not in (UsdGeom.Tokens.default_, UsdGeom.Tokens.render)):
             continue
-        res = _read_mesh(prim, xcache, mpu, stage)
+        res = _read_mesh(prim, xcache, mpu, stage, posed.get(str(prim.GetPath())))
         if res is not None:
             parts.append(res[0])
             film = res[1] if film is None else film  # the first feather mesh's
     if not parts:
         raise UsageError(f"path={os.fspath(path)!r}: no visible mesh under {root.GetPath()}")
-    return RenderScene(root_layer=layer_path, parts=tuple(parts), film=film, variants=active)
+    return RenderScene(root_layer=layer_path, parts=tuple(parts), film=film, variants=active, time=at)

@@ -7,11 +7,13 @@ Structure (docs/design.md, "USD asset"; the interface-layer + payload pattern of
   ``shading``, which reconnects ``FeatherMaterial.outputs:mtlx:surface`` (variants are stronger than payloads).
   The configuration's ``shading.variant`` chooses its variants (:data:`SHADING_CHOICES`); a physical-only asset
   has no LUT texture, no baked MaterialX network and no ``rockdove:lut:*`` attributes.
-- ``pigeon_payload.usda`` sublayers the two layers below, split by what changes them, so a film change rewrites
-  the small looks layer and leaves the big geometry layer's bytes as they were:
-  ``pigeon_looks.usda`` (stronger; text, because people read it): the ``/Pigeon/Looks`` materials and, as an
-  ``over`` on the feather mesh, ``RockDoveThinFilmAPI``; ``pigeon_geom.usdc`` (crate, because its arrays are big:
-  NVIDIA's UsdAsciiPerformanceChecker): the ``/Pigeon/Geom`` meshes, primvars and material bindings.
+- ``pigeon_payload.usda`` sublayers the three layers below, split by what changes them, so a film change rewrites
+  the small looks layer and leaves the big geometry and rig layers' bytes as they were:
+  ``pigeon_looks.usda`` (strongest; text, because people read it): the ``/Pigeon/Looks`` materials and, as an
+  ``over`` on the feather mesh, ``RockDoveThinFilmAPI``; ``pigeon_rig.usdc`` (:mod:`rockdove.usd.skel`): the
+  skeleton, its motions and every mesh's skin; ``pigeon_geom.usdc`` (crate, because its arrays are big: NVIDIA's
+  UsdAsciiPerformanceChecker): the ``/Pigeon/Geom`` meshes (under a ``SkelRoot``), primvars and material bindings.
+- the interface layer also holds the ``motion`` variant set and the time range (:mod:`rockdove.usd.skel`).
 
 Only the ``write_*`` functions write files. Text layers go through ``Sdf.Layer.ExportToString`` and the crate
 through ``Sdf.Layer.Export``: no timestamps, so the same inputs give byte-identical files (tested).
@@ -26,6 +28,7 @@ import numpy as np
 
 from ..geometry.plumage import CARD_PARTS
 from ..geometry.types import drop_unreferenced_points, point_bounds
+from .skel import RIG_LAYER, author_motion_variants, author_rig
 from .material import (
     PREVIEW_PRIMVAR,
     author_body_material,
@@ -140,11 +143,13 @@ def _feather_part(bird):
 def author_geometry(stage, bird):
     """The geometry half of the payload in ``stage``'s edit target: the ``/Pigeon/Geom`` meshes, each bound to
     ``/Pigeon/Looks/<Kind>Material`` (a relationship only: the materials are :func:`author_looks`'s)."""
-    from pxr import UsdGeom, UsdShade
+    from pxr import UsdGeom, UsdShade, UsdSkel
 
     _feather_part(bird)
     root = UsdGeom.Xform.Define(stage, ROOT)
-    UsdGeom.Scope.Define(stage, f"{ROOT}/Geom")
+    # the rig layer's skeleton binds its meshes (rockdove.usd.skel); no authored extent: UsdSkel computes the
+    # SkelRoot's from the posed joints (padded), right in every pose, as NVIDIA's ExtentsChecker expects
+    UsdSkel.Root.Define(stage, f"{ROOT}/Geom")
     for part in bird.parts:
         preview_range = None
         if part.material == FEATHER_MATERIAL:  # the preview atlas spans the mesh's thickness range
@@ -218,6 +223,7 @@ def author_interface(stage, *, extent, version: str, variants=SHADING_VARIANTS):
             out = over.CreateAttribute("outputs:mtlx:surface", Sdf.ValueTypeNames.Token, custom=False)
             out.SetConnections([mtlx_surface_path(feather_material, variant)])
     vset.SetVariantSelection(DEFAULT_SHADING if DEFAULT_SHADING in variants else variants[0])
+    author_motion_variants(stage, prim)
     return prim
 
 
@@ -239,6 +245,20 @@ def write_geometry(out_dir: str, bird) -> str:
     out_dir = os.path.abspath(out_dir)
     os.makedirs(out_dir, exist_ok=True)
     path = os.path.join(out_dir, GEOMETRY_LAYER)
+    _export(stage, path)
+    return path
+
+
+def write_rig(out_dir: str, bird) -> str:
+    """:func:`rockdove.usd.skel.author_rig` as ``out_dir/pigeon_rig.usdc``; returns its path."""
+    from ..rig.motions import FPS
+
+    stage = new_stage()
+    stage.SetTimeCodesPerSecond(FPS)  # as the root layer's: USD scales a sublayer's samples by the ratio
+    stage.SetFramesPerSecond(FPS)
+    author_rig(stage, bird)
+    path = os.path.join(os.path.abspath(out_dir), RIG_LAYER)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
     _export(stage, path)
     return path
 
@@ -273,7 +293,7 @@ def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geo
     payload.defaultPrim = ROOT.lstrip("/")
     for key, value in (("upAxis", "Y"), ("metersPerUnit", 1.0)):  # as new_stage, for tools opening it alone
         payload.pseudoRoot.SetInfo(key, value)
-    payload.subLayerPaths = [f"./{LOOKS_LAYER}", f"./{GEOMETRY_LAYER}"]
+    payload.subLayerPaths = [f"./{LOOKS_LAYER}", f"./{RIG_LAYER}", f"./{GEOMETRY_LAYER}"]
     interface = new_stage(load_payloads=False)
     extent = point_bounds(np.concatenate([np.asarray(p.points_m, np.float32) for p in bird.parts]))
     author_interface(interface, extent=extent.astype(np.float32), version=version, variants=variants)
@@ -287,10 +307,11 @@ def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geo
 
 
 def write_layers(out_dir: str, bird, film, lut: dict | None, *, version: str, shading: str | None = None) -> dict:
-    """:func:`write_geometry` then :func:`write_looks`: the four layers' paths (write_looks's and ``geometry``)."""
+    """:func:`write_geometry`, :func:`write_looks` and :func:`rockdove.usd.skel.write_rig`: the five layers' paths
+    (write_looks's, ``geometry`` and ``rig``)."""
     geometry = write_geometry(out_dir, bird)
     paths = write_looks(out_dir, bird, film, lut, version=version, geometry=geometry, shading=shading)
-    return {**paths, "geometry": geometry}
+    return {**paths, "geometry": geometry, "rig": write_rig(out_dir, bird)}
 
 
 def variant_combinations(stage) -> list[dict]:

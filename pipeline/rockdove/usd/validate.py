@@ -6,7 +6,8 @@ in every combination of the default prim's variant sets: 1. every registered ``p
 id, input and output against MaterialX's own node definitions; 3. every asset-valued attribute resolves and
 reads (PNG, EXR, inside a usdz too); 4. primvar and normal counts match their interpolation, indices in range;
 5. the thin film against its LUT (:mod:`rockdove.usd.validate_film`); 6. ``ComputeSurfaceSource()`` resolves and
-the mtlx network, as Hydra's HdMtlx rebuilds it, passes MaterialX's ``validate()``; then 7. NVIDIA's validator
+the mtlx network, as Hydra's HdMtlx rebuilds it, passes MaterialX's ``validate()``; every skin's joint indices and
+weights (:func:`rockdove.usd.skel.check_skins`); then 7. NVIDIA's validator
 (:mod:`rockdove.usd.nvidia`) once over all variants. An :class:`Issue` found in several variants is reported once.
 """
 
@@ -20,6 +21,7 @@ import tempfile
 from .issues import Issue, Report, only_errors  # noqa: F401 (re-exported)
 from .layout import resolve_root_layer
 from .material import _SDF_TYPES
+from .skel import check_skins
 
 # Sdf value type name -> MaterialX type: the inverse of the authoring table (material._SDF_TYPES); token (outputs
 # of surface shaders / materials) has no single MaterialX type
@@ -188,7 +190,8 @@ def check_primvars(stage) -> tuple[list, int]:
             n += 1
             interp = pv.GetInterpolation()
             size = expected.get(interp)
-            elems = len(value) // max(pv.GetElementSize(), 1) if hasattr(value, "__len__") else 1
+            elems = len(value) // max(pv.GetElementSize(), 1) if not isinstance(value, str) and hasattr(
+                value, "__len__") else 1
             if pv.IsIndexed():
                 idx = np.asarray(pv.GetIndices(), np.int64)
                 if len(idx) and (idx.min() < 0 or idx.max() >= elems):
@@ -289,7 +292,7 @@ def validate_asset(path, allow_external: bool = False) -> Report:
         pv_issues, counts["primvars"] = check_primvars(stage)
         tf_issues, counts["thin films"] = check_thin_film(stage, decoded)
         mat_issues, counts["materials"] = check_materials(stage, library)
-        for issue in issues + mx_issues + tex_issues + pv_issues + tf_issues + mat_issues:
+        for issue in issues + mx_issues + tex_issues + pv_issues + tf_issues + mat_issues + check_skins(stage):
             found.setdefault((issue.check, issue.path, issue.message, issue.severity), []).append(label)
     counts["variant combinations"] = len(combos)
     from .nvidia import run_nvidia_validator
