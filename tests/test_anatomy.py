@@ -115,3 +115,31 @@ def test_wing_bars_soft_edges_pupil_and_claws_fail_when_broken(small_asset, tmp_
     st[(v > 0.6) & (v < 0.9) & ~one_side, 1] += (0.95 - v[(v > 0.6) & (v < 0.9) & ~one_side]) / 4
     assert "pupil_offset" in broken("Eyes", st=st)
     assert "claw_luminance" in broken("Claws", base_colour=np.full(3, 0.8, np.float32))
+
+
+def test_straight_diverging_wing_bars_fail(small_asset, tmp_path):
+    """Two straight black stripes 30 degrees apart on a flat wing (the old bird's): counted, but neither side by
+    side nor curved."""
+    import dataclasses
+
+    from PIL import Image
+
+    scene = load_scene(small_asset)
+    img = np.full((200, 200, 3), 200, np.uint8)
+    yy, xx = np.mgrid[0:200, 0:200]
+    img[np.abs(xx - 35) < 8] = 20  # one stripe down the image, one 30 degrees off it
+    img[np.abs(xx - 130 - np.tan(np.radians(30)) * (yy - 100)) < 8] = 20
+    Image.fromarray(img).save(tmp_path / "bars.png")
+    y, z = np.meshgrid([0.06, 0.14], [-0.10, 0.0], indexing="ij")
+    quads = np.concatenate([np.stack([np.full(4, x), y.ravel(), z.ravel()], 1) for x in (0.06, -0.06)])
+    st = np.tile(np.stack([(z.ravel() + 0.10) / 0.10, (y.ravel() - 0.06) / 0.08], 1), (2, 1))
+    wings = dataclasses.replace(next(p for p in scene.parts if p.name == "Wings"), positions_m=quads.astype(np.float32),
+                                normals=np.sign(quads[:, :1]) * np.array([[1.0, 0.0, 0.0]], np.float32),
+                                st=st.astype(np.float32), triangles=np.array([[0, 1, 3], [0, 3, 2], [4, 7, 5],
+                                                                              [4, 6, 7]], np.int32),
+                                base_colour_texture=str(tmp_path / "bars.png"), base_colour_srgb=True)
+    flat = dataclasses.replace(scene, parts=tuple(wings if p.name == "Wings" else p for p in scene.parts))
+    values = anatomy.measures(flat)
+    assert values["wing_bar_count"] == 2
+    failed = {r["name"] for r in anatomy.check(values)["measures"] if not r["passed"]}
+    assert {"wing_bar_spread", "wing_bar_bow"} <= failed, values

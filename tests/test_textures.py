@@ -28,7 +28,7 @@ def test_feather_textures_shapes_and_resolution_sources():
     assert set(t) == {"base", "mask", "plumage_base", "plumage_normal"}
     assert t["base"].shape == (32, 32, 4) and t["base"].dtype == np.uint8
     assert t["mask"].shape == (32, 32) and t["mask"].dtype == np.uint8
-    atlas = (colours.ATLAS_ROWS * 128, colours.ATLAS_COLUMNS * 64, 4)  # tiles R / 2 x R, R at least 128
+    atlas = (colours.ATLAS_ROWS * 128, colours.ATLAS_COLUMNS * 64, 4)  # tiles H / 2 x H, H at least 128
     assert t["plumage_base"].shape == t["plumage_normal"].shape == atlas and t["plumage_base"].dtype == np.uint8
     assert textures.feather_textures(48)["base"].shape == (48, 48, 4)
 

@@ -94,14 +94,14 @@ def feather_tile(kind: str, srgb, seed: int, height: int, width: int) -> tuple:
 
 def plumage_atlas(resolution_or_params=256) -> tuple:
     """The plumage atlas of :data:`rockdove.geometry.colours.ATLAS`: every tile a feather of :func:`feather_tile`,
-    tiles R / 2 x R texels (R: BirdParams' ``feather_texture_resolution`` or an int, clipped to [128, 512]: the
-    soft edge and the bars keep a few texels) on
+    tiles H / 2 x H texels (H: half BirdParams' ``feather_texture_resolution`` or of an int, clipped to [128, 512]:
+    the soft edge and the bars keep a few texels) on
     ``ATLAS_COLUMNS`` x ``ATLAS_ROWS``, row 0 at the top. Returns ``(base (H, W, 4) uint8`` sRGB with the alpha,
     ``normal (H, W, 4) uint8``: the tangent-space normal (x along u, y along v, OpenGL convention) as
     ``n / 2 + 1 / 2``, roughness in alpha)."""
     from .geometry.colours import ATLAS, ATLAS_COLUMNS, ATLAS_ROWS
 
-    h = int(np.clip(_resolution(resolution_or_params), 128, 512))
+    h = int(np.clip(_resolution(resolution_or_params) // 2, 128, 512))
     w = h // 2
     base = np.zeros((ATLAS_ROWS * h, ATLAS_COLUMNS * w, 4), np.uint8)
     normal = np.zeros_like(base)

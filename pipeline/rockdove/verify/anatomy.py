@@ -50,11 +50,13 @@ RANGES = {
     "eye_ring_saturation": (None, 0.3, "", "G", "orbital ring's saturation (grey)"),
     "rump_luminance": (0.5, None, "", "G", "lightest coat over the rump (white patch)"),
     "tail_width": (5.0, 9.0, "cm", "F", "tail fan's width across 85 % of its length"),
-    "tail_depth": (0.4, 2.0, "cm", "F", "tail fan's depth (its arch and layers) across 85 % of its length"),
+    "tail_depth": (0.8, 2.5, "cm", "F", "tail fan's depth (its arch and layers) across 85 % of its length"),
     "tail_base_depth": (1.5, 5.0, "cm", "F", "feathers' depth over and under the tail across 15 % of its length"),
     "head_feather_cover": (0.85, 1.0, "", "F", "share of the head's skin hidden by feathers (ring and bill aside)"),
     "wing_bar_count": (2, 2, "", "G", "black bands on the folded wing, seen from the side"),
     "wing_bar_angle": (35.0, 90.0, "deg", "F", "smallest angle between a wing bar and the wing's long axis"),
+    "wing_bar_spread": (0.0, 20.0, "deg", "F", "angle between the two wing bars (they run side by side)"),
+    "wing_bar_bow": (0.15, 1.5, "cm", "F", "least bow of a wing bar over its length (they curve)"),
     "soft_edge_share": (0.5, 1.0, "", "F", "share of card-edge texels partly transparent (0.1 < alpha < 0.9)"),
     "pupil_offset": (0.0, 0.15, "", "F", "pupil's centre off the eye's axis / eye radius"),
     "claw_luminance": (None, 0.1, "", "F", "claws' linear luminance (dark)"),
@@ -139,8 +141,9 @@ def _seen(geom, origins, directions):
 
 
 def _wing_bars(scene, geom, ta) -> tuple:
-    """(count, smallest angle to the wing's axis, deg) of the black bands of the left wing seen from the side:
-    its texels darker than :data:`BAR_LUMINANCE` on a 1 mm grid, grouped 8-connected, groups over 0.5 cm^2."""
+    """(count, smallest angle to the wing's axis (deg), largest angle between two bars (deg), least bow (m)) of
+    the black bands of the left wing seen from the side: its texels darker than :data:`BAR_LUMINANCE` on a 1 mm
+    grid, grouped 8-connected, groups over 0.5 cm^2; a bar's bow is its quadratic's sagitta over its length."""
     from scipy import ndimage
 
     from ..render.texture import read_texture, sample_texture
@@ -155,15 +158,18 @@ def _wing_bars(scene, geom, ta) -> tuple:
     lum[on] = sample_texture(read_texture(wing.base_colour_texture, wing.base_colour_srgb), st[on])[:, :3] @ _LUM
     labels, n = ndimage.label((lum < BAR_LUMINANCE).reshape(yy.shape), np.ones((3, 3)))
     axis = np.array([ta[1], ta[2]]) / np.linalg.norm(ta[1:])  # the wing lies along the tail's line, side view
-    bars, angles = 0, []
+    bars, angles, bows = 0, [], []
     for k in range(1, n + 1):
         pts = np.stack([yy[labels == k], zz[labels == k]], 1)
         if len(pts) < 50:
             continue
         bars += 1
         d = np.linalg.svd(pts - pts.mean(0), full_matrices=False)[2][0]
-        angles.append(np.degrees(np.arccos(min(1.0, abs(d @ axis)))))
-    return bars, (min(angles) if angles else 0.0)
+        angles.append(np.degrees(np.arctan2(d @ [-axis[1], axis[0]], d @ axis)) % 180.0)
+        t, r = (pts - pts.mean(0)) @ d, (pts - pts.mean(0)) @ [-d[1], d[0]]
+        bows.append(abs(np.polyfit(t, r, 2)[0]) * (0.5 * np.ptp(t)) ** 2)
+    across = [min(a, 180.0 - a) for a in angles]
+    return bars, min(across, default=0.0), np.ptp(angles) if angles else 0.0, min(bows, default=0.0)
 
 
 #: Texels darker than this (linear luminance) are a wing bar's black (the primaries' dark grey is above it).
@@ -248,7 +254,8 @@ def measures(scene) -> dict:
     from .rays import SceneGeometry
 
     geom = SceneGeometry(scene)  # one set of ray-cast structures and textures for the two measures that look
-    m["wing_bar_count"], m["wing_bar_angle"] = _wing_bars(scene, geom, ta)
+    m["wing_bar_count"], m["wing_bar_angle"], m["wing_bar_spread"], bow = _wing_bars(scene, geom, ta)
+    m["wing_bar_bow"] = 100 * bow
     m["head_feather_cover"] = _head_cover(scene, geom, body, eye_mid, rings, beak)
     m["soft_edge_share"] = _soft_edges(_part(scene, "CoatFeathers").base_colour_texture)
     m["pupil_offset"] = _pupil_offset(_part(scene, "Eyes"), eyes)
