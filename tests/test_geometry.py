@@ -207,8 +207,8 @@ def test_subdivide_onto_a_sphere_keeps_seams_closed_and_st_linear():
 
 def test_mesh_parts_follow_the_contract(bird):
     assert isinstance(bird, Bird)
-    assert bird.names == ("Body", "CoatFeathers", "Wings", "Tail", "NeckFeathers", "Beak", "Cere", "Eyes", "EyeRings",
-                          "Legs")
+    assert bird.names == ("Body", "HeadFeathers", "CoatFeathers", "Wings", "Tail", "NeckFeathers", "Beak", "Cere",
+                          "Eyes", "EyeRings", "Legs", "Claws")
     for p in bird.parts:
         assert isinstance(p, MeshPart)
         v = len(p.points_m)
@@ -231,25 +231,52 @@ def test_parts_are_closed_and_wound_outward(bird, name):
     assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
 
 
-def test_plumage_cards_are_feather_shaped_lie_on_the_coat_and_wings_are_flush(body, bird):
-    from rockdove.geometry import plumage
+def test_plumage_cards_are_textured_feathers_one_component_each_lie_on_the_coat_and_wings_are_flush(body, bird):
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    from rockdove.geometry import colours, plumage
 
     body_pts = body.part.points_m.astype(np.float64)
+    rows = len(plumage.SHAPE_V)
     for name in plumage.CARD_PARTS:
         p = bird.part(name)
-        assert p.material == "body" and np.all(p.face_vertex_counts == 3)  # the body's material, no alpha
-        n_cards = len(p.points_m) // plumage.VERTICES_PER_CARD
-        assert n_cards * plumage.VERTICES_PER_CARD == len(p.points_m) and p.n_faces == 7 * n_cards
-        st = p.st.reshape(n_cards, -1, 2)
-        assert st[..., 1].max() <= plumage.PALETTE_STRIP  # every card samples the palette strip
-        tile = np.floor(st[..., 0] * plumage.TILES)
-        assert np.all(tile == tile[:, :1])  # one feather tile per card
-    coat = bird.part("CoatFeathers").points_m.reshape(-1, plumage.VERTICES_PER_CARD, 3)[:, 2:].reshape(-1, 3)
+        per = rows * (4 if name == "Tail" else 3)  # edge, rachis, edge (and the tail's underside)
+        assert p.material == "plumage" and np.all(p.face_vertex_counts == 3)
+        n_cards = len(p.points_m) // per
+        assert n_cards * per == len(p.points_m)
+        faces = p.face_vertex_indices.reshape(-1, 3)
+        assert np.all(faces // per == faces[:, :1] // per)  # no card shares a vertex with another
+        adj = sp.coo_matrix((np.ones(faces.size), (np.repeat(faces[:, 0], 3), faces.ravel())),
+                            shape=(len(p.points_m),) * 2)
+        assert connected_components(adj, directed=False)[0] == n_cards  # and each is one connected mesh
+        st = p.st.reshape(n_cards, per, 2).astype(np.float64)
+        col = np.floor(st[..., 0] * colours.ATLAS_COLUMNS)
+        row = np.floor((1.0 - st[..., 1]) * colours.ATLAS_ROWS)
+        assert np.all(col == col[:, :1]) and np.all(row == row[:, :1])  # one atlas tile per card
+    assert bird.part("Eyes").material == "plumage"  # the eye's tile: iris and pupil
+    coat = bird.part("CoatFeathers").points_m.reshape(-1, 3 * rows, 3)[:, 3:].reshape(-1, 3)
     assert sdf.body_sdf(coat.astype(np.float64)).min() > 0.0  # beyond the quill, every coat vertex is outside
+    head = bird.part("HeadFeathers").points_m.astype(np.float64)
+    assert np.abs(sdf.body_sdf(head)).max() < 0.006 and len(head) // (3 * rows) > 300  # lying on the head
     wings = bird.part("Wings").points_m.astype(np.float64)
     assert np.abs(wings[:, 0]).max() <= np.abs(bird.part("CoatFeathers").points_m[:, 0]).max()  # flush
     assert np.abs(wings[:, 0]).max() < np.abs(body_pts[:, 0]).max() + 0.006
-    assert len(bird.part("Tail").points_m) == 12 * plumage.VERTICES_PER_CARD  # 12 rectrices
+    assert len(bird.part("Tail").points_m) == 12 * 4 * rows  # 12 rectrices
+
+
+def test_feet_have_scutes_and_a_dark_claw_on_every_toe(bird):
+    from rockdove.geometry import parts
+
+    legs, claws = bird.part("Legs"), bird.part("Claws")
+    assert np.asarray(claws.display_color).max() < 0.05 < np.asarray(legs.display_color).max()
+    faces = claws.face_vertex_indices.reshape(-1, 3)
+    mesh = trimesh.Trimesh(claws.points_m, faces, process=True)
+    assert len(mesh.split(only_watertight=False)) == 2 * len(parts.TOES)
+    assert claws.points_m[:, 1].min() > -0.001  # on the ground, not through it
+    tarsus = legs.points_m[(legs.points_m[:, 1] > 0.01) & (legs.points_m[:, 1] < 0.02) & (legs.points_m[:, 0] > 0)]
+    r = np.linalg.norm(tarsus[:, [0, 2]] - tarsus[:, [0, 2]].mean(0), axis=1)
+    assert np.ptp(r) > 0.1 * np.median(r)  # the front's grooves between scutes
 
 
 def test_bill_is_short_and_stout_with_the_cere_at_its_base(bird):
@@ -307,7 +334,8 @@ def test_real_scale_facing_plus_z_feet_on_the_ground(bird):
     assert beak_tip_z == pts[:, 2].max()  # the beak is the front: the bird faces +Z
     assert abs(pts[:, 1].min()) < 0.002  # feet at y ~ 0
     assert bird.part("Legs").points_m[:, 1].min() == pytest.approx(pts[:, 1].min())
-    assert pts[:, 1].max() == bird.part("Body").points_m[:, 1].max() < 0.26  # head on top, Y up
+    top = max(bird.part(n).points_m[:, 1].max() for n in ("Body", "HeadFeathers"))
+    assert pts[:, 1].max() == top < 0.26  # head on top, Y up
 
 
 def test_neck_s_on_the_body_runs_from_base_to_head(body):

@@ -29,7 +29,9 @@ def test_ar_package_is_one_flattened_usdc_with_preview_shaders_only(packages, sm
 
     names = usdz_contents(str(packages["ar"]))
     assert names[0] == "pigeon_ar.usdc" and sorted(names[1:]) == ["textures/body_base.png",
-                                                                   "textures/feather_preview.png"]
+                                                                   "textures/feather_preview.png",
+                                                                   "textures/plumage_base.png",
+                                                                   "textures/plumage_normal.png"]
     stage = Usd.Stage.Open(str(packages["ar"]))
     assert len(stage.GetUsedLayers()) == 2  # the package's layer and the session layer
     assert not stage.GetDefaultPrim().GetVariantSets().GetNames()

@@ -22,7 +22,7 @@ def _paths(folder) -> dict:
     paths = {"dir": d, "interface": os.path.join(d, "pigeon.usda"), "payload": os.path.join(d, "pigeon_payload.usda"),
              "looks": os.path.join(d, "pigeon_looks.usda"), "geometry": os.path.join(d, "pigeon_geom.usdc"),
              "usdz": os.path.join(d, "pigeon.usdz"), "lut": os.path.join(d, "textures", "thinfilm_lut.exr")}
-    for role in ("feather_base", "feather_mask", "feather_preview", "body_base"):
+    for role in ("feather_base", "feather_mask", "feather_preview", "body_base", "plumage_base", "plumage_normal"):
         paths[role] = os.path.join(d, "textures", f"{role}.png")
     return {k: v for k, v in paths.items() if k == "dir" or os.path.exists(v)}
 
@@ -381,7 +381,8 @@ def test_usdz_reopens_and_holds_every_texture(asset):
 
     names = usdz_contents(asset["usdz"])
     assert names[0] == "pigeon.usda"
-    for role in ("lut", "feather_base", "feather_mask", "feather_preview", "body_base"):
+    for role in ("lut", "feather_base", "feather_mask", "feather_preview", "body_base", "plumage_base",
+                 "plumage_normal"):
         assert os.path.relpath(asset[role], asset["dir"]) in names
     st = Usd.Stage.Open(asset["usdz"])
     resolved = []
@@ -392,7 +393,7 @@ def test_usdz_reopens_and_holds_every_texture(asset):
                 assert path.startswith(asset["usdz"] + "["), (attr.GetPath(), path)
                 read_texture_asset(path)  # decodes from inside the package
                 resolved.append(path)
-    assert len(set(resolved)) == 5
+    assert len(set(resolved)) == 7
 
 
 def test_usdz_in_place_is_the_same_package_as_from_a_copy(asset, tmp_path):

@@ -62,7 +62,7 @@ def test_good_asset_is_clean_in_every_variant_and_as_usdz(good):
     assert report.clean, report.format()
     assert report.variants == [f"motion={m}, shading={v}" for m in ("idle", "rest", "walk")
                                for v in ("baked", "physical")]
-    assert report.counts["mtlx shaders"] >= 20 and report.counts["assets"] == 6
+    assert report.counts["mtlx shaders"] >= 20 and report.counts["assets"] == 8  # + the plumage atlas and its normals
     n_materials = len({p.material for p in built_value(good, "bird").parts})  # body, feather, beak, eye, ...
     assert report.counts["thin films"] == 1 and report.counts["materials"] == n_materials > 3
     usdz = validate_asset(os.path.join(good, "pigeon.usdz"))

@@ -215,7 +215,7 @@ def test_one_verification_reuses_what_it_checked_and_reruns_a_host_whose_code_ch
     layer, cache, names = assets["good"], tmp_path / "cache", ["turntable_030", "sweep_090"]
 
     def run(out, views=names):
-        return verify(layer, ["glsl", "fake"], cache=cache, out_dir=tmp_path / out, width=64, height=64,
+        return verify(layer, ["glsl", "fake"], cache=cache, out_dir=tmp_path / out, width=96, height=96,
                       views=views, beauty={"renderer": "off"})
 
     first = run("first")

@@ -42,6 +42,7 @@ layout(location = 1) out vec4 out_aux;
 layout(location = 2) out vec4 out_inputs;
 
 uniform int u_kind;               // 0: Lambert with base colour; 1: thin-film feather card
+uniform int u_two_sided;          // 1: a card (feathers, doubleSided meshes): the normal faces the viewer
 uniform int u_angle_mode;         // 0: cos_theta = dot(L, H); 1: cos_theta = |dot(N, V)|
 uniform float u_part_id;
 uniform vec3 u_eye_m;             // camera position, world metres
@@ -90,10 +91,10 @@ void main()
     float cos_theta = 0.0;
     float mask = 0.0;
     float thickness_nm = 0.0;
+    if (u_two_sided == 1 && dot(N, V) < 0.0) {
+        N = -N;  // two-sided card: the normal faces the viewer
+    }
     if (u_kind == 1) {
-        if (dot(N, V) < 0.0) {
-            N = -N;  // two-sided card: the normal faces the viewer
-        }
         vec3 L_plus_V = L + V;  // zero only for light exactly opposite the eye (then theta = 90 deg)
         vec3 H = length(L_plus_V) > 1e-6 ? normalize(L_plus_V) : N;
         cos_theta = u_angle_mode == 0 ? max(dot(L, H), 0.0) : abs(dot(N, V));

@@ -1,5 +1,6 @@
 """Procedural textures: the feather base colour + alpha silhouette and mask (the seed paper's two feather
-textures), and the body's base colour in its xatlas UVs with the feather cards' palette strip.
+textures), the plumage atlas of the other cards (colour + soft alpha, normal map + roughness), and the body's
+base colour in its xatlas UVs.
 
 Image convention (docs/design.md, Textures): uint8 arrays, row 0 is the TOP of the image, so texel (row, col) of
 an (H, W) image sits at st = ((col + 0.5) / W, 1 - (row + 0.5) / H) (USD's st has t = 0 at the bottom). On a
@@ -13,23 +14,23 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import UsageError
-from .geometry import plumage as _pl
-from .geometry.colours import WING_BAR_SRGB, body_colour_at, coat_tiles, palette_colours  # noqa: F401
+from .geometry.colours import WING_BAR_SRGB, body_colour_at  # noqa: F401
 from .geometry.colours import linear as _linear
 from .geometry.colours import mix as _mix
 from .geometry.sdf import smoothstep as _smoothstep
 
-#: sRGB 8-bit colours of a neck feather: the vane, the rachis, the downy base.
+#: sRGB 8-bit colour of a neck feather's vane (its rachis and down are painted paler by :func:`feather_tile`).
 VANE_SRGB = (56, 61, 66)
-RACHIS_SRGB = (110, 112, 116)
-DOWN_SRGB = (128, 132, 138)
-
 #: Where the mask turns on along the feather: v from MASK_START to MASK_FULL (the tip part is structural).
 MASK_START_V = 0.42
 MASK_FULL_V = 0.60
-#: Barbs across the vane (count from root to tip) and their slant (dv per unit of |u - 0.5|).
-BARB_COUNT = 42
-BARB_SLANT = 0.9
+#: Half-width of the soft edge the alpha fades over (u, the tile's width 1).
+SOFT_EDGE = 0.03
+#: Barbs slant toward the tip: v gained per unit of |u - rachis| along a barb (about 40 degrees from the rachis
+#: in a tile twice as tall as wide).
+BARB_SLANT = 0.6
+#: Relief of the normal map: height of the rachis, the vane's camber and a barb, in tile widths, and the gain.
+RACHIS_H, CAMBER_H, BARB_H, NORMAL_GAIN = 0.012, 0.003, 0.004, 1.0
 
 
 def _resolution(value, attr="feather_texture_resolution") -> int:
@@ -46,72 +47,95 @@ def _encode(linear: np.ndarray) -> np.ndarray:
     return linear_to_srgb8(linear)
 
 
-def feather_half_width(v: np.ndarray) -> np.ndarray:
-    """Half-width of the feather silhouette in u at v (0 root .. 1 tip): quill, widening vane, rounded tip."""
-    vv = np.clip((np.asarray(v, dtype=np.float64) - 0.06) / 0.92, 0.0, None)
-    widen = 0.47 * (0.12 + 0.88 * np.sin(0.5 * np.pi * np.clip(vv / 0.62, 0.0, 1.0)))
-    tip = 0.47 * np.sqrt(np.clip(1.0 - ((vv - 0.62) / 0.38) ** 2, 0.0, 1.0))
-    w = np.where(vv < 0.62, widen, tip)
-    quill = np.where(np.asarray(v) < 0.09, 0.018, 0.0)
-    return np.where(np.asarray(v) < 0.06, quill, np.maximum(w, quill))
+def feather_tile(kind: str, srgb, seed: int, height: int, width: int) -> tuple:
+    """One feather of kind ``kind`` (:data:`rockdove.geometry.colours.KINDS`) in tone ``srgb``, painted over a
+    ``height`` x ``width`` tile (u across, rachis at 0.5; v from the root at the bottom row to the tip at the top);
+    ``seed`` draws its own rachis curve, width, tone, barb phase and splits in the vane. Returns linear RGB
+    (H, W, 3), alpha (H, W) with a soft edge :data:`SOFT_EDGE` wide and a partly transparent downy base, height
+    (H, W) in tile widths (rachis, camber, barbs) and roughness (H, W)."""
+    from .geometry.colours import KINDS, half_width
+
+    _, _, _, barbs, down, outer, dark, rough = KINDS[kind]
+    rng = np.random.default_rng([int(seed), 29])
+    u, v = np.meshgrid((np.arange(width) + 0.5) / width, 1.0 - (np.arange(height) + 0.5) / height)
+    tone = _linear(srgb) * rng.uniform(0.95, 1.05)
+    if kind == "eye":  # u around the eyeball, v from its back to the cornea: iris, limbal ring, centred pupil
+        streak = 1.0 + 0.12 * np.sin(2 * np.pi * (u * 37 + 0.3 * np.sin(2 * np.pi * u * 5)))
+        col = tone * (streak * (1.0 - 0.6 * _smoothstep(0.86, 0.8, v) * _smoothstep(0.75, 0.8, v)))[..., None]
+        col = _mix(col * _smoothstep(0.5, 0.62, v)[..., None], np.zeros(3), _smoothstep(0.885, 0.895, v))
+        return col, np.ones_like(u), np.zeros_like(u), np.full_like(u, rough)
+    x = u - 0.5 - rng.uniform(-0.02, 0.02) * v * v  # across, from the (curved) rachis (clear of the border)
+    ax = np.abs(x)
+    smooth = kind == "neck"  # the neck's iridescent feathers lie smooth and full: no splits or fraying, even widths
+    w = half_width(kind, v) * (1.0 if smooth else rng.uniform(0.92, 1.0)) * np.where(x < 0, outer, 1.0) + 1e-6
+    phase = barbs * (v - BARB_SLANT * ax) + rng.uniform(0, 1)
+    barb = 0.5 + 0.5 * np.cos(2 * np.pi * phase)
+    edge = w * (1.0 - (0.0 if smooth else 0.06) * barb * _smoothstep(0.5, 1.0, ax / w))  # barbs' ends fray it
+    splits = 0 if smooth else 2
+    for p_split, side in zip(rng.uniform(0.4, 0.9, splits) * barbs, rng.choice([-1, 1], splits)):  # splits
+        gap = np.exp(-(((phase - p_split) / 0.2) ** 2)) * _smoothstep(0.5, 0.9, ax / w) * (np.sign(x) == side)
+        edge = edge * (1.0 - 0.35 * gap)
+    alpha = _smoothstep(-SOFT_EDGE, SOFT_EDGE, edge - ax)
+    fluff = _smoothstep(0.2 * down, down, v)  # the downy base: loose, pale and partly transparent
+    alpha = alpha * (0.35 + 0.65 * fluff) * (1.0 - 0.35 * (1.0 - fluff) * barb)
+    alpha = np.clip(alpha, 0.0, 1.0) * (v < 0.995)
+    mottle = 1.0 + 0.05 * np.sin(2 * np.pi * (rng.uniform(1, 3) * u + rng.uniform(2, 4) * v + rng.uniform()))
+    col = tone * (mottle * (0.9 + 0.1 * barb) * (1.0 + 0.25 * (1.0 - fluff)))[..., None]
+    if dark is not None:  # the subterminal black of a wing bar, the tail's terminal band, the primaries' tips
+        d = _smoothstep(dark[0], dark[0] + 0.04, v) * (1.0 - _smoothstep(dark[1] - 0.04, dark[1], v))
+        col = _mix(col, _linear(WING_BAR_SRGB), dark[2] * d * (1.0 - 0.015 * barb))
+    rachis_w = 0.018 - 0.012 * v
+    on_rachis = _smoothstep(rachis_w, 0.4 * rachis_w, ax) * (v < 0.97)
+    col = _mix(col, 0.02 + 1.3 * col, 0.6 * on_rachis)
+    height_map = (RACHIS_H * on_rachis + CAMBER_H * np.clip(1.0 - (ax / w) ** 2, 0.0, 1.0)
+                  + BARB_H * barb * _smoothstep(0.0, 0.3, ax / w)) * fluff
+    roughness = rough + 0.25 * (1.0 - fluff) - 0.15 * on_rachis + 0.05 * barb
+    return col, alpha, height_map, np.clip(roughness, 0.0, 1.0)
+
+
+def plumage_atlas(resolution_or_params=256) -> tuple:
+    """The plumage atlas of :data:`rockdove.geometry.colours.ATLAS`: every tile a feather of :func:`feather_tile`,
+    tiles H / 2 x H texels (H: half BirdParams' ``feather_texture_resolution`` or of an int, clipped to [128, 512]:
+    the soft edge and the bars keep a few texels) on
+    ``ATLAS_COLUMNS`` x ``ATLAS_ROWS``, row 0 at the top. Returns ``(base (H, W, 4) uint8`` sRGB with the alpha,
+    ``normal (H, W, 4) uint8``: the tangent-space normal (x along u, y along v, OpenGL convention) as
+    ``n / 2 + 1 / 2``, roughness in alpha)."""
+    from .geometry.colours import ATLAS, ATLAS_COLUMNS, ATLAS_ROWS
+
+    h = int(np.clip(_resolution(resolution_or_params) // 2, 128, 512))
+    w = h // 2
+    base = np.zeros((ATLAS_ROWS * h, ATLAS_COLUMNS * w, 4), np.uint8)
+    normal = np.zeros_like(base)
+    normal[..., 2] = 255
+    tiles = [(kind, srgb, k) for kind, srgb, n in ATLAS for k in range(n)]
+    for i, (kind, srgb, k) in enumerate(tiles):
+        col, alpha, hgt, rough = feather_tile(kind, srgb, 1000 * i + k, h, w)
+        dy, dx = np.gradient(hgt * w)  # in texels of height per texel (rows run down: v up is -dy)
+        n = np.stack([-dx * NORMAL_GAIN, dy * NORMAL_GAIN, np.ones_like(dx)], -1)
+        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        r, c = divmod(i, ATLAS_COLUMNS)
+        box = slice(r * h, (r + 1) * h), slice(c * w, (c + 1) * w)
+        base[box] = np.concatenate([_encode(col), np.round(alpha * 255)[..., None].astype(np.uint8)], -1)
+        normal[box] = np.round(np.concatenate([n * 0.5 + 0.5, rough[..., None]], -1) * 255).astype(np.uint8)
+    return base, normal
 
 
 def feather_textures(resolution_or_params=256) -> dict:
-    """The seed paper's two feather textures, R x R texels (16 .. 8192, or BirdParams' ``feather_texture_resolution``):
-    ``"base"`` (R, R, 4) uint8 RGBA, the sRGB feather (dark slate vane with barbs, pale rachis, downy base) with its
-    silhouette in alpha (antialiased over a texel); ``"mask"`` (R, R) uint8, 255 on the tip (v >= MASK_FULL_V)
-    where structural colour is drawn, 0 below MASK_START_V, also past the silhouette
-    (edge padding for mip levels)."""
+    """The feather textures, R x R texels (16 .. 8192, or BirdParams' ``feather_texture_resolution``): the seed
+    paper's two for the neck's cards, ``"base"`` (R, R, 4) uint8 RGBA, the sRGB feather of :func:`feather_tile`
+    (a contour feather: dark slate vane with barbs, paler rachis, downy base) with its soft silhouette in alpha,
+    and ``"mask"`` (R, R) uint8, 255 on the tip (v >= MASK_FULL_V) where structural colour is drawn, 0 below
+    MASK_START_V, also past the silhouette (edge padding for mip levels); and the other cards' atlas
+    (:func:`plumage_atlas`), ``"plumage_base"`` and ``"plumage_normal"``."""
     res = _resolution(resolution_or_params)
-    c = (np.arange(res) + 0.5) / res
-    u, v = np.meshgrid(c, 1.0 - c)  # at texel centres, row 0 at the top (the tip)
-    x = np.abs(u - 0.5)
-    half = feather_half_width(v)
-    # ragged vane edge: barbs end at slightly different lengths
-    phase = (v - BARB_SLANT * x) * BARB_COUNT
-    ragged = 1.0 - 0.03 * np.abs(np.sin(np.pi * phase * 0.5)) * _smoothstep(0.1, 0.3, v)
-    texel = 1.0 / res
-    alpha = np.clip(((half * ragged) - x) / texel + 0.5, 0.0, 1.0)
-
-    vane = _linear(VANE_SRGB)
-    down = _linear(DOWN_SRGB)
-    rachis = _linear(RACHIS_SRGB)
-    barbs = 0.8 + 0.2 * np.cos(2.0 * np.pi * phase)  # light/dark alternation of barbs
-    col = _mix(vane[None, None, :], down[None, None, :], 1.0 - _smoothstep(0.15, 0.38, v))
-    col = col * barbs[..., None]
-    rachis_half = np.maximum(0.012 * (1.0 - 0.75 * v), 0.6 * texel)
-    col = _mix(col, rachis[None, None, :], np.clip((rachis_half - x) / texel + 0.5, 0.0, 1.0) * (v < 0.97))
+    col, alpha, _, _ = feather_tile("neck", VANE_SRGB, 7, res, res)
     base = np.concatenate([_encode(col), np.round(alpha * 255.0).astype(np.uint8)[..., None]], axis=-1)
     # not cut by the silhouette: a host's mip levels average the mask past the cut-out edge (a mask of 0 there
     # drew a dark outline round every card in Storm, p95 dE2000 6.2 -> 0.45 at 512 px)
-    mask = _smoothstep(MASK_START_V, MASK_FULL_V, v)
-    return {"base": base, "mask": np.round(mask * 255.0).astype(np.uint8)}
-
-
-# ---- body and the feather cards' palette ---------------------------------------------------------------
-def palette_strip(resolution: int) -> np.ndarray:
-    """(rows, R, 3) uint8 sRGB: the feather tiles of the body texture's bottom strip (rockdove.geometry.plumage),
-    each a feather drawn across its tile (vane, pale rachis, barbs, downy base); the wing-bar tiles have the black
-    subterminal band (narrower on the secondaries'), the rectrix tile the dark terminal band, the primary tile a
-    darker tip."""
-    res = int(resolution)
-    rows = max(1, int(round(res * _pl.PALETTE_STRIP)))
-    tv = 1.0 - (np.arange(rows) + 0.5) / rows  # row 0 at the top of the strip
-    v = np.clip((tv - 0.04) / 0.92, 0.0, 1.0)[:, None]  # feather coordinate (cards map v into [0.04, 0.96])
-    sc = (np.arange(res) + 0.5) / res * _pl.TILES
-    tile, u = np.minimum(sc.astype(int), _pl.TILES - 1), np.clip((sc % 1.0 - 0.1) / 0.8, 0.0, 1.0)
-    x = np.abs(u - 0.5)[None, :]
-    shade = (0.78 + 0.22 * (1.0 - (2 * x) ** 2)) * (0.9 + 0.1 * np.cos(2 * np.pi * (v - 0.9 * x) * BARB_COUNT / 2))
-    shade = shade * (0.82 + 0.18 * _smoothstep(0.0, 0.35, v)) + 0.25 * (x < 0.035) * (v < 0.97)
-    col = palette_colours()[tile][None, :, :] * shade[..., None]
-    black = np.zeros((rows, res))
-    bar, rect, prim, bar2 = (tile == t for t in (_pl.T_BAR, _pl.T_RECTRIX, _pl.T_PRIMARY, _pl.T_BAR2))
-    black[:, bar] = (_smoothstep(0.56, 0.62, v) * (1 - _smoothstep(0.8, 0.86, v)) * np.ones((1, bar.sum())))
-    black[:, bar2] = (_smoothstep(0.6, 0.63, v) * (1 - _smoothstep(0.71, 0.74, v)) * np.ones((1, bar2.sum())))
-    black[:, rect] = _smoothstep(0.8, 0.86, v) * np.ones((1, rect.sum()))
-    black[:, prim] = 0.5 * _smoothstep(0.55, 0.9, v) * np.ones((1, prim.sum()))
-    col = _mix(col, _linear(WING_BAR_SRGB) * 0.8, black)
-    return _encode(col)
+    v = np.broadcast_to(1.0 - (np.arange(res)[:, None] + 0.5) / res, (res, res))
+    mask = np.round(_smoothstep(MASK_START_V, MASK_FULL_V, v) * 255.0).astype(np.uint8)
+    atlas, normal = plumage_atlas(res)
+    return {"base": base, "mask": mask, "plumage_base": atlas, "plumage_normal": normal}
 
 
 #: Widening of a triangle's texel box, texels: far above what the barycentric tolerance (1e-9) admits outside a
@@ -161,9 +185,9 @@ def body_base_colour(resolution_or_params, bird) -> np.ndarray:
     """(R, R, 3) uint8 sRGB base colour of the body in its xatlas UVs (R: 16 .. 8192 or BirdParams'
     ``body_texture_resolution``; ``bird``: a Bird, a Body or the Body MeshPart).
 
-    Every texel a UV triangle covers gets the colour of its 3-D point (:func:`body_colour_at`); the bottom strip
-    holds the feather cards' tiles (:func:`palette_strip`); the empty texels between charts take the colour of the
-    nearest covered texel, so bilinear filtering and mipmaps do not bleed background into the seams.
+    Every texel a UV triangle covers gets the colour of its 3-D point (:func:`body_colour_at`); the empty texels
+    between charts take the colour of the nearest covered texel, so bilinear filtering and mipmaps do not bleed
+    background into the seams.
     """
     from scipy import ndimage
 
@@ -182,10 +206,6 @@ def body_base_colour(resolution_or_params, bird) -> np.ndarray:
     img[rows, cols] = _encode(body_colour_at(pts))
     empty = np.ones((res, res), dtype=bool)
     empty[rows, cols] = False
-    strip = palette_strip(res)  # and its top row repeated over half the guard band below the body's charts
-    guard = int(0.5 * res * (_pl.ATLAS_START - _pl.PALETTE_STRIP))
-    strip = np.concatenate([np.repeat(strip[:1], guard, axis=0), strip])
-    img[res - len(strip):], empty[res - len(strip):] = strip, False
     if empty.any():
         _, (ri, ci) = ndimage.distance_transform_edt(empty, return_indices=True)
         img = img[ri, ci]

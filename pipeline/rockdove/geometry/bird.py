@@ -38,14 +38,12 @@ class Body:
 def build_body(params: BirdParams) -> Body:
     """Mesh the body (torso, breast, rump, neck, head) and give it UVs. Depends on ``params.body_voxel_m`` and ``params.body_texture_resolution``.
 
-    The coarse body (:data:`body.UNWRAP_VOXEL_M`) is unwrapped by xatlas into the texture above the feather
-    cards' palette strip (:data:`plumage.ATLAS_START`), then subdivided onto the implicit surface
+    The coarse body (:data:`body.UNWRAP_VOXEL_M`) is unwrapped by xatlas, then subdivided onto the implicit surface
     (:func:`body.subdivide_onto_surface`); normals are the field's gradient at the final vertices.
     """
     coarse = _body.build_body_mesh(_body.UNWRAP_VOXEL_M)
     at = _uv.atlas(coarse.vertices_m, coarse.faces)
-    st = at.st.astype(np.float64)  # the body's charts above the feathers' palette strip of the texture
-    st[:, 1] = _plumage.ATLAS_START + (1.0 - _plumage.ATLAS_START) * st[:, 1]
+    st = at.st.astype(np.float64)
     welded, to_welded, faces, st = _body.subdivide_onto_surface(
         _sdf.body_sdf, coarse.vertices_m[at.vmapping], at.faces, st, _body.subdivision_levels(params.body_voxel_m))
     normals = _sdf.sdf_gradient(_sdf.body_sdf, welded)
@@ -62,8 +60,8 @@ def build_body(params: BirdParams) -> Body:
 
 
 def build_bird(params: BirdParams, body: Body | None = None) -> Bird:
-    """The whole rock dove: Body, CoatFeathers, Wings, Tail, NeckFeathers, Beak, Cere, Eyes, EyeRings, Legs;
-    ``body``: one already built for ``params`` (e.g. from a cache)."""
+    """The whole rock dove: Body, HeadFeathers, CoatFeathers, Wings, Tail, NeckFeathers, Beak, Cere, Eyes, EyeRings,
+    Legs, Claws; ``body``: one already built for ``params`` (e.g. from a cache)."""
     body = build_body(params) if body is None else body
     cards = _cards.build_cards(body, params)
     plumage = _plumage.build_plumage(body.mesh.vertices_m, body.mesh.faces, params.seed)

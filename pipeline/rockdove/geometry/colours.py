@@ -1,6 +1,6 @@
 """The bird's colour field: the base colour of the body's surface at any point (blue-grey, the slate head and
-neck, the white rump patch) and the palette of the feather tiles the coat, wing and tail cards sample.
-:mod:`rockdove.textures` paints images from it and :mod:`rockdove.geometry.plumage` picks each coat card's tile.
+neck, the white rump patch) and the catalogue of the plumage atlas the feather cards sample (kinds, tones,
+variants). :mod:`rockdove.textures` paints both and :mod:`rockdove.geometry.plumage` picks each card's tile.
 
 The rock-dove palette follows field-guide descriptions of Columba livia (Gibbs, Barnes and Cox, "Pigeons and
 Doves", 2001: blue-grey, darker head and neck, two black wing bars, a dark terminal tail band, "white lower
@@ -25,11 +25,56 @@ RUMP_SRGB = (236, 238, 240)
 #: Display colour (linear RGB) of the body and the cards that sample its texture: rock-dove blue-grey.
 BODY_DISPLAY_COLOR = (0.25, 0.28, 0.33)
 
-#: The feather tiles of the palette strip (rockdove.geometry.plumage, rockdove.textures.palette_strip): tile i
-#: spans s in [i, i + 1] / TILES; tiles 0 .. RAMP - 1 are the coat's greys from the dark neck to the pale wing.
-TILES = 32
-RAMP = 20
-T_WHITE, T_BAR, T_RECTRIX, T_PRIMARY, T_BAR2 = 20, 21, 22, 23, 24
+#: Feather kinds of the plumage atlas (painted by :func:`rockdove.textures.feather_tile`): v of the widest point
+#: (root 0, tip 1), width at the root (of the widest), tip exponent (1 pointed, 2 round, 4 square), barbs per vane,
+#: end of the downy base (v), outer vane's width (asymmetry), dark pattern (v from, v to, darkness) or None, and
+#: roughness of the vane. Shapes after Lucas and Stettenheim, "Avian Anatomy: Integument" (1972): small rounded
+#: head feathers with much down, ovate contour feathers, blunt secondaries, pointed asymmetric primaries.
+KINDS = {
+    "head": (0.40, 0.35, 2.0, 14, 0.30, 1.0, None, 0.75),
+    "contour": (0.55, 0.22, 2.2, 24, 0.30, 1.0, None, 0.7),
+    "neck": (0.68, 0.45, 2.0, 24, 0.12, 1.0, None, 0.7),
+    "covert": (0.50, 0.3, 2.4, 24, 0.15, 1.0, None, 0.65),
+    "greater": (0.55, 0.45, 2.8, 28, 0.10, 0.8, (0.50, 0.86, 1.0), 0.6),
+    "secondary": (0.70, 0.65, 3.5, 40, 0.05, 0.8, (0.52, 0.70, 1.0), 0.6),
+    "primary": (0.35, 0.60, 1.4, 56, 0.04, 0.5, (0.55, 1.01, 0.5), 0.55),
+    "rectrix": (0.70, 0.75, 2.6, 56, 0.05, 0.9, (0.84, 1.01, 0.95), 0.6),
+    "eye": (0.0, 1.0, 2.0, 0, 0.0, 1.0, None, 0.08),
+}
+#: Coat tones, sRGB 8-bit: the dark neck to the pale wing (contour feathers pick the nearest to the body colour).
+COAT_SRGB = tuple(tuple(int(round(a + (b - a) * k / 5)) for a, b in zip(NECK_SRGB, WING_SRGB)) for k in range(6))
+#: The plumage atlas, in order: (kind, sRGB tone, variants); each variant a tile of its own seed.
+ATLAS = ((("head", HEAD_SRGB, 6),) + tuple(("contour", c, 4) for c in COAT_SRGB + (RUMP_SRGB,))
+         + (("covert", WING_SRGB, 4), ("greater", WING_SRGB, 4), ("secondary", WING_SRGB, 4),
+            ("primary", PRIMARIES_SRGB, 4), ("rectrix", TAIL_SRGB, 4), ("eye", (224, 92, 32), 1)))
+#: Atlas tiles per row and rows (each tile half as wide as it is tall).
+ATLAS_COLUMNS, ATLAS_ROWS = 16, 4
+#: Half-width of the widest feather in its tile (u, the tile's width 1).
+FEATHER_HALF_WIDTH = 0.44
+
+
+def half_width(kind: str, v) -> np.ndarray:
+    """The outline of a feather of ``kind`` (:data:`KINDS`): its vane's half-width in u (tile widths) at ``v``
+    (root 0 .. tip 1): widening from the root to the widest point, then closing to the tip as
+    ``(1 - t^p)^(1/p)`` (p the tip exponent)."""
+    widest, base_w, tip_p = KINDS[kind][:3]
+    v = np.asarray(v, np.float64)
+    t = np.clip((v - widest) / (1.0 - widest), 0.0, 1.0)
+    w = np.where(v < widest, base_w + (1.0 - base_w) * np.sin(0.5 * np.pi * np.clip(v / max(widest, 1e-6), 0, 1)),
+                 np.clip(1.0 - t ** tip_p, 0.0, 1.0) ** (1.0 / tip_p))
+    return FEATHER_HALF_WIDTH * w
+
+
+def atlas_st(tiles, u, v) -> np.ndarray:
+    """(..., 2) st in the atlas of feather coordinates ``u`` (across, 0 .. 1) and ``v`` (root 0 .. tip 1) on
+    ``tiles`` (broadcast together), kept half a per cent inside the tile (no filtering across its border)."""
+    col, row = np.asarray(tiles) % ATLAS_COLUMNS, np.asarray(tiles) // ATLAS_COLUMNS
+    u, v = np.clip(u, 0.005, 0.995), np.clip(v, 0.005, 0.995)
+    return np.stack(np.broadcast_arrays((col + u) / ATLAS_COLUMNS, 1.0 - (row + 1.0 - v) / ATLAS_ROWS), -1)
+
+
+#: The first tile of each (kind, tone) of :data:`ATLAS`, and its number of variants.
+TILE_START = {(k, c): (int(i), n) for (k, c, n), i in zip(ATLAS, np.cumsum([0] + [n for *_, n in ATLAS]))}
 
 
 def linear(srgb8) -> np.ndarray:
@@ -56,7 +101,7 @@ def body_colour_at(points_m: np.ndarray) -> np.ndarray:
 
     p = np.asarray(points_m, dtype=np.float64).reshape(-1, 3)
     col = np.broadcast_to(linear(BODY_SRGB), p.shape).copy()
-    rump = 1.0 - smoothstep(0.012, 0.02, np.linalg.norm((p - np.array([0.0, 0.088, -0.062])) * [0.8, 1.2, 0.7], axis=1))
+    rump = 1.0 - smoothstep(0.014, 0.024, np.linalg.norm((p - [0.0, 0.092, -0.058]) * [0.8, 1.2, 0.7], axis=1))
     i = np.flatnonzero(rump > 0.0)
     col[i] = mix(col[i], linear(RUMP_SRGB), rump[i])
     s, r = _neck.neck_s(p)
@@ -71,20 +116,10 @@ def body_colour_at(points_m: np.ndarray) -> np.ndarray:
     return col
 
 
-def palette_colours() -> np.ndarray:
-    """(TILES, 3) linear colour of each feather tile: the grey ramp from the neck's slate to the coverts' pale
-    grey, white, wing bar, rectrix and primary."""
-    w = np.linspace(0.0, 1.0, RAMP)[:, None]
-    out = np.broadcast_to(linear(BODY_SRGB), (TILES, 3)).copy()
-    out[:RAMP] = linear(NECK_SRGB) * (1 - w) + linear(WING_SRGB) * w
-    for tile, srgb in ((T_WHITE, RUMP_SRGB), (T_BAR, WING_SRGB), (T_RECTRIX, TAIL_SRGB),
-                       (T_PRIMARY, PRIMARIES_SRGB), (T_BAR2, WING_SRGB)):
-        out[tile] = linear(srgb)
-    return out
-
-
-def coat_tiles(points_m) -> np.ndarray:
-    """(N,) int: the palette tile (ramp or white) nearest :func:`body_colour_at` at each point."""
-    pal = palette_colours()[:T_WHITE + 1]
-    col = body_colour_at(points_m)
-    return np.argmin(((col[:, None, :] - pal[None]) ** 2).sum(-1), axis=1)
+def coat_tiles(points_m, rng) -> np.ndarray:
+    """(N,) int: an atlas tile of the contour feather whose tone (:data:`COAT_SRGB`, the white rump) is nearest
+    :func:`body_colour_at` at each point, its variant drawn from ``rng``."""
+    tones = COAT_SRGB + (RUMP_SRGB,)
+    dist = ((body_colour_at(points_m)[:, None, :] - linear(tones)[None]) ** 2).sum(-1)
+    start = np.array([TILE_START["contour", t][0] for t in tones])[np.argmin(dist, axis=1)]
+    return start + rng.integers(0, 4, len(start))

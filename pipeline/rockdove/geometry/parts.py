@@ -16,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 
 from rockdove.geometry import sdf as _sdf
-from rockdove.geometry.types import MeshPart, triangle_part
+from rockdove.geometry.colours import TILE_START, atlas_st
+from rockdove.geometry.types import MeshPart, triangle_part, unit
 
 #: Segments around every surface of revolution.
 AROUND = 20
@@ -26,8 +27,9 @@ BEAK_COLOR = (0.035, 0.03, 0.03)
 CERE_COLOR = (0.75, 0.74, 0.70)
 #: Orange-red iris (sRGB ~ (0.88, 0.36, 0.12)); the cited range is orange, red or golden.
 EYE_COLOR = (0.75, 0.11, 0.013)
-#: Purplish-red feet and legs (sRGB ~ (0.78, 0.25, 0.33)).
+#: Purplish-red feet and legs (sRGB ~ (0.78, 0.25, 0.33)); dark horn claws.
 LEG_COLOR = (0.57, 0.05, 0.09)
+CLAW_COLOR = (0.025, 0.022, 0.024)
 
 #: Exposed bill length from the head's surface to the tip, metres: about 1.8 cm (Wikipedia, "Rock dove").
 BILL_LENGTH_M = 0.018
@@ -111,9 +113,10 @@ def ellipsoid_piece(radius_m: float, m: int = 12):
     return revolve(radius_m * (1.0 - np.cos(a)), radius_m * np.sin(a))
 
 
-def tube_piece(length_m: float, r0_m: float, r1_m: float, m: int = 14):
-    """A rounded tapered tube of ``length_m`` along +Z, radius r0 at the base to r1 near the end."""
-    z = _profile_z(length_m, m)
+def tube_piece(length_m: float, r0_m: float, r1_m: float, m: int = 14, uniform: bool = False):
+    """A rounded tapered tube of ``length_m`` along +Z, radius r0 at the base to r1 near the end; ``m`` rings,
+    denser at the ends (or evenly spaced: ``uniform``)."""
+    z = np.linspace(0.0, length_m, m) if uniform else _profile_z(length_m, m)
     v = z / length_m
     body = r0_m + (r1_m - r0_m) * v
     cap = np.sqrt(np.clip(np.minimum(v, 1.0 - v) * length_m / max(r0_m, r1_m), 0.0, 1.0))
@@ -162,8 +165,10 @@ def build_cere() -> MeshPart:
 
 
 EYE_CENTRE_M, EYE_RADIUS_M = (0.0142, 0.2185, 0.0905), 0.0042
-#: Grey orbital ring (linear RGB): the rock dove's narrow bluish-grey orbital skin (Gibbs et al. 2001).
-EYE_RING_COLOR = (0.30, 0.32, 0.36)
+#: The iris's tone in the atlas (sRGB 8-bit), and the bare orbital ring (linear RGB): the rock dove's narrow,
+#: pale bluish-grey to whitish orbital skin (Gibbs et al. 2001).
+EYE_SRGB = (224, 92, 32)
+EYE_RING_COLOR = (0.50, 0.52, 0.56)
 #: The ring's inner and outer radius about the eye's axis, metres: 1 .. 2 mm of bare skin round the eye.
 EYE_RING_RADII_M = (0.0036, 0.0054)
 
@@ -174,13 +179,15 @@ def _eye_axis(side):
 
 
 def build_eyes() -> MeshPart:
-    """Two eyes on the sides of the head (one part): orange-red iris."""
+    """Two eyes on the sides of the head (one part): the atlas's eye tile (orange-red iris, the pupil centred on
+    the eye's outward axis, glossy), v from the back of the eyeball to the cornea."""
     r = EYE_RADIUS_M
     pieces = []
     for side in (1.0, -1.0):
         centre, outward = _eye_axis(side)
-        pieces.append(place(ellipsoid_piece(r), centre - r * outward, outward))
-    return triangle_part("Eyes", pieces, "eye", EYE_COLOR)
+        v, n, st, f = place(ellipsoid_piece(r, 16), centre - r * outward, outward)
+        pieces.append((v, n, atlas_st(TILE_START["eye", EYE_SRGB][0], st[:, 0], st[:, 1]), f))
+    return triangle_part("Eyes", pieces, "plumage", EYE_COLOR)
 
 
 def build_eye_rings() -> MeshPart:
@@ -213,21 +220,54 @@ HIP_M, ANKLE_M = (0.016, 0.056, 0.006), (0.019, 0.0019, 0.022)
 TOES = ((-28.0, 0.026), (0.0, 0.031), (28.0, 0.026), (180.0, 0.017))
 
 
-def build_legs() -> MeshPart:
-    """Both legs: tarsus from inside the belly to the foot, three toes forward and one back; soles at y = 0."""
-    pieces = []
+#: Scutes: the transverse plates on the front of the tarsus and the top of the toes, their pitch (m) and the depth
+#: of the grooves between them as a fraction of the radius; claws: length (m), base radius (m), droop (deg, at most
+#: down to the ground).
+SCUTE_PITCH_M, SCUTE_GROOVE = (0.0018, 0.0013), 0.12
+CLAW_LENGTH_M, CLAW_RADIUS_M, CLAW_DROOP_DEG = 0.0055, 0.0009, 35.0
+
+
+def scaly(piece, pitch_m: float, front=(0.0, 1.0)):
+    """A tube of :func:`tube_piece` with scutes: grooves every ``pitch_m`` along it, deepest on its ``front``
+    side (local x, y), gone on the back; the normals are the displaced mesh's (area-weighted)."""
+    verts, smooth, st, faces = piece
+    z, phi = verts[:, 2], np.arctan2(verts[:, 1], verts[:, 0])
+    groove = np.clip(np.cos(2 * np.pi * z / pitch_m), 0, 1) ** 8 * np.clip(np.cos(phi - np.arctan2(*front[::-1])), 0, 1)
+    v = verts * np.stack([1.0 - SCUTE_GROOVE * groove] * 2 + [np.ones_like(z)], 1)
+    fn = np.cross(v[faces[:, 1]] - v[faces[:, 0]], v[faces[:, 2]] - v[faces[:, 0]])
+    n = np.zeros_like(v)
+    for k in range(3):
+        np.add.at(n, faces[:, k], fn)
+    return v, np.where(np.linalg.norm(n, axis=1, keepdims=True) > 0, unit(n), smooth), st, faces  # poles: as revolved
+
+
+def _fine_tube(length_m, r0_m, r1_m, pitch_m):
+    return scaly(tube_piece(length_m, r0_m, r1_m, int(round(4 * length_m / pitch_m)) + 1, uniform=True), pitch_m)
+
+
+def build_legs() -> tuple:
+    """``(Legs, Claws)``: tarsus from inside the belly to the foot, three toes forward and one back, with scutes,
+    soles at y = 0; a dark claw at the end of every toe, curving down."""
+    pieces, claws = [], []
     toe_r = 0.0019
     for side in (1.0, -1.0):
         hip = np.array([side * HIP_M[0], *HIP_M[1:]])
         foot = np.array([side * ANKLE_M[0], *ANKLE_M[1:]])
-        pieces.append(place(tube_piece(np.linalg.norm(foot - hip) + 0.002, 0.0034, 0.0026), hip, foot - hip))
+        tarsus = _fine_tube(np.linalg.norm(foot - hip) + 0.002, 0.0034, 0.0026, SCUTE_PITCH_M[0])
+        pieces.append(place(tarsus, hip, foot - hip))
         for yaw_deg, length in TOES:
             yaw = np.deg2rad(yaw_deg * side)
             d = np.array([np.sin(yaw), -0.04, np.cos(yaw)])
-            pieces.append(place(tube_piece(length, toe_r, 0.0011), foot - 0.002 * d, d))
-    return triangle_part("Legs", pieces, "leg", LEG_COLOR)
+            pieces.append(place(_fine_tube(length, toe_r, 0.0011, SCUTE_PITCH_M[1]), foot - 0.002 * d, d))
+            tip = foot - 0.002 * d + (length - 0.0022) * d + np.array([0.0, 0.0003, 0.0])
+            droop = min(np.deg2rad(CLAW_DROOP_DEG), np.arcsin(np.clip(tip[1] / CLAW_LENGTH_M, 0, 1)))  # to the ground
+            cz = _profile_z(CLAW_LENGTH_M, 10)
+            claw = revolve(cz, CLAW_RADIUS_M * (1.0 - cz / CLAW_LENGTH_M) ** 0.7 * np.sqrt(
+                np.clip(cz / 0.0004, 0, 1)))
+            claws.append(place(claw, tip, d * np.cos(droop) - np.array([0.0, np.sin(droop), 0.0]), (0.75, 1.0)))
+    return (triangle_part("Legs", pieces, "leg", LEG_COLOR), triangle_part("Claws", claws, "claw", CLAW_COLOR))
 
 
 def build_parts() -> tuple:
-    """Beak, cere, eyes, eye rings and legs, in that order (each a :class:`MeshPart`)."""
-    return (build_beak(), build_cere(), build_eyes(), build_eye_rings(), build_legs())
+    """Beak, cere, eyes, eye rings, legs and claws, in that order (each a :class:`MeshPart`)."""
+    return (build_beak(), build_cere(), build_eyes(), build_eye_rings()) + build_legs()

@@ -14,7 +14,7 @@ from ..errors import UsageError
 INTERPOLATIONS = ("constant", "uniform", "vertex", "faceVarying")
 
 #: Allowed material names of a :class:`MeshPart`.
-MATERIALS = ("body", "feather", "beak", "eye", "cere", "leg", "eyering")
+MATERIALS = ("body", "feather", "plumage", "beak", "eye", "cere", "leg", "eyering", "claw")
 
 
 def point_bounds(points) -> np.ndarray:

@@ -185,32 +185,34 @@ def _host(cache, host, layer, scene, views, digest, layers, refs, fresh, out):
 
 def _pictures(cache, layer, scene, lut, digest: str, settings: dict, out: str) -> tuple[dict, tuple, tuple]:
     """The report's pictures, ``{kind: (entry or None, note or None)}`` with the kinds drawn and the kinds reused,
-    their files copied into ``out``: the beauty
-    (:func:`rockdove.hosts.beauty.for_report`) and the light-turning animation
+    their files copied into ``out``: the beauty (:func:`rockdove.hosts.beauty.for_report`) and the light-turning animation
     (:func:`rockdove.render.animation.for_report`), each an item keyed by the scene, the ``[beauty]`` settings and
     its code; one drawn other than as asked (a note: a fallback, a failure) is not kept."""
     from ..hosts.beauty import for_report as beauty
     from ..render.animation import for_report as animation
 
-    pictures, ran, reused = {}, [], []
-    for kind, fn, args in (("beauty", beauty, (layer, scene)), ("animation", animation, (scene,))):
+    draw = {"beauty": lambda tmp: beauty(layer, scene, tmp, settings, cycles_ok=settings.get("cycles_ok", False),
+                                         lut=lut),
+            "animation": lambda tmp: animation(scene, tmp, settings, lut=lut)}
+    pictures: dict[str, tuple] = {}
+    ran: list[str] = []
+    reused: list[str] = []
+    for kind, fn in (("beauty", beauty), ("animation", animation)):
         items, key = _Items(cache, kind, out), item_key(kind, (fn,), digest, settings)
         found = items.get(key)
         if found is not None:
-            entry, note, folder = _meta(found)["entry"], None, found
+            entry, note = _meta(found)["entry"], None
+            for name in (entry or {}).get("files", {}).values():
+                shutil.copyfile(os.path.join(found, name), os.path.join(out, name))
         else:
             with items.scratch() as tmp:
-                opts = {"cycles_ok": settings.get("cycles_ok", False)} if kind == "beauty" else {}
-                entry, note = fn(*args, str(tmp), settings, lut=lut, **opts)
+                entry, note = draw[kind](str(tmp))
                 for name in (entry or {}).get("files", {}).values():
                     shutil.copyfile(tmp / name, os.path.join(out, name))
                 if entry is not None and note is None:
                     items.put(key, tmp, {"entry": entry})
-            folder = None
-        for name in (entry or {}).get("files", {}).values() if folder else ():
-            shutil.copyfile(os.path.join(folder, name), os.path.join(out, name))
         if entry is not None:
-            (reused if folder else ran).append(kind)
+            (reused if found is not None else ran).append(kind)
         pictures[kind] = entry, note
     return pictures, tuple(ran), tuple(reused)
 

@@ -9,8 +9,8 @@ Steps (the job file, written by :func:`rockdove.hosts.blender.render`, gives eve
 2. ``bpy.ops.wm.usd_import`` of the asset: the add-on builds the thin-film material;
 3. ``lobe = "as_imported"`` leaves every material as imported (what a user sees); ``lobe = "view_angle"``: the
    film smooth (roughness 0: the mirror lobe), its base BSDF black, every other material black diffuse (still
-   occluding), no object seen by glossy rays, under a uniform white world: each film pixel reflects the
-   environment itself (no inter-reflection, as the reference assumes);
+   occluding, cut out where its alpha is: :func:`occluder`), no object seen by glossy rays, under a uniform white
+   world: each film pixel reflects the environment itself (no inter-reflection, as the reference assumes);
 4. per view: a camera with the View's OpenGL ``camera_to_world`` through the importer's up-axis conversion (the
    imported root prim's world matrix), its vertical field of view and size; Cycles on the CPU, a 0.01 px pixel
    filter (pixel centres, like the reference), transparent film (background 0), float32 EXR.
@@ -36,6 +36,20 @@ def black_material(bpy):
     return mat
 
 
+def occluder(mat, black):
+    """``mat`` turned black where its Principled BSDF's alpha is linked (an alpha cut-out: the plumage cards), so it
+    occludes where it is drawn, as the reference's ray casts do; else the plain ``black`` material."""
+    nodes = mat.node_tree.nodes if mat is not None and mat.use_nodes else ()
+    bsdf = next((n for n in nodes if n.type == "BSDF_PRINCIPLED"), None)
+    if bsdf is None or not bsdf.inputs["Alpha"].links:
+        return black
+    for name in ("Base Color", "Normal"):
+        for link in list(bsdf.inputs[name].links):
+            mat.node_tree.links.remove(link)
+    _black(bsdf)
+    return mat
+
+
 def film_lobe_only(bpy, addon) -> None:
     """Set up the ``view_angle`` lobe (module docstring, step 3)."""
     black = black_material(bpy)
@@ -52,7 +66,7 @@ def film_lobe_only(bpy, addon) -> None:
                     mat.node_tree.links.remove(link)
                 _black(base)
             else:
-                slot.material = black
+                slot.material = occluder(mat, black)
 
 
 def white_world(bpy, radiance: float) -> None:

@@ -40,11 +40,18 @@ def _compile(vert: str, frag: str, name: str) -> int:
 _OCCLUDER_VERT = """#version 400
 uniform mat4 u_viewProjectionMatrix;
 in vec3 i_position;
-void main() { gl_Position = u_viewProjectionMatrix * vec4(i_position, 1.0); }
+in vec2 i_texcoord_0;
+out vec2 st;
+void main() { st = i_texcoord_0; gl_Position = u_viewProjectionMatrix * vec4(i_position, 1.0); }
 """
+# black, cut out where the base texture's alpha (unit 0; white where a part has none) is below the part's threshold,
+# as the reference's ray casts skip those fragments (the plumage cards)
 _OCCLUDER_FRAG = """#version 400
+uniform sampler2D u_alpha;
+uniform float u_threshold;
+in vec2 st;
 out vec4 out1;
-void main() { out1 = vec4(0.0, 0.0, 0.0, 1.0); }
+void main() { if (texture(u_alpha, st).a < u_threshold) discard; out1 = vec4(0.0, 0.0, 0.0, 1.0); }
 """
 
 
@@ -131,12 +138,18 @@ def _draw_in_context(GL, scene, networks, sources, views, name, w, h) -> dict:
     if GL.glCheckFramebufferStatus(GL.GL_FRAMEBUFFER) != GL.GL_FRAMEBUFFER_COMPLETE:
         raise HostError(name, "float framebuffer incomplete")
 
-    occluder = _compile(_OCCLUDER_VERT, _OCCLUDER_FRAG, name)
+    white = _texture(np.ones((1, 1, 4), np.float32), mipmaps=False)
     draws = []  # (program, vao, n_indices, textures {unit: tex}, is_material)
     for part in scene.parts:
         net = networks.get(part.path)
         if net is None:
-            prog, textures = occluder, {}
+            image = read_image_file(part.base_colour_texture) if part.base_colour_texture else None
+            cut = image is not None and image.ndim == 3 and image.shape[2] in (2, 4)
+            prog = _compile(_OCCLUDER_VERT, _OCCLUDER_FRAG, name)
+            textures = {0: _texture(image[::-1], mipmaps=False) if cut else white}
+            GL.glUseProgram(prog)
+            GL.glUniform1i(GL.glGetUniformLocation(prog, "u_alpha"), 0)
+            GL.glUniform1f(GL.glGetUniformLocation(prog, "u_threshold"), float(part.opacity_threshold))
         else:
             prog = _compile(*sources[part.path], name)
             textures = _bind_samplers(GL, prog, net, env, black)

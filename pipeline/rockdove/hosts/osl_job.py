@@ -4,7 +4,8 @@ bpy (:func:`rockdove.hosts.bpy_runner.bpy_python`); it imports nothing but the s
 
 The steps are those of :mod:`rockdove.hosts.osl`'s docstring ("What Cycles does"); the job file, written by
 :func:`rockdove.hosts.osl.render_variant`, gives every value. A shader the compiler rejects prints its error lines
-and the job exits 1 naming it; every material but the feathers' is black diffuse (occluding).
+and the job exits 1 naming it; every material but the feathers' is black diffuse (occluding,
+cut out where its alpha is: :func:`rockdove.hosts.blender_job.occluder`).
 """
 
 from __future__ import annotations
@@ -103,7 +104,7 @@ def run(job: dict) -> None:
         shader = by_name.get(ob.name) or by_name.get(ob.data.name)
         material = (script_material(bpy, f"rockdove_osl_{ob.name}", shader["oso"], shader["attributes"],
                                     shader.get("files"))
-                    if shader else black)
+                    if shader else blender_job.occluder(ob.active_material, black))
         if shader:
             drawn.append(ob.name)
         ob.data.materials.clear()

@@ -249,6 +249,7 @@ class GLRenderer:
 
         view, p, set_ = self._view, pg.part, program.set_uniform
         set_("u_kind", 1 if (p.is_feather and self._lut_tex is not None) else 0)
+        set_("u_two_sided", 1 if (p.is_feather or p.double_sided) else 0)
         set_("u_angle_mode", ANGLE_MODES[self.angle_mode])
         set_("u_part_id", float(pg.index + 1))
         set_("u_eye_m", view.eye_m.astype(np.float32))

@@ -48,6 +48,8 @@ class ScenePart:
     mask_texture: str | None = None  # absolute path of the structural-colour mask (raw grey)
     base_colour: np.ndarray = field(default_factory=lambda: np.full(3, 0.5, np.float32))  # linear, untextured parts
     opacity_threshold: float = OPACITY_THRESHOLD  # fragments with texture alpha below it are discarded
+    double_sided: bool = False  # UsdGeom doubleSided: the shading normal is turned toward the viewer
+    normal_texture: str | None = None  # absolute path of the tangent-space normal map (UsdPreviewSurface normal)
 
     @property
     def is_feather(self) -> bool:
@@ -170,7 +172,7 @@ def _read_mesh(prim, xcache, meters_per_unit, stage, posed=None):
            for k, shape in (("st", (2,)), ("thickness", ()), ("neck_s", ()), ("preview_st", (2,)),
                             ("thickness_field", (3,)))}
 
-    kind, base_tex, srgb, mask_tex, colour_const, threshold = material_info(prim, stage)
+    kind, base_tex, srgb, mask_tex, colour_const, threshold, normal_tex = material_info(prim, stage)
     if film is not None:
         kind = "feather"
     if kind is None:
@@ -186,7 +188,8 @@ def _read_mesh(prim, xcache, meters_per_unit, stage, posed=None):
         thickness_nm=arr["thickness"], neck_s=arr["neck_s"], preview_st=arr["preview_st"],
         thickness_field=arr["thickness_field"],
         base_colour_texture=base_tex, base_colour_srgb=srgb, mask_texture=mask_tex,
-        base_colour=np.asarray(colour_const, np.float32), opacity_threshold=threshold)
+        base_colour=np.asarray(colour_const, np.float32), opacity_threshold=threshold,
+        double_sided=bool(mesh.GetDoubleSidedAttr().Get()), normal_texture=normal_tex)
     return part, film
 
 

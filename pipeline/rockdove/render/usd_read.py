@@ -13,6 +13,7 @@ from ..usd.material import OPACITY_THRESHOLD
 #: Shader prim names of the materials (docs/design.md, "USD asset").
 BASE_COLOR_SHADER = "BaseColorTexture"
 MASK_SHADER = "MaskTexture"
+NORMAL_SHADER = "NormalTexture"
 #: Shader inputs that may hold a constant base colour for untextured parts (UsdPreviewSurface, MaterialX).
 CONSTANT_COLOUR_INPUTS = ("diffuseColor", "base_color", "baseColor")
 
@@ -55,22 +56,23 @@ def primvar_array(values, interp: str, n_points: int, face_vertex_counts, name: 
 
 
 def material_info(prim, stage):
-    """(material kind from the name, base texture, srgb?, mask texture, constant colour, opacity threshold)."""
+    """(material kind from the name, base texture, srgb?, mask texture, constant colour, opacity threshold, normal
+    map)."""
     from pxr import Usd, UsdShade
 
     mat, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
     if not mat:
-        return None, None, True, None, None, OPACITY_THRESHOLD
+        return None, None, True, None, None, OPACITY_THRESHOLD, None
     name = mat.GetPrim().GetName()
     kind = name[: -len("Material")].lower() if name.endswith("Material") and len(name) > 8 else name.lower()
-    base = mask = colour_const = None
+    base = mask = colour_const = normal = None
     srgb = True
     threshold = OPACITY_THRESHOLD
     for p in Usd.PrimRange(mat.GetPrim()):
         if not p.IsA(UsdShade.Shader):
             continue
         sh = UsdShade.Shader(p)
-        if p.GetName() in (BASE_COLOR_SHADER, MASK_SHADER):
+        if p.GetName() in (BASE_COLOR_SHADER, MASK_SHADER, NORMAL_SHADER):
             inp = sh.GetInput("file")
             if not inp:
                 raise UsageError(f"{p.GetPath()}: texture shader has no inputs:file")
@@ -86,8 +88,10 @@ def material_info(prim, stage):
                 if cs_val is None:  # MaterialX: colorspace metadata on the file input
                     cs_val = inp.GetAttr().GetColorSpace() or "sRGB"
                 srgb = str(cs_val).lower() not in ("raw", "lin_rec709", "linear")
-            else:
+            elif p.GetName() == MASK_SHADER:
                 mask = path
+            else:
+                normal = path
         for key in CONSTANT_COLOUR_INPUTS:
             inp = sh.GetInput(key)
             if inp and colour_const is None and not inp.HasConnectedSource():
@@ -97,4 +101,4 @@ def material_info(prim, stage):
         thr = sh.GetInput("opacityThreshold")
         if thr and thr.Get() is not None and float(thr.Get()) > 0:
             threshold = float(thr.Get())
-    return kind, base, srgb, mask, colour_const, threshold
+    return kind, base, srgb, mask, colour_const, threshold, normal

@@ -37,6 +37,8 @@ TEXTURE_FILES = {
     "feather_mask": "feather_mask.png",
     "feather_preview": "feather_preview.png",
     "body_base": "body_base.png",
+    "plumage_base": "plumage_base.png",
+    "plumage_normal": "plumage_normal.png",
 }
 #: The feather mesh's texcoord primvar into the preview atlas (textures_io), authored by rockdove.usd.stage and read
 #: by the preview material.
@@ -359,6 +361,34 @@ def author_body_material(stage, path, *, texture: str | None = None):
     tex = _preview_texture(stage, base.AppendChild("BaseColorTexture"), texture, st, colour_space="sRGB")
     surf = _preview_surface(stage, base.AppendChild("PreviewSurface"))
     surf.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.GetOutput("rgb"))
+    material.CreateSurfaceOutput().ConnectToSource(surf.GetOutput("surface"))
+    return material
+
+
+def author_plumage_material(stage, path, *, textures: dict | None = None):
+    """Define the plumage material of the feather cards (and the eyes): UsdPreviewSurface with ``BaseColorTexture``
+    (plumage_base.png, sRGB: diffuse colour, and its alpha the opacity, cut at ``opacityThreshold``) and
+    ``NormalTexture`` (plumage_normal.png, raw: the tangent-space normal, scale 2 and bias -1, and in its alpha
+    the roughness), both at ``st``."""
+    from pxr import Gf, Sdf, UsdShade
+
+    textures = {**texture_asset_paths(), **(textures or {})}
+    material = UsdShade.Material.Define(stage, path)
+    base = material.GetPath()
+    st = _st_reader(stage, base.AppendChild("StReader"))
+    colour = _preview_texture(stage, base.AppendChild("BaseColorTexture"), textures["plumage_base"], st,
+                              colour_space="sRGB")
+    normal = _preview_texture(stage, base.AppendChild("NormalTexture"), textures["plumage_normal"], st,
+                              colour_space="raw")
+    normal.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(2.0, 2.0, 2.0, 1.0))
+    normal.CreateInput("bias", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(-1.0, -1.0, -1.0, 0.0))
+    surf = _preview_surface(stage, base.AppendChild("PreviewSurface"))
+    for name, type_name, source in (("diffuseColor", "Color3f", colour.GetOutput("rgb")),
+                                    ("opacity", "Float", colour.GetOutput("a")),
+                                    ("normal", "Normal3f", normal.GetOutput("rgb")),
+                                    ("roughness", "Float", normal.GetOutput("a"))):
+        surf.CreateInput(name, getattr(Sdf.ValueTypeNames, type_name)).ConnectToSource(source)
+    surf.CreateInput("opacityThreshold", Sdf.ValueTypeNames.Float).Set(OPACITY_THRESHOLD)
     material.CreateSurfaceOutput().ConnectToSource(surf.GetOutput("surface"))
     return material
 

@@ -34,6 +34,7 @@ from .material import (
     author_body_material,
     author_constant_material,
     author_feather_material,
+    author_plumage_material,
     mtlx_surface_path,
     texture_asset_paths,
 )
@@ -183,6 +184,8 @@ def author_looks(stage, bird, film, lut: dict | None, variants=SHADING_VARIANTS)
                                     substrate_ior=substrate_ior)
         elif kind == "body":
             author_body_material(stage, path, texture=textures["body_base"])
+        elif kind == "plumage":
+            author_plumage_material(stage, path, textures=textures)
         else:
             author_constant_material(stage, path, next(p for p in bird.parts if p.material == kind).display_color)
     mesh = stage.GetPrimAtPath(f"{ROOT}/Geom/{feather.name}")

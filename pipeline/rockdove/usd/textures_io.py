@@ -177,13 +177,17 @@ def _feather_images(feather_textures: dict) -> tuple[np.ndarray, np.ndarray]:
 def write_base_textures(out_dir: str, feather_textures: dict, body_texture: np.ndarray) -> dict[str, str]:
     """Write the textures that do not depend on the film into ``out_dir/textures/``: ``feather_base.png`` and
     ``feather_mask.png`` (``feather_textures`` ``"base"``: (H, W, 4) uint8 sRGB RGBA, A = silhouette; ``"mask"``:
-    (H, W) uint8 raw) and ``body_base.png`` (``body_texture``, (H, W, 3) uint8 sRGB in the body's UVs); a film
-    change leaves them, and their bytes, as they were. Returns texture role -> absolute path, keys sorted."""
+    (H, W) uint8 raw), the plumage atlas ``plumage_base.png`` and ``plumage_normal.png`` when ``feather_textures``
+    has them (``"plumage_base"``, ``"plumage_normal"``: (H, W, 4) uint8) and ``body_base.png`` (``body_texture``,
+    (H, W, 3) uint8 sRGB in the body's UVs); a film change leaves them, and their bytes, as they were. Returns
+    texture role -> absolute path, keys sorted."""
     base, mask = _feather_images(feather_textures)
     body = _check_uint8("body_texture", body_texture, (3,))
     paths = _texture_paths(out_dir)
+    plumage = [(k, _check_uint8(k, feather_textures[k], (4,))) for k in ("plumage_base", "plumage_normal")
+               if k in feather_textures]
     written = {role: write_png(paths[role], img)
-               for role, img in (("feather_base", base), ("feather_mask", mask), ("body_base", body))}
+               for role, img in [("feather_base", base), ("feather_mask", mask), ("body_base", body)] + plumage}
     return dict(sorted(written.items()))
 
 

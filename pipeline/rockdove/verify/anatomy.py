@@ -2,8 +2,10 @@
 silhouette, posture or colour pattern fails the verification.
 
 Every measure reads the composed USD from disk (:func:`rockdove.render.scene.load_scene`: world space, metres;
-reported in cm and degrees), by prim name (``Body``, ``CoatFeathers``, ``Wings``, ``Tail``, ``Beak``, ``Cere``,
-``Eyes``, ``EyeRings``, ``Legs``) and the textures the parts' materials name, never the generator's numbers.
+reported in cm and degrees), by prim name (``Body``, ``HeadFeathers``, ``CoatFeathers``, ``Wings``, ``Tail``,
+``Beak``, ``Cere``, ``Eyes``, ``EyeRings``, ``Legs``, ``Claws``) and the textures the parts' materials name, never
+the generator's numbers. What is seen is found by ray casts through the alpha cut-outs, as the renderers see it
+(:mod:`rockdove.verify.rays`).
 
 Sources of the ranges: [G] Gibbs, Barnes and Cox, "Pigeons and Doves" (Pica Press 2001), as quoted by Wikipedia,
 "Rock dove" (Description): length 29-37 cm, tail 9.5-11 cm (up to 12 allowed), bill about 1.8 cm, tarsus
@@ -12,6 +14,10 @@ off-white cere; white lower back, two black wing bars, a black band at the end o
 from side-view photographs of standing birds: body axis 30-45 degrees above the horizontal with the breast full
 and forward, head about half the body's width and held up, tail reaching 3-6 cm beyond the folded wing tips,
 wings flush with the body (never wider), tips meeting over the rump, toes on the ground, tibia in the contour.
+[F] issue 29, as a birder sees a rock dove (field guides: Gibbs et al.; Svensson et al., "Collins Bird Guide",
+2009): a feathered head with only the eye's ring bare, two black bars crossing the folded wing, a broad closed
+tail fan with depth (not a board), the pupil in the middle of the iris, dark claws; feather cards whose edges fade
+(soft, partly transparent texels) rather than cut.
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import UsageError
+from ..geometry.types import unit
 
 #: name -> (low, high, unit, source, what). None: unbounded on that side.
 RANGES = {
@@ -42,6 +49,17 @@ RANGES = {
     "eye_ring_width": (0.05, 0.3, "cm", "G", "bare orbital ring beyond the eye"),
     "eye_ring_saturation": (None, 0.3, "", "G", "orbital ring's saturation (grey)"),
     "rump_luminance": (0.5, None, "", "G", "lightest coat over the rump (white patch)"),
+    "tail_width": (5.0, 9.0, "cm", "F", "tail fan's width across 85 % of its length"),
+    "tail_depth": (0.8, 2.5, "cm", "F", "tail fan's depth (its arch and layers) across 85 % of its length"),
+    "tail_base_depth": (1.5, 5.0, "cm", "F", "feathers' depth over and under the tail across 15 % of its length"),
+    "head_feather_cover": (0.85, 1.0, "", "F", "share of the head's skin hidden by feathers (ring and bill aside)"),
+    "wing_bar_count": (2, 2, "", "G", "black bands on the folded wing, seen from the side"),
+    "wing_bar_angle": (35.0, 90.0, "deg", "F", "smallest angle between a wing bar and the wing's long axis"),
+    "wing_bar_spread": (0.0, 20.0, "deg", "F", "angle between the two wing bars (they run side by side)"),
+    "wing_bar_bow": (0.15, 1.5, "cm", "F", "least bow of a wing bar over its length (they curve)"),
+    "soft_edge_share": (0.5, 1.0, "", "F", "share of card-edge texels partly transparent (0.1 < alpha < 0.9)"),
+    "pupil_offset": (0.0, 0.15, "", "F", "pupil's centre off the eye's axis / eye radius"),
+    "claw_luminance": (None, 0.1, "", "F", "claws' linear luminance (dark)"),
 }
 _LUM = np.array([0.2126, 0.7152, 0.0722])  # Rec.709 relative luminance of linear RGB
 
@@ -79,7 +97,8 @@ def _first_hit(mesh, origin, direction) -> float:
 
 
 def _colours(part, n=4000, seed=0):
-    """(n, 3) surface points and (n, 3) linear base colours sampled uniformly over a part."""
+    """(m, 3) surface points and (m, 3) linear base colours sampled uniformly over a part (n samples, those where
+    its texture's alpha is below the part's cut-out threshold left out: m <= n)."""
     from ..render.texture import read_texture, sample_texture
 
     p, t = part.positions_m.astype(np.float64), part.triangles
@@ -93,8 +112,9 @@ def _colours(part, n=4000, seed=0):
     if part.base_colour_texture is None:
         return pts, np.broadcast_to(part.base_colour, (n, 3)).astype(np.float64)
     st = np.einsum("nk,nkd->nd", w, part.st.astype(np.float64)[t[f]])
-    img = read_texture(part.base_colour_texture, part.base_colour_srgb)
-    return pts, np.asarray(sample_texture(img, st), np.float64)[:, :3]
+    img = np.asarray(sample_texture(read_texture(part.base_colour_texture, part.base_colour_srgb), st), np.float64)
+    seen = img[:, -1] >= part.opacity_threshold if img.shape[1] in (2, 4) else np.ones(n, bool)
+    return pts[seen], img[seen, :3]
 
 
 def _hsv(linear):
@@ -106,6 +126,54 @@ def _hsv(linear):
         return 0.0, 0.0
     h = {0: (c[1] - c[2]) / (mx - mn), 1: 2 + (c[2] - c[0]) / (mx - mn), 2: 4 + (c[0] - c[1]) / (mx - mn)}
     return float((60.0 * h[int(np.argmax(c))]) % 360.0), float((mx - mn) / mx)
+
+
+def _seen(geom, origins, directions):
+    """(part index or -1, st) of the first opaque hits of rays from ``origins`` (N, 3) along ``directions`` through
+    the alpha cut-outs of ``geom`` (a :class:`rockdove.verify.rays.SceneGeometry`)."""
+    from .rays import _first_opaque_hits
+
+    dirs = np.broadcast_to(np.asarray(directions, float), origins.shape)
+    dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
+    face, _, bary = _first_opaque_hits(geom, np.asarray(origins, float), dirs, {})
+    return np.where(face >= 0, geom.part_of_face[np.maximum(face, 0)], -1), geom.interp(geom.st, np.maximum(face, 0),
+                                                                                          bary)
+
+
+def _wing_bars(scene, geom, ta) -> tuple:
+    """(count, smallest angle to the wing's axis (deg), largest angle between two bars (deg), least bow (m)) of
+    the black bands of the left wing seen from the side: its texels darker than :data:`BAR_LUMINANCE` on a 1 mm
+    grid, grouped 8-connected, groups over 0.5 cm^2; a bar's bow is its quadratic's sagitta over its length."""
+    from scipy import ndimage
+
+    from ..render.texture import read_texture, sample_texture
+
+    wing = _part(scene, "Wings")
+    w = wing.positions_m.astype(np.float64)[wing.positions_m[:, 0] > 0]
+    (y0, z0), (y1, z1) = w[:, 1:].min(0), w[:, 1:].max(0)
+    yy, zz = np.meshgrid(np.arange(y0, y1, 0.001), np.arange(z0, z1, 0.001), indexing="ij")
+    part, st = _seen(geom, np.stack([np.full(yy.size, 0.2), yy.ravel(), zz.ravel()], 1), [-1.0, 0.0, 0.0])
+    on = part == scene.parts.index(wing)
+    lum = np.ones(yy.size)
+    lum[on] = sample_texture(read_texture(wing.base_colour_texture, wing.base_colour_srgb), st[on])[:, :3] @ _LUM
+    labels, n = ndimage.label((lum < BAR_LUMINANCE).reshape(yy.shape), np.ones((3, 3)))
+    axis = np.array([ta[1], ta[2]]) / np.linalg.norm(ta[1:])  # the wing lies along the tail's line, side view
+    bars, angles, bows = 0, [], []
+    for k in range(1, n + 1):
+        pts = np.stack([yy[labels == k], zz[labels == k]], 1)
+        if len(pts) < 50:
+            continue
+        bars += 1
+        d = np.linalg.svd(pts - pts.mean(0), full_matrices=False)[2][0]
+        angles.append(np.degrees(np.arctan2(d @ [-axis[1], axis[0]], d @ axis)) % 180.0)
+        t, r = (pts - pts.mean(0)) @ d, (pts - pts.mean(0)) @ [-d[1], d[0]]
+        bows.append(abs(np.polyfit(t, r, 2)[0]) * (0.5 * np.ptp(t)) ** 2)
+    across = [min(a, 180.0 - a) for a in angles]
+    return bars, min(across, default=0.0), np.ptp(angles) if angles else 0.0, min(bows, default=0.0)
+
+
+#: Texels darker than this (linear luminance) are a wing bar's black (the primaries' dark grey is above it).
+BAR_LUMINANCE = 0.035
 
 
 def measures(scene) -> dict:
@@ -175,19 +243,78 @@ def measures(scene) -> dict:
     root = tc + tail_proj.min() * ta
     rump = (np.abs(pts[:, 0]) < 0.02) & (pts[:, 1] > root[1]) & (pts[:, 2] > root[2]) & (pts[:, 2] < root[2] + 0.05)
     m["rump_luminance"] = float(np.percentile(col[rump] @ _LUM, 95)) if rump.any() else 0.0
+    fan = _colours(_part(scene, "Tail"), 20000)[0]  # surface samples: dense in every cross-section
+    under = np.concatenate([fan, _colours(_part(scene, "CoatFeathers"), 40000)[0]])
+    for key, (f, which) in {"tail_width": (0.85, fan), "tail_depth": (0.85, fan),
+                            "tail_base_depth": (0.15, under)}.items():
+        q = (which - tc) @ ta - tail_proj.min()
+        sec = which[np.abs(q - f * np.ptp(tail_proj)) < 0.003]
+        m[key] = 100 * np.ptp(sec @ ([1.0, 0.0, 0.0] if key == "tail_width" else up / np.linalg.norm(up))) if len(
+            sec) else float("nan")
+    from .rays import SceneGeometry
+
+    geom = SceneGeometry(scene)  # one set of ray-cast structures and textures for the two measures that look
+    m["wing_bar_count"], m["wing_bar_angle"], m["wing_bar_spread"], bow = _wing_bars(scene, geom, ta)
+    m["wing_bar_bow"] = 100 * bow
+    m["head_feather_cover"] = _head_cover(scene, geom, body, eye_mid, rings, beak)
+    m["soft_edge_share"] = _soft_edges(_part(scene, "CoatFeathers").base_colour_texture)
+    m["pupil_offset"] = _pupil_offset(_part(scene, "Eyes"), eyes)
+    m["claw_luminance"] = float(_part(scene, "Claws").base_colour @ _LUM)
     return {k: float(v) for k, v in m.items()}
+
+
+def _head_cover(scene, geom, body, eye_mid, rings, beak) -> float:
+    """Share of the head's skin (above the eyes' level less 1.2 cm, the ring and 4 mm round the bill aside) whose
+    ray from 2 cm out along its normal first meets a feather, not the skin."""
+    p, n = body.positions_m.astype(np.float64), body.normals.astype(np.float64)
+    head = (body.neck_s >= 1.0) & (p[:, 1] > eye_mid[1] - 0.012)
+    for pts, gap in ((rings, 0.001), (beak, 0.004)):
+        head &= np.min([np.linalg.norm(p - q, axis=1) for q in pts[:: max(1, len(pts) // 200)]], axis=0) > gap
+    idx = np.flatnonzero(head)[:: max(1, head.sum() // 1500)]
+    part, _ = _seen(geom, p[idx] + 0.02 * n[idx], -n[idx])
+    feathered = [i for i, q in enumerate(scene.parts) if q.name == "HeadFeathers"]
+    return float(np.isin(part, feathered).mean()) if len(idx) else 0.0
+
+
+def _soft_edges(texture) -> float:
+    """Share of the cut-out's edge texels (alpha crossing 0.5 within their 3 x 3) that are partly transparent."""
+    from scipy import ndimage
+
+    from ..render.texture import read_texture
+
+    a = read_texture(texture, False)[..., -1]
+    edge = (ndimage.maximum_filter(a, 3) >= 0.5) & (ndimage.minimum_filter(a, 3) < 0.5)
+    return float(((a[edge] > 0.1) & (a[edge] < 0.9)).mean()) if edge.any() else 0.0
+
+
+def _pupil_offset(part, eyes) -> float:
+    """How far the pupil (texels darker than 0.02 within 45 degrees of the iris's middle) is off the middle of the
+    iris (orange texels) on each eyeball: the distance between the directions from the eye's centre to their
+    centroids, in eye radii; the larger of the two eyes (1 without a pupil)."""
+    pts, col = _colours(part, 8000)
+    lum, out = col @ _LUM, []
+    for s in (1, -1):
+        side = s * pts[:, 0] > 0
+        c = eyes[s * eyes[:, 0] > 0].mean(0)
+        iris = side & (col[:, 0] > 2 * col[:, 2] + 0.05)
+        middle = unit(pts[iris].mean(0) - c) if iris.any() else np.zeros(3)
+        dark = side & (lum < 0.02) & (unit(pts - c) @ middle > np.cos(np.pi / 4))
+        if not dark.any():
+            return 1.0
+        out.append(np.linalg.norm(unit(pts[dark].mean(0) - c) - middle))
+    return float(max(out))
 
 
 def check(values: dict) -> dict:
     """``{"passed", "failures", "measures": [{name, value, low, high, unit, source, what, passed}]}``."""
     rows, failures = [], []
-    for name, (lo, hi, unit, src, what) in RANGES.items():
+    for name, (lo, hi, units, src, what) in RANGES.items():
         v = values.get(name, float("nan"))
         ok = bool(np.isfinite(v) and (lo is None or v >= lo) and (hi is None or v <= hi))
-        rows.append({"name": name, "value": round(v, 3), "low": lo, "high": hi, "unit": unit, "source": src,
+        rows.append({"name": name, "value": round(v, 3), "low": lo, "high": hi, "unit": units, "source": src,
                      "what": what, "passed": ok})
         if not ok:
-            failures.append(f"anatomy: {name} = {v:.3g} {unit} outside [{lo}, {hi}] ({what})".replace("  ", " "))
+            failures.append(f"anatomy: {name} = {v:.3g} {units} outside [{lo}, {hi}] ({what})".replace("  ", " "))
     return {"passed": not failures, "failures": failures, "measures": rows}
 
 

@@ -87,7 +87,7 @@ def scene_digest(scene) -> str:
     for p in scene.parts:
         d.add("part", {"name": p.name, "kind": p.material_kind, "srgb": bool(p.base_colour_srgb),
                        "base_colour": np.asarray(p.base_colour, np.float64).tolist(),
-                       "opacity_threshold": float(p.opacity_threshold)})
+                       "opacity_threshold": float(p.opacity_threshold), "double_sided": bool(p.double_sided)})
         for f in ("positions_m", "normals", "triangles", "st", "thickness_nm", "neck_s"):
             if getattr(p, f) is not None:
                 d.add(f"{p.name}.{f}", getattr(p, f))

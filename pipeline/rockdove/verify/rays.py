@@ -1,9 +1,10 @@
 """Primary rays of the CPU reference: one ray per pixel centre, first opaque hit through alpha-cut-out feathers.
 
 The rays are the GL renderer's pinhole camera's (OpenGL convention, vertical field of view ``yfov_rad``, square
-pixels), cast with trimesh's ray queries (Embree through embreex when installed). A feather hit where the base
-texture's alpha is below the part's ``opacity_threshold`` is skipped and the ray continues from just behind it (up
-to :data:`MAX_ALPHA_LAYERS` layers, vectorised over the rays still travelling). The :class:`Hits` depend on the
+pixels), cast with trimesh's ray queries (Embree through embreex when installed). A hit where the part's base
+texture has an alpha below the part's ``opacity_threshold`` (the neck's cards, the plumage cards) is skipped and
+the ray continues from just behind it (up to :data:`MAX_ALPHA_LAYERS` layers, vectorised over the rays still
+travelling). The :class:`Hits` depend on the
 geometry and the camera only (:func:`ray_digest`, :func:`camera_key`), so the build caches them across film changes;
 :mod:`rockdove.verify.reference_image` shades them.
 """
@@ -60,9 +61,11 @@ class SceneGeometry:
         self.thickness = np.concatenate([np.zeros(len(p.positions_m)) if p.thickness_nm is None
                                          else np.asarray(p.thickness_nm, np.float64) for p in parts])
         self.is_feather = np.array([p.is_feather for p in parts])
+        self.two_sided = np.array([p.is_feather or p.double_sided for p in parts])
         self.threshold = np.array([p.opacity_threshold for p in parts])
         self.base_tex = [read_texture(p.base_colour_texture, p.base_colour_srgb) if p.base_colour_texture else None
                          for p in parts]
+        self.cut_out = np.array([t is not None and t.shape[2] in (2, 4) for t in self.base_tex])  # alpha-tested
         self.mask_tex = [read_texture(p.mask_texture, False) if p.mask_texture else None for p in parts]
         self.base_const = [np.asarray(p.base_colour, np.float64) for p in parts]
         self.scale = float(np.linalg.norm(self.vertices.max(axis=0) - self.vertices.min(axis=0)))
@@ -107,7 +110,7 @@ def _first_opaque_hits(geom: SceneGeometry, origin, dirs, stats: dict):
         b = geom.barycentric(tri, loc)
         part = geom.part_of_face[tri]
         transparent = np.zeros(len(tri), bool)
-        for p in np.unique(part[geom.is_feather[part]]):
+        for p in np.unique(part[geom.cut_out[part]]):
             sel = part == p
             st = geom.interp(geom.st, tri[sel], b[sel])
             transparent[sel] = geom.alpha(p, st) < geom.threshold[p]
@@ -161,15 +164,15 @@ def camera_key(view) -> str:
 
 
 def ray_digest(scene) -> str:
-    """sha256 of what the ray casts read from a scene: every part's positions and triangles, which parts are
-    alpha-tested feathers, their ``st``, opacity thresholds and base-colour texture bytes (the alpha). Not the
-    film, the LUT, normals, masks or colours: a film change leaves it, and so the cached :class:`Hits`, as
-    they were."""
+    """sha256 of what the ray casts read from a scene: every part's positions and triangles, and of the textured
+    parts (which may be alpha-tested) their ``st``, opacity thresholds and base-colour texture bytes (the alpha).
+    Not the film, the LUT, normals, masks or colours: a film change leaves it, and so the cached :class:`Hits`,
+    as they were."""
     d = Digest()
     for p in scene.parts:
         d.add(p.name, [bool(p.is_feather), float(p.opacity_threshold)])
         d.add("points", np.asarray(p.positions_m, np.float64)).add("triangles", np.asarray(p.triangles, np.int64))
-        if p.is_feather:
+        if p.base_colour_texture:
             d.add("st", np.asarray(p.st, np.float64)).file("alpha", p.base_colour_texture)
     return d.hexdigest()
 

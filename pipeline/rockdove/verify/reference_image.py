@@ -152,7 +152,7 @@ class Surface:
     n_pixels: int  # width * height
     hit: np.ndarray  # int32 flat indices (row-major from the top-left) of the pixels hit
     part: np.ndarray  # int32 index in scene.parts of the part hit
-    normal: np.ndarray  # unit interpolated normal, flipped towards the viewer on two-sided feather cards
+    normal: np.ndarray  # unit interpolated normal, flipped towards the viewer on two-sided cards
     view_dir: np.ndarray  # unit direction to the camera, V
     base: np.ndarray  # linear base colour (texture sampled bilinearly, or the part's constant)
     mask: np.ndarray  # structural-colour mask (0 off the feathers)
@@ -181,7 +181,7 @@ def surface_digest(scene) -> str:
 
     d = Digest().add("rays", ray_digest(scene))
     for p in scene.parts:
-        d.add(p.name, [bool(p.base_colour_srgb), np.asarray(p.base_colour, np.float64).tolist()])
+        d.add(p.name, [bool(p.base_colour_srgb), bool(p.double_sided), np.asarray(p.base_colour, np.float64).tolist()])
         for f in ("normals", "st", "thickness_nm"):
             if getattr(p, f) is not None:
                 d.add(f, getattr(p, f))
@@ -217,9 +217,8 @@ def _surface(geometry, view, hits_cache: dict) -> Surface:
     V = -dirs
     N = geom.interp(geom.normals, f, b)
     N /= np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-30)
-    feather = geom.is_feather[part]
     back = np.einsum("ij,ij->i", N, V) < 0
-    N[feather & back] *= -1.0  # two-sided cards: the (interpolated) normal faces the viewer, as in the GLSL
+    N[geom.two_sided[part] & back] *= -1.0  # two-sided cards: the (interpolated) normal faces the viewer, as GLSL
     st = geom.interp(geom.st, f, b)
     base = np.empty((hit.size, 3))
     mask = np.zeros(hit.size)

@@ -112,6 +112,32 @@ class _Blob:
         return len(self.gltf.materials) - 1
 
 
+def _png_has_alpha(path) -> bool:
+    """Whether a file is a PNG with an alpha channel (IHDR colour type 4 or 6; not decoded: anything else, no)."""
+    with open(path, "rb") as fh:
+        head = fh.read(26)
+    return head[:8] == b"\x89PNG\r\n\x1a\n" and len(head) == 26 and head[25] in (4, 6)
+
+
+def _tangents(part) -> np.ndarray:
+    """(V, 4) float32 glTF tangents of a part with a normal map: per vertex the area-weighted direction of
+    increasing s over its triangles, made orthogonal to the normal; w the handedness (+1 when t increases along
+    normal x tangent)."""
+    p, n, st = (np.asarray(a, np.float64) for a in (part.positions_m, _unit(part.normals), part.st))
+    tri = np.asarray(part.triangles)
+    e1, e2 = p[tri[:, 1]] - p[tri[:, 0]], p[tri[:, 2]] - p[tri[:, 0]]
+    d1, d2 = st[tri[:, 1]] - st[tri[:, 0]], st[tri[:, 2]] - st[tri[:, 0]]
+    sign = np.sign(d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1])[:, None]  # area-weighted: no division by the det
+    t_face, b_face = sign * (e1 * d2[:, 1:] - e2 * d1[:, 1:]), sign * (e2 * d1[:, :1] - e1 * d2[:, :1])
+    t, b = np.zeros_like(p), np.zeros_like(p)
+    for k in range(3):
+        np.add.at(t, tri[:, k], t_face)
+        np.add.at(b, tri[:, k], b_face)
+    t = _unit(t - np.einsum("ij,ij->i", t, n)[:, None] * n)
+    w = np.where(np.einsum("ij,ij->i", np.cross(n, t), b) < 0, -1.0, 1.0)
+    return np.concatenate([t, w[:, None]], axis=1).astype(np.float32)
+
+
 def _unit(normals: np.ndarray) -> np.ndarray:
     n = np.asarray(normals, dtype=np.float64)
     length = np.linalg.norm(n, axis=1, keepdims=True)
@@ -156,6 +182,7 @@ def scene_to_glb(scene, version: str = "") -> bytes:
         Material,
         Mesh,
         Node,
+        NormalMaterialTexture,
         PbrMetallicRoughness,
         Primitive,
         Sampler,
@@ -187,7 +214,12 @@ def scene_to_glb(scene, version: str = "") -> bytes:
             pbr.baseColorTexture = TextureInfo(index=blob.texture(part.base_colour_texture))
         else:
             pbr.baseColorFactor = [float(c) for c in part.base_colour] + [1.0]
-        material = Material(name=f"{part.name}Material", pbrMetallicRoughness=pbr)
+        material = Material(name=f"{part.name}Material", pbrMetallicRoughness=pbr, doubleSided=part.double_sided)
+        if part.base_colour_texture and _png_has_alpha(part.base_colour_texture):  # cut out as the USD's threshold
+            material.alphaMode, material.alphaCutoff = "MASK", float(part.opacity_threshold)
+        if part.normal_texture:  # tangent space, as the USD's: OpenGL convention (+Y along t), as glTF's
+            material.normalTexture = NormalMaterialTexture(index=blob.texture(part.normal_texture))
+            attributes.TANGENT = blob.accessor(_tangents(part), "VEC4")
         variants = {}
         if part.is_feather:
             if part.thickness_nm is None:
