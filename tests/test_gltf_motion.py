@@ -102,3 +102,69 @@ def test_the_glb_poses_every_vertex_as_usdskel_poses_the_asset(small_asset, glb,
     if motion == "walk" and frame:
         rest = load_scene(small_asset)
         assert np.abs(rest.part("Body").positions_m - posed["Body"]).max() > 0.02  # it did move
+
+
+def _silhouette_x(rgb) -> float:
+    """Mean column of the pixels that are not background (0)."""
+    cols = np.nonzero(np.abs(rgb).sum(axis=2) > 0)[1]
+    return float(cols.mean())
+
+
+def test_the_viewer_rests_by_default_and_plays_pauses_and_switches_the_motion(small_asset, tmp_path):
+    """In headless Chromium: the page opens at rest; three.js's AnimationMixer poses the vertices as UsdSkel does
+    (0.1 mm); our LUT shader and three.js's own material draw the skinned mesh (the bird's silhouette moves across a
+    fixed side camera by the pelvis's projected travel); the motion switch starts the clock, pause stops it."""
+    import base64
+    import json
+    import time
+
+    from rockdove.render.scene import load_scene
+    from rockdove.render.views import View, look_at
+    from rockdove.web.browser import Browser
+    from rockdove.web.viewer import write_viewer
+
+    page_path = write_viewer(small_asset, small_asset / "pigeon.glb", tmp_path / "verify")
+    view = View("side", look_at((0.9, 0.1, 0.1), (0.0, 0.1, 0.1)), np.radians(30.0), 160, 120, (1, 1, 1), (1, 1, 1))
+    spec = json.dumps({"camera_to_world": view.camera_to_world.reshape(-1).tolist(), "yfov_rad": view.yfov_rad,
+                       "width": 160, "height": 120, "light_direction": [0.6, 0.6, 0.5], "light_rgb": [1, 1, 1]})
+    walk_s, walk_frame = 0.35, 21  # time code 21 of 60 per second
+
+    def shot(page, mode):
+        res = page.evaluate(f"window.rockdoveRender({spec}, '{mode}')", timeout_s=120)
+        return np.frombuffer(base64.b64decode(res["rgb_f32"]), np.float32).reshape(120, 160, 3)
+
+    with Browser() as browser:
+        page = browser.open(f"file://{page_path}", 480, 400, timeout_s=120)
+        page.evaluate("window.rockdoveReady", timeout_s=120, step="viewer ready")
+        default = page.evaluate("[document.getElementById('motion').value, document.getElementById('play').disabled]")
+        opened = {m: shot(page, m) for m in ("lut", "physical")}
+        rest = page.evaluate("window.rockdoveMotion('rest', 0)")
+        walked = page.evaluate(f"window.rockdoveMotion('walk', {walk_s})")
+        moved = {m: shot(page, m) for m in ("lut", "physical")}
+        page.evaluate("const s = document.getElementById('motion'); s.value = 'idle'; "
+                      "s.dispatchEvent(new Event('change'))")  # what a user's choice does: it plays
+        time.sleep(1.0)
+        t_play = float(page.evaluate("document.getElementById('motion-time').textContent").split()[0])
+        page.evaluate("document.getElementById('play').click()")  # pause
+        t_paused = float(page.evaluate("document.getElementById('motion-time').textContent").split()[0])
+        time.sleep(0.5)
+        t_still = float(page.evaluate("document.getElementById('motion-time').textContent").split()[0])
+        errors = page.errors
+    assert errors == [] and default == ["rest", True]
+    assert t_play > 0.1 and t_still == t_paused  # the switch started the clock; pause stopped it
+    rest_scene = load_scene(small_asset)
+    assert rest["vertices"].keys() == {p.name for p in rest_scene.parts}
+    for name, v in rest["vertices"].items():  # at rest the page draws the rest pose, as before the rig
+        np.testing.assert_allclose(v, rest_scene.part(name).positions_m[0], atol=1e-6)
+    posed = load_scene(small_asset, {"motion": "walk"}, walk_frame)
+    for name, v in walked["vertices"].items():  # three.js's skinning = UsdSkel's
+        np.testing.assert_allclose(v, posed.part(name).positions_m[0], atol=1e-4)
+    # the pelvis's travel, projected: the camera looks along -X, its image x axis is -Z
+    focal_px = 60.0 / np.tan(view.yfov_rad / 2)
+    travel_m = posed.part("Body").positions_m[:, 2].mean() - rest_scene.part("Body").positions_m[:, 2].mean()
+    expected_px = -travel_m * focal_px / 0.9
+    assert abs(expected_px) > 10
+    for mode in ("lut", "physical"):
+        shift = _silhouette_x(moved[mode]) - _silhouette_x(opened[mode])
+        print(f"{mode}: silhouette moved {shift:.1f} px, the pelvis's travel {expected_px:.1f} px")
+        assert abs(shift - expected_px) < 0.15 * abs(expected_px), (mode, shift, expected_px)
