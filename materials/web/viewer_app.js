@@ -261,6 +261,8 @@ window.rockdoveFrameTime = (benchMode, frames) => {
   draw();
   return ms;
 };
+// The film panel (film_panel.js) swaps the LUT and re-places the feathers' thickness through this.
+window.rockdoveViewer = { THREE, parts, draw, lutTexture };
 window.rockdoveSetLight = (deg) => { slider.value = String(deg); slider.dispatchEvent(new Event("input")); };
 
 export const ready = { parts: parts.length, feathers: parts.filter((p) => p.feather).length, webgl2: renderer.capabilities.isWebGL2 !== false };

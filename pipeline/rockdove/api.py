@@ -205,6 +205,20 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
 
 
 # ----------------------------------------------------------------------------------------------- verify
+def _write_viewer(root: str, out, progress) -> None:
+    """``viewer.html`` beside the report when the asset has its glb, as a build's (skipped, said, without three.js)."""
+    from .errors import ResourceMissing
+    from .web.gltf import GLB_NAME
+    from .web.viewer import write_viewer
+
+    try:
+        if (Path(root).parent / GLB_NAME).is_file():
+            write_viewer(root, Path(root).parent / GLB_NAME, out)
+    except ResourceMissing as exc:
+        if progress is not None:
+            progress(f"no interactive viewer in the report: {exc}")
+
+
 def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cache: str | os.PathLike | None = None,
            out: str | os.PathLike | None = None, width: int | None = None, height: int | None = None,
            views: Iterable[str] | None = None, n_views: int | None = None, bench_dir: str | os.PathLike | None = None,
@@ -224,6 +238,7 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
 
     root = require_inside(asset, allow_external)  # nothing from elsewhere is read, nothing of the user's overwritten
     out = claim_output(out or default_out_dir(root), "verification report")
+    _write_viewer(root, out, progress)
     report = verification.verify(os.fspath(root), None if hosts is None else list(hosts), cache=cache, out_dir=out,
                                  width=width, height=height, n_views=n_views,
                                  views=None if views is None else list(views), bench_dir=bench_dir,

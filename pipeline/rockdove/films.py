@@ -15,7 +15,7 @@ of the rock dove): constant n = 1.5, air on both sides.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -121,6 +121,13 @@ FILMS: dict[str, FilmModel] = {
     "paper": FilmModel("paper", cauchy_a=PAPER_FILM_INDEX),
     "keratin": FilmModel("keratin", cauchy_a=KERATIN_CAUCHY_A, cauchy_b_nm2=KERATIN_CAUCHY_B_NM2),
 }
+
+
+def film_from_config(film_cfg: dict) -> FilmModel:
+    """The :class:`FilmModel` of a build configuration's ``[film]`` section (unset coefficients: the model's)."""
+    changes = {k: film_cfg[k] for k in ("cauchy_a", "cauchy_b_nm2", "k", "n_incident", "n_substrate")
+               if film_cfg.get(k) is not None}
+    return replace(get_film(film_cfg["model"]), **changes)
 
 
 def as_film(film) -> FilmModel:

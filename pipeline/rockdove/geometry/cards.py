@@ -46,6 +46,12 @@ FEATHER_DISPLAY_COLOR = (0.05, 0.07, 0.07)
 
 #: Independent random streams, so that changing one parameter does not move unrelated things.
 STREAM_PLACEMENT, STREAM_JITTER, STREAM_THICKNESS = 1, 2, 3
+#: The primvar of the thickness field before the ranges place it: a viewer re-places the thickness for other ranges
+#: exactly as a build with them would (rockdove.geometry.thickness.place_thickness_nm).
+THICKNESS_FIELD = "thicknessField"
+THICKNESS_FIELD_DOC = ("the card's film thickness before the ranges place it: (neck height h in [0, 1], smooth field in "
+                       "half-widths of the range at h, jitter nm); thickness = clip(mid(h) + halfwidth(h) field + "
+                       "jitter, lo(h), hi(h))")
 
 
 def stream(seed: int, which: int) -> np.random.Generator:
@@ -59,7 +65,8 @@ class FeatherCards:
     float32 unit, facing away from the skin, ``st`` float32 (u across the card, v from root 0 to tip 1), ``quads``
     (N K, 4) int32 counter-clockwise seen from outside; per card: ``root_skin_m`` (N, 3) the skin point it grows
     from, ``skin_normal`` (N, 3) the outward normal there, ``neck_s`` (N,) float32 its neck coordinate and
-    ``thickness_nm`` (N,) float32 its film thickness."""
+    ``thickness_nm`` (N,) float32 its film thickness and ``thickness_field`` (N, 3) float32 what placed it
+    (:func:`rockdove.geometry.thickness.thickness_field`)."""
 
     points_m: np.ndarray
     normals: np.ndarray
@@ -69,6 +76,7 @@ class FeatherCards:
     skin_normal: np.ndarray
     neck_s: np.ndarray
     thickness_nm: np.ndarray
+    thickness_field: np.ndarray
 
     @property
     def count(self) -> int:
@@ -96,6 +104,7 @@ class FeatherCards:
                                      "film thickness, nm (constant over each card)"),
                 "neckS": Primvar(np.repeat(self.neck_s, per).astype(np.float32), "vertex",
                                  "neck coordinate of the card's root: 0 at the neck base, 1 at its top"),
+                THICKNESS_FIELD: Primvar(np.repeat(self.thickness_field, per, axis=0), "vertex", THICKNESS_FIELD_DOC),
             },
         )
 
@@ -192,7 +201,8 @@ def build_cards(body, params) -> FeatherCards:
 
     s, _ = _neck.neck_s(roots)
     s = np.clip(s, 0.0, 1.0)
-    thickness = _thickness.card_thickness_nm(roots, params, stream(params.seed, STREAM_THICKNESS))
+    field = _thickness.thickness_field(roots, params, stream(params.seed, STREAM_THICKNESS))
+    thickness = _thickness.place_thickness_nm(field, params.thickness_base_nm, params.thickness_top_nm)
     return FeatherCards(
         points_m=pts.reshape(-1, 3).astype(np.float32),
         normals=normals.reshape(-1, 3).astype(np.float32),
@@ -201,5 +211,6 @@ def build_cards(body, params) -> FeatherCards:
         root_skin_m=roots,
         skin_normal=n,
         neck_s=s.astype(np.float32),
-        thickness_nm=thickness,
+        thickness_nm=thickness.astype(np.float32),
+        thickness_field=field.astype(np.float32),
     )

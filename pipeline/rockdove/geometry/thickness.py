@@ -71,17 +71,20 @@ def smooth_field(points_m: np.ndarray, correlation_length_m: float, rng: np.rand
     return out * np.sqrt(2.0 / FIELD_FEATURES)
 
 
-def card_thickness_nm(roots_m: np.ndarray, params, rng: np.random.Generator) -> np.ndarray:
-    """(N,) float32 film thickness, nm, of the cards rooted at ``roots_m`` (N, 3) on the skin: the gradient with
-    height, the smooth field and the jitter of the :class:`BirdParams` ``params``, within range (module
-    docstring); ``rng`` draws the field, then the jitter."""
+def thickness_field(roots_m: np.ndarray, params, rng: np.random.Generator) -> np.ndarray:
+    """(N, 3) float64 per card rooted at ``roots_m``: its neck height h, the smooth field in half-widths of the
+    range (``spread f(p)``) and its jitter, nm: the thickness before the ranges place it (:func:`place_thickness_nm`);
+    ``rng`` draws the field, then the jitter."""
     s = neck_height(roots_m)
-    spread = params.thickness_spread
-    lo, hi = thickness_bounds_nm(s, params.thickness_base_nm, params.thickness_top_nm)
-    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    d = mid.copy()
-    if spread > 0:
-        d += spread * half * smooth_field(roots_m, params.thickness_correlation_length_m, rng)
-    d += params.thickness_jitter_nm * rng.standard_normal(len(s))
-    return np.clip(d, lo, hi).astype(np.float32)
+    z = np.zeros(len(s))
+    if params.thickness_spread > 0:
+        z = params.thickness_spread * smooth_field(roots_m, params.thickness_correlation_length_m, rng)
+    return np.stack([s, z, params.thickness_jitter_nm * rng.standard_normal(len(s))], axis=1)
+
+
+def place_thickness_nm(field: np.ndarray, base_nm, top_nm) -> np.ndarray:
+    """(N,) float64 thickness, nm, of cards with :func:`thickness_field` ``field`` for the ranges ``base_nm`` and
+    ``top_nm``: ``clip(m(h) + w(h) z + jitter, lo(h), hi(h))`` (module docstring)."""
+    lo, hi = thickness_bounds_nm(field[:, 0], base_nm, top_nm)
+    return np.clip(0.5 * (lo + hi) + 0.5 * (hi - lo) * field[:, 1] + field[:, 2], lo, hi)
 

@@ -138,13 +138,10 @@ IMAGES = Codec("images", _images_save, _images_load, shared=True)  # a read-only
 
 # ----------------------------------------------------------------------------------------------- stages
 def film_from_config(film_cfg: dict):
-    """The :class:`rockdove.films.FilmModel` of a ``[film]`` section (unset coefficients: the model's)."""
-    from ..films import get_film
+    """:func:`rockdove.films.film_from_config` (imported when called: rockdove.films imports numpy)."""
+    from ..films import film_from_config as film
 
-    base = get_film(film_cfg["model"])
-    changes = {k: film_cfg[k] for k in ("cauchy_a", "cauchy_b_nm2", "k", "n_incident", "n_substrate")
-               if film_cfg.get(k) is not None}
-    return dataclasses.replace(base, **changes)
+    return film(film_cfg)
 
 
 def bird_params(config: dict):
@@ -248,6 +245,11 @@ def run_usd_rig(ctx: Context):
     write_rig(str(ctx.workdir), ctx.inputs["bird"])
 
 
+#: The configuration sections the looks layer records (:data:`rockdove.usd.stage.BUILD_CONFIG_KEY`): what shapes the
+#: neck's thickness and the LUT, so the viewer prints a build command of the film it shows with the rest as built.
+BUILD_CONFIG_SECTIONS = ("film", "thickness", "geometry", "lut")
+
+
 def run_usd_layers(ctx: Context):
     """Every other layer (interface, payload, looks), authored over the cached geometry layer."""
     from ..usd.material import lut_info
@@ -256,7 +258,7 @@ def run_usd_layers(ctx: Context):
     lut = lut_info(ctx.inputs["lut"]) if "lut" in ctx.inputs else None
     write_looks(str(ctx.workdir), ctx.inputs["bird"], film_from_config(ctx.config["film"]), lut,
                 version=__version__, geometry=str(ctx.inputs["usd_geometry"] / GEOMETRY_LAYER),
-                shading=ctx.config["shading"]["variant"])
+                shading=ctx.config["shading"]["variant"], config={k: ctx.config[k] for k in BUILD_CONFIG_SECTIONS})
 
 
 def run_usdz(ctx: Context):
@@ -351,7 +353,7 @@ def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
                         publish=""))
     stages.append(Stage("usd_geometry", run_usd_geometry, deps=("bird",), data=schema, codec=FILES, publish=""))
     stages.append(Stage("usd_rig", run_usd_rig, deps=("bird",), data=schema, codec=FILES, publish=""))
-    stages.append(Stage("usd_layers", run_usd_layers, config=("film", "shading"),
+    stages.append(Stage("usd_layers", run_usd_layers, config=("shading", *BUILD_CONFIG_SECTIONS),
                         deps=("bird", "lut", "usd_geometry") if baked else ("bird", "usd_geometry"),
                         data=("materials", *schema), codec=FILES, publish=""))
     if config["usd"]["usdz"]:

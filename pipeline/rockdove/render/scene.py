@@ -41,6 +41,7 @@ class ScenePart:
     st: np.ndarray  # (V, 2) texture coordinates (t = 0 at the image's bottom); zeros when not authored
     thickness_nm: np.ndarray | None = None  # (V,) film thickness, nm (feathers only)
     neck_s: np.ndarray | None = None  # (V,) primvars:neckS in [0, 1]
+    thickness_field: np.ndarray | None = None  # (V, 3) primvars:thicknessField (rockdove.geometry.cards)
     preview_st: np.ndarray | None = None  # (V, 2) primvars:previewST (into the UsdPreviewSurface atlas)
     base_colour_texture: str | None = None  # absolute path, RGB or RGBA (A: the feather silhouette)
     base_colour_srgb: bool = True  # sourceColorSpace not raw
@@ -124,7 +125,8 @@ def _read_mesh(prim, xcache, meters_per_unit, stage, posed=None):
     film = read_film(prim)
     pvapi = UsdGeom.PrimvarsAPI(prim)
     attrs = {}  # name -> (values, interpolation)
-    want = {"st": "st", "neck_s": "neckS", "preview_st": "previewST", "normals": "normals"}
+    want = {"st": "st", "neck_s": "neckS", "preview_st": "previewST", "normals": "normals",
+            "thickness_field": "thicknessField"}
     if film is not None:
         want["thickness"] = film.thickness_primvar
     for key, pv_name in want.items():
@@ -165,7 +167,8 @@ def _read_mesh(prim, xcache, meters_per_unit, stage, posed=None):
         nrm = vertex_normals(world, tris)
     n_v = len(world)
     arr = {k: np.asarray(out[k], np.float32).reshape(n_v, *shape) if k in out else None
-           for k, shape in (("st", (2,)), ("thickness", ()), ("neck_s", ()), ("preview_st", (2,)))}
+           for k, shape in (("st", (2,)), ("thickness", ()), ("neck_s", ()), ("preview_st", (2,)),
+                            ("thickness_field", (3,)))}
 
     kind, base_tex, srgb, mask_tex, colour_const, threshold = material_info(prim, stage)
     if film is not None:
@@ -181,6 +184,7 @@ def _read_mesh(prim, xcache, meters_per_unit, stage, posed=None):
         normals=np.ascontiguousarray(nrm), triangles=np.ascontiguousarray(tris, dtype=np.int32),
         st=np.ascontiguousarray(arr["st"]) if arr["st"] is not None else np.zeros((n_v, 2), np.float32),
         thickness_nm=arr["thickness"], neck_s=arr["neck_s"], preview_st=arr["preview_st"],
+        thickness_field=arr["thickness_field"],
         base_colour_texture=base_tex, base_colour_srgb=srgb, mask_texture=mask_tex,
         base_colour=np.asarray(colour_const, np.float32), opacity_threshold=threshold)
     return part, film

@@ -23,6 +23,7 @@ through ``Sdf.Layer.Export``: no timestamps, so the same inputs give byte-identi
 
 from __future__ import annotations
 
+import json
 import os
 
 import numpy as np
@@ -45,6 +46,8 @@ INTERFACE_LAYER = "pigeon.usda"
 PAYLOAD_LAYER = "pigeon_payload.usda"
 LOOKS_LAYER = "pigeon_looks.usda"
 GEOMETRY_LAYER = "pigeon_geom.usdc"
+#: The looks layer's customLayerData key of the build configuration (JSON; :func:`write_looks`).
+BUILD_CONFIG_KEY = "rockdove:buildConfig"
 SHADING_VARIANT_SET = "shading"
 SHADING_VARIANTS = ("baked", "physical")
 DEFAULT_SHADING = "baked"
@@ -260,10 +263,12 @@ def write_rig(out_dir: str, bird) -> str:
 
 
 def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geometry: str,
-                shading: str | None = None) -> dict:
+                shading: str | None = None, config: dict | None = None) -> dict:
     """Every layer but the geometry into ``out_dir``: interface, payload and looks (:func:`author_looks` over the
     ``geometry`` layer of :func:`write_geometry`, read, not changed), and a layer per motion that plays it
     (:func:`rockdove.usd.skel.motion_layer`); ``{"interface", "payload", "looks", "idle", "walk"}`` paths.
+    ``config``: the build configuration's sections that shape the asset, recorded as JSON in the looks layer's
+    ``customLayerData`` (:data:`BUILD_CONFIG_KEY`; the layer a film change rewrites), for the viewer.
 
     ``shading``: ``"both"``, ``"baked"`` (both need ``lut``) or ``"physical"``; default ``"both"`` with a LUT,
     ``"physical"`` without.
@@ -282,6 +287,8 @@ def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geo
     composed.GetRootLayer().subLayerPaths = [looks.GetRootLayer().identifier, geometry_layer.identifier]
     composed.SetEditTarget(Usd.EditTarget(looks.GetRootLayer()))
     author_looks(composed, bird, film, lut, variants=variants)
+    if config is not None:
+        looks.GetRootLayer().customLayerData = {BUILD_CONFIG_KEY: json.dumps(config, sort_keys=True)}
     payload = Sdf.Layer.CreateAnonymous(".usda")  # a bare layer: no stage to recompose its relative sublayers
     payload.defaultPrim = ROOT.lstrip("/")
     for key, value in (("upAxis", "Y"), ("metersPerUnit", 1.0)):  # as new_stage, for tools opening it alone

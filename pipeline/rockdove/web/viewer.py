@@ -30,6 +30,10 @@ THREE_MODULES = {
 }
 #: The light-view angle (degrees) of the viewer's start light: the green side of the paper's flip.
 START_LIGHT_VIEW_DEG = 60.0
+#: The page's Fourier table: rockdove.lut.fourier's G every G_STEP_NM nm (4-point Lagrange there: relative error
+#: (2 pi h / 360 nm)^4 3 / 128 < 1e-6) up to G_END_NM (where |G| < 6e-5 of the white), and its Chebyshev rules up to
+#: LADDER_END nodes (a column needing more is integrated on the reference's 0.1 nm grid, as costly).
+G_STEP_NM, G_END_NM, LADDER_END = 4.0, 131072.0, 1536
 
 
 def web_folder() -> Path:
@@ -64,6 +68,97 @@ def start_view(scene):
                              yfov_deg=float(np.degrees(sweep.yfov_rad)), camera_direction=(eye - neck) / dist)[0]
 
 
+def _b64(array, dtype: str) -> str:
+    return base64.b64encode(np.ascontiguousarray(array, dtype=dtype).tobytes()).decode("ascii")
+
+
+def film_tables() -> dict:
+    """The tables film_bake.js integrates with, rockdove.lut's own (D65, CIE 1931 2 deg, lin_rec709): the 0.1 nm
+    reference weights, G (:data:`G_STEP_NM`), the Chebyshev weights of the quadrature's node ladder, and the
+    bakers' constants."""
+    from ..lut import fourier as F, quadrature as Q
+    from ..lut.bake import DEFAULT_FOURIER_TOL, DEFAULT_MAX_TERMS
+    from ..lut.weights import chebyshev_weights, colour_weights, reference_wavelengths
+    from ..spectral import WAVELENGTH_RANGE_NM
+
+    g = F.g_table()
+    ladder = [n for n in Q.NODE_LADDER if n <= LADDER_END]
+    rules = [chebyshev_weights(n) for n in ladder]
+    return {"wavelength_range_nm": list(WAVELENGTH_RANGE_NM),
+            "reference_weights": _b64(colour_weights(reference_wavelengths()), "<f8"),
+            "g_step_nm": G_STEP_NM, "g": _b64(g.g[: int(G_END_NM / g.step_nm) + 1 : int(G_STEP_NM / g.step_nm)], "<f4"),
+            "ladder": ladder, "ladder_wavelength_nm": _b64(np.concatenate([r[0] for r in rules]), "<f8"),
+            "ladder_weights": _b64(np.concatenate([r[1] for r in rules]), "<f4"),
+            # a tenth of rockdove.lut.bake's Fourier tolerance: it sums each block of columns to its largest term
+            # count, the page each column to its own
+            "constants": {"FOURIER_TOL": DEFAULT_FOURIER_TOL / 10, "MAX_TERMS": DEFAULT_MAX_TERMS, "K_FULL": Q.K_FULL,
+                          "K_SERIES": Q.K_SERIES, "N_MIN": Q.N_MIN, "SERIES_COST": Q.SERIES_COST,
+                          "MAX_NODES": Q.MAX_NODES, "SERIES_TOL": Q.DEFAULT_SERIES_TOL,
+                          "ANGLE_PANEL_COS": Q.ANGLE_PANEL_COS, "K_ANGLE": Q.K_ANGLE, "N_ANGLE_MIN": Q.N_ANGLE_MIN}}
+
+
+#: The keys of the film panel and of ``window.rockdove.film()``: configuration key -> its section.
+FILM_KEYS = {**dict.fromkeys(("cauchy_a", "cauchy_b_nm2", "k", "n_incident", "n_substrate"), "film"),
+             "base_nm": "thickness", "top_nm": "thickness"}
+
+
+def _toml(value) -> str:
+    """``value`` as the TOML literal of a ``--set KEY=VALUE``."""
+    if isinstance(value, list):
+        return "[" + ", ".join(map(_toml, value)) + "]"
+    return ("true" if value else "false") if isinstance(value, bool) else json.dumps(value)
+
+
+def _film_of(config: dict) -> dict:
+    from ..films import film_from_config
+
+    film = film_from_config(config["film"])
+    return {k: float(getattr(film, k)) if s == "film" else config[s][k] for k, s in FILM_KEYS.items()}
+
+
+def film_panel_data(scene, lut) -> dict:
+    """What the film panel (film_panel.js) starts from: the asset's film and thickness ranges (the build
+    configuration its looks layer records, if any), the presets, each key's schema range and unit, the LUT's grid,
+    each feather vertex's thickness field (the glb's vertex order) and the ``--set`` pairs beyond the film that
+    rebuild the asset as built."""
+    from pxr import Sdf
+
+    from ..config import get, limits, load_config, load_schema, presets
+    from ..errors import UsageError
+    from ..usd.stage import BUILD_CONFIG_KEY, LOOKS_LAYER
+
+    recorded, looks = None, Sdf.Layer.FindOrOpen(os.path.join(os.path.dirname(scene.root_layer), LOOKS_LAYER))
+    try:
+        flat = json.loads(looks.customLayerData.get(BUILD_CONFIG_KEY, "null") if looks else "null")
+        if isinstance(flat, dict):
+            flat = {f"{s}.{k}": v for s, section in flat.items() for k, v in dict(section).items()}
+            recorded = (load_config(overrides=flat), flat)
+    except (ValueError, TypeError, UsageError):  # not JSON, not sections, or not a valid configuration: unknown
+        recorded = None
+    default = load_config()
+    feather = [p for p in scene.parts if p.is_feather]
+    field = feather[0].thickness_field if len(feather) == 1 else None
+    sets = []
+    if recorded is not None and field is not None:
+        asset = _film_of(recorded[0])
+        sets = [[k, _toml(v)] for k, v in sorted(recorded[1].items()) if not k.startswith("film.")
+                and k not in ("thickness.base_nm", "thickness.top_nm") and v is not None and v != get(default, k)]
+    else:  # the film the USD records (float attributes: their shortest decimals); the ranges unknown
+        model = scene.film.model
+        asset = {k: float(str(np.float32(np.real(getattr(model, k))))) if s == "film" else None
+                 for k, s in FILM_KEYS.items()}
+    schema = load_schema()["properties"]
+    # a uniform film's LUT is one row: a range then takes the configured (else default) count of rows
+    thicknesses = (recorded or (default,))[0]["lut"]["thicknesses"] if lut.n_thickness == 1 else lut.n_thickness
+    return {"tables": film_tables(), "asset": asset,
+            "presets": {name: _film_of(load_config(preset=name)) for name in presets()},
+            "limits": {k: list(limits(f"{s}.{k}")) for k, s in FILM_KEYS.items()},
+            "units": {k: schema[s]["properties"][k]["unit"] for k, s in FILM_KEYS.items()},
+            "lut": {"angles": lut.n_angle, "thicknesses": thicknesses, "angle_warp_gamma": lut.angle_warp_gamma,
+                    "colour_space": lut.colour_space},
+            "field": None if asset["base_nm"] is None else _b64(field, "<f4"), "sets": sets}
+
+
 def viewer_data(scene, lut, glb_bytes: bytes, asset_name: str) -> dict:
     """What ``viewer_data.js`` holds (JSON-serialisable)."""
     from .gltf import THICKNESS_RAMP_TEXELS
@@ -84,6 +179,7 @@ def viewer_data(scene, lut, glb_bytes: bytes, asset_name: str) -> dict:
         "camera": {"eye_m": view.camera_to_world[:3, 3].tolist(), "target_m": [float(v) for v in scene.neck_centre_m],
                    "yfov_deg": float(np.degrees(view.yfov_rad))},
         "light": {"direction": view.light_direction.tolist()},
+        "film": film_panel_data(scene, lut),
     }
 
 
@@ -111,7 +207,8 @@ def write_viewer(asset, glb_path, out_dir, asset_name: str | None = None) -> str
         (out / "three" / name).write_text(f"(window.ROCKDOVE_MODULES = window.ROCKDOVE_MODULES || {{}})"
                                           f"[{json.dumps(name)}] = {source};\n")
     tags = "\n".join(f'<script src="three/{name}"></script>' for name in modules)
-    shutil.copyfile(web / "viewer_loader.js", out / "viewer_loader.js")
+    for name in ("viewer_loader.js", "film_bake.js", "film_panel.js"):
+        shutil.copyfile(web / name, out / name)
     page = (web / "viewer.html").read_text(encoding="utf-8")
     (out / "viewer.html").write_text(page.replace("<!--MODULE_SCRIPTS-->", tags))
     return str(out / "viewer.html")
