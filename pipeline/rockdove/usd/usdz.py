@@ -12,8 +12,9 @@ that all carry one fixed time, ``SOURCE_DATE_EPOCH`` when set (the reproducible-
 ``UsdUtils.CreateNewARKitUsdzPackage`` makes one: one flattened ``.usdc`` layer first, then its textures, and only
 UsdPreviewSurface networks (OpenUSD's ARKit compliance checker, v23.11, allows no MaterialX ``ND_*`` shader).
 Flattening bakes the ``shading`` selection and the ``motion`` one (:data:`AR_MOTION`, which Quick Look plays on
-open), so the package gives up the variant sets (and the MaterialX networks and the other motions they switch), the LUT (an EXR no AR viewer reads: the film's other records stay) and the payload split. The feathers
-show the preview atlas ``feather_preview.png`` through ``previewST``, as every UsdPreviewSurface viewer does.
+open), so the package gives up the variant sets (and the MaterialX networks and the other motions they switch),
+the LUT (an EXR no AR viewer reads: the film's other records stay) and the payload split. The feathers show the
+preview atlas ``feather_preview.png`` through ``previewST``, as every UsdPreviewSurface viewer does.
 """
 
 from __future__ import annotations
@@ -76,8 +77,11 @@ def ar_layer(root: str, motion: str | None = AR_MOTION):
     from pxr import Usd
 
     stage = Usd.Stage.Open(root, Usd.Stage.LoadAll)
-    motions = stage.GetDefaultPrim().GetVariantSet("motion") if stage.GetDefaultPrim() else None
-    if motion is not None and motions and motion in motions.GetVariantNames():
+    prim = stage.GetDefaultPrim()
+    if motion is not None and prim and prim.GetVariantSets().HasVariantSet("motion"):  # an asset without a rig: none
+        motions = prim.GetVariantSet("motion")
+        if motion not in motions.GetVariantNames():
+            raise UsageError(f"motion={motion!r}; {root} has the motions {list(motions.GetVariantNames())}")
         with Usd.EditContext(stage, stage.GetSessionLayer()):
             motions.SetVariantSelection(motion)
     layer = stage.Flatten(addSourceFileComment=False)
@@ -107,14 +111,15 @@ def ar_layer(root: str, motion: str | None = AR_MOTION):
     return layer
 
 
-def write_ar_usdz(out_dir: str, root_layer: str = "pigeon.usda") -> str:
-    """``out_dir/pigeon_ar.usdz``: :func:`ar_layer` of ``out_dir/root_layer`` as ``pigeon_ar.usdc``, packaged by
-    ``UsdUtils.CreateNewARKitUsdzPackage`` with its textures (fixed file times); returns its path."""
+def write_ar_usdz(out_dir: str, root_layer: str = "pigeon.usda", motion: str | None = AR_MOTION) -> str:
+    """``out_dir/pigeon_ar.usdz``: :func:`ar_layer` of ``out_dir/root_layer`` (playing ``motion``) as
+    ``pigeon_ar.usdc``, packaged by ``UsdUtils.CreateNewARKitUsdzPackage`` with its textures (fixed file times);
+    returns its path."""
     from pxr import Sdf, UsdUtils
 
     out_dir, root = _root(out_dir, root_layer)
     with tempfile.TemporaryDirectory(prefix=".usdz-", dir=out_dir) as scratch:
-        layer = ar_layer(root)
+        layer = ar_layer(root, motion)
         used = []
 
         def localise(path: str) -> str:  # Flatten anchors asset paths: copy what lies in the asset into scratch
