@@ -223,10 +223,12 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
            out: str | os.PathLike | None = None, width: int | None = None, height: int | None = None,
            views: Iterable[str] | None = None, n_views: int | None = None, bench_dir: str | os.PathLike | None = None,
            allow_external: bool = False, progress: Callable[[str], None] | None = None,
-           beauty: dict | None = None) -> Verification:
+           beauty: dict | None = None, motion: str | None = None,
+           times: Iterable[float] | None = None) -> Verification:
     """Validate an asset (its folder or root layer) and check it in the GLSL shaders and every host in ``hosts``:
     the build's own verification with its cache (:func:`rockdove.graph.verification.verify`, whose arguments these
-    are). ``out``: the report folder; ``allow_external``: let the asset's layers name files outside its folder.
+    are). ``out``: the report folder; ``allow_external``: let the asset's layers name files outside its folder;
+    ``motion``, ``times``: also check that motion (its measures, and the film at those time codes).
 
     Returns :class:`Verification` (a failed check: ``passed`` False). Raises :class:`UsageError` for bad usage
     and :class:`VerificationFailed`, before rendering, when the asset's layers do not parse or name files outside it.
@@ -242,5 +244,6 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
     report = verification.verify(os.fspath(root), None if hosts is None else list(hosts), cache=cache, out_dir=out,
                                  width=width, height=height, n_views=n_views,
                                  views=None if views is None else list(views), bench_dir=bench_dir,
-                                 progress=progress, beauty=beauty)
+                                 progress=progress, beauty=beauty, motion=motion,
+                                 times=None if times is None else list(times))
     return Verification.from_report(report)

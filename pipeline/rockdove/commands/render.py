@@ -25,6 +25,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(anti-aliasing; default 2, 1 = the raw pixel-centre render)")
     parser.add_argument("--shading", default=None, metavar="VARIANT",
                         help="the shading variant to select (baked or physical; default: as authored)")
+    parser.add_argument("--motion", default=None, metavar="NAME",
+                        help="pose the bird in this motion (walk or idle; default: the rest pose), skinned by UsdSkel")
+    parser.add_argument("--time", type=float, default=None, metavar="T",
+                        help="the --motion's time code to render (default its first; 60 a second)")
     parser.add_argument("--angle", default="physical", choices=("physical", "materialx_baked"),
                         help="film angle: physical = dot(L, H) (the paper), materialx_baked = |dot(N, V)|")
     from .validate import add_external_argument
@@ -56,7 +60,8 @@ def run(args: argparse.Namespace) -> int:
     from ..srgb import linear_to_srgb8
 
     t0 = time.perf_counter()
-    scene = load_scene(args.asset, variants={"shading": args.shading} if args.shading else None)
+    variants = {k: v for k, v in (("shading", args.shading), ("motion", args.motion)) if v}
+    scene = load_scene(args.asset, variants=variants or None, time=args.time)
     t_load = time.perf_counter() - t0
     views = default_views(scene, args.width, args.height, n=args.views)
     k = args.supersample

@@ -71,6 +71,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--junit", metavar="FILE", default=None,
                         help="also write the verification as JUnit XML (a test case per validator, view and host "
                              "view) for CI test-result pages")
+    parser.add_argument("--motion", default=None, metavar="NAME",
+                        help="also check a motion of the asset (walk or idle): its measures at every time code "
+                             "(cards rigid, on the skin, the head, the feet, the head's hold and thrust) and the film "
+                             "at --time codes, each frame skinned by UsdSkel")
+    parser.add_argument("--time", dest="times", type=float, action="append", default=None, metavar="T",
+                        help="a time code of --motion to check the film at (repeatable; default 15, 21 and 26: "
+                             "one step of the walk)")
     parser.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     from .validate import add_external_argument
 
@@ -89,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
     result = api.verify(args.asset, hosts, cache=args.cache, out=args.out, width=args.width, height=args.height,
                         views=args.names, n_views=args.views, bench_dir=args.bench_dir,
-                        allow_external=args.allow_external_assets,
+                        allow_external=args.allow_external_assets, motion=args.motion, times=args.times,
                         progress=progress, beauty={"renderer": args.beauty, "width": args.beauty_size[0],
                                                    "height": args.beauty_size[1], "samples": args.beauty_samples})
     report = result.report
@@ -122,6 +129,10 @@ def run(args: argparse.Namespace) -> int:
                 print(f"host {h['name']} ({h['variant']}, {h['lobe']}): {h['n_pixels']} px  dE2000 median "
                       f"{h['median_dE']:.3f}  p95 {h['p95_dE']:.3f}  green {h['green_px']}  purple {h['purple_px']}  "
                       f"hue agreement {h['hue_agreement']:.1%}  {'ok' if h['passed'] else 'FAIL'}")
+        if report.get("motion"):
+            mo = report["motion"]
+            print(f"motion {mo['motion']} ({mo['frames']} time codes):", ", ".join(
+                f"{k} {v:.4g}" for k, v in mo["measures"].items()))
         from ..verify.anatomy import format_rows
 
         print("anatomy (rockdove.verify.anatomy):", *format_rows(report["anatomy"]), sep="\n")

@@ -160,6 +160,31 @@ def _files(files: dict) -> set:
     return {name for per_view in files.values() for name in per_view.values()}
 
 
+def _motion(cache, layer, lut, motion, times, width, height, out, say, results, ran, reused) -> dict:
+    """The motion's measures, and its frames checked as views (added to ``results``, their items to ``ran`` /
+    ``reused``): the report's ``motion`` entry."""
+    from ..render.scene import load_scene
+    from ..verify.inputs import scene_digest
+    from ..verify.motion import frame_views, measure_motion
+
+    say(f"motion {motion}: measured at every time code")
+    entry = measure_motion(layer, motion)
+    entry["times"], entry["views"] = list(times), []
+    for t in times:
+        say(f"motion {motion}: the film at time code {t:g}")
+        scene = load_scene(layer, {"motion": motion}, t)
+        views = frame_views(scene, width, height, f"{motion}{t:03.0f}")
+        did, kept = {}, {}
+        surfaces = _surfaces(cache, scene, views, did, kept)
+        frame, _ = _views(cache, scene, lut, views, scene_digest(scene), surfaces, False, out, say, did, kept)
+        results.update(frame)
+        entry["views"] += list(frame)
+        for into, items in ((ran, did), (reused, kept)):
+            for kind, names in items.items():
+                into[kind] = list(into.get(kind, [])) + list(names)
+    return entry
+
+
 def default_cache(asset) -> str:
     """A verification's cache when none is given: the build's (``.rockdove-cache`` beside the asset folder) when
     there is one, else the user cache's ``verify/`` (:func:`rockdove.resources.user_cache_dir`)."""
@@ -170,7 +195,8 @@ def default_cache(asset) -> str:
 
 
 def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, height=None, n_views=None,
-           views=None, bench_dir=None, progress=None, beauty=None, published_asset=None) -> dict:
+           views=None, bench_dir=None, progress=None, beauty=None, published_asset=None, motion=None,
+           times=None) -> dict:
     """Validate, render and check the asset of root layer ``asset``; write the report into ``out_dir`` (default
     ``verify/`` beside it); return the content of report.json (``cache``: the items that ran and were reused).
 
@@ -179,7 +205,10 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     :func:`default_cache`). ``width``, ``height``, ``n_views``: default the schema's ``[verify]``; ``views``: only
     these (a subset without a light-sweep view cannot run the hue check). ``beauty``: ``[beauty]`` settings of the
     report's opening picture (``auto`` takes Cycles only when ``hosts`` names blender); ``published_asset``: the
-    root layer's path once published, which the report names.
+    root layer's path once published, which the report names. ``motion`` (e.g. ``"walk"``): also measure that
+    motion at every time code (:func:`rockdove.verify.motion.measure_motion`) and check the film at ``times``
+    (default :data:`rockdove.verify.motion.DEFAULT_TIMES`), each frame skinned by UsdSkel, in
+    :func:`rockdove.verify.motion.frame_views`.
     """
     from ..hosts import select
     from ..render.beauty import settings
@@ -192,6 +221,10 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     t_start = time.perf_counter()
     selection = select(hosts)  # unknown names: ValueError before any work
     layer, scene, lut, notes = verification_scene(asset)
+    if motion is not None:
+        from ..verify.motion import motion_times
+
+        times = motion_times(layer, motion, times)  # a bad motion or time: UsageError before any render
     out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)
     os.makedirs(out, exist_ok=True)
     cache = cache if isinstance(cache, Cache) else Cache(cache or default_cache(layer))
@@ -203,6 +236,8 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     redo = _Items(cache, "host").get(_host_key(glsl, digest, chosen)) is None  # its images are the GL renders
     results, fresh = _views(cache, scene, lut, chosen, digest, surfaces, redo, out, say, ran, reused)
     lobes = {"half_angle": fresh["refs"]} if redo else {}
+    motion_entry = None if motion is None else _motion(cache, layer, lut, motion, times, width, height, out, say,
+                                                       results, ran, reused)
 
     def refs(lobe):
         if lobe not in lobes:
@@ -222,5 +257,5 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     beauty = {**settings(beauty), "cycles_ok": named and any(h.name == "blender" for h in selection.available)}
     return combine(layer, scene, lut, notes, results, out, width, height, bench_dir, say, t_start=t_start,
                    reused=reused["views"], hosts=(entries, images, time.perf_counter() - t), beauty=beauty,
-                   published_asset=published_asset, items={"ran": ran, "reused": reused})
+                   published_asset=published_asset, items={"ran": ran, "reused": reused}, motion=motion_entry)
 

@@ -241,7 +241,7 @@ def load_scene(path, variants: dict | None = None, time: float | None = None) ->
         if not start <= at <= end:
             raise UsageError(f"time={time!r} lies outside the animation: time codes {start:g} to {end:g} "
                              f"({stage.GetTimeCodesPerSecond():g} per second)")
-        posed = pose(stage, at) if animated(stage) else {}
+        posed = pose(stage, [at])[0] if animated(stage) else {}
     xcache = UsdGeom.XformCache(Usd.TimeCode.Default())
     parts, film = [], None
     for prim in Usd.PrimRange(root, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)):

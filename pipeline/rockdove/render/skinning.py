@@ -20,46 +20,48 @@ def animated(stage) -> bool:
                for p in Usd.PrimRange(stage.GetPseudoRoot()))
 
 
-def pose(stage, time: float) -> dict:
-    """``{mesh path: (points (V, 3) float64, normals (V, 3) float64 or None, skeleton local-to-world (4, 4) row
-    vectors)}`` of every mesh bound under a SkelRoot of ``stage``, skinned at ``time`` (points in skeleton space)."""
+def pose(stage, times, with_normals: bool = True) -> list:
+    """Per time code of ``times``: ``{mesh path: (points (V, 3) float64, normals (V, 3) float64 or None, skeleton
+    local-to-world (4, 4) row vectors)}`` of every mesh bound under a SkelRoot of ``stage``, skinned at that time
+    (points in skeleton space; the skins are checked once)."""
     from pxr import Gf, Usd, UsdGeom, UsdSkel, Vt
 
-    cache, out = UsdSkel.Cache(), {}
-    xcache = UsdGeom.XformCache(time)
+    cache, targets = UsdSkel.Cache(), []
     for prim in Usd.PrimRange(stage.GetPseudoRoot()):
-        if not prim.IsA(UsdSkel.Root):
-            continue
-        root = UsdSkel.Root(prim)
-        cache.Populate(root, Usd.PrimDefaultPredicate)
-        for binding in cache.ComputeSkelBindings(root, Usd.PrimDefaultPredicate):
-            query = cache.GetSkelQuery(binding.GetSkeleton())
+        if prim.IsA(UsdSkel.Root):
+            cache.Populate(UsdSkel.Root(prim), Usd.PrimDefaultPredicate)
+            for binding in cache.ComputeSkelBindings(UsdSkel.Root(prim), Usd.PrimDefaultPredicate):
+                query = cache.GetSkelQuery(binding.GetSkeleton())
+                for target in binding.GetSkinningTargets():
+                    path, mesh = str(target.GetPrim().GetPath()), UsdGeom.Mesh(target.GetPrim())
+                    n, per = len(mesh.GetPointsAttr().Get() or []), target.GetNumInfluencesPerComponent()
+                    indices, weights = target.ComputeJointInfluences()
+                    if target.GetInterpolation() != UsdGeom.Tokens.vertex:
+                        raise UsageError(f"{path}: skel:jointIndices must be vertex-interpolated (one set per point)")
+                    check_influences(path, indices, weights, n, per, len(query.GetJointOrder()))
+                    targets.append((query, target, mesh, path, indices, weights, per))
+    out = []
+    for time in times:
+        xcache, frame = UsdGeom.XformCache(time), {}
+        for query, target, mesh, path, indices, weights, per in targets:
             xforms = query.ComputeSkinningTransforms(time)
-            n_joints = len(query.GetJointOrder())
-            to_world = np.asarray(xcache.GetLocalToWorldTransform(binding.GetSkeleton().GetPrim()), np.float64)
-            for target in binding.GetSkinningTargets():
-                path = str(target.GetPrim().GetPath())
-                mesh = UsdGeom.Mesh(target.GetPrim())
-                points = mesh.GetPointsAttr().Get(time)
-                n, per = len(points), target.GetNumInfluencesPerComponent()
-                indices, weights = target.ComputeJointInfluences(time)
-                if target.GetInterpolation() != UsdGeom.Tokens.vertex:
-                    raise UsageError(f"{path}: skel:jointIndices must be vertex-interpolated (one set per point)")
-                check_influences(path, indices, weights, n, per, n_joints)
-                joint_xf = xforms if target.GetJointMapper() is None else target.GetJointMapper().RemapTransforms(
-                    xforms, Gf.Matrix4d(1))
-                if not target.ComputeSkinnedPoints(joint_xf, points, time):
-                    raise UsageError(f"{path}: UsdSkel could not skin the mesh at time {time}")
-                normals = mesh.GetNormalsAttr().Get(time)
-                if normals is not None and len(normals) == n:
-                    m3 = np.asarray(joint_xf, np.float64)[:, :3, :3]
-                    bind = np.asarray(target.GetGeomBindTransform(time), np.float64)[:3, :3]
-                    normals = Vt.Vec3fArray(normals)
-                    UsdSkel.SkinNormals(target.GetSkinningMethod(), Gf.Matrix3d(*np.linalg.inv(bind).T.ravel()),
-                                        Vt.Matrix3dArray.FromNumpy(np.ascontiguousarray(
-                                            np.swapaxes(np.linalg.inv(m3), 1, 2))), indices, weights, per, normals)
-                    normals = np.asarray(normals, np.float64)
-                else:
-                    normals = None
-                out[path] = (np.asarray(points, np.float64), normals, to_world)
+            mapper = target.GetJointMapper()
+            if mapper is not None and not mapper.IsNull() and not mapper.IsIdentity():
+                xforms = mapper.RemapTransforms(xforms, Gf.Matrix4d(1))
+            points = mesh.GetPointsAttr().Get(time)
+            if not target.ComputeSkinnedPoints(xforms, points, time):
+                raise UsageError(f"{path}: UsdSkel could not skin the mesh at time {time}")
+            normals = mesh.GetNormalsAttr().Get(time) if with_normals else None
+            if normals is not None and len(normals) == len(points):
+                m3 = np.linalg.inv(np.asarray(xforms, np.float64)[:, :3, :3])
+                bind = np.linalg.inv(np.asarray(target.GetGeomBindTransform(time), np.float64)[:3, :3])
+                normals = Vt.Vec3fArray(normals)
+                UsdSkel.SkinNormals(target.GetSkinningMethod(), Gf.Matrix3d(*bind.T.ravel()),
+                                    Vt.Matrix3dArray.FromNumpy(np.ascontiguousarray(np.swapaxes(m3, 1, 2))),
+                                    indices, weights, per, normals)
+            to_world = np.asarray(xcache.GetLocalToWorldTransform(query.GetPrim()), np.float64)
+            frame[path] = (np.asarray(points, np.float64),
+                           np.asarray(normals, np.float64) if normals is not None and len(normals) == len(points)
+                           else None, to_world)
+        out.append(frame)
     return out

@@ -1,36 +1,28 @@
-"""Motions as values: each joint's world transform at every frame (:class:`Motion`), no USD.
+"""Motions as values: each joint's world transform at every frame (:class:`Motion`), no USD. Both last
+:data:`DURATION_S` at :data:`FPS` frames a second and loop (the walk's last frame is its first moved on by whole
+strides: root motion in the pelvis).
 
-Both motions last :data:`DURATION_S` at :data:`FPS` frames per second and loop: frame ``F - 1`` repeats frame 0
-(the walk's pelvis moved on by whole strides; a host that loops it snaps back, as root motion does).
-
-``idle``: breathing (the chest rises and falls 0.8 mm, one breath per loop: 30 a minute, chosen) and saccadic head
-turns and tilts (quick 0.1 s moves between holds, up to 18 deg of yaw spread over neck_04, neck_05 and head, 8 deg
-of tilt and 5 deg of nod on the head), feet planted.
+``idle``: breathing (the chest rises 0.8 mm, one breath a loop: 30 a minute, chosen) and saccadic head turns and
+tilts (0.1 s moves between holds: 18 deg of yaw over neck_04, neck_05 and head, 8 deg of tilt, 5 of nod).
 
 ``walk``, the head-bobbing gait:
 
-- one head cycle per step (Necker 2007, J. Comp. Physiol. A 193:1177: "one head cycle per one step or two head bobs
-  during a complete walking cycle"); a hold phase, the head locked in space (position, pitch, yaw, roll; Frost 1978,
-  J. Exp. Biol. 74:187; Troje & Frost 2000, J. Exp. Biol. 203:935), while the body moves on along +Z at constant
-  speed, then a thrust to the next hold;
-- :data:`STEP_S` 0.2 s per step (5 head bobs a second: "five to eight times a second as a pigeon is walking",
-  A. Blaisdell in Live Science, 2019); :data:`HOLD` 60 % of the step in hold (~63 % of walking time in hold in the
-  compilations of the pigeon literature); the head's thrust covers one step length (Kroker 2013, MSc thesis,
-  Queen's University: "the distance the head travels during [the thrust] is equal to the step length"), and the
-  head is thrust about 5 cm relative to the body (M. Land in Live Science, 2019): :data:`STEP_M` 4.5 cm, 0.225 m/s;
-- the hold starts during single support, the body's centre over the supporting foot, and the body's speed peaks
-  with the neck's extension (Fujita 2002, J. Comp. Physiol. A 188: egrets, "similar to those of pigeons"): the thrust
-  spans the foot-fall and the trunk surges :data:`SURGE` 30 % faster than its mean speed mid-thrust;
-- duty factor :data:`DUTY` 0.6 (stance 60 % of the stride: a walk, so one foot is always down); the swing foot
-  lifts :data:`LIFT_M` 12 mm; the femur stays with the pelvis (birds walk from the knee), the tibiotarsus and
-  tarsus solved as a two-bone chain to the planted foot, the heel bending back; the body bobs 1.5 mm (highest at
-  mid single support) and sways 2 mm over the stance foot.
+- one head cycle per step (Necker 2007, J. Comp. Physiol. A 193:1177): a hold, the head locked in space (position,
+  pitch, yaw, roll; Frost 1978, J. Exp. Biol. 74:187; Troje & Frost 2000, J. Exp. Biol. 203:935) while the body
+  goes on along +Z, then a thrust to the next hold;
+- :data:`STEP_S` 0.2 s a step ("five to eight times a second", A. Blaisdell in Live Science, 2019); :data:`HOLD`
+  60 % of it in hold (~63 % of walking time in compilations of the pigeon literature); the thrust covers one step
+  length (Kroker 2013, MSc thesis, Queen's University), the head thrust "about 5 cm" relative to the body (M. Land in
+  Live Science, 2019): :data:`STEP_M` 4 cm, 0.2 m/s;
+- the hold falls in single support and the body's speed peaks with the neck's extension (Fujita 2002, J. Comp.
+  Physiol. A 188, egrets "similar to those of pigeons"): the trunk surges :data:`SURGE` 30 % mid-thrust;
+- duty factor :data:`DUTY` 0.6 (a walk: a foot always down), swing lift 12 mm; the femur stays with the pelvis
+  (birds walk from the knee), tibiotarsus and tarsus solved to the planted foot, the heel bending back.
 
-The neck absorbs the head's motion relative to the body as an S-bend (neck_01 .. neck_03 pitch one way, neck_04 ..
-head back, :data:`NECK_BEND`, so the head keeps its orientation) and a change of length along its bones (translation
-only), solved for the head's position at every frame: neighbouring neck joints turn apart by the bend angle alone,
-~15 degrees at most, so a card whose weights blend two of them stays within 1 % of rigid under linear blend
-skinning too (three.js and glTF have no other), and the cards turn with the skin they lie on.
+The neck takes the head's offset from the trunk as an S-bend (:data:`NECK_BEND`: the head keeps its orientation)
+and a change of length, solved at every frame: neighbouring neck joints turn apart by the bend angle alone (~14
+deg), so a card whose weights blend two of them stays within 1 % of rigid under linear blend skinning, the only
+skinning of glTF and three.js, and cards turn with the skin they lie on.
 """
 
 from __future__ import annotations
@@ -43,7 +35,7 @@ import numpy as np
 FPS, DURATION_S = 60, 2.0
 #: Walk (module docstring): step period s, step length m, hold fraction, step phase where the hold starts, duty
 #: factor, swing lift m, body bob m, sway m, roll deg.
-STEP_S, STEP_M, HOLD, HOLD_START, DUTY = 0.2, 0.045, 0.6, 0.25, 0.6
+STEP_S, STEP_M, HOLD, HOLD_START, DUTY = 0.2, 0.04, 0.6, 0.25, 0.6
 LIFT_M, BOB_M, SWAY_M, ROLL_DEG = 0.012, 0.0015, 0.002, 1.5
 #: The trunk's surge (its forward speed varies by this fraction of the mean, fastest mid-thrust) and how much
 #: lower it walks than it stands, metres (the knees bend more: the legs reach the footholds).
@@ -79,25 +71,21 @@ def _ease(x):
 
 
 def _rot(axis: int, angle_rad) -> np.ndarray:
-    """(..., 3, 3) rotations about world axis 0 (x), 1 (y) or 2 (z)."""
+    """(..., 3, 3) rotations about world axis 0 (x), 1 (y) or 2 (z) by ``angle_rad`` (...)."""
+    from scipy.spatial.transform import Rotation
+
     a = np.asarray(angle_rad, float)
-    c, s = np.cos(a), np.sin(a)
-    m = np.zeros(a.shape + (3, 3))
-    i, j = [(1, 2), (2, 0), (0, 1)][axis]
-    m[..., axis, axis] = 1.0
-    m[..., i, i] = m[..., j, j] = c
-    m[..., i, j], m[..., j, i] = -s, s
-    return m
+    return Rotation.from_euler("xyz"[axis], a.reshape(-1, 1)).as_matrix().reshape(a.shape + (3, 3))
 
 
 def _between(u, v) -> np.ndarray:
-    """(F, 3, 3) the least rotation turning unit vectors u (3,) into v (F, 3) (Rodrigues)."""
+    """(F, 3, 3) the least rotation turning the unit vector u (3,) into the directions v (F, 3)."""
+    from scipy.spatial.transform import Rotation
+
     v = v / np.linalg.norm(v, axis=-1, keepdims=True)
-    k, c = np.cross(u, v), v @ u
-    kx = np.zeros(k.shape[:-1] + (3, 3))
-    kx[..., 0, 1], kx[..., 0, 2], kx[..., 1, 2] = -k[..., 2], k[..., 1], -k[..., 0]
-    kx -= np.swapaxes(kx, -1, -2)
-    return np.eye(3) + kx + kx @ kx / (1.0 + c)[..., None, None]
+    axis = np.cross(u, v)
+    sin = np.linalg.norm(axis, axis=-1, keepdims=True)
+    return Rotation.from_rotvec(axis / np.maximum(sin, 1e-12) * np.arctan2(sin, v @ u[:, None])).as_matrix()
 
 
 def _frames(skel, n):

@@ -1,17 +1,14 @@
 """Skin weights as values: :data:`INFLUENCES` (joint index, weight) pairs per point of every part, no USD.
 
-- ``Body`` (smooth): a parameter u along the axial chain tail_fan .. pelvis .. chest, neck_01 .. neck_05, head
-  (:data:`AXIAL`) and linear weights between the two joints it falls between. On the trunk u is the closest point
-  of the polyline tail_fan -> chest; on the neck (neck coordinate s >= 0 within the neck band's radius, the
-  ``rockdove.geometry.neck`` coordinate) u follows s, so the head (s >= 1) is rigid on ``head``; the two are
-  blended over s in [-0.35, 0] and 12 mm of radius.
-- ``Legs`` (smooth): inverse fourth power of the distance to each leg bone of the point's side (a joint to its
-  first child; a toe to its tip), the two nearest kept.
-- ``Wings``: each connected component (one feather) rigidly on the wing joint of its side nearest its root.
-- every other part: each connected component (a feather card, a rectrix, an eye, the beak) takes, for all its
-  points, the weights of the skin vertex nearest to the component, its root: a Body vertex when the component
-  reaches within :data:`ROOTED_M` of the body's surface (cards, eyes, beak), else a Body or visible Legs vertex (a
-  claw). So a neck card moves with the skin it grows from, and all its points share one weight set.
+- ``Body``: linear weights between the two joints of the axial chain (:data:`AXIAL`) that a parameter u falls
+  between: on the trunk the closest point of the polyline tail_fan -> chest, on the neck (neck coordinate s of
+  ``rockdove.geometry.neck`` >= 0 within the band's radius) s itself, so the head (s >= 1) is rigid; blended over s
+  in [-0.35, 0] and 12 mm of radius, and into the head within :data:`HEAD_BLEND_M` of its ellipsoid.
+- ``Legs``: inverse fourth power of the distance to the bones of the point's side, the two nearest kept.
+- ``Wings``: each feather (connected component) on the wing joint of its side nearest its root.
+- every other part, per connected component (a card, a rectrix, an eye, the beak): one weight set, the Body's at
+  the foot on the skin of its root (the middle of its deepest points: a card's quill) when it reaches within
+  :data:`ROOTED_M` of the body's surface, else the nearest visible skin vertex's (a claw: its toe's).
 """
 
 from __future__ import annotations
@@ -31,6 +28,8 @@ AXIAL = ("tail_fan", "tail_base", "pelvis", "spine_01", "spine_02", "chest", "ne
 TARSUS_FOOT_SHARE = 0.25
 #: Components with a point this close to the body's surface (or inside) grow from the Body: its weights, metres.
 ROOTED_M = 0.002
+#: The skin within this distance of the head's ellipsoid (``sdf.HEAD``) blends into the head, metres.
+HEAD_BLEND_M = 0.008
 #: Blend from the trunk to the neck: over these neck coordinates and this width past the band's radius, metres.
 NECK_GATE_S, NECK_GATE_M = (-0.35, 0.0), 0.012
 
@@ -73,6 +72,8 @@ def body_weights(points_m, skel):
     gate = smoothstep(*NECK_GATE_S, s) * (1.0 - smoothstep(sdf.NECK_BAND_RADIUS_M, sdf.NECK_BAND_RADIUS_M
                                                            + NECK_GATE_M, r))
     u = np.clip((1.0 - gate) * u_trunk + gate * np.maximum(u_neck, 5.0), 0.0, len(AXIAL) - 1.0)
+    near_head = 1.0 - smoothstep(0.0, HEAD_BLEND_M, sdf.HEAD.sdf(p))  # the skin at the head's rim goes with it
+    u += near_head * (len(AXIAL) - 1.0 - u)
     lo = np.minimum(np.floor(u).astype(np.int64), len(AXIAL) - 2)
     f = u - lo
     return _pack(np.take(chain, np.stack([lo, lo + 1], 1)), np.stack([1.0 - f, f], 1))
@@ -125,6 +126,16 @@ def _per_component(comp, dist, values):
     return values[first][np.searchsorted(comp[first], comp)]
 
 
+def _roots(comp, depth, pts, tie_m: float = 1e-4):
+    """Each point's component's root: the mean of its points within ``tie_m`` of its least ``depth`` (a card's two
+    quill corners: the middle of its root row)."""
+    lowest = _per_component(comp, depth, depth)
+    sel = depth <= lowest + tie_m
+    n = np.bincount(comp[sel], minlength=comp.max() + 1)[:, None]
+    total = np.stack([np.bincount(comp[sel], pts[sel, k], minlength=comp.max() + 1) for k in range(3)], 1)
+    return (total / np.maximum(n, 1))[comp]
+
+
 def part_weights(parts, skel) -> dict:
     """``{part name: (joint indices (V, 4) int32, weights (V, 4) float32)}`` for every part (module docstring);
     ``parts`` as the USD meshes hold them (:func:`rockdove.geometry.types.drop_unreferenced_points`)."""
@@ -137,32 +148,34 @@ def part_weights(parts, skel) -> dict:
             out[part.name] = smooth[part.name](part.points_m, skel)
     if not out:
         raise UsageError(f"parts {[p.name for p in parts]}: no smooth part ({SMOOTH_PARTS}) to bind the rest to")
-    from ..geometry.sdf import body_sdf
+    from ..geometry.sdf import body_sdf, sdf_gradient
 
     skin = np.concatenate([np.asarray(p.points_m, np.float64) for p in parts if p.name in out])
     skin_idx = np.concatenate([out[p.name][0] for p in parts if p.name in out])
     skin_w = np.concatenate([out[p.name][1] for p in parts if p.name in out])
-    body = np.concatenate([np.full(p.n_points, p.name == "Body") for p in parts if p.name in out])
-    outside = body_sdf(skin) > 0.0  # a leg's hidden top, inside the body, is no card's root
-    trees = {True: cKDTree(skin[body]), False: cKDTree(skin[body | outside])}
-    rows = {True: np.flatnonzero(body), False: np.flatnonzero(body | outside)}
+    seen = np.concatenate([np.full(p.n_points, p.name == "Body") for p in parts if p.name in out])
+    seen |= body_sdf(skin) > 0.0  # a leg's hidden top, inside the body, is no card's root
+    skin, skin_idx, skin_w = skin[seen], skin_idx[seen], skin_w[seen]
+    tree = cKDTree(skin)
     for part in parts:
         if part.name in out:
             continue
         pts = np.asarray(part.points_m, np.float64)
-        comp = components(part)
-        on_body = _per_component(comp, body_sdf(pts), body_sdf(pts)) <= ROOTED_M  # rooted on the body's skin
-        dist, near = np.empty(len(pts)), np.empty(len(pts), np.int64)
-        for rooted in (True, False):
-            sel = on_body == rooted
-            if sel.any():
-                dist[sel], k = trees[rooted].query(pts[sel])
-                near[sel] = rows[rooted][k]
+        comp, sdf = components(part), body_sdf(pts)
+        root = _roots(comp, sdf, pts)
         if part.name.startswith("Wing"):  # one feather, one wing joint: the nearest to its root
             wing = np.array([i for i, n in enumerate(skel.names) if n.startswith("wing_")])
-            root = _per_component(comp, dist, pts)
             j = wing[np.argmin(np.linalg.norm(root[:, None] - skel.rest_m[wing][None], axis=-1), axis=1)]
             out[part.name] = _pack(j[:, None], np.ones((len(pts), 1)))
-        else:
-            out[part.name] = (_per_component(comp, dist, skin_idx[near]), _per_component(comp, dist, skin_w[near]))
+            continue
+        on_body = _per_component(comp, sdf, sdf) <= ROOTED_M  # rooted on the body's skin
+        idx, w = np.zeros((len(pts), INFLUENCES), np.int32), np.zeros((len(pts), INFLUENCES), np.float32)
+        if on_body.any():  # the skin's own weights at the root's foot on the skin
+            foot = root[on_body] - body_sdf(root[on_body])[:, None] * sdf_gradient(body_sdf, root[on_body])
+            idx[on_body], w[on_body] = body_weights(foot, skel)
+        if not on_body.all():  # else the nearest skin vertex's (a claw: its toe's)
+            dist, k = tree.query(pts[~on_body])
+            idx[~on_body] = _per_component(comp[~on_body], dist, skin_idx[k])
+            w[~on_body] = _per_component(comp[~on_body], dist, skin_w[k])
+        out[part.name] = idx, w
     return out

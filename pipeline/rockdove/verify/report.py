@@ -316,6 +316,11 @@ def write_html(path, report: dict, images: dict) -> str:
     if hero.get("gl") or hero.get("reference"):
         parts.append(f"<h2>Hero view</h2><img src='{e(hero.get('gl') or hero.get('reference'))}' alt='hero view' "
                      "style='image-rendering:auto'>")
+    if report.get("motion"):  # the motion's measures beside their limits (rockdove.verify.motion)
+        mo = report["motion"]
+        parts.append(_pairs(f"Motion {e(mo['motion'])}: measured at {mo['frames']} time codes, film checked at "
+                            f"{', '.join(f'{t:g}' for t in mo['times'])}", {k: f"{_fmt(v, 5)} (limit "
+                            f"{mo['limits'].get(k, '-')})" for k, v in mo["measures"].items()}, str))
     parts.append(_list("Failures", report.get("failures")))
     parts.append("<h2>Per view</h2>" + _head("view", "pixels", "median dE", "p95 dE", "max dE", "&gt; 2", "black",
                                             "green", "purple", "passed"))

@@ -28,7 +28,7 @@ def default_out_dir(layer_path: str) -> str:
 
 
 def combine(layer, scene, lut, notes, results: dict, out: str, width, height, bench_dir, say, *, reused,
-            t_start, hosts, items, published_asset, beauty) -> dict:
+            t_start, hosts, items, published_asset, beauty, motion=None) -> dict:
     """Validate the asset and join the per-view results and the hosts' entries into the verdict and the report
     (``report.json``, ``report.html`` and their images in the folder ``out``); returns the report dict.
     ``bench_dir``: benchmark plots the report shows (None: none; the report reads no folder it is not given)."""
@@ -116,7 +116,7 @@ def combine(layer, scene, lut, notes, results: dict, out: str, width, height, be
     if not validation["passed"]:
         failures.insert(0, "validation: " + (validation["error"] or "the validator reported problems"))
     anatomy = measure_scene(scene)  # the bird against its published measures (rockdove.verify.anatomy)
-    failures.extend(anatomy["failures"])
+    failures.extend(anatomy["failures"] + (motion["failures"] if motion else []))
     timings["total"] = time.perf_counter() - t_start
 
     config = provenance.asset_configuration(layer)
@@ -141,6 +141,7 @@ def combine(layer, scene, lut, notes, results: dict, out: str, width, height, be
         "hue_sweep": hue,
         "hosts": host_entries,
         "anatomy": anatomy,
+        "motion": motion,
         "beauty": images.get("beauty"),
         "boundary": {"per_view": {r["view"]: r["boundary"] for r in sweeps},
                      "method": "TLS line through green/purple boundary points; RMS perpendicular distance (px) "
@@ -181,5 +182,6 @@ def summary(report: dict) -> dict:
                            for k, v in report["boundary"]["per_view"].items() if "coherence" in v},
         "hosts": [{k: v for k, v in h.items() if k not in ("per_view", "failures")} for h in report.get("hosts", [])],
         "anatomy": {r["name"]: r["value"] for r in report["anatomy"]["measures"]},
+        "motion": report["motion"] and {k: report["motion"][k] for k in ("motion", "times", "measures", "failures")},
         "timings_s": report["timings_s"],
     }
