@@ -53,7 +53,7 @@ def _usdskel(layer, frames):
     query = UsdSkel.Cache().GetSkelQuery(UsdSkel.Skeleton(stage.GetPrimAtPath("/Pigeon/Geom/Skeleton")))
     head = [str(j).endswith("/head") for j in query.GetJointOrder()].index(True)
     return {f: (np.asarray(query.ComputeJointWorldTransforms(UsdGeom.XformCache(f)))[head, 3, :3],
-                pose(stage, f)["/Pigeon/Geom/Body"][0]) for f in frames}
+                posed["/Pigeon/Geom/Body"][0]) for f, posed in zip(frames, pose(stage, frames))}
 
 
 @pytest.fixture(scope="module")

@@ -5,6 +5,7 @@ holds while the trunk walks on, then thrusts; the neck's film still shows the re
 import pytest
 
 from rockdove.hosts.bpy_runner import unavailable
+from rockdove.verify.host_check import MIN_HUE_AGREEMENT
 
 
 @pytest.mark.slow
@@ -20,6 +21,8 @@ def test_storm_plays_the_walk_as_usdskel_poses_it(small_asset, tmp_path):
     # rolling 1.5 degrees about it: a pixel)
     assert max(got["head_error_px"]) < 0.5, got["head_error_px"]
     assert max(got["trunk_error_px"]) < 2.0, got["trunk_error_px"]
-    for t, film in got["film"].items():  # the skinned neck's film against the exact reference of that frame
+    for t, film in got["film"].items():  # the skinned neck's film against the exact reference of that frame:
+        # Storm's own normals for a skinned mesh cost it the baked network's dE goals (docs/rig.md), so it is held
+        # to what a physical network is (green, purple, the hue classes) and a median dE2000 under 2
         assert film["green_px"] > 50 and film["purple_px"] > 50, (t, film)
-        assert film["hue_agreement"] > 0.9 and film["median_dE"] < 2.0, (t, film)
+        assert film["hue_agreement"] > MIN_HUE_AGREEMENT and film["median_dE"] < 2.0, (t, film)

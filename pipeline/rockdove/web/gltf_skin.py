@@ -143,7 +143,8 @@ def add_skin(gltf, blob, scene, stage, mesh_nodes: dict) -> None:
         mesh = UsdGeom.Mesh(target.GetPrim())
         indices, weights = target.ComputeJointInfluences()
         per = target.GetNumInfluencesPerComponent()
-        if target.GetJointMapper() is not None and not target.GetJointMapper().IsIdentity():
+        mapper = target.GetJointMapper()
+        if mapper is not None and not mapper.IsNull() and not mapper.IsIdentity():
             raise UsageError(f"{path}: skel:joints reorders the skeleton's joints; glTF export needs its order")
         geom_bind = _col(target.GetGeomBindTransform())
         points = np.asarray(mesh.GetPointsAttr().Get(), np.float64)
