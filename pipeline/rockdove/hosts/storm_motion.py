@@ -68,7 +68,7 @@ def joint_positions(layer: str, motion: str, times, joints) -> np.ndarray:
     query = UsdSkel.Cache().GetSkelQuery(skel)
     leaves = [str(j).rsplit("/", 1)[-1] for j in query.GetJointOrder()]
     index = [leaves.index(j) for j in joints]
-    return np.stack([np.asarray(query.ComputeJointWorldTransforms(UsdGeom.XformCache(t)))[index, 3, :3]
+    return np.stack([np.asarray(query.ComputeJointWorldTransforms(UsdGeom.XformCache(float(t))))[index, 3, :3]
                      for t in times])
 
 

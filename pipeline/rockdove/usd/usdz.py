@@ -31,7 +31,7 @@ AR_USDZ_NAME = "pigeon_ar.usdz"
 #: Shader ids of UsdPreviewSurface networks (the ids ARKit's rules of v23.11 allow); every other shader is dropped.
 PREVIEW_SHADER_IDS = ("UsdPreviewSurface", "UsdUVTexture", "UsdTransform2d", "UsdPrimvarReader_")
 #: The motion AR Quick Look plays on open (it plays a package's time range in a loop): ``idle``, in place. The walk's
-#: root motion would carry the bird 0.45 m from where the user placed it in 2 s and snap it back at every loop.
+#: root motion would carry the bird 0.4 m from where the user placed it in 2 s and snap it back at every loop.
 AR_MOTION = "idle"
 #: 1980-01-01T00:00:00Z, the earliest time a zip (DOS) timestamp can hold.
 ZIP_EPOCH = 315532800
