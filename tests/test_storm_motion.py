@@ -1,4 +1,4 @@
-"""Hydra Storm plays the walk (rockdove.hosts.storm_motion): Storm skins the meshes itself at each time code, and its
+"""Hydra Storm plays the walk (rockdove.verify.storm_motion): Storm skins the meshes itself at each time code, and its
 pictures are measured against USD's UsdSkel: the head's and the trunk's silhouettes move with their joints, the head
 holds while the trunk walks on, then thrusts; the neck's film still shows the reference's green and purple."""
 
@@ -11,7 +11,7 @@ from rockdove.verify.host_check import MIN_HUE_AGREEMENT
 @pytest.mark.slow
 @pytest.mark.skipif(unavailable() is not None, reason=f"no bpy (Storm): {unavailable()}")
 def test_storm_plays_the_walk_as_usdskel_poses_it(small_asset, tmp_path):
-    from rockdove.hosts import storm_motion
+    from rockdove.verify import storm_motion
 
     got = storm_motion.play(str(small_asset), str(tmp_path), "walk", (15, 21, 26))
     # one step: the head holds from 15 to 21 while the trunk walks on, then thrusts to the next hold by 26

@@ -4,7 +4,7 @@ has imaging: UsdImagingGL, hdSt, HdMtlx; usd-core has none). It imports nothing 
 ``python storm_job.py job.json``: the session layer of :mod:`rockdove.hosts.storm`'s docstring (:func:`_session`),
 then each view recorded with ``UsdAppUtils.FrameRecorder`` (Storm, no colour correction) into ``<view>.exr``. A job
 may select a ``motion``; a view may then carry its ``time`` code and ``only`` the mesh names it draws
-(:mod:`rockdove.hosts.storm_motion`).
+(:mod:`rockdove.verify.storm_motion`).
 """
 
 import ctypes

@@ -242,6 +242,8 @@ def export_glb(asset, out_path, *, version: str = "") -> dict:
     from ..render.scene import load_scene
 
     scene = load_scene(asset)  # the verifier's reader; a physical-only asset (no LUT) reads too
+    if scene.time is not None:  # a layer that plays a motion (pigeon_walk.usda): the skin binds the rest pose
+        scene = load_scene(asset, {"motion": "rest"})
     data = scene_to_glb(scene, version=version)
     out_path = os.fspath(out_path)
     write_atomic(out_path, data)

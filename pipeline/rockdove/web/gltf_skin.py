@@ -57,14 +57,14 @@ def _trs(xf) -> tuple:
 def motions(stage, query) -> dict:
     """``{motion: (times s (F,), translations (F, J, 3), rotations (F, J, 4), scales (F, J, 3))}`` for each variant of
     the default prim's ``motion`` set but rest that binds an animation: the skeleton's local transforms at the
-    animation's time samples (module docstring). The stage's selection is changed in its session layer and restored."""
+    animation's time samples (module docstring). Each is selected in the stage's session layer, then cleared."""
     from pxr import Usd, UsdSkel
 
     prim = stage.GetDefaultPrim()
     if not prim or not prim.GetVariantSets().HasVariantSet(MOTION_SET):
         return {}
     vset = prim.GetVariantSet(MOTION_SET)
-    chosen, out = vset.GetVariantSelection(), {}
+    out = {}
     start, rate = stage.GetStartTimeCode(), stage.GetTimeCodesPerSecond()
     with Usd.EditContext(stage, stage.GetSessionLayer()):
         try:
@@ -73,7 +73,7 @@ def motions(stage, query) -> dict:
                     continue
                 vset.SetVariantSelection(name)
                 cache = UsdSkel.Cache()
-                cache.Populate(UsdSkel.Root(query.GetSkeleton().GetPrim().GetParent()), Usd.PrimDefaultPredicate)
+                cache.Populate(UsdSkel.Root.Find(query.GetSkeleton().GetPrim()), Usd.PrimDefaultPredicate)
                 skel_query = cache.GetSkelQuery(query.GetSkeleton())
                 times = skel_query.GetAnimQuery().GetJointTransformTimeSamples() if skel_query.GetAnimQuery() else []
                 if len(times) < 2:
@@ -85,7 +85,7 @@ def motions(stage, query) -> dict:
                 out[name] = ((np.asarray(times, np.float64) - start) / rate,
                              np.stack([k[0] for k in keys]), rot, np.stack([k[2] for k in keys]))
         finally:
-            vset.SetVariantSelection(chosen)
+            vset.ClearVariantSelection()  # the session layer's: the stage selects as before
     return out
 
 
@@ -150,10 +150,10 @@ def add_skin(gltf, blob, scene, stage, mesh_nodes: dict) -> None:
         points = np.asarray(mesh.GetPointsAttr().Get(), np.float64)
         world = (np.c_[points, np.ones(len(points))] @ (skel_world @ geom_bind).T)[:, :3]
         index = _point_map(parts[path].positions_m, world, mesh.GetFaceVertexIndicesAttr().Get())
-        idx, w = np.asarray(indices).reshape(-1, per)[index], np.asarray(weights, np.float64).reshape(-1, per)[index]
-        idx, w = np.pad(idx, ((0, 0), (0, max(0, 4 - per))))[:, :4], np.pad(w, ((0, 0), (0, max(0, 4 - per))))[:, :4]
         if per > 4:
             raise UsageError(f"{path}: {per} influences per point; glTF's JOINTS_0 / WEIGHTS_0 hold 4")
+        idx, w = np.asarray(indices).reshape(-1, per)[index], np.asarray(weights, np.float64).reshape(-1, per)[index]
+        idx, w = np.pad(idx, ((0, 0), (0, 4 - per))), np.pad(w, ((0, 0), (0, 4 - per)))
         idx = np.where(w > 0, idx, 0)  # an unused slot names joint 0 with weight 0
         w = (w / w.sum(axis=1, keepdims=True)).astype(np.float32)
         primitive = gltf.meshes[gltf.nodes[mesh_nodes[path]].mesh].primitives[0]

@@ -1,6 +1,6 @@
 """A motion of the asset played by Hydra Storm and measured in Storm's own pictures.
 
-Storm skins a UsdSkel mesh itself (its ExtComputations, on the GPU), so nothing here poses a point: the Storm job
+Storm skins a UsdSkel mesh itself (its ExtComputations), so nothing here poses a point: the Storm job
 (:mod:`rockdove.hosts.storm_job`) selects the ``motion`` variant in its session layer and records each view at its
 time code. Per time code, one job draws:
 
@@ -25,10 +25,10 @@ import os
 import numpy as np
 
 from ..errors import UsageError
+from ..hosts import bpy_runner
+from ..hosts.base import ENVIRONMENT_RADIANCE, HostError
+from ..hosts.storm import BAKED, FEATHER_MATERIAL, TIMEOUT_S, VARIANTS
 from ..png import save_png
-from . import bpy_runner
-from .base import ENVIRONMENT_RADIANCE, HostError
-from .storm import BAKED, FEATHER_MATERIAL, TIMEOUT_S, VARIANTS
 
 #: Parts rigid on the head, and the parts that ride the trunk (each wing feather on a wing joint under the chest).
 HEAD_PARTS, TRUNK_PARTS = ("Beak", "Cere", "Eyes", "EyeRings"), ("Wings",)
@@ -122,8 +122,8 @@ def play(asset: str, out_dir: str, motion: str = "walk", times=(15.0, 21.0, 26.0
     from ..render.scene import load_scene
     from ..render.views import default_views
     from ..usd.layout import resolve_root_layer
-    from ..verify.host_check import host_metrics
-    from ..verify.reference_image import render_reference
+    from .host_check import host_metrics
+    from .reference_image import render_reference
 
     layer = resolve_root_layer(asset)
     times = [float(t) for t in times]
