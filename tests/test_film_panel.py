@@ -151,3 +151,38 @@ def test_verify_writes_the_viewer_beside_its_report_when_the_asset_has_its_glb(s
     (asset / "pigeon.glb").unlink()
     api.verify(asset, ["glsl"], out=tmp_path / "report", width=32, height=32, n_views=1, beauty={"renderer": "off"})
     assert (tmp_path / "report" / "report.html").is_file() and not (tmp_path / "report" / "viewer.html").exists()
+
+
+def test_an_asset_without_a_valid_record_edits_its_index_only_and_quotes_what_it_prints(small_asset, tmp_path):
+    """A looks layer whose recorded configuration is not a valid one (here: a negative card count) is ignored: the
+    panel starts from the film the USD records, its ranges cannot change (they reject, saying why) and the index
+    can. ``command()`` quotes each word for a shell, also a hostile value put into the page's data."""
+    from pxr import Sdf
+
+    from rockdove.render.scene import load_scene
+    from rockdove.usd.stage import BUILD_CONFIG_KEY, LOOKS_LAYER
+    from rockdove.web.browser import Browser
+    from rockdove.web.viewer import write_viewer
+
+    asset = copy_asset(small_asset, tmp_path / "pigeon")
+    looks = Sdf.Layer.FindOrOpen(str(asset / LOOKS_LAYER))
+    looks.customLayerData = {BUILD_CONFIG_KEY: json.dumps({"geometry": {"card_count": -5}})}
+    looks.Save()
+    page_path = Path(write_viewer(asset, asset / "pigeon.glb", tmp_path / "verify"))
+    data = page_path.with_name("viewer_data.js")
+    hostile = "x'; touch pwned #"
+    data.write_text(data.read_text().replace('"sets": []', f'"sets": [["geometry.seed", {json.dumps(hostile)}]]'))
+    with Browser() as browser:
+        page = browser.open(page_path.as_uri(), 480, 360, timeout_s=120)
+        page.evaluate("window.rockdoveReady", timeout_s=120)
+        film = page.evaluate("window.rockdove.film()")
+        with pytest.raises(Exception, match="base_nm.*records no thickness field"):
+            page.evaluate("window.rockdove.setFilm({base_nm: [500, 600]})")
+        rgb, r = set_film(page, {"cauchy_a": 1.6})
+        words = shlex.split(page.evaluate("window.rockdove.command()"))
+        assert page.errors == []
+    assert film["cauchy_a"] == 1.532 and film["base_nm"] is None and film["top_nm"] is None
+    lut = load_scene(asset).load_lut()  # the ranges stay: the asset's own thickness, its LUT's range and size
+    assert tuple(r["thicknessRangeNm"]) == lut.thickness_range_nm and rgb.shape == lut.rgb.shape
+    assert words[-2:] == ["--set", f"geometry.seed={hostile}"] and "film.cauchy_a=1.6" in words
+    assert not any(w.startswith("thickness.") for w in words)
