@@ -73,6 +73,25 @@ def test_bad_grid_is_a_usage_error_naming_it(grid, words):
     assert all(w in str(e.value) for w in words), str(e.value)
 
 
+@pytest.mark.parametrize("grid", ["geometry.seed=[3, 3.0]", "film.cauchy_a=[0.0, -0.0]",
+                                  "thickness.base_nm=[[600, 700], [600.0, 700.0]]"])
+def test_one_value_in_two_spellings_is_a_repeated_value(grid):
+    """One canonical value per point: numbers are compared as numbers (issue 33)."""
+    with pytest.raises(UsageError, match="given twice"):
+        S.parse_grid([grid])
+
+
+def test_point_folders_cannot_collide():
+    """A value that reads like another point's hashed name gets a hash of its own, so no two points share a
+    folder (issue 33: the last one won it while sweep.json reported the first there)."""
+    import hashlib
+
+    h = hashlib.sha256(b'film.model="a b"').hexdigest()[:8]
+    for grid in (f'film.model=["a b", "a_b", "a_b-{h}"]', 'film.model=["Ab", "aB"]'):
+        names = [p.name.lower() for p in S.grid_points(S.parse_grid([grid]))]
+        assert len(set(names)) == len(names), names
+
+
 def test_bad_grid_exits_2_before_anything_runs(tmp_path):
     r = rockdove("sweep", "--out", "s", "--grid", "film.cauchy_a=[1.5, 1.6]", "--grid", "lut.angles=[32 64]",
                  cwd=tmp_path, timeout=60)

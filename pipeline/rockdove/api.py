@@ -234,16 +234,20 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
     and :class:`VerificationFailed`, before rendering, when the asset's layers do not parse or name files outside it.
     """
     from .graph import verification
-    from .graph.publish import claim_output
+    from .graph.publish import staged_output
     from .usd.dependencies import require_inside
     from .verify.verdict import default_out_dir
 
     root = require_inside(asset, allow_external)  # nothing from elsewhere is read, nothing of the user's overwritten
-    out = claim_output(out or default_out_dir(root), "verification report")
-    _write_viewer(root, out, progress)
-    report = verification.verify(os.fspath(root), None if hosts is None else list(hosts), cache=cache, out_dir=out,
-                                 width=width, height=height, n_views=n_views,
-                                 views=None if views is None else list(views), bench_dir=bench_dir,
-                                 progress=progress, beauty=beauty, motion=motion,
-                                 times=None if times is None else list(times))
-    return Verification.from_report(report)
+    # the report is written whole or not at all: in a staging folder, swapped in at the end
+    with staged_output(out or default_out_dir(root), "verification report", "report.json") as (staging, out):
+        _write_viewer(root, staging, progress)
+        report = verification.verify(os.fspath(root), None if hosts is None else list(hosts), cache=cache,
+                                     out_dir=staging, width=width, height=height, n_views=n_views,
+                                     views=None if views is None else list(views), bench_dir=bench_dir,
+                                     progress=progress, beauty=beauty, motion=motion,
+                                     times=None if times is None else list(times))
+        for name in ("report.json", "report.html"):  # they name the folder they will be in
+            f = staging / name
+            f.write_text(f.read_text().replace(staging.name, out.name))
+    return Verification.from_report({**report, "out_dir": str(out)})

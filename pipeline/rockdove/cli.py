@@ -10,6 +10,7 @@ import argparse
 import importlib
 import logging
 import os
+import signal
 import sys
 
 from . import __version__
@@ -57,6 +58,9 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """The ``rockdove`` console script: the exit status of the command of ``argv``."""
+    from .resources import spare_full_disk
+
+    spare_full_disk()
     argv = list(sys.argv[1:] if argv is None else argv)
     command = next((a for a in argv if not a.startswith("-")), None)
     parser = build_parser(command if command in COMMANDS else None)
@@ -67,6 +71,7 @@ def main(argv: list[str] | None = None) -> int:
     from .errors import RockdoveError, VerificationFailed
 
     _log_to_stderr(quiet=bool(getattr(args, "quiet", False) or getattr(args, "json", False)))
+    old_term = signal.signal(signal.SIGTERM, _interrupt)  # a supervisor stops us as Ctrl-C does: jobs end, temporaries go
     try:
         return int(_module(args.command).run(args) or 0)
     except VerificationFailed as exc:
@@ -88,6 +93,12 @@ def main(argv: list[str] | None = None) -> int:
             exc = f"{exc.strerror or exc}" + (f": {exc.filename}" if exc.filename else "")
         print(f"rockdove {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    finally:
+        signal.signal(signal.SIGTERM, old_term)
+
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt(f"signal {signum}")
 
 
 def _log_to_stderr(quiet: bool) -> None:

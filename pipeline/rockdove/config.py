@@ -80,6 +80,8 @@ def read_toml(path: str | os.PathLike, what: str = "config file") -> dict:
             return tomllib.load(f)
     except tomllib.TOMLDecodeError as exc:
         raise UsageError(f"{what} {str(p)!r} is not valid TOML: {exc}") from None
+    except RecursionError:  # tomllib parses arrays and inline tables recursively
+        raise UsageError(f"{what} {str(p)!r} nests arrays or tables too deeply") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise UsageError(f"{what} {str(p)!r} cannot be read: {exc}") from None
 
@@ -95,6 +97,8 @@ def parse_set(item: str) -> tuple[str, Any]:
         raise UsageError(f"--set {item!r}: the value is empty; give a TOML literal, e.g. {key}=1")
     try:
         value = tomllib.loads(f"v = {text}")["v"]
+    except RecursionError:
+        raise UsageError(f"--set {key}=...: the value nests arrays or tables too deeply") from None
     except tomllib.TOMLDecodeError:
         if _BARE_WORD_RE.match(text) and text not in ("true", "false"):
             value = text

@@ -61,6 +61,21 @@ def user_cache_dir(*parts: str) -> Path:
     return Path(root, "rockdove", *parts)
 
 
+def spare_full_disk(min_free: int = 64 << 20) -> None:
+    """Turn Mesa's shader cache off (``MESA_SHADER_CACHE_DISABLE``, unless set) where the user cache's file system
+    has less than ``min_free`` bytes free: Mesa maps its cache index there, and a write into a full disk is then a
+    SIGBUS. As for rockdove's own cache, a cache that cannot be kept only costs time."""
+    if "MESA_SHADER_CACHE_DISABLE" in os.environ or "MESA_SHADER_CACHE_DIR" in os.environ:
+        return
+    probe = user_cache_dir()
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    with contextlib.suppress(OSError):
+        st = os.statvfs(probe)
+        if st.f_bavail * st.f_frsize < min_free:
+            os.environ["MESA_SHADER_CACHE_DISABLE"] = "true"
+
+
 @contextlib.contextmanager
 def atomic_path(path):
     """The one atomic write: yields a temporary path beside ``path`` (same folder and suffix, so writers that go by

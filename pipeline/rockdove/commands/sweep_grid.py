@@ -88,7 +88,7 @@ def parse_grid(grid: list[str]) -> list[tuple[str, list[tuple[str, object]]]]:
             raise UsageError(f"--grid {key!r} is given twice; put all its values in one list")
         seen = {}
         for lit, v in zip(literals, values):
-            canon = json.dumps(v, sort_keys=True, default=str)
+            canon = json.dumps(_canonical(v), sort_keys=True, default=str)
             if canon in seen:
                 raise UsageError(f"--grid {item!r}: value {lit} is given twice (as {seen[canon]})")
             seen[canon] = lit
@@ -96,12 +96,24 @@ def parse_grid(grid: list[str]) -> list[tuple[str, list[tuple[str, object]]]]:
     return axes
 
 
+def _canonical(v):
+    """One value per number however it is spelt: ``3`` and ``3.0`` are 3, ``-0.0`` is 0 (lists, tables inside)."""
+    if isinstance(v, float) and v.is_integer():
+        return int(v)
+    if isinstance(v, list):
+        return [_canonical(x) for x in v]
+    return {k: _canonical(x) for k, x in v.items()} if isinstance(v, dict) else v
+
+
 _UNSAFE = re.compile(r"[^A-Za-z0-9._+=-]+")
+_HASHED = re.compile(r"-[0-9a-f]{8}$")
 
 
 def grid_points(axes) -> list[Point]:
     """The product of the axes in order (the last key varies fastest), each with a stable, readable folder
-    name made of its ``KEY=VALUE`` pairs (a short hash added where two would read the same, or one is long)."""
+    name made of its ``KEY=VALUE`` pairs; a short hash of its overrides replaces the readable name's end where two
+    would read the same (also ignoring case), one is long, or one reads like a hashed name: names cannot collide
+    (the one case left, two equal hashes, is refused)."""
     points = []
     for combo in itertools.product(*[list(enumerate(vals)) for _, vals in axes]):
         overrides = tuple(f"{key}={lit}" for (key, _), (_, (lit, _v)) in zip(axes, combo))
@@ -109,11 +121,14 @@ def grid_points(axes) -> list[Point]:
         name = "__".join(f"{key}=" + _UNSAFE.sub("_", lit.replace('"', "").replace("'", "")).strip("_")
                          for (key, _), (_, (lit, _v)) in zip(axes, combo))
         points.append(Point(name, overrides, values, tuple(i for i, _ in combo)))
-    counts = collections.Counter(p.name for p in points)
+    counts = collections.Counter(p.name.lower() for p in points)
     out = []
     for p in points:
-        if counts[p.name] > 1 or len(p.name) > 150:
+        if counts[p.name.lower()] > 1 or len(p.name) > 150 or _HASHED.search(p.name):
             h = hashlib.sha256("\n".join(p.overrides).encode()).hexdigest()[:8]
             p = Point(f"{p.name[:150]}-{h}", p.overrides, p.values, p.index)
         out.append(p)
+    clash = [n for n, c in collections.Counter(p.name.lower() for p in out).items() if c > 1]
+    if clash:
+        raise UsageError(f"--grid: two points would be built in one folder points/{clash[0]}; change a value")
     return out

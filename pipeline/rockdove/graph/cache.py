@@ -145,8 +145,9 @@ class Cache:
         parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=f".tmp-{os.uname().nodename}-{os.getpid()}-", dir=parent))
         _LIVE.add(tmp)
-        fd = os.open(tmp / ".owner.new", os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
+        fd = None
         try:
+            fd = os.open(tmp / ".owner.new", os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
             fcntl.flock(fd, fcntl.LOCK_EX)
             os.write(fd, _owner().encode())
             os.rename(tmp / ".owner.new", tmp / ".owner")
@@ -155,7 +156,8 @@ class Cache:
             if tmp.exists():
                 shutil.rmtree(tmp, ignore_errors=True)
             _LIVE.discard(tmp)
-            os.close(fd)
+            if fd is not None:
+                os.close(fd)
 
     def store(self, stage: str, key: str, fill: Callable[[Path], Any], extra: dict | None = None) -> dict:
         """Create entry ``(stage, key)`` by ``fill(folder)`` in a temporary folder renamed into place."""

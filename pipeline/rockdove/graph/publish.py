@@ -9,6 +9,7 @@ renames through ``.<name>.rockdove-old-XXXX``, which :func:`recover` restores af
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import errno
 import fcntl
@@ -35,6 +36,11 @@ OUTPUT_MARKER = ".rockdove-output.json"
 
 def real_output(out) -> Path:
     """``out`` with symlinks resolved (an asset is published inside a symlinked ``--out``'s target)."""
+    from ..usd.layout import unusable_path
+
+    why = unusable_path(os.path.abspath(os.fspath(out)))
+    if why:
+        raise UsageError(f"--out {str(out)!r} {why}")
     try:
         return Path(out).resolve()
     except (RuntimeError, OSError) as exc:  # RuntimeError: a symlink loop (Python 3.11)
@@ -96,7 +102,7 @@ def claim_output(out, what: str, create: bool = True) -> Path:
 def check_output_file(out, ours) -> None:
     """Refuse (:class:`UsageError`) an ``--out`` file that exists and ``ours(path)`` does not recognise as
     written by rockdove, or whose folder is not writable."""
-    path = Path(out)
+    path = real_output(out)
     if path.is_dir() or (path.exists() and not ours(path)):
         raise UsageError(f"--out {str(out)!r} exists and rockdove did not write it; refusing to overwrite it: "
                          "choose another --out or remove it yourself")
@@ -242,10 +248,13 @@ def publish(staging: Path, out: Path) -> None:
     if not (staging / MARKER).is_file():
         raise ValueError(f"staging folder {str(staging)!r} has no {MARKER}")
     check_output(out)
-    out = real_output(out)
+    _swap(staging, real_output(out))
+
+
+def _swap(staging: Path, out: Path) -> None:
     if out.exists():
         if _exchange(staging, out):
-            _remove(staging)  # now holds the old asset
+            _remove(staging)  # now holds the old folder
             return
         old = out.parent / f".{out.name}{_OLD}{os.getpid()}-{os.urandom(4).hex()}"
         os.rename(out, old)
@@ -253,3 +262,35 @@ def publish(staging: Path, out: Path) -> None:
         _remove(old)
     else:
         os.rename(staging, out)
+
+
+@contextlib.contextmanager
+def staged_output(out, what: str, holds: str):
+    """A command's output folder ``out`` (checked as :func:`check_output` does) written whole or not at all: the
+    block writes into a staging folder beside it, swapped in when the block ends without an error, removed
+    otherwise (an interrupted command leaves ``out`` as it was). An existing ``out`` is replaced only when it is
+    empty or an earlier output of the same kind (its :data:`OUTPUT_MARKER` names ``what``, or it holds the file
+    ``holds``, and it is no asset): never an asset or a folder of other things. Two commands writing one ``out``
+    take turns (``flock`` of the parent folder); what a killed one left is removed first. Yields (staging, out)."""
+    real = check_output(out, what)
+    with contextlib.suppress(OSError, ValueError):
+        holds = holds if json.loads((real / OUTPUT_MARKER).read_text()).get("output") != what else OUTPUT_MARKER
+    if real.is_dir() and any(real.iterdir()) and ((real / MARKER).exists() or not (real / holds).is_file()):
+        raise UsageError(f"--out {str(out)!r} holds more than a {what} (an asset, or files of other kinds); "
+                         f"the new {what} replaces its folder whole: choose another --out")
+    real.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(real.parent, os.O_RDONLY)
+    staging = None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        recover(real)
+        staging = make_staging(real)
+        (staging / OUTPUT_MARKER).write_text(json.dumps({"tool": "rockdove", "version": __version__,
+                                                          "output": what}) + "\n")
+        yield staging, real
+        check_output(real, what)
+        _swap(staging, real)
+    finally:
+        if staging is not None and staging.exists():
+            _remove(staging)
+        os.close(fd)  # releases the lock

@@ -15,11 +15,14 @@ A host that failed is not kept. Validation and the report are redone every time.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
 import shutil
+import tempfile
 import time
+from pathlib import Path
 
 from ..config import canonical_json
 from .. import sources
@@ -36,26 +39,41 @@ def item_key(kind: str, fns: tuple, *reads) -> str:
 
 
 class _Items:
-    """The cache entries of one kind of item: ``<cache>/verify.<kind>/<key>/value/``."""
+    """The cache entries of one kind of item: ``<cache>/verify.<kind>/<key>/value/``. A cache that cannot be
+    written (a full disk, a read-only folder, a file in its place) only costs time: nothing is kept, the scratch
+    folders go into ``spare`` (the report's folder) instead."""
 
-    def __init__(self, cache: Cache, kind: str):
-        self.cache, self.name = cache, f"verify.{kind}"
+    def __init__(self, cache: Cache, kind: str, spare: str):
+        self.cache, self.name, self.spare = cache, f"verify.{kind}", spare
 
     def get(self, key: str) -> str | None:
         return str(self.cache.entry(self.name, key) / "value") if self.cache.lookup(self.name, key) else None
 
-    def put(self, key: str, src, meta: dict) -> str:
-        """Store the files of folder ``src`` (moved) and ``item.json`` (``meta``); the entry's folder."""
+    def put(self, key: str, src, meta: dict) -> str | None:
+        """Store the files of folder ``src`` (linked: ``src`` keeps them) and ``item.json`` (``meta``); the
+        entry's folder, or None when the cache cannot keep it."""
         def fill(folder):
             for name in os.listdir(src):
                 if name != ".owner":  # the scratch folder's own (rockdove.graph.engine.Cache.temporary)
-                    os.rename(os.path.join(src, name), folder / name)
+                    try:
+                        os.link(os.path.join(src, name), folder / name)
+                    except OSError:  # another file system, or one without hard links
+                        shutil.copyfile(os.path.join(src, name), folder / name)
             (folder / "item.json").write_text(json.dumps(meta, sort_keys=True, default=_plain))
-        self.cache.store(self.name, key, fill)
+        try:
+            self.cache.store(self.name, key, fill)
+        except OSError:
+            return None
         return self.get(key)
 
+    @contextlib.contextmanager
     def scratch(self):
-        return self.cache.temporary(self.cache.root / self.name)
+        with contextlib.ExitStack() as stack:
+            try:
+                tmp = stack.enter_context(self.cache.temporary(self.cache.root / self.name))
+            except OSError:
+                tmp = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix=".scratch-", dir=self.spare)))
+            yield tmp
 
 
 def _plain(o):
@@ -67,14 +85,14 @@ def _meta(folder: str) -> dict:
         return json.load(f)
 
 
-def _surfaces(cache: Cache, scene, views, ran: dict, reused: dict) -> dict:
+def _surfaces(cache: Cache, scene, views, ran: dict, reused: dict, out: str) -> dict:
     """The reference's :class:`~rockdove.verify.reference_image.Surface` of every camera of ``views``."""
     import numpy as np
 
     from ..verify.rays import camera_key
     from ..verify.reference_image import Surface, cast_surfaces, surface_digest
 
-    items, digest, cameras = _Items(cache, "surface"), surface_digest(scene), {}
+    items, digest, cameras = _Items(cache, "surface", out), surface_digest(scene), {}
     for v in views:
         cameras.setdefault(camera_key(v), v)
     keys = {cam: item_key("surface", (cast_surfaces,), digest, cam) for cam in cameras}
@@ -97,7 +115,7 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
 
     from ..verify.run import render_and_check
 
-    items = _Items(cache, "view")
+    items = _Items(cache, "view", out)
     keys = {v.name: item_key("view", (render_and_check,), digest, v.to_dict()) for v in views}
     found = {n: items.get(k) for n, k in keys.items()}
     todo = [v for v in views if redo_all or found[v.name] is None]
@@ -108,14 +126,14 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
                                                                    surfaces=surfaces)
             for v in todo:
                 r = results[v.name]
-                if r["metrics"] is None:  # the GL render failed: asked again next time
+                if r["metrics"] is not None:  # a failed GL render is not kept: asked again next time
+                    np.savez(os.path.join(r["dir"], "sheet_row.npz"), *r["sheet_row"])
+                    found[v.name] = items.put(keys[v.name], r["dir"],
+                                              {k: x for k, x in r.items() if k not in ("sheet_row", "dir")})
+                if r["metrics"] is None or found[v.name] is None:  # not kept: its images go to the report now
                     for f in r["files"].values():
                         shutil.copyfile(os.path.join(r["dir"], f), os.path.join(out, f))
                     found[v.name] = r["dir"] = out
-                    continue
-                np.savez(os.path.join(r["dir"], "sheet_row.npz"), *r["sheet_row"])
-                found[v.name] = items.put(keys[v.name], r["dir"],
-                                          {k: x for k, x in r.items() if k not in ("sheet_row", "dir")})
     done = {v.name: results[v.name] for v in todo if found[v.name] == out}
     for v in views:
         if v.name in done:
@@ -127,19 +145,21 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
     return {v.name: done[v.name] for v in views}, fresh
 
 
-def _host_key(host, digest: str, views) -> str:
+def _host_key(host, digest: str, views, layers: str) -> str:
+    """A host renders the asset's files as they are (its networks, not only the scene :func:`scene_digest`
+    reads): ``layers`` is :func:`rockdove.usd.dependencies.asset_digest`."""
     from ..verify.host_check import check_host
 
-    return item_key("host", (host.render, check_host), digest, [v.to_dict() for v in views], host.name, host.lobe,
-                    host.variant)
+    return item_key("host", (host.render, check_host), digest, layers, [v.to_dict() for v in views], host.name,
+                    host.lobe, host.variant)
 
 
-def _host(cache, host, layer, scene, views, digest, refs, fresh, out, say) -> tuple[dict, dict, bool]:
+def _host(cache, host, layer, scene, views, digest, layers, refs, fresh, out, say) -> tuple[dict, dict, bool]:
     """One host's report entry, image files in ``out`` (where it renders) and whether they came from the cache."""
     from ..verify.host_check import check_host
 
-    items = _Items(cache, "host")
-    key = _host_key(host, digest, views)
+    items = _Items(cache, "host", out)
+    key = _host_key(host, digest, views, layers)
     found = items.get(key)
     if found is not None:
         value = _meta(found)
@@ -175,7 +195,7 @@ def _motion(cache, layer, lut, motion, times, width, height, out, say, results, 
         scene = load_scene(layer, {"motion": motion}, t)
         views = frame_views(scene, width, height, f"{motion}{t:03.0f}")
         did, kept = {}, {}
-        surfaces = _surfaces(cache, scene, views, did, kept)
+        surfaces = _surfaces(cache, scene, views, did, kept, out)
         frame, _ = _views(cache, scene, lut, views, scene_digest(scene), surfaces, False, out, say, did, kept)
         results.update(frame)
         entry["views"] += list(frame)
@@ -212,6 +232,7 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     """
     from ..hosts import select
     from ..render.beauty import settings
+    from ..usd.dependencies import asset_digest
     from ..verify.inputs import scene_digest, select_views, sizes, verification_scene, verification_views
     from ..verify.reference_image import render_reference
     from ..verify.verdict import combine, default_out_dir
@@ -229,11 +250,11 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     os.makedirs(out, exist_ok=True)
     cache = cache if isinstance(cache, Cache) else Cache(cache or default_cache(layer))
     chosen = select_views(verification_views(scene, width, height, n_views), views)
-    digest, ran, reused = scene_digest(scene), {}, {}
+    digest, layers, ran, reused = scene_digest(scene), asset_digest(layer), {}, {}
     say(f"GL renders and CPU reference ({len(chosen)} views)")
-    surfaces = _surfaces(cache, scene, chosen, ran, reused)
+    surfaces = _surfaces(cache, scene, chosen, ran, reused, out)
     glsl = next(h for h in selection.available if h.name == "glsl")
-    redo = _Items(cache, "host").get(_host_key(glsl, digest, chosen)) is None  # its images are the GL renders
+    redo = _Items(cache, "host", out).get(_host_key(glsl, digest, chosen, layers)) is None  # its images: the GL renders
     results, fresh = _views(cache, scene, lut, chosen, digest, surfaces, redo, out, say, ran, reused)
     lobes = {"half_angle": fresh["refs"]} if redo else {}
     motion_entry = None if motion is None else _motion(cache, layer, lut, motion, times, width, height, out, say,
@@ -248,7 +269,7 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     t = time.perf_counter()
     entries, images, ran["hosts"], reused["hosts"] = [], {}, [], []
     for host in selection.available:
-        entry, files, cached = _host(cache, host, layer, scene, chosen, digest, refs, fresh, out, say)
+        entry, files, cached = _host(cache, host, layer, scene, chosen, digest, layers, refs, fresh, out, say)
         entries.append(entry)
         images.update({host.name: files} if files else {})
         (reused if cached else ran)["hosts"].append(host.name)

@@ -117,9 +117,10 @@ def shoot(bpy, mathutils, to_blender, job: dict, ext: str, aim=None) -> dict:
         scene.camera = _camera(bpy, mathutils, to_blender, view)
         if aim is not None:
             aim(view)
-        scene.render.filepath = os.path.join(job["out_dir"], f"{view['name']}.{ext}")
         t = time.perf_counter()
-        bpy.ops.render.render(write_still=True)
+        bpy.ops.render.render()
+        # saved by path as given: scene.render.filepath expands {...} templates and reads "\\" as "/" (Blender 5)
+        bpy.data.images["Render Result"].save_render(filepath=os.path.join(job["out_dir"], f"{view['name']}.{ext}"))
         seconds[view["name"]] = time.perf_counter() - t
     return seconds
 

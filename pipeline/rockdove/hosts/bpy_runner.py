@@ -13,6 +13,7 @@ import functools
 import importlib.util
 import json
 import os
+import signal
 import subprocess
 import sys
 
@@ -114,15 +115,21 @@ def run_job(job: dict, work: str, script: str | None, timeout_s: float = TIMEOUT
     env = dict(os.environ, BLENDER_USER_RESOURCES=user, BLENDER_USER_CONFIG=os.path.join(user, "config"),
                BLENDER_USER_SCRIPTS=os.path.join(user, "scripts"),
                BLENDER_USER_EXTENSIONS=os.path.join(user, "extensions"))
+    # in a process group of its own, ended whole when rockdove is interrupted (Ctrl-C, SIGTERM) or it times out
+    proc = subprocess.Popen([python, str(script), job_path], env=env, text=True, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, cwd=work, process_group=0)
     try:
-        proc = subprocess.run([python, str(script), job_path], env=env,
-                              capture_output=True, text=True, timeout=timeout_s, cwd=work)
-    except subprocess.TimeoutExpired:
-        raise HostError(host, f"{renderer} did not finish within {timeout_s:g} s") from None
+        out, err = proc.communicate(timeout=timeout_s)
+    except BaseException as exc:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.communicate()
+        if isinstance(exc, subprocess.TimeoutExpired):
+            raise HostError(host, f"{renderer} did not finish within {timeout_s:g} s") from None
+        raise
     with open(os.path.join(work, "blender.log"), "w", encoding="utf-8") as fh:
-        fh.write(proc.stdout + "\n--- stderr ---\n" + proc.stderr)
+        fh.write(out + "\n--- stderr ---\n" + err)
     if proc.returncode != 0:
-        lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
+        lines = [ln for ln in err.strip().splitlines() if ln.strip()]
         raise HostError(host, f"{renderer} exited with status {proc.returncode}: "
                               f"{lines[-1] if lines else 'no message'} (log: {work}/blender.log)")
 

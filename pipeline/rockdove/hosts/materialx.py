@@ -138,7 +138,8 @@ def feather_networks(layer: str, variant: str) -> dict:
         if not sources:
             continue
         surface = UsdShade.Shader(sources[0].source.GetPrim())
-        doc = usd_to_mtlx_document(surface, library)
+        primvars = {pv.GetPrimvarName() for pv in UsdGeom.PrimvarsAPI(prim).GetPrimvars()}
+        doc = usd_to_mtlx_document(surface, library, primvars)  # its values checked: none can be code
         files = {}
         for child in material.GetPrim().GetChildren():
             file_input = UsdShade.Shader(child).GetInput("file") if child.IsA(UsdShade.Shader) else None

@@ -23,6 +23,7 @@ import os
 import shutil
 
 from . import bpy_runner
+from ..errors import UsageError
 from .base import ENVIRONMENT_RADIANCE, Host, HostError
 from .blender import base_job
 from .materialx import missing_variant
@@ -144,8 +145,9 @@ def osl_headers() -> list:
 
 def lobe_document(net: dict, base: str = VARIANTS["osl"][1]):
     """The feather network of :func:`rockdove.hosts.materialx.feather_networks` made ready for this host: the
-    ``base`` colour input (``node.input``) black (the film lobe alone), image files absolute and the closures'
-    colours in the working space (:func:`to_working_space`)."""
+    ``base`` colour input (``node.input``) black (the film lobe alone), the closures' colours in the working space
+    (:func:`to_working_space`) and the image files empty; ``(document, {shader parameter: absolute file})``: the
+    generator makes each ``file`` a string parameter, set by the job (a path is never text of the source)."""
     doc = net["doc"]
     node, _, name = base.partition(".")
     bg = doc.getNode(node).getInput(name) if doc.getNode(node) is not None else None
@@ -154,10 +156,10 @@ def lobe_document(net: dict, base: str = VARIANTS["osl"][1]):
     bg.removeAttribute("nodename")
     bg.removeAttribute("output")
     bg.setValueString("0, 0, 0")
-    for node_name, path in net["files"].items():
-        doc.getNode(node_name).getInput("file").setValueString(os.path.abspath(path))
+    for node_name in net["files"]:
+        doc.getNode(node_name).getInput("file").setValueString("")
     to_working_space(doc, net["material"])
-    return doc
+    return doc, {f"{node_name}_file": os.path.abspath(path) for node_name, path in net["files"].items()}
 
 
 def to_working_space(doc, material_name: str) -> None:
@@ -225,9 +227,13 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
     try:
         for mesh, net in networks.items():
             source = os.path.join(work, f"{net['material']}.osl")
+            doc, files = lobe_document(net, base)
+            code = generate_osl(doc, net["material"])
+            if not all(f'string {param} = ""' in code for param in files):
+                raise UsageError(f"MaterialX named the image parameters otherwise than {sorted(files)}")
             with open(source, "w", encoding="utf-8") as fh:
-                fh.write(for_cycles(generate_osl(lobe_document(net, base), net["material"])))
-            shaders[mesh] = {"source": source, "attributes": geomprops(net["doc"])}
+                fh.write(for_cycles(code))
+            shaders[mesh] = {"source": source, "attributes": geomprops(net["doc"]), "files": files}
     except ValueError as exc:
         raise HostError(name, f"cannot turn the asset's MaterialX network into OSL: {exc}") from None
     except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)

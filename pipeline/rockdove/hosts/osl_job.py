@@ -55,9 +55,10 @@ def request_attributes(material, output, names) -> None:
     material.displacement_method = "BUMP"
 
 
-def script_material(bpy, name: str, oso: str, attributes=()):
-    """A material whose surface is one Script node running ``oso`` (its parameters keep their defaults), with
-    the mesh ``attributes`` it reads exported to it (:func:`request_attributes`)."""
+def script_material(bpy, name: str, oso: str, attributes=(), files=None):
+    """A material whose surface is one Script node running ``oso`` (its parameters keep their defaults but the
+    ``files``: string parameter -> texture file), with the mesh ``attributes`` it reads exported to it
+    (:func:`request_attributes`)."""
     import glob
 
     import cycles.osl
@@ -76,6 +77,8 @@ def script_material(bpy, name: str, oso: str, attributes=()):
     cycles.osl.update_script_node(script, lambda kind, msg: errors.append(msg) if "ERROR" in kind else None)
     if errors or "out" not in script.outputs:
         raise RuntimeError(f"Script node for {oso}: {'; '.join(errors) or 'no closure output out'}")
+    for param, path in (files or {}).items():  # the texture files: values, never text of the shader's source
+        script.inputs[param].default_value = path
     output = nodes.new("ShaderNodeOutputMaterial")
     mat.node_tree.links.new(script.outputs["out"], output.inputs["Surface"])
     request_attributes(mat, output, attributes)
@@ -98,7 +101,8 @@ def run(job: dict) -> None:
         if ob.type != "MESH":
             continue
         shader = by_name.get(ob.name) or by_name.get(ob.data.name)
-        material = (script_material(bpy, f"rockdove_osl_{ob.name}", shader["oso"], shader["attributes"])
+        material = (script_material(bpy, f"rockdove_osl_{ob.name}", shader["oso"], shader["attributes"],
+                                    shader.get("files"))
                     if shader else black)
         if shader:
             drawn.append(ob.name)

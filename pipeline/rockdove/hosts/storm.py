@@ -72,6 +72,9 @@ class StormHost(Host):
         asset_path = os.path.abspath(os.fspath(asset_path))
         if not os.path.isfile(asset_path):
             raise HostError(name, f"no asset at {asset_path!r}")
+        code = _code_values(asset_path)
+        if code:
+            raise HostError(name, f"Storm would paste into its shaders: {code}")
         work = bpy_runner.work_folder(name, views, out_dir)
         save_png(np.full((2, 4, 3), 255, np.uint8), os.path.join(work, "white.png"))  # the dome light's texture
         job = {"asset": asset_path, "variant": self.variant, "overrides": {FEATHER_MATERIAL: VARIANTS[name][1]},
@@ -80,6 +83,28 @@ class StormHost(Host):
         bpy_runner.run_job(job, work, importlib.util.find_spec("rockdove.hosts.storm_job").origin, TIMEOUT_S,
                            host=name, renderer="Storm")
         return bpy_runner.read_views(name, "Storm", views, work)
+
+
+def _code_values(asset_path: str) -> str | None:
+    """The first value of the asset's shaders, in any variant, that Storm's generator (HdMtlx, HdSt's primvar
+    readers) would paste into code (rockdove.usd.shader_values), or None."""
+    from pxr import Tf, Usd
+
+    from ..usd.stage import variant_combinations
+    from ..usd.validate import check_mtlx_shaders
+
+    try:
+        stage = Usd.Stage.Open(asset_path, Usd.Stage.LoadAll)
+    except Tf.ErrorException:
+        return None  # not a stage: Storm's job says so itself
+    for combo in variant_combinations(stage):
+        with Usd.EditContext(stage, stage.GetSessionLayer()):
+            for set_name, value in combo.items():
+                stage.GetDefaultPrim().GetVariantSet(set_name).SetVariantSelection(value)
+        found = [f"{i.path}: {i.message}" for i in check_mtlx_shaders(stage)[0] if "would paste" in i.message]
+        if found:
+            return found[0]
+    return None
 
 
 #: The registry's hosts, one per network (rockdove.hosts.HOSTS).

@@ -14,6 +14,7 @@ import posixpath
 import re
 from dataclasses import dataclass, field
 
+from .budget import face_over_budget, image_over_budget, over_budget
 from .issues import Issue, only_errors
 
 #: ``file:line:column: message`` as USD's text parser reports a syntax error.
@@ -28,6 +29,7 @@ class Dependencies:
 
     issues: list = field(default_factory=list)
     external: set = field(default_factory=set)
+    read: set = field(default_factory=set)  # the files inside the asset its composition reads (layers, textures)
 
 
 def _outside(anchored: str, root_dir: str, root_package: str | None) -> str | None:
@@ -63,6 +65,11 @@ def _authored_paths(layer, issues: list) -> list[tuple[str, str, str]]:
     def visit(path):
         if path.IsPropertyPath():
             spec = layer.GetPropertyAtPath(path)
+            if path.name == "faceVertexCounts" and isinstance(spec, Sdf.AttributeSpec):
+                values = [spec.default] + [layer.QueryTimeSample(path, t) for t in layer.ListTimeSamplesForPath(path)]
+                why = next(filter(None, map(face_over_budget, values)), None)
+                if why:
+                    issues.append(Issue("budget", str(path), why))
             if isinstance(spec, Sdf.AttributeSpec) and spec.typeName in (Sdf.ValueTypeNames.Asset,
                                                                          Sdf.ValueTypeNames.AssetArray):
                 values = [spec.default] if spec.HasDefaultValue() else []
@@ -154,9 +161,14 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
     queue, seen, variables = [root], {root}, None
     while queue:
         identifier = queue.pop(0)
+        why = over_budget(identifier)
+        if why:
+            out.issues.append(Issue("budget", identifier, f"the layer {why}: not opened"))
+            continue
         layer = _open_layer(identifier, out.issues)
         if layer is None:
             continue
+        out.read.add(identifier)
         variables = dict(layer.expressionVariables) if variables is None else variables  # the root layer's
         where = layer.identifier if layer.identifier != root else os.fspath(root_layer)
         found = [(where, p, "layer") for p in layer.GetCompositionAssetDependencies()]
@@ -181,10 +193,33 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
                 out.issues.append(Issue("assetPath", spec_path, f"{kind} {what} {why}{allowed}", severity))
                 if not allow_external:
                     continue
+            if kind == "asset" and anchored and not why:
+                out.read.add(anchored)
+            big = image_over_budget(anchored) if kind == "asset" and anchored else None
+            if big:
+                out.issues.append(Issue("budget", spec_path, f"{kind} {what} {big}: not read"))
             if kind in ("layer", "clip") and anchored and anchored not in seen:
                 seen.add(anchored)
                 queue.append(anchored)
     return out
+
+
+def asset_digest(root_layer) -> str:
+    """sha256 of the bytes of every file the asset's composition reads (:attr:`Dependencies.read`: its layers,
+    material networks included, and textures; a package member as its package), by path relative to the root
+    layer's folder: what a host that renders the asset reads, so an asset moved or rebuilt the same digests the
+    same."""
+    from pxr import Ar
+
+    from ..digest import Digest
+
+    root = os.path.abspath(os.fspath(root_layer))
+    files = {Ar.SplitPackageRelativePathOuter(p)[0] if Ar.IsPackageRelativePath(p) else p
+             for p in scan_dependencies(root).read}
+    d = Digest()
+    for f in sorted(f for f in files if os.path.isfile(f)):
+        d.file(os.path.relpath(f, os.path.dirname(root)), f)
+    return d.hexdigest()
 
 
 #: Most files a ``.usdz`` may hold: more is refused before any validator lists each one.

@@ -22,11 +22,27 @@ ROOT_LAYER_NAMES = ("pigeon.usda", "pigeon.usdc", "pigeon.usd", "pigeon.usdz")
 USD_EXTENSIONS = (".usda", ".usdc", ".usd", ".usdz")
 
 
+_BACKSLASH = "\\"
+
+
+def unusable_path(path: str) -> str | None:
+    """Why USD cannot use ``path`` for an asset (a control character; a backslash, which USD, and Blender, read as
+    a folder separator, so the layers beside the root would be looked for elsewhere), else None."""
+    bad = sorted({c for c in path if ord(c) < 32 or ord(c) == 127 or c == _BACKSLASH})
+    if not bad:
+        return None
+    what = "a backslash, which USD reads as a folder separator" if bad == [_BACKSLASH] else "a control character"
+    return f"holds {what} ({', '.join(map(repr, bad))}); rename the folder or choose another path"
+
+
 def resolve_root_layer(asset) -> str:
     """The absolute path of an asset's root layer, given its folder (one of :data:`ROOT_LAYER_NAMES` inside) or
     a layer's path; a one-line ValueError naming the path when it is missing, a folder without a root layer or not
     a USD layer."""
     path = os.path.abspath(os.fspath(asset))
+    why = unusable_path(path)
+    if why:
+        raise UsageError(f"asset={os.fspath(asset)!r} {why}")
     if os.path.isdir(path):
         for name in ROOT_LAYER_NAMES:
             cand = os.path.join(path, name)

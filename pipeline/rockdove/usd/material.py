@@ -24,6 +24,7 @@ import os
 
 from .. import resources
 from ..errors import UsageError
+from .shader_values import problem
 
 
 #: The colour space of thinfilm.mtlx (its ``colorspace`` attribute): linear Rec.709, the project's working space.
@@ -283,12 +284,13 @@ def _mx_value_string(value, mx_type: str) -> str:
     return str(value)
 
 
-def usd_to_mtlx_document(surface_shader, library=None):
+def usd_to_mtlx_document(surface_shader, library=None, primvars=None):
     """Rebuild a MaterialX document from the UsdShade network of ``ND_*`` shaders upstream of ``surface_shader``,
     as Hydra's HdMtlx does before generating Storm's shader (usd-core has no MaterialX plugin), so the *authored*
     network, with the build's values, is what gets checked. Nodes are named as the shaders, plus a
-    ``surfacematerial`` named after the USD material. ValueError when a shader's id is not a nodedef of
-    ``library`` (default :func:`load_mtlx_libraries`) or an input is not one of its nodedef's.
+    ``surfacematerial`` named after the USD material. UsageError when a shader's id is not a nodedef of
+    ``library`` (default :func:`load_mtlx_libraries`), an input is not one of its nodedef's, or a value could be
+    code (:func:`rockdove.usd.shader_values.problem`; ``primvars``: the drawn mesh's).
     """
     import MaterialX as mx
     from pxr import UsdShade
@@ -316,8 +318,16 @@ def usd_to_mtlx_document(surface_shader, library=None):
                 raise UsageError(f"{inp.GetAttr().GetPath()}: {sid} declares no input {inp.GetBaseName()!r}")
             target = node.addInput(mx_in.getName(), mx_in.getType())
             sources = inp.GetConnectedSources()[0]
+            why = problem(mx_in.getName(), mx_in.getType(), mx_in.getAttribute("enum"), None if sources else inp.Get(),
+                          inp.GetAttr().GetColorSpace(), library, primvars)
+            if why:  # only values that cannot be code reach a generator (rockdove.usd.shader_values)
+                raise UsageError(f"{inp.GetAttr().GetPath()}: {why}")
             if sources:
-                target.setNodeName(add(UsdShade.Shader(sources[0].source.GetPrim())).getName())
+                up = add(UsdShade.Shader(sources[0].source.GetPrim()))
+                target.setNodeName(up.getName())
+                if up.getNodeDef().getActiveOutput(sources[0].sourceName) is None:
+                    raise UsageError(f"{inp.GetAttr().GetPath()}: {up.getNodeDef().getName()} has no output "
+                                     f"{sources[0].sourceName!r}")
                 if sources[0].sourceName != "out":
                     target.setOutputString(sources[0].sourceName)
             elif inp.Get() is not None:

@@ -63,6 +63,16 @@ def mesh_digest(root_layer: str) -> str | None:
     return d.hexdigest()
 
 
+def _asset(root_layer: str):
+    """What the engine is given: the path, or the stage where the engine's ``urlparse`` would cut the path (a
+    ``#``, ``?`` or ``;`` in a folder name makes it "not a readable USD file")."""
+    from urllib.parse import urlparse
+
+    from pxr import Usd
+
+    return root_layer if urlparse(root_layer).path == root_layer else Usd.Stage.Open(root_layer, Usd.Stage.LoadAll)
+
+
 def _findings(results, root_layer: str) -> tuple[list, int]:
     """(rule, where, message, severity) of each finding we keep, in order, and the ND_* findings dropped."""
     kept, dropped = [], 0
@@ -99,7 +109,7 @@ def _mesh_findings(nv, rules: list, root_layer: str) -> list:
     engine = nv.ValidationEngine(init_rules=False, variants=True)
     for rule in rules:
         engine.enable_rule(rule)
-    findings, _ = _findings(engine.validate(root_layer), root_layer)
+    findings, _ = _findings(engine.validate(_asset(root_layer)), root_layer)
     if path is not None:
         write_cached(path, json.dumps(findings).encode())
     return findings
@@ -116,7 +126,7 @@ def run_nvidia_validator(root_layer: str) -> tuple[list, int]:
     mesh_rules = [r for r in engine.rules if r.__name__ in MESH_RULES]
     for rule in mesh_rules:
         engine.disable_rule(rule)
-    findings, dropped = _findings(engine.validate(root_layer), root_layer)
+    findings, dropped = _findings(engine.validate(_asset(root_layer)), root_layer)
     findings += _mesh_findings(nv, mesh_rules, root_layer)
     unique = dict.fromkeys(tuple(f) for f in findings)  # in order, once
     return [Issue(f"nvidia:{rule}", where, message, severity) for rule, where, message, severity in unique], dropped

@@ -21,6 +21,7 @@ import tempfile
 from .issues import Issue, Report, only_errors  # noqa: F401 (re-exported)
 from .layout import resolve_root_layer
 from .material import _SDF_TYPES
+from .shader_values import bound_primvars, material_of, problem
 from .skel import check_skins
 
 # Sdf value type name -> MaterialX type: the inverse of the authoring table (material._SDF_TYPES); token (outputs
@@ -68,12 +69,21 @@ def check_mtlx_shaders(stage, library=None) -> tuple[list, int]:
     from .material import load_mtlx_libraries
 
     library = library or load_mtlx_libraries()
-    issues, n = [], 0
+    issues, n, bound = [], 0, bound_primvars(stage)
     for prim in Usd.PrimRange(stage.GetPseudoRoot()):
         if not prim.IsA(UsdShade.Shader):
             continue
         shader = UsdShade.Shader(prim)
         sid = shader.GetShaderId() or ""
+        for inp in shader.GetInputs():  # values a generator would paste into code (rockdove.usd.shader_values)
+            mx = library.getNodeDef(sid).getActiveInput(inp.GetBaseName()) if library.getNodeDef(sid) else None
+            reader = sid.startswith("UsdPrimvarReader") and inp.GetBaseName() == "varname"
+            why = (mx is not None or reader) and not inp.HasConnectedSource() and problem(
+                inp.GetBaseName(), "string" if reader else mx.getType(), mx.getAttribute("enum") if mx else "",
+                inp.Get(), inp.GetAttr().GetColorSpace(), library, bound.get(material_of(prim)))
+            if why:
+                issues.append(Issue("mtlx", str(inp.GetAttr().GetPath()), f"{why}: a shader generator would paste "
+                                    "it into the code it writes"))
         if not sid.startswith("ND_"):
             continue
         n += 1

@@ -182,6 +182,9 @@ class Browser:
         return self
 
     def __exit__(self, *exc) -> None:
+        if exc[0] is not None and self.process.poll() is None:  # interrupted or failed: its process group goes now
+            with contextlib.suppress(OSError):
+                os.killpg(self.process.pid, 9)
         self.close()
 
 
