@@ -1,5 +1,5 @@
 """Quick Look: OpenUSD's ARKit compliance rules (complianceChecker.py of v23.11 and v24.08, tests/fetched.py) on
-the build's packages: ``pigeon_ar.usdz`` (flattened, UsdPreviewSurface) passes both; ``pigeon.usdz`` (layered,
+the build's packages: ``pigeon_ar.usdz`` (flattened, UsdPreviewSurface, playing the idle) passes both; ``pigeon.usdz`` (layered,
 MaterialX) passes v24.08 where MaterialX's node definitions are registered (bpy's USD 25.08) and fails v23.11."""
 
 from __future__ import annotations
@@ -44,6 +44,33 @@ def test_ar_package_is_one_flattened_usdc_with_preview_shaders_only(packages, sm
     assert not feathers.GetAttribute("rockdove:lut:file").HasAuthoredValue()  # the EXR LUT stays out
     assert feathers.GetAttribute("rockdove:film:cauchyA").HasValue()  # the film's record stays
     assert os.fspath(small_asset).encode() not in packages["ar"].read_bytes()  # no build machine's path
+
+
+def test_ar_package_plays_the_idle_in_place_and_the_full_package_keeps_every_motion(packages):
+    """Quick Look plays a package's time range on open: the AR package binds the idle (the walk would leave the
+    anchor) and keeps no other animation; its samples span the range at 60 per second. pigeon.usdz keeps the
+    motion variant set, rest selected."""
+    import numpy as np
+    from pxr import Usd, UsdSkel
+
+    from rockdove.usd.usdz import AR_MOTION
+
+    stage = Usd.Stage.Open(str(packages["ar"]))
+    skeleton = UsdSkel.BindingAPI(stage.GetPrimAtPath("/Pigeon/Geom/Skeleton"))
+    assert AR_MOTION == "idle" and skeleton.GetAnimationSourceRel().GetTargets() == ["/Pigeon/Geom/Skeleton/Idle"]
+    assert [p.GetName() for p in stage.Traverse() if p.IsA(UsdSkel.Animation)] == ["Idle"]
+    assert (stage.GetTimeCodesPerSecond(), stage.GetStartTimeCode(), stage.GetEndTimeCode()) == (60, 0, 120)
+    query = UsdSkel.Cache().GetAnimQuery(UsdSkel.Animation(stage.GetPrimAtPath("/Pigeon/Geom/Skeleton/Idle")))
+    times = query.GetJointTransformTimeSamples()
+    assert times[0] == 0 and times[-1] == 120 and len(times) == 121
+    head = list(query.GetJointOrder()).index(next(j for j in query.GetJointOrder() if j.endswith("/head")))
+    turn = [np.asarray(query.ComputeJointLocalTransforms(t))[head, :3, :3] for t in (0, 60)]
+    assert np.abs(turn[1] - turn[0]).max() > 0.05  # the head turns: it moves
+    pelvis = [np.asarray(query.ComputeJointLocalTransforms(t))[0, 3, :3] for t in times]
+    assert np.ptp(np.asarray(pelvis), axis=0).max() < 0.01  # in place: the root stays within 1 cm
+    full_stage = Usd.Stage.Open(str(packages["full"]))
+    full = full_stage.GetDefaultPrim().GetVariantSet("motion")
+    assert full.GetVariantNames() == ["idle", "rest", "walk"] and full.GetVariantSelection() == "rest"
 
 
 def test_ar_package_is_reproducible_and_leaves_the_asset_alone(small_asset, tmp_path):

@@ -6,6 +6,7 @@
 import * as THREE from "three";
 import { GLTFLoader } from "three/addons/loaders/GLTFLoader.js";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
+import { installPlayer } from "./motion_player.js";
 
 const D = window.ROCKDOVE_DATA;
 const canvas = document.getElementById("view");
@@ -177,6 +178,7 @@ for (const r of document.querySelectorAll('input[name="mode"]')) {
 }
 controls.addEventListener("change", draw);
 window.addEventListener("resize", draw);
+installPlayer({ gltf, parts, draw, camera, controls, panel: document.getElementById("panel") });  // at rest
 applyMode("lut");
 setLight(Number(slider.value));
 draw();

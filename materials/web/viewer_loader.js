@@ -9,6 +9,7 @@
     "./three.core.js": "three.core.js", "three": "three.module.js",
     "../utils/BufferGeometryUtils.js": "BufferGeometryUtils.js", "../utils/SkeletonUtils.js": "SkeletonUtils.js",
     "three/addons/loaders/GLTFLoader.js": "GLTFLoader.js", "three/addons/controls/OrbitControls.js": "OrbitControls.js",
+    "./motion_player.js": "motion_player.js",
   };
   const urls = {};
   for (const name of Object.values(SPECIFIERS).concat("viewer_app.js")) {

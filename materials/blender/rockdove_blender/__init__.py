@@ -20,6 +20,9 @@ What the hook reads (the rockdove asset's own records, docs/design.md "USD asset
 - the feather base colour (``BaseColorTexture``, sRGB, alpha = silhouette) and tip mask (``MaskTexture``, raw)
   of the bound material: ``mix(base BSDF, film BSDF, mask)``, cut out where alpha < 0.5 (binary, no blend).
 
+An animated stage (``pigeon_walk.usda``, which selects the ``motion`` variant) imports as an armature playing the
+motion as an action, over the frame range the importer sets; the hook sets the frame rate (:func:`match_frame_rate`).
+
 Blender versions: 4.4 and later hand the hook the import's prim map; 4.2 and 4.3 do not, and the hook finds the
 objects with :func:`find_imported`. As a Python module (``pip install bpy``) the hook needs bpy's bundled ``pxr``,
 which :func:`bundled_pxr` puts on ``sys.path``; the 4.2 and 4.3 wheels ship none, so there (and in a Blender
@@ -362,6 +365,20 @@ def apply_to_import(import_context) -> list:
     return done
 
 
+def match_frame_rate(stage, render) -> str | None:
+    """Blender's importer sets the frame range of an animated stage but not its rate: a stage whose skeleton plays
+    an animation (``pigeon_walk.usda``) sets the scene's frame rate to its ``timeCodesPerSecond``; says so."""
+    from pxr import UsdSkel
+
+    fps = stage.GetTimeCodesPerSecond()
+    if fps <= 0 or abs(render.fps / render.fps_base - fps) < 1e-6 or not any(
+            p.IsA(UsdSkel.Skeleton) and UsdSkel.BindingAPI(p).GetAnimationSourceRel().GetTargets()
+            for p in stage.Traverse()):
+        return None
+    render.fps, render.fps_base = max(1, round(fps)), max(1, round(fps)) / fps
+    return f"rockdove: frame rate {fps:g} fps, the asset's timeCodesPerSecond"
+
+
 def on_import(import_context):
     """The ``USDHook.on_import`` of the add-on: never breaks Blender's own import; says what happened."""
     try:
@@ -372,6 +389,12 @@ def on_import(import_context):
         return False
     if done:
         print(f"rockdove: thin-film material on {', '.join(done)}")
+    try:
+        rate = match_frame_rate(import_context.get_stage(), bpy.context.scene.render)
+    except Exception as exc:
+        rate = f"rockdove: frame rate left as it was ({type(exc).__name__}: {exc})"
+    if rate:
+        print(rate)
     return True
 
 

@@ -71,11 +71,12 @@ LOBES = (LOBE, "as_imported")
 
 
 def render(asset_path: str, views, out_dir: str, *, addon: bool = True, lobe: str = LOBE,
-           samples: int = SAMPLES) -> dict:
+           samples: int = SAMPLES, frame: int | None = None) -> dict:
     """Render ``views`` of ``pigeon.usda`` or ``pigeon.usdz`` in Blender (Cycles, CPU) into ``out_dir/blender/``
     (the add-on zip, Blender's user folders, the job, a EXR and a PNG per view): view name -> (H, W, 3) float32
     linear Rec.709 radiance, background 0. The host interface takes the defaults; ``addon=False`` is Blender's
-    importer alone (the UsdPreviewSurface look), ``lobe`` one of :data:`LOBES`, ``samples`` per pixel.
+    importer alone (the UsdPreviewSurface look), ``lobe`` one of :data:`LOBES`, ``samples`` per pixel, ``frame``
+    the scene frame drawn (an animated asset, e.g. ``pigeon_walk.usda``: its armature's action at that frame).
     Raises :class:`HostError` when bpy is missing, Blender fails, or the add-on builds no thin-film material."""
     bpy_python(NAME)  # bpy missing: HostError before any work
     views = list(views)
@@ -86,7 +87,7 @@ def render(asset_path: str, views, out_dir: str, *, addon: bool = True, lobe: st
         raise HostError(NAME, f"no asset at {asset_path!r}")
     work = work_folder(NAME, views, out_dir)
     run_job({**base_job(asset_path, views, work, samples, addon=addon), "lobe": lobe,
-             "environment_radiance": ENVIRONMENT_RADIANCE}, work,
+             "environment_radiance": ENVIRONMENT_RADIANCE, "frame": frame}, work,
             importlib.util.find_spec("rockdove.hosts.blender_job").origin)
     return read_views(NAME, "Blender", views, work)
 

@@ -164,6 +164,8 @@ def run(job: dict) -> None:
     import mathutils
 
     addon, films, to_blender = import_asset(bpy, job)
+    if job.get("frame") is not None:  # an animated asset (its armature's action) at that frame
+        bpy.context.scene.frame_set(int(job["frame"]))
     if job["lobe"] == "view_angle":  # else "as_imported" (rockdove.hosts.blender.render checks)
         film_lobe_only(bpy, addon)
     white_world(bpy, job["environment_radiance"])

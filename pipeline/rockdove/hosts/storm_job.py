@@ -2,7 +2,9 @@
 has imaging: UsdImagingGL, hdSt, HdMtlx; usd-core has none). It imports nothing of rockdove.
 
 ``python storm_job.py job.json``: the session layer of :mod:`rockdove.hosts.storm`'s docstring (:func:`_session`),
-then each view recorded with ``UsdAppUtils.FrameRecorder`` (Storm, no colour correction) into ``<view>.exr``.
+then each view recorded with ``UsdAppUtils.FrameRecorder`` (Storm, no colour correction) into ``<view>.exr``. A job
+may select a ``motion``; a view may then carry its ``time`` code and ``only`` the mesh names it draws
+(:mod:`rockdove.verify.storm_motion`).
 """
 
 import ctypes
@@ -83,11 +85,13 @@ def _session(stage, job):
     root = stage.GetDefaultPrim()
     if job["variant"] in ("baked", "physical"):
         root.GetVariantSet("shading").SetVariantSelection(job["variant"])
+    if job.get("motion"):  # Storm skins the meshes itself (UsdSkel's ExtComputations) at each view's time
+        root.GetVariantSet("motion").SetVariantSelection(job["motion"])
     for prim in stage.Traverse():  # the rest pose as authored: Hydra replaces a skinned mesh's normals by its own
         if prim.GetTypeName() == "Skeleton" and not job.get("motion"):
             prim.SetActive(False)
     for prim in stage.Traverse():
-        if not prim.IsA(UsdShade.Material):
+        if not prim.IsA(UsdShade.Material) or job.get("as_authored"):  # as authored: what a usdview user sees
             continue
         mtl = UsdShade.Material(prim)
         out = mtl.GetSurfaceOutput("mtlx")
@@ -124,7 +128,7 @@ def run(job: dict) -> None:
     bundled_usd_first()
     size = (max(v["width"] for v in job["views"]), max(v["height"] for v in job["views"]))
     keep = egl_context(*size)  # noqa: F841 (the context must live while Storm draws)
-    from pxr import Usd, UsdAppUtils
+    from pxr import Usd, UsdAppUtils, UsdGeom
 
     stage = Usd.Stage.Open(job["asset"])
     if stage is None:
@@ -135,10 +139,16 @@ def run(job: dict) -> None:
     rec.SetCameraLightEnabled(False)
     rec.SetDomeLightVisibility(False)
     rec.SetComplexity(1.0)
+    meshes = [p for p in stage.Traverse() if p.IsA(UsdGeom.Mesh)]
     for view, cam in zip(job["views"], cams):
         rec.SetImageWidth(int(view["width"]))
         path = os.path.join(job["out_dir"], f"{view['name']}.exr")
-        if not rec.Record(stage, cam, Usd.TimeCode.Default(), path):
+        only = view.get("only")  # a view of some meshes (prim names), the others invisible
+        for prim in meshes:
+            UsdGeom.Imageable(prim).GetVisibilityAttr().Set(
+                UsdGeom.Tokens.invisible if only is not None and prim.GetName() not in only else UsdGeom.Tokens.inherited)
+        time = Usd.TimeCode(view["time"]) if view.get("time") is not None else Usd.TimeCode.Default()
+        if not rec.Record(stage, cam, time, path):
             raise RuntimeError(f"Storm: FrameRecorder.Record failed for view {view['name']!r}")
         print(f"storm: {view['name']} -> {path}", flush=True)
 

@@ -136,3 +136,32 @@ def author_motion_variants(stage, prim) -> None:
     stage.SetFramesPerSecond(FPS)
     stage.SetStartTimeCode(0)
     stage.SetEndTimeCode(round(DURATION_S * FPS))
+
+
+def motion_layer_name(motion: str) -> str:
+    """``pigeon_<motion>.usda``: the small layer beside the interface layer that plays ``motion``."""
+    return f"pigeon_{motion}.usda"
+
+
+def motion_layer(interface: str, motion: str):
+    """An anonymous layer, as a shot would write one, that plays ``motion`` of the asset: it sublayers the interface
+    layer (``interface``, a file name beside it) and selects the ``motion`` variant on ``/Pigeon``, with the same
+    time metadata (a stage takes it from its root layer). For hosts that import a stage's default variants (Blender)."""
+    from pxr import Sdf
+
+    from ..rig.motions import DURATION_S, FPS
+
+    if motion not in MOTIONS or motion == REST:
+        raise UsageError(f"motion={motion!r}; one of {MOTIONS[1:]}")
+    layer = Sdf.Layer.CreateAnonymous(".usda")
+    root = layer.pseudoRoot
+    for key, value in (("defaultPrim", "Pigeon"), ("upAxis", "Y"), ("metersPerUnit", 1.0),
+                       ("timeCodesPerSecond", float(FPS)), ("framesPerSecond", float(FPS)),
+                       ("startTimeCode", 0.0), ("endTimeCode", float(round(DURATION_S * FPS)))):
+        root.SetInfo(key, value)
+    layer.documentation = f"The pigeon asset playing its '{motion}' motion: open this layer instead of {interface}."
+    layer.subLayerPaths = [f"./{interface}"]
+    prim = Sdf.CreatePrimInLayer(layer, "/Pigeon")
+    prim.specifier = Sdf.SpecifierOver
+    prim.variantSelections[MOTION_VARIANT_SET] = motion
+    return layer

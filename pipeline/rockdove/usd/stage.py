@@ -13,7 +13,9 @@ Structure (docs/design.md, "USD asset"; the interface-layer + payload pattern of
   ``over`` on the feather mesh, ``RockDoveThinFilmAPI``; ``pigeon_rig.usdc`` (:mod:`rockdove.usd.skel`): the
   skeleton, its motions and every mesh's skin; ``pigeon_geom.usdc`` (crate, because its arrays are big: NVIDIA's
   UsdAsciiPerformanceChecker): the ``/Pigeon/Geom`` meshes (under a ``SkelRoot``), primvars and material bindings.
-- the interface layer also holds the ``motion`` variant set and the time range (:mod:`rockdove.usd.skel`).
+- the interface layer also holds the ``motion`` variant set and the time range (:mod:`rockdove.usd.skel`);
+  ``pigeon_idle.usda`` and ``pigeon_walk.usda`` each sublayer it and select one motion, as a shot would (for hosts
+  that import the default variants, such as Blender).
 
 Only the ``write_*`` functions write files. Text layers go through ``Sdf.Layer.ExportToString`` and the crate
 through ``Sdf.Layer.Export``: no timestamps, so the same inputs give byte-identical files (tested).
@@ -38,7 +40,7 @@ from .material import (
     mtlx_surface_path,
     texture_asset_paths,
 )
-from .skel import RIG_LAYER, author_motion_variants, author_rig
+from .skel import MOTIONS, REST, RIG_LAYER, author_motion_variants, author_rig, motion_layer, motion_layer_name
 
 ROOT = "/Pigeon"
 INTERFACE_LAYER = "pigeon.usda"
@@ -266,7 +268,8 @@ def write_rig(out_dir: str, bird) -> str:
 def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geometry: str,
                 shading: str | None = None, config: dict | None = None) -> dict:
     """Every layer but the geometry into ``out_dir``: interface, payload and looks (:func:`author_looks` over the
-    ``geometry`` layer of :func:`write_geometry`, read, not changed); ``{"interface", "payload", "looks"}`` paths.
+    ``geometry`` layer of :func:`write_geometry`, read, not changed), and a layer per motion that plays it
+    (:func:`rockdove.usd.skel.motion_layer`); ``{"interface", "payload", "looks", "idle", "walk"}`` paths.
     ``config``: the build configuration's sections that shape the asset, recorded as JSON in the looks layer's
     ``customLayerData`` (:data:`BUILD_CONFIG_KEY`; the layer a film change rewrites), for the viewer.
 
@@ -303,6 +306,10 @@ def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geo
              "looks": os.path.join(out_dir, LOOKS_LAYER)}
     for key, stage in (("looks", looks), ("payload", payload), ("interface", interface)):
         _export(stage, paths[key])
+    for motion in MOTIONS:  # pigeon_idle.usda, pigeon_walk.usda: each plays one motion (rockdove.usd.skel)
+        if motion != REST:
+            paths[motion] = os.path.join(out_dir, motion_layer_name(motion))
+            _export(motion_layer(INTERFACE_LAYER, motion), paths[motion])
     return paths
 
 

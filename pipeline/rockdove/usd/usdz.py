@@ -11,9 +11,10 @@ that all carry one fixed time, ``SOURCE_DATE_EPOCH`` when set (the reproducible-
 ``DIR/pigeon_ar.usdz`` (:func:`write_ar_usdz`): the same bird for AR Quick Look, as
 ``UsdUtils.CreateNewARKitUsdzPackage`` makes one: one flattened ``.usdc`` layer first, then its textures, and only
 UsdPreviewSurface networks (OpenUSD's ARKit compliance checker, v23.11, allows no MaterialX ``ND_*`` shader).
-Flattening bakes the ``shading`` selection, so the package gives up the variant set (and the MaterialX networks it
-switches), the LUT (an EXR no AR viewer reads: the film's other records stay) and the payload split. The feathers
-show the preview atlas ``feather_preview.png`` through ``previewST``, as every UsdPreviewSurface viewer does.
+Flattening bakes the ``shading`` selection and the ``motion`` one (:data:`AR_MOTION`, which Quick Look plays on
+open), so the package gives up the variant sets (and the MaterialX networks and the other motions they switch),
+the LUT (an EXR no AR viewer reads: the film's other records stay) and the payload split. The feathers show the
+preview atlas ``feather_preview.png`` through ``previewST``, as every UsdPreviewSurface viewer does.
 """
 
 from __future__ import annotations
@@ -29,6 +30,9 @@ USDZ_NAME = "pigeon.usdz"
 AR_USDZ_NAME = "pigeon_ar.usdz"
 #: Shader ids of UsdPreviewSurface networks (the ids ARKit's rules of v23.11 allow); every other shader is dropped.
 PREVIEW_SHADER_IDS = ("UsdPreviewSurface", "UsdUVTexture", "UsdTransform2d", "UsdPrimvarReader_")
+#: The motion AR Quick Look plays on open (it plays a package's time range in a loop): ``idle``, in place. The walk's
+#: root motion would carry the bird 0.4 m from where the user placed it in 2 s and snap it back at every loop.
+AR_MOTION = "idle"
 #: 1980-01-01T00:00:00Z, the earliest time a zip (DOS) timestamp can hold.
 ZIP_EPOCH = 315532800
 
@@ -65,20 +69,32 @@ def _stamp(folder: str) -> None:
                 os.utime(os.path.join(parent, name), (stamp, stamp))
 
 
-def ar_layer(root: str):
-    """The asset at ``root`` flattened into one anonymous layer without any shader whose ``info:id`` is not a
-    :data:`PREVIEW_SHADER_IDS` one, any material output but ``outputs:surface`` / ``outputs:displacement``, and
-    ``rockdove:lut:file``."""
+def ar_layer(root: str, motion: str | None = AR_MOTION):
+    """The asset at ``root`` flattened into one anonymous layer, its ``motion`` variant (if it has the set) selected,
+    without any shader whose ``info:id`` is not a :data:`PREVIEW_SHADER_IDS` one, any material output but
+    ``outputs:surface`` / ``outputs:displacement``, ``rockdove:lut:file``, and any ``SkelAnimation`` no skeleton
+    plays."""
     from pxr import Usd
 
-    layer = Usd.Stage.Open(root, Usd.Stage.LoadAll).Flatten(addSourceFileComment=False)
+    stage = Usd.Stage.Open(root, Usd.Stage.LoadAll)
+    prim = stage.GetDefaultPrim()
+    if motion is not None and prim and prim.GetVariantSets().HasVariantSet("motion"):  # an asset without a rig: none
+        motions = prim.GetVariantSet("motion")
+        if motion not in motions.GetVariantNames():
+            raise UsageError(f"motion={motion!r}; {root} has the motions {list(motions.GetVariantNames())}")
+        with Usd.EditContext(stage, stage.GetSessionLayer()):
+            motions.SetVariantSelection(motion)
+    layer = stage.Flatten(addSourceFileComment=False)
+    played = {t for p in stage.Traverse() if p.GetTypeName() == "Skeleton"
+              for t in p.GetRelationship("skel:animationSource").GetTargets()}
     dropped = []
 
     def walk(spec):
         for child in list(spec.nameChildren):
             ident = child.attributes.get("info:id")
             ident = ident.default if ident is not None else None
-            if child.typeName == "Shader" and not str(ident or "").startswith(PREVIEW_SHADER_IDS):
+            if (child.typeName == "Shader" and not str(ident or "").startswith(PREVIEW_SHADER_IDS)
+                    or child.typeName == "SkelAnimation" and child.path not in played):
                 dropped.append(child.path)
             else:
                 walk(child)
@@ -95,14 +111,15 @@ def ar_layer(root: str):
     return layer
 
 
-def write_ar_usdz(out_dir: str, root_layer: str = "pigeon.usda") -> str:
-    """``out_dir/pigeon_ar.usdz``: :func:`ar_layer` of ``out_dir/root_layer`` as ``pigeon_ar.usdc``, packaged by
-    ``UsdUtils.CreateNewARKitUsdzPackage`` with its textures (fixed file times); returns its path."""
+def write_ar_usdz(out_dir: str, root_layer: str = "pigeon.usda", motion: str | None = AR_MOTION) -> str:
+    """``out_dir/pigeon_ar.usdz``: :func:`ar_layer` of ``out_dir/root_layer`` (playing ``motion``) as
+    ``pigeon_ar.usdc``, packaged by ``UsdUtils.CreateNewARKitUsdzPackage`` with its textures (fixed file times);
+    returns its path."""
     from pxr import Sdf, UsdUtils
 
     out_dir, root = _root(out_dir, root_layer)
     with tempfile.TemporaryDirectory(prefix=".usdz-", dir=out_dir) as scratch:
-        layer = ar_layer(root)
+        layer = ar_layer(root, motion)
         used = []
 
         def localise(path: str) -> str:  # Flatten anchors asset paths: copy what lies in the asset into scratch

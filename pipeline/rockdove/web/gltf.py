@@ -26,6 +26,7 @@ import numpy as np
 from ..errors import UsageError
 from ..geometry.types import point_bounds
 from ..resources import write_atomic
+from .gltf_skin import add_skin
 
 #: The file the build writes beside ``pigeon.usda``.
 GLB_NAME = "pigeon.glb"
@@ -39,7 +40,7 @@ EXTENSIONS = ("KHR_materials_iridescence", "KHR_materials_ior", "KHR_materials_v
 FILM_VARIANT, PREVIEW_VARIANT = "thin_film", "preview"
 
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
-_FLOAT, _UNSIGNED_SHORT, _UNSIGNED_INT = 5126, 5123, 5125
+_FLOAT, _UNSIGNED_BYTE, _UNSIGNED_SHORT, _UNSIGNED_INT = 5126, 5121, 5123, 5125
 _LINEAR, _LINEAR_MIPMAP_LINEAR, _CLAMP_TO_EDGE = 9729, 9987, 33071
 
 
@@ -85,7 +86,7 @@ class _Blob:
         from pygltflib import Accessor
 
         array = np.ascontiguousarray(array)
-        component = {np.dtype(np.float32): _FLOAT, np.dtype(np.uint16): _UNSIGNED_SHORT,
+        component = {np.dtype(np.float32): _FLOAT, np.dtype(np.uint8): _UNSIGNED_BYTE, np.dtype(np.uint16): _UNSIGNED_SHORT,
                      np.dtype(np.uint32): _UNSIGNED_INT}[array.dtype]
         acc = Accessor(bufferView=self.view(array.tobytes(), target), componentType=component,
                        count=int(array.shape[0]), type=kind)
@@ -263,8 +264,14 @@ def scene_to_glb(scene, version: str = "") -> bytes:
         gltf.meshes.append(Mesh(name=part.name, primitives=[primitive]))
         gltf.nodes.append(Node(name=part.name, mesh=len(gltf.meshes) - 1))
     gltf.extensionsUsed = [e for e in EXTENSIONS if e != "KHR_materials_variants" or gltf.extensions]
-    gltf.nodes.append(Node(name="Pigeon", children=list(range(len(gltf.nodes)))))
-    gltf.scenes = [Scene(name="Pigeon", nodes=[len(gltf.nodes) - 1])]
+    meshes = len(gltf.nodes)
+    add_skin(gltf, blob, scene, stage, {p.path: i for i, p in enumerate(scene.parts)})
+    if gltf.skins:  # skinned mesh nodes are root nodes (glTF ignores their parents' transforms), beside the joints
+        roots = list(range(meshes)) + [len(gltf.nodes) - 1]
+    else:
+        gltf.nodes.append(Node(name="Pigeon", children=list(range(meshes))))
+        roots = [len(gltf.nodes) - 1]
+    gltf.scenes = [Scene(name="Pigeon", nodes=roots)]
     gltf.scene = 0
     blob.data.extend(b"\0" * (-len(blob.data) % 4))
     gltf.buffers = [Buffer(byteLength=len(blob.data))]
@@ -279,6 +286,8 @@ def export_glb(asset, out_path, *, version: str = "") -> dict:
     from ..render.scene import load_scene
 
     scene = load_scene(asset)  # the verifier's reader; a physical-only asset (no LUT) reads too
+    if scene.time is not None:  # a layer that plays a motion (pigeon_walk.usda): the skin binds the rest pose
+        scene = load_scene(asset, {"motion": "rest"})
     data = scene_to_glb(scene, version=version)
     out_path = os.fspath(out_path)
     write_atomic(out_path, data)

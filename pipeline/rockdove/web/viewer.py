@@ -4,9 +4,9 @@ A ``file://`` page in Chromium may neither ``fetch`` files nor load module scrip
 everything arrives through classic ``<script src>`` tags beside the page: ``viewer_data.js`` (the GLB and the
 asset's float LUT in base64, the WebGL2 shaders ``materials/web/thinfilm_webgl.*``, the start camera and light);
 ``three/*.js``, the ES modules of the npm package ``three`` (``materials/web/node_modules``, pinned in
-``package.json``) and ``viewer_app.js``, each copied verbatim into a JavaScript string; ``viewer_loader.js``,
-which makes each module a same-origin ``blob:`` URL with its imports pointed at its dependencies', then imports
-the app.
+``package.json``), ``motion_player.js`` (the motion switch, play and pause) and ``viewer_app.js``, each copied
+verbatim into a JavaScript string; ``viewer_loader.js``, which makes each module a same-origin ``blob:`` URL with its
+imports pointed at its dependencies', then imports the app.
 """
 
 from __future__ import annotations
@@ -201,7 +201,8 @@ def write_viewer(asset, glb_path, out_dir, asset_name: str | None = None) -> str
         name = os.path.basename(os.path.dirname(name) if name.endswith((".usda", ".usd", ".usdc", ".usdz")) else name)
     data = viewer_data(scene, scene.load_lut(), Path(glb_path).read_bytes(), name)
     (out / "viewer_data.js").write_text("window.ROCKDOVE_DATA = " + json.dumps(data) + ";\n")
-    modules = {**{n: nm / p for n, p in THREE_MODULES.items()}, "viewer_app.js": web / "viewer_app.js"}
+    modules = {**{n: nm / p for n, p in THREE_MODULES.items()}, "motion_player.js": web / "motion_player.js",
+               "viewer_app.js": web / "viewer_app.js"}
     for name, src in modules.items():
         source = json.dumps(src.read_text(encoding="utf-8"))
         (out / "three" / name).write_text(f"(window.ROCKDOVE_MODULES = window.ROCKDOVE_MODULES || {{}})"
