@@ -1,20 +1,11 @@
-"""Material networks of the asset: the universal UsdPreviewSurface networks and the MaterialX thin-film network.
+"""Material networks: the universal UsdPreviewSurface networks and the MaterialX thin-film network.
 
-A feather material carries two surface outputs (docs/design.md, "USD asset"):
-
-- ``outputs:surface``: UsdPreviewSurface, for every Hydra delegate: the ``feather_preview.png`` atlas (each
-  card the tile of its own thickness at one angle, :mod:`rockdove.usd.textures_io`) through ``previewST``,
-  ``opacityThreshold = 0.5``.
-- ``outputs:mtlx:surface``: ``materials/thinfilm.mtlx`` copied node for node into UsdShade shaders (``info:id``
-  = the nodedef, ``ND_*``). The document is data, never spelt here; the build sets only its parameters (the
-  LUT transform and warp, film indices, texture paths). The ``shading`` variant (:mod:`rockdove.usd.stage`)
-  connects ``MtlxBakedSurface`` (the LUT method) or ``MtlxPhysicalSurface`` (OpenPBR's thin film); an asset
-  built with one variant carries only the nodes upstream of its surface.
-
-Physical variant: OpenPBR's ``thin_film_thickness`` is in
-micrometres (node ``ThicknessUm`` = nm * 0.001); ``thin_film_ior`` is the film's index at
-:data:`rockdove.usd.stage.FILM_IOR_WAVELENGTH_NM` (one real index: no dispersion); the film lies on
-``specular_ior`` = the recorded substrate index (``SubstrateIor``, 1.0 in air).
+A feather material has two surface outputs (docs/design.md, "USD asset"): ``outputs:surface``, UsdPreviewSurface
+for every Hydra delegate (the ``feather_preview.png`` atlas through ``previewST``), and ``outputs:mtlx:surface``,
+``materials/thinfilm.mtlx`` copied node for node into ``ND_*`` shaders: the document is data, never spelt here; the
+build sets only its parameters. The ``shading`` variant connects ``MtlxBakedSurface`` (the LUT) or
+``MtlxPhysicalSurface`` (OpenPBR: ``thin_film_thickness`` in micrometres, ``thin_film_ior`` one real index at
+:data:`rockdove.usd.stage.FILM_IOR_WAVELENGTH_NM`, the film on ``specular_ior`` = the substrate index).
 """
 
 from __future__ import annotations
@@ -67,9 +58,8 @@ def texture_asset_paths() -> dict[str, str]:
 
 @functools.lru_cache(maxsize=1)
 def load_mtlx_libraries():
-    """The MaterialX standard data libraries (stdlib, pbrlib, bxdf...) as one document, read once per process
-    (~65 ms: a long-lived process, e.g. a sweep's worker, rebuilding looks layers reuses it). Shared: callers
-    use it as a data library (``setDataLibrary``, ``getNodeDef``) and must not change it."""
+    """The MaterialX standard data libraries as one document, read once per process (~65 ms). Shared: callers use
+    it as a data library (``setDataLibrary``, ``getNodeDef``) and must not change it."""
     import MaterialX as mx
 
     lib = mx.createDocument()
@@ -155,9 +145,7 @@ def copy_mtlx_network(doc, material, roots=None) -> dict:
 
 
 def lut_info(lut) -> dict:
-    """The values of a ThinFilmLUT the material and the schema need, as plain (cacheable) data: ``n_angle``,
-    ``n_thickness``, ``angle_warp_gamma``, ``thickness_range_nm`` (lo, hi), ``colour_space``, ``illuminant``,
-    ``observer`` (the last two from the LUT metadata when present)."""
+    """The values of a ThinFilmLUT the material and the schema need, as plain (cacheable) data."""
     md = dict(lut.metadata)
     return {
         "n_angle": int(lut.n_angle),
@@ -187,9 +175,8 @@ def _preview_texture(stage, path, file: str, st_output, *, colour_space: str, wr
     tex.SetShaderId("UsdUVTexture")
     tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(file))
     tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(st_output)
-    tex.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set(wrap)
-    tex.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set(wrap)
-    tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set(colour_space)
+    for name, value in (("wrapS", wrap), ("wrapT", wrap), ("sourceColorSpace", colour_space)):
+        tex.CreateInput(name, Sdf.ValueTypeNames.Token).Set(value)
     tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
     tex.CreateOutput("a", Sdf.ValueTypeNames.Float)
     return tex
@@ -217,15 +204,9 @@ def _st_reader(stage, path, varname: str = "st"):
 
 def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, textures: dict | None = None,
                             variants=("baked", "physical"), substrate_ior: float = 1.0):
-    """Define the feather material at ``path``: the universal preview network (``outputs:surface``) and the
-    MaterialX thin-film network (``outputs:mtlx:surface`` -> ``MtlxBakedSurface`` when ``"baked"`` is in
-    ``variants``, else ``MtlxPhysicalSurface``); returns the UsdShade.Material.
-
-    ``lut`` is :func:`lut_info` of the baked LUT (None: physical only, no LUT network); ``film_ior`` and
-    ``substrate_ior`` (relative to the incident medium; 1.0 for the film in air) are the physical variant's
-    ``thin_film_ior`` and ``specular_ior`` (OpenPBR puts the film on the base's dielectric interface);
-    ``textures`` overrides :func:`texture_asset_paths`; only the nodes upstream of the ``variants``' surfaces.
-    """
+    """Define the feather material at ``path``: the preview network and the MaterialX nodes upstream of the
+    ``variants``' surfaces. ``lut``: :func:`lut_info` (None: physical only); ``film_ior``, ``substrate_ior``
+    (relative to the incident medium) are OpenPBR's ``thin_film_ior`` and ``specular_ior``."""
     from pxr import Gf, Sdf, UsdShade
 
     textures = {**texture_asset_paths(), **(textures or {})}
@@ -236,9 +217,7 @@ def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, t
         raise UsageError(f"lut=None with variants={variants!r}: the baked variant needs a LUT (use ('physical',))")
     material = UsdShade.Material.Define(stage, path)
     base = material.GetPath()
-
     # universal network: the preview atlas through the mesh's previewST (one tile per card thickness)
-
     st = _st_reader(stage, base.AppendChild("StReader"), PREVIEW_PRIMVAR)
     preview_tex = _preview_texture(stage, base.AppendChild("PreviewTexture"), textures["feather_preview"], st,
                                    colour_space="sRGB")
@@ -286,13 +265,9 @@ def _mx_value_string(value, mx_type: str) -> str:
 
 
 def usd_to_mtlx_document(surface_shader, library=None, primvars=None):
-    """Rebuild a MaterialX document from the UsdShade network of ``ND_*`` shaders upstream of ``surface_shader``,
-    as Hydra's HdMtlx does before generating Storm's shader (usd-core has no MaterialX plugin), so the *authored*
-    network, with the build's values, is what gets checked. Nodes are named as the shaders, plus a
-    ``surfacematerial`` named after the USD material. UsageError when a shader's id is not a nodedef of
-    ``library`` (default :func:`load_mtlx_libraries`), an input is not one of its nodedef's, or a value could be
-    code (:func:`rockdove.usd.shader_values.problem`; ``primvars``: the drawn mesh's).
-    """
+    """Rebuild a MaterialX document from the ``ND_*`` shaders upstream of ``surface_shader``, as Hydra's HdMtlx
+    does (usd-core has no MaterialX plugin), so the *authored* network is what gets checked. UsageError when an id
+    or input is not in ``library``'s nodedefs, or a value could be code (:func:`rockdove.usd.shader_values.problem`)."""
     import MaterialX as mx
     from pxr import UsdShade
 

@@ -2,23 +2,16 @@
 
 Structure (docs/design.md, "USD asset"; the interface-layer + payload pattern of NVIDIA's usd-exchange-samples):
 
-- ``pigeon.usda`` (interface): defaultPrim ``/Pigeon``, an Xform of kind ``component`` with assetInfo and an
-  extentsHint, ``upAxis = Y``, ``metersPerUnit = 1``, a payload to ``./pigeon_payload.usda`` and the variant set
-  ``shading``, which reconnects ``FeatherMaterial.outputs:mtlx:surface`` (variants are stronger than payloads).
-  The configuration's ``shading.variant`` chooses its variants (:data:`SHADING_CHOICES`); a physical-only asset
-  has no LUT texture, no baked MaterialX network and no ``rockdove:lut:*`` attributes.
-- ``pigeon_payload.usda`` sublayers the three layers below, split by what changes them, so a film change rewrites
-  the small looks layer and leaves the big geometry and rig layers' bytes as they were:
-  ``pigeon_looks.usda`` (strongest; text, because people read it): the ``/Pigeon/Looks`` materials and, as an
-  ``over`` on the feather mesh, ``RockDoveThinFilmAPI``; ``pigeon_rig.usdc`` (:mod:`rockdove.usd.skel`): the
-  skeleton, its motions and every mesh's skin; ``pigeon_geom.usdc`` (crate, because its arrays are big: NVIDIA's
-  UsdAsciiPerformanceChecker): the ``/Pigeon/Geom`` meshes (under a ``SkelRoot``), primvars and material bindings.
-- the interface layer also holds the ``motion`` variant set and the time range (:mod:`rockdove.usd.skel`);
-  ``pigeon_idle.usda`` and ``pigeon_walk.usda`` each sublayer it and select one motion, as a shot would (for hosts
-  that import the default variants, such as Blender).
+- ``pigeon.usda`` (interface): ``/Pigeon`` (component, assetInfo, extentsHint), a payload to
+  ``./pigeon_payload.usda``, the ``shading`` variant set (it reconnects ``FeatherMaterial.outputs:mtlx:surface``:
+  variants are stronger than payloads) and the ``motion`` variant set (:mod:`rockdove.usd.skel`).
+- ``pigeon_payload.usda`` sublayers three layers split by what changes them, so a film change rewrites only the
+  small ``pigeon_looks.usda`` (text: people read it); ``pigeon_rig.usdc`` holds the skeleton and skins, and
+  ``pigeon_geom.usdc`` the meshes (crate: its arrays are big, NVIDIA's UsdAsciiPerformanceChecker).
+- ``pigeon_idle.usda`` and ``pigeon_walk.usda`` sublayer the interface and select one motion, as a shot would.
 
-Only the ``write_*`` functions write files. Text layers go through ``Sdf.Layer.ExportToString`` and the crate
-through ``Sdf.Layer.Export``: no timestamps, so the same inputs give byte-identical files (tested).
+Text layers go through ``Sdf.Layer.ExportToString`` and the crate through ``Sdf.Layer.Export``: no timestamps, so
+the same inputs give byte-identical files (tested).
 """
 
 from __future__ import annotations
@@ -87,13 +80,8 @@ def material_name(kind: str) -> str:
 
 
 def author_mesh(stage, path, part, preview_range_nm=None):
-    """Define one ``UsdGeom.Mesh`` from a :class:`rockdove.geometry.MeshPart` (its unreferenced points dropped).
-
-    Points (m), topology, vertex normals, ``primvars:st`` (vertex), constant ``displayColor``, every extra primvar
-    (float/floatN, documented), extent, ``subdivisionScheme = none`` (final polygons), ``doubleSided`` for the
-    feather cards. With ``preview_range_nm`` (the film's thickness range) also ``primvars:previewST``, the
-    coordinates into the preview atlas (:func:`rockdove.usd.textures_io.preview_st`).
-    """
+    """Define one ``UsdGeom.Mesh`` (points in m, final polygons) from a :class:`rockdove.geometry.MeshPart`; with
+    ``preview_range_nm`` (the film's thickness range) also ``primvars:previewST`` into the preview atlas."""
     from pxr import Sdf, UsdGeom, Vt
 
     part = drop_unreferenced_points(part)  # every point a face uses: validators reject unused topology
@@ -164,10 +152,8 @@ def author_geometry(stage, bird):
 
 
 def author_looks(stage, bird, film, lut: dict | None, variants=SHADING_VARIANTS):
-    """The looks half of the payload in ``stage``'s edit target: one ``/Pigeon/Looks`` material per kind of
-    ``bird``'s parts, and ``RockDoveThinFilmAPI`` (``film``, a :class:`rockdove.films.FilmModel`, and ``lut``,
-    :func:`rockdove.usd.material.lut_info` or None) as an ``over`` on the feather mesh, which ``stage`` must
-    compose (the geometry layer as a weaker sublayer)."""
+    """The looks half of the payload in ``stage``'s edit target: one ``/Pigeon/Looks`` material per part kind, and
+    ``RockDoveThinFilmAPI`` as an ``over`` on the feather mesh, which ``stage`` must compose."""
     from pxr import UsdGeom
 
     from .schema import apply_thin_film
@@ -229,26 +215,24 @@ def author_interface(stage, *, extent, version: str, variants=SHADING_VARIANTS):
     return prim
 
 
-def _export(stage_or_layer, path: str) -> None:
-    """A layer to ``path``: crate via Export (``.usdc``), text via ExportToString."""
+def _export(stage_or_layer, path: str) -> str:
+    """A layer to ``path`` (its folder made): crate via Export (``.usdc``), text via ExportToString."""
     layer = stage_or_layer.GetRootLayer() if hasattr(stage_or_layer, "GetRootLayer") else stage_or_layer
+    os.makedirs(os.path.dirname(path), exist_ok=True)
     if path.endswith(".usdc"):
         if not layer.Export(path):
             raise RuntimeError(f"USD could not write {path!r}")
-        return
+        return path
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write(layer.ExportToString())
+    return path
 
 
 def write_geometry(out_dir: str, bird) -> str:
     """:func:`author_geometry` as ``out_dir/pigeon_geom.usdc``; returns its path."""
     stage = new_stage()
     author_geometry(stage, bird)
-    out_dir = os.path.abspath(out_dir)
-    os.makedirs(out_dir, exist_ok=True)
-    path = os.path.join(out_dir, GEOMETRY_LAYER)
-    _export(stage, path)
-    return path
+    return _export(stage, os.path.join(os.path.abspath(out_dir), GEOMETRY_LAYER))
 
 
 def write_rig(out_dir: str, bird) -> str:
@@ -259,23 +243,15 @@ def write_rig(out_dir: str, bird) -> str:
     stage.SetTimeCodesPerSecond(FPS)  # as the root layer's: USD scales a sublayer's samples by the ratio
     stage.SetFramesPerSecond(FPS)
     author_rig(stage, bird)
-    path = os.path.join(os.path.abspath(out_dir), RIG_LAYER)
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    _export(stage, path)
-    return path
+    return _export(stage, os.path.join(os.path.abspath(out_dir), RIG_LAYER))
 
 
 def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geometry: str,
                 shading: str | None = None, config: dict | None = None) -> dict:
-    """Every layer but the geometry into ``out_dir``: interface, payload and looks (:func:`author_looks` over the
-    ``geometry`` layer of :func:`write_geometry`, read, not changed), and a layer per motion that plays it
-    (:func:`rockdove.usd.skel.motion_layer`); ``{"interface", "payload", "looks", "idle", "walk"}`` paths.
-    ``config``: the build configuration's sections that shape the asset, recorded as JSON in the looks layer's
-    ``customLayerData`` (:data:`BUILD_CONFIG_KEY`; the layer a film change rewrites), for the viewer.
-
-    ``shading``: ``"both"``, ``"baked"`` (both need ``lut``) or ``"physical"``; default ``"both"`` with a LUT,
-    ``"physical"`` without.
-    """
+    """Every layer but the geometry and rig into ``out_dir`` (the looks over the ``geometry`` layer, read only);
+    ``{"interface", "payload", "looks", "idle", "walk"}`` paths. ``config``: recorded as JSON in the looks layer
+    (:data:`BUILD_CONFIG_KEY`), for the viewer. ``shading``: a :data:`SHADING_CHOICES` key, default ``"both"``
+    with a LUT, ``"physical"`` without."""
     from pxr import Sdf, Usd
 
     shading = shading or ("both" if lut is not None else "physical")
@@ -301,29 +277,25 @@ def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geo
     extent = point_bounds(np.concatenate([np.asarray(p.points_m, np.float32) for p in bird.parts]))
     author_interface(interface, extent=extent.astype(np.float32), version=version, variants=variants)
     out_dir = os.path.abspath(out_dir)
-    os.makedirs(out_dir, exist_ok=True)
-    paths = {"interface": os.path.join(out_dir, INTERFACE_LAYER), "payload": os.path.join(out_dir, PAYLOAD_LAYER),
-             "looks": os.path.join(out_dir, LOOKS_LAYER)}
-    for key, stage in (("looks", looks), ("payload", payload), ("interface", interface)):
-        _export(stage, paths[key])
+    paths = {key: _export(layer, os.path.join(out_dir, name)) for key, layer, name in (
+        ("looks", looks, LOOKS_LAYER), ("payload", payload, PAYLOAD_LAYER), ("interface", interface, INTERFACE_LAYER))}
     for motion in MOTIONS:  # pigeon_idle.usda, pigeon_walk.usda: each plays one motion (rockdove.usd.skel)
         if motion != REST:
-            paths[motion] = os.path.join(out_dir, motion_layer_name(motion))
-            _export(motion_layer(INTERFACE_LAYER, motion), paths[motion])
+            path = os.path.join(out_dir, motion_layer_name(motion))
+            paths[motion] = _export(motion_layer(INTERFACE_LAYER, motion), path)
     return paths
 
 
 def write_layers(out_dir: str, bird, film, lut: dict | None, *, version: str, shading: str | None = None) -> dict:
-    """:func:`write_geometry`, :func:`write_looks` and :func:`rockdove.usd.skel.write_rig`: the five layers' paths
-    (write_looks's, ``geometry`` and ``rig``)."""
+    """:func:`write_geometry`, :func:`write_looks` and :func:`write_rig`: every layer's path."""
     geometry = write_geometry(out_dir, bird)
     paths = write_looks(out_dir, bird, film, lut, version=version, geometry=geometry, shading=shading)
     return {**paths, "geometry": geometry, "rig": write_rig(out_dir, bird)}
 
 
 def variant_combinations(stage) -> list[dict]:
-    """Every combination of the default prim's variant selections, as ``{set name: variant}`` dicts (sets in
-    name order); ``[{}]`` without a default prim or variant sets."""
+    """Every combination of the default prim's variant selections, as ``{set name: variant}`` dicts; ``[{}]``
+    without a default prim or variant sets."""
     import itertools
 
     prim = stage.GetDefaultPrim()
