@@ -1,24 +1,13 @@
 """Write the asset's textures into ``DIR/textures/`` deterministically (docs/design.md, "Textures").
 
-- PNG via :func:`rockdove.png.save_png` at :data:`rockdove.png.TEXTURE_LEVEL` (no text/time chunks): the
-  same pixels give the same bytes.
-- The LUT via :func:`rockdove.lut.exr.write_exr` (float32 or half RGB, ZIP, sorted header, no timestamp).
-- ``feather_preview.png``: what UsdPreviewSurface viewers show (Blender's importer, usdview without MaterialX,
-  Quick Look). Their network cannot look the LUT up per fragment (it is indexed by angle and thickness), so
-  the preview is an *atlas* of :data:`PREVIEW_TILES` copies of the feather, each ``mix(base, structural, mask)``
-  with the structural colour of one thickness at one representative angle. Each card reads the tile of its
-  own thickness (cards have one thickness each) through the texcoord primvar ``previewST``
-  (:func:`preview_st`, authored on the feather mesh), so the viewers show the film's spatial variation, green
-  and purple feathers, with one UsdUVTexture and a binary ``opacityThreshold`` cut-out. Tiles sit on
-  :data:`PREVIEW_COLUMNS` columns, bottom row first (texture t = 0 at the image's bottom), tile k at
-  thickness ``lo + k (hi - lo) / (K - 1)`` over the film's thickness range rounded outward to whole nm
-  (:func:`preview_range_nm`; one tile when the range is one value). The angle is :data:`PREVIEW_COS_THETA`. The
-  mix is done in linear light (sRGB decoded and re-encoded, IEC 61966-2-1: :func:`rockdove.srgb.srgb_encode`);
-  out-of-gamut colours are clipped to [0, 1].
-- An asset without a LUT (physical-only shading, ``lut=None``) has no ``thinfilm_lut.exr``; its preview colours
-  are the *exact* spectral colours at the same points: :func:`rockdove.lut.reference.reference_colour`, one
-  Airy spectrum at 0.1 nm integrated under D65 with the CIE 1931 2 degree observer, in lin_rec709
-  (:func:`preview_colour`). With a LUT the preview uses the LUT's values there, which differ by the LUT's error.
+PNG via :func:`rockdove.png.save_png` (no text/time chunks), the LUT via :func:`rockdove.lut.exr.write_exr`.
+
+``feather_preview.png`` is what UsdPreviewSurface viewers show (Blender's importer, usdview without MaterialX,
+Quick Look). They cannot look the LUT up per fragment, so the preview is an *atlas* of :data:`PREVIEW_TILES`
+copies of the feather, each ``mix(base, structural, mask)`` (in linear light, IEC 61966-2-1; clipped to [0, 1])
+with the structural colour of one thickness at :data:`PREVIEW_COS_THETA`; each card reads the tile of its own
+thickness through ``previewST`` (:func:`preview_st`), so the viewers show green and purple feathers with one
+UsdUVTexture. Without a LUT the colours are the exact spectral ones (:func:`preview_colour`).
 """
 
 from __future__ import annotations
@@ -43,8 +32,8 @@ PREVIEW_TILE_TEXELS = 128
 
 
 def preview_range_nm(thickness_range_nm) -> tuple[float, float]:
-    """The atlas's thickness range: ``(lo, hi)`` nm rounded outward to whole nm, so that callers holding the
-    mesh's exact range and callers holding the build's rounded one (the LUT axis) pick the same tiles."""
+    """``(lo, hi)`` nm rounded outward to whole nm, so that callers holding the mesh's exact range and callers
+    holding the build's rounded one (the LUT axis) pick the same tiles."""
     lo, hi = (float(v) for v in thickness_range_nm)
     if not (np.isfinite(lo) and np.isfinite(hi) and 0 <= lo <= hi):
         raise UsageError(f"thickness_range_nm must be finite (lo, hi) with 0 <= lo <= hi nm, "
@@ -65,9 +54,8 @@ def preview_atlas_shape(n_tiles: int) -> tuple[int, int]:
 
 
 def preview_st(st, thickness_nm, thickness_range_nm) -> np.ndarray:
-    """(V, 2) float32 texture coordinates of the preview atlas: each vertex's feather ``st`` ((V, 2) in [0, 1], t = 0
-    at the image's bottom) mapped onto the texel centres (no bilinear bleeding between tiles) of the tile of its
-    ``thickness_nm`` (V,) within the film's ``thickness_range_nm`` (:func:`preview_range_nm` rounds it)."""
+    """(V, 2) float32 atlas coordinates: each vertex's ``st`` mapped onto the texel centres (no bilinear bleeding
+    between tiles) of the tile of its ``thickness_nm`` (V,) within ``thickness_range_nm``."""
     st = np.asarray(st, np.float64)
     d = np.asarray(thickness_nm, np.float64).reshape(-1)
     tiles = preview_tile_thickness_nm(thickness_range_nm)
@@ -82,11 +70,8 @@ def preview_st(st, thickness_nm, thickness_range_nm) -> np.ndarray:
 
 
 def feather_preview_atlas(base_rgba: np.ndarray, mask: np.ndarray, structural_rgb) -> np.ndarray:
-    """The preview atlas, (rows * T, columns * T, 4) uint8 (sRGB RGB, linear alpha): per linear structural colour
-    of ``structural_rgb`` (K, 3) one tile, ``base_rgba`` ((H, W, 4) uint8 sRGB, linear alpha: feather_base.png)
-    mixed by ``mask`` ((H, W[, 1]) uint8, 255 where structural colour is drawn: feather_mask.png) with that
-    colour (clipped to [0, 1]) in linear light, resized to :data:`PREVIEW_TILE_TEXELS` (T), on
-    :data:`PREVIEW_COLUMNS` columns from the bottom row up."""
+    """The preview atlas, (rows * T, columns * T, 4) uint8: per linear colour of ``structural_rgb`` (K, 3) one tile
+    of ``base_rgba`` mixed by ``mask`` (255: structural colour) with it, bottom row first."""
     from PIL import Image
 
     colours = np.asarray(structural_rgb, np.float64).reshape(-1, 3)
@@ -123,9 +108,8 @@ def write_png(path: str, pixels: np.ndarray) -> str:
 
 
 def preview_colour(film, thickness_nm: float, cos_theta: float = PREVIEW_COS_THETA) -> np.ndarray:
-    """The exact structural colour of ``film`` (a FilmModel or its name) at ``thickness_nm`` and the cosine of
-    incidence ``cos_theta``: (3,) float64 unclipped lin_rec709 (D65, CIE 1931 2 degree;
-    :func:`rockdove.lut.reference.reference_colour`)."""
+    """The exact structural colour of ``film`` at ``thickness_nm`` and ``cos_theta``: (3,) float64 unclipped
+    lin_rec709 (D65, CIE 1931 2 degree; :func:`rockdove.lut.reference.reference_colour`)."""
     from rockdove.lut.reference import reference_colour
 
     return np.asarray(reference_colour(cos_theta, float(thickness_nm), film, colour_space="lin_rec709"), np.float64)
@@ -133,14 +117,8 @@ def preview_colour(film, thickness_nm: float, cos_theta: float = PREVIEW_COS_THE
 
 def _mixed_tiles(base_rgba: np.ndarray, mask: np.ndarray, colours: np.ndarray):
     """Yield ``mix(base, clip(colour, 0, 1), mask)`` in linear light, sRGB-encoded, one (H, W, 4) uint8 tile per
-    colour of ``colours`` (K, 3).
-
-    A texel's result depends only on its 8-bit base RGBA and its 8-bit mask, and a feather texture has a few
-    thousand distinct such texels against 65k (each output channel only on its channel's base value and the mask:
-    ~900 distinct pairs): each distinct channel value is mixed and encoded once per colour (the same
-    floating-point operations per value, so the bytes are those of the texel-by-texel formula), the distinct
-    texels are packed as 32-bit RGBA, and a tile is one gather of those.
-    """
+    colour. Each output channel depends only on its base value and the mask (~900 distinct pairs against 65k
+    texels): each pair is mixed once per colour (the same bytes as texel by texel), and a tile is one gather."""
     from rockdove.srgb import srgb_decode, srgb_encode
 
     h, w = mask.shape[:2]
@@ -175,12 +153,8 @@ def _feather_images(feather_textures: dict) -> tuple[np.ndarray, np.ndarray]:
 
 
 def write_base_textures(out_dir: str, feather_textures: dict, body_texture: np.ndarray) -> dict[str, str]:
-    """Write the textures that do not depend on the film into ``out_dir/textures/``: ``feather_base.png`` and
-    ``feather_mask.png`` (``feather_textures`` ``"base"``: (H, W, 4) uint8 sRGB RGBA, A = silhouette; ``"mask"``:
-    (H, W) uint8 raw), the plumage atlas ``plumage_base.png`` and ``plumage_normal.png`` when ``feather_textures``
-    has them (``"plumage_base"``, ``"plumage_normal"``: (H, W, 4) uint8) and ``body_base.png`` (``body_texture``,
-    (H, W, 3) uint8 sRGB in the body's UVs); a film change leaves them, and their bytes, as they were. Returns
-    texture role -> absolute path, keys sorted."""
+    """Write the textures that do not depend on the film into ``out_dir/textures/`` (feather base and mask, the
+    plumage atlas when given, body): a film change leaves their bytes as they were. Texture role -> path, sorted."""
     base, mask = _feather_images(feather_textures)
     body = _check_uint8("body_texture", body_texture, (3,))
     paths = _texture_paths(out_dir)
@@ -193,13 +167,9 @@ def write_base_textures(out_dir: str, feather_textures: dict, body_texture: np.n
 
 def write_film_textures(out_dir: str, lut, feather_textures: dict, *, thickness_range_nm: tuple[float, float],
                         preview_cos_theta: float = PREVIEW_COS_THETA, film=None) -> dict[str, str]:
-    """Write the textures that depend on the film into ``out_dir/textures/``: ``lut`` as ``thinfilm_lut.exr``
-    (:func:`rockdove.lut.exr.write_exr`, its precision from the LUT's metadata) and the UsdPreviewSurface atlas
-    ``feather_preview.png`` of ``feather_textures`` (as :func:`write_base_textures`) at ``preview_cos_theta``.
-    ``lut=None`` (physical-only shading): no EXR, the preview's colours are :func:`preview_colour` of ``film``.
-    The atlas's tiles span ``thickness_range_nm``, the range on the mesh, as its ``previewST`` does
-    (:func:`rockdove.usd.stage.author_geometry`), so the two agree whatever the LUT's own range. Returns texture
-    role (``lut`` when written, ``feather_preview``) -> absolute path, keys sorted."""
+    """Write ``thinfilm_lut.exr`` (unless ``lut=None``: the preview colours are then ``film``'s exact ones) and
+    ``feather_preview.png``, whose tiles span ``thickness_range_nm``, the mesh's range, as its ``previewST`` does,
+    whatever the LUT's own range. Texture role -> absolute path, keys sorted."""
     base, mask = _feather_images(feather_textures)
     tiles = preview_tile_thickness_nm(thickness_range_nm)
     if lut is not None:

@@ -1,19 +1,14 @@
 """Export a written rockdove USD asset to one glTF 2.0 binary file (``pigeon.glb``) with ``KHR_materials_iridescence``.
 
-It reads the asset *as written* (:func:`rockdove.render.scene.load_scene`, the verifier's reader), not the build's
-memory, so ``pigeon.glb`` translates ``pigeon.usda`` as ``pigeon.usdz`` does. What is written: docs/design.md "glTF
-and the web"; the reasons here. One node per visible mesh, world space, metres, Y up (the asset's conventions are
-glTF's), ``v = 1 - t`` (glTF's image origin is top-left). The feathers' thickness reaches
-``iridescenceThicknessTexture`` as an 8-bit linear ramp (``G_i = i / (N - 1)``) read through ``TEXCOORD_1`` at
-``u = (0.5 + g (N - 1)) / N``, ``g = (d - min) / (max - min)``: linear filtering of a linear ramp returns ``g``
-itself, so ``mix(min, max, G)`` is the primvar interpolated across the card, not quantised to 8 bits.
-``KHR_materials_ior`` is the substrate index, 1.0 for a film in air: three.js then evaluates the Airy reflectance
-over a substrate of index 1, so the only specular reflection is the film's. The default material
-(``NeckFeathersPreview``, the USD preview's atlas through ``TEXCOORD_2`` = ``previewST``) is what consumers without
-the extension show (Blender 5.0's importer ignores it silently; many engines do); the film is the
-``KHR_materials_variants`` variant ``thin_film``, which our viewer and web host select (measured: a base colour
-under the film would be counted twice by three.js, whose diffuse is only scaled by ``1 - F``). pygltflib builds the
-document (trimesh's exporter cannot author the extension or a second UV set for one texture).
+It reads the asset *as written* (:func:`rockdove.render.scene.load_scene`, the verifier's reader), so
+``pigeon.glb`` translates ``pigeon.usda`` as ``pigeon.usdz`` does (docs/design.md "glTF and the web"). The
+thickness reaches ``iridescenceThicknessTexture`` as an 8-bit linear ramp read through ``TEXCOORD_1``: linear
+filtering of a linear ramp returns ``g`` itself, so the primvar is interpolated across the card, not quantised.
+``KHR_materials_ior`` is the substrate index (1.0 in air), so three.js's only specular reflection is the film's.
+The default material (the USD preview's atlas through ``TEXCOORD_2``) is what consumers without the extension show
+(Blender 5.0's importer ignores it silently); the film is the ``KHR_materials_variants`` variant ``thin_film``
+(measured: a base colour under the film would be counted twice by three.js, whose diffuse is only scaled by
+``1 - F``). pygltflib builds the document (trimesh's cannot author the extension or a second UV set).
 """
 
 from __future__ import annotations
@@ -45,9 +40,7 @@ _LINEAR, _LINEAR_MIPMAP_LINEAR, _CLAMP_TO_EDGE = 9729, 9987, 33071
 
 
 def thickness_texcoords(thickness_nm, lo_nm: float, hi_nm: float, texels: int = THICKNESS_RAMP_TEXELS) -> np.ndarray:
-    """(V, 2) float32 ``TEXCOORD_1`` of the thickness ramp for each vertex's thickness (nm) between
-    ``iridescenceThicknessMinimum`` and ``Maximum`` (nm; equal: texel 0): ``u = (0.5 + g (N - 1)) / N`` with
-    ``g = clip((d - lo) / (hi - lo), 0, 1)``, ``v = 0.5``."""
+    """(V, 2) float32 ``TEXCOORD_1`` of each vertex's thickness (nm) on the ramp: texel centres, ``v = 0.5``."""
     d = np.asarray(thickness_nm, dtype=np.float64)
     g = np.clip((d - lo_nm) / (hi_nm - lo_nm), 0.0, 1.0) if hi_nm > lo_nm else np.zeros_like(d)
     return np.stack([(0.5 + g * (texels - 1)) / texels, np.full_like(g, 0.5)], axis=1).astype(np.float32)
@@ -62,8 +55,8 @@ def thickness_ramp_png(texels: int = THICKNESS_RAMP_TEXELS) -> bytes:
 
 
 def film_ior(film) -> float:
-    """The real part of the film's Cauchy index at :data:`IOR_WAVELENGTH_NM` (``film``:
-    :class:`rockdove.render.film.ThinFilmParams`): ``KHR_materials_iridescence`` has no extinction."""
+    """The real part of the film's index at :data:`IOR_WAVELENGTH_NM`: ``KHR_materials_iridescence`` has no
+    extinction."""
     return float(np.real(film.model.n_film(IOR_WAVELENGTH_NM)))
 
 
@@ -86,8 +79,8 @@ class _Blob:
         from pygltflib import Accessor
 
         array = np.ascontiguousarray(array)
-        component = {np.dtype(np.float32): _FLOAT, np.dtype(np.uint8): _UNSIGNED_BYTE, np.dtype(np.uint16): _UNSIGNED_SHORT,
-                     np.dtype(np.uint32): _UNSIGNED_INT}[array.dtype]
+        component = {"float32": _FLOAT, "uint8": _UNSIGNED_BYTE, "uint16": _UNSIGNED_SHORT,
+                     "uint32": _UNSIGNED_INT}[array.dtype.name]
         acc = Accessor(bufferView=self.view(array.tobytes(), target), componentType=component,
                        count=int(array.shape[0]), type=kind)
         if with_bounds:
@@ -121,9 +114,8 @@ def _png_has_alpha(path) -> bool:
 
 
 def _tangents(part) -> np.ndarray:
-    """(V, 4) float32 glTF tangents of a part with a normal map: per vertex the area-weighted direction of
-    increasing s over its triangles, made orthogonal to the normal; w the handedness (+1 when t increases along
-    normal x tangent)."""
+    """(V, 4) float32 glTF tangents: per vertex the area-weighted direction of increasing s, orthogonal to the
+    normal; w the handedness (+1 when t increases along normal x tangent)."""
     p, n, st = (np.asarray(a, np.float64) for a in (part.positions_m, _unit(part.normals), part.st))
     tri = np.asarray(part.triangles)
     e1, e2 = p[tri[:, 1]] - p[tri[:, 0]], p[tri[:, 2]] - p[tri[:, 0]]
@@ -152,8 +144,8 @@ def _uv(st) -> np.ndarray:
 
 
 def preview_material_texture(stage, prim_path: str) -> tuple[str | None, float]:
-    """The resolved file of the ``diffuseColor`` texture of the UsdPreviewSurface bound to ``prim_path`` (the
-    feathers' ``feather_preview.png``, read through ``previewST``) and its ``roughness``; (None, 1) without one."""
+    """The resolved ``diffuseColor`` texture file of the UsdPreviewSurface bound to ``prim_path`` and its
+    ``roughness``; (None, 1) without one."""
     from pxr import UsdShade
 
     material = UsdShade.MaterialBindingAPI(stage.GetPrimAtPath(prim_path)).ComputeBoundMaterial()[0]
@@ -172,54 +164,40 @@ def preview_material_texture(stage, prim_path: str) -> tuple[str | None, float]:
 
 
 def scene_to_glb(scene, version: str = "") -> bytes:
-    """The GLB bytes of a :class:`rockdove.render.scene.RenderScene` that has thin-film feathers; ValueError when
-    it records no film (not a rockdove asset) or a feather part has no thickness."""
+    """The GLB bytes of a :class:`rockdove.render.scene.RenderScene`; ValueError when it records no film or a
+    feather part has no thickness."""
+    import pygltflib as gl
     from pxr import Usd
-    from pygltflib import (
-        GLTF2,
-        Asset,
-        Attributes,
-        Buffer,
-        Material,
-        Mesh,
-        Node,
-        NormalMaterialTexture,
-        PbrMetallicRoughness,
-        Primitive,
-        Sampler,
-        Scene,
-        TextureInfo,
-    )
 
     film = scene.film
     if film is None:
         raise UsageError(f"asset {scene.root_layer!r} has no rockdove thin-film data: no mesh applies "
                          "RockDoveThinFilmAPI (rockdove:film:*), so there is no film to export as "
                          "KHR_materials_iridescence; build it with `rockdove build`")
-    gltf = GLTF2(asset=Asset(version="2.0", generator=f"rockdove {version}".strip()))
+    gltf = gl.GLTF2(asset=gl.Asset(version="2.0", generator=f"rockdove {version}".strip()))
     blob = _Blob(gltf)
-    gltf.samplers = [Sampler(magFilter=_LINEAR, minFilter=_LINEAR_MIPMAP_LINEAR, wrapS=_CLAMP_TO_EDGE,
+    gltf.samplers = [gl.Sampler(magFilter=_LINEAR, minFilter=_LINEAR_MIPMAP_LINEAR, wrapS=_CLAMP_TO_EDGE,
                              wrapT=_CLAMP_TO_EDGE),
                      # the ramp must not be mipmapped: averaging neighbouring texels of a ramp along u is fine,
                      # but mip levels of a 1-texel-high ramp would blur it along u at a distance
-                     Sampler(magFilter=_LINEAR, minFilter=_LINEAR, wrapS=_CLAMP_TO_EDGE, wrapT=_CLAMP_TO_EDGE)]
+                     gl.Sampler(magFilter=_LINEAR, minFilter=_LINEAR, wrapS=_CLAMP_TO_EDGE, wrapT=_CLAMP_TO_EDGE)]
     lo, hi = scene.thickness_range_nm  # a LUT-less film: the feathers' thicknesses, whole nm
     stage = Usd.Stage.Open(scene.root_layer)
     for part in scene.parts:
-        attributes = Attributes(POSITION=blob.accessor(part.positions_m.astype(np.float32), "VEC3", with_bounds=True),
-                                NORMAL=blob.accessor(_unit(part.normals), "VEC3"))
+        positions = blob.accessor(part.positions_m.astype(np.float32), "VEC3", with_bounds=True)
+        attributes = gl.Attributes(POSITION=positions, NORMAL=blob.accessor(_unit(part.normals), "VEC3"))
         if part.base_colour_texture or part.mask_texture:  # untextured parts carry no UVs (nothing reads them)
             attributes.TEXCOORD_0 = blob.accessor(_uv(part.st), "VEC2")
-        pbr = PbrMetallicRoughness(metallicFactor=0.0, roughnessFactor=1.0)
+        pbr = gl.PbrMetallicRoughness(metallicFactor=0.0, roughnessFactor=1.0)
         if part.base_colour_texture:
-            pbr.baseColorTexture = TextureInfo(index=blob.texture(part.base_colour_texture))
+            pbr.baseColorTexture = gl.TextureInfo(index=blob.texture(part.base_colour_texture))
         else:
             pbr.baseColorFactor = [float(c) for c in part.base_colour] + [1.0]
-        material = Material(name=f"{part.name}Material", pbrMetallicRoughness=pbr, doubleSided=part.double_sided)
+        material = gl.Material(name=f"{part.name}Material", pbrMetallicRoughness=pbr, doubleSided=part.double_sided)
         if part.base_colour_texture and _png_has_alpha(part.base_colour_texture):  # cut out as the USD's threshold
             material.alphaMode, material.alphaCutoff = "MASK", float(part.opacity_threshold)
         if part.normal_texture:  # tangent space, as the USD's: OpenGL convention (+Y along t), as glTF's
-            material.normalTexture = NormalMaterialTexture(index=blob.texture(part.normal_texture))
+            material.normalTexture = gl.NormalMaterialTexture(index=blob.texture(part.normal_texture))
             attributes.TANGENT = blob.accessor(_tangents(part), "VEC4")
         variants = {}
         if part.is_feather:
@@ -248,41 +226,39 @@ def scene_to_glb(scene, version: str = "") -> bytes:
                 # variants) shows: the USD preview's atlas, each card the colour of its own thickness
                 film_index = blob.material(material)
                 attributes.TEXCOORD_2 = blob.accessor(_uv(part.preview_st), "VEC2")
-                atlas = TextureInfo(index=blob.texture(preview), texCoord=2)
-                material = Material(name=f"{part.name}Preview", alphaMode="MASK", doubleSided=True,
-                                    alphaCutoff=float(part.opacity_threshold),
-                                    pbrMetallicRoughness=PbrMetallicRoughness(metallicFactor=0.0, baseColorTexture=atlas,
-                                                                              roughnessFactor=roughness))
+                atlas = gl.TextureInfo(index=blob.texture(preview), texCoord=2)
+                pbr = gl.PbrMetallicRoughness(metallicFactor=0.0, baseColorTexture=atlas, roughnessFactor=roughness)
+                material = gl.Material(name=f"{part.name}Preview", alphaMode="MASK", doubleSided=True,
+                                       alphaCutoff=float(part.opacity_threshold), pbrMetallicRoughness=pbr)
                 variants = {"KHR_materials_variants": {"mappings": [{"material": film_index, "variants": [0]},
                                                                     {"material": film_index + 1, "variants": [1]}]}}
                 gltf.extensions = {"KHR_materials_variants": {"variants": [{"name": FILM_VARIANT},
                                                                            {"name": PREVIEW_VARIANT}]}}
         tris = np.asarray(part.triangles).reshape(-1)
         index_dtype = np.uint16 if len(part.positions_m) <= 65535 else np.uint32
-        primitive = Primitive(attributes=attributes, material=blob.material(material), extensions=variants,
+        primitive = gl.Primitive(attributes=attributes, material=blob.material(material), extensions=variants,
                               indices=blob.accessor(tris.astype(index_dtype), "SCALAR", _ELEMENT_ARRAY_BUFFER))
-        gltf.meshes.append(Mesh(name=part.name, primitives=[primitive]))
-        gltf.nodes.append(Node(name=part.name, mesh=len(gltf.meshes) - 1))
+        gltf.meshes.append(gl.Mesh(name=part.name, primitives=[primitive]))
+        gltf.nodes.append(gl.Node(name=part.name, mesh=len(gltf.meshes) - 1))
     gltf.extensionsUsed = [e for e in EXTENSIONS if e != "KHR_materials_variants" or gltf.extensions]
     meshes = len(gltf.nodes)
     add_skin(gltf, blob, scene, stage, {p.path: i for i, p in enumerate(scene.parts)})
     if gltf.skins:  # skinned mesh nodes are root nodes (glTF ignores their parents' transforms), beside the joints
         roots = list(range(meshes)) + [len(gltf.nodes) - 1]
     else:
-        gltf.nodes.append(Node(name="Pigeon", children=list(range(meshes))))
+        gltf.nodes.append(gl.Node(name="Pigeon", children=list(range(meshes))))
         roots = [len(gltf.nodes) - 1]
-    gltf.scenes = [Scene(name="Pigeon", nodes=roots)]
+    gltf.scenes = [gl.Scene(name="Pigeon", nodes=roots)]
     gltf.scene = 0
     blob.data.extend(b"\0" * (-len(blob.data) % 4))
-    gltf.buffers = [Buffer(byteLength=len(blob.data))]
+    gltf.buffers = [gl.Buffer(byteLength=len(blob.data))]
     gltf.set_binary_blob(bytes(blob.data))
     return b"".join(gltf.save_to_bytes())
 
 
 def export_glb(asset, out_path, *, version: str = "") -> dict:
-    """Read a written rockdove asset (its folder or root layer) and write it as one GLB file ``out_path`` (replaced
-    atomically): ``{"path", "bytes", "iridescence_ior", "ior_wavelength_nm", "thickness_range_nm",
-    "substrate_ior"}``. ValueError (one line, naming the asset): not a USD asset, or no rockdove thin-film data."""
+    """Write a written asset (its folder or root layer) as one GLB file ``out_path`` (replaced atomically); a summary
+    dict. ValueError (one line, naming the asset): not a USD asset, or no rockdove thin-film data."""
     from ..render.scene import load_scene
 
     scene = load_scene(asset)  # the verifier's reader; a physical-only asset (no LUT) reads too
@@ -301,9 +277,8 @@ VALIDATOR_TIMEOUT_S = 120
 
 
 def validate_glb(path) -> dict:
-    """The Khronos glTF-Validator's report on ``path`` (npm ``gltf-validator``, run by Node.js): ``["issues"]`` has
-    ``numErrors``, ``numWarnings``, ``numInfos``, ``numHints`` and ``messages``. RuntimeError: Node.js or the npm
-    package is missing (the message says how to install them), or the validator failed."""
+    """The Khronos glTF-Validator's JSON report on ``path`` (npm ``gltf-validator`` under Node.js). RuntimeError:
+    Node.js or the package is missing (the message says how to install them), or the validator failed."""
     import json
     import shutil
     import subprocess
