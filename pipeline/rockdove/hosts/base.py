@@ -69,3 +69,15 @@ class Host:
         """``{view.name: (H, W, 3) float32 linear Rec.709 radiance}`` of each View's camera exactly, background 0;
         any images for people into ``out_dir``. Raises :class:`HostError` when the host fails."""
         raise NotImplementedError(f"{type(self).__name__}.render")
+
+
+def save_pngs(images: dict[str, np.ndarray], out_dir: str, host: str) -> None:
+    """Each ``{view: linear radiance}`` image as ``out_dir/<view>_<host>.png`` (sRGB), for people."""
+    import os
+
+    from ..png import save_png
+    from ..srgb import linear_to_srgb8
+
+    os.makedirs(out_dir, exist_ok=True)
+    for name, rgb in images.items():
+        save_png(linear_to_srgb8(rgb), os.path.join(out_dir, f"{name}_{host}.png"))

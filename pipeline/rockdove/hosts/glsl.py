@@ -1,23 +1,17 @@
 """The ``glsl`` host: the project's own paper shaders (``materials/glsl/thinfilm.*``) drawn by pyrender through
-EGL (:mod:`rockdove.render.gl`), compared with the paper's half-angle model.
-
-It draws the LUT the asset names. A LUT-less (physical-only) asset has nothing for these shaders to draw
-(:func:`cannot_draw`); ``rockdove verify`` checks such an asset with a LUT baked in memory
-(:meth:`rockdove.render.scene.RenderScene.load_lut`) and hands its GL renders to the host check directly.
+EGL (:mod:`rockdove.render.gl`), compared with the paper's half-angle model. It draws the LUT the asset names; a
+LUT-less asset is checked by ``rockdove verify`` with a LUT baked in memory instead.
 """
 
 from __future__ import annotations
 
-import os
-
-from .base import Host, HostError
+from .base import Host, HostError, save_pngs
 
 
 class GLSLHost(Host):
     """Our paper shaders in pyrender (module docstring)."""
 
     def unavailable(self) -> str | None:
-        """None when pyrender and PyOpenGL import, else why not."""
         from .._compat import import_pyrender
 
         try:
@@ -28,7 +22,6 @@ class GLSLHost(Host):
         return None
 
     def cannot_draw(self, asset_path: str) -> str | None:
-        """Why the GLSL shaders cannot draw this asset (it has no LUT), else None."""
         from ..render.scene import load_scene
 
         try:
@@ -40,8 +33,7 @@ class GLSLHost(Host):
         return None
 
     def render(self, asset_path: str, views, out_dir: str | None) -> dict:
-        """Render ``views`` of the written asset with the GLSL shaders (:class:`~rockdove.hosts.base.Host`);
-        ``<view>_glsl.png`` (sRGB) into ``out_dir`` when given."""
+        """:meth:`Host.render` with the GLSL shaders; ``<view>_glsl.png`` (sRGB) into ``out_dir`` when given."""
         from ..render.gl import render_views
         from ..render.scene import load_scene
 
@@ -52,12 +44,7 @@ class GLSLHost(Host):
             raise HostError(self.name, str(exc)) from None
         images = {r.view.name: r.radiance_rgb for r in results}
         if out_dir:
-            from ..png import save_png
-            from ..srgb import linear_to_srgb8
-
-            os.makedirs(out_dir, exist_ok=True)
-            for name, rgb in images.items():
-                save_png(linear_to_srgb8(rgb), os.path.join(out_dir, f"{name}_{self.name}.png"))
+            save_pngs(images, out_dir, self.name)
         return images
 
 

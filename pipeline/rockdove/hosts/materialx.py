@@ -1,34 +1,22 @@
-"""The ``materialx`` and ``materialx_physical`` hosts: the asset's ``baked`` and ``physical`` (OpenPBR's own thin
-film) MaterialX networks as shader code by MaterialX's own GLSL generator, drawn offscreen in the project's EGL.
+"""The ``materialx`` and ``materialx_physical`` hosts: the asset's ``baked`` and ``physical`` (OpenPBR's thin film)
+MaterialX networks as shader code by MaterialX's ``GlslShaderGenerator``, drawn offscreen in the project's EGL.
 
-MaterialX's part: the network upstream of the feather material's ``outputs:mtlx:surface``, read from the written
-USD as Hydra's HdMtlx does (:func:`feather_networks`), becomes a vertex and a pixel shader by
-``GlslShaderGenerator`` (``fileTextureVerticalFlip`` on, as its viewer and Storm set it; ``hwTransparency`` on, so
-``geometry_opacity`` cuts the cards out); every colour, lookup, BSDF and the environment lighting is that code.
-
-This module's part, what a viewer does around a MaterialX shader: the meshes as the shader's vertex streams
-(``i_position``, ``i_normal``, ``i_tangent``, ``i_geomprop_<primvar>``); the image nodes' files as textures, the
-LUT EXR read with OpenEXR (the pip MaterialX reads no EXR) as 32-bit float, rows in file order (the generator
-flips ``v``); the ``view_angle`` lobe of :mod:`rockdove.hosts`: no lights, a uniform white environment of unit
-radiance, the base colour's RGB 0 (its alpha, the cut-out, kept); normals flipped towards the viewer (two-sided
-cards, as Storm draws ``doubleSided`` meshes); parts without a MaterialX material black. One sample per pixel,
-shaded at its centre, read back as float linear Rec.709.
+The network is read from the written USD as Hydra's HdMtlx does (:func:`feather_networks`); every colour, lookup,
+BSDF and the environment lighting is generated code. Around it (:mod:`rockdove.hosts.materialx_gl`) is what a viewer
+does: vertex streams, textures, the ``view_angle`` lobe (base colour RGB 0, its alpha kept), normals flipped towards
+the viewer (as Storm draws ``doubleSided`` meshes), parts without a MaterialX material black.
 
 OpenPBR's GLSL thin film is an approximation (Gaussian fits of the colour-matching functions, a few Airy terms, a
-known white-point bug): ``materialx_physical`` is judged on green, purple and hue-class agreement with the exact
-reference (:func:`rockdove.verify.host_check.host_passed`), its dE reported.
+known white-point bug): ``materialx_physical`` is judged on green, purple and hue-class agreement, its dE reported.
 """
 
 from __future__ import annotations
 
-import os
-
-from .base import Host, HostError
+from .base import Host, HostError, save_pngs
 
 
 class MaterialXHost(Host):
-    """The asset's MaterialX network for shading variant ``variant`` as MaterialX's generated GLSL (module
-    docstring)."""
+    """The asset's MaterialX network for ``variant`` as MaterialX's generated GLSL (module docstring)."""
 
     def unavailable(self) -> str | None:
         """None when MaterialX's GLSL generator and an offscreen GL context (the glsl host's) can be used."""
@@ -111,9 +99,8 @@ def two_sided(pixel_source: str) -> str:
 
 
 def feather_networks(layer: str, variant: str) -> dict:
-    """Mesh prim path -> ``{"doc": MaterialX.Document, "material": surfacematerial name, "files": {image node:
-    resolved file}}`` of every mesh bound to a material with an ``outputs:mtlx:surface``, under shading variant
-    ``variant``. ValueError when the asset has no such variant or no mesh has a MaterialX material."""
+    """Mesh prim path -> ``{"doc", "material": surfacematerial name, "files": {image node: resolved file}}`` of
+    every mesh with a MaterialX material under ``variant``. ValueError when there is no such variant or mesh."""
     from pxr import Usd, UsdGeom, UsdShade
 
     from ..usd.material import load_mtlx_libraries, usd_to_mtlx_document
@@ -153,10 +140,8 @@ def feather_networks(layer: str, variant: str) -> dict:
 
 
 def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str, name: str) -> dict:
-    """Draw ``views`` of the asset's (folder or root layer) network for shading variant ``variant``: view name ->
-    (H, W, 3) float32 linear Rec.709 radiance, background 0; ``<view>_<name>.png`` (sRGB) into ``out_dir`` when
-    given; the base colour texture's RGB 0 (the film lobe alone). HostError (``name``) when the asset cannot be read,
-    the shader does not compile or link, or GL fails."""
+    """Draw ``views`` of the asset's network for ``variant`` (the film lobe alone): view name -> (H, W, 3) float32
+    radiance; PNGs into ``out_dir`` when given. HostError (``name``) when reading, compiling or GL fails."""
     from ..render.scene import load_scene
     from ..usd.layout import resolve_root_layer
     from .materialx_gl import draw
@@ -181,10 +166,5 @@ def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str,
     except Exception as exc:
         raise HostError(name, f"GL drawing failed: {type(exc).__name__}: {exc}") from None
     if out_dir:
-        from ..png import save_png
-        from ..srgb import linear_to_srgb8
-
-        os.makedirs(out_dir, exist_ok=True)
-        for view_name, rgb in images.items():
-            save_png(linear_to_srgb8(rgb), os.path.join(out_dir, f"{view_name}_{name}.png"))
+        save_pngs(images, out_dir, name)
     return images

@@ -1,19 +1,12 @@
 """The ``osl`` and ``osl_physical`` hosts: the asset's ``baked`` and ``physical`` MaterialX networks as OSL written
-by MaterialX's own generator, compiled by Blender's bundled OSL compiler and rendered by Cycles with OSL on (the
-MaterialX path of Arnold, RenderMan, Karma CPU and Cycles' OSL mode).
+by MaterialX's ``OslShaderGenerator``, compiled by Blender's bundled OSL compiler and rendered by Cycles with OSL on
+(the MaterialX path of Arnold, RenderMan, Karma CPU and Cycles' OSL mode).
 
-What MaterialX does: the network upstream of the feather material's ``outputs:mtlx:surface``, rebuilt from the
-written USD (:func:`rockdove.hosts.materialx.feather_networks`, as Hydra's HdMtlx does) becomes one OSL shader
-by ``OslShaderGenerator`` 1.39 (the pip MaterialX); every colour, texture lookup, ``geompropvalue`` (OSL
-``getattribute``) and closure is that generated code, after :func:`lobe_document`'s changes (as the Storm host
-makes in its session layer; the image files made absolute: the shader is compiled outside the asset folder).
-
-What Cycles does (:mod:`rockdove.hosts.osl_job`, in the bpy Python): ``_cycles.osl_compile`` (OSL 1.14) compiles
-the source with MaterialX's OSL headers (``mx_funcs.h`` and the stdlib ``genosl`` includes) beside it; the
-asset is imported by Blender's USD importer (:func:`rockdove.hosts.blender_job.import_asset`, no add-on); the
-working space is set to ACEScg; the feather material becomes one Script node with the compiled shader feeding
-the Material Output; every other part black; a uniform white world of unit radiance; each View's camera exactly
-(:mod:`rockdove.hosts.blender_job`). Output: float32 EXR written in linear Rec.709, background 0.
+The network is rebuilt from the written USD as Hydra's HdMtlx does (:func:`rockdove.hosts.materialx.feather_networks`)
+and changed by :func:`lobe_document` (as the Storm host does in its session layer). :mod:`rockdove.hosts.osl_job`
+compiles it beside MaterialX's OSL headers, imports the asset with Blender's USD importer (no add-on) and puts the
+shader in one Script node on the feathers, every other part black, under a uniform white world. Output: float32
+EXR in linear Rec.709, background 0.
 """
 
 from __future__ import annotations
@@ -47,7 +40,6 @@ class OSLHost(Host):
     """The asset's MaterialX network as MaterialX's generated OSL in Cycles (module docstring)."""
 
     def unavailable(self) -> str | None:
-        """None when MaterialX's OSL generator and a Python with bpy (Cycles, OSL) can run here, else why not."""
         try:
             import MaterialX.PyMaterialXGenOsl  # noqa: F401
         except ImportError as exc:
@@ -68,8 +60,7 @@ def generate_osl(doc, material_name: str) -> str:
 
     from .materialx import generate
 
-    # fileTextureVerticalFlip (set by generate): OSL's texture() (OpenImageIO) puts t = 0 at the image's first
-    # row, MaterialX puts v = 0 at its bottom
+    # fileTextureVerticalFlip (set by generate): OSL's texture() puts t = 0 at the first row, MaterialX at the bottom
     return generate(doc, material_name, mx_osl.OslShaderGenerator.create()).getSourceCode(mx_gen.PIXEL_STAGE)
 
 
@@ -144,10 +135,9 @@ def osl_headers() -> list:
 
 
 def lobe_document(net: dict, base: str = VARIANTS["osl"][1]):
-    """The feather network of :func:`rockdove.hosts.materialx.feather_networks` made ready for this host: the
-    ``base`` colour input (``node.input``) black (the film lobe alone), the closures' colours in the working space
-    (:func:`to_working_space`) and the image files empty; ``(document, {shader parameter: absolute file})``: the
-    generator makes each ``file`` a string parameter, set by the job (a path is never text of the source)."""
+    """The feather network with the ``base`` colour input (``node.input``) black (the film lobe alone), colours in the
+    working space and the image files empty: ``(document, {shader parameter: absolute file})``, set by the job (a
+    path is never text of the source)."""
     doc = net["doc"]
     node, _, name = base.partition(".")
     bg = doc.getNode(node).getInput(name) if doc.getNode(node) is not None else None
@@ -163,11 +153,9 @@ def lobe_document(net: dict, base: str = VARIANTS["osl"][1]):
 
 
 def to_working_space(doc, material_name: str) -> None:
-    """Every colour the network computes for a closure (a connected ``color3`` input of the surface shader or
-    of a BSDF it reads) converted from the document's lin_rec709 into ACEScg (:data:`WORKING_SPACE`) by MaterialX
-    nodes: ``convert``, ``transformmatrix`` by the inverse of MaterialX's own ``NG_acescg_to_lin_rec709`` matrix
-    (Blender's ACEScg agrees with it to 6e-7), ``convert``. Linear, so it is the conversion a colour-managed
-    renderer applies to the textures. Unconnected colours are the nodedefs' greys and white, unchanged by it."""
+    """Every connected colour the network feeds a closure, converted from lin_rec709 into ACEScg by MaterialX nodes:
+    the inverse of MaterialX's ``NG_acescg_to_lin_rec709`` matrix (Blender's ACEScg agrees to 6e-7). Unconnected
+    colours are the nodedefs' greys and white, unchanged by it."""
     graph = doc.getDataLibrary().getNodeGraph("NG_acescg_to_lin_rec709_color3")
     matrix = graph.getNode("mat").getInputValue("value").getInverse()
     todo = [doc.getNode(material_name)]
@@ -191,8 +179,7 @@ def to_working_space(doc, material_name: str) -> None:
 
 
 def _compiler_error(work: str) -> str | None:
-    """The OSL compiler's first error line in ``work/blender.log`` (``FILE.osl:LINE: error: ...``), with the
-    shader named, or None when the job failed otherwise."""
+    """The OSL compiler's first error line in ``work/blender.log``, the shader named, or None."""
     try:
         with open(os.path.join(work, "blender.log"), encoding="utf-8", errors="replace") as fh:
             lines = fh.read().splitlines()
@@ -206,9 +193,8 @@ def _compiler_error(work: str) -> str | None:
 
 
 def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
-    """Render ``views`` of host ``name``'s network (:data:`VARIANTS`) as generated OSL in Cycles (module docstring):
-    view name -> (H, W, 3) float32 linear Rec.709 radiance, background 0. HostError when bpy is missing, MaterialX
-    cannot generate the OSL, the OSL compiler rejects it (its error line) or Cycles writes no image."""
+    """Render ``views`` of host ``name``'s network as generated OSL in Cycles: view name -> (H, W, 3) float32
+    radiance. HostError when bpy is missing, MaterialX or the OSL compiler fails (its error line) or no image."""
     from ..usd.layout import resolve_root_layer
     from .materialx import feather_networks
 
@@ -216,8 +202,7 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
     views = list(views)
     bpy_runner.bpy_python(name)
     try:
-        layer = resolve_root_layer(asset_path)
-        networks = feather_networks(layer, variant)
+        networks = feather_networks(layer := resolve_root_layer(asset_path), variant)
     except (ValueError, RuntimeError, OSError) as exc:
         raise HostError(name, f"cannot read the asset's MaterialX network: {exc}") from None
     work = bpy_runner.work_folder(name, views, out_dir)
@@ -226,11 +211,11 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
     shaders = {}
     try:
         for mesh, net in networks.items():
-            source = os.path.join(work, f"{net['material']}.osl")
             doc, files = lobe_document(net, base)
             code = generate_osl(doc, net["material"])
             if not all(f'string {param} = ""' in code for param in files):
                 raise UsageError(f"MaterialX named the image parameters otherwise than {sorted(files)}")
+            source = os.path.join(work, f"{net['material']}.osl")
             with open(source, "w", encoding="utf-8") as fh:
                 fh.write(for_cycles(code))
             shaders[mesh] = {"source": source, "attributes": geomprops(net["doc"]), "files": files}
