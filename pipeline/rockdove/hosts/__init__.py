@@ -1,9 +1,7 @@
 """Hosts: adapters at the edge that read the WRITTEN asset and render it with their own code (docs/hosts.md).
 
-Each is a :class:`~rockdove.hosts.base.Host` (its ``name``, the ``variant`` it draws, the ``lobe`` it is compared
-under, ``unavailable()``, ``cannot_draw(asset_path)``, ``render(asset_path, views, out_dir)``) in the registry
-:data:`HOSTS`. ``rockdove verify --hosts`` reports the hosts :func:`select` finds unavailable as skips with their
-reasons, never a silent pass.
+Each is a :class:`~rockdove.hosts.base.Host` in the registry :data:`HOSTS`. ``rockdove verify --hosts`` reports
+the hosts :func:`select` finds unavailable as skips with their reasons, never a silent pass.
 """
 
 from __future__ import annotations
@@ -42,8 +40,7 @@ for _host in (glsl.HOST, materialx.BAKED, materialx.PHYSICAL, blender.HOST, web.
 
 @dataclass(frozen=True)
 class Selection:
-    """The outcome of :func:`select`: the ``available`` hosts in the order asked, and the ``unavailable`` ones
-    as ``{name: reason}``."""
+    """The ``available`` hosts in the order asked, and the ``unavailable`` ones as ``{name: reason}``."""
 
     available: tuple[Host, ...]
     unavailable: dict[str, str]

@@ -1,12 +1,9 @@
 """The Blender host: the written asset imported by Blender (``bpy``) with the rockdove add-on, drawn by Cycles.
 
-Blender's own code on the asset as a user gets it: the add-on zip (:func:`addon_zip`) installed and enabled with
-Blender's operators, a plain ``wm.usd_import`` (the add-on's ``USDHook`` builds the Principled thin-film material
-from ``rockdove:film:*``), Cycles' thin-film BSDF (variant ``physical``) lit as ``LOBE = "view_angle"``. The
-Blender side, :mod:`rockdove.hosts.blender_job`, runs in a subprocess: bpy's bundled USD and usd-core's ``pxr``
-cannot share one process. :data:`SAMPLES` per pixel and a 0.01 px pixel filter (the reference samples pixel
-centres): with a smooth film, a uniform world and binary cut-outs the only noise is where the tip mask is
-fractional. Output: float32 EXR (linear Rec.709, Blender's scene-linear space), background 0.
+Blender's own code on the asset as a user gets it: the add-on zip installed with Blender's operators, a plain
+``wm.usd_import`` (the add-on's ``USDHook`` builds the thin-film material from ``rockdove:film:*``), Cycles'
+thin-film BSDF. :mod:`rockdove.hosts.blender_job` runs in a subprocess: bpy's bundled USD and usd-core's ``pxr``
+cannot share one process. Output: float32 EXR (linear Rec.709), background 0.
 """
 
 from __future__ import annotations
@@ -35,9 +32,8 @@ THREADS = 2
 
 
 def addon_zip(out_dir) -> str:
-    """Write ``out_dir/rockdove_blender.zip``, the Blender add-on, from its sources among the data files; return its
-    absolute path. It holds the folder ``rockdove_blender/`` (the module Blender installs), its files sorted, with
-    a fixed timestamp: the same sources give the same bytes."""
+    """Write the Blender add-on ``out_dir/rockdove_blender.zip`` (its path), files sorted, with a fixed timestamp:
+    the same sources give the same bytes."""
     from .. import resources
 
     source = resources.path(ADDON_SOURCE)
@@ -72,12 +68,9 @@ LOBES = (LOBE, "as_imported")
 
 def render(asset_path: str, views, out_dir: str, *, addon: bool = True, lobe: str = LOBE,
            samples: int = SAMPLES, frame: int | None = None) -> dict:
-    """Render ``views`` of ``pigeon.usda`` or ``pigeon.usdz`` in Blender (Cycles, CPU) into ``out_dir/blender/``
-    (the add-on zip, Blender's user folders, the job, a EXR and a PNG per view): view name -> (H, W, 3) float32
-    linear Rec.709 radiance, background 0. The host interface takes the defaults; ``addon=False`` is Blender's
-    importer alone (the UsdPreviewSurface look), ``lobe`` one of :data:`LOBES`, ``samples`` per pixel, ``frame``
-    the scene frame drawn (an animated asset, e.g. ``pigeon_walk.usda``: its armature's action at that frame).
-    Raises :class:`HostError` when bpy is missing, Blender fails, or the add-on builds no thin-film material."""
+    """Render ``views`` of the asset in Blender (Cycles, CPU) into ``out_dir/blender/``: view name -> (H, W, 3)
+    float32 radiance. ``addon=False``: Blender's importer alone (the UsdPreviewSurface look); ``frame``: the scene
+    frame of an animated asset. HostError when bpy is missing, Blender fails, or the add-on builds no material."""
     bpy_python(NAME)  # bpy missing: HostError before any work
     views = list(views)
     if lobe not in LOBES or (lobe == LOBE and not addon):
@@ -93,8 +86,7 @@ def render(asset_path: str, views, out_dir: str, *, addon: bool = True, lobe: st
 
 
 def base_job(asset: str, views, work: str, samples: int, *, addon: bool = True) -> dict:
-    """What every job through the add-on reads: the asset to import (:func:`rockdove.hosts.blender_job.import_asset`),
-    the Cycles settings, where the images go and the views."""
+    """What every job through the add-on reads: the asset to import, the Cycles settings, the out folder, views."""
     return {"asset": asset, "root_object": root_object(asset), "addon_zip": addon_zip(work) if addon else None,
             "addon_module": ADDON_MODULE, "samples": int(samples), "transparent_bounces": TRANSPARENT_BOUNCES,
             "threads": THREADS, "out_dir": work, "views": [v.to_dict() for v in views]}

@@ -1,19 +1,13 @@
-"""The Blender side of :mod:`rockdove.hosts.blender`, run by :mod:`rockdove.hosts.bpy_runner` as ``PYTHON path/to/blender_job.py JOB.json`` by a Python
-that has bpy; it imports nothing but the standard library and bpy. Its own process, because bpy bundles its own USD:
-the add-on's ``USDHook`` gets the import's stage as an object of it, which only bpy's ``pxr`` can read, and ``import
-pxr`` beside usd-core finds usd-core's (measured: "No to_python converter found for C++ type ... UsdStage").
+"""The Blender side of :mod:`rockdove.hosts.blender`, run as ``PYTHON blender_job.py JOB.json`` by a Python that
+has bpy; it imports nothing but the standard library and bpy. Its own process, because bpy bundles its own USD: the
+add-on's ``USDHook`` gets a stage only bpy's ``pxr`` can read (measured: "No to_python converter found for C++
+type ... UsdStage" with usd-core's).
 
-Steps (the job file, written by :func:`rockdove.hosts.blender.render`, gives every value):
-
-1. install the add-on zip and enable it as a user does (Blender's user folders point into the job folder);
-2. ``bpy.ops.wm.usd_import`` of the asset: the add-on builds the thin-film material;
-3. ``lobe = "as_imported"`` leaves every material as imported (what a user sees); ``lobe = "view_angle"``: the
-   film smooth (roughness 0: the mirror lobe), its base BSDF black, every other material black diffuse (still
-   occluding, cut out where its alpha is: :func:`occluder`), no object seen by glossy rays, under a uniform white
-   world: each film pixel reflects the environment itself (no inter-reflection, as the reference assumes);
-4. per view: a camera with the View's OpenGL ``camera_to_world`` through the importer's up-axis conversion (the
-   imported root prim's world matrix), its vertical field of view and size; Cycles on the CPU, a 0.01 px pixel
-   filter (pixel centres, like the reference), transparent film (background 0), float32 EXR.
+Steps: 1. install and enable the add-on zip as a user does; 2. ``wm.usd_import`` the asset (the add-on builds the
+thin-film material); 3. for ``lobe = "view_angle"``: the film smooth (the mirror lobe), its base black, every other
+material black but still occluding (:func:`occluder`), no object seen by glossy rays, under a uniform white world
+(no inter-reflection, as the reference assumes); 4. per view a camera through the importer's up-axis conversion,
+Cycles on the CPU, a 0.01 px pixel filter (pixel centres, like the reference), float32 EXR, background 0.
 """
 
 from __future__ import annotations
@@ -24,7 +18,11 @@ import sys
 import time
 
 
-def _black(bsdf) -> None:
+def _black(bsdf, tree=None, unlink=()) -> None:
+    """A Principled BSDF black and without specular, its ``unlink`` inputs' links removed from ``tree`` first."""
+    for name in unlink:
+        for link in list(bsdf.inputs[name].links):
+            tree.links.remove(link)
     bsdf.inputs["Base Color"].default_value = (0.0, 0.0, 0.0, 1.0)
     bsdf.inputs["Specular IOR Level"].default_value = 0.0
 
@@ -43,10 +41,7 @@ def occluder(mat, black):
     bsdf = next((n for n in nodes if n.type == "BSDF_PRINCIPLED"), None)
     if bsdf is None or not bsdf.inputs["Alpha"].links:
         return black
-    for name in ("Base Color", "Normal"):
-        for link in list(bsdf.inputs[name].links):
-            mat.node_tree.links.remove(link)
-    _black(bsdf)
+    _black(bsdf, mat.node_tree, ("Base Color", "Normal"))
     return mat
 
 
@@ -61,10 +56,7 @@ def film_lobe_only(bpy, addon) -> None:
             mat = slot.material
             if mat is not None and mat.get(addon.MATERIAL_TAG):
                 mat.node_tree.nodes[addon.NODE_FILM].inputs["Roughness"].default_value = 0.0  # smooth film
-                base = mat.node_tree.nodes[addon.NODE_BASE]
-                for link in list(base.inputs["Base Color"].links):
-                    mat.node_tree.links.remove(link)
-                _black(base)
+                _black(mat.node_tree.nodes[addon.NODE_BASE], mat.node_tree, ("Base Color",))
             else:
                 slot.material = occluder(mat, black)
 

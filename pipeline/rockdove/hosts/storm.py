@@ -1,23 +1,12 @@
 """The ``storm`` hosts: the written asset, unchanged, drawn by Hydra Storm (usdview's renderer).
 
-Storm is the one in the bpy wheel (USD 25.08 with imaging, hdSt, HdMtlx, MaterialX 1.39.3), run by
-:mod:`rockdove.hosts.storm_job` in the Python that has bpy (:func:`rockdove.hosts.bpy_runner.bpy_python`), headless
-in an EGL pbuffer with an OpenGL 4.5 compatibility context. Everything the host adds is in the stage's session
-layer (the asset's files are never written): a camera per View (clipping range 1 mm - 1 km), a dome light with a
-white texture (the ``view_angle`` lobe's uniform environment, :data:`rockdove.hosts.ENVIRONMENT_RADIANCE`), the
-``shading`` variant selection, and the lobe's changes: base colour black (the feather's ``StructuralMix.bg`` /
-OpenPBR ``base_color`` set to 0, as the other hosts draw the film lobe alone) and the parts without a MaterialX
-material black (UsdPreviewSurface diffuse 0, ior 1), as the exact reference draws them.
-
-Three hosts, one per network a Storm user sees (:data:`VARIANTS`):
-
-- ``storm``: the ``baked`` MaterialX network (the LUT method), held to the dE goals;
-- ``storm_physical``: the ``physical`` network (OpenPBR's thin film), green, purple and hue agreement;
-- ``storm_preview``: the UsdPreviewSurface network as a Storm without MaterialX draws it (the material's
-  ``outputs:mtlx:surface`` disconnected in the session layer), checked for green and purple only: its atlas
-  holds each thickness's colour at one angle, not the view-angle lobe.
-
-Output: FrameRecorder's colour AOV with colour correction off, written as EXR (linear Rec.709, background 0).
+Storm is the one in the bpy wheel (USD 25.08 with imaging, HdMtlx, MaterialX 1.39.3), run by
+:mod:`rockdove.hosts.storm_job` in the Python that has bpy, headless in an EGL pbuffer. Everything the host adds
+is in the session layer (the asset's files are never written): cameras, a white dome light, the ``shading``
+variant, the feather's base colour and every part without a MaterialX material black (the film lobe alone).
+Three hosts, one per network a Storm user sees (:data:`VARIANTS`): ``storm`` (the LUT, held to the dE goals),
+``storm_physical`` (OpenPBR's thin film) and ``storm_preview`` (the UsdPreviewSurface network as a Storm without
+MaterialX draws it: its atlas holds each thickness's colour at one angle, so green and purple are checked only).
 
 On Mesa llvmpipe (22.3) an SSBO load in a helper invocation returns 0, and Storm keeps every MaterialX input
 in such a buffer (``shaderData``): a texture coordinate that passed through one (``ND_image``'s ``uv_scale``,
@@ -54,26 +43,21 @@ FEATHER_MATERIAL = "FeatherMaterial"
 
 
 class StormHost(Host):
-    """Hydra Storm of the bpy wheel drawing one of the asset's networks (:data:`VARIANTS`, module docstring)."""
+    """Hydra Storm of the bpy wheel drawing one of the asset's networks (module docstring)."""
 
     def unavailable(self) -> str | None:
-        """None when a Python with bpy (whose USD has imaging) can run here, else why not."""
         return bpy_runner.unavailable()
 
     def cannot_draw(self, asset_path: str) -> str | None:
         return None if self.variant == "preview" else missing_variant(asset_path, self.variant)
 
     def render(self, asset_path: str, views, out_dir: str) -> dict:
-        """Render ``views`` of the written asset in Storm with this host's network: view name -> (H, W, 3) float32
-        linear Rec.709 radiance, background 0. HostError when bpy is missing, Storm cannot start (no EGL, a shader
-        that fails to compile) or writes no image."""
-        name = self.name
-        views = list(views)
+        """:meth:`Host.render` in Storm. HostError when bpy is missing, Storm cannot start or writes no image."""
+        name, views = self.name, list(views)
         asset_path = os.path.abspath(os.fspath(asset_path))
         if not os.path.isfile(asset_path):
             raise HostError(name, f"no asset at {asset_path!r}")
-        code = _code_values(asset_path)
-        if code:
+        if code := _code_values(asset_path):
             raise HostError(name, f"Storm would paste into its shaders: {code}")
         work = bpy_runner.work_folder(name, views, out_dir)
         save_png(np.full((2, 4, 3), 255, np.uint8), os.path.join(work, "white.png"))  # the dome light's texture
@@ -86,8 +70,7 @@ class StormHost(Host):
 
 
 def _code_values(asset_path: str) -> str | None:
-    """The first value of the asset's shaders, in any variant, that Storm's generator (HdMtlx, HdSt's primvar
-    readers) would paste into code (rockdove.usd.shader_values), or None."""
+    """The first shader value, in any variant, that Storm's generator would paste into code, or None."""
     from pxr import Tf, Usd
 
     from ..usd.stage import variant_combinations

@@ -1,10 +1,7 @@
-"""Storm's side of :mod:`rockdove.hosts.storm`, run as a script by the Python that has bpy (its bundled USD 25.08
-has imaging: UsdImagingGL, hdSt, HdMtlx; usd-core has none). It imports nothing of rockdove.
-
-``python storm_job.py job.json``: the session layer of :mod:`rockdove.hosts.storm`'s docstring (:func:`_session`),
-then each view recorded with ``UsdAppUtils.FrameRecorder`` (Storm, no colour correction) into ``<view>.exr``. A job
-may select a ``motion``; a view may then carry its ``time`` code and ``only`` the mesh names it draws
-(:mod:`rockdove.verify.storm_motion`).
+"""Storm's side of :mod:`rockdove.hosts.storm`, run as ``python storm_job.py job.json`` by the Python that has bpy
+(its bundled USD has imaging; usd-core has none). It imports nothing of rockdove. Each view is recorded with
+``UsdAppUtils.FrameRecorder`` (no colour correction) into ``<view>.exr``, at its ``time`` when the job has a
+``motion``, drawing ``only`` some meshes when given (:mod:`rockdove.verify.storm_motion`).
 """
 
 import ctypes
@@ -105,8 +102,7 @@ def _session(stage, job):
             if attr.IsValid():
                 attr.SetConnections([])
                 attr.Set(Gf.Vec3f(*value) if isinstance(value, list) else value)
-    dome = UsdLux.DomeLight.Define(stage, "/RockdoveStorm/Environment")
-    # white in every colour space (rockdove.hosts.storm wrote it)
+    dome = UsdLux.DomeLight.Define(stage, "/RockdoveStorm/Environment")  # white.png: white in every colour space
     dome.CreateTextureFileAttr(Sdf.AssetPath(os.path.join(job["out_dir"], "white.png")))
     dome.CreateIntensityAttr(float(job["environment_radiance"]))
     dome.CreateExposureAttr(0.0)
@@ -145,8 +141,9 @@ def run(job: dict) -> None:
         path = os.path.join(job["out_dir"], f"{view['name']}.exr")
         only = view.get("only")  # a view of some meshes (prim names), the others invisible
         for prim in meshes:
-            UsdGeom.Imageable(prim).GetVisibilityAttr().Set(
-                UsdGeom.Tokens.invisible if only is not None and prim.GetName() not in only else UsdGeom.Tokens.inherited)
+            hidden = only is not None and prim.GetName() not in only
+            visibility = UsdGeom.Tokens.invisible if hidden else UsdGeom.Tokens.inherited
+            UsdGeom.Imageable(prim).GetVisibilityAttr().Set(visibility)
         time = Usd.TimeCode(view["time"]) if view.get("time") is not None else Usd.TimeCode.Default()
         if not rec.Record(stage, cam, time, path):
             raise RuntimeError(f"Storm: FrameRecorder.Record failed for view {view['name']!r}")

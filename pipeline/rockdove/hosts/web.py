@@ -1,10 +1,6 @@
-"""The web host: three.js's own ``KHR_materials_iridescence`` shading of the asset's ``pigeon.glb`` (exported from
-the USD when the asset has none, e.g. built with ``gltf.glb = false``), drawn by headless Chromium (WebGL2 on
-SwiftShader) in the offline viewer page (:mod:`rockdove.web.viewer`). The page draws each View into a float render
-target (``window.rockdoveRender``): no light, base colour black, a uniform white environment of unit radiance
-(``LOBE = "view_angle"``: a feather-tip pixel is the film's colour at ``cos = |N.V|`` as three.js evaluates it,
-Belcour & Barla 2017, with its split-sum image-based lighting). Every browser step has a time limit; a browser
-that cannot start or a page that fails raises :class:`rockdove.hosts.HostError` naming this host.
+"""The web host: three.js's own ``KHR_materials_iridescence`` shading (Belcour & Barla 2017) of the asset's
+``pigeon.glb`` (exported when the asset has none), drawn by headless Chromium (WebGL2 on SwiftShader) in the offline
+viewer page (:mod:`rockdove.web.viewer`) into a float render target, under the ``view_angle`` lobe.
 """
 
 from __future__ import annotations
@@ -29,7 +25,6 @@ class WebHost(Host):
     """three.js in headless Chromium (module docstring)."""
 
     def unavailable(self) -> str | None:
-        """None when Chromium and the npm package three are installed, else why not."""
         from ..web.browser import BrowserError, find_chromium
         from ..web.viewer import three_folder
 
@@ -48,10 +43,8 @@ HOST = WebHost(NAME, "physical", "view_angle")
 
 
 def render(asset_path: str, views: list, out_dir: str, *, browser_factory=None) -> dict:
-    """Render ``views`` of the asset (folder or root layer) with three.js in headless Chromium: ``{view.name: (H, W,
-    3) float32}`` linear Rec.709 radiance, unclipped, background 0. The page (``web/viewer.html`` and its files) and
-    the PNGs (``web_<view>.png``) go into ``out_dir``; ``browser_factory`` returns a started
-    :class:`rockdove.web.browser.Browser` (tests pass one that fails to start)."""
+    """:meth:`Host.render` with three.js in headless Chromium; the page and ``web_<view>.png`` go into ``out_dir``.
+    ``browser_factory`` returns a started :class:`rockdove.web.browser.Browser` (tests pass one that fails)."""
     from ..png import save_png
     from ..srgb import linear_to_srgb8
     from ..usd.layout import resolve_root_layer
