@@ -1,21 +1,13 @@
 """The ``RockDoveThinFilmAPI`` codeless applied API schema (``schemas/``): registration, apply and read back.
 
-The schema records on the feather mesh the physical film a LUT was baked from and the LUT's layout, so that
-renderers and validators read the physics without the build's memory (names and meanings: docs/design.md, "USD
-asset"). An asset without a LUT (physical-only shading) authors no ``rockdove:lut:*`` attribute, and
-:func:`read_thin_film` reports them empty, not as the schema's fallbacks.
+The schema records on the feather mesh the film a LUT was baked from and the LUT's layout (docs/design.md, "USD
+asset"); a LUT-less asset authors no ``rockdove:lut:*``. ``schemas/plugInfo.json`` takes effect only before USD
+builds its schema registry (the first stage opened), so nothing here needs the registry: attributes are authored
+with their declared types (:data:`ATTRIBUTE_TYPES`) and ``apiSchemas`` is read directly.
 
-:func:`register` registers ``schemas/plugInfo.json``, which takes effect only before USD builds its schema
-registry (the first stage opened in the process). Another module may open a stage first, so nothing here needs
-the registry: :func:`apply_thin_film` adds the name to ``apiSchemas`` and authors every attribute with its
-declared type (:data:`ATTRIBUTE_TYPES`, checked against generatedSchema.usda by the tests), and
-:func:`has_thin_film` reads ``apiSchemas`` itself.
-
-Surviving tools that drop schemas: every value is also authored as the custom attribute
-``userProperties:rockdove:<name>`` (an asset path as its string). Measured with Blender 5.0.1 (bpy, default USD
-import and export): the schema's attributes, constant primvars and ``customData`` are dropped on import, while
-``userProperties:rockdove:film:cauchyA`` arrives as the mesh's custom property ``rockdove:film:cauchyA`` and is
-exported back as the attribute ``rockdove:film:cauchyA``.
+Every value is also authored as ``userProperties:rockdove:<name>``: measured with Blender 5.0.1, its USD import
+drops the schema's attributes, constant primvars and ``customData``, but keeps ``userProperties`` as custom
+properties and exports them back.
 """
 
 from __future__ import annotations
@@ -24,12 +16,10 @@ from .. import resources
 from ..errors import UsageError
 
 SCHEMA_NAME = "RockDoveThinFilmAPI"
-#: Namespace of the copy of the schema's values that survives tools which drop applied API schemas (module
-#: docstring).
+#: Namespace of the copy of the schema's values that survives tools which drop applied API schemas.
 USER_PROPERTIES_PREFIX = "userProperties:rockdove:"
 
-#: Attribute (after the ``rockdove:`` namespace, in authoring order) -> (key of :func:`read_thin_film`'s dict and
-#: of :func:`apply_thin_film`'s arguments, Sdf value type name as declared in generatedSchema.usda).
+#: Attribute (after ``rockdove:``, in authoring order) -> (read_thin_film/apply_thin_film key, Sdf value type name).
 _ATTRS = {
     "film:model": ("model", "token"),
     "film:cauchyA": ("cauchy_a", "float"),
@@ -50,8 +40,8 @@ ATTRIBUTE_TYPES = {name: type_name for name, (_, type_name) in _ATTRS.items()}
 
 
 def register() -> bool:
-    """Register ``schemas/`` with USD's plugin registry (idempotent); True when the schema registry knows
-    ``RockDoveThinFilmAPI`` (False when a stage was opened earlier in this process: this module works either way)."""
+    """Register ``schemas/`` with USD (idempotent); True when the schema registry knows the schema (False when a
+    stage was opened earlier in this process: this module works either way)."""
     from pxr import Plug, Usd
 
     Plug.Registry().RegisterPlugins(str(resources.folder("schemas")))
@@ -70,13 +60,8 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
                     illuminant: str = "D65", k: float = 0.0,
                     observer: str = "CIE 1931 2 Degree Standard Observer",
                     thickness_primvar: str = "thickness") -> None:
-    """Apply ``RockDoveThinFilmAPI`` to a Mesh prim and author every attribute (nothing left to fallbacks).
-
-    The film's index is ``n(lambda) = cauchy_a + cauchy_b_nm2 / lambda_nm**2 + i k`` between the media of
-    ``incident_index`` (above) and ``substrate_index``. ``lut_file``: the LUT EXR's asset path relative to the
-    layer, with its MaterialX colour space, angle warp (``cos_theta = x ** gamma``) and thickness axis (lo, hi) nm;
-    None for an asset without a LUT (then only ``film:*`` is authored).
-    """
+    """Apply ``RockDoveThinFilmAPI`` to a Mesh and author every attribute (nothing left to fallbacks). The film's
+    index is ``n(lambda) = cauchy_a + cauchy_b_nm2 / lambda_nm**2 + i k``; ``lut_file`` None: only ``film:*``."""
     from pxr import Gf, Sdf
 
     register()
@@ -99,9 +84,8 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
 
 
 def read_thin_film(prim) -> dict:
-    """``RockDoveThinFilmAPI``'s values on ``prim`` by :data:`_ATTRS` key (floats, strings, the thickness range as
-    a (lo, hi) float tuple), plus ``lut_file_resolved`` (absolute, or "" when it does not resolve); without a LUT
-    ``lut_file == ""`` and the other ``lut:*`` values None. ValueError if the schema is not applied."""
+    """The schema's values on ``prim`` by :data:`_ATTRS` key, plus ``lut_file_resolved``; without a LUT
+    ``lut_file == ""`` and the other ``lut:*`` None. ValueError if the schema is not applied."""
     if not has_thin_film(prim):
         op = prim.GetMetadata("apiSchemas")
         raise UsageError(f"prim {prim.GetPath()} does not apply {SCHEMA_NAME} "

@@ -1,16 +1,10 @@
 """The rig as UsdSkel (:mod:`rockdove.rig` values): its own crate layer, and the ``motion`` variant set.
 
-- ``pigeon_rig.usdc`` (:data:`RIG_LAYER`, a payload sublayer between the looks and the geometry; it depends on the
-  bird and the rig's code, so a film change leaves it as it is): the ``Skeleton`` under the ``/Pigeon/Geom``
-  ``SkelRoot`` (joints, world ``bindTransforms`` = rest, local ``restTransforms``), one ``SkelAnimation`` child per
-  motion (:data:`rockdove.rig.motions.MOTIONS`, local joint transforms sampled at every time code), and as
-  ``over``s on every Mesh under ``/Pigeon/Geom``: ``SkelBindingAPI``, ``skel:skeleton`` and the vertex primvars
-  ``skel:jointIndices`` / ``skel:jointWeights`` (element size 4; :mod:`rockdove.rig.weights`). Skinning is UsdSkel's
-  default, linear blend (the only method of glTF, three.js and Blender's armature import; the motions keep the joints
-  a card's weights blend from rotating apart, :mod:`rockdove.rig.motions`), and normals are skinned with the points.
-- the interface layer's variant set ``motion`` on ``/Pigeon``: ``rest`` (default: no animation source, every point as
-  authored), ``idle``, ``walk`` (each sets the skeleton's ``skel:animationSource``), and the root layer's
-  ``timeCodesPerSecond`` = ``framesPerSecond`` and ``startTimeCode`` / ``endTimeCode``.
+- ``pigeon_rig.usdc`` (:data:`RIG_LAYER`; a film change leaves it as it is): the ``Skeleton`` under the
+  ``SkelRoot``, one ``SkelAnimation`` per motion, and ``over``s binding every mesh (4 influences a point). Skinning
+  is UsdSkel's default, linear blend: the only method of glTF, three.js and Blender's armature import.
+- the interface layer's variant set ``motion``: ``rest`` (default: no animation source), ``idle``, ``walk``, and
+  the root layer's time metadata.
 """
 
 from __future__ import annotations
@@ -25,15 +19,13 @@ REST = "rest"
 #: The ``motion`` variants, the default first.
 MOTIONS = (REST, "idle", "walk")
 SKELETON = "/Pigeon/Geom/Skeleton"
-
-
 #: Largest |sum of a point's weights - 1| accepted (float32 weights of 4 influences).
 WEIGHT_SUM_TOLERANCE = 1e-3
 
 
 def check_influences(path: str, indices, weights, n_points: int, n_per_point: int, n_joints: int) -> None:
-    """UsageError (one line, naming the mesh) unless ``indices``/``weights`` ((n_points * n_per_point,)) are a valid
-    skin: every index in [0, n_joints), every weight >= 0, each point's weights summing to 1."""
+    """UsageError (one line, naming the mesh) unless ``indices``/``weights`` are a valid skin: indices in
+    [0, n_joints), weights >= 0, each point's summing to 1."""
     idx, w = np.asarray(indices, np.int64), np.asarray(weights, np.float64)
     if len(idx) != n_points * n_per_point or len(w) != len(idx):
         raise UsageError(f"{path}: {len(idx)} skel:jointIndices and {len(w)} skel:jointWeights for {n_points} "
@@ -82,8 +74,8 @@ def animation_path(motion: str) -> str:
 
 
 def author_rig(stage, bird) -> None:
-    """The rig layer's content (module docstring) in ``stage``'s edit target, for the meshes of ``bird`` as
-    :func:`rockdove.usd.stage.author_mesh` writes them."""
+    """The rig layer's content in ``stage``'s edit target, for ``bird``'s meshes as :mod:`rockdove.usd.stage` writes
+    them."""
     from pxr import Sdf, UsdSkel, Vt
 
     from ..geometry.types import drop_unreferenced_points
@@ -144,9 +136,8 @@ def motion_layer_name(motion: str) -> str:
 
 
 def motion_layer(interface: str, motion: str):
-    """An anonymous layer, as a shot would write one, that plays ``motion`` of the asset: it sublayers the interface
-    layer (``interface``, a file name beside it) and selects the ``motion`` variant on ``/Pigeon``, with the same
-    time metadata (a stage takes it from its root layer). For hosts that import a stage's default variants (Blender)."""
+    """An anonymous layer, as a shot would write one, that sublayers ``interface`` and selects ``motion``, with the
+    same time metadata (a stage takes it from its root layer); for hosts that import default variants (Blender)."""
     from pxr import Sdf
 
     from ..rig.motions import DURATION_S, FPS

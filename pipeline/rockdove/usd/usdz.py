@@ -1,20 +1,13 @@
 """``DIR/pigeon.usdz``: the asset as one self-contained package (USDZ: an uncompressed, 64-byte aligned zip).
 
-Made with ``UsdUtils.CreateNewUsdzPackage``, which collects the root layer and every dependency it reaches (the
-payload layers, the textures, and the LUT named by the asset-valued ``rockdove:lut:file``) and rewrites their
-paths to package-relative ones.
+Made with ``UsdUtils.CreateNewUsdzPackage`` (every dependency the root layer reaches, paths made package-relative).
+usd-core's zip writer stores each file's modification time, so the packaged files all carry one fixed time,
+``SOURCE_DATE_EPOCH`` when set (the reproducible-builds convention) else 1980-01-01: byte-identical packages.
 
-Reproducibility: usd-core's zip writer stores each file's modification time, so the package is made from files
-that all carry one fixed time, ``SOURCE_DATE_EPOCH`` when set (the reproducible-builds convention) else
-1980-01-01 (the zip epoch): the same asset gives a byte-identical package (tested).
-
-``DIR/pigeon_ar.usdz`` (:func:`write_ar_usdz`): the same bird for AR Quick Look, as
-``UsdUtils.CreateNewARKitUsdzPackage`` makes one: one flattened ``.usdc`` layer first, then its textures, and only
-UsdPreviewSurface networks (OpenUSD's ARKit compliance checker, v23.11, allows no MaterialX ``ND_*`` shader).
-Flattening bakes the ``shading`` selection and the ``motion`` one (:data:`AR_MOTION`, which Quick Look plays on
-open), so the package gives up the variant sets (and the MaterialX networks and the other motions they switch),
-the LUT (an EXR no AR viewer reads: the film's other records stay) and the payload split. The feathers show the
-preview atlas ``feather_preview.png`` through ``previewST``, as every UsdPreviewSurface viewer does.
+``DIR/pigeon_ar.usdz`` (:func:`write_ar_usdz`): the bird for AR Quick Look, one flattened ``.usdc`` with only
+UsdPreviewSurface networks (OpenUSD's ARKit checker, v23.11, allows no ``ND_*`` shader). Flattening bakes the
+``shading`` and ``motion`` (:data:`AR_MOTION`) selections, so it gives up the variant sets, the LUT (an EXR no AR
+viewer reads) and the payload split.
 """
 
 from __future__ import annotations
@@ -70,10 +63,8 @@ def _stamp(folder: str) -> None:
 
 
 def ar_layer(root: str, motion: str | None = AR_MOTION):
-    """The asset at ``root`` flattened into one anonymous layer, its ``motion`` variant (if it has the set) selected,
-    without any shader whose ``info:id`` is not a :data:`PREVIEW_SHADER_IDS` one, any material output but
-    ``outputs:surface`` / ``outputs:displacement``, ``rockdove:lut:file``, and any ``SkelAnimation`` no skeleton
-    plays."""
+    """The asset at ``root`` flattened into one anonymous layer with ``motion`` selected, without non-preview shaders,
+    material outputs but surface and displacement, ``rockdove:lut:file``, and ``SkelAnimation``s no skeleton plays."""
     from pxr import Usd
 
     stage = Usd.Stage.Open(root, Usd.Stage.LoadAll)
@@ -112,9 +103,7 @@ def ar_layer(root: str, motion: str | None = AR_MOTION):
 
 
 def write_ar_usdz(out_dir: str, root_layer: str = "pigeon.usda", motion: str | None = AR_MOTION) -> str:
-    """``out_dir/pigeon_ar.usdz``: :func:`ar_layer` of ``out_dir/root_layer`` (playing ``motion``) as
-    ``pigeon_ar.usdc``, packaged by ``UsdUtils.CreateNewARKitUsdzPackage`` with its textures (fixed file times);
-    returns its path."""
+    """Write ``out_dir/pigeon_ar.usdz`` (:func:`ar_layer` and its textures, by ``CreateNewARKitUsdzPackage``)."""
     from pxr import Sdf, UsdUtils
 
     out_dir, root = _root(out_dir, root_layer)
@@ -147,12 +136,8 @@ def write_ar_usdz(out_dir: str, root_layer: str = "pigeon.usda", motion: str | N
 
 
 def write_usdz(out_dir: str, root_layer: str = "pigeon.usda", *, in_place: bool = False) -> str:
-    """Package ``out_dir/root_layer`` and its dependencies into ``out_dir/pigeon.usdz``; returns its path.
-
-    The files packaged are a scratch copy of ``out_dir`` with the fixed time, so ``out_dir`` is left untouched;
-    ``in_place=True`` stamps and packages ``out_dir``'s own files instead (the same bytes without a second copy,
-    for the build's usdz stage, whose ``out_dir`` is already a copy). RuntimeError when USD could not write it.
-    """
+    """Package ``out_dir/root_layer`` into ``out_dir/pigeon.usdz`` from a stamped scratch copy, or with
+    ``in_place=True`` from ``out_dir``'s own files (the build's usdz stage: already a copy); returns its path."""
     from pxr import Sdf, UsdUtils
 
     out_dir, root = _root(out_dir, root_layer)
