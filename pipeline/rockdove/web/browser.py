@@ -1,13 +1,8 @@
-"""Drive headless Chromium (Debian's ``chromium``) over the DevTools protocol on a pipe, with a time limit on
-every step.
+"""Drive headless Chromium over the Chrome DevTools Protocol on a pipe, with a time limit on every step.
 
-``--remote-debugging-pipe`` carries the protocol's NUL-terminated JSON messages on the browser's file descriptors
-3 and 4: nothing listens on a port, no WebSocket library is needed. WebGL2 renders on the CPU through SwiftShader;
-everything that phones home is off and the profile is a fresh temporary folder. A browser that cannot start, a
-page that never becomes ready or a reply that never comes raises :class:`BrowserError` naming the step within
-its ``timeout_s``, never hangs; the page's console errors, exceptions and failed loads are :attr:`Page.errors`.
-
-Protocol reference: Chrome DevTools Protocol (Target, Page, Runtime, Log, Emulation domains).
+``--remote-debugging-pipe`` carries NUL-terminated JSON messages on file descriptors 3 and 4: nothing listens on a
+port, no WebSocket library is needed. WebGL2 renders on the CPU through SwiftShader; the profile is a fresh
+temporary folder. A step that fails or times out raises :class:`BrowserError` naming the step, never hangs.
 """
 
 from __future__ import annotations
@@ -51,8 +46,7 @@ def find_chromium(executable: str | None = None) -> str:
 
 
 class Browser:
-    """One headless Chromium process (``executable``, default :func:`find_chromium`), started and answering within
-    ``start_timeout_s``; use as a context manager."""
+    """One headless Chromium process, answering within ``start_timeout_s``; use as a context manager."""
 
     def __init__(self, executable: str | None = None, start_timeout_s: float = START_TIMEOUT_S):
         self.executable = find_chromium(executable)
@@ -217,8 +211,7 @@ class Page:
 
     @property
     def console(self) -> list[str]:
-        """Every console message (any level) and browser log entry so far, one line each as ``level: text`` (a
-        deprecation warning of three.js shows here, not in :attr:`errors`)."""
+        """Every console message and browser log entry so far, one line each as ``level: text``."""
         return [f"{level}: {text}" for kind, level, text in self._messages() if kind != "exception"]
 
     def evaluate(self, expression: str, timeout_s: float = 60.0, step: str | None = None):

@@ -1,17 +1,11 @@
 """The rig of ``pigeon.glb``: a glTF skin and one animation per motion, read from the written USD by UsdSkel.
 
-What UsdSkel computes is what is exported, never the generator's values: the joints, their rest transforms and
-inverse bind matrices from the ``Skeleton`` (``UsdSkel.SkeletonQuery``), each mesh's ``skel:jointIndices`` /
-``jointWeights`` (``UsdSkel.SkinningQuery``), and per variant of the ``motion`` set but ``rest`` an animation named
-after it whose keys are the skeleton's local joint transforms at each time sample of the bound ``SkelAnimation``
-(``SkeletonQuery.ComputeJointLocalTransforms``, decomposed by ``UsdSkel.DecomposeTransforms``), at
-``(time code - startTimeCode) / timeCodesPerSecond`` seconds, linearly interpolated (quaternions slerped).
-
-glTF's skinning is linear blend, UsdSkel's default (the asset authors no other method), so three.js and every glTF
-viewer pose the vertices as UsdSkel does. The skinned mesh nodes are root nodes without a transform (glTF ignores a
-skinned node's own and its parents' transforms); the joint tree hangs under a ``Skeleton`` node holding the
-skeleton's local-to-world transform, and the vertices are the rest pose in world space, so each inverse bind matrix
-is ``inverse(skeleton to world x bindTransform)``. Nothing plays by default: a viewer shows the rest pose.
+What UsdSkel computes is what is exported, never the generator's values: joints, rest transforms, inverse bind
+matrices, each mesh's influences, and per motion but ``rest`` an animation of the skeleton's local joint transforms
+at each time sample, linearly interpolated. glTF's skinning is linear blend, UsdSkel's default, so every glTF viewer
+poses the vertices as UsdSkel does. Skinned mesh nodes are root nodes (glTF ignores a skinned node's parents'
+transforms); the joints hang under a ``Skeleton`` node with the skeleton's local-to-world transform, and the
+vertices are the rest pose in world space, so each inverse bind matrix is ``inverse(skeleton to world x bind)``.
 """
 
 from __future__ import annotations
@@ -55,9 +49,8 @@ def _trs(xf) -> tuple:
 
 
 def motions(stage, query) -> dict:
-    """``{motion: (times s (F,), translations (F, J, 3), rotations (F, J, 4), scales (F, J, 3))}`` for each variant of
-    the default prim's ``motion`` set but rest that binds an animation: the skeleton's local transforms at the
-    animation's time samples (module docstring). Each is selected in the stage's session layer, then cleared."""
+    """``{motion: (times s (F,), translations (F, J, 3), rotations (F, J, 4), scales (F, J, 3))}`` for each motion
+    but rest that binds an animation, each selected in the session layer, then cleared."""
     from pxr import Usd, UsdSkel
 
     prim = stage.GetDefaultPrim()
@@ -99,9 +92,8 @@ def _point_map(positions_m, points_world, fvi) -> np.ndarray:
 
 
 def add_skin(gltf, blob, scene, stage, mesh_nodes: dict) -> None:
-    """Give the mesh nodes (``{USD mesh path: node index}``) of ``gltf`` the skeleton's skin (``JOINTS_0``,
-    ``WEIGHTS_0``), add the joint tree and one animation per motion (module docstring). Nothing when the stage binds
-    no skeleton. UsageError for a posed scene (the vertices must be the rest pose)."""
+    """Give the mesh nodes (``{USD mesh path: node index}``) the skeleton's skin, add the joint tree and one
+    animation per motion; nothing without a skeleton. UsageError for a posed scene (glTF skins the rest pose)."""
     from pxr import UsdGeom
     from pygltflib import Animation, AnimationChannel, AnimationChannelTarget, AnimationSampler, Node, Skin
 

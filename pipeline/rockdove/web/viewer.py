@@ -1,12 +1,9 @@
 """Write the offline interactive viewer ``verify/viewer.html``: pigeon.glb in three.js, beside its data.
 
 A ``file://`` page in Chromium may neither ``fetch`` files nor load module scripts from disk (origin ``null``), so
-everything arrives through classic ``<script src>`` tags beside the page: ``viewer_data.js`` (the GLB and the
-asset's float LUT in base64, the WebGL2 shaders ``materials/web/thinfilm_webgl.*``, the start camera and light);
-``three/*.js``, the ES modules of the npm package ``three`` (``materials/web/node_modules``, pinned in
-``package.json``), ``motion_player.js`` (the motion switch, play and pause) and ``viewer_app.js``, each copied
-verbatim into a JavaScript string; ``viewer_loader.js``, which makes each module a same-origin ``blob:`` URL with its
-imports pointed at its dependencies', then imports the app.
+everything arrives through classic ``<script src>`` tags beside the page: ``viewer_data.js`` (the GLB, the LUT, the
+shaders, the start camera, in base64 or JSON) and each ES module (three's, ``motion_player.js``, ``viewer_app.js``)
+copied into a JavaScript string, which ``viewer_loader.js`` makes a same-origin ``blob:`` URL before importing.
 """
 
 from __future__ import annotations
@@ -43,8 +40,7 @@ def web_folder() -> Path:
 
 
 def three_folder() -> Path:
-    """``materials/web/node_modules`` with the npm package three in it; ResourceMissing (a ``FileNotFoundError``: the
-    CLI prints it in one line, exit 2) where three is not installed."""
+    """``materials/web/node_modules`` with the npm package three in it; ResourceMissing where it is not installed."""
     from ..errors import ResourceMissing
 
     nm = web_folder() / "node_modules"
@@ -56,8 +52,7 @@ def three_folder() -> Path:
 
 
 def start_view(scene):
-    """The viewer's first camera and light: the verification's light-sweep camera on the neck, lit at
-    :data:`START_LIGHT_VIEW_DEG` between light and view (``rockdove.render.views``)."""
+    """The viewer's first camera and light: the light-sweep camera on the neck, lit at :data:`START_LIGHT_VIEW_DEG`."""
     from ..render.views import default_views, light_sweep_views
 
     sweep = [v for v in default_views(scene, 512, 512, n=2) if v.name.startswith("sweep_")][0]
@@ -73,9 +68,7 @@ def _b64(array, dtype: str) -> str:
 
 
 def film_tables() -> dict:
-    """The tables film_bake.js integrates with, rockdove.lut's own (D65, CIE 1931 2 deg, lin_rec709): the 0.1 nm
-    reference weights, G (:data:`G_STEP_NM`), the Chebyshev weights of the quadrature's node ladder, and the
-    bakers' constants."""
+    """The tables film_bake.js integrates with, rockdove.lut's own (D65, CIE 1931 2 deg, lin_rec709)."""
     from ..lut import fourier as F
     from ..lut import quadrature as Q
     from ..lut.bake import DEFAULT_FOURIER_TOL, DEFAULT_MAX_TERMS
@@ -118,10 +111,8 @@ def _film_of(config: dict) -> dict:
 
 
 def film_panel_data(scene, lut) -> dict:
-    """What the film panel (film_panel.js) starts from: the asset's film and thickness ranges (the build
-    configuration its looks layer records, if any), the presets, each key's schema range and unit, the LUT's grid,
-    each feather vertex's thickness field (the glb's vertex order) and the ``--set`` pairs beyond the film that
-    rebuild the asset as built."""
+    """What the film panel (film_panel.js) starts from: the asset's film (from the configuration its looks layer
+    records, if any), presets, ranges and units, the LUT's grid, the thickness field and the other ``--set`` pairs."""
     from pxr import Sdf
 
     from ..config import get, limits, load_config, load_schema, presets
@@ -170,13 +161,13 @@ def viewer_data(scene, lut, glb_bytes: bytes, asset_name: str) -> dict:
     return {
         "asset_name": asset_name,
         "glb": base64.b64encode(glb_bytes).decode("ascii"),
-        "lut": {"rgb_f32": base64.b64encode(rgb.tobytes()).decode("ascii"), "n_angle": int(rgb.shape[1]),
+        "lut": {"rgb_f32": _b64(rgb, "float32"), "n_angle": int(rgb.shape[1]),
                 "n_thickness": int(rgb.shape[0]), "angle_warp_gamma": float(lut.angle_warp_gamma),
                 "thickness_range_nm": [float(v) for v in lut.thickness_range_nm],
                 "colour_space": lut.colour_space,
                 "verification_only": "purpose" in lut.metadata},
         "ramp_texels": THICKNESS_RAMP_TEXELS,
-        "shaders": {"vert": (web / "thinfilm_webgl.vert").read_text(), "frag": (web / "thinfilm_webgl.frag").read_text()},
+        "shaders": {k: (web / f"thinfilm_webgl.{k}").read_text() for k in ("vert", "frag")},
         "camera": {"eye_m": view.camera_to_world[:3, 3].tolist(), "target_m": [float(v) for v in scene.neck_centre_m],
                    "yfov_deg": float(np.degrees(view.yfov_rad))},
         "light": {"direction": view.light_direction.tolist()},
@@ -185,10 +176,8 @@ def viewer_data(scene, lut, glb_bytes: bytes, asset_name: str) -> dict:
 
 
 def write_viewer(asset, glb_path, out_dir, asset_name: str | None = None) -> str:
-    """Write ``viewer.html`` and the files beside it into ``out_dir`` (the asset's ``verify/``); return the page's
-    path. ``asset`` (folder or root layer) gives the scene and LUT (a physical-only asset's is baked in memory,
-    :meth:`rockdove.render.scene.RenderScene.load_lut`), ``glb_path`` its ``pigeon.glb``; ``asset_name`` is shown
-    on the page (default: the asset folder's name)."""
+    """Write ``viewer.html`` and the files beside it into ``out_dir``; return the page's path. ``asset`` gives the
+    scene and LUT (baked in memory when it has none), ``asset_name`` the name shown (default: its folder's)."""
     from ..render.scene import load_scene
 
     out = Path(out_dir)
