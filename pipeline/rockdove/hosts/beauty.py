@@ -11,23 +11,7 @@ import time
 import numpy as np
 
 from ..errors import UsageError
-from ..render.beauty import (
-    EXPOSURE,
-    GROUND_ALBEDO,
-    LOOK,
-    RENDERERS,
-    SKY_HORIZON_RGB,
-    SKY_STRENGTH,
-    SKY_ZENITH_RGB,
-    SUN_ANGLE_DEG,
-    SUN_ELEVATION_DEG,
-    SUN_RGB,
-    SUN_STRENGTH,
-    TIMEOUT_S,
-    beauty_views,
-    cyclorama,
-    ground_y_m,
-)
+from ..render import beauty as setup
 from . import bpy_runner as runner
 from .base import HostError
 from .blender import NAME, base_job
@@ -37,36 +21,31 @@ def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
     """Render ``views`` with Cycles through the add-on (:mod:`rockdove.hosts.blender_beauty_job`); returns
     ``{view name: (H, W, 3) uint8}`` (display-referred, AgX). Raises HostError when Blender cannot."""
     work = runner.work_folder("beauty_cycles", views, out_dir, "png")
-    verts, quads = cyclorama(scene, views)
+    verts, quads = setup.cyclorama(scene, views)
     job = {
         **base_job(os.path.abspath(layer), views, work, samples), "ground_vertices_m": np.round(verts, 6).tolist(),
-        "ground_quads": quads.tolist(), "ground_albedo": GROUND_ALBEDO, "sky_horizon_rgb": SKY_HORIZON_RGB,
-        "sky_zenith_rgb": SKY_ZENITH_RGB, "sky_strength": SKY_STRENGTH, "sun_strength": SUN_STRENGTH,
-        "sun_rgb": SUN_RGB, "sun_angle_deg": SUN_ANGLE_DEG, "look": LOOK, "exposure": EXPOSURE,
+        "ground_quads": quads.tolist(), "ground_albedo": setup.GROUND_ALBEDO, "sky_horizon_rgb": setup.SKY_HORIZON_RGB,
+        "sky_zenith_rgb": setup.SKY_ZENITH_RGB, "sky_strength": setup.SKY_STRENGTH, "sun_strength": setup.SUN_STRENGTH,
+        "sun_rgb": setup.SUN_RGB, "sun_angle_deg": setup.SUN_ANGLE_DEG, "look": setup.LOOK, "exposure": setup.EXPOSURE,
         "views": [{**v.to_dict(), "sun_direction": v.light_direction.tolist()} for v in views],
     }
-    runner.run_job(job, work, importlib.util.find_spec("rockdove.hosts.blender_beauty_job").origin, TIMEOUT_S)
+    script = importlib.util.find_spec("rockdove.hosts.blender_beauty_job").origin
+    runner.run_job(job, work, script, setup.TIMEOUT_S)
     return runner.read_views(NAME, "Blender", views, work, "png")
 
 
 def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", width: int = 768,
                   height: int = 512, samples: int = 32, cycles_ok: bool = True, lut=None) -> dict | None:
-    """Render the beauty views (``beauty_34.png``, ``beauty_side.png``, ``width`` x ``height`` px) into ``out_dir``
-    and describe them: ``{"renderer": "cycles"|"gl", "files": {view: file name}, "caption", "seconds", "size":
-    [w, h], "samples": int or None, "fallback": reason or None}``; None for ``renderer="off"``.
-
-    ``layer`` is the asset's root layer (Cycles imports it), ``scene`` the same asset read back (framing, the GL
-    path), ``renderer`` one of :data:`RENDERERS`, ``samples`` the most a pixel takes in Cycles (adaptive);
-    ``cycles_ok``: whether ``auto`` may take Cycles (False where the verification was not asked to run Blender);
-    ``lut``: the GL path's film LUT (default the asset's).
-    """
+    """Render the beauty views into ``out_dir`` and describe them (renderer, files, caption, seconds, size, samples,
+    fallback); None for ``renderer="off"``. ``scene``: the asset at ``layer`` read back; ``samples``: Cycles' most
+    a pixel (adaptive); ``cycles_ok``: whether ``auto`` may take Cycles (the verification runs Blender)."""
     from ..png import save_png
 
-    if renderer not in RENDERERS:
-        raise UsageError(f"beauty renderer {renderer!r} is not one of {', '.join(RENDERERS)}")
+    if renderer not in setup.RENDERERS:
+        raise UsageError(f"beauty renderer {renderer!r} is not one of {', '.join(setup.RENDERERS)}")
     if renderer == "off":
         return None
-    views = beauty_views(scene, int(width), int(height))
+    views = setup.beauty_views(scene, int(width), int(height))
     t = time.perf_counter()
     fallback, images, used = None, None, "gl"
     if renderer == "cycles" or (renderer == "auto" and cycles_ok):
@@ -81,14 +60,14 @@ def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", wi
     if images is None:
         from ..render.beauty_gl import render_gl
 
-        images = render_gl(scene, views, ground_y_m(scene), lut=lut)
+        images = render_gl(scene, views, setup.ground_y_m(scene), lut=lut)
     seconds = time.perf_counter() - t
     files = {name: os.path.basename(save_png(img, os.path.join(out_dir, f"{name}.png")))
              for name, img in images.items()}
     if used == "cycles":
         caption = (f"Cycles (Blender, through the rockdove add-on), {samples} samples per pixel, adaptive, "
-                   f"OpenImageDenoise, AgX; sky light and a {SUN_ANGLE_DEG:g} degree warm sun at "
-                   f"{SUN_ELEVATION_DEG:g} degrees; {width} x {height} px, {seconds:.1f} s")
+                   f"OpenImageDenoise, AgX; sky light and a {setup.SUN_ANGLE_DEG:g} degree warm sun at "
+                   f"{setup.SUN_ELEVATION_DEG:g} degrees; {width} x {height} px, {seconds:.1f} s")
     else:
         caption = (f"GL (the verification's GLSL shaders in pyrender): the sun's shadow from a shadow map, sky "
                    f"fill lights, filmic curve; {width} x {height} px, {seconds:.1f} s"

@@ -1,12 +1,7 @@
-"""The Blender side of the beauty render (:mod:`rockdove.render.beauty`): run as ``PYTHON blender_beauty_job.py
-JOB.json`` (written by :func:`rockdove.hosts.beauty.render_cycles`, every value) by a Python that has bpy; it
-imports nothing but the standard library, bpy and :mod:`rockdove.hosts.blender_job`, whose steps it takes.
-
-The asset is imported as a Blender user imports it (the add-on enabled, every material as the add-on built it),
-then staged as a hero shot: a neutral grey ground (roughness 0.7) at the bird's lowest point curving up far behind
-it into a wall (a studio cyclorama: no horizon line); a sky-gradient world (warm grey horizon to pale blue zenith)
-as fill and background; a warm sun (angular diameter ``sun_angle_deg``: soft shadows) from each view's own
-direction; Cycles on the CPU with adaptive sampling and OpenImageDenoise; an 8-bit PNG per view through AgX.
+"""The Blender side of the beauty render (:mod:`rockdove.render.beauty`), run as ``PYTHON blender_beauty_job.py
+JOB.json`` by a Python that has bpy; stdlib, bpy and :mod:`rockdove.hosts.blender_job` only. The asset, imported as
+a user imports it, staged as a hero shot: a cyclorama ground (no horizon line), a sky-gradient world, a warm sun
+from each view's own direction, Cycles with OpenImageDenoise, an 8-bit PNG per view through AgX.
 """
 
 from __future__ import annotations

@@ -1,13 +1,7 @@
-"""The ``materialx`` and ``materialx_physical`` hosts: the asset's ``baked`` and ``physical`` (OpenPBR's thin film)
-MaterialX networks as shader code by MaterialX's ``GlslShaderGenerator``, drawn offscreen in the project's EGL.
-
-The network is read from the written USD as Hydra's HdMtlx does (:func:`feather_networks`); every colour, lookup,
-BSDF and the environment lighting is generated code. Around it (:mod:`rockdove.hosts.materialx_gl`) is what a viewer
-does: vertex streams, textures, the ``view_angle`` lobe (base colour RGB 0, its alpha kept), normals flipped towards
-the viewer (as Storm draws ``doubleSided`` meshes), parts without a MaterialX material black.
-
-OpenPBR's GLSL thin film is an approximation (Gaussian fits of the colour-matching functions, a few Airy terms, a
-known white-point bug): ``materialx_physical`` is judged on green, purple and hue-class agreement, its dE reported.
+"""The ``materialx`` and ``materialx_physical`` hosts: the asset's ``baked`` and ``physical`` MaterialX networks,
+read from the written USD as Hydra's HdMtlx does, as GLSL by MaterialX's ``GlslShaderGenerator``, drawn offscreen
+in the project's EGL (:mod:`rockdove.hosts.materialx_gl`). OpenPBR's GLSL thin film is an approximation, so
+``materialx_physical`` is judged on green, purple and hue-class agreement (docs/design.md, "Hosts").
 """
 
 from __future__ import annotations

@@ -1,12 +1,6 @@
-"""The ``osl`` and ``osl_physical`` hosts: the asset's ``baked`` and ``physical`` MaterialX networks as OSL written
-by MaterialX's ``OslShaderGenerator``, compiled by Blender's bundled OSL compiler and rendered by Cycles with OSL on
-(the MaterialX path of Arnold, RenderMan, Karma CPU and Cycles' OSL mode).
-
-The network is rebuilt from the written USD as Hydra's HdMtlx does (:func:`rockdove.hosts.materialx.feather_networks`)
-and changed by :func:`lobe_document` (as the Storm host does in its session layer). :mod:`rockdove.hosts.osl_job`
-compiles it beside MaterialX's OSL headers, imports the asset with Blender's USD importer (no add-on) and puts the
-shader in one Script node on the feathers, every other part black, under a uniform white world. Output: float32
-EXR in linear Rec.709, background 0.
+"""The ``osl`` and ``osl_physical`` hosts: the asset's ``baked`` and ``physical`` MaterialX networks as OSL by
+MaterialX's ``OslShaderGenerator``, compiled by Blender's bundled OSL and rendered by Cycles with OSL on (the
+MaterialX path of Arnold, RenderMan, Karma CPU) in :mod:`rockdove.hosts.osl_job` (docs/hosts.md).
 """
 
 from __future__ import annotations

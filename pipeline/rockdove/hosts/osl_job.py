@@ -1,11 +1,6 @@
-"""The Cycles side of :mod:`rockdove.hosts.osl`: run as ``PYTHON path/to/osl_job.py JOB.json`` by a Python that has
-bpy (:func:`rockdove.hosts.bpy_runner.bpy_python`); it imports nothing but the standard library, bpy and its sibling
-:mod:`rockdove.hosts.blender_job` (by file, also stdlib + bpy only).
-
-The steps are those of :mod:`rockdove.hosts.osl`'s docstring ("What Cycles does"); the job file, written by
-:func:`rockdove.hosts.osl.render_variant`, gives every value. A shader the compiler rejects prints its error lines
-and the job exits 1 naming it; every material but the feathers' is black diffuse (occluding,
-cut out where its alpha is: :func:`rockdove.hosts.blender_job.occluder`).
+"""The Cycles side of :mod:`rockdove.hosts.osl`, run as ``PYTHON osl_job.py JOB.json`` by a Python that has bpy;
+it imports nothing but the standard library, bpy and :mod:`rockdove.hosts.blender_job` (by file). A shader the
+compiler rejects prints its error lines and the job exits 1 naming it.
 """
 
 from __future__ import annotations

@@ -1,20 +1,7 @@
-"""The ``storm`` hosts: the written asset, unchanged, drawn by Hydra Storm (usdview's renderer).
-
-Storm is the one in the bpy wheel (USD 25.08 with imaging, HdMtlx, MaterialX 1.39.3), run by
-:mod:`rockdove.hosts.storm_job` in the Python that has bpy, headless in an EGL pbuffer. Everything the host adds
-is in the session layer (the asset's files are never written): cameras, a white dome light, the ``shading``
-variant, the feather's base colour and every part without a MaterialX material black (the film lobe alone).
-Three hosts, one per network a Storm user sees (:data:`VARIANTS`): ``storm`` (the LUT, held to the dE goals),
-``storm_physical`` (OpenPBR's thin film) and ``storm_preview`` (the UsdPreviewSurface network as a Storm without
-MaterialX draws it: its atlas holds each thickness's colour at one angle, so green and purple are checked only).
-
-On Mesa llvmpipe (22.3) an SSBO load in a helper invocation returns 0, and Storm keeps every MaterialX input
-in such a buffer (``shaderData``): a texture coordinate that passed through one (``ND_image``'s ``uv_scale``,
-a constant, a ``clamp`` bound) got a garbage level of detail in the 2x2 quads straddling triangle edges, the
-white-grey speckle of the old network (median dE2000 0.41, p95 31.6 at 512 px). thinfilm.mtlx therefore builds
-the LUT coordinate from interpolants and a matrix constant, which Storm writes into the shader (see there).
-Storm still warns ``thinfilm_lut.exr mip level 1 does not exist``: HdStTextureUtils::GetAllMipImages opens levels
-until one fails (OpenUSD 24.11 source: any EXR warns at its level count), then generates the chain; harmless.
+"""The ``storm`` hosts: the written asset, unchanged, drawn by Hydra Storm (usdview's renderer) of the bpy wheel
+(:mod:`rockdove.hosts.storm_job`, headless EGL), its additions all in the session layer: one host per network a Storm
+user sees (:data:`VARIANTS`). Measurements, and why thinfilm.mtlx lets no parameter reach a texture coordinate
+(Mesa llvmpipe's helper invocations): docs/hosts.md and docs/design.md, "Hosts".
 """
 
 from __future__ import annotations

@@ -1,6 +1,3 @@
-"""The USD asset: layers, meshes, variants (:mod:`.stage`), material networks (:mod:`.material`), textures on
-disk (:mod:`.textures_io`), the RockDoveThinFilmAPI schema (:mod:`.schema`), usdz (:mod:`.usdz`) and the
-validator (:mod:`.validate`).
-
-pxr and MaterialX are imported inside the functions that use them, so importing this package is cheap.
+"""The USD asset: layers (:mod:`.stage`), materials, textures, schema, usdz and the validator. pxr and MaterialX
+are imported inside the functions that use them, so importing this package is cheap.
 """

@@ -1,19 +1,7 @@
 """Size budgets a layer must meet before USD opens it, from a scan of its bytes (no parse, no composition): a
 crate file's table of contents and the element count that heads each array; a text layer's size and prim
-statements; a texture's header; then, while :mod:`rockdove.usd.dependencies` walks the opened layer, the largest face.
-
-Where each limit comes from (the default asset: ~380 specs in its layers, largest array 149,376 elements
-(``Body.faceVertexIndices``), faces of 3 and 4 vertices; composition costs ~4 KB per prim):
-
-- :data:`MAX_SPECS`: the asset's spec count does not grow with the configuration (every card kind is one mesh);
-  100,000 is 260 times the default's and composes in ~0.4 GB (2 million empty prims passed 8 GiB);
-- :data:`MAX_ARRAY`: 2**24 elements, above the schema's largest asset (``geometry.card_count`` 1,000,000 neck cards
-  x 12 face-vertex indices; ``body_voxel_m`` 0.0008 m gives the body ~0.93 million), 112 times the default's;
-- :data:`MAX_FACE`: 1,024 vertices a face (the asset's are 4): a face is fan-triangulated by every reader;
-- :data:`MAX_TEXT_BYTES`: 64 MiB of text (the default's largest text layer is 16 KB; its geometry is crate);
-- :data:`MAX_TEXELS`: a texture of 4096 x 4096, the schema's largest (``textures.body_resolution``, the LUT's
-  ``lut.angles`` x ``lut.thicknesses``), checked from the PNG or EXR header (a 140 KB PNG declaring 12,000 x 12,000
-  took 55 s and 2.1 GB in verify).
+statements; a texture's header; then, while :mod:`rockdove.usd.dependencies` walks the opened layer, the largest
+face. Where each limit comes from (measured): docs/hostile-input.md, "Size budgets".
 """
 
 from __future__ import annotations

@@ -1,10 +1,5 @@
-"""The asset folder's layout: the names of the files a rockdove asset folder holds, and finding its root layer.
-
-An asset folder (docs/design.md, "USD asset") holds the interface layer ``pigeon.usda`` (the root layer a
-reader opens), the layers it composes (:mod:`rockdove.usd.stage`), ``pigeon.usdz``, ``textures/`` and, once a
-build published it, :data:`MARKER`. Readers (the validator, the renderer, hosts, ``rockdove gltf``) find the
-root layer with :func:`resolve_root_layer`, the one resolver, so they accept the same paths and fail with the
-same one-line error.
+"""The asset folder's layout (docs/design.md, "USD asset"): its file names, and :func:`resolve_root_layer`, the one
+resolver every reader uses, so they accept the same paths and fail with the same one-line error.
 """
 
 from __future__ import annotations

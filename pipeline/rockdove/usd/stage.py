@@ -1,17 +1,10 @@
 """The asset's USD layers: interface layer, payload contents, meshes, primvars, extents, shading variants.
 
-Structure (docs/design.md, "USD asset"; the interface-layer + payload pattern of NVIDIA's usd-exchange-samples):
-
-- ``pigeon.usda`` (interface): ``/Pigeon`` (component, assetInfo, extentsHint), a payload to
-  ``./pigeon_payload.usda``, the ``shading`` variant set (it reconnects ``FeatherMaterial.outputs:mtlx:surface``:
-  variants are stronger than payloads) and the ``motion`` variant set (:mod:`rockdove.usd.skel`).
-- ``pigeon_payload.usda`` sublayers three layers split by what changes them, so a film change rewrites only the
-  small ``pigeon_looks.usda`` (text: people read it); ``pigeon_rig.usdc`` holds the skeleton and skins, and
-  ``pigeon_geom.usdc`` the meshes (crate: its arrays are big, NVIDIA's UsdAsciiPerformanceChecker).
-- ``pigeon_idle.usda`` and ``pigeon_walk.usda`` sublayer the interface and select one motion, as a shot would.
-
-Text layers go through ``Sdf.Layer.ExportToString`` and the crate through ``Sdf.Layer.Export``: no timestamps, so
-the same inputs give byte-identical files (tested).
+The interface layer + payload pattern of NVIDIA's usd-exchange-samples; the payload sublayers looks, rig and
+geometry layers split by what changes them, so a film change rewrites only the small text looks layer (the
+geometry is crate: its arrays are big, NVIDIA's UsdAsciiPerformanceChecker). Layout: docs/design.md, "USD asset".
+Text layers go through ``ExportToString`` and the crate through ``Export``: no timestamps, so the same inputs
+give byte-identical files (tested).
 """
 
 from __future__ import annotations

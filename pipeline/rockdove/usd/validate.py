@@ -1,13 +1,8 @@
 """Validate a written asset: USD's validation framework plus rockdove's own checks.
 
-:func:`validate_asset` scans the layers without composing them (:mod:`rockdove.usd.dependencies`), then runs
-in every combination of the default prim's variant sets: 1. every registered ``pxr.UsdValidation`` validator
-(but its ``MissingShaderIdInRegistry`` for ``ND_*`` ids: usd-core has no MaterialX Sdr plugin); 2. each ``ND_*``
-id, input and output against MaterialX's own node definitions; 3. every asset-valued attribute resolves and
-reads (PNG, EXR, inside a usdz too); 4. primvar and normal counts match their interpolation, indices in range;
-5. the thin film against its LUT (:mod:`rockdove.usd.validate_film`); 6. ``ComputeSurfaceSource()`` resolves and
-the mtlx network, as Hydra's HdMtlx rebuilds it, passes MaterialX's ``validate()``; every skin's joint indices and
-weights (:func:`rockdove.usd.skel.check_skins`); then 7. NVIDIA's validator
+:func:`validate_asset` scans the layers without composing them (:mod:`rockdove.usd.dependencies`), then in every
+combination of the default prim's variants runs the numbered checks below (``pxr.UsdValidation`` but its
+``MissingShaderIdInRegistry`` for ``ND_*`` ids: usd-core has no MaterialX Sdr plugin), then NVIDIA's validator
 (:mod:`rockdove.usd.nvidia`) once over all variants. An :class:`Issue` found in several variants is reported once.
 """
 

@@ -2,13 +2,11 @@
 
 It reads the asset *as written* (:func:`rockdove.render.scene.load_scene`, the verifier's reader), so
 ``pigeon.glb`` translates ``pigeon.usda`` as ``pigeon.usdz`` does (docs/design.md "glTF and the web"). The
-thickness reaches ``iridescenceThicknessTexture`` as an 8-bit linear ramp read through ``TEXCOORD_1``: linear
-filtering of a linear ramp returns ``g`` itself, so the primvar is interpolated across the card, not quantised.
-``KHR_materials_ior`` is the substrate index (1.0 in air), so three.js's only specular reflection is the film's.
-The default material (the USD preview's atlas through ``TEXCOORD_2``) is what consumers without the extension show
-(Blender 5.0's importer ignores it silently); the film is the ``KHR_materials_variants`` variant ``thin_film``
-(measured: a base colour under the film would be counted twice by three.js, whose diffuse is only scaled by
-``1 - F``). pygltflib builds the document (trimesh's cannot author the extension or a second UV set).
+thickness ramp is linear, so linear filtering returns the primvar itself, not quantised to 8 bits. The default
+material is the USD preview's atlas (Blender 5.0's importer ignores the extension silently); the film is the
+``KHR_materials_variants`` variant ``thin_film`` (measured: a base colour under the film would be counted twice by
+three.js, whose diffuse is only scaled by ``1 - F``). pygltflib builds the document (trimesh's cannot author the
+extension or a second UV set).
 """
 
 from __future__ import annotations
