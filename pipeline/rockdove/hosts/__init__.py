@@ -55,8 +55,7 @@ def _reason(host: Host) -> str | None:
 
 
 def select(names=None) -> Selection:
-    """The hosts among ``names`` (:data:`HOSTS`, ``["all"]`` for every one; default :data:`DEFAULT`) that can run
-    here, :data:`ALWAYS` first, and why the others cannot. UsageError (one line) names an unknown host."""
+    """The hosts among ``names`` (default :data:`DEFAULT`) that can run here, :data:`ALWAYS` first, and why not."""
     names = list(DEFAULT) if names is None else [str(n).strip() for n in names]
     if names == ["all"]:
         names = list(HOSTS)

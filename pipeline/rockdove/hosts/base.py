@@ -1,9 +1,6 @@
-"""The host contract: what every renderer at the edge provides (in the way OpenUSD's ``BaseRuleChecker`` defines a
-rule), the lighting models it can be compared under, and the one error a host raises.
-
-A host reads the WRITTEN asset and renders it with its own code; the verifier compares each view with the exact
-reference of the lighting model (:data:`Lobe`) the host evaluates. Adding a host is a subclass of :class:`Host`,
-one instance per network it draws, and :func:`rockdove.hosts.register`.
+"""The host contract (in the way OpenUSD's ``BaseRuleChecker`` defines a rule): a host reads the WRITTEN asset and
+renders it with its own code, compared with the exact reference of its :data:`Lobe`. Adding a host is a subclass of
+:class:`Host`, one instance per network it draws, and :func:`rockdove.hosts.register` (docs/design.md, "Hosts").
 """
 
 from __future__ import annotations
@@ -44,9 +41,7 @@ class HostError(RockdoveError, RuntimeError):
 
 @dataclass(frozen=True)
 class Host:
-    """A renderer the verification checks: ``name`` (unique in the registry), the ``variant`` it draws, the
-    ``lobe`` it is compared under. Subclasses implement :meth:`render` and, where it applies, :meth:`unavailable`
-    and :meth:`cannot_draw`; the verification's cache keys a host's renders on the code of its :meth:`render`."""
+    """A renderer the verification checks; the verification's cache keys its renders on the code of :meth:`render`."""
 
     name: str
     variant: Variant

@@ -18,8 +18,7 @@ from .blender import NAME, base_job
 
 
 def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
-    """Render ``views`` with Cycles through the add-on (:mod:`rockdove.hosts.blender_beauty_job`); returns
-    ``{view name: (H, W, 3) uint8}`` (display-referred, AgX). Raises HostError when Blender cannot."""
+    """``{view name: (H, W, 3) uint8}`` (AgX) rendered with Cycles through the add-on; HostError when it cannot."""
     work = runner.work_folder("beauty_cycles", views, out_dir, "png")
     verts, quads = setup.cyclorama(scene, views)
     job = {

@@ -1,9 +1,6 @@
-"""The Blender host: the written asset imported by Blender (``bpy``) with the rockdove add-on, drawn by Cycles.
-
-Blender's own code on the asset as a user gets it: the add-on zip installed with Blender's operators, a plain
-``wm.usd_import`` (the add-on's ``USDHook`` builds the thin-film material from ``rockdove:film:*``), Cycles'
-thin-film BSDF. :mod:`rockdove.hosts.blender_job` runs in a subprocess: bpy's bundled USD and usd-core's ``pxr``
-cannot share one process. Output: float32 EXR (linear Rec.709), background 0.
+"""The Blender host: the written asset imported by Blender (``bpy``) as a user gets it, with the rockdove add-on
+(its ``USDHook`` builds the thin-film material from ``rockdove:film:*``), drawn by Cycles in a subprocess
+(:mod:`rockdove.hosts.blender_job`: bpy's bundled USD and usd-core's ``pxr`` cannot share one process).
 """
 
 from __future__ import annotations

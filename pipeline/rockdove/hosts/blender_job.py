@@ -82,8 +82,7 @@ def _camera(bpy, mathutils, to_blender, view: dict):
 
 
 def import_asset(bpy, job: dict):
-    """Steps 1-2 (module docstring) in an empty scene: ``(add-on module or None, thin-film material names,
-    the importer's up-axis conversion matrix)``."""
+    """Steps 1-2 in an empty scene: ``(add-on module or None, film material names, up-axis conversion matrix)``."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     addon = None
     if job["addon_zip"]:
@@ -114,8 +113,7 @@ def cycles(scene, job: dict) -> None:
 
 
 def shoot(bpy, mathutils, to_blender, job: dict, ext: str, aim=None) -> dict:
-    """Render each of the job's views with its camera exactly (``aim(view)`` first, if given) as
-    ``out_dir/<view>.<ext>``; returns seconds per view."""
+    """Render each view with its camera exactly as ``out_dir/<view>.<ext>``; seconds per view."""
     scene = bpy.context.scene
     seconds = {}
     for view in job["views"]:

@@ -1,9 +1,6 @@
-"""The bpy job runner the Blender, Storm and OSL hosts and the beauty render share: find a Python that has bpy
-(Blender as a Python module), run a job script in it on a JSON job, read back the images it wrote.
-
-A job script (``*_job.py`` beside this module) runs by file in that Python: it imports nothing but the standard
-library, bpy and its sibling job modules, so that interpreter need not have rockdove installed. Its own process,
-because bpy bundles its own USD, which cannot share a process with usd-core's ``pxr``.
+"""The bpy job runner the Blender, Storm and OSL hosts and the beauty render share: find a Python that has bpy, run
+a ``*_job.py`` script in it by file on a JSON job (stdlib and bpy only, so that Python needs no rockdove; its own
+process, because bpy's bundled USD cannot share one with usd-core's ``pxr``), read back the images it wrote.
 """
 
 from __future__ import annotations
@@ -58,9 +55,8 @@ def _probe(exe: str) -> str | None:
 
 
 def bpy_places() -> list[str]:
-    """Where :func:`bpy_python` looks when this Python has no bpy, in order: ``$ROCKDOVE_BPY_PYTHON`` alone where
-    it is set; else ``.venv-bpy/bin/python`` beside this Python's venv (``make``'s ``.venv`` and ``.venv-bpy``
-    share the checkout) and in the checkout rockdove runs from (an editable install whose venv is elsewhere)."""
+    """Where :func:`bpy_python` looks when this Python has no bpy: ``$ROCKDOVE_BPY_PYTHON`` alone where set; else
+    ``.venv-bpy/bin/python`` beside this Python's venv and in the checkout rockdove runs from."""
     exe = os.environ.get(BPY_PYTHON_ENV, "").strip()
     if exe:
         return [exe]
@@ -87,14 +83,12 @@ def _find() -> tuple[str | None, str | None]:
 
 
 def unavailable() -> str | None:
-    """None when bpy (Blender as a Python module, 4.4 or later for the add-on's USD hook) can run: here or in a
-    Python :func:`bpy_python` finds; else why not, and how to point rockdove at one."""
+    """None when bpy (4.4 or later) can run, here or in a Python :func:`bpy_python` finds; else why not and how."""
     return _find()[1]
 
 
 def bpy_python(host: str = "blender") -> str:
-    """The Python interpreter that runs the job scripts: this one when it has bpy, else the first of
-    :func:`bpy_places` that has. Raises :class:`HostError` (``host``) naming why none can."""
+    """The Python that runs the job scripts (this one when it has bpy); HostError (``host``) naming why none can."""
     exe, why = _find()
     if why or exe is None:
         raise HostError(host, str(why))
@@ -103,10 +97,9 @@ def bpy_python(host: str = "blender") -> str:
 
 def run_job(job: dict, work: str, script: str | None, timeout_s: float = TIMEOUT_S, *, host: str = "blender",
             renderer: str = "Blender") -> None:
-    """Write ``job`` as ``work/job.json`` and run the job ``script`` (its file: name the module with a literal,
-    ``importlib.util.find_spec("rockdove.hosts.x_job").origin``, so the verification's cache key follows it) on it
-    with :func:`bpy_python`, Blender's user folders inside ``work``; its output goes to ``work/blender.log``.
-    Raises :class:`HostError` (``host``, naming ``renderer``) when the job fails or does not finish in time."""
+    """Run the job ``script`` on ``job`` (as ``work/job.json``) with :func:`bpy_python`, its output in
+    ``work/blender.log``. Name the script's module with a literal (``find_spec("rockdove.hosts.x_job").origin``), so
+    the verification's cache key follows it. HostError when the job fails or does not finish in time."""
     python = bpy_python(host)
     job_path = os.path.join(work, "job.json")
     with open(job_path, "w", encoding="utf-8") as fh:
@@ -135,8 +128,7 @@ def run_job(job: dict, work: str, script: str | None, timeout_s: float = TIMEOUT
 
 
 def work_folder(folder: str, views: list, out_dir: str, ext: str = "exr") -> str:
-    """``out_dir/<folder>``, made, without the ``views``' images a job wrote there before (so a job that writes
-    none is caught). UsageError for no views."""
+    """``out_dir/<folder>``, made, without the ``views``' earlier images (so a job that writes none is caught)."""
     if not views:
         raise UsageError("views must hold at least one View, got none")
     work = os.path.join(os.path.abspath(out_dir), folder)
@@ -160,9 +152,8 @@ def read_exr_rgb(path: str, host: str = "blender") -> np.ndarray:
 
 
 def read_views(host: str, renderer: str, views, work: str, ext: str = "exr") -> dict[str, np.ndarray]:
-    """The ``<view>.exr`` a job of host ``host`` (drawn by ``renderer``, for messages) wrote into ``work``: view name
-    -> (H, W, 3) float32 linear radiance, each also written as ``<view>.png`` (``ext="png"``: the PNGs, uint8).
-    Raises :class:`HostError` for a missing image or one of the wrong size (naming the job's log)."""
+    """View name -> (H, W, 3) float32 radiance of the ``<view>.exr`` a job wrote into ``work`` (each also saved as
+    PNG; ``ext="png"``: the PNGs, uint8). HostError for a missing image or one of the wrong size."""
     from PIL import Image
 
     from ..png import save_png

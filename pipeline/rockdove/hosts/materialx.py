@@ -58,8 +58,7 @@ def generate_glsl(doc, material_name: str) -> tuple[str, str]:
 
 
 def generate(doc, material_name: str, generator, **options):
-    """MaterialX's ``generator`` run on ``material_name`` (a ``surfacematerial`` of ``doc``) with the document's
-    colour management, images flipped to the renderers' first-row convention and the generator ``options``."""
+    """MaterialX's ``generator`` run on ``material_name`` with colour management and images flipped (first row)."""
     import MaterialX as mx
     import MaterialX.PyMaterialXGenShader as mx_gen
 

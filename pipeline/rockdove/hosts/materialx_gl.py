@@ -102,8 +102,7 @@ def _projection(view, near: float, far: float) -> np.ndarray:
 
 
 def draw(scene, networks: dict, sources: dict, views, *, name: str) -> dict:
-    """View name -> float linear radiance of ``views`` of ``scene``, each part with a network in ``networks`` drawn
-    by its generated ``sources`` (vertex, pixel), the others black (:mod:`rockdove.hosts.materialx`)."""
+    """View name -> float radiance, each part with a network drawn by its generated ``sources``, the others black."""
     from .._compat import import_pyrender
 
     pyrender = import_pyrender()
@@ -201,8 +200,7 @@ def _set_matrix(GL, prog, uniform: str, m: np.ndarray) -> None:
 
 
 def _bind_samplers(GL, prog, net: dict, env: int, black: int) -> dict:
-    """Texture unit -> texture for every sampler of the program; image nodes get their files (the base colour's
-    RGB 0: the film lobe alone)."""
+    """Texture unit -> texture for every sampler; the base colour's RGB 0 (the film lobe alone)."""
     GL.glUseProgram(prog)
     textures, unit = {}, 0
     for i in range(GL.glGetProgramiv(prog, GL.GL_ACTIVE_UNIFORMS)):

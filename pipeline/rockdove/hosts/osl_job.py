@@ -52,9 +52,7 @@ def request_attributes(material, output, names) -> None:
 
 
 def script_material(bpy, name: str, oso: str, attributes=(), files=None):
-    """A material whose surface is one Script node running ``oso`` (its parameters keep their defaults but the
-    ``files``: string parameter -> texture file), with the mesh ``attributes`` it reads exported to it
-    (:func:`request_attributes`)."""
+    """A material whose surface is one Script node running ``oso`` (``files``: its texture parameters)."""
     import glob
 
     import cycles.osl

@@ -11,8 +11,7 @@ import sys
 
 
 def bundled_usd_first() -> str:
-    """Put bpy's bundled site-packages (pxr with imaging, MaterialX) first on sys.path and point HdMtlx at its
-    MaterialX libraries; returns the bpy folder."""
+    """Put bpy's bundled site-packages (pxr with imaging) first on sys.path, HdMtlx at its MaterialX libraries."""
     import importlib.util
 
     spec = importlib.util.find_spec("bpy")

@@ -134,8 +134,7 @@ def _image(m, base: int, size: int) -> str | None:
 
 
 def over_budget(identifier: str) -> str | None:
-    """Why the layer ``identifier`` (a file, a usdz, or a package-relative ``a.usdz[b.usdc]``) is over a budget,
-    from its bytes alone, or None."""
+    """Why the layer ``identifier`` (file, usdz or ``a.usdz[b.usdc]``) is over a budget, from its bytes, or None."""
     return _scan(identifier, _layer)
 
 

@@ -1,10 +1,8 @@
 """The files an asset refers to, found without composing it (``Sdf`` only: no stage, no texture read).
 
-An asset must be relocatable: every asset path it authors (sublayers, references, payloads, value clips,
-asset-valued attributes; an expression by its value) must be relative and stay inside the root layer's folder,
-or the package of a ``.usdz``, symlinks resolved. Paths outside are :attr:`Dependencies.external`, never read
-unless ``allow_external`` (then they are warnings). :func:`require_inside` is the one gate of the commands that
-read an asset.
+An asset must be relocatable: every asset path it authors must be relative and stay inside the root layer's
+folder (or ``.usdz`` package), symlinks resolved; paths outside are never read unless ``allow_external``.
+:func:`require_inside` is the one gate of the commands that read an asset (docs/hostile-input.md).
 """
 
 from __future__ import annotations
@@ -56,8 +54,8 @@ def _outside(anchored: str, root_dir: str, root_package: str | None) -> str | No
 
 
 def _authored_paths(layer, issues: list) -> list[tuple[str, str, str]]:
-    """(where, authored path, kind) of every value clip path (a template's ``#`` frame digits as ``0``) and
-    asset-valued attribute default and time sample in ``layer``; a malformed ``clips`` value is an issue."""
+    """(where, authored path, kind) of every value clip path (``#`` as ``0``) and asset-valued attribute value in
+    ``layer``; a malformed ``clips`` value is an issue."""
     from pxr import Sdf
 
     found = []
@@ -205,10 +203,8 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
 
 
 def asset_digest(root_layer) -> str:
-    """sha256 of the bytes of every file the asset's composition reads (:attr:`Dependencies.read`: its layers,
-    material networks included, and textures; a package member as its package), by path relative to the root
-    layer's folder: what a host that renders the asset reads, so an asset moved or rebuilt the same digests the
-    same."""
+    """sha256 of every file the asset's composition reads (a package member as its package), by path relative to
+    the root layer's folder: an asset moved or rebuilt the same digests the same."""
     from pxr import Ar
 
     from ..digest import Digest
@@ -245,8 +241,7 @@ def blocking(deps: Dependencies) -> list:
 
 
 def require_inside(asset, allow_external: bool = False) -> str:
-    """The root layer of ``asset`` once :func:`scan_dependencies` found nothing wrong: :class:`UsageError` when it
-    is not an asset, :class:`VerificationFailed` naming the first broken layers or paths outside it."""
+    """The root layer of ``asset`` once :func:`scan_dependencies` found nothing wrong, else VerificationFailed."""
     from ..errors import UsageError, VerificationFailed
     from .layout import resolve_root_layer
 

@@ -8,9 +8,7 @@ from dataclasses import dataclass, field
 
 @dataclass(frozen=True)
 class Issue:
-    """One problem found in an asset: the ``check`` (``mtlx``, ``texture``, ``nvidia:<rule>``...), the prim,
-    property or file ``path``, the ``message`` (the value found and what was expected), the ``severity`` (only
-    errors make a report unclean) and the ``variants`` it was found in (empty: all)."""
+    """One problem found in an asset; only ``severity`` errors make a report unclean; ``variants`` empty: all."""
 
     check: str
     path: str

@@ -31,9 +31,7 @@ def unusable_path(path: str) -> str | None:
 
 
 def resolve_root_layer(asset) -> str:
-    """The absolute path of an asset's root layer, given its folder (one of :data:`ROOT_LAYER_NAMES` inside) or
-    a layer's path; a one-line ValueError naming the path when it is missing, a folder without a root layer or not
-    a USD layer."""
+    """The absolute path of an asset's root layer, given its folder or a layer; else a one-line ValueError."""
     path = os.path.abspath(os.fspath(asset))
     why = unusable_path(path)
     if why:

@@ -111,8 +111,7 @@ def upstream_nodes(doc, roots) -> set:
 
 
 def copy_mtlx_network(doc, material, roots=None) -> dict:
-    """Copy the nodes of ``doc`` (its data library set) into ``material`` as UsdShade shaders named as the nodes
-    (``info:id = ND_*``): all, or only ``roots`` and what they depend on. Returns node name -> shader."""
+    """Copy the nodes of ``doc`` (all, or ``roots`` and their upstream) into ``material``: node name -> shader."""
     from pxr import Sdf, UsdShade
 
     stage = material.GetPrim().GetStage()
@@ -341,10 +340,8 @@ def author_body_material(stage, path, *, texture: str | None = None):
 
 
 def author_plumage_material(stage, path, *, textures: dict | None = None):
-    """Define the plumage material of the feather cards (and the eyes): UsdPreviewSurface with ``BaseColorTexture``
-    (plumage_base.png, sRGB: diffuse colour, and its alpha the opacity, cut at ``opacityThreshold``) and
-    ``NormalTexture`` (plumage_normal.png, raw: the tangent-space normal, scale 2 and bias -1, and in its alpha
-    the roughness), both at ``st``."""
+    """Define the plumage material of the feather cards (and the eyes): base colour with its alpha cut out, and
+    the tangent-space normal map (scale 2, bias -1) with the roughness in its alpha."""
     from pxr import Gf, Sdf, UsdShade
 
     textures = {**texture_asset_paths(), **(textures or {})}

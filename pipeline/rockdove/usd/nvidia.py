@@ -1,9 +1,7 @@
-"""NVIDIA's asset validator (PyPI ``usd-validation-nvidia``: USD's ComplianceChecker rules and its own) over
-every variant, as :class:`Issue` s: ``ERROR`` and ``FAILURE`` are errors, ``WARNING`` a warning, ``INFO`` dropped,
-and so is ``UsdShadeShaderSdrCompliance`` on an ``ND_*`` id (usd-core has no MaterialX Sdr plugin:
-:func:`rockdove.usd.validate.check_mtlx_shaders` checks those). Its mesh rules (:data:`MESH_RULES`: ~90% of its
-time, ManifoldChecker alone 4.3 of 5.8 s) read only geometry: their findings are kept in the user cache by
-:func:`mesh_digest`, so revalidating after a film change runs only the other rules.
+"""NVIDIA's asset validator (PyPI ``usd-validation-nvidia``) over every variant, as :class:`Issue` s; its Sdr rule on
+``ND_*`` ids is dropped (usd-core has no MaterialX Sdr plugin: :mod:`rockdove.usd.validate` checks those). Its mesh
+rules (:data:`MESH_RULES`: ~90% of its time, ManifoldChecker alone 4.3 of 5.8 s) read only geometry, so their
+findings are cached by :func:`mesh_digest` and revalidating after a film change runs only the other rules.
 """
 
 from __future__ import annotations
@@ -25,9 +23,8 @@ MESH_RULES = ("ManifoldChecker", "ZeroAreaFaceChecker", "WeldChecker", "NormalsW
 
 
 def mesh_digest(root_layer: str) -> str | None:
-    """sha256 of what the :data:`MESH_RULES` read of every Mesh in each variant combination: the UsdGeom.Mesh
-    schema's attributes and ``primvars:normals``, not other primvars (the film record lives on the feather mesh);
-    None when one of them has time samples (never memoised)."""
+    """sha256 of what the :data:`MESH_RULES` read (Mesh schema attributes and normals, not the film's primvars) in
+    each variant combination; None when one of them has time samples (never memoised)."""
     import numpy as np
     from pxr import Usd, UsdGeom
 
@@ -116,8 +113,7 @@ def _mesh_findings(nv, rules: list, root_layer: str) -> list:
 
 
 def run_nvidia_validator(root_layer: str) -> tuple[list, int]:
-    """Every default rule over ``root_layer`` (layer or usdz) in all variants: (issues ``nvidia:<Rule>``, each
-    finding once, and the number of ND_* findings dropped)."""
+    """Every default rule in all variants: (issues ``nvidia:<Rule>``, each once, number of ND_* findings dropped)."""
     import usd_validation_nvidia as nv
 
     from .issues import Issue

@@ -40,8 +40,7 @@ ATTRIBUTE_TYPES = {name: type_name for name, (_, type_name) in _ATTRS.items()}
 
 
 def register() -> bool:
-    """Register ``schemas/`` with USD (idempotent); True when the schema registry knows the schema (False when a
-    stage was opened earlier in this process: this module works either way)."""
+    """Register ``schemas/`` with USD (idempotent); False when a stage was opened first (this module works anyway)."""
     from pxr import Plug, Usd
 
     Plug.Registry().RegisterPlugins(str(resources.folder("schemas")))

@@ -74,8 +74,7 @@ def animation_path(motion: str) -> str:
 
 
 def author_rig(stage, bird) -> None:
-    """The rig layer's content in ``stage``'s edit target, for ``bird``'s meshes as :mod:`rockdove.usd.stage` writes
-    them."""
+    """The rig layer's content in ``stage``'s edit target, for ``bird``'s meshes as :mod:`.stage` writes them."""
     from pxr import Sdf, UsdSkel, Vt
 
     from ..geometry.types import drop_unreferenced_points

@@ -53,8 +53,7 @@ THICKNESS_DOC = ("Film (keratin cortex) thickness of the feather barbules at thi
 
 
 def new_stage(*, load_payloads: bool = True):
-    """An in-memory stage with the asset's metadata (upAxis Y, metersPerUnit 1, defaultPrim); ``load_payloads``
-    False for the interface layer, whose payload is not written yet."""
+    """An in-memory stage with the asset's metadata (upAxis Y, metersPerUnit 1, defaultPrim)."""
     from .schema import register
 
     register()  # before the first stage: USD builds its schema registry once
@@ -124,8 +123,7 @@ def _feather_part(bird):
 
 
 def author_geometry(stage, bird):
-    """The geometry half of the payload in ``stage``'s edit target: the ``/Pigeon/Geom`` meshes, each bound to
-    ``/Pigeon/Looks/<Kind>Material`` (a relationship only: the materials are :func:`author_looks`'s)."""
+    """The ``/Pigeon/Geom`` meshes in ``stage``'s edit target, bound to materials :func:`author_looks` defines."""
     from pxr import UsdGeom, UsdShade, UsdSkel
 
     _feather_part(bird)
@@ -182,8 +180,7 @@ def author_looks(stage, bird, film, lut: dict | None, variants=SHADING_VARIANTS)
 
 
 def author_interface(stage, *, extent, version: str, variants=SHADING_VARIANTS):
-    """The interface layer: ``/Pigeon`` (component, assetInfo, ``extent`` (2, 3) m as its extentsHint), the
-    payload, and the ``shading`` variant set of ``variants`` (``baked`` selected when present, else the first)."""
+    """The interface layer: ``/Pigeon`` (``extent`` (2, 3) m), the payload and the ``shading`` variant set."""
     from pxr import Kind, Sdf, Usd, UsdGeom, Vt
 
     prim = UsdGeom.Xform.Define(stage, ROOT).GetPrim()
@@ -301,8 +298,7 @@ def variant_combinations(stage) -> list[dict]:
 
 
 def open_asset(path: str, shading: str | None = None):
-    """An asset's root layer opened with payloads loaded, the ``shading`` variant (if given) selected in the
-    session layer (the files are not modified)."""
+    """An asset opened with payloads loaded, the ``shading`` variant (if given) selected in the session layer."""
     from pxr import Usd
 
     from .schema import register

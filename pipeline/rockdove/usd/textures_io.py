@@ -54,8 +54,7 @@ def preview_atlas_shape(n_tiles: int) -> tuple[int, int]:
 
 
 def preview_st(st, thickness_nm, thickness_range_nm) -> np.ndarray:
-    """(V, 2) float32 atlas coordinates: each vertex's ``st`` mapped onto the texel centres (no bilinear bleeding
-    between tiles) of the tile of its ``thickness_nm`` (V,) within ``thickness_range_nm``."""
+    """(V, 2) float32 ``st`` mapped onto the texel centres (no bleeding between tiles) of its thickness's tile."""
     st = np.asarray(st, np.float64)
     d = np.asarray(thickness_nm, np.float64).reshape(-1)
     tiles = preview_tile_thickness_nm(thickness_range_nm)
@@ -70,8 +69,7 @@ def preview_st(st, thickness_nm, thickness_range_nm) -> np.ndarray:
 
 
 def feather_preview_atlas(base_rgba: np.ndarray, mask: np.ndarray, structural_rgb) -> np.ndarray:
-    """The preview atlas, (rows * T, columns * T, 4) uint8: per linear colour of ``structural_rgb`` (K, 3) one tile
-    of ``base_rgba`` mixed by ``mask`` (255: structural colour) with it, bottom row first."""
+    """The (rows * T, columns * T, 4) uint8 atlas: a tile per linear colour (K, 3), bottom row first."""
     from PIL import Image
 
     colours = np.asarray(structural_rgb, np.float64).reshape(-1, 3)
@@ -108,8 +106,7 @@ def write_png(path: str, pixels: np.ndarray) -> str:
 
 
 def preview_colour(film, thickness_nm: float, cos_theta: float = PREVIEW_COS_THETA) -> np.ndarray:
-    """The exact structural colour of ``film`` at ``thickness_nm`` and ``cos_theta``: (3,) float64 unclipped
-    lin_rec709 (D65, CIE 1931 2 degree; :func:`rockdove.lut.reference.reference_colour`)."""
+    """The exact (3,) unclipped lin_rec709 colour of ``film`` (:func:`rockdove.lut.reference.reference_colour`)."""
     from rockdove.lut.reference import reference_colour
 
     return np.asarray(reference_colour(cos_theta, float(thickness_nm), film, colour_space="lin_rec709"), np.float64)

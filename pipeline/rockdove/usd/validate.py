@@ -254,9 +254,8 @@ def check_materials(stage, library=None) -> tuple[list, int]:
 
 # -- driver -------------------------------------------------------------------------------------------------
 def validate_asset(path, allow_external: bool = False) -> Report:
-    """The :class:`Report` of the asset at ``path`` (folder, root layer or usdz). A layer that does not parse, or
-    one outside the asset, ends it before USD composes anything; asset paths outside it are reported, never read,
-    and NVIDIA's validator (which would read them) is not run, unless ``allow_external``."""
+    """The :class:`Report` of the asset at ``path``. A layer that does not parse or lies outside ends it before USD
+    composes; paths outside are never read, nor NVIDIA's validator run, unless ``allow_external``."""
     from pxr import Usd
 
     from .dependencies import blocking, scan_dependencies

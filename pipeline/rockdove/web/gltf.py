@@ -53,8 +53,7 @@ def thickness_ramp_png(texels: int = THICKNESS_RAMP_TEXELS) -> bytes:
 
 
 def film_ior(film) -> float:
-    """The real part of the film's index at :data:`IOR_WAVELENGTH_NM`: ``KHR_materials_iridescence`` has no
-    extinction."""
+    """The film's real index at :data:`IOR_WAVELENGTH_NM` (``KHR_materials_iridescence`` has no extinction)."""
     return float(np.real(film.model.n_film(IOR_WAVELENGTH_NM)))
 
 
@@ -142,8 +141,7 @@ def _uv(st) -> np.ndarray:
 
 
 def preview_material_texture(stage, prim_path: str) -> tuple[str | None, float]:
-    """The resolved ``diffuseColor`` texture file of the UsdPreviewSurface bound to ``prim_path`` and its
-    ``roughness``; (None, 1) without one."""
+    """The bound UsdPreviewSurface's resolved ``diffuseColor`` file and ``roughness``; (None, 1) without one."""
     from pxr import UsdShade
 
     material = UsdShade.MaterialBindingAPI(stage.GetPrimAtPath(prim_path)).ComputeBoundMaterial()[0]
@@ -162,8 +160,7 @@ def preview_material_texture(stage, prim_path: str) -> tuple[str | None, float]:
 
 
 def scene_to_glb(scene, version: str = "") -> bytes:
-    """The GLB bytes of a :class:`rockdove.render.scene.RenderScene`; ValueError when it records no film or a
-    feather part has no thickness."""
+    """The GLB bytes of a RenderScene; ValueError when it records no film or a feather has no thickness."""
     import pygltflib as gl
     from pxr import Usd
 

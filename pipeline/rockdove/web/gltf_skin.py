@@ -1,11 +1,7 @@
-"""The rig of ``pigeon.glb``: a glTF skin and one animation per motion, read from the written USD by UsdSkel.
-
-What UsdSkel computes is what is exported, never the generator's values: joints, rest transforms, inverse bind
-matrices, each mesh's influences, and per motion but ``rest`` an animation of the skeleton's local joint transforms
-at each time sample, linearly interpolated. glTF's skinning is linear blend, UsdSkel's default, so every glTF viewer
-poses the vertices as UsdSkel does. Skinned mesh nodes are root nodes (glTF ignores a skinned node's parents'
-transforms); the joints hang under a ``Skeleton`` node with the skeleton's local-to-world transform, and the
-vertices are the rest pose in world space, so each inverse bind matrix is ``inverse(skeleton to world x bind)``.
+"""The rig of ``pigeon.glb``: a glTF skin and one animation per motion, read from the written USD by UsdSkel (never
+the generator's values). glTF's skinning is linear blend, UsdSkel's default, so every glTF viewer poses the vertices
+as UsdSkel does. Skinned mesh nodes are root nodes (glTF ignores their parents' transforms); the joints hang under a
+``Skeleton`` node, so each inverse bind matrix is ``inverse(skeleton to world x bind)``.
 """
 
 from __future__ import annotations
@@ -92,8 +88,7 @@ def _point_map(positions_m, points_world, fvi) -> np.ndarray:
 
 
 def add_skin(gltf, blob, scene, stage, mesh_nodes: dict) -> None:
-    """Give the mesh nodes (``{USD mesh path: node index}``) the skeleton's skin, add the joint tree and one
-    animation per motion; nothing without a skeleton. UsageError for a posed scene (glTF skins the rest pose)."""
+    """Skin the mesh nodes (``{USD path: node}``), add the joints and the motions; UsageError for a posed scene."""
     from pxr import UsdGeom
     from pygltflib import Animation, AnimationChannel, AnimationChannelTarget, AnimationSampler, Node, Skin
 

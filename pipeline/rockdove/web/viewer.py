@@ -1,9 +1,6 @@
-"""Write the offline interactive viewer ``verify/viewer.html``: pigeon.glb in three.js, beside its data.
-
-A ``file://`` page in Chromium may neither ``fetch`` files nor load module scripts from disk (origin ``null``), so
-everything arrives through classic ``<script src>`` tags beside the page: ``viewer_data.js`` (the GLB, the LUT, the
-shaders, the start camera, in base64 or JSON) and each ES module (three's, ``motion_player.js``, ``viewer_app.js``)
-copied into a JavaScript string, which ``viewer_loader.js`` makes a same-origin ``blob:`` URL before importing.
+"""Write the offline viewer ``verify/viewer.html``: pigeon.glb in three.js. A ``file://`` page may neither ``fetch``
+nor load module scripts (origin ``null``), so data and ES modules arrive as classic ``<script src>`` tags beside the
+page, which ``viewer_loader.js`` turns into same-origin ``blob:`` modules (docs/viewer.md).
 """
 
 from __future__ import annotations
