@@ -1,13 +1,11 @@
 """The Blender side of :mod:`rockdove.hosts.blender`, run as ``PYTHON blender_job.py JOB.json`` by a Python that
-has bpy; it imports nothing but the standard library and bpy. Its own process, because bpy bundles its own USD: the
-add-on's ``USDHook`` gets a stage only bpy's ``pxr`` can read (measured: "No to_python converter found for C++
-type ... UsdStage" with usd-core's).
+has bpy; stdlib and bpy only. Its own process: the add-on's ``USDHook`` gets a stage only bpy's ``pxr`` can read
+(measured: "No to_python converter found for C++ type ... UsdStage" with usd-core's).
 
-Steps: 1. install and enable the add-on zip as a user does; 2. ``wm.usd_import`` the asset (the add-on builds the
-thin-film material); 3. for ``lobe = "view_angle"``: the film smooth (the mirror lobe), its base black, every other
-material black but still occluding (:func:`occluder`), no object seen by glossy rays, under a uniform white world
-(no inter-reflection, as the reference assumes); 4. per view a camera through the importer's up-axis conversion,
-Cycles on the CPU, a 0.01 px pixel filter (pixel centres, like the reference), float32 EXR, background 0.
+Steps: 1. install and enable the add-on zip as a user does; 2. ``wm.usd_import`` the asset; 3. for the
+``view_angle`` lobe: the film smooth, its base black, every other material black but occluding, under a uniform
+white world (no inter-reflection, as the reference assumes); 4. per view, Cycles with a 0.01 px pixel filter
+(pixel centres, like the reference), float32 EXR, background 0.
 """
 
 from __future__ import annotations

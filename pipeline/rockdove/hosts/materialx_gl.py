@@ -1,5 +1,5 @@
-"""Drawing of MaterialX's generated GLSL for :mod:`rockdove.hosts.materialx` (its docstring: "This module's part"),
-in pyrender's EGL context, into a float framebuffer read back as linear Rec.709."""
+"""Drawing of MaterialX's generated GLSL for :mod:`rockdove.hosts.materialx` in pyrender's EGL context, as a viewer
+does around a MaterialX shader, into a float framebuffer read back as linear Rec.709."""
 
 from __future__ import annotations
 
@@ -61,9 +61,8 @@ def _texture(image: np.ndarray, *, mipmaps: bool = True) -> int:
 
     data = np.asarray(image, np.float32) / (255.0 if image.dtype == np.uint8 else 1.0)
     data = np.ascontiguousarray(data.reshape(*data.shape[:2], -1))
-    c = data.shape[2]
-    fmt = {1: GL.GL_RED, 2: GL.GL_RG, 3: GL.GL_RGB, 4: GL.GL_RGBA}[c]
-    internal = {1: GL.GL_R32F, 2: GL.GL_RG32F, 3: GL.GL_RGB32F, 4: GL.GL_RGBA32F}[c]
+    fmt, internal = {1: (GL.GL_RED, GL.GL_R32F), 2: (GL.GL_RG, GL.GL_RG32F), 3: (GL.GL_RGB, GL.GL_RGB32F),
+                     4: (GL.GL_RGBA, GL.GL_RGBA32F)}[data.shape[2]]
     tex = GL.glGenTextures(1)
     GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
     GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 1)
@@ -123,8 +122,7 @@ def draw(scene, networks: dict, sources: dict, views, *, name: str) -> dict:
 
 
 def _draw_in_context(GL, scene, networks, sources, views, name, w, h) -> dict:
-    ones = np.full((2, 2, 3), ENVIRONMENT_RADIANCE, np.float32)
-    env = _texture(ones, mipmaps=False)
+    env = _texture(np.full((2, 2, 3), ENVIRONMENT_RADIANCE, np.float32), mipmaps=False)
     black = _texture(np.zeros((1, 1, 4), np.float32), mipmaps=False)
     fbo = GL.glGenFramebuffers(1)
     GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fbo)
@@ -174,10 +172,8 @@ def _draw_in_context(GL, scene, networks, sources, views, name, w, h) -> dict:
             GL.glUseProgram(prog)
             for uniform, m in (("u_viewProjectionMatrix", vp), ("u_worldMatrix", np.eye(4)),
                                ("u_worldInverseTransposeMatrix", np.eye(4))):
-                _set_matrix(GL, prog, uniform, m)
-            loc = GL.glGetUniformLocation(prog, "u_viewPosition")
-            if loc >= 0:
-                GL.glUniform3f(loc, *eye.astype(np.float32))
+                _uniform(GL, prog, uniform, GL.glUniformMatrix4fv, 1, GL.GL_TRUE, np.ascontiguousarray(m, np.float32))
+            _uniform(GL, prog, "u_viewPosition", GL.glUniform3f, *eye.astype(np.float32))
             for unit, tex in textures.items():
                 GL.glActiveTexture(GL.GL_TEXTURE0 + unit)
                 GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
@@ -193,10 +189,11 @@ def _draw_in_context(GL, scene, networks, sources, views, name, w, h) -> dict:
     return out
 
 
-def _set_matrix(GL, prog, uniform: str, m: np.ndarray) -> None:
+def _uniform(GL, prog, uniform: str, setter, *values) -> None:
+    """Set ``uniform`` where the program has it (the generator leaves out the ones it does not read)."""
     loc = GL.glGetUniformLocation(prog, uniform)
     if loc >= 0:
-        GL.glUniformMatrix4fv(loc, 1, GL.GL_TRUE, np.ascontiguousarray(m, np.float32))
+        setter(loc, *values)
 
 
 def _bind_samplers(GL, prog, net: dict, env: int, black: int) -> dict:
@@ -224,12 +221,9 @@ def _bind_samplers(GL, prog, net: dict, env: int, black: int) -> dict:
         textures[unit] = tex
         GL.glUniform1i(GL.glGetUniformLocation(prog, uname), unit)
         unit += 1
-    uniforms = (("u_envRadianceMips", GL.glUniform1i, 1), ("u_numActiveLightSources", GL.glUniform1i, 0),
-                ("u_envLightIntensity", GL.glUniform1f, 1.0))
-    for uniform, setter, value in uniforms:
-        loc = GL.glGetUniformLocation(prog, uniform)
-        if loc >= 0:
-            setter(loc, value)
+    _uniform(GL, prog, "u_envRadianceMips", GL.glUniform1i, 1)
+    _uniform(GL, prog, "u_numActiveLightSources", GL.glUniform1i, 0)
+    _uniform(GL, prog, "u_envLightIntensity", GL.glUniform1f, 1.0)
     return textures
 
 

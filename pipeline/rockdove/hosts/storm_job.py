@@ -32,15 +32,14 @@ def egl_context(width: int = 1024, height: int = 1024):
     """Make an EGL surfaceless OpenGL context current: a COMPATIBILITY profile (Storm's GL calls post "invalid
     enum" in a core profile). Returns the objects to keep alive."""
     egl = ctypes.CDLL("libEGL.so.1")
-    vp = ctypes.c_void_p
-    egl.eglGetProcAddress.restype = vp
-    egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
-    egl.eglCreateContext.restype = vp
-    egl.eglCreateContext.argtypes = [vp, vp, vp, ctypes.POINTER(ctypes.c_int)]
-    egl.eglInitialize.argtypes = [vp, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int)]
-    egl.eglChooseConfig.argtypes = [vp, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(vp), ctypes.c_int,
-                                    ctypes.POINTER(ctypes.c_int)]
-    egl.eglMakeCurrent.argtypes = [vp, vp, vp, vp]
+    vp, ip = ctypes.c_void_p, ctypes.POINTER(ctypes.c_int)
+    for fn, restype, argtypes in (("eglGetProcAddress", vp, [ctypes.c_char_p]), ("eglInitialize", None, [vp, ip, ip]),
+                                  ("eglCreateContext", vp, [vp] * 3 + [ip]), ("eglMakeCurrent", None, [vp] * 4),
+                                  ("eglChooseConfig", None, [vp, ip, ctypes.POINTER(vp), ctypes.c_int, ip]),
+                                  ("eglCreatePbufferSurface", vp, [vp, vp, ip])):
+        if restype is not None:
+            getattr(egl, fn).restype = restype
+        getattr(egl, fn).argtypes = argtypes
     get_display = ctypes.CFUNCTYPE(vp, ctypes.c_uint, vp, vp)(egl.eglGetProcAddress(b"eglGetPlatformDisplayEXT"))
     dpy = get_display(0x31DD, None, None)  # EGL_PLATFORM_SURFACELESS_MESA
     major, minor = ctypes.c_int(), ctypes.c_int()
@@ -53,8 +52,6 @@ def egl_context(width: int = 1024, height: int = 1024):
     egl.eglBindAPI(0x30A2)  # EGL_OPENGL_API
     ctx_attrs = (ctypes.c_int * 7)(0x3098, 4, 0x30FB, 5, 0x30FD, 0x2, 0x3038)  # 4.5, COMPATIBILITY profile
     ctx = egl.eglCreateContext(dpy, cfg, None, ctx_attrs)
-    egl.eglCreatePbufferSurface.restype = vp
-    egl.eglCreatePbufferSurface.argtypes = [vp, vp, ctypes.POINTER(ctypes.c_int)]
     # a pbuffer, so that the default framebuffer is complete (Storm's present step draws into it)
     surf = egl.eglCreatePbufferSurface(dpy, cfg, (ctypes.c_int * 5)(0x3057, width, 0x3056, height, 0x3038))
     if not ctx or not surf or not egl.eglMakeCurrent(dpy, surf, surf, ctx):

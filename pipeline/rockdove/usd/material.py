@@ -1,11 +1,9 @@
-"""Material networks: the universal UsdPreviewSurface networks and the MaterialX thin-film network.
+"""Material networks: the UsdPreviewSurface networks and the MaterialX thin-film network (docs/design.md, "USD asset").
 
-A feather material has two surface outputs (docs/design.md, "USD asset"): ``outputs:surface``, UsdPreviewSurface
-for every Hydra delegate (the ``feather_preview.png`` atlas through ``previewST``), and ``outputs:mtlx:surface``,
-``materials/thinfilm.mtlx`` copied node for node into ``ND_*`` shaders: the document is data, never spelt here; the
-build sets only its parameters. The ``shading`` variant connects ``MtlxBakedSurface`` (the LUT) or
-``MtlxPhysicalSurface`` (OpenPBR: ``thin_film_thickness`` in micrometres, ``thin_film_ior`` one real index at
-:data:`rockdove.usd.stage.FILM_IOR_WAVELENGTH_NM`, the film on ``specular_ior`` = the substrate index).
+The feather's ``outputs:mtlx:surface`` is ``materials/thinfilm.mtlx`` copied node for node into ``ND_*`` shaders:
+the document is data, never spelt here; the build sets only its parameters. The ``shading`` variant connects
+``MtlxBakedSurface`` (the LUT) or ``MtlxPhysicalSurface`` (OpenPBR: ``thin_film_thickness`` in micrometres,
+``thin_film_ior`` one real index at :data:`rockdove.usd.stage.FILM_IOR_WAVELENGTH_NM`, on ``specular_ior``).
 """
 
 from __future__ import annotations

@@ -1,13 +1,9 @@
 """The ``RockDoveThinFilmAPI`` codeless applied API schema (``schemas/``): registration, apply and read back.
 
-The schema records on the feather mesh the film a LUT was baked from and the LUT's layout (docs/design.md, "USD
-asset"); a LUT-less asset authors no ``rockdove:lut:*``. ``schemas/plugInfo.json`` takes effect only before USD
-builds its schema registry (the first stage opened), so nothing here needs the registry: attributes are authored
-with their declared types (:data:`ATTRIBUTE_TYPES`) and ``apiSchemas`` is read directly.
-
-Every value is also authored as ``userProperties:rockdove:<name>``: measured with Blender 5.0.1, its USD import
-drops the schema's attributes, constant primvars and ``customData``, but keeps ``userProperties`` as custom
-properties and exports them back.
+It records on the feather mesh the film a LUT was baked from and the LUT's layout (docs/design.md, "USD asset").
+``plugInfo.json`` takes effect only before USD builds its schema registry (the first stage opened), so nothing here
+needs the registry. Every value is also authored as ``userProperties:rockdove:<name>``: measured with Blender
+5.0.1, its USD import drops the schema's attributes, but keeps ``userProperties`` and exports them back.
 """
 
 from __future__ import annotations

@@ -1,10 +1,6 @@
-"""The rig as UsdSkel (:mod:`rockdove.rig` values): its own crate layer, and the ``motion`` variant set.
-
-- ``pigeon_rig.usdc`` (:data:`RIG_LAYER`; a film change leaves it as it is): the ``Skeleton`` under the
-  ``SkelRoot``, one ``SkelAnimation`` per motion, and ``over``s binding every mesh (4 influences a point). Skinning
-  is UsdSkel's default, linear blend: the only method of glTF, three.js and Blender's armature import.
-- the interface layer's variant set ``motion``: ``rest`` (default: no animation source), ``idle``, ``walk``, and
-  the root layer's time metadata.
+"""The rig as UsdSkel (:mod:`rockdove.rig` values, docs/rig.md): ``pigeon_rig.usdc`` (the ``Skeleton``, one
+``SkelAnimation`` per motion, the meshes' skins: linear blend, the only method of glTF, three.js and Blender's
+armature import), and the interface layer's ``motion`` variant set (``rest`` default) with the time metadata.
 """
 
 from __future__ import annotations

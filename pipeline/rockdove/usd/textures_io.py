@@ -1,13 +1,10 @@
 """Write the asset's textures into ``DIR/textures/`` deterministically (docs/design.md, "Textures").
 
-PNG via :func:`rockdove.png.save_png` (no text/time chunks), the LUT via :func:`rockdove.lut.exr.write_exr`.
-
 ``feather_preview.png`` is what UsdPreviewSurface viewers show (Blender's importer, usdview without MaterialX,
 Quick Look). They cannot look the LUT up per fragment, so the preview is an *atlas* of :data:`PREVIEW_TILES`
-copies of the feather, each ``mix(base, structural, mask)`` (in linear light, IEC 61966-2-1; clipped to [0, 1])
-with the structural colour of one thickness at :data:`PREVIEW_COS_THETA`; each card reads the tile of its own
-thickness through ``previewST`` (:func:`preview_st`), so the viewers show green and purple feathers with one
-UsdUVTexture. Without a LUT the colours are the exact spectral ones (:func:`preview_colour`).
+copies of the feather, each ``mix(base, structural, mask)`` (in linear light, IEC 61966-2-1) with the colour of
+one thickness at :data:`PREVIEW_COS_THETA`; each card reads its own thickness's tile through ``previewST``, so
+the viewers show green and purple feathers with one UsdUVTexture.
 """
 
 from __future__ import annotations

@@ -1,13 +1,10 @@
-"""``DIR/pigeon.usdz``: the asset as one self-contained package (USDZ: an uncompressed, 64-byte aligned zip).
-
-Made with ``UsdUtils.CreateNewUsdzPackage`` (every dependency the root layer reaches, paths made package-relative).
-usd-core's zip writer stores each file's modification time, so the packaged files all carry one fixed time,
+"""``DIR/pigeon.usdz``: the asset as one self-contained package, by ``UsdUtils.CreateNewUsdzPackage``. usd-core's
+zip writer stores each file's modification time, so the packaged files all carry one fixed time,
 ``SOURCE_DATE_EPOCH`` when set (the reproducible-builds convention) else 1980-01-01: byte-identical packages.
 
 ``DIR/pigeon_ar.usdz`` (:func:`write_ar_usdz`): the bird for AR Quick Look, one flattened ``.usdc`` with only
-UsdPreviewSurface networks (OpenUSD's ARKit checker, v23.11, allows no ``ND_*`` shader). Flattening bakes the
-``shading`` and ``motion`` (:data:`AR_MOTION`) selections, so it gives up the variant sets, the LUT (an EXR no AR
-viewer reads) and the payload split.
+UsdPreviewSurface networks (OpenUSD's ARKit checker, v23.11, allows no ``ND_*`` shader), the ``shading`` and
+``motion`` (:data:`AR_MOTION`) selections baked, without the LUT (an EXR no AR viewer reads).
 """
 
 from __future__ import annotations

@@ -1,9 +1,7 @@
-"""Validate a written asset: USD's validation framework plus rockdove's own checks.
-
-:func:`validate_asset` scans the layers without composing them (:mod:`rockdove.usd.dependencies`), then in every
-combination of the default prim's variants runs the numbered checks below (``pxr.UsdValidation`` but its
-``MissingShaderIdInRegistry`` for ``ND_*`` ids: usd-core has no MaterialX Sdr plugin), then NVIDIA's validator
-(:mod:`rockdove.usd.nvidia`) once over all variants. An :class:`Issue` found in several variants is reported once.
+"""Validate a written asset: USD's validation framework plus rockdove's own checks. :func:`validate_asset` scans
+the layers without composing them (:mod:`.dependencies`), runs the numbered checks below in every combination of
+variants (``UsdValidation``'s ``MissingShaderIdInRegistry`` dropped for ``ND_*`` ids: usd-core has no MaterialX
+Sdr plugin), then NVIDIA's validator once over all. An :class:`Issue` found in several variants is reported once.
 """
 
 from __future__ import annotations

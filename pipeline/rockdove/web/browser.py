@@ -1,8 +1,6 @@
-"""Drive headless Chromium over the Chrome DevTools Protocol on a pipe, with a time limit on every step.
-
-``--remote-debugging-pipe`` carries NUL-terminated JSON messages on file descriptors 3 and 4: nothing listens on a
-port, no WebSocket library is needed. WebGL2 renders on the CPU through SwiftShader; the profile is a fresh
-temporary folder. A step that fails or times out raises :class:`BrowserError` naming the step, never hangs.
+"""Drive headless Chromium over the Chrome DevTools Protocol on ``--remote-debugging-pipe`` (NUL-terminated JSON on
+file descriptors 3 and 4: no port, no WebSocket library), WebGL2 on SwiftShader, a fresh temporary profile. A step
+that fails or times out raises :class:`BrowserError` naming the step, never hangs.
 """
 
 from __future__ import annotations
