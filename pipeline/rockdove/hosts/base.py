@@ -61,8 +61,7 @@ class Host:
         return None
 
     def render(self, asset_path: str, views: Sequence[View], out_dir: str) -> dict[str, np.ndarray]:
-        """``{view.name: (H, W, 3) float32 linear Rec.709 radiance}`` of each View's camera exactly, background 0;
-        any images for people into ``out_dir``. Raises :class:`HostError` when the host fails."""
+        """``{view.name: (H, W, 3) float32 linear Rec.709 radiance}``, background 0; HostError when it fails."""
         raise NotImplementedError(f"{type(self).__name__}.render")
 
 

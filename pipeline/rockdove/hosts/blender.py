@@ -29,8 +29,7 @@ THREADS = 2
 
 
 def addon_zip(out_dir) -> str:
-    """Write the Blender add-on ``out_dir/rockdove_blender.zip`` (its path), files sorted, with a fixed timestamp:
-    the same sources give the same bytes."""
+    """Write the add-on ``out_dir/rockdove_blender.zip`` with a fixed timestamp (same sources, same bytes)."""
     from .. import resources
 
     source = resources.path(ADDON_SOURCE)
@@ -65,9 +64,8 @@ LOBES = (LOBE, "as_imported")
 
 def render(asset_path: str, views, out_dir: str, *, addon: bool = True, lobe: str = LOBE,
            samples: int = SAMPLES, frame: int | None = None) -> dict:
-    """Render ``views`` of the asset in Blender (Cycles, CPU) into ``out_dir/blender/``: view name -> (H, W, 3)
-    float32 radiance. ``addon=False``: Blender's importer alone (the UsdPreviewSurface look); ``frame``: the scene
-    frame of an animated asset. HostError when bpy is missing, Blender fails, or the add-on builds no material."""
+    """:meth:`Host.render` in Blender (Cycles) into ``out_dir/blender/``; ``addon=False``: its importer alone (the
+    UsdPreviewSurface look); ``frame``: of an animated asset. HostError when Blender or the add-on fails."""
     bpy_python(NAME)  # bpy missing: HostError before any work
     views = list(views)
     if lobe not in LOBES or (lobe == LOBE and not addon):

@@ -55,8 +55,7 @@ def _probe(exe: str) -> str | None:
 
 
 def bpy_places() -> list[str]:
-    """Where :func:`bpy_python` looks when this Python has no bpy: ``$ROCKDOVE_BPY_PYTHON`` alone where set; else
-    ``.venv-bpy/bin/python`` beside this Python's venv and in the checkout rockdove runs from."""
+    """Where :func:`bpy_python` looks: ``$ROCKDOVE_BPY_PYTHON`` if set, else ``.venv-bpy`` by the venv and checkout."""
     exe = os.environ.get(BPY_PYTHON_ENV, "").strip()
     if exe:
         return [exe]

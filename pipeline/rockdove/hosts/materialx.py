@@ -92,8 +92,7 @@ def two_sided(pixel_source: str) -> str:
 
 
 def feather_networks(layer: str, variant: str) -> dict:
-    """Mesh prim path -> ``{"doc", "material": surfacematerial name, "files": {image node: resolved file}}`` of
-    every mesh with a MaterialX material under ``variant``. ValueError when there is no such variant or mesh."""
+    """Mesh path -> ``{"doc", "material", "files": {image node: file}}`` of each mesh with a MaterialX material."""
     from pxr import Usd, UsdGeom, UsdShade
 
     from ..usd.material import load_mtlx_libraries, usd_to_mtlx_document
@@ -133,8 +132,7 @@ def feather_networks(layer: str, variant: str) -> dict:
 
 
 def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str, name: str) -> dict:
-    """Draw ``views`` of the asset's network for ``variant`` (the film lobe alone): view name -> (H, W, 3) float32
-    radiance; PNGs into ``out_dir`` when given. HostError (``name``) when reading, compiling or GL fails."""
+    """:meth:`Host.render` of the asset's ``variant`` network; HostError when reading, compiling or GL fails."""
     from ..render.scene import load_scene
     from ..usd.layout import resolve_root_layer
     from .materialx_gl import draw

@@ -187,8 +187,7 @@ def _compiler_error(work: str) -> str | None:
 
 
 def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
-    """Render ``views`` of host ``name``'s network as generated OSL in Cycles: view name -> (H, W, 3) float32
-    radiance. HostError when bpy is missing, MaterialX or the OSL compiler fails (its error line) or no image."""
+    """:meth:`Host.render` of host ``name``'s network as OSL in Cycles; HostError with the compiler's error line."""
     from ..usd.layout import resolve_root_layer
     from .materialx import feather_networks
 

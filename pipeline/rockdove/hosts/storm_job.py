@@ -29,8 +29,7 @@ def bundled_usd_first() -> str:
 
 
 def egl_context(width: int = 1024, height: int = 1024):
-    """Make an EGL surfaceless OpenGL context current: a COMPATIBILITY profile (Storm's GL calls post "invalid
-    enum" in a core profile). Returns the objects to keep alive."""
+    """Make an EGL surfaceless OpenGL compatibility context current (Storm's GL posts "invalid enum" in a core one)."""
     egl = ctypes.CDLL("libEGL.so.1")
     vp, ip = ctypes.c_void_p, ctypes.POINTER(ctypes.c_int)
     for fn, restype, argtypes in (("eglGetProcAddress", vp, [ctypes.c_char_p]), ("eglInitialize", None, [vp, ip, ip]),

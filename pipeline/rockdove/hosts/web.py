@@ -43,8 +43,7 @@ HOST = WebHost(NAME, "physical", "view_angle")
 
 
 def render(asset_path: str, views: list, out_dir: str, *, browser_factory=None) -> dict:
-    """:meth:`Host.render` with three.js in headless Chromium; the page and ``web_<view>.png`` go into ``out_dir``.
-    ``browser_factory`` returns a started :class:`rockdove.web.browser.Browser` (tests pass one that fails)."""
+    """:meth:`Host.render` with three.js in headless Chromium; ``browser_factory``: a started Browser (tests)."""
     from ..png import save_png
     from ..srgb import linear_to_srgb8
     from ..usd.layout import resolve_root_layer

@@ -75,8 +75,7 @@ def _crate(m, base: int) -> str | None:
 
 @contextlib.contextmanager
 def _opened(identifier: str):
-    """``(bytes, offset, size)`` of a file, a usdz's first file or a package member ``a.usdz[b.usdc]``, mapped;
-    None where there is nothing to map."""
+    """``(bytes, offset, size)`` of a file, a usdz's first file or ``a.usdz[b.usdc]``, mapped; else None."""
     from pxr import Ar, Sdf
 
     path, inner = (Ar.SplitPackageRelativePathOuter(identifier) if Ar.IsPackageRelativePath(identifier)

@@ -79,8 +79,7 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
 
 
 def read_thin_film(prim) -> dict:
-    """The schema's values on ``prim`` by :data:`_ATTRS` key, plus ``lut_file_resolved``; without a LUT
-    ``lut_file == ""`` and the other ``lut:*`` None. ValueError if the schema is not applied."""
+    """The schema's values on ``prim`` by :data:`_ATTRS` key, plus ``lut_file_resolved``; without a LUT, empty."""
     if not has_thin_film(prim):
         op = prim.GetMetadata("apiSchemas")
         raise UsageError(f"prim {prim.GetPath()} does not apply {SCHEMA_NAME} "

@@ -20,8 +20,7 @@ WEIGHT_SUM_TOLERANCE = 1e-3
 
 
 def check_influences(path: str, indices, weights, n_points: int, n_per_point: int, n_joints: int) -> None:
-    """UsageError (one line, naming the mesh) unless ``indices``/``weights`` are a valid skin: indices in
-    [0, n_joints), weights >= 0, each point's summing to 1."""
+    """UsageError (one line, naming the mesh) unless ``indices``/``weights`` are a valid skin."""
     idx, w = np.asarray(indices, np.int64), np.asarray(weights, np.float64)
     if len(idx) != n_points * n_per_point or len(w) != len(idx):
         raise UsageError(f"{path}: {len(idx)} skel:jointIndices and {len(w)} skel:jointWeights for {n_points} "
@@ -131,8 +130,8 @@ def motion_layer_name(motion: str) -> str:
 
 
 def motion_layer(interface: str, motion: str):
-    """An anonymous layer, as a shot would write one, that sublayers ``interface`` and selects ``motion``, with the
-    same time metadata (a stage takes it from its root layer); for hosts that import default variants (Blender)."""
+    """A layer, as a shot would write one, that sublayers ``interface`` and selects ``motion`` (for Blender, which
+    imports default variants), with the time metadata (a stage takes it from its root layer)."""
     from pxr import Sdf
 
     from ..rig.motions import DURATION_S, FPS

@@ -72,8 +72,7 @@ def material_name(kind: str) -> str:
 
 
 def author_mesh(stage, path, part, preview_range_nm=None):
-    """Define one ``UsdGeom.Mesh`` (points in m, final polygons) from a :class:`rockdove.geometry.MeshPart`; with
-    ``preview_range_nm`` (the film's thickness range) also ``primvars:previewST`` into the preview atlas."""
+    """Define one ``UsdGeom.Mesh`` (m, final polygons) from a MeshPart; with ``preview_range_nm`` its previewST."""
     from pxr import Sdf, UsdGeom, Vt
 
     part = drop_unreferenced_points(part)  # every point a face uses: validators reject unused topology
@@ -143,8 +142,7 @@ def author_geometry(stage, bird):
 
 
 def author_looks(stage, bird, film, lut: dict | None, variants=SHADING_VARIANTS):
-    """The looks half of the payload in ``stage``'s edit target: one ``/Pigeon/Looks`` material per part kind, and
-    ``RockDoveThinFilmAPI`` as an ``over`` on the feather mesh, which ``stage`` must compose."""
+    """The materials, and ``RockDoveThinFilmAPI`` over the feather mesh ``stage`` composes, in its edit target."""
     from pxr import UsdGeom
 
     from .schema import apply_thin_film
@@ -284,8 +282,7 @@ def write_layers(out_dir: str, bird, film, lut: dict | None, *, version: str, sh
 
 
 def variant_combinations(stage) -> list[dict]:
-    """Every combination of the default prim's variant selections, as ``{set name: variant}`` dicts; ``[{}]``
-    without a default prim or variant sets."""
+    """Every combination of the default prim's variant selections as ``{set: variant}``; ``[{}]`` without any."""
     import itertools
 
     prim = stage.GetDefaultPrim()

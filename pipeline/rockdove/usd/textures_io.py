@@ -147,8 +147,7 @@ def _feather_images(feather_textures: dict) -> tuple[np.ndarray, np.ndarray]:
 
 
 def write_base_textures(out_dir: str, feather_textures: dict, body_texture: np.ndarray) -> dict[str, str]:
-    """Write the textures that do not depend on the film into ``out_dir/textures/`` (feather base and mask, the
-    plumage atlas when given, body): a film change leaves their bytes as they were. Texture role -> path, sorted."""
+    """Write the textures that do not depend on the film (a film change leaves their bytes): role -> path."""
     base, mask = _feather_images(feather_textures)
     body = _check_uint8("body_texture", body_texture, (3,))
     paths = _texture_paths(out_dir)
@@ -161,9 +160,8 @@ def write_base_textures(out_dir: str, feather_textures: dict, body_texture: np.n
 
 def write_film_textures(out_dir: str, lut, feather_textures: dict, *, thickness_range_nm: tuple[float, float],
                         preview_cos_theta: float = PREVIEW_COS_THETA, film=None) -> dict[str, str]:
-    """Write ``thinfilm_lut.exr`` (unless ``lut=None``: the preview colours are then ``film``'s exact ones) and
-    ``feather_preview.png``, whose tiles span ``thickness_range_nm``, the mesh's range, as its ``previewST`` does,
-    whatever the LUT's own range. Texture role -> absolute path, keys sorted."""
+    """Write ``thinfilm_lut.exr`` (unless ``lut=None``: then ``film``'s exact colours) and ``feather_preview.png``,
+    its tiles over the mesh's ``thickness_range_nm`` as its ``previewST``, whatever the LUT's range: role -> path."""
     base, mask = _feather_images(feather_textures)
     tiles = preview_tile_thickness_nm(thickness_range_nm)
     if lut is not None:

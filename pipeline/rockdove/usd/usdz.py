@@ -133,8 +133,7 @@ def write_ar_usdz(out_dir: str, root_layer: str = "pigeon.usda", motion: str | N
 
 
 def write_usdz(out_dir: str, root_layer: str = "pigeon.usda", *, in_place: bool = False) -> str:
-    """Package ``out_dir/root_layer`` into ``out_dir/pigeon.usdz`` from a stamped scratch copy, or with
-    ``in_place=True`` from ``out_dir``'s own files (the build's usdz stage: already a copy); returns its path."""
+    """``out_dir/pigeon.usdz`` from a stamped copy, or ``in_place`` from ``out_dir`` (the build's: already a copy)."""
     from pxr import Sdf, UsdUtils
 
     out_dir, root = _root(out_dir, root_layer)

@@ -252,8 +252,7 @@ def scene_to_glb(scene, version: str = "") -> bytes:
 
 
 def export_glb(asset, out_path, *, version: str = "") -> dict:
-    """Write a written asset (its folder or root layer) as one GLB file ``out_path`` (replaced atomically); a summary
-    dict. ValueError (one line, naming the asset): not a USD asset, or no rockdove thin-film data."""
+    """Write a written asset as the GLB ``out_path`` (atomically); a summary. ValueError: no thin-film data."""
     from ..render.scene import load_scene
 
     scene = load_scene(asset)  # the verifier's reader; a physical-only asset (no LUT) reads too

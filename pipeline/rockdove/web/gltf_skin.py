@@ -45,8 +45,7 @@ def _trs(xf) -> tuple:
 
 
 def motions(stage, query) -> dict:
-    """``{motion: (times s (F,), translations (F, J, 3), rotations (F, J, 4), scales (F, J, 3))}`` for each motion
-    but rest that binds an animation, each selected in the session layer, then cleared."""
+    """``{motion: (times s (F,), translations, rotations x y z w, scales (F, J, ...))}`` of each animated motion."""
     from pxr import Usd, UsdSkel
 
     prim = stage.GetDefaultPrim()

@@ -173,8 +173,7 @@ def viewer_data(scene, lut, glb_bytes: bytes, asset_name: str) -> dict:
 
 
 def write_viewer(asset, glb_path, out_dir, asset_name: str | None = None) -> str:
-    """Write ``viewer.html`` and the files beside it into ``out_dir``; return the page's path. ``asset`` gives the
-    scene and LUT (baked in memory when it has none), ``asset_name`` the name shown (default: its folder's)."""
+    """Write ``viewer.html`` and its files into ``out_dir``; the page's path (``asset_name`` default: its folder)."""
     from ..render.scene import load_scene
 
     out = Path(out_dir)
