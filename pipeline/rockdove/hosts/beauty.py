@@ -35,9 +35,8 @@ def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
 
 def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", width: int = 768,
                   height: int = 512, samples: int = 32, cycles_ok: bool = True, lut=None) -> dict | None:
-    """Render the beauty views into ``out_dir`` and describe them (renderer, files, caption, seconds, size, samples,
-    fallback); None for ``renderer="off"``. ``scene``: the asset at ``layer`` read back; ``samples``: Cycles' most
-    a pixel (adaptive); ``cycles_ok``: whether ``auto`` may take Cycles (the verification runs Blender)."""
+    """Render the beauty views of ``scene`` (the asset at ``layer``) into ``out_dir`` and describe them; None for
+    ``renderer="off"``. ``cycles_ok``: whether ``auto`` may take Cycles (the verification runs Blender)."""
     from ..png import save_png
 
     if renderer not in setup.RENDERERS:
@@ -76,9 +75,8 @@ def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", wi
 
 
 def for_report(layer: str, scene, out_dir: str, settings: dict, *, cycles_ok: bool, lut=None) -> tuple:
-    """:func:`render_beauty` as the verification report takes it: ``(entry or None, note or None)``. The picture
-    is not a measurement, so a renderer that fails leaves the report without it and a note saying why, never a
-    failed verification; asking for Cycles and getting GL is noted too."""
+    """:func:`render_beauty` for the report: ``(entry or None, note or None)``. The picture is not a measurement, so a
+    renderer that fails leaves a note, never a failed verification; Cycles asked for and GL got is noted too."""
     keys = ("renderer", "width", "height", "samples")
     try:
         entry = render_beauty(layer, scene, out_dir, cycles_ok=cycles_ok, lut=lut,

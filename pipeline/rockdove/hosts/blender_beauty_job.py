@@ -15,10 +15,8 @@ import blender_job as bj  # the sibling job module (this file is run by path: it
 
 def _ground(bpy, to_blender, job):
     """The ground the job names (USD world metres: :func:`rockdove.render.beauty.cyclorama`), neutral grey."""
-    verts = [tuple(v) for v in job["ground_vertices_m"]]
-    faces = [tuple(f) for f in job["ground_quads"]]
     mesh = bpy.data.meshes.new("rockdove_ground")
-    mesh.from_pydata(verts, [], faces)
+    mesh.from_pydata([tuple(v) for v in job["ground_vertices_m"]], [], [tuple(f) for f in job["ground_quads"]])
     mesh.shade_smooth()
     ob = bpy.data.objects.new("rockdove_ground", mesh)
     bpy.context.scene.collection.objects.link(ob)

@@ -44,8 +44,7 @@ def _outside(anchored: str, root_dir: str, root_package: str | None) -> str | No
     path = os.path.normpath(anchored)
     if os.path.commonpath([path, root_dir]) != root_dir:
         return f"leaves the asset's {where} ({anchored})"
-    real = os.path.realpath(path)
-    real_root = os.path.realpath(root_dir)
+    real, real_root = os.path.realpath(path), os.path.realpath(root_dir)
     if os.path.commonpath([real, real_root]) != real_root:
         return f"is a symlink to {real}, outside the asset's {where}"
     return None

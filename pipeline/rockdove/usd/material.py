@@ -201,9 +201,8 @@ def _st_reader(stage, path, varname: str = "st"):
 
 def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, textures: dict | None = None,
                             variants=("baked", "physical"), substrate_ior: float = 1.0):
-    """Define the feather material at ``path``: the preview network and the MaterialX nodes upstream of the
-    ``variants``' surfaces. ``lut``: :func:`lut_info` (None: physical only); ``film_ior``, ``substrate_ior``
-    (relative to the incident medium) are OpenPBR's ``thin_film_ior`` and ``specular_ior``."""
+    """Define the feather material: the preview network and the MaterialX nodes of the ``variants``. ``film_ior``
+    and ``substrate_ior`` (relative to the incident medium) are OpenPBR's ``thin_film_ior`` and ``specular_ior``."""
     from pxr import Gf, Sdf, UsdShade
 
     textures = {**texture_asset_paths(), **(textures or {})}
@@ -262,9 +261,8 @@ def _mx_value_string(value, mx_type: str) -> str:
 
 
 def usd_to_mtlx_document(surface_shader, library=None, primvars=None):
-    """Rebuild a MaterialX document from the ``ND_*`` shaders upstream of ``surface_shader``, as Hydra's HdMtlx
-    does (usd-core has no MaterialX plugin), so the *authored* network is what gets checked. UsageError when an id
-    or input is not in ``library``'s nodedefs, or a value could be code (:func:`rockdove.usd.shader_values.problem`)."""
+    """The MaterialX document of the shaders upstream of ``surface_shader``, as Hydra's HdMtlx rebuilds it, so the
+    *authored* network is checked. UsageError for an unknown id or input, or a value that could be code."""
     import MaterialX as mx
     from pxr import UsdShade
 

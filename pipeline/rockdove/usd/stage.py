@@ -81,8 +81,7 @@ def author_mesh(stage, path, part, preview_range_nm=None):
     mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
     mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.ascontiguousarray(part.face_vertex_counts, np.int32)))
-    mesh.CreateFaceVertexIndicesAttr(
-        Vt.IntArray.FromNumpy(np.ascontiguousarray(part.face_vertex_indices, np.int32)))
+    mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(np.ascontiguousarray(part.face_vertex_indices, np.int32)))
     mesh.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(part.normals, np.float32)))
     mesh.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
     mesh.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(point_bounds(points).astype(np.float32)))
@@ -236,10 +235,8 @@ def write_rig(out_dir: str, bird) -> str:
 
 def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geometry: str,
                 shading: str | None = None, config: dict | None = None) -> dict:
-    """Every layer but the geometry and rig into ``out_dir`` (the looks over the ``geometry`` layer, read only);
-    ``{"interface", "payload", "looks", "idle", "walk"}`` paths. ``config``: recorded as JSON in the looks layer
-    (:data:`BUILD_CONFIG_KEY`), for the viewer. ``shading``: a :data:`SHADING_CHOICES` key, default ``"both"``
-    with a LUT, ``"physical"`` without."""
+    """Every layer but the geometry and rig into ``out_dir`` (the looks over ``geometry``): their paths. ``config``
+    is recorded in the looks layer for the viewer; ``shading`` default: ``"both"`` with a LUT, else ``"physical"``."""
     from pxr import Sdf, Usd
 
     shading = shading or ("both" if lut is not None else "physical")

@@ -68,8 +68,9 @@ def check_mtlx_shaders(stage, library=None) -> tuple[list, int]:
             continue
         shader = UsdShade.Shader(prim)
         sid = shader.GetShaderId() or ""
+        nodedef = library.getNodeDef(sid)
         for inp in shader.GetInputs():  # values a generator would paste into code (rockdove.usd.shader_values)
-            mx = library.getNodeDef(sid).getActiveInput(inp.GetBaseName()) if library.getNodeDef(sid) else None
+            mx = nodedef.getActiveInput(inp.GetBaseName()) if nodedef else None
             reader = sid.startswith("UsdPrimvarReader") and inp.GetBaseName() == "varname"
             why = (mx is not None or reader) and not inp.HasConnectedSource() and problem(
                 inp.GetBaseName(), "string" if reader else mx.getType(), mx.getAttribute("enum") if mx else "",
@@ -80,7 +81,6 @@ def check_mtlx_shaders(stage, library=None) -> tuple[list, int]:
         if not sid.startswith("ND_"):
             continue
         n += 1
-        nodedef = library.getNodeDef(sid)
         if nodedef is None:
             issues.append(Issue("mtlx", f"{prim.GetPath()}.info:id",
                                 f"info:id {sid!r} is not a MaterialX node definition (stdlib/pbrlib/bxdf)"))

@@ -171,11 +171,10 @@ def scene_to_glb(scene, version: str = "") -> bytes:
                          "KHR_materials_iridescence; build it with `rockdove build`")
     gltf = gl.GLTF2(asset=gl.Asset(version="2.0", generator=f"rockdove {version}".strip()))
     blob = _Blob(gltf)
-    gltf.samplers = [gl.Sampler(magFilter=_LINEAR, minFilter=_LINEAR_MIPMAP_LINEAR, wrapS=_CLAMP_TO_EDGE,
-                             wrapT=_CLAMP_TO_EDGE),
-                     # the ramp must not be mipmapped: averaging neighbouring texels of a ramp along u is fine,
-                     # but mip levels of a 1-texel-high ramp would blur it along u at a distance
-                     gl.Sampler(magFilter=_LINEAR, minFilter=_LINEAR, wrapS=_CLAMP_TO_EDGE, wrapT=_CLAMP_TO_EDGE)]
+    # sampler 1, the ramp's, is not mipmapped: averaging neighbouring texels of a ramp along u is fine, but mip
+    # levels of a 1-texel-high ramp would blur it along u at a distance
+    gltf.samplers = [gl.Sampler(magFilter=_LINEAR, minFilter=minify, wrapS=_CLAMP_TO_EDGE, wrapT=_CLAMP_TO_EDGE)
+                     for minify in (_LINEAR_MIPMAP_LINEAR, _LINEAR)]
     lo, hi = scene.thickness_range_nm  # a LUT-less film: the feathers' thicknesses, whole nm
     stage = Usd.Stage.Open(scene.root_layer)
     for part in scene.parts:
@@ -271,8 +270,7 @@ VALIDATOR_TIMEOUT_S = 120
 
 
 def validate_glb(path) -> dict:
-    """The Khronos glTF-Validator's JSON report on ``path`` (npm ``gltf-validator`` under Node.js). RuntimeError:
-    Node.js or the package is missing (the message says how to install them), or the validator failed."""
+    """The Khronos glTF-Validator's JSON report on ``path``; RuntimeError (saying how to install) when it cannot run."""
     import json
     import shutil
     import subprocess

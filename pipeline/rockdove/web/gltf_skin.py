@@ -148,8 +148,7 @@ def add_skin(gltf, blob, scene, stage, mesh_nodes: dict) -> None:
         gltf.nodes[mesh_nodes[path]].skin = len(gltf.skins) - 1
     for name, (times, t, r, s) in motions(stage, query).items():
         anim = Animation(name=name, samplers=[], channels=[])
-        time_acc = blob.accessor(times.astype(np.float32).reshape(-1, 1), "SCALAR", target=None,
-                                 with_bounds=True)
+        time_acc = blob.accessor(times.astype(np.float32).reshape(-1, 1), "SCALAR", target=None, with_bounds=True)
         for path, values, kind in (("translation", t, "VEC3"), ("rotation", r, "VEC4"), ("scale", s, "VEC3")):
             for j in range(len(names)):
                 if path == "scale" and np.allclose(values[:, j], 1.0) and np.allclose(s0[j], 1.0):

@@ -108,8 +108,7 @@ def _film_of(config: dict) -> dict:
 
 
 def film_panel_data(scene, lut) -> dict:
-    """What the film panel (film_panel.js) starts from: the asset's film (from the configuration its looks layer
-    records, if any), presets, ranges and units, the LUT's grid, the thickness field and the other ``--set`` pairs."""
+    """What the film panel (film_panel.js) starts from: the asset's film (as its looks layer records), presets."""
     from pxr import Sdf
 
     from ..config import get, limits, load_config, load_schema, presets
