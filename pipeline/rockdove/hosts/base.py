@@ -1,6 +1,5 @@
-"""The host contract (in the way OpenUSD's ``BaseRuleChecker`` defines a rule): a host reads the WRITTEN asset and
-renders it with its own code, compared with the exact reference of its :data:`Lobe`. Adding a host is a subclass of
-:class:`Host`, one instance per network it draws, and :func:`rockdove.hosts.register` (docs/design.md, "Hosts").
+"""The host contract (as OpenUSD's ``BaseRuleChecker`` defines a rule): a host renders the WRITTEN asset with its own
+code, compared with the exact reference of its :data:`Lobe`; one instance per network (docs/design.md, "Hosts").
 """
 
 from __future__ import annotations

@@ -47,8 +47,7 @@ def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", wi
     t = time.perf_counter()
     fallback, images, used = None, None, "gl"
     if renderer == "cycles" or (renderer == "auto" and cycles_ok):
-        fallback = runner.unavailable()
-        if fallback is None:
+        if (fallback := runner.unavailable()) is None:
             try:
                 images, used = render_cycles(layer, scene, views, out_dir, samples), "cycles"
             except HostError as exc:

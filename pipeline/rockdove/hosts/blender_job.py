@@ -1,11 +1,8 @@
 """The Blender side of :mod:`rockdove.hosts.blender`, run as ``PYTHON blender_job.py JOB.json`` by a Python that
 has bpy; stdlib and bpy only. Its own process: the add-on's ``USDHook`` gets a stage only bpy's ``pxr`` can read
-(measured: "No to_python converter found for C++ type ... UsdStage" with usd-core's).
-
-Steps: 1. install and enable the add-on zip as a user does; 2. ``wm.usd_import`` the asset; 3. for the
-``view_angle`` lobe: the film smooth, its base black, every other material black but occluding, under a uniform
-white world (no inter-reflection, as the reference assumes); 4. per view, Cycles with a 0.01 px pixel filter
-(pixel centres, like the reference), float32 EXR, background 0.
+(measured: "No to_python converter found for C++ type ... UsdStage" with usd-core's). For ``view_angle``: the film
+smooth, its base black, every other material black but occluding, under a uniform white world (no
+inter-reflection, as the reference assumes); a 0.01 px pixel filter (pixel centres, like the reference).
 """
 
 from __future__ import annotations
@@ -33,8 +30,7 @@ def black_material(bpy):
 
 
 def occluder(mat, black):
-    """``mat`` turned black where its Principled BSDF's alpha is linked (an alpha cut-out: the plumage cards), so it
-    occludes where it is drawn, as the reference's ray casts do; else the plain ``black`` material."""
+    """``mat`` black but keeping its alpha cut-out (occluding as the reference's rays do), else ``black``."""
     nodes = mat.node_tree.nodes if mat is not None and mat.use_nodes else ()
     bsdf = next((n for n in nodes if n.type == "BSDF_PRINCIPLED"), None)
     if bsdf is None or not bsdf.inputs["Alpha"].links:
@@ -93,8 +89,7 @@ def import_asset(bpy, job: dict):
     films = [m.name for m in bpy.data.materials if addon is not None and m.get(addon.MATERIAL_TAG)]
     if addon is not None and not films:
         raise RuntimeError(f"the add-on built no thin-film material for {job['asset']}")
-    root = bpy.data.objects.get(job["root_object"])
-    if root is None:
+    if (root := bpy.data.objects.get(job["root_object"])) is None:
         raise RuntimeError(f"no imported object {job['root_object']!r} (the asset's root prim)")
     return addon, films, root.matrix_world.copy()  # the importer's up-axis conversion
 

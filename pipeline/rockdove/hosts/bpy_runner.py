@@ -56,8 +56,7 @@ def _probe(exe: str) -> str | None:
 
 def bpy_places() -> list[str]:
     """Where :func:`bpy_python` looks: ``$ROCKDOVE_BPY_PYTHON`` if set, else ``.venv-bpy`` by the venv and checkout."""
-    exe = os.environ.get(BPY_PYTHON_ENV, "").strip()
-    if exe:
+    if exe := os.environ.get(BPY_PYTHON_ENV, "").strip():
         return [exe]
     from .. import resources
 
@@ -72,8 +71,7 @@ def _find() -> tuple[str | None, str | None]:
     places, tried, setting = bpy_places(), [], os.environ.get(BPY_PYTHON_ENV, "").strip()
     for exe in places:
         if exe == setting or os.path.exists(exe):
-            why = _probe(exe)
-            if why is None:
+            if (why := _probe(exe)) is None:
                 return exe, None
             tried.append(f"{'$' + BPY_PYTHON_ENV + '=' if exe == setting else ''}{exe} {why}")
     if not tried:
@@ -96,9 +94,8 @@ def bpy_python(host: str = "blender") -> str:
 
 def run_job(job: dict, work: str, script: str | None, timeout_s: float = TIMEOUT_S, *, host: str = "blender",
             renderer: str = "Blender") -> None:
-    """Run the job ``script`` on ``job`` (as ``work/job.json``) with :func:`bpy_python`, its output in
-    ``work/blender.log``. Name the script's module with a literal (``find_spec("rockdove.hosts.x_job").origin``), so
-    the verification's cache key follows it. HostError when the job fails or does not finish in time."""
+    """Run the job ``script`` (by a literal ``find_spec("rockdove.hosts.x_job").origin``, so the verification's cache
+    key follows it) on ``job`` with :func:`bpy_python`, its log in ``work``. HostError when it fails or times out."""
     python = bpy_python(host)
     job_path = os.path.join(work, "job.json")
     with open(job_path, "w", encoding="utf-8") as fh:
@@ -144,15 +141,13 @@ def read_exr_rgb(path: str, host: str = "blender") -> np.ndarray:
 
     with OpenEXR.File(path) as f:  # R, G, B(, A) come as one channel "RGBA" (or "RGB")
         channels = f.channels()
-        rgb = channels.get("RGBA", channels.get("RGB"))
-        if rgb is None:
+        if (rgb := channels.get("RGBA", channels.get("RGB"))) is None:
             raise HostError(host, f"{path}: no RGB channels (has {sorted(channels)})")
         return np.ascontiguousarray(np.array(rgb.pixels)[..., :3], dtype=np.float32)
 
 
 def read_views(host: str, renderer: str, views, work: str, ext: str = "exr") -> dict[str, np.ndarray]:
-    """View name -> (H, W, 3) float32 radiance of the ``<view>.exr`` a job wrote into ``work`` (each also saved as
-    PNG; ``ext="png"``: the PNGs, uint8). HostError for a missing image or one of the wrong size."""
+    """View name -> image a job wrote into ``work`` (EXR as float32, saved as PNG too); HostError if missing/wrong."""
     from PIL import Image
 
     from ..png import save_png

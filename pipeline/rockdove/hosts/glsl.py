@@ -1,6 +1,5 @@
-"""The ``glsl`` host: the project's own paper shaders (``materials/glsl/thinfilm.*``) drawn by pyrender through
-EGL (:mod:`rockdove.render.gl`), compared with the paper's half-angle model. It draws the LUT the asset names; a
-LUT-less asset is checked by ``rockdove verify`` with a LUT baked in memory instead.
+"""The ``glsl`` host: the project's paper shaders (``materials/glsl/thinfilm.*``) in pyrender through EGL, compared
+with the paper's half-angle model; a LUT-less asset is verified with a LUT baked in memory instead.
 """
 
 from __future__ import annotations

@@ -62,8 +62,7 @@ def generate(doc, material_name: str, generator, **options):
     import MaterialX as mx
     import MaterialX.PyMaterialXGenShader as mx_gen
 
-    node = doc.getNode(material_name)
-    if node is None:
+    if (node := doc.getNode(material_name)) is None:
         raise ValueError(f"material_name={material_name!r} is not a node of the MaterialX document")
     ctx = mx_gen.GenContext(generator)
     ctx.registerSourceCodeSearchPath(mx.getDefaultDataSearchPath())
@@ -97,8 +96,7 @@ def feather_networks(layer: str, variant: str) -> dict:
 
     from ..usd.material import load_mtlx_libraries, usd_to_mtlx_document
 
-    reason = missing_variant(layer, variant)
-    if reason:
+    if reason := missing_variant(layer, variant):
         raise ValueError(f"asset {layer!r}: {reason}")
     stage = Usd.Stage.Open(layer, Usd.Stage.LoadAll)
     root = stage.GetDefaultPrim()
@@ -109,8 +107,7 @@ def feather_networks(layer: str, variant: str) -> dict:
     for prim in Usd.PrimRange(root):
         if not prim.IsA(UsdGeom.Mesh):
             continue
-        material = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0]
-        if not material:
+        if not (material := UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0]):
             continue
         output = material.GetSurfaceOutput("mtlx")  # not ComputeSurfaceSource: it falls back to the universal one
         sources = output.GetConnectedSources()[0] if output else []

@@ -79,8 +79,7 @@ def _texture(image: np.ndarray, *, mipmaps: bool = True) -> int:
 
 
 def read_image_file(path: str) -> np.ndarray:
-    """Pixels of an image file as a host loads them: rows in file order (top first); 8-bit images as uint8,
-    EXR as float32 (read with OpenEXR: the pip MaterialX has no EXR loader)."""
+    """Pixels as a host loads them, top row first: uint8, or EXR float32 (the pip MaterialX has no EXR loader)."""
     if path.lower().endswith(".exr"):
         from ..lut.exr import read_exr
 
@@ -138,8 +137,7 @@ def _draw_in_context(GL, scene, networks, sources, views, name, w, h) -> dict:
     white = _texture(np.ones((1, 1, 4), np.float32), mipmaps=False)
     draws = []  # (program, vao, n_indices, textures {unit: tex}, is_material)
     for part in scene.parts:
-        net = networks.get(part.path)
-        if net is None:
+        if (net := networks.get(part.path)) is None:
             image = read_image_file(part.base_colour_texture) if part.base_colour_texture else None
             cut = image is not None and image.ndim == 3 and image.shape[2] in (2, 4)
             prog = _compile(_OCCLUDER_VERT, _OCCLUDER_FRAG, name)

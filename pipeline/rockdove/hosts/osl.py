@@ -1,6 +1,5 @@
-"""The ``osl`` and ``osl_physical`` hosts: the asset's ``baked`` and ``physical`` MaterialX networks as OSL by
-MaterialX's ``OslShaderGenerator``, compiled by Blender's bundled OSL and rendered by Cycles with OSL on (the
-MaterialX path of Arnold, RenderMan, Karma CPU) in :mod:`rockdove.hosts.osl_job` (docs/hosts.md).
+"""The ``osl`` and ``osl_physical`` hosts: the asset's MaterialX networks as OSL by MaterialX's generator, compiled by
+Blender's bundled OSL and rendered by Cycles with OSL on (the MaterialX path of Arnold, RenderMan, Karma CPU).
 """
 
 from __future__ import annotations
@@ -22,11 +21,9 @@ LOBE = "view_angle"
 SAMPLES = 8
 #: Seconds before a Cycles OSL run is given up.
 TIMEOUT_S = 900
-#: Cycles' working space (Blender's per-file setting) and the EXR's. Cycles clamps a BSDF's negative weights to 0
-#: (``kernel/closure/alloc.h``, ``bsdf_alloc``): in Linear Rec.709 the LUT's colours outside that gamut (a negative
-#: channel on 11 % of its texels) lose it (one pixel: albedo (-0.042, 0.452, 0.327) renders (0, 0.452, 0.327), an
-#: emission keeps it). Every LUT colour lies inside ACEScg (smallest channel 0.026), the ACES studios' working
-#: space; Blender writes the render back in linear Rec.709, negatives kept (that pixel: (-0.042, 0.452, 0.327)).
+#: Cycles' working space and the EXR's. Cycles clamps a BSDF's negative weights to 0 (``kernel/closure/alloc.h``):
+#: in Linear Rec.709, 11 % of the LUT's texels have a negative channel; every LUT colour lies inside ACEScg
+#: (smallest channel 0.026), and Blender writes the render back in linear Rec.709, negatives kept.
 WORKING_SPACE, EXR_SPACE = "ACEScg", "Linear Rec.709"
 
 
@@ -129,9 +126,8 @@ def osl_headers() -> list:
 
 
 def lobe_document(net: dict, base: str = VARIANTS["osl"][1]):
-    """The feather network with the ``base`` colour input (``node.input``) black (the film lobe alone), colours in the
-    working space and the image files empty: ``(document, {shader parameter: absolute file})``, set by the job (a
-    path is never text of the source)."""
+    """The network with the ``base`` colour black (the film lobe alone), in the working space, the image files empty:
+    ``(document, {shader parameter: absolute file})``, set by the job (a path is never text of the source)."""
     doc = net["doc"]
     node, _, name = base.partition(".")
     bg = doc.getNode(node).getInput(name) if doc.getNode(node) is not None else None
@@ -147,9 +143,8 @@ def lobe_document(net: dict, base: str = VARIANTS["osl"][1]):
 
 
 def to_working_space(doc, material_name: str) -> None:
-    """Every connected colour the network feeds a closure, converted from lin_rec709 into ACEScg by MaterialX nodes:
-    the inverse of MaterialX's ``NG_acescg_to_lin_rec709`` matrix (Blender's ACEScg agrees to 6e-7). Unconnected
-    colours are the nodedefs' greys and white, unchanged by it."""
+    """Every connected colour feeding a closure, converted into ACEScg by the inverse of MaterialX's own matrix
+    (Blender's agrees to 6e-7); unconnected ones are the nodedefs' greys and white, unchanged by it."""
     graph = doc.getDataLibrary().getNodeGraph("NG_acescg_to_lin_rec709_color3")
     matrix = graph.getNode("mat").getInputValue("value").getInverse()
     todo = [doc.getNode(material_name)]

@@ -102,8 +102,7 @@ def run(job: dict) -> None:
             drawn.append(ob.name)
         ob.data.materials.clear()
         ob.data.materials.append(material)
-    missing = sorted(set(by_name) - set(drawn))
-    if missing:
+    if missing := sorted(set(by_name) - set(drawn)):
         objects = [o.name for o in bpy.data.objects]
         raise RuntimeError(f"no imported mesh named {', '.join(missing)} (objects: {objects})")
     blender_job.white_world(bpy, job["environment_radiance"])

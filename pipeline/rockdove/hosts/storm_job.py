@@ -1,7 +1,6 @@
 """Storm's side of :mod:`rockdove.hosts.storm`, run as ``python storm_job.py job.json`` by the Python that has bpy
-(its bundled USD has imaging; usd-core has none). It imports nothing of rockdove. Each view is recorded with
-``UsdAppUtils.FrameRecorder`` (no colour correction) into ``<view>.exr``, at its ``time`` when the job has a
-``motion``, drawing ``only`` some meshes when given (:mod:`rockdove.verify.storm_motion`).
+(its bundled USD has imaging; usd-core has none); nothing of rockdove. Each view, recorded by ``FrameRecorder`` into
+``<view>.exr``, may carry a ``time`` and ``only`` the meshes it draws (:mod:`rockdove.verify.storm_motion`).
 """
 
 import ctypes
@@ -121,8 +120,7 @@ def run(job: dict) -> None:
     keep = egl_context(*size)  # noqa: F841 (the context must live while Storm draws)
     from pxr import Usd, UsdAppUtils, UsdGeom
 
-    stage = Usd.Stage.Open(job["asset"])
-    if stage is None:
+    if (stage := Usd.Stage.Open(job["asset"])) is None:
         raise RuntimeError(f"{job['asset']}: not a USD stage")
     cams = _session(stage, job)
     rec = UsdAppUtils.FrameRecorder("HdStormRendererPlugin", True)

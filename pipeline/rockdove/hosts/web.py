@@ -1,6 +1,5 @@
-"""The web host: three.js's own ``KHR_materials_iridescence`` shading (Belcour & Barla 2017) of the asset's
-``pigeon.glb`` (exported when the asset has none), drawn by headless Chromium (WebGL2 on SwiftShader) in the offline
-viewer page (:mod:`rockdove.web.viewer`) into a float render target, under the ``view_angle`` lobe.
+"""The web host: three.js's ``KHR_materials_iridescence`` (Belcour & Barla 2017) on the asset's ``pigeon.glb``, in
+headless Chromium (WebGL2 on SwiftShader), the offline viewer page drawing a float render target (``view_angle``).
 """
 
 from __future__ import annotations

@@ -62,8 +62,7 @@ def _authored_paths(layer, issues: list) -> list[tuple[str, str, str]]:
             spec = layer.GetPropertyAtPath(path)
             if path.name == "faceVertexCounts" and isinstance(spec, Sdf.AttributeSpec):
                 values = [spec.default] + [layer.QueryTimeSample(path, t) for t in layer.ListTimeSamplesForPath(path)]
-                why = next(filter(None, map(face_over_budget, values)), None)
-                if why:
+                if why := next(filter(None, map(face_over_budget, values)), None):
                     issues.append(Issue("budget", str(path), why))
             if isinstance(spec, Sdf.AttributeSpec) and spec.typeName in (Sdf.ValueTypeNames.Asset,
                                                                          Sdf.ValueTypeNames.AssetArray):
@@ -128,8 +127,7 @@ def _open_layer(identifier: str, issues: list):
         layer = Sdf.Layer.FindOrOpen(identifier)
     except Tf.ErrorException as exc:
         text = " ".join(str(exc).split())
-        m = _PARSE_ERROR.search(str(exc))
-        if m:
+        if m := _PARSE_ERROR.search(str(exc)):
             msg = re.sub(r"pxrInternal_[A-Za-z0-9_]+::", "", m["msg"]).strip()
             issues.append(Issue("layer", m["file"], f"line {m['line']}, column {m['col']}: the layer does not "
                                 f"parse: {msg}"))
@@ -156,12 +154,10 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
     queue, seen, variables = [root], {root}, None
     while queue:
         identifier = queue.pop(0)
-        why = over_budget(identifier)
-        if why:
+        if why := over_budget(identifier):
             out.issues.append(Issue("budget", identifier, f"the layer {why}: not opened"))
             continue
-        layer = _open_layer(identifier, out.issues)
-        if layer is None:
+        if (layer := _open_layer(identifier, out.issues)) is None:
             continue
         out.read.add(identifier)
         variables = dict(layer.expressionVariables) if variables is None else variables  # the root layer's
@@ -200,8 +196,7 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
 
 
 def asset_digest(root_layer) -> str:
-    """sha256 of every file the asset's composition reads (a package member as its package), by path relative to
-    the root layer's folder: an asset moved or rebuilt the same digests the same."""
+    """sha256 of every file the asset's composition reads, by relative path: moved or rebuilt the same, same digest."""
     from pxr import Ar
 
     from ..digest import Digest
@@ -246,8 +241,7 @@ def require_inside(asset, allow_external: bool = False) -> str:
         root = resolve_root_layer(asset)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    errors = only_errors(scan_dependencies(root, allow_external).issues)
-    if errors:
+    if errors := only_errors(scan_dependencies(root, allow_external).issues):
         more = f"; and {len(errors) - 5} more" if len(errors) > 5 else ""
         hint = " (--allow-external-assets reads files from elsewhere)" if any(
             i.check == "assetPath" for i in errors) else ""

@@ -33,8 +33,7 @@ def unusable_path(path: str) -> str | None:
 def resolve_root_layer(asset) -> str:
     """The absolute path of an asset's root layer, given its folder or a layer; else a one-line ValueError."""
     path = os.path.abspath(os.fspath(asset))
-    why = unusable_path(path)
-    if why:
+    if why := unusable_path(path):
         raise UsageError(f"asset={os.fspath(asset)!r} {why}")
     if os.path.isdir(path):
         for name in ROOT_LAYER_NAMES:

@@ -118,8 +118,7 @@ def copy_mtlx_network(doc, material, roots=None) -> dict:
     copied = [n for n in mtlx_nodes(doc) if keep is None or n.getName() in keep]
     shaders = {}
     for node in copied:
-        nodedef = node.getNodeDef()
-        if nodedef is None:
+        if (nodedef := node.getNodeDef()) is None:
             raise UsageError(f"MaterialX node {node.getName()!r} ({node.getCategory()}) has no nodedef")
         shader = UsdShade.Shader.Define(stage, base.AppendChild(node.getName()))
         shader.SetShaderId(nodedef.getName())
@@ -131,8 +130,7 @@ def copy_mtlx_network(doc, material, roots=None) -> dict:
         for inp in node.getInputs():
             t = inp.getType()
             usd_in = shader.CreateInput(inp.getName(), getattr(Sdf.ValueTypeNames, _SDF_TYPES[t]))
-            upstream = inp.getNodeName()
-            if upstream:
+            if upstream := inp.getNodeName():
                 usd_in.ConnectToSource(shaders[upstream].ConnectableAPI(), inp.getOutputString() or "out")
             else:
                 usd_in.Set(_usd_value(inp, t))
@@ -277,15 +275,13 @@ def usd_to_mtlx_document(surface_shader, library=None, primvars=None):
         if name in done:
             return done[name]
         sid = shader.GetShaderId() or ""
-        nodedef = library.getNodeDef(sid)
-        if nodedef is None:
+        if (nodedef := library.getNodeDef(sid)) is None:
             raise UsageError(f"{shader.GetPath()}: info:id {sid!r} is not a MaterialX nodedef")
         node = doc.addNode(nodedef.getNodeString(), name, nodedef.getType())
         node.setNodeDefString(sid)
         done[name] = node
         for inp in shader.GetInputs():
-            mx_in = nodedef.getActiveInput(inp.GetBaseName())
-            if mx_in is None:
+            if (mx_in := nodedef.getActiveInput(inp.GetBaseName())) is None:
                 raise UsageError(f"{inp.GetAttr().GetPath()}: {sid} declares no input {inp.GetBaseName()!r}")
             target = node.addInput(mx_in.getName(), mx_in.getType())
             sources = inp.GetConnectedSources()[0]
@@ -336,8 +332,7 @@ def author_body_material(stage, path, *, texture: str | None = None):
 
 
 def author_plumage_material(stage, path, *, textures: dict | None = None):
-    """Define the plumage material of the feather cards (and the eyes): base colour with its alpha cut out, and
-    the tangent-space normal map (scale 2, bias -1) with the roughness in its alpha."""
+    """The plumage material: base colour, its alpha cut out, and a normal map (scale 2, bias -1), roughness in alpha."""
     from pxr import Gf, Sdf, UsdShade
 
     textures = {**texture_asset_paths(), **(textures or {})}

@@ -74,8 +74,7 @@ def _findings(results, root_layer: str) -> tuple[list, int]:
     """(rule, where, message, severity) of each finding we keep, in order, and the ND_* findings dropped."""
     kept, dropped = [], 0
     for found in results.issues():
-        severity = _SEVERITY.get(found.severity.name)
-        if severity is None:
+        if (severity := _SEVERITY.get(found.severity.name)) is None:
             continue
         rule = found.rule.__name__ if found.rule is not None else "engine"
         message = " ".join(str(found.message).split())

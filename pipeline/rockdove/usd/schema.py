@@ -55,8 +55,7 @@ def apply_thin_film(prim, *, model: str, cauchy_a: float, cauchy_b_nm2: float, i
                     illuminant: str = "D65", k: float = 0.0,
                     observer: str = "CIE 1931 2 Degree Standard Observer",
                     thickness_primvar: str = "thickness") -> None:
-    """Apply ``RockDoveThinFilmAPI`` to a Mesh and author every attribute (nothing left to fallbacks). The film's
-    index is ``n(lambda) = cauchy_a + cauchy_b_nm2 / lambda_nm**2 + i k``; ``lut_file`` None: only ``film:*``."""
+    """Apply the schema to a Mesh, every attribute authored; ``n = cauchy_a + cauchy_b_nm2 / lambda_nm**2 + i k``."""
     from pxr import Gf, Sdf
 
     register()

@@ -33,9 +33,8 @@ def _spaces(names: tuple) -> frozenset:
 
 
 def problem(name: str, kind: str, enum: str, value, colour_space: str, library, primvars=None) -> str | None:
-    """Why input ``name`` (MaterialX type ``kind``, node definition ``enum`` values) with ``value`` and
-    ``colour_space`` must not reach a generator, or None. ``primvars``: those of the meshes bound to its material
-    (None: not known, only the identifier is checked)."""
+    """Why input ``name`` (MaterialX type ``kind``) with ``value`` must not reach a generator, or None. ``primvars``:
+    those of the meshes bound to its material (None: not known, only the identifier is checked)."""
     if colour_space and colour_space not in colour_spaces(library):
         return f"colour space {colour_space!r} is not one MaterialX knows ({', '.join(sorted(colour_spaces(library)))})"
     if kind != "string" or value is None:
@@ -59,8 +58,7 @@ def bound_primvars(stage) -> dict:
     out: dict = {}
     for prim in stage.Traverse():
         if prim.IsA(UsdGeom.Mesh):
-            material = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0]
-            if material:
+            if material := UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()[0]:
                 names = {pv.GetPrimvarName() for pv in UsdGeom.PrimvarsAPI(prim).GetPrimvars()}
                 out[material.GetPath()] = out.get(material.GetPath(), names) & names
     return out

@@ -1,10 +1,7 @@
-"""The asset's USD layers: interface layer, payload contents, meshes, primvars, extents, shading variants.
-
-The interface layer + payload pattern of NVIDIA's usd-exchange-samples; the payload sublayers looks, rig and
-geometry layers split by what changes them, so a film change rewrites only the small text looks layer (the
-geometry is crate: its arrays are big, NVIDIA's UsdAsciiPerformanceChecker). Layout: docs/design.md, "USD asset".
-Text layers go through ``ExportToString`` and the crate through ``Export``: no timestamps, so the same inputs
-give byte-identical files (tested).
+"""The asset's USD layers (docs/design.md, "USD asset"): the interface layer + payload pattern of NVIDIA's
+usd-exchange-samples, the payload's layers split by what changes them (a film change rewrites only the small text
+looks layer; the geometry is crate, its arrays being big). Text layers go through ``ExportToString`` and the crate
+through ``Export``: no timestamps, so the same inputs give byte-identical files (tested).
 """
 
 from __future__ import annotations
@@ -282,8 +279,7 @@ def variant_combinations(stage) -> list[dict]:
     """Every combination of the default prim's variant selections as ``{set: variant}``; ``[{}]`` without any."""
     import itertools
 
-    prim = stage.GetDefaultPrim()
-    if not prim:
+    if not (prim := stage.GetDefaultPrim()):
         return [{}]
     sets = prim.GetVariantSets()
     names = sorted(sets.GetNames())
@@ -298,8 +294,7 @@ def open_asset(path: str, shading: str | None = None):
     from .schema import register
 
     register()
-    stage = Usd.Stage.Open(path, Usd.Stage.LoadAll)
-    if stage is None:
+    if (stage := Usd.Stage.Open(path, Usd.Stage.LoadAll)) is None:
         raise UsageError(f"path={path!r} is not a USD stage")
     if shading is not None:
         if shading not in SHADING_VARIANTS:

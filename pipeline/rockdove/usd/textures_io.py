@@ -1,10 +1,8 @@
 """Write the asset's textures into ``DIR/textures/`` deterministically (docs/design.md, "Textures").
 
 ``feather_preview.png`` is what UsdPreviewSurface viewers show (Blender's importer, usdview without MaterialX,
-Quick Look). They cannot look the LUT up per fragment, so the preview is an *atlas* of :data:`PREVIEW_TILES`
-copies of the feather, each ``mix(base, structural, mask)`` (in linear light, IEC 61966-2-1) with the colour of
-one thickness at :data:`PREVIEW_COS_THETA`; each card reads its own thickness's tile through ``previewST``, so
-the viewers show green and purple feathers with one UsdUVTexture.
+Quick Look), which cannot look the LUT up per fragment: an atlas of :data:`PREVIEW_TILES` copies of the feather,
+each mixed in linear light with the colour of one thickness; each card reads its own tile through ``previewST``.
 """
 
 from __future__ import annotations

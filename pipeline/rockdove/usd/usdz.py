@@ -1,10 +1,7 @@
-"""``DIR/pigeon.usdz``: the asset as one self-contained package, by ``UsdUtils.CreateNewUsdzPackage``. usd-core's
-zip writer stores each file's modification time, so the packaged files all carry one fixed time,
-``SOURCE_DATE_EPOCH`` when set (the reproducible-builds convention) else 1980-01-01: byte-identical packages.
-
-``DIR/pigeon_ar.usdz`` (:func:`write_ar_usdz`): the bird for AR Quick Look, one flattened ``.usdc`` with only
-UsdPreviewSurface networks (OpenUSD's ARKit checker, v23.11, allows no ``ND_*`` shader), the ``shading`` and
-``motion`` (:data:`AR_MOTION`) selections baked, without the LUT (an EXR no AR viewer reads).
+"""``DIR/pigeon.usdz``, by ``UsdUtils.CreateNewUsdzPackage``; usd-core's zip writer stores file times, so every file
+gets ``SOURCE_DATE_EPOCH`` when set (reproducible builds) else 1980-01-01: byte-identical packages. Also
+``DIR/pigeon_ar.usdz`` for AR Quick Look: one flattened ``.usdc``, only UsdPreviewSurface networks (OpenUSD's ARKit
+checker, v23.11, allows no ``ND_*`` shader), the variant selections baked, no LUT (an EXR no AR viewer reads).
 """
 
 from __future__ import annotations
@@ -28,8 +25,7 @@ ZIP_EPOCH = 315532800
 
 
 def _fixed_time() -> int:
-    value = os.environ.get("SOURCE_DATE_EPOCH")
-    if value is None:
+    if (value := os.environ.get("SOURCE_DATE_EPOCH")) is None:
         return ZIP_EPOCH
     try:
         return max(int(value), ZIP_EPOCH)
@@ -155,7 +151,6 @@ def usdz_contents(path: str) -> list[str]:
     """File names stored in a usdz package, in archive order."""
     from pxr import Sdf
 
-    zf = Sdf.ZipFile.Open(path)
-    if zf is None:
+    if (zf := Sdf.ZipFile.Open(path)) is None:
         raise UsageError(f"path={path!r} is not a readable usdz package")
     return list(zf.GetFileNames())

@@ -109,8 +109,7 @@ def read_texture_asset(resolved: str):
 
     from rockdove.lut.exr import read_exr
 
-    asset = Ar.GetResolver().OpenAsset(Ar.ResolvedPath(resolved))
-    if asset is None:
+    if (asset := Ar.GetResolver().OpenAsset(Ar.ResolvedPath(resolved))) is None:
         raise OSError(f"cannot open {resolved!r}")
     data = bytes(asset.GetBuffer())
     name = resolved.rstrip("]").lower()
@@ -126,8 +125,7 @@ def read_texture_asset(resolved: str):
 
 
 def check_textures(stage, decoded: dict | None = None, skip=frozenset()) -> tuple[list, int, dict]:
-    """Check 3: (issues, number of asset attributes checked, ``decoded``: {resolved path: object}, filled in place,
-    so another variant reads each file once). ``skip``: authored paths outside the asset, never read."""
+    """Check 3: (issues, assets checked, ``decoded`` filled in place: each file read once); ``skip``: never read."""
     from pxr import Sdf, Usd
 
     issues, n = [], 0
@@ -180,15 +178,13 @@ def check_primvars(stage) -> tuple[list, int]:
         if len(indices) and (indices.min() < 0 or indices.max() >= len(points)):
             issues.append(Issue("primvar", f"{path}.faceVertexIndices",
                                 f"indices span [{indices.min()}, {indices.max()}], expected [0, {len(points)})"))
-        normals = mesh.GetNormalsAttr().Get()
-        if normals is not None:
+        if (normals := mesh.GetNormalsAttr().Get()) is not None:
             interp = mesh.GetNormalsInterpolation()
             if len(normals) != expected.get(interp, -1):
                 issues.append(Issue("primvar", f"{path}.normals", f"{len(normals)} normals with interpolation "
                                     f"{interp!r}, expected {expected.get(interp)}"))
         for pv in UsdGeom.PrimvarsAPI(prim).GetPrimvars():
-            value = pv.Get()
-            if value is None:
+            if (value := pv.Get()) is None:
                 continue
             n += 1
             interp = pv.GetInterpolation()

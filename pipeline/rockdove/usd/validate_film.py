@@ -151,8 +151,7 @@ def _check_lut_constants(prim, lut) -> list:
                 "LutAngleWarpExponent": 1.0 / lut.angle_warp_gamma - 1.0}
     issues = []
     for name, want in expected.items():
-        shader = UsdShade.Shader(material.GetPrim().GetChild(name))
-        if not shader:
+        if not (shader := UsdShade.Shader(material.GetPrim().GetChild(name))):
             continue  # a material without the LUT network (e.g. hand-made) has nothing to disagree with
         got = shader.GetInput("value").Get() if shader.GetInput("value") else None
         flat = None if got is None else np.ravel(np.asarray(got, np.float64))

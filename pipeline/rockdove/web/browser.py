@@ -36,8 +36,7 @@ class BrowserError(RockdoveError, RuntimeError):
 def find_chromium(executable: str | None = None) -> str:
     """The browser executable: ``executable`` if given, else the first of :data:`EXECUTABLES` on PATH."""
     for name in ([executable] if executable else EXECUTABLES):
-        found = shutil.which(name)
-        if found:
+        if found := shutil.which(name):
             return found
     raise BrowserError(f"no Chromium found (tried {executable or ', '.join(EXECUTABLES)}); "
                        "apt-get install chromium (make test does)")
@@ -98,8 +97,7 @@ class Browser:
                 if self.process.poll() is not None:
                     raise self._gone(step)
                 continue
-            chunk = os.read(self._from_child, 1 << 20)
-            if not chunk:
+            if not (chunk := os.read(self._from_child, 1 << 20)):
                 raise self._gone(step)
             self._buffer += chunk
         raw, self._buffer = self._buffer.split(b"\0", 1)

@@ -1,12 +1,10 @@
 """Export a written rockdove USD asset to one glTF 2.0 binary file (``pigeon.glb``) with ``KHR_materials_iridescence``.
 
-It reads the asset *as written* (:func:`rockdove.render.scene.load_scene`, the verifier's reader), so
-``pigeon.glb`` translates ``pigeon.usda`` as ``pigeon.usdz`` does (docs/design.md "glTF and the web"). The
-thickness ramp is linear, so linear filtering returns the primvar itself, not quantised to 8 bits. The default
-material is the USD preview's atlas (Blender 5.0's importer ignores the extension silently); the film is the
-``KHR_materials_variants`` variant ``thin_film`` (measured: a base colour under the film would be counted twice by
-three.js, whose diffuse is only scaled by ``1 - F``). pygltflib builds the document (trimesh's cannot author the
-extension or a second UV set).
+It reads the asset *as written* (:func:`rockdove.render.scene.load_scene`), as ``pigeon.usdz`` does (docs/design.md
+"glTF and the web"). The thickness ramp is linear, so linear filtering returns the primvar itself, unquantised. The
+default material is the preview atlas (Blender 5.0 ignores the extension); the film is the variant ``thin_film``
+(measured: a base colour under it would count twice in three.js, whose diffuse is only scaled by ``1 - F``).
+pygltflib builds the document (trimesh's cannot author the extension or a second UV set).
 """
 
 from __future__ import annotations
@@ -164,8 +162,7 @@ def scene_to_glb(scene, version: str = "") -> bytes:
     import pygltflib as gl
     from pxr import Usd
 
-    film = scene.film
-    if film is None:
+    if (film := scene.film) is None:
         raise UsageError(f"asset {scene.root_layer!r} has no rockdove thin-film data: no mesh applies "
                          "RockDoveThinFilmAPI (rockdove:film:*), so there is no film to export as "
                          "KHR_materials_iridescence; build it with `rockdove build`")
@@ -277,8 +274,7 @@ def validate_glb(path) -> dict:
 
     from .. import resources
 
-    node = shutil.which("node")
-    if node is None:
+    if (node := shutil.which("node")) is None:
         raise RuntimeError("glTF validation needs Node.js (`node`), which is not on PATH; apt-get install nodejs")
     script = resources.path("materials/web/gltf_validate.mjs")
     if not (script.parent / "node_modules" / "gltf-validator").is_dir():

@@ -78,8 +78,7 @@ def motions(stage, query) -> dict:
 
 
 def _point_map(positions_m, points_world, fvi) -> np.ndarray:
-    """Which USD point each exported vertex is: itself, or (face-varying primvars split vertices per corner) the
-    corner's point; UsageError when neither reproduces the exported positions."""
+    """Which USD point each exported vertex is (itself, or its corner's: face-varying primvars split vertices)."""
     for index in (np.arange(len(points_world)), np.asarray(fvi, np.int64)):
         if len(index) == len(positions_m) and np.abs(points_world[index] - positions_m).max(initial=0) < 1e-5:
             return index
@@ -91,8 +90,7 @@ def add_skin(gltf, blob, scene, stage, mesh_nodes: dict) -> None:
     from pxr import UsdGeom
     from pygltflib import Animation, AnimationChannel, AnimationChannelTarget, AnimationSampler, Node, Skin
 
-    found = _skeleton(stage)
-    if found is None:
+    if (found := _skeleton(stage)) is None:
         return
     query, binding = found
     if scene.time is not None:
