@@ -23,8 +23,7 @@ MESH_RULES = ("ManifoldChecker", "ZeroAreaFaceChecker", "WeldChecker", "NormalsW
 
 
 def mesh_digest(root_layer: str) -> str | None:
-    """sha256 of what the :data:`MESH_RULES` read (Mesh schema attributes and normals, not the film's primvars) in
-    each variant combination; None when one of them has time samples (never memoised)."""
+    """sha256 of what the :data:`MESH_RULES` read in each variant; None with time samples (never memoised)."""
     import numpy as np
     from pxr import Usd, UsdGeom
 

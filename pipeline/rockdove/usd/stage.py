@@ -232,8 +232,7 @@ def write_rig(out_dir: str, bird) -> str:
 
 def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geometry: str,
                 shading: str | None = None, config: dict | None = None) -> dict:
-    """Every layer but the geometry and rig into ``out_dir`` (the looks over ``geometry``): their paths. ``config``
-    is recorded in the looks layer for the viewer; ``shading`` default: ``"both"`` with a LUT, else ``"physical"``."""
+    """Every layer but the geometry and rig into ``out_dir``: their paths. ``config``: recorded for the viewer."""
     from pxr import Sdf, Usd
 
     shading = shading or ("both" if lut is not None else "physical")

@@ -158,8 +158,7 @@ def write_base_textures(out_dir: str, feather_textures: dict, body_texture: np.n
 
 def write_film_textures(out_dir: str, lut, feather_textures: dict, *, thickness_range_nm: tuple[float, float],
                         preview_cos_theta: float = PREVIEW_COS_THETA, film=None) -> dict[str, str]:
-    """Write ``thinfilm_lut.exr`` (unless ``lut=None``: then ``film``'s exact colours) and ``feather_preview.png``,
-    its tiles over the mesh's ``thickness_range_nm`` as its ``previewST``, whatever the LUT's range: role -> path."""
+    """Write the LUT (``None``: ``film``'s exact colours) and the atlas over the mesh's range, as its previewST."""
     base, mask = _feather_images(feather_textures)
     tiles = preview_tile_thickness_nm(thickness_range_nm)
     if lut is not None:
