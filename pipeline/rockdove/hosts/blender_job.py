@@ -40,7 +40,7 @@ def occluder(mat, black):
 
 
 def film_lobe_only(bpy, addon) -> None:
-    """Set up the ``view_angle`` lobe (module docstring, step 3)."""
+    """Set up the ``view_angle`` lobe (module docstring)."""
     black = black_material(bpy)
     for ob in bpy.data.objects:
         ob.visible_glossy = False
@@ -76,7 +76,8 @@ def _camera(bpy, mathutils, to_blender, view: dict):
 
 
 def import_asset(bpy, job: dict):
-    """Steps 1-2 in an empty scene: ``(add-on module or None, film material names, up-axis conversion matrix)``."""
+    """The add-on installed as a user does, the asset imported into an empty scene: ``(add-on module or None, film
+    material names, up-axis conversion matrix)``."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     addon = None
     if job["addon_zip"]:
@@ -123,7 +124,7 @@ def shoot(bpy, mathutils, to_blender, job: dict, ext: str, aim=None) -> dict:
 
 
 def render_views(bpy, mathutils, to_blender, job: dict) -> None:
-    """Step 4 (module docstring): one EXR per View (also the OSL host's, :mod:`rockdove.hosts.osl_job`)."""
+    """One float32 EXR per View, Cycles on the CPU (also the OSL host's, :mod:`rockdove.hosts.osl_job`)."""
     scene = bpy.context.scene
     cycles(scene, job)
     scene.cycles.use_denoising = False
