@@ -1,7 +1,8 @@
 """The asset's USD layers (docs/design.md, "USD asset"): the interface layer + payload pattern of NVIDIA's
 usd-exchange-samples, the payload's layers split by what changes them (a film change rewrites only the small text
-looks layer; the geometry is crate, its arrays being big). Text layers go through ``ExportToString`` and the crate
-through ``Export``: no timestamps, so the same inputs give byte-identical files (tested).
+looks layer; the geometry is crate, its arrays being big); the ``shading`` variant set on the interface (variants are
+stronger than payloads). Text layers go through ``ExportToString``, the crate through ``Export``: no timestamps, so
+the same inputs give byte-identical files (tested).
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ THICKNESS_DOC = ("Film (keratin cortex) thickness of the feather barbules at thi
 
 
 def new_stage(*, load_payloads: bool = True):
-    """An in-memory stage with the asset's metadata (upAxis Y, metersPerUnit 1, defaultPrim)."""
+    """An in-memory stage with the asset's metadata; ``load_payloads=False``: the interface's, not written yet."""
     from .schema import register
 
     register()  # before the first stage: USD builds its schema registry once
