@@ -14,7 +14,7 @@ off-white cere; white lower back, two black wing bars, a black band at the end o
 from side-view photographs of standing birds: body axis 30-45 degrees above the horizontal with the breast full
 and forward, head about half the body's width and held up, tail reaching 3-6 cm beyond the folded wing tips,
 wings flush with the body (never wider), tips meeting over the rump, toes on the ground, tibia in the contour.
-[F] issue 29, as a birder sees a rock dove (field guides: Gibbs et al.; Svensson et al., "Collins Bird Guide",
+[F] as a birder sees a rock dove (field guides: Gibbs et al.; Svensson et al., "Collins Bird Guide",
 2009): a feathered head with only the eye's ring bare, two black bars crossing the folded wing, a broad closed
 tail fan with depth (not a board), the pupil in the middle of the iris, dark claws; feather cards whose edges fade
 (soft, partly transparent texels) rather than cut.

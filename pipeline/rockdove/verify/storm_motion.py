@@ -154,6 +154,6 @@ def play(asset: str, out_dir: str, motion: str = "walk", times=(15.0, 21.0, 26.0
         images = bpy_runner.read_views(BAKED.name, "Storm", list(necks.values()), work)
         for t, view in necks.items():
             refs = render_reference(scenes[t], [view], lobe="view_angle")
-            metrics = host_metrics({view.name: images[view.name]}, refs, scenes[t])
-            out["film"][t] = {k: v for k, v in metrics.items() if k not in ("de_maps", "per_view")}
+            metrics, _ = host_metrics({view.name: images[view.name]}, refs, scenes[t])
+            out["film"][t] = {k: v for k, v in dataclasses.asdict(metrics).items() if k != "per_view"}
     return out
