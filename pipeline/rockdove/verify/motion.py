@@ -214,6 +214,7 @@ def animation(layer: str, motion: str, out_dir: str, lut=None) -> dict:
     (the neck's colour moves as the head bobs). The report's entry: ``{"file", "frames", "fps", "caption"}``."""
     import os
 
+    from ..render.animation import BACKGROUND
     from ..render.gl import GLRenderer
     from ..render.images import write_webp
     from ..render.scene import load_scene
@@ -230,8 +231,9 @@ def animation(layer: str, motion: str, out_dir: str, lut=None) -> dict:
         target = glide[0] * t + glide[1] - np.array([0.0, 0.012, 0.0])
         view = View(f"{motion}{t:03d}", look_at(target + np.array([0.45, 0.04, 0.05]), target), np.radians(24.0),
                     ANIMATION_SIZE, ANIMATION_SIZE, light, np.ones(3))
-        with GLRenderer(scene, lut=lut, width=ANIMATION_SIZE, height=ANIMATION_SIZE) as renderer:
-            images.append(linear_to_srgb8(renderer.render(view).radiance_rgb))
+        with GLRenderer(scene, lut=lut, width=ANIMATION_SIZE, height=ANIMATION_SIZE, mipmaps=True) as renderer:
+            rgb, coverage = renderer.render_radiance(view, samples=4)  # anti-aliased, as the report's other pictures
+            images.append(linear_to_srgb8(rgb + (1.0 - coverage[..., None]) * BACKGROUND))
     fps = 60.0 / ANIMATION_STEP
     path = write_webp(images, os.path.join(out_dir, ANIMATION_FILE.format(motion=motion)), fps)
     return {"file": os.path.basename(path), "frames": len(images), "fps": fps,
