@@ -168,11 +168,8 @@ def ray_digest(scene) -> str:
 
 def cast_hits(scene, views) -> dict:
     """Cast the primary rays of every distinct camera among ``views``: ``{camera_key(view): Hits}``."""
-    geom, out = SceneGeometry(scene), {}
-    for v in views:
-        if camera_key(v) not in out:
-            out[camera_key(v)] = cast_view(geom, v)
-    return out
+    geom = SceneGeometry(scene)
+    return {key: cast_view(geom, v) for key, v in {camera_key(v): v for v in views}.items()}
 
 
 def cast_view(geom: SceneGeometry, view) -> Hits:

@@ -177,10 +177,7 @@ def cast_surfaces(scene, views, hits=None) -> dict:
     """``{camera_key(view): Surface}`` of the cameras of ``views``, from ray casts ``hits`` by camera key or cast here."""
     geometry = functools.cache(lambda: SceneGeometry(scene))
     hits_cache = dict(hits or {})
-    cameras: dict = {}
-    for v in views:
-        cameras.setdefault(camera_key(v), v)
-    return {key: _surface(geometry, v, hits_cache) for key, v in cameras.items()}
+    return {key: _surface(geometry, v, hits_cache) for key, v in {camera_key(v): v for v in views}.items()}
 
 
 def _surface(geometry, view, hits_cache: dict) -> Surface:
