@@ -269,8 +269,8 @@ def compare(gl_result, ref_result, scene, erode_px: int = 1) -> ViewMetrics:
     """Compare one view's GL render (:class:`rockdove.render.gl.RenderResult`) with its reference render
     (:class:`rockdove.verify.reference_image.ReferenceResult`); the scene gives the feather part ids."""
     return compare_arrays(ref_result.view, gl_result.radiance_rgb, ref_result.rgb, gl_result.part_id,
-                          ref_result.part_id, feather_ids(scene), ref_n_dot_l=ref_result.n_dot_l, ref_mask=ref_result.mask,
-                          erode_px=erode_px)
+                          ref_result.part_id, feather_ids(scene), ref_n_dot_l=ref_result.n_dot_l,
+                          ref_mask=ref_result.mask, erode_px=erode_px)
 
 
 def reference_classes(ref_result, scene) -> np.ndarray:

@@ -17,8 +17,8 @@ LIBRARIES = ("numpy", "scipy", "colour", "trimesh", "embreex", "pxr", "pyrender"
 
 
 def library_versions() -> dict:
-    """Versions of Python, rockdove and the libraries the verification uses (None when not installed), read once
-    per process (~12 directory scans of ``sys.path``; a process keeps the modules it imported); a new dict."""
+    """Versions of Python, rockdove and the verification's libraries (None when not installed), a new dict; read once
+    per process (~12 directory scans of ``sys.path``)."""
     return dict(_library_versions())
 
 
@@ -57,9 +57,7 @@ def asset_configuration(layer_path: str) -> dict:
         return found
 
     def pick(d, where):
-        for k, v in dict(d or {}).items():
-            if "config" in k.lower():
-                found[f"{where}:{k}"] = v
+        found.update({f"{where}:{k}": v for k, v in dict(d or {}).items() if "config" in k.lower()})
 
     pick(layer.customLayerData, "customLayerData")
     prim = layer.GetPrimAtPath(f"/{layer.defaultPrim}") if layer.defaultPrim else None

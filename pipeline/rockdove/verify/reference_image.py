@@ -174,7 +174,7 @@ def surface_digest(scene) -> str:
 
 
 def cast_surfaces(scene, views, hits=None) -> dict:
-    """``{camera_key(view): Surface}`` of the cameras of ``views``, from ray casts ``hits`` by camera key or cast here."""
+    """``{camera_key(view): Surface}`` of the cameras of ``views``, from ray casts ``hits`` by camera key or cast."""
     geometry = functools.cache(lambda: SceneGeometry(scene))
     hits_cache = dict(hits or {})
     return {key: _surface(geometry, v, hits_cache) for key, v in {camera_key(v): v for v in views}.items()}
