@@ -137,7 +137,8 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
         if v.name not in done:
             folder = str(found[v.name])  # cached, or stored above
             rows = load_npz(os.path.join(folder, "sheet_row.npz"))
-            done[v.name] = ViewResult.from_json(_meta(folder), folder, tuple(rows[f"arr_{i}"] for i in range(len(rows))))
+            done[v.name] = ViewResult.from_json(_meta(folder), folder,
+                                                tuple(rows[f"arr_{i}"] for i in range(len(rows))))
     return {v.name: done[v.name] for v in views}, fresh, [v.name for v in todo]
 
 
