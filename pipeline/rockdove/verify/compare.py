@@ -1,19 +1,16 @@
 """Compare a GL render with the CPU reference: dE2000 maps, statistics and the image checks.
 
 Both renders hold linear ``lin_rec709`` radiance, unclipped (thin-film colours are often outside the Rec.709
-gamut). The dE2000 map is computed on that linear data, not on the 8-bit display images, which would hide
-out-of-gamut and quantisation differences: CIELAB with the D65 white at Y = 1, CIEDE2000 (Sharma, Wu and Dalal
-2005, as implemented by colour-science) through :mod:`rockdove.spectral`.
-
-Pixels compared: covered by a feather part in BOTH renders, with the same part id, after eroding each render's
-feather coverage by ``erode_px`` pixels (8-connected): a rasteriser and a ray caster legitimately disagree at
+gamut); the dE2000 map is computed on that, not on the 8-bit display images, which would hide out-of-gamut and
+quantisation differences: CIELAB with the D65 white at Y = 1, CIEDE2000 (Sharma, Wu and Dalal 2005, as implemented
+by colour-science) through :mod:`rockdove.spectral`. Pixels compared: a feather part with the same id in BOTH
+renders after eroding each coverage by ``erode_px`` pixels: a rasteriser and a ray caster legitimately disagree at
 silhouette edges (coverage rules, texture filtering of the alpha cut-out).
 
-Checks: no NaN or Inf in either render; no black holes (lit feather pixels whose GL radiance is ~zero: every
-film colour has a luminance of at least a few per cent); the CIELAB hue ``h_ab = atan2(b*, a*)`` of the chromatic
-structural pixels (``C*ab / L*``: a ratio, so that dimly lit pixels keep their hue), histogrammed and classified
-into the two bands of the rock dove's neck (measured on the Airy colours of a 480-700 nm keratin film under D65:
-greens have h_ab 115-205 deg, purples/magentas 310-355 deg); the boundary's shape: :mod:`rockdove.verify.boundary`.
+Checks: no NaN or Inf; no black holes (lit feather pixels whose GL radiance is ~zero: every film colour has a
+luminance of at least a few per cent); the CIELAB hue ``h_ab = atan2(b*, a*)`` of the chromatic structural pixels
+(``C*ab / L*``: a ratio, so dimly lit pixels keep their hue), classified into the two bands of the rock dove's neck
+(the Airy colours of a 480-700 nm keratin film under D65: greens h_ab 115-205 deg, purples 310-355 deg).
 """
 
 from __future__ import annotations

@@ -2,10 +2,8 @@
 lighting model it evaluates, over the reference's structural feather pixels (eroded by one pixel as the GL
 comparison does; a host returns radiance only, no part ids, so its silhouette is the reference's).
 
-- ``median_dE``, ``p95_dE``: CIEDE2000 of the unclipped linear radiance (the GL comparison's own);
-- ``green_px``, ``purple_px``: host pixels in the strict green / purple hue bands;
-- ``hue_agreement``: fraction of the pixels whose class (green, purple, other: grey and other hues together)
-  is the reference's.
+``median_dE``, ``p95_dE``: CIEDE2000 of the unclipped linear radiance; ``green_px``, ``purple_px``: host pixels in
+the strict hue bands; ``hue_agreement``: share of pixels whose class (green, purple, other) is the reference's.
 
 Pass (:func:`host_passed`): networks that claim the exact colour (``glsl``, ``baked``) meet the dE goals
 (median <= :data:`rockdove.verify.compare.MEDIAN_DE_GOAL`, p95 <= :data:`~rockdove.verify.compare.P95_DE_GOAL`);

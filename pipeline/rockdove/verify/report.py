@@ -139,10 +139,8 @@ def lut_png(path, lut) -> str:
         lo, hi = lo - 5.0, hi + 5.0
     ax.imshow(img, origin="lower", aspect="auto", extent=(0.0, 1.0, lo, hi), interpolation="nearest")
     ticks = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
-    ax.set_xticks(ticks)
-    ax.set_xticklabels([f"{t ** lut.angle_warp_gamma:.2f}" for t in ticks])
-    ax.set_xlabel(f"cos theta (warped axis, gamma = {lut.angle_warp_gamma:g})")
-    ax.set_ylabel("film thickness (nm)")
+    ax.set_xticks(ticks, [f"{t ** lut.angle_warp_gamma:.2f}" for t in ticks])
+    ax.set(xlabel=f"cos theta (warped axis, gamma = {lut.angle_warp_gamma:g})", ylabel="film thickness (nm)")
     ax.set_title(f"LUT {lut.n_thickness} x {lut.n_angle}, {lut.colour_space} (display: clipped sRGB)", fontsize=9)
     return _save_figure(fig, path)
 
@@ -159,9 +157,8 @@ def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 
         for c in cos_theta:
             r = optics.reflectance(wl, c, d, n_film=m.n_film(wl), n_incident=m.n_incident, n_substrate=m.n_substrate)
             ax.plot(wl, r, lw=0.8, label=f"cos theta = {c:g}")
-        ax.set_ylabel("R")
+        ax.set(ylabel="R", ylim=(0, 1))
         ax.set_title(f"d = {d:g} nm, {m.name}: n = {m.cauchy_a:g} + {m.cauchy_b_nm2:g} / lambda^2", fontsize=9)
-        ax.set_ylim(0, 1)
         if i == 0:
             ax.legend(fontsize=7, loc="upper right")
     ax.set_xlabel("wavelength (nm)")
@@ -183,9 +180,7 @@ def hue_png(path, hue: HueHistogram, title: str) -> str:
     for band, name in ((hue.green_band_deg, "green"), (hue.purple_band_deg, "purple")):
         ax.axvline(band[0], color="k", ls=":", lw=0.8)
         ax.text(band[0] + 2, ax.get_ylim()[1] * 0.9, name, fontsize=7)
-    ax.set_xlim(0, 360)
-    ax.set_xlabel("CIELAB hue angle h_ab (deg)")
-    ax.set_ylabel("pixels")
+    ax.set(xlim=(0, 360), xlabel="CIELAB hue angle h_ab (deg)", ylabel="pixels")
     ax.set_title(f"{title}: green {hue.green}, purple {hue.purple}, grey {hue.grey}, other {hue.other}",
                  fontsize=8)
     return _save_figure(fig, path)
