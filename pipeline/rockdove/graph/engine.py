@@ -1,12 +1,10 @@
-"""The incremental build graph: stages keyed by a content hash of exactly what they read, over a cache
-(:mod:`rockdove.graph.cache`).
+"""The incremental build graph over a cache (:mod:`rockdove.graph.cache`).
 
 A :class:`Stage` is a named pure function of its part of the configuration and its upstream outputs, keyed by
 the configuration keys it declares, the code it can execute (:func:`rockdove.sources.digest`) and the *content
 digests* of its upstream outputs (early cut-off: a new seed that leaves the thickness range unchanged does not
 re-bake the LUT). A stage whose key has an entry is reused, its value loaded only if a stage that runs needs it;
-builds sharing a cache compute an entry once (``Cache.entry_lock``). A stage that keeps finer items of its own
-(the verification) gets the cache in ``Context.cache``.
+builds sharing a cache compute an entry once (``Cache.entry_lock``).
 """
 
 from __future__ import annotations

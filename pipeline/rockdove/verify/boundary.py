@@ -1,26 +1,22 @@
 """The shape of the green/purple pattern on the neck: coherence of the colour regions, curvature of their boundary.
 
 On a real rock dove the green and purple of the neck form a few large regions whose boundary is a curve that
-moves with the light; one fixed film thickness makes it a straight line; an uncorrelated per-feather
-thickness makes a salt-and-pepper of both colours. Two measures per view tell the three apart:
+moves with the light; one fixed film thickness makes it a straight line; an uncorrelated per-feather thickness
+makes a salt-and-pepper of both colours. Two measures per view tell the three apart:
 
-Coherence (:func:`class_coherence`)
-    For each strict hue class (green, purple, other chromatic hue; grey left out), the share of its pixels held
-    by its largest 4-connected region, optionally after bridging gaps of up to ``2 * reach_px`` grey or
-    non-feather pixels (never a pixel of another hue class). 4- rather than 8-connectivity, and no bridging
-    through the other colours: on a mosaic of independently coloured feathers at 50 % each, regions connected
-    through diagonal contacts percolate for *both* colours (site percolation threshold 0.407 with 8 neighbours,
-    0.593 with 4), so speckle would pass as coherent. A coherent pattern has shares near 1.
+Coherence (:func:`class_coherence`): for each strict hue class (green, purple, other; grey left out), the share of
+its pixels held by its largest 4-connected region, optionally after bridging gaps of up to ``2 * reach_px`` grey or
+non-feather pixels (never another hue class). 4- rather than 8-connectivity, and no bridging through the other
+colours: on a mosaic of independently coloured feathers at 50 % each, diagonally connected regions percolate for
+*both* colours (site percolation threshold 0.407 with 8 neighbours, 0.593 with 4), so speckle would pass as
+coherent. A coherent pattern has shares near 1.
 
-Curvature (:func:`boundary_curvature`)
-    The green/purple contact zone (:func:`boundary_points`, on the hue *sides*) is reduced to its centreline
-    (mean point of ``bin_px`` bins along its principal axis), and its perpendicular offset ``o`` as a function of
-    the position ``t`` along that axis is fitted by least squares with a line ``o = a + b t`` and the cubic
-    ``o = a + b t + c t^2 + d t^3`` (t scaled to [-1, 1]). Their RMS ratio ``line / curve`` (the curve's residual
-    taken as at least :data:`NOISE_FLOOR_PX`, pixel quantisation) is about 1 or less for a straight boundary,
-    >= :data:`CURVED_RATIO` for a curved one. One robust pass drops centreline points farther than 3x the median
-    residual of the cubic (when at least half remain), so a stray feather tip of the other colour does not bend
-    the fit.
+Curvature (:func:`boundary_curvature`): the green/purple contact zone (on the hue *sides*) is reduced to its
+centreline (mean point of ``bin_px`` bins along its principal axis), whose perpendicular offset ``o(t)`` is fitted
+by least squares with a line and a cubic (t scaled to [-1, 1]). Their RMS ratio ``line / curve`` (the curve's
+residual at least :data:`NOISE_FLOOR_PX`, pixel quantisation) is about 1 or less for a straight boundary, >=
+:data:`CURVED_RATIO` for a curved one. One robust pass drops centreline points farther than 3x the cubic's median
+residual (when half remain), so a stray feather tip of the other colour does not bend the fit.
 """
 
 from __future__ import annotations
