@@ -39,9 +39,8 @@ def _library_versions() -> dict:
 
 
 def asset_configuration(layer_path: str) -> dict:
-    """What the asset records about the configuration it was built from: the build marker
-    (:data:`rockdove.usd.layout.MARKER`, beside the root layer) and any root-layer ``customLayerData`` or default-prim
-    ``assetInfo`` key containing "config"; empty when the asset records nothing (e.g. a bare assembly)."""
+    """What the asset records about the configuration it was built from: the build marker beside the root layer and
+    any ``customLayerData`` or default-prim ``assetInfo`` key containing "config" (empty for a bare assembly)."""
     from pxr import Sdf
 
     found = {}

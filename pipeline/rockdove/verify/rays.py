@@ -85,8 +85,7 @@ def _first_opaque_hits(geom: SceneGeometry, origin, dirs, stats: dict):
     """First hit along each ray that is not an alpha-cut-out feather fragment: ``face`` (-1: a miss), point, bary."""
     n = len(dirs)
     face = np.full(n, -1, np.int64)
-    point = np.zeros((n, 3))
-    bary = np.zeros((n, 3))
+    point, bary = np.zeros((2, n, 3))
     live = np.arange(n)
     origins = np.broadcast_to(origin, (n, 3)).copy()
     last = np.full(n, -1, np.int64)
@@ -107,8 +106,7 @@ def _first_opaque_hits(geom: SceneGeometry, origin, dirs, stats: dict):
             sel = part == p
             st = geom.interp(geom.st, tri[sel], b[sel])
             transparent[sel] = geom.alpha(p, st) < geom.threshold[p]
-        transparent |= stuck
-        keep = ~transparent
+        keep = ~(transparent | stuck)
         if layers == MAX_ALPHA_LAYERS:  # give up: keep what we have
             keep[:] = True
         face[rays[keep]] = tri[keep]

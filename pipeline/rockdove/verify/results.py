@@ -209,8 +209,7 @@ class Report(_Record):
 
 @dataclass(frozen=True)
 class Verdict(_Record):
-    """The build's verification, its stage's value: ``reason`` (the failures, joined), the views checked, the
-    notes, and the items that ran and were reused."""
+    """The build's verification, its stage's value: ``reason`` the failures joined."""
 
     passed: bool
     reason: str = ""
