@@ -238,12 +238,13 @@ def _render_view(geometry, scene, view, structural_fn, hits_cache: dict, surface
     L = np.asarray(view.light_direction, np.float64) / np.linalg.norm(view.light_direction)
     light = np.asarray(view.light_rgb, np.float64)
     base, mask = srf.base.astype(np.float64), srf.mask.astype(np.float64)
-    view_angle = lobe == "view_angle"
-    if view_angle:  # mirror lobe under a uniform unit environment: incidence = view angle; base black
+    if lobe == "view_angle":  # mirror lobe under a uniform unit environment: incidence = view angle; base black;
+        # every feather pixel lit with unit radiance, other parts black
         cos_theta = np.clip(np.abs(np.einsum("ij,ij->i", N, V)), 0.0, 1.0)
-        base = np.zeros_like(base)
+        base, n_dot_l, light = np.zeros_like(base), feather.astype(np.float64), np.ones(3)
     else:
         cos_theta = np.sqrt(np.clip((1.0 + V @ L) / 2.0, 0.0, 1.0))
+        n_dot_l = np.maximum(N @ L, 0.0)
     thickness = srf.thickness_nm.astype(np.float64)
     colour = base.copy()
     structural = feather & (mask > 0)
@@ -257,12 +258,7 @@ def _render_view(geometry, scene, view, structural_fn, hits_cache: dict, surface
         m = mask[structural, None]
         colour[structural] = base[structural] * (1.0 - m) + s_rgb * m
     t3 = time.perf_counter()
-    if view_angle:  # the environment lights every feather pixel with unit radiance; other parts are black
-        n_dot_l = feather.astype(np.float64)
-        radiance = colour * n_dot_l[:, None]
-    else:
-        n_dot_l = np.maximum(N @ L, 0.0)
-        radiance = colour * light[None, :] * n_dot_l[:, None]
+    radiance = colour * light[None, :] * n_dot_l[:, None]
 
     def image(fill, values, dtype=np.float32):
         out = np.full((h * w,) + np.shape(values)[1:], fill, dtype)
