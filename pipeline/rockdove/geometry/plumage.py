@@ -8,18 +8,10 @@ normal map of the rachis and barbs with the roughness. The outline, size and pat
 (:data:`rockdove.geometry.colours.KINDS`); each card draws one of its kind's variants and may be mirrored, so no
 pattern repeats. Every card is one connected component of its part (the rig binds each rigidly).
 
-- ``HeadFeathers``: small rounded feathers on blue-noise roots over the head and throat, lying back from the bill
-  and down the neck, over the top rows of the iridescent cards (so no collar shows where they meet), none over the
-  bill, the cere or the bare ring round the eye.
-- ``CoatFeathers``: contour feathers on blue-noise roots over the body outside the neck band and the head, lying
-  tailward and down like shingles along the tracts, sized by region (small by the neck, long coverts over and
-  under the tail's base); normals are the body field's gradient, so the coat shades as one surface.
-- ``Wings``: each folded wing as layered rows draped over the body (:func:`drape_x`): primaries under the
-  secondaries and tertials, greater coverts over them, median coverts on top; the primaries run on past the rump,
-  their tips stepped so that each shows. The greater coverts and the tertials/secondaries carry the black
-  subterminal patch that lines up, row by row, into the rock dove's two curved wing bars.
-- ``Tail``: twelve rectrices (Columba livia has 12) in a closed, arched fan, each a thin closed lens (the rachis
-  thicker than the vanes), the central pair on top, with the dark terminal band.
+Parts (:data:`CARD_PARTS`): ``HeadFeathers`` (:func:`build_head`), ``CoatFeathers`` (:func:`build_coat`, normals
+the body field's gradient, so the coat shades as one surface), ``Wings`` (:func:`build_wings`; the greater coverts'
+and the tertials'/secondaries' black subterminal patches line up into the rock dove's two curved wing bars) and
+``Tail`` (:func:`build_tail`; Columba livia has 12 rectrices).
 """
 
 from __future__ import annotations

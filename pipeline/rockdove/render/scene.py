@@ -1,16 +1,10 @@
 """Read a written rockdove USD asset back into plain numpy arrays for the GL renderer and the CPU reference.
 
 The verifier checks what was *written*: the root layer opened from disk with pxr (payloads loaded, a chosen
-``shading`` variant) becomes a :class:`RenderScene` of numpy arrays only, so the pyrender path
-(:mod:`rockdove.render.gl`) and the CPU reference see the same data (names: docs/design.md, "USD asset"):
-
-- every visible ``UsdGeom.Mesh`` (purpose default or render) under the default prim, fan-triangulated
-  (:mod:`.triangulate`), in world metres (local-to-world transform and ``metersPerUnit`` applied);
-- ``st``, normals (authored, else area-weighted), the film thickness primvar named by
-  ``rockdove:film:thicknessPrimvar`` (nm) and ``neckS``; face-varying primvars split vertices per corner;
-- per part the material kind (``"feather"`` for a mesh with ``RockDoveThinFilmAPI``, else the bound material's
-  name without ``Material``, lower case), its texture files and constant base colour (:mod:`.usd_read`);
-- the film, through the schema's one reader (:func:`rockdove.render.film.read_film`; no LUT: ``lut_file = None``).
+``shading`` variant) becomes a :class:`RenderScene` of numpy arrays, so the pyrender path (:mod:`rockdove.render.gl`)
+and the CPU reference see the same data (names: docs/design.md, "USD asset"): every visible mesh, fan-triangulated
+in world metres, its primvars (face-varying ones split vertices per corner), material (``"feather"`` for a mesh with
+``RockDoveThinFilmAPI``, else the bound material's name without ``Material``, lower case) and film.
 """
 
 from __future__ import annotations

@@ -1,17 +1,9 @@
-"""Cameras and lights of the verification renders: a turntable of the bird and the paper's light sweep.
+"""Cameras and lights of the verification renders: a turntable of the bird, the hero view and the paper's light sweep.
 
 A :class:`View` (docs/design.md, "Render views") is one camera (OpenGL convention: it looks down its local -Z with
-+Y up; ``camera_to_world`` acts on column vectors) plus one directional light.
-
-- :func:`turntable_views`: the camera orbits the bird about world Y through the bounds' centre, at eye level
-  (:data:`TURNTABLE_ELEVATION_DEG`, as a look-dev artist shoots a turntable; never from below); the key light is
-  fixed relative to the camera (:data:`TURNTABLE_LIGHT_CAMERA`), so every frame is lit from the front as seen.
-- :func:`hero_view`: the 3/4 front view a look-dev artist shows first, at :data:`HERO_SCALE` times the
-  verification size, the camera in front of the bird's left shoulder.
-- :func:`light_sweep_views`: the paper's experiment. The camera stays still on the neck; a D65-white light
-  (``light_rgb = (1, 1, 1)`` in lin_rec709) rotates about the camera's up axis, so the angle ``alpha`` between
-  ``L`` and ``V`` sweeps through 90 degrees, where ``cos_theta = dot(L, H) = cos(alpha / 2)``, ``theta = 45``
-  degrees: the green/purple flip (docs/design.md, "Conventions").
++Y up; ``camera_to_world`` acts on column vectors) plus one directional light. In the light sweep the camera stays
+still and the light turns about its up axis, so the light-view angle ``alpha`` passes 90 degrees, where
+``cos_theta = cos(alpha / 2)``, ``theta = 45`` degrees: the green/purple flip (docs/design.md, "Conventions").
 """
 
 from __future__ import annotations
