@@ -28,23 +28,12 @@ from typing import Any
 
 from .config import DEFAULT_PRESET, config_hash
 from .config import load_config as _load_config
-from .errors import UsageError, VerificationFailed
+from .errors import UsageError, VerificationFailed, raise_interrupt
 from .graph.engine import StageRecord
 from .verify.results import HostResult, Report
 
-__all__ = [
-    "DEFAULT_OUT",
-    "BuildFailed",
-    "BuildResult",
-    "HostResult",
-    "StageRecord",
-    "UsageError",
-    "Verification",
-    "VerificationFailed",
-    "build",
-    "load_config",
-    "verify",
-]
+__all__ = ["DEFAULT_OUT", "BuildFailed", "BuildResult", "HostResult", "StageRecord", "UsageError", "Verification",
+           "VerificationFailed", "build", "load_config", "verify"]
 
 DEFAULT_OUT = "build/pigeon"
 
@@ -129,10 +118,6 @@ class Verification:
 
 
 # ----------------------------------------------------------------------------------------------- build
-def _raise_interrupt(signum, frame):
-    raise KeyboardInterrupt(f"signal {signum}")
-
-
 def _result(graph, out: Path, cache_dir: Path, chash: str, t0: float, verified, report_dir, notes=(),
             failure=None) -> BuildResult:
     return BuildResult(out=out, cache=cache_dir, config_hash=chash, stages=tuple(graph.records.values()), verified=verified,
@@ -171,7 +156,7 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
     stages = build_stages.make_stages(config, verify=verify)
     chash = config_hash(config)
     main_thread = threading.current_thread() is threading.main_thread()
-    old_term = signal.signal(signal.SIGTERM, _raise_interrupt) if main_thread else None
+    old_term = signal.signal(signal.SIGTERM, raise_interrupt) if main_thread else None
     staging = None
     try:
         with OutputLock(out, timeout_s=lock_timeout):

@@ -99,17 +99,11 @@ class FilmModel:
     def describe(self) -> dict[str, str]:
         """Human-readable description for EXR / USD metadata (all values are strings)."""
         formula = "n(lambda) = A + B / lambda^2 (lambda in nm)" + (" + i k" if self.k else "")
-        return {
-            "name": self.name,
-            "formula": formula,
-            "cauchyA": repr(self.cauchy_a),
-            "cauchyB_nm2": repr(self.cauchy_b_nm2),
-            "k": repr(self.k),
-            "complexIndexConvention": "n + ik, k >= 0 absorbs (as tmm / colour.phenomena)",
-            "incidentIndex": repr(self.n_incident),
-            "substrateIndex": repr(self.n_substrate),
-            "reference": _REFERENCES.get(self.name, "user-defined film model"),
-        }
+        return {"name": self.name, "formula": formula, "cauchyA": repr(self.cauchy_a),
+                "cauchyB_nm2": repr(self.cauchy_b_nm2), "k": repr(self.k),
+                "complexIndexConvention": "n + ik, k >= 0 absorbs (as tmm / colour.phenomena)",
+                "incidentIndex": repr(self.n_incident), "substrateIndex": repr(self.n_substrate),
+                "reference": _REFERENCES.get(self.name, "user-defined film model")}
 
 
 _REFERENCES = {

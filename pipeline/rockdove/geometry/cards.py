@@ -90,23 +90,16 @@ class FeatherCards:
     def part(self) -> MeshPart:
         """The cards as the one ``NeckFeathers`` mesh, with the ``thickness`` and ``neckS`` primvars."""
         per = VERTICES_PER_CARD
-        return MeshPart(
-            name="NeckFeathers",
-            points_m=self.points_m,
-            face_vertex_counts=np.full(len(self.quads), 4, dtype=np.int32),
-            face_vertex_indices=self.quads.reshape(-1).astype(np.int32),
-            normals=self.normals,
-            st=self.st,
-            material="feather",
-            display_color=FEATHER_DISPLAY_COLOR,
-            primvars={
-                "thickness": Primvar(np.repeat(self.thickness_nm, per).astype(np.float32), "vertex",
-                                     "film thickness, nm (constant over each card)"),
-                "neckS": Primvar(np.repeat(self.neck_s, per).astype(np.float32), "vertex",
-                                 "neck coordinate of the card's root: 0 at the neck base, 1 at its top"),
-                THICKNESS_FIELD: Primvar(np.repeat(self.thickness_field, per, axis=0), "vertex", THICKNESS_FIELD_DOC),
-            },
-        )
+        primvars = {"thickness": Primvar(np.repeat(self.thickness_nm, per).astype(np.float32), "vertex",
+                                         "film thickness, nm (constant over each card)"),
+                    "neckS": Primvar(np.repeat(self.neck_s, per).astype(np.float32), "vertex",
+                                     "neck coordinate of the card's root: 0 at the neck base, 1 at its top"),
+                    THICKNESS_FIELD: Primvar(np.repeat(self.thickness_field, per, axis=0), "vertex",
+                                             THICKNESS_FIELD_DOC)}
+        return MeshPart(name="NeckFeathers", points_m=self.points_m,
+                        face_vertex_counts=np.full(len(self.quads), 4, dtype=np.int32),
+                        face_vertex_indices=self.quads.reshape(-1).astype(np.int32), normals=self.normals, st=self.st,
+                        material="feather", display_color=FEATHER_DISPLAY_COLOR, primvars=primvars)
 
 
 def _push_out(points: np.ndarray, direction: np.ndarray, clearance_m: float, steps: int = 8) -> np.ndarray:
@@ -203,14 +196,7 @@ def build_cards(body, params) -> FeatherCards:
     s = np.clip(s, 0.0, 1.0)
     field = _thickness.thickness_field(roots, params, stream(params.seed, STREAM_THICKNESS))
     thickness = _thickness.place_thickness_nm(field, params.thickness_base_nm, params.thickness_top_nm)
-    return FeatherCards(
-        points_m=pts.reshape(-1, 3).astype(np.float32),
-        normals=normals.reshape(-1, 3).astype(np.float32),
-        st=st.reshape(-1, 2),
-        quads=quads.astype(np.int32),
-        root_skin_m=roots,
-        skin_normal=n,
-        neck_s=s.astype(np.float32),
-        thickness_nm=thickness.astype(np.float32),
-        thickness_field=field.astype(np.float32),
-    )
+    return FeatherCards(points_m=pts.reshape(-1, 3).astype(np.float32),
+                        normals=normals.reshape(-1, 3).astype(np.float32), st=st.reshape(-1, 2), quads=quads.astype(np.int32), root_skin_m=roots, skin_normal=n,
+                        neck_s=s.astype(np.float32), thickness_nm=thickness.astype(np.float32),
+                        thickness_field=field.astype(np.float32))
