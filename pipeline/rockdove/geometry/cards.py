@@ -103,13 +103,10 @@ class FeatherCards:
 
 
 def _push_out(points: np.ndarray, direction: np.ndarray, clearance_m: float, steps: int = 8) -> np.ndarray:
-    """Move (M, 3) points closer than ``clearance_m`` to the skin (or inside) out of the body.
-
-    The first step moves along ``direction`` (M, 3), the card's skin normal, which near the root is the field
-    gradient to within a few degrees and saves the six field evaluations of a numerical gradient per point.
-    The few points still too close after it (a tip reaching the curved shoulder) then move along the field
-    gradient. The field is evaluated again only on the points that moved.
-    """
+    """Move (M, 3) points closer than ``clearance_m`` to the skin (or inside) out of the body: first along
+    ``direction`` (M, 3), the card's skin normal (near the root the field gradient to within a few degrees, without
+    the six field evaluations of a numerical gradient), then the few still too close (a tip reaching the curved
+    shoulder) along the field gradient. The field is evaluated again only on the points that moved."""
     p = points.copy()
     todo = np.arange(len(p))
     d = _sdf.body_sdf(p)
@@ -192,8 +189,7 @@ def build_cards(body, params) -> FeatherCards:
     local = np.stack([2 * j, 2 * j + 1, 2 * j + 3, 2 * j + 2], axis=1)  # (K, 4)
     quads = (local[None, :, :] + (VERTICES_PER_CARD * np.arange(n_cards))[:, None, None]).reshape(-1, 4)
 
-    s, _ = _neck.neck_s(roots)
-    s = np.clip(s, 0.0, 1.0)
+    s = np.clip(_neck.neck_s(roots)[0], 0.0, 1.0)
     field = _thickness.thickness_field(roots, params, stream(params.seed, STREAM_THICKNESS))
     thickness = _thickness.place_thickness_nm(field, params.thickness_base_nm, params.thickness_top_nm)
     return FeatherCards(points_m=pts.reshape(-1, 3).astype(np.float32),

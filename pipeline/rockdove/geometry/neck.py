@@ -40,8 +40,7 @@ def neck_s(points_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     length = np.linalg.norm(axis)
     q = p - _sdf.NECK_BASE_M
     s = (q @ axis) / (length * length)
-    radial = q - s[:, None] * axis
-    return s, np.linalg.norm(radial, axis=1)
+    return s, np.linalg.norm(q - s[:, None] * axis, axis=1)
 
 
 def in_band(points_m: np.ndarray, s_max: float = 1.0) -> np.ndarray:
@@ -52,8 +51,7 @@ def in_band(points_m: np.ndarray, s_max: float = 1.0) -> np.ndarray:
 
 def band_faces(vertices_m: np.ndarray, faces: np.ndarray, s_max: float = 1.0) -> np.ndarray:
     """(F,) bool: triangles with at least one corner in the band (a superset used to draw candidates)."""
-    vin = in_band(vertices_m, s_max)
-    return vin[faces].any(axis=1)
+    return in_band(vertices_m, s_max)[faces].any(axis=1)
 
 
 def triangle_areas(vertices_m, faces) -> np.ndarray:
@@ -66,8 +64,7 @@ def sample_triangles(vertices_m, faces, count: int, rng: np.random.Generator) ->
     """(count, 3) uniform random points on a triangle set, by area (Turk 1990)."""
     tri = vertices_m[faces]
     cdf = np.cumsum(triangle_areas(vertices_m, faces))
-    face_index = np.searchsorted(cdf, rng.random(count) * cdf[-1], side="right")
-    face_index = np.minimum(face_index, len(faces) - 1)
+    face_index = np.minimum(np.searchsorted(cdf, rng.random(count) * cdf[-1], side="right"), len(faces) - 1)
     r1 = np.sqrt(rng.random(count))
     r2 = rng.random(count)
     bary = np.stack([1.0 - r1, r1 * (1.0 - r2), r1 * r2], axis=1)
@@ -85,8 +82,7 @@ def band_area_m2(vertices_m, faces, s_max: float = 1.0) -> float:
 def sample_band_uniform(vertices_m, faces, count: int, rng: np.random.Generator, s_max: float = 1.0) -> np.ndarray:
     """(count, 3) independent uniform points in the band (rejection from the candidate triangles)."""
     sub = faces[band_faces(vertices_m, faces, s_max)]
-    out = []
-    have = 0
+    out, have = [], 0
     batch = int(count * 1.5) + 64
     while have < count:  # a few rounds of rejection, never a loop over points
         pts = sample_triangles(vertices_m, sub, batch, rng)

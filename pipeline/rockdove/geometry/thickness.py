@@ -52,9 +52,7 @@ def thickness_bounds_nm(s: np.ndarray, base_nm, top_nm) -> tuple[np.ndarray, np.
     """(lo, hi) (N,) float64 thickness bounds, nm, at neck heights ``s`` (:func:`neck_height`) for the (min, max)
     ranges ``base_nm`` at s = 0 and ``top_nm`` at s = 1."""
     g = _sdf.smoothstep(0.0, 1.0, s)
-    lo = base_nm[0] + g * (top_nm[0] - base_nm[0])
-    hi = base_nm[1] + g * (top_nm[1] - base_nm[1])
-    return lo, hi
+    return base_nm[0] + g * (top_nm[0] - base_nm[0]), base_nm[1] + g * (top_nm[1] - base_nm[1])
 
 
 def smooth_field(points_m: np.ndarray, correlation_length_m: float, rng: np.random.Generator) -> np.ndarray:
@@ -66,8 +64,7 @@ def smooth_field(points_m: np.ndarray, correlation_length_m: float, rng: np.rand
     b = rng.uniform(0.0, 2.0 * np.pi, FIELD_FEATURES)
     out = np.empty(len(p))
     for start in range(0, len(p), FIELD_BLOCK):
-        phase = p[start:start + FIELD_BLOCK] @ w + b
-        out[start:start + FIELD_BLOCK] = np.cos(phase).sum(axis=1)
+        out[start:start + FIELD_BLOCK] = np.cos(p[start:start + FIELD_BLOCK] @ w + b).sum(axis=1)
     return out * np.sqrt(2.0 / FIELD_FEATURES)
 
 

@@ -97,11 +97,10 @@ def ground_y_m(scene) -> float:
 
 
 def cyclorama(scene, views, segments: int = 96) -> tuple[np.ndarray, np.ndarray]:
-    """The ground both renderers draw, a photo studio's cyclorama as a bowl centred under the bird: a flat floor
-    at :func:`ground_y_m` to 0.7 of its radius (:data:`GROUND_RADIUS` x the farthest camera's distance), curving
-    up (a quarter circle) into a wall 0.6 x the radius high, so no horizon line crosses the picture; the wall's
-    top is 31 degrees above the bird, below the sun. ``(vertices (V, 3) metres, quads (F, 4))``, normals up
-    and inward (counter-clockwise seen from inside)."""
+    """The ground both renderers draw, a photo studio's cyclorama as a bowl under the bird: a flat floor at
+    :func:`ground_y_m` to 0.7 of its radius (:data:`GROUND_RADIUS` x the farthest camera's distance) curving up into
+    a wall 0.6 x the radius high (top 31 degrees above the bird, below the sun), so no horizon line crosses the
+    picture. ``(vertices (V, 3) metres, quads (F, 4))``, counter-clockwise seen from inside."""
     centre = scene.bounds_m.mean(axis=0)
     big = GROUND_RADIUS * max(float(np.linalg.norm(v.eye_m - centre)) for v in views)
     a = np.linspace(0.0, 0.5 * math.pi, 9)
