@@ -1,16 +1,9 @@
-"""rockdove's library API: configuration, build and verification as values, in any Python process.
-
-The three-line notebook use::
-
-    from rockdove import api
-    result = api.build(api.load_config(preset="paper", overrides={"lut.angles": 128}), "build/pigeon")
-    print(result.ran, result.reused, result.verified, result.report_dir)
+"""rockdove's library API: configuration, build and verification as values, in any Python process (docs/python.md).
 
 ``rockdove build``, ``rockdove verify``, ``rockdove sweep``'s Dask workers, the benchmarks and the tests all call
-these functions; the command line only turns options into their arguments and results into text.
-
-Errors: :class:`rockdove.errors.UsageError` (a ``ValueError``) for bad configuration, output or asset, naming
-what was wrong, before anything is written; :class:`BuildFailed` when the build's verification fails.
+these functions; the command line only turns options into their arguments and results into text. Errors:
+:class:`rockdove.errors.UsageError` (a ``ValueError``) for bad configuration, output or asset, naming what was
+wrong, before anything is written; :class:`BuildFailed` when the build's verification fails.
 """
 
 from __future__ import annotations

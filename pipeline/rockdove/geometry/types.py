@@ -41,9 +41,7 @@ class Primvar:
 
     def __post_init__(self):
         if self.interpolation not in INTERPOLATIONS:
-            raise UsageError(
-                f"interpolation={self.interpolation!r} is not allowed; use one of {INTERPOLATIONS}"
-            )
+            raise UsageError(f"interpolation={self.interpolation!r} is not allowed; use one of {INTERPOLATIONS}")
 
 
 @dataclass(frozen=True)

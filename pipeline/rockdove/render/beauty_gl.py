@@ -8,14 +8,10 @@ them in linear light:
   R. Fernando, "Percentage-Closer Soft Shadows", SIGGRAPH 2005 sketch);
 - the sky: :data:`SKY_LIGHTS` unshadowed directional lights (:func:`_sky_lights`);
 - anti-aliasing: the key at :data:`SUPERSAMPLE` x the size, its shadow looked up at each sample, box-filtered;
-  mip-mapped textures (the coat's feather tiles showed moire). Against a 16-sample render the edges' pixels are off
-  by 1.9 and 2.9 (8-bit) in the two views (5.1 and 11.4 with the shadow looked up once a pixel); 4x multisampled
-  sky fills gave 1.6 and 2.4 for 35 % more CPU, a multisampled key too no better for 80 % more (llvmpipe);
+  mip-mapped textures (the coat's feather tiles showed moire);
 - exposed, put through a filmic curve (K. Narkowicz, "ACES Filmic Tone Mapping Curve", 2016) and the sRGB OETF.
 
-Against rays cast toward the sun (the reference's ray caster) from the visible points of the two 768 x 512 views of
-the default bird, the visibility differs by 0.08 and 0.06 on average, 6 % and 4 % of the points by more than half
-(a constant 3 mm bias on a 1024 px map: 0.12, 10-11 %).
+What these choices were measured against (a 16-sample render; shadow rays): docs/pictures.md.
 """
 
 from __future__ import annotations
