@@ -18,6 +18,7 @@ from .geometry.colours import WING_BAR_SRGB, body_colour_at  # noqa: F401
 from .geometry.colours import linear as _linear
 from .geometry.colours import mix as _mix
 from .geometry.sdf import smoothstep as _smoothstep
+from .srgb import linear_to_srgb8 as _encode  # the project's one sRGB 8-bit encoding
 
 #: sRGB 8-bit colour of a neck feather's vane (its rachis and down are painted paler by :func:`feather_tile`).
 VANE_SRGB = (56, 61, 66)
@@ -39,12 +40,6 @@ def _resolution(value, attr="feather_texture_resolution") -> int:
     if isinstance(res, bool) or not isinstance(res, (int, np.integer)) or not 16 <= res <= 8192:
         raise UsageError(f"resolution_or_params={value!r} must be BirdParams or an integer resolution in [16, 8192]")
     return int(res)
-
-
-def _encode(linear: np.ndarray) -> np.ndarray:
-    from rockdove.srgb import linear_to_srgb8  # the project's one sRGB 8-bit encoding
-
-    return linear_to_srgb8(linear)
 
 
 def feather_tile(kind: str, srgb, seed: int, height: int, width: int) -> tuple:
@@ -174,10 +169,8 @@ def rasterize_uv(st: np.ndarray, faces: np.ndarray, resolution: int, chunk: int 
         w2 = (v0[:, 0] * v2[:, 1] - v2[:, 0] * v0[:, 1]) / den
         w0 = 1.0 - w1 - w2
         inside = ok & (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9)
-        out[0].append(py[inside])
-        out[1].append(px[inside])
-        out[2].append(start + tid[inside])
-        out[3].append(np.stack([w0, w1, w2], axis=1)[inside])
+        for o, found in zip(out, (py, px, start + tid, np.stack([w0, w1, w2], axis=1))):
+            o.append(found[inside])
     return tuple(np.concatenate(o) for o in out)
 
 
@@ -198,10 +191,8 @@ def body_base_colour(resolution_or_params, bird) -> np.ndarray:
     if not isinstance(part, MeshPart):
         raise UsageError(f"bird={type(bird).__name__} must be a Bird, a Body or the Body MeshPart")
     faces = part.face_vertex_indices.reshape(-1, 3).astype(np.int64)
-    st = part.st.astype(np.float64)
-    points = part.points_m.astype(np.float64)
-    rows, cols, face, bary = rasterize_uv(st, faces, res)
-    pts = np.einsum("nk,nkd->nd", bary, points[faces[face]])
+    rows, cols, face, bary = rasterize_uv(part.st.astype(np.float64), faces, res)
+    pts = np.einsum("nk,nkd->nd", bary, part.points_m.astype(np.float64)[faces[face]])
     img = np.zeros((res, res, 3), dtype=np.uint8)
     img[rows, cols] = _encode(body_colour_at(pts))
     empty = np.ones((res, res), dtype=bool)

@@ -52,17 +52,15 @@ class ThinFilmLUT:
         if not (np.isfinite(lo) and np.isfinite(hi)) or lo < 0 or hi < lo:
             raise UsageError(f"thickness_range_nm must be (lo, hi) with 0 <= lo <= hi, got {(lo, hi)}")
         if (rgb.shape[0] == 1) != (lo == hi):
-            raise UsageError(
-                f"a one-texel-high table needs lo == hi and vice versa; got {rgb.shape[0]} rows for {(lo, hi)}"
-            )
+            raise UsageError(f"a one-texel-high table needs lo == hi and vice versa; got {rgb.shape[0]} rows for "
+                             f"{(lo, hi)}")
         if not (np.isfinite(self.angle_warp_gamma) and self.angle_warp_gamma > 0):
             raise UsageError(f"angle_warp_gamma must be > 0, got {self.angle_warp_gamma}")
         rgb = np.ascontiguousarray(rgb)
         rgb.setflags(write=False)
-        object.__setattr__(self, "rgb", rgb)
-        object.__setattr__(self, "thickness_range_nm", (lo, hi))
-        object.__setattr__(self, "angle_warp_gamma", float(self.angle_warp_gamma))
-        object.__setattr__(self, "metadata", dict(self.metadata))
+        for name, value in (("rgb", rgb), ("thickness_range_nm", (lo, hi)),
+                            ("angle_warp_gamma", float(self.angle_warp_gamma)), ("metadata", dict(self.metadata))):
+            object.__setattr__(self, name, value)
 
     @property
     def n_angle(self) -> int:
@@ -75,8 +73,7 @@ class ThinFilmLUT:
     @property
     def cos_theta(self) -> np.ndarray:
         """Angle nodes, cos theta, shape (n_angle,), increasing from 0 to 1."""
-        x = np.linspace(0.0, 1.0, self.n_angle)
-        return x**self.angle_warp_gamma
+        return np.linspace(0.0, 1.0, self.n_angle) ** self.angle_warp_gamma
 
     @property
     def thickness_nm(self) -> np.ndarray:
@@ -103,13 +100,11 @@ class ThinFilmLUT:
     def sample(self, cos_theta, thickness_nm) -> np.ndarray:
         """Bilinear lookup (float64, broadcast shape + (3,)), clamped to the axes: a GPU's linear filtering."""
         x, y = self.node_coords(cos_theta, thickness_nm)
-        fx = x * (self.n_angle - 1)
-        fy = y * (self.n_thickness - 1)
+        fx, fy = x * (self.n_angle - 1), y * (self.n_thickness - 1)
         j0 = np.clip(np.floor(fx).astype(np.intp), 0, self.n_angle - 2)
         i0 = np.clip(np.floor(fy).astype(np.intp), 0, max(self.n_thickness - 2, 0))
         i1 = np.minimum(i0 + 1, self.n_thickness - 1)
-        tx = (fx - j0)[..., None]
-        ty = (fy - i0)[..., None]
+        tx, ty = (fx - j0)[..., None], (fy - i0)[..., None]
         t = self.rgb  # float32 texels gathered, then promoted exactly by the float64 weights (no full-table copy)
         c0 = t[i0, j0] * (1 - tx) + t[i0, j0 + 1] * tx
         c1 = t[i1, j0] * (1 - tx) + t[i1, j0 + 1] * tx
