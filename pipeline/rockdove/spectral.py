@@ -188,10 +188,9 @@ def _xyz_to_rgb_matrix_t(colour_space: str) -> np.ndarray:
 
     def compute() -> dict:
         colour = _colour()
-        m = colour.XYZ_to_RGB(np.eye(3), colour.RGB_COLOURSPACES[_COLOURSPACE_NAMES[colour_space]],
-                              illuminant=white, chromatic_adaptation_transform=CHROMATIC_ADAPTATION,
-                              apply_cctf_encoding=False)
-        return {"matrix": m}
+        return {"matrix": colour.XYZ_to_RGB(np.eye(3), colour.RGB_COLOURSPACES[_COLOURSPACE_NAMES[colour_space]],
+                                            illuminant=white, chromatic_adaptation_transform=CHROMATIC_ADAPTATION,
+                                            apply_cctf_encoding=False)}
 
     # the white is derived from the tables; naming the file by it keeps a matrix from outliving its white
     return colour_data(f"xyz-to-{colour_space}-{CHROMATIC_ADAPTATION}-{white[0]:.15f}-{white[1]:.15f}",
@@ -215,8 +214,7 @@ def XYZ_to_RGB(XYZ, colour_space="lin_rec709") -> np.ndarray:
 
 def RGB_to_XYZ(RGB, colour_space="lin_rec709") -> np.ndarray:
     """Inverse of :func:`XYZ_to_RGB`: (..., 3) linear RGB -> (..., 3) CIE XYZ."""
-    m = _xyz_to_rgb_matrix_t(check_colour_space(colour_space))
-    return np.asarray(RGB, dtype=np.float64) @ np.linalg.inv(m)
+    return np.asarray(RGB, dtype=np.float64) @ np.linalg.inv(_xyz_to_rgb_matrix_t(check_colour_space(colour_space)))
 
 
 #: CIE 15:2004 CIELAB constants, exact rationals: epsilon = (6/29)^3, kappa = (29/3)^3.
@@ -316,6 +314,4 @@ def RGB_to_preview8(rgb, colour_space="lin_rec709") -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         s = np.where(neg & (lum > 0), lum / (lum - low), 1.0)
     mapped = np.where(neg, np.where(lum > 0, lum + s * (rgb - lum), 0.0), rgb)
-    mapped = np.clip(mapped, 0.0, 1.0)
-    encoded = srgb_encode(mapped)
-    return np.round(np.clip(encoded, 0.0, 1.0) * 255.0).astype(np.uint8)
+    return np.round(np.clip(srgb_encode(np.clip(mapped, 0.0, 1.0)), 0.0, 1.0) * 255.0).astype(np.uint8)

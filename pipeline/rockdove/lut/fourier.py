@@ -112,8 +112,7 @@ def airy_fourier_coefficients(a, b):
     """``(c0, c1, rho)`` with ``R(phi) = c0 + 2 sum_m c1 rho^(m-1) cos(m phi)`` (module docstring) for the real
     amplitude coefficients ``a = r_ab``, ``b = r_bc`` (|a|, |b| <= 1); at ``a^2 b^2 = 1`` (grazing) the limit
     ``c0 = 1, c1 = 0``."""
-    a = np.asarray(a, dtype=np.float64)
-    b = np.asarray(b, dtype=np.float64)
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
     a2, b2 = a * a, b * b
     den = 1.0 - a2 * b2
     limit = den <= 1e-300
@@ -135,9 +134,7 @@ def n_terms_needed(c1, rho, opd_nm, table: GTable, tol: float) -> np.ndarray:
         scale = 2.0 * c1
         # the geometric remainder bound (G bounded by its maximum): the count for thin films
         ratio = tol * (1.0 - r) / (scale * g_max)
-        m_geom = np.where(
-            ratio >= 1.0, 0.0, np.where(r > 0.0, np.ceil(np.log(ratio) / np.log(r)), 1.0)
-        )
+        m_geom = np.where(ratio >= 1.0, 0.0, np.where(r > 0.0, np.ceil(np.log(ratio) / np.log(r)), 1.0))
         # decay of G alone (one search per coefficient, before broadcasting with the OPDs)
         x_star = table.first_x_below(tol / scale)
         m_dead = np.where(opd > 0.0, np.ceil(x_star / opd) - 1.0, np.inf)
@@ -156,10 +153,7 @@ def fourier_colour_grid(c0, c1, rho, opd_nm, n_terms, table: GTable) -> np.ndarr
     """
     import scipy.sparse
 
-    c0 = np.asarray(c0, dtype=np.float64)
-    c1 = np.asarray(c1, dtype=np.float64)
-    rho = np.asarray(rho, dtype=np.float64)
-    opd = np.asarray(opd_nm, dtype=np.float64)
+    c0, c1, rho, opd = (np.asarray(v, dtype=np.float64) for v in (c0, c1, rho, opd_nm))
     n_thick, n_ang = opd.shape
     n_pol = c0.shape[1]
     out = np.broadcast_to((c0.mean(axis=1)[:, None] * table.w0[None, :])[None], (n_thick, n_ang, 3)).copy()
@@ -191,9 +185,7 @@ def fourier_colour_grid(c0, c1, rho, opd_nm, n_terms, table: GTable) -> np.ndarr
         data = np.empty(f.shape + (2,), np.float32)  # float32 halves memory traffic; G is ~1, tol >= 1e-6
         data[..., 1] = cb * frac
         data[..., 0] = cb - data[..., 1]
-        indices = np.empty(f.shape + (2,), np.int32)
-        indices[..., 0] = k
-        indices[..., 1] = k + 1
+        indices = np.stack([k, k + 1], axis=-1)  # int32, as k
         rows = n_thick * cols.size
         indptr = np.arange(rows + 1, dtype=np.int32) * (2 * mb)
         mat = scipy.sparse.csr_matrix((data.ravel(), indices.ravel(), indptr), shape=(rows, n_x + 2))
