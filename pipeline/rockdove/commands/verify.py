@@ -12,6 +12,8 @@ import json
 import os
 import sys
 
+from .validate import add_external_argument
+
 
 def _ranged(key: str, unit: str):
     """An argparse type: an integer within the schema's range of config ``key`` (the memory budget)."""
@@ -79,8 +81,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="a time code of --motion to check the film at (repeatable; default 15, 21 and 26: "
                              "one step of the walk)")
     parser.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
-    from .validate import add_external_argument
-
     add_external_argument(parser)
 
 
