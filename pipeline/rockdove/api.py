@@ -130,8 +130,7 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
 
     Order of work: output checked -> lock taken -> leftovers of killed builds cleaned -> stages run or reused
     -> asset assembled in a staging folder beside ``out``, marker written -> verification on the staged asset
-    -> atomic swap into place. Ctrl-C (and SIGTERM, when called from the main thread) removes the staging folder.
-    """
+    -> atomic swap into place. Ctrl-C (and SIGTERM, when called from the main thread) removes the staging folder."""
     from .config import validate
     from .graph import stages as build_stages
     from .graph.engine import Cache, Graph
@@ -208,8 +207,7 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
     the film at those time codes).
 
     Returns :class:`Verification` (a failed check: ``passed`` False). Raises :class:`UsageError` for bad usage
-    and :class:`VerificationFailed`, before rendering, when the asset's layers do not parse or name files outside it.
-    """
+    and :class:`VerificationFailed`, before rendering, when the asset's layers do not parse or name files outside it."""
     from .graph import verification
     from .graph.publish import staged_output
     from .usd.dependencies import require_inside

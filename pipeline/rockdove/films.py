@@ -51,8 +51,7 @@ class FilmModel:
 
     ``name``: non-empty (registry name); ``cauchy_a`` > 0; ``cauchy_b_nm2`` >= 0 in nm**2 (0: no dispersion);
     ``k`` >= 0, the film's constant extinction; ``n_incident`` real (reflectance is measured in a transparent
-    medium) and ``n_substrate`` (real part > 0, imaginary part >= 0).
-    """
+    medium) and ``n_substrate`` (real part > 0, imaginary part >= 0)."""
 
     name: str
     cauchy_a: float

@@ -250,8 +250,7 @@ def Lab_to_XYZ(Lab) -> np.ndarray:
 def delta_E_2000(Lab_a, Lab_b) -> np.ndarray:
     """CIEDE2000 colour difference (...) of two CIELAB arrays (..., 3), k_L = k_C = k_H = 1: Sharma, Wu and Dalal
     (2005), "The CIEDE2000 color-difference formula: implementation notes, supplementary test data, and
-    mathematical observations", Color Res. Appl. 30(1), eq. 1-24 (hue angles in degrees; h' = 0 where a' = b' = 0).
-    """
+    mathematical observations", Color Res. Appl. 30(1), eq. 1-24 (hue angles in degrees; h' = 0 where a' = b' = 0)."""
     L1, a1, b1 = np.moveaxis(np.asarray(Lab_a, dtype=np.float64), -1, 0)
     L2, a2, b2 = np.moveaxis(np.asarray(Lab_b, dtype=np.float64), -1, 0)
     c_bar = 0.5 * (np.hypot(a1, b1) + np.hypot(a2, b2))
@@ -299,8 +298,7 @@ def RGB_to_preview8(rgb, colour_space="lin_rec709") -> np.ndarray:
     Per colour: convert to linear Rec.709; out of gamut (a negative component), desaturate toward its own
     Rec.709 luminance Y = 0.2126 R + 0.7152 G + 0.0722 B by the least amount that makes every component >= 0,
     ``Y + s (rgb - Y)`` with ``s = Y / (Y - min(rgb))`` (hue and luminance kept; Y <= 0 becomes black); clip
-    to 1; sRGB OETF (IEC 61966-2-1, :func:`srgb_encode`), round to 0-255.
-    """
+    to 1; sRGB OETF (IEC 61966-2-1, :func:`srgb_encode`), round to 0-255."""
     rgb = np.asarray(rgb, dtype=np.float64)
     if rgb.shape[-1:] != (3,):
         raise UsageError(f"rgb must have a trailing axis of 3, got shape {rgb.shape}")

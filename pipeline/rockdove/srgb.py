@@ -31,8 +31,7 @@ def linear_to_srgb8(rgb) -> np.ndarray:
     The code ``round(255 * srgb_encode(clip(v, 0, 1)))`` is a step function of ``v`` with 255 steps at least 3e-4
     apart (:func:`_srgb8_steps`), so [0, 1] is cut into :data:`_SRGB8_CELLS` cells with at most one step each
     (:func:`_srgb8_cells`): a value's code is its cell's, plus one at or above the cell's step. That gives the
-    formula's codes for every float64 and float32, 8.7-9x faster than a binary search among the steps.
-    """
+    formula's codes for every float64 and float32, 8.7-9x faster than a binary search among the steps."""
     rgb = np.asarray(rgb)
     if rgb.dtype != np.float32:
         rgb = np.asarray(rgb, dtype=np.float64)

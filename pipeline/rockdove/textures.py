@@ -180,8 +180,7 @@ def body_base_colour(resolution_or_params, bird) -> np.ndarray:
 
     Every texel a UV triangle covers gets the colour of its 3-D point (:func:`body_colour_at`); the empty texels
     between charts take the colour of the nearest covered texel, so bilinear filtering and mipmaps do not bleed
-    background into the seams.
-    """
+    background into the seams."""
     from scipy import ndimage
 
     from rockdove.geometry.types import Bird, MeshPart

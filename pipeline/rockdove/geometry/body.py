@@ -188,8 +188,7 @@ def subdivide_onto_surface(field, points_m: np.ndarray, faces: np.ndarray, st: n
     ``faces`` (F, 3) counter-clockwise from outside; ``st`` (V, 2)) on the zero set of ``field`` ``levels`` times,
     keeping its seams closed (module docstring). Returns (welded (W, 3) float64 on the surface; to_welded (V',)
     int64, the welded vertex of each split vertex; faces (4**levels F, 3) int64 in split indices, the children of
-    input face i contiguous in input order; st (V', 2) float64, linear along every original edge).
-    """
+    input face i contiguous in input order; st (V', 2) float64, linear along every original edge)."""
     from trimesh import remesh
 
     if isinstance(levels, bool) or not isinstance(levels, (int, np.integer)) or levels < 0:

@@ -79,8 +79,7 @@ class BirdParams:
     thickness field (:mod:`rockdove.geometry.thickness`: ranges at the neck's base and top, nm; correlation
     length, m; spread, a fraction of the range's half-width; per-card jitter, nm); the texture resolutions are
     texels; ``body_voxel_m`` is about the body's edge length, m, snapped to a subdivision level of the 8 mm
-    unwrap mesh (:func:`rockdove.geometry.body.subdivision_levels`).
-    """
+    unwrap mesh (:func:`rockdove.geometry.body.subdivision_levels`)."""
 
     seed: int = 0
     card_count: int = 1500

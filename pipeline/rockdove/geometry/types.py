@@ -51,8 +51,7 @@ class MeshPart:
     ``points_m`` (V, 3) float32 metres; ``face_vertex_counts`` (F,) int32; ``face_vertex_indices`` int32,
     counter-clockwise seen from outside; ``normals`` (V, 3) float32 unit, outward; ``st`` (V, 2) float32 in
     [0, 1] (vertices are split at UV seams); ``material`` one of :data:`MATERIALS`; ``display_color`` linear RGB,
-    the fallback of viewers without materials; ``primvars`` name -> :class:`Primvar`.
-    """
+    the fallback of viewers without materials; ``primvars`` name -> :class:`Primvar`."""
 
     name: str
     points_m: np.ndarray

@@ -54,8 +54,7 @@ def write_exr(lut: ThinFilmLUT, path, precision: str | None = None) -> str:
     returns ``path`` as a string. Written directly (``rockdove lut`` writes a temporary name and replaces).
     ``precision`` ("float32" or "half"): default ``lut.metadata["precision"]`` when the LUT carries one (the build's
     ``lut.precision = "half"`` rounds its values and records it there), else "float32"; "half" rounds to the
-    nearest half float (values beyond +-65504 become inf).
-    """
+    nearest half float (values beyond +-65504 become inf)."""
     import OpenEXR
 
     if not isinstance(lut, ThinFilmLUT):
@@ -77,8 +76,7 @@ def read_exr(path) -> ThinFilmLUT:
     """Read a LUT written by :func:`write_exr`: the same ``rgb`` (bit exact; HALF channels widened to float32
     exactly), axes, colour space and metadata, ``metadata["precision"]`` the channel type. FileNotFoundError when
     ``path`` does not exist; UsageError (a ValueError) when it is not an OpenEXR file or not a rockdove LUT (no
-    ``rockdove:format`` attribute, missing axis attributes, or no FLOAT/HALF RGB channels).
-    """
+    ``rockdove:format`` attribute, missing axis attributes, or no FLOAT/HALF RGB channels)."""
     import OpenEXR
 
     path = os.fspath(path)

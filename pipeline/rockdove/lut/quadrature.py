@@ -191,8 +191,7 @@ def _series_form(coef, layout, thickness_nm, n_terms, out, chunk):
             = [((1 - rho) - 2 s2)(1 - rho^M cos(M phi)) + rho^M sin(M phi) sin(phi)] / ((1 - rho)^2 + 4 rho s2),
 
     so float32 trigonometry suffices once ``phi / 2`` and ``M phi`` (thousands of radians) are reduced modulo one
-    period in float64.
-    """
+    period in float64."""
     from . import fourier
 
     cycles = coef["n_b"] * coef["cos_b"] / layout.lam  # phi / (4 pi d): phase cycles per nm of film, / 2
