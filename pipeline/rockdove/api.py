@@ -126,11 +126,9 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
     ``cache``: the stage cache (default ``.rockdove-cache`` beside ``out``), shared with :func:`verify`.
     ``verify``: run the verification on the staged asset; a failure publishes nothing and raises
     :class:`BuildFailed`. ``lock_timeout``: seconds to wait for another build of the same output (default: until
-    it finishes), then UsageError (the wait is logged on the ``rockdove`` logger); ``progress(stage_name)`` as each starts.
-
-    Order of work: output checked -> lock taken -> leftovers of killed builds cleaned -> stages run or reused
-    -> asset assembled in a staging folder beside ``out``, marker written -> verification on the staged asset
-    -> atomic swap into place. Ctrl-C (and SIGTERM, when called from the main thread) removes the staging folder."""
+    it finishes), then UsageError (the wait is logged on the ``rockdove`` logger); ``progress(stage_name)`` as each
+    starts. The asset is assembled and verified in a staging folder beside ``out``, then swapped into place; Ctrl-C
+    (and SIGTERM, when called from the main thread) removes the staging folder."""
     from .config import validate
     from .graph import stages as build_stages
     from .graph.engine import Cache, Graph

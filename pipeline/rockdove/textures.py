@@ -176,11 +176,9 @@ def rasterize_uv(st: np.ndarray, faces: np.ndarray, resolution: int, chunk: int 
 
 def body_base_colour(resolution_or_params, bird) -> np.ndarray:
     """(R, R, 3) uint8 sRGB base colour of the body in its xatlas UVs (R: 16 .. 8192 or BirdParams'
-    ``body_texture_resolution``; ``bird``: a Bird, a Body or the Body MeshPart).
-
-    Every texel a UV triangle covers gets the colour of its 3-D point (:func:`body_colour_at`); the empty texels
-    between charts take the colour of the nearest covered texel, so bilinear filtering and mipmaps do not bleed
-    background into the seams."""
+    ``body_texture_resolution``; ``bird``: a Bird, a Body or the Body MeshPart): each covered texel the colour of its
+    3-D point (:func:`body_colour_at`), the empty texels between charts the nearest covered one's, so bilinear
+    filtering and mipmaps do not bleed background into the seams."""
     from scipy import ndimage
 
     from rockdove.geometry.types import Bird, MeshPart

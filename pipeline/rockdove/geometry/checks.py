@@ -48,17 +48,15 @@ def band_coverage(body_vertices_m, body_faces, cards, rays: int = 2000, tilt_deg
 
     rng = np.random.default_rng(seed)
     target = _neck.sample_band_uniform(body_vertices_m, body_faces, rays, rng)
-    normal = _sdf.sdf_gradient(_sdf.body_sdf, target)
-    view = _tilted(normal, tilt_deg, rng)
+    view = _tilted(_sdf.sdf_gradient(_sdf.body_sdf, target), tilt_deg, rng)
     origin = target + RAY_START_M * view
     card_tri = cards.triangles()
-    n_card_tri = len(card_tri)
     verts = np.concatenate([cards.points_m.astype(np.float64), body_vertices_m])
     faces = np.concatenate([card_tri, np.asarray(body_faces) + len(cards.points_m)])
     scene = trimesh.Trimesh(verts, faces, process=False)
     loc, ray_id, tri_id = scene.ray.intersects_location(origin, -view, multiple_hits=True)
     dist = np.einsum("ij,ij->i", loc - origin[ray_id], -view[ray_id])
-    is_card = tri_id < n_card_tri
+    is_card = tri_id < len(card_tri)
     opaque = np.ones(len(tri_id), dtype=bool)
     if alpha is not None:
         tri = scene.triangles[tri_id[is_card]]
@@ -87,8 +85,7 @@ def root_skin_distance_m(body_vertices_m, body_faces, cards) -> np.ndarray:
 
     mesh = trimesh.Trimesh(body_vertices_m, body_faces, process=False)
     roots = cards.points_m.reshape(cards.count, -1, 3)[:, :2].reshape(-1, 3).astype(np.float64)
-    _, dist, _ = trimesh.proximity.closest_point(mesh, roots)
-    return dist
+    return trimesh.proximity.closest_point(mesh, roots)[1]
 
 
 def beyond_root_signed_distance_m(body_vertices_m, body_faces, cards) -> np.ndarray:

@@ -101,8 +101,7 @@ class View:
 
 def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
     """Camera-to-world matrix (OpenGL: looks down -Z) of a camera at ``eye`` looking at ``target``, (4, 4)."""
-    eye = np.asarray(eye, dtype=np.float64)
-    target = np.asarray(target, dtype=np.float64)
+    eye, target = np.asarray(eye, dtype=np.float64), np.asarray(target, dtype=np.float64)
     z = eye - target
     if np.linalg.norm(z) == 0:
         raise UsageError(f"eye and target must differ, both are {eye.tolist()}")
@@ -126,8 +125,7 @@ def direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
 
 def _rotate(v, axis, angle_rad):
     """Rodrigues rotation of ``v`` about unit ``axis`` by ``angle_rad``."""
-    v = np.asarray(v, dtype=np.float64)
-    k = np.asarray(axis, dtype=np.float64)
+    v, k = np.asarray(v, dtype=np.float64), np.asarray(axis, dtype=np.float64)
     k = k / np.linalg.norm(k)
     c, s = math.cos(angle_rad), math.sin(angle_rad)
     return v * c + np.cross(k, v) * s + k * np.dot(k, v) * (1 - c)
