@@ -128,8 +128,7 @@ def _imports(node) -> list:
         elif isinstance(n, ast.Constant) and isinstance(n.value, str) and n.value.startswith("rockdove.") \
                 and not n.value.endswith("."):  # a whole name ("rockdove.x" or "rockdove.x:attr"), not a prefix
             out.append([-1, n.value.split(":")[0], []])
-        elif isinstance(n, ast.JoinedStr) and n.values and isinstance(n.values[0], ast.Constant) \
-                and str(n.values[0].value).startswith("rockdove."):
+        elif isinstance(n, ast.JoinedStr) and _literal(n):  # an f-string's "rockdove." prefix
             out.append([-1, n.values[0].value, []])
     return out
 

@@ -1,8 +1,6 @@
 """``rockdove verify ASSET``: :func:`rockdove.api.verify` (the build's verification with its cache: what a build or
-an earlier verification checked is not rendered again) and its results as text or ``--json``: per view, the
-light sweep's hues, the boundary, each host (an unavailable one SKIPPED with its reason, a failed one with its
-error), the anatomy and the notes (e.g. a physical-only asset's verification-only LUT, a check that could not
-run). Exit status 0 when everything passes, 1 when a check fails, 2 on bad usage.
+an earlier verification checked is not rendered again) and its results as text or ``--json``. Exit status 0 when
+everything passes, 1 when a check fails, 2 on bad usage.
 """
 
 from __future__ import annotations
