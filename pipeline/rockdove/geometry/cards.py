@@ -175,8 +175,7 @@ def build_cards(body, params) -> FeatherCards:
     push_dir = np.broadcast_to(n[:, None, None, :], pts[:, 1:].shape).reshape(-1, 3)
     pts[:, 1:] = _push_out(above, push_dir, CLEARANCE_M).reshape(pts[:, 1:].shape)
 
-    mid = pts.mean(axis=2)  # (N, K+1, 3)
-    along = np.gradient(mid, axis=1)
+    along = np.gradient(pts.mean(axis=2), axis=1)  # (N, K+1, 3), along the card's mid line
     across = pts[:, :, 1] - pts[:, :, 0]
     nrm = unit(np.cross(across, along))  # (N, K+1, 3), outward: b x t = n
     normals = np.repeat(nrm[:, :, None, :], 2, axis=2)

@@ -142,7 +142,6 @@ def blue_noise_band(vertices_m, faces, count: int, rng: np.random.Generator, s_m
     """(count, 3) blue-noise points in the neck band up to ``s_max``, uniform in area. ``area_m2``: the band's
     area (:func:`band_area_m2`), worth passing when sampling one body many times (estimating it costs more than
     sampling a thousand points), else estimated."""
-    m = int(np.ceil(CANDIDATES_PER_SAMPLE * count)) + 8
-    pts = sample_band_uniform(vertices_m, faces, m, rng, s_max)
+    pts = sample_band_uniform(vertices_m, faces, int(np.ceil(CANDIDATES_PER_SAMPLE * count)) + 8, rng, s_max)
     area = band_area_m2(vertices_m, faces, s_max) if area_m2 is None else area_m2
     return pts[eliminate(pts, int(count), area, rng)]

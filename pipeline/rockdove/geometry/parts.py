@@ -86,8 +86,7 @@ def _frame(direction: np.ndarray, up: np.ndarray = _Y_UP) -> np.ndarray:
     if np.linalg.norm(xc) < 1e-8:
         xc = np.cross(np.array([1.0, 0.0, 0.0]), zc)
     xc /= np.linalg.norm(xc)
-    yc = np.cross(zc, xc)
-    return np.stack([xc, yc, zc], axis=1)
+    return np.stack([xc, np.cross(zc, xc), zc], axis=1)
 
 
 def place(piece, origin_m, direction, scale_xy=(1.0, 1.0)):
@@ -127,10 +126,8 @@ def bill_root_m() -> np.ndarray:
     d = _BILL_AXIS
     start = np.array([0.0, BILL_AXIS_Y_M, float(_sdf.HEAD.centre_m[2])])
     # march out along the bill's direction from inside the head to the first point outside (0.05 mm steps)
-    ts = np.arange(0.0, 0.05, 0.00005)
-    pts = start[None, :] + ts[:, None] * d[None, :]
-    outside = np.flatnonzero(_sdf.body_sdf(pts) > 0.0)
-    return pts[outside[0]]
+    pts = start[None, :] + np.arange(0.0, 0.05, 0.00005)[:, None] * d[None, :]
+    return pts[np.flatnonzero(_sdf.body_sdf(pts) > 0.0)[0]]
 
 
 def build_beak() -> MeshPart:

@@ -46,8 +46,7 @@ def contact_sheet(path, rows, label_px: int = 28, background=(32, 32, 32)) -> st
     if not rows or not all(rows):
         raise UsageError("rows must hold at least one row, each of at least one (title, image) tile")
     h, w = rows[0][0][1].shape[:2]
-    ncol = max(len(r) for r in rows)
-    sheet = Image.new("RGB", (ncol * w, len(rows) * (h + label_px)), background)
+    sheet = Image.new("RGB", (max(len(r) for r in rows) * w, len(rows) * (h + label_px)), background)
     draw = ImageDraw.Draw(sheet)
     font = label_font(max(10, int(label_px * 0.6)))
     for r, row in enumerate(rows):

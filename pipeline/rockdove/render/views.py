@@ -222,7 +222,6 @@ def default_views(scene, width: int = 512, height: int = 512, n: int = 4) -> lis
     else:
         b = scene.bounds_m
         r = 0.25 * float(np.linalg.norm(b[1] - b[0]))
-    yfov = math.radians(SWEEP_YFOV_DEG)
-    dist = max(_fit_distance(max(r, 1e-3), yfov, width / height, margin=1.05), 0.06)
+    dist = max(_fit_distance(max(r, 1e-3), math.radians(SWEEP_YFOV_DEG), width / height, margin=1.05), 0.06)
     views += light_sweep_views(scene.neck_centre_m, n_sweep, width, height, distance_m=dist)
     return views

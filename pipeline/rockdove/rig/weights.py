@@ -129,8 +129,7 @@ def _per_component(comp, dist, values):
 def _roots(comp, depth, pts, tie_m: float = 1e-4):
     """Each point's component's root: the mean of its points within ``tie_m`` of its least ``depth`` (a card's two
     quill corners: the middle of its root row)."""
-    lowest = _per_component(comp, depth, depth)
-    sel = depth <= lowest + tie_m
+    sel = depth <= _per_component(comp, depth, depth) + tie_m
     n = np.bincount(comp[sel], minlength=comp.max() + 1)[:, None]
     total = np.stack([np.bincount(comp[sel], pts[sel, k], minlength=comp.max() + 1) for k in range(3)], 1)
     return (total / np.maximum(n, 1))[comp]
