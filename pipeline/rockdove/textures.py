@@ -1,12 +1,9 @@
-"""Procedural textures: the feather base colour + alpha silhouette and mask (the seed paper's two feather
-textures), the plumage atlas of the other cards (colour + soft alpha, normal map + roughness), and the body's
-base colour in its xatlas UVs.
+"""Procedural textures: the neck feathers' base colour + alpha and mask (the seed paper's two), the plumage atlas
+of the other cards (docs/plumage.md) and the body's base colour in its xatlas UVs.
 
-Image convention (docs/design.md, Textures): uint8 arrays, row 0 is the TOP of the image, so texel (row, col) of
-an (H, W) image sits at st = ((col + 0.5) / W, 1 - (row + 0.5) / H) (USD's st has t = 0 at the bottom). On a
-feather card u runs across the feather and v from the root (0) to the tip (1): the tip is at the top of the
-feather images. Colours are blended in linear Rec.709 and encoded sRGB (:func:`rockdove.srgb.linear_to_srgb8`);
-alpha and the mask are linear. The palette: :mod:`rockdove.geometry.colours`.
+Image convention (docs/design.md, Textures): uint8, row 0 at the TOP, texel (row, col) of an (H, W) image at
+st = ((col + 0.5) / W, 1 - (row + 0.5) / H); on a card the tip (v = 1) is at the top. Colours are blended in
+linear Rec.709 and encoded sRGB (:func:`rockdove.srgb.linear_to_srgb8`); alpha and the mask are linear.
 """
 
 from __future__ import annotations

@@ -1,17 +1,12 @@
 """The rock dove's plumage in real-time terms: feather cards over the head and body, the folded wings, the tail.
 
-Each feather is a card, as real-time creature assets groom them: a strip of :data:`SHAPE_V` rows from the quill
-(v = 0) to the tip (v = 1), three vertices across (the vane's edges and the rachis, raised by a camber), mapped
-onto one tile of the plumage atlas (:data:`rockdove.geometry.colours.ATLAS`, painted by
-:func:`rockdove.textures.plumage_atlas`): colour with a soft-edged alpha that cuts the feather's outline, and a
-normal map of the rachis and barbs with the roughness. The outline, size and pattern come from the tile's kind
-(:data:`rockdove.geometry.colours.KINDS`); each card draws one of its kind's variants and may be mirrored, so no
-pattern repeats. Every card is one connected component of its part (the rig binds each rigidly).
-
-Parts (:data:`CARD_PARTS`): ``HeadFeathers`` (:func:`build_head`), ``CoatFeathers`` (:func:`build_coat`, normals
-the body field's gradient, so the coat shades as one surface), ``Wings`` (:func:`build_wings`; the greater coverts'
-and the tertials'/secondaries' black subterminal patches line up into the rock dove's two curved wing bars) and
-``Tail`` (:func:`build_tail`; Columba livia has 12 rectrices).
+Each feather is a card (docs/plumage.md): a strip of :data:`SHAPE_V` rows from the quill (v = 0) to the tip
+(v = 1), three vertices across (the vane's edges and the raised rachis), on one tile of the plumage atlas
+(:data:`rockdove.geometry.colours.ATLAS`) whose kind sets the outline, size and pattern; each card draws one of its
+kind's variants and may be mirrored, so no pattern repeats. Every card is one connected component of its part (the
+rig binds each rigidly). Parts (:data:`CARD_PARTS`): :func:`build_head`, :func:`build_coat` (normals the body
+field's gradient, so the coat shades as one surface), :func:`build_wings` (the black subterminal patches line up
+into the two curved wing bars) and :func:`build_tail` (Columba livia has 12 rectrices).
 """
 
 from __future__ import annotations

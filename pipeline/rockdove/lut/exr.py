@@ -6,16 +6,10 @@ RGB, one scanline image, width ``n_angle``, height ``n_thickness``; FLOAT (32-bi
 ones when written with ``precision="half"`` (about half the file; the values are those of ``rgb`` rounded to
 the nearest half float, which :func:`read_exr` returns as float32, exactly). The *bottom* image row is the
 thinnest film (``rgb[0]``), matching USD's ``st`` (t = 0 at the bottom), so the image array written is
-``rgb[::-1]``. ZIP compression (lossless). Header string attributes, all prefixed ``rockdove:``:
-
-- ``rockdove:format`` = ``"ThinFilmLUT 1"``: marks a rockdove LUT; :func:`read_exr` refuses files without it;
-- ``rockdove:angleAxis`` = ``"cos_theta = x**gamma, x = j/(N-1)"``;
-- ``rockdove:angleWarpGamma``: gamma, ``repr`` of the float (round-trips exactly);
-- ``rockdove:thicknessRangeNm``: ``"lo hi"`` in nm, ``repr`` of the floats;
-- ``rockdove:colourSpace``: MaterialX colour-space name of the data;
-- ``rockdove:precision``: ``"float32"`` or ``"half"``, the channel type (read back into ``lut.metadata``);
-- every entry of ``lut.metadata`` as ``rockdove:<key>`` (film model and coefficients, illuminant, observer,
-  integration method, estimated error...).
+``rgb[::-1]``. ZIP compression (lossless). Header string attributes, all prefixed ``rockdove:`` (docs/design.md,
+"ThinFilmLUT"): ``format`` = :data:`FORMAT_TAG` (:func:`read_exr` refuses files without it), ``angleAxis``,
+``angleWarpGamma`` and ``thicknessRangeNm`` (``repr`` of the floats: they round-trip exactly), ``colourSpace``,
+``precision`` (the channel type) and every entry of ``lut.metadata`` as ``rockdove:<key>``.
 
 Determinism: OpenEXR 3.x's Python API writes only the attributes it is given plus the required ones
 (channels, compression, windows, line order, pixel aspect, screen window); no timestamp or host name. The

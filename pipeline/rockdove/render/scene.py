@@ -9,6 +9,7 @@ in world metres, its primvars (face-varying ones split vertices per corner), mat
 
 from __future__ import annotations
 
+import contextlib
 import os
 from dataclasses import dataclass, field
 
@@ -199,10 +200,10 @@ def load_scene(path, variants: dict | None = None, time: float | None = None) ->
     from ..usd.schema import register
 
     layer_path = resolve_root_layer(path)
-    try:  # USD builds its schema registry at the first stage opened: register before, for the rest of the process
+    # USD builds its schema registry at the first stage opened: register before, for the rest of the process (a
+    # RuntimeError: the registry was already built without it; this reader reads the attributes by name)
+    with contextlib.suppress(RuntimeError):
         register()
-    except RuntimeError:  # the registry was already built without it; this reader reads the attributes by name
-        pass
     try:
         stage = Usd.Stage.Open(layer_path, Usd.Stage.LoadAll)
     except Exception as exc:  # pxr raises Tf.ErrorException
