@@ -88,8 +88,7 @@ def feather_tile(kind: str, srgb, seed: int, height: int, width: int) -> tuple:
 def plumage_atlas(resolution_or_params=256) -> tuple:
     """The plumage atlas of :data:`rockdove.geometry.colours.ATLAS`: every tile a feather of :func:`feather_tile`,
     tiles H / 2 x H texels (H: half BirdParams' ``feather_texture_resolution`` or of an int, clipped to [128, 512]:
-    the soft edge and the bars keep a few texels) on
-    ``ATLAS_COLUMNS`` x ``ATLAS_ROWS``, row 0 at the top. Returns ``(base (H, W, 4) uint8`` sRGB with the alpha,
+    the soft edge and the bars keep a few texels) on ``ATLAS_COLUMNS`` x ``ATLAS_ROWS``, row 0 at the top. Returns ``(base (H, W, 4) uint8`` sRGB with the alpha,
     ``normal (H, W, 4) uint8``: the tangent-space normal (x along u, y along v, OpenGL convention) as
     ``n / 2 + 1 / 2``, roughness in alpha)."""
     from .geometry.colours import ATLAS, ATLAS_COLUMNS, ATLAS_ROWS
@@ -114,9 +113,8 @@ def plumage_atlas(resolution_or_params=256) -> tuple:
 
 def feather_textures(resolution_or_params=256) -> dict:
     """The feather textures, R x R texels (16 .. 8192, or BirdParams' ``feather_texture_resolution``): the seed
-    paper's two for the neck's cards, ``"base"`` (R, R, 4) uint8 RGBA, the sRGB feather of :func:`feather_tile`
-    (a contour feather: dark slate vane with barbs, paler rachis, downy base) with its soft silhouette in alpha,
-    and ``"mask"`` (R, R) uint8, 255 on the tip (v >= MASK_FULL_V) where structural colour is drawn, 0 below
+    paper's two for the neck's cards, ``"base"`` (R, R, 4) uint8 RGBA, the sRGB feather of :func:`feather_tile` with
+    its soft silhouette in alpha, and ``"mask"`` (R, R) uint8, 255 on the tip (v >= MASK_FULL_V) where structural colour is drawn, 0 below
     MASK_START_V, also past the silhouette (edge padding for mip levels); and the other cards' atlas
     (:func:`plumage_atlas`), ``"plumage_base"`` and ``"plumage_normal"``."""
     res = _resolution(resolution_or_params)

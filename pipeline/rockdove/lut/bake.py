@@ -84,8 +84,7 @@ def _check_range(thickness_range):
 def wavelength_grid(step_nm: float) -> np.ndarray:
     """Uniform wavelengths over 360-780 nm with the given step (nm), end points included when they fall on it."""
     lo, hi = WAVELENGTH_RANGE_NM
-    n = int(np.floor((hi - lo) / step_nm + 1e-9)) + 1
-    return lo + step_nm * np.arange(n)
+    return lo + step_nm * np.arange(int(np.floor((hi - lo) / step_nm + 1e-9)) + 1)
 
 
 def _bake_spectral(cos_theta, thickness_nm, film, *, illuminant, colour_space, spectral_step_nm, **_):
@@ -188,8 +187,7 @@ def _bake_fourier(cos_theta, thickness_nm, film, *, illuminant, colour_space, fo
                          f"reflection; film {film.name!r} is not (use 'spectral_fast', 'spectral' or 'auto')")
     table = fourier.g_table(illuminant, colour_space)
     coef = interface_coefficients(film, cos_theta, np.array([550.0]))  # any wavelength: no dispersion
-    n_b = float(coef["n_b"][0, 0])
-    opd = 2.0 * n_b * thickness_nm[:, None] * coef["cos_b"][None, :, 0]  # (T, A) nm
+    opd = 2.0 * float(coef["n_b"][0, 0]) * thickness_nm[:, None] * coef["cos_b"][None, :, 0]  # (T, A) nm
     cs = [fourier.airy_fourier_coefficients(coef[f"a_{pol}"][:, 0], coef[f"b_{pol}"][:, 0]) for pol in ("s", "p")]
     c0, c1, rho = (np.stack([c[i] for c in cs], axis=1) for i in range(3))  # (A, 2) each
     m = np.max([fourier.n_terms_needed(c1[None, :, p], rho[None, :, p], opd, table, fourier_tol) for p in (0, 1)],

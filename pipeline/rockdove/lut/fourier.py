@@ -79,8 +79,7 @@ class GTable:
 
     def first_x_below(self, level) -> np.ndarray:
         """Smallest grid ``x`` (nm) from which ``|G| <= level`` for good, broadcast over ``level``."""
-        k = np.searchsorted(self._neg_tail, -np.asarray(level, dtype=np.float64), side="left")
-        return k * self.step_nm
+        return np.searchsorted(self._neg_tail, -np.asarray(level, dtype=np.float64), side="left") * self.step_nm
 
 
 @functools.lru_cache(maxsize=8)

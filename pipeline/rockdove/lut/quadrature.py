@@ -338,8 +338,7 @@ def angle_panel_nodes(film, cos_theta, thickness_nm):
     n_c = int(np.ceil(K_ANGLE * psi + N_ANGLE_MIN))
     if 2 * n_c > int(panel.sum()) or hi <= lo:
         return None
-    y = chebyshev(n_c)[0]
-    return lo + (hi - lo) * 0.5 * (1.0 + y[::-1])
+    return lo + (hi - lo) * 0.5 * (1.0 + chebyshev(n_c)[0][::-1])
 
 
 def _barycentric_matrix(nodes, x):

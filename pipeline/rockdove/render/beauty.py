@@ -1,14 +1,11 @@
 """The beauty render: the picture the verification report opens with, the bird as a look-dev artist shows it.
 
-Not a measurement (the verification views are, :mod:`rockdove.render.views`): the written asset on a neutral grey
-ground under a moderate sky and a warm key sun at :data:`SUN_ELEVATION_DEG` with soft shadows, from a 3/4 and a
-side view (:func:`beauty_views`) framed with headroom on every mesh under the default prim. Renderers
-(:data:`RENDERERS`; :func:`rockdove.hosts.beauty.render_beauty` runs them): ``cycles``, Blender's Cycles through the
-rockdove add-on as a Blender user imports the asset (:mod:`rockdove.hosts.blender_beauty_job`: sun shadows, sky
-light and bounce, OpenImageDenoise, AgX); ``gl``, the verification shaders under the sun and a few sky lights with a
-shadow map and a filmic curve (:mod:`rockdove.render.beauty_gl`); ``auto``, Cycles when the Blender host is available
-and named (``--hosts blender``), else GL, the caption saying which and why; ``off``. Sizes and samples are
-``[beauty]`` config keys (schemas/config.schema.json).
+Not a measurement (docs/pictures.md): the written asset on a neutral grey ground under a moderate sky and a warm
+key sun with soft shadows, from a 3/4 and a side view (:func:`beauty_views`). Renderers (:data:`RENDERERS`, run by
+:func:`rockdove.hosts.beauty.render_beauty`): ``cycles``, Blender's Cycles through the rockdove add-on
+(:mod:`rockdove.hosts.blender_beauty_job`); ``gl``, the verification shaders (:mod:`rockdove.render.beauty_gl`);
+``auto``, Cycles when the Blender host is available and named (``--hosts blender``), else GL, the caption saying
+which and why; ``off``. Sizes and samples: ``[beauty]`` (schemas/config.schema.json).
 """
 
 from __future__ import annotations

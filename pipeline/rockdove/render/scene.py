@@ -192,8 +192,7 @@ def load_scene(path, variants: dict | None = None, time: float | None = None) ->
     """Open a written asset (its folder or root layer) with pxr as a :class:`RenderScene`, with ``variants``
     selected on the default prim (e.g. ``{"shading": "baked", "motion": "walk"}``; default as authored) and, when a
     motion is selected, the meshes skinned by UsdSkel at time code ``time`` (default the first;
-    :mod:`rockdove.render.skinning`). UsageError when the path is not a USD asset, a variant does not exist, the time
-    lies outside the animation, a skin is broken, no mesh is found, or its film data or textures are missing."""
+    :mod:`rockdove.render.skinning`). UsageError naming what is wrong with the asset, a variant or the time."""
     from pxr import Sdf, Usd, UsdGeom
 
     from ..usd.layout import resolve_root_layer

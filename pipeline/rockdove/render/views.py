@@ -180,8 +180,8 @@ def light_sweep_views(neck_centre, n: int, width: int, height: int, angles_deg=N
     """The paper's experiment: a still camera ``distance_m`` from ``neck_centre`` (world metres) along
     ``camera_direction``, a D65-white directional light at each light-view angle ``alpha`` of ``angles_deg`` in
     [0, 180) (default ``n`` angles evenly over [30, 150], through the flip; 90 for ``n = 1``;
-    :data:`DEFAULT_SWEEP_ANGLES_DEG` for ``n = 2``): ``V`` rotated about the camera's up axis by ``alpha``, so the
-    film sees ``cos_theta = cos(alpha / 2)``. Named ``sweep_<alpha in degrees, 3 digits>``."""
+    :data:`DEFAULT_SWEEP_ANGLES_DEG` for ``n = 2``), ``V`` rotated about the camera's up axis by ``alpha``; named
+    ``sweep_<alpha in degrees, 3 digits>``."""
     c = np.asarray(neck_centre, dtype=np.float64).reshape(-1)
     if c.shape != (3,) or not np.all(np.isfinite(c)):
         raise UsageError(f"neck_centre must be a finite 3-vector, got {neck_centre!r}")
