@@ -1,12 +1,10 @@
 """Measurements of the feather cards against the body: how much of the neck band they hide, how far their
 roots are from the skin, whether any card vertex beyond the root is inside the body.
 
-Coverage is measured by ray casting (trimesh ray queries, Embree when installed): uniform random points on the
-band's skin, each looked at from outside along a direction (the skin normal, optionally tilted), and counted
-hidden when the first opaque thing the ray meets before the skin is a card. With a feather ``alpha`` texture,
-a card hit only counts where the texture's alpha is >= 0.5 (the renderers' ``opacityThreshold``), i.e. the
-feather silhouette, not the card rectangle. Rays whose first opaque hit is another part of the body (the
-point is not visible from that direction at all) are left out.
+Coverage is measured by ray casting (trimesh ray queries, Embree when installed) from outside onto random band
+points (:func:`band_coverage`): a point is hidden when the first opaque thing its ray meets is a card, opaque
+meaning, with a feather ``alpha`` texture, alpha >= 0.5 (the renderers' ``opacityThreshold``: the feather's
+silhouette, not the card rectangle); points the body itself hides from that direction are left out.
 """
 
 from __future__ import annotations

@@ -1,9 +1,7 @@
 """The neck band and blue-noise sampling of it.
 
-The band is the part of the body surface around the neck axis (``sdf.NECK_BASE_M`` -> ``sdf.NECK_TOP_M``):
-points whose projection on the axis lies between its ends and that are within ``sdf.NECK_BAND_RADIUS_M`` of
-it. The coordinate s is that projection, 0 at the base of the neck, 1 at the top below the head; on the
-rest of the body it is clipped to [0, 1].
+The band is the body surface within ``sdf.NECK_BAND_RADIUS_M`` of the neck axis (``sdf.NECK_BASE_M`` ->
+``sdf.NECK_TOP_M``) between its ends; s is the projection on the axis (:func:`neck_s`), 0 at the base, 1 at the top.
 
 Blue noise: uniform candidates by triangle area (Turk, "Generating random points in triangles", Graphics
 Gems, 1990: ``p = (1 - sqrt(r1)) a + sqrt(r1) (1 - r2) b + sqrt(r1) r2 c``), then weighted sample
