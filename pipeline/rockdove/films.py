@@ -47,11 +47,9 @@ def _check_index(name: str, value) -> complex:
 
 @dataclass(frozen=True)
 class FilmModel:
-    """One thin film b between an incident medium a and a substrate c (module docstring).
-
-    ``name``: non-empty (registry name); ``cauchy_a`` > 0; ``cauchy_b_nm2`` >= 0 in nm**2 (0: no dispersion);
-    ``k`` >= 0, the film's constant extinction; ``n_incident`` real (reflectance is measured in a transparent
-    medium) and ``n_substrate`` (real part > 0, imaginary part >= 0)."""
+    """One thin film b between an incident medium a and a substrate c (module docstring): ``cauchy_a`` > 0,
+    ``cauchy_b_nm2`` >= 0 in nm**2 (0: no dispersion), the constant extinction ``k`` >= 0, a real ``n_incident``
+    (reflectance is measured in a transparent medium) and ``n_substrate`` (n + ik); ``name``: the registry's."""
 
     name: str
     cauchy_a: float
@@ -91,9 +89,7 @@ class FilmModel:
         if lam.size and not (np.min(lam) > 0 and np.isfinite(np.max(lam))):
             raise UsageError(f"wavelength_nm must be finite and > 0, got values in [{np.min(lam)}, {np.max(lam)}]")
         n = self.cauchy_a + self.cauchy_b_nm2 / (lam * lam)
-        if self.k != 0.0:
-            return n + 1j * self.k
-        return n
+        return n + 1j * self.k if self.k != 0.0 else n
 
     def describe(self) -> dict[str, str]:
         """Human-readable description for EXR / USD metadata (all values are strings)."""

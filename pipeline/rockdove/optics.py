@@ -282,10 +282,9 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
     try:
         shape = np.broadcast_shapes(lam.shape, cos_a.shape, d.shape, n_a.shape, n_b.shape, n_c.shape)
     except ValueError:
-        raise UsageError(
-            "wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate must broadcast together, "
-            f"got shapes {lam.shape}, {cos_a.shape}, {d.shape}, {n_b.shape}, {n_a.shape}, {n_c.shape}"
-        ) from None
+        raise UsageError("wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate must broadcast "
+                         f"together, got shapes {lam.shape}, {cos_a.shape}, {d.shape}, {n_b.shape}, {n_a.shape}, "
+                         f"{n_c.shape}") from None
     pols = ("s", "p") if polarization == "unpolarized" else (polarization,)
 
     k0d = (_TWO_PI * d) / lam
@@ -305,8 +304,8 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
         for pol in pols if degenerate else ():
             slow = slow | np.isnan(res[pol][0])
         if slow.any():
-            sub = [np.broadcast_to(x, shape)[slow] for x in (k0d, cos_a, n_a, n_b, n_c, qb2, qc2)]
-            k0d_s, cos_s, na_s, nb_s, nc_s, qb2_s, qc2_s = sub
+            k0d_s, cos_s, na_s, nb_s, nc_s, qb2_s, qc2_s = (np.broadcast_to(x, shape)[slow]
+                                                            for x in (k0d, cos_a, n_a, n_b, n_c, qb2, qc2))
             res_slow = _general_complex(k0d_s, cos_s, na_s, nb_s, nc_s, _q(qb2_s + 0j, nb_s, na_s, cos_s, False),
                                         _q(qc2_s + 0j, nc_s, na_s, cos_s, False), pols, want_t)
             for pol in pols:
