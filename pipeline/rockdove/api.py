@@ -84,8 +84,8 @@ class BuildResult:
 
 
 class BuildFailed(VerificationFailed):
-    """The build's verification failed: nothing was published; ``result`` (:class:`BuildResult`) says what ran
-    and where the report is."""
+    """The build's verification failed and nothing was published; ``result``: its :class:`BuildResult` (the report's
+    folder included)."""
 
     def __init__(self, message: str, result: BuildResult):
         super().__init__(message)

@@ -326,8 +326,7 @@ def get(config: Mapping, key: str) -> Any:
 
 @dataclass(frozen=True)
 class Parameter:
-    """One configuration key as ``rockdove config`` shows it: its value, unit, default, what is allowed and what
-    it means (the schema's)."""
+    """One configuration key as ``rockdove config`` shows it: value, unit, default, allowed, meaning (the schema's)."""
 
     key: str
     value: Any

@@ -269,8 +269,7 @@ def _general_complex(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t=True):
 
 
 def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, want_t):
-    """Validate, choose the fast or complex path per element, return (R, T) float64 arrays (T None
-    unless ``want_t``)."""
+    """Validate, pick the fast or complex path per element, return (R, T) float64 arrays (T None unless ``want_t``)."""
     if polarization not in POLARIZATIONS:
         raise UsageError(f"polarization must be one of {POLARIZATIONS}, got {polarization!r}")
     lam = _as_real("wavelength_nm", wavelength_nm, lo=0.0, lo_open=True)

@@ -72,8 +72,7 @@ _ONE_POINT_AT_A_TIME = threading.Lock()  # a worker with several threads builds 
 
 @dataclass(frozen=True)
 class Base:
-    """What every point of a sweep shares: the preset, the --config file (absolute), the --set overrides, the
-    stage cache."""
+    """What every point of a sweep shares: preset, --config file (absolute), --set overrides, stage cache."""
 
     preset: str
     config_file: str | None

@@ -15,8 +15,7 @@ from ..errors import UsageError
 
 @dataclass(frozen=True)
 class Point:
-    """One grid point: its folder ``name``, ``overrides`` (``KEY=LITERAL``), parsed ``values``, the value ``index``
-    along each axis."""
+    """One grid point: folder ``name``, ``overrides`` (``KEY=LITERAL``), parsed ``values``, ``index`` per axis."""
 
     name: str
     overrides: tuple[str, ...]

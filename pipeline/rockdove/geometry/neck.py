@@ -70,8 +70,7 @@ def sample_triangles(vertices_m, faces, count: int, rng: np.random.Generator) ->
 
 
 def band_area_m2(vertices_m, faces, s_max: float = 1.0) -> float:
-    """Area of the neck band up to ``s_max``, m^2 (Monte Carlo, 200k samples of a fixed seed, over the candidate
-    triangles)."""
+    """Area of the neck band up to ``s_max``, m^2 (Monte Carlo: 200k samples, fixed seed, on the candidates)."""
     sel = faces[band_faces(vertices_m, faces, s_max)]
     pts = sample_triangles(vertices_m, sel, 200_000, np.random.default_rng(12345))
     return float(triangle_areas(vertices_m, sel).sum() * in_band(pts, s_max).mean())

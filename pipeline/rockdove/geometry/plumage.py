@@ -58,8 +58,7 @@ STREAM_COAT, STREAM_HEAD, STREAM_WINGS = 4, 5, 6
 
 
 def tile(kind: str, srgb, rng, count: int) -> np.ndarray:
-    """(count,) atlas tiles of ``kind`` in tone ``srgb`` (:data:`~rockdove.geometry.colours.TILE_START`), variants
-    drawn from ``rng``."""
+    """(count,) atlas tiles of ``kind`` in tone ``srgb`` (:data:`colours.TILE_START`), variants from ``rng``."""
     start, variants = TILE_START[kind, srgb]
     return start + rng.integers(0, variants, count)
 

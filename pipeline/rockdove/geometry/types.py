@@ -102,8 +102,7 @@ def drop_unreferenced_points(part: MeshPart) -> MeshPart:
 
 @dataclass(frozen=True)
 class Bird:
-    """The whole bird: its :class:`MeshPart` s in order (``Body`` is one closed surface; all neck cards are in
-    one ``NeckFeathers`` part)."""
+    """The whole bird: its :class:`MeshPart` s in order (``Body`` one closed surface, one ``NeckFeathers``)."""
 
     parts: tuple
 

@@ -336,9 +336,8 @@ def angle_panel_nodes(film, cos_theta, thickness_nm):
     q_lo = np.sqrt(n * n - n_a2 * (1.0 - lo * lo))
     psi = float(np.max(4.0 * np.pi * float(np.max(thickness_nm)) * sig * np.abs(q_hi - q_lo)))
     n_c = int(np.ceil(K_ANGLE * psi + N_ANGLE_MIN))
-    if 2 * n_c > int(panel.sum()) or hi <= lo:
-        return None
-    return lo + (hi - lo) * 0.5 * (1.0 + chebyshev(n_c)[0][::-1])
+    saves = 2 * n_c <= int(panel.sum()) and hi > lo
+    return lo + (hi - lo) * 0.5 * (1.0 + chebyshev(n_c)[0][::-1]) if saves else None
 
 
 def _barycentric_matrix(nodes, x):

@@ -134,9 +134,7 @@ def interpolant_weights(n_intervals: int, order: int = INTERPOLANT_ORDER, *, ill
 
 def map_alpha(n_nodes: int) -> float:
     """Kosloff-Tal-Ezer parameter for ``n_nodes`` points (0 for ``n_nodes < 3``: plain Chebyshev points)."""
-    if n_nodes < 3:
-        return 0.0
-    return float(1.0 / np.cosh(np.log(1.0 / MAP_EPS) / (n_nodes - 1)))
+    return 0.0 if n_nodes < 3 else float(1.0 / np.cosh(np.log(1.0 / MAP_EPS) / (n_nodes - 1)))
 
 
 def _mapped(y, alpha):
@@ -149,8 +147,7 @@ def _unmapped(x, alpha):
 
 
 def chebyshev(n):
-    """Chebyshev points of the second kind ``cos(pi j / (n - 1))`` and their barycentric weights (-1)^j, ends
-    halved."""
+    """Chebyshev points of the second kind ``cos(pi j / (n - 1))``, their barycentric weights (-1)^j, ends halved."""
     j = np.arange(n)
     v = (-1.0) ** j
     v[[0, -1]] *= 0.5

@@ -53,8 +53,7 @@ class ScenePart:
 
 @dataclass(frozen=True, eq=False)
 class RenderScene:
-    """A USD asset read back for rendering; the renderers' part ids are ``index + 1`` in ``parts`` (0 =
-    background)."""
+    """A USD asset read back for rendering; the renderers' part ids are ``index + 1`` in ``parts`` (0 = background)."""
 
     root_layer: str  # absolute path of the opened root layer
     parts: tuple  # of ScenePart: the visible meshes

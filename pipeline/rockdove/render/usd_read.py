@@ -56,8 +56,7 @@ def primvar_array(values, interp: str, n_points: int, face_vertex_counts, name: 
 
 
 def material_info(prim, stage):
-    """(material kind from the name, base texture, srgb?, mask texture, constant colour, opacity threshold, normal
-    map)."""
+    """(material kind, base texture, srgb?, mask texture, constant colour, opacity threshold, normal map)."""
     from pxr import Usd, UsdShade
 
     mat, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
