@@ -9,14 +9,13 @@ gamma`` (``gamma > 1`` puts nodes near grazing, where colour changes fastest), c
 incidence on the film in the incident medium. Thickness nodes are uniform in nm over ``thickness_range_nm = (lo,
 hi)``; a one-texel-high table (``lo == hi``) is the paper's 1-D texture.
 
-Texture coordinates: texel centres of an N-texel axis sit at ``(k + 0.5) / N``, so a node coordinate ``x in [0,
-1]`` maps to ``u = (x * (N - 1) + 0.5) / N``, and a GPU's linear filtering with clamp-to-edge is the
-piecewise-linear interpolation of :meth:`ThinFilmLUT.sample`, **as long as the texture is not minified**: hosts
-that mipmap image nodes (MaterialX renderers, Storm) average ``2**level`` texels along both axes, mixing the
-thickness rows too (measured: median dE2000 0.017 on the default bird at 512 px; on a sphere of constant
-thickness the default 256 x 64 errs median 0.8-1.0 where a tall 64 x 256 errs 0.01-0.02; ``docs/design.md``).
-In the EXR file and in USD the bottom image row is ``i = 0`` (USD's ``st`` has t = 0 at the bottom); uploaded to
-OpenGL, row 0 of ``rgb`` is t = 0.
+Texture coordinates: texel centres of an N-texel axis sit at ``(k + 0.5) / N``, so a node coordinate ``x in [0, 1]``
+maps to ``u = (x * (N - 1) + 0.5) / N``, and a GPU's linear filtering with clamp-to-edge is the piecewise-linear
+interpolation of :meth:`ThinFilmLUT.sample`, **as long as the texture is not minified**: hosts that mipmap image nodes
+(MaterialX renderers, Storm) average ``2**level`` texels along both axes, mixing the thickness rows too (measured:
+median dE2000 0.017 on the default bird at 512 px; on a sphere of constant thickness the default 256 x 64 errs median
+0.8-1.0 where a tall 64 x 256 errs 0.01-0.02; ``docs/design.md``). In the EXR file and in USD the bottom image row is
+``i = 0`` (USD's ``st`` has t = 0 at the bottom); uploaded to OpenGL, row 0 of ``rgb`` is t = 0.
 """
 
 from __future__ import annotations
