@@ -79,9 +79,8 @@ def feather_cards(centre, across, width, tiles, up, mirror=None, thick_m: float 
     unit (``t x up``: counter-clockwise seen from ``up``), ``width`` (N,) m of the tile, ``tiles`` (N,) atlas tiles
     of ``kind`` (each row :func:`hull` wide), ``up`` (N, R, 3) unit outward normals (the shading normals),
     ``mirror`` (N,) bool (u flipped), the rachis raised by ``camber`` x width. ``thick_m`` > 0 closes each card
-    underneath with a row that far under the rachis (a lens: the edges shared).
-
-    Returns ``(points (N*R*C, 3), normals, st, faces)``, C = 3 (4 with the underside) vertices per row."""
+    underneath with a row that far under the rachis (a lens: the edges shared). Returns ``(points (N*R*C, 3),
+    normals, st, faces)``, C = 3 (4 with the underside) vertices per row."""
     n, rows = centre.shape[:2]
     g = hull(kind)
     half = (0.5 * width)[:, None, None] * g[None, :, None] * across

@@ -144,9 +144,8 @@ def filmic(x) -> np.ndarray:
 
 def sun_visibility(r, scene, view: View, key) -> np.ndarray:
     """The sun's visibility (H, W) at each pixel of ``key``, ``r``'s render of ``view`` lit by the sun (``r``: a
-    :class:`rockdove.render.gl.GLRenderer` of ``scene``'s parts and the ground after them), from the bird's shadow
-    map (:func:`_visibility`; 4 texels across for each pixel of the view, the bird filling about half of it: a
-    texel under a pixel, rounded up to a power of two, at most :data:`SHADOW_PX`); slope-scaled by the key's N.L."""
+    :class:`rockdove.render.gl.GLRenderer` of ``scene``'s parts, then the ground), from the bird's shadow map
+    (:func:`_visibility`; 4 texels a view pixel, the bird filling about half of it), slope-scaled by the key's N.L."""
     px = min(SHADOW_PX, 2 ** math.ceil(math.log2(4 * max(view.width, view.height))))
     sun = _sun_camera(scene, view.light_direction, px)
     shot = r.render(sun)

@@ -123,9 +123,8 @@ class _PartGL:
 
 
 class GLRenderer:
-    """pyrender offscreen renderer of one scene, reused across views (``width`` x ``height``: the initial
-    viewport; each view sets its own size). ``lut`` overrides the scene's; ``angle_mode`` is a key of
-    :data:`ANGLE_MODES`: ``"physical"`` (``cos_theta = dot(L, H)``) or ``"materialx_baked"`` (``|dot(N, V)|``).
+    """pyrender offscreen renderer of one scene, reused across views (each sets its own size). ``lut`` overrides the
+    scene's; ``angle_mode``: ``"physical"`` (``cos_theta = dot(L, H)``) or ``"materialx_baked"`` (``|dot(N, V)|``).
     Use as a context manager or call :meth:`delete` (a pyrender scene must not be bound to two live renderers)."""
 
     def __init__(self, scene: RenderScene, lut=None, angle_mode: str = "physical", width: int = 512, height: int = 512,
