@@ -120,15 +120,14 @@ def _result(graph, out: Path, cache_dir: Path, chash: str, t0: float, verified, 
 def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os.PathLike | None = None,
           verify: bool = True, lock_timeout: float | None = None,
           progress: Callable[[str], None] | None = None) -> BuildResult:
-    """Build, verify and publish the asset of ``config`` (:func:`load_config`, validated again here) into ``out``
-    (new, empty, or one rockdove built: anything else is refused before any work), incrementally.
-
-    ``cache``: the stage cache (default ``.rockdove-cache`` beside ``out``), shared with :func:`verify`.
-    ``verify``: run the verification on the staged asset; a failure publishes nothing and raises
-    :class:`BuildFailed`. ``lock_timeout``: seconds to wait for another build of the same output (default: until
-    it finishes), then UsageError (the wait is logged on the ``rockdove`` logger); ``progress(stage_name)`` as each
-    starts. The asset is assembled and verified in a staging folder beside ``out``, then swapped into place; Ctrl-C
-    (and SIGTERM, when called from the main thread) removes the staging folder."""
+    """Build, verify and publish the asset of ``config`` (:func:`load_config`, validated again here) into ``out`` (new,
+    empty, or one rockdove built: anything else is refused before any work), incrementally. ``cache``: the stage cache
+    (default ``.rockdove-cache`` beside ``out``), shared with :func:`verify`. ``verify``: run the verification on the
+    staged asset; a failure publishes nothing and raises :class:`BuildFailed`. ``lock_timeout``: seconds to wait for
+    another build of the same output (default: until it finishes), then UsageError (the wait is logged on the
+    ``rockdove`` logger); ``progress(stage_name)`` as each starts. The asset is assembled and verified in a staging
+    folder beside ``out``, then swapped into place; Ctrl-C (and SIGTERM, when called from the main thread) removes the
+    staging folder."""
     from .config import validate
     from .graph import stages as build_stages
     from .graph.engine import Cache, Graph

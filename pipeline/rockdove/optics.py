@@ -73,10 +73,9 @@ def _as_real(name: str, value, *, lo: float, lo_open: bool = False, hi: float | 
 
 
 def _as_index(name: str, value, wavelength_nm: np.ndarray | None = None, *, real_only: bool = False):
-    """A refractive index as a float64 or complex128 array (float64 when its imaginary part is 0).
-
-    ``value`` is a number, an array broadcastable with the wavelengths, or a callable n(wavelength_nm).
-    Allowed: finite, Re(n) > 0, Im(n) >= 0 (n + ik convention); ``real_only`` additionally Im(n) == 0."""
+    """A refractive index as a float64 or complex128 array (float64 when its imaginary part is 0). ``value`` is a
+    number, an array broadcastable with the wavelengths, or a callable n(wavelength_nm). Allowed: finite, Re(n) > 0,
+    Im(n) >= 0 (n + ik convention); ``real_only`` additionally Im(n) == 0."""
     if callable(value):
         if wavelength_nm is None:
             raise UsageError(f"{name} is a callable but no wavelength_nm was given to evaluate it")
@@ -195,12 +194,10 @@ def film_phase(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident=1.0):
 
 # --------------------------------------------------------------------------- the solver
 def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t):
-    """Eq. (4) in real arithmetic (real indices, q_b > 0, q_c >= 0): ``({pol: (R, T or None)}, degenerate)``;
-    if ``degenerate``, NaN elements (0/0) are for the complex path.
-
-    With u = sin(delta)**2, R = (a0 + a1 u) / (b0 + b1 u) with coefficients of (wavelength, angle) only:
-    a0 = (eta_a - eta_c)**2, a1 = (eta_a eta_c / eta_b - eta_b)**2 - a0, b0 = (eta_a + eta_c)**2,
-    b1 = (eta_a eta_c / eta_b + eta_b)**2 - b0: one sine and a division per sample."""
+    """Eq. (4) in real arithmetic (real indices, q_b > 0, q_c >= 0): ``({pol: (R, T or None)}, degenerate)``; if
+    ``degenerate``, NaN elements (0/0) are for the complex path. With u = sin(delta)**2, R = (a0 + a1 u) / (b0 + b1 u)
+    with coefficients of (wavelength, angle) only: a0 = (eta_a - eta_c)**2, a1 = (eta_a eta_c / eta_b - eta_b)**2 - a0,
+    b0 = (eta_a + eta_c)**2, b1 = (eta_a eta_c / eta_b + eta_b)**2 - b0: one sine and a division per sample."""
     u = np.square(np.sin(np.asarray(k0d * qb, dtype=np.float64)))  # sin(delta)**2
     out = {}
     degenerate = False

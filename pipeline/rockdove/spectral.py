@@ -293,12 +293,11 @@ def RGB_to_Lab(rgb, colour_space="lin_rec709") -> np.ndarray:
 
 
 def RGB_to_preview8(rgb, colour_space="lin_rec709") -> np.ndarray:
-    """8-bit sRGB preview (..., 3) uint8 of linear working RGB (..., 3), for people (PNG previews), not for data.
-
-    Per colour: convert to linear Rec.709; out of gamut (a negative component), desaturate toward its own
-    Rec.709 luminance Y = 0.2126 R + 0.7152 G + 0.0722 B by the least amount that makes every component >= 0,
-    ``Y + s (rgb - Y)`` with ``s = Y / (Y - min(rgb))`` (hue and luminance kept; Y <= 0 becomes black); clip
-    to 1; sRGB OETF (IEC 61966-2-1, :func:`srgb_encode`), round to 0-255."""
+    """8-bit sRGB preview (..., 3) uint8 of linear working RGB (..., 3), for people (PNG previews), not for data. Per
+    colour: convert to linear Rec.709; out of gamut (a negative component), desaturate toward its own Rec.709 luminance
+    Y = 0.2126 R + 0.7152 G + 0.0722 B by the least amount that makes every component >= 0, ``Y + s (rgb - Y)`` with
+    ``s = Y / (Y - min(rgb))`` (hue and luminance kept; Y <= 0 becomes black); clip to 1; sRGB OETF (IEC 61966-2-1,
+    :func:`srgb_encode`), round to 0-255."""
     rgb = np.asarray(rgb, dtype=np.float64)
     if rgb.shape[-1:] != (3,):
         raise UsageError(f"rgb must have a trailing axis of 3, got shape {rgb.shape}")

@@ -91,10 +91,9 @@ def mix(a, b, w):
 
 
 def body_colour_at(points_m: np.ndarray) -> np.ndarray:
-    """Linear Rec.709 base colour of the body at surface points: (N, 3) metres -> (N, 3) float64.
-
-    Blue-grey, the dark slate head and neck, the white rump patch over the tail base. Each layer is evaluated
-    only where its weight is above 0: elsewhere a mix with weight 0 would leave the colour unchanged, bit for bit."""
+    """Linear Rec.709 base colour of the body at surface points: (N, 3) metres -> (N, 3) float64. Blue-grey, the dark
+    slate head and neck, the white rump patch over the tail base. Each layer is evaluated only where its weight is above
+    0: elsewhere a mix with weight 0 would leave the colour unchanged, bit for bit."""
     from . import neck as _neck
     from . import sdf as _sdf
 

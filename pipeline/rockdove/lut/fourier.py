@@ -143,12 +143,11 @@ def n_terms_needed(c1, rho, opd_nm, table: GTable, tol: float) -> np.ndarray:
 
 
 def fourier_colour_grid(c0, c1, rho, opd_nm, n_terms, table: GTable) -> np.ndarray:
-    """Linear colour ``c0 W0 + 2 sum_{m=1..M} c_m G(m OPD)``, (T, A, 3), mean over the P polarisations.
-
-    ``c0, c1, rho``: (A, P) per angle column; ``opd_nm``: (T, A) nm; ``n_terms``: (T, A) (:func:`n_terms_needed`;
-    0 where the caller computes the texel otherwise). Each column takes the largest count of its texels (extra
-    terms only add accuracy), so the coefficient of term m, ``(2/P) sum_p c1_p rho_p^(m-1)``, is tabulated once
-    per column, and columns with similar counts are summed as dense (thickness x columns x terms) blocks."""
+    """Linear colour ``c0 W0 + 2 sum_{m=1..M} c_m G(m OPD)``, (T, A, 3), mean over the P polarisations. ``c0, c1, rho``:
+    (A, P) per angle column; ``opd_nm``: (T, A) nm; ``n_terms``: (T, A) (:func:`n_terms_needed`; 0 where the caller
+    computes the texel otherwise). Each column takes the largest count of its texels (extra terms only add accuracy), so
+    the coefficient of term m, ``(2/P) sum_p c1_p rho_p^(m-1)``, is tabulated once per column, and columns with similar
+    counts are summed as dense (thickness x columns x terms) blocks."""
     import scipy.sparse
 
     c0, c1, rho, opd = (np.asarray(v, dtype=np.float64) for v in (c0, c1, rho, opd_nm))
