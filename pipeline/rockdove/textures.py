@@ -67,9 +67,8 @@ def feather_tile(kind: str, srgb, seed: int, height: int, width: int) -> tuple:
     for p_split, side in zip(rng.uniform(0.4, 0.9, splits) * barbs, rng.choice([-1, 1], splits)):  # splits
         gap = np.exp(-(((phase - p_split) / 0.2) ** 2)) * _smoothstep(0.5, 0.9, ax / w) * (np.sign(x) == side)
         edge = edge * (1.0 - 0.35 * gap)
-    alpha = _smoothstep(-SOFT_EDGE, SOFT_EDGE, edge - ax)
     fluff = _smoothstep(0.2 * down, down, v)  # the downy base: loose, pale and partly transparent
-    alpha = alpha * (0.35 + 0.65 * fluff) * (1.0 - 0.35 * (1.0 - fluff) * barb)
+    alpha = _smoothstep(-SOFT_EDGE, SOFT_EDGE, edge - ax) * (0.35 + 0.65 * fluff) * (1.0 - 0.35 * (1.0 - fluff) * barb)
     alpha = np.clip(alpha, 0.0, 1.0) * (v < 0.995)
     mottle = 1.0 + 0.05 * np.sin(2 * np.pi * (rng.uniform(1, 3) * u + rng.uniform(2, 4) * v + rng.uniform()))
     col = tone * (mottle * (0.9 + 0.1 * barb) * (1.0 + 0.25 * (1.0 - fluff)))[..., None]
@@ -86,11 +85,11 @@ def feather_tile(kind: str, srgb, seed: int, height: int, width: int) -> tuple:
 
 
 def plumage_atlas(resolution_or_params=256) -> tuple:
-    """The plumage atlas of :data:`rockdove.geometry.colours.ATLAS`: every tile a feather of :func:`feather_tile`,
-    tiles H / 2 x H texels (H: half BirdParams' ``feather_texture_resolution`` or of an int, clipped to [128, 512]:
-    the soft edge and the bars keep a few texels) on ``ATLAS_COLUMNS`` x ``ATLAS_ROWS``, row 0 at the top. Returns ``(base (H, W, 4) uint8`` sRGB with the alpha,
-    ``normal (H, W, 4) uint8``: the tangent-space normal (x along u, y along v, OpenGL convention) as
-    ``n / 2 + 1 / 2``, roughness in alpha)."""
+    """The plumage atlas of :data:`rockdove.geometry.colours.ATLAS`: every tile a feather of :func:`feather_tile`, tiles
+    H / 2 x H texels (H: half BirdParams' ``feather_texture_resolution`` or of an int, clipped to [128, 512]: the soft
+    edge and the bars keep a few texels) on ``ATLAS_COLUMNS`` x ``ATLAS_ROWS``, row 0 at the top. Returns ``(base (H, W,
+    4) uint8`` sRGB with the alpha, ``normal (H, W, 4) uint8``: the tangent-space normal (x along u, y along v, OpenGL
+    convention) as ``n / 2 + 1 / 2``, roughness in alpha)."""
     from .geometry.colours import ATLAS, ATLAS_COLUMNS, ATLAS_ROWS
 
     h = int(np.clip(_resolution(resolution_or_params) // 2, 128, 512))
@@ -112,10 +111,10 @@ def plumage_atlas(resolution_or_params=256) -> tuple:
 
 
 def feather_textures(resolution_or_params=256) -> dict:
-    """The feather textures, R x R texels (16 .. 8192, or BirdParams' ``feather_texture_resolution``): the seed
-    paper's two for the neck's cards, ``"base"`` (R, R, 4) uint8 RGBA, the sRGB feather of :func:`feather_tile` with
-    its soft silhouette in alpha, and ``"mask"`` (R, R) uint8, 255 on the tip (v >= MASK_FULL_V) where structural colour is drawn, 0 below
-    MASK_START_V, also past the silhouette (edge padding for mip levels); and the other cards' atlas
+    """The feather textures, R x R texels (16 .. 8192, or BirdParams' ``feather_texture_resolution``): the seed paper's
+    two for the neck's cards, ``"base"`` (R, R, 4) uint8 RGBA, the sRGB feather of :func:`feather_tile` with its soft
+    silhouette in alpha, and ``"mask"`` (R, R) uint8, 255 on the tip (v >= MASK_FULL_V) where structural colour is
+    drawn, 0 below MASK_START_V, also past the silhouette (edge padding for mip levels); and the other cards' atlas
     (:func:`plumage_atlas`), ``"plumage_base"`` and ``"plumage_normal"``."""
     res = _resolution(resolution_or_params)
     col, alpha, _, _ = feather_tile("neck", VANE_SRGB, 7, res, res)

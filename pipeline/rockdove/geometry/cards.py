@@ -192,6 +192,6 @@ def build_cards(body, params) -> FeatherCards:
     field = _thickness.thickness_field(roots, params, stream(params.seed, STREAM_THICKNESS))
     thickness = _thickness.place_thickness_nm(field, params.thickness_base_nm, params.thickness_top_nm)
     return FeatherCards(points_m=pts.reshape(-1, 3).astype(np.float32),
-                        normals=normals.reshape(-1, 3).astype(np.float32), st=st.reshape(-1, 2), quads=quads.astype(np.int32), root_skin_m=roots, skin_normal=n,
-                        neck_s=s.astype(np.float32), thickness_nm=thickness.astype(np.float32),
-                        thickness_field=field.astype(np.float32))
+                        normals=normals.reshape(-1, 3).astype(np.float32), st=st.reshape(-1, 2),
+                        quads=quads.astype(np.int32), root_skin_m=roots, skin_normal=n, neck_s=s.astype(np.float32),
+                        thickness_nm=thickness.astype(np.float32), thickness_field=field.astype(np.float32))

@@ -81,15 +81,13 @@ def root_skin_distance_m(body_vertices_m, body_faces, cards) -> np.ndarray:
     """(2 N,) unsigned distance, metres, of each root-row vertex to the body mesh."""
     import trimesh
 
-    mesh = trimesh.Trimesh(body_vertices_m, body_faces, process=False)
     roots = cards.points_m.reshape(cards.count, -1, 3)[:, :2].reshape(-1, 3).astype(np.float64)
-    return trimesh.proximity.closest_point(mesh, roots)[1]
+    return trimesh.proximity.closest_point(trimesh.Trimesh(body_vertices_m, body_faces, process=False), roots)[1]
 
 
 def beyond_root_signed_distance_m(body_vertices_m, body_faces, cards) -> np.ndarray:
     """(N (VERTICES_PER_CARD - 2),) trimesh signed distance (positive INSIDE) of every vertex beyond the root row."""
     import trimesh
 
-    mesh = trimesh.Trimesh(body_vertices_m, body_faces, process=False)
     rest = cards.points_m.reshape(cards.count, -1, 3)[:, 2:].reshape(-1, 3).astype(np.float64)
-    return trimesh.proximity.signed_distance(mesh, rest)
+    return trimesh.proximity.signed_distance(trimesh.Trimesh(body_vertices_m, body_faces, process=False), rest)

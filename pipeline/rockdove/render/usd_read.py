@@ -65,8 +65,7 @@ def material_info(prim, stage):
     name = mat.GetPrim().GetName()
     kind = name[: -len("Material")].lower() if name.endswith("Material") and len(name) > 8 else name.lower()
     base = mask = colour_const = normal = None
-    srgb = True
-    threshold = OPACITY_THRESHOLD
+    srgb, threshold = True, OPACITY_THRESHOLD
     for p in Usd.PrimRange(mat.GetPrim()):
         if not p.IsA(UsdShade.Shader):
             continue
