@@ -259,7 +259,7 @@ def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):
                  "--out", "v", "--quiet", cwd=tmp_path, standin=False, timeout=300)
     assert r.returncode == 0, r.stderr
     cli = json.loads((tmp_path / "v/report.json").read_text())
-    assert cli["cache"]["ran"] == {"surfaces": [], "views": [], "hosts": []}
+    assert cli["cache"]["ran"] == {"surfaces": [], "views": [], "hosts": [], "pictures": []}
     assert cli["cache"]["reused"]["views"] == views and cli["views"] == report_views
     # film index change: LUT, textures (the preview mixes the LUT in), layers and every view; geometry reused;
     # gltf.glb = false: no glb, and no viewer in the report (it shows the glb)

@@ -1,16 +1,9 @@
-"""rockdove's library API: configuration, build and verification as values, in any Python process.
-
-The three-line notebook use::
-
-    from rockdove import api
-    result = api.build(api.load_config(preset="paper", overrides={"lut.angles": 128}), "build/pigeon")
-    print(result.ran, result.reused, result.verified, result.report_dir)
+"""rockdove's library API: configuration, build and verification as values, in any Python process (docs/python.md).
 
 ``rockdove build``, ``rockdove verify``, ``rockdove sweep``'s Dask workers, the benchmarks and the tests all call
-these functions; the command line only turns options into their arguments and results into text.
-
-Errors: :class:`rockdove.errors.UsageError` (a ``ValueError``) for bad configuration, output or asset, naming
-what was wrong, before anything is written; :class:`BuildFailed` when the build's verification fails.
+these functions; the command line only turns options into their arguments and results into text. Errors:
+:class:`rockdove.errors.UsageError` (a ``ValueError``) for bad configuration, output or asset, naming what was
+wrong, before anything is written; :class:`BuildFailed` when the build's verification fails.
 """
 
 from __future__ import annotations
@@ -28,23 +21,12 @@ from typing import Any
 
 from .config import DEFAULT_PRESET, config_hash
 from .config import load_config as _load_config
-from .errors import UsageError, VerificationFailed
+from .errors import UsageError, VerificationFailed, raise_interrupt
 from .graph.engine import StageRecord
 from .verify.results import HostResult, Report
 
-__all__ = [
-    "DEFAULT_OUT",
-    "BuildFailed",
-    "BuildResult",
-    "HostResult",
-    "StageRecord",
-    "UsageError",
-    "Verification",
-    "VerificationFailed",
-    "build",
-    "load_config",
-    "verify",
-]
+__all__ = ["DEFAULT_OUT", "BuildFailed", "BuildResult", "HostResult", "StageRecord", "UsageError", "Verification",
+           "VerificationFailed", "build", "load_config", "verify"]
 
 DEFAULT_OUT = "build/pigeon"
 
@@ -102,8 +84,8 @@ class BuildResult:
 
 
 class BuildFailed(VerificationFailed):
-    """The build's verification failed: nothing was published; ``result`` (:class:`BuildResult`) says what ran
-    and where the report is."""
+    """The build's verification failed and nothing was published; ``result``: its :class:`BuildResult` (the report's
+    folder included)."""
 
     def __init__(self, message: str, result: BuildResult):
         super().__init__(message)
@@ -129,10 +111,6 @@ class Verification:
 
 
 # ----------------------------------------------------------------------------------------------- build
-def _raise_interrupt(signum, frame):
-    raise KeyboardInterrupt(f"signal {signum}")
-
-
 def _result(graph, out: Path, cache_dir: Path, chash: str, t0: float, verified, report_dir, notes=(),
             failure=None) -> BuildResult:
     return BuildResult(out=out, cache=cache_dir, config_hash=chash, stages=tuple(graph.records.values()), verified=verified,
@@ -142,18 +120,14 @@ def _result(graph, out: Path, cache_dir: Path, chash: str, t0: float, verified, 
 def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os.PathLike | None = None,
           verify: bool = True, lock_timeout: float | None = None,
           progress: Callable[[str], None] | None = None) -> BuildResult:
-    """Build, verify and publish the asset of ``config`` (:func:`load_config`, validated again here) into ``out``
-    (new, empty, or one rockdove built: anything else is refused before any work), incrementally.
-
-    ``cache``: the stage cache (default ``.rockdove-cache`` beside ``out``), shared with :func:`verify`.
-    ``verify``: run the verification on the staged asset; a failure publishes nothing and raises
-    :class:`BuildFailed`. ``lock_timeout``: seconds to wait for another build of the same output (default: until
-    it finishes), then UsageError (the wait is logged on the ``rockdove`` logger); ``progress(stage_name)`` as each starts.
-
-    Order of work: output checked -> lock taken -> leftovers of killed builds cleaned -> stages run or reused
-    -> asset assembled in a staging folder beside ``out``, marker written -> verification on the staged asset
-    -> atomic swap into place. Ctrl-C (and SIGTERM, when called from the main thread) removes the staging folder.
-    """
+    """Build, verify and publish the asset of ``config`` (:func:`load_config`, validated again here) into ``out`` (new,
+    empty, or one rockdove built: anything else is refused before any work), incrementally. ``cache``: the stage cache
+    (default ``.rockdove-cache`` beside ``out``), shared with :func:`verify`. ``verify``: run the verification on the
+    staged asset; a failure publishes nothing and raises :class:`BuildFailed`. ``lock_timeout``: seconds to wait for
+    another build of the same output (default: until it finishes), then UsageError (the wait is logged on the
+    ``rockdove`` logger); ``progress(stage_name)`` as each starts. The asset is assembled and verified in a staging
+    folder beside ``out``, then swapped into place; Ctrl-C (and SIGTERM, when called from the main thread) removes the
+    staging folder."""
     from .config import validate
     from .graph import stages as build_stages
     from .graph.engine import Cache, Graph
@@ -171,7 +145,7 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
     stages = build_stages.make_stages(config, verify=verify)
     chash = config_hash(config)
     main_thread = threading.current_thread() is threading.main_thread()
-    old_term = signal.signal(signal.SIGTERM, _raise_interrupt) if main_thread else None
+    old_term = signal.signal(signal.SIGTERM, raise_interrupt) if main_thread else None
     staging = None
     try:
         with OutputLock(out, timeout_s=lock_timeout):
@@ -227,11 +201,9 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
     the build's own verification with its cache (:func:`rockdove.graph.verification.verify`, whose arguments these
     are; its progress goes to the ``rockdove`` logger). ``out``: the report folder; ``allow_external``: let the
     asset's layers name files outside its folder; ``motion``, ``times``: also check that motion (its measures, and
-    the film at those time codes).
-
-    Returns :class:`Verification` (a failed check: ``passed`` False). Raises :class:`UsageError` for bad usage
-    and :class:`VerificationFailed`, before rendering, when the asset's layers do not parse or name files outside it.
-    """
+    the film at those time codes). Returns :class:`Verification` (a failed check: ``passed`` False). Raises
+    :class:`UsageError` for bad usage and :class:`VerificationFailed`, before rendering, when the asset's layers do
+    not parse or name files outside it."""
     from .graph import verification
     from .graph.publish import staged_output
     from .usd.dependencies import require_inside

@@ -43,10 +43,8 @@ def _module(name: str):
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The top-level parser; only ``command``'s module is imported to add its arguments."""
-    parser = _Parser(
-        prog="rockdove",
-        description="Build, render and verify a USD rock dove whose neck feathers shimmer by thin-film interference.",
-    )
+    parser = _Parser(prog="rockdove", description="Build, render and verify a USD rock dove whose neck feathers "
+                                                  "shimmer by thin-film interference.")
     parser.add_argument("--version", action="version", version=f"rockdove {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name, help_ in COMMANDS.items():
@@ -68,10 +66,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
-    from .errors import RockdoveError, VerificationFailed
+    from .errors import RockdoveError, VerificationFailed, raise_interrupt
 
     _log_to_stderr(args.command, quiet=bool(getattr(args, "quiet", False) or getattr(args, "json", False)))
-    old_term = signal.signal(signal.SIGTERM, _interrupt)  # a supervisor stops us as Ctrl-C does: jobs end, temporaries go
+    old_term = signal.signal(signal.SIGTERM, raise_interrupt)  # as Ctrl-C: jobs end, temporaries go
     try:
         return int(_module(args.command).run(args) or 0)
     except VerificationFailed as exc:
@@ -95,10 +93,6 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     finally:
         signal.signal(signal.SIGTERM, old_term)
-
-
-def _interrupt(signum, frame):
-    raise KeyboardInterrupt(f"signal {signum}")
 
 
 def _log_to_stderr(command: str, quiet: bool) -> None:

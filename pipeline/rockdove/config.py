@@ -12,6 +12,7 @@ import functools
 import hashlib
 import json
 import math
+import operator
 import os
 import re
 import tomllib
@@ -111,19 +112,13 @@ def parse_set(item: str) -> tuple[str, Any]:
 
 
 def _nest(key: str, value: Any) -> dict:
-    out: Any = value
-    for part in reversed(key.split(".")):
-        out = {part: out}
-    return out
+    return functools.reduce(lambda inner, part: {part: inner}, reversed(key.split(".")), value)
 
 
 def schema_at(schema: dict, path: Iterable) -> dict:
     node = schema
     for part in path:
-        if isinstance(part, int):
-            node = node.get("items", {})
-        else:
-            node = node.get("properties", {}).get(part, {})
+        node = node.get("items", {}) if isinstance(part, int) else node.get("properties", {}).get(part, {})
     return node
 
 
@@ -267,12 +262,8 @@ def load_config(*, preset: str | None = DEFAULT_PRESET, config_file: str | os.Pa
         if isinstance(overrides, str):
             raise UsageError(f"overrides must be a mapping or a list of KEY=VALUE strings, got the string "
                              f"{overrides!r}")
-        for item in overrides:
-            layers.append(_nest(*parse_set(item)))
-    config = defaults()
-    for layer in layers:
-        config = _merge(config, layer)
-    return validate(config)
+        layers += [_nest(*parse_set(item)) for item in overrides]
+    return validate(functools.reduce(_merge, layers, defaults()))
 
 
 def canonical_json(value: Any) -> str:
@@ -330,16 +321,12 @@ class Config(Mapping[str, Any]):
 
 def get(config: Mapping, key: str) -> Any:
     """The value at dotted ``key`` (``"lut"`` gives the section, ``"lut.angles"`` one value)."""
-    node: Any = config
-    for part in key.split("."):
-        node = node[part]
-    return node
+    return functools.reduce(operator.getitem, key.split("."), config)
 
 
 @dataclass(frozen=True)
 class Parameter:
-    """One configuration key as ``rockdove config`` shows it: its value, unit, default, what is allowed and what
-    it means (the schema's)."""
+    """One configuration key as ``rockdove config`` shows it: value, unit, default, allowed, meaning (the schema's)."""
 
     key: str
     value: Any

@@ -46,8 +46,5 @@ class Digest:
 
 def file_sha256(path) -> str:
     """The plain sha256 of one file's bytes (what a report records about the layer it verified)."""
-    h = hashlib.sha256()
     with open(path, "rb") as f:
-        while chunk := f.read(1 << 20):
-            h.update(chunk)
-    return h.hexdigest()
+        return hashlib.file_digest(f, "sha256").hexdigest()

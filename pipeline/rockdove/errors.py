@@ -20,3 +20,8 @@ class VerificationFailed(RockdoveError):
 
 class ResourceMissing(RockdoveError, FileNotFoundError):
     """A data file the package needs (shader, schema, preset) is not installed."""
+
+
+def raise_interrupt(signum, frame):
+    """The SIGTERM handler of the CLI and :func:`rockdove.api.build`: a supervisor stops rockdove as Ctrl-C does."""
+    raise KeyboardInterrupt(f"signal {signum}")

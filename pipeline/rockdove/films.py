@@ -47,12 +47,9 @@ def _check_index(name: str, value) -> complex:
 
 @dataclass(frozen=True)
 class FilmModel:
-    """One thin film b between an incident medium a and a substrate c (module docstring).
-
-    ``name``: non-empty (registry name); ``cauchy_a`` > 0; ``cauchy_b_nm2`` >= 0 in nm**2 (0: no dispersion);
-    ``k`` >= 0, the film's constant extinction; ``n_incident`` real (reflectance is measured in a transparent
-    medium) and ``n_substrate`` (real part > 0, imaginary part >= 0).
-    """
+    """One thin film b between an incident medium a and a substrate c (module docstring): ``cauchy_a`` > 0,
+    ``cauchy_b_nm2`` >= 0 in nm**2 (0: no dispersion), the constant extinction ``k`` >= 0, a real ``n_incident``
+    (reflectance is measured in a transparent medium) and ``n_substrate`` (n + ik); ``name``: the registry's."""
 
     name: str
     cauchy_a: float
@@ -92,24 +89,16 @@ class FilmModel:
         if lam.size and not (np.min(lam) > 0 and np.isfinite(np.max(lam))):
             raise UsageError(f"wavelength_nm must be finite and > 0, got values in [{np.min(lam)}, {np.max(lam)}]")
         n = self.cauchy_a + self.cauchy_b_nm2 / (lam * lam)
-        if self.k != 0.0:
-            return n + 1j * self.k
-        return n
+        return n + 1j * self.k if self.k != 0.0 else n
 
     def describe(self) -> dict[str, str]:
         """Human-readable description for EXR / USD metadata (all values are strings)."""
         formula = "n(lambda) = A + B / lambda^2 (lambda in nm)" + (" + i k" if self.k else "")
-        return {
-            "name": self.name,
-            "formula": formula,
-            "cauchyA": repr(self.cauchy_a),
-            "cauchyB_nm2": repr(self.cauchy_b_nm2),
-            "k": repr(self.k),
-            "complexIndexConvention": "n + ik, k >= 0 absorbs (as tmm / colour.phenomena)",
-            "incidentIndex": repr(self.n_incident),
-            "substrateIndex": repr(self.n_substrate),
-            "reference": _REFERENCES.get(self.name, "user-defined film model"),
-        }
+        return {"name": self.name, "formula": formula, "cauchyA": repr(self.cauchy_a),
+                "cauchyB_nm2": repr(self.cauchy_b_nm2), "k": repr(self.k),
+                "complexIndexConvention": "n + ik, k >= 0 absorbs (as tmm / colour.phenomena)",
+                "incidentIndex": repr(self.n_incident), "substrateIndex": repr(self.n_substrate),
+                "reference": _REFERENCES.get(self.name, "user-defined film model")}
 
 
 _REFERENCES = {

@@ -73,11 +73,9 @@ def _as_real(name: str, value, *, lo: float, lo_open: bool = False, hi: float | 
 
 
 def _as_index(name: str, value, wavelength_nm: np.ndarray | None = None, *, real_only: bool = False):
-    """A refractive index as a float64 or complex128 array (float64 when its imaginary part is 0).
-
-    ``value`` is a number, an array broadcastable with the wavelengths, or a callable n(wavelength_nm).
-    Allowed: finite, Re(n) > 0, Im(n) >= 0 (n + ik convention); ``real_only`` additionally Im(n) == 0.
-    """
+    """A refractive index as a float64 or complex128 array (float64 when its imaginary part is 0). ``value`` is a
+    number, an array broadcastable with the wavelengths, or a callable n(wavelength_nm). Allowed: finite, Re(n) > 0,
+    Im(n) >= 0 (n + ik convention); ``real_only`` additionally Im(n) == 0."""
     if callable(value):
         if wavelength_nm is None:
             raise UsageError(f"{name} is a callable but no wavelength_nm was given to evaluate it")
@@ -196,13 +194,10 @@ def film_phase(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident=1.0):
 
 # --------------------------------------------------------------------------- the solver
 def _fast_real(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t):
-    """Eq. (4) in real arithmetic (real indices, q_b > 0, q_c >= 0): ``({pol: (R, T or None)}, degenerate)``;
-    if ``degenerate``, NaN elements (0/0) are for the complex path.
-
-    With u = sin(delta)**2, R = (a0 + a1 u) / (b0 + b1 u) with coefficients of (wavelength, angle) only:
-    a0 = (eta_a - eta_c)**2, a1 = (eta_a eta_c / eta_b - eta_b)**2 - a0, b0 = (eta_a + eta_c)**2,
-    b1 = (eta_a eta_c / eta_b + eta_b)**2 - b0: one sine and a division per sample.
-    """
+    """Eq. (4) in real arithmetic (real indices, q_b > 0, q_c >= 0): ``({pol: (R, T or None)}, degenerate)``; if
+    ``degenerate``, NaN elements (0/0) are for the complex path. With u = sin(delta)**2, R = (a0 + a1 u) / (b0 + b1 u)
+    with coefficients of (wavelength, angle) only: a0 = (eta_a - eta_c)**2, a1 = (eta_a eta_c / eta_b - eta_b)**2 - a0,
+    b0 = (eta_a + eta_c)**2, b1 = (eta_a eta_c / eta_b + eta_b)**2 - b0: one sine and a division per sample."""
     u = np.square(np.sin(np.asarray(k0d * qb, dtype=np.float64)))  # sin(delta)**2
     out = {}
     degenerate = False
@@ -271,8 +266,7 @@ def _general_complex(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t=True):
 
 
 def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, want_t):
-    """Validate, choose the fast or complex path per element, return (R, T) float64 arrays (T None
-    unless ``want_t``)."""
+    """Validate, pick the fast or complex path per element, return (R, T) float64 arrays (T None unless ``want_t``)."""
     if polarization not in POLARIZATIONS:
         raise UsageError(f"polarization must be one of {POLARIZATIONS}, got {polarization!r}")
     lam = _as_real("wavelength_nm", wavelength_nm, lo=0.0, lo_open=True)
@@ -284,10 +278,9 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
     try:
         shape = np.broadcast_shapes(lam.shape, cos_a.shape, d.shape, n_a.shape, n_b.shape, n_c.shape)
     except ValueError:
-        raise UsageError(
-            "wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate must broadcast together, "
-            f"got shapes {lam.shape}, {cos_a.shape}, {d.shape}, {n_b.shape}, {n_a.shape}, {n_c.shape}"
-        ) from None
+        raise UsageError("wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate must broadcast "
+                         f"together, got shapes {lam.shape}, {cos_a.shape}, {d.shape}, {n_b.shape}, {n_a.shape}, "
+                         f"{n_c.shape}") from None
     pols = ("s", "p") if polarization == "unpolarized" else (polarization,)
 
     k0d = (_TWO_PI * d) / lam
@@ -307,8 +300,8 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
         for pol in pols if degenerate else ():
             slow = slow | np.isnan(res[pol][0])
         if slow.any():
-            sub = [np.broadcast_to(x, shape)[slow] for x in (k0d, cos_a, n_a, n_b, n_c, qb2, qc2)]
-            k0d_s, cos_s, na_s, nb_s, nc_s, qb2_s, qc2_s = sub
+            k0d_s, cos_s, na_s, nb_s, nc_s, qb2_s, qc2_s = (np.broadcast_to(x, shape)[slow]
+                                                            for x in (k0d, cos_a, n_a, n_b, n_c, qb2, qc2))
             res_slow = _general_complex(k0d_s, cos_s, na_s, nb_s, nc_s, _q(qb2_s + 0j, nb_s, na_s, cos_s, False),
                                         _q(qc2_s + 0j, nc_s, na_s, cos_s, False), pols, want_t)
             for pol in pols:

@@ -5,11 +5,11 @@ A callable is followed by name through its module's top-level definitions and th
 :mod:`ast` reads them; a string or f-string prefix naming ``rockdove.`` modules is an import too), then through
 each reached module's whole import closure inside the package. A module named at run time (``import_module(x)``,
 ``__import__``, ``find_spec``, ``run_module`` or ``run_path`` of anything but a literal) cannot be followed: the
-digest warns (:class:`DynamicImportWarning`) naming the file and line, so name such modules with a literal. A lambda, or a callable outside the package, keys
-on its whole file and every import in it. Third-party code enters as the whole environment (the ``*.dist-info``
-names on ``sys.path``, and Python's version): it runs code rockdove never names (trimesh calls scipy, USD loads
-plugins), and mapping imports to distributions took 1.1 s per process against ~1 ms to list ``sys.path``.
-A digest is memoised per process until a file it read or a folder it listed changes (mtime and size).
+digest warns (:class:`DynamicImportWarning`) naming the file and line. A lambda, or a callable outside the package,
+keys on its whole file and every import in it. Third-party code enters as the whole environment (the
+``*.dist-info`` names on ``sys.path``, and Python's version): it runs code rockdove never names (trimesh calls
+scipy, USD loads plugins), and mapping imports to distributions took 1.1 s per process against ~1 ms to list
+``sys.path``. A digest is memoised per process until a file it read or a folder it listed changes (mtime, size).
 """
 
 from __future__ import annotations
@@ -128,8 +128,7 @@ def _imports(node) -> list:
         elif isinstance(n, ast.Constant) and isinstance(n.value, str) and n.value.startswith("rockdove.") \
                 and not n.value.endswith("."):  # a whole name ("rockdove.x" or "rockdove.x:attr"), not a prefix
             out.append([-1, n.value.split(":")[0], []])
-        elif isinstance(n, ast.JoinedStr) and n.values and isinstance(n.values[0], ast.Constant) \
-                and str(n.values[0].value).startswith("rockdove."):
+        elif isinstance(n, ast.JoinedStr) and _literal(n):  # an f-string's "rockdove." prefix
             out.append([-1, n.values[0].value, []])
     return out
 

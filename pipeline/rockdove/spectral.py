@@ -188,10 +188,9 @@ def _xyz_to_rgb_matrix_t(colour_space: str) -> np.ndarray:
 
     def compute() -> dict:
         colour = _colour()
-        m = colour.XYZ_to_RGB(np.eye(3), colour.RGB_COLOURSPACES[_COLOURSPACE_NAMES[colour_space]],
-                              illuminant=white, chromatic_adaptation_transform=CHROMATIC_ADAPTATION,
-                              apply_cctf_encoding=False)
-        return {"matrix": m}
+        return {"matrix": colour.XYZ_to_RGB(np.eye(3), colour.RGB_COLOURSPACES[_COLOURSPACE_NAMES[colour_space]],
+                                            illuminant=white, chromatic_adaptation_transform=CHROMATIC_ADAPTATION,
+                                            apply_cctf_encoding=False)}
 
     # the white is derived from the tables; naming the file by it keeps a matrix from outliving its white
     return colour_data(f"xyz-to-{colour_space}-{CHROMATIC_ADAPTATION}-{white[0]:.15f}-{white[1]:.15f}",
@@ -215,8 +214,7 @@ def XYZ_to_RGB(XYZ, colour_space="lin_rec709") -> np.ndarray:
 
 def RGB_to_XYZ(RGB, colour_space="lin_rec709") -> np.ndarray:
     """Inverse of :func:`XYZ_to_RGB`: (..., 3) linear RGB -> (..., 3) CIE XYZ."""
-    m = _xyz_to_rgb_matrix_t(check_colour_space(colour_space))
-    return np.asarray(RGB, dtype=np.float64) @ np.linalg.inv(m)
+    return np.asarray(RGB, dtype=np.float64) @ np.linalg.inv(_xyz_to_rgb_matrix_t(check_colour_space(colour_space)))
 
 
 #: CIE 15:2004 CIELAB constants, exact rationals: epsilon = (6/29)^3, kappa = (29/3)^3.
@@ -252,8 +250,7 @@ def Lab_to_XYZ(Lab) -> np.ndarray:
 def delta_E_2000(Lab_a, Lab_b) -> np.ndarray:
     """CIEDE2000 colour difference (...) of two CIELAB arrays (..., 3), k_L = k_C = k_H = 1: Sharma, Wu and Dalal
     (2005), "The CIEDE2000 color-difference formula: implementation notes, supplementary test data, and
-    mathematical observations", Color Res. Appl. 30(1), eq. 1-24 (hue angles in degrees; h' = 0 where a' = b' = 0).
-    """
+    mathematical observations", Color Res. Appl. 30(1), eq. 1-24 (hue angles in degrees; h' = 0 where a' = b' = 0)."""
     L1, a1, b1 = np.moveaxis(np.asarray(Lab_a, dtype=np.float64), -1, 0)
     L2, a2, b2 = np.moveaxis(np.asarray(Lab_b, dtype=np.float64), -1, 0)
     c_bar = 0.5 * (np.hypot(a1, b1) + np.hypot(a2, b2))
@@ -296,13 +293,11 @@ def RGB_to_Lab(rgb, colour_space="lin_rec709") -> np.ndarray:
 
 
 def RGB_to_preview8(rgb, colour_space="lin_rec709") -> np.ndarray:
-    """8-bit sRGB preview (..., 3) uint8 of linear working RGB (..., 3), for people (PNG previews), not for data.
-
-    Per colour: convert to linear Rec.709; out of gamut (a negative component), desaturate toward its own
-    Rec.709 luminance Y = 0.2126 R + 0.7152 G + 0.0722 B by the least amount that makes every component >= 0,
-    ``Y + s (rgb - Y)`` with ``s = Y / (Y - min(rgb))`` (hue and luminance kept; Y <= 0 becomes black); clip
-    to 1; sRGB OETF (IEC 61966-2-1, :func:`srgb_encode`), round to 0-255.
-    """
+    """8-bit sRGB preview (..., 3) uint8 of linear working RGB (..., 3), for people (PNG previews), not for data. Per
+    colour: convert to linear Rec.709; out of gamut (a negative component), desaturate toward its own Rec.709 luminance
+    Y = 0.2126 R + 0.7152 G + 0.0722 B by the least amount that makes every component >= 0, ``Y + s (rgb - Y)`` with
+    ``s = Y / (Y - min(rgb))`` (hue and luminance kept; Y <= 0 becomes black); clip to 1; sRGB OETF (IEC 61966-2-1,
+    :func:`srgb_encode`), round to 0-255."""
     rgb = np.asarray(rgb, dtype=np.float64)
     if rgb.shape[-1:] != (3,):
         raise UsageError(f"rgb must have a trailing axis of 3, got shape {rgb.shape}")
@@ -316,6 +311,4 @@ def RGB_to_preview8(rgb, colour_space="lin_rec709") -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         s = np.where(neg & (lum > 0), lum / (lum - low), 1.0)
     mapped = np.where(neg, np.where(lum > 0, lum + s * (rgb - lum), 0.0), rgb)
-    mapped = np.clip(mapped, 0.0, 1.0)
-    encoded = srgb_encode(mapped)
-    return np.round(np.clip(encoded, 0.0, 1.0) * 255.0).astype(np.uint8)
+    return np.round(np.clip(srgb_encode(np.clip(mapped, 0.0, 1.0)), 0.0, 1.0) * 255.0).astype(np.uint8)

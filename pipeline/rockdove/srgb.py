@@ -26,13 +26,11 @@ def srgb_decode(encoded) -> np.ndarray:
 
 def linear_to_srgb8(rgb) -> np.ndarray:
     """(..., 3) linear lin_rec709 -> (..., 3) uint8: sRGB OETF (IEC 61966-2-1) of the value clipped to [0, 1].
-
-    docs/design.md's display transform for GL renders, reference renders and textures alike (NaN shows as black).
-    The code ``round(255 * srgb_encode(clip(v, 0, 1)))`` is a step function of ``v`` with 255 steps at least 3e-4
-    apart (:func:`_srgb8_steps`), so [0, 1] is cut into :data:`_SRGB8_CELLS` cells with at most one step each
-    (:func:`_srgb8_cells`): a value's code is its cell's, plus one at or above the cell's step. That gives the
-    formula's codes for every float64 and float32, 8.7-9x faster than a binary search among the steps.
-    """
+    docs/design.md's display transform for GL renders, reference renders and textures alike (NaN shows as black). The
+    code ``round(255 * srgb_encode(clip(v, 0, 1)))`` is a step function of ``v`` with 255 steps at least 3e-4 apart
+    (:func:`_srgb8_steps`), so [0, 1] is cut into :data:`_SRGB8_CELLS` cells with at most one step each
+    (:func:`_srgb8_cells`): a value's code is its cell's, plus one at or above the cell's step. That gives the formula's
+    codes for every float64 and float32, 8.7-9x faster than a binary search among the steps."""
     rgb = np.asarray(rgb)
     if rgb.dtype != np.float32:
         rgb = np.asarray(rgb, dtype=np.float64)

@@ -1,12 +1,9 @@
-"""Procedural textures: the feather base colour + alpha silhouette and mask (the seed paper's two feather
-textures), the plumage atlas of the other cards (colour + soft alpha, normal map + roughness), and the body's
-base colour in its xatlas UVs.
+"""Procedural textures: the neck feathers' base colour + alpha and mask (the seed paper's two), the plumage atlas
+of the other cards (docs/plumage.md) and the body's base colour in its xatlas UVs.
 
-Image convention (docs/design.md, Textures): uint8 arrays, row 0 is the TOP of the image, so texel (row, col) of
-an (H, W) image sits at st = ((col + 0.5) / W, 1 - (row + 0.5) / H) (USD's st has t = 0 at the bottom). On a
-feather card u runs across the feather and v from the root (0) to the tip (1): the tip is at the top of the
-feather images. Colours are blended in linear Rec.709 and encoded sRGB (:func:`rockdove.srgb.linear_to_srgb8`);
-alpha and the mask are linear. The palette: :mod:`rockdove.geometry.colours`.
+Image convention (docs/design.md, Textures): uint8, row 0 at the TOP, texel (row, col) of an (H, W) image at
+st = ((col + 0.5) / W, 1 - (row + 0.5) / H); on a card the tip (v = 1) is at the top. Colours are blended in
+linear Rec.709 and encoded sRGB (:func:`rockdove.srgb.linear_to_srgb8`); alpha and the mask are linear.
 """
 
 from __future__ import annotations
@@ -18,6 +15,7 @@ from .geometry.colours import WING_BAR_SRGB, body_colour_at  # noqa: F401
 from .geometry.colours import linear as _linear
 from .geometry.colours import mix as _mix
 from .geometry.sdf import smoothstep as _smoothstep
+from .srgb import linear_to_srgb8 as _encode  # the project's one sRGB 8-bit encoding
 
 #: sRGB 8-bit colour of a neck feather's vane (its rachis and down are painted paler by :func:`feather_tile`).
 VANE_SRGB = (56, 61, 66)
@@ -39,12 +37,6 @@ def _resolution(value, attr="feather_texture_resolution") -> int:
     if isinstance(res, bool) or not isinstance(res, (int, np.integer)) or not 16 <= res <= 8192:
         raise UsageError(f"resolution_or_params={value!r} must be BirdParams or an integer resolution in [16, 8192]")
     return int(res)
-
-
-def _encode(linear: np.ndarray) -> np.ndarray:
-    from rockdove.srgb import linear_to_srgb8  # the project's one sRGB 8-bit encoding
-
-    return linear_to_srgb8(linear)
 
 
 def feather_tile(kind: str, srgb, seed: int, height: int, width: int) -> tuple:
@@ -75,9 +67,8 @@ def feather_tile(kind: str, srgb, seed: int, height: int, width: int) -> tuple:
     for p_split, side in zip(rng.uniform(0.4, 0.9, splits) * barbs, rng.choice([-1, 1], splits)):  # splits
         gap = np.exp(-(((phase - p_split) / 0.2) ** 2)) * _smoothstep(0.5, 0.9, ax / w) * (np.sign(x) == side)
         edge = edge * (1.0 - 0.35 * gap)
-    alpha = _smoothstep(-SOFT_EDGE, SOFT_EDGE, edge - ax)
     fluff = _smoothstep(0.2 * down, down, v)  # the downy base: loose, pale and partly transparent
-    alpha = alpha * (0.35 + 0.65 * fluff) * (1.0 - 0.35 * (1.0 - fluff) * barb)
+    alpha = _smoothstep(-SOFT_EDGE, SOFT_EDGE, edge - ax) * (0.35 + 0.65 * fluff) * (1.0 - 0.35 * (1.0 - fluff) * barb)
     alpha = np.clip(alpha, 0.0, 1.0) * (v < 0.995)
     mottle = 1.0 + 0.05 * np.sin(2 * np.pi * (rng.uniform(1, 3) * u + rng.uniform(2, 4) * v + rng.uniform()))
     col = tone * (mottle * (0.9 + 0.1 * barb) * (1.0 + 0.25 * (1.0 - fluff)))[..., None]
@@ -94,12 +85,11 @@ def feather_tile(kind: str, srgb, seed: int, height: int, width: int) -> tuple:
 
 
 def plumage_atlas(resolution_or_params=256) -> tuple:
-    """The plumage atlas of :data:`rockdove.geometry.colours.ATLAS`: every tile a feather of :func:`feather_tile`,
-    tiles H / 2 x H texels (H: half BirdParams' ``feather_texture_resolution`` or of an int, clipped to [128, 512]:
-    the soft edge and the bars keep a few texels) on
-    ``ATLAS_COLUMNS`` x ``ATLAS_ROWS``, row 0 at the top. Returns ``(base (H, W, 4) uint8`` sRGB with the alpha,
-    ``normal (H, W, 4) uint8``: the tangent-space normal (x along u, y along v, OpenGL convention) as
-    ``n / 2 + 1 / 2``, roughness in alpha)."""
+    """The plumage atlas of :data:`rockdove.geometry.colours.ATLAS`: every tile a feather of :func:`feather_tile`, tiles
+    H / 2 x H texels (H: half BirdParams' ``feather_texture_resolution`` or of an int, clipped to [128, 512]: the soft
+    edge and the bars keep a few texels) on ``ATLAS_COLUMNS`` x ``ATLAS_ROWS``, row 0 at the top. Returns ``(base (H, W,
+    4) uint8`` sRGB with the alpha, ``normal (H, W, 4) uint8``: the tangent-space normal (x along u, y along v, OpenGL
+    convention) as ``n / 2 + 1 / 2``, roughness in alpha)."""
     from .geometry.colours import ATLAS, ATLAS_COLUMNS, ATLAS_ROWS
 
     h = int(np.clip(_resolution(resolution_or_params) // 2, 128, 512))
@@ -121,11 +111,10 @@ def plumage_atlas(resolution_or_params=256) -> tuple:
 
 
 def feather_textures(resolution_or_params=256) -> dict:
-    """The feather textures, R x R texels (16 .. 8192, or BirdParams' ``feather_texture_resolution``): the seed
-    paper's two for the neck's cards, ``"base"`` (R, R, 4) uint8 RGBA, the sRGB feather of :func:`feather_tile`
-    (a contour feather: dark slate vane with barbs, paler rachis, downy base) with its soft silhouette in alpha,
-    and ``"mask"`` (R, R) uint8, 255 on the tip (v >= MASK_FULL_V) where structural colour is drawn, 0 below
-    MASK_START_V, also past the silhouette (edge padding for mip levels); and the other cards' atlas
+    """The feather textures, R x R texels (16 .. 8192, or BirdParams' ``feather_texture_resolution``): the seed paper's
+    two for the neck's cards, ``"base"`` (R, R, 4) uint8 RGBA, the sRGB feather of :func:`feather_tile` with its soft
+    silhouette in alpha, and ``"mask"`` (R, R) uint8, 255 on the tip (v >= MASK_FULL_V) where structural colour is
+    drawn, 0 below MASK_START_V, also past the silhouette (edge padding for mip levels); and the other cards' atlas
     (:func:`plumage_atlas`), ``"plumage_base"`` and ``"plumage_normal"``."""
     res = _resolution(resolution_or_params)
     col, alpha, _, _ = feather_tile("neck", VANE_SRGB, 7, res, res)
@@ -174,21 +163,16 @@ def rasterize_uv(st: np.ndarray, faces: np.ndarray, resolution: int, chunk: int 
         w2 = (v0[:, 0] * v2[:, 1] - v2[:, 0] * v0[:, 1]) / den
         w0 = 1.0 - w1 - w2
         inside = ok & (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9)
-        out[0].append(py[inside])
-        out[1].append(px[inside])
-        out[2].append(start + tid[inside])
-        out[3].append(np.stack([w0, w1, w2], axis=1)[inside])
+        for o, found in zip(out, (py, px, start + tid, np.stack([w0, w1, w2], axis=1))):
+            o.append(found[inside])
     return tuple(np.concatenate(o) for o in out)
 
 
 def body_base_colour(resolution_or_params, bird) -> np.ndarray:
     """(R, R, 3) uint8 sRGB base colour of the body in its xatlas UVs (R: 16 .. 8192 or BirdParams'
-    ``body_texture_resolution``; ``bird``: a Bird, a Body or the Body MeshPart).
-
-    Every texel a UV triangle covers gets the colour of its 3-D point (:func:`body_colour_at`); the empty texels
-    between charts take the colour of the nearest covered texel, so bilinear filtering and mipmaps do not bleed
-    background into the seams.
-    """
+    ``body_texture_resolution``; ``bird``: a Bird, a Body or the Body MeshPart): each covered texel the colour of its
+    3-D point (:func:`body_colour_at`), the empty texels between charts the nearest covered one's, so bilinear
+    filtering and mipmaps do not bleed background into the seams."""
     from scipy import ndimage
 
     from rockdove.geometry.types import Bird, MeshPart
@@ -198,10 +182,8 @@ def body_base_colour(resolution_or_params, bird) -> np.ndarray:
     if not isinstance(part, MeshPart):
         raise UsageError(f"bird={type(bird).__name__} must be a Bird, a Body or the Body MeshPart")
     faces = part.face_vertex_indices.reshape(-1, 3).astype(np.int64)
-    st = part.st.astype(np.float64)
-    points = part.points_m.astype(np.float64)
-    rows, cols, face, bary = rasterize_uv(st, faces, res)
-    pts = np.einsum("nk,nkd->nd", bary, points[faces[face]])
+    rows, cols, face, bary = rasterize_uv(part.st.astype(np.float64), faces, res)
+    pts = np.einsum("nk,nkd->nd", bary, part.points_m.astype(np.float64)[faces[face]])
     img = np.zeros((res, res, 3), dtype=np.uint8)
     img[rows, cols] = _encode(body_colour_at(pts))
     empty = np.ones((res, res), dtype=bool)

@@ -9,6 +9,7 @@ import os
 import sys
 
 from ..errors import UsageError
+from .validate import add_external_argument
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -18,8 +19,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--validate", action="store_true",
                         help="run the Khronos glTF-Validator (npm gltf-validator, needs node) on the result")
     parser.add_argument("--json", action="store_true", help="print the export (and validation) summary as JSON")
-    from .validate import add_external_argument
-
     add_external_argument(parser)
 
 

@@ -35,17 +35,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="random points at which the LUT is checked against the exact reference (0: skip)")
 
 
-def _publish(write, path: str) -> None:
-    """Write with ``write(tmp_path)`` beside ``path``, then atomically replace ``path``."""
-    from ..resources import atomic_path
-
-    with atomic_path(path) as tmp:
-        write(tmp)
-
-
 def run(args: argparse.Namespace) -> int:
     from ..graph.publish import check_output_file, starts_like
     from ..lut import bake, write_exr, write_preview_png
+    from ..resources import atomic_path
 
     if not args.out.lower().endswith(".exr"):
         raise UsageError(f"--out must name a .exr file, got {args.out!r}")
@@ -80,8 +73,9 @@ def run(args: argparse.Namespace) -> int:
                           {**lut.metadata, **error_metadata(err)})
     os.makedirs(os.path.dirname(out), exist_ok=True)
     png = os.path.splitext(out)[0] + ".png"
-    _publish(lambda p: write_exr(lut, p), out)
-    _publish(lambda p: write_preview_png(lut, p), png)
+    for path, write in ((out, write_exr), (png, write_preview_png)):  # each written beside, then swapped in
+        with atomic_path(path) as tmp:
+            write(lut, tmp)
     md = lut.metadata
     print(out)
     print(f"  {lut.n_thickness} x {lut.n_angle} texels ({lut.n_thickness * lut.n_angle}), film {md['film']}, "

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..render.images import MAX_SHEET_PX, MAX_SIDE_PX
+from .validate import add_external_argument
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -31,8 +32,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the --motion's time code to render (default its first; 60 a second)")
     parser.add_argument("--angle", default="physical", choices=("physical", "materialx_baked"),
                         help="film angle: physical = dot(L, H) (the paper), materialx_baked = |dot(N, V)|")
-    from .validate import add_external_argument
-
     add_external_argument(parser)
 
 

@@ -1,13 +1,9 @@
-"""``rockdove sweep``: build (and verify) every point of a parameter grid on a Dask cluster.
+"""``rockdove sweep``: build (and verify) every point of a parameter grid on a Dask cluster (docs/python.md).
 
-Each point of the ``--grid`` product (over ``--preset``, ``--config``, ``--set``) is one :func:`rockdove.api.build`
-on a Dask worker into ``DIR/points/<KEY=VALUE__...>``, all sharing one stage cache, so the body is built once per
-geometry (:meth:`rockdove.graph.cache.Cache.entry_lock`) and each point is byte-identical to a serial build. The
-cluster is a private ``LocalCluster`` with TLS from ``Security.temporary()`` (another local user who finds its
-port cannot run code as you), or ``--scheduler`` with ``--security``; a point whose worker dies is rescheduled by
-Dask and leaves no half-written asset. ``DIR/sweep.json`` and ``DIR/index.html`` (renders and hue histograms by
-the swept keys) are rewritten as each point finishes. Exit status 2 for bad usage before anything runs, 1 when any
-point failed (after all the others finished), else 0.
+Each point of the ``--grid`` product is one :func:`rockdove.api.build` on a Dask worker into
+``DIR/points/<KEY=VALUE__...>``, all sharing one stage cache (:meth:`rockdove.graph.cache.Cache.entry_lock`), so each
+point is byte-identical to a serial build. The private ``LocalCluster`` speaks TLS (``Security.temporary()``).
+Exit status 2 for bad usage before anything runs, 1 when any point failed (after all the others finished), else 0.
 """
 
 from __future__ import annotations
@@ -76,8 +72,7 @@ _ONE_POINT_AT_A_TIME = threading.Lock()  # a worker with several threads builds 
 
 @dataclass(frozen=True)
 class Base:
-    """What every point of a sweep shares: the preset, the --config file (absolute), the --set overrides, the
-    stage cache."""
+    """What every point of a sweep shares: preset, --config file (absolute), --set overrides, stage cache."""
 
     preset: str
     config_file: str | None

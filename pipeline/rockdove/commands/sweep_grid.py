@@ -15,8 +15,7 @@ from ..errors import UsageError
 
 @dataclass(frozen=True)
 class Point:
-    """One grid point: its folder ``name``, ``overrides`` (``KEY=LITERAL``), parsed ``values``, the value ``index``
-    along each axis."""
+    """One grid point: folder ``name``, ``overrides`` (``KEY=LITERAL``), parsed ``values``, ``index`` per axis."""
 
     name: str
     overrides: tuple[str, ...]
@@ -110,10 +109,9 @@ _HASHED = re.compile(r"-[0-9a-f]{8}$")
 
 
 def grid_points(axes) -> list[Point]:
-    """The product of the axes in order (the last key varies fastest), each with a stable, readable folder
-    name made of its ``KEY=VALUE`` pairs; a short hash of its overrides replaces the readable name's end where two
-    would read the same (also ignoring case), one is long, or one reads like a hashed name: names cannot collide
-    (the one case left, two equal hashes, is refused)."""
+    """The product of the axes in order (the last key varies fastest), each with a stable, readable folder name of
+    its ``KEY=VALUE`` pairs, ended by a short hash of its overrides where two would read the same (also ignoring
+    case), one is long, or one reads like a hashed name: names cannot collide (two equal hashes are refused)."""
     points = []
     for combo in itertools.product(*[list(enumerate(vals)) for _, vals in axes]):
         overrides = tuple(f"{key}={lit}" for (key, _), (_, (lit, _v)) in zip(axes, combo))

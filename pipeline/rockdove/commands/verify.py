@@ -1,8 +1,6 @@
 """``rockdove verify ASSET``: :func:`rockdove.api.verify` (the build's verification with its cache: what a build or
-an earlier verification checked is not rendered again) and its results as text or ``--json``: per view, the
-light sweep's hues, the boundary, each host (an unavailable one SKIPPED with its reason, a failed one with its
-error), the anatomy and the notes (e.g. a physical-only asset's verification-only LUT, a check that could not
-run). Exit status 0 when everything passes, 1 when a check fails, 2 on bad usage.
+an earlier verification checked is not rendered again) and its results as text or ``--json``. Exit status 0 when
+everything passes, 1 when a check fails, 2 on bad usage.
 """
 
 from __future__ import annotations
@@ -11,6 +9,8 @@ import argparse
 import json
 import os
 import sys
+
+from .validate import add_external_argument
 
 
 def _ranged(key: str, unit: str):
@@ -79,8 +79,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="a time code of --motion to check the film at (repeatable; default 15, 21 and 26: "
                              "one step of the walk)")
     parser.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
-    from .validate import add_external_argument
-
     add_external_argument(parser)
 
 

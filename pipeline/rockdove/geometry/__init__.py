@@ -1,8 +1,7 @@
 """Procedural rock dove: body, parts, neck band, feather cards and the film-thickness field.
 
-Geometry knows nothing of USD: it returns numpy arrays in :class:`MeshPart` / :class:`Bird`
-(docs/design.md, "Geometry" section). Entry points: :func:`build_bird`, or :func:`build_body` then
-:func:`build_cards` to cache the body separately.
+Geometry knows nothing of USD: it returns numpy arrays in :class:`MeshPart` / :class:`Bird` (docs/design.md, "Geometry"
+section). Entry points: :func:`build_bird`, or :func:`build_body` then :func:`build_cards` to cache the body separately.
 """
 
 import importlib

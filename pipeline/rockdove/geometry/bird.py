@@ -36,11 +36,9 @@ class Body:
 
 
 def build_body(params: BirdParams) -> Body:
-    """Mesh the body (torso, breast, rump, neck, head) and give it UVs. Depends on ``params.body_voxel_m`` and ``params.body_texture_resolution``.
-
-    The coarse body (:data:`body.UNWRAP_VOXEL_M`) is unwrapped by xatlas, then subdivided onto the implicit surface
-    (:func:`body.subdivide_onto_surface`); normals are the field's gradient at the final vertices.
-    """
+    """Mesh the body (torso, breast, rump, neck, head) on the :data:`body.UNWRAP_VOXEL_M` grid, unwrap it with xatlas
+    and subdivide it onto the implicit surface (:func:`body.subdivide_onto_surface`) for ``params.body_voxel_m``;
+    normals are the field's gradient at the final vertices."""
     coarse = _body.build_body_mesh(_body.UNWRAP_VOXEL_M)
     at = _uv.atlas(coarse.vertices_m, coarse.faces)
     st = at.st.astype(np.float64)

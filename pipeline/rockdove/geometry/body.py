@@ -69,12 +69,10 @@ def surface_nets(values: np.ndarray, origin_m: np.ndarray, voxel_m: float):
     cnt = np.zeros(ncell)
     edge_sets = []
     for axis in range(3):  # the three edge directions
-        sl0 = [slice(None)] * 3
-        sl1 = [slice(None)] * 3
-        sl0[axis] = slice(0, -1)
-        sl1[axis] = slice(1, None)
-        f0, f1 = f[tuple(sl0)], f[tuple(sl1)]
-        change = inside[tuple(sl0)] != inside[tuple(sl1)]
+        sl0 = tuple(slice(0, -1) if a == axis else slice(None) for a in range(3))
+        sl1 = tuple(slice(1, None) if a == axis else slice(None) for a in range(3))
+        f0, f1 = f[sl0], f[sl1]
+        change = inside[sl0] != inside[sl1]
         idx = np.argwhere(change)  # (E, 3) lower corner of each crossing edge
         t = f0[change] / (f0[change] - f1[change])
         point = idx.astype(np.float64)
@@ -164,12 +162,9 @@ def weld_exact(points_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def relax_on_surface(field, points_m: np.ndarray, faces: np.ndarray, iterations: int = RELAX_ITERATIONS,
                      step: float = RELAX_STEP, max_step_m: float = 0.002) -> np.ndarray:
-    """Tangential relaxation of a closed welded mesh (W, 3) / (F, 3) on the zero set of ``field``.
-
-    Each iteration: ``n`` = unit field gradient; ``d`` = umbrella (mean of the neighbours) minus the vertex, less
-    its normal component; ``p += step * d``; one Newton step ``p -= field(p) * n`` (clipped to ``max_step_m``).
-    The result is on the surface to about 1e-5 m (default body: 9e-6 m at most).
-    """
+    """Tangential relaxation (module docstring) of a closed welded mesh (W, 3) / (F, 3) on the zero set of ``field``:
+    each iteration moves ``step`` of the way to the neighbours' mean within the tangent plane, then one Newton step
+    back (clipped to ``max_step_m``); on the surface to about 1e-5 m (default body: 9e-6 m at most)."""
     import trimesh
     from trimesh import smoothing
 
@@ -189,17 +184,11 @@ def relax_on_surface(field, points_m: np.ndarray, faces: np.ndarray, iterations:
 
 
 def subdivide_onto_surface(field, points_m: np.ndarray, faces: np.ndarray, st: np.ndarray, levels: int):
-    """Refine a seam-split triangle mesh on the zero set of ``field`` ``levels`` times, keeping its seams closed.
-
-    Each level: ``trimesh.remesh.subdivide`` (every triangle -> 4, st at edge midpoints), weld by exact position,
-    project the new welded vertices onto the zero set (:data:`SUBDIVISION_PROJECTION_STEPS`), relax them all
-    (:func:`relax_on_surface`), scatter back to the split vertices. ``points_m`` (V, 3) metres (copies of a vertex
-    have equal positions), ``faces`` (F, 3) counter-clockwise from outside, ``st`` (V, 2).
-
-    Returns (welded (W, 3) float64 on the surface; to_welded (V',) int64, the welded vertex of each split vertex;
-    faces (4**levels F, 3) int64 in split indices, the children of input face i contiguous in input order; st
-    (V', 2) float64, linear along every original edge).
-    """
+    """Refine a seam-split triangle mesh (``points_m`` (V, 3) metres, copies of a vertex at equal positions;
+    ``faces`` (F, 3) counter-clockwise from outside; ``st`` (V, 2)) on the zero set of ``field`` ``levels`` times,
+    keeping its seams closed (module docstring). Returns (welded (W, 3) float64 on the surface; to_welded (V',)
+    int64, the welded vertex of each split vertex; faces (4**levels F, 3) int64 in split indices, the children of
+    input face i contiguous in input order; st (V', 2) float64, linear along every original edge)."""
     from trimesh import remesh
 
     if isinstance(levels, bool) or not isinstance(levels, (int, np.integer)) or levels < 0:

@@ -90,33 +90,23 @@ class FeatherCards:
     def part(self) -> MeshPart:
         """The cards as the one ``NeckFeathers`` mesh, with the ``thickness`` and ``neckS`` primvars."""
         per = VERTICES_PER_CARD
-        return MeshPart(
-            name="NeckFeathers",
-            points_m=self.points_m,
-            face_vertex_counts=np.full(len(self.quads), 4, dtype=np.int32),
-            face_vertex_indices=self.quads.reshape(-1).astype(np.int32),
-            normals=self.normals,
-            st=self.st,
-            material="feather",
-            display_color=FEATHER_DISPLAY_COLOR,
-            primvars={
-                "thickness": Primvar(np.repeat(self.thickness_nm, per).astype(np.float32), "vertex",
-                                     "film thickness, nm (constant over each card)"),
-                "neckS": Primvar(np.repeat(self.neck_s, per).astype(np.float32), "vertex",
-                                 "neck coordinate of the card's root: 0 at the neck base, 1 at its top"),
-                THICKNESS_FIELD: Primvar(np.repeat(self.thickness_field, per, axis=0), "vertex", THICKNESS_FIELD_DOC),
-            },
-        )
+        primvars = {"thickness": Primvar(np.repeat(self.thickness_nm, per).astype(np.float32), "vertex",
+                                         "film thickness, nm (constant over each card)"),
+                    "neckS": Primvar(np.repeat(self.neck_s, per).astype(np.float32), "vertex",
+                                     "neck coordinate of the card's root: 0 at the neck base, 1 at its top"),
+                    THICKNESS_FIELD: Primvar(np.repeat(self.thickness_field, per, axis=0), "vertex",
+                                             THICKNESS_FIELD_DOC)}
+        return MeshPart(name="NeckFeathers", points_m=self.points_m,
+                        face_vertex_counts=np.full(len(self.quads), 4, dtype=np.int32),
+                        face_vertex_indices=self.quads.reshape(-1).astype(np.int32), normals=self.normals, st=self.st,
+                        material="feather", display_color=FEATHER_DISPLAY_COLOR, primvars=primvars)
 
 
 def _push_out(points: np.ndarray, direction: np.ndarray, clearance_m: float, steps: int = 8) -> np.ndarray:
-    """Move (M, 3) points closer than ``clearance_m`` to the skin (or inside) out of the body.
-
-    The first step moves along ``direction`` (M, 3), the card's skin normal, which near the root is the field
-    gradient to within a few degrees and saves the six field evaluations of a numerical gradient per point.
-    The few points still too close after it (a tip reaching the curved shoulder) then move along the field
-    gradient. The field is evaluated again only on the points that moved.
-    """
+    """Move (M, 3) points closer than ``clearance_m`` to the skin (or inside) out of the body: first along
+    ``direction`` (M, 3), the card's skin normal (near the root the field gradient to within a few degrees, without
+    the six field evaluations of a numerical gradient), then the few still too close (a tip reaching the curved
+    shoulder) along the field gradient. The field is evaluated again only on the points that moved."""
     p = points.copy()
     todo = np.arange(len(p))
     d = _sdf.body_sdf(p)
@@ -185,8 +175,7 @@ def build_cards(body, params) -> FeatherCards:
     push_dir = np.broadcast_to(n[:, None, None, :], pts[:, 1:].shape).reshape(-1, 3)
     pts[:, 1:] = _push_out(above, push_dir, CLEARANCE_M).reshape(pts[:, 1:].shape)
 
-    mid = pts.mean(axis=2)  # (N, K+1, 3)
-    along = np.gradient(mid, axis=1)
+    along = np.gradient(pts.mean(axis=2), axis=1)  # (N, K+1, 3), along the card's mid line
     across = pts[:, :, 1] - pts[:, :, 0]
     nrm = unit(np.cross(across, along))  # (N, K+1, 3), outward: b x t = n
     normals = np.repeat(nrm[:, :, None, :], 2, axis=2)
@@ -199,18 +188,10 @@ def build_cards(body, params) -> FeatherCards:
     local = np.stack([2 * j, 2 * j + 1, 2 * j + 3, 2 * j + 2], axis=1)  # (K, 4)
     quads = (local[None, :, :] + (VERTICES_PER_CARD * np.arange(n_cards))[:, None, None]).reshape(-1, 4)
 
-    s, _ = _neck.neck_s(roots)
-    s = np.clip(s, 0.0, 1.0)
+    s = np.clip(_neck.neck_s(roots)[0], 0.0, 1.0)
     field = _thickness.thickness_field(roots, params, stream(params.seed, STREAM_THICKNESS))
     thickness = _thickness.place_thickness_nm(field, params.thickness_base_nm, params.thickness_top_nm)
-    return FeatherCards(
-        points_m=pts.reshape(-1, 3).astype(np.float32),
-        normals=normals.reshape(-1, 3).astype(np.float32),
-        st=st.reshape(-1, 2),
-        quads=quads.astype(np.int32),
-        root_skin_m=roots,
-        skin_normal=n,
-        neck_s=s.astype(np.float32),
-        thickness_nm=thickness.astype(np.float32),
-        thickness_field=field.astype(np.float32),
-    )
+    return FeatherCards(points_m=pts.reshape(-1, 3).astype(np.float32),
+                        normals=normals.reshape(-1, 3).astype(np.float32), st=st.reshape(-1, 2),
+                        quads=quads.astype(np.int32), root_skin_m=roots, skin_normal=n, neck_s=s.astype(np.float32),
+                        thickness_nm=thickness.astype(np.float32), thickness_field=field.astype(np.float32))

@@ -1,12 +1,10 @@
 """Measurements of the feather cards against the body: how much of the neck band they hide, how far their
 roots are from the skin, whether any card vertex beyond the root is inside the body.
 
-Coverage is measured by ray casting (trimesh ray queries, Embree when installed): uniform random points on the
-band's skin, each looked at from outside along a direction (the skin normal, optionally tilted), and counted
-hidden when the first opaque thing the ray meets before the skin is a card. With a feather ``alpha`` texture,
-a card hit only counts where the texture's alpha is >= 0.5 (the renderers' ``opacityThreshold``), i.e. the
-feather silhouette, not the card rectangle. Rays whose first opaque hit is another part of the body (the
-point is not visible from that direction at all) are left out.
+Coverage is measured by ray casting (trimesh ray queries, Embree when installed) from outside onto random band
+points (:func:`band_coverage`): a point is hidden when the first opaque thing its ray meets is a card, opaque
+meaning, with a feather ``alpha`` texture, alpha >= 0.5 (the renderers' ``opacityThreshold``: the feather's
+silhouette, not the card rectangle); points the body itself hides from that direction are left out.
 """
 
 from __future__ import annotations
@@ -48,17 +46,15 @@ def band_coverage(body_vertices_m, body_faces, cards, rays: int = 2000, tilt_deg
 
     rng = np.random.default_rng(seed)
     target = _neck.sample_band_uniform(body_vertices_m, body_faces, rays, rng)
-    normal = _sdf.sdf_gradient(_sdf.body_sdf, target)
-    view = _tilted(normal, tilt_deg, rng)
+    view = _tilted(_sdf.sdf_gradient(_sdf.body_sdf, target), tilt_deg, rng)
     origin = target + RAY_START_M * view
     card_tri = cards.triangles()
-    n_card_tri = len(card_tri)
     verts = np.concatenate([cards.points_m.astype(np.float64), body_vertices_m])
     faces = np.concatenate([card_tri, np.asarray(body_faces) + len(cards.points_m)])
     scene = trimesh.Trimesh(verts, faces, process=False)
     loc, ray_id, tri_id = scene.ray.intersects_location(origin, -view, multiple_hits=True)
     dist = np.einsum("ij,ij->i", loc - origin[ray_id], -view[ray_id])
-    is_card = tri_id < n_card_tri
+    is_card = tri_id < len(card_tri)
     opaque = np.ones(len(tri_id), dtype=bool)
     if alpha is not None:
         tri = scene.triangles[tri_id[is_card]]
@@ -85,16 +81,13 @@ def root_skin_distance_m(body_vertices_m, body_faces, cards) -> np.ndarray:
     """(2 N,) unsigned distance, metres, of each root-row vertex to the body mesh."""
     import trimesh
 
-    mesh = trimesh.Trimesh(body_vertices_m, body_faces, process=False)
     roots = cards.points_m.reshape(cards.count, -1, 3)[:, :2].reshape(-1, 3).astype(np.float64)
-    _, dist, _ = trimesh.proximity.closest_point(mesh, roots)
-    return dist
+    return trimesh.proximity.closest_point(trimesh.Trimesh(body_vertices_m, body_faces, process=False), roots)[1]
 
 
 def beyond_root_signed_distance_m(body_vertices_m, body_faces, cards) -> np.ndarray:
     """(N (VERTICES_PER_CARD - 2),) trimesh signed distance (positive INSIDE) of every vertex beyond the root row."""
     import trimesh
 
-    mesh = trimesh.Trimesh(body_vertices_m, body_faces, process=False)
     rest = cards.points_m.reshape(cards.count, -1, 3)[:, 2:].reshape(-1, 3).astype(np.float64)
-    return trimesh.proximity.signed_distance(mesh, rest)
+    return trimesh.proximity.signed_distance(trimesh.Trimesh(body_vertices_m, body_faces, process=False), rest)

@@ -91,28 +91,21 @@ def mix(a, b, w):
 
 
 def body_colour_at(points_m: np.ndarray) -> np.ndarray:
-    """Linear Rec.709 base colour of the body at surface points: (N, 3) metres -> (N, 3) float64.
-
-    Blue-grey, the dark slate head and neck, the white rump patch over the tail base. Each layer is evaluated
-    only where its weight is above 0: elsewhere a mix with weight 0 would leave the colour unchanged, bit for bit.
-    """
+    """Linear Rec.709 base colour of the body at surface points: (N, 3) metres -> (N, 3) float64. Blue-grey, the dark
+    slate head and neck, the white rump patch over the tail base. Each layer is evaluated only where its weight is above
+    0: elsewhere a mix with weight 0 would leave the colour unchanged, bit for bit."""
     from . import neck as _neck
     from . import sdf as _sdf
 
     p = np.asarray(points_m, dtype=np.float64).reshape(-1, 3)
     col = np.broadcast_to(linear(BODY_SRGB), p.shape).copy()
     rump = 1.0 - smoothstep(0.014, 0.024, np.linalg.norm((p - [0.0, 0.092, -0.058]) * [0.8, 1.2, 0.7], axis=1))
-    i = np.flatnonzero(rump > 0.0)
-    col[i] = mix(col[i], linear(RUMP_SRGB), rump[i])
     s, r = _neck.neck_s(p)
     near_neck = 1.0 - smoothstep(0.030, 0.05, r)
-    neck_w = smoothstep(-0.45, 0.05, s) * near_neck
-    i = np.flatnonzero(neck_w > 0.0)
-    col[i] = mix(col[i], linear(NECK_SRGB), neck_w[i])
-    head_w = 1.0 - smoothstep(-0.001, 0.006, _sdf.HEAD.sdf(p))
-    head_w = np.maximum(head_w, smoothstep(1.0, 1.15, s) * near_neck)
-    i = np.flatnonzero(head_w > 0.0)
-    col[i] = mix(col[i], linear(HEAD_SRGB), head_w[i])
+    head = np.maximum(1.0 - smoothstep(-0.001, 0.006, _sdf.HEAD.sdf(p)), smoothstep(1.0, 1.15, s) * near_neck)
+    for srgb, w in ((RUMP_SRGB, rump), (NECK_SRGB, smoothstep(-0.45, 0.05, s) * near_neck), (HEAD_SRGB, head)):
+        i = np.flatnonzero(w > 0.0)
+        col[i] = mix(col[i], linear(srgb), w[i])
     return col
 
 

@@ -1,9 +1,7 @@
 """The neck band and blue-noise sampling of it.
 
-The band is the part of the body surface around the neck axis (``sdf.NECK_BASE_M`` -> ``sdf.NECK_TOP_M``):
-points whose projection on the axis lies between its ends and that are within ``sdf.NECK_BAND_RADIUS_M`` of
-it. The coordinate s is that projection, 0 at the base of the neck, 1 at the top below the head; on the
-rest of the body it is clipped to [0, 1].
+The band is the body surface within ``sdf.NECK_BAND_RADIUS_M`` of the neck axis (``sdf.NECK_BASE_M`` ->
+``sdf.NECK_TOP_M``) between its ends; s is the projection on the axis (:func:`neck_s`), 0 at the base, 1 at the top.
 
 Blue noise: uniform candidates by triangle area (Turk, "Generating random points in triangles", Graphics
 Gems, 1990: ``p = (1 - sqrt(r1)) a + sqrt(r1) (1 - r2) b + sqrt(r1) r2 c``), then weighted sample
@@ -40,8 +38,7 @@ def neck_s(points_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     length = np.linalg.norm(axis)
     q = p - _sdf.NECK_BASE_M
     s = (q @ axis) / (length * length)
-    radial = q - s[:, None] * axis
-    return s, np.linalg.norm(radial, axis=1)
+    return s, np.linalg.norm(q - s[:, None] * axis, axis=1)
 
 
 def in_band(points_m: np.ndarray, s_max: float = 1.0) -> np.ndarray:
@@ -52,8 +49,7 @@ def in_band(points_m: np.ndarray, s_max: float = 1.0) -> np.ndarray:
 
 def band_faces(vertices_m: np.ndarray, faces: np.ndarray, s_max: float = 1.0) -> np.ndarray:
     """(F,) bool: triangles with at least one corner in the band (a superset used to draw candidates)."""
-    vin = in_band(vertices_m, s_max)
-    return vin[faces].any(axis=1)
+    return in_band(vertices_m, s_max)[faces].any(axis=1)
 
 
 def triangle_areas(vertices_m, faces) -> np.ndarray:
@@ -66,8 +62,7 @@ def sample_triangles(vertices_m, faces, count: int, rng: np.random.Generator) ->
     """(count, 3) uniform random points on a triangle set, by area (Turk 1990)."""
     tri = vertices_m[faces]
     cdf = np.cumsum(triangle_areas(vertices_m, faces))
-    face_index = np.searchsorted(cdf, rng.random(count) * cdf[-1], side="right")
-    face_index = np.minimum(face_index, len(faces) - 1)
+    face_index = np.minimum(np.searchsorted(cdf, rng.random(count) * cdf[-1], side="right"), len(faces) - 1)
     r1 = np.sqrt(rng.random(count))
     r2 = rng.random(count)
     bary = np.stack([1.0 - r1, r1 * (1.0 - r2), r1 * r2], axis=1)
@@ -75,8 +70,7 @@ def sample_triangles(vertices_m, faces, count: int, rng: np.random.Generator) ->
 
 
 def band_area_m2(vertices_m, faces, s_max: float = 1.0) -> float:
-    """Area of the neck band up to ``s_max``, m^2 (Monte Carlo, 200k samples of a fixed seed, over the candidate
-    triangles)."""
+    """Area of the neck band up to ``s_max``, m^2 (Monte Carlo: 200k samples, fixed seed, on the candidates)."""
     sel = faces[band_faces(vertices_m, faces, s_max)]
     pts = sample_triangles(vertices_m, sel, 200_000, np.random.default_rng(12345))
     return float(triangle_areas(vertices_m, sel).sum() * in_band(pts, s_max).mean())
@@ -85,8 +79,7 @@ def band_area_m2(vertices_m, faces, s_max: float = 1.0) -> float:
 def sample_band_uniform(vertices_m, faces, count: int, rng: np.random.Generator, s_max: float = 1.0) -> np.ndarray:
     """(count, 3) independent uniform points in the band (rejection from the candidate triangles)."""
     sub = faces[band_faces(vertices_m, faces, s_max)]
-    out = []
-    have = 0
+    out, have = [], 0
     batch = int(count * 1.5) + 64
     while have < count:  # a few rounds of rejection, never a loop over points
         pts = sample_triangles(vertices_m, sub, batch, rng)
@@ -146,7 +139,6 @@ def blue_noise_band(vertices_m, faces, count: int, rng: np.random.Generator, s_m
     """(count, 3) blue-noise points in the neck band up to ``s_max``, uniform in area. ``area_m2``: the band's
     area (:func:`band_area_m2`), worth passing when sampling one body many times (estimating it costs more than
     sampling a thousand points), else estimated."""
-    m = int(np.ceil(CANDIDATES_PER_SAMPLE * count)) + 8
-    pts = sample_band_uniform(vertices_m, faces, m, rng, s_max)
+    pts = sample_band_uniform(vertices_m, faces, int(np.ceil(CANDIDATES_PER_SAMPLE * count)) + 8, rng, s_max)
     area = band_area_m2(vertices_m, faces, s_max) if area_m2 is None else area_m2
     return pts[eliminate(pts, int(count), area, rng)]

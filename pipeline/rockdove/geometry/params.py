@@ -71,16 +71,8 @@ def _check(name, value, default, lo_allowed, hi_allowed):
 @dataclass(frozen=True)
 class BirdParams:
     """Everything that shapes the procedural rock dove, validated on construction (ValueError naming the field)
-    against the ranges of the configuration keys of :data:`CONFIG_KEYS` (their meanings: the schema).
-
-    ``seed`` seeds every random choice; ``card_*`` shape the neck feather cards (count; length, width and root
-    depth ranges, m; ``card_jitter`` 0 .. 1 scales the seeded yaw (+-20 deg) and roll (+-15 deg); lift at the
-    root, deg; ``card_bend``, the tip's extra rise as a fraction of the length); ``thickness_*`` the film
-    thickness field (:mod:`rockdove.geometry.thickness`: ranges at the neck's base and top, nm; correlation
-    length, m; spread, a fraction of the range's half-width; per-card jitter, nm); the texture resolutions are
-    texels; ``body_voxel_m`` is about the body's edge length, m, snapped to a subdivision level of the 8 mm
-    unwrap mesh (:func:`rockdove.geometry.body.subdivision_levels`).
-    """
+    against the ranges of the configuration keys of :data:`CONFIG_KEYS`; their meanings and units (metres, nm,
+    degrees, texels) are the schema's (schemas/config.schema.json)."""
 
     seed: int = 0
     card_count: int = 1500

@@ -37,8 +37,9 @@ BILL_LENGTH_M = 0.018
 BILL_BASE_DEPTH_M = 0.0062
 #: How far the bill's root is sunk into the head, metres (so no gap shows where it meets the face).
 BILL_EMBED_M = 0.004
-#: Direction of the bill: forward (+Z) and a little down.
+#: Direction of the bill: forward (+Z) and a little down (_BILL_AXIS: unit).
 BILL_DIRECTION = (0.0, -0.30, 1.0)
+_BILL_AXIS = np.asarray(BILL_DIRECTION, dtype=np.float64) / np.linalg.norm(BILL_DIRECTION)
 #: Height of the bill's axis in the head's centre plane, metres: the axis leaves the face ~5 mm lower, a little
 #: below the eyes, as the gape of a pigeon lies.
 BILL_AXIS_Y_M = 0.2145
@@ -58,9 +59,7 @@ def revolve(z_m: np.ndarray, radius_m: np.ndarray, around: int = AROUND):
     cos, sin = np.cos(phi), np.sin(phi)
     verts = np.stack([r[:, None] * cos[None, :], r[:, None] * sin[None, :],
                       np.broadcast_to(z[:, None], (m, around + 1))], axis=-1)
-    # profile normal: perpendicular to the profile tangent (dz, dr) -> (dz, -dr) rotated outward
-    dz, dr = np.gradient(z), np.gradient(r)
-    nr, nz = dz, -dr
+    nr, nz = np.gradient(z), -np.gradient(r)  # profile normal: the profile's tangent (dz, dr) turned outward
     ln = np.hypot(nr, nz)
     nr, nz = nr / ln, nz / ln
     nrm = np.stack([nr[:, None] * cos[None, :], nr[:, None] * sin[None, :],
@@ -87,8 +86,7 @@ def _frame(direction: np.ndarray, up: np.ndarray = _Y_UP) -> np.ndarray:
     if np.linalg.norm(xc) < 1e-8:
         xc = np.cross(np.array([1.0, 0.0, 0.0]), zc)
     xc /= np.linalg.norm(xc)
-    yc = np.cross(zc, xc)
-    return np.stack([xc, yc, zc], axis=1)
+    return np.stack([xc, np.cross(zc, xc), zc], axis=1)
 
 
 def place(piece, origin_m, direction, scale_xy=(1.0, 1.0)):
@@ -97,9 +95,7 @@ def place(piece, origin_m, direction, scale_xy=(1.0, 1.0)):
     s = np.array([scale_xy[0], scale_xy[1], 1.0])
     rot = _frame(np.asarray(direction, dtype=np.float64))
     v = (verts * s) @ rot.T + np.asarray(origin_m)
-    n = nrm / s  # normals transform by the inverse scale
-    n = n / np.linalg.norm(n, axis=1, keepdims=True)
-    return v, n @ rot.T, st, faces
+    return v, unit(nrm / s) @ rot.T, st, faces  # normals transform by the inverse scale
 
 
 def _profile_z(length_m, m=16):
@@ -127,14 +123,11 @@ def tube_piece(length_m: float, r0_m: float, r1_m: float, m: int = 14, uniform: 
 
 def bill_root_m() -> np.ndarray:
     """(3,) point where the bill's axis leaves the head's surface (the body field's zero set), metres."""
-    d = np.asarray(BILL_DIRECTION, dtype=np.float64)
-    d /= np.linalg.norm(d)
+    d = _BILL_AXIS
     start = np.array([0.0, BILL_AXIS_Y_M, float(_sdf.HEAD.centre_m[2])])
     # march out along the bill's direction from inside the head to the first point outside (0.05 mm steps)
-    ts = np.arange(0.0, 0.05, 0.00005)
-    pts = start[None, :] + ts[:, None] * d[None, :]
-    outside = np.flatnonzero(_sdf.body_sdf(pts) > 0.0)
-    return pts[outside[0]]
+    pts = start[None, :] + np.arange(0.0, 0.05, 0.00005)[:, None] * d[None, :]
+    return pts[np.flatnonzero(_sdf.body_sdf(pts) > 0.0)[0]]
 
 
 def build_beak() -> MeshPart:
@@ -146,16 +139,13 @@ def build_beak() -> MeshPart:
     # full depth over the embedded root, then a taper that stays stout to the last quarter and rounds off
     r = 0.5 * BILL_BASE_DEPTH_M * np.sqrt(np.clip(1.0 - v**2.4, 0.0, 1.0)) * np.sqrt(np.clip(v * 12.0, 0.0, 1.0))
     r[-1] = 0.0
-    d = np.asarray(BILL_DIRECTION, dtype=np.float64)
-    d /= np.linalg.norm(d)
-    root = bill_root_m() - BILL_EMBED_M * d
-    return triangle_part("Beak", [place(revolve(z, r), root, d, (0.75, 1.0))], "beak", BEAK_COLOR)
+    root = bill_root_m() - BILL_EMBED_M * _BILL_AXIS
+    return triangle_part("Beak", [place(revolve(z, r), root, _BILL_AXIS, (0.75, 1.0))], "beak", BEAK_COLOR)
 
 
 def build_cere() -> MeshPart:
     """The cere: the off-white, powdery swelling over the nostrils on top of the base of the bill."""
-    d = np.asarray(BILL_DIRECTION, dtype=np.float64)
-    d /= np.linalg.norm(d)
+    d = _BILL_AXIS
     up = np.array([0.0, 1.0, 0.0]) - d[1] * d
     up /= np.linalg.norm(up)
     # an ellipsoid from 1 mm inside the face to CERE_LENGTH_M along the bill, riding on its upper edge
@@ -209,8 +199,7 @@ def build_eye_rings() -> MeshPart:
         idx = np.arange(3 * k).reshape(3, k)
         a, b, c, d = idx[:-1], np.roll(idx[:-1], -1, 1), np.roll(idx[1:], -1, 1), idx[1:]
         faces = np.concatenate([np.stack([a, d, c], -1).reshape(-1, 3), np.stack([a, c, b], -1).reshape(-1, 3)])
-        nrm = 0.5 * n + 0.5 * axis
-        pieces.append((p, nrm / np.linalg.norm(nrm, axis=1, keepdims=True), np.zeros((len(p), 2)), faces))
+        pieces.append((p, unit(0.5 * n + 0.5 * axis), np.zeros((len(p), 2)), faces))
     return triangle_part("EyeRings", pieces, "eyering", EYE_RING_COLOR)
 
 

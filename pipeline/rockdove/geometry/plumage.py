@@ -1,25 +1,12 @@
 """The rock dove's plumage in real-time terms: feather cards over the head and body, the folded wings, the tail.
 
-Each feather is a card, as real-time creature assets groom them: a strip of :data:`SHAPE_V` rows from the quill
-(v = 0) to the tip (v = 1), three vertices across (the vane's edges and the rachis, raised by a camber), mapped
-onto one tile of the plumage atlas (:data:`rockdove.geometry.colours.ATLAS`, painted by
-:func:`rockdove.textures.plumage_atlas`): colour with a soft-edged alpha that cuts the feather's outline, and a
-normal map of the rachis and barbs with the roughness. The outline, size and pattern come from the tile's kind
-(:data:`rockdove.geometry.colours.KINDS`); each card draws one of its kind's variants and may be mirrored, so no
-pattern repeats. Every card is one connected component of its part (the rig binds each rigidly).
-
-- ``HeadFeathers``: small rounded feathers on blue-noise roots over the head and throat, lying back from the bill
-  and down the neck, over the top rows of the iridescent cards (so no collar shows where they meet), none over the
-  bill, the cere or the bare ring round the eye.
-- ``CoatFeathers``: contour feathers on blue-noise roots over the body outside the neck band and the head, lying
-  tailward and down like shingles along the tracts, sized by region (small by the neck, long coverts over and
-  under the tail's base); normals are the body field's gradient, so the coat shades as one surface.
-- ``Wings``: each folded wing as layered rows draped over the body (:func:`drape_x`): primaries under the
-  secondaries and tertials, greater coverts over them, median coverts on top; the primaries run on past the rump,
-  their tips stepped so that each shows. The greater coverts and the tertials/secondaries carry the black
-  subterminal patch that lines up, row by row, into the rock dove's two curved wing bars.
-- ``Tail``: twelve rectrices (Columba livia has 12) in a closed, arched fan, each a thin closed lens (the rachis
-  thicker than the vanes), the central pair on top, with the dark terminal band.
+Each feather is a card (docs/plumage.md): a strip of :data:`SHAPE_V` rows from the quill (v = 0) to the tip
+(v = 1), three vertices across (the vane's edges and the raised rachis), on one tile of the plumage atlas
+(:data:`rockdove.geometry.colours.ATLAS`) whose kind sets the outline, size and pattern; each card draws one of its
+kind's variants and may be mirrored, so no pattern repeats. Every card is one connected component of its part (the
+rig binds each rigidly). Parts (:data:`CARD_PARTS`): :func:`build_head`, :func:`build_coat` (normals the body
+field's gradient, so the coat shades as one surface), :func:`build_wings` (the black subterminal patches line up
+into the two curved wing bars) and :func:`build_tail` (Columba livia has 12 rectrices).
 """
 
 from __future__ import annotations
@@ -71,8 +58,7 @@ STREAM_COAT, STREAM_HEAD, STREAM_WINGS = 4, 5, 6
 
 
 def tile(kind: str, srgb, rng, count: int) -> np.ndarray:
-    """(count,) atlas tiles of ``kind`` in tone ``srgb`` (:data:`~rockdove.geometry.colours.TILE_START`), variants
-    drawn from ``rng``."""
+    """(count,) atlas tiles of ``kind`` in tone ``srgb`` (:data:`colours.TILE_START`), variants from ``rng``."""
     start, variants = TILE_START[kind, srgb]
     return start + rng.integers(0, variants, count)
 
@@ -93,10 +79,8 @@ def feather_cards(centre, across, width, tiles, up, mirror=None, thick_m: float 
     unit (``t x up``: counter-clockwise seen from ``up``), ``width`` (N,) m of the tile, ``tiles`` (N,) atlas tiles
     of ``kind`` (each row :func:`hull` wide), ``up`` (N, R, 3) unit outward normals (the shading normals),
     ``mirror`` (N,) bool (u flipped), the rachis raised by ``camber`` x width. ``thick_m`` > 0 closes each card
-    underneath with a row that far under the rachis (a lens: the edges shared).
-
-    Returns ``(points (N*R*C, 3), normals, st, faces)``, C = 3 (4 with the underside) vertices per row.
-    """
+    underneath with a row that far under the rachis (a lens: the edges shared). Returns ``(points (N*R*C, 3),
+    normals, st, faces)``, C = 3 (4 with the underside) vertices per row."""
     n, rows = centre.shape[:2]
     g = hull(kind)
     half = (0.5 * width)[:, None, None] * g[None, :, None] * across

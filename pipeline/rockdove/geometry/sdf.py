@@ -147,8 +147,7 @@ def body_sdf(p: np.ndarray) -> np.ndarray:
         old = smooth_union(old, BELLY_NECK.sdf_xyz(xi, yi, zi), 0.02)
         d[i] = w[i] * old + (1.0 - w[i]) * d[i]
     d = smooth_union(d, NECK.sdf_xyz(x, y, z), 0.03)
-    d = smooth_union(d, HEAD.sdf_xyz(x, y, z), 0.012)
-    return d
+    return smooth_union(d, HEAD.sdf_xyz(x, y, z), 0.012)
 
 
 def smoothstep(e0, e1, x):

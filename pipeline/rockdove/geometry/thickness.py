@@ -1,9 +1,8 @@
 """The film-thickness field on the neck feather cards.
 
-Measured rock-dove barbule cortex: 480-580 nm at the base of the neck, 600-700 nm towards the top (Yoshioka,
-Nakamura and Kinoshita, J. Phys. Soc. Jpn. 76(1), 2007). The field is the
-base-to-top gradient along the neck height h, plus a smooth random field over the neck *surface*, plus a small
-per-card jitter, clipped to the configured range at that h:
+Measured rock-dove barbule cortex: 480-580 nm at the base of the neck, 600-700 nm towards the top (Yoshioka, Nakamura
+and Kinoshita, J. Phys. Soc. Jpn. 76(1), 2007). The field is the base-to-top gradient along the neck height h, plus a
+smooth random field over the neck *surface*, plus a small per-card jitter, clipped to the configured range at that h:
 
     h = clip((y - y_base) / (y_top - y_base), 0, 1)   (y: height of the card's root; y_base, y_top: heights of
                                                       the ends of the neck axis, sdf.NECK_BASE_M, NECK_TOP_M)
@@ -12,10 +11,9 @@ per-card jitter, clipped to the configured range at that h:
     d = clip(m(h) + spread w(h) f(p) + jitter_nm e,  lo(h), hi(h))
         m(h) = (lo + hi) / 2,  w(h) = (hi - lo) / 2,  e ~ N(0, 1) per card
 
-The gradient runs with height, not with the projection s on the leaning neck axis (``neckS``): the band's rings
-about that axis are far from level (the front of a ring lies ~2 cm below its back), so a gradient along s
-correlates with the root height only at ~0.6, and the measured change is from the lower neck to the throat and
-nape below the head.
+The gradient runs with height, not with the projection s on the leaning neck axis (``neckS``): the band's rings about
+that axis are far from level (the front of a ring lies ~2 cm below its back), so a gradient along s correlates with the
+root height only at ~0.6, and the measured change is from the lower neck to the throat and nape below the head.
 
 f(p) is a zero-mean, unit-variance Gaussian random field at each card's root p, with the squared-exponential
 covariance exp(-|p - p'|^2 / (2 l^2)), drawn by random Fourier features (Rahimi and Recht, "Random Features for
@@ -52,22 +50,18 @@ def thickness_bounds_nm(s: np.ndarray, base_nm, top_nm) -> tuple[np.ndarray, np.
     """(lo, hi) (N,) float64 thickness bounds, nm, at neck heights ``s`` (:func:`neck_height`) for the (min, max)
     ranges ``base_nm`` at s = 0 and ``top_nm`` at s = 1."""
     g = _sdf.smoothstep(0.0, 1.0, s)
-    lo = base_nm[0] + g * (top_nm[0] - base_nm[0])
-    hi = base_nm[1] + g * (top_nm[1] - base_nm[1])
-    return lo, hi
+    return base_nm[0] + g * (top_nm[0] - base_nm[0]), base_nm[1] + g * (top_nm[1] - base_nm[1])
 
 
 def smooth_field(points_m: np.ndarray, correlation_length_m: float, rng: np.random.Generator) -> np.ndarray:
-    """(N,) a zero-mean, unit-variance Gaussian random field of correlation length l (metres) at (N, 3) points,
-    by :data:`FIELD_FEATURES` random Fourier features whose frequencies and phases ``rng`` draws (module
-    docstring)."""
+    """(N,) a zero-mean, unit-variance Gaussian random field of correlation length l (metres) at (N, 3) points, by
+    :data:`FIELD_FEATURES` random Fourier features whose frequencies and phases ``rng`` draws (module docstring)."""
     p = np.asarray(points_m, dtype=np.float64).reshape(-1, 3)
     w = rng.standard_normal((3, FIELD_FEATURES)) / float(correlation_length_m)  # (3, M) rad/m
     b = rng.uniform(0.0, 2.0 * np.pi, FIELD_FEATURES)
     out = np.empty(len(p))
     for start in range(0, len(p), FIELD_BLOCK):
-        phase = p[start:start + FIELD_BLOCK] @ w + b
-        out[start:start + FIELD_BLOCK] = np.cos(phase).sum(axis=1)
+        out[start:start + FIELD_BLOCK] = np.cos(p[start:start + FIELD_BLOCK] @ w + b).sum(axis=1)
     return out * np.sqrt(2.0 / FIELD_FEATURES)
 
 

@@ -41,20 +41,13 @@ class Primvar:
 
     def __post_init__(self):
         if self.interpolation not in INTERPOLATIONS:
-            raise UsageError(
-                f"interpolation={self.interpolation!r} is not allowed; use one of {INTERPOLATIONS}"
-            )
+            raise UsageError(f"interpolation={self.interpolation!r} is not allowed; use one of {INTERPOLATIONS}")
 
 
 @dataclass(frozen=True)
 class MeshPart:
-    """One mesh of the bird, ready to be written as a ``UsdGeom.Mesh`` named ``name``.
-
-    ``points_m`` (V, 3) float32 metres; ``face_vertex_counts`` (F,) int32; ``face_vertex_indices`` int32,
-    counter-clockwise seen from outside; ``normals`` (V, 3) float32 unit, outward; ``st`` (V, 2) float32 in
-    [0, 1] (vertices are split at UV seams); ``material`` one of :data:`MATERIALS`; ``display_color`` linear RGB,
-    the fallback of viewers without materials; ``primvars`` name -> :class:`Primvar`.
-    """
+    """One mesh of the bird, ready to be written as a ``UsdGeom.Mesh`` named ``name`` (fields: docs/design.md,
+    "Geometry"; ``material`` one of :data:`MATERIALS`, ``primvars`` name -> :class:`Primvar`)."""
 
     name: str
     points_m: np.ndarray
@@ -109,8 +102,7 @@ def drop_unreferenced_points(part: MeshPart) -> MeshPart:
 
 @dataclass(frozen=True)
 class Bird:
-    """The whole bird: its :class:`MeshPart` s in order (``Body`` is one closed surface; all neck cards are in
-    one ``NeckFeathers`` part)."""
+    """The whole bird: its :class:`MeshPart` s in order (``Body`` one closed surface, one ``NeckFeathers``)."""
 
     parts: tuple
 

@@ -42,6 +42,6 @@ def atlas(vertices_m: np.ndarray, faces: np.ndarray) -> UVAtlas:
     pack_options.padding = CHART_PADDING_TEXELS
     at.generate(chart_options, pack_options)
     vmapping, indices, uvs = at[0]
-    st = np.clip(np.asarray(uvs, dtype=np.float32), 0.0, 1.0)
     return UVAtlas(vmapping=np.asarray(vmapping, dtype=np.int64),
-                   faces=np.asarray(indices, dtype=np.int64).reshape(-1, 3), st=st)
+                   faces=np.asarray(indices, dtype=np.int64).reshape(-1, 3),
+                   st=np.clip(np.asarray(uvs, dtype=np.float32), 0.0, 1.0))

@@ -47,8 +47,7 @@ _LOADED_LOCK = threading.Lock()
 
 
 def load_entry(codec: Codec, folder: Path) -> Any:
-    """``codec.load(folder)``, once per process (by inode and mtime too) for a ``shared`` codec: a warm process
-    rebuilding after a film change does not re-read the geometry."""
+    """``codec.load(folder)``, once per process for a ``shared`` codec: a warm rebuild does not re-read the geometry."""
     if not codec.shared:
         return codec.load(folder)
     st = folder.stat()
@@ -198,8 +197,8 @@ class Cache:
             os.close(fd)  # releases the lock
 
     def clean_temporaries(self) -> None:
-        """Remove what killed builds left: temporary folders whose ``.owner`` lock nobody holds (with no
-        ``.owner``, once an hour old) and ``.lock-*`` files nobody holds; never a live writer's, wherever it runs."""
+        """Remove what killed builds left: temporary folders and ``.lock-*`` files whose lock nobody holds (a folder
+        without ``.owner`` once an hour old); never a live writer's, wherever it runs."""
         for tmp in self.root.glob("*/.tmp-*"):
             if tmp in _LIVE or not tmp.is_dir():
                 continue

@@ -1,16 +1,15 @@
-"""The incremental build graph: stages keyed by a content hash of exactly what they read, over a cache
-(:mod:`rockdove.graph.cache`).
+"""The incremental build graph over a cache (:mod:`rockdove.graph.cache`).
 
 A :class:`Stage` is a named pure function of its part of the configuration and its upstream outputs, keyed by
 the configuration keys it declares, the code it can execute (:func:`rockdove.sources.digest`) and the *content
 digests* of its upstream outputs (early cut-off: a new seed that leaves the thickness range unchanged does not
 re-bake the LUT). A stage whose key has an entry is reused, its value loaded only if a stage that runs needs it;
-builds sharing a cache compute an entry once (``Cache.entry_lock``). A stage that keeps finer items of its own
-(the verification) gets the cache in ``Context.cache``.
+builds sharing a cache compute an entry once (``Cache.entry_lock``).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import shutil
 import time
@@ -28,9 +27,9 @@ GRAPH_VERSION = 2  # bump when the key recipe or the entry layout changes
 
 @dataclass
 class Context:
-    """What a stage function receives: its declared ``config`` (``ctx.config.lut.angles``), its
-    ``inputs`` by stage name (``ctx.inputs.bird``, loaded on first access), an empty ``workdir`` that becomes its cache entry (FILES
-    stages write their files there), the assembled ``asset_dir`` for ``needs_asset`` stages."""
+    """What a stage function receives: its declared ``config`` (``ctx.config.lut.angles``), its ``inputs`` by stage
+    name (loaded on first access), an empty ``workdir`` that becomes its cache entry (FILES stages write their files
+    there), the assembled ``asset_dir`` for ``needs_asset`` stages."""
 
     config: Config
     inputs: Any  # the declared inputs by name, ctx.inputs["bird"] or ctx.inputs.bird
@@ -41,11 +40,9 @@ class Context:
 
 @dataclass(frozen=True)
 class Stage:
-    """One node of the build graph: ``run(ctx)`` is the pure function;
-    ``config`` the dotted keys it reads; ``deps`` the upstream stages (earlier in the list); ``data`` the data
-    files or folders whose bytes enter its key; ``codec`` how its value is stored; ``publish`` (FILES stages) the
-    sub-folder of the asset its files are copied to (``""``: the root); ``needs_asset`` runs it on the assembled
-    asset."""
+    """One node of the build graph: ``run(ctx)`` is the pure function; ``config`` the dotted keys it reads; ``deps``
+    the upstream stages (earlier in the list); ``data`` the data files or folders whose bytes enter its key;
+    ``publish`` (FILES stages) the asset's sub-folder its files go to (``""``: the root)."""
 
     name: str
     run: Callable[[Context], Any]
@@ -94,8 +91,7 @@ class StageRecord:
     digest: str
 
     def as_dict(self) -> dict:
-        return {"name": self.name, "key": self.key, "status": self.status, "seconds": round(self.seconds, 4),
-                "digest": self.digest}
+        return {**dataclasses.asdict(self), "seconds": round(self.seconds, 4)}
 
 
 class _LazyInputs(Mapping):
@@ -167,27 +163,20 @@ class Graph:
         source = source_digest(stage, [self.stages[d] for d in stage.deps])
         key = stage_key(stage, self.config, digests, source)
         t0 = time.perf_counter()
-        meta = self.cache.lookup(stage.name, key)
-        if meta is None:  # another process sharing the cache may be computing it: wait for it, do not redo it
-            with self.cache.entry_lock(stage.name, key):
-                meta = self.cache.lookup(stage.name, key)
-                if meta is None:
-                    return self._compute_stage(stage, key, digests, source, asset_dir, t0)
-        rec = StageRecord(stage.name, key, "reused", time.perf_counter() - t0, meta["digest"])
-        self.records[stage.name] = rec
-        return rec
 
-    def _compute_stage(self, stage: Stage, key: str, digests: dict, source: str, asset_dir, t0: float) -> StageRecord:
-        """Run ``stage`` (its entry is missing and this process holds its lock) and store its entry."""
         def fill(folder: Path):
             stage.codec.save(stage.run(self._context(stage, folder, asset_dir)), folder)
             if stage.codec is not FILES:
                 self._values[stage.name] = stage.codec.load(folder)
 
-        meta = self.cache.store(stage.name, key, fill)
-        rec = StageRecord(stage.name, key, "ran", time.perf_counter() - t0, meta["digest"])
-        self.records[stage.name] = rec
-        return rec
+        meta, status = self.cache.lookup(stage.name, key), "reused"
+        if meta is None:  # another process sharing the cache may be computing it: wait for it, do not redo it
+            with self.cache.entry_lock(stage.name, key):
+                meta = self.cache.lookup(stage.name, key)
+                if meta is None:
+                    meta, status = self.cache.store(stage.name, key, fill), "ran"
+        self.records[stage.name] = StageRecord(stage.name, key, status, time.perf_counter() - t0, meta["digest"])
+        return self.records[stage.name]
 
     def assemble(self, asset_dir: Path, *, needs_asset: bool = False) -> None:
         """Copy the files of the publishing stages (those with ``needs_asset == needs_asset``) into

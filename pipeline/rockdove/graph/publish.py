@@ -48,8 +48,8 @@ def real_output(out) -> Path:
 
 
 def _check_writable(out: Path, real: Path, deep: bool = True) -> None:
-    """The folders rockdove would create or replace in must be writable (before anything is written): ``real``
-    (or its nearest existing parent), and with ``deep`` its parent and every folder inside it."""
+    """UsageError unless ``real`` (or its nearest existing parent) is writable, and with ``deep`` its parent and
+    every folder inside it."""
     probe = real
     while not probe.exists():
         probe = probe.parent
@@ -63,9 +63,8 @@ def _check_writable(out: Path, real: Path, deep: bool = True) -> None:
 
 
 def check_output(out, what: str | None = None) -> Path:
-    """``--out`` resolved, or refused (:class:`UsageError`, before anything is written) when it is a file, not
-    writable, or a non-empty folder rockdove did not create: without :data:`MARKER` for an asset, or for the
-    folder of a command's ``what`` (``renders``, ``sweep``) without :data:`OUTPUT_MARKER` and not inside an asset."""
+    """``--out`` resolved, or refused (:class:`UsageError`) when it is a file, not writable, or a non-empty folder
+    rockdove did not create (no :data:`MARKER`; for a command's ``what``, no :data:`OUTPUT_MARKER` nor in an asset)."""
     if what is None and (str(out) in ("", ".", "/") or Path(out).name in ("", ".", "..")):
         raise UsageError(f"--out {str(out)!r} is not a folder name rockdove can publish to; give e.g. build/pigeon")
     if what is not None and not str(out).strip():
@@ -94,14 +93,16 @@ def claim_output(out, what: str, create: bool = True) -> Path:
     if create:
         real.mkdir(parents=True, exist_ok=True)
         if not _ours(real, what):
-            (real / OUTPUT_MARKER).write_text(json.dumps({"tool": "rockdove", "version": __version__,
-                                                          "output": what}) + "\n")
+            _write_output_marker(real, what)
     return real
 
 
+def _write_output_marker(folder: Path, what: str) -> None:
+    (folder / OUTPUT_MARKER).write_text(json.dumps({"tool": "rockdove", "version": __version__, "output": what}) + "\n")
+
+
 def check_output_file(out, ours) -> None:
-    """Refuse (:class:`UsageError`) an ``--out`` file that exists and ``ours(path)`` does not recognise as
-    written by rockdove, or whose folder is not writable."""
+    """UsageError for an ``--out`` file that exists and ``ours(path)`` does not recognise, or in a read-only folder."""
     path = real_output(out)
     if path.is_dir() or (path.exists() and not ours(path)):
         raise UsageError(f"--out {str(out)!r} exists and rockdove did not write it; refusing to overwrite it: "
@@ -126,11 +127,9 @@ def _remove(path: Path) -> None:
         return
 
     def fix(fn, p, _exc):
-        try:
+        with contextlib.suppress(OSError):
             os.chmod(os.path.dirname(p), 0o700)
             fn(p)
-        except OSError:
-            pass
 
     shutil.rmtree(path, onerror=fix)
 
@@ -183,8 +182,8 @@ class OutputLock:
 
 
 def recover(out: Path) -> None:
-    """Undo what a killed build left beside ``out`` (holding its lock): ``out`` restored from a ``-old`` folder
-    if it is missing; staging and ``-old`` folders removed, also read-only ones and links."""
+    """Undo what a killed build left beside ``out`` (holding its lock): a missing ``out`` restored from a ``-old``
+    folder; staging and ``-old`` folders removed."""
     real = real_output(out)
     olds = sorted(real.parent.glob(f".{real.name}{_OLD}*"), key=lambda p: p.stat().st_mtime)
     if not real.exists() and olds:
@@ -217,8 +216,8 @@ def make_staging(out: Path) -> Path:
 
 def write_marker(folder: Path, info: dict) -> None:
     """Write the marker that says rockdove created ``folder``."""
-    data = {"tool": "rockdove", "version": __version__, **info}
-    (folder / MARKER).write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
+    (folder / MARKER).write_text(json.dumps({"tool": "rockdove", "version": __version__, **info}, indent=1,
+                                            sort_keys=True) + "\n")
 
 
 _RENAME_EXCHANGE = 2
@@ -242,8 +241,7 @@ def _exchange(a: Path, b: Path) -> bool:
 
 
 def publish(staging: Path, out: Path) -> None:
-    """Put the assembled ``staging`` folder (holding the marker) in place of ``out`` atomically, re-checking
-    ``out`` first; remove the old asset after."""
+    """Swap the assembled ``staging`` folder (holding the marker) in place of ``out``, re-checked, atomically."""
     if not (staging / MARKER).is_file():
         raise ValueError(f"staging folder {str(staging)!r} has no {MARKER}")
     check_output(out)
@@ -265,12 +263,10 @@ def _swap(staging: Path, out: Path) -> None:
 
 @contextlib.contextmanager
 def staged_output(out, what: str, holds: str):
-    """A command's output folder ``out`` (checked as :func:`check_output` does) written whole or not at all: the
-    block writes into a staging folder beside it, swapped in when the block ends without an error, removed
-    otherwise (an interrupted command leaves ``out`` as it was). An existing ``out`` is replaced only when it is
-    empty or an earlier output of the same kind (its :data:`OUTPUT_MARKER` names ``what``, or it holds the file
-    ``holds``, and it is no asset): never an asset or a folder of other things. Two commands writing one ``out``
-    take turns (``flock`` of the parent folder); what a killed one left is removed first. Yields (staging, out)."""
+    """A command's output folder ``out`` written whole or not at all: the block writes into a staging folder,
+    swapped in when it ends without an error, removed otherwise. An existing ``out`` is replaced only when it is
+    empty or an earlier output of the same kind (its :data:`OUTPUT_MARKER` names ``what``, or it holds ``holds``;
+    no asset). Two commands writing one ``out`` take turns (``flock`` of the parent). Yields (staging, out)."""
     real = check_output(out, what)
     with contextlib.suppress(OSError, ValueError):
         holds = holds if json.loads((real / OUTPUT_MARKER).read_text()).get("output") != what else OUTPUT_MARKER
@@ -284,8 +280,7 @@ def staged_output(out, what: str, holds: str):
         fcntl.flock(fd, fcntl.LOCK_EX)
         recover(real)
         staging = make_staging(real)
-        (staging / OUTPUT_MARKER).write_text(json.dumps({"tool": "rockdove", "version": __version__,
-                                                          "output": what}) + "\n")
+        _write_output_marker(staging, what)
         yield staging, real
         check_output(real, what)
         _swap(staging, real)

@@ -1,10 +1,5 @@
-"""The real build stages: each wires one module of the pipeline into the graph (:mod:`rockdove.graph.engine`).
-
-Stages (dependencies first; the configuration and inputs of each: :func:`make_stages`): ``body``, ``bird``,
-``thickness_range`` (nm), ``lut`` (baked over exactly that range; absent for ``shading.variant = "physical"``),
-``texture_images``, ``textures`` (what a film change leaves alone), ``film_textures`` (the LUT EXR and the
-preview atlas), ``usd_geometry``, ``usd_layers``, ``usdz`` and ``gltf`` (packages of the assembled asset) and
-``verify`` (:func:`rockdove.graph.verification.verify` of the assembled asset).
+"""The real build stages: each wires one module of the pipeline into the graph (:mod:`rockdove.graph.engine`);
+:func:`make_stages` lists them, dependencies first, with the configuration and inputs of each.
 
 Keys use the *content* of upstream outputs, so a new seed that leaves the thickness range unchanged re-bakes
 nothing, and a film change re-bakes the LUT and rewrites film_textures and the small layers but reuses the bird,

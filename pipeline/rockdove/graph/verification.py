@@ -1,13 +1,10 @@
 """The one verification, run by the build's ``verify`` stage and by ``rockdove verify`` alike, and its cache.
 
-The renders are items, each an entry of the stage cache (folders ``verify.<kind>``) keyed by what it reads:
-
-- ``surface``, per camera: what the reference shades at its primary hits before any light or film, so a film
-  change reuses it;
-- ``view``, per view: the GL render against the reference, its images and checks; keyed by the scene content it
-  renders (:func:`rockdove.verify.inputs.scene_digest`: not the usdz or file paths) and the view;
-- ``host``, per host: its metrics and images over the views; keyed by the scene content, the views and its lobe;
-- ``beauty`` and ``animation``: the report's pictures, keyed by the scene content and the ``[beauty]`` settings.
+The renders are items, each an entry of the stage cache (folders ``verify.<kind>``) keyed by what it reads: a
+``surface`` per camera (the reference's shading inputs before any light or film: a film change reuses it); a
+``view`` per view (GL render against the reference, images, checks; keyed by the scene content,
+:func:`rockdove.verify.inputs.scene_digest`, not file paths); a ``host`` per host (keyed by the scene content, the
+views and its lobe); ``beauty`` and ``animation``, the report's pictures (the scene and the ``[beauty]`` settings).
 
 Each key also holds the code the item can execute (:mod:`rockdove.sources`) and the installed distributions. So
 ``rockdove verify`` and a build reuse each other's views, and an edit to one host's code re-renders that host alone.
@@ -45,9 +42,8 @@ def item_key(kind: str, fns: tuple, *reads) -> str:
 
 
 class _Items:
-    """The cache entries of one kind of item: ``<cache>/verify.<kind>/<key>/value/``. A cache that cannot be
-    written (a full disk, a read-only folder, a file in its place) only costs time: nothing is kept, the scratch
-    folders go into ``spare`` (the report's folder) instead."""
+    """The cache entries of one kind of item: ``<cache>/verify.<kind>/<key>/value/``. A cache that cannot be written
+    only costs time: nothing is kept, the scratch folders go into ``spare`` (the report's folder) instead."""
 
     def __init__(self, cache: Cache, kind: str, spare: str):
         self.cache, self.name, self.spare = cache, f"verify.{kind}", spare
@@ -56,8 +52,7 @@ class _Items:
         return str(self.cache.entry(self.name, key) / "value") if self.cache.lookup(self.name, key) else None
 
     def put(self, key: str, src, meta: dict) -> str | None:
-        """Store the files of folder ``src`` (linked: ``src`` keeps them) and ``item.json`` (``meta``); the
-        entry's folder, or None when the cache cannot keep it."""
+        """Store the files of ``src`` (linked) and ``item.json`` (``meta``); the entry's folder, or None if not kept."""
         def fill(folder):
             for name in os.listdir(src):
                 if name != ".owner":  # the scratch folder's own (rockdove.graph.engine.Cache.temporary)
@@ -92,17 +87,14 @@ def _meta(folder: str) -> dict:
 
 
 def _surfaces(cache: Cache, scene, views, out: str) -> tuple[dict, list, list]:
-    """The reference's :class:`~rockdove.verify.reference_image.Surface` of every camera of ``views``, and the
-    cameras (key prefixes) cast now and reused; ``out``: the report's folder (scratch when the cache is not kept)."""
+    """The reference's :class:`~rockdove.verify.reference_image.Surface` by camera, and the cameras cast and reused."""
     import numpy as np
 
     from ..verify.rays import camera_key
     from ..verify.reference_image import Surface, cast_surfaces, surface_digest
 
     items, digest = _Items(cache, "surface", out), surface_digest(scene)
-    cameras: dict[str, Any] = {}
-    for v in views:
-        cameras.setdefault(camera_key(v), v)
+    cameras = {camera_key(v): v for v in views}  # views of one camera share its surface
     keys = {cam: item_key("surface", (cast_surfaces,), digest, cam) for cam in cameras}
     found = {cam: items.get(k) for cam, k in keys.items()}
     fresh = cast_surfaces(scene, [v for cam, v in cameras.items() if found[cam] is None])
@@ -117,8 +109,7 @@ def _surfaces(cache: Cache, scene, views, out: str) -> tuple[dict, list, list]:
 
 def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, out: str):
     """``({view: ViewResult}, fresh, names rendered)``: each view's :func:`render_and_check`, cached per view;
-    ``fresh``: the GL radiance and references of the views rendered (all when ``redo_all``). A failed GL render is
-    not kept."""
+    ``fresh``: the GL radiance and references of the views rendered (all when ``redo_all``)."""
     import numpy as np
 
     from ..verify.results import ViewResult
@@ -146,13 +137,13 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
         if v.name not in done:
             folder = str(found[v.name])  # cached, or stored above
             rows = load_npz(os.path.join(folder, "sheet_row.npz"))
-            done[v.name] = ViewResult.from_json(_meta(folder), folder, tuple(rows[f"arr_{i}"] for i in range(len(rows))))
+            done[v.name] = ViewResult.from_json(_meta(folder), folder,
+                                                tuple(rows[f"arr_{i}"] for i in range(len(rows))))
     return {v.name: done[v.name] for v in views}, fresh, [v.name for v in todo]
 
 
 def _host_key(host, digest: str, views, layers: str) -> str:
-    """A host renders the asset's files as they are (its networks, not only the scene :func:`scene_digest`
-    reads): ``layers`` is :func:`rockdove.usd.dependencies.asset_digest`."""
+    """A host renders the asset's files as they are: ``layers`` is :func:`rockdove.usd.dependencies.asset_digest`."""
     from ..verify.host_check import check_host
 
     return item_key("host", (host.render, check_host), digest, layers, [v.to_dict() for v in views], host.name,
@@ -160,8 +151,7 @@ def _host_key(host, digest: str, views, layers: str) -> str:
 
 
 def _host(cache, host, layer, scene, views, digest, layers, refs, fresh, out):
-    """One host's :class:`~rockdove.verify.results.HostResult` (its image files in ``out``, where it renders) and
-    whether it came from the cache."""
+    """One host's :class:`~rockdove.verify.results.HostResult` (its images in ``out``) and whether it was cached."""
     from ..verify.host_check import check_host
     from ..verify.results import HostResult
 
@@ -184,10 +174,8 @@ def _host(cache, host, layer, scene, views, digest, layers, refs, fresh, out):
 
 
 def _pictures(cache, layer, scene, lut, digest: str, settings: dict, out: str) -> tuple[dict, tuple, tuple]:
-    """The report's pictures, ``{kind: (entry or None, note or None)}`` with the kinds drawn and the kinds reused,
-    their files copied into ``out``: the beauty (:func:`rockdove.hosts.beauty.for_report`) and the light-turning animation
-    (:func:`rockdove.render.animation.for_report`), each an item keyed by the scene, the ``[beauty]`` settings and
-    its code; one drawn other than as asked (a note: a fallback, a failure) is not kept."""
+    """The report's pictures (beauty and animation), ``{kind: (entry or None, note or None)}``, the kinds drawn and
+    reused, their files copied into ``out``; one drawn other than as asked (with a note) is not kept."""
     from ..hosts.beauty import for_report as beauty
     from ..render.animation import for_report as animation
 
@@ -222,8 +210,7 @@ def _files(files: dict) -> set:
 
 
 def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[dict, dict, list[list[str]]]:
-    """The motion's measures (the report's ``motion`` entry, with the times and views checked), its frames checked as
-    views (``{view: ViewResult}``) and their items: surfaces cast, kept, views rendered."""
+    """The report's ``motion`` entry, its frames checked as views and their items (surfaces cast, kept, views)."""
     from ..render.scene import load_scene
     from ..verify.inputs import scene_digest
     from ..verify.motion import animation, frame_views, measure_motion
@@ -262,18 +249,15 @@ def default_cache(asset) -> str:
 def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, height=None, n_views=None,
            views=None, bench_dir=None, beauty=None, published_asset=None, motion=None, times=None):
     """Validate, render and check the asset of root layer ``asset``; write the report into ``out_dir`` (default
-    ``verify/`` beside it); return it (:class:`rockdove.verify.results.Report`: ``cache`` says which items ran and
-    which were reused). Progress goes to this module's logger.
+    ``verify/`` beside it); return it (:class:`rockdove.verify.results.Report`). Progress goes to this module's logger.
 
     ``hosts``: :data:`rockdove.hosts.HOSTS` names (None: :data:`rockdove.hosts.DEFAULT`; ``["all"]``); ``glsl``
     always runs; an unavailable host is skipped with its reason. ``cache``: a folder or a :class:`Cache` (default
     :func:`default_cache`). ``width``, ``height``, ``n_views``: default the schema's ``[verify]``; ``views``: only
-    these (a subset without a light-sweep view cannot run the hue check). ``beauty``: ``[beauty]`` settings of the
-    report's opening picture (``auto`` takes Cycles only when ``hosts`` names blender); ``published_asset``: the
-    root layer's path once published, which the report names. ``motion`` (e.g. ``"walk"``): also measure that
-    motion at every time code (:func:`rockdove.verify.motion.measure_motion`) and check the film at ``times``
-    (default :data:`rockdove.verify.motion.DEFAULT_TIMES`), each frame skinned by UsdSkel, in
-    :func:`rockdove.verify.motion.frame_views`.
+    these (without a light-sweep view, no hue check). ``beauty``: ``[beauty]`` settings (``auto`` takes Cycles only
+    when ``hosts`` names blender); ``published_asset``: the root layer's path once published, which the report names.
+    ``motion`` (e.g. ``"walk"``): also measure it at every time code and check the film at ``times`` (default
+    :data:`rockdove.verify.motion.DEFAULT_TIMES`), each frame skinned by UsdSkel.
     """
     from ..hosts import select
     from ..render.beauty import settings

@@ -13,14 +13,5 @@ from .preview import write_preview_png
 from .reference import lut_error, reference_colour
 from .table import ThinFilmLUT
 
-__all__ = [
-    "BAKE_METHODS",
-    "ThinFilmLUT",
-    "bake",
-    "fourier_supported",
-    "lut_error",
-    "read_exr",
-    "reference_colour",
-    "write_exr",
-    "write_preview_png",
-]
+__all__ = ["BAKE_METHODS", "ThinFilmLUT", "bake", "fourier_supported", "lut_error", "read_exr", "reference_colour",
+           "write_exr", "write_preview_png"]

@@ -84,8 +84,7 @@ def _check_range(thickness_range):
 def wavelength_grid(step_nm: float) -> np.ndarray:
     """Uniform wavelengths over 360-780 nm with the given step (nm), end points included when they fall on it."""
     lo, hi = WAVELENGTH_RANGE_NM
-    n = int(np.floor((hi - lo) / step_nm + 1e-9)) + 1
-    return lo + step_nm * np.arange(n)
+    return lo + step_nm * np.arange(int(np.floor((hi - lo) / step_nm + 1e-9)) + 1)
 
 
 def _bake_spectral(cos_theta, thickness_nm, film, *, illuminant, colour_space, spectral_step_nm, **_):
@@ -160,20 +159,16 @@ def _bake_spectral_fast(cos_theta, thickness_nm, film, *, illuminant, colour_spa
     graze = cos_theta < grazing_cos
     # below cos theta ~ 5e-3 the resonances get narrower than any fixed step: sample like the reference there
     extreme = cos_theta < EXTREME_GRAZING_COS
-    bands = ((~graze, fast_step_nm), (graze & ~extreme, grazing_step_nm),
-             (extreme, min(grazing_step_nm, REFERENCE_STEP_NM)))
+    extreme_step = min(grazing_step_nm, REFERENCE_STEP_NM)
+    bands = ((~graze, fast_step_nm), (graze & ~extreme, grazing_step_nm), (extreme, extreme_step))
     for mask, step in bands:
         if np.any(mask):
             wl = wavelength_grid(step)
             w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
             out[:, mask] = sample_colour(cos_theta[mask], thickness_nm, film, wl, w)
-    meta = {
-        "spectralStepNm": repr(float(fast_step_nm)),
-        "grazingStepNm": repr(float(grazing_step_nm)),
-        "grazingCosTheta": repr(float(grazing_cos)),
-        "extremeGrazing": f"cos_theta < {EXTREME_GRAZING_COS!r} at {min(grazing_step_nm, REFERENCE_STEP_NM)!r} nm",
-    }
-    return out, meta
+    return out, {"spectralStepNm": repr(float(fast_step_nm)), "grazingStepNm": repr(float(grazing_step_nm)),
+                 "grazingCosTheta": repr(float(grazing_cos)),
+                 "extremeGrazing": f"cos_theta < {EXTREME_GRAZING_COS!r} at {extreme_step!r} nm"}
 
 
 def fourier_supported(film) -> bool:
@@ -188,38 +183,27 @@ def _bake_fourier(cos_theta, thickness_nm, film, *, illuminant, colour_space, fo
     from .reference import REFERENCE_STEP_NM, reference_colour
 
     if not fourier_supported(film):
-        raise UsageError(
-            f"method 'fourier' needs a non-dispersive, non-absorbing film without total internal reflection; "
-            f"film {film.name!r} is not (use 'spectral_fast', 'spectral' or 'auto')"
-        )
+        raise UsageError(f"method 'fourier' needs a non-dispersive, non-absorbing film without total internal "
+                         f"reflection; film {film.name!r} is not (use 'spectral_fast', 'spectral' or 'auto')")
     table = fourier.g_table(illuminant, colour_space)
     coef = interface_coefficients(film, cos_theta, np.array([550.0]))  # any wavelength: no dispersion
-    n_b = float(coef["n_b"][0, 0])
-    opd = 2.0 * n_b * thickness_nm[:, None] * coef["cos_b"][None, :, 0]  # (T, A) nm
-    shape = opd.shape
+    opd = 2.0 * float(coef["n_b"][0, 0]) * thickness_nm[:, None] * coef["cos_b"][None, :, 0]  # (T, A) nm
     cs = [fourier.airy_fourier_coefficients(coef[f"a_{pol}"][:, 0], coef[f"b_{pol}"][:, 0]) for pol in ("s", "p")]
     c0, c1, rho = (np.stack([c[i] for c in cs], axis=1) for i in range(3))  # (A, 2) each
-    m = np.max(
-        [fourier.n_terms_needed(c1[None, :, p], rho[None, :, p], opd, table, fourier_tol) for p in (0, 1)],
-        axis=0,
-    )
+    m = np.max([fourier.n_terms_needed(c1[None, :, p], rho[None, :, p], opd, table, fourier_tol) for p in (0, 1)],
+               axis=0)
     fallback = (m > max_terms) | (opd <= 0.0)  # slow series, or no film (d = 0: the bare interface)
     m = np.where(fallback, 0, m)
     rgb = fourier.fourier_colour_grid(c0, c1, rho, opd, m, table)
-    n_terms_total = np.broadcast_to(m.max(axis=0)[None, :], shape)
+    n_terms_total = np.broadcast_to(m.max(axis=0)[None, :], opd.shape)
     if np.any(fallback):
         # series too slow (OPD -> 0 with |rho| -> 1) or no film: the exact Airy spectrum at the reference step
         ti, aj = np.nonzero(fallback)
         rgb[ti, aj] = reference_colour(cos_theta[aj], thickness_nm[ti], film, illuminant=illuminant,
                                        colour_space=colour_space, steps_nm=((0.0, REFERENCE_STEP_NM),))
-    meta = {
-        "fourierTolerance": repr(float(fourier_tol)),
-        "fourierMaxTerms": str(int(max_terms)),
-        "fourierTermsMean": f"{n_terms_total.mean():.2f}",
-        "fourierTermsMax": str(int(n_terms_total.max())),
-        "fourierSampledTexels": f"{int(fallback.sum())} (at {REFERENCE_STEP_NM} nm)",
-    }
-    return rgb, meta
+    return rgb, {"fourierTolerance": repr(float(fourier_tol)), "fourierMaxTerms": str(int(max_terms)),
+                 "fourierTermsMean": f"{n_terms_total.mean():.2f}", "fourierTermsMax": str(int(n_terms_total.max())),
+                 "fourierSampledTexels": f"{int(fallback.sum())} (at {REFERENCE_STEP_NM} nm)"}
 
 
 def _bake_quadrature(cos_theta, thickness_nm, film, *, illuminant, colour_space, **_):
@@ -239,35 +223,19 @@ def _bake_auto(cos_theta, thickness_nm, film, **kw):
     return "spectral", _bake_spectral(cos_theta, thickness_nm, film, **kw)
 
 
-BAKE_METHODS: dict[str, Callable[..., Any]] = {
-    "auto": _bake_auto,
-    "fourier": _bake_fourier,
-    "spectral_fast": _bake_spectral_fast,
-    "quadrature": _bake_quadrature,
-    "spectral": _bake_spectral,
-}
-"""Supported bake methods: name -> implementation (``"auto"`` picks among the others)."""
+#: Supported bake methods: name -> implementation (``"auto"`` picks among the others).
+BAKE_METHODS: dict[str, Callable[..., Any]] = {"auto": _bake_auto, "fourier": _bake_fourier,
+                                               "spectral_fast": _bake_spectral_fast, "quadrature": _bake_quadrature,
+                                               "spectral": _bake_spectral}
 
 
-def bake(
-    *,
-    angles: int = DEFAULT_ANGLES,
-    thicknesses: int = DEFAULT_THICKNESSES,
-    thickness_range=DEFAULT_THICKNESS_RANGE_NM,
-    film="paper",
-    method: str = "auto",
-    angle_warp_gamma: float = DEFAULT_ANGLE_WARP_GAMMA,
-    colour_space: str = "lin_rec709",
-    illuminant: str = "D65",
-    spectral_step_nm: float = DEFAULT_SPECTRAL_STEP_NM,
-    fast_step_nm: float = DEFAULT_FAST_STEP_NM,
-    grazing_step_nm: float = DEFAULT_GRAZING_STEP_NM,
-    grazing_cos: float = DEFAULT_GRAZING_COS,
-    fourier_tol: float = DEFAULT_FOURIER_TOL,
-    max_terms: int = DEFAULT_MAX_TERMS,
-    error_points: int = 0,
-    error_seed: int = 0,
-) -> ThinFilmLUT:
+def bake(*, angles: int = DEFAULT_ANGLES, thicknesses: int = DEFAULT_THICKNESSES,
+         thickness_range=DEFAULT_THICKNESS_RANGE_NM, film="paper", method: str = "auto",
+         angle_warp_gamma: float = DEFAULT_ANGLE_WARP_GAMMA, colour_space: str = "lin_rec709", illuminant: str = "D65",
+         spectral_step_nm: float = DEFAULT_SPECTRAL_STEP_NM, fast_step_nm: float = DEFAULT_FAST_STEP_NM,
+         grazing_step_nm: float = DEFAULT_GRAZING_STEP_NM, grazing_cos: float = DEFAULT_GRAZING_COS,
+         fourier_tol: float = DEFAULT_FOURIER_TOL, max_terms: int = DEFAULT_MAX_TERMS, error_points: int = 0,
+         error_seed: int = 0) -> ThinFilmLUT:
     """Bake structural colour over (cos theta, thickness) into a :class:`ThinFilmLUT` (rgb (n_thickness, angles, 3)
     float32; the metadata record the film, illuminant, observer, colour space, method and its parameters).
 
@@ -297,16 +265,13 @@ def bake(
 
     colour_space = check_colour_space(colour_space)
     illuminant = check_illuminant(illuminant)
-    kw = dict(
-        illuminant=illuminant,
-        colour_space=colour_space,
-        spectral_step_nm=_check_positive("spectral_step_nm", spectral_step_nm),
-        fast_step_nm=_check_positive("fast_step_nm", fast_step_nm),
-        grazing_step_nm=_check_positive("grazing_step_nm", grazing_step_nm),
-        grazing_cos=_check_positive("grazing_cos", grazing_cos),
-        fourier_tol=_check_positive("fourier_tol", fourier_tol),
-        max_terms=_check_count("max_terms", max_terms, 0),
-    )
+    kw = dict(illuminant=illuminant, colour_space=colour_space,
+              spectral_step_nm=_check_positive("spectral_step_nm", spectral_step_nm),
+              fast_step_nm=_check_positive("fast_step_nm", fast_step_nm),
+              grazing_step_nm=_check_positive("grazing_step_nm", grazing_step_nm),
+              grazing_cos=_check_positive("grazing_cos", grazing_cos),
+              fourier_tol=_check_positive("fourier_tol", fourier_tol),
+              max_terms=_check_count("max_terms", max_terms, 0))
     error_points = _check_count("error_points", error_points, 0)
 
     if thicknesses == 1 or lo == hi:
@@ -319,16 +284,10 @@ def bake(
     result = BAKE_METHODS[method](cos_theta, thickness_nm, film_model, **kw)
     used, (rgb, meta) = result if method == "auto" else (method, result)  # "auto" says which method it used
     metadata = {f"film:{k}": v for k, v in film_model.describe().items()}
-    metadata.update({
-        "film": film_model.name,
-        "illuminant": illuminant,
-        "observer": OBSERVER,
-        "wavelengthRangeNm": f"{WAVELENGTH_RANGE_NM[0]!r} {WAVELENGTH_RANGE_NM[1]!r}",
-        "polarization": "unpolarized (mean of s and p)",
-        "method": used,
-        "methodRequested": method,
-        "estimatedError": "not measured at bake time (bake(error_points=0))",
-    })
+    metadata.update({"film": film_model.name, "illuminant": illuminant, "observer": OBSERVER,
+                     "wavelengthRangeNm": f"{WAVELENGTH_RANGE_NM[0]!r} {WAVELENGTH_RANGE_NM[1]!r}",
+                     "polarization": "unpolarized (mean of s and p)", "method": used, "methodRequested": method,
+                     "estimatedError": "not measured at bake time (bake(error_points=0))"})
     metadata.update({f"method:{k}": v for k, v in meta.items()})
     lut = ThinFilmLUT(rgb.astype(np.float32), rng, angle_warp_gamma=gamma, colour_space=colour_space,
                       metadata=metadata)

@@ -6,16 +6,10 @@ RGB, one scanline image, width ``n_angle``, height ``n_thickness``; FLOAT (32-bi
 ones when written with ``precision="half"`` (about half the file; the values are those of ``rgb`` rounded to
 the nearest half float, which :func:`read_exr` returns as float32, exactly). The *bottom* image row is the
 thinnest film (``rgb[0]``), matching USD's ``st`` (t = 0 at the bottom), so the image array written is
-``rgb[::-1]``. ZIP compression (lossless). Header string attributes, all prefixed ``rockdove:``:
-
-- ``rockdove:format`` = ``"ThinFilmLUT 1"``: marks a rockdove LUT; :func:`read_exr` refuses files without it;
-- ``rockdove:angleAxis`` = ``"cos_theta = x**gamma, x = j/(N-1)"``;
-- ``rockdove:angleWarpGamma``: gamma, ``repr`` of the float (round-trips exactly);
-- ``rockdove:thicknessRangeNm``: ``"lo hi"`` in nm, ``repr`` of the floats;
-- ``rockdove:colourSpace``: MaterialX colour-space name of the data;
-- ``rockdove:precision``: ``"float32"`` or ``"half"``, the channel type (read back into ``lut.metadata``);
-- every entry of ``lut.metadata`` as ``rockdove:<key>`` (film model and coefficients, illuminant, observer,
-  integration method, estimated error...).
+``rgb[::-1]``. ZIP compression (lossless). Header string attributes, all prefixed ``rockdove:`` (docs/design.md,
+"ThinFilmLUT"): ``format`` = :data:`FORMAT_TAG` (:func:`read_exr` refuses files without it), ``angleAxis``,
+``angleWarpGamma`` and ``thicknessRangeNm`` (``repr`` of the floats: they round-trip exactly), ``colourSpace``,
+``precision`` (the channel type) and every entry of ``lut.metadata`` as ``rockdove:<key>``.
 
 Determinism: OpenEXR 3.x's Python API writes only the attributes it is given plus the required ones
 (channels, compression, windows, line order, pixel aspect, screen window); no timestamp or host name. The
@@ -42,41 +36,19 @@ PRECISIONS = {"float32": np.float32, "half": np.float16}
 
 def _header_strings(lut: ThinFilmLUT, precision: str) -> dict[str, str]:
     lo, hi = lut.thickness_range_nm
-    attrs = {
-        "precision": precision,
-        "format": FORMAT_TAG,
-        "angleAxis": ANGLE_AXIS,
-        "angleWarpGamma": repr(float(lut.angle_warp_gamma)),
-        "thicknessRangeNm": f"{float(lo)!r} {float(hi)!r}",
-        "colourSpace": str(lut.colour_space),
-    }
-    for key, value in lut.metadata.items():
-        if key in _RESERVED:
-            continue
-        attrs[str(key)] = str(value)
+    attrs = {"precision": precision, "format": FORMAT_TAG, "angleAxis": ANGLE_AXIS,
+             "angleWarpGamma": repr(float(lut.angle_warp_gamma)), "thicknessRangeNm": f"{float(lo)!r} {float(hi)!r}",
+             "colourSpace": str(lut.colour_space)}
+    attrs.update({str(key): str(value) for key, value in lut.metadata.items() if key not in _RESERVED})
     return {PREFIX + k: attrs[k] for k in sorted(attrs)}
 
 
 def write_exr(lut: ThinFilmLUT, path, precision: str | None = None) -> str:
-    """Write ``lut`` as an RGB OpenEXR file (FLOAT or HALF channels) with its axes and provenance in the header.
-
-    Parameters
-    ----------
-    lut : ThinFilmLUT
-        The table; ``lut.rgb`` has shape (n_thickness, n_angle, 3).
-    path : str or os.PathLike
-        Output file (written directly; callers wanting atomic publication write a temporary name and
-        ``os.replace`` it, as ``rockdove lut`` does).
-    precision : {"float32", "half"}, optional
-        Channel type. Default: ``lut.metadata["precision"]`` when the LUT carries one (the build's
-        ``lut.precision = "half"`` rounds its values and records it there), else ``"float32"``. ``"half"``
-        rounds to the nearest half float (values beyond +-65504 become inf).
-
-    Returns
-    -------
-    str
-        ``path`` as a string.
-    """
+    """Write ``lut`` as an RGB OpenEXR file (FLOAT or HALF channels) with its axes and provenance in the header;
+    returns ``path`` as a string. Written directly (``rockdove lut`` writes a temporary name and replaces).
+    ``precision`` ("float32" or "half"): default ``lut.metadata["precision"]`` when the LUT carries one (the build's
+    ``lut.precision = "half"`` rounds its values and records it there), else "float32"; "half" rounds to the
+    nearest half float (values beyond +-65504 become inf)."""
     import OpenEXR
 
     if not isinstance(lut, ThinFilmLUT):
@@ -95,26 +67,10 @@ def write_exr(lut: ThinFilmLUT, path, precision: str | None = None) -> str:
 
 
 def read_exr(path) -> ThinFilmLUT:
-    """Read a LUT written by :func:`write_exr`.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-
-    Returns
-    -------
-    ThinFilmLUT
-        Same ``rgb`` (bit exact; HALF channels are widened to float32 exactly), axes, colour space and
-        metadata as written; ``metadata["precision"]`` is the channel type (``"half"`` or ``"float32"``).
-
-    Raises
-    ------
-    FileNotFoundError
-        ``path`` does not exist.
-    ValueError
-        ``path`` is not an OpenEXR file, or not a rockdove LUT (no ``rockdove:format`` attribute, missing axis
-        attributes, or no FLOAT/HALF RGB channels).
-    """
+    """Read a LUT written by :func:`write_exr`: the same ``rgb`` (bit exact; HALF channels widened to float32
+    exactly), axes, colour space and metadata, ``metadata["precision"]`` the channel type. FileNotFoundError when
+    ``path`` does not exist; UsageError (a ValueError) when it is not an OpenEXR file or not a rockdove LUT (no
+    ``rockdove:format`` attribute, missing axis attributes, or no FLOAT/HALF RGB channels)."""
     import OpenEXR
 
     path = os.fspath(path)
@@ -131,10 +87,8 @@ def read_exr(path) -> ThinFilmLUT:
     except Exception as exc:  # OpenEXR raises RuntimeError/OSError on damaged files
         raise UsageError(f"path: {path!r} is not a readable OpenEXR file ({exc})") from exc
     if header.get(PREFIX + "format") != FORMAT_TAG:
-        raise UsageError(
-            f"path: {path!r} is an OpenEXR file but not a rockdove LUT "
-            f"(header attribute {PREFIX}format = {FORMAT_TAG!r} missing)"
-        )
+        raise UsageError(f"path: {path!r} is an OpenEXR file but not a rockdove LUT "
+                         f"(header attribute {PREFIX}format = {FORMAT_TAG!r} missing)")
     missing = [k for k in ("angleWarpGamma", "thicknessRangeNm", "colourSpace") if PREFIX + k not in header]
     if missing:
         raise UsageError(f"path: {path!r} lacks header attributes {[PREFIX + k for k in missing]}")
@@ -156,17 +110,9 @@ def read_exr(path) -> ThinFilmLUT:
         lo, hi = (float(v) for v in str(header[PREFIX + "thicknessRangeNm"]).split())
     except ValueError as exc:
         raise UsageError(f"path: {path!r} has malformed axis attributes ({exc})") from exc
-    metadata = {
-        k[len(PREFIX):]: str(v)
-        for k, v in header.items()
-        if isinstance(k, str) and k.startswith(PREFIX) and k[len(PREFIX):] not in _RESERVED
-    }
+    metadata = {k[len(PREFIX):]: str(v) for k, v in header.items()
+                if isinstance(k, str) and k.startswith(PREFIX) and k[len(PREFIX):] not in _RESERVED}
     if channel_precision == "half" or recorded is not None:
         metadata["precision"] = channel_precision
-    return ThinFilmLUT(
-        np.ascontiguousarray(rgb[::-1], dtype=np.float32),
-        (lo, hi),
-        angle_warp_gamma=gamma,
-        colour_space=str(header[PREFIX + "colourSpace"]),
-        metadata=metadata,
-    )
+    return ThinFilmLUT(np.ascontiguousarray(rgb[::-1], dtype=np.float32), (lo, hi), angle_warp_gamma=gamma,
+                       colour_space=str(header[PREFIX + "colourSpace"]), metadata=metadata)

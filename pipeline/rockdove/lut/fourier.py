@@ -79,8 +79,7 @@ class GTable:
 
     def first_x_below(self, level) -> np.ndarray:
         """Smallest grid ``x`` (nm) from which ``|G| <= level`` for good, broadcast over ``level``."""
-        k = np.searchsorted(self._neg_tail, -np.asarray(level, dtype=np.float64), side="left")
-        return k * self.step_nm
+        return np.searchsorted(self._neg_tail, -np.asarray(level, dtype=np.float64), side="left") * self.step_nm
 
 
 @functools.lru_cache(maxsize=8)
@@ -112,8 +111,7 @@ def airy_fourier_coefficients(a, b):
     """``(c0, c1, rho)`` with ``R(phi) = c0 + 2 sum_m c1 rho^(m-1) cos(m phi)`` (module docstring) for the real
     amplitude coefficients ``a = r_ab``, ``b = r_bc`` (|a|, |b| <= 1); at ``a^2 b^2 = 1`` (grazing) the limit
     ``c0 = 1, c1 = 0``."""
-    a = np.asarray(a, dtype=np.float64)
-    b = np.asarray(b, dtype=np.float64)
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
     a2, b2 = a * a, b * b
     den = 1.0 - a2 * b2
     limit = den <= 1e-300
@@ -135,9 +133,7 @@ def n_terms_needed(c1, rho, opd_nm, table: GTable, tol: float) -> np.ndarray:
         scale = 2.0 * c1
         # the geometric remainder bound (G bounded by its maximum): the count for thin films
         ratio = tol * (1.0 - r) / (scale * g_max)
-        m_geom = np.where(
-            ratio >= 1.0, 0.0, np.where(r > 0.0, np.ceil(np.log(ratio) / np.log(r)), 1.0)
-        )
+        m_geom = np.where(ratio >= 1.0, 0.0, np.where(r > 0.0, np.ceil(np.log(ratio) / np.log(r)), 1.0))
         # decay of G alone (one search per coefficient, before broadcasting with the OPDs)
         x_star = table.first_x_below(tol / scale)
         m_dead = np.where(opd > 0.0, np.ceil(x_star / opd) - 1.0, np.inf)
@@ -147,19 +143,14 @@ def n_terms_needed(c1, rho, opd_nm, table: GTable, tol: float) -> np.ndarray:
 
 
 def fourier_colour_grid(c0, c1, rho, opd_nm, n_terms, table: GTable) -> np.ndarray:
-    """Linear colour ``c0 W0 + 2 sum_{m=1..M} c_m G(m OPD)``, (T, A, 3), mean over the P polarisations.
-
-    ``c0, c1, rho``: (A, P) per angle column; ``opd_nm``: (T, A) nm; ``n_terms``: (T, A) (:func:`n_terms_needed`;
-    0 where the caller computes the texel otherwise). Each column takes the largest count of its texels (extra
-    terms only add accuracy), so the coefficient of term m, ``(2/P) sum_p c1_p rho_p^(m-1)``, is tabulated once
-    per column, and columns with similar counts are summed as dense (thickness x columns x terms) blocks.
-    """
+    """Linear colour ``c0 W0 + 2 sum_{m=1..M} c_m G(m OPD)``, (T, A, 3), mean over the P polarisations. ``c0, c1, rho``:
+    (A, P) per angle column; ``opd_nm``: (T, A) nm; ``n_terms``: (T, A) (:func:`n_terms_needed`; 0 where the caller
+    computes the texel otherwise). Each column takes the largest count of its texels (extra terms only add accuracy), so
+    the coefficient of term m, ``(2/P) sum_p c1_p rho_p^(m-1)``, is tabulated once per column, and columns with similar
+    counts are summed as dense (thickness x columns x terms) blocks."""
     import scipy.sparse
 
-    c0 = np.asarray(c0, dtype=np.float64)
-    c1 = np.asarray(c1, dtype=np.float64)
-    rho = np.asarray(rho, dtype=np.float64)
-    opd = np.asarray(opd_nm, dtype=np.float64)
+    c0, c1, rho, opd = (np.asarray(v, dtype=np.float64) for v in (c0, c1, rho, opd_nm))
     n_thick, n_ang = opd.shape
     n_pol = c0.shape[1]
     out = np.broadcast_to((c0.mean(axis=1)[:, None] * table.w0[None, :])[None], (n_thick, n_ang, 3)).copy()
@@ -191,9 +182,7 @@ def fourier_colour_grid(c0, c1, rho, opd_nm, n_terms, table: GTable) -> np.ndarr
         data = np.empty(f.shape + (2,), np.float32)  # float32 halves memory traffic; G is ~1, tol >= 1e-6
         data[..., 1] = cb * frac
         data[..., 0] = cb - data[..., 1]
-        indices = np.empty(f.shape + (2,), np.int32)
-        indices[..., 0] = k
-        indices[..., 1] = k + 1
+        indices = np.stack([k, k + 1], axis=-1)  # int32, as k
         rows = n_thick * cols.size
         indptr = np.arange(rows + 1, dtype=np.int32) * (2 * mb)
         mat = scipy.sparse.csr_matrix((data.ravel(), indices.ravel(), indptr), shape=(rows, n_x + 2))

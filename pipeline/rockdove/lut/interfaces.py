@@ -23,8 +23,7 @@ def interface_coefficients(film, cos_theta, wavelength_nm, *, outer=True):
     if outer:
         n_b, cos_a = n_b[None, :], cos_a[:, None]
     # total internal reflection at either interface makes the coefficients complex
-    sin2_a = 1.0 - cos_a**2
-    if np.any(n_a**2 * sin2_a > np.minimum(n_b, n_c) ** 2):
+    if np.any(n_a**2 * (1.0 - cos_a**2) > np.minimum(n_b, n_c) ** 2):
         return None
     cos_b = np.real(optics.snell_cos(n_a, n_b, cos_a))
     cos_c = np.real(optics.snell_cos(n_a, n_c, cos_a))

@@ -191,8 +191,7 @@ def _series_form(coef, layout, thickness_nm, n_terms, out, chunk):
             = [((1 - rho) - 2 s2)(1 - rho^M cos(M phi)) + rho^M sin(M phi) sin(phi)] / ((1 - rho)^2 + 4 rho s2),
 
     so float32 trigonometry suffices once ``phi / 2`` and ``M phi`` (thousands of radians) are reduced modulo one
-    period in float64.
-    """
+    period in float64."""
     from . import fourier
 
     cycles = coef["n_b"] * coef["cos_b"] / layout.lam  # phi / (4 pi d): phase cycles per nm of film, / 2
@@ -337,10 +336,8 @@ def angle_panel_nodes(film, cos_theta, thickness_nm):
     q_lo = np.sqrt(n * n - n_a2 * (1.0 - lo * lo))
     psi = float(np.max(4.0 * np.pi * float(np.max(thickness_nm)) * sig * np.abs(q_hi - q_lo)))
     n_c = int(np.ceil(K_ANGLE * psi + N_ANGLE_MIN))
-    if 2 * n_c > int(panel.sum()) or hi <= lo:
-        return None
-    y = chebyshev(n_c)[0]
-    return lo + (hi - lo) * 0.5 * (1.0 + y[::-1])
+    saves = 2 * n_c <= int(panel.sum()) and hi > lo
+    return lo + (hi - lo) * 0.5 * (1.0 + chebyshev(n_c)[0][::-1]) if saves else None
 
 
 def _barycentric_matrix(nodes, x):

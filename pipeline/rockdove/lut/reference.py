@@ -323,8 +323,7 @@ def lut_error(lut, film, n_points: int = 2000, seed: int = 0, *, grazing_fractio
     illuminant = lut.metadata.get("illuminant", "D65")
     cos, d = error_points(lut, int(n_points), seed, grazing_fraction=grazing_fraction, grazing_cos=grazing_cos)
     ref = reference_colour(cos, d, film, illuminant=illuminant, colour_space=lut.colour_space)
-    got = lut.sample(cos, d)
-    de = delta_E(got, ref, lut.colour_space, illuminant)
+    de = delta_E(lut.sample(cos, d), ref, lut.colour_space, illuminant)
     k = int(np.argmax(de))
     return {
         "max": float(de.max()),

@@ -9,14 +9,13 @@ gamma`` (``gamma > 1`` puts nodes near grazing, where colour changes fastest), c
 incidence on the film in the incident medium. Thickness nodes are uniform in nm over ``thickness_range_nm = (lo,
 hi)``; a one-texel-high table (``lo == hi``) is the paper's 1-D texture.
 
-Texture coordinates: texel centres of an N-texel axis sit at ``(k + 0.5) / N``, so a node coordinate ``x in [0,
-1]`` maps to ``u = (x * (N - 1) + 0.5) / N``, and a GPU's linear filtering with clamp-to-edge is the
-piecewise-linear interpolation of :meth:`ThinFilmLUT.sample`, **as long as the texture is not minified**: hosts
-that mipmap image nodes (MaterialX renderers, Storm) average ``2**level`` texels along both axes, mixing the
-thickness rows too (measured: median dE2000 0.017 on the default bird at 512 px; on a sphere of constant
-thickness the default 256 x 64 errs median 0.8-1.0 where a tall 64 x 256 errs 0.01-0.02; ``docs/design.md``).
-In the EXR file and in USD the bottom image row is ``i = 0`` (USD's ``st`` has t = 0 at the bottom); uploaded to
-OpenGL, row 0 of ``rgb`` is t = 0.
+Texture coordinates: texel centres of an N-texel axis sit at ``(k + 0.5) / N``, so a node coordinate ``x in [0, 1]``
+maps to ``u = (x * (N - 1) + 0.5) / N``, and a GPU's linear filtering with clamp-to-edge is the piecewise-linear
+interpolation of :meth:`ThinFilmLUT.sample`, **as long as the texture is not minified**: hosts that mipmap image nodes
+(MaterialX renderers, Storm) average ``2**level`` texels along both axes, mixing the thickness rows too (measured:
+median dE2000 0.017 on the default bird at 512 px; on a sphere of constant thickness the default 256 x 64 errs median
+0.8-1.0 where a tall 64 x 256 errs 0.01-0.02; ``docs/design.md``). In the EXR file and in USD the bottom image row is
+``i = 0`` (USD's ``st`` has t = 0 at the bottom); uploaded to OpenGL, row 0 of ``rgb`` is t = 0.
 """
 
 from __future__ import annotations
@@ -52,17 +51,15 @@ class ThinFilmLUT:
         if not (np.isfinite(lo) and np.isfinite(hi)) or lo < 0 or hi < lo:
             raise UsageError(f"thickness_range_nm must be (lo, hi) with 0 <= lo <= hi, got {(lo, hi)}")
         if (rgb.shape[0] == 1) != (lo == hi):
-            raise UsageError(
-                f"a one-texel-high table needs lo == hi and vice versa; got {rgb.shape[0]} rows for {(lo, hi)}"
-            )
+            raise UsageError(f"a one-texel-high table needs lo == hi and vice versa; got {rgb.shape[0]} rows for "
+                             f"{(lo, hi)}")
         if not (np.isfinite(self.angle_warp_gamma) and self.angle_warp_gamma > 0):
             raise UsageError(f"angle_warp_gamma must be > 0, got {self.angle_warp_gamma}")
         rgb = np.ascontiguousarray(rgb)
         rgb.setflags(write=False)
-        object.__setattr__(self, "rgb", rgb)
-        object.__setattr__(self, "thickness_range_nm", (lo, hi))
-        object.__setattr__(self, "angle_warp_gamma", float(self.angle_warp_gamma))
-        object.__setattr__(self, "metadata", dict(self.metadata))
+        for name, value in (("rgb", rgb), ("thickness_range_nm", (lo, hi)),
+                            ("angle_warp_gamma", float(self.angle_warp_gamma)), ("metadata", dict(self.metadata))):
+            object.__setattr__(self, name, value)
 
     @property
     def n_angle(self) -> int:
@@ -75,8 +72,7 @@ class ThinFilmLUT:
     @property
     def cos_theta(self) -> np.ndarray:
         """Angle nodes, cos theta, shape (n_angle,), increasing from 0 to 1."""
-        x = np.linspace(0.0, 1.0, self.n_angle)
-        return x**self.angle_warp_gamma
+        return np.linspace(0.0, 1.0, self.n_angle) ** self.angle_warp_gamma
 
     @property
     def thickness_nm(self) -> np.ndarray:
@@ -103,13 +99,11 @@ class ThinFilmLUT:
     def sample(self, cos_theta, thickness_nm) -> np.ndarray:
         """Bilinear lookup (float64, broadcast shape + (3,)), clamped to the axes: a GPU's linear filtering."""
         x, y = self.node_coords(cos_theta, thickness_nm)
-        fx = x * (self.n_angle - 1)
-        fy = y * (self.n_thickness - 1)
+        fx, fy = x * (self.n_angle - 1), y * (self.n_thickness - 1)
         j0 = np.clip(np.floor(fx).astype(np.intp), 0, self.n_angle - 2)
         i0 = np.clip(np.floor(fy).astype(np.intp), 0, max(self.n_thickness - 2, 0))
         i1 = np.minimum(i0 + 1, self.n_thickness - 1)
-        tx = (fx - j0)[..., None]
-        ty = (fy - i0)[..., None]
+        tx, ty = (fx - j0)[..., None], (fy - i0)[..., None]
         t = self.rgb  # float32 texels gathered, then promoted exactly by the float64 weights (no full-table copy)
         c0 = t[i0, j0] * (1 - tx) + t[i0, j0 + 1] * tx
         c1 = t[i1, j0] * (1 - tx) + t[i1, j0 + 1] * tx

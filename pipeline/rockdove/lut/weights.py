@@ -40,8 +40,7 @@ def reference_wavelengths(step_nm: float = REFERENCE_STEP_NM) -> np.ndarray:
     """The uniform grid over :data:`rockdove.spectral.WAVELENGTH_RANGE_NM` every ``step_nm`` nm (default 0.1 nm:
     shape (4201,)), read-only."""
     lo, hi = WAVELENGTH_RANGE_NM
-    n = int(round((hi - lo) / step_nm)) + 1
-    wl = np.linspace(lo, hi, n)
+    wl = np.linspace(lo, hi, int(round((hi - lo) / step_nm)) + 1)
     wl.setflags(write=False)
     return wl
 
@@ -108,8 +107,7 @@ def wavenumber_nodes(n_intervals: int, order: int = INTERPOLANT_ORDER) -> np.nda
     beyond each end so that every ``order``-point stencil is centred (``n_intervals + order - 1`` nodes)."""
     s_lo, s_hi = sigma_range()
     n, ext = int(n_intervals), int(order) // 2 - 1
-    sigma = s_hi - (s_hi - s_lo) * (np.arange(-ext, n + ext + 1) / n)
-    wl = 1.0 / sigma
+    wl = 1.0 / (s_hi - (s_hi - s_lo) * (np.arange(-ext, n + ext + 1) / n))
     wl[ext], wl[ext + n] = WAVELENGTH_RANGE_NM
     wl.setflags(write=False)
     return wl
@@ -136,9 +134,7 @@ def interpolant_weights(n_intervals: int, order: int = INTERPOLANT_ORDER, *, ill
 
 def map_alpha(n_nodes: int) -> float:
     """Kosloff-Tal-Ezer parameter for ``n_nodes`` points (0 for ``n_nodes < 3``: plain Chebyshev points)."""
-    if n_nodes < 3:
-        return 0.0
-    return float(1.0 / np.cosh(np.log(1.0 / MAP_EPS) / (n_nodes - 1)))
+    return 0.0 if n_nodes < 3 else float(1.0 / np.cosh(np.log(1.0 / MAP_EPS) / (n_nodes - 1)))
 
 
 def _mapped(y, alpha):
@@ -151,12 +147,10 @@ def _unmapped(x, alpha):
 
 
 def chebyshev(n):
-    """Chebyshev points of the second kind ``cos(pi j / (n - 1))`` and their barycentric weights (-1)^j, ends
-    halved."""
+    """Chebyshev points of the second kind ``cos(pi j / (n - 1))``, their barycentric weights (-1)^j, ends halved."""
     j = np.arange(n)
     v = (-1.0) ** j
-    v[0] *= 0.5
-    v[-1] *= 0.5
+    v[[0, -1]] *= 0.5
     return np.cos(np.pi * j / (n - 1)), v
 
 
@@ -204,8 +198,7 @@ def _chebyshev_weights(n: int, illuminant: str, colour_space: str | None):
             k_hit, l_hit = np.nonzero(hit)
             np.add.at(omega, k_hit, w_ref[l0 + l_hit] / v[k_hit, None])
     omega *= v[:, None]
-    sigma = mid + half * _mapped(y, alpha)  # decreasing in k: reverse so wavelengths increase
-    wl = np.ascontiguousarray((1.0 / sigma)[::-1])
+    wl = np.ascontiguousarray((1.0 / (mid + half * _mapped(y, alpha)))[::-1])  # sigma decreases in k: reversed
     omega = np.ascontiguousarray(omega[::-1])
     wl.setflags(write=False)
     omega.setflags(write=False)

@@ -1,14 +1,11 @@
 """The beauty render: the picture the verification report opens with, the bird as a look-dev artist shows it.
 
-Not a measurement (the verification views are, :mod:`rockdove.render.views`): the written asset on a neutral grey
-ground under a moderate sky and a warm key sun at :data:`SUN_ELEVATION_DEG` with soft shadows, from a 3/4 and a
-side view (:func:`beauty_views`) framed with headroom on every mesh under the default prim. Renderers
-(:data:`RENDERERS`; :func:`rockdove.hosts.beauty.render_beauty` runs them): ``cycles``, Blender's Cycles through the
-rockdove add-on as a Blender user imports the asset (:mod:`rockdove.hosts.blender_beauty_job`: sun shadows, sky
-light and bounce, OpenImageDenoise, AgX); ``gl``, the verification shaders under the sun and a few sky lights with a
-shadow map and a filmic curve (:mod:`rockdove.render.beauty_gl`); ``auto``, Cycles when the Blender host is available
-and named (``--hosts blender``), else GL, the caption saying which and why; ``off``. Sizes and samples are
-``[beauty]`` config keys (schemas/config.schema.json).
+Not a measurement (docs/pictures.md): the written asset on a neutral grey ground under a moderate sky and a warm
+key sun with soft shadows, from a 3/4 and a side view (:func:`beauty_views`). Renderers (:data:`RENDERERS`, run by
+:func:`rockdove.hosts.beauty.render_beauty`): ``cycles``, Blender's Cycles through the rockdove add-on
+(:mod:`rockdove.hosts.blender_beauty_job`); ``gl``, the verification shaders (:mod:`rockdove.render.beauty_gl`);
+``auto``, Cycles when the Blender host is available and named (``--hosts blender``), else GL, the caption saying
+which and why; ``off``. Sizes and samples: ``[beauty]`` (schemas/config.schema.json).
 """
 
 from __future__ import annotations
@@ -97,11 +94,10 @@ def ground_y_m(scene) -> float:
 
 
 def cyclorama(scene, views, segments: int = 96) -> tuple[np.ndarray, np.ndarray]:
-    """The ground both renderers draw, a photo studio's cyclorama as a bowl centred under the bird: a flat floor
-    at :func:`ground_y_m` to 0.7 of its radius (:data:`GROUND_RADIUS` x the farthest camera's distance), curving
-    up (a quarter circle) into a wall 0.6 x the radius high, so no horizon line crosses the picture; the wall's
-    top is 31 degrees above the bird, below the sun. ``(vertices (V, 3) metres, quads (F, 4))``, normals up
-    and inward (counter-clockwise seen from inside)."""
+    """The ground both renderers draw, a photo studio's cyclorama as a bowl under the bird: a flat floor at
+    :func:`ground_y_m` to 0.7 of its radius (:data:`GROUND_RADIUS` x the farthest camera's distance) curving up into
+    a wall 0.6 x the radius high (top 31 degrees above the bird, below the sun), so no horizon line crosses the
+    picture. ``(vertices (V, 3) metres, quads (F, 4))``, counter-clockwise seen from inside."""
     centre = scene.bounds_m.mean(axis=0)
     big = GROUND_RADIUS * max(float(np.linalg.norm(v.eye_m - centre)) for v in views)
     a = np.linspace(0.0, 0.5 * math.pi, 9)

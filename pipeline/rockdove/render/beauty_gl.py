@@ -4,24 +4,14 @@ them in linear light:
 
 - the ground (:func:`rockdove.render.beauty.cyclorama`) is one more Lambert part of neutral grey;
 - the key: one render under the sun (``light_rgb`` = its irradiance / pi, as Cycles' sun of that strength lights a
-  Lambert surface), times its visibility from a shadow map (the scene drawn from a far, nearly orthographic sun
-  camera) at each supersample, behind a slope-scaled depth bias: occluders within :data:`SHADOW_CONTACT_M` (a
-  feather over the next) by a one-texel filter, farther ones averaged over a disc of taps whose radius grows with
-  their distance by the sun's angular radius (percentage-closer soft shadows, R. Fernando, "Percentage-Closer Soft
-  Shadows", SIGGRAPH 2005 sketch);
-- the sky: :data:`SKY_LIGHTS` directional lights over the upper hemisphere and the zenith, without shadows,
-  weighted so a horizontal surface receives the sky's irradiance pi x strength x colour;
-- anti-aliasing: the key at :data:`SUPERSAMPLE` x the size (the cards' alpha cut out at each sample) and
-  box-filtered, its shadow looked up at each sample; mip-mapped textures (the coat's feather tiles showed moire).
-  Against a 16-sample render of the same picture, the edges' pixels are off by 1.9 and 2.9 (8-bit) in the two views
-  (before: 5.1 and 11.4, with the shadow looked up once a pixel); 4x multisampled sky fills gave 1.6 and 2.4 for 35 %
-  more CPU, a multisampled key too no better (1.7, 2.6) for 80 % more (llvmpipe shades each sample);
+  Lambert surface), times its visibility from a shadow map (:func:`_visibility`: percentage-closer soft shadows,
+  R. Fernando, "Percentage-Closer Soft Shadows", SIGGRAPH 2005 sketch);
+- the sky: :data:`SKY_LIGHTS` unshadowed directional lights (:func:`_sky_lights`);
+- anti-aliasing: the key at :data:`SUPERSAMPLE` x the size, its shadow looked up at each sample, box-filtered;
+  mip-mapped textures (the coat's feather tiles showed moire);
 - exposed, put through a filmic curve (K. Narkowicz, "ACES Filmic Tone Mapping Curve", 2016) and the sRGB OETF.
 
-Measured against rays cast toward the sun (the reference's ray caster) from the bird's visible points of the two
-768 x 512 views of the default bird, the visibility differs by 0.08 and 0.06 on average, 6 % and 4 % of the points
-by more than half (a constant 3 mm bias on a 1024 px map: 0.12, 10-11 %: the feathers' contact shadows lost, flecks
-and blotches where the penumbra estimate mixed near and far occluders).
+What these choices were measured against (a 16-sample render; shadow rays): docs/pictures.md.
 """
 
 from __future__ import annotations
@@ -154,9 +144,8 @@ def filmic(x) -> np.ndarray:
 
 def sun_visibility(r, scene, view: View, key) -> np.ndarray:
     """The sun's visibility (H, W) at each pixel of ``key``, ``r``'s render of ``view`` lit by the sun (``r``: a
-    :class:`rockdove.render.gl.GLRenderer` of ``scene``'s parts and the ground after them), from the bird's shadow
-    map (:func:`_visibility`; 4 texels across for each pixel of the view, the bird filling about half of it: a
-    texel under a pixel, rounded up to a power of two, at most :data:`SHADOW_PX`); slope-scaled by the key's N.L."""
+    :class:`rockdove.render.gl.GLRenderer` of ``scene``'s parts, then the ground), from the bird's shadow map
+    (:func:`_visibility`; 4 texels a view pixel, the bird filling about half of it), slope-scaled by the key's N.L."""
     px = min(SHADOW_PX, 2 ** math.ceil(math.log2(4 * max(view.width, view.height))))
     sun = _sun_camera(scene, view.light_direction, px)
     shot = r.render(sun)

@@ -1,12 +1,10 @@
 """The thin film a written asset records, as the renderers use it: the film model, its thickness primvar, its LUT.
 
-:func:`read_film` reads ``RockDoveThinFilmAPI`` from a feather mesh through the one reader of the schema,
-:func:`rockdove.usd.schema.read_thin_film`, and returns a :class:`ThinFilmParams`: the film's physics as a
-:class:`rockdove.films.FilmModel` (the index model the LUT was baked from; nothing here restates it) plus what
-the renderers need besides (thickness primvar, the LUT's file and layout). An asset without a LUT
-(``shading.variant = "physical"``) reads with ``lut_file = None``; :func:`lut_to_draw` then bakes a LUT in
-memory from the film, so the GL renderer and the viewer can still draw the paper's LUT method (its metadata
-says it is not part of the asset).
+:func:`read_film` reads ``RockDoveThinFilmAPI`` through the schema's one reader
+(:func:`rockdove.usd.schema.read_thin_film`) into a :class:`ThinFilmParams`: the :class:`rockdove.films.FilmModel`
+plus the thickness primvar and the LUT's file and layout. An asset without a LUT (``shading.variant = "physical"``)
+reads with ``lut_file = None``; :func:`lut_to_draw` then bakes one in memory, so the GL renderer and the viewer can
+still draw the paper's LUT method (its metadata says it is not part of the asset).
 """
 
 from __future__ import annotations

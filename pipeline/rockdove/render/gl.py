@@ -1,16 +1,12 @@
 """Offscreen OpenGL renders of a :class:`~rockdove.render.scene.RenderScene` with rockdove's GLSL shaders.
 
-pyrender (EGL, Mesa llvmpipe, headless) draws the meshes with ``materials/glsl/thinfilm.vert`` / ``.frag`` (the
-paper's method, docs/design.md "Conventions"): every program pyrender asks for is that one. Per vertex: position,
-normal, ``texcoord_0`` = USD ``st`` and ``texcoord_1`` = (thickness_nm, neckS) (zeros without a film); pyrender
-substitutes the buffers' locations for the shader's ``*_LOC`` names. Textures are rockdove's own float ones
-(pyrender's would quantise to 8 bits): the LUT ``GL_RGB32F``, base and mask decoded to linear on the CPU, linear
-filtering, clamp-to-edge, units 0-2, bound with the per-part uniforms before each draw. The framebuffer is rockdove's
-too: three ``GL_RGBA32F`` attachments (radiance + coverage; part id, view depth, cos_theta, thickness; N.L, mask,
-st) and a float depth buffer, read back as floats. No multisampling by default: every pixel is the shading at its
-centre, which the verifier compares with the CPU reference; pictures (the beauty, the light-turning animation) ask
-for multisampling with alpha-to-coverage (:meth:`GLRenderer.render`). Parts are drawn in scene order (pyrender's own order comes from a
-set, which made pixels where two parts tie in depth differ between processes).
+pyrender (EGL, Mesa llvmpipe, headless) draws every part with ``materials/glsl/thinfilm.vert`` / ``.frag`` (the
+paper's method, docs/design.md "Conventions"); ``texcoord_0`` = USD ``st``, ``texcoord_1`` = (thickness_nm, neckS).
+Textures and framebuffer are rockdove's own float ones (pyrender's would quantise to 8 bits): three ``GL_RGBA32F``
+attachments (radiance + coverage; part id, view depth, cos_theta, thickness; N.L, mask, st) read back as floats.
+No multisampling by default: every pixel is the shading at its centre, which the verifier compares with the CPU
+reference; pictures ask for multisampling with alpha-to-coverage (:meth:`GLRenderer.render`). Parts are drawn in
+scene order (pyrender's own order comes from a set: pixels where two parts tie in depth differed between processes).
 """
 
 from __future__ import annotations
@@ -127,11 +123,9 @@ class _PartGL:
 
 
 class GLRenderer:
-    """pyrender offscreen renderer of one scene, reused across views (``width`` x ``height``: the initial
-    viewport; each view sets its own size). ``lut`` overrides the scene's; ``angle_mode`` is a key of
-    :data:`ANGLE_MODES`: ``"physical"`` (``cos_theta = dot(L, H)``) or ``"materialx_baked"`` (``|dot(N, V)|``).
-    Use as a context manager or call :meth:`delete` (a pyrender scene must not be bound to two live renderers).
-    """
+    """pyrender offscreen renderer of one scene, reused across views (each sets its own size). ``lut`` overrides the
+    scene's; ``angle_mode``: ``"physical"`` (``cos_theta = dot(L, H)``) or ``"materialx_baked"`` (``|dot(N, V)|``).
+    Use as a context manager or call :meth:`delete` (a pyrender scene must not be bound to two live renderers)."""
 
     def __init__(self, scene: RenderScene, lut=None, angle_mode: str = "physical", width: int = 512, height: int = 512,
                  mipmaps: bool = False):

@@ -46,8 +46,7 @@ def contact_sheet(path, rows, label_px: int = 28, background=(32, 32, 32)) -> st
     if not rows or not all(rows):
         raise UsageError("rows must hold at least one row, each of at least one (title, image) tile")
     h, w = rows[0][0][1].shape[:2]
-    ncol = max(len(r) for r in rows)
-    sheet = Image.new("RGB", (ncol * w, len(rows) * (h + label_px)), background)
+    sheet = Image.new("RGB", (max(len(r) for r in rows) * w, len(rows) * (h + label_px)), background)
     draw = ImageDraw.Draw(sheet)
     font = label_font(max(10, int(label_px * 0.6)))
     for r, row in enumerate(rows):
@@ -63,10 +62,9 @@ def contact_sheet(path, rows, label_px: int = 28, background=(32, 32, 32)) -> st
 
 
 def write_webp(frames, path, fps: float, *, quality: int = 90, lossless: bool = False) -> str:
-    """Write ``frames`` (a sequence of at least one uint8 (H, W, 3) image, all one size, row 0 at the top) to
-    ``path`` as an animated WebP that loops forever at ``fps`` frames a second (Pillow, ``save_all``), atomically
-    (:func:`rockdove.resources.atomic_path`); ``quality`` of the lossy encoding (0-100), or ``lossless``. Browsers
-    play it inline in an ``<img>``. Returns the path."""
+    """Write ``frames`` (at least one uint8 (H, W, 3) image, all one size, row 0 at the top) to ``path`` atomically
+    as an animated WebP looping at ``fps`` (Pillow, ``save_all``; lossy at ``quality`` 0-100, or ``lossless``),
+    which browsers play inline in an ``<img>``. Returns the path."""
     from PIL import Image
 
     from ..resources import atomic_path

@@ -1,20 +1,15 @@
 """Read a written rockdove USD asset back into plain numpy arrays for the GL renderer and the CPU reference.
 
 The verifier checks what was *written*: the root layer opened from disk with pxr (payloads loaded, a chosen
-``shading`` variant) becomes a :class:`RenderScene` of numpy arrays only, so the pyrender path
-(:mod:`rockdove.render.gl`) and the CPU reference see the same data (names: docs/design.md, "USD asset"):
-
-- every visible ``UsdGeom.Mesh`` (purpose default or render) under the default prim, fan-triangulated
-  (:mod:`.triangulate`), in world metres (local-to-world transform and ``metersPerUnit`` applied);
-- ``st``, normals (authored, else area-weighted), the film thickness primvar named by
-  ``rockdove:film:thicknessPrimvar`` (nm) and ``neckS``; face-varying primvars split vertices per corner;
-- per part the material kind (``"feather"`` for a mesh with ``RockDoveThinFilmAPI``, else the bound material's
-  name without ``Material``, lower case), its texture files and constant base colour (:mod:`.usd_read`);
-- the film, through the schema's one reader (:func:`rockdove.render.film.read_film`; no LUT: ``lut_file = None``).
+``shading`` variant) becomes a :class:`RenderScene` of numpy arrays, so the pyrender path (:mod:`rockdove.render.gl`)
+and the CPU reference see the same data (names: docs/design.md, "USD asset"): every visible mesh, fan-triangulated
+in world metres, its primvars (face-varying ones split vertices per corner), material (``"feather"`` for a mesh with
+``RockDoveThinFilmAPI``, else the bound material's name without ``Material``, lower case) and film.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 from dataclasses import dataclass, field
 
@@ -58,8 +53,7 @@ class ScenePart:
 
 @dataclass(frozen=True, eq=False)
 class RenderScene:
-    """A USD asset read back for rendering; the renderers' part ids are ``index + 1`` in ``parts`` (0 =
-    background)."""
+    """A USD asset read back for rendering; the renderers' part ids are ``index + 1`` in ``parts`` (0 = background)."""
 
     root_layer: str  # absolute path of the opened root layer
     parts: tuple  # of ScenePart: the visible meshes
@@ -197,18 +191,17 @@ def load_scene(path, variants: dict | None = None, time: float | None = None) ->
     """Open a written asset (its folder or root layer) with pxr as a :class:`RenderScene`, with ``variants``
     selected on the default prim (e.g. ``{"shading": "baked", "motion": "walk"}``; default as authored) and, when a
     motion is selected, the meshes skinned by UsdSkel at time code ``time`` (default the first;
-    :mod:`rockdove.render.skinning`). UsageError when the path is not a USD asset, a variant does not exist, the time
-    lies outside the animation, a skin is broken, no mesh is found, or its film data or textures are missing."""
+    :mod:`rockdove.render.skinning`). UsageError naming what is wrong with the asset, a variant or the time."""
     from pxr import Sdf, Usd, UsdGeom
 
     from ..usd.layout import resolve_root_layer
     from ..usd.schema import register
 
     layer_path = resolve_root_layer(path)
-    try:  # USD builds its schema registry at the first stage opened: register before, for the rest of the process
+    # USD builds its schema registry at the first stage opened: register before, for the rest of the process (a
+    # RuntimeError: the registry was already built without it; this reader reads the attributes by name)
+    with contextlib.suppress(RuntimeError):
         register()
-    except RuntimeError:  # the registry was already built without it; this reader reads the attributes by name
-        pass
     try:
         stage = Usd.Stage.Open(layer_path, Usd.Stage.LoadAll)
     except Exception as exc:  # pxr raises Tf.ErrorException

@@ -47,10 +47,8 @@ def sample_texture(image, st) -> np.ndarray:
     y = np.clip(st[..., 1] * h - 0.5, 0, h - 1)  # from the bottom
     x0 = np.minimum(np.floor(x).astype(np.intp), max(w - 2, 0))
     y0 = np.minimum(np.floor(y).astype(np.intp), max(h - 2, 0))
-    x1 = np.minimum(x0 + 1, w - 1)
-    y1 = np.minimum(y0 + 1, h - 1)
-    tx = (x - x0)[..., None]
-    ty = (y - y0)[..., None]
+    x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
+    tx, ty = (x - x0)[..., None], (y - y0)[..., None]
     rows0, rows1 = h - 1 - y0, h - 1 - y1  # bottom-up -> top-down rows
     c0 = img[rows0, x0] * (1 - tx) + img[rows0, x1] * tx
     c1 = img[rows1, x0] * (1 - tx) + img[rows1, x1] * tx

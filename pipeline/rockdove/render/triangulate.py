@@ -17,8 +17,7 @@ def fan_triangulate(face_vertex_counts, face_vertex_indices, left_handed: bool =
         raise UsageError(f"face_vertex_counts must all be >= 3, got a face with {int(counts.min())}")
     if counts.sum() != fvi.size:
         raise UsageError(f"face_vertex_indices has {fvi.size} entries, face_vertex_counts sum to {counts.sum()}")
-    tri_corners = fan_triangulate_corners(counts)
-    tris = fvi[tri_corners]
+    tris = fvi[fan_triangulate_corners(counts)]
     if left_handed:
         tris = tris[:, [0, 2, 1]]
     return tris

@@ -56,8 +56,7 @@ def primvar_array(values, interp: str, n_points: int, face_vertex_counts, name: 
 
 
 def material_info(prim, stage):
-    """(material kind from the name, base texture, srgb?, mask texture, constant colour, opacity threshold, normal
-    map)."""
+    """(material kind, base texture, srgb?, mask texture, constant colour, opacity threshold, normal map)."""
     from pxr import Usd, UsdShade
 
     mat, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
@@ -66,8 +65,7 @@ def material_info(prim, stage):
     name = mat.GetPrim().GetName()
     kind = name[: -len("Material")].lower() if name.endswith("Material") and len(name) > 8 else name.lower()
     base = mask = colour_const = normal = None
-    srgb = True
-    threshold = OPACITY_THRESHOLD
+    srgb, threshold = True, OPACITY_THRESHOLD
     for p in Usd.PrimRange(mat.GetPrim()):
         if not p.IsA(UsdShade.Shader):
             continue

@@ -1,17 +1,9 @@
-"""Cameras and lights of the verification renders: a turntable of the bird and the paper's light sweep.
+"""Cameras and lights of the verification renders: a turntable of the bird, the hero view and the paper's light sweep.
 
 A :class:`View` (docs/design.md, "Render views") is one camera (OpenGL convention: it looks down its local -Z with
-+Y up; ``camera_to_world`` acts on column vectors) plus one directional light.
-
-- :func:`turntable_views`: the camera orbits the bird about world Y through the bounds' centre, at eye level
-  (:data:`TURNTABLE_ELEVATION_DEG`, as a look-dev artist shoots a turntable; never from below); the key light is
-  fixed relative to the camera (:data:`TURNTABLE_LIGHT_CAMERA`), so every frame is lit from the front as seen.
-- :func:`hero_view`: the 3/4 front view a look-dev artist shows first, at :data:`HERO_SCALE` times the
-  verification size, the camera in front of the bird's left shoulder.
-- :func:`light_sweep_views`: the paper's experiment. The camera stays still on the neck; a D65-white light
-  (``light_rgb = (1, 1, 1)`` in lin_rec709) rotates about the camera's up axis, so the angle ``alpha`` between
-  ``L`` and ``V`` sweeps through 90 degrees, where ``cos_theta = dot(L, H) = cos(alpha / 2)``, ``theta = 45``
-  degrees: the green/purple flip (docs/design.md, "Conventions").
++Y up; ``camera_to_world`` acts on column vectors) plus one directional light. In the light sweep the camera stays
+still and the light turns about its up axis, so the light-view angle ``alpha`` passes 90 degrees, where
+``cos_theta = cos(alpha / 2)``, ``theta = 45`` degrees: the green/purple flip (docs/design.md, "Conventions").
 """
 
 from __future__ import annotations
@@ -109,8 +101,7 @@ class View:
 
 def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
     """Camera-to-world matrix (OpenGL: looks down -Z) of a camera at ``eye`` looking at ``target``, (4, 4)."""
-    eye = np.asarray(eye, dtype=np.float64)
-    target = np.asarray(target, dtype=np.float64)
+    eye, target = np.asarray(eye, dtype=np.float64), np.asarray(target, dtype=np.float64)
     z = eye - target
     if np.linalg.norm(z) == 0:
         raise UsageError(f"eye and target must differ, both are {eye.tolist()}")
@@ -134,8 +125,7 @@ def direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
 
 def _rotate(v, axis, angle_rad):
     """Rodrigues rotation of ``v`` about unit ``axis`` by ``angle_rad``."""
-    v = np.asarray(v, dtype=np.float64)
-    k = np.asarray(axis, dtype=np.float64)
+    v, k = np.asarray(v, dtype=np.float64), np.asarray(axis, dtype=np.float64)
     k = k / np.linalg.norm(k)
     c, s = math.cos(angle_rad), math.sin(angle_rad)
     return v * c + np.cross(k, v) * s + k * np.dot(k, v) * (1 - c)
@@ -190,8 +180,8 @@ def light_sweep_views(neck_centre, n: int, width: int, height: int, angles_deg=N
     """The paper's experiment: a still camera ``distance_m`` from ``neck_centre`` (world metres) along
     ``camera_direction``, a D65-white directional light at each light-view angle ``alpha`` of ``angles_deg`` in
     [0, 180) (default ``n`` angles evenly over [30, 150], through the flip; 90 for ``n = 1``;
-    :data:`DEFAULT_SWEEP_ANGLES_DEG` for ``n = 2``): ``V`` rotated about the camera's up axis by ``alpha``, so the
-    film sees ``cos_theta = cos(alpha / 2)``. Named ``sweep_<alpha in degrees, 3 digits>``."""
+    :data:`DEFAULT_SWEEP_ANGLES_DEG` for ``n = 2``), ``V`` rotated about the camera's up axis by ``alpha``; named
+    ``sweep_<alpha in degrees, 3 digits>``."""
     c = np.asarray(neck_centre, dtype=np.float64).reshape(-1)
     if c.shape != (3,) or not np.all(np.isfinite(c)):
         raise UsageError(f"neck_centre must be a finite 3-vector, got {neck_centre!r}")
@@ -232,7 +222,6 @@ def default_views(scene, width: int = 512, height: int = 512, n: int = 4) -> lis
     else:
         b = scene.bounds_m
         r = 0.25 * float(np.linalg.norm(b[1] - b[0]))
-    yfov = math.radians(SWEEP_YFOV_DEG)
-    dist = max(_fit_distance(max(r, 1e-3), yfov, width / height, margin=1.05), 0.06)
+    dist = max(_fit_distance(max(r, 1e-3), math.radians(SWEEP_YFOV_DEG), width / height, margin=1.05), 0.06)
     views += light_sweep_views(scene.neck_centre_m, n_sweep, width, height, distance_m=dist)
     return views

@@ -103,8 +103,7 @@ def _carry(world, skel, names, m):
 
 
 def _descendants(skel, name) -> list:
-    root = skel.index(name)
-    keep = [root]
+    keep = [skel.index(name)]
     for j, p in enumerate(skel.parents):
         if p in keep:
             keep.append(j)

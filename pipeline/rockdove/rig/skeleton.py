@@ -1,13 +1,10 @@
 """The rock dove's skeleton as values: joint names (UsdSkel paths), parents and rest positions, no USD.
 
-Joints are placed from the geometry's landmarks (metres, Y up, facing +Z; the bird's left is +X): the torso chain
-from the pelvis between the hips to the neck's base (``sdf.NECK_BASE_M``); five neck joints at neck coordinate
-s = 0, 0.2 .. 0.8 along ``sdf.NECK_BASE_M`` -> ``sdf.NECK_TOP_M`` and the head at s = 1 (the skull's base); the
-tail at the rump and the root of the rectrices (``plumage.TAIL_ROOT_M``); the folded wing's shoulder, elbow and
-hand along the wing rows; per leg hip, knee (forward, inside the body), ankle (the intertarsal joint, where the
-tarsus leaves the belly's feathers), foot (``parts.ANKLE_M``, the toes' base) and one joint per toe at 40 % of its
-length (``parts.TOES``). Every joint frame is axis-aligned at rest (its bind transform is a translation), so a
-joint's rotation reads in world axes: x pitches, y turns, z rolls.
+Joints are placed from the geometry's landmarks (metres, Y up, facing +Z; the bird's left is +X; see
+:func:`build_skeleton`): the torso chain, the neck at neck coordinates :data:`NECK_S`, the tail, the folded wing,
+and per leg hip, knee, ankle (the intertarsal joint, where the tarsus leaves the belly's feathers), foot and toes.
+Every joint frame is axis-aligned at rest (its bind transform is a translation), so a joint's rotation reads in
+world axes: x pitches, y turns, z rolls.
 """
 
 from __future__ import annotations

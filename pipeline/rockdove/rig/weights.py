@@ -66,8 +66,7 @@ def body_weights(points_m, skel):
     seg = np.argmin(d, axis=1)
     u_trunk = seg + t[np.arange(len(p)), seg]
     s, r = neck.neck_s(p)
-    k = np.searchsorted(NECK_S, s, side="right") - 1  # neck_01 .. head at NECK_S
-    k = np.clip(k, 0, len(NECK_S) - 2)
+    k = np.clip(np.searchsorted(NECK_S, s, side="right") - 1, 0, len(NECK_S) - 2)  # neck_01 .. head at NECK_S
     u_neck = 6 + k + np.clip((s - np.take(NECK_S, k)) / np.diff(NECK_S)[k], 0.0, None)
     gate = smoothstep(*NECK_GATE_S, s) * (1.0 - smoothstep(sdf.NECK_BAND_RADIUS_M, sdf.NECK_BAND_RADIUS_M
                                                            + NECK_GATE_M, r))
@@ -112,8 +111,7 @@ def components(part) -> np.ndarray:
     fvi = np.asarray(part.face_vertex_indices, np.int64)
     starts = np.repeat(np.cumsum(part.face_vertex_counts) - part.face_vertex_counts, part.face_vertex_counts)
     nxt = np.arange(len(fvi)) + 1
-    ends = np.cumsum(part.face_vertex_counts)
-    nxt = np.where(np.isin(nxt, ends), starts, nxt)  # each face's corners in a cycle
+    nxt = np.where(np.isin(nxt, np.cumsum(part.face_vertex_counts)), starts, nxt)  # each face's corners in a cycle
     n = part.n_points
     graph = coo_matrix((np.ones(len(fvi)), (fvi, fvi[nxt])), shape=(n, n))
     return connected_components(graph, directed=False)[1].astype(np.int64)
@@ -129,8 +127,7 @@ def _per_component(comp, dist, values):
 def _roots(comp, depth, pts, tie_m: float = 1e-4):
     """Each point's component's root: the mean of its points within ``tie_m`` of its least ``depth`` (a card's two
     quill corners: the middle of its root row)."""
-    lowest = _per_component(comp, depth, depth)
-    sel = depth <= lowest + tie_m
+    sel = depth <= _per_component(comp, depth, depth) + tie_m
     n = np.bincount(comp[sel], minlength=comp.max() + 1)[:, None]
     total = np.stack([np.bincount(comp[sel], pts[sel, k], minlength=comp.max() + 1) for k in range(3)], 1)
     return (total / np.maximum(n, 1))[comp]

@@ -14,7 +14,7 @@ off-white cere; white lower back, two black wing bars, a black band at the end o
 from side-view photographs of standing birds: body axis 30-45 degrees above the horizontal with the breast full
 and forward, head about half the body's width and held up, tail reaching 3-6 cm beyond the folded wing tips,
 wings flush with the body (never wider), tips meeting over the rump, toes on the ground, tibia in the contour.
-[F] issue 29, as a birder sees a rock dove (field guides: Gibbs et al.; Svensson et al., "Collins Bird Guide",
+[F] as a birder sees a rock dove (field guides: Gibbs et al.; Svensson et al., "Collins Bird Guide",
 2009): a feathered head with only the eye's ring bare, two black bars crossing the folded wing, a broad closed
 tail fan with depth (not a board), the pupil in the middle of the iris, dark claws; feather cards whose edges fade
 (soft, partly transparent texels) rather than cut.
@@ -118,26 +118,24 @@ def _colours(part, n=4000, seed=0):
 
 
 def _hsv(linear):
+    """(hue in degrees, saturation) of a linear colour as displayed (sRGB HSV)."""
+    import colorsys
+
     from ..srgb import linear_to_srgb8
 
-    c = np.asarray(linear_to_srgb8(np.asarray(linear, float)[None]), float)[0] / 255.0
-    mx, mn = c.max(), c.min()
-    if mx == mn:
-        return 0.0, 0.0
-    h = {0: (c[1] - c[2]) / (mx - mn), 1: 2 + (c[2] - c[0]) / (mx - mn), 2: 4 + (c[0] - c[1]) / (mx - mn)}
-    return float((60.0 * h[int(np.argmax(c))]) % 360.0), float((mx - mn) / mx)
+    h, s, _ = colorsys.rgb_to_hsv(*np.asarray(linear_to_srgb8(np.asarray(linear, float)[None]), float)[0] / 255.0)
+    return 360.0 * h, s
 
 
 def _seen(geom, origins, directions):
-    """(part index or -1, st) of the first opaque hits of rays from ``origins`` (N, 3) along ``directions`` through
-    the alpha cut-outs of ``geom`` (a :class:`rockdove.verify.rays.SceneGeometry`)."""
+    """(part index or -1, st) of the first opaque hits of rays from ``origins`` (N, 3) along ``directions``."""
     from .rays import _first_opaque_hits
 
     dirs = np.broadcast_to(np.asarray(directions, float), origins.shape)
     dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
     face, _, bary = _first_opaque_hits(geom, np.asarray(origins, float), dirs, {})
-    return np.where(face >= 0, geom.part_of_face[np.maximum(face, 0)], -1), geom.interp(geom.st, np.maximum(face, 0),
-                                                                                          bary)
+    hit = np.maximum(face, 0)
+    return np.where(face >= 0, geom.part_of_face[hit], -1), geom.interp(geom.st, hit, bary)
 
 
 def _wing_bars(scene, geom, ta) -> tuple:

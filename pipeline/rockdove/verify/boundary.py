@@ -1,26 +1,22 @@
 """The shape of the green/purple pattern on the neck: coherence of the colour regions, curvature of their boundary.
 
 On a real rock dove the green and purple of the neck form a few large regions whose boundary is a curve that
-moves with the light; one fixed film thickness makes it a straight line; an uncorrelated per-feather
-thickness makes a salt-and-pepper of both colours. Two measures per view tell the three apart:
+moves with the light; one fixed film thickness makes it a straight line; an uncorrelated per-feather thickness
+makes a salt-and-pepper of both colours. Two measures per view tell the three apart:
 
-Coherence (:func:`class_coherence`)
-    For each strict hue class (green, purple, other chromatic hue; grey left out), the share of its pixels held
-    by its largest 4-connected region, optionally after bridging gaps of up to ``2 * reach_px`` grey or
-    non-feather pixels (never a pixel of another hue class). 4- rather than 8-connectivity, and no bridging
-    through the other colours: on a mosaic of independently coloured feathers at 50 % each, regions connected
-    through diagonal contacts percolate for *both* colours (site percolation threshold 0.407 with 8 neighbours,
-    0.593 with 4), so speckle would pass as coherent. A coherent pattern has shares near 1.
+Coherence (:func:`class_coherence`): for each strict hue class (green, purple, other; grey left out), the share of
+its pixels held by its largest 4-connected region, optionally after bridging gaps of up to ``2 * reach_px`` grey or
+non-feather pixels (never another hue class). 4- rather than 8-connectivity, and no bridging through the other
+colours: on a mosaic of independently coloured feathers at 50 % each, diagonally connected regions percolate for
+*both* colours (site percolation threshold 0.407 with 8 neighbours, 0.593 with 4), so speckle would pass as
+coherent. A coherent pattern has shares near 1.
 
-Curvature (:func:`boundary_curvature`)
-    The green/purple contact zone (:func:`boundary_points`, on the hue *sides*) is reduced to its centreline
-    (mean point of ``bin_px`` bins along its principal axis), and its perpendicular offset ``o`` as a function of
-    the position ``t`` along that axis is fitted by least squares with a line ``o = a + b t`` and the cubic
-    ``o = a + b t + c t^2 + d t^3`` (t scaled to [-1, 1]). Their RMS ratio ``line / curve`` (the curve's residual
-    taken as at least :data:`NOISE_FLOOR_PX`, pixel quantisation) is about 1 or less for a straight boundary,
-    >= :data:`CURVED_RATIO` for a curved one. One robust pass drops centreline points farther than 3x the median
-    residual of the cubic (when at least half remain), so a stray feather tip of the other colour does not bend
-    the fit.
+Curvature (:func:`boundary_curvature`): the green/purple contact zone (on the hue *sides*) is reduced to its
+centreline (mean point of ``bin_px`` bins along its principal axis), whose perpendicular offset ``o(t)`` is fitted
+by least squares with a line and a cubic (t scaled to [-1, 1]). Their RMS ratio ``line / curve`` (the curve's
+residual at least :data:`NOISE_FLOOR_PX`, pixel quantisation) is about 1 or less for a straight boundary, >=
+:data:`CURVED_RATIO` for a curved one. One robust pass drops centreline points farther than 3x the cubic's median
+residual (when half remain), so a stray feather tip of the other colour does not bend the fit.
 """
 
 from __future__ import annotations
@@ -54,28 +50,21 @@ CLASSES = {"green": 1, "purple": 2, "other": 3}
 
 
 def boundary_points(cls: np.ndarray, reach_px: int = BOUNDARY_REACH_PX) -> np.ndarray:
-    """(P, 2) float (x = column, y = row) pixels of the green/purple contact zone of a class image (1 green,
-    2 purple; others ignored): within ``reach_px`` 8-connected steps of a green pixel AND of a purple one. This
-    bridges the narrow band of low-chroma or blue pixels the film shows between green and purple (at 650 nm and
-    cos theta near 0.707 the chroma drops to ~12) and the grey feather bases between coloured tips."""
+    """(P, 2) float (x = column, y = row) pixels within ``reach_px`` 8-connected steps of a green (1) AND a purple (2)
+    pixel of a class image. This bridges the narrow band of low-chroma or blue pixels the film shows between green
+    and purple (at 650 nm and cos theta near 0.707 the chroma drops to ~12) and the grey bases between tips."""
     from scipy import ndimage
 
-    cls = np.asarray(cls)
-    st = np.ones((3, 3), bool)
-    near_green = ndimage.binary_dilation(cls == 1, structure=st, iterations=int(reach_px))
-    near_purple = ndimage.binary_dilation(cls == 2, structure=st, iterations=int(reach_px))
-    r, c = np.nonzero(near_green & near_purple)
+    near = [ndimage.binary_dilation(np.asarray(cls) == k, structure=np.ones((3, 3), bool), iterations=int(reach_px))
+            for k in (1, 2)]
+    r, c = np.nonzero(near[0] & near[1])
     return np.stack([c.astype(float), r.astype(float)], axis=1)
 
 
 def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0) -> dict:
-    """How far the green/purple boundary of a class image (hue sides: 1 green, 2 purple) departs from a line:
-    the RMS perpendicular distance of its centreline (module docstring) from their total-least-squares line, in
-    pixels and as a fraction of the boundary's length (independent of the image size), with the same robust pass.
-
-    A straight boundary gives a fraction of the pixel quantisation (~0.3 px); a bent one its sagitta over ~3 (a
-    parabola of sagitta 40 px gives ~12 px). Fewer than ``min_points`` centreline points: ``rms_px`` NaN.
-    ``direction``: unit (x, y); ``centre``: (x, y) px.
+    """RMS perpendicular distance of the green/purple boundary's centreline (hue sides) from its total-least-squares
+    line, in pixels and as a fraction of its length, with the same robust pass; NaN under ``min_points`` points.
+    A straight boundary gives ~0.3 px (pixel quantisation); a bent one its sagitta over ~3 (40 px gives ~12 px).
     """
     counts, line = _boundary_centreline(cls, bin_px)
     out = {**counts, "rms_px": float("nan"), "length_px": float("nan"), "rms_fraction": float("nan"),
@@ -94,16 +83,14 @@ def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 
 
 
 def _boundary_centreline(cls: np.ndarray, bin_px: float) -> tuple[dict, np.ndarray | None]:
-    """``({"n_points", "n_centreline"}, the :func:`_centreline` of the :func:`boundary_points` of ``cls``; None
-    with fewer than 2 points)``."""
+    """``({"n_points", "n_centreline"}, the centreline of the boundary points of ``cls`` or None)``."""
     pts = boundary_points(cls)
     line = _centreline(pts, bin_px) if len(pts) >= 2 else None
     return {"n_points": len(pts), "n_centreline": 0 if line is None else len(line)}, line
 
 
 def _without_outliers(line: np.ndarray, residual: np.ndarray, need: int) -> np.ndarray:
-    """``line`` without the points farther than 3x the median ``residual`` (at least 0.5 px), when at least
-    ``need`` and half of them remain (module docstring)."""
+    """``line`` without the points farther than 3x the median ``residual`` (>= 0.5 px), if ``need`` and half remain."""
     keep = np.abs(residual) <= 3.0 * max(np.median(np.abs(residual)), 0.5)
     return line[keep] if keep.sum() >= max(need, len(line) // 2) else line
 
@@ -116,9 +103,8 @@ def _tls(p: np.ndarray):
 
 
 def class_coherence(cls: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> dict:
-    """Share of each strict hue class (1 green, 2 purple, 3 other; 0 grey and -1 no feather are ignored) held
-    by its largest connected region (module docstring): per class name ``{"pixels", "largest_share" (NaN without
-    pixels), "regions"}``, and ``reach_px``."""
+    """Per strict hue class (1 green, 2 purple, 3 other), ``{"pixels", "largest_share" (NaN without pixels),
+    "regions"}``: the share held by its largest connected region (module docstring)."""
     from scipy import ndimage
 
     cls = np.asarray(cls)
@@ -165,9 +151,8 @@ def _fits(line: np.ndarray, degree: int):
 
 def boundary_curvature(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0,
                        degree: int = CURVE_DEGREE) -> dict:
-    """RMS residuals of a straight-line and a degree-``degree`` fit of the green/purple boundary of a hue-side
-    image and their ``ratio`` (module docstring; NaN with fewer than ``min_points`` or ``degree + 3`` centreline
-    points)."""
+    """RMS residuals of a line and a degree-``degree`` fit of the green/purple boundary of a hue-side image and
+    their ``ratio`` (module docstring); NaN under ``min_points`` or ``degree + 3`` centreline points."""
     counts, line = _boundary_centreline(cls, bin_px)
     out = {**counts, "length_px": float("nan"), "line_rms_px": float("nan"), "curve_rms_px": float("nan"),
            "ratio": float("nan"), "curve_degree": int(degree)}
@@ -176,24 +161,19 @@ def boundary_curvature(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0
         return out
     line = _without_outliers(line, _fits(line, degree)[1], need)
     r_line, r_curve, length = _fits(line, degree)
-    rms_line = float(np.sqrt(np.mean(r_line**2)))
-    rms_curve = float(np.sqrt(np.mean(r_curve**2)))
+    rms_line, rms_curve = (float(np.sqrt(np.mean(r**2))) for r in (r_line, r_curve))
     out.update(n_centreline=len(line), length_px=length, line_rms_px=rms_line, curve_rms_px=rms_curve,
                ratio=rms_line / max(rms_curve, NOISE_FLOOR_PX))
     return out
 
 
 def boundary_shape(rgb_linear: np.ndarray, region: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> dict:
-    """Coherence and curvature of the pixels of ``region`` of an (H, W, 3) linear render (a view's compared
-    structural feather pixels): ``coherence`` (:func:`class_coherence` of the strict classes), ``curvature``
-    (:func:`boundary_curvature` of the hue sides), ``coherent`` (green and purple each have a largest region
-    holding >= :data:`COHERENT_SHARE`), ``curved`` (ratio >= :data:`CURVED_RATIO`)."""
+    """:func:`class_shape` of the pixels of ``region`` of an (H, W, 3) linear render, classified here."""
     rgb = np.asarray(rgb_linear, np.float64)
     region = np.asarray(region, bool)
     if rgb.shape[:2] != region.shape or rgb.ndim != 3 or rgb.shape[2] != 3:
         raise UsageError(f"rgb_linear (H, W, 3) and region (H, W) must match, got {rgb.shape} and {region.shape}")
-    strict = np.full(region.shape, -1, np.int8)
-    sides = np.full(region.shape, -1, np.int8)
+    strict, sides = np.full((2, *region.shape), -1, np.int8)
     if region.any():
         px = np.where(np.isfinite(rgb[region]), rgb[region], 0.0)
         lab = rgb_to_lab(px)
@@ -203,9 +183,9 @@ def boundary_shape(rgb_linear: np.ndarray, region: np.ndarray, reach_px: int = C
 
 
 def class_shape(strict: np.ndarray, sides: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> dict:
-    """:func:`boundary_shape` of pixels already classified: ``strict`` the strict hue bands and ``sides`` the hue
-    sides (:func:`rockdove.verify.compare.hue_classes` without and with ``sides=True``) of the same pixels, -1
-    elsewhere; e.g. :class:`rockdove.verify.compare.ViewMetrics`' ``strict`` and ``cls``."""
+    """``coherence`` (:func:`class_coherence` of the ``strict`` classes), ``curvature`` (:func:`boundary_curvature`
+    of the hue ``sides``), ``coherent`` (green and purple largest regions >= :data:`COHERENT_SHARE`) and ``curved``
+    (ratio >= :data:`CURVED_RATIO`) of classified pixels (-1 elsewhere: ViewMetrics' ``strict`` and ``cls``)."""
     coherence = class_coherence(strict, reach_px)
     curvature = boundary_curvature(sides)
     shares = [coherence[k]["largest_share"] for k in ("green", "purple")]

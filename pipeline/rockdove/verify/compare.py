@@ -1,19 +1,16 @@
 """Compare a GL render with the CPU reference: dE2000 maps, statistics and the image checks.
 
 Both renders hold linear ``lin_rec709`` radiance, unclipped (thin-film colours are often outside the Rec.709
-gamut). The dE2000 map is computed on that linear data, not on the 8-bit display images, which would hide
-out-of-gamut and quantisation differences: CIELAB with the D65 white at Y = 1, CIEDE2000 (Sharma, Wu and Dalal
-2005, as implemented by colour-science) through :mod:`rockdove.spectral`.
-
-Pixels compared: covered by a feather part in BOTH renders, with the same part id, after eroding each render's
-feather coverage by ``erode_px`` pixels (8-connected): a rasteriser and a ray caster legitimately disagree at
+gamut); the dE2000 map is computed on that, not on the 8-bit display images, which would hide out-of-gamut and
+quantisation differences: CIELAB with the D65 white at Y = 1, CIEDE2000 (Sharma, Wu and Dalal 2005, as implemented
+by colour-science) through :mod:`rockdove.spectral`. Pixels compared: a feather part with the same id in BOTH
+renders after eroding each coverage by ``erode_px`` pixels: a rasteriser and a ray caster legitimately disagree at
 silhouette edges (coverage rules, texture filtering of the alpha cut-out).
 
-Checks: no NaN or Inf in either render; no black holes (lit feather pixels whose GL radiance is ~zero: every
-film colour has a luminance of at least a few per cent); the CIELAB hue ``h_ab = atan2(b*, a*)`` of the chromatic
-structural pixels (``C*ab / L*``: a ratio, so that dimly lit pixels keep their hue), histogrammed and classified
-into the two bands of the rock dove's neck (measured on the Airy colours of a 480-700 nm keratin film under D65:
-greens have h_ab 115-205 deg, purples/magentas 310-355 deg); the boundary's shape: :mod:`rockdove.verify.boundary`.
+Checks: no NaN or Inf; no black holes (lit feather pixels whose GL radiance is ~zero: every film colour has a
+luminance of at least a few per cent); the CIELAB hue ``h_ab = atan2(b*, a*)`` of the chromatic structural pixels
+(``C*ab / L*``: a ratio, so dimly lit pixels keep their hue), classified into the two bands of the rock dove's neck
+(the Airy colours of a 480-700 nm keratin film under D65: greens h_ab 115-205 deg, purples 310-355 deg).
 """
 
 from __future__ import annotations
@@ -87,9 +84,7 @@ def comparison_mask(gl_part, ref_part, feather_part_ids, erode_px: int = 1) -> n
     ``gl_part``, ``ref_part``: (H, W) part ids (-1 background); ``erode_px``: erosion of each coverage."""
     gl_part, ref_part = _same_shape("gl_part", gl_part, "ref_part", ref_part, None)
     ids = np.asarray(list(feather_part_ids), dtype=np.int64)
-    gl_f = erode(np.isin(gl_part, ids), erode_px)
-    ref_f = erode(np.isin(ref_part, ids), erode_px)
-    return gl_f & ref_f & (gl_part == ref_part)
+    return erode(np.isin(gl_part, ids), erode_px) & erode(np.isin(ref_part, ids), erode_px) & (gl_part == ref_part)
 
 
 def rgb_to_lab(rgb_linear: np.ndarray) -> np.ndarray:
@@ -100,8 +95,7 @@ def rgb_to_lab(rgb_linear: np.ndarray) -> np.ndarray:
 
 
 def pixel_de(a_px: np.ndarray, b_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """CIEDE2000 of (N, 3) pairs of linear colours and the first's CIELAB: the colour difference of every
-    comparison (a GL view here, a host's renders in :mod:`rockdove.verify.host_check`)."""
+    """CIEDE2000 of (N, 3) pairs of linear colours, and the first's CIELAB: every comparison's colour difference."""
     from .. import spectral
 
     lab = rgb_to_lab(a_px)
@@ -110,8 +104,7 @@ def pixel_de(a_px: np.ndarray, b_px: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def delta_e_map(gl_rgb, ref_rgb, mask=None) -> np.ndarray:
-    """(H, W) CIEDE2000 between two (H, W, 3) linear renders at the pixels of ``mask`` (default all), NaN
-    elsewhere."""
+    """(H, W) CIEDE2000 between two (H, W, 3) linear renders at the pixels of ``mask`` (default all), NaN elsewhere."""
     gl_rgb, ref_rgb = _same_shape("gl_rgb", gl_rgb, "ref_rgb", ref_rgb, 3)
     mask = np.ones(gl_rgb.shape[:2], bool) if mask is None else mask
     out = np.full(gl_rgb.shape[:2], np.nan)
@@ -125,10 +118,9 @@ def _in_band(h_deg: np.ndarray, band: tuple[float, float]) -> np.ndarray:
 
 
 def hue_classes(rgb_linear: np.ndarray, sides: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(h_ab in degrees [0, 360), C*ab, class)`` of (..., 3) linear colours; class (int8) 0 grey, else with
-    ``sides`` False the strict bands (1 green, 2 purple, 3 any other hue), with ``sides`` True the side of the hue
-    circle (1 green, 2 purple): the boundary's classes, since the film passes from green to purple through blue or
-    through red-yellow hues, depending on the thickness."""
+    """``(h_ab in degrees [0, 360), C*ab, class)`` of (..., 3) linear colours; class (int8) 0 grey, else the strict
+    bands (1 green, 2 purple, 3 other), or with ``sides`` the side of the hue circle (1 green, 2 purple): the
+    boundary's classes, since the film passes from green to purple through blue or red-yellow with thickness."""
     return lab_hue_classes(rgb_to_lab(rgb_linear), sides)
 
 
@@ -149,9 +141,8 @@ def lab_hue_classes(lab: np.ndarray, sides: bool = False) -> tuple[np.ndarray, n
 
 @dataclass(frozen=True)
 class HueHistogram:
-    """Pixels by CIELAB hue: ``counts`` of the chromatic ones per bin of ``bin_edges_deg``, and how many are
-    ``grey``, ``green``, ``purple`` (in the bands) or ``other``; the bands and the saturation threshold used.
-    Histograms of several views add up (``+``)."""
+    """Pixels by CIELAB hue: ``counts`` of the chromatic ones per bin, how many are ``grey``, ``green``, ``purple``
+    or ``other``, and the thresholds used. Histograms of several views add up (``+``)."""
 
     bin_edges_deg: list[float]
     counts: list[int]
@@ -164,9 +155,8 @@ class HueHistogram:
     purple_band_deg: list[float]
 
     def __add__(self, more: HueHistogram) -> HueHistogram:
-        return dataclasses.replace(self, counts=[a + b for a, b in zip(self.counts, more.counts)],
-                                   **{k: getattr(self, k) + getattr(more, k) for k in ("grey", "green", "purple",
-                                                                                     "other")})
+        return dataclasses.replace(self, counts=[a + b for a, b in zip(self.counts, more.counts)], **{
+            k: getattr(self, k) + getattr(more, k) for k in ("grey", "green", "purple", "other")})
 
     @property
     def chromatic(self) -> int:
@@ -174,8 +164,7 @@ class HueHistogram:
 
 
 def hue_histogram(rgb_pixels: np.ndarray | None, lab_pixels: np.ndarray | None = None) -> HueHistogram:
-    """:class:`HueHistogram` of CIELAB hue over the chromatic ones of (N, 3) linear pixels, or of ``lab_pixels``
-    already in CIELAB."""
+    """:class:`HueHistogram` of (N, 3) linear pixels, or of ``lab_pixels`` already in CIELAB."""
     if lab_pixels is None:
         rgb_pixels = np.asarray(rgb_pixels, np.float64).reshape(-1, 3)
         lab_pixels = rgb_to_lab(rgb_pixels) if len(rgb_pixels) else np.zeros((0, 3))
@@ -192,10 +181,9 @@ def hue_histogram(rgb_pixels: np.ndarray | None, lab_pixels: np.ndarray | None =
 
 @dataclass
 class ViewMetrics:
-    """Metrics of one view, the GL render against the reference (module docstring); dE statistics are NaN
-    without pixels, ``de_fraction_over_p95_goal`` shows isolated alpha-edge disagreements. Not in
-    :meth:`summary`: ``de_map`` (NaN where not compared), ``cls`` (hue sides of the compared structural pixels,
-    -1 elsewhere: the boundary's input) and ``strict`` (their strict bands)."""
+    """Metrics of one view, the GL render against the reference; dE statistics NaN without pixels. Not in
+    :meth:`to_json`: ``de_map`` (NaN where not compared), ``cls`` and ``strict`` (hue sides and strict bands of the
+    compared structural pixels, -1 elsewhere: the boundary's input)."""
 
     view: str
     n_pixels: int
@@ -216,10 +204,9 @@ class ViewMetrics:
     strict: np.ndarray | None = field(default=None, repr=False)
 
     def to_json(self) -> dict:
-        """JSON-ready dict of every metric (no images; containers copied, sharing nothing with the metrics)."""
-        images = ("de_map", "cls", "strict")
-        return {f.name: dataclasses.asdict(v) if f.name == "hue" else deepcopy(v)
-                for f in fields(self) if f.name not in images for v in [getattr(self, f.name)]}
+        """Every metric but the images, copied (sharing nothing with the metrics)."""
+        return {f.name: dataclasses.asdict(v) if f.name == "hue" else deepcopy(v) for f in fields(self)
+                if f.name not in ("de_map", "cls", "strict") for v in [getattr(self, f.name)]}
 
     @classmethod
     def from_json(cls, data: dict) -> ViewMetrics:
@@ -231,8 +218,8 @@ def compare_arrays(view: str, gl_rgb, ref_rgb, gl_part, ref_part, feather_part_i
     """:func:`compare` on plain arrays: (H, W, 3) linear renders, (H, W) part ids (-1 background);
     ``ref_n_dot_l``: the reference's max(N.L, 0) (without it no black-hole check); ``ref_mask``: its
     structural-colour mask (the hue statistics take compared pixels with mask >= :data:`STRUCTURAL_MASK`)."""
-    # Only the compared pixels (a few per cent of the image) are converted, classified and checked: the black-hole
-    # and hue pixels are subsets of them. Non-finite values count as 0 in the statistics (``finite`` reports them).
+    # Only the compared pixels (a few per cent of the image) are converted, classified and checked; non-finite values
+    # count as 0 in the statistics (``finite`` reports them).
     gl_rgb, ref_rgb = _same_shape("gl_rgb", gl_rgb, "ref_rgb", ref_rgb, 3)
     finite = bool(np.isfinite(gl_rgb).all() and np.isfinite(ref_rgb).all())
     mask = comparison_mask(gl_part, ref_part, feather_part_ids, erode_px)
@@ -242,25 +229,18 @@ def compare_arrays(view: str, gl_rgb, ref_rgb, gl_part, ref_part, feather_part_i
     de = np.full(mask.shape, np.nan)
     de[mask] = vals
     stats = (np.median(vals), np.percentile(vals, 95), vals.max(), vals.mean()) if n else (np.nan,) * 4
-    if ref_n_dot_l is not None:
-        lit = np.asarray(ref_n_dot_l)[mask] >= LIT_N_DOT_L
-        n_lit = int(lit.sum())
-        n_black = int(np.sum(np.abs(gl_px[lit]).max(axis=1) < BLACK_RADIANCE))
-    else:
-        n_lit = n_black = 0
+    lit = np.asarray(ref_n_dot_l)[mask] >= LIT_N_DOT_L if ref_n_dot_l is not None else np.zeros(n, bool)
+    n_lit, n_black = int(lit.sum()), int(np.sum(np.abs(gl_px[lit]).max(axis=1) < BLACK_RADIANCE))
     black_fraction = n_black / n_lit if n_lit else 0.0
     structural = np.asarray(ref_mask)[mask] >= STRUCTURAL_MASK if ref_mask is not None else np.ones(n, bool)
     hue_mask = np.zeros(mask.shape, bool)
     hue_mask[mask] = structural
     lab_hue = lab_gl[structural]
-    cls_img = np.full(mask.shape, -1, np.int8)
-    strict_img = np.full(mask.shape, -1, np.int8)
+    cls_img, strict_img = np.full((2, *mask.shape), -1, np.int8)
     if lab_hue.size:
         cls_img[hue_mask] = lab_hue_classes(lab_hue, sides=True)[2]
         strict_img[hue_mask] = lab_hue_classes(lab_hue)[2]
-    failures = []
-    if not finite:
-        failures.append(f"{view}: NaN or Inf in a render")
+    failures = [] if finite else [f"{view}: NaN or Inf in a render"]
     if n > 0:  # a view without feather pixels (neck hidden, tiny image) has nothing to fail; verify checks the total
         if stats[0] > MEDIAN_DE_GOAL:
             failures.append(f"{view}: median dE2000 {stats[0]:.3f} > {MEDIAN_DE_GOAL}")
@@ -286,14 +266,13 @@ def compare(gl_result, ref_result, scene, erode_px: int = 1) -> ViewMetrics:
     """Compare one view's GL render (:class:`rockdove.render.gl.RenderResult`) with its reference render
     (:class:`rockdove.verify.reference_image.ReferenceResult`); the scene gives the feather part ids."""
     return compare_arrays(ref_result.view, gl_result.radiance_rgb, ref_result.rgb, gl_result.part_id,
-                          ref_result.part_id, feather_ids(scene), ref_n_dot_l=ref_result.n_dot_l, ref_mask=ref_result.mask,
-                          erode_px=erode_px)
+                          ref_result.part_id, feather_ids(scene), ref_n_dot_l=ref_result.n_dot_l,
+                          ref_mask=ref_result.mask, erode_px=erode_px)
 
 
 def reference_classes(ref_result, scene) -> np.ndarray:
     """Hue classes of the reference's feather pixels (used when there is no GL render)."""
-    feather = np.isin(ref_result.part_id, feather_ids(scene))
-    feather &= ref_result.mask >= STRUCTURAL_MASK
+    feather = np.isin(ref_result.part_id, feather_ids(scene)) & (ref_result.mask >= STRUCTURAL_MASK)
     cls = np.full(feather.shape, -1, np.int8)
     if feather.any():
         cls[feather] = hue_classes(ref_result.rgb[feather].astype(np.float64), sides=True)[2]

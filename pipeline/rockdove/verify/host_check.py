@@ -2,10 +2,8 @@
 lighting model it evaluates, over the reference's structural feather pixels (eroded by one pixel as the GL
 comparison does; a host returns radiance only, no part ids, so its silhouette is the reference's).
 
-- ``median_dE``, ``p95_dE``: CIEDE2000 of the unclipped linear radiance (the GL comparison's own);
-- ``green_px``, ``purple_px``: host pixels in the strict green / purple hue bands;
-- ``hue_agreement``: fraction of the pixels whose class (green, purple, other: grey and other hues together)
-  is the reference's.
+``median_dE``, ``p95_dE``: CIEDE2000 of the unclipped linear radiance; ``green_px``, ``purple_px``: host pixels in
+the strict hue bands; ``hue_agreement``: share of pixels whose class (green, purple, other) is the reference's.
 
 Pass (:func:`host_passed`): networks that claim the exact colour (``glsl``, ``baked``) meet the dE goals
 (median <= :data:`rockdove.verify.compare.MEDIAN_DE_GOAL`, p95 <= :data:`~rockdove.verify.compare.P95_DE_GOAL`);
@@ -40,16 +38,14 @@ def _classes(lab: np.ndarray) -> np.ndarray:
 
 
 def _de_stats(de: np.ndarray) -> dict:
-    n = int(de.size)
-    nan = float("nan")
+    n, nan = int(de.size), float("nan")
     return {"n_pixels": n, "median_dE": float(np.median(de)) if n else nan,
             "p95_dE": float(np.percentile(de, 95)) if n else nan}
 
 
 def host_metrics(images: dict, refs: list, scene) -> tuple[HostMetrics, dict]:
-    """dE and hue statistics (module docstring) of one host's renders (``images``: view name -> (H, W, 3) linear
-    radiance) against ``refs``, the references of its lobe, one per view, and their dE maps (``{view: (H, W)}``).
-    ValueError when a view is missing from ``images`` or has the wrong shape."""
+    """dE and hue statistics of one host's renders (``images``: view -> (H, W, 3) linear radiance) against ``refs``
+    (its lobe's, one per view), and the dE maps by view; ValueError for a view missing or of the wrong shape."""
     feather_ids = compare.feather_ids(scene)
     des, host_cls, ref_cls, per_view, maps = [], [], [], {}, {}
     for ref in refs:
@@ -68,10 +64,8 @@ def host_metrics(images: dict, refs: list, scene) -> tuple[HostMetrics, dict]:
         ref_cls.append(_classes(compare.rgb_to_lab(ref.rgb[sel])))
         per_view[ref.view] = _de_stats(vals)
     de, hc, rc = np.concatenate(des), np.concatenate(host_cls), np.concatenate(ref_cls)  # refs: one per view, >= 1
-    n = int(de.size)
-    stats = _de_stats(de)
-    return HostMetrics(stats["n_pixels"], stats["median_dE"], stats["p95_dE"], int(np.sum(hc == 1)),
-                       int(np.sum(hc == 2)), float(np.mean(hc == rc)) if n else float("nan"), per_view), maps
+    return HostMetrics(**_de_stats(de), green_px=int(np.sum(hc == 1)), purple_px=int(np.sum(hc == 2)),
+                       hue_agreement=float(np.mean(hc == rc)) if de.size else float("nan"), per_view=per_view), maps
 
 
 def host_passed(variant: str, m: HostMetrics) -> tuple[bool, list]:
@@ -93,10 +87,9 @@ def host_passed(variant: str, m: HostMetrics) -> tuple[bool, list]:
 
 
 def check_host(host, asset_layer: str, scene, views, refs: list, out_dir: str, rendered) -> HostResult:
-    """Render the views in one host (``rendered``: its images when already drawn, the GL renders for ``glsl``)
-    and compare them with ``refs``, the references of its lobe: a :class:`HostResult` (``error`` when it raised
-    :class:`rockdove.hosts.HostError`; ``skipped`` when its ``cannot_draw(asset_layer)`` says why), its images
-    written into ``out_dir``."""
+    """Render the views in one host (unless ``rendered``: the GL renders for ``glsl``), compare them with ``refs``
+    and write the images into ``out_dir``: a :class:`HostResult` (``error`` for a HostError; ``skipped`` when its
+    ``cannot_draw(asset_layer)`` says why)."""
     from ..hosts.base import HostError
     from ..png import save_png
     from ..srgb import linear_to_srgb8

@@ -1,6 +1,5 @@
-"""What a verification reads: the asset as a scene (:func:`verification_scene`), the views it renders
-(:func:`verification_views`, sized by :func:`sizes`), and the digest of the scene content they render
-(:func:`scene_digest`), which keys each view's cache entry (:mod:`rockdove.graph.verification`)."""
+"""What a verification reads: the asset as a scene, the views it renders, and the digest of the scene content
+they render (:func:`scene_digest`), which keys each view's cache entry (:mod:`rockdove.graph.verification`)."""
 
 from __future__ import annotations
 
@@ -42,12 +41,11 @@ def verification_views(scene, width: int, height: int, n_views: int) -> list:
     views = default_views(scene, width, height, n=n_views)
     sweep = [v for v in views if v.name.startswith("sweep_")]
     if sweep:
-        s = sweep[0]
         neck = np.asarray(scene.neck_centre_m, np.float64)
-        eye = s.camera_to_world[:3, 3]
+        eye = sweep[0].camera_to_world[:3, 3]
         dist = float(np.linalg.norm(eye - neck))
         extra = light_sweep_views(neck, 1, width, height, angles_deg=[BOUNDARY_SWEEP_ANGLE_DEG], distance_m=dist,
-                                  yfov_deg=float(np.degrees(s.yfov_rad)), camera_direction=(eye - neck) / dist)
+                                  yfov_deg=float(np.degrees(sweep[0].yfov_rad)), camera_direction=(eye - neck) / dist)
         if extra[0].name not in {v.name for v in views}:
             views.append(extra[0])
     views.append(hero_view(scene.bounds_m, HERO_SCALE * width, HERO_SCALE * height))
@@ -55,8 +53,8 @@ def verification_views(scene, width: int, height: int, n_views: int) -> list:
 
 
 def sizes(width=None, height=None, n_views=None) -> tuple[int, int, int]:
-    """The render size (pixels, checked against the schema's limits) and turntable + light-sweep views of a
-    verification, the schema's ``[verify]`` defaults (the one place they are set) where None."""
+    """A verification's render size (pixels, checked against the schema's limits) and number of views, the schema's
+    ``[verify]`` defaults (the one place they are set) where None."""
     from ..config import defaults, limits
 
     d = defaults()["verify"]
@@ -80,9 +78,8 @@ def select_views(all_views: list, names) -> list:
 
 
 def scene_digest(scene) -> str:
-    """sha256 of what a verification view reads from a scene: every part's arrays, material values and texture
-    bytes, the film and the LUT's bytes, the variant selections; not file paths (an asset moved or rebuilt
-    with the same content has the same digest)."""
+    """sha256 of what a verification view reads from a scene (arrays, material values, textures, film, LUT,
+    variants), not file paths: an asset moved or rebuilt with the same content has the same digest."""
     d = Digest()
     for p in scene.parts:
         d.add("part", {"name": p.name, "kind": p.material_kind, "srgb": bool(p.base_colour_srgb),

@@ -1,12 +1,10 @@
 """The verification as JUnit XML (``rockdove verify --junit FILE``), so Jenkins, GitLab and GitHub show it as tests.
 
-The format is the Jenkins xunit plugin's ``junit-10.xsd`` (Ant's JUnit report, as Maven Surefire writes it; the
-tests validate against the copy in pytest's sdist). One ``<testsuite>`` per kind of check: ``rockdove.validation``,
-a case per validator (errors are the ``<failure>``, warnings go to ``<system-out>``); ``rockdove.glsl``, a case per
-view and one for the light sweep's hues; ``rockdove.host.NAME``, a case per view and ``all views``, the host's own
-verdict (a failed exact host also fails each view whose numbers miss the goals; an unavailable host is
-``<skipped>`` with its reason, one that raised an ``<error>``). Failure messages carry their numbers (``median
-dE2000 4.210 > 3.2``), every case its metrics in ``<system-out>``; times are seconds, three decimals.
+The format is the Jenkins xunit plugin's ``junit-10.xsd`` (Ant's JUnit report, as Maven Surefire writes it). One
+``<testsuite>`` per kind of check: ``rockdove.validation`` (a case per validator, warnings in ``<system-out>``),
+``rockdove.glsl`` (a case per view and one for the light sweep's hues), ``rockdove.host.NAME`` (a case per view and
+``all views``, the host's own verdict; an unavailable host is ``<skipped>``, one that raised an ``<error>``).
+Failure messages carry their numbers, every case its metrics in ``<system-out>``; times in seconds.
 """
 
 from __future__ import annotations

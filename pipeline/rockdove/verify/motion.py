@@ -1,12 +1,10 @@
 """A motion measured at every time code on the written asset as UsdSkel poses it, each measure with the limit
-that fails the verification (:data:`LIMITS`): ``card_stretch``, the largest relative change of an edge of a rigid
-part (all but Body and Legs); ``card_root_off_skin_m``, how far a neck card's root (the middle of its deepest points)
-moves off the Body point under it (its triangle and barycentric coordinates at rest); ``head_into_cards_m``, how
-deep a neck-card point in front of the head at rest goes behind it (the Body triangles on the ``head`` joint alone);
-``stance_slip_m``, ``toe_below_ground_m``, ``frames_without_support``, of the Legs' soles (within 2 mm of their
-lowest point at rest); and for the walk the head (the Eyes' centre) against the trunk (the Wings'):
-``head_hold_drift_m`` (forward and up, within a hold: head speed under 5 % of the trunk's mean), ``hold_fraction``,
-``head_cycles`` against the steps (foot-falls) and ``head_to_body_speed`` (mean forward speeds).
+that fails the verification (:data:`LIMITS`): ``card_stretch`` (largest relative change of an edge of a rigid part);
+``card_root_off_skin_m`` (a neck card's root moving off the Body point under it at rest); ``head_into_cards_m`` (how
+deep a neck-card point in front of the head at rest goes behind it); ``stance_slip_m``, ``toe_below_ground_m``,
+``frames_without_support`` of the Legs' soles; and for the walk the head (the Eyes' centre) against the trunk (the
+Wings'): ``head_hold_drift_m`` (within a hold: head speed under :data:`HOLD_SPEED` of the trunk's mean),
+``hold_fraction``, ``head_cycles`` against the steps (foot-falls) and ``head_to_body_speed`` (mean forward speeds).
 """
 
 from __future__ import annotations
@@ -171,8 +169,7 @@ DEFAULT_TIMES = (15.0, 21.0, 26.0)
 
 
 def motion_times(layer: str, motion: str, times=None) -> tuple:
-    """``times`` (default :data:`DEFAULT_TIMES`) checked against ``motion``'s animation in the asset: UsageError
-    (one line) for a motion the asset has not or a time outside its time codes."""
+    """``times`` (default :data:`DEFAULT_TIMES`); UsageError for a motion the asset has not or a time outside it."""
     from ..errors import UsageError
     from ..usd.skel import MOTION_VARIANT_SET, REST
     from ..usd.stage import open_asset
@@ -191,8 +188,7 @@ def motion_times(layer: str, motion: str, times=None) -> tuple:
 
 
 def frame_views(scene, width: int, height: int, prefix: str) -> list:
-    """The views a posed frame is checked in, named ``<prefix>_<view>``: the light sweep at the green/purple flip
-    on the neck where it is now, and the first turntable view."""
+    """A posed frame's views, ``<prefix>_<view>``: the light sweep at the green/purple flip, the first turntable."""
     import dataclasses
 
     from .inputs import BOUNDARY_SWEEP_ANGLE_DEG, verification_views
@@ -209,11 +205,11 @@ ANIMATION_FILE, ANIMATION_STEP, ANIMATION_FRAMES, ANIMATION_SIZE = "{motion}.web
 
 
 def animation(layer: str, motion: str, out_dir: str, lut=None) -> dict:
-    """The motion seen from the bird's left at its neck, one white light fixed in the world, the camera gliding at
-    the trunk's mean speed: our GLSL of each frame as UsdSkel poses it, written as an animated WebP in ``out_dir``
-    (the neck's colour moves as the head bobs). The report's entry: ``{"file", "frames", "fps", "caption"}``."""
+    """The motion seen from the bird's left at its neck, the camera gliding at the trunk's mean speed, as an animated
+    WebP in ``out_dir`` (caption below); the report's entry: ``{"file", "frames", "fps", "caption"}``."""
     import os
 
+    from ..render.animation import BACKGROUND
     from ..render.gl import GLRenderer
     from ..render.images import write_webp
     from ..render.scene import load_scene
@@ -230,8 +226,9 @@ def animation(layer: str, motion: str, out_dir: str, lut=None) -> dict:
         target = glide[0] * t + glide[1] - np.array([0.0, 0.012, 0.0])
         view = View(f"{motion}{t:03d}", look_at(target + np.array([0.45, 0.04, 0.05]), target), np.radians(24.0),
                     ANIMATION_SIZE, ANIMATION_SIZE, light, np.ones(3))
-        with GLRenderer(scene, lut=lut, width=ANIMATION_SIZE, height=ANIMATION_SIZE) as renderer:
-            images.append(linear_to_srgb8(renderer.render(view).radiance_rgb))
+        with GLRenderer(scene, lut=lut, width=ANIMATION_SIZE, height=ANIMATION_SIZE, mipmaps=True) as renderer:
+            rgb, coverage = renderer.render_radiance(view, samples=4)  # anti-aliased, as the report's other pictures
+            images.append(linear_to_srgb8(rgb + (1.0 - coverage[..., None]) * BACKGROUND))
     fps = 60.0 / ANIMATION_STEP
     path = write_webp(images, os.path.join(out_dir, ANIMATION_FILE.format(motion=motion)), fps)
     return {"file": os.path.basename(path), "frames": len(images), "fps": fps,

@@ -17,8 +17,8 @@ LIBRARIES = ("numpy", "scipy", "colour", "trimesh", "embreex", "pxr", "pyrender"
 
 
 def library_versions() -> dict:
-    """Versions of Python, rockdove and the libraries the verification uses (None when not installed), read once
-    per process (~12 directory scans of ``sys.path``; a process keeps the modules it imported); a new dict."""
+    """Versions of Python, rockdove and the verification's libraries (None when not installed), a new dict; read once
+    per process (~12 directory scans of ``sys.path``)."""
     return dict(_library_versions())
 
 
@@ -39,9 +39,8 @@ def _library_versions() -> dict:
 
 
 def asset_configuration(layer_path: str) -> dict:
-    """What the asset records about the configuration it was built from: the build marker
-    (:data:`rockdove.usd.layout.MARKER`, beside the root layer) and any root-layer ``customLayerData`` or default-prim
-    ``assetInfo`` key containing "config"; empty when the asset records nothing (e.g. a bare assembly)."""
+    """What the asset records about the configuration it was built from: the build marker beside the root layer and
+    any ``customLayerData`` or default-prim ``assetInfo`` key containing "config" (empty for a bare assembly)."""
     from pxr import Sdf
 
     found = {}
@@ -57,9 +56,7 @@ def asset_configuration(layer_path: str) -> dict:
         return found
 
     def pick(d, where):
-        for k, v in dict(d or {}).items():
-            if "config" in k.lower():
-                found[f"{where}:{k}"] = v
+        found.update({f"{where}:{k}": v for k, v in dict(d or {}).items() if "config" in k.lower()})
 
     pick(layer.customLayerData, "customLayerData")
     prim = layer.GetPrimAtPath(f"/{layer.defaultPrim}") if layer.defaultPrim else None

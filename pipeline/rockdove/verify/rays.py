@@ -2,11 +2,9 @@
 
 The rays are the GL renderer's pinhole camera's (OpenGL convention, vertical field of view ``yfov_rad``, square
 pixels), cast with trimesh's ray queries (Embree through embreex when installed). A hit where the part's base
-texture has an alpha below the part's ``opacity_threshold`` (the neck's cards, the plumage cards) is skipped and
-the ray continues from just behind it (up to :data:`MAX_ALPHA_LAYERS` layers, vectorised over the rays still
-travelling). The :class:`Hits` depend on the
-geometry and the camera only (:func:`ray_digest`, :func:`camera_key`), so the build caches them across film changes;
-:mod:`rockdove.verify.reference_image` shades them.
+texture has an alpha below the part's ``opacity_threshold`` (the feather cards) is skipped and the ray continues
+from just behind it (up to :data:`MAX_ALPHA_LAYERS` layers, vectorised over the rays still travelling). The
+:class:`Hits` depend on the geometry and the camera only (:func:`ray_digest`, :func:`camera_key`).
 """
 
 from __future__ import annotations
@@ -23,18 +21,14 @@ MAX_ALPHA_LAYERS = 24
 
 
 def camera_rays(view, pixels=None):
-    """Primary rays through the pixel centres of ``view``'s pinhole camera (or of the flat, row-major ``pixels``
-    only: the shading needs just the rays that hit): ``(origin (3,), unit directions (P, 3), forward (3,))``, all
-    world, forward being the camera's viewing axis (its -Z)."""
+    """World ``(origin (3,), unit directions (P, 3), forward (3,): the camera's -Z)`` of the rays through the pixel
+    centres of ``view``'s pinhole camera, or of the flat, row-major ``pixels`` only."""
     h, w = view.height, view.width
     tan_half = np.tan(0.5 * view.yfov_rad)
-    aspect = w / h
     idx = np.arange(h * w) if pixels is None else np.asarray(pixels, np.int64).reshape(-1)
     row, col = np.divmod(idx, w)
-    d_cam = np.empty((idx.size, 3))
-    d_cam[:, 0] = (2.0 * (col + 0.5) / w - 1.0) * tan_half * aspect
-    d_cam[:, 1] = (1.0 - 2.0 * (row + 0.5) / h) * tan_half
-    d_cam[:, 2] = -1.0
+    d_cam = np.stack([(2.0 * (col + 0.5) / w - 1.0) * tan_half * w / h, (1.0 - 2.0 * (row + 0.5) / h) * tan_half,
+                      np.full(idx.size, -1.0)], axis=1)
     m = np.asarray(view.camera_to_world, np.float64)
     d = d_cam @ m[:3, :3].T
     d /= np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
@@ -91,17 +85,15 @@ def _first_opaque_hits(geom: SceneGeometry, origin, dirs, stats: dict):
     """First hit along each ray that is not an alpha-cut-out feather fragment: ``face`` (-1: a miss), point, bary."""
     n = len(dirs)
     face = np.full(n, -1, np.int64)
-    point = np.zeros((n, 3))
-    bary = np.zeros((n, 3))
+    point, bary = np.zeros((2, n, 3))
     live = np.arange(n)
     origins = np.broadcast_to(origin, (n, 3)).copy()
     last = np.full(n, -1, np.int64)
     offset = max(geom.scale * 1e-6, 1e-9)
     layers = 0
     for layers in range(1, MAX_ALPHA_LAYERS + 1):
-        tri, ray, loc = geom.mesh.ray.intersects_id(
-            origins[live], dirs[live], multiple_hits=False, return_locations=True
-        )
+        tri, ray, loc = geom.mesh.ray.intersects_id(origins[live], dirs[live], multiple_hits=False,
+                                                    return_locations=True)
         if len(tri) == 0:
             break
         rays = live[ray]
@@ -114,8 +106,7 @@ def _first_opaque_hits(geom: SceneGeometry, origin, dirs, stats: dict):
             sel = part == p
             st = geom.interp(geom.st, tri[sel], b[sel])
             transparent[sel] = geom.alpha(p, st) < geom.threshold[p]
-        transparent |= stuck
-        keep = ~transparent
+        keep = ~(transparent | stuck)
         if layers == MAX_ALPHA_LAYERS:  # give up: keep what we have
             keep[:] = True
         face[rays[keep]] = tri[keep]
@@ -133,8 +124,7 @@ def _first_opaque_hits(geom: SceneGeometry, origin, dirs, stats: dict):
 
 @dataclass(frozen=True)
 class Hits:
-    """The first opaque hit of every primary ray of one camera (:func:`cast_hits`), R = width * height rays
-    row-major from the top-left pixel: what the geometry and the camera decide, cached across film changes."""
+    """The first opaque hit of every primary ray of one camera (:func:`cast_hits`), R = width * height, row-major."""
 
     face: np.ndarray  # (R,) int64 index into the parts' concatenated triangles (scene.parts order), -1: a miss
     point: np.ndarray  # (R, 3) world position of the hit, metres (0 for a miss)
@@ -142,7 +132,7 @@ class Hits:
     stats: dict  # rays, alpha_layers (feather layers the rays passed through)
 
     def to_arrays(self) -> dict:
-        """Compact arrays for storage (the hit rays only; exact round trip through :meth:`from_arrays`)."""
+        """The hit rays only (exact round trip through :meth:`from_arrays`)."""
         hit = np.nonzero(self.face >= 0)[0]
         return {"n_rays": np.int64(self.face.size), "hit": hit.astype(np.int64), "face": self.face[hit],
                 "point": self.point[hit], "bary": self.bary[hit]}
@@ -157,17 +147,14 @@ class Hits:
 
 
 def camera_key(view) -> str:
-    """sha256 of what a view's primary rays depend on: its camera pose, vertical field of view and size (not
-    its light). Views that share a camera (the light sweep) share their :class:`Hits`."""
+    """sha256 of a view's camera pose, field of view and size, not its light (the light sweep shares one camera)."""
     return Digest().add("camera", [float(view.yfov_rad), int(view.width), int(view.height)]) \
         .add("pose", np.asarray(view.camera_to_world, np.float64)).hexdigest()
 
 
 def ray_digest(scene) -> str:
-    """sha256 of what the ray casts read from a scene: every part's positions and triangles, and of the textured
-    parts (which may be alpha-tested) their ``st``, opacity thresholds and base-colour texture bytes (the alpha).
-    Not the film, the LUT, normals, masks or colours: a film change leaves it, and so the cached :class:`Hits`,
-    as they were."""
+    """sha256 of what the ray casts read from a scene: positions, triangles, and of textured (maybe alpha-tested)
+    parts their ``st``, opacity thresholds and base-colour texture bytes; not the film, normals or colours."""
     d = Digest()
     for p in scene.parts:
         d.add(p.name, [bool(p.is_feather), float(p.opacity_threshold)])
@@ -180,12 +167,7 @@ def ray_digest(scene) -> str:
 def cast_hits(scene, views) -> dict:
     """Cast the primary rays of every distinct camera among ``views``: ``{camera_key(view): Hits}``."""
     geom = SceneGeometry(scene)
-    out: dict = {}
-    for v in views:
-        key = camera_key(v)
-        if key not in out:
-            out[key] = cast_view(geom, v)
-    return out
+    return {key: cast_view(geom, v) for key, v in {camera_key(v): v for v in views}.items()}
 
 
 def cast_view(geom: SceneGeometry, view) -> Hits:

@@ -1,34 +1,31 @@
 """The independent CPU reference images: the exact spectral thin-film model shaded per pixel, no LUT.
 
-Each pixel's primary ray takes its first opaque hit (:mod:`rockdove.verify.rays`: the GL renderer's pinhole
-camera, feather cards alpha-tested), shaded with the model of docs/design.md, "Conventions": normals, ``st`` and
-thickness interpolated barycentrically; textures sampled as OpenGL does (:func:`rockdove.render.texture.
-sample_texture`); two-sided cards (``N`` flipped to face the viewer, as ``materials/glsl/thinfilm.frag``; without a
-mask texture, mask 1); ``cos_theta = dot(L, H) = sqrt((1 + dot(L, V)) / 2)``; ``colour = mix(base_rgb, structural,
-mask)``, ``radiance = colour * light_rgb * max(dot(N, L), 0)``; other parts ``base_rgb * light_rgb * max(dot(N, L),
-0)``; no ambient.
+Each pixel's primary ray takes its first opaque hit (:mod:`rockdove.verify.rays`: the GL renderer's pinhole camera,
+feather cards alpha-tested), shaded with the model of docs/design.md, "Conventions": normals, ``st`` and thickness
+interpolated barycentrically; textures sampled as OpenGL does (:func:`rockdove.render.texture.sample_texture`);
+two-sided cards (``N`` flipped to face the viewer, as ``materials/glsl/thinfilm.frag``; no mask texture: mask 1);
+``cos_theta = dot(L, H) = sqrt((1 + dot(L, V)) / 2)``; ``colour = mix(base_rgb, structural, mask)``, ``radiance =
+colour * light_rgb * max(dot(N, L), 0)``; other parts ``base_rgb * light_rgb * max(dot(N, L), 0)``; no ambient.
 
-The exact structural colour is :func:`rockdove.lut.reference.reference_colour` (the Airy spectrum of the film read
-from the USD integrated to lin_rec709 under D65) at each pixel's ``(cos_theta, thickness_nm)``: for real films from
-cos_theta 0.01 up, the wavenumber interpolant :data:`IMAGE_INTERPOLATION` (:mod:`rockdove.lut.reference`, "Wavenumber
-interpolation": within 0.0008 dE2000 of a 0.02-0.05 nm integration, 9.6x faster on the default views); below, and for
-absorbing films, the wavelength steps :data:`IMAGE_STEPS_NM` (product integration against the 0.1 nm colour weights,
-:func:`rockdove.lut.reference.product_weights`), validated up to :data:`IMAGE_STEPS_CALIBRATED_NM` of film and scaled
-down in proportion for thicker pixels (the phase advances with thickness). Measured (keratin, 40 random samples per
-band, dE2000 of the displayed colour against a 0.002-0.02 nm integration, films of 450-720, 700-1000, 1500-2000 and
-4000-5000 nm): 4 nm errs <= 0.0010 for cos_theta >= 0.12 (0.011 at 0.08-0.12), 3 nm <= 0.0017 at 0.08-0.12, 2 nm <=
-0.0016 at 0.05-0.08, 1 nm <= 0.0001 at 0.03-0.05, 0.5 nm <= 0.0003 at 0.01-0.03, 0.1 nm <= 0.0001 at 0.003-0.01,
-0.05 nm <= 0.0001 at 0.001-0.003, 0.01 nm <= 0.0016 below: every band under 0.01 dE2000, two orders of magnitude under
-the verification goal (``tests/test_reference.py::test_spectral_step_is_exact_against_a_finer_grid``). Pixels are
-de-duplicated on keys quantised by :data:`COS_THETA_QUANTUM` and :data:`THICKNESS_QUANTUM_NM`: the film phase
-``4 pi n d cos(theta_b) / lambda`` changes by under 5e-5 rad within a key (measured < 0.005 dE2000), so this is still
-the exact model per pixel, not an interpolated table.
+The structural colour is :func:`rockdove.lut.reference.reference_colour` (the Airy spectrum of the USD's film, to
+lin_rec709 under D65) at each pixel's ``(cos_theta, thickness_nm)``: for real films from cos_theta 0.01 up, the
+wavenumber interpolant :data:`IMAGE_INTERPOLATION` (:mod:`rockdove.lut.reference`, "Wavenumber interpolation": within
+0.0008 dE2000 of a 0.02-0.05 nm integration, 9.6x faster on the default views); below, and for absorbing films, the
+wavelength steps :data:`IMAGE_STEPS_NM` (product integration, :func:`rockdove.lut.reference.product_weights`),
+validated up to :data:`IMAGE_STEPS_CALIBRATED_NM` of film and scaled down in proportion for thicker pixels (the phase
+advances with thickness). Measured (keratin, 40 random samples per band, dE2000 of the displayed colour against a
+0.002-0.02 nm integration, films of 450-720, 700-1000, 1500-2000 and 4000-5000 nm): 4 nm errs <= 0.0010 for cos_theta
+>= 0.12 (0.011 at 0.08-0.12), 3 nm <= 0.0017 at 0.08-0.12, 2 nm <= 0.0016 at 0.05-0.08, 1 nm <= 0.0001 at 0.03-0.05,
+0.5 nm <= 0.0003 at 0.01-0.03, 0.1 nm <= 0.0001 at 0.003-0.01, 0.05 nm <= 0.0001 at 0.001-0.003, 0.01 nm <= 0.0016
+below: all under 0.01 dE2000 (``tests/test_reference.py::test_spectral_step_is_exact_against_a_finer_grid``). Pixels
+are de-duplicated on keys quantised by :data:`COS_THETA_QUANTUM` and :data:`THICKNESS_QUANTUM_NM`: the film phase
+``4 pi n d cos(theta_b) / lambda`` changes by under 5e-5 rad within a key (< 0.005 dE2000): still exact per pixel.
 
 Lighting models (:data:`LOBES`, named by the hosts of :mod:`rockdove.hosts`): ``"half_angle"`` (the default, above)
 under the View's one directional light; ``"view_angle"``, the smooth film's mirror lobe alone under a uniform white
-environment of unit radiance, where the angle of incidence is the view angle: a feather pixel is ``mask *
-structural(cos_theta = |N.V|)``, base colour black, other parts 0 (what the MaterialX baked network, ``LUT(|N.V|)``,
-and the hosts' thin-film BSDFs draw there with a black base colour). Lobes of one call share the ray casts.
+environment of unit radiance: a feather pixel is ``mask * structural(cos_theta = |N.V|)``, other parts 0 (what the
+MaterialX baked network, ``LUT(|N.V|)``, and the hosts' thin-film BSDFs draw with a black base colour). Lobes of one
+call share the ray casts.
 """
 
 from __future__ import annotations
@@ -43,20 +40,17 @@ from ..errors import UsageError
 from ..lut.reference import reference_colour
 from .rays import SceneGeometry, camera_key, camera_rays, cast_view
 
-#: Wavelength step per cos_theta band of the reference images, ``(cos_theta_lo, step_nm)``
-#: (:func:`rockdove.lut.reference.reference_step_nm`); see the module docstring for how they were chosen.
+#: Wavelength step per cos_theta band, ``(cos_theta_lo, step_nm)`` (:func:`rockdove.lut.reference.reference_step_nm`).
 IMAGE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, 0.1), (0.01, 0.5), (0.03, 1.0), (0.05, 2.0), (0.08, 3.0),
                   (0.12, 4.0))
 #: The film thickness (nm) up to which :data:`IMAGE_STEPS_NM` was validated; thicker pixels scale their steps down.
 IMAGE_STEPS_CALIBRATED_NM = 720.0
-#: Real films from cos_theta 0.01 up: the wavenumber interpolant, ``(cos_theta_lo, kappa, max_step_rad)``, and its
-#: stencil (:func:`rockdove.lut.reference.reference_colour`'s ``interpolation`` and ``order``; module docstring).
+#: The wavenumber interpolant ``(cos_theta_lo, kappa, max_step_rad)`` and its stencil (``reference_colour``'s
+#: ``interpolation`` and ``order``).
 IMAGE_INTERPOLATION = (0.01, 0.35, 0.6)
 IMAGE_INTERPOLANT_ORDER = 16
-#: De-duplication keys (see module docstring).
 COS_THETA_QUANTUM = 2e-6
 THICKNESS_QUANTUM_NM = 0.002
-#: The lighting models the reference renders (module docstring, "Lighting models").
 LOBES = ("half_angle", "view_angle")
 
 
@@ -78,9 +72,8 @@ class ReferenceResult:
 
 
 def structural_rgb(cos_theta, thickness_nm, film, stats: dict | None = None) -> np.ndarray:
-    """Exact structural colour, (P, 3) float64 lin_rec709, of (P,) ``cos_theta`` in [0, 1] and ``thickness_nm``
-    >= 0 for a :class:`rockdove.render.film.ThinFilmParams`, de-duplicated on fine keys (module docstring);
-    ``stats`` receives ``spectral_pixels`` and ``spectral_keys``."""
+    """Exact structural colour, (P, 3) lin_rec709, of (P,) ``cos_theta`` and ``thickness_nm`` for a
+    :class:`rockdove.render.film.ThinFilmParams`, de-duplicated on fine keys; counted in ``stats``."""
     c = np.clip(np.asarray(cos_theta, np.float64).reshape(-1), 0.0, 1.0)
     d = np.asarray(thickness_nm, np.float64).reshape(-1)
     if c.shape != d.shape:
@@ -106,15 +99,11 @@ def structural_rgb(cos_theta, thickness_nm, film, stats: dict | None = None) -> 
 
 def render_reference(scene, views, structural_fn=None, hits=None, lobe: str = "half_angle",
                      surfaces=None) -> list[ReferenceResult]:
-    """Render ``views`` of a :class:`rockdove.render.scene.RenderScene` on the CPU with the exact model, one
-    :class:`ReferenceResult` per view in order.
+    """:class:`ReferenceResult` of each of ``views`` of a :class:`rockdove.render.scene.RenderScene`, exact model.
 
-    ``structural_fn``: ``f(cos_theta (P,), thickness_nm (P,)) -> (P, 3)`` lin_rec709 in place of
-    :func:`structural_rgb` of ``scene.film`` (tests substitute a simpler one). ``hits`` / ``surfaces``: ready-made
-    :class:`rockdove.verify.rays.Hits` / :class:`Surface` by :func:`~rockdove.verify.rays.camera_key` (cached by
-    the build under :func:`~rockdove.verify.rays.ray_digest` / :func:`surface_digest`); other cameras are cast
-    here, and with a surface for every camera the geometry is not even loaded: the result is the same.
-    ``lobe``: one of :data:`LOBES`. ValueError for no views, or feathers without a film.
+    ``structural_fn``: ``f(cos_theta (P,), thickness_nm (P,)) -> (P, 3)`` in place of :func:`structural_rgb` (tests).
+    ``hits`` / ``surfaces``: ready-made :class:`rockdove.verify.rays.Hits` / :class:`Surface` by camera key (the
+    build caches them); other cameras are cast here. ValueError for no views, or feathers without a film.
     """
     return render_reference_lobes(scene, views, (lobe,), structural_fn, hits=hits, surfaces=surfaces)[lobe]
 
@@ -137,17 +126,16 @@ def render_reference_lobes(scene, views, lobes=LOBES, structural_fn=None, hits=N
             for lb in lobes}
 
 
-#: The precision a :class:`Surface` keeps (computed in float64, rounded once, cached or not): its rounding (relative
-#: 6e-8) is below the de-duplication keys; against float64 surfaces on the default asset's six views, radiance within
-#: 2.1e-6 and dE2000 within 0.0011 (dark pixels), inside the 0.005 budget, and half the cache (58 -> 30 MB).
+#: The precision a :class:`Surface` keeps (computed in float64): its rounding (relative 6e-8) is below the
+#: de-duplication keys; against float64 surfaces on the default asset's six views, radiance within 2.1e-6 and dE2000
+#: within 0.0011 (dark pixels), inside the 0.005 budget, and half the cache (58 -> 30 MB).
 SURFACE_DTYPE = np.float32
 
 
 @dataclass(frozen=True)
 class Surface:
-    """What the reference shades at each hit pixel of one camera before any light or film: it depends on the
-    geometry, the textures and the camera only, so a build caches it across film and light changes
-    (:func:`surface_digest`, :func:`~rockdove.verify.rays.camera_key`). Arrays (P,) or (P, 3), P pixels hit."""
+    """What the reference shades at each of the P hit pixels of one camera before any light or film (a build caches
+    it across film and light changes: :func:`surface_digest`)."""
 
     n_pixels: int  # width * height
     hit: np.ndarray  # int32 flat indices (row-major from the top-left) of the pixels hit
@@ -163,7 +151,6 @@ class Surface:
     ARRAYS = ("hit", "part", "normal", "view_dir", "base", "mask", "thickness_nm", "depth_m")
 
     def to_arrays(self) -> dict:
-        """Arrays for storage (exact round trip through :meth:`from_arrays`)."""
         return {"n_pixels": np.int64(self.n_pixels), **{k: getattr(self, k) for k in self.ARRAYS}}
 
     @classmethod
@@ -172,10 +159,8 @@ class Surface:
 
 
 def surface_digest(scene) -> str:
-    """sha256 of what a :class:`Surface` reads from a scene beyond the ray casts
-    (:func:`~rockdove.verify.rays.ray_digest`, included): every part's normals, ``st``, thickness, base colour
-    (constant, texture bytes and encoding) and mask texture bytes. Not the film or the LUT: a film change
-    leaves it, and so the cached surfaces, as they were."""
+    """sha256 of what a :class:`Surface` reads from a scene (the ray casts' :func:`~rockdove.verify.rays.ray_digest`,
+    normals, ``st``, thickness, base colours, textures); not the film or the LUT."""
     from ..digest import Digest
     from .rays import ray_digest
 
@@ -190,16 +175,10 @@ def surface_digest(scene) -> str:
 
 
 def cast_surfaces(scene, views, hits=None) -> dict:
-    """The :class:`Surface` of every distinct camera among ``views``, ``{camera_key(view): Surface}``, from the
-    ready-made ray casts ``hits`` by camera key (:func:`rockdove.verify.rays.cast_hits`) or cast here."""
+    """``{camera_key(view): Surface}`` of the cameras of ``views``, from ray casts ``hits`` by camera key or cast."""
     geometry = functools.cache(lambda: SceneGeometry(scene))
     hits_cache = dict(hits or {})
-    out: dict = {}
-    for v in views:
-        key = camera_key(v)
-        if key not in out:
-            out[key] = _surface(geometry, v, hits_cache)
-    return out
+    return {key: _surface(geometry, v, hits_cache) for key, v in {camera_key(v): v for v in views}.items()}
 
 
 def _surface(geometry, view, hits_cache: dict) -> Surface:
@@ -233,11 +212,10 @@ def _surface(geometry, view, hits_cache: dict) -> Surface:
         if geom.is_feather[p]:  # a feather without a mask texture is structural everywhere (mask = 1)
             tex = geom.mask_tex[p]
             mask[sel] = sample_texture(tex, st[sel])[:, 0] if tex is not None else 1.0
-    f32 = SURFACE_DTYPE
-    return Surface(n_pixels=int(face.size), hit=hit.astype(np.int32), part=part.astype(np.int32),
-                   normal=N.astype(f32), view_dir=V.astype(f32), base=base.astype(f32), mask=mask.astype(f32),
-                   thickness_nm=geom.interp(geom.thickness, f, b).astype(f32),
-                   depth_m=((point[hit] - origin) @ fwd).astype(f32), stats=dict(hits_cache[key].stats))
+    floats = {k: v.astype(SURFACE_DTYPE) for k, v in (("normal", N), ("view_dir", V), ("base", base), ("mask", mask),
+              ("thickness_nm", geom.interp(geom.thickness, f, b)), ("depth_m", (point[hit] - origin) @ fwd))}
+    return Surface(n_pixels=int(face.size), hit=hit.astype(np.int32), part=part.astype(np.int32), **floats,
+                   stats=dict(hits_cache[key].stats))
 
 
 def _render_view(geometry, scene, view, structural_fn, hits_cache: dict, surface_cache: dict,
@@ -257,16 +235,16 @@ def _render_view(geometry, scene, view, structural_fn, hits_cache: dict, surface
     N, V = srf.normal.astype(np.float64), srf.view_dir.astype(np.float64)  # shaded in double precision
     stats["hits"] = int(hit.size)
     feather = np.array([p.is_feather for p in scene.parts], bool)[part]
-    L = np.asarray(view.light_direction, np.float64)
-    L = L / np.linalg.norm(L)
+    L = np.asarray(view.light_direction, np.float64) / np.linalg.norm(view.light_direction)
     light = np.asarray(view.light_rgb, np.float64)
     base, mask = srf.base.astype(np.float64), srf.mask.astype(np.float64)
-    view_angle = lobe == "view_angle"
-    if view_angle:  # mirror lobe under a uniform unit environment: incidence = view angle; base black
+    if lobe == "view_angle":  # mirror lobe under a uniform unit environment: incidence = view angle; base black;
+        # every feather pixel lit with unit radiance, other parts black
         cos_theta = np.clip(np.abs(np.einsum("ij,ij->i", N, V)), 0.0, 1.0)
-        base = np.zeros_like(base)
+        base, n_dot_l, light = np.zeros_like(base), feather.astype(np.float64), np.ones(3)
     else:
         cos_theta = np.sqrt(np.clip((1.0 + V @ L) / 2.0, 0.0, 1.0))
+        n_dot_l = np.maximum(N @ L, 0.0)
     thickness = srf.thickness_nm.astype(np.float64)
     colour = base.copy()
     structural = feather & (mask > 0)
@@ -280,23 +258,16 @@ def _render_view(geometry, scene, view, structural_fn, hits_cache: dict, surface
         m = mask[structural, None]
         colour[structural] = base[structural] * (1.0 - m) + s_rgb * m
     t3 = time.perf_counter()
-    if view_angle:  # the environment lights every feather pixel with unit radiance; other parts are black
-        n_dot_l = feather.astype(np.float64)
-        radiance = colour * n_dot_l[:, None]
-    else:
-        n_dot_l = np.maximum(N @ L, 0.0)
-        radiance = colour * light[None, :] * n_dot_l[:, None]
+    radiance = colour * light[None, :] * n_dot_l[:, None]
 
     def image(fill, values, dtype=np.float32):
         out = np.full((h * w,) + np.shape(values)[1:], fill, dtype)
         out[hit] = values
         return out.reshape((h, w) + out.shape[1:])
 
-    res = ReferenceResult(view.name, image(0.0, radiance), image(False, True, bool), image(0, part + 1, np.int32),
-                          image(np.inf, srf.depth_m), image(0.0, n_dot_l),
-                          image(np.nan, np.where(feather, cos_theta, np.nan)),
-                          image(np.nan, np.where(feather, thickness, np.nan)), image(0.0, np.where(feather, mask, 0.0)))
+    images = (image(0.0, radiance), image(False, True, bool), image(0, part + 1, np.int32), image(np.inf, srf.depth_m),
+              image(0.0, n_dot_l), image(np.nan, np.where(feather, cos_theta, np.nan)),
+              image(np.nan, np.where(feather, thickness, np.nan)), image(0.0, np.where(feather, mask, 0.0)))
     t4 = time.perf_counter()
-    res.timings_s = {"rays": t1 - t0, "shade": (t2 - t1) + (t4 - t3), "spectral": t3 - t2, "total": t4 - t0}
-    res.stats = stats
-    return res
+    return ReferenceResult(view.name, *images, timings_s={"rays": t1 - t0, "shade": (t2 - t1) + (t4 - t3),
+                                                          "spectral": t3 - t2, "total": t4 - t0}, stats=stats)

@@ -1,8 +1,6 @@
 """The verification report, in one folder with relative file names (``report.html`` opens from disk, no server):
-``<view>_gl.png`` and ``<view>_reference.png`` (through :func:`rockdove.srgb.linear_to_srgb8`), ``<view>_dE.png``
-(the dE2000 map pixel for pixel, with a colour bar; grey where not compared), ``contact_sheet.png`` (a row per view:
-GL | reference | dE), ``lut.png``, ``spectra.png`` (film reflectance), ``hue.png`` (hue histogram across the light
-sweep), ``light_turn.webp`` (the light turning round the bird), ``bench_*.png`` (from ``rockdove verify --bench-dir DIR``), ``report.json`` and ``report.html``.
+the views' renders and dE2000 maps, ``contact_sheet.png``, ``lut.png``, ``spectra.png``, ``hue.png``,
+``light_turn.webp``, ``bench_*.png`` (``rockdove verify --bench-dir DIR``), ``report.json`` and ``report.html``.
 
 The dE maps are drawn with Pillow; the charts with matplotlib's object API (``Figure`` + ``FigureCanvasAgg``),
 which needs no display and leaves pyplot's global state alone.
@@ -66,15 +64,12 @@ def de_colour(de_map, vmax: float = DE_MAP_MAX) -> np.ndarray:
     return np.take(table, index, axis=0)
 
 
-#: The dE map's colour-bar label.
 DE_BAR_LABEL = "dE2000 (grey: not compared)"
 
 
 def de_map_png(path, de_map, title: str) -> str:
-    """The dE2000 map under its title, beside a colour bar from 0 to :data:`DE_MAP_MAX` (a tick every whole dE; only
-    the ends on a map too short for six labels), as PNG. The map's pixels are :func:`de_colour` of ``de_map`` one to
-    one (no resampling: every compared pixel as measured); text in :func:`rockdove.render.images.label_font` sized
-    to the map (legible when the report shows it scaled down)."""
+    """The dE2000 map under its title, beside a colour bar from 0 to :data:`DE_MAP_MAX`, as PNG: the map's pixels one
+    to one (every compared pixel as measured), text sized to the map (legible when the report scales it down)."""
     from PIL import Image, ImageDraw
 
     from ..png import save_png
@@ -121,8 +116,7 @@ SHEET_COLUMNS = ("GLSL", "reference", f"dE2000 0-{DE_MAP_MAX:g}")
 
 
 def contact_sheet(path, rows) -> str:
-    """The verification contact sheet (:func:`rockdove.render.images.contact_sheet`): one row per view, ``(label,
-    [GL, reference, dE map])``, each tile titled by its column (:data:`SHEET_COLUMNS`), the first also by the label."""
+    """The contact sheet: a row per view, ``(label, [GL, reference, dE map])``, tiles titled by their column."""
     from ..render.images import contact_sheet as tile_sheet
 
     titled = []
@@ -145,10 +139,8 @@ def lut_png(path, lut) -> str:
         lo, hi = lo - 5.0, hi + 5.0
     ax.imshow(img, origin="lower", aspect="auto", extent=(0.0, 1.0, lo, hi), interpolation="nearest")
     ticks = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
-    ax.set_xticks(ticks)
-    ax.set_xticklabels([f"{t ** lut.angle_warp_gamma:.2f}" for t in ticks])
-    ax.set_xlabel(f"cos theta (warped axis, gamma = {lut.angle_warp_gamma:g})")
-    ax.set_ylabel("film thickness (nm)")
+    ax.set_xticks(ticks, [f"{t ** lut.angle_warp_gamma:.2f}" for t in ticks])
+    ax.set(xlabel=f"cos theta (warped axis, gamma = {lut.angle_warp_gamma:g})", ylabel="film thickness (nm)")
     ax.set_title(f"LUT {lut.n_thickness} x {lut.n_angle}, {lut.colour_space} (display: clipped sRGB)", fontsize=9)
     return _save_figure(fig, path)
 
@@ -165,9 +157,8 @@ def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 
         for c in cos_theta:
             r = optics.reflectance(wl, c, d, n_film=m.n_film(wl), n_incident=m.n_incident, n_substrate=m.n_substrate)
             ax.plot(wl, r, lw=0.8, label=f"cos theta = {c:g}")
-        ax.set_ylabel("R")
+        ax.set(ylabel="R", ylim=(0, 1))
         ax.set_title(f"d = {d:g} nm, {m.name}: n = {m.cauchy_a:g} + {m.cauchy_b_nm2:g} / lambda^2", fontsize=9)
-        ax.set_ylim(0, 1)
         if i == 0:
             ax.legend(fontsize=7, loc="upper right")
     ax.set_xlabel("wavelength (nm)")
@@ -189,9 +180,7 @@ def hue_png(path, hue: HueHistogram, title: str) -> str:
     for band, name in ((hue.green_band_deg, "green"), (hue.purple_band_deg, "purple")):
         ax.axvline(band[0], color="k", ls=":", lw=0.8)
         ax.text(band[0] + 2, ax.get_ylim()[1] * 0.9, name, fontsize=7)
-    ax.set_xlim(0, 360)
-    ax.set_xlabel("CIELAB hue angle h_ab (deg)")
-    ax.set_ylabel("pixels")
+    ax.set(xlim=(0, 360), xlabel="CIELAB hue angle h_ab (deg)", ylabel="pixels")
     ax.set_title(f"{title}: green {hue.green}, purple {hue.purple}, grey {hue.grey}, other {hue.other}",
                  fontsize=8)
     return _save_figure(fig, path)
@@ -278,9 +267,7 @@ def _figure_row(title: str, files: dict, captions: dict) -> str:
 @dataclass
 class Figures:
     """The report's image files, relative to the page: ``views`` ``{view: {"gl", "reference", "dE": file}}``,
-    ``hosts`` ``{host: {view: {"host", "reference", "dE": file}}}``, the contact sheet, LUT, spectra and hue
-    charts, benchmark plots, the ``beauty`` entry (:func:`rockdove.hosts.beauty.render_beauty`), the ``animation``
-    entry (:func:`rockdove.render.animation.for_report`), the viewer page."""
+    ``hosts`` ``{host: {view: {"host", "reference", "dE": file}}}``, the charts, pictures and viewer page."""
 
     views: dict = field(default_factory=dict)
     hosts: dict = field(default_factory=dict)
@@ -317,7 +304,6 @@ def write_html(path, report: Report, images: Figures) -> str:
     """A self-contained page (relative image links) summarising ``report`` with its ``images``."""
     e = html.escape
     status, colour = ("PASSED", "#1a7f37") if report.passed else ("FAILED", "#b42318")
-    goals = report.goals
     parts = [
         "<!DOCTYPE html><html><head><meta charset='utf-8'><title>rockdove verification</title>",
         "<style>body{font-family:sans-serif;margin:1.5em;max-width:1200px}table{border-collapse:collapse}"
@@ -329,8 +315,8 @@ def write_html(path, report: Report, images: Figures) -> str:
         + _animation(images) + _list("Notes", report.notes),
         f"<p>Asset: <code>{e(report.asset)}</code><br>",
         f"Configuration hash: <code>{e(str(report.configuration_hash or 'not recorded'))}</code><br>",
-        f"Goals: median dE2000 &le; {goals['median_dE']}, "
-        f"p95 &le; {goals['p95_dE']} over feather pixels away from silhouette edges.</p>",
+        f"Goals: median dE2000 &le; {report.goals['median_dE']}, "
+        f"p95 &le; {report.goals['p95_dE']} over feather pixels away from silhouette edges.</p>",
     ]
     if images.viewer:  # the interactive view first, the tables after it
         parts.append(f"<h2>Interactive view</h2><p>Drag to orbit, wheel to zoom, slide to turn the light; switch "

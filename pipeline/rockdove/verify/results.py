@@ -1,7 +1,5 @@
-"""The verification's results as typed values: what its checks hand on (:mod:`rockdove.verify.run`,
-:mod:`rockdove.verify.host_check`), what its cache keeps (:mod:`rockdove.graph.verification`) and the report
-(:class:`Report`) the verdict, the page, JUnit, the command line and the API read. Each ``to_json()`` is its
-part of ``report.json``; ``from_json`` reads it back.
+"""The verification's results as typed values: what its checks hand on, what its cache keeps and the
+:class:`Report`. Each ``to_json()`` is its part of ``report.json``; ``from_json`` reads it back.
 """
 
 from __future__ import annotations
@@ -44,7 +42,7 @@ class _Record:
 @dataclass(frozen=True)
 class ViewResult(_Record):
     """One verification view: its GL render against the exact reference (``metrics`` None when the render
-    failed), the light sweep's hues and boundary, its image files in ``folder`` and its contact-sheet row."""
+    failed), the light sweep's hues and boundary, its images in ``folder`` and its contact-sheet row."""
 
     view: str
     setup: dict
@@ -72,9 +70,8 @@ class ViewResult(_Record):
 
 @dataclass(frozen=True)
 class HostMetrics:
-    """One host's renders against the reference of its lobe over the feather-tip pixels (rockdove.verify.host_check):
-    CIEDE2000 median and p95, pixels in the strict green and purple bands, the share whose hue class agrees;
-    ``per_view``: ``{view: {"n_pixels", "median_dE", "p95_dE"}}``."""
+    """One host's renders against the reference of its lobe (:mod:`rockdove.verify.host_check`); ``per_view``:
+    ``{view: {"n_pixels", "median_dE", "p95_dE"}}``."""
 
     n_pixels: int
     median_dE: float
@@ -87,9 +84,8 @@ class HostMetrics:
 
 @dataclass(frozen=True)
 class HostResult:
-    """One host's check: ``status`` (:data:`Status`); ``reason``: why it was skipped, or its error; the
-    ``variant`` and ``lobe`` it ran with (None for a host not available here), its ``metrics`` and the
-    ``failures`` against its goals, and ``files``: ``{view: {"host", "reference", "dE": file name}}``."""
+    """One host's check: ``reason`` why it was skipped, or its error; ``variant`` and ``lobe`` None for a host not
+    available here; ``files``: ``{view: {"host", "reference", "dE": file name}}``."""
 
     name: str
     status: Status
@@ -106,8 +102,8 @@ class HostResult:
         return None if self.status == "skipped" else self.status == "passed"
 
     def to_json(self) -> dict:
-        """The report's host entry: name, variant, lobe, then the metrics, ``passed`` and ``failures``; a skip
-        has ``skipped`` and ``reason``, an error ``error``."""
+        """The report's host entry: name, variant, lobe, then the metrics, ``passed`` and ``failures`` (a skip:
+        ``skipped`` and ``reason``; an error: ``error``)."""
         out: dict = {"name": self.name}
         out.update({} if self.variant is None else {"variant": self.variant, "lobe": self.lobe})
         if self.status == "skipped":
@@ -132,8 +128,7 @@ class HostResult:
 
 @dataclass(frozen=True)
 class ItemNames:
-    """The verification's cache items of one run by kind: surfaces (camera keys), views, hosts and the report's
-    pictures (names)."""
+    """The verification's cache items of one run by kind (surfaces by camera key, the others by name)."""
 
     surfaces: tuple[str, ...] = ()
     views: tuple[str, ...] = ()
@@ -164,9 +159,8 @@ class Validation:
 
 @dataclass(frozen=True)
 class Report(_Record):
-    """A verification: report.json's content (``to_json``), typed where it is read. ``views``: the GL renders'
-    metrics; ``hue_sweep``: the light sweep's hues; ``boundary``: ``{"per_view": {view: shape}, "method"}``;
-    ``cache``: the items that ran and were reused; the rest records what was verified and with what."""
+    """A verification: report.json's content (``to_json``), typed where it is read. ``boundary``: ``{"per_view":
+    {view: shape}, "method"}``; ``cache``: the items that ran and were reused."""
 
     asset: str
     asset_sha256: str
@@ -203,10 +197,11 @@ class Report(_Record):
         """A report.json read back (its paths as written there)."""
         from .compare import HueHistogram, ViewMetrics
 
-        typed: dict[str, Any] = {"validation": Validation(**data["validation"]), "cache": ItemsUsed.from_json(data["cache"]),
-                 "views": tuple(ViewMetrics.from_json(m) for m in data["views"]),
-                 "hue_sweep": HueHistogram(**data["hue_sweep"]),
-                 "hosts": tuple(HostResult.from_json(h) for h in data["hosts"])}
+        typed: dict[str, Any] = {"validation": Validation(**data["validation"]),
+                                 "cache": ItemsUsed.from_json(data["cache"]),
+                                 "views": tuple(ViewMetrics.from_json(m) for m in data["views"]),
+                                 "hue_sweep": HueHistogram(**data["hue_sweep"]),
+                                 "hosts": tuple(HostResult.from_json(h) for h in data["hosts"])}
         plain: dict[str, Any] = {f.name: data.get(f.name) for f in dataclasses.fields(cls) if f.name not in typed}
         fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in plain.items()}
         return cls(**fields, **typed)
@@ -214,8 +209,7 @@ class Report(_Record):
 
 @dataclass(frozen=True)
 class Verdict(_Record):
-    """The build's verification, its stage's value: ``reason`` (the failures, joined), the views checked, the
-    notes, and the items that ran and were reused."""
+    """The build's verification, its stage's value: ``reason`` the failures joined."""
 
     passed: bool
     reason: str = ""

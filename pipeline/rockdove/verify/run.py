@@ -1,7 +1,5 @@
 """One verification view, checked: its GL render against the exact CPU reference, compared
 (:mod:`rockdove.verify.compare`), the hue histogram and boundary shape of a light-sweep view, and its images.
-:func:`rockdove.graph.verification.verify` caches the result per view and joins the views, the hosts and the
-validation into the verdict (:mod:`rockdove.verify.verdict`).
 """
 
 from __future__ import annotations
@@ -23,9 +21,8 @@ _log = logging.getLogger(__name__)
 
 
 def render_and_check(scene, lut, views, out: str, *, surfaces=None) -> tuple[dict[str, ViewResult], list, dict]:
-    """Render ``views`` (GL and reference), compare, write each view's images into ``out/<view>/``;
-    ``({name: ViewResult}, the references, {name: GL radiance})``. ``surfaces``: ready-made shading inputs at
-    the primary hits, by camera (:func:`rockdove.verify.reference_image.cast_surfaces`)."""
+    """Render ``views`` (GL and reference), compare, write each view's images into ``out/<view>/``: ``({name:
+    ViewResult}, the references, {name: GL radiance})``. ``surfaces``: ready-made reference surfaces by camera."""
     from ..png import save_png
     from ..srgb import linear_to_srgb8
     from .reference_image import render_reference

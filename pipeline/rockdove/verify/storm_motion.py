@@ -1,19 +1,12 @@
 """A motion of the asset played by Hydra Storm and measured in Storm's own pictures.
 
 Storm skins a UsdSkel mesh itself (its ExtComputations), so nothing here poses a point: the Storm job
-(:mod:`rockdove.hosts.storm_job`) selects the ``motion`` variant in its session layer and records each view at its
-time code. Per time code, one job draws:
-
-- ``head`` and ``trunk``: a fixed side camera seeing only the head's rigid parts (:data:`HEAD_PARTS`) or only the
-  wings (:data:`TRUNK_PARTS`, which ride the chest); the centre of each silhouette (Storm's alpha) must move across
-  the picture as USD's UsdSkel moves the joint it hangs on (:data:`HEAD_JOINT`, :data:`TRUNK_JOINT`;
-  ``SkeletonQuery.ComputeJointWorldTransforms``) projected through the same camera: ``*_error_px``, the distance
-  between the two displacements since the first time code, in pixels;
-- ``neck``: the film lobe (the ``storm`` host's baked network, :data:`rockdove.hosts.storm.VARIANTS`) on the neck
-  where it is at that time code, against the exact ``view_angle`` reference of the same frame skinned by UsdSkel
-  (:func:`rockdove.verify.host_check.host_metrics`: dE2000, hue classes).
-
-:func:`strip` draws the side view at each time code with every material as authored, as usdview shows it.
+(:mod:`rockdove.hosts.storm_job`) selects the ``motion`` variant and records each view at its time code. Per time
+code: ``head`` and ``trunk``, a fixed side camera seeing only :data:`HEAD_PARTS` or :data:`TRUNK_PARTS`, whose
+silhouette's centre (Storm's alpha) must move as UsdSkel moves their joint (``ComputeJointWorldTransforms``)
+projected through the same camera (``*_error_px``: the distance between the two displacements since the first time
+code); ``neck``, the ``storm`` host's baked film on the neck against the exact ``view_angle`` reference of the same
+frame (:func:`rockdove.verify.host_check.host_metrics`). :func:`strip` draws the side view with materials as authored.
 """
 
 from __future__ import annotations
@@ -57,8 +50,7 @@ def project(view, points) -> np.ndarray:
 
 
 def joint_positions(layer: str, motion: str, times, joints) -> np.ndarray:
-    """(T, len(joints), 3) world positions, metres, of the named joints (leaf names) at ``times`` with ``motion``
-    selected: UsdSkel's ``SkeletonQuery.ComputeJointWorldTransforms``."""
+    """(T, len(joints), 3) world positions, metres, of the named joints (leaf names) at ``times`` of ``motion``."""
     from pxr import Usd, UsdGeom, UsdSkel
 
     stage = Usd.Stage.Open(layer, Usd.Stage.LoadAll)
@@ -97,8 +89,8 @@ def _run(layer: str, work: str, views: list, motion: str, **extra) -> None:
 
 
 def strip(asset: str, out_png: str, motion: str = "walk", times=tuple(range(0, 25, 3)), *, size=(320, 240)) -> str:
-    """``out_png``: Storm's frames of ``motion`` at ``times`` from :func:`side_view`, side by side, materials as
-    authored under the white dome (the work files beside it in ``<out_png>.storm/``); returns its path."""
+    """``out_png``: Storm's frames of ``motion`` at ``times`` from :func:`side_view`, side by side (work files in
+    ``<out_png>.storm/``); returns its path."""
     from ..render.scene import load_scene
     from ..srgb import linear_to_srgb8
     from ..usd.layout import resolve_root_layer
@@ -115,10 +107,9 @@ def strip(asset: str, out_png: str, motion: str = "walk", times=tuple(range(0, 2
 
 def play(asset: str, out_dir: str, motion: str = "walk", times=(15.0, 21.0, 26.0), *, size=(256, 192),
          neck_size: int = 128, film: bool = True) -> dict:
-    """Draw ``motion`` of the asset (folder or root layer) in Storm at ``times`` (module docstring) into
-    ``out_dir/storm_motion``; return ``{"times", "head_error_px", "trunk_error_px", "head_travel_px",
-    "trunk_travel_px"`` (per time code), ``"film"`` (per time code: the neck's :func:`host_metrics` but maps, when
-    ``film``), ``"work"``}. UsageError for a motion or time the asset has not; HostError when Storm fails."""
+    """Draw ``motion`` in Storm at ``times`` into ``out_dir/storm_motion``: ``{"times", "head_error_px",
+    "trunk_error_px", "head_travel_px", "trunk_travel_px"`` (per time code), ``"film"`` (per time code: the neck's
+    :func:`host_metrics`), ``"work"}``. UsageError for a motion or time the asset has not; HostError if Storm fails."""
     from ..render.scene import load_scene
     from ..render.views import default_views
     from ..usd.layout import resolve_root_layer
@@ -154,6 +145,6 @@ def play(asset: str, out_dir: str, motion: str = "walk", times=(15.0, 21.0, 26.0
         images = bpy_runner.read_views(BAKED.name, "Storm", list(necks.values()), work)
         for t, view in necks.items():
             refs = render_reference(scenes[t], [view], lobe="view_angle")
-            metrics = host_metrics({view.name: images[view.name]}, refs, scenes[t])
-            out["film"][t] = {k: v for k, v in metrics.items() if k not in ("de_maps", "per_view")}
+            metrics, _ = host_metrics({view.name: images[view.name]}, refs, scenes[t])
+            out["film"][t] = {k: v for k, v in dataclasses.asdict(metrics).items() if k != "per_view"}
     return out

@@ -36,9 +36,8 @@ def default_out_dir(layer_path: str) -> str:
 
 @dataclass(frozen=True)
 class Checked:
-    """What a verification rendered and compared: the asset read back (root layer, scene, the verification-only
-    LUT or None, notes), its views' and hosts' results, the cache items used, the views' size (width, height),
-    the seconds the hosts took and when the verification started (``time.perf_counter``)."""
+    """What a verification rendered and compared: the asset read back, its views' and hosts' results, the cache
+    items used, the views' size, the hosts' seconds and the start (``time.perf_counter``)."""
 
     layer: str
     scene: Any
@@ -54,8 +53,7 @@ class Checked:
 
 
 def sweep_hues(views: tuple[ViewResult, ...]) -> tuple[compare.HueHistogram, list[str], list[str]]:
-    """The light sweep's hues over its views, the failures of the hue check and the notes (a run without a sweep
-    view)."""
+    """The light sweep's hues over its views, the hue check's failures and notes (a run without a sweep view)."""
     sweeps = [r.hue for r in views if r.sweep and r.hue is not None]
     if not sweeps:
         return compare.hue_histogram(np.zeros((0, 3))), [], [
@@ -74,8 +72,7 @@ def host_failures(hosts: tuple[HostResult, ...]) -> list[str]:
 
 
 def figures(checked: Checked, out: str, hue: compare.HueHistogram) -> tuple[report.Figures, dict | None, list[str]]:
-    """The report's images in ``out`` (the views' files copied there, the contact sheet, the LUT, the film's
-    spectra, the hue histogram): ``(images, the LUT's record or None, failures reading the LUT)``."""
+    """The report's images in ``out``: ``(images, the LUT's record or None, failures reading the LUT)``."""
     scene, lut, failures = checked.scene, checked.lut, []
     images = report.Figures()
     for r in checked.views:
@@ -106,14 +103,11 @@ def figures(checked: Checked, out: str, hue: compare.HueHistogram) -> tuple[repo
 
 def combine(checked: Checked, out: str, *, bench_dir, pictures, published_asset) -> Report:
     """Validate the asset and join what was checked into the verdict and the report (``report.json``,
-    ``report.html`` and their images in the folder ``out``). ``bench_dir``: benchmark plots the report shows
-    (None: none; the report reads no folder it is not given); ``pictures``: a callable returning the pictures the
-    report shows (beauty, animation: ``{kind: (entry, note)}``) with the kinds drawn and reused, called while the
-    validation runs."""
+    ``report.html`` and their images in ``out``). ``bench_dir``: benchmark plots the report shows (None: none);
+    ``pictures``: a callable returning the pictures (``{kind: (entry, note)}``) and the kinds drawn and reused."""
     layer, scene, views = checked.layer, checked.scene, checked.views
     _log.info("validating")
-    # in a thread, while this one draws the report (pxr's validators and the charts' PNG encoding leave the GIL
-    # in parts)
+    # in a thread, while this one draws the report (pxr's validators and PNG encoding leave the GIL in parts)
     validating = ThreadPoolExecutor(1, thread_name_prefix="rockdove-validate")
     validation_pending = validating.submit(provenance.run_validation, layer)
     validating.shutdown(wait=False)
@@ -143,8 +137,7 @@ def combine(checked: Checked, out: str, *, bench_dir, pictures, published_asset)
             notes.extend([note] if note else [])
             timings[kind] = entry["seconds"] if entry else 0.0
         timings["pictures"] = time.perf_counter() - t_pictures
-        items = replace(items, ran=replace(items.ran, pictures=ran),
-                                    reused=replace(items.reused, pictures=reused))
+        items = replace(items, ran=replace(items.ran, pictures=ran), reused=replace(items.reused, pictures=reused))
     timings["report"] = time.perf_counter() - t
     validation, timings["validation"] = validation_pending.result()
     if not validation.passed:
