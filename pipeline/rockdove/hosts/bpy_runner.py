@@ -110,7 +110,8 @@ def run_job(job: dict, work: str, script: str | None, timeout_s: float = TIMEOUT
     try:
         out, err = proc.communicate(timeout=timeout_s)
     except BaseException as exc:
-        os.killpg(proc.pid, signal.SIGKILL)
+        with contextlib.suppress(ProcessLookupError):  # the group may have ended already
+            os.killpg(proc.pid, signal.SIGKILL)
         proc.communicate()
         if isinstance(exc, subprocess.TimeoutExpired):
             raise HostError(host, f"{renderer} did not finish within {timeout_s:g} s") from None
