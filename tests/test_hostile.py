@@ -161,6 +161,34 @@ def test_a_scene_over_a_budget_is_refused_in_one_line_before_usd_composes_it(sma
     assert r.returncode == 1 and all(w in r.stdout for w in words) and "Traceback" not in r.stderr, r.stdout
 
 
+def test_a_crate_whose_value_section_claims_chunks_is_refused_not_passed_unscanned(tmp_path):
+    """A crate's FIELDS value reps in TfFastCompression chunks (only a section over 2 GB needs them; this one holds
+    a few fields) cannot be scanned for its array sizes: the budget refuses it rather than letting USD open it."""
+    import struct
+
+    from pxr import Sdf, Vt
+
+    from rockdove.usd import budget
+
+    layer = Sdf.Layer.CreateAnonymous(".usda")
+    Sdf.AttributeSpec(Sdf.CreatePrimInLayer(layer, "/P"), "a", Sdf.ValueTypeNames.FloatArray).default = \
+        Vt.FloatArray(8)
+    path = tmp_path / "c.usdc"
+    layer.Export(str(path))
+    assert budget.over_budget(str(path)) is None
+    data = bytearray(path.read_bytes())
+    (toc,) = struct.unpack_from("<q", data, 16)
+    (count,) = struct.unpack_from("<Q", data, toc)
+    sections = {struct.unpack_from("<16s", data, toc + 8 + 32 * k)[0].rstrip(b"\0"):
+                struct.unpack_from("<q", data, toc + 24 + 32 * k)[0] for k in range(count)}
+    at = sections[b"FIELDS"]
+    (skip,) = struct.unpack_from("<Q", data, at + 8)
+    assert data[at + 24 + skip] == 0  # one LZ4 block, as every writer makes it for a section this small
+    data[at + 24 + skip] = 1
+    path.write_bytes(bytes(data))
+    assert "in chunks" in budget.over_budget(str(path))
+
+
 # ----------------------------------------------------------------------------------------------- SIGTERM
 def _children(pid: int, text: str) -> list[int]:
     """Processes whose command line holds ``text`` and whose parent is ``pid`` (or was: orphans have parent 1)."""

@@ -61,8 +61,8 @@ def _crate(m, base: int) -> str | None:
         return None if version < (0, 4, 0) else f"holds {n_fields:,} fields; the budget is {16 * MAX_SPECS:,}"
     (size,) = struct.unpack_from("<Q", m, at + 16 + skip)
     data = m[at + 24 + skip:at + 24 + skip + size]
-    if data[0]:  # TfFastCompression: 0, one LZ4 block; else that many (int32 size, block)
-        raise ValueError("a chunked crate section (over 2 GB): not scanned")
+    if data[0]:  # TfFastCompression: 0, one LZ4 block; else chunks, which only a section over 2 GB needs
+        return f"holds {n_fields:,} fields in chunks, which no writer makes for under 2 GB: not scanned, so refused"
     reps = _lz4(data[1:], 8 * n_fields)
     fmt = "<Q" if version >= (0, 7, 0) else "<I"
     for (rep,) in struct.iter_unpack("<Q", reps[:len(reps) // 8 * 8]):
