@@ -36,8 +36,9 @@ BUILD_HOSTS = ("glsl",)
 
 
 def item_key(kind: str, fns: tuple, *reads) -> str:
-    """The key of an item that ``fns`` compute from ``reads`` (the code they can execute: rockdove.sources)."""
-    code = sources.digest(list(fns))[0]
+    """The key of an item that ``fns`` compute from ``reads``: the code they can execute (rockdove.sources) and the
+    ``materials`` they read at run time (the GLSL shaders, the MaterialX documents, the add-on)."""
+    code = sources.digest(list(fns), data=("materials",))[0]
     return hashlib.sha256(canonical_json([GRAPH_VERSION, kind, code, *reads]).encode()).hexdigest()
 
 
