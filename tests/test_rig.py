@@ -172,6 +172,12 @@ def test_verify_and_render_name_a_bad_motion_or_time(small_asset, tmp_path):
         motion_times(str(small_asset / "pigeon.usda"), "fly")
     with pytest.raises(UsageError, match=r"times=\[500.0\] must lie within the animation's time codes 0 to 120"):
         motion_times(str(small_asset / "pigeon.usda"), "walk", [500])
+    with pytest.raises(UsageError, match=r"names a time code twice"):  # its frame's images would overwrite
+        motion_times(str(small_asset / "pigeon.usda"), "walk", [21, 21.0])
+    from rockdove.verify.motion import frame_prefix
+
+    names = [frame_prefix("walk", t) for t in (15.5, 16, 21, 0.25)]
+    assert names == ["walk15_5", "walk016", "walk021", "walk0_25"] and len(set(names)) == 4
     import subprocess
     import sys
 

@@ -214,7 +214,7 @@ def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[dict,
     """The report's ``motion`` entry, its frames checked as views and their items (surfaces cast, kept, views)."""
     from ..render.scene import load_scene
     from ..verify.inputs import scene_digest
-    from ..verify.motion import animation, frame_views, measure_motion
+    from ..verify.motion import animation, frame_prefix, frame_views, measure_motion
 
     _log.info(f"motion {motion}: measured at every time code")
     entry = {**measure_motion(layer, motion), "times": list(times), "views": []}
@@ -223,7 +223,7 @@ def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[dict,
     for t in times:
         _log.info(f"motion {motion}: the film at time code {t:g}")
         scene = load_scene(layer, {"motion": motion}, t)
-        views = frame_views(scene, width, height, f"{motion}{t:03.0f}")
+        views = frame_views(scene, width, height, frame_prefix(motion, t))
         surfaces, cast, kept = _surfaces(cache, scene, views, out)
         frame, _, rendered = _views(cache, scene, lut, views, scene_digest(scene), surfaces, False, out)
         results.update(frame)

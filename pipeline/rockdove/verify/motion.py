@@ -184,7 +184,14 @@ def motion_times(layer: str, motion: str, times=None) -> tuple:
     if bad or not times:
         raise UsageError(f"times={list(times)} must lie within the animation's time codes {start:g} to {end:g} "
                          f"({stage.GetTimeCodesPerSecond():g} per second)")
+    if len(set(times)) < len(times):  # each frame's views and images are named by its time code
+        raise UsageError(f"times={list(times)} names a time code twice")
     return times
+
+
+def frame_prefix(motion: str, t: float) -> str:
+    """The views of ``motion``'s frame at time code ``t`` are named ``<prefix>_<view>``: ``walk021``, ``walk015_5``."""
+    return f"{motion}{t:03.0f}" if float(t).is_integer() else f"{motion}{t:g}".replace(".", "_")
 
 
 def frame_views(scene, width: int, height: int, prefix: str) -> list:
