@@ -122,6 +122,7 @@ def test_bad_motion_time_and_skins_are_named(small_asset, tmp_path):
     from rockdove.render.scene import load_scene
     from rockdove.usd.skel import RIG_LAYER
     from rockdove.usd.validate import validate_asset
+    from rockdove.web.gltf import export_glb
 
     with pytest.raises(ValueError, match="'motion' must be one of"):
         load_scene(small_asset, {"motion": "fly"})
@@ -137,6 +138,8 @@ def test_bad_motion_time_and_skins_are_named(small_asset, tmp_path):
         with pytest.raises(ValueError, match=f"/Pigeon/Geom/Beak: .*{message}") as err:
             load_scene(asset, {"motion": "walk"}, 3)
         assert "\n" not in str(err.value)
+        with pytest.raises(ValueError, match=f"/Pigeon/Geom/Beak: .*{message}"):  # nor a glb with that skin
+            export_glb(str(asset / "pigeon.usda"), str(tmp_path / f"{name}.glb"))
         (asset / "pigeon.usdz").unlink()
         issues = [i for i in validate_asset(str(asset)).issues if i.check == "skin"]
         assert issues and message in issues[0].message

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import UsageError
-from ..usd.skel import check_influences
+from ..usd.skel import target_influences
 
 
 def animated(stage) -> bool:
@@ -34,11 +34,7 @@ def pose(stage, times, with_normals: bool = True) -> list:
                 query = cache.GetSkelQuery(binding.GetSkeleton())
                 for target in binding.GetSkinningTargets():
                     path, mesh = str(target.GetPrim().GetPath()), UsdGeom.Mesh(target.GetPrim())
-                    n, per = len(mesh.GetPointsAttr().Get() or []), target.GetNumInfluencesPerComponent()
-                    indices, weights = target.ComputeJointInfluences()
-                    if target.GetInterpolation() != UsdGeom.Tokens.vertex:
-                        raise UsageError(f"{path}: skel:jointIndices must be vertex-interpolated (one set per point)")
-                    check_influences(path, indices, weights, n, per, len(query.GetJointOrder()))
+                    indices, weights, per = target_influences(target, len(query.GetJointOrder()))
                     targets.append((query, target, mesh, path, indices, weights, per))
     out = []
     for time in times:

@@ -36,6 +36,20 @@ def check_influences(path: str, indices, weights, n_points: int, n_per_point: in
                          f"{sums[off[0]]:.4f} at point {off[0]}")
 
 
+def target_influences(target, n_joints: int) -> tuple:
+    """``(indices, weights, influences per point)`` of a ``UsdSkel.SkinningQuery``, checked: UsageError (one line,
+    naming the mesh) unless vertex-interpolated and :func:`check_influences` holds."""
+    from pxr import UsdGeom
+
+    path, per = str(target.GetPrim().GetPath()), target.GetNumInfluencesPerComponent()
+    if target.GetInterpolation() != UsdGeom.Tokens.vertex:
+        raise UsageError(f"{path}: skel:jointIndices must be vertex-interpolated (one set per point)")
+    indices, weights = target.ComputeJointInfluences()
+    n = len(UsdGeom.Mesh(target.GetPrim()).GetPointsAttr().Get() or [])
+    check_influences(path, indices, weights, n, per, n_joints)
+    return indices, weights, per
+
+
 def check_skins(stage) -> list:
     """The :class:`rockdove.usd.issues.Issue` of every mesh whose skin :func:`check_influences` rejects."""
     from pxr import Usd, UsdGeom, UsdSkel

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import UsageError
-
-MOTION_SET, REST = "motion", "rest"
+from ..usd.skel import MOTION_VARIANT_SET as MOTION_SET
+from ..usd.skel import REST, target_influences
 
 
 def _col(m) -> np.ndarray:
@@ -125,8 +125,7 @@ def add_skin(gltf, blob, scene, stage, mesh_nodes: dict) -> None:
         if path not in mesh_nodes:
             continue
         mesh = UsdGeom.Mesh(target.GetPrim())
-        indices, weights = target.ComputeJointInfluences()
-        per = target.GetNumInfluencesPerComponent()
+        indices, weights, per = target_influences(target, len(names))  # a bad skin: one line, as posing says
         mapper = target.GetJointMapper()
         if mapper is not None and not mapper.IsNull() and not mapper.IsIdentity():
             raise UsageError(f"{path}: skel:joints reorders the skeleton's joints; glTF export needs its order")
