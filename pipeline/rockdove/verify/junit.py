@@ -3,7 +3,8 @@
 The format is the Jenkins xunit plugin's ``junit-10.xsd`` (Ant's JUnit report, as Maven Surefire writes it). One
 ``<testsuite>`` per kind of check: ``rockdove.validation`` (a case per validator, warnings in ``<system-out>``),
 ``rockdove.glsl`` (a case per view and one for the light sweep's hues), ``rockdove.host.NAME`` (a case per view and
-``all views``, the host's own verdict; an unavailable host is ``<skipped>``, one that raised an ``<error>``).
+``all views``, the host's own verdict; an unavailable host is ``<skipped>``, one that raised an ``<error>``),
+``rockdove.anatomy`` (a case per measure) and, with ``--motion``, ``rockdove.motion`` (a case per limited measure).
 Failure messages carry their numbers, every case its metrics in ``<system-out>``; times in seconds.
 """
 
@@ -122,6 +123,33 @@ def _host(root, h: HostResult, goals: dict) -> dict:
     return suite.close()
 
 
+def _anatomy(root, report: Report) -> dict:
+    suite = _Suite(root, "rockdove.anatomy")
+    anatomy = report.anatomy or {}
+    for m in anatomy.get("measures", []):
+        line = f"{m['name']} = {_num(m['value'])} {m['unit']}".rstrip() + f", range [{m['low']}, {m['high']}]"
+        suite.case(m["name"], failures=[] if m["passed"] else [f"anatomy: {line} ({m['what']})"], out=line)
+    if not anatomy.get("measures") and anatomy.get("failures"):  # the bird's parts could not be measured
+        suite.case("measures", failures=list(anatomy["failures"]))
+    return suite.close()
+
+
+def _motion(root, motion: dict) -> dict:
+    """A case per limited measure of :func:`rockdove.verify.motion.measure_motion`, failed by its failure line."""
+    suite = _Suite(root, "rockdove.motion")
+    name, failures = motion["motion"], list(motion["failures"])
+    for key, limit in motion["limits"].items():
+        if key in motion["measures"]:
+            mine = [f for f in failures if f.startswith(f"motion {name}: {key} = ")]
+            suite.case(key, failures=mine, out=f"{key} = {motion['measures'][key]:.4g}, allowed {limit} "
+                                               f"({motion['frames']} time codes of {name})")
+    rest = [f for f in failures if not any(f.startswith(f"motion {name}: {k} = ") for k in motion["limits"])]
+    if "head_cycles" in motion["measures"] or rest:
+        suite.case("head cycles per step", failures=rest, out=f"{motion['measures'].get('head_cycles')} head "
+                                                               f"cycles, {motion['measures'].get('steps')} steps")
+    return suite.close()
+
+
 def junit_xml(report: Report) -> bytes:
     """The JUnit XML document (UTF-8 bytes) of a verification report."""
     asset = os.path.abspath(report.asset)
@@ -129,6 +157,7 @@ def junit_xml(report: Report) -> bytes:
                       time=_time(report.timings_s.get("total", 0.0)))
     totals = [_validation(root, report), _views(root, report)]
     totals += [_host(root, h, report.goals) for h in report.hosts]
+    totals += [_anatomy(root, report)] + ([_motion(root, report.motion)] if report.motion else [])
     for k in ("tests", "failures", "errors"):
         root.set(k, str(sum(t[k] for t in totals)))
     ET.indent(root)
