@@ -61,7 +61,7 @@ def _code_values(asset_path: str) -> str | None:
     from pxr import Tf, Usd
 
     from ..usd.stage import variant_combinations
-    from ..usd.validate import check_mtlx_shaders
+    from ..usd.validate import CODE_CHECK, check_mtlx_shaders
 
     try:
         stage = Usd.Stage.Open(asset_path, Usd.Stage.LoadAll)
@@ -71,7 +71,7 @@ def _code_values(asset_path: str) -> str | None:
         with Usd.EditContext(stage, stage.GetSessionLayer()):
             for set_name, value in combo.items():
                 stage.GetDefaultPrim().GetVariantSet(set_name).SetVariantSelection(value)
-        found = [f"{i.path}: {i.message}" for i in check_mtlx_shaders(stage)[0] if "would paste" in i.message]
+        found = [f"{i.path}: {i.message}" for i in check_mtlx_shaders(stage)[0] if i.check == CODE_CHECK]
         if found:
             return found[0]
     return None

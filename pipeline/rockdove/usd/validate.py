@@ -55,6 +55,10 @@ def run_usd_validation(stage, validators=None) -> list:
 
 
 # -- 2. MaterialX node definitions --------------------------------------------------------------------------
+#: The check of a value a shader generator would paste into the code it writes (a host refuses such an asset).
+CODE_CHECK = "mtlx:code"
+
+
 def check_mtlx_shaders(stage, library=None) -> tuple[list, int]:
     """Check 2: (issues, number of ND_ shaders checked)."""
     from pxr import Usd, UsdShade
@@ -76,7 +80,7 @@ def check_mtlx_shaders(stage, library=None) -> tuple[list, int]:
                 inp.GetBaseName(), "string" if reader else mx.getType(), mx.getAttribute("enum") if mx else "",
                 inp.Get(), inp.GetAttr().GetColorSpace(), library, bound.get(material_of(prim)))
             if why:
-                issues.append(Issue("mtlx", str(inp.GetAttr().GetPath()), f"{why}: a shader generator would paste "
+                issues.append(Issue(CODE_CHECK, str(inp.GetAttr().GetPath()), f"{why}: a shader generator would paste "
                                     "it into the code it writes"))
         if not sid.startswith("ND_"):
             continue
