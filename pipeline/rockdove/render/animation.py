@@ -46,23 +46,28 @@ def light_turn_views(scene, frames: int, size: int) -> list[View]:
             for k in range(int(frames))]
 
 
+def frame_image(renderer, view) -> np.ndarray:
+    """One frame of a report's animation: ``view`` by ``renderer`` (a ``GLRenderer(..., mipmaps=True)``), 4x MSAA
+    with the cards' cut-out by alpha-to-coverage, over :data:`BACKGROUND`; sRGB 8-bit."""
+    from ..srgb import linear_to_srgb8
+
+    rgb, coverage = renderer.render_radiance(view, samples=4)
+    return linear_to_srgb8(rgb + (1.0 - coverage[..., None]) * BACKGROUND)
+
+
 def render_light_turn(scene, path, frames: int = 24, size: int = 256, lut=None) -> dict:
     """Render :func:`light_turn_views` and write them to ``path`` as an animated WebP; the report's entry: ``{"files":
     {"light_turn": name}, "frames", "fps", "size", "bytes", "seconds", "caption"}``. ``lut``: the film's LUT
     (default the asset's)."""
     import os
 
-    from ..srgb import linear_to_srgb8
     from .gl import GLRenderer
     from .images import write_webp
 
     t = time.perf_counter()
     views = light_turn_views(scene, frames, size)
-    images = []
     with GLRenderer(scene, lut=lut, width=size, height=size, mipmaps=True) as r:
-        for v in views:
-            rgb, coverage = r.render_radiance(v, samples=4)
-            images.append(linear_to_srgb8(rgb + (1.0 - coverage[..., None]) * BACKGROUND))
+        images = [frame_image(r, v) for v in views]
     write_webp(images, path, FPS)
     seconds = time.perf_counter() - t
     caption = (f"The light turns round the bird ({frames} frames, {frames / FPS:g} s a turn, {size} x {size} px): "

@@ -216,12 +216,11 @@ def animation(layer: str, motion: str, out_dir: str, lut=None) -> dict:
     WebP in ``out_dir`` (caption below); the report's entry: ``{"file", "frames", "fps", "caption"}``."""
     import os
 
-    from ..render.animation import BACKGROUND
+    from ..render.animation import frame_image
     from ..render.gl import GLRenderer
     from ..render.images import write_webp
     from ..render.scene import load_scene
     from ..render.views import View, look_at
-    from ..srgb import linear_to_srgb8
 
     times = [ANIMATION_STEP * k for k in range(ANIMATION_FRAMES)]
     scenes = [load_scene(layer, {"motion": motion}, t) for t in times]
@@ -234,8 +233,7 @@ def animation(layer: str, motion: str, out_dir: str, lut=None) -> dict:
         view = View(f"{motion}{t:03d}", look_at(target + np.array([0.45, 0.04, 0.05]), target), np.radians(24.0),
                     ANIMATION_SIZE, ANIMATION_SIZE, light, np.ones(3))
         with GLRenderer(scene, lut=lut, width=ANIMATION_SIZE, height=ANIMATION_SIZE, mipmaps=True) as renderer:
-            rgb, coverage = renderer.render_radiance(view, samples=4)  # anti-aliased, as the report's other pictures
-            images.append(linear_to_srgb8(rgb + (1.0 - coverage[..., None]) * BACKGROUND))
+            images.append(frame_image(renderer, view))
     fps = 60.0 / ANIMATION_STEP
     path = write_webp(images, os.path.join(out_dir, ANIMATION_FILE.format(motion=motion)), fps)
     return {"file": os.path.basename(path), "frames": len(images), "fps": fps,
