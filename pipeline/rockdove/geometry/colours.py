@@ -21,6 +21,7 @@ WING_SRGB = (162, 169, 181)
 WING_BAR_SRGB = (28, 28, 32)
 PRIMARIES_SRGB = (88, 92, 102)
 TAIL_SRGB = (120, 127, 140)
+EYE_SRGB = (224, 92, 32)  # the iris (orange-red)
 RUMP_SRGB = (236, 238, 240)
 #: Display colour (linear RGB) of the body and the cards that sample its texture: rock-dove blue-grey.
 BODY_DISPLAY_COLOR = (0.25, 0.28, 0.33)
@@ -46,7 +47,7 @@ COAT_SRGB = tuple(tuple(int(round(a + (b - a) * k / 5)) for a, b in zip(NECK_SRG
 #: The plumage atlas, in order: (kind, sRGB tone, variants); each variant a tile of its own seed.
 ATLAS = ((("head", HEAD_SRGB, 6),) + tuple(("contour", c, 4) for c in COAT_SRGB + (RUMP_SRGB,))
          + (("covert", WING_SRGB, 4), ("greater", WING_SRGB, 4), ("secondary", WING_SRGB, 4),
-            ("primary", PRIMARIES_SRGB, 4), ("rectrix", TAIL_SRGB, 4), ("eye", (224, 92, 32), 1)))
+            ("primary", PRIMARIES_SRGB, 4), ("rectrix", TAIL_SRGB, 4), ("eye", EYE_SRGB, 1)))
 #: Atlas tiles per row and rows (each tile half as wide as it is tall).
 ATLAS_COLUMNS, ATLAS_ROWS = 16, 4
 #: Half-width of the widest feather in its tile (u, the tile's width 1).

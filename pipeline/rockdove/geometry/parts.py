@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from rockdove.geometry import sdf as _sdf
-from rockdove.geometry.colours import TILE_START, atlas_st
+from rockdove.geometry.colours import EYE_SRGB, TILE_START, atlas_st
 from rockdove.geometry.types import MeshPart, triangle_part, unit
 
 #: Segments around every surface of revolution.
@@ -155,9 +155,8 @@ def build_cere() -> MeshPart:
 
 
 EYE_CENTRE_M, EYE_RADIUS_M = (0.0142, 0.2185, 0.0905), 0.0042
-#: The iris's tone in the atlas (sRGB 8-bit), and the bare orbital ring (linear RGB): the rock dove's narrow,
-#: pale bluish-grey to whitish orbital skin (Gibbs et al. 2001).
-EYE_SRGB = (224, 92, 32)
+#: The bare orbital ring (linear RGB): the rock dove's narrow, pale bluish-grey to whitish orbital skin (Gibbs et
+#: al. 2001). The iris's tone in the atlas is colours.EYE_SRGB.
 EYE_RING_COLOR = (0.50, 0.52, 0.56)
 #: The ring's inner and outer radius about the eye's axis, metres: 1 .. 2 mm of bare skin round the eye.
 EYE_RING_RADII_M = (0.0036, 0.0054)
