@@ -15,21 +15,15 @@
 //     the node ladder (or whose film index crosses the critical angle within the spectrum) are integrated on the
 //     0.1 nm grid of the exact reference (rockdove.lut.reference).
 // Layout of the result (rockdove.lut.table): rgb[(i * angles + j) * 3 + c], thickness node i (uniform over the
-// range), angle node j (cos theta_j = (j / (angles - 1)) ** gamma). Runs in the page and in node (tests).
+// range), angle node j (cos theta_j = (j / (angles - 1)) ** gamma). Runs in the page (window.RockdoveFilmBake).
 (function (root) {
   "use strict";
 
   const TWO_PI = 2 * Math.PI, FOUR_PI = 4 * Math.PI;
 
   function decode(b64, Type) {
-    let bytes;
-    if (typeof atob === "function") {
-      const s = atob(b64);
-      bytes = new Uint8Array(s.length);
-      for (let i = 0; i < s.length; i++) { bytes[i] = s.charCodeAt(i); }
-    } else {
-      bytes = new Uint8Array(Buffer.from(b64, "base64"));
-    }
+    const s = atob(b64), bytes = new Uint8Array(s.length);
+    for (let i = 0; i < s.length; i++) { bytes[i] = s.charCodeAt(i); }
     return new Type(bytes.buffer, 0, bytes.byteLength / Type.BYTES_PER_ELEMENT);
   }
 
@@ -185,7 +179,6 @@
     this.step = d.length > 1 ? d[1] - d[0] : 0;
     this.acc = new Float64Array(3 * this.n);
   }
-  let SAMPLES = 0;  // spectral samples x rows evaluated by the last bake (reported as `samples`)
   Rows.prototype.flush = function (out, nA, col) {
     for (let q = 0; q < this.n; q++) {
       const o = 3 * (this.rows[q] * nA + col);
@@ -207,7 +200,6 @@
 
   function complexColumn(co, w, R, out, nA, col) {
     const acc = R.acc, n = co.length / 10;
-    SAMPLES += n * R.n;
     for (let l = 0; l < n; l++) {
       const o = 10 * l, kr = co[o], ki = co[o + 1];  // phi / d
       const sr = Math.exp(-R.step * ki) * Math.cos(R.step * kr), si = Math.exp(-R.step * ki) * Math.sin(R.step * kr);
@@ -338,7 +330,6 @@
   function fullForm(co, nodes, R, out, nA, col) {
     const acc = R.acc, w = nodes.w, n = co.length / 5, d0 = R.d[R.rows[0]];
     for (let q = 0; q < R.n; q++) { acc.set(nodes.white, 3 * q); }
-    SAMPLES += n * R.n;
     for (let l = 0; l < n; l++) {
       const k = co[5 * l], as = co[5 * l + 1], bs = co[5 * l + 2], ap = co[5 * l + 3], bp = co[5 * l + 4];
       const ps = as * bs, pp = ap * bp, ds0 = (1 + ps) * (1 + ps), dp0 = (1 + pp) * (1 + pp);
@@ -366,7 +357,6 @@
   function seriesForm(co, nodes, M, R, out, nA, col) {
     const acc = R.acc, w = nodes.w, n = co.length / 5, d0 = R.d[R.rows[0]];
     const cf = new Float64Array(12);
-    SAMPLES += n * R.n;
     for (let l = 0; l < n; l++) {
       const k = co[5 * l];
       for (let p = 0; p < 2; p++) {
@@ -555,15 +545,12 @@
     const d = Array.from({ length: nT }, (_, i) => (nT > 1 ? lo + (hi - lo) * i / (nT - 1) : lo));
     const out = new Float64Array(nT * nA * 3);
     const method = route(film);
-    SAMPLES = 0;
     ROUTES[method](tables, film, cos, d, out);
     const rgb = new Float32Array(out);
     const ms = (typeof performance !== "undefined" ? performance : Date).now() - t0;
-    return { rgb, angles: nA, thicknesses: nT, thicknessRangeNm: [lo, hi], angleWarpGamma: gamma, method, ms,
-             samples: SAMPLES };
+    return { rgb, angles: nA, thicknesses: nT, thicknessRangeNm: [lo, hi], angleWarpGamma: gamma, method, ms };
   }
 
   const api = { Tables, bake, route };
   root.RockdoveFilmBake = api;
-  if (typeof module !== "undefined" && module.exports) { module.exports = api; }
 })(typeof window !== "undefined" ? window : globalThis);
