@@ -174,7 +174,7 @@ def _host(cache, host, layer, scene, views, digest, layers, refs, fresh, out):
     return result, False
 
 
-def _pictures(cache, layer, scene, lut, digest: str, settings: dict, out: str) -> tuple[dict, tuple, tuple]:
+def _pictures(cache, layer, scene, lut, digest: str, layers: str, settings: dict, out: str) -> tuple[dict, tuple, tuple]:
     """The report's pictures (beauty and animation), ``{kind: (entry or None, note or None)}``, the kinds drawn and
     reused, their files copied into ``out``; one drawn other than as asked (with a note) is not kept."""
     from ..hosts.beauty import for_report as beauty
@@ -187,7 +187,9 @@ def _pictures(cache, layer, scene, lut, digest: str, settings: dict, out: str) -
     ran: list[str] = []
     reused: list[str] = []
     for kind, fn in (("beauty", beauty), ("animation", animation)):
-        items, key = _Items(cache, kind, out), item_key(kind, (fn,), digest, settings)
+        # the beauty may be Cycles through the add-on, which reads the asset's files as composed (as a host does)
+        reads = (digest, settings, layers) if kind == "beauty" else (digest, settings)
+        items, key = _Items(cache, kind, out), item_key(kind, (fn,), *reads)
         found = items.get(key)
         if found is not None:
             entry, note = _meta(found)["entry"], None
@@ -309,5 +311,5 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
                                 tuple(r.name for r, cached in checked if cached)))
     return combine(Checked(layer, scene, lut, tuple(notes), tuple(views_checked), host_results, items,
                            (width, height), time.perf_counter() - t, t_start, motion_entry), out, bench_dir=bench_dir,
-                   pictures=lambda: _pictures(cache, layer, scene, lut, digest, beauty, out),
+                   pictures=lambda: _pictures(cache, layer, scene, lut, digest, layers, beauty, out),
                    published_asset=published_asset)

@@ -82,6 +82,7 @@ def for_report(layer: str, scene, out_dir: str, settings: dict, *, cycles_ok: bo
                               **{k: settings[k] for k in keys if k in settings})
     except Exception as exc:  # noqa: BLE001 - any renderer's error: the report goes on without the picture
         return None, f"no beauty render: {type(exc).__name__}: {exc}"
-    if entry is not None and settings.get("renderer") == "cycles" and entry["renderer"] != "cycles":
+    allowed = settings.get("renderer") == "cycles" or (settings.get("renderer", "auto") == "auto" and cycles_ok)
+    if entry is not None and allowed and entry["renderer"] != "cycles":  # a note: the cache does not keep it
         return entry, f"beauty render: Cycles was asked for, drawn with GL instead ({entry['fallback']})"
     return entry, None
