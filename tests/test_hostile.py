@@ -297,7 +297,7 @@ def test_texture_paths_reach_the_osl_shader_as_parameters(small_asset, tmp_path)
     asset = copy_asset(small_asset, tmp_path / 'it"s' / "pigeon")
     (net,) = feather_networks(str(asset / "pigeon.usda"), "baked").values()
     doc, files = lobe_document(net, VARIANTS["osl"][1])
-    source = generate_osl(doc, net["material"])
+    source = generate_osl(doc, net.material)
     assert str(tmp_path) not in source and "textures/" not in source
     assert sorted(files.values()) == sorted(str(asset / "textures" / f) for f in
                                             ("feather_base.png", "feather_mask.png", "thinfilm_lut.exr"))

@@ -194,22 +194,23 @@ def _uniform(GL, prog, uniform: str, setter, *values) -> None:
         setter(loc, *values)
 
 
-def _bind_samplers(GL, prog, net: dict, env: int, black: int) -> dict:
-    """Texture unit -> texture for every sampler; the base colour's RGB 0 (the film lobe alone)."""
+def _bind_samplers(GL, prog, net, env: int, black: int) -> dict:
+    """Texture unit -> texture for every sampler of ``net`` (:class:`.materialx.Network`); the base colour's RGB 0
+    (the film lobe alone)."""
     GL.glUseProgram(prog)
     textures, unit = {}, 0
     for i in range(GL.glGetProgramiv(prog, GL.GL_ACTIVE_UNIFORMS)):
         uname, _, utype = GL.glGetActiveUniform(prog, i)
         uname = uname.decode() if isinstance(uname, bytes) else str(uname)
         if utype == GL.GL_FLOAT_MAT3:
-            _document_matrix(GL, prog, uname, net["doc"])
+            _document_matrix(GL, prog, uname, net.doc)
         if utype != GL.GL_SAMPLER_2D:
             continue
         if uname in ("u_envRadiance", "u_envIrradiance"):
             tex = env
-        elif uname.endswith("_file") and uname[: -len("_file")] in net["files"]:
+        elif uname.endswith("_file") and uname[: -len("_file")] in net.files:
             node = uname[: -len("_file")]
-            pixels = read_image_file(net["files"][node])
+            pixels = read_image_file(net.files[node])
             if node == "BaseColorTexture" and pixels.ndim == 3 and pixels.shape[2] == 4:
                 pixels = pixels.copy()
                 pixels[:, :, :3] = 0
