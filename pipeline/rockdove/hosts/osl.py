@@ -11,7 +11,8 @@ import shutil
 from ..errors import UsageError
 from . import bpy_runner
 from .base import ENVIRONMENT_RADIANCE, Host, HostError
-from .blender import base_job
+from .blender import cycles_job
+from .jobs import OslJob, OslShader
 from .materialx import Network, missing_variant
 
 #: host name -> (the ``shading`` variant drawn, its base-colour input ``node.input``, set to black)
@@ -206,13 +207,14 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
             source = os.path.join(work, f"{net.material}.osl")
             with open(source, "w", encoding="utf-8") as fh:
                 fh.write(for_cycles(code))
-            shaders[mesh] = {"source": source, "attributes": geomprops(net.doc), "files": files}
+            shaders[mesh] = OslShader(source, geomprops(net.doc), files)
     except ValueError as exc:
         raise HostError(name, f"cannot turn the asset's MaterialX network into OSL: {exc}") from None
     except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
         raise HostError(name, f"MaterialX OSL generation failed: {type(exc).__name__}: {exc}") from None
-    job = {**base_job(os.path.abspath(layer), views, work, SAMPLES, addon=False), "shaders": shaders,
-           "environment_radiance": ENVIRONMENT_RADIANCE, "working_space": WORKING_SPACE, "exr_colorspace": EXR_SPACE}
+    job = cycles_job(OslJob, os.path.abspath(layer), bpy_runner.job_views(views), work, SAMPLES, addon=False,
+                     shaders=shaders, environment_radiance=ENVIRONMENT_RADIANCE, working_space=WORKING_SPACE,
+                     exr_colorspace=EXR_SPACE)
     try:
         bpy_runner.run_job(job, work, importlib.util.find_spec("rockdove.hosts.osl_job").origin, TIMEOUT_S,
                            host=name, renderer="Cycles (OSL)")
