@@ -13,7 +13,7 @@ from typing import TypeVar
 from ..errors import UsageError
 from ..resources import atomic_path
 from .base import ENVIRONMENT_RADIANCE, Host, HostError
-from .bpy_runner import bpy_python, job_views, read_views, run_job, work_folder
+from .bpy_runner import bpy_python, job_views, read_views, run_job, unavailable, work_folder
 from .jobs import BlenderJob, CyclesJob, JobView
 
 NAME = "blender"
@@ -96,8 +96,6 @@ class BlenderHost(Host):
     """Blender's own importer, the rockdove add-on and Cycles (module docstring)."""
 
     def unavailable(self) -> str | None:
-        from .bpy_runner import unavailable
-
         return unavailable()
 
     def render(self, asset_path: str, views, out_dir: str) -> dict:
