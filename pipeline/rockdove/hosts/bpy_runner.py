@@ -1,5 +1,5 @@
 """The bpy job runner the Blender, Storm and OSL hosts and the beauty render share: find a Python that has bpy, run
-a ``*_job.py`` script in it by file on a JSON job (stdlib and bpy only, so that Python needs no rockdove; its own
+a ``*_job.py`` script in it by file on a :mod:`.jobs` record (stdlib only, so that Python needs no rockdove; its own
 process, because bpy's bundled USD cannot share one with usd-core's ``pxr``), read back the images it wrote.
 """
 
