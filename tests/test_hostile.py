@@ -94,31 +94,31 @@ _SHOOT = """
 import json, sys
 import bpy, mathutils
 sys.path.insert(0, sys.argv[1])
-import blender_job
-job = json.loads(sys.argv[2])
+import blender_job, jobs
+view = jobs.JobView(**json.loads(sys.argv[2]))
 bpy.ops.wm.read_factory_settings(use_empty=True)
 bpy.context.scene.render.engine = "BLENDER_WORKBENCH"
-blender_job.shoot(bpy, mathutils, mathutils.Matrix.Identity(4), job, "png")
+blender_job.shoot(bpy, mathutils, mathutils.Matrix.Identity(4), [view], sys.argv[3], "png")
 """
 
 
 def test_blender_writes_each_view_where_asked_whatever_braces_the_folder_holds(tmp_path):
     """Blender 5 expands ``{...}`` in ``scene.render.filepath`` (an unknown name fails the render) and reads ``\\``
     as ``/``: the job saves each view by its path as given, into a folder named like a template."""
+    import dataclasses
     import json
 
-    from rockdove.hosts import blender_job
     from rockdove.hosts import bpy_runner as blender
+    from rockdove.hosts.jobs import JobView
 
     if blender.unavailable():
         pytest.skip(blender.unavailable())
     work = tmp_path / "{blend_name}{x}#1\\a" / "blender"
     work.mkdir(parents=True)
-    view = {"name": "v", "width": 16, "height": 8, "yfov_rad": 0.5, "camera_to_world": [[1, 0, 0, 0], [0, 1, 0, 0],
-                                                                                       [0, 0, 1, 1], [0, 0, 0, 1]]}
-    job = json.dumps({"out_dir": str(work), "views": [view]})
-    r = subprocess.run([blender.bpy_python(), "-c", _SHOOT, os.path.dirname(blender_job.__file__), job],
-                       capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    view = JobView("v", [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 1], [0, 0, 0, 1]], 0.5, 16, 8, [0, 0, 1], [1, 1, 1])
+    r = subprocess.run([blender.bpy_python(), "-c", _SHOOT, os.path.dirname(blender.__file__),
+                        json.dumps(dataclasses.asdict(view)), str(work)], capture_output=True, text=True, timeout=120,
+                       cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-2000:]
     assert [p.relative_to(tmp_path) for p in tmp_path.rglob("*.png")] == [work.relative_to(tmp_path) / "v.png"]
 
@@ -297,7 +297,7 @@ def test_texture_paths_reach_the_osl_shader_as_parameters(small_asset, tmp_path)
     asset = copy_asset(small_asset, tmp_path / 'it"s' / "pigeon")
     (net,) = feather_networks(str(asset / "pigeon.usda"), "baked").values()
     doc, files = lobe_document(net, VARIANTS["osl"][1])
-    source = generate_osl(doc, net["material"])
+    source = generate_osl(doc, net.material)
     assert str(tmp_path) not in source and "textures/" not in source
     assert sorted(files.values()) == sorted(str(asset / "textures" / f) for f in
                                             ("feather_base.png", "feather_mask.png", "thinfilm_lut.exr"))

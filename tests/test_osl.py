@@ -29,12 +29,12 @@ def test_generated_osl_reads_the_primvars_cycles_is_asked_to_export(asset_layer)
     from rockdove.hosts.materialx import feather_networks
 
     (net,) = feather_networks(asset_layer, "baked").values()
-    assert osl.geomprops(net["doc"]) == ["thickness", "st"] or sorted(osl.geomprops(net["doc"])) == ["st", "thickness"]
+    assert osl.geomprops(net.doc) == ["thickness", "st"] or sorted(osl.geomprops(net.doc)) == ["st", "thickness"]
     doc, files = osl.lobe_document(net)
-    src = osl.for_cycles(osl.generate_osl(doc, net["material"]))
+    src = osl.for_cycles(osl.generate_osl(doc, net.material))
     assert src.index('#include "mx_funcs.h"') < src.index("#define getattribute rd_getattribute") < src.index("shader ")
     assert "mx_geompropvalue_vector2" in src and "float value[2]" in src  # MaterialX's own function, unchanged
-    assert sorted(files.values()) == sorted(os.path.abspath(p) for p in net["files"].values())
+    assert sorted(files.values()) == sorted(os.path.abspath(p) for p in net.files.values())
     assert all(f'"{p}"' not in src for p in files.values())
     with pytest.raises(ValueError, match="mx_funcs.h"):
         osl.for_cycles("shader s() {}\n")

@@ -14,20 +14,20 @@ from ..errors import UsageError
 from ..render import beauty as setup
 from . import bpy_runner as runner
 from .base import HostError
-from .blender import NAME, base_job
+from .blender import NAME, cycles_job
+from .jobs import BeautyJob
 
 
 def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
     """``{view name: (H, W, 3) uint8}`` (AgX) rendered with Cycles through the add-on; HostError when it cannot."""
     work = runner.work_folder("beauty_cycles", views, out_dir, "png")
     verts, quads = setup.cyclorama(scene, views)
-    job = {
-        **base_job(os.path.abspath(layer), views, work, samples), "ground_vertices_m": np.round(verts, 6).tolist(),
-        "ground_quads": quads.tolist(), "ground_albedo": setup.GROUND_ALBEDO, "sky_horizon_rgb": setup.SKY_HORIZON_RGB,
-        "sky_zenith_rgb": setup.SKY_ZENITH_RGB, "sky_strength": setup.SKY_STRENGTH, "sun_strength": setup.SUN_STRENGTH,
-        "sun_rgb": setup.SUN_RGB, "sun_angle_deg": setup.SUN_ANGLE_DEG, "look": setup.LOOK, "exposure": setup.EXPOSURE,
-        "views": [{**v.to_dict(), "sun_direction": v.light_direction.tolist()} for v in views],
-    }
+    job = cycles_job(
+        BeautyJob, os.path.abspath(layer), runner.job_views(views, sun=True), work, samples,
+        ground_vertices_m=np.round(verts, 6).tolist(), ground_quads=quads.tolist(), ground_albedo=setup.GROUND_ALBEDO,
+        sky_horizon_rgb=setup.SKY_HORIZON_RGB, sky_zenith_rgb=setup.SKY_ZENITH_RGB, sky_strength=setup.SKY_STRENGTH,
+        sun_strength=setup.SUN_STRENGTH, sun_rgb=setup.SUN_RGB, sun_angle_deg=setup.SUN_ANGLE_DEG, look=setup.LOOK,
+        exposure=setup.EXPOSURE)
     script = importlib.util.find_spec("rockdove.hosts.blender_beauty_job").origin
     runner.run_job(job, work, script, setup.TIMEOUT_S)
     return runner.read_views(NAME, "Blender", views, work, "png")

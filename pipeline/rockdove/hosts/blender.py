@@ -8,11 +8,13 @@ from __future__ import annotations
 import importlib.util
 import os
 import zipfile
+from typing import TypeVar
 
 from ..errors import UsageError
 from ..resources import atomic_path
 from .base import ENVIRONMENT_RADIANCE, Host, HostError
-from .bpy_runner import bpy_python, read_views, run_job, work_folder
+from .bpy_runner import bpy_python, job_views, read_views, run_job, unavailable, work_folder
+from .jobs import BlenderJob, CyclesJob, JobView
 
 NAME = "blender"
 LOBE = "view_angle"
@@ -26,6 +28,7 @@ SAMPLES = 16
 TRANSPARENT_BOUNCES = 24
 #: Render threads (the machine's 2 cores; Cycles' default would take every core).
 THREADS = 2
+J = TypeVar("J", bound=CyclesJob)
 
 
 def addon_zip(out_dir) -> str:
@@ -74,25 +77,25 @@ def render(asset_path: str, views, out_dir: str, *, addon: bool = True, lobe: st
     if not os.path.isfile(asset_path):
         raise HostError(NAME, f"no asset at {asset_path!r}")
     work = work_folder(NAME, views, out_dir)
-    run_job({**base_job(asset_path, views, work, samples, addon=addon), "lobe": lobe,
-             "environment_radiance": ENVIRONMENT_RADIANCE, "frame": frame}, work,
-            importlib.util.find_spec("rockdove.hosts.blender_job").origin)
+    job = cycles_job(BlenderJob, asset_path, job_views(views), work, samples, addon=addon, lobe=lobe,
+                     environment_radiance=ENVIRONMENT_RADIANCE, frame=frame)
+    run_job(job, work, importlib.util.find_spec("rockdove.hosts.blender_job").origin)
     return read_views(NAME, "Blender", views, work)
 
 
-def base_job(asset: str, views, work: str, samples: int, *, addon: bool = True) -> dict:
-    """What every job through the add-on reads: the asset to import, the Cycles settings, the out folder, views."""
-    return {"asset": asset, "root_object": root_object(asset), "addon_zip": addon_zip(work) if addon else None,
-            "addon_module": ADDON_MODULE, "samples": int(samples), "transparent_bounces": TRANSPARENT_BOUNCES,
-            "threads": THREADS, "out_dir": work, "views": [v.to_dict() for v in views]}
+def cycles_job(kind: type[J], asset: str, views: list[JobView], work: str, samples: int, *, addon: bool = True,
+               **fields) -> J:
+    """A ``kind`` of job through Blender's import, with what every one reads (the asset, the Cycles settings, the out
+    folder, the views) and the ``kind``'s own ``fields``."""
+    return kind(asset=asset, root_object=root_object(asset), addon_zip=addon_zip(work) if addon else None,
+                addon_module=ADDON_MODULE, samples=int(samples), transparent_bounces=TRANSPARENT_BOUNCES,
+                threads=THREADS, out_dir=work, views=views, **fields)
 
 
 class BlenderHost(Host):
     """Blender's own importer, the rockdove add-on and Cycles (module docstring)."""
 
     def unavailable(self) -> str | None:
-        from .bpy_runner import unavailable
-
         return unavailable()
 
     def render(self, asset_path: str, views, out_dir: str) -> dict:

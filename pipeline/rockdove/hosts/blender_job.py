@@ -1,7 +1,7 @@
 """The Blender side of :mod:`rockdove.hosts.blender`, run as ``PYTHON blender_job.py JOB.json`` by a Python that
-has bpy; stdlib and bpy only. Its own process: the add-on's ``USDHook`` gets a stage only bpy's ``pxr`` can read
-(measured: "No to_python converter found for C++ type ... UsdStage" with usd-core's). For ``view_angle``: the film
-smooth, its base black, every other material black but occluding, under a uniform white world (no
+has bpy; stdlib, bpy and :mod:`.jobs` only. Its own process: the add-on's ``USDHook`` gets a stage only bpy's ``pxr``
+can read (measured: "No to_python converter found for C++ type ... UsdStage" with usd-core's). For ``view_angle``:
+the film smooth, its base black, every other material black but occluding, under a uniform white world (no
 inter-reflection, as the reference assumes); a 0.01 px pixel filter (pixel centres, like the reference).
 """
 
@@ -11,6 +11,8 @@ import json
 import os
 import sys
 import time
+
+import jobs  # the sibling module (this file is run by path: its folder is sys.path[0])
 
 
 def _black(bsdf, tree=None, unlink=()) -> None:
@@ -64,67 +66,68 @@ def white_world(bpy, radiance: float) -> None:
     bpy.context.scene.world = world
 
 
-def _camera(bpy, mathutils, to_blender, view: dict):
-    data = bpy.data.cameras.new(view["name"])
+def _camera(bpy, mathutils, to_blender, view: jobs.JobView):
+    data = bpy.data.cameras.new(view.name)
     data.sensor_fit = "VERTICAL"
-    data.angle_y = float(view["yfov_rad"])
+    data.angle_y = float(view.yfov_rad)
     data.clip_start, data.clip_end = 1e-3, 1e3
-    cam = bpy.data.objects.new(view["name"], data)
+    cam = bpy.data.objects.new(view.name, data)
     bpy.context.scene.collection.objects.link(cam)
-    cam.matrix_world = to_blender @ mathutils.Matrix(view["camera_to_world"])
+    cam.matrix_world = to_blender @ mathutils.Matrix(view.camera_to_world)
     return cam
 
 
-def import_asset(bpy, job: dict):
+def import_asset(bpy, job: jobs.CyclesJob):
     """The add-on installed as a user does, the asset imported into an empty scene: ``(add-on module or None, film
     material names, up-axis conversion matrix)``."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     addon = None
-    if job["addon_zip"]:
-        bpy.ops.preferences.addon_install(filepath=job["addon_zip"], overwrite=True)
-        bpy.ops.preferences.addon_enable(module=job["addon_module"])
-        addon = sys.modules[job["addon_module"]]
-    result = bpy.ops.wm.usd_import(filepath=job["asset"])
+    if job.addon_zip:
+        bpy.ops.preferences.addon_install(filepath=job.addon_zip, overwrite=True)
+        bpy.ops.preferences.addon_enable(module=job.addon_module)
+        addon = sys.modules[job.addon_module]
+    result = bpy.ops.wm.usd_import(filepath=job.asset)
     if "FINISHED" not in result:
-        raise RuntimeError(f"usd_import of {job['asset']} returned {result}")
+        raise RuntimeError(f"usd_import of {job.asset} returned {result}")
     films = [m.name for m in bpy.data.materials if addon is not None and m.get(addon.MATERIAL_TAG)]
     if addon is not None and not films:
-        raise RuntimeError(f"the add-on built no thin-film material for {job['asset']}")
-    if (root := bpy.data.objects.get(job["root_object"])) is None:
-        raise RuntimeError(f"no imported object {job['root_object']!r} (the asset's root prim)")
+        raise RuntimeError(f"the add-on built no thin-film material for {job.asset}")
+    if (root := bpy.data.objects.get(job.root_object)) is None:
+        raise RuntimeError(f"no imported object {job.root_object!r} (the asset's root prim)")
     return addon, films, root.matrix_world.copy()  # the importer's up-axis conversion
 
 
-def cycles(scene, job: dict) -> None:
+def cycles(scene, job: jobs.CyclesJob) -> None:
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"
-    scene.cycles.samples = int(job["samples"])
-    scene.cycles.transparent_max_bounces = int(job["transparent_bounces"])
+    scene.cycles.samples = int(job.samples)
+    scene.cycles.transparent_max_bounces = int(job.transparent_bounces)
     scene.cycles.seed = 0
     scene.render.resolution_percentage = 100
     scene.render.threads_mode = "FIXED"
-    scene.render.threads = int(job["threads"])
+    scene.render.threads = int(job.threads)
 
 
-def shoot(bpy, mathutils, to_blender, job: dict, ext: str, aim=None) -> dict:
+def shoot(bpy, mathutils, to_blender, views: list[jobs.JobView], out_dir: str, ext: str, aim=None) -> dict:
     """Render each view with its camera exactly as ``out_dir/<view>.<ext>``; seconds per view."""
     scene = bpy.context.scene
     seconds = {}
-    for view in job["views"]:
-        scene.render.resolution_x, scene.render.resolution_y = int(view["width"]), int(view["height"])
+    for view in views:
+        scene.render.resolution_x, scene.render.resolution_y = int(view.width), int(view.height)
         scene.camera = _camera(bpy, mathutils, to_blender, view)
         if aim is not None:
             aim(view)
         t = time.perf_counter()
         bpy.ops.render.render()
         # saved by path as given: scene.render.filepath expands {...} templates and reads "\\" as "/" (Blender 5)
-        bpy.data.images["Render Result"].save_render(filepath=os.path.join(job["out_dir"], f"{view['name']}.{ext}"))
-        seconds[view["name"]] = time.perf_counter() - t
+        bpy.data.images["Render Result"].save_render(filepath=os.path.join(out_dir, f"{view.name}.{ext}"))
+        seconds[view.name] = time.perf_counter() - t
     return seconds
 
 
-def render_views(bpy, mathutils, to_blender, job: dict) -> None:
-    """One float32 EXR per View, Cycles on the CPU (also the OSL host's, :mod:`rockdove.hosts.osl_job`)."""
+def render_views(bpy, mathutils, to_blender, job: jobs.CyclesJob, colorspace: str | None = None) -> None:
+    """One float32 EXR per View (in ``colorspace``, else Blender's default), Cycles on the CPU (also the OSL host's,
+    :mod:`rockdove.hosts.osl_job`)."""
     scene = bpy.context.scene
     cycles(scene, job)
     scene.cycles.use_denoising = False
@@ -136,28 +139,27 @@ def render_views(bpy, mathutils, to_blender, job: dict) -> None:
     settings.file_format = "OPEN_EXR"
     settings.color_depth = "32"
     settings.color_mode = "RGBA"
-    if job.get("exr_colorspace"):  # the OSL host's (set after file_format, which resets it)
+    if colorspace:  # set after file_format, which resets it
         settings.color_management = "OVERRIDE"
-        settings.linear_colorspace_settings.name = job["exr_colorspace"]
+        settings.linear_colorspace_settings.name = colorspace
     scene.view_settings.view_transform = "Standard"
-    shoot(bpy, mathutils, to_blender, job, "exr")
+    shoot(bpy, mathutils, to_blender, job.views, job.out_dir, "exr")
 
 
-def run(job: dict) -> None:
+def run(job: jobs.BlenderJob) -> None:
     import bpy
     import mathutils
 
     addon, films, to_blender = import_asset(bpy, job)
-    if job.get("frame") is not None:  # an animated asset (its armature's action) at that frame
-        bpy.context.scene.frame_set(int(job["frame"]))
-    if job["lobe"] == "view_angle":  # else "as_imported" (rockdove.hosts.blender.render checks)
+    if job.frame is not None:  # an animated asset (its armature's action) at that frame
+        bpy.context.scene.frame_set(int(job.frame))
+    if job.lobe == "view_angle":  # else "as_imported" (rockdove.hosts.blender.render checks)
         film_lobe_only(bpy, addon)
-    white_world(bpy, job["environment_radiance"])
+    white_world(bpy, job.environment_radiance)
     render_views(bpy, mathutils, to_blender, job)
-    with open(os.path.join(job["out_dir"], "done.json"), "w", encoding="utf-8") as fh:
+    with open(os.path.join(job.out_dir, "done.json"), "w", encoding="utf-8") as fh:
         json.dump({"films": films, "blender": bpy.app.version_string}, fh)
 
 
 if __name__ == "__main__":
-    with open(sys.argv[1], encoding="utf-8") as fh:
-        run(json.load(fh))
+    run(jobs.BlenderJob.read(sys.argv[1]))

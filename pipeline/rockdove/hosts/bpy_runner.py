@@ -1,5 +1,5 @@
 """The bpy job runner the Blender, Storm and OSL hosts and the beauty render share: find a Python that has bpy, run
-a ``*_job.py`` script in it by file on a JSON job (stdlib and bpy only, so that Python needs no rockdove; its own
+a ``*_job.py`` script in it by file on a :mod:`.jobs` record (stdlib only, so that Python needs no rockdove; its own
 process, because bpy's bundled USD cannot share one with usd-core's ``pxr``), read back the images it wrote.
 """
 
@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import UsageError
 from .base import HostError
+from .jobs import Job, JobView
 
 #: Names a Python interpreter that has bpy, for when the one running rockdove has not: bpy 5.0 pins numpy < 2,
 #: which rockdove's other dependencies (colour-science 0.4.7) have outgrown, so the two usually live in separate
@@ -92,14 +93,15 @@ def bpy_python(host: str = "blender") -> str:
     return exe
 
 
-def run_job(job: dict, work: str, script: str | None, timeout_s: float = TIMEOUT_S, *, host: str = "blender",
+def run_job(job: Job | dict, work: str, script: str | None, timeout_s: float = TIMEOUT_S, *, host: str = "blender",
             renderer: str = "Blender") -> None:
     """Run the job ``script`` (by a literal ``find_spec("rockdove.hosts.x_job").origin``, so the verification's cache
-    key follows it) on ``job`` with :func:`bpy_python`, its log in ``work``. HostError when it fails or times out."""
+    key follows it) on ``job`` (its :mod:`.jobs` record, or that record's JSON fields) with :func:`bpy_python`, its
+    log in ``work``. HostError when it fails or times out."""
     python = bpy_python(host)
     job_path = os.path.join(work, "job.json")
     with open(job_path, "w", encoding="utf-8") as fh:
-        json.dump(job, fh, indent=1)
+        fh.write(job.to_json() if isinstance(job, Job) else json.dumps(job, indent=1))
     user = os.path.join(work, "user")  # Blender's user folders (installed add-ons, preferences) stay in here
     env = dict(os.environ, BLENDER_USER_RESOURCES=user, BLENDER_USER_CONFIG=os.path.join(user, "config"),
                BLENDER_USER_SCRIPTS=os.path.join(user, "scripts"),
@@ -122,6 +124,11 @@ def run_job(job: dict, work: str, script: str | None, timeout_s: float = TIMEOUT
         lines = [ln for ln in err.strip().splitlines() if ln.strip()]
         raise HostError(host, f"{renderer} exited with status {proc.returncode}: "
                               f"{lines[-1] if lines else 'no message'} (log: {work}/blender.log)")
+
+
+def job_views(views, *, sun: bool = False) -> list[JobView]:
+    """The views as a job reads them; ``sun``: each one's light as the beauty's ``sun_direction`` too."""
+    return [JobView(**v.to_dict(), sun_direction=v.light_direction.tolist() if sun else None) for v in views]
 
 
 def work_folder(folder: str, views: list, out_dir: str, ext: str = "exr") -> str:

@@ -6,6 +6,8 @@ in the project's EGL (:mod:`rockdove.hosts.materialx_gl`). OpenPBR's GLSL thin f
 
 from __future__ import annotations
 
+from typing import Any, NamedTuple
+
 from .base import Host, HostError, save_pngs
 
 
@@ -90,8 +92,16 @@ def two_sided(pixel_source: str) -> str:
     return head + sep + "    " + _TWO_SIDED + "\n" + body.replace("vd.normalWorld", "rdNormalWorld")
 
 
-def feather_networks(layer: str, variant: str) -> dict:
-    """Mesh path -> ``{"doc", "material", "files": {image node: file}}`` of each mesh with a MaterialX material."""
+class Network(NamedTuple):
+    """A mesh's MaterialX network: the document, its ``surfacematerial``'s name, each image node's file."""
+
+    doc: Any  # MaterialX.Document
+    material: str
+    files: dict[str, str]
+
+
+def feather_networks(layer: str, variant: str) -> dict[str, Network]:
+    """Mesh path -> :class:`Network` of each mesh with a MaterialX material."""
     from pxr import Usd, UsdGeom, UsdShade
 
     from ..usd.material import load_mtlx_libraries, usd_to_mtlx_document
@@ -122,7 +132,7 @@ def feather_networks(layer: str, variant: str) -> dict:
             value = file_input.Get() if file_input else None
             if value is not None and doc.getNode(child.GetName()) is not None:
                 files[child.GetName()] = value.resolvedPath or value.path
-        out[str(prim.GetPath())] = {"doc": doc, "material": f"{material.GetPrim().GetName()}_mtlx", "files": files}
+        out[str(prim.GetPath())] = Network(doc, f"{material.GetPrim().GetName()}_mtlx", files)
     if not out:
         raise ValueError(f"asset {layer!r}: no mesh is bound to a material with outputs:mtlx:surface")
     return out
@@ -141,7 +151,7 @@ def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str,
         networks = feather_networks(layer, variant)
         sources = {}
         for path, net in networks.items():
-            vert, frag = generate_glsl(net["doc"], net["material"])
+            vert, frag = generate_glsl(net.doc, net.material)
             sources[path] = (vert, two_sided(frag))
     except (ValueError, RuntimeError) as exc:
         raise HostError(name, f"cannot turn the asset's MaterialX network into GLSL: {exc}") from None

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..render.gl import upload_float_texture
 from .base import ENVIRONMENT_RADIANCE, HostError
 
 #: Image nodes whose texture gets a mip chain and trilinear filtering, as every host does: the LUT (its angle axis
@@ -55,29 +56,6 @@ void main() { if (texture(u_alpha, st).a < u_threshold) discard; out1 = vec4(0.0
 """
 
 
-def _texture(image: np.ndarray, *, mipmaps: bool = True) -> int:
-    """Upload (H, W[, C]) pixels (uint8 as c / 255) as 32-bit float, row 0 first (as a host uploads a file's rows)."""
-    from OpenGL import GL
-
-    data = np.asarray(image, np.float32) / (255.0 if image.dtype == np.uint8 else 1.0)
-    data = np.ascontiguousarray(data.reshape(*data.shape[:2], -1))
-    fmt, internal = {1: (GL.GL_RED, GL.GL_R32F), 2: (GL.GL_RG, GL.GL_RG32F), 3: (GL.GL_RGB, GL.GL_RGB32F),
-                     4: (GL.GL_RGBA, GL.GL_RGBA32F)}[data.shape[2]]
-    tex = GL.glGenTextures(1)
-    GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
-    GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 1)
-    GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, internal, data.shape[1], data.shape[0], 0, fmt, GL.GL_FLOAT, data)
-    GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 4)
-    if mipmaps:
-        GL.glGenerateMipmap(GL.GL_TEXTURE_2D)
-    GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MIN_FILTER,
-                       GL.GL_LINEAR_MIPMAP_LINEAR if mipmaps else GL.GL_LINEAR)
-    GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MAG_FILTER, GL.GL_LINEAR)
-    for p in (GL.GL_TEXTURE_WRAP_S, GL.GL_TEXTURE_WRAP_T):
-        GL.glTexParameteri(GL.GL_TEXTURE_2D, p, GL.GL_CLAMP_TO_EDGE)
-    return int(tex)
-
-
 def read_image_file(path: str) -> np.ndarray:
     """Pixels as a host loads them, top row first: uint8, or EXR float32 (the pip MaterialX has no EXR loader)."""
     if path.lower().endswith(".exr"):
@@ -121,8 +99,8 @@ def draw(scene, networks: dict, sources: dict, views, *, name: str) -> dict:
 
 
 def _draw_in_context(GL, scene, networks, sources, views, name, w, h) -> dict:
-    env = _texture(np.full((2, 2, 3), ENVIRONMENT_RADIANCE, np.float32), mipmaps=False)
-    black = _texture(np.zeros((1, 1, 4), np.float32), mipmaps=False)
+    env = upload_float_texture(np.full((2, 2, 3), ENVIRONMENT_RADIANCE, np.float32), mipmaps=False)
+    black = upload_float_texture(np.zeros((1, 1, 4), np.float32), mipmaps=False)
     fbo = GL.glGenFramebuffers(1)
     GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fbo)
     for storage, attachment in ((GL.GL_RGBA32F, GL.GL_COLOR_ATTACHMENT0),
@@ -134,14 +112,14 @@ def _draw_in_context(GL, scene, networks, sources, views, name, w, h) -> dict:
     if GL.glCheckFramebufferStatus(GL.GL_FRAMEBUFFER) != GL.GL_FRAMEBUFFER_COMPLETE:
         raise HostError(name, "float framebuffer incomplete")
 
-    white = _texture(np.ones((1, 1, 4), np.float32), mipmaps=False)
+    white = upload_float_texture(np.ones((1, 1, 4), np.float32), mipmaps=False)
     draws = []  # (program, vao, n_indices, textures {unit: tex}, is_material)
     for part in scene.parts:
         if (net := networks.get(part.path)) is None:
             image = read_image_file(part.base_colour_texture) if part.base_colour_texture else None
             cut = image is not None and image.ndim == 3 and image.shape[2] in (2, 4)
             prog = _compile(_OCCLUDER_VERT, _OCCLUDER_FRAG, name)
-            textures = {0: _texture(image[::-1], mipmaps=False) if cut else white}
+            textures = {0: upload_float_texture(image[::-1], mipmaps=False) if cut else white}
             GL.glUseProgram(prog)
             GL.glUniform1i(GL.glGetUniformLocation(prog, "u_alpha"), 0)
             GL.glUniform1f(GL.glGetUniformLocation(prog, "u_threshold"), float(part.opacity_threshold))
@@ -194,26 +172,27 @@ def _uniform(GL, prog, uniform: str, setter, *values) -> None:
         setter(loc, *values)
 
 
-def _bind_samplers(GL, prog, net: dict, env: int, black: int) -> dict:
-    """Texture unit -> texture for every sampler; the base colour's RGB 0 (the film lobe alone)."""
+def _bind_samplers(GL, prog, net, env: int, black: int) -> dict:
+    """Texture unit -> texture for every sampler of ``net`` (:class:`.materialx.Network`); the base colour's RGB 0
+    (the film lobe alone)."""
     GL.glUseProgram(prog)
     textures, unit = {}, 0
     for i in range(GL.glGetProgramiv(prog, GL.GL_ACTIVE_UNIFORMS)):
         uname, _, utype = GL.glGetActiveUniform(prog, i)
         uname = uname.decode() if isinstance(uname, bytes) else str(uname)
         if utype == GL.GL_FLOAT_MAT3:
-            _document_matrix(GL, prog, uname, net["doc"])
+            _document_matrix(GL, prog, uname, net.doc)
         if utype != GL.GL_SAMPLER_2D:
             continue
         if uname in ("u_envRadiance", "u_envIrradiance"):
             tex = env
-        elif uname.endswith("_file") and uname[: -len("_file")] in net["files"]:
+        elif uname.endswith("_file") and uname[: -len("_file")] in net.files:
             node = uname[: -len("_file")]
-            pixels = read_image_file(net["files"][node])
+            pixels = read_image_file(net.files[node])
             if node == "BaseColorTexture" and pixels.ndim == 3 and pixels.shape[2] == 4:
                 pixels = pixels.copy()
                 pixels[:, :, :3] = 0
-            tex = _texture(pixels, mipmaps=node in MIPMAPPED_IMAGES)
+            tex = upload_float_texture(pixels, mipmaps=node in MIPMAPPED_IMAGES)
         else:
             tex = black
         textures[unit] = tex

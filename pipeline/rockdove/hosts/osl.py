@@ -11,8 +11,9 @@ import shutil
 from ..errors import UsageError
 from . import bpy_runner
 from .base import ENVIRONMENT_RADIANCE, Host, HostError
-from .blender import base_job
-from .materialx import missing_variant
+from .blender import cycles_job
+from .jobs import OslJob, OslShader
+from .materialx import Network, missing_variant
 
 #: host name -> (the ``shading`` variant drawn, its base-colour input ``node.input``, set to black)
 VARIANTS = {"osl": ("baked", "StructuralMix.bg"), "osl_physical": ("physical", "MtlxPhysicalSurface.base_color")}
@@ -125,10 +126,10 @@ def osl_headers() -> list:
     raise HostError("osl", "MaterialX's OSL headers (libraries/stdlib/genosl/include/mx_funcs.h) are not found")
 
 
-def lobe_document(net: dict, base: str = VARIANTS["osl"][1]):
+def lobe_document(net: Network, base: str = VARIANTS["osl"][1]):
     """The network with the ``base`` colour black (the film lobe alone), in the working space, the image files empty:
     ``(document, {shader parameter: absolute file})``, set by the job (a path is never text of the source)."""
-    doc = net["doc"]
+    doc = net.doc
     node, _, name = base.partition(".")
     bg = doc.getNode(node).getInput(name) if doc.getNode(node) is not None else None
     if bg is None:
@@ -136,10 +137,10 @@ def lobe_document(net: dict, base: str = VARIANTS["osl"][1]):
     bg.removeAttribute("nodename")
     bg.removeAttribute("output")
     bg.setValueString("0, 0, 0")
-    for node_name in net["files"]:
+    for node_name in net.files:
         doc.getNode(node_name).getInput("file").setValueString("")
-    to_working_space(doc, net["material"])
-    return doc, {f"{node_name}_file": os.path.abspath(path) for node_name, path in net["files"].items()}
+    to_working_space(doc, net.material)
+    return doc, {f"{node_name}_file": os.path.abspath(path) for node_name, path in net.files.items()}
 
 
 def to_working_space(doc, material_name: str) -> None:
@@ -200,19 +201,20 @@ def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
     try:
         for mesh, net in networks.items():
             doc, files = lobe_document(net, base)
-            code = generate_osl(doc, net["material"])
+            code = generate_osl(doc, net.material)
             if not all(f'string {param} = ""' in code for param in files):
                 raise UsageError(f"MaterialX named the image parameters otherwise than {sorted(files)}")
-            source = os.path.join(work, f"{net['material']}.osl")
+            source = os.path.join(work, f"{net.material}.osl")
             with open(source, "w", encoding="utf-8") as fh:
                 fh.write(for_cycles(code))
-            shaders[mesh] = {"source": source, "attributes": geomprops(net["doc"]), "files": files}
+            shaders[mesh] = OslShader(source, geomprops(net.doc), files)
     except ValueError as exc:
         raise HostError(name, f"cannot turn the asset's MaterialX network into OSL: {exc}") from None
     except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
         raise HostError(name, f"MaterialX OSL generation failed: {type(exc).__name__}: {exc}") from None
-    job = {**base_job(os.path.abspath(layer), views, work, SAMPLES, addon=False), "shaders": shaders,
-           "environment_radiance": ENVIRONMENT_RADIANCE, "working_space": WORKING_SPACE, "exr_colorspace": EXR_SPACE}
+    job = cycles_job(OslJob, os.path.abspath(layer), bpy_runner.job_views(views), work, SAMPLES, addon=False,
+                     shaders=shaders, environment_radiance=ENVIRONMENT_RADIANCE, working_space=WORKING_SPACE,
+                     exr_colorspace=EXR_SPACE)
     try:
         bpy_runner.run_job(job, work, importlib.util.find_spec("rockdove.hosts.osl_job").origin, TIMEOUT_S,
                            host=name, renderer="Cycles (OSL)")

@@ -1,6 +1,6 @@
 """The Cycles side of :mod:`rockdove.hosts.osl`, run as ``PYTHON osl_job.py JOB.json`` by a Python that has bpy;
-it imports nothing but the standard library, bpy and :mod:`rockdove.hosts.blender_job` (by file). A shader the
-compiler rejects prints its error lines and the job exits 1 naming it.
+it imports nothing but the standard library, bpy and its siblings :mod:`.blender_job` and :mod:`.jobs` (this file's
+folder is ``sys.path[0]``). A shader the compiler rejects prints its error lines and the job exits 1 naming it.
 """
 
 from __future__ import annotations
@@ -9,23 +9,18 @@ import json
 import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import blender_job
+import jobs
 
 
-def compile_shaders(shaders: dict) -> dict:
-    """Mesh path -> compiled ``.oso`` path; exits 1 naming the first shader the compiler rejects."""
+def compile_shaders(shaders: dict[str, jobs.OslShader]) -> None:
+    """Compile each mesh path's shader into its ``oso``; exits 1 naming the first shader the compiler rejects."""
     import _cycles
 
-    out = {}
     for mesh, shader in shaders.items():
-        source = shader["source"]
-        oso = os.path.splitext(source)[0] + ".oso"
-        if not _cycles.osl_compile(source, oso) or not os.path.isfile(oso):
-            print(f"OSL compile of {os.path.basename(source)} (for {mesh}) failed", file=sys.stderr)
+        if not _cycles.osl_compile(shader.source, shader.oso) or not os.path.isfile(shader.oso):
+            print(f"OSL compile of {os.path.basename(shader.source)} (for {mesh}) failed", file=sys.stderr)
             sys.exit(1)
-        out[mesh] = dict(shader, oso=oso)
-    return out
 
 
 def request_attributes(material, output, names) -> None:
@@ -79,24 +74,23 @@ def script_material(bpy, name: str, oso: str, attributes=(), files=None):
     return mat
 
 
-def run(job: dict) -> None:
+def run(job: jobs.OslJob) -> None:
     import bpy
     import mathutils
 
-    compiled = compile_shaders(job["shaders"])
+    compile_shaders(job.shaders)
     _, _, to_blender = blender_job.import_asset(bpy, job)
     # colours stay as the shader computes them (in ACEScg), the render is written in linear Rec.709 (osl.py)
-    bpy.ops.wm.set_working_color_space(working_space=job["working_space"], convert_colors=False)
+    bpy.ops.wm.set_working_color_space(working_space=job.working_space, convert_colors=False)
     black = blender_job.black_material(bpy)
-    by_name = {mesh.rsplit("/", 1)[-1]: shader for mesh, shader in compiled.items()}
+    by_name = {mesh.rsplit("/", 1)[-1]: shader for mesh, shader in job.shaders.items()}
     drawn = []
     for ob in bpy.data.objects:
         ob.visible_glossy = ob.visible_diffuse = False  # the lobe sees the uniform world alone, unoccluded
         if ob.type != "MESH":
             continue
         shader = by_name.get(ob.name) or by_name.get(ob.data.name)
-        material = (script_material(bpy, f"rockdove_osl_{ob.name}", shader["oso"], shader["attributes"],
-                                    shader.get("files"))
+        material = (script_material(bpy, f"rockdove_osl_{ob.name}", shader.oso, shader.attributes, shader.files)
                     if shader else blender_job.occluder(ob.active_material, black))
         if shader:
             drawn.append(ob.name)
@@ -105,13 +99,12 @@ def run(job: dict) -> None:
     if missing := sorted(set(by_name) - set(drawn)):
         objects = [o.name for o in bpy.data.objects]
         raise RuntimeError(f"no imported mesh named {', '.join(missing)} (objects: {objects})")
-    blender_job.white_world(bpy, job["environment_radiance"])
+    blender_job.white_world(bpy, job.environment_radiance)
     bpy.context.scene.cycles.shading_system = True  # OSL (CPU only)
-    blender_job.render_views(bpy, mathutils, to_blender, job)
-    with open(os.path.join(job["out_dir"], "done.json"), "w", encoding="utf-8") as fh:
+    blender_job.render_views(bpy, mathutils, to_blender, job, job.exr_colorspace)
+    with open(os.path.join(job.out_dir, "done.json"), "w", encoding="utf-8") as fh:
         json.dump({"drawn": drawn, "blender": bpy.app.version_string}, fh)
 
 
 if __name__ == "__main__":
-    with open(sys.argv[1], encoding="utf-8") as fh:
-        run(json.load(fh))
+    run(jobs.OslJob.read(sys.argv[1]))

@@ -14,6 +14,7 @@ import numpy as np
 from ..png import save_png
 from . import bpy_runner
 from .base import ENVIRONMENT_RADIANCE, Host, HostError
+from .jobs import StormJob
 from .materialx import missing_variant
 
 LOBE = "view_angle"
@@ -48,8 +49,8 @@ class StormHost(Host):
             raise HostError(name, f"Storm would paste into its shaders: {code}")
         work = bpy_runner.work_folder(name, views, out_dir)
         save_png(np.full((2, 4, 3), 255, np.uint8), os.path.join(work, "white.png"))  # the dome light's texture
-        job = {"asset": asset_path, "variant": self.variant, "overrides": {FEATHER_MATERIAL: VARIANTS[name][1]},
-               "environment_radiance": ENVIRONMENT_RADIANCE, "out_dir": work, "views": [v.to_dict() for v in views]}
+        job = StormJob(asset=asset_path, variant=self.variant, overrides={FEATHER_MATERIAL: VARIANTS[name][1]},
+                       environment_radiance=ENVIRONMENT_RADIANCE, out_dir=work, views=bpy_runner.job_views(views))
         # the bpy Python, found and run as the Blender host runs its job (log: work/blender.log)
         bpy_runner.run_job(job, work, importlib.util.find_spec("rockdove.hosts.storm_job").origin, TIMEOUT_S,
                            host=name, renderer="Storm")

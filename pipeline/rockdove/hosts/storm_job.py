@@ -1,12 +1,13 @@
 """Storm's side of :mod:`rockdove.hosts.storm`, run as ``python storm_job.py job.json`` by the Python that has bpy
-(its bundled USD has imaging; usd-core has none); nothing of rockdove. Each view, recorded by ``FrameRecorder`` into
-``<view>.exr``, may carry a ``time`` and ``only`` the meshes it draws (:mod:`rockdove.verify.storm_motion`).
+(its bundled USD has imaging; usd-core has none); of rockdove, :mod:`.jobs` alone. Each view, recorded by
+``FrameRecorder`` into ``<view>.exr``, may carry a ``time`` and ``only`` the meshes it draws (storm_motion's).
 """
 
 import ctypes
-import json
 import os
 import sys
+
+import jobs  # the sibling module (this file is run by path: its folder is sys.path[0])
 
 
 def bundled_usd_first() -> str:
@@ -68,60 +69,60 @@ def _black(surface) -> None:
     shader.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(1.0)
 
 
-def _session(stage, job):
+def _session(stage, job: jobs.StormJob):
     """The session layer's opinions: variant, lobe overrides, dome light, cameras. Returns camera paths."""
     from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
 
     stage.SetEditTarget(stage.GetSessionLayer())
     root = stage.GetDefaultPrim()
-    if job["variant"] in ("baked", "physical"):
-        root.GetVariantSet("shading").SetVariantSelection(job["variant"])
-    if job.get("motion"):  # Storm skins the meshes itself (UsdSkel's ExtComputations) at each view's time
-        root.GetVariantSet("motion").SetVariantSelection(job["motion"])
+    if job.variant in ("baked", "physical"):
+        root.GetVariantSet("shading").SetVariantSelection(job.variant)
+    if job.motion:  # Storm skins the meshes itself (UsdSkel's ExtComputations) at each view's time
+        root.GetVariantSet("motion").SetVariantSelection(job.motion)
     for prim in stage.Traverse():  # the rest pose as authored: Hydra replaces a skinned mesh's normals by its own
-        if prim.GetTypeName() == "Skeleton" and not job.get("motion"):
+        if prim.GetTypeName() == "Skeleton" and not job.motion:
             prim.SetActive(False)
     for prim in stage.Traverse():
-        if not prim.IsA(UsdShade.Material) or job.get("as_authored"):  # as authored: what a usdview user sees
+        if not prim.IsA(UsdShade.Material) or job.as_authored:  # as authored: what a usdview user sees
             continue
         mtl = UsdShade.Material(prim)
         out = mtl.GetSurfaceOutput("mtlx")
         if not out.GetAttr().IsValid() or not out.HasConnectedSource():
             _black(prim.GetChild("PreviewSurface"))  # other parts: black, they only occlude (the lobe)
-        elif job["variant"] == "preview":
+        elif job.variant == "preview":
             out.GetAttr().SetConnections([])  # a Storm without MaterialX: the UsdPreviewSurface network
-        for name, value in job.get("overrides", {}).get(prim.GetName(), {}).items():
+        for name, value in job.overrides.get(prim.GetName(), {}).items():
             shader, inp = name.split(".")
             attr = prim.GetChild(shader).GetAttribute(f"inputs:{inp}")
             if attr.IsValid():
                 attr.SetConnections([])
                 attr.Set(Gf.Vec3f(*value) if isinstance(value, list) else value)
     dome = UsdLux.DomeLight.Define(stage, "/RockdoveStorm/Environment")  # white.png: white in every colour space
-    dome.CreateTextureFileAttr(Sdf.AssetPath(os.path.join(job["out_dir"], "white.png")))
-    dome.CreateIntensityAttr(float(job["environment_radiance"]))
+    dome.CreateTextureFileAttr(Sdf.AssetPath(os.path.join(job.out_dir, "white.png")))
+    dome.CreateIntensityAttr(float(job.environment_radiance))
     dome.CreateExposureAttr(0.0)
     cams = []
-    for view in job["views"]:
-        cam = UsdGeom.Camera.Define(stage, f"/RockdoveStorm/Cam_{view['name']}")
-        vert = 2.0 * 50.0 * __import__("math").tan(float(view["yfov_rad"]) / 2.0)
+    for view in job.views:
+        cam = UsdGeom.Camera.Define(stage, f"/RockdoveStorm/Cam_{view.name}")
+        vert = 2.0 * 50.0 * __import__("math").tan(float(view.yfov_rad) / 2.0)
         cam.CreateFocalLengthAttr(50.0)
         cam.CreateVerticalApertureAttr(vert)
-        cam.CreateHorizontalApertureAttr(vert * view["width"] / view["height"])
+        cam.CreateHorizontalApertureAttr(vert * view.width / view.height)
         cam.CreateClippingRangeAttr(Gf.Vec2f(1e-3, 1e3))
-        m = Gf.Matrix4d(*[float(x) for row in view["camera_to_world"] for x in row]).GetTranspose()
+        m = Gf.Matrix4d(*[float(x) for row in view.camera_to_world for x in row]).GetTranspose()
         cam.AddTransformOp().Set(m)
         cams.append(cam)
     return cams
 
 
-def run(job: dict) -> None:
+def run(job: jobs.StormJob) -> None:
     bundled_usd_first()
-    size = (max(v["width"] for v in job["views"]), max(v["height"] for v in job["views"]))
+    size = (max(v.width for v in job.views), max(v.height for v in job.views))
     keep = egl_context(*size)  # noqa: F841 (the context must live while Storm draws)
     from pxr import Usd, UsdAppUtils, UsdGeom
 
-    if (stage := Usd.Stage.Open(job["asset"])) is None:
-        raise RuntimeError(f"{job['asset']}: not a USD stage")
+    if (stage := Usd.Stage.Open(job.asset)) is None:
+        raise RuntimeError(f"{job.asset}: not a USD stage")
     cams = _session(stage, job)
     rec = UsdAppUtils.FrameRecorder("HdStormRendererPlugin", True)
     rec.SetColorCorrectionMode("disabled")
@@ -129,25 +130,22 @@ def run(job: dict) -> None:
     rec.SetDomeLightVisibility(False)
     rec.SetComplexity(1.0)
     meshes = [p for p in stage.Traverse() if p.IsA(UsdGeom.Mesh)]
-    for view, cam in zip(job["views"], cams):
-        rec.SetImageWidth(int(view["width"]))
-        path = os.path.join(job["out_dir"], f"{view['name']}.exr")
-        only = view.get("only")  # a view of some meshes (prim names), the others invisible
-        for prim in meshes:
-            hidden = only is not None and prim.GetName() not in only
+    for view, cam in zip(job.views, cams):
+        rec.SetImageWidth(int(view.width))
+        path = os.path.join(job.out_dir, f"{view.name}.exr")
+        for prim in meshes:  # a view of some meshes (prim names), the others invisible
+            hidden = view.only is not None and prim.GetName() not in view.only
             visibility = UsdGeom.Tokens.invisible if hidden else UsdGeom.Tokens.inherited
             UsdGeom.Imageable(prim).GetVisibilityAttr().Set(visibility)
-        time = Usd.TimeCode(view["time"]) if view.get("time") is not None else Usd.TimeCode.Default()
+        time = Usd.TimeCode(view.time) if view.time is not None else Usd.TimeCode.Default()
         if not rec.Record(stage, cam, time, path):
-            raise RuntimeError(f"Storm: FrameRecorder.Record failed for view {view['name']!r}")
-        print(f"storm: {view['name']} -> {path}", flush=True)
+            raise RuntimeError(f"Storm: FrameRecorder.Record failed for view {view.name!r}")
+        print(f"storm: {view.name} -> {path}", flush=True)
 
 
 def main() -> int:
-    with open(sys.argv[1], encoding="utf-8") as fh:
-        job = json.load(fh)
     try:
-        run(job)
+        run(jobs.StormJob.read(sys.argv[1]))
     except Exception as exc:  # one line for the host's HostError; the log keeps the rest
         print(f"storm: {type(exc).__name__}: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1

@@ -64,14 +64,15 @@ def _program_cache():
     return ThinFilmProgramCache(shader_dir=str(resources.path("materials/glsl")))
 
 
-def _upload_float_texture(image: np.ndarray, mipmaps: bool = False) -> int:
-    """Upload a float image, (H, W, 1|3|4) with row 0 = t = 0 (bottom), as a GL float texture (linear, clamped;
-    trilinear over a mip chain with ``mipmaps``)."""
+def upload_float_texture(image: np.ndarray, mipmaps: bool = False) -> int:
+    """Upload an image, (H, W[, 1-4]) (uint8 as c / 255) with row 0 = t = 0 (bottom), as a GL float texture (linear,
+    clamped; trilinear over a mip chain with ``mipmaps``)."""
     from OpenGL import GL
 
-    data = np.ascontiguousarray(image, dtype=np.float32)
-    internal, fmt = {1: (GL.GL_R32F, GL.GL_RED), 3: (GL.GL_RGB32F, GL.GL_RGB), 4: (GL.GL_RGBA32F, GL.GL_RGBA)}[
-        data.shape[2]]
+    data = np.asarray(image, np.float32) / (255.0 if image.dtype == np.uint8 else 1.0)
+    data = np.ascontiguousarray(data.reshape(*data.shape[:2], -1))
+    internal, fmt = {1: (GL.GL_R32F, GL.GL_RED), 2: (GL.GL_RG32F, GL.GL_RG), 3: (GL.GL_RGB32F, GL.GL_RGB),
+                     4: (GL.GL_RGBA32F, GL.GL_RGBA)}[data.shape[2]]
     tex = GL.glGenTextures(1)
     GL.glBindTexture(GL.GL_TEXTURE_2D, tex)
     GL.glPixelStorei(GL.GL_UNPACK_ALIGNMENT, 1)
@@ -190,18 +191,18 @@ class GLRenderer:
                     rgba[..., :3] = img[..., :3] if img.shape[2] >= 3 else img[..., :1]
                     if img.shape[2] in (2, 4):
                         rgba[..., 3] = img[..., -1]
-                    cache[key] = _upload_float_texture(rgba[::-1], self.mipmaps)
+                    cache[key] = upload_float_texture(rgba[::-1], self.mipmaps)
                 pg.base_tex = cache[key]
             if p.mask_texture:
                 key = (p.mask_texture, "mask")
                 if key not in cache:
-                    cache[key] = _upload_float_texture(read_texture(p.mask_texture, srgb=False)[::-1, :, :1],
+                    cache[key] = upload_float_texture(read_texture(p.mask_texture, srgb=False)[::-1, :, :1],
                                                        self.mipmaps)
                 pg.mask_tex = cache[key]
         self._textures = list(cache.values())
         self._lut_tex = None
         if self.lut is not None:  # row 0 of the table (thinnest) is t = 0: uploaded as is
-            self._lut_tex = _upload_float_texture(self.lut.rgb)
+            self._lut_tex = upload_float_texture(self.lut.rgb)
             self._textures.append(self._lut_tex)
 
     def _ensure_fbo(self, width, height, samples=1):
