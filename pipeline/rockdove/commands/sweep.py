@@ -91,7 +91,8 @@ def _json(record, keep: tuple[str, ...] = ()) -> dict:
 
 @dataclass(frozen=True)
 class Verified:
-    """A point's verdict, notes and, from report.json (None if unreadable), failures, worst dE2000s, hue counts."""
+    """A point's verdict and notes and, from report.json (None if unreadable), its failures, the worst median and
+    p95 dE2000 of its views and the light sweep's pixels by hue."""
 
     passed: bool
     notes: tuple[str, ...]
@@ -102,6 +103,24 @@ class Verified:
 
     def to_json(self) -> dict:
         return _json(self, ("median_dE", "p95_dE") if self.failures is not None else ())
+
+    @classmethod
+    def of(cls, result) -> Verified | None:
+        """Of a build's result (None: not verified) and its report."""
+        from ..verify.results import Report
+
+        if result.verified is None:
+            return None
+        passed, notes = bool(result.verified), tuple(result.notes)
+        try:
+            report = Report.from_json(json.loads((Path(result.report_dir) / "report.json").read_text()))
+        except (OSError, ValueError, TypeError, KeyError):
+            return cls(passed, notes)
+        medians = [m.de_median for m in report.views if m.de_median is not None]
+        p95s = [m.de_p95 for m in report.views if m.de_p95 is not None]
+        h = report.hue_sweep
+        return cls(passed, notes, tuple(report.failures), max(medians) if medians else None,
+                   max(p95s) if p95s else None, {"green": h.green, "purple": h.purple, "grey": h.grey, "other": h.other})
 
 
 @dataclass(frozen=True)
@@ -114,6 +133,15 @@ class Images:
 
     def to_json(self) -> dict:
         return _json(self, ("hue",) if self.sweep is not None else ())
+
+    @classmethod
+    def of(cls, out: Path, report: Path | None) -> Images:
+        """Of the report folder ``report``, or of the asset ``out`` when it has none."""
+        if report is not None and report.is_dir():
+            return cls(tuple(str(p) for p in sorted(report.glob("sweep_*_gl.png"))),
+                       str(report / "hue.png") if (report / "hue.png").is_file() else None)
+        preview = out / "textures" / "feather_preview.png"
+        return cls(preview=str(preview) if preview.is_file() else None)
 
 
 @dataclass(frozen=True)
@@ -161,36 +189,8 @@ def build_point(record: PointRecord, base: Base, out: str, verify: bool) -> Poin
     record = replace(record, status=status, pid=os.getpid(), worker=get_worker().address, error=error,
                      seconds=round(time.perf_counter() - t0, 3))
     return record if result is None else replace(
-        record, config_hash=result.config_hash, verify=_verified(result), images=_images(Path(out), result.report_dir),
+        record, config_hash=result.config_hash, verify=Verified.of(result), images=Images.of(Path(out), result.report_dir),
         build={"ran": result.ran, "reused": result.reused, "seconds": round(result.seconds, 4)})
-
-
-def _verified(result) -> Verified | None:
-    """Verdict, failures, worst dE2000 over the views and hue counts, from a build's result and its report."""
-    from ..verify.results import Report
-
-    if result.verified is None:
-        return None
-    passed, notes = bool(result.verified), tuple(result.notes)
-    try:
-        report = Report.from_json(json.loads((Path(result.report_dir) / "report.json").read_text()))
-    except (OSError, ValueError, TypeError, KeyError):
-        return Verified(passed, notes)
-    medians = [m.de_median for m in report.views if m.de_median is not None]
-    p95s = [m.de_p95 for m in report.views if m.de_p95 is not None]
-    hue = report.hue_sweep
-    return Verified(passed, notes, tuple(report.failures), max(medians) if medians else None,
-                    max(p95s) if p95s else None,
-                    {"green": hue.green, "purple": hue.purple, "grey": hue.grey, "other": hue.other})
-
-
-def _images(out: Path, report: Path | None) -> Images:
-    """The light-sweep renders and hue histogram of the report folder, or the LUT preview when not verified."""
-    if report is not None and report.is_dir():
-        return Images(tuple(str(p) for p in sorted(report.glob("sweep_*_gl.png"))),
-                      str(report / "hue.png") if (report / "hue.png").is_file() else None)
-    preview = out / "textures" / "feather_preview.png"
-    return Images(preview=str(preview) if preview.is_file() else None)
 
 
 # ----------------------------------------------------------------------------------------------- the page
