@@ -39,8 +39,8 @@ KEYED_INSIDE = ("verify",)
 
 
 class PathRow(NamedTuple):
-    """A folder rockdove uses outside an asset: what it holds, where, what keys it and, for a user-cache ``folder``,
-    why it is ``stale`` (false: current, keyed inside, or not rockdove's) and whether --prune ``removed`` it."""
+    """A folder rockdove uses outside an asset; a user-cache ``folder`` also says why it is ``stale`` (or a false
+    value: current, keyed inside, not rockdove's) and whether --prune ``removed`` it."""
 
     what: str
     path: str
@@ -55,8 +55,7 @@ class PathRow(NamedTuple):
 
 
 def paths() -> list[PathRow]:
-    """Every folder rockdove uses outside an asset, a user-cache folder marked stale as :func:`rockdove.sources.stale`
-    finds it."""
+    """Every folder rockdove uses outside an asset, stale as :func:`rockdove.sources.stale` finds it."""
     from .. import resources, sources
 
     user = resources.user_cache_dir()

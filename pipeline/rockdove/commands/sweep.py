@@ -91,8 +91,7 @@ def _json(record, keep: tuple[str, ...] = ()) -> dict:
 
 @dataclass(frozen=True)
 class Verified:
-    """A point's verdict and notes and, from report.json (None if unreadable), its failures, the worst median and
-    p95 dE2000 of its views and the light sweep's pixels by hue."""
+    """Verdict and notes, and from report.json (None: unreadable) failures, worst dE2000s, sweep pixels by hue."""
 
     passed: bool
     notes: tuple[str, ...]
@@ -146,8 +145,7 @@ class Images:
 
 @dataclass(frozen=True)
 class PointRecord(Point):
-    """A point's entry in sweep.json: the grid point, its folder and status, then as known the rest (``images``
-    None: not built; ``build``: the stages it ran and reused and their seconds, only written)."""
+    """A point's entry in sweep.json, its keys in order; ``images`` None: not built. ``build`` is only written."""
 
     asset: str
     status: Status = "pending"

@@ -278,8 +278,7 @@ VALIDATOR_TIMEOUT_S = 120
 
 
 class GlbValidation(NamedTuple):
-    """What the Khronos glTF-Validator found in a GLB: issues by severity, its messages (its own entries: code,
-    message, pointer...) and, of what it read, the extensions used and the most UV sets of a primitive."""
+    """The Khronos glTF-Validator's findings: issues by severity, its own messages, extensions used, most UV sets."""
 
     errors: int
     warnings: int
