@@ -20,12 +20,10 @@ def test_glb_validates_with_zero_errors(built_glb):
     from rockdove.web.gltf import validate_glb
 
     report = validate_glb(built_glb[1])
-    issues = report["issues"]
-    assert issues["numErrors"] == 0, issues["messages"]
-    assert issues["numWarnings"] == 0, issues["messages"]
-    assert set(report["info"]["extensionsUsed"]) == {"KHR_materials_iridescence", "KHR_materials_ior",
-                                                     "KHR_materials_variants"}
-    assert report["info"]["maxUVs"] == 3
+    assert report.errors == 0, report.messages
+    assert report.warnings == 0, report.messages
+    assert set(report.extensions_used) == {"KHR_materials_iridescence", "KHR_materials_ior", "KHR_materials_variants"}
+    assert report.max_uvs == 3
 
 
 def test_validator_reports_a_broken_glb(built_glb, tmp_path):
@@ -37,7 +35,7 @@ def test_validator_reports_a_broken_glb(built_glb, tmp_path):
     gltf = pygltflib.GLTF2().load(str(built_glb[1]))
     gltf.accessors[gltf.meshes[0].primitives[0].attributes.POSITION].count = 1
     gltf.save(str(tmp_path / "broken.glb"))
-    assert validate_glb(tmp_path / "broken.glb")["issues"]["numErrors"] > 0
+    assert validate_glb(tmp_path / "broken.glb").errors > 0
 
 
 def test_feather_material_carries_the_film(built_glb):
@@ -58,7 +56,7 @@ def test_feather_material_carries_the_film(built_glb):
     assert (ir["iridescenceThicknessMinimum"], ir["iridescenceThicknessMaximum"]) == tuple(film.thickness_range_nm)
     assert ir["iridescenceThicknessTexture"]["texCoord"] == 1
     assert feathers.extensions["KHR_materials_ior"]["ior"] == film.model.n_substrate
-    assert summary["ior_wavelength_nm"] == 550.0
+    assert summary.ior_wavelength_nm == 550.0
 
 
 def test_default_feather_material_is_the_preview_atlas_and_the_film_a_variant(built_glb):

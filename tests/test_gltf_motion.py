@@ -74,8 +74,8 @@ def glb(small_asset):
 def test_the_glb_carries_a_skin_and_both_motions_and_validates(small_asset, glb):
     from rockdove.web.gltf import validate_glb
 
-    issues = validate_glb(small_asset / "pigeon.glb")["issues"]
-    assert (issues["numErrors"], issues["numWarnings"]) == (0, 0), issues["messages"][:5]
+    report = validate_glb(small_asset / "pigeon.glb")
+    assert (report.errors, report.warnings) == (0, 0), report.messages[:5]
     assert [a.name for a in glb.animations] == ["idle", "walk"] and len(glb.skins) == 1
     skin = glb.skins[0]
     names = [glb.nodes[j].name for j in skin.joints]

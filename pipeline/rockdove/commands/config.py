@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+from typing import NamedTuple
 
 from ..config import config_hash, describe, load_config
 from .build import add_config_arguments
@@ -37,42 +38,55 @@ HOLDS = {"colour-science-": "colour-science's CIE tables and RGB matrices, the q
 KEYED_INSIDE = ("verify",)
 
 
-def paths() -> list[dict]:
-    """Every folder rockdove uses outside an asset: ``what``, ``path``, ``keyed_by``, and for a user-cache folder
-    ``stale`` (:func:`rockdove.sources.stale`)."""
+class PathRow(NamedTuple):
+    """A folder rockdove uses outside an asset; a user-cache ``folder`` also says why it is ``stale`` (or a false
+    value: current, keyed inside, not rockdove's) and whether --prune ``removed`` it."""
+
+    what: str
+    path: str
+    keyed_by: str
+    folder: bool = False
+    stale: str | bool | None = None
+    removed: bool = False
+
+    def to_json(self) -> dict:
+        out = {"what": self.what, "path": self.path, "keyed_by": self.keyed_by}
+        return {**out, "stale": self.stale, **({"removed": True} if self.removed else {})} if self.folder else out
+
+
+def paths() -> list[PathRow]:
+    """Every folder rockdove uses outside an asset, stale as :func:`rockdove.sources.stale` finds it."""
     from .. import resources, sources
 
     user = resources.user_cache_dir()
-    rows = [{"what": "user cache ($XDG_CACHE_HOME/rockdove; safe to delete)", "path": str(user),
-             "keyed_by": f"what derives each folder: code, installed distributions, Python ({sources.KEY_FILE})"}]
+    rows = [PathRow("user cache ($XDG_CACHE_HOME/rockdove; safe to delete)", str(user),
+                    f"what derives each folder: code, installed distributions, Python ({sources.KEY_FILE})")]
     for folder in sorted(user.iterdir()) if user.is_dir() else []:
         what = next((w for prefix, w in HOLDS.items() if folder.name.startswith(prefix)), None)
-        rows.append({"what": what or "(not rockdove's)", "path": str(folder), "keyed_by": sources.KEY_FILE,
-                     "stale": what and folder.name not in KEYED_INSIDE and sources.stale(folder)})
-    rows.append({"what": "package data (read only)", "path": str(resources.package_root()), "keyed_by": ""})
-    rows.append({"what": "stage cache of a build", "path": ".rockdove-cache beside --out, or --cache",
-                 "keyed_by": "stage key"})
-    return rows
+        rows.append(PathRow(what or "(not rockdove's)", str(folder), sources.KEY_FILE, True,
+                            what and folder.name not in KEYED_INSIDE and sources.stale(folder)))
+    return [*rows, PathRow("package data (read only)", str(resources.package_root()), ""),
+            PathRow("stage cache of a build", ".rockdove-cache beside --out, or --cache", "stage key")]
 
 
 def run(args: argparse.Namespace) -> int:
     if args.paths or args.prune:
         import shutil
 
-        rows = paths()
-        for row in rows:
-            if args.prune and row.get("stale"):
-                shutil.rmtree(row["path"], ignore_errors=True)
-                row["removed"] = True
+        folders = paths()
+        for i, row in enumerate(folders):
+            if args.prune and row.stale:
+                shutil.rmtree(row.path, ignore_errors=True)
+                folders[i] = row._replace(removed=True)
         if args.json:
-            print(json.dumps(rows, indent=1))
+            print(json.dumps([row.to_json() for row in folders], indent=1))
             return 0
-        for row in rows:
-            if "stale" in row:  # a user-cache folder
-                stale = f"  STALE: {row['stale']}" + ("; removed" if row.get("removed") else "") if row["stale"] else ""
-                print(f"  {row['what']}: {row['path']}{stale}")
+        for row in folders:
+            if row.folder:
+                stale = f"  STALE: {row.stale}" + ("; removed" if row.removed else "") if row.stale else ""
+                print(f"  {row.what}: {row.path}{stale}")
             else:
-                print(f"{row['what']}: {row['path']}" + (f"  (keyed by {row['keyed_by']})" if row["keyed_by"] else ""))
+                print(f"{row.what}: {row.path}" + (f"  (keyed by {row.keyed_by})" if row.keyed_by else ""))
         return 0
     config = load_config(preset=args.preset, config_file=args.config, overrides=args.overrides)
     rows = describe(config)

@@ -35,30 +35,26 @@ def run(args: argparse.Namespace) -> int:
     from ..graph.publish import check_output_file
 
     check_output_file(out, _ours)
-    summary = export_glb(layer, out, version=__version__)
-    if args.validate:
-        try:
-            report = validate_glb(out)
-        except RuntimeError as exc:
-            raise UsageError(str(exc)) from None
-        issues = report["issues"]
-        summary["validation"] = {k: issues[k] for k in ("numErrors", "numWarnings", "numInfos", "numHints")}
-        summary["validation"]["messages"] = issues["messages"][:20]
-    if args.json:
-        json.dump(summary, sys.stdout, indent=2)
+    export = export_glb(layer, out, version=__version__)
+    try:
+        v = validate_glb(out) if args.validate else None
+    except RuntimeError as exc:
+        raise UsageError(str(exc)) from None
+    if args.json:  # the validator's first 20 messages as it wrote them
+        json.dump({**export._asdict(), **({} if v is None else {"validation": {
+            "numErrors": v.errors, "numWarnings": v.warnings, "numInfos": v.infos, "numHints": v.hints,
+            "messages": v.messages[:20]}})}, sys.stdout, indent=2)
         sys.stdout.write("\n")
     else:
-        print(f"wrote {summary['path']} ({summary['bytes']} bytes): iridescenceIor {summary['iridescence_ior']:.4f} "
-              f"at {summary['ior_wavelength_nm']:g} nm, thickness {summary['thickness_range_nm'][0]:g}-"
-              f"{summary['thickness_range_nm'][1]:g} nm, substrate ior {summary['substrate_ior']:g}")
-        if args.validate:
-            v = summary["validation"]
-            print(f"glTF-Validator: {v['numErrors']} errors, {v['numWarnings']} warnings, {v['numInfos']} infos, "
-                  f"{v['numHints']} hints")
-            for m in v["messages"]:
+        lo, hi = export.thickness_range_nm
+        print(f"wrote {export.path} ({export.bytes} bytes): iridescenceIor {export.iridescence_ior:.4f} at "
+              f"{export.ior_wavelength_nm:g} nm, thickness {lo:g}-{hi:g} nm, substrate ior {export.substrate_ior:g}")
+        if v is not None:
+            print(f"glTF-Validator: {v.errors} errors, {v.warnings} warnings, {v.infos} infos, {v.hints} hints")
+            for m in v.messages[:20]:  # the validator's own entries
                 print(f"  {m['code']}: {m['message']} ({m.get('pointer', '')})")
-    if args.validate and summary["validation"]["numErrors"]:
-        raise VerificationFailed(f"glTF-Validator found {summary['validation']['numErrors']} errors in {out}")
+    if v is not None and v.errors:
+        raise VerificationFailed(f"glTF-Validator found {v.errors} errors in {out}")
     return 0
 
 

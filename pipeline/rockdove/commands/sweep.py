@@ -17,16 +17,19 @@ import re
 import sys
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
+from typing import Literal
 
 from ..errors import UsageError
 from ..resources import write_atomic
 from .build import add_config_arguments
-from .sweep_grid import grid_points, parse_grid
+from .sweep_grid import Point, grid_points, parse_grid
 
 POINTS = "points"
 REFRESH_S = 2
+#: A point's outcome: not run yet, built (and verified), verification failed, bad configuration, or an error.
+Status = Literal["pending", "ok", "failed", "invalid", "error"]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -80,111 +83,159 @@ class Base:
     cache: str
 
 
-def build_point(name: str, base: Base, overrides: list[str], out: str, verify: bool) -> dict:
-    """Build one point on a Dask worker (``base``: preset, config file, overrides and cache of every point) into
-    ``out``; its record. Any error is recorded, not raised: the point fails alone."""
+def _json(record, keep: tuple[str, ...] = ()) -> dict:
+    """A record's fields in order as JSON data, but those that are None and not in ``keep``."""
+    return {f.name: v.to_json() if hasattr(v, "to_json") else v for f in fields(record)
+            if (v := getattr(record, f.name)) is not None or f.name in keep}
+
+
+@dataclass(frozen=True)
+class Verified:
+    """Verdict and notes, and from report.json (None: unreadable) failures, worst dE2000s, sweep pixels by hue."""
+
+    passed: bool
+    notes: tuple[str, ...]
+    failures: tuple[str, ...] | None = None
+    median_dE: float | None = None
+    p95_dE: float | None = None
+    hue: dict[str, int] | None = None
+
+    def to_json(self) -> dict:
+        return _json(self, ("median_dE", "p95_dE") if self.failures is not None else ())
+
+    @classmethod
+    def of(cls, result) -> Verified | None:
+        """Of a build's result (None: not verified) and its report."""
+        from ..verify.results import Report
+
+        if result.verified is None:
+            return None
+        passed, notes = bool(result.verified), tuple(result.notes)
+        try:
+            report = Report.from_json(json.loads((Path(result.report_dir) / "report.json").read_text()))
+        except (OSError, ValueError, TypeError, KeyError):
+            return cls(passed, notes)
+        medians = [m.de_median for m in report.views if m.de_median is not None]
+        p95s = [m.de_p95 for m in report.views if m.de_p95 is not None]
+        h = report.hue_sweep
+        return cls(passed, notes, tuple(report.failures), max(medians) if medians else None,
+                   max(p95s) if p95s else None, {"green": h.green, "purple": h.purple, "grey": h.grey, "other": h.other})
+
+
+@dataclass(frozen=True)
+class Images:
+    """A point's pictures: its report's light-sweep renders and hue histogram, else the LUT preview if written."""
+
+    sweep: tuple[str, ...] | None = None  # None: no report folder
+    hue: str | None = None
+    preview: str | None = None
+
+    def to_json(self) -> dict:
+        return _json(self, ("hue",) if self.sweep is not None else ())
+
+    @classmethod
+    def of(cls, out: Path, report: Path | None) -> Images:
+        """Of the report folder ``report``, or of the asset ``out`` when it has none."""
+        if report is not None and report.is_dir():
+            return cls(tuple(str(p) for p in sorted(report.glob("sweep_*_gl.png"))),
+                       str(report / "hue.png") if (report / "hue.png").is_file() else None)
+        preview = out / "textures" / "feather_preview.png"
+        return cls(preview=str(preview) if preview.is_file() else None)
+
+
+@dataclass(frozen=True)
+class PointRecord(Point):
+    """A point's entry in sweep.json, its keys in order; ``images`` None: not built. ``build`` is only written."""
+
+    asset: str
+    status: Status = "pending"
+    config_hash: str | None = None
+    pid: int | None = None
+    worker: str | None = None
+    error: str | None = None
+    seconds: float | None = None
+    verify: Verified | None = None
+    build: dict | None = None
+    images: Images | None = None
+
+    def to_json(self) -> dict:
+        return _json(self, ("verify",) if self.images is not None else ())
+
+
+def build_point(record: PointRecord, base: Base, out: str, verify: bool) -> PointRecord:
+    """Build the point of ``record`` on a Dask worker (``base``: preset, config file, overrides and cache of every
+    point) into ``out``; its record. Any error is recorded, not raised: the point fails alone."""
     _restore_malloc_thresholds()
     from distributed import get_worker
 
     from .. import api
 
-    record: dict = {"name": name, "pid": os.getpid(), "worker": get_worker().address}
     t0 = time.perf_counter()
-    result = None
+    result, error = None, None
+    status: Status = "ok"
     with _ONE_POINT_AT_A_TIME:
         try:
             config = api.load_config(preset=base.preset, config_file=base.config_file,
-                                     overrides=[*base.overrides, *overrides])
+                                     overrides=[*base.overrides, *record.overrides])
             result = api.build(config, out, cache=base.cache, verify=verify)
-            record["status"] = "ok"
         except api.VerificationFailed as exc:  # a BuildFailed carries what ran
-            result = getattr(exc, "result", None)
-            record.update(status="failed", error=str(exc))
+            result, status, error = getattr(exc, "result", None), "failed", str(exc)
         except (UsageError, OSError) as exc:
-            record.update(status="invalid" if isinstance(exc, UsageError) else "error", error=str(exc))
+            status, error = "invalid" if isinstance(exc, UsageError) else "error", str(exc)
         except Exception as exc:  # noqa: BLE001 - the point fails alone, with its message
-            record.update(status="error", error=f"{type(exc).__name__}: {exc}")
-    record["seconds"] = round(time.perf_counter() - t0, 3)
-    if result is not None:
-        record.update(config_hash=result.config_hash, verify=_verify_summary(result),
-                      build={"ran": result.ran, "reused": result.reused, "seconds": round(result.seconds, 4)},
-                      images=_images(Path(out), result.report_dir))
-    return record
-
-
-def _verify_summary(result) -> dict | None:
-    """Verdict, failures, worst dE2000 over the views and hue counts, from a build's result and its report."""
-    from ..verify.results import Report
-
-    if result.verified is None:
-        return None
-    out = {"passed": bool(result.verified), "notes": list(result.notes)}
-    try:
-        report = Report.from_json(json.loads((Path(result.report_dir) / "report.json").read_text()))
-    except (OSError, ValueError, TypeError, KeyError):
-        return out
-    medians = [m.de_median for m in report.views if m.de_median is not None]
-    p95s = [m.de_p95 for m in report.views if m.de_p95 is not None]
-    hue = report.hue_sweep
-    out.update(failures=list(report.failures), median_dE=max(medians) if medians else None,
-               p95_dE=max(p95s) if p95s else None,
-               hue={"green": hue.green, "purple": hue.purple, "grey": hue.grey, "other": hue.other})
-    return out
-
-
-def _images(out: Path, report: Path | None) -> dict:
-    """The light-sweep renders and hue histogram of the report folder, or the LUT preview when not verified."""
-    if report is not None and report.is_dir():
-        return {"sweep": [str(p) for p in sorted(report.glob("sweep_*_gl.png"))],
-                "hue": str(report / "hue.png") if (report / "hue.png").is_file() else None}
-    preview = out / "textures" / "feather_preview.png"
-    return {"preview": str(preview)} if preview.is_file() else {}
+            status, error = "error", f"{type(exc).__name__}: {exc}"
+    record = replace(record, status=status, pid=os.getpid(), worker=get_worker().address, error=error,
+                     seconds=round(time.perf_counter() - t0, 3))
+    return record if result is None else replace(
+        record, config_hash=result.config_hash, verify=Verified.of(result), images=Images.of(Path(out), result.report_dir),
+        build={"ran": result.ran, "reused": result.reused, "seconds": round(result.seconds, 4)})
 
 
 # ----------------------------------------------------------------------------------------------- the page
-def write_index(root: Path, doc: dict, axes_keys: list[str], axes_values: list[list[str]]) -> None:
+def write_index(root: Path, points: list[PointRecord], axes_keys: list[str], axes_values: list[list[str]], *,
+                state: str, seconds: float, scheduler: str, workers: int) -> None:
     """``DIR/index.html``: a row per value of the keys but the last, a column per value of the last; a progress
-    bar (and a refresh) while the sweep runs."""
-    e, points, running = html.escape, doc["points"], doc["state"] == "running"
-    by_index = {tuple(p["index"]): p for p in points}
+    bar (and a refresh) while the sweep runs (``state`` running, else finished or interrupted)."""
+    e, running = html.escape, state == "running"
+    by_index = {r.index: r for r in points}
     rows = [f"<tr><th></th>{''.join(f'<th>{e(axes_keys[-1])} = {e(v)}</th>' for v in axes_values[-1])}</tr>"]
     for ridx in itertools.product(*[range(len(v)) for v in axes_values[:-1]]):
         label = "<br>".join(f"{e(k)} = {e(axes_values[i][j])}" for i, (k, j) in enumerate(zip(axes_keys, ridx)))
         rows.append(f"<tr><th>{label or '&nbsp;'}</th>" + "".join(
             f"<td>{_cell(by_index.get(ridx + (c,)), root)}</td>" for c in range(len(axes_values[-1]))) + "</tr>")
-    done, total = doc["done"], doc["total"]
-    failed = sum(1 for p in points if p.get("status") not in (None, "pending", "ok"))
+    done, total = sum(r.status != "pending" for r in points), len(points)
+    failed = sum(1 for r in points if r.status not in ("pending", "ok"))
     state = (f"running: {done} of {total} points done" if running else
-             f"interrupted: {done} of {total} points done" if doc["state"] == "interrupted" else
+             f"interrupted: {done} of {total} points done" if state == "interrupted" else
              f"finished: {total - failed} of {total} points ok" + (f", {failed} failed" if failed else "")
-             + f" in {doc['seconds']:.1f} s")
+             + f" in {seconds:.1f} s")
     write_atomic(root / "index.html", f"""<!doctype html>
 <html><head><meta charset="utf-8">{f'<meta http-equiv="refresh" content="{REFRESH_S}">' if running else ""}
 <title>rockdove sweep</title><style>body{{font-family:sans-serif;margin:1em}} table{{border-collapse:collapse}}
 td,th{{border:1px solid #ccc;padding:4px;vertical-align:top;font-size:12px}} img{{display:block;max-width:220px}}
 .ok{{color:#070}} .bad{{color:#a00}} .pending{{color:#888}} progress{{width:30em}}</style></head>
 <body><h1>rockdove sweep</h1>
-<p><progress value="{done}" max="{total}"></progress> {e(state)}; scheduler {e(str(doc['scheduler']))},
-{doc['workers']} workers; <a href="sweep.json">sweep.json</a></p>
+<p><progress value="{done}" max="{total}"></progress> {e(state)}; scheduler {e(str(scheduler))},
+{workers} workers; <a href="sweep.json">sweep.json</a></p>
 <table>{chr(10).join(rows)}</table></body></html>
 """)
 
 
-def _cell(p: dict | None, root: Path) -> str:
-    if p is None:
+def _cell(r: PointRecord | None, root: Path) -> str:
+    if r is None:
         return ""
-    e, status, v, imgs = html.escape, p.get("status", "pending"), p.get("verify") or {}, p.get("images") or {}
-    parts = [f'<div class="{status if status in ("ok", "pending") else "bad"}"><b>{e(status)}</b> {e(p["name"])}'
-             + (f" &middot; {p['seconds']:.1f} s" if "seconds" in p else "") + "</div>"]
-    if p.get("error"):
-        parts.append(f'<div class="bad">{e(p["error"])}</div>')
-    if v.get("median_dE") is not None:
-        parts.append(f"<div>median dE2000 {v['median_dE']:.2f}, p95 {v['p95_dE']:.2f}</div>")
-    for src, alt in [(s, "light sweep") for s in imgs.get("sweep", [])] + [(imgs.get("hue"), "hue histogram"),
-                                                                           (imgs.get("preview"), "LUT preview")]:
+    e, status, v, imgs = html.escape, r.status, r.verify, r.images or Images()
+    parts = [f'<div class="{status if status in ("ok", "pending") else "bad"}"><b>{e(status)}</b> {e(r.name)}'
+             + (f" &middot; {r.seconds:.1f} s" if r.seconds is not None else "") + "</div>"]
+    if r.error:
+        parts.append(f'<div class="bad">{e(r.error)}</div>')
+    if v and v.median_dE is not None:
+        parts.append(f"<div>median dE2000 {v.median_dE:.2f}, p95 {v.p95_dE:.2f}</div>")
+    for src, alt in [(s, "light sweep") for s in imgs.sweep or ()] + [(imgs.hue, "hue histogram"),
+                                                                     (imgs.preview, "LUT preview")]:
         if src:
             parts.append(f'<img src="{e(os.path.relpath(src, root))}" alt="{alt}">')
-    if imgs.get("preview"):
+    if imgs.preview:
         parts.append("<div>LUT preview (not verified: no renders)</div>")
     return "".join(parts)
 
@@ -255,64 +306,63 @@ def run(args: argparse.Namespace) -> int:
 
     records = []
     for p in points:
-        rec = {"name": p.name, "index": list(p.index), "overrides": list(p.overrides), "values": p.values,
-               "asset": str(Path(POINTS) / p.name), "status": "pending"}
+        rec = PointRecord(p.name, p.index, p.overrides, p.values, str(Path(POINTS) / p.name))
         try:
-            rec["config_hash"] = config_hash(load_config(preset=args.preset, config_file=args.config,
-                                                         overrides=[*args.overrides, *p.overrides]))
+            records.append(replace(rec, config_hash=config_hash(load_config(
+                preset=args.preset, config_file=args.config, overrides=[*args.overrides, *p.overrides]))))
         except ValueError as exc:  # this point alone is invalid: it fails, the others run
-            rec.update(status="invalid", error=str(exc), seconds=0.0)
-            print(f"rockdove sweep: {rec['name']}: invalid: {rec['error']}", file=sys.stderr)
-        records.append(rec)
+            records.append(replace(rec, status="invalid", error=str(exc), seconds=0.0))
+            print(f"rockdove sweep: {p.name}: invalid: {exc}", file=sys.stderr)
 
     client, cluster = _client(args)  # an unreachable scheduler is bad usage: nothing written yet
     claim_output(root, "sweep")
     (root / POINTS).mkdir(parents=True, exist_ok=True)
-    doc = {"tool": "rockdove", "state": "running", "grid": {k: [lit for lit, _ in vals] for k, vals in axes},
-           "base": {"preset": args.preset, "config": args.config, "set": list(args.overrides)},
-           "verify": not args.no_verify, "cache": str(cache), "scheduler": args.scheduler or "local",
-           "workers": 0, "total": len(points), "done": 0, "seconds": 0.0, "points": records}
     keys, labels = [k for k, _ in axes], [[lit for lit, _ in vals] for _, vals in axes]
+    scheduler, workers, seconds, done = args.scheduler or "local", 0, 0.0, 0
 
-    def save():
-        doc["done"] = sum(1 for r in records if r["status"] != "pending")
-        doc["seconds"] = round(time.perf_counter() - t0, 3)
+    def save(state: str = "running") -> dict:
+        nonlocal seconds, done
+        seconds, done = round(time.perf_counter() - t0, 3), sum(r.status != "pending" for r in records)
+        doc = {"tool": "rockdove", "state": state, "grid": dict(zip(keys, labels)),
+               "base": {"preset": args.preset, "config": args.config, "set": list(args.overrides)},
+               "verify": not args.no_verify, "cache": str(cache), "scheduler": scheduler, "workers": workers,
+               "total": len(records), "done": done, "seconds": seconds, "points": [r.to_json() for r in records]}
         write_atomic(root / "sweep.json", json.dumps(doc, indent=1, default=str) + "\n")
-        write_index(root, doc, keys, labels)
+        write_index(root, records, keys, labels, state=state, seconds=seconds, scheduler=scheduler, workers=workers)
+        return doc
 
-    todo = [(p, r) for p, r in zip(points, records) if r["status"] == "pending"]
+    state = "interrupted"  # by Ctrl-C or the scheduler going away, unless the loop ends: say so, no refresh
     try:
         from distributed import as_completed
 
-        doc["scheduler"] = client.scheduler.address
-        doc["workers"] = len(client.scheduler_info(n_workers=-1)["workers"]) if args.scheduler else len(cluster.workers)
+        scheduler = client.scheduler.address
+        workers = len(client.scheduler_info(n_workers=-1)["workers"]) if args.scheduler else len(cluster.workers)
         save()
-        print(f"rockdove sweep: {len(todo)} points on {doc['workers']} Dask workers ({doc['scheduler']}); "
+        todo = [i for i, r in enumerate(records) if r.status == "pending"]
+        print(f"rockdove sweep: {len(todo)} points on {workers} Dask workers ({scheduler}); "
               f"progress in {root / 'index.html'}", file=sys.stderr)
-        futures = {client.submit(build_point, p.name, base, list(p.overrides), str(root / POINTS / p.name),
+        futures = {client.submit(build_point, records[i], base, str(root / POINTS / records[i].name),
                                  not args.no_verify, pure=False,
-                                 key=f"rockdove-point-{p.name}-{os.urandom(4).hex()}"): r for p, r in todo}
+                                 key=f"rockdove-point-{records[i].name}-{os.urandom(4).hex()}"): i for i in todo}
         for f in as_completed(list(futures)):
-            r = futures[f]
+            i = futures[f]
             try:
-                r.update(f.result())
+                records[i] = r = f.result()
             except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker after too many worker deaths
-                r.update(status="error", error=f"{type(exc).__name__}: {exc}")
+                records[i] = r = replace(records[i], status="error", error=f"{type(exc).__name__}: {exc}")
             save()
-            print(f"rockdove sweep: [{doc['done']}/{doc['total']}] {r['name']}: {r['status']}"
-                  + (f" in {r['seconds']:.1f} s" if "seconds" in r else "")
-                  + (f": {r['error']}" if r.get("error") else ""), file=sys.stderr)
-        doc["state"] = "finished"
+            print(f"rockdove sweep: [{done}/{len(records)}] {r.name}: {r.status}"
+                  + (f" in {r.seconds:.1f} s" if r.seconds is not None else "")
+                  + (f": {r.error}" if r.error else ""), file=sys.stderr)
+        state = "finished"
     finally:
-        if doc["state"] == "running":  # interrupted (Ctrl-C) or the scheduler went away: say so, no refresh
-            doc["state"] = "interrupted"
-        save()
+        doc = save(state)
         client.close()
         if cluster is not None:
             cluster.close()
-    failed = [r["name"] for r in records if r["status"] != "ok"]
+    failed = [r.name for r in records if r.status != "ok"]
     if args.json:
         print(json.dumps(doc, indent=1, default=str))
-    print(f"rockdove sweep: {len(records) - len(failed)} of {len(records)} points ok in {doc['seconds']:.1f} s"
+    print(f"rockdove sweep: {len(records) - len(failed)} of {len(records)} points ok in {seconds:.1f} s"
           + (f"; failed: {', '.join(failed)}" if failed else "") + f"; see {root / 'index.html'}", file=sys.stderr)
     return 1 if failed else 0

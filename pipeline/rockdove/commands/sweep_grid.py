@@ -15,12 +15,12 @@ from ..errors import UsageError
 
 @dataclass(frozen=True)
 class Point:
-    """One grid point: folder ``name``, ``overrides`` (``KEY=LITERAL``), parsed ``values``, ``index`` per axis."""
+    """One grid point: folder ``name``, ``index`` per axis, ``overrides`` (``KEY=LITERAL``), parsed ``values``."""
 
     name: str
+    index: tuple[int, ...]
     overrides: tuple[str, ...]
     values: dict
-    index: tuple[int, ...]
 
 
 def split_array(text: str) -> list[str]:
@@ -118,13 +118,13 @@ def grid_points(axes) -> list[Point]:
         values = {key: v for (key, _), (_, (_lit, v)) in zip(axes, combo)}
         name = "__".join(f"{key}=" + _UNSAFE.sub("_", lit.replace('"', "").replace("'", "")).strip("_")
                          for (key, _), (_, (lit, _v)) in zip(axes, combo))
-        points.append(Point(name, overrides, values, tuple(i for i, _ in combo)))
+        points.append(Point(name, tuple(i for i, _ in combo), overrides, values))
     counts = collections.Counter(p.name.lower() for p in points)
     out = []
     for p in points:
         if counts[p.name.lower()] > 1 or len(p.name) > 150 or _HASHED.search(p.name):
             h = hashlib.sha256("\n".join(p.overrides).encode()).hexdigest()[:8]
-            p = Point(f"{p.name[:150]}-{h}", p.overrides, p.values, p.index)
+            p = Point(f"{p.name[:150]}-{h}", p.index, p.overrides, p.values)
         out.append(p)
     clash = [n for n, c in collections.Counter(p.name.lower() for p in out).items() if c > 1]
     if clash:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -247,8 +248,19 @@ def scene_to_glb(scene, version: str = "") -> bytes:
     return b"".join(gltf.save_to_bytes())
 
 
-def export_glb(asset, out_path, *, version: str = "") -> dict:
-    """Write a written asset as the GLB ``out_path`` (atomically); a summary. ValueError: no thin-film data."""
+class GlbExport(NamedTuple):
+    """A GLB written: its path and size, and its film (the index at ``ior_wavelength_nm``, the substrate's)."""
+
+    path: str
+    bytes: int
+    iridescence_ior: float
+    ior_wavelength_nm: float
+    thickness_range_nm: list[float]
+    substrate_ior: float
+
+
+def export_glb(asset, out_path, *, version: str = "") -> GlbExport:
+    """Write a written asset as the GLB ``out_path`` (atomically). ValueError: no thin-film data."""
     from ..render.scene import load_scene
 
     scene = load_scene(asset)  # the verifier's reader; a physical-only asset (no LUT) reads too
@@ -257,17 +269,28 @@ def export_glb(asset, out_path, *, version: str = "") -> dict:
     data = scene_to_glb(scene, version=version)
     out_path = os.fspath(out_path)
     write_atomic(out_path, data)
-    return {"path": out_path, "bytes": len(data), "iridescence_ior": film_ior(scene.film),
-            "ior_wavelength_nm": IOR_WAVELENGTH_NM, "thickness_range_nm": list(scene.thickness_range_nm),
-            "substrate_ior": scene.film.model.n_substrate}
+    return GlbExport(out_path, len(data), film_ior(scene.film), IOR_WAVELENGTH_NM, list(scene.thickness_range_nm),
+                     scene.film.model.n_substrate)
 
 
 #: Seconds the glTF-Validator may take (node start-up plus validation; a 2 MB GLB takes about 1 s).
 VALIDATOR_TIMEOUT_S = 120
 
 
-def validate_glb(path) -> dict:
-    """The Khronos glTF-Validator's JSON report on ``path``; RuntimeError (saying how to install) when it cannot run."""
+class GlbValidation(NamedTuple):
+    """The Khronos glTF-Validator's findings: issues by severity, its own messages, extensions used, most UV sets."""
+
+    errors: int
+    warnings: int
+    infos: int
+    hints: int
+    messages: list[dict]
+    extensions_used: list[str]
+    max_uvs: int
+
+
+def validate_glb(path) -> GlbValidation:
+    """The Khronos glTF-Validator's report on ``path``; RuntimeError (saying how to install) when it cannot run."""
     import json
     import shutil
     import subprocess
@@ -287,4 +310,7 @@ def validate_glb(path) -> dict:
         raise RuntimeError(f"glTF-Validator did not finish within {VALIDATOR_TIMEOUT_S} s on {path}") from None
     if res.returncode != 0:
         raise RuntimeError(f"glTF-Validator failed on {path}: {res.stderr.strip().splitlines()[-1:]}")
-    return json.loads(res.stdout)
+    report = json.loads(res.stdout)
+    issues, info = report["issues"], report.get("info", {})
+    return GlbValidation(issues["numErrors"], issues["numWarnings"], issues["numInfos"], issues["numHints"],
+                         issues["messages"], info.get("extensionsUsed", []), info.get("maxUVs", 0))
