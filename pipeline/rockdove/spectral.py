@@ -149,16 +149,6 @@ def spectral_weights(wavelength_nm, illuminant=DEFAULT_ILLUMINANT, colour_space=
     return weights
 
 
-def reflectance_to_XYZ(R, wavelength_nm, illuminant=DEFAULT_ILLUMINANT, axis=-1) -> np.ndarray:
-    """CIE XYZ (perfect reflector Y = 1) of spectra ``R`` sampled on ``wavelength_nm`` along ``axis``: R's shape
-    without that axis, plus a trailing axis of 3."""
-    R = np.moveaxis(np.asarray(R, dtype=np.float64), axis, -1)
-    lam = np.asarray(wavelength_nm, dtype=np.float64)
-    if R.shape[-1] != lam.size:
-        raise UsageError(f"R has {R.shape[-1]} samples along axis {axis} but wavelength_nm has {lam.size}")
-    return R @ spectral_weights(lam, illuminant)
-
-
 # --------------------------------------------------------------------------- colour spaces
 @lru_cache(maxsize=4)
 def _reference_white_XYZ(illuminant: str = DEFAULT_ILLUMINANT) -> tuple:
