@@ -17,7 +17,7 @@ off). Results are not clipped: thin-film colours are often out of gamut.
 
 CIELAB (CIE 15:2004, eq. 8.1-8.3, exact constants 216/24389 and 24389/27) uses the same white at Y = 1; CIEDE2000
 follows Sharma, Wu and Dalal (2005), eq. 1-24; both are tested against colour-science (tests/test_spectral.py).
-The sRGB transfer functions and the 8-bit display encoding are :mod:`rockdove.srgb`'s (re-exported here).
+The sRGB transfer functions and the 8-bit display encoding are :mod:`rockdove.srgb`'s.
 
 Importing colour-science takes ~1 s, far more than a LUT bake, and only its data are used: they are read once and
 kept as ``.npz`` in ``$XDG_CACHE_HOME/rockdove/colour-science-<key>/``, keyed by the code that computes them, the
