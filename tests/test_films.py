@@ -3,19 +3,22 @@
 from __future__ import annotations
 
 import dataclasses
+import inspect
 
 import numpy as np
 import pytest
 
+import rockdove.films
 from rockdove import optics
-from rockdove.films import DEFAULT_FILM, FILMS, FilmModel, get_film
+from rockdove.films import FILMS, FilmModel, get_film
 
 
-def test_registry_holds_the_paper_and_keratin_films_and_the_default_is_the_paper():
+def test_registry_holds_the_paper_and_keratin_films_and_no_default_of_its_own():
     assert set(FILMS) == {"paper", "keratin"}
-    assert DEFAULT_FILM == "paper"
-    assert get_film() is FILMS["paper"]
     assert get_film("keratin") is FILMS["keratin"]
+    # the default film is the configuration schema's film.model, written nowhere else
+    assert inspect.signature(get_film).parameters["name"].default is inspect.Parameter.empty
+    assert not hasattr(rockdove.films, "DEFAULT_FILM")
 
 
 def test_paper_film_is_a_constant_1_5_in_air():

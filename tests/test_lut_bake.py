@@ -1,12 +1,15 @@
 """The LUT bakers against direct spectral integration (the 0.1 nm reference), the Fourier route's laws, the
 1-D case, metadata and bad inputs."""
 
+import inspect
+
 import numpy as np
 import pytest
 
-from rockdove import optics
+from rockdove import config, optics
 from rockdove.lut import bake, fourier, lut_error, reference_colour, write_preview_png
 from rockdove.lut.bake import BAKE_METHODS, DEFAULT_ANGLES, DEFAULT_THICKNESSES, fourier_supported
+from rockdove.lut.bake import DEFAULT_THICKNESS_RANGE_NM as RANGE_NM  # bake() has no default range
 from rockdove.lut.reference import REFERENCE_STEP_NM, colour_weights, delta_E, reference_wavelengths
 
 GOAL_MAX, GOAL_P99 = 0.5, 0.1  # issue 2: dE2000 at the default LUT size, grazing included
@@ -14,12 +17,12 @@ GOAL_MAX, GOAL_P99 = 0.5, 0.1  # issue 2: dE2000 at the default LUT size, grazin
 
 @pytest.fixture(scope="module")
 def paper_lut():
-    return bake()
+    return bake(thickness_range=RANGE_NM)
 
 
 @pytest.fixture(scope="module")
 def keratin_lut():
-    return bake(film="keratin")
+    return bake(thickness_range=RANGE_NM, film="keratin")
 
 
 # -- accuracy as users see it -----------------------------------------------------------------------------
@@ -45,14 +48,14 @@ def test_dispersive_keratin_lut_meets_the_accuracy_goal(keratin_lut):
 
 def test_keratin_and_paper_tables_differ():
     # dispersion (n = 1.532 + 5890 / lambda^2 ~ 1.55) shifts the fringes: the tables must not coincide
-    a = bake(angles=16, thicknesses=4, film="paper", method="spectral_fast")
-    b = bake(angles=16, thicknesses=4, film="keratin", method="spectral_fast")
+    a = bake(thickness_range=RANGE_NM, angles=16, thicknesses=4, film="paper", method="spectral_fast")
+    b = bake(thickness_range=RANGE_NM, angles=16, thicknesses=4, film="keratin", method="spectral_fast")
     assert delta_E(a.rgb[:, 1:], b.rgb[:, 1:]).max() > 1.0
 
 
 # -- the methods agree -------------------------------------------------------------------------------------
 def test_fourier_texels_equal_the_reference_at_the_nodes():
-    lut = bake(angles=48, thicknesses=5, method="fourier", angle_warp_gamma=2.0)
+    lut = bake(thickness_range=RANGE_NM, angles=48, thicknesses=5, method="fourier", angle_warp_gamma=2.0)
     c, d = np.meshgrid(lut.cos_theta, lut.thickness_nm)
     ref = reference_colour(c, d, "paper")
     de = delta_E(lut.rgb, ref)
@@ -63,7 +66,7 @@ def test_fourier_texels_equal_the_reference_at_the_nodes():
 
 
 def test_fourier_and_spectral_methods_agree():
-    kw = dict(angles=40, thicknesses=6, angle_warp_gamma=1.5)
+    kw = dict(thickness_range=RANGE_NM, angles=40, thicknesses=6, angle_warp_gamma=1.5)
     f = bake(method="fourier", **kw)
     s = bake(method="spectral", spectral_step_nm=1.0, **kw)
     sf = bake(method="spectral_fast", fast_step_nm=1.0, grazing_step_nm=0.2, **kw)
@@ -84,10 +87,10 @@ def test_auto_picks_fourier_only_where_it_is_exact():
     assert not fourier_supported(get_film("keratin"))
     assert not fourier_supported(FilmModel("absorbing", cauchy_a=1.5, k=0.05))
     assert not fourier_supported(FilmModel("tir", cauchy_a=1.3, n_incident=1.5))
-    lut = bake(angles=8, thicknesses=2, film=FilmModel("absorbing", cauchy_a=1.5, k=0.05))
+    lut = bake(thickness_range=RANGE_NM, angles=8, thicknesses=2, film=FilmModel("absorbing", cauchy_a=1.5, k=0.05))
     assert lut.metadata["method"] == "spectral"
     with pytest.raises(ValueError, match="fourier"):
-        bake(angles=8, thicknesses=2, film="keratin", method="fourier")
+        bake(thickness_range=RANGE_NM, angles=8, thicknesses=2, film="keratin", method="fourier")
 
 
 def test_grazing_incidence_is_white_and_normal_incidence_matches_the_reference(paper_lut):
@@ -129,7 +132,7 @@ def test_g_table_integrates_the_reference_weights():
 # -- 1-D LUT ------------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("kw", [dict(thicknesses=1), dict(thickness_range=(650.0, 650.0))])
 def test_one_texel_high_lut(kw):
-    lut = bake(angles=64, **kw)
+    lut = bake(angles=64, **{"thickness_range": RANGE_NM, **kw})
     assert lut.rgb.shape == (1, 64, 3)
     lo, hi = lut.thickness_range_nm
     assert lo == hi == (650.0 if "thickness_range" in kw else 590.0)
@@ -140,7 +143,7 @@ def test_one_texel_high_lut(kw):
 
 # -- metadata and preview -------------------------------------------------------------------------------
 def test_metadata_records_provenance_and_the_measured_error():
-    lut = bake(angles=32, thicknesses=4, error_points=200)
+    lut = bake(thickness_range=RANGE_NM, angles=32, thicknesses=4, error_points=200)
     md = lut.metadata
     assert md["film"] == "paper" and md["film:cauchyA"] == "1.5"
     assert md["illuminant"] == "D65" and md["observer"] == "CIE 1931 2 Degree Standard Observer"
@@ -148,12 +151,12 @@ def test_metadata_records_provenance_and_the_measured_error():
     assert float(md["estimatedMaxDeltaE2000"]) >= float(md["estimatedP99DeltaE2000"]) > 0
     assert "200 random points" in md["estimatedErrorSample"]
     assert md["estimatedError"].startswith("max dE2000 ")
-    assert bake(angles=8, thicknesses=2).metadata["estimatedError"].startswith("not measured")
+    assert bake(thickness_range=RANGE_NM, angles=8, thicknesses=2).metadata["estimatedError"].startswith("not measured")
 
 
 def test_acescg_table_is_the_same_colour():
-    a = bake(angles=16, thicknesses=3)
-    b = bake(angles=16, thicknesses=3, colour_space="acescg")
+    a = bake(thickness_range=RANGE_NM, angles=16, thicknesses=3)
+    b = bake(thickness_range=RANGE_NM, angles=16, thicknesses=3, colour_space="acescg")
     assert b.colour_space == "acescg"
     from rockdove.spectral import RGB_to_Lab, delta_E_2000
 
@@ -163,12 +166,12 @@ def test_acescg_table_is_the_same_colour():
 def test_preview_png_is_written(tmp_path):
     from PIL import Image
 
-    lut = bake(angles=40, thicknesses=6)
+    lut = bake(thickness_range=RANGE_NM, angles=40, thicknesses=6)
     p = write_preview_png(lut, tmp_path / "lut.png")
     img = np.asarray(Image.open(p))
     assert img.shape == (36, 40, 3)  # 6 rows, each repeated 6 times to reach >= 32 px
     assert img[:, 0].min() > 240  # grazing column is (near) white
-    one = write_preview_png(bake(angles=40, thicknesses=1), tmp_path / "one.png")
+    one = write_preview_png(bake(thickness_range=RANGE_NM, angles=40, thicknesses=1), tmp_path / "one.png")
     strip = np.asarray(Image.open(one))
     assert strip.shape[0] >= 32 and (strip == strip[:1]).all()  # one row, repeated so people can see it
 
@@ -195,7 +198,17 @@ def test_preview_png_is_written(tmp_path):
 )
 def test_bad_bake_arguments_raise_value_error_naming_the_argument(kw, name):
     with pytest.raises(ValueError, match=name):
-        bake(**kw)
+        bake(**{"thickness_range": RANGE_NM, **kw})
+
+
+def test_bake_defaults_are_the_config_schemas_and_the_thickness_range_has_none():
+    schema = config.defaults()
+    params = inspect.signature(bake).parameters
+    shared = {k: v for k, v in schema["lut"].items() if k in params}
+    assert set(shared) == {"angles", "thicknesses", "method", "angle_warp_gamma", "colour_space"}
+    assert {k: params[k].default for k in shared} == shared
+    assert params["film"].default == schema["film"]["model"]
+    assert params["thickness_range"].default is inspect.Parameter.empty  # a build bakes the mesh's range
 
 
 def test_bake_is_keyword_only_and_methods_are_registered():
@@ -219,7 +232,7 @@ def test_zero_and_thin_films_match_the_reference_including_grazing(method):
                                           ("keratin", "quadrature")])
 def test_extreme_angle_warp_stays_finite_and_exact(film, method):
     # gamma = 8 puts nodes at cos theta ~ 1e-15 .. 1e-3, where a b -> -1 and naive float32 Airy gives 0/0
-    lut = bake(angles=48, thicknesses=3, film=film, method=method, angle_warp_gamma=8.0)
+    lut = bake(thickness_range=RANGE_NM, angles=48, thicknesses=3, film=film, method=method, angle_warp_gamma=8.0)
     c, d = np.meshgrid(lut.cos_theta, lut.thickness_nm)
     de = delta_E(lut.rgb, reference_colour(c, d, film))
     assert np.isfinite(lut.rgb).all()

@@ -84,13 +84,13 @@ def test_product_weights_integrate_polynomials_like_the_reference():
 def test_absorbing_film_is_refused_with_the_reason_and_auto_falls_back():
     film = FilmModel("absorbing", cauchy_a=1.5, cauchy_b_nm2=5000.0, k=0.02)
     with pytest.raises(ValueError, match=r"method 'quadrature' needs a non-absorbing film.*'absorbing'.*spectral"):
-        bake(angles=4, thicknesses=2, film=film, method="quadrature")
-    assert bake(angles=4, thicknesses=2, film=film).metadata["method"] == "spectral"
+        bake(thickness_range=(480.0, 700.0), angles=4, thicknesses=2, film=film, method="quadrature")
+    assert bake(thickness_range=(480.0, 700.0), angles=4, thicknesses=2, film=film).metadata["method"] == "spectral"
 
 
 def test_auto_picks_quadrature_for_dispersive_films_and_fourier_without_dispersion():
-    assert bake(angles=8, thicknesses=2, film="keratin").metadata["method"] == "quadrature"
-    assert bake(angles=8, thicknesses=2, film="paper").metadata["method"] == "fourier"
+    assert bake(thickness_range=(480.0, 700.0), angles=8, thicknesses=2, film="keratin").metadata["method"] == "quadrature"
+    assert bake(thickness_range=(480.0, 700.0), angles=8, thicknesses=2, film="paper").metadata["method"] == "fourier"
 
 
 @pytest.mark.parametrize("thickness_range", [(480.0, 700.0), (150.0, 1000.0)])

@@ -122,7 +122,7 @@ def test_views_are_deterministic_serialisable_and_sweep_the_light_view_angle(ass
     again = default_views(s, 64, 48)
     assert views == again
     for v in views:
-        assert View.from_dict(json.loads(json.dumps(v.to_dict()))) == v
+        assert View(**json.loads(json.dumps(v.to_dict()))) == v
         assert np.linalg.norm(v.light_direction) == pytest.approx(1.0)
     sweep = light_sweep_views(s.neck_centre_m, 5, 32, 32)
     for v, alpha in zip(sweep, np.linspace(30, 150, 5)):

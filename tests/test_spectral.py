@@ -15,7 +15,6 @@ from rockdove.spectral import (
     XYZ_to_RGB,
     cmfs_illuminant,
     delta_E_2000,
-    reflectance_to_XYZ,
     spectral_weights,
 )
 
@@ -93,14 +92,6 @@ def test_weights_are_the_trapezoid_rule_on_an_irregular_grid():
     np.testing.assert_allclose(r @ spectral_weights(grid), expected, rtol=1e-13)
 
 
-def test_reflectance_to_xyz_honours_the_wavelength_axis():
-    rng = np.random.default_rng(2)
-    r = rng.uniform(0, 1, (4, GRID_1NM.size, 2))
-    xyz = reflectance_to_XYZ(r, GRID_1NM, axis=1)
-    assert xyz.shape == (4, 2, 3)
-    np.testing.assert_allclose(xyz[3, 1], r[3, :, 1] @ spectral_weights(GRID_1NM), rtol=1e-14)
-
-
 def test_acescg_round_trip_and_matrix_matches_materialx_lin_rec709_to_acescg():
     rng = np.random.default_rng(3)
     xyz = rng.uniform(-0.2, 1.2, (100, 3))
@@ -156,7 +147,6 @@ def test_preview8_keeps_in_gamut_colours_and_desaturates_out_of_gamut_toward_lum
         (lambda: spectral_weights(GRID_1NM, illuminant="D99"), "illuminant"),
         (lambda: cmfs_illuminant(GRID_1NM, observer="martian"), "observer"),
         (lambda: XYZ_to_RGB([0.5, 0.5, 0.5], "rec2020"), "colour_space"),
-        (lambda: reflectance_to_XYZ(np.ones(10), GRID_1NM), "wavelength_nm"),
         (lambda: RGB_to_preview8([np.nan, 0, 0]), "rgb"),
         (lambda: RGB_to_preview8([0.1, 0.2]), "rgb"),
     ],

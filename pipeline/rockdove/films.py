@@ -26,8 +26,6 @@ KERATIN_CAUCHY_B_NM2 = 5.89e3
 PAPER_FILM_INDEX = 1.5  # the seed paper's constant keratin index, in air
 AIR_INDEX = 1.0
 
-DEFAULT_FILM = "paper"
-
 
 def _check_index(name: str, value) -> complex:
     """One constant refractive index, checked: finite, real part > 0, imaginary part >= 0."""
@@ -128,7 +126,7 @@ def as_film(film) -> FilmModel:
     raise UsageError(f"film must be one of {sorted(FILMS)} or a FilmModel, got {film!r}")
 
 
-def get_film(name: str = DEFAULT_FILM) -> FilmModel:
+def get_film(name: str) -> FilmModel:
     """The registered film model called ``name`` (one of :data:`FILMS`); ValueError otherwise."""
     try:
         return FILMS[name]

@@ -17,7 +17,7 @@ off). Results are not clipped: thin-film colours are often out of gamut.
 
 CIELAB (CIE 15:2004, eq. 8.1-8.3, exact constants 216/24389 and 24389/27) uses the same white at Y = 1; CIEDE2000
 follows Sharma, Wu and Dalal (2005), eq. 1-24; both are tested against colour-science (tests/test_spectral.py).
-The sRGB transfer functions and the 8-bit display encoding are :mod:`rockdove.srgb`'s (re-exported here).
+The sRGB transfer functions and the 8-bit display encoding are :mod:`rockdove.srgb`'s.
 
 Importing colour-science takes ~1 s, far more than a LUT bake, and only its data are used: they are read once and
 kept as ``.npz`` in ``$XDG_CACHE_HOME/rockdove/colour-science-<key>/``, keyed by the code that computes them, the
@@ -147,16 +147,6 @@ def spectral_weights(wavelength_nm, illuminant=DEFAULT_ILLUMINANT, colour_space=
     if colour_space is not None:
         weights = weights @ _xyz_to_rgb_matrix_t(colour_space)
     return weights
-
-
-def reflectance_to_XYZ(R, wavelength_nm, illuminant=DEFAULT_ILLUMINANT, axis=-1) -> np.ndarray:
-    """CIE XYZ (perfect reflector Y = 1) of spectra ``R`` sampled on ``wavelength_nm`` along ``axis``: R's shape
-    without that axis, plus a trailing axis of 3."""
-    R = np.moveaxis(np.asarray(R, dtype=np.float64), axis, -1)
-    lam = np.asarray(wavelength_nm, dtype=np.float64)
-    if R.shape[-1] != lam.size:
-        raise UsageError(f"R has {R.shape[-1]} samples along axis {axis} but wavelength_nm has {lam.size}")
-    return R @ spectral_weights(lam, illuminant)
 
 
 # --------------------------------------------------------------------------- colour spaces

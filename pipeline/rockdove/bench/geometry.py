@@ -80,7 +80,9 @@ def _body_phase_rows(row, voxel_m: float, repeats: int) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from rockdove import textures
-    from rockdove.geometry import BirdParams, build_bird, build_body, build_cards, checks
+    from rockdove.geometry import BirdParams, build_bird, build_body, build_cards
+
+    from .coverage import band_coverage
 
     if args.repeats < 1:
         raise UsageError(f"--repeats={args.repeats} must be >= 1")
@@ -116,8 +118,7 @@ def run(args: argparse.Namespace) -> int:
         def cov(cards):
             if not coverage:
                 return {}
-            return {"coverage": checks.band_coverage(body.mesh.vertices_m, body.mesh.faces, cards, rays=2000,
-                                                     alpha=alpha)}
+            return {"coverage": band_coverage(body.mesh.vertices_m, body.mesh.faces, cards, rays=2000, alpha=alpha)}
 
         row("cards", n, lambda p=p: build_cards(body, p), repeats, cov)
         row("bird given body", n, lambda p=p: build_bird(p, body=body), repeats)

@@ -44,9 +44,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _rows(quick: bool) -> list[dict]:
     """The benchmark settings: dicts of bake() keyword arguments plus a label."""
     from ..lut.bake import DEFAULT_ANGLE_WARP_GAMMA as G
+    from ..lut.bake import DEFAULT_THICKNESS_RANGE_NM as RANGE
 
     def row(label, **kw):
-        return {"label": label, "film": kw.pop("film", "paper"), "kw": kw}
+        return {"label": label, "film": kw.pop("film", "paper"), "kw": {"thickness_range": RANGE, **kw}}
 
     rows = [
         row("default (auto)", default=True),

@@ -97,15 +97,6 @@ class BirdParams:
             object.__setattr__(self, f.name, value)
 
     @classmethod
-    def from_dict(cls, values: dict) -> BirdParams:
-        """From a mapping of field names (unknown names raise ValueError naming them)."""
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(values) - known)
-        if unknown:
-            raise UsageError(f"unknown BirdParams fields {unknown}; known: {sorted(known)}")
-        return cls(**values)
-
-    @classmethod
     def from_config(cls, config: Mapping) -> BirdParams:
         """From a build configuration (:func:`rockdove.config.load_config`): the keys of :data:`CONFIG_KEYS`."""
         values = {name: get(config, key) for name, key in CONFIG_KEYS.items()}

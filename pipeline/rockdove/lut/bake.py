@@ -20,18 +20,22 @@ from typing import Any
 
 import numpy as np
 
+from ..config import Config, defaults
 from ..errors import UsageError
 from ..films import as_film
 from ..spectral import DEFAULT_OBSERVER, WAVELENGTH_RANGE_NM, check_colour_space
 from .interfaces import interface_coefficients
 from .table import ThinFilmLUT
 
-DEFAULT_ANGLES = 256
-DEFAULT_THICKNESSES = 64
-DEFAULT_THICKNESS_RANGE_NM = (480.0, 700.0)  # Yoshioka et al. 2007: 480-580 nm at the base, 600-700 at the tip
-# ``rockdove bench lut`` (benchmarks/README.md): at 256 angles every gamma in 1-3 errs the same (max dE2000 ~0.05,
-# set by the thickness axis' 3.5 nm spacing), and gamma > 1 only costs time (more texels where the series is long).
-DEFAULT_ANGLE_WARP_GAMMA = 1.0
+# The table's defaults are the configuration schema's (its one source; tests/test_lut_bake.py pins bake() to it).
+# On the gamma, ``rockdove bench lut`` (benchmarks/README.md): at 256 angles every gamma in 1-3 errs the same (max
+# dE2000 ~0.05, set by the thickness axis' 3.5 nm spacing), and gamma > 1 only costs time.
+_SCHEMA = Config(defaults())
+DEFAULT_ANGLES, DEFAULT_THICKNESSES = _SCHEMA.lut.angles, _SCHEMA.lut.thicknesses
+DEFAULT_ANGLE_WARP_GAMMA = _SCHEMA.lut.angle_warp_gamma
+# bake() has no default range (a build bakes the mesh's): this is the standalone table's of ``rockdove lut`` and
+# ``rockdove bench lut``, the measured preset's span (Yoshioka et al. 2007: 480-580 nm at the base, 600-700 at the top).
+DEFAULT_THICKNESS_RANGE_NM = (480.0, 700.0)
 # Terms dropped below 1e-4 (linear colour, white = 1): 9.3 terms per texel and a texel error <= 8e-4 dE2000 on the
 # default grid (1e-3: 6.2 terms, 0.02; 1e-5: 13.9, 2e-4), under the LUT's interpolation error (~0.05).
 DEFAULT_FOURIER_TOL = 1e-4
@@ -229,15 +233,16 @@ BAKE_METHODS: dict[str, Callable[..., Any]] = {"auto": _bake_auto, "fourier": _b
                                                "spectral": _bake_spectral}
 
 
-def bake(*, angles: int = DEFAULT_ANGLES, thicknesses: int = DEFAULT_THICKNESSES,
-         thickness_range=DEFAULT_THICKNESS_RANGE_NM, film="paper", method: str = "auto",
-         angle_warp_gamma: float = DEFAULT_ANGLE_WARP_GAMMA, colour_space: str = "lin_rec709", illuminant: str = "D65",
+def bake(*, thickness_range, angles: int = DEFAULT_ANGLES, thicknesses: int = DEFAULT_THICKNESSES,
+         film=_SCHEMA.film.model, method: str = _SCHEMA.lut.method, angle_warp_gamma: float = DEFAULT_ANGLE_WARP_GAMMA,
+         colour_space: str = _SCHEMA.lut.colour_space, illuminant: str = "D65",
          spectral_step_nm: float = DEFAULT_SPECTRAL_STEP_NM, fast_step_nm: float = DEFAULT_FAST_STEP_NM,
          grazing_step_nm: float = DEFAULT_GRAZING_STEP_NM, grazing_cos: float = DEFAULT_GRAZING_COS,
          fourier_tol: float = DEFAULT_FOURIER_TOL, max_terms: int = DEFAULT_MAX_TERMS, error_points: int = 0,
          error_seed: int = 0) -> ThinFilmLUT:
     """Bake structural colour over (cos theta, thickness) into a :class:`ThinFilmLUT` (rgb (n_thickness, angles, 3)
-    float32; the metadata record the film, illuminant, observer, colour space, method and its parameters).
+    float32; the metadata record the film, illuminant, observer, colour space, method and its parameters). The
+    arguments a build configures default to the schema's ``lut.*`` and ``film.model``; ``thickness_range`` has none.
 
     ``angles >= 2`` nodes ``cos_theta_j = (j / (angles - 1)) ** angle_warp_gamma`` (``gamma > 1`` puts texels near
     grazing); ``thicknesses >= 1`` nodes uniform over ``thickness_range = (lo, hi)`` nm, ``0 <= lo <= hi`` (1, or

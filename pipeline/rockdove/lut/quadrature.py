@@ -262,15 +262,10 @@ def quadrature_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour
         out[:, panel] = _barycentric_matrix(panel_nodes, cos_theta[panel]) @ sub[:, direct.size :]
         panel_meta = (f"{panel_nodes.shape[0]} Chebyshev angles on cos_theta {float(panel_nodes.min())!r}.."
                       f"{float(panel_nodes.max())!r} for {int(panel.sum())} columns")
-    meta = {
-        "quadratureNodesMean": f"{n_nodes.mean():.1f}",
-        "quadratureNodesMax": str(int(n_nodes.max())),
-        "quadratureSeriesColumns": str(int((n_terms > 0).sum())),
-        "quadratureSeriesTermsMax": str(int(n_terms.max(initial=0))),
-        "quadratureSeriesTolerance": repr(float(series_tol)),
-        "quadratureAnglePanel": panel_meta,
-    }
-    return out, meta
+    return out, {"quadratureNodesMean": f"{n_nodes.mean():.1f}", "quadratureNodesMax": str(int(n_nodes.max())),
+                 "quadratureSeriesColumns": str(int((n_terms > 0).sum())),
+                 "quadratureSeriesTermsMax": str(int(n_terms.max(initial=0))),
+                 "quadratureSeriesTolerance": repr(float(series_tol)), "quadratureAnglePanel": panel_meta}
 
 
 def real_coefficients(film, cos_theta) -> bool:

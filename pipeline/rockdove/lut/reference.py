@@ -325,15 +325,7 @@ def lut_error(lut, film, n_points: int = 2000, seed: int = 0, *, grazing_fractio
     ref = reference_colour(cos, d, film, illuminant=illuminant, colour_space=lut.colour_space)
     de = delta_E(lut.sample(cos, d), ref, lut.colour_space, illuminant)
     k = int(np.argmax(de))
-    return {
-        "max": float(de.max()),
-        "p99": float(np.percentile(de, 99)),
-        "median": float(np.median(de)),
-        "mean": float(de.mean()),
-        "worst_cos_theta": float(cos[k]),
-        "worst_thickness_nm": float(d[k]),
-        "n_points": int(n_points),
-        "seed": int(seed),
-        "grazing_fraction": float(grazing_fraction),
-        "grazing_cos": float(grazing_cos),
-    }
+    return {"max": float(de.max()), "p99": float(np.percentile(de, 99)), "median": float(np.median(de)),
+            "mean": float(de.mean()), "worst_cos_theta": float(cos[k]), "worst_thickness_nm": float(d[k]),
+            "n_points": int(n_points), "seed": int(seed), "grazing_fraction": float(grazing_fraction),
+            "grazing_cos": float(grazing_cos)}

@@ -19,9 +19,6 @@ from ..errors import UsageError
 if TYPE_CHECKING:
     from ..films import FilmModel
 
-#: Size of the LUT baked in memory for an asset that has none (the build's default size).
-IN_MEMORY_LUT_ANGLES = 256
-IN_MEMORY_LUT_THICKNESSES = 64
 #: ``metadata["purpose"]`` of that LUT (the report and the web viewer show it).
 IN_MEMORY_LUT_PURPOSE = "verification only (rockdove verify, in memory): the asset has no LUT"
 #: The film's keys of :func:`rockdove.usd.schema.read_thin_film` that an applied schema must hold.
@@ -107,9 +104,9 @@ def thickness_range_nm(film: ThinFilmParams, thickness_nm) -> tuple:
 
 def lut_to_draw(film: ThinFilmParams, thickness_range: tuple):
     """The :class:`rockdove.lut.ThinFilmLUT` to draw ``film`` with: its LUT EXR, or for a LUT-less film one baked in
-    memory over ``thickness_range`` (nm, the scene's :func:`thickness_range_nm`; :data:`IN_MEMORY_LUT_ANGLES` x
-    :data:`IN_MEMORY_LUT_THICKNESSES`, ``metadata["purpose"] = IN_MEMORY_LUT_PURPOSE``)."""
-    from ..lut.bake import bake
+    memory over ``thickness_range`` (nm, the scene's :func:`thickness_range_nm`; the build's default size, the
+    schema's, ``metadata["purpose"] = IN_MEMORY_LUT_PURPOSE``)."""
+    from ..lut.bake import DEFAULT_THICKNESSES, bake
     from ..lut.exr import read_exr
     from ..lut.table import ThinFilmLUT
 
@@ -118,7 +115,6 @@ def lut_to_draw(film: ThinFilmParams, thickness_range: tuple):
             raise UsageError(f"LUT file {film.lut_file!r} (rockdove:lut:file) does not exist")
         return read_exr(film.lut_file)
     lo, hi = (float(v) for v in thickness_range)
-    lut = bake(angles=IN_MEMORY_LUT_ANGLES, thicknesses=1 if lo == hi else IN_MEMORY_LUT_THICKNESSES,
-               thickness_range=(lo, hi), film=film.model)
+    lut = bake(thicknesses=1 if lo == hi else DEFAULT_THICKNESSES, thickness_range=(lo, hi), film=film.model)
     return ThinFilmLUT(lut.rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
                        colour_space=lut.colour_space, metadata={**lut.metadata, "purpose": IN_MEMORY_LUT_PURPOSE})

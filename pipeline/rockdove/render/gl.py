@@ -217,14 +217,6 @@ class GLRenderer:
             self._fbos[key] = (fbo, resolve, rbs)
         self._fbo, self._resolve, _ = self._fbos[key]
 
-    def _delete_fbo(self):
-        from OpenGL import GL
-
-        for fbo, resolve, rbs in self._fbos.values():
-            GL.glDeleteFramebuffers(2 if resolve else 1, [fbo, resolve][:2 if resolve else 1])
-            GL.glDeleteRenderbuffers(len(rbs), rbs)
-        self._fbos.clear()
-
     def _configure_viewport(self, flags):
         """Replaces pyrender's forward-pass set-up: draw into the float framebuffer."""
         from OpenGL import GL
@@ -335,7 +327,10 @@ class GLRenderer:
 
         try:
             self._offscreen._platform.make_current()
-            self._delete_fbo()
+            for fbo, resolve, rbs in self._fbos.values():
+                GL.glDeleteFramebuffers(2 if resolve else 1, [fbo, resolve][:2 if resolve else 1])
+                GL.glDeleteRenderbuffers(len(rbs), rbs)
+            self._fbos.clear()
             if self._textures:
                 GL.glDeleteTextures(np.asarray(self._textures, dtype=np.uint32))
         finally:

@@ -66,7 +66,7 @@ class View:
         if rgb.shape != (3,) or not np.all(np.isfinite(rgb)) or np.any(rgb < 0):
             raise UsageError(f"light_rgb must be 3 finite values >= 0, got {self.light_rgb!r}")
         norm = np.linalg.norm(ld)
-        if abs(norm - 1.0) > 1e-12:  # keep already-unit vectors bit-exact, so to_dict/from_dict round-trips
+        if abs(norm - 1.0) > 1e-12:  # keep already-unit vectors bit-exact, so View(**to_dict()) round-trips
             ld = ld / norm
         for key, val in (("camera_to_world", m), ("light_direction", ld), ("light_rgb", rgb)):
             val = val.copy()
@@ -84,12 +84,8 @@ class View:
         return self.width / self.height
 
     def to_dict(self) -> dict:
-        """JSON-serialisable form (plain lists and numbers); :meth:`from_dict` is its inverse."""
+        """JSON-serialisable form (plain lists and numbers); ``View(**d)`` is its inverse."""
         return {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in vars(self).items()}
-
-    @classmethod
-    def from_dict(cls, d: dict) -> View:
-        return cls(**d)
 
     def __eq__(self, other):
         if not isinstance(other, View):

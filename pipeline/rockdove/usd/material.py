@@ -142,15 +142,11 @@ def copy_mtlx_network(doc, material, roots=None) -> dict:
 def lut_info(lut) -> dict:
     """The values of a ThinFilmLUT the material and the schema need, as plain (cacheable) data."""
     md = dict(lut.metadata)
-    return {
-        "n_angle": int(lut.n_angle),
-        "n_thickness": int(lut.n_thickness),
-        "angle_warp_gamma": float(lut.angle_warp_gamma),
-        "thickness_range_nm": (float(lut.thickness_range_nm[0]), float(lut.thickness_range_nm[1])),
-        "colour_space": str(lut.colour_space),
-        "illuminant": str(md.get("illuminant", "D65")),
-        "observer": str(md.get("observer", "CIE 1931 2 Degree Standard Observer")),
-    }
+    return {"n_angle": int(lut.n_angle), "n_thickness": int(lut.n_thickness),
+            "angle_warp_gamma": float(lut.angle_warp_gamma),
+            "thickness_range_nm": (float(lut.thickness_range_nm[0]), float(lut.thickness_range_nm[1])),
+            "colour_space": str(lut.colour_space), "illuminant": str(md.get("illuminant", "D65")),
+            "observer": str(md.get("observer", "CIE 1931 2 Degree Standard Observer"))}
 
 
 def lut_transform(lut: dict) -> tuple:

@@ -74,18 +74,16 @@ class Browser:
             raise
 
     # -- protocol -------------------------------------------------------------------------------------------
-    def _stderr_tail(self) -> str:
-        self._stderr.seek(0)
-        lines = [ln for ln in self._stderr.read().decode(errors="replace").splitlines() if ln.strip()]
-        return " | ".join(lines[-3:])
-
     def _gone(self, step: str) -> BrowserError:
-        """The error for a browser whose pipe closed (it exited, or is about to): its exit status if it has one."""
+        """The error for a browser whose pipe closed (it exited, or is about to): its exit status if it has one, and
+        the last three lines it wrote to stderr."""
         try:
             status = f"exited with status {self.process.wait(timeout=5)}"
         except subprocess.TimeoutExpired:
             status = "closed its DevTools pipe"
-        return BrowserError(f"{os.path.basename(self.executable)} {status} ({step}) {self._stderr_tail()}")
+        self._stderr.seek(0)
+        tail = " | ".join([ln for ln in self._stderr.read().decode(errors="replace").splitlines() if ln.strip()][-3:])
+        return BrowserError(f"{os.path.basename(self.executable)} {status} ({step}) {tail}")
 
     def _read_message(self, deadline: float, step: str) -> dict:
         while b"\0" not in self._buffer:

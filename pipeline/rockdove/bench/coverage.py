@@ -1,5 +1,5 @@
-"""Measurements of the feather cards against the body: how much of the neck band they hide, how far their
-roots are from the skin, whether any card vertex beyond the root is inside the body.
+"""How much of the neck band the feather cards hide (``rockdove bench geometry``'s coverage column; the tests hold
+the default cards to 95%). Nothing in a build or a verification measures it.
 
 Coverage is measured by ray casting (trimesh ray queries, Embree when installed) from outside onto random band
 points (:func:`band_coverage`): a point is hidden when the first opaque thing its ray meets is a card, opaque
@@ -11,10 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from rockdove.geometry import neck as _neck
-from rockdove.geometry import sdf as _sdf
-
 from ..errors import UsageError
+from ..geometry import neck as _neck
+from ..geometry import sdf as _sdf
 
 #: Rays start this far outside the skin, metres (beyond the highest card tip).
 RAY_START_M = 0.02
@@ -75,19 +74,3 @@ def band_coverage(body_vertices_m, body_faces, cards, rays: int = 2000, tilt_deg
     if counted == 0:
         raise UsageError("no band point is visible from outside in this direction")
     return float(hidden.sum() / counted)
-
-
-def root_skin_distance_m(body_vertices_m, body_faces, cards) -> np.ndarray:
-    """(2 N,) unsigned distance, metres, of each root-row vertex to the body mesh."""
-    import trimesh
-
-    roots = cards.points_m.reshape(cards.count, -1, 3)[:, :2].reshape(-1, 3).astype(np.float64)
-    return trimesh.proximity.closest_point(trimesh.Trimesh(body_vertices_m, body_faces, process=False), roots)[1]
-
-
-def beyond_root_signed_distance_m(body_vertices_m, body_faces, cards) -> np.ndarray:
-    """(N (VERTICES_PER_CARD - 2),) trimesh signed distance (positive INSIDE) of every vertex beyond the root row."""
-    import trimesh
-
-    rest = cards.points_m.reshape(cards.count, -1, 3)[:, 2:].reshape(-1, 3).astype(np.float64)
-    return trimesh.proximity.signed_distance(trimesh.Trimesh(body_vertices_m, body_faces, process=False), rest)
