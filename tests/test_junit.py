@@ -131,7 +131,6 @@ def test_the_schema_rejects_what_ci_tools_would_not_read(runs, schema, tmp_path)
 def test_anatomy_and_motion_measures_are_cases_and_their_failures_fail(runs, schema, tmp_path):
     """Every anatomy measure is a case of ``rockdove.anatomy``; a ``--motion`` run's limited measures are cases of
     ``rockdove.motion``, failed by the measure that broke its limit (a CI tool saw them pass)."""
-    import copy
     import dataclasses
 
     from rockdove.verify.junit import junit_xml
@@ -142,8 +141,9 @@ def test_anatomy_and_motion_measures_are_cases_and_their_failures_fail(runs, sch
     names = [m["name"] for m in data["anatomy"]["measures"]]
     assert len(names) >= 24 and {("rockdove.anatomy", n) for n in names} <= set(cases)
     assert "rockdove.motion" not in {s.get("name") for s in root}
-    anatomy = copy.deepcopy(data["anatomy"])
-    anatomy["measures"][0]["passed"] = False
+    anatomy = Report.from_json(data).anatomy
+    anatomy = dataclasses.replace(anatomy, measures=(dataclasses.replace(anatomy.measures[0], passed=False),
+                                                     *anatomy.measures[1:]))
     motion = {"motion": "walk", "frames": 121, "limits": {"card_stretch": 0.01, "hold_fraction": [0.4, 0.8]},
               "measures": {"card_stretch": 0.02, "hold_fraction": 0.5, "head_cycles": 10, "steps": 10},
               "failures": ["motion walk: card_stretch = 0.02, allowed 0.01"]}

@@ -15,7 +15,7 @@ import os
 import xml.etree.ElementTree as ET
 
 from ..resources import write_atomic
-from .results import HostResult, Report
+from .results import Anatomy, HostResult, Report
 
 #: Test case per validator: the Issue ``check`` (or its prefix before ``:``) -> the name shown.
 VALIDATORS = {"layer": "dependencies", "assetPath": "dependencies", "open": "dependencies",
@@ -123,14 +123,13 @@ def _host(root, h: HostResult, goals: dict) -> dict:
     return suite.close()
 
 
-def _anatomy(root, report: Report) -> dict:
+def _anatomy(root, anatomy: Anatomy) -> dict:
     suite = _Suite(root, "rockdove.anatomy")
-    anatomy = report.anatomy or {}
-    for m in anatomy.get("measures", []):
-        line = f"{m['name']} = {_num(m['value'])} {m['unit']}".rstrip() + f", range [{m['low']}, {m['high']}]"
-        suite.case(m["name"], failures=[] if m["passed"] else [f"anatomy: {line} ({m['what']})"], out=line)
-    if not anatomy.get("measures") and anatomy.get("failures"):  # the bird's parts could not be measured
-        suite.case("measures", failures=list(anatomy["failures"]))
+    for m in anatomy.measures:
+        line = f"{m.name} = {_num(m.value)} {m.unit}".rstrip() + f", range [{m.low}, {m.high}]"
+        suite.case(m.name, failures=[] if m.passed else [f"anatomy: {line} ({m.what})"], out=line)
+    if not anatomy.measures and anatomy.failures:  # the bird's parts could not be measured
+        suite.case("measures", failures=list(anatomy.failures))
     return suite.close()
 
 
@@ -157,7 +156,7 @@ def junit_xml(report: Report) -> bytes:
                       time=_time(report.timings_s.get("total", 0.0)))
     totals = [_validation(root, report), _views(root, report)]
     totals += [_host(root, h, report.goals) for h in report.hosts]
-    totals += [_anatomy(root, report)] + ([_motion(root, report.motion)] if report.motion else [])
+    totals += [_anatomy(root, report.anatomy)] + ([_motion(root, report.motion)] if report.motion else [])
     for k in ("tests", "failures", "errors"):
         root.set(k, str(sum(t[k] for t in totals)))
     ET.indent(root)

@@ -158,6 +158,35 @@ class Validation:
 
 
 @dataclass(frozen=True)
+class Measure:
+    """One anatomy measure beside its published range (:data:`rockdove.verify.anatomy.RANGES`, None: unbounded);
+    ``value`` None in a report read back where it was NaN."""
+
+    name: str
+    value: float | None
+    low: float | None
+    high: float | None
+    unit: str
+    source: str
+    what: str
+    passed: bool
+
+
+@dataclass(frozen=True)
+class Anatomy(_Record):
+    """The bird against its published measures (:mod:`rockdove.verify.anatomy`); no measures when it could not be
+    measured (``failures`` say why)."""
+
+    passed: bool
+    failures: tuple[str, ...]
+    measures: tuple[Measure, ...] = ()
+
+    @classmethod
+    def from_json(cls, data: dict) -> Anatomy:
+        return cls(data["passed"], tuple(data["failures"]), tuple(Measure(**m) for m in data["measures"]))
+
+
+@dataclass(frozen=True)
 class Report(_Record):
     """A verification: report.json's content (``to_json``), typed where it is read. ``boundary``: ``{"per_view":
     {view: shape}, "method"}``; ``cache``: the items that ran and were reused."""
@@ -177,7 +206,7 @@ class Report(_Record):
     reference: tuple[dict, ...]
     hue_sweep: HueHistogram
     hosts: tuple[HostResult, ...]
-    anatomy: dict
+    anatomy: Anatomy
     beauty: dict | None
     boundary: dict
     film: dict | None
@@ -201,7 +230,8 @@ class Report(_Record):
                                  "cache": ItemsUsed.from_json(data["cache"]),
                                  "views": tuple(ViewMetrics.from_json(m) for m in data["views"]),
                                  "hue_sweep": HueHistogram(**data["hue_sweep"]),
-                                 "hosts": tuple(HostResult.from_json(h) for h in data["hosts"])}
+                                 "hosts": tuple(HostResult.from_json(h) for h in data["hosts"]),
+                                 "anatomy": Anatomy.from_json(data["anatomy"])}
         plain: dict[str, Any] = {f.name: data.get(f.name) for f in dataclasses.fields(cls) if f.name not in typed}
         fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in plain.items()}
         return cls(**fields, **typed)

@@ -143,7 +143,7 @@ def combine(checked: Checked, out: str, *, bench_dir, pictures, published_asset)
     if not validation.passed:
         failures.insert(0, "validation: " + (validation.error or "the validator reported problems"))
     anatomy = measure_scene(scene)  # the bird against its published measures (rockdove.verify.anatomy)
-    failures.extend(anatomy["failures"] + (checked.motion["failures"] if checked.motion else []))
+    failures.extend([*anatomy.failures, *(checked.motion["failures"] if checked.motion else [])])
     timings["total"] = time.perf_counter() - checked.t_start
     config = provenance.asset_configuration(layer)
     if os.path.isfile(os.path.join(out, "viewer.html")):  # written beside the report (rockdove.web.viewer)
@@ -189,7 +189,7 @@ def summary(report: Report) -> dict:
                                "line_over_curve": v["curvature"]["ratio"]}
                            for k, v in per_view.items() if "coherence" in v},
         "hosts": [{k: v for k, v in h.to_json().items() if k not in ("per_view", "failures")} for h in report.hosts],
-        "anatomy": {r["name"]: r["value"] for r in report.anatomy["measures"]},
+        "anatomy": {m.name: m.value for m in report.anatomy.measures},
         "motion": report.motion and {k: report.motion[k] for k in ("motion", "times", "measures", "failures")},
         "timings_s": report.timings_s,
     }
