@@ -10,37 +10,38 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
 if TYPE_CHECKING:  # compare imports numpy; the build's verdict and the API's types need none of it
+    from .boundary import Boundary, BoundaryShape
     from .compare import HueHistogram, ViewMetrics
 
 #: A host's outcome: within its goals, not, not run here (``reason`` why), or it raised (``reason`` its error).
 Status = Literal["passed", "failed", "skipped", "error"]
 
 
-def _plain(value: Any) -> Any:
+def plain(value: Any) -> Any:
     """``value`` as JSON data: typed results by their ``to_json``, other dataclasses as dicts, tuples as lists."""
     if hasattr(value, "to_json"):
         return value.to_json()
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+        return {f.name: plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
     if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
+        return [plain(v) for v in value]
     if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
+        return {k: plain(v) for k, v in value.items()}
     return value
 
 
-class _Record:
+class Record:
     """``to_json``: every field but those in ``_PRIVATE``, as JSON data."""
 
     _PRIVATE: tuple[str, ...] = ()
 
     def to_json(self) -> dict:
-        return {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)  # type: ignore[arg-type]
+        return {f.name: plain(getattr(self, f.name)) for f in dataclasses.fields(self)  # type: ignore[arg-type]
                 if f.name not in self._PRIVATE}
 
 
 @dataclass(frozen=True)
-class ViewResult(_Record):
+class ViewResult(Record):
     """One verification view: its GL render against the exact reference (``metrics`` None when the render
     failed), the light sweep's hues and boundary, its images in ``folder`` and its contact-sheet row."""
 
@@ -51,7 +52,7 @@ class ViewResult(_Record):
     failures: tuple[str, ...]
     reference: dict
     hue: HueHistogram | None
-    boundary: dict | None
+    boundary: BoundaryShape | None
     files: dict[str, str]
     timings_s: dict[str, float]
     folder: str = field(default="", compare=False)
@@ -60,11 +61,13 @@ class ViewResult(_Record):
 
     @classmethod
     def from_json(cls, data: dict, folder: str = "", sheet_row: tuple = ()) -> ViewResult:
+        from .boundary import BoundaryShape
         from .compare import HueHistogram, ViewMetrics
 
-        m, hue = data["metrics"], data["hue"]
+        m, hue, b = data["metrics"], data["hue"], data["boundary"]
         return cls(**{**data, "metrics": None if m is None else ViewMetrics.from_json(m),
-                      "hue": None if hue is None else HueHistogram(**hue), "failures": tuple(data["failures"])},
+                      "hue": None if hue is None else HueHistogram(**hue), "failures": tuple(data["failures"]),
+                      "boundary": None if b is None else BoundaryShape.from_json(b)},
                    folder=folder, sheet_row=tuple(sheet_row))
 
 
@@ -110,7 +113,7 @@ class HostResult:
             return {**out, "skipped": True, "reason": self.reason, "passed": None}
         if self.status == "error":
             return {**out, "passed": False, "error": self.reason}
-        return {**out, **_plain(self.metrics), "passed": self.passed, "failures": list(self.failures)}
+        return {**out, **plain(self.metrics), "passed": self.passed, "failures": list(self.failures)}
 
     @classmethod
     def from_json(cls, data: dict, files: dict | None = None) -> HostResult:
@@ -173,7 +176,7 @@ class Measure:
 
 
 @dataclass(frozen=True)
-class Anatomy(_Record):
+class Anatomy(Record):
     """The bird against its published measures (:mod:`rockdove.verify.anatomy`); no measures when it could not be
     measured (``failures`` say why)."""
 
@@ -187,9 +190,9 @@ class Anatomy(_Record):
 
 
 @dataclass(frozen=True)
-class Report(_Record):
-    """A verification: report.json's content (``to_json``), typed where it is read. ``boundary``: ``{"per_view":
-    {view: shape}, "method"}``; ``cache``: the items that ran and were reused."""
+class Report(Record):
+    """A verification: report.json's content (``to_json``), typed where it is read. ``cache``: the items that ran
+    and were reused."""
 
     asset: str
     asset_sha256: str
@@ -208,7 +211,7 @@ class Report(_Record):
     hosts: tuple[HostResult, ...]
     anatomy: Anatomy
     beauty: dict | None
-    boundary: dict
+    boundary: Boundary
     film: dict | None
     lut: dict | None
     variants: dict[str, str]
@@ -224,21 +227,23 @@ class Report(_Record):
     @classmethod
     def from_json(cls, data: dict) -> Report:
         """A report.json read back (its paths as written there)."""
+        from .boundary import Boundary
         from .compare import HueHistogram, ViewMetrics
 
-        typed: dict[str, Any] = {"validation": Validation(**data["validation"]),
+        typed: dict[str, Any] = {"boundary": Boundary.from_json(data["boundary"]),
+                                 "validation": Validation(**data["validation"]),
                                  "cache": ItemsUsed.from_json(data["cache"]),
                                  "views": tuple(ViewMetrics.from_json(m) for m in data["views"]),
                                  "hue_sweep": HueHistogram(**data["hue_sweep"]),
                                  "hosts": tuple(HostResult.from_json(h) for h in data["hosts"]),
                                  "anatomy": Anatomy.from_json(data["anatomy"])}
-        plain: dict[str, Any] = {f.name: data.get(f.name) for f in dataclasses.fields(cls) if f.name not in typed}
-        fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in plain.items()}
+        raw: dict[str, Any] = {f.name: data.get(f.name) for f in dataclasses.fields(cls) if f.name not in typed}
+        fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()}
         return cls(**fields, **typed)
 
 
 @dataclass(frozen=True)
-class Verdict(_Record):
+class Verdict(Record):
     """The build's verification, its stage's value: ``reason`` the failures joined."""
 
     passed: bool
