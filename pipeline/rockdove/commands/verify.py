@@ -123,8 +123,8 @@ def _print(report) -> None:
     h = report.hue_sweep
     print(f"light sweep hues: green {h.green}, purple {h.purple}, grey {h.grey}, other {h.other}")
     for name, b in report.boundary.per_view.items():
-        print(f"boundary {name}: {b.line.n_points} points, RMS {b.line.rms_px:.2f} px "
-              f"({b.line.rms_fraction:.4f} of its length)")
+        print(f"boundary {name}: {b.n_points} points, RMS {b.rms_px:.2f} px "
+              f"({b.rms_fraction:.4f} of its length)")
     for host in report.hosts:
         m = host.metrics
         if host.status == "skipped":

@@ -21,14 +21,13 @@ residual (when half remain), so a stray feather tip of the other colour does not
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import UsageError
 from .compare import lab_hue_classes, rgb_to_lab
-from .results import Record, plain
+from .results import Record
 
 #: A class is coherent when its largest connected region holds at least this share of its pixels. 0.7 was
 #: the first goal; a per-card uniform draw reaches 0.70 / 0.69 (green / purple) on the default bird's 90 degree
@@ -55,9 +54,8 @@ _NAN = float("nan")
 
 
 @dataclass(frozen=True)
-class Straightness:
-    """:func:`boundary_straightness`: boundary points and centreline points, the line's RMS residual (px), the
-    boundary's length (px), their ratio; the line's direction and centre (x, y), None when not fitted."""
+class Straightness(Record):
+    """:func:`boundary_straightness`; the line's direction and centre (x, y) None, the rest NaN, when not fitted."""
 
     n_points: int
     n_centreline: int
@@ -70,8 +68,7 @@ class Straightness:
 
 @dataclass(frozen=True)
 class Regions:
-    """A strict hue class's pixels, the share of them its largest connected region holds (NaN without pixels), and
-    its regions."""
+    """A strict hue class's pixels, the share its largest connected region holds (NaN without pixels), regions."""
 
     pixels: int
     largest_share: float
@@ -80,7 +77,7 @@ class Regions:
 
 @dataclass(frozen=True)
 class Coherence:
-    """:func:`class_coherence`: each strict hue class's regions, gaps of up to ``2 * reach_px`` bridged."""
+    """:func:`class_coherence`."""
 
     reach_px: int
     green: Regions
@@ -90,8 +87,7 @@ class Coherence:
 
 @dataclass(frozen=True)
 class Curvature:
-    """:func:`boundary_curvature`: the RMS residuals (px) of a line and a degree ``curve_degree`` curve fitted to the
-    boundary's centreline, their ``ratio``; NaN when too few points."""
+    """:func:`boundary_curvature`; NaN but the counts when there are too few points."""
 
     n_points: int
     n_centreline: int
@@ -102,28 +98,21 @@ class Curvature:
     ratio: float = _NAN
 
 
-@dataclass(frozen=True)
-class BoundaryShape:
-    """A light-sweep view's green/purple pattern (:func:`class_shape`): its boundary's ``line``, the classes'
-    coherence, the boundary's curvature, and whether the pattern is coherent and the boundary curved."""
+@dataclass(frozen=True, kw_only=True)
+class BoundaryShape(Straightness):
+    """A light-sweep view's green/purple pattern (:func:`class_shape`): its boundary's line and curvature, the
+    classes' coherence, whether the pattern is coherent and the boundary curved."""
 
-    line: Straightness
     coherence: Coherence
     curvature: Curvature
     coherent: bool
     curved: bool
 
-    def to_json(self) -> dict:
-        """The line's fields beside the shape's, as report.json has them."""
-        return {**plain(self.line), **{f.name: plain(getattr(self, f.name)) for f in dataclasses.fields(self)[1:]}}
-
     @classmethod
     def from_json(cls, data: dict) -> BoundaryShape:
-        line = {f.name: data[f.name] for f in dataclasses.fields(Straightness)}
-        coh = data["coherence"]
-        return cls(Straightness(**{**line, **{k: line[k] and tuple(line[k]) for k in ("direction", "centre")}}),
-                   Coherence(coh["reach_px"], *(Regions(**coh[k]) for k in CLASSES)), Curvature(**data["curvature"]),
-                   data["coherent"], data["curved"])
+        coh, line = data["coherence"], {k: data[k] and tuple(data[k]) for k in ("direction", "centre")}
+        return cls(**{**data, **line, "coherence": Coherence(coh["reach_px"], *(Regions(**coh[k]) for k in CLASSES)),
+                      "curvature": Curvature(**data["curvature"])})
 
 
 @dataclass(frozen=True)
@@ -269,9 +258,9 @@ def class_shape(strict: np.ndarray, sides: np.ndarray, reach_px: int = COHERENCE
     (-1 elsewhere: ViewMetrics' ``strict`` and ``cls``)."""
     coherence, curvature = class_coherence(strict, reach_px), boundary_curvature(sides)
     shares = [coherence.green.largest_share, coherence.purple.largest_share]
-    return BoundaryShape(boundary_straightness(sides), coherence, curvature,
-                         bool(all(np.isfinite(s) and s >= COHERENT_SHARE for s in shares)),
-                         bool(np.isfinite(curvature.ratio) and curvature.ratio >= CURVED_RATIO))
+    return BoundaryShape(**vars(boundary_straightness(sides)), coherence=coherence, curvature=curvature,
+                         coherent=bool(all(np.isfinite(s) and s >= COHERENT_SHARE for s in shares)),
+                         curved=bool(np.isfinite(curvature.ratio) and curvature.ratio >= CURVED_RATIO))
 
 
 def boundary_note(view: str, boundary: BoundaryShape) -> str:

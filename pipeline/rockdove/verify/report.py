@@ -346,8 +346,8 @@ def write_html(path, report: Report, images: Figures) -> str:
     parts.append("<h2>Green/purple boundary straightness</h2><p>RMS perpendicular distance of the boundary pixels "
                  "from their total-least-squares line (paper preset: straight; measured preset: bent).</p>"
                  + _head("view", "points", "RMS (px)", "length (px)", "RMS / length"))
-    parts += [_row(name, s.line.n_points, _fmt(s.line.rms_px), _fmt(s.line.length_px, 1),
-                   _fmt(s.line.rms_fraction, 4)) for name, s in report.boundary.per_view.items()]
+    parts += [_row(name, s.n_points, _fmt(s.rms_px), _fmt(s.length_px, 1), _fmt(s.rms_fraction, 4))
+              for name, s in report.boundary.per_view.items()]
     parts.append("</table>")
     for key, title in (("hue", "Hue histogram across the light sweep"), ("contact_sheet", "Contact sheet"),
                        ("lut", "The LUT"), ("spectra", "Film reflectance spectra")):

@@ -181,7 +181,7 @@ def summary(report: Report) -> dict:
                            "de_max": m.de_max, "n_black": m.n_black, "passed": m.passed} for m in report.views},
         "notes": list(report.notes),
         "hue_sweep": {"green": hue.green, "purple": hue.purple, "grey": hue.grey, "other": hue.other},
-        "boundary_rms_px": {k: v.line.rms_px for k, v in per_view.items()},
+        "boundary_rms_px": {k: v.rms_px for k, v in per_view.items()},
         "boundary_shape": {k: {"green_share": v.coherence.green.largest_share,
                                "purple_share": v.coherence.purple.largest_share, "line_over_curve": v.curvature.ratio}
                            for k, v in per_view.items()},
