@@ -297,7 +297,7 @@ def _verify_record(summary: dict, name: str = "verify") -> dict:
 
 
 def _items(asset) -> dict:
-    """The verification's items that ran and were reused (rockdove.graph.verification), from its report."""
+    """The verification's items that ran and were reused (rockdove.verify.verification), from its report."""
     return json.loads((asset / "verify/report.json").read_text())["cache"]
 
 

@@ -72,7 +72,7 @@ def test_verify_hosts_reports_each_host_and_a_failing_one_does_not_stop_the_othe
     """MaterialX's own GLSL of the asset's baked network matches the exact view_angle reference (dE goals); the
     physical network (OpenPBR's thin film) shows green and purple; a host that raises HostError is reported by
     name and fails the verification while the others still run; a missing host is skipped with its reason."""
-    from rockdove.graph.verification import verify
+    from rockdove.verify.verification import verify
 
     _broken_host(monkeypatch)
     monkeypatch.setitem(hosts.HOSTS, "ghost", _Fake("ghost", "baked", "view_angle"))

@@ -29,9 +29,10 @@ ROOT = Path(rockdove.__file__).resolve().parent
 # The data flow, low to high (docs/design.md, /work/shared/ARCHITECTURE.md): a module may import modules of its
 # own layer or of lower layers only. Packages within one layer may import each other, but only one way.
 LAYERS = [
-    ({"rockdove", "errors", "_compat", "resources", "config", "sources", "png", "digest"},
+    ({"rockdove", "errors", "_compat", "resources", "config", "sources", "png", "digest", "cache"},
      "foundations: the version, error types, optional-import shims, data-file lookup, the checked config, "
-     "the digest of the code a callable can execute, the one PNG writer and the content digest helper"),
+     "the digest of the code a callable can execute, the one PNG writer, the content digest helper and the "
+     "content-addressed store the build's stages and the verification's items share"),
     ({"films", "optics", "spectral", "srgb"},
      "physics: film model -> Airy reflectance -> spectrum to colour; knows nothing of tables, meshes or USD"),
     ({"lut"},
@@ -51,7 +52,7 @@ LAYERS = [
     ({"verify"},
      "compares every host's render with the exact reference and writes the report"),
     ({"graph"},
-     "the build graph: runs the stages above into the output folder and publishes atomically"),
+     "the build graph: runs the stages above (verification included) into the output folder and publishes atomically"),
     ({"api"},
      "the library API: configuration, build and verification as typed values (what the commands call)"),
     ({"bench", "commands"},

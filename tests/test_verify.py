@@ -205,8 +205,8 @@ def test_one_verification_reuses_what_it_checked_and_reruns_a_host_whose_code_ch
     import importlib
 
     from rockdove import hosts
-    from rockdove.graph.verification import verify
     from rockdove.verify.results import ItemNames
+    from rockdove.verify.verification import verify
 
     (tmp_path / "fake_host.py").write_text(FAKE_HOST)
     monkeypatch.syspath_prepend(str(tmp_path))
@@ -245,7 +245,7 @@ def test_an_image_that_cannot_be_written_fails_the_views_it_belongs_to(assets, t
     """The per-view images are written in a background thread; a write that fails is raised from the
     verification, not lost with the thread."""
     from rockdove import png
-    from rockdove.graph.verification import verify
+    from rockdove.verify.verification import verify
 
     real = png.save_png
 

@@ -198,15 +198,15 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
            allow_external: bool = False, beauty: dict | None = None, motion: str | None = None,
            times: Iterable[float] | None = None) -> Verification:
     """Validate an asset (its folder or root layer) and check it in the GLSL shaders and every host in ``hosts``:
-    the build's own verification with its cache (:func:`rockdove.graph.verification.verify`, whose arguments these
+    the build's own verification with its cache (:func:`rockdove.verify.verification.verify`, whose arguments these
     are; its progress goes to the ``rockdove`` logger). ``out``: the report folder; ``allow_external``: let the
     asset's layers name files outside its folder; ``motion``, ``times``: also check that motion (its measures, and
     the film at those time codes). Returns :class:`Verification` (a failed check: ``passed`` False). Raises
     :class:`UsageError` for bad usage and :class:`VerificationFailed`, before rendering, when the asset's layers do
     not parse or name files outside it."""
-    from .graph import verification
     from .graph.publish import staged_output
     from .usd.dependencies import require_inside
+    from .verify import verification
     from .verify.verdict import default_out_dir
 
     root = require_inside(asset, allow_external)  # nothing from elsewhere is read, nothing of the user's overwritten

@@ -32,7 +32,7 @@ HOLDS = {"colour-science-": "colour-science's CIE tables and RGB matrices, the q
                             "(rockdove.spectral.colour_data)",
          "usd-validation-nvidia-": "NVIDIA's mesh-rule findings (rockdove.usd.nvidia)",
          "code": "the parsed imports of the package's files (rockdove.sources)",
-         "verify": "renders of assets verified without a build cache beside them (rockdove.graph.verification)"}
+         "verify": "renders of assets verified without a build cache beside them (rockdove.verify.verification)"}
 #: folders whose entries are each keyed by what they read (stage-cache items), never stale as a whole
 KEYED_INSIDE = ("verify",)
 

@@ -1,4 +1,4 @@
-"""The incremental build graph over a cache (:mod:`rockdove.graph.cache`).
+"""The incremental build graph over a cache (:mod:`rockdove.cache`).
 
 A :class:`Stage` is a named pure function of its part of the configuration and its upstream outputs, keyed by
 the configuration keys it declares, the code it can execute (:func:`rockdove.sources.digest`) and the *content
@@ -19,10 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from .. import sources
+from ..cache import CODEC_FILES, FILES, JSON, KEY_VERSION, NPZ, Cache, Codec, folder_digest, load_entry  # noqa: F401
 from ..config import Config, canonical_json, get
-from .cache import CODEC_FILES, FILES, JSON, NPZ, Cache, Codec, folder_digest, load_entry  # noqa: F401
-
-GRAPH_VERSION = 2  # bump when the key recipe or the entry layout changes
 
 
 @dataclass
@@ -75,7 +73,7 @@ def source_digest(stage: Stage, inputs: Iterable[Stage] = (), record: bool = Fal
 
 def stage_key(stage: Stage, config: dict, input_digests: Mapping[str, str], source: str) -> str:
     """The content key (sha256 hex) of ``stage``: exactly its config keys, code, inputs."""
-    payload = {"graph": GRAPH_VERSION, "stage": stage.name, "source": source,
+    payload = {"graph": KEY_VERSION, "stage": stage.name, "source": source,
                "config": _nested(config, stage.config), "inputs": {d: input_digests[d] for d in stage.deps}}
     return hashlib.sha256(canonical_json(payload).encode()).hexdigest()
 

@@ -4,7 +4,7 @@
 Keys use the *content* of upstream outputs, so a new seed that leaves the thickness range unchanged re-bakes
 nothing, and a film change re-bakes the LUT and rewrites film_textures and the small layers but reuses the bird,
 the film-independent textures and the geometry layer. The verification reruns whenever a published file changes,
-but renders only what the change reaches (:mod:`rockdove.graph.verification`).
+but renders only what the change reaches (:mod:`rockdove.verify.verification`).
 """
 
 from __future__ import annotations
@@ -203,8 +203,8 @@ def run_verify(ctx: Context) -> dict:
     """The verification of the assembled asset with the build's hosts and the stage cache (so ``rockdove verify``
     reuses its renders), its report and viewer in the stage's folder (published as ``verify/``); a verdict."""
     from ..usd.layout import resolve_root_layer
+    from ..verify.verification import BUILD_HOSTS, verify
     from .publish import published_path
-    from .verification import BUILD_HOSTS, verify
 
     layer = resolve_root_layer(ctx.asset_dir)
     skipped = []

@@ -1,5 +1,5 @@
 """What a verification reads: the asset as a scene, the views it renders, and the digest of the scene content
-they render (:func:`scene_digest`), which keys each view's cache entry (:mod:`rockdove.graph.verification`)."""
+they render (:func:`scene_digest`), which keys each view's cache entry (:mod:`rockdove.verify.verification`)."""
 
 from __future__ import annotations
 

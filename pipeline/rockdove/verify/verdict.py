@@ -128,7 +128,7 @@ def combine(checked: Checked, out: str, *, bench_dir, pictures, published_asset)
     timings["hosts"] = checked.hosts_seconds
     images.bench = report.copy_bench_plots(out, bench_dir) if bench_dir is not None else []
     items = checked.items
-    if pictures is not None:  # the beauty render and the animation (rockdove.graph.verification: cached items)
+    if pictures is not None:  # the beauty render and the animation (rockdove.verify.verification: cached items)
         _log.info("beauty render and animation")
         t_pictures = time.perf_counter()
         drawn, ran, reused = pictures()

@@ -26,9 +26,9 @@ from pathlib import Path
 from typing import Any
 
 from .. import sources
+from ..cache import KEY_VERSION, Cache
 from ..config import canonical_json
 from ..resources import load_npz
-from .engine import GRAPH_VERSION, Cache
 
 _log = logging.getLogger(__name__)
 #: The hosts the build verifies with: the GL renders alone (a cold build's verification takes seconds).
@@ -39,7 +39,7 @@ def item_key(kind: str, fns: tuple, *reads) -> str:
     """The key of an item that ``fns`` compute from ``reads``: the code they can execute (rockdove.sources) and the
     ``materials`` they read at run time (the GLSL shaders, the MaterialX documents, the add-on)."""
     code = sources.digest(list(fns), data=("materials",))[0]
-    return hashlib.sha256(canonical_json([GRAPH_VERSION, kind, code, *reads]).encode()).hexdigest()
+    return hashlib.sha256(canonical_json([KEY_VERSION, kind, code, *reads]).encode()).hexdigest()
 
 
 class _Items:
@@ -56,7 +56,7 @@ class _Items:
         """Store the files of ``src`` (linked) and ``item.json`` (``meta``); the entry's folder, or None if not kept."""
         def fill(folder):
             for name in os.listdir(src):
-                if name != ".owner":  # the scratch folder's own (rockdove.graph.engine.Cache.temporary)
+                if name != ".owner":  # the scratch folder's own (rockdove.cache.Cache.temporary)
                     try:
                         os.link(os.path.join(src, name), folder / name)
                     except OSError:  # another file system, or one without hard links
@@ -91,8 +91,8 @@ def _surfaces(cache: Cache, scene, views, out: str) -> tuple[dict, list, list]:
     """The reference's :class:`~rockdove.verify.reference_image.Surface` by camera, and the cameras cast and reused."""
     import numpy as np
 
-    from ..verify.rays import camera_key
-    from ..verify.reference_image import Surface, cast_surfaces, surface_digest
+    from .rays import camera_key
+    from .reference_image import Surface, cast_surfaces, surface_digest
 
     items, digest = _Items(cache, "surface", out), surface_digest(scene)
     cameras = {camera_key(v): v for v in views}  # views of one camera share its surface
@@ -113,8 +113,8 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
     ``fresh``: the GL radiance and references of the views rendered (all when ``redo_all``)."""
     import numpy as np
 
-    from ..verify.results import ViewResult
-    from ..verify.run import render_and_check
+    from .results import ViewResult
+    from .run import render_and_check
 
     items = _Items(cache, "view", out)
     keys = {v.name: item_key("view", (render_and_check,), digest, v.to_dict()) for v in views}
@@ -145,7 +145,7 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
 
 def _host_key(host, digest: str, views, layers: str) -> str:
     """A host renders the asset's files as they are: ``layers`` is :func:`rockdove.usd.dependencies.asset_digest`."""
-    from ..verify.host_check import check_host
+    from .host_check import check_host
 
     return item_key("host", (host.render, check_host), digest, layers, [v.to_dict() for v in views], host.name,
                     host.lobe, host.variant)
@@ -153,8 +153,8 @@ def _host_key(host, digest: str, views, layers: str) -> str:
 
 def _host(cache, host, layer, scene, views, digest, layers, refs, fresh, out):
     """One host's :class:`~rockdove.verify.results.HostResult` (its images in ``out``) and whether it was cached."""
-    from ..verify.host_check import check_host
-    from ..verify.results import HostResult
+    from .host_check import check_host
+    from .results import HostResult
 
     items = _Items(cache, "host", out)
     key = _host_key(host, digest, views, layers)
@@ -215,8 +215,8 @@ def _files(files: dict) -> set:
 def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[dict, dict, list[list[str]]]:
     """The report's ``motion`` entry, its frames checked as views and their items (surfaces cast, kept, views)."""
     from ..render.scene import load_scene
-    from ..verify.inputs import scene_digest
-    from ..verify.motion import animation, frame_prefix, frame_views, measure_motion
+    from .inputs import scene_digest
+    from .motion import animation, frame_prefix, frame_views, measure_motion
 
     _log.info(f"motion {motion}: measured at every time code")
     entry = {**measure_motion(layer, motion), "times": list(times), "views": []}
@@ -265,17 +265,17 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     from ..hosts import select
     from ..render.beauty import settings
     from ..usd.dependencies import asset_digest
-    from ..verify.inputs import scene_digest, select_views, sizes, verification_scene, verification_views
-    from ..verify.reference_image import render_reference
-    from ..verify.results import HostResult, ItemNames, ItemsUsed
-    from ..verify.verdict import Checked, combine, default_out_dir
+    from .inputs import scene_digest, select_views, sizes, verification_scene, verification_views
+    from .reference_image import render_reference
+    from .results import HostResult, ItemNames, ItemsUsed
+    from .verdict import Checked, combine, default_out_dir
 
     width, height, n_views = sizes(width, height, n_views)
     t_start = time.perf_counter()
     selection = select(hosts)  # unknown names: UsageError before any work
     layer, scene, lut, notes = verification_scene(asset)
     if motion is not None:
-        from ..verify.motion import motion_times
+        from .motion import motion_times
 
         times = motion_times(layer, motion, times)  # a bad motion or time: UsageError before any render
     out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)

@@ -22,10 +22,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..config import canonical_json
-from ..digest import Digest
-from ..resources import load_npz
-from ..sources import files_of
+from .config import canonical_json
+from .digest import Digest
+from .resources import load_npz
+from .sources import files_of
+
+KEY_VERSION = 2  # bump when a key recipe (the graph's stages, the verification's items) or the entry layout changes
 
 
 # ----------------------------------------------------------------------------------------------- codecs
