@@ -134,7 +134,7 @@ def test_anatomy_and_motion_measures_are_cases_and_their_failures_fail(runs, sch
     import dataclasses
 
     from rockdove.verify.junit import junit_xml
-    from rockdove.verify.results import Report
+    from rockdove.verify.results import MotionCheck, Report
 
     path, data = runs["good"]
     root, cases = _cases(path)
@@ -144,9 +144,9 @@ def test_anatomy_and_motion_measures_are_cases_and_their_failures_fail(runs, sch
     anatomy = Report.from_json(data).anatomy
     anatomy = dataclasses.replace(anatomy, measures=(dataclasses.replace(anatomy.measures[0], passed=False),
                                                      *anatomy.measures[1:]))
-    motion = {"motion": "walk", "frames": 121, "limits": {"card_stretch": 0.01, "hold_fraction": [0.4, 0.8]},
-              "measures": {"card_stretch": 0.02, "hold_fraction": 0.5, "head_cycles": 10, "steps": 10},
-              "failures": ["motion walk: card_stretch = 0.02, allowed 0.01"]}
+    motion = MotionCheck("walk", 121, {"card_stretch": 0.02, "hold_fraction": 0.5, "head_cycles": 10, "steps": 10},
+                         {"card_stretch": 0.01, "hold_fraction": [0.4, 0.8]},
+                         ("motion walk: card_stretch = 0.02, allowed 0.01",))
     report = dataclasses.replace(Report.from_json(data), anatomy=anatomy, motion=motion)
     (tmp_path / "j.xml").write_bytes(junit_xml(report))
     schema.validate(str(tmp_path / "j.xml"))

@@ -137,8 +137,8 @@ def _print(report) -> None:
                   f"hue agreement {m.hue_agreement:.1%}  {'ok' if host.passed else 'FAIL'}")
     if report.motion:
         mo = report.motion
-        print(f"motion {mo['motion']} ({mo['frames']} time codes):", ", ".join(
-            f"{k} {v:.4g}" for k, v in mo["measures"].items()))
+        print(f"motion {mo.motion} ({mo.frames} time codes):", ", ".join(
+            f"{k} {v:.4g}" for k, v in mo.measures.items()))
     print("anatomy (rockdove.verify.anatomy):", *format_rows(report.anatomy), sep="\n")
     if report.beauty:
         print(f"beauty render ({report.beauty['renderer']}): {report.beauty['seconds']:.1f} s")

@@ -15,7 +15,7 @@ import os
 import xml.etree.ElementTree as ET
 
 from ..resources import write_atomic
-from .results import Anatomy, HostResult, Report
+from .results import Anatomy, HostResult, MotionCheck, Report
 
 #: Test case per validator: the Issue ``check`` (or its prefix before ``:``) -> the name shown.
 VALIDATORS = {"layer": "dependencies", "assetPath": "dependencies", "open": "dependencies",
@@ -133,19 +133,19 @@ def _anatomy(root, anatomy: Anatomy) -> dict:
     return suite.close()
 
 
-def _motion(root, motion: dict) -> dict:
+def _motion(root, motion: MotionCheck) -> dict:
     """A case per limited measure of :func:`rockdove.verify.motion.measure_motion`, failed by its failure line."""
     suite = _Suite(root, "rockdove.motion")
-    name, failures = motion["motion"], list(motion["failures"])
-    for key, limit in motion["limits"].items():
-        if key in motion["measures"]:
+    name, failures, measures = motion.motion, motion.failures, motion.measures
+    for key, limit in motion.limits.items():
+        if key in measures:
             mine = [f for f in failures if f.startswith(f"motion {name}: {key} = ")]
-            suite.case(key, failures=mine, out=f"{key} = {motion['measures'][key]:.4g}, allowed {limit} "
-                                               f"({motion['frames']} time codes of {name})")
-    rest = [f for f in failures if not any(f.startswith(f"motion {name}: {k} = ") for k in motion["limits"])]
-    if "head_cycles" in motion["measures"] or rest:
-        suite.case("head cycles per step", failures=rest, out=f"{motion['measures'].get('head_cycles')} head "
-                                                               f"cycles, {motion['measures'].get('steps')} steps")
+            suite.case(key, failures=mine, out=f"{key} = {measures[key]:.4g}, allowed {limit} "
+                                               f"({motion.frames} time codes of {name})")
+    rest = [f for f in failures if not any(f.startswith(f"motion {name}: {k} = ") for k in motion.limits)]
+    if "head_cycles" in measures or rest:
+        suite.case("head cycles per step", failures=rest, out=f"{measures.get('head_cycles')} head "
+                                                               f"cycles, {measures.get('steps')} steps")
     return suite.close()
 
 

@@ -329,12 +329,12 @@ def write_html(path, report: Report, images: Figures) -> str:
                      "style='image-rendering:auto'>")
     if report.motion:  # the motion's measures beside their limits (rockdove.verify.motion)
         mo = report.motion
-        parts.append(_pairs(f"Motion {e(mo['motion'])}: measured at {mo['frames']} time codes, film checked at "
-                            f"{', '.join(f'{t:g}' for t in mo['times'])}", {k: f"{_fmt(v, 5)} (limit "
-                            f"{mo['limits'].get(k, '-')})" for k, v in mo["measures"].items()}, str))
-        if mo.get("animation"):
-            a = mo["animation"]
-            parts.append(f"<figure><img src='{e(a['file'])}' alt='{e(mo['motion'])}'><figcaption>{e(a['caption'])}"
+        parts.append(_pairs(f"Motion {e(mo.motion)}: measured at {mo.frames} time codes, film checked at "
+                            f"{', '.join(f'{t:g}' for t in mo.times)}", {k: f"{_fmt(v, 5)} (limit "
+                            f"{mo.limits.get(k, '-')})" for k, v in mo.measures.items()}, str))
+        if mo.animation:
+            a = mo.animation
+            parts.append(f"<figure><img src='{e(a['file'])}' alt='{e(mo.motion)}'><figcaption>{e(a['caption'])}"
                          "</figcaption></figure>")
     parts.append(_list("Failures", report.failures))
     parts.append("<h2>Per view</h2>" + _head("view", "pixels", "median dE", "p95 dE", "max dE", "&gt; 2", "black",

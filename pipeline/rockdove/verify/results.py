@@ -190,6 +190,30 @@ class Anatomy(Record):
 
 
 @dataclass(frozen=True)
+class MotionCheck(Record):
+    """A motion measured at every time code (:func:`rockdove.verify.motion.measure_motion`), its measures and their
+    limits by name, the film checked at ``times`` in ``views``; the report's ``animation`` or ``notes`` why none."""
+
+    motion: str
+    frames: int
+    measures: dict[str, float]
+    limits: dict
+    failures: tuple[str, ...]
+    times: tuple[float, ...] = ()
+    views: tuple[str, ...] = ()
+    animation: dict | None = None
+    notes: tuple[str, ...] | None = None
+
+    def to_json(self) -> dict:
+        return {k: v for k, v in super().to_json().items() if v is not None}
+
+    @classmethod
+    def from_json(cls, data: dict) -> MotionCheck:
+        fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
+        return cls(**fields)
+
+
+@dataclass(frozen=True)
 class Report(Record):
     """A verification: report.json's content (``to_json``), typed where it is read. ``cache``: the items that ran
     and were reused."""
@@ -221,7 +245,7 @@ class Report(Record):
     timings_s: dict[str, float]
     versions: dict
     argv: tuple[str, ...]
-    motion: dict | None = None
+    motion: MotionCheck | None = None
     animation: dict | None = None  # the light turning round the bird (rockdove.render.animation.for_report)
 
     @classmethod
@@ -236,7 +260,8 @@ class Report(Record):
                                  "views": tuple(ViewMetrics.from_json(m) for m in data["views"]),
                                  "hue_sweep": HueHistogram(**data["hue_sweep"]),
                                  "hosts": tuple(HostResult.from_json(h) for h in data["hosts"]),
-                                 "anatomy": Anatomy.from_json(data["anatomy"])}
+                                 "anatomy": Anatomy.from_json(data["anatomy"]),
+                                 "motion": data.get("motion") and MotionCheck.from_json(data["motion"])}
         raw: dict[str, Any] = {f.name: data.get(f.name) for f in dataclasses.fields(cls) if f.name not in typed}
         fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()}
         return cls(**fields, **typed)

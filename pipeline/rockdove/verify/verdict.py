@@ -22,7 +22,7 @@ from . import compare, provenance, report
 from .anatomy import measure_scene
 from .boundary import Boundary, boundary_note
 from .inputs import BOUNDARY_SWEEP_ANGLE_DEG
-from .results import HostResult, ItemsUsed, Report, ViewResult
+from .results import HostResult, ItemsUsed, MotionCheck, Report, ViewResult
 
 _log = logging.getLogger(__name__)
 #: Each of green and purple must hold at least this fraction of the chromatic sweep pixels.
@@ -49,7 +49,7 @@ class Checked:
     size: tuple[int, int]
     hosts_seconds: float
     t_start: float
-    motion: dict | None = None  # rockdove.verify.motion.measure_motion's entry, with the times and views checked
+    motion: MotionCheck | None = None
 
 
 def sweep_hues(views: tuple[ViewResult, ...]) -> tuple[compare.HueHistogram, list[str], list[str]]:
@@ -143,7 +143,7 @@ def combine(checked: Checked, out: str, *, bench_dir, pictures, published_asset)
     if not validation.passed:
         failures.insert(0, "validation: " + (validation.error or "the validator reported problems"))
     anatomy = measure_scene(scene)  # the bird against its published measures (rockdove.verify.anatomy)
-    failures.extend([*anatomy.failures, *(checked.motion["failures"] if checked.motion else [])])
+    failures.extend([*anatomy.failures, *(checked.motion.failures if checked.motion else ())])
     timings["total"] = time.perf_counter() - checked.t_start
     config = provenance.asset_configuration(layer)
     if os.path.isfile(os.path.join(out, "viewer.html")):  # written beside the report (rockdove.web.viewer)
@@ -187,6 +187,7 @@ def summary(report: Report) -> dict:
                            for k, v in per_view.items()},
         "hosts": [{k: v for k, v in h.to_json().items() if k not in ("per_view", "failures")} for h in report.hosts],
         "anatomy": {m.name: m.value for m in report.anatomy.measures},
-        "motion": report.motion and {k: report.motion[k] for k in ("motion", "times", "measures", "failures")},
+        "motion": report.motion and {"motion": report.motion.motion, "times": report.motion.times,
+                                     "measures": report.motion.measures, "failures": report.motion.failures},
         "timings_s": report.timings_s,
     }

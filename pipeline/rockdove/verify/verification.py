@@ -29,6 +29,7 @@ from .. import sources
 from ..cache import KEY_VERSION, Cache
 from ..config import canonical_json
 from ..resources import load_npz
+from .results import MotionCheck
 
 _log = logging.getLogger(__name__)
 #: The hosts the build verifies with: the GL renders alone (a cold build's verification takes seconds).
@@ -212,14 +213,14 @@ def _files(files: dict) -> set:
     return {name for per_view in files.values() for name in per_view.values()}
 
 
-def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[dict, dict, list[list[str]]]:
-    """The report's ``motion`` entry, its frames checked as views and their items (surfaces cast, kept, views)."""
+def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[MotionCheck, dict, list[list[str]]]:
+    """The report's motion check, its frames checked as views and their items (surfaces cast, kept, views)."""
     from ..render.scene import load_scene
     from .inputs import scene_digest
     from .motion import animation, frame_prefix, frame_views, measure_motion
 
     _log.info(f"motion {motion}: measured at every time code")
-    entry = {**measure_motion(layer, motion), "times": list(times), "views": []}
+    measured = measure_motion(layer, motion)
     results: dict = {}
     items: list[list[str]] = [[], [], []]
     for t in times:
@@ -229,15 +230,15 @@ def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[dict,
         surfaces, cast, kept = _surfaces(cache, scene, views, out)
         frame, _, rendered = _views(cache, scene, lut, views, scene_digest(scene), surfaces, False, out)
         results.update(frame)
-        entry["views"] += list(frame)
         for into, names in zip(items, (cast, kept, rendered)):
             into += names
     _log.info(f"motion {motion}: its animation")
+    checked = dataclasses.replace(measured, times=tuple(times), views=tuple(results))
     try:  # a picture, not a measurement: the report goes on without it
-        entry["animation"] = animation(layer, motion, out, lut)
+        checked = dataclasses.replace(checked, animation=animation(layer, motion, out, lut))
     except Exception as exc:  # noqa: BLE001 - any renderer's error
-        entry["notes"] = [f"no {motion} animation: {type(exc).__name__}: {exc}"]
-    return entry, results, items
+        checked = dataclasses.replace(checked, notes=(f"no {motion} animation: {type(exc).__name__}: {exc}",))
+    return checked, results, items
 
 
 def default_cache(asset) -> str:
