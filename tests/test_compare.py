@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from rockdove.verify import boundary, compare
+from rockdove.verify.results import read
 
 FEATHER = 2  # part id of the feathers in these synthetic images (0 = background, 1 = body)
 
@@ -208,4 +209,4 @@ def test_compare_arrays_gives_the_numbers_of_the_whole_image_formulation():
         expected[hue_mask] = compare.hue_classes(safe_gl[hue_mask], sides=sides)[2]
         np.testing.assert_array_equal(img, expected)
     assert not m.finite and "de_map" not in m.to_json() and "strict" not in m.to_json()
-    assert compare.ViewMetrics.from_json(m.to_json()).hue == m.hue and m.to_json()["failures"] is not m.failures
+    assert read(compare.ViewMetrics, m.to_json()).hue == m.hue and m.to_json()["failures"] is not m.failures

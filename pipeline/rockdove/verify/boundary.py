@@ -108,12 +108,6 @@ class BoundaryShape(Straightness):
     coherent: bool
     curved: bool
 
-    @classmethod
-    def from_json(cls, data: dict) -> BoundaryShape:
-        coh, line = data["coherence"], {k: data[k] and tuple(data[k]) for k in ("direction", "centre")}
-        return cls(**{**data, **line, "coherence": Coherence(coh["reach_px"], *(Regions(**coh[k]) for k in CLASSES)),
-                      "curvature": Curvature(**data["curvature"])})
-
 
 @dataclass(frozen=True)
 class Boundary(Record):
@@ -122,10 +116,6 @@ class Boundary(Record):
     per_view: dict[str, BoundaryShape]
     method: str = ("TLS line through green/purple boundary points; RMS perpendicular distance (px) and RMS / "
                    "boundary length; coherence and curvature: rockdove.verify.boundary")
-
-    @classmethod
-    def from_json(cls, data: dict) -> Boundary:
-        return cls({k: BoundaryShape.from_json(v) for k, v in data["per_view"].items()}, data["method"])
 
 
 def boundary_points(cls: np.ndarray, reach_px: int = BOUNDARY_REACH_PX) -> np.ndarray:

@@ -208,10 +208,6 @@ class ViewMetrics:
         return {f.name: dataclasses.asdict(v) if f.name == "hue" else deepcopy(v) for f in fields(self)
                 if f.name not in ("de_map", "cls", "strict") for v in [getattr(self, f.name)]}
 
-    @classmethod
-    def from_json(cls, data: dict) -> ViewMetrics:
-        return cls(**{**data, "hue": HueHistogram(**data["hue"])})
-
 
 def compare_arrays(view: str, gl_rgb, ref_rgb, gl_part, ref_part, feather_part_ids, ref_n_dot_l=None,
                    ref_mask=None, erode_px: int = 1) -> ViewMetrics:

@@ -1,10 +1,13 @@
 """The verification's results as typed values: what its checks hand on, what its cache keeps and the
-:class:`Report`. Each ``to_json()`` is its part of ``report.json``; ``from_json`` reads it back.
+:class:`Report`. Each ``to_json()`` is its part of ``report.json``; ``from_json`` reads it back (:func:`read`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
+import types
+import typing
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
@@ -30,14 +33,50 @@ def plain(value: Any) -> Any:
     return value
 
 
+@functools.cache
+def _hints(cls: type) -> dict[str, Any]:
+    from .boundary import Boundary, BoundaryShape
+    from .compare import HueHistogram, ViewMetrics
+
+    names = {"Boundary": Boundary, "BoundaryShape": BoundaryShape, "HueHistogram": HueHistogram,
+             "ViewMetrics": ViewMetrics}
+    return typing.get_type_hints(cls, localns=names)
+
+
+def read(tp: Any, value: Any) -> Any:
+    """JSON ``value`` as the type ``tp``: a dataclass field by field (by its own ``from_json`` where it has one; a
+    field absent takes its default), tuples, lists, dicts and optionals of them; anything else as it is."""
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if value is None:
+        return None
+    if origin in (typing.Union, types.UnionType):
+        return read(next(a for a in args if a is not type(None)), value)
+    if origin in (tuple, list):
+        return origin(read(args[0], v) for v in value)
+    if origin is dict:
+        return {k: read(args[1], v) for k, v in value.items()}
+    if getattr(tp, "from_json", None) is not None:
+        return tp.from_json(value)
+    return _fields(tp, value) if dataclasses.is_dataclass(tp) else value
+
+
+def _fields(cls: Any, data: dict) -> Any:
+    hints = _hints(cls)
+    return cls(**{f.name: read(hints[f.name], data[f.name]) for f in dataclasses.fields(cls) if f.name in data})
+
+
 class Record:
-    """``to_json``: every field but those in ``_PRIVATE``, as JSON data."""
+    """``to_json``: every field but those in ``_PRIVATE``, as JSON data; ``from_json`` reads it back."""
 
     _PRIVATE: tuple[str, ...] = ()
 
     def to_json(self) -> dict:
         return {f.name: plain(getattr(self, f.name)) for f in dataclasses.fields(self)  # type: ignore[arg-type]
                 if f.name not in self._PRIVATE}
+
+    @classmethod
+    def from_json(cls, data: dict) -> typing.Self:
+        return _fields(cls, data)
 
 
 @dataclass(frozen=True)
@@ -61,14 +100,7 @@ class ViewResult(Record):
 
     @classmethod
     def from_json(cls, data: dict, folder: str = "", sheet_row: tuple = ()) -> ViewResult:
-        from .boundary import BoundaryShape
-        from .compare import HueHistogram, ViewMetrics
-
-        m, hue, b = data["metrics"], data["hue"], data["boundary"]
-        return cls(**{**data, "metrics": None if m is None else ViewMetrics.from_json(m),
-                      "hue": None if hue is None else HueHistogram(**hue), "failures": tuple(data["failures"]),
-                      "boundary": None if b is None else BoundaryShape.from_json(b)},
-                   folder=folder, sheet_row=tuple(sheet_row))
+        return dataclasses.replace(super().from_json(data), folder=folder, sheet_row=tuple(sheet_row))
 
 
 @dataclass(frozen=True)
@@ -125,7 +157,7 @@ class HostResult:
         if "error" in data:
             return cls(status="error", reason=data["error"], **common)
         passed, failures = data.pop("passed"), tuple(data.pop("failures", ()))
-        return cls(status="passed" if passed else "failed", metrics=HostMetrics(**data), failures=failures,
+        return cls(status="passed" if passed else "failed", metrics=read(HostMetrics, data), failures=failures,
                    reason="; ".join(failures) or None, **common)
 
 
@@ -145,10 +177,6 @@ class ItemsUsed:
 
     ran: ItemNames = ItemNames()
     reused: ItemNames = ItemNames()
-
-    @classmethod
-    def from_json(cls, data: dict) -> ItemsUsed:
-        return cls(**{k: ItemNames(**{n: tuple(v) for n, v in data[k].items()}) for k in ("ran", "reused")})
 
 
 @dataclass(frozen=True)
@@ -184,10 +212,6 @@ class Anatomy(Record):
     failures: tuple[str, ...]
     measures: tuple[Measure, ...] = ()
 
-    @classmethod
-    def from_json(cls, data: dict) -> Anatomy:
-        return cls(data["passed"], tuple(data["failures"]), tuple(Measure(**m) for m in data["measures"]))
-
 
 @dataclass(frozen=True)
 class MotionCheck(Record):
@@ -206,11 +230,6 @@ class MotionCheck(Record):
 
     def to_json(self) -> dict:
         return {k: v for k, v in super().to_json().items() if v is not None}
-
-    @classmethod
-    def from_json(cls, data: dict) -> MotionCheck:
-        fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
-        return cls(**fields)
 
 
 @dataclass(frozen=True)
@@ -248,24 +267,6 @@ class Report(Record):
     motion: MotionCheck | None = None
     animation: dict | None = None  # the light turning round the bird (rockdove.render.animation.for_report)
 
-    @classmethod
-    def from_json(cls, data: dict) -> Report:
-        """A report.json read back (its paths as written there)."""
-        from .boundary import Boundary
-        from .compare import HueHistogram, ViewMetrics
-
-        typed: dict[str, Any] = {"boundary": Boundary.from_json(data["boundary"]),
-                                 "validation": Validation(**data["validation"]),
-                                 "cache": ItemsUsed.from_json(data["cache"]),
-                                 "views": tuple(ViewMetrics.from_json(m) for m in data["views"]),
-                                 "hue_sweep": HueHistogram(**data["hue_sweep"]),
-                                 "hosts": tuple(HostResult.from_json(h) for h in data["hosts"]),
-                                 "anatomy": Anatomy.from_json(data["anatomy"]),
-                                 "motion": data.get("motion") and MotionCheck.from_json(data["motion"])}
-        raw: dict[str, Any] = {f.name: data.get(f.name) for f in dataclasses.fields(cls) if f.name not in typed}
-        fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in raw.items()}
-        return cls(**fields, **typed)
-
 
 @dataclass(frozen=True)
 class Verdict(Record):
@@ -281,8 +282,3 @@ class Verdict(Record):
     def of(cls, report: Report, notes: Iterable[str] = ()) -> Verdict:
         return cls(report.passed, "; ".join(report.failures), tuple(m.view for m in report.views),
                    (*report.notes, *notes), report.cache)
-
-    @classmethod
-    def from_json(cls, data: dict) -> Verdict:
-        return cls(data["passed"], data["reason"], tuple(data["views"]), tuple(data["notes"]),
-                   ItemsUsed.from_json(data["items"]))
