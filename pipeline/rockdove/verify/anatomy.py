@@ -326,9 +326,6 @@ def measure_scene(scene) -> Anatomy:
 
 def format_rows(result: Anatomy) -> list[str]:
     """One line per measure: name, value, range, pass/fail."""
-    return [f"{r.name:>22}: {r.value:8.3f} {r.unit:<3} {f'[{_bound(r.low)}, {_bound(r.high)}]':<14} "
-            f"{'ok' if r.passed else 'FAIL'}  ({r.what})" for r in result.measures]
-
-
-def _bound(v) -> str:
-    return "" if v is None else str(v)
+    return [f"{r.name:>22}: {r.value:8.3f} {r.unit:<3} {rng:<14} {'ok' if r.passed else 'FAIL'}  ({r.what})"
+            for r in result.measures
+            for rng in [f"[{'' if r.low is None else r.low}, {'' if r.high is None else r.high}]"]]
