@@ -67,18 +67,17 @@ class _Suite:
 def _validation(root, report: Report) -> dict:
     v = report.validation
     suite = _Suite(root, "rockdove.validation", report.timings_s.get("validation", 0.0))
-    details = v.details or {}
     by: dict[str, list] = {}
-    for issue in details.get("issues", []):
-        name = VALIDATORS.get(issue["check"].split(":")[0], issue["check"].split(":")[0])
-        by.setdefault(name, []).append(issue)
+    for issue in v.issues:
+        name = issue.check.split(":")[0]
+        by.setdefault(VALIDATORS.get(name, name), []).append(issue)
     if v.error:
         suite.case("validator", error=v.error)
-    counts = details.get("counts", {})
+    counts = (v.details or {}).get("counts", {})
     for name in dict.fromkeys([*VALIDATORS.values(), *by]):
         issues = by.get(name, [])
-        line = [f"{i['severity'].upper()} {i['check']}: {i['path']}: {i['message']}" for i in issues]
-        errors = [ln for ln, i in zip(line, issues) if i["severity"] == "error"]
+        line = [f"{i.severity.upper()} {i.check}: {i.path}: {i.message}" for i in issues]
+        errors = [ln for ln, i in zip(line, issues) if i.severity == "error"]
         checked = ", ".join(f"{k} {counts[k]}" for k in COUNTED.get(name, ()) if k in counts)
         suite.case(name, failures=errors, message=f"{len(errors)} error(s)",
                    out="\n".join([f"checked: {checked}" if checked else "", *line]).strip())

@@ -12,6 +12,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
+from ..usd.issues import Issue
+
 if TYPE_CHECKING:  # compare imports numpy; the build's verdict and the API's types need none of it
     from .boundary import Boundary, BoundaryShape
     from .compare import HueHistogram, ViewMetrics
@@ -186,6 +188,10 @@ class Validation:
     passed: bool
     details: dict | None
     error: str | None
+
+    @property
+    def issues(self) -> tuple[Issue, ...]:
+        return tuple(Issue(**i) for i in (self.details or {}).get("issues", ()))
 
 
 @dataclass(frozen=True)
