@@ -15,7 +15,7 @@ import os
 import xml.etree.ElementTree as ET
 
 from ..resources import write_atomic
-from .results import Anatomy, HostResult, MotionCheck, Report
+from .results import Anatomy, Goals, HostResult, MotionCheck, Report
 
 #: Test case per validator: the Issue ``check`` (or its prefix before ``:``) -> the name shown.
 VALIDATORS = {"layer": "dependencies", "assetPath": "dependencies", "open": "dependencies",
@@ -89,17 +89,17 @@ def _views(root, report: Report) -> dict:
     suite = _Suite(root, "rockdove.glsl", report.timings_s.get("compare", 0.0))
     for m in report.views:
         suite.case(m.view, failures=list(m.failures) if not m.passed else [],
-                   out=f"{m.n_pixels} px, dE2000 median {_num(m.de_median)} (goal {g['median_dE']}), "
-                       f"p95 {_num(m.de_p95)} (goal {g['p95_dE']}), max {_num(m.de_max)}, "
+                   out=f"{m.n_pixels} px, dE2000 median {_num(m.de_median)} (goal {g.median_dE}), "
+                       f"p95 {_num(m.de_p95)} (goal {g.p95_dE}), max {_num(m.de_max)}, "
                        f"black {m.n_black} of {m.n_lit} lit")
     h = report.hue_sweep
     suite.case("light sweep hues", failures=[f for f in report.failures if f.startswith("hue:")],
                out=f"green {h.green}, purple {h.purple}, grey {h.grey}, other {h.other} "
-                   f"(need >= {g['min_hue_fraction']:.0%} of {h.chromatic} chromatic px each)")
+                   f"(need >= {g.min_hue_fraction:.0%} of {h.chromatic} chromatic px each)")
     return suite.close()
 
 
-def _host(root, h: HostResult, goals: dict) -> dict:
+def _host(root, h: HostResult, goals: Goals) -> dict:
     from .host_check import EXACT_VARIANTS
 
     suite = _Suite(root, f"rockdove.host.{h.name}")
@@ -112,10 +112,11 @@ def _host(root, h: HostResult, goals: dict) -> dict:
     m, lobe = h.metrics, f"({h.variant}, {h.lobe} lobe)"
     blame = h.variant in EXACT_VARIANTS and not h.passed
     for view, v in m.per_view.items():
-        fail = [f"{view}: {k[:-3]} dE2000 {_num(v[k])} > {goals[k]}" for k in ("median_dE", "p95_dE")
-                if blame and v["n_pixels"] and not v[k] <= goals[k]]
-        suite.case(view, failures=fail, out=f"{v['n_pixels']} px, dE2000 median {_num(v['median_dE'])}, "
-                                            f"p95 {_num(v['p95_dE'])} {lobe}")
+        fail = [f"{view}: {name} dE2000 {_num(value)} > {goal}" for name, value, goal in
+                (("median", v.median_dE, goals.median_dE), ("p95", v.p95_dE, goals.p95_dE))
+                if blame and v.n_pixels and not value <= goal]
+        suite.case(view, failures=fail, out=f"{v.n_pixels} px, dE2000 median {_num(v.median_dE)}, "
+                                            f"p95 {_num(v.p95_dE)} {lobe}")
     suite.case("all views", failures=[f"host {h.name}: {f}" for f in h.failures] if not h.passed else [],
                out=f"{m.n_pixels} px, dE2000 median {_num(m.median_dE)}, p95 {_num(m.p95_dE)}, green {m.green_px}, "
                    f"purple {m.purple_px}, hue agreement {_num(m.hue_agreement)} {lobe}")

@@ -315,8 +315,8 @@ def write_html(path, report: Report, images: Figures) -> str:
         + _animation(images) + _list("Notes", report.notes),
         f"<p>Asset: <code>{e(report.asset)}</code><br>",
         f"Configuration hash: <code>{e(str(report.configuration_hash or 'not recorded'))}</code><br>",
-        f"Goals: median dE2000 &le; {report.goals['median_dE']}, "
-        f"p95 &le; {report.goals['p95_dE']} over feather pixels away from silhouette edges.</p>",
+        f"Goals: median dE2000 &le; {report.goals.median_dE}, "
+        f"p95 &le; {report.goals.p95_dE} over feather pixels away from silhouette edges.</p>",
     ]
     if images.viewer:  # the interactive view first, the tables after it
         parts.append(f"<h2>Interactive view</h2><p>Drag to orbit, wheel to zoom, slide to turn the light; switch "

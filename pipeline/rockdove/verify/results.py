@@ -37,12 +37,9 @@ def plain(value: Any) -> Any:
 
 @functools.cache
 def _hints(cls: type) -> dict[str, Any]:
-    from .boundary import Boundary, BoundaryShape
-    from .compare import HueHistogram, ViewMetrics
+    from . import boundary, compare  # the names results.py imports only when type checking
 
-    names = {"Boundary": Boundary, "BoundaryShape": BoundaryShape, "HueHistogram": HueHistogram,
-             "ViewMetrics": ViewMetrics}
-    return typing.get_type_hints(cls, localns=names)
+    return typing.get_type_hints(cls, localns={**vars(compare), **vars(boundary)})
 
 
 def read(tp: Any, value: Any) -> Any:
@@ -106,17 +103,32 @@ class ViewResult(Record):
 
 
 @dataclass(frozen=True)
-class HostMetrics:
-    """One host's renders against the reference of its lobe (:mod:`rockdove.verify.host_check`); ``per_view``:
-    ``{view: {"n_pixels", "median_dE", "p95_dE"}}``."""
+class DeStats:
+    """CIEDE2000 over a host's compared pixels (NaN without any)."""
 
     n_pixels: int
     median_dE: float
     p95_dE: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class HostMetrics(DeStats):
+    """One host's renders against the reference of its lobe (:mod:`rockdove.verify.host_check`), and by view."""
+
     green_px: int
     purple_px: int
     hue_agreement: float
-    per_view: dict[str, dict[str, float]]
+    per_view: dict[str, DeStats]
+
+
+@dataclass(frozen=True)
+class Goals:
+    """What each view must meet (:mod:`rockdove.verify.compare`), and the share of the light sweep each hue needs."""
+
+    median_dE: float
+    p95_dE: float
+    black_fraction: float
+    min_hue_fraction: float
 
 
 @dataclass(frozen=True)
@@ -196,8 +208,7 @@ class Validation:
 
 @dataclass(frozen=True)
 class Measure:
-    """One anatomy measure beside its published range (:data:`rockdove.verify.anatomy.RANGES`, None: unbounded);
-    ``value`` None in a report read back where it was NaN."""
+    """An anatomy measure beside its range (:data:`rockdove.verify.anatomy.RANGES`); ``value`` None for NaN read back."""
 
     name: str
     value: float | None
@@ -211,8 +222,7 @@ class Measure:
 
 @dataclass(frozen=True)
 class Anatomy(Record):
-    """The bird against its published measures (:mod:`rockdove.verify.anatomy`); no measures when it could not be
-    measured (``failures`` say why)."""
+    """The bird against its published measures (:mod:`rockdove.verify.anatomy`); none when it cannot be measured."""
 
     passed: bool
     failures: tuple[str, ...]
@@ -249,7 +259,7 @@ class Report(Record):
     passed: bool
     failures: tuple[str, ...]
     notes: tuple[str, ...]
-    goals: dict[str, float]
+    goals: Goals
     validation: Validation
     views: tuple[ViewMetrics, ...]
     views_reused: tuple[str, ...]

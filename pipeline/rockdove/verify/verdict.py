@@ -22,7 +22,7 @@ from . import compare, provenance, report
 from .anatomy import measure_scene
 from .boundary import Boundary, boundary_note
 from .inputs import BOUNDARY_SWEEP_ANGLE_DEG
-from .results import HostResult, ItemsUsed, MotionCheck, Report, ViewResult
+from .results import Goals, HostResult, ItemsUsed, MotionCheck, Report, ViewResult
 
 _log = logging.getLogger(__name__)
 #: Each of green and purple must hold at least this fraction of the chromatic sweep pixels.
@@ -151,8 +151,7 @@ def combine(checked: Checked, out: str, *, bench_dir, pictures, published_asset)
     result = Report(
         asset=published_asset or layer, asset_sha256=file_sha256(layer), out_dir=out, passed=not failures,
         failures=tuple(failures), notes=tuple(notes),
-        goals={"median_dE": compare.MEDIAN_DE_GOAL, "p95_dE": compare.P95_DE_GOAL,
-               "black_fraction": compare.BLACK_FRACTION_GOAL, "min_hue_fraction": MIN_HUE_FRACTION},
+        goals=Goals(compare.MEDIAN_DE_GOAL, compare.P95_DE_GOAL, compare.BLACK_FRACTION_GOAL, MIN_HUE_FRACTION),
         validation=validation, views=metrics, views_reused=checked.items.reused.views, cache=items,
         view_setup=tuple(r.setup for r in views), reference=tuple(r.reference for r in views), hue_sweep=hue,
         hosts=checked.hosts, anatomy=anatomy, beauty=images.beauty, animation=images.animation,
