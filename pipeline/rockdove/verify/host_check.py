@@ -108,13 +108,11 @@ def check_host(host, asset_layer: str, scene, views, refs: list, out_dir: str, r
     passed, why = host_passed(variant, m)
     files = {}
     for ref in refs:
-        paths = {"host": os.path.join(out_dir, f"{ref.view}_{name}.png"),
-                 "reference": os.path.join(out_dir, f"{ref.view}_{lobe}_reference.png"),
-                 "dE": os.path.join(out_dir, f"{ref.view}_{name}_dE.png")}
-        save_png(linear_to_srgb8(rendered[ref.view]), paths["host"])
-        save_png(linear_to_srgb8(ref.rgb), paths["reference"])
-        rep.de_map_png(paths["dE"], maps[ref.view],
-                       f"{name} {ref.view}: dE2000 median {m.per_view[ref.view].median_dE:.2f}")
-        files[ref.view] = {k: os.path.basename(p) for k, p in paths.items()}
+        files[ref.view] = {"host": f"{ref.view}_{name}.png", "reference": f"{ref.view}_{lobe}_reference.png",
+                           "dE": f"{ref.view}_{name}_dE.png"}
+        host_png, ref_png, de_png = (os.path.join(out_dir, f) for f in files[ref.view].values())
+        save_png(linear_to_srgb8(rendered[ref.view]), host_png)
+        save_png(linear_to_srgb8(ref.rgb), ref_png)
+        rep.de_map_png(de_png, maps[ref.view], f"{name} {ref.view}: dE2000 median {m.per_view[ref.view].median_dE:.2f}")
     return HostResult(name, "passed" if passed else "failed", variant, lobe, "; ".join(why) or None, m, tuple(why),
                       files)

@@ -208,7 +208,7 @@ class Validation:
 
 @dataclass(frozen=True)
 class Measure:
-    """An anatomy measure beside its range (:data:`rockdove.verify.anatomy.RANGES`); ``value`` None for NaN read back."""
+    """An anatomy measure beside its range (:data:`rockdove.verify.anatomy.RANGES`); ``value`` None: NaN read back."""
 
     name: str
     value: float | None
