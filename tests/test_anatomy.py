@@ -15,9 +15,9 @@ def _measure(asset):
 
 def test_every_measure_is_in_its_published_range_on_a_small_asset(small_asset):
     result = _measure(small_asset)
-    assert result["failures"] == [] and result["passed"]
-    assert [r["name"] for r in result["measures"]] == list(anatomy.RANGES)
-    values = {r["name"]: r["value"] for r in result["measures"]}
+    assert result.failures == () and result.passed
+    assert [m.name for m in result.measures] == list(anatomy.RANGES)
+    values = {m.name: m.value for m in result.measures}
     assert 29.0 <= values["total_length"] <= 37.0 and 9.5 <= values["tail_length"] <= 12.0
     assert all(len(line.split()) > 3 for line in anatomy.format_rows(result))
 
@@ -45,22 +45,22 @@ def _edit(asset, tmp_path, prim, op):
 ])
 def test_a_broken_silhouette_fails_its_measure(small_asset, tmp_path, prim, op, broken):
     result = _measure(_edit(small_asset, tmp_path, prim, op))
-    failed = {r["name"] for r in result["measures"] if not r["passed"]}
-    assert not result["passed"] and broken <= failed, failed
-    assert all(any(name in f for f in result["failures"]) for name in broken)
+    failed = {m.name for m in result.measures if not m.passed}
+    assert not result.passed and broken <= failed, failed
+    assert all(any(name in f for f in result.failures) for name in broken)
 
 
 def test_check_ranges_and_a_bird_without_its_parts():
     good = {name: (lo if lo is not None else hi) for name, (lo, hi, *_rest) in anatomy.RANGES.items()}
-    assert anatomy.check(good)["passed"]
+    assert anatomy.check(good).passed
     bad = anatomy.check({**good, "body_axis": 12.0, "tail_length": float("nan")})
-    assert not bad["passed"] and len(bad["failures"]) == 2 and "body_axis" in bad["failures"][0]
+    assert not bad.passed and len(bad.failures) == 2 and "body_axis" in bad.failures[0]
 
     class Scene:
         parts = ()
 
     result = anatomy.measure_scene(Scene())
-    assert not result["passed"] and "no mesh 'Body'" in result["failures"][0]
+    assert not result.passed and "no mesh 'Body'" in result.failures[0]
 
 
 def test_colour_measures_read_the_bound_materials(small_asset):
@@ -96,7 +96,7 @@ def test_wing_bars_soft_edges_pupil_and_claws_fail_when_broken(small_asset, tmp_
         result = anatomy.check(anatomy.measures(scene))
         for k, v in saved.items():
             object.__setattr__(part, k, v)
-        return {r["name"]: r for r in result["measures"] if not r["passed"]}
+        return {m.name: m for m in result.measures if not m.passed}
 
     wings = next(p for p in scene.parts if p.name == "Wings")
     grey = np.broadcast_to(wings.st[:1], wings.st.shape)  # every texel of the wing one pale grey one
@@ -141,5 +141,5 @@ def test_straight_diverging_wing_bars_fail(small_asset, tmp_path):
     flat = dataclasses.replace(scene, parts=tuple(wings if p.name == "Wings" else p for p in scene.parts))
     values = anatomy.measures(flat)
     assert values["wing_bar_count"] == 2
-    failed = {r["name"] for r in anatomy.check(values)["measures"] if not r["passed"]}
+    failed = {m.name for m in anatomy.check(values).measures if not m.passed}
     assert {"wing_bar_spread", "wing_bar_bow"} <= failed, values

@@ -25,11 +25,11 @@ def _speckle(tiles=20, tile_px=6, seed=0):
 
 def test_two_regions_are_coherent_speckle_is_not():
     straight = boundary.class_coherence(_two_regions(lambda x: 20 + 0.4 * x))
-    assert straight["green"]["largest_share"] == 1.0 and straight["purple"]["largest_share"] == 1.0
-    assert straight["other"]["pixels"] == 0 and np.isnan(straight["other"]["largest_share"])
+    assert straight.green.largest_share == 1.0 and straight.purple.largest_share == 1.0
+    assert straight.other.pixels == 0 and np.isnan(straight.other.largest_share)
     speckle = boundary.class_coherence(_speckle())
-    assert speckle["green"]["regions"] > 10 and speckle["purple"]["regions"] > 10
-    assert max(speckle["green"]["largest_share"], speckle["purple"]["largest_share"]) < boundary.COHERENT_SHARE
+    assert speckle.green.regions > 10 and speckle.purple.regions > 10
+    assert max(speckle.green.largest_share, speckle.purple.largest_share) < boundary.COHERENT_SHARE
 
 
 def test_coherence_bridges_narrow_gaps_only():
@@ -37,29 +37,29 @@ def test_coherence_bridges_narrow_gaps_only():
     cls[5:15, 5:15] = 1
     cls[5:15, 19:29] = 1  # 4 px gap: bridged at reach 2
     cls[30:35, 30:35] = 1  # far away
-    c = boundary.class_coherence(cls, reach_px=2)["green"]
-    assert c["regions"] == 2 and c["largest_share"] == pytest.approx(200 / 225)
-    c0 = boundary.class_coherence(cls, reach_px=0)["green"]
-    assert c0["regions"] == 3 and c0["largest_share"] == pytest.approx(100 / 225)
+    c = boundary.class_coherence(cls, reach_px=2).green
+    assert c.regions == 2 and c.largest_share == pytest.approx(200 / 225)
+    c0 = boundary.class_coherence(cls, reach_px=0).green
+    assert c0.regions == 3 and c0.largest_share == pytest.approx(100 / 225)
 
 
 def test_straight_boundary_line_fits_as_well_as_the_curve():
     c = boundary.boundary_curvature(_two_regions(lambda x: 20 + 0.4 * x))
-    assert c["n_centreline"] > 40
-    assert c["line_rms_px"] < 0.5 and c["ratio"] < 1.5
+    assert c.n_centreline > 40
+    assert c.line_rms_px < 0.5 and c.ratio < 1.5
 
 
 def test_curved_boundary_line_residual_is_several_times_the_curve_residual():
     c = boundary.boundary_curvature(_two_regions(lambda x: 15 + 40 * ((x - 60) / 60.0) ** 2))
-    assert c["line_rms_px"] > 5.0
-    assert c["ratio"] >= boundary.CURVED_RATIO * 3
+    assert c.line_rms_px > 5.0
+    assert c.ratio >= boundary.CURVED_RATIO * 3
 
 
 def test_too_few_points_give_nan_not_a_number():
     cls = np.zeros((20, 20), np.int8)
     cls[5, 5], cls[5, 6] = 1, 2
     c = boundary.boundary_curvature(cls)
-    assert np.isnan(c["ratio"]) and np.isnan(c["line_rms_px"])
+    assert np.isnan(c.ratio) and np.isnan(c.line_rms_px)
 
 
 def test_boundary_shape_classifies_rendered_colours():
@@ -70,11 +70,11 @@ def test_boundary_shape_classifies_rendered_colours():
     region = np.ones(cls.shape, bool)
     region[:, :3] = False
     s = boundary.boundary_shape(rgb, region)
-    assert s["coherent"] and s["curved"]
-    assert s["coherence"]["green"]["pixels"] == int(((cls == 1) & region).sum())
+    assert s.coherent and s.curved
+    assert s.coherence.green.pixels == int(((cls == 1) & region).sum())
     speckle = _speckle()
     s = boundary.boundary_shape(np.where((speckle == 1)[..., None], green, purple), np.ones(speckle.shape, bool))
-    assert not s["coherent"]
+    assert not s.coherent
     note = boundary.boundary_note("sweep_090", s)
     assert "sweep_090" in note and "not coherent" in note and "irregular" in note
     with pytest.raises(ValueError, match="rgb_linear"):
@@ -93,4 +93,5 @@ def test_class_shape_of_a_comparison_is_the_boundary_shape_of_its_colours():
     part = np.ones(cls.shape, np.int32)
     m = compare.compare_arrays("sweep_090", rgb, rgb, part, part, [1])
     assert (m.cls >= 0).sum() > 5000
-    np.testing.assert_equal(boundary.class_shape(m.strict, m.cls), boundary.boundary_shape(rgb, m.cls >= 0))
+    np.testing.assert_equal(boundary.class_shape(m.strict, m.cls).to_json(),
+                            boundary.boundary_shape(rgb, m.cls >= 0).to_json())

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from rockdove.verify import boundary, compare
+from rockdove.verify.results import read
 
 FEATHER = 2  # part id of the feathers in these synthetic images (0 = background, 1 = body)
 
@@ -118,31 +119,31 @@ def _class_image(boundary_row, h=80, w=120):
 def test_boundary_straightness_straight_line_is_near_zero():
     straight = _class_image(lambda x: 20 + 0.4 * x)
     s = boundary.boundary_straightness(straight)
-    assert s["n_points"] > 100 and s["n_centreline"] > 40
-    assert s["rms_px"] < 0.5  # pixel quantisation only
-    assert s["rms_fraction"] < 0.005
+    assert s.n_points > 100 and s.n_centreline > 40
+    assert s.rms_px < 0.5  # pixel quantisation only
+    assert s.rms_fraction < 0.005
 
 
 def test_boundary_straightness_curved_boundary_is_clearly_larger():
     straight = boundary.boundary_straightness(_class_image(lambda x: 20 + 0.4 * x))
     curved = boundary.boundary_straightness(_class_image(lambda x: 15 + 40 * ((x - 60) / 60.0) ** 2))
     # a parabola of sagitta 40 px over 120 px: the TLS residual is several pixels
-    assert curved["rms_px"] > 5.0
-    assert curved["rms_fraction"] > 10 * straight["rms_fraction"]
+    assert curved.rms_px > 5.0
+    assert curved.rms_fraction > 10 * straight.rms_fraction
 
 
 def test_boundary_needs_enough_points_and_bridges_narrow_gaps():
     cls = np.zeros((20, 20), np.int8)
     cls[5, 5], cls[5, 6] = 1, 2
     s = boundary.boundary_straightness(cls)
-    assert 0 < s["n_centreline"] < 8 and np.isnan(s["rms_px"])
+    assert 0 < s.n_centreline < 8 and np.isnan(s.rms_px)
     # a gap of grey (class 0) or blue (class 3) up to 2 * reach pixels wide still gives a boundary
     gap = _class_image(lambda x: 20 + 0.4 * x)
     edge = np.diff(gap.astype(int), axis=0, prepend=1) != 0
     gap[edge] = 3
     gap[np.roll(edge, 1, axis=0)] = 0
     s = boundary.boundary_straightness(gap)
-    assert s["rms_px"] < 0.5 and s["n_centreline"] > 40
+    assert s.rms_px < 0.5 and s.n_centreline > 40
 
 
 def test_bad_shapes_raise_value_error_naming_the_argument():
@@ -208,4 +209,4 @@ def test_compare_arrays_gives_the_numbers_of_the_whole_image_formulation():
         expected[hue_mask] = compare.hue_classes(safe_gl[hue_mask], sides=sides)[2]
         np.testing.assert_array_equal(img, expected)
     assert not m.finite and "de_map" not in m.to_json() and "strict" not in m.to_json()
-    assert compare.ViewMetrics.from_json(m.to_json()).hue == m.hue and m.to_json()["failures"] is not m.failures
+    assert read(compare.ViewMetrics, m.to_json()).hue == m.hue and m.to_json()["failures"] is not m.failures

@@ -131,22 +131,22 @@ def test_the_schema_rejects_what_ci_tools_would_not_read(runs, schema, tmp_path)
 def test_anatomy_and_motion_measures_are_cases_and_their_failures_fail(runs, schema, tmp_path):
     """Every anatomy measure is a case of ``rockdove.anatomy``; a ``--motion`` run's limited measures are cases of
     ``rockdove.motion``, failed by the measure that broke its limit (a CI tool saw them pass)."""
-    import copy
     import dataclasses
 
     from rockdove.verify.junit import junit_xml
-    from rockdove.verify.results import Report
+    from rockdove.verify.results import MotionCheck, Report
 
     path, data = runs["good"]
     root, cases = _cases(path)
     names = [m["name"] for m in data["anatomy"]["measures"]]
     assert len(names) >= 24 and {("rockdove.anatomy", n) for n in names} <= set(cases)
     assert "rockdove.motion" not in {s.get("name") for s in root}
-    anatomy = copy.deepcopy(data["anatomy"])
-    anatomy["measures"][0]["passed"] = False
-    motion = {"motion": "walk", "frames": 121, "limits": {"card_stretch": 0.01, "hold_fraction": [0.4, 0.8]},
-              "measures": {"card_stretch": 0.02, "hold_fraction": 0.5, "head_cycles": 10, "steps": 10},
-              "failures": ["motion walk: card_stretch = 0.02, allowed 0.01"]}
+    anatomy = Report.from_json(data).anatomy
+    anatomy = dataclasses.replace(anatomy, measures=(dataclasses.replace(anatomy.measures[0], passed=False),
+                                                     *anatomy.measures[1:]))
+    motion = MotionCheck("walk", 121, {"card_stretch": 0.02, "hold_fraction": 0.5, "head_cycles": 10, "steps": 10},
+                         {"card_stretch": 0.01, "hold_fraction": [0.4, 0.8]},
+                         ("motion walk: card_stretch = 0.02, allowed 0.01",))
     report = dataclasses.replace(Report.from_json(data), anatomy=anatomy, motion=motion)
     (tmp_path / "j.xml").write_bytes(junit_xml(report))
     schema.validate(str(tmp_path / "j.xml"))

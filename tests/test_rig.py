@@ -154,15 +154,15 @@ def test_verify_checks_the_walk_measures_and_its_frames(small_asset, tmp_path):
     result = api.verify(small_asset, ["glsl"], out=tmp_path / "v", width=48, height=48, motion="walk", times=[21],
                         beauty={"renderer": "off"})
     motion = result.report.motion
-    assert motion["frames"] == 121 and motion["times"] == [21.0]
-    m = motion["measures"]
+    assert motion.frames == 121 and motion.times == (21.0,)
+    m = motion.measures
     assert m["card_stretch"] < LIMITS["card_stretch"] and m["frames_without_support"] == 0
     assert m["head_cycles"] == m["steps"] == 10 and abs(m["head_to_body_speed"] - 1) < 0.01
     assert m["stance_slip_m"] < 1e-5 and m["head_hold_drift_m"] < 1e-4
     views = {v.view: v for v in result.report.views}
     assert {"walk021_sweep_090", "walk021_turntable_030"} <= set(views) and views["walk021_sweep_090"].n_pixels
-    assert all(views[n].passed for n in motion["views"])
-    a = motion["animation"]  # one stride of the walk as an animated WebP, shown in the report
+    assert all(views[n].passed for n in motion.views)
+    a = motion.animation  # one stride of the walk as an animated WebP, shown in the report
     assert a["frames"] == 12 and (tmp_path / "v" / a["file"]).is_file()
     assert f"<img src='{a['file']}'" in (tmp_path / "v" / "report.html").read_text()
 

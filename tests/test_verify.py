@@ -172,15 +172,15 @@ def test_boundary_is_straight_for_uniform_thickness_and_bends_for_a_gradient(tmp
         cls = np.full(feather.shape, -1, np.int8)
         cls[feather] = cmp.hue_classes(ref.rgb[feather].astype(np.float64), sides=True)[2]
         assert (cls == 1).sum() > 50 and (cls == 2).sum() > 50, name  # both hues on the plane
-        results[name] = boundary.boundary_straightness(cls)
-        results[name]["curvature"] = boundary.boundary_curvature(cls)
-    assert results["uniform"]["n_centreline"] >= 20 and results["graded"]["n_centreline"] >= 8
+        results[name] = boundary.boundary_straightness(cls), boundary.boundary_curvature(cls)
+    (uniform, uniform_curve), (graded, _), (_, bent_curve) = results["uniform"], results["graded"], results["bent"]
+    assert uniform.n_centreline >= 20 and graded.n_centreline >= 8
     # issue 12's curvature measure: the cubic fits the uniform film's boundary no better than a line
-    assert results["uniform"]["curvature"]["ratio"] < 1.5
-    assert results["bent"]["curvature"]["ratio"] >= boundary.CURVED_RATIO  # one parabolic iso-thickness line
-    assert results["uniform"]["rms_px"] < 0.5
-    assert results["graded"]["rms_px"] > 1.5
-    assert results["graded"]["rms_fraction"] > 0.02 > 5 * results["uniform"]["rms_fraction"]
+    assert uniform_curve.ratio < 1.5
+    assert bent_curve.ratio >= boundary.CURVED_RATIO  # one parabolic iso-thickness line
+    assert uniform.rms_px < 0.5
+    assert graded.rms_px > 1.5
+    assert graded.rms_fraction > 0.02 > 5 * uniform.rms_fraction
 
 
 FAKE_HOST = """

@@ -122,9 +122,9 @@ def _print(report) -> None:
               f"max {m.de_max:.3f}  {'ok' if m.passed else 'FAIL'}")
     h = report.hue_sweep
     print(f"light sweep hues: green {h.green}, purple {h.purple}, grey {h.grey}, other {h.other}")
-    for name, b in report.boundary["per_view"].items():
-        print(f"boundary {name}: {b['n_points']} points, RMS {b['rms_px']:.2f} px "
-              f"({b['rms_fraction']:.4f} of its length)")
+    for name, b in report.boundary.per_view.items():
+        print(f"boundary {name}: {b.n_points} points, RMS {b.rms_px:.2f} px "
+              f"({b.rms_fraction:.4f} of its length)")
     for host in report.hosts:
         m = host.metrics
         if host.status == "skipped":
@@ -137,8 +137,8 @@ def _print(report) -> None:
                   f"hue agreement {m.hue_agreement:.1%}  {'ok' if host.passed else 'FAIL'}")
     if report.motion:
         mo = report.motion
-        print(f"motion {mo['motion']} ({mo['frames']} time codes):", ", ".join(
-            f"{k} {v:.4g}" for k, v in mo["measures"].items()))
+        print(f"motion {mo.motion} ({mo.frames} time codes):", ", ".join(
+            f"{k} {v:.4g}" for k, v in mo.measures.items()))
     print("anatomy (rockdove.verify.anatomy):", *format_rows(report.anatomy), sep="\n")
     if report.beauty:
         print(f"beauty render ({report.beauty['renderer']}): {report.beauty['seconds']:.1f} s")

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..geometry.types import unit
+from .results import Anatomy, Measure
 
 #: name -> (low, high, unit, source, what). None: unbounded on that side.
 RANGES = {
@@ -303,32 +304,28 @@ def _pupil_offset(part, eyes) -> float:
     return float(max(out))
 
 
-def check(values: dict) -> dict:
-    """``{"passed", "failures", "measures": [{name, value, low, high, unit, source, what, passed}]}``."""
+def check(values: dict) -> Anatomy:
+    """Each measure of ``values`` (name -> value, :func:`measures`) against its range in :data:`RANGES`."""
     rows, failures = [], []
     for name, (lo, hi, units, src, what) in RANGES.items():
         v = values.get(name, float("nan"))
         ok = bool(np.isfinite(v) and (lo is None or v >= lo) and (hi is None or v <= hi))
-        rows.append({"name": name, "value": round(v, 3), "low": lo, "high": hi, "unit": units, "source": src,
-                     "what": what, "passed": ok})
+        rows.append(Measure(name, round(v, 3), lo, hi, units, src, what, ok))
         if not ok:
             failures.append(f"anatomy: {name} = {v:.3g} {units} outside [{lo}, {hi}] ({what})".replace("  ", " "))
-    return {"passed": not failures, "failures": failures, "measures": rows}
+    return Anatomy(not failures, tuple(failures), tuple(rows))
 
 
-def measure_scene(scene) -> dict:
+def measure_scene(scene) -> Anatomy:
     """:func:`check` of :func:`measures`; an asset without the bird's parts fails with the reason, not a crash."""
     try:
         return check(measures(scene))
     except (ValueError, IndexError) as exc:
-        return {"passed": False, "failures": [f"anatomy: cannot measure the asset: {exc}"], "measures": []}
+        return Anatomy(False, (f"anatomy: cannot measure the asset: {exc}",))
 
 
-def format_rows(result: dict) -> list[str]:
+def format_rows(result: Anatomy) -> list[str]:
     """One line per measure: name, value, range, pass/fail."""
-    out = []
-    for r in result["measures"]:
-        rng = f"[{'' if r['low'] is None else r['low']}, {'' if r['high'] is None else r['high']}]"
-        out.append(f"{r['name']:>22}: {r['value']:8.3f} {r['unit']:<3} {rng:<14} {'ok' if r['passed'] else 'FAIL'}"
-                   f"  ({r['what']})")
-    return out
+    return [f"{r.name:>22}: {r.value:8.3f} {r.unit:<3} {rng:<14} {'ok' if r.passed else 'FAIL'}  ({r.what})"
+            for r in result.measures
+            for rng in [f"[{'' if r.low is None else r.low}, {'' if r.high is None else r.high}]"]]

@@ -21,10 +21,13 @@ residual (when half remain), so a stray feather tip of the other colour does not
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..errors import UsageError
 from .compare import lab_hue_classes, rgb_to_lab
+from .results import Record
 
 #: A class is coherent when its largest connected region holds at least this share of its pixels. 0.7 was
 #: the first goal; a per-card uniform draw reaches 0.70 / 0.69 (green / purple) on the default bird's 90 degree
@@ -47,6 +50,72 @@ CURVE_DEGREE = 3
 #: Reach of the green/purple contact zone, pixels (see :func:`boundary_points`).
 BOUNDARY_REACH_PX = 2
 CLASSES = {"green": 1, "purple": 2, "other": 3}
+_NAN = float("nan")
+
+
+@dataclass(frozen=True)
+class Straightness(Record):
+    """:func:`boundary_straightness`; the line's direction and centre (x, y) None, the rest NaN, when not fitted."""
+
+    n_points: int
+    n_centreline: int
+    rms_px: float = _NAN
+    length_px: float = _NAN
+    rms_fraction: float = _NAN
+    direction: tuple[float, float] | None = None
+    centre: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True)
+class Regions:
+    """A strict hue class's pixels, the share its largest connected region holds (NaN without pixels), regions."""
+
+    pixels: int
+    largest_share: float
+    regions: int
+
+
+@dataclass(frozen=True)
+class Coherence:
+    """:func:`class_coherence`."""
+
+    reach_px: int
+    green: Regions
+    purple: Regions
+    other: Regions
+
+
+@dataclass(frozen=True)
+class Curvature:
+    """:func:`boundary_curvature`; NaN but the counts when there are too few points."""
+
+    n_points: int
+    n_centreline: int
+    curve_degree: int
+    length_px: float = _NAN
+    line_rms_px: float = _NAN
+    curve_rms_px: float = _NAN
+    ratio: float = _NAN
+
+
+@dataclass(frozen=True, kw_only=True)
+class BoundaryShape(Straightness):
+    """A light-sweep view's green/purple pattern (:func:`class_shape`): its boundary's line and curvature, the
+    classes' coherence, whether the pattern is coherent and the boundary curved."""
+
+    coherence: Coherence
+    curvature: Curvature
+    coherent: bool
+    curved: bool
+
+
+@dataclass(frozen=True)
+class Boundary(Record):
+    """The report's boundary: the light-sweep views' shapes by view, and how they were measured."""
+
+    per_view: dict[str, BoundaryShape]
+    method: str = ("TLS line through green/purple boundary points; RMS perpendicular distance (px) and RMS / "
+                   "boundary length; coherence and curvature: rockdove.verify.boundary")
 
 
 def boundary_points(cls: np.ndarray, reach_px: int = BOUNDARY_REACH_PX) -> np.ndarray:
@@ -61,32 +130,27 @@ def boundary_points(cls: np.ndarray, reach_px: int = BOUNDARY_REACH_PX) -> np.nd
     return np.stack([c.astype(float), r.astype(float)], axis=1)
 
 
-def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0) -> dict:
+def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0) -> Straightness:
     """RMS perpendicular distance of the green/purple boundary's centreline (hue sides) from its total-least-squares
     line, in pixels and as a fraction of its length, with the same robust pass; NaN under ``min_points`` points.
     A straight boundary gives ~0.3 px (pixel quantisation); a bent one its sagitta over ~3 (40 px gives ~12 px).
     """
-    counts, line = _boundary_centreline(cls, bin_px)
-    out = {**counts, "rms_px": float("nan"), "length_px": float("nan"), "rms_fraction": float("nan"),
-           "direction": None, "centre": None}
+    n, line = _boundary_centreline(cls, bin_px)
     if line is None or len(line) < min_points:
-        return out
+        return Straightness(n, 0 if line is None else len(line))
     line = _without_outliers(line, _tls(line)[2], min_points)
     centre, direction, dist = _tls(line)
     along = (line - centre) @ direction
     length = float(along.max() - along.min())
     rms = float(np.sqrt(np.mean(dist**2)))
-    out.update(n_centreline=len(line), rms_px=rms, length_px=length,
-               rms_fraction=rms / length if length > 0 else float("nan"),
-               direction=[float(v) for v in direction], centre=[float(v) for v in centre])
-    return out
+    return Straightness(n, len(line), rms, length, rms / length if length > 0 else _NAN,
+                        (float(direction[0]), float(direction[1])), (float(centre[0]), float(centre[1])))
 
 
-def _boundary_centreline(cls: np.ndarray, bin_px: float) -> tuple[dict, np.ndarray | None]:
-    """``({"n_points", "n_centreline"}, the centreline of the boundary points of ``cls`` or None)``."""
+def _boundary_centreline(cls: np.ndarray, bin_px: float) -> tuple[int, np.ndarray | None]:
+    """``(the number of boundary points of ``cls``, their centreline or None)``."""
     pts = boundary_points(cls)
-    line = _centreline(pts, bin_px) if len(pts) >= 2 else None
-    return {"n_points": len(pts), "n_centreline": 0 if line is None else len(line)}, line
+    return len(pts), _centreline(pts, bin_px) if len(pts) >= 2 else None
 
 
 def _without_outliers(line: np.ndarray, residual: np.ndarray, need: int) -> np.ndarray:
@@ -102,27 +166,26 @@ def _tls(p: np.ndarray):
     return centre, vt[0], (p - centre) @ vt[1]
 
 
-def class_coherence(cls: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> dict:
-    """Per strict hue class (1 green, 2 purple, 3 other), ``{"pixels", "largest_share" (NaN without pixels),
-    "regions"}``: the share held by its largest connected region (module docstring)."""
+def class_coherence(cls: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> Coherence:
+    """Per strict hue class (1 green, 2 purple, 3 other), the share of its pixels held by its largest connected
+    region (module docstring)."""
     from scipy import ndimage
 
     cls = np.asarray(cls)
     st = ndimage.generate_binary_structure(2, 1)  # 4-connected
-    out = {"reach_px": int(reach_px)}
-    for name, label in CLASSES.items():
+
+    def regions(label: int) -> Regions:
         own = cls == label
         n = int(own.sum())
         if n == 0:
-            out[name] = {"pixels": 0, "largest_share": float("nan"), "regions": 0}
-            continue
+            return Regions(0, _NAN, 0)
         passable = own | (cls <= 0)  # the class itself, grey (0) and non-feather (-1) pixels
         grown = (ndimage.binary_dilation(own, structure=st, iterations=int(reach_px), mask=passable)
                  if reach_px else own)
         labels, count = ndimage.label(grown, structure=st)
         sizes = np.bincount(labels[own], minlength=count + 1)[1:]  # the class's own pixels per region
-        out[name] = {"pixels": n, "largest_share": float(sizes.max() / n), "regions": int(np.sum(sizes > 0))}
-    return out
+        return Regions(n, float(sizes.max() / n), int(np.sum(sizes > 0)))
+    return Coherence(int(reach_px), *(regions(label) for label in CLASSES.values()))
 
 
 def _centreline(pts: np.ndarray, bin_px: float) -> np.ndarray:
@@ -150,24 +213,20 @@ def _fits(line: np.ndarray, degree: int):
 
 
 def boundary_curvature(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0,
-                       degree: int = CURVE_DEGREE) -> dict:
+                       degree: int = CURVE_DEGREE) -> Curvature:
     """RMS residuals of a line and a degree-``degree`` fit of the green/purple boundary of a hue-side image and
     their ``ratio`` (module docstring); NaN under ``min_points`` or ``degree + 3`` centreline points."""
-    counts, line = _boundary_centreline(cls, bin_px)
-    out = {**counts, "length_px": float("nan"), "line_rms_px": float("nan"), "curve_rms_px": float("nan"),
-           "ratio": float("nan"), "curve_degree": int(degree)}
+    n, line = _boundary_centreline(cls, bin_px)
     need = max(int(min_points), int(degree) + 3)
     if line is None or len(line) < need:
-        return out
+        return Curvature(n, 0 if line is None else len(line), int(degree))
     line = _without_outliers(line, _fits(line, degree)[1], need)
     r_line, r_curve, length = _fits(line, degree)
     rms_line, rms_curve = (float(np.sqrt(np.mean(r**2))) for r in (r_line, r_curve))
-    out.update(n_centreline=len(line), length_px=length, line_rms_px=rms_line, curve_rms_px=rms_curve,
-               ratio=rms_line / max(rms_curve, NOISE_FLOOR_PX))
-    return out
+    return Curvature(n, len(line), int(degree), length, rms_line, rms_curve, rms_line / max(rms_curve, NOISE_FLOOR_PX))
 
 
-def boundary_shape(rgb_linear: np.ndarray, region: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> dict:
+def boundary_shape(rgb_linear: np.ndarray, region: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> BoundaryShape:
     """:func:`class_shape` of the pixels of ``region`` of an (H, W, 3) linear render, classified here."""
     rgb = np.asarray(rgb_linear, np.float64)
     region = np.asarray(region, bool)
@@ -182,30 +241,30 @@ def boundary_shape(rgb_linear: np.ndarray, region: np.ndarray, reach_px: int = C
     return class_shape(strict, sides, reach_px)
 
 
-def class_shape(strict: np.ndarray, sides: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> dict:
-    """``coherence`` (:func:`class_coherence` of the ``strict`` classes), ``curvature`` (:func:`boundary_curvature`
-    of the hue ``sides``), ``coherent`` (green and purple largest regions >= :data:`COHERENT_SHARE`) and ``curved``
-    (ratio >= :data:`CURVED_RATIO`) of classified pixels (-1 elsewhere: ViewMetrics' ``strict`` and ``cls``)."""
-    coherence = class_coherence(strict, reach_px)
-    curvature = boundary_curvature(sides)
-    shares = [coherence[k]["largest_share"] for k in ("green", "purple")]
-    return {"coherence": coherence, "curvature": curvature,
-            "coherent": bool(all(np.isfinite(s) and s >= COHERENT_SHARE for s in shares)),
-            "curved": bool(np.isfinite(curvature["ratio"]) and curvature["ratio"] >= CURVED_RATIO)}
+def class_shape(strict: np.ndarray, sides: np.ndarray, reach_px: int = COHERENCE_REACH_PX) -> BoundaryShape:
+    """The ``line`` (:func:`boundary_straightness`) and ``curvature`` (:func:`boundary_curvature`) of the hue
+    ``sides``, the ``coherence`` (:func:`class_coherence`) of the ``strict`` classes, ``coherent`` (green and purple
+    largest regions >= :data:`COHERENT_SHARE`) and ``curved`` (ratio >= :data:`CURVED_RATIO`) of classified pixels
+    (-1 elsewhere: ViewMetrics' ``strict`` and ``cls``)."""
+    coherence, curvature = class_coherence(strict, reach_px), boundary_curvature(sides)
+    shares = [coherence.green.largest_share, coherence.purple.largest_share]
+    return BoundaryShape(**vars(boundary_straightness(sides)), coherence=coherence, curvature=curvature,
+                         coherent=bool(all(np.isfinite(s) and s >= COHERENT_SHARE for s in shares)),
+                         curved=bool(np.isfinite(curvature.ratio) and curvature.ratio >= CURVED_RATIO))
 
 
-def boundary_note(view: str, boundary: dict) -> str:
+def boundary_note(view: str, boundary: BoundaryShape) -> str:
     """One line for the report's notes: the coherence and curvature of ``view`` and what they mean."""
-    coh, cur = boundary["coherence"], boundary["curvature"]
-    shares = ", ".join(f"{k} {coh[k]['largest_share']:.2f} of {coh[k]['pixels']} px"
-                       for k in ("green", "purple", "other") if coh[k]["pixels"])
-    if boundary["curved"]:
+    coh, cur = boundary.coherence, boundary.curvature
+    shares = ", ".join(f"{k} {c.largest_share:.2f} of {c.pixels} px"
+                       for k, c in zip(CLASSES, (coh.green, coh.purple, coh.other)) if c.pixels)
+    if boundary.curved:
         kind = "curved"
-    elif cur["line_rms_px"] <= STRAIGHT_FRACTION * cur["length_px"]:
+    elif cur.line_rms_px <= STRAIGHT_FRACTION * cur.length_px:
         kind = "straight (the line fits about as well as the curve)"
     else:
         kind = "irregular (neither the line nor the curve fits)"
     return (f"boundary at {view}: largest connected region holds {shares or 'no chromatic pixels'} "
-            f"({'coherent' if boundary['coherent'] else 'not coherent'}: green and purple each need >= "
-            f"{COHERENT_SHARE:.0%}); green/purple boundary line residual {cur['line_rms_px']:.2f} px, "
-            f"cubic {cur['curve_rms_px']:.2f} px, ratio {cur['ratio']:.2f}: {kind} (curved at >= {CURVED_RATIO:g})")
+            f"({'coherent' if boundary.coherent else 'not coherent'}: green and purple each need >= "
+            f"{COHERENT_SHARE:.0%}); green/purple boundary line residual {cur.line_rms_px:.2f} px, "
+            f"cubic {cur.curve_rms_px:.2f} px, ratio {cur.ratio:.2f}: {kind} (curved at >= {CURVED_RATIO:g})")

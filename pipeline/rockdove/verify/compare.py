@@ -16,12 +16,12 @@ luminance of at least a few per cent); the CIELAB hue ``h_ab = atan2(b*, a*)`` o
 from __future__ import annotations
 
 import dataclasses
-from copy import deepcopy
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import UsageError
+from .results import Record
 
 #: The goals: a verification fails above these (dE2000 over the compared feather pixels).
 MEDIAN_DE_GOAL = 1.0
@@ -180,7 +180,7 @@ def hue_histogram(rgb_pixels: np.ndarray | None, lab_pixels: np.ndarray | None =
 
 
 @dataclass
-class ViewMetrics:
+class ViewMetrics(Record):
     """Metrics of one view, the GL render against the reference; dE statistics NaN without pixels. Not in
     :meth:`to_json`: ``de_map`` (NaN where not compared), ``cls`` and ``strict`` (hue sides and strict bands of the
     compared structural pixels, -1 elsewhere: the boundary's input)."""
@@ -202,15 +202,7 @@ class ViewMetrics:
     de_map: np.ndarray | None = field(default=None, repr=False)
     cls: np.ndarray | None = field(default=None, repr=False)
     strict: np.ndarray | None = field(default=None, repr=False)
-
-    def to_json(self) -> dict:
-        """Every metric but the images, copied (sharing nothing with the metrics)."""
-        return {f.name: dataclasses.asdict(v) if f.name == "hue" else deepcopy(v) for f in fields(self)
-                if f.name not in ("de_map", "cls", "strict") for v in [getattr(self, f.name)]}
-
-    @classmethod
-    def from_json(cls, data: dict) -> ViewMetrics:
-        return cls(**{**data, "hue": HueHistogram(**data["hue"])})
+    _PRIVATE = ("de_map", "cls", "strict")  # to_json: every metric but the images, copied
 
 
 def compare_arrays(view: str, gl_rgb, ref_rgb, gl_part, ref_part, feather_part_ids, ref_n_dot_l=None,

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 from concurrent.futures import ThreadPoolExecutor
+from typing import Any
 
 from ..errors import RockdoveError
 
@@ -25,22 +26,23 @@ class GLRenders:
     def __init__(self, scene, views, lut=None):
         views = list(views)
         pool = ThreadPoolExecutor(1, thread_name_prefix="rockdove-gl")
-        state: dict = {}
+        renderer: Any = None
 
         def open_() -> float:
+            nonlocal renderer
             t = time.perf_counter()
             from ..render.gl import GLRenderer
 
-            state["renderer"] = GLRenderer(scene, lut=lut, width=views[0].width, height=views[0].height)
+            renderer = GLRenderer(scene, lut=lut, width=views[0].width, height=views[0].height)
             return time.perf_counter() - t
 
         def render(view):  # after a failed open: result() raises the open's error first
             t = time.perf_counter()
-            return state["renderer"].render(view), time.perf_counter() - t
+            return renderer.render(view), time.perf_counter() - t
 
         def close() -> None:
-            if "renderer" in state:
-                state.pop("renderer").delete()
+            if renderer is not None:
+                renderer.delete()
 
         self._open = pool.submit(open_)
         self._views = [pool.submit(render, v) for v in views]

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import UsageError
 from . import compare
-from .results import HostMetrics, HostResult
+from .results import DeStats, HostMetrics, HostResult
 
 _log = logging.getLogger(__name__)
 
@@ -37,10 +37,9 @@ def _classes(lab: np.ndarray) -> np.ndarray:
     return np.where((cls == 1) | (cls == 2), cls, 3).astype(np.int8)
 
 
-def _de_stats(de: np.ndarray) -> dict:
+def _de_stats(de: np.ndarray) -> DeStats:
     n, nan = int(de.size), float("nan")
-    return {"n_pixels": n, "median_dE": float(np.median(de)) if n else nan,
-            "p95_dE": float(np.percentile(de, 95)) if n else nan}
+    return DeStats(n, float(np.median(de)) if n else nan, float(np.percentile(de, 95)) if n else nan)
 
 
 def host_metrics(images: dict, refs: list, scene) -> tuple[HostMetrics, dict]:
@@ -64,7 +63,7 @@ def host_metrics(images: dict, refs: list, scene) -> tuple[HostMetrics, dict]:
         ref_cls.append(_classes(compare.rgb_to_lab(ref.rgb[sel])))
         per_view[ref.view] = _de_stats(vals)
     de, hc, rc = np.concatenate(des), np.concatenate(host_cls), np.concatenate(ref_cls)  # refs: one per view, >= 1
-    return HostMetrics(**_de_stats(de), green_px=int(np.sum(hc == 1)), purple_px=int(np.sum(hc == 2)),
+    return HostMetrics(**vars(_de_stats(de)), green_px=int(np.sum(hc == 1)), purple_px=int(np.sum(hc == 2)),
                        hue_agreement=float(np.mean(hc == rc)) if de.size else float("nan"), per_view=per_view), maps
 
 
@@ -109,13 +108,11 @@ def check_host(host, asset_layer: str, scene, views, refs: list, out_dir: str, r
     passed, why = host_passed(variant, m)
     files = {}
     for ref in refs:
-        paths = {"host": os.path.join(out_dir, f"{ref.view}_{name}.png"),
-                 "reference": os.path.join(out_dir, f"{ref.view}_{lobe}_reference.png"),
-                 "dE": os.path.join(out_dir, f"{ref.view}_{name}_dE.png")}
-        save_png(linear_to_srgb8(rendered[ref.view]), paths["host"])
-        save_png(linear_to_srgb8(ref.rgb), paths["reference"])
-        rep.de_map_png(paths["dE"], maps[ref.view],
-                       f"{name} {ref.view}: dE2000 median {m.per_view[ref.view]['median_dE']:.2f}")
-        files[ref.view] = {k: os.path.basename(p) for k, p in paths.items()}
+        files[ref.view] = {"host": f"{ref.view}_{name}.png", "reference": f"{ref.view}_{lobe}_reference.png",
+                           "dE": f"{ref.view}_{name}_dE.png"}
+        host_png, ref_png, de_png = (os.path.join(out_dir, f) for f in files[ref.view].values())
+        save_png(linear_to_srgb8(rendered[ref.view]), host_png)
+        save_png(linear_to_srgb8(ref.rgb), ref_png)
+        rep.de_map_png(de_png, maps[ref.view], f"{name} {ref.view}: dE2000 median {m.per_view[ref.view].median_dE:.2f}")
     return HostResult(name, "passed" if passed else "failed", variant, lobe, "; ".join(why) or None, m, tuple(why),
                       files)

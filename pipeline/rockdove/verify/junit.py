@@ -15,7 +15,7 @@ import os
 import xml.etree.ElementTree as ET
 
 from ..resources import write_atomic
-from .results import HostResult, Report
+from .results import Anatomy, Goals, HostResult, MotionCheck, Report
 
 #: Test case per validator: the Issue ``check`` (or its prefix before ``:``) -> the name shown.
 VALIDATORS = {"layer": "dependencies", "assetPath": "dependencies", "open": "dependencies",
@@ -67,18 +67,17 @@ class _Suite:
 def _validation(root, report: Report) -> dict:
     v = report.validation
     suite = _Suite(root, "rockdove.validation", report.timings_s.get("validation", 0.0))
-    details = v.details or {}
     by: dict[str, list] = {}
-    for issue in details.get("issues", []):
-        name = VALIDATORS.get(issue["check"].split(":")[0], issue["check"].split(":")[0])
-        by.setdefault(name, []).append(issue)
+    for issue in v.issues:
+        name = issue.check.split(":")[0]
+        by.setdefault(VALIDATORS.get(name, name), []).append(issue)
     if v.error:
         suite.case("validator", error=v.error)
-    counts = details.get("counts", {})
+    counts = (v.details or {}).get("counts", {})
     for name in dict.fromkeys([*VALIDATORS.values(), *by]):
         issues = by.get(name, [])
-        line = [f"{i['severity'].upper()} {i['check']}: {i['path']}: {i['message']}" for i in issues]
-        errors = [ln for ln, i in zip(line, issues) if i["severity"] == "error"]
+        line = [f"{i.severity.upper()} {i.check}: {i.path}: {i.message}" for i in issues]
+        errors = [ln for ln, i in zip(line, issues) if i.severity == "error"]
         checked = ", ".join(f"{k} {counts[k]}" for k in COUNTED.get(name, ()) if k in counts)
         suite.case(name, failures=errors, message=f"{len(errors)} error(s)",
                    out="\n".join([f"checked: {checked}" if checked else "", *line]).strip())
@@ -90,17 +89,17 @@ def _views(root, report: Report) -> dict:
     suite = _Suite(root, "rockdove.glsl", report.timings_s.get("compare", 0.0))
     for m in report.views:
         suite.case(m.view, failures=list(m.failures) if not m.passed else [],
-                   out=f"{m.n_pixels} px, dE2000 median {_num(m.de_median)} (goal {g['median_dE']}), "
-                       f"p95 {_num(m.de_p95)} (goal {g['p95_dE']}), max {_num(m.de_max)}, "
+                   out=f"{m.n_pixels} px, dE2000 median {_num(m.de_median)} (goal {g.median_dE}), "
+                       f"p95 {_num(m.de_p95)} (goal {g.p95_dE}), max {_num(m.de_max)}, "
                        f"black {m.n_black} of {m.n_lit} lit")
     h = report.hue_sweep
     suite.case("light sweep hues", failures=[f for f in report.failures if f.startswith("hue:")],
                out=f"green {h.green}, purple {h.purple}, grey {h.grey}, other {h.other} "
-                   f"(need >= {g['min_hue_fraction']:.0%} of {h.chromatic} chromatic px each)")
+                   f"(need >= {g.min_hue_fraction:.0%} of {h.chromatic} chromatic px each)")
     return suite.close()
 
 
-def _host(root, h: HostResult, goals: dict) -> dict:
+def _host(root, h: HostResult, goals: Goals) -> dict:
     from .host_check import EXACT_VARIANTS
 
     suite = _Suite(root, f"rockdove.host.{h.name}")
@@ -113,40 +112,40 @@ def _host(root, h: HostResult, goals: dict) -> dict:
     m, lobe = h.metrics, f"({h.variant}, {h.lobe} lobe)"
     blame = h.variant in EXACT_VARIANTS and not h.passed
     for view, v in m.per_view.items():
-        fail = [f"{view}: {k[:-3]} dE2000 {_num(v[k])} > {goals[k]}" for k in ("median_dE", "p95_dE")
-                if blame and v["n_pixels"] and not v[k] <= goals[k]]
-        suite.case(view, failures=fail, out=f"{v['n_pixels']} px, dE2000 median {_num(v['median_dE'])}, "
-                                            f"p95 {_num(v['p95_dE'])} {lobe}")
+        fail = [f"{view}: {name} dE2000 {_num(value)} > {goal}" for name, value, goal in
+                (("median", v.median_dE, goals.median_dE), ("p95", v.p95_dE, goals.p95_dE))
+                if blame and v.n_pixels and not value <= goal]
+        suite.case(view, failures=fail, out=f"{v.n_pixels} px, dE2000 median {_num(v.median_dE)}, "
+                                            f"p95 {_num(v.p95_dE)} {lobe}")
     suite.case("all views", failures=[f"host {h.name}: {f}" for f in h.failures] if not h.passed else [],
                out=f"{m.n_pixels} px, dE2000 median {_num(m.median_dE)}, p95 {_num(m.p95_dE)}, green {m.green_px}, "
                    f"purple {m.purple_px}, hue agreement {_num(m.hue_agreement)} {lobe}")
     return suite.close()
 
 
-def _anatomy(root, report: Report) -> dict:
+def _anatomy(root, anatomy: Anatomy) -> dict:
     suite = _Suite(root, "rockdove.anatomy")
-    anatomy = report.anatomy or {}
-    for m in anatomy.get("measures", []):
-        line = f"{m['name']} = {_num(m['value'])} {m['unit']}".rstrip() + f", range [{m['low']}, {m['high']}]"
-        suite.case(m["name"], failures=[] if m["passed"] else [f"anatomy: {line} ({m['what']})"], out=line)
-    if not anatomy.get("measures") and anatomy.get("failures"):  # the bird's parts could not be measured
-        suite.case("measures", failures=list(anatomy["failures"]))
+    for m in anatomy.measures:
+        line = f"{m.name} = {_num(m.value)} {m.unit}".rstrip() + f", range [{m.low}, {m.high}]"
+        suite.case(m.name, failures=[] if m.passed else [f"anatomy: {line} ({m.what})"], out=line)
+    if not anatomy.measures and anatomy.failures:  # the bird's parts could not be measured
+        suite.case("measures", failures=list(anatomy.failures))
     return suite.close()
 
 
-def _motion(root, motion: dict) -> dict:
+def _motion(root, motion: MotionCheck) -> dict:
     """A case per limited measure of :func:`rockdove.verify.motion.measure_motion`, failed by its failure line."""
     suite = _Suite(root, "rockdove.motion")
-    name, failures = motion["motion"], list(motion["failures"])
-    for key, limit in motion["limits"].items():
-        if key in motion["measures"]:
+    name, failures, measures = motion.motion, motion.failures, motion.measures
+    for key, limit in motion.limits.items():
+        if key in measures:
             mine = [f for f in failures if f.startswith(f"motion {name}: {key} = ")]
-            suite.case(key, failures=mine, out=f"{key} = {motion['measures'][key]:.4g}, allowed {limit} "
-                                               f"({motion['frames']} time codes of {name})")
-    rest = [f for f in failures if not any(f.startswith(f"motion {name}: {k} = ") for k in motion["limits"])]
-    if "head_cycles" in motion["measures"] or rest:
-        suite.case("head cycles per step", failures=rest, out=f"{motion['measures'].get('head_cycles')} head "
-                                                               f"cycles, {motion['measures'].get('steps')} steps")
+            suite.case(key, failures=mine, out=f"{key} = {measures[key]:.4g}, allowed {limit} "
+                                               f"({motion.frames} time codes of {name})")
+    rest = [f for f in failures if not any(f.startswith(f"motion {name}: {k} = ") for k in motion.limits)]
+    if "head_cycles" in measures or rest:
+        suite.case("head cycles per step", failures=rest, out=f"{measures.get('head_cycles')} head "
+                                                               f"cycles, {measures.get('steps')} steps")
     return suite.close()
 
 
@@ -157,7 +156,7 @@ def junit_xml(report: Report) -> bytes:
                       time=_time(report.timings_s.get("total", 0.0)))
     totals = [_validation(root, report), _views(root, report)]
     totals += [_host(root, h, report.goals) for h in report.hosts]
-    totals += [_anatomy(root, report)] + ([_motion(root, report.motion)] if report.motion else [])
+    totals += [_anatomy(root, report.anatomy)] + ([_motion(root, report.motion)] if report.motion else [])
     for k in ("tests", "failures", "errors"):
         root.set(k, str(sum(t[k] for t in totals)))
     ET.indent(root)

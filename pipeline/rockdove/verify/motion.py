@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .results import MotionCheck
+
 #: measure -> (low, high) allowed, or high alone.
 LIMITS = {"card_stretch": 0.01, "card_root_off_skin_m": 0.0005, "head_into_cards_m": 0.0005,
           "stance_slip_m": 0.0005, "toe_below_ground_m": 0.0005, "frames_without_support": 0,
@@ -51,8 +53,8 @@ def _rigid(a, b):
     return rot, cb - ca @ rot.T
 
 
-def measure_motion(asset, motion: str) -> dict:
-    """``{"motion", "frames", "measures", "limits", "failures"}`` of ``motion`` in the asset (folder or layer)."""
+def measure_motion(asset, motion: str) -> MotionCheck:
+    """The measures of ``motion`` in the asset (folder or layer) against :data:`LIMITS`."""
     import trimesh
     from pxr import UsdSkel
     from scipy.sparse import csr_matrix
@@ -160,7 +162,7 @@ def measure_motion(asset, motion: str) -> dict:
             failures.append(f"motion {motion}: {key} = {m[key]:.4g}, allowed {limit}")
     if "head_cycles" in m and abs(m["head_cycles"] - m["steps"]) > 1:
         failures.append(f"motion {motion}: {m['head_cycles']} head cycles for {m['steps']} steps, expected one each")
-    return {"motion": motion, "frames": len(times), "measures": m, "limits": LIMITS, "failures": failures}
+    return MotionCheck(motion, len(times), m, LIMITS, tuple(failures))
 
 
 #: Time codes the film is checked at by default (of 60 a second): in one step of the walk, the hold's start, its

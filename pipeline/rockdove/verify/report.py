@@ -315,8 +315,8 @@ def write_html(path, report: Report, images: Figures) -> str:
         + _animation(images) + _list("Notes", report.notes),
         f"<p>Asset: <code>{e(report.asset)}</code><br>",
         f"Configuration hash: <code>{e(str(report.configuration_hash or 'not recorded'))}</code><br>",
-        f"Goals: median dE2000 &le; {report.goals['median_dE']}, "
-        f"p95 &le; {report.goals['p95_dE']} over feather pixels away from silhouette edges.</p>",
+        f"Goals: median dE2000 &le; {report.goals.median_dE}, "
+        f"p95 &le; {report.goals.p95_dE} over feather pixels away from silhouette edges.</p>",
     ]
     if images.viewer:  # the interactive view first, the tables after it
         parts.append(f"<h2>Interactive view</h2><p>Drag to orbit, wheel to zoom, slide to turn the light; switch "
@@ -329,12 +329,12 @@ def write_html(path, report: Report, images: Figures) -> str:
                      "style='image-rendering:auto'>")
     if report.motion:  # the motion's measures beside their limits (rockdove.verify.motion)
         mo = report.motion
-        parts.append(_pairs(f"Motion {e(mo['motion'])}: measured at {mo['frames']} time codes, film checked at "
-                            f"{', '.join(f'{t:g}' for t in mo['times'])}", {k: f"{_fmt(v, 5)} (limit "
-                            f"{mo['limits'].get(k, '-')})" for k, v in mo["measures"].items()}, str))
-        if mo.get("animation"):
-            a = mo["animation"]
-            parts.append(f"<figure><img src='{e(a['file'])}' alt='{e(mo['motion'])}'><figcaption>{e(a['caption'])}"
+        parts.append(_pairs(f"Motion {e(mo.motion)}: measured at {mo.frames} time codes, film checked at "
+                            f"{', '.join(f'{t:g}' for t in mo.times)}", {k: f"{_fmt(v, 5)} (limit "
+                            f"{mo.limits.get(k, '-')})" for k, v in mo.measures.items()}, str))
+        if mo.animation:
+            a = mo.animation
+            parts.append(f"<figure><img src='{e(a['file'])}' alt='{e(mo.motion)}'><figcaption>{e(a['caption'])}"
                          "</figcaption></figure>")
     parts.append(_list("Failures", report.failures))
     parts.append("<h2>Per view</h2>" + _head("view", "pixels", "median dE", "p95 dE", "max dE", "&gt; 2", "black",
@@ -343,13 +343,12 @@ def write_html(path, report: Report, images: Figures) -> str:
                    _fmt(m.de_fraction_over_p95_goal, 4), f"{m.n_black}/{m.n_lit}", m.hue.green, m.hue.purple,
                    "yes" if m.passed else "no") for m in report.views]
     parts.append("</table>")
-    if report.boundary:
-        parts.append("<h2>Green/purple boundary straightness</h2><p>RMS perpendicular distance of the boundary "
-                     "pixels from their total-least-squares line (paper preset: straight; measured preset: bent).</p>"
-                     + _head("view", "points", "RMS (px)", "length (px)", "RMS / length"))
-        parts += [_row(name, s["n_points"], _fmt(s["rms_px"]), _fmt(s["length_px"], 1), _fmt(s["rms_fraction"], 4))
-                  for name, s in report.boundary.get("per_view", {}).items()]
-        parts.append("</table>")
+    parts.append("<h2>Green/purple boundary straightness</h2><p>RMS perpendicular distance of the boundary pixels "
+                 "from their total-least-squares line (paper preset: straight; measured preset: bent).</p>"
+                 + _head("view", "points", "RMS (px)", "length (px)", "RMS / length"))
+    parts += [_row(name, s.n_points, _fmt(s.rms_px), _fmt(s.length_px, 1), _fmt(s.rms_fraction, 4))
+              for name, s in report.boundary.per_view.items()]
+    parts.append("</table>")
     for key, title in (("hue", "Hue histogram across the light sweep"), ("contact_sheet", "Contact sheet"),
                        ("lut", "The LUT"), ("spectra", "Film reflectance spectra")):
         if getattr(images, key):

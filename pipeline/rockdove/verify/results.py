@@ -1,46 +1,85 @@
 """The verification's results as typed values: what its checks hand on, what its cache keeps and the
-:class:`Report`. Each ``to_json()`` is its part of ``report.json``; ``from_json`` reads it back.
+:class:`Report`. Each ``to_json()`` is its part of ``report.json``; ``from_json`` reads it back (:func:`read`).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
+import types
+import typing
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
+from ..usd.issues import Issue
+
 if TYPE_CHECKING:  # compare imports numpy; the build's verdict and the API's types need none of it
+    from .boundary import Boundary, BoundaryShape
     from .compare import HueHistogram, ViewMetrics
 
 #: A host's outcome: within its goals, not, not run here (``reason`` why), or it raised (``reason`` its error).
 Status = Literal["passed", "failed", "skipped", "error"]
 
 
-def _plain(value: Any) -> Any:
+def plain(value: Any) -> Any:
     """``value`` as JSON data: typed results by their ``to_json``, other dataclasses as dicts, tuples as lists."""
     if hasattr(value, "to_json"):
         return value.to_json()
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+        return {f.name: plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
     if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
+        return [plain(v) for v in value]
     if isinstance(value, dict):
-        return {k: _plain(v) for k, v in value.items()}
+        return {k: plain(v) for k, v in value.items()}
     return value
 
 
-class _Record:
-    """``to_json``: every field but those in ``_PRIVATE``, as JSON data."""
+@functools.cache
+def _hints(cls: type) -> dict[str, Any]:
+    from . import boundary, compare  # the names results.py imports only when type checking
+
+    return typing.get_type_hints(cls, localns={**vars(compare), **vars(boundary)})
+
+
+def read(tp: Any, value: Any) -> Any:
+    """JSON ``value`` as the type ``tp``: a dataclass field by field (by its own ``from_json`` where it has one; a
+    field absent takes its default), tuples, lists, dicts and optionals of them; anything else as it is."""
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if value is None:
+        return None
+    if origin in (typing.Union, types.UnionType):
+        return read(next(a for a in args if a is not type(None)), value)
+    if origin in (tuple, list):
+        return origin(read(args[0], v) for v in value)
+    if origin is dict:
+        return {k: read(args[1], v) for k, v in value.items()}
+    if getattr(tp, "from_json", None) is not None:
+        return tp.from_json(value)
+    return _fields(tp, value) if dataclasses.is_dataclass(tp) else value
+
+
+def _fields(cls: Any, data: dict) -> Any:
+    hints = _hints(cls)
+    return cls(**{f.name: read(hints[f.name], data[f.name]) for f in dataclasses.fields(cls) if f.name in data})
+
+
+class Record:
+    """``to_json``: every field but those in ``_PRIVATE``, as JSON data; ``from_json`` reads it back."""
 
     _PRIVATE: tuple[str, ...] = ()
 
     def to_json(self) -> dict:
-        return {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)  # type: ignore[arg-type]
+        return {f.name: plain(getattr(self, f.name)) for f in dataclasses.fields(self)  # type: ignore[arg-type]
                 if f.name not in self._PRIVATE}
+
+    @classmethod
+    def from_json(cls, data: dict) -> typing.Self:
+        return _fields(cls, data)
 
 
 @dataclass(frozen=True)
-class ViewResult(_Record):
+class ViewResult(Record):
     """One verification view: its GL render against the exact reference (``metrics`` None when the render
     failed), the light sweep's hues and boundary, its images in ``folder`` and its contact-sheet row."""
 
@@ -51,7 +90,7 @@ class ViewResult(_Record):
     failures: tuple[str, ...]
     reference: dict
     hue: HueHistogram | None
-    boundary: dict | None
+    boundary: BoundaryShape | None
     files: dict[str, str]
     timings_s: dict[str, float]
     folder: str = field(default="", compare=False)
@@ -60,26 +99,36 @@ class ViewResult(_Record):
 
     @classmethod
     def from_json(cls, data: dict, folder: str = "", sheet_row: tuple = ()) -> ViewResult:
-        from .compare import HueHistogram, ViewMetrics
-
-        m, hue = data["metrics"], data["hue"]
-        return cls(**{**data, "metrics": None if m is None else ViewMetrics.from_json(m),
-                      "hue": None if hue is None else HueHistogram(**hue), "failures": tuple(data["failures"])},
-                   folder=folder, sheet_row=tuple(sheet_row))
+        return dataclasses.replace(super().from_json(data), folder=folder, sheet_row=tuple(sheet_row))
 
 
 @dataclass(frozen=True)
-class HostMetrics:
-    """One host's renders against the reference of its lobe (:mod:`rockdove.verify.host_check`); ``per_view``:
-    ``{view: {"n_pixels", "median_dE", "p95_dE"}}``."""
+class DeStats:
+    """CIEDE2000 over a host's compared pixels (NaN without any)."""
 
     n_pixels: int
     median_dE: float
     p95_dE: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class HostMetrics(DeStats):
+    """One host's renders against the reference of its lobe (:mod:`rockdove.verify.host_check`), and by view."""
+
     green_px: int
     purple_px: int
     hue_agreement: float
-    per_view: dict[str, dict[str, float]]
+    per_view: dict[str, DeStats]
+
+
+@dataclass(frozen=True)
+class Goals:
+    """What each view must meet (:mod:`rockdove.verify.compare`), and the share of the light sweep each hue needs."""
+
+    median_dE: float
+    p95_dE: float
+    black_fraction: float
+    min_hue_fraction: float
 
 
 @dataclass(frozen=True)
@@ -110,7 +159,7 @@ class HostResult:
             return {**out, "skipped": True, "reason": self.reason, "passed": None}
         if self.status == "error":
             return {**out, "passed": False, "error": self.reason}
-        return {**out, **_plain(self.metrics), "passed": self.passed, "failures": list(self.failures)}
+        return {**out, **plain(self.metrics), "passed": self.passed, "failures": list(self.failures)}
 
     @classmethod
     def from_json(cls, data: dict, files: dict | None = None) -> HostResult:
@@ -122,7 +171,7 @@ class HostResult:
         if "error" in data:
             return cls(status="error", reason=data["error"], **common)
         passed, failures = data.pop("passed"), tuple(data.pop("failures", ()))
-        return cls(status="passed" if passed else "failed", metrics=HostMetrics(**data), failures=failures,
+        return cls(status="passed" if passed else "failed", metrics=read(HostMetrics, data), failures=failures,
                    reason="; ".join(failures) or None, **common)
 
 
@@ -143,10 +192,6 @@ class ItemsUsed:
     ran: ItemNames = ItemNames()
     reused: ItemNames = ItemNames()
 
-    @classmethod
-    def from_json(cls, data: dict) -> ItemsUsed:
-        return cls(**{k: ItemNames(**{n: tuple(v) for n, v in data[k].items()}) for k in ("ran", "reused")})
-
 
 @dataclass(frozen=True)
 class Validation:
@@ -156,11 +201,57 @@ class Validation:
     details: dict | None
     error: str | None
 
+    @property
+    def issues(self) -> tuple[Issue, ...]:
+        return tuple(Issue(**i) for i in (self.details or {}).get("issues", ()))
+
 
 @dataclass(frozen=True)
-class Report(_Record):
-    """A verification: report.json's content (``to_json``), typed where it is read. ``boundary``: ``{"per_view":
-    {view: shape}, "method"}``; ``cache``: the items that ran and were reused."""
+class Measure:
+    """An anatomy measure beside its range (:data:`rockdove.verify.anatomy.RANGES`); ``value`` None: NaN read back."""
+
+    name: str
+    value: float | None
+    low: float | None
+    high: float | None
+    unit: str
+    source: str
+    what: str
+    passed: bool
+
+
+@dataclass(frozen=True)
+class Anatomy(Record):
+    """The bird against its published measures (:mod:`rockdove.verify.anatomy`); none when it cannot be measured."""
+
+    passed: bool
+    failures: tuple[str, ...]
+    measures: tuple[Measure, ...] = ()
+
+
+@dataclass(frozen=True)
+class MotionCheck(Record):
+    """A motion measured at every time code (:func:`rockdove.verify.motion.measure_motion`), its measures and their
+    limits by name, the film checked at ``times`` in ``views``; the report's ``animation`` or ``notes`` why none."""
+
+    motion: str
+    frames: int
+    measures: dict[str, float]
+    limits: dict
+    failures: tuple[str, ...]
+    times: tuple[float, ...] = ()
+    views: tuple[str, ...] = ()
+    animation: dict | None = None
+    notes: tuple[str, ...] | None = None
+
+    def to_json(self) -> dict:
+        return {k: v for k, v in super().to_json().items() if v is not None}
+
+
+@dataclass(frozen=True)
+class Report(Record):
+    """A verification: report.json's content (``to_json``), typed where it is read. ``cache``: the items that ran
+    and were reused."""
 
     asset: str
     asset_sha256: str
@@ -168,7 +259,7 @@ class Report(_Record):
     passed: bool
     failures: tuple[str, ...]
     notes: tuple[str, ...]
-    goals: dict[str, float]
+    goals: Goals
     validation: Validation
     views: tuple[ViewMetrics, ...]
     views_reused: tuple[str, ...]
@@ -177,9 +268,9 @@ class Report(_Record):
     reference: tuple[dict, ...]
     hue_sweep: HueHistogram
     hosts: tuple[HostResult, ...]
-    anatomy: dict
+    anatomy: Anatomy
     beauty: dict | None
-    boundary: dict
+    boundary: Boundary
     film: dict | None
     lut: dict | None
     variants: dict[str, str]
@@ -189,26 +280,12 @@ class Report(_Record):
     timings_s: dict[str, float]
     versions: dict
     argv: tuple[str, ...]
-    motion: dict | None = None
+    motion: MotionCheck | None = None
     animation: dict | None = None  # the light turning round the bird (rockdove.render.animation.for_report)
-
-    @classmethod
-    def from_json(cls, data: dict) -> Report:
-        """A report.json read back (its paths as written there)."""
-        from .compare import HueHistogram, ViewMetrics
-
-        typed: dict[str, Any] = {"validation": Validation(**data["validation"]),
-                                 "cache": ItemsUsed.from_json(data["cache"]),
-                                 "views": tuple(ViewMetrics.from_json(m) for m in data["views"]),
-                                 "hue_sweep": HueHistogram(**data["hue_sweep"]),
-                                 "hosts": tuple(HostResult.from_json(h) for h in data["hosts"])}
-        plain: dict[str, Any] = {f.name: data.get(f.name) for f in dataclasses.fields(cls) if f.name not in typed}
-        fields: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in plain.items()}
-        return cls(**fields, **typed)
 
 
 @dataclass(frozen=True)
-class Verdict(_Record):
+class Verdict(Record):
     """The build's verification, its stage's value: ``reason`` the failures joined."""
 
     passed: bool
@@ -221,8 +298,3 @@ class Verdict(_Record):
     def of(cls, report: Report, notes: Iterable[str] = ()) -> Verdict:
         return cls(report.passed, "; ".join(report.failures), tuple(m.view for m in report.views),
                    (*report.notes, *notes), report.cache)
-
-    @classmethod
-    def from_json(cls, data: dict) -> Verdict:
-        return cls(data["passed"], data["reason"], tuple(data["views"]), tuple(data["notes"]),
-                   ItemsUsed.from_json(data["items"]))

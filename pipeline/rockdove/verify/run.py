@@ -66,12 +66,12 @@ def render_and_check(scene, lut, views, out: str, *, surfaces=None) -> tuple[dic
             if sweep and m is not None:  # the comparison classified the pixels: its classes and histogram
                 # (that of the GL colours themselves when they are finite, which the comparison reads as 0)
                 hue = m.hue if m.finite else compare.hue_histogram(gl_rgb.astype(np.float64)[m.cls >= 0])
-                boundary = {**boundary_straightness(m.cls), **class_shape(m.strict, m.cls)}
+                boundary = class_shape(m.strict, m.cls)
             elif sweep:
                 cls = compare.reference_classes(ref_results[i], scene)
                 rgb = np.asarray(ref_results[i].rgb, np.float64)
                 hue = compare.hue_histogram(rgb[cls >= 0])
-                boundary = {**boundary_straightness(cls), **boundary_shape(rgb, cls >= 0)}
+                boundary = dataclasses.replace(boundary_shape(rgb, cls >= 0), **vars(boundary_straightness(cls)))
             files, rows = {}, []
             ref_png = linear_to_srgb8(ref_results[i].rgb)
             path = os.path.join(folder, f"{v.name}_reference.png")

@@ -20,9 +20,9 @@ import numpy as np
 from ..digest import file_sha256
 from . import compare, provenance, report
 from .anatomy import measure_scene
-from .boundary import boundary_note
+from .boundary import Boundary, boundary_note
 from .inputs import BOUNDARY_SWEEP_ANGLE_DEG
-from .results import HostResult, ItemsUsed, Report, ViewResult
+from .results import Goals, HostResult, ItemsUsed, MotionCheck, Report, ViewResult
 
 _log = logging.getLogger(__name__)
 #: Each of green and purple must hold at least this fraction of the chromatic sweep pixels.
@@ -49,7 +49,7 @@ class Checked:
     size: tuple[int, int]
     hosts_seconds: float
     t_start: float
-    motion: dict | None = None  # rockdove.verify.motion.measure_motion's entry, with the times and views checked
+    motion: MotionCheck | None = None
 
 
 def sweep_hues(views: tuple[ViewResult, ...]) -> tuple[compare.HueHistogram, list[str], list[str]]:
@@ -143,7 +143,7 @@ def combine(checked: Checked, out: str, *, bench_dir, pictures, published_asset)
     if not validation.passed:
         failures.insert(0, "validation: " + (validation.error or "the validator reported problems"))
     anatomy = measure_scene(scene)  # the bird against its published measures (rockdove.verify.anatomy)
-    failures.extend(anatomy["failures"] + (checked.motion["failures"] if checked.motion else []))
+    failures.extend([*anatomy.failures, *(checked.motion.failures if checked.motion else ())])
     timings["total"] = time.perf_counter() - checked.t_start
     config = provenance.asset_configuration(layer)
     if os.path.isfile(os.path.join(out, "viewer.html")):  # written beside the report (rockdove.web.viewer)
@@ -151,14 +151,11 @@ def combine(checked: Checked, out: str, *, bench_dir, pictures, published_asset)
     result = Report(
         asset=published_asset or layer, asset_sha256=file_sha256(layer), out_dir=out, passed=not failures,
         failures=tuple(failures), notes=tuple(notes),
-        goals={"median_dE": compare.MEDIAN_DE_GOAL, "p95_dE": compare.P95_DE_GOAL,
-               "black_fraction": compare.BLACK_FRACTION_GOAL, "min_hue_fraction": MIN_HUE_FRACTION},
+        goals=Goals(compare.MEDIAN_DE_GOAL, compare.P95_DE_GOAL, compare.BLACK_FRACTION_GOAL, MIN_HUE_FRACTION),
         validation=validation, views=metrics, views_reused=checked.items.reused.views, cache=items,
         view_setup=tuple(r.setup for r in views), reference=tuple(r.reference for r in views), hue_sweep=hue,
         hosts=checked.hosts, anatomy=anatomy, beauty=images.beauty, animation=images.animation,
-        boundary={"per_view": {r.view: r.boundary for r in views if r.sweep},
-                  "method": "TLS line through green/purple boundary points; RMS perpendicular distance (px) "
-                            "and RMS / boundary length; coherence and curvature: rockdove.verify.boundary"},
+        boundary=Boundary({r.view: r.boundary for r in views if r.sweep and r.boundary is not None}),
         film=scene.film.to_dict() if scene.film is not None else None, lut=lut_info, variants=dict(scene.variants),
         # the build marker's rockdove.config.config_hash of the configuration the asset was built from
         configuration=config, configuration_hash=(config.get("marker") or {}).get("config_hash"),
@@ -172,7 +169,7 @@ def combine(checked: Checked, out: str, *, bench_dir, pictures, published_asset)
 
 def summary(report: Report) -> dict:
     """The short form ``rockdove verify --json`` prints: pass/fail, failures, per-view dE, hue, boundary."""
-    per_view, hue = report.boundary["per_view"], report.hue_sweep
+    per_view, hue = report.boundary.per_view, report.hue_sweep
     return {
         "passed": report.passed,
         "failures": list(report.failures),
@@ -183,13 +180,13 @@ def summary(report: Report) -> dict:
                            "de_max": m.de_max, "n_black": m.n_black, "passed": m.passed} for m in report.views},
         "notes": list(report.notes),
         "hue_sweep": {"green": hue.green, "purple": hue.purple, "grey": hue.grey, "other": hue.other},
-        "boundary_rms_px": {k: v["rms_px"] for k, v in per_view.items()},
-        "boundary_shape": {k: {"green_share": v["coherence"]["green"]["largest_share"],
-                               "purple_share": v["coherence"]["purple"]["largest_share"],
-                               "line_over_curve": v["curvature"]["ratio"]}
-                           for k, v in per_view.items() if "coherence" in v},
+        "boundary_rms_px": {k: v.rms_px for k, v in per_view.items()},
+        "boundary_shape": {k: {"green_share": v.coherence.green.largest_share,
+                               "purple_share": v.coherence.purple.largest_share, "line_over_curve": v.curvature.ratio}
+                           for k, v in per_view.items()},
         "hosts": [{k: v for k, v in h.to_json().items() if k not in ("per_view", "failures")} for h in report.hosts],
-        "anatomy": {r["name"]: r["value"] for r in report.anatomy["measures"]},
-        "motion": report.motion and {k: report.motion[k] for k in ("motion", "times", "measures", "failures")},
+        "anatomy": {m.name: m.value for m in report.anatomy.measures},
+        "motion": report.motion and {"motion": report.motion.motion, "times": report.motion.times,
+                                     "measures": report.motion.measures, "failures": report.motion.failures},
         "timings_s": report.timings_s,
     }

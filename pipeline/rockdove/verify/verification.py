@@ -23,12 +23,12 @@ import shutil
 import tempfile
 import time
 from pathlib import Path
-from typing import Any
 
 from .. import sources
 from ..cache import KEY_VERSION, Cache
 from ..config import canonical_json
 from ..resources import load_npz
+from .results import MotionCheck
 
 _log = logging.getLogger(__name__)
 #: The hosts the build verifies with: the GL renders alone (a cold build's verification takes seconds).
@@ -109,8 +109,9 @@ def _surfaces(cache: Cache, scene, views, out: str) -> tuple[dict, list, list]:
 
 
 def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, out: str):
-    """``({view: ViewResult}, fresh, names rendered)``: each view's :func:`render_and_check`, cached per view;
-    ``fresh``: the GL radiance and references of the views rendered (all when ``redo_all``)."""
+    """``({view: ViewResult}, references, {view: GL radiance}, names rendered)``: each view's
+    :func:`render_and_check`, cached per view; the references and radiance of the views rendered (all when
+    ``redo_all``; None when none)."""
     import numpy as np
 
     from .results import ViewResult
@@ -120,11 +121,11 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
     keys = {v.name: item_key("view", (render_and_check,), digest, v.to_dict()) for v in views}
     found = {n: items.get(k) for n, k in keys.items()}
     todo = [v for v in views if redo_all or found[v.name] is None]
-    fresh: dict[str, Any] = {}
+    refs = gl = None
     done: dict[str, ViewResult] = {}
     if todo:
         with items.scratch() as tmp:
-            results, fresh["refs"], fresh["gl"] = render_and_check(scene, lut, todo, str(tmp), surfaces=surfaces)
+            results, refs, gl = render_and_check(scene, lut, todo, str(tmp), surfaces=surfaces)
             for v in todo:
                 r = results[v.name]
                 if r.metrics is not None:  # a failed GL render is not kept: asked again next time
@@ -140,7 +141,7 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
             rows = load_npz(os.path.join(folder, "sheet_row.npz"))
             done[v.name] = ViewResult.from_json(_meta(folder), folder,
                                                 tuple(rows[f"arr_{i}"] for i in range(len(rows))))
-    return {v.name: done[v.name] for v in views}, fresh, [v.name for v in todo]
+    return {v.name: done[v.name] for v in views}, refs, gl, [v.name for v in todo]
 
 
 def _host_key(host, digest: str, views, layers: str) -> str:
@@ -151,7 +152,7 @@ def _host_key(host, digest: str, views, layers: str) -> str:
                     host.lobe, host.variant)
 
 
-def _host(cache, host, layer, scene, views, digest, layers, refs, fresh, out):
+def _host(cache, host, layer, scene, views, digest, layers, refs, gl, out):
     """One host's :class:`~rockdove.verify.results.HostResult` (its images in ``out``) and whether it was cached."""
     from .host_check import check_host
     from .results import HostResult
@@ -164,7 +165,7 @@ def _host(cache, host, layer, scene, views, digest, layers, refs, fresh, out):
         for name in _files(value["files"]):
             shutil.copyfile(os.path.join(found, name), os.path.join(out, name))
         return HostResult.from_json(value["entry"], value["files"]), True
-    rendered = fresh["gl"] if host.name == "glsl" else None
+    rendered = gl if host.name == "glsl" else None
     result = check_host(host, layer, scene, views, refs(host.lobe), out, rendered)
     if result.status in ("passed", "failed"):  # one skipped or failed is asked again
         with items.scratch() as tmp:
@@ -212,14 +213,14 @@ def _files(files: dict) -> set:
     return {name for per_view in files.values() for name in per_view.values()}
 
 
-def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[dict, dict, list[list[str]]]:
-    """The report's ``motion`` entry, its frames checked as views and their items (surfaces cast, kept, views)."""
+def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[MotionCheck, dict, list[list[str]]]:
+    """The report's motion check, its frames checked as views and their items (surfaces cast, kept, views)."""
     from ..render.scene import load_scene
     from .inputs import scene_digest
     from .motion import animation, frame_prefix, frame_views, measure_motion
 
     _log.info(f"motion {motion}: measured at every time code")
-    entry = {**measure_motion(layer, motion), "times": list(times), "views": []}
+    measured = measure_motion(layer, motion)
     results: dict = {}
     items: list[list[str]] = [[], [], []]
     for t in times:
@@ -227,17 +228,17 @@ def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[dict,
         scene = load_scene(layer, {"motion": motion}, t)
         views = frame_views(scene, width, height, frame_prefix(motion, t))
         surfaces, cast, kept = _surfaces(cache, scene, views, out)
-        frame, _, rendered = _views(cache, scene, lut, views, scene_digest(scene), surfaces, False, out)
+        frame, _, _, rendered = _views(cache, scene, lut, views, scene_digest(scene), surfaces, False, out)
         results.update(frame)
-        entry["views"] += list(frame)
         for into, names in zip(items, (cast, kept, rendered)):
             into += names
     _log.info(f"motion {motion}: its animation")
+    checked = dataclasses.replace(measured, times=tuple(times), views=tuple(results))
     try:  # a picture, not a measurement: the report goes on without it
-        entry["animation"] = animation(layer, motion, out, lut)
+        checked = dataclasses.replace(checked, animation=animation(layer, motion, out, lut))
     except Exception as exc:  # noqa: BLE001 - any renderer's error
-        entry["notes"] = [f"no {motion} animation: {type(exc).__name__}: {exc}"]
-    return entry, results, items
+        checked = dataclasses.replace(checked, notes=(f"no {motion} animation: {type(exc).__name__}: {exc}",))
+    return checked, results, items
 
 
 def default_cache(asset) -> str:
@@ -287,8 +288,8 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     surfaces, cast, kept = _surfaces(cache, scene, chosen, out)
     glsl = next(h for h in selection.available if h.name == "glsl")
     redo = _Items(cache, "host", out).get(_host_key(glsl, digest, chosen, layers)) is None  # its images: the GL renders
-    results, fresh, rendered = _views(cache, scene, lut, chosen, digest, surfaces, redo, out)
-    lobes = {"half_angle": fresh["refs"]} if redo else {}
+    results, fresh_refs, gl, rendered = _views(cache, scene, lut, chosen, digest, surfaces, redo, out)
+    lobes = {"half_angle": fresh_refs} if redo else {}
     motion_entry, frames, (m_cast, m_kept, m_rendered) = (None, {}, ([], [], [])) if motion is None else _motion(
         cache, layer, lut, motion, times, width, height, out)
 
@@ -299,7 +300,7 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
         return lobes[lobe]
 
     t = time.perf_counter()
-    checked = [_host(cache, h, layer, scene, chosen, digest, layers, refs, fresh, out) for h in selection.available]
+    checked = [_host(cache, h, layer, scene, chosen, digest, layers, refs, gl, out) for h in selection.available]
     host_results = (*(r for r, _ in checked),
                     *(HostResult(n, "skipped", reason=why) for n, why in selection.unavailable.items()))
     named = hosts is not None and "blender" in hosts  # auto: Cycles only when asked for (2-4 min of CPU)
