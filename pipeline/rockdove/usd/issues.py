@@ -43,10 +43,6 @@ class Report:
     def clean(self) -> bool:
         return not self.errors
 
-    def checks(self) -> set:
-        """Names of the checks that reported something."""
-        return {i.check for i in self.issues}
-
     def _shown(self, per_check: int) -> tuple[list, dict]:
         """The first ``per_check`` issues of each (check, severity) and how many of each were left out."""
         shown, left = [], {}
