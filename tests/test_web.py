@@ -79,7 +79,7 @@ def test_web_host_agrees_with_the_exact_view_angle_reference(web_asset, tmp_path
     assert np.sum(web_cls == 1) > 10 and np.sum(web_cls == 2) > 10
     both = (ref_cls == 1) | (ref_cls == 2)
     assert np.mean(web_cls[both] == ref_cls[both]) > 0.9
-    de = cmp.delta_e_map(rgb, ref, tips)[tips]
+    de = cmp.pixel_de(rgb[tips], ref[tips])[0]
     assert np.median(de) < 6.0, np.median(de)
 
 

@@ -103,15 +103,6 @@ def pixel_de(a_px: np.ndarray, b_px: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return de, lab
 
 
-def delta_e_map(gl_rgb, ref_rgb, mask=None) -> np.ndarray:
-    """(H, W) CIEDE2000 between two (H, W, 3) linear renders at the pixels of ``mask`` (default all), NaN elsewhere."""
-    gl_rgb, ref_rgb = _same_shape("gl_rgb", gl_rgb, "ref_rgb", ref_rgb, 3)
-    mask = np.ones(gl_rgb.shape[:2], bool) if mask is None else mask
-    out = np.full(gl_rgb.shape[:2], np.nan)
-    out[mask] = pixel_de(gl_rgb[mask], ref_rgb[mask])[0]
-    return out
-
-
 def _in_band(h_deg: np.ndarray, band: tuple[float, float]) -> np.ndarray:
     lo, hi = band
     return (h_deg >= lo) & (h_deg < hi) if lo <= hi else (h_deg >= lo) | (h_deg < hi)
