@@ -159,10 +159,10 @@ def lut_transform(lut: dict) -> tuple:
     return ((n - 1) / n, 0.0, 0.0, 0.0, v_per_nm, 0.0, 0.5 / n, 0.5 / m - lo * v_per_nm, 1.0)
 
 
-def _preview_texture(stage, path, file: str, st_output, *, colour_space: str, wrap: str = "clamp"):
+def _preview_texture(material, name: str, file: str, st_output, *, colour_space: str, wrap: str = "clamp"):
     from pxr import Sdf, UsdShade
 
-    tex = UsdShade.Shader.Define(stage, path)
+    tex = UsdShade.Shader.Define(material.GetPrim().GetStage(), material.GetPath().AppendChild(name))
     tex.SetShaderId("UsdUVTexture")
     tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(Sdf.AssetPath(file))
     tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(st_output)
@@ -173,21 +173,23 @@ def _preview_texture(stage, path, file: str, st_output, *, colour_space: str, wr
     return tex
 
 
-def _preview_surface(stage, path):
+def _preview_surface(material):
+    """The material's ``PreviewSurface`` (UsdPreviewSurface), connected to its universal surface output."""
     from pxr import Sdf, UsdShade
 
-    surf = UsdShade.Shader.Define(stage, path)
+    surf = UsdShade.Shader.Define(material.GetPrim().GetStage(), material.GetPath().AppendChild("PreviewSurface"))
     surf.SetShaderId("UsdPreviewSurface")
     surf.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(PREVIEW_ROUGHNESS)
     surf.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(0.0)
-    surf.CreateOutput("surface", Sdf.ValueTypeNames.Token)
+    material.CreateSurfaceOutput().ConnectToSource(surf.CreateOutput("surface", Sdf.ValueTypeNames.Token))
     return surf
 
 
-def _st_reader(stage, path, varname: str = "st"):
+def _st_reader(material, varname: str = "st"):
+    """The material's ``StReader``: its ``result`` output, the primvar ``varname``."""
     from pxr import Sdf, UsdShade
 
-    reader = UsdShade.Shader.Define(stage, path)
+    reader = UsdShade.Shader.Define(material.GetPrim().GetStage(), material.GetPath().AppendChild("StReader"))
     reader.SetShaderId("UsdPrimvarReader_float2")
     reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set(varname)  # a string, not a token (USD >= 20.11)
     return reader.CreateOutput("result", Sdf.ValueTypeNames.Float2)
@@ -206,16 +208,13 @@ def author_feather_material(stage, path, *, lut: dict | None, film_ior: float, t
     if lut is None and "baked" in variants:
         raise UsageError(f"lut=None with variants={variants!r}: the baked variant needs a LUT (use ('physical',))")
     material = UsdShade.Material.Define(stage, path)
-    base = material.GetPath()
     # universal network: the preview atlas through the mesh's previewST (one tile per card thickness)
-    st = _st_reader(stage, base.AppendChild("StReader"), PREVIEW_PRIMVAR)
-    preview_tex = _preview_texture(stage, base.AppendChild("PreviewTexture"), textures["feather_preview"], st,
-                                   colour_space="sRGB")
-    surf = _preview_surface(stage, base.AppendChild("PreviewSurface"))
+    st = _st_reader(material, PREVIEW_PRIMVAR)
+    preview_tex = _preview_texture(material, "PreviewTexture", textures["feather_preview"], st, colour_space="sRGB")
+    surf = _preview_surface(material)
     surf.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(preview_tex.GetOutput("rgb"))
     surf.CreateInput("opacity", Sdf.ValueTypeNames.Float).ConnectToSource(preview_tex.GetOutput("a"))
     surf.CreateInput("opacityThreshold", Sdf.ValueTypeNames.Float).Set(OPACITY_THRESHOLD)
-    material.CreateSurfaceOutput().ConnectToSource(surf.GetOutput("surface"))
 
     # MaterialX network, copied from materials/thinfilm.mtlx, then the build's values
     shaders = copy_mtlx_network(load_thinfilm_document(), material, roots=[MTLX_SURFACES[v] for v in variants])
@@ -318,12 +317,9 @@ def author_body_material(stage, path, *, texture: str | None = None):
 
     texture = texture or texture_asset_paths()["body_base"]
     material = UsdShade.Material.Define(stage, path)
-    base = material.GetPath()
-    st = _st_reader(stage, base.AppendChild("StReader"))
-    tex = _preview_texture(stage, base.AppendChild("BaseColorTexture"), texture, st, colour_space="sRGB")
-    surf = _preview_surface(stage, base.AppendChild("PreviewSurface"))
-    surf.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.GetOutput("rgb"))
-    material.CreateSurfaceOutput().ConnectToSource(surf.GetOutput("surface"))
+    tex = _preview_texture(material, "BaseColorTexture", texture, _st_reader(material), colour_space="sRGB")
+    _preview_surface(material).CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        tex.GetOutput("rgb"))
     return material
 
 
@@ -333,22 +329,18 @@ def author_plumage_material(stage, path, *, textures: dict | None = None):
 
     textures = {**texture_asset_paths(), **(textures or {})}
     material = UsdShade.Material.Define(stage, path)
-    base = material.GetPath()
-    st = _st_reader(stage, base.AppendChild("StReader"))
-    colour = _preview_texture(stage, base.AppendChild("BaseColorTexture"), textures["plumage_base"], st,
-                              colour_space="sRGB")
-    normal = _preview_texture(stage, base.AppendChild("NormalTexture"), textures["plumage_normal"], st,
-                              colour_space="raw")
+    st = _st_reader(material)
+    colour = _preview_texture(material, "BaseColorTexture", textures["plumage_base"], st, colour_space="sRGB")
+    normal = _preview_texture(material, "NormalTexture", textures["plumage_normal"], st, colour_space="raw")
     normal.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(2.0, 2.0, 2.0, 1.0))
     normal.CreateInput("bias", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(-1.0, -1.0, -1.0, 0.0))
-    surf = _preview_surface(stage, base.AppendChild("PreviewSurface"))
+    surf = _preview_surface(material)
     for name, type_name, source in (("diffuseColor", "Color3f", colour.GetOutput("rgb")),
                                     ("opacity", "Float", colour.GetOutput("a")),
                                     ("normal", "Normal3f", normal.GetOutput("rgb")),
                                     ("roughness", "Float", normal.GetOutput("a"))):
         surf.CreateInput(name, getattr(Sdf.ValueTypeNames, type_name)).ConnectToSource(source)
     surf.CreateInput("opacityThreshold", Sdf.ValueTypeNames.Float).Set(OPACITY_THRESHOLD)
-    material.CreateSurfaceOutput().ConnectToSource(surf.GetOutput("surface"))
     return material
 
 
@@ -358,7 +350,5 @@ def author_constant_material(stage, path, colour_linear):
 
     c = tuple(float(v) for v in colour_linear)
     material = UsdShade.Material.Define(stage, path)
-    surf = _preview_surface(stage, material.GetPath().AppendChild("PreviewSurface"))
-    surf.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*c))
-    material.CreateSurfaceOutput().ConnectToSource(surf.GetOutput("surface"))
+    _preview_surface(material).CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*c))
     return material
