@@ -138,11 +138,8 @@ def part_weights(parts, skel) -> dict:
     ``parts`` as the USD meshes hold them (:func:`rockdove.geometry.types.drop_unreferenced_points`)."""
     from scipy.spatial import cKDTree
 
-    out = {}
     smooth = {"Body": body_weights, "Legs": leg_weights}
-    for part in parts:
-        if part.name in smooth:
-            out[part.name] = smooth[part.name](part.points_m, skel)
+    out = {part.name: smooth[part.name](part.points_m, skel) for part in parts if part.name in smooth}
     if not out:
         raise UsageError(f"parts {[p.name for p in parts]}: no smooth part ({SMOOTH_PARTS}) to bind the rest to")
     from ..geometry.sdf import body_sdf, sdf_gradient
