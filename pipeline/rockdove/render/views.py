@@ -185,10 +185,7 @@ def light_sweep_views(neck_centre, n: int, width: int, height: int, angles_deg=N
         raise UsageError(f"distance_m must be > 0, got {distance_m}")
     if angles_deg is None:
         n = _check_n(n)
-        if n == 2:
-            angles_deg = DEFAULT_SWEEP_ANGLES_DEG
-        else:
-            angles_deg = [90.0] if n == 1 else np.linspace(30.0, 150.0, n).tolist()
+        angles_deg = DEFAULT_SWEEP_ANGLES_DEG if n == 2 else [90.0] if n == 1 else np.linspace(30.0, 150.0, n).tolist()
     angles = [float(a) for a in angles_deg]
     if any(not 0 <= a < 180 for a in angles):
         raise UsageError(f"angles_deg must lie in [0, 180), got {angles}")
