@@ -251,10 +251,8 @@ def _render_view(geometry, scene, view, structural_fn, hits_cache: dict, surface
     t2 = time.perf_counter()
     if structural.any():
         c, d = cos_theta[structural], thickness[structural]
-        if structural_fn is None:
-            s_rgb = structural_rgb(c, d, scene.film, stats)
-        else:
-            s_rgb = np.asarray(structural_fn(c, d), np.float64).reshape(-1, 3)
+        s_rgb = (structural_rgb(c, d, scene.film, stats) if structural_fn is None
+                 else np.asarray(structural_fn(c, d), np.float64).reshape(-1, 3))
         m = mask[structural, None]
         colour[structural] = base[structural] * (1.0 - m) + s_rgb * m
     t3 = time.perf_counter()
