@@ -54,14 +54,9 @@ def asset_configuration(layer_path: str) -> dict:
     layer = Sdf.Layer.FindOrOpen(layer_path)
     if layer is None:
         return found
-
-    def pick(d, where):
-        found.update({f"{where}:{k}": v for k, v in dict(d or {}).items() if "config" in k.lower()})
-
-    pick(layer.customLayerData, "customLayerData")
     prim = layer.GetPrimAtPath(f"/{layer.defaultPrim}") if layer.defaultPrim else None
-    if prim:
-        pick(prim.assetInfo, "assetInfo")
+    for where, d in (("customLayerData", layer.customLayerData), ("assetInfo", prim.assetInfo if prim else None)):
+        found.update({f"{where}:{k}": v for k, v in dict(d or {}).items() if "config" in k.lower()})
     return json.loads(json.dumps(found, default=str))
 
 
