@@ -70,7 +70,7 @@ def test_web_host_agrees_with_the_exact_view_angle_reference(web_asset, tmp_path
     assert np.all(rgb[0, 0] == 0)  # background 0
     assert (tmp_path / f"web_{view.name}.png").is_file()
     g = GLRenderer(scene, angle_mode="materialx_baked", width=96, height=96).render(view)
-    tips = cmp.erode(g.part_mask("NeckFeathers") & (g.mask >= 0.5), 1)
+    tips = cmp.erode((g.part_id == scene.part_id("NeckFeathers")) & (g.mask >= 0.5), 1)
     ref = np.zeros_like(rgb)
     ref[tips] = structural_rgb(g.cos_theta[tips].astype(np.float64), g.thickness_nm[tips].astype(np.float64),
                                scene.film) * g.mask[tips][:, None]

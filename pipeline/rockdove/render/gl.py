@@ -46,12 +46,6 @@ class RenderResult:
     part_names: tuple = ()
     seconds: float = 0.0  # wall time of the render and read-back
 
-    def part_mask(self, name: str) -> np.ndarray:
-        """Boolean (H, W): pixels of the part with this USD prim name (e.g. ``"NeckFeathers"``)."""
-        if name not in self.part_names:
-            raise UsageError(f"name={name!r} is not a part; parts are {list(self.part_names)}")
-        return np.isin(self.part_id, [i + 1 for i, n in enumerate(self.part_names) if n == name])
-
 
 def _program_cache():
     """A pyrender ShaderProgramCache whose every program is the thin-film one, with pyrender's defines."""
