@@ -4,6 +4,7 @@ atomic publication. Read from the session's small real builds (tests/conftest.py
 
 import filecmp
 import os
+import zipfile
 
 import numpy as np
 import pytest
@@ -376,10 +377,9 @@ def test_film_change_rewrites_the_looks_and_leaves_the_geometry_layer_bytes(asse
 def test_usdz_reopens_and_holds_every_texture(asset):
     from pxr import Sdf, Usd
 
-    from rockdove.usd.usdz import usdz_contents
     from rockdove.usd.validate import read_texture_asset
 
-    names = usdz_contents(asset["usdz"])
+    names = zipfile.ZipFile(asset["usdz"]).namelist()
     assert names[0] == "pigeon.usda"
     for role in ("lut", "feather_base", "feather_mask", "feather_preview", "body_base", "plumage_base",
                  "plumage_normal"):
@@ -478,12 +478,11 @@ def test_physical_only_asset_has_no_lut_and_only_the_physical_variant(physical):
 
     from rockdove.usd.schema import read_thin_film
     from rockdove.usd.stage import open_asset
-    from rockdove.usd.usdz import usdz_contents
     from rockdove.usd.validate import validate_asset
 
     assert "lut" not in physical
     assert not os.path.exists(os.path.join(physical["dir"], "textures", "thinfilm_lut.exr"))
-    assert not [n for n in usdz_contents(physical["usdz"]) if n.endswith(".exr")]
+    assert not [n for n in zipfile.ZipFile(physical["usdz"]).namelist() if n.endswith(".exr")]
     stage = open_asset(physical["interface"])
     vset = stage.GetPrimAtPath("/Pigeon").GetVariantSet("shading")
     assert vset.GetVariantNames() == ["physical"] and vset.GetVariantSelection() == "physical"

@@ -145,12 +145,3 @@ def write_usdz(out_dir: str, root_layer: str = "pigeon.usda", *, in_place: bool 
             if not UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(os.path.join(src, root_layer)), package):
                 raise RuntimeError(f"UsdUtils.CreateNewUsdzPackage failed for {root!r}")
     return target
-
-
-def usdz_contents(path: str) -> list[str]:
-    """File names stored in a usdz package, in archive order."""
-    from pxr import Sdf
-
-    if (zf := Sdf.ZipFile.Open(path)) is None:
-        raise UsageError(f"path={path!r} is not a readable usdz package")
-    return list(zf.GetFileNames())
