@@ -61,7 +61,7 @@ class _Items:
                         os.link(os.path.join(src, name), folder / name)
                     except OSError:  # another file system, or one without hard links
                         shutil.copyfile(os.path.join(src, name), folder / name)
-            (folder / "item.json").write_text(json.dumps(meta, sort_keys=True, default=_plain))
+            (folder / "item.json").write_text(json.dumps(meta, sort_keys=True, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
         try:
             self.cache.store(self.name, key, fill)
         except OSError:
@@ -76,10 +76,6 @@ class _Items:
             except OSError:
                 tmp = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix=".scratch-", dir=self.spare)))
             yield tmp
-
-
-def _plain(o):
-    return o.tolist() if hasattr(o, "tolist") else str(o)
 
 
 def _meta(folder: str) -> dict:
