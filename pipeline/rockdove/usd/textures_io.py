@@ -100,13 +100,6 @@ def write_png(path: str, pixels: np.ndarray) -> str:
     return save_png(pixels, path, level=TEXTURE_LEVEL)
 
 
-def preview_colour(film, thickness_nm: float, cos_theta: float = PREVIEW_COS_THETA) -> np.ndarray:
-    """The exact (3,) unclipped lin_rec709 colour of ``film`` (:func:`rockdove.lut.reference.reference_colour`)."""
-    from rockdove.lut.reference import reference_colour
-
-    return np.asarray(reference_colour(cos_theta, float(thickness_nm), film, colour_space="lin_rec709"), np.float64)
-
-
 def _mixed_tiles(base_rgba: np.ndarray, mask: np.ndarray, colours: np.ndarray):
     """Yield ``mix(base, clip(colour, 0, 1), mask)`` in linear light, sRGB-encoded, one (H, W, 4) uint8 tile per
     colour. Each output channel depends only on its base value and the mask (~900 distinct pairs against 65k
@@ -163,10 +156,13 @@ def write_film_textures(out_dir: str, lut, feather_textures: dict, *, thickness_
     tiles = preview_tile_thickness_nm(thickness_range_nm)
     if lut is not None:
         colours = lut.sample(np.full(tiles.size, preview_cos_theta), tiles)
-    else:
-        if film is None:
-            raise UsageError("lut=None needs the film for the preview colours, got film=None")
-        colours = np.stack([preview_colour(film, d, preview_cos_theta) for d in tiles])
+    elif film is None:
+        raise UsageError("lut=None needs the film for the preview colours, got film=None")
+    else:  # the film's exact unclipped lin_rec709 colours
+        from rockdove.lut.reference import reference_colour
+
+        colours = np.stack([np.asarray(reference_colour(preview_cos_theta, float(d), film, colour_space="lin_rec709"),
+                                       np.float64) for d in tiles])
     paths = _texture_paths(out_dir)
     written = {"feather_preview": write_png(paths["feather_preview"], feather_preview_atlas(base, mask, colours))}
     if lut is not None:
