@@ -82,18 +82,15 @@ def _check_lutless_film(prim, film: dict) -> list:
         issues.append(Issue("thinFilm", f"{prim.GetPath()}.rockdove:film:thicknessUnits",
                             f"{film.get('thickness_units')!r}; expected 'nm'"))
     pv, d = _thickness(prim, film, issues)
-    if d is not None:
-        if not np.all(np.isfinite(d)) or d.min() <= 0:
-            issues.append(Issue("thinFilm", str(pv.GetAttr().GetPath()),
-                                f"thickness spans [{np.nanmin(d):.6g}, {np.nanmax(d):.6g}] nm; expected finite "
-                                "values > 0 nm"))
+    if d is not None and (not np.all(np.isfinite(d)) or d.min() <= 0):
+        issues.append(Issue("thinFilm", str(pv.GetAttr().GetPath()),
+                            f"thickness spans [{np.nanmin(d):.6g}, {np.nanmax(d):.6g}] nm; expected finite "
+                            "values > 0 nm"))
     material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
-    if material:
-        present = [n for n in LUT_NETWORK_SHADERS if material.GetPrim().GetChild(n)]
-        if present:
-            issues.append(Issue("thinFilm", str(material.GetPath()),
-                                f"holds the baked LUT network ({', '.join(present)}) but {prim.GetPath()} records no "
-                                "LUT (no rockdove:lut:file): a physical-only asset carries only the physical network"))
+    if present := [n for n in LUT_NETWORK_SHADERS if material and material.GetPrim().GetChild(n)]:
+        issues.append(Issue("thinFilm", str(material.GetPath()),
+                            f"holds the baked LUT network ({', '.join(present)}) but {prim.GetPath()} records no "
+                            "LUT (no rockdove:lut:file): a physical-only asset carries only the physical network"))
     return issues
 
 
