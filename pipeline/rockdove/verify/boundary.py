@@ -204,12 +204,8 @@ def _fits(line: np.ndarray, degree: int):
     t = (line - centre) @ axis
     half = max(float(np.abs(t).max()), 1e-9)
     x = t / half
-    res = []
-    for deg in (1, degree):
-        a = np.vander(x, deg + 1)
-        coef, *_ = np.linalg.lstsq(a, o, rcond=None)
-        res.append(o - a @ coef)
-    return res[0], res[1], float(t.max() - t.min())
+    fitted = (o - a @ np.linalg.lstsq(a, o, rcond=None)[0] for a in (np.vander(x, 2), np.vander(x, degree + 1)))
+    return *fitted, float(t.max() - t.min())
 
 
 def boundary_curvature(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0,
