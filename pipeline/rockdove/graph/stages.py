@@ -135,17 +135,14 @@ def run_textures(ctx: Context):
 
 def run_film_textures(ctx: Context):
     """The LUT EXR and the preview atlas; physical-only: no LUT EXR, the film's exact preview colours."""
+    from ..films import film_from_config
     from ..usd.textures_io import write_film_textures
 
     feathers, _ = ctx.inputs.texture_images
     span = tuple(ctx.inputs.thickness_range)  # the preview atlas spans the mesh's range, as previewST does
-    if "lut" in ctx.inputs:
-        write_film_textures(str(ctx.workdir), ctx.inputs.lut, feathers, thickness_range_nm=span)
-    else:
-        from ..films import film_from_config
-
-        write_film_textures(str(ctx.workdir), None, feathers, film=film_from_config(ctx.config.film),
-                            thickness_range_nm=span)
+    lut = ctx.inputs.lut if "lut" in ctx.inputs else None
+    film = film_from_config(ctx.config.film) if lut is None else None
+    write_film_textures(str(ctx.workdir), lut, feathers, film=film, thickness_range_nm=span)
 
 
 def run_usd_geometry(ctx: Context):
