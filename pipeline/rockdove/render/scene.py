@@ -203,9 +203,7 @@ def _read_mesh(prim, xcache, meters_per_unit, stage, posed=None):
     fvi = mesh.GetFaceVertexIndicesAttr().Get()
     if pts is None or counts is None or fvi is None or len(pts) == 0 or len(counts) == 0:
         return None
-    pts = np.asarray(pts, dtype=np.float64)
-    counts = np.asarray(counts, dtype=np.int64)
-    fvi = np.asarray(fvi, dtype=np.int64)
+    pts, counts, fvi = np.asarray(pts, np.float64), np.asarray(counts, np.int64), np.asarray(fvi, np.int64)
     if fvi.size and (fvi.min() < 0 or fvi.max() >= len(pts)):
         raise UsageError(f"{path}: faceVertexIndices out of range for {len(pts)} points")
     left = mesh.GetOrientationAttr().Get() == "leftHanded"
@@ -259,10 +257,7 @@ def _read_mesh(prim, xcache, meters_per_unit, stage, posed=None):
                             ("thickness_field", (3,)))}
 
     kind, base_tex, srgb, mask_tex, colour_const, threshold, normal_tex = material_info(prim, stage)
-    if film is not None:
-        kind = "feather"
-    if kind is None:
-        kind = prim.GetName().lower()
+    kind = "feather" if film is not None else kind or prim.GetName().lower()
     if colour_const is None:
         dc = pvapi.GetPrimvar("displayColor")
         v = dc.ComputeFlattened() if dc and dc.HasValue() else None
