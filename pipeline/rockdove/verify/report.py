@@ -332,8 +332,7 @@ def write_html(path, report: Report, images: Figures) -> str:
         parts.append(_pairs(f"Motion {e(mo.motion)}: measured at {mo.frames} time codes, film checked at "
                             f"{', '.join(f'{t:g}' for t in mo.times)}", {k: f"{_fmt(v, 5)} (limit "
                             f"{mo.limits.get(k, '-')})" for k, v in mo.measures.items()}, str))
-        if mo.animation:
-            a = mo.animation
+        if a := mo.animation:
             parts.append(f"<figure><img src='{e(a['file'])}' alt='{e(mo.motion)}'><figcaption>{e(a['caption'])}"
                          "</figcaption></figure>")
     parts.append(_list("Failures", report.failures))
