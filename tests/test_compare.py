@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from rockdove.verify import boundary, compare
-from rockdove.verify.results import read
+from rockdove.verify.records import read
 
 FEATHER = 2  # part id of the feathers in these synthetic images (0 = background, 1 = body)
 

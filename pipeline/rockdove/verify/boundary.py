@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import UsageError
 from .compare import lab_hue_classes, rgb_to_lab
-from .results import Record
+from .records import Record
 
 #: A class is coherent when its largest connected region holds at least this share of its pixels. 0.7 was
 #: the first goal; a per-card uniform draw reaches 0.70 / 0.69 (green / purple) on the default bird's 90 degree

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import UsageError
-from .results import Record
+from .records import Record
 
 #: The goals: a verification fails above these (dE2000 over the compared feather pixels).
 MEDIAN_DE_GOAL = 1.0
