@@ -4,8 +4,7 @@ An entry is filled in a temporary folder and renamed into place (atomic; of two 
 the first wins); its files are made read-only and loaded read-only. The folder may be shared by builds on
 several machines (a sweep's workers over NFS) or in several PID namespaces: writers say who they are by holding
 locks (``fcntl.flock``, which NFSv4 serves across hosts and releases when a client's lease lapses), never by a
-pid a reader would look up in its own process table.
-"""
+pid a reader would look up in its own process table."""
 
 from __future__ import annotations
 

@@ -1,8 +1,7 @@
 """The build configuration: TOML layers checked against ``schemas/config.schema.json`` (draft 2020-12), the one
 source of every parameter's documentation, unit, range and default. Layers, later wins: the schema's defaults, a
 preset ``assets/pigeon/<preset>.toml``, ``--config FILE.toml``, ``--set KEY=VALUE``. Every problem is a one-line
-:class:`UsageError` naming the key, the value and what the schema allows (exit 2 before anything is written).
-"""
+:class:`UsageError` naming the key, the value and what the schema allows (exit 2 before anything is written)."""
 
 from __future__ import annotations
 

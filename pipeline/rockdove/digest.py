@@ -1,7 +1,6 @@
 """The one digest helper: the sha256 of what something reads (a scene's arrays and textures, a folder's files, a
 module's source), part by part. Each part is its label, NUL, its bytes, NUL, so parts cannot run together; an
-array's part holds its dtype and shape too. Cache keys are built from these digests (:mod:`rockdove.graph`).
-"""
+array's part holds its dtype and shape too. Cache keys are built from these digests (:mod:`rockdove.graph`)."""
 
 from __future__ import annotations
 

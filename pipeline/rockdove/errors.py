@@ -2,8 +2,7 @@
 
 The CLI prints a :class:`RockdoveError` as one line (exit 1 for :class:`VerificationFailed`, else 2), and an
 ``OSError`` too (the machine said no: a full disk, a read-only folder); anything else is a bug and keeps its
-traceback. ``ROCKDOVE_DEBUG=1`` shows the traceback of every error.
-"""
+traceback. ``ROCKDOVE_DEBUG=1`` shows the traceback of every error."""
 
 
 class RockdoveError(Exception):

@@ -9,8 +9,7 @@ absorbing (fields ~ ``exp(i (k_z z - omega t))``), the convention of ``tmm`` (By
 References: Leertouwer, H. L., Wilts, B. D. and Stavenga, D. G. (2011), Refractive index and dispersion of
 butterfly chitin and bird keratin measured by polarizing interference microscopy, Opt. Express 19(24), 24061:
 bird feather keratin n = 1.532 + 5.89e3 / lambda**2 (lambda in nm). The seed paper (real-time structural colour
-of the rock dove): constant n = 1.5, air on both sides.
-"""
+of the rock dove): constant n = 1.5, air on both sides."""
 
 from __future__ import annotations
 

@@ -39,8 +39,7 @@ sum of squares in real arithmetic (the fast path, an order of magnitude cheaper)
     Den = (eta_a + eta_c)**2 cos**2 + (eta_a eta_c S + eta_b sin)**2,   S = sin(delta) / eta_b.
 
 Limits: at grazing incidence (eta_a = 0) R = 1 and T = 0 for any stack; at d = 0, the bare a|c Fresnel value;
-where every interface vanishes (equal indices at grazing, the only 0/0 left in eq. 4) R = 0, T = 1.
-"""
+where every interface vanishes (equal indices at grazing, the only 0/0 left in eq. 4) R = 0, T = 1."""
 
 from __future__ import annotations
 

@@ -3,8 +3,7 @@
 ``materials/``, ``schemas/`` and ``assets/`` live at the top of the repository; ``pyproject.toml`` maps each
 into the package as a data sub-package (``rockdove.materials``...), so a wheel carries them and an editable
 install reads them from the checkout. Names are relative paths whose first part is the folder, e.g.
-``resources.path("materials/glsl/thinfilm.frag")``.
-"""
+``resources.path("materials/glsl/thinfilm.frag")``."""
 
 from __future__ import annotations
 

@@ -9,8 +9,7 @@ digest warns (:class:`DynamicImportWarning`) naming the file and line. A lambda,
 keys on its whole file and every import in it. Third-party code enters as the whole environment (the
 ``*.dist-info`` names on ``sys.path``, and Python's version): it runs code rockdove never names (trimesh calls
 scipy, USD loads plugins), and mapping imports to distributions took 1.1 s per process against ~1 ms to list
-``sys.path``. A digest is memoised per process until a file it read or a folder it listed changes (mtime, size).
-"""
+``sys.path``. A digest is memoised per process until a file it read or a folder it listed changes (mtime, size)."""
 
 from __future__ import annotations
 

@@ -22,8 +22,7 @@ The sRGB transfer functions and the 8-bit display encoding are :mod:`rockdove.sr
 Importing colour-science takes ~1 s, far more than a LUT bake, and only its data are used: they are read once and
 kept as ``.npz`` in ``$XDG_CACHE_HOME/rockdove/colour-science-<key>/``, keyed by the code that computes them, the
 installed distributions and Python (:func:`colour_data`, :func:`rockdove.sources.cache_dir`), so a film-only
-rebuild never imports it. An unwritable folder means recomputing per process.
-"""
+rebuild never imports it. An unwritable folder means recomputing per process."""
 
 from __future__ import annotations
 

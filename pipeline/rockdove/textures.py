@@ -3,8 +3,7 @@ of the other cards (docs/plumage.md) and the body's base colour in its xatlas UV
 
 Image convention (docs/design.md, Textures): uint8, row 0 at the TOP, texel (row, col) of an (H, W) image at
 st = ((col + 0.5) / W, 1 - (row + 0.5) / H); on a card the tip (v = 1) is at the top. Colours are blended in
-linear Rec.709 and encoded sRGB (:func:`rockdove.srgb.linear_to_srgb8`); alpha and the mask are linear.
-"""
+linear Rec.709 and encoded sRGB (:func:`rockdove.srgb.linear_to_srgb8`); alpha and the mask are linear."""
 
 from __future__ import annotations
 

@@ -27,8 +27,7 @@ shared machine):
   time, when verification is available (else the row says so).
 
 Times are wall-clock of a whole ``rockdove build`` process (interpreter start included, what a user waits
-for); ``inside`` is the build command's own time from its ``--json`` summary.
-"""
+for); ``inside`` is the build command's own time from its ``--json`` summary."""
 
 from __future__ import annotations
 

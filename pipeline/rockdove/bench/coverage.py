@@ -4,8 +4,7 @@ the default cards to 95%). Nothing in a build or a verification measures it.
 Coverage is measured by ray casting (trimesh ray queries, Embree when installed) from outside onto random band
 points (:func:`band_coverage`): a point is hidden when the first opaque thing its ray meets is a card, opaque
 meaning, with a feather ``alpha`` texture, alpha >= 0.5 (the renderers' ``opacityThreshold``: the feather's
-silhouette, not the card rectangle); points the body itself hides from that direction are left out.
-"""
+silhouette, not the card rectangle); points the body itself hides from that direction are left out."""
 
 from __future__ import annotations
 

@@ -13,8 +13,7 @@ Rows, each a median of ``--repeats`` runs timed with ``time.perf_counter`` in th
 Imports are warmed up before the first row. Peak memory is measured in a separate, untimed run of each row
 with ``tracemalloc`` (numpy reports its array allocations to it), so the timing runs carry no tracing overhead.
 The band coverage (the fraction of the neck band's skin hidden by cards, rays along the skin normal,
-alpha-tested with the feather silhouette) is reported for each card count.
-"""
+alpha-tested with the feather silhouette) is reported for each card count."""
 
 from __future__ import annotations
 

@@ -8,8 +8,7 @@ reference (:func:`rockdove.lut.reference.reference_colour`) at the same random p
 median CIEDE2000. Outputs: a table on stdout, ``lut_bench.json`` (rows) and ``lut_bench.png`` (time against max
 error, log-log) in ``--out``. The straightforward 1 nm per-wavelength bake is one of the rows; the speed ratio
 default / straightforward is measured in the same run, and the default setting is checked to sit on the Pareto
-front (no other row of its film both faster and more accurate).
-"""
+front (no other row of its film both faster and more accurate)."""
 
 from __future__ import annotations
 

@@ -5,8 +5,7 @@ Every row is one ``rockdove`` process (its peak RSS from ``os.wait4``'s resource
 and the subprocesses it waited for, not their sum); the rows share one stage cache, warmed by the ``defaults``
 row, so each other row runs the stages its key changes (the ``defaults`` row is the rest of a cold build's peak).
 Builds skip verification except the verification rows. A row over the budget makes the benchmark exit 1: a
-range the schema accepts must build within it (README, "Memory").
-"""
+range the schema accepts must build within it (README, "Memory")."""
 
 from __future__ import annotations
 

@@ -15,8 +15,7 @@ Rows (medians of ``--repeats`` runs, ``time.perf_counter``, all in one process):
 
 The asset: ``--asset`` (folder or root layer); by default ``build/pigeon`` when it has been built, else the
 default asset built (``rockdove build --no-verify``, the real build graph) into a temporary folder; the output
-says which.
-"""
+says which."""
 
 from __future__ import annotations
 

@@ -10,8 +10,7 @@ pays for the geometry once:
 - **growth**: the same sweep over 1, 2, 4 and 8 points: wall time and the marginal cost per added point.
 
 Times are wall-clock of whole processes (interpreter and cluster start included: what a user waits for).
-Without ``--verify`` the points are built with ``--no-verify``.
-"""
+Without ``--verify`` the points are built with ``--no-verify``."""
 
 from __future__ import annotations
 

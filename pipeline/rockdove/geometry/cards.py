@@ -11,8 +11,7 @@ by a seeded roll about t. Along the card, v = j / K (j = 0 .. K, ``QUADS_PER_CAR
 so the root is ``depth`` under the skin, the card rises quickly through the skin and then lies back along
 it, bending gently away like a shingle. Vertices beyond the root that would still be within
 ``CLEARANCE_M`` of the skin (where the surface curves up under the card) are pushed out along the field
-gradient. The two edge vertices of a row are c -/+ (W / 2) b; st = (0 | 1, v).
-"""
+gradient. The two edge vertices of a row are c -/+ (W / 2) b; st = (0 | 1, v)."""
 
 from __future__ import annotations
 

@@ -4,8 +4,7 @@ variants). :mod:`rockdove.textures` paints both and :mod:`rockdove.geometry.plum
 
 The rock-dove palette follows field-guide descriptions of Columba livia (Gibbs, Barnes and Cox, "Pigeons and
 Doves", 2001: blue-grey, darker head and neck, two black wing bars, a dark terminal tail band, "white lower
-back"); the values are chosen by eye.
-"""
+back"); the values are chosen by eye."""
 
 from __future__ import annotations
 

@@ -13,8 +13,7 @@ implemented here (d_ij -> max(d_ij, 2 r_min)) it dropped the smallest spacing of
 at a time with a heap; here the elimination is done in parallel rounds: every live sample whose weight is the
 strict maximum among its live neighbours is removed at once (the heaviest first when fewer are needed). Those
 samples are never neighbours of one another, so removing them together changes none of their weights: the
-result is the heap algorithm's, up to the order of removals between distant samples.
-"""
+result is the heap algorithm's, up to the order of removals between distant samples."""
 
 from __future__ import annotations
 

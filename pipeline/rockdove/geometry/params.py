@@ -3,8 +3,7 @@
 The presets (assets/pigeon/*.toml) follow the literature: the measured cortex thickness of rock-dove neck
 barbules is 480-580 nm at the base of the neck and 600-700 nm towards the top (Yoshioka, Nakamura and
 Kinoshita, J. Phys. Soc. Jpn. 76(1), 2007); the seed paper uses 650 nm everywhere. This module imports no numpy:
-the build graph reads the parameters on every run, even a no-op.
-"""
+the build graph reads the parameters on every run, even a no-op."""
 
 from __future__ import annotations
 

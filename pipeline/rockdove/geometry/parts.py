@@ -8,8 +8,7 @@ and Doves", 2001): bill about 1.8 cm, grey-black, "with a conspicuous off-white 
 orange, red or golden; feet purplish-red; tarsus 2.6-3.5 cm. The bill here is short and stout (a quarter of
 its length deep at the base), slightly flattened side to side, pointing forward and a little down, rooted
 :data:`BILL_EMBED_M` inside the head; its exposed length (:data:`BILL_LENGTH_M`, from where it leaves the
-head's surface to the tip) is what tests compare with the cited 1.8 cm.
-"""
+head's surface to the tip) is what tests compare with the cited 1.8 cm."""
 
 from __future__ import annotations
 

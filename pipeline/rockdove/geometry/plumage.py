@@ -6,8 +6,7 @@ Each feather is a card (docs/plumage.md): a strip of :data:`SHAPE_V` rows from t
 kind's variants and may be mirrored, so no pattern repeats. Every card is one connected component of its part (the
 rig binds each rigidly). Parts (:data:`CARD_PARTS`): :func:`build_head`, :func:`build_coat` (normals the body
 field's gradient, so the coat shades as one surface), :func:`build_wings` (the black subterminal patches line up
-into the two curved wing bars) and :func:`build_tail` (Columba livia has 12 rectrices).
-"""
+into the two curved wing bars) and :func:`build_tail` (Columba livia has 12 rectrices)."""
 
 from __future__ import annotations
 

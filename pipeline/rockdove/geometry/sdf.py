@@ -6,8 +6,7 @@ linearly interpolated radius along the segment. Smooth union:
 ``h = clip(0.5 + 0.5 (b - a) / k, 0, 1); d = mix(b, a, h) - k h (1 - h)``.
 
 The bird faces +Z, Y up, metres, feet at y = 0 (docs/design.md, Conventions). Proportions: see the body's
-section below; the shapes were tuned against side-view photographs and the measures of rockdove.verify.anatomy.
-"""
+section below; the shapes were tuned against side-view photographs and the measures of rockdove.verify.anatomy."""
 
 from __future__ import annotations
 

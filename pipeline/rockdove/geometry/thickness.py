@@ -24,8 +24,7 @@ between skin points is within a few per cent of the distance along the neck's sk
 every value stays inside the ranges, and with both ranges (650, 650) (the seed paper's) every card is 650 nm.
 
 The thickness is constant over each card: a card stands for one feather, whose barbules grow together, and the
-structural colour is drawn only at the tip (the mask), so a root-to-tip ramp would show on no visible pixel.
-"""
+structural colour is drawn only at the tip (the mask), so a root-to-tip ramp would show on no visible pixel."""
 
 from __future__ import annotations
 

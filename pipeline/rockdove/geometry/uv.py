@@ -2,8 +2,7 @@
 
 xatlas cuts the mesh into charts, flattens them and packs them into [0, 1]^2; vertices on chart seams are
 split so that each output vertex has one st. ``vmapping`` tells which input vertex each output vertex copies,
-so positions, normals and per-vertex scalars are carried over by indexing.
-"""
+so positions, normals and per-vertex scalars are carried over by indexing."""
 
 from __future__ import annotations
 

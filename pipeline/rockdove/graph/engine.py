@@ -4,8 +4,7 @@ A :class:`Stage` is a named pure function of its part of the configuration and i
 the configuration keys it declares, the code it can execute (:func:`rockdove.sources.digest`) and the *content
 digests* of its upstream outputs (early cut-off: a new seed that leaves the thickness range unchanged does not
 re-bake the LUT). A stage whose key has an entry is reused, its value loaded only if a stage that runs needs it;
-builds sharing a cache compute an entry once (``Cache.entry_lock``).
-"""
+builds sharing a cache compute an entry once (``Cache.entry_lock``)."""
 
 from __future__ import annotations
 

@@ -4,8 +4,7 @@ An existing non-empty folder without the marker ``.rockdove-asset.json`` is neve
 the same output waits on ``fcntl.flock`` of ``.<name>.rockdove.lock`` (never deleted: two builds could then lock
 different files), then finds the first one's stages in the cache. The asset is assembled in
 ``.<name>.rockdove-tmp-XXXX`` beside the output and swapped in by one ``renameat2(RENAME_EXCHANGE)`` (else by two
-renames through ``.<name>.rockdove-old-XXXX``, which :func:`recover` restores after a kill).
-"""
+renames through ``.<name>.rockdove-old-XXXX``, which :func:`recover` restores after a kill)."""
 
 from __future__ import annotations
 

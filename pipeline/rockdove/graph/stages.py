@@ -4,8 +4,7 @@
 Keys use the *content* of upstream outputs, so a new seed that leaves the thickness range unchanged re-bakes
 nothing, and a film change re-bakes the LUT and rewrites film_textures and the small layers but reuses the bird,
 the film-independent textures and the geometry layer. The verification reruns whenever a published file changes,
-but renders only what the change reaches (:mod:`rockdove.verify.verification`).
-"""
+but renders only what the change reaches (:mod:`rockdove.verify.verification`)."""
 
 from __future__ import annotations
 

@@ -4,8 +4,7 @@ integrate with (:mod:`.weights`), OpenEXR I/O (:mod:`.exr`) and the PNG preview 
 
 These modules import only numpy at load time (OpenEXR, scipy, Pillow and colour-science are imported inside
 the functions that use them), so ``import rockdove.lut`` stays light. Note that ``rockdove.lut.bake`` is the
-function; import the module's other names with ``from rockdove.lut.bake import ...``.
-"""
+function; import the module's other names with ``from rockdove.lut.bake import ...``."""
 
 from .bake import BAKE_METHODS, bake, fourier_supported
 from .exr import read_exr, write_exr

@@ -8,8 +8,7 @@ real Airy form, Born & Wolf, *Principles of Optics*, 7th ed., sec. 7.6.1), finer
 more than ``max_terms`` terms, and d = 0, are integrated like the reference). ``"quadrature"``: product
 integration in wavenumber (:mod:`.quadrature`), exact for any real-coefficient film. ``"auto"``: ``"fourier"``
 where it applies, else ``"quadrature"`` (faster than ``"spectral_fast"`` and exact, ``rockdove bench lut``), else
-``"spectral"``. Unpolarised light is the mean of s and p; the table layout is :mod:`.table`'s.
-"""
+``"spectral"``. Unpolarised light is the mean of s and p; the table layout is :mod:`.table`'s."""
 
 from __future__ import annotations
 

@@ -14,8 +14,7 @@ thinnest film (``rgb[0]``), matching USD's ``st`` (t = 0 at the bottom), so the 
 Determinism: OpenEXR 3.x's Python API writes only the attributes it is given plus the required ones
 (channels, compression, windows, line order, pixel aspect, screen window); no timestamp or host name. The
 attributes are written sorted by name and the pixels are contiguous arrays (OpenEXR 3.x writes strided
-views wrongly), so the same LUT gives byte-identical files (tested).
-"""
+views wrongly), so the same LUT gives byte-identical files (tested)."""
 
 from __future__ import annotations
 

@@ -25,8 +25,7 @@ below ``tol``. Beyond the latter the terms are small and ``G(m OPD)`` oscillates
 sum is smaller still (measured against the 0.1 nm reference by ``rockdove bench lut`` and the tests: texel error
 8e-4 dE2000 at tol 1e-4 on the default grid; a strict bound would cost 3-7x more terms, as ``|G|`` decays slowly:
 5e-3 of the white at 20 um, 1e-4 at 100 um). Near grazing ``|rho| -> 1`` and only the decay of ``|G|`` bounds the
-count. At ``cos theta = 0`` ``a^2 b^2 = 1`` and the formula is 0/0: the limit is ``R = 1`` (``c_0 = 1, c_m = 0``).
-"""
+count. At ``cos theta = 0`` ``a^2 b^2 = 1`` and the formula is 0/0: the limit is ``R = 1`` (``c_0 = 1, c_m = 0``)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,6 @@
 """The real amplitude coefficients of a film's two interfaces, the input of the real Airy form of the
 ``spectral_fast``, ``fourier`` (:mod:`.bake`) and ``quadrature`` (:mod:`.quadrature`) bakers, so that they depend
-on it and not on each other. Reference: Born, M. & Wolf, E., *Principles of Optics*, 7th ed., sec. 7.6.1.
-"""
+on it and not on each other. Reference: Born, M. & Wolf, E., *Principles of Optics*, 7th ed., sec. 7.6.1."""
 
 from __future__ import annotations
 

@@ -1,8 +1,7 @@
 """sRGB PNG preview of a thin-film LUT, for people (the data is the EXR).
 
 Layout as the EXR (x: cos theta from 0 at the left; bottom row: the thinnest film), 8 bits by
-:func:`rockdove.spectral.RGB_to_preview8`; tables lower than :data:`MIN_PREVIEW_HEIGHT` rows repeat each row.
-"""
+:func:`rockdove.spectral.RGB_to_preview8`; tables lower than :data:`MIN_PREVIEW_HEIGHT` rows repeat each row."""
 
 from __future__ import annotations
 

@@ -28,8 +28,7 @@ ANGLE_PANEL_COS`` are interpolated from the exact colours at a few Chebyshev ang
 30 instead of 250 columns for the default LUT).
 
 Limits: ``cos theta = 0`` takes ``R = 1``; ``d = 0`` is the bare interface. Absorbing films and total internal
-reflection make ``a, b`` complex: refused (use ``"spectral"``).
-"""
+reflection make ``a, b`` complex: refused (use ``"spectral"``)."""
 
 from __future__ import annotations
 

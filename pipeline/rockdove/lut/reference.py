@@ -36,8 +36,7 @@ exactly ``1 - R = 4 x z y^2 / (y^2 (x + z)^2 + (y^2 - x^2)(y^2 - z^2) sin^2(phi 
 dense as both media a sum of non-negative terms, so float32 loses nothing to cancellation. Float32 rounds the
 phase (280 rad at 5000 nm) to ~3e-5 rad, which resonances amplify (2.1e-3 dE2000 at cos theta 0.001-0.01; <=
 3.5e-4 from 0.05), so points below :data:`FLOAT32_MIN_COS` and on wavelength steps run in float64 (equal to
-:func:`rockdove.optics.reflectance` to 1e-14, 2.7x faster).
-"""
+:func:`rockdove.optics.reflectance` to 1e-14, 2.7x faster)."""
 
 from __future__ import annotations
 

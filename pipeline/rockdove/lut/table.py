@@ -15,8 +15,7 @@ interpolation of :meth:`ThinFilmLUT.sample`, **as long as the texture is not min
 (MaterialX renderers, Storm) average ``2**level`` texels along both axes, mixing the thickness rows too (measured:
 median dE2000 0.017 on the default bird at 512 px; on a sphere of constant thickness the default 256 x 64 errs median
 0.8-1.0 where a tall 64 x 256 errs 0.01-0.02; ``docs/design.md``). In the EXR file and in USD the bottom image row is
-``i = 0`` (USD's ``st`` has t = 0 at the bottom); uploaded to OpenGL, row 0 of ``rgb`` is t = 0.
-"""
+``i = 0`` (USD's ``st`` has t = 0 at the bottom); uploaded to OpenGL, row 0 of ``rgb`` is t = 0."""
 
 from __future__ import annotations
 

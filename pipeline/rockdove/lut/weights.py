@@ -6,8 +6,7 @@ the 0.1 nm grid's weights (product integration: Davis and Rabinowitz, Methods of
 sec. 2.5), so the tabulated observer and illuminant are never undersampled and a spectrum the interpolant
 reproduces integrates to exactly the 0.1 nm reference: :func:`product_weights` (4-point Lagrange on a coarser
 wavelength grid), :func:`interpolant_weights` (``order``-point Lagrange on a wavenumber grid, the stencils running
-past both ends) and :func:`chebyshev_weights` (mapped Chebyshev points in wavenumber, :mod:`.quadrature`).
-"""
+past both ends) and :func:`chebyshev_weights` (mapped Chebyshev points in wavenumber, :mod:`.quadrature`)."""
 
 from __future__ import annotations
 

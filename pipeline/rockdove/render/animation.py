@@ -1,8 +1,7 @@
 """The report's animation of the shimmer: the light turns once round the bird while a still camera looks at the head
 and neck from the 3/4 front, as the paper turns its light and watches the colour move. Each frame is the paper's
 shading (:mod:`rockdove.render.gl`) under one D65-white directional light, multisampled with alpha-to-coverage, into
-an animated WebP (:func:`rockdove.render.images.write_webp`).
-"""
+an animated WebP (:func:`rockdove.render.images.write_webp`)."""
 
 from __future__ import annotations
 

@@ -5,8 +5,7 @@ key sun with soft shadows, from a 3/4 and a side view (:func:`beauty_views`). Re
 :func:`rockdove.hosts.beauty.render_beauty`): ``cycles``, Blender's Cycles through the rockdove add-on
 (:mod:`rockdove.hosts.blender_beauty_job`); ``gl``, the verification shaders (:mod:`rockdove.render.beauty_gl`);
 ``auto``, Cycles when the Blender host is available and named (``--hosts blender``), else GL, the caption saying
-which and why; ``off``. Sizes and samples: ``[beauty]`` (schemas/config.schema.json).
-"""
+which and why; ``off``. Sizes and samples: ``[beauty]`` (schemas/config.schema.json)."""
 
 from __future__ import annotations
 

@@ -11,8 +11,7 @@ them in linear light:
   mip-mapped textures (the coat's feather tiles showed moire);
 - exposed, put through a filmic curve (K. Narkowicz, "ACES Filmic Tone Mapping Curve", 2016) and the sRGB OETF.
 
-What these choices were measured against (a 16-sample render; shadow rays): docs/pictures.md.
-"""
+What these choices were measured against (a 16-sample render; shadow rays): docs/pictures.md."""
 
 from __future__ import annotations
 

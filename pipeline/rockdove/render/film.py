@@ -4,8 +4,7 @@
 (:func:`rockdove.usd.schema.read_thin_film`) into a :class:`ThinFilmParams`: the :class:`rockdove.films.FilmModel`
 plus the thickness primvar and the LUT's file and layout. An asset without a LUT (``shading.variant = "physical"``)
 reads with ``lut_file = None``; :func:`lut_to_draw` then bakes one in memory, so the GL renderer and the viewer can
-still draw the paper's LUT method (its metadata says it is not part of the asset).
-"""
+still draw the paper's LUT method (its metadata says it is not part of the asset)."""
 
 from __future__ import annotations
 

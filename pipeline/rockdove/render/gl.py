@@ -6,8 +6,7 @@ Textures and framebuffer are rockdove's own float ones (pyrender's would quantis
 attachments (radiance + coverage; part id, view depth, cos_theta, thickness; N.L, mask, st) read back as floats.
 No multisampling by default: every pixel is the shading at its centre, which the verifier compares with the CPU
 reference; pictures ask for multisampling with alpha-to-coverage (:meth:`GLRenderer.render`). Parts are drawn in
-scene order (pyrender's own order comes from a set: pixels where two parts tie in depth differed between processes).
-"""
+scene order (pyrender's own order comes from a set: pixels where two parts tie in depth differed between processes)."""
 
 from __future__ import annotations
 

@@ -1,8 +1,7 @@
 """Display images from linear renders: sRGB 8-bit PNGs and a contact sheet.
 
 Display convention (docs/design.md "Conventions"): the sRGB OETF (IEC 61966-2-1) of the linear value clipped
-to [0, 1] (colour-science's ``cctf_encoding``); the float data keeps out-of-gamut colours.
-"""
+to [0, 1] (colour-science's ``cctf_encoding``); the float data keeps out-of-gamut colours."""
 
 from __future__ import annotations
 

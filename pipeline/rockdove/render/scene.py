@@ -5,8 +5,7 @@ The verifier checks what was *written*: the root layer opened from disk with pxr
 and the CPU reference see the same data (names: docs/design.md, "USD asset"): every visible mesh, fan-triangulated
 in world metres, its primvars (face-varying ones split vertices per corner; constant and uniform ones expanded),
 material (``"feather"`` for a mesh with ``RockDoveThinFilmAPI``, else the bound material's name without
-``Material``, lower case; its textures with absolute paths and its constant colour) and film.
-"""
+``Material``, lower case; its textures with absolute paths and its constant colour) and film."""
 
 from __future__ import annotations
 

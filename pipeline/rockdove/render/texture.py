@@ -3,8 +3,7 @@
 Conventions (docs/design.md, "Conventions"): :func:`read_texture` returns row 0 at the *top* of the image (file
 order); :func:`sample_texture` looks up USD ``st`` (t = 0 at the bottom) the way OpenGL does with an image
 uploaded bottom-row-first: bilinear, texel centres at ``(k + 0.5) / N``, clamp-to-edge. sRGB textures are
-decoded to linear with the IEC 61966-2-1 EOTF (:func:`rockdove.srgb.srgb_decode`); raw textures are not.
-"""
+decoded to linear with the IEC 61966-2-1 EOTF (:func:`rockdove.srgb.srgb_decode`); raw textures are not."""
 
 from __future__ import annotations
 

@@ -3,8 +3,7 @@
 A :class:`View` (docs/design.md, "Render views") is one camera (OpenGL convention: it looks down its local -Z with
 +Y up; ``camera_to_world`` acts on column vectors) plus one directional light. In the light sweep the camera stays
 still and the light turns about its up axis, so the light-view angle ``alpha`` passes 90 degrees, where
-``cos_theta = cos(alpha / 2)``, ``theta = 45`` degrees: the green/purple flip (docs/design.md, "Conventions").
-"""
+``cos_theta = cos(alpha / 2)``, ``theta = 45`` degrees: the green/purple flip (docs/design.md, "Conventions")."""
 
 from __future__ import annotations
 

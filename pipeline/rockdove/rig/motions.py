@@ -22,8 +22,7 @@ tilts (0.1 s moves between holds: 18 deg of yaw over neck_04, neck_05 and head, 
 The neck takes the head's offset from the trunk as an S-bend (:data:`NECK_BEND`: the head keeps its orientation)
 and a change of length, solved at every frame: neighbouring neck joints turn apart by the bend angle alone (~14
 deg), so a card whose weights blend two of them stays within 1 % of rigid under linear blend skinning, the only
-skinning of glTF and three.js, and cards turn with the skin they lie on.
-"""
+skinning of glTF and three.js, and cards turn with the skin they lie on."""
 
 from __future__ import annotations
 

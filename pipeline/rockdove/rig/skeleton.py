@@ -4,8 +4,7 @@ Joints are placed from the geometry's landmarks (metres, Y up, facing +Z; the bi
 :func:`build_skeleton`): the torso chain, the neck at neck coordinates :data:`NECK_S`, the tail, the folded wing,
 and per leg hip, knee, ankle (the intertarsal joint, where the tarsus leaves the belly's feathers), foot and toes.
 Every joint frame is axis-aligned at rest (its bind transform is a translation), so a joint's rotation reads in
-world axes: x pitches, y turns, z rolls.
-"""
+world axes: x pitches, y turns, z rolls."""
 
 from __future__ import annotations
 

@@ -8,8 +8,7 @@
 - ``Wings``: each feather (connected component) on the wing joint of its side nearest its root.
 - every other part, per connected component (a card, a rectrix, an eye, the beak): one weight set, the Body's at
   the foot on the skin of its root (the middle of its deepest points: a card's quill) when it reaches within
-  :data:`ROOTED_M` of the body's surface, else the nearest visible skin vertex's (a claw: its toe's).
-"""
+  :data:`ROOTED_M` of the body's surface, else the nearest visible skin vertex's (a claw: its toe's)."""
 
 from __future__ import annotations
 

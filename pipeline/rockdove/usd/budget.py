@@ -1,8 +1,7 @@
 """Size budgets a layer must meet before USD opens it, from a scan of its bytes (no parse, no composition): a
 crate file's table of contents and the element count that heads each array; a text layer's size and prim
 statements; a texture's header; then, while :mod:`rockdove.usd.dependencies` walks the opened layer, the largest
-face. Where each limit comes from (measured): docs/hostile-input.md, "Size budgets".
-"""
+face. Where each limit comes from (measured): docs/hostile-input.md, "Size budgets"."""
 
 from __future__ import annotations
 

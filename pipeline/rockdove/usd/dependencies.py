@@ -1,7 +1,6 @@
 """The files an asset refers to, found without composing it (``Sdf`` only). An asset must be relocatable: every
 path it authors relative and inside the root layer's folder (or ``.usdz``), symlinks resolved; paths outside are
-never read unless ``allow_external``. :func:`require_inside` gates the commands that read an asset.
-"""
+never read unless ``allow_external``. :func:`require_inside` gates the commands that read an asset."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
 """The asset folder's layout (docs/design.md, "USD asset"): its file names, and :func:`resolve_root_layer`, the one
-resolver every reader uses, so they accept the same paths and fail with the same one-line error.
-"""
+resolver every reader uses, so they accept the same paths and fail with the same one-line error."""
 
 from __future__ import annotations
 

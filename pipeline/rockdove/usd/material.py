@@ -3,8 +3,7 @@
 The feather's ``outputs:mtlx:surface`` is ``materials/thinfilm.mtlx`` copied node for node into ``ND_*`` shaders:
 the document is data, never spelt here; the build sets only its parameters. The ``shading`` variant connects
 ``MtlxBakedSurface`` (the LUT) or ``MtlxPhysicalSurface`` (OpenPBR: ``thin_film_thickness`` in micrometres,
-``thin_film_ior`` one real index at :data:`rockdove.usd.stage.FILM_IOR_WAVELENGTH_NM`, on ``specular_ior``).
-"""
+``thin_film_ior`` one real index at :data:`rockdove.usd.stage.FILM_IOR_WAVELENGTH_NM`, on ``specular_ior``)."""
 
 from __future__ import annotations
 

@@ -1,8 +1,7 @@
 """NVIDIA's asset validator (PyPI ``usd-validation-nvidia``) over every variant, as :class:`Issue` s; its Sdr rule on
 ``ND_*`` ids is dropped (usd-core has no MaterialX Sdr plugin: :mod:`rockdove.usd.validate` checks those). Its mesh
 rules (:data:`MESH_RULES`: ~90% of its time, ManifoldChecker alone 4.3 of 5.8 s) read only geometry, so their
-findings are cached by :func:`mesh_digest` and revalidating after a film change runs only the other rules.
-"""
+findings are cached by :func:`mesh_digest` and revalidating after a film change runs only the other rules."""
 
 from __future__ import annotations
 

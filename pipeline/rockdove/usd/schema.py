@@ -3,8 +3,7 @@
 It records on the feather mesh the film a LUT was baked from and the LUT's layout (docs/design.md, "USD asset").
 ``plugInfo.json`` takes effect only before USD builds its schema registry (the first stage opened), so nothing here
 needs the registry. Every value is also authored as ``userProperties:rockdove:<name>``: measured with Blender
-5.0.1, its USD import drops the schema's attributes, but keeps ``userProperties`` and exports them back.
-"""
+5.0.1, its USD import drops the schema's attributes, but keeps ``userProperties`` and exports them back."""
 
 from __future__ import annotations
 

@@ -8,8 +8,7 @@ enum as a string, a colour space by name), so a value that is not plain data cou
 - any other string: printable ASCII without quotes or backslashes (MaterialX's ``note``, ``framerange``);
 - a colour space: one MaterialX's default colour management converts (``ND_<space>_to_lin_rec709_*``).
 
-File names are not code: the OSL host hands them to the shader as parameter values (:mod:`rockdove.hosts.osl`).
-"""
+File names are not code: the OSL host hands them to the shader as parameter values (:mod:`rockdove.hosts.osl`)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,6 @@
 """The rig as UsdSkel (:mod:`rockdove.rig` values, docs/rig.md): ``pigeon_rig.usdc`` (the ``Skeleton``, one
 ``SkelAnimation`` per motion, the meshes' skins: linear blend, the only method of glTF, three.js and Blender's
-armature import), and the interface layer's ``motion`` variant set (``rest`` default) with the time metadata.
-"""
+armature import), and the interface layer's ``motion`` variant set (``rest`` default) with the time metadata."""
 
 from __future__ import annotations
 

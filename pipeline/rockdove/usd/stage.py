@@ -2,8 +2,7 @@
 usd-exchange-samples, the payload's layers split by what changes them (a film change rewrites only the small text
 looks layer; the geometry is crate, its arrays being big); the ``shading`` variant set on the interface (variants are
 stronger than payloads). Text layers go through ``ExportToString``, the crate through ``Export``: no timestamps, so
-the same inputs give byte-identical files (tested).
-"""
+the same inputs give byte-identical files (tested)."""
 
 from __future__ import annotations
 

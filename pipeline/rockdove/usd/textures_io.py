@@ -2,8 +2,7 @@
 
 ``feather_preview.png`` is what UsdPreviewSurface viewers show (Blender's importer, usdview without MaterialX,
 Quick Look), which cannot look the LUT up per fragment: an atlas of :data:`PREVIEW_TILES` copies of the feather,
-each mixed in linear light with the colour of one thickness; each card reads its own tile through ``previewST``.
-"""
+each mixed in linear light with the colour of one thickness; each card reads its own tile through ``previewST``."""
 
 from __future__ import annotations
 

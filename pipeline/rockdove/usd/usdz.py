@@ -1,8 +1,7 @@
 """``DIR/pigeon.usdz``, by ``UsdUtils.CreateNewUsdzPackage``; usd-core's zip writer stores file times, so every file
 gets ``SOURCE_DATE_EPOCH`` when set (reproducible builds) else 1980-01-01: byte-identical packages. Also
 ``DIR/pigeon_ar.usdz`` for AR Quick Look: one flattened ``.usdc``, only UsdPreviewSurface networks (OpenUSD's ARKit
-checker, v23.11, allows no ``ND_*`` shader), the variant selections baked, no LUT (an EXR no AR viewer reads).
-"""
+checker, v23.11, allows no ``ND_*`` shader), the variant selections baked, no LUT (an EXR no AR viewer reads)."""
 
 from __future__ import annotations
 

@@ -1,8 +1,7 @@
 """Validate a written asset: USD's validation framework plus rockdove's own checks. :func:`validate_asset` scans
 the layers without composing them (:mod:`.dependencies`), runs the numbered checks below in every combination of
 variants (``UsdValidation``'s ``MissingShaderIdInRegistry`` dropped for ``ND_*`` ids: usd-core has no MaterialX
-Sdr plugin), then NVIDIA's validator once over all. An :class:`Issue` found in several variants is reported once.
-"""
+Sdr plugin), then NVIDIA's validator once over all. An :class:`Issue` found in several variants is reported once."""
 
 from __future__ import annotations
 

@@ -7,5 +7,4 @@ and :func:`rockdove.api.verify` all call it): it keeps its renders as items of t
 It is not re-exported here: a package's ``__init__`` is part of every cache key that reaches the package.
 
 Reads the asset back through :mod:`rockdove.render` and :mod:`rockdove.hosts`, and never imports the build. Heavy
-libraries (pxr, trimesh, pyrender, matplotlib) are imported inside the functions that use them.
-"""
+libraries (pxr, trimesh, pyrender, matplotlib) are imported inside the functions that use them."""

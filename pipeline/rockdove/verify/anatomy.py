@@ -17,8 +17,7 @@ wings flush with the body (never wider), tips meeting over the rump, toes on the
 [F] as a birder sees a rock dove (field guides: Gibbs et al.; Svensson et al., "Collins Bird Guide",
 2009): a feathered head with only the eye's ring bare, two black bars crossing the folded wing, a broad closed
 tail fan with depth (not a board), the pupil in the middle of the iris, dark claws; feather cards whose edges fade
-(soft, partly transparent texels) rather than cut.
-"""
+(soft, partly transparent texels) rather than cut."""
 
 from __future__ import annotations
 

@@ -16,8 +16,7 @@ centreline (mean point of ``bin_px`` bins along its principal axis), whose perpe
 by least squares with a line and a cubic (t scaled to [-1, 1]). Their RMS ratio ``line / curve`` (the curve's
 residual at least :data:`NOISE_FLOOR_PX`, pixel quantisation) is about 1 or less for a straight boundary, >=
 :data:`CURVED_RATIO` for a curved one. One robust pass drops centreline points farther than 3x the cubic's median
-residual (when half remain), so a stray feather tip of the other colour does not bend the fit.
-"""
+residual (when half remain), so a stray feather tip of the other colour does not bend the fit."""
 
 from __future__ import annotations
 
@@ -133,8 +132,7 @@ def boundary_points(cls: np.ndarray, reach_px: int = BOUNDARY_REACH_PX) -> np.nd
 def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0) -> Straightness:
     """RMS perpendicular distance of the green/purple boundary's centreline (hue sides) from its total-least-squares
     line, in pixels and as a fraction of its length, with the same robust pass; NaN under ``min_points`` points.
-    A straight boundary gives ~0.3 px (pixel quantisation); a bent one its sagitta over ~3 (40 px gives ~12 px).
-    """
+    A straight boundary gives ~0.3 px (pixel quantisation); a bent one its sagitta over ~3 (40 px gives ~12 px)."""
     n, line = _boundary_centreline(cls, bin_px)
     if line is None or len(line) < min_points:
         return Straightness(n, 0 if line is None else len(line))

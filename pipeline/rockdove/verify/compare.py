@@ -10,8 +10,7 @@ silhouette edges (coverage rules, texture filtering of the alpha cut-out).
 Checks: no NaN or Inf; no black holes (lit feather pixels whose GL radiance is ~zero: every film colour has a
 luminance of at least a few per cent); the CIELAB hue ``h_ab = atan2(b*, a*)`` of the chromatic structural pixels
 (``C*ab / L*``: a ratio, so dimly lit pixels keep their hue), classified into the two bands of the rock dove's neck
-(the Airy colours of a 480-700 nm keratin film under D65: greens h_ab 115-205 deg, purples 310-355 deg).
-"""
+(the Airy colours of a 480-700 nm keratin film under D65: greens h_ab 115-205 deg, purples 310-355 deg)."""
 
 from __future__ import annotations
 

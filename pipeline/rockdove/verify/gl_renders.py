@@ -3,8 +3,7 @@ integrates the CPU reference and compares the views already drawn: llvmpipe draw
 numpy's reference mostly too. A thread, not a process: measured (docs/design.md, "The GL renders"), a worker
 process saved nothing once the imports are warm. pyrender is imported by the first render (importing it ahead in
 a thread while the build imported pxr deadlocked a CLI build). All GL calls of one :class:`GLRenders` run on its
-own single thread (an EGL context is current on one thread).
-"""
+own single thread (an EGL context is current on one thread)."""
 
 from __future__ import annotations
 

@@ -8,8 +8,7 @@ the strict hue bands; ``hue_agreement``: share of pixels whose class (green, pur
 Pass (:func:`host_passed`): networks that claim the exact colour (``glsl``, ``baked``) meet the dE goals
 (median <= :data:`rockdove.verify.compare.MEDIAN_DE_GOAL`, p95 <= :data:`~rockdove.verify.compare.P95_DE_GOAL`);
 a host's own thin-film BSDF (``physical``), an approximation, shows green and purple and agrees on the hue
-class of >= :data:`MIN_HUE_AGREEMENT` of the pixels (its dE is reported, not held to the goal).
-"""
+class of >= :data:`MIN_HUE_AGREEMENT` of the pixels (its dE is reported, not held to the goal)."""
 
 from __future__ import annotations
 

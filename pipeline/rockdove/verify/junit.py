@@ -5,8 +5,7 @@ The format is the Jenkins xunit plugin's ``junit-10.xsd`` (Ant's JUnit report, a
 ``rockdove.glsl`` (a case per view and one for the light sweep's hues), ``rockdove.host.NAME`` (a case per view and
 ``all views``, the host's own verdict; an unavailable host is ``<skipped>``, one that raised an ``<error>``),
 ``rockdove.anatomy`` (a case per measure) and, with ``--motion``, ``rockdove.motion`` (a case per limited measure).
-Failure messages carry their numbers, every case its metrics in ``<system-out>``; times in seconds.
-"""
+Failure messages carry their numbers, every case its metrics in ``<system-out>``; times in seconds."""
 
 from __future__ import annotations
 

@@ -4,8 +4,7 @@ that fails the verification (:data:`LIMITS`): ``card_stretch`` (largest relative
 deep a neck-card point in front of the head at rest goes behind it); ``stance_slip_m``, ``toe_below_ground_m``,
 ``frames_without_support`` of the Legs' soles; and for the walk the head (the Eyes' centre) against the trunk (the
 Wings'): ``head_hold_drift_m`` (within a hold: head speed under :data:`HOLD_SPEED` of the trunk's mean),
-``hold_fraction``, ``head_cycles`` against the steps (foot-falls) and ``head_to_body_speed`` (mean forward speeds).
-"""
+``hold_fraction``, ``head_cycles`` against the steps (foot-falls) and ``head_to_body_speed`` (mean forward speeds)."""
 
 from __future__ import annotations
 

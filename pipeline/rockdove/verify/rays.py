@@ -4,8 +4,7 @@ The rays are the GL renderer's pinhole camera's (OpenGL convention, vertical fie
 pixels), cast with trimesh's ray queries (Embree through embreex when installed). A hit where the part's base
 texture has an alpha below the part's ``opacity_threshold`` (the feather cards) is skipped and the ray continues
 from just behind it (up to :data:`MAX_ALPHA_LAYERS` layers, vectorised over the rays still travelling). The
-:class:`Hits` depend on the geometry and the camera only (:func:`ray_digest`, :func:`camera_key`).
-"""
+:class:`Hits` depend on the geometry and the camera only (:func:`ray_digest`, :func:`camera_key`)."""
 
 from __future__ import annotations
 

@@ -25,8 +25,7 @@ Lighting models (:data:`LOBES`, named by the hosts of :mod:`rockdove.hosts`): ``
 under the View's one directional light; ``"view_angle"``, the smooth film's mirror lobe alone under a uniform white
 environment of unit radiance: a feather pixel is ``mask * structural(cos_theta = |N.V|)``, other parts 0 (what the
 MaterialX baked network, ``LUT(|N.V|)``, and the hosts' thin-film BSDFs draw with a black base colour). Lobes of one
-call share the ray casts.
-"""
+call share the ray casts."""
 
 from __future__ import annotations
 
@@ -103,8 +102,7 @@ def render_reference(scene, views, structural_fn=None, hits=None, lobe: str = "h
 
     ``structural_fn``: ``f(cos_theta (P,), thickness_nm (P,)) -> (P, 3)`` in place of :func:`structural_rgb` (tests).
     ``hits`` / ``surfaces``: ready-made :class:`rockdove.verify.rays.Hits` / :class:`Surface` by camera key (the
-    build caches them); other cameras are cast here. ValueError for no views, or feathers without a film.
-    """
+    build caches them); other cameras are cast here. ValueError for no views, or feathers without a film."""
     return render_reference_lobes(scene, views, (lobe,), structural_fn, hits=hits, surfaces=surfaces)[lobe]
 
 

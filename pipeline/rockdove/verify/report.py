@@ -3,8 +3,7 @@ the views' renders and dE2000 maps, ``contact_sheet.png``, ``lut.png``, ``spectr
 ``light_turn.webp``, ``bench_*.png`` (``rockdove verify --bench-dir DIR``), ``report.json`` and ``report.html``.
 
 The dE maps are drawn with Pillow; the charts with matplotlib's object API (``Figure`` + ``FigureCanvasAgg``),
-which needs no display and leaves pyplot's global state alone.
-"""
+which needs no display and leaves pyplot's global state alone."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
 """The verification's results as typed values: what its checks hand on, what its cache keeps and the
-:class:`Report`. Each ``to_json()`` is its part of ``report.json``; ``from_json`` reads it back (:func:`read`).
-"""
+:class:`Report`. Each ``to_json()`` is its part of ``report.json``; ``from_json`` reads it back (:func:`read`)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
 """One verification view, checked: its GL render against the exact CPU reference, compared
-(:mod:`rockdove.verify.compare`), the hue histogram and boundary shape of a light-sweep view, and its images.
-"""
+(:mod:`rockdove.verify.compare`), the hue histogram and boundary shape of a light-sweep view, and its images."""
 
 from __future__ import annotations
 

@@ -8,8 +8,7 @@ views and its lobe); ``beauty`` and ``animation``, the report's pictures (the sc
 
 Each key also holds the code the item can execute (:mod:`rockdove.sources`) and the installed distributions. So
 ``rockdove verify`` and a build reuse each other's views, and an edit to one host's code re-renders that host alone.
-A host that failed is not kept. Validation and the report are redone every time.
-"""
+A host that failed is not kept. Validation and the report are redone every time."""
 
 from __future__ import annotations
 
@@ -257,8 +256,7 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     these (without a light-sweep view, no hue check). ``beauty``: ``[beauty]`` settings (``auto`` takes Cycles only
     when ``hosts`` names blender); ``published_asset``: the root layer's path once published, which the report names.
     ``motion`` (e.g. ``"walk"``): also measure it at every time code and check the film at ``times`` (default
-    :data:`rockdove.verify.motion.DEFAULT_TIMES`), each frame skinned by UsdSkel.
-    """
+    :data:`rockdove.verify.motion.DEFAULT_TIMES`), each frame skinned by UsdSkel."""
     from ..hosts import select
     from ..render.beauty import settings
     from ..usd.dependencies import asset_digest

@@ -1,7 +1,6 @@
 """Drive headless Chromium over the Chrome DevTools Protocol on ``--remote-debugging-pipe`` (NUL-terminated JSON on
 file descriptors 3 and 4: no port, no WebSocket library), WebGL2 on SwiftShader, a fresh temporary profile. A step
-that fails or times out raises :class:`BrowserError` naming the step, never hangs.
-"""
+that fails or times out raises :class:`BrowserError` naming the step, never hangs."""
 
 from __future__ import annotations
 

@@ -4,8 +4,7 @@ It reads the asset *as written* (:func:`rockdove.render.scene.load_scene`), as `
 "glTF and the web"). The thickness ramp is linear, so linear filtering returns the primvar itself, unquantised. The
 default material is the preview atlas (Blender 5.0 ignores the extension); the film is the variant ``thin_film``
 (measured: a base colour under it would count twice in three.js, whose diffuse is only scaled by ``1 - F``).
-pygltflib builds the document (trimesh's cannot author the extension or a second UV set).
-"""
+pygltflib builds the document (trimesh's cannot author the extension or a second UV set)."""
 
 from __future__ import annotations
 

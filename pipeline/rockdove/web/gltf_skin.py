@@ -1,8 +1,7 @@
 """The rig of ``pigeon.glb``: a glTF skin and one animation per motion, read from the written USD by UsdSkel (never
 the generator's values). glTF's skinning is linear blend, UsdSkel's default, so every glTF viewer poses the vertices
 as UsdSkel does. Skinned mesh nodes are root nodes (glTF ignores their parents' transforms); the joints hang under a
-``Skeleton`` node, so each inverse bind matrix is ``inverse(skeleton to world x bind)``.
-"""
+``Skeleton`` node, so each inverse bind matrix is ``inverse(skeleton to world x bind)``."""
 
 from __future__ import annotations
 

@@ -1,7 +1,6 @@
 """Write the offline viewer ``verify/viewer.html``: pigeon.glb in three.js. A ``file://`` page may neither ``fetch``
 nor load module scripts (origin ``null``), so data and ES modules arrive as classic ``<script src>`` tags beside the
-page, which ``viewer_loader.js`` turns into same-origin ``blob:`` modules (docs/viewer.md).
-"""
+page, which ``viewer_loader.js`` turns into same-origin ``blob:`` modules (docs/viewer.md)."""
 
 from __future__ import annotations
 
