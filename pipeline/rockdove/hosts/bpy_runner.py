@@ -8,7 +8,6 @@ from __future__ import annotations
 import contextlib
 import functools
 import importlib.util
-import json
 import os
 import signal
 import subprocess
@@ -93,15 +92,15 @@ def bpy_python(host: str = "blender") -> str:
     return exe
 
 
-def run_job(job: Job | dict, work: str, script: str | None, timeout_s: float = TIMEOUT_S, *, host: str = "blender",
+def run_job(job: Job, work: str, script: str | None, timeout_s: float = TIMEOUT_S, *, host: str = "blender",
             renderer: str = "Blender") -> None:
     """Run the job ``script`` (by a literal ``find_spec("rockdove.hosts.x_job").origin``, so the verification's cache
-    key follows it) on ``job`` (its :mod:`.jobs` record, or that record's JSON fields) with :func:`bpy_python`, its
+    key follows it) on ``job`` (its :mod:`.jobs` record) with :func:`bpy_python`, its
     log in ``work``. HostError when it fails or times out."""
     python = bpy_python(host)
     job_path = os.path.join(work, "job.json")
     with open(job_path, "w", encoding="utf-8") as fh:
-        fh.write(job.to_json() if isinstance(job, Job) else json.dumps(job, indent=1))
+        fh.write(job.to_json())
     user = os.path.join(work, "user")  # Blender's user folders (installed add-ons, preferences) stay in here
     env = dict(os.environ, BLENDER_USER_RESOURCES=user, BLENDER_USER_CONFIG=os.path.join(user, "config"),
                BLENDER_USER_SCRIPTS=os.path.join(user, "scripts"),

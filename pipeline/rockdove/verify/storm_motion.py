@@ -20,6 +20,7 @@ import numpy as np
 from ..errors import UsageError
 from ..hosts import bpy_runner
 from ..hosts.base import ENVIRONMENT_RADIANCE, HostError
+from ..hosts.jobs import JobView, StormJob
 from ..hosts.storm import BAKED, FEATHER_MATERIAL, TIMEOUT_S, VARIANTS
 from ..png import save_png
 
@@ -79,11 +80,17 @@ def _centre(alpha, name) -> np.ndarray:
     return np.array([(x * alpha).sum(), (y * alpha).sum()]) / alpha.sum()
 
 
-def _run(layer: str, work: str, views: list, motion: str, **extra) -> None:
+def _view(view, time: float, name: str | None = None, only=None) -> JobView:
+    """``view`` drawn at ``time`` (renamed ``name``), of the meshes ``only`` (prim names; else all)."""
+    return JobView(**{**view.to_dict(), "name": name or view.name}, time=float(time), only=only and list(only))
+
+
+def _run(layer: str, work: str, views: list[JobView], motion: str, as_authored: bool = False) -> None:
     os.makedirs(work, exist_ok=True)
     save_png(np.full((2, 4, 3), 255, np.uint8), os.path.join(work, "white.png"))  # the dome light's texture
-    job = {"asset": layer, "variant": BAKED.variant, "overrides": {FEATHER_MATERIAL: VARIANTS[BAKED.name][1]},
-           "environment_radiance": ENVIRONMENT_RADIANCE, "out_dir": work, "views": views, "motion": motion, **extra}
+    job = StormJob(asset=layer, variant=BAKED.variant, overrides={FEATHER_MATERIAL: VARIANTS[BAKED.name][1]},
+                   environment_radiance=ENVIRONMENT_RADIANCE, out_dir=work, views=views, motion=motion,
+                   as_authored=as_authored)
     bpy_runner.run_job(job, work, importlib.util.find_spec("rockdove.hosts.storm_job").origin, TIMEOUT_S,
                        host=BAKED.name, renderer="Storm")
 
@@ -99,7 +106,7 @@ def strip(asset: str, out_png: str, motion: str = "walk", times=tuple(range(0, 2
     side = side_view(load_scene(layer, {"motion": motion}, times[0]), times, *size)
     views = [dataclasses.replace(side, name=f"frame_{t:03.0f}") for t in times]
     work = os.path.abspath(os.fspath(out_png)) + ".storm"
-    _run(layer, work, [{**v.to_dict(), "time": float(t)} for v, t in zip(views, times)], motion, as_authored=True)
+    _run(layer, work, [_view(v, t) for v, t in zip(views, times)], motion, as_authored=True)
     images = bpy_runner.read_views(BAKED.name, "Storm", views, work)
     save_png(np.concatenate([linear_to_srgb8(images[v.name]) for v in views], axis=1), os.fspath(out_png))
     return os.fspath(out_png)
@@ -127,10 +134,9 @@ def play(asset: str, out_dir: str, motion: str = "walk", times=(15.0, 21.0, 26.0
              for i, t in enumerate(times)}
     views = []
     for i, t in enumerate(times):
-        views += [{**side.to_dict(), "name": f"{what}_{i:02d}", "time": t, "only": list(parts)}
-                  for what, parts in (("head", HEAD_PARTS), ("trunk", TRUNK_PARTS))]
+        views += [_view(side, t, f"{what}_{i:02d}", parts) for what, parts in (("head", HEAD_PARTS), ("trunk", TRUNK_PARTS))]
         if film:
-            views.append({**necks[t].to_dict(), "time": t})
+            views.append(_view(necks[t], t))
     work = os.path.join(os.path.abspath(out_dir), "storm_motion")
     _run(layer, work, views, motion)
     joints = joint_positions(layer, motion, times, (HEAD_JOINT, TRUNK_JOINT))
