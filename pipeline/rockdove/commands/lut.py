@@ -12,13 +12,8 @@ DEFAULT_ERROR_POINTS = 1000
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..lut.bake import (
-        BAKE_METHODS,
-        DEFAULT_ANGLE_WARP_GAMMA,
-        DEFAULT_ANGLES,
-        DEFAULT_THICKNESS_RANGE_NM,
-        DEFAULT_THICKNESSES,
-    )
+    from ..lut import BAKE_METHODS
+    from ..lut.bake import DEFAULT_ANGLE_WARP_GAMMA, DEFAULT_ANGLES, DEFAULT_THICKNESS_RANGE_NM, DEFAULT_THICKNESSES
 
     parser.add_argument("--out", required=True, metavar="PATH.exr", help="output EXR file (preview: PATH.png)")
     parser.add_argument("--angles", type=int, default=DEFAULT_ANGLES, metavar="N", help="angle texels (2 .. 4096)")

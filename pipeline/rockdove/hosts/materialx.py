@@ -50,15 +50,6 @@ def missing_variant(asset_path: str, variant: str) -> str | None:
 
 
 # -- the asset's MaterialX network -> GLSL ----------------------------------------------------------------------
-def generate_glsl(doc, material_name: str) -> tuple[str, str]:
-    """Vertex and pixel shader of ``material_name`` (a ``surfacematerial`` of ``doc``) by ``GlslShaderGenerator``."""
-    import MaterialX.PyMaterialXGenGlsl as mx_glsl
-    import MaterialX.PyMaterialXGenShader as mx_gen
-
-    shader = generate(doc, material_name, mx_glsl.GlslShaderGenerator.create(), hwTransparency=True)
-    return shader.getSourceCode(mx_gen.VERTEX_STAGE), shader.getSourceCode(mx_gen.PIXEL_STAGE)
-
-
 def generate(doc, material_name: str, generator, **options):
     """MaterialX's ``generator`` run on ``material_name`` with colour management and images flipped (first row)."""
     import MaterialX as mx
@@ -149,9 +140,13 @@ def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str,
         layer = resolve_root_layer(asset_path)
         scene = load_scene(layer, variants={"shading": variant})
         networks = feather_networks(layer, variant)
+        import MaterialX.PyMaterialXGenGlsl as mx_glsl
+        import MaterialX.PyMaterialXGenShader as mx_gen
+
         sources = {}
-        for path, net in networks.items():
-            vert, frag = generate_glsl(net.doc, net.material)
+        for path, net in networks.items():  # MaterialX's GLSL of each mesh's surfacematerial, two-sided
+            shader = generate(net.doc, net.material, mx_glsl.GlslShaderGenerator.create(), hwTransparency=True)
+            vert, frag = (shader.getSourceCode(stage) for stage in (mx_gen.VERTEX_STAGE, mx_gen.PIXEL_STAGE))
             sources[path] = (vert, two_sided(frag))
     except (ValueError, RuntimeError) as exc:
         raise HostError(name, f"cannot turn the asset's MaterialX network into GLSL: {exc}") from None

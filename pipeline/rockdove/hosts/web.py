@@ -68,9 +68,7 @@ def render(asset_path: str, views: list, out_dir: str, *, browser_factory=None) 
             page = browser.open(Path(page_path).absolute().as_uri(), 320, 240, timeout_s=PAGE_TIMEOUT_S)
             page.evaluate("window.rockdoveReady", timeout_s=PAGE_TIMEOUT_S, step="load pigeon.glb in three.js")
             for view in views:
-                spec = {"camera_to_world": view.camera_to_world.reshape(-1).tolist(), "yfov_rad": view.yfov_rad,
-                        "width": view.width, "height": view.height,
-                        "light_direction": view.light_direction.tolist(), "light_rgb": view.light_rgb.tolist()}
+                spec = {**view.to_dict(), "camera_to_world": view.camera_to_world.reshape(-1).tolist()}
                 res = page.evaluate(f"window.rockdoveRender({json.dumps(spec)}, 'physical')",
                                     timeout_s=VIEW_TIMEOUT_S, step=f"render {view.name}")
                 rgb = np.frombuffer(base64.b64decode(res["rgb_f32"]), np.float32)
