@@ -99,8 +99,7 @@ def _log_to_stderr(command: str, quiet: bool) -> None:
     """The library reports through the ``rockdove`` logger; the command line shows its messages on stderr as
     ``rockdove COMMAND: message`` (``--quiet`` and ``--json``: warnings and errors only)."""
     logger = logging.getLogger("rockdove")
-    for old in list(logger.handlers):
-        logger.removeHandler(old)
+    logger.handlers.clear()
     handler = logging.StreamHandler()
     handler.setFormatter(logging.Formatter(f"rockdove {command}: %(message)s"))
     logger.addHandler(handler)

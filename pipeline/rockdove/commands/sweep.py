@@ -115,11 +115,11 @@ class Verified:
             report = Report.from_json(json.loads((Path(result.report_dir) / "report.json").read_text()))
         except (OSError, ValueError, TypeError, KeyError):
             return cls(passed, notes)
-        medians = [m.de_median for m in report.views if m.de_median is not None]
-        p95s = [m.de_p95 for m in report.views if m.de_p95 is not None]
-        h = report.hue_sweep
-        return cls(passed, notes, tuple(report.failures), max(medians) if medians else None,
-                   max(p95s) if p95s else None, {"green": h.green, "purple": h.purple, "grey": h.grey, "other": h.other})
+        h, views = report.hue_sweep, report.views
+        return cls(passed, notes, tuple(report.failures),
+                   max((m.de_median for m in views if m.de_median is not None), default=None),
+                   max((m.de_p95 for m in views if m.de_p95 is not None), default=None),
+                   {"green": h.green, "purple": h.purple, "grey": h.grey, "other": h.other})
 
 
 @dataclass(frozen=True)
@@ -187,7 +187,8 @@ def build_point(record: PointRecord, base: Base, out: str, verify: bool) -> Poin
     record = replace(record, status=status, pid=os.getpid(), worker=get_worker().address, error=error,
                      seconds=round(time.perf_counter() - t0, 3))
     return record if result is None else replace(
-        record, config_hash=result.config_hash, verify=Verified.of(result), images=Images.of(Path(out), result.report_dir),
+        record, config_hash=result.config_hash, verify=Verified.of(result),
+        images=Images.of(Path(out), result.report_dir),
         build={"ran": result.ran, "reused": result.reused, "seconds": round(result.seconds, 4)})
 
 
@@ -300,12 +301,11 @@ def run(args: argparse.Namespace) -> int:
 
     root = claim_output(args.out, "sweep", create=False)  # checked now, made once the cluster is up
     cache = Path(args.cache).resolve() if args.cache else root / ".rockdove-cache"
-    points = grid_points(axes)
     base = Base(args.preset, str(Path(args.config).resolve()) if args.config else None, tuple(args.overrides),
                 str(cache))
 
     records = []
-    for p in points:
+    for p in grid_points(axes):
         rec = PointRecord(p.name, p.index, p.overrides, p.values, str(Path(POINTS) / p.name))
         try:
             records.append(replace(rec, config_hash=config_hash(load_config(

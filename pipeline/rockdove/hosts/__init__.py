@@ -57,8 +57,7 @@ def select(names=None) -> Selection:
     names = list(DEFAULT) if names is None else [str(n).strip() for n in names]
     if names == ["all"]:
         names = list(HOSTS)
-    unknown = [n for n in names if n not in HOSTS]
-    if unknown:
+    if unknown := [n for n in names if n not in HOSTS]:
         raise UsageError(f"hosts: {', '.join(map(repr, unknown))} unknown; allowed: {', '.join(HOSTS)}")
     found = {name: _reason(HOSTS[name]) for name in dict.fromkeys([ALWAYS, *names])}
     return Selection(tuple(HOSTS[n] for n, why in found.items() if why is None),

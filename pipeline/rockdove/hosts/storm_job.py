@@ -85,8 +85,7 @@ def _session(stage, job: jobs.StormJob):
     for prim in stage.Traverse():
         if not prim.IsA(UsdShade.Material) or job.as_authored:  # as authored: what a usdview user sees
             continue
-        mtl = UsdShade.Material(prim)
-        out = mtl.GetSurfaceOutput("mtlx")
+        out = UsdShade.Material(prim).GetSurfaceOutput("mtlx")
         if not out.GetAttr().IsValid() or not out.HasConnectedSource():
             _black(prim.GetChild("PreviewSurface"))  # other parts: black, they only occlude (the lobe)
         elif job.variant == "preview":
@@ -109,16 +108,14 @@ def _session(stage, job: jobs.StormJob):
         cam.CreateVerticalApertureAttr(vert)
         cam.CreateHorizontalApertureAttr(vert * view.width / view.height)
         cam.CreateClippingRangeAttr(Gf.Vec2f(1e-3, 1e3))
-        m = Gf.Matrix4d(*[float(x) for row in view.camera_to_world for x in row]).GetTranspose()
-        cam.AddTransformOp().Set(m)
+        cam.AddTransformOp().Set(Gf.Matrix4d(*[float(x) for row in view.camera_to_world for x in row]).GetTranspose())
         cams.append(cam)
     return cams
 
 
 def run(job: jobs.StormJob) -> None:
     bundled_usd_first()
-    size = (max(v.width for v in job.views), max(v.height for v in job.views))
-    keep = egl_context(*size)  # noqa: F841 (the context must live while Storm draws)
+    keep = egl_context(max(v.width for v in job.views), max(v.height for v in job.views))  # noqa: F841 (lives on)
     from pxr import Usd, UsdAppUtils, UsdGeom
 
     if (stage := Usd.Stage.Open(job.asset)) is None:
