@@ -153,7 +153,7 @@ def run(job: jobs.BlenderJob) -> None:
     addon, films, to_blender = import_asset(bpy, job)
     if job.frame is not None:  # an animated asset (its armature's action) at that frame
         bpy.context.scene.frame_set(int(job.frame))
-    if job.lobe == "view_angle":  # else "as_imported" (rockdove.hosts.blender.render checks)
+    if job.lobe == "view_angle":  # else "as_imported" (BlenderHost.render checks)
         film_lobe_only(bpy, addon)
     white_world(bpy, job.environment_radiance)
     render_views(bpy, mathutils, to_blender, job)
