@@ -28,7 +28,37 @@ class MaterialXHost(Host):
         return missing_variant(asset_path, self.variant)
 
     def render(self, asset_path: str, views, out_dir: str | None) -> dict:
-        return render_variant(asset_path, views, out_dir, variant=self.variant, name=self.name)
+        """:meth:`Host.render` of the asset's ``variant`` network; HostError when reading, compiling or GL fails."""
+        from ..render.scene import load_scene
+        from ..usd.layout import resolve_root_layer
+        from .materialx_gl import draw
+
+        name, variant, views = self.name, self.variant, list(views)
+        try:
+            layer = resolve_root_layer(asset_path)
+            scene = load_scene(layer, variants={"shading": variant})
+            networks = feather_networks(layer, variant)
+            import MaterialX.PyMaterialXGenGlsl as mx_glsl
+            import MaterialX.PyMaterialXGenShader as mx_gen
+
+            sources = {}
+            for path, net in networks.items():  # MaterialX's GLSL of each mesh's surfacematerial, two-sided
+                shader = generate(net.doc, net.material, mx_glsl.GlslShaderGenerator.create(), hwTransparency=True)
+                vert, frag = (shader.getSourceCode(stage) for stage in (mx_gen.VERTEX_STAGE, mx_gen.PIXEL_STAGE))
+                sources[path] = (vert, two_sided(frag))
+        except (ValueError, RuntimeError) as exc:
+            raise HostError(name, f"cannot turn the asset's MaterialX network into GLSL: {exc}") from None
+        except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
+            raise HostError(name, f"MaterialX shader generation failed: {type(exc).__name__}: {exc}") from None
+        try:
+            images = draw(scene, networks, sources, views, name=name)
+        except HostError:
+            raise
+        except Exception as exc:
+            raise HostError(name, f"GL drawing failed: {type(exc).__name__}: {exc}") from None
+        if out_dir:
+            save_pngs(images, out_dir, name)
+        return images
 
 
 #: The asset's default network for MaterialX hosts (``baked``) and OpenPBR's thin film (``physical``).
@@ -129,35 +159,3 @@ def feather_networks(layer: str, variant: str) -> dict[str, Network]:
     return out
 
 
-def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str, name: str) -> dict:
-    """:meth:`Host.render` of the asset's ``variant`` network; HostError when reading, compiling or GL fails."""
-    from ..render.scene import load_scene
-    from ..usd.layout import resolve_root_layer
-    from .materialx_gl import draw
-
-    views = list(views)
-    try:
-        layer = resolve_root_layer(asset_path)
-        scene = load_scene(layer, variants={"shading": variant})
-        networks = feather_networks(layer, variant)
-        import MaterialX.PyMaterialXGenGlsl as mx_glsl
-        import MaterialX.PyMaterialXGenShader as mx_gen
-
-        sources = {}
-        for path, net in networks.items():  # MaterialX's GLSL of each mesh's surfacematerial, two-sided
-            shader = generate(net.doc, net.material, mx_glsl.GlslShaderGenerator.create(), hwTransparency=True)
-            vert, frag = (shader.getSourceCode(stage) for stage in (mx_gen.VERTEX_STAGE, mx_gen.PIXEL_STAGE))
-            sources[path] = (vert, two_sided(frag))
-    except (ValueError, RuntimeError) as exc:
-        raise HostError(name, f"cannot turn the asset's MaterialX network into GLSL: {exc}") from None
-    except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
-        raise HostError(name, f"MaterialX shader generation failed: {type(exc).__name__}: {exc}") from None
-    try:
-        images = draw(scene, networks, sources, views, name=name)
-    except HostError:
-        raise
-    except Exception as exc:
-        raise HostError(name, f"GL drawing failed: {type(exc).__name__}: {exc}") from None
-    if out_dir:
-        save_pngs(images, out_dir, name)
-    return images
