@@ -28,8 +28,7 @@ def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
         sky_horizon_rgb=setup.SKY_HORIZON_RGB, sky_zenith_rgb=setup.SKY_ZENITH_RGB, sky_strength=setup.SKY_STRENGTH,
         sun_strength=setup.SUN_STRENGTH, sun_rgb=setup.SUN_RGB, sun_angle_deg=setup.SUN_ANGLE_DEG, look=setup.LOOK,
         exposure=setup.EXPOSURE)
-    script = importlib.util.find_spec("rockdove.hosts.blender_beauty_job").origin
-    runner.run_job(job, work, script, setup.TIMEOUT_S)
+    runner.run_job(job, work, importlib.util.find_spec("rockdove.hosts.blender_beauty_job").origin, setup.TIMEOUT_S)
     return runner.read_views(NAME, "Blender", views, work, "png")
 
 
