@@ -3,8 +3,7 @@
 ``rockdove build``, ``rockdove verify``, ``rockdove sweep``'s Dask workers, the benchmarks and the tests all call
 these functions; the command line only turns options into their arguments and results into text. Errors:
 :class:`rockdove.errors.UsageError` (a ``ValueError``) for bad configuration, output or asset, naming what was
-wrong, before anything is written; :class:`BuildFailed` when the build's verification fails.
-"""
+wrong, before anything is written; :class:`BuildFailed` when the build's verification fails."""
 
 from __future__ import annotations
 

@@ -1,8 +1,7 @@
 """The ``rockdove`` command line. Each of :data:`COMMANDS` is ``rockdove/commands/<name>.py`` (imported only when
 it runs) with ``add_arguments(parser)`` and ``run(args) -> exit status``. Errors are one line on stderr
 (:mod:`rockdove.errors`): :class:`~rockdove.errors.RockdoveError` and ``OSError`` exit 2,
-:class:`~rockdove.errors.VerificationFailed` 1; any other exception is a bug and shows its traceback.
-"""
+:class:`~rockdove.errors.VerificationFailed` 1; any other exception is a bug and shows its traceback."""
 
 from __future__ import annotations
 

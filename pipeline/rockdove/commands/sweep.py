@@ -3,8 +3,7 @@
 Each point of the ``--grid`` product is one :func:`rockdove.api.build` on a Dask worker into
 ``DIR/points/<KEY=VALUE__...>``, all sharing one stage cache (:meth:`rockdove.cache.Cache.entry_lock`), so each
 point is byte-identical to a serial build. The private ``LocalCluster`` speaks TLS (``Security.temporary()``).
-Exit status 2 for bad usage before anything runs, 1 when any point failed (after all the others finished), else 0.
-"""
+Exit status 2 for bad usage before anything runs, 1 when any point failed (after all the others finished), else 0."""
 
 from __future__ import annotations
 

@@ -1,7 +1,6 @@
 """``rockdove verify ASSET``: :func:`rockdove.api.verify` (the build's verification with its cache: what a build or
 an earlier verification checked is not rendered again) and its results as text or ``--json``. Exit status 0 when
-everything passes, 1 when a check fails, 2 on bad usage.
-"""
+everything passes, 1 when a check fails, 2 on bad usage."""
 
 from __future__ import annotations
 

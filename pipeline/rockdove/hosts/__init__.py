@@ -1,6 +1,5 @@
 """Hosts: adapters at the edge that read the WRITTEN asset and render it with their own code (docs/hosts.md), in
-:data:`HOSTS`. ``rockdove verify --hosts`` reports the unavailable ones as skips with their reasons, never a pass.
-"""
+:data:`HOSTS`. ``rockdove verify --hosts`` reports the unavailable ones as skips with their reasons, never a pass."""
 
 from __future__ import annotations
 

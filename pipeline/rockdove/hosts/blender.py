@@ -1,7 +1,6 @@
 """The Blender host: the written asset imported by Blender (``bpy``) as a user gets it, with the rockdove add-on
 (its ``USDHook`` builds the thin-film material from ``rockdove:film:*``), drawn by Cycles in a subprocess
-(:mod:`rockdove.hosts.blender_job`: bpy's bundled USD and usd-core's ``pxr`` cannot share one process).
-"""
+(:mod:`rockdove.hosts.blender_job`: bpy's bundled USD and usd-core's ``pxr`` cannot share one process)."""
 
 from __future__ import annotations
 

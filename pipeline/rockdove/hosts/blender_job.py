@@ -2,8 +2,7 @@
 has bpy; stdlib, bpy and :mod:`.jobs` only. Its own process: the add-on's ``USDHook`` gets a stage only bpy's ``pxr``
 can read (measured: "No to_python converter found for C++ type ... UsdStage" with usd-core's). For ``view_angle``:
 the film smooth, its base black, every other material black but occluding, under a uniform white world (no
-inter-reflection, as the reference assumes); a 0.01 px pixel filter (pixel centres, like the reference).
-"""
+inter-reflection, as the reference assumes); a 0.01 px pixel filter (pixel centres, like the reference)."""
 
 from __future__ import annotations
 

@@ -1,8 +1,7 @@
 """The ``materialx`` and ``materialx_physical`` hosts: the asset's ``baked`` and ``physical`` MaterialX networks,
 read from the written USD as Hydra's HdMtlx does, as GLSL by MaterialX's ``GlslShaderGenerator``, drawn offscreen
 in the project's EGL (:mod:`rockdove.hosts.materialx_gl`). OpenPBR's GLSL thin film is an approximation, so
-``materialx_physical`` is judged on green, purple and hue-class agreement (docs/design.md, "Hosts").
-"""
+``materialx_physical`` is judged on green, purple and hue-class agreement (docs/design.md, "Hosts")."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
 """The ``osl`` and ``osl_physical`` hosts: the asset's MaterialX networks as OSL by MaterialX's generator, compiled by
-Blender's bundled OSL and rendered by Cycles with OSL on (the MaterialX path of Arnold, RenderMan, Karma CPU).
-"""
+Blender's bundled OSL and rendered by Cycles with OSL on (the MaterialX path of Arnold, RenderMan, Karma CPU)."""
 
 from __future__ import annotations
 

@@ -1,8 +1,7 @@
 """The ``storm`` hosts: the written asset, unchanged, drawn by Hydra Storm (usdview's renderer) of the bpy wheel
 (:mod:`rockdove.hosts.storm_job`, headless EGL), its additions all in the session layer: one host per network a Storm
 user sees (:data:`VARIANTS`). Measurements, and why thinfilm.mtlx lets no parameter reach a texture coordinate
-(Mesa llvmpipe's helper invocations): docs/hosts.md and docs/design.md, "Hosts".
-"""
+(Mesa llvmpipe's helper invocations): docs/hosts.md and docs/design.md, "Hosts"."""
 
 from __future__ import annotations
 

@@ -1,7 +1,6 @@
 """Storm's side of :mod:`rockdove.hosts.storm`, run as ``python storm_job.py job.json`` by the Python that has bpy
 (its bundled USD has imaging; usd-core has none); of rockdove, :mod:`.jobs` alone. Each view, recorded by
-``FrameRecorder`` into ``<view>.exr``, may carry a ``time`` and ``only`` the meshes it draws (storm_motion's).
-"""
+``FrameRecorder`` into ``<view>.exr``, may carry a ``time`` and ``only`` the meshes it draws (storm_motion's)."""
 
 import ctypes
 import os

@@ -1,6 +1,5 @@
 """The web host: three.js's ``KHR_materials_iridescence`` (Belcour & Barla 2017) on the asset's ``pigeon.glb``, in
-headless Chromium (WebGL2 on SwiftShader), the offline viewer page drawing a float render target (``view_angle``).
-"""
+headless Chromium (WebGL2 on SwiftShader), the offline viewer page drawing a float render target (``view_angle``)."""
 
 from __future__ import annotations
 
