@@ -27,12 +27,9 @@ def targets(path: str) -> list[str]:
     from rockdove.usd.layout import resolve_root_layer
     from rockdove.usd.usdz import USDZ_NAME
 
-    root = resolve_root_layer(path)
-    out = [root]
-    usdz = os.path.join(path, USDZ_NAME)
-    if os.path.isdir(path) and os.path.isfile(usdz) and os.path.abspath(usdz) != os.path.abspath(root):
-        out.append(usdz)
-    return out
+    root, usdz = resolve_root_layer(path), os.path.join(path, USDZ_NAME)
+    both = os.path.isdir(path) and os.path.isfile(usdz) and os.path.abspath(usdz) != os.path.abspath(root)
+    return [root, usdz] if both else [root]
 
 
 def run(args: argparse.Namespace) -> int:

@@ -9,10 +9,10 @@ import shutil
 
 from ..errors import UsageError
 from . import bpy_runner
-from .base import ENVIRONMENT_RADIANCE, Host, HostError
+from .base import ENVIRONMENT_RADIANCE, HostError
 from .blender import cycles_job
 from .jobs import OslJob, OslShader
-from .materialx import Network, feather_networks, missing_variant
+from .materialx import MaterialXHost, Network, feather_networks
 
 #: host name -> (the ``shading`` variant drawn, its base-colour input ``node.input``, set to black)
 VARIANTS = {"osl": ("baked", "StructuralMix.bg"), "osl_physical": ("physical", "MtlxPhysicalSurface.base_color")}
@@ -27,7 +27,7 @@ TIMEOUT_S = 900
 WORKING_SPACE, EXR_SPACE = "ACEScg", "Linear Rec.709"
 
 
-class OSLHost(Host):
+class OSLHost(MaterialXHost):
     """The asset's MaterialX network as MaterialX's generated OSL in Cycles (module docstring)."""
 
     def unavailable(self) -> str | None:
@@ -36,9 +36,6 @@ class OSLHost(Host):
         except ImportError as exc:
             return f"MaterialX is not installed ({exc}); pip install MaterialX"
         return bpy_runner.unavailable()
-
-    def cannot_draw(self, asset_path: str) -> str | None:
-        return missing_variant(asset_path, self.variant)
 
     def render(self, asset_path: str, views, out_dir: str) -> dict:
         """:meth:`Host.render` of the host's network as OSL in Cycles; HostError with the compiler's error line."""
@@ -210,8 +207,7 @@ def _compiler_error(work: str) -> str | None:
             lines = fh.read().splitlines()
     except OSError:
         return None
-    errors = [ln.strip() for ln in lines if ".osl:" in ln and "error" in ln.lower()]
-    if not errors:
+    if not (errors := [ln.strip() for ln in lines if ".osl:" in ln and "error" in ln.lower()]):
         return None
     failed = next((ln.strip() for ln in lines if ln.startswith("OSL compile of ")), "the OSL compiler failed")
     return f"{failed}: {errors[0]} (log: {work}/blender.log)"
