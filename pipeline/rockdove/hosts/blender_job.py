@@ -103,8 +103,7 @@ def cycles(scene, job: jobs.CyclesJob) -> None:
     scene.cycles.transparent_max_bounces = int(job.transparent_bounces)
     scene.cycles.seed = 0
     scene.render.resolution_percentage = 100
-    scene.render.threads_mode = "FIXED"
-    scene.render.threads = int(job.threads)
+    scene.render.threads_mode, scene.render.threads = "FIXED", int(job.threads)
 
 
 def shoot(bpy, mathutils, to_blender, views: list[jobs.JobView], out_dir: str, ext: str, aim=None) -> dict:
@@ -129,15 +128,12 @@ def render_views(bpy, mathutils, to_blender, job: jobs.CyclesJob, colorspace: st
     :mod:`rockdove.hosts.osl_job`)."""
     scene = bpy.context.scene
     cycles(scene, job)
-    scene.cycles.use_denoising = False
-    scene.cycles.use_adaptive_sampling = False
+    scene.cycles.use_denoising = scene.cycles.use_adaptive_sampling = False
     scene.cycles.filter_width = 0.01
     scene.render.film_transparent = True
     scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
     settings = scene.render.image_settings
-    settings.file_format = "OPEN_EXR"
-    settings.color_depth = "32"
-    settings.color_mode = "RGBA"
+    settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGBA"
     if colorspace:  # set after file_format, which resets it
         settings.color_management = "OVERRIDE"
         settings.linear_colorspace_settings.name = colorspace

@@ -59,8 +59,7 @@ def script_material(bpy, name: str, oso: str, attributes=(), files=None):
     nodes = mat.node_tree.nodes
     nodes.clear()
     script = nodes.new("ShaderNodeScript")
-    script.mode = "EXTERNAL"
-    script.filepath = oso
+    script.mode, script.filepath = "EXTERNAL", oso
     errors = []
     cycles.osl.update_script_node(script, lambda kind, msg: errors.append(msg) if "ERROR" in kind else None)
     if errors or "out" not in script.outputs:
