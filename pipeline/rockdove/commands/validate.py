@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -42,9 +41,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     reports = [validate_asset(p, allow_external=args.allow_external_assets) for p in paths]
     if args.json:
-        json.dump({"clean": all(r.clean for r in reports), "reports": [r.to_dict() for r in reports]},
-                  sys.stdout, indent=2, sort_keys=True)
-        sys.stdout.write("\n")
+        print(json.dumps({"clean": all(r.clean for r in reports), "reports": [r.to_dict() for r in reports]},
+                         indent=2, sort_keys=True))
     else:
         print("\n".join(r.format() for r in reports))
     failed = [r for r in reports if not r.clean]

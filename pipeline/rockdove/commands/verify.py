@@ -7,7 +7,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 
 from .validate import add_external_argument
 
@@ -96,8 +95,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         from ..verify.report import strict_json
 
-        json.dump(strict_json(summary(report)), sys.stdout, indent=2, allow_nan=False)
-        sys.stdout.write("\n")
+        print(json.dumps(strict_json(summary(report)), indent=2, allow_nan=False))
     else:
         _print(report)
     if not result.passed:
