@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from typing import Any, NamedTuple
 
+from ..usd.layout import resolve_root_layer
 from .base import Host, HostError, save_pngs
 
 
@@ -29,7 +30,6 @@ class MaterialXHost(Host):
     def render(self, asset_path: str, views, out_dir: str | None) -> dict:
         """:meth:`Host.render` of the asset's ``variant`` network; HostError when reading, compiling or GL fails."""
         from ..render.scene import load_scene
-        from ..usd.layout import resolve_root_layer
         from .materialx_gl import draw
 
         name, variant, views = self.name, self.variant, list(views)
@@ -68,8 +68,6 @@ PHYSICAL = MaterialXHost("materialx_physical", "physical", "view_angle")
 def missing_variant(asset_path: str, variant: str) -> str | None:
     """Why a host cannot draw this asset (it carries no ``shading`` variant ``variant``), else None."""
     from pxr import Usd
-
-    from ..usd.layout import resolve_root_layer
 
     stage = Usd.Stage.Open(resolve_root_layer(asset_path), Usd.Stage.LoadNone)
     root = stage.GetDefaultPrim()

@@ -8,6 +8,7 @@ import os
 import shutil
 
 from ..errors import UsageError
+from ..usd.layout import resolve_root_layer
 from . import bpy_runner
 from .base import ENVIRONMENT_RADIANCE, HostError
 from .blender import cycles_job
@@ -39,8 +40,6 @@ class OSLHost(MaterialXHost):
 
     def render(self, asset_path: str, views, out_dir: str) -> dict:
         """:meth:`Host.render` of the host's network as OSL in Cycles; HostError with the compiler's error line."""
-        from ..usd.layout import resolve_root_layer
-
         name, views = self.name, list(views)
         variant, base = VARIANTS[name]
         bpy_runner.bpy_python(name)
