@@ -53,7 +53,7 @@ def test_cli_writes_the_addon_and_rejects_a_file_as_out(tmp_path):
 
 def test_host_declares_the_interface():
     assert (host.HOST.name, host.HOST.variant, host.HOST.lobe) == ("blender", "physical", "view_angle")
-    assert callable(host.render)
+    assert callable(host.HOST.render)
 
 
 # -- finding Blender: where make test put it, or where the user says ---------------------------------------------
@@ -110,7 +110,7 @@ def blender_renders(asset, tmp_path_factory):
     scene = load_scene(asset["interface"])
     views = default_views(scene, 64, 64, n=2)  # a turntable view and the light sweep's still camera
     out = tmp_path_factory.mktemp("blender_host")
-    return scene, views, host.render(asset["usdz"], views, str(out)), out
+    return scene, views, host.HOST.render(asset["usdz"], views, str(out)), out
 
 
 @needs_bpy
@@ -180,7 +180,7 @@ def test_blender_host_raises_host_error_naming_itself_when_the_addon_finds_no_fi
     stage.GetRootLayer().Save()
     view = View("v", np.eye(4), 0.5, 8, 8, (0, 0, 1), (1, 1, 1))
     with pytest.raises(HostError, match="no thin-film material") as info:
-        host.render(path, [view], str(tmp_path / "out"))
+        host.HOST.render(path, [view], str(tmp_path / "out"))
     assert "'blender'" in str(info.value)
 
 
@@ -193,7 +193,7 @@ def test_without_the_addon_blender_still_shows_green_and_purple_feathers(asset, 
     from rockdove.verify.reference_image import render_reference
 
     scene, views, _, _ = blender_renders
-    images = host.render(asset["usdz"], views, str(tmp_path), addon=False, lobe="as_imported", samples=4)
+    images = host.HOST.render(asset["usdz"], views, str(tmp_path), addon=False, lobe="as_imported", samples=4)
     classes = []
     for ref in render_reference(scene, views):
         feather_ids = [i + 1 for i, p in enumerate(scene.parts) if p.is_feather]

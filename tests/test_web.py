@@ -65,7 +65,7 @@ def test_web_host_agrees_with_the_exact_view_angle_reference(web_asset, tmp_path
     asset, _ = web_asset
     scene = load_scene(asset)
     view = [v for v in default_views(scene, 96, 96, n=2) if v.name.startswith("sweep_")][0]
-    rgb = web.render(str(asset), [view], str(tmp_path))[view.name]
+    rgb = web.HOST.render(str(asset), [view], str(tmp_path))[view.name]
     assert rgb.shape == (96, 96, 3) and rgb.dtype == np.float32
     assert np.all(rgb[0, 0] == 0)  # background 0
     assert (tmp_path / f"web_{view.name}.png").is_file()
@@ -92,7 +92,7 @@ def test_a_browser_that_cannot_start_is_a_named_host_failure(web_asset, tmp_path
     asset, _ = web_asset
     views = default_views(load_scene(asset), 32, 32, n=1)
     with pytest.raises(HostError, match=r"host 'web': false exited with status 1 \(start\)"):
-        web.render(str(asset), views, str(tmp_path), browser_factory=lambda: Browser(executable="false",
+        web.HOST.render(str(asset), views, str(tmp_path), browser_factory=lambda: Browser(executable="false",
                                                                                    start_timeout_s=20))
 
 

@@ -3,8 +3,7 @@
 ``rockdove build``, ``rockdove verify``, ``rockdove sweep``'s Dask workers, the benchmarks and the tests all call
 these functions; the command line only turns options into their arguments and results into text. Errors:
 :class:`rockdove.errors.UsageError` (a ``ValueError``) for bad configuration, output or asset, naming what was
-wrong, before anything is written; :class:`BuildFailed` when the build's verification fails.
-"""
+wrong, before anything is written; :class:`BuildFailed` when the build's verification fails."""
 
 from __future__ import annotations
 
@@ -105,18 +104,8 @@ class Verification:
     report_dir: Path
     report: Report = field(repr=False)
 
-    @classmethod
-    def from_report(cls, report: Report) -> Verification:
-        return cls(report.passed, report.failures, report.notes, report.hosts, Path(report.out_dir), report)
-
 
 # ----------------------------------------------------------------------------------------------- build
-def _result(graph, out: Path, cache_dir: Path, chash: str, t0: float, verified, report_dir, notes=(),
-            failure=None) -> BuildResult:
-    return BuildResult(out=out, cache=cache_dir, config_hash=chash, stages=tuple(graph.records.values()), verified=verified,
-                       report_dir=report_dir, notes=tuple(notes), seconds=time.perf_counter() - t0, failure=failure)
-
-
 def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os.PathLike | None = None,
           verify: bool = True, lock_timeout: float | None = None,
           progress: Callable[[str], None] | None = None) -> BuildResult:
@@ -147,6 +136,11 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
     main_thread = threading.current_thread() is threading.main_thread()
     old_term = signal.signal(signal.SIGTERM, raise_interrupt) if main_thread else None
     staging = None
+
+    def result(verified: bool | None, report_dir: Path | None, notes=(), failure=None) -> BuildResult:
+        return BuildResult(out, cache_dir, chash, tuple(graph.records.values()), verified, report_dir, tuple(notes),
+                           time.perf_counter() - t0, failure)
+
     try:
         with OutputLock(out, timeout_s=lock_timeout):
             recover(out)
@@ -164,8 +158,7 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
                 report_dir = graph.entry_dir(build_stages.VERIFY)
                 message = f"verification failed ({verdict.reason or 'see its report'}); {out} was left unchanged; " \
                           f"report in {report_dir}"
-                raise BuildFailed(message, _result(graph, out, cache_dir, chash, t0, False, report_dir,
-                                                   verdict.notes, failure=verdict.reason))
+                raise BuildFailed(message, result(False, report_dir, verdict.notes, verdict.reason))
             publish(staging, out)
             staging = None
     finally:
@@ -173,9 +166,7 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
             shutil.rmtree(staging, ignore_errors=True)
         if main_thread:
             signal.signal(signal.SIGTERM, old_term)
-    if verdict is None:
-        return _result(graph, out, cache_dir, chash, t0, None, None)
-    return _result(graph, out, cache_dir, chash, t0, True, out / "verify", verdict.notes)
+    return result(None, None) if verdict is None else result(True, out / "verify", verdict.notes)
 
 
 # ----------------------------------------------------------------------------------------------- verify
@@ -220,4 +211,5 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
         for name in ("report.json", "report.html"):  # they name the folder they will be in
             f = staging / name
             f.write_text(f.read_text().replace(staging.name, final.name))
-    return Verification.from_report(replace(report, out_dir=str(final)))
+    report = replace(report, out_dir=str(final))
+    return Verification(report.passed, report.failures, report.notes, report.hosts, Path(report.out_dir), report)

@@ -1,8 +1,7 @@
 """The ``rockdove`` command line. Each of :data:`COMMANDS` is ``rockdove/commands/<name>.py`` (imported only when
 it runs) with ``add_arguments(parser)`` and ``run(args) -> exit status``. Errors are one line on stderr
 (:mod:`rockdove.errors`): :class:`~rockdove.errors.RockdoveError` and ``OSError`` exit 2,
-:class:`~rockdove.errors.VerificationFailed` 1; any other exception is a bug and shows its traceback.
-"""
+:class:`~rockdove.errors.VerificationFailed` 1; any other exception is a bug and shows its traceback."""
 
 from __future__ import annotations
 
@@ -99,8 +98,7 @@ def _log_to_stderr(command: str, quiet: bool) -> None:
     """The library reports through the ``rockdove`` logger; the command line shows its messages on stderr as
     ``rockdove COMMAND: message`` (``--quiet`` and ``--json``: warnings and errors only)."""
     logger = logging.getLogger("rockdove")
-    for old in list(logger.handlers):
-        logger.removeHandler(old)
+    logger.handlers.clear()
     handler = logging.StreamHandler()
     handler.setFormatter(logging.Formatter(f"rockdove {command}: %(message)s"))
     logger.addHandler(handler)

@@ -1,7 +1,6 @@
 """``rockdove blender-addon --out DIR``: write the Blender add-on ``DIR/rockdove_blender.zip`` (Blender 4.2 or
 later: Edit > Preferences > Add-ons > Install from Disk, or the two ``bpy.ops`` calls it prints), with which a USD
-import of the asset gives the neck feathers Cycles' physical thin film (``materials/blender/rockdove_blender``).
-"""
+import of the asset gives the neck feathers Cycles' physical thin film (``materials/blender/rockdove_blender``)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
 """``rockdove build``: options into :func:`rockdove.api.build`'s arguments, its result into text, and ``--watch``.
-A failed verification publishes nothing and exits 1; Ctrl-C and SIGTERM leave the previous asset in place.
-"""
+A failed verification publishes nothing and exits 1; Ctrl-C and SIGTERM leave the previous asset in place."""
 
 from __future__ import annotations
 

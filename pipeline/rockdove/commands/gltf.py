@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 
 from ..errors import UsageError
 from .validate import add_external_argument
@@ -41,10 +40,9 @@ def run(args: argparse.Namespace) -> int:
     except RuntimeError as exc:
         raise UsageError(str(exc)) from None
     if args.json:  # the validator's first 20 messages as it wrote them
-        json.dump({**export._asdict(), **({} if v is None else {"validation": {
+        print(json.dumps({**export._asdict(), **({} if v is None else {"validation": {
             "numErrors": v.errors, "numWarnings": v.warnings, "numInfos": v.infos, "numHints": v.hints,
-            "messages": v.messages[:20]}})}, sys.stdout, indent=2)
-        sys.stdout.write("\n")
+            "messages": v.messages[:20]}})}, indent=2))
     else:
         lo, hi = export.thickness_range_nm
         print(f"wrote {export.path} ({export.bytes} bytes): iridescenceIor {export.iridescence_ior:.4f} at "

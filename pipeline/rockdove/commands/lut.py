@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import time
 
@@ -12,13 +13,8 @@ DEFAULT_ERROR_POINTS = 1000
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..lut.bake import (
-        BAKE_METHODS,
-        DEFAULT_ANGLE_WARP_GAMMA,
-        DEFAULT_ANGLES,
-        DEFAULT_THICKNESS_RANGE_NM,
-        DEFAULT_THICKNESSES,
-    )
+    from ..lut import BAKE_METHODS
+    from ..lut.bake import DEFAULT_ANGLE_WARP_GAMMA, DEFAULT_ANGLES, DEFAULT_THICKNESS_RANGE_NM, DEFAULT_THICKNESSES
 
     parser.add_argument("--out", required=True, metavar="PATH.exr", help="output EXR file (preview: PATH.png)")
     parser.add_argument("--angles", type=int, default=DEFAULT_ANGLES, metavar="N", help="angle texels (2 .. 4096)")
@@ -37,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..graph.publish import check_output_file, starts_like
-    from ..lut import bake, write_exr, write_preview_png
+    from ..lut import bake, lut_error, write_exr, write_preview_png
     from ..resources import atomic_path
 
     if not args.out.lower().endswith(".exr"):
@@ -65,12 +61,9 @@ def run(args: argparse.Namespace) -> int:
     bake_s = time.perf_counter() - t0
     if args.error_points:
         from ..lut.bake import error_metadata
-        from ..lut.reference import lut_error
-        from ..lut.table import ThinFilmLUT
 
         err = lut_error(lut, args.film, n_points=args.error_points, seed=0)
-        lut = ThinFilmLUT(lut.rgb, lut.thickness_range_nm, lut.angle_warp_gamma, lut.colour_space,
-                          {**lut.metadata, **error_metadata(err)})
+        lut = dataclasses.replace(lut, metadata={**lut.metadata, **error_metadata(err)})
     os.makedirs(os.path.dirname(out), exist_ok=True)
     png = os.path.splitext(out)[0] + ".png"
     for path, write in ((out, write_exr), (png, write_preview_png)):  # each written beside, then swapped in

@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -27,12 +26,9 @@ def targets(path: str) -> list[str]:
     from rockdove.usd.layout import resolve_root_layer
     from rockdove.usd.usdz import USDZ_NAME
 
-    root = resolve_root_layer(path)
-    out = [root]
-    usdz = os.path.join(path, USDZ_NAME)
-    if os.path.isdir(path) and os.path.isfile(usdz) and os.path.abspath(usdz) != os.path.abspath(root):
-        out.append(usdz)
-    return out
+    root, usdz = resolve_root_layer(path), os.path.join(path, USDZ_NAME)
+    both = os.path.isdir(path) and os.path.isfile(usdz) and os.path.abspath(usdz) != os.path.abspath(root)
+    return [root, usdz] if both else [root]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -45,9 +41,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     reports = [validate_asset(p, allow_external=args.allow_external_assets) for p in paths]
     if args.json:
-        json.dump({"clean": all(r.clean for r in reports), "reports": [r.to_dict() for r in reports]},
-                  sys.stdout, indent=2, sort_keys=True)
-        sys.stdout.write("\n")
+        print(json.dumps({"clean": all(r.clean for r in reports), "reports": [r.to_dict() for r in reports]},
+                         indent=2, sort_keys=True))
     else:
         print("\n".join(r.format() for r in reports))
     failed = [r for r in reports if not r.clean]

@@ -1,20 +1,18 @@
 """``rockdove verify ASSET``: :func:`rockdove.api.verify` (the build's verification with its cache: what a build or
 an earlier verification checked is not rendered again) and its results as text or ``--json``. Exit status 0 when
-everything passes, 1 when a check fails, 2 on bad usage.
-"""
+everything passes, 1 when a check fails, 2 on bad usage."""
 
 from __future__ import annotations
 
 import argparse
 import json
 import os
-import sys
 
 from .validate import add_external_argument
 
 
 def _ranged(key: str, unit: str):
-    """An argparse type: an integer within the schema's range of config ``key`` (the memory budget)."""
+    """An argparse type: an integer within the schema's range of config ``key`` (its one source)."""
     def parse(text: str) -> int:
         from ..config import limits
 
@@ -23,12 +21,6 @@ def _ranged(key: str, unit: str):
             raise argparse.ArgumentTypeError(f"must be an integer from {lo} to {hi} {unit}, got {text!r}")
         return int(text)
     return parse
-
-
-def _samples(text: str) -> int:
-    if not text.isdigit() or not 1 <= int(text) <= 4096:
-        raise argparse.ArgumentTypeError(f"must be an integer from 1 to 4096 samples per pixel, got {text!r}")
-    return int(text)
 
 
 def _beauty_size(text: str) -> tuple:
@@ -66,7 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(default: Cycles when the blender host runs, else GL; [beauty] in the schema)")
     parser.add_argument("--beauty-size", type=_beauty_size, default=(None, None), metavar="WxH",
                         help="beauty render size, pixels (default 768x512)")
-    parser.add_argument("--beauty-samples", type=_samples, default=None, metavar="N",
+    parser.add_argument("--beauty-samples", type=_ranged("beauty.samples", "samples per pixel"), metavar="N",
                         help="Cycles samples per pixel of the beauty render (default 32, adaptive, denoised)")
     parser.add_argument("--junit", metavar="FILE", default=None,
                         help="also write the verification as JUnit XML (a test case per validator, view and host "
@@ -84,12 +76,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from .. import api
-    from ..errors import VerificationFailed
+    from ..errors import UsageError, VerificationFailed
     from ..verify.verdict import summary
 
     if args.times and not args.motion:
-        from ..errors import UsageError
-
         raise UsageError(f"--time {args.times[0]:g} needs --motion: the time codes are a motion's")
     hosts = None if args.hosts is None else [h for h in args.hosts.split(",") if h.strip()]
     result = api.verify(args.asset, hosts, cache=args.cache, out=args.out, width=args.width, height=args.height,
@@ -105,8 +95,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         from ..verify.report import strict_json
 
-        json.dump(strict_json(summary(report)), sys.stdout, indent=2, allow_nan=False)
-        sys.stdout.write("\n")
+        print(json.dumps(strict_json(summary(report)), indent=2, allow_nan=False))
     else:
         _print(report)
     if not result.passed:
@@ -135,8 +124,7 @@ def _print(report) -> None:
             print(f"host {host.name} ({host.variant}, {host.lobe}): {m.n_pixels} px  dE2000 median "
                   f"{m.median_dE:.3f}  p95 {m.p95_dE:.3f}  green {m.green_px}  purple {m.purple_px}  "
                   f"hue agreement {m.hue_agreement:.1%}  {'ok' if host.passed else 'FAIL'}")
-    if report.motion:
-        mo = report.motion
+    if mo := report.motion:
         print(f"motion {mo.motion} ({mo.frames} time codes):", ", ".join(
             f"{k} {v:.4g}" for k, v in mo.measures.items()))
     print("anatomy (rockdove.verify.anatomy):", *format_rows(report.anatomy), sep="\n")

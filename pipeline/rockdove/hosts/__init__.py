@@ -1,6 +1,5 @@
 """Hosts: adapters at the edge that read the WRITTEN asset and render it with their own code (docs/hosts.md), in
-:data:`HOSTS`. ``rockdove verify --hosts`` reports the unavailable ones as skips with their reasons, never a pass.
-"""
+:data:`HOSTS`. ``rockdove verify --hosts`` reports the unavailable ones as skips with their reasons, never a pass."""
 
 from __future__ import annotations
 
@@ -57,8 +56,7 @@ def select(names=None) -> Selection:
     names = list(DEFAULT) if names is None else [str(n).strip() for n in names]
     if names == ["all"]:
         names = list(HOSTS)
-    unknown = [n for n in names if n not in HOSTS]
-    if unknown:
+    if unknown := [n for n in names if n not in HOSTS]:
         raise UsageError(f"hosts: {', '.join(map(repr, unknown))} unknown; allowed: {', '.join(HOSTS)}")
     found = {name: _reason(HOSTS[name]) for name in dict.fromkeys([ALWAYS, *names])}
     return Selection(tuple(HOSTS[n] for n, why in found.items() if why is None),

@@ -1,6 +1,5 @@
 """The host contract (as OpenUSD's ``BaseRuleChecker`` defines a rule): a host renders the WRITTEN asset with its own
-code, compared with the exact reference of its :data:`Lobe`; one instance per network (docs/design.md, "Hosts").
-"""
+code, compared with the exact reference of its :data:`Lobe`; one instance per network (docs/design.md, "Hosts")."""
 
 from __future__ import annotations
 

@@ -28,8 +28,7 @@ def render_cycles(layer: str, scene, views, out_dir: str, samples: int) -> dict:
         sky_horizon_rgb=setup.SKY_HORIZON_RGB, sky_zenith_rgb=setup.SKY_ZENITH_RGB, sky_strength=setup.SKY_STRENGTH,
         sun_strength=setup.SUN_STRENGTH, sun_rgb=setup.SUN_RGB, sun_angle_deg=setup.SUN_ANGLE_DEG, look=setup.LOOK,
         exposure=setup.EXPOSURE)
-    script = importlib.util.find_spec("rockdove.hosts.blender_beauty_job").origin
-    runner.run_job(job, work, script, setup.TIMEOUT_S)
+    runner.run_job(job, work, importlib.util.find_spec("rockdove.hosts.blender_beauty_job").origin, setup.TIMEOUT_S)
     return runner.read_views(NAME, "Blender", views, work, "png")
 
 
@@ -76,10 +75,9 @@ def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", wi
 def for_report(layer: str, scene, out_dir: str, settings: dict, *, cycles_ok: bool, lut=None) -> tuple:
     """:func:`render_beauty` for the report: ``(entry or None, note or None)``. The picture is not a measurement, so a
     renderer that fails leaves a note, never a failed verification; Cycles asked for and GL got is noted too."""
-    keys = ("renderer", "width", "height", "samples")
     try:
-        entry = render_beauty(layer, scene, out_dir, cycles_ok=cycles_ok, lut=lut,
-                              **{k: settings[k] for k in keys if k in settings})
+        entry = render_beauty(layer, scene, out_dir, cycles_ok=cycles_ok, lut=lut, **{
+            k: settings[k] for k in ("renderer", "width", "height", "samples") if k in settings})
     except Exception as exc:  # noqa: BLE001 - any renderer's error: the report goes on without the picture
         return None, f"no beauty render: {type(exc).__name__}: {exc}"
     allowed = settings.get("renderer") == "cycles" or (settings.get("renderer", "auto") == "auto" and cycles_ok)

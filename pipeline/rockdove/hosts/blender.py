@@ -1,7 +1,6 @@
 """The Blender host: the written asset imported by Blender (``bpy``) as a user gets it, with the rockdove add-on
 (its ``USDHook`` builds the thin-film material from ``rockdove:film:*``), drawn by Cycles in a subprocess
-(:mod:`rockdove.hosts.blender_job`: bpy's bundled USD and usd-core's ``pxr`` cannot share one process).
-"""
+(:mod:`rockdove.hosts.blender_job`: bpy's bundled USD and usd-core's ``pxr`` cannot share one process)."""
 
 from __future__ import annotations
 
@@ -60,27 +59,9 @@ def root_object(asset_path: str) -> str:
     return layer.defaultPrim
 
 
-#: What :func:`render` can draw: the film lobe alone (the verification render), or the asset as Blender
+#: What :meth:`BlenderHost.render` can draw: the film lobe alone (the verification render), or the asset as Blender
 #: imported it (every material untouched) under the same white world: what a user sees.
 LOBES = (LOBE, "as_imported")
-
-
-def render(asset_path: str, views, out_dir: str, *, addon: bool = True, lobe: str = LOBE,
-           samples: int = SAMPLES, frame: int | None = None) -> dict:
-    """:meth:`Host.render` in Blender (Cycles) into ``out_dir/blender/``; ``addon=False``: its importer alone (the
-    UsdPreviewSurface look); ``frame``: of an animated asset. HostError when Blender or the add-on fails."""
-    bpy_python(NAME)  # bpy missing: HostError before any work
-    views = list(views)
-    if lobe not in LOBES or (lobe == LOBE and not addon):
-        raise UsageError(f"lobe={lobe!r} with addon={addon}; allowed: {LOBES[0]!r} (needs the add-on) or {LOBES[1]!r}")
-    asset_path = os.path.abspath(os.fspath(asset_path))
-    if not os.path.isfile(asset_path):
-        raise HostError(NAME, f"no asset at {asset_path!r}")
-    work = work_folder(NAME, views, out_dir)
-    job = cycles_job(BlenderJob, asset_path, job_views(views), work, samples, addon=addon, lobe=lobe,
-                     environment_radiance=ENVIRONMENT_RADIANCE, frame=frame)
-    run_job(job, work, importlib.util.find_spec("rockdove.hosts.blender_job").origin)
-    return read_views(NAME, "Blender", views, work)
 
 
 def cycles_job(kind: type[J], asset: str, views: list[JobView], work: str, samples: int, *, addon: bool = True,
@@ -98,8 +79,23 @@ class BlenderHost(Host):
     def unavailable(self) -> str | None:
         return unavailable()
 
-    def render(self, asset_path: str, views, out_dir: str) -> dict:
-        return render(asset_path, views, out_dir)
+    def render(self, asset_path: str, views, out_dir: str, *, addon: bool = True, lobe: str = LOBE,
+               samples: int = SAMPLES, frame: int | None = None) -> dict:
+        """:meth:`Host.render` in Blender (Cycles) into ``out_dir/blender/``; ``addon=False``: its importer alone (the
+        UsdPreviewSurface look); ``frame``: of an animated asset. HostError when Blender or the add-on fails."""
+        bpy_python(NAME)  # bpy missing: HostError before any work
+        views = list(views)
+        if lobe not in LOBES or (lobe == LOBE and not addon):
+            raise UsageError(f"lobe={lobe!r} with addon={addon}; allowed: {LOBES[0]!r} (needs the add-on) or "
+                             f"{LOBES[1]!r}")
+        asset_path = os.path.abspath(os.fspath(asset_path))
+        if not os.path.isfile(asset_path):
+            raise HostError(NAME, f"no asset at {asset_path!r}")
+        work = work_folder(NAME, views, out_dir)
+        job = cycles_job(BlenderJob, asset_path, job_views(views), work, samples, addon=addon, lobe=lobe,
+                         environment_radiance=ENVIRONMENT_RADIANCE, frame=frame)
+        run_job(job, work, importlib.util.find_spec("rockdove.hosts.blender_job").origin)
+        return read_views(NAME, "Blender", views, work)
 
 
 HOST = BlenderHost(NAME, "physical", LOBE)

@@ -1,7 +1,6 @@
 """The Blender side of the beauty render (:mod:`rockdove.render.beauty`), run like :mod:`.blender_job`: the asset as
 a user imports it, staged as a hero shot (cyclorama ground, sky-gradient world, a warm sun from each view's own
-direction), Cycles with OpenImageDenoise, an 8-bit PNG per view through AgX.
-"""
+direction), Cycles with OpenImageDenoise, an 8-bit PNG per view through AgX."""
 
 from __future__ import annotations
 

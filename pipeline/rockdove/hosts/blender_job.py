@@ -2,8 +2,7 @@
 has bpy; stdlib, bpy and :mod:`.jobs` only. Its own process: the add-on's ``USDHook`` gets a stage only bpy's ``pxr``
 can read (measured: "No to_python converter found for C++ type ... UsdStage" with usd-core's). For ``view_angle``:
 the film smooth, its base black, every other material black but occluding, under a uniform white world (no
-inter-reflection, as the reference assumes); a 0.01 px pixel filter (pixel centres, like the reference).
-"""
+inter-reflection, as the reference assumes); a 0.01 px pixel filter (pixel centres, like the reference)."""
 
 from __future__ import annotations
 
@@ -104,8 +103,7 @@ def cycles(scene, job: jobs.CyclesJob) -> None:
     scene.cycles.transparent_max_bounces = int(job.transparent_bounces)
     scene.cycles.seed = 0
     scene.render.resolution_percentage = 100
-    scene.render.threads_mode = "FIXED"
-    scene.render.threads = int(job.threads)
+    scene.render.threads_mode, scene.render.threads = "FIXED", int(job.threads)
 
 
 def shoot(bpy, mathutils, to_blender, views: list[jobs.JobView], out_dir: str, ext: str, aim=None) -> dict:
@@ -130,15 +128,12 @@ def render_views(bpy, mathutils, to_blender, job: jobs.CyclesJob, colorspace: st
     :mod:`rockdove.hosts.osl_job`)."""
     scene = bpy.context.scene
     cycles(scene, job)
-    scene.cycles.use_denoising = False
-    scene.cycles.use_adaptive_sampling = False
+    scene.cycles.use_denoising = scene.cycles.use_adaptive_sampling = False
     scene.cycles.filter_width = 0.01
     scene.render.film_transparent = True
     scene.render.pixel_aspect_x = scene.render.pixel_aspect_y = 1.0
     settings = scene.render.image_settings
-    settings.file_format = "OPEN_EXR"
-    settings.color_depth = "32"
-    settings.color_mode = "RGBA"
+    settings.file_format, settings.color_depth, settings.color_mode = "OPEN_EXR", "32", "RGBA"
     if colorspace:  # set after file_format, which resets it
         settings.color_management = "OVERRIDE"
         settings.linear_colorspace_settings.name = colorspace
@@ -153,7 +148,7 @@ def run(job: jobs.BlenderJob) -> None:
     addon, films, to_blender = import_asset(bpy, job)
     if job.frame is not None:  # an animated asset (its armature's action) at that frame
         bpy.context.scene.frame_set(int(job.frame))
-    if job.lobe == "view_angle":  # else "as_imported" (rockdove.hosts.blender.render checks)
+    if job.lobe == "view_angle":  # else "as_imported" (BlenderHost.render checks)
         film_lobe_only(bpy, addon)
     white_world(bpy, job.environment_radiance)
     render_views(bpy, mathutils, to_blender, job)

@@ -1,7 +1,6 @@
 """The bpy job runner the Blender, Storm and OSL hosts and the beauty render share: find a Python that has bpy, run
 a ``*_job.py`` script in it by file on a :mod:`.jobs` record (stdlib only, so that Python needs no rockdove; its own
-process, because bpy's bundled USD cannot share one with usd-core's ``pxr``), read back the images it wrote.
-"""
+process, because bpy's bundled USD cannot share one with usd-core's ``pxr``), read back the images it wrote."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
 """The ``glsl`` host: the project's paper shaders (``materials/glsl/thinfilm.*``) in pyrender through EGL, compared
-with the paper's half-angle model; a LUT-less asset is verified with a LUT baked in memory instead.
-"""
+with the paper's half-angle model; a LUT-less asset is verified with a LUT baked in memory instead."""
 
 from __future__ import annotations
 

@@ -1,13 +1,13 @@
 """The ``materialx`` and ``materialx_physical`` hosts: the asset's ``baked`` and ``physical`` MaterialX networks,
 read from the written USD as Hydra's HdMtlx does, as GLSL by MaterialX's ``GlslShaderGenerator``, drawn offscreen
 in the project's EGL (:mod:`rockdove.hosts.materialx_gl`). OpenPBR's GLSL thin film is an approximation, so
-``materialx_physical`` is judged on green, purple and hue-class agreement (docs/design.md, "Hosts").
-"""
+``materialx_physical`` is judged on green, purple and hue-class agreement (docs/design.md, "Hosts")."""
 
 from __future__ import annotations
 
 from typing import Any, NamedTuple
 
+from ..usd.layout import resolve_root_layer
 from .base import Host, HostError, save_pngs
 
 
@@ -28,7 +28,36 @@ class MaterialXHost(Host):
         return missing_variant(asset_path, self.variant)
 
     def render(self, asset_path: str, views, out_dir: str | None) -> dict:
-        return render_variant(asset_path, views, out_dir, variant=self.variant, name=self.name)
+        """:meth:`Host.render` of the asset's ``variant`` network; HostError when reading, compiling or GL fails."""
+        from ..render.scene import load_scene
+        from .materialx_gl import draw
+
+        name, variant, views = self.name, self.variant, list(views)
+        try:
+            layer = resolve_root_layer(asset_path)
+            scene = load_scene(layer, variants={"shading": variant})
+            networks = feather_networks(layer, variant)
+            import MaterialX.PyMaterialXGenGlsl as mx_glsl
+            import MaterialX.PyMaterialXGenShader as mx_gen
+
+            sources = {}
+            for path, net in networks.items():  # MaterialX's GLSL of each mesh's surfacematerial, two-sided
+                shader = generate(net.doc, net.material, mx_glsl.GlslShaderGenerator.create(), hwTransparency=True)
+                vert, frag = (shader.getSourceCode(stage) for stage in (mx_gen.VERTEX_STAGE, mx_gen.PIXEL_STAGE))
+                sources[path] = (vert, two_sided(frag))
+        except (ValueError, RuntimeError) as exc:
+            raise HostError(name, f"cannot turn the asset's MaterialX network into GLSL: {exc}") from None
+        except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
+            raise HostError(name, f"MaterialX shader generation failed: {type(exc).__name__}: {exc}") from None
+        try:
+            images = draw(scene, networks, sources, views, name=name)
+        except HostError:
+            raise
+        except Exception as exc:
+            raise HostError(name, f"GL drawing failed: {type(exc).__name__}: {exc}") from None
+        if out_dir:
+            save_pngs(images, out_dir, name)
+        return images
 
 
 #: The asset's default network for MaterialX hosts (``baked``) and OpenPBR's thin film (``physical``).
@@ -40,8 +69,6 @@ def missing_variant(asset_path: str, variant: str) -> str | None:
     """Why a host cannot draw this asset (it carries no ``shading`` variant ``variant``), else None."""
     from pxr import Usd
 
-    from ..usd.layout import resolve_root_layer
-
     stage = Usd.Stage.Open(resolve_root_layer(asset_path), Usd.Stage.LoadNone)
     root = stage.GetDefaultPrim()
     vsets = root.GetVariantSets() if root else None
@@ -50,15 +77,6 @@ def missing_variant(asset_path: str, variant: str) -> str | None:
 
 
 # -- the asset's MaterialX network -> GLSL ----------------------------------------------------------------------
-def generate_glsl(doc, material_name: str) -> tuple[str, str]:
-    """Vertex and pixel shader of ``material_name`` (a ``surfacematerial`` of ``doc``) by ``GlslShaderGenerator``."""
-    import MaterialX.PyMaterialXGenGlsl as mx_glsl
-    import MaterialX.PyMaterialXGenShader as mx_gen
-
-    shader = generate(doc, material_name, mx_glsl.GlslShaderGenerator.create(), hwTransparency=True)
-    return shader.getSourceCode(mx_gen.VERTEX_STAGE), shader.getSourceCode(mx_gen.PIXEL_STAGE)
-
-
 def generate(doc, material_name: str, generator, **options):
     """MaterialX's ``generator`` run on ``material_name`` with colour management and images flipped (first row)."""
     import MaterialX as mx
@@ -138,31 +156,3 @@ def feather_networks(layer: str, variant: str) -> dict[str, Network]:
     return out
 
 
-def render_variant(asset_path: str, views, out_dir: str | None, *, variant: str, name: str) -> dict:
-    """:meth:`Host.render` of the asset's ``variant`` network; HostError when reading, compiling or GL fails."""
-    from ..render.scene import load_scene
-    from ..usd.layout import resolve_root_layer
-    from .materialx_gl import draw
-
-    views = list(views)
-    try:
-        layer = resolve_root_layer(asset_path)
-        scene = load_scene(layer, variants={"shading": variant})
-        networks = feather_networks(layer, variant)
-        sources = {}
-        for path, net in networks.items():
-            vert, frag = generate_glsl(net.doc, net.material)
-            sources[path] = (vert, two_sided(frag))
-    except (ValueError, RuntimeError) as exc:
-        raise HostError(name, f"cannot turn the asset's MaterialX network into GLSL: {exc}") from None
-    except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
-        raise HostError(name, f"MaterialX shader generation failed: {type(exc).__name__}: {exc}") from None
-    try:
-        images = draw(scene, networks, sources, views, name=name)
-    except HostError:
-        raise
-    except Exception as exc:
-        raise HostError(name, f"GL drawing failed: {type(exc).__name__}: {exc}") from None
-    if out_dir:
-        save_pngs(images, out_dir, name)
-    return images

@@ -23,16 +23,13 @@ def _compile(vert: str, frag: str, name: str) -> int:
             lines = log.decode(errors="replace").strip().splitlines()
             raise HostError(name, f"generated shader does not {what}: {lines[0] if lines else '?'}")
 
-    def stage(kind, src):
+    prog = GL.glCreateProgram()
+    for kind, src in ((GL.GL_VERTEX_SHADER, vert), (GL.GL_FRAGMENT_SHADER, frag)):
         sh = GL.glCreateShader(kind)
         GL.glShaderSource(sh, src)
         GL.glCompileShader(sh)
         check(GL.glGetShaderiv(sh, GL.GL_COMPILE_STATUS), GL.glGetShaderInfoLog(sh), "compile")
-        return sh
-
-    prog = GL.glCreateProgram()
-    for s in (stage(GL.GL_VERTEX_SHADER, vert), stage(GL.GL_FRAGMENT_SHADER, frag)):
-        GL.glAttachShader(prog, s)
+        GL.glAttachShader(prog, sh)
     GL.glLinkProgram(prog)
     check(GL.glGetProgramiv(prog, GL.GL_LINK_STATUS), GL.glGetProgramInfoLog(prog), "link")
     return prog
@@ -72,8 +69,7 @@ def read_image_file(path: str) -> np.ndarray:
 
 def _projection(view, near: float, far: float) -> np.ndarray:
     f = 1.0 / np.tan(0.5 * view.yfov_rad)
-    aspect = view.width / view.height
-    return np.array([[f / aspect, 0, 0, 0], [0, f, 0, 0],
+    return np.array([[f / view.aspect, 0, 0, 0], [0, f, 0, 0],
                      [0, 0, (far + near) / (near - far), 2 * far * near / (near - far)], [0, 0, -1, 0]])
 
 
@@ -156,8 +152,7 @@ def _draw_in_context(GL, scene, networks, sources, views, name, w, h) -> dict:
             GL.glBindVertexArray(vao)
             GL.glDrawElements(GL.GL_TRIANGLES, n, GL.GL_UNSIGNED_INT, None)
         GL.glFinish()
-        pixels = GL.glReadPixels(0, 0, w, h, GL.GL_RGBA, GL.GL_FLOAT)
-        rgba = np.frombuffer(pixels, np.float32).reshape(h, w, 4)[::-1]
+        rgba = np.frombuffer(GL.glReadPixels(0, 0, w, h, GL.GL_RGBA, GL.GL_FLOAT), np.float32).reshape(h, w, 4)[::-1]
         out[view.name] = np.ascontiguousarray(rgba[:, :, :3])
     err = GL.glGetError()
     if err != GL.GL_NO_ERROR:

@@ -1,6 +1,5 @@
 """The ``osl`` and ``osl_physical`` hosts: the asset's MaterialX networks as OSL by MaterialX's generator, compiled by
-Blender's bundled OSL and rendered by Cycles with OSL on (the MaterialX path of Arnold, RenderMan, Karma CPU).
-"""
+Blender's bundled OSL and rendered by Cycles with OSL on (the MaterialX path of Arnold, RenderMan, Karma CPU)."""
 
 from __future__ import annotations
 
@@ -9,11 +8,12 @@ import os
 import shutil
 
 from ..errors import UsageError
+from ..usd.layout import resolve_root_layer
 from . import bpy_runner
-from .base import ENVIRONMENT_RADIANCE, Host, HostError
+from .base import ENVIRONMENT_RADIANCE, HostError
 from .blender import cycles_job
 from .jobs import OslJob, OslShader
-from .materialx import Network, missing_variant
+from .materialx import MaterialXHost, Network, feather_networks
 
 #: host name -> (the ``shading`` variant drawn, its base-colour input ``node.input``, set to black)
 VARIANTS = {"osl": ("baked", "StructuralMix.bg"), "osl_physical": ("physical", "MtlxPhysicalSurface.base_color")}
@@ -28,7 +28,7 @@ TIMEOUT_S = 900
 WORKING_SPACE, EXR_SPACE = "ACEScg", "Linear Rec.709"
 
 
-class OSLHost(Host):
+class OSLHost(MaterialXHost):
     """The asset's MaterialX network as MaterialX's generated OSL in Cycles (module docstring)."""
 
     def unavailable(self) -> str | None:
@@ -38,11 +38,42 @@ class OSLHost(Host):
             return f"MaterialX is not installed ({exc}); pip install MaterialX"
         return bpy_runner.unavailable()
 
-    def cannot_draw(self, asset_path: str) -> str | None:
-        return missing_variant(asset_path, self.variant)
-
     def render(self, asset_path: str, views, out_dir: str) -> dict:
-        return render_variant(asset_path, views, out_dir, name=self.name)
+        """:meth:`Host.render` of the host's network as OSL in Cycles; HostError with the compiler's error line."""
+        name, views = self.name, list(views)
+        variant, base = VARIANTS[name]
+        bpy_runner.bpy_python(name)
+        try:
+            networks = feather_networks(layer := resolve_root_layer(asset_path), variant)
+        except (ValueError, RuntimeError, OSError) as exc:
+            raise HostError(name, f"cannot read the asset's MaterialX network: {exc}") from None
+        work = bpy_runner.work_folder(name, views, out_dir)
+        for header in osl_headers():
+            shutil.copyfile(header, os.path.join(work, os.path.basename(header)))
+        shaders = {}
+        try:
+            for mesh, net in networks.items():
+                doc, files = lobe_document(net, base)
+                code = generate_osl(doc, net.material)
+                if not all(f'string {param} = ""' in code for param in files):
+                    raise UsageError(f"MaterialX named the image parameters otherwise than {sorted(files)}")
+                source = os.path.join(work, f"{net.material}.osl")
+                with open(source, "w", encoding="utf-8") as fh:
+                    fh.write(for_cycles(code))
+                shaders[mesh] = OslShader(source, geomprops(net.doc), files)
+        except ValueError as exc:
+            raise HostError(name, f"cannot turn the asset's MaterialX network into OSL: {exc}") from None
+        except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
+            raise HostError(name, f"MaterialX OSL generation failed: {type(exc).__name__}: {exc}") from None
+        job = cycles_job(OslJob, os.path.abspath(layer), bpy_runner.job_views(views), work, SAMPLES, addon=False,
+                         shaders=shaders, environment_radiance=ENVIRONMENT_RADIANCE, working_space=WORKING_SPACE,
+                         exr_colorspace=EXR_SPACE)
+        try:
+            bpy_runner.run_job(job, work, importlib.util.find_spec("rockdove.hosts.osl_job").origin, TIMEOUT_S,
+                               host=name, renderer="Cycles (OSL)")
+        except HostError as exc:
+            raise HostError(name, _compiler_error(work) or exc.message) from None
+        return bpy_runner.read_views(name, "Cycles (OSL)", views, work)
 
 
 def generate_osl(doc, material_name: str) -> str:
@@ -175,52 +206,10 @@ def _compiler_error(work: str) -> str | None:
             lines = fh.read().splitlines()
     except OSError:
         return None
-    errors = [ln.strip() for ln in lines if ".osl:" in ln and "error" in ln.lower()]
-    if not errors:
+    if not (errors := [ln.strip() for ln in lines if ".osl:" in ln and "error" in ln.lower()]):
         return None
     failed = next((ln.strip() for ln in lines if ln.startswith("OSL compile of ")), "the OSL compiler failed")
     return f"{failed}: {errors[0]} (log: {work}/blender.log)"
-
-
-def render_variant(asset_path: str, views, out_dir: str, *, name: str) -> dict:
-    """:meth:`Host.render` of host ``name``'s network as OSL in Cycles; HostError with the compiler's error line."""
-    from ..usd.layout import resolve_root_layer
-    from .materialx import feather_networks
-
-    variant, base = VARIANTS[name]
-    views = list(views)
-    bpy_runner.bpy_python(name)
-    try:
-        networks = feather_networks(layer := resolve_root_layer(asset_path), variant)
-    except (ValueError, RuntimeError, OSError) as exc:
-        raise HostError(name, f"cannot read the asset's MaterialX network: {exc}") from None
-    work = bpy_runner.work_folder(name, views, out_dir)
-    for header in osl_headers():
-        shutil.copyfile(header, os.path.join(work, os.path.basename(header)))
-    shaders = {}
-    try:
-        for mesh, net in networks.items():
-            doc, files = lobe_document(net, base)
-            code = generate_osl(doc, net.material)
-            if not all(f'string {param} = ""' in code for param in files):
-                raise UsageError(f"MaterialX named the image parameters otherwise than {sorted(files)}")
-            source = os.path.join(work, f"{net.material}.osl")
-            with open(source, "w", encoding="utf-8") as fh:
-                fh.write(for_cycles(code))
-            shaders[mesh] = OslShader(source, geomprops(net.doc), files)
-    except ValueError as exc:
-        raise HostError(name, f"cannot turn the asset's MaterialX network into OSL: {exc}") from None
-    except Exception as exc:  # MaterialX raises its own exception types (ExceptionShaderGenError...)
-        raise HostError(name, f"MaterialX OSL generation failed: {type(exc).__name__}: {exc}") from None
-    job = cycles_job(OslJob, os.path.abspath(layer), bpy_runner.job_views(views), work, SAMPLES, addon=False,
-                     shaders=shaders, environment_radiance=ENVIRONMENT_RADIANCE, working_space=WORKING_SPACE,
-                     exr_colorspace=EXR_SPACE)
-    try:
-        bpy_runner.run_job(job, work, importlib.util.find_spec("rockdove.hosts.osl_job").origin, TIMEOUT_S,
-                           host=name, renderer="Cycles (OSL)")
-    except HostError as exc:
-        raise HostError(name, _compiler_error(work) or exc.message) from None
-    return bpy_runner.read_views(name, "Cycles (OSL)", views, work)
 
 
 #: The registry's hosts, one per network (rockdove.hosts.HOSTS).

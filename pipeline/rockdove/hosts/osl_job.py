@@ -1,7 +1,6 @@
 """The Cycles side of :mod:`rockdove.hosts.osl`, run as ``PYTHON osl_job.py JOB.json`` by a Python that has bpy;
 it imports nothing but the standard library, bpy and its siblings :mod:`.blender_job` and :mod:`.jobs` (this file's
-folder is ``sys.path[0]``). A shader the compiler rejects prints its error lines and the job exits 1 naming it.
-"""
+folder is ``sys.path[0]``). A shader the compiler rejects prints its error lines and the job exits 1 naming it."""
 
 from __future__ import annotations
 
@@ -60,8 +59,7 @@ def script_material(bpy, name: str, oso: str, attributes=(), files=None):
     nodes = mat.node_tree.nodes
     nodes.clear()
     script = nodes.new("ShaderNodeScript")
-    script.mode = "EXTERNAL"
-    script.filepath = oso
+    script.mode, script.filepath = "EXTERNAL", oso
     errors = []
     cycles.osl.update_script_node(script, lambda kind, msg: errors.append(msg) if "ERROR" in kind else None)
     if errors or "out" not in script.outputs:

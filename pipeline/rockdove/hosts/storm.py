@@ -1,8 +1,7 @@
 """The ``storm`` hosts: the written asset, unchanged, drawn by Hydra Storm (usdview's renderer) of the bpy wheel
 (:mod:`rockdove.hosts.storm_job`, headless EGL), its additions all in the session layer: one host per network a Storm
 user sees (:data:`VARIANTS`). Measurements, and why thinfilm.mtlx lets no parameter reach a texture coordinate
-(Mesa llvmpipe's helper invocations): docs/hosts.md and docs/design.md, "Hosts".
-"""
+(Mesa llvmpipe's helper invocations): docs/hosts.md and docs/design.md, "Hosts"."""
 
 from __future__ import annotations
 
@@ -51,7 +50,6 @@ class StormHost(Host):
         save_png(np.full((2, 4, 3), 255, np.uint8), os.path.join(work, "white.png"))  # the dome light's texture
         job = StormJob(asset=asset_path, variant=self.variant, overrides={FEATHER_MATERIAL: VARIANTS[name][1]},
                        environment_radiance=ENVIRONMENT_RADIANCE, out_dir=work, views=bpy_runner.job_views(views))
-        # the bpy Python, found and run as the Blender host runs its job (log: work/blender.log)
         bpy_runner.run_job(job, work, importlib.util.find_spec("rockdove.hosts.storm_job").origin, TIMEOUT_S,
                            host=name, renderer="Storm")
         return bpy_runner.read_views(name, "Storm", views, work)

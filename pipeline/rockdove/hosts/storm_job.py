@@ -1,7 +1,6 @@
 """Storm's side of :mod:`rockdove.hosts.storm`, run as ``python storm_job.py job.json`` by the Python that has bpy
 (its bundled USD has imaging; usd-core has none); of rockdove, :mod:`.jobs` alone. Each view, recorded by
-``FrameRecorder`` into ``<view>.exr``, may carry a ``time`` and ``only`` the meshes it draws (storm_motion's).
-"""
+``FrameRecorder`` into ``<view>.exr``, may carry a ``time`` and ``only`` the meshes it draws (storm_motion's)."""
 
 import ctypes
 import os
@@ -85,8 +84,7 @@ def _session(stage, job: jobs.StormJob):
     for prim in stage.Traverse():
         if not prim.IsA(UsdShade.Material) or job.as_authored:  # as authored: what a usdview user sees
             continue
-        mtl = UsdShade.Material(prim)
-        out = mtl.GetSurfaceOutput("mtlx")
+        out = UsdShade.Material(prim).GetSurfaceOutput("mtlx")
         if not out.GetAttr().IsValid() or not out.HasConnectedSource():
             _black(prim.GetChild("PreviewSurface"))  # other parts: black, they only occlude (the lobe)
         elif job.variant == "preview":
@@ -109,16 +107,14 @@ def _session(stage, job: jobs.StormJob):
         cam.CreateVerticalApertureAttr(vert)
         cam.CreateHorizontalApertureAttr(vert * view.width / view.height)
         cam.CreateClippingRangeAttr(Gf.Vec2f(1e-3, 1e3))
-        m = Gf.Matrix4d(*[float(x) for row in view.camera_to_world for x in row]).GetTranspose()
-        cam.AddTransformOp().Set(m)
+        cam.AddTransformOp().Set(Gf.Matrix4d(*[float(x) for row in view.camera_to_world for x in row]).GetTranspose())
         cams.append(cam)
     return cams
 
 
 def run(job: jobs.StormJob) -> None:
     bundled_usd_first()
-    size = (max(v.width for v in job.views), max(v.height for v in job.views))
-    keep = egl_context(*size)  # noqa: F841 (the context must live while Storm draws)
+    keep = egl_context(max(v.width for v in job.views), max(v.height for v in job.views))  # noqa: F841 (lives on)
     from pxr import Usd, UsdAppUtils, UsdGeom
 
     if (stage := Usd.Stage.Open(job.asset)) is None:

@@ -1,6 +1,5 @@
 """The web host: three.js's ``KHR_materials_iridescence`` (Belcour & Barla 2017) on the asset's ``pigeon.glb``, in
-headless Chromium (WebGL2 on SwiftShader), the offline viewer page drawing a float render target (``view_angle``).
-"""
+headless Chromium (WebGL2 on SwiftShader), the offline viewer page drawing a float render target (``view_angle``)."""
 
 from __future__ import annotations
 
@@ -34,50 +33,44 @@ class WebHost(Host):
             return str(exc)
         return None
 
-    def render(self, asset_path: str, views, out_dir: str) -> dict:
-        return render(asset_path, views, out_dir)
+    def render(self, asset_path: str, views, out_dir: str, *, browser_factory=None) -> dict:
+        """:meth:`Host.render` with three.js in headless Chromium; ``browser_factory``: a started Browser (tests)."""
+        from ..png import save_png
+        from ..srgb import linear_to_srgb8
+        from ..usd.layout import resolve_root_layer
+        from ..web.browser import Browser, BrowserError
+        from ..web.gltf import GLB_NAME, export_glb
+        from ..web.viewer import write_viewer
+
+        out = Path(out_dir)
+        page_dir = out / "web"
+        page_dir.mkdir(parents=True, exist_ok=True)
+        layer = resolve_root_layer(asset_path)
+        glb = Path(layer).parent / GLB_NAME  # the asset's own, else exported beside the page
+        if not glb.is_file():
+            export_glb(layer, page_dir / GLB_NAME)
+            glb = page_dir / GLB_NAME
+        try:
+            page_path = write_viewer(asset_path, glb, page_dir)
+        except (ValueError, RuntimeError, OSError) as exc:
+            raise HostError(NAME, f"could not write the viewer page: {exc}") from None
+        images = {}
+        try:
+            with (browser_factory or Browser)() as browser:
+                page = browser.open(Path(page_path).absolute().as_uri(), 320, 240, timeout_s=PAGE_TIMEOUT_S)
+                page.evaluate("window.rockdoveReady", timeout_s=PAGE_TIMEOUT_S, step="load pigeon.glb in three.js")
+                for view in views:
+                    spec = {**view.to_dict(), "camera_to_world": view.camera_to_world.reshape(-1).tolist()}
+                    res = page.evaluate(f"window.rockdoveRender({json.dumps(spec)}, 'physical')",
+                                        timeout_s=VIEW_TIMEOUT_S, step=f"render {view.name}")
+                    rgb = np.frombuffer(base64.b64decode(res["rgb_f32"]), np.float32)
+                    images[view.name] = rgb.reshape(view.height, view.width, 3).copy()
+                    save_png(linear_to_srgb8(images[view.name]), os.fspath(out / f"web_{view.name}.png"))
+                if page.errors:
+                    raise HostError(NAME, "the page reported errors: " + "; ".join(page.errors[:3]))
+        except BrowserError as exc:
+            raise HostError(NAME, str(exc)) from None
+        return images
 
 
 HOST = WebHost(NAME, "physical", "view_angle")
-
-
-def render(asset_path: str, views: list, out_dir: str, *, browser_factory=None) -> dict:
-    """:meth:`Host.render` with three.js in headless Chromium; ``browser_factory``: a started Browser (tests)."""
-    from ..png import save_png
-    from ..srgb import linear_to_srgb8
-    from ..usd.layout import resolve_root_layer
-    from ..web.browser import Browser, BrowserError
-    from ..web.gltf import GLB_NAME, export_glb
-    from ..web.viewer import write_viewer
-
-    out = Path(out_dir)
-    page_dir = out / "web"
-    page_dir.mkdir(parents=True, exist_ok=True)
-    layer = resolve_root_layer(asset_path)
-    glb = Path(layer).parent / GLB_NAME  # the asset's own, else exported beside the page
-    if not glb.is_file():
-        export_glb(layer, page_dir / GLB_NAME)
-        glb = page_dir / GLB_NAME
-    try:
-        page_path = write_viewer(asset_path, glb, page_dir)
-    except (ValueError, RuntimeError, OSError) as exc:
-        raise HostError(NAME, f"could not write the viewer page: {exc}") from None
-    images = {}
-    try:
-        with (browser_factory or Browser)() as browser:
-            page = browser.open(Path(page_path).absolute().as_uri(), 320, 240, timeout_s=PAGE_TIMEOUT_S)
-            page.evaluate("window.rockdoveReady", timeout_s=PAGE_TIMEOUT_S, step="load pigeon.glb in three.js")
-            for view in views:
-                spec = {"camera_to_world": view.camera_to_world.reshape(-1).tolist(), "yfov_rad": view.yfov_rad,
-                        "width": view.width, "height": view.height,
-                        "light_direction": view.light_direction.tolist(), "light_rgb": view.light_rgb.tolist()}
-                res = page.evaluate(f"window.rockdoveRender({json.dumps(spec)}, 'physical')",
-                                    timeout_s=VIEW_TIMEOUT_S, step=f"render {view.name}")
-                rgb = np.frombuffer(base64.b64decode(res["rgb_f32"]), np.float32)
-                images[view.name] = rgb.reshape(view.height, view.width, 3).copy()
-                save_png(linear_to_srgb8(images[view.name]), os.fspath(out / f"web_{view.name}.png"))
-            if page.errors:
-                raise HostError(NAME, "the page reported errors: " + "; ".join(page.errors[:3]))
-    except BrowserError as exc:
-        raise HostError(NAME, str(exc)) from None
-    return images
