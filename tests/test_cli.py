@@ -208,7 +208,8 @@ def test_cache_option_and_no_verify(tmp_path, small_asset, build_root):
 # ------------------------------------------------------------------------------------- the real pipeline
 TINY = ["--set", "geometry.body_voxel_m=0.01", "--set", "geometry.card_count=600", "--set",
         "textures.feather_resolution=32", "--set", "textures.body_resolution=32", "--set", "verify.width=192",
-        "--set", "verify.height=192", "--set", "usd.usdz=false", "--json", "--quiet"]
+        "--set", "verify.height=192", "--set", "usd.usdz=false", "--set", "beauty.width=128", "--set",
+        "beauty.height=96", "--json", "--quiet"]
 
 
 def test_real_pipeline_builds_verifies_and_rebuilds_only_what_changed(tmp_path):

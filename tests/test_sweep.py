@@ -23,7 +23,8 @@ from rockdove.errors import UsageError
 
 BIN = Path(sys.executable).parent
 CHEAP = ["geometry.body_voxel_m=0.01", "geometry.card_count=60", "textures.feather_resolution=32",
-         "textures.body_resolution=32", "lut.angles=32", "lut.thicknesses=8", "usd.usdz=false"]
+         "textures.body_resolution=32", "lut.angles=32", "lut.thicknesses=8", "usd.usdz=false", "beauty.width=128",
+         "beauty.height=96"]
 CHEAP_ARGS = [a for s in CHEAP for a in ("--set", s)]
 
 
