@@ -82,7 +82,8 @@ def _centre(alpha, name) -> np.ndarray:
 
 def _view(view, time: float, name: str | None = None, only=None) -> JobView:
     """``view`` drawn at ``time`` (renamed ``name``), of the meshes ``only`` (prim names; else all)."""
-    return JobView(**{**view.to_dict(), "name": name or view.name}, time=float(time), only=only and list(only))
+    (job,) = bpy_runner.job_views([dataclasses.replace(view, name=name or view.name)])
+    return dataclasses.replace(job, time=float(time), only=only and list(only))
 
 
 def _run(layer: str, work: str, views: list[JobView], motion: str, as_authored: bool = False) -> None:
