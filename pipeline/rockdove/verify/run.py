@@ -12,7 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from . import compare, report
-from .boundary import boundary_shape, boundary_straightness, class_shape
+from .boundary import boundary_shape, class_shape
 from .gl_renders import GLRenderError, GLRenders
 from .results import ViewResult
 
@@ -70,7 +70,7 @@ def render_and_check(scene, lut, views, out: str, *, surfaces=None) -> tuple[dic
                 cls = compare.reference_classes(ref_results[i], scene)
                 rgb = np.asarray(ref_results[i].rgb, np.float64)
                 hue = compare.hue_histogram(rgb[cls >= 0])
-                boundary = dataclasses.replace(boundary_shape(rgb, cls >= 0), **vars(boundary_straightness(cls)))
+                boundary = boundary_shape(rgb, cls >= 0)  # the same sides classes as cls
             files, rows = {}, []
             ref_png = linear_to_srgb8(ref_results[i].rgb)
             path = os.path.join(folder, f"{v.name}_reference.png")
