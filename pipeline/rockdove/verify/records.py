@@ -27,9 +27,12 @@ def plain(value: Any) -> Any:
 
 @functools.cache
 def _hints(cls: type) -> dict[str, Any]:
-    """``cls``'s field types, the names its module imports only when type checking given by its ``type_names()``."""
-    names: dict[str, Any] = getattr(sys.modules[cls.__module__], "type_names", dict)()
-    return typing.get_type_hints(cls, localns=names)
+    """``cls``'s field types; a name its module imports only when type checking comes from its ``type_names()``
+    (asked only then: they import numpy, which a verdict read back needs not)."""
+    try:
+        return typing.get_type_hints(cls)
+    except NameError:
+        return typing.get_type_hints(cls, localns=getattr(sys.modules[cls.__module__], "type_names", dict)())
 
 
 def read(tp: Any, value: Any) -> Any:
