@@ -105,7 +105,7 @@ def lut_to_draw(film: ThinFilmParams, thickness_range: tuple):
     """The :class:`rockdove.lut.ThinFilmLUT` to draw ``film`` with: its LUT EXR, or for a LUT-less film one baked in
     memory over ``thickness_range`` (nm, the scene's :func:`thickness_range_nm`; the build's default size, the
     schema's, ``metadata["purpose"] = IN_MEMORY_LUT_PURPOSE``)."""
-    from ..lut.bake import DEFAULT_THICKNESSES, bake
+    from ..lut.bake import bake
     from ..lut.exr import read_exr
     from ..lut.table import ThinFilmLUT
 
@@ -114,6 +114,6 @@ def lut_to_draw(film: ThinFilmParams, thickness_range: tuple):
             raise UsageError(f"LUT file {film.lut_file!r} (rockdove:lut:file) does not exist")
         return read_exr(film.lut_file)
     lo, hi = (float(v) for v in thickness_range)
-    lut = bake(thicknesses=1 if lo == hi else DEFAULT_THICKNESSES, thickness_range=(lo, hi), film=film.model)
+    lut = bake(thickness_range=(lo, hi), film=film.model)  # one thickness row where lo == hi
     return ThinFilmLUT(lut.rgb, lut.thickness_range_nm, angle_warp_gamma=lut.angle_warp_gamma,
                        colour_space=lut.colour_space, metadata={**lut.metadata, "purpose": IN_MEMORY_LUT_PURPOSE})
