@@ -135,7 +135,8 @@ def play(asset: str, out_dir: str, motion: str = "walk", times=(15.0, 21.0, 26.0
              for i, t in enumerate(times)}
     views = []
     for i, t in enumerate(times):
-        views += [_view(side, t, f"{what}_{i:02d}", parts) for what, parts in (("head", HEAD_PARTS), ("trunk", TRUNK_PARTS))]
+        views += [_view(side, t, f"{what}_{i:02d}", parts)
+                  for what, parts in (("head", HEAD_PARTS), ("trunk", TRUNK_PARTS))]
         if film:
             views.append(_view(necks[t], t))
     work = os.path.join(os.path.abspath(out_dir), "storm_motion")

@@ -60,7 +60,8 @@ class _Items:
                         os.link(os.path.join(src, name), folder / name)
                     except OSError:  # another file system, or one without hard links
                         shutil.copyfile(os.path.join(src, name), folder / name)
-            (folder / "item.json").write_text(json.dumps(meta, sort_keys=True, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
+            (folder / "item.json").write_text(json.dumps(
+                meta, sort_keys=True, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
         try:
             self.cache.store(self.name, key, fill)
         except OSError:
@@ -170,7 +171,8 @@ def _host(cache, host, layer, scene, views, digest, layers, refs, gl, out):
     return result, False
 
 
-def _pictures(cache, layer, scene, lut, digest: str, layers: str, settings: dict, out: str) -> tuple[dict, tuple, tuple]:
+def _pictures(cache, layer, scene, lut, digest: str, layers: str, settings: dict,
+              out: str) -> tuple[dict, tuple, tuple]:
     """The report's pictures (beauty and animation), ``{kind: (entry or None, note or None)}``, the kinds drawn and
     reused, their files copied into ``out``; one drawn other than as asked (with a note) is not kept."""
     from ..hosts.beauty import for_report as beauty
