@@ -2,8 +2,9 @@
 (:mod:`.bake`, :mod:`.fourier`, :mod:`.quadrature`), the exact reference (:mod:`.reference`) and the weights they
 integrate with (:mod:`.weights`), OpenEXR I/O (:mod:`.exr`) and the PNG preview (:mod:`.preview`).
 
-These modules import only numpy at load time (OpenEXR, scipy, Pillow and colour-science are imported inside
-the functions that use them), so ``import rockdove.lut`` stays light. Note that ``rockdove.lut.bake`` is the
+These modules import only numpy and :mod:`rockdove.config` at load time (the bakers' defaults are the config
+schema's, read once, ~20 ms; OpenEXR, scipy, Pillow and colour-science are imported inside the functions that use
+them), so ``import rockdove.lut`` stays light. Note that ``rockdove.lut.bake`` is the
 function; import the module's other names with ``from rockdove.lut.bake import ...``."""
 
 from .bake import BAKE_METHODS, bake, fourier_supported

@@ -19,7 +19,8 @@ WEIGHT_SUM_TOLERANCE = 1e-3
 
 
 def check_influences(path: str, indices, weights, n_points: int, n_per_point: int, n_joints: int) -> None:
-    """UsageError (one line, naming the mesh) unless ``indices``/``weights`` are a valid skin."""
+    """UsageError (one line, naming the mesh) unless ``indices``/``weights`` are a valid skin: indices in
+    [0, n_joints), weights >= 0, each point's summing to 1 (within :data:`WEIGHT_SUM_TOLERANCE`)."""
     idx, w = np.asarray(indices, np.int64), np.asarray(weights, np.float64)
     if len(idx) != n_points * n_per_point or len(w) != len(idx):
         raise UsageError(f"{path}: {len(idx)} skel:jointIndices and {len(w)} skel:jointWeights for {n_points} "
