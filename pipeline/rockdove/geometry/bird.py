@@ -25,13 +25,11 @@ from rockdove.geometry.types import Bird, MeshPart, Primvar, triangle_part
 class Body:
     """The body in its two forms: ``mesh``, the welded closed surface (sampling, inside tests, ray casts), and
     ``part``, the ``"Body"`` MeshPart (vertices split at UV seams; primvars ``neckS``, the neck coordinate clipped
-    to [0, 1], and ``neckBand``, 1 inside the neck band). ``wings``: None (read by the body stage's codec).
-    ``card_band_area_m2``: the area of the band the neck cards are placed on, estimated once here instead of on
-    every :func:`build_cards` (None: estimated when needed)."""
+    to [0, 1], and ``neckBand``, 1 inside the neck band). ``card_band_area_m2``: the area of the band the neck
+    cards are placed on, estimated once here instead of on every :func:`build_cards` (None: estimated when needed)."""
 
     mesh: _body.BodyMesh
     part: MeshPart
-    wings: MeshPart = None
     card_band_area_m2: float | None = None
 
 

@@ -50,7 +50,7 @@ def load_bird(folder: Path):
 
 
 def save_body(body, folder: Path) -> None:
-    arrays, parts = _parts_arrays([body.part] + ([body.wings] if body.wings is not None else []))
+    arrays, parts = _parts_arrays([body.part])
     arrays.update({f"mesh/{f}": np.ascontiguousarray(getattr(body.mesh, f)) for f in ("vertices_m", "faces", "normals")})
     np.savez(folder / "body.npz", **arrays)
     (folder / "body.json").write_text(json.dumps({"parts": parts, "card_band_area_m2": body.card_band_area_m2},
@@ -64,6 +64,4 @@ def load_body(folder: Path):
     arrays = load_npz(folder / "body.npz")
     meta = json.loads((folder / "body.json").read_text())
     mesh = BodyMesh(**{f: arrays[f"mesh/{f}"] for f in ("vertices_m", "faces", "normals")})
-    parts = _parts_from(arrays, meta["parts"])
-    return Body(mesh=mesh, part=parts[0], wings=parts[1] if len(parts) > 1 else None,
-                card_band_area_m2=meta.get("card_band_area_m2"))
+    return Body(mesh=mesh, part=_parts_from(arrays, meta["parts"])[0], card_band_area_m2=meta.get("card_band_area_m2"))

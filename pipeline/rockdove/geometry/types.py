@@ -67,10 +67,6 @@ class MeshPart:
     def n_points(self) -> int:
         return int(self.points_m.shape[0])
 
-    @property
-    def n_faces(self) -> int:
-        return int(self.face_vertex_counts.shape[0])
-
 
 def triangle_part(name: str, pieces, material: str, display_color: tuple, primvars: dict | None = None) -> MeshPart:
     """One triangle :class:`MeshPart` from ``pieces`` of ``(points (V, 3), normals (V, 3), st (V, 2), faces (F, 3))``,
