@@ -95,16 +95,8 @@ def mtlx_nodes(doc) -> list:
 
 
 def upstream_nodes(doc, roots) -> set:
-    """Names of the nodes ``roots`` (node names) depend on, themselves included."""
-    nodes = {n.getName(): n for n in mtlx_nodes(doc)}
-    seen, todo = set(), list(roots)
-    while todo:
-        name = todo.pop()
-        if name in seen:
-            continue
-        seen.add(name)
-        todo += [i.getNodeName() for i in nodes[name].getInputs() if i.getNodeName()]
-    return seen
+    """Names of the nodes ``roots`` (node names) depend on, themselves included (MaterialX's graph traversal)."""
+    return set(roots) | {e.getUpstreamElement().getName() for r in roots for e in doc.getNode(r).traverseGraph()}
 
 
 def copy_mtlx_network(doc, material, roots=None) -> dict:
