@@ -138,11 +138,6 @@ def author_motion_variants(stage, prim) -> None:
     stage.SetEndTimeCode(round(DURATION_S * FPS))
 
 
-def motion_layer_name(motion: str) -> str:
-    """``pigeon_<motion>.usda``: the small layer beside the interface layer that plays ``motion``."""
-    return f"pigeon_{motion}.usda"
-
-
 def motion_layer(interface: str, motion: str):
     """A layer, as a shot would write one, that sublayers ``interface`` and selects ``motion`` (for Blender, which
     imports default variants), with the time metadata (a stage takes it from its root layer)."""
@@ -150,8 +145,6 @@ def motion_layer(interface: str, motion: str):
 
     from ..rig.motions import DURATION_S, FPS
 
-    if motion not in MOTIONS or motion == REST:
-        raise UsageError(f"motion={motion!r}; one of {MOTIONS[1:]}")
     layer = Sdf.Layer.CreateAnonymous(".usda")
     root = layer.pseudoRoot
     for key, value in (("defaultPrim", "Pigeon"), ("upAxis", "Y"), ("metersPerUnit", 1.0),

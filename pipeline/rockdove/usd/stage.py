@@ -23,7 +23,7 @@ from .material import (
     mtlx_surface_path,
     texture_asset_paths,
 )
-from .skel import MOTIONS, REST, RIG_LAYER, author_motion_variants, author_rig, motion_layer, motion_layer_name
+from .skel import MOTIONS, REST, RIG_LAYER, author_motion_variants, author_rig, motion_layer
 
 ROOT = "/Pigeon"
 INTERFACE_LAYER = "pigeon.usda"
@@ -262,7 +262,7 @@ def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geo
         ("looks", looks, LOOKS_LAYER), ("payload", payload, PAYLOAD_LAYER), ("interface", interface, INTERFACE_LAYER))}
     for motion in MOTIONS:  # pigeon_idle.usda, pigeon_walk.usda: each plays one motion (rockdove.usd.skel)
         if motion != REST:
-            path = os.path.join(out_dir, motion_layer_name(motion))
+            path = os.path.join(out_dir, f"pigeon_{motion}.usda")
             paths[motion] = _export(motion_layer(INTERFACE_LAYER, motion), path)
     return paths
 
