@@ -108,11 +108,9 @@ def components(part) -> np.ndarray:
     from scipy.sparse.csgraph import connected_components
 
     fvi = np.asarray(part.face_vertex_indices, np.int64)
-    starts = np.repeat(np.cumsum(part.face_vertex_counts) - part.face_vertex_counts, part.face_vertex_counts)
-    nxt = np.arange(len(fvi)) + 1
-    nxt = np.where(np.isin(nxt, np.cumsum(part.face_vertex_counts)), starts, nxt)  # each face's corners in a cycle
+    first = np.repeat(np.cumsum(part.face_vertex_counts) - part.face_vertex_counts, part.face_vertex_counts)
     n = part.n_points
-    graph = coo_matrix((np.ones(len(fvi)), (fvi, fvi[nxt])), shape=(n, n))
+    graph = coo_matrix((np.ones(len(fvi)), (fvi, fvi[first])), shape=(n, n))  # each corner to its face's first
     return connected_components(graph, directed=False)[1].astype(np.int64)
 
 
