@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from rockdove.geometry import sdf as _sdf
+from rockdove.geometry.sdf import neck_s
 
 from ..errors import UsageError
 
@@ -27,17 +28,6 @@ from ..errors import UsageError
 CANDIDATES_PER_SAMPLE = 3.0
 #: Weight exponent alpha of Yuksel 2015, eq. 1.
 WEIGHT_EXPONENT = 8.0
-
-
-def neck_s(points_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(s, radius_m) of (N, 3) points, float64: the projection on the neck axis, 0 at its base and 1 at its top
-    (not clipped), and the distance from the axis line, metres."""
-    p = np.asarray(points_m, dtype=np.float64).reshape(-1, 3)
-    axis = _sdf.NECK_TOP_M - _sdf.NECK_BASE_M
-    length = np.linalg.norm(axis)
-    q = p - _sdf.NECK_BASE_M
-    s = (q @ axis) / (length * length)
-    return s, np.linalg.norm(q - s[:, None] * axis, axis=1)
 
 
 def in_band(points_m: np.ndarray, s_max: float = 1.0) -> np.ndarray:

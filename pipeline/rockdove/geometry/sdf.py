@@ -125,6 +125,15 @@ NECK_BAND_RADIUS_M = 0.034
 BODY_BOUNDS_M = (np.array([-0.062, 0.030, -0.205]), np.array([0.062, 0.240, 0.115]))
 
 
+def neck_s(points_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(s, radius_m) of (N, 3) points, float64: the projection on the neck axis, 0 at its base and 1 at its top
+    (not clipped), and the distance from the axis line, metres."""
+    q = np.asarray(points_m, dtype=np.float64).reshape(-1, 3) - NECK_BASE_M
+    axis = NECK_TOP_M - NECK_BASE_M
+    s = (q @ axis) / (axis @ axis)
+    return s, np.linalg.norm(q - s[:, None] * axis, axis=1)
+
+
 def body_sdf(p: np.ndarray) -> np.ndarray:
     """(N,) float64 signed distance, metres (approximate: Lipschitz <~ 1), from (N, 3) points to the body surface
     (torso, breast, belly, rump, neck, head; negative inside)."""
@@ -134,10 +143,7 @@ def body_sdf(p: np.ndarray) -> np.ndarray:
     d = smooth_union(d, BELLY.sdf_xyz(x, y, z), 0.035)
     d = smooth_union(d, RUMP.sdf_xyz(x, y, z), 0.02)
     # the neck band's surroundings (see NECK_TORSO): weight 1 near the neck axis, 0 on the trunk
-    q = p - NECK_BASE_M
-    axis = NECK_TOP_M - NECK_BASE_M
-    s = (q @ axis) / (axis @ axis)
-    r = np.linalg.norm(q - s[:, None] * axis, axis=1)
+    s, r = neck_s(p)
     w = smoothstep(NECK_BLEND_S[0], NECK_BLEND_S[1], s) * (1.0 - smoothstep(*NECK_BLEND_RADII_M, r))
     i = np.flatnonzero(w > 0.0)
     if len(i):
