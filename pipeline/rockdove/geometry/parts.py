@@ -75,13 +75,10 @@ def revolve(z_m: np.ndarray, radius_m: np.ndarray, around: int = AROUND):
     return verts.reshape(-1, 3), nrm.reshape(-1, 3), st.reshape(-1, 2).astype(np.float64), faces
 
 
-_Y_UP = np.array([0.0, 1.0, 0.0])
-
-
-def _frame(direction: np.ndarray, up: np.ndarray = _Y_UP) -> np.ndarray:
-    """(3, 3) rotation whose third column is ``direction`` (unit) and whose second leans to ``up``."""
+def _frame(direction: np.ndarray) -> np.ndarray:
+    """(3, 3) rotation whose third column is ``direction`` (unit) and whose second leans to +Y."""
     zc = direction / np.linalg.norm(direction)
-    xc = np.cross(up, zc)
+    xc = np.cross(np.array([0.0, 1.0, 0.0]), zc)
     if np.linalg.norm(xc) < 1e-8:
         xc = np.cross(np.array([1.0, 0.0, 0.0]), zc)
     xc /= np.linalg.norm(xc)
