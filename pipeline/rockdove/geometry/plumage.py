@@ -186,18 +186,14 @@ def coat_region(points_m) -> np.ndarray:
     return ~neck & ~under_wing & (_sdf.HEAD.sdf(points_m) > COAT_HEAD_MARGIN_M) & ~((s > 1.0) & (r < 0.045))
 
 
-def _tail_axis():
-    pitch = np.deg2rad(TAIL_PITCH_DEG)
-    return np.array([0.0, TAIL_ROOT_M[0], TAIL_ROOT_M[1]]), np.array([0.0, -np.sin(pitch), -np.cos(pitch)])
-
-
 def build_coat(vertices_m, faces, seed: int, count: int = COAT_COUNT) -> MeshPart:
     """``CoatFeathers``: ``count`` contour-feather cards on blue-noise roots over :func:`coat_region`, shorter by
     the neck, longer as the coverts over and under the tail's base, which lie along the tail."""
     rng = _cards.stream(seed, STREAM_COAT)
     n, roots = _roots(vertices_m, faces, coat_region, count, rng)
     _, r = _neck.neck_s(roots)
-    root, axis = _tail_axis()
+    pitch = np.deg2rad(TAIL_PITCH_DEG)  # the tail's root and axis
+    root, axis = np.array([0.0, *TAIL_ROOT_M]), np.array([0.0, -np.sin(pitch), -np.cos(pitch)])
     by_tail = 1.0 - _sdf.smoothstep(0.01, 0.03, np.linalg.norm(roots - root, axis=1))
     by_neck = 1.0 - _sdf.smoothstep(0.045, 0.065, r)
     t = _yaw(_along(n, COAT_FLOW[None] * (1 - by_tail[:, None]) + axis[None] * by_tail[:, None]), n, rng, 12.0)
