@@ -23,15 +23,6 @@ AR_MOTION = "idle"
 ZIP_EPOCH = 315532800
 
 
-def _fixed_time() -> int:
-    if (value := os.environ.get("SOURCE_DATE_EPOCH")) is None:
-        return ZIP_EPOCH
-    try:
-        return max(int(value), ZIP_EPOCH)
-    except ValueError:
-        raise UsageError(f"SOURCE_DATE_EPOCH must be an integer (seconds), got {value!r}") from None
-
-
 def _root(out_dir: str, root_layer: str) -> tuple[str, str]:
     """(absolute out_dir, its root layer); registers the schema first. FileNotFoundError without the layer."""
     from .schema import register
@@ -46,7 +37,11 @@ def _root(out_dir: str, root_layer: str) -> tuple[str, str]:
 
 def _stamp(folder: str) -> None:
     """Give every file below ``folder`` but packages and scratch folders the fixed time."""
-    stamp = _fixed_time()
+    value = os.environ.get("SOURCE_DATE_EPOCH")
+    try:
+        stamp = ZIP_EPOCH if value is None else max(int(value), ZIP_EPOCH)
+    except ValueError:
+        raise UsageError(f"SOURCE_DATE_EPOCH must be an integer (seconds), got {value!r}") from None
     for parent, dirs, files in os.walk(folder):
         dirs[:] = [d for d in dirs if not d.startswith(".usdz-")]
         for name in files:
