@@ -51,10 +51,6 @@ class Motion:
     fps: float
     world: np.ndarray
 
-    @property
-    def frames(self) -> int:
-        return int(self.world.shape[0])
-
     def local(self, skel) -> np.ndarray:
         """(F, J, 4, 4): each joint's transform relative to its parent's (the root's: its world transform)."""
         parent = np.where(skel.parents < 0, 0, skel.parents)
