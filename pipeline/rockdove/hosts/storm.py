@@ -14,15 +14,15 @@ from ..png import save_png
 from . import bpy_runner
 from .base import ENVIRONMENT_RADIANCE, HostError
 from .jobs import StormJob
-from .materialx import BASE_COLOUR, VariantHost
+from .materialx import VariantHost
 
 LOBE = "view_angle"
 #: Seconds before a Storm run is given up (a 512 px frame: 5-45 s, mostly shader compilation).
 TIMEOUT_S = 900
 #: host name -> (network drawn, session-layer overrides of the feather material: shader.input -> value)
 VARIANTS = {
-    "storm": ("baked", {BASE_COLOUR["baked"]: [0.0, 0.0, 0.0]}),
-    "storm_physical": ("physical", {BASE_COLOUR["physical"]: [0.0, 0.0, 0.0]}),
+    "storm": ("baked", {"StructuralMix.bg": [0.0, 0.0, 0.0]}),
+    "storm_physical": ("physical", {"MtlxPhysicalSurface.base_color": [0.0, 0.0, 0.0]}),
     "storm_preview": ("preview", {}),
 }
 #: The feather material's prim name (rockdove.usd.stage).
