@@ -95,10 +95,12 @@ def test_missing_blender_falls_back_to_gl_and_says_so(scene, tmp_path, monkeypat
     assert "not Cycles" in entry["caption"] and "no-python" in entry["caption"]
     assert note.startswith("beauty render: Cycles was asked for, drawn with GL")
     assert (tmp_path / "beauty_34.png").is_file()
-    # auto where Cycles was allowed (the Blender host named) but failed: noted too, so the cache does not keep GL's
+    # auto where Cycles was allowed (the Blender host named) but failed: noted too, so the cache does not keep GL's,
+    # and the note says what wanted Cycles: auto, not the user
     _, note = HB.for_report(scene.root_layer, scene, str(tmp_path), {"renderer": "auto", "width": 64, "height": 64},
                             cycles_ok=True)
-    assert note.startswith("beauty render: Cycles was asked for, drawn with GL")
+    assert note.startswith("beauty render: auto takes Cycles where the Blender host runs, drawn with GL")
+    assert "asked for" not in note
 
 
 def test_auto_takes_gl_where_blender_was_not_asked_for(scene, tmp_path):

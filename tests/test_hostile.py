@@ -291,12 +291,12 @@ def test_no_such_value_reaches_materialx_generators(small_asset, tmp_path, what)
 def test_texture_paths_reach_the_osl_shader_as_parameters(small_asset, tmp_path):
     """The OSL source names no texture file (a quote in the asset's folder broke it): the files are the values of
     its parameters, which the Cycles job sets on the Script node."""
-    from rockdove.hosts.materialx import feather_networks
-    from rockdove.hosts.osl import VARIANTS, generate_osl, lobe_document
+    from rockdove.hosts.materialx import BASE_COLOUR, feather_networks
+    from rockdove.hosts.osl import generate_osl, lobe_document
 
     asset = copy_asset(small_asset, tmp_path / 'it"s' / "pigeon")
     (net,) = feather_networks(str(asset / "pigeon.usda"), "baked").values()
-    doc, files = lobe_document(net, VARIANTS["osl"][1])
+    doc, files = lobe_document(net, BASE_COLOUR["baked"])
     source = generate_osl(doc, net.material)
     assert str(tmp_path) not in source and "textures/" not in source
     assert sorted(files.values()) == sorted(str(asset / "textures" / f) for f in

@@ -101,15 +101,15 @@ def test_point_records_write_the_keys_of_sweep_json_in_order_and_only_those_know
     (p,) = S.grid_points(S.parse_grid(["film.cauchy_a=[1.5]"]))
     rec = S.PointRecord(p.name, p.index, p.overrides, p.values, "points/x")
     head = ["name", "index", "overrides", "values", "asset", "status"]
-    assert list(rec.to_json()) == head and rec.to_json()["index"] == (0,)
+    assert list(rec.to_json()) == head and rec.to_json()["index"] == [0]
     assert list(replace(rec, status="invalid", error="bad", seconds=0.0).to_json()) == [*head, "error", "seconds"]
     built = replace(rec, status="ok", config_hash="h", pid=1, worker="w", seconds=1.0, build={"ran": []},
                     images=S.Images(preview="p.png"))
     doc = built.to_json()
     assert list(doc) == [*head, "config_hash", "pid", "worker", "seconds", "verify", "build", "images"]
     assert doc["verify"] is None and doc["images"] == {"preview": "p.png"} and S.Images().to_json() == {}
-    assert S.Images(("s.png",)).to_json() == {"sweep": ("s.png",), "hue": None}
-    assert S.Verified(True, ("n",)).to_json() == {"passed": True, "notes": ("n",)}
+    assert S.Images(("s.png",)).to_json() == {"sweep": ["s.png"], "hue": None}
+    assert S.Verified(True, ("n",)).to_json() == {"passed": True, "notes": ["n"]}
     v = S.Verified(False, (), ("f",), None, None, {"green": 1}).to_json()
     assert list(v) == ["passed", "notes", "failures", "median_dE", "p95_dE", "hue"] and v["median_dE"] is None
 

@@ -22,6 +22,7 @@ from typing import Literal
 
 from ..errors import UsageError
 from ..resources import write_atomic
+from ..verify.records import plain
 from .build import add_config_arguments
 from .sweep_grid import Point, grid_points, parse_grid
 
@@ -79,8 +80,7 @@ class Base:
 
 def _json(record, keep: tuple[str, ...] = ()) -> dict:
     """A record's fields in order as JSON data, but those that are None and not in ``keep``."""
-    return {f.name: v.to_json() if hasattr(v, "to_json") else v for f in fields(record)
-            if (v := getattr(record, f.name)) is not None or f.name in keep}
+    return {f.name: plain(v) for f in fields(record) if (v := getattr(record, f.name)) is not None or f.name in keep}
 
 
 @dataclass(frozen=True)
@@ -188,9 +188,9 @@ def build_point(record: PointRecord, base: Base, out: str, verify: bool) -> Poin
 
 # ----------------------------------------------------------------------------------------------- the page
 def write_index(root: Path, points: list[PointRecord], axes_keys: list[str], axes_values: list[list[str]], *,
-                state: str, seconds: float, scheduler: str, workers: int) -> None:
+                state: str, done: int, seconds: float, scheduler: str, workers: int) -> None:
     """``DIR/index.html``: a row per value of the keys but the last, a column per value of the last; a progress
-    bar (and a refresh) while the sweep runs (``state`` running, else finished or interrupted)."""
+    bar (and a refresh) while the sweep runs (``state`` running, else finished or interrupted), ``done`` points."""
     e, running = html.escape, state == "running"
     by_index = {r.index: r for r in points}
     rows = [f"<tr><th></th>{''.join(f'<th>{e(axes_keys[-1])} = {e(v)}</th>' for v in axes_values[-1])}</tr>"]
@@ -198,19 +198,18 @@ def write_index(root: Path, points: list[PointRecord], axes_keys: list[str], axe
         label = "<br>".join(f"{e(k)} = {e(axes_values[i][j])}" for i, (k, j) in enumerate(zip(axes_keys, ridx)))
         rows.append(f"<tr><th>{label or '&nbsp;'}</th>" + "".join(
             f"<td>{_cell(by_index.get(ridx + (c,)), root)}</td>" for c in range(len(axes_values[-1]))) + "</tr>")
-    done, total = sum(r.status != "pending" for r in points), len(points)
-    failed = sum(1 for r in points if r.status not in ("pending", "ok"))
-    state = (f"running: {done} of {total} points done" if running else
-             f"interrupted: {done} of {total} points done" if state == "interrupted" else
-             f"finished: {total - failed} of {total} points ok" + (f", {failed} failed" if failed else "")
-             + f" in {seconds:.1f} s")
+    total, failed = len(points), sum(r.status not in ("pending", "ok") for r in points)
+    line = (f"running: {done} of {total} points done" if running else
+            f"interrupted: {done} of {total} points done" if state == "interrupted" else
+            f"finished: {total - failed} of {total} points ok" + (f", {failed} failed" if failed else "")
+            + f" in {seconds:.1f} s")
     write_atomic(root / "index.html", f"""<!doctype html>
 <html><head><meta charset="utf-8">{f'<meta http-equiv="refresh" content="{REFRESH_S}">' if running else ""}
 <title>rockdove sweep</title><style>body{{font-family:sans-serif;margin:1em}} table{{border-collapse:collapse}}
 td,th{{border:1px solid #ccc;padding:4px;vertical-align:top;font-size:12px}} img{{display:block;max-width:220px}}
 .ok{{color:#070}} .bad{{color:#a00}} .pending{{color:#888}} progress{{width:30em}}</style></head>
 <body><h1>rockdove sweep</h1>
-<p><progress value="{done}" max="{total}"></progress> {e(state)}; scheduler {e(str(scheduler))},
+<p><progress value="{done}" max="{total}"></progress> {e(line)}; scheduler {e(str(scheduler))},
 {workers} workers; <a href="sweep.json">sweep.json</a></p>
 <table>{chr(10).join(rows)}</table></body></html>
 """)
@@ -322,7 +321,8 @@ def run(args: argparse.Namespace) -> int:
                "verify": not args.no_verify, "cache": str(cache), "scheduler": scheduler, "workers": workers,
                "total": len(records), "done": done, "seconds": seconds, "points": [r.to_json() for r in records]}
         write_atomic(root / "sweep.json", json.dumps(doc, indent=1, default=str) + "\n")
-        write_index(root, records, keys, labels, state=state, seconds=seconds, scheduler=scheduler, workers=workers)
+        write_index(root, records, keys, labels, state=state, done=done, seconds=seconds, scheduler=scheduler,
+                    workers=workers)
         return doc
 
     state = "interrupted"  # by Ctrl-C or the scheduler going away, unless the loop ends: say so, no refresh

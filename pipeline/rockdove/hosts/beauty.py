@@ -74,13 +74,16 @@ def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", wi
 
 def for_report(layer: str, scene, out_dir: str, settings: dict, *, cycles_ok: bool, lut=None) -> tuple:
     """:func:`render_beauty` for the report: ``(entry or None, note or None)``. The picture is not a measurement, so a
-    renderer that fails leaves a note, never a failed verification; Cycles asked for and GL got is noted too."""
+    renderer that fails leaves a note, never a failed verification; Cycles wanted (asked for, or ``auto`` where the
+    Blender host runs) and GL got is noted too."""
     try:
         entry = render_beauty(layer, scene, out_dir, cycles_ok=cycles_ok, lut=lut, **{
             k: settings[k] for k in ("renderer", "width", "height", "samples") if k in settings})
     except Exception as exc:  # noqa: BLE001 - any renderer's error: the report goes on without the picture
         return None, f"no beauty render: {type(exc).__name__}: {exc}"
-    allowed = settings.get("renderer") == "cycles" or (settings.get("renderer", "auto") == "auto" and cycles_ok)
-    if entry is not None and allowed and entry["renderer"] != "cycles":  # a note: the cache does not keep it
-        return entry, f"beauty render: Cycles was asked for, drawn with GL instead ({entry['fallback']})"
+    renderer = settings.get("renderer", "auto")
+    wanted = ("Cycles was asked for" if renderer == "cycles" else
+              "auto takes Cycles where the Blender host runs" if renderer == "auto" and cycles_ok else None)
+    if entry is not None and wanted and entry["renderer"] != "cycles":  # a note: the cache does not keep it
+        return entry, f"beauty render: {wanted}, drawn with GL instead ({entry['fallback']})"
     return entry, None

@@ -44,9 +44,8 @@ def addon_zip(out_dir) -> str:
     with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
         for f in files:
             info = zipfile.ZipInfo(f"{ADDON_MODULE}/{f.relative_to(source).as_posix()}", (1980, 1, 1, 0, 0, 0))
-            info.compress_type = zipfile.ZIP_DEFLATED
             info.external_attr = 0o644 << 16
-            zf.writestr(info, f.read_bytes())
+            zf.writestr(info, f.read_bytes(), zipfile.ZIP_DEFLATED)
     return path
 
 

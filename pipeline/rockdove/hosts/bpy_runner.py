@@ -141,19 +141,10 @@ def work_folder(folder: str, views: list, out_dir: str, ext: str = "exr") -> str
     return work
 
 
-def read_exr_rgb(path: str, host: str = "blender") -> np.ndarray:
-    """(H, W, 3) float32 RGB of an EXR a job wrote (RGBA, premultiplied: background 0)."""
-    import OpenEXR
-
-    with OpenEXR.File(path) as f:  # R, G, B(, A) come as one channel "RGBA" (or "RGB")
-        channels = f.channels()
-        if (rgb := channels.get("RGBA", channels.get("RGB"))) is None:
-            raise HostError(host, f"{path}: no RGB channels (has {sorted(channels)})")
-        return np.ascontiguousarray(np.array(rgb.pixels)[..., :3], dtype=np.float32)
-
-
 def read_views(host: str, renderer: str, views, work: str, ext: str = "exr") -> dict[str, np.ndarray]:
-    """View name -> image a job wrote into ``work`` (EXR as float32, saved as PNG too); HostError if missing/wrong."""
+    """View name -> image a job wrote into ``work`` (EXR: (H, W, 3) float32 RGB of its RGBA, premultiplied:
+    background 0; saved as PNG too); HostError if missing/wrong."""
+    import OpenEXR
     from PIL import Image
 
     from ..png import save_png
@@ -164,7 +155,14 @@ def read_views(host: str, renderer: str, views, work: str, ext: str = "exr") -> 
         path = os.path.join(work, f"{v.name}.{ext}")
         if not os.path.isfile(path):
             raise HostError(host, f"{renderer} wrote no image for view {v.name!r} ({path}; log: {work}/blender.log)")
-        img = read_exr_rgb(path, host) if ext == "exr" else np.asarray(Image.open(path).convert("RGB"))
+        if ext != "exr":
+            img = np.asarray(Image.open(path).convert("RGB"))
+        else:
+            with OpenEXR.File(path) as f:  # R, G, B(, A) come as one channel "RGBA" (or "RGB")
+                channels = f.channels()
+                if (rgb := channels.get("RGBA", channels.get("RGB"))) is None:
+                    raise HostError(host, f"{path}: no RGB channels (has {sorted(channels)})")
+                img = np.ascontiguousarray(np.array(rgb.pixels)[..., :3], dtype=np.float32)
         if img.shape != (v.height, v.width, 3):
             raise HostError(host, f"view {v.name!r}: {renderer} image is {img.shape[:2]}, expected "
                                   f"{(v.height, v.width)}")

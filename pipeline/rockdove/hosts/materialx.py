@@ -10,8 +10,18 @@ from typing import Any, NamedTuple
 from ..usd.layout import resolve_root_layer
 from .base import Host, HostError, save_pngs
 
+#: ``shading`` variant -> the input its feather network's base colour comes from (set black: the film lobe alone).
+BASE_COLOUR = {"baked": "StructuralMix.bg", "physical": "MtlxPhysicalSurface.base_color"}
 
-class MaterialXHost(Host):
+
+class VariantHost(Host):
+    """A host drawing the asset's ``shading`` variant ``variant`` (``preview``: the UsdPreviewSurface, always)."""
+
+    def cannot_draw(self, asset_path: str) -> str | None:
+        return None if self.variant == "preview" else missing_variant(asset_path, self.variant)
+
+
+class MaterialXHost(VariantHost):
     """The asset's MaterialX network for ``variant`` as MaterialX's generated GLSL (module docstring)."""
 
     def unavailable(self) -> str | None:
@@ -23,9 +33,6 @@ class MaterialXHost(Host):
         except ImportError as exc:
             return f"MaterialX is not installed ({exc})"
         return HOST.unavailable()
-
-    def cannot_draw(self, asset_path: str) -> str | None:
-        return missing_variant(asset_path, self.variant)
 
     def render(self, asset_path: str, views, out_dir: str | None) -> dict:
         """:meth:`Host.render` of the asset's ``variant`` network; HostError when reading, compiling or GL fails."""

@@ -13,10 +13,8 @@ from . import bpy_runner
 from .base import ENVIRONMENT_RADIANCE, HostError
 from .blender import cycles_job
 from .jobs import OslJob, OslShader
-from .materialx import MaterialXHost, Network, feather_networks
+from .materialx import BASE_COLOUR, Network, VariantHost, feather_networks
 
-#: host name -> (the ``shading`` variant drawn, its base-colour input ``node.input``, set to black)
-VARIANTS = {"osl": ("baked", "StructuralMix.bg"), "osl_physical": ("physical", "MtlxPhysicalSurface.base_color")}
 LOBE = "view_angle"
 #: Cycles samples per pixel (the shading is deterministic; samples only resolve cut-out edges).
 SAMPLES = 8
@@ -28,7 +26,7 @@ TIMEOUT_S = 900
 WORKING_SPACE, EXR_SPACE = "ACEScg", "Linear Rec.709"
 
 
-class OSLHost(MaterialXHost):
+class OSLHost(VariantHost):
     """The asset's MaterialX network as MaterialX's generated OSL in Cycles (module docstring)."""
 
     def unavailable(self) -> str | None:
@@ -41,10 +39,9 @@ class OSLHost(MaterialXHost):
     def render(self, asset_path: str, views, out_dir: str) -> dict:
         """:meth:`Host.render` of the host's network as OSL in Cycles; HostError with the compiler's error line."""
         name, views = self.name, list(views)
-        variant, base = VARIANTS[name]
         bpy_runner.bpy_python(name)
         try:
-            networks = feather_networks(layer := resolve_root_layer(asset_path), variant)
+            networks = feather_networks(layer := resolve_root_layer(asset_path), self.variant)
         except (ValueError, RuntimeError, OSError) as exc:
             raise HostError(name, f"cannot read the asset's MaterialX network: {exc}") from None
         work = bpy_runner.work_folder(name, views, out_dir)
@@ -53,7 +50,7 @@ class OSLHost(MaterialXHost):
         shaders = {}
         try:
             for mesh, net in networks.items():
-                doc, files = lobe_document(net, base)
+                doc, files = lobe_document(net, BASE_COLOUR[self.variant])
                 code = generate_osl(doc, net.material)
                 if not all(f'string {param} = ""' in code for param in files):
                     raise UsageError(f"MaterialX named the image parameters otherwise than {sorted(files)}")
@@ -157,7 +154,7 @@ def osl_headers() -> list:
     raise HostError("osl", "MaterialX's OSL headers (libraries/stdlib/genosl/include/mx_funcs.h) are not found")
 
 
-def lobe_document(net: Network, base: str = VARIANTS["osl"][1]):
+def lobe_document(net: Network, base: str = BASE_COLOUR["baked"]):
     """The network with the ``base`` colour black (the film lobe alone), in the working space, the image files empty:
     ``(document, {shader parameter: absolute file})``, set by the job (a path is never text of the source)."""
     doc = net.doc
@@ -212,5 +209,5 @@ def _compiler_error(work: str) -> str | None:
     return f"{failed}: {errors[0]} (log: {work}/blender.log)"
 
 
-#: The registry's hosts, one per network (rockdove.hosts.HOSTS).
-BAKED, PHYSICAL = HOSTS = tuple(OSLHost(n, v, LOBE) for n, (v, _) in VARIANTS.items())
+#: The registry's hosts, one per network (rockdove.hosts.HOSTS), each with its base colour black.
+BAKED, PHYSICAL = HOSTS = (OSLHost("osl", "baked", LOBE), OSLHost("osl_physical", "physical", LOBE))

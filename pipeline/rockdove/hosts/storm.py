@@ -12,9 +12,9 @@ import numpy as np
 
 from ..png import save_png
 from . import bpy_runner
-from .base import ENVIRONMENT_RADIANCE, Host, HostError
+from .base import ENVIRONMENT_RADIANCE, HostError
 from .jobs import StormJob
-from .materialx import missing_variant
+from .materialx import VariantHost
 
 LOBE = "view_angle"
 #: Seconds before a Storm run is given up (a 512 px frame: 5-45 s, mostly shader compilation).
@@ -29,14 +29,11 @@ VARIANTS = {
 FEATHER_MATERIAL = "FeatherMaterial"
 
 
-class StormHost(Host):
+class StormHost(VariantHost):
     """Hydra Storm of the bpy wheel drawing one of the asset's networks (module docstring)."""
 
     def unavailable(self) -> str | None:
         return bpy_runner.unavailable()
-
-    def cannot_draw(self, asset_path: str) -> str | None:
-        return None if self.variant == "preview" else missing_variant(asset_path, self.variant)
 
     def render(self, asset_path: str, views, out_dir: str) -> dict:
         """:meth:`Host.render` in Storm. HostError when bpy is missing, Storm cannot start or writes no image."""

@@ -233,7 +233,7 @@ def scene_to_glb(scene, version: str = "") -> bytes:
         gltf.nodes.append(gl.Node(name=part.name, mesh=len(gltf.meshes) - 1))
     gltf.extensionsUsed = [e for e in EXTENSIONS if e != "KHR_materials_variants" or gltf.extensions]
     meshes = len(gltf.nodes)
-    add_skin(gltf, blob, scene, stage, {p.path: i for i, p in enumerate(scene.parts)})
+    add_skin(gltf, blob, scene, stage)
     if gltf.skins:  # skinned mesh nodes are root nodes (glTF ignores their parents' transforms), beside the joints
         roots = list(range(meshes)) + [len(gltf.nodes) - 1]
     else:

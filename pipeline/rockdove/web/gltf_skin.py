@@ -84,8 +84,8 @@ def _point_map(positions_m, points_world, fvi) -> np.ndarray:
     raise UsageError("the exported vertices are not the mesh's rest points: glTF skins the rest pose")
 
 
-def add_skin(gltf, blob, scene, stage, mesh_nodes: dict) -> None:
-    """Skin the mesh nodes (``{USD path: node}``), add the joints and the motions; UsageError for a posed scene."""
+def add_skin(gltf, blob, scene, stage) -> None:
+    """Skin the mesh nodes (node i: scene part i), add the joints and the motions; UsageError for a posed scene."""
     from pxr import UsdGeom
     from pygltflib import Animation, AnimationChannel, AnimationChannelTarget, AnimationSampler, Node, Skin
 
@@ -118,7 +118,7 @@ def add_skin(gltf, blob, scene, stage, mesh_nodes: dict) -> None:
                         target=None)
     gltf.skins.append(Skin(name=holder.name, inverseBindMatrices=ibm, skeleton=len(gltf.nodes) - 1,
                            joints=list(range(first, first + len(names)))))
-    parts = {p.path: p for p in scene.parts}
+    mesh_nodes = {p.path: i for i, p in enumerate(scene.parts)}
     for target in binding.GetSkinningTargets():
         path = str(target.GetPrim().GetPath())
         if path not in mesh_nodes:
@@ -131,7 +131,7 @@ def add_skin(gltf, blob, scene, stage, mesh_nodes: dict) -> None:
         geom_bind = _col(target.GetGeomBindTransform())
         points = np.asarray(mesh.GetPointsAttr().Get(), np.float64)
         world = (np.c_[points, np.ones(len(points))] @ (skel_world @ geom_bind).T)[:, :3]
-        index = _point_map(parts[path].positions_m, world, mesh.GetFaceVertexIndicesAttr().Get())
+        index = _point_map(scene.parts[mesh_nodes[path]].positions_m, world, mesh.GetFaceVertexIndicesAttr().Get())
         if per > 4:
             raise UsageError(f"{path}: {per} influences per point; glTF's JOINTS_0 / WEIGHTS_0 hold 4")
         idx, w = np.asarray(indices).reshape(-1, per)[index], np.asarray(weights, np.float64).reshape(-1, per)[index]
