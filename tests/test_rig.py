@@ -3,7 +3,7 @@ scene posed by UsdSkel at a time code (rockdove.render.skinning), with the bad i
 
 import numpy as np
 import pytest
-from conftest import copy_asset
+from conftest import OUTSIDE, copy_asset
 
 from rockdove.rig import motions
 from rockdove.rig.skeleton import build_skeleton
@@ -165,6 +165,20 @@ def test_verify_checks_the_walk_measures_and_its_frames(small_asset, tmp_path):
     a = motion.animation  # one stride of the walk as an animated WebP, shown in the report
     assert a["frames"] == 12 and (tmp_path / "v" / a["file"]).is_file()
     assert f"<img src='{a['file']}'" in (tmp_path / "v" / "report.html").read_text()
+
+
+def test_the_motion_measures_find_the_feathers_where_usd_built_its_schemas_first(small_asset):
+    """A Python that built USD's schema registry before rockdove registered its plugin (a DCC's, or a script that
+    opened a stage first) does not know ``RockDoveThinFilmAPI`` as a schema: the measures still find the feather
+    mesh by its authored ``apiSchemas`` (they used to stop with StopIteration there)."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from pxr import Usd; assert Usd.SchemaRegistry().FindAppliedAPIPrimDefinition("
+            "'RockDoveThinFilmAPI') is None; from rockdove.verify.motion import measure_motion; "
+            "print(measure_motion(sys.argv[1], 'idle').frames)")
+    run = subprocess.run([sys.executable, "-c", code, str(small_asset)], capture_output=True, text=True, cwd=OUTSIDE)
+    assert run.returncode == 0 and run.stdout.split() == ["121"], run.stderr[-2000:]
 
 
 def test_verify_and_render_name_a_bad_motion_or_time(small_asset, tmp_path):

@@ -61,6 +61,7 @@ def measure_motion(asset, motion: str) -> MotionCheck:
     from ..render.skinning import pose
     from ..rig.weights import SMOOTH_PARTS
     from ..usd.layout import resolve_root_layer
+    from ..usd.schema import has_thin_film
     from ..usd.skel import MOTION_VARIANT_SET
     from ..usd.stage import open_asset
 
@@ -79,8 +80,7 @@ def measure_motion(asset, motion: str) -> MotionCheck:
     m["card_stretch"] = max(float(np.abs(length(f[n], e) / np.maximum(length(rest[n][0], e), 1e-12) - 1).max())
                             for f in posed for n, e in edges.items())
     body, body_tris = rest["Body"]
-    feather = next(p.GetName() for p in stage.GetPrimAtPath("/Pigeon/Geom").GetChildren()
-                   if "RockDoveThinFilmAPI" in p.GetAppliedSchemas())
+    feather = next(p.GetName() for p in stage.GetPrimAtPath("/Pigeon/Geom").GetChildren() if has_thin_film(p))
     cards, card_tris = rest[feather]
     comp = trimesh.graph.connected_component_labels(card_tris[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2),
                                                     node_count=len(cards))
