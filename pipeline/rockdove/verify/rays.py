@@ -123,26 +123,12 @@ def _first_opaque_hits(geom: SceneGeometry, origin, dirs, stats: dict):
 
 @dataclass(frozen=True)
 class Hits:
-    """The first opaque hit of every primary ray of one camera (:func:`cast_hits`), R = width * height, row-major."""
+    """The first opaque hit of every primary ray of one camera (:func:`cast_view`), R = width * height, row-major."""
 
     face: np.ndarray  # (R,) int64 index into the parts' concatenated triangles (scene.parts order), -1: a miss
     point: np.ndarray  # (R, 3) world position of the hit, metres (0 for a miss)
     bary: np.ndarray  # (R, 3) barycentric coordinates of the hit in its triangle (0 for a miss)
     stats: dict  # rays, alpha_layers (feather layers the rays passed through)
-
-    def to_arrays(self) -> dict:
-        """The hit rays only (exact round trip through :meth:`from_arrays`)."""
-        hit = np.nonzero(self.face >= 0)[0]
-        return {"n_rays": np.int64(self.face.size), "hit": hit.astype(np.int64), "face": self.face[hit],
-                "point": self.point[hit], "bary": self.bary[hit]}
-
-    @classmethod
-    def from_arrays(cls, arrays, stats: dict) -> Hits:
-        n, hit = int(arrays["n_rays"]), np.asarray(arrays["hit"], np.int64)
-        face = np.full(n, -1, np.int64)
-        point, bary = np.zeros((n, 3)), np.zeros((n, 3))
-        face[hit], point[hit], bary[hit] = arrays["face"], arrays["point"], arrays["bary"]
-        return cls(face, point, bary, dict(stats))
 
 
 def camera_key(view) -> str:
@@ -161,12 +147,6 @@ def ray_digest(scene) -> str:
         if p.base_colour_texture:
             d.add("st", np.asarray(p.st, np.float64)).file("alpha", p.base_colour_texture)
     return d.hexdigest()
-
-
-def cast_hits(scene, views) -> dict:
-    """Cast the primary rays of every distinct camera among ``views``: ``{camera_key(view): Hits}``."""
-    geom = SceneGeometry(scene)
-    return {key: cast_view(geom, v) for key, v in {camera_key(v): v for v in views}.items()}
 
 
 def cast_view(geom: SceneGeometry, view) -> Hits:
