@@ -229,11 +229,9 @@ def boundary_shape(rgb_linear: np.ndarray, region: np.ndarray, reach_px: int = C
     if rgb.shape[:2] != region.shape or rgb.ndim != 3 or rgb.shape[2] != 3:
         raise UsageError(f"rgb_linear (H, W, 3) and region (H, W) must match, got {rgb.shape} and {region.shape}")
     strict, sides = np.full((2, *region.shape), -1, np.int8)
-    if region.any():
-        px = np.where(np.isfinite(rgb[region]), rgb[region], 0.0)
-        lab = rgb_to_lab(px)
-        strict[region] = lab_hue_classes(lab)[2]
-        sides[region] = lab_hue_classes(lab, sides=True)[2]
+    lab = rgb_to_lab(np.where(np.isfinite(rgb[region]), rgb[region], 0.0))  # no pixels: none classified
+    strict[region] = lab_hue_classes(lab)[2]
+    sides[region] = lab_hue_classes(lab, sides=True)[2]
     return class_shape(strict, sides, reach_px)
 
 

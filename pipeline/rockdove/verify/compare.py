@@ -156,8 +156,7 @@ class HueHistogram:
 def hue_histogram(rgb_pixels: np.ndarray | None, lab_pixels: np.ndarray | None = None) -> HueHistogram:
     """:class:`HueHistogram` of (N, 3) linear pixels, or of ``lab_pixels`` already in CIELAB."""
     if lab_pixels is None:
-        rgb_pixels = np.asarray(rgb_pixels, np.float64).reshape(-1, 3)
-        lab_pixels = rgb_to_lab(rgb_pixels) if len(rgb_pixels) else np.zeros((0, 3))
+        lab_pixels = rgb_to_lab(np.asarray(rgb_pixels, np.float64).reshape(-1, 3))
     lab_pixels = np.asarray(lab_pixels, np.float64).reshape(-1, 3)
     edges = np.arange(0.0, 360.0 + HUE_BIN_DEG, HUE_BIN_DEG)
     h, _, cls = lab_hue_classes(lab_pixels)  # no pixels: empty classes, zero counts
