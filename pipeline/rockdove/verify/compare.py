@@ -251,6 +251,5 @@ def reference_classes(ref_result, scene) -> np.ndarray:
     """Hue classes of the reference's feather pixels (used when there is no GL render)."""
     feather = np.isin(ref_result.part_id, feather_ids(scene)) & (ref_result.mask >= STRUCTURAL_MASK)
     cls = np.full(feather.shape, -1, np.int8)
-    if feather.any():
-        cls[feather] = hue_classes(ref_result.rgb[feather].astype(np.float64), sides=True)[2]
+    cls[feather] = hue_classes(ref_result.rgb[feather].astype(np.float64), sides=True)[2]
     return cls
