@@ -92,8 +92,7 @@ def _mesh(scene, *names):
 def _first_hit(mesh, origin, direction) -> float:
     loc, ray, _ = mesh.ray.intersects_location(origin[None], direction[None], multiple_hits=True)
     d = (loc - origin) @ direction
-    d = d[d > 1e-6]
-    return float(d.min()) if len(d) else float("inf")
+    return float(d[d > 1e-6].min(initial=np.inf))
 
 
 def _colours(part, n=4000, seed=0):
