@@ -154,3 +154,24 @@ def test_anatomy_and_motion_measures_are_cases_and_their_failures_fail(runs, sch
     failed = {k for k, c in cases.items() if c.find("failure") is not None}
     assert failed == {("rockdove.anatomy", names[0]), ("rockdove.motion", "card_stretch")}, failed
     assert ("rockdove.motion", "hold_fraction") in cases and root.get("failures") == "2"
+
+
+def test_the_text_summary_prints_a_report_read_back_whose_numbers_are_nan(runs, capsys):
+    """``rockdove verify``'s text summary of a report.json where a NaN was written as null: "nan", not a TypeError."""
+    from rockdove.commands.verify import _print
+    from rockdove.verify.results import Report
+
+    data = json.loads(json.dumps(runs["good"][1]))
+    view = data["views"][0]
+    view.update(n_pixels=0, de_median=None, de_p95=None, de_max=None)
+    data["boundary"]["per_view"] = {"sweep_090": {**next(iter(data["boundary"]["per_view"].values())),
+                                                  "rms_px": None, "length_px": None, "rms_fraction": None}}
+    data["hosts"][0].update(n_pixels=0, median_dE=None, p95_dE=None, hue_agreement=None)
+    measure = data["anatomy"]["measures"][0]
+    measure["value"] = None
+    _print(Report.from_json(data))
+    out = capsys.readouterr().out
+    assert f"{view['view']:>16}:       0 px  dE2000 median nan  p95 nan  max nan" in out
+    assert "RMS nan px (nan of its length)" in out
+    assert "dE2000 median nan  p95 nan" in out.split("host glsl")[1] and "hue agreement nan" in out
+    assert f"{measure['name']:>22}:      nan " in out

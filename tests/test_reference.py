@@ -93,26 +93,11 @@ def test_views_sharing_a_camera_share_the_hits_but_not_the_light(tmp_path):
     assert not np.allclose(other.depth_m, a.depth_m)  # a different camera is cast again
 
 
-def test_cached_hits_give_the_same_render_and_follow_the_geometry_not_the_film(tmp_path):
-    """Ray casts cached by camera (cast_hits, stored compactly) render exactly as casting afresh; their key
-    (ray_digest) ignores the film and changes with the geometry."""
+def test_the_ray_casts_key_follows_the_geometry_not_the_film(tmp_path):
+    """ray_digest (part of the surfaces' key) ignores the film and changes with the geometry."""
     import dataclasses
 
     scene = _scene(tmp_path)
-    views = [_view((0.0, 0.0, 1.0)), _view((0.0, 0.6, 0.8)), _view(eye=(0.02, 0.0, 0.3))]
-    hits = rays.cast_hits(scene, views)
-    assert len(hits) == 2  # the first two views share a camera
-    stored = {k: rays.Hits.from_arrays(h.to_arrays(), h.stats) for k, h in hits.items()}
-    assert stored.keys() == {rays.camera_key(v) for v in views}
-    fresh = reference.render_reference(scene, views, structural_fn=_red)
-    cached = reference.render_reference(scene, views, structural_fn=_red, hits=stored)
-    for a, b in zip(fresh, cached):
-        for f in ("rgb", "part_id", "depth_m", "n_dot_l", "mask"):
-            np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
-        assert a.stats == b.stats
-    # hits handed in are used as they are (not re-cast): emptied ones render the background
-    empty = {k: rays.Hits(np.full_like(h.face, -1), h.point, h.bary, h.stats) for k, h in hits.items()}
-    assert not reference.render_reference(scene, views[:1], structural_fn=_red, hits=empty)[0].coverage.any()
     digest = rays.ray_digest(scene)
     assert rays.ray_digest(dataclasses.replace(scene, film=_film(1.6, 5000.0))) == digest
     moved = dataclasses.replace(scene.parts[1], positions_m=scene.parts[1].positions_m + np.float32(0.001))

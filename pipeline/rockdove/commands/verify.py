@@ -106,14 +106,17 @@ def run(args: argparse.Namespace) -> int:
 def _print(report) -> None:
     from ..verify.anatomy import format_rows
 
+    def num(v, spec: str = ".3f") -> str:  # a NaN that report.json wrote as null reads back as None
+        return format(float("nan") if v is None else v, spec)
+
     for m in report.views:
-        print(f"{m.view:>16}: {m.n_pixels:7d} px  dE2000 median {m.de_median:.3f}  p95 {m.de_p95:.3f}  "
-              f"max {m.de_max:.3f}  {'ok' if m.passed else 'FAIL'}")
+        print(f"{m.view:>16}: {m.n_pixels:7d} px  dE2000 median {num(m.de_median)}  p95 {num(m.de_p95)}  "
+              f"max {num(m.de_max)}  {'ok' if m.passed else 'FAIL'}")
     h = report.hue_sweep
     print(f"light sweep hues: green {h.green}, purple {h.purple}, grey {h.grey}, other {h.other}")
     for name, b in report.boundary.per_view.items():
-        print(f"boundary {name}: {b.n_points} points, RMS {b.rms_px:.2f} px "
-              f"({b.rms_fraction:.4f} of its length)")
+        print(f"boundary {name}: {b.n_points} points, RMS {num(b.rms_px, '.2f')} px "
+              f"({num(b.rms_fraction, '.4f')} of its length)")
     for host in report.hosts:
         m = host.metrics
         if host.status == "skipped":
@@ -122,11 +125,11 @@ def _print(report) -> None:
             print(f"host {host.name}: ERROR {host.reason}")
         else:
             print(f"host {host.name} ({host.variant}, {host.lobe}): {m.n_pixels} px  dE2000 median "
-                  f"{m.median_dE:.3f}  p95 {m.p95_dE:.3f}  green {m.green_px}  purple {m.purple_px}  "
-                  f"hue agreement {m.hue_agreement:.1%}  {'ok' if host.passed else 'FAIL'}")
+                  f"{num(m.median_dE)}  p95 {num(m.p95_dE)}  green {m.green_px}  purple {m.purple_px}  "
+                  f"hue agreement {num(m.hue_agreement, '.1%')}  {'ok' if host.passed else 'FAIL'}")
     if mo := report.motion:
         print(f"motion {mo.motion} ({mo.frames} time codes):", ", ".join(
-            f"{k} {v:.4g}" for k, v in mo.measures.items()))
+            f"{k} {num(v, '.4g')}" for k, v in mo.measures.items()))
     print("anatomy (rockdove.verify.anatomy):", *format_rows(report.anatomy), sep="\n")
     if report.beauty:
         print(f"beauty render ({report.beauty['renderer']}): {report.beauty['seconds']:.1f} s")

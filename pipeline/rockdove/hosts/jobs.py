@@ -51,13 +51,9 @@ class Job:
         return json.dumps(self, default=_fields, indent=1)
 
     @classmethod
-    def from_json(cls, text: str) -> typing.Self:
-        return _decode(cls, json.loads(text))
-
-    @classmethod
     def read(cls, path: str) -> typing.Self:
         with open(path, encoding="utf-8") as fh:
-            return cls.from_json(fh.read())
+            return _decode(cls, json.load(fh))
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -92,8 +92,7 @@ def _mesh(scene, *names):
 def _first_hit(mesh, origin, direction) -> float:
     loc, ray, _ = mesh.ray.intersects_location(origin[None], direction[None], multiple_hits=True)
     d = (loc - origin) @ direction
-    d = d[d > 1e-6]
-    return float(d.min()) if len(d) else float("inf")
+    return float(d[d > 1e-6].min(initial=np.inf))
 
 
 def _colours(part, n=4000, seed=0):
@@ -324,7 +323,8 @@ def measure_scene(scene) -> Anatomy:
 
 
 def format_rows(result: Anatomy) -> list[str]:
-    """One line per measure: name, value, range, pass/fail."""
-    return [f"{r.name:>22}: {r.value:8.3f} {r.unit:<3} {rng:<14} {'ok' if r.passed else 'FAIL'}  ({r.what})"
+    """One line per measure: name, value (a NaN read back from report.json is None), range, pass/fail."""
+    return [f"{r.name:>22}: {np.nan if r.value is None else r.value:8.3f} {r.unit:<3} {rng:<14} "
+            f"{'ok' if r.passed else 'FAIL'}  ({r.what})"
             for r in result.measures
             for rng in [f"[{'' if r.low is None else r.low}, {'' if r.high is None else r.high}]"]]

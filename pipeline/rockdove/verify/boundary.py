@@ -129,13 +129,14 @@ def boundary_points(cls: np.ndarray, reach_px: int = BOUNDARY_REACH_PX) -> np.nd
     return np.stack([c.astype(float), r.astype(float)], axis=1)
 
 
-def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0) -> Straightness:
+def boundary_straightness(cls: np.ndarray, min_points: int = 8, centreline=None) -> Straightness:
     """RMS perpendicular distance of the green/purple boundary's centreline (hue sides) from its total-least-squares
     line, in pixels and as a fraction of its length, with the same robust pass; NaN under ``min_points`` points.
-    A straight boundary gives ~0.3 px (pixel quantisation); a bent one its sagitta over ~3 (40 px gives ~12 px)."""
-    n, line = _boundary_centreline(cls, bin_px)
-    if line is None or len(line) < min_points:
-        return Straightness(n, 0 if line is None else len(line))
+    A straight boundary gives ~0.3 px (pixel quantisation); a bent one its sagitta over ~3 (40 px gives ~12 px).
+    ``centreline``: :func:`boundary_centreline` of ``cls``, when the caller has it."""
+    n, line = centreline or boundary_centreline(cls)
+    if len(line) < min_points:
+        return Straightness(n, len(line))
     line = _without_outliers(line, _tls(line)[2], min_points)
     centre, direction, dist = _tls(line)
     along = (line - centre) @ direction
@@ -145,10 +146,10 @@ def boundary_straightness(cls: np.ndarray, min_points: int = 8, bin_px: float = 
                         (float(direction[0]), float(direction[1])), (float(centre[0]), float(centre[1])))
 
 
-def _boundary_centreline(cls: np.ndarray, bin_px: float) -> tuple[int, np.ndarray | None]:
-    """``(the number of boundary points of ``cls``, their centreline or None)``."""
+def boundary_centreline(cls: np.ndarray, bin_px: float = 2.0) -> tuple[int, np.ndarray]:
+    """``(the number of boundary points of ``cls``, their (K, 2) centreline)``, K = 0 under two points."""
     pts = boundary_points(cls)
-    return len(pts), _centreline(pts, bin_px) if len(pts) >= 2 else None
+    return len(pts), _centreline(pts, bin_px) if len(pts) >= 2 else np.zeros((0, 2))
 
 
 def _without_outliers(line: np.ndarray, residual: np.ndarray, need: int) -> np.ndarray:
@@ -206,14 +207,15 @@ def _fits(line: np.ndarray, degree: int):
     return *fitted, float(t.max() - t.min())
 
 
-def boundary_curvature(cls: np.ndarray, min_points: int = 8, bin_px: float = 2.0,
-                       degree: int = CURVE_DEGREE) -> Curvature:
+def boundary_curvature(cls: np.ndarray, min_points: int = 8, degree: int = CURVE_DEGREE,
+                       centreline=None) -> Curvature:
     """RMS residuals of a line and a degree-``degree`` fit of the green/purple boundary of a hue-side image and
-    their ``ratio`` (module docstring); NaN under ``min_points`` or ``degree + 3`` centreline points."""
-    n, line = _boundary_centreline(cls, bin_px)
+    their ``ratio`` (module docstring); NaN under ``min_points`` or ``degree + 3`` centreline points.
+    ``centreline``: :func:`boundary_centreline` of ``cls``, when the caller has it."""
+    n, line = centreline or boundary_centreline(cls)
     need = max(int(min_points), int(degree) + 3)
-    if line is None or len(line) < need:
-        return Curvature(n, 0 if line is None else len(line), int(degree))
+    if len(line) < need:
+        return Curvature(n, len(line), int(degree))
     line = _without_outliers(line, _fits(line, degree)[1], need)
     r_line, r_curve, length = _fits(line, degree)
     rms_line, rms_curve = (float(np.sqrt(np.mean(r**2))) for r in (r_line, r_curve))
@@ -227,11 +229,9 @@ def boundary_shape(rgb_linear: np.ndarray, region: np.ndarray, reach_px: int = C
     if rgb.shape[:2] != region.shape or rgb.ndim != 3 or rgb.shape[2] != 3:
         raise UsageError(f"rgb_linear (H, W, 3) and region (H, W) must match, got {rgb.shape} and {region.shape}")
     strict, sides = np.full((2, *region.shape), -1, np.int8)
-    if region.any():
-        px = np.where(np.isfinite(rgb[region]), rgb[region], 0.0)
-        lab = rgb_to_lab(px)
-        strict[region] = lab_hue_classes(lab)[2]
-        sides[region] = lab_hue_classes(lab, sides=True)[2]
+    lab = rgb_to_lab(np.where(np.isfinite(rgb[region]), rgb[region], 0.0))  # no pixels: none classified
+    strict[region] = lab_hue_classes(lab)[2]
+    sides[region] = lab_hue_classes(lab, sides=True)[2]
     return class_shape(strict, sides, reach_px)
 
 
@@ -240,9 +240,11 @@ def class_shape(strict: np.ndarray, sides: np.ndarray, reach_px: int = COHERENCE
     ``sides``, the ``coherence`` (:func:`class_coherence`) of the ``strict`` classes, ``coherent`` (green and purple
     largest regions >= :data:`COHERENT_SHARE`) and ``curved`` (ratio >= :data:`CURVED_RATIO`) of classified pixels
     (-1 elsewhere: ViewMetrics' ``strict`` and ``cls``)."""
-    coherence, curvature = class_coherence(strict, reach_px), boundary_curvature(sides)
+    centreline = boundary_centreline(sides)  # the line and the curve are fitted to the one centreline
+    coherence, curvature = class_coherence(strict, reach_px), boundary_curvature(sides, centreline=centreline)
     shares = [coherence.green.largest_share, coherence.purple.largest_share]
-    return BoundaryShape(**vars(boundary_straightness(sides)), coherence=coherence, curvature=curvature,
+    return BoundaryShape(**vars(boundary_straightness(sides, centreline=centreline)), coherence=coherence,
+                         curvature=curvature,
                          coherent=bool(all(np.isfinite(s) and s >= COHERENT_SHARE for s in shares)),
                          curved=bool(np.isfinite(curvature.ratio) and curvature.ratio >= CURVED_RATIO))
 

@@ -156,15 +156,11 @@ class HueHistogram:
 def hue_histogram(rgb_pixels: np.ndarray | None, lab_pixels: np.ndarray | None = None) -> HueHistogram:
     """:class:`HueHistogram` of (N, 3) linear pixels, or of ``lab_pixels`` already in CIELAB."""
     if lab_pixels is None:
-        rgb_pixels = np.asarray(rgb_pixels, np.float64).reshape(-1, 3)
-        lab_pixels = rgb_to_lab(rgb_pixels) if len(rgb_pixels) else np.zeros((0, 3))
+        lab_pixels = rgb_to_lab(np.asarray(rgb_pixels, np.float64).reshape(-1, 3))
     lab_pixels = np.asarray(lab_pixels, np.float64).reshape(-1, 3)
     edges = np.arange(0.0, 360.0 + HUE_BIN_DEG, HUE_BIN_DEG)
-    if len(lab_pixels) == 0:
-        counts, cls = np.zeros(len(edges) - 1, int), np.zeros(0, np.int8)
-    else:
-        h, _, cls = lab_hue_classes(lab_pixels)
-        counts, _ = np.histogram(h[cls > 0], bins=edges)
+    h, _, cls = lab_hue_classes(lab_pixels)  # no pixels: empty classes, zero counts
+    counts, _ = np.histogram(h[cls > 0], bins=edges)
     return HueHistogram(edges.tolist(), [int(c) for c in counts], *(int(np.sum(cls == k)) for k in range(4)),
                         HUE_MIN_SATURATION, list(GREEN_BAND_DEG), list(PURPLE_BAND_DEG))
 
@@ -219,9 +215,8 @@ def compare_arrays(view: str, gl_rgb, ref_rgb, gl_part, ref_part, feather_part_i
     hue_mask[mask] = structural
     lab_hue = lab_gl[structural]
     cls_img, strict_img = np.full((2, *mask.shape), -1, np.int8)
-    if lab_hue.size:
-        cls_img[hue_mask] = lab_hue_classes(lab_hue, sides=True)[2]
-        strict_img[hue_mask] = lab_hue_classes(lab_hue)[2]
+    cls_img[hue_mask] = lab_hue_classes(lab_hue, sides=True)[2]
+    strict_img[hue_mask] = lab_hue_classes(lab_hue)[2]
     failures = [] if finite else [f"{view}: NaN or Inf in a render"]
     if n > 0:  # a view without feather pixels (neck hidden, tiny image) has nothing to fail; verify checks the total
         if stats[0] > MEDIAN_DE_GOAL:
@@ -256,6 +251,5 @@ def reference_classes(ref_result, scene) -> np.ndarray:
     """Hue classes of the reference's feather pixels (used when there is no GL render)."""
     feather = np.isin(ref_result.part_id, feather_ids(scene)) & (ref_result.mask >= STRUCTURAL_MASK)
     cls = np.full(feather.shape, -1, np.int8)
-    if feather.any():
-        cls[feather] = hue_classes(ref_result.rgb[feather].astype(np.float64), sides=True)[2]
+    cls[feather] = hue_classes(ref_result.rgb[feather].astype(np.float64), sides=True)[2]
     return cls

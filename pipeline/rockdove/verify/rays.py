@@ -63,25 +63,16 @@ class SceneGeometry:
         self.base_const = [np.asarray(p.base_colour, np.float64) for p in parts]
         self.scale = float(np.linalg.norm(self.vertices.max(axis=0) - self.vertices.min(axis=0)))
 
-    def barycentric(self, face, points):
-        import trimesh
-
-        return trimesh.triangles.points_to_barycentric(self.vertices[self.faces[face]], points)
-
     def interp(self, attr, face, bary):
         return np.einsum("nk,nk...->n...", bary, attr[self.faces[face]])
-
-    def alpha(self, part, st):
-        tex = self.base_tex[part]
-        if tex is None or tex.shape[2] not in (2, 4):
-            return np.ones(len(st))
-        from ..render.texture import sample_texture
-
-        return sample_texture(tex, st)[:, -1]
 
 
 def _first_opaque_hits(geom: SceneGeometry, origin, dirs, stats: dict):
     """First hit along each ray that is not an alpha-cut-out feather fragment: ``face`` (-1: a miss), point, bary."""
+    import trimesh
+
+    from ..render.texture import sample_texture
+
     n = len(dirs)
     face = np.full(n, -1, np.int64)
     point, bary = np.zeros((2, n, 3))
@@ -98,13 +89,13 @@ def _first_opaque_hits(geom: SceneGeometry, origin, dirs, stats: dict):
         rays = live[ray]
         tri = np.asarray(tri, np.int64)
         stuck = last[rays] == tri  # re-hit the face we just left (float32 precision): step further
-        b = geom.barycentric(tri, loc)
+        b = trimesh.triangles.points_to_barycentric(geom.vertices[geom.faces[tri]], loc)
         part = geom.part_of_face[tri]
         transparent = np.zeros(len(tri), bool)
         for p in np.unique(part[geom.cut_out[part]]):
             sel = part == p
             st = geom.interp(geom.st, tri[sel], b[sel])
-            transparent[sel] = geom.alpha(p, st) < geom.threshold[p]
+            transparent[sel] = sample_texture(geom.base_tex[p], st)[:, -1] < geom.threshold[p]  # cut_out: has alpha
         keep = ~(transparent | stuck)
         if layers == MAX_ALPHA_LAYERS:  # give up: keep what we have
             keep[:] = True
@@ -123,26 +114,12 @@ def _first_opaque_hits(geom: SceneGeometry, origin, dirs, stats: dict):
 
 @dataclass(frozen=True)
 class Hits:
-    """The first opaque hit of every primary ray of one camera (:func:`cast_hits`), R = width * height, row-major."""
+    """The first opaque hit of every primary ray of one camera (:func:`cast_view`), R = width * height, row-major."""
 
     face: np.ndarray  # (R,) int64 index into the parts' concatenated triangles (scene.parts order), -1: a miss
     point: np.ndarray  # (R, 3) world position of the hit, metres (0 for a miss)
     bary: np.ndarray  # (R, 3) barycentric coordinates of the hit in its triangle (0 for a miss)
     stats: dict  # rays, alpha_layers (feather layers the rays passed through)
-
-    def to_arrays(self) -> dict:
-        """The hit rays only (exact round trip through :meth:`from_arrays`)."""
-        hit = np.nonzero(self.face >= 0)[0]
-        return {"n_rays": np.int64(self.face.size), "hit": hit.astype(np.int64), "face": self.face[hit],
-                "point": self.point[hit], "bary": self.bary[hit]}
-
-    @classmethod
-    def from_arrays(cls, arrays, stats: dict) -> Hits:
-        n, hit = int(arrays["n_rays"]), np.asarray(arrays["hit"], np.int64)
-        face = np.full(n, -1, np.int64)
-        point, bary = np.zeros((n, 3)), np.zeros((n, 3))
-        face[hit], point[hit], bary[hit] = arrays["face"], arrays["point"], arrays["bary"]
-        return cls(face, point, bary, dict(stats))
 
 
 def camera_key(view) -> str:
@@ -161,12 +138,6 @@ def ray_digest(scene) -> str:
         if p.base_colour_texture:
             d.add("st", np.asarray(p.st, np.float64)).file("alpha", p.base_colour_texture)
     return d.hexdigest()
-
-
-def cast_hits(scene, views) -> dict:
-    """Cast the primary rays of every distinct camera among ``views``: ``{camera_key(view): Hits}``."""
-    geom = SceneGeometry(scene)
-    return {key: cast_view(geom, v) for key, v in {camera_key(v): v for v in views}.items()}
 
 
 def cast_view(geom: SceneGeometry, view) -> Hits:

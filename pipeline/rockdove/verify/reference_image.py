@@ -96,17 +96,17 @@ def structural_rgb(cos_theta, thickness_nm, film, stats: dict | None = None) -> 
     return urgb[inverse.reshape(-1)]
 
 
-def render_reference(scene, views, structural_fn=None, hits=None, lobe: str = "half_angle",
+def render_reference(scene, views, structural_fn=None, lobe: str = "half_angle",
                      surfaces=None) -> list[ReferenceResult]:
     """:class:`ReferenceResult` of each of ``views`` of a :class:`rockdove.render.scene.RenderScene`, exact model.
 
     ``structural_fn``: ``f(cos_theta (P,), thickness_nm (P,)) -> (P, 3)`` in place of :func:`structural_rgb` (tests).
-    ``hits`` / ``surfaces``: ready-made :class:`rockdove.verify.rays.Hits` / :class:`Surface` by camera key (the
-    build caches them); other cameras are cast here. ValueError for no views, or feathers without a film."""
-    return render_reference_lobes(scene, views, (lobe,), structural_fn, hits=hits, surfaces=surfaces)[lobe]
+    ``surfaces``: ready-made :class:`Surface` by camera key (the build caches them); other cameras are cast here.
+    ValueError for no views, or feathers without a film."""
+    return render_reference_lobes(scene, views, (lobe,), structural_fn, surfaces=surfaces)[lobe]
 
 
-def render_reference_lobes(scene, views, lobes=LOBES, structural_fn=None, hits=None, surfaces=None) -> dict:
+def render_reference_lobes(scene, views, lobes=LOBES, structural_fn=None, surfaces=None) -> dict:
     """:func:`render_reference` for several lighting models sharing the ray casts: ``{lobe: [ReferenceResult]}``."""
     lobes = tuple(dict.fromkeys(lobes))
     bad = [lb for lb in lobes if lb not in LOBES]
@@ -118,9 +118,8 @@ def render_reference_lobes(scene, views, lobes=LOBES, structural_fn=None, hits=N
     if structural_fn is None and scene.film is None and any(p.is_feather for p in scene.parts):
         raise UsageError(f"scene {scene.root_layer!r} has feather parts but no RockDoveThinFilmAPI film")
     geometry = functools.cache(lambda: SceneGeometry(scene))  # not built when every camera's surface is given
-    hits_cache: dict = dict(hits or {})  # the light sweep keeps its camera still: cast its rays once
-    surface_cache: dict = dict(surfaces or {})
-    return {lb: [_render_view(geometry, scene, v, structural_fn, hits_cache, surface_cache, lb) for v in views]
+    surface_cache: dict = dict(surfaces or {})  # the light sweep keeps its camera still: cast its rays once
+    return {lb: [_render_view(geometry, scene, v, structural_fn, surface_cache, lb) for v in views]
             for lb in lobes}
 
 
@@ -172,21 +171,17 @@ def surface_digest(scene) -> str:
     return d.hexdigest()
 
 
-def cast_surfaces(scene, views, hits=None) -> dict:
-    """``{camera_key(view): Surface}`` of the cameras of ``views``, from ray casts ``hits`` by camera key or cast."""
-    geometry = functools.cache(lambda: SceneGeometry(scene))
-    hits_cache = dict(hits or {})
-    return {key: _surface(geometry, v, hits_cache) for key, v in {camera_key(v): v for v in views}.items()}
+def cast_surfaces(scene, views) -> dict:
+    """``{camera_key(view): Surface}`` of the cameras of ``views``, their rays cast here."""
+    geometry = functools.cache(lambda: SceneGeometry(scene))  # not built when there are no views
+    return {key: _surface(geometry(), v) for key, v in {camera_key(v): v for v in views}.items()}
 
 
-def _surface(geometry, view, hits_cache: dict) -> Surface:
+def _surface(geom, view) -> Surface:
     from ..render.texture import sample_texture
 
-    geom = geometry()
-    key = camera_key(view)
-    if key not in hits_cache:
-        hits_cache[key] = cast_view(geom, view)
-    face, point, bary = hits_cache[key].face, hits_cache[key].point, hits_cache[key].bary
+    hits = cast_view(geom, view)
+    face, point, bary = hits.face, hits.point, hits.bary
     hit = np.nonzero(face >= 0)[0]
     origin, dirs, fwd = camera_rays(view, hit)  # the rays of the hit pixels only
     f, b = face[hit], bary[hit]
@@ -213,16 +208,15 @@ def _surface(geometry, view, hits_cache: dict) -> Surface:
     floats = {k: v.astype(SURFACE_DTYPE) for k, v in (("normal", N), ("view_dir", V), ("base", base), ("mask", mask),
               ("thickness_nm", geom.interp(geom.thickness, f, b)), ("depth_m", (point[hit] - origin) @ fwd))}
     return Surface(n_pixels=int(face.size), hit=hit.astype(np.int32), part=part.astype(np.int32), **floats,
-                   stats=dict(hits_cache[key].stats))
+                   stats=hits.stats)
 
 
-def _render_view(geometry, scene, view, structural_fn, hits_cache: dict, surface_cache: dict,
-                 lobe: str = "half_angle") -> ReferenceResult:
+def _render_view(geometry, scene, view, structural_fn, surface_cache: dict, lobe: str) -> ReferenceResult:
     t0 = time.perf_counter()
     h, w = view.height, view.width
     key = camera_key(view)
     if key not in surface_cache:
-        surface_cache[key] = _surface(geometry, view, hits_cache)
+        surface_cache[key] = _surface(geometry(), view)
     srf = surface_cache[key]
     if srf.n_pixels != h * w:
         raise UsageError(f"the surface of camera {key[:12]} holds {srf.n_pixels} pixels, view {view.name!r} {h * w}")

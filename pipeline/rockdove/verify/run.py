@@ -26,7 +26,7 @@ def render_and_check(scene, lut, views, out: str, *, surfaces=None) -> tuple[dic
     from ..srgb import linear_to_srgb8
     from .reference_image import render_reference
 
-    failures_all = []
+    failures_all: dict[str, None] = {}  # the GL renders' failures, each once, in order
     # the largest views first (the hero): GL-rendered while the reference integrates, so no view waits for long
     order = sorted(range(len(views)), key=lambda i: -views[i].width * views[i].height)
     gl = GLRenders(scene, [views[i] for i in order], lut)
@@ -40,9 +40,9 @@ def render_and_check(scene, lut, views, out: str, *, surfaces=None) -> tuple[dic
     with ThreadPoolExecutor(1, thread_name_prefix="rockdove-png") as writer:
         writes = []
 
-        def write(files: dict, key: str, path: str, fn, *args):
-            files[key] = os.path.basename(path)
-            writes.append(writer.submit(fn, *args))
+        def write(files: dict, folder: str, key: str, fn, **args):  # fn(path=<folder>/<view>_<key>.png, **args)
+            files[key] = f"{os.path.basename(folder)}_{key}.png"
+            writes.append(writer.submit(fn, path=os.path.join(folder, files[key]), **args))
 
         for k, i in enumerate(order):
             v = views[i]
@@ -50,9 +50,7 @@ def render_and_check(scene, lut, views, out: str, *, surfaces=None) -> tuple[dic
                 gl_result, t_gl = gl.result(k)
             except GLRenderError as exc:
                 gl_result, t_gl = None, 0.0
-                failure = f"GL renders (rockdove.render.gl) failed: {exc}"
-                if failure not in failures_all:
-                    failures_all.append(failure)
+                failures_all[f"GL renders (rockdove.render.gl) failed: {exc}"] = None
             gl_rgb = None if gl_result is None else np.asarray(gl_result.radiance_rgb)
             if gl_rgb is not None:
                 gl_images[v.name] = gl_rgb
@@ -73,18 +71,15 @@ def render_and_check(scene, lut, views, out: str, *, surfaces=None) -> tuple[dic
                 boundary = boundary_shape(rgb, cls >= 0)  # the same sides classes as cls
             files, rows = {}, []
             ref_png = linear_to_srgb8(ref_results[i].rgb)
-            path = os.path.join(folder, f"{v.name}_reference.png")
-            write(files, "reference", path, save_png, ref_png, path)
+            write(files, folder, "reference", save_png, image=ref_png)
             if gl_rgb is not None:
                 gl_png = linear_to_srgb8(gl_rgb)
-                path = os.path.join(folder, f"{v.name}_gl.png")
-                write(files, "gl", path, save_png, gl_png, path)
+                write(files, folder, "gl", save_png, image=gl_png)
                 rows.append(gl_png)
             rows.append(ref_png)
             if m is not None:
-                path = os.path.join(folder, f"{v.name}_dE.png")
-                write(files, "dE", path, report.de_map_png, path, m.de_map,
-                      f"{v.name}: dE2000 median {m.de_median:.2f}, p95 {m.de_p95:.2f}, max {m.de_max:.2f}")
+                write(files, folder, "dE", report.de_map_png, de_map=m.de_map,
+                      title=f"{v.name}: dE2000 median {m.de_median:.2f}, p95 {m.de_p95:.2f}, max {m.de_max:.2f}")
                 rows.append(report.de_colour(m.de_map))
             results[v.name] = ViewResult(
                 view=v.name, setup=v.to_dict(), sweep=sweep,  # the metrics without their images

@@ -126,18 +126,17 @@ def combine(checked: Checked, out: str, *, bench_dir, pictures, published_asset)
     images, lut_info, lut_failures = figures(checked, out, hue)
     failures += lut_failures + host_failures(checked.hosts)
     timings["hosts"] = checked.hosts_seconds
-    images.bench = report.copy_bench_plots(out, bench_dir) if bench_dir is not None else []
-    items = checked.items
-    if pictures is not None:  # the beauty render and the animation (rockdove.verify.verification: cached items)
-        _log.info("beauty render and animation")
-        t_pictures = time.perf_counter()
-        drawn, ran, reused = pictures()
-        for kind, (entry, note) in drawn.items():
-            setattr(images, kind, entry)
-            notes.extend([note] if note else [])
-            timings[kind] = entry["seconds"] if entry else 0.0
-        timings["pictures"] = time.perf_counter() - t_pictures
-        items = replace(items, ran=replace(items.ran, pictures=ran), reused=replace(items.reused, pictures=reused))
+    images.bench = report.copy_bench_plots(out, bench_dir)
+    _log.info("beauty render and animation")  # rockdove.verify.verification: cached items
+    t_pictures = time.perf_counter()
+    drawn, ran, reused = pictures()
+    for kind, (entry, note) in drawn.items():
+        setattr(images, kind, entry)
+        notes.extend([note] if note else [])
+        timings[kind] = entry["seconds"] if entry else 0.0
+    timings["pictures"] = time.perf_counter() - t_pictures
+    items = replace(checked.items, ran=replace(checked.items.ran, pictures=ran),
+                    reused=replace(checked.items.reused, pictures=reused))
     timings["report"] = time.perf_counter() - t
     validation, timings["validation"] = validation_pending.result()
     if not validation.passed:
