@@ -275,14 +275,6 @@ def config_hash(config: dict) -> str:
     return hashlib.sha256(canonical_json(config).encode()).hexdigest()
 
 
-@functools.lru_cache(maxsize=1)
-def _known_keys() -> frozenset[str]:
-    def walk(node: dict, path: str) -> list[str]:
-        subs = node.get("properties", {}) if node.get("type") == "object" else {}
-        return [path] + [k for name, sub in subs.items() for k in walk(sub, f"{path}.{name}".lstrip("."))]
-    return frozenset(walk(load_schema(), ""))
-
-
 class Config(Mapping[str, Any]):
     """A checked configuration, or the part of it a build stage declared, as a read-only value:
     ``config.lut.angles`` (a section reads as a Config, a list as a tuple). The names are the schema's; a key the
@@ -297,8 +289,8 @@ class Config(Mapping[str, Any]):
     def __getattr__(self, name: str) -> Any:
         key = f"{self._path}.{name}".lstrip(".")
         if name.startswith("_") or name not in self._data:
-            why = "was not declared (a stage's cache key covers only its declared keys)" if key in _known_keys() \
-                else "is not in the schema"
+            why = "was not declared (a stage's cache key covers only its declared keys)" \
+                if schema_at(load_schema(), key.split(".")) else "is not in the schema"
             raise AttributeError(f"config key {key!r} {why}")
         value = self._data[name]
         if isinstance(value, Mapping):
