@@ -315,6 +315,11 @@ def get(config: Mapping, key: str) -> Any:
     return functools.reduce(operator.getitem, key.split("."), config)
 
 
+def subset(config: Mapping, keys: Iterable[str]) -> dict:
+    """The values at the dotted ``keys``, nested as in ``config`` (the part of it a build stage declared)."""
+    return functools.reduce(_merge, (_nest(key, get(config, key)) for key in keys), {})
+
+
 @dataclass(frozen=True)
 class Parameter:
     """One configuration key as ``rockdove config`` shows it: value, unit, default, allowed, meaning (the schema's)."""
