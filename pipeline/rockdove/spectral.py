@@ -26,6 +26,7 @@ rebuild never imports it. An unwritable folder means recomputing per process."""
 
 from __future__ import annotations
 
+import contextlib
 import zipfile
 from functools import lru_cache
 
@@ -66,26 +67,20 @@ def colour_data(name: str, compute, keys: tuple[str, ...]) -> dict:
     """Read-only arrays derived from colour-science's data, from ``<name>.npz`` in the cache (module docstring);
     ``compute()`` (which may import colour-science) builds them where the file is missing, torn or lacks one of
     ``keys``. ``name`` must be unique per content."""
+    import io
+
+    from .resources import load_npz, write_cached
     from .sources import cache_dir
 
     path = cache_dir("colour-science", compute) / f"{name}.npz"
-    arrays = None
-    try:
-        with np.load(path, allow_pickle=False) as f:
-            arrays = {k: f[k] for k in f.files}
-        if not set(keys) <= set(arrays):
-            arrays = None  # written by another layout of the same name: rebuild it
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile):  # missing, or torn by a crash: recompute below
-        pass
-    if arrays is None:
-        import io
-
-        from .resources import write_cached
-
-        arrays = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in compute().items()}
-        buf = io.BytesIO()
-        np.savez(buf, **arrays)
-        write_cached(path, buf.getvalue())
+    with contextlib.suppress(OSError, ValueError, EOFError, zipfile.BadZipFile):  # missing, or torn by a crash
+        arrays = load_npz(path)
+        if set(keys) <= set(arrays):  # else written by another layout of the same name: rebuilt below
+            return arrays
+    arrays = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in compute().items()}
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    write_cached(path, buf.getvalue())
     for a in arrays.values():
         a.setflags(write=False)
     return arrays
