@@ -118,14 +118,6 @@ def cmfs_illuminant(wavelength_nm, illuminant=DEFAULT_ILLUMINANT, observer=DEFAU
     return cmfs, np.interp(lam, sw, sv)
 
 
-def _trapezoid_weights(lam: np.ndarray) -> np.ndarray:
-    w = np.empty_like(lam)
-    dl = np.diff(lam)
-    w[0], w[-1] = dl[0] / 2, dl[-1] / 2
-    w[1:-1] = (dl[:-1] + dl[1:]) / 2
-    return w
-
-
 def spectral_weights(wavelength_nm, illuminant=DEFAULT_ILLUMINANT, colour_space=None) -> np.ndarray:
     """Weights W (N, 3) with ``XYZ = R @ W`` (or working RGB, with ``colour_space``) for a reflectance sampled on
     ``wavelength_nm`` (N >= 2, strictly increasing): ``W[i] = w_i S_i cmf_i / sum_j w_j S_j ybar_j`` with
@@ -136,7 +128,7 @@ def spectral_weights(wavelength_nm, illuminant=DEFAULT_ILLUMINANT, colour_space=
     if not np.all(np.diff(lam) > 0):
         raise UsageError("wavelength_nm must be strictly increasing")
     cmfs, s = cmfs_illuminant(lam, illuminant)
-    ws = _trapezoid_weights(lam) * s
+    ws = np.convolve(np.diff(lam), (0.5, 0.5)) * s  # trapezoid weights: half of each interval to either end
     weights = cmfs * ws[:, None] / np.dot(ws, cmfs[:, 1])
     if colour_space is not None:
         weights = weights @ _xyz_to_rgb_matrix_t(colour_space)
