@@ -47,7 +47,6 @@ DEFAULT_GRAZING_STEP_NM = 0.25
 DEFAULT_GRAZING_COS = 0.05
 # Below this the resonances are narrower than 0.25 nm (dE2000 0.2 at cos theta ~ 1e-3): sampled at 0.1 nm.
 EXTREME_GRAZING_COS = 0.005
-OBSERVER = DEFAULT_OBSERVER
 
 # Memory bound for the sampled methods: (texels x wavelengths) evaluated per chunk.
 _CHUNK_ELEMENTS = 2_000_000
@@ -281,26 +280,24 @@ def bake(*, thickness_range, angles: int = DEFAULT_ANGLES, thicknesses: int = DE
     if thicknesses == 1 or lo == hi:
         lo = hi = 0.5 * (lo + hi)
         thicknesses = 1
-    rng = (lo, hi)
     cos_theta = np.linspace(0.0, 1.0, angles) ** gamma
     thickness_nm = np.linspace(lo, hi, thicknesses)
 
     result = BAKE_METHODS[method](cos_theta, thickness_nm, film_model, **kw)
     used, (rgb, meta) = result if method == "auto" else (method, result)  # "auto" says which method it used
     metadata = {f"film:{k}": v for k, v in film_model.describe().items()}
-    metadata.update({"film": film_model.name, "illuminant": illuminant, "observer": OBSERVER,
+    metadata.update({"film": film_model.name, "illuminant": illuminant, "observer": DEFAULT_OBSERVER,
                      "wavelengthRangeNm": f"{WAVELENGTH_RANGE_NM[0]!r} {WAVELENGTH_RANGE_NM[1]!r}",
                      "polarization": "unpolarized (mean of s and p)", "method": used, "methodRequested": method,
                      "estimatedError": "not measured at bake time (bake(error_points=0))"})
     metadata.update({f"method:{k}": v for k, v in meta.items()})
-    lut = ThinFilmLUT(rgb.astype(np.float32), rng, angle_warp_gamma=gamma, colour_space=colour_space,
+    lut = ThinFilmLUT(rgb.astype(np.float32), (lo, hi), angle_warp_gamma=gamma, colour_space=colour_space,
                       metadata=metadata)
     if error_points:
         from .reference import lut_error
 
         err = lut_error(lut, film_model, n_points=error_points, seed=error_seed)
-        metadata.update(error_metadata(err))
-        lut = ThinFilmLUT(lut.rgb, rng, angle_warp_gamma=gamma, colour_space=colour_space, metadata=metadata)
+        lut = dataclasses.replace(lut, metadata={**metadata, **error_metadata(err)})
     return lut
 
 
