@@ -274,26 +274,18 @@ def sampled_colour(wl, w, c, d, film) -> np.ndarray:
     return out
 
 
-def colour_to_Lab(rgb, colour_space: str | None = "lin_rec709", illuminant: str = "D65") -> np.ndarray:
-    """Linear colour (working RGB, or XYZ when ``colour_space`` is None) to CIELAB, white at Y = 1."""
-    from .. import spectral
-
-    rgb = np.asarray(rgb, dtype=np.float64)
-    xyz = rgb if colour_space is None else spectral.RGB_to_XYZ(rgb, colour_space=colour_space)
-    check_illuminant(illuminant)  # spectral.XYZ_to_Lab uses the D65 reference white (Y = 1)
-    return spectral.XYZ_to_Lab(xyz)
-
-
 def delta_E(rgb_a, rgb_b, colour_space="lin_rec709", illuminant="D65") -> np.ndarray:
-    """CIEDE2000 between two linear colours (shape (..., 3)) of the same colour space.
+    """CIEDE2000 between two linear colours (shape (..., 3)) of the same colour space (working RGB, or XYZ when
+    ``colour_space`` is None), in CIELAB with the white at Y = 1.
 
     >>> float(delta_E([0.2, 0.5, 0.3], [0.2, 0.5, 0.3]))
     0.0
     """
     from .. import spectral
 
-    return spectral.delta_E_2000(colour_to_Lab(rgb_a, colour_space, illuminant),
-                                 colour_to_Lab(rgb_b, colour_space, illuminant))
+    xyz = [c if colour_space is None else spectral.RGB_to_XYZ(c, colour_space=colour_space) for c in (rgb_a, rgb_b)]
+    check_illuminant(illuminant)  # spectral.XYZ_to_Lab uses the D65 reference white (Y = 1)
+    return spectral.delta_E_2000(*map(spectral.XYZ_to_Lab, xyz))
 
 
 def error_points(lut, n_points: int, seed: int, *, grazing_fraction: float = 0.1, grazing_cos: float = 0.05):
