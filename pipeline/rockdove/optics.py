@@ -104,10 +104,8 @@ def _as_index(name: str, value, wavelength_nm: np.ndarray | None = None, *, real
             bad |= im != 0
     if bad.any():
         first = orig[bad].flat[0].item()
-        if real_only:
-            allowed = "a finite real number > 0 (the incident medium must be transparent)"
-        else:
-            allowed = "finite with real part > 0 and imaginary part >= 0 (n + ik, k >= 0 absorbs)"
+        allowed = "a finite real number > 0 (the incident medium must be transparent)" if real_only \
+            else "finite with real part > 0 and imaginary part >= 0 (n + ik, k >= 0 absorbs)"
         raise UsageError(f"{name} must be {allowed}, got {first!r}")
     return a
 
@@ -119,18 +117,14 @@ def _q_squared(n_j, n_a, cos_a):
     return (n_j - n_a) * (n_j + n_a) + nc * nc
 
 
-def _branch_sqrt(z):
-    """Complex square root with Im >= 0 (decaying evanescent / absorbed wave), eq. (1)."""
-    q = np.sqrt(np.asarray(z, dtype=np.complex128))
-    return np.where(q.imag < 0, -q, q)
-
-
 def _q(q2, n_j, n_a, cos_a, real: bool | None = None):
     """q_j = n_j cos(theta_j) from q_j**2 (eq. 1): the real root if ``real`` (q2 >= 0; None: wherever possible),
     else the decaying branch. Where n_j == n_a, q_j = n_a cos_a exactly (no underflow of cos_a**2 at grazing)."""
     if real is None:
         real = q2.dtype.kind != "c" and (q2.size == 0 or q2.min() >= 0)
-    q = np.sqrt(q2) if real else _branch_sqrt(q2)
+    q = np.sqrt(q2 if real else np.asarray(q2, dtype=np.complex128))
+    if not real:  # the root with Im >= 0 (decaying evanescent / absorbed wave), eq. (1)
+        q = np.where(q.imag < 0, -q, q)
     same = np.asarray(n_j == n_a)
     if same.any():
         q = np.where(same, n_a * cos_a, q)
