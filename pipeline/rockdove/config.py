@@ -226,12 +226,10 @@ def validate(config: dict) -> dict:
 
     schema = load_schema()
     _check_finite(config, schema)
-    validator = jsonschema.Draft202012Validator(schema)
-    errors = sorted(validator.iter_errors(config), key=lambda e: (list(map(str, e.absolute_path)), e.validator))
-    if errors:
-        # deepest first is the most specific (an item's range before the list's type)
-        err = max(errors, key=lambda e: len(e.absolute_path)) if len(errors) > 1 else errors[0]
-        raise UsageError(_error_message(err, schema))
+    errors = sorted(jsonschema.Draft202012Validator(schema).iter_errors(config),
+                    key=lambda e: (list(map(str, e.absolute_path)), e.validator))
+    if errors:  # the deepest first is the most specific (an item's range before the list's type)
+        raise UsageError(_error_message(max(errors, key=lambda e: len(e.absolute_path)), schema))
     for sect, node in schema["properties"].items():
         for key, sub in node.get("properties", {}).items():
             value = config.get(sect, {}).get(key)
