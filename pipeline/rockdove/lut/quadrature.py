@@ -199,8 +199,7 @@ def _series_form(coef, layout, thickness_nm, n_terms, out, chunk):
     pols = []
     for pol in ("s", "p"):
         c0, c1, rho = fourier.airy_fourier_coefficients(coef[f"a_{pol}"], coef[f"b_{pol}"])
-        f32 = [v.astype(np.float32) for v in (c0, 2.0 * c1, 1.0 - rho, 4.0 * rho, rho**m, (1.0 - rho) ** 2)]
-        pols.append(f32)
+        pols.append([v.astype(np.float32) for v in (c0, 2.0 * c1, 1.0 - rho, 4.0 * rho, rho**m, (1.0 - rho) ** 2)])
     two_pi = np.float32(2.0 * np.pi)
     for i in range(0, thickness_nm.shape[0], chunk):
         rows = slice(i, min(i + chunk, thickness_nm.shape[0]))
@@ -218,15 +217,6 @@ def _series_form(coef, layout, thickness_nm, n_terms, out, chunk):
             r += c0 + c1x2 * num / (den0 + four_rho * s2)
         r *= 0.5
         layout.reduce(r, out, rows)
-
-
-def _bare(film, layout, out, rows):
-    """Rows of zero thickness: the bare incident | substrate interface at the layout's nodes."""
-    from .. import optics
-
-    r = optics.reflectance(layout.lam, layout.cos, 0.0, n_film=film.n_film(layout.lam),
-                           n_incident=film.n_incident, n_substrate=film.n_substrate)
-    layout.reduce(np.broadcast_to(r[None, :], (rows.size, layout.size)), out, rows)
 
 
 # samples (thickness rows x nodes) per chunk: 2^19 is ~10% faster than 2^17 (default keratin LUT), temporaries < 10 MB
@@ -281,6 +271,7 @@ def real_coefficients(film, cos_theta) -> bool:
 
 def _direct_columns(cos_theta, thickness_nm, film, out, illuminant, colour_space, series_tol):
     """Product integration of every column of ``cos_theta`` into ``out`` (T, A, 3); returns the plan."""
+    from .. import optics
     from .interfaces import interface_coefficients
 
     n_nodes, n_terms = column_plan(film, cos_theta, thickness_nm, series_tol=series_tol, illuminant=illuminant,
@@ -308,8 +299,10 @@ def _direct_columns(cos_theta, thickness_nm, film, out, illuminant, colour_space
             else:
                 _full_form(coef, layout, d, sub, chunk)
             out[films_rows[:, None], cols[None, :]] = sub[:, cols]
-        if bare.size:
-            _bare(film, layout, out, bare)
+        if bare.size:  # rows of zero thickness: the bare incident | substrate interface at the layout's nodes
+            r = optics.reflectance(layout.lam, layout.cos, 0.0, n_film=film.n_film(layout.lam),
+                                   n_incident=film.n_incident, n_substrate=film.n_substrate)
+            layout.reduce(np.broadcast_to(r[None, :], (bare.size, layout.size)), out, bare)
     return n_nodes, n_terms
 
 
