@@ -332,13 +332,7 @@ class Parameter:
 
 def describe(config: Mapping) -> list[Parameter]:
     """One :class:`Parameter` per key of ``config``, in the schema's order."""
-    schema = load_schema()
-    rows = []
-    for key, node in schema["properties"].items():
-        subs = node.get("properties")
-        items = subs.items() if subs else [(None, node)]
-        for sub, leaf in items:
-            dotted = f"{key}.{sub}" if sub else key
-            rows.append(Parameter(dotted, get(config, dotted), leaf.get("unit", ""), leaf.get("default"),
-                                  allowed(leaf), leaf.get("description", "")))
-    return rows
+    leaves = [(f"{key}.{sub}" if sub else key, leaf) for key, node in load_schema()["properties"].items()
+              for sub, leaf in (node["properties"].items() if node.get("properties") else [(None, node)])]
+    return [Parameter(dotted, get(config, dotted), leaf.get("unit", ""), leaf.get("default"), allowed(leaf),
+                      leaf.get("description", "")) for dotted, leaf in leaves]
