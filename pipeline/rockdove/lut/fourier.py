@@ -62,16 +62,6 @@ class GTable:
         """``W_0 = G(0)``, shape (3,): the colour of a perfect reflector."""
         return self.g[0]
 
-    def __call__(self, x_nm) -> np.ndarray:
-        """``G(x)`` by linear interpolation, shape ``x.shape + (3,)``; 0 beyond the table's end."""
-        f = np.asarray(x_nm, dtype=np.float64) / self.step_nm
-        k = np.floor(f).astype(np.intp)
-        inside = k < self.g.shape[0] - 1
-        k = np.where(inside, k, 0)
-        t = (f - k)[..., None]
-        out = self.g[k] * (1.0 - t) + self.g[k + 1] * t
-        return np.where(inside[..., None], out, 0.0)
-
     @functools.cached_property
     def _neg_tail(self) -> np.ndarray:
         return -self.g_tail  # increasing, for searchsorted
