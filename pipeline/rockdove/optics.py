@@ -259,7 +259,7 @@ def _general_complex(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t=True):
 
 
 def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, want_t):
-    """Validate, pick the fast or complex path per element, return (R, T) float64 arrays (T None unless ``want_t``)."""
+    """Validate, pick the fast or complex path per element, return R (T with ``want_t``) as a float64 array."""
     if polarization not in POLARIZATIONS:
         raise UsageError(f"polarization must be one of {POLARIZATIONS}, got {polarization!r}")
     lam = _as_real("wavelength_nm", wavelength_nm, lo=0.0, lo_open=True)
@@ -309,15 +309,13 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
         res = _general_complex(k0d, cos_a, n_a, n_b, n_c, _q(qb2, n_b, n_a, cos_a, False),
                                _q(qc2, n_c, n_a, cos_a, False), pols, want_t)
 
-    result = []
-    for k in (0, 1) if want_t else (0,):
-        if polarization == "unpolarized":
-            v = res["s"][k] + res["p"][k]
-            v *= 0.5
-        else:
-            v = res[polarization][k]
-        result.append(np.clip(np.broadcast_to(np.asarray(v, dtype=np.float64), shape), 0.0, 1.0))  # rounding: 1e-16
-    return result[0], (result[1] if want_t else None)
+    k = 1 if want_t else 0
+    if polarization == "unpolarized":
+        v = res["s"][k] + res["p"][k]
+        v *= 0.5
+    else:
+        v = res[polarization][k]
+    return np.clip(np.broadcast_to(np.asarray(v, dtype=np.float64), shape), 0.0, 1.0)  # rounding: 1e-16
 
 
 def reflectance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.0, n_substrate=1.0,
@@ -337,7 +335,7 @@ def reflectance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.
     >>> float(reflectance(550.0, 1.0, 0.0, n_film=1.5))  # no film, air on both sides: no interface
     0.0
     """
-    return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, False)[0]
+    return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, False)
 
 
 def transmittance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.0, n_substrate=1.0,
@@ -350,4 +348,4 @@ def transmittance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=
     >>> round(float(reflectance(*args, n_film=1.5) + transmittance(*args, n_film=1.5)), 12)  # R + T = 1
     1.0
     """
-    return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, True)[1]
+    return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, True)
