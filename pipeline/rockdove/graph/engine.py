@@ -140,10 +140,6 @@ class Graph:
                 done.append(self._run_stage(stage, asset_dir))
         return done
 
-    def _context(self, stage: Stage, workdir: Path, asset_dir) -> Context:
-        return Context(config=Config(subset(self.config, stage.config)), inputs=_LazyInputs(self, stage.deps),
-                       workdir=workdir, asset_dir=asset_dir, cache=self.cache)
-
     def _run_stage(self, stage: Stage, asset_dir) -> StageRecord:
         digests = {d: self.records[d].digest for d in stage.deps}
         source = source_digest(stage, [self.stages[d] for d in stage.deps])
@@ -151,7 +147,9 @@ class Graph:
         t0 = time.perf_counter()
 
         def fill(folder: Path):
-            stage.codec.save(stage.run(self._context(stage, folder, asset_dir)), folder)
+            ctx = Context(config=Config(subset(self.config, stage.config)), inputs=_LazyInputs(self, stage.deps),
+                          workdir=folder, asset_dir=asset_dir, cache=self.cache)
+            stage.codec.save(stage.run(ctx), folder)
             if stage.codec is not FILES:
                 self._values[stage.name] = stage.codec.load(folder)
 
