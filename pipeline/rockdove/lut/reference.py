@@ -76,13 +76,6 @@ def reference_step_nm(cos_theta, steps_nm=REFERENCE_STEPS_NM) -> np.ndarray:
     return step
 
 
-def snap_step_nm(step_nm) -> np.ndarray:
-    """Each step snapped down to the largest :data:`STEP_LADDER_NM` value not above it (the smallest below)."""
-    ladder = np.asarray(STEP_LADDER_NM)
-    i = np.searchsorted(ladder, np.asarray(step_nm, np.float64), side="right") - 1
-    return ladder[np.clip(i, 0, ladder.size - 1)]
-
-
 #: Interval counts of the wavenumber grids (about 9% apart), so that a process builds few sets of weights.
 NODE_LADDER = tuple(sorted({int(round(16 * 1.09**k)) for k in range(80)}))
 
@@ -240,7 +233,10 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
     steps = reference_step_nm(c[rest], steps_nm)
     if calibrated_thickness_nm is not None:
         thick = d[rest] > float(calibrated_thickness_nm)
-        steps[thick] = snap_step_nm(steps[thick] * (float(calibrated_thickness_nm) / d[rest][thick]))
+        # scaled, then snapped down to the largest STEP_LADDER_NM value not above it (the smallest below)
+        ladder = np.asarray(STEP_LADDER_NM)
+        i = np.searchsorted(ladder, steps[thick] * (float(calibrated_thickness_nm) / d[rest][thick]), side="right")
+        steps[thick] = ladder[np.clip(i - 1, 0, ladder.size - 1)]
     # a real film's points off grazing take the real-film kernel in float64: optics.reflectance to 1e-14 (module
     # docstring, "The real-film kernel"); grazing ones (R = 1, but 0 for no film between equal media) optics itself
     kernel = (c[rest] > 0.0) & real_film(film)
