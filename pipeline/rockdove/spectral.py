@@ -32,6 +32,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from ._compat import import_colour  # colour-science (~1 s to import) is imported by the functions that need it
 from .errors import UsageError
 from .srgb import srgb_encode
 
@@ -43,12 +44,6 @@ COLOUR_SPACES = ("lin_rec709", "acescg")
 _COLOURSPACE_NAMES = {"lin_rec709": "ITU-R BT.709", "acescg": "ACEScg"}
 CHROMATIC_ADAPTATION = "Bradford"  # as MaterialX's lin_rec709 <-> acescg matrices
 _REFERENCE_STEP_NM = 1.0  # grid of the reference white (the CMFS table's own step)
-
-
-def _colour():
-    from ._compat import import_colour  # imported lazily: colour-science takes ~1 s to import
-
-    return import_colour()
 
 
 def _check_wavelengths(wavelength_nm) -> np.ndarray:
@@ -89,7 +84,7 @@ def colour_data(name: str, compute, keys: tuple[str, ...]) -> dict:
 @lru_cache(maxsize=8)
 def _tables(illuminant: str, observer: str):
     def compute() -> dict:
-        colour = _colour()
+        colour = import_colour()
         if observer not in colour.MSDS_CMFS:
             raise UsageError(f"observer must be one of colour.MSDS_CMFS (e.g. {DEFAULT_OBSERVER!r}), got {observer!r}")
         if illuminant not in colour.SDS_ILLUMINANTS:
@@ -163,7 +158,7 @@ def _xyz_to_rgb_matrix_t(colour_space: str) -> np.ndarray:
     white = reference_white_xy()
 
     def compute() -> dict:
-        colour = _colour()
+        colour = import_colour()
         return {"matrix": colour.XYZ_to_RGB(np.eye(3), colour.RGB_COLOURSPACES[_COLOURSPACE_NAMES[colour_space]],
                                             illuminant=white, chromatic_adaptation_transform=CHROMATIC_ADAPTATION,
                                             apply_cctf_encoding=False)}
@@ -177,7 +172,7 @@ def _xyz_to_rgb_matrix_t(colour_space: str) -> np.ndarray:
 def _rec709_luminance() -> np.ndarray:
     """Y row of ITU-R BT.709's RGB -> XYZ matrix (colour-science's), (3,): Y = rgb @ weights."""
     def compute() -> dict:
-        return {"weights": np.asarray(_colour().RGB_COLOURSPACES["ITU-R BT.709"].matrix_RGB_to_XYZ)[1]}
+        return {"weights": np.asarray(import_colour().RGB_COLOURSPACES["ITU-R BT.709"].matrix_RGB_to_XYZ)[1]}
 
     return colour_data("rec709-luminance", compute, ("weights",))["weights"]
 
