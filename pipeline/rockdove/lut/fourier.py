@@ -34,6 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .weights import REFERENCE_STEP_NM, colour_weights, reference_wavelengths
+
 # x-grid of the G table (nm) and FFT length: Delta sigma = 1 / (N h) ~ 1.9e-6 / nm, so the FFT's periodic
 # images sit at x = N h = 524 um, far beyond the table's end N h / 2 = 262 um where G has died out.
 G_TABLE_STEP_NM = 0.5
@@ -77,8 +79,6 @@ def g_table(illuminant: str = "D65", colour_space: str | None = "lin_rec709", st
     """The ``G`` table of one illuminant and colour space by one real FFT in wavenumber (module docstring), from
     the 0.1 nm reference weights per nm, linearly interpolated and zero outside; ``Delta sigma = 1 / (fft_size
     step_nm)``. Cached per process; arrays read-only."""
-    from .weights import REFERENCE_STEP_NM, colour_weights, reference_wavelengths
-
     wl = reference_wavelengths()
     dens = colour_weights(wl, illuminant=illuminant, colour_space=colour_space) / REFERENCE_STEP_NM
     d_sigma = 1.0 / (fft_size * step_nm)

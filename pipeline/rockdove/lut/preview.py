@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import spectral
 from ..errors import UsageError
+from ..png import save_png
 from .table import ThinFilmLUT
 
 MIN_PREVIEW_HEIGHT = 32  # px
@@ -16,9 +18,6 @@ MIN_PREVIEW_HEIGHT = 32  # px
 def write_preview_png(lut: ThinFilmLUT, path) -> str:
     """Write the sRGB preview PNG of ``lut`` to ``path``, top row = thickest film (deterministic bytes: no time
     stamp); returns the path."""
-    from .. import spectral
-    from ..png import save_png
-
     if not isinstance(lut, ThinFilmLUT):
         raise UsageError(f"lut must be a ThinFilmLUT, got {type(lut).__name__}")
     img = spectral.RGB_to_preview8(lut.rgb[::-1], colour_space=lut.colour_space)

@@ -36,7 +36,10 @@ from typing import Any
 
 import numpy as np
 
+from .. import optics
 from ..errors import UsageError
+from . import fourier
+from .interfaces import interface_coefficients
 from .weights import chebyshev, chebyshev_weights, sigma_range
 
 # Node counts, rounded up to NODE_LADDER. On the default keratin LUT every texel is within 4e-4 dE2000 of the
@@ -65,9 +68,6 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
     """``(n_nodes, n_terms)`` per angle column, each (A,) int: the node count on :data:`NODE_LADDER`, and 0 for
     the full Airy form, else the series' ``M``, counted on a coarse ``G`` table (2 nm, a 2^17-point FFT: its
     envelope is the fine one's to 0.1% down to 3e-4 of the white, conservative below, in ~20 ms, not 0.1-0.7 s)."""
-    from . import fourier
-    from .interfaces import interface_coefficients
-
     s_lo, s_hi = sigma_range()
     half = 0.5 * (s_hi - s_lo)
     sig = np.linspace(s_lo, s_hi, 17)
@@ -191,8 +191,6 @@ def _series_form(coef, layout, thickness_nm, n_terms, out, chunk):
 
     so float32 trigonometry suffices once ``phi / 2`` and ``M phi`` (thousands of radians) are reduced modulo one
     period in float64."""
-    from . import fourier
-
     cycles = coef["n_b"] * coef["cos_b"] / layout.lam  # phi / (4 pi d): phase cycles per nm of film, / 2
     m = np.repeat(np.asarray(n_terms, dtype=np.float64)[layout.cols],
                   [n for (i0, i1, n, _) in layout.groups for _ in range(i1 - i0)])
@@ -271,9 +269,6 @@ def real_coefficients(film, cos_theta) -> bool:
 
 def _direct_columns(cos_theta, thickness_nm, film, out, illuminant, colour_space, series_tol):
     """Product integration of every column of ``cos_theta`` into ``out`` (T, A, 3); returns the plan."""
-    from .. import optics
-    from .interfaces import interface_coefficients
-
     n_nodes, n_terms = column_plan(film, cos_theta, thickness_nm, series_tol=series_tol, illuminant=illuminant,
                                    colour_space=colour_space)
     bare = np.nonzero(thickness_nm == 0.0)[0]

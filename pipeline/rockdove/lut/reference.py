@@ -44,7 +44,9 @@ from typing import Any
 
 import numpy as np
 
+from .. import optics, spectral
 from ..errors import UsageError
+from ..films import as_film
 from ..spectral import WAVELENGTH_RANGE_NM
 from .weights import (
     INTERPOLANT_ORDER,
@@ -204,8 +206,6 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
     >>> [round(float(c), 3) for c in reference_colour(1.0, 650.0, "paper")]  # the seed paper's film, head-on
     [0.072, 0.107, 0.085]
     """
-    from ..films import as_film
-
     film = as_film(film)
     c, d = np.broadcast_arrays(np.asarray(cos_theta, dtype=np.float64), np.asarray(thickness_nm, dtype=np.float64))
     shape = c.shape
@@ -258,8 +258,6 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
 
 def sampled_colour(wl, w, c, d, film) -> np.ndarray:
     """``R @ w`` with ``R`` from :func:`rockdove.optics.reflectance` at the wavelengths ``wl`` (any film), chunked."""
-    from .. import optics
-
     out = np.empty((c.shape[0], 3))
     n_film = film.n_film(wl)[None, :]
     chunk = max(1, _CHUNK_SAMPLES // wl.shape[0])
@@ -277,8 +275,6 @@ def delta_E(rgb_a, rgb_b, colour_space="lin_rec709", illuminant="D65") -> np.nda
     >>> float(delta_E([0.2, 0.5, 0.3], [0.2, 0.5, 0.3]))
     0.0
     """
-    from .. import spectral
-
     xyz = [c if colour_space is None else spectral.RGB_to_XYZ(c, colour_space=colour_space) for c in (rgb_a, rgb_b)]
     check_illuminant(illuminant)  # spectral.XYZ_to_Lab uses the D65 reference white (Y = 1)
     return spectral.delta_E_2000(*map(spectral.XYZ_to_Lab, xyz))
