@@ -20,7 +20,7 @@ from typing import Any
 
 from .config import DEFAULT_PRESET, config_hash
 from .config import load_config as _load_config
-from .errors import UsageError, VerificationFailed, raise_interrupt
+from .errors import ResourceMissing, UsageError, VerificationFailed, raise_interrupt
 from .graph.engine import StageRecord
 from .verify.results import HostResult, Report
 
@@ -170,19 +170,6 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
 
 
 # ----------------------------------------------------------------------------------------------- verify
-def _write_viewer(root: str, out) -> None:
-    """``viewer.html`` beside the report when the asset has its glb, as a build's (skipped, said, without three.js)."""
-    from .errors import ResourceMissing
-    from .web.gltf import GLB_NAME
-    from .web.viewer import write_viewer
-
-    try:
-        if (Path(root).parent / GLB_NAME).is_file():
-            write_viewer(root, Path(root).parent / GLB_NAME, out)
-    except ResourceMissing as exc:
-        logging.getLogger(__name__).info(f"no interactive viewer in the report: {exc}")
-
-
 def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cache: str | os.PathLike | None = None,
            out: str | os.PathLike | None = None, width: int | None = None, height: int | None = None,
            views: Iterable[str] | None = None, n_views: int | None = None, bench_dir: str | os.PathLike | None = None,
@@ -199,11 +186,18 @@ def verify(asset: str | os.PathLike, hosts: Iterable[str] | None = None, *, cach
     from .usd.dependencies import require_inside
     from .verify import verification
     from .verify.verdict import default_out_dir
+    from .web.gltf import GLB_NAME
+    from .web.viewer import write_viewer
 
     root = require_inside(asset, allow_external)  # nothing from elsewhere is read, nothing of the user's overwritten
     # the report is written whole or not at all: in a staging folder, swapped in at the end
     with staged_output(out or default_out_dir(root), "verification report", "report.json") as (staging, final):
-        _write_viewer(root, staging)
+        glb = Path(root).parent / GLB_NAME  # viewer.html beside the report when the asset has its glb, as a build's
+        try:
+            if glb.is_file():
+                write_viewer(root, glb, staging)
+        except ResourceMissing as exc:  # e.g. no three.js (a wheel install without npm): the report, without it
+            logging.getLogger(__name__).info(f"no interactive viewer in the report: {exc}")
         report = verification.verify(os.fspath(root), None if hosts is None else list(hosts), cache=cache,
                                      out_dir=staging, width=width, height=height, n_views=n_views,
                                      views=None if views is None else list(views), bench_dir=bench_dir,

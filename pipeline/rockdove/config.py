@@ -226,12 +226,10 @@ def validate(config: dict) -> dict:
 
     schema = load_schema()
     _check_finite(config, schema)
-    validator = jsonschema.Draft202012Validator(schema)
-    errors = sorted(validator.iter_errors(config), key=lambda e: (list(map(str, e.absolute_path)), e.validator))
-    if errors:
-        # deepest first is the most specific (an item's range before the list's type)
-        err = max(errors, key=lambda e: len(e.absolute_path)) if len(errors) > 1 else errors[0]
-        raise UsageError(_error_message(err, schema))
+    errors = sorted(jsonschema.Draft202012Validator(schema).iter_errors(config),
+                    key=lambda e: (list(map(str, e.absolute_path)), e.validator))
+    if errors:  # the deepest first is the most specific (an item's range before the list's type)
+        raise UsageError(_error_message(max(errors, key=lambda e: len(e.absolute_path)), schema))
     for sect, node in schema["properties"].items():
         for key, sub in node.get("properties", {}).items():
             value = config.get(sect, {}).get(key)
@@ -275,14 +273,6 @@ def config_hash(config: dict) -> str:
     return hashlib.sha256(canonical_json(config).encode()).hexdigest()
 
 
-@functools.lru_cache(maxsize=1)
-def _known_keys() -> frozenset[str]:
-    def walk(node: dict, path: str) -> list[str]:
-        subs = node.get("properties", {}) if node.get("type") == "object" else {}
-        return [path] + [k for name, sub in subs.items() for k in walk(sub, f"{path}.{name}".lstrip("."))]
-    return frozenset(walk(load_schema(), ""))
-
-
 class Config(Mapping[str, Any]):
     """A checked configuration, or the part of it a build stage declared, as a read-only value:
     ``config.lut.angles`` (a section reads as a Config, a list as a tuple). The names are the schema's; a key the
@@ -297,8 +287,8 @@ class Config(Mapping[str, Any]):
     def __getattr__(self, name: str) -> Any:
         key = f"{self._path}.{name}".lstrip(".")
         if name.startswith("_") or name not in self._data:
-            why = "was not declared (a stage's cache key covers only its declared keys)" if key in _known_keys() \
-                else "is not in the schema"
+            why = "was not declared (a stage's cache key covers only its declared keys)" \
+                if schema_at(load_schema(), key.split(".")) else "is not in the schema"
             raise AttributeError(f"config key {key!r} {why}")
         value = self._data[name]
         if isinstance(value, Mapping):
@@ -323,6 +313,11 @@ def get(config: Mapping, key: str) -> Any:
     return functools.reduce(operator.getitem, key.split("."), config)
 
 
+def subset(config: Mapping, keys: Iterable[str]) -> dict:
+    """The values at the dotted ``keys``, nested as in ``config`` (the part of it a build stage declared)."""
+    return functools.reduce(_merge, (_nest(key, get(config, key)) for key in keys), {})
+
+
 @dataclass(frozen=True)
 class Parameter:
     """One configuration key as ``rockdove config`` shows it: value, unit, default, allowed, meaning (the schema's)."""
@@ -337,13 +332,7 @@ class Parameter:
 
 def describe(config: Mapping) -> list[Parameter]:
     """One :class:`Parameter` per key of ``config``, in the schema's order."""
-    schema = load_schema()
-    rows = []
-    for key, node in schema["properties"].items():
-        subs = node.get("properties")
-        items = subs.items() if subs else [(None, node)]
-        for sub, leaf in items:
-            dotted = f"{key}.{sub}" if sub else key
-            rows.append(Parameter(dotted, get(config, dotted), leaf.get("unit", ""), leaf.get("default"),
-                                  allowed(leaf), leaf.get("description", "")))
-    return rows
+    leaves = [(f"{key}.{sub}" if sub else key, leaf) for key, node in load_schema()["properties"].items()
+              for sub, leaf in (node["properties"].items() if node.get("properties") else [(None, node)])]
+    return [Parameter(dotted, get(config, dotted), leaf.get("unit", ""), leaf.get("default"), allowed(leaf),
+                      leaf.get("description", "")) for dotted, leaf in leaves]

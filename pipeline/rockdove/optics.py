@@ -104,10 +104,8 @@ def _as_index(name: str, value, wavelength_nm: np.ndarray | None = None, *, real
             bad |= im != 0
     if bad.any():
         first = orig[bad].flat[0].item()
-        if real_only:
-            allowed = "a finite real number > 0 (the incident medium must be transparent)"
-        else:
-            allowed = "finite with real part > 0 and imaginary part >= 0 (n + ik, k >= 0 absorbs)"
+        allowed = "a finite real number > 0 (the incident medium must be transparent)" if real_only \
+            else "finite with real part > 0 and imaginary part >= 0 (n + ik, k >= 0 absorbs)"
         raise UsageError(f"{name} must be {allowed}, got {first!r}")
     return a
 
@@ -119,18 +117,14 @@ def _q_squared(n_j, n_a, cos_a):
     return (n_j - n_a) * (n_j + n_a) + nc * nc
 
 
-def _branch_sqrt(z):
-    """Complex square root with Im >= 0 (decaying evanescent / absorbed wave), eq. (1)."""
-    q = np.sqrt(np.asarray(z, dtype=np.complex128))
-    return np.where(q.imag < 0, -q, q)
-
-
 def _q(q2, n_j, n_a, cos_a, real: bool | None = None):
     """q_j = n_j cos(theta_j) from q_j**2 (eq. 1): the real root if ``real`` (q2 >= 0; None: wherever possible),
     else the decaying branch. Where n_j == n_a, q_j = n_a cos_a exactly (no underflow of cos_a**2 at grazing)."""
     if real is None:
         real = q2.dtype.kind != "c" and (q2.size == 0 or q2.min() >= 0)
-    q = np.sqrt(q2) if real else _branch_sqrt(q2)
+    q = np.sqrt(q2 if real else np.asarray(q2, dtype=np.complex128))
+    if not real:  # the root with Im >= 0 (decaying evanescent / absorbed wave), eq. (1)
+        q = np.where(q.imag < 0, -q, q)
     same = np.asarray(n_j == n_a)
     if same.any():
         q = np.where(same, n_a * cos_a, q)
@@ -265,7 +259,7 @@ def _general_complex(k0d, cos_a, n_a, n_b, n_c, qb, qc, pols, want_t=True):
 
 
 def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, want_t):
-    """Validate, pick the fast or complex path per element, return (R, T) float64 arrays (T None unless ``want_t``)."""
+    """Validate, pick the fast or complex path per element, return R (T with ``want_t``) as a float64 array."""
     if polarization not in POLARIZATIONS:
         raise UsageError(f"polarization must be one of {POLARIZATIONS}, got {polarization!r}")
     lam = _as_real("wavelength_nm", wavelength_nm, lo=0.0, lo_open=True)
@@ -315,15 +309,13 @@ def _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substra
         res = _general_complex(k0d, cos_a, n_a, n_b, n_c, _q(qb2, n_b, n_a, cos_a, False),
                                _q(qc2, n_c, n_a, cos_a, False), pols, want_t)
 
-    result = []
-    for k in (0, 1) if want_t else (0,):
-        if polarization == "unpolarized":
-            v = res["s"][k] + res["p"][k]
-            v *= 0.5
-        else:
-            v = res[polarization][k]
-        result.append(np.clip(np.broadcast_to(np.asarray(v, dtype=np.float64), shape), 0.0, 1.0))  # rounding: 1e-16
-    return result[0], (result[1] if want_t else None)
+    k = 1 if want_t else 0
+    if polarization == "unpolarized":
+        v = res["s"][k] + res["p"][k]
+        v *= 0.5
+    else:
+        v = res[polarization][k]
+    return np.clip(np.broadcast_to(np.asarray(v, dtype=np.float64), shape), 0.0, 1.0)  # rounding: 1e-16
 
 
 def reflectance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.0, n_substrate=1.0,
@@ -343,7 +335,7 @@ def reflectance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.
     >>> float(reflectance(550.0, 1.0, 0.0, n_film=1.5))  # no film, air on both sides: no interface
     0.0
     """
-    return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, False)[0]
+    return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, False)
 
 
 def transmittance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=1.0, n_substrate=1.0,
@@ -356,4 +348,4 @@ def transmittance(wavelength_nm, cos_theta, thickness_nm, *, n_film, n_incident=
     >>> round(float(reflectance(*args, n_film=1.5) + transmittance(*args, n_film=1.5)), 12)  # R + T = 1
     1.0
     """
-    return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, True)[1]
+    return _solve(wavelength_nm, cos_theta, thickness_nm, n_film, n_incident, n_substrate, polarization, True)

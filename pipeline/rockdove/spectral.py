@@ -26,11 +26,13 @@ rebuild never imports it. An unwritable folder means recomputing per process."""
 
 from __future__ import annotations
 
+import contextlib
 import zipfile
 from functools import lru_cache
 
 import numpy as np
 
+from ._compat import import_colour  # colour-science (~1 s to import) is imported by the functions that need it
 from .errors import UsageError
 from .srgb import srgb_encode
 
@@ -42,12 +44,6 @@ COLOUR_SPACES = ("lin_rec709", "acescg")
 _COLOURSPACE_NAMES = {"lin_rec709": "ITU-R BT.709", "acescg": "ACEScg"}
 CHROMATIC_ADAPTATION = "Bradford"  # as MaterialX's lin_rec709 <-> acescg matrices
 _REFERENCE_STEP_NM = 1.0  # grid of the reference white (the CMFS table's own step)
-
-
-def _colour():
-    from ._compat import import_colour  # imported lazily: colour-science takes ~1 s to import
-
-    return import_colour()
 
 
 def _check_wavelengths(wavelength_nm) -> np.ndarray:
@@ -66,26 +62,20 @@ def colour_data(name: str, compute, keys: tuple[str, ...]) -> dict:
     """Read-only arrays derived from colour-science's data, from ``<name>.npz`` in the cache (module docstring);
     ``compute()`` (which may import colour-science) builds them where the file is missing, torn or lacks one of
     ``keys``. ``name`` must be unique per content."""
+    import io
+
+    from .resources import load_npz, write_cached
     from .sources import cache_dir
 
     path = cache_dir("colour-science", compute) / f"{name}.npz"
-    arrays = None
-    try:
-        with np.load(path, allow_pickle=False) as f:
-            arrays = {k: f[k] for k in f.files}
-        if not set(keys) <= set(arrays):
-            arrays = None  # written by another layout of the same name: rebuild it
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile):  # missing, or torn by a crash: recompute below
-        pass
-    if arrays is None:
-        import io
-
-        from .resources import write_cached
-
-        arrays = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in compute().items()}
-        buf = io.BytesIO()
-        np.savez(buf, **arrays)
-        write_cached(path, buf.getvalue())
+    with contextlib.suppress(OSError, ValueError, EOFError, zipfile.BadZipFile):  # missing, or torn by a crash
+        arrays = load_npz(path)
+        if set(keys) <= set(arrays):  # else written by another layout of the same name: rebuilt below
+            return arrays
+    arrays = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in compute().items()}
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    write_cached(path, buf.getvalue())
     for a in arrays.values():
         a.setflags(write=False)
     return arrays
@@ -94,7 +84,7 @@ def colour_data(name: str, compute, keys: tuple[str, ...]) -> dict:
 @lru_cache(maxsize=8)
 def _tables(illuminant: str, observer: str):
     def compute() -> dict:
-        colour = _colour()
+        colour = import_colour()
         if observer not in colour.MSDS_CMFS:
             raise UsageError(f"observer must be one of colour.MSDS_CMFS (e.g. {DEFAULT_OBSERVER!r}), got {observer!r}")
         if illuminant not in colour.SDS_ILLUMINANTS:
@@ -123,14 +113,6 @@ def cmfs_illuminant(wavelength_nm, illuminant=DEFAULT_ILLUMINANT, observer=DEFAU
     return cmfs, np.interp(lam, sw, sv)
 
 
-def _trapezoid_weights(lam: np.ndarray) -> np.ndarray:
-    w = np.empty_like(lam)
-    dl = np.diff(lam)
-    w[0], w[-1] = dl[0] / 2, dl[-1] / 2
-    w[1:-1] = (dl[:-1] + dl[1:]) / 2
-    return w
-
-
 def spectral_weights(wavelength_nm, illuminant=DEFAULT_ILLUMINANT, colour_space=None) -> np.ndarray:
     """Weights W (N, 3) with ``XYZ = R @ W`` (or working RGB, with ``colour_space``) for a reflectance sampled on
     ``wavelength_nm`` (N >= 2, strictly increasing): ``W[i] = w_i S_i cmf_i / sum_j w_j S_j ybar_j`` with
@@ -141,7 +123,7 @@ def spectral_weights(wavelength_nm, illuminant=DEFAULT_ILLUMINANT, colour_space=
     if not np.all(np.diff(lam) > 0):
         raise UsageError("wavelength_nm must be strictly increasing")
     cmfs, s = cmfs_illuminant(lam, illuminant)
-    ws = _trapezoid_weights(lam) * s
+    ws = np.convolve(np.diff(lam), (0.5, 0.5)) * s  # trapezoid weights: half of each interval to either end
     weights = cmfs * ws[:, None] / np.dot(ws, cmfs[:, 1])
     if colour_space is not None:
         weights = weights @ _xyz_to_rgb_matrix_t(colour_space)
@@ -176,7 +158,7 @@ def _xyz_to_rgb_matrix_t(colour_space: str) -> np.ndarray:
     white = reference_white_xy()
 
     def compute() -> dict:
-        colour = _colour()
+        colour = import_colour()
         return {"matrix": colour.XYZ_to_RGB(np.eye(3), colour.RGB_COLOURSPACES[_COLOURSPACE_NAMES[colour_space]],
                                             illuminant=white, chromatic_adaptation_transform=CHROMATIC_ADAPTATION,
                                             apply_cctf_encoding=False)}
@@ -190,7 +172,7 @@ def _xyz_to_rgb_matrix_t(colour_space: str) -> np.ndarray:
 def _rec709_luminance() -> np.ndarray:
     """Y row of ITU-R BT.709's RGB -> XYZ matrix (colour-science's), (3,): Y = rgb @ weights."""
     def compute() -> dict:
-        return {"weights": np.asarray(_colour().RGB_COLOURSPACES["ITU-R BT.709"].matrix_RGB_to_XYZ)[1]}
+        return {"weights": np.asarray(import_colour().RGB_COLOURSPACES["ITU-R BT.709"].matrix_RGB_to_XYZ)[1]}
 
     return colour_data("rec709-luminance", compute, ("weights",))["weights"]
 

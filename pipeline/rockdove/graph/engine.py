@@ -19,7 +19,7 @@ from typing import Any
 
 from .. import sources
 from ..cache import CODEC_FILES, FILES, JSON, KEY_VERSION, NPZ, Cache, Codec, folder_digest, load_entry  # noqa: F401
-from ..config import Config, canonical_json, get
+from ..config import Config, canonical_json, subset
 
 
 @dataclass
@@ -51,17 +51,6 @@ class Stage:
     needs_asset: bool = False
 
 
-def _nested(config: dict, keys: Iterable[str]) -> dict:
-    out: dict = {}
-    for key in keys:
-        parts = key.split(".")
-        node = out
-        for p in parts[:-1]:
-            node = node.setdefault(p, {})
-        node[parts[-1]] = get(config, key)
-    return out
-
-
 def source_digest(stage: Stage, inputs: Iterable[Stage] = (), record: bool = False):
     """The digest of the code a stage can execute (its callables, its codecs', the loaders of its ``inputs``),
     of its data, the environment and Python (:func:`rockdove.sources.digest`); with ``record``, what it hashed."""
@@ -73,7 +62,7 @@ def source_digest(stage: Stage, inputs: Iterable[Stage] = (), record: bool = Fal
 def stage_key(stage: Stage, config: dict, input_digests: Mapping[str, str], source: str) -> str:
     """The content key (sha256 hex) of ``stage``: exactly its config keys, code, inputs."""
     payload = {"graph": KEY_VERSION, "stage": stage.name, "source": source,
-               "config": _nested(config, stage.config), "inputs": {d: input_digests[d] for d in stage.deps}}
+               "config": subset(config, stage.config), "inputs": {d: input_digests[d] for d in stage.deps}}
     return hashlib.sha256(canonical_json(payload).encode()).hexdigest()
 
 
@@ -151,10 +140,6 @@ class Graph:
                 done.append(self._run_stage(stage, asset_dir))
         return done
 
-    def _context(self, stage: Stage, workdir: Path, asset_dir) -> Context:
-        return Context(config=Config(_nested(self.config, stage.config)), inputs=_LazyInputs(self, stage.deps),
-                       workdir=workdir, asset_dir=asset_dir, cache=self.cache)
-
     def _run_stage(self, stage: Stage, asset_dir) -> StageRecord:
         digests = {d: self.records[d].digest for d in stage.deps}
         source = source_digest(stage, [self.stages[d] for d in stage.deps])
@@ -162,7 +147,9 @@ class Graph:
         t0 = time.perf_counter()
 
         def fill(folder: Path):
-            stage.codec.save(stage.run(self._context(stage, folder, asset_dir)), folder)
+            ctx = Context(config=Config(subset(self.config, stage.config)), inputs=_LazyInputs(self, stage.deps),
+                          workdir=folder, asset_dir=asset_dir, cache=self.cache)
+            stage.codec.save(stage.run(ctx), folder)
             if stage.codec is not FILES:
                 self._values[stage.name] = stage.codec.load(folder)
 

@@ -248,16 +248,15 @@ def publish(staging: Path, out: Path) -> None:
 
 
 def _swap(staging: Path, out: Path) -> None:
-    if out.exists():
-        if _exchange(staging, out):
-            _remove(staging)  # now holds the old folder
-            return
+    if not out.exists():
+        os.rename(staging, out)
+    elif _exchange(staging, out):
+        _remove(staging)  # now holds the old folder
+    else:
         old = out.parent / f".{out.name}{_OLD}{os.getpid()}-{os.urandom(4).hex()}"
         os.rename(out, old)
         os.rename(staging, out)
         _remove(old)
-    else:
-        os.rename(staging, out)
 
 
 @contextlib.contextmanager

@@ -19,12 +19,17 @@ from typing import Any
 
 import numpy as np
 
+from .. import optics
 from ..config import Config, defaults
 from ..errors import UsageError
 from ..films import as_film
 from ..spectral import DEFAULT_OBSERVER, WAVELENGTH_RANGE_NM, check_colour_space
+from . import fourier
 from .interfaces import interface_coefficients
+from .quadrature import quadrature_colour, real_coefficients
+from .reference import lut_error, real_film, reference_colour
 from .table import ThinFilmLUT
+from .weights import REFERENCE_STEP_NM, check_illuminant, colour_weights
 
 # The table's defaults are the configuration schema's (its one source; tests/test_lut_bake.py pins bake() to it).
 # On the gamma, ``rockdove bench lut`` (benchmarks/README.md): at 256 angles every gamma in 1-3 errs the same (max
@@ -47,7 +52,6 @@ DEFAULT_GRAZING_STEP_NM = 0.25
 DEFAULT_GRAZING_COS = 0.05
 # Below this the resonances are narrower than 0.25 nm (dE2000 0.2 at cos theta ~ 1e-3): sampled at 0.1 nm.
 EXTREME_GRAZING_COS = 0.005
-OBSERVER = DEFAULT_OBSERVER
 
 # Memory bound for the sampled methods: (texels x wavelengths) evaluated per chunk.
 _CHUNK_ELEMENTS = 2_000_000
@@ -93,9 +97,6 @@ def wavelength_grid(step_nm: float) -> np.ndarray:
 def _bake_spectral(cos_theta, thickness_nm, film, *, illuminant, colour_space, spectral_step_nm, **_):
     """Straightforward per-wavelength bake with :func:`rockdove.optics.reflectance`; shape (T, A, 3). Rows of
     texels at a time, so the Fresnel terms are computed per (angle, wavelength), not per texel."""
-    from .. import optics
-    from .weights import colour_weights
-
     wl = wavelength_grid(spectral_step_nm)
     w = colour_weights(wl, illuminant=illuminant, colour_space=colour_space)
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
@@ -146,8 +147,6 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
     bare = thickness_nm == 0.0
     if np.any(bare):
         # no film: the bare incident | substrate interface (the Airy form's d -> 0 limit is ambiguous at grazing)
-        from .. import optics
-
         r = optics.reflectance(wavelength_nm[None, :], cos_theta[:, None], 0.0, n_film=film.n_film(wavelength_nm),
                                n_incident=film.n_incident, n_substrate=film.n_substrate)
         out[bare] = (r @ weights)[None]
@@ -156,8 +155,6 @@ def sample_colour(cos_theta, thickness_nm, film, wavelength_nm, weights):
 
 def _bake_spectral_fast(cos_theta, thickness_nm, film, *, illuminant, colour_space, fast_step_nm,
                         grazing_step_nm, grazing_cos, **_):
-    from .weights import REFERENCE_STEP_NM, colour_weights
-
     out = np.empty((thickness_nm.shape[0], cos_theta.shape[0], 3))
     graze = cos_theta < grazing_cos
     # below cos theta ~ 5e-3 the resonances get narrower than any fixed step: sample like the reference there
@@ -176,15 +173,10 @@ def _bake_spectral_fast(cos_theta, thickness_nm, film, *, illuminant, colour_spa
 
 def fourier_supported(film) -> bool:
     """True when the exact Fourier form applies: non-dispersive, non-absorbing, real coefficients (no TIR)."""
-    from .reference import real_film
-
     return not film.is_dispersive and real_film(film)
 
 
 def _bake_fourier(cos_theta, thickness_nm, film, *, illuminant, colour_space, fourier_tol, max_terms, **_):
-    from . import fourier
-    from .reference import REFERENCE_STEP_NM, reference_colour
-
     if not fourier_supported(film):
         raise UsageError(f"method 'fourier' needs a non-dispersive, non-absorbing film without total internal "
                          f"reflection; film {film.name!r} is not (use 'spectral_fast', 'spectral' or 'auto')")
@@ -210,16 +202,12 @@ def _bake_fourier(cos_theta, thickness_nm, film, *, illuminant, colour_space, fo
 
 
 def _bake_quadrature(cos_theta, thickness_nm, film, *, illuminant, colour_space, **_):
-    from .quadrature import quadrature_colour
-
     return quadrature_colour(cos_theta, thickness_nm, film, illuminant=illuminant, colour_space=colour_space)
 
 
 def _bake_auto(cos_theta, thickness_nm, film, **kw):
     if fourier_supported(film):
         return "fourier", _bake_fourier(cos_theta, thickness_nm, film, **kw)
-    from .quadrature import real_coefficients
-
     if real_coefficients(film, cos_theta):  # dispersive: product integration beats sampling (rockdove bench lut)
         return "quadrature", _bake_quadrature(cos_theta, thickness_nm, film, **kw)
     # absorbing film or substrate, or total internal reflection: the general path (accuracy not benchmarked)
@@ -265,8 +253,6 @@ def bake(*, thickness_range, angles: int = DEFAULT_ANGLES, thicknesses: int = DE
     if not isinstance(method, str) or method not in BAKE_METHODS:
         raise UsageError(f"method must be one of {sorted(BAKE_METHODS)}, got {method!r}")
     gamma = _check_positive("angle_warp_gamma", angle_warp_gamma)
-    from .weights import check_illuminant
-
     colour_space = check_colour_space(colour_space)
     illuminant = check_illuminant(illuminant)
     kw = dict(illuminant=illuminant, colour_space=colour_space,
@@ -281,26 +267,22 @@ def bake(*, thickness_range, angles: int = DEFAULT_ANGLES, thicknesses: int = DE
     if thicknesses == 1 or lo == hi:
         lo = hi = 0.5 * (lo + hi)
         thicknesses = 1
-    rng = (lo, hi)
     cos_theta = np.linspace(0.0, 1.0, angles) ** gamma
     thickness_nm = np.linspace(lo, hi, thicknesses)
 
     result = BAKE_METHODS[method](cos_theta, thickness_nm, film_model, **kw)
     used, (rgb, meta) = result if method == "auto" else (method, result)  # "auto" says which method it used
     metadata = {f"film:{k}": v for k, v in film_model.describe().items()}
-    metadata.update({"film": film_model.name, "illuminant": illuminant, "observer": OBSERVER,
+    metadata.update({"film": film_model.name, "illuminant": illuminant, "observer": DEFAULT_OBSERVER,
                      "wavelengthRangeNm": f"{WAVELENGTH_RANGE_NM[0]!r} {WAVELENGTH_RANGE_NM[1]!r}",
                      "polarization": "unpolarized (mean of s and p)", "method": used, "methodRequested": method,
                      "estimatedError": "not measured at bake time (bake(error_points=0))"})
     metadata.update({f"method:{k}": v for k, v in meta.items()})
-    lut = ThinFilmLUT(rgb.astype(np.float32), rng, angle_warp_gamma=gamma, colour_space=colour_space,
+    lut = ThinFilmLUT(rgb.astype(np.float32), (lo, hi), angle_warp_gamma=gamma, colour_space=colour_space,
                       metadata=metadata)
     if error_points:
-        from .reference import lut_error
-
         err = lut_error(lut, film_model, n_points=error_points, seed=error_seed)
-        metadata.update(error_metadata(err))
-        lut = ThinFilmLUT(lut.rgb, rng, angle_warp_gamma=gamma, colour_space=colour_space, metadata=metadata)
+        lut = dataclasses.replace(lut, metadata={**metadata, **error_metadata(err)})
     return lut
 
 
@@ -308,8 +290,6 @@ def as_shipped(lut: ThinFilmLUT, film, precision: str, error_points: int) -> Thi
     """``lut`` as its EXR holds it (``precision`` ``"half"``: rounded to half floats, as :mod:`rockdove.lut.exr`
     writes HALF channels for metadata precision "half"), its header carrying its error against the exact
     reference at ``error_points`` random points (:func:`rockdove.lut.reference.lut_error`)."""
-    from .reference import lut_error
-
     rgb, metadata = lut.rgb, dict(lut.metadata)
     if precision == "half":
         rgb = lut.rgb.astype(np.float16).astype(np.float32)

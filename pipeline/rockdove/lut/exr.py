@@ -33,15 +33,6 @@ _RESERVED = ("format", "angleAxis", "angleWarpGamma", "thicknessRangeNm", "colou
 PRECISIONS = {"float32": np.float32, "half": np.float16}
 
 
-def _header_strings(lut: ThinFilmLUT, precision: str) -> dict[str, str]:
-    lo, hi = lut.thickness_range_nm
-    attrs = {"precision": precision, "format": FORMAT_TAG, "angleAxis": ANGLE_AXIS,
-             "angleWarpGamma": repr(float(lut.angle_warp_gamma)), "thicknessRangeNm": f"{float(lo)!r} {float(hi)!r}",
-             "colourSpace": str(lut.colour_space)}
-    attrs.update({str(key): str(value) for key, value in lut.metadata.items() if key not in _RESERVED})
-    return {PREFIX + k: attrs[k] for k in sorted(attrs)}
-
-
 def write_exr(lut: ThinFilmLUT, path, precision: str | None = None) -> str:
     """Write ``lut`` as an RGB OpenEXR file (FLOAT or HALF channels) with its axes and provenance in the header;
     returns ``path`` as a string. Written directly (``rockdove lut`` writes a temporary name and replaces).
@@ -58,8 +49,13 @@ def write_exr(lut: ThinFilmLUT, path, precision: str | None = None) -> str:
         raise UsageError(f"precision={precision!r} is not an EXR channel type; allowed: {sorted(PRECISIONS)}")
     path = os.fspath(path)
     pixels = np.ascontiguousarray(lut.rgb[::-1], dtype=PRECISIONS[precision])  # bottom row = thinnest
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    header.update(_header_strings(lut, precision))
+    lo, hi = lut.thickness_range_nm
+    attrs = {"precision": precision, "format": FORMAT_TAG, "angleAxis": ANGLE_AXIS,
+             "angleWarpGamma": repr(float(lut.angle_warp_gamma)), "thicknessRangeNm": f"{float(lo)!r} {float(hi)!r}",
+             "colourSpace": str(lut.colour_space)}
+    attrs.update({str(key): str(value) for key, value in lut.metadata.items() if key not in _RESERVED})
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+              **{PREFIX + k: attrs[k] for k in sorted(attrs)}}
     with OpenEXR.File(header, {"RGB": pixels}) as f:
         f.write(path)
     return path

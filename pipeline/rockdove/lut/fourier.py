@@ -34,6 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .weights import REFERENCE_STEP_NM, colour_weights, reference_wavelengths
+
 # x-grid of the G table (nm) and FFT length: Delta sigma = 1 / (N h) ~ 1.9e-6 / nm, so the FFT's periodic
 # images sit at x = N h = 524 um, far beyond the table's end N h / 2 = 262 um where G has died out.
 G_TABLE_STEP_NM = 0.5
@@ -62,16 +64,6 @@ class GTable:
         """``W_0 = G(0)``, shape (3,): the colour of a perfect reflector."""
         return self.g[0]
 
-    def __call__(self, x_nm) -> np.ndarray:
-        """``G(x)`` by linear interpolation, shape ``x.shape + (3,)``; 0 beyond the table's end."""
-        f = np.asarray(x_nm, dtype=np.float64) / self.step_nm
-        k = np.floor(f).astype(np.intp)
-        inside = k < self.g.shape[0] - 1
-        k = np.where(inside, k, 0)
-        t = (f - k)[..., None]
-        out = self.g[k] * (1.0 - t) + self.g[k + 1] * t
-        return np.where(inside[..., None], out, 0.0)
-
     @functools.cached_property
     def _neg_tail(self) -> np.ndarray:
         return -self.g_tail  # increasing, for searchsorted
@@ -87,8 +79,6 @@ def g_table(illuminant: str = "D65", colour_space: str | None = "lin_rec709", st
     """The ``G`` table of one illuminant and colour space by one real FFT in wavenumber (module docstring), from
     the 0.1 nm reference weights per nm, linearly interpolated and zero outside; ``Delta sigma = 1 / (fft_size
     step_nm)``. Cached per process; arrays read-only."""
-    from .weights import REFERENCE_STEP_NM, colour_weights, reference_wavelengths
-
     wl = reference_wavelengths()
     dens = colour_weights(wl, illuminant=illuminant, colour_space=colour_space) / REFERENCE_STEP_NM
     d_sigma = 1.0 / (fft_size * step_nm)

@@ -7,26 +7,20 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import spectral
 from ..errors import UsageError
+from ..png import save_png
 from .table import ThinFilmLUT
 
 MIN_PREVIEW_HEIGHT = 32  # px
 
 
-def preview_image(lut: ThinFilmLUT) -> np.ndarray:
-    """The preview as an (H, n_angle, 3) uint8 array, top row = thickest film."""
-    from .. import spectral
-
+def write_preview_png(lut: ThinFilmLUT, path) -> str:
+    """Write the sRGB preview PNG of ``lut`` to ``path``, top row = thickest film (deterministic bytes: no time
+    stamp); returns the path."""
+    if not isinstance(lut, ThinFilmLUT):
+        raise UsageError(f"lut must be a ThinFilmLUT, got {type(lut).__name__}")
     img = spectral.RGB_to_preview8(lut.rgb[::-1], colour_space=lut.colour_space)
     if img.shape[0] < MIN_PREVIEW_HEIGHT:
         img = np.repeat(img, -(-MIN_PREVIEW_HEIGHT // img.shape[0]), axis=0)
-    return np.ascontiguousarray(img)
-
-
-def write_preview_png(lut: ThinFilmLUT, path) -> str:
-    """Write the sRGB preview PNG of ``lut`` to ``path`` (deterministic bytes: no time stamp); returns the path."""
-    from ..png import save_png
-
-    if not isinstance(lut, ThinFilmLUT):
-        raise UsageError(f"lut must be a ThinFilmLUT, got {type(lut).__name__}")
-    return save_png(preview_image(lut), path, level=6)
+    return save_png(img, path, level=6)

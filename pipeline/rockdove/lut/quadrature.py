@@ -36,7 +36,10 @@ from typing import Any
 
 import numpy as np
 
+from .. import optics
 from ..errors import UsageError
+from . import fourier
+from .interfaces import interface_coefficients
 from .weights import chebyshev, chebyshev_weights, sigma_range
 
 # Node counts, rounded up to NODE_LADDER. On the default keratin LUT every texel is within 4e-4 dE2000 of the
@@ -65,9 +68,6 @@ def column_plan(film, cos_theta, thickness_nm, *, series_tol=DEFAULT_SERIES_TOL,
     """``(n_nodes, n_terms)`` per angle column, each (A,) int: the node count on :data:`NODE_LADDER`, and 0 for
     the full Airy form, else the series' ``M``, counted on a coarse ``G`` table (2 nm, a 2^17-point FFT: its
     envelope is the fine one's to 0.1% down to 3e-4 of the white, conservative below, in ~20 ms, not 0.1-0.7 s)."""
-    from . import fourier
-    from .interfaces import interface_coefficients
-
     s_lo, s_hi = sigma_range()
     half = 0.5 * (s_hi - s_lo)
     sig = np.linspace(s_lo, s_hi, 17)
@@ -191,16 +191,13 @@ def _series_form(coef, layout, thickness_nm, n_terms, out, chunk):
 
     so float32 trigonometry suffices once ``phi / 2`` and ``M phi`` (thousands of radians) are reduced modulo one
     period in float64."""
-    from . import fourier
-
     cycles = coef["n_b"] * coef["cos_b"] / layout.lam  # phi / (4 pi d): phase cycles per nm of film, / 2
     m = np.repeat(np.asarray(n_terms, dtype=np.float64)[layout.cols],
                   [n for (i0, i1, n, _) in layout.groups for _ in range(i1 - i0)])
     pols = []
     for pol in ("s", "p"):
         c0, c1, rho = fourier.airy_fourier_coefficients(coef[f"a_{pol}"], coef[f"b_{pol}"])
-        f32 = [v.astype(np.float32) for v in (c0, 2.0 * c1, 1.0 - rho, 4.0 * rho, rho**m, (1.0 - rho) ** 2)]
-        pols.append(f32)
+        pols.append([v.astype(np.float32) for v in (c0, 2.0 * c1, 1.0 - rho, 4.0 * rho, rho**m, (1.0 - rho) ** 2)])
     two_pi = np.float32(2.0 * np.pi)
     for i in range(0, thickness_nm.shape[0], chunk):
         rows = slice(i, min(i + chunk, thickness_nm.shape[0]))
@@ -218,15 +215,6 @@ def _series_form(coef, layout, thickness_nm, n_terms, out, chunk):
             r += c0 + c1x2 * num / (den0 + four_rho * s2)
         r *= 0.5
         layout.reduce(r, out, rows)
-
-
-def _bare(film, layout, out, rows):
-    """Rows of zero thickness: the bare incident | substrate interface at the layout's nodes."""
-    from .. import optics
-
-    r = optics.reflectance(layout.lam, layout.cos, 0.0, n_film=film.n_film(layout.lam),
-                           n_incident=film.n_incident, n_substrate=film.n_substrate)
-    layout.reduce(np.broadcast_to(r[None, :], (rows.size, layout.size)), out, rows)
 
 
 # samples (thickness rows x nodes) per chunk: 2^19 is ~10% faster than 2^17 (default keratin LUT), temporaries < 10 MB
@@ -281,8 +269,6 @@ def real_coefficients(film, cos_theta) -> bool:
 
 def _direct_columns(cos_theta, thickness_nm, film, out, illuminant, colour_space, series_tol):
     """Product integration of every column of ``cos_theta`` into ``out`` (T, A, 3); returns the plan."""
-    from .interfaces import interface_coefficients
-
     n_nodes, n_terms = column_plan(film, cos_theta, thickness_nm, series_tol=series_tol, illuminant=illuminant,
                                    colour_space=colour_space)
     bare = np.nonzero(thickness_nm == 0.0)[0]
@@ -308,8 +294,10 @@ def _direct_columns(cos_theta, thickness_nm, film, out, illuminant, colour_space
             else:
                 _full_form(coef, layout, d, sub, chunk)
             out[films_rows[:, None], cols[None, :]] = sub[:, cols]
-        if bare.size:
-            _bare(film, layout, out, bare)
+        if bare.size:  # rows of zero thickness: the bare incident | substrate interface at the layout's nodes
+            r = optics.reflectance(layout.lam, layout.cos, 0.0, n_film=film.n_film(layout.lam),
+                                   n_incident=film.n_incident, n_substrate=film.n_substrate)
+            layout.reduce(np.broadcast_to(r[None, :], (bare.size, layout.size)), out, bare)
     return n_nodes, n_terms
 
 

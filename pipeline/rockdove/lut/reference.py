@@ -44,7 +44,9 @@ from typing import Any
 
 import numpy as np
 
+from .. import optics, spectral
 from ..errors import UsageError
+from ..films import as_film
 from ..spectral import WAVELENGTH_RANGE_NM
 from .weights import (
     INTERPOLANT_ORDER,
@@ -74,13 +76,6 @@ def reference_step_nm(cos_theta, steps_nm=REFERENCE_STEPS_NM) -> np.ndarray:
     for lo, s in steps_nm[1:]:
         step = np.where(c >= lo, float(s), step)
     return step
-
-
-def snap_step_nm(step_nm) -> np.ndarray:
-    """Each step snapped down to the largest :data:`STEP_LADDER_NM` value not above it (the smallest below)."""
-    ladder = np.asarray(STEP_LADDER_NM)
-    i = np.searchsorted(ladder, np.asarray(step_nm, np.float64), side="right") - 1
-    return ladder[np.clip(i, 0, ladder.size - 1)]
 
 
 #: Interval counts of the wavenumber grids (about 9% apart), so that a process builds few sets of weights.
@@ -211,8 +206,6 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
     >>> [round(float(c), 3) for c in reference_colour(1.0, 650.0, "paper")]  # the seed paper's film, head-on
     [0.072, 0.107, 0.085]
     """
-    from ..films import as_film
-
     film = as_film(film)
     c, d = np.broadcast_arrays(np.asarray(cos_theta, dtype=np.float64), np.asarray(thickness_nm, dtype=np.float64))
     shape = c.shape
@@ -240,7 +233,10 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
     steps = reference_step_nm(c[rest], steps_nm)
     if calibrated_thickness_nm is not None:
         thick = d[rest] > float(calibrated_thickness_nm)
-        steps[thick] = snap_step_nm(steps[thick] * (float(calibrated_thickness_nm) / d[rest][thick]))
+        # scaled, then snapped down to the largest STEP_LADDER_NM value not above it (the smallest below)
+        ladder = np.asarray(STEP_LADDER_NM)
+        i = np.searchsorted(ladder, steps[thick] * (float(calibrated_thickness_nm) / d[rest][thick]), side="right")
+        steps[thick] = ladder[np.clip(i - 1, 0, ladder.size - 1)]
     # a real film's points off grazing take the real-film kernel in float64: optics.reflectance to 1e-14 (module
     # docstring, "The real-film kernel"); grazing ones (R = 1, but 0 for no film between equal media) optics itself
     kernel = (c[rest] > 0.0) & real_film(film)
@@ -262,8 +258,6 @@ def reference_colour(cos_theta, thickness_nm, film, *, illuminant="D65", colour_
 
 def sampled_colour(wl, w, c, d, film) -> np.ndarray:
     """``R @ w`` with ``R`` from :func:`rockdove.optics.reflectance` at the wavelengths ``wl`` (any film), chunked."""
-    from .. import optics
-
     out = np.empty((c.shape[0], 3))
     n_film = film.n_film(wl)[None, :]
     chunk = max(1, _CHUNK_SAMPLES // wl.shape[0])
@@ -274,26 +268,16 @@ def sampled_colour(wl, w, c, d, film) -> np.ndarray:
     return out
 
 
-def colour_to_Lab(rgb, colour_space: str | None = "lin_rec709", illuminant: str = "D65") -> np.ndarray:
-    """Linear colour (working RGB, or XYZ when ``colour_space`` is None) to CIELAB, white at Y = 1."""
-    from .. import spectral
-
-    rgb = np.asarray(rgb, dtype=np.float64)
-    xyz = rgb if colour_space is None else spectral.RGB_to_XYZ(rgb, colour_space=colour_space)
-    check_illuminant(illuminant)  # spectral.XYZ_to_Lab uses the D65 reference white (Y = 1)
-    return spectral.XYZ_to_Lab(xyz)
-
-
 def delta_E(rgb_a, rgb_b, colour_space="lin_rec709", illuminant="D65") -> np.ndarray:
-    """CIEDE2000 between two linear colours (shape (..., 3)) of the same colour space.
+    """CIEDE2000 between two linear colours (shape (..., 3)) of the same colour space (working RGB, or XYZ when
+    ``colour_space`` is None), in CIELAB with the white at Y = 1.
 
     >>> float(delta_E([0.2, 0.5, 0.3], [0.2, 0.5, 0.3]))
     0.0
     """
-    from .. import spectral
-
-    return spectral.delta_E_2000(colour_to_Lab(rgb_a, colour_space, illuminant),
-                                 colour_to_Lab(rgb_b, colour_space, illuminant))
+    xyz = [c if colour_space is None else spectral.RGB_to_XYZ(c, colour_space=colour_space) for c in (rgb_a, rgb_b)]
+    check_illuminant(illuminant)  # spectral.XYZ_to_Lab uses the D65 reference white (Y = 1)
+    return spectral.delta_E_2000(*map(spectral.XYZ_to_Lab, xyz))
 
 
 def error_points(lut, n_points: int, seed: int, *, grazing_fraction: float = 0.1, grazing_cos: float = 0.05):

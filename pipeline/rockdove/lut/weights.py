@@ -15,7 +15,7 @@ import functools
 import numpy as np
 
 from ..errors import UsageError
-from ..spectral import WAVELENGTH_RANGE_NM
+from ..spectral import WAVELENGTH_RANGE_NM, colour_data, spectral_weights
 
 #: The exact reference's wavelength step away from grazing (cos theta >= 0.003), nm; the bakers' grid.
 REFERENCE_STEP_NM = 0.1
@@ -46,10 +46,8 @@ def reference_wavelengths(step_nm: float = REFERENCE_STEP_NM) -> np.ndarray:
 
 @functools.lru_cache(maxsize=32)
 def _weights_cached(key: bytes, n: int, illuminant: str, colour_space: str | None) -> np.ndarray:
-    from .. import spectral
-
     wl = np.frombuffer(key, dtype=np.float64, count=n)
-    w = np.ascontiguousarray(spectral.spectral_weights(wl, illuminant=illuminant, colour_space=colour_space),
+    w = np.ascontiguousarray(spectral_weights(wl, illuminant=illuminant, colour_space=colour_space),
                              dtype=np.float64)
     w.setflags(write=False)
     return w
@@ -159,8 +157,6 @@ def chebyshev_weights(n_nodes: int, illuminant: str = "D65", colour_space: str |
     ``1 / sigma_k`` increasing, (n_nodes,), and ``Omega_k = sum_l W_l l_k(sigma_l)``, (n_nodes, 3), with ``W`` the
     0.1 nm reference weights, so ``R(nodes) @ weights`` is the reference integral of the interpolant of ``R``.
     Read-only; cached per process and on disk (:func:`rockdove.spectral.colour_data`, keyed by the code)."""
-    from ..spectral import colour_data
-
     n = int(n_nodes)
     if n < 2:
         raise UsageError(f"n_nodes must be >= 2, got {n_nodes!r}")
