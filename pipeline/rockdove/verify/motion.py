@@ -8,8 +8,28 @@ Wings'): ``head_hold_drift_m`` (within a hold: head speed under :data:`HOLD_SPEE
 
 from __future__ import annotations
 
-import numpy as np
+import dataclasses
+import os
 
+import numpy as np
+import trimesh
+from pxr import UsdGeom, UsdSkel
+from scipy.sparse import csr_matrix
+
+from ..errors import UsageError
+from ..render.animation import frame_image
+from ..render.gl import GLRenderer
+from ..render.images import write_webp
+from ..render.scene import load_scene
+from ..render.skinning import pose
+from ..render.triangulate import fan_triangulate
+from ..render.views import View, look_at
+from ..rig.weights import SMOOTH_PARTS
+from ..usd.layout import resolve_root_layer
+from ..usd.schema import has_thin_film
+from ..usd.skel import MOTION_VARIANT_SET, REST
+from ..usd.stage import open_asset
+from .inputs import BOUNDARY_SWEEP_ANGLE_DEG, verification_views
 from .results import MotionCheck
 
 #: measure -> (low, high) allowed, or high alone.
@@ -25,10 +45,6 @@ CONTACT_M = 0.001
 
 
 def _mesh(stage, name):
-    from pxr import UsdGeom
-
-    from ..render.triangulate import fan_triangulate
-
     mesh = UsdGeom.Mesh(stage.GetPrimAtPath(f"/Pigeon/Geom/{name}"))
     counts, fvi = (np.asarray(a.Get(), np.int64) for a in (mesh.GetFaceVertexCountsAttr(),
                                                                mesh.GetFaceVertexIndicesAttr()))
@@ -37,8 +53,6 @@ def _mesh(stage, name):
 
 def _closest(points, tris_xyz):
     """(closest points (N, 3), triangle index (N,)) of ``points`` on the triangles (T, 3, 3)."""
-    import trimesh
-
     mesh = trimesh.Trimesh(tris_xyz.reshape(-1, 3), np.arange(len(tris_xyz) * 3).reshape(-1, 3), process=False)
     closest, _, tri = trimesh.proximity.closest_point(mesh, points)
     return closest, tri
@@ -54,17 +68,6 @@ def _rigid(a, b):
 
 def measure_motion(asset, motion: str) -> MotionCheck:
     """The measures of ``motion`` in the asset (folder or layer) against :data:`LIMITS`."""
-    import trimesh
-    from pxr import UsdSkel
-    from scipy.sparse import csr_matrix
-
-    from ..render.skinning import pose
-    from ..rig.weights import SMOOTH_PARTS
-    from ..usd.layout import resolve_root_layer
-    from ..usd.schema import has_thin_film
-    from ..usd.skel import MOTION_VARIANT_SET
-    from ..usd.stage import open_asset
-
     stage = open_asset(resolve_root_layer(asset))
     rest = {p.GetName(): _mesh(stage, p.GetName()) for p in stage.GetPrimAtPath("/Pigeon/Geom").GetChildren()
             if p.GetTypeName() == "Mesh"}
@@ -171,10 +174,6 @@ DEFAULT_TIMES = (15.0, 21.0, 26.0)
 
 def motion_times(layer: str, motion: str, times=None) -> tuple:
     """``times`` (default :data:`DEFAULT_TIMES`); UsageError for a motion the asset has not or a time outside it."""
-    from ..errors import UsageError
-    from ..usd.skel import MOTION_VARIANT_SET, REST
-    from ..usd.stage import open_asset
-
     stage = open_asset(layer)
     names = stage.GetDefaultPrim().GetVariantSet(MOTION_VARIANT_SET).GetVariantNames()
     if motion not in names or motion == REST:
@@ -197,10 +196,6 @@ def frame_prefix(motion: str, t: float) -> str:
 
 def frame_views(scene, width: int, height: int, prefix: str) -> list:
     """A posed frame's views, ``<prefix>_<view>``: the light sweep at the green/purple flip, the first turntable."""
-    import dataclasses
-
-    from .inputs import BOUNDARY_SWEEP_ANGLE_DEG, verification_views
-
     views = verification_views(scene, width, height, 2)
     keep = [v for v in views if v.name == f"sweep_{int(round(BOUNDARY_SWEEP_ANGLE_DEG)):03d}"]
     keep += [v for v in views if v.name.startswith("turntable_")][:1]
@@ -215,14 +210,6 @@ ANIMATION_FILE, ANIMATION_STEP, ANIMATION_FRAMES, ANIMATION_SIZE = "{motion}.web
 def animation(layer: str, motion: str, out_dir: str, lut=None) -> dict:
     """The motion seen from the bird's left at its neck, the camera gliding at the trunk's mean speed, as an animated
     WebP in ``out_dir`` (caption below); the report's entry: ``{"file", "frames", "fps", "caption"}``."""
-    import os
-
-    from ..render.animation import frame_image
-    from ..render.gl import GLRenderer
-    from ..render.images import write_webp
-    from ..render.scene import load_scene
-    from ..render.views import View, look_at
-
     times = [ANIMATION_STEP * k for k in range(ANIMATION_FRAMES)]
     scenes = [load_scene(layer, {"motion": motion}, t) for t in times]
     neck = np.array([s.neck_centre_m for s in scenes])
