@@ -23,11 +23,26 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 from .. import sources
 from ..cache import KEY_VERSION, Cache
 from ..config import canonical_json
-from ..resources import load_npz
-from .results import MotionCheck
+from ..hosts import select
+from ..hosts.beauty import for_report as draw_beauty
+from ..render.animation import for_report as draw_animation
+from ..render.beauty import settings as beauty_settings
+from ..render.scene import load_scene
+from ..resources import load_npz, user_cache_dir
+from ..usd.dependencies import asset_digest
+from .host_check import check_host
+from .inputs import scene_digest, select_views, sizes, verification_scene, verification_views
+from .motion import animation, frame_prefix, frame_views, measure_motion, motion_times
+from .rays import camera_key
+from .reference_image import Surface, cast_surfaces, render_reference, surface_digest
+from .results import HostResult, ItemNames, ItemsUsed, MotionCheck, ViewResult
+from .run import render_and_check
+from .verdict import Checked, combine, default_out_dir
 
 _log = logging.getLogger(__name__)
 #: The hosts the build verifies with: the GL renders alone (a cold build's verification takes seconds).
@@ -85,11 +100,6 @@ def _meta(folder: str) -> dict:
 
 def _surfaces(cache: Cache, scene, views, out: str) -> tuple[dict, list, list]:
     """The reference's :class:`~rockdove.verify.reference_image.Surface` by camera, and the cameras cast and reused."""
-    import numpy as np
-
-    from .rays import camera_key
-    from .reference_image import Surface, cast_surfaces, surface_digest
-
     items, digest = _Items(cache, "surface", out), surface_digest(scene)
     cameras = {camera_key(v): v for v in views}  # views of one camera share its surface
     keys = {cam: item_key("surface", (cast_surfaces,), digest, cam) for cam in cameras}
@@ -108,11 +118,6 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
     """``({view: ViewResult}, references, {view: GL radiance}, names rendered)``: each view's
     :func:`render_and_check`, cached per view; the references and radiance of the views rendered (all when
     ``redo_all``; None when none)."""
-    import numpy as np
-
-    from .results import ViewResult
-    from .run import render_and_check
-
     items = _Items(cache, "view", out)
     keys = {v.name: item_key("view", (render_and_check,), digest, v.to_dict()) for v in views}
     found = {n: items.get(k) for n, k in keys.items()}
@@ -142,17 +147,12 @@ def _views(cache: Cache, scene, lut, views, digest, surfaces, redo_all: bool, ou
 
 def _host_key(host, digest: str, views, layers: str) -> str:
     """A host renders the asset's files as they are: ``layers`` is :func:`rockdove.usd.dependencies.asset_digest`."""
-    from .host_check import check_host
-
     return item_key("host", (host.render, check_host), digest, layers, [v.to_dict() for v in views], host.name,
                     host.lobe, host.variant)
 
 
 def _host(cache, host, layer, scene, views, digest, layers, refs, gl, out):
     """One host's :class:`~rockdove.verify.results.HostResult` (its images in ``out``) and whether it was cached."""
-    from .host_check import check_host
-    from .results import HostResult
-
     items = _Items(cache, "host", out)
     key = _host_key(host, digest, views, layers)
     found = items.get(key)
@@ -175,16 +175,13 @@ def _pictures(cache, layer, scene, lut, digest: str, layers: str, settings: dict
               out: str) -> tuple[dict, tuple, tuple]:
     """The report's pictures (beauty and animation), ``{kind: (entry or None, note or None)}``, the kinds drawn and
     reused, their files copied into ``out``; one drawn other than as asked (with a note) is not kept."""
-    from ..hosts.beauty import for_report as beauty
-    from ..render.animation import for_report as animation
-
-    draw = {"beauty": lambda tmp: beauty(layer, scene, tmp, settings, cycles_ok=settings.get("cycles_ok", False),
+    draw = {"beauty": lambda tmp: draw_beauty(layer, scene, tmp, settings, cycles_ok=settings.get("cycles_ok", False),
                                          lut=lut),
-            "animation": lambda tmp: animation(scene, tmp, settings, lut=lut)}
+            "animation": lambda tmp: draw_animation(scene, tmp, settings, lut=lut)}
     pictures: dict[str, tuple] = {}
     ran: list[str] = []
     reused: list[str] = []
-    for kind, fn in (("beauty", beauty), ("animation", animation)):
+    for kind, fn in (("beauty", draw_beauty), ("animation", draw_animation)):
         # the beauty may be Cycles through the add-on, which reads the asset's files as composed (as a host does)
         reads = (digest, settings, layers) if kind == "beauty" else (digest, settings)
         items, key = _Items(cache, kind, out), item_key(kind, (fn,), *reads)
@@ -212,10 +209,6 @@ def _files(files: dict) -> set:
 
 def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[MotionCheck, dict, list[list[str]]]:
     """The report's motion check, its frames checked as views and their items (surfaces cast, kept, views)."""
-    from ..render.scene import load_scene
-    from .inputs import scene_digest
-    from .motion import animation, frame_prefix, frame_views, measure_motion
-
     _log.info(f"motion {motion}: measured at every time code")
     measured = measure_motion(layer, motion)
     results: dict = {}
@@ -241,8 +234,6 @@ def _motion(cache, layer, lut, motion, times, width, height, out) -> tuple[Motio
 def default_cache(asset) -> str:
     """A verification's cache when none is given: the build's (``.rockdove-cache`` beside the asset folder) when
     there is one, else the user cache's ``verify/`` (:func:`rockdove.resources.user_cache_dir`)."""
-    from ..resources import user_cache_dir
-
     beside = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(asset))), ".rockdove-cache")
     return beside if os.path.isdir(beside) else str(user_cache_dir("verify"))
 
@@ -259,21 +250,11 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     when ``hosts`` names blender); ``published_asset``: the root layer's path once published, which the report names.
     ``motion`` (e.g. ``"walk"``): also measure it at every time code and check the film at ``times`` (default
     :data:`rockdove.verify.motion.DEFAULT_TIMES`), each frame skinned by UsdSkel."""
-    from ..hosts import select
-    from ..render.beauty import settings
-    from ..usd.dependencies import asset_digest
-    from .inputs import scene_digest, select_views, sizes, verification_scene, verification_views
-    from .reference_image import render_reference
-    from .results import HostResult, ItemNames, ItemsUsed
-    from .verdict import Checked, combine, default_out_dir
-
     width, height, n_views = sizes(width, height, n_views)
     t_start = time.perf_counter()
     selection = select(hosts)  # unknown names: UsageError before any work
     layer, scene, lut, notes = verification_scene(asset)
     if motion is not None:
-        from .motion import motion_times
-
         times = motion_times(layer, motion, times)  # a bad motion or time: UsageError before any render
     out = os.path.abspath(os.fspath(out_dir)) if out_dir else default_out_dir(layer)
     os.makedirs(out, exist_ok=True)
@@ -300,7 +281,7 @@ def verify(asset, hosts=BUILD_HOSTS, *, cache=None, out_dir=None, width=None, he
     host_results = (*(r for r, _ in checked),
                     *(HostResult(n, "skipped", reason=why) for n, why in selection.unavailable.items()))
     named = hosts is not None and "blender" in hosts  # auto: Cycles only when asked for (2-4 min of CPU)
-    beauty = {**settings(beauty), "cycles_ok": named and any(h.name == "blender" for h in selection.available)}
+    beauty = {**beauty_settings(beauty), "cycles_ok": named and any(h.name == "blender" for h in selection.available)}
     ran_hosts = tuple(r.name for r, cached in checked if not cached)
     rendered, views_checked = [*rendered, *m_rendered], [*results.values(), *frames.values()]
     items = ItemsUsed(ItemNames(tuple(cast + m_cast), tuple(rendered), ran_hosts),
