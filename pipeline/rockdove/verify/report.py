@@ -18,6 +18,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .. import optics
+from ..lut.reference import reference_wavelengths
+from ..png import save_png
+from ..render.images import contact_sheet as tile_sheet
+from ..render.images import label_font
+from ..spectral import Lab_to_XYZ, XYZ_to_RGB
+from ..srgb import linear_to_srgb8, srgb_encode
+
 if TYPE_CHECKING:
     from .compare import HueHistogram
     from .results import Report
@@ -44,8 +52,6 @@ def _figure(w_in, h_in, margins_in, rows: int = 1, gap_in: float = 0.0):
 
 def _save_figure(fig, path) -> str:
     """Draw ``fig`` once and write it with :func:`rockdove.png.save_png`, the display PNGs' writer."""
-    from ..png import save_png
-
     fig.canvas.draw()
     return save_png(np.asarray(fig.canvas.buffer_rgba())[..., :3], path)
 
@@ -70,9 +76,6 @@ def de_map_png(path, de_map, title: str) -> str:
     """The dE2000 map under its title, beside a colour bar from 0 to :data:`DE_MAP_MAX`, as PNG: the map's pixels one
     to one (every compared pixel as measured), text sized to the map (legible when the report scales it down)."""
     from PIL import Image, ImageDraw
-
-    from ..png import save_png
-    from ..render.images import label_font
 
     de = np.asarray(de_map, np.float64)
     h, w = de.shape
@@ -116,8 +119,6 @@ SHEET_COLUMNS = ("GLSL", "reference", f"dE2000 0-{DE_MAP_MAX:g}")
 
 def contact_sheet(path, rows) -> str:
     """The contact sheet: a row per view, ``(label, [GL, reference, dE map])``, tiles titled by their column."""
-    from ..render.images import contact_sheet as tile_sheet
-
     titled = []
     for label, imgs in rows:
         titles = [SHEET_COLUMNS[c] if c < len(SHEET_COLUMNS) else "" for c in range(len(imgs))]
@@ -128,8 +129,6 @@ def contact_sheet(path, rows) -> str:
 
 def lut_png(path, lut) -> str:
     """The LUT as the display shows it, over its real axes (cos theta on x, thickness on y)."""
-    from ..srgb import linear_to_srgb8
-
     img = linear_to_srgb8(lut.rgb)  # row 0 = thinnest
     fig = _figure(6.0, 3.6, (0.85, 0.3, 0.6, 0.35))
     ax = fig.add_subplot(1, 1, 1)
@@ -146,9 +145,6 @@ def lut_png(path, lut) -> str:
 
 def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 0.707, 0.3, 0.05)) -> str:
     """Reflectance spectra of the asset's film (exact Airy, 0.1 nm) for a few thicknesses and angles."""
-    from .. import optics
-    from ..lut.reference import reference_wavelengths
-
     wl, m = reference_wavelengths(), film.model
     fig = _figure(7.0, 2.6 * len(thickness_nm), (0.7, 0.3, 0.6, 0.35), rows=len(thickness_nm), gap_in=0.58)
     for i, d in enumerate(thickness_nm):
@@ -166,9 +162,6 @@ def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 
 
 def hue_png(path, hue: HueHistogram, title: str) -> str:
     """Bar chart of a :func:`rockdove.verify.compare.hue_histogram`, bars coloured by their hue."""
-    from ..spectral import Lab_to_XYZ, XYZ_to_RGB
-    from ..srgb import srgb_encode
-
     edges = np.asarray(hue.bin_edges_deg)
     centres = 0.5 * (edges[:-1] + edges[1:])
     lab = np.stack([np.full_like(centres, 60.0), 40 * np.cos(np.radians(centres)), 40 * np.sin(np.radians(centres))], 1)
