@@ -21,10 +21,15 @@ tail fan with depth (not a board), the pupil in the middle of the iris, dark cla
 
 from __future__ import annotations
 
+import colorsys
+
 import numpy as np
 
 from ..errors import UsageError
 from ..geometry.types import unit
+from ..render.texture import read_texture, sample_texture
+from ..srgb import linear_to_srgb8
+from .rays import SceneGeometry, _first_opaque_hits
 from .results import Anatomy, Measure
 
 #: name -> (low, high, unit, source, what). None: unbounded on that side.
@@ -98,8 +103,6 @@ def _first_hit(mesh, origin, direction) -> float:
 def _colours(part, n=4000, seed=0):
     """(m, 3) surface points and (m, 3) linear base colours sampled uniformly over a part (n samples, those where
     its texture's alpha is below the part's cut-out threshold left out: m <= n)."""
-    from ..render.texture import read_texture, sample_texture
-
     p, t = part.positions_m.astype(np.float64), part.triangles
     tri = p[t]
     area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
@@ -118,18 +121,12 @@ def _colours(part, n=4000, seed=0):
 
 def _hsv(linear):
     """(hue in degrees, saturation) of a linear colour as displayed (sRGB HSV)."""
-    import colorsys
-
-    from ..srgb import linear_to_srgb8
-
     h, s, _ = colorsys.rgb_to_hsv(*np.asarray(linear_to_srgb8(np.asarray(linear, float)[None]), float)[0] / 255.0)
     return 360.0 * h, s
 
 
 def _seen(geom, origins, directions):
     """(part index or -1, st) of the first opaque hits of rays from ``origins`` (N, 3) along ``directions``."""
-    from .rays import _first_opaque_hits
-
     dirs = np.broadcast_to(np.asarray(directions, float), origins.shape)
     dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
     face, _, bary = _first_opaque_hits(geom, np.asarray(origins, float), dirs, {})
@@ -142,8 +139,6 @@ def _wing_bars(scene, geom, ta) -> tuple:
     the black bands of the left wing seen from the side: its texels darker than :data:`BAR_LUMINANCE` on a 1 mm
     grid, grouped 8-connected, groups over 0.5 cm^2; a bar's bow is its quadratic's sagitta over its length."""
     from scipy import ndimage
-
-    from ..render.texture import read_texture, sample_texture
 
     wing = _part(scene, "Wings")
     w = wing.positions_m.astype(np.float64)[wing.positions_m[:, 0] > 0]
@@ -248,8 +243,6 @@ def measures(scene) -> dict:
         sec = which[np.abs(q - f * np.ptp(tail_proj)) < 0.003]
         m[key] = 100 * np.ptp(sec @ ([1.0, 0.0, 0.0] if key == "tail_width" else up / np.linalg.norm(up))) if len(
             sec) else float("nan")
-    from .rays import SceneGeometry
-
     geom = SceneGeometry(scene)  # one set of ray-cast structures and textures for the two measures that look
     m["wing_bar_count"], m["wing_bar_angle"], m["wing_bar_spread"], bow = _wing_bars(scene, geom, ta)
     m["wing_bar_bow"] = 100 * bow
@@ -276,8 +269,6 @@ def _head_cover(scene, geom, body, eye_mid, rings, beak) -> float:
 def _soft_edges(texture) -> float:
     """Share of the cut-out's edge texels (alpha crossing 0.5 within their 3 x 3) that are partly transparent."""
     from scipy import ndimage
-
-    from ..render.texture import read_texture
 
     a = read_texture(texture, False)[..., -1]
     edge = (ndimage.maximum_filter(a, 3) >= 0.5) & (ndimage.minimum_filter(a, 3) < 0.5)
