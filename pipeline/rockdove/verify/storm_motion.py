@@ -16,6 +16,8 @@ import importlib.util
 import os
 
 import numpy as np
+import OpenEXR
+from pxr import Usd, UsdGeom, UsdSkel
 
 from ..errors import UsageError
 from ..hosts import bpy_runner
@@ -23,6 +25,12 @@ from ..hosts.base import ENVIRONMENT_RADIANCE, HostError
 from ..hosts.jobs import JobView, StormJob
 from ..hosts.storm import BAKED, FEATHER_MATERIAL, TIMEOUT_S, VARIANTS
 from ..png import save_png
+from ..render.scene import load_scene
+from ..render.views import View, default_views, look_at
+from ..srgb import linear_to_srgb8
+from ..usd.layout import resolve_root_layer
+from .host_check import host_metrics
+from .reference_image import render_reference
 
 #: Parts rigid on the head, and the parts that ride the trunk (each wing feather on a wing joint under the chest).
 HEAD_PARTS, TRUNK_PARTS = ("Beak", "Cere", "Eyes", "EyeRings"), ("Wings",)
@@ -31,9 +39,6 @@ HEAD_JOINT, TRUNK_JOINT = "head", "chest"
 
 def side_view(scene, times, width: int, height: int):
     """A still camera on the bird's left (+X), level, framing its bounds at every one of ``times``."""
-    from ..render.scene import load_scene
-    from ..render.views import View, look_at
-
     bounds = np.concatenate([load_scene(scene.root_layer, scene.variants, t).bounds_m for t in times])
     lo, hi = bounds.min(axis=0), bounds.max(axis=0)
     centre, yfov = 0.5 * (lo + hi), np.radians(30.0)
@@ -52,8 +57,6 @@ def project(view, points) -> np.ndarray:
 
 def joint_positions(layer: str, motion: str, times, joints) -> np.ndarray:
     """(T, len(joints), 3) world positions, metres, of the named joints (leaf names) at ``times`` of ``motion``."""
-    from pxr import Usd, UsdGeom, UsdSkel
-
     stage = Usd.Stage.Open(layer, Usd.Stage.LoadAll)
     with Usd.EditContext(stage, stage.GetSessionLayer()):
         stage.GetDefaultPrim().GetVariantSet("motion").SetVariantSelection(motion)
@@ -66,8 +69,6 @@ def joint_positions(layer: str, motion: str, times, joints) -> np.ndarray:
 
 
 def _alpha(path: str) -> np.ndarray:
-    import OpenEXR
-
     with OpenEXR.File(path) as f:
         return np.asarray(f.channels()["RGBA"].pixels, np.float64)[..., 3]
 
@@ -99,10 +100,6 @@ def _run(layer: str, work: str, views: list[JobView], motion: str, as_authored: 
 def strip(asset: str, out_png: str, motion: str = "walk", times=tuple(range(0, 25, 3)), *, size=(320, 240)) -> str:
     """``out_png``: Storm's frames of ``motion`` at ``times`` from :func:`side_view`, side by side (work files in
     ``<out_png>.storm/``); returns its path."""
-    from ..render.scene import load_scene
-    from ..srgb import linear_to_srgb8
-    from ..usd.layout import resolve_root_layer
-
     layer = resolve_root_layer(asset)
     side = side_view(load_scene(layer, {"motion": motion}, times[0]), times, *size)
     views = [dataclasses.replace(side, name=f"frame_{t:03.0f}") for t in times]
@@ -118,12 +115,6 @@ def play(asset: str, out_dir: str, motion: str = "walk", times=(15.0, 21.0, 26.0
     """Draw ``motion`` in Storm at ``times`` into ``out_dir/storm_motion``: ``{"times", "head_error_px",
     "trunk_error_px", "head_travel_px", "trunk_travel_px"`` (per time code), ``"film"`` (per time code: the neck's
     :func:`host_metrics`), ``"work"}``. UsageError for a motion or time the asset has not; HostError if Storm fails."""
-    from ..render.scene import load_scene
-    from ..render.views import default_views
-    from ..usd.layout import resolve_root_layer
-    from .host_check import host_metrics
-    from .reference_image import render_reference
-
     layer = resolve_root_layer(asset)
     times = [float(t) for t in times]
     scenes = {t: load_scene(layer, {"motion": motion}, t) for t in times}  # bad motion or time: UsageError
