@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import spectral
 from ..errors import UsageError
 from .records import Record
 
@@ -88,15 +89,11 @@ def comparison_mask(gl_part, ref_part, feather_part_ids, erode_px: int = 1) -> n
 
 def rgb_to_lab(rgb_linear: np.ndarray) -> np.ndarray:
     """Linear lin_rec709 colour (unclipped) to CIELAB (D65 white at Y = 1), shape (..., 3)."""
-    from .. import spectral
-
     return np.asarray(spectral.RGB_to_Lab(np.asarray(rgb_linear, np.float64)), np.float64)
 
 
 def pixel_de(a_px: np.ndarray, b_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """CIEDE2000 of (N, 3) pairs of linear colours, and the first's CIELAB: every comparison's colour difference."""
-    from .. import spectral
-
     lab = rgb_to_lab(a_px)
     de = np.asarray(spectral.delta_E_2000(lab, rgb_to_lab(b_px)), np.float64) if len(a_px) else np.zeros(0)
     return de, lab

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..digest import Digest
+from ..render.texture import read_texture, sample_texture
 
 #: Feather layers a ray may pass through (alpha-cut-out parts) before the reference gives up and keeps the
 #: last hit. Overlapping neck feathers are rarely more than a few layers deep where their alpha is < 0.5.
@@ -41,8 +42,6 @@ class SceneGeometry:
     def __init__(self, scene):
         import trimesh
 
-        from ..render.texture import read_texture
-
         parts = scene.parts
         offsets = np.cumsum([0] + [len(p.positions_m) for p in parts])
         self.vertices = np.concatenate([np.asarray(p.positions_m, np.float64) for p in parts])
@@ -70,8 +69,6 @@ class SceneGeometry:
 def _first_opaque_hits(geom: SceneGeometry, origin, dirs, stats: dict):
     """First hit along each ray that is not an alpha-cut-out feather fragment: ``face`` (-1: a miss), point, bary."""
     import trimesh
-
-    from ..render.texture import sample_texture
 
     n = len(dirs)
     face = np.full(n, -1, np.int64)

@@ -35,9 +35,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..digest import Digest
 from ..errors import UsageError
 from ..lut.reference import reference_colour
-from .rays import SceneGeometry, camera_key, camera_rays, cast_view
+from ..render.texture import sample_texture
+from .rays import SceneGeometry, camera_key, camera_rays, cast_view, ray_digest
 
 #: Wavelength step per cos_theta band, ``(cos_theta_lo, step_nm)`` (:func:`rockdove.lut.reference.reference_step_nm`).
 IMAGE_STEPS_NM = ((0.0, 0.01), (0.001, 0.05), (0.003, 0.1), (0.01, 0.5), (0.03, 1.0), (0.05, 2.0), (0.08, 3.0),
@@ -158,9 +160,6 @@ class Surface:
 def surface_digest(scene) -> str:
     """sha256 of what a :class:`Surface` reads from a scene (the ray casts' :func:`~rockdove.verify.rays.ray_digest`,
     normals, ``st``, thickness, base colours, textures); not the film or the LUT."""
-    from ..digest import Digest
-    from .rays import ray_digest
-
     d = Digest().add("rays", ray_digest(scene))
     for p in scene.parts:
         d.add(p.name, [bool(p.base_colour_srgb), bool(p.double_sided), np.asarray(p.base_colour, np.float64).tolist()])
@@ -178,8 +177,6 @@ def cast_surfaces(scene, views) -> dict:
 
 
 def _surface(geom, view) -> Surface:
-    from ..render.texture import sample_texture
-
     hits = cast_view(geom, view)
     face, point, bary = hits.face, hits.point, hits.bary
     hit = np.nonzero(face >= 0)[0]
