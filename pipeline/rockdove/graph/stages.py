@@ -14,6 +14,7 @@ import types
 from pathlib import Path
 
 from .. import __version__
+from ..geometry.params import CONFIG_KEYS, BirdParams
 from ..resources import load_npz
 from ..verify.results import Verdict
 from .engine import FILES, JSON, Codec, Context, Stage
@@ -82,7 +83,6 @@ LUT_ERROR_POINTS = 200
 # ----------------------------------------------------------------------------------------------- stages
 def run_body(ctx: Context):
     from ..geometry import build_body
-    from ..geometry.params import BirdParams
 
     return build_body(BirdParams(body_voxel_m=ctx.config.geometry.body_voxel_m,
                                  body_texture_resolution=ctx.config.textures.body_resolution))
@@ -90,7 +90,6 @@ def run_body(ctx: Context):
 
 def run_bird(ctx: Context):
     from ..geometry import build_bird
-    from ..geometry.params import BirdParams
 
     return build_bird(BirdParams.from_config(ctx.config), body=ctx.inputs.body)
 
@@ -118,7 +117,6 @@ def run_lut(ctx: Context):
 
 def run_texture_images(ctx: Context):
     from .. import textures
-    from ..geometry.params import BirdParams
 
     params = BirdParams.from_config(ctx.config)
     return textures.feather_textures(params), textures.body_base_colour(params, ctx.inputs.bird)
@@ -233,8 +231,6 @@ def verdict(graph) -> Verdict | None:
 
 def make_stages(config: dict, *, verify: bool = True) -> list[Stage]:
     """The build graph for ``config``: only the stages the scene needs (no bake for physical-only shading)."""
-    from ..geometry.params import CONFIG_KEYS
-
     baked = config["shading"]["variant"] != "physical"  # physical-only shading needs no bake
     bird_keys = tuple(CONFIG_KEYS.values())
     schema = ("schemas/plugInfo.json", "schemas/generatedSchema.usda")
