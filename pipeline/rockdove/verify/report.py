@@ -18,8 +18,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .. import optics
-from ..lut.reference import reference_wavelengths
 from ..png import save_png
 from ..render.images import contact_sheet as tile_sheet
 from ..render.images import label_font
@@ -145,6 +143,9 @@ def lut_png(path, lut) -> str:
 
 def spectra_png(path, film, thickness_nm=(480.0, 650.0, 700.0), cos_theta=(1.0, 0.707, 0.3, 0.05)) -> str:
     """Reflectance spectra of the asset's film (exact Airy, 0.1 nm) for a few thicknesses and angles."""
+    from .. import optics
+    from ..lut.reference import reference_wavelengths
+
     wl, m = reference_wavelengths(), film.model
     fig = _figure(7.0, 2.6 * len(thickness_nm), (0.7, 0.3, 0.6, 0.35), rows=len(thickness_nm), gap_in=0.58)
     for i, d in enumerate(thickness_nm):
