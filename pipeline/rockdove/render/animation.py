@@ -6,6 +6,7 @@ an animated WebP (:func:`rockdove.render.images.write_webp`)."""
 from __future__ import annotations
 
 import math
+import os
 import time
 
 import numpy as np
@@ -58,8 +59,6 @@ def render_light_turn(scene, path, frames: int = 24, size: int = 256, lut=None) 
     """Render :func:`light_turn_views` and write them to ``path`` as an animated WebP; the report's entry: ``{"files":
     {"light_turn": name}, "frames", "fps", "size", "bytes", "seconds", "caption"}``. ``lut``: the film's LUT
     (default the asset's)."""
-    import os
-
     from .gl import GLRenderer
     from .images import write_webp
 
@@ -80,8 +79,6 @@ def for_report(scene, out_dir, settings: dict, *, lut=None) -> tuple:
     """The animation as the verification report takes it (``[beauty]`` ``settings``: ``animation_frames``, square
     frames half of ``height``; none with ``renderer = "off"``): ``(entry or None, note or None)``. Not a
     measurement: a failure is a note."""
-    import os
-
     if not settings.get("animation_frames") or settings.get("renderer") == "off":
         return None, None
     try:

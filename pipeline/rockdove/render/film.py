@@ -11,12 +11,12 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+
+import numpy as np
 
 from ..errors import UsageError
-
-if TYPE_CHECKING:
-    from ..films import FilmModel
+from ..films import FilmModel
+from ..usd.schema import has_thin_film, read_thin_film
 
 #: ``metadata["purpose"]`` of that LUT (the report and the web viewer show it).
 IN_MEMORY_LUT_PURPOSE = "verification only (rockdove verify, in memory): the asset has no LUT"
@@ -56,9 +56,6 @@ class ThinFilmParams:
 def read_film(prim) -> ThinFilmParams | None:
     """The film a mesh prim records with ``RockDoveThinFilmAPI`` (:func:`rockdove.usd.schema.read_thin_film`), else
     None; ValueError when a film attribute is missing or invalid, or ``rockdove:lut:file`` names no file."""
-    from ..films import FilmModel
-    from ..usd.schema import has_thin_film, read_thin_film
-
     if not has_thin_film(prim):
         return None
     rec = read_thin_film(prim)
@@ -93,8 +90,6 @@ def thickness_range_nm(film: ThinFilmParams, thickness_nm) -> tuple:
     authored thicknesses ``thickness_nm`` (array_like, nm) rounded outward to whole nm (as the build's LUT)."""
     if film.thickness_range_nm is not None:
         return tuple(float(v) for v in film.thickness_range_nm)
-    import numpy as np
-
     d = np.asarray(thickness_nm, np.float64)
     if d.size == 0 or not np.all(np.isfinite(d)):
         raise UsageError("the film records no LUT and the feathers no finite thickness primvar")

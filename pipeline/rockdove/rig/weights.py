@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import UsageError
+from ..geometry.sdf import HEAD, NECK_BAND_RADIUS_M, body_sdf, neck_s, sdf_gradient, smoothstep
+from .skeleton import NECK_S, TOE_NAMES
 
 #: Influences per point (the glTF JOINTS_0/WEIGHTS_0 size); unused slots have weight 0 and joint 0.
 INFLUENCES = 4
@@ -54,23 +56,18 @@ def _segments(p, a, b):
 
 def body_weights(points_m, skel):
     """(indices, weights) of the Body's points (V, 3): module docstring."""
-    from ..geometry import neck, sdf
-    from ..geometry.sdf import smoothstep
-    from .skeleton import NECK_S
-
     p = np.asarray(points_m, np.float64)
     chain = skel.indices(*AXIAL)
     trunk = skel.rest_m[chain[:6]]
     d, t = _segments(p, trunk[:-1], trunk[1:])
     seg = np.argmin(d, axis=1)
     u_trunk = seg + t[np.arange(len(p)), seg]
-    s, r = neck.neck_s(p)
+    s, r = neck_s(p)
     k = np.clip(np.searchsorted(NECK_S, s, side="right") - 1, 0, len(NECK_S) - 2)  # neck_01 .. head at NECK_S
     u_neck = 6 + k + np.clip((s - np.take(NECK_S, k)) / np.diff(NECK_S)[k], 0.0, None)
-    gate = smoothstep(*NECK_GATE_S, s) * (1.0 - smoothstep(sdf.NECK_BAND_RADIUS_M, sdf.NECK_BAND_RADIUS_M
-                                                           + NECK_GATE_M, r))
+    gate = smoothstep(*NECK_GATE_S, s) * (1.0 - smoothstep(NECK_BAND_RADIUS_M, NECK_BAND_RADIUS_M + NECK_GATE_M, r))
     u = np.clip((1.0 - gate) * u_trunk + gate * np.maximum(u_neck, 5.0), 0.0, len(AXIAL) - 1.0)
-    near_head = 1.0 - smoothstep(0.0, HEAD_BLEND_M, sdf.HEAD.sdf(p))  # the skin at the head's rim goes with it
+    near_head = 1.0 - smoothstep(0.0, HEAD_BLEND_M, HEAD.sdf(p))  # the skin at the head's rim goes with it
     u += near_head * (len(AXIAL) - 1.0 - u)
     lo = np.minimum(np.floor(u).astype(np.int64), len(AXIAL) - 2)
     f = u - lo
@@ -79,8 +76,6 @@ def body_weights(points_m, skel):
 
 def _bones(skel, side: str):
     """(joint indices (B,), bone starts (B, 3), bone ends (B, 3)) of one leg: knee, ankle, foot and the toes."""
-    from .skeleton import TOE_NAMES
-
     names = ["knee", "ankle", "foot", *TOE_NAMES]
     idx = skel.indices(*(f"{n}_{side}" for n in names))
     start = skel.rest_m[idx]
@@ -139,8 +134,6 @@ def part_weights(parts, skel) -> dict:
     out = {part.name: smooth[part.name](part.points_m, skel) for part in parts if part.name in smooth}
     if not out:
         raise UsageError(f"parts {[p.name for p in parts]}: no smooth part ({SMOOTH_PARTS}) to bind the rest to")
-    from ..geometry.sdf import body_sdf, sdf_gradient
-
     skin = np.concatenate([np.asarray(p.points_m, np.float64) for p in parts if p.name in out])
     skin_idx = np.concatenate([out[p.name][0] for p in parts if p.name in out])
     skin_w = np.concatenate([out[p.name][1] for p in parts if p.name in out])

@@ -9,8 +9,13 @@ import posixpath
 import re
 from dataclasses import dataclass, field
 
+from pxr import Ar, Sdf, Tf
+
+from ..digest import Digest
+from ..errors import UsageError, VerificationFailed
 from .budget import face_over_budget, image_over_budget, over_budget
 from .issues import Issue, only_errors
+from .layout import resolve_root_layer
 
 #: ``file:line:column: message`` as USD's text parser reports a syntax error.
 _PARSE_ERROR = re.compile(r"(?P<file>[^\s']+?):(?P<line>\d+):(?P<col>\d+): (?P<msg>[^\n]*)")
@@ -29,8 +34,6 @@ class Dependencies:
 
 def _outside(anchored: str, root_dir: str, root_package: str | None) -> str | None:
     """Why an anchored asset path is outside the asset (folder, or package for a usdz root), else None."""
-    from pxr import Ar
-
     where = "package" if root_package else "folder"
     if Ar.IsPackageRelativePath(anchored):
         outer, inner = Ar.SplitPackageRelativePathOuter(anchored)
@@ -52,8 +55,6 @@ def _outside(anchored: str, root_dir: str, root_package: str | None) -> str | No
 def _authored_paths(layer, issues: list) -> list[tuple[str, str, str]]:
     """(where, authored path, kind) of every value clip path (``#`` as ``0``) and asset-valued attribute value in
     ``layer``; a malformed ``clips`` value is an issue."""
-    from pxr import Sdf
-
     found = []
 
     def visit(path):
@@ -109,8 +110,6 @@ def _authored_paths(layer, issues: list) -> list[tuple[str, str, str]]:
 
 def _evaluate(authored: str, variables: dict) -> tuple[str | None, str]:
     """An authored asset path, with an asset-path expression (`` `"..."` ``) evaluated: (path or None, prefix)."""
-    from pxr import Sdf
-
     if not Sdf.VariableExpression.IsExpression(authored):
         return authored, f"path {authored!r}"
     result = Sdf.VariableExpression(authored).Evaluate(variables)
@@ -120,8 +119,6 @@ def _evaluate(authored: str, variables: dict) -> tuple[str | None, str]:
 
 def _open_layer(identifier: str, issues: list):
     """Open one layer; a parse error becomes a ``layer`` issue naming the file and line."""
-    from pxr import Sdf, Tf
-
     try:
         layer = Sdf.Layer.FindOrOpen(identifier)
     except Tf.ErrorException as exc:
@@ -140,8 +137,6 @@ def _open_layer(identifier: str, issues: list):
 
 def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependencies:
     """Walk ``root_layer`` (a layer or ``.usdz``) and the layers it composes without composing them."""
-    from pxr import Ar, Sdf
-
     root = os.path.abspath(os.fspath(root_layer))
     root_dir = os.path.dirname(root)
     root_package = root if root.lower().endswith(".usdz") else None
@@ -196,10 +191,6 @@ def scan_dependencies(root_layer: str, allow_external: bool = False) -> Dependen
 
 def asset_digest(root_layer) -> str:
     """sha256 of every file the asset's composition reads, by relative path: moved or rebuilt the same, same digest."""
-    from pxr import Ar
-
-    from ..digest import Digest
-
     root = os.path.abspath(os.fspath(root_layer))
     files = {Ar.SplitPackageRelativePathOuter(p)[0] if Ar.IsPackageRelativePath(p) else p
              for p in scan_dependencies(root).read}
@@ -215,8 +206,6 @@ MAX_PACKAGE_FILES = 10000
 
 def _package_too_big(path: str, issues: list) -> bool:
     """A usdz with more than :data:`MAX_PACKAGE_FILES` files is one issue (count and the first few names)."""
-    from pxr import Sdf
-
     zf = Sdf.ZipFile.Open(path)
     names = list(zf.GetFileNames()) if zf else []
     if len(names) <= MAX_PACKAGE_FILES:
@@ -233,9 +222,6 @@ def blocking(deps: Dependencies) -> list:
 
 def require_inside(asset, allow_external: bool = False) -> str:
     """The root layer of ``asset`` once :func:`scan_dependencies` found nothing wrong, else VerificationFailed."""
-    from ..errors import UsageError, VerificationFailed
-    from .layout import resolve_root_layer
-
     try:
         root = resolve_root_layer(asset)
     except ValueError as exc:

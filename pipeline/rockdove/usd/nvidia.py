@@ -7,8 +7,16 @@ from __future__ import annotations
 
 import json
 import re
+from urllib.parse import urlparse
+
+import numpy as np
+from pxr import Usd, UsdGeom
 
 from ..digest import Digest
+from ..resources import write_cached
+from ..sources import cache_dir
+from .issues import Issue
+from .stage import variant_combinations
 
 #: NVIDIA's rule for shader ids and the message it gives an id its Sdr registry lacks.
 SDR_RULE = "UsdShadeShaderSdrCompliance"
@@ -23,11 +31,6 @@ MESH_RULES = ("ManifoldChecker", "ZeroAreaFaceChecker", "WeldChecker", "NormalsW
 
 def mesh_digest(root_layer: str) -> str | None:
     """sha256 of what the :data:`MESH_RULES` read in each variant; None with time samples (never memoised)."""
-    import numpy as np
-    from pxr import Usd, UsdGeom
-
-    from .stage import variant_combinations
-
     stage = Usd.Stage.Open(root_layer, Usd.Stage.LoadAll)
     read = set(UsdGeom.Mesh.GetSchemaAttributeNames(True)) | {"primvars:normals", "primvars:normals:indices"}
     d = Digest()
@@ -61,10 +64,6 @@ def mesh_digest(root_layer: str) -> str | None:
 def _asset(root_layer: str):
     """What the engine is given: the path, or the stage where the engine's ``urlparse`` would cut the path (a
     ``#``, ``?`` or ``;`` in a folder name makes it "not a readable USD file")."""
-    from urllib.parse import urlparse
-
-    from pxr import Usd
-
     return root_layer if urlparse(root_layer).path == root_layer else Usd.Stage.Open(root_layer, Usd.Stage.LoadAll)
 
 
@@ -87,9 +86,6 @@ def _findings(results, root_layer: str) -> tuple[list, int]:
 
 def _mesh_findings(nv, rules: list, root_layer: str) -> list:
     """The findings of ``rules`` (the MESH_RULES) on ``root_layer``, from the memo when its meshes were seen."""
-    from ..resources import write_cached
-    from ..sources import cache_dir
-
     digest = mesh_digest(root_layer)
     path = None
     if digest is not None:
@@ -112,8 +108,6 @@ def _mesh_findings(nv, rules: list, root_layer: str) -> list:
 def run_nvidia_validator(root_layer: str) -> tuple[list, int]:
     """Every default rule in all variants: (issues ``nvidia:<Rule>``, each once, number of ND_* findings dropped)."""
     import usd_validation_nvidia as nv
-
-    from .issues import Issue
 
     engine = nv.ValidationEngine(variants=True)
     mesh_rules = [r for r in engine.rules if r.__name__ in MESH_RULES]

@@ -7,6 +7,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import UsageError
+from ..geometry.types import drop_unreferenced_points
+from ..rig.motions import DURATION_S, FPS
+from ..rig.motions import MOTIONS as MAKERS
+from ..rig.skeleton import build_skeleton
+from ..rig.weights import INFLUENCES, part_weights
+from .issues import Issue
 
 RIG_LAYER = "pigeon_rig.usdc"
 MOTION_VARIANT_SET = "motion"
@@ -54,8 +60,6 @@ def check_skins(stage) -> list:
     """The :class:`rockdove.usd.issues.Issue` of every mesh whose skin :func:`check_influences` rejects."""
     from pxr import Usd, UsdGeom, UsdSkel
 
-    from .issues import Issue
-
     issues = []
     for prim in Usd.PrimRange(stage.GetPseudoRoot()):
         binding = UsdSkel.BindingAPI(prim)
@@ -85,11 +89,6 @@ def animation_path(motion: str) -> str:
 def author_rig(stage, bird) -> None:
     """The rig layer's content in ``stage``'s edit target, for ``bird``'s meshes as :mod:`.stage` writes them."""
     from pxr import Sdf, UsdSkel, Vt
-
-    from ..geometry.types import drop_unreferenced_points
-    from ..rig.motions import MOTIONS as MAKERS
-    from ..rig.skeleton import build_skeleton
-    from ..rig.weights import INFLUENCES, part_weights
 
     skel = build_skeleton()
     parts = [drop_unreferenced_points(p) for p in bird.parts]
@@ -121,8 +120,6 @@ def author_rig(stage, bird) -> None:
 
 def author_motion_variants(stage, prim) -> None:
     """The ``motion`` variant set on ``prim`` (``/Pigeon``) and the root layer's time metadata."""
-    from ..rig.motions import DURATION_S, FPS
-
     vset = prim.GetVariantSets().AddVariantSet(MOTION_VARIANT_SET)
     for name in MOTIONS:
         vset.AddVariant(name)
@@ -142,8 +139,6 @@ def motion_layer(interface: str, motion: str):
     """A layer, as a shot would write one, that sublayers ``interface`` and selects ``motion`` (for Blender, which
     imports default variants), with the time metadata (a stage takes it from its root layer)."""
     from pxr import Sdf
-
-    from ..rig.motions import DURATION_S, FPS
 
     layer = Sdf.Layer.CreateAnonymous(".usda")
     root = layer.pseudoRoot

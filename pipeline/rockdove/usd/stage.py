@@ -6,14 +6,17 @@ the same inputs give byte-identical files (tested)."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 
 import numpy as np
+from pxr import Kind, Sdf, Usd, UsdGeom, UsdShade, UsdSkel, Vt
 
 from ..errors import UsageError
 from ..geometry.plumage import CARD_PARTS
 from ..geometry.types import drop_unreferenced_points, point_bounds
+from ..rig.motions import FPS
 from .material import (
     PREVIEW_PRIMVAR,
     author_body_material,
@@ -23,7 +26,9 @@ from .material import (
     mtlx_surface_path,
     texture_asset_paths,
 )
+from .schema import apply_thin_film, register
 from .skel import MOTIONS, REST, RIG_LAYER, author_motion_variants, author_rig, motion_layer
+from .textures_io import preview_st
 
 ROOT = "/Pigeon"
 INTERFACE_LAYER = "pigeon.usda"
@@ -51,11 +56,7 @@ THICKNESS_DOC = ("Film (keratin cortex) thickness of the feather barbules at thi
 
 def new_stage(*, load_payloads: bool = True):
     """An in-memory stage with the asset's metadata; ``load_payloads=False``: the interface's, not written yet."""
-    from .schema import register
-
     register()  # before the first stage: USD builds its schema registry once
-    from pxr import Usd, UsdGeom
-
     stage = Usd.Stage.CreateInMemory(load=Usd.Stage.LoadAll if load_payloads else Usd.Stage.LoadNone)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
@@ -70,8 +71,6 @@ def material_name(kind: str) -> str:
 
 def author_mesh(stage, path, part, preview_range_nm=None):
     """Define one ``UsdGeom.Mesh`` (m, final polygons) from a MeshPart; with ``preview_range_nm`` its previewST."""
-    from pxr import Sdf, UsdGeom, Vt
-
     part = drop_unreferenced_points(part)  # every point a face uses: validators reject unused topology
     mesh = UsdGeom.Mesh.Define(stage, path)
     points = np.ascontiguousarray(part.points_m, dtype=np.float32)
@@ -99,8 +98,6 @@ def author_mesh(stage, path, part, preview_range_nm=None):
         if doc:
             primvar.GetAttr().SetDocumentation(doc)
     if preview_range_nm is not None:
-        from .textures_io import preview_st
-
         coords = preview_st(part.st, part.primvars["thickness"].values, preview_range_nm)
         pst = api.CreatePrimvar(PREVIEW_PRIMVAR, Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex)
         pst.Set(Vt.Vec2fArray.FromNumpy(np.ascontiguousarray(coords)))
@@ -119,8 +116,6 @@ def _feather_part(bird):
 
 def author_geometry(stage, bird):
     """The ``/Pigeon/Geom`` meshes in ``stage``'s edit target, bound to materials :func:`author_looks` defines."""
-    from pxr import UsdGeom, UsdShade, UsdSkel
-
     _feather_part(bird)
     root = UsdGeom.Xform.Define(stage, ROOT)
     # the rig layer's skeleton binds its meshes (rockdove.usd.skel); no authored extent: UsdSkel computes the
@@ -139,10 +134,6 @@ def author_geometry(stage, bird):
 
 def author_looks(stage, bird, film, lut: dict | None, variants=SHADING_VARIANTS):
     """The materials, and ``RockDoveThinFilmAPI`` over the feather mesh ``stage`` composes, in its edit target."""
-    from pxr import UsdGeom
-
-    from .schema import apply_thin_film
-
     textures = texture_asset_paths()
     feather = _feather_part(bird)
     root = UsdGeom.Xform.Define(stage, ROOT)
@@ -175,8 +166,6 @@ def author_looks(stage, bird, film, lut: dict | None, variants=SHADING_VARIANTS)
 
 def author_interface(stage, *, extent, version: str, variants=SHADING_VARIANTS):
     """The interface layer: ``/Pigeon`` (``extent`` (2, 3) m), the payload and the ``shading`` variant set."""
-    from pxr import Kind, Sdf, Usd, UsdGeom, Vt
-
     prim = UsdGeom.Xform.Define(stage, ROOT).GetPrim()
     model = Usd.ModelAPI(prim)
     model.SetKind(Kind.Tokens.component)
@@ -221,8 +210,6 @@ def write_geometry(out_dir: str, bird) -> str:
 
 def write_rig(out_dir: str, bird) -> str:
     """:func:`rockdove.usd.skel.author_rig` as ``out_dir/pigeon_rig.usdc``; returns its path."""
-    from ..rig.motions import FPS
-
     stage = new_stage()
     stage.SetTimeCodesPerSecond(FPS)  # as the root layer's: USD scales a sublayer's samples by the ratio
     stage.SetFramesPerSecond(FPS)
@@ -233,8 +220,6 @@ def write_rig(out_dir: str, bird) -> str:
 def write_looks(out_dir: str, bird, film, lut: dict | None, *, version: str, geometry: str,
                 shading: str | None = None, config: dict | None = None) -> dict:
     """Every layer but the geometry and rig into ``out_dir``: their paths. ``config``: recorded for the viewer."""
-    from pxr import Sdf, Usd
-
     shading = shading or ("both" if lut is not None else "physical")
     if shading not in SHADING_CHOICES:
         raise UsageError(f"shading={shading!r}; allowed: {sorted(SHADING_CHOICES)}")
@@ -276,8 +261,6 @@ def write_layers(out_dir: str, bird, film, lut: dict | None, *, version: str, sh
 
 def variant_combinations(stage) -> list[dict]:
     """Every combination of the default prim's variant selections as ``{set: variant}``; ``[{}]`` without any."""
-    import itertools
-
     if not (prim := stage.GetDefaultPrim()):
         return [{}]
     sets = prim.GetVariantSets()
@@ -288,10 +271,6 @@ def variant_combinations(stage) -> list[dict]:
 
 def open_asset(path: str, shading: str | None = None):
     """An asset opened with payloads loaded, the ``shading`` variant (if given) selected in the session layer."""
-    from pxr import Usd
-
-    from .schema import register
-
     register()
     if (stage := Usd.Stage.Open(path, Usd.Stage.LoadAll)) is None:
         raise UsageError(f"path={path!r} is not a USD stage")

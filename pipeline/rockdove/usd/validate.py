@@ -10,11 +10,18 @@ import os
 import re
 import tempfile
 
+import numpy as np
+from pxr import Ar, Sdf, Usd, UsdGeom, UsdShade, UsdValidation
+
+from .dependencies import blocking, scan_dependencies
 from .issues import Issue, Report, only_errors  # noqa: F401 (re-exported)
 from .layout import resolve_root_layer
-from .material import _SDF_TYPES
+from .material import _SDF_TYPES, load_mtlx_libraries, usd_to_mtlx_document
+from .nvidia import run_nvidia_validator
+from .schema import register
 from .shader_values import bound_primvars, material_of, problem
 from .skel import check_skins
+from .stage import variant_combinations
 
 # Sdf value type name -> MaterialX type: the inverse of the authoring table (material._SDF_TYPES); token (outputs
 # of surface shaders / materials) has no single MaterialX type
@@ -23,8 +30,6 @@ _MX_TYPES = {sdf.lower(): mx for mx, sdf in _SDF_TYPES.items() if sdf != "Token"
 
 # -- 1. UsdValidation -------------------------------------------------------------------------------------
 def _validators():
-    from pxr import UsdValidation
-
     reg = UsdValidation.ValidationRegistry()
     names = sorted(m.name for m in reg.GetAllValidatorMetadata())
     return reg.GetOrLoadValidatorsByName(names)
@@ -32,8 +37,6 @@ def _validators():
 
 def run_usd_validation(stage, validators=None) -> list:
     """Check 1 over ``stage``."""
-    from pxr import UsdShade, UsdValidation
-
     context = UsdValidation.ValidationContext(validators or _validators())
     issues = []
     for err in context.Validate(stage):
@@ -60,10 +63,6 @@ CODE_CHECK = "mtlx:code"
 
 def check_mtlx_shaders(stage, library=None) -> tuple[list, int]:
     """Check 2: (issues, number of ND_ shaders checked)."""
-    from pxr import Usd, UsdShade
-
-    from .material import load_mtlx_libraries
-
     library = library or load_mtlx_libraries()
     issues, n, bound = [], 0, bound_primvars(stage)
     for prim in Usd.PrimRange(stage.GetPseudoRoot()):
@@ -108,7 +107,6 @@ def check_mtlx_shaders(stage, library=None) -> tuple[list, int]:
 def read_texture_asset(resolved: str):
     """Decode a resolved texture (a file or a usdz member): a PIL image for PNG, a ThinFilmLUT for EXR."""
     from PIL import Image
-    from pxr import Ar
 
     from rockdove.lut.exr import read_exr
 
@@ -129,8 +127,6 @@ def read_texture_asset(resolved: str):
 
 def check_textures(stage, decoded: dict | None = None, skip=frozenset()) -> tuple[list, int, dict]:
     """Check 3: (issues, assets checked, ``decoded`` filled in place: each file read once); ``skip``: never read."""
-    from pxr import Sdf, Usd
-
     issues, n = [], 0
     decoded = {} if decoded is None else decoded
     for prim in Usd.PrimRange(stage.GetPseudoRoot()):
@@ -161,9 +157,6 @@ def check_textures(stage, decoded: dict | None = None, skip=frozenset()) -> tupl
 # -- 4. primvar sizes ---------------------------------------------------------------------------------------
 def check_primvars(stage) -> tuple[list, int]:
     """Check 4: (issues, number of primvars checked)."""
-    import numpy as np
-    from pxr import Usd, UsdGeom
-
     issues, n = [], 0
     for prim in Usd.PrimRange(stage.GetPseudoRoot()):
         if not prim.IsA(UsdGeom.Mesh):
@@ -214,10 +207,6 @@ from .validate_film import LUT_NETWORK_SHADERS, check_thin_film  # noqa: E402, F
 # -- 6. surface sources -------------------------------------------------------------------------------------
 def check_materials(stage, library=None) -> tuple[list, int]:
     """Check 6 (the network rebuilt by :func:`rockdove.usd.material.usd_to_mtlx_document`)."""
-    from pxr import Usd, UsdShade
-
-    from .material import load_mtlx_libraries, usd_to_mtlx_document
-
     library = library or load_mtlx_libraries()
     issues, n = [], 0
     for prim in Usd.PrimRange(stage.GetPseudoRoot()):
@@ -253,13 +242,6 @@ def check_materials(stage, library=None) -> tuple[list, int]:
 def validate_asset(path, allow_external: bool = False) -> Report:
     """The :class:`Report` of the asset at ``path``. A layer that does not parse or lies outside ends it before USD
     composes; paths outside are never read, nor NVIDIA's validator run, unless ``allow_external``."""
-    from pxr import Usd
-
-    from .dependencies import blocking, scan_dependencies
-    from .material import load_mtlx_libraries
-    from .schema import register
-    from .stage import variant_combinations
-
     root = resolve_root_layer(path)
     register()
     report = Report(path=root)
@@ -296,8 +278,6 @@ def validate_asset(path, allow_external: bool = False) -> Report:
         for issue in issues + mx_issues + tex_issues + pv_issues + tf_issues + mat_issues + check_skins(stage):
             found.setdefault((issue.check, issue.path, issue.message, issue.severity), []).append(label)
     counts["variant combinations"] = len(combos)
-    from .nvidia import run_nvidia_validator
-
     if skip:
         nv_issues = [Issue("nvidia", root, "NVIDIA's validator was not run: it would read the files outside the "
                            "asset (allow them with --allow-external-assets)", "warning")]

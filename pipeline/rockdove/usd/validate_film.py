@@ -3,16 +3,16 @@ and a film recorded without a LUT (a physical-only asset)."""
 
 from __future__ import annotations
 
+import numpy as np
+from pxr import Usd, UsdGeom, UsdShade
+
 from .issues import Issue
+from .material import lut_info, lut_transform
+from .schema import has_thin_film, read_thin_film
 
 
 def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
     """Check 5: (issues, number of films checked)."""
-    import numpy as np
-    from pxr import Usd
-
-    from .schema import has_thin_film, read_thin_film
-
     issues, n = [], 0
     for prim in Usd.PrimRange(stage.GetPseudoRoot()):
         if not has_thin_film(prim):
@@ -51,9 +51,6 @@ def check_thin_film(stage, decoded: dict) -> tuple[list, int]:
 
 def _thickness(prim, film: dict, issues: list):
     """The film's thickness primvar and its values in nm, or (pv, None) with an issue when missing or empty."""
-    import numpy as np
-    from pxr import UsdGeom
-
     pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(film["thickness_primvar"] or "")
     values = pv.ComputeFlattened() if pv else None
     if values is None or len(values) == 0:
@@ -69,9 +66,6 @@ LUT_NETWORK_SHADERS = ("LutTexture", "LutTransform", "LutAngleWarpExponent")
 
 def _check_lutless_film(prim, film: dict) -> list:
     """A film recorded without a LUT (physical-only asset): complete film, sane thickness, no LUT network."""
-    import numpy as np
-    from pxr import UsdShade
-
     issues = []
     for key, attr in (("cauchy_a", "film:cauchyA"), ("cauchy_b_nm2", "film:cauchyB_nm2"), ("k", "film:k"),
                       ("incident_index", "film:incidentIndex"), ("substrate_index", "film:substrateIndex")):
@@ -135,11 +129,6 @@ def _check_film_provenance(prim, film: dict, lut) -> list:
 
 def _check_lut_constants(prim, lut) -> list:
     """The MaterialX network's LUT constants (texel counts, warp, range) must describe the LUT file it reads."""
-    import numpy as np
-    from pxr import UsdShade
-
-    from .material import lut_info, lut_transform
-
     material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
     if not material:
         return [Issue("thinFilm", str(prim.GetPath()), "feather mesh has no bound material")]
