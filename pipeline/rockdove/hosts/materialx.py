@@ -7,8 +7,12 @@ from __future__ import annotations
 
 from typing import Any, NamedTuple
 
+from ..render.scene import load_scene
 from ..usd.layout import resolve_root_layer
+from ..usd.material import load_mtlx_libraries, usd_to_mtlx_document
+from . import glsl
 from .base import Host, HostError, save_pngs
+from .materialx_gl import draw
 
 #: ``shading`` variant -> the input its feather network's base colour comes from (set black: the film lobe alone).
 BASE_COLOUR = {"baked": "StructuralMix.bg", "physical": "MtlxPhysicalSurface.base_color"}
@@ -26,19 +30,14 @@ class MaterialXHost(VariantHost):
 
     def unavailable(self) -> str | None:
         """None when MaterialX's GLSL generator and an offscreen GL context (the glsl host's) can be used."""
-        from .glsl import HOST
-
         try:
             import MaterialX.PyMaterialXGenGlsl  # noqa: F401
         except ImportError as exc:
             return f"MaterialX is not installed ({exc})"
-        return HOST.unavailable()
+        return glsl.HOST.unavailable()
 
     def render(self, asset_path: str, views, out_dir: str | None) -> dict:
         """:meth:`Host.render` of the asset's ``variant`` network; HostError when reading, compiling or GL fails."""
-        from ..render.scene import load_scene
-        from .materialx_gl import draw
-
         name, variant, views = self.name, self.variant, list(views)
         try:
             layer = resolve_root_layer(asset_path)
@@ -128,8 +127,6 @@ class Network(NamedTuple):
 def feather_networks(layer: str, variant: str) -> dict[str, Network]:
     """Mesh path -> :class:`Network` of each mesh with a MaterialX material."""
     from pxr import Usd, UsdGeom, UsdShade
-
-    from ..usd.material import load_mtlx_libraries, usd_to_mtlx_document
 
     if reason := missing_variant(layer, variant):
         raise ValueError(f"asset {layer!r}: {reason}")
