@@ -10,10 +10,11 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import UsageError
-from .geometry.colours import WING_BAR_SRGB, body_colour_at  # noqa: F401
+from .geometry.colours import ATLAS, ATLAS_COLUMNS, ATLAS_ROWS, KINDS, WING_BAR_SRGB, body_colour_at, half_width
 from .geometry.colours import linear as _linear
 from .geometry.colours import mix as _mix
 from .geometry.sdf import smoothstep as _smoothstep
+from .geometry.types import Bird, MeshPart
 from .srgb import linear_to_srgb8 as _encode  # the project's one sRGB 8-bit encoding
 
 #: sRGB 8-bit colour of a neck feather's vane (its rachis and down are painted paler by :func:`feather_tile`).
@@ -44,8 +45,6 @@ def feather_tile(kind: str, srgb, seed: int, height: int, width: int) -> tuple:
     ``seed`` draws its own rachis curve, width, tone, barb phase and splits in the vane. Returns linear RGB
     (H, W, 3), alpha (H, W) with a soft edge :data:`SOFT_EDGE` wide and a partly transparent downy base, height
     (H, W) in tile widths (rachis, camber, barbs) and roughness (H, W)."""
-    from .geometry.colours import KINDS, half_width
-
     _, _, _, barbs, down, outer, dark, rough = KINDS[kind]
     rng = np.random.default_rng([int(seed), 29])
     u, v = np.meshgrid((np.arange(width) + 0.5) / width, 1.0 - (np.arange(height) + 0.5) / height)
@@ -89,8 +88,6 @@ def plumage_atlas(resolution_or_params=256) -> tuple:
     edge and the bars keep a few texels) on ``ATLAS_COLUMNS`` x ``ATLAS_ROWS``, row 0 at the top. Returns ``(base (H, W,
     4) uint8`` sRGB with the alpha, ``normal (H, W, 4) uint8``: the tangent-space normal (x along u, y along v, OpenGL
     convention) as ``n / 2 + 1 / 2``, roughness in alpha)."""
-    from .geometry.colours import ATLAS, ATLAS_COLUMNS, ATLAS_ROWS
-
     h = int(np.clip(_resolution(resolution_or_params) // 2, 128, 512))
     w = h // 2
     base = np.zeros((ATLAS_ROWS * h, ATLAS_COLUMNS * w, 4), np.uint8)
@@ -173,8 +170,6 @@ def body_base_colour(resolution_or_params, bird) -> np.ndarray:
     3-D point (:func:`body_colour_at`), the empty texels between charts the nearest covered one's, so bilinear
     filtering and mipmaps do not bleed background into the seams."""
     from scipy import ndimage
-
-    from rockdove.geometry.types import Bird, MeshPart
 
     res = _resolution(resolution_or_params, attr="body_texture_resolution")
     part = bird.part("Body") if isinstance(bird, Bird) else getattr(bird, "part", bird)  # Body.part
