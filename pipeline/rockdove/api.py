@@ -18,10 +18,10 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from .config import DEFAULT_PRESET, config_hash
+from .config import DEFAULT_PRESET, config_hash, validate
 from .config import load_config as _load_config
 from .errors import ResourceMissing, UsageError, VerificationFailed, raise_interrupt
-from .graph.engine import StageRecord
+from .graph.engine import Cache, Graph, StageRecord
 from .verify.results import HostResult, Report
 
 __all__ = ["DEFAULT_OUT", "BuildFailed", "BuildResult", "HostResult", "StageRecord", "UsageError", "Verification",
@@ -117,9 +117,7 @@ def build(config: dict, out: str | os.PathLike = DEFAULT_OUT, *, cache: str | os
     ``rockdove`` logger); ``progress(stage_name)`` as each starts. The asset is assembled and verified in a staging
     folder beside ``out``, then swapped into place; Ctrl-C (and SIGTERM, when called from the main thread) removes the
     staging folder."""
-    from .config import validate
     from .graph import stages as build_stages
-    from .graph.engine import Cache, Graph
     from .graph.publish import OutputLock, check_output, make_staging, publish, recover, write_marker
 
     t0 = time.perf_counter()
