@@ -3,14 +3,11 @@ code, compared with the exact reference of its :data:`Lobe`; one instance per ne
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal, get_args
 
 from ..errors import RockdoveError
-from ..png import save_png
-from ..srgb import linear_to_srgb8
 
 if TYPE_CHECKING:
     import numpy as np
@@ -68,6 +65,11 @@ class Host:
 
 def save_pngs(images: dict[str, np.ndarray], out_dir: str, host: str) -> None:
     """Each ``{view: linear radiance}`` image as ``out_dir/<view>_<host>.png`` (sRGB), for people."""
+    import os
+
+    from ..png import save_png
+    from ..srgb import linear_to_srgb8
+
     os.makedirs(out_dir, exist_ok=True)
     for name, rgb in images.items():
         save_png(linear_to_srgb8(rgb), os.path.join(out_dir, f"{name}_{host}.png"))

@@ -3,7 +3,6 @@ with the paper's half-angle model; a LUT-less asset is verified with a LUT baked
 
 from __future__ import annotations
 
-from ..render.scene import load_scene
 from .base import Host, HostError, save_pngs
 
 
@@ -21,6 +20,8 @@ class GLSLHost(Host):
         return None
 
     def cannot_draw(self, asset_path: str) -> str | None:
+        from ..render.scene import load_scene
+
         try:
             film = load_scene(asset_path).film
         except ValueError as exc:
@@ -32,6 +33,7 @@ class GLSLHost(Host):
     def render(self, asset_path: str, views, out_dir: str | None) -> dict:
         """:meth:`Host.render` with the GLSL shaders; ``<view>_glsl.png`` (sRGB) into ``out_dir`` when given."""
         from ..render.gl import render_views
+        from ..render.scene import load_scene
 
         views = list(views)
         try:

@@ -7,12 +7,9 @@ from __future__ import annotations
 
 from typing import Any, NamedTuple
 
-from ..render.scene import load_scene
 from ..usd.layout import resolve_root_layer
-from ..usd.material import load_mtlx_libraries, usd_to_mtlx_document
 from . import glsl
 from .base import Host, HostError, save_pngs
-from .materialx_gl import draw
 
 #: ``shading`` variant -> the input its feather network's base colour comes from (set black: the film lobe alone).
 BASE_COLOUR = {"baked": "StructuralMix.bg", "physical": "MtlxPhysicalSurface.base_color"}
@@ -38,6 +35,9 @@ class MaterialXHost(VariantHost):
 
     def render(self, asset_path: str, views, out_dir: str | None) -> dict:
         """:meth:`Host.render` of the asset's ``variant`` network; HostError when reading, compiling or GL fails."""
+        from ..render.scene import load_scene
+        from .materialx_gl import draw
+
         name, variant, views = self.name, self.variant, list(views)
         try:
             layer = resolve_root_layer(asset_path)
@@ -127,6 +127,8 @@ class Network(NamedTuple):
 def feather_networks(layer: str, variant: str) -> dict[str, Network]:
     """Mesh path -> :class:`Network` of each mesh with a MaterialX material."""
     from pxr import Usd, UsdGeom, UsdShade
+
+    from ..usd.material import load_mtlx_libraries, usd_to_mtlx_document
 
     if reason := missing_variant(layer, variant):
         raise ValueError(f"asset {layer!r}: {reason}")

@@ -13,9 +13,6 @@ import numpy as np
 from ..png import save_png
 from ..srgb import linear_to_srgb8
 from ..usd.layout import resolve_root_layer
-from ..web.browser import Browser, BrowserError, find_chromium
-from ..web.gltf import GLB_NAME, export_glb
-from ..web.viewer import three_folder, write_viewer
 from .base import Host, HostError
 
 NAME = "web"
@@ -29,6 +26,9 @@ class WebHost(Host):
     """three.js in headless Chromium (module docstring)."""
 
     def unavailable(self) -> str | None:
+        from ..web.browser import BrowserError, find_chromium
+        from ..web.viewer import three_folder
+
         try:
             find_chromium()
             three_folder()
@@ -38,6 +38,10 @@ class WebHost(Host):
 
     def render(self, asset_path: str, views, out_dir: str, *, browser_factory=None) -> dict:
         """:meth:`Host.render` with three.js in headless Chromium; ``browser_factory``: a started Browser (tests)."""
+        from ..web.browser import Browser, BrowserError
+        from ..web.gltf import GLB_NAME, export_glb
+        from ..web.viewer import write_viewer
+
         out = Path(out_dir)
         page_dir = out / "web"
         page_dir.mkdir(parents=True, exist_ok=True)
