@@ -13,6 +13,8 @@ import signal
 import sys
 
 from . import __version__
+from .errors import RockdoveError, VerificationFailed, raise_interrupt
+from .resources import spare_full_disk
 
 COMMANDS: dict[str, str] = {
     "build": "build the pigeon USD asset (incremental; verifies unless --no-verify)",
@@ -55,8 +57,6 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """The ``rockdove`` console script: the exit status of the command of ``argv``."""
-    from .resources import spare_full_disk
-
     spare_full_disk()
     argv = list(sys.argv[1:] if argv is None else argv)
     command = next((a for a in argv if not a.startswith("-")), None)
@@ -65,8 +65,6 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
-    from .errors import RockdoveError, VerificationFailed, raise_interrupt
-
     _log_to_stderr(args.command, quiet=bool(getattr(args, "quiet", False) or getattr(args, "json", False)))
     old_term = signal.signal(signal.SIGTERM, raise_interrupt)  # as Ctrl-C: jobs end, temporaries go
     try:

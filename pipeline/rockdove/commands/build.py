@@ -9,8 +9,10 @@ import sys
 import time
 from pathlib import Path
 
+from .. import api
 from ..api import DEFAULT_OUT
-from ..config import DEFAULT_PRESET
+from ..config import DEFAULT_PRESET, preset_path
+from ..errors import RockdoveError, VerificationFailed
 
 
 def add_config_arguments(parser: argparse.ArgumentParser) -> None:
@@ -75,8 +77,6 @@ def _print(result, args) -> None:
 
 def build_once(args: argparse.Namespace):
     """One build of ``args``: its result, printed."""
-    from .. import api
-
     config = api.load_config(preset=args.preset, config_file=args.config, overrides=args.overrides)
     from ..graph.stages import make_stages
 
@@ -118,9 +118,6 @@ def watch(args: argparse.Namespace) -> int:
     """``rockdove build --watch``: build now, then again in this warm process each time the preset's or the
     --config file changes (mtime, size or inode). A failed build prints its one-line error (with --json, a
     ``{"error": ...}`` line) and the watch goes on; Ctrl-C ends it."""
-    from ..config import preset_path
-    from ..errors import RockdoveError, VerificationFailed
-
     files = [preset_path(args.preset)] + ([Path(args.config)] if args.config else [])
     try:
         while True:

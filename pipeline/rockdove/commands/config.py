@@ -6,8 +6,10 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import shutil
 from typing import NamedTuple
 
+from .. import resources, sources
 from ..config import config_hash, describe, load_config
 from .build import add_config_arguments
 
@@ -56,8 +58,6 @@ class PathRow(NamedTuple):
 
 def paths() -> list[PathRow]:
     """Every folder rockdove uses outside an asset, stale as :func:`rockdove.sources.stale` finds it."""
-    from .. import resources, sources
-
     user = resources.user_cache_dir()
     rows = [PathRow("user cache ($XDG_CACHE_HOME/rockdove; safe to delete)", str(user),
                     f"what derives each folder: code, installed distributions, Python ({sources.KEY_FILE})")]
@@ -71,8 +71,6 @@ def paths() -> list[PathRow]:
 
 def run(args: argparse.Namespace) -> int:
     if args.paths or args.prune:
-        import shutil
-
         folders = paths()
         for i, row in enumerate(folders):
             if args.prune and row.stale:

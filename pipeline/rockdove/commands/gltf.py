@@ -7,7 +7,7 @@ import argparse
 import json
 import os
 
-from ..errors import UsageError
+from ..errors import UsageError, VerificationFailed
 from .validate import add_external_argument
 
 
@@ -23,7 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from .. import __version__
-    from ..errors import VerificationFailed
+    from ..graph.publish import check_output_file
     from ..usd.dependencies import require_inside
     from ..web.gltf import GLB_NAME, export_glb, validate_glb
 
@@ -31,8 +31,6 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or os.path.join(os.path.dirname(layer), GLB_NAME)
     if not out.endswith(".glb"):
         raise UsageError(f"--out must name a .glb file, got {out!r}")
-    from ..graph.publish import check_output_file
-
     check_output_file(out, _ours)
     export = export_glb(layer, out, version=__version__)
     try:

@@ -8,14 +8,14 @@ import os
 import time
 
 from ..errors import UsageError
+from ..lut import BAKE_METHODS, bake, lut_error, write_exr, write_preview_png
+from ..lut.bake import DEFAULT_ANGLE_WARP_GAMMA, DEFAULT_ANGLES, DEFAULT_THICKNESS_RANGE_NM, DEFAULT_THICKNESSES
+from ..resources import atomic_path
 
 DEFAULT_ERROR_POINTS = 1000
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..lut import BAKE_METHODS
-    from ..lut.bake import DEFAULT_ANGLE_WARP_GAMMA, DEFAULT_ANGLES, DEFAULT_THICKNESS_RANGE_NM, DEFAULT_THICKNESSES
-
     parser.add_argument("--out", required=True, metavar="PATH.exr", help="output EXR file (preview: PATH.png)")
     parser.add_argument("--angles", type=int, default=DEFAULT_ANGLES, metavar="N", help="angle texels (2 .. 4096)")
     parser.add_argument("--thicknesses", type=int, default=DEFAULT_THICKNESSES, metavar="M",
@@ -33,8 +33,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..graph.publish import check_output_file, starts_like
-    from ..lut import bake, lut_error, write_exr, write_preview_png
-    from ..resources import atomic_path
 
     if not args.out.lower().endswith(".exr"):
         raise UsageError(f"--out must name a .exr file, got {args.out!r}")

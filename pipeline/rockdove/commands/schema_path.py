@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import argparse
 
+from rockdove import resources
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.epilog = "usage in a shell: export PXR_PLUGINPATH_NAME=$(rockdove schema-path)"
 
 
 def run(args: argparse.Namespace) -> int:
-    from rockdove import resources
-
     print(resources.path("schemas/plugInfo.json").parent)
     return 0

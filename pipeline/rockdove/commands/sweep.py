@@ -8,9 +8,11 @@ Exit status 2 for bad usage before anything runs, 1 when any point failed (after
 from __future__ import annotations
 
 import argparse
+import copy
 import html
 import itertools
 import json
+import logging
 import os
 import re
 import sys
@@ -20,9 +22,12 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Literal
 
+from .. import api
+from ..config import config_hash, load_config
 from ..errors import UsageError
 from ..resources import write_atomic
 from ..verify.records import plain
+from ..verify.results import Report
 from .build import add_config_arguments
 from .sweep_grid import Point, grid_points, parse_grid
 
@@ -100,8 +105,6 @@ class Verified:
     @classmethod
     def of(cls, result) -> Verified | None:
         """Of a build's result (None: not verified) and its report."""
-        from ..verify.results import Report
-
         if result.verified is None:
             return None
         passed, notes = bool(result.verified), tuple(result.notes)
@@ -161,8 +164,6 @@ def build_point(record: PointRecord, base: Base, out: str, verify: bool) -> Poin
     point) into ``out``; its record. Any error is recorded, not raised: the point fails alone."""
     _restore_malloc_thresholds()
     from distributed import get_worker
-
-    from .. import api
 
     t0 = time.perf_counter()
     result, error = None, None
@@ -237,8 +238,6 @@ def _cell(r: PointRecord | None, root: Path) -> str:
 # ----------------------------------------------------------------------------------------------- running
 def _security(path: str | None):
     """A Dask ``Security`` from ``--security FILE``'s ``distributed.comm.tls`` over Dask's own configuration."""
-    import copy
-
     import dask
     import yaml
     from distributed.security import Security
@@ -257,8 +256,6 @@ def _security(path: str | None):
 
 def _client(args):
     """A Dask client on ``--scheduler`` or on a new private LocalCluster (returned to be closed)."""
-    import logging
-
     from distributed import Client, LocalCluster
     from distributed.security import Security
 
@@ -280,8 +277,6 @@ def _client(args):
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..config import config_hash, load_config
-
     t0 = time.perf_counter()
     axes = parse_grid(args.grid)
     if args.workers is not None and (args.workers < 1 or args.scheduler):

@@ -10,6 +10,7 @@ import json
 import re
 from dataclasses import dataclass
 
+from ..config import load_schema, parse_set, schema_at
 from ..errors import UsageError
 
 
@@ -64,8 +65,6 @@ def split_array(text: str) -> list[str]:
 def parse_grid(grid: list[str]) -> list[tuple[str, list[tuple[str, object]]]]:
     """``--grid`` items -> ``[(key, [(literal, value), ...]), ...]``. Raises UsageError (exit 2) for bad
     syntax, an unknown key, a key given twice or a value given twice."""
-    from ..config import load_schema, parse_set, schema_at
-
     if not grid:
         raise UsageError("no --grid given; e.g. --grid 'film.cauchy_a=[1.5, 1.55]'")
     axes = []

@@ -11,6 +11,7 @@ import time
 import numpy as np
 
 from ..errors import UsageError
+from ..png import save_png
 from ..render import beauty as setup
 from . import bpy_runner as runner
 from .base import HostError
@@ -36,8 +37,6 @@ def render_beauty(layer: str, scene, out_dir: str, *, renderer: str = "auto", wi
                   height: int = 512, samples: int = 32, cycles_ok: bool = True, lut=None) -> dict | None:
     """Render the beauty views of ``scene`` (the asset at ``layer``) into ``out_dir`` and describe them; None for
     ``renderer="off"``. ``cycles_ok``: whether ``auto`` may take Cycles (the verification runs Blender)."""
-    from ..png import save_png
-
     if renderer not in setup.RENDERERS:
         raise UsageError(f"beauty renderer {renderer!r} is not one of {', '.join(setup.RENDERERS)}")
     if renderer == "off":

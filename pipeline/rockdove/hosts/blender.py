@@ -9,8 +9,8 @@ import os
 import zipfile
 from typing import TypeVar
 
+from .. import resources
 from ..errors import UsageError
-from ..resources import atomic_path
 from .base import ENVIRONMENT_RADIANCE, Host, HostError
 from .bpy_runner import bpy_python, job_views, read_views, run_job, unavailable, work_folder
 from .jobs import BlenderJob, CyclesJob, JobView
@@ -32,8 +32,6 @@ J = TypeVar("J", bound=CyclesJob)
 
 def addon_zip(out_dir) -> str:
     """Write the add-on ``out_dir/rockdove_blender.zip`` with a fixed timestamp (same sources, same bytes)."""
-    from .. import resources
-
     source = resources.path(ADDON_SOURCE)
     out_dir = os.path.abspath(os.fspath(out_dir))
     if os.path.exists(out_dir) and not os.path.isdir(out_dir):
@@ -41,7 +39,7 @@ def addon_zip(out_dir) -> str:
     os.makedirs(out_dir, exist_ok=True)
     files = sorted(p for p in source.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
     path = os.path.join(out_dir, ADDON_ZIP)
-    with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
+    with resources.atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
         for f in files:
             info = zipfile.ZipInfo(f"{ADDON_MODULE}/{f.relative_to(source).as_posix()}", (1980, 1, 1, 0, 0, 0))
             info.external_attr = 0o644 << 16

@@ -14,7 +14,10 @@ import sys
 
 import numpy as np
 
+from .. import resources
 from ..errors import UsageError
+from ..png import save_png
+from ..srgb import linear_to_srgb8
 from .base import HostError
 from .jobs import Job, JobView
 
@@ -57,8 +60,6 @@ def bpy_places() -> list[str]:
     """Where :func:`bpy_python` looks: ``$ROCKDOVE_BPY_PYTHON`` if set, else ``.venv-bpy`` by the venv and checkout."""
     if exe := os.environ.get(BPY_PYTHON_ENV, "").strip():
         return [exe]
-    from .. import resources
-
     roots = [os.path.dirname(os.path.abspath(sys.prefix)), str(resources.folder("materials").parent)]
     return list(dict.fromkeys(os.path.join(r, BPY_VENV, "bin", "python") for r in roots))
 
@@ -146,9 +147,6 @@ def read_views(host: str, renderer: str, views, work: str, ext: str = "exr") -> 
     background 0; saved as PNG too); HostError if missing/wrong."""
     import OpenEXR
     from PIL import Image
-
-    from ..png import save_png
-    from ..srgb import linear_to_srgb8
 
     out = {}
     for v in views:

@@ -8,6 +8,7 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 from ..usd.layout import resolve_root_layer
+from . import glsl
 from .base import Host, HostError, save_pngs
 
 #: ``shading`` variant -> the input its feather network's base colour comes from (set black: the film lobe alone).
@@ -26,13 +27,11 @@ class MaterialXHost(VariantHost):
 
     def unavailable(self) -> str | None:
         """None when MaterialX's GLSL generator and an offscreen GL context (the glsl host's) can be used."""
-        from .glsl import HOST
-
         try:
             import MaterialX.PyMaterialXGenGlsl  # noqa: F401
         except ImportError as exc:
             return f"MaterialX is not installed ({exc})"
-        return HOST.unavailable()
+        return glsl.HOST.unavailable()
 
     def render(self, asset_path: str, views, out_dir: str | None) -> dict:
         """:meth:`Host.render` of the asset's ``variant`` network; HostError when reading, compiling or GL fails."""

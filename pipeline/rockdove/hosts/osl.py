@@ -13,7 +13,7 @@ from . import bpy_runner
 from .base import ENVIRONMENT_RADIANCE, HostError
 from .blender import cycles_job
 from .jobs import OslJob, OslShader
-from .materialx import BASE_COLOUR, Network, VariantHost, feather_networks
+from .materialx import BASE_COLOUR, Network, VariantHost, feather_networks, generate
 
 LOBE = "view_angle"
 #: Cycles samples per pixel (the shading is deterministic; samples only resolve cut-out edges).
@@ -77,8 +77,6 @@ def generate_osl(doc, material_name: str) -> str:
     """OSL source of ``material_name`` (a ``surfacematerial`` of ``doc``) by MaterialX's ``OslShaderGenerator``."""
     import MaterialX.PyMaterialXGenOsl as mx_osl
     import MaterialX.PyMaterialXGenShader as mx_gen
-
-    from .materialx import generate
 
     # fileTextureVerticalFlip (set by generate): OSL's texture() puts t = 0 at the first row, MaterialX at the bottom
     return generate(doc, material_name, mx_osl.OslShaderGenerator.create()).getSourceCode(mx_gen.PIXEL_STAGE)

@@ -10,6 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..png import save_png
+from ..srgb import linear_to_srgb8
+from ..usd.layout import resolve_root_layer
 from .base import Host, HostError
 
 NAME = "web"
@@ -35,9 +38,6 @@ class WebHost(Host):
 
     def render(self, asset_path: str, views, out_dir: str, *, browser_factory=None) -> dict:
         """:meth:`Host.render` with three.js in headless Chromium; ``browser_factory``: a started Browser (tests)."""
-        from ..png import save_png
-        from ..srgb import linear_to_srgb8
-        from ..usd.layout import resolve_root_layer
         from ..web.browser import Browser, BrowserError
         from ..web.gltf import GLB_NAME, export_glb
         from ..web.viewer import write_viewer

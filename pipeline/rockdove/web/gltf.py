@@ -8,15 +8,20 @@ pygltflib builds the document (trimesh's cannot author the extension or a second
 
 from __future__ import annotations
 
+import json
 import os
+import shutil
+import subprocess
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
+from .. import resources
 from ..errors import UsageError
 from ..geometry.types import point_bounds
-from ..resources import write_atomic
+from ..png import encode_png
+from ..render.scene import load_scene
 from .gltf_skin import add_skin
 
 #: The file the build writes beside ``pigeon.usda``.
@@ -44,8 +49,6 @@ def thickness_texcoords(thickness_nm, lo_nm: float, hi_nm: float, texels: int = 
 
 def thickness_ramp_png(texels: int = THICKNESS_RAMP_TEXELS) -> bytes:
     """The ramp image (``texels`` x 1, grey, ``G_i = i / (N - 1)`` in 8 bits), PNG bytes."""
-    from ..png import encode_png
-
     ramp = np.round(np.linspace(0.0, 255.0, texels)).astype(np.uint8)[None, :]
     return encode_png(np.repeat(ramp[..., None], 3, axis=2), level=6)
 
@@ -260,14 +263,12 @@ class GlbExport(NamedTuple):
 
 def export_glb(asset, out_path, *, version: str = "") -> GlbExport:
     """Write a written asset as the GLB ``out_path`` (atomically). ValueError: no thin-film data."""
-    from ..render.scene import load_scene
-
     scene = load_scene(asset)  # the verifier's reader; a physical-only asset (no LUT) reads too
     if scene.time is not None:  # a layer that plays a motion (pigeon_walk.usda): the skin binds the rest pose
         scene = load_scene(asset, {"motion": "rest"})
     data = scene_to_glb(scene, version=version)
     out_path = os.fspath(out_path)
-    write_atomic(out_path, data)
+    resources.write_atomic(out_path, data)
     return GlbExport(out_path, len(data), film_ior(scene.film), IOR_WAVELENGTH_NM, list(scene.thickness_range_nm),
                      scene.film.model.n_substrate)
 
@@ -290,12 +291,6 @@ class GlbValidation(NamedTuple):
 
 def validate_glb(path) -> GlbValidation:
     """The Khronos glTF-Validator's report on ``path``; RuntimeError (saying how to install) when it cannot run."""
-    import json
-    import shutil
-    import subprocess
-
-    from .. import resources
-
     if (node := shutil.which("node")) is None:
         raise RuntimeError("glTF validation needs Node.js (`node`), which is not on PATH; apt-get install nodejs")
     script = resources.path("materials/web/gltf_validate.mjs")

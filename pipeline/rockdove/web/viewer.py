@@ -12,6 +12,20 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import resources
+from ..config import get, limits, load_config, load_schema, presets
+from ..errors import ResourceMissing, UsageError
+from ..films import film_from_config
+from ..lut import fourier as F
+from ..lut import quadrature as Q
+from ..lut.bake import DEFAULT_FOURIER_TOL, DEFAULT_MAX_TERMS
+from ..lut.weights import chebyshev_weights, colour_weights, reference_wavelengths
+from ..render.scene import load_scene
+from ..render.views import default_views, light_sweep_views
+from ..spectral import WAVELENGTH_RANGE_NM
+from ..usd.stage import BUILD_CONFIG_KEY, LOOKS_LAYER
+from .gltf import THICKNESS_RAMP_TEXELS
+
 #: ES modules of the npm package three, by the name viewer_loader.js knows them.
 THREE_MODULES = {
     "three.core.js": "three/build/three.core.js",
@@ -30,15 +44,11 @@ G_STEP_NM, G_END_NM, LADDER_END = 4.0, 131072.0, 1536
 
 
 def web_folder() -> Path:
-    from .. import resources
-
     return resources.path("materials/web")
 
 
 def three_folder() -> Path:
     """``materials/web/node_modules`` with the npm package three in it; ResourceMissing where it is not installed."""
-    from ..errors import ResourceMissing
-
     nm = web_folder() / "node_modules"
     if not (nm / "three" / "package.json").is_file():
         raise ResourceMissing(f"the npm package three (for verify/viewer.html) is not installed in {nm.parent}; run "
@@ -49,8 +59,6 @@ def three_folder() -> Path:
 
 def start_view(scene):
     """The viewer's first camera and light: the light-sweep camera on the neck, lit at :data:`START_LIGHT_VIEW_DEG`."""
-    from ..render.views import default_views, light_sweep_views
-
     sweep = [v for v in default_views(scene, 512, 512, n=2) if v.name.startswith("sweep_")][0]
     neck = np.asarray(scene.neck_centre_m, np.float64)
     eye = sweep.camera_to_world[:3, 3]
@@ -65,12 +73,6 @@ def _b64(array, dtype: str) -> str:
 
 def film_tables() -> dict:
     """The tables film_bake.js integrates with, rockdove.lut's own (D65, CIE 1931 2 deg, lin_rec709)."""
-    from ..lut import fourier as F
-    from ..lut import quadrature as Q
-    from ..lut.bake import DEFAULT_FOURIER_TOL, DEFAULT_MAX_TERMS
-    from ..lut.weights import chebyshev_weights, colour_weights, reference_wavelengths
-    from ..spectral import WAVELENGTH_RANGE_NM
-
     g = F.g_table()
     ladder = [n for n in Q.NODE_LADDER if n <= LADDER_END]
     rules = [chebyshev_weights(n) for n in ladder]
@@ -100,8 +102,6 @@ def _toml(value) -> str:
 
 
 def _film_of(config: dict) -> dict:
-    from ..films import film_from_config
-
     film = film_from_config(config["film"])
     return {k: float(getattr(film, k)) if s == "film" else config[s][k] for k, s in FILM_KEYS.items()}
 
@@ -109,10 +109,6 @@ def _film_of(config: dict) -> dict:
 def film_panel_data(scene, lut) -> dict:
     """What the film panel (film_panel.js) starts from: the asset's film (as its looks layer records), presets."""
     from pxr import Sdf
-
-    from ..config import get, limits, load_config, load_schema, presets
-    from ..errors import UsageError
-    from ..usd.stage import BUILD_CONFIG_KEY, LOOKS_LAYER
 
     recorded, looks = None, Sdf.Layer.FindOrOpen(os.path.join(os.path.dirname(scene.root_layer), LOOKS_LAYER))
     try:
@@ -148,8 +144,6 @@ def film_panel_data(scene, lut) -> dict:
 
 def viewer_data(scene, lut, glb_bytes: bytes, asset_name: str) -> dict:
     """What ``viewer_data.js`` holds (JSON-serialisable)."""
-    from .gltf import THICKNESS_RAMP_TEXELS
-
     view = start_view(scene)
     web = web_folder()
     rgb = np.ascontiguousarray(lut.rgb, dtype=np.float32)  # (n_thickness, n_angle, 3), row 0 thinnest
@@ -172,8 +166,6 @@ def viewer_data(scene, lut, glb_bytes: bytes, asset_name: str) -> dict:
 
 def write_viewer(asset, glb_path, out_dir, asset_name: str | None = None) -> str:
     """Write ``viewer.html`` and its files into ``out_dir``; the page's path (``asset_name`` default: its folder)."""
-    from ..render.scene import load_scene
-
     out = Path(out_dir)
     (out / "three").mkdir(parents=True, exist_ok=True)
     nm = three_folder()
