@@ -323,6 +323,33 @@ def test_one_renderer_is_reused_across_views(coarse, monkeypatch):
     assert not np.array_equal(out[0].radiance_rgb, out[1].radiance_rgb)
 
 
+def test_closing_a_renderer_leaves_the_others_open(coarse):
+    """EGL keeps one display per process, and pyrender's own delete() terminates it: a renderer closed (by the GL
+    views' thread, a host's, or a leaked one collected) broke every other open one with EGL_BAD_DISPLAY. Ours end
+    their own context only, and give the thread back the one it had."""
+    import ctypes
+    import gc
+
+    from OpenGL import EGL
+
+    from rockdove.render.gl import GLRenderer, offscreen_renderer
+
+    address = lambda p: ctypes.cast(p, ctypes.c_void_p).value  # noqa: E731
+
+    scene, lut, results = coarse
+    view = results["front"].view
+    with GLRenderer(scene, lut=lut, width=view.width, height=view.height) as kept:
+        before = kept.render(view).radiance_rgb
+        GLRenderer(scene, lut=lut, width=view.width, height=view.height).delete()
+        offscreen_renderer(8, 8).delete()  # what the MaterialX GL host opens and closes
+        np.testing.assert_array_equal(kept.render(view).radiance_rgb, before)
+        left_open = GLRenderer(scene, lut=lut, width=view.width, height=view.height)
+        del left_open  # not closed: the garbage collector deletes it, at any time, e.g. in the middle of a draw:
+        kept._offscreen._platform.make_current()
+        gc.collect()
+        assert address(EGL.eglGetCurrentContext()) == address(kept._offscreen._platform._egl_context)
+
+
 def test_render_cli_writes_pngs_and_exit_codes(small_asset, tmp_path, capsys):
     """``rockdove render`` on the small real build."""
     from PIL import Image

@@ -69,7 +69,8 @@ def test_web_host_agrees_with_the_exact_view_angle_reference(web_asset, tmp_path
     assert rgb.shape == (96, 96, 3) and rgb.dtype == np.float32
     assert np.all(rgb[0, 0] == 0)  # background 0
     assert (tmp_path / f"web_{view.name}.png").is_file()
-    g = GLRenderer(scene, angle_mode="materialx_baked", width=96, height=96).render(view)
+    with GLRenderer(scene, angle_mode="materialx_baked", width=96, height=96) as r:
+        g = r.render(view)
     tips = cmp.erode((g.part_id == scene.part_id("NeckFeathers")) & (g.mask >= 0.5), 1)
     ref = np.zeros_like(rgb)
     ref[tips] = structural_rgb(g.cos_theta[tips].astype(np.float64), g.thickness_nm[tips].astype(np.float64),

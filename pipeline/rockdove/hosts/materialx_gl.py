@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..render.gl import upload_float_texture
+from ..render.gl import offscreen_renderer, upload_float_texture
 from .base import ENVIRONMENT_RADIANCE, HostError
 
 #: Image nodes whose texture gets a mip chain and trilinear filtering, as every host does: the LUT (its angle axis
@@ -77,7 +77,7 @@ def draw(scene, networks: dict, sources: dict, views, *, name: str) -> dict:
     """View name -> float radiance, each part with a network drawn by its generated ``sources``, the others black."""
     from .._compat import import_pyrender
 
-    pyrender = import_pyrender()
+    import_pyrender()  # sets PYOPENGL_PLATFORM before OpenGL is imported
     from OpenGL import GL
 
     sizes: dict = {}  # one offscreen context per image size (the hero view is larger than the others)
@@ -85,7 +85,7 @@ def draw(scene, networks: dict, sources: dict, views, *, name: str) -> dict:
         sizes.setdefault((v.width, v.height), []).append(v)
     out = {}
     for (w, h), group in sizes.items():
-        offscreen = pyrender.OffscreenRenderer(w, h)
+        offscreen = offscreen_renderer(w, h)
         try:
             offscreen._platform.make_current()
             out.update(_draw_in_context(GL, scene, networks, sources, group, name, w, h))

@@ -57,6 +57,43 @@ def _program_cache():
     return ThinFilmProgramCache(shader_dir=str(resources.path("materials/glsl")))
 
 
+def offscreen_renderer(width: int, height: int):
+    """A pyrender ``OffscreenRenderer`` whose ``delete()`` ends its own EGL context and no other, and gives the thread
+    back the context it had. pyrender 0.1.45's calls ``eglTerminate`` on the display, of which EGL keeps one per
+    process: that broke every renderer still open (``eglMakeCurrent``: EGL_BAD_DISPLAY, 12296), e.g. the next step's
+    of a verification while the GL views' thread closed its own; and one the garbage collector deletes (a renderer
+    not closed) may run in the middle of another's draw, which then drew in no context."""
+    import ctypes
+
+    from rockdove._compat import import_pyrender
+
+    offscreen = import_pyrender().OffscreenRenderer(width, height)
+    platform, pyrender_delete = offscreen._platform, offscreen.delete
+    if not hasattr(platform, "_egl_context"):  # OSMesa (PYOPENGL_PLATFORM=osmesa) shares no display
+        return offscreen
+    address = lambda p: ctypes.cast(p, ctypes.c_void_p).value  # noqa: E731
+    mine = address(platform._egl_context)
+
+    def delete_context() -> None:
+        from OpenGL.EGL import EGL_NO_CONTEXT, EGL_NO_SURFACE, eglDestroyContext, eglMakeCurrent
+
+        if platform._egl_context is not None:
+            eglMakeCurrent(platform._egl_display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT)
+            eglDestroyContext(platform._egl_display, platform._egl_context)
+            platform._egl_context = None
+
+    def delete() -> None:
+        from OpenGL.EGL import EGL_NO_SURFACE, eglGetCurrentContext, eglGetCurrentDisplay, eglMakeCurrent
+
+        display, context = eglGetCurrentDisplay(), eglGetCurrentContext()
+        pyrender_delete()
+        if address(context) not in (None, mine):
+            eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context)
+
+    platform.delete_context, offscreen.delete = delete_context, delete
+    return offscreen
+
+
 def upload_float_texture(image: np.ndarray, mipmaps: bool = False) -> int:
     """Upload an image, (H, W[, 1-4]) (uint8 as c / 255) with row 0 = t = 0 (bottom), as a GL float texture (linear,
     clamped; trilinear over a mip chain with ``mipmaps``)."""
@@ -157,7 +194,7 @@ class GLRenderer:
         self._camera = pyrender.PerspectiveCamera(yfov=0.6, znear=0.01, zfar=10.0)
         self._camera_node = self._pr_scene.add(self._camera, pose=np.eye(4))
 
-        self._offscreen = pyrender.OffscreenRenderer(width, height)
+        self._offscreen = offscreen_renderer(width, height)
         self._offscreen._platform.make_current()
         inner = self._offscreen._renderer
         inner._program_cache = _program_cache()
