@@ -77,11 +77,12 @@ $(FETCH_STAMP): $(STAMP) tests/fetched.py
 	$(BIN)/python tests/fetched.py $(FETCH_STAMP)
 
 # The linter and the type checker first (settings in pyproject.toml; .pre-commit-config.yaml runs the same), then
-# the suite.
+# the suite, a worker per core (at most 4: each builds the session's small assets once), whole files per worker
+# (their module fixtures are built once).
 test: $(STAMP) $(NPM_STAMP) $(BROWSER_STAMP) $(BPY_STAMP) $(BPY_OLD) $(FETCH_STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/mypy
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q --numprocesses auto --maxprocesses 4 --dist loadfile
 
 # CI: build the sdist and the wheel, pip install the wheel into a fresh venv, build/validate/verify a small asset
 # from outside the checkout (.ci/smoke-installed).
